@@ -1,0 +1,8 @@
+//! `driveset diff` (under construction).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<u8> {
+    anyhow::bail!("`driveset diff` is not implemented yet")
+}

@@ -1,0 +1,8 @@
+//! `driveset encode` (under construction).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<u8> {
+    anyhow::bail!("`driveset encode` is not implemented yet")
+}

@@ -1,0 +1,10 @@
+//! One module per subcommand; each has `Args` (clap) and `run(Args) -> Result<u8>`
+//! returning the process exit code.
+
+pub mod decode;
+pub mod diff;
+pub mod encode;
+pub mod fingerprint;
+pub mod schema;
+pub mod show;
+pub mod validate;

@@ -1,0 +1,79 @@
+//! `driveset`: the command-line tool. A thin layer over the libraries: it
+//! parses arguments (clap), calls into `driveset-schema`, `driveset-proto`
+//! and friends, prints human or machine output and maps results to exit codes.
+//!
+//! Exit codes (DESIGN.md, "Output and errors"): 0 ok, 1 validation findings or
+//! differences, 2 usage or input error, 3 bus or device failure.
+
+mod cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Exit code: everything fine.
+pub const EXIT_OK: u8 = 0;
+/// Exit code: validation findings, or the compared sets differ.
+pub const EXIT_FINDINGS: u8 = 1;
+/// Exit code: usage error or unreadable / malformed input.
+pub const EXIT_INPUT: u8 = 2;
+/// Exit code: bus or device failure.
+pub const EXIT_BUS: u8 = 3;
+
+#[derive(Parser)]
+#[command(
+    name = "driveset",
+    version,
+    about = "Parameter sets of industrial drives (Lenze Tmd, Lust VF1000 / MC6000, Lenze ECS) as reviewed files",
+    propagate_version = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Check parameter sets against the schema of their drive family (no hardware).
+    Validate(cmd::validate::Args),
+    /// Work with schema files.
+    #[command(subcommand)]
+    Schema(cmd::schema::SchemaCommand),
+    /// Semantic diff of two parameter sets (or a set against factory defaults).
+    Diff(cmd::diff::Args),
+    /// Print the sha256 fingerprint of a set's canonical form.
+    Fingerprint(cmd::fingerprint::Args),
+    /// Print a set in canonical form or convert it to TOML / YAML / JSON.
+    Show(cmd::show::Args),
+    /// Annotate a captured bus byte stream telegram by telegram.
+    Decode(cmd::decode::Args),
+    /// Build a telegram from a readable description.
+    Encode(cmd::encode::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { EXIT_INPUT } else { EXIT_OK };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let result = match cli.command {
+        Command::Validate(a) => cmd::validate::run(a),
+        Command::Schema(c) => cmd::schema::run(c),
+        Command::Diff(a) => cmd::diff::run(a),
+        Command::Fingerprint(a) => cmd::fingerprint::run(a),
+        Command::Show(a) => cmd::show::run(a),
+        Command::Decode(a) => cmd::decode::run(a),
+        Command::Encode(a) => cmd::encode::run(a),
+    };
+    match result {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(EXIT_INPUT)
+        }
+    }
+}

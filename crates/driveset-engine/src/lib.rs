@@ -1,0 +1,1 @@
+//! driveset-engine (under construction).

@@ -1,0 +1,1 @@
+//! driveset-link (under construction).

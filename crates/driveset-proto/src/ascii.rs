@@ -1,0 +1,59 @@
+//! Control characters and the block check character (BCC) shared by the two
+//! ISO 1745 style serial protocols, LUSTBUS and LECOM-A/B.
+//!
+//! Both run 7E1: a character carries 7 data bits. A UART configured 7E1 adds
+//! and strips the parity bit itself; a link that delivers 8 bits (a pty, a TCP
+//! serial server in 8N1) may hand over the parity bit as bit 7, so decoders
+//! mask every received byte with [`mask7`] before looking at it.
+
+/// Start of text.
+pub const STX: u8 = 0x02;
+/// End of text.
+pub const ETX: u8 = 0x03;
+/// End of transmission: resets every receiver's state machine.
+pub const EOT: u8 = 0x04;
+/// Enquiry: ends a read request.
+pub const ENQ: u8 = 0x05;
+/// Positive acknowledge.
+pub const ACK: u8 = 0x06;
+/// Negative acknowledge (0x15; the LUSTBUS table's "15 decimal" is an erratum,
+/// see docs/spec-errata.md).
+pub const NAK: u8 = 0x15;
+
+/// Strips the parity bit: a 7E1 line carries 7 data bits.
+#[inline]
+pub const fn mask7(b: u8) -> u8 {
+    b & 0x7F
+}
+
+/// Block check character: XOR of every byte after STX up to and including ETX.
+///
+/// `text_and_etx` is the slice that starts right after STX and ends with the
+/// ETX byte itself. LUSTBUS section 2.2 ("All bytes between STX (exclusive)
+/// and ETX (inclusive) are EXOR'ed"); LECOM section 8.G (DIN 66219). On
+/// LUSTBUS the result is always 0..=0x7F since every operand is 7-bit.
+#[inline]
+pub fn bcc(text_and_etx: &[u8]) -> u8 {
+    text_and_etx.iter().fold(0u8, |acc, b| acc ^ b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bcc_xors_text_and_etx() {
+        // "00105=03E8" ETX from the VF1000 SELECT example (LUSTBUS 6.2.2).
+        let text = b"00105=03E8\x03";
+        let expected = text.iter().fold(0, |a, b| a ^ b);
+        assert_eq!(bcc(text), expected);
+        assert_eq!(bcc(&[ETX]), ETX);
+        assert_eq!(bcc(&[]), 0);
+    }
+
+    #[test]
+    fn mask7_strips_parity_bit() {
+        assert_eq!(mask7(0x84), EOT);
+        assert_eq!(mask7(0x7F), 0x7F);
+    }
+}

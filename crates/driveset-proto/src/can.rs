@@ -1,0 +1,1 @@
+//! can codec (under construction).

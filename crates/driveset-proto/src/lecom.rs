@@ -1,0 +1,1 @@
+//! lecom codec (under construction).

@@ -1,0 +1,17 @@
+//! Sans-IO codecs for the three bus protocols driveset speaks: bytes in,
+//! telegrams out, and back. No IO, no clock; decoders are state machines fed
+//! with bytes as they arrive.
+//!
+//! - [`lustbus`]: LUSTBUS (ISO 1745 fast select) for Lust SMARTDRIVE VF1000
+//!   and MASTERCONTROL MC6000/7000 (`lustbus-protocol.txt`).
+//! - [`lecom`]: Lenze LECOM-A/B for Tmd inverters
+//!   (`lecom-ab-tmd-manual.txt` section 8).
+//! - [`can`]: Lenze system bus (CAN) SDO parameter access and slcan framing
+//!   (`lenze-system-bus-can-sdo.txt`).
+//! - [`ascii`]: the control characters and the block check character that
+//!   LUSTBUS and LECOM share (both follow ISO 1745 / DIN 66019).
+
+pub mod ascii;
+pub mod can;
+pub mod lecom;
+pub mod lustbus;

@@ -1,0 +1,1 @@
+//! lustbus codec (under construction).

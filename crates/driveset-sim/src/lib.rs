@@ -1,0 +1,1 @@
+//! driveset-sim (under construction).
