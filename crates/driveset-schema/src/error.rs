@@ -1,0 +1,405 @@
+//! Owns locations in source files, validation findings and input errors
+//! (the two outcomes the CLI maps to exit codes 1 and 2).
+
+use std::fmt;
+use std::ops::Range;
+use std::sync::Arc;
+
+/// A loaded text file: its display path and its text, with line starts so a
+/// byte span converts to line:column.
+#[derive(Debug, Clone)]
+pub struct SourceFile {
+    /// The path as given (relative paths stay relative), used in messages.
+    pub path: String,
+    /// The full text.
+    pub text: Arc<str>,
+    line_starts: Vec<usize>,
+}
+
+impl SourceFile {
+    /// Wrap a text under a display path.
+    pub fn new(path: impl Into<String>, text: impl Into<Arc<str>>) -> Self {
+        let text: Arc<str> = text.into();
+        let mut line_starts = vec![0];
+        for (i, b) in text.bytes().enumerate() {
+            if b == b'\n' {
+                line_starts.push(i + 1);
+            }
+        }
+        SourceFile { path: path.into(), text, line_starts }
+    }
+
+    /// Byte offset of (1-based line, 0-based column in characters); clamps to the text.
+    pub fn offset_of(&self, line: usize, col_chars: usize) -> usize {
+        let start = match line.checked_sub(1).and_then(|l| self.line_starts.get(l)) {
+            Some(s) => *s,
+            None => return self.text.len(),
+        };
+        let rest = self.text.get(start..).unwrap_or("");
+        match rest.char_indices().nth(col_chars) {
+            Some((i, _)) => start + i,
+            None => self.text.len(),
+        }
+    }
+
+    /// Location of a byte span: 1-based line and column (column counts characters).
+    pub fn location(&self, span: Range<usize>) -> Location {
+        let start = span.start.min(self.text.len());
+        let end = span.end.clamp(start, self.text.len());
+        let line_idx = match self.line_starts.binary_search(&start) {
+            Ok(i) => i,
+            Err(i) => i.saturating_sub(1),
+        };
+        let line_start = self.line_starts.get(line_idx).copied().unwrap_or(0);
+        let line_end = self
+            .line_starts
+            .get(line_idx + 1)
+            .map(|e| e.saturating_sub(1))
+            .unwrap_or(self.text.len());
+        let line_text = self.text.get(line_start..line_end).unwrap_or("");
+        let line_text = line_text.strip_suffix('\r').unwrap_or(line_text);
+        let column = self
+            .text
+            .get(line_start..start)
+            .map(|s| s.chars().count() + 1)
+            .unwrap_or(1);
+        Location {
+            file: self.path.clone(),
+            line: line_idx + 1,
+            column,
+            span: start..end,
+            line_text: line_text.to_string(),
+        }
+    }
+}
+
+/// Where something is: file, 1-based line and column, byte span, and the text
+/// of the line (so a finding renders a snippet without the file at hand).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Location {
+    /// Display path of the file.
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column, in characters.
+    pub column: usize,
+    /// Byte span in the file.
+    pub span: Range<usize>,
+    /// The text of `line`, without its line break.
+    pub line_text: String,
+}
+
+impl Location {
+    /// A location with no snippet (e.g. a file that could not be read).
+    pub fn file_only(file: impl Into<String>) -> Self {
+        Location { file: file.into(), line: 0, column: 0, span: 0..0, line_text: String::new() }
+    }
+
+    /// Render the `--> file:line:col` header plus a caret snippet with `label`.
+    fn render_snippet(&self, out: &mut String, label: &str) {
+        use fmt::Write;
+        if self.line == 0 {
+            let _ = writeln!(out, "  --> {}", self.file);
+            return;
+        }
+        let num = self.line.to_string();
+        let pad = " ".repeat(num.len());
+        let _ = writeln!(out, "{pad}--> {}:{}:{}", self.file, self.line, self.column);
+        let _ = writeln!(out, "{pad} |");
+        let _ = writeln!(out, "{num} | {}", self.line_text);
+        // caret width: the span's characters on this line (at least one)
+        let line_start = self.byte_col_offset();
+        let col_byte = self.span.start.saturating_sub(line_start).min(self.line_text.len());
+        let end_byte = self.span.end.saturating_sub(line_start).clamp(col_byte, self.line_text.len());
+        let span_chars = self
+            .line_text
+            .get(col_byte..end_byte)
+            .map(|s| s.chars().count())
+            .unwrap_or(0)
+            .max(1);
+        let start_col = self.column.saturating_sub(1);
+        let lead: String = self
+            .line_text
+            .chars()
+            .take(start_col)
+            .map(|c| if c == '\t' { '\t' } else { ' ' })
+            .collect();
+        let _ = writeln!(out, "{pad} | {lead}{} {label}", "^".repeat(span_chars));
+    }
+
+    /// Byte offset of the start of the line in the file (derived from span and column).
+    fn byte_col_offset(&self) -> usize {
+        let col_bytes: usize = self
+            .line_text
+            .chars()
+            .take(self.column.saturating_sub(1))
+            .map(char::len_utf8)
+            .sum();
+        self.span.start.saturating_sub(col_bytes)
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.line == 0 {
+            write!(f, "{}", self.file)
+        } else {
+            write!(f, "{}:{}:{}", self.file, self.line, self.column)
+        }
+    }
+}
+
+/// The kinds of validation findings (docs/file-formats.md, "Parameter sets").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum FindingKind {
+    /// A key names no code of the schema.
+    UnknownCode,
+    /// The same code is given twice in one file (number and name, name and alias, ...).
+    DuplicateCode,
+    /// The value's kind does not fit the code (table for a plain code, text for a number, ...).
+    WrongType,
+    /// Outside the schema's min/max or the type's raw range.
+    OutOfRange,
+    /// The scaling cannot represent the value exactly.
+    Unrepresentable,
+    /// An enumeration label the code does not have.
+    UnknownEnumLabel,
+    /// A bit-field member the code does not have.
+    UnknownBitField,
+    /// A value for a read-only code.
+    ReadOnly,
+    /// A cross-code rule of the schema is violated.
+    RuleViolation,
+    /// The set names a schema that is not known.
+    UnknownSchema,
+    /// `extends` names a missing file, forms a cycle, or a base of another schema.
+    BadExtends,
+    /// A value for a code whose type the schema does not know.
+    UnknownType,
+    /// The unit suffix does not match the code's unit.
+    UnitMismatch,
+    /// A problem in a schema file itself (`schema check`).
+    SchemaError,
+}
+
+impl FindingKind {
+    /// The kebab-case name shown as `error[name]` and in JSON output.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FindingKind::UnknownCode => "unknown-code",
+            FindingKind::DuplicateCode => "duplicate-code",
+            FindingKind::WrongType => "wrong-type",
+            FindingKind::OutOfRange => "out-of-range",
+            FindingKind::Unrepresentable => "unrepresentable",
+            FindingKind::UnknownEnumLabel => "unknown-enum-label",
+            FindingKind::UnknownBitField => "unknown-bit-field",
+            FindingKind::ReadOnly => "read-only",
+            FindingKind::RuleViolation => "rule-violation",
+            FindingKind::UnknownSchema => "unknown-schema",
+            FindingKind::BadExtends => "bad-extends",
+            FindingKind::UnknownType => "unknown-type",
+            FindingKind::UnitMismatch => "unit-mismatch",
+            FindingKind::SchemaError => "schema-error",
+        }
+    }
+}
+
+impl fmt::Display for FindingKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// One validation finding: what (kind, message), where (location), what to do (help),
+/// and other places involved (`related`, each with a short label).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Finding {
+    /// Kind of finding.
+    pub kind: FindingKind,
+    /// What is wrong.
+    pub message: String,
+    /// What to do about it.
+    pub help: String,
+    /// Where.
+    pub location: Location,
+    /// Other places involved (the first spelling of a duplicate, the other side of a rule).
+    pub related: Vec<(String, Location)>,
+}
+
+impl Finding {
+    pub(crate) fn new(
+        kind: FindingKind,
+        location: Location,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> Self {
+        Finding { kind, message: message.into(), help: help.into(), location, related: Vec::new() }
+    }
+
+    pub(crate) fn with_related(mut self, label: impl Into<String>, loc: Location) -> Self {
+        self.related.push((label.into(), loc));
+        self
+    }
+
+    /// rustc-style rendering:
+    ///
+    /// ```text
+    /// error[out-of-range]: C0011 = 300 Hz is above the maximum 240 Hz
+    ///  --> set.toml:3:9
+    ///   |
+    /// 3 | C0011 = 300
+    ///   |         ^^^ here
+    ///   = help: give a value from 7.5 to 240 Hz
+    /// ```
+    pub fn render_human(&self) -> String {
+        let mut out = format!("error[{}]: {}\n", self.kind, self.message);
+        self.location.render_snippet(&mut out, "here");
+        for (label, loc) in &self.related {
+            self.render_related(&mut out, label, loc);
+        }
+        if !self.help.is_empty() {
+            out.push_str(&format!("  = help: {}\n", self.help));
+        }
+        out
+    }
+
+    fn render_related(&self, out: &mut String, label: &str, loc: &Location) {
+        loc.render_snippet(out, label);
+    }
+}
+
+impl fmt::Display for Finding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: error[{}]: {}", self.location, self.kind, self.message)?;
+        if !self.help.is_empty() {
+            write!(f, " (help: {})", self.help)?;
+        }
+        Ok(())
+    }
+}
+
+/// What kind of input error (the CLI exits 2 for all of them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputErrorKind {
+    /// The file could not be read.
+    Unreadable,
+    /// The file is larger than [`MAX_FILE_BYTES`].
+    TooLarge,
+    /// The file is not UTF-8 text or contains NUL bytes.
+    Binary,
+    /// The file is empty (or whitespace and comments only).
+    Empty,
+    /// TOML or YAML syntax error.
+    Syntax,
+    /// The structure is not what the format expects (unknown top-level key,
+    /// missing required field, NaN/inf, ...).
+    Structure,
+}
+
+/// Files larger than this are refused (4 MiB).
+pub const MAX_FILE_BYTES: u64 = 4 * 1024 * 1024;
+
+/// An input error: the file could not be read or is not a well-formed
+/// schema/set file. Carries file:line:column where known.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{location}: {message} (help: {help})")]
+pub struct InputError {
+    /// Kind of error.
+    pub kind: InputErrorKind,
+    /// What is wrong.
+    pub message: String,
+    /// What to do.
+    pub help: String,
+    /// Where (line 0 when only the file is known).
+    pub location: Location,
+}
+
+impl InputError {
+    pub(crate) fn new(
+        kind: InputErrorKind,
+        location: Location,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> Self {
+        InputError { kind, message: message.into(), help: help.into(), location }
+    }
+
+    /// rustc-style rendering, like [`Finding::render_human`].
+    pub fn render_human(&self) -> String {
+        let mut out = format!("error: {}\n", self.message);
+        self.location.render_snippet(&mut out, "here");
+        if !self.help.is_empty() {
+            out.push_str(&format!("  = help: {}\n", self.help));
+        }
+        out
+    }
+}
+
+/// Read a file as UTF-8 text with the size, binary and empty checks of
+/// [`InputErrorKind`].
+pub(crate) fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> {
+    use std::io::Read;
+    let display = path.display().to_string();
+    let loc = || Location::file_only(display.clone());
+    let file = std::fs::File::open(path).map_err(|e| {
+        InputError::new(
+            InputErrorKind::Unreadable,
+            loc(),
+            format!("cannot read {display}: {e}"),
+            "check the path and the file's permissions",
+        )
+    })?;
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes).map_err(|e| {
+        InputError::new(
+            InputErrorKind::Unreadable,
+            loc(),
+            format!("cannot read {display}: {e}"),
+            "check the path and the file's permissions",
+        )
+    })?;
+    source_from_bytes(&display, bytes)
+}
+
+/// The checks of [`read_text_file`] on bytes already in memory.
+pub(crate) fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, InputError> {
+    let loc = || Location::file_only(display.to_string());
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(InputError::new(
+            InputErrorKind::TooLarge,
+            loc(),
+            format!("{display} is larger than {MAX_FILE_BYTES} bytes"),
+            "parameter sets and schemas are small text files; check that this is the right file",
+        ));
+    }
+    if bytes.contains(&0) {
+        return Err(InputError::new(
+            InputErrorKind::Binary,
+            loc(),
+            format!("{display} is a binary file (contains NUL bytes)"),
+            "give a TOML or YAML text file",
+        ));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        InputError::new(
+            InputErrorKind::Binary,
+            loc(),
+            format!("{display} is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
+            "save the file as UTF-8",
+        )
+    })?;
+    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    let meaningful = text.lines().any(|l| {
+        let t = l.trim();
+        !t.is_empty() && !t.starts_with('#') && t != "---" && t != "..."
+    });
+    if !meaningful {
+        return Err(InputError::new(
+            InputErrorKind::Empty,
+            loc(),
+            format!("{display} is empty"),
+            "a set needs at least `schema = \"...\"`",
+        ));
+    }
+    Ok(SourceFile::new(display, text))
+}
