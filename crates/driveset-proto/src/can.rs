@@ -1,1 +1,0 @@
-//! can codec (under construction).
