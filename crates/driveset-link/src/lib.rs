@@ -1,1 +1,135 @@
-//! driveset-link (under construction).
+//! driveset-link owns the byte and frame transports between driveset and
+//! the drives, and the clock the engine and the simulator run on.
+//!
+//! - [`clock`]: [`Clock`], [`Instant`], [`RealClock`], [`VirtualClock`].
+//! - [`ByteLink`]: a LUSTBUS / LECOM line (ASCII 7E1 over RS-485), as a
+//!   local [`serial::SerialLink`], a [`tcp::TcpLink`] to a serial device
+//!   server, or one end of an in-memory [`mem::byte_pair`].
+//! - [`FrameLink`]: a CAN bus (Lenze system bus), as an
+//!   [`slcan::SlcanLink`] USB-CAN adapter, a SocketCAN interface (feature
+//!   `socketcan`), or one end of an in-memory [`mem::frame_pair`].
+//! - [`spec`]: the port syntax ([`PortSpec`]) and [`open`], which opens the
+//!   real transports from it.
+//!
+//! Links move bytes and frames only: framing, checksums, masking bit 7 and
+//! retries are the codecs' (driveset-proto) and the engine's business.
+//! Receive deadlines are [`Instant`]s of the link's own [`ByteLink::clock`]
+//! / [`FrameLink::clock`].
+
+pub mod clock;
+pub mod error;
+pub mod mem;
+pub mod serial;
+#[cfg(not(proto_wip_skip_can))]
+pub mod slcan;
+#[cfg(all(feature = "socketcan", target_os = "linux", not(proto_wip_skip_can)))]
+pub mod socketcan;
+pub mod spec;
+pub mod tcp;
+
+mod open;
+
+pub use clock::{Clock, Instant, RealClock, VirtualClock};
+#[cfg(not(proto_wip_skip_can))]
+pub use driveset_proto::can::CanFrame;
+pub use error::LinkError;
+pub use open::{Link, OpenOptions, open};
+pub use spec::{PortSpec, PortSpecError, PortSpecErrorKind, SimSpec};
+
+/// A byte line to LUSTBUS / LECOM drives (7E1; the transport adds parity).
+///
+/// All methods take `&mut self`: one transaction at a time per line.
+pub trait ByteLink: Send + std::fmt::Debug {
+    /// The port, as errors and reports name it.
+    fn port(&self) -> &str;
+
+    /// The line rate in baud (for wire-time calculations).
+    fn baud(&self) -> u32;
+
+    /// The clock whose instants [`ByteLink::recv`] deadlines are in.
+    fn clock(&self) -> &dyn Clock;
+
+    /// Send `bytes` (7-bit characters; a byte with bit 7 set is refused
+    /// with [`LinkError::NotSevenBit`] and nothing is sent).
+    fn send(&mut self, bytes: &[u8]) -> Result<(), LinkError>;
+
+    /// Wait until at least one byte has arrived or `deadline` has passed,
+    /// then copy what has arrived (up to `buf.len()`) into `buf`. Returns
+    /// the count; `0` means nothing arrived by the deadline.
+    fn recv(&mut self, buf: &mut [u8], deadline: Instant) -> Result<usize, LinkError>;
+
+    /// Drop everything received and not yet read (before a new request,
+    /// so a late answer to the previous one cannot be taken for its reply).
+    fn discard_input(&mut self) -> Result<(), LinkError>;
+
+    /// Wait until everything sent has left the transport.
+    fn flush(&mut self) -> Result<(), LinkError>;
+}
+
+impl<L: ByteLink + ?Sized> ByteLink for Box<L> {
+    fn port(&self) -> &str {
+        (**self).port()
+    }
+    fn baud(&self) -> u32 {
+        (**self).baud()
+    }
+    fn clock(&self) -> &dyn Clock {
+        (**self).clock()
+    }
+    fn send(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        (**self).send(bytes)
+    }
+    fn recv(&mut self, buf: &mut [u8], deadline: Instant) -> Result<usize, LinkError> {
+        (**self).recv(buf, deadline)
+    }
+    fn discard_input(&mut self) -> Result<(), LinkError> {
+        (**self).discard_input()
+    }
+    fn flush(&mut self) -> Result<(), LinkError> {
+        (**self).flush()
+    }
+}
+
+/// A CAN bus (classic CAN 2.0 frames of [`driveset_proto::can`]).
+#[cfg(not(proto_wip_skip_can))]
+pub trait FrameLink: Send + std::fmt::Debug {
+    /// The port, as errors and reports name it.
+    fn port(&self) -> &str;
+
+    /// The bus bit rate in bit/s (for wire-time calculations).
+    fn bitrate(&self) -> u32;
+
+    /// The clock whose instants [`FrameLink::recv`] deadlines are in.
+    fn clock(&self) -> &dyn Clock;
+
+    /// Send one frame.
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError>;
+
+    /// The next frame received by `deadline`, or `None`.
+    fn recv(&mut self, deadline: Instant) -> Result<Option<CanFrame>, LinkError>;
+
+    /// Drop every frame received and not yet read.
+    fn discard_input(&mut self) -> Result<(), LinkError>;
+}
+
+#[cfg(not(proto_wip_skip_can))]
+impl<L: FrameLink + ?Sized> FrameLink for Box<L> {
+    fn port(&self) -> &str {
+        (**self).port()
+    }
+    fn bitrate(&self) -> u32 {
+        (**self).bitrate()
+    }
+    fn clock(&self) -> &dyn Clock {
+        (**self).clock()
+    }
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        (**self).send(frame)
+    }
+    fn recv(&mut self, deadline: Instant) -> Result<Option<CanFrame>, LinkError> {
+        (**self).recv(deadline)
+    }
+    fn discard_input(&mut self) -> Result<(), LinkError> {
+        (**self).discard_input()
+    }
+}

@@ -1,0 +1,707 @@
+//! The one port syntax driveset uses everywhere (command line, line
+//! manifests, reports): [`PortSpec`], its parser with precise errors
+//! ([`PortSpecError`]) and its canonical `Display` form.
+//!
+//! | form | transport |
+//! | --- | --- |
+//! | `/dev/ttyUSB0`, `COM3` | serial port, 7E1 ([`crate::serial`]) |
+//! | `tcp://host:port` | serial device server in raw TCP mode ([`crate::tcp`]) |
+//! | `slcan:///dev/ttyACM0?bitrate=500000` | slcan (Lawicel) USB-CAN adapter ([`crate::slcan`]) |
+//! | `can://can0` | SocketCAN interface (feature `socketcan`) |
+//! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim) |
+//!
+//! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
+//! adapter's own serial line; for `can://` a synonym of `bitrate`), the CAN
+//! forms and `sim://` also `bitrate=`. Unknown keys are rejected by name.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use crate::error::list;
+
+/// The rates (baud) a LUSTBUS / LECOM line (7E1) can run at.
+pub const ALLOWED_BAUDS: &[u32] = &[1200, 2400, 4800, 9600, 19200, 38400, 57600];
+/// The CAN bit rates (bit/s) an slcan adapter can be set to (`S0`..`S8`).
+pub const ALLOWED_BITRATES: &[u32] = &[
+    10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000,
+];
+/// The 7E1 line rate used when a port string gives none (the drives'
+/// factory setting).
+pub const DEFAULT_BAUD: u32 = 9600;
+/// The CAN bit rate used when a port string gives none (the Lenze system
+/// bus factory setting).
+pub const DEFAULT_BITRATE: u32 = 500_000;
+/// The rate of an slcan adapter's own serial line when none is given (USB
+/// CDC adapters ignore it).
+pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
+
+/// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
+/// to the simulator as text (`seed` must be a whole number).
+pub const SIM_OPTION_KEYS: &[&str] = &["faults", "seed"];
+
+const SERIAL_KEYS: &[&str] = &["baud"];
+const TCP_KEYS: &[&str] = &["baud"];
+const SLCAN_KEYS: &[&str] = &["bitrate", "baud"];
+const CAN_KEYS: &[&str] = &["bitrate", "baud"];
+const SIM_KEYS: &[&str] = &["addresses", "baud", "bitrate", "faults", "seed"];
+
+/// Where a bus is: a parsed port string. See the module docs for the forms.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum PortSpec {
+    /// A local serial port running 7E1.
+    Serial {
+        /// Device path (`/dev/ttyUSB0`) or name (`COM3`).
+        path: String,
+        /// Line rate; `None` means [`DEFAULT_BAUD`].
+        baud: Option<u32>,
+    },
+    /// A serial device server in raw TCP mode whose serial side runs 7E1.
+    Tcp {
+        /// Host name or IP address (IPv6 without brackets).
+        host: String,
+        /// TCP port.
+        port: u16,
+        /// The device server's line rate (for wire timing); `None` means
+        /// [`DEFAULT_BAUD`].
+        baud: Option<u32>,
+    },
+    /// An slcan (Lawicel) USB-CAN adapter on a serial port.
+    Slcan {
+        /// The adapter's serial device.
+        path: String,
+        /// CAN bit rate; `None` means [`DEFAULT_BITRATE`].
+        bitrate: Option<u32>,
+        /// The adapter's own serial line rate; `None` means
+        /// [`DEFAULT_SLCAN_BAUD`].
+        baud: Option<u32>,
+    },
+    /// A SocketCAN network interface.
+    SocketCan {
+        /// Interface name (`can0`).
+        interface: String,
+        /// The bus bit rate (set with `ip link`; used for wire timing);
+        /// `None` means [`DEFAULT_BITRATE`].
+        bitrate: Option<u32>,
+    },
+    /// An in-process simulated bus.
+    Sim(SimSpec),
+}
+
+/// A `sim://FAMILY?addresses=...` port: simulated drives of one family.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct SimSpec {
+    /// Drive family (schema name), e.g. `lust-vf1000`.
+    pub family: String,
+    /// Bus addresses of the simulated drives, in the order given.
+    pub addresses: Vec<u8>,
+    /// Line rate for serial families.
+    pub baud: Option<u32>,
+    /// Bit rate for CAN families.
+    pub bitrate: Option<u32>,
+    /// Further simulator options ([`SIM_OPTION_KEYS`]), by key.
+    pub options: BTreeMap<String, String>,
+}
+
+/// A port string that does not parse: the input and what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("invalid port `{input}`: {kind}")]
+pub struct PortSpecError {
+    /// The string given.
+    pub input: String,
+    /// What is wrong with it.
+    pub kind: PortSpecErrorKind,
+}
+
+/// What is wrong with a port string.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PortSpecErrorKind {
+    /// Nothing given.
+    #[error(
+        "empty; give a serial port (/dev/ttyUSB0, COM3), tcp://host:port, slcan://PATH, can://IFACE or sim://FAMILY"
+    )]
+    Empty,
+    /// A scheme this crate does not know.
+    #[error(
+        "unknown scheme `{scheme}://`; use a serial port (/dev/ttyUSB0, COM3), tcp://, slcan://, can:// or sim://"
+    )]
+    UnknownScheme {
+        /// The scheme.
+        scheme: String,
+    },
+    /// A scheme without the part that must follow it.
+    #[error("`{scheme}://` needs {what}, e.g. {example}")]
+    Missing {
+        /// The scheme (`serial` for a bare path).
+        scheme: &'static str,
+        /// What is missing.
+        what: &'static str,
+        /// A correct example.
+        example: &'static str,
+    },
+    /// `?` with nothing after it, or an empty `&&` item.
+    #[error("empty option after `?` or `&`; remove it or write key=value")]
+    EmptyOption,
+    /// An option without `=`.
+    #[error("option `{item}` is not key=value")]
+    MalformedOption {
+        /// The item.
+        item: String,
+    },
+    /// An option this kind of port does not take.
+    #[error("unknown option `{key}` for {scheme} ports; allowed: {}", .allowed.join(", "))]
+    UnknownOption {
+        /// The key.
+        key: String,
+        /// The kind of port.
+        scheme: &'static str,
+        /// The keys it takes.
+        allowed: &'static [&'static str],
+    },
+    /// An option given twice.
+    #[error("option `{key}` given twice; give it once")]
+    DuplicateOption {
+        /// The key.
+        key: String,
+    },
+    /// An option whose value is not what it should be.
+    #[error("`{key}={value}`: {reason}")]
+    BadValue {
+        /// The key.
+        key: String,
+        /// The value.
+        value: String,
+        /// What it should be.
+        reason: String,
+    },
+    /// A 7E1 line rate driveset does not support.
+    #[error(
+        "baud={baud} is not supported; a 7E1 line runs at one of {} baud",
+        list(ALLOWED_BAUDS)
+    )]
+    UnsupportedBaud {
+        /// The rate.
+        baud: u32,
+    },
+    /// A CAN bit rate slcan adapters cannot be set to.
+    #[error(
+        "bitrate={bitrate} is not supported; use one of {} bit/s",
+        list(ALLOWED_BITRATES)
+    )]
+    UnsupportedBitrate {
+        /// The rate.
+        bitrate: u32,
+    },
+    /// `can://` with both `baud` and `bitrate`, different.
+    #[error("baud={baud} and bitrate={bitrate} disagree; for can:// give only bitrate=")]
+    ConflictingRates {
+        /// `baud=`.
+        baud: u32,
+        /// `bitrate=`.
+        bitrate: u32,
+    },
+    /// A bad host in `tcp://`.
+    #[error("host `{host}`: {reason}")]
+    BadHost {
+        /// The host.
+        host: String,
+        /// Why.
+        reason: &'static str,
+    },
+    /// A bad TCP port number.
+    #[error("TCP port `{value}` is not a number in 1..=65535")]
+    BadTcpPort {
+        /// The text.
+        value: String,
+    },
+    /// Something after `host:port` or the interface name.
+    #[error("unexpected `{rest}` after {after}; {scheme}:// takes {takes} only")]
+    TrailingPath {
+        /// The extra text.
+        rest: String,
+        /// What it follows.
+        after: String,
+        /// The scheme.
+        scheme: &'static str,
+        /// What the scheme takes.
+        takes: &'static str,
+    },
+    /// A bad SocketCAN interface name.
+    #[error("interface name `{name}`: {reason}")]
+    BadInterface {
+        /// The name.
+        name: String,
+        /// Why.
+        reason: &'static str,
+    },
+    /// A bad simulator family name.
+    #[error(
+        "family `{family}`: use letters, digits, `-` and `_` only (a schema name such as lust-vf1000)"
+    )]
+    BadFamily {
+        /// The name.
+        family: String,
+    },
+    /// A bad simulated drive address.
+    #[error("address `{value}` in addresses= is not a number in 0..=255")]
+    BadAddress {
+        /// The text.
+        value: String,
+    },
+    /// A simulated drive address given twice.
+    #[error("address {address} appears twice in addresses=; each drive needs its own address")]
+    DuplicateAddress {
+        /// The address.
+        address: u8,
+    },
+}
+
+impl PortSpec {
+    /// Parse a port string (see the module docs).
+    pub fn parse(input: &str) -> Result<PortSpec, PortSpecError> {
+        parse(input).map_err(|kind| PortSpecError {
+            input: input.to_string(),
+            kind,
+        })
+    }
+
+    /// The 7E1 line rate this port runs at (defaults applied), or `None`
+    /// for CAN ports.
+    pub fn line_baud(&self) -> Option<u32> {
+        match self {
+            PortSpec::Serial { baud, .. } | PortSpec::Tcp { baud, .. } => {
+                Some(baud.unwrap_or(DEFAULT_BAUD))
+            }
+            PortSpec::Sim(sim) => Some(sim.baud.unwrap_or(DEFAULT_BAUD)),
+            PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => None,
+        }
+    }
+
+    /// The CAN bit rate (defaults applied) for CAN ports, `None` otherwise.
+    /// For `sim://` it is the given `bitrate=` or [`DEFAULT_BITRATE`]:
+    /// whether the family is a CAN one is the simulator's business.
+    pub fn can_bitrate(&self) -> Option<u32> {
+        match self {
+            PortSpec::Slcan { bitrate, .. } | PortSpec::SocketCan { bitrate, .. } => {
+                Some(bitrate.unwrap_or(DEFAULT_BITRATE))
+            }
+            PortSpec::Sim(sim) => Some(sim.bitrate.unwrap_or(DEFAULT_BITRATE)),
+            PortSpec::Serial { .. } | PortSpec::Tcp { .. } => None,
+        }
+    }
+
+    /// Whether this port carries CAN frames (slcan, SocketCAN) rather than
+    /// bytes. `sim://` is neither: it depends on the family.
+    pub fn is_can(&self) -> bool {
+        matches!(self, PortSpec::Slcan { .. } | PortSpec::SocketCan { .. })
+    }
+}
+
+impl std::str::FromStr for PortSpec {
+    type Err = PortSpecError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        PortSpec::parse(s)
+    }
+}
+
+/// Writes the canonical form: defaults not spelled out, options in a fixed
+/// order (`addresses`, `baud`, `bitrate`, then the rest alphabetically).
+impl fmt::Display for PortSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut q = Query::default();
+        match self {
+            PortSpec::Serial { path, baud } => {
+                f.write_str(path)?;
+                q.num("baud", *baud);
+            }
+            PortSpec::Tcp { host, port, baud } => {
+                if host.contains(':') {
+                    write!(f, "tcp://[{host}]:{port}")?;
+                } else {
+                    write!(f, "tcp://{host}:{port}")?;
+                }
+                q.num("baud", *baud);
+            }
+            PortSpec::Slcan {
+                path,
+                bitrate,
+                baud,
+            } => {
+                write!(f, "slcan://{path}")?;
+                q.num("baud", *baud);
+                q.num("bitrate", *bitrate);
+            }
+            PortSpec::SocketCan { interface, bitrate } => {
+                write!(f, "can://{interface}")?;
+                q.num("bitrate", *bitrate);
+            }
+            PortSpec::Sim(sim) => {
+                write!(f, "sim://{}", sim.family)?;
+                let addresses = sim
+                    .addresses
+                    .iter()
+                    .map(u8::to_string)
+                    .collect::<Vec<_>>()
+                    .join(",");
+                q.text("addresses", &addresses);
+                q.num("baud", sim.baud);
+                q.num("bitrate", sim.bitrate);
+                for (key, value) in &sim.options {
+                    q.text(key, value);
+                }
+            }
+        }
+        f.write_str(&q.0)
+    }
+}
+
+/// Builds `?a=1&b=2`.
+#[derive(Default)]
+struct Query(String);
+
+impl Query {
+    fn text(&mut self, key: &str, value: &str) {
+        self.0.push(if self.0.is_empty() { '?' } else { '&' });
+        self.0.push_str(key);
+        self.0.push('=');
+        self.0.push_str(value);
+    }
+    fn num(&mut self, key: &str, value: Option<u32>) {
+        if let Some(v) = value {
+            self.text(key, &v.to_string());
+        }
+    }
+}
+
+/// The options after `?`, checked against the keys a scheme takes.
+struct Options {
+    map: BTreeMap<String, String>,
+}
+
+impl Options {
+    fn parse(
+        query: Option<&str>,
+        scheme: &'static str,
+        allowed: &'static [&'static str],
+    ) -> Result<Options, PortSpecErrorKind> {
+        let mut map = BTreeMap::new();
+        let Some(query) = query else {
+            return Ok(Options { map });
+        };
+        for item in query.split('&') {
+            if item.is_empty() {
+                return Err(PortSpecErrorKind::EmptyOption);
+            }
+            let Some((key, value)) = item.split_once('=') else {
+                return Err(PortSpecErrorKind::MalformedOption { item: item.into() });
+            };
+            if !allowed.contains(&key) {
+                return Err(PortSpecErrorKind::UnknownOption {
+                    key: key.into(),
+                    scheme,
+                    allowed,
+                });
+            }
+            if value.is_empty() {
+                return Err(PortSpecErrorKind::BadValue {
+                    key: key.into(),
+                    value: String::new(),
+                    reason: "empty value".into(),
+                });
+            }
+            if map.insert(key.to_string(), value.to_string()).is_some() {
+                return Err(PortSpecErrorKind::DuplicateOption { key: key.into() });
+            }
+        }
+        Ok(Options { map })
+    }
+
+    fn number(&mut self, key: &str) -> Result<Option<u32>, PortSpecErrorKind> {
+        let Some(value) = self.map.remove(key) else {
+            return Ok(None);
+        };
+        match value.parse::<u32>() {
+            Ok(n) if n > 0 => Ok(Some(n)),
+            _ => Err(PortSpecErrorKind::BadValue {
+                key: key.into(),
+                value,
+                reason: "not a positive whole number".into(),
+            }),
+        }
+    }
+
+    /// `baud=`, checked against [`ALLOWED_BAUDS`].
+    fn line_baud(&mut self) -> Result<Option<u32>, PortSpecErrorKind> {
+        match self.number("baud")? {
+            Some(baud) if !ALLOWED_BAUDS.contains(&baud) => {
+                Err(PortSpecErrorKind::UnsupportedBaud { baud })
+            }
+            other => Ok(other),
+        }
+    }
+
+    /// `bitrate=`, checked against [`ALLOWED_BITRATES`].
+    fn bitrate(&mut self) -> Result<Option<u32>, PortSpecErrorKind> {
+        match self.number("bitrate")? {
+            Some(bitrate) => check_bitrate(bitrate).map(Some),
+            None => Ok(None),
+        }
+    }
+}
+
+fn check_bitrate(bitrate: u32) -> Result<u32, PortSpecErrorKind> {
+    if ALLOWED_BITRATES.contains(&bitrate) {
+        Ok(bitrate)
+    } else {
+        Err(PortSpecErrorKind::UnsupportedBitrate { bitrate })
+    }
+}
+
+fn parse(input: &str) -> Result<PortSpec, PortSpecErrorKind> {
+    let input = input.trim();
+    if input.is_empty() {
+        return Err(PortSpecErrorKind::Empty);
+    }
+    let (body, query) = match input.split_once('?') {
+        Some((body, query)) => (body, Some(query)),
+        None => (input, None),
+    };
+    if query == Some("") {
+        return Err(PortSpecErrorKind::EmptyOption);
+    }
+    let Some((scheme, rest)) = body.split_once("://") else {
+        return parse_serial(body, query);
+    };
+    match scheme {
+        "tcp" => parse_tcp(rest, query),
+        "slcan" => parse_slcan(rest, query),
+        "can" => parse_can(rest, query),
+        "sim" => parse_sim(rest, query),
+        _ => Err(PortSpecErrorKind::UnknownScheme {
+            scheme: scheme.into(),
+        }),
+    }
+}
+
+fn parse_serial(path: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
+    if path.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "serial",
+            what: "a device path",
+            example: "/dev/ttyUSB0?baud=9600 or COM3",
+        });
+    }
+    let mut opts = Options::parse(query, "serial", SERIAL_KEYS)?;
+    let baud = opts.line_baud()?;
+    Ok(PortSpec::Serial {
+        path: path.into(),
+        baud,
+    })
+}
+
+fn parse_tcp(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
+    const EXAMPLE: &str = "tcp://192.168.0.7:4001";
+    if rest.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "tcp",
+            what: "host:port",
+            example: EXAMPLE,
+        });
+    }
+    let (host_port, trailing) = match rest.find('/') {
+        Some(i) => (&rest[..i], &rest[i..]),
+        None => (rest, ""),
+    };
+    let (host, port_text) = if let Some(bracketed) = host_port.strip_prefix('[') {
+        let Some((host, after)) = bracketed.split_once(']') else {
+            return Err(PortSpecErrorKind::BadHost {
+                host: host_port.into(),
+                reason: "missing `]` after the IPv6 address",
+            });
+        };
+        let Some(port) = after.strip_prefix(':') else {
+            return Err(PortSpecErrorKind::Missing {
+                scheme: "tcp",
+                what: "a port after the host",
+                example: "tcp://[fe80::1]:4001",
+            });
+        };
+        (host, port)
+    } else {
+        let Some((host, port)) = host_port.rsplit_once(':') else {
+            return Err(PortSpecErrorKind::Missing {
+                scheme: "tcp",
+                what: "a port after the host",
+                example: EXAMPLE,
+            });
+        };
+        if host.contains(':') {
+            return Err(PortSpecErrorKind::BadHost {
+                host: host.into(),
+                reason: "write IPv6 addresses in brackets: tcp://[::1]:4001",
+            });
+        }
+        (host, port)
+    };
+    if host.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "tcp",
+            what: "a host before the port",
+            example: EXAMPLE,
+        });
+    }
+    if host.chars().any(|c| c.is_whitespace() || c == '@') {
+        return Err(PortSpecErrorKind::BadHost {
+            host: host.into(),
+            reason: "not a host name or IP address",
+        });
+    }
+    let port = match port_text.parse::<u16>() {
+        Ok(p) if p > 0 => p,
+        _ => {
+            return Err(PortSpecErrorKind::BadTcpPort {
+                value: port_text.into(),
+            });
+        }
+    };
+    if !trailing.is_empty() {
+        return Err(PortSpecErrorKind::TrailingPath {
+            rest: trailing.into(),
+            after: host_port.into(),
+            scheme: "tcp",
+            takes: "host:port",
+        });
+    }
+    let mut opts = Options::parse(query, "tcp://", TCP_KEYS)?;
+    let baud = opts.line_baud()?;
+    Ok(PortSpec::Tcp {
+        host: host.into(),
+        port,
+        baud,
+    })
+}
+
+fn parse_slcan(path: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
+    if path.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "slcan",
+            what: "the adapter's serial device",
+            example: "slcan:///dev/ttyACM0?bitrate=500000",
+        });
+    }
+    let mut opts = Options::parse(query, "slcan://", SLCAN_KEYS)?;
+    let bitrate = opts.bitrate()?;
+    let baud = opts.number("baud")?;
+    Ok(PortSpec::Slcan {
+        path: path.into(),
+        bitrate,
+        baud,
+    })
+}
+
+fn parse_can(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
+    if rest.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "can",
+            what: "a SocketCAN interface name",
+            example: "can://can0",
+        });
+    }
+    let (interface, trailing) = match rest.find('/') {
+        Some(i) => (&rest[..i], &rest[i..]),
+        None => (rest, ""),
+    };
+    if !trailing.is_empty() {
+        return Err(PortSpecErrorKind::TrailingPath {
+            rest: trailing.into(),
+            after: interface.into(),
+            scheme: "can",
+            takes: "an interface name",
+        });
+    }
+    if interface.len() > 15 {
+        return Err(PortSpecErrorKind::BadInterface {
+            name: interface.into(),
+            reason: "longer than 15 characters (the kernel's limit)",
+        });
+    }
+    if !interface
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+    {
+        return Err(PortSpecErrorKind::BadInterface {
+            name: interface.into(),
+            reason: "use letters, digits, `-`, `_` and `.` only",
+        });
+    }
+    let mut opts = Options::parse(query, "can://", CAN_KEYS)?;
+    let bitrate = opts.bitrate()?;
+    let baud = opts.number("baud")?;
+    let bitrate = match (baud, bitrate) {
+        (Some(baud), Some(bitrate)) if baud != bitrate => {
+            return Err(PortSpecErrorKind::ConflictingRates { baud, bitrate });
+        }
+        (Some(baud), None) => Some(check_bitrate(baud)?),
+        (_, bitrate) => bitrate,
+    };
+    Ok(PortSpec::SocketCan {
+        interface: interface.into(),
+        bitrate,
+    })
+}
+
+fn parse_sim(family: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
+    const EXAMPLE: &str = "sim://lust-vf1000?addresses=1,2,3";
+    if family.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "a drive family",
+            example: EXAMPLE,
+        });
+    }
+    if !family
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
+    {
+        return Err(PortSpecErrorKind::BadFamily {
+            family: family.into(),
+        });
+    }
+    let mut opts = Options::parse(query, "sim://", SIM_KEYS)?;
+    let Some(list) = opts.map.remove("addresses") else {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "addresses= (the simulated drives' bus addresses)",
+            example: EXAMPLE,
+        });
+    };
+    let mut addresses = Vec::new();
+    for item in list.split(',') {
+        let address = item
+            .trim()
+            .parse::<u8>()
+            .map_err(|_| PortSpecErrorKind::BadAddress { value: item.into() })?;
+        if addresses.contains(&address) {
+            return Err(PortSpecErrorKind::DuplicateAddress { address });
+        }
+        addresses.push(address);
+    }
+    let baud = opts.line_baud()?;
+    let bitrate = opts.bitrate()?;
+    if let Some(seed) = opts.map.get("seed")
+        && seed.parse::<u64>().is_err()
+    {
+        return Err(PortSpecErrorKind::BadValue {
+            key: "seed".into(),
+            value: seed.clone(),
+            reason: "not a whole number in 0..=18446744073709551615".into(),
+        });
+    }
+    Ok(PortSpec::Sim(SimSpec {
+        family: family.into(),
+        addresses,
+        baud,
+        bitrate,
+        options: opts.map,
+    }))
+}

@@ -1,0 +1,383 @@
+//! PortSpec: every form parses, prints back canonically, and every error
+//! says exactly what is wrong.
+
+use std::collections::BTreeMap;
+
+use driveset_link::spec::{DEFAULT_BAUD, DEFAULT_BITRATE};
+use driveset_link::{PortSpec, PortSpecErrorKind, SimSpec};
+
+fn ok(input: &str) -> PortSpec {
+    match PortSpec::parse(input) {
+        Ok(spec) => spec,
+        Err(e) => panic!("`{input}` should parse: {e}"),
+    }
+}
+
+fn err(input: &str) -> PortSpecErrorKind {
+    match PortSpec::parse(input) {
+        Ok(spec) => panic!("`{input}` should not parse, got {spec:?}"),
+        Err(e) => {
+            assert_eq!(e.input, input);
+            e.kind
+        }
+    }
+}
+
+fn round_trip(input: &str, canonical: &str) {
+    let spec = ok(input);
+    assert_eq!(spec.to_string(), canonical, "canonical form of `{input}`");
+    assert_eq!(ok(canonical), spec, "`{canonical}` parses back");
+}
+
+#[test]
+fn serial_paths() {
+    assert_eq!(
+        ok("/dev/ttyUSB0"),
+        PortSpec::Serial {
+            path: "/dev/ttyUSB0".into(),
+            baud: None
+        }
+    );
+    assert_eq!(
+        ok("COM3?baud=19200"),
+        PortSpec::Serial {
+            path: "COM3".into(),
+            baud: Some(19200)
+        }
+    );
+    round_trip("/dev/ttyUSB0?baud=9600", "/dev/ttyUSB0?baud=9600");
+    round_trip("  COM3  ", "COM3");
+    assert_eq!(ok("COM3").line_baud(), Some(DEFAULT_BAUD));
+    assert_eq!(ok("COM3").can_bitrate(), None);
+    assert!(!ok("COM3").is_can());
+}
+
+#[test]
+fn tcp_hosts() {
+    assert_eq!(
+        ok("tcp://192.168.0.7:4001"),
+        PortSpec::Tcp {
+            host: "192.168.0.7".into(),
+            port: 4001,
+            baud: None
+        }
+    );
+    assert_eq!(
+        ok("tcp://[::1]:4001?baud=57600"),
+        PortSpec::Tcp {
+            host: "::1".into(),
+            port: 4001,
+            baud: Some(57600)
+        }
+    );
+    round_trip(
+        "tcp://moxa-3.line2.local:950",
+        "tcp://moxa-3.line2.local:950",
+    );
+    round_trip(
+        "tcp://[fe80::1]:4001?baud=1200",
+        "tcp://[fe80::1]:4001?baud=1200",
+    );
+    assert_eq!(ok("tcp://h:1?baud=38400").line_baud(), Some(38400));
+}
+
+#[test]
+fn slcan_and_can() {
+    assert_eq!(
+        ok("slcan:///dev/ttyACM0?bitrate=500000"),
+        PortSpec::Slcan {
+            path: "/dev/ttyACM0".into(),
+            bitrate: Some(500_000),
+            baud: None
+        }
+    );
+    round_trip(
+        "slcan://COM4?bitrate=125000&baud=115200",
+        "slcan://COM4?baud=115200&bitrate=125000",
+    );
+    assert_eq!(
+        ok("slcan:///dev/ttyACM0").can_bitrate(),
+        Some(DEFAULT_BITRATE)
+    );
+    assert!(ok("slcan:///dev/ttyACM0").is_can());
+    assert_eq!(ok("slcan:///dev/ttyACM0").line_baud(), None);
+    assert_eq!(
+        ok("can://can0"),
+        PortSpec::SocketCan {
+            interface: "can0".into(),
+            bitrate: None
+        }
+    );
+    round_trip("can://can0?bitrate=250000", "can://can0?bitrate=250000");
+    // baud= is a synonym of bitrate= for can://
+    round_trip("can://can1?baud=1000000", "can://can1?bitrate=1000000");
+    round_trip(
+        "can://can1?baud=1000000&bitrate=1000000",
+        "can://can1?bitrate=1000000",
+    );
+}
+
+#[test]
+fn sim_buses() {
+    let mut options = BTreeMap::new();
+    options.insert("seed".to_string(), "42".to_string());
+    assert_eq!(
+        ok("sim://lust-vf1000?seed=42&addresses=3,1,2&baud=19200"),
+        PortSpec::Sim(SimSpec {
+            family: "lust-vf1000".into(),
+            addresses: vec![3, 1, 2],
+            baud: Some(19200),
+            bitrate: None,
+            options,
+        })
+    );
+    round_trip(
+        "sim://lust-vf1000?seed=42&addresses=3,1,2&baud=19200",
+        "sim://lust-vf1000?addresses=3,1,2&baud=19200&seed=42",
+    );
+    round_trip(
+        "sim://lenze_ecs?bitrate=125000&addresses=1&faults=drop:0.1",
+        "sim://lenze_ecs?addresses=1&bitrate=125000&faults=drop:0.1",
+    );
+    assert_eq!(ok("sim://x?addresses=0").line_baud(), Some(DEFAULT_BAUD));
+    assert_eq!(
+        "sim://x?addresses= 7"
+            .parse::<PortSpec>()
+            .map(|s| s.to_string()),
+        Ok("sim://x?addresses=7".into())
+    );
+}
+
+#[test]
+fn errors_name_what_is_wrong() {
+    assert_eq!(err(""), PortSpecErrorKind::Empty);
+    assert_eq!(err("   "), PortSpecErrorKind::Empty);
+    assert_eq!(
+        err("udp://1.2.3.4:5"),
+        PortSpecErrorKind::UnknownScheme {
+            scheme: "udp".into()
+        }
+    );
+    assert!(matches!(
+        err("?baud=9600"),
+        PortSpecErrorKind::Missing {
+            scheme: "serial",
+            ..
+        }
+    ));
+    assert_eq!(err("/dev/ttyS0?"), PortSpecErrorKind::EmptyOption);
+    assert_eq!(err("/dev/ttyS0?baud=9600&"), PortSpecErrorKind::EmptyOption);
+    assert_eq!(
+        err("/dev/ttyS0?baud"),
+        PortSpecErrorKind::MalformedOption {
+            item: "baud".into()
+        }
+    );
+    assert!(matches!(
+        err("/dev/ttyS0?parity=odd"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud"] } if key == "parity"
+    ));
+    assert!(matches!(
+        err("tcp://h:1?bitrate=500000"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "tcp://", .. } if key == "bitrate"
+    ));
+    assert!(matches!(
+        err("can://can0?addresses=1"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "can://", .. } if key == "addresses"
+    ));
+    assert!(matches!(
+        err("slcan:///dev/ttyACM0?speed=1"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "slcan://", .. } if key == "speed"
+    ));
+    assert!(matches!(
+        err("sim://x?addresses=1&colour=red"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "sim://", .. } if key == "colour"
+    ));
+    assert_eq!(
+        err("COM1?baud=9600&baud=9600"),
+        PortSpecErrorKind::DuplicateOption { key: "baud".into() }
+    );
+    assert!(matches!(
+        err("COM1?baud=fast"),
+        PortSpecErrorKind::BadValue { ref key, ref value, .. } if key == "baud" && value == "fast"
+    ));
+    assert!(matches!(
+        err("COM1?baud="),
+        PortSpecErrorKind::BadValue { .. }
+    ));
+    assert!(matches!(
+        err("COM1?baud=0"),
+        PortSpecErrorKind::BadValue { .. }
+    ));
+    assert_eq!(
+        err("COM1?baud=115200"),
+        PortSpecErrorKind::UnsupportedBaud { baud: 115_200 }
+    );
+    assert_eq!(
+        err("tcp://h:1?baud=300"),
+        PortSpecErrorKind::UnsupportedBaud { baud: 300 }
+    );
+    assert_eq!(
+        err("slcan://COM4?bitrate=333333"),
+        PortSpecErrorKind::UnsupportedBitrate { bitrate: 333_333 }
+    );
+    assert_eq!(
+        err("can://can0?baud=9600"),
+        PortSpecErrorKind::UnsupportedBitrate { bitrate: 9600 }
+    );
+    assert_eq!(
+        err("can://can0?baud=125000&bitrate=500000"),
+        PortSpecErrorKind::ConflictingRates {
+            baud: 125_000,
+            bitrate: 500_000
+        }
+    );
+}
+
+#[test]
+fn tcp_errors() {
+    assert!(matches!(
+        err("tcp://"),
+        PortSpecErrorKind::Missing {
+            scheme: "tcp",
+            what: "host:port",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("tcp://host"),
+        PortSpecErrorKind::Missing {
+            what: "a port after the host",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("tcp://:4001"),
+        PortSpecErrorKind::Missing {
+            what: "a host before the port",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("tcp://[::1]"),
+        PortSpecErrorKind::Missing {
+            what: "a port after the host",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("tcp://[::1:4001"),
+        PortSpecErrorKind::BadHost { .. }
+    ));
+    assert!(
+        matches!(err("tcp://::1:4001"), PortSpecErrorKind::BadHost { ref host, .. } if host == "::1")
+    );
+    assert!(matches!(
+        err("tcp://us er:1"),
+        PortSpecErrorKind::BadHost { .. }
+    ));
+    assert_eq!(
+        err("tcp://h:0"),
+        PortSpecErrorKind::BadTcpPort { value: "0".into() }
+    );
+    assert_eq!(
+        err("tcp://h:65536"),
+        PortSpecErrorKind::BadTcpPort {
+            value: "65536".into()
+        }
+    );
+    assert_eq!(
+        err("tcp://h:x"),
+        PortSpecErrorKind::BadTcpPort { value: "x".into() }
+    );
+    assert!(matches!(
+        err("tcp://h:4001/ttyS1"),
+        PortSpecErrorKind::TrailingPath { ref rest, scheme: "tcp", .. } if rest == "/ttyS1"
+    ));
+}
+
+#[test]
+fn can_slcan_sim_errors() {
+    assert!(matches!(
+        err("slcan://"),
+        PortSpecErrorKind::Missing {
+            scheme: "slcan",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("can://"),
+        PortSpecErrorKind::Missing { scheme: "can", .. }
+    ));
+    assert!(matches!(
+        err("can://can0/x"),
+        PortSpecErrorKind::TrailingPath { ref rest, scheme: "can", .. } if rest == "/x"
+    ));
+    assert!(matches!(
+        err("can://a_very_long_name0"),
+        PortSpecErrorKind::BadInterface { .. }
+    ));
+    assert!(matches!(
+        err("can://can 0"),
+        PortSpecErrorKind::BadInterface { .. }
+    ));
+    assert!(matches!(
+        err("sim://"),
+        PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "a drive family",
+            ..
+        }
+    ));
+    assert!(matches!(
+        err("sim://vf1000"),
+        PortSpecErrorKind::Missing { scheme: "sim", .. }
+    ));
+    assert_eq!(
+        err("sim://vf 1000?addresses=1"),
+        PortSpecErrorKind::BadFamily {
+            family: "vf 1000".into()
+        }
+    );
+    assert_eq!(
+        err("sim://vf1000?addresses=1,,2"),
+        PortSpecErrorKind::BadAddress { value: "".into() }
+    );
+    assert_eq!(
+        err("sim://vf1000?addresses=256"),
+        PortSpecErrorKind::BadAddress {
+            value: "256".into()
+        }
+    );
+    assert_eq!(
+        err("sim://vf1000?addresses=1,2,1"),
+        PortSpecErrorKind::DuplicateAddress { address: 1 }
+    );
+    assert!(matches!(
+        err("sim://vf1000?addresses=1&seed=-1"),
+        PortSpecErrorKind::BadValue { ref key, .. } if key == "seed"
+    ));
+    assert_eq!(
+        err("sim://vf1000?addresses=1&baud=100"),
+        PortSpecErrorKind::UnsupportedBaud { baud: 100 }
+    );
+}
+
+#[test]
+fn error_messages_carry_input_and_remedy() {
+    let e = PortSpec::parse("COM1?baud=115200").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "invalid port `COM1?baud=115200`: baud=115200 is not supported; a 7E1 line runs at one of 1200, 2400, 4800, 9600, 19200, 38400, 57600 baud"
+    );
+    let e = PortSpec::parse("/dev/ttyS0?parity=odd").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud"
+    );
+    let e = PortSpec::parse("sim://vf1000").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "invalid port `sim://vf1000`: `sim://` needs addresses= (the simulated drives' bus addresses), e.g. sim://lust-vf1000?addresses=1,2,3"
+    );
+}
