@@ -1,1 +1,139 @@
-//! canonical
+//! Owns [`ResolvedSet`] (the one model set files, pulled sets and live
+//! drives share), its canonical text and fingerprint (docs/file-formats.md,
+//! "Canonical form and fingerprint").
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+use sha2::{Digest, Sha256};
+
+use crate::schema::{CodeStyle, Schema};
+
+/// A raw value as the device holds it.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RawValue {
+    /// Every integer-raw type (scaled, VH, bit-coded, f32 bit pattern).
+    Int(i64),
+    /// VS text.
+    Text(String),
+    /// VO octets.
+    Octets(Vec<u8>),
+}
+
+/// A code and optional subcode; sorts by (number, subcode), no subcode first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CodeKey {
+    /// Code number.
+    pub number: u32,
+    /// Subcode (`C0039/1`), if any.
+    pub subcode: Option<u32>,
+}
+
+impl CodeKey {
+    /// A code without subcode.
+    pub fn new(number: u32) -> Self {
+        CodeKey { number, subcode: None }
+    }
+    /// A code with a subcode.
+    pub fn sub(number: u32, subcode: u32) -> Self {
+        CodeKey { number, subcode: Some(subcode) }
+    }
+    /// Canonical spelling: lenze `C0011`, `C0039/1`; lust `428`, `428/1`.
+    pub fn canonical(&self, style: CodeStyle) -> String {
+        let mut s = match style {
+            CodeStyle::Lenze => format!("C{:04}", self.number),
+            CodeStyle::Lust => self.number.to_string(),
+        };
+        if let Some(sc) = self.subcode {
+            let _ = write!(s, "/{sc}");
+        }
+        s
+    }
+}
+
+/// A set reduced to raw values: schema id + code -> raw value.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ResolvedSet {
+    /// Schema id.
+    pub schema: String,
+    /// Code spelling of the schema (for the canonical form).
+    pub code_style: CodeStyle,
+    /// Values.
+    pub values: BTreeMap<CodeKey, RawValue>,
+}
+
+impl ResolvedSet {
+    /// An empty set for a schema (the engine fills it from values read off a bus).
+    pub fn new(schema: &Schema) -> Self {
+        ResolvedSet { schema: schema.id.clone(), code_style: schema.code_style, values: BTreeMap::new() }
+    }
+
+    /// Set a value.
+    pub fn insert(&mut self, key: CodeKey, raw: RawValue) {
+        self.values.insert(key, raw);
+    }
+
+    /// The canonical text: `driveset-canonical 1`, `schema <id>`, then one
+    /// line per value sorted by (number, subcode); every line ends with `\n`.
+    pub fn canonical(&self) -> String {
+        let mut out = String::with_capacity(32 + self.values.len() * 16);
+        out.push_str("driveset-canonical 1\n");
+        let _ = writeln!(out, "schema {}", self.schema);
+        for (k, v) in &self.values {
+            out.push_str(&k.canonical(self.code_style));
+            out.push(' ');
+            match v {
+                RawValue::Int(i) => {
+                    let _ = write!(out, "{i}");
+                }
+                RawValue::Text(t) => {
+                    out.push('s');
+                    out.push_str(&serde_json::to_string(t).unwrap_or_else(|_| "\"\"".into()));
+                }
+                RawValue::Octets(o) => {
+                    out.push('o');
+                    for b in o {
+                        let _ = write!(out, "{b:02x}");
+                    }
+                }
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// `sha256:` + lowercase hex sha256 of [`ResolvedSet::canonical`].
+    pub fn fingerprint(&self) -> String {
+        let digest = Sha256::digest(self.canonical().as_bytes());
+        let mut s = String::with_capacity(71);
+        s.push_str("sha256:");
+        for b in digest.iter() {
+            let _ = write!(s, "{b:02x}");
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_text_and_fingerprint() {
+        let mut s = ResolvedSet { schema: "lenze-tmd".into(), code_style: CodeStyle::Lenze, values: BTreeMap::new() };
+        s.insert(CodeKey::new(200), RawValue::Text("33STMD-M_12000".into()));
+        s.insert(CodeKey::new(11), RawValue::Int(500000));
+        s.insert(CodeKey::new(7), RawValue::Int(17185));
+        s.insert(CodeKey::sub(39, 1), RawValue::Int(200000));
+        s.insert(CodeKey::new(39), RawValue::Octets(vec![0x0a, 0xff]));
+        assert_eq!(
+            s.canonical(),
+            "driveset-canonical 1\nschema lenze-tmd\nC0007 17185\nC0011 500000\nC0039 o0aff\nC0039/1 200000\nC0200 s\"33STMD-M_12000\"\n"
+        );
+        let mut empty = ResolvedSet { schema: "x".into(), code_style: CodeStyle::Lust, values: BTreeMap::new() };
+        // sha256 of "driveset-canonical 1\nschema x\n"
+        assert_eq!(empty.fingerprint().len(), 71);
+        empty.insert(CodeKey::new(428), RawValue::Int(-5));
+        assert!(empty.canonical().ends_with("\n428 -5\n"));
+    }
+}

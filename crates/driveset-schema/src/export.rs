@@ -1,1 +1,152 @@
-//! export
+//! Owns writing a resolved set back as TOML, YAML or JSON in engineering
+//! units with labels (docs/file-formats.md, "Parameter sets"), such that
+//! reading it back gives the same fingerprint.
+
+use std::fmt::Write;
+
+use crate::canonical::{RawValue, ResolvedSet};
+use crate::schema::Schema;
+use crate::value::{Repr, raw_to_engineering};
+
+/// Output syntax.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// TOML.
+    Toml,
+    /// YAML (flow style values).
+    Yaml,
+    /// JSON (also readable as YAML by [`crate::load_set`] with a `.json` name).
+    Json,
+}
+
+/// A scalar or inline table, already spelled for the output.
+enum Out {
+    /// Bare number text.
+    Num(String),
+    /// String (quoted on output).
+    Str(String),
+    /// Bit-field members.
+    Members(Vec<(String, Out)>),
+    /// Boolean.
+    Bool(bool),
+}
+
+fn q(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
+fn render(o: &Out, fmt: Format) -> String {
+    match o {
+        Out::Num(n) => n.clone(),
+        Out::Str(s) => q(s),
+        Out::Bool(b) => b.to_string(),
+        Out::Members(m) => {
+            let (sep, open, close) = match fmt {
+                Format::Toml => (" = ", "{ ", " }"),
+                Format::Yaml | Format::Json => (": ", "{", "}"),
+            };
+            if m.is_empty() {
+                return "{}".into();
+            }
+            let parts: Vec<String> = m
+                .iter()
+                .map(|(k, v)| {
+                    let key = if fmt == Format::Toml && k.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') { k.clone() } else { q(k) };
+                    format!("{key}{sep}{}", render(v, fmt))
+                })
+                .collect();
+            format!("{open}{}{close}", parts.join(", "))
+        }
+    }
+}
+
+fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) -> Out {
+    let code = schema.code(key.number);
+    match raw {
+        RawValue::Text(t) => Out::Str(t.clone()),
+        RawValue::Octets(o) => Out::Str(o.iter().map(|b| format!("{b:02x}")).collect()),
+        RawValue::Int(i) => {
+            let Some(code) = code else { return Out::Num(i.to_string()) };
+            if let Some(l) = code.values.as_ref().and_then(|v| schema.enum_of(v)).and_then(|e| e.label(*i)) {
+                // a label that also reads as another value would be ambiguous; labels win on read
+                return Out::Str(l.to_string());
+            }
+            if !code.bits.is_empty() {
+                let mut covered: i64 = 0;
+                let mut members = Vec::new();
+                for b in &code.bits {
+                    let v = b.extract(*i);
+                    covered |= (if b.width() >= 63 { -1 } else { (1i64 << b.width()) - 1 }).checked_shl(b.lsb).unwrap_or(0);
+                    if v == 0 {
+                        continue;
+                    }
+                    let labels = b.values.as_ref().and_then(|s| schema.enum_of(s));
+                    let o = match labels.and_then(|e| e.label(v)) {
+                        Some(l) => Out::Str(l.to_string()),
+                        None if b.width() == 1 => Out::Bool(true),
+                        None => Out::Num(v.to_string()),
+                    };
+                    members.push((b.name.clone(), o));
+                }
+                // bits no member covers cannot be written as a table: keep the number
+                if *i & !covered == 0 {
+                    return Out::Members(members);
+                }
+                return Out::Num(i.to_string());
+            }
+            let Some(ty) = schema.type_of(code) else { return Out::Num(i.to_string()) };
+            let num = raw_to_engineering(ty, *i);
+            match (&code.unit, ty.repr()) {
+                (Some(u), Repr::Scaled(_) | Repr::Float) => Out::Str(format!("{num} {u}")),
+                _ => Out::Num(num),
+            }
+        }
+    }
+}
+
+/// Write a set in the given format. `title` is written when given.
+pub fn export(set: &ResolvedSet, schema: &Schema, title: Option<&str>, format: Format) -> String {
+    let mut out = String::new();
+    let entries: Vec<(String, String)> =
+        set.values.iter().map(|(k, v)| (k.canonical(schema.code_style), render(&value_out(schema, *k, v), format))).collect();
+    match format {
+        Format::Toml => {
+            let _ = writeln!(out, "schema = {}", q(&set.schema));
+            if let Some(t) = title {
+                let _ = writeln!(out, "title = {}", q(t));
+            }
+            out.push_str("\n[values]\n");
+            for (k, v) in entries {
+                let key = if k.contains('/') { q(&k) } else { k };
+                let _ = writeln!(out, "{key} = {v}");
+            }
+        }
+        Format::Yaml => {
+            let _ = writeln!(out, "schema: {}", q(&set.schema));
+            if let Some(t) = title {
+                let _ = writeln!(out, "title: {}", q(t));
+            }
+            if entries.is_empty() {
+                out.push_str("values: {}\n");
+            } else {
+                out.push_str("values:\n");
+                for (k, v) in entries {
+                    let _ = writeln!(out, "  {}: {v}", q(&k));
+                }
+            }
+        }
+        Format::Json => {
+            let _ = write!(out, "{{\n  \"schema\": {}", q(&set.schema));
+            if let Some(t) = title {
+                let _ = write!(out, ",\n  \"title\": {}", q(t));
+            }
+            out.push_str(",\n  \"values\": {");
+            let n = entries.len();
+            for (i, (k, v)) in entries.into_iter().enumerate() {
+                let _ = write!(out, "\n    {}: {v}{}", q(&k), if i + 1 < n { "," } else { "" });
+            }
+            out.push_str(if n > 0 { "\n  }\n}\n" } else { "}\n}\n" });
+        }
+    }
+    out
+}

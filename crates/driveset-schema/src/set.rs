@@ -1,1 +1,371 @@
-//! set
+//! Owns loading parameter-set files (TOML, YAML; docs/file-formats.md,
+//! "Parameter sets"): top-level keys, `schema` resolution, `extends` chains,
+//! key resolution (number, `C`+number, `/subcode`, name, alias), merging
+//! base then overlay, and the resulting [`LoadedSet`].
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::canonical::{CodeKey, ResolvedSet};
+use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
+use crate::error::{Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file};
+use crate::schema::{Access, Code, Registry, Schema};
+use crate::validate::{Placed, check_rules, convert_value, suggest};
+
+/// Longest `extends` chain followed.
+pub const MAX_EXTENDS_DEPTH: usize = 32;
+
+/// The outcome of loading a set: the resolved raw values (when the schema is
+/// known) and every finding, in file order (bases first).
+#[derive(Debug, Clone)]
+pub struct LoadedSet {
+    /// The schema the set names, when known.
+    pub schema: Option<Arc<Schema>>,
+    /// The valid values after merging `extends` (values with findings are left out).
+    pub resolved: Option<ResolvedSet>,
+    /// The set's `title`.
+    pub title: Option<String>,
+    /// Findings.
+    pub findings: Vec<Finding>,
+}
+
+struct Layer {
+    doc: Document,
+    dir: PathBuf,
+    schema_ref: Option<(String, Location)>,
+    values: Option<Node>,
+    title: Option<String>,
+}
+
+/// Load and validate a set file (`.toml`, or `.yaml`/`.yml`/`.json` read as YAML).
+/// Schema paths the set names are loaded into `registry`.
+pub fn load_set(path: &Path, registry: &mut Registry) -> Result<LoadedSet, InputError> {
+    let source = read_text_file(path)?;
+    load_source(source, Syntax::from_path(path), path, registry)
+}
+
+/// Load and validate a set given as text; `path` names it in messages and
+/// anchors relative `schema`/`extends` paths.
+pub fn load_set_str(path: &Path, text: &str, registry: &mut Registry) -> Result<LoadedSet, InputError> {
+    let source = crate::error::source_from_bytes(&path.display().to_string(), text.as_bytes().to_vec())?;
+    load_source(source, Syntax::from_path(path), path, registry)
+}
+
+fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut Registry) -> Result<LoadedSet, InputError> {
+    let mut findings = Vec::new();
+    let mut layers = Vec::new();
+    let mut stack = Vec::new();
+    let top = parse_layer(source, syntax, path)?;
+    collect(top, path, &mut stack, &mut layers, &mut findings)?;
+    let Some(top) = layers.last() else {
+        return Ok(LoadedSet { schema: None, resolved: None, title: None, findings });
+    };
+    let title = top.title.clone();
+
+    // the schema: named by the top file, else by the nearest base
+    let Some((sref, sloc, sdir)) =
+        layers.iter().rev().find_map(|l| l.schema_ref.as_ref().map(|(s, loc)| (s.clone(), loc.clone(), l.dir.clone())))
+    else {
+        findings.push(Finding::new(
+            FindingKind::UnknownSchema,
+            top.doc.loc(&(0..0)),
+            "the set names no schema",
+            "add `schema = \"<id>\"` (e.g. lenze-tmd) at the top of the file",
+        ));
+        return Ok(LoadedSet { schema: None, resolved: None, title, findings });
+    };
+    let Some(schema) = resolve_schema(&sref, &sloc, &sdir, registry, &mut findings)? else {
+        return Ok(LoadedSet { schema: None, resolved: None, title, findings });
+    };
+    for l in &layers {
+        if let Some((r, loc)) = &l.schema_ref
+            && (r != &sref || loc.file != sloc.file)
+        {
+            let mut tmp = Vec::new();
+            let other = resolve_schema(r, loc, &l.dir, registry, &mut tmp)?;
+            if other.as_ref().is_none_or(|o| o.id != schema.id) {
+                findings.push(
+                    Finding::new(
+                        FindingKind::BadExtends,
+                        loc.clone(),
+                        format!("this base names schema `{r}`, but the set uses `{}`", schema.id),
+                        "a set and its bases must name the same schema",
+                    )
+                    .with_related("the set's schema", sloc.clone()),
+                );
+            }
+        }
+    }
+
+    let mut merged: BTreeMap<CodeKey, Placed> = BTreeMap::new();
+    for l in &layers {
+        let Some(values) = &l.values else { continue };
+        let mut seen: HashMap<CodeKey, (String, Location)> = HashMap::new();
+        for e in values.entries() {
+            let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else { continue };
+            let kloc = l.doc.loc(&e.key_span);
+            if let Some((first, floc)) = seen.get(&key) {
+                findings.push(
+                    Finding::new(
+                        FindingKind::DuplicateCode,
+                        kloc,
+                        format!(
+                            "{} is given twice in this file: as `{first}` (line {}) and as `{}`",
+                            schema.display_code(key.number, key.subcode),
+                            floc.line,
+                            e.key
+                        ),
+                        "keep one of them",
+                    )
+                    .with_related("first given here", floc.clone()),
+                );
+                continue;
+            }
+            seen.insert(key, (e.key.clone(), kloc.clone()));
+            if code.access == Some(Access::Ro) {
+                findings.push(Finding::new(
+                    FindingKind::ReadOnly,
+                    kloc,
+                    format!("{} ({}) is read-only; a set cannot write it", schema.display_code(key.number, key.subcode), code.name),
+                    "remove this line",
+                ));
+                merged.remove(&key);
+                continue;
+            }
+            match convert_value(&schema, code, &l.doc, &e.value, &mut findings) {
+                Some(p) => {
+                    merged.insert(key, p);
+                }
+                None => {
+                    merged.remove(&key);
+                }
+            }
+        }
+    }
+    check_rules(&schema, &merged, &mut findings);
+    let mut resolved = ResolvedSet::new(&schema);
+    for (k, p) in merged {
+        resolved.insert(k, p.raw);
+    }
+    Ok(LoadedSet { schema: Some(schema), resolved: Some(resolved), title, findings })
+}
+
+fn parse_layer(source: SourceFile, syntax: Syntax, path: &Path) -> Result<(Layer, Option<Node>), InputError> {
+    let doc = doc::parse(source, syntax)?;
+    let mut schema_ref = None;
+    let mut values = None;
+    let mut title = None;
+    let mut extends = None;
+    for e in doc.root.entries() {
+        let want_str = |e: &Entry| match &e.value.kind {
+            NodeKind::Str(s) => Ok(s.clone()),
+            other => Err(doc.error(&e.value.span, format!("`{}` must be a string, found {}", e.key, other.describe()), format!("write `{} = \"...\"`", e.key))),
+        };
+        match e.key.as_str() {
+            "schema" => schema_ref = Some((want_str(e)?, doc.loc(&e.value.span))),
+            "title" => title = Some(want_str(e)?),
+            "extends" => extends = Some(e.value.clone()),
+            "drive" => {
+                if !matches!(e.value.kind, NodeKind::Table(_)) {
+                    return Err(doc.error(&e.value.span, format!("`drive` must be a table, found {}", e.value.kind.describe()), "write `[drive]` with e.g. `address = 3`"));
+                }
+            }
+            "values" => match &e.value.kind {
+                NodeKind::Table(_) => values = Some(e.value.clone()),
+                NodeKind::Null => {}
+                other => {
+                    return Err(doc.error(&e.value.span, format!("`values` must be a table, found {}", other.describe()), "write `[values]` followed by `CODE = value` lines"));
+                }
+            },
+            other => {
+                return Err(doc.error(
+                    &e.key_span,
+                    format!("unknown top-level key `{other}`"),
+                    "a set has schema, extends, title, [drive] and [values]; code values go under [values]",
+                ));
+            }
+        }
+    }
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    Ok((Layer { doc, dir, schema_ref, values, title }, extends))
+}
+
+fn collect(
+    (layer, extends): (Layer, Option<Node>),
+    path: &Path,
+    stack: &mut Vec<PathBuf>,
+    layers: &mut Vec<Layer>,
+    findings: &mut Vec<Finding>,
+) -> Result<(), InputError> {
+    let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    stack.push(key);
+    if let Some(ext) = extends {
+        let items: Vec<&Node> = match &ext.kind {
+            NodeKind::Str(_) => vec![&ext],
+            NodeKind::Array(items) => items.iter().collect(),
+            other => {
+                return Err(layer.doc.error(&ext.span, format!("`extends` must be a path or a list of paths, found {}", other.describe()), "write `extends = \"base.toml\"`"));
+            }
+        };
+        for item in items {
+            let NodeKind::Str(rel) = &item.kind else {
+                return Err(layer.doc.error(&item.span, "`extends` entries must be strings", "write `extends = [\"a.toml\", \"b.toml\"]`"));
+            };
+            let loc = layer.doc.loc(&item.span);
+            let base_path = layer.dir.join(rel);
+            let canon = std::fs::canonicalize(&base_path).unwrap_or_else(|_| base_path.clone());
+            if stack.contains(&canon) {
+                findings.push(Finding::new(
+                    FindingKind::BadExtends,
+                    loc,
+                    format!("`extends = \"{rel}\"` forms a cycle: {} is already being loaded", base_path.display()),
+                    "remove the extends that leads back to this file",
+                ));
+                continue;
+            }
+            if stack.len() >= MAX_EXTENDS_DEPTH {
+                findings.push(Finding::new(FindingKind::BadExtends, loc, format!("`extends` chain deeper than {MAX_EXTENDS_DEPTH} files"), "flatten the chain"));
+                continue;
+            }
+            let source = match read_text_file(&base_path) {
+                Ok(s) => s,
+                Err(e) if e.kind == InputErrorKind::Unreadable => {
+                    findings.push(Finding::new(
+                        FindingKind::BadExtends,
+                        loc,
+                        format!("base set {} cannot be read: {}", base_path.display(), e.message),
+                        "check the path; it is relative to the file that names it",
+                    ));
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
+            let parsed = parse_layer(source, Syntax::from_path(&base_path), &base_path)?;
+            collect(parsed, &base_path, stack, layers, findings)?;
+        }
+    }
+    stack.pop();
+    layers.push(layer);
+    Ok(())
+}
+
+fn resolve_schema(
+    sref: &str,
+    loc: &Location,
+    dir: &Path,
+    registry: &mut Registry,
+    findings: &mut Vec<Finding>,
+) -> Result<Option<Arc<Schema>>, InputError> {
+    if let Some(s) = registry.get(sref) {
+        return Ok(Some(s));
+    }
+    let is_path = sref.contains('/') || sref.contains('\\') || sref.ends_with(".toml");
+    if is_path {
+        let p = dir.join(sref);
+        return match registry.load_file(&p) {
+            Ok(s) => Ok(Some(s)),
+            Err(e) if e.kind == InputErrorKind::Unreadable => {
+                findings.push(Finding::new(
+                    FindingKind::UnknownSchema,
+                    loc.clone(),
+                    format!("schema file {} cannot be read", p.display()),
+                    "check the path; it is relative to the set file",
+                ));
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        };
+    }
+    let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
+    let close = ids.iter().min_by_key(|i| crate::validate::edit_distance(sref, i));
+    findings.push(Finding::new(
+        FindingKind::UnknownSchema,
+        loc.clone(),
+        format!("unknown schema `{sref}`"),
+        match close {
+            Some(c) => format!("did you mean `{c}`? known schemas: {}", ids.join(", ")),
+            None => "no schemas are loaded".to_string(),
+        },
+    ));
+    Ok(None)
+}
+
+/// Parse a code number key: `428`, `C0011`, `C11` (with optional `/N`).
+fn parse_number_key(s: &str) -> Option<u32> {
+    let digits = s.strip_prefix(['C', 'c']).unwrap_or(s);
+    if digits.is_empty() || digits.len() > 9 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    digits.parse().ok()
+}
+
+fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<Finding>) -> Option<(&'s Code, CodeKey)> {
+    let loc = doc.loc(&e.key_span);
+    let (base, sub) = match e.key.split_once('/') {
+        Some((b, s)) => (b, Some(s)),
+        None => (e.key.as_str(), None),
+    };
+    let subcode = match sub {
+        None => None,
+        Some(s) => match s.parse::<u32>() {
+            Ok(v) if !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) => Some(v),
+            _ => {
+                out.push(Finding::new(FindingKind::UnknownCode, loc, format!("`{}`: subcode `{s}` is not a number", e.key), "write e.g. `C0039/1`"));
+                return None;
+            }
+        },
+    };
+    let code = match schema.code_by_name(base) {
+        Some(c) => c,
+        None => match parse_number_key(base) {
+            Some(n) => match schema.code(n) {
+                Some(c) => c,
+                None => {
+                    out.push(Finding::new(
+                        FindingKind::UnknownCode,
+                        loc,
+                        format!("{} is not a code of {}", schema.display_code(n, subcode), schema.id),
+                        format!("check the number against the schema ({})", schema.path),
+                    ));
+                    return None;
+                }
+            },
+            None => {
+                out.push(Finding::new(
+                    FindingKind::UnknownCode,
+                    loc,
+                    format!("`{base}` is not a code name of {}", schema.id),
+                    match suggest(schema, base) {
+                        Some(s) => format!("did you mean `{s}`?"),
+                        None => format!("use a code number or a name from the schema ({})", schema.path),
+                    },
+                ));
+                return None;
+            }
+        },
+    };
+    match (code.subcodes, subcode) {
+        (Some(n), Some(s)) if (1..=n).contains(&s) => {}
+        (Some(n), _) => {
+            out.push(Finding::new(
+                FindingKind::UnknownCode,
+                loc,
+                format!("{} has subcodes 1..={n}; `{}` names none of them", schema.display_code(code.number, None), e.key),
+                format!("write e.g. `{}`", schema.display_code(code.number, Some(1))),
+            ));
+            return None;
+        }
+        (None, Some(_)) => {
+            out.push(Finding::new(
+                FindingKind::UnknownCode,
+                loc,
+                format!("{} has no subcodes", schema.display_code(code.number, None)),
+                format!("write `{}` without `/N`", schema.display_code(code.number, None)),
+            ));
+            return None;
+        }
+        (None, None) => {}
+    }
+    Some((code, CodeKey { number: code.number, subcode }))
+}
