@@ -1,1 +1,0 @@
-//! lecom codec (under construction).
