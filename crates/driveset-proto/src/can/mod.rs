@@ -20,6 +20,8 @@
 pub mod abort;
 pub mod codec;
 pub mod frame;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod lenze;
 pub mod slcan;
 pub mod timing;
