@@ -21,6 +21,8 @@ pub mod code;
 pub mod codec;
 pub mod error;
 pub mod frame;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod status;
 pub mod stream;
 pub mod value;
