@@ -153,3 +153,76 @@ fn ends_are_usable_as_trait_objects() {
     assert_eq!(b.recv(&mut buf, Instant::MAX).unwrap(), 1);
     assert_eq!(b.clock().now(), Instant::from_nanos(2_083_333));
 }
+
+mod frames {
+    use driveset_link::mem::{can_frame_time, frame_pair};
+    use driveset_link::{CanFrame, Clock, FrameLink, Instant, LinkError, VirtualClock};
+    use driveset_proto::can::timing::{Stuffing, frame_bits};
+
+    #[test]
+    fn a_frame_takes_its_bits_at_the_bit_rate() {
+        let clock = VirtualClock::new();
+        let (mut master, mut drive) = frame_pair(&clock, 500_000).unwrap();
+        let request = CanFrame::new(0x601, &[0x40, 0xF4, 0x5F, 0x00, 0, 0, 0, 0]).unwrap();
+        let bits = frame_bits(&request, Stuffing::Exact).unwrap();
+        assert!((111..=135).contains(&bits), "{bits} bits");
+        // 2 µs a bit at 500 kbit/s.
+        let t1 = Instant::from_nanos(u64::from(bits) * 2_000);
+        assert_eq!(can_frame_time(&request, 500_000).unwrap(), t1.since_epoch());
+
+        master.send(&request).unwrap();
+        assert_eq!(clock.now(), t1);
+        assert_eq!(drive.recv(Instant::MAX).unwrap(), Some(request));
+        assert_eq!(clock.now(), t1);
+
+        let reply = CanFrame::new(0x581, &[0x4B, 0xF4, 0x5F, 0x00, 0xE8, 0x03, 0, 0]).unwrap();
+        let reply_bits = frame_bits(&reply, Stuffing::Exact).unwrap();
+        drive.send(&reply).unwrap();
+        assert_eq!(master.recv(Instant::MAX).unwrap(), Some(reply));
+        assert_eq!(
+            clock.now(),
+            Instant::from_nanos(u64::from(bits + reply_bits) * 2_000)
+        );
+    }
+
+    #[test]
+    fn frames_queue_in_order_and_time_out_when_idle() {
+        let clock = VirtualClock::new();
+        let (mut a, mut b) = frame_pair(&clock, 125_000).unwrap();
+        let f1 = CanFrame::new(0x701, &[0x05]).unwrap();
+        let f2 = CanFrame::new_extended(0x1234_5678, &[]).unwrap();
+        a.send(&f1).unwrap();
+        a.send(&f2).unwrap();
+        let end = clock.now();
+        assert_eq!(b.recv(Instant::MAX).unwrap(), Some(f1));
+        assert_eq!(b.recv(Instant::MAX).unwrap(), Some(f2));
+        assert_eq!(clock.now(), end);
+        let deadline = end + std::time::Duration::from_millis(10);
+        assert_eq!(b.recv(deadline).unwrap(), None);
+        assert_eq!(clock.now(), deadline);
+
+        a.send(&f1).unwrap();
+        b.discard_input().unwrap();
+        assert_eq!(b.recv(clock.now()).unwrap(), None);
+        assert_eq!((b.port(), b.bitrate()), ("mem-can-b", 125_000));
+    }
+
+    #[test]
+    fn invalid_frames_and_rates_are_refused() {
+        let clock = VirtualClock::new();
+        let (mut a, _b) = frame_pair(&clock, 1_000_000).unwrap();
+        let bad = CanFrame {
+            id: 0x800,
+            ..CanFrame::default()
+        };
+        assert!(matches!(a.send(&bad), Err(LinkError::InvalidFrame { .. })));
+        assert_eq!(clock.now(), Instant::ZERO);
+        assert!(matches!(
+            frame_pair(&clock, 33_333),
+            Err(LinkError::UnsupportedBitrate {
+                bitrate: 33_333,
+                ..
+            })
+        ));
+    }
+}
