@@ -32,11 +32,17 @@ pub struct CodeKey {
 impl CodeKey {
     /// A code without subcode.
     pub fn new(number: u32) -> Self {
-        CodeKey { number, subcode: None }
+        CodeKey {
+            number,
+            subcode: None,
+        }
     }
     /// A code with a subcode.
     pub fn sub(number: u32, subcode: u32) -> Self {
-        CodeKey { number, subcode: Some(subcode) }
+        CodeKey {
+            number,
+            subcode: Some(subcode),
+        }
     }
     /// Canonical spelling: lenze `C0011`, `C0039/1`; lust `428`, `428/1`.
     pub fn canonical(&self, style: CodeStyle) -> String {
@@ -65,7 +71,11 @@ pub struct ResolvedSet {
 impl ResolvedSet {
     /// An empty set for a schema (the engine fills it from values read off a bus).
     pub fn new(schema: &Schema) -> Self {
-        ResolvedSet { schema: schema.id.clone(), code_style: schema.code_style, values: BTreeMap::new() }
+        ResolvedSet {
+            schema: schema.id.clone(),
+            code_style: schema.code_style,
+            values: BTreeMap::new(),
+        }
     }
 
     /// Set a value.
@@ -120,7 +130,11 @@ mod tests {
 
     #[test]
     fn canonical_text_and_fingerprint() {
-        let mut s = ResolvedSet { schema: "lenze-tmd".into(), code_style: CodeStyle::Lenze, values: BTreeMap::new() };
+        let mut s = ResolvedSet {
+            schema: "lenze-tmd".into(),
+            code_style: CodeStyle::Lenze,
+            values: BTreeMap::new(),
+        };
         s.insert(CodeKey::new(200), RawValue::Text("33STMD-M_12000".into()));
         s.insert(CodeKey::new(11), RawValue::Int(500000));
         s.insert(CodeKey::new(7), RawValue::Int(17185));
@@ -130,7 +144,11 @@ mod tests {
             s.canonical(),
             "driveset-canonical 1\nschema lenze-tmd\nC0007 17185\nC0011 500000\nC0039 o0aff\nC0039/1 200000\nC0200 s\"33STMD-M_12000\"\n"
         );
-        let mut empty = ResolvedSet { schema: "x".into(), code_style: CodeStyle::Lust, values: BTreeMap::new() };
+        let mut empty = ResolvedSet {
+            schema: "x".into(),
+            code_style: CodeStyle::Lust,
+            values: BTreeMap::new(),
+        };
         // sha256 of "driveset-canonical 1\nschema x\n"
         assert_eq!(empty.fingerprint().len(), 71);
         empty.insert(CodeKey::new(428), RawValue::Int(-5));

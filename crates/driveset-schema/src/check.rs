@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use crate::error::{Finding, FindingKind, Location};
 use crate::schema::{Code, EnumDef, EnumSource, Rule, Schema};
 use crate::validate::{eng_cmp, fact_to_raw};
-use crate::value::{ValueType, raw_to_engineering};
+use crate::value::ValueType;
 
 fn f(loc: &Location, message: String, help: impl Into<String>) -> Finding {
     Finding::new(FindingKind::SchemaError, loc.clone(), message, help)
@@ -30,38 +30,69 @@ pub fn check_schema(schema: &Schema) -> Vec<Finding> {
         ));
     }
     if schema.fictional && !schema.title.to_ascii_lowercase().starts_with("fictional") {
-        out.push(f(&schema.id_loc, format!("fixture schema `{}` has a title not starting with FICTIONAL", schema.id), "start the title with `FICTIONAL:`"));
+        out.push(f(
+            &schema.id_loc,
+            format!(
+                "fixture schema `{}` has a title not starting with FICTIONAL",
+                schema.id
+            ),
+            "start the title with `FICTIONAL:`",
+        ));
     }
     let mut numbers: HashMap<u32, &Location> = HashMap::new();
     let mut names: HashMap<&str, (&Location, u32)> = HashMap::new();
     for c in &schema.codes {
         if let Some(first) = numbers.get(&c.number) {
             out.push(
-                f(&c.loc, format!("code {} is defined twice", c.number), "merge the two [[code]] entries")
-                    .with_related("first defined here", (*first).clone()),
+                f(
+                    &c.loc,
+                    format!("code {} is defined twice", c.number),
+                    "merge the two [[code]] entries",
+                )
+                .with_related("first defined here", (*first).clone()),
             );
         } else {
             numbers.insert(c.number, &c.loc);
         }
         if c.name.is_empty() {
-            out.push(f(&c.loc, format!("code {} has no `name`", c.number), "add `name = \"...\"`"));
+            out.push(f(
+                &c.loc,
+                format!("code {} has no `name`", c.number),
+                "add `name = \"...\"`",
+            ));
         }
         if c.title.is_none() {
-            out.push(f(&c.loc, format!("code {} has no `title`", c.number), "add the title as the spec words it"));
+            out.push(f(
+                &c.loc,
+                format!("code {} has no `title`", c.number),
+                "add the title as the spec words it",
+            ));
         }
         if c.spec.is_none() {
-            out.push(f(&c.loc, format!("code {} has no `spec`", c.number), "add where the facts come from, e.g. `spec = \"... §7 Table 1\"`"));
+            out.push(f(
+                &c.loc,
+                format!("code {} has no `spec`", c.number),
+                "add where the facts come from, e.g. `spec = \"... §7 Table 1\"`",
+            ));
         }
         let name_loc = c.name_loc.clone().unwrap_or_else(|| c.loc.clone());
-        let all_names = std::iter::once((c.name.as_str(), name_loc)).chain(c.aliases.iter().map(|(a, l)| (a.as_str(), l.clone())));
+        let all_names = std::iter::once((c.name.as_str(), name_loc))
+            .chain(c.aliases.iter().map(|(a, l)| (a.as_str(), l.clone())));
         for (n, l) in all_names {
             if n.is_empty() {
                 continue;
             }
             match names.get(n) {
                 Some((first, num)) => out.push(
-                    f(&l, format!("name `{n}` of code {} is already used by code {num}", c.number), "names and aliases must be unique in a schema")
-                        .with_related("first used here", (*first).clone()),
+                    f(
+                        &l,
+                        format!(
+                            "name `{n}` of code {} is already used by code {num}",
+                            c.number
+                        ),
+                        "names and aliases must be unique in a schema",
+                    )
+                    .with_related("first used here", (*first).clone()),
                 ),
                 None => {
                     names.insert(n, (c.loc_for_name(n), c.number));
@@ -75,20 +106,36 @@ pub fn check_schema(schema: &Schema) -> Vec<Finding> {
     }
     for rule in &schema.rules {
         match rule {
-            Rule::DistinctFields { code, fields, loc, .. } => match schema.code(*code) {
-                None => out.push(f(loc, format!("rule refers to unknown code {code}"), "fix the code number")),
+            Rule::DistinctFields {
+                code, fields, loc, ..
+            } => match schema.code(*code) {
+                None => out.push(f(
+                    loc,
+                    format!("rule refers to unknown code {code}"),
+                    "fix the code number",
+                )),
                 Some(c) => {
                     for fl in fields {
                         if !c.bits.iter().any(|b| &b.name == fl) {
-                            out.push(f(loc, format!("rule refers to unknown bit field `{fl}` of code {code}"), "fix the field name"));
+                            out.push(f(
+                                loc,
+                                format!("rule refers to unknown bit field `{fl}` of code {code}"),
+                                "fix the field name",
+                            ));
                         }
                     }
                 }
             },
-            Rule::LessOrEqual { left, right, loc, .. } => {
+            Rule::LessOrEqual {
+                left, right, loc, ..
+            } => {
                 for n in [left, right] {
                     if schema.code(*n).is_none() {
-                        out.push(f(loc, format!("rule refers to unknown code {n}"), "fix the code number"));
+                        out.push(f(
+                            loc,
+                            format!("rule refers to unknown code {n}"),
+                            "fix the code number",
+                        ));
                     }
                 }
             }
@@ -102,7 +149,11 @@ impl Code {
         if n == self.name {
             self.name_loc.as_ref().unwrap_or(&self.loc)
         } else {
-            self.aliases.iter().find(|(a, _)| a == n).map(|(_, l)| l).unwrap_or(&self.loc)
+            self.aliases
+                .iter()
+                .find(|(a, _)| a == n)
+                .map(|(_, l)| l)
+                .unwrap_or(&self.loc)
         }
     }
 }
@@ -114,21 +165,39 @@ fn check_enum_labels(def: &EnumDef, what: &str, out: &mut Vec<Finding>) {
         let key = label.trim().to_ascii_lowercase();
         if let Some(first) = seen.get(&key) {
             out.push(
-                f(loc, format!("label {label:?} appears twice in {what}"), "labels must differ (compared ignoring case)")
-                    .with_related("first here", (*first).clone()),
+                f(
+                    loc,
+                    format!("label {label:?} appears twice in {what}"),
+                    "labels must differ (compared ignoring case)",
+                )
+                .with_related("first here", (*first).clone()),
             );
         } else {
             seen.insert(key, loc);
         }
         if let Some(first) = values.get(v) {
-            out.push(f(loc, format!("value {v} appears twice in {what}"), "remove one").with_related("first here", (*first).clone()));
+            out.push(
+                f(
+                    loc,
+                    format!("value {v} appears twice in {what}"),
+                    "remove one",
+                )
+                .with_related("first here", (*first).clone()),
+            );
         } else {
             values.insert(*v, loc);
         }
     }
 }
 
-fn check_enum_source(schema: &Schema, src: &EnumSource, what: &str, range: Option<(i64, i64)>, ty: Option<ValueType>, out: &mut Vec<Finding>) {
+fn check_enum_source(
+    schema: &Schema,
+    src: &EnumSource,
+    what: &str,
+    range: Option<(i64, i64)>,
+    ty: Option<ValueType>,
+    out: &mut Vec<Finding>,
+) {
     let def = match src {
         EnumSource::Inline(d) => {
             check_enum_labels(d, what, out);
@@ -137,7 +206,11 @@ fn check_enum_source(schema: &Schema, src: &EnumSource, what: &str, range: Optio
         EnumSource::Ref { name, loc } => match schema.enums.get(name) {
             Some(d) => d,
             None => {
-                out.push(f(loc, format!("{what} refers to unknown enumeration `{name}`"), format!("define [enum.{name}] or fix the name")));
+                out.push(f(
+                    loc,
+                    format!("{what} refers to unknown enumeration `{name}`"),
+                    format!("define [enum.{name}] or fix the name"),
+                ));
                 return;
             }
         },
@@ -145,10 +218,15 @@ fn check_enum_source(schema: &Schema, src: &EnumSource, what: &str, range: Optio
     if let Some((lo, hi)) = range {
         for (v, label, loc) in &def.entries {
             if *v < lo || *v > hi {
-                let shown = |r: i64| ty.map(|t| raw_to_engineering(t, r)).unwrap_or_else(|| r.to_string());
+                let _ = ty;
+                let shown = |r: i64| r.to_string();
                 out.push(f(
                     loc,
-                    format!("{what}: value {v} ({label:?}) is outside the raw range {} ..= {}", shown(lo), shown(hi)),
+                    format!(
+                        "{what}: value {v} ({label:?}) is outside the raw range {} ..= {}",
+                        shown(lo),
+                        shown(hi)
+                    ),
                     "fix the value",
                 ));
             }
@@ -161,11 +239,19 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
     if let Some((name, loc)) = &c.type_name
         && ValueType::from_name(name).is_none()
     {
-        out.push(f(loc, format!("{what}: unknown type `{name}`"), "use a type from docs/file-formats.md, \"Types and raw values\""));
+        out.push(f(
+            loc,
+            format!("{what}: unknown type `{name}`"),
+            "use a type from docs/file-formats.md, \"Types and raw values\"",
+        ));
     }
     let ty = schema.type_of(c);
     if ty == Some(ValueType::VH) && !matches!(c.width, None | Some(1 | 2 | 4)) {
-        out.push(f(&c.loc, format!("{what}: VH width {} is not 1, 2 or 4", c.width.unwrap_or(0)), "fix `width`"));
+        out.push(f(
+            &c.loc,
+            format!("{what}: VH width {} is not 1, 2 or 4", c.width.unwrap_or(0)),
+            "fix `width`",
+        ));
     }
     let mut raws = Vec::new();
     for (name, fact) in [("min", &c.min), ("max", &c.max), ("default", &c.default)] {
@@ -175,13 +261,21 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
         };
         match ty {
             None => {
-                out.push(f(&fact.loc, format!("{what}: `{name}` is given but the type is unknown"), "state the type, or remove the fact"));
+                out.push(f(
+                    &fact.loc,
+                    format!("{what}: `{name}` is given but the type is unknown"),
+                    "state the type, or remove the fact",
+                ));
                 raws.push(None);
             }
             Some(_) => match fact_to_raw(schema, c, &fact.value) {
                 Ok(r) => raws.push(Some(r)),
                 Err(m) => {
-                    out.push(f(&fact.loc, format!("{what}: `{name}` is invalid: {m}"), "give a value the type can hold exactly"));
+                    out.push(f(
+                        &fact.loc,
+                        format!("{what}: `{name}` is invalid: {m}"),
+                        "give a value the type can hold exactly",
+                    ));
                     raws.push(None);
                 }
             },
@@ -192,48 +286,109 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
             && eng_cmp(t, a, t, b) == Some(Ordering::Greater)
             && let Some(ml) = c.min.as_ref()
         {
-            out.push(f(&ml.loc, format!("{what}: min is greater than max"), "swap or fix them"));
+            out.push(f(
+                &ml.loc,
+                format!("{what}: min is greater than max"),
+                "swap or fix them",
+            ));
         }
         if let (Some(d), Some(dl)) = (default, c.default.as_ref()) {
-            let below = min.as_ref().is_some_and(|m| eng_cmp(t, d, t, m) == Some(Ordering::Less));
-            let above = max.as_ref().is_some_and(|m| eng_cmp(t, d, t, m) == Some(Ordering::Greater));
+            let below = min
+                .as_ref()
+                .is_some_and(|m| eng_cmp(t, d, t, m) == Some(Ordering::Less));
+            let above = max
+                .as_ref()
+                .is_some_and(|m| eng_cmp(t, d, t, m) == Some(Ordering::Greater));
             if below || above {
-                out.push(f(&dl.loc, format!("{what}: default is outside [min, max]"), "fix the default or the range"));
+                out.push(f(
+                    &dl.loc,
+                    format!("{what}: default is outside [min, max]"),
+                    "fix the default or the range",
+                ));
             }
         }
     }
-    let range = ty.and_then(|t| t.raw_range(c.width));
+    // enumeration keys are engineering integers: compare them with the engineering range
+    let range = ty.and_then(|t| {
+        let (lo, hi) = t.raw_range(c.width)?;
+        match t.repr() {
+            crate::value::Repr::Scaled(f) => {
+                Some((lo.div_euclid(i64::from(f)), hi.div_euclid(i64::from(f))))
+            }
+            _ => Some((lo, hi)),
+        }
+    });
     if let Some(v) = &c.values {
         check_enum_source(schema, v, &what, range, ty, out);
     }
     let width = ty.and_then(|t| t.bit_width(c.width));
     if !c.bits.is_empty() && width.is_none() {
-        out.push(f(&c.loc, format!("{what} has bit fields but its type is not an integer type of known width"), "give the code a VH, BITCODED or PT_BINARY8 type"));
+        out.push(f(
+            &c.loc,
+            format!("{what} has bit fields but its type is not an integer type of known width"),
+            "give the code a VH, BITCODED or PT_BINARY8 type",
+        ));
     }
     for (i, b) in c.bits.iter().enumerate() {
         if b.msb < b.lsb {
-            out.push(f(&b.bits_loc, format!("{what} bit field {}: msb {} is below lsb {}", b.name, b.msb, b.lsb), "write bits = [lsb, msb]"));
+            out.push(f(
+                &b.bits_loc,
+                format!(
+                    "{what} bit field {}: msb {} is below lsb {}",
+                    b.name, b.msb, b.lsb
+                ),
+                "write bits = [lsb, msb]",
+            ));
             continue;
         }
         if let Some(w) = width
             && b.msb >= w
         {
-            out.push(f(&b.bits_loc, format!("{what} bit field {}: bit {} is outside the {w}-bit value", b.name, b.msb), format!("use bits 0..={}", w.saturating_sub(1))));
+            out.push(f(
+                &b.bits_loc,
+                format!(
+                    "{what} bit field {}: bit {} is outside the {w}-bit value",
+                    b.name, b.msb
+                ),
+                format!("use bits 0..={}", w.saturating_sub(1)),
+            ));
         }
         for other in c.bits.iter().take(i) {
             if other.name == b.name {
-                out.push(f(&b.loc, format!("{what}: bit field name `{}` is used twice", b.name), "rename one").with_related("first here", other.loc.clone()));
+                out.push(
+                    f(
+                        &b.loc,
+                        format!("{what}: bit field name `{}` is used twice", b.name),
+                        "rename one",
+                    )
+                    .with_related("first here", other.loc.clone()),
+                );
             }
             if b.lsb <= other.msb && other.lsb <= b.msb {
                 out.push(
-                    f(&b.bits_loc, format!("{what}: bit field {} overlaps {}", b.name, other.name), "fix the bit positions")
-                        .with_related("overlapping field", other.bits_loc.clone()),
+                    f(
+                        &b.bits_loc,
+                        format!("{what}: bit field {} overlaps {}", b.name, other.name),
+                        "fix the bit positions",
+                    )
+                    .with_related("overlapping field", other.bits_loc.clone()),
                 );
             }
         }
         if let Some(v) = &b.values {
-            let max = if b.width() >= 63 { i64::MAX } else { (1i64 << b.width()) - 1 };
-            check_enum_source(schema, v, &format!("{what} bit field {}", b.name), Some((0, max)), None, out);
+            let max = if b.width() >= 63 {
+                i64::MAX
+            } else {
+                (1i64 << b.width()) - 1
+            };
+            check_enum_source(
+                schema,
+                v,
+                &format!("{what} bit field {}", b.name),
+                Some((0, max)),
+                None,
+                out,
+            );
         }
     }
 }

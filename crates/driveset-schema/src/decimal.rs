@@ -41,11 +41,17 @@ pub(crate) fn pow10(n: u32) -> Option<i128> {
 
 impl Decimal {
     /// Zero.
-    pub const ZERO: Decimal = Decimal { mantissa: 0, scale: 0 };
+    pub const ZERO: Decimal = Decimal {
+        mantissa: 0,
+        scale: 0,
+    };
 
     /// An integer.
     pub fn from_int(v: i128) -> Self {
-        Decimal { mantissa: v, scale: 0 }
+        Decimal {
+            mantissa: v,
+            scale: 0,
+        }
     }
 
     /// `mantissa / 10^scale`, or `None` when `scale` exceeds [`MAX_DIGITS`].
@@ -109,8 +115,12 @@ impl Decimal {
     /// between digits (as in TOML), optional `.` fraction, optional exponent
     /// `e`/`E` (so `1e3` and `2.5E-2` are exact too).
     pub fn parse(text: &str) -> Result<Self, DecimalError> {
-        let invalid = || DecimalError::Invalid { text: text.to_string() };
-        let too_many = || DecimalError::TooManyDigits { text: text.to_string() };
+        let invalid = || DecimalError::Invalid {
+            text: text.to_string(),
+        };
+        let too_many = || DecimalError::TooManyDigits {
+            text: text.to_string(),
+        };
         let s = text.trim();
         if s.is_empty() {
             return Err(DecimalError::Empty);
@@ -160,7 +170,10 @@ impl Decimal {
                 if digits > MAX_DIGITS {
                     return Err(too_many());
                 }
-                mantissa = mantissa.checked_mul(10).and_then(|m| m.checked_add(d)).ok_or_else(too_many)?;
+                mantissa = mantissa
+                    .checked_mul(10)
+                    .and_then(|m| m.checked_add(d))
+                    .ok_or_else(too_many)?;
                 if is_frac {
                     scale = scale.checked_add(1).ok_or_else(too_many)?;
                 }
@@ -178,7 +191,10 @@ impl Decimal {
                 Some(b'+') => (false, &e[1..]),
                 _ => (false, e),
             };
-            if edigits.is_empty() || edigits.len() > 6 || !edigits.bytes().all(|b| b.is_ascii_digit() || b == b'_') {
+            if edigits.is_empty()
+                || edigits.len() > 6
+                || !edigits.bytes().all(|b| b.is_ascii_digit() || b == b'_')
+            {
                 return Err(invalid());
             }
             let ev: i64 = edigits.replace('_', "").parse().map_err(|_| invalid())?;
@@ -194,7 +210,9 @@ impl Decimal {
         }
         if scale < 0 {
             let up = u32::try_from(-scale).map_err(|_| too_many())?;
-            mantissa = pow10(up).and_then(|p| mantissa.checked_mul(p)).ok_or_else(too_many)?;
+            mantissa = pow10(up)
+                .and_then(|p| mantissa.checked_mul(p))
+                .ok_or_else(too_many)?;
             if mantissa.unsigned_abs() >= 10u128.pow(MAX_DIGITS) {
                 return Err(too_many());
             }
@@ -226,7 +244,11 @@ impl Decimal {
 
     /// The integer value, if the decimal is an integer.
     pub fn to_integer(&self) -> Option<i128> {
-        if self.scale == 0 { Some(self.mantissa) } else { None }
+        if self.scale == 0 {
+            Some(self.mantissa)
+        } else {
+            None
+        }
     }
 }
 
@@ -235,8 +257,11 @@ impl Ord for Decimal {
         if self.scale == other.scale {
             return self.mantissa.cmp(&other.mantissa);
         }
-        let (a, b, flipped) =
-            if self.scale < other.scale { (self, other, false) } else { (other, self, true) };
+        let (a, b, flipped) = if self.scale < other.scale {
+            (self, other, false)
+        } else {
+            (other, self, true)
+        };
         // a has fewer decimals: scale a up to b's decimals
         let ord = match pow10(b.scale - a.scale).and_then(|p| a.mantissa.checked_mul(p)) {
             Some(am) => am.cmp(&b.mantissa),
@@ -303,17 +328,37 @@ mod tests {
         assert_eq!(d("+7.50").to_string(), "7.5");
         assert_eq!(d(".5").to_string(), "0.5");
         assert_eq!(d("0.000001").to_string(), "0.000001");
-        assert_eq!(d("123456789012345678901234567890.123456").to_string(), "123456789012345678901234567890.123456");
+        assert_eq!(
+            d("123456789012345678901234567890.123456").to_string(),
+            "123456789012345678901234567890.123456"
+        );
     }
 
     #[test]
     fn parse_rejects() {
-        for bad in ["", "-", ".", "1_", "_1", "1__0", "1.2.3", "abc", "1e", "0x10", "1e99999999", "nan", "inf", "1 2"] {
+        for bad in [
+            "",
+            "-",
+            ".",
+            "1_",
+            "_1",
+            "1__0",
+            "1.2.3",
+            "abc",
+            "1e",
+            "0x10",
+            "1e99999999",
+            "nan",
+            "inf",
+            "1 2",
+        ] {
             assert!(Decimal::parse(bad).is_err(), "{bad:?} should not parse");
         }
         assert_eq!(
             Decimal::parse("1234567890123456789012345678901234567").unwrap_err(),
-            DecimalError::TooManyDigits { text: "1234567890123456789012345678901234567".into() }
+            DecimalError::TooManyDigits {
+                text: "1234567890123456789012345678901234567".into()
+            }
         );
         assert!(Decimal::parse("1e40").is_err());
     }
@@ -323,14 +368,25 @@ mod tests {
         assert!(d("7.5") < d("240"));
         assert!(d("-0.05") < d("0"));
         assert_eq!(d("1.50").cmp(&d("1.5")), Ordering::Equal);
-        assert!(d("100000000000000000000000000000000000") > d("0.000000000000000000000000000000000001"));
-        assert!(d("-100000000000000000000000000000000000") < d("0.000000000000000000000000000000000001"));
+        assert!(
+            d("100000000000000000000000000000000000") > d("0.000000000000000000000000000000000001")
+        );
+        assert!(
+            d("-100000000000000000000000000000000000")
+                < d("0.000000000000000000000000000000000001")
+        );
     }
 
     #[test]
     fn ratios_terminate() {
-        assert_eq!(Decimal::from_ratio(21_840_117, 65536).unwrap().to_string(), "333.2537384033203125");
-        assert_eq!(Decimal::from_ratio(1, 65536).unwrap().to_string(), "0.0000152587890625");
+        assert_eq!(
+            Decimal::from_ratio(21_840_117, 65536).unwrap().to_string(),
+            "333.2537384033203125"
+        );
+        assert_eq!(
+            Decimal::from_ratio(1, 65536).unwrap().to_string(),
+            "0.0000152587890625"
+        );
         assert_eq!(Decimal::from_ratio(-3, 20).unwrap().to_string(), "-0.15");
         assert_eq!(Decimal::from_ratio(1, 3), None);
     }
@@ -338,9 +394,18 @@ mod tests {
     #[test]
     fn times_factor_exact_and_nearest() {
         assert_eq!(d("12.3456").times_factor(10000), Ok(123456));
-        assert_eq!(d("12.34567").times_factor(10000), Err(Some((123456, 123457))));
-        assert_eq!(d("-12.34567").times_factor(10000), Err(Some((-123457, -123456))));
+        assert_eq!(
+            d("12.34567").times_factor(10000),
+            Err(Some((123456, 123457)))
+        );
+        assert_eq!(
+            d("-12.34567").times_factor(10000),
+            Err(Some((-123457, -123456)))
+        );
         assert_eq!(d("0.05").times_factor(20), Ok(1));
-        assert_eq!(d("99999999999999999999999999999999999").times_factor(65536), Err(None));
+        assert_eq!(
+            d("99999999999999999999999999999999999").times_factor(65536),
+            Err(None)
+        );
     }
 }

@@ -60,7 +60,9 @@ impl fmt::Display for Diff {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DiffError {
     /// The two sets (or a set and the schema) are of different schemas.
-    #[error("cannot diff sets of different schemas: `{left}` and `{right}` (compare sets of one drive family)")]
+    #[error(
+        "cannot diff sets of different schemas: `{left}` and `{right}` (compare sets of one drive family)"
+    )]
     DifferentSchemas {
         /// Left schema id.
         left: String,
@@ -72,7 +74,9 @@ pub enum DiffError {
 fn label(schema: &Schema, key: CodeKey) -> String {
     let code = schema.display_code(key.number, key.subcode);
     match schema.code(key.number) {
-        Some(c) if !c.name.is_empty() && schema.code_style == crate::schema::CodeStyle::Lenze => format!("{code} {}", c.name),
+        Some(c) if !c.name.is_empty() && schema.code_style == crate::schema::CodeStyle::Lenze => {
+            format!("{code} {}", c.name)
+        }
         _ => code,
     }
 }
@@ -88,21 +92,53 @@ fn show(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
 pub fn diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffError> {
     for s in [a, b] {
         if s.schema != schema.id {
-            return Err(DiffError::DifferentSchemas { left: s.schema.clone(), right: schema.id.clone() });
+            return Err(DiffError::DifferentSchemas {
+                left: s.schema.clone(),
+                right: schema.id.clone(),
+            });
         }
     }
     let mut entries = Vec::new();
-    let keys: std::collections::BTreeSet<&CodeKey> = a.values.keys().chain(b.values.keys()).collect();
+    let keys: std::collections::BTreeSet<&CodeKey> =
+        a.values.keys().chain(b.values.keys()).collect();
     for &key in keys {
         let (old, new) = (a.values.get(&key), b.values.get(&key));
         let (kind, text) = match (old, new) {
             (Some(o), Some(n)) if o == n => continue,
-            (Some(o), Some(n)) => (DiffKind::Changed, format!("{}: {} -> {}", label(schema, key), show(schema, key, o), show(schema, key, n))),
-            (None, Some(n)) => (DiffKind::Added, format!("{}: (unset) -> {}", label(schema, key), show(schema, key, n))),
-            (Some(o), None) => (DiffKind::Removed, format!("{}: {} -> (unset)", label(schema, key), show(schema, key, o))),
+            (Some(o), Some(n)) => (
+                DiffKind::Changed,
+                format!(
+                    "{}: {} -> {}",
+                    label(schema, key),
+                    show(schema, key, o),
+                    show(schema, key, n)
+                ),
+            ),
+            (None, Some(n)) => (
+                DiffKind::Added,
+                format!(
+                    "{}: (unset) -> {}",
+                    label(schema, key),
+                    show(schema, key, n)
+                ),
+            ),
+            (Some(o), None) => (
+                DiffKind::Removed,
+                format!(
+                    "{}: {} -> (unset)",
+                    label(schema, key),
+                    show(schema, key, o)
+                ),
+            ),
             (None, None) => continue,
         };
-        entries.push(DiffEntry { key, kind, old: old.cloned(), new: new.cloned(), text });
+        entries.push(DiffEntry {
+            key,
+            kind,
+            old: old.cloned(),
+            new: new.cloned(),
+            text,
+        });
     }
     Ok(Diff { entries })
 }
@@ -135,9 +171,18 @@ pub fn diff_defaults(set: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffErr
 }
 
 /// Unified text diff of the canonical forms; password values are redacted.
-pub fn unified_diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema, a_name: &str, b_name: &str) -> String {
+pub fn unified_diff(
+    a: &ResolvedSet,
+    b: &ResolvedSet,
+    schema: &Schema,
+    a_name: &str,
+    b_name: &str,
+) -> String {
     let (ca, cb) = (redacted_canonical(a, schema), redacted_canonical(b, schema));
-    similar::TextDiff::from_lines(&ca, &cb).unified_diff().header(a_name, b_name).to_string()
+    similar::TextDiff::from_lines(&ca, &cb)
+        .unified_diff()
+        .header(a_name, b_name)
+        .to_string()
 }
 
 fn redacted_canonical(set: &ResolvedSet, schema: &Schema) -> String {

@@ -98,7 +98,12 @@ impl Document {
     }
 
     /// An input error at a span.
-    pub fn error(&self, span: &Range<usize>, message: impl Into<String>, help: impl Into<String>) -> InputError {
+    pub fn error(
+        &self,
+        span: &Range<usize>,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> InputError {
         InputError::new(InputErrorKind::Structure, self.loc(span), message, help)
     }
 }
@@ -115,7 +120,12 @@ pub enum Syntax {
 impl Syntax {
     /// By file extension: `.yaml`, `.yml` and `.json` are YAML, anything else TOML.
     pub fn from_path(path: &std::path::Path) -> Syntax {
-        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
             Some("yaml" | "yml" | "json") => Syntax::Yaml,
             _ => Syntax::Toml,
         }
@@ -132,7 +142,10 @@ pub fn parse(source: SourceFile, syntax: Syntax) -> Result<Document, InputError>
         return Err(InputError::new(
             InputErrorKind::Structure,
             source.location(root.span.clone()),
-            format!("the document is {}, not a table of keys", root.kind.describe()),
+            format!(
+                "the document is {}, not a table of keys",
+                root.kind.describe()
+            ),
             "start the file with `schema = \"...\"` (TOML) or `schema: ...` (YAML)",
         ));
     }
@@ -140,7 +153,11 @@ pub fn parse(source: SourceFile, syntax: Syntax) -> Result<Document, InputError>
 }
 
 fn syntax_error(source: &SourceFile, span: Range<usize>, msg: &str, lang: &str) -> InputError {
-    let first = msg.lines().find(|l| !l.trim().is_empty()).unwrap_or(msg).trim();
+    let first = msg
+        .lines()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or(msg)
+        .trim();
     InputError::new(
         InputErrorKind::Syntax,
         source.location(span),
@@ -157,7 +174,12 @@ fn parse_toml(source: &SourceFile) -> Result<Node, InputError> {
         syntax_error(source, span, e.message(), "TOML")
     })?;
 
-    fn conv(source: &SourceFile, v: &DeValue<'_>, span: Range<usize>, depth: usize) -> Result<Node, InputError> {
+    fn conv(
+        source: &SourceFile,
+        v: &DeValue<'_>,
+        span: Range<usize>,
+        depth: usize,
+    ) -> Result<Node, InputError> {
         if depth > MAX_DEPTH {
             return Err(InputError::new(
                 InputErrorKind::Structure,
@@ -194,7 +216,11 @@ fn parse_toml(source: &SourceFile) -> Result<Node, InputError> {
         Ok(Node { kind, span })
     }
 
-    fn conv_table(source: &SourceFile, t: &DeTable<'_>, depth: usize) -> Result<Vec<Entry>, InputError> {
+    fn conv_table(
+        source: &SourceFile,
+        t: &DeTable<'_>,
+        depth: usize,
+    ) -> Result<Vec<Entry>, InputError> {
         let mut entries = Vec::new();
         for (k, v) in t.iter() {
             entries.push(Entry {
@@ -208,7 +234,10 @@ fn parse_toml(source: &SourceFile) -> Result<Node, InputError> {
     }
 
     let span = root.span();
-    Ok(Node { kind: NodeKind::Table(conv_table(source, root.get_ref(), 0)?), span })
+    Ok(Node {
+        kind: NodeKind::Table(conv_table(source, root.get_ref(), 0)?),
+        span,
+    })
 }
 
 /// YAML 1.2 core schema resolution of a plain scalar.
@@ -224,8 +253,12 @@ fn resolve_plain(s: &str) -> Result<NodeKind, ()> {
     if matches!(body, ".inf" | ".Inf" | ".INF") {
         return Err(());
     }
-    let is_hex = s.strip_prefix("0x").is_some_and(|h| !h.is_empty() && h.bytes().all(|b| b.is_ascii_hexdigit()));
-    let is_oct = s.strip_prefix("0o").is_some_and(|h| !h.is_empty() && h.bytes().all(|b| (b'0'..=b'7').contains(&b)));
+    let is_hex = s
+        .strip_prefix("0x")
+        .is_some_and(|h| !h.is_empty() && h.bytes().all(|b| b.is_ascii_hexdigit()));
+    let is_oct = s
+        .strip_prefix("0o")
+        .is_some_and(|h| !h.is_empty() && h.bytes().all(|b| (b'0'..=b'7').contains(&b)));
     if is_hex || is_oct || is_yaml_float(body) {
         return Ok(NodeKind::Num(s.to_string()));
     }
@@ -254,8 +287,15 @@ fn is_yaml_float(s: &str) -> bool {
 }
 
 enum Frame {
-    Map { start: usize, entries: Vec<Entry>, key: Option<(String, Range<usize>)> },
-    Seq { start: usize, items: Vec<Node> },
+    Map {
+        start: usize,
+        entries: Vec<Entry>,
+        key: Option<(String, Range<usize>)>,
+    },
+    Seq {
+        start: usize,
+        items: Vec<Node>,
+    },
 }
 
 fn parse_yaml(source: &SourceFile) -> Result<Node, InputError> {
@@ -281,16 +321,28 @@ fn parse_yaml(source: &SourceFile) -> Result<Node, InputError> {
             Event::DocumentStart(_) => {
                 documents += 1;
                 if documents > 1 {
-                    return Err(structure(start..end, "more than one YAML document in the file", "keep one set per file"));
+                    return Err(structure(
+                        start..end,
+                        "more than one YAML document in the file",
+                        "keep one set per file",
+                    ));
                 }
                 continue;
             }
             Event::Alias(_) => {
-                return Err(structure(start..end, "YAML aliases are not supported", "write the value out in full"));
+                return Err(structure(
+                    start..end,
+                    "YAML aliases are not supported",
+                    "write the value out in full",
+                ));
             }
             Event::Scalar(value, style, _anchor, tag) => {
                 if tag.is_some() {
-                    return Err(structure(start..end, "YAML tags are not supported", "remove the `!tag`"));
+                    return Err(structure(
+                        start..end,
+                        "YAML tags are not supported",
+                        "remove the `!tag`",
+                    ));
                 }
                 let kind = match style {
                     ScalarStyle::Plain => resolve_plain(&value).map_err(|()| {
@@ -302,10 +354,17 @@ fn parse_yaml(source: &SourceFile) -> Result<Node, InputError> {
                     })?,
                     _ => NodeKind::Str(value.to_string()),
                 };
-                Node { kind, span: start..end }
+                Node {
+                    kind,
+                    span: start..end,
+                }
             }
             Event::SequenceStart(_, tag) | Event::MappingStart(_, tag) if tag.is_some() => {
-                return Err(structure(start..end, "YAML tags are not supported", "remove the `!tag`"));
+                return Err(structure(
+                    start..end,
+                    "YAML tags are not supported",
+                    "remove the `!tag`",
+                ));
             }
             Event::SequenceStart(..) | Event::MappingStart(..) => {
                 if stack.len() >= MAX_DEPTH {
@@ -316,21 +375,42 @@ fn parse_yaml(source: &SourceFile) -> Result<Node, InputError> {
                     ));
                 }
                 if let Some(Frame::Map { key: None, .. }) = stack.last() {
-                    return Err(structure(start..end, "a mapping key must be a plain value", "use a simple key such as `C0011`"));
+                    return Err(structure(
+                        start..end,
+                        "a mapping key must be a plain value",
+                        "use a simple key such as `C0011`",
+                    ));
                 }
                 stack.push(if matches!(event, Event::SequenceStart(..)) {
-                    Frame::Seq { start, items: Vec::new() }
+                    Frame::Seq {
+                        start,
+                        items: Vec::new(),
+                    }
                 } else {
-                    Frame::Map { start, entries: Vec::new(), key: None }
+                    Frame::Map {
+                        start,
+                        entries: Vec::new(),
+                        key: None,
+                    }
                 });
                 continue;
             }
             Event::SequenceEnd | Event::MappingEnd => match stack.pop() {
-                Some(Frame::Seq { start, items }) => Node { kind: NodeKind::Array(items), span: start..end.max(start) },
-                Some(Frame::Map { start, entries, .. }) => {
-                    Node { kind: NodeKind::Table(entries), span: start..end.max(start) }
+                Some(Frame::Seq { start, items }) => Node {
+                    kind: NodeKind::Array(items),
+                    span: start..end.max(start),
+                },
+                Some(Frame::Map { start, entries, .. }) => Node {
+                    kind: NodeKind::Table(entries),
+                    span: start..end.max(start),
+                },
+                None => {
+                    return Err(structure(
+                        start..end,
+                        "unbalanced YAML structure",
+                        "check the indentation",
+                    ));
                 }
-                None => return Err(structure(start..end, "unbalanced YAML structure", "check the indentation")),
             },
         };
         // attach the finished node to its parent
@@ -344,12 +424,20 @@ fn parse_yaml(source: &SourceFile) -> Result<Node, InputError> {
                         NodeKind::Bool(b) => b.to_string(),
                         NodeKind::Null => String::new(),
                         _ => {
-                            return Err(structure(node.span, "a mapping key must be a plain value", "use a simple key such as `C0011`"));
+                            return Err(structure(
+                                node.span,
+                                "a mapping key must be a plain value",
+                                "use a simple key such as `C0011`",
+                            ));
                         }
                     };
                     *key = Some((k, node.span));
                 }
-                Some((k, key_span)) => entries.push(Entry { key: k, key_span, value: node }),
+                Some((k, key_span)) => entries.push(Entry {
+                    key: k,
+                    key_span,
+                    value: node,
+                }),
             },
         }
     }
@@ -376,8 +464,14 @@ mod tests {
         assert_eq!(e.value.kind, NodeKind::Num("0.1".into()));
         let loc = d.loc(&e.value.span);
         assert_eq!((loc.line, loc.column), (3, 9));
-        assert_eq!(values.entries()[1].value.kind, NodeKind::Num("1_000".into()));
-        assert_eq!(values.entries()[2].value.kind, NodeKind::Num("0x0900".into()));
+        assert_eq!(
+            values.entries()[1].value.kind,
+            NodeKind::Num("1_000".into())
+        );
+        assert_eq!(
+            values.entries()[2].value.kind,
+            NodeKind::Num("0x0900".into())
+        );
         let kl = d.loc(&values.entries()[2].key_span);
         assert_eq!((kl.line, kl.column), (5, 1));
     }
@@ -394,7 +488,9 @@ mod tests {
 
     #[test]
     fn yaml_core_schema_and_positions() {
-        let d = yaml("schema: x\nvalues:\n  C0011: 0.1\n  C0012: \"0.1\"\n  C0013: true\n  C0014: 0x10\n  C0015: abc\n");
+        let d = yaml(
+            "schema: x\nvalues:\n  C0011: 0.1\n  C0012: \"0.1\"\n  C0013: true\n  C0014: 0x10\n  C0015: abc\n",
+        );
         let v = &d.root.get("values").unwrap().value;
         let kinds: Vec<_> = v.entries().iter().map(|e| e.value.kind.clone()).collect();
         assert_eq!(
@@ -418,7 +514,10 @@ mod tests {
         for (src, msg) in [
             ("a: &x 1\nb: *x\n", "YAML aliases are not supported"),
             ("a: .nan\n", "`.nan` is not a finite number"),
-            ("a: 1\n---\nb: 2\n", "more than one YAML document in the file"),
+            (
+                "a: 1\n---\nb: 2\n",
+                "more than one YAML document in the file",
+            ),
         ] {
             let e = parse(SourceFile::new("t.yaml", src), Syntax::Yaml).unwrap_err();
             assert_eq!(e.message, msg);

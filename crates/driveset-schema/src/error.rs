@@ -26,7 +26,11 @@ impl SourceFile {
                 line_starts.push(i + 1);
             }
         }
-        SourceFile { path: path.into(), text, line_starts }
+        SourceFile {
+            path: path.into(),
+            text,
+            line_starts,
+        }
     }
 
     /// Byte offset of (1-based line, 0-based column in characters); clamps to the text.
@@ -92,7 +96,13 @@ pub struct Location {
 impl Location {
     /// A location with no snippet (e.g. a file that could not be read).
     pub fn file_only(file: impl Into<String>) -> Self {
-        Location { file: file.into(), line: 0, column: 0, span: 0..0, line_text: String::new() }
+        Location {
+            file: file.into(),
+            line: 0,
+            column: 0,
+            span: 0..0,
+            line_text: String::new(),
+        }
     }
 
     /// Render the `--> file:line:col` header plus a caret snippet with `label`.
@@ -109,8 +119,16 @@ impl Location {
         let _ = writeln!(out, "{num} | {}", self.line_text);
         // caret width: the span's characters on this line (at least one)
         let line_start = self.byte_col_offset();
-        let col_byte = self.span.start.saturating_sub(line_start).min(self.line_text.len());
-        let end_byte = self.span.end.saturating_sub(line_start).clamp(col_byte, self.line_text.len());
+        let col_byte = self
+            .span
+            .start
+            .saturating_sub(line_start)
+            .min(self.line_text.len());
+        let end_byte = self
+            .span
+            .end
+            .saturating_sub(line_start)
+            .clamp(col_byte, self.line_text.len());
         let span_chars = self
             .line_text
             .get(col_byte..end_byte)
@@ -233,7 +251,13 @@ impl Finding {
         message: impl Into<String>,
         help: impl Into<String>,
     ) -> Self {
-        Finding { kind, message: message.into(), help: help.into(), location, related: Vec::new() }
+        Finding {
+            kind,
+            message: message.into(),
+            help: help.into(),
+            location,
+            related: Vec::new(),
+        }
     }
 
     pub(crate) fn with_related(mut self, label: impl Into<String>, loc: Location) -> Self {
@@ -270,7 +294,11 @@ impl Finding {
 
 impl fmt::Display for Finding {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: error[{}]: {}", self.location, self.kind, self.message)?;
+        write!(
+            f,
+            "{}: error[{}]: {}",
+            self.location, self.kind, self.message
+        )?;
         if !self.help.is_empty() {
             write!(f, " (help: {})", self.help)?;
         }
@@ -321,7 +349,12 @@ impl InputError {
         message: impl Into<String>,
         help: impl Into<String>,
     ) -> Self {
-        InputError { kind, message: message.into(), help: help.into(), location }
+        InputError {
+            kind,
+            message: message.into(),
+            help: help.into(),
+            location,
+        }
     }
 
     /// rustc-style rendering, like [`Finding::render_human`].
@@ -350,14 +383,16 @@ pub(crate) fn read_text_file(path: &std::path::Path) -> Result<SourceFile, Input
         )
     })?;
     let mut bytes = Vec::new();
-    file.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes).map_err(|e| {
-        InputError::new(
-            InputErrorKind::Unreadable,
-            loc(),
-            format!("cannot read {display}: {e}"),
-            "check the path and the file's permissions",
-        )
-    })?;
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| {
+            InputError::new(
+                InputErrorKind::Unreadable,
+                loc(),
+                format!("cannot read {display}: {e}"),
+                "check the path and the file's permissions",
+            )
+        })?;
     source_from_bytes(&display, bytes)
 }
 
@@ -384,11 +419,17 @@ pub(crate) fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceF
         InputError::new(
             InputErrorKind::Binary,
             loc(),
-            format!("{display} is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
+            format!(
+                "{display} is not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
             "save the file as UTF-8",
         )
     })?;
-    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    let text = text
+        .strip_prefix('\u{feff}')
+        .map(str::to_string)
+        .unwrap_or(text);
     let meaningful = text.lines().any(|l| {
         let t = l.trim();
         !t.is_empty() && !t.starts_with('#') && t != "---" && t != "..."

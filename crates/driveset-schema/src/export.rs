@@ -51,7 +51,14 @@ fn render(o: &Out, fmt: Format) -> String {
             let parts: Vec<String> = m
                 .iter()
                 .map(|(k, v)| {
-                    let key = if fmt == Format::Toml && k.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') { k.clone() } else { q(k) };
+                    let key = if fmt == Format::Toml
+                        && k.bytes()
+                            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+                    {
+                        k.clone()
+                    } else {
+                        q(k)
+                    };
                     format!("{key}{sep}{}", render(v, fmt))
                 })
                 .collect();
@@ -66,8 +73,10 @@ fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) ->
         RawValue::Text(t) => Out::Str(t.clone()),
         RawValue::Octets(o) => Out::Str(o.iter().map(|b| format!("{b:02x}")).collect()),
         RawValue::Int(i) => {
-            let Some(code) = code else { return Out::Num(i.to_string()) };
-            if let Some(l) = code.values.as_ref().and_then(|v| schema.enum_of(v)).and_then(|e| e.label(*i)) {
+            let Some(code) = code else {
+                return Out::Num(i.to_string());
+            };
+            if let Some(l) = schema.enum_label(code, *i) {
                 // a label that also reads as another value would be ambiguous; labels win on read
                 return Out::Str(l.to_string());
             }
@@ -76,7 +85,13 @@ fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) ->
                 let mut members = Vec::new();
                 for b in &code.bits {
                     let v = b.extract(*i);
-                    covered |= (if b.width() >= 63 { -1 } else { (1i64 << b.width()) - 1 }).checked_shl(b.lsb).unwrap_or(0);
+                    covered |= (if b.width() >= 63 {
+                        -1
+                    } else {
+                        (1i64 << b.width()) - 1
+                    })
+                    .checked_shl(b.lsb)
+                    .unwrap_or(0);
                     if v == 0 {
                         continue;
                     }
@@ -94,7 +109,9 @@ fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) ->
                 }
                 return Out::Num(i.to_string());
             }
-            let Some(ty) = schema.type_of(code) else { return Out::Num(i.to_string()) };
+            let Some(ty) = schema.type_of(code) else {
+                return Out::Num(i.to_string());
+            };
             let num = raw_to_engineering(ty, *i);
             match (&code.unit, ty.repr()) {
                 (Some(u), Repr::Scaled(_) | Repr::Float) => Out::Str(format!("{num} {u}")),
@@ -107,8 +124,16 @@ fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) ->
 /// Write a set in the given format. `title` is written when given.
 pub fn export(set: &ResolvedSet, schema: &Schema, title: Option<&str>, format: Format) -> String {
     let mut out = String::new();
-    let entries: Vec<(String, String)> =
-        set.values.iter().map(|(k, v)| (k.canonical(schema.code_style), render(&value_out(schema, *k, v), format))).collect();
+    let entries: Vec<(String, String)> = set
+        .values
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.canonical(schema.code_style),
+                render(&value_out(schema, *k, v), format),
+            )
+        })
+        .collect();
     match format {
         Format::Toml => {
             let _ = writeln!(out, "schema = {}", q(&set.schema));
@@ -143,7 +168,12 @@ pub fn export(set: &ResolvedSet, schema: &Schema, title: Option<&str>, format: F
             out.push_str(",\n  \"values\": {");
             let n = entries.len();
             for (i, (k, v)) in entries.into_iter().enumerate() {
-                let _ = write!(out, "\n    {}: {v}{}", q(&k), if i + 1 < n { "," } else { "" });
+                let _ = write!(
+                    out,
+                    "\n    {}: {v}{}",
+                    q(&k),
+                    if i + 1 < n { "," } else { "" }
+                );
             }
             out.push_str(if n > 0 { "\n  }\n}\n" } else { "}\n}\n" });
         }

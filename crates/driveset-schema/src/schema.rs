@@ -8,7 +8,9 @@ use std::sync::Arc;
 
 use crate::canonical::RawValue;
 use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
-use crate::error::{Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file};
+use crate::error::{
+    Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
+};
 use crate::value::ValueType;
 
 /// Bus protocol of a family (`[schema] protocol`).
@@ -91,12 +93,18 @@ pub struct EnumDef {
 impl EnumDef {
     /// Label of a raw value.
     pub fn label(&self, raw: i64) -> Option<&str> {
-        self.entries.iter().find(|(v, _, _)| *v == raw).map(|(_, l, _)| l.as_str())
+        self.entries
+            .iter()
+            .find(|(v, _, _)| *v == raw)
+            .map(|(_, l, _)| l.as_str())
     }
     /// Raw value of a label, compared case-insensitively and trimmed.
     pub fn value_of(&self, label: &str) -> Option<i64> {
         let l = label.trim();
-        self.entries.iter().find(|(_, lab, _)| lab.trim().eq_ignore_ascii_case(l)).map(|(v, _, _)| *v)
+        self.entries
+            .iter()
+            .find(|(_, lab, _)| lab.trim().eq_ignore_ascii_case(l))
+            .map(|(v, _, _)| *v)
     }
     /// All labels, for messages.
     pub fn labels(&self) -> Vec<&str> {
@@ -331,6 +339,30 @@ impl Schema {
         s
     }
 
+    /// Label of a code's raw value. Enumeration keys are engineering integers
+    /// (so `1 = "..."` on a VD code means raw 10000; docs/file-formats.md).
+    pub fn enum_label<'a>(&'a self, code: &'a Code, raw: i64) -> Option<&'a str> {
+        let e = self.enum_of(code.values.as_ref()?)?;
+        let factor = self.enum_factor(code);
+        if raw % factor != 0 {
+            return None;
+        }
+        e.label(raw / factor)
+    }
+
+    /// Raw value of a code's label (case-insensitive).
+    pub fn enum_value(&self, code: &Code, label: &str) -> Option<i64> {
+        let e = self.enum_of(code.values.as_ref()?)?;
+        e.value_of(label)?.checked_mul(self.enum_factor(code))
+    }
+
+    fn enum_factor(&self, code: &Code) -> i64 {
+        match self.type_of(code).map(ValueType::repr) {
+            Some(crate::value::Repr::Scaled(f)) => i64::from(f),
+            _ => 1,
+        }
+    }
+
     /// Whether a code's values are passwords (redacted in human output).
     pub fn is_password(&self, code: &Code) -> bool {
         code.password == Some(true) || self.type_of(code) == Some(ValueType::PT_PASSWORD)
@@ -401,7 +433,12 @@ impl<'d> Reader<'d> {
     fn wrong(&self, e: &Entry, expected: &str) -> InputError {
         self.doc.error(
             &e.value.span,
-            format!("`{}` in {} must be {expected}, found {}", e.key, self.what, e.value.kind.describe()),
+            format!(
+                "`{}` in {} must be {expected}, found {}",
+                e.key,
+                self.what,
+                e.value.kind.describe()
+            ),
             format!("write `{}` as {expected}", e.key),
         )
     }
@@ -481,9 +518,10 @@ impl<'d> Reader<'d> {
         match self.take(key) {
             None => Ok(None),
             Some(e) => match &e.value.kind {
-                NodeKind::Str(_) | NodeKind::Num(_) => {
-                    Ok(Some(Fact { value: e.value.kind.clone(), loc: self.doc.loc(&e.value.span) }))
-                }
+                NodeKind::Str(_) | NodeKind::Num(_) => Ok(Some(Fact {
+                    value: e.value.kind.clone(),
+                    loc: self.doc.loc(&e.value.span),
+                })),
                 _ => Err(self.wrong(e, "a decimal string or a number")),
             },
         }
@@ -519,15 +557,20 @@ fn parse_enum_table(doc: &Document, node: &Node, what: &str) -> Result<EnumDef, 
             "write e.g. `0 = \"Off\"`",
         ));
     };
-    let mut def = EnumDef { entries: Vec::new(), loc: Some(doc.loc(&node.span)) };
+    let mut def = EnumDef {
+        entries: Vec::new(),
+        loc: Some(doc.loc(&node.span)),
+    };
     for e in entries {
-        let v = parse_int_text(&e.key).and_then(|v| i64::try_from(v).ok()).ok_or_else(|| {
-            doc.error(
-                &e.key_span,
-                format!("enumeration key `{}` in {what} is not an integer", e.key),
-                "enumeration keys are raw values, e.g. `0 = \"Off\"`",
-            )
-        })?;
+        let v = parse_int_text(&e.key)
+            .and_then(|v| i64::try_from(v).ok())
+            .ok_or_else(|| {
+                doc.error(
+                    &e.key_span,
+                    format!("enumeration key `{}` in {what} is not an integer", e.key),
+                    "enumeration keys are raw values, e.g. `0 = \"Off\"`",
+                )
+            })?;
         let NodeKind::Str(label) = &e.value.kind else {
             return Err(doc.error(
                 &e.value.span,
@@ -549,7 +592,9 @@ fn parse_values(r: &mut Reader<'_>, what: &str) -> Result<Option<EnumSource>, In
             format!("{what} has both `values` and `values_ref`"),
             "keep one of them",
         )),
-        (Some(e), None) => Ok(Some(EnumSource::Inline(parse_enum_table(r.doc, &e.value, what)?))),
+        (Some(e), None) => Ok(Some(EnumSource::Inline(parse_enum_table(
+            r.doc, &e.value, what,
+        )?))),
         (None, Some((name, loc))) => Ok(Some(EnumSource::Ref { name, loc })),
         (None, None) => Ok(None),
     }
@@ -609,7 +654,11 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
             br.what = format!("bit field {bname} of {what}");
             let title = br.string("title")?.map(|t| t.0);
             let Some(be) = br.take("bits") else {
-                return Err(doc.error(&item.span, format!("bit field {bname} of {what} has no `bits`"), "add `bits = [lsb, msb]`"));
+                return Err(doc.error(
+                    &item.span,
+                    format!("bit field {bname} of {what} has no `bits`"),
+                    "add `bits = [lsb, msb]`",
+                ));
             };
             let pair: Option<Vec<u32>> = match &be.value.kind {
                 NodeKind::Array(v) if v.len() == 2 => v
@@ -621,13 +670,22 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
                     .collect(),
                 _ => None,
             };
-            let Some([lsb, msb]) = pair.as_deref().and_then(|p| <[u32; 2]>::try_from(p).ok()) else {
+            let Some([lsb, msb]) = pair.as_deref().and_then(|p| <[u32; 2]>::try_from(p).ok())
+            else {
                 return Err(br.wrong(be, "[lsb, msb] (two non-negative integers)"));
             };
             let bits_loc = doc.loc(&be.value.span);
             let values = parse_values(&mut br, &format!("bit field {bname}"))?;
             br.finish()?;
-            bits.push(BitField { name: bname, title, lsb, msb, values, loc: bloc, bits_loc });
+            bits.push(BitField {
+                name: bname,
+                title,
+                lsb,
+                msb,
+                values,
+                loc: bloc,
+                bits_loc,
+            });
         }
     }
     let code = Code {
@@ -639,7 +697,11 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         spec: r.string("spec")?.map(|t| t.0),
         type_name,
         unit: r.string("unit")?.map(|t| t.0),
-        unit_aliases: r.string_list("unit_aliases")?.into_iter().map(|t| t.0).collect(),
+        unit_aliases: r
+            .string_list("unit_aliases")?
+            .into_iter()
+            .map(|t| t.0)
+            .collect(),
         min: r.fact("min")?,
         max: r.fact("max")?,
         default: r.fact("default")?,
@@ -668,17 +730,36 @@ fn parse_rule(doc: &Document, node: &Node) -> Result<Rule, InputError> {
     let loc = kloc.clone();
     let message = r.required_string("message")?.0;
     let _spec = r.string("spec")?;
+    let _note = r.string("note")?;
     let rule = match kind.as_str() {
         "distinct-fields" => {
-            let code = r.uint::<u32>("code")?.ok_or_else(|| doc.error(&node.span, "rule has no `code`", "add `code = ...`"))?.0;
+            let code = r
+                .uint::<u32>("code")?
+                .ok_or_else(|| doc.error(&node.span, "rule has no `code`", "add `code = ...`"))?
+                .0;
             let fields = r.string_list("fields")?.into_iter().map(|f| f.0).collect();
-            Rule::DistinctFields { code, fields, message, loc }
+            Rule::DistinctFields {
+                code,
+                fields,
+                message,
+                loc,
+            }
         }
         "less-or-equal" => {
-            let left = r.uint::<u32>("left")?.ok_or_else(|| doc.error(&node.span, "rule has no `left`", "add `left = ...`"))?.0;
-            let right =
-                r.uint::<u32>("right")?.ok_or_else(|| doc.error(&node.span, "rule has no `right`", "add `right = ...`"))?.0;
-            Rule::LessOrEqual { left, right, message, loc }
+            let left = r
+                .uint::<u32>("left")?
+                .ok_or_else(|| doc.error(&node.span, "rule has no `left`", "add `left = ...`"))?
+                .0;
+            let right = r
+                .uint::<u32>("right")?
+                .ok_or_else(|| doc.error(&node.span, "rule has no `right`", "add `right = ...`"))?
+                .0;
+            Rule::LessOrEqual {
+                left,
+                right,
+                message,
+                loc,
+            }
         }
         other => {
             return Err(InputError::new(
@@ -701,14 +782,21 @@ pub fn parse_schema(
     let doc = doc::parse(source, Syntax::Toml)?;
     let mut top = Reader::new(&doc, &doc.root, "the schema file")?;
     let Some(head) = top.take("schema") else {
-        return Err(doc.error(&(0..0), "the schema file has no [schema] table", "start the file with `[schema]`"));
+        return Err(doc.error(
+            &(0..0),
+            "the schema file has no [schema] table",
+            "start the file with `[schema]`",
+        ));
     };
     let mut h = Reader::new(&doc, &head.value, "[schema]")?;
     let (id, id_loc) = h.required_string("id")?;
     let title = h.required_string("title")?.0;
     let extends = h.string("extends")?;
     let fictional = h.boolean("fictional")?;
-    let fictional_loc = h.take("fictional").map(|e| doc.loc(&e.value.span)).unwrap_or_else(|| h.loc());
+    let fictional_loc = h
+        .take("fictional")
+        .map(|e| doc.loc(&e.value.span))
+        .unwrap_or_else(|| h.loc());
     let protocol = match h.string("protocol")? {
         None => None,
         Some((p, l)) => Some(Protocol::parse(&p).ok_or_else(|| {
@@ -758,7 +846,8 @@ pub fn parse_schema(
                         NodeKind::Array(items) => items
                             .iter()
                             .map(|n| match &n.kind {
-                                NodeKind::Num(t) => parse_int_text(t).ok_or_else(|| ir.wrong(e, "an array of integers")),
+                                NodeKind::Num(t) => parse_int_text(t)
+                                    .ok_or_else(|| ir.wrong(e, "an array of integers")),
                                 _ => Err(ir.wrong(e, "an array of integers")),
                             })
                             .collect(),
@@ -766,11 +855,21 @@ pub fn parse_schema(
                     },
                 }
             };
-            let codes = ints(&mut ir, "codes")?.into_iter().filter_map(|v| u32::try_from(v).ok()).collect();
-            let type_values = ints(&mut ir, "type_values")?.into_iter().filter_map(|v| i64::try_from(v).ok()).collect();
+            let codes = ints(&mut ir, "codes")?
+                .into_iter()
+                .filter_map(|v| u32::try_from(v).ok())
+                .collect();
+            let type_values = ints(&mut ir, "type_values")?
+                .into_iter()
+                .filter_map(|v| i64::try_from(v).ok())
+                .collect();
             let note = ir.string("note")?.map(|n| n.0);
             ir.finish()?;
-            Some(Identify { codes, type_values, note })
+            Some(Identify {
+                codes,
+                type_values,
+                note,
+            })
         }
     };
     let can_index_base = match h.take("can") {
@@ -798,7 +897,10 @@ pub fn parse_schema(
     if let Some(e) = top.take("enum") {
         let mut er = Reader::new(&doc, &e.value, "[enum]")?;
         for en in er.entries {
-            enums.insert(en.key.clone(), parse_enum_table(&doc, &en.value, &format!("[enum.{}]", en.key))?);
+            enums.insert(
+                en.key.clone(),
+                parse_enum_table(&doc, &en.value, &format!("[enum.{}]", en.key))?,
+            );
         }
         er.used.iter_mut().for_each(|u| *u = true);
         er.finish()?;
@@ -829,7 +931,13 @@ pub fn parse_schema(
             s
         }
         None => {
-            let missing = |what: &str| doc.error(&head.value.span, format!("[schema] has no `{what}`"), format!("add `{what} = \"...\"`"));
+            let missing = |what: &str| {
+                doc.error(
+                    &head.value.span,
+                    format!("[schema] has no `{what}`"),
+                    format!("add `{what} = \"...\"`"),
+                )
+            };
             Schema {
                 id: String::new(),
                 title: String::new(),
@@ -881,7 +989,12 @@ pub fn parse_schema(
     let base_codes = schema.codes.len();
     schema.reindex();
     for code in codes {
-        match schema.by_number.get(&code.number).copied().filter(|&i| i < base_codes) {
+        match schema
+            .by_number
+            .get(&code.number)
+            .copied()
+            .filter(|&i| i < base_codes)
+        {
             Some(i) => {
                 if let Some(existing) = schema.codes.get_mut(i) {
                     let conflicts = fill_unset(existing, code);
@@ -937,7 +1050,10 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
         out.push(Finding::new(
             FindingKind::SchemaError,
             over.name_loc.clone().unwrap_or_else(|| over.loc.clone()),
-            format!("fixture renames code {number} from `{}` to `{}`", base.name, over.name),
+            format!(
+                "fixture renames code {number} from `{}` to `{}`",
+                base.name, over.name
+            ),
             "add the new name to `aliases` instead",
         ));
     }
@@ -972,7 +1088,10 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
             }
         };
     }
-    fill_loc!(type_name, |a: &(String, Location), b: &(String, Location)| a.0 == b.0);
+    fill_loc!(
+        type_name,
+        |a: &(String, Location), b: &(String, Location)| a.0 == b.0
+    );
     fill_loc!(min, |a: &Fact, b: &Fact| a.value == b.value);
     fill_loc!(max, |a: &Fact, b: &Fact| a.value == b.value);
     fill_loc!(default, |a: &Fact, b: &Fact| a.value == b.value);
@@ -992,10 +1111,22 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
 
 /// The schema file names embedded in the crate (docs: "one file per drive family").
 pub const BUILTIN_FILES: [(&str, &str); 4] = [
-    ("schemas/lenze-tmd.toml", include_str!("../../../schemas/lenze-tmd.toml")),
-    ("schemas/lenze-ecs.toml", include_str!("../../../schemas/lenze-ecs.toml")),
-    ("schemas/lust-vf1000.toml", include_str!("../../../schemas/lust-vf1000.toml")),
-    ("schemas/lust-mc6000.toml", include_str!("../../../schemas/lust-mc6000.toml")),
+    (
+        "schemas/lenze-tmd.toml",
+        include_str!("../../../schemas/lenze-tmd.toml"),
+    ),
+    (
+        "schemas/lenze-ecs.toml",
+        include_str!("../../../schemas/lenze-ecs.toml"),
+    ),
+    (
+        "schemas/lust-vf1000.toml",
+        include_str!("../../../schemas/lust-vf1000.toml"),
+    ),
+    (
+        "schemas/lust-mc6000.toml",
+        include_str!("../../../schemas/lust-mc6000.toml"),
+    ),
 ];
 
 /// Known schemas by id: the built-ins plus files loaded by path or directory.
@@ -1031,7 +1162,10 @@ impl Registry {
             return Err(InputError::new(
                 InputErrorKind::Structure,
                 schema.id_loc.clone(),
-                format!("schema id `{}` is already defined by {}", schema.id, prev.path),
+                format!(
+                    "schema id `{}` is already defined by {}",
+                    schema.id, prev.path
+                ),
                 "give each schema file its own id",
             ));
         }
@@ -1090,7 +1224,12 @@ impl Registry {
             }
             if next.len() == before {
                 return Err(last_err.unwrap_or_else(|| {
-                    InputError::new(InputErrorKind::Structure, Location::file_only(dir.display().to_string()), "cannot load schemas", "")
+                    InputError::new(
+                        InputErrorKind::Structure,
+                        Location::file_only(dir.display().to_string()),
+                        "cannot load schemas",
+                        "",
+                    )
                 }));
             }
             pending = next;

@@ -9,7 +9,9 @@ use std::sync::Arc;
 
 use crate::canonical::{CodeKey, ResolvedSet};
 use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
-use crate::error::{Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file};
+use crate::error::{
+    Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
+};
 use crate::schema::{Access, Code, Registry, Schema};
 use crate::validate::{Placed, check_rules, convert_value, suggest};
 
@@ -47,36 +49,63 @@ pub fn load_set(path: &Path, registry: &mut Registry) -> Result<LoadedSet, Input
 
 /// Load and validate a set given as text; `path` names it in messages and
 /// anchors relative `schema`/`extends` paths.
-pub fn load_set_str(path: &Path, text: &str, registry: &mut Registry) -> Result<LoadedSet, InputError> {
-    let source = crate::error::source_from_bytes(&path.display().to_string(), text.as_bytes().to_vec())?;
+pub fn load_set_str(
+    path: &Path,
+    text: &str,
+    registry: &mut Registry,
+) -> Result<LoadedSet, InputError> {
+    let source =
+        crate::error::source_from_bytes(&path.display().to_string(), text.as_bytes().to_vec())?;
     load_source(source, Syntax::from_path(path), path, registry)
 }
 
-fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut Registry) -> Result<LoadedSet, InputError> {
+fn load_source(
+    source: SourceFile,
+    syntax: Syntax,
+    path: &Path,
+    registry: &mut Registry,
+) -> Result<LoadedSet, InputError> {
     let mut findings = Vec::new();
     let mut layers = Vec::new();
     let mut stack = Vec::new();
     let top = parse_layer(source, syntax, path)?;
     collect(top, path, &mut stack, &mut layers, &mut findings)?;
     let Some(top) = layers.last() else {
-        return Ok(LoadedSet { schema: None, resolved: None, title: None, findings });
+        return Ok(LoadedSet {
+            schema: None,
+            resolved: None,
+            title: None,
+            findings,
+        });
     };
     let title = top.title.clone();
 
     // the schema: named by the top file, else by the nearest base
-    let Some((sref, sloc, sdir)) =
-        layers.iter().rev().find_map(|l| l.schema_ref.as_ref().map(|(s, loc)| (s.clone(), loc.clone(), l.dir.clone())))
-    else {
+    let Some((sref, sloc, sdir)) = layers.iter().rev().find_map(|l| {
+        l.schema_ref
+            .as_ref()
+            .map(|(s, loc)| (s.clone(), loc.clone(), l.dir.clone()))
+    }) else {
         findings.push(Finding::new(
             FindingKind::UnknownSchema,
             top.doc.loc(&(0..0)),
             "the set names no schema",
             "add `schema = \"<id>\"` (e.g. lenze-tmd) at the top of the file",
         ));
-        return Ok(LoadedSet { schema: None, resolved: None, title, findings });
+        return Ok(LoadedSet {
+            schema: None,
+            resolved: None,
+            title,
+            findings,
+        });
     };
     let Some(schema) = resolve_schema(&sref, &sloc, &sdir, registry, &mut findings)? else {
-        return Ok(LoadedSet { schema: None, resolved: None, title, findings });
+        return Ok(LoadedSet {
+            schema: None,
+            resolved: None,
+            title,
+            findings,
+        });
     };
     for l in &layers {
         if let Some((r, loc)) = &l.schema_ref
@@ -89,7 +118,10 @@ fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut R
                     Finding::new(
                         FindingKind::BadExtends,
                         loc.clone(),
-                        format!("this base names schema `{r}`, but the set uses `{}`", schema.id),
+                        format!(
+                            "this base names schema `{r}`, but the set uses `{}`",
+                            schema.id
+                        ),
                         "a set and its bases must name the same schema",
                     )
                     .with_related("the set's schema", sloc.clone()),
@@ -103,7 +135,9 @@ fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut R
         let Some(values) = &l.values else { continue };
         let mut seen: HashMap<CodeKey, (String, Location)> = HashMap::new();
         for e in values.entries() {
-            let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else { continue };
+            let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
+                continue;
+            };
             let kloc = l.doc.loc(&e.key_span);
             if let Some((first, floc)) = seen.get(&key) {
                 findings.push(
@@ -127,7 +161,11 @@ fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut R
                 findings.push(Finding::new(
                     FindingKind::ReadOnly,
                     kloc,
-                    format!("{} ({}) is read-only; a set cannot write it", schema.display_code(key.number, key.subcode), code.name),
+                    format!(
+                        "{} ({}) is read-only; a set cannot write it",
+                        schema.display_code(key.number, key.subcode),
+                        code.name
+                    ),
                     "remove this line",
                 ));
                 merged.remove(&key);
@@ -148,10 +186,19 @@ fn load_source(source: SourceFile, syntax: Syntax, path: &Path, registry: &mut R
     for (k, p) in merged {
         resolved.insert(k, p.raw);
     }
-    Ok(LoadedSet { schema: Some(schema), resolved: Some(resolved), title, findings })
+    Ok(LoadedSet {
+        schema: Some(schema),
+        resolved: Some(resolved),
+        title,
+        findings,
+    })
 }
 
-fn parse_layer(source: SourceFile, syntax: Syntax, path: &Path) -> Result<(Layer, Option<Node>), InputError> {
+fn parse_layer(
+    source: SourceFile,
+    syntax: Syntax,
+    path: &Path,
+) -> Result<(Layer, Option<Node>), InputError> {
     let doc = doc::parse(source, syntax)?;
     let mut schema_ref = None;
     let mut values = None;
@@ -160,7 +207,11 @@ fn parse_layer(source: SourceFile, syntax: Syntax, path: &Path) -> Result<(Layer
     for e in doc.root.entries() {
         let want_str = |e: &Entry| match &e.value.kind {
             NodeKind::Str(s) => Ok(s.clone()),
-            other => Err(doc.error(&e.value.span, format!("`{}` must be a string, found {}", e.key, other.describe()), format!("write `{} = \"...\"`", e.key))),
+            other => Err(doc.error(
+                &e.value.span,
+                format!("`{}` must be a string, found {}", e.key, other.describe()),
+                format!("write `{} = \"...\"`", e.key),
+            )),
         };
         match e.key.as_str() {
             "schema" => schema_ref = Some((want_str(e)?, doc.loc(&e.value.span))),
@@ -168,14 +219,22 @@ fn parse_layer(source: SourceFile, syntax: Syntax, path: &Path) -> Result<(Layer
             "extends" => extends = Some(e.value.clone()),
             "drive" => {
                 if !matches!(e.value.kind, NodeKind::Table(_)) {
-                    return Err(doc.error(&e.value.span, format!("`drive` must be a table, found {}", e.value.kind.describe()), "write `[drive]` with e.g. `address = 3`"));
+                    return Err(doc.error(
+                        &e.value.span,
+                        format!("`drive` must be a table, found {}", e.value.kind.describe()),
+                        "write `[drive]` with e.g. `address = 3`",
+                    ));
                 }
             }
             "values" => match &e.value.kind {
                 NodeKind::Table(_) => values = Some(e.value.clone()),
                 NodeKind::Null => {}
                 other => {
-                    return Err(doc.error(&e.value.span, format!("`values` must be a table, found {}", other.describe()), "write `[values]` followed by `CODE = value` lines"));
+                    return Err(doc.error(
+                        &e.value.span,
+                        format!("`values` must be a table, found {}", other.describe()),
+                        "write `[values]` followed by `CODE = value` lines",
+                    ));
                 }
             },
             other => {
@@ -188,7 +247,16 @@ fn parse_layer(source: SourceFile, syntax: Syntax, path: &Path) -> Result<(Layer
         }
     }
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    Ok((Layer { doc, dir, schema_ref, values, title }, extends))
+    Ok((
+        Layer {
+            doc,
+            dir,
+            schema_ref,
+            values,
+            title,
+        },
+        extends,
+    ))
 }
 
 fn collect(
@@ -205,12 +273,23 @@ fn collect(
             NodeKind::Str(_) => vec![&ext],
             NodeKind::Array(items) => items.iter().collect(),
             other => {
-                return Err(layer.doc.error(&ext.span, format!("`extends` must be a path or a list of paths, found {}", other.describe()), "write `extends = \"base.toml\"`"));
+                return Err(layer.doc.error(
+                    &ext.span,
+                    format!(
+                        "`extends` must be a path or a list of paths, found {}",
+                        other.describe()
+                    ),
+                    "write `extends = \"base.toml\"`",
+                ));
             }
         };
         for item in items {
             let NodeKind::Str(rel) = &item.kind else {
-                return Err(layer.doc.error(&item.span, "`extends` entries must be strings", "write `extends = [\"a.toml\", \"b.toml\"]`"));
+                return Err(layer.doc.error(
+                    &item.span,
+                    "`extends` entries must be strings",
+                    "write `extends = [\"a.toml\", \"b.toml\"]`",
+                ));
             };
             let loc = layer.doc.loc(&item.span);
             let base_path = layer.dir.join(rel);
@@ -219,13 +298,21 @@ fn collect(
                 findings.push(Finding::new(
                     FindingKind::BadExtends,
                     loc,
-                    format!("`extends = \"{rel}\"` forms a cycle: {} is already being loaded", base_path.display()),
+                    format!(
+                        "`extends = \"{rel}\"` forms a cycle: {} is already being loaded",
+                        base_path.display()
+                    ),
                     "remove the extends that leads back to this file",
                 ));
                 continue;
             }
             if stack.len() >= MAX_EXTENDS_DEPTH {
-                findings.push(Finding::new(FindingKind::BadExtends, loc, format!("`extends` chain deeper than {MAX_EXTENDS_DEPTH} files"), "flatten the chain"));
+                findings.push(Finding::new(
+                    FindingKind::BadExtends,
+                    loc,
+                    format!("`extends` chain deeper than {MAX_EXTENDS_DEPTH} files"),
+                    "flatten the chain",
+                ));
                 continue;
             }
             let source = match read_text_file(&base_path) {
@@ -234,7 +321,11 @@ fn collect(
                     findings.push(Finding::new(
                         FindingKind::BadExtends,
                         loc,
-                        format!("base set {} cannot be read: {}", base_path.display(), e.message),
+                        format!(
+                            "base set {} cannot be read: {}",
+                            base_path.display(),
+                            e.message
+                        ),
                         "check the path; it is relative to the file that names it",
                     ));
                     continue;
@@ -278,7 +369,9 @@ fn resolve_schema(
         };
     }
     let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
-    let close = ids.iter().min_by_key(|i| crate::validate::edit_distance(sref, i));
+    let close = ids
+        .iter()
+        .min_by_key(|i| crate::validate::edit_distance(sref, i));
     findings.push(Finding::new(
         FindingKind::UnknownSchema,
         loc.clone(),
@@ -300,7 +393,12 @@ fn parse_number_key(s: &str) -> Option<u32> {
     digits.parse().ok()
 }
 
-fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<Finding>) -> Option<(&'s Code, CodeKey)> {
+fn resolve_key<'s>(
+    schema: &'s Schema,
+    doc: &Document,
+    e: &Entry,
+    out: &mut Vec<Finding>,
+) -> Option<(&'s Code, CodeKey)> {
     let loc = doc.loc(&e.key_span);
     let (base, sub) = match e.key.split_once('/') {
         Some((b, s)) => (b, Some(s)),
@@ -311,7 +409,12 @@ fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<
         Some(s) => match s.parse::<u32>() {
             Ok(v) if !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) => Some(v),
             _ => {
-                out.push(Finding::new(FindingKind::UnknownCode, loc, format!("`{}`: subcode `{s}` is not a number", e.key), "write e.g. `C0039/1`"));
+                out.push(Finding::new(
+                    FindingKind::UnknownCode,
+                    loc,
+                    format!("`{}`: subcode `{s}` is not a number", e.key),
+                    "write e.g. `C0039/1`",
+                ));
                 return None;
             }
         },
@@ -325,7 +428,11 @@ fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<
                     out.push(Finding::new(
                         FindingKind::UnknownCode,
                         loc,
-                        format!("{} is not a code of {}", schema.display_code(n, subcode), schema.id),
+                        format!(
+                            "{} is not a code of {}",
+                            schema.display_code(n, subcode),
+                            schema.id
+                        ),
                         format!("check the number against the schema ({})", schema.path),
                     ));
                     return None;
@@ -338,7 +445,10 @@ fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<
                     format!("`{base}` is not a code name of {}", schema.id),
                     match suggest(schema, base) {
                         Some(s) => format!("did you mean `{s}`?"),
-                        None => format!("use a code number or a name from the schema ({})", schema.path),
+                        None => format!(
+                            "use a code number or a name from the schema ({})",
+                            schema.path
+                        ),
                     },
                 ));
                 return None;
@@ -351,7 +461,11 @@ fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<
             out.push(Finding::new(
                 FindingKind::UnknownCode,
                 loc,
-                format!("{} has subcodes 1..={n}; `{}` names none of them", schema.display_code(code.number, None), e.key),
+                format!(
+                    "{} has subcodes 1..={n}; `{}` names none of them",
+                    schema.display_code(code.number, None),
+                    e.key
+                ),
                 format!("write e.g. `{}`", schema.display_code(code.number, Some(1))),
             ));
             return None;
@@ -361,11 +475,20 @@ fn resolve_key<'s>(schema: &'s Schema, doc: &Document, e: &Entry, out: &mut Vec<
                 FindingKind::UnknownCode,
                 loc,
                 format!("{} has no subcodes", schema.display_code(code.number, None)),
-                format!("write `{}` without `/N`", schema.display_code(code.number, None)),
+                format!(
+                    "write `{}` without `/N`",
+                    schema.display_code(code.number, None)
+                ),
             ));
             return None;
         }
         (None, None) => {}
     }
-    Some((code, CodeKey { number: code.number, subcode }))
+    Some((
+        code,
+        CodeKey {
+            number: code.number,
+            subcode,
+        },
+    ))
 }

@@ -11,8 +11,8 @@ use crate::doc::{Document, Node, NodeKind};
 use crate::error::{Finding, FindingKind, Location};
 use crate::schema::{BitField, Code, Rule, Schema};
 use crate::value::{
-    self, ConvError, Repr, ValueType, check_vs_text, decimal_to_raw, float_text_to_raw, parse_octets, parse_radix_int,
-    raw_to_engineering,
+    self, ConvError, Repr, ValueType, check_vs_text, decimal_to_raw, float_text_to_raw,
+    parse_octets, parse_radix_int, raw_to_engineering,
 };
 
 /// A value problem before it gets a location.
@@ -24,7 +24,11 @@ pub(crate) struct ValueErr {
 }
 
 fn verr(kind: FindingKind, message: impl Into<String>, help: impl Into<String>) -> ValueErr {
-    ValueErr { kind, message: message.into(), help: help.into() }
+    ValueErr {
+        kind,
+        message: message.into(),
+        help: help.into(),
+    }
 }
 
 /// A converted value with where it came from (for rule findings).
@@ -52,7 +56,7 @@ pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
             s
         }
         RawValue::Int(i) => {
-            if let Some(label) = code.values.as_ref().and_then(|v| schema.enum_of(v)).and_then(|e| e.label(*i)) {
+            if let Some(label) = schema.enum_label(code, *i) {
                 return format!("\"{label}\"");
             }
             if !code.bits.is_empty() {
@@ -61,7 +65,12 @@ pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
                     .iter()
                     .map(|b| {
                         let v = b.extract(*i);
-                        match b.values.as_ref().and_then(|s| schema.enum_of(s)).and_then(|e| e.label(v)) {
+                        match b
+                            .values
+                            .as_ref()
+                            .and_then(|s| schema.enum_of(s))
+                            .and_then(|e| e.label(v))
+                        {
                             Some(l) => format!("{} = \"{l}\"", b.name),
                             None => format!("{} = {v}", b.name),
                         }
@@ -80,7 +89,11 @@ pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
 }
 
 /// Convert a schema fact (min/max/default) to a raw value, or say why not.
-pub(crate) fn fact_to_raw(schema: &Schema, code: &Code, value: &NodeKind) -> Result<RawValue, String> {
+pub(crate) fn fact_to_raw(
+    schema: &Schema,
+    code: &Code,
+    value: &NodeKind,
+) -> Result<RawValue, String> {
     let Some(ty) = schema.type_of(code) else {
         return Err("the code's type is unknown".into());
     };
@@ -99,7 +112,13 @@ fn split_unit(s: &str) -> (&str, &str) {
     }
     let end = t
         .char_indices()
-        .find(|(i, c)| !(c.is_ascii_digit() || matches!(c, '.' | '_' | '+' | '-') || (*c == 'e' || *c == 'E') && *i > 0 && t[i + 1..].starts_with(|n: char| n.is_ascii_digit() || n == '-' || n == '+')))
+        .find(|(i, c)| {
+            !(c.is_ascii_digit()
+                || matches!(c, '.' | '_' | '+' | '-')
+                || (*c == 'e' || *c == 'E')
+                    && *i > 0
+                    && t[i + 1..].starts_with(|n: char| n.is_ascii_digit() || n == '-' || n == '+'))
+        })
         .map(|(i, _)| i)
         .unwrap_or(t.len());
     (&t[..end], &t[end..])
@@ -110,7 +129,9 @@ fn conv_err(schema: &Schema, code: &Code, text: &str, e: ConvError) -> ValueErr 
     match e {
         ConvError::Unrepresentable { step, lower, upper } => verr(
             FindingKind::Unrepresentable,
-            format!("{what} = {text} is not representable in steps of {step}; nearest are {lower} and {upper}"),
+            format!(
+                "{what} = {text} is not representable in steps of {step}; nearest are {lower} and {upper}"
+            ),
             format!("write {lower} or {upper}"),
         ),
         ConvError::OutOfRange { min, max } => {
@@ -144,23 +165,40 @@ fn number_to_raw(schema: &Schema, code: &Code, ty: ValueType, text: &str) -> Res
                 "hex is only for integer, VH and bit-coded types; write the engineering value",
             ));
         }
-        let v = r.map_err(|()| verr(FindingKind::WrongType, format!("`{text}` is not a valid integer"), "write e.g. 0x0900"))?;
-        return decimal_to_raw(ty, code.width, &Decimal::from_int(v)).map_err(|e| conv_err(schema, code, text, e));
+        let v = r.map_err(|()| {
+            verr(
+                FindingKind::WrongType,
+                format!("`{text}` is not a valid integer"),
+                "write e.g. 0x0900",
+            )
+        })?;
+        return decimal_to_raw(ty, code.width, &Decimal::from_int(v))
+            .map_err(|e| conv_err(schema, code, text, e));
     }
     match ty.repr() {
         Repr::Float => float_text_to_raw(text).map_err(|e| match e {
             Some(e) => conv_err(schema, code, text, e),
-            None => verr(FindingKind::WrongType, format!("{what} needs a number, found `{text}`"), "write a decimal number"),
+            None => verr(
+                FindingKind::WrongType,
+                format!("{what} needs a number, found `{text}`"),
+                "write a decimal number",
+            ),
         }),
         Repr::Scaled(_) => {
             let d = Decimal::parse(text).map_err(|e| {
-                verr(FindingKind::WrongType, format!("{what} needs a number: {e}"), "write a decimal number such as 12.5")
+                verr(
+                    FindingKind::WrongType,
+                    format!("{what} needs a number: {e}"),
+                    "write a decimal number such as 12.5",
+                )
             })?;
             decimal_to_raw(ty, code.width, &d).map_err(|e| conv_err(schema, code, text, e))
         }
-        Repr::Text | Repr::Octets => {
-            Err(verr(FindingKind::WrongType, format!("{what} takes text, found the number {text}"), "write the value as a string"))
-        }
+        Repr::Text | Repr::Octets => Err(verr(
+            FindingKind::WrongType,
+            format!("{what} takes text, found the number {text}"),
+            "write the value as a string",
+        )),
     }
 }
 
@@ -186,28 +224,43 @@ fn scalar_to_raw(
         NodeKind::Str(s) => {
             match ty.repr() {
                 Repr::Text => {
-                    return check_vs_text(s).map(|()| RawValue::Text(s.clone())).map_err(|m| {
-                        verr(FindingKind::OutOfRange, format!("{what}: text {s:?} is not valid VS text: {m}"), "use at most 20 visible ASCII characters")
-                    });
+                    return check_vs_text(s)
+                        .map(|()| RawValue::Text(s.clone()))
+                        .map_err(|m| {
+                            verr(
+                                FindingKind::OutOfRange,
+                                format!("{what}: text {s:?} is not valid VS text: {m}"),
+                                "use at most 20 visible ASCII characters",
+                            )
+                        });
                 }
                 Repr::Octets => {
                     return parse_octets(s).map(RawValue::Octets).ok_or_else(|| {
-                        verr(FindingKind::WrongType, format!("{what} needs octets as hex, found {s:?}"), "write an even number of hex digits, e.g. \"0a1b\"")
+                        verr(
+                            FindingKind::WrongType,
+                            format!("{what} needs octets as hex, found {s:?}"),
+                            "write an even number of hex digits, e.g. \"0a1b\"",
+                        )
                     });
                 }
                 _ => {}
             }
-            if let Some(v) = enum_def.and_then(|e| e.value_of(s)) {
+            if let Some(v) = schema.enum_value(code, s) {
                 return Ok(RawValue::Int(v));
             }
             let (num, unit) = split_unit(s);
             let looks_numeric = !num.is_empty()
-                && (parse_radix_int(num).is_some() || Decimal::parse(num).is_ok() || (ty == ValueType::PT_FLOAT_IEEE && float_text_to_raw(num).is_ok()));
+                && (parse_radix_int(num).is_some()
+                    || Decimal::parse(num).is_ok()
+                    || (ty == ValueType::PT_FLOAT_IEEE && float_text_to_raw(num).is_ok()));
             if !looks_numeric {
                 if let Some(e) = enum_def {
                     return Err(verr(
                         FindingKind::UnknownEnumLabel,
-                        format!("{} has no label {s:?}", schema.display_code(code.number, None)),
+                        format!(
+                            "{} has no label {s:?}",
+                            schema.display_code(code.number, None)
+                        ),
                         format!("use one of: {}", quote_list(&e.labels())),
                     ));
                 }
@@ -215,23 +268,32 @@ fn scalar_to_raw(
                     FindingKind::WrongType,
                     format!("{what} needs a number, found the text {s:?}"),
                     match &code.unit {
-                        Some(u) => format!("write a number, optionally with its unit, e.g. \"10 {u}\""),
+                        Some(u) => {
+                            format!("write a number, optionally with its unit, e.g. \"10 {u}\"")
+                        }
                         None => "write a number".to_string(),
                     },
                 ));
             }
             if check_unit && !unit.is_empty() {
-                let ok = code.unit.as_deref() == Some(unit) || code.unit_aliases.iter().any(|a| a == unit);
+                let ok = code.unit.as_deref() == Some(unit)
+                    || code.unit_aliases.iter().any(|a| a == unit);
                 if !ok {
                     return Err(match &code.unit {
                         Some(u) => verr(
                             FindingKind::UnitMismatch,
-                            format!("{} is in {u}, not {unit}", schema.display_code(code.number, None)),
+                            format!(
+                                "{} is in {u}, not {unit}",
+                                schema.display_code(code.number, None)
+                            ),
                             format!("write the value in {u}, e.g. \"{num} {u}\""),
                         ),
                         None => verr(
                             FindingKind::UnitMismatch,
-                            format!("{} has no unit, but the value says {unit}", schema.display_code(code.number, None)),
+                            format!(
+                                "{} has no unit, but the value says {unit}",
+                                schema.display_code(code.number, None)
+                            ),
                             format!("write the plain number {num}"),
                         ),
                     });
@@ -243,8 +305,13 @@ fn scalar_to_raw(
             FindingKind::WrongType,
             format!("{what} needs a number, found {}", other.describe()),
             match other {
-                NodeKind::Bool(_) => "booleans are only allowed for single-bit members inside a bit-field table".to_string(),
-                NodeKind::Table(_) => "tables are only for codes with bit fields; write a plain value".to_string(),
+                NodeKind::Bool(_) => {
+                    "booleans are only allowed for single-bit members inside a bit-field table"
+                        .to_string()
+                }
+                NodeKind::Table(_) => {
+                    "tables are only for codes with bit fields; write a plain value".to_string()
+                }
                 _ => "write a plain value".to_string(),
             },
         )),
@@ -252,14 +319,32 @@ fn scalar_to_raw(
 }
 
 fn quote_list(items: &[&str]) -> String {
-    items.iter().map(|s| format!("\"{s}\"")).collect::<Vec<_>>().join(", ")
+    items
+        .iter()
+        .map(|s| format!("\"{s}\""))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Compare two engineering values of (possibly different) types.
-pub(crate) fn eng_cmp(ta: ValueType, a: &RawValue, tb: ValueType, b: &RawValue) -> Option<Ordering> {
-    let (RawValue::Int(a), RawValue::Int(b)) = (a, b) else { return None };
-    let as_f = |_t: ValueType, r: i64| u32::try_from(r).ok().map(|bits| f64::from(f32::from_bits(bits)));
-    match (ta == ValueType::PT_FLOAT_IEEE, tb == ValueType::PT_FLOAT_IEEE) {
+pub(crate) fn eng_cmp(
+    ta: ValueType,
+    a: &RawValue,
+    tb: ValueType,
+    b: &RawValue,
+) -> Option<Ordering> {
+    let (RawValue::Int(a), RawValue::Int(b)) = (a, b) else {
+        return None;
+    };
+    let as_f = |_t: ValueType, r: i64| {
+        u32::try_from(r)
+            .ok()
+            .map(|bits| f64::from(f32::from_bits(bits)))
+    };
+    match (
+        ta == ValueType::PT_FLOAT_IEEE,
+        tb == ValueType::PT_FLOAT_IEEE,
+    ) {
         (false, false) => {
             let da = value::raw_to_decimal(ta, *a)?;
             let db = value::raw_to_decimal(tb, *b)?;
@@ -279,29 +364,48 @@ pub(crate) fn eng_cmp(ta: ValueType, a: &RawValue, tb: ValueType, b: &RawValue) 
 }
 
 /// Convert one set value for a code; findings go to `out`.
-pub(crate) fn convert_value(schema: &Schema, code: &Code, doc: &Document, node: &Node, out: &mut Vec<Finding>) -> Option<Placed> {
+pub(crate) fn convert_value(
+    schema: &Schema,
+    code: &Code,
+    doc: &Document,
+    node: &Node,
+    out: &mut Vec<Finding>,
+) -> Option<Placed> {
     let loc = doc.loc(&node.span);
     let what = schema.display_code(code.number, None);
     let Some(ty) = schema.type_of(code) else {
         out.push(Finding::new(
             FindingKind::UnknownType,
             loc,
-            format!("the type of {what} ({}) is unknown, so it cannot be given a value", code.name),
+            format!(
+                "the type of {what} ({}) is unknown, so it cannot be given a value",
+                code.name
+            ),
             "remove the value, or state the code's type in a fixture schema if a spec gives it",
         ));
         return None;
     };
-    let push = |out: &mut Vec<Finding>, e: ValueErr, loc: Location| out.push(Finding::new(e.kind, loc, e.message, e.help));
+    let push = |out: &mut Vec<Finding>, e: ValueErr, loc: Location| {
+        out.push(Finding::new(e.kind, loc, e.message, e.help))
+    };
     let mut members = Vec::new();
     let raw = if let NodeKind::Table(entries) = &node.kind {
         if code.bits.is_empty() {
-            push(out, scalar_to_raw(schema, code, ty, &node.kind, true).err()?, loc);
+            push(
+                out,
+                scalar_to_raw(schema, code, ty, &node.kind, true).err()?,
+                loc,
+            );
             return None;
         }
         let mut raw: i64 = 0;
         let mut ok = true;
         for e in entries {
-            let Some(bf) = code.bits.iter().find(|b| b.name == e.key).or_else(|| code.bits.iter().find(|b| b.name.eq_ignore_ascii_case(&e.key))) else {
+            let Some(bf) = code.bits.iter().find(|b| b.name == e.key).or_else(|| {
+                code.bits
+                    .iter()
+                    .find(|b| b.name.eq_ignore_ascii_case(&e.key))
+            }) else {
                 let names: Vec<&str> = code.bits.iter().map(|b| b.name.as_str()).collect();
                 out.push(Finding::new(
                     FindingKind::UnknownBitField,
@@ -332,7 +436,10 @@ pub(crate) fn convert_value(schema: &Schema, code: &Code, doc: &Document, node: 
             out.push(Finding::new(
                 FindingKind::OutOfRange,
                 loc,
-                format!("{what}: the bit fields make {raw:#x}, outside {} ({lo:#x} ..= {hi:#x})", ty.name()),
+                format!(
+                    "{what}: the bit fields make {raw:#x}, outside {} ({lo:#x} ..= {hi:#x})",
+                    ty.name()
+                ),
                 "check the schema's bit positions",
             ));
             return None;
@@ -351,17 +458,31 @@ pub(crate) fn convert_value(schema: &Schema, code: &Code, doc: &Document, node: 
     let given = display_value(schema, code, &raw);
     for (fact, is_min) in [(&code.min, true), (&code.max, false)] {
         let Some(f) = fact else { continue };
-        let Ok(bound) = fact_to_raw(schema, code, &f.value) else { continue };
+        let Ok(bound) = fact_to_raw(schema, code, &f.value) else {
+            continue;
+        };
         let ord = eng_cmp(ty, &raw, ty, &bound);
-        let bad = if is_min { ord == Some(Ordering::Less) } else { ord == Some(Ordering::Greater) };
+        let bad = if is_min {
+            ord == Some(Ordering::Less)
+        } else {
+            ord == Some(Ordering::Greater)
+        };
         if bad {
             let range = match (&code.min, &code.max) {
                 (Some(a), Some(b)) => format!(
                     "give a value from {} to {}",
-                    fact_to_raw(schema, code, &a.value).map(|r| display_value(schema, code, &r)).unwrap_or_default(),
-                    fact_to_raw(schema, code, &b.value).map(|r| display_value(schema, code, &r)).unwrap_or_default()
+                    fact_to_raw(schema, code, &a.value)
+                        .map(|r| display_value(schema, code, &r))
+                        .unwrap_or_default(),
+                    fact_to_raw(schema, code, &b.value)
+                        .map(|r| display_value(schema, code, &r))
+                        .unwrap_or_default()
                 ),
-                _ => format!("give a value {} {}", if is_min { "of at least" } else { "of at most" }, display_value(schema, code, &bound)),
+                _ => format!(
+                    "give a value {} {}",
+                    if is_min { "of at least" } else { "of at most" },
+                    display_value(schema, code, &bound)
+                ),
             };
             out.push(
                 Finding::new(
@@ -375,7 +496,14 @@ pub(crate) fn convert_value(schema: &Schema, code: &Code, doc: &Document, node: 
                     ),
                     range,
                 )
-                .with_related(if is_min { "minimum in the schema" } else { "maximum in the schema" }, f.loc.clone()),
+                .with_related(
+                    if is_min {
+                        "minimum in the schema"
+                    } else {
+                        "maximum in the schema"
+                    },
+                    f.loc.clone(),
+                ),
             );
             return None;
         }
@@ -383,27 +511,52 @@ pub(crate) fn convert_value(schema: &Schema, code: &Code, doc: &Document, node: 
     Some(Placed { raw, loc, members })
 }
 
-fn member_value(schema: &Schema, code: &Code, bf: &BitField, node: &NodeKind) -> Result<i64, ValueErr> {
-    let what = format!("{} bit field {}", schema.display_code(code.number, None), bf.name);
+fn member_value(
+    schema: &Schema,
+    code: &Code,
+    bf: &BitField,
+    node: &NodeKind,
+) -> Result<i64, ValueErr> {
+    let what = format!(
+        "{} bit field {}",
+        schema.display_code(code.number, None),
+        bf.name
+    );
     let width = bf.width().min(62);
     let max = (1i64 << width) - 1;
     let labels = bf.values.as_ref().and_then(|v| schema.enum_of(v));
     let from_int = |v: i128, text: &str| -> Result<i64, ValueErr> {
-        i64::try_from(v).ok().filter(|v| (0..=max).contains(v)).ok_or_else(|| {
-            verr(FindingKind::OutOfRange, format!("{what} = {text} does not fit in {width} bit(s) (0 ..= {max})"), format!("give a value from 0 to {max}"))
-        })
+        i64::try_from(v)
+            .ok()
+            .filter(|v| (0..=max).contains(v))
+            .ok_or_else(|| {
+                verr(
+                    FindingKind::OutOfRange,
+                    format!("{what} = {text} does not fit in {width} bit(s) (0 ..= {max})"),
+                    format!("give a value from 0 to {max}"),
+                )
+            })
     };
     match node {
         NodeKind::Bool(b) => {
             if width == 1 {
                 Ok(i64::from(*b))
             } else {
-                Err(verr(FindingKind::WrongType, format!("{what} has {width} bits; true/false is only for single-bit members"), format!("give a number from 0 to {max} or a label")))
+                Err(verr(
+                    FindingKind::WrongType,
+                    format!("{what} has {width} bits; true/false is only for single-bit members"),
+                    format!("give a number from 0 to {max} or a label"),
+                ))
             }
         }
         NodeKind::Num(t) => {
-            let v = crate::schema::parse_int_text(t)
-                .ok_or_else(|| verr(FindingKind::WrongType, format!("{what} needs an integer, found {t}"), "give a whole number or a label"))?;
+            let v = crate::schema::parse_int_text(t).ok_or_else(|| {
+                verr(
+                    FindingKind::WrongType,
+                    format!("{what} needs an integer, found {t}"),
+                    "give a whole number or a label",
+                )
+            })?;
             from_int(v, t)
         }
         NodeKind::Str(s) => {
@@ -414,32 +567,74 @@ fn member_value(schema: &Schema, code: &Code, bf: &BitField, node: &NodeKind) ->
                 return from_int(v, s);
             }
             match labels {
-                Some(l) => Err(verr(FindingKind::UnknownEnumLabel, format!("{what} has no label {s:?}"), format!("use one of: {}", quote_list(&l.labels())))),
-                None => Err(verr(FindingKind::WrongType, format!("{what} has no labels; found {s:?}"), format!("give a number from 0 to {max}"))),
+                Some(l) => Err(verr(
+                    FindingKind::UnknownEnumLabel,
+                    format!("{what} has no label {s:?}"),
+                    format!("use one of: {}", quote_list(&l.labels())),
+                )),
+                None => Err(verr(
+                    FindingKind::WrongType,
+                    format!("{what} has no labels; found {s:?}"),
+                    format!("give a number from 0 to {max}"),
+                )),
             }
         }
-        other => Err(verr(FindingKind::WrongType, format!("{what} needs a number, label or boolean, found {}", other.describe()), "give a plain value")),
+        other => Err(verr(
+            FindingKind::WrongType,
+            format!(
+                "{what} needs a number, label or boolean, found {}",
+                other.describe()
+            ),
+            "give a plain value",
+        )),
     }
 }
 
 /// Check the schema's cross-code rules on merged values.
-pub(crate) fn check_rules(schema: &Schema, merged: &BTreeMap<CodeKey, Placed>, out: &mut Vec<Finding>) {
+pub(crate) fn check_rules(
+    schema: &Schema,
+    merged: &BTreeMap<CodeKey, Placed>,
+    out: &mut Vec<Finding>,
+) {
     for rule in &schema.rules {
         match rule {
-            Rule::DistinctFields { code, fields, message, loc } => {
-                let (Some(c), Some(p)) = (schema.code(*code), merged.get(&CodeKey::new(*code))) else { continue };
+            Rule::DistinctFields {
+                code,
+                fields,
+                message,
+                loc,
+            } => {
+                let (Some(c), Some(p)) = (schema.code(*code), merged.get(&CodeKey::new(*code)))
+                else {
+                    continue;
+                };
                 let RawValue::Int(raw) = p.raw else { continue };
-                let members: Vec<&BitField> = fields.iter().filter_map(|f| c.bits.iter().find(|b| &b.name == f)).collect();
+                // a bit-field table compares only the members it names (unnamed ones are 0,
+                // "not given"); a plain number compares every field of the rule
+                let members: Vec<&BitField> = fields
+                    .iter()
+                    .filter(|f| p.members.is_empty() || p.members.iter().any(|(n, _)| n == *f))
+                    .filter_map(|f| c.bits.iter().find(|b| &b.name == f))
+                    .collect();
                 'outer: for (i, a) in members.iter().enumerate() {
                     for b in members.iter().skip(i + 1) {
                         let (va, vb) = (a.extract(raw), b.extract(raw));
                         if va == vb {
-                            let label = a.values.as_ref().and_then(|v| schema.enum_of(v)).and_then(|e| e.label(va));
+                            let label = a
+                                .values
+                                .as_ref()
+                                .and_then(|v| schema.enum_of(v))
+                                .and_then(|e| e.label(va));
                             let shown = match label {
                                 Some(l) => format!("{va} (\"{l}\")"),
                                 None => va.to_string(),
                             };
-                            let at = |name: &str| p.members.iter().find(|(n, _)| n == name).map(|(_, l)| l.clone());
+                            let at = |name: &str| {
+                                p.members
+                                    .iter()
+                                    .find(|(n, _)| n == name)
+                                    .map(|(_, l)| l.clone())
+                            };
                             let mut f = Finding::new(
                                 FindingKind::RuleViolation,
                                 at(&b.name).unwrap_or_else(|| p.loc.clone()),
@@ -455,10 +650,24 @@ pub(crate) fn check_rules(schema: &Schema, merged: &BTreeMap<CodeKey, Placed>, o
                     }
                 }
             }
-            Rule::LessOrEqual { left, right, message, loc } => {
-                let (Some(cl), Some(cr)) = (schema.code(*left), schema.code(*right)) else { continue };
-                let (Some(pl), Some(pr)) = (merged.get(&CodeKey::new(*left)), merged.get(&CodeKey::new(*right))) else { continue };
-                let (Some(tl), Some(tr)) = (schema.type_of(cl), schema.type_of(cr)) else { continue };
+            Rule::LessOrEqual {
+                left,
+                right,
+                message,
+                loc,
+            } => {
+                let (Some(cl), Some(cr)) = (schema.code(*left), schema.code(*right)) else {
+                    continue;
+                };
+                let (Some(pl), Some(pr)) = (
+                    merged.get(&CodeKey::new(*left)),
+                    merged.get(&CodeKey::new(*right)),
+                ) else {
+                    continue;
+                };
+                let (Some(tl), Some(tr)) = (schema.type_of(cl), schema.type_of(cr)) else {
+                    continue;
+                };
                 if eng_cmp(tl, &pl.raw, tr, &pr.raw) == Some(Ordering::Greater) {
                     out.push(
                         Finding::new(
@@ -471,9 +680,16 @@ pub(crate) fn check_rules(schema: &Schema, merged: &BTreeMap<CodeKey, Placed>, o
                                 schema.display_code(*right, None),
                                 display_value(schema, cr, &pr.raw)
                             ),
-                            format!("lower {} or raise {}", schema.display_code(*left, None), schema.display_code(*right, None)),
+                            format!(
+                                "lower {} or raise {}",
+                                schema.display_code(*left, None),
+                                schema.display_code(*right, None)
+                            ),
                         )
-                        .with_related(format!("{} set here", schema.display_code(*right, None)), pr.loc.clone())
+                        .with_related(
+                            format!("{} set here", schema.display_code(*right, None)),
+                            pr.loc.clone(),
+                        )
                         .with_related("rule stated here", loc.clone()),
                     );
                 }
@@ -516,5 +732,6 @@ pub(crate) fn suggest(schema: &Schema, key: &str) -> Option<String> {
             }
         }
     }
-    best.filter(|(d, n)| *d <= (n.chars().count() / 3).max(2)).map(|(_, n)| n.to_string())
+    best.filter(|(d, n)| *d <= (n.chars().count() / 3).max(2))
+        .map(|(_, n)| n.to_string())
 }

@@ -164,11 +164,14 @@ impl ValueType {
                 4 => (0, 0xFFFF_FFFF),
                 _ => return None,
             },
-            ValueType::BITCODED | ValueType::PT_MC_ERROR | ValueType::PT_FLOAT_IEEE => (0, 0xFFFF_FFFF),
-            ValueType::PT_USIGN8 | ValueType::PT_BINARY8 => (0, 0xFF),
-            ValueType::PT_USIGN16 | ValueType::PT_PASSWORD | ValueType::PT_FIXPOINT16 | ValueType::PT_VF_ERROR => {
-                (0, 0xFFFF)
+            ValueType::BITCODED | ValueType::PT_MC_ERROR | ValueType::PT_FLOAT_IEEE => {
+                (0, 0xFFFF_FFFF)
             }
+            ValueType::PT_USIGN8 | ValueType::PT_BINARY8 => (0, 0xFF),
+            ValueType::PT_USIGN16
+            | ValueType::PT_PASSWORD
+            | ValueType::PT_FIXPOINT16
+            | ValueType::PT_VF_ERROR => (0, 0xFFFF),
             ValueType::PT_INTEGER16 => (i16::MIN as i64, i16::MAX as i64),
             ValueType::VS | ValueType::VO => return None,
         })
@@ -227,8 +230,16 @@ pub fn decimal_to_raw(ty: ValueType, width: Option<u8>, value: &Decimal) -> Resu
     let raw = match value.times_factor(i128::from(factor)) {
         Ok(r) => r,
         Err(Some((lo, hi))) => {
-            let show = |k: i128| Decimal::from_ratio(k, factor).map(|d| d.to_string()).unwrap_or_default();
-            return Err(ConvError::Unrepresentable { step: ty.step_text(), lower: show(lo), upper: show(hi) });
+            let show = |k: i128| {
+                Decimal::from_ratio(k, factor)
+                    .map(|d| d.to_string())
+                    .unwrap_or_default()
+            };
+            return Err(ConvError::Unrepresentable {
+                step: ty.step_text(),
+                lower: show(lo),
+                upper: show(hi),
+            });
         }
         Err(None) => return Err(out_of_range(ty, width)),
     };
@@ -265,15 +276,16 @@ pub fn parse_radix_int(text: &str) -> Option<Result<i128, ()>> {
         Some(r) => (true, r),
         None => (false, t.strip_prefix('+').unwrap_or(t)),
     };
-    let (radix, digits) = if let Some(d) = body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
-        (16, d)
-    } else if let Some(d) = body.strip_prefix("0o") {
-        (8, d)
-    } else if let Some(d) = body.strip_prefix("0b") {
-        (2, d)
-    } else {
-        return None;
-    };
+    let (radix, digits) =
+        if let Some(d) = body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
+            (16, d)
+        } else if let Some(d) = body.strip_prefix("0o") {
+            (8, d)
+        } else if let Some(d) = body.strip_prefix("0b") {
+            (2, d)
+        } else {
+            return None;
+        };
     let clean: String = digits.chars().filter(|c| *c != '_').collect();
     if clean.is_empty() || clean.len() > 32 || digits.starts_with('_') || digits.ends_with('_') {
         return Some(Err(()));
@@ -293,7 +305,8 @@ pub fn float_text_to_raw(text: &str) -> Result<i64, Option<ConvError>> {
     let t: String = text.trim().chars().filter(|c| *c != '_').collect();
     let plain = !t.is_empty()
         && t.len() <= 400
-        && t.chars().all(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-'))
+        && t.chars()
+            .all(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-'))
         && t.chars().any(|c| c.is_ascii_digit());
     if !plain {
         return Err(None);
@@ -324,7 +337,12 @@ pub fn parse_octets(text: &str) -> Option<Vec<u8>> {
     if t.len() % 2 != 0 || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
         return None;
     }
-    (0..t.len() / 2).map(|i| t.get(2 * i..2 * i + 2).and_then(|h| u8::from_str_radix(h, 16).ok())).collect()
+    (0..t.len() / 2)
+        .map(|i| {
+            t.get(2 * i..2 * i + 2)
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -343,13 +361,23 @@ mod tests {
         assert_eq!(raw(ValueType::VD, "1.2345"), Ok(12345));
         assert_eq!(
             raw(ValueType::VD, "1.23456"),
-            Err(ConvError::Unrepresentable { step: "0.0001", lower: "1.2345".into(), upper: "1.2346".into() })
+            Err(ConvError::Unrepresentable {
+                step: "0.0001",
+                lower: "1.2345".into(),
+                upper: "1.2346".into()
+            })
         );
         assert_eq!(
             raw(ValueType::VD, "214748.3648"),
-            Err(ConvError::OutOfRange { min: "-214748.3648".into(), max: "214748.3647".into() })
+            Err(ConvError::OutOfRange {
+                min: "-214748.3648".into(),
+                max: "214748.3647".into()
+            })
         );
-        assert_eq!(raw_to_engineering(ValueType::VD, -2_147_483_648), "-214748.3648");
+        assert_eq!(
+            raw_to_engineering(ValueType::VD, -2_147_483_648),
+            "-214748.3648"
+        );
         assert_eq!(raw_to_engineering(ValueType::VD, 500_000), "50");
     }
 
@@ -357,7 +385,10 @@ mod tests {
     fn fix32_same_as_vd() {
         assert_eq!(raw(ValueType::FIX32, "-0.0001"), Ok(-1));
         assert_eq!(raw(ValueType::FIX32, "-0"), Ok(0));
-        assert_eq!(raw_to_engineering(ValueType::FIX32, 2_147_483_647), "214748.3647");
+        assert_eq!(
+            raw_to_engineering(ValueType::FIX32, 2_147_483_647),
+            "214748.3647"
+        );
     }
 
     #[test]
@@ -367,13 +398,23 @@ mod tests {
         assert_eq!(raw(ValueType::PT_FIXPOINT16, "0"), Ok(0));
         assert_eq!(
             raw(ValueType::PT_FIXPOINT16, "0.07"),
-            Err(ConvError::Unrepresentable { step: "0.05", lower: "0.05".into(), upper: "0.1".into() })
+            Err(ConvError::Unrepresentable {
+                step: "0.05",
+                lower: "0.05".into(),
+                upper: "0.1".into()
+            })
         );
         assert_eq!(
             raw(ValueType::PT_FIXPOINT16, "-0.05"),
-            Err(ConvError::OutOfRange { min: "0".into(), max: "3276.75".into() })
+            Err(ConvError::OutOfRange {
+                min: "0".into(),
+                max: "3276.75".into()
+            })
         );
-        assert_eq!(raw_to_engineering(ValueType::PT_FIXPOINT16, 65535), "3276.75");
+        assert_eq!(
+            raw_to_engineering(ValueType::PT_FIXPOINT16, 65535),
+            "3276.75"
+        );
         assert_eq!(raw_to_engineering(ValueType::PT_FIXPOINT16, 3), "0.15");
     }
 
@@ -381,7 +422,10 @@ mod tests {
     fn int32q16_exact_nearest() {
         assert_eq!(raw(ValueType::PT_INT32Q16, "1"), Ok(65536));
         assert_eq!(raw(ValueType::PT_INT32Q16, "0.0000152587890625"), Ok(1));
-        assert_eq!(raw(ValueType::PT_INT32Q16, "-32768"), Ok(i64::from(i32::MIN)));
+        assert_eq!(
+            raw(ValueType::PT_INT32Q16, "-32768"),
+            Ok(i64::from(i32::MIN))
+        );
         assert_eq!(
             raw(ValueType::PT_INT32Q16, "333.254"),
             Err(ConvError::Unrepresentable {
@@ -390,7 +434,10 @@ mod tests {
                 upper: "333.2540130615234375".into(),
             })
         );
-        assert_eq!(raw_to_engineering(ValueType::PT_INT32Q16, i64::from(i32::MAX)), "32767.9999847412109375");
+        assert_eq!(
+            raw_to_engineering(ValueType::PT_INT32Q16, i64::from(i32::MAX)),
+            "32767.9999847412109375"
+        );
     }
 
     #[test]
@@ -408,22 +455,43 @@ mod tests {
             (VH, "0", "65535"),
         ];
         for (ty, lo, hi) in cases {
-            assert_eq!(raw(ty, lo).map(|r| r.to_string()), Ok(lo.to_string()), "{ty:?}");
-            assert_eq!(raw(ty, hi).map(|r| r.to_string()), Ok(hi.to_string()), "{ty:?}");
+            assert_eq!(
+                raw(ty, lo).map(|r| r.to_string()),
+                Ok(lo.to_string()),
+                "{ty:?}"
+            );
+            assert_eq!(
+                raw(ty, hi).map(|r| r.to_string()),
+                Ok(hi.to_string()),
+                "{ty:?}"
+            );
             let below = (Decimal::parse(lo).unwrap().mantissa() - 1).to_string();
             assert_eq!(
                 raw(ty, &below),
-                Err(ConvError::OutOfRange { min: lo.into(), max: hi.into() }),
+                Err(ConvError::OutOfRange {
+                    min: lo.into(),
+                    max: hi.into()
+                }),
                 "{ty:?}"
             );
         }
         assert_eq!(
             raw(PT_USIGN8, "1.5"),
-            Err(ConvError::Unrepresentable { step: "1", lower: "1".into(), upper: "2".into() })
+            Err(ConvError::Unrepresentable {
+                step: "1",
+                lower: "1".into(),
+                upper: "2".into()
+            })
         );
         assert_eq!(raw(PT_USIGN8, "2.000"), Ok(2));
-        assert_eq!(decimal_to_raw(VH, Some(1), &Decimal::from_int(256)).is_err(), true);
-        assert_eq!(decimal_to_raw(VH, Some(4), &Decimal::from_int(0xFFFF_FFFF)), Ok(0xFFFF_FFFF));
+        assert_eq!(
+            decimal_to_raw(VH, Some(1), &Decimal::from_int(256)).is_err(),
+            true
+        );
+        assert_eq!(
+            decimal_to_raw(VH, Some(4), &Decimal::from_int(0xFFFF_FFFF)),
+            Ok(0xFFFF_FFFF)
+        );
         assert_eq!(ValueType::VH.raw_range(Some(3)), None);
     }
 
@@ -432,19 +500,34 @@ mod tests {
         assert_eq!(float_text_to_raw("1.5"), Ok(0x3FC0_0000));
         assert_eq!(float_text_to_raw("-0"), Ok(0x8000_0000));
         assert_eq!(float_text_to_raw("0.1"), Ok(0x3DCC_CCCD));
-        assert_eq!(raw_to_engineering(ValueType::PT_FLOAT_IEEE, 0x3DCC_CCCD), "0.1");
-        assert_eq!(raw_to_engineering(ValueType::PT_FLOAT_IEEE, 0x8000_0000), "-0");
+        assert_eq!(
+            raw_to_engineering(ValueType::PT_FLOAT_IEEE, 0x3DCC_CCCD),
+            "0.1"
+        );
+        assert_eq!(
+            raw_to_engineering(ValueType::PT_FLOAT_IEEE, 0x8000_0000),
+            "-0"
+        );
         assert_eq!(float_text_to_raw("nan"), Err(None));
         assert_eq!(float_text_to_raw("inf"), Err(None));
-        assert!(matches!(float_text_to_raw("1e39"), Err(Some(ConvError::OutOfRange { .. }))));
+        assert!(matches!(
+            float_text_to_raw("1e39"),
+            Err(Some(ConvError::OutOfRange { .. }))
+        ));
         assert_eq!(float_text_to_raw("3.4028235e38"), Ok(0x7F7F_FFFF));
     }
 
     #[test]
     fn text_and_octets() {
         assert_eq!(check_vs_text("33STMD-M_12000"), Ok(()));
-        assert_eq!(check_vs_text("abcdefghijklmnopqrstu"), Err("21 characters, at most 20 allowed".into()));
-        assert_eq!(check_vs_text("\u{e9}"), Err("character 'é' is not visible ASCII".into()));
+        assert_eq!(
+            check_vs_text("abcdefghijklmnopqrstu"),
+            Err("21 characters, at most 20 allowed".into())
+        );
+        assert_eq!(
+            check_vs_text("\u{e9}"),
+            Err("character 'é' is not visible ASCII".into())
+        );
         assert_eq!(parse_octets("0x0aFF"), Some(vec![0x0a, 0xff]));
         assert_eq!(parse_octets("abc"), None);
         assert_eq!(parse_radix_int("0x03_41"), Some(Ok(0x341)));
