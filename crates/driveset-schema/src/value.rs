@@ -334,7 +334,7 @@ pub fn check_vs_text(text: &str) -> Result<(), String> {
 pub fn parse_octets(text: &str) -> Option<Vec<u8>> {
     let t = text.trim();
     let t = t.strip_prefix("0x").unwrap_or(t);
-    if t.len() % 2 != 0 || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
+    if !t.len().is_multiple_of(2) || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
         return None;
     }
     (0..t.len() / 2)
@@ -485,8 +485,8 @@ mod tests {
         );
         assert_eq!(raw(PT_USIGN8, "2.000"), Ok(2));
         assert_eq!(
-            decimal_to_raw(VH, Some(1), &Decimal::from_int(256)).is_err(),
-            true
+            decimal_to_raw(VH, Some(1), &Decimal::from_int(256)),
+            Err(ConvError::OutOfRange { min: "0".into(), max: "255".into() })
         );
         assert_eq!(
             decimal_to_raw(VH, Some(4), &Decimal::from_int(0xFFFF_FFFF)),

@@ -1,0 +1,149 @@
+//! `schema check` findings and schema loading errors.
+
+use driveset_schema::error::SourceFile;
+use driveset_schema::*;
+
+fn check(text: &str) -> Vec<(String, usize, usize)> {
+    let mut r = Registry::builtin().unwrap();
+    let s = r.add_source(SourceFile::new("x.toml", text)).expect("schema parses");
+    check_schema(&s).into_iter().map(|f| (f.message, f.location.line, f.location.column)).collect()
+}
+
+const HEAD: &str = "[schema]\nid = \"fictional-x\"\ntitle = \"FICTIONAL: x\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n";
+
+#[test]
+fn fixture_and_builtins_check() {
+    let mut r = Registry::builtin().unwrap();
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/fictional-test.toml");
+    let s = r.load_file(&p).unwrap();
+    assert_eq!(check_schema(&s), vec![]);
+    // built-ins are being written by others: only require that checking them does not fail
+    for s in r.schemas() {
+        let _ = check_schema(s);
+    }
+}
+
+#[test]
+fn every_schema_check() {
+    let text = format!(
+        "{HEAD}
+[[code]]
+number = 1
+name = \"a\"
+title = \"A\"
+spec = \"s\"
+type = \"PT_USIGN8\"
+min = \"10\"
+max = \"5\"
+default = \"300\"
+[code.values]
+0 = \"Off\"
+1 = \"off\"
+256 = \"Big\"
+
+[[code]]
+number = 1
+name = \"a\"
+title = \"A again\"
+spec = \"s\"
+type = \"NOPE\"
+
+[[code]]
+number = 2
+name = \"b\"
+aliases = [\"a\"]
+title = \"B\"
+spec = \"s\"
+type = \"PT_FIXPOINT16\"
+default = \"0.07\"
+values_ref = \"missing\"
+
+[[code]]
+number = 3
+name = \"c\"
+title = \"C\"
+spec = \"s\"
+type = \"PT_BINARY8\"
+[[code.bits]]
+name = \"x\"
+bits = [0, 3]
+[[code.bits]]
+name = \"y\"
+bits = [2, 9]
+
+[[rule]]
+kind = \"less-or-equal\"
+left = 1
+right = 99
+message = \"m\"
+"
+    );
+    let got = check(&text);
+    let want: Vec<(String, usize, usize)> = vec![
+        ("code 1: `default` is invalid: C0001 = 300 is outside the range of PT_USIGN8 (0 ..= 255)".into(), 16, 11),
+        ("code 1: min is greater than max".into(), 14, 7),
+        ("label \"off\" appears twice in code 1".into(), 19, 1),
+        ("code 1: value 256 (\"Big\") is outside the raw range 0 ..= 255".into(), 20, 1),
+        ("code 1 is defined twice".into(), 23, 10),
+        ("name `a` of code 1 is already used by code 1".into(), 24, 8),
+        ("code 1: unknown type `NOPE`".into(), 27, 8),
+        ("name `a` of code 2 is already used by code 1".into(), 32, 12),
+        ("code 2: `default` is invalid: C0002 = 0.07 is not representable in steps of 0.05; nearest are 0.05 and 0.1".into(), 36, 11),
+        ("code 2 refers to unknown enumeration `missing`".into(), 37, 14),
+        ("code 3 bit field y: bit 9 is outside the 8-bit value".into(), 50, 8),
+        ("code 3: bit field y overlaps x".into(), 50, 8),
+        ("rule refers to unknown code 99".into(), 53, 8),
+    ];
+    assert_eq!(got, want);
+}
+
+#[test]
+fn fictional_marking() {
+    let t = "[schema]\nid = \"fictional-y\"\ntitle = \"FICTIONAL: y\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n";
+    assert_eq!(
+        check(t),
+        vec![("schema `fictional-y` is named fictional- but not marked `fictional = true`".into(), 1, 1)]
+    );
+    let t = "[schema]\nid = \"real\"\ntitle = \"Real\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n";
+    assert_eq!(
+        check(t),
+        vec![
+            ("schema `real` is marked fictional but its id does not start with `fictional-`".into(), 6, 13),
+            ("fixture schema `real` has a title not starting with FICTIONAL".into(), 2, 6),
+        ]
+    );
+}
+
+#[test]
+fn fixture_extends_fills_unset_facts() {
+    let mut r = Registry::builtin().unwrap();
+    r.add_source(SourceFile::new(
+        "base.toml",
+        "[schema]\nid = \"basey\"\ntitle = \"Base\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n[[code]]\nnumber = 5\nname = \"five\"\ntitle = \"Five\"\nspec = \"s\"\nunit = \"Hz\"\n",
+    ))
+    .unwrap();
+    let s = r
+        .add_source(SourceFile::new(
+            "fx.toml",
+            "[schema]\nid = \"fictional-basey\"\ntitle = \"FICTIONAL: b\"\nextends = \"basey\"\nfictional = true\n[[code]]\nnumber = 5\ntype = \"VD\"\nunit = \"rpm\"\n[[code]]\nnumber = 6\nname = \"six\"\ntitle = \"Six\"\nspec = \"f\"\ntype = \"VD\"\n",
+        ))
+        .unwrap();
+    let five = s.code(5).unwrap();
+    assert_eq!((five.unit.as_deref(), s.type_of(five)), (Some("Hz"), Some(ValueType::VD)));
+    assert!(s.code_by_name("six").is_some());
+    let f: Vec<String> = check_schema(&s).into_iter().map(|f| f.message).collect();
+    assert_eq!(f, vec!["fixture changes `unit` of code 5, which the base schema already gives".to_string()]);
+    let e = r
+        .add_source(SourceFile::new("fx2.toml", "[schema]\nid = \"fictional-q\"\ntitle = \"FICTIONAL\"\nextends = \"nope\"\nfictional = true\n"))
+        .unwrap_err();
+    assert_eq!((e.message.as_str(), e.location.line, e.location.column), ("base schema `nope` is not known", 4, 11));
+}
+
+#[test]
+fn schema_structure_errors() {
+    let mut r = Registry::new();
+    let e = r.add_source(SourceFile::new("s.toml", "[schema]\nid = \"a\"\ntitle = \"t\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n[[code]]\nnumber = 1\nnmae = \"x\"\n")).unwrap_err();
+    assert_eq!((e.message.as_str(), e.location.line, e.location.column), ("unknown key `nmae` in code 1", 8, 1));
+    let e = r.add_source(SourceFile::new("s.toml", "[schema]\nid = \"a\"\ntitle = \"t\"\nprotocol = \"can\"\n")).unwrap_err();
+    assert_eq!(e.message, "unknown protocol `can`");
+}
