@@ -15,6 +15,23 @@
 //! retries are the codecs' (driveset-proto) and the engine's business.
 //! Receive deadlines are [`Instant`]s of the link's own [`ByteLink::clock`]
 //! / [`FrameLink::clock`].
+//!
+//! A request and its reply on an in-memory line, in virtual time:
+//!
+//! ```
+//! use driveset_link::{ByteLink, Clock, Instant, VirtualClock, mem};
+//!
+//! let clock = VirtualClock::new();
+//! let (mut host, mut drive) = mem::byte_pair(&clock, 9600)?;
+//! host.send(b"\x04@00091\x05")?; // 8 characters: 8 x 10 / 9600 s
+//! let mut buf = [0u8; 32];
+//! let n = drive.recv(&mut buf, clock.deadline_in(std::time::Duration::from_millis(100)))?;
+//! assert_eq!(&buf[..n], b"\x04@00091\x05");
+//! assert_eq!(clock.now(), Instant::from_nanos(8_333_333));
+//! # Ok::<(), driveset_link::LinkError>(())
+//! ```
+
+#![warn(missing_docs)]
 
 pub mod clock;
 pub mod error;

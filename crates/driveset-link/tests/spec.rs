@@ -381,3 +381,43 @@ fn error_messages_carry_input_and_remedy() {
         "invalid port `sim://vf1000`: `sim://` needs addresses= (the simulated drives' bus addresses), e.g. sim://lust-vf1000?addresses=1,2,3"
     );
 }
+
+mod properties {
+    use driveset_link::PortSpec;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any input gives a spec or an error, never a panic; a spec's
+        /// canonical string parses back to the same spec.
+        #[test]
+        fn parse_never_panics_and_round_trips(input in ".{0,40}") {
+            if let Ok(spec) = PortSpec::parse(&input) {
+                prop_assert_eq!(PortSpec::parse(&spec.to_string()), Ok(spec));
+            }
+        }
+
+        #[test]
+        fn generated_specs_round_trip(
+            scheme in 0usize..5,
+            name in "[a-z][a-z0-9_-]{0,10}",
+            port in 1u16..,
+            baud in prop::sample::select(driveset_link::spec::ALLOWED_BAUDS),
+            bitrate in prop::sample::select(driveset_link::spec::ALLOWED_BITRATES),
+            addresses in prop::collection::btree_set(any::<u8>(), 1..5),
+        ) {
+            let addresses: Vec<String> = addresses.iter().map(u8::to_string).collect();
+            let input = match scheme {
+                0 => format!("/dev/{name}?baud={baud}"),
+                1 => format!("tcp://{name}:{port}?baud={baud}"),
+                2 => format!("slcan:///dev/{name}?bitrate={bitrate}"),
+                3 => format!("can://{name}?bitrate={bitrate}"),
+                _ => format!("sim://{name}?addresses={}&baud={baud}", addresses.join(",")),
+            };
+            let spec = PortSpec::parse(&input);
+            prop_assert!(spec.is_ok(), "{input}: {spec:?}");
+            if let Ok(spec) = spec {
+                prop_assert_eq!(spec.to_string(), input);
+            }
+        }
+    }
+}
