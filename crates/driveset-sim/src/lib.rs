@@ -1,1 +1,20 @@
-//! driveset-sim (under construction).
+//! driveset-sim: simulated drives of all four families, on an in-process
+//! bus with wire timing in virtual time, seeded fault injection and an event
+//! log; and serving them on a pseudo terminal or a TCP port in real time.
+//!
+//! The cut:
+//! - [`drive`]: the contract between a bus and a family model
+//!   ([`drive::ByteDrive`] for LUSTBUS / LECOM, [`drive::FrameDrive`] for
+//!   CAN), plus reaction-time settings.
+//! - [`rng`]: the seeded generator every random choice comes from, so a run
+//!   is reproducible from its seed.
+//!
+//! Family models answer exactly what the vendor specs describe; facts the
+//! specs do not give (the simulator's parameter tables beyond the named
+//! codes, reaction times of the Lenze families) come from fixture schemas
+//! and settings that say they are fictional.
+
+pub mod catalog;
+pub mod drive;
+pub mod rng;
+pub mod table;

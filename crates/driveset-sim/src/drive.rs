@@ -1,0 +1,152 @@
+//! The contract between a simulated bus and a family model.
+//!
+//! A bus hands every character (LUSTBUS / LECOM) or frame (CAN) that
+//! appears on the line to every drive on it, in order, with the instant the
+//! character's stop bit ended. A drive answers a telegram addressed to it
+//! with a [`Reply`] (or [`FrameReply`]): the bytes it puts on the line and
+//! its reaction time, counted from the end of the host telegram to the
+//! start of the reply. The bus schedules the reply's characters on the
+//! line (10 bit times each at the line's baud), applies fault injection,
+//! and logs both directions.
+//!
+//! A model owns its parameter table (loaded from a schema and, for codes
+//! the specs do not document, a fixture schema marked fictional), its
+//! decoder state, and its own seeded [`crate::rng::SimRng`].
+
+use std::time::Duration;
+
+use driveset_link::Instant;
+use driveset_proto::can::CanFrame;
+use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+
+use crate::rng::SimRng;
+
+/// What a drive puts on the line in answer to a host telegram.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Reply {
+    /// The reply's characters (7-bit).
+    pub bytes: Vec<u8>,
+    /// From the end of the host telegram to the first reply character.
+    pub reaction: Duration,
+}
+
+/// What a drive made of one character it heard.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Heard {
+    /// The character did not complete a telegram (or was noise).
+    Nothing,
+    /// The character completed a host telegram (addressed to this drive or
+    /// not); `reply` is the drive's answer, if it answers.
+    Telegram {
+        /// The answer, if any (none for broadcasts, other addresses, bad
+        /// frames the spec says go unanswered, a drive that is booting).
+        reply: Option<Reply>,
+    },
+}
+
+/// A simulated drive on a character line (LUSTBUS, LECOM-A/B).
+pub trait ByteDrive: Send + std::fmt::Debug {
+    /// The drive family (`"mc6000"`, `"vf1000"`, `"tmd"`), for logs.
+    fn family(&self) -> &'static str;
+
+    /// The drive's bus address.
+    fn address(&self) -> u8;
+
+    /// One character from the line, parity bit already stripped; `now` is
+    /// the end of the character's stop bit.
+    fn hear(&mut self, now: Instant, byte: u8) -> Heard;
+
+    /// Power is cut at `now` and comes back after `off`: volatile state is
+    /// lost (RAM values back to factory values, decoder reset), the drive
+    /// answers nothing until it has booted, and the family's power-on
+    /// indication (LUSTBUS SIOF/SERR bit 0) is set.
+    fn power_cycle(&mut self, now: Instant, off: Duration);
+
+    /// Every parameter value the drive holds now, raw, keyed by code.
+    fn state(&self) -> ResolvedSet;
+
+    /// Set a value directly, bypassing the protocol (tests, `status` drift
+    /// demos). Refused with a message for an unknown code.
+    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String>;
+
+    /// Whether the drive's motor is running (LUSTBUS control word, LECOM
+    /// C0150 / C0068); a running drive refuses some writes.
+    fn running(&self) -> bool;
+
+    /// Start or stop the motor (test hook for the refusal rules).
+    fn set_running(&mut self, running: bool);
+}
+
+/// What a CAN node sends in answer to a frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FrameReply {
+    /// The answer frame.
+    pub frame: CanFrame,
+    /// From the end of the request frame to the start of the answer.
+    pub reaction: Duration,
+}
+
+/// A simulated node on a CAN bus (Lenze system bus, SDO server).
+pub trait FrameDrive: Send + std::fmt::Debug {
+    /// The drive family (`"ecs"`), for logs.
+    fn family(&self) -> &'static str;
+
+    /// The node id (1..=127).
+    fn node_id(&self) -> u8;
+
+    /// One frame from the bus; `now` is the end of the frame.
+    fn hear(&mut self, now: Instant, frame: &CanFrame) -> Option<FrameReply>;
+
+    /// Power cut at `now`, back after `off` (see [`ByteDrive::power_cycle`]).
+    fn power_cycle(&mut self, now: Instant, off: Duration);
+
+    /// Every parameter value the drive holds now, raw, keyed by code.
+    fn state(&self) -> ResolvedSet;
+
+    /// Set a value directly, bypassing the protocol.
+    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String>;
+}
+
+/// A device reaction time range, drawn uniformly per telegram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReactionTime {
+    /// Shortest reaction.
+    pub min: Duration,
+    /// Longest reaction.
+    pub max: Duration,
+}
+
+impl ReactionTime {
+    /// A range in milliseconds.
+    pub const fn ms(min: u64, max: u64) -> Self {
+        ReactionTime {
+            min: Duration::from_millis(min),
+            max: Duration::from_millis(max),
+        }
+    }
+
+    /// MASTERCONTROL MC6000/7000 without KEYPAD: 1..25 ms (LUSTBUS section 10).
+    pub const MC_WITHOUT_KEYPAD: ReactionTime = ReactionTime::ms(1, 25);
+    /// MASTERCONTROL MC6000/7000 with KEYPAD: 1..30 ms (LUSTBUS section 10).
+    pub const MC_WITH_KEYPAD: ReactionTime = ReactionTime::ms(1, 30);
+    /// SMARTDRIVE VF1000 without KEYPAD: 1..30 ms (LUSTBUS section 10).
+    pub const VF_WITHOUT_KEYPAD: ReactionTime = ReactionTime::ms(1, 30);
+    /// SMARTDRIVE VF1000 with KEYPAD: 1..60 ms (LUSTBUS section 10).
+    pub const VF_WITH_KEYPAD: ReactionTime = ReactionTime::ms(1, 60);
+    /// Lenze Tmd: the LECOM manual gives no reaction time. FICTIONAL
+    /// simulator default, configurable.
+    pub const TMD_ASSUMED: ReactionTime = ReactionTime::ms(1, 20);
+    /// Lenze ECS SDO server: the excerpt gives no reaction time. FICTIONAL
+    /// simulator default, configurable.
+    pub const ECS_ASSUMED: ReactionTime = ReactionTime::ms(1, 2);
+
+    /// A fixed reaction (min = max), for exact-timing tests.
+    pub const fn fixed(d: Duration) -> Self {
+        ReactionTime { min: d, max: d }
+    }
+
+    /// Draw one reaction time.
+    pub fn draw(&self, rng: &mut SimRng) -> Duration {
+        rng.duration(self.min, self.max)
+    }
+}
