@@ -42,6 +42,8 @@ mod flags;
 pub mod codec;
 pub mod description;
 pub mod frame;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod posmod;
 pub mod siof;
 pub mod stream;
