@@ -53,8 +53,11 @@ pub trait ByteDrive: Send + std::fmt::Debug {
     fn address(&self) -> u8;
 
     /// One character from the line, parity bit already stripped; `now` is
-    /// the end of the character's stop bit.
-    fn hear(&mut self, now: Instant, byte: u8) -> Heard;
+    /// the end of the character's stop bit. `parity_ok` is false when the
+    /// character arrived with a parity error (the bus's fault injection
+    /// flipped a bit of it): LECOM drives answer such a RECEIVE with "?",
+    /// LUSTBUS drives treat the telegram as broken.
+    fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard;
 
     /// Power is cut at `now` and comes back after `off`: volatile state is
     /// lost (RAM values back to factory values, decoder reset), the drive
@@ -75,6 +78,13 @@ pub trait ByteDrive: Send + std::fmt::Debug {
 
     /// Start or stop the motor (test hook for the refusal rules).
     fn set_running(&mut self, running: bool);
+
+    /// A new line rate the drive switched to since the last call (MC6000
+    /// 4-PROG = 111 activates a new 81-SBAUD at once, LUSTBUS 11.5); the bus
+    /// then runs that drive's replies at the new rate.
+    fn take_baud_change(&mut self) -> Option<u32> {
+        None
+    }
 }
 
 /// What a CAN node sends in answer to a frame.
