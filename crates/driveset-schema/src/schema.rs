@@ -215,6 +215,8 @@ pub struct Code {
     pub loc: Location,
     /// Where `name` is.
     pub name_loc: Option<Location>,
+    /// min/max as raw values, computed on first use.
+    pub(crate) bounds: std::sync::OnceLock<(Option<RawValue>, Option<RawValue>)>,
 }
 
 /// A cross-code rule (`[[rule]]`).
@@ -719,6 +721,7 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         values,
         bits,
         loc,
+        bounds: std::sync::OnceLock::new(),
     };
     r.finish()?;
     Ok(code)

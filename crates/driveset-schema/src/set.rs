@@ -133,17 +133,18 @@ fn load_source(
     let mut merged: BTreeMap<CodeKey, Placed> = BTreeMap::new();
     for l in &layers {
         let Some(values) = &l.values else { continue };
-        let mut seen: HashMap<CodeKey, (String, Location)> = HashMap::new();
+        let mut seen: HashMap<CodeKey, (&str, std::ops::Range<usize>)> = HashMap::new();
         for e in values.entries() {
             let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
                 continue;
             };
-            let kloc = l.doc.loc(&e.key_span);
-            if let Some((first, floc)) = seen.get(&key) {
+            let kloc = || l.doc.loc(&e.key_span);
+            if let Some((first, fspan)) = seen.get(&key) {
+                let floc = l.doc.loc(fspan);
                 findings.push(
                     Finding::new(
                         FindingKind::DuplicateCode,
-                        kloc,
+                        kloc(),
                         format!(
                             "{} is given twice in this file: as `{first}` (line {}) and as `{}`",
                             schema.display_code(key.number, key.subcode),
@@ -156,11 +157,11 @@ fn load_source(
                 );
                 continue;
             }
-            seen.insert(key, (e.key.clone(), kloc.clone()));
+            seen.insert(key, (e.key.as_str(), e.key_span.clone()));
             if code.access == Some(Access::Ro) {
                 findings.push(Finding::new(
                     FindingKind::ReadOnly,
-                    kloc,
+                    kloc(),
                     format!(
                         "{} ({}) is read-only; a set cannot write it",
                         schema.display_code(key.number, key.subcode),

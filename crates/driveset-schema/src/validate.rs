@@ -33,11 +33,38 @@ fn verr(kind: FindingKind, message: impl Into<String>, help: impl Into<String>) 
 
 /// A converted value with where it came from (for rule findings).
 #[derive(Debug, Clone)]
-pub(crate) struct Placed {
+pub(crate) struct Placed<'d> {
     pub raw: RawValue,
-    pub loc: Location,
-    /// Bit-field members given by name, with their value locations.
-    pub members: Vec<(String, Location)>,
+    /// The file the value is in.
+    pub doc: &'d Document,
+    /// Span of the value.
+    pub span: std::ops::Range<usize>,
+    /// Bit-field members given by name, with their value spans.
+    pub members: Vec<(String, std::ops::Range<usize>)>,
+}
+
+impl Placed<'_> {
+    pub fn loc(&self) -> Location {
+        self.doc.loc(&self.span)
+    }
+}
+
+/// `C0011` (lazily formatted).
+struct CodeName<'a>(&'a Schema, u32);
+
+impl std::fmt::Display for CodeName<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0.display_code(self.1, None))
+    }
+}
+
+/// `C0011 (VD)` (lazily formatted).
+struct TypeDesc<'a>(&'a Schema, &'a Code, ValueType);
+
+impl std::fmt::Display for TypeDesc<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", self.0.display_code(self.1.number, None), self.2.name())
+    }
 }
 
 /// Engineering text of a raw value with unit and label, for messages and diffs.
@@ -100,9 +127,6 @@ pub(crate) fn fact_to_raw(
     scalar_to_raw(schema, code, ty, value, false).map_err(|e| e.message)
 }
 
-fn type_desc(schema: &Schema, code: &Code, ty: ValueType) -> String {
-    format!("{} ({})", schema.display_code(code.number, None), ty.name())
-}
 
 /// Split `"60.0 Hz"` into (`60.0`, `Hz`).
 fn split_unit(s: &str) -> (&str, &str) {
@@ -156,7 +180,7 @@ fn conv_err(schema: &Schema, code: &Code, text: &str, e: ConvError) -> ValueErr 
 
 /// Number text (decimal or radix literal) to raw for a type.
 fn number_to_raw(schema: &Schema, code: &Code, ty: ValueType, text: &str) -> Result<i64, ValueErr> {
-    let what = type_desc(schema, code, ty);
+    let what = TypeDesc(schema, code, ty);
     if let Some(r) = parse_radix_int(text) {
         if !ty.accepts_hex() {
             return Err(verr(
@@ -210,7 +234,7 @@ fn scalar_to_raw(
     node: &NodeKind,
     check_unit: bool,
 ) -> Result<RawValue, ValueErr> {
-    let what = type_desc(schema, code, ty);
+    let what = TypeDesc(schema, code, ty);
     let enum_def = code.values.as_ref().and_then(|v| schema.enum_of(v));
     match node {
         NodeKind::Num(t) => match ty.repr() {
@@ -364,19 +388,19 @@ pub(crate) fn eng_cmp(
 }
 
 /// Convert one set value for a code; findings go to `out`.
-pub(crate) fn convert_value(
+pub(crate) fn convert_value<'d>(
     schema: &Schema,
     code: &Code,
-    doc: &Document,
+    doc: &'d Document,
     node: &Node,
     out: &mut Vec<Finding>,
-) -> Option<Placed> {
-    let loc = doc.loc(&node.span);
-    let what = schema.display_code(code.number, None);
+) -> Option<Placed<'d>> {
+    let loc = || doc.loc(&node.span);
+    let what = CodeName(schema, code.number);
     let Some(ty) = schema.type_of(code) else {
         out.push(Finding::new(
             FindingKind::UnknownType,
-            loc,
+            loc(),
             format!(
                 "the type of {what} ({}) is unknown, so it cannot be given a value",
                 code.name
@@ -394,7 +418,7 @@ pub(crate) fn convert_value(
             push(
                 out,
                 scalar_to_raw(schema, code, ty, &node.kind, true).err()?,
-                loc,
+                loc(),
             );
             return None;
         }
@@ -419,7 +443,7 @@ pub(crate) fn convert_value(
             match member_value(schema, code, bf, &e.value.kind) {
                 Ok(v) => {
                     raw |= v.checked_shl(bf.lsb).unwrap_or(0);
-                    members.push((bf.name.clone(), doc.loc(&e.value.span)));
+                    members.push((bf.name.clone(), e.value.span.clone()));
                 }
                 Err(err) => {
                     push(out, err, doc.loc(&e.value.span));
@@ -435,7 +459,7 @@ pub(crate) fn convert_value(
         {
             out.push(Finding::new(
                 FindingKind::OutOfRange,
-                loc,
+                loc(),
                 format!(
                     "{what}: the bit fields make {raw:#x}, outside {} ({lo:#x} ..= {hi:#x})",
                     ty.name()
@@ -449,25 +473,26 @@ pub(crate) fn convert_value(
         match scalar_to_raw(schema, code, ty, &node.kind, true) {
             Ok(r) => r,
             Err(e) => {
-                push(out, e, loc);
+                push(out, e, loc());
                 return None;
             }
         }
     };
     // schema min / max
-    let given = display_value(schema, code, &raw);
-    for (fact, is_min) in [(&code.min, true), (&code.max, false)] {
-        let Some(f) = fact else { continue };
-        let Ok(bound) = fact_to_raw(schema, code, &f.value) else {
-            continue;
-        };
-        let ord = eng_cmp(ty, &raw, ty, &bound);
+    let bounds = code.bounds.get_or_init(|| {
+        let raw_of = |f: &Option<crate::schema::Fact>| f.as_ref().and_then(|f| fact_to_raw(schema, code, &f.value).ok());
+        (raw_of(&code.min), raw_of(&code.max))
+    });
+    for ((fact, bound), is_min) in [((&code.min, &bounds.0), true), ((&code.max, &bounds.1), false)] {
+        let (Some(f), Some(bound)) = (fact, bound) else { continue };
+        let ord = eng_cmp(ty, &raw, ty, bound);
         let bad = if is_min {
             ord == Some(Ordering::Less)
         } else {
             ord == Some(Ordering::Greater)
         };
         if bad {
+            let given = display_value(schema, code, &raw);
             let range = match (&code.min, &code.max) {
                 (Some(a), Some(b)) => format!(
                     "give a value from {} to {}",
@@ -481,18 +506,18 @@ pub(crate) fn convert_value(
                 _ => format!(
                     "give a value {} {}",
                     if is_min { "of at least" } else { "of at most" },
-                    display_value(schema, code, &bound)
+                    display_value(schema, code, bound)
                 ),
             };
             out.push(
                 Finding::new(
                     FindingKind::OutOfRange,
-                    loc.clone(),
+                    loc(),
                     format!(
                         "{what} = {given} is {} the {} {}",
                         if is_min { "below" } else { "above" },
                         if is_min { "minimum" } else { "maximum" },
-                        display_value(schema, code, &bound)
+                        display_value(schema, code, bound)
                     ),
                     range,
                 )
@@ -508,7 +533,7 @@ pub(crate) fn convert_value(
             return None;
         }
     }
-    Some(Placed { raw, loc, members })
+    Some(Placed { raw, doc, span: node.span.clone(), members })
 }
 
 fn member_value(
@@ -593,7 +618,7 @@ fn member_value(
 /// Check the schema's cross-code rules on merged values.
 pub(crate) fn check_rules(
     schema: &Schema,
-    merged: &BTreeMap<CodeKey, Placed>,
+    merged: &BTreeMap<CodeKey, Placed<'_>>,
     out: &mut Vec<Finding>,
 ) {
     for rule in &schema.rules {
@@ -633,11 +658,11 @@ pub(crate) fn check_rules(
                                 p.members
                                     .iter()
                                     .find(|(n, _)| n == name)
-                                    .map(|(_, l)| l.clone())
+                                    .map(|(_, l)| p.doc.loc(l))
                             };
                             let mut f = Finding::new(
                                 FindingKind::RuleViolation,
-                                at(&b.name).unwrap_or_else(|| p.loc.clone()),
+                                at(&b.name).unwrap_or_else(|| p.loc()),
                                 format!("{}: {} and {} are both {shown}", message, a.name, b.name),
                                 format!("give {} and {} different settings", a.name, b.name),
                             );
@@ -672,7 +697,7 @@ pub(crate) fn check_rules(
                     out.push(
                         Finding::new(
                             FindingKind::RuleViolation,
-                            pl.loc.clone(),
+                            pl.loc(),
                             format!(
                                 "{message}: {} = {} is greater than {} = {}",
                                 schema.display_code(*left, None),
@@ -688,7 +713,7 @@ pub(crate) fn check_rules(
                         )
                         .with_related(
                             format!("{} set here", schema.display_code(*right, None)),
-                            pr.loc.clone(),
+                            pr.loc(),
                         )
                         .with_related("rule stated here", loc.clone()),
                     );
