@@ -517,10 +517,7 @@ fn as_reply(ev: StreamEvent) -> Option<StreamEvent<Reply>> {
     let result = match ev.result {
         Ok(Telegram::Reply(r)) => Ok(r),
         Ok(Telegram::Request(_)) => return None,
-        Err(e) if ev.direction == Some(Direction::Host) => {
-            let _ = e;
-            return None;
-        }
+        Err(_) if ev.direction == Some(Direction::Host) => return None,
         Err(e) => Err(e),
     };
     Some(StreamEvent {
