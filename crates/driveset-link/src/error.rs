@@ -59,7 +59,6 @@ pub enum LinkError {
     },
 
     /// A CAN frame that is not valid (identifier or length out of range).
-    #[cfg(not(proto_wip_skip_can))]
     #[error(
         "{port}: cannot send this CAN frame: {source} (this is a bug in the caller, please report it)"
     )]

@@ -37,9 +37,8 @@ pub mod clock;
 pub mod error;
 pub mod mem;
 pub mod serial;
-#[cfg(not(proto_wip_skip_can))]
 pub mod slcan;
-#[cfg(all(feature = "socketcan", target_os = "linux", not(proto_wip_skip_can)))]
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod spec;
 pub mod tcp;
@@ -47,7 +46,6 @@ pub mod tcp;
 mod open;
 
 pub use clock::{Clock, Instant, RealClock, VirtualClock};
-#[cfg(not(proto_wip_skip_can))]
 pub use driveset_proto::can::CanFrame;
 pub use error::LinkError;
 pub use open::{Link, OpenOptions, open};
@@ -108,7 +106,6 @@ impl<L: ByteLink + ?Sized> ByteLink for Box<L> {
 }
 
 /// A CAN bus (classic CAN 2.0 frames of [`driveset_proto::can`]).
-#[cfg(not(proto_wip_skip_can))]
 pub trait FrameLink: Send + std::fmt::Debug {
     /// The port, as errors and reports name it.
     fn port(&self) -> &str;
@@ -128,8 +125,6 @@ pub trait FrameLink: Send + std::fmt::Debug {
     /// Drop every frame received and not yet read.
     fn discard_input(&mut self) -> Result<(), LinkError>;
 }
-
-#[cfg(not(proto_wip_skip_can))]
 impl<L: FrameLink + ?Sized> FrameLink for Box<L> {
     fn port(&self) -> &str {
         (**self).port()

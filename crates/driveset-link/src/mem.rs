@@ -31,9 +31,7 @@ use crate::ByteLink;
 use crate::clock::{Clock, Instant, VirtualClock};
 use crate::error::LinkError;
 use crate::spec::ALLOWED_BAUDS;
-#[cfg(not(proto_wip_skip_can))]
 use crate::spec::ALLOWED_BITRATES;
-#[cfg(not(proto_wip_skip_can))]
 use crate::{CanFrame, FrameLink};
 
 /// Bits per character on a 7E1 line: start, 7 data, parity, stop.
@@ -55,8 +53,6 @@ pub fn bits_time(bits: u128, rate: u32) -> Duration {
     let nanos = bits * 1_000_000_000 / u128::from(rate);
     Duration::from_nanos(u64::try_from(nanos).unwrap_or(u64::MAX))
 }
-
-#[cfg(not(proto_wip_skip_can))]
 /// Time one CAN frame occupies the bus at `bitrate`: the proto crate's
 /// exact bit count for this frame (its own stuff bits, 3-bit intermission
 /// included), rounded up to the nanosecond. Fails for an invalid frame.
@@ -279,8 +275,6 @@ impl ByteLink for MemByteLink {
         Ok(())
     }
 }
-
-#[cfg(not(proto_wip_skip_can))]
 /// One end of an in-memory CAN bus between two nodes (see the module docs
 /// for timing).
 #[derive(Debug)]
@@ -288,8 +282,6 @@ pub struct MemFrameLink {
     end: End<CanFrame>,
     bitrate: u32,
 }
-
-#[cfg(not(proto_wip_skip_can))]
 /// Two connected ends of an in-memory CAN bus at `bitrate` (one of
 /// [`ALLOWED_BITRATES`]) on `clock`, named `mem-can-a` and `mem-can-b`.
 pub fn frame_pair(
@@ -308,8 +300,6 @@ pub fn frame_pair(
         MemFrameLink { end: b, bitrate },
     ))
 }
-
-#[cfg(not(proto_wip_skip_can))]
 impl MemFrameLink {
     /// When the next frame in flight towards this end arrives, if any.
     pub fn next_arrival(&self) -> Option<Instant> {
@@ -321,8 +311,6 @@ impl MemFrameLink {
         &self.end.clock
     }
 }
-
-#[cfg(not(proto_wip_skip_can))]
 impl FrameLink for MemFrameLink {
     fn port(&self) -> &str {
         &self.end.name

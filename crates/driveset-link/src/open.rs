@@ -4,7 +4,6 @@
 use std::time::Duration;
 
 use crate::ByteLink;
-#[cfg(not(proto_wip_skip_can))]
 use crate::FrameLink;
 use crate::error::LinkError;
 use crate::serial::SerialLink;
@@ -38,7 +37,6 @@ pub enum Link {
     /// A LUSTBUS / LECOM line.
     Bytes(Box<dyn ByteLink>),
     /// A CAN bus.
-    #[cfg(not(proto_wip_skip_can))]
     Frames(Box<dyn FrameLink>),
 }
 
@@ -47,7 +45,6 @@ impl Link {
     pub fn port(&self) -> &str {
         match self {
             Link::Bytes(link) => link.port(),
-            #[cfg(not(proto_wip_skip_can))]
             Link::Frames(link) => link.port(),
         }
     }
@@ -73,7 +70,6 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
         PortSpec::Sim(_) => Err(LinkError::SimPort {
             port: spec.to_string(),
         }),
-        #[cfg(not(proto_wip_skip_can))]
         PortSpec::Slcan {
             path,
             bitrate,
@@ -87,7 +83,7 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
             )?;
             Ok(Link::Frames(Box::new(link)))
         }
-        #[cfg(all(feature = "socketcan", target_os = "linux", not(proto_wip_skip_can)))]
+        #[cfg(all(feature = "socketcan", target_os = "linux"))]
         PortSpec::SocketCan { interface, bitrate } => {
             let link = crate::socketcan::SocketCanLink::open(
                 interface,
@@ -95,17 +91,12 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
             )?;
             Ok(Link::Frames(Box::new(link)))
         }
-        #[cfg(not(all(feature = "socketcan", target_os = "linux", not(proto_wip_skip_can))))]
+        #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
         PortSpec::SocketCan { .. } => Err(LinkError::Unsupported {
             port: spec.to_string(),
             what: "SocketCAN needs Linux and driveset built with the cargo feature `socketcan`; \
                    or use an slcan adapter (slcan:///dev/ttyACM0)"
                 .into(),
-        }),
-        #[cfg(proto_wip_skip_can)]
-        PortSpec::Slcan { .. } => Err(LinkError::Unsupported {
-            port: spec.to_string(),
-            what: "this build has no CAN support".into(),
         }),
     }
 }

@@ -17,7 +17,7 @@ pub const ENQ: u8 = 0x05;
 /// Positive acknowledge.
 pub const ACK: u8 = 0x06;
 /// Negative acknowledge (0x15; the LUSTBUS table's "15 decimal" is an erratum,
-/// see docs/spec-errata.md).
+/// see docs/errata/lustbus.md, L11).
 pub const NAK: u8 = 0x15;
 
 /// Strips the parity bit: a 7E1 line carries 7 data bits.

@@ -12,11 +12,6 @@
 //!   LUSTBUS and LECOM share (both follow ISO 1745 / DIN 66019).
 
 pub mod ascii;
-// The `proto_wip_skip_*` switches let the three codecs be developed side by
-// side; they are removed once all three have landed.
-#[cfg(not(proto_wip_skip_can))]
 pub mod can;
-#[cfg(not(proto_wip_skip_lecom))]
 pub mod lecom;
-#[cfg(not(proto_wip_skip_lustbus))]
 pub mod lustbus;

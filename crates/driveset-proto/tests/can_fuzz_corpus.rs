@@ -1,6 +1,5 @@
 //! Replays every seed of `fuzz/corpus/slcan_sdo_stream/` through the fuzz
 //! target's body, so CI exercises it without cargo-fuzz.
-#![cfg(not(proto_wip_skip_can))]
 
 use std::fs;
 use std::path::Path;

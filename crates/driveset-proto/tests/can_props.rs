@@ -1,6 +1,5 @@
 //! Property tests of the CAN side: SDO frames, FIX32, slcan round trips,
 //! decoders that never panic, and segmented transfers end to end.
-#![cfg(not(proto_wip_skip_can))]
 
 use std::collections::BTreeMap;
 

@@ -1,7 +1,6 @@
 //! Replays the seed corpus of the `lecom_stream` fuzz target
 //! (`fuzz/corpus/lecom_stream/`) through the LECOM-A/B decoders, so CI
 //! checks it without cargo-fuzz, and checks what the clean captures hold.
-#![cfg(not(proto_wip_skip_lecom))]
 
 use std::path::PathBuf;
 

@@ -1,7 +1,6 @@
 //! Replays the seed corpus of the `lustbus_stream` fuzz target
 //! (`fuzz/corpus/lustbus_stream/`) through the LUSTBUS decoders, so CI
 //! checks it without cargo-fuzz, and checks what the clean captures hold.
-#![cfg(not(proto_wip_skip_lustbus))]
 
 use std::path::PathBuf;
 

@@ -2,7 +2,6 @@
 //! every telegram kind, every PT_* type, descriptions and PosMOD1 data; the
 //! streaming decoders never panic, account for every byte, and find a valid
 //! telegram embedded in garbage.
-#![cfg(not(proto_wip_skip_lustbus))]
 
 use driveset_proto::ascii::EOT;
 use driveset_proto::lustbus::description::{

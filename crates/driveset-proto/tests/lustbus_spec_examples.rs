@@ -3,7 +3,6 @@
 //! CODE..ETX) and asserted as literals here. Where an example's byte row
 //! contradicts its text, the test follows the normative text and says so
 //! (see docs/errata/lustbus.md).
-#![cfg(not(proto_wip_skip_lustbus))]
 
 use driveset_proto::ascii::{ACK, ENQ, EOT, ETX, NAK, STX};
 use driveset_proto::lustbus::description::substitution_text_request;
