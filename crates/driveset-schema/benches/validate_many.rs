@@ -17,8 +17,18 @@ fn schema_text() -> String {
         "[schema]\nid = \"fictional-bench\"\ntitle = \"FICTIONAL: bench\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n",
     );
     for n in 1..=CODES {
-        let ty = ["VD", "VH", "PT_INT32Q16", "PT_FIXPOINT16", "PT_USIGN16", "PT_FLOAT_IEEE"][(n % 6) as usize];
-        let _ = write!(s, "[[code]]\nnumber = {n}\nname = \"code_{n}\"\ntitle = \"Code {n}\"\nspec = \"bench\"\ntype = \"{ty}\"\n");
+        let ty = [
+            "VD",
+            "VH",
+            "PT_INT32Q16",
+            "PT_FIXPOINT16",
+            "PT_USIGN16",
+            "PT_FLOAT_IEEE",
+        ][(n % 6) as usize];
+        let _ = write!(
+            s,
+            "[[code]]\nnumber = {n}\nname = \"code_{n}\"\ntitle = \"Code {n}\"\nspec = \"bench\"\ntype = \"{ty}\"\n"
+        );
         if ty == "VD" {
             s.push_str("unit = \"Hz\"\nmin = \"0\"\nmax = \"1000\"\n");
         }
@@ -45,14 +55,33 @@ fn set_text(i: usize) -> String {
 fn vm_hwm() -> String {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM")).map(|l| l.split_whitespace().skip(1).collect::<Vec<_>>().join(" ")))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM"))
+                .map(|l| l.split_whitespace().skip(1).collect::<Vec<_>>().join(" "))
+        })
         .unwrap_or_else(|| "unknown".into())
+}
+
+/// User + system CPU seconds of this process (/proc/self/stat, 100 ticks/s).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // fields after the command name (which is in parentheses)
+    let rest = stat.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
 }
 
 fn main() {
     let mut registry = Registry::new();
-    registry.add_source(SourceFile::new("bench-schema.toml", schema_text())).expect("bench schema");
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(2);
+    registry
+        .add_source(SourceFile::new("bench-schema.toml", schema_text()))
+        .expect("bench schema");
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(2);
     let start = Instant::now();
     let results: Vec<(usize, usize, String)> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads)
@@ -62,7 +91,8 @@ fn main() {
                     let (mut values, mut findings, mut last) = (0usize, 0usize, String::new());
                     for i in (t..SETS).step_by(threads) {
                         let text = set_text(i);
-                        let l = load_set_str(Path::new("bench.toml"), &text, &mut reg).expect("bench set parses");
+                        let l = load_set_str(Path::new("bench.toml"), &text, &mut reg)
+                            .expect("bench set parses");
                         findings += l.findings.len();
                         if let Some(r) = l.resolved {
                             values += r.values.len();
@@ -73,15 +103,22 @@ fn main() {
                 })
             })
             .collect();
-        handles.into_iter().map(|h| h.join().expect("bench thread")).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("bench thread"))
+            .collect()
     });
     let wall = start.elapsed();
     let values: usize = results.iter().map(|r| r.0).sum();
     let findings: usize = results.iter().map(|r| r.1).sum();
     println!(
-        "validate_many: {SETS} sets x {CODES} codes ({values} values, {findings} findings) on {threads} thread(s): {:.3} s wall, max RSS {}",
+        "validate_many: {SETS} sets x {CODES} codes ({values} values, {findings} findings) on {threads} thread(s): {:.3} s wall, {:.2} s CPU, max RSS {}",
         wall.as_secs_f64(),
+        cpu_seconds(),
         vm_hwm()
     );
-    println!("last fingerprint: {}", results.last().map(|r| r.2.as_str()).unwrap_or(""));
+    println!(
+        "last fingerprint: {}",
+        results.last().map(|r| r.2.as_str()).unwrap_or("")
+    );
 }

@@ -46,14 +46,24 @@ impl CodeKey {
     }
     /// Canonical spelling: lenze `C0011`, `C0039/1`; lust `428`, `428/1`.
     pub fn canonical(&self, style: CodeStyle) -> String {
-        let mut s = match style {
-            CodeStyle::Lenze => format!("C{:04}", self.number),
-            CodeStyle::Lust => self.number.to_string(),
-        };
-        if let Some(sc) = self.subcode {
-            let _ = write!(s, "/{sc}");
-        }
+        let mut s = String::with_capacity(8);
+        self.write_canonical(style, &mut s);
         s
+    }
+
+    fn write_canonical(&self, style: CodeStyle, out: &mut String) {
+        if style == CodeStyle::Lenze {
+            out.push('C');
+            for p in [1000, 100, 10] {
+                if self.number < p {
+                    out.push('0');
+                }
+            }
+        }
+        let _ = write!(out, "{}", self.number);
+        if let Some(sc) = self.subcode {
+            let _ = write!(out, "/{sc}");
+        }
     }
 }
 
@@ -90,7 +100,7 @@ impl ResolvedSet {
         out.push_str("driveset-canonical 1\n");
         let _ = writeln!(out, "schema {}", self.schema);
         for (k, v) in &self.values {
-            out.push_str(&k.canonical(self.code_style));
+            k.write_canonical(self.code_style, &mut out);
             out.push(' ');
             match v {
                 RawValue::Int(i) => {

@@ -294,14 +294,30 @@ pub struct Schema {
     pub fictional_loc: Location,
     /// Problems found while merging a fixture over its base (reported by `check_schema`).
     pub merge_findings: Vec<Finding>,
-    by_number: HashMap<u32, usize>,
+    by_number: BTreeMap<u32, usize>,
     by_name: HashMap<String, usize>,
+    numeric_names: bool,
+}
+
+/// `C` + digits or digits only: the shape of a code-number key.
+pub(crate) fn looks_numeric_key(key: &str) -> bool {
+    let d = key.strip_prefix(['C', 'c']).unwrap_or(key);
+    !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit())
 }
 
 impl Schema {
     /// Code by number.
     pub fn code(&self, number: u32) -> Option<&Code> {
         self.by_number.get(&number).and_then(|&i| self.codes.get(i))
+    }
+
+    /// Like [`Schema::code_by_name`], but skips the hash lookup for keys
+    /// shaped like code numbers (`C0011`, `428`) unless some name has that shape.
+    pub(crate) fn code_by_name_fast(&self, key: &str) -> Option<&Code> {
+        if !self.numeric_names && looks_numeric_key(key) {
+            return None;
+        }
+        self.code_by_name(key)
     }
 
     /// Code by name or alias (exact).
@@ -387,6 +403,7 @@ impl Schema {
                 self.by_name.entry(a.clone()).or_insert(i);
             }
         }
+        self.numeric_names = self.by_name.keys().any(|k| looks_numeric_key(k));
     }
 }
 
@@ -959,8 +976,9 @@ pub fn parse_schema(
                 id_loc: id_loc.clone(),
                 fictional_loc: head_loc.clone(),
                 merge_findings: Vec::new(),
-                by_number: HashMap::new(),
+                by_number: BTreeMap::new(),
                 by_name: HashMap::new(),
+                numeric_names: false,
             }
         }
     };

@@ -3,7 +3,7 @@
 //! key resolution (number, `C`+number, `/subcode`, name, alias), merging
 //! base then overlay, and the resulting [`LoadedSet`].
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -133,7 +133,7 @@ fn load_source(
     let mut merged: BTreeMap<CodeKey, Placed> = BTreeMap::new();
     for l in &layers {
         let Some(values) = &l.values else { continue };
-        let mut seen: HashMap<CodeKey, (&str, std::ops::Range<usize>)> = HashMap::new();
+        let mut seen: BTreeMap<CodeKey, (&str, std::ops::Range<usize>)> = BTreeMap::new();
         for e in values.entries() {
             let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
                 continue;
@@ -200,12 +200,21 @@ fn parse_layer(
     syntax: Syntax,
     path: &Path,
 ) -> Result<(Layer, Option<Node>), InputError> {
-    let doc = doc::parse(source, syntax)?;
+    let mut doc = doc::parse(source, syntax)?;
     let mut schema_ref = None;
     let mut values = None;
     let mut title = None;
     let mut extends = None;
-    for e in doc.root.entries() {
+    // move the entries out of the document (the tree is not needed twice)
+    let root = std::mem::replace(&mut doc.root.kind, NodeKind::Table(Vec::new()));
+    let NodeKind::Table(entries) = root else {
+        return Err(doc.error(
+            &doc.root.span,
+            "the document is not a table",
+            "start with `schema = \"...\"`",
+        ));
+    };
+    for e in entries {
         let want_str = |e: &Entry| match &e.value.kind {
             NodeKind::Str(s) => Ok(s.clone()),
             other => Err(doc.error(
@@ -215,9 +224,9 @@ fn parse_layer(
             )),
         };
         match e.key.as_str() {
-            "schema" => schema_ref = Some((want_str(e)?, doc.loc(&e.value.span))),
-            "title" => title = Some(want_str(e)?),
-            "extends" => extends = Some(e.value.clone()),
+            "schema" => schema_ref = Some((want_str(&e)?, doc.loc(&e.value.span))),
+            "title" => title = Some(want_str(&e)?),
+            "extends" => extends = Some(e.value),
             "drive" => {
                 if !matches!(e.value.kind, NodeKind::Table(_)) {
                     return Err(doc.error(
@@ -228,7 +237,7 @@ fn parse_layer(
                 }
             }
             "values" => match &e.value.kind {
-                NodeKind::Table(_) => values = Some(e.value.clone()),
+                NodeKind::Table(_) => values = Some(e.value),
                 NodeKind::Null => {}
                 other => {
                     return Err(doc.error(
@@ -400,7 +409,7 @@ fn resolve_key<'s>(
     e: &Entry,
     out: &mut Vec<Finding>,
 ) -> Option<(&'s Code, CodeKey)> {
-    let loc = doc.loc(&e.key_span);
+    let loc = || doc.loc(&e.key_span);
     let (base, sub) = match e.key.split_once('/') {
         Some((b, s)) => (b, Some(s)),
         None => (e.key.as_str(), None),
@@ -412,7 +421,7 @@ fn resolve_key<'s>(
             _ => {
                 out.push(Finding::new(
                     FindingKind::UnknownCode,
-                    loc,
+                    loc(),
                     format!("`{}`: subcode `{s}` is not a number", e.key),
                     "write e.g. `C0039/1`",
                 ));
@@ -420,7 +429,7 @@ fn resolve_key<'s>(
             }
         },
     };
-    let code = match schema.code_by_name(base) {
+    let code = match schema.code_by_name_fast(base) {
         Some(c) => c,
         None => match parse_number_key(base) {
             Some(n) => match schema.code(n) {
@@ -428,7 +437,7 @@ fn resolve_key<'s>(
                 None => {
                     out.push(Finding::new(
                         FindingKind::UnknownCode,
-                        loc,
+                        loc(),
                         format!(
                             "{} is not a code of {}",
                             schema.display_code(n, subcode),
@@ -442,7 +451,7 @@ fn resolve_key<'s>(
             None => {
                 out.push(Finding::new(
                     FindingKind::UnknownCode,
-                    loc,
+                    loc(),
                     format!("`{base}` is not a code name of {}", schema.id),
                     match suggest(schema, base) {
                         Some(s) => format!("did you mean `{s}`?"),
@@ -461,7 +470,7 @@ fn resolve_key<'s>(
         (Some(n), _) => {
             out.push(Finding::new(
                 FindingKind::UnknownCode,
-                loc,
+                loc(),
                 format!(
                     "{} has subcodes 1..={n}; `{}` names none of them",
                     schema.display_code(code.number, None),
@@ -474,7 +483,7 @@ fn resolve_key<'s>(
         (None, Some(_)) => {
             out.push(Finding::new(
                 FindingKind::UnknownCode,
-                loc,
+                loc(),
                 format!("{} has no subcodes", schema.display_code(code.number, None)),
                 format!(
                     "write `{}` without `/N`",

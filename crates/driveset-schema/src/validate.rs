@@ -63,7 +63,12 @@ struct TypeDesc<'a>(&'a Schema, &'a Code, ValueType);
 
 impl std::fmt::Display for TypeDesc<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} ({})", self.0.display_code(self.1.number, None), self.2.name())
+        write!(
+            f,
+            "{} ({})",
+            self.0.display_code(self.1.number, None),
+            self.2.name()
+        )
     }
 }
 
@@ -126,7 +131,6 @@ pub(crate) fn fact_to_raw(
     };
     scalar_to_raw(schema, code, ty, value, false).map_err(|e| e.message)
 }
-
 
 /// Split `"60.0 Hz"` into (`60.0`, `Hz`).
 fn split_unit(s: &str) -> (&str, &str) {
@@ -480,11 +484,19 @@ pub(crate) fn convert_value<'d>(
     };
     // schema min / max
     let bounds = code.bounds.get_or_init(|| {
-        let raw_of = |f: &Option<crate::schema::Fact>| f.as_ref().and_then(|f| fact_to_raw(schema, code, &f.value).ok());
+        let raw_of = |f: &Option<crate::schema::Fact>| {
+            f.as_ref()
+                .and_then(|f| fact_to_raw(schema, code, &f.value).ok())
+        };
         (raw_of(&code.min), raw_of(&code.max))
     });
-    for ((fact, bound), is_min) in [((&code.min, &bounds.0), true), ((&code.max, &bounds.1), false)] {
-        let (Some(f), Some(bound)) = (fact, bound) else { continue };
+    for ((fact, bound), is_min) in [
+        ((&code.min, &bounds.0), true),
+        ((&code.max, &bounds.1), false),
+    ] {
+        let (Some(f), Some(bound)) = (fact, bound) else {
+            continue;
+        };
         let ord = eng_cmp(ty, &raw, ty, bound);
         let bad = if is_min {
             ord == Some(Ordering::Less)
@@ -533,7 +545,12 @@ pub(crate) fn convert_value<'d>(
             return None;
         }
     }
-    Some(Placed { raw, doc, span: node.span.clone(), members })
+    Some(Placed {
+        raw,
+        doc,
+        span: node.span.clone(),
+        members,
+    })
 }
 
 fn member_value(

@@ -486,7 +486,10 @@ mod tests {
         assert_eq!(raw(PT_USIGN8, "2.000"), Ok(2));
         assert_eq!(
             decimal_to_raw(VH, Some(1), &Decimal::from_int(256)),
-            Err(ConvError::OutOfRange { min: "0".into(), max: "255".into() })
+            Err(ConvError::OutOfRange {
+                min: "0".into(),
+                max: "255".into()
+            })
         );
         assert_eq!(
             decimal_to_raw(VH, Some(4), &Decimal::from_int(0xFFFF_FFFF)),

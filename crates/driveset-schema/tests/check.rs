@@ -5,8 +5,13 @@ use driveset_schema::*;
 
 fn check(text: &str) -> Vec<(String, usize, usize)> {
     let mut r = Registry::builtin().unwrap();
-    let s = r.add_source(SourceFile::new("x.toml", text)).expect("schema parses");
-    check_schema(&s).into_iter().map(|f| (f.message, f.location.line, f.location.column)).collect()
+    let s = r
+        .add_source(SourceFile::new("x.toml", text))
+        .expect("schema parses");
+    check_schema(&s)
+        .into_iter()
+        .map(|f| (f.message, f.location.line, f.location.column))
+        .collect()
 }
 
 const HEAD: &str = "[schema]\nid = \"fictional-x\"\ntitle = \"FICTIONAL: x\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n";
@@ -14,7 +19,8 @@ const HEAD: &str = "[schema]\nid = \"fictional-x\"\ntitle = \"FICTIONAL: x\"\npr
 #[test]
 fn fixture_and_builtins_check() {
     let mut r = Registry::builtin().unwrap();
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/fictional-test.toml");
+    let p =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/fictional-test.toml");
     let s = r.load_file(&p).unwrap();
     assert_eq!(check_schema(&s), vec![]);
     // built-ins are being written by others: only require that checking them does not fail
@@ -102,14 +108,27 @@ fn fictional_marking() {
     let t = "[schema]\nid = \"fictional-y\"\ntitle = \"FICTIONAL: y\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n";
     assert_eq!(
         check(t),
-        vec![("schema `fictional-y` is named fictional- but not marked `fictional = true`".into(), 1, 1)]
+        vec![(
+            "schema `fictional-y` is named fictional- but not marked `fictional = true`".into(),
+            1,
+            1
+        )]
     );
     let t = "[schema]\nid = \"real\"\ntitle = \"Real\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n";
     assert_eq!(
         check(t),
         vec![
-            ("schema `real` is marked fictional but its id does not start with `fictional-`".into(), 6, 13),
-            ("fixture schema `real` has a title not starting with FICTIONAL".into(), 2, 6),
+            (
+                "schema `real` is marked fictional but its id does not start with `fictional-`"
+                    .into(),
+                6,
+                13
+            ),
+            (
+                "fixture schema `real` has a title not starting with FICTIONAL".into(),
+                2,
+                6
+            ),
         ]
     );
 }
@@ -129,21 +148,38 @@ fn fixture_extends_fills_unset_facts() {
         ))
         .unwrap();
     let five = s.code(5).unwrap();
-    assert_eq!((five.unit.as_deref(), s.type_of(five)), (Some("Hz"), Some(ValueType::VD)));
+    assert_eq!(
+        (five.unit.as_deref(), s.type_of(five)),
+        (Some("Hz"), Some(ValueType::VD))
+    );
     assert!(s.code_by_name("six").is_some());
     let f: Vec<String> = check_schema(&s).into_iter().map(|f| f.message).collect();
-    assert_eq!(f, vec!["fixture changes `unit` of code 5, which the base schema already gives".to_string()]);
+    assert_eq!(
+        f,
+        vec!["fixture changes `unit` of code 5, which the base schema already gives".to_string()]
+    );
     let e = r
         .add_source(SourceFile::new("fx2.toml", "[schema]\nid = \"fictional-q\"\ntitle = \"FICTIONAL\"\nextends = \"nope\"\nfictional = true\n"))
         .unwrap_err();
-    assert_eq!((e.message.as_str(), e.location.line, e.location.column), ("base schema `nope` is not known", 4, 11));
+    assert_eq!(
+        (e.message.as_str(), e.location.line, e.location.column),
+        ("base schema `nope` is not known", 4, 11)
+    );
 }
 
 #[test]
 fn schema_structure_errors() {
     let mut r = Registry::new();
     let e = r.add_source(SourceFile::new("s.toml", "[schema]\nid = \"a\"\ntitle = \"t\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n[[code]]\nnumber = 1\nnmae = \"x\"\n")).unwrap_err();
-    assert_eq!((e.message.as_str(), e.location.line, e.location.column), ("unknown key `nmae` in code 1", 8, 1));
-    let e = r.add_source(SourceFile::new("s.toml", "[schema]\nid = \"a\"\ntitle = \"t\"\nprotocol = \"can\"\n")).unwrap_err();
+    assert_eq!(
+        (e.message.as_str(), e.location.line, e.location.column),
+        ("unknown key `nmae` in code 1", 8, 1)
+    );
+    let e = r
+        .add_source(SourceFile::new(
+            "s.toml",
+            "[schema]\nid = \"a\"\ntitle = \"t\"\nprotocol = \"can\"\n",
+        ))
+        .unwrap_err();
     assert_eq!(e.message, "unknown protocol `can`");
 }

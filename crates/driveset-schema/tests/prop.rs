@@ -2,7 +2,9 @@
 
 use std::path::Path;
 
-use driveset_schema::value::{ALL_TYPES, Repr, ValueType, decimal_to_raw, float_text_to_raw, raw_to_engineering};
+use driveset_schema::value::{
+    ALL_TYPES, Repr, ValueType, decimal_to_raw, float_text_to_raw, raw_to_engineering,
+};
 use driveset_schema::*;
 use proptest::prelude::*;
 
@@ -89,13 +91,20 @@ proptest! {
 fn edge_raw_values_round_trip() {
     for ty in ALL_TYPES {
         for w in [None, Some(1u8), Some(4)] {
-            let Some((lo, hi)) = ty.raw_range(w) else { continue };
+            let Some((lo, hi)) = ty.raw_range(w) else {
+                continue;
+            };
             if ty.repr() == Repr::Float {
                 continue;
             }
             for raw in [lo, hi, 0, 1, hi - 1] {
                 let text = raw_to_engineering(ty, raw);
-                assert_eq!(decimal_to_raw(ty, w, &Decimal::parse(&text).unwrap()), Ok(raw), "{} {text}", ty.name());
+                assert_eq!(
+                    decimal_to_raw(ty, w, &Decimal::parse(&text).unwrap()),
+                    Ok(raw),
+                    "{} {text}",
+                    ty.name()
+                );
             }
         }
     }
