@@ -1,1 +1,12 @@
-//! driveset-engine (under construction).
+//! driveset-engine: talks to drives. Protocol clients (LUSTBUS, LECOM-A/B,
+//! CAN SDO) behind one [`client::DriveClient`] trait; on top of them
+//! identify, scan, pull, live diff and the upload transaction (plan,
+//! journal, pacing, verify, roll back, recover).
+//!
+//! The engine never touches a clock or a port directly: a client holds a
+//! `driveset_link::ByteLink` / `FrameLink` and takes time from that link's
+//! clock, so the same code runs in real time on a serial port and in
+//! virtual time against the in-process simulator.
+
+pub mod client;
+pub mod error;

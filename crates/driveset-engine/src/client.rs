@@ -1,0 +1,148 @@
+//! The protocol-independent face of a drive: [`DriveClient`]. One
+//! implementation per protocol (LUSTBUS for VF1000 and MC6000/7000,
+//! LECOM-A/B for Tmd, CAN SDO for ECS) turns reads and writes of schema
+//! codes into telegrams, handles the protocol's error indications
+//! (DESIGN.md "Transactions", step 3) and retries, and exposes what the
+//! transaction runner needs for pacing (EEPROM store time) and the MC6000
+//! dataset handshake (SLOAD).
+
+use std::fmt;
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::{Clock, Instant};
+use driveset_schema::{CodeKey, RawValue, Schema};
+
+use crate::error::EngineError;
+
+/// Where a client talks: a port (in the common port syntax) and an address
+/// (LUSTBUS 0..30, LECOM 1..99, CAN node id 1..127).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct Target {
+    /// The port as the user wrote it.
+    pub port: String,
+    /// Bus address / node id.
+    pub address: u8,
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} address {}", self.port, self.address)
+    }
+}
+
+/// What a drive says it is.
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+pub struct Identity {
+    /// Schema protocol family (`lustbus-mc`, `lustbus-vf1000`, `lecom`, `lenze-can-sdo`).
+    pub protocol: String,
+    /// Identification codes read and their values as text (`91 TYPE = 1234`,
+    /// `C0200 = "33STMD-M_12000"` ...), in the order read.
+    pub codes: Vec<(String, String)>,
+    /// Software version where the family has one (Tmd C0099).
+    pub software: Option<String>,
+}
+
+/// What one client has done so far (for reports and benchmarks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct ClientStats {
+    /// Telegrams (or SDO requests) sent, retries included.
+    pub telegrams: u64,
+    /// Of those, repetitions after a failure.
+    pub retries: u64,
+    /// Characters (or frames) sent.
+    pub sent: u64,
+    /// Characters (or frames) received.
+    pub received: u64,
+}
+
+/// Outcome of an MC6000/7000 dataset download (SLOAD, LUSTBUS 11.4).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DatasetOutcome {
+    /// SLOAD went to 0: the staged set is in EEPROM.
+    Accepted,
+    /// SLOAD went to a parameter number: the drive rejected the set at that
+    /// parameter and reactivated its old set.
+    Rejected {
+        /// The first invalid parameter.
+        parameter: u32,
+    },
+}
+
+/// A drive, reached through one protocol.
+///
+/// Reads and writes take schema codes and raw values; every method that
+/// touches the bus returns an [`EngineError`] naming the target and code.
+/// Implementations never write a code the schema does not know.
+pub trait DriveClient: Send {
+    /// Port and address.
+    fn target(&self) -> &Target;
+
+    /// The schema the client converts codes with.
+    fn schema(&self) -> &Arc<Schema>;
+
+    /// The link's clock (real or virtual).
+    fn clock(&self) -> &dyn Clock;
+
+    /// Read the identification codes ([`Identity`]).
+    fn identify(&mut self) -> Result<Identity, EngineError>;
+
+    /// Read one code's raw value.
+    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError>;
+
+    /// Write one code. Returns when the drive has acknowledged it; a write
+    /// the drive refuses is an [`EngineError::Device`] with the decoded
+    /// cause. Waits (on the link's clock) if the drive cannot take the
+    /// write yet (MC EEPROM still storing): correctness never depends on
+    /// the caller's pacing.
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError>;
+
+    /// The earliest instant a write of `key` will be taken without waiting
+    /// (MC6000/7000: the EEPROM is busy width x 3 x 5 ms after an EEPROM
+    /// write, LUSTBUS 10.2.2). `None`: now. A runner uses the gap for reads.
+    fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
+        let _ = key;
+        None
+    }
+
+    /// Time one read exchange of `key` takes on the wire (telegrams at 10
+    /// bits a character, plus the minimum reaction time), for planning.
+    fn read_time(&self, key: CodeKey) -> Duration;
+
+    /// Time one write exchange of `key` takes on the wire, for planning.
+    fn write_time(&self, key: CodeKey) -> Duration;
+
+    /// Whether the drive reports a running motor (LUSTBUS control word,
+    /// LECOM C0150 / C0068). `None` where the protocol cannot tell.
+    fn running(&mut self) -> Result<Option<bool>, EngineError>;
+
+    /// Counters so far.
+    fn stats(&self) -> ClientStats;
+
+    /// End the session cleanly (LUSTBUS / LECOM: the trailing EOT).
+    fn finish(&mut self) -> Result<(), EngineError>;
+
+    /// Whether the family has a dataset handshake (MC6000/7000 SLOAD).
+    fn has_dataset_download(&self) -> bool {
+        false
+    }
+
+    /// SLOAD = -1: register a dataset download (standstill only). Writes of
+    /// CardWriteable codes until [`DriveClient::dataset_commit`] are staged.
+    fn dataset_begin(&mut self) -> Result<(), EngineError> {
+        Err(EngineError::Refused {
+            target: self.target().clone(),
+            reason: "this drive family has no dataset download handshake".into(),
+        })
+    }
+
+    /// SLOAD = -2, then poll SLOAD until it leaves -1 or `timeout` (10 s
+    /// per LUSTBUS 11.4) passes.
+    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
+        let _ = timeout;
+        Err(EngineError::Refused {
+            target: self.target().clone(),
+            reason: "this drive family has no dataset download handshake".into(),
+        })
+    }
+}

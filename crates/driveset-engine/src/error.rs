@@ -1,0 +1,80 @@
+//! The engine's errors: what failed, on which bus, address and code, and
+//! what to do. Device-reported causes (LUSTBUS SIOF/SERR, LECOM C0068 /
+//! C1962, SDO aborts) are kept apart from transport failures.
+
+use driveset_link::LinkError;
+
+use crate::client::Target;
+
+/// What a drive itself said was wrong (as opposed to a transport failure).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceCause {
+    /// Short cause as the spec names it (e.g. `"EEPROM busy"`, `"invalid value"`,
+    /// `"no access permission"`, `"attempt to write a read only object"`).
+    pub cause: String,
+    /// The raw indication (`SERR 0x80`, `C0068 bits 4..7 = 5`, `abort 0x06010002`).
+    pub raw: String,
+    /// What to do about it (the spec's remedy where it gives one).
+    pub remedy: String,
+}
+
+/// Every way an engine operation fails.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// The transport failed (port gone, connection reset ...).
+    #[error("{target}: {source}")]
+    Link {
+        /// Where.
+        target: Target,
+        /// The transport error.
+        #[source]
+        source: LinkError,
+    },
+    /// No (valid) answer after every retry.
+    #[error("{target}: no answer to {what} after {tries} tries; check wiring, address and baud rate")]
+    NoAnswer {
+        /// Where.
+        target: Target,
+        /// The operation (`read C0011`, `write 428-RSIO` ...).
+        what: String,
+        /// How many times it was sent.
+        tries: u32,
+    },
+    /// The drive refused an operation and said why.
+    #[error("{target}: {what} refused: {} ({}); {}", cause.cause, cause.raw, cause.remedy)]
+    Device {
+        /// Where.
+        target: Target,
+        /// The operation.
+        what: String,
+        /// The drive's own cause.
+        cause: DeviceCause,
+    },
+    /// The drive restarted (power-on indication) in the middle of the work:
+    /// whatever was written since the last verified point is void.
+    #[error("{target}: the drive restarted during {what} (power-on flag set); the transaction is void and must be redone")]
+    Restarted {
+        /// Where.
+        target: Target,
+        /// The operation during which it was noticed.
+        what: String,
+    },
+    /// A safety rule refused the operation before anything was sent.
+    #[error("{target}: refused: {reason}")]
+    Refused {
+        /// Where.
+        target: Target,
+        /// Why, and what to do (`--force` ...).
+        reason: String,
+    },
+    /// The drive's answer could not be understood.
+    #[error("{target}: unexpected answer to {what}: {detail}")]
+    Protocol {
+        /// Where.
+        target: Target,
+        /// The operation.
+        what: String,
+        /// What was wrong with the answer.
+        detail: String,
+    },
+}
