@@ -16,5 +16,6 @@
 
 pub mod catalog;
 pub mod drive;
+pub mod ecs;
 pub mod rng;
 pub mod table;

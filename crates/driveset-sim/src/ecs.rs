@@ -1,0 +1,373 @@
+//! Simulated Lenze ECS servo axis on the system bus (CAN): an SDO server.
+//!
+//! Source of truth: `lenze-system-bus-can-sdo.txt` (ECS manual EDBCSXA064
+//! EN 3.2, page 454) and, for what that page leaves out, CiA DS301 V4.02 as
+//! `docs/errata/can.md` records it. Everything protocol-side is the codec's
+//! ([`driveset_proto::can`]): this module only decides what the drive
+//! holds and which abort a request earns.
+//!
+//! - **COB-IDs** (not on page 454): DS301 predefined connection set,
+//!   requests on `0x600 + node`, responses on `0x580 + node`
+//!   ([`NodeId::request_cob_id`], [`NodeId::response_cob_id`]). Every other
+//!   frame (other ids, extended ids, remote frames) is ignored.
+//! - **Addressing** (page 454): `Index = 24575 - code`
+//!   ([`CodeNumber::from_index`]). Codes without subcodes answer on
+//!   subindex 0 only; subcode `n` is subindex `n` (an assumption, see the
+//!   errata). Subindex 0 of a code that has subcodes is not a Lenze
+//!   address and aborts like any other missing subindex.
+//! - **Values** (page 454 note): FIX32 codes travel as the signed raw
+//!   integer (value x 10000), C0135 / C0150 (`BITCODED` in the schema)
+//!   as an unsigned 32-bit field without factor, both 4 bytes
+//!   little-endian (expedited, read response `0x43`). The schema's type
+//!   decides per code; a code without a type takes the page 454 default
+//!   ([`CodeNumber::value_format`]). A write must carry exactly 4 bytes:
+//!   page 454 gives no other width for these formats.
+//! - **Aborts** (page 454: "error codes are standardised acc. to DS301,
+//!   V4.02"; which code for which refusal is our choice, as DS301 lists
+//!   them):
+//!   - index above 0x5FFF or no such code: 0x06020000;
+//!   - code exists, subindex does not: 0x06090011;
+//!   - write to a read-only code: 0x06010002 (checked before the length);
+//!   - write of other than 4 bytes (or a segmented write of any length to
+//!     a 4-byte code): 0x06070010;
+//!   - value above the schema's max: 0x06090031; below min: 0x06090032
+//!     (more precise than the general 0x06090030, which DS301 also
+//!     allows); an integer that is not one of a code's enumerated values:
+//!     0x06090030;
+//!   - protocol errors (bad command byte, toggle bit, segment sizes) are
+//!     the codec's [`SdoServer`] aborts (0x05040001, 0x05030000, ...).
+//! - **Segmented transfers** run through [`SdoServer`]; every ECS value is
+//!   4 bytes, so an upload is always expedited and a segmented download
+//!   ends in 0x06070010 after its last segment.
+//! - **Power cycle**: the drive answers nothing while it is off; the SDO
+//!   server's transfer state is lost; parameter values are **kept**. The
+//!   excerpt says nothing about storage; the simulator treats every ECS
+//!   code as stored (a real ECS keeps changes over a power cycle only after
+//!   a save command, which the excerpt does not describe). A code the
+//!   table marks as non-persistent (a RAM actual / control value) goes
+//!   back to its factory value. No DS301 boot-up message is sent (the
+//!   [`FrameDrive`] contract has no unsolicited frames, and page 454 does
+//!   not mention one).
+//! - **Reaction time**: the excerpt gives no figure; the default is the
+//!   FICTIONAL [`ReactionTime::ECS_ASSUMED`], drawn per answer from the
+//!   drive's seeded [`SimRng`], configurable with
+//!   [`EcsDrive::with_reaction`].
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use driveset_link::Instant;
+use driveset_proto::can::{
+    AbortCode, CanFrame, CodeNumber, Index, NodeId, ObjectDictionary, SdoServer, Subindex,
+    ValueFormat,
+};
+use driveset_schema::ValueType;
+use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use driveset_schema::value::Repr;
+
+use crate::catalog::{self, Family};
+use crate::drive::{FrameDrive, FrameReply, ReactionTime};
+use crate::rng::SimRng;
+use crate::table::{Param, ParamTable, Refusal};
+
+/// How a code's value travels in the SDO data bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Wire {
+    /// Page 454 formats, 4 bytes little-endian.
+    Lenze(ValueFormat),
+    /// A text code (`VS`): its UTF-8 bytes (segmented when over 4 bytes).
+    Text,
+    /// An octet code (`VO`): the bytes themselves.
+    Octets,
+}
+
+fn wire_of(p: &Param, code: CodeNumber) -> Wire {
+    match p.ty {
+        Some(ValueType::FIX32) => Wire::Lenze(ValueFormat::Fix32),
+        Some(ValueType::BITCODED) => Wire::Lenze(ValueFormat::BitCoded),
+        Some(ValueType::VS) => Wire::Text,
+        Some(ValueType::VO) => Wire::Octets,
+        _ => Wire::Lenze(code.value_format()),
+    }
+}
+
+/// The raw integer range a 4-byte Lenze format can carry.
+fn fits(format: ValueFormat, raw: i64) -> bool {
+    match format {
+        ValueFormat::Fix32 => i32::try_from(raw).is_ok(),
+        ValueFormat::BitCoded => u32::try_from(raw).is_ok(),
+    }
+}
+
+/// The drive's values as the codec's [`SdoServer`] sees them.
+struct Dictionary<'a> {
+    table: &'a ParamTable,
+    values: &'a mut BTreeMap<CodeKey, RawValue>,
+}
+
+impl Dictionary<'_> {
+    /// The parameter at `index`/`subindex`, with its code number.
+    fn param(&self, index: Index, subindex: Subindex) -> Result<(&Param, CodeNumber), AbortCode> {
+        let code = CodeNumber::from_index(index).map_err(|_| AbortCode::NO_SUCH_OBJECT)?;
+        let number = u32::from(code.get());
+        let key = match subindex.0 {
+            0 => CodeKey::new(number),
+            s => CodeKey::sub(number, u32::from(s)),
+        };
+        if let Some(p) = self.table.get(key) {
+            return Ok((p, code));
+        }
+        if self.table.iter().any(|p| p.key.number == number) {
+            Err(AbortCode::NO_SUCH_SUBINDEX)
+        } else {
+            Err(AbortCode::NO_SUCH_OBJECT)
+        }
+    }
+}
+
+impl ObjectDictionary for Dictionary<'_> {
+    fn read(&mut self, index: Index, subindex: Subindex) -> Result<Vec<u8>, AbortCode> {
+        let (p, code) = self.param(index, subindex)?;
+        let value = self.values.get(&p.key).unwrap_or(&p.factory);
+        match (wire_of(p, code), value) {
+            (Wire::Lenze(ValueFormat::Fix32), RawValue::Int(v)) => i32::try_from(*v)
+                .map(|v| v.to_le_bytes().to_vec())
+                .map_err(|_| AbortCode::GENERAL_ERROR),
+            (Wire::Lenze(ValueFormat::BitCoded), RawValue::Int(v)) => u32::try_from(*v)
+                .map(|v| v.to_le_bytes().to_vec())
+                .map_err(|_| AbortCode::GENERAL_ERROR),
+            (Wire::Text, RawValue::Text(t)) => Ok(t.as_bytes().to_vec()),
+            (Wire::Octets, RawValue::Octets(o)) => Ok(o.clone()),
+            // A stored value of the wrong shape cannot arise through SDO or
+            // `poke`; report it rather than invent bytes.
+            _ => Err(AbortCode::GENERAL_ERROR),
+        }
+    }
+
+    fn write(&mut self, index: Index, subindex: Subindex, data: &[u8]) -> Result<(), AbortCode> {
+        let (p, code) = self.param(index, subindex)?;
+        if !p.writable() {
+            return Err(AbortCode::READ_ONLY);
+        }
+        let raw = match wire_of(p, code) {
+            Wire::Lenze(format) => {
+                let bytes: [u8; 4] = data.try_into().map_err(|_| AbortCode::LENGTH_MISMATCH)?;
+                RawValue::Int(match format {
+                    ValueFormat::Fix32 => i64::from(i32::from_le_bytes(bytes)),
+                    ValueFormat::BitCoded => i64::from(u32::from_le_bytes(bytes)),
+                })
+            }
+            Wire::Text => RawValue::Text(
+                String::from_utf8(data.to_vec()).map_err(|_| AbortCode::LENGTH_MISMATCH)?,
+            ),
+            Wire::Octets => RawValue::Octets(data.to_vec()),
+        };
+        let key = p.key;
+        check_value(self.table, key, &raw)?;
+        self.values.insert(key, raw);
+        Ok(())
+    }
+}
+
+/// The table's write checks plus enumerations, as DS301 abort codes.
+fn check_value(table: &ParamTable, key: CodeKey, raw: &RawValue) -> Result<(), AbortCode> {
+    let p = table.check_write(key, raw).map_err(|r| match r {
+        Refusal::NoSuchCode => AbortCode::NO_SUCH_OBJECT,
+        Refusal::ReadOnly => AbortCode::READ_ONLY,
+        Refusal::OutOfRange { raw, max, .. } if raw > max => AbortCode::VALUE_TOO_HIGH,
+        Refusal::OutOfRange { .. } => AbortCode::VALUE_TOO_LOW,
+        Refusal::WrongType => AbortCode::LENGTH_MISMATCH,
+        Refusal::NotNow => AbortCode::DEVICE_STATE,
+    })?;
+    if let RawValue::Int(v) = raw
+        && !p.enum_values.is_empty()
+        && !enum_member(p, *v)
+    {
+        return Err(AbortCode::VALUE_RANGE_EXCEEDED);
+    }
+    Ok(())
+}
+
+/// Whether raw `v` is one of the code's enumerated values. Schema enum keys
+/// are engineering integers: for a scaled type (FIX32) the raw value is the
+/// key times the factor.
+fn enum_member(p: &Param, v: i64) -> bool {
+    match p.ty.map(ValueType::repr) {
+        Some(Repr::Scaled(f)) if f > 1 => {
+            let f = i64::from(f);
+            v % f == 0 && p.enum_values.contains(&(v / f))
+        }
+        _ => p.enum_values.contains(&v),
+    }
+}
+
+/// A simulated Lenze ECS servo axis: an SDO server at one node id.
+#[derive(Debug, Clone)]
+pub struct EcsDrive {
+    node: NodeId,
+    table: ParamTable,
+    values: BTreeMap<CodeKey, RawValue>,
+    server: SdoServer,
+    rng: SimRng,
+    reaction: ReactionTime,
+    /// Answers nothing before this instant (power cut).
+    off_until: Option<Instant>,
+}
+
+impl EcsDrive {
+    /// A drive at `node` with the simulator's ECS table
+    /// ([`Family::Ecs`]: `schemas/lenze-ecs.toml` extended by the FICTIONAL
+    /// `parameter-sets/fixtures/fictional-ecs-demo.toml`), every code at its
+    /// factory value, reaction [`ReactionTime::ECS_ASSUMED`], random choices
+    /// from `seed`.
+    pub fn new(node: NodeId, seed: u64) -> Result<Self, String> {
+        let table = ParamTable::from_schema(catalog::schema(Family::Ecs)?)?;
+        Ok(Self::with_table(node, table, seed))
+    }
+
+    /// A drive with a table of its own (tests, other fixture schemas).
+    pub fn with_table(node: NodeId, table: ParamTable, seed: u64) -> Self {
+        let values = table.factory_state();
+        EcsDrive {
+            node,
+            table,
+            values,
+            server: SdoServer::new(),
+            rng: SimRng::derive(seed, u64::from(node.get())),
+            reaction: ReactionTime::ECS_ASSUMED,
+            off_until: None,
+        }
+    }
+
+    /// The same drive with another reaction time (e.g.
+    /// [`ReactionTime::fixed`] for exact-timing tests).
+    pub fn with_reaction(mut self, reaction: ReactionTime) -> Self {
+        self.reaction = reaction;
+        self
+    }
+
+    /// The node id.
+    pub fn node(&self) -> NodeId {
+        self.node
+    }
+
+    /// The parameter table.
+    pub fn table(&self) -> &ParamTable {
+        &self.table
+    }
+
+    /// The raw value of one code, if the drive has it.
+    pub fn value(&self, key: CodeKey) -> Option<&RawValue> {
+        self.values.get(&key)
+    }
+
+    /// Whether the drive is without power at `now`.
+    pub fn is_off(&self, now: Instant) -> bool {
+        self.off_until.is_some_and(|t| now < t)
+    }
+}
+
+impl FrameDrive for EcsDrive {
+    fn family(&self) -> &'static str {
+        Family::Ecs.name()
+    }
+
+    fn node_id(&self) -> u8 {
+        self.node.get()
+    }
+
+    /// Answers an SDO request on `0x600 + node` (standard id, data frame)
+    /// with the codec's [`SdoServer`]; an undecodable request (wrong length,
+    /// unknown command byte) gets the codec's abort 0x05040001, a client
+    /// abort gets no answer.
+    fn hear(&mut self, now: Instant, frame: &CanFrame) -> Option<FrameReply> {
+        if self.is_off(now) {
+            return None;
+        }
+        self.off_until = None;
+        if frame.extended || frame.rtr || frame.id != self.node.request_cob_id() {
+            return None;
+        }
+        let mut od = Dictionary {
+            table: &self.table,
+            values: &mut self.values,
+        };
+        let response = self.server.on_frame_data(frame.payload(), &mut od)?;
+        Some(FrameReply {
+            frame: response.to_can(self.node),
+            reaction: self.reaction.draw(&mut self.rng),
+        })
+    }
+
+    /// Off from `now` for `off`: no answers, a running segmented transfer
+    /// is lost, values are kept (see the module docs), non-persistent codes
+    /// go back to factory values.
+    fn power_cycle(&mut self, now: Instant, off: Duration) {
+        self.off_until = Some(now + off);
+        self.server = SdoServer::new();
+        for p in self.table.iter() {
+            if !p.persistent() {
+                self.values.insert(p.key, p.factory.clone());
+            }
+        }
+    }
+
+    fn state(&self) -> ResolvedSet {
+        self.table.resolved(&self.values)
+    }
+
+    /// Sets a value without the protocol. Refused for an unknown code, a
+    /// value of the wrong shape, or an integer the code's wire format
+    /// cannot carry (FIX32: i32, bit-coded: u32). Range and read-only are
+    /// not checked: a test may put any representable value.
+    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        let p = self
+            .table
+            .get(key)
+            .ok_or_else(|| format!("ECS node {}: no code {key:?}", self.node.get()))?;
+        let code = CodeNumber::new(key.number).map_err(|e| e.to_string())?;
+        let ok = match (wire_of(p, code), &raw) {
+            (Wire::Lenze(format), RawValue::Int(v)) => fits(format, *v),
+            (Wire::Text, RawValue::Text(_)) | (Wire::Octets, RawValue::Octets(_)) => true,
+            _ => false,
+        };
+        if !ok {
+            return Err(format!(
+                "ECS node {}: {raw:?} does not fit code {key:?}",
+                self.node.get()
+            ));
+        }
+        self.values.insert(key, raw);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn drive() -> EcsDrive {
+        EcsDrive::new(NodeId::new(1).unwrap(), 7).unwrap()
+    }
+
+    #[test]
+    fn enum_values_are_engineering_integers_scaled_for_fix32() {
+        let d = drive();
+        let p = d.table().get(CodeKey::new(5016)).unwrap();
+        assert_eq!(p.enum_values, vec![0, 1, 2]);
+        assert!(enum_member(p, 20_000));
+        assert!(!enum_member(p, 15_000));
+        assert!(!enum_member(p, 2));
+    }
+
+    #[test]
+    fn power_cycle_blocks_answers_until_back() {
+        let mut d = drive().with_reaction(ReactionTime::fixed(Duration::from_millis(1)));
+        let q = CanFrame::new(0x601, &[0x40, 0x88, 0x4A, 0, 0, 0, 0, 0]).unwrap();
+        let t0 = Instant::from_nanos(1_000_000);
+        d.power_cycle(t0, Duration::from_millis(100));
+        assert!(d.hear(t0, &q).is_none());
+        assert!(d.hear(t0 + Duration::from_millis(99), &q).is_none());
+        assert!(d.hear(t0 + Duration::from_millis(100), &q).is_some());
+    }
+}
