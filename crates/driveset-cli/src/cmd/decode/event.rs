@@ -1,0 +1,134 @@
+//! One annotated stretch of a capture (a telegram, a reply, skipped garbage,
+//! an slcan line) and its text and JSON renderings, which carry the same
+//! fields.
+
+use serde::Serialize;
+
+/// Who sent the bytes.
+pub const HOST_TO_DRIVE: &str = "host -> drive";
+/// Who sent the bytes.
+pub const DRIVE_TO_HOST: &str = "drive -> host";
+
+/// The BCC check of a telegram that has one.
+#[derive(Debug, Clone, Serialize)]
+pub struct Bcc {
+    /// Whether it matches.
+    pub ok: bool,
+    /// The byte received.
+    pub found: String,
+    /// The byte computed over the telegram text.
+    pub expected: String,
+}
+
+/// One event of the decoded stream.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Event {
+    /// First byte (offset in the capture).
+    pub start: u64,
+    /// One past the last byte.
+    pub end: u64,
+    /// `host -> drive`, `drive -> host`, `host -> adapter`, ...; none for garbage.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub direction: Option<&'static str>,
+    /// `ENQUIRY`, `SELECT`, `VALUE`, `ACK`, `NAK`, `EOT`, `GARBAGE`, `ERROR`, ...
+    pub kind: &'static str,
+    /// Device / controller address or CAN node.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub address: Option<String>,
+    /// The code as on the wire (`00112`, `C0046`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub code: Option<String>,
+    /// The code's name from the schema or the protocol.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The value as on the wire.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub raw_value: Option<String>,
+    /// The value in engineering units.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub value: Option<String>,
+    /// BCC check.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bcc: Option<Bcc>,
+    /// What it means (replies, special codes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub meaning: Option<String>,
+    /// Further lines (SIOF bits, C0068 fields, ...).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub details: Vec<String>,
+    /// What is wrong with these bytes (makes the exit code 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// The bytes, hex.
+    pub bytes: String,
+}
+
+impl Event {
+    /// An event over `start..end` of `capture`.
+    pub fn new(capture: &[u8], start: u64, end: u64, kind: &'static str) -> Self {
+        let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+        let e = usize::try_from(end)
+            .unwrap_or(usize::MAX)
+            .min(capture.len())
+            .max(s);
+        Event {
+            start,
+            end,
+            kind,
+            bytes: super::input::hex_spaced(&capture[s..e]),
+            ..Event::default()
+        }
+    }
+
+    /// The human line(s).
+    pub fn render_text(&self) -> String {
+        let mut parts: Vec<String> = Vec::new();
+        if let Some(a) = &self.address {
+            parts.push(format!("address {a}"));
+        }
+        if let Some(c) = &self.code {
+            match &self.name {
+                Some(n) => parts.push(format!("code {c} ({n})")),
+                None => parts.push(format!("code {c}")),
+            }
+        }
+        match (&self.raw_value, &self.value) {
+            (Some(r), Some(v)) if r != v => parts.push(format!("value {r} = {v}")),
+            (Some(r), _) => parts.push(format!("value {r}")),
+            (None, Some(v)) => parts.push(format!("value {v}")),
+            (None, None) => {}
+        }
+        if let Some(b) = &self.bcc {
+            if b.ok {
+                parts.push(format!("BCC {} ok", b.found));
+            } else {
+                parts.push(format!(
+                    "BCC bad: expected {}, found {}",
+                    b.expected, b.found
+                ));
+            }
+        }
+        let mut rest = parts.join(", ");
+        for extra in [&self.meaning, &self.error].into_iter().flatten() {
+            if rest.is_empty() {
+                rest.clone_from(extra);
+            } else {
+                rest = format!("{rest}: {extra}");
+            }
+        }
+        let range = format!("{}..{}", self.start, self.end);
+        let mut line = format!(
+            "{range:<11} {:<15} {:<9} {rest}",
+            self.direction.unwrap_or("-"),
+            self.kind
+        );
+        while line.ends_with(' ') {
+            line.pop();
+        }
+        for d in &self.details {
+            line.push_str("\n            ");
+            line.push_str(d);
+        }
+        line
+    }
+}

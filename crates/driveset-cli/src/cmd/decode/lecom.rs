@@ -1,0 +1,238 @@
+//! LECOM-A/B captures: [`driveset_proto::lecom::BusSniffer`] events annotated
+//! with the Tmd schema (code names, VD values with units), C0068 / C1962
+//! values and the meaning of `?`, `STX C1 C2 EOT`, ACK and NAK replies.
+
+use driveset_proto::ascii::bcc;
+use driveset_proto::lecom::{
+    AddressKind, BusSniffer, CodeAddress, ControllerAddress, Direction, ExchangeFailure,
+    ExtendedError, Frame, FrameError, HostFrame, OperatingStatus, Response, StreamError, Telegram,
+    Value,
+};
+use driveset_schema::{RawValue, validate::display_value};
+
+use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
+use super::{Ctx, garbage_event};
+
+fn address_text(a: ControllerAddress) -> String {
+    match a.kind() {
+        AddressKind::All => format!("{a} (broadcast to all)"),
+        AddressKind::Group(t) => format!("{a} (multicast to {t}1..{t}9)"),
+        AddressKind::Station => a.to_string(),
+    }
+}
+
+fn direction(d: Direction) -> Option<&'static str> {
+    match d {
+        Direction::HostToController => Some(HOST_TO_DRIVE),
+        Direction::ControllerToHost => Some(DRIVE_TO_HOST),
+        Direction::Unknown => None,
+    }
+}
+
+fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress) {
+    ev.code = Some(code.to_string());
+    if let Some(s) = &ctx.schema
+        && let Some(c) = s.code(u32::from(code.code()))
+        && !c.name.is_empty()
+    {
+        ev.name = Some(c.name.clone());
+    }
+}
+
+fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
+    ev.raw_value = Some(value.to_string());
+    match code.code() {
+        68 => {
+            if let Ok(s) = OperatingStatus::from_value(value) {
+                for (name, state) in s.describe() {
+                    ev.details.push(format!("{name}: {state}"));
+                }
+                let c = s.last_communication_error();
+                ev.meaning = Some(format!("last communication error: {}", c.text()));
+            }
+        }
+        1962 => {
+            if let Ok(x) = ExtendedError::from_value(value) {
+                ev.meaning = Some(format!("error {}: {}", x.code(), x.text()));
+            }
+        }
+        _ => {}
+    }
+    let Some(schema) = &ctx.schema else { return };
+    let Some(c) = schema.code(u32::from(code.code())) else {
+        return;
+    };
+    let raw = match value {
+        Value::Decimal(d) => RawValue::Int(d.raw()),
+        Value::Hex(h) => RawValue::Int(i64::from(h.get())),
+        Value::String(s) => RawValue::Text(s.as_str().to_string()),
+        Value::Octets(o) => RawValue::Octets(o.as_bytes().to_vec()),
+    };
+    if !c.bits.is_empty() && code.code() == 68 {
+        return;
+    }
+    let shown = display_value(schema, c, &raw);
+    ev.value = Some(shown);
+}
+
+/// Decodes a LECOM-A/B capture.
+pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
+    let raw = BusSniffer::decode_all(capture);
+    let mut out = Vec::with_capacity(raw.len());
+    let mut last: Option<Telegram> = None;
+    for ev in raw {
+        let (start, end) = (ev.range.start, ev.range.end);
+        let bytes = slice(capture, start, end);
+        let mut bad_bcc = None;
+        let frame = match ev.result {
+            Ok(f) => f,
+            Err(StreamError::Garbage { len }) => {
+                out.push(garbage_event(capture, start, end, len));
+                continue;
+            }
+            Err(StreamError::Frame(FrameError::BadBcc { expected, found })) => {
+                let mut fixed = bytes.to_vec();
+                if let Some(l) = fixed.last_mut() {
+                    *l = expected;
+                }
+                let redone = match ev.direction {
+                    Direction::HostToController => Telegram::decode(&fixed)
+                        .ok()
+                        .map(|t| Frame::Host(HostFrame::Telegram(t))),
+                    _ => Response::decode(&fixed).ok().map(Frame::Controller),
+                };
+                match redone {
+                    Some(f) => {
+                        bad_bcc = Some((found, expected));
+                        f
+                    }
+                    None => {
+                        let mut e = Event::new(capture, start, end, "ERROR");
+                        e.direction = direction(ev.direction);
+                        e.error = Some(
+                            StreamError::Frame(FrameError::BadBcc { expected, found }).to_string(),
+                        );
+                        out.push(e);
+                        continue;
+                    }
+                }
+            }
+            Err(err) => {
+                let mut e = Event::new(capture, start, end, "ERROR");
+                e.direction = direction(ev.direction);
+                e.error = Some(err.to_string());
+                out.push(e);
+                continue;
+            }
+        };
+        let mut e = Event::new(capture, start, end, "");
+        e.direction = direction(ev.direction);
+        let mut has_bcc = false;
+        match frame {
+            Frame::Host(HostFrame::EndOfTransmission) => {
+                e.kind = "EOT";
+                e.direction = Some(HOST_TO_DRIVE);
+                e.meaning = Some("end of transmission".into());
+            }
+            Frame::Host(HostFrame::Telegram(t)) => {
+                e.direction = Some(HOST_TO_DRIVE);
+                e.address = Some(address_text(t.address()));
+                code_fields(ctx, &mut e, t.code());
+                match t {
+                    Telegram::Receive(_) => e.kind = "RECEIVE",
+                    Telegram::Send(s) => {
+                        e.kind = "SEND";
+                        value_fields(ctx, &mut e, s.code, &s.value);
+                        has_bcc = true;
+                    }
+                    Telegram::Broadcast(b) => {
+                        e.kind = "BROADCAST";
+                        value_fields(ctx, &mut e, b.code, &b.value);
+                        e.meaning = Some("no controller answers a broadcast".into());
+                        has_bcc = true;
+                    }
+                }
+                last = Some(t);
+            }
+            Frame::Controller(r) => {
+                e.direction = Some(DRIVE_TO_HOST);
+                if let Some(t) = last {
+                    e.address = Some(address_text(t.address()));
+                }
+                match r {
+                    Response::Value { code, value } => {
+                        e.kind = "VALUE";
+                        code_fields(ctx, &mut e, code);
+                        value_fields(ctx, &mut e, code, &value);
+                        has_bcc = true;
+                        if let Some(t) = last
+                            && t.code() != code
+                        {
+                            e.meaning = Some(format!("answers {}, but {} was asked", code, t.code()));
+                        }
+                    }
+                    Response::ChecksumFault { code } => {
+                        e.kind = "?";
+                        code_fields(ctx, &mut e, code);
+                        e.meaning = Some(ExchangeFailure::ChecksumFaultReply.text().into());
+                        has_bcc = true;
+                    }
+                    Response::NoSuchCode { code } => {
+                        e.kind = "NO CODE";
+                        code_fields(ctx, &mut e, code);
+                        e.meaning = Some(ExchangeFailure::NoSuchCode.text().into());
+                    }
+                    Response::Ack => {
+                        e.kind = "ACK";
+                        e.meaning = Some(match last {
+                            Some(Telegram::Send(s)) => format!("SEND of {} carried out", s.code),
+                            _ => "carried out".into(),
+                        });
+                    }
+                    Response::Nak => {
+                        e.kind = "NAK";
+                        e.meaning = Some(match last {
+                            Some(Telegram::Send(s)) => format!(
+                                "SEND of {} not carried out, the value is unchanged; read C0068 bits 4..7 or C1962 for the reason",
+                                s.code
+                            ),
+                            _ => ExchangeFailure::Nak.text().into(),
+                        });
+                    }
+                }
+            }
+        }
+        if has_bcc && let Some(&l) = bytes.last() {
+            e.bcc = Some(match bad_bcc {
+                Some((found, expected)) => {
+                    e.error = Some("BCC mismatch: the receiver discards this telegram".into());
+                    Bcc {
+                        ok: false,
+                        found: format!("0x{found:02X}"),
+                        expected: format!("0x{expected:02X}"),
+                    }
+                }
+                None => {
+                    let stx = bytes.iter().position(|&b| b & 0x7F == 0x02).map_or(0, |p| p + 1);
+                    let computed = bcc(&bytes[stx.min(bytes.len() - 1)..bytes.len() - 1]);
+                    Bcc {
+                        ok: true,
+                        found: format!("0x{:02X}", l & 0x7F),
+                        expected: format!("0x{computed:02X}"),
+                    }
+                }
+            });
+        }
+        out.push(e);
+    }
+    out
+}
+
+fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
+    let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+    let e = usize::try_from(end)
+        .unwrap_or(usize::MAX)
+        .min(capture.len())
+        .max(s);
+    &capture[s..e]
+}

@@ -1,0 +1,388 @@
+//! LUSTBUS captures: [`driveset_proto::lustbus::Sniffer`] events annotated
+//! with the schema of the device family (code names, typed values), the
+//! meaning of ACK / NAK / EOT and the 85-SIOF/SERR bits.
+
+use std::sync::Arc;
+
+use driveset_proto::ascii::bcc;
+use driveset_proto::lustbus::{
+    Address, CodeMeaning, CompatibleParameter, Direction, Family, FrameError, ParameterCode,
+    ParameterType, ParameterValue, Reply, Request, Siof, Sniffer, Telegram, codec,
+};
+use driveset_schema::{RawValue, Schema, validate::display_value};
+
+use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
+use super::{Ctx, garbage_event};
+
+/// Schema id of a family's built-in schema.
+pub fn family_schema_id(family: Family) -> &'static str {
+    match family {
+        Family::Vf1000 => "lust-vf1000",
+        Family::Mc => "lust-mc6000",
+    }
+}
+
+/// The family a CODE belongs to, when its layout says so.
+pub fn family_of(code: ParameterCode) -> Option<Family> {
+    if code.compatible_parameter().is_some() {
+        return None;
+    }
+    match code.meaning() {
+        CodeMeaning::VfValue { .. } | CodeMeaning::VfDescription { .. } => Some(Family::Vf1000),
+        CodeMeaning::McValue { .. }
+        | CodeMeaning::McDescription { .. }
+        | CodeMeaning::SubstitutionText { .. }
+        | CodeMeaning::PosMod => Some(Family::Mc),
+        CodeMeaning::Other => None,
+    }
+}
+
+/// The schema code number a CODE reads or writes (the parameter number), if
+/// it is a value access.
+pub fn value_parameter(code: ParameterCode) -> Option<u32> {
+    if let Some(c) = code.compatible_parameter() {
+        return Some(u32::from(c.number()));
+    }
+    match code.meaning() {
+        CodeMeaning::VfValue { parameter, .. } => Some(u32::from(parameter)),
+        CodeMeaning::McValue { parameter } => Some(u32::from(parameter)),
+        _ => None,
+    }
+}
+
+/// The wire type of a schema type name (`PT_FIXPOINT16` ...).
+pub fn wire_type(schema: &Schema, number: u32) -> Option<ParameterType> {
+    let code = schema.code(number)?;
+    let ty = schema.type_of(code)?;
+    ParameterType::ALL
+        .into_iter()
+        .find(|t| t.name() == ty.name())
+}
+
+/// The signed raw value the schema works with.
+pub fn schema_raw(v: &ParameterValue) -> i64 {
+    match *v {
+        ParameterValue::Integer16(i) => i64::from(i),
+        ParameterValue::Int32Q16(q) => i64::from(q.0),
+        _ => i64::from(v.raw()),
+    }
+}
+
+struct State<'a> {
+    ctx: &'a Ctx,
+    family: Option<Family>,
+    last: Option<Request>,
+}
+
+impl State<'_> {
+    fn schema(&self) -> Option<Arc<Schema>> {
+        if let Some(s) = &self.ctx.schema {
+            return Some(s.clone());
+        }
+        self.ctx.registry.get(family_schema_id(self.family?))
+    }
+
+    fn see(&mut self, code: ParameterCode) {
+        if self.ctx.family.is_none()
+            && self.ctx.schema.is_none()
+            && let Some(f) = family_of(code)
+        {
+            self.family = Some(f);
+        }
+    }
+
+    fn code_fields(&self, ev: &mut Event, code: ParameterCode) {
+        ev.code = Some(code.to_string());
+        let schema = self.schema();
+        let named = |n: u32| -> Option<String> {
+            let s = schema.as_ref()?;
+            s.code(n).map(|_| s.display_code(n, None))
+        };
+        ev.name = match code.meaning() {
+            _ if code.compatible_parameter().is_some() => {
+                let n = code.number();
+                Some(named(n).unwrap_or_else(|| compatible_name(code)))
+            }
+            CodeMeaning::VfValue { parameter, .. } => named(u32::from(parameter)),
+            CodeMeaning::McValue { parameter } => named(u32::from(parameter)),
+            CodeMeaning::VfDescription { parameter, .. } => Some(format!(
+                "description of {}",
+                named(u32::from(parameter)).unwrap_or_else(|| parameter.to_string())
+            )),
+            CodeMeaning::McDescription { parameter } => Some(format!(
+                "description of {}",
+                named(u32::from(parameter)).unwrap_or_else(|| parameter.to_string())
+            )),
+            CodeMeaning::SubstitutionText { parameter } => Some(format!(
+                "value substitution text of {}",
+                named(u32::from(parameter)).unwrap_or_else(|| parameter.to_string())
+            )),
+            CodeMeaning::PosMod => Some("PosMOD1 user data".into()),
+            CodeMeaning::Other => None,
+        };
+    }
+
+    fn value_fields(&self, ev: &mut Event, code: ParameterCode, text: &[u8]) {
+        ev.raw_value = Some(text.escape_ascii().to_string());
+        if code.compatible_parameter() == Some(CompatibleParameter::Siof) {
+            siof_fields(ev, text);
+            return;
+        }
+        let (Some(schema), Some(number), Some(family)) =
+            (self.schema(), value_parameter(code), self.family)
+        else {
+            return;
+        };
+        let (Some(code_def), Some(ty)) = (schema.code(number), wire_type(&schema, number)) else {
+            return;
+        };
+        match ParameterValue::decode(ty, family, text) {
+            Ok(v) => {
+                ev.value = Some(display_value(
+                    &schema,
+                    code_def,
+                    &RawValue::Int(schema_raw(&v)),
+                ));
+            }
+            Err(e) => ev
+                .details
+                .push(format!("VALUE does not decode as {}: {e}", ty.name())),
+        }
+    }
+}
+
+fn compatible_name(code: ParameterCode) -> String {
+    match code.compatible_parameter() {
+        Some(CompatibleParameter::Baud) => "81 baud rate",
+        Some(CompatibleParameter::Address) => "82 device address",
+        Some(CompatibleParameter::Dummy) => "83 watchdog dummy",
+        Some(CompatibleParameter::Watchdog) => "84 watchdog time",
+        Some(CompatibleParameter::Siof) => "85 SIOF/SERR",
+        Some(CompatibleParameter::Type) => "91 TYPE",
+        None => "",
+    }
+    .to_string()
+}
+
+/// SIOF/SERR: the bits with cause and remedy (section 9.2).
+fn siof_fields(ev: &mut Event, text: &[u8]) {
+    let parsed = std::str::from_utf8(text)
+        .ok()
+        .filter(|t| !t.is_empty() && t.len() <= 8)
+        .and_then(|t| u32::from_str_radix(t, 16).ok());
+    let Some(n) = parsed else {
+        ev.details
+            .push("VALUE is not a hex number; SIOF/SERR cannot be decoded".into());
+        return;
+    };
+    let Ok(bits) = u8::try_from(n) else {
+        ev.details
+            .push(format!("0x{n:X} does not fit the 8 SIOF/SERR bits"));
+        return;
+    };
+    let siof = Siof::from_bits_retain(bits);
+    ev.value = Some(format!("0x{bits:02X}"));
+    if siof.is_empty() {
+        ev.meaning = Some("no error bit set".into());
+        return;
+    }
+    let labels: Vec<String> = siof.causes().map(|c| c.descriptor.to_string()).collect();
+    ev.meaning = Some(format!("{} (reading 85 cleared it)", labels.join(", ")));
+    for c in siof.causes() {
+        ev.details.push(format!(
+            "bit {} {}: {}; what to do: {}",
+            c.bit, c.descriptor, c.cause, c.remedy
+        ));
+    }
+}
+
+fn address_text(a: Address) -> String {
+    let note = match a.number() {
+        0 => " (all devices)",
+        31 => " (broadcast)",
+        _ => "",
+    };
+    format!("{} '{}'{note}", a.number(), a.to_byte() as char)
+}
+
+fn direction(d: Option<Direction>) -> Option<&'static str> {
+    d.map(|d| match d {
+        Direction::Host => HOST_TO_DRIVE,
+        Direction::Device => DRIVE_TO_HOST,
+    })
+}
+
+/// Decodes a LUSTBUS capture.
+pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
+    let mut sniffer = Sniffer::new();
+    let mut raw: Vec<_> = sniffer.feed(capture).collect();
+    raw.extend(sniffer.finish());
+    let mut st = State {
+        ctx,
+        family: ctx.family,
+        last: None,
+    };
+    let mut out = Vec::with_capacity(raw.len());
+    for ev in raw {
+        let (start, end) = (ev.span.start, ev.span.end);
+        let bytes = slice(capture, start, end);
+        let mut bad_bcc = None;
+        let telegram = match ev.result {
+            Ok(t) => t,
+            Err(FrameError::Garbage { len, .. }) => {
+                out.push(garbage_event(capture, start, end, len));
+                continue;
+            }
+            Err(FrameError::BadBcc {
+                received, computed, ..
+            }) => {
+                // Decode what is inside with the BCC it should have had.
+                let mut fixed = bytes.to_vec();
+                if let Some(last) = fixed.last_mut() {
+                    *last = computed;
+                }
+                match codec::decode_telegram(&fixed) {
+                    Ok(t) => {
+                        bad_bcc = Some((received, computed));
+                        t
+                    }
+                    Err(_) => {
+                        let mut e = Event::new(capture, start, end, "ERROR");
+                        e.direction = direction(ev.direction);
+                        e.error = Some(format!(
+                            "BCC is 0x{received:02X} but the text XORs to 0x{computed:02X}"
+                        ));
+                        out.push(e);
+                        continue;
+                    }
+                }
+            }
+            Err(e) => {
+                let mut x = Event::new(capture, start, end, "ERROR");
+                x.direction = direction(ev.direction);
+                x.error = Some(e.to_string());
+                out.push(x);
+                continue;
+            }
+        };
+        let mut e = Event::new(capture, start, end, "");
+        e.direction = Some(match telegram {
+            Telegram::Request(_) => HOST_TO_DRIVE,
+            Telegram::Reply(_) => DRIVE_TO_HOST,
+        });
+        match telegram {
+            Telegram::Request(Request::Eot) => {
+                e.kind = "EOT";
+                e.meaning = Some("end of transaction, every receiver resets".into());
+            }
+            Telegram::Request(r @ Request::Enquiry(q)) => {
+                st.see(q.code);
+                e.kind = "ENQUIRY";
+                e.address = Some(address_text(q.address));
+                st.code_fields(&mut e, q.code);
+                if !q.address.expects_reply() {
+                    e.meaning = Some("to the broadcast address: no device answers".into());
+                }
+                st.last = Some(r);
+            }
+            Telegram::Request(r @ Request::Select(s)) => {
+                st.see(s.code);
+                e.kind = "SELECT";
+                e.address = Some(address_text(s.address));
+                st.code_fields(&mut e, s.code);
+                st.value_fields(&mut e, s.code, s.value.as_bytes());
+                if s.code.compatible_parameter() == Some(CompatibleParameter::Siof) {
+                    e.value = None;
+                    e.details.clear();
+                    e.meaning = None;
+                }
+                if !s.address.expects_reply() {
+                    e.meaning = Some("broadcast: every device acts on it, none replies".into());
+                }
+                st.last = Some(r);
+            }
+            Telegram::Reply(Reply::Value(v)) => {
+                st.see(v.code);
+                e.kind = "VALUE";
+                e.address = Some(address_text(v.address));
+                st.code_fields(&mut e, v.code);
+                st.value_fields(&mut e, v.code, v.value.as_bytes());
+            }
+            Telegram::Reply(Reply::Ack(a)) => {
+                st.last = st.last.filter(|r| answers(r, a));
+                e.kind = "ACK";
+                e.address = Some(address_text(a));
+                e.meaning = Some(match st.last {
+                    Some(Request::Select(s)) => format!("SELECT of {} accepted", s.code),
+                    _ => "accepted".into(),
+                });
+            }
+            Telegram::Reply(Reply::Nak(a)) => {
+                st.last = st.last.filter(|r| answers(r, a));
+                e.kind = "NAK";
+                e.address = Some(address_text(a));
+                e.meaning = Some(match st.last {
+                    Some(Request::Select(s)) => format!(
+                        "SELECT of {} refused; read 85 (SIOF/SERR) for the cause, which also unlatches the device",
+                        s.code
+                    ),
+                    Some(Request::Enquiry(q)) => format!(
+                        "ENQUIRY of {} refused: no such parameter or read-protected (sets no SIOF bit)",
+                        q.code
+                    ),
+                    _ => "refused".into(),
+                });
+            }
+        }
+        if let Some(last) = bytes.last().copied()
+            && matches!(
+                telegram,
+                Telegram::Request(Request::Select(_)) | Telegram::Reply(Reply::Value(_))
+            )
+        {
+            e.bcc = Some(match bad_bcc {
+                Some((found, expected)) => {
+                    e.error = Some("BCC mismatch: the receiver discards this telegram".into());
+                    Bcc {
+                        ok: false,
+                        found: format!("0x{found:02X}"),
+                        expected: format!("0x{expected:02X}"),
+                    }
+                }
+                None => {
+                    let text_start = bytes
+                        .iter()
+                        .position(|&b| b & 0x7F == 0x02)
+                        .map_or(0, |p| p + 1);
+                    let computed = bcc(&bytes[text_start.min(bytes.len() - 1)..bytes.len() - 1]);
+                    Bcc {
+                        ok: true,
+                        found: format!("0x{:02X}", last & 0x7F),
+                        expected: format!("0x{computed:02X}"),
+                    }
+                }
+            });
+        }
+        out.push(e);
+    }
+    out
+}
+
+/// Whether a reply from `a` can answer `r` (same address, or address 0).
+fn answers(r: &Request, a: Address) -> bool {
+    let to = match r {
+        Request::Eot => return false,
+        Request::Enquiry(q) => q.address,
+        Request::Select(s) => s.address,
+    };
+    to == a || to == Address::ALL
+}
+
+fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
+    let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+    let e = usize::try_from(end)
+        .unwrap_or(usize::MAX)
+        .min(capture.len())
+        .max(s);
+    &capture[s..e]
+}
