@@ -18,4 +18,5 @@ pub mod catalog;
 pub mod drive;
 pub mod ecs;
 pub mod rng;
+pub mod slcan_serve;
 pub mod table;
