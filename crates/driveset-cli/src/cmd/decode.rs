@@ -44,6 +44,10 @@ use driveset_schema::{Protocol as SchemaProtocol, Registry, Schema};
 
 use crate::{EXIT_FINDINGS, EXIT_INPUT, EXIT_OK};
 use event::Event;
+pub(crate) use lustbus::{
+    family_of as lustbus_family_of, family_schema_id as lustbus_schema_id,
+    value_parameter as lustbus_value_parameter, wire_type as lustbus_wire_type,
+};
 
 /// Bus protocol of a capture.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

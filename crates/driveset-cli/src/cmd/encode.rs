@@ -1,8 +1,613 @@
-//! `driveset encode` (under construction).
+//! `driveset encode`: build one telegram from a readable description, for
+//! bench tests with a terminal program.
+//!
+//! A description is a verb followed by `key=value` pairs (any order; quote a
+//! value with spaces as `key="a b"`):
+//!
+//! ```text
+//! --protocol lustbus   (LUSTBUS; VF1000 VALUE = 4 hex digits, MC6000/7000 = 1..8)
+//!   enquiry  address=A (code=NNNNN | param=P)
+//!   select   address=A (code=NNNNN | param=P) value=V
+//!   reply    address=A (code=NNNNN | param=P) value=V     device's value reply
+//!   ack      address=A          nak address=A              eot
+//!     A: 0..31 (0 all devices, 31 broadcast)
+//!     code=NNNNN: the five CODE digits as sent (00112, 20428)
+//!     param=P: a parameter number, needs the family (family=vf1000|mc6000 or
+//!       --family / --schema): MC -> 20ppp, VF1000 -> 0 0 d pp with device=1
+//!       (device=0 for basis parameters); 81..85 and 91 -> 000pp on both
+//!     V: 0x842666 = the raw value in hex; a decimal (132.15, -5) is converted
+//!       exactly with the parameter's type from the schema (PT_FIXPOINT16
+//!       x20, PT_INT32Q16 x65536, ...) and refused with the nearest
+//!       representable values when it has no exact raw form
+//! --protocol lecom     (LECOM-A/B)
+//!   receive   address=NN code=C[/S]
+//!   send      address=NN code=C[/S] value=V
+//!   broadcast address=NN code=C[/S] value=V     NN = 00 or x0
+//!     C: 46, C46 or C0046; /S a subcode (extended addressing)
+//!     V: 95.2 (VD), H0900 or 0x0900 (VH), "Stext" (VS), O0102 (VO)
+//! --protocol sdo       (Lenze system bus, CAN SDO expedited; the word `sdo`
+//!                       may lead the description)
+//!   read  node=N code=C [subindex=S]
+//!   write node=N code=C [subindex=S] value=V
+//!     N: 1..127; index = 24575 - code; V: decimal -> FIX32 (x10000, exact),
+//!     0x... -> the 32-bit raw value (C0135 / C0150 are bit-coded)
+//! ```
+//!
+//! Output: the bytes in hex and in escaped ASCII (`<EOT>@00112<ENQ>`, `<xx>`
+//! for other bytes; `driveset decode --ascii` reads it back); for SDO the CAN
+//! frame and its slcan line. `--raw` writes only the bytes (SDO: the slcan
+//! line with CR). Errors name the bad key or value and list the valid ones
+//! (exit 2).
+
+use std::collections::BTreeMap;
+use std::io::Write as _;
+use std::sync::Arc;
+
+use anyhow::{anyhow, bail};
+use driveset_proto::can::{
+    CanFrame, CodeNumber as CanCode, Fix32, LenzeValue, NodeId, SdoRequest, SlcanCommand,
+    Subindex, ValueFormat,
+};
+use driveset_proto::lecom::{self, CodeAddress, ControllerAddress, Hex, Value};
+use driveset_proto::lustbus::{
+    Address, CompatibleParameter, Enquiry, Family, ParameterCode, ParameterValue, Reply, Request,
+    Select, ValueReply, ValueText,
+};
+use driveset_schema::value::{ConvError, Repr, decimal_to_raw};
+use driveset_schema::{Decimal, Registry, Schema};
+
+use super::decode::input::{escaped, hex_spaced};
+use super::decode::{FamilyArg, builtin_registry, load_schema};
+use crate::{EXIT_INPUT, EXIT_OK};
+
+/// Protocol of the telegram to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EncodeProtocol {
+    /// LUSTBUS (Lust VF1000, MC6000/7000).
+    Lustbus,
+    /// LECOM-A/B (Lenze Tmd).
+    Lecom,
+    /// CAN SDO (Lenze ECS), printed as a CAN frame and an slcan line.
+    Sdo,
+}
 
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+Grammar: VERB key=value ... (quote values with spaces: key=\"a b\")
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset encode` is not implemented yet")
+  --protocol lustbus
+    enquiry address=A (code=NNNNN | param=P)
+    select  address=A (code=NNNNN | param=P) value=V
+    reply   address=A (code=NNNNN | param=P) value=V
+    ack address=A | nak address=A | eot
+      A 0..31 (0 all, 31 broadcast); code = the five CODE digits (00112, 20428);
+      param = parameter number with family=vf1000|mc6000 (or --family/--schema):
+      MC 20ppp, VF1000 0 0 d pp (device=1 unless device=0), 81..85/91 -> 000pp;
+      value = 0x842666 raw hex, or a decimal converted exactly with the schema's
+      type (refused with the nearest values when not representable).
+  --protocol lecom
+    receive address=NN code=C[/S]
+    send address=NN code=C[/S] value=V
+    broadcast address=NN code=C[/S] value=V      (NN = 00 or x0)
+      code 46, C46, C0046, C1002/1; value 95.2 (VD), H0900 or 0x0900 (VH),
+      Stext (VS), O0102 (VO)
+  --protocol sdo
+    read  node=N code=C [subindex=S]
+    write node=N code=C [subindex=S] value=V
+      node 1..127; value decimal -> FIX32 (x10000, exact), 0x... -> 32-bit raw
+
+Examples:
+  driveset encode --protocol lustbus \"enquiry address=0 code=00112\"
+  driveset encode --protocol lustbus \"select address=1 family=mc6000 param=428 value=0x842666\"
+  driveset encode --protocol lecom \"send address=34 code=11 value=95.2\"
+  driveset encode --protocol sdo \"write node=1 code=11 value=50.0\"")]
+pub struct Args {
+    /// Protocol of the telegram.
+    #[arg(long, value_enum)]
+    pub protocol: EncodeProtocol,
+    /// LUSTBUS device family (for param= and decimal values).
+    #[arg(long, value_enum)]
+    pub family: Option<FamilyArg>,
+    /// Schema for decimal values: a built-in id or a schema file.
+    #[arg(long, value_name = "ID_OR_PATH")]
+    pub schema: Option<String>,
+    /// Write only the raw bytes to stdout.
+    #[arg(long)]
+    pub raw: bool,
+    /// The telegram, e.g. "enquiry address=0 code=00112".
+    #[arg(value_name = "DESCRIPTION")]
+    pub description: String,
+}
+
+struct Desc {
+    verb: String,
+    keys: BTreeMap<String, String>,
+}
+
+fn tokenize(text: &str) -> anyhow::Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut any = false;
+    for c in text.chars() {
+        match c {
+            '"' => {
+                quoted = !quoted;
+                any = true;
+            }
+            c if c.is_whitespace() && !quoted => {
+                if any {
+                    out.push(std::mem::take(&mut cur));
+                    any = false;
+                }
+            }
+            c => {
+                cur.push(c);
+                any = true;
+            }
+        }
+    }
+    if quoted {
+        bail!("unclosed `\"` in the description");
+    }
+    if any {
+        out.push(cur);
+    }
+    Ok(out)
+}
+
+fn parse_desc(text: &str, verbs: &[&str]) -> anyhow::Result<Desc> {
+    let mut toks = tokenize(text)?.into_iter();
+    let Some(verb) = toks.next() else {
+        bail!("empty description; start with one of: {}", verbs.join(", "));
+    };
+    let verb = verb.to_ascii_lowercase();
+    if !verbs.contains(&verb.as_str()) {
+        bail!(
+            "unknown telegram kind `{verb}`; valid: {}",
+            verbs.join(", ")
+        );
+    }
+    let mut keys = BTreeMap::new();
+    for t in toks {
+        let Some((k, v)) = t.split_once('=') else {
+            bail!("`{t}` is not key=value (e.g. address=1)");
+        };
+        let k = k.to_ascii_lowercase();
+        if keys.insert(k.clone(), v.to_string()).is_some() {
+            bail!("{k}= is given twice");
+        }
+    }
+    Ok(Desc { verb, keys })
+}
+
+impl Desc {
+    fn check(&self, allowed: &[&str], required: &[&str]) -> anyhow::Result<()> {
+        for k in self.keys.keys() {
+            if !allowed.contains(&k.as_str()) {
+                bail!(
+                    "unknown key `{k}` for {}; valid keys: {}",
+                    self.verb,
+                    allowed.join(", ")
+                );
+            }
+        }
+        for r in required {
+            if !self.keys.contains_key(*r) {
+                bail!("{} needs {r}=...", self.verb);
+            }
+        }
+        Ok(())
+    }
+    fn get(&self, k: &str) -> Option<&str> {
+        self.keys.get(k).map(String::as_str)
+    }
+}
+
+fn parse_int(key: &str, v: &str, what: &str) -> anyhow::Result<u32> {
+    let r = if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+        u32::from_str_radix(h, 16)
+    } else {
+        v.parse::<u32>()
+    };
+    r.map_err(|_| anyhow!("{key}={v}: {what}"))
+}
+
+/// Runs `driveset encode`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    match build(&args) {
+        Ok((bytes, text)) => {
+            let mut out = std::io::stdout().lock();
+            if args.raw {
+                out.write_all(&bytes)?;
+            } else {
+                out.write_all(text.as_bytes())?;
+            }
+            out.flush()?;
+            Ok(EXIT_OK)
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            Ok(EXIT_INPUT)
+        }
+    }
+}
+
+fn build(args: &Args) -> anyhow::Result<(Vec<u8>, String)> {
+    let mut registry = builtin_registry()?;
+    let schema = match &args.schema {
+        Some(s) => Some(load_schema(&mut registry, s)?),
+        None => None,
+    };
+    match args.protocol {
+        EncodeProtocol::Lustbus => lustbus(args, &registry, schema),
+        EncodeProtocol::Lecom => lecom_telegram(args, &registry, schema),
+        EncodeProtocol::Sdo => sdo(args, &registry, schema),
+    }
+}
+
+fn plain_output(bytes: &[u8]) -> String {
+    format!("hex:   {}\nascii: {}\n", hex_spaced(bytes), escaped(bytes))
+}
+
+fn lustbus(
+    args: &Args,
+    registry: &Registry,
+    schema: Option<Arc<Schema>>,
+) -> anyhow::Result<(Vec<u8>, String)> {
+    let d = parse_desc(
+        &args.description,
+        &["enquiry", "select", "reply", "ack", "nak", "eot"],
+    )?;
+    let code_keys = ["address", "code", "param", "family", "device", "value"];
+    match d.verb.as_str() {
+        "eot" => d.check(&[], &[])?,
+        "ack" | "nak" => d.check(&["address"], &["address"])?,
+        "enquiry" => d.check(&code_keys[..5], &["address"])?,
+        _ => d.check(&code_keys, &["address", "value"])?,
+    }
+    let address = match d.get("address") {
+        Some(a) => {
+            let n = parse_int("address", a, "LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)")?;
+            u8::try_from(n).ok().and_then(Address::new).ok_or_else(|| {
+                anyhow!("address={a}: LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)")
+            })?
+        }
+        None => Address::ALL,
+    };
+    let family = match d.get("family") {
+        Some("vf1000") => Some(Family::Vf1000),
+        Some("mc6000" | "mc7000" | "mc") => Some(Family::Mc),
+        Some(f) => bail!("family={f}: valid families: vf1000, mc6000"),
+        None => args.family.map(FamilyArg::family).or(match schema.as_ref().map(|s| s.protocol) {
+            Some(driveset_schema::Protocol::LustbusVf1000) => Some(Family::Vf1000),
+            Some(driveset_schema::Protocol::LustbusMc) => Some(Family::Mc),
+            _ => None,
+        }),
+    };
+    let bytes = match d.verb.as_str() {
+        "eot" => Request::Eot.encode().as_bytes().to_vec(),
+        "ack" => Reply::Ack(address).encode().as_bytes().to_vec(),
+        "nak" => Reply::Nak(address).encode().as_bytes().to_vec(),
+        verb => {
+            let (code, family) = lust_code(&d, family)?;
+            if verb == "enquiry" {
+                Enquiry::new(address, code).encode().as_bytes().to_vec()
+            } else {
+                let schema = schema.or_else(|| {
+                    family.and_then(|f| {
+                        registry.get(super::decode::lustbus_schema_id(f))
+                    })
+                });
+                let value = lust_value(d.get("value").unwrap_or(""), code, family, schema)?;
+                if verb == "select" {
+                    Select::new(address, code, value).encode().as_bytes().to_vec()
+                } else {
+                    Reply::Value(ValueReply {
+                        address,
+                        code,
+                        value,
+                    })
+                    .encode()
+                    .as_bytes()
+                    .to_vec()
+                }
+            }
+        }
+    };
+    let text = plain_output(&bytes);
+    Ok((bytes, text))
+}
+
+fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode, Option<Family>)> {
+    match (d.get("code"), d.get("param")) {
+        (Some(_), Some(_)) => bail!("give code= or param=, not both"),
+        (None, None) => bail!("{} needs code=NNNNN (five CODE digits) or param=P", d.verb),
+        (Some(c), None) => {
+            if d.get("device").is_some() {
+                bail!("device= goes with param=, not with code=");
+            }
+            let ok = !c.is_empty() && c.len() <= 5 && c.bytes().all(|b| b.is_ascii_digit());
+            let code = ok
+                .then(|| c.parse::<u32>().ok().and_then(ParameterCode::new))
+                .flatten()
+                .ok_or_else(|| anyhow!("code={c}: a CODE is up to five decimal digits, e.g. 00112 or 20428"))?;
+            let fam = family.or_else(|| super::decode::lustbus_family_of(code));
+            Ok((code, fam))
+        }
+        (None, Some(p)) => {
+            let n = parse_int("param", p, "a parameter number, e.g. 428")?;
+            if let Some(c) = u16::try_from(n).ok().and_then(CompatibleParameter::from_number) {
+                return Ok((ParameterCode::compatible(c), family));
+            }
+            let Some(fam) = family else {
+                bail!("param={p} needs the device family: add family=vf1000 or family=mc6000");
+            };
+            let code = match fam {
+                Family::Mc => u16::try_from(n).ok().and_then(ParameterCode::mc_value),
+                Family::Vf1000 => {
+                    let device = match d.get("device") {
+                        None | Some("1") => 1,
+                        Some("0") => 0,
+                        Some(x) => bail!("device={x}: valid: 0 (basis parameter), 1 (VF1000)"),
+                    };
+                    u8::try_from(n).ok().and_then(|p| ParameterCode::vf_value(device, p))
+                }
+            };
+            let code = code.ok_or_else(|| {
+                anyhow!(
+                    "param={p}: {} parameters are {}",
+                    fam,
+                    if fam == Family::Mc { "0..999" } else { "0..99" }
+                )
+            })?;
+            Ok((code, Some(fam)))
+        }
+    }
+}
+
+fn lust_value(
+    v: &str,
+    code: ParameterCode,
+    family: Option<Family>,
+    schema: Option<Arc<Schema>>,
+) -> anyhow::Result<ValueText> {
+    if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+        let raw = u32::from_str_radix(h, 16)
+            .map_err(|_| anyhow!("value={v}: not a hex number (at most 8 digits)"))?;
+        let text = match family {
+            Some(Family::Vf1000) => {
+                if raw > 0xFFFF {
+                    bail!("value={v}: a VF1000 VALUE is 4 hex digits, at most 0xFFFF");
+                }
+                format!("{raw:04X}")
+            }
+            Some(Family::Mc) => format!("{raw:X}"),
+            None => {
+                let digits = h.trim_start_matches('0');
+                if h.len() == 4 {
+                    h.to_ascii_uppercase()
+                } else if digits.is_empty() {
+                    "0".into()
+                } else {
+                    digits.to_ascii_uppercase()
+                }
+            }
+        };
+        return ValueText::new(text.as_bytes()).map_err(|e| anyhow!("value={v}: {e}"));
+    }
+    let Some(family) = family else {
+        bail!("value={v}: give the value as raw hex (value=0x03E8), or name the family (family=vf1000|mc6000) so the parameter's type can convert a decimal");
+    };
+    let number = super::decode::lustbus_value_parameter(code)
+        .ok_or_else(|| anyhow!("value={v}: CODE {code} is not a parameter value; give value=0x..."))?;
+    let schema = schema.ok_or_else(|| anyhow!("value={v}: no schema for {family}; give value=0x..."))?;
+    let Some(ty) = super::decode::lustbus_wire_type(&schema, number) else {
+        bail!(
+            "value={v}: schema {} gives no type for parameter {number}; give the raw value as value=0x...",
+            schema.id
+        );
+    };
+    let vt = driveset_schema::ValueType::from_name(ty.name())
+        .ok_or_else(|| anyhow!("value={v}: unknown type {}", ty.name()))?;
+    let raw: i64 = match vt.repr() {
+        Repr::Scaled(_) => {
+            let dec = Decimal::parse(v).map_err(|_| {
+                anyhow!("value={v}: not a number; write a decimal (132.15) or raw hex (0x842666)")
+            })?;
+            decimal_to_raw(vt, None, &dec).map_err(|e| match e {
+                ConvError::Unrepresentable { step, lower, upper } => anyhow!(
+                    "value={v}: {} ({}) has steps of {step}; {v} is not representable; nearest values: {lower} and {upper}",
+                    schema.display_code(number, None),
+                    ty.name()
+                ),
+                ConvError::OutOfRange { min, max } => anyhow!(
+                    "value={v}: out of range for {} ({}): {min} to {max}",
+                    schema.display_code(number, None),
+                    ty.name()
+                ),
+            })?
+        }
+        Repr::Float => driveset_schema::value::float_text_to_raw(v)
+            .map_err(|_| anyhow!("value={v}: not a finite decimal for {}", ty.name()))?,
+        _ => bail!("value={v}: type {} takes raw hex (value=0x...)", ty.name()),
+    };
+    let pv = ParameterValue::from_raw(ty, raw as u32 & mask(ty))
+        .ok_or_else(|| anyhow!("value={v}: does not fit {}", ty.name()))?;
+    pv.encode(family).map_err(|e| anyhow!("value={v}: {e}"))
+}
+
+fn mask(ty: driveset_proto::lustbus::ParameterType) -> u32 {
+    use driveset_proto::lustbus::ParameterType as T;
+    match ty {
+        T::Integer16 => 0xFFFF,
+        _ => u32::MAX,
+    }
+}
+
+fn lecom_code(c: &str) -> anyhow::Result<CodeAddress> {
+    let (num, sub) = match c.split_once('/') {
+        Some((n, s)) => (n, Some(s)),
+        None => (c, None),
+    };
+    let digits = num.strip_prefix(['C', 'c']).unwrap_or(num);
+    let n: u16 = digits
+        .parse()
+        .map_err(|_| anyhow!("code={c}: write a code number like 46, C46 or C0046 (subcode: C1002/1)"))?;
+    let s: u8 = match sub {
+        Some(s) => s
+            .parse()
+            .map_err(|_| anyhow!("code={c}: subcode {s} is not 0..255"))?,
+        None => 0,
+    };
+    Ok(CodeAddress::select(n, s))
+}
+
+fn lecom_value(v: &str, code: CodeAddress, schema: Option<&Schema>) -> anyhow::Result<Value> {
+    if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+        let raw = u32::from_str_radix(h, 16).map_err(|_| anyhow!("value={v}: not a hex number"))?;
+        let width = schema
+            .and_then(|s| s.code(u32::from(code.code())))
+            .and_then(|c| c.width)
+            .unwrap_or(if raw > 0xFFFF { 4 } else if h.len() <= 2 { 1 } else { 2 });
+        let hex = match width {
+            1 => u8::try_from(raw).ok().map(Hex::Byte),
+            2 => u16::try_from(raw).ok().map(Hex::Word),
+            _ => Some(Hex::Dword(raw)),
+        };
+        return hex
+            .map(Value::Hex)
+            .ok_or_else(|| anyhow!("value={v}: does not fit {width} byte(s) of VH"));
+    }
+    Value::parse(v.as_bytes()).map_err(|e| {
+        anyhow!("value={v}: {e}; valid: 95.2 (VD), H0900 or 0x0900 (VH), Stext (VS), O0102 (VO)")
+    })
+}
+
+fn lecom_telegram(
+    args: &Args,
+    registry: &Registry,
+    schema: Option<Arc<Schema>>,
+) -> anyhow::Result<(Vec<u8>, String)> {
+    if args.family.is_some() {
+        bail!("--family applies to --protocol lustbus only");
+    }
+    let d = parse_desc(&args.description, &["receive", "send", "broadcast"])?;
+    if d.verb == "receive" {
+        d.check(&["address", "code"], &["address", "code"])?;
+    } else {
+        d.check(&["address", "code", "value"], &["address", "code", "value"])?;
+    }
+    let a = d.get("address").unwrap_or("");
+    let address = (a.len() <= 2)
+        .then(|| a.parse::<u8>().ok().and_then(ControllerAddress::new))
+        .flatten()
+        .ok_or_else(|| {
+            anyhow!("address={a}: LECOM addresses are 00..99 (00 and x0 broadcast / multicast)")
+        })?;
+    let code = lecom_code(d.get("code").unwrap_or(""))?;
+    let schema = schema.or_else(|| registry.get("lenze-tmd"));
+    let t = match d.verb.as_str() {
+        "receive" => lecom::Telegram::Receive(
+            lecom::Receive::new(address, code).map_err(|e| anyhow!("address={a}: {e}"))?,
+        ),
+        verb => {
+            let value = lecom_value(d.get("value").unwrap_or(""), code, schema.as_deref())?;
+            if verb == "send" {
+                lecom::Telegram::Send(
+                    lecom::Send::new(address, code, value).map_err(|e| anyhow!("address={a}: {e}"))?,
+                )
+            } else {
+                lecom::Telegram::Broadcast(
+                    lecom::Broadcast::new(address, code, value)
+                        .map_err(|e| anyhow!("address={a}: {e}"))?,
+                )
+            }
+        }
+    };
+    let bytes = t.to_bytes().map_err(|e| anyhow!("address={a}: {e}"))?;
+    let text = plain_output(&bytes);
+    Ok((bytes, text))
+}
+
+fn sdo(
+    args: &Args,
+    _registry: &Registry,
+    schema: Option<Arc<Schema>>,
+) -> anyhow::Result<(Vec<u8>, String)> {
+    if args.family.is_some() {
+        bail!("--family applies to --protocol lustbus only");
+    }
+    let text = args.description.trim_start();
+    let text = text
+        .strip_prefix("sdo ")
+        .or_else(|| text.strip_prefix("SDO "))
+        .unwrap_or(text);
+    let d = parse_desc(text, &["read", "write"])?;
+    if d.verb == "read" {
+        d.check(&["node", "code", "subindex"], &["node", "code"])?;
+    } else {
+        d.check(&["node", "code", "subindex", "value"], &["node", "code", "value"])?;
+    }
+    let nv = d.get("node").unwrap_or("");
+    let node = parse_int("node", nv, "CAN node ids are 1..127")
+        .ok()
+        .and_then(|n| u8::try_from(n).ok())
+        .and_then(|n| NodeId::new(n).ok())
+        .ok_or_else(|| anyhow!("node={nv}: CAN node ids are 1..127"))?;
+    let cv = d.get("code").unwrap_or("");
+    let digits = cv.strip_prefix(['C', 'c']).unwrap_or(cv);
+    let code = digits
+        .parse::<u32>()
+        .ok()
+        .and_then(|n| CanCode::new(n).ok())
+        .ok_or_else(|| anyhow!("code={cv}: Lenze codes are 0..24575 (C0011 or 11)"))?;
+    let sub = match d.get("subindex") {
+        Some(s) => Subindex(
+            s.parse()
+                .map_err(|_| anyhow!("subindex={s}: subindices are 0..255"))?,
+        ),
+        None => Subindex(0),
+    };
+    let req = if d.verb == "read" {
+        SdoRequest::read_code(code, sub)
+    } else {
+        let v = d.get("value").unwrap_or("");
+        let format = match schema
+            .as_ref()
+            .and_then(|s| s.code(u32::from(code.get())).and_then(|c| s.type_of(c)))
+        {
+            Some(driveset_schema::ValueType::BITCODED) => ValueFormat::BitCoded,
+            Some(driveset_schema::ValueType::FIX32) => ValueFormat::Fix32,
+            _ => code.value_format(),
+        };
+        let value = if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+            let raw = u32::from_str_radix(h, 16)
+                .map_err(|_| anyhow!("value={v}: not a 32-bit hex number"))?;
+            match format {
+                ValueFormat::BitCoded => LenzeValue::BitCoded(raw),
+                ValueFormat::Fix32 => LenzeValue::Fix32(Fix32(raw as i32)),
+            }
+        } else {
+            if format == ValueFormat::BitCoded {
+                bail!("value={v}: {code} is bit-coded; give it in hex (value=0x0001)");
+            }
+            LenzeValue::Fix32(Fix32::from_decimal_str(v).map_err(|e| {
+                anyhow!("value={v}: {e}; FIX32 takes a decimal with up to 4 decimals, -214748.3648..214748.3647, or raw hex 0x...")
+            })?)
+        };
+        SdoRequest::write_code(code, sub, value)
+    };
+    let data = req.encode();
+    let frame = CanFrame::new(node.request_cob_id(), &data).map_err(|e| anyhow!("{e}"))?;
+    let line = SlcanCommand::Transmit(frame)
+        .to_bytes()
+        .map_err(|e| anyhow!("{e}"))?;
+    let text = format!(
+        "cob-id: 0x{:03X}\ndata:   {}\nslcan:  {}\n",
+        frame.id,
+        hex_spaced(&data),
+        escaped(&line)
+    );
+    Ok((line, text))
 }

@@ -84,7 +84,11 @@ impl Event {
     pub fn render_text(&self) -> String {
         let mut parts: Vec<String> = Vec::new();
         if let Some(a) = &self.address {
-            parts.push(format!("address {a}"));
+            if a.starts_with("node ") {
+                parts.push(a.clone());
+            } else {
+                parts.push(format!("address {a}"));
+            }
         }
         if let Some(c) = &self.code {
             match &self.name {
@@ -93,7 +97,10 @@ impl Event {
             }
         }
         match (&self.raw_value, &self.value) {
-            (Some(r), Some(v)) if r != v => parts.push(format!("value {r} = {v}")),
+            (Some(r), Some(v)) if v == r || v.starts_with(&format!("{r} ")) => {
+                parts.push(format!("value {v}"));
+            }
+            (Some(r), Some(v)) => parts.push(format!("value {r} = {v}")),
             (Some(r), _) => parts.push(format!("value {r}")),
             (None, Some(v)) => parts.push(format!("value {v}")),
             (None, None) => {}

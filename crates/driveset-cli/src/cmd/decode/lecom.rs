@@ -8,7 +8,7 @@ use driveset_proto::lecom::{
     ExtendedError, Frame, FrameError, HostFrame, OperatingStatus, Response, StreamError, Telegram,
     Value,
 };
-use driveset_schema::{RawValue, validate::display_value};
+use driveset_schema::{RawValue, ValueType, validate::display_value};
 
 use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
 use super::{Ctx, garbage_event};
@@ -48,7 +48,9 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
                     ev.details.push(format!("{name}: {state}"));
                 }
                 let c = s.last_communication_error();
-                ev.meaning = Some(format!("last communication error: {}", c.text()));
+                if c.nibble() != 0 {
+                    ev.meaning = Some(format!("last communication error: {}", c.text()));
+                }
             }
         }
         1962 => {
@@ -62,12 +64,29 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
     let Some(c) = schema.code(u32::from(code.code())) else {
         return;
     };
-    let raw = match value {
-        Value::Decimal(d) => RawValue::Int(d.raw()),
-        Value::Hex(h) => RawValue::Int(i64::from(h.get())),
-        Value::String(s) => RawValue::Text(s.as_str().to_string()),
-        Value::Octets(o) => RawValue::Octets(o.as_bytes().to_vec()),
+    let ty = schema.type_of(c);
+    let (raw, fits) = match value {
+        Value::Decimal(d) => (RawValue::Int(d.raw()), ty == Some(ValueType::VD)),
+        Value::Hex(h) => (RawValue::Int(i64::from(h.get())), ty == Some(ValueType::VH)),
+        Value::String(s) => (
+            RawValue::Text(s.as_str().to_string()),
+            ty == Some(ValueType::VS),
+        ),
+        Value::Octets(o) => (
+            RawValue::Octets(o.as_bytes().to_vec()),
+            ty == Some(ValueType::VO),
+        ),
     };
+    if !fits {
+        if let Some(t) = ty {
+            ev.details.push(format!(
+                "the schema gives {} as {}; this value is in another format",
+                schema.display_code(c.number, None),
+                t.name()
+            ));
+        }
+        return;
+    }
     if !c.bits.is_empty() && code.code() == 68 {
         return;
     }
