@@ -14,9 +14,14 @@
 //! codes, reaction times of the Lenze families) come from fixture schemas
 //! and settings that say they are fictional.
 
+pub mod bus;
+pub mod can_bus;
 pub mod catalog;
 pub mod drive;
 pub mod ecs;
+pub mod faults;
+pub mod log;
 pub mod rng;
+pub mod serve;
 pub mod slcan_serve;
 pub mod table;

@@ -1,0 +1,257 @@
+//! The simulator's event log: owns [`Event`] (one line of the log) and
+//! [`EventLog`] (where the lines go: any `Write` such as the `--log FILE`,
+//! or memory for tests).
+//!
+//! One JSON object per line, fields always in this order:
+//!
+//! ```text
+//! {"t_ns":8333333,"dir":"drive","addr":1,"hex":"06","text":"<ACK>","fault":null,"detail":null}
+//! ```
+//!
+//! - `t_ns`: nanoseconds on the bus clock (virtual: since the clock's
+//!   epoch; real: since the process's first `RealClock` use). For a host
+//!   chunk and a reply: the instant its first character starts on the wire;
+//!   for an event: when it happens.
+//! - `dir`: `"host"` (one line per host `send`, or per chunk read from the
+//!   pty / socket when serving), `"drive"` (one line per reply, as the
+//!   drive sent it, before drive-to-host faults unless `detail` says
+//!   otherwise) or `"event"` (a fault or bus event on its own line).
+//! - `addr`: the replying drive's address (node id on CAN); the affected
+//!   drive for events; `null` for host lines and bus-wide events.
+//! - `hex`: the bytes, two hex digits each, separated by one space (CAN:
+//!   the payload).
+//! - `text`: the bytes as ASCII with control characters named (`<EOT>`,
+//!   `<STX>`, bytes above 0x7E as `<0xNN>`); CAN: `ID#PAYLOAD` as candump
+//!   prints it (`R` for a remote frame).
+//! - `fault`: `null`, or what happened to this telegram or the event's
+//!   kind: `flip`, `lose`, `truncate`, `garbage`, `collision`,
+//!   `baud-mismatch`, `cable`, `power-cycle`, `cable-pulled`, `baud-change`,
+//!   `invalid-frame` (CAN); serving on TCP adds `connect` / `disconnect`.
+//! - `detail`: `null` or a short human text (which character and bit, how
+//!   many characters were kept, off time).
+//!
+//! The log records raw bytes: a LUSTBUS password written to a drive appears
+//! in it as sent. Treat log files like the bus capture they are.
+
+use std::io::Write;
+use std::sync::{Arc, Mutex, PoisonError};
+
+use serde::Serialize;
+
+/// Direction or kind of a log line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dir {
+    /// Host to drives.
+    Host,
+    /// A drive's reply.
+    Drive,
+    /// A fault or bus event.
+    Event,
+}
+
+/// One log line.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Event {
+    /// Bus clock, nanoseconds.
+    pub t_ns: u64,
+    /// Direction / kind.
+    pub dir: Dir,
+    /// Drive address or node id, if any.
+    pub addr: Option<u8>,
+    /// Bytes in hex.
+    pub hex: String,
+    /// Bytes as readable text.
+    pub text: String,
+    /// The fault, if any.
+    pub fault: Option<String>,
+    /// Details, if any.
+    pub detail: Option<String>,
+}
+
+impl Event {
+    /// A telegram line for `bytes`.
+    pub fn bytes(t_ns: u64, dir: Dir, addr: Option<u8>, bytes: &[u8]) -> Self {
+        Event {
+            t_ns,
+            dir,
+            addr,
+            hex: hex(bytes),
+            text: text(bytes),
+            fault: None,
+            detail: None,
+        }
+    }
+
+    /// An event line of kind `fault`.
+    pub fn note(t_ns: u64, addr: Option<u8>, fault: &str, detail: impl Into<String>) -> Self {
+        Event {
+            t_ns,
+            dir: Dir::Event,
+            addr,
+            hex: String::new(),
+            text: String::new(),
+            fault: Some(fault.to_string()),
+            detail: Some(detail.into()),
+        }
+    }
+
+    /// With a fault and detail.
+    pub fn with_fault(mut self, fault: &str, detail: impl Into<String>) -> Self {
+        self.fault = Some(fault.to_string());
+        self.detail = Some(detail.into());
+        self
+    }
+
+    /// The JSON line (without the newline).
+    pub fn to_json(&self) -> String {
+        // Serializing plain strings and integers cannot fail.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+/// Bytes as hex pairs separated by spaces.
+pub fn hex(bytes: &[u8]) -> String {
+    let mut s = String::with_capacity(bytes.len() * 3);
+    for (i, b) in bytes.iter().enumerate() {
+        if i > 0 {
+            s.push(' ');
+        }
+        s.push_str(&format!("{b:02X}"));
+    }
+    s
+}
+
+const CONTROL_NAMES: [&str; 32] = [
+    "NUL", "SOH", "STX", "ETX", "EOT", "ENQ", "ACK", "BEL", "BS", "HT", "LF", "VT", "FF", "CR",
+    "SO", "SI", "DLE", "DC1", "DC2", "DC3", "DC4", "NAK", "SYN", "ETB", "CAN", "EM", "SUB", "ESC",
+    "FS", "GS", "RS", "US",
+];
+
+/// Bytes as ASCII, control characters as `<NAME>`, others as `<0xNN>`.
+pub fn text(bytes: &[u8]) -> String {
+    let mut s = String::with_capacity(bytes.len());
+    for &b in bytes {
+        match b {
+            0x20..=0x7E => s.push(char::from(b)),
+            0x7F => s.push_str("<DEL>"),
+            0x00..=0x1F => {
+                s.push('<');
+                s.push_str(CONTROL_NAMES[usize::from(b)]);
+                s.push('>');
+            }
+            _ => s.push_str(&format!("<0x{b:02X}>")),
+        }
+    }
+    s
+}
+
+/// Why the log could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write the event log: {0}; check the --log path and free disk space")]
+pub struct LogError(#[source] pub std::io::Error);
+
+#[derive(Debug, Default)]
+enum Sink {
+    #[default]
+    Off,
+    Memory(Vec<Event>),
+    Writer {
+        out: WriterBox,
+        failed: Option<std::io::Error>,
+    },
+}
+
+struct WriterBox(Box<dyn Write + Send>);
+
+impl std::fmt::Debug for WriterBox {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Write")
+    }
+}
+
+/// Where log lines go. Cheap to clone: clones share the sink, so a test can
+/// keep a handle to a memory log it gave to a bus.
+#[derive(Debug, Clone, Default)]
+pub struct EventLog {
+    sink: Arc<Mutex<Sink>>,
+}
+
+impl EventLog {
+    /// A log that records nothing.
+    pub fn off() -> Self {
+        EventLog::default()
+    }
+
+    /// A log kept in memory; read it with [`EventLog::events`].
+    pub fn memory() -> Self {
+        EventLog {
+            sink: Arc::new(Mutex::new(Sink::Memory(Vec::new()))),
+        }
+    }
+
+    /// A log written as JSON lines to `out` (e.g. a `BufWriter<File>`).
+    /// The first write error stops the log; [`EventLog::check`] reports it.
+    pub fn writer(out: impl Write + Send + 'static) -> Self {
+        EventLog {
+            sink: Arc::new(Mutex::new(Sink::Writer {
+                out: WriterBox(Box::new(out)),
+                failed: None,
+            })),
+        }
+    }
+
+    /// Whether lines are recorded at all.
+    pub fn is_on(&self) -> bool {
+        !matches!(*self.lock(), Sink::Off)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Sink> {
+        self.sink.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Record one line.
+    pub fn push(&self, event: Event) {
+        let mut sink = self.lock();
+        match &mut *sink {
+            Sink::Off => {}
+            Sink::Memory(v) => v.push(event),
+            Sink::Writer { out, failed } => {
+                if failed.is_none() {
+                    let mut line = event.to_json();
+                    line.push('\n');
+                    if let Err(e) = out.0.write_all(line.as_bytes()) {
+                        *failed = Some(e);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The lines recorded so far (memory logs; empty otherwise).
+    pub fn events(&self) -> Vec<Event> {
+        match &*self.lock() {
+            Sink::Memory(v) => v.clone(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The lines recorded so far as JSON (memory logs).
+    pub fn lines(&self) -> Vec<String> {
+        self.events().iter().map(Event::to_json).collect()
+    }
+
+    /// Flush a writer log and report the first write error, if any.
+    pub fn check(&self) -> Result<(), LogError> {
+        let mut sink = self.lock();
+        if let Sink::Writer { out, failed } = &mut *sink {
+            if let Some(e) = failed.take() {
+                // Keep the log stopped: later lines would leave a hole.
+                *failed = Some(std::io::Error::new(e.kind(), "an earlier write failed"));
+                return Err(LogError(e));
+            }
+            out.0.flush().map_err(LogError)?;
+        }
+        Ok(())
+    }
+}
