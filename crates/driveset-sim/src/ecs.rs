@@ -28,8 +28,7 @@
 //!   - index above 0x5FFF or no such code: 0x06020000;
 //!   - code exists, subindex does not: 0x06090011;
 //!   - write to a read-only code: 0x06010002 (checked before the length);
-//!   - write of other than 4 bytes (or a segmented write of any length to
-//!     a 4-byte code): 0x06070010;
+//!   - write of other than 4 bytes (expedited or segmented): 0x06070010;
 //!   - value above the schema's max: 0x06090031; below min: 0x06090032
 //!     (more precise than the general 0x06090030, which DS301 also
 //!     allows); an integer that is not one of a code's enumerated values:
@@ -37,8 +36,9 @@
 //!   - protocol errors (bad command byte, toggle bit, segment sizes) are
 //!     the codec's [`SdoServer`] aborts (0x05040001, 0x05030000, ...).
 //! - **Segmented transfers** run through [`SdoServer`]; every ECS value is
-//!   4 bytes, so an upload is always expedited and a segmented download
-//!   ends in 0x06070010 after its last segment.
+//!   4 bytes, so an upload is always expedited; a segmented download of
+//!   exactly 4 bytes is taken like an expedited one, any other length ends
+//!   in 0x06070010 after its last segment.
 //! - **Power cycle**: the drive answers nothing while it is off; the SDO
 //!   server's transfer state is lost; parameter values are **kept**. The
 //!   excerpt says nothing about storage; the simulator treats every ECS
