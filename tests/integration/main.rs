@@ -2,4 +2,6 @@
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 
+mod decode;
+mod encode;
 mod util;

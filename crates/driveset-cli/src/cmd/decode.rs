@@ -174,7 +174,9 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
         return input::parse_ascii(a, "--ascii").map_err(anyhow::Error::msg);
     }
     let Some(file) = &args.file else {
-        bail!("no capture given: pass --hex \"04 40 ...\", --ascii \"<EOT>...\", a FILE, or - for stdin");
+        bail!(
+            "no capture given: pass --hex \"04 40 ...\", --ascii \"<EOT>...\", a FILE, or - for stdin"
+        );
     };
     let (bytes, name) = if file.as_os_str() == "-" {
         let mut b = Vec::new();
@@ -247,18 +249,16 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             (DecodeProtocol::Lecom, SchemaProtocol::Lecom)
             | (DecodeProtocol::Slcan, SchemaProtocol::LenzeCanSdo) => true,
             (DecodeProtocol::Lustbus, SchemaProtocol::LustbusVf1000) => {
-                family.is_none_or(|f| f == Family::Vf1000)
-                    && {
-                        family = Some(Family::Vf1000);
-                        true
-                    }
+                family.is_none_or(|f| f == Family::Vf1000) && {
+                    family = Some(Family::Vf1000);
+                    true
+                }
             }
             (DecodeProtocol::Lustbus, SchemaProtocol::LustbusMc) => {
-                family.is_none_or(|f| f == Family::Mc)
-                    && {
-                        family = Some(Family::Mc);
-                        true
-                    }
+                family.is_none_or(|f| f == Family::Mc) && {
+                    family = Some(Family::Mc);
+                    true
+                }
             }
             _ => false,
         };

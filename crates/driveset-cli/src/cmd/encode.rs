@@ -45,8 +45,8 @@ use std::sync::Arc;
 
 use anyhow::{anyhow, bail};
 use driveset_proto::can::{
-    CanFrame, CodeNumber as CanCode, Fix32, LenzeValue, NodeId, SdoRequest, SlcanCommand,
-    Subindex, ValueFormat,
+    CanFrame, CodeNumber as CanCode, Fix32, LenzeValue, NodeId, SdoRequest, SlcanCommand, Subindex,
+    ValueFormat,
 };
 use driveset_proto::lecom::{self, CodeAddress, ControllerAddress, Hex, Value};
 use driveset_proto::lustbus::{
@@ -268,7 +268,11 @@ fn lustbus(
     }
     let address = match d.get("address") {
         Some(a) => {
-            let n = parse_int("address", a, "LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)")?;
+            let n = parse_int(
+                "address",
+                a,
+                "LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)",
+            )?;
             u8::try_from(n).ok().and_then(Address::new).ok_or_else(|| {
                 anyhow!("address={a}: LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)")
             })?
@@ -279,11 +283,14 @@ fn lustbus(
         Some("vf1000") => Some(Family::Vf1000),
         Some("mc6000" | "mc7000" | "mc") => Some(Family::Mc),
         Some(f) => bail!("family={f}: valid families: vf1000, mc6000"),
-        None => args.family.map(FamilyArg::family).or(match schema.as_ref().map(|s| s.protocol) {
-            Some(driveset_schema::Protocol::LustbusVf1000) => Some(Family::Vf1000),
-            Some(driveset_schema::Protocol::LustbusMc) => Some(Family::Mc),
-            _ => None,
-        }),
+        None => args
+            .family
+            .map(FamilyArg::family)
+            .or(match schema.as_ref().map(|s| s.protocol) {
+                Some(driveset_schema::Protocol::LustbusVf1000) => Some(Family::Vf1000),
+                Some(driveset_schema::Protocol::LustbusMc) => Some(Family::Mc),
+                _ => None,
+            }),
     };
     let bytes = match d.verb.as_str() {
         "eot" => Request::Eot.encode().as_bytes().to_vec(),
@@ -295,13 +302,14 @@ fn lustbus(
                 Enquiry::new(address, code).encode().as_bytes().to_vec()
             } else {
                 let schema = schema.or_else(|| {
-                    family.and_then(|f| {
-                        registry.get(super::decode::lustbus_schema_id(f))
-                    })
+                    family.and_then(|f| registry.get(super::decode::lustbus_schema_id(f)))
                 });
                 let value = lust_value(d.get("value").unwrap_or(""), code, family, schema)?;
                 if verb == "select" {
-                    Select::new(address, code, value).encode().as_bytes().to_vec()
+                    Select::new(address, code, value)
+                        .encode()
+                        .as_bytes()
+                        .to_vec()
                 } else {
                     Reply::Value(ValueReply {
                         address,
@@ -331,13 +339,18 @@ fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode,
             let code = ok
                 .then(|| c.parse::<u32>().ok().and_then(ParameterCode::new))
                 .flatten()
-                .ok_or_else(|| anyhow!("code={c}: a CODE is up to five decimal digits, e.g. 00112 or 20428"))?;
+                .ok_or_else(|| {
+                    anyhow!("code={c}: a CODE is up to five decimal digits, e.g. 00112 or 20428")
+                })?;
             let fam = family.or_else(|| super::decode::lustbus_family_of(code));
             Ok((code, fam))
         }
         (None, Some(p)) => {
             let n = parse_int("param", p, "a parameter number, e.g. 428")?;
-            if let Some(c) = u16::try_from(n).ok().and_then(CompatibleParameter::from_number) {
+            if let Some(c) = u16::try_from(n)
+                .ok()
+                .and_then(CompatibleParameter::from_number)
+            {
                 return Ok((ParameterCode::compatible(c), family));
             }
             let Some(fam) = family else {
@@ -351,7 +364,9 @@ fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode,
                         Some("0") => 0,
                         Some(x) => bail!("device={x}: valid: 0 (basis parameter), 1 (VF1000)"),
                     };
-                    u8::try_from(n).ok().and_then(|p| ParameterCode::vf_value(device, p))
+                    u8::try_from(n)
+                        .ok()
+                        .and_then(|p| ParameterCode::vf_value(device, p))
                 }
             };
             let code = code.ok_or_else(|| {
@@ -397,11 +412,15 @@ fn lust_value(
         return ValueText::new(text.as_bytes()).map_err(|e| anyhow!("value={v}: {e}"));
     }
     let Some(family) = family else {
-        bail!("value={v}: give the value as raw hex (value=0x03E8), or name the family (family=vf1000|mc6000) so the parameter's type can convert a decimal");
+        bail!(
+            "value={v}: give the value as raw hex (value=0x03E8), or name the family (family=vf1000|mc6000) so the parameter's type can convert a decimal"
+        );
     };
-    let number = super::decode::lustbus_value_parameter(code)
-        .ok_or_else(|| anyhow!("value={v}: CODE {code} is not a parameter value; give value=0x..."))?;
-    let schema = schema.ok_or_else(|| anyhow!("value={v}: no schema for {family}; give value=0x..."))?;
+    let number = super::decode::lustbus_value_parameter(code).ok_or_else(|| {
+        anyhow!("value={v}: CODE {code} is not a parameter value; give value=0x...")
+    })?;
+    let schema =
+        schema.ok_or_else(|| anyhow!("value={v}: no schema for {family}; give value=0x..."))?;
     let Some(ty) = super::decode::lustbus_wire_type(&schema, number) else {
         bail!(
             "value={v}: schema {} gives no type for parameter {number}; give the raw value as value=0x...",
@@ -451,9 +470,9 @@ fn lecom_code(c: &str) -> anyhow::Result<CodeAddress> {
         None => (c, None),
     };
     let digits = num.strip_prefix(['C', 'c']).unwrap_or(num);
-    let n: u16 = digits
-        .parse()
-        .map_err(|_| anyhow!("code={c}: write a code number like 46, C46 or C0046 (subcode: C1002/1)"))?;
+    let n: u16 = digits.parse().map_err(|_| {
+        anyhow!("code={c}: write a code number like 46, C46 or C0046 (subcode: C1002/1)")
+    })?;
     let s: u8 = match sub {
         Some(s) => s
             .parse()
@@ -469,7 +488,13 @@ fn lecom_value(v: &str, code: CodeAddress, schema: Option<&Schema>) -> anyhow::R
         let width = schema
             .and_then(|s| s.code(u32::from(code.code())))
             .and_then(|c| c.width)
-            .unwrap_or(if raw > 0xFFFF { 4 } else if h.len() <= 2 { 1 } else { 2 });
+            .unwrap_or(if raw > 0xFFFF {
+                4
+            } else if h.len() <= 2 {
+                1
+            } else {
+                2
+            });
         let hex = match width {
             1 => u8::try_from(raw).ok().map(Hex::Byte),
             2 => u16::try_from(raw).ok().map(Hex::Word),
@@ -515,7 +540,8 @@ fn lecom_telegram(
             let value = lecom_value(d.get("value").unwrap_or(""), code, schema.as_deref())?;
             if verb == "send" {
                 lecom::Telegram::Send(
-                    lecom::Send::new(address, code, value).map_err(|e| anyhow!("address={a}: {e}"))?,
+                    lecom::Send::new(address, code, value)
+                        .map_err(|e| anyhow!("address={a}: {e}"))?,
                 )
             } else {
                 lecom::Telegram::Broadcast(
@@ -547,7 +573,10 @@ fn sdo(
     if d.verb == "read" {
         d.check(&["node", "code", "subindex"], &["node", "code"])?;
     } else {
-        d.check(&["node", "code", "subindex", "value"], &["node", "code", "value"])?;
+        d.check(
+            &["node", "code", "subindex", "value"],
+            &["node", "code", "value"],
+        )?;
     }
     let nv = d.get("node").unwrap_or("");
     let node = parse_int("node", nv, "CAN node ids are 1..127")

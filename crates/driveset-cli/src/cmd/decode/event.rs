@@ -66,7 +66,9 @@ pub struct Event {
 impl Event {
     /// An event over `start..end` of `capture`.
     pub fn new(capture: &[u8], start: u64, end: u64, kind: &'static str) -> Self {
-        let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+        let s = usize::try_from(start)
+            .unwrap_or(usize::MAX)
+            .min(capture.len());
         let e = usize::try_from(end)
             .unwrap_or(usize::MAX)
             .min(capture.len())

@@ -187,7 +187,8 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                         if let Some(t) = last
                             && t.code() != code
                         {
-                            e.meaning = Some(format!("answers {}, but {} was asked", code, t.code()));
+                            e.meaning =
+                                Some(format!("answers {}, but {} was asked", code, t.code()));
                         }
                     }
                     Response::ChecksumFault { code } => {
@@ -232,7 +233,10 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                     }
                 }
                 None => {
-                    let stx = bytes.iter().position(|&b| b & 0x7F == 0x02).map_or(0, |p| p + 1);
+                    let stx = bytes
+                        .iter()
+                        .position(|&b| b & 0x7F == 0x02)
+                        .map_or(0, |p| p + 1);
                     let computed = bcc(&bytes[stx.min(bytes.len() - 1)..bytes.len() - 1]);
                     Bcc {
                         ok: true,
@@ -248,7 +252,9 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
 }
 
 fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
-    let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+    let s = usize::try_from(start)
+        .unwrap_or(usize::MAX)
+        .min(capture.len());
     let e = usize::try_from(end)
         .unwrap_or(usize::MAX)
         .min(capture.len())

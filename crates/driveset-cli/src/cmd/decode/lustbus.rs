@@ -379,7 +379,9 @@ fn answers(r: &Request, a: Address) -> bool {
 }
 
 fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
-    let s = usize::try_from(start).unwrap_or(usize::MAX).min(capture.len());
+    let s = usize::try_from(start)
+        .unwrap_or(usize::MAX)
+        .min(capture.len());
     let e = usize::try_from(end)
         .unwrap_or(usize::MAX)
         .min(capture.len())

@@ -24,7 +24,11 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
         if matches!(b, b'\r' | b'\n' | 0x07) {
             let line = &capture[start..i];
             if !(line.is_empty() && b == b'\n') {
-                let end = if b == 0x07 && !line.is_empty() { i } else { i + 1 };
+                let end = if b == 0x07 && !line.is_empty() {
+                    i
+                } else {
+                    i + 1
+                };
                 if !line.is_empty() || b == b'\r' {
                     out.push(line_event(
                         capture,
@@ -168,14 +172,11 @@ fn value_text(ctx: &Ctx, e: &mut Event, code: Option<CodeNumber>, data: &[u8]) {
     let raw = u32::from_le_bytes(four);
     e.raw_value = Some(format!("0x{raw:08X}"));
     let Some(code) = code else { return };
-    let schema_code = ctx
-        .schema
-        .as_ref()
-        .and_then(|s| s.code(u32::from(code.get())).map(|c| (s.clone(), c.clone())));
-    let format = match schema_code
-        .as_ref()
-        .and_then(|(s, c)| s.type_of(c))
-    {
+    let schema_code = ctx.schema.as_ref().and_then(|s| {
+        s.code(u32::from(code.get()))
+            .map(|c| (s.clone(), c.clone()))
+    });
+    let format = match schema_code.as_ref().and_then(|(s, c)| s.type_of(c)) {
         Some(ValueType::BITCODED) => ValueFormat::BitCoded,
         Some(ValueType::FIX32) => ValueFormat::Fix32,
         _ => code.value_format(),
@@ -233,7 +234,11 @@ fn frame_event(e: &mut Event, frame: &CanFrame, ctx: &Ctx, last: &mut Option<(u8
         "CAN {} id 0x{id:X} [{}] {}: not an SDO frame",
         if frame.extended { "29-bit" } else { "11-bit" },
         frame.len,
-        if frame.rtr { "remote".to_string() } else { data.join(" ") }
+        if frame.rtr {
+            "remote".to_string()
+        } else {
+            data.join(" ")
+        }
     ));
 }
 
@@ -299,7 +304,10 @@ fn response_fields(e: &mut Event, r: &SdoResponse, ctx: &Ctx, req: Option<SdoReq
         }
         SdoResponse::WriteSegmentAck { toggle } => {
             e.kind = "SEGMENT";
-            e.meaning = Some(format!("write segment acknowledged, toggle {}", u8::from(toggle)));
+            e.meaning = Some(format!(
+                "write segment acknowledged, toggle {}",
+                u8::from(toggle)
+            ));
         }
         SdoResponse::ReadValue {
             index,
