@@ -245,23 +245,22 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     };
     let mut family = family;
     if let Some(s) = &schema {
+        let schema_family = match s.protocol {
+            SchemaProtocol::LustbusVf1000 => Some(Family::Vf1000),
+            SchemaProtocol::LustbusMc => Some(Family::Mc),
+            _ => None,
+        };
         let fits = match (args.protocol, s.protocol) {
             (DecodeProtocol::Lecom, SchemaProtocol::Lecom)
             | (DecodeProtocol::Slcan, SchemaProtocol::LenzeCanSdo) => true,
-            (DecodeProtocol::Lustbus, SchemaProtocol::LustbusVf1000) => {
-                family.is_none_or(|f| f == Family::Vf1000) && {
-                    family = Some(Family::Vf1000);
-                    true
-                }
-            }
-            (DecodeProtocol::Lustbus, SchemaProtocol::LustbusMc) => {
-                family.is_none_or(|f| f == Family::Mc) && {
-                    family = Some(Family::Mc);
-                    true
-                }
+            (DecodeProtocol::Lustbus, _) => {
+                schema_family.is_some() && (family.is_none() || family == schema_family)
             }
             _ => false,
         };
+        if fits && args.protocol == DecodeProtocol::Lustbus {
+            family = schema_family;
+        }
         if !fits {
             eprintln!(
                 "error: --schema {}: schema {} is for another protocol or family than --protocol {}{}",

@@ -63,7 +63,7 @@ pub fn parse_hex(text: &str, origin: &str) -> Result<Vec<u8>, String> {
                     ln + 1
                 ));
             }
-            if digits.len() % 2 != 0 {
+            if !digits.len().is_multiple_of(2) {
                 return Err(format!(
                     "{origin}:{}:{col}: `{digits}` has an odd number of hex digits ({}); write every byte as two digits (`0{}` ...)",
                     ln + 1,
