@@ -1,6 +1,8 @@
-//! Simulated CAN drives behind a simulated USB-CAN adapter: serves
-//! [`FrameDrive`]s (e.g. [`crate::ecs::EcsDrive`]) on a pseudo terminal the
-//! way a Lawicel slcan adapter would, in real time, so any slcan host
+//! Simulated CAN drives behind a simulated USB-CAN adapter: serves a
+//! simulated bus ([`FrameLine`], the core of [`crate::can_bus::SimCanBus`],
+//! with its drives, e.g. [`crate::ecs::EcsDrive`], arbitration, fault plan
+//! and event log) on a pseudo terminal the way a Lawicel slcan adapter
+//! would, in real time ([`RealClock`] instants), so any slcan host
 //! (driveset's own `slcan://` link, python-can's `slcan` interface) can talk
 //! to them by opening the pty's slave path.
 //!
@@ -11,9 +13,11 @@
 //!
 //! - `C` (close): CR, always (closing a closed channel is harmless; python-can
 //!   sends `C` first).
-//! - `Sn` (bit rate, S0..S8): CR while the channel is closed, BELL while it is
-//!   open (Lawicel). `sxxyy` likewise (the rate then stays as it was: BTR
-//!   values are not interpreted).
+//! - `Sn` (bit rate, S0..S8): CR while the channel is closed and `n` is the
+//!   simulated bus's rate; BELL while open (Lawicel) or for another rate
+//!   (the simulated bus runs at the one rate it was built with, as a
+//!   machine's bus does; a real adapter would accept the rate and then see
+//!   only errors). `sxxyy`: CR while closed (BTR values not interpreted).
 //! - empty line (python-can's empty CAN FD data bit rate): CR.
 //! - `O` / `L` (open / listen-only): CR if closed, BELL if already open
 //!   (Lawicel; python-can sends `O` twice and ignores the BELL).
@@ -21,18 +25,13 @@
 //! - `Z0` / `Z1`: CR while closed (timestamps off / on), BELL while open.
 //! - `t...` / `T...` / `r...` / `R...`: `z\r` / `Z\r` (accepted, as a
 //!   Lawicel adapter in auto-poll mode) while open, BELL while closed or
-//!   listen-only. The frame is handed to every drive at the instant its
-//!   last bit left the adapter (wire time at the bit rate, exact stuffing,
-//!   [`driveset_proto::can::timing`]); a drive's answer is written as a
-//!   `t...\r` line when its reaction time and its own wire time have passed.
-//!   Answers that fall due while the channel is closed are dropped, as an
-//!   adapter receives nothing then.
+//!   listen-only. The frame goes on the simulated bus
+//!   ([`FrameLine::host_send`]: arbitration, wire time, faults; every drive
+//!   hears it at its end); each answer that reaches the host
+//!   ([`FrameLine::take_arrived`]) is written as a `t...\r` line (with a
+//!   4-digit millisecond timestamp after `Z1`). Answers that arrive while the
+//!   channel is closed are dropped, as an adapter receives nothing then.
 //! - anything undecodable: BELL.
-//!
-//! Before any `Sn` the bus runs at 500 kbit/s (simulator choice).
-//!
-//! Drives only hear the host: a drive's answer is not handed to the other
-//! drives (SDO servers ignore each other's responses anyway).
 
 use std::io::{self, Read, Write};
 use std::sync::Arc;
@@ -44,10 +43,9 @@ use driveset_link::{CanFrame, Clock, Instant, RealClock};
 use driveset_proto::can::slcan::{
     Bitrate, CommandDecoder, SlcanCommand, SlcanError, SlcanResponse,
 };
-use driveset_proto::can::timing::{self, Stuffing};
 use serialport::{SerialPort, TTYPort};
 
-use crate::drive::FrameDrive;
+use crate::can_bus::FrameLine;
 
 /// The longest the server sleeps before it looks at the stop flag again.
 pub const POLL: Duration = Duration::from_millis(20);
@@ -55,9 +53,6 @@ pub const POLL: Duration = Duration::from_millis(20);
 /// How long a write to the master end may block (the host not reading)
 /// before the line is dropped.
 const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
-
-/// The bus rate before the host sends `Sn` (simulator choice).
-pub const DEFAULT_BITRATE: Bitrate = Bitrate::K500;
 
 /// Why serving stopped with an error.
 #[derive(Debug, thiserror::Error)]
@@ -135,14 +130,10 @@ pub enum SlcanEvent {
         /// Why.
         error: SlcanError,
     },
-    /// A drive's answer was written to the host.
+    /// A frame from the bus (a drive's answer) was written to the host.
     Answer {
         /// When it was written.
         at: Instant,
-        /// The drive's family.
-        family: &'static str,
-        /// The drive's node id.
-        node: u8,
         /// The frame.
         frame: CanFrame,
     },
@@ -175,12 +166,7 @@ impl std::fmt::Display for SlcanEvent {
                 if *accepted { "ok" } else { "BELL" }
             ),
             SlcanEvent::BadLine { at, error } => write!(f, "{at} host> bad line: {error} -> BELL"),
-            SlcanEvent::Answer {
-                at,
-                family,
-                node,
-                frame,
-            } => write!(f, "{at} {family} node {node}> {}", frame_text(frame)),
+            SlcanEvent::Answer { at, frame } => write!(f, "{at} bus> {}", frame_text(frame)),
             SlcanEvent::Dropped { at, frame } => {
                 write!(
                     f,
@@ -212,34 +198,20 @@ pub struct SlcanStats {
 struct Adapter {
     open: bool,
     listen_only: bool,
-    bitrate: Bitrate,
+    /// The simulated bus's rate (`None`: not an `Sn` rate).
+    bitrate: Option<Bitrate>,
     timestamps: bool,
 }
 
-/// A drive answer waiting for its instant.
-#[derive(Debug)]
-struct Pending {
-    due: Instant,
-    seq: u64,
-    family: &'static str,
-    node: u8,
-    frame: CanFrame,
-}
-
-/// Wire time of `frame` at `rate` (SOF..intermission, exact stuffing).
-fn wire_time(frame: &CanFrame, rate: Bitrate) -> Duration {
-    timing::frame_bits(frame, Stuffing::Exact)
-        .ok()
-        .and_then(|bits| timing::frame_time_ns(bits, rate.bits_per_second()))
-        .map_or(Duration::ZERO, Duration::from_nanos)
-}
-
-/// Serves `drives` on `pty` until `stop` is set (checked at least every
-/// [`POLL`]), in real time ([`RealClock`]). Returns the run's counters; an
-/// error only when the pty itself fails.
+/// Serves the simulated bus `line` on `pty` until `stop` is set (checked
+/// at least every [`POLL`]), in real time ([`RealClock`]; the line's origin
+/// for time-triggered faults is set to the start). Every adapter-level
+/// event goes to `log` (the bus's own frames and faults go to the line's
+/// event log). Returns the run's counters; an error only when the pty
+/// itself fails.
 pub fn serve_slcan(
     pty: &mut SlcanPty,
-    drives: &mut [Box<dyn FrameDrive>],
+    line: &mut FrameLine,
     stop: &AtomicBool,
     log: &mut dyn FnMut(&SlcanEvent),
 ) -> Result<SlcanStats, SlcanServeError> {
@@ -247,60 +219,40 @@ pub fn serve_slcan(
     let mut adapter = Adapter {
         open: false,
         listen_only: false,
-        bitrate: DEFAULT_BITRATE,
+        bitrate: Bitrate::from_bits_per_second(line.bitrate()),
         timestamps: false,
     };
     let mut decoder = CommandDecoder::new();
-    let mut pending: Vec<Pending> = Vec::new();
     let mut stats = SlcanStats::default();
-    let mut seq = 0u64;
     let mut buf = [0u8; 256];
     let master = &mut pty.master;
+    line.set_origin(clock.now());
 
     while !stop.load(Ordering::Relaxed) {
-        // Deliver what is due.
+        // Deliver what has arrived.
         let now = clock.now();
-        pending.sort_by_key(|p| (p.due, p.seq));
-        let due = pending.iter().take_while(|p| p.due <= now).count();
-        for p in pending.drain(..due) {
+        line.advance(now);
+        while let Some(frame) = line.take_arrived(now) {
             if !adapter.open {
                 stats.dropped += 1;
-                log(&SlcanEvent::Dropped {
-                    at: now,
-                    frame: p.frame,
-                });
+                log(&SlcanEvent::Dropped { at: now, frame });
                 continue;
             }
             let timestamp = adapter
                 .timestamps
                 .then(|| (now.as_nanos() / 1_000_000 % 60_000) as u16);
-            let line = SlcanResponse::Received {
-                frame: p.frame,
-                timestamp,
-            };
-            if write_line(master, &line)? {
+            let received = SlcanResponse::Received { frame, timestamp };
+            if write_line(master, &received)? {
                 stats.answers += 1;
-                log(&SlcanEvent::Answer {
-                    at: now,
-                    family: p.family,
-                    node: p.node,
-                    frame: p.frame,
-                });
+                log(&SlcanEvent::Answer { at: now, frame });
             } else {
                 stats.dropped += 1;
-                log(&SlcanEvent::Dropped {
-                    at: now,
-                    frame: p.frame,
-                });
+                log(&SlcanEvent::Dropped { at: now, frame });
             }
         }
 
-        // Wait for host bytes, at most until the next answer is due.
-        let wait = pending
-            .iter()
-            .map(|p| p.due - now)
-            .min()
-            .map_or(POLL, |d| d.min(POLL));
+        // Wait for host bytes, at most until the bus has news.
+        let wait = line.next_wakeup().map_or(POLL, |t| (t - now).min(POLL));
         master.set_timeout(wait).map_err(|e| SlcanServeError::Io {
             op: "set the read timeout",
             source: e.into(),
@@ -349,19 +301,8 @@ pub fn serve_slcan(
             });
             if let (SlcanCommand::Transmit(frame), true) = (command, accepted) {
                 stats.frames_from_host += 1;
-                let heard = at + wire_time(&frame, adapter.bitrate);
-                for drive in drives.iter_mut() {
-                    if let Some(reply) = drive.hear(heard, &frame) {
-                        seq += 1;
-                        pending.push(Pending {
-                            due: heard + reply.reaction + wire_time(&reply.frame, adapter.bitrate),
-                            seq,
-                            family: drive.family(),
-                            node: drive.node_id(),
-                            frame: reply.frame,
-                        });
-                    }
-                }
+                // Decoded frames are valid; an invalid one would be dropped.
+                let _ = line.host_send(at, &frame);
             }
         }
     }
@@ -378,10 +319,7 @@ fn command_answer(adapter: &mut Adapter, command: SlcanCommand) -> SlcanResponse
             adapter.listen_only = false;
             Ok
         }
-        SlcanCommand::SetBitrate(rate) if !adapter.open => {
-            adapter.bitrate = rate;
-            Ok
-        }
+        SlcanCommand::SetBitrate(rate) if !adapter.open && adapter.bitrate == Some(rate) => Ok,
         SlcanCommand::SetBtr { .. } | SlcanCommand::Timestamps(_) if adapter.open => Error,
         SlcanCommand::SetBtr { .. } => Ok,
         SlcanCommand::Timestamps(on) => {
@@ -430,22 +368,24 @@ fn write_line(master: &mut TTYPort, line: &SlcanResponse) -> Result<bool, SlcanS
     }
 }
 
-/// What a finished [`SlcanServer`] hands back.
-pub type ServedDrives = (Vec<Box<dyn FrameDrive>>, SlcanStats);
+/// What a finished [`SlcanServer`] hands back: the bus with its drives in
+/// their final state ([`FrameLine::drives`], [`FrameLine::into_drives`]),
+/// and the run's counters.
+pub type ServedBus = (FrameLine, SlcanStats);
 
 /// [`serve_slcan`] on its own thread with its own pty and stop flag.
 #[derive(Debug)]
 pub struct SlcanServer {
     path: String,
     stop: Arc<AtomicBool>,
-    handle: Option<JoinHandle<Result<ServedDrives, SlcanServeError>>>,
+    handle: Option<JoinHandle<Result<ServedBus, SlcanServeError>>>,
 }
 
 impl SlcanServer {
-    /// Creates a pty and starts serving `drives` on it; every event goes
-    /// to `log`.
+    /// Creates a pty and starts serving the bus `line` on it; every
+    /// adapter event goes to `log`.
     pub fn spawn(
-        drives: Vec<Box<dyn FrameDrive>>,
+        line: FrameLine,
         mut log: impl FnMut(&SlcanEvent) + Send + 'static,
     ) -> Result<Self, SlcanServeError> {
         let mut pty = SlcanPty::open()?;
@@ -455,9 +395,9 @@ impl SlcanServer {
         let handle = std::thread::Builder::new()
             .name(format!("slcan-sim {path}"))
             .spawn(move || {
-                let mut drives = drives;
-                let stats = serve_slcan(&mut pty, &mut drives, &flag, &mut log)?;
-                Ok((drives, stats))
+                let mut line = line;
+                let stats = serve_slcan(&mut pty, &mut line, &flag, &mut log)?;
+                Ok((line, stats))
             })
             .map_err(|source| SlcanServeError::Io {
                 op: "start the serving thread",
@@ -480,9 +420,9 @@ impl SlcanServer {
         Arc::clone(&self.stop)
     }
 
-    /// Stops serving (within [`POLL`]) and hands back the drives with their
-    /// final state, and the run's counters.
-    pub fn stop(mut self) -> Result<ServedDrives, SlcanServeError> {
+    /// Stops serving (within [`POLL`]) and hands back the bus and the
+    /// run's counters.
+    pub fn stop(mut self) -> Result<ServedBus, SlcanServeError> {
         self.stop.store(true, Ordering::Relaxed);
         match self.handle.take() {
             Some(h) => h.join().map_err(|_| SlcanServeError::Panicked)?,
@@ -508,7 +448,7 @@ mod tests {
         Adapter {
             open: false,
             listen_only: false,
-            bitrate: DEFAULT_BITRATE,
+            bitrate: Some(Bitrate::K500),
             timestamps: false,
         }
     }
@@ -519,7 +459,7 @@ mod tests {
         let mut a = adapter();
         let answers: Vec<SlcanResponse> = [
             SlcanCommand::Close,
-            SlcanCommand::SetBitrate(Bitrate::K250),
+            SlcanCommand::SetBitrate(Bitrate::K500),
             SlcanCommand::Empty,
             SlcanCommand::Open,
             SlcanCommand::Open,
@@ -538,7 +478,12 @@ mod tests {
             ]
         );
         assert!(a.open);
-        assert_eq!(a.bitrate, Bitrate::K250);
+        // no rate change while open, nor to a rate the bus does not run at
+        assert_eq!(
+            command_answer(&mut a, SlcanCommand::SetBitrate(Bitrate::K500)),
+            SlcanResponse::Error
+        );
+        command_answer(&mut a, SlcanCommand::Close);
         assert_eq!(
             command_answer(&mut a, SlcanCommand::SetBitrate(Bitrate::M1)),
             SlcanResponse::Error
@@ -563,17 +508,6 @@ mod tests {
         assert_eq!(
             command_answer(&mut a, SlcanCommand::Transmit(f)),
             SlcanResponse::TransmitAck { extended: false }
-        );
-    }
-
-    #[test]
-    fn wire_time_of_an_sdo_frame_at_500k() {
-        let f = CanFrame::new(0x601, &[0x40, 0x88, 0x4A, 0, 0, 0, 0, 0]).unwrap();
-        let t = wire_time(&f, Bitrate::K500);
-        // 111 bits without stuffing, at most 135 with: 222..=270 us.
-        assert!(
-            t >= Duration::from_micros(222) && t <= Duration::from_micros(270),
-            "{t:?}"
         );
     }
 }

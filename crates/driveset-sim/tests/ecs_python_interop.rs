@@ -17,6 +17,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant as StdInstant};
 
 use driveset_schema::canonical::{CodeKey, RawValue};
+use driveset_sim::can_bus::FrameLine;
 use driveset_sim::drive::FrameDrive;
 use driveset_sim::slcan_serve::SlcanServer;
 use support::test_drive;
@@ -98,14 +99,16 @@ fn python_can_slcan_and_canopen_sdo_client_against_simulated_ecs() {
 
     let events = Arc::new(Mutex::new(Vec::<String>::new()));
     let sink = Arc::clone(&events);
-    let server = SlcanServer::spawn(drives, move |e| {
+    let line = FrameLine::new(500_000, drives).expect("a 500 kbit/s bus");
+    let server = SlcanServer::spawn(line, move |e| {
         sink.lock()
             .unwrap_or_else(PoisonError::into_inner)
             .push(e.to_string())
     })
     .expect("serve on a pty");
     let (code, stdout, stderr) = run_script(&python, server.path());
-    let (drives, stats) = server.stop().expect("server stops cleanly");
+    let (line, stats) = server.stop().expect("server stops cleanly");
+    let drives = line.drives();
     let log = events
         .lock()
         .unwrap_or_else(PoisonError::into_inner)

@@ -14,6 +14,7 @@ use driveset_link::slcan::SlcanLink;
 use driveset_link::{Clock, FrameLink, RealClock};
 use driveset_proto::can::{CodeNumber, NodeId, SdoRequest, SdoResponse, Subindex};
 use driveset_schema::canonical::{CodeKey, RawValue};
+use driveset_sim::can_bus::FrameLine;
 use driveset_sim::drive::FrameDrive;
 use driveset_sim::slcan_serve::{SlcanEvent, SlcanServer};
 use serialport::TTYPort;
@@ -24,7 +25,8 @@ fn server(nodes: &[u8]) -> SlcanServer {
         .iter()
         .map(|&n| Box::new(test_drive(n)) as Box<dyn FrameDrive>)
         .collect();
-    SlcanServer::spawn(drives, |_: &SlcanEvent| {}).expect("serve on a pty")
+    let line = FrameLine::new(500_000, drives).expect("a 500 kbit/s bus");
+    SlcanServer::spawn(line, |_: &SlcanEvent| {}).expect("serve on a pty")
 }
 
 /// Opens the slave path as a host would (serialport opens exclusively:
@@ -57,11 +59,11 @@ fn python_can_open_sequence_and_identity_exact_bytes() {
     send(&mut h, b"V\rN\rF\r");
     assert_eq!(read_n(&mut h, 16), b"V1013\rNDSIM\rF00\r");
     // while open: no bit rate, no timestamps change; garbage is refused
-    send(&mut h, b"S4\rZ1\rXYZ\r");
+    send(&mut h, b"S6\rZ1\rXYZ\r");
     assert_eq!(read_n(&mut h, 3), b"\x07\x07\x07");
-    // closed: frames refused
-    send(&mut h, b"C\rt601840764C0000000000\r");
-    assert_eq!(read_n(&mut h, 2), b"\r\x07");
+    // closed: frames refused; a rate the bus does not run at is refused
+    send(&mut h, b"C\rt601840764C0000000000\rS8\r");
+    assert_eq!(read_n(&mut h, 3), b"\r\x07\x07");
     let (_, stats) = s.stop().expect("stop");
     assert_eq!(stats.frames_from_host, 0);
     assert_eq!(stats.bad_lines, 1);
@@ -88,7 +90,8 @@ fn sdo_read_through_the_adapter_exact_bytes() {
     assert_eq!(&line[..21], b"t581843764C0080C3C901");
     assert!(line[21..25].iter().all(u8::is_ascii_hexdigit), "{line:?}");
     assert_eq!(line[25], b'\r');
-    let (drives, stats) = s.stop().expect("stop");
+    let (line, stats) = s.stop().expect("stop");
+    let drives = line.drives();
     assert_eq!(
         drives[1].state().values[&CodeKey::new(5002)],
         RawValue::Int(12_345_678)
