@@ -315,6 +315,14 @@ impl ByteLine {
 
     /// Fire every time-triggered fault due by `now`, at its own instant.
     pub fn advance(&mut self, now: Instant) {
+        for slot in &mut self.slots {
+            if let Some((from, b)) = slot.pending_baud
+                && from <= now
+            {
+                slot.baud = b;
+                slot.pending_baud = None;
+            }
+        }
         if now < self.origin {
             return;
         }
@@ -386,6 +394,14 @@ impl ByteLine {
             );
         }
         self.log.push(line);
+        if let Some(g) = &garbage {
+            self.log.push(
+                Event::bytes(end.as_nanos(), Dir::Event, None, g).with_fault(
+                    "garbage",
+                    "noise towards the host, right after the host telegram",
+                ),
+            );
+        }
         let mut lost_to_cable = 0usize;
         for (i, &raw) in bytes.iter().enumerate() {
             let t = end_of(i, self.baud);
@@ -411,7 +427,6 @@ impl ByteLine {
         }
         if let Some(g) = garbage {
             let ct = wire_time(1, self.baud);
-            let mut kept = 0;
             for (k, &b) in g.iter().enumerate() {
                 let at = end + wire_time(k + 1, self.baud);
                 if !self.cables.down(at) {
@@ -421,15 +436,8 @@ impl ByteLine {
                         from: None,
                         char_time: ct,
                     });
-                    kept += 1;
                 }
             }
-            let mut ev = Event::bytes(end.as_nanos(), Dir::Event, None, &g);
-            ev = ev.with_fault(
-                "garbage",
-                format!("{kept} noise characters towards the host"),
-            );
-            self.log.push(ev);
         }
         end
     }
@@ -439,13 +447,7 @@ impl ByteLine {
         let mut telegram = false;
         let mut replies: Vec<(usize, Reply)> = Vec::new();
         let host_baud = self.baud;
-        for (j, (drive, slot)) in self.drives.iter_mut().zip(&mut self.slots).enumerate() {
-            if let Some((from, b)) = slot.pending_baud
-                && from <= t
-            {
-                slot.baud = b;
-                slot.pending_baud = None;
-            }
+        for (j, (drive, slot)) in self.drives.iter_mut().zip(&self.slots).enumerate() {
             let (b, ok) = if slot.baud == host_baud {
                 (byte, parity_ok)
             } else {
