@@ -28,3 +28,4 @@ pub mod serve;
 pub mod slcan_serve;
 pub mod table;
 pub mod vf1000;
+pub mod tmd;

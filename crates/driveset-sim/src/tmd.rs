@@ -1,0 +1,1143 @@
+//! A simulated Lenze Tmd vector inverter on LECOM-A/B, the slave side of
+//! section 8 of `lecom-ab-tmd-manual.txt`, with the parameter table of
+//! Table 1 (loaded from the real `schemas/lenze-tmd.toml`).
+//!
+//! What it does, by manual section:
+//!
+//! - 8.H RECEIVE: the value in the code's format (VD shortest form, VH with
+//!   the code's width, VS text), echoing the code field as the host sent it
+//!   (C1 C2 or `!CCCCSS`); `STX C1 C2 ? ETX BCC` when a character of the
+//!   request arrived with a parity error; `STX C1 C2 EOT` for a code (or
+//!   subcode) that does not exist.
+//! - 8.I SEND: ACK when the value is valid and stored, NAK otherwise, with
+//!   the cause in C0068 bits 4..7 and the matching C1962 error number
+//!   (Table 1 C0068, C1962; 8.J c).
+//! - 8.J BROADCAST / MULTICAST to `00` and to the drive's group `x0`:
+//!   executed, never answered.
+//! - 8.B / 8.C code bank C0249 and input selection C0248 for standard
+//!   addressing, 8.D extended addressing (ignores both).
+//! - 8.F / 8.J b addressing: answers its own address C0009 only; no answer
+//!   to other addresses, broadcasts, bad frames.
+//! - §4e / §4f / §5 the program source of C0001 decides which codes LECOM
+//!   may write; §5 the power-up state (C1920); Table 1 C0068 / C0150 status
+//!   words, C0161..C0164 faults, C0043 / C0135 fault reset.
+//!
+//! Every choice the manual leaves open is listed on [`TmdDrive`]. The
+//! telegram bytes come from `driveset_proto::lecom` (slave-side
+//! [`TelegramDecoder`], [`Response`] encoding); this module never builds a
+//! frame by hand.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::time::Duration;
+
+use driveset_link::Instant;
+use driveset_proto::ascii::{self, ENQ, EOT, STX};
+use driveset_proto::lecom::codec::MAX_TEXT;
+use driveset_proto::lecom::{
+    CodeAddress, CodeBank, CommunicationError, ControllerAddress, ExtendedError, FrameError,
+    HostFrame, OperatingStatus, Response, StreamError, Telegram, TelegramDecoder, Value,
+    ValueError,
+};
+use driveset_proto::lecom::{Decimal, Hex, OctetString, VisibleString};
+use driveset_schema::ValueType;
+use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use driveset_schema::schema::{Access, Rule};
+
+use crate::catalog::{self, Family};
+use crate::drive::{ByteDrive, Heard, ReactionTime, Reply};
+use crate::rng::SimRng;
+use crate::table::{ParamTable, Refusal};
+
+/// Raw units of one VD unit (8.E: four decimals).
+const VD: i64 = 10_000;
+
+const C0001: u32 = 1;
+const C0002: u32 = 2;
+const C0009: u32 = 9;
+const C0017: u32 = 17;
+const C0040: u32 = 40;
+const C0043: u32 = 43;
+const C0050: u32 = 50;
+const C0068: u32 = 68;
+const C0099: u32 = 99;
+const C0125: u32 = 125;
+const C0135: u32 = 135;
+const C0150: u32 = 150;
+const C0161: u32 = 161;
+const C0162: u32 = 162;
+const C0163: u32 = 163;
+const C0164: u32 = 164;
+const C0200: u32 = 200;
+const C0201: u32 = 201;
+const C0248: u32 = 248;
+const C0249: u32 = 249;
+const C1810: u32 = 1810;
+const C1811: u32 = 1811;
+const C1920: u32 = 1920;
+const C1962: u32 = 1962;
+
+/// C0135 bits (Table 1).
+const CW_ROTATION_CCW: i64 = 1 << 2;
+const CW_QUICK_STOP: i64 = 1 << 3;
+const CW_INHIBIT: i64 = 1 << 9;
+const CW_TRIP_RESET: i64 = 1 << 11;
+
+/// Table 2: configuration fault "CFG".
+pub const FAULT_CFG: u16 = 71;
+
+/// Bytes of the line kept to look back at a finished frame: the longest
+/// host frame (EOT AD1 AD2 STX text ETX BCC) and some slack.
+const HISTORY: usize = MAX_TEXT + 16;
+
+/// What the drive does with a SEND that makes two of E1..E4 in C0007 equal
+/// (Table 1 C0007: "cannot have the same settings, otherwise "CFG" fault
+/// will be triggered").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CfgReaction {
+    /// NAK, cause 5 (invalid variable), C1962 14; the value is not stored.
+    /// The default: a transaction engine gets a clean refusal and the
+    /// drive keeps a valid set.
+    #[default]
+    Refuse,
+    /// The manual's literal reading: ACK, the value is stored and the drive
+    /// trips with "CFG" (fault 71 in C0161, C0068 bit 15, motor stops).
+    /// Resetting the fault (C0043 0 -> 1, C0135 bit 11 edge) clears it only
+    /// once C0007 is valid again.
+    Trip,
+}
+
+/// Construction options of a [`TmdDrive`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TmdOptions {
+    /// LECOM address, C0009 (§4c: 1..=99, not 10, 20, ... 90).
+    pub address: u8,
+    /// C0001 as set at the keypad before LECOM use (§4e). Default 3
+    /// (control, programming and monitoring via LECOM); the factory value
+    /// of Table 1 is 0, in which LECOM may only read (and write C0040,
+    /// C0043, C0248, C0249).
+    pub control_source: u8,
+    /// Seed of the drive's random generator (reaction times).
+    pub seed: u64,
+    /// Reaction time. The manual gives no figure:
+    /// [`ReactionTime::TMD_ASSUMED`] is a fictional default.
+    pub reaction: ReactionTime,
+    /// What a SEND that breaks the C0007 rule does.
+    pub cfg_reaction: CfgReaction,
+    /// Boot time after power returns, during which the drive answers
+    /// nothing. The manual gives no figure; the default 0 is fictional.
+    pub boot: Duration,
+}
+
+impl Default for TmdOptions {
+    fn default() -> Self {
+        TmdOptions {
+            address: 1,
+            control_source: 3,
+            seed: 0,
+            reaction: ReactionTime::TMD_ASSUMED,
+            cfg_reaction: CfgReaction::Refuse,
+            boot: Duration::ZERO,
+        }
+    }
+}
+
+impl TmdOptions {
+    /// Default options at `address`.
+    pub fn at(address: u8) -> Self {
+        TmdOptions {
+            address,
+            ..TmdOptions::default()
+        }
+    }
+}
+
+/// Why a write was refused: the C0068 nibble and the C1962 number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Nak {
+    cause: CommunicationError,
+    ext: ExtendedError,
+}
+
+impl Nak {
+    const fn new(cause: CommunicationError, ext: ExtendedError) -> Self {
+        Nak { cause, ext }
+    }
+    const CHECKSUM: Nak = Nak::new(
+        CommunicationError::ChecksumError,
+        ExtendedError::ChecksumError,
+    );
+    const PARITY: Nak = Nak::new(
+        CommunicationError::ChecksumError,
+        ExtendedError::ParityError,
+    );
+    const FRAME: Nak = Nak::new(
+        CommunicationError::ProtocolFrameError,
+        ExtendedError::InvalidEntry,
+    );
+    const NO_CODE: Nak = Nak::new(
+        CommunicationError::InvalidCodeNumber,
+        ExtendedError::InvalidCode,
+    );
+    const NO_SUBCODE: Nak = Nak::new(
+        CommunicationError::InvalidCodeNumber,
+        ExtendedError::InvalidSubcode,
+    );
+    const INVALID: Nak = Nak::new(
+        CommunicationError::InvalidVariable,
+        ExtendedError::InvalidVariable,
+    );
+    const DATA_TYPE: Nak = Nak::new(
+        CommunicationError::InvalidVariable,
+        ExtendedError::InvalidDataType,
+    );
+    const TOO_LONG: Nak = Nak::new(
+        CommunicationError::InvalidVariable,
+        ExtendedError::DataBlockTooLong,
+    );
+    const READ_ONLY: Nak = Nak::new(
+        CommunicationError::NoAccessPermission,
+        ExtendedError::ReadOnly,
+    );
+    const NO_ACCESS: Nak = Nak::new(
+        CommunicationError::NoAccessPermission,
+        ExtendedError::NoAccessPermission,
+    );
+    const INTERRUPTED: Nak = Nak::new(
+        CommunicationError::InterruptedByNewTelegram,
+        ExtendedError::TelegramInterruption,
+    );
+    const GENERAL: Nak = Nak::new(
+        CommunicationError::GeneralFault,
+        ExtendedError::GeneralFault,
+    );
+
+    fn of_value_error(e: ValueError) -> Nak {
+        match e {
+            ValueError::UnknownFormat { .. } | ValueError::WrongFormat { .. } => Nak::DATA_TYPE,
+            ValueError::StringTooLong { .. } | ValueError::OctetsTooLong { .. } => Nak::TOO_LONG,
+            _ => Nak::INVALID,
+        }
+    }
+}
+
+/// A simulated Lenze Tmd on LECOM-A/B.
+///
+/// Construct with [`TmdDrive::new`] and [`TmdOptions`]; feed it the line
+/// with [`ByteDrive::hear`].
+///
+/// Choices where the manual is silent (each also documented where it is
+/// implemented):
+///
+/// - **Program source (C0001, §4e/§4f, §5).** Modelled. LECOM writes are
+///   refused (cause 6, C1962 8) unless C0001 is 2 or 3; C0040 (§5) and
+///   C0043 (same Table 1 wording) may be written with C0001 = 0..3; the
+///   control word C0135 only with C0001 = 3 (§4f); the protocol registers
+///   C0248 / C0249 always (they are needed to read at all with a V1.0
+///   driver). C0001 = 4..11 select another program source: the simulator
+///   keeps answering reads and refuses all writes but C0248 / C0249.
+/// - **C0007 rule.** [`CfgReaction`]: refuse (default) or accept and trip.
+/// - **C0010 <= C0011.** A SEND breaking it is refused (cause 5, C1962 14);
+///   the manual does not even state the rule (erratum E14).
+/// - **Running drive.** Refuses only C0002 (loading a whole Lenze setting
+///   under a running motor) and codes marked `standstill` in the schema
+///   (none in the Tmd schema): cause 6, C1962 8.
+/// - **Enumerated codes** (C0001, C0014, ...) refuse values with no label
+///   (e.g. C0001 = 2.5): cause 5.
+/// - **C0009.** 10, 20, ... 90 are refused (§4c "must not be used"); values
+///   above 99 (Table 1 allows 1..247, the Modbus range) are stored, and the
+///   drive is then only reached by a broadcast to 00.
+/// - **C0002.** 1 loads Table 1's factory values (the 50 Hz setting) except
+///   the communication settings C0001, C0009, C0125 (so the drive stays
+///   reachable); 2 (60 Hz) and 3 (OEM) are refused with cause 15 since the
+///   manual gives neither set. C0002 reads 0 afterwards ("loading
+///   complete").
+/// - **C0125** (baud) takes effect at the next power-up
+///   ([`ByteDrive::take_baud_change`] reports it then).
+/// - **C0068 bits 4..7 / C1962** hold the cause of the last failed
+///   telegram addressed to the drive (broadcasts included); an ACKed SEND
+///   (or an executed broadcast) clears them; RECEIVEs leave them alone
+///   except a `?` (cause 1, C1962 214) and a "no such code" answer (cause
+///   4). Frame errors that get no answer still set them (cause 2 / 7).
+/// - **Parity errors** (8.H a vs 8.J b): a RECEIVE for this drive with a
+///   parity error in any character before ENQ is answered with `?`; with
+///   a parity error on ENQ itself it gets no answer (8.J b names ENQ). A
+///   SEND with a parity error gets NAK (8.I a: "lateral parity"), cause 1,
+///   C1962 214; a bad BCC NAK, cause 1, C1962 210.
+/// - **Code field that does not decode** (C1 C2 outside the 8.A formula,
+///   a bad `!` field): SEND gets NAK cause 4; RECEIVE no answer (there is
+///   no code to echo), cause 4 recorded.
+/// - **Formats.** VD codes take VD only, VH codes VH only (any width whose
+///   value fits): another format is cause 5, C1962 3.
+/// - **Status words.** The simulator has no motor model: C0068 bits 13, 14
+///   and C0150 bits 2, 4 (current limit, setpoint reached) stay 0;
+///   "frequency above threshold" compares C0050 with C0017, "0 Hz" tests
+///   C0050 (both can be poked). Power stage energized = running.
+/// - **Running.** Controller inhibit (C0040 = 0 or C0135 bit 9) and quick
+///   stop (C0135 bit 3) stop the motor; nothing starts it over the
+///   protocol (no terminal 28 model): [`ByteDrive::set_running`] does.
+/// - **Faults.** A reset moves C0161 into the history (C0162..C0164). A
+///   power cycle resets a trip (C0170 = 0: "mains switching"), and a CFG
+///   trips again at once while C0007 is still invalid.
+/// - **Storage.** The Tmd stores its parameters: a power cycle keeps every
+///   value but C0248 / C0249 (0, Table 1), the communication error, the
+///   control state of §5 (C0135 quick stop bit after power-up in mode 3
+///   with C1920 = 0, C0040 = 0 with C1920 = 1), C0043 (0) and the trip.
+/// - **Identification strings** C0099, C0200, C0201, C1810, C1811 hold the
+///   manual's examples ("1.20", "33STMD-M_12000", ...). C0093 has no
+///   documented value and keeps the table's 0 (and, as the schema leaves
+///   its access unset, is writable).
+/// - **Watchdog** (§5.A, C1922 / C1923) is not simulated.
+pub struct TmdDrive {
+    table: ParamTable,
+    values: BTreeMap<CodeKey, RawValue>,
+    options: TmdOptions,
+    rng: SimRng,
+    decoder: TelegramDecoder,
+    /// Recent line bytes (parity-masked) with their parity flag; the first
+    /// entry is at decoder position `history_start`.
+    history: VecDeque<(u8, bool)>,
+    history_start: u64,
+    running: bool,
+    comm_error: CommunicationError,
+    ext_error: ExtendedError,
+    /// Power is off (or the drive boots) until this instant.
+    deaf_until: Option<Instant>,
+    /// The C0125 setting the line runs at.
+    active_baud: i64,
+    baud_change: Option<u32>,
+}
+
+impl std::fmt::Debug for TmdDrive {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TmdDrive")
+            .field("address", &self.vd(C0009))
+            .field("control_source", &self.control_source())
+            .field("running", &self.running)
+            .field("comm_error", &self.comm_error)
+            .field("ext_error", &self.ext_error)
+            .field("decoder_position", &self.decoder.position())
+            .field("deaf_until", &self.deaf_until)
+            .finish_non_exhaustive()
+    }
+}
+
+impl TmdDrive {
+    /// A drive with Table 1's factory values, `options.address` in C0009
+    /// and `options.control_source` in C0001, in its power-up state (§5).
+    ///
+    /// # Errors
+    /// The schema does not load, the address is not a LECOM station
+    /// address (1..=99, not x0; §4c, §8.J), or C0001 is outside 0..=11.
+    pub fn new(options: TmdOptions) -> Result<Self, String> {
+        let table = ParamTable::from_schema(catalog::schema(Family::Tmd)?)?;
+        if !is_station(i64::from(options.address)) || options.address > 99 {
+            return Err(format!(
+                "Tmd address {} is not a LECOM station address: use 1..=99 except 10, 20, ... 90 (§4c, §8.J)",
+                options.address
+            ));
+        }
+        if options.control_source > 11 {
+            return Err(format!(
+                "C0001 = {} is outside 0..=11 (Table 1)",
+                options.control_source
+            ));
+        }
+        let mut values = table.factory_state();
+        values.insert(
+            CodeKey::new(C0009),
+            RawValue::Int(i64::from(options.address) * VD),
+        );
+        values.insert(
+            CodeKey::new(C0001),
+            RawValue::Int(i64::from(options.control_source) * VD),
+        );
+        for (code, text) in [
+            (C0099, "1.20"),
+            (C0200, "33STMD-M_12000"),
+            (C0201, "2005-01-15"),
+            (C1810, "S33SLECOMM_10000"),
+            (C1811, "2005-01-15"),
+        ] {
+            values.insert(CodeKey::new(code), RawValue::Text(text.to_string()));
+        }
+        let active_baud = values
+            .get(&CodeKey::new(C0125))
+            .and_then(as_int)
+            .unwrap_or(0);
+        let mut d = TmdDrive {
+            table,
+            values,
+            rng: SimRng::new(options.seed),
+            options,
+            decoder: TelegramDecoder::new(),
+            history: VecDeque::with_capacity(HISTORY),
+            history_start: 0,
+            running: false,
+            comm_error: CommunicationError::NoFault,
+            ext_error: ExtendedError::NoFault,
+            deaf_until: None,
+            active_baud,
+            baud_change: None,
+        };
+        d.power_up();
+        Ok(d)
+    }
+
+    /// A drive with default options at `address`.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn at(address: u8) -> Result<Self, String> {
+        Self::new(TmdOptions::at(address))
+    }
+
+    /// The options the drive was built with.
+    pub fn options(&self) -> &TmdOptions {
+        &self.options
+    }
+
+    /// Change the reaction time (e.g. a fixed one for timing tests).
+    pub fn set_reaction(&mut self, reaction: ReactionTime) {
+        self.options.reaction = reaction;
+    }
+
+    /// The drive's parameter table.
+    pub fn table(&self) -> &ParamTable {
+        &self.table
+    }
+
+    /// The raw value of one code.
+    pub fn value(&self, key: CodeKey) -> Option<&RawValue> {
+        self.values.get(&key)
+    }
+
+    /// C0068 as the drive would answer it now.
+    pub fn operating_status(&self) -> OperatingStatus {
+        OperatingStatus(self.c0068())
+    }
+
+    /// C0068 bits 4..7: the last communication error.
+    pub fn last_error(&self) -> CommunicationError {
+        self.comm_error
+    }
+
+    /// C1962: the last error as extended code number.
+    pub fn extended_error(&self) -> ExtendedError {
+        self.ext_error
+    }
+
+    /// Trip with a fault number of Table 2 (test hook): C0161 = `fault`,
+    /// the motor stops. 0 is ignored.
+    pub fn trip(&mut self, fault: u16) {
+        if fault == 0 {
+            return;
+        }
+        self.set_int(C0161, i64::from(fault) * VD);
+        self.running = false;
+        self.refresh();
+    }
+
+    // ----------------------------------------------------------------------
+    // Values
+
+    fn int(&self, code: u32) -> i64 {
+        self.values
+            .get(&CodeKey::new(code))
+            .and_then(as_int)
+            .unwrap_or(0)
+    }
+
+    /// A VD code's integer part.
+    fn vd(&self, code: u32) -> i64 {
+        self.int(code) / VD
+    }
+
+    fn set_int(&mut self, code: u32, raw: i64) {
+        self.values.insert(CodeKey::new(code), RawValue::Int(raw));
+    }
+
+    fn control_source(&self) -> i64 {
+        self.vd(C0001)
+    }
+
+    fn lecom_control(&self) -> bool {
+        self.control_source() == 3
+    }
+
+    fn fault(&self) -> i64 {
+        self.vd(C0161)
+    }
+
+    /// Control word bits count only with C0001 = 3 (§4f).
+    fn control_word(&self) -> i64 {
+        if self.lecom_control() {
+            self.int(C0135)
+        } else {
+            0
+        }
+    }
+
+    fn quick_stop(&self) -> bool {
+        self.control_word() & CW_QUICK_STOP != 0
+    }
+
+    fn inhibited(&self) -> bool {
+        self.int(C0040) == 0 || self.control_word() & CW_INHIBIT != 0
+    }
+
+    fn ccw(&self) -> bool {
+        self.control_word() & CW_ROTATION_CCW != 0
+    }
+
+    fn above_threshold(&self) -> bool {
+        self.int(C0050) > self.int(C0017)
+    }
+
+    /// C0068 (Table 1): bits 0..3 tens digit of the fault (erratum E4),
+    /// 4..7 last communication error, 8 control via LECOM (C0001 = 3),
+    /// 9 above threshold, 10 CCW, 11 power stage energized (running),
+    /// 12 quick stop, 13 / 14 not simulated, 15 fault.
+    fn c0068(&self) -> u16 {
+        let fault = self.fault();
+        let mut w = u16::try_from((fault / 10).clamp(0, 15)).unwrap_or(0);
+        w |= u16::from(self.comm_error.nibble() & 0xF) << 4;
+        let bits = [
+            (8, self.lecom_control()),
+            (9, self.above_threshold()),
+            (10, self.ccw()),
+            (11, self.running),
+            (12, self.quick_stop()),
+            (15, fault != 0),
+        ];
+        for (bit, on) in bits {
+            if on {
+                w |= 1 << bit;
+            }
+        }
+        w
+    }
+
+    /// C0150 (Table 1): 1 power stage energized, 5 above threshold C17,
+    /// 6 frequency 0 Hz, 7 controller inhibit, 8..11 error (1), 12
+    /// overtemperature (fault 50 "OH"), 13 DC bus overvoltage (fault 20
+    /// "OU"), 14 CCW, 15 ready (no fault); 2 and 4 not simulated.
+    fn c0150(&self) -> u16 {
+        let fault = self.fault();
+        let mut w = 0u16;
+        let bits = [
+            (1, self.running),
+            (5, self.above_threshold()),
+            (6, self.int(C0050) == 0),
+            (7, self.inhibited()),
+            (8, fault != 0),
+            (12, fault == 50),
+            (13, fault == 20),
+            (14, self.ccw()),
+            (15, fault == 0),
+        ];
+        for (bit, on) in bits {
+            if on {
+                w |= 1 << bit;
+            }
+        }
+        w
+    }
+
+    /// Brings the derived codes (C0068, C0150, C1962) up to date and stops
+    /// the motor where the state forbids running.
+    fn refresh(&mut self) {
+        if self.inhibited() || self.quick_stop() || self.fault() != 0 {
+            self.running = false;
+        }
+        let s68 = i64::from(self.c0068());
+        let s150 = i64::from(self.c0150());
+        self.set_int(C0068, s68);
+        self.set_int(C0150, s150);
+        self.set_int(C1962, i64::from(self.ext_error.code()) * VD);
+    }
+
+    fn record(&mut self, nak: Option<Nak>) {
+        match nak {
+            Some(n) => {
+                self.comm_error = n.cause;
+                self.ext_error = n.ext;
+            }
+            None => {
+                self.comm_error = CommunicationError::NoFault;
+                self.ext_error = ExtendedError::NoFault;
+            }
+        }
+        self.refresh();
+    }
+
+    /// §5 power-up state, Table 1 C0248 / C0249 "always set to 0 when
+    /// switching on"; a trip is reset by mains switching (Table 1 C0170).
+    fn power_up(&mut self) {
+        self.set_int(C0248, 0);
+        self.set_int(C0249, 0);
+        self.set_int(C0043, 0);
+        self.set_int(C0161, 0);
+        self.running = false;
+        self.comm_error = CommunicationError::NoFault;
+        self.ext_error = ExtendedError::NoFault;
+        if self.lecom_control() {
+            let cw = self.int(C0135);
+            if self.vd(C1920) == 0 {
+                self.set_int(C0135, cw | CW_QUICK_STOP);
+            } else {
+                self.set_int(C0040, 0);
+            }
+        }
+        if self.cfg_violated() {
+            self.set_int(C0161, i64::from(FAULT_CFG) * VD);
+        }
+        let baud = self.int(C0125);
+        if baud != self.active_baud {
+            self.active_baud = baud;
+            self.baud_change = baud_rate(baud);
+        }
+        self.decoder = TelegramDecoder::new();
+        self.history.clear();
+        self.history_start = 0;
+        self.refresh();
+    }
+
+    /// Whether C0007 breaks the schema's distinct-fields rule.
+    fn cfg_violated(&self) -> bool {
+        self.rule_violations(&self.values)
+            .iter()
+            .any(|r| matches!(r, Violation::Distinct))
+    }
+
+    /// The cross-code rules of the schema (`distinct-fields`,
+    /// `less-or-equal`) that `values` break.
+    fn rule_violations(&self, values: &BTreeMap<CodeKey, RawValue>) -> Vec<Violation> {
+        let schema = self.table.schema();
+        let get = |n: u32| values.get(&CodeKey::new(n)).and_then(as_int);
+        let mut out = Vec::new();
+        for rule in &schema.rules {
+            match rule {
+                Rule::DistinctFields { code, fields, .. } => {
+                    let (Some(c), Some(raw)) = (schema.code(*code), get(*code)) else {
+                        continue;
+                    };
+                    let members: Vec<i64> = fields
+                        .iter()
+                        .filter_map(|f| c.bits.iter().find(|b| &b.name == f))
+                        .map(|b| b.extract(raw))
+                        .collect();
+                    let distinct = members
+                        .iter()
+                        .enumerate()
+                        .all(|(i, a)| members[i + 1..].iter().all(|b| a != b));
+                    if !distinct {
+                        out.push(Violation::Distinct);
+                    }
+                }
+                Rule::LessOrEqual { left, right, .. } => {
+                    if let (Some(l), Some(r)) = (get(*left), get(*right))
+                        && l > r
+                    {
+                        out.push(Violation::LessOrEqual);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn fault_reset(&mut self) {
+        let f = self.int(C0161);
+        if f == 0 {
+            return;
+        }
+        let h1 = self.int(C0162);
+        let h2 = self.int(C0163);
+        self.set_int(C0164, h2);
+        self.set_int(C0163, h1);
+        self.set_int(C0162, f);
+        self.set_int(C0161, 0);
+        if self.cfg_violated() {
+            self.set_int(C0161, i64::from(FAULT_CFG) * VD);
+        }
+    }
+
+    // ----------------------------------------------------------------------
+    // Addressing (8.A-8.D)
+
+    /// The table key a code field names. Standard addressing adds the code
+    /// bank offset 250 x C0249 (8.B; for numbers above 255 too: "the
+    /// code-number range increases correspondingly") and takes C0248 as
+    /// the subcode (8.C), except that 248 and 249 are always C0248 / C0249.
+    /// Extended addressing ignores both (8.D, Table 1 C0249).
+    fn resolve(&self, code: CodeAddress) -> Result<CodeKey, Nak> {
+        let (number, sub) = match code {
+            CodeAddress::Standard(n) => {
+                let n = u32::from(n.get());
+                if n == C0248 || n == C0249 {
+                    (n, 0)
+                } else {
+                    let bank = u8::try_from(self.vd(C0249))
+                        .ok()
+                        .and_then(|b| CodeBank::new(b).ok())
+                        .unwrap_or_default();
+                    let sub = u32::try_from(self.vd(C0248)).unwrap_or(0);
+                    (u32::from(bank.offset()) + n, sub)
+                }
+            }
+            CodeAddress::Extended(e) => (u32::from(e.code), u32::from(e.subcode)),
+        };
+        let key = if sub == 0 {
+            CodeKey::new(number)
+        } else {
+            CodeKey::sub(number, sub)
+        };
+        if self.table.get(key).is_some() {
+            Ok(key)
+        } else if sub != 0 && self.table.iter().any(|p| p.key.number == number) {
+            Err(Nak::NO_SUBCODE)
+        } else {
+            Err(Nak::NO_CODE)
+        }
+    }
+
+    fn own_address(&self) -> Option<ControllerAddress> {
+        u8::try_from(self.vd(C0009))
+            .ok()
+            .and_then(ControllerAddress::new)
+            .filter(|a| !a.is_broadcast())
+    }
+
+    // ----------------------------------------------------------------------
+    // RECEIVE (8.H)
+
+    /// The answer to a RECEIVE of `code` (8.H a): the value, or "no such
+    /// code".
+    fn read(&mut self, code: CodeAddress) -> Response {
+        let value = self
+            .resolve(code)
+            .and_then(|key| self.wire_value(key).ok_or(Nak::NO_CODE));
+        match value {
+            Ok(value) => Response::Value { code, value },
+            Err(nak) => {
+                self.record(Some(nak));
+                Response::NoSuchCode { code }
+            }
+        }
+    }
+
+    /// A held value in the code's LECOM format: VD shortest form, VH with
+    /// the code's width (8.E), VS text.
+    fn wire_value(&self, key: CodeKey) -> Option<Value> {
+        let p = self.table.get(key)?;
+        let raw = self.values.get(&key)?;
+        to_wire(p.ty.unwrap_or(ValueType::VD), p.width, raw)
+    }
+
+    // ----------------------------------------------------------------------
+    // SEND / BROADCAST (8.I, 8.J)
+
+    /// Carries out a SEND or BROADCAST of `value` to `code`: `Ok` = ACK.
+    /// Checks in order: the code exists (cause 4), is writable (6: read-only,
+    /// program source of C0001, running), the value has the code's format
+    /// and range (5), the cross-code rules hold (5).
+    fn write(&mut self, code: CodeAddress, value: &Value) -> Result<(), Nak> {
+        let key = self.resolve(code)?;
+        let p = self.table.get(key).ok_or(Nak::NO_CODE)?;
+        if !p.writable() {
+            return Err(Nak::READ_ONLY);
+        }
+        if !self.lecom_may_write(key.number) {
+            return Err(Nak::NO_ACCESS);
+        }
+        if self.running && (key.number == C0002 || p.access == Access::Standstill) {
+            return Err(Nak::NO_ACCESS);
+        }
+        let ty = p.ty.unwrap_or(ValueType::VD);
+        let raw = from_wire(ty, value)?;
+        self.table.check_write(key, &raw).map_err(|r| match r {
+            Refusal::NoSuchCode => Nak::NO_CODE,
+            Refusal::ReadOnly => Nak::READ_ONLY,
+            Refusal::NotNow => Nak::NO_ACCESS,
+            Refusal::WrongType => Nak::DATA_TYPE,
+            Refusal::OutOfRange { .. } => Nak::INVALID,
+        })?;
+        if let (RawValue::Int(v), Some(c)) = (&raw, self.table.schema().code(key.number))
+            && c.values.is_some()
+            && self.table.schema().enum_label(c, *v).is_none()
+        {
+            return Err(Nak::INVALID);
+        }
+        if key.number == C0009
+            && let RawValue::Int(v) = raw
+            && (v % VD != 0 || !is_station(v / VD))
+        {
+            return Err(Nak::INVALID);
+        }
+        let mut tentative = self.values.clone();
+        tentative.insert(key, raw.clone());
+        let mut trip_cfg = false;
+        for v in self.rule_violations(&tentative) {
+            match (v, self.options.cfg_reaction) {
+                (Violation::Distinct, CfgReaction::Trip) => trip_cfg = true,
+                _ => return Err(Nak::INVALID),
+            }
+        }
+        self.apply(key, raw)?;
+        if trip_cfg {
+            self.trip(FAULT_CFG);
+        }
+        Ok(())
+    }
+
+    /// §4e / §4f / §5: which codes LECOM may write under the current C0001.
+    fn lecom_may_write(&self, number: u32) -> bool {
+        let source = self.control_source();
+        match number {
+            C0248 | C0249 => true,
+            C0040 | C0043 => (0..=3).contains(&source),
+            C0135 => source == 3,
+            _ => source == 2 || source == 3,
+        }
+    }
+
+    /// Stores a checked value and carries out its effect.
+    fn apply(&mut self, key: CodeKey, raw: RawValue) -> Result<(), Nak> {
+        let old = self.values.get(&key).and_then(as_int).unwrap_or(0);
+        let new = as_int(&raw).unwrap_or(0);
+        match key.number {
+            C0002 => match new / VD {
+                0 => {}
+                1 => {
+                    self.load_lenze_setting();
+                    return Ok(());
+                }
+                // The manual gives neither the 60 Hz nor an OEM setting.
+                _ => return Err(Nak::GENERAL),
+            },
+            C0043 if old == 0 && new != 0 => {
+                self.values.insert(key, raw);
+                self.fault_reset();
+                self.refresh();
+                return Ok(());
+            }
+            C0135 if old & CW_TRIP_RESET == 0 && new & CW_TRIP_RESET != 0 => {
+                self.values.insert(key, raw);
+                self.fault_reset();
+                self.refresh();
+                return Ok(());
+            }
+            _ => {}
+        }
+        self.values.insert(key, raw);
+        self.refresh();
+        Ok(())
+    }
+
+    /// C0002 = 1: Table 1's factory values, keeping the communication
+    /// settings C0001, C0009, C0125 and the read-only codes.
+    fn load_lenze_setting(&mut self) {
+        let factory = self.table.factory_state();
+        for p in self.table.iter() {
+            if !p.writable() || matches!(p.key.number, C0001 | C0009 | C0125) {
+                continue;
+            }
+            if let Some(v) = factory.get(&p.key) {
+                self.values.insert(p.key, v.clone());
+            }
+        }
+        self.set_int(C0002, 0);
+        self.refresh();
+    }
+
+    // ----------------------------------------------------------------------
+    // The line
+
+    fn remember(&mut self, byte: u8, parity_ok: bool) {
+        if self.history.is_empty() {
+            self.history_start = self.decoder.position();
+        }
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+            self.history_start += 1;
+        }
+        self.history.push_back((ascii::mask7(byte), parity_ok));
+    }
+
+    /// The bytes of `range` still in the history.
+    fn frame_bytes(&self, range: &std::ops::Range<u64>) -> Vec<(u8, bool)> {
+        let from = range.start.max(self.history_start);
+        let skip = usize::try_from(from - self.history_start).unwrap_or(usize::MAX);
+        let take = usize::try_from(range.end.saturating_sub(from)).unwrap_or(0);
+        self.history.iter().skip(skip).take(take).copied().collect()
+    }
+
+    /// What a finished frame means for this drive; `None` = no answer.
+    fn on_frame(
+        &mut self,
+        bytes: &[(u8, bool)],
+        result: Result<HostFrame, StreamError>,
+    ) -> Option<Response> {
+        let me = self.own_address();
+        let parity_bad = bytes.iter().any(|&(_, ok)| !ok);
+        let address = match bytes {
+            [(EOT, _), (a1, _), (a2, _), ..] => ControllerAddress::from_ascii([*a1, *a2]).ok(),
+            _ => None,
+        }?;
+        // Who the frame is for (8.F, 8.J): this station, or a broadcast
+        // reaching it. A drive above 99 is reached by 00 only.
+        let station = me.is_some_and(|m| address == m);
+        let reached = station
+            || address == ControllerAddress::ALL
+            || me.is_some_and(|m| address.is_broadcast() && address.reaches(m));
+        if !reached {
+            return None;
+        }
+        let send_shaped = matches!(bytes.get(3), Some((STX, _)));
+        match result {
+            Ok(HostFrame::EndOfTransmission) => None,
+            Ok(HostFrame::Telegram(Telegram::Receive(r))) => {
+                if !station {
+                    return None;
+                }
+                if parity_bad {
+                    // 8.J b: a parity fault on ENQ itself gets no answer.
+                    if matches!(bytes.last(), Some((ENQ, false))) {
+                        self.record(Some(Nak::PARITY));
+                        return None;
+                    }
+                    self.record(Some(Nak::PARITY));
+                    return Some(Response::ChecksumFault { code: r.code });
+                }
+                Some(self.read(r.code))
+            }
+            Ok(HostFrame::Telegram(Telegram::Send(s))) => {
+                let outcome = if parity_bad {
+                    Err(Nak::PARITY)
+                } else {
+                    self.write(s.code, &s.value)
+                };
+                self.record(outcome.err());
+                station.then_some(if outcome.is_ok() {
+                    Response::Ack
+                } else {
+                    Response::Nak
+                })
+            }
+            Ok(HostFrame::Telegram(Telegram::Broadcast(b))) => {
+                let outcome = if parity_bad {
+                    Err(Nak::PARITY)
+                } else {
+                    self.write(b.code, &b.value)
+                };
+                self.record(outcome.err());
+                None
+            }
+            Err(e) => {
+                let (nak, answer) = match e {
+                    StreamError::Frame(FrameError::BadBcc { .. }) => (
+                        if parity_bad {
+                            Nak::PARITY
+                        } else {
+                            Nak::CHECKSUM
+                        },
+                        true,
+                    ),
+                    StreamError::Frame(FrameError::ReceiveToBroadcast { .. }) => return None,
+                    _ if parity_bad => (Nak::PARITY, true),
+                    StreamError::Frame(FrameError::Code(_)) => (Nak::NO_CODE, true),
+                    StreamError::Frame(FrameError::CodeLength { .. }) => (Nak::FRAME, true),
+                    StreamError::Frame(FrameError::Value(v)) => (Nak::of_value_error(v), true),
+                    StreamError::Interrupted { found: EOT, .. } => (Nak::INTERRUPTED, false),
+                    StreamError::Overlong { .. } => (Nak::TOO_LONG, false),
+                    StreamError::Garbage { .. } => return None,
+                    _ => (Nak::FRAME, false),
+                };
+                self.record(Some(nak));
+                // Only a complete SEND-shaped frame (ETX and BCC received)
+                // to this station gets a NAK (8.I a); everything else goes
+                // unanswered (8.J b).
+                (answer && send_shaped && station).then_some(Response::Nak)
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Violation {
+    Distinct,
+    LessOrEqual,
+}
+
+fn as_int(v: &RawValue) -> Option<i64> {
+    match v {
+        RawValue::Int(i) => Some(*i),
+        _ => None,
+    }
+}
+
+/// A LECOM station address (not 0, not a group address x0); §4c, §8.J.
+fn is_station(n: i64) -> bool {
+    n >= 1 && n % 10 != 0
+}
+
+/// Table 1 C0125: 0 9600, 1 4800, 2 2400, 3 1200 bps.
+fn baud_rate(setting: i64) -> Option<u32> {
+    match setting / VD {
+        0 => Some(9600),
+        1 => Some(4800),
+        2 => Some(2400),
+        3 => Some(1200),
+        _ => None,
+    }
+}
+
+/// A raw value in LECOM format `ty` (8.E); `None` if it cannot be sent.
+fn to_wire(ty: ValueType, width: Option<u8>, raw: &RawValue) -> Option<Value> {
+    match (ty, raw) {
+        (ValueType::VH, RawValue::Int(v)) => {
+            let v = u32::try_from(*v).ok()?;
+            Some(Value::Hex(match width {
+                Some(1) => Hex::Byte(u8::try_from(v).ok()?),
+                Some(2) | None => Hex::Word(u16::try_from(v).ok()?),
+                _ => Hex::Dword(v),
+            }))
+        }
+        (ValueType::VS, RawValue::Text(t)) => {
+            VisibleString::new(t.as_bytes()).ok().map(Value::String)
+        }
+        (ValueType::VO, RawValue::Octets(o)) => OctetString::new(o).ok().map(Value::Octets),
+        (_, RawValue::Int(v)) => Decimal::from_raw(*v).ok().map(Value::Decimal),
+        _ => None,
+    }
+}
+
+/// A received value as the raw value of a code of format `ty`; another
+/// format than the code's is cause 5 (C1962 3, invalid data type).
+fn from_wire(ty: ValueType, value: &Value) -> Result<RawValue, Nak> {
+    match (ty, value) {
+        (ValueType::VH, Value::Hex(h)) => Ok(RawValue::Int(i64::from(h.get()))),
+        (ValueType::VS, Value::String(s)) => Ok(RawValue::Text(s.as_str().to_string())),
+        (ValueType::VO, Value::Octets(o)) => Ok(RawValue::Octets(o.as_bytes().to_vec())),
+        (ValueType::VH | ValueType::VS | ValueType::VO, _) => Err(Nak::DATA_TYPE),
+        (_, Value::Decimal(d)) => Ok(RawValue::Int(d.raw())),
+        _ => Err(Nak::DATA_TYPE),
+    }
+}
+
+impl ByteDrive for TmdDrive {
+    fn family(&self) -> &'static str {
+        "tmd"
+    }
+
+    /// C0009 (two digits on LECOM; a value above 99 is returned as stored,
+    /// saturated to 255).
+    fn address(&self) -> u8 {
+        u8::try_from(self.vd(C0009)).unwrap_or(u8::MAX)
+    }
+
+    fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard {
+        if let Some(until) = self.deaf_until {
+            if now < until {
+                return Heard::Nothing;
+            }
+            self.deaf_until = None;
+            self.decoder = TelegramDecoder::new();
+            self.history.clear();
+        }
+        self.remember(byte, parity_ok);
+        let mut events = Vec::new();
+        self.decoder.feed(&[byte], |e| events.push(e));
+        let mut heard = Heard::Nothing;
+        for e in events {
+            // A complete frame (decoded or not); a frame cut off by the
+            // next telegram, garbage and a lone EOT complete nothing.
+            let ends_host_frame = matches!(
+                e.result,
+                Ok(HostFrame::Telegram(_)) | Err(StreamError::Frame(_))
+            );
+            let bytes = self.frame_bytes(&e.range);
+            let response = self.on_frame(&bytes, e.result);
+            if ends_host_frame {
+                let reply = response.map(|r| Reply {
+                    bytes: r.to_bytes(),
+                    reaction: self.options.reaction.draw(&mut self.rng),
+                });
+                heard = Heard::Telegram { reply };
+            }
+        }
+        heard
+    }
+
+    /// The drive is deaf from `now` for `off` plus the boot time; values
+    /// are kept (the Tmd stores its parameters), C0248 / C0249 go to 0,
+    /// the §5 power-up state is entered (see [`TmdDrive`]).
+    fn power_cycle(&mut self, now: Instant, off: Duration) {
+        self.deaf_until = Some(now.saturating_add(off).saturating_add(self.options.boot));
+        self.power_up();
+    }
+
+    fn state(&self) -> ResolvedSet {
+        self.table.resolved(&self.values)
+    }
+
+    /// Sets any code of the table, read-only ones included (actual values,
+    /// faults). Refused: unknown codes, values of the wrong kind or that
+    /// cannot be sent in the code's format, the status words C0068 / C0150
+    /// / C1962 (derived from the drive state: poke C0161, C0040, C0050 ...
+    /// instead), and a C0009 that is not a station address.
+    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        let display = self.table.schema().display_code(key.number, key.subcode);
+        let p = self
+            .table
+            .get(key)
+            .ok_or_else(|| format!("{display}: no such code on a Tmd"))?;
+        if matches!(key.number, C0068 | C0150 | C1962) {
+            return Err(format!(
+                "{display} is derived from the drive state; poke the codes it reflects instead"
+            ));
+        }
+        if to_wire(p.ty.unwrap_or(ValueType::VD), p.width, &raw).is_none() {
+            return Err(format!(
+                "{display}: {raw:?} cannot be represented in the code's LECOM format"
+            ));
+        }
+        if key.number == C0009
+            && !matches!(raw, RawValue::Int(v) if v % VD == 0 && is_station(v / VD) && v / VD <= 247)
+        {
+            return Err(format!(
+                "{display}: {raw:?} is not a station address (1..=247, not 10, 20, ... 90)"
+            ));
+        }
+        if key.number == C0161 {
+            self.running = false;
+        }
+        self.values.insert(key, raw);
+        self.refresh();
+        Ok(())
+    }
+
+    fn running(&self) -> bool {
+        self.running
+    }
+
+    /// `true`: enable the controller (C0040 = 1, C0135 bits 3 and 9
+    /// cleared) and run the motor; ignored while a fault is present.
+    /// `false`: stop the motor (the enable state stays).
+    fn set_running(&mut self, running: bool) {
+        if running {
+            if self.fault() != 0 {
+                return;
+            }
+            self.set_int(C0040, VD);
+            let cw = self.int(C0135);
+            self.set_int(C0135, cw & !(CW_QUICK_STOP | CW_INHIBIT));
+        }
+        self.running = running;
+        self.refresh();
+    }
+
+    fn take_baud_change(&mut self) -> Option<u32> {
+        self.baud_change.take()
+    }
+}
