@@ -260,14 +260,9 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
             continue;
         };
         match ty {
-            None => {
-                out.push(f(
-                    &fact.loc,
-                    format!("{what}: `{name}` is given but the type is unknown"),
-                    "state the type, or remove the fact",
-                ));
-                raws.push(None);
-            }
+            // the spec gives the fact but not the type: honest, not an error; the
+            // fact just cannot be range-checked (sets cannot set the code either)
+            None => raws.push(None),
             Some(_) => match fact_to_raw(schema, c, &fact.value) {
                 Ok(r) => raws.push(Some(r)),
                 Err(m) => {
@@ -322,7 +317,9 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
         check_enum_source(schema, v, &what, range, ty, out);
     }
     let width = ty.and_then(|t| t.bit_width(c.width));
-    if !c.bits.is_empty() && width.is_none() {
+    // an untyped code may carry bit fields the spec documents; only a known
+    // type without a bit width (VD, VS, ...) cannot hold them
+    if !c.bits.is_empty() && ty.is_some() && width.is_none() {
         out.push(f(
             &c.loc,
             format!("{what} has bit fields but its type is not an integer type of known width"),

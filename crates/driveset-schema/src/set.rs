@@ -12,7 +12,7 @@ use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use crate::error::{
     Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
 };
-use crate::schema::{Access, Code, Registry, Schema};
+use crate::schema::{Access, Code, CodeStyle, Registry, Schema};
 use crate::validate::{Placed, check_rules, convert_value, suggest};
 
 /// Longest `extends` chain followed.
@@ -403,6 +403,19 @@ fn parse_number_key(s: &str) -> Option<u32> {
     digits.parse().ok()
 }
 
+/// Split a lust key in the spec's notation, `428-RSIO`, into (428, "RSIO").
+fn split_lust_key(s: &str) -> Option<(u32, &str)> {
+    let (num, name) = s.split_once('-')?;
+    if name.is_empty()
+        || num.is_empty()
+        || num.len() > 9
+        || !num.bytes().all(|b| b.is_ascii_digit())
+    {
+        return None;
+    }
+    Some((num.parse().ok()?, name))
+}
+
 fn resolve_key<'s>(
     schema: &'s Schema,
     doc: &Document,
@@ -432,6 +445,47 @@ fn resolve_key<'s>(
     let code = match schema.code_by_name_fast(base) {
         Some(c) => c,
         None => match parse_number_key(base) {
+            None if schema.code_style == CodeStyle::Lust
+                && let Some((num, name)) = split_lust_key(base) =>
+            {
+                match schema.code(num) {
+                    Some(c) if c.name == name || c.aliases.iter().any(|(a, _)| a == name) => c,
+                    Some(c) => {
+                        out.push(Finding::new(
+                            FindingKind::UnknownCode,
+                            loc(),
+                            format!(
+                                "`{base}`: parameter {num} is {}, not {name}",
+                                schema.display_code(num, None)
+                            ),
+                            format!(
+                                "write `{}`, `{num}` or `{}`",
+                                schema.display_code(num, None),
+                                c.name
+                            ),
+                        ));
+                        return None;
+                    }
+                    None => {
+                        out.push(Finding::new(
+                            FindingKind::UnknownCode,
+                            loc(),
+                            format!("{num} is not a code of {}", schema.id),
+                            match schema.code_by_name(name) {
+                                Some(c) => format!(
+                                    "`{name}` is {}; write `{}`",
+                                    schema.display_code(c.number, None),
+                                    schema.display_code(c.number, None)
+                                ),
+                                None => {
+                                    format!("check the number against the schema ({})", schema.path)
+                                }
+                            },
+                        ));
+                        return None;
+                    }
+                }
+            }
             Some(n) => match schema.code(n) {
                 Some(c) => c,
                 None => {

@@ -450,3 +450,53 @@ fn diff_semantic_defaults_unified() {
         "cannot diff sets of different schemas: `lenze-tmd` and `fictional-test` (compare sets of one drive family)"
     );
 }
+
+#[test]
+fn lust_keys_in_the_spec_notation() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../parameter-sets/mc6000");
+    let mut r = registry();
+    let head = "schema = \"../fixtures/fictional-mc6000-demo.toml\"\n[values]\n";
+    let l = load_set_str(
+        &dir.join("t.toml"),
+        &format!("{head}428-RSIO = 1\nSADDR = 2\n"),
+        &mut r,
+    )
+    .unwrap();
+    assert_eq!(summary(&l), vec![]);
+    let canon = l.resolved.unwrap().canonical();
+    assert!(canon.contains("\n428 65536\n"), "{canon}");
+    let l = load_set_str(
+        &dir.join("t.toml"),
+        &format!("{head}428-FOO = 1\n428-RSIO = 2\n428 = 3\n9999-RSIO = 4\n"),
+        &mut r,
+    )
+    .unwrap();
+    let got: Vec<(FindingKind, String, String, usize)> = l
+        .findings
+        .iter()
+        .map(|f| (f.kind, f.message.clone(), f.help.clone(), f.location.line))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (
+                FindingKind::UnknownCode,
+                "`428-FOO`: parameter 428 is 428-RSIO, not FOO".to_string(),
+                "write `428-RSIO`, `428` or `RSIO`".to_string(),
+                3
+            ),
+            (
+                FindingKind::DuplicateCode,
+                "428-RSIO is given twice in this file: as `428-RSIO` (line 4) and as `428`".into(),
+                "keep one of them".into(),
+                5
+            ),
+            (
+                FindingKind::UnknownCode,
+                "9999 is not a code of fictional-mc6000-demo".into(),
+                "`RSIO` is 428-RSIO; write `428-RSIO`".into(),
+                6
+            ),
+        ]
+    );
+}
