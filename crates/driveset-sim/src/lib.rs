@@ -27,5 +27,5 @@ pub mod rng;
 pub mod serve;
 pub mod slcan_serve;
 pub mod table;
-pub mod vf1000;
 pub mod tmd;
+pub mod vf1000;

@@ -19,7 +19,7 @@ fn ns(n: u64) -> Instant {
 #[test]
 fn telegram_and_reply_at_exact_instants_at_9600() {
     let clock = VirtualClock::new();
-    let (drive, seen) = FakeDrive::new(1, MS);
+    let (drive, seen) = FakeDrive::boxed(1, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![drive]).unwrap();
     bus.send(&telegram(b'1')).unwrap();
     // 8 characters x 10 bits / 9600 baud.
@@ -51,7 +51,7 @@ fn telegram_and_reply_at_exact_instants_at_9600() {
 #[test]
 fn recv_returns_everything_arrived_and_times_out_at_the_deadline() {
     let clock = VirtualClock::new();
-    let (drive, _) = FakeDrive::new(1, MS);
+    let (drive, _) = FakeDrive::boxed(1, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![drive]).unwrap();
     bus.send(&telegram(b'1')).unwrap();
     // Sleep past the whole reply: one recv gets both characters, at once.
@@ -75,7 +75,7 @@ fn recv_returns_everything_arrived_and_times_out_at_the_deadline() {
 #[test]
 fn a_deadline_before_the_reply_leaves_it_for_later() {
     let clock = VirtualClock::new();
-    let (drive, _) = FakeDrive::new(1, 10 * MS);
+    let (drive, _) = FakeDrive::boxed(1, 10 * MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![drive]).unwrap();
     bus.send(&telegram(b'1')).unwrap();
     let mut buf = [0u8; 1];
@@ -107,7 +107,7 @@ fn host_sends_queue_behind_each_other_like_mem_links() {
 #[test]
 fn discard_input_drops_what_has_arrived_only() {
     let clock = VirtualClock::new();
-    let (drive, _) = FakeDrive::new(1, MS);
+    let (drive, _) = FakeDrive::boxed(1, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![drive]).unwrap();
     bus.send(&telegram(b'1')).unwrap();
     // At 8.333 + 1 + 1.042 ms the first character has arrived; not the second.
@@ -122,8 +122,8 @@ fn discard_input_drops_what_has_arrived_only() {
 #[test]
 fn two_drives_answering_at_once_collide_into_garbage() {
     let clock = VirtualClock::new();
-    let (a, _) = FakeDrive::new(1, MS);
-    let (b, _) = FakeDrive::new(2, MS);
+    let (a, _) = FakeDrive::boxed(1, MS);
+    let (b, _) = FakeDrive::boxed(2, MS);
     let log = driveset_sim::log::EventLog::memory();
     let mut bus = SimByteBus::new(&clock, 9600, vec![a, b])
         .unwrap()
@@ -146,8 +146,8 @@ fn two_drives_answering_at_once_collide_into_garbage() {
 #[test]
 fn replies_of_different_lengths_in_time_do_not_collide() {
     let clock = VirtualClock::new();
-    let (a, _) = FakeDrive::new(1, MS);
-    let (b, _) = FakeDrive::new(2, 5 * MS);
+    let (a, _) = FakeDrive::boxed(1, MS);
+    let (b, _) = FakeDrive::boxed(2, 5 * MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![a, b]).unwrap();
     bus.send(&telegram(b'0')).unwrap();
     clock.sleep(50 * MS);
@@ -159,7 +159,7 @@ fn replies_of_different_lengths_in_time_do_not_collide() {
 #[test]
 fn a_baud_change_takes_effect_after_the_reply() {
     let clock = VirtualClock::new();
-    let (drive, seen) = FakeDrive::new(1, MS);
+    let (drive, seen) = FakeDrive::boxed(1, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![drive]).unwrap();
     // "EOT 1 B ENQ": the drive acknowledges at 9600, then runs at 19200.
     bus.send(&[0x04, b'1', b'B', 0x05]).unwrap();
@@ -189,8 +189,8 @@ fn a_baud_change_takes_effect_after_the_reply() {
 #[test]
 fn state_dump_and_drive_access() {
     let clock = VirtualClock::new();
-    let (a, _) = FakeDrive::new(1, MS);
-    let (b, _) = FakeDrive::new(3, MS);
+    let (a, _) = FakeDrive::boxed(1, MS);
+    let (b, _) = FakeDrive::boxed(3, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![a, b]).unwrap();
     assert_eq!(bus.drives().len(), 2);
     bus.drive_mut(3)
@@ -223,8 +223,8 @@ fn construction_and_send_errors_say_what_to_do() {
     let clock = VirtualClock::new();
     let err = SimByteBus::new(&clock, 1234, vec![]).unwrap_err();
     assert!(err.to_string().contains("use one of 1200, 2400"), "{err}");
-    let (a, _) = FakeDrive::new(1, MS);
-    let (b, _) = FakeDrive::new(1, MS);
+    let (a, _) = FakeDrive::boxed(1, MS);
+    let (b, _) = FakeDrive::boxed(1, MS);
     let err = SimByteBus::new(&clock, 9600, vec![a, b]).unwrap_err();
     assert_eq!(
         err.to_string(),

@@ -17,7 +17,7 @@ const MS: Duration = Duration::from_millis(1);
 
 fn bus_with(plan: &str, seed: u64) -> (SimByteBus, VirtualClock, support::Shared, EventLog) {
     let clock = VirtualClock::new();
-    let (drive, seen) = FakeDrive::new(1, MS);
+    let (drive, seen) = FakeDrive::boxed(1, MS);
     let log = EventLog::memory();
     let bus = SimByteBus::new(&clock, 9600, vec![drive])
         .unwrap()
@@ -270,8 +270,8 @@ fn power_cycle_at_telegram_n_hits_the_drive_at_the_end_of_it() {
 #[test]
 fn power_cycle_of_every_drive_at_a_time() {
     let clock = VirtualClock::new();
-    let (a, sa) = FakeDrive::new(1, MS);
-    let (b, sb) = FakeDrive::new(2, MS);
+    let (a, sa) = FakeDrive::boxed(1, MS);
+    let (b, sb) = FakeDrive::boxed(2, MS);
     let mut bus = SimByteBus::new(&clock, 9600, vec![a, b])
         .unwrap()
         .with_faults(FaultPlan::parse("power-cycle@20ms").unwrap(), 0);

@@ -48,7 +48,7 @@ pub struct FakeDrive {
 }
 
 impl FakeDrive {
-    pub fn new(addr: u8, reaction: Duration) -> (Box<dyn ByteDrive>, Shared) {
+    pub fn boxed(addr: u8, reaction: Duration) -> (Box<dyn ByteDrive>, Shared) {
         let seen = Shared::default();
         let d = FakeDrive {
             addr,
@@ -159,7 +159,7 @@ pub struct FakeNode {
 }
 
 impl FakeNode {
-    pub fn new(node: u8, reaction: Duration) -> (Box<dyn FrameDrive>, FakeNodeHandles) {
+    pub fn boxed(node: u8, reaction: Duration) -> (Box<dyn FrameDrive>, FakeNodeHandles) {
         let seen = Arc::new(Mutex::new(Vec::new()));
         let power = Arc::new(Mutex::new(Vec::new()));
         let n = FakeNode {
