@@ -49,6 +49,18 @@ enum Command {
     Decode(cmd::decode::Args),
     /// Build a telegram from a readable description.
     Encode(cmd::encode::Args),
+    /// Serve simulated drives on a pseudo terminal or a TCP port.
+    Sim(cmd::sim::Args),
+    /// Identify the drive at a port and address: family, type codes, fitting schema.
+    Identify(cmd::identify::Args),
+    /// Find the drives on a bus (LUSTBUS 1..30, LECOM 1..99, CAN node ids).
+    Scan(cmd::scan::Args),
+    /// Read a drive's parameters into a set file.
+    Pull(cmd::pull::Args),
+    /// Download a set to a drive as one transaction (or print the plan).
+    Upload(cmd::upload::Args),
+    /// Finish or roll back an interrupted upload from its journal.
+    Recover(cmd::recover::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +80,12 @@ fn main() -> ExitCode {
         Command::Show(a) => cmd::show::run(a),
         Command::Decode(a) => cmd::decode::run(a),
         Command::Encode(a) => cmd::encode::run(a),
+        Command::Sim(a) => cmd::sim::run(a),
+        Command::Identify(a) => cmd::identify::run(a),
+        Command::Scan(a) => cmd::scan::run(a),
+        Command::Pull(a) => cmd::pull::run(a),
+        Command::Upload(a) => cmd::upload::run(a),
+        Command::Recover(a) => cmd::recover::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -1,0 +1,8 @@
+//! `driveset identify` (being written).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<u8> {
+    anyhow::bail!("`driveset identify` is not available in this build yet")
+}
