@@ -6,6 +6,10 @@
 //! transaction runner needs for pacing (EEPROM store time) and the MC6000
 //! dataset handshake (SLOAD).
 
+// EngineError is the lead's contract type (large by design: it carries
+// the target and the decoded cause); boxing it is not ours to decide.
+#![allow(clippy::result_large_err)]
+
 use std::fmt;
 use std::sync::Arc;
 use std::time::Duration;
@@ -13,7 +17,15 @@ use std::time::Duration;
 use driveset_link::{Clock, Instant};
 use driveset_schema::{CodeKey, RawValue, Schema};
 
-use crate::error::EngineError;
+use crate::error::{DeviceCause, EngineError};
+
+pub mod lecom;
+pub mod lustbus;
+pub mod sdo;
+
+pub use lecom::{LecomClient, LecomOptions};
+pub use lustbus::{LustbusClient, LustbusOptions};
+pub use sdo::{CanClient, CanOptions};
 
 /// Where a client talks: a port (in the common port syntax) and an address
 /// (LUSTBUS 0..30, LECOM 1..99, CAN node id 1..127).
@@ -144,5 +156,161 @@ pub trait DriveClient: Send {
             target: self.target().clone(),
             reason: "this drive family has no dataset download handshake".into(),
         })
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Helpers the protocol clients share (not part of the contract).
+// ---------------------------------------------------------------------------
+
+/// The schema entry of `key`, or `Refused` (a client never touches a code
+/// its schema does not know).
+pub(crate) fn schema_code<'s>(
+    schema: &'s Schema,
+    target: &Target,
+    key: CodeKey,
+) -> Result<&'s driveset_schema::Code, EngineError> {
+    schema.code(key.number).ok_or_else(|| EngineError::Refused {
+        target: target.clone(),
+        reason: format!(
+            "schema `{}` has no code {}; check the set names the right drive family",
+            schema.id,
+            key.canonical(schema.code_style)
+        ),
+    })
+}
+
+/// `C0011`, `428-RSIO`, `C0039/1`.
+pub(crate) fn code_name(schema: &Schema, key: CodeKey) -> String {
+    schema.display_code(key.number, key.subcode)
+}
+
+/// A raw value for messages: never a password's.
+pub(crate) fn shown_value(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
+    let secret = schema
+        .code(key.number)
+        .is_some_and(|c| schema.is_password(c));
+    if secret {
+        return "(password, not shown)".into();
+    }
+    match raw {
+        RawValue::Int(v) => format!("raw {v}"),
+        RawValue::Text(t) => format!("{t:?}"),
+        RawValue::Octets(o) => format!("{} octets", o.len()),
+    }
+}
+
+/// `write 428-RSIO (raw 842666)` / `write 94-PASSWD (password, not shown)`.
+pub(crate) fn write_what(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
+    format!(
+        "write {} ({})",
+        code_name(schema, key),
+        shown_value(schema, key, raw)
+    )
+}
+
+/// Refusal to write a read-only code (nothing is sent).
+pub(crate) fn refuse_read_only(
+    schema: &Schema,
+    target: &Target,
+    key: CodeKey,
+    code: &driveset_schema::Code,
+) -> Result<(), EngineError> {
+    if code.access == Some(driveset_schema::schema::Access::Ro) {
+        return Err(EngineError::Refused {
+            target: target.clone(),
+            reason: format!(
+                "{} is read-only in schema `{}`; remove it from the set",
+                code_name(schema, key),
+                schema.id
+            ),
+        });
+    }
+    Ok(())
+}
+
+pub(crate) fn device(
+    target: &Target,
+    what: impl Into<String>,
+    cause: impl Into<String>,
+    raw: impl Into<String>,
+    remedy: impl Into<String>,
+) -> EngineError {
+    EngineError::Device {
+        target: target.clone(),
+        what: what.into(),
+        cause: DeviceCause {
+            cause: cause.into(),
+            raw: raw.into(),
+            remedy: remedy.into(),
+        },
+    }
+}
+
+pub(crate) fn link_error(target: &Target, source: driveset_link::LinkError) -> EngineError {
+    EngineError::Link {
+        target: target.clone(),
+        source,
+    }
+}
+
+/// A [`driveset_link::ByteLink`] borrowed for a while (scan, baud
+/// detection): lets the protocol clients run on a link they do not own.
+#[derive(Debug)]
+pub struct BorrowedByteLink<'a>(pub &'a mut dyn driveset_link::ByteLink);
+
+impl driveset_link::ByteLink for BorrowedByteLink<'_> {
+    fn port(&self) -> &str {
+        self.0.port()
+    }
+    fn baud(&self) -> u32 {
+        self.0.baud()
+    }
+    fn clock(&self) -> &dyn Clock {
+        self.0.clock()
+    }
+    fn send(&mut self, bytes: &[u8]) -> Result<(), driveset_link::LinkError> {
+        self.0.send(bytes)
+    }
+    fn recv(
+        &mut self,
+        buf: &mut [u8],
+        deadline: Instant,
+    ) -> Result<usize, driveset_link::LinkError> {
+        self.0.recv(buf, deadline)
+    }
+    fn discard_input(&mut self) -> Result<(), driveset_link::LinkError> {
+        self.0.discard_input()
+    }
+    fn flush(&mut self) -> Result<(), driveset_link::LinkError> {
+        self.0.flush()
+    }
+}
+
+/// A [`driveset_link::FrameLink`] borrowed for a while (scan).
+#[derive(Debug)]
+pub struct BorrowedFrameLink<'a>(pub &'a mut dyn driveset_link::FrameLink);
+
+impl driveset_link::FrameLink for BorrowedFrameLink<'_> {
+    fn port(&self) -> &str {
+        self.0.port()
+    }
+    fn bitrate(&self) -> u32 {
+        self.0.bitrate()
+    }
+    fn clock(&self) -> &dyn Clock {
+        self.0.clock()
+    }
+    fn send(&mut self, frame: &driveset_link::CanFrame) -> Result<(), driveset_link::LinkError> {
+        self.0.send(frame)
+    }
+    fn recv(
+        &mut self,
+        deadline: Instant,
+    ) -> Result<Option<driveset_link::CanFrame>, driveset_link::LinkError> {
+        self.0.recv(deadline)
+    }
+    fn discard_input(&mut self) -> Result<(), driveset_link::LinkError> {
+        self.0.discard_input()
     }
 }

@@ -1,0 +1,728 @@
+//! [`LecomClient`]: Lenze LECOM-A/B (`lecom-ab-tmd-manual.txt` section 8)
+//! for Lenze Tmd inverters.
+//!
+//! # Telegrams
+//!
+//! - Read: RECEIVE `EOT AD1 AD2 C1 C2 ENQ` (8.H), write: SEND
+//!   `EOT AD1 AD2 STX C1 C2 V1..Vn ETX BCC` (8.I). The code field is the
+//!   codec's [`CodeAddress::select`]: standard C1 C2 for codes up to 6229
+//!   without subcode, extended addressing `!CCCCSS` (8.D) otherwise; the
+//!   client never touches the code bank C0249 or input selection C0248, so
+//!   they stay at their power-on 0.
+//! - Values per the schema type (8.E): VD (raw = value x 10000), VH (2, 4
+//!   or 8 hex digits from the schema's `width`, 2 bytes when unset), VS,
+//!   VO.
+//! - Answers through the codec's [`ResponseDecoder`]: the value; `?`
+//!   (checksum fault seen by the drive: repeat); `STX C1 C2 EOT` (no such
+//!   code: [`EngineError::Device`]); ACK; NAK.
+//! - A NAK to a SEND: the client reads C0068 and decodes bits 4..7 with the
+//!   codec's [`CommunicationError`] (8.J c). Checksum, protocol frame and
+//!   "interrupted by a new telegram" repeat the SEND (within
+//!   [`LecomOptions::tries`]); every other cause is a `Device` error, with
+//!   C1962 (extended fault number, Table 1) read and added where the drive
+//!   has it.
+//! - Only station addresses are targets: 00 and the group addresses x0 are
+//!   BROADCAST / MULTICAST addresses (8.J) that no drive answers and are
+//!   refused. [`LecomClient::broadcast`] / [`LecomClient::multicast`] send
+//!   an unacknowledged SEND to all drives or a group, separately.
+//! - Every telegram starts with EOT (the end of the previous transmission),
+//!   so nothing is sent after an answer; [`DriveClient::finish`] sends the
+//!   final EOT.
+//!
+//! # Answer monitoring and retries
+//!
+//! 8.J b: "The monitoring time in the master should be approx. twice as
+//! long as the maximum response time"; the manual gives no response time.
+//! Default: 2 x [`LecomOptions::max_reaction`] (20 ms, the simulator's
+//! assumed Tmd figure) + the wire time of the longest answer the code's
+//! format allows; [`LecomOptions::answer_timeout`] replaces it. No answer
+//! or a garbled one: repeat, [`LecomOptions::tries`] (3) sends in all, then
+//! [`EngineError::NoAnswer`].
+//!
+//! # running()
+//!
+//! C0150 bit 1 "power stage transistors energized" (Table 1); without
+//! C0150 in the schema, C0068 bit 11 (the same indication, 8.H c). `None`
+//! with neither.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::mem::wire_time;
+use driveset_link::{ByteLink, Clock, LinkError};
+use driveset_proto::lecom::{
+    Advice, Broadcast, CodeAddress, CommunicationError, ControllerAddress, Decimal, ExtendedError,
+    Hex, OctetString, OperatingStatus, Receive, Response, ResponseDecoder, Send, Telegram, Value,
+    VisibleString,
+};
+use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+
+use super::{
+    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
+    schema_code, shown_value, write_what,
+};
+use crate::error::EngineError;
+
+/// C0068, operating status (bits 4..7: last communication error).
+pub const C0068: u32 = 68;
+/// C0150, controller status word.
+pub const C0150: u32 = 150;
+/// C1962, extended fault number.
+pub const C1962: u32 = 1962;
+/// C0093, drive identification.
+pub const C0093: u32 = 93;
+/// C0099, software version.
+pub const C0099: u32 = 99;
+
+/// The minimum reaction time assumed for planning (the manual gives none).
+const MIN_REACTION: Duration = Duration::from_millis(1);
+
+/// Options of a [`LecomClient`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LecomOptions {
+    /// Sends of one telegram before giving up (no answer, garbled answer,
+    /// "?" answer, NAK for a repeatable cause). Default 3; 0 counts as 1.
+    pub tries: u32,
+    /// The drive's longest reaction time. The manual gives none; default
+    /// 20 ms (FICTIONAL, as the simulator's Tmd). The monitoring time is
+    /// twice this plus the answer's wire time (8.J b).
+    pub max_reaction: Duration,
+    /// Replaces the computed monitoring time.
+    pub answer_timeout: Option<Duration>,
+}
+
+impl Default for LecomOptions {
+    fn default() -> Self {
+        LecomOptions {
+            tries: 3,
+            max_reaction: Duration::from_millis(20),
+            answer_timeout: None,
+        }
+    }
+}
+
+#[derive(Debug)]
+enum Outcome {
+    Answer(Response),
+    NoAnswer,
+    Garbled(String),
+}
+
+/// The line: link, answer decoder, counters. Shared with scan.
+#[derive(Debug)]
+pub(crate) struct LecomLine<L> {
+    pub(crate) link: L,
+    pub(crate) stats: ClientStats,
+    open: bool,
+}
+
+impl<L: ByteLink> LecomLine<L> {
+    pub(crate) fn new(link: L) -> Self {
+        LecomLine {
+            link,
+            stats: ClientStats::default(),
+            open: false,
+        }
+    }
+
+    fn send(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.link.discard_input()?;
+        self.link.send(bytes)?;
+        self.link.flush()?;
+        self.open = true;
+        self.stats.telegrams += 1;
+        self.stats.sent += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Sends a telegram and waits `timeout` from the end of the send for
+    /// the answer (a RECEIVE answer must echo `code`).
+    fn exchange(
+        &mut self,
+        bytes: &[u8],
+        code: Option<CodeAddress>,
+        timeout: Duration,
+    ) -> Result<Outcome, LinkError> {
+        self.send(bytes)?;
+        let deadline = self.link.clock().now() + timeout;
+        let mut decoder = ResponseDecoder::new();
+        let mut garbled: Option<String> = None;
+        let mut buf = [0u8; 128];
+        let mut events = Vec::new();
+        loop {
+            let n = self.link.recv(&mut buf, deadline)?;
+            if n == 0 {
+                decoder.finish(|e| events.push(e));
+            } else {
+                let got = buf.get(..n).unwrap_or(&[]);
+                self.stats.received += got.len() as u64;
+                decoder.feed(got, |e| events.push(e));
+            }
+            for ev in events.drain(..) {
+                match ev.result {
+                    Ok(r) => match (r.code(), code) {
+                        (Some(got), Some(want)) if got != want => {
+                            garbled = Some(format!("an answer for {got} instead of {want}"));
+                        }
+                        _ => return Ok(Outcome::Answer(r)),
+                    },
+                    Err(e) => garbled = Some(e.to_string()),
+                }
+            }
+            if n == 0 {
+                return Ok(match garbled {
+                    Some(g) => Outcome::Garbled(g),
+                    None => Outcome::NoAnswer,
+                });
+            }
+        }
+    }
+
+    pub(crate) fn finish(&mut self) -> Result<(), LinkError> {
+        if self.open {
+            self.link.send(&[driveset_proto::ascii::EOT])?;
+            self.link.flush()?;
+            self.stats.sent += 1;
+            self.open = false;
+        }
+        Ok(())
+    }
+}
+
+/// Longest answer to a RECEIVE of a code of `ty`: STX, code, value, ETX, BCC.
+fn answer_len(code: CodeAddress, ty: Option<ValueType>) -> usize {
+    let value = match ty {
+        Some(ValueType::VD) | None => 12,
+        Some(ValueType::VH) => 9,
+        Some(ValueType::VS) => 1 + VisibleString::MAX_LEN,
+        _ => Value::MAX_WIRE_LEN,
+    };
+    3 + code.wire_len() + value
+}
+
+/// The code field of a key.
+fn code_address(key: CodeKey) -> Option<CodeAddress> {
+    let code = u16::try_from(key.number).ok()?;
+    let sub = u8::try_from(key.subcode.unwrap_or(0)).ok()?;
+    Some(CodeAddress::select(code, sub))
+}
+
+/// The raw value of an answer of a code of type `ty`.
+fn raw_of(ty: Option<ValueType>, value: &Value) -> Option<RawValue> {
+    Some(match (ty, value) {
+        (Some(ValueType::VD) | None, Value::Decimal(d)) => RawValue::Int(d.raw()),
+        (Some(ValueType::VH), Value::Hex(h)) => RawValue::Int(i64::from(h.get())),
+        (Some(ValueType::VH), Value::Decimal(d)) => RawValue::Int(d.as_integer()?),
+        (Some(ValueType::VS), Value::String(s)) => RawValue::Text(s.as_str().to_string()),
+        (Some(ValueType::VO), Value::Octets(o)) => RawValue::Octets(o.as_bytes().to_vec()),
+        _ => return None,
+    })
+}
+
+/// The LECOM value of a raw value of `code`.
+fn value_of(schema: &Schema, code: &Code, raw: &RawValue) -> Result<Value, String> {
+    let ty = schema.type_of(code);
+    match (ty, raw) {
+        (Some(ValueType::VD), RawValue::Int(n)) => Decimal::from_raw(*n)
+            .map(Value::Decimal)
+            .map_err(|e| e.to_string()),
+        (Some(ValueType::VH), RawValue::Int(n)) => {
+            let v = u32::try_from(*n).map_err(|_| "negative value for VH".to_string())?;
+            let hex = match code.width.unwrap_or(2) {
+                1 => u8::try_from(v).ok().map(Hex::Byte),
+                2 => u16::try_from(v).ok().map(Hex::Word),
+                4 => Some(Hex::Dword(v)),
+                w => return Err(format!("VH width {w} is not 1, 2 or 4 bytes")),
+            };
+            hex.map(Value::Hex)
+                .ok_or_else(|| "value does not fit the code's VH width".to_string())
+        }
+        (Some(ValueType::VS), RawValue::Text(t)) => VisibleString::new(t.as_bytes())
+            .map(Value::String)
+            .map_err(|e| e.to_string()),
+        (Some(ValueType::VO), RawValue::Octets(o)) => OctetString::new(o)
+            .map(Value::Octets)
+            .map_err(|e| e.to_string()),
+        (Some(t), _) => Err(format!("a {} code cannot take this value", t.name())),
+        (None, _) => Err("the schema gives no LECOM format".into()),
+    }
+}
+
+/// What to do about a communication error (C0068 bits 4..7).
+fn remedy(e: CommunicationError) -> &'static str {
+    match e {
+        CommunicationError::NoFault => {
+            "the drive refused without recording a cause; check the value against the code's range and the drive's state"
+        }
+        CommunicationError::ChecksumError
+        | CommunicationError::ProtocolFrameError
+        | CommunicationError::InterruptedByNewTelegram => {
+            "transmission faults persisted over every repetition; check termination, wiring and that only one master talks"
+        }
+        CommunicationError::InvalidCodeNumber => {
+            "the drive does not have this code (or cannot write it); check the set's schema matches the drive"
+        }
+        CommunicationError::InvalidVariable => {
+            "the value is not allowed; choose a value inside the code's range"
+        }
+        CommunicationError::NoAccessPermission => {
+            "the code cannot be written now: inhibit the controller (many codes are writable only at standstill) or check the user password C0094"
+        }
+        CommunicationError::GeneralFault => "repeat; if it persists, check the drive",
+        CommunicationError::Reserved | CommunicationError::Undocumented(_) => {
+            "undocumented communication error; check the drive"
+        }
+    }
+}
+
+/// A Lenze Tmd on LECOM-A/B at one station address.
+#[derive(Debug)]
+pub struct LecomClient<L: ByteLink = Box<dyn ByteLink>> {
+    line: LecomLine<L>,
+    schema: Arc<Schema>,
+    target: Target,
+    address: ControllerAddress,
+    opts: LecomOptions,
+}
+
+impl<L: ByteLink> LecomClient<L> {
+    /// A client for the station at `address` (01..99 without the group
+    /// addresses x0) with default options.
+    pub fn new(link: L, schema: Arc<Schema>, address: u8) -> Result<Self, EngineError> {
+        Self::with_options(link, schema, address, LecomOptions::default())
+    }
+
+    /// As [`LecomClient::new`] with `opts`.
+    pub fn with_options(
+        link: L,
+        schema: Arc<Schema>,
+        address: u8,
+        opts: LecomOptions,
+    ) -> Result<Self, EngineError> {
+        let target = Target {
+            port: link.port().to_string(),
+            address,
+        };
+        if schema.protocol != Protocol::Lecom {
+            return Err(EngineError::Refused {
+                target,
+                reason: format!(
+                    "schema `{}` is not a LECOM family (protocol {:?}); pick the client of its protocol",
+                    schema.id, schema.protocol
+                ),
+            });
+        }
+        let address = match ControllerAddress::new(address) {
+            Some(a) if !a.is_broadcast() => a,
+            _ => {
+                return Err(EngineError::Refused {
+                    target,
+                    reason: format!(
+                        "LECOM address {address} is not a station: use 01..99 except 00 and the group addresses 10, 20, .. 90 (BROADCAST / MULTICAST, section 8.J; use broadcast() for those)"
+                    ),
+                });
+            }
+        };
+        Ok(LecomClient {
+            line: LecomLine::new(link),
+            schema,
+            target,
+            address,
+            opts,
+        })
+    }
+
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.line.link
+    }
+
+    /// The link, mutably.
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.line.link
+    }
+
+    /// The link back.
+    pub fn into_link(self) -> L {
+        self.line.link
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
+
+    fn baud(&self) -> u32 {
+        self.line.link.baud()
+    }
+
+    fn timeout(&self, answer_chars: usize) -> Duration {
+        self.opts
+            .answer_timeout
+            .unwrap_or_else(|| self.opts.max_reaction * 2 + wire_time(answer_chars, self.baud()))
+    }
+
+    fn refused(&self, reason: String) -> EngineError {
+        EngineError::Refused {
+            target: self.target.clone(),
+            reason,
+        }
+    }
+
+    fn field(&self, key: CodeKey) -> Result<CodeAddress, EngineError> {
+        code_address(key).ok_or_else(|| {
+            self.refused(format!(
+                "{} cannot be addressed on LECOM (code above 65535 or subcode above 255, section 8.D)",
+                code_name(&self.schema, key)
+            ))
+        })
+    }
+
+    fn no_answer(&self, what: &str, last: &str) -> EngineError {
+        let what = if last.is_empty() {
+            what.to_string()
+        } else {
+            format!("{what} (last answer: {last})")
+        };
+        EngineError::NoAnswer {
+            target: self.target.clone(),
+            what,
+            tries: self.tries(),
+        }
+    }
+
+    /// RECEIVE with retries; the value as the codec decoded it.
+    fn receive(
+        &mut self,
+        key: CodeKey,
+        ty: Option<ValueType>,
+        what: &str,
+    ) -> Result<Value, EngineError> {
+        let code = self.field(key)?;
+        let t = Telegram::Receive(Receive {
+            address: self.address,
+            code,
+        });
+        let bytes = t
+            .to_bytes()
+            .map_err(|e| self.refused(format!("{what}: {e}")))?;
+        let timeout = self.timeout(answer_len(code, ty));
+        let mut last = String::new();
+        for attempt in 0..self.tries() {
+            if attempt > 0 {
+                self.line.stats.retries += 1;
+            }
+            let out = self
+                .line
+                .exchange(&bytes, Some(code), timeout)
+                .map_err(|e| link_error(&self.target, e))?;
+            match out {
+                Outcome::Answer(Response::Value { value, .. }) => return Ok(value),
+                Outcome::Answer(Response::NoSuchCode { .. }) => {
+                    return Err(device(
+                        &self.target,
+                        what,
+                        "no such code in this controller",
+                        format!("STX {code} EOT"),
+                        "check the set's schema matches the drive (family, software version)",
+                    ));
+                }
+                Outcome::Answer(Response::ChecksumFault { .. }) => {
+                    last = "\"?\": the drive saw a checksum (parity) fault".into();
+                }
+                Outcome::Answer(r) => last = format!("{r} to a RECEIVE"),
+                Outcome::Garbled(g) => last = g,
+                Outcome::NoAnswer => last.clear(),
+            }
+        }
+        Err(self.no_answer(what, &last))
+    }
+
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        let ty = schema.type_of(code);
+        let value = self.receive(key, ty, what)?;
+        raw_of(ty, &value).ok_or_else(|| EngineError::Protocol {
+            target: self.target.clone(),
+            what: what.to_string(),
+            detail: format!(
+                "the drive sent `{value}`, which is not the {} format the schema gives",
+                ty.map_or("VD", ValueType::name)
+            ),
+        })
+    }
+
+    /// After a NAK: C0068 bits 4..7, and C1962 for causes that fail.
+    fn nak_cause(&mut self, what: &str) -> Result<(CommunicationError, String), EngineError> {
+        let v = self.receive(
+            CodeKey::new(C0068),
+            Some(ValueType::VH),
+            &format!("read C0068 after NAK to {what}"),
+        )?;
+        let status = OperatingStatus::from_value(&v).map_err(|e| EngineError::Protocol {
+            target: self.target.clone(),
+            what: format!("read C0068 after NAK to {what}"),
+            detail: e.to_string(),
+        })?;
+        let comm = status.last_communication_error();
+        let mut raw = format!(
+            "NAK; C0068 = H{:04X}, bits 4..7 = {}",
+            status.0,
+            comm.nibble()
+        );
+        if comm.advice() == Advice::Fail && self.schema.code(C1962).is_some() {
+            // Best effort: C1962 only adds detail.
+            if let Ok(v) = self.receive(
+                CodeKey::new(C1962),
+                None,
+                &format!("read C1962 after NAK to {what}"),
+            ) && let Ok(x) = ExtendedError::from_value(&v)
+            {
+                raw.push_str(&format!("; C1962 = {x}"));
+            }
+        }
+        Ok((comm, raw))
+    }
+
+    fn encode(&self, key: CodeKey, raw: &RawValue) -> Result<(CodeAddress, Value), EngineError> {
+        let code = schema_code(&self.schema, &self.target, key)?;
+        let field = self.field(key)?;
+        let value = value_of(&self.schema, code, raw).map_err(|e| {
+            self.refused(format!(
+                "{} = {}: {e}",
+                code_name(&self.schema, key),
+                shown_value(&self.schema, key, raw)
+            ))
+        })?;
+        Ok((field, value))
+    }
+
+    /// BROADCAST (8.J) of `key` = `raw` to every drive on the line
+    /// (address 00). **Unacknowledged**: no drive answers, so nothing tells
+    /// whether any took it; read back from each station to know.
+    pub fn broadcast(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        self.send_broadcast(ControllerAddress::ALL, key, raw)
+    }
+
+    /// MULTICAST (8.J) to the group `tens`1..`tens`9 (address `tens`0,
+    /// `tens` = 1..=9). **Unacknowledged**, like [`LecomClient::broadcast`].
+    pub fn multicast(&mut self, tens: u8, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        let to = ControllerAddress::group(tens).ok_or_else(|| {
+            self.refused(format!(
+                "group {tens} does not exist: groups are 1..9 (addresses 10..90, section 8.J)"
+            ))
+        })?;
+        self.send_broadcast(to, key, raw)
+    }
+
+    fn send_broadcast(
+        &mut self,
+        to: ControllerAddress,
+        key: CodeKey,
+        raw: &RawValue,
+    ) -> Result<(), EngineError> {
+        let code = schema_code(&self.schema, &self.target, key)?;
+        refuse_read_only(&self.schema, &self.target, key, code)?;
+        let (field, value) = self.encode(key, raw)?;
+        let t = Broadcast::new(to, field, value)
+            .map(Telegram::Broadcast)
+            .map_err(|e| self.refused(e.to_string()))?;
+        let bytes = t.to_bytes().map_err(|e| self.refused(e.to_string()))?;
+        self.line
+            .send(&bytes)
+            .map_err(|e| link_error(&self.target, e))
+    }
+}
+
+impl<L: ByteLink> DriveClient for LecomClient<L> {
+    fn target(&self) -> &Target {
+        &self.target
+    }
+
+    fn schema(&self) -> &Arc<Schema> {
+        &self.schema
+    }
+
+    fn clock(&self) -> &dyn Clock {
+        self.line.link.clock()
+    }
+
+    fn identify(&mut self) -> Result<Identity, EngineError> {
+        let codes = self
+            .schema
+            .identify
+            .as_ref()
+            .map(|i| i.codes.clone())
+            .filter(|c| !c.is_empty())
+            .unwrap_or_else(|| vec![C0093]);
+        let mut out = Identity {
+            protocol: "lecom".into(),
+            ..Identity::default()
+        };
+        for n in codes {
+            let key = CodeKey::new(n);
+            let name = code_name(&self.schema, key);
+            let what = format!("identify: read {name}");
+            let raw = match self.read_key(key, &what) {
+                Ok(r) => r,
+                // A code this controller lacks does not stop identification.
+                Err(EngineError::Device { .. }) => continue,
+                Err(e) => return Err(e),
+            };
+            let text = match &raw {
+                RawValue::Int(v) => {
+                    match self.schema.code(n).and_then(|c| self.schema.type_of(c)) {
+                        Some(ValueType::VD) | None => {
+                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v)
+                        }
+                        _ => v.to_string(),
+                    }
+                }
+                RawValue::Text(t) => t.clone(),
+                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+            };
+            if n == C0099 {
+                out.software = Some(text.clone());
+            }
+            out.codes.push((name, text));
+        }
+        Ok(out)
+    }
+
+    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
+        let what = format!("read {}", code_name(&self.schema, key));
+        self.read_key(key, &what)
+    }
+
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        refuse_read_only(&schema, &self.target, key, code)?;
+        let what = write_what(&schema, key, raw);
+        let (field, value) = self.encode(key, raw)?;
+        let t = Send::new(self.address, field, value)
+            .map(Telegram::Send)
+            .map_err(|e| self.refused(e.to_string()))?;
+        let bytes = t.to_bytes().map_err(|e| self.refused(e.to_string()))?;
+        let timeout = self.timeout(1);
+        let mut last = String::new();
+        let mut sends = 0u32;
+        while sends < self.tries() {
+            if sends > 0 {
+                self.line.stats.retries += 1;
+            }
+            sends += 1;
+            let out = self
+                .line
+                .exchange(&bytes, None, timeout)
+                .map_err(|e| link_error(&self.target, e))?;
+            match out {
+                Outcome::Answer(Response::Ack) => return Ok(()),
+                Outcome::Answer(Response::Nak) => {
+                    let (comm, raw_text) = self.nak_cause(&what)?;
+                    match comm.advice() {
+                        Advice::Repeat if sends < self.tries() => {
+                            last = format!("NAK: {}", comm.text());
+                        }
+                        _ => {
+                            let cause = if comm == CommunicationError::NoFault {
+                                "refused (NAK) without a recorded communication error".to_string()
+                            } else {
+                                comm.text().to_string()
+                            };
+                            return Err(device(&self.target, &what, cause, raw_text, remedy(comm)));
+                        }
+                    }
+                }
+                Outcome::Answer(r) => last = format!("{r} to a SEND"),
+                Outcome::Garbled(g) => last = g,
+                Outcome::NoAnswer => last.clear(),
+            }
+        }
+        Err(self.no_answer(&what, &last))
+    }
+
+    fn read_time(&self, key: CodeKey) -> Duration {
+        let ty = self
+            .schema
+            .code(key.number)
+            .and_then(|c| self.schema.type_of(c));
+        let Some(code) = code_address(key) else {
+            return Duration::ZERO;
+        };
+        // EOT AD1 AD2 code ENQ, then the answer (VD: a typical 6 characters).
+        let answer = match ty {
+            Some(ValueType::VH) => 3 + code.wire_len() + 5,
+            Some(ValueType::VD) | None => 3 + code.wire_len() + 6,
+            _ => answer_len(code, ty),
+        };
+        wire_time(4 + code.wire_len() + answer, self.baud()) + MIN_REACTION
+    }
+
+    fn write_time(&self, key: CodeKey) -> Duration {
+        let Some(code) = code_address(key) else {
+            return Duration::ZERO;
+        };
+        // EOT AD1 AD2 STX code value ETX BCC, then ACK.
+        let value = 6;
+        wire_time(6 + code.wire_len() + value + 1, self.baud()) + MIN_REACTION
+    }
+
+    fn running(&mut self) -> Result<Option<bool>, EngineError> {
+        let (number, bit) = if self.schema.code(C0150).is_some() {
+            (C0150, 1)
+        } else if self.schema.code(C0068).is_some() {
+            (C0068, 11)
+        } else {
+            return Ok(None);
+        };
+        let key = CodeKey::new(number);
+        let what = format!("read {} (running?)", code_name(&self.schema, key));
+        let v = self.receive(key, Some(ValueType::VH), &what)?;
+        let word = match v {
+            Value::Hex(h) => i64::from(h.get()),
+            Value::Decimal(d) => d.as_integer().unwrap_or(0),
+            _ => 0,
+        };
+        Ok(Some(word >> bit & 1 == 1))
+    }
+
+    fn stats(&self) -> ClientStats {
+        self.line.stats
+    }
+
+    fn finish(&mut self) -> Result<(), EngineError> {
+        self.line.finish().map_err(|e| link_error(&self.target, e))
+    }
+}
+
+/// RECEIVE of `key` at `address` on `line` (the scan probe): `Ok(None)`
+/// when nothing answers, `Ok(Some(value text))` for any answer (a value,
+/// "?" or "no such code": a drive is there).
+pub(crate) fn probe<L: ByteLink>(
+    line: &mut LecomLine<L>,
+    address: ControllerAddress,
+    key: CodeKey,
+    timeout: Duration,
+    tries: u32,
+) -> Result<Option<String>, LinkError> {
+    let Some(code) = code_address(key) else {
+        return Ok(None);
+    };
+    let Ok(bytes) = Telegram::Receive(Receive { address, code }).to_bytes() else {
+        return Ok(None);
+    };
+    for attempt in 0..tries.max(1) {
+        if attempt > 0 {
+            line.stats.retries += 1;
+        }
+        match line.exchange(&bytes, Some(code), timeout)? {
+            Outcome::Answer(Response::Value { value, .. }) => return Ok(Some(value.to_string())),
+            Outcome::Answer(Response::NoSuchCode { .. }) => {
+                return Ok(Some("(no such code)".into()));
+            }
+            Outcome::Answer(_) | Outcome::Garbled(_) | Outcome::NoAnswer => {}
+        }
+    }
+    Ok(None)
+}

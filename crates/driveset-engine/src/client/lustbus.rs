@@ -1,0 +1,1062 @@
+//! [`LustbusClient`]: LUSTBUS (`lustbus-protocol.txt`) for Lust SMARTDRIVE
+//! VF1000 inverters and MASTERCONTROL MC6000/7000 servocontrollers, the
+//! family taken from the schema's protocol (`lustbus-vf1000` /
+//! `lustbus-mc`).
+//!
+//! # Telegrams
+//!
+//! - Read: ENQUIRY `EOT ADR CODE ENQ` (section 6.1). CODE is `001pp` on the
+//!   VF1000 (specifier 0, data set 0, device number 1 as section 2.4.1 says;
+//!   [`LustbusOptions::vf_device`]), `20ppp` on the MC (specifier 2, 2.4.2),
+//!   and `000pp` for the numerically compatible parameters 81..85 and 91 on
+//!   both (5.2; the schema's `compatible = true`, or those numbers).
+//! - Write: SELECT `EOT ADR STX CODE = VALUE ETX BCC` (6.2), VALUE encoded
+//!   by the codec's [`ParameterValue`] for the schema's PT_* type (VF1000 4
+//!   hex digits, MC without leading zeros). A code the schema leaves
+//!   untyped is read and written as the type its `width` implies (1 byte
+//!   PT_USIGN8, 2 PT_USIGN16, 4 PT_INT32Q16, as the simulator does); with
+//!   neither, a read gives the plain hex integer and a write is refused.
+//! - The trailing EOT of one exchange is the leading EOT of the next
+//!   (section 3: "the Host computer sends the EOT character before and after
+//!   each data sequence"): every telegram starts with its EOT and nothing is
+//!   sent after a reply; [`DriveClient::finish`] sends the final lone EOT.
+//! - Replies go through the codec's master-side [`ReplyDecoder`] (parity
+//!   masked, resynchronising on garbage); a reply from another address, a
+//!   value reply for another CODE or a broken telegram counts as garbled.
+//!
+//! # Answer timeout and retries
+//!
+//! From the end of the request: the longest reaction time of section 10
+//! (MC 30 ms / VF1000 60 ms with KEYPAD, 25 / 30 ms without:
+//! [`LustbusOptions::keypad`], default with) + the reply's wire time at 10
+//! bits a character + [`LustbusOptions::margin`] (default 10 ms). A VF1000
+//! SELECT to an EEPROM parameter (kind `eeprom`, `fsel-isel` or unknown)
+//! adds the ACK delay of section 10 exception 4: 60 ms for a one-byte, 120 ms
+//! for a wider parameter. [`LustbusOptions::answer_timeout`] replaces the
+//! computed figure. No answer or a garbled one: the telegram is sent again,
+//! [`LustbusOptions::tries`] times in all (default 3), then
+//! [`EngineError::NoAnswer`].
+//!
+//! # SIOF / SERR (85)
+//!
+//! Read before the first SELECT of a session: that read clears the power-on
+//! bit every start sets (section 6) and whatever else is latched. After
+//! that, SIOF is read after every NAK to a SELECT (6.2 note, 9.2) and
+//! decoded with the codec's [`Siof`]:
+//!
+//! - 0x04 EEPROM busy: wait (MC: the rest of the store time the client
+//!   tracks, at least [`LustbusOptions::eeprom_busy_wait`], default 61 ms,
+//!   since 9.2 says "> 60 ms") and repeat, at most
+//!   [`LustbusOptions::busy_repeats`] times;
+//! - 0x08 checksum: repeat (counts against `tries`);
+//! - 0x01 power on: [`EngineError::Restarted`] (the drive restarted since
+//!   the session began; what was written is void);
+//! - 0x02, 0x20, 0x40, 0x80 and undocumented bits: [`EngineError::Device`]
+//!   with the 9.2 cause, the raw word and the remedy;
+//! - a NAK with nothing latched: repeated like a checksum error, then
+//!   `Device`.
+//!
+//! A NAK to an ENQUIRY means "no such parameter or read-protected in the
+//! current operating state" (6.1 note) and is a `Device` error; it latches
+//! nothing. A public [`DriveClient::read`] of 85 goes through the same
+//! bookkeeping (the read clears the word, so the client must interpret it).
+//!
+//! # MC6000/7000 EEPROM pacing (sections 3, 10.2.2)
+//!
+//! After an ACKed SELECT to an EEPROM parameter the servo stores it in the
+//! background for width x 3 x 5 ms from the ACK. [`DriveClient::ready_for_write`]
+//! reports that instant for the next EEPROM write; reads and RAM writes are
+//! never held back. [`DriveClient::write`] of an EEPROM parameter waits on
+//! the link's clock only for what is left of it, so a caller that used the
+//! gap for reads waits nothing. (An unknown width counts as 4 bytes.)
+//!
+//! # MC6000/7000 dataset download (section 11.4)
+//!
+//! [`DriveClient::dataset_begin`] writes 80-SLOAD = -1 (a NAK with 0x40:
+//! the drive is not at standstill). While the download is open, writes of
+//! CardWriteable codes are staged by the drive (no EEPROM pacing); a write
+//! of any other code is refused before sending, since the drive would ACK
+//! it and silently not take it. [`DriveClient::dataset_commit`] writes
+//! SLOAD = -2 and polls SLOAD with back-to-back ENQUIRYs (each takes about
+//! 20 ms at 9600 baud, so the drive sees at most ~50 a second; no extra wait
+//! is added) until it leaves -1 / -2: 0 accepted, > 0 rejected at that
+//! parameter; still checking when the timeout passes is a `Device` error
+//! (11.4: repeat the transfer or restart the drive).
+//!
+//! # running()
+//!
+//! MC: bit 0 ("start") of 416-SCTL1 (section 7.2.1); VF1000: bit 7 of
+//! 3-CNTL (7.1.1, CNTL = 128 "start clockwise"). `None` when the schema has
+//! no such code.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::mem::wire_time;
+use driveset_link::{ByteLink, Clock, Instant, LinkError};
+use driveset_proto::lustbus::{
+    Address, Enquiry, Family, ParameterCode, ParameterType, ParameterValue, Reply, ReplyDecoder,
+    Select, Siof, SiofAction, ValueText,
+};
+use driveset_schema::schema::StorageKind;
+use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+
+use super::{
+    ClientStats, DatasetOutcome, DriveClient, Identity, Target, code_name, device, link_error,
+    refuse_read_only, schema_code, shown_value, write_what,
+};
+use crate::error::EngineError;
+
+/// 80-SLOAD, the dataset download handshake (MC, section 11.4).
+pub const SLOAD: u32 = 80;
+/// 85-SIOF / SERR, the serial interface error word (sections 5.2, 9.2).
+pub const SIOF: u32 = 85;
+/// 91-TYPE, the device type (section 5.2).
+pub const TYPE: u32 = 91;
+/// MC 416-SCTL1, the LUSTBUS control word (section 7.2).
+pub const MC_SCTL1: u32 = 416;
+/// VF1000 3-CNTL, the control word (section 7.1).
+pub const VF_CNTL: u32 = 3;
+
+/// The minimum reaction time of section 10 (both families), for planning.
+const MIN_REACTION: Duration = Duration::from_millis(1);
+
+/// The numerically compatible parameters (section 5.2), CODE `000xx`.
+const COMPATIBLE: [u32; 6] = [81, 82, 83, 84, 85, 91];
+
+/// Options of a [`LustbusClient`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LustbusOptions {
+    /// Times a telegram is sent before giving up on no (or a garbled)
+    /// answer, and before giving up on a SELECT NAKed for a checksum error.
+    /// Default 3; 0 counts as 1.
+    pub tries: u32,
+    /// Whether a KEYPAD may be attached: the longest reaction time of
+    /// section 10 is then MC 30 ms / VF1000 60 ms, else 25 / 30 ms.
+    /// Default `true` (the safe assumption).
+    pub keypad: bool,
+    /// Added to the computed answer timeout (host and transport latency).
+    /// Default 10 ms.
+    pub margin: Duration,
+    /// Replaces the computed answer timeout (still plus the VF1000 EEPROM
+    /// ACK delay for such writes).
+    pub answer_timeout: Option<Duration>,
+    /// Shortest wait after a SELECT refused with "EEPROM busy" (section
+    /// 9.2: "> 60 ms"). Default 61 ms.
+    pub eeprom_busy_wait: Duration,
+    /// How often a SELECT refused with "EEPROM busy" is repeated. Default 10.
+    pub busy_repeats: u32,
+    /// VF1000 device number, the third CODE digit (section 2.4.1: "always
+    /// 1"). Default 1.
+    pub vf_device: u8,
+}
+
+impl Default for LustbusOptions {
+    fn default() -> Self {
+        LustbusOptions {
+            tries: 3,
+            keypad: true,
+            margin: Duration::from_millis(10),
+            answer_timeout: None,
+            eeprom_busy_wait: Duration::from_millis(61),
+            busy_repeats: 10,
+            vf_device: 1,
+        }
+    }
+}
+
+/// What one exchange gave.
+#[derive(Debug)]
+enum Outcome {
+    Reply(Reply),
+    NoAnswer,
+    Garbled(String),
+}
+
+/// The line: link, reply decoder, counters. Shared by the client and scan.
+#[derive(Debug)]
+pub(crate) struct LustLine<L> {
+    pub(crate) link: L,
+    decoder: ReplyDecoder,
+    pub(crate) stats: ClientStats,
+    /// A telegram went out since the last lone EOT.
+    open: bool,
+}
+
+impl<L: ByteLink> LustLine<L> {
+    pub(crate) fn new(link: L) -> Self {
+        LustLine {
+            link,
+            decoder: ReplyDecoder::new(),
+            stats: ClientStats::default(),
+            open: false,
+        }
+    }
+
+    /// Sends `bytes` (a complete telegram, leading EOT included) and waits
+    /// `timeout` from the end of the send for a reply from `address`
+    /// (`expect_code`: the CODE a value reply must carry).
+    fn exchange(
+        &mut self,
+        bytes: &[u8],
+        address: Address,
+        expect_code: Option<ParameterCode>,
+        timeout: Duration,
+    ) -> Result<Outcome, LinkError> {
+        self.link.discard_input()?;
+        self.decoder.reset();
+        self.link.send(bytes)?;
+        self.link.flush()?;
+        self.open = true;
+        self.stats.telegrams += 1;
+        self.stats.sent += bytes.len() as u64;
+        let deadline = self.link.clock().now() + timeout;
+        let mut garbled: Option<String> = None;
+        let mut buf = [0u8; 128];
+        loop {
+            let n = self.link.recv(&mut buf, deadline)?;
+            if n == 0 {
+                for ev in self.decoder.finish() {
+                    if let Err(e) = ev.result {
+                        garbled = Some(e.to_string());
+                    }
+                }
+                return Ok(match garbled {
+                    Some(g) => Outcome::Garbled(g),
+                    None => Outcome::NoAnswer,
+                });
+            }
+            let got = buf.get(..n).unwrap_or(&[]);
+            self.stats.received += got.len() as u64;
+            for ev in self.decoder.feed(got) {
+                match ev.result {
+                    Ok(reply) => {
+                        if address != Address::ALL && reply.address() != address {
+                            garbled = Some(format!(
+                                "a reply from address {} (another drive with a wrong address?)",
+                                reply.address()
+                            ));
+                            continue;
+                        }
+                        if let (Reply::Value(v), Some(code)) = (&reply, expect_code)
+                            && v.code != code
+                        {
+                            garbled = Some(format!(
+                                "a value reply for CODE {} instead of {code}",
+                                v.code
+                            ));
+                            continue;
+                        }
+                        return Ok(Outcome::Reply(reply));
+                    }
+                    Err(e) => garbled = Some(e.to_string()),
+                }
+            }
+        }
+    }
+
+    /// The lone EOT that ends a session, if a telegram went out.
+    pub(crate) fn finish(&mut self) -> Result<(), LinkError> {
+        if self.open {
+            self.link.send(&[driveset_proto::ascii::EOT])?;
+            self.link.flush()?;
+            self.stats.sent += 1;
+            self.open = false;
+        }
+        Ok(())
+    }
+}
+
+/// Wire family of a LUSTBUS schema.
+fn family_of(schema: &Schema) -> Option<Family> {
+    match schema.protocol {
+        Protocol::LustbusVf1000 => Some(Family::Vf1000),
+        Protocol::LustbusMc => Some(Family::Mc),
+        _ => None,
+    }
+}
+
+/// The codec type of a code (see the module docs for untyped codes).
+fn wire_type(schema: &Schema, code: &Code, family: Family) -> Option<ParameterType> {
+    let t = match schema.type_of(code) {
+        Some(ValueType::PT_USIGN8) => ParameterType::Usign8,
+        Some(ValueType::PT_BINARY8) => ParameterType::Binary8,
+        Some(ValueType::PT_USIGN16) => ParameterType::Usign16,
+        Some(ValueType::PT_PASSWORD) => ParameterType::Password,
+        Some(ValueType::PT_INTEGER16) => ParameterType::Integer16,
+        Some(ValueType::PT_FIXPOINT16) => ParameterType::Fixpoint16,
+        Some(ValueType::PT_INT32Q16) => ParameterType::Int32Q16,
+        Some(ValueType::PT_FLOAT_IEEE) => ParameterType::FloatIeee,
+        Some(ValueType::PT_VF_ERROR) => ParameterType::VfError,
+        Some(ValueType::PT_MC_ERROR) => ParameterType::McError,
+        Some(_) => return None,
+        None => match code.width {
+            Some(1) => ParameterType::Usign8,
+            Some(2) => ParameterType::Usign16,
+            Some(4) => ParameterType::Int32Q16,
+            _ => return None,
+        },
+    };
+    t.in_family(family).then_some(t)
+}
+
+/// The raw integer of a typed value (signed types sign-extended).
+fn raw_of(v: &ParameterValue) -> i64 {
+    match *v {
+        ParameterValue::Integer16(i) => i64::from(i),
+        ParameterValue::Int32Q16(q) => i64::from(q.0),
+        other => i64::from(other.raw()),
+    }
+}
+
+/// The typed value of a raw integer, if the type can carry it.
+fn value_of(ty: ParameterType, raw: i64) -> Option<ParameterValue> {
+    let wire = match ty {
+        ParameterType::Integer16 => i16::try_from(raw).ok()? as u16 as u32,
+        ParameterType::Int32Q16 => i32::try_from(raw).ok()? as u32,
+        _ => u32::try_from(raw).ok()?,
+    };
+    ParameterValue::from_raw(ty, wire)
+}
+
+/// Plain hex of an untyped reply.
+fn parse_hex(text: &[u8]) -> Option<i64> {
+    if text.is_empty() || text.len() > 8 {
+        return None;
+    }
+    let s = std::str::from_utf8(text).ok()?;
+    u32::from_str_radix(s, 16).ok().map(i64::from)
+}
+
+/// A LUSTBUS drive (VF1000 or MC6000/7000) at one address.
+#[derive(Debug)]
+pub struct LustbusClient<L: ByteLink = Box<dyn ByteLink>> {
+    line: LustLine<L>,
+    schema: Arc<Schema>,
+    target: Target,
+    family: Family,
+    address: Address,
+    opts: LustbusOptions,
+    /// SIOF/SERR has been read (and so cleared) in this session.
+    siof_checked: bool,
+    /// MC: the EEPROM is storing until then.
+    eeprom_busy_until: Option<Instant>,
+    /// MC: SLOAD = -1 was accepted and not yet committed.
+    dataset_open: bool,
+}
+
+impl<L: ByteLink> LustbusClient<L> {
+    /// A client for the drive at `address` (0 = whichever single drive is
+    /// on the line, 1..=30 a drive's own address; 31 is the broadcast
+    /// address and refused) with default options.
+    pub fn new(link: L, schema: Arc<Schema>, address: u8) -> Result<Self, EngineError> {
+        Self::with_options(link, schema, address, LustbusOptions::default())
+    }
+
+    /// As [`LustbusClient::new`] with `opts`.
+    pub fn with_options(
+        link: L,
+        schema: Arc<Schema>,
+        address: u8,
+        opts: LustbusOptions,
+    ) -> Result<Self, EngineError> {
+        let target = Target {
+            port: link.port().to_string(),
+            address,
+        };
+        let Some(family) = family_of(&schema) else {
+            return Err(EngineError::Refused {
+                target,
+                reason: format!(
+                    "schema `{}` is not a LUSTBUS family (protocol {:?}); pick the client of its protocol",
+                    schema.id, schema.protocol
+                ),
+            });
+        };
+        let address = match Address::new(address) {
+            Some(a) if a != Address::BROADCAST => a,
+            _ => {
+                return Err(EngineError::Refused {
+                    target,
+                    reason: format!(
+                        "LUSTBUS address {address} is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)"
+                    ),
+                });
+            }
+        };
+        Ok(LustbusClient {
+            line: LustLine::new(link),
+            schema,
+            target,
+            family,
+            address,
+            opts,
+            siof_checked: false,
+            eeprom_busy_until: None,
+            dataset_open: false,
+        })
+    }
+
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.line.link
+    }
+
+    /// The link, mutably (tests, reopening).
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.line.link
+    }
+
+    /// The link back (without sending the final EOT: call
+    /// [`DriveClient::finish`] first).
+    pub fn into_link(self) -> L {
+        self.line.link
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &LustbusOptions {
+        &self.opts
+    }
+
+    fn now(&self) -> Instant {
+        self.line.link.clock().now()
+    }
+
+    fn baud(&self) -> u32 {
+        self.line.link.baud()
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
+
+    fn max_reaction(&self) -> Duration {
+        Duration::from_millis(match (self.family, self.opts.keypad) {
+            (Family::Mc, true) => 30,
+            (Family::Mc, false) => 25,
+            (Family::Vf1000, true) => 60,
+            (Family::Vf1000, false) => 30,
+        })
+    }
+
+    /// The answer timeout for a reply of `reply_chars` characters.
+    fn timeout(&self, reply_chars: usize) -> Duration {
+        self.opts.answer_timeout.unwrap_or_else(|| {
+            self.max_reaction() + wire_time(reply_chars, self.baud()) + self.opts.margin
+        })
+    }
+
+    /// CODE of a parameter number.
+    fn code_for(&self, key: CodeKey, code: Option<&Code>) -> Result<ParameterCode, EngineError> {
+        let refuse = |why: &str| EngineError::Refused {
+            target: self.target.clone(),
+            reason: format!("{} {why}", code_name(&self.schema, key)),
+        };
+        if key.subcode.is_some() {
+            return Err(refuse(
+                "has a subcode; LUSTBUS parameters have none (check the schema)",
+            ));
+        }
+        let compatible =
+            code.and_then(|c| c.compatible) == Some(true) || COMPATIBLE.contains(&key.number);
+        if compatible && key.number < 100 {
+            return ParameterCode::new(key.number).ok_or_else(|| refuse("cannot be addressed"));
+        }
+        match self.family {
+            Family::Vf1000 => u8::try_from(key.number)
+                .ok()
+                .and_then(|p| ParameterCode::vf_value(self.opts.vf_device, p))
+                .ok_or_else(|| refuse("is above 99, the VF1000 range (section 2.4.1)")),
+            Family::Mc => u16::try_from(key.number)
+                .ok()
+                .and_then(ParameterCode::mc_value)
+                .ok_or_else(|| refuse("is above 999, the MC6000/7000 range (section 2.4.2)")),
+        }
+    }
+
+    /// Hex digits of a value reply of `code`: VF1000 4, MC 2 per byte of
+    /// width (8 if unknown; `max`: the longest the codec allows, 8).
+    fn value_len(&self, code: Option<&Code>, max: bool) -> usize {
+        match self.family {
+            Family::Vf1000 => 4,
+            Family::Mc if max => 8,
+            Family::Mc => code
+                .and_then(|c| c.width)
+                .map_or(8, |w| usize::from(w).clamp(1, 4) * 2),
+        }
+    }
+
+    /// One ENQUIRY with retries: `Ok(Some(text))` for a value, `Ok(None)`
+    /// for NAK.
+    fn enquire(
+        &mut self,
+        code: ParameterCode,
+        value_len: usize,
+        what: &str,
+    ) -> Result<Option<ValueText>, EngineError> {
+        let bytes = Enquiry::new(self.address, code).encode();
+        // ADR STX CODE(5) '=' VALUE ETX BCC
+        let timeout = self.timeout(10 + value_len);
+        let mut last = String::new();
+        for attempt in 0..self.tries() {
+            if attempt > 0 {
+                self.line.stats.retries += 1;
+            }
+            let out = self
+                .line
+                .exchange(&bytes, self.address, Some(code), timeout)
+                .map_err(|e| link_error(&self.target, e))?;
+            match out {
+                Outcome::Reply(Reply::Value(v)) => return Ok(Some(v.value)),
+                Outcome::Reply(Reply::Nak(_)) => return Ok(None),
+                Outcome::Reply(Reply::Ack(_)) => last = "ACK to an ENQUIRY".into(),
+                Outcome::Garbled(g) => last = g,
+                Outcome::NoAnswer => last.clear(),
+            }
+        }
+        Err(self.no_answer(what, &last))
+    }
+
+    fn no_answer(&self, what: &str, last: &str) -> EngineError {
+        let what = if last.is_empty() {
+            what.to_string()
+        } else {
+            format!("{what} (last answer garbled: {last})")
+        };
+        EngineError::NoAnswer {
+            target: self.target.clone(),
+            what,
+            tries: self.tries(),
+        }
+    }
+
+    /// One SELECT with retries on no answer: `Ok(true)` ACK, `Ok(false)` NAK.
+    fn select_once(
+        &mut self,
+        bytes: &[u8],
+        timeout: Duration,
+        what: &str,
+    ) -> Result<bool, EngineError> {
+        let mut last = String::new();
+        for attempt in 0..self.tries() {
+            if attempt > 0 {
+                self.line.stats.retries += 1;
+            }
+            let out = self
+                .line
+                .exchange(bytes, self.address, None, timeout)
+                .map_err(|e| link_error(&self.target, e))?;
+            match out {
+                Outcome::Reply(Reply::Ack(_)) => return Ok(true),
+                Outcome::Reply(Reply::Nak(_)) => return Ok(false),
+                Outcome::Reply(Reply::Value(v)) => {
+                    last = format!("a value reply ({}) to a SELECT", v.code);
+                }
+                Outcome::Garbled(g) => last = g,
+                Outcome::NoAnswer => last.clear(),
+            }
+        }
+        Err(self.no_answer(what, &last))
+    }
+
+    fn siof_name(&self) -> &'static str {
+        match self.family {
+            Family::Vf1000 => "SIOF",
+            Family::Mc => "SERR",
+        }
+    }
+
+    /// Reads (and so clears) SIOF/SERR. A power-on bit after the first
+    /// read of the session is [`EngineError::Restarted`].
+    fn read_siof(&mut self, during: &str) -> Result<Siof, EngineError> {
+        let what = format!("read 85-{} after {during}", self.siof_name());
+        let code = ParameterCode::new(SIOF).unwrap_or(ParameterCode::POSMOD);
+        let text = self.enquire(code, 4, &what)?.ok_or_else(|| {
+            device(
+                &self.target,
+                &what,
+                "SIOF/SERR cannot be read",
+                "NAK to ENQUIRY 00085",
+                "the drive does not answer its error word: check it is a LUSTBUS drive",
+            )
+        })?;
+        let v = ParameterValue::decode(ParameterType::Usign16, self.family, text.as_bytes())
+            .ok()
+            .and_then(|v| u8::try_from(v.raw()).ok())
+            .ok_or_else(|| EngineError::Protocol {
+                target: self.target.clone(),
+                what: what.clone(),
+                detail: format!("SIOF/SERR value `{text}` is not an 8-bit hex word"),
+            })?;
+        let siof = Siof(v);
+        let first = !self.siof_checked;
+        self.siof_checked = true;
+        if !first && siof.contains(Siof::POWER_ON) {
+            self.eeprom_busy_until = None;
+            self.dataset_open = false;
+            return Err(EngineError::Restarted {
+                target: self.target.clone(),
+                what: during.to_string(),
+            });
+        }
+        Ok(siof)
+    }
+
+    fn ensure_session(&mut self, during: &str) -> Result<(), EngineError> {
+        if !self.siof_checked {
+            // The start-of-session read: whatever was latched (power on
+            // after every start, section 6) is cleared by it.
+            self.read_siof(during)?;
+        }
+        Ok(())
+    }
+
+    /// Whether `code` is stored in EEPROM (MC pacing, VF1000 ACK delay).
+    /// Unknown kinds count as EEPROM on the VF1000 (a longer timeout only)
+    /// and as RAM on the MC pacing unless the code is typed as EEPROM.
+    fn is_eeprom(code: &Code) -> bool {
+        matches!(code.kind, Some(StorageKind::Eeprom))
+    }
+
+    fn store_time(code: &Code) -> Duration {
+        let w = code.width.map_or(4, |w| u32::from(w).clamp(1, 4));
+        Duration::from_millis(u64::from(
+            driveset_proto::lustbus::timing::mc_eeprom_store_ms(w),
+        ))
+    }
+
+    /// Whether the MC pacing applies to a write of `code` now.
+    fn paced(&self, code: &Code) -> bool {
+        self.family == Family::Mc && Self::is_eeprom(code) && !self.dataset_open
+    }
+
+    /// The SELECT path: encode, pace, send, handle NAK via SIOF.
+    fn select(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        what: &str,
+        nak_40_cause: Option<(&str, &str)>,
+    ) -> Result<(), EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        let pcode = self.code_for(key, Some(code))?;
+        let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
+            // 11.4 writes -1 / -2: a signed type, whatever the schema gives.
+            Some(ParameterType::Integer16)
+        } else {
+            wire_type(&schema, code, self.family)
+        };
+        let Some(ty) = ty else {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "{}: schema `{}` gives no {} type or width, so the value cannot be encoded; add `type` to the schema",
+                    code_name(&schema, key),
+                    schema.id,
+                    self.family
+                ),
+            });
+        };
+        let RawValue::Int(n) = raw else {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "{}: LUSTBUS parameters hold integers, not {}",
+                    code_name(&schema, key),
+                    shown_value(&schema, key, raw)
+                ),
+            });
+        };
+        let value = value_of(ty, *n)
+            .and_then(|v| v.encode(self.family).ok())
+            .ok_or_else(|| EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "{}: {} does not fit {}",
+                    code_name(&schema, key),
+                    shown_value(&schema, key, raw),
+                    ty.name()
+                ),
+            })?;
+        let bytes = Select::new(self.address, pcode, value).encode();
+        let mut timeout = self.timeout(2);
+        if self.family == Family::Vf1000
+            && matches!(
+                code.kind,
+                Some(StorageKind::Eeprom) | Some(StorageKind::FselIsel) | None
+            )
+        {
+            let extra = if code.width == Some(1) { 60 } else { 120 };
+            timeout += Duration::from_millis(extra);
+        }
+        self.ensure_session(what)?;
+        let paced = self.paced(code);
+        let mut checksum_repeats = 0u32;
+        let mut busy_repeats = 0u32;
+        loop {
+            if paced
+                && let Some(until) = self.eeprom_busy_until
+                && until > self.now()
+            {
+                self.line.link.clock().sleep_until(until);
+            }
+            if self.select_once(&bytes, timeout, what)? {
+                if paced {
+                    self.eeprom_busy_until = Some(self.now() + Self::store_time(code));
+                }
+                return Ok(());
+            }
+            let siof = self.read_siof(what)?;
+            let raw_word = format!("{} {siof}", self.siof_name());
+            match siof.action() {
+                SiofAction::RepeatAfter { wait_ms } => {
+                    busy_repeats += 1;
+                    if busy_repeats > self.opts.busy_repeats {
+                        return Err(device(
+                            &self.target,
+                            what,
+                            "EEPROM busy",
+                            raw_word,
+                            format!(
+                                "the EEPROM stayed busy over {} repetitions; wait and retry the write",
+                                self.opts.busy_repeats
+                            ),
+                        ));
+                    }
+                    let now = self.now();
+                    let rest = self
+                        .eeprom_busy_until
+                        .map_or(Duration::ZERO, |u| u.saturating_duration_since(now));
+                    let wait = rest
+                        .max(self.opts.eeprom_busy_wait)
+                        .max(Duration::from_millis(u64::from(wait_ms)));
+                    self.line.link.clock().sleep(wait);
+                    self.line.stats.retries += 1;
+                }
+                SiofAction::Repeat | SiofAction::None => {
+                    checksum_repeats += 1;
+                    if checksum_repeats >= self.tries() {
+                        let (cause, remedy) = if siof.is_empty() {
+                            (
+                                "refused (NAK) without a recorded cause",
+                                "check the value and the drive's operating state, then retry",
+                            )
+                        } else {
+                            (
+                                "checksum error",
+                                "check the line (termination, noise), then retry",
+                            )
+                        };
+                        return Err(device(&self.target, what, cause, raw_word, remedy));
+                    }
+                    self.line.stats.retries += 1;
+                }
+                SiofAction::RestartTransaction => {
+                    // read_siof reports a power-on bit itself; kept for
+                    // completeness.
+                    return Err(EngineError::Restarted {
+                        target: self.target.clone(),
+                        what: what.to_string(),
+                    });
+                }
+                SiofAction::Fail => {
+                    let causes: Vec<_> = siof.causes().collect();
+                    let cause = causes
+                        .iter()
+                        .map(|c| format!("{} ({})", c.descriptor.to_lowercase(), c.cause))
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    let remedy = match nak_40_cause {
+                        Some((_, r)) if siof.contains(Siof::NO_CHANGE) => r.to_string(),
+                        _ => causes
+                            .iter()
+                            .filter(|c| c.flag != Siof::POWER_ON)
+                            .map(|c| c.remedy)
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                    };
+                    let cause = match nak_40_cause {
+                        Some((c, _)) if siof.contains(Siof::NO_CHANGE) => c.to_string(),
+                        _ => cause,
+                    };
+                    return Err(device(&self.target, what, cause, raw_word, remedy));
+                }
+            }
+        }
+    }
+
+    /// Reads a code; `what` names the operation.
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        if key.number == SIOF && key.subcode.is_none() {
+            let s = self.read_siof("a read of SIOF/SERR")?;
+            return Ok(RawValue::Int(i64::from(s.0)));
+        }
+        let pcode = self.code_for(key, Some(code))?;
+        let len = self.value_len(Some(code), true);
+        let text = self.enquire(pcode, len, what)?.ok_or_else(|| {
+            device(
+                &self.target,
+                what,
+                "no such parameter, or read-protected in the current operating state",
+                format!("NAK to ENQUIRY {pcode}"),
+                "check the drive is the family the schema names and the parameter is readable at this user level",
+            )
+        })?;
+        let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
+            Some(ParameterType::Integer16)
+        } else {
+            wire_type(&schema, code, self.family)
+        };
+        let raw = match ty {
+            Some(ty) => ParameterValue::decode(ty, self.family, text.as_bytes())
+                .map(|v| raw_of(&v))
+                .map_err(|e| e.to_string()),
+            None => parse_hex(text.as_bytes()).ok_or_else(|| "not a hex number".to_string()),
+        }
+        .map_err(|e| EngineError::Protocol {
+            target: self.target.clone(),
+            what: what.to_string(),
+            detail: format!("VALUE `{text}` does not decode: {e}"),
+        })?;
+        Ok(RawValue::Int(raw))
+    }
+}
+
+impl<L: ByteLink> DriveClient for LustbusClient<L> {
+    fn target(&self) -> &Target {
+        &self.target
+    }
+
+    fn schema(&self) -> &Arc<Schema> {
+        &self.schema
+    }
+
+    fn clock(&self) -> &dyn Clock {
+        self.line.link.clock()
+    }
+
+    fn identify(&mut self) -> Result<Identity, EngineError> {
+        let codes = self
+            .schema
+            .identify
+            .as_ref()
+            .map(|i| i.codes.clone())
+            .filter(|c| !c.is_empty())
+            .unwrap_or_else(|| vec![TYPE]);
+        let mut out = Identity {
+            protocol: match self.family {
+                Family::Vf1000 => "lustbus-vf1000".into(),
+                Family::Mc => "lustbus-mc".into(),
+            },
+            ..Identity::default()
+        };
+        for n in codes {
+            let key = CodeKey::new(n);
+            let name = code_name(&self.schema, key);
+            let raw = self.read_key(key, &format!("identify: read {name}"))?;
+            if let RawValue::Int(v) = raw {
+                out.codes.push((name, v.to_string()));
+            }
+        }
+        Ok(out)
+    }
+
+    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
+        let what = format!("read {}", code_name(&self.schema, key));
+        self.read_key(key, &what)
+    }
+
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        refuse_read_only(&schema, &self.target, key, code)?;
+        if self.dataset_open && code.card_writeable != Some(true) {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "{} is not CardWriteable: during a dataset download the drive ACKs it but does not take the value (section 11.4); write it after dataset_commit",
+                    code_name(&schema, key)
+                ),
+            });
+        }
+        let what = write_what(&schema, key, raw);
+        self.select(key, raw, &what, None)
+    }
+
+    fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
+        let code = self.schema.code(key.number)?;
+        if !self.paced(code) {
+            return None;
+        }
+        self.eeprom_busy_until.filter(|u| *u > self.now())
+    }
+
+    fn read_time(&self, key: CodeKey) -> Duration {
+        let code = self.schema.code(key.number);
+        // EOT ADR CODE ENQ, then ADR STX CODE = VALUE ETX BCC.
+        let chars = 8 + 10 + self.value_len(code, false);
+        wire_time(chars, self.baud()) + MIN_REACTION
+    }
+
+    fn write_time(&self, key: CodeKey) -> Duration {
+        let code = self.schema.code(key.number);
+        // EOT ADR STX CODE = VALUE ETX BCC, then ADR ACK.
+        let chars = 11 + self.value_len(code, false) + 2;
+        wire_time(chars, self.baud()) + MIN_REACTION
+    }
+
+    fn running(&mut self) -> Result<Option<bool>, EngineError> {
+        let (number, bit) = match self.family {
+            Family::Mc => (MC_SCTL1, 0),
+            Family::Vf1000 => (VF_CNTL, 7),
+        };
+        if self.schema.code(number).is_none() {
+            return Ok(None);
+        }
+        let key = CodeKey::new(number);
+        let what = format!("read {} (running?)", code_name(&self.schema, key));
+        match self.read_key(key, &what)? {
+            RawValue::Int(v) => Ok(Some(v >> bit & 1 == 1)),
+            _ => Ok(None),
+        }
+    }
+
+    fn stats(&self) -> ClientStats {
+        self.line.stats
+    }
+
+    fn finish(&mut self) -> Result<(), EngineError> {
+        self.line.finish().map_err(|e| link_error(&self.target, e))
+    }
+
+    fn has_dataset_download(&self) -> bool {
+        self.family == Family::Mc
+    }
+
+    fn dataset_begin(&mut self) -> Result<(), EngineError> {
+        if self.family != Family::Mc {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)".into(),
+            });
+        }
+        if self.dataset_open {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: "a dataset download is already open; commit it first".into(),
+            });
+        }
+        self.sload_present()?;
+        let key = CodeKey::new(SLOAD);
+        self.select(
+            key,
+            &RawValue::Int(-1),
+            "dataset download: write 80-SLOAD = -1",
+            Some((
+                "the drive is not at standstill: SLOAD = -1 (register a download) is only taken at standstill",
+                "stop the drive (section 11.4), then start the download again",
+            )),
+        )?;
+        self.dataset_open = true;
+        Ok(())
+    }
+
+    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
+        if !self.dataset_open {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: "no dataset download is open; call dataset_begin first".into(),
+            });
+        }
+        let key = CodeKey::new(SLOAD);
+        let what = "dataset download: write 80-SLOAD = -2";
+        let r = self.select(key, &RawValue::Int(-2), what, None);
+        if let Err(e) = r {
+            self.dataset_open = false;
+            return Err(e);
+        }
+        self.dataset_open = false;
+        let deadline = self.now() + timeout;
+        loop {
+            let v = match self.read_key(key, "dataset download: poll 80-SLOAD")? {
+                RawValue::Int(v) => v,
+                _ => -1,
+            };
+            match v {
+                0 => return Ok(DatasetOutcome::Accepted),
+                p if p > 0 => {
+                    return Ok(DatasetOutcome::Rejected {
+                        parameter: u32::try_from(p).unwrap_or(u32::MAX),
+                    });
+                }
+                -1 | -2 => {
+                    if self.now() >= deadline {
+                        return Err(device(
+                            &self.target,
+                            "dataset download: poll 80-SLOAD",
+                            format!(
+                                "the drive was still checking the dataset after {} ms",
+                                timeout.as_millis()
+                            ),
+                            format!("SLOAD = {v}"),
+                            "repeat the download or restart the drive (section 11.4)",
+                        ));
+                    }
+                }
+                other => {
+                    return Err(EngineError::Protocol {
+                        target: self.target.clone(),
+                        what: "dataset download: poll 80-SLOAD".into(),
+                        detail: format!(
+                            "SLOAD = {other}: section 11.4 knows only -1, 0 and parameter numbers"
+                        ),
+                    });
+                }
+            }
+        }
+    }
+}
+
+impl<L: ByteLink> LustbusClient<L> {
+    fn sload_present(&self) -> Result<(), EngineError> {
+        if self.schema.code(SLOAD).is_none() {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "schema `{}` has no 80-SLOAD; the dataset download needs it",
+                    self.schema.id
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Reads 91-TYPE (CODE `00091`, section 5.2) at `address` on `line`: the
+/// scan probe. `Ok(None)` when nothing answers, `Ok(Some(None))` when a
+/// drive answers NAK, `Ok(Some(Some(type)))` with a value.
+pub(crate) fn probe_type<L: ByteLink>(
+    line: &mut LustLine<L>,
+    address: Address,
+    timeout: Duration,
+    tries: u32,
+) -> Result<Option<Option<i64>>, LinkError> {
+    let code = ParameterCode::new(TYPE).unwrap_or(ParameterCode::POSMOD);
+    let bytes = Enquiry::new(address, code).encode();
+    for attempt in 0..tries.max(1) {
+        if attempt > 0 {
+            line.stats.retries += 1;
+        }
+        match line.exchange(&bytes, address, Some(code), timeout)? {
+            Outcome::Reply(Reply::Value(v)) => return Ok(Some(parse_hex(v.value.as_bytes()))),
+            Outcome::Reply(_) => return Ok(Some(None)),
+            // Garbage at the right time: something is there (two drives on
+            // one address, a drive at another rate); a retry may tell more.
+            Outcome::Garbled(_) | Outcome::NoAnswer => {}
+        }
+    }
+    Ok(None)
+}

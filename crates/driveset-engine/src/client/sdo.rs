@@ -1,0 +1,505 @@
+//! [`CanClient`]: Lenze system bus (CAN) SDO parameter access
+//! (`lenze-system-bus-can-sdo.txt`, ECS manual page 454) for Lenze ECS
+//! axes, on a [`FrameLink`].
+//!
+//! - Addressing: `index = index_base - code` (the schema's
+//!   `[schema.can] index_base`, else page 454's 24575), subindex = subcode
+//!   (0 without; an assumption recorded in `docs/errata/can.md`).
+//! - COB-IDs: DS301 predefined connection set, requests on `0x600 + node`,
+//!   responses on `0x580 + node` (the codec's [`NodeId`]).
+//! - Transfers run through the codec's [`SdoClient`] state machine:
+//!   expedited for 1..=4 bytes, segmented otherwise (VS / VO codes).
+//! - Values per the schema type: FIX32 a signed 32-bit raw (value x 10000),
+//!   BITCODED an unsigned 32-bit field without factor (C0135 / C0150), both
+//!   4 bytes little-endian; VS the text's bytes; VO the octets. A shorter
+//!   numeric answer is zero- (BITCODED) or sign-extended (FIX32).
+//! - An SDO abort from the drive is an [`EngineError::Device`] with the
+//!   DS301 text and the codec's hint; a protocol failure (bad frame, toggle
+//!   bit) is answered with the codec's abort frame and repeated; no answer
+//!   within [`CanOptions::answer_timeout`] (default 50 ms; the excerpt gives
+//!   no response time) sends the timeout abort (0x05040000) and repeats the
+//!   transfer, [`CanOptions::tries`] (3) times in all, then
+//!   [`EngineError::NoAnswer`].
+//! - `running()` is `None`: the excerpt documents no status bits.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::mem::can_frame_time;
+use driveset_link::{Clock, FrameLink, LinkError};
+use driveset_proto::can::{
+    ClientEvent, Completed, Index, NodeId, SdoClient, SdoRequest, SdoResponse, Subindex,
+    lenze::INDEX_BASE,
+};
+use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+
+use super::{
+    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
+    schema_code, shown_value, write_what,
+};
+use crate::error::EngineError;
+
+/// Options of a [`CanClient`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CanOptions {
+    /// Transfers of one request before giving up. Default 3; 0 counts as 1.
+    pub tries: u32,
+    /// How long to wait for each SDO response. Default 50 ms.
+    pub answer_timeout: Duration,
+}
+
+impl Default for CanOptions {
+    fn default() -> Self {
+        CanOptions {
+            tries: 3,
+            answer_timeout: Duration::from_millis(50),
+        }
+    }
+}
+
+/// What one transfer gave.
+#[derive(Debug)]
+enum Outcome {
+    Done(Completed),
+    Aborted(driveset_proto::can::SdoAbort),
+    NoAnswer,
+    Failed(String),
+}
+
+/// The bus side: link, SDO state machine, counters. Shared with scan.
+#[derive(Debug)]
+pub(crate) struct SdoLine<L> {
+    pub(crate) link: L,
+    sdo: SdoClient,
+    pub(crate) stats: ClientStats,
+}
+
+impl<L: FrameLink> SdoLine<L> {
+    pub(crate) fn new(link: L) -> Self {
+        SdoLine {
+            link,
+            sdo: SdoClient::new(),
+            stats: ClientStats::default(),
+        }
+    }
+
+    fn send(&mut self, node: NodeId, req: &SdoRequest) -> Result<(), LinkError> {
+        self.link.send(&req.to_can(node))?;
+        self.stats.sent += 1;
+        Ok(())
+    }
+
+    /// Runs one transfer started with `first` to its end.
+    fn transfer(
+        &mut self,
+        node: NodeId,
+        first: SdoRequest,
+        timeout: Duration,
+    ) -> Result<Outcome, LinkError> {
+        self.link.discard_input()?;
+        self.stats.telegrams += 1;
+        self.send(node, &first)?;
+        let mut deadline = self.link.clock().now() + timeout;
+        loop {
+            let Some(frame) = self.link.recv(deadline)? else {
+                if let Some(abort) = self.sdo.on_timeout() {
+                    self.send(node, &abort)?;
+                }
+                return Ok(Outcome::NoAnswer);
+            };
+            self.stats.received += 1;
+            if frame.id != node.response_cob_id() || frame.extended || frame.rtr {
+                continue;
+            }
+            let resp = match SdoResponse::from_can(&frame, node) {
+                Ok(r) => r,
+                Err(e) => {
+                    let reason = e.to_string();
+                    if let Some(abort) = self.sdo.on_timeout() {
+                        // Abandon the transfer (the codec has no "abort with
+                        // cause" entry for undecodable frames; the server
+                        // only needs to drop its state).
+                        self.send(node, &abort)?;
+                    }
+                    return Ok(Outcome::Failed(reason));
+                }
+            };
+            match self.sdo.on_response(resp) {
+                ClientEvent::Send(next) => {
+                    self.send(node, &next)?;
+                    deadline = self.link.clock().now() + timeout;
+                }
+                ClientEvent::Done(c) => return Ok(Outcome::Done(c)),
+                ClientEvent::Aborted(a) => return Ok(Outcome::Aborted(a)),
+                ClientEvent::Failed { error, abort } => {
+                    if let Some(abort) = abort {
+                        self.send(node, &abort)?;
+                        return Ok(Outcome::Failed(error.to_string()));
+                    }
+                    // A stray frame (late answer to an earlier request):
+                    // keep waiting for ours.
+                }
+            }
+        }
+    }
+}
+
+/// How a code's value travels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Wire {
+    Fix32,
+    BitCoded,
+    Text,
+    Octets,
+}
+
+fn wire_of(schema: &Schema, code: &Code) -> Option<Wire> {
+    Some(match schema.type_of(code) {
+        Some(ValueType::FIX32) => Wire::Fix32,
+        Some(ValueType::BITCODED) => Wire::BitCoded,
+        Some(ValueType::VS) => Wire::Text,
+        Some(ValueType::VO) => Wire::Octets,
+        Some(_) => return None,
+        None => match code.number {
+            135 | 150 => Wire::BitCoded,
+            _ => Wire::Fix32,
+        },
+    })
+}
+
+fn bytes_to_raw(wire: Wire, data: &[u8]) -> Option<RawValue> {
+    Some(match wire {
+        Wire::Fix32 | Wire::BitCoded => {
+            if data.is_empty() || data.len() > 4 {
+                return None;
+            }
+            let negative = wire == Wire::Fix32 && data.last().is_some_and(|b| b & 0x80 != 0);
+            let mut b = if negative { [0xFF; 4] } else { [0; 4] };
+            b[..data.len()].copy_from_slice(data);
+            RawValue::Int(match wire {
+                Wire::Fix32 => i64::from(i32::from_le_bytes(b)),
+                _ => i64::from(u32::from_le_bytes(b)),
+            })
+        }
+        Wire::Text => RawValue::Text(String::from_utf8_lossy(data).into_owned()),
+        Wire::Octets => RawValue::Octets(data.to_vec()),
+    })
+}
+
+fn raw_to_bytes(wire: Wire, raw: &RawValue) -> Option<Vec<u8>> {
+    Some(match (wire, raw) {
+        (Wire::Fix32, RawValue::Int(n)) => i32::try_from(*n).ok()?.to_le_bytes().to_vec(),
+        (Wire::BitCoded, RawValue::Int(n)) => u32::try_from(*n).ok()?.to_le_bytes().to_vec(),
+        (Wire::Text, RawValue::Text(t)) => t.as_bytes().to_vec(),
+        (Wire::Octets, RawValue::Octets(o)) => o.clone(),
+        _ => return None,
+    })
+}
+
+/// A Lenze ECS axis (SDO server) at one node id.
+#[derive(Debug)]
+pub struct CanClient<L: FrameLink = Box<dyn FrameLink>> {
+    line: SdoLine<L>,
+    schema: Arc<Schema>,
+    target: Target,
+    node: NodeId,
+    opts: CanOptions,
+}
+
+impl<L: FrameLink> CanClient<L> {
+    /// A client for node `node` (1..=127) with default options.
+    pub fn new(link: L, schema: Arc<Schema>, node: u8) -> Result<Self, EngineError> {
+        Self::with_options(link, schema, node, CanOptions::default())
+    }
+
+    /// As [`CanClient::new`] with `opts`.
+    pub fn with_options(
+        link: L,
+        schema: Arc<Schema>,
+        node: u8,
+        opts: CanOptions,
+    ) -> Result<Self, EngineError> {
+        let target = Target {
+            port: link.port().to_string(),
+            address: node,
+        };
+        if schema.protocol != Protocol::LenzeCanSdo {
+            return Err(EngineError::Refused {
+                target,
+                reason: format!(
+                    "schema `{}` is not a CAN SDO family (protocol {:?}); pick the client of its protocol",
+                    schema.id, schema.protocol
+                ),
+            });
+        }
+        let node = NodeId::new(node).map_err(|e| EngineError::Refused {
+            target: target.clone(),
+            reason: format!("{e}: 0 addresses no SDO server (DS301)"),
+        })?;
+        Ok(CanClient {
+            line: SdoLine::new(link),
+            schema,
+            target,
+            node,
+            opts,
+        })
+    }
+
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.line.link
+    }
+
+    /// The link, mutably.
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.line.link
+    }
+
+    /// The link back.
+    pub fn into_link(self) -> L {
+        self.line.link
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
+
+    fn refused(&self, reason: String) -> EngineError {
+        EngineError::Refused {
+            target: self.target.clone(),
+            reason,
+        }
+    }
+
+    fn mux(&self, key: CodeKey) -> Result<(Index, Subindex), EngineError> {
+        mux_of(&self.schema, key).ok_or_else(|| {
+            self.refused(format!(
+                "{} has no SDO index (code above the index base {} or subcode above 255)",
+                code_name(&self.schema, key),
+                self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE))
+            ))
+        })
+    }
+
+    /// Runs a transfer with retries; `start` builds its first frame.
+    fn run(
+        &mut self,
+        what: &str,
+        mut start: impl FnMut(&mut SdoClient) -> Result<SdoRequest, String>,
+    ) -> Result<Completed, EngineError> {
+        let mut last = String::new();
+        for attempt in 0..self.tries() {
+            if attempt > 0 {
+                self.line.stats.retries += 1;
+            }
+            if !self.line.sdo.is_idle() {
+                self.line.sdo = SdoClient::new();
+            }
+            let first =
+                start(&mut self.line.sdo).map_err(|e| self.refused(format!("{what}: {e}")))?;
+            let out = self
+                .line
+                .transfer(self.node, first, self.opts.answer_timeout)
+                .map_err(|e| link_error(&self.target, e))?;
+            match out {
+                Outcome::Done(c) => return Ok(c),
+                Outcome::Aborted(a) => {
+                    return Err(device(
+                        &self.target,
+                        what,
+                        a.code.text().unwrap_or("unknown abort code"),
+                        format!(
+                            "SDO abort 0x{:08X} at index {} subindex {}",
+                            a.code.0, a.index, a.subindex
+                        ),
+                        a.code
+                            .hint()
+                            .unwrap_or("not a DS301 abort code; see the drive's manual"),
+                    ));
+                }
+                Outcome::Failed(e) => last = e,
+                Outcome::NoAnswer => last.clear(),
+            }
+        }
+        let what = if last.is_empty() {
+            what.to_string()
+        } else {
+            format!("{what} (last transfer failed: {last})")
+        };
+        Err(EngineError::NoAnswer {
+            target: self.target.clone(),
+            what,
+            tries: self.tries(),
+        })
+    }
+
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        let wire = wire_of(&schema, code).ok_or_else(|| {
+            self.refused(format!(
+                "{}: type {} does not travel over CAN SDO",
+                code_name(&schema, key),
+                schema.type_of(code).map_or("?", ValueType::name)
+            ))
+        })?;
+        let (index, subindex) = self.mux(key)?;
+        let done = self.run(what, |c| {
+            c.start_read(index, subindex).map_err(|e| e.to_string())
+        })?;
+        let Completed::Read { data, .. } = done else {
+            return Err(EngineError::Protocol {
+                target: self.target.clone(),
+                what: what.to_string(),
+                detail: "a write acknowledgement to a read".into(),
+            });
+        };
+        bytes_to_raw(wire, &data).ok_or_else(|| EngineError::Protocol {
+            target: self.target.clone(),
+            what: what.to_string(),
+            detail: format!("{} data bytes for a 4-byte value", data.len()),
+        })
+    }
+}
+
+/// Index and subindex of `key` under `schema`.
+fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
+    let base = schema.can_index_base.unwrap_or(u32::from(INDEX_BASE));
+    let index = u16::try_from(base.checked_sub(key.number)?).ok()?;
+    let sub = u8::try_from(key.subcode.unwrap_or(0)).ok()?;
+    Some((Index(index), Subindex(sub)))
+}
+
+impl<L: FrameLink> DriveClient for CanClient<L> {
+    fn target(&self) -> &Target {
+        &self.target
+    }
+
+    fn schema(&self) -> &Arc<Schema> {
+        &self.schema
+    }
+
+    fn clock(&self) -> &dyn Clock {
+        self.line.link.clock()
+    }
+
+    fn identify(&mut self) -> Result<Identity, EngineError> {
+        let codes = self
+            .schema
+            .identify
+            .as_ref()
+            .map(|i| i.codes.clone())
+            .unwrap_or_default();
+        let mut out = Identity {
+            protocol: "lenze-can-sdo".into(),
+            ..Identity::default()
+        };
+        for n in codes {
+            let key = CodeKey::new(n);
+            let name = code_name(&self.schema, key);
+            let raw = self.read_key(key, &format!("identify: read {name}"))?;
+            let text = match raw {
+                RawValue::Int(v) => v.to_string(),
+                RawValue::Text(t) => t,
+                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+            };
+            out.codes.push((name, text));
+        }
+        Ok(out)
+    }
+
+    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
+        let what = format!("read {}", code_name(&self.schema, key));
+        self.read_key(key, &what)
+    }
+
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        refuse_read_only(&schema, &self.target, key, code)?;
+        let what = write_what(&schema, key, raw);
+        let data = wire_of(&schema, code)
+            .and_then(|w| raw_to_bytes(w, raw))
+            .ok_or_else(|| {
+                self.refused(format!(
+                    "{} = {} does not fit its CAN format",
+                    code_name(&schema, key),
+                    shown_value(&schema, key, raw)
+                ))
+            })?;
+        let (index, subindex) = self.mux(key)?;
+        self.run(&what, |c| {
+            c.start_write(index, subindex, &data)
+                .map_err(|e| e.to_string())
+        })?;
+        Ok(())
+    }
+
+    fn read_time(&self, key: CodeKey) -> Duration {
+        let frame = SdoRequest::Read {
+            index: Index(0),
+            subindex: Subindex(0),
+        }
+        .to_can(self.node);
+        let _ = key;
+        can_frame_time(&frame, self.line.link.bitrate()).unwrap_or_default() * 2
+    }
+
+    fn write_time(&self, key: CodeKey) -> Duration {
+        self.read_time(key)
+    }
+
+    fn running(&mut self) -> Result<Option<bool>, EngineError> {
+        Ok(None)
+    }
+
+    fn stats(&self) -> ClientStats {
+        self.line.stats
+    }
+
+    fn finish(&mut self) -> Result<(), EngineError> {
+        Ok(())
+    }
+}
+
+/// An SDO read of `key` at `node` on `line` (the scan probe): `Ok(None)`
+/// when nothing answers, `Ok(Some(text))` for a value or an abort (a node
+/// is there either way).
+pub(crate) fn probe<L: FrameLink>(
+    line: &mut SdoLine<L>,
+    schema: &Schema,
+    node: NodeId,
+    key: CodeKey,
+    timeout: Duration,
+    tries: u32,
+) -> Result<Option<String>, LinkError> {
+    let Some((index, subindex)) = mux_of(schema, key) else {
+        return Ok(None);
+    };
+    let wire = schema
+        .code(key.number)
+        .and_then(|c| wire_of(schema, c))
+        .unwrap_or(Wire::Fix32);
+    for attempt in 0..tries.max(1) {
+        if attempt > 0 {
+            line.stats.retries += 1;
+        }
+        line.sdo = SdoClient::new();
+        let Ok(first) = line.sdo.start_read(index, subindex) else {
+            return Ok(None);
+        };
+        match line.transfer(node, first, timeout)? {
+            Outcome::Done(Completed::Read { data, .. }) => {
+                return Ok(Some(match bytes_to_raw(wire, &data) {
+                    Some(RawValue::Int(v)) => v.to_string(),
+                    Some(RawValue::Text(t)) => t,
+                    _ => format!("{} bytes", data.len()),
+                }));
+            }
+            Outcome::Done(_) => return Ok(Some(String::new())),
+            Outcome::Aborted(a) => return Ok(Some(format!("(abort {})", a.code))),
+            Outcome::Failed(_) | Outcome::NoAnswer => {}
+        }
+    }
+    Ok(None)
+}

@@ -1,0 +1,48 @@
+//! Identification helpers on top of [`DriveClient::identify`]: read what a
+//! drive says it is, and refuse a schema (and so a set) for another family
+//! (DESIGN.md "Transactions", step 1).
+
+// EngineError is the lead's contract type (large by design: it carries
+// the target and the decoded cause); boxing it is not ours to decide.
+#![allow(clippy::result_large_err)]
+
+use crate::client::{DriveClient, Identity};
+use crate::error::EngineError;
+
+/// The identification codes of the client's schema, read from the drive.
+pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
+    client.identify()
+}
+
+/// Identifies the drive and checks it against the client's schema: the
+/// protocol must match and, where the schema lists `type_values` (LUSTBUS
+/// 91-TYPE), the drive's TYPE must be one of them. A mismatch is
+/// [`EngineError::Refused`]; nothing is written either way.
+pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
+    let identity = client.identify()?;
+    let schema = client.schema().clone();
+    let Some(ident) = schema.identify.as_ref() else {
+        return Ok(identity);
+    };
+    if ident.type_values.is_empty() {
+        return Ok(identity);
+    }
+    let type_name = schema.display_code(91, None);
+    let found = identity
+        .codes
+        .iter()
+        .find(|(name, _)| *name == type_name)
+        .and_then(|(_, v)| v.parse::<i64>().ok());
+    match found {
+        Some(t) if ident.type_values.contains(&t) => Ok(identity),
+        other => Err(EngineError::Refused {
+            target: client.target().clone(),
+            reason: format!(
+                "the drive reports {type_name} = {}, which is not a `{}` type ({:?}); use the set and schema of the drive's family",
+                other.map_or_else(|| "nothing".to_string(), |t| t.to_string()),
+                schema.id,
+                ident.type_values
+            ),
+        }),
+    }
+}

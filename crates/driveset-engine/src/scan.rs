@@ -1,0 +1,309 @@
+//! Finding the drives on a bus.
+//!
+//! - LUSTBUS (section 5.2): an ENQUIRY of 91-TYPE (CODE `00091`, the same
+//!   on inverters and servocontrollers) to every address 1..30; any answer
+//!   (value or NAK) means a drive is there. Address 0 (every drive answers)
+//!   and 31 (broadcast, nobody answers) are refused as scan targets.
+//! - LECOM-A/B: a RECEIVE of the schema's first identification code (Tmd:
+//!   C0093) to every station 01..99 except the group addresses 00, 10 .. 90
+//!   (8.J), which are refused; any answer (a value, "?" or "no such code")
+//!   counts.
+//! - CAN SDO: a read of a schema code (the first identification code, else
+//!   the schema's first code) from every node 1..127; a value or an SDO
+//!   abort counts. Node 0 is refused.
+//!
+//! Every probe uses a short timeout ([`ScanOptions::timeout`], defaults per
+//! protocol below) and one try unless [`ScanOptions::tries`] says more.
+//!
+//! [`detect_baud`] runs a serial scan at every allowed rate, highest first
+//! (LUSTBUS 5.1: "the connection will be attempted using all possible
+//! transfer rates"), reopening the line through a caller's closure, and
+//! stops at the first rate where a drive answers.
+
+// EngineError is the lead's contract type (large by design: it carries
+// the target and the decoded cause); boxing it is not ours to decide.
+#![allow(clippy::result_large_err)]
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::mem::wire_time;
+use driveset_link::{ByteLink, FrameLink, LinkError};
+use driveset_proto::can::NodeId;
+use driveset_proto::lecom::ControllerAddress;
+use driveset_proto::lustbus::Address;
+use driveset_schema::{CodeKey, Schema};
+
+use crate::client::lecom::{C0093, LecomLine};
+use crate::client::lustbus::{LustLine, TYPE};
+use crate::client::sdo::SdoLine;
+use crate::client::{BorrowedByteLink, BorrowedFrameLink, Identity, Target};
+use crate::error::EngineError;
+
+/// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
+/// 2400..57600 servocontrollers).
+pub const LUSTBUS_BAUDS: [u32; 6] = [57600, 38400, 19200, 9600, 4800, 2400];
+/// LECOM line rates of the Tmd (C0125), highest first.
+pub const LECOM_BAUDS: [u32; 4] = [9600, 4800, 2400, 1200];
+
+/// How to scan.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScanOptions {
+    /// Per-address answer timeout. `None`: LUSTBUS 60 ms (the longest
+    /// reaction time, VF1000 with KEYPAD) + the wire time of a 14-character
+    /// reply + 5 ms; LECOM 2 x 20 ms + the wire time of the answer; CAN
+    /// 20 ms.
+    pub timeout: Option<Duration>,
+    /// Probes per address. Default 1.
+    pub tries: u32,
+}
+
+impl Default for ScanOptions {
+    fn default() -> Self {
+        ScanOptions {
+            timeout: None,
+            tries: 1,
+        }
+    }
+}
+
+/// A drive that answered.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct Found {
+    /// Its address / node id.
+    pub address: u8,
+    /// What the probe read.
+    pub identity: Identity,
+}
+
+/// The result of [`detect_baud`].
+#[derive(Debug)]
+pub struct BaudScan {
+    /// The rate the drives answered at.
+    pub baud: u32,
+    /// The line, open at that rate.
+    pub link: Box<dyn ByteLink>,
+    /// The drives found.
+    pub found: Vec<Found>,
+}
+
+fn refuse(port: &str, address: u8, reason: String) -> EngineError {
+    EngineError::Refused {
+        target: Target {
+            port: port.to_string(),
+            address,
+        },
+        reason,
+    }
+}
+
+fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
+    EngineError::Link {
+        target: Target {
+            port: port.to_string(),
+            address,
+        },
+        source,
+    }
+}
+
+/// LUSTBUS addresses 1..=30.
+pub fn lustbus_addresses() -> Vec<u8> {
+    (1..=30).collect()
+}
+
+/// LECOM stations 01..99 without 00 and the group addresses x0.
+pub fn lecom_addresses() -> Vec<u8> {
+    (1..=99).filter(|a| a % 10 != 0).collect()
+}
+
+/// CAN node ids 1..=127.
+pub fn can_nodes() -> Vec<u8> {
+    (1..=127).collect()
+}
+
+/// Scans a LUSTBUS line (see the module docs).
+pub fn scan_lustbus(
+    link: &mut dyn ByteLink,
+    addresses: &[u8],
+    opts: &ScanOptions,
+) -> Result<Vec<Found>, EngineError> {
+    let port = link.port().to_string();
+    let mut targets = Vec::with_capacity(addresses.len());
+    for &a in addresses {
+        match Address::new(a) {
+            Some(ad) if ad.is_individual() => targets.push(ad),
+            _ => {
+                return Err(refuse(
+                    &port,
+                    a,
+                    format!(
+                        "{a} is not a scan target: LUSTBUS drive addresses are 1..30 (0 makes every drive answer at once, 31 is the broadcast address, section 4.2)"
+                    ),
+                ));
+            }
+        }
+    }
+    let timeout = opts
+        .timeout
+        .unwrap_or_else(|| Duration::from_millis(65) + wire_time(14, link.baud()));
+    let mut line = LustLine::new(BorrowedByteLink(link));
+    let mut found = Vec::new();
+    for ad in targets {
+        let got = crate::client::lustbus::probe_type(&mut line, ad, timeout, opts.tries)
+            .map_err(|e| link_err(&port, ad.number(), e))?;
+        if let Some(value) = got {
+            found.push(Found {
+                address: ad.number(),
+                identity: Identity {
+                    protocol: "lustbus".into(),
+                    codes: vec![(
+                        format!("{TYPE}-TYPE"),
+                        value.map_or_else(|| "NAK".to_string(), |v| v.to_string()),
+                    )],
+                    software: None,
+                },
+            });
+        }
+    }
+    line.finish().map_err(|e| link_err(&port, 0, e))?;
+    Ok(found)
+}
+
+/// Scans a LECOM-A/B line (see the module docs). `schema` gives the probe
+/// code (its first identification code), else C0093.
+pub fn scan_lecom(
+    link: &mut dyn ByteLink,
+    schema: Option<&Schema>,
+    addresses: &[u8],
+    opts: &ScanOptions,
+) -> Result<Vec<Found>, EngineError> {
+    let port = link.port().to_string();
+    let mut targets = Vec::with_capacity(addresses.len());
+    for &a in addresses {
+        match ControllerAddress::new(a) {
+            Some(ad) if !ad.is_broadcast() => targets.push(ad),
+            _ => {
+                return Err(refuse(
+                    &port,
+                    a,
+                    format!(
+                        "{a:02} is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)"
+                    ),
+                ));
+            }
+        }
+    }
+    let number = schema
+        .and_then(|s| s.identify.as_ref())
+        .and_then(|i| i.codes.first().copied())
+        .unwrap_or(C0093);
+    let key = CodeKey::new(number);
+    let name = format!("C{number:04}");
+    let timeout = opts
+        .timeout
+        .unwrap_or_else(|| Duration::from_millis(40) + wire_time(24, link.baud()));
+    let mut line = LecomLine::new(BorrowedByteLink(link));
+    let mut found = Vec::new();
+    for ad in targets {
+        let got = crate::client::lecom::probe(&mut line, ad, key, timeout, opts.tries)
+            .map_err(|e| link_err(&port, ad.get(), e))?;
+        if let Some(text) = got {
+            found.push(Found {
+                address: ad.get(),
+                identity: Identity {
+                    protocol: "lecom".into(),
+                    codes: vec![(name.clone(), text)],
+                    software: None,
+                },
+            });
+        }
+    }
+    line.finish().map_err(|e| link_err(&port, 0, e))?;
+    Ok(found)
+}
+
+/// Scans a CAN bus for SDO servers (see the module docs).
+pub fn scan_can(
+    link: &mut dyn FrameLink,
+    schema: &Arc<Schema>,
+    nodes: &[u8],
+    opts: &ScanOptions,
+) -> Result<Vec<Found>, EngineError> {
+    let port = link.port().to_string();
+    let mut targets = Vec::with_capacity(nodes.len());
+    for &n in nodes {
+        let node = NodeId::new(n).map_err(|e| {
+            refuse(
+                &port,
+                n,
+                format!("{e}: node 0 is no SDO server and cannot be a scan target (DS301)"),
+            )
+        })?;
+        targets.push(node);
+    }
+    let number = schema
+        .identify
+        .as_ref()
+        .and_then(|i| i.codes.first().copied())
+        .or_else(|| schema.codes.first().map(|c| c.number))
+        .ok_or_else(|| {
+            refuse(
+                &port,
+                0,
+                format!("schema `{}` has no code to probe with", schema.id),
+            )
+        })?;
+    let key = CodeKey::new(number);
+    let name = schema.display_code(number, None);
+    let timeout = opts.timeout.unwrap_or(Duration::from_millis(20));
+    let mut line = SdoLine::new(BorrowedFrameLink(link));
+    let mut found = Vec::new();
+    for node in targets {
+        let got = crate::client::sdo::probe(&mut line, schema, node, key, timeout, opts.tries)
+            .map_err(|e| link_err(&port, node.get(), e))?;
+        if let Some(text) = got {
+            found.push(Found {
+                address: node.get(),
+                identity: Identity {
+                    protocol: "lenze-can-sdo".into(),
+                    codes: vec![(name.clone(), text)],
+                    software: None,
+                },
+            });
+        }
+    }
+    Ok(found)
+}
+
+/// Reopens a serial line at a rate (for [`detect_baud`]).
+pub type Reopen<'a> = dyn FnMut(u32) -> Result<Box<dyn ByteLink>, LinkError> + 'a;
+/// Scans an open line (for [`detect_baud`]), e.g. a closure over
+/// [`scan_lustbus`].
+pub type LineScan<'a> = dyn FnMut(&mut dyn ByteLink) -> Result<Vec<Found>, EngineError> + 'a;
+
+/// Baud detection: for every rate of `rates`, highest first, opens the line
+/// with `open` and runs `scan` on it; returns the first rate at which a
+/// drive answered, with the open line. `Ok(None)` when no rate finds one.
+/// A rate the port cannot be opened at is skipped.
+pub fn detect_baud(
+    rates: &[u32],
+    open: &mut Reopen<'_>,
+    scan: &mut LineScan<'_>,
+) -> Result<Option<BaudScan>, EngineError> {
+    let mut rates = rates.to_vec();
+    rates.sort_unstable_by(|a, b| b.cmp(a));
+    rates.dedup();
+    for baud in rates {
+        let mut link = match open(baud) {
+            Ok(l) => l,
+            Err(LinkError::UnsupportedBaud { .. }) => continue,
+            Err(e) => return Err(link_err("(reopen)", 0, e)),
+        };
+        let found = scan(link.as_mut())?;
+        if !found.is_empty() {
+            return Ok(Some(BaudScan { baud, link, found }));
+        }
+    }
+    Ok(None)
+}
