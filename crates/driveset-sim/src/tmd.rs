@@ -242,7 +242,9 @@ impl Nak {
 ///   under a running motor) and codes marked `standstill` in the schema
 ///   (none in the Tmd schema): cause 6, C1962 8.
 /// - **Enumerated codes** (C0001, C0014, ...) refuse values with no label
-///   (e.g. C0001 = 2.5): cause 5.
+///   (e.g. C0001 = 2.5), and C0009 / C0248 / C0249 refuse fractions: cause
+///   5. Other VD codes take any value in range to 4 decimals (the manual
+///   gives no resolution).
 /// - **C0009.** 10, 20, ... 90 are refused (§4c "must not be used"); values
 ///   above 99 (Table 1 allows 1..247, the Modbus range) are stored, and the
 ///   drive is then only reached by a broadcast to 00.
@@ -768,9 +770,10 @@ impl TmdDrive {
         {
             return Err(Nak::INVALID);
         }
-        if key.number == C0009
+        // Numbers the protocol uses as integers (address, subcode, bank).
+        if matches!(key.number, C0009 | C0248 | C0249)
             && let RawValue::Int(v) = raw
-            && (v % VD != 0 || !is_station(v / VD))
+            && (v % VD != 0 || (key.number == C0009 && !is_station(v / VD)))
         {
             return Err(Nak::INVALID);
         }

@@ -353,6 +353,10 @@ fn nak_cause_5_invalid_variable() {
     // The address must stay a station address (§4c).
     assert_eq!(l.ask(&mut d, &send("01", b"0920")), Some(vec![NAK]));
     assert_cause(&d, 5, 14);
+    assert_eq!(l.ask(&mut d, &send("01", b"H90.5")), Some(vec![NAK]));
+    assert_cause(&d, 5, 14);
+    assert_eq!(l.ask(&mut d, &send("01", b"H916")), Some(vec![NAK]));
+    assert_cause(&d, 5, 14);
 }
 
 #[test]
@@ -730,4 +734,145 @@ fn a_lone_eot_and_garbage_complete_nothing() {
         l.ask(&mut d, &receive("01", b"11")),
         Some(value_reply(b"1150"))
     );
+}
+
+// ---------------------------------------------------------------------------
+// Robustness
+
+mod robustness {
+    use super::*;
+    use driveset_proto::lecom::{Broadcast, Receive, Send};
+    use driveset_proto::lecom::{
+        CodeAddress, ControllerAddress, Decimal, Hex, Response, ResponseDecoder, Telegram, Value,
+    };
+    use proptest::prelude::*;
+
+    /// Codes of Table 1 and a few that do not exist.
+    const CODES: [u16; 24] = [
+        1, 2, 7, 9, 10, 11, 12, 14, 40, 43, 45, 46, 50, 68, 99, 125, 135, 150, 161, 200, 248, 249,
+        1923, 1962,
+    ];
+
+    fn any_value() -> impl Strategy<Value = Value> {
+        prop_oneof![
+            (-3_000_000i64..3_000_000).prop_map(|r| Value::Decimal(Decimal::from_raw(r).unwrap())),
+            (0i64..300).prop_map(|n| Value::Decimal(Decimal::from_int(n).unwrap())),
+            any::<u16>().prop_map(|w| Value::Hex(Hex::Word(w))),
+            any::<u8>().prop_map(|b| Value::Hex(Hex::Byte(b))),
+        ]
+    }
+
+    fn any_telegram() -> impl Strategy<Value = Telegram> {
+        (
+            prop::sample::select(&[0u8, 1, 2, 10, 11, 20][..]),
+            prop::sample::select(&CODES[..]),
+            0u8..3,
+            any::<bool>(),
+            any_value(),
+            any::<bool>(),
+        )
+            .prop_map(|(addr, code, sub, ext, value, read)| {
+                let address = ControllerAddress::new(addr).unwrap();
+                let code = if ext {
+                    CodeAddress::Extended(driveset_proto::lecom::ExtendedAddress {
+                        code,
+                        subcode: sub,
+                    })
+                } else {
+                    CodeAddress::select(code, 0)
+                };
+                if address.is_broadcast() {
+                    Telegram::Broadcast(Broadcast {
+                        address,
+                        code,
+                        value,
+                    })
+                } else if read {
+                    Telegram::Receive(Receive { address, code })
+                } else {
+                    Telegram::Send(Send {
+                        address,
+                        code,
+                        value,
+                    })
+                }
+            })
+    }
+
+    fn check_invariants(d: &TmdDrive) {
+        let i = |c| int(d, c);
+        assert!(i(10) <= i(11), "C0010 <= C0011");
+        let e: Vec<i64> = (0..4).map(|k| i(7) >> (4 * k) & 0xF).collect();
+        for a in 0..4 {
+            for b in a + 1..4 {
+                assert_ne!(e[a], e[b], "C0007 inputs distinct");
+            }
+        }
+        let addr = i(9) / 10_000;
+        assert!(addr >= 1 && addr % 10 != 0, "C0009 a station address");
+        assert!(i(249) % 10_000 == 0 && (0..=15).contains(&(i(249) / 10_000)));
+        assert!(i(248) % 10_000 == 0);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn random_bytes_never_panic(bytes in prop::collection::vec((any::<u8>(), any::<bool>()), 0..600)) {
+            let mut d = drive(11);
+            let mut now = 0;
+            for (b, p) in bytes {
+                now += 1_000;
+                if let Heard::Telegram { reply: Some(r) } = d.hear(Instant::from_nanos(now), b, p) {
+                    let events = ResponseDecoder::decode_all(&r.bytes);
+                    prop_assert_eq!(events.len(), 1);
+                    prop_assert!(events[0].result.is_ok());
+                }
+            }
+            check_invariants(&d);
+        }
+
+        #[test]
+        fn telegrams_are_answered_per_section_8(
+            ts in prop::collection::vec((any_telegram(), prop::option::of(0usize..12)), 1..40)
+        ) {
+            let mut d = drive(11);
+            d.set_running(true);
+            let mut now = 0;
+            for (t, bad) in ts {
+                let bytes = t.to_bytes().unwrap();
+                // A broadcast may have changed the address (C0009).
+                let me = d.address();
+                let mut heard = Heard::Nothing;
+                for (k, &b) in bytes.iter().enumerate() {
+                    now += 1_000_000;
+                    heard = d.hear(Instant::from_nanos(now), b, bad != Some(k));
+                }
+                let Heard::Telegram { reply } = heard else {
+                    return Err(TestCaseError::fail(format!("{t} completed nothing")));
+                };
+                let for_me = ControllerAddress::new(me) == Some(t.address());
+                match (&t, reply) {
+                    (_, None) => prop_assert!(
+                        !for_me || !t.expects_response() || bad == Some(bytes.len() - 1),
+                        "{} unanswered", t
+                    ),
+                    (Telegram::Broadcast(_), Some(_)) => prop_assert!(false, "broadcast answered"),
+                    (Telegram::Receive(r), Some(reply)) => {
+                        prop_assert!(for_me);
+                        let resp = Response::decode(&reply.bytes).unwrap();
+                        prop_assert_eq!(resp.code(), Some(r.code), "echoes the code field");
+                    }
+                    (Telegram::Send(_), Some(reply)) => {
+                        prop_assert!(for_me);
+                        prop_assert!(reply.bytes == [ACK] || reply.bytes == [NAK]);
+                        if bad.is_some_and(|k| k < bytes.len()) {
+                            prop_assert_eq!(reply.bytes, vec![NAK]);
+                        }
+                    }
+                }
+                check_invariants(&d);
+            }
+        }
+    }
 }
