@@ -1,0 +1,420 @@
+//! LustbusClient against the simulated MC6000 and VF1000 (driveset-sim) in
+//! virtual time: exact bytes on the wire, SIOF/SERR handling, MC EEPROM
+//! pacing, the SLOAD dataset download, retries and power cycles.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_engine::client::{DatasetOutcome, DriveClient, LustbusClient, LustbusOptions};
+use driveset_engine::error::EngineError;
+use driveset_link::mem::wire_time;
+use driveset_link::{ByteLink, Clock, Instant, VirtualClock};
+use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_sim::bus::SimByteBus;
+use driveset_sim::catalog::{self, Family};
+use driveset_sim::drive::{ByteDrive, ReactionTime};
+use driveset_sim::faults::FaultPlan;
+use driveset_sim::log::{Dir, EventLog};
+use driveset_sim::lustbus_drive::LustOptions;
+use driveset_sim::mc6000::Mc6000;
+use driveset_sim::vf1000::Vf1000;
+
+const REACTION: Duration = Duration::from_millis(2);
+
+fn opts(address: u8) -> LustOptions {
+    LustOptions::new(address).reaction(ReactionTime::fixed(REACTION))
+}
+
+fn mc(address: u8) -> Box<dyn ByteDrive> {
+    Box::new(Mc6000::new(opts(address)).expect("mc6000"))
+}
+
+fn vf(address: u8) -> Box<dyn ByteDrive> {
+    Box::new(Vf1000::new(opts(address)).expect("vf1000"))
+}
+
+fn schema(f: Family) -> Arc<Schema> {
+    catalog::schema(f).expect("schema")
+}
+
+struct Rig {
+    clock: VirtualClock,
+    log: EventLog,
+}
+
+fn sim_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
+    let clock = VirtualClock::new();
+    let log = EventLog::memory();
+    let mut bus = SimByteBus::new(&clock, baud, drives)
+        .expect("bus")
+        .with_log(log.clone());
+    if let Some(f) = faults {
+        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
+    }
+    (Rig { clock, log }, bus)
+}
+
+/// Host telegrams and drive replies in the log, as byte vectors.
+fn wire(log: &EventLog, dir: Dir) -> Vec<(u64, Vec<u8>)> {
+    log.events()
+        .into_iter()
+        .filter(|e| e.dir == dir)
+        .map(|e| {
+            let bytes = e
+                .hex
+                .split(' ')
+                .filter(|s| !s.is_empty())
+                .map(|h| u8::from_str_radix(h, 16).expect("hex"))
+                .collect();
+            (e.t_ns, bytes)
+        })
+        .collect()
+}
+
+fn bcc(text: &[u8]) -> u8 {
+    text.iter().fold(0, |a, b| a ^ b)
+}
+
+fn select(adr: u8, code: &str, value: &str) -> Vec<u8> {
+    let mut text = format!("{code}={value}").into_bytes();
+    text.push(0x03);
+    let mut out = vec![0x04, 0x40 + adr, 0x02];
+    out.extend_from_slice(&text);
+    out.push(bcc(&text));
+    out
+}
+
+fn enquiry(adr: u8, code: &str) -> Vec<u8> {
+    let mut out = vec![0x04, 0x40 + adr];
+    out.extend_from_slice(code.as_bytes());
+    out.push(0x05);
+    out
+}
+
+fn value_reply(adr: u8, code: &str, value: &str) -> Vec<u8> {
+    let mut text = format!("{code}={value}").into_bytes();
+    text.push(0x03);
+    let mut out = vec![0x40 + adr, 0x02];
+    out.extend_from_slice(&text);
+    out.push(bcc(&text));
+    out
+}
+
+#[test]
+fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
+    c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
+    assert!(matches!(
+        c.read(CodeKey::new(91)).unwrap(),
+        RawValue::Int(_)
+    ));
+    c.finish().unwrap();
+    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect();
+    assert_eq!(host[0], enquiry(1, "20300"));
+    // First SELECT of the session: SERR is read (and cleared) first.
+    assert_eq!(host[1], enquiry(1, "00085"));
+    assert_eq!(host[2], select(1, "20416", "0"));
+    // TYPE is a compatible parameter: CODE 00091.
+    assert_eq!(host[3], enquiry(1, "00091"));
+    // Only finish() sends a lone EOT, once, at the very end.
+    let lone: Vec<usize> = host
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.as_slice() == [0x04])
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(lone, vec![host.len() - 1]);
+    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect();
+    assert_eq!(drive[0], value_reply(1, "20300", "02"));
+    // SERR at start: power on.
+    assert_eq!(drive[1], value_reply(1, "00085", "01"));
+    assert_eq!(drive[2], vec![0x41, 0x06]);
+    assert_eq!(c.stats().retries, 0);
+}
+
+#[test]
+fn mc_signed_and_q16_values_round_trip() {
+    let (_rig, bus) = sim_bus(19200, vec![mc(4)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 4).unwrap();
+    // 428-RSIO: untyped, width 4 -> PT_INT32Q16 (as the simulator).
+    let raw = RawValue::Int(-132 * 65536);
+    c.write(CodeKey::new(428), &raw).unwrap();
+    assert_eq!(c.read(CodeKey::new(428)).unwrap(), raw);
+}
+
+#[test]
+fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    // 101-MAINV: EEPROM, 2 bytes -> 30 ms store.
+    c.write(CodeKey::new(101), &RawValue::Int(410)).unwrap();
+    let ack = rig.clock.now();
+    let busy = ack + Duration::from_millis(30);
+    assert_eq!(c.ready_for_write(CodeKey::new(102)), Some(busy));
+    // RAM writes and reads are not held back.
+    assert_eq!(c.ready_for_write(CodeKey::new(416)), None);
+    // 102-UVLIM issued immediately: the SELECT starts exactly at `busy`.
+    c.write(CodeKey::new(102), &RawValue::Int(300)).unwrap();
+    let host = wire(&rig.log, Dir::Host);
+    let (t, bytes) = host.last().unwrap();
+    assert_eq!(bytes, &select(1, "20102", "12C"));
+    assert_eq!(Instant::from_nanos(*t), busy);
+    assert_eq!(c.stats().retries, 0, "no EEPROM busy NAK");
+
+    // A read in the gap uses it: the next EEPROM write then waits only the
+    // rest of 102's 30 ms (the ENQUIRY of 77 takes 26 characters + 2 ms).
+    let ack2 = rig.clock.now();
+    c.read(CodeKey::new(77)).unwrap();
+    let after_read = rig.clock.now();
+    assert!(after_read < ack2 + Duration::from_millis(30));
+    assert!(after_read > ack2 + Duration::from_millis(25));
+    c.write(CodeKey::new(300), &RawValue::Int(3)).unwrap();
+    let (t, bytes) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    assert_eq!(bytes, select(1, "20300", "3"));
+    assert_eq!(Instant::from_nanos(t), ack2 + Duration::from_millis(30));
+    // 300-CFCON is 1 byte: 15 ms; a RAM write meanwhile is not held back.
+    let ack3 = rig.clock.now();
+    c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
+    let (t, _) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    assert_eq!(Instant::from_nanos(t), ack3);
+    assert_eq!(c.stats().retries, 0);
+}
+
+#[test]
+fn mc_eeprom_busy_nak_waits_and_repeats() {
+    // A second session on the same line does not know the drive is still
+    // storing: its SELECT is NAKed, SERR says 0x04, it waits and repeats.
+    let (rig, bus) = sim_bus(57600, vec![mc(1)], None);
+    let s = schema(Family::Mc6000);
+    let mut a = LustbusClient::new(bus, Arc::clone(&s), 1).unwrap();
+    a.write(CodeKey::new(101), &RawValue::Int(420)).unwrap();
+    let mut b = LustbusClient::new(a.into_link(), s, 1).unwrap();
+    b.write(CodeKey::new(102), &RawValue::Int(310)).unwrap();
+    assert_eq!(b.read(CodeKey::new(102)).unwrap(), RawValue::Int(310));
+    let drive = wire(&rig.log, Dir::Drive);
+    assert!(drive.iter().any(|(_, r)| r == &vec![0x41, 0x15]), "a NAK");
+    assert!(
+        drive
+            .iter()
+            .any(|(_, r)| r == &value_reply(1, "00085", "04")),
+        "SERR read back: EEPROM busy"
+    );
+    let host = wire(&rig.log, Dir::Host);
+    let selects: Vec<u64> = host
+        .iter()
+        .filter(|(_, b)| b == &select(1, "20102", "136"))
+        .map(|(t, _)| *t)
+        .collect();
+    assert_eq!(selects.len(), 2);
+    assert!(selects[1] - selects[0] > 61_000_000, "waited > 60 ms");
+    assert!(b.stats().retries >= 1);
+}
+
+#[test]
+fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
+    let (_rig, bus) = sim_bus(9600, vec![mc(2)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 2).unwrap();
+    // 300-CFCON: 0..7.
+    let err = c.write(CodeKey::new(300), &RawValue::Int(9)).unwrap_err();
+    let EngineError::Device { cause, what, .. } = &err else {
+        panic!("{err}")
+    };
+    assert!(what.contains("300-CFCON"), "{what}");
+    assert!(cause.cause.contains("invalid value"), "{}", cause.cause);
+    assert_eq!(cause.raw, "SERR 80H Invalid value");
+    assert_eq!(cause.remedy, "Choose a different value");
+    let text = err.to_string();
+    assert!(text.contains("sim address 2"), "{text}");
+    // The error word was read and cleared: the next write goes through.
+    c.write(CodeKey::new(300), &RawValue::Int(3)).unwrap();
+}
+
+#[test]
+fn enquiry_nak_is_a_device_error() {
+    // The MC schema as the client sees it, but the drive on the line is a
+    // VF1000: the MC CODE 20300 does not exist there -> NAK.
+    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    let err = c.read(CodeKey::new(300)).unwrap_err();
+    let EngineError::Device { cause, .. } = &err else {
+        panic!("{err}")
+    };
+    assert!(cause.cause.contains("no such parameter"), "{}", cause.cause);
+    assert_eq!(cause.raw, "NAK to ENQUIRY 20300");
+    // A code the schema does not know is refused before sending.
+    let err = c.read(CodeKey::new(12)).unwrap_err();
+    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+}
+
+#[test]
+fn restart_mid_session_is_reported() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
+    let now = rig.clock.now();
+    c.link_mut()
+        .drive_mut(1)
+        .unwrap()
+        .power_cycle(now, Duration::from_millis(50));
+    rig.clock.advance(Duration::from_secs(2));
+    let err = c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap_err();
+    assert!(matches!(err, EngineError::Restarted { .. }), "{err}");
+    assert!(err.to_string().contains("restarted"));
+}
+
+#[test]
+fn lost_replies_are_retried() {
+    let (_rig, bus) = sim_bus(19200, vec![mc(1)], Some("lose=0.3,seed=7"));
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    for _ in 0..20 {
+        assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
+    }
+    assert!(c.stats().retries > 0);
+}
+
+#[test]
+fn no_answer_after_three_tries() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 5).unwrap();
+    let t0 = rig.clock.now();
+    let err = c.read(CodeKey::new(300)).unwrap_err();
+    let EngineError::NoAnswer { tries, .. } = err else {
+        panic!("{err}")
+    };
+    assert_eq!(tries, 3);
+    assert_eq!(c.stats().telegrams, 3);
+    // Each try: 8 characters out, 30 ms + 18 characters + 10 ms timeout.
+    let one = wire_time(8, 9600) + Duration::from_millis(40) + wire_time(18, 9600);
+    assert_eq!(rig.clock.now() - t0, one * 3);
+}
+
+#[test]
+fn garbled_replies_are_retried() {
+    let (_rig, bus) = sim_bus(9600, vec![mc(1)], Some("flip=0.3,seed=3"));
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    for _ in 0..10 {
+        assert_eq!(c.read(CodeKey::new(402)).unwrap(), RawValue::Int(2));
+    }
+    assert!(c.stats().retries > 0);
+}
+
+#[test]
+fn dataset_download_accepted() {
+    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    assert!(c.has_dataset_download());
+    c.dataset_begin().unwrap();
+    c.write(CodeKey::new(101), &RawValue::Int(230)).unwrap();
+    c.write(CodeKey::new(102), &RawValue::Int(180)).unwrap();
+    c.write(CodeKey::new(300), &RawValue::Int(4)).unwrap();
+    // Not CardWriteable: refused before sending (the drive would ignore it).
+    let err = c.write(CodeKey::new(110), &RawValue::Int(3)).unwrap_err();
+    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert_eq!(
+        c.dataset_commit(Duration::from_secs(10)).unwrap(),
+        DatasetOutcome::Accepted
+    );
+    assert_eq!(c.read(CodeKey::new(101)).unwrap(), RawValue::Int(230));
+    assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(4));
+    assert_eq!(c.read(CodeKey::new(80)).unwrap(), RawValue::Int(0));
+}
+
+#[test]
+fn dataset_download_rejected_keeps_the_old_set() {
+    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    c.dataset_begin().unwrap();
+    // FICTIONAL rule of the simulator: 102-UVLIM <= 101-MAINV.
+    c.write(CodeKey::new(101), &RawValue::Int(200)).unwrap();
+    c.write(CodeKey::new(102), &RawValue::Int(300)).unwrap();
+    assert_eq!(
+        c.dataset_commit(Duration::from_secs(10)).unwrap(),
+        DatasetOutcome::Rejected { parameter: 102 }
+    );
+    assert_eq!(c.read(CodeKey::new(101)).unwrap(), RawValue::Int(400));
+}
+
+#[test]
+fn dataset_begin_while_running_names_standstill() {
+    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap();
+    assert_eq!(c.running().unwrap(), Some(true));
+    let err = c.dataset_begin().unwrap_err();
+    let EngineError::Device { cause, .. } = &err else {
+        panic!("{err}")
+    };
+    assert!(cause.cause.contains("standstill"), "{}", cause.cause);
+    assert!(cause.raw.contains("40H"), "{}", cause.raw);
+    c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
+    assert_eq!(c.running().unwrap(), Some(false));
+    c.dataset_begin().unwrap();
+}
+
+#[test]
+fn vf1000_read_and_write_exact_bytes() {
+    let (rig, bus) = sim_bus(9600, vec![vf(3)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 3).unwrap();
+    c.read(CodeKey::new(12)).unwrap();
+    // 20-FFIX1, PT_FIXPOINT16: 50.00 Hz = raw 1000 = 03E8.
+    c.write(CodeKey::new(20), &RawValue::Int(1000)).unwrap();
+    assert_eq!(c.read(CodeKey::new(20)).unwrap(), RawValue::Int(1000));
+    // 3-CNTL bit 7: running.
+    assert_eq!(c.running().unwrap(), Some(false));
+    c.finish().unwrap();
+    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect();
+    assert_eq!(host[0], enquiry(3, "00112"));
+    assert_eq!(host[1], enquiry(3, "00085"));
+    assert_eq!(host[2], select(3, "00120", "03E8"));
+    assert_eq!(host[3], enquiry(3, "00120"));
+    assert_eq!(host[4], enquiry(3, "00103"));
+    assert_eq!(host[5], vec![0x04]);
+    assert_eq!(host.len(), 6);
+    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect();
+    assert_eq!(drive[1], value_reply(3, "00085", "0001"));
+    assert_eq!(drive[3], value_reply(3, "00120", "03E8"));
+}
+
+#[test]
+fn vf1000_eeprom_write_allows_the_delayed_ack() {
+    let (rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
+    c.read(CodeKey::new(30)).unwrap();
+    let t0 = rig.clock.now();
+    // 30-VFBOV: EEPROM, 2 bytes: the ACK comes ~120 ms late (section 10).
+    c.write(CodeKey::new(30), &RawValue::Int(40)).unwrap();
+    assert!(rig.clock.now() - t0 > Duration::from_millis(100));
+    assert_eq!(c.stats().retries, 0);
+    assert_eq!(c.read(CodeKey::new(30)).unwrap(), RawValue::Int(40));
+}
+
+#[test]
+fn addresses_and_family_are_checked() {
+    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let err = LustbusClient::new(bus, schema(Family::Mc6000), 31).unwrap_err();
+    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let err = LustbusClient::new(bus, schema(Family::Tmd), 1).unwrap_err();
+    assert!(err.to_string().contains("not a LUSTBUS family"), "{err}");
+    // Read-only codes are refused before anything is sent.
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
+    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(wire(&rig.log, Dir::Host).is_empty());
+    let _ = c.link().baud();
+}
