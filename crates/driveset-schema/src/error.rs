@@ -370,7 +370,7 @@ impl InputError {
 
 /// Read a file as UTF-8 text with the size, binary and empty checks of
 /// [`InputErrorKind`].
-pub(crate) fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> {
+pub fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> {
     use std::io::Read;
     let display = path.display().to_string();
     let loc = || Location::file_only(display.clone());
@@ -397,7 +397,7 @@ pub(crate) fn read_text_file(path: &std::path::Path) -> Result<SourceFile, Input
 }
 
 /// The checks of [`read_text_file`] on bytes already in memory.
-pub(crate) fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, InputError> {
+pub fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, InputError> {
     let loc = || Location::file_only(display.to_string());
     if bytes.len() as u64 > MAX_FILE_BYTES {
         return Err(InputError::new(

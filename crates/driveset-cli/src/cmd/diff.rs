@@ -1,8 +1,248 @@
-//! `driveset diff` (under construction).
+//! `driveset diff A B`: semantic diff of two parameter sets of one drive
+//! family (engineering units and labels), or of one set against the schema's
+//! factory defaults (`--defaults`), or a unified text diff of the canonical
+//! forms (`--unified`).
 
+use std::fmt::Write;
+use std::path::PathBuf;
+
+use driveset_schema::diff::defaults_for;
+use driveset_schema::validate::display_value;
+use driveset_schema::{
+    CodeKey, DiffKind, RawValue, ResolvedSet, Schema, diff, diff_defaults, unified_diff,
+};
+use serde_json::{Value, json};
+
+use super::validate::output::{self, Style, plural};
+
+/// Output format of `diff`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DiffFormat {
+    /// One line per code: `~ C0011 max_output_frequency: 50 Hz -> 60 Hz`.
+    Human,
+    /// One JSON document.
+    Json,
+}
+
+/// Arguments of `driveset diff`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+Lines start with `+` (only in B), `-` (only in A) or `~` (in both, changed)
+and show values in engineering units with labels; password values show as
+<redacted>. With --defaults, old values are the schema's factory defaults
+(`(no factory default known)` where the schema gives none).
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset diff` is not implemented yet")
+Exit codes: 0 same, 1 different, 2 error (unreadable or invalid set, sets of
+different schemas, usage).
+
+Examples:
+  driveset diff parameter-sets/tmd/base.toml parameter-sets/tmd/conveyor-3.toml
+  driveset diff --defaults parameter-sets/tmd/conveyor-3.toml
+  driveset diff --unified A.toml B.yaml")]
+pub struct Args {
+    /// The old set (with --defaults: the set to compare with factory defaults).
+    #[arg(value_name = "A")]
+    pub a: PathBuf,
+    /// The new set.
+    #[arg(
+        value_name = "B",
+        required_unless_present = "defaults",
+        conflicts_with = "defaults"
+    )]
+    pub b: Option<PathBuf>,
+    /// Compare A with the factory defaults of its schema.
+    #[arg(long)]
+    pub defaults: bool,
+    /// Unified text diff of the canonical forms (raw values) instead.
+    #[arg(long, conflicts_with = "format")]
+    pub unified: bool,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: DiffFormat,
+    /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+}
+
+fn code_name(schema: &Schema, key: CodeKey) -> String {
+    schema
+        .code(key.number)
+        .map(|c| c.name.clone())
+        .unwrap_or_default()
+}
+
+fn shown(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
+    match schema.code(key.number) {
+        Some(c) => display_value(schema, c, raw),
+        None => format!("{raw:?}"),
+    }
+}
+
+fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
+    let redact = schema
+        .code(key.number)
+        .is_some_and(|c| schema.is_password(c));
+    match raw {
+        None => Value::Null,
+        Some(_) if redact => json!("<redacted>"),
+        Some(RawValue::Int(i)) => json!(i),
+        Some(RawValue::Text(t)) => json!(t),
+        Some(RawValue::Octets(o)) => {
+            json!(o.iter().map(|b| format!("{b:02x}")).collect::<String>())
+        }
+    }
+}
+
+/// Run `driveset diff`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let mut registry = match output::registry(&args.schemas) {
+        Ok(r) => r,
+        Err(e) => return Ok(output::fail_input(&e)),
+    };
+    let a = match output::load_valid_set(&args.a, &mut registry) {
+        Ok(l) => l,
+        Err(code) => return Ok(code),
+    };
+    let (Some(schema), Some(set_a)) = (a.schema.clone(), a.resolved.as_ref()) else {
+        return Ok(crate::EXIT_INPUT);
+    };
+    let a_name = args.a.display().to_string();
+    let (old, new, old_name, new_name): (ResolvedSet, ResolvedSet, String, String) = match &args.b {
+        None => (
+            defaults_for(set_a, &schema),
+            set_a.clone(),
+            format!("factory defaults ({})", schema.id),
+            a_name,
+        ),
+        Some(bp) => {
+            let b = match output::load_valid_set(bp, &mut registry) {
+                Ok(l) => l,
+                Err(code) => return Ok(code),
+            };
+            let Some(set_b) = b.resolved else {
+                return Ok(crate::EXIT_INPUT);
+            };
+            if set_b.schema != set_a.schema {
+                eprintln!(
+                        "{}",
+                        Style::stderr().error(&format!(
+                            "error: cannot diff sets of different schemas: {a_name} is `{}`, {} is `{}`",
+                            set_a.schema,
+                            bp.display(),
+                            set_b.schema
+                        ))
+                    );
+                eprintln!("  = help: compare sets of one drive family");
+                return Ok(crate::EXIT_INPUT);
+            }
+            (set_a.clone(), set_b, a_name, bp.display().to_string())
+        }
+    };
+
+    if args.unified {
+        let text = unified_diff(&old, &new, &schema, &old_name, &new_name);
+        let style = Style::stdout();
+        for line in text.lines() {
+            let l = if line.starts_with("+++") || line.starts_with("---") {
+                style.bold(line)
+            } else if line.starts_with('+') {
+                style.added(line)
+            } else if line.starts_with('-') {
+                style.removed(line)
+            } else {
+                line.to_string()
+            };
+            println!("{l}");
+        }
+        return Ok(if text.is_empty() {
+            crate::EXIT_OK
+        } else {
+            crate::EXIT_FINDINGS
+        });
+    }
+
+    let d = if args.defaults {
+        diff_defaults(&new, &schema)
+    } else {
+        diff(&old, &new, &schema)
+    };
+    let d = match d {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("{}", Style::stderr().error(&format!("error: {e}")));
+            return Ok(crate::EXIT_INPUT);
+        }
+    };
+    let count = |k: DiffKind| d.entries.iter().filter(|e| e.kind == k).count();
+    let summary = format!(
+        "{} changed, {} added, {} removed",
+        count(DiffKind::Changed),
+        count(DiffKind::Added),
+        count(DiffKind::Removed)
+    );
+    match args.format {
+        DiffFormat::Json => {
+            let entries: Vec<Value> = d
+                .entries
+                .iter()
+                .map(|e| {
+                    json!({
+                        "code": schema.display_code(e.key.number, e.key.subcode),
+                        "key": e.key.canonical(schema.code_style),
+                        "name": code_name(&schema, e.key),
+                        "kind": match e.kind {
+                            DiffKind::Added => "added",
+                            DiffKind::Removed => "removed",
+                            DiffKind::Changed => "changed",
+                        },
+                        "old": e.old.as_ref().map(|r| shown(&schema, e.key, r)),
+                        "new": e.new.as_ref().map(|r| shown(&schema, e.key, r)),
+                        "old_raw": raw_json(&schema, e.key, e.old.as_ref()),
+                        "new_raw": raw_json(&schema, e.key, e.new.as_ref()),
+                        "text": e.text,
+                    })
+                })
+                .collect();
+            let doc = json!({
+                "old": old_name,
+                "new": new_name,
+                "schema": schema.id,
+                "equal": d.is_empty(),
+                "changed": count(DiffKind::Changed),
+                "added": count(DiffKind::Added),
+                "removed": count(DiffKind::Removed),
+                "entries": entries,
+            });
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+        }
+        DiffFormat::Human => {
+            let style = Style::stdout();
+            let mut out = String::new();
+            let _ = writeln!(out, "{}", style.bold(&format!("--- {old_name}")));
+            let _ = writeln!(out, "{}", style.bold(&format!("+++ {new_name}")));
+            for e in &d.entries {
+                let line = match e.kind {
+                    DiffKind::Added => style.added(&format!("+ {}", e.text)),
+                    DiffKind::Removed => style.removed(&format!("- {}", e.text)),
+                    DiffKind::Changed => style.changed(&format!("~ {}", e.text)),
+                };
+                let _ = writeln!(out, "{line}");
+            }
+            if d.is_empty() {
+                let _ = writeln!(out, "no differences");
+            } else {
+                let _ = writeln!(
+                    out,
+                    "{} ({summary})",
+                    plural(d.entries.len(), "difference", "differences")
+                );
+            }
+            print!("{out}");
+        }
+    }
+    Ok(if d.is_empty() {
+        crate::EXIT_OK
+    } else {
+        crate::EXIT_FINDINGS
+    })
 }

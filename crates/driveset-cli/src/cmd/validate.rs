@@ -1,8 +1,191 @@
-//! `driveset validate` (under construction).
+//! `driveset validate PATH...`: check parameter sets against the schema of
+//! their drive family, with no hardware. Directories are searched recursively
+//! for `*.toml`, `*.yaml` and `*.yml`.
+//!
+//! Schema files met on the way (a TOML file with a top-level `[schema]`
+//! table, e.g. the fixture schemas under `parameter-sets/fixtures/`) are not
+//! sets: they are checked with the `schema check` rules instead, so a broken
+//! fixture still fails the run, and counted as checked files.
 
+// InputError carries a full Location; it is built on the error path only.
+#![allow(clippy::result_large_err)]
+
+#[path = "../output.rs"]
+pub mod output;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_schema::doc::{self, NodeKind, Syntax};
+use driveset_schema::error::read_text_file;
+use driveset_schema::schema::parse_schema;
+use driveset_schema::{InputError, InputErrorKind, Location, Registry, Schema, check_schema};
+
+use output::{FileReport, Format, Report, Style};
+
+/// Arguments of `driveset validate`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+Every finding is printed with file:line:column and a source snippet, then one
+summary line: `N findings in M of K files`.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset validate` is not implemented yet")
+Schema files found while walking directories (TOML files with a top-level
+[schema] table, such as parameter-sets/fixtures/*.toml) are checked with the
+`driveset schema check` rules instead of being read as sets.
+
+Exit codes: 0 no findings, 1 findings, 2 a file could not be read or parsed
+(malformed TOML/YAML, binary, empty, larger than 4 MiB, unknown top-level key,
+NaN/inf, ...) or a usage error.
+
+Examples:
+  driveset validate parameter-sets/
+  driveset validate --format github parameter-sets/
+  driveset validate --schemas my-schemas/ line-2/*.toml")]
+pub struct Args {
+    /// Set files or directories (searched recursively for *.toml, *.yaml, *.yml).
+    #[arg(required = true, value_name = "PATH")]
+    pub paths: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: Format,
+    /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+}
+
+/// Set and schema file extensions searched in directories.
+const EXTENSIONS: [&str; 3] = ["toml", "yaml", "yml"];
+
+/// Files under `path` (a file as given, a directory recursively, sorted).
+pub fn collect(path: &Path, out: &mut Vec<PathBuf>) -> Result<(), InputError> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| unreadable(path, format!("cannot read {}: {e}", path.display())))?;
+    if !meta.is_dir() {
+        out.push(path.to_path_buf());
+        return Ok(());
+    }
+    let rd = std::fs::read_dir(path).map_err(|e| {
+        unreadable(
+            path,
+            format!("cannot read directory {}: {e}", path.display()),
+        )
+    })?;
+    let mut entries: Vec<PathBuf> = rd.filter_map(Result::ok).map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        let hidden = p
+            .file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n.starts_with('.'));
+        if hidden {
+            continue;
+        }
+        if p.is_dir() {
+            collect(&p, out)?;
+        } else if p
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// An input error the CLI raises itself (a path that cannot be read).
+fn unreadable(path: &Path, message: String) -> InputError {
+    InputError {
+        kind: InputErrorKind::Unreadable,
+        message,
+        help: "check the path".to_string(),
+        location: Location::file_only(path.display().to_string()),
+    }
+}
+
+/// Whether a parsed TOML document is a schema file (top-level `[schema]` table).
+fn is_schema_doc(d: &doc::Document) -> bool {
+    d.root
+        .get("schema")
+        .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_)))
+}
+
+/// Check a schema file against the registry (its `extends` base must be known).
+pub fn check_schema_source(
+    source: driveset_schema::error::SourceFile,
+    registry: &Registry,
+    extra: &[Arc<Schema>],
+) -> Result<(Arc<Schema>, Vec<driveset_schema::Finding>), InputError> {
+    let lookup = |id: &str| {
+        extra
+            .iter()
+            .rev()
+            .find(|s| s.id == id)
+            .cloned()
+            .or_else(|| registry.get(id))
+    };
+    let schema = Arc::new(parse_schema(source, &lookup)?);
+    let findings = check_schema(&schema);
+    Ok((schema, findings))
+}
+
+fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
+    let mut report = FileReport::default();
+    let source = match read_text_file(path) {
+        Ok(s) => s,
+        Err(e) => {
+            report.error = Some(e);
+            return report;
+        }
+    };
+    if Syntax::from_path(path) == Syntax::Toml {
+        match doc::parse(source.clone(), Syntax::Toml) {
+            Err(e) => {
+                report.error = Some(e);
+                return report;
+            }
+            Ok(d) if is_schema_doc(&d) => {
+                match check_schema_source(source, registry, &[]) {
+                    Ok((_, findings)) => report.findings = findings,
+                    Err(e) => report.error = Some(e),
+                }
+                return report;
+            }
+            Ok(_) => {}
+        }
+    }
+    match driveset_schema::load_set_str(path, &source.text, registry) {
+        Ok(l) => report.findings = l.findings,
+        Err(e) => report.error = Some(e),
+    }
+    report
+}
+
+/// Run `driveset validate`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let mut registry = match output::registry(&args.schemas) {
+        Ok(r) => r,
+        Err(e) => return Ok(output::fail_input(&e)),
+    };
+    let mut report = Report::default();
+    for p in &args.paths {
+        let mut files = Vec::new();
+        if let Err(e) = collect(p, &mut files) {
+            report.files.push((
+                p.display().to_string(),
+                FileReport {
+                    findings: Vec::new(),
+                    error: Some(e),
+                },
+            ));
+            continue;
+        }
+        for f in files {
+            let r = check_file(&f, &mut registry);
+            report.files.push((f.display().to_string(), r));
+        }
+    }
+    let style = Style::stdout();
+    print!("{}", report.render(args.format, style, ("file", "files")));
+    Ok(report.exit_code())
 }

@@ -1,0 +1,524 @@
+//! Shared rendering of findings and input errors for the offline commands
+//! (`validate`, `schema check`, `diff`, `fingerprint`, `show`): human
+//! (rustc-style with a source snippet, colour only on a terminal and never
+//! with `NO_COLOR`), JSON, and GitHub workflow annotations.
+//!
+//! Declared from `cmd/validate.rs` with a `#[path]` attribute (main.rs and
+//! cmd/mod.rs belong to the lead); the other commands reach it as
+//! `super::validate::output`.
+
+// InputError carries a full Location; it is built on the error path only.
+#![allow(clippy::result_large_err)]
+
+use std::fmt::Write;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use driveset_schema::{Finding, InputError, Location};
+use serde_json::{Value, json};
+
+/// Output format of the report commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// rustc-style text with source snippets (colour on a terminal).
+    Human,
+    /// One JSON document on stdout.
+    Json,
+    /// GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`).
+    Github,
+}
+
+/// Colour on or off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Style {
+    color: bool,
+}
+
+const RED: &str = "\x1b[1;31m";
+const BLUE: &str = "\x1b[1;34m";
+const BOLD: &str = "\x1b[1m";
+const GREEN: &str = "\x1b[32m";
+const YELLOW: &str = "\x1b[33m";
+const DIM_RED: &str = "\x1b[31m";
+const RESET: &str = "\x1b[0m";
+
+/// Longest snippet line shown in full; longer lines show a window around the column.
+const MAX_SNIPPET_CHARS: usize = 160;
+
+impl Style {
+    /// No colour.
+    #[cfg(test)]
+    pub const PLAIN: Style = Style { color: false };
+
+    /// Colour when stdout is a terminal and `NO_COLOR` is unset or empty.
+    pub fn stdout() -> Style {
+        Style {
+            color: std::io::stdout().is_terminal() && no_color_unset(),
+        }
+    }
+
+    /// Colour when stderr is a terminal and `NO_COLOR` is unset or empty.
+    pub fn stderr() -> Style {
+        Style {
+            color: std::io::stderr().is_terminal() && no_color_unset(),
+        }
+    }
+
+    fn paint(self, code: &str, text: &str) -> String {
+        if self.color {
+            format!("{code}{text}{RESET}")
+        } else {
+            text.to_string()
+        }
+    }
+
+    /// Bold red.
+    pub fn error(self, text: &str) -> String {
+        self.paint(RED, text)
+    }
+    /// Bold.
+    pub fn bold(self, text: &str) -> String {
+        self.paint(BOLD, text)
+    }
+    /// Green (added lines).
+    pub fn added(self, text: &str) -> String {
+        self.paint(GREEN, text)
+    }
+    /// Red (removed lines).
+    pub fn removed(self, text: &str) -> String {
+        self.paint(DIM_RED, text)
+    }
+    /// Yellow (changed lines).
+    pub fn changed(self, text: &str) -> String {
+        self.paint(YELLOW, text)
+    }
+    fn gutter(self, text: &str) -> String {
+        self.paint(BLUE, text)
+    }
+}
+
+fn no_color_unset() -> bool {
+    std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
+}
+
+/// `n thing` / `n things`.
+pub fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// A snippet line and the caret range within it (in characters), shortened
+/// around the column when the line is very long.
+fn snippet_window(loc: &Location) -> (String, usize, usize) {
+    let col0 = loc.column.saturating_sub(1);
+    // byte offset of the line start, derived from the span start and the column
+    let col_bytes: usize = loc.line_text.chars().take(col0).map(char::len_utf8).sum();
+    let line_start = loc.span.start.saturating_sub(col_bytes);
+    let start_b = loc
+        .span
+        .start
+        .saturating_sub(line_start)
+        .min(loc.line_text.len());
+    let end_b = loc
+        .span
+        .end
+        .saturating_sub(line_start)
+        .clamp(start_b, loc.line_text.len());
+    let width = loc
+        .line_text
+        .get(start_b..end_b)
+        .map(|s| s.chars().count())
+        .unwrap_or(0)
+        .max(1);
+    let total = loc.line_text.chars().count();
+    if total <= MAX_SNIPPET_CHARS {
+        return (loc.line_text.clone(), col0, width);
+    }
+    let from = col0.saturating_sub(40);
+    let shown: String = loc
+        .line_text
+        .chars()
+        .skip(from)
+        .take(MAX_SNIPPET_CHARS)
+        .collect();
+    let mut text = String::new();
+    let mut col = col0 - from;
+    if from > 0 {
+        text.push_str("...");
+        col += 3;
+    }
+    text.push_str(&shown);
+    if from + MAX_SNIPPET_CHARS < total {
+        text.push_str("...");
+    }
+    let width = width
+        .min(MAX_SNIPPET_CHARS.saturating_sub(col0 - from))
+        .max(1);
+    (text, col, width)
+}
+
+fn render_snippet(out: &mut String, loc: &Location, label: &str, style: Style) {
+    if loc.line == 0 {
+        let _ = writeln!(out, "  {} {}", style.gutter("-->"), loc.file);
+        return;
+    }
+    let num = loc.line.to_string();
+    let pad = " ".repeat(num.len());
+    let _ = writeln!(
+        out,
+        "{pad}{} {}:{}:{}",
+        style.gutter("-->"),
+        loc.file,
+        loc.line,
+        loc.column
+    );
+    let _ = writeln!(out, "{pad} {}", style.gutter("|"));
+    let (text, col, width) = snippet_window(loc);
+    let _ = writeln!(out, "{} {}", style.gutter(&format!("{num} |")), text);
+    let lead: String = text
+        .chars()
+        .take(col)
+        .map(|c| if c == '\t' { '\t' } else { ' ' })
+        .collect();
+    let _ = writeln!(
+        out,
+        "{pad} {} {lead}{}",
+        style.gutter("|"),
+        style.error(&format!("{} {label}", "^".repeat(width)))
+    );
+}
+
+/// rustc-style finding (the same text as [`Finding::render_human`] when plain).
+pub fn finding_human(f: &Finding, style: Style) -> String {
+    let mut out = format!(
+        "{}{}\n",
+        style.error(&format!("error[{}]", f.kind)),
+        style.bold(&format!(": {}", f.message))
+    );
+    render_snippet(&mut out, &f.location, "here", style);
+    for (label, loc) in &f.related {
+        render_snippet(&mut out, loc, label, style);
+    }
+    if !f.help.is_empty() {
+        let _ = writeln!(out, "  {} {}", style.bold("= help:"), f.help);
+    }
+    out
+}
+
+/// rustc-style input error (the same text as [`InputError::render_human`] when plain).
+pub fn input_error_human(e: &InputError, style: Style) -> String {
+    let mut out = format!(
+        "{}{}\n",
+        style.error("error"),
+        style.bold(&format!(": {}", e.message))
+    );
+    render_snippet(&mut out, &e.location, "here", style);
+    if !e.help.is_empty() {
+        let _ = writeln!(out, "  {} {}", style.bold("= help:"), e.help);
+    }
+    out
+}
+
+fn loc_json(loc: &Location) -> Value {
+    if loc.line == 0 {
+        json!({ "file": loc.file, "line": null, "column": null })
+    } else {
+        json!({ "file": loc.file, "line": loc.line, "column": loc.column })
+    }
+}
+
+/// A finding as JSON: kind, message, help, file, line, column, related places.
+pub fn finding_json(f: &Finding) -> Value {
+    let mut v = loc_json(&f.location);
+    if let Some(o) = v.as_object_mut() {
+        o.insert("kind".into(), json!(f.kind.as_str()));
+        o.insert("severity".into(), json!("error"));
+        o.insert("message".into(), json!(f.message));
+        o.insert("help".into(), json!(f.help));
+        o.insert(
+            "related".into(),
+            Value::Array(
+                f.related
+                    .iter()
+                    .map(|(label, loc)| {
+                        let mut r = loc_json(loc);
+                        if let Some(o) = r.as_object_mut() {
+                            o.insert("label".into(), json!(label));
+                        }
+                        r
+                    })
+                    .collect(),
+            ),
+        );
+    }
+    v
+}
+
+/// An input error as JSON: kind `input-error`, message, help, file, line, column.
+pub fn input_error_json(e: &InputError) -> Value {
+    let mut v = loc_json(&e.location);
+    if let Some(o) = v.as_object_mut() {
+        o.insert("kind".into(), json!("input-error"));
+        o.insert("message".into(), json!(e.message));
+        o.insert("help".into(), json!(e.help));
+    }
+    v
+}
+
+/// Escape the message part of a workflow command.
+fn gh_data(s: &str) -> String {
+    s.replace('%', "%25")
+        .replace('\r', "%0D")
+        .replace('\n', "%0A")
+}
+
+/// Escape a property value of a workflow command.
+fn gh_prop(s: &str) -> String {
+    gh_data(s).replace(':', "%3A").replace(',', "%2C")
+}
+
+fn gh_line(loc: &Location, title: &str, message: &str, help: &str) -> String {
+    let mut props = format!("file={}", gh_prop(&loc.file));
+    if loc.line > 0 {
+        let _ = write!(props, ",line={},col={}", loc.line, loc.column);
+    }
+    let _ = write!(props, ",title={}", gh_prop(title));
+    let mut msg = message.to_string();
+    if !help.is_empty() {
+        let _ = write!(msg, "\nhelp: {help}");
+    }
+    format!("::error {props}::{}", gh_data(&msg))
+}
+
+/// A finding as one GitHub annotation line (title: the finding kind).
+pub fn finding_github(f: &Finding) -> String {
+    gh_line(&f.location, f.kind.as_str(), &f.message, &f.help)
+}
+
+/// An input error as one GitHub annotation line (title `input-error`).
+pub fn input_error_github(e: &InputError) -> String {
+    gh_line(&e.location, "input-error", &e.message, &e.help)
+}
+
+/// Findings and input errors of one file, collected for a report.
+#[derive(Debug, Default)]
+pub struct FileReport {
+    /// Findings, in file order.
+    pub findings: Vec<Finding>,
+    /// The input error, when the file could not be read.
+    pub error: Option<InputError>,
+}
+
+/// The report of `validate` / `schema check`: per-file findings and errors,
+/// then one summary line (`N findings in M of K files`).
+#[derive(Debug, Default)]
+pub struct Report {
+    /// Per file, in the order checked.
+    pub files: Vec<(String, FileReport)>,
+}
+
+impl Report {
+    /// Number of findings.
+    pub fn findings(&self) -> usize {
+        self.files.iter().map(|(_, r)| r.findings.len()).sum()
+    }
+    /// Files with at least one finding.
+    pub fn files_with_findings(&self) -> usize {
+        self.files
+            .iter()
+            .filter(|(_, r)| !r.findings.is_empty())
+            .count()
+    }
+    /// Files that could not be read.
+    pub fn errors(&self) -> usize {
+        self.files.iter().filter(|(_, r)| r.error.is_some()).count()
+    }
+
+    /// Exit code: 2 when a file could not be read, 1 on findings, else 0.
+    pub fn exit_code(&self) -> u8 {
+        if self.errors() > 0 {
+            crate::EXIT_INPUT
+        } else if self.findings() > 0 {
+            crate::EXIT_FINDINGS
+        } else {
+            crate::EXIT_OK
+        }
+    }
+
+    /// `3 findings in 2 of 16 files` (+ `; 1 file could not be read`).
+    pub fn summary(&self, noun: (&str, &str)) -> String {
+        let mut s = format!(
+            "{} in {} of {}",
+            plural(self.findings(), "finding", "findings"),
+            self.files_with_findings(),
+            plural(self.files.len(), noun.0, noun.1)
+        );
+        if self.errors() > 0 {
+            let _ = write!(
+                s,
+                "; {} could not be read",
+                plural(self.errors(), noun.0, noun.1)
+            );
+        }
+        s
+    }
+
+    /// The whole report in `format`; `noun` names the files ("file", "files").
+    pub fn render(&self, format: Format, style: Style, noun: (&str, &str)) -> String {
+        let mut out = String::new();
+        match format {
+            Format::Human => {
+                for (_, r) in &self.files {
+                    if let Some(e) = &r.error {
+                        out.push_str(&input_error_human(e, style));
+                        out.push('\n');
+                    }
+                    for f in &r.findings {
+                        out.push_str(&finding_human(f, style));
+                        out.push('\n');
+                    }
+                }
+                let summary = self.summary(noun);
+                let summary = if self.exit_code() == crate::EXIT_OK {
+                    style.bold(&summary)
+                } else {
+                    style.error(&summary)
+                };
+                let _ = writeln!(out, "{summary}");
+            }
+            Format::Github => {
+                for (_, r) in &self.files {
+                    if let Some(e) = &r.error {
+                        let _ = writeln!(out, "{}", input_error_github(e));
+                    }
+                    for f in &r.findings {
+                        let _ = writeln!(out, "{}", finding_github(f));
+                    }
+                }
+                let _ = writeln!(out, "{}", self.summary(noun));
+            }
+            Format::Json => {
+                let files: Vec<Value> = self
+                    .files
+                    .iter()
+                    .map(|(path, r)| {
+                        json!({
+                            "file": path,
+                            "ok": r.error.is_none() && r.findings.is_empty(),
+                            "error": r.error.as_ref().map(input_error_json),
+                            "findings": r.findings.iter().map(finding_json).collect::<Vec<_>>(),
+                        })
+                    })
+                    .collect();
+                let doc = json!({
+                    "files": files,
+                    "summary": {
+                        "files": self.files.len(),
+                        "files_with_findings": self.files_with_findings(),
+                        "findings": self.findings(),
+                        "unreadable": self.errors(),
+                        "text": self.summary(noun),
+                    },
+                    "exit_code": self.exit_code(),
+                });
+                let _ = writeln!(
+                    out,
+                    "{}",
+                    serde_json::to_string_pretty(&doc).unwrap_or_default()
+                );
+            }
+        }
+        out
+    }
+}
+
+/// Print an input error (human, to stderr) and return exit code 2.
+pub fn fail_input(e: &InputError) -> u8 {
+    eprint!("{}", input_error_human(e, Style::stderr()));
+    crate::EXIT_INPUT
+}
+
+/// A registry of the built-in schemas plus every `*.toml` schema of `dirs`.
+pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
+    let mut r = driveset_schema::Registry::builtin()?;
+    for d in dirs {
+        r.load_dir(d)?;
+    }
+    Ok(r)
+}
+
+/// Load one set for `diff`, `fingerprint` and `show`: an input error or a set
+/// with findings is reported on stderr and gives the exit code to return.
+pub fn load_valid_set(
+    path: &Path,
+    registry: &mut driveset_schema::Registry,
+) -> Result<driveset_schema::LoadedSet, u8> {
+    let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
+    if loaded.findings.is_empty() && loaded.resolved.is_some() && loaded.schema.is_some() {
+        return Ok(loaded);
+    }
+    let style = Style::stderr();
+    for f in &loaded.findings {
+        eprintln!("{}", finding_human(f, style));
+    }
+    eprintln!(
+        "{}",
+        style.error(&format!(
+            "{}: {}; fix the set first (`driveset validate {}`)",
+            path.display(),
+            plural(loaded.findings.len(), "finding", "findings"),
+            path.display()
+        ))
+    );
+    Err(crate::EXIT_INPUT)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use driveset_schema::{Registry, load_set_str};
+
+    #[test]
+    fn plain_human_matches_the_library_rendering() {
+        let mut r = Registry::builtin().unwrap();
+        let l = load_set_str(
+            Path::new("t.toml"),
+            "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\nC9999 = 1\n",
+            &mut r,
+        )
+        .unwrap();
+        assert!(!l.findings.is_empty());
+        for f in &l.findings {
+            assert_eq!(finding_human(f, Style::PLAIN), f.render_human());
+        }
+    }
+
+    #[test]
+    fn long_lines_are_windowed() {
+        let text = format!("x = \"{}\"", "a".repeat(1000));
+        let loc = Location {
+            file: "f".into(),
+            line: 1,
+            column: 500,
+            span: 499..502,
+            line_text: text,
+        };
+        let (shown, col, width) = snippet_window(&loc);
+        assert!(shown.starts_with("...") && shown.ends_with("..."));
+        assert_eq!((col, width), (43, 3));
+    }
+
+    #[test]
+    fn github_escapes() {
+        let loc = Location {
+            file: "a,b:c.toml".into(),
+            line: 2,
+            column: 3,
+            span: 0..1,
+            line_text: String::new(),
+        };
+        assert_eq!(
+            gh_line(&loc, "t", "50% done\nnext", "h"),
+            "::error file=a%2Cb%3Ac.toml,line=2,col=3,title=t::50%25 done%0Anext%0Ahelp: h"
+        );
+    }
+}
