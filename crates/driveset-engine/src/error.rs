@@ -67,6 +67,41 @@ pub enum EngineError {
         /// Why, and what to do (`--force` ...).
         reason: String,
     },
+    /// A transaction journal could not be written or read (nothing further
+    /// is sent to the drive while its backup is not safely on disk).
+    #[error("journal {path}: {detail}")]
+    Journal {
+        /// The journal file.
+        path: String,
+        /// What failed and what to do.
+        detail: String,
+    },
+    /// An upload did not land and was rolled back: the drive holds its old
+    /// values again (read back and compared).
+    #[error("{target}: the upload did not land and was rolled back: {detail}; the drive holds its old values again (verified); journal {journal}")]
+    RolledBack {
+        /// Where.
+        target: Target,
+        /// The journal file.
+        journal: String,
+        /// Why it did not land (code, cause; passwords never shown).
+        detail: String,
+        /// The failure that started the roll back.
+        #[source]
+        cause: Box<EngineError>,
+    },
+    /// An upload (or a recovery) failed and the drive could not be brought
+    /// back to either the old or the new set: it holds a mix. The backup is
+    /// in the journal.
+    #[error("{target}: the drive holds a mix of old and new values: {detail}; the backup is in {journal}: run `driveset recover {journal}` once the drive answers again")]
+    Inconsistent {
+        /// Where.
+        target: Target,
+        /// The journal file.
+        journal: String,
+        /// Which codes hold what, and the failure.
+        detail: String,
+    },
     /// The drive's answer could not be understood.
     #[error("{target}: unexpected answer to {what}: {detail}")]
     Protocol {

@@ -10,3 +10,11 @@
 
 pub mod client;
 pub mod error;
+pub mod identify;
+pub mod journal;
+pub mod live;
+pub mod plan;
+pub mod pull;
+pub mod recover;
+pub mod scan;
+pub mod upload;

@@ -1,0 +1,500 @@
+//! The transaction journal: a JSON file that holds everything needed to
+//! finish or undo an upload after a crash or a pulled cable
+//! (DESIGN.md "Transactions"; `driveset recover JOURNAL`).
+//!
+//! It is written and fsynced (file and directory) **before the first write**
+//! to the drive, and rewritten atomically (write `<journal>.tmp`, fsync,
+//! rename over the journal, fsync the directory) at every state transition
+//! and every few writes with the list of codes written so far. A reader
+//! therefore always sees one complete version, never a torn file.
+//!
+//! **The journal holds the old and new raw values of every planned code,
+//! passwords included** (it must, to restore them). It is created with mode
+//! 0600 (owner read/write only) on Unix; keep it out of version control and
+//! delete it once the transaction is complete. Entries of password codes are
+//! marked `"secret": true` so tools that show a journal can redact them.
+//!
+//! Example (an MC6000 upload interrupted after its dataset was accepted):
+//!
+//! ```json
+//! {
+//!   "journal_version": 1,
+//!   "state": "committed",
+//!   "target": { "port": "/dev/ttyUSB0", "address": 1 },
+//!   "identity": { "protocol": "lustbus-mc", "codes": [["91 TYPE", "1234"]], "software": null },
+//!   "schema": "fictional-mc6000-demo",
+//!   "set_fingerprint": "sha256:5c1e...",
+//!   "fingerprint_before": "sha256:09ab...",
+//!   "dataset": true,
+//!   "attempt": 1,
+//!   "backup": [
+//!     { "number": 100, "subcode": null, "code": "100-KPSC1", "secret": false, "old": { "int": 1310 } },
+//!     { "number": 428, "subcode": null, "code": "428-RSIO", "secret": false, "old": { "int": 0 } }
+//!   ],
+//!   "plan": [
+//!     { "number": 100, "subcode": null, "code": "100-KPSC1", "secret": false,
+//!       "storage": "card-writeable", "width": 4, "phase": "dataset", "new": { "int": 2097 } },
+//!     { "number": 428, "subcode": null, "code": "428-RSIO", "secret": false,
+//!       "storage": "ram", "width": 4, "phase": "control", "new": { "int": 8667136 } }
+//!   ],
+//!   "unchanged": [
+//!     { "number": 101, "subcode": null, "code": "101-TNSC1", "secret": false, "old": { "int": 200 } }
+//!   ],
+//!   "written": ["100"],
+//!   "transitions": [
+//!     { "state": "planned", "at_ns": 412000000, "note": null },
+//!     { "state": "writing", "at_ns": 412000000, "note": null },
+//!     { "state": "committed", "at_ns": 498000000, "note": "SLOAD accepted the dataset" }
+//!   ],
+//!   "failure": null,
+//!   "holding": []
+//! }
+//! ```
+//!
+//! `at_ns` is the client clock's instant (nanoseconds since that clock's
+//! epoch), not wall time: it orders the transitions of one run.
+
+// EngineError (the crate's contract type) is large; it is built on the
+// failure path only, so its size is no concern.
+#![allow(clippy::result_large_err)]
+
+use std::fs::{self, File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use driveset_schema::{CodeKey, RawValue};
+use serde::{Deserialize, Serialize};
+
+use crate::client::{Identity, Target};
+use crate::error::EngineError;
+
+/// The journal format version this crate writes and reads.
+pub const JOURNAL_VERSION: u32 = 1;
+
+/// Where a transaction stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TxnState {
+    /// Journal written, nothing sent to the drive yet.
+    Planned,
+    /// Writes in progress (on MC6000/7000: the dataset download is staged).
+    Writing,
+    /// MC6000/7000: the drive accepted the dataset (SLOAD = 0); the
+    /// non-CardWriteable writes follow.
+    Committed,
+    /// Every write acknowledged; the last verification reads run.
+    Verifying,
+    /// The old values are being restored.
+    RollingBack,
+    /// Final: the drive holds the new set (verified).
+    Complete,
+    /// Final: the drive holds its old values again (verified).
+    RolledBack,
+    /// Final until recovered: the drive holds a mix; `holding` says what.
+    Failed,
+}
+
+impl TxnState {
+    /// Name as written in the journal.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TxnState::Planned => "planned",
+            TxnState::Writing => "writing",
+            TxnState::Committed => "committed",
+            TxnState::Verifying => "verifying",
+            TxnState::RollingBack => "rolling-back",
+            TxnState::Complete => "complete",
+            TxnState::RolledBack => "rolled-back",
+            TxnState::Failed => "failed",
+        }
+    }
+
+    /// Whether nothing is left to do (`complete` or `rolled-back`).
+    pub fn is_settled(self) -> bool {
+        matches!(self, TxnState::Complete | TxnState::RolledBack)
+    }
+}
+
+/// A raw value in the journal: `{"int": 5}`, `{"text": "abc"}`, `{"octets": "0aff"}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JournalValue {
+    /// [`RawValue::Int`].
+    Int(i64),
+    /// [`RawValue::Text`].
+    Text(String),
+    /// [`RawValue::Octets`], lowercase hex.
+    Octets(String),
+}
+
+impl From<&RawValue> for JournalValue {
+    fn from(v: &RawValue) -> Self {
+        match v {
+            RawValue::Int(i) => JournalValue::Int(*i),
+            RawValue::Text(t) => JournalValue::Text(t.clone()),
+            RawValue::Octets(o) => {
+                JournalValue::Octets(o.iter().map(|b| format!("{b:02x}")).collect())
+            }
+        }
+    }
+}
+
+impl JournalValue {
+    /// The raw value, or `None` for malformed octets.
+    pub fn to_raw(&self) -> Option<RawValue> {
+        Some(match self {
+            JournalValue::Int(i) => RawValue::Int(*i),
+            JournalValue::Text(t) => RawValue::Text(t.clone()),
+            JournalValue::Octets(h) => {
+                if h.len() % 2 != 0 || !h.is_ascii() {
+                    return None;
+                }
+                let mut out = Vec::with_capacity(h.len() / 2);
+                for i in (0..h.len()).step_by(2) {
+                    out.push(u8::from_str_radix(h.get(i..i + 2)?, 16).ok()?);
+                }
+                RawValue::Octets(out)
+            }
+        })
+    }
+}
+
+/// Port and address as recorded.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct JournalTarget {
+    /// Port as the user wrote it.
+    pub port: String,
+    /// Bus address / node id.
+    pub address: u8,
+}
+
+impl From<&Target> for JournalTarget {
+    fn from(t: &Target) -> Self {
+        JournalTarget {
+            port: t.port.clone(),
+            address: t.address,
+        }
+    }
+}
+
+/// The drive's identity as recorded ([`Identity`]).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct JournalIdentity {
+    /// Protocol family.
+    pub protocol: String,
+    /// Identification codes and their values as text.
+    pub codes: Vec<(String, String)>,
+    /// Software version, where known.
+    pub software: Option<String>,
+}
+
+impl From<&Identity> for JournalIdentity {
+    fn from(i: &Identity) -> Self {
+        JournalIdentity {
+            protocol: i.protocol.clone(),
+            codes: i.codes.clone(),
+            software: i.software.clone(),
+        }
+    }
+}
+
+impl JournalIdentity {
+    /// Whether a freshly read identity is the same drive kind.
+    pub fn matches(&self, other: &Identity) -> bool {
+        self.protocol == other.protocol
+            && self.codes == other.codes
+            && self.software == other.software
+    }
+}
+
+/// One backed-up value: a planned code's value before the transaction.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BackupEntry {
+    /// Code number.
+    pub number: u32,
+    /// Subcode.
+    pub subcode: Option<u32>,
+    /// Code as humans spell it (`C0011`, `428-RSIO`).
+    pub code: String,
+    /// A password: redact when showing.
+    pub secret: bool,
+    /// The old raw value.
+    pub old: JournalValue,
+}
+
+/// One planned write, in write order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlanEntryRecord {
+    /// Code number.
+    pub number: u32,
+    /// Subcode.
+    pub subcode: Option<u32>,
+    /// Code as humans spell it.
+    pub code: String,
+    /// A password: redact when showing.
+    pub secret: bool,
+    /// `ram`, `eeprom`, `card-writeable`, `unspecified`.
+    pub storage: String,
+    /// Byte width, where the schema gives it.
+    pub width: Option<u8>,
+    /// `dataset`, `stored`, `control`, `mode`.
+    pub phase: String,
+    /// The new raw value.
+    pub new: JournalValue,
+}
+
+/// A state transition.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Transition {
+    /// The state entered.
+    pub state: TxnState,
+    /// The client clock's instant, nanoseconds since its epoch.
+    pub at_ns: u64,
+    /// Why (failure cause, dataset outcome ...).
+    pub note: Option<String>,
+}
+
+/// What a code held when a transaction ended `failed`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Holding {
+    /// Code as humans spell it.
+    pub code: String,
+    /// `old`, `new`, `other` or `unknown` (could not be read).
+    pub holds: String,
+}
+
+/// The journal file's content.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Journal {
+    /// [`JOURNAL_VERSION`].
+    pub journal_version: u32,
+    /// Current state.
+    pub state: TxnState,
+    /// Port and address.
+    pub target: JournalTarget,
+    /// What the drive said it is.
+    pub identity: JournalIdentity,
+    /// Schema id.
+    pub schema: String,
+    /// Fingerprint of the set being uploaded.
+    pub set_fingerprint: String,
+    /// Fingerprint of the drive's values of the set's codes before the upload.
+    pub fingerprint_before: String,
+    /// Whether the MC6000/7000 SLOAD dataset handshake is used.
+    pub dataset: bool,
+    /// Attempt number (a drive restart voids an attempt; it is redone once).
+    pub attempt: u32,
+    /// Old values of every planned code (the first attempt's values are kept).
+    pub backup: Vec<BackupEntry>,
+    /// The planned writes, in write order.
+    pub plan: Vec<PlanEntryRecord>,
+    /// The set's other codes, which the drive already held (value = old =
+    /// new); recovery reads them too to fingerprint the whole set.
+    #[serde(default)]
+    pub unchanged: Vec<BackupEntry>,
+    /// Codes written (acknowledged) so far, canonical spelling; advisory:
+    /// recovery reads the drive rather than trusting this list.
+    pub written: Vec<String>,
+    /// State transitions.
+    pub transitions: Vec<Transition>,
+    /// Why the transaction failed, if it did.
+    pub failure: Option<String>,
+    /// For `failed`: what each planned code holds.
+    #[serde(default)]
+    pub holding: Vec<Holding>,
+}
+
+impl Journal {
+    /// Backup values by code.
+    pub fn backup_values(&self) -> Result<Vec<(CodeKey, RawValue)>, String> {
+        self.backup
+            .iter()
+            .map(|b| {
+                let key = CodeKey {
+                    number: b.number,
+                    subcode: b.subcode,
+                };
+                b.old
+                    .to_raw()
+                    .map(|v| (key, v))
+                    .ok_or_else(|| format!("backup value of {} is malformed", b.code))
+            })
+            .collect()
+    }
+
+    /// Planned new values by code, in write order.
+    pub fn new_values(&self) -> Result<Vec<(CodeKey, RawValue)>, String> {
+        self.plan
+            .iter()
+            .map(|p| {
+                let key = CodeKey {
+                    number: p.number,
+                    subcode: p.subcode,
+                };
+                p.new
+                    .to_raw()
+                    .map(|v| (key, v))
+                    .ok_or_else(|| format!("planned value of {} is malformed", p.code))
+            })
+            .collect()
+    }
+
+    /// Values of the set's codes the upload did not need to write.
+    pub fn unchanged_values(&self) -> Result<Vec<(CodeKey, RawValue)>, String> {
+        self.unchanged
+            .iter()
+            .map(|b| {
+                let key = CodeKey {
+                    number: b.number,
+                    subcode: b.subcode,
+                };
+                b.old
+                    .to_raw()
+                    .map(|v| (key, v))
+                    .ok_or_else(|| format!("value of {} is malformed", b.code))
+            })
+            .collect()
+    }
+
+    /// Enter a state, recording the instant and a note.
+    pub fn transition(&mut self, state: TxnState, at_ns: u64, note: Option<String>) {
+        self.state = state;
+        self.transitions.push(Transition { state, at_ns, note });
+    }
+}
+
+/// A journal on disk: the content and where it lives.
+#[derive(Debug)]
+pub struct JournalFile {
+    path: PathBuf,
+    /// The content last written.
+    pub journal: Journal,
+}
+
+fn jerr(path: &Path, detail: impl Into<String>) -> EngineError {
+    EngineError::Journal {
+        path: path.display().to_string(),
+        detail: detail.into(),
+    }
+}
+
+impl JournalFile {
+    /// Create a new journal at `path` and make it durable. Refuses to
+    /// replace a journal of an unfinished transaction.
+    pub fn create(path: &Path, journal: Journal) -> Result<Self, EngineError> {
+        if path.exists() {
+            match JournalFile::open(path) {
+                Ok(existing) if !existing.journal.state.is_settled() => {
+                    return Err(jerr(
+                        path,
+                        format!(
+                            "holds an unfinished transaction (state {}); nothing was sent to the drive. Run `driveset recover {}` first",
+                            existing.journal.state.as_str(),
+                            path.display()
+                        ),
+                    ));
+                }
+                Ok(_) => {}
+                Err(_) => {
+                    return Err(jerr(
+                        path,
+                        "exists and is not a readable journal; nothing was sent to the drive. Move it away or choose another journal path",
+                    ));
+                }
+            }
+        }
+        let f = JournalFile {
+            path: path.to_path_buf(),
+            journal,
+        };
+        f.persist()?;
+        Ok(f)
+    }
+
+    /// Read a journal.
+    pub fn open(path: &Path) -> Result<Self, EngineError> {
+        let text = fs::read_to_string(path)
+            .map_err(|e| jerr(path, format!("cannot read it: {e}; check the path")))?;
+        let journal: Journal = serde_json::from_str(&text).map_err(|e| {
+            jerr(
+                path,
+                format!("is not a driveset journal ({e}); pass the file `driveset upload` wrote"),
+            )
+        })?;
+        if journal.journal_version != JOURNAL_VERSION {
+            return Err(jerr(
+                path,
+                format!(
+                    "has journal version {}, this driveset reads version {JOURNAL_VERSION}; use the driveset release that wrote it",
+                    journal.journal_version
+                ),
+            ));
+        }
+        Ok(JournalFile {
+            path: path.to_path_buf(),
+            journal,
+        })
+    }
+
+    /// Where the journal lives.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Write the current content atomically and durably: temp file (0600),
+    /// fsync, rename over the journal, fsync the directory.
+    pub fn persist(&self) -> Result<(), EngineError> {
+        let path = &self.path;
+        let text = serde_json::to_string_pretty(&self.journal)
+            .map_err(|e| jerr(path, format!("cannot encode it: {e}")))?;
+        let mut tmp_name = path.as_os_str().to_owned();
+        tmp_name.push(".tmp");
+        let tmp = PathBuf::from(tmp_name);
+        let fail = |what: &str, e: std::io::Error| {
+            jerr(
+                path,
+                format!(
+                    "cannot {what}: {e}; check the directory exists, is writable and has space"
+                ),
+            )
+        };
+        {
+            let mut opts = OpenOptions::new();
+            opts.write(true).create(true).truncate(true);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                opts.mode(0o600);
+            }
+            let mut f = opts
+                .open(&tmp)
+                .map_err(|e| fail("create the temporary file", e))?;
+            // An existing temp file keeps its old mode: force 0600.
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                f.set_permissions(fs::Permissions::from_mode(0o600))
+                    .map_err(|e| fail("restrict the temporary file to mode 0600", e))?;
+            }
+            f.write_all(text.as_bytes())
+                .and_then(|()| f.write_all(b"\n"))
+                .map_err(|e| fail("write the temporary file", e))?;
+            f.sync_all()
+                .map_err(|e| fail("flush the temporary file to disk", e))?;
+        }
+        fs::rename(&tmp, path)
+            .map_err(|e| fail("rename the temporary file over the journal", e))?;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        // Directory fsync makes the rename durable (Unix; a no-op elsewhere).
+        #[cfg(unix)]
+        File::open(&dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| fail("flush the journal's directory to disk", e))?;
+        #[cfg(not(unix))]
+        let _ = (&dir, File::open);
+        Ok(())
+    }
+}

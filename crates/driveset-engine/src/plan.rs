@@ -1,0 +1,612 @@
+//! Upload planning: which writes a set needs on a drive, in which order, how
+//! each one is stored, and how long the transaction should take. Pure: no
+//! bus IO here (the upload runner reads the drive and hands the values in).
+//!
+//! # Refusals (before anything is sent)
+//!
+//! - a code the schema does not know, or a subcode it does not have;
+//! - a read-only code (`access = "ro"` or a RAM actual value), a code whose
+//!   reading clears it (85-SIOF/SERR) and, on MC6000/7000, 80-SLOAD itself
+//!   (the runner drives the dataset handshake);
+//! - unless `force`: a set for another schema, a drive whose identity says
+//!   it is of another protocol family (or another 91-TYPE where the schema
+//!   lists the TYPE values), a running drive (`running() == Some(true)`), and
+//!   commands that overwrite every parameter (MC 4-PROG, VF1000 71-PROG,
+//!   Tmd C0002 "load Lenze setting").
+//!
+//! # Write order
+//!
+//! Writes go in four phases, each in code order except where noted:
+//!
+//! 1. **dataset** (MC6000/7000 only): `SLOAD = -1`, every CardWriteable
+//!    value that differs, `SLOAD = -2`, poll SLOAD (LUSTBUS 11.4). The drive
+//!    checks the staged values as one set, so values that depend on each
+//!    other are never refused one by one, and a rejected set leaves the
+//!    drive on its old set. Non-CardWriteable values must not be staged
+//!    (the drive ACKs them but does not take them), so they all follow.
+//! 2. **stored**: configuration values (EEPROM, and codes whose storage the
+//!    schema does not give): they change how the drive will behave, not
+//!    what it does right now.
+//! 3. **control**: RAM control values and commands (LUSTBUS `ram-control`
+//!    and FSEL/ISEL values, Tmd C0040 controller inhibit, C0043 fault reset,
+//!    C0046/C0047 setpoints, C0135 control word; ECS C0135). They act at
+//!    once, so they come after the configuration they act on is in place.
+//! 4. **mode**: codes that switch the operating mode or the control source,
+//!    last (Tmd C0014 operating mode, then C0001 setpoint and control
+//!    source; VF1000 2-CSEL). On a Tmd, C0001 decides whether parameters may
+//!    still be written over LECOM at all (manual §4e: 0/1 read only, 2 and 3
+//!    write): written earlier, a change to 0/1 would lock the rest of the
+//!    set out, and a control word or setpoint would take effect under the
+//!    new control source before it is set. A roll back restores in the
+//!    reverse order, so the control source is put back first.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use driveset_schema::schema::{Access, StorageKind};
+use driveset_schema::validate::display_value;
+use driveset_schema::{Code, CodeKey, CodeStyle, Protocol, RawValue, ResolvedSet, Schema};
+
+use crate::client::{DriveClient, Identity};
+
+/// LUSTBUS 80-SLOAD (MC6000/7000 dataset handshake, 11.4).
+pub const SLOAD: u32 = 80;
+
+/// Per-byte EEPROM store time of MC6000/7000: every byte is saved three
+/// times at 5 ms (LUSTBUS 3, 10.2.2).
+pub const MC_STORE_PER_BYTE: Duration = Duration::from_millis(15);
+
+/// Extra ACK delay of a VF1000 per byte of an EEPROM value that changes
+/// (LUSTBUS 10, exception 4: +60 ms one-byte, +120 ms two-byte).
+pub const VF_ACK_DELAY_PER_BYTE: Duration = Duration::from_millis(60);
+
+/// The drive's check of a staged dataset: SLOAD is polled up to this long.
+pub const DATASET_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// How a code's value is kept by the drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Storage {
+    /// RAM (control value): taken at once, no store time.
+    Ram,
+    /// FSEL/ISEL variable: RAM at CSEL = 3, EEPROM otherwise (LUSTBUS 11.1).
+    FselIsel,
+    /// EEPROM: MC6000/7000 store it in the background (width x 15 ms),
+    /// VF1000 delay the ACK.
+    Eeprom,
+    /// MC6000/7000 CardWriteable: taken by the SLOAD dataset download.
+    CardWriteable,
+    /// The schema does not say (Lenze families).
+    Unspecified,
+}
+
+impl Storage {
+    /// Name as in journals and JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Storage::Ram => "ram",
+            Storage::FselIsel => "fsel-isel",
+            Storage::Eeprom => "eeprom",
+            Storage::CardWriteable => "card-writeable",
+            Storage::Unspecified => "unspecified",
+        }
+    }
+}
+
+/// Which part of the transaction a write belongs to (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    /// MC6000/7000 SLOAD dataset download.
+    Dataset,
+    /// Configuration values.
+    Stored,
+    /// RAM control values and commands.
+    Control,
+    /// Operating mode / control source switches, last.
+    Mode,
+}
+
+impl Phase {
+    /// Name as in journals and JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Dataset => "dataset",
+            Phase::Stored => "stored",
+            Phase::Control => "control",
+            Phase::Mode => "mode",
+        }
+    }
+}
+
+/// One write the plan needs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlannedWrite {
+    /// Code.
+    pub key: CodeKey,
+    /// Code as humans spell it (`C0011 maximum_output_frequency`, `428-RSIO`).
+    pub label: String,
+    /// How the drive keeps it.
+    pub storage: Storage,
+    /// Byte width, where the schema gives it.
+    pub width: Option<u8>,
+    /// Phase.
+    pub phase: Phase,
+    /// A password (redacted in every text).
+    pub secret: bool,
+    /// Value the drive holds now.
+    pub old: RawValue,
+    /// Value the set gives.
+    pub new: RawValue,
+    /// Old value for humans (labels, units; `<redacted>` for passwords).
+    pub old_text: String,
+    /// New value for humans.
+    pub new_text: String,
+    /// MC6000/7000 EEPROM store time after the write (zero for RAM and staged values).
+    pub store_time: Duration,
+    /// VF1000 extra ACK delay for an EEPROM write.
+    pub ack_delay: Duration,
+}
+
+/// What the planner needs besides the schema and values.
+#[derive(Debug, Clone, Default)]
+pub struct PlanOptions {
+    /// Override the family / running / command refusals.
+    pub force: bool,
+    /// Whether the client has the MC6000/7000 dataset handshake.
+    pub dataset: bool,
+    /// What the drive says about its motor.
+    pub running: Option<bool>,
+    /// What the drive said it is (family check), if identified.
+    pub identity: Option<Identity>,
+}
+
+/// An upload plan.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Plan {
+    /// Schema id.
+    pub schema: String,
+    /// Fingerprint of the set being uploaded.
+    pub set_fingerprint: String,
+    /// Fingerprint of the drive's values of the set's codes now.
+    pub fingerprint_before: String,
+    /// Whether the dataset handshake is used (some write is in [`Phase::Dataset`]).
+    pub dataset: bool,
+    /// Writes, in order.
+    pub writes: Vec<PlannedWrite>,
+    /// Codes of the set the drive already holds.
+    pub unchanged: Vec<CodeKey>,
+    /// Notes for the user (forced refusals, assumptions).
+    pub warnings: Vec<String>,
+}
+
+/// Expected duration of a transaction, from the client's wire times and the
+/// spec's store times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct TimeEstimate {
+    /// Reading back every code of the set.
+    pub read_back: Duration,
+    /// Write exchanges (SLOAD included, VF1000 ACK delays included).
+    pub writes: Duration,
+    /// Verification reads (interleaved ones included).
+    pub verify: Duration,
+    /// Waiting for the EEPROM beyond what reads filled.
+    pub waits: Duration,
+    /// Everything; plus the drive's dataset check when [`Plan::dataset`]
+    /// (up to [`DATASET_TIMEOUT`], not included).
+    pub total: Duration,
+}
+
+pub(crate) fn protocol_name(p: Protocol) -> &'static str {
+    match p {
+        Protocol::Lecom => "lecom",
+        Protocol::LustbusVf1000 => "lustbus-vf1000",
+        Protocol::LustbusMc => "lustbus-mc",
+        Protocol::LenzeCanSdo => "lenze-can-sdo",
+    }
+}
+
+/// Code as humans spell it: Lenze `C0011 name`, Lust `428-RSIO`.
+pub fn code_label(schema: &Schema, key: CodeKey) -> String {
+    let code = schema.display_code(key.number, key.subcode);
+    match schema.code(key.number) {
+        Some(c) if !c.name.is_empty() && schema.code_style == CodeStyle::Lenze => {
+            format!("{code} {}", c.name)
+        }
+        _ => code,
+    }
+}
+
+/// A value for humans (labels, units, `<redacted>` for passwords).
+pub fn value_text(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
+    match schema.code(key.number) {
+        Some(c) => display_value(schema, c, raw),
+        None => "<unknown code>".into(),
+    }
+}
+
+/// Whether a code holds a password.
+pub fn is_secret(schema: &Schema, key: CodeKey) -> bool {
+    schema
+        .code(key.number)
+        .is_some_and(|c| schema.is_password(c))
+}
+
+/// Codes that switch operating mode or control source, in the order they
+/// are written (last phase).
+fn mode_codes(p: Protocol) -> &'static [u32] {
+    match p {
+        Protocol::Lecom => &[14, 1],
+        Protocol::LustbusVf1000 => &[2],
+        Protocol::LustbusMc | Protocol::LenzeCanSdo => &[],
+    }
+}
+
+/// Lenze codes that act at once (commands, setpoints, control words).
+fn control_codes(p: Protocol) -> &'static [u32] {
+    match p {
+        Protocol::Lecom => &[40, 43, 46, 47, 135],
+        Protocol::LenzeCanSdo => &[135],
+        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[],
+    }
+}
+
+/// Commands that overwrite every parameter (refused unless forced).
+fn command_codes(p: Protocol) -> &'static [u32] {
+    match p {
+        Protocol::Lecom => &[2],
+        Protocol::LustbusVf1000 => &[71],
+        Protocol::LustbusMc => &[4],
+        Protocol::LenzeCanSdo => &[],
+    }
+}
+
+fn storage_of(code: &Code, dataset: bool) -> Storage {
+    if dataset && code.card_writeable == Some(true) {
+        return Storage::CardWriteable;
+    }
+    match code.kind {
+        Some(StorageKind::RamControl) | Some(StorageKind::RamActual) => Storage::Ram,
+        Some(StorageKind::FselIsel) => Storage::FselIsel,
+        Some(StorageKind::Eeprom) => Storage::Eeprom,
+        None if code.card_writeable == Some(true) => Storage::Eeprom,
+        None => Storage::Unspecified,
+    }
+}
+
+fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
+    if storage == Storage::CardWriteable {
+        Phase::Dataset
+    } else if mode_codes(schema.protocol).contains(&key.number) {
+        Phase::Mode
+    } else if matches!(storage, Storage::Ram | Storage::FselIsel)
+        || control_codes(schema.protocol).contains(&key.number)
+    {
+        Phase::Control
+    } else {
+        Phase::Stored
+    }
+}
+
+/// Checks that need no bus: every code known, writable, not a handshake or
+/// status code; the set is for this schema; commands only with `force`.
+/// Returns every problem found (one line each), not just the first.
+pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<String> {
+    let mut out = Vec::new();
+    if set.schema != schema.id && !opts.force {
+        out.push(format!(
+            "the set is for schema `{}` but the drive is handled with schema `{}`; upload a set for this drive family, or pass --force if they are compatible",
+            set.schema, schema.id
+        ));
+    }
+    if let Some(id) = &opts.identity {
+        let want = protocol_name(schema.protocol);
+        if !id.protocol.is_empty() && id.protocol != want && !opts.force {
+            out.push(format!(
+                "the drive identifies as protocol family `{}`, schema `{}` is for `{want}`; check the address, or pass --force",
+                id.protocol, schema.id
+            ));
+        }
+        if let Some(ident) = &schema.identify
+            && !ident.type_values.is_empty()
+            && !opts.force
+            && let Some(ty) = id
+                .codes
+                .iter()
+                .find(|(n, _)| n.trim_start().starts_with("91"))
+                .and_then(|(_, v)| v.trim().parse::<i64>().ok())
+            && !ident.type_values.contains(&ty)
+        {
+            out.push(format!(
+                "the drive reports 91-TYPE {ty}, schema `{}` is for TYPE {:?}; check the address, or pass --force",
+                schema.id, ident.type_values
+            ));
+        }
+    }
+    for key in set.values.keys() {
+        let shown = schema.display_code(key.number, key.subcode);
+        let Some(code) = schema.code(key.number) else {
+            out.push(format!(
+                "code {shown} is not in schema `{}`; remove it from the set (or fix the number)",
+                schema.id
+            ));
+            continue;
+        };
+        match (key.subcode, code.subcodes) {
+            (Some(s), Some(n)) if s == 0 || s > n => out.push(format!(
+                "{shown}: code {} has subcodes 1..={n} only; fix the subcode",
+                key.number
+            )),
+            (Some(_), None) => out.push(format!(
+                "{shown}: code {} has no subcodes in schema `{}`; drop the /subcode",
+                key.number, schema.id
+            )),
+            _ => {}
+        }
+        if code.access == Some(Access::Ro) || code.kind == Some(StorageKind::RamActual) {
+            out.push(format!(
+                "{}: read-only (an actual value); remove it from the set",
+                code_label(schema, *key)
+            ));
+        } else if code.read_clears == Some(true) {
+            out.push(format!(
+                "{}: a status code that reading clears; it cannot be part of a set, remove it",
+                code_label(schema, *key)
+            ));
+        } else if opts.dataset && key.number == SLOAD {
+            out.push(format!(
+                "{}: the dataset handshake code is driven by the upload itself; remove it from the set",
+                code_label(schema, *key)
+            ));
+        } else if command_codes(schema.protocol).contains(&key.number) && !opts.force {
+            out.push(format!(
+                "{}: a command that overwrites parameters, not a setting; remove it from the set (or pass --force)",
+                code_label(schema, *key)
+            ));
+        }
+    }
+    if opts.running == Some(true) && !opts.force {
+        out.push(
+            "the drive reports a running motor; stop it (standstill) before uploading, or pass --force"
+                .into(),
+        );
+    }
+    out
+}
+
+/// Plan the upload of `set` to a drive holding `current` (its values of the
+/// set's codes). Refusals: see [`check_set`]; a code of the set missing from
+/// `current` is refused too (the drive's value must be known for the backup).
+pub fn plan(
+    schema: &Schema,
+    set: &ResolvedSet,
+    current: &ResolvedSet,
+    opts: &PlanOptions,
+) -> Result<Plan, Vec<String>> {
+    let mut problems = check_set(schema, set, opts);
+    let mut writes = Vec::new();
+    let mut unchanged = Vec::new();
+    let mut warnings = Vec::new();
+    if opts.force {
+        if set.schema != schema.id {
+            warnings.push(format!(
+                "forced: set for schema `{}` uploaded with schema `{}`",
+                set.schema, schema.id
+            ));
+        }
+        if opts.running == Some(true) {
+            warnings.push("forced: the drive reports a running motor".into());
+        }
+    }
+    for (key, new) in &set.values {
+        let Some(code) = schema.code(key.number) else {
+            continue;
+        };
+        let Some(old) = current.values.get(key) else {
+            problems.push(format!(
+                "{}: the drive's current value was not read; it cannot be backed up",
+                code_label(schema, *key)
+            ));
+            continue;
+        };
+        if old == new {
+            unchanged.push(*key);
+            continue;
+        }
+        let storage = storage_of(code, opts.dataset);
+        let phase = phase_of(schema, *key, storage);
+        let width_for_time = u32::from(code.width.unwrap_or(4));
+        let store_time = if schema.protocol == Protocol::LustbusMc && storage == Storage::Eeprom {
+            MC_STORE_PER_BYTE * width_for_time
+        } else {
+            Duration::ZERO
+        };
+        let ack_delay = if schema.protocol == Protocol::LustbusVf1000 && storage == Storage::Eeprom
+        {
+            VF_ACK_DELAY_PER_BYTE * u32::from(code.width.unwrap_or(2))
+        } else {
+            Duration::ZERO
+        };
+        writes.push(PlannedWrite {
+            key: *key,
+            label: code_label(schema, *key),
+            storage,
+            width: code.width,
+            phase,
+            secret: schema.is_password(code),
+            old: old.clone(),
+            new: new.clone(),
+            old_text: display_value(schema, code, old),
+            new_text: display_value(schema, code, new),
+            store_time,
+            ack_delay,
+        });
+    }
+    if !problems.is_empty() {
+        return Err(problems);
+    }
+    let mode_order = mode_codes(schema.protocol);
+    writes.sort_by_key(|w| {
+        let mode_rank = mode_order
+            .iter()
+            .position(|&n| n == w.key.number)
+            .unwrap_or(0);
+        (w.phase, mode_rank, w.key)
+    });
+    let mut drive_before = ResolvedSet::new(schema);
+    for k in set.values.keys() {
+        if let Some(v) = current.values.get(k) {
+            drive_before.insert(*k, v.clone());
+        }
+    }
+    let dataset = writes.iter().any(|w| w.phase == Phase::Dataset);
+    Ok(Plan {
+        schema: schema.id.clone(),
+        set_fingerprint: set.fingerprint(),
+        fingerprint_before: drive_before.fingerprint(),
+        dataset,
+        writes,
+        unchanged,
+        warnings,
+    })
+}
+
+impl Plan {
+    /// Whether there is nothing to write.
+    pub fn is_empty(&self) -> bool {
+        self.writes.is_empty()
+    }
+
+    /// Expected duration on `client`'s wire times, following the runner's
+    /// schedule: read back the set's codes (`set_codes` of them), the
+    /// dataset (SLOAD -1, staged writes, SLOAD -2, one poll), then the other
+    /// writes; before an EEPROM write that would wait, verification reads
+    /// of earlier writes that fit in the gap, then the rest of the gap;
+    /// finally the verification reads left over.
+    pub fn estimate(&self, set: &ResolvedSet, client: &dyn DriveClient) -> TimeEstimate {
+        let mut est = TimeEstimate::default();
+        for k in set.values.keys() {
+            est.read_back += client.read_time(*k);
+        }
+        let mut t = est.read_back;
+        let mut pending: std::collections::VecDeque<CodeKey> = Default::default();
+        let sload = CodeKey::new(SLOAD);
+        if self.dataset {
+            let mut d = client.write_time(sload);
+            for w in self.writes.iter().filter(|w| w.phase == Phase::Dataset) {
+                d += client.write_time(w.key);
+                pending.push_back(w.key);
+            }
+            d += client.write_time(sload) + client.read_time(sload);
+            est.writes += d;
+            t += d;
+        }
+        let mut busy_until: Option<Duration> = None;
+        for w in self.writes.iter().filter(|w| w.phase != Phase::Dataset) {
+            if w.storage == Storage::Eeprom
+                && let Some(ready) = busy_until
+                && ready > t
+            {
+                while let Some(i) = pending
+                    .iter()
+                    .position(|k| t + client.read_time(*k) <= ready)
+                {
+                    if let Some(k) = pending.remove(i) {
+                        let r = client.read_time(k);
+                        est.verify += r;
+                        t += r;
+                    }
+                }
+                est.waits += ready.saturating_sub(t);
+                t = t.max(ready);
+            }
+            let d = client.write_time(w.key) + w.ack_delay;
+            est.writes += d;
+            t += d;
+            if !w.store_time.is_zero() {
+                busy_until = Some(t + w.store_time);
+            }
+            pending.push_back(w.key);
+        }
+        for k in pending {
+            let r = client.read_time(k);
+            est.verify += r;
+            t += r;
+        }
+        est.total = t;
+        est
+    }
+
+    /// The `--dry-run` text: codes, old -> new (engineering units, labels;
+    /// passwords redacted), storage, and the expected time.
+    pub fn render(&self, estimate: Option<&TimeEstimate>) -> String {
+        let mut out = String::new();
+        let total = self.writes.len() + self.unchanged.len();
+        let _ = writeln!(
+            out,
+            "plan: {} of {total} codes differ (schema {}, set {})",
+            self.writes.len(),
+            self.schema,
+            self.set_fingerprint
+        );
+        for w in &self.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
+        let mut phase = None;
+        for w in &self.writes {
+            if phase != Some(w.phase) {
+                phase = Some(w.phase);
+                let head = match w.phase {
+                    Phase::Dataset => {
+                        "dataset download (SLOAD = -1, CardWriteable values, SLOAD = -2, drive checks the set):"
+                    }
+                    Phase::Stored => "configuration values:",
+                    Phase::Control => "control values (act at once):",
+                    Phase::Mode => "operating mode / control source (last):",
+                };
+                let _ = writeln!(out, "  {head}");
+            }
+            let storage = match (w.storage, w.width) {
+                (Storage::Ram, _) => "RAM".to_string(),
+                (Storage::FselIsel, _) => "FSEL/ISEL (RAM at CSEL=3, else EEPROM)".to_string(),
+                (Storage::Eeprom, Some(b)) => format!("EEPROM {b} B"),
+                (Storage::Eeprom, None) => "EEPROM".to_string(),
+                (Storage::CardWriteable, Some(b)) => format!("CardWriteable, EEPROM {b} B"),
+                (Storage::CardWriteable, None) => "CardWriteable".to_string(),
+                (Storage::Unspecified, _) => "stored by the drive".to_string(),
+            };
+            let mut extra = String::new();
+            if !w.store_time.is_zero() {
+                let _ = write!(extra, ", store {} ms", w.store_time.as_millis());
+            }
+            if !w.ack_delay.is_zero() {
+                let _ = write!(extra, ", ACK delay {} ms", w.ack_delay.as_millis());
+            }
+            let _ = writeln!(
+                out,
+                "    {}: {} -> {}  [{storage}{extra}]",
+                w.label, w.old_text, w.new_text
+            );
+        }
+        if let Some(e) = estimate {
+            let _ = write!(
+                out,
+                "expected time: {:.3} s (read back {:.3} s, writes {:.3} s, verify {:.3} s, EEPROM waits {:.3} s)",
+                e.total.as_secs_f64(),
+                e.read_back.as_secs_f64(),
+                e.writes.as_secs_f64(),
+                e.verify.as_secs_f64(),
+                e.waits.as_secs_f64()
+            );
+            if self.dataset {
+                let _ = write!(
+                    out,
+                    " plus the drive's dataset check (up to {} s)",
+                    DATASET_TIMEOUT.as_secs()
+                );
+            }
+            out.push('\n');
+        }
+        out
+    }
+}

@@ -1,0 +1,135 @@
+//! `driveset pull`: read a drive's parameters into a [`ResolvedSet`].
+//!
+//! Every code of the schema is read (each subcode of codes that have
+//! subcodes), except:
+//! - codes whose reading clears them (85-SIOF/SERR): reading would unlatch
+//!   the drive's error state;
+//! - password codes, unless [`PullOptions::include_passwords`];
+//! - codes whose type the schema does not know (the value could not be
+//!   converted or written back);
+//! - codes the drive refuses to read (says they do not exist, or read
+//!   protected): skipped and reported with the drive's cause.
+//!
+//! Transport failures end the pull with the error.
+
+// EngineError (the crate's contract type) is large; it is built on the
+// failure path only, so its size is no concern.
+#![allow(clippy::result_large_err)]
+
+use std::time::Duration;
+
+use driveset_schema::{CodeKey, ResolvedSet};
+
+use crate::client::{DriveClient, Identity};
+use crate::error::EngineError;
+use crate::plan::code_label;
+
+/// Options of [`pull`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PullOptions {
+    /// Drop values equal to the schema's factory default.
+    pub changed_only: bool,
+    /// Read password codes too (the file will hold them).
+    pub include_passwords: bool,
+}
+
+/// A code that was not read, and why.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct Skipped {
+    /// Code number.
+    pub number: u32,
+    /// Subcode.
+    pub subcode: Option<u32>,
+    /// Code as humans spell it.
+    pub code: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// A pulled set.
+#[derive(Debug, Clone)]
+pub struct Pulled {
+    /// The values (without the defaults when `changed_only`).
+    pub set: ResolvedSet,
+    /// What the drive said it is (for the file header).
+    pub identity: Identity,
+    /// Fingerprint of [`Pulled::set`].
+    pub fingerprint: String,
+    /// Fingerprint of every value read (before `changed_only`).
+    pub full_fingerprint: String,
+    /// Codes read.
+    pub read: usize,
+    /// Values dropped as equal to the factory default.
+    pub dropped_defaults: usize,
+    /// Codes not read.
+    pub skipped: Vec<Skipped>,
+    /// Time taken on the client's clock.
+    pub elapsed: Duration,
+}
+
+/// Read every readable code of the client's schema.
+pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, EngineError> {
+    let start = client.clock().now();
+    let schema = client.schema().clone();
+    let identity = client.identify()?;
+    let mut all = ResolvedSet::new(&schema);
+    let mut skipped = Vec::new();
+    for code in &schema.codes {
+        let keys: Vec<CodeKey> = match code.subcodes {
+            Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
+            _ => vec![CodeKey::new(code.number)],
+        };
+        for key in keys {
+            let skip = |reason: &str| Skipped {
+                number: key.number,
+                subcode: key.subcode,
+                code: code_label(&schema, key),
+                reason: reason.into(),
+            };
+            if code.read_clears == Some(true) {
+                skipped.push(skip("reading clears it (status code)"));
+                continue;
+            }
+            if schema.is_password(code) && !opts.include_passwords {
+                skipped.push(skip("password (pass include_passwords to read it)"));
+                continue;
+            }
+            if schema.type_of(code).is_none() {
+                skipped.push(skip("the schema gives no type for it"));
+                continue;
+            }
+            match client.read(key) {
+                Ok(v) => all.insert(key, v),
+                Err(EngineError::Device { cause, .. }) => skipped.push(skip(&format!(
+                    "the drive refused to read it: {} ({})",
+                    cause.cause, cause.raw
+                ))),
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    let full_fingerprint = all.fingerprint();
+    let read = all.values.len();
+    let mut set = all;
+    let mut dropped_defaults = 0;
+    if opts.changed_only {
+        let before = set.values.len();
+        set.values.retain(|k, v| {
+            let default = schema
+                .code(k.number)
+                .and_then(|c| c.default.as_ref().map(|d| schema.fact_raw(c, d)));
+            !matches!(default, Some(Ok(d)) if &d == v)
+        });
+        dropped_defaults = before - set.values.len();
+    }
+    Ok(Pulled {
+        fingerprint: set.fingerprint(),
+        set,
+        identity,
+        full_fingerprint,
+        read,
+        dropped_defaults,
+        skipped,
+        elapsed: client.clock().now() - start,
+    })
+}

@@ -1,0 +1,285 @@
+//! `driveset recover JOURNAL`: finish or undo a transaction a crash or a
+//! pulled cable interrupted, from the journal alone plus a client to the
+//! same drive.
+//!
+//! - journal `complete` or `rolled-back`: nothing to do;
+//! - the drive's identity (or the client's schema) differs from the
+//!   journal's: refused, nothing is sent;
+//! - otherwise every code of the set is read. If every planned code holds
+//!   its new value (and, on MC6000/7000, no dataset download is left open:
+//!   80-SLOAD is not -1) the transaction landed: marked `complete`. Anything
+//!   else is rolled back: the backup is restored (codes that differ, in
+//!   reverse write order; CardWriteable values through a fresh dataset
+//!   download of every backed-up CardWriteable value, which also closes an
+//!   open one), read back and compared: `rolled-back`. If that fails the
+//!   journal says `failed` with what each code holds, and recover can be
+//!   run again.
+//!
+//! A dataset download left open (SLOAD = -1) is always rolled back, even if
+//! the values read back look new: staged values are not committed.
+
+// EngineError (the crate's contract type) is large; it is built on the
+// failure path only, so its size is no concern.
+#![allow(clippy::result_large_err)]
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+use std::time::Duration;
+
+use driveset_schema::{CodeKey, RawValue, ResolvedSet};
+
+use crate::client::DriveClient;
+use crate::error::EngineError;
+use crate::journal::{JournalFile, TxnState};
+use crate::plan::{DATASET_TIMEOUT, Phase, SLOAD, code_label};
+use crate::upload::{describe_holdings, holdings, read_values, restore};
+
+/// What recovery did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RecoverAction {
+    /// The journal was already settled.
+    Nothing,
+    /// The drive held the new values: verified, marked complete.
+    Completed,
+    /// The old values were restored (or were still there): verified, marked rolled-back.
+    RolledBack,
+}
+
+/// What `recover` found and did.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct RecoverReport {
+    /// The journal file.
+    pub journal: String,
+    /// State the journal was in.
+    pub found: TxnState,
+    /// What was done.
+    pub action: RecoverAction,
+    /// Codes written while rolling back.
+    pub restored: Vec<String>,
+    /// Fingerprint of what the drive holds over the set's codes (when read).
+    pub fingerprint: Option<String>,
+    /// The client's port/address differ from the journal's (identity matched).
+    pub target_note: Option<String>,
+}
+
+/// Options of [`recover`].
+#[derive(Debug, Clone)]
+pub struct RecoverOptions {
+    /// How long an MC6000/7000 dataset check may take.
+    pub dataset_timeout: Duration,
+}
+
+impl Default for RecoverOptions {
+    fn default() -> Self {
+        RecoverOptions {
+            dataset_timeout: DATASET_TIMEOUT,
+        }
+    }
+}
+
+/// Finish or roll back the transaction recorded in `journal_path`.
+pub fn recover(
+    client: &mut dyn DriveClient,
+    journal_path: &Path,
+    opts: &RecoverOptions,
+) -> Result<RecoverReport, EngineError> {
+    let mut jf = JournalFile::open(journal_path)?;
+    let journal_name = journal_path.display().to_string();
+    let found = jf.journal.state;
+    let mut report = RecoverReport {
+        journal: journal_name.clone(),
+        found,
+        action: RecoverAction::Nothing,
+        restored: Vec::new(),
+        fingerprint: None,
+        target_note: None,
+    };
+    if found.is_settled() {
+        return Ok(report);
+    }
+    let schema = client.schema().clone();
+    let target = client.target().clone();
+    if schema.id != jf.journal.schema {
+        return Err(EngineError::Refused {
+            target,
+            reason: format!(
+                "the journal {journal_name} is for schema `{}`, the client uses `{}`; recover with the schema the upload used",
+                jf.journal.schema, schema.id
+            ),
+        });
+    }
+    let bad = |d: String| EngineError::Journal {
+        path: journal_name.clone(),
+        detail: format!("{d}; the file is damaged, restore the drive by hand from it"),
+    };
+    let backup: BTreeMap<CodeKey, RawValue> = jf
+        .journal
+        .backup_values()
+        .map_err(bad)?
+        .into_iter()
+        .collect();
+    let planned = jf.journal.new_values().map_err(bad)?;
+    let unchanged = jf.journal.unchanged_values().map_err(bad)?;
+    let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
+
+    let identity = client.identify()?;
+    if !jf.journal.identity.matches(&identity) {
+        return Err(EngineError::Refused {
+            target,
+            reason: format!(
+                "the drive identifies as {:?} but the journal {journal_name} was written for {:?}; nothing was sent. Connect the drive the journal belongs to",
+                identity.codes, jf.journal.identity.codes
+            ),
+        });
+    }
+    if jf.journal.target.port != target.port || jf.journal.target.address != target.address {
+        report.target_note = Some(format!(
+            "the journal was written for {} address {}; the drive at {target} has the same identity",
+            jf.journal.target.port, jf.journal.target.address
+        ));
+    }
+
+    // write order as planned; phase from the plan record
+    let mut order: Vec<(CodeKey, Phase)> = jf
+        .journal
+        .plan
+        .iter()
+        .map(|p| {
+            let phase = match p.phase.as_str() {
+                "dataset" => Phase::Dataset,
+                "control" => Phase::Control,
+                "mode" => Phase::Mode,
+                _ => Phase::Stored,
+            };
+            (
+                CodeKey {
+                    number: p.number,
+                    subcode: p.subcode,
+                },
+                phase,
+            )
+        })
+        .collect();
+    for k in backup.keys() {
+        if !order.iter().any(|(o, _)| o == k) {
+            order.push((*k, Phase::Stored));
+        }
+    }
+
+    let dataset = jf.journal.dataset && client.has_dataset_download();
+    let sload_open = if dataset && schema.code(SLOAD).is_some() {
+        client.read(CodeKey::new(SLOAD))? == RawValue::Int(-1)
+    } else {
+        false
+    };
+    let current = read_values(client, backup.keys().copied())?;
+    let all_new = !new_values.is_empty()
+        && new_values
+            .iter()
+            .all(|(k, v)| current.values.get(k) == Some(v));
+    let at = |c: &dyn DriveClient| c.clock().now().as_nanos();
+
+    if all_new && !sload_open {
+        let t = at(&*client);
+        jf.journal.transition(
+            TxnState::Complete,
+            t,
+            Some("recover: the drive holds the new values (read back)".into()),
+        );
+        jf.persist()?;
+        report.action = RecoverAction::Completed;
+    } else {
+        let t = at(&*client);
+        jf.journal.transition(
+            TxnState::RollingBack,
+            t,
+            Some(if sload_open {
+                "recover: a dataset download was left open (SLOAD = -1)".into()
+            } else {
+                "recover: the drive does not hold the whole new set".into()
+            }),
+        );
+        jf.persist()?;
+        let touched: BTreeSet<CodeKey> = backup
+            .iter()
+            .filter(|(k, old)| current.values.get(*k) != Some(*old))
+            .map(|(k, _)| *k)
+            .collect();
+        let cw_differs = order
+            .iter()
+            .any(|(k, p)| *p == Phase::Dataset && touched.contains(k));
+        report.restored = order
+            .iter()
+            .rev()
+            .filter(|(k, p)| {
+                touched.contains(k)
+                    || (*p == Phase::Dataset && dataset && (sload_open || cw_differs))
+            })
+            .map(|(k, _)| code_label(&schema, *k))
+            .collect();
+        let result = restore(
+            client,
+            &schema,
+            &order,
+            &backup,
+            &touched,
+            dataset && (sload_open || cw_differs),
+            opts.dataset_timeout,
+        )
+        .and_then(|()| read_values(client, backup.keys().copied()));
+        let failure = match result {
+            Ok(after) => {
+                let differ: Vec<String> = backup
+                    .iter()
+                    .filter(|(k, old)| after.values.get(*k) != Some(*old))
+                    .map(|(k, _)| code_label(&schema, *k))
+                    .collect();
+                if differ.is_empty() {
+                    None
+                } else {
+                    Some(format!(
+                        "after restoring, {} still differ from the backup",
+                        differ.join(", ")
+                    ))
+                }
+            }
+            Err(e) => Some(format!("restoring the old values failed: {e}")),
+        };
+        if let Some(f) = failure {
+            let holding = holdings(client, &schema, &backup, &new_values);
+            let detail = format!("{f}; {}", describe_holdings(&holding));
+            jf.journal.holding = holding;
+            jf.journal.failure = Some(detail.clone());
+            let t = at(&*client);
+            jf.journal
+                .transition(TxnState::Failed, t, Some(detail.clone()));
+            jf.persist()?;
+            return Err(EngineError::Inconsistent {
+                target,
+                journal: journal_name,
+                detail,
+            });
+        }
+        let t = at(&*client);
+        jf.journal.transition(
+            TxnState::RolledBack,
+            t,
+            Some("recover: old values restored and read back".into()),
+        );
+        jf.persist()?;
+        report.action = RecoverAction::RolledBack;
+    }
+    // fingerprint of what the drive holds over the set's codes
+    let keys: Vec<CodeKey> = backup
+        .keys()
+        .chain(unchanged.iter().map(|(k, _)| k))
+        .copied()
+        .collect();
+    let mut holds = ResolvedSet::new(&schema);
+    for (k, v) in read_values(client, keys)?.values {
+        holds.insert(k, v);
+    }
+    report.fingerprint = Some(holds.fingerprint());
+    Ok(report)
+}

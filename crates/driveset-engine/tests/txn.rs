@@ -1,0 +1,815 @@
+//! Transaction runner tests over an in-memory fake drive (tests/txn_support).
+#![allow(clippy::result_large_err)]
+
+mod txn_support;
+
+use std::time::Duration;
+
+use driveset_engine::error::EngineError;
+use driveset_engine::journal::{JournalFile, TxnState};
+use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
+use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
+use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
+use driveset_schema::{CodeKey, RawValue};
+use txn_support::*;
+
+fn ms(n: u64) -> u64 {
+    n * 1_000_000
+}
+
+fn tmd_drive() -> Drive {
+    Drive::new(
+        "lecom",
+        [
+            (k(1), RawValue::Int(0)),
+            (k(2), RawValue::Int(0)),
+            (k(11), RawValue::Int(500_000)),
+            (k(12), RawValue::Int(50_000)),
+            (k(13), RawValue::Int(50_000)),
+            (k(14), RawValue::Int(20_000)),
+            (CodeKey::sub(39, 1), RawValue::Int(0)),
+            (CodeKey::sub(39, 2), RawValue::Int(0)),
+            (k(40), RawValue::Int(0)),
+            (k(46), RawValue::Int(0)),
+            (k(50), RawValue::Int(123)),
+            (k(94), RawValue::Int(0)),
+            (k(135), RawValue::Int(0)),
+        ],
+    )
+}
+
+fn mc_drive() -> Drive {
+    Drive::new(
+        "lustbus-mc",
+        [
+            (k(4), RawValue::Int(0)),
+            (k(91), RawValue::Int(4711)),
+            (k(100), RawValue::Int(0)),
+            (k(101), RawValue::Int(10)),
+            (k(102), RawValue::Int(0)),
+            (k(110), RawValue::Int(0)),
+            (k(111), RawValue::Int(0)),
+            (k(112), RawValue::Int(0)),
+            (k(120), RawValue::Int(0)),
+            (k(130), RawValue::Int(1357)),
+            (k(140), RawValue::Int(7)),
+        ],
+    )
+}
+
+fn tmd_set() -> driveset_schema::ResolvedSet {
+    let s = tmd_schema();
+    set_of(
+        &s,
+        &[
+            (k(1), 30_000),
+            (k(11), 600_000),
+            (k(12), 25_000),
+            (k(13), 50_000), // unchanged
+            (k(14), 40_000),
+            (k(40), 10_000),
+            (k(135), 0x0008),
+            (CodeKey::sub(39, 1), 200_000),
+        ],
+    )
+}
+
+fn journal_in(dir: &tempfile::TempDir) -> std::path::PathBuf {
+    dir.path().join("drive.journal.json")
+}
+
+#[test]
+fn plan_orders_stored_then_control_then_mode_with_c0001_last() {
+    let schema = tmd_schema();
+    let set = tmd_set();
+    let current =
+        FakeClient::new(schema.clone(), tmd_drive()).values_of(set.values.keys().copied());
+    let p = plan(&schema, &set, &current, &PlanOptions::default()).expect("plan");
+    let order: Vec<(u32, Option<u32>, Phase)> = p
+        .writes
+        .iter()
+        .map(|w| (w.key.number, w.key.subcode, w.phase))
+        .collect();
+    assert_eq!(
+        order,
+        vec![
+            (11, None, Phase::Stored),
+            (12, None, Phase::Stored),
+            (39, Some(1), Phase::Stored),
+            (40, None, Phase::Control),
+            (135, None, Phase::Control),
+            (14, None, Phase::Mode),
+            (1, None, Phase::Mode),
+        ]
+    );
+    assert_eq!(p.unchanged, vec![k(13)]);
+    assert!(p.writes.iter().all(|w| w.storage == Storage::Unspecified));
+    let text = p.render(None);
+    assert!(
+        text.contains("C0011 max_output_frequency: 50 Hz -> 60 Hz"),
+        "{text}"
+    );
+    assert!(
+        text.contains("operating mode / control source (last)"),
+        "{text}"
+    );
+}
+
+#[test]
+fn mc_plan_puts_card_writeable_values_in_the_dataset_and_classifies_storage() {
+    let schema = mc_schema();
+    let set = set_of(
+        &schema,
+        &[
+            (k(100), 65536),
+            (k(101), 20),
+            (k(111), 5),
+            (k(120), -3),
+            (k(110), 1),
+        ],
+    );
+    let current = FakeClient::new(schema.clone(), mc_drive()).values_of(set.values.keys().copied());
+    let opts = PlanOptions {
+        dataset: true,
+        ..Default::default()
+    };
+    let p = plan(&schema, &set, &current, &opts).expect("plan");
+    let got: Vec<(u32, Storage, Phase, u128)> = p
+        .writes
+        .iter()
+        .map(|w| (w.key.number, w.storage, w.phase, w.store_time.as_millis()))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (100, Storage::CardWriteable, Phase::Dataset, 0),
+            (101, Storage::CardWriteable, Phase::Dataset, 0),
+            (110, Storage::Eeprom, Phase::Stored, 60),
+            (111, Storage::Eeprom, Phase::Stored, 30),
+            (120, Storage::Ram, Phase::Control, 0),
+        ]
+    );
+    assert!(p.dataset);
+    let text = p.render(None);
+    assert!(text.contains("100-KPA: 0 1/min -> 1 1/min"), "{text}");
+    assert!(text.contains("EEPROM 4 B, store 60 ms"), "{text}");
+}
+
+#[test]
+fn refuses_unknown_read_only_status_and_handshake_codes_before_sending_anything() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut set = set_of(
+        &schema,
+        &[
+            (k(999), 1),
+            (k(140), 1),
+            (k(91), 1),
+            (k(85), 0),
+            (k(80), -1),
+        ],
+    );
+    set.insert(k(101), RawValue::Int(11));
+    let mut client = FakeClient::new(schema, mc_drive());
+    let err =
+        upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("refused");
+    let text = err.to_string();
+    assert!(matches!(*err.error, EngineError::Refused { .. }), "{text}");
+    for needle in [
+        "999",
+        "140-ACT: read-only",
+        "91-TYPE: read-only",
+        "85-SERR",
+        "80-SLOAD",
+    ] {
+        assert!(text.contains(needle), "{needle} in {text}");
+    }
+    assert!(client.log.is_empty(), "nothing sent: {:?}", client.log);
+    assert!(!journal_in(&dir).exists());
+}
+
+#[test]
+fn refuses_a_running_drive_unless_forced_and_another_schema_unless_forced() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut drive = tmd_drive();
+    drive.running = Some(true);
+    let set = set_of(&schema, &[(k(11), 600_000)]);
+    let mut client = FakeClient::new(schema.clone(), drive.clone());
+    let err =
+        upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("running");
+    assert!(err.to_string().contains("running motor"), "{err}");
+    assert!(client.writes_logged().is_empty());
+
+    let mut opts = UploadOptions::new(journal_in(&dir));
+    opts.force = true;
+    let mut client = FakeClient::new(schema.clone(), drive);
+    let report = upload(&mut client, &set, &opts).expect("forced");
+    assert_eq!(report.state, TxnState::Complete);
+    assert!(report.warnings.iter().any(|w| w.contains("running")));
+
+    let mut other = set_of(&schema, &[(k(11), 600_000)]);
+    other.schema = "lenze-tmd".into();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive());
+    let dir2 = tempfile::tempdir().expect("tempdir");
+    let err =
+        upload(&mut client, &other, &UploadOptions::new(journal_in(&dir2))).expect_err("schema");
+    assert!(err.to_string().contains("schema `lenze-tmd`"), "{err}");
+
+    // a drive identifying as another family
+    let mut drive = tmd_drive();
+    drive.identity.protocol = "lustbus-mc".into();
+    let mut client = FakeClient::new(schema, drive);
+    let err =
+        upload(&mut client, &set, &UploadOptions::new(journal_in(&dir2))).expect_err("family");
+    assert!(err.to_string().contains("lustbus-mc"), "{err}");
+    assert!(client.writes_logged().is_empty());
+}
+
+#[test]
+fn refuses_commands_unless_forced_and_bad_subcodes() {
+    let schema = tmd_schema();
+    let set = set_of(
+        &schema,
+        &[
+            (k(2), 10_000),
+            (CodeKey::sub(39, 3), 1),
+            (CodeKey::sub(11, 1), 1),
+        ],
+    );
+    let current =
+        FakeClient::new(schema.clone(), tmd_drive()).values_of(set.values.keys().copied());
+    let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
+    let all = problems.join("\n");
+    assert!(all.contains("C0002 load_lenze_setting: a command"), "{all}");
+    assert!(
+        all.contains("C0039/3: code 39 has subcodes 1..=2 only"),
+        "{all}"
+    );
+    assert!(all.contains("C0011/1: code 11 has no subcodes"), "{all}");
+}
+
+#[test]
+fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_write() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
+    let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(report.codes_written, 7);
+    assert_eq!(
+        report.fingerprint_after.as_deref(),
+        Some(set.fingerprint().as_str())
+    );
+    assert_eq!(
+        client.values_of(set.values.keys().copied()).fingerprint(),
+        set.fingerprint()
+    );
+    assert_eq!(
+        client.writes_logged(),
+        vec![
+            k(11),
+            k(12),
+            CodeKey::sub(39, 1),
+            k(40),
+            k(135),
+            k(14),
+            k(1)
+        ]
+    );
+    // the journal was on disk, complete, in state writing at the first write
+    assert_eq!(
+        client.journal_at_first_write,
+        Some(("writing".into(), 7, 7))
+    );
+    let j = JournalFile::open(&path).expect("journal");
+    assert_eq!(j.journal.state, TxnState::Complete);
+    let states: Vec<TxnState> = j.journal.transitions.iter().map(|t| t.state).collect();
+    assert_eq!(
+        states,
+        vec![
+            TxnState::Planned,
+            TxnState::Writing,
+            TxnState::Verifying,
+            TxnState::Complete
+        ]
+    );
+    assert_eq!(j.journal.written.len(), 7);
+    assert!(
+        report
+            .codes
+            .iter()
+            .filter(|c| c.outcome != CodeOutcome::Unchanged)
+            .all(|c| c.outcome == CodeOutcome::Verified)
+    );
+    assert_eq!(report.telegrams, client.stats.telegrams);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).expect("meta").permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+    }
+    // a second upload of the same set has nothing to do and writes no journal
+    let dir2 = tempfile::tempdir().expect("tempdir");
+    let report = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir2))).expect("noop");
+    assert_eq!(report.codes_written, 0);
+    assert!(report.journal.is_none());
+    assert!(!journal_in(&dir2).exists());
+}
+
+#[test]
+fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_order() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let before = tmd_drive();
+    let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
+    client.fail_write = Some(4); // C0040
+    let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{err}"
+    );
+    let text = err.to_string();
+    assert!(
+        text.contains("rolled back") && text.contains("invalid value"),
+        "{text}"
+    );
+    assert_eq!(client.drive.values, before.values, "exactly the old values");
+    assert_eq!(
+        client.writes_logged(),
+        vec![
+            k(11),
+            k(12),
+            CodeKey::sub(39, 1),
+            k(40), // fails
+            k(40), // restore, reverse order
+            CodeKey::sub(39, 1),
+            k(12),
+            k(11),
+        ]
+    );
+    let j = JournalFile::open(&path).expect("journal");
+    assert_eq!(j.journal.state, TxnState::RolledBack);
+    assert!(
+        j.journal
+            .failure
+            .as_deref()
+            .is_some_and(|f| f.contains("invalid value"))
+    );
+    let report = err.report.expect("report");
+    assert_eq!(report.state, TxnState::RolledBack);
+    let c40 = report.codes.iter().find(|c| c.number == 40).expect("c40");
+    assert!(matches!(c40.outcome, CodeOutcome::Failed(_)));
+    let c11 = report.codes.iter().find(|c| c.number == 11).expect("c11");
+    assert_eq!(c11.outcome, CodeOutcome::Restored);
+    let c1 = report.codes.iter().find(|c| c.number == 1).expect("c1");
+    assert_eq!(c1.outcome, CodeOutcome::NotWritten);
+}
+
+#[test]
+fn verify_mismatch_rolls_back() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let set = tmd_set();
+    let mut drive = tmd_drive();
+    drive.ignore_writes_to = Some(k(12));
+    let before = drive.values.clone();
+    let mut client = FakeClient::new(schema, drive);
+    let err =
+        upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("mismatch");
+    let text = err.to_string();
+    assert!(
+        text.contains("verify C0012") && text.contains("reads back 5 s instead of 2.5 s"),
+        "{text}"
+    );
+    assert_eq!(client.drive.values, before);
+}
+
+#[test]
+fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let before = tmd_drive();
+    let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
+    client.dead_after_writes = Some(3); // cable pulled after the third write
+    let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    let text = err.to_string();
+    assert!(
+        matches!(*err.error, EngineError::Inconsistent { .. }),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("driveset recover {}", path.display())),
+        "{text}"
+    );
+    assert!(text.contains("could not be read"), "{text}");
+    let j = JournalFile::open(&path).expect("journal");
+    assert_eq!(j.journal.state, TxnState::Failed);
+    assert_eq!(j.journal.holding.len(), 7);
+
+    // the cable is back: recover from the journal alone
+    let mut revived = FakeClient::new(schema.clone(), client.drive.clone());
+    let r = recover(&mut revived, &path, &RecoverOptions::default()).expect("recover");
+    assert_eq!(r.action, RecoverAction::RolledBack);
+    assert_eq!(revived.drive.values, before.values);
+    let old_fp = revived.values_of(set.values.keys().copied()).fingerprint();
+    assert_eq!(r.fingerprint.as_deref(), Some(old_fp.as_str()));
+    assert_eq!(
+        JournalFile::open(&path).expect("j").journal.state,
+        TxnState::RolledBack
+    );
+    // recover again: nothing to do
+    let r = recover(&mut revived, &path, &RecoverOptions::default()).expect("recover");
+    assert_eq!(r.action, RecoverAction::Nothing);
+}
+
+#[test]
+fn an_unfinished_journal_blocks_a_new_upload() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive());
+    client.dead_after_writes = Some(2);
+    upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    let mut client = FakeClient::new(schema, client.drive.clone());
+    let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("blocked");
+    assert!(err.to_string().contains("unfinished transaction"), "{err}");
+    assert!(client.writes_logged().is_empty());
+}
+
+#[test]
+fn mc_dataset_accepted_then_non_card_values_then_verify() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let mut client = FakeClient::new(schema, mc_drive()).with_journal(&path);
+    let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(report.dataset.as_deref(), Some("accepted (SLOAD = 0)"));
+    let ops: Vec<Op> = client
+        .log
+        .iter()
+        .map(|(_, o)| o.clone())
+        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
+        .collect();
+    assert_eq!(
+        ops,
+        vec![
+            Op::Begin,
+            Op::Write(k(100), RawValue::Int(65536)),
+            Op::Write(k(101), RawValue::Int(20)),
+            Op::Commit,
+            Op::Write(k(111), RawValue::Int(5)),
+            Op::Write(k(120), RawValue::Int(-3)),
+        ]
+    );
+    assert_eq!(
+        client.values_of(set.values.keys().copied()).fingerprint(),
+        set.fingerprint()
+    );
+    let j = JournalFile::open(&path).expect("journal");
+    let states: Vec<TxnState> = j.journal.transitions.iter().map(|t| t.state).collect();
+    assert_eq!(
+        states,
+        vec![
+            TxnState::Planned,
+            TxnState::Writing,
+            TxnState::Committed,
+            TxnState::Verifying,
+            TxnState::Complete
+        ]
+    );
+    assert!(j.journal.dataset);
+}
+
+#[test]
+fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = set_of(&schema, &[(k(100), 65536), (k(101), 20), (k(111), 5)]);
+    let mut drive = mc_drive();
+    drive.reject_dataset_at = Some(101);
+    let before = drive.values.clone();
+    let mut client = FakeClient::new(schema, drive).with_journal(&path);
+    let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("rejected");
+    let text = err.to_string();
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{text}"
+    );
+    assert!(
+        text.contains("rejected the dataset at parameter 101-KPB"),
+        "{text}"
+    );
+    assert_eq!(client.drive.values, before);
+    assert!(
+        !client.writes_logged().contains(&k(111)),
+        "non-card values not written"
+    );
+    let j = JournalFile::open(&path).expect("journal");
+    assert_eq!(j.journal.state, TxnState::RolledBack);
+    let report = err.report.expect("report");
+    assert_eq!(
+        report.dataset.as_deref(),
+        Some("rejected at parameter 101-KPB")
+    );
+}
+
+#[test]
+fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let before = mc_drive();
+    let mut client = FakeClient::new(schema, before.clone());
+    client.fail_write = Some(4); // 120, after 111
+    let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{err}"
+    );
+    assert_eq!(client.drive.values, before.values);
+    let ops: Vec<Op> = client
+        .log
+        .iter()
+        .map(|(_, o)| o.clone())
+        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
+        .collect();
+    assert_eq!(
+        ops[6..],
+        [
+            Op::Write(k(120), RawValue::Int(0)),
+            Op::Write(k(111), RawValue::Int(0)),
+            Op::Begin,
+            Op::Write(k(100), RawValue::Int(0)),
+            Op::Write(k(101), RawValue::Int(10)),
+            Op::Commit,
+        ]
+    );
+}
+
+#[test]
+fn eeprom_gaps_are_filled_with_verification_reads_and_time_matches_the_estimate() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    // three non-card EEPROM values (4, 2, 4 bytes) and one RAM value
+    let set = set_of(
+        &schema,
+        &[(k(110), 1), (k(111), 2), (k(112), 3), (k(120), 4)],
+    );
+    let mut client = FakeClient::new(schema.clone(), mc_drive());
+    let prepared = prepare(&mut client, &set, false).expect("prepare");
+    let mut client = FakeClient::new(schema, mc_drive());
+    let report = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect("upload");
+    let ops: Vec<(u64, Op)> = client.log.clone();
+    let ops_no_id: Vec<(u64, Op)> = ops
+        .into_iter()
+        .filter(|(_, o)| !matches!(o, Op::Identify | Op::Running))
+        .collect();
+    // r = 10 ms, w = 20 ms, store 15 ms/byte
+    let expected = vec![
+        (ms(0), Op::Read(k(110))),
+        (ms(10), Op::Read(k(111))),
+        (ms(20), Op::Read(k(112))),
+        (ms(30), Op::Read(k(120))),
+        (ms(40), Op::Write(k(110), RawValue::Int(1))), // busy until 60 + 60 = 120
+        (ms(60), Op::Read(k(110))),                    // verify in the gap
+        (ms(120), Op::Write(k(111), RawValue::Int(2))), // busy until 140 + 30 = 170
+        (ms(140), Op::Read(k(111))),                   // verify in the gap
+        (ms(170), Op::Write(k(112), RawValue::Int(3))), // busy until 250
+        (ms(190), Op::Write(k(120), RawValue::Int(4))), // RAM: no wait
+        (ms(210), Op::Read(k(112))),
+        (ms(220), Op::Read(k(120))),
+    ];
+    assert_eq!(ops_no_id, expected);
+    // bound: read back 4r, (w + 60) + (w + 30) + w + w (RAM), 2 trailing reads
+    let bound = Duration::from_millis(4 * 10 + (20 + 60) + (20 + 30) + 20 + 20 + 2 * 10);
+    assert_eq!(report.elapsed, bound);
+    assert_eq!(report.interleaved_reads, 2);
+    assert_eq!(prepared.estimate.total, bound);
+    assert_eq!(prepared.estimate.waits, Duration::from_millis(50 + 20));
+    let text = prepared.plan.render(Some(&prepared.estimate));
+    assert!(text.contains("expected time: 0.230 s"), "{text}");
+}
+
+#[test]
+fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
+    client.restart_at_writes = vec![3];
+    let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("redone");
+    assert_eq!(report.attempts, 2);
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(
+        client.values_of(set.values.keys().copied()).fingerprint(),
+        set.fingerprint()
+    );
+    let j = JournalFile::open(&path).expect("journal");
+    // the backup is the first attempt's: C0011 old value 50 Hz
+    let b11 = j
+        .journal
+        .backup
+        .iter()
+        .find(|b| b.number == 11)
+        .expect("11");
+    assert_eq!(
+        b11.old,
+        driveset_engine::journal::JournalValue::Int(500_000)
+    );
+    assert_eq!(j.journal.attempt, 2);
+
+    // restarted twice: the redo is bounded, the drive is rolled back
+    let dir = tempfile::tempdir().expect("tempdir");
+    let before = tmd_drive();
+    let mut client = FakeClient::new(schema, before.clone());
+    client.restart_at_writes = vec![2, 5];
+    let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("restarted"), "{err}");
+    assert_eq!(client.drive.values, before.values);
+}
+
+#[test]
+fn passwords_never_appear_in_plan_report_or_errors() {
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let set = set_of(&schema, &[(k(130), 2468), (k(111), 9)]);
+    let mut client = FakeClient::new(schema.clone(), mc_drive());
+    let prepared = prepare(&mut client, &set, false).expect("prepare");
+    let text = prepared.plan.render(Some(&prepared.estimate));
+    assert!(
+        text.contains("130-PASS: <redacted> -> <redacted>"),
+        "{text}"
+    );
+    assert!(!text.contains("2468") && !text.contains("1357"), "{text}");
+    let report = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect("upload");
+    let rendered = report.render();
+    let json = serde_json::to_string(&report).expect("json");
+    for t in [&rendered, &json] {
+        assert!(!t.contains("2468") && !t.contains("1357"), "{t}");
+    }
+    // a password that does not verify: the error does not show it either
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut drive = mc_drive();
+    drive.ignore_writes_to = Some(k(130));
+    let mut client = FakeClient::new(schema, drive);
+    let err =
+        upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("mismatch");
+    let text = format!("{err} {:?}", err.report);
+    assert!(!text.contains("2468") && !text.contains("1357"), "{text}");
+    // the journal does hold it (so it can be restored), with secret = true
+    let j = JournalFile::open(&journal_in(&dir)).expect("journal");
+    let b = j
+        .journal
+        .backup
+        .iter()
+        .find(|b| b.number == 130)
+        .expect("130");
+    assert!(b.secret);
+}
+
+/// Replays a crash at every snapshot: the drive as it was before each
+/// mutating operation and the journal file as it was on disk then; recover
+/// must end with exactly the old or exactly the new set.
+fn crash_everywhere(
+    schema: std::sync::Arc<driveset_schema::Schema>,
+    drive: Drive,
+    set: &driveset_schema::ResolvedSet,
+    setup: impl Fn(&mut FakeClient),
+) -> (usize, usize) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let keys: Vec<CodeKey> = set.values.keys().copied().collect();
+    let old_fp = FakeClient::new(schema.clone(), drive.clone())
+        .values_of(keys.clone())
+        .fingerprint();
+    let new_fp = set.fingerprint();
+    let mut client = FakeClient::new(schema.clone(), drive).with_journal(&path);
+    setup(&mut client);
+    let _ = upload(&mut client, set, &UploadOptions::new(&path));
+    let mut snaps = client.snapshots.clone();
+    snaps.push(Snapshot {
+        drive: client.drive.clone(),
+        journal: std::fs::read(&path).ok(),
+        op: Op::Identify,
+    });
+    let (mut to_old, mut to_new) = (0, 0);
+    for (i, s) in snaps.iter().enumerate() {
+        let p = dir.path().join(format!("crash-{i}.json"));
+        let Some(bytes) = &s.journal else { continue };
+        std::fs::write(&p, bytes).expect("write journal copy");
+        let mut c = FakeClient::new(schema.clone(), s.drive.clone());
+        let r = recover(&mut c, &p, &RecoverOptions::default())
+            .unwrap_or_else(|e| panic!("snapshot {i} ({:?}): {e}", s.op));
+        let holds = c.values_of(keys.clone()).fingerprint();
+        assert!(
+            holds == old_fp || holds == new_fp,
+            "snapshot {i} ({:?}): drive holds a mix",
+            s.op
+        );
+        assert!(c.drive.staged.is_none(), "snapshot {i}: dataset left open");
+        if r.action != RecoverAction::Nothing {
+            assert_eq!(r.fingerprint.as_deref(), Some(holds.as_str()));
+        }
+        let state = JournalFile::open(&p).expect("journal").journal.state;
+        assert!(state.is_settled(), "snapshot {i}: {state:?}");
+        if holds == old_fp {
+            to_old += 1;
+        } else {
+            to_new += 1;
+        }
+    }
+    (to_old, to_new)
+}
+
+#[test]
+fn recover_after_a_crash_at_every_point_of_a_tmd_upload() {
+    let (old, new) = crash_everywhere(tmd_schema(), tmd_drive(), &tmd_set(), |_| {});
+    assert!(old >= 7 && new >= 1, "old {old} new {new}");
+}
+
+#[test]
+fn recover_after_a_crash_at_every_point_of_an_mc_dataset_upload() {
+    let schema = mc_schema();
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let (old, new) = crash_everywhere(schema, mc_drive(), &set, |_| {});
+    assert!(old >= 4 && new >= 1, "old {old} new {new}");
+}
+
+#[test]
+fn recover_after_a_crash_at_every_point_of_a_roll_back() {
+    let (old, _new) = crash_everywhere(tmd_schema(), tmd_drive(), &tmd_set(), |c| {
+        c.fail_write = Some(5)
+    });
+    assert!(old >= 9, "old {old}");
+    let schema = mc_schema();
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let (old, _) = crash_everywhere(schema, mc_drive(), &set, |c| c.fail_write = Some(4));
+    assert!(old >= 8, "old {old}");
+}
+
+#[test]
+fn recover_completes_when_the_drive_holds_the_new_values() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
+    upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
+    // the snapshot before the last verification: all writes done, journal "writing"
+    let s = client.snapshots.last().expect("snapshot").clone();
+    let mut drive = s.drive.clone();
+    drive.values.insert(k(1), RawValue::Int(30_000)); // the last write landed
+    std::fs::write(&path, s.journal.expect("journal")).expect("write");
+    let mut c = FakeClient::new(schema, drive);
+    let r = recover(&mut c, &path, &RecoverOptions::default()).expect("recover");
+    assert_eq!(r.found, TxnState::Writing);
+    assert_eq!(r.action, RecoverAction::Completed);
+    assert_eq!(r.fingerprint.as_deref(), Some(set.fingerprint().as_str()));
+    assert!(c.writes_logged().is_empty());
+}
+
+#[test]
+fn recover_refuses_another_drive() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive());
+    client.dead_after_writes = Some(2);
+    upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    let mut drive = client.drive.clone();
+    drive.identity.codes = vec![("91 TYPE".into(), "9999".into())];
+    let mut c = FakeClient::new(schema, drive);
+    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
+    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(err.to_string().contains("9999"), "{err}");
+    assert!(c.writes_logged().is_empty());
+}
