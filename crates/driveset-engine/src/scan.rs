@@ -114,7 +114,7 @@ pub fn lustbus_addresses() -> Vec<u8> {
 
 /// LECOM stations 01..99 without 00 and the group addresses x0.
 pub fn lecom_addresses() -> Vec<u8> {
-    (1..=99).filter(|a| a % 10 != 0).collect()
+    (1..=99).filter(|a: &u8| !a.is_multiple_of(10)).collect()
 }
 
 /// CAN node ids 1..=127.

@@ -1,0 +1,210 @@
+//! LecomClient against the simulated Lenze Tmd (driveset-sim) in virtual
+//! time: exact bytes, NAK causes via C0068 / C1962, "?" and lost answers,
+//! broadcast, running(), identify.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_engine::client::{DriveClient, LecomClient, LecomOptions};
+use driveset_engine::error::EngineError;
+use driveset_link::{Clock, VirtualClock};
+use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_sim::bus::SimByteBus;
+use driveset_sim::catalog::{self, Family};
+use driveset_sim::drive::{ByteDrive, ReactionTime};
+use driveset_sim::faults::FaultPlan;
+use driveset_sim::log::{Dir, EventLog};
+use driveset_sim::tmd::{TmdDrive, TmdOptions};
+
+fn tmd(address: u8, control_source: u8) -> Box<dyn ByteDrive> {
+    Box::new(
+        TmdDrive::new(TmdOptions {
+            address,
+            control_source,
+            reaction: ReactionTime::fixed(Duration::from_millis(3)),
+            ..TmdOptions::default()
+        })
+        .expect("tmd"),
+    )
+}
+
+fn schema() -> Arc<Schema> {
+    catalog::schema(Family::Tmd).expect("schema")
+}
+
+fn sim_bus(
+    drives: Vec<Box<dyn ByteDrive>>,
+    faults: Option<&str>,
+) -> (VirtualClock, EventLog, SimByteBus) {
+    let clock = VirtualClock::new();
+    let log = EventLog::memory();
+    let mut bus = SimByteBus::new(&clock, 9600, drives)
+        .expect("bus")
+        .with_log(log.clone());
+    if let Some(f) = faults {
+        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
+    }
+    (clock, log, bus)
+}
+
+fn wire(log: &EventLog, dir: Dir) -> Vec<Vec<u8>> {
+    log.events()
+        .into_iter()
+        .filter(|e| e.dir == dir)
+        .map(|e| {
+            e.hex
+                .split(' ')
+                .filter(|s| !s.is_empty())
+                .map(|h| u8::from_str_radix(h, 16).expect("hex"))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn send_and_receive_exact_bytes() {
+    // 8.I example: C11 = 95.2 at address 34.
+    let (_clock, log, bus) = sim_bus(vec![tmd(34, 3)], None);
+    let mut c = LecomClient::new(bus, schema(), 34).unwrap();
+    c.write(CodeKey::new(11), &RawValue::Int(952_000)).unwrap();
+    assert_eq!(c.read(CodeKey::new(11)).unwrap(), RawValue::Int(952_000));
+    c.finish().unwrap();
+    let host = wire(&log, Dir::Host);
+    let text = b"1195.2\x03";
+    let bcc = text.iter().fold(0u8, |a, b| a ^ b);
+    let mut send = vec![0x04, b'3', b'4', 0x02];
+    send.extend_from_slice(text);
+    send.push(bcc);
+    assert_eq!(host[0], send);
+    assert_eq!(host[1], b"\x0434\x31\x31\x05".to_vec());
+    assert_eq!(host[2], vec![0x04]);
+    assert_eq!(host.len(), 3);
+    let drive = wire(&log, Dir::Drive);
+    assert_eq!(drive[0], vec![0x06]);
+    let text = b"1195.2\x03";
+    let bcc = text.iter().fold(0u8, |a, b| a ^ b);
+    let mut answer = vec![0x02];
+    answer.extend_from_slice(text);
+    answer.push(bcc);
+    assert_eq!(drive[1], answer);
+}
+
+#[test]
+fn nak_cause_is_read_from_c0068_and_c1962() {
+    let (_clock, log, bus) = sim_bus(vec![tmd(1, 3)], None);
+    let mut c = LecomClient::new(bus, schema(), 1).unwrap();
+    // C0011 range 7.5..240 Hz.
+    let err = c
+        .write(CodeKey::new(11), &RawValue::Int(9_000_000))
+        .unwrap_err();
+    let EngineError::Device { cause, what, .. } = &err else {
+        panic!("{err}")
+    };
+    assert!(what.contains("C0011"), "{what}");
+    assert_eq!(cause.cause, "invalid variable");
+    assert!(cause.raw.contains("bits 4..7 = 5"), "{}", cause.raw);
+    assert!(
+        cause.raw.contains("C1962 = invalid variable (14)"),
+        "{}",
+        cause.raw
+    );
+    assert!(cause.remedy.contains("range"), "{}", cause.remedy);
+    // C0068 (RECEIVE "68") and C1962 (extended field? no: standard C1 C2) read.
+    let host = wire(&log, Dir::Host);
+    assert_eq!(host.len(), 3);
+    assert_eq!(host[1], b"\x0401\x36\x38\x05".to_vec());
+}
+
+#[test]
+fn no_access_permission_names_the_remedy() {
+    // C0001 = 0: LECOM may only read (manual 4e).
+    let (_clock, _log, bus) = sim_bus(vec![tmd(1, 0)], None);
+    let mut c = LecomClient::new(bus, schema(), 1).unwrap();
+    let err = c
+        .write(CodeKey::new(11), &RawValue::Int(500_000))
+        .unwrap_err();
+    let EngineError::Device { cause, .. } = &err else {
+        panic!("{err}")
+    };
+    assert_eq!(cause.cause, "no access permission");
+    assert!(
+        cause.raw.contains("C1962 = no access permission (8)"),
+        "{}",
+        cause.raw
+    );
+}
+
+#[test]
+fn checksum_answers_and_lost_answers_are_repeated() {
+    let (_clock, _log, bus) = sim_bus(vec![tmd(1, 3)], Some("flip=0.15,lose=0.1,seed=11"));
+    let opts = LecomOptions {
+        tries: 6,
+        ..LecomOptions::default()
+    };
+    let mut c = LecomClient::with_options(bus, schema(), 1, opts).unwrap();
+    for _ in 0..15 {
+        assert_eq!(c.read(CodeKey::new(11)).unwrap(), RawValue::Int(500_000));
+    }
+    assert!(c.stats().retries > 0);
+}
+
+#[test]
+fn no_answer_after_the_configured_tries() {
+    let (clock, _log, bus) = sim_bus(vec![tmd(1, 3)], None);
+    let opts = LecomOptions {
+        tries: 2,
+        answer_timeout: Some(Duration::from_millis(100)),
+        ..LecomOptions::default()
+    };
+    let mut c = LecomClient::with_options(bus, schema(), 2, opts).unwrap();
+    let t0 = clock.now();
+    let err = c.read(CodeKey::new(11)).unwrap_err();
+    assert!(
+        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        "{err}"
+    );
+    assert!(clock.now() - t0 >= Duration::from_millis(200));
+}
+
+#[test]
+fn group_addresses_are_refused_and_broadcast_is_separate() {
+    let (_clock, log, bus) = sim_bus(vec![tmd(1, 3), tmd(2, 3)], None);
+    let err = LecomClient::new(bus, schema(), 10).unwrap_err();
+    assert!(err.to_string().contains("BROADCAST"), "{err}");
+    let (_clock, log2, bus) = sim_bus(vec![tmd(1, 3), tmd(2, 3)], None);
+    let _ = log;
+    let mut c = LecomClient::new(bus, schema(), 1).unwrap();
+    // C0011 = 60 Hz to everybody: unacknowledged.
+    c.broadcast(CodeKey::new(11), &RawValue::Int(600_000))
+        .unwrap();
+    assert!(
+        wire(&log2, Dir::Drive).is_empty(),
+        "nobody answers a broadcast"
+    );
+    assert_eq!(c.read(CodeKey::new(11)).unwrap(), RawValue::Int(600_000));
+    let mut c2 = LecomClient::new(c.into_link(), schema(), 2).unwrap();
+    assert_eq!(c2.read(CodeKey::new(11)).unwrap(), RawValue::Int(600_000));
+    assert!(
+        c2.multicast(0, CodeKey::new(11), &RawValue::Int(600_000))
+            .is_err()
+    );
+}
+
+#[test]
+fn running_identify_and_no_such_code() {
+    let (_clock, _log, mut bus) = sim_bus(vec![tmd(7, 3)], None);
+    bus.drive_mut(7).unwrap().set_running(true);
+    let mut c = LecomClient::new(bus, schema(), 7).unwrap();
+    assert_eq!(c.running().unwrap(), Some(true));
+    c.link_mut().drive_mut(7).unwrap().set_running(false);
+    assert_eq!(c.running().unwrap(), Some(false));
+    let id = c.identify().unwrap();
+    assert_eq!(id.protocol, "lecom");
+    assert_eq!(id.software.as_deref(), Some("1.20"));
+    assert!(
+        id.codes
+            .iter()
+            .any(|(n, v)| n == "C0200" && v == "33STMD-M_12000"),
+        "{id:?}"
+    );
+}

@@ -1,0 +1,168 @@
+//! CanClient against the simulated Lenze ECS (driveset-sim SimCanBus) in
+//! virtual time: expedited FIX32 / bit-coded values, segmented VS values,
+//! DS301 aborts, lost answers.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_engine::client::{CanClient, CanOptions, DriveClient};
+use driveset_engine::error::EngineError;
+use driveset_link::{Clock, VirtualClock};
+use driveset_proto::can::NodeId;
+use driveset_schema::error::SourceFile;
+use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_sim::can_bus::SimCanBus;
+use driveset_sim::catalog::{self, Family};
+use driveset_sim::drive::{FrameDrive, ReactionTime};
+use driveset_sim::ecs::EcsDrive;
+use driveset_sim::faults::FaultPlan;
+use driveset_sim::log::{Dir, EventLog};
+use driveset_sim::table::ParamTable;
+
+fn ecs(node: u8) -> Box<dyn FrameDrive> {
+    Box::new(
+        EcsDrive::new(NodeId::new(node).unwrap(), 1)
+            .expect("ecs")
+            .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
+    )
+}
+
+fn schema() -> Arc<Schema> {
+    catalog::schema(Family::Ecs).expect("schema")
+}
+
+fn sim_bus(
+    drives: Vec<Box<dyn FrameDrive>>,
+    faults: Option<&str>,
+) -> (VirtualClock, EventLog, SimCanBus) {
+    let clock = VirtualClock::new();
+    let log = EventLog::memory();
+    let mut bus = SimCanBus::new(&clock, 500_000, drives)
+        .expect("bus")
+        .with_log(log.clone());
+    if let Some(f) = faults {
+        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
+    }
+    (clock, log, bus)
+}
+
+#[test]
+fn fix32_read_and_write() {
+    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, schema(), 3).unwrap();
+    // C5001 max_speed, default 3000 rpm = raw 30 000 000.
+    assert_eq!(
+        c.read(CodeKey::new(5001)).unwrap(),
+        RawValue::Int(30_000_000)
+    );
+    c.write(CodeKey::new(5001), &RawValue::Int(12_345_678))
+        .unwrap();
+    assert_eq!(
+        c.read(CodeKey::new(5001)).unwrap(),
+        RawValue::Int(12_345_678)
+    );
+    assert_eq!(c.running().unwrap(), None);
+    let host: Vec<String> = log
+        .events()
+        .into_iter()
+        .filter(|e| e.dir == Dir::Host)
+        .map(|e| e.hex)
+        .collect();
+    // Index 24575 - 5001 = 19574 = 0x4C76; request COB-ID 0x603.
+    assert!(host[0].contains("40 76 4C 00 00 00 00 00"), "{host:?}");
+    // 12 345 678 = 0x00BC614E little-endian, expedited 4 bytes (0x23).
+    assert!(host[1].contains("23 76 4C 00 4E 61 BC 00"), "{host:?}");
+}
+
+#[test]
+fn abort_is_a_device_error_with_ds301_text() {
+    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, schema(), 3).unwrap();
+    // max 16000 rpm.
+    let err = c
+        .write(CodeKey::new(5001), &RawValue::Int(160_010_000))
+        .unwrap_err();
+    let EngineError::Device { cause, what, .. } = &err else {
+        panic!("{err}")
+    };
+    assert!(what.contains("C5001"), "{what}");
+    assert_eq!(cause.cause, "Value of parameter written too high");
+    assert!(cause.raw.contains("0x06090031"), "{}", cause.raw);
+    assert!(cause.remedy.contains("lower"), "{}", cause.remedy);
+    assert_eq!(c.stats().retries, 0, "an abort is not repeated");
+}
+
+#[test]
+fn lost_answers_are_repeated_then_no_answer() {
+    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], Some("lose=0.3,seed=5"));
+    let mut c = CanClient::new(bus, schema(), 3).unwrap();
+    for _ in 0..10 {
+        assert_eq!(
+            c.read(CodeKey::new(5001)).unwrap(),
+            RawValue::Int(30_000_000)
+        );
+    }
+    assert!(c.stats().retries > 0);
+
+    let (clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let opts = CanOptions {
+        tries: 2,
+        answer_timeout: Duration::from_millis(10),
+    };
+    let mut c = CanClient::with_options(bus, schema(), 9, opts).unwrap();
+    let t0 = clock.now();
+    let err = c.read(CodeKey::new(5001)).unwrap_err();
+    assert!(
+        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        "{err}"
+    );
+    assert!(clock.now() - t0 >= Duration::from_millis(20));
+}
+
+#[test]
+fn segmented_text_value() {
+    let text = r#"
+[schema]
+id = "test-ecs-text"
+title = "test: lenze-ecs plus a text code"
+extends = "lenze-ecs"
+fictional = true
+
+[[code]]
+number = 5100
+name = "axis_name"
+title = "Axis name (test)"
+spec = "test"
+type = "VS"
+note = "test"
+"#;
+    let mut reg = catalog::registry().unwrap();
+    let s = reg
+        .add_source(SourceFile::new("test-ecs-text.toml", text))
+        .expect("schema");
+    let table = ParamTable::from_schema(Arc::clone(&s)).expect("table");
+    let drive: Box<dyn FrameDrive> = Box::new(
+        EcsDrive::with_table(NodeId::new(4).unwrap(), table, 1)
+            .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
+    );
+    let (_clock, _log, bus) = sim_bus(vec![drive], None);
+    let mut c = CanClient::new(bus, s, 4).unwrap();
+    let name = RawValue::Text("X-axis gantry left".into());
+    c.write(CodeKey::new(5100), &name).unwrap();
+    assert_eq!(c.read(CodeKey::new(5100)).unwrap(), name);
+}
+
+#[test]
+fn node_zero_and_unknown_codes_are_refused() {
+    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    assert!(matches!(
+        CanClient::new(bus, schema(), 0).unwrap_err(),
+        EngineError::Refused { .. }
+    ));
+    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, schema(), 3).unwrap();
+    assert!(matches!(
+        c.read(CodeKey::new(4242)).unwrap_err(),
+        EngineError::Refused { .. }
+    ));
+}
