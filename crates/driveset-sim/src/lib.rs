@@ -21,6 +21,7 @@ pub mod drive;
 pub mod ecs;
 pub mod faults;
 pub mod log;
+pub mod open;
 pub mod lustbus_drive;
 pub mod mc6000;
 pub mod rng;

@@ -1,0 +1,1305 @@
+//! Opening `sim://` ports: owns [`open_sim`] (a [`SimSpec`] to a simulated
+//! bus in virtual time, the way the engine commands use
+//! `--port sim://mc6000?addresses=1,2`), [`SimConfig`] (the checked
+//! settings of a simulated bus, shared with `driveset sim`, which serves the
+//! same drives in real time), [`SimLink`] (the open bus: a byte link or a
+//! frame link plus access to the drives) and the state dump format
+//! ([`StateDump`], shared with `driveset sim --dump`).
+//!
+//! # Families and addresses
+//!
+//! `FAMILY` is a [`Family`] name (`mc6000`, `mc7000`, `vf1000`, `tmd`,
+//! `ecs`) or a schema id naming one (`lust-mc6000`, `lust-vf1000`,
+//! `lenze-tmd`, `lenze-ecs`, the fixtures' `fictional-...-demo`).
+//! Addresses: LUSTBUS 1..=30 (section 4.2), LECOM 1..=99 except the group
+//! addresses 10, 20, ... 90 (§4c), CAN node ids 1..=127.
+//!
+//! # Options
+//!
+//! - `seed=N`: every random choice of the drives (reaction times) and of
+//!   the fault generator (unless the plan has its own `seed=`) comes from
+//!   it; default 0. The same seed and the same host traffic give the same
+//!   bytes at the same virtual instants.
+//! - `faults=PLAN`: the [`FaultPlan`] grammar (`crate::faults`).
+//! - `keypad=true|false`: LUSTBUS families with a KEYPAD attached (slower
+//!   reactions, section 10). Not (yet) a key `driveset-link` accepts in a
+//!   port string; [`SimConfig::keypad`] is set by `driveset sim --keypad`.
+//! - `state=FILE`: load the drives' state from a dump at open if the file
+//!   exists, save it back when the link is dropped (or on
+//!   [`SimLink::save`]). `driveset-link`'s port parser does not accept this
+//!   key yet; until it does, set the environment variable
+//!   [`STATE_DIR_ENV`] (`DRIVESET_SIM_STATE_DIR=DIR`): every `sim://` bus
+//!   then keeps its state in `DIR/sim-FAMILY.json`, so a sequence of CLI
+//!   invocations (`upload`, then `diff --port`) sees the same drives.
+//!
+//! # State dumps
+//!
+//! JSON, one object:
+//!
+//! ```text
+//! {"format":"driveset-sim-state 1","family":"mc6000","baud":9600,
+//!  "drives":[{"family":"mc6000","address":1,"schema":"fictional-mc6000-demo",
+//!             "fingerprint":"sha256:...","canonical":"driveset-canonical 1\nschema ...\n..."}]}
+//! ```
+//!
+//! `canonical` is the drive's whole state in the canonical form
+//! (docs/file-formats.md), `fingerprint` its sha256. `baud` / `bitrate` /
+//! `telegrams` are informative (written by `driveset sim`, ignored on
+//! load). Loading matches drives by family and address; a drive of the bus
+//! missing from the file keeps its factory state, a drive in the file that
+//! is not on the bus is ignored (and not written back).
+
+use std::collections::BTreeMap;
+use std::io;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+
+use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE};
+use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, SimSpec};
+use driveset_link::{PortSpec, VirtualClock};
+use driveset_proto::can::NodeId;
+use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use serde::{Deserialize, Serialize};
+
+use crate::bus::{BusError, ByteLine, SimByteBus, list};
+use crate::can_bus::{FrameLine, SimCanBus};
+use crate::catalog::Family;
+use crate::drive::{ByteDrive, FrameDrive};
+use crate::ecs::EcsDrive;
+use crate::faults::{FaultParseError, FaultPlan};
+use crate::log::EventLog;
+use crate::lustbus_drive::LustOptions;
+use crate::mc6000::Mc6000;
+use crate::rng::SimRng;
+use crate::tmd::{TmdDrive, TmdOptions};
+use crate::vf1000::Vf1000;
+
+/// The environment variable naming a directory where every `sim://` bus
+/// keeps its state (`DIR/sim-FAMILY.json`) when the port gives no
+/// `state=`.
+pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
+
+/// The `format` value of a state dump.
+pub const STATE_FORMAT: &str = "driveset-sim-state 1";
+
+/// The option keys [`SimConfig::from_spec`] understands.
+pub const OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
+
+/// Why a simulated bus could not be opened, loaded or saved.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimOpenError {
+    /// A family the simulator does not have.
+    #[error("{0}")]
+    Family(String),
+    /// No address given.
+    #[error("no drive address given; name at least one (e.g. addresses=1)")]
+    NoAddresses,
+    /// An address the family's bus does not allow.
+    #[error("{family}: address {address} is not allowed: {rule}")]
+    BadAddress {
+        /// The family.
+        family: &'static str,
+        /// The address.
+        address: u8,
+        /// The rule.
+        rule: &'static str,
+    },
+    /// The same address twice.
+    #[error("address {0} is given twice; every drive needs its own address")]
+    DuplicateAddress(u8),
+    /// A line rate the simulated line does not run at.
+    #[error("{baud} baud is not supported; a 7E1 line runs at one of {allowed} baud")]
+    BadBaud {
+        /// The rate.
+        baud: u32,
+        /// The allowed rates.
+        allowed: String,
+    },
+    /// A CAN bit rate the simulated bus does not run at.
+    #[error("CAN bit rate {bitrate} is not supported; use one of {allowed} bit/s")]
+    BadBitrate {
+        /// The rate.
+        bitrate: u32,
+        /// The allowed rates.
+        allowed: String,
+    },
+    /// An option with a bad value.
+    #[error("`{key}={value}`: {reason}")]
+    BadOption {
+        /// The key.
+        key: String,
+        /// The value.
+        value: String,
+        /// What it should be.
+        reason: String,
+    },
+    /// An option the simulator does not know.
+    #[error("unknown simulator option `{key}`; known: {}", OPTION_KEYS.join(", "))]
+    UnknownOption {
+        /// The key.
+        key: String,
+    },
+    /// The fault plan does not parse.
+    #[error("faults: {0}")]
+    Faults(#[from] FaultParseError),
+    /// The bus refused its configuration.
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    /// A drive model could not be built.
+    #[error("cannot build the simulated {family} drive at address {address}: {reason}")]
+    Drive {
+        /// The family.
+        family: &'static str,
+        /// The address.
+        address: u8,
+        /// Why.
+        reason: String,
+    },
+    /// The state file could not be read or written.
+    #[error("simulator state file {}: cannot {op}: {source}", path.display())]
+    StateIo {
+        /// The file.
+        path: PathBuf,
+        /// What was being done.
+        op: &'static str,
+        /// The cause.
+        #[source]
+        source: io::Error,
+    },
+    /// The state file is not a usable dump.
+    #[error(
+        "simulator state file {}: {reason}; delete it to start from factory state",
+        path.display()
+    )]
+    StateFormat {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Parse a family as `sim://FAMILY` or `--family` gives it: a [`Family`]
+/// name or a schema id naming one (`lust-mc6000`, `lenze_ecs`,
+/// `fictional-vf1000-demo`).
+pub fn parse_family(name: &str) -> Result<Family, SimOpenError> {
+    let lower = name.trim().to_ascii_lowercase().replace('_', "-");
+    let mut short = lower.as_str();
+    for prefix in ["fictional-", "lust-", "lenze-"] {
+        short = short.strip_prefix(prefix).unwrap_or(short);
+    }
+    short = short.strip_suffix("-demo").unwrap_or(short);
+    Family::parse(short).map_err(|_| {
+        SimOpenError::Family(format!(
+            "unknown drive family `{name}`: use one of mc6000, vf1000, tmd, ecs (or a schema id such as lust-vf1000)"
+        ))
+    })
+}
+
+/// Whether `family` runs on CAN (frames) rather than a character line.
+pub fn is_can(family: Family) -> bool {
+    family == Family::Ecs
+}
+
+/// Check that `address` is a valid drive address on `family`'s bus.
+pub fn check_address(family: Family, address: u8) -> Result<(), SimOpenError> {
+    let (ok, rule) = match family {
+        Family::Mc6000 | Family::Vf1000 => (
+            (1..=30).contains(&address),
+            "LUSTBUS drive addresses are 1..=30 (section 4.2; 0 is the group address)",
+        ),
+        Family::Tmd => (
+            (1..=99).contains(&address) && !address.is_multiple_of(10),
+            "LECOM station addresses are 1..=99 except the group addresses 10, 20, ... 90 (§4c)",
+        ),
+        Family::Ecs => ((1..=127).contains(&address), "CAN node ids are 1..=127"),
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(SimOpenError::BadAddress {
+            family: family.name(),
+            address,
+            rule,
+        })
+    }
+}
+
+/// The checked settings of a simulated bus: which drives, at which rate,
+/// with which seed, faults and state file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// The drive family (one family per bus).
+    pub family: Family,
+    /// The drives' addresses (node ids on CAN), in the order given.
+    pub addresses: Vec<u8>,
+    /// Line rate (LUSTBUS / LECOM families).
+    pub baud: u32,
+    /// CAN bit rate (ECS).
+    pub bitrate: u32,
+    /// The run's seed.
+    pub seed: u64,
+    /// The faults to inject.
+    pub faults: FaultPlan,
+    /// LUSTBUS: a KEYPAD is attached (slower reactions, section 10).
+    pub keypad: bool,
+    /// Where the drives' state is loaded from and saved to.
+    pub state: Option<PathBuf>,
+}
+
+impl SimConfig {
+    /// `family` at `addresses`, default rates, seed 0, no faults, no
+    /// KEYPAD, no state file. Not yet checked: see [`SimConfig::check`].
+    pub fn new(family: Family, addresses: Vec<u8>) -> Self {
+        SimConfig {
+            family,
+            addresses,
+            baud: DEFAULT_BAUD,
+            bitrate: DEFAULT_BITRATE,
+            seed: 0,
+            faults: FaultPlan::none(),
+            keypad: false,
+            state: None,
+        }
+    }
+
+    /// The settings a `sim://` port gives; without `state=`, the state
+    /// file comes from [`STATE_DIR_ENV`] if that is set.
+    pub fn from_spec(spec: &SimSpec) -> Result<Self, SimOpenError> {
+        let family = parse_family(&spec.family)?;
+        let mut config = SimConfig::new(family, spec.addresses.clone());
+        config.baud = spec.baud.unwrap_or(DEFAULT_BAUD);
+        config.bitrate = spec.bitrate.unwrap_or(DEFAULT_BITRATE);
+        for (key, value) in &spec.options {
+            let bad = |reason: &str| SimOpenError::BadOption {
+                key: key.clone(),
+                value: value.clone(),
+                reason: reason.into(),
+            };
+            match key.as_str() {
+                "seed" => {
+                    config.seed = value
+                        .parse()
+                        .map_err(|_| bad("not a whole number in 0..=18446744073709551615"))?;
+                }
+                "faults" => config.faults = FaultPlan::parse(value)?,
+                "keypad" => {
+                    config.keypad = match value.as_str() {
+                        "true" | "1" | "yes" => true,
+                        "false" | "0" | "no" => false,
+                        _ => return Err(bad("use true or false")),
+                    }
+                }
+                "state" => config.state = Some(PathBuf::from(value)),
+                _ => return Err(SimOpenError::UnknownOption { key: key.clone() }),
+            }
+        }
+        if config.state.is_none() {
+            config.state = state_file_from_env(family);
+        }
+        config.check()?;
+        Ok(config)
+    }
+
+    /// Check addresses (per family, no duplicates) and the rate.
+    pub fn check(&self) -> Result<(), SimOpenError> {
+        if self.addresses.is_empty() {
+            return Err(SimOpenError::NoAddresses);
+        }
+        for (i, &a) in self.addresses.iter().enumerate() {
+            check_address(self.family, a)?;
+            if self.addresses[..i].contains(&a) {
+                return Err(SimOpenError::DuplicateAddress(a));
+            }
+        }
+        if is_can(self.family) {
+            if !ALLOWED_BITRATES.contains(&self.bitrate) {
+                return Err(SimOpenError::BadBitrate {
+                    bitrate: self.bitrate,
+                    allowed: list(ALLOWED_BITRATES),
+                });
+            }
+        } else if !ALLOWED_BAUDS.contains(&self.baud) {
+            return Err(SimOpenError::BadBaud {
+                baud: self.baud,
+                allowed: list(ALLOWED_BAUDS),
+            });
+        }
+        Ok(())
+    }
+
+    /// The seed of the drive at `address`: derived from the run's seed so
+    /// two drives do not draw the same reaction times.
+    fn drive_seed(&self, address: u8) -> u64 {
+        SimRng::derive(self.seed, 0x51_0000 + u64::from(address)).next_u64()
+    }
+
+    /// The drives of a LUSTBUS / LECOM family, at factory state.
+    pub fn byte_drives(&self) -> Result<Vec<Box<dyn ByteDrive>>, SimOpenError> {
+        self.check()?;
+        let mut drives: Vec<Box<dyn ByteDrive>> = Vec::new();
+        for &address in &self.addresses {
+            let seed = self.drive_seed(address);
+            let lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
+            let built: Result<Box<dyn ByteDrive>, String> = match self.family {
+                Family::Mc6000 => Mc6000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
+                Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
+                Family::Tmd => TmdDrive::new(TmdOptions {
+                    seed,
+                    ..TmdOptions::at(address)
+                })
+                .map(|d| Box::new(d) as Box<dyn ByteDrive>),
+                Family::Ecs => Err("ECS drives are on CAN, not on a character line".into()),
+            };
+            drives.push(built.map_err(|reason| SimOpenError::Drive {
+                family: self.family.name(),
+                address,
+                reason,
+            })?);
+        }
+        Ok(drives)
+    }
+
+    /// The nodes of a CAN family, at factory state.
+    pub fn frame_drives(&self) -> Result<Vec<Box<dyn FrameDrive>>, SimOpenError> {
+        self.check()?;
+        let mut drives: Vec<Box<dyn FrameDrive>> = Vec::new();
+        for &address in &self.addresses {
+            let err = |reason: String| SimOpenError::Drive {
+                family: self.family.name(),
+                address,
+                reason,
+            };
+            if self.family != Family::Ecs {
+                return Err(err(format!(
+                    "{} drives are on a character line, not on CAN",
+                    self.family.name()
+                )));
+            }
+            let node = NodeId::new(address).map_err(|_| err("not a node id 1..=127".into()))?;
+            // EcsDrive derives its stream from the seed and the node id.
+            drives.push(Box::new(EcsDrive::new(node, self.seed).map_err(err)?));
+        }
+        Ok(drives)
+    }
+
+    /// The character line of a LUSTBUS / LECOM family with its drives
+    /// (state loaded from [`SimConfig::state`] if the file exists), faults
+    /// and `log`: the core `driveset sim` serves in real time.
+    pub fn byte_line(&self, log: EventLog) -> Result<ByteLine, SimOpenError> {
+        let mut drives = self.byte_drives()?;
+        if let Some(path) = &self.state {
+            load_state_into(path, self.family, &mut drives)?;
+        }
+        Ok(ByteLine::new(self.baud, drives)?
+            .with_faults(self.faults.clone(), self.seed)
+            .with_log(log))
+    }
+
+    /// The CAN bus of a CAN family, as [`SimConfig::byte_line`].
+    pub fn frame_line(&self, log: EventLog) -> Result<FrameLine, SimOpenError> {
+        let mut drives = self.frame_drives()?;
+        if let Some(path) = &self.state {
+            load_state_into(path, self.family, &mut drives)?;
+        }
+        Ok(FrameLine::new(self.bitrate, drives)?
+            .with_faults(self.faults.clone(), self.seed)
+            .with_log(log))
+    }
+}
+
+/// `DIR/sim-FAMILY.json` if [`STATE_DIR_ENV`] is set and not empty.
+pub fn state_file_from_env(family: Family) -> Option<PathBuf> {
+    let dir = std::env::var_os(STATE_DIR_ENV).filter(|d| !d.is_empty())?;
+    Some(PathBuf::from(dir).join(format!("sim-{}.json", family.name())))
+}
+
+/// A state dump: every drive of one simulated bus (module docs).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateDump {
+    /// [`STATE_FORMAT`].
+    pub format: String,
+    /// The bus's family ([`Family::name`]).
+    pub family: String,
+    /// The line rate (character lines), informative.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baud: Option<u32>,
+    /// The bit rate (CAN), informative.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bitrate: Option<u32>,
+    /// Host telegrams the bus saw in this run, informative.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub telegrams: Option<u64>,
+    /// The drives, in bus order.
+    pub drives: Vec<DriveDump>,
+}
+
+/// One drive in a [`StateDump`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DriveDump {
+    /// The drive's family.
+    pub family: String,
+    /// Its bus address (node id on CAN).
+    pub address: u8,
+    /// The schema its table comes from.
+    pub schema: String,
+    /// The fingerprint of `canonical`.
+    pub fingerprint: String,
+    /// Its whole state, canonical form.
+    pub canonical: String,
+}
+
+impl DriveDump {
+    /// The entry for a drive holding `state`.
+    pub fn new(family: &str, address: u8, state: &ResolvedSet) -> Self {
+        DriveDump {
+            family: family.to_string(),
+            address,
+            schema: state.schema.clone(),
+            fingerprint: state.fingerprint(),
+            canonical: state.canonical(),
+        }
+    }
+}
+
+/// A drive whose state can be dumped and restored (both bus kinds).
+trait StateDrive {
+    fn dump_family(&self) -> &'static str;
+    fn dump_address(&self) -> u8;
+    fn dump_state(&self) -> ResolvedSet;
+    fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String>;
+}
+
+impl StateDrive for Box<dyn ByteDrive> {
+    fn dump_family(&self) -> &'static str {
+        self.family()
+    }
+    fn dump_address(&self) -> u8 {
+        self.address()
+    }
+    fn dump_state(&self) -> ResolvedSet {
+        self.state()
+    }
+    fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        self.poke(key, raw)
+    }
+}
+
+impl StateDrive for Box<dyn FrameDrive> {
+    fn dump_family(&self) -> &'static str {
+        self.family()
+    }
+    fn dump_address(&self) -> u8 {
+        self.node_id()
+    }
+    fn dump_state(&self) -> ResolvedSet {
+        self.state()
+    }
+    fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        self.poke(key, raw)
+    }
+}
+
+fn dump_of<D: StateDrive>(family: Family, drives: &[D]) -> StateDump {
+    StateDump {
+        format: STATE_FORMAT.into(),
+        family: family.name().into(),
+        baud: None,
+        bitrate: None,
+        telegrams: None,
+        drives: drives
+            .iter()
+            .map(|d| DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state()))
+            .collect(),
+    }
+}
+
+/// The dump of a character line's drives, with rate and telegram count.
+pub fn byte_line_dump(family: Family, line: &ByteLine) -> StateDump {
+    StateDump {
+        baud: Some(line.baud()),
+        telegrams: Some(line.telegrams()),
+        ..dump_of(family, line.drives())
+    }
+}
+
+/// The dump of a CAN bus's nodes, with bit rate and telegram count.
+pub fn frame_line_dump(family: Family, line: &FrameLine) -> StateDump {
+    StateDump {
+        bitrate: Some(line.bitrate()),
+        telegrams: Some(line.telegrams()),
+        ..dump_of(family, line.drives())
+    }
+}
+
+impl StateDump {
+    /// Read a dump file.
+    pub fn read(path: &Path) -> Result<StateDump, SimOpenError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SimOpenError::StateIo {
+            path: path.into(),
+            op: "read it",
+            source,
+        })?;
+        let dump: StateDump =
+            serde_json::from_str(&text).map_err(|e| SimOpenError::StateFormat {
+                path: path.into(),
+                reason: format!("not a simulator state dump ({e})"),
+            })?;
+        if dump.format != STATE_FORMAT {
+            return Err(SimOpenError::StateFormat {
+                path: path.into(),
+                reason: format!(
+                    "format `{}` is not `{STATE_FORMAT}` (written by another driveset version?)",
+                    dump.format
+                ),
+            });
+        }
+        Ok(dump)
+    }
+
+    /// Write the dump as pretty JSON: to a temporary file next to `path`,
+    /// then renamed over it (a crash never leaves half a file).
+    pub fn write(&self, path: &Path) -> Result<(), SimOpenError> {
+        let io_err = |op, source| SimOpenError::StateIo {
+            path: path.into(),
+            op,
+            source,
+        };
+        let mut text = serde_json::to_string_pretty(self)
+            .map_err(|e| io_err("serialize it", io::Error::other(e)))?;
+        text.push('\n');
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "state".into());
+        let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+        std::fs::write(&tmp, text).map_err(|e| io_err("write it", e))?;
+        std::fs::rename(&tmp, path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            io_err("replace it", e)
+        })
+    }
+}
+
+/// Parse the canonical text of one drive back into values.
+pub fn parse_canonical(text: &str) -> Result<(String, BTreeMap<CodeKey, RawValue>), String> {
+    let mut lines = text.lines();
+    if lines.next() != Some("driveset-canonical 1") {
+        return Err("canonical text does not start with `driveset-canonical 1`".into());
+    }
+    let schema = lines
+        .next()
+        .and_then(|l| l.strip_prefix("schema "))
+        .ok_or("canonical text has no `schema` line")?
+        .to_string();
+    let mut values = BTreeMap::new();
+    for line in lines {
+        let (code, value) = line
+            .split_once(' ')
+            .ok_or_else(|| format!("canonical line `{line}` is not `CODE VALUE`"))?;
+        let bad = || format!("canonical line `{line}`: bad code");
+        let digits = code.strip_prefix('C').unwrap_or(code);
+        let key = match digits.split_once('/') {
+            Some((n, s)) => {
+                CodeKey::sub(n.parse().map_err(|_| bad())?, s.parse().map_err(|_| bad())?)
+            }
+            None => CodeKey::new(digits.parse().map_err(|_| bad())?),
+        };
+        let raw = if let Some(json) = value.strip_prefix('s') {
+            RawValue::Text(
+                serde_json::from_str(json)
+                    .map_err(|e| format!("canonical line `{line}`: bad text ({e})"))?,
+            )
+        } else if let Some(hex) = value.strip_prefix('o') {
+            let bytes = (0..hex.len())
+                .step_by(2)
+                .map(|i| {
+                    hex.get(i..i + 2)
+                        .and_then(|h| u8::from_str_radix(h, 16).ok())
+                })
+                .collect::<Option<Vec<u8>>>()
+                .ok_or_else(|| format!("canonical line `{line}`: bad octets"))?;
+            RawValue::Octets(bytes)
+        } else {
+            RawValue::Int(
+                value
+                    .parse()
+                    .map_err(|_| format!("canonical line `{line}`: bad integer"))?,
+            )
+        };
+        values.insert(key, raw);
+    }
+    Ok((schema, values))
+}
+
+/// Load the state file at `path` (if it exists) into `drives`.
+fn load_state_into<D: StateDrive>(
+    path: &Path,
+    family: Family,
+    drives: &mut [D],
+) -> Result<(), SimOpenError> {
+    if !path.exists() {
+        return Ok(());
+    }
+    let dump = StateDump::read(path)?;
+    apply_dump(path, family, &dump, drives)
+}
+
+fn apply_dump<D: StateDrive>(
+    path: &Path,
+    family: Family,
+    dump: &StateDump,
+    drives: &mut [D],
+) -> Result<(), SimOpenError> {
+    let format_err = |reason: String| SimOpenError::StateFormat {
+        path: path.into(),
+        reason,
+    };
+    if parse_family(&dump.family).ok() != Some(family) {
+        return Err(format_err(format!(
+            "it holds {} drives, this bus has {} drives",
+            dump.family,
+            family.name()
+        )));
+    }
+    for drive in drives.iter_mut() {
+        let address = drive.dump_address();
+        let Some(entry) = dump.drives.iter().find(|e| e.address == address) else {
+            continue;
+        };
+        let (schema, values) = parse_canonical(&entry.canonical)
+            .map_err(|e| format_err(format!("drive {address}: {e}")))?;
+        let current = drive.dump_state();
+        if schema != current.schema {
+            return Err(format_err(format!(
+                "drive {address} was saved with schema `{schema}`, the simulator now uses `{}`",
+                current.schema
+            )));
+        }
+        // Poke what differs; codes derived from others (Tmd C0068, C0150)
+        // refuse a poke and must come out equal once the rest is set.
+        let mut refused = Vec::new();
+        for (key, raw) in &values {
+            if current.values.get(key) != Some(raw)
+                && let Err(e) = drive.restore(*key, raw.clone())
+            {
+                refused.push((*key, e));
+            }
+        }
+        let now = drive.dump_state();
+        if now.values != values {
+            let differing: Vec<String> = values
+                .keys()
+                .chain(now.values.keys())
+                .filter(|k| now.values.get(k) != values.get(k))
+                .collect::<std::collections::BTreeSet<_>>()
+                .into_iter()
+                .take(3)
+                .map(|k| match refused.iter().find(|(r, _)| r == k) {
+                    Some((_, e)) => e.clone(),
+                    None => format!("{} differs after loading", k.canonical(now.code_style)),
+                })
+                .collect();
+            return Err(format_err(format!(
+                "drive {address}: its saved state cannot be restored ({})",
+                differing.join("; ")
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The bus behind a [`SimLink`].
+#[derive(Debug)]
+pub enum SimBus {
+    /// A character line (LUSTBUS, LECOM).
+    Bytes(SimByteBus),
+    /// A CAN bus.
+    Frames(SimCanBus),
+}
+
+#[derive(Debug)]
+struct Shared {
+    bus: Mutex<SimBus>,
+    family: Family,
+    state: Option<PathBuf>,
+}
+
+impl Shared {
+    fn lock(&self) -> MutexGuard<'_, SimBus> {
+        self.bus.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn dump(&self) -> StateDump {
+        let family = self.family;
+        match &*self.lock() {
+            SimBus::Bytes(b) => byte_line_dump(family, b.line()),
+            SimBus::Frames(b) => frame_line_dump(family, b.line()),
+        }
+    }
+}
+
+impl Drop for Shared {
+    fn drop(&mut self) {
+        if let Some(path) = &self.state
+            && let Err(e) = self.dump().write(path)
+        {
+            // Nobody is left to return the error to.
+            eprintln!("warning: {e}");
+        }
+    }
+}
+
+/// An open simulated bus in virtual time: the host side as a byte or frame
+/// link ([`SimLink::link`], [`SimLink::byte_link`],
+/// [`SimLink::frame_link`]; every handle drives the same bus), plus the
+/// drives ([`SimLink::state`], [`SimLink::poke`], [`SimLink::dump`]).
+///
+/// With a state file, the drives' state is written back when the last of
+/// the `SimLink` and its handles is dropped (a failure then is printed as
+/// a warning on stderr), or at once with [`SimLink::save`].
+#[derive(Debug, Clone)]
+pub struct SimLink {
+    shared: Arc<Shared>,
+    clock: VirtualClock,
+    port: String,
+}
+
+/// Open the simulated bus a `sim://` port names, on `clock`: drives of the
+/// family at the addresses, seed and faults from the options, state from
+/// `state=` or [`STATE_DIR_ENV`]. No event log.
+pub fn open_sim(spec: &SimSpec, clock: &VirtualClock) -> Result<SimLink, SimOpenError> {
+    let config = SimConfig::from_spec(spec)?;
+    let port = PortSpec::Sim(spec.clone()).to_string();
+    open_sim_with(&config, clock, &port, EventLog::off())
+}
+
+/// Open a simulated bus from checked settings, named `port`, logging to
+/// `log`.
+pub fn open_sim_with(
+    config: &SimConfig,
+    clock: &VirtualClock,
+    port: &str,
+    log: EventLog,
+) -> Result<SimLink, SimOpenError> {
+    let bus = if is_can(config.family) {
+        SimBus::Frames(SimCanBus::from_line(clock, config.frame_line(log)?).with_name(port))
+    } else {
+        SimBus::Bytes(SimByteBus::from_line(clock, config.byte_line(log)?).with_name(port))
+    };
+    Ok(SimLink {
+        shared: Arc::new(Shared {
+            bus: Mutex::new(bus),
+            family: config.family,
+            state: config.state.clone(),
+        }),
+        clock: clock.clone(),
+        port: port.to_string(),
+    })
+}
+
+impl SimLink {
+    /// The family of the drives.
+    pub fn family(&self) -> Family {
+        self.shared.family
+    }
+
+    /// The port name (`sim://...`).
+    pub fn port(&self) -> &str {
+        &self.port
+    }
+
+    /// Whether this is a CAN bus (use [`SimLink::frame_link`]).
+    pub fn is_can(&self) -> bool {
+        is_can(self.shared.family)
+    }
+
+    /// The virtual clock the bus runs on.
+    pub fn clock(&self) -> &VirtualClock {
+        &self.clock
+    }
+
+    /// The state file, if any.
+    pub fn state_file(&self) -> Option<&Path> {
+        self.shared.state.as_deref()
+    }
+
+    /// The host side as a byte link (`None` on CAN).
+    pub fn byte_link(&self) -> Option<Box<dyn ByteLink>> {
+        (!self.is_can()).then(|| Box::new(SimByteHandle(self.clone())) as Box<dyn ByteLink>)
+    }
+
+    /// The host side as a frame link (`None` on a character line).
+    pub fn frame_link(&self) -> Option<Box<dyn FrameLink>> {
+        self.is_can()
+            .then(|| Box::new(SimFrameHandle(self.clone())) as Box<dyn FrameLink>)
+    }
+
+    /// The host side as `driveset-link` hands out real transports.
+    pub fn link(&self) -> Link {
+        if self.is_can() {
+            Link::Frames(Box::new(SimFrameHandle(self.clone())))
+        } else {
+            Link::Bytes(Box::new(SimByteHandle(self.clone())))
+        }
+    }
+
+    /// Work on the bus itself (drives, log, faults) under its lock.
+    pub fn with_bus<R>(&self, f: impl FnOnce(&mut SimBus) -> R) -> R {
+        f(&mut self.shared.lock())
+    }
+
+    /// The drives' addresses (node ids), in bus order.
+    pub fn addresses(&self) -> Vec<u8> {
+        self.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.drives().iter().map(|d| d.address()).collect(),
+            SimBus::Frames(b) => b.drives().iter().map(|d| d.node_id()).collect(),
+        })
+    }
+
+    /// The state of the drive at `address`.
+    pub fn state(&self, address: u8) -> Option<ResolvedSet> {
+        self.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b
+                .drives()
+                .iter()
+                .find(|d| d.address() == address)
+                .map(|d| d.state()),
+            SimBus::Frames(b) => b
+                .drives()
+                .iter()
+                .find(|d| d.node_id() == address)
+                .map(|d| d.state()),
+        })
+    }
+
+    /// Set a value of the drive at `address` directly, bypassing the
+    /// protocol (tests, drift demos).
+    pub fn poke(&self, address: u8, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        self.with_bus(|bus| {
+            let missing = || format!("no simulated drive at address {address}");
+            match bus {
+                SimBus::Bytes(b) => b.drive_mut(address).ok_or_else(missing)?.poke(key, raw),
+                SimBus::Frames(b) => b.drive_mut(address).ok_or_else(missing)?.poke(key, raw),
+            }
+        })
+    }
+
+    /// Every drive's state (the `--dump` / state file content).
+    pub fn dump(&self) -> StateDump {
+        self.shared.dump()
+    }
+
+    /// Write the state file now. `Ok(false)` without a state file.
+    pub fn save(&self) -> Result<bool, SimOpenError> {
+        match &self.shared.state {
+            Some(path) => self.dump().write(path).map(|()| true),
+            None => Ok(false),
+        }
+    }
+
+    /// Write the drives' state to `path` (any file, not the state file).
+    pub fn save_to(&self, path: &Path) -> Result<(), SimOpenError> {
+        self.dump().write(path)
+    }
+}
+
+/// A [`SimLink`] as a [`ByteLink`].
+#[derive(Debug)]
+struct SimByteHandle(SimLink);
+
+/// The error for a byte call on a CAN bus or the other way round (cannot
+/// happen through [`SimLink`]'s constructors of handles).
+fn wrong_kind(port: &str) -> LinkError {
+    LinkError::Unsupported {
+        port: port.into(),
+        what: "the simulated bus is of the other kind (bytes / CAN frames)".into(),
+    }
+}
+
+impl ByteLink for SimByteHandle {
+    fn port(&self) -> &str {
+        &self.0.port
+    }
+    fn baud(&self) -> u32 {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => ByteLink::baud(b),
+            SimBus::Frames(_) => 0,
+        })
+    }
+    fn clock(&self) -> &dyn Clock {
+        &self.0.clock
+    }
+    fn send(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.send(bytes),
+            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+    fn recv(&mut self, buf: &mut [u8], deadline: Instant) -> Result<usize, LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.recv(buf, deadline),
+            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+    fn discard_input(&mut self) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.discard_input(),
+            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+    fn flush(&mut self) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => ByteLink::flush(b),
+            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+}
+
+/// A [`SimLink`] as a [`FrameLink`].
+#[derive(Debug)]
+struct SimFrameHandle(SimLink);
+
+impl FrameLink for SimFrameHandle {
+    fn port(&self) -> &str {
+        &self.0.port
+    }
+    fn bitrate(&self) -> u32 {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Frames(b) => b.bitrate(),
+            SimBus::Bytes(_) => 0,
+        })
+    }
+    fn clock(&self) -> &dyn Clock {
+        &self.0.clock
+    }
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Frames(b) => b.send(frame),
+            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+    fn recv(&mut self, deadline: Instant) -> Result<Option<CanFrame>, LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Frames(b) => b.recv(deadline),
+            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+    fn discard_input(&mut self) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Frames(b) => b.discard_input(),
+            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use driveset_proto::lustbus::{Address, Enquiry, ParameterCode};
+
+    use super::*;
+
+    fn spec(s: &str) -> SimSpec {
+        match PortSpec::parse(s).unwrap() {
+            PortSpec::Sim(sim) => sim,
+            other => panic!("not a sim port: {other:?}"),
+        }
+    }
+
+    /// A fresh file path in the temp dir (removed on drop).
+    struct TempPath(PathBuf);
+    impl TempPath {
+        fn new(tag: &str) -> Self {
+            use std::sync::atomic::{AtomicU32, Ordering};
+            static N: AtomicU32 = AtomicU32::new(0);
+            let n = N.fetch_add(1, Ordering::Relaxed);
+            TempPath(std::env::temp_dir().join(format!(
+                "driveset-sim-open-{}-{tag}-{n}.json",
+                std::process::id()
+            )))
+        }
+    }
+    impl Drop for TempPath {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    fn config(family: Family, addresses: &[u8]) -> SimConfig {
+        SimConfig::new(family, addresses.to_vec())
+    }
+
+    /// ENQUIRY of 85 to `a`, then everything the line returns until 100 ms
+    /// of quiet; returns the bytes and the virtual instant at the end.
+    fn enquire_85(link: &SimLink, a: u8) -> (Vec<u8>, Instant) {
+        let mut l = link.byte_link().unwrap();
+        let t = Enquiry::new(Address::new(a).unwrap(), ParameterCode::new(85).unwrap());
+        l.send(&t.encode()).unwrap();
+        let mut got = Vec::new();
+        let mut buf = [0u8; 64];
+        let mut last = l.clock().now();
+        loop {
+            let deadline = l.clock().deadline_in(Duration::from_millis(100));
+            let n = l.recv(&mut buf, deadline).unwrap();
+            if n == 0 {
+                return (got, last);
+            }
+            last = l.clock().now();
+            got.extend_from_slice(&buf[..n]);
+        }
+    }
+
+    #[test]
+    fn every_family_opens_with_its_drives() {
+        for (family, addresses) in [
+            (Family::Mc6000, vec![1, 2]),
+            (Family::Vf1000, vec![30]),
+            (Family::Tmd, vec![1, 99]),
+            (Family::Ecs, vec![1, 127]),
+        ] {
+            let clock = VirtualClock::new();
+            let link =
+                open_sim_with(&config(family, &addresses), &clock, "sim", EventLog::off()).unwrap();
+            assert_eq!(link.family(), family);
+            assert_eq!(link.addresses(), addresses);
+            assert_eq!(link.is_can(), family == Family::Ecs);
+            assert_eq!(link.byte_link().is_some(), family != Family::Ecs);
+            assert_eq!(link.frame_link().is_some(), family == Family::Ecs);
+            match link.link() {
+                Link::Bytes(b) => assert_eq!(b.baud(), 9600),
+                Link::Frames(f) => assert_eq!(f.bitrate(), 500_000),
+            }
+            for &a in &addresses {
+                let s = link.state(a).unwrap();
+                assert_eq!(s.schema, family.schema_id(), "{}", family.name());
+            }
+            assert!(link.state(3).is_none());
+            let dump = link.dump();
+            assert_eq!(dump.format, STATE_FORMAT);
+            assert_eq!(dump.family, family.name());
+            assert_eq!(dump.drives.len(), addresses.len());
+        }
+    }
+
+    #[test]
+    fn spec_options_and_family_spellings() {
+        let c = SimConfig::from_spec(&spec(
+            "sim://lust-mc6000?addresses=2,1&baud=19200&seed=7&faults=lose=0.5",
+        ))
+        .unwrap();
+        assert_eq!(c.family, Family::Mc6000);
+        assert_eq!(c.addresses, [2, 1]);
+        assert_eq!((c.baud, c.seed), (19200, 7));
+        assert_eq!(c.faults.lose, 0.5);
+        for (name, family) in [
+            ("mc7000", Family::Mc6000),
+            ("lust-vf1000", Family::Vf1000),
+            ("fictional-vf1000-demo", Family::Vf1000),
+            ("lenze-tmd", Family::Tmd),
+            ("lenze_ecs", Family::Ecs),
+            ("ECS", Family::Ecs),
+        ] {
+            assert_eq!(parse_family(name).unwrap(), family, "{name}");
+        }
+        let e = parse_family("s7-300").unwrap_err().to_string();
+        assert!(e.contains("mc6000, vf1000, tmd, ecs"), "{e}");
+        let e = SimConfig::from_spec(&spec("sim://tmd?addresses=1&faults=lose=2"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("faults: invalid fault item `lose=2`"), "{e}");
+    }
+
+    #[test]
+    fn addresses_are_checked_per_family() {
+        let bad = |f, a: &[u8]| config(f, a).check().unwrap_err().to_string();
+        assert!(bad(Family::Mc6000, &[31]).contains("1..=30"));
+        assert!(bad(Family::Vf1000, &[0]).contains("address 0 is not allowed"));
+        assert!(bad(Family::Tmd, &[20]).contains("10, 20, ... 90"));
+        assert!(bad(Family::Tmd, &[100]).contains("1..=99"));
+        assert!(bad(Family::Ecs, &[128]).contains("1..=127"));
+        assert!(bad(Family::Ecs, &[]).contains("no drive address"));
+        assert!(bad(Family::Mc6000, &[3, 3]).contains("address 3 is given twice"));
+        let mut c = config(Family::Tmd, &[1]);
+        c.baud = 1000;
+        assert!(c.check().unwrap_err().to_string().contains("1000 baud"));
+        let mut c = config(Family::Ecs, &[1]);
+        c.bitrate = 33_000;
+        assert!(c.check().unwrap_err().to_string().contains("33000"));
+        assert!(config(Family::Tmd, &[1, 11, 99]).check().is_ok());
+    }
+
+    #[test]
+    fn first_enquiry_of_85_after_power_on_and_seed_reproducibility() {
+        let run = |seed: u64| {
+            let clock = VirtualClock::new();
+            let link = open_sim(
+                &spec(&format!("sim://mc6000?addresses=1,2&seed={seed}")),
+                &clock,
+            )
+            .unwrap();
+            let first = enquire_85(&link, 1);
+            let second = enquire_85(&link, 1);
+            (first, second)
+        };
+        let ((bytes, at), (again, _)) = run(7);
+        // 6.1.1.2: A STX 00085 = 01 ETX BCC; power-on bit, then cleared.
+        assert_eq!(bytes, b"A\x0200085=01\x03\x02");
+        assert_eq!(again, b"A\x0200085=00\x03\x03");
+        assert_eq!(run(7).0.1, at, "same seed, same instants");
+        let other: Vec<Instant> = (8..12).map(|s| run(s).0.1).collect();
+        assert!(other.iter().any(|t| *t != at), "{other:?} vs {at}");
+    }
+
+    #[test]
+    fn poke_changes_the_fingerprint() {
+        let clock = VirtualClock::new();
+        let link = open_sim(&spec("sim://tmd?addresses=1"), &clock).unwrap();
+        let before = link.state(1).unwrap().fingerprint();
+        link.poke(1, CodeKey::new(11), RawValue::Int(600_000))
+            .unwrap();
+        let after = link.state(1).unwrap();
+        assert_ne!(after.fingerprint(), before);
+        assert_eq!(after.values[&CodeKey::new(11)], RawValue::Int(600_000));
+        assert!(link.poke(2, CodeKey::new(11), RawValue::Int(1)).is_err());
+    }
+
+    /// Poke the first integer code the drive accepts a change of.
+    fn poke_something(link: &SimLink, a: u8) -> CodeKey {
+        let s = link.state(a).unwrap();
+        for (k, v) in &s.values {
+            if let RawValue::Int(v) = v
+                && ![82, 85, 9].contains(&k.number)
+                && link.poke(a, *k, RawValue::Int(v + 1)).is_ok()
+                && link.state(a).unwrap().values[k] == RawValue::Int(v + 1)
+            {
+                return *k;
+            }
+        }
+        panic!("nothing to poke");
+    }
+
+    #[test]
+    fn state_round_trip_keeps_the_fingerprint() {
+        for family in Family::ALL {
+            let file = TempPath::new(family.name());
+            let mut c = config(family, &[1, 3]);
+            c.state = Some(file.0.clone());
+            let clock = VirtualClock::new();
+            let link = open_sim_with(&c, &clock, "sim", EventLog::off()).unwrap();
+            let key = poke_something(&link, 3);
+            let want = link.state(3).unwrap();
+            assert!(link.save().unwrap());
+            drop(link);
+            let again = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+            let got = again.state(3).unwrap();
+            assert_eq!(got.fingerprint(), want.fingerprint(), "{}", family.name());
+            assert_eq!(got.values[&key], want.values[&key]);
+            // A drive the file does not hold starts from factory state.
+            let mut wider = c.clone();
+            wider.addresses = vec![1, 3, 5];
+            drop(again);
+            let wide = open_sim_with(&wider, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+            let fresh = open_sim_with(
+                &config(family, &[5]),
+                &VirtualClock::new(),
+                "sim",
+                EventLog::off(),
+            )
+            .unwrap();
+            assert_eq!(
+                wide.state(5).unwrap().fingerprint(),
+                fresh.state(5).unwrap().fingerprint()
+            );
+        }
+    }
+
+    #[test]
+    fn the_state_is_saved_when_the_last_handle_drops() {
+        let file = TempPath::new("drop");
+        let mut c = config(Family::Mc6000, &[1]);
+        c.state = Some(file.0.clone());
+        let link = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+        let handle = link.byte_link().unwrap();
+        // The first read clears the power-on bit; that is state too.
+        let (bytes, _) = enquire_85(&link, 1);
+        assert!(bytes.starts_with(b"A\x0200085=01"));
+        drop(link);
+        assert!(!file.0.exists(), "a handle still holds the bus");
+        drop(handle);
+        let dump = StateDump::read(&file.0).unwrap();
+        assert_eq!(dump.drives.len(), 1);
+        assert_eq!(dump.drives[0].address, 1);
+        assert!(dump.drives[0].fingerprint.starts_with("sha256:"));
+        let again = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+        assert_eq!(
+            again.state(1).unwrap().fingerprint(),
+            dump.drives[0].fingerprint
+        );
+        let (bytes, _) = enquire_85(&again, 1);
+        assert!(bytes.starts_with(b"A\x0200085=00"), "{bytes:?}");
+    }
+
+    #[test]
+    fn bad_state_files_are_refused_with_the_path() {
+        let file = TempPath::new("bad");
+        let mut c = config(Family::Vf1000, &[1]);
+        c.state = Some(file.0.clone());
+        std::fs::write(&file.0, "{}").unwrap();
+        let e = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a simulator state dump"), "{e}");
+        assert!(e.contains(&file.0.display().to_string()), "{e}");
+        // A dump of another family.
+        let tmd = open_sim_with(
+            &config(Family::Tmd, &[1]),
+            &VirtualClock::new(),
+            "sim",
+            EventLog::off(),
+        )
+        .unwrap();
+        tmd.save_to(&file.0).unwrap();
+        let e = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("it holds tmd drives, this bus has vf1000 drives"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn canonical_text_parses_back() {
+        let mut s = ResolvedSet {
+            schema: "lenze-tmd".into(),
+            code_style: driveset_schema::schema::CodeStyle::Lenze,
+            values: BTreeMap::new(),
+        };
+        s.insert(CodeKey::new(7), RawValue::Int(-17185));
+        s.insert(CodeKey::sub(39, 1), RawValue::Int(200000));
+        s.insert(CodeKey::new(39), RawValue::Octets(vec![0x0a, 0xff]));
+        s.insert(CodeKey::new(200), RawValue::Text("33 \"TMD\"\n".into()));
+        let (schema, values) = parse_canonical(&s.canonical()).unwrap();
+        assert_eq!(schema, "lenze-tmd");
+        assert_eq!(values, s.values);
+        assert!(parse_canonical("hello").is_err());
+        assert!(parse_canonical("driveset-canonical 1\nschema x\nC0001 o0").is_err());
+    }
+
+    #[test]
+    fn ecs_answers_on_the_frame_link() {
+        let clock = VirtualClock::new();
+        let link = open_sim(&spec("sim://ecs?addresses=5&bitrate=125000"), &clock).unwrap();
+        let mut l = link.frame_link().unwrap();
+        assert_eq!(l.bitrate(), 125_000);
+        // SDO upload request of index 0x5FFF - 1 (C0001), subindex 0.
+        let req = CanFrame::new(0x605, &[0x40, 0xFE, 0x5F, 0, 0, 0, 0, 0]).unwrap();
+        l.send(&req).unwrap();
+        let deadline = l.clock().deadline_in(Duration::from_millis(100));
+        let answer = l.recv(deadline).unwrap().expect("an answer");
+        assert_eq!(answer.id, 0x585);
+    }
+}
