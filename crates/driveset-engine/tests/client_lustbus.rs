@@ -418,3 +418,42 @@ fn addresses_and_family_are_checked() {
     assert!(wire(&rig.log, Dir::Host).is_empty());
     let _ = c.link().baud();
 }
+
+#[test]
+fn passwords_never_appear_in_errors() {
+    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
+    // 70 keypad password, 0..9999: 54321 is refused with SIOF 0x80.
+    let err = c
+        .write(CodeKey::new(70), &RawValue::Int(54321))
+        .unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, EngineError::Device { .. }), "{text}");
+    assert!(!text.contains("54321") && !text.contains("D431"), "{text}");
+    assert!(text.contains("password, not shown"), "{text}");
+    // Out of the type's range: refused before sending, still redacted.
+    let err = c
+        .write(CodeKey::new(70), &RawValue::Int(987_654))
+        .unwrap_err();
+    assert!(!err.to_string().contains("987654"), "{err}");
+}
+
+#[test]
+fn options_change_the_answer_timeout() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let o = LustbusOptions {
+        tries: 1,
+        answer_timeout: Some(Duration::from_millis(5)),
+        ..LustbusOptions::default()
+    };
+    let mut c = LustbusClient::with_options(bus, schema(Family::Mc6000), 9, o).unwrap();
+    let t0 = rig.clock.now();
+    assert!(matches!(
+        c.read(CodeKey::new(300)).unwrap_err(),
+        EngineError::NoAnswer { tries: 1, .. }
+    ));
+    assert_eq!(
+        rig.clock.now() - t0,
+        wire_time(8, 9600) + Duration::from_millis(5)
+    );
+}

@@ -356,9 +356,12 @@ impl<L: ByteLink> LecomClient<L> {
     }
 
     fn timeout(&self, answer_chars: usize) -> Duration {
-        self.opts
-            .answer_timeout
-            .unwrap_or_else(|| self.opts.max_reaction * 2 + wire_time(answer_chars, self.baud()))
+        self.opts.answer_timeout.unwrap_or_else(|| {
+            self.opts
+                .max_reaction
+                .saturating_mul(2)
+                .saturating_add(wire_time(answer_chars, self.baud()))
+        })
     }
 
     fn refused(&self, reason: String) -> EngineError {
@@ -446,7 +449,12 @@ impl<L: ByteLink> LecomClient<L> {
             target: self.target.clone(),
             what: what.to_string(),
             detail: format!(
-                "the drive sent `{value}`, which is not the {} format the schema gives",
+                "the drive sent {}, which is not the {} format the schema gives",
+                if schema.is_password(code) {
+                    "a value (password, not shown)".to_string()
+                } else {
+                    format!("`{value}`")
+                },
                 ty.map_or("VD", ValueType::name)
             ),
         })

@@ -442,7 +442,9 @@ impl<L: ByteLink> LustbusClient<L> {
     /// The answer timeout for a reply of `reply_chars` characters.
     fn timeout(&self, reply_chars: usize) -> Duration {
         self.opts.answer_timeout.unwrap_or_else(|| {
-            self.max_reaction() + wire_time(reply_chars, self.baud()) + self.opts.margin
+            self.max_reaction()
+                .saturating_add(wire_time(reply_chars, self.baud()))
+                .saturating_add(self.opts.margin)
         })
     }
 
@@ -688,7 +690,7 @@ impl<L: ByteLink> LustbusClient<L> {
             )
         {
             let extra = if code.width == Some(1) { 60 } else { 120 };
-            timeout += Duration::from_millis(extra);
+            timeout = timeout.saturating_add(Duration::from_millis(extra));
         }
         self.ensure_session(what)?;
         let paced = self.paced(code);
@@ -728,9 +730,16 @@ impl<L: ByteLink> LustbusClient<L> {
                     let rest = self
                         .eeprom_busy_until
                         .map_or(Duration::ZERO, |u| u.saturating_duration_since(now));
-                    let wait = rest
-                        .max(self.opts.eeprom_busy_wait)
-                        .max(Duration::from_millis(u64::from(wait_ms)));
+                    // The rest of the store time this client tracks; if
+                    // it knows of none (another session wrote), the
+                    // section 9.2 "> 60 ms".
+                    let wait = if rest.is_zero() {
+                        self.opts
+                            .eeprom_busy_wait
+                            .max(Duration::from_millis(u64::from(wait_ms)))
+                    } else {
+                        rest
+                    };
                     self.line.link.clock().sleep(wait);
                     self.line.stats.retries += 1;
                 }
@@ -819,7 +828,11 @@ impl<L: ByteLink> LustbusClient<L> {
         .map_err(|e| EngineError::Protocol {
             target: self.target.clone(),
             what: what.to_string(),
-            detail: format!("VALUE `{text}` does not decode: {e}"),
+            detail: if schema.is_password(code) {
+                format!("the VALUE (password, not shown) does not decode: {e}")
+            } else {
+                format!("VALUE `{text}` does not decode: {e}")
+            },
         })?;
         Ok(RawValue::Int(raw))
     }
