@@ -12,11 +12,12 @@
 //!   it is of another protocol family (or another 91-TYPE where the schema
 //!   lists the TYPE values), a running drive (`running() == Some(true)`), and
 //!   commands that overwrite every parameter (MC 4-PROG, VF1000 71-PROG,
-//!   Tmd C0002 "load Lenze setting").
+//!   Tmd C0002 "load Lenze setting"), and a change of the drive's bus
+//!   address (see "link" below).
 //!
 //! # Write order
 //!
-//! Writes go in four phases, each in code order except where noted:
+//! Writes go in five phases, each in code order except where noted:
 //!
 //! 1. **dataset** (MC6000/7000 only): `SLOAD = -1`, every CardWriteable
 //!    value that differs, `SLOAD = -2`, poll SLOAD (LUSTBUS 11.4). The drive
@@ -31,14 +32,20 @@
 //!    and FSEL/ISEL values, Tmd C0040 controller inhibit, C0043 fault reset,
 //!    C0046/C0047 setpoints, C0135 control word; ECS C0135). They act at
 //!    once, so they come after the configuration they act on is in place.
-//! 4. **mode**: codes that switch the operating mode or the control source,
-//!    last (Tmd C0014 operating mode, then C0001 setpoint and control
+//! 4. **mode**: codes that switch the operating mode or the control source
+//!    (Tmd C0014 operating mode, then C0001 setpoint and control
 //!    source; VF1000 2-CSEL). On a Tmd, C0001 decides whether parameters may
 //!    still be written over LECOM at all (manual §4e: 0/1 read only, 2 and 3
 //!    write): written earlier, a change to 0/1 would lock the rest of the
 //!    set out, and a control word or setpoint would take effect under the
 //!    new control source before it is set. A roll back restores in the
 //!    reverse order, so the control source is put back first.
+//! 5. **link**: the baud rate (LUSTBUS 81-SIOC/SBAUD, effective after a
+//!    restart, 11.5; Tmd C0125), last, so the rest of the set lands over the
+//!    link as it is. A change of the **bus address** (82-SIOA/SADDR, Tmd
+//!    C0009) is refused unless forced: the drive would stop answering at the
+//!    address the transaction talks to (found against the simulated VF1000,
+//!    which takes a new 82-SIOA at once).
 
 use std::fmt::Write as _;
 use std::time::Duration;
@@ -103,8 +110,11 @@ pub enum Phase {
     Stored,
     /// RAM control values and commands.
     Control,
-    /// Operating mode / control source switches, last.
+    /// Operating mode / control source switches.
     Mode,
+    /// Bus address and baud rate of the drive's serial interface, last:
+    /// the rest of the set must land while the link is as it was.
+    Link,
 }
 
 impl Phase {
@@ -115,6 +125,7 @@ impl Phase {
             Phase::Stored => "stored",
             Phase::Control => "control",
             Phase::Mode => "mode",
+            Phase::Link => "link",
         }
     }
 }
@@ -251,6 +262,26 @@ fn control_codes(p: Protocol) -> &'static [u32] {
     }
 }
 
+/// Bus address codes (LUSTBUS 82-SIOA/SADDR, Tmd C0009): a change makes
+/// the drive answer at another address, cutting the transaction off.
+fn address_codes(p: Protocol) -> &'static [u32] {
+    match p {
+        Protocol::Lecom => &[9],
+        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[82],
+        Protocol::LenzeCanSdo => &[],
+    }
+}
+
+/// Baud rate codes (LUSTBUS 81-SIOC/SBAUD, effective after a restart per
+/// 11.5; Tmd C0125): written last.
+fn baud_codes(p: Protocol) -> &'static [u32] {
+    match p {
+        Protocol::Lecom => &[125],
+        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[81],
+        Protocol::LenzeCanSdo => &[],
+    }
+}
+
 /// Commands that overwrite every parameter (refused unless forced).
 fn command_codes(p: Protocol) -> &'static [u32] {
     match p {
@@ -277,6 +308,10 @@ fn storage_of(code: &Code, dataset: bool) -> Storage {
 fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
     if storage == Storage::CardWriteable {
         Phase::Dataset
+    } else if address_codes(schema.protocol).contains(&key.number)
+        || baud_codes(schema.protocol).contains(&key.number)
+    {
+        Phase::Link
     } else if mode_codes(schema.protocol).contains(&key.number) {
         Phase::Mode
     } else if matches!(storage, Storage::Ram | Storage::FselIsel)
@@ -412,6 +447,28 @@ pub fn plan(
         if old == new {
             unchanged.push(*key);
             continue;
+        }
+        if address_codes(schema.protocol).contains(&key.number) {
+            if opts.force {
+                warnings.push(format!(
+                    "forced: {} changes the drive's bus address; it will stop answering at its present address, so this write cannot be verified or rolled back",
+                    code_label(schema, *key)
+                ));
+            } else {
+                problems.push(format!(
+                    "{}: {} -> {} changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass --force)",
+                    code_label(schema, *key),
+                    display_value(schema, code, old),
+                    display_value(schema, code, new)
+                ));
+                continue;
+            }
+        }
+        if baud_codes(schema.protocol).contains(&key.number) {
+            warnings.push(format!(
+                "{} changes the baud rate: talk to the drive at the new rate after its next restart",
+                code_label(schema, *key)
+            ));
         }
         let storage = storage_of(code, opts.dataset);
         let phase = phase_of(schema, *key, storage);
@@ -562,7 +619,10 @@ impl Plan {
                     }
                     Phase::Stored => "configuration values:",
                     Phase::Control => "control values (act at once):",
-                    Phase::Mode => "operating mode / control source (last):",
+                    Phase::Mode => "operating mode / control source:",
+                    Phase::Link => {
+                        "serial interface (last; baud rates take effect after a restart):"
+                    }
                 };
                 let _ = writeln!(out, "  {head}");
             }

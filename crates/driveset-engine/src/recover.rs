@@ -150,6 +150,7 @@ pub fn recover(
                 "dataset" => Phase::Dataset,
                 "control" => Phase::Control,
                 "mode" => Phase::Mode,
+                "link" => Phase::Link,
                 _ => Phase::Stored,
             };
             (

@@ -43,6 +43,8 @@ fn mc_drive() -> Drive {
         "lustbus-mc",
         [
             (k(4), RawValue::Int(0)),
+            (k(81), RawValue::Int(9600)),
+            (k(82), RawValue::Int(1)),
             (k(91), RawValue::Int(4711)),
             (k(100), RawValue::Int(0)),
             (k(101), RawValue::Int(10)),
@@ -109,10 +111,7 @@ fn plan_orders_stored_then_control_then_mode_with_c0001_last() {
         text.contains("C0011 max_output_frequency: 50 Hz -> 60 Hz"),
         "{text}"
     );
-    assert!(
-        text.contains("operating mode / control source (last)"),
-        "{text}"
-    );
+    assert!(text.contains("operating mode / control source:"), "{text}");
 }
 
 #[test]
@@ -812,4 +811,102 @@ fn recover_refuses_another_drive() {
     assert!(matches!(err, EngineError::Refused { .. }), "{err}");
     assert!(err.to_string().contains("9999"), "{err}");
     assert!(c.writes_logged().is_empty());
+}
+
+#[test]
+fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
+    use driveset_engine::pull::{PullOptions, pull};
+    let schema = tmd_schema();
+    let mut drive = tmd_drive();
+    drive.missing.insert(k(46));
+    drive.values.insert(k(94), RawValue::Int(77));
+    let mut client = FakeClient::new(schema.clone(), drive);
+    let pulled = pull(&mut client, &PullOptions::default()).expect("pull");
+    let skipped: Vec<(String, &str)> = pulled
+        .skipped
+        .iter()
+        .map(|s| (s.code.clone(), s.reason.split(' ').next().unwrap_or("")))
+        .collect();
+    assert_eq!(
+        skipped,
+        vec![
+            ("C0046 frequency_setpoint".to_string(), "the"),
+            ("C0094 user_password".to_string(), "password"),
+            ("C0200 unknown_type_code".to_string(), "the"),
+        ]
+    );
+    assert!(pulled.skipped[0].reason.contains("no parameter"));
+    assert_eq!(pulled.read, 11);
+    assert!(pulled.set.values.contains_key(&CodeKey::sub(39, 2)));
+    assert!(!pulled.set.values.contains_key(&k(94)));
+    assert_eq!(pulled.fingerprint, pulled.set.fingerprint());
+    assert_eq!(pulled.identity.protocol, "lecom");
+
+    let mut client = FakeClient::new(schema, tmd_drive());
+    let opts = PullOptions {
+        changed_only: true,
+        include_passwords: true,
+    };
+    let changed = pull(&mut client, &opts).expect("pull");
+    // defaults: C0001 0, C0002 0, C0011 50, C0012 5, C0013 5, C0014 2, C0040 0
+    assert_eq!(changed.dropped_defaults, 7);
+    assert!(changed.set.values.contains_key(&k(94)));
+    assert!(!changed.set.values.contains_key(&k(11)));
+    assert_ne!(changed.fingerprint, changed.full_fingerprint);
+}
+
+#[test]
+fn live_diff_shows_what_an_upload_would_change() {
+    use driveset_engine::live::live_diff;
+    let schema = tmd_schema();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive());
+    let d = live_diff(&mut client, &tmd_set()).expect("diff");
+    let lines: Vec<&str> = d.entries.iter().map(|e| e.text.as_str()).collect();
+    assert_eq!(d.entries.len(), 7);
+    assert!(
+        lines.contains(&"C0011 max_output_frequency: 50 Hz -> 60 Hz"),
+        "{lines:?}"
+    );
+    assert!(client.writes_logged().is_empty());
+    let mut other = tmd_set();
+    other.insert(k(999), RawValue::Int(1));
+    let err = live_diff(&mut client, &other).expect_err("unknown");
+    assert!(err.to_string().contains("C0999"), "{err}");
+}
+
+#[test]
+fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
+    let schema = mc_schema();
+    let drive = FakeClient::new(schema.clone(), mc_drive());
+    let set = set_of(
+        &schema,
+        &[(k(82), 4), (k(81), 19200), (k(111), 3), (k(120), 1)],
+    );
+    let current = drive.values_of(set.values.keys().copied());
+    let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
+    assert!(
+        problems
+            .concat()
+            .contains("82-SADDR: 1 -> 4 changes the bus address"),
+        "{problems:?}"
+    );
+    let set = set_of(
+        &schema,
+        &[(k(82), 1), (k(81), 19200), (k(111), 3), (k(120), 1)],
+    );
+    let p = plan(&schema, &set, &current, &PlanOptions::default()).expect("plan");
+    let order: Vec<(u32, Phase)> = p.writes.iter().map(|w| (w.key.number, w.phase)).collect();
+    assert_eq!(
+        order,
+        vec![
+            (111, Phase::Stored),
+            (120, Phase::Control),
+            (81, Phase::Link)
+        ]
+    );
+    assert!(
+        p.warnings
+            .iter()
+            .any(|w| w.contains("81-SBAUD changes the baud rate"))
+    );
 }

@@ -33,6 +33,24 @@ width = 2
 access = "standstill"
 
 [[code]]
+number = 81
+name = "SBAUD"
+title = "SBAUD"
+spec = "fictional"
+type = "PT_USIGN16"
+kind = "eeprom"
+width = 2
+
+[[code]]
+number = 82
+name = "SADDR"
+title = "SADDR"
+spec = "fictional"
+type = "PT_USIGN8"
+kind = "eeprom"
+width = 1
+
+[[code]]
 number = 85
 name = "SERR"
 title = "SERR"
