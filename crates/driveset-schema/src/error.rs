@@ -253,8 +253,8 @@ impl Finding {
     ) -> Self {
         Finding {
             kind,
-            message: message.into(),
-            help: help.into(),
+            message: cap_message(message.into()),
+            help: cap_message(help.into()),
             location,
             related: Vec::new(),
         }
@@ -306,6 +306,19 @@ impl fmt::Display for Finding {
     }
 }
 
+/// Longest message kept in full; longer ones (a message quoting a huge key or
+/// number from the file) are cut, so one bad value cannot make a huge report.
+pub const MAX_MESSAGE_CHARS: usize = 400;
+
+fn cap_message(m: String) -> String {
+    let n = m.chars().count();
+    if n <= MAX_MESSAGE_CHARS {
+        return m;
+    }
+    let head: String = m.chars().take(MAX_MESSAGE_CHARS).collect();
+    format!("{head}... (message cut, {n} characters)")
+}
+
 /// What kind of input error (the CLI exits 2 for all of them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum InputErrorKind {
@@ -351,8 +364,8 @@ impl InputError {
     ) -> Self {
         InputError {
             kind,
-            message: message.into(),
-            help: help.into(),
+            message: cap_message(message.into()),
+            help: cap_message(help.into()),
             location,
         }
     }

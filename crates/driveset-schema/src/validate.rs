@@ -49,6 +49,24 @@ impl Placed<'_> {
     }
 }
 
+/// Longest user text quoted in full in a message.
+const MAX_QUOTED_CHARS: usize = 60;
+
+/// User text quoted for a message (`"..."`, Rust escapes), shortened when long
+/// so a huge value does not make a huge message.
+struct Quoted<'a>(&'a str);
+
+impl std::fmt::Display for Quoted<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.chars().count();
+        if n <= MAX_QUOTED_CHARS {
+            return write!(f, "{:?}", self.0);
+        }
+        let head: String = self.0.chars().take(MAX_QUOTED_CHARS).collect();
+        write!(f, "{head:?}... ({n} characters)")
+    }
+}
+
 /// `C0011` (lazily formatted).
 struct CodeName<'a>(&'a Schema, u32);
 
@@ -257,7 +275,7 @@ fn scalar_to_raw(
                         .map_err(|m| {
                             verr(
                                 FindingKind::OutOfRange,
-                                format!("{what}: text {s:?} is not valid VS text: {m}"),
+                                format!("{what}: text {} is not valid VS text: {m}", Quoted(s)),
                                 "use at most 20 visible ASCII characters",
                             )
                         });
@@ -266,7 +284,7 @@ fn scalar_to_raw(
                     return parse_octets(s).map(RawValue::Octets).ok_or_else(|| {
                         verr(
                             FindingKind::WrongType,
-                            format!("{what} needs octets as hex, found {s:?}"),
+                            format!("{what} needs octets as hex, found {}", Quoted(s)),
                             "write an even number of hex digits, e.g. \"0a1b\"",
                         )
                     });
@@ -286,15 +304,16 @@ fn scalar_to_raw(
                     return Err(verr(
                         FindingKind::UnknownEnumLabel,
                         format!(
-                            "{} has no label {s:?}",
-                            schema.display_code(code.number, None)
+                            "{} has no label {}",
+                            schema.display_code(code.number, None),
+                            Quoted(s)
                         ),
                         format!("use one of: {}", quote_list(&e.labels())),
                     ));
                 }
                 return Err(verr(
                     FindingKind::WrongType,
-                    format!("{what} needs a number, found the text {s:?}"),
+                    format!("{what} needs a number, found the text {}", Quoted(s)),
                     match &code.unit {
                         Some(u) => {
                             format!("write a number, optionally with its unit, e.g. \"10 {u}\"")
@@ -611,12 +630,12 @@ fn member_value(
             match labels {
                 Some(l) => Err(verr(
                     FindingKind::UnknownEnumLabel,
-                    format!("{what} has no label {s:?}"),
+                    format!("{what} has no label {}", Quoted(s)),
                     format!("use one of: {}", quote_list(&l.labels())),
                 )),
                 None => Err(verr(
                     FindingKind::WrongType,
-                    format!("{what} has no labels; found {s:?}"),
+                    format!("{what} has no labels; found {}", Quoted(s)),
                     format!("give a number from 0 to {max}"),
                 )),
             }
