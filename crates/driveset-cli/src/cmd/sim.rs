@@ -1,8 +1,372 @@
-//! `driveset sim` (being written).
+//! `driveset sim`: serve simulated drives in real time on a pseudo terminal
+//! or a TCP port, so every bus command can be tried without hardware.
+//!
+//! ```text
+//! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--faults PLAN]
+//!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
+//! ```
+//!
+//! The first line on stdout is for scripts, exactly one of:
+//!
+//! ```text
+//! pty /dev/pts/7
+//! tcp 127.0.0.1:40123
+//! ```
+//!
+//! Everything else (what is served, how to connect) goes to stderr. The
+//! simulator serves until SIGINT (Ctrl-C) or SIGTERM, then writes the
+//! `--dump` file (and the `--state` file) and exits 0; a second Ctrl-C
+//! while it is stopping exits at once with 1.
+//!
+//! - LUSTBUS / LECOM families (mc6000, vf1000, tmd) serve the character
+//!   line: on `--pty` (the default) a client opens the printed path as a
+//!   serial port (`--port /dev/pts/7?baud=9600`), on `--tcp` it connects
+//!   like to a serial device server in raw mode (`--port
+//!   tcp://127.0.0.1:40123`), one connection at a time. Replies leave at
+//!   the line rate (10 bit times a character) after the family's reaction
+//!   time (LUSTBUS section 10; `--keypad` for the slower ranges with a
+//!   KEYPAD attached).
+//! - ecs (CAN) serves a simulated slcan USB-CAN adapter on a pty:
+//!   `--port slcan:///dev/pts/7?bitrate=500000`, or python-can's `slcan`
+//!   interface. `--tcp` is refused for ecs: no TCP transport for CAN
+//!   exists in driveset to talk to it (slcan over TCP would need a client
+//!   as well).
+//!
+//! `--tcp` binds to loopback unless the address says otherwise: `--tcp
+//! 4001` and `--tcp 127.0.0.1:4001` are loopback, `--tcp 0.0.0.0:4001`
+//! serves the network (with a warning: the simulator has no access
+//! control).
 
+use std::fs::File;
+use std::io::{LineWriter, Write};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, bail};
+use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
+use driveset_sim::catalog::Family;
+use driveset_sim::faults::FaultPlan;
+use driveset_sim::log::EventLog;
+use driveset_sim::open::{
+    SimConfig, StateDump, byte_line_dump, frame_line_dump, is_can, parse_family,
+};
+use driveset_sim::{serve, slcan_serve};
+
+use crate::{EXIT_BUS, EXIT_INPUT, EXIT_OK};
+
+/// Serve simulated drives on a pseudo terminal or a TCP port.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+The first line on stdout is `pty PATH` or `tcp IP:PORT` (for scripts); the rest goes to stderr.
+Stop with Ctrl-C or SIGTERM; --dump then writes every drive's family, address, schema,
+fingerprint and canonical state as JSON.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset sim` is not available in this build yet")
+Examples:
+  driveset sim --family mc6000 --address 1 --address 2
+  driveset sim --family tmd --address 1 --tcp 127.0.0.1:4001 --log bus.jsonl
+  driveset sim --family ecs --address 1 --pty --bitrate 500000")]
+pub struct Args {
+    /// Drive family: mc6000 (MC7000 too), vf1000, tmd, ecs.
+    #[arg(long, value_name = "FAMILY")]
+    family: String,
+
+    /// Bus address of a simulated drive; repeat (or give a comma list) for
+    /// several. LUSTBUS 1..30, LECOM 1..99 except 10, 20, ... 90, CAN 1..127.
+    #[arg(
+        long = "address",
+        value_name = "N",
+        value_delimiter = ',',
+        required = true
+    )]
+    addresses: Vec<u8>,
+
+    /// Serve on a new pseudo terminal (the default).
+    #[arg(long, conflicts_with = "tcp")]
+    pty: bool,
+
+    /// Serve on a TCP port: PORT or IP:PORT (loopback unless an address
+    /// says otherwise; 0 picks a free port).
+    #[arg(long, value_name = "[IP:]PORT")]
+    tcp: Option<String>,
+
+    /// Line rate of the LUSTBUS / LECOM line (7E1).
+    #[arg(long, value_name = "BAUD")]
+    baud: Option<u32>,
+
+    /// CAN bit rate (ecs).
+    #[arg(long, value_name = "BIT/S")]
+    bitrate: Option<u32>,
+
+    /// LUSTBUS drives with a KEYPAD attached (slower reactions, LUSTBUS
+    /// section 10).
+    #[arg(long)]
+    keypad: bool,
+
+    /// Faults to inject, e.g. `flip=0.01,lose=0.02,power-cycle@40:addr=1`.
+    #[arg(long, value_name = "PLAN")]
+    faults: Option<String>,
+
+    /// Seed of every random choice (reaction times, faults).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    seed: u64,
+
+    /// Write the event log (every telegram and fault) as JSON lines.
+    #[arg(long, value_name = "FILE")]
+    log: Option<PathBuf>,
+
+    /// On exit, write every drive's state (family, address, schema,
+    /// fingerprint, canonical values) as JSON.
+    #[arg(long, value_name = "FILE")]
+    dump: Option<PathBuf>,
+
+    /// Load the drives' state from this dump at start (if it exists) and
+    /// save it back on exit (the same file `sim://...` ports use).
+    #[arg(long, value_name = "FILE")]
+    state: Option<PathBuf>,
+}
+
+/// Where to serve.
+enum Endpoint {
+    Pty,
+    Tcp(SocketAddr),
+}
+
+/// `PORT` (loopback) or `IP:PORT` / `[IPv6]:PORT`.
+fn parse_tcp(text: &str) -> anyhow::Result<SocketAddr> {
+    if let Ok(port) = text.parse::<u16>() {
+        return Ok(SocketAddr::from((Ipv4Addr::LOCALHOST, port)));
+    }
+    text.parse::<SocketAddr>().map_err(|_| {
+        anyhow::anyhow!(
+            "--tcp `{text}`: give PORT or IP:PORT, e.g. --tcp 4001 or --tcp 127.0.0.1:4001 (--tcp 0.0.0.0:4001 serves the network)"
+        )
+    })
+}
+
+/// Check the arguments into a bus configuration and an endpoint.
+fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
+    let family = parse_family(&args.family)?;
+    let mut config = SimConfig::new(family, args.addresses.clone());
+    if is_can(family) {
+        if let Some(baud) = args.baud {
+            bail!(
+                "--baud {baud}: {} drives are on CAN; give the bus rate with --bitrate (one of {} bit/s)",
+                family.name(),
+                join(ALLOWED_BITRATES)
+            );
+        }
+        if args.keypad {
+            bail!("--keypad applies to the LUSTBUS families (mc6000, vf1000) only");
+        }
+        if let Some(bitrate) = args.bitrate {
+            config.bitrate = bitrate;
+        }
+    } else {
+        if let Some(bitrate) = args.bitrate {
+            bail!(
+                "--bitrate {bitrate}: {} drives are on a 7E1 character line; give its rate with --baud (one of {} baud)",
+                family.name(),
+                join(ALLOWED_BAUDS)
+            );
+        }
+        if args.keypad && family == Family::Tmd {
+            bail!("--keypad applies to the LUSTBUS families (mc6000, vf1000) only");
+        }
+        if let Some(baud) = args.baud {
+            config.baud = baud;
+        }
+    }
+    config.keypad = args.keypad;
+    config.seed = args.seed;
+    if let Some(plan) = &args.faults {
+        config.faults = FaultPlan::parse(plan).map_err(|e| anyhow::anyhow!("--faults: {e}"))?;
+    }
+    config.state = args.state.clone();
+    config.check()?;
+    let endpoint = match &args.tcp {
+        Some(_) if is_can(family) => bail!(
+            "--tcp: ecs drives are served as a simulated slcan USB-CAN adapter on a pseudo terminal only; use --pty and --port slcan:///dev/pts/N"
+        ),
+        Some(text) => Endpoint::Tcp(parse_tcp(text)?),
+        None => Endpoint::Pty,
+    };
+    Ok((config, endpoint))
+}
+
+fn join(values: &[u32]) -> String {
+    values
+        .iter()
+        .map(u32::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The stop flag, set by SIGINT / SIGTERM. A second SIGINT or SIGTERM
+/// while stopping ends the process at once (exit 1).
+fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM] {
+        // Order matters: the conditional shutdown sees the flag before
+        // this signal sets it, so only a second signal exits.
+        signal_hook::flag::register_conditional_shutdown(sig, 1, Arc::clone(&stop))
+            .context("cannot install the signal handlers")?;
+        signal_hook::flag::register(sig, Arc::clone(&stop))
+            .context("cannot install the signal handlers")?;
+    }
+    Ok(stop)
+}
+
+/// Print the one machine-readable line.
+fn announce(line: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}")
+        .and_then(|()| out.flush())
+        .context("cannot write to stdout")
+}
+
+fn describe(config: &SimConfig) -> String {
+    let addresses = config
+        .addresses
+        .iter()
+        .map(u8::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let n = config.addresses.len();
+    let rate = if is_can(config.family) {
+        format!("CAN at {} bit/s", config.bitrate)
+    } else {
+        format!("{} baud 7E1", config.baud)
+    };
+    let plural = if n == 1 { "" } else { "s" };
+    let faults = if config.faults.is_empty() {
+        String::new()
+    } else {
+        format!(", faults {}", config.faults)
+    };
+    format!(
+        "serving {n} simulated {} drive{plural} (address{} {addresses}) at {rate}, seed {}{faults}",
+        config.family.name(),
+        if n == 1 { "" } else { "es" },
+        config.seed
+    )
+}
+
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let (config, endpoint) = match configure(&args) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return Ok(EXIT_INPUT);
+        }
+    };
+    let log = match &args.log {
+        Some(path) => {
+            let file = File::create(path)
+                .with_context(|| format!("cannot create the log file {}", path.display()))?;
+            EventLog::writer(LineWriter::new(file))
+        }
+        None => EventLog::off(),
+    };
+    let stop = stop_flag()?;
+    let family = config.family;
+    let (outcome, dump) = if is_can(family) {
+        let mut line = config.frame_line(log.clone())?;
+        let mut pty = slcan_serve::SlcanPty::open()?;
+        announce(&format!("pty {}", pty.path()))?;
+        eprintln!("{}", describe(&config));
+        eprintln!(
+            "a simulated slcan adapter: connect with --port slcan://{}?bitrate={} (python-can: interface='slcan', channel='{}'); Ctrl-C stops",
+            pty.path(),
+            config.bitrate,
+            pty.path()
+        );
+        let outcome = slcan_serve::serve_slcan(&mut pty, &mut line, &stop, &mut |_| {})
+            .map(|_| ())
+            .map_err(anyhow::Error::from);
+        (outcome, frame_line_dump(family, &line))
+    } else {
+        let mut line = config.byte_line(log.clone())?;
+        let outcome = match endpoint {
+            Endpoint::Pty => {
+                let serve::Pty {
+                    mut master,
+                    slave,
+                    path,
+                } = serve::open_pty()?;
+                announce(&format!("pty {path}"))?;
+                eprintln!("{}", describe(&config));
+                eprintln!(
+                    "connect with --port {path}?baud={}; Ctrl-C stops",
+                    config.baud
+                );
+                let r = serve::serve_pty(&mut line, &mut master, &stop);
+                drop(slave);
+                r
+            }
+            Endpoint::Tcp(addr) => {
+                let listener = TcpListener::bind(addr).map_err(|source| {
+                    anyhow::Error::from(serve::ServeError::Bind { addr, source })
+                })?;
+                let local = listener
+                    .local_addr()
+                    .context("cannot read the bound port")?;
+                announce(&format!("tcp {local}"))?;
+                eprintln!("{}", describe(&config));
+                if !addr.ip().is_loopback() {
+                    let what = match addr.ip() {
+                        IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",
+                        IpAddr::V6(ip) if ip.is_unspecified() => "every network interface",
+                        _ => "a network address",
+                    };
+                    eprintln!(
+                        "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
+                    );
+                }
+                eprintln!(
+                    "connect with --port tcp://{local}?baud={} (one connection at a time); Ctrl-C stops",
+                    config.baud
+                );
+                serve::serve_tcp(&mut line, &listener, &stop)
+            }
+        };
+        (
+            outcome.map_err(anyhow::Error::from),
+            byte_line_dump(family, &line),
+        )
+    };
+    let saved = finish(&args, &config, &dump, &log);
+    match (outcome, saved) {
+        (Ok(()), Ok(())) => {
+            eprintln!(
+                "stopped after {} host telegrams",
+                dump.telegrams.unwrap_or(0)
+            );
+            Ok(EXIT_OK)
+        }
+        (Err(e), saved) => {
+            if let Err(s) = saved {
+                eprintln!("error: {s:#}");
+            }
+            eprintln!("error: {e:#}");
+            Ok(EXIT_BUS)
+        }
+        (Ok(()), Err(e)) => Err(e),
+    }
+}
+
+/// Flush the log, write `--dump` and `--state`.
+fn finish(args: &Args, config: &SimConfig, dump: &StateDump, log: &EventLog) -> anyhow::Result<()> {
+    log.check()?;
+    if let Some(path) = &args.dump {
+        dump.write(path)?;
+        eprintln!("wrote the drives' state to {}", path.display());
+    }
+    if let Some(path) = &config.state {
+        dump.write(path)?;
+    }
+    Ok(())
 }
