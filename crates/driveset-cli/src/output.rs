@@ -431,6 +431,13 @@ impl Report {
     }
 }
 
+/// Write to stdout; a closed pipe (`driveset ... | head`) is not an error.
+pub fn emit(text: &str) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
+}
+
 /// Print an input error (human, to stderr) and return exit code 2.
 pub fn fail_input(e: &InputError) -> u8 {
     eprint!("{}", input_error_human(e, Style::stderr()));

@@ -152,7 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             } else {
                 line.to_string()
             };
-            println!("{l}");
+            output::emit(&format!("{l}\n"));
         }
         return Ok(if text.is_empty() {
             crate::EXIT_OK
@@ -213,7 +213,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 "removed": count(DiffKind::Removed),
                 "entries": entries,
             });
-            println!("{}", serde_json::to_string_pretty(&doc)?);
+            output::emit(&format!("{}\n", serde_json::to_string_pretty(&doc)?));
         }
         DiffFormat::Human => {
             let style = Style::stdout();
@@ -237,7 +237,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                     plural(d.entries.len(), "difference", "differences")
                 );
             }
-            print!("{out}");
+            output::emit(&out);
         }
     }
     Ok(if d.is_empty() {

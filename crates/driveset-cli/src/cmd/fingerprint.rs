@@ -37,7 +37,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         match output::load_valid_set(f, &mut registry) {
             Ok(l) => {
                 if let Some(set) = &l.resolved {
-                    println!("{}  {}", set.fingerprint(), f.display());
+                    output::emit(&format!("{}  {}\n", set.fingerprint(), f.display()));
                 }
             }
             Err(c) => code = code.max(c),

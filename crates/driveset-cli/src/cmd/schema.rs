@@ -106,14 +106,11 @@ fn check(args: CheckArgs) -> anyhow::Result<u8> {
         }
         check_files(&files, &registry, &mut report);
     }
-    print!(
-        "{}",
-        report.render(
-            args.format,
-            Style::stdout(),
-            ("schema file", "schema files")
-        )
-    );
+    output::emit(&report.render(
+        args.format,
+        Style::stdout(),
+        ("schema file", "schema files"),
+    ));
     Ok(report.exit_code())
 }
 

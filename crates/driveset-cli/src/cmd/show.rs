@@ -71,6 +71,6 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             export(set, schema, loaded.title.as_deref(), format)
         }
     };
-    print!("{text}");
+    output::emit(&text);
     Ok(crate::EXIT_OK)
 }

@@ -186,6 +186,6 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         }
     }
     let style = Style::stdout();
-    print!("{}", report.render(args.format, style, ("file", "files")));
+    output::emit(&report.render(args.format, style, ("file", "files")));
     Ok(report.exit_code())
 }
