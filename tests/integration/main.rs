@@ -3,6 +3,11 @@
 //! holds the shared helpers.
 
 mod decode;
+mod diff;
 mod encode;
+mod fingerprint;
+mod schema_check;
+mod show;
+mod sim;
 mod util;
 mod validate;
