@@ -1,0 +1,5 @@
+//! Machine lines: a manifest of buses and drives, commissioning every drive
+//! from its set (buses in parallel, drives on one bus in turn), drift status,
+//! and the commissioning report.
+
+pub mod report;

@@ -1,0 +1,165 @@
+//! The commissioning report of a machine line: what `driveset commission`
+//! (and `driveset status`) did on every bus and drive, and what each drive
+//! holds afterwards. One serde model; the JSON form is the machine-readable
+//! report, and the CLI renders the self-contained HTML page from the same
+//! value. Times on a bus are milliseconds on that bus's clock since the bus
+//! started (virtual on `sim://` buses, real on ports); `started` /
+//! `finished` are wall-clock RFC 3339 instants.
+
+use serde::{Deserialize, Serialize};
+
+/// The report format version written into every report.
+pub const REPORT_VERSION: u32 = 1;
+
+/// A whole line run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LineReport {
+    /// [`REPORT_VERSION`].
+    pub report_version: u32,
+    /// What produced it: `commission` or `status`.
+    pub command: String,
+    /// The line's name (manifest `name`, else the manifest file stem).
+    pub line: String,
+    /// The manifest path as given.
+    pub manifest: String,
+    /// Operator-supplied label (`--label`), if any.
+    pub label: Option<String>,
+    /// Wall-clock start, RFC 3339 UTC.
+    pub started: String,
+    /// Wall-clock end, RFC 3339 UTC.
+    pub finished: String,
+    /// The git commit of the sets, when the manifest is inside a git work tree.
+    pub git: Option<GitInfo>,
+    /// Overall result.
+    pub result: LineResult,
+    /// One entry per bus, in manifest order.
+    pub buses: Vec<BusReport>,
+    /// One entry per drive, in manifest order.
+    pub drives: Vec<DriveReport>,
+}
+
+/// Where the sets came from in git.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GitInfo {
+    /// Full commit id of HEAD.
+    pub commit: String,
+    /// Whether the work tree had uncommitted changes to tracked files.
+    pub dirty: bool,
+}
+
+/// Overall result of a line run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LineResult {
+    /// Every selected drive holds its set (verified).
+    Ok,
+    /// At least one drive differs from its set (`status`).
+    Drift,
+    /// At least one drive failed.
+    Failed,
+}
+
+/// One bus of the line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BusReport {
+    /// Bus name from the manifest.
+    pub name: String,
+    /// Port in the common port syntax.
+    pub port: String,
+    /// `lustbus`, `lecom` or `can`.
+    pub protocol: String,
+    /// Line rate (baud, or CAN bit/s).
+    pub rate: u32,
+    /// Time the bus was busy, ms on the bus clock.
+    pub elapsed_ms: f64,
+    /// What happened when, for the timeline chart.
+    pub timeline: Vec<TimelineEntry>,
+}
+
+/// One span of bus activity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TimelineEntry {
+    /// The drive's name.
+    pub drive: String,
+    /// `identify`, `read`, `plan`, `write`, `verify`, `broadcast`, `rollback`.
+    pub phase: String,
+    /// Start, ms on the bus clock.
+    pub start_ms: f64,
+    /// End, ms on the bus clock.
+    pub end_ms: f64,
+}
+
+/// What happened to one drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DriveResult {
+    /// Written (if needed) and verified: holds its set.
+    Verified,
+    /// Already held its set; nothing written.
+    Unchanged,
+    /// Skipped: a previous run verified it at the same set fingerprint (resume).
+    AlreadyVerified,
+    /// Not selected by `--only` / `--skip`.
+    NotSelected,
+    /// `status`: differs from its set.
+    Drift,
+    /// The upload failed and the drive was rolled back to its old values.
+    RolledBack,
+    /// Failed; see `error`.
+    Failed,
+}
+
+/// One drive of the line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DriveReport {
+    /// Drive name (manifest `name`, else `BUS/ADDRESS`).
+    pub name: String,
+    /// Optional position text from the manifest.
+    pub position: Option<String>,
+    /// Bus name.
+    pub bus: String,
+    /// Bus address / node id.
+    pub address: u8,
+    /// Set file as given in the manifest.
+    pub set: String,
+    /// Schema id.
+    pub schema: String,
+    /// Identification codes read (`["91 TYPE", "1234"]` ...), empty if not reached.
+    pub identity: Vec<(String, String)>,
+    /// Fingerprint of the set file.
+    pub set_fingerprint: String,
+    /// Fingerprint of the drive's values of the set's codes before the run.
+    pub fingerprint_before: Option<String>,
+    /// ... and after the run.
+    pub fingerprint_after: Option<String>,
+    /// Codes written.
+    pub codes_written: u32,
+    /// Telegrams repeated after failures.
+    pub retries: u64,
+    /// Telegrams sent.
+    pub telegrams: u64,
+    /// Time spent on this drive, ms on the bus clock.
+    pub elapsed_ms: f64,
+    /// Outcome.
+    pub result: DriveResult,
+    /// Error message (what, where, what to do), if any.
+    pub error: Option<String>,
+    /// The semantic differences found before writing (or, for `status`, now).
+    pub diff: Vec<DiffLine>,
+}
+
+/// One line of a semantic diff, in engineering units with labels
+/// (passwords redacted).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DiffLine {
+    /// Code as the schema displays it (`C0011`, `428-RSIO`).
+    pub code: String,
+    /// Code name.
+    pub name: String,
+    /// `added`, `removed` or `changed`.
+    pub kind: String,
+    /// Value on the drive (or in A), display text.
+    pub old: Option<String>,
+    /// Value in the set (or in B), display text.
+    pub new: Option<String>,
+}
