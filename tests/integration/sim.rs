@@ -52,8 +52,13 @@ impl Sim {
 
     /// SIGTERM, then wait (bounded) for the exit.
     fn terminate(&mut self, within: Duration) -> (ExitStatus, String) {
+        self.signal("-TERM", within)
+    }
+
+    /// Send `signal` (`-TERM`, `-INT`), then wait (bounded) for the exit.
+    fn signal(&mut self, signal: &str, within: Duration) -> (ExitStatus, String) {
         let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
+            .args([signal, &self.child.id().to_string()])
             .status()
             .expect("run kill");
         assert!(status.success());
@@ -64,7 +69,7 @@ impl Sim {
             }
             assert!(
                 Instant::now() < give_up,
-                "driveset sim did not stop within {within:?} after SIGTERM"
+                "driveset sim did not stop within {within:?} after kill {signal}"
             );
             std::thread::sleep(Duration::from_millis(20));
         }
@@ -311,7 +316,8 @@ fn pty_ecs_serves_an_slcan_adapter() {
     let text = String::from_utf8_lossy(&got);
     assert!(text.starts_with("z\rt5858"), "{text:?}");
     drop(port);
-    let (status, stderr) = sim.terminate(Duration::from_secs(5));
+    // Ctrl-C stops it as cleanly as SIGTERM.
+    let (status, stderr) = sim.signal("-INT", Duration::from_secs(5));
     assert_eq!(status.code(), Some(0), "{stderr}");
 }
 
