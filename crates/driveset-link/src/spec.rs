@@ -37,13 +37,21 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
 /// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
 /// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &["faults", "seed"];
+pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
 
 const SERIAL_KEYS: &[&str] = &["baud"];
 const TCP_KEYS: &[&str] = &["baud"];
 const SLCAN_KEYS: &[&str] = &["bitrate", "baud"];
 const CAN_KEYS: &[&str] = &["bitrate", "baud"];
-const SIM_KEYS: &[&str] = &["addresses", "baud", "bitrate", "faults", "seed"];
+const SIM_KEYS: &[&str] = &[
+    "addresses",
+    "baud",
+    "bitrate",
+    "faults",
+    "keypad",
+    "seed",
+    "state",
+];
 
 /// Where a bus is: a parsed port string. See the module docs for the forms.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]

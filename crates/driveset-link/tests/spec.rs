@@ -139,6 +139,10 @@ fn sim_buses() {
         "sim://lenze_ecs?bitrate=125000&addresses=1&faults=drop:0.1",
         "sim://lenze_ecs?addresses=1&bitrate=125000&faults=drop:0.1",
     );
+    round_trip(
+        "sim://mc6000?state=/tmp/line/sim.json&keypad=true&addresses=1",
+        "sim://mc6000?addresses=1&keypad=true&state=/tmp/line/sim.json",
+    );
     assert_eq!(ok("sim://x?addresses=0").line_baud(), Some(DEFAULT_BAUD));
     assert_eq!(
         "sim://x?addresses= 7"
