@@ -26,6 +26,7 @@ pub mod lustbus_drive;
 pub mod mc6000;
 pub mod rng;
 pub mod serve;
+pub mod slcan_hub;
 pub mod slcan_serve;
 pub mod table;
 pub mod tmd;
