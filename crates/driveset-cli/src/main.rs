@@ -6,6 +6,9 @@
 //! differences, 2 usage or input error, 3 bus or device failure.
 
 mod cmd;
+mod port;
+mod progress;
+mod report;
 
 use std::process::ExitCode;
 
@@ -61,6 +64,14 @@ enum Command {
     Upload(cmd::upload::Args),
     /// Finish or roll back an interrupted upload from its journal.
     Recover(cmd::recover::Args),
+    /// Make `git diff` show semantic diffs of set files (.gitattributes + diff driver).
+    GitSetup(cmd::git_setup::Args),
+    /// The textconv filter of the `driveset` git diff driver (one line per code).
+    #[command(hide = true)]
+    Textconv(cmd::git_setup::TextconvArgs),
+    /// Render a saved commissioning report (report.json) to report.html again.
+    #[command(hide = true)]
+    Report(report::Args),
 }
 
 fn main() -> ExitCode {
@@ -86,6 +97,9 @@ fn main() -> ExitCode {
         Command::Pull(a) => cmd::pull::run(a),
         Command::Upload(a) => cmd::upload::run(a),
         Command::Recover(a) => cmd::recover::run(a),
+        Command::GitSetup(a) => cmd::git_setup::run(a),
+        Command::Textconv(a) => cmd::git_setup::run_textconv(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

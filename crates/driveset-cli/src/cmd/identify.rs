@@ -1,8 +1,187 @@
-//! `driveset identify` (being written).
+//! `driveset identify --port P --address A [--schema ID|PATH | --protocol P]`:
+//! what the drive at an address says it is (family, TYPE / identification
+//! codes, software version) and whether the schema fits it.
 
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use driveset_engine::client::{DriveClient, LustbusClient};
+use driveset_engine::error::EngineError;
+use driveset_link::Link;
+use driveset_proto::lustbus::ParameterCode;
+use driveset_schema::Protocol;
+use serde_json::json;
+
+use super::validate::output;
+use crate::port::{self, Fail, ProtocolArg};
+use crate::{EXIT_FINDINGS, EXIT_OK};
+
+/// Output format of the bus commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BusFormat {
+    /// Text for humans.
+    Human,
+    /// One JSON document on stdout.
+    Json,
+}
+
+/// Arguments of `driveset identify`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+The protocol comes from --schema, else from a sim://FAMILY port, else from
+--protocol (with its built-in schema: lustbus -> lust-mc6000 or lust-vf1000,
+told apart by whether the drive answers an MC6000/7000 CODE, lecom ->
+lenze-tmd, sdo -> lenze-ecs). Nothing is written to the drive.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset identify` is not available in this build yet")
+Exit codes: 0 identified and the schema fits, 1 identified but the schema
+does not fit (another family or TYPE), 2 usage or input error, 3 bus or
+device failure (no answer, ...).
+
+Examples:
+  driveset identify --port sim://mc6000?addresses=1 --address 1
+  driveset identify --port /dev/ttyUSB0?baud=9600 --address 3 --protocol lecom
+  driveset identify --port tcp://10.0.0.7:4001 --address 1 --schema lust-vf1000 --format json")]
+pub struct Args {
+    /// The port (/dev/ttyUSB0?baud=9600, tcp://host:port, slcan://..., sim://FAMILY?addresses=...).
+    #[arg(long)]
+    pub port: String,
+    /// Bus address (LUSTBUS 1..30, LECOM 1..99, CAN node id 1..127).
+    #[arg(long)]
+    pub address: u8,
+    /// Schema id or file to talk with (decides the protocol).
+    #[arg(long, value_name = "ID|PATH")]
+    pub schema: Option<String>,
+    /// Protocol, when neither --schema nor a sim:// port says it.
+    #[arg(long, value_enum)]
+    pub protocol: Option<ProtocolArg>,
+    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset identify`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    port::finish(identify(&args))
+}
+
+fn identify(args: &Args) -> Result<u8, Fail> {
+    let sim = port::peek_sim_family(&args.port);
+    // --protocol wins over the family a sim:// port names (so the LUSTBUS
+    // family probe below runs against simulated drives too).
+    let sim_hint = if args.protocol.is_some() { None } else { sim };
+    let choice =
+        port::resolve_schema(args.schema.as_deref(), &args.schemas, sim_hint, args.protocol)?;
+    let opened = port::open_port(&args.port)?;
+    let port_name = opened.name.clone();
+    let mut schema = choice.schema;
+    let mut note = None;
+    // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
+    // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
+    if args.schema.is_none() && sim_hint.is_none() && schema.protocol == Protocol::LustbusMc {
+        let link = match opened.link {
+            Link::Bytes(l) => l,
+            Link::Frames(_) => {
+                return Err(Fail::input(format!(
+                    "{port_name} is a CAN port; LUSTBUS needs a character line"
+                )));
+            }
+        };
+        let mut probe = LustbusClient::new(link, schema.clone(), args.address)?;
+        let code = ParameterCode::mc_value(91).unwrap_or(ParameterCode::POSMOD);
+        let mc = probe.enquire_code(code, 8)?.is_some();
+        if !mc {
+            let registry = port::registry(&args.schemas)?;
+            schema = registry
+                .get("lust-vf1000")
+                .ok_or_else(|| Fail::input("built-in schema lust-vf1000 is missing"))?;
+            note = Some(
+                "the drive NAKs the MC6000/7000 CODE 20091: a VF1000 inverter".to_string(),
+            );
+        } else {
+            note = Some(
+                "the drive answers the MC6000/7000 CODE 20091: a MASTERCONTROL servo".to_string(),
+            );
+        }
+        let mut client: Box<dyn DriveClient> = if mc {
+            Box::new(probe)
+        } else {
+            Box::new(LustbusClient::new(
+                probe.into_link(),
+                schema.clone(),
+                args.address,
+            )?)
+        };
+        return report(args, &port_name, client.as_mut(), note);
+    }
+    let mut client = port::into_client(opened, schema.clone(), args.address, false)?;
+    report(args, &port_name, client.as_mut(), note)
+}
+
+fn report(
+    args: &Args,
+    port_name: &str,
+    client: &mut dyn DriveClient,
+    note: Option<String>,
+) -> Result<u8, Fail> {
+    let schema = client.schema().clone();
+    let identity = client.identify()?;
+    let fits = match driveset_engine::identify::check_family(client) {
+        Ok(_) => Ok(()),
+        Err(EngineError::Refused { reason, .. }) => Err(reason),
+        Err(e) => return Err(e.into()),
+    };
+    client.finish()?;
+    match args.format {
+        BusFormat::Json => {
+            let doc = json!({
+                "port": port_name,
+                "address": args.address,
+                "protocol": identity.protocol,
+                "codes": identity.codes.iter().map(|(c, v)| json!({"code": c, "value": v})).collect::<Vec<_>>(),
+                "software": identity.software,
+                "schema": schema.id,
+                "schema_title": schema.title,
+                "fits": fits.is_ok(),
+                "reason": fits.as_ref().err(),
+                "note": note,
+            });
+            output::emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&doc).unwrap_or_default()
+            ));
+        }
+        BusFormat::Human => {
+            let mut out = String::new();
+            let _ = writeln!(out, "port:     {port_name}");
+            let _ = writeln!(out, "address:  {}", args.address);
+            let _ = writeln!(out, "family:   {}", identity.protocol);
+            for (c, v) in &identity.codes {
+                let _ = writeln!(out, "{c}: {v}");
+            }
+            let _ = writeln!(
+                out,
+                "software: {}",
+                identity.software.as_deref().unwrap_or("(not reported)")
+            );
+            match &fits {
+                Ok(()) => {
+                    let _ = writeln!(out, "schema:   {} (fits)", schema.id);
+                }
+                Err(r) => {
+                    let _ = writeln!(out, "schema:   {} does NOT fit: {r}", schema.id);
+                }
+            }
+            if let Some(n) = &note {
+                let _ = writeln!(out, "note:     {n}");
+            }
+            output::emit(&out);
+        }
+    }
+    Ok(if fits.is_ok() { EXIT_OK } else { EXIT_FINDINGS })
 }

@@ -3,13 +3,16 @@
 
 pub mod decode;
 pub mod diff;
+pub mod diff_live;
 pub mod encode;
 pub mod fingerprint;
+pub mod git_setup;
 pub mod identify;
 pub mod pull;
 pub mod recover;
 pub mod scan;
 pub mod schema;
+pub mod schema_pull;
 pub mod show;
 pub mod sim;
 pub mod upload;

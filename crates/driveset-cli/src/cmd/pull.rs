@@ -1,8 +1,318 @@
-//! `driveset pull` (being written).
+//! `driveset pull --port P --address A --schema S -o FILE [--changed-only]
+//! [--to toml|yaml]`: read every readable code of a drive into a set file.
+//!
+//! The file starts with comments naming the port, the address, what the
+//! drive said it is and the fingerprint, and carries the same facts in the
+//! `[drive]` table (docs/file-formats.md: informational, ignored by the
+//! loader), so `driveset validate` / `driveset fingerprint` read it back to
+//! the same fingerprint. Passwords are not read (they would land in the file).
 
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+use driveset_engine::pull::{PullOptions, pull as engine_pull};
+use driveset_schema::{Format, export};
+use serde_json::json;
+
+use super::identify::BusFormat;
+use super::validate::output;
+use crate::port::{self, Fail};
+use crate::progress::Progress;
+use crate::EXIT_OK;
+
+/// `--to` of `pull`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PullTo {
+    /// TOML.
+    Toml,
+    /// YAML.
+    Yaml,
+}
+
+/// Arguments of `driveset pull`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+Reads every code of the schema the drive lets read, except status codes whose
+reading clears them (85-SIOF/SERR), passwords, and codes without a type; codes
+the drive refuses are skipped and listed. The set is written in engineering
+units with labels, TOML or YAML by the file's extension (or --to), with the
+drive's identity and the fingerprint in comments and the [drive] table.
+`driveset fingerprint FILE` gives the same fingerprint.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset pull` is not available in this build yet")
+Exit codes: 0 written, 1 the schema does not fit the drive (nothing written;
+--force pulls anyway), 2 usage or input error, 3 bus or device failure.
+
+Examples:
+  driveset pull --port sim://mc6000?addresses=1 --address 1 -o axis-1.toml
+  driveset pull --port /dev/ttyUSB0 --address 3 --schema lenze-tmd -o conveyor-3.yaml --changed-only")]
+pub struct Args {
+    /// The port.
+    #[arg(long)]
+    pub port: String,
+    /// Bus address.
+    #[arg(long)]
+    pub address: u8,
+    /// Schema id or file (default on sim:// ports: the simulated family's).
+    #[arg(long, value_name = "ID|PATH")]
+    pub schema: Option<String>,
+    /// The set file to write.
+    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    pub output: PathBuf,
+    /// Leave out values equal to the schema's factory default.
+    #[arg(long)]
+    pub changed_only: bool,
+    /// File syntax (default: by the extension; .yaml/.yml YAML, else TOML).
+    #[arg(long, value_enum)]
+    pub to: Option<PullTo>,
+    /// Pull even if the drive's identity does not fit the schema.
+    #[arg(long)]
+    pub force: bool,
+    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// Output format of the report on stdout.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset pull`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    port::finish(pull(&args))
+}
+
+/// `to` relative to the directory `from` (both made absolute).
+pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
+    let abs = |p: &Path| {
+        let p = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            std::env::current_dir().unwrap_or_default().join(p)
+        };
+        p.canonicalize().unwrap_or(p)
+    };
+    let to = abs(to);
+    let from = abs(from_dir);
+    let t: Vec<Component> = to.components().collect();
+    let f: Vec<Component> = from.components().collect();
+    let common = t.iter().zip(&f).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return to;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..f.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c);
+    }
+    out
+}
+
+fn toml_str(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
+fn pull(args: &Args) -> Result<u8, Fail> {
+    let sim = port::peek_sim_family(&args.port);
+    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, None)?;
+    let schema = choice.schema.clone();
+    let format = match args.to {
+        Some(PullTo::Yaml) => Format::Yaml,
+        Some(PullTo::Toml) => Format::Toml,
+        None => match args.output.extension().and_then(|e| e.to_str()) {
+            Some("yaml" | "yml") => Format::Yaml,
+            _ => Format::Toml,
+        },
+    };
+    let opened = port::open_port(&args.port)?;
+    let port_name = opened.name.clone();
+    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    if !args.force
+        && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
+    {
+        return Err(Fail {
+            code: if matches!(e, driveset_engine::error::EngineError::Refused { .. }) {
+                crate::EXIT_FINDINGS
+            } else {
+                port::engine_exit(&e)
+            },
+            msg: format!("{e}; nothing written (pass --force to pull anyway)"),
+        });
+    }
+    let quiet = args.format == BusFormat::Json;
+    let count: usize = schema
+        .codes
+        .iter()
+        .map(|c| c.subcodes.filter(|n| *n > 0).unwrap_or(1) as usize)
+        .sum();
+    let pulled = {
+        let mut p = Progress::new(client.as_mut(), "pull", count, quiet);
+        let r = engine_pull(
+            &mut p,
+            &PullOptions {
+                changed_only: args.changed_only,
+                include_passwords: false,
+            },
+        );
+        p.done();
+        r?
+    };
+    client.finish()?;
+
+    // The schema reference: a file named by path stays a path (relative to
+    // the set file), an id stays an id.
+    let schema_ref = match &choice.path {
+        Some(p) => {
+            let dir = args
+                .output
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
+            relative_path(p, dir).display().to_string()
+        }
+        None => schema.id.clone(),
+    };
+    let title = format!("pulled from {port_name} address {}", args.address);
+    let body = export(&pulled.set, &schema, Some(&title), format);
+    // export starts with the schema line; replace it by the reference.
+    let body = body.split_once('\n').map_or("", |(_, rest)| rest);
+    let ident: Vec<String> = pulled
+        .identity
+        .codes
+        .iter()
+        .map(|(c, v)| format!("{c} = {v}"))
+        .collect();
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "# Pulled by driveset from {port_name} address {}.",
+        args.address
+    );
+    let _ = writeln!(
+        text,
+        "# Drive: {}{}{}",
+        pulled.identity.protocol,
+        if ident.is_empty() { "" } else { ", " },
+        ident.join(", ")
+    );
+    if let Some(sw) = &pulled.identity.software {
+        let _ = writeln!(text, "# Software: {sw}");
+    }
+    let _ = writeln!(
+        text,
+        "# Fingerprint: {} ({} values{})",
+        pulled.fingerprint,
+        pulled.set.values.len(),
+        if args.changed_only {
+            format!(
+                "; {} equal to the factory default left out, all values read: {}",
+                pulled.dropped_defaults, pulled.full_fingerprint
+            )
+        } else {
+            String::new()
+        }
+    );
+    if !pulled.skipped.is_empty() {
+        let _ = writeln!(text, "# Not read: {} codes", pulled.skipped.len());
+        for s in &pulled.skipped {
+            let _ = writeln!(text, "#   {}: {}", s.code, s.reason);
+        }
+    }
+    match format {
+        Format::Yaml | Format::Json => {
+            let _ = writeln!(text, "schema: {}", toml_str(&schema_ref));
+            let (head, values) = body.split_once("values:").unwrap_or((body, " {}\n"));
+            text.push_str(head);
+            let _ = writeln!(text, "drive:");
+            let _ = writeln!(text, "  port: {}", toml_str(&port_name));
+            let _ = writeln!(text, "  address: {}", args.address);
+            let _ = writeln!(text, "  protocol: {}", toml_str(&pulled.identity.protocol));
+            for (c, v) in &pulled.identity.codes {
+                let _ = writeln!(text, "  {}: {}", toml_str(c), toml_str(v));
+            }
+            let _ = writeln!(text, "  fingerprint: {}", toml_str(&pulled.fingerprint));
+            text.push_str("values:");
+            text.push_str(values);
+        }
+        Format::Toml => {
+            let _ = writeln!(text, "schema = {}", toml_str(&schema_ref));
+            let (head, values) = body.split_once("[values]\n").unwrap_or((body, ""));
+            text.push_str(head);
+            let _ = writeln!(text, "[drive]");
+            let _ = writeln!(text, "port = {}", toml_str(&port_name));
+            let _ = writeln!(text, "address = {}", args.address);
+            let _ = writeln!(text, "protocol = {}", toml_str(&pulled.identity.protocol));
+            for (c, v) in &pulled.identity.codes {
+                let _ = writeln!(text, "{} = {}", toml_str(c), toml_str(v));
+            }
+            let _ = writeln!(text, "fingerprint = {}", toml_str(&pulled.fingerprint));
+            text.push_str("\n[values]\n");
+            text.push_str(values);
+        }
+    }
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| Fail::input(format!("cannot create {}: {e}", dir.display())))?;
+    }
+    std::fs::write(&args.output, text)
+        .map_err(|e| Fail::input(format!("cannot write {}: {e}", args.output.display())))?;
+
+    match args.format {
+        BusFormat::Json => {
+            let doc = json!({
+                "port": port_name,
+                "address": args.address,
+                "file": args.output.display().to_string(),
+                "schema": schema.id,
+                "identity": pulled.identity,
+                "fingerprint": pulled.fingerprint,
+                "full_fingerprint": pulled.full_fingerprint,
+                "values": pulled.set.values.len(),
+                "read": pulled.read,
+                "dropped_defaults": pulled.dropped_defaults,
+                "skipped": pulled.skipped,
+                "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
+            });
+            output::emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&doc).unwrap_or_default()
+            ));
+        }
+        BusFormat::Human => {
+            let mut out = String::new();
+            let _ = writeln!(
+                out,
+                "pulled {} values from {port_name} address {} into {} ({:.3} s on the bus)",
+                pulled.set.values.len(),
+                args.address,
+                args.output.display(),
+                pulled.elapsed.as_secs_f64()
+            );
+            if args.changed_only {
+                let _ = writeln!(
+                    out,
+                    "left out {} values equal to the factory default",
+                    pulled.dropped_defaults
+                );
+            }
+            if !pulled.skipped.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "not read: {}",
+                    pulled
+                        .skipped
+                        .iter()
+                        .map(|s| s.code.clone())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+            let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);
+            output::emit(&out);
+        }
+    }
+    Ok(EXIT_OK)
 }

@@ -1,8 +1,243 @@
-//! `driveset scan` (being written).
+//! `driveset scan --port P [--protocol lustbus|lecom|sdo] [--detect-baud]`:
+//! which drives answer on a bus.
 
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use driveset_engine::scan::{
+    Found, LECOM_BAUDS, LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses,
+    lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
+};
+use driveset_link::{ByteLink, Link, LinkError, PortSpec};
+use serde_json::json;
+
+use super::identify::BusFormat;
+use super::validate::output;
+use crate::port::{self, Fail, ProtocolArg};
+use crate::{EXIT_BUS, EXIT_OK};
+
+/// Arguments of `driveset scan`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+LUSTBUS: an ENQUIRY of 91-TYPE (CODE 00091) to every address 1..30.
+LECOM: a read of C0093 (or the schema's first identification code) to every
+station 01..99 except the group addresses 10, 20 .. 90. CAN SDO: a read of
+the schema's first identification code from every node id 1..127. Any
+answer (a value or a refusal) counts. Nothing is written.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset scan` is not available in this build yet")
+--detect-baud tries every line rate, highest first (LUSTBUS 57600..2400,
+LECOM 9600..1200), and reports the first at which a drive answers.
+
+Exit codes: 0 drives found, 2 usage or input error, 3 bus failure or no
+drive answered.
+
+Examples:
+  driveset scan --port sim://mc6000?addresses=3,7
+  driveset scan --port /dev/ttyUSB0 --protocol lecom --detect-baud
+  driveset scan --port slcan:///dev/ttyACM0?bitrate=500000 --protocol sdo --format json")]
+pub struct Args {
+    /// The port.
+    #[arg(long)]
+    pub port: String,
+    /// Protocol, when neither --schema nor a sim:// port says it.
+    #[arg(long, value_enum)]
+    pub protocol: Option<ProtocolArg>,
+    /// Schema id or file (decides the protocol and the probe code).
+    #[arg(long, value_name = "ID|PATH")]
+    pub schema: Option<String>,
+    /// Try every line rate, highest first; report the first that answers.
+    #[arg(long)]
+    pub detect_baud: bool,
+    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset scan`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    port::finish(scan(&args))
+}
+
+fn proto_of(p: driveset_schema::Protocol) -> ProtocolArg {
+    use driveset_schema::Protocol as P;
+    match p {
+        P::Lecom => ProtocolArg::Lecom,
+        P::LustbusMc | P::LustbusVf1000 => ProtocolArg::Lustbus,
+        P::LenzeCanSdo => ProtocolArg::Sdo,
+    }
+}
+
+/// The port string at another rate (`baud=` replaced).
+fn at_baud(spec: &PortSpec, baud: u32) -> PortSpec {
+    let mut s = spec.clone();
+    match &mut s {
+        PortSpec::Serial { baud: b, .. } | PortSpec::Tcp { baud: b, .. } => *b = Some(baud),
+        PortSpec::Sim(sim) => sim.baud = Some(baud),
+        PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => {}
+    }
+    s
+}
+
+fn scan(args: &Args) -> Result<u8, Fail> {
+    let sim = port::peek_sim_family(&args.port);
+    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, args.protocol)?;
+    let schema = choice.schema;
+    let protocol = args.protocol.unwrap_or_else(|| proto_of(schema.protocol));
+    let opts = ScanOptions::default();
+    let mut baud_found = None;
+    let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
+        let rates: &[u32] = match protocol {
+            ProtocolArg::Lustbus => &LUSTBUS_BAUDS,
+            ProtocolArg::Lecom => &LECOM_BAUDS,
+            ProtocolArg::Sdo => {
+                return Err(Fail::input(
+                    "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
+                ));
+            }
+        };
+        // Opened once to check the port string and the protocol; each rate reopens it.
+        let first = port::open_port(&args.port)?;
+        if matches!(first.link, Link::Frames(_)) {
+            return Err(Fail::input(format!(
+                "{} is a CAN port; --detect-baud is for serial lines",
+                first.name
+            )));
+        }
+        let spec = first.spec.clone();
+        let name = first.name.clone();
+        drop(first);
+        let mut reopen = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
+            let s = at_baud(&spec, baud);
+            match port::open_port(&s.to_string()) {
+                Ok(p) => match p.link {
+                    Link::Bytes(l) => Ok(l),
+                    Link::Frames(_) => Err(LinkError::Unsupported {
+                        port: s.to_string(),
+                        what: "a CAN port".into(),
+                    }),
+                },
+                Err(_) => Err(LinkError::UnsupportedBaud {
+                    port: s.to_string(),
+                    baud,
+                }),
+            }
+        };
+        let schema2 = schema.clone();
+        let mut line_scan = |link: &mut dyn ByteLink| match protocol {
+            ProtocolArg::Lecom => scan_lecom(link, Some(&schema2), &lecom_addresses(), &opts),
+            _ => scan_lustbus(link, &lustbus_addresses(), &opts),
+        };
+        match detect_baud(rates, &mut reopen, &mut line_scan)? {
+            Some(b) => {
+                baud_found = Some(b.baud);
+                (name, b.found)
+            }
+            None => (name, Vec::new()),
+        }
+    } else {
+        let opened = port::open_port(&args.port)?;
+        let name = opened.name.clone();
+        if let Some(f) = opened.sim_family() {
+            let sim_proto = proto_of(port::family_protocol(f));
+            if sim_proto != protocol {
+                return Err(Fail::input(format!(
+                    "{name} simulates {} drives; scan it with --protocol {}",
+                    f.name(),
+                    match sim_proto {
+                        ProtocolArg::Lustbus => "lustbus",
+                        ProtocolArg::Lecom => "lecom",
+                        ProtocolArg::Sdo => "sdo",
+                    }
+                )));
+            }
+        }
+        let found = match (opened.link, protocol) {
+            (Link::Bytes(mut l), ProtocolArg::Lustbus) => {
+                scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
+            }
+            (Link::Bytes(mut l), ProtocolArg::Lecom) => {
+                scan_lecom(l.as_mut(), Some(&schema), &lecom_addresses(), &opts)?
+            }
+            (Link::Frames(mut l), ProtocolArg::Sdo) => {
+                let s = if port::protocol_name(schema.protocol) == "lenze-can-sdo" {
+                    schema.clone()
+                } else {
+                    port::resolve_schema(None, &args.schemas, None, Some(ProtocolArg::Sdo))?.schema
+                };
+                scan_can(l.as_mut(), &s, &can_nodes(), &opts)?
+            }
+            (Link::Frames(_), _) => {
+                return Err(Fail::input(format!(
+                    "{name} is a CAN port: scan it with --protocol sdo"
+                )));
+            }
+            (Link::Bytes(_), ProtocolArg::Sdo) => {
+                return Err(Fail::input(format!(
+                    "{name} is a character line: scan it with --protocol lustbus or lecom"
+                )));
+            }
+        };
+        (name, found)
+    };
+    let range = match protocol {
+        ProtocolArg::Lustbus => "LUSTBUS addresses 1..30",
+        ProtocolArg::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
+        ProtocolArg::Sdo => "CAN node ids 1..127",
+    };
+    match args.format {
+        BusFormat::Json => {
+            let doc = json!({
+                "port": port_name,
+                "protocol": match protocol {
+                    ProtocolArg::Lustbus => "lustbus",
+                    ProtocolArg::Lecom => "lecom",
+                    ProtocolArg::Sdo => "sdo",
+                },
+                "baud": baud_found,
+                "found": found.iter().map(|f| json!({
+                    "address": f.address,
+                    "codes": f.identity.codes.iter().map(|(c, v)| json!({"code": c, "value": v})).collect::<Vec<_>>(),
+                })).collect::<Vec<_>>(),
+            });
+            output::emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&doc).unwrap_or_default()
+            ));
+        }
+        BusFormat::Human => {
+            let mut out = String::new();
+            let _ = writeln!(out, "scanned {port_name} ({range})");
+            if let Some(b) = baud_found {
+                let _ = writeln!(out, "baud rate: {b}");
+            }
+            for f in &found {
+                let codes: Vec<String> = f
+                    .identity
+                    .codes
+                    .iter()
+                    .map(|(c, v)| format!("{c} = {v}"))
+                    .collect();
+                let _ = writeln!(out, "address {}: {}", f.address, codes.join(", "));
+            }
+            let _ = writeln!(
+                out,
+                "{}",
+                output::plural(found.len(), "drive found", "drives found")
+            );
+            output::emit(&out);
+        }
+    }
+    if found.is_empty() {
+        eprintln!(
+            "error: no drive answered on {port_name}; check wiring, termination and the baud rate (--detect-baud)"
+        );
+        return Ok(EXIT_BUS);
+    }
+    Ok(EXIT_OK)
 }

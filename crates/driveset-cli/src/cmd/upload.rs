@@ -1,8 +1,251 @@
-//! `driveset upload` (being written).
+//! `driveset upload SET --port P --address A [--dry-run] [--force]
+//! [--journal FILE | --journal-dir DIR]`: download a set to a drive as one
+//! transaction (driveset-engine's `upload`), or print the plan.
+//!
+//! Journal: by default `.driveset/journal/<port>-<address>.journal.json`
+//! under the current directory (every character of the port that is not a
+//! letter or digit becomes `_`), created before the first write with mode
+//! 0600. It holds old values (passwords included): keep it out of version
+//! control.
+//!
+//! Exit codes: 0 the drive holds the set (verified; or nothing to write),
+//! 2 refused before anything was sent (another family's set without
+//! `--force`, a read-only code, a running drive, an unfinished journal ...)
+//! or an input error, 3 bus or device failure: the error names what
+//! happened to the drive: "rolled back" (it holds its old values again,
+//! verified) or "holds a mix" (run `driveset recover JOURNAL`). A rolled-back
+//! upload is 3, not 1: the set did not land because the bus or the drive
+//! failed, and scripts must not take it for a mere difference; `--format
+//! json` says `"state": "rolled-back"` to tell the two apart.
 
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+
+use driveset_engine::upload::{
+    UploadOptions, default_journal_path, prepare, upload as engine_upload,
+};
+use serde_json::json;
+
+use super::identify::BusFormat;
+use super::validate::output;
+use crate::EXIT_OK;
+use crate::port::{self, Fail};
+use crate::progress::Progress;
+
+/// The journal directory used when neither --journal nor --journal-dir is given.
+pub const DEFAULT_JOURNAL_DIR: &str = ".driveset/journal";
+
+/// Arguments of `driveset upload`.
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(after_help = "\
+Identifies the drive, reads back every code of the set, writes only what
+differs (MC6000/7000: CardWriteable values through the SLOAD dataset
+download), verifies, and on failure restores the old values from the
+journal. --dry-run prints the plan (codes, old -> new, RAM or EEPROM,
+expected time) and writes nothing.
 
-pub fn run(_args: Args) -> anyhow::Result<u8> {
-    anyhow::bail!("`driveset upload` is not available in this build yet")
+Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
+--journal-dir DIR; default .driveset/journal/<port>-<address>.journal.json
+in the current directory (port characters other than letters and digits
+become _). It holds the old values, passwords included (mode 0600).
+
+Refused unless --force: a set of another family, a running drive, commands
+that overwrite every parameter, a change of the drive's bus address.
+Never written, even with --force: codes not in the schema, read-only codes.
+
+Exit codes: 0 the drive holds the set (verified), 2 refused before anything
+was sent or an input error, 3 bus or device failure (the message says whether
+the drive was rolled back to its old values or holds a mix and needs
+`driveset recover JOURNAL`).
+
+Examples:
+  driveset upload parameter-sets/mc6000/axis-1.toml --port sim://mc6000?addresses=1 --address 1 --dry-run
+  driveset upload conveyor-3.toml --port /dev/ttyUSB0 --address 3 --journal-dir /var/lib/driveset")]
+pub struct Args {
+    /// The set file.
+    #[arg(value_name = "SET")]
+    pub set: PathBuf,
+    /// The port.
+    #[arg(long)]
+    pub port: String,
+    /// Bus address (default: the set's [drive] address is NOT used; give it).
+    #[arg(long)]
+    pub address: u8,
+    /// Print the plan; write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Override the family / running / command / address refusals.
+    #[arg(long)]
+    pub force: bool,
+    /// The journal file.
+    #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
+    pub journal: Option<PathBuf>,
+    /// Directory for the journal (file name from port and address).
+    #[arg(long, value_name = "DIR")]
+    pub journal_dir: Option<PathBuf>,
+    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset upload`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    port::finish(upload(&args))
+}
+
+/// Load a set file for the bus commands: a set with findings is an input error.
+pub fn load_set(
+    path: &Path,
+    dirs: &[PathBuf],
+) -> Result<
+    (
+        std::sync::Arc<driveset_schema::Schema>,
+        driveset_schema::ResolvedSet,
+    ),
+    u8,
+> {
+    let mut registry = port::registry(dirs).map_err(|f| {
+        eprintln!("error: {}", f.msg);
+        f.code
+    })?;
+    let loaded = output::load_valid_set(path, &mut registry)?;
+    match (loaded.schema, loaded.resolved) {
+        (Some(s), Some(r)) => Ok((s, r)),
+        _ => Err(crate::EXIT_INPUT),
+    }
+}
+
+fn upload(args: &Args) -> Result<u8, Fail> {
+    let (schema, set) = match load_set(&args.set, &args.schemas) {
+        Ok(x) => x,
+        Err(code) => {
+            return Err(Fail {
+                code,
+                msg: format!("{}: not uploaded", args.set.display()),
+            });
+        }
+    };
+    let opened = port::open_port(&args.port)?;
+    let port_name = opened.name.clone();
+    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    let json = args.format == BusFormat::Json;
+
+    if args.dry_run {
+        let prepared = prepare(client.as_mut(), &set, args.force);
+        let _ = client.finish();
+        let prepared = prepared?;
+        if json {
+            let writes: Vec<_> = prepared
+                .plan
+                .writes
+                .iter()
+                .map(|w| {
+                    json!({
+                        "code": w.label,
+                        "old": w.old_text,
+                        "new": w.new_text,
+                        "storage": w.storage,
+                        "width": w.width,
+                        "phase": w.phase,
+                        "store_ms": w.store_time.as_secs_f64() * 1000.0,
+                        "ack_delay_ms": w.ack_delay.as_secs_f64() * 1000.0,
+                    })
+                })
+                .collect();
+            let doc = json!({
+                "port": port_name,
+                "address": args.address,
+                "set": args.set.display().to_string(),
+                "schema": prepared.plan.schema,
+                "identity": prepared.identity,
+                "set_fingerprint": prepared.plan.set_fingerprint,
+                "fingerprint_before": prepared.plan.fingerprint_before,
+                "dataset": prepared.plan.dataset,
+                "writes": writes,
+                "unchanged": prepared.plan.unchanged.len(),
+                "warnings": prepared.plan.warnings,
+                "estimate_ms": {
+                    "total": prepared.estimate.total.as_secs_f64() * 1000.0,
+                    "read_back": prepared.estimate.read_back.as_secs_f64() * 1000.0,
+                    "writes": prepared.estimate.writes.as_secs_f64() * 1000.0,
+                    "verify": prepared.estimate.verify.as_secs_f64() * 1000.0,
+                    "waits": prepared.estimate.waits.as_secs_f64() * 1000.0,
+                },
+            });
+            output::emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&doc).unwrap_or_default()
+            ));
+        } else {
+            output::emit(&format!(
+                "dry run: {} to {port_name} address {}; nothing is written\n{}",
+                args.set.display(),
+                args.address,
+                prepared.plan.render(Some(&prepared.estimate))
+            ));
+        }
+        return Ok(EXIT_OK);
+    }
+
+    let journal = match (&args.journal, &args.journal_dir) {
+        (Some(j), _) => j.clone(),
+        (None, dir) => {
+            let dir = dir
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(DEFAULT_JOURNAL_DIR));
+            default_journal_path(&dir, client.target())
+        }
+    };
+    if let Some(dir) = journal.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Fail::input(format!(
+                "cannot create the journal directory {}: {e}",
+                dir.display()
+            ))
+        })?;
+    }
+    let mut opts = UploadOptions::new(&journal);
+    opts.force = args.force;
+    let result = {
+        let mut p = Progress::new(client.as_mut(), "upload", set.values.len(), json);
+        let r = engine_upload(&mut p, &set, &opts);
+        p.done();
+        r
+    };
+    let _ = client.finish();
+    match result {
+        Ok(report) => {
+            if json {
+                output::emit(&format!(
+                    "{}\n",
+                    serde_json::to_string_pretty(&report).unwrap_or_default()
+                ));
+            } else {
+                let mut text = report.render();
+                if report.codes_written == 0 {
+                    text.push_str("nothing to write: the drive already holds the set\n");
+                }
+                output::emit(&text);
+            }
+            Ok(EXIT_OK)
+        }
+        Err(failure) => {
+            if let Some(report) = &failure.report {
+                if json {
+                    output::emit(&format!(
+                        "{}\n",
+                        serde_json::to_string_pretty(report).unwrap_or_default()
+                    ));
+                } else {
+                    output::emit(&report.render());
+                }
+            }
+            Err(Fail::from(*failure.error))
+        }
+    }
 }

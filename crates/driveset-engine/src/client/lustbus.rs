@@ -149,6 +149,11 @@ pub struct LustbusOptions {
     /// VF1000 device number, the third CODE digit (section 2.4.1: "always
     /// 1"). Default 1.
     pub vf_device: u8,
+    /// Send a lone EOT after every reply as well as before every telegram
+    /// (the naive reading of section 3; costs one character time per
+    /// exchange). Default `false`: the trailing EOT of one exchange is the
+    /// leading EOT of the next. For benchmarks.
+    pub eot_after_reply: bool,
 }
 
 impl Default for LustbusOptions {
@@ -161,6 +166,7 @@ impl Default for LustbusOptions {
             eeprom_busy_wait: Duration::from_millis(61),
             busy_repeats: 10,
             vf_device: 1,
+            eot_after_reply: false,
         }
     }
 }
@@ -181,6 +187,8 @@ pub(crate) struct LustLine<L> {
     pub(crate) stats: ClientStats,
     /// A telegram went out since the last lone EOT.
     open: bool,
+    /// Send a lone EOT after every reply ([`LustbusOptions::eot_after_reply`]).
+    pub(crate) eot_after_reply: bool,
 }
 
 impl<L: ByteLink> LustLine<L> {
@@ -190,6 +198,7 @@ impl<L: ByteLink> LustLine<L> {
             decoder: ReplyDecoder::new(),
             stats: ClientStats::default(),
             open: false,
+            eot_after_reply: false,
         }
     }
 
@@ -246,6 +255,11 @@ impl<L: ByteLink> LustLine<L> {
                                 v.code
                             ));
                             continue;
+                        }
+                        if self.eot_after_reply {
+                            self.link.send(&[driveset_proto::ascii::EOT])?;
+                            self.link.flush()?;
+                            self.stats.sent += 1;
                         }
                         return Ok(Outcome::Reply(reply));
                     }
@@ -384,8 +398,10 @@ impl<L: ByteLink> LustbusClient<L> {
                 });
             }
         };
+        let mut line = LustLine::new(link);
+        line.eot_after_reply = opts.eot_after_reply;
         Ok(LustbusClient {
-            line: LustLine::new(link),
+            line,
             schema,
             target,
             family,
@@ -1034,6 +1050,59 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
 }
 
 impl<L: ByteLink> LustbusClient<L> {
+    /// A raw ENQUIRY of any CODE (parameter descriptions `10dpp` / `30ppp`,
+    /// substitution texts `61ppp`, section 11), for `driveset schema
+    /// pull`: the VALUE text, or `None` when the drive answers NAK (no such
+    /// parameter or text). `value_len` is the longest VALUE expected (for
+    /// the answer timeout). Retries like a read; nothing is interpreted and
+    /// nothing is written.
+    pub fn enquire_code(
+        &mut self,
+        code: ParameterCode,
+        value_len: usize,
+    ) -> Result<Option<ValueText>, EngineError> {
+        let what = format!("ENQUIRY {code}");
+        self.enquire(code, value_len, &what)
+    }
+
+    /// MC6000/7000 only: SELECT 108-STEXT = `index` (section 11.3), which
+    /// picks the substitution text a following ENQUIRY `61ppp` returns.
+    /// STEXT is a RAM selector with no effect on the drive's operation; a
+    /// NAK is returned as the decoded [`EngineError::Device`] cause (SERR is
+    /// read and so cleared, as after any refused SELECT).
+    pub fn select_stext(&mut self, index: u8) -> Result<(), EngineError> {
+        if self.family != Family::Mc {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: "108-STEXT substitution texts are MC6000/7000 only (section 11.3)".into(),
+            });
+        }
+        let code = ParameterCode::mc_value(driveset_proto::lustbus::description::STEXT)
+            .unwrap_or(ParameterCode::POSMOD);
+        let value = ParameterValue::Usign8(index)
+            .encode(Family::Mc)
+            .map_err(|e| EngineError::Protocol {
+                target: self.target.clone(),
+                what: "write 108-STEXT".into(),
+                detail: e.to_string(),
+            })?;
+        let what = format!("write 108-STEXT = {index}");
+        self.ensure_session(&what)?;
+        let bytes = Select::new(self.address, code, value).encode();
+        let timeout = self.timeout(2);
+        if self.select_once(&bytes, timeout, &what)? {
+            return Ok(());
+        }
+        let siof = self.read_siof(&what)?;
+        Err(device(
+            &self.target,
+            &what,
+            "refused (NAK)",
+            format!("{} {siof}", self.siof_name()),
+            "the drive has no substitution texts (not an MC6000/7000?)",
+        ))
+    }
+
     fn sload_present(&self) -> Result<(), EngineError> {
         if self.schema.code(SLOAD).is_none() {
             return Err(EngineError::Refused {

@@ -1,0 +1,1 @@
+//! `driveset schema pull` (being written).

@@ -1,0 +1,461 @@
+//! `--port` for the bus commands (`identify`, `scan`, `pull`, `diff --port`,
+//! `upload`, `recover`, `schema pull`): open a port string as a
+//! [`DriveClient`] for a schema.
+//!
+//! - Real ports (`/dev/ttyUSB0`, `COM3`, `tcp://host:port`,
+//!   `slcan://...`, `can://...`) are opened by `driveset-link` and run on
+//!   its `RealClock`.
+//! - `sim://FAMILY?addresses=1,2` ports are opened in-process by
+//!   `driveset-sim` on a `VirtualClock`: the simulated bus runs in virtual
+//!   time, so a whole upload takes milliseconds of real time. The drives'
+//!   state persists between CLI runs with `state=FILE` in the port string
+//!   (handled here: the option is taken out before the port string is
+//!   parsed) or with the simulator's `DRIVESET_SIM_STATE_DIR=DIR`.
+//!
+//! The schema decides the protocol: LUSTBUS and LECOM need a character
+//! line, CAN SDO a CAN port; a mismatch is refused before anything is sent,
+//! as is a schema of another family than a `sim://` port simulates.
+//!
+//! Errors carry their exit code ([`Fail`]): 2 for usage and input (a bad
+//! port string, a schema that does not fit the port, a refusal before
+//! anything was sent), 3 for bus and device failures.
+
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_engine::client::{CanClient, DriveClient, LecomClient, LustbusClient};
+use driveset_engine::error::EngineError;
+use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
+use driveset_schema::{Protocol, Registry, Schema};
+use driveset_sim::catalog::Family;
+use driveset_sim::log::EventLog;
+use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
+
+use crate::{EXIT_BUS, EXIT_INPUT};
+
+/// A failure and the exit code it ends the command with.
+#[derive(Debug)]
+pub struct Fail {
+    /// Exit code (2 input/usage, 3 bus/device).
+    pub code: u8,
+    /// Message (without the `error: ` prefix).
+    pub msg: String,
+}
+
+impl Fail {
+    /// Usage or input error (exit 2).
+    pub fn input(msg: impl Into<String>) -> Self {
+        Fail {
+            code: EXIT_INPUT,
+            msg: msg.into(),
+        }
+    }
+
+    /// Bus or device failure (exit 3).
+    pub fn bus(msg: impl Into<String>) -> Self {
+        Fail {
+            code: EXIT_BUS,
+            msg: msg.into(),
+        }
+    }
+}
+
+/// The exit code of an engine error: refusals before anything was sent and
+/// journal file problems are input errors (2); everything the bus or the
+/// drive did is 3 (a rolled-back upload included: the drive holds its old
+/// values, the set did not land).
+pub fn engine_exit(e: &EngineError) -> u8 {
+    match e {
+        EngineError::Refused { .. } | EngineError::Journal { .. } => EXIT_INPUT,
+        _ => EXIT_BUS,
+    }
+}
+
+impl From<EngineError> for Fail {
+    fn from(e: EngineError) -> Self {
+        Fail {
+            code: engine_exit(&e),
+            msg: e.to_string(),
+        }
+    }
+}
+
+/// Print a failure on stderr and turn it into the exit code.
+pub fn finish(r: Result<u8, Fail>) -> anyhow::Result<u8> {
+    match r {
+        Ok(code) => Ok(code),
+        Err(f) => {
+            eprintln!("error: {}", f.msg);
+            Ok(f.code)
+        }
+    }
+}
+
+/// `--protocol` of the bus commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProtocolArg {
+    /// LUSTBUS (Lust VF1000, MC6000/7000).
+    Lustbus,
+    /// LECOM-A/B (Lenze Tmd).
+    Lecom,
+    /// CAN SDO over the Lenze system bus (Lenze ECS).
+    Sdo,
+}
+
+/// The protocol a simulated family speaks.
+pub fn family_protocol(f: Family) -> Protocol {
+    match f {
+        Family::Mc6000 => Protocol::LustbusMc,
+        Family::Vf1000 => Protocol::LustbusVf1000,
+        Family::Tmd => Protocol::Lecom,
+        Family::Ecs => Protocol::LenzeCanSdo,
+    }
+}
+
+/// Name of a protocol as schemas spell it.
+pub fn protocol_name(p: Protocol) -> &'static str {
+    match p {
+        Protocol::Lecom => "lecom",
+        Protocol::LustbusVf1000 => "lustbus-vf1000",
+        Protocol::LustbusMc => "lustbus-mc",
+        Protocol::LenzeCanSdo => "lenze-can-sdo",
+    }
+}
+
+fn protocol_class(p: Protocol) -> ProtocolArg {
+    match p {
+        Protocol::Lecom => ProtocolArg::Lecom,
+        Protocol::LustbusVf1000 | Protocol::LustbusMc => ProtocolArg::Lustbus,
+        Protocol::LenzeCanSdo => ProtocolArg::Sdo,
+    }
+}
+
+/// An open port.
+#[derive(Debug)]
+pub struct OpenPort {
+    /// The port as reports name it (canonical form, without `state=`).
+    pub name: String,
+    /// The parsed port.
+    pub spec: PortSpec,
+    /// The transport.
+    pub link: Link,
+    /// The simulated bus behind a `sim://` port.
+    pub sim: Option<SimLink>,
+}
+
+impl OpenPort {
+    /// The family a `sim://` port simulates.
+    pub fn sim_family(&self) -> Option<Family> {
+        self.sim.as_ref().map(SimLink::family)
+    }
+}
+
+/// Take `state=FILE` out of a `sim://` port string (the link crate's port
+/// parser does not know the key; the simulator does).
+fn split_state(port: &str) -> (String, Option<PathBuf>) {
+    if !port.trim_start().starts_with("sim://") {
+        return (port.to_string(), None);
+    }
+    let Some((base, query)) = port.split_once('?') else {
+        return (port.to_string(), None);
+    };
+    let mut state = None;
+    let mut kept = Vec::new();
+    for part in query.split('&') {
+        match part.strip_prefix("state=") {
+            Some(file) => state = Some(PathBuf::from(file)),
+            None => kept.push(part),
+        }
+    }
+    if kept.is_empty() {
+        (base.to_string(), state)
+    } else {
+        (format!("{base}?{}", kept.join("&")), state)
+    }
+}
+
+/// The family a `sim://` port names, without opening it.
+pub fn peek_sim_family(port: &str) -> Option<Family> {
+    let (port, _) = split_state(port);
+    match PortSpec::parse(&port).ok()? {
+        PortSpec::Sim(s) => driveset_sim::open::parse_family(&s.family).ok(),
+        _ => None,
+    }
+}
+
+/// Open a port string (see the module docs).
+pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
+    let (text, state) = split_state(port);
+    let spec = PortSpec::parse(&text).map_err(|e| {
+        Fail::input(format!(
+            "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"
+        ))
+    })?;
+    match &spec {
+        PortSpec::Sim(sim) => {
+            let mut config =
+                SimConfig::from_spec(sim).map_err(|e| Fail::input(format!("{text}: {e}")))?;
+            if state.is_some() {
+                config.state = state;
+            }
+            let clock = VirtualClock::new();
+            let name = spec.to_string();
+            let sim = open_sim_with(&config, &clock, &name, EventLog::off())
+                .map_err(|e| Fail::input(format!("{name}: {e}")))?;
+            Ok(OpenPort {
+                name,
+                link: sim.link(),
+                sim: Some(sim),
+                spec,
+            })
+        }
+        _ => {
+            let link = driveset_link::open(&spec, &OpenOptions::default())
+                .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
+            Ok(OpenPort {
+                name: spec.to_string(),
+                link,
+                sim: None,
+                spec,
+            })
+        }
+    }
+}
+
+/// Check that `schema` can talk over `port`: the protocol's kind of link,
+/// and on `sim://` the simulated family (another family of the same
+/// protocol passes with `force`).
+pub fn check_fit(port: &OpenPort, schema: &Schema, force: bool) -> Result<(), Fail> {
+    let want = protocol_class(schema.protocol);
+    let is_frames = matches!(port.link, Link::Frames(_));
+    match (want, is_frames) {
+        (ProtocolArg::Sdo, false) => {
+            return Err(Fail::input(format!(
+                "schema `{}` speaks CAN SDO, but {} is a character line (LUSTBUS / LECOM); use a CAN port (slcan://..., can://..., sim://ecs?...)",
+                schema.id, port.name
+            )));
+        }
+        (ProtocolArg::Lustbus | ProtocolArg::Lecom, true) => {
+            return Err(Fail::input(format!(
+                "schema `{}` speaks {}, but {} is a CAN port; use a serial line (/dev/ttyUSB0, tcp://..., sim://mc6000?...)",
+                schema.id,
+                protocol_name(schema.protocol),
+                port.name
+            )));
+        }
+        _ => {}
+    }
+    if let Some(f) = port.sim_family() {
+        let sim_proto = family_protocol(f);
+        if protocol_class(sim_proto) != want {
+            return Err(Fail::input(format!(
+                "{} simulates {} drives ({}), schema `{}` is for {}; use a set / schema of that family",
+                port.name,
+                f.name(),
+                protocol_name(sim_proto),
+                schema.id,
+                protocol_name(schema.protocol)
+            )));
+        }
+        if sim_proto != schema.protocol && !force {
+            return Err(Fail::input(format!(
+                "{} simulates {} drives ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
+                port.name,
+                f.name(),
+                protocol_name(sim_proto),
+                schema.id,
+                protocol_name(schema.protocol)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A client for the drive at `address` on `port`, speaking `schema`'s
+/// protocol (after [`check_fit`]).
+pub fn client(
+    port: &OpenPort,
+    schema: Arc<Schema>,
+    address: u8,
+    force: bool,
+) -> Result<Box<dyn DriveClient>, Fail> {
+    check_fit(port, &schema, force)?;
+    let c: Box<dyn DriveClient> = match (&port.link, schema.protocol) {
+        (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => Box::new(
+            LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?,
+        ),
+        (Link::Bytes(_), Protocol::Lecom) => {
+            Box::new(LecomClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
+        }
+        (Link::Frames(_), Protocol::LenzeCanSdo) => {
+            Box::new(CanClient::new(frame_link(port)?, schema, address).map_err(Fail::from)?)
+        }
+        _ => return Err(Fail::input("the schema's protocol does not fit the port")),
+    };
+    Ok(c)
+}
+
+/// A fresh byte-link handle of the port (sim ports hand out any number;
+/// a real port hands out its one link once).
+pub fn byte_link(port: &OpenPort) -> Result<Box<dyn driveset_link::ByteLink>, Fail> {
+    if let Some(sim) = &port.sim {
+        return sim.byte_link().ok_or_else(|| {
+            Fail::input(format!("{} is a CAN bus, not a character line", port.name))
+        });
+    }
+    Err(Fail::input(format!(
+        "{}: the link was already taken; open the port again",
+        port.name
+    )))
+}
+
+fn frame_link(port: &OpenPort) -> Result<Box<dyn driveset_link::FrameLink>, Fail> {
+    if let Some(sim) = &port.sim {
+        return sim.frame_link().ok_or_else(|| {
+            Fail::input(format!("{} is a character line, not a CAN bus", port.name))
+        });
+    }
+    Err(Fail::input(format!(
+        "{}: the link was already taken; open the port again",
+        port.name
+    )))
+}
+
+/// Like [`client`], consuming the port (the only way for a real port, whose
+/// one transport moves into the client).
+pub fn into_client(
+    port: OpenPort,
+    schema: Arc<Schema>,
+    address: u8,
+    force: bool,
+) -> Result<Box<dyn DriveClient>, Fail> {
+    if port.sim.is_some() {
+        return client(&port, schema, address, force);
+    }
+    check_fit(&port, &schema, force)?;
+    let c: Box<dyn DriveClient> = match (port.link, schema.protocol) {
+        (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
+            Box::new(LustbusClient::new(l, schema, address).map_err(Fail::from)?)
+        }
+        (Link::Bytes(l), Protocol::Lecom) => {
+            Box::new(LecomClient::new(l, schema, address).map_err(Fail::from)?)
+        }
+        (Link::Frames(l), Protocol::LenzeCanSdo) => {
+            Box::new(CanClient::new(l, schema, address).map_err(Fail::from)?)
+        }
+        _ => return Err(Fail::input("the schema's protocol does not fit the port")),
+    };
+    Ok(c)
+}
+
+/// The built-in schemas, the simulator's fictional fixtures and every
+/// `*.toml` schema of `dirs`.
+pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
+    let mut r = driveset_sim::catalog::registry().map_err(Fail::input)?;
+    for d in dirs {
+        r.load_dir(d)
+            .map_err(|e| Fail::input(e.render_human_string()))?;
+    }
+    Ok(r)
+}
+
+/// A schema and whether it came from a file.
+#[derive(Debug, Clone)]
+pub struct SchemaChoice {
+    /// The schema.
+    pub schema: Arc<Schema>,
+    /// The file it was loaded from, when `--schema` named a path.
+    pub path: Option<PathBuf>,
+}
+
+/// The schema to talk with: `--schema ID|PATH`, else the schema of the
+/// family a `sim://` port simulates, else the built-in schema of
+/// `--protocol` (LUSTBUS: `lust-mc6000`).
+pub fn resolve_schema(
+    arg: Option<&str>,
+    dirs: &[PathBuf],
+    sim: Option<Family>,
+    protocol: Option<ProtocolArg>,
+) -> Result<SchemaChoice, Fail> {
+    let mut registry = registry(dirs)?;
+    if let Some(a) = arg {
+        let p = Path::new(a);
+        if p.is_file() {
+            let schema = registry
+                .load_file(p)
+                .map_err(|e| Fail::input(e.render_human_string()))?;
+            return Ok(SchemaChoice {
+                schema,
+                path: Some(p.to_path_buf()),
+            });
+        }
+        return registry
+            .get(a)
+            .map(|schema| SchemaChoice { schema, path: None })
+            .ok_or_else(|| {
+                let known: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
+                Fail::input(format!(
+                    "unknown schema `{a}`: not a file and not one of {}",
+                    known.join(", ")
+                ))
+            });
+    }
+    if let Some(f) = sim {
+        let schema = driveset_sim::catalog::schema(f).map_err(Fail::input)?;
+        return Ok(SchemaChoice { schema, path: None });
+    }
+    let id = match protocol {
+        Some(ProtocolArg::Lustbus) => "lust-mc6000",
+        Some(ProtocolArg::Lecom) => "lenze-tmd",
+        Some(ProtocolArg::Sdo) => "lenze-ecs",
+        None => {
+            return Err(Fail::input(
+                "say which drive family is on the bus: --schema ID|PATH, or --protocol lustbus|lecom|sdo",
+            ));
+        }
+    };
+    registry
+        .get(id)
+        .map(|schema| SchemaChoice { schema, path: None })
+        .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
+}
+
+/// An [`driveset_schema::InputError`] as one human text.
+trait RenderString {
+    fn render_human_string(&self) -> String;
+}
+
+impl RenderString for driveset_schema::InputError {
+    fn render_human_string(&self) -> String {
+        crate::cmd::validate::output::input_error_human(
+            self,
+            crate::cmd::validate::output::Style::stderr(),
+        )
+        .trim_end()
+        .trim_start_matches("error: ")
+        .to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn state_is_taken_out_of_sim_ports() {
+        assert_eq!(
+            split_state("sim://mc6000?addresses=1&state=/tmp/x.json&seed=3"),
+            (
+                "sim://mc6000?addresses=1&seed=3".to_string(),
+                Some(PathBuf::from("/tmp/x.json"))
+            )
+        );
+        assert_eq!(
+            split_state("/dev/ttyUSB0?baud=9600"),
+            ("/dev/ttyUSB0?baud=9600".to_string(), None)
+        );
+    }
+}
