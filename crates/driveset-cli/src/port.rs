@@ -380,11 +380,15 @@ pub fn resolve_schema(
     sim: Option<Family>,
     protocol: Option<ProtocolArg>,
 ) -> Result<SchemaChoice, Fail> {
-    let mut registry = registry(dirs)?;
+    let registry = registry(dirs)?;
     if let Some(a) = arg {
         let p = Path::new(a);
         if p.is_file() {
-            let schema = registry
+            // A file is loaded over the built-in schemas only: the
+            // simulator's fixtures may be that very file.
+            let mut builtin = crate::cmd::validate::output::registry(dirs)
+                .map_err(|e| Fail::input(e.render_human_string()))?;
+            let schema = builtin
                 .load_file(p)
                 .map_err(|e| Fail::input(e.render_human_string()))?;
             return Ok(SchemaChoice {

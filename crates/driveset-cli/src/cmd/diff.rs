@@ -33,12 +33,13 @@ and show values in engineering units with labels; password values show as
 (`(no factory default known)` where the schema gives none).
 
 Exit codes: 0 same, 1 different, 2 error (unreadable or invalid set, sets of
-different schemas, usage).
+different schemas, usage); with --port also 3 (bus or device failure).
 
 Examples:
   driveset diff parameter-sets/tmd/base.toml parameter-sets/tmd/conveyor-3.toml
   driveset diff --defaults parameter-sets/tmd/conveyor-3.toml
-  driveset diff --unified A.toml B.yaml")]
+  driveset diff --unified A.toml B.yaml
+  driveset diff parameter-sets/mc6000/axis-1.toml --port sim://mc6000?addresses=1 --address 1")]
 pub struct Args {
     /// The old set (with --defaults: the set to compare with factory defaults).
     #[arg(value_name = "A")]
@@ -46,10 +47,16 @@ pub struct Args {
     /// The new set.
     #[arg(
         value_name = "B",
-        required_unless_present = "defaults",
-        conflicts_with = "defaults"
+        required_unless_present_any = ["defaults", "port"],
+        conflicts_with_all = ["defaults", "port"]
     )]
     pub b: Option<PathBuf>,
+    /// Compare A with the live drive at this port (needs --address; see `diff_live`).
+    #[arg(long, requires = "address", conflicts_with_all = ["defaults", "unified"])]
+    pub port: Option<String>,
+    /// Bus address of the drive for --port.
+    #[arg(long, requires = "port")]
+    pub address: Option<u8>,
     /// Compare A with the factory defaults of its schema.
     #[arg(long)]
     pub defaults: bool,
@@ -95,6 +102,19 @@ fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
 
 /// Run `driveset diff`.
 pub fn run(args: Args) -> anyhow::Result<u8> {
+    if let (Some(port), Some(address)) = (&args.port, args.address) {
+        return super::diff_live::run(super::diff_live::LiveArgs {
+            set: &args.a,
+            port,
+            address,
+            format: match args.format {
+                DiffFormat::Human => super::diff_live::LiveFormat::Human,
+                DiffFormat::Json => super::diff_live::LiveFormat::Json,
+            },
+            schemas: &args.schemas,
+            force: false,
+        });
+    }
     let mut registry = match output::registry(&args.schemas) {
         Ok(r) => r,
         Err(e) => return Ok(output::fail_input(&e)),

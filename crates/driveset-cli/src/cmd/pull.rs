@@ -14,7 +14,8 @@ use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
 use driveset_engine::pull::{PullOptions, pull as engine_pull};
-use driveset_schema::{Format, export};
+use driveset_schema::schema::{Access, StorageKind};
+use driveset_schema::{Format, Protocol, export};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -98,7 +99,8 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
     let t: Vec<Component> = to.components().collect();
     let f: Vec<Component> = from.components().collect();
     let common = t.iter().zip(&f).take_while(|(a, b)| a == b).count();
-    if common == 0 {
+    if common <= 1 {
+        // nothing shared but the root: an absolute path reads better
         return to;
     }
     let mut out = PathBuf::new();
@@ -109,6 +111,20 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
         out.push(c);
     }
     out
+}
+
+/// Codes an upload refuses in a set although they read fine: the MC6000/7000
+/// dataset handshake 80-SLOAD and the commands that overwrite every
+/// parameter (MC 4-PROG, VF1000 71-PROG, Tmd C0002), as driveset-engine's
+/// planner lists them. A pulled set leaves them out so it can be uploaded
+/// back as it is.
+fn not_settings(p: Protocol, number: u32) -> bool {
+    match p {
+        Protocol::LustbusMc => matches!(number, 4 | 80),
+        Protocol::LustbusVf1000 => number == 71,
+        Protocol::Lecom => number == 2,
+        Protocol::LenzeCanSdo => false,
+    }
 }
 
 fn toml_str(s: &str) -> String {
@@ -161,6 +177,24 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         r?
     };
     client.finish()?;
+    // Read-only codes (actual values) are read but cannot be part of a set
+    // (`validate` refuses them): they go into the header as comments.
+    let mut pulled = pulled;
+    let mut actual = Vec::new();
+    pulled.set.values.retain(|k, v| {
+        let ro = schema.code(k.number).is_some_and(|c| {
+            c.access == Some(Access::Ro) || c.kind == Some(StorageKind::RamActual)
+        });
+        if ro {
+            actual.push(format!(
+                "{} = {}",
+                schema.display_code(k.number, k.subcode),
+                driveset_engine::plan::value_text(&schema, *k, v)
+            ));
+        }
+        !ro && !not_settings(schema.protocol, k.number)
+    });
+    pulled.fingerprint = pulled.set.fingerprint();
 
     // The schema reference: a file named by path stays a path (relative to
     // the set file), an id stays an id.
@@ -215,6 +249,13 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             String::new()
         }
     );
+    if !actual.is_empty() {
+        let _ = writeln!(
+            text,
+            "# Read-only actual values (not part of the set): {}",
+            actual.join(", ")
+        );
+    }
     if !pulled.skipped.is_empty() {
         let _ = writeln!(text, "# Not read: {} codes", pulled.skipped.len());
         for s in &pulled.skipped {
@@ -271,6 +312,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 "fingerprint": pulled.fingerprint,
                 "full_fingerprint": pulled.full_fingerprint,
                 "values": pulled.set.values.len(),
+                "actual_values": actual,
                 "read": pulled.read,
                 "dropped_defaults": pulled.dropped_defaults,
                 "skipped": pulled.skipped,

@@ -109,10 +109,18 @@ pub fn load_set(
     ),
     u8,
 > {
-    let mut registry = port::registry(dirs).map_err(|f| {
-        eprintln!("error: {}", f.msg);
-        f.code
-    })?;
+    // The built-in schemas (plus --schemas); a set naming one of the
+    // simulator's fixture schemas by id gets those too. (Not both at once:
+    // a set naming a fixture by path would define its id twice.)
+    let mut registry = output::registry(dirs).map_err(|e| output::fail_input(&e))?;
+    let unknown_schema = driveset_schema::load_set(path, &mut registry.clone())
+        .is_ok_and(|l| l.schema.is_none());
+    if unknown_schema {
+        registry = port::registry(dirs).map_err(|f| {
+            eprintln!("error: {}", f.msg);
+            f.code
+        })?;
+    }
     let loaded = output::load_valid_set(path, &mut registry)?;
     match (loaded.schema, loaded.resolved) {
         (Some(s), Some(r)) => Ok((s, r)),
