@@ -1,0 +1,432 @@
+//! Interoperability with an SDO server driveset did not write: the
+//! `canopen` Python package's `LocalNode` (object dictionary with the Lenze
+//! index mapping, built in `tests/python/sdo_server.py`) on python-can's
+//! `slcan` interface, and driveset's engine (`pull`, `upload`, `CanClient`)
+//! on its own `slcan://` link. Both are slcan hosts, so
+//! `driveset_sim::slcan_hub` sits between them: two simulated USB-CAN
+//! adapters on two ptys, joined by one bus.
+//!
+//! Part of the normal test run: needs the venv that `scripts/setup-python`
+//! makes at `target/py`; `DRIVESET_PYTHON` may name another interpreter
+//! with python-can 4.6 and canopen 2.4.
+#![cfg(unix)]
+#![allow(clippy::result_large_err)]
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use driveset_engine::client::{CanClient, CanOptions, DriveClient};
+use driveset_engine::error::EngineError;
+use driveset_engine::journal::TxnState;
+use driveset_engine::live::live_diff;
+use driveset_engine::pull::{PullOptions, pull};
+use driveset_engine::upload::{CodeOutcome, UploadOptions, upload};
+use driveset_link::slcan::SlcanLink;
+use driveset_schema::{CodeKey, RawValue, ResolvedSet, load_set_str};
+use driveset_sim::catalog::{self, Family};
+use driveset_sim::slcan_hub::SlcanHub;
+
+/// Hang guard for one line from the script (not a timing assertion).
+const LINE_GUARD: Duration = Duration::from_secs(60);
+
+/// How long driveset waits for each SDO response. The Python server
+/// answers within milliseconds; the margin is for a loaded test machine.
+const ANSWER_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// The LocalNode's initial values (raw), as `sdo_server.py` builds them.
+const INITIAL: [(u32, i64); 18] = [
+    (135, 0x0401),
+    (150, 0x8421),
+    (5001, 45_000_000),
+    (5002, 0),
+    (5003, 2_500),
+    (5004, 2_500),
+    (5005, 500),
+    (5006, 2_000_000),
+    (5007, 145_000),
+    (5008, 120_000),
+    (5009, 250_000),
+    (5010, 45_000_000),
+    (5011, 68_000),
+    (5012, 45_000),
+    (5013, 40_000),
+    (5014, 800_000),
+    (5015, 5_000),
+    (5016, 0),
+];
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn python() -> PathBuf {
+    if let Some(p) = std::env::var_os("DRIVESET_PYTHON") {
+        return PathBuf::from(p);
+    }
+    root().join("target/py/bin/python")
+}
+
+/// (code number, raw value) pairs.
+type Values = Vec<(u32, i64)>;
+
+/// The Python SDO server, talked to over its stdin / stdout.
+struct Server {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Receiver<String>,
+    stderr: Arc<Mutex<String>>,
+}
+
+impl Server {
+    fn start(path: &str, node: u8) -> Server {
+        let python = python();
+        assert!(
+            python.exists(),
+            "{} is missing: run scripts/setup-python (installs the pinned python-can and canopen \
+             into target/py), or set DRIVESET_PYTHON to a Python that has them",
+            python.display()
+        );
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/sdo_server.py");
+        let mut child = Command::new(&python)
+            .arg(script)
+            .arg(path)
+            .arg(node.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+        let stdout = child.stdout.take().expect("stdout piped");
+        let mut err = child.stderr.take().expect("stderr piped");
+        let (tx, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let stderr = Arc::new(Mutex::new(String::new()));
+        let sink = Arc::clone(&stderr);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            while let Ok(n) = err.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                sink.lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        });
+        let mut server = Server {
+            stdin: child.stdin.take(),
+            child,
+            lines,
+            stderr,
+        };
+        let first = server.line();
+        assert_eq!(first, "ready", "{}", server.stderr());
+        server
+    }
+
+    fn stderr(&self) -> String {
+        let text = self
+            .stderr
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        format!(
+            "sdo_server.py stderr (a ModuleNotFoundError means: run scripts/setup-python):\n{text}"
+        )
+    }
+
+    fn line(&mut self) -> String {
+        match self.lines.recv_timeout(LINE_GUARD) {
+            Ok(l) => l,
+            Err(RecvTimeoutError::Timeout) => {
+                panic!(
+                    "sdo_server.py said nothing for {LINE_GUARD:?}\n{}",
+                    self.stderr()
+                )
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                let _ = self.child.wait();
+                std::thread::sleep(Duration::from_millis(100));
+                panic!("sdo_server.py ended early\n{}", self.stderr())
+            }
+        }
+    }
+
+    fn send(&mut self, command: &str) {
+        let stdin = self.stdin.as_mut().expect("stdin open");
+        writeln!(stdin, "{command}")
+            .and_then(|()| stdin.flush())
+            .expect("write to sdo_server.py");
+    }
+
+    /// The object dictionary's values and the accepted writes, in order.
+    fn dump(&mut self) -> (Values, Values) {
+        self.send("dump");
+        let mut values = Vec::new();
+        let mut writes = Vec::new();
+        loop {
+            let line = self.line();
+            if line == "end" {
+                return (values, writes);
+            }
+            let parse = |s: &str| -> (u32, i64) {
+                let (code, raw) = s.split_once(' ').expect("`CODE RAW`");
+                (
+                    code.trim_start_matches('C').parse().expect("code"),
+                    raw.parse().expect("raw"),
+                )
+            };
+            match line.strip_prefix("wrote ") {
+                Some(rest) => writes.push(parse(rest)),
+                None => values.push(parse(&line)),
+            }
+        }
+    }
+
+    fn quit(mut self) {
+        self.send("quit");
+        assert_eq!(self.line(), "bye", "{}", self.stderr());
+        drop(self.stdin.take());
+        let give_up = Instant::now() + LINE_GUARD;
+        loop {
+            if let Some(status) = self.child.try_wait().expect("wait") {
+                assert!(status.success(), "{status}\n{}", self.stderr());
+                return;
+            }
+            assert!(Instant::now() < give_up, "sdo_server.py did not exit");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+fn client(hub: &SlcanHub, node: u8) -> CanClient<SlcanLink> {
+    let link = SlcanLink::open(hub.path_a(), 500_000, 115_200, Duration::from_secs(2))
+        .expect("open driveset's slcan link on the hub");
+    let schema = catalog::schema(Family::Ecs).expect("fictional-ecs-demo schema");
+    CanClient::with_options(
+        link,
+        schema,
+        node,
+        CanOptions {
+            tries: 3,
+            answer_timeout: ANSWER_TIMEOUT,
+        },
+    )
+    .expect("client")
+}
+
+/// A set of the fictional ECS fixture, from TOML text.
+fn set(name: &str, text: &str) -> ResolvedSet {
+    let path = root().join("parameter-sets/ecs").join(name);
+    let mut registry = driveset_schema::Registry::builtin().expect("registry");
+    let loaded = load_set_str(&path, text, &mut registry).expect("set loads");
+    assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
+    loaded.resolved.expect("resolved")
+}
+
+fn hub_log(hub: &SlcanHub) -> String {
+    hub.log().join("\n")
+}
+
+/// A hub, the Python server on side B (node 1), driveset on side A.
+fn session() -> (SlcanHub, Server, CanClient<SlcanLink>) {
+    let hub = SlcanHub::spawn(500_000).expect("slcan hub");
+    let server = Server::start(hub.path_b(), 1);
+    let c = client(&hub, 1);
+    (hub, server, c)
+}
+
+/// Close driveset's link, stop the server and the hub; every request was
+/// answered once, nothing refused or dropped.
+fn finish(hub: SlcanHub, server: Server, c: CanClient<SlcanLink>) {
+    drop(c);
+    server.quit();
+    let log = hub_log(&hub);
+    let stats = hub.stop().expect("hub stops cleanly");
+    // python-can opens the channel twice (the second `O` is answered
+    // BELL and ignored); nothing else was refused.
+    let bells: Vec<&str> = log.lines().filter(|l| l.ends_with("BELL")).collect();
+    assert!(
+        bells.iter().all(|l| l.ends_with("b> Open -> BELL")),
+        "{log}"
+    );
+    assert_eq!(stats.refused, bells.len() as u64, "{log}");
+    assert_eq!(stats.dropped, 0, "{log}");
+    assert_eq!(stats.a_to_b, stats.b_to_a, "one answer per request\n{log}");
+}
+
+#[test]
+fn engine_pulls_uploads_and_decodes_aborts_against_a_canopen_local_node() {
+    let (hub, mut server, mut c) = session();
+
+    // 1. pull: every code of the schema, exact values.
+    let pulled = pull(&mut c, &PullOptions::default())
+        .unwrap_or_else(|e| panic!("pull: {e}\n{}\n{}", server.stderr(), hub_log(&hub)));
+    assert!(pulled.skipped.is_empty(), "{:?}", pulled.skipped);
+    assert_eq!(pulled.read, INITIAL.len());
+    let got: Vec<(u32, RawValue)> = pulled
+        .set
+        .values
+        .iter()
+        .map(|(k, v)| (k.number, v.clone()))
+        .collect();
+    let want: Vec<(u32, RawValue)> = INITIAL
+        .iter()
+        .map(|&(n, v)| (n, RawValue::Int(v)))
+        .collect();
+    assert_eq!(got, want);
+    // The pulled set holds what parameter-sets/ecs/axis-1.toml says (the
+    // server's initial values were chosen so), plus C5009, C5015 and the
+    // two bit-coded codes.
+    let axis1 = {
+        let path = root().join("parameter-sets/ecs/axis-1.toml");
+        let text = std::fs::read_to_string(&path).expect("axis-1.toml");
+        set("axis-1.toml", &text)
+    };
+    for (k, v) in &axis1.values {
+        assert_eq!(pulled.set.values.get(k), Some(v), "{k:?}");
+    }
+    assert!(live_diff(&mut c, &axis1).expect("live diff").is_empty());
+
+    // 2. upload a changed set: only the differing codes are written, the
+    // LocalNode's dictionary holds the new values, driveset verified them.
+    let changed = set(
+        "interop-changed.toml",
+        r#"
+schema = "../fixtures/fictional-ecs-demo.toml"
+[values]
+C5001 = "5200.5 rpm"
+C5002 = "0 rpm"
+C5003 = "0.400 s"
+C5007 = 16.25
+C5015 = "0.0125 rev"
+C5016 = "Position control"
+code_0135 = 1027
+"#,
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = upload(
+        &mut c,
+        &changed,
+        &UploadOptions::new(dir.path().join("j.json")),
+    )
+    .unwrap_or_else(|f| {
+        panic!(
+            "upload: {f}\n{}\n{}\n{}",
+            f.report.as_ref().map(|r| r.render()).unwrap_or_default(),
+            server.stderr(),
+            hub_log(&hub)
+        )
+    });
+    assert_eq!(report.state, TxnState::Complete, "{}", report.render());
+    assert_eq!(report.codes_in_set, 7, "{}", report.render());
+    assert_eq!(report.codes_written, 6, "{}", report.render());
+    assert_eq!(
+        report.fingerprint_after.as_deref(),
+        Some(changed.fingerprint().as_str())
+    );
+    for code in &report.codes {
+        let want = if code.number == 5002 {
+            CodeOutcome::Unchanged
+        } else {
+            CodeOutcome::Verified
+        };
+        assert_eq!(code.outcome, want, "{}", report.render());
+    }
+    let (values, writes) = server.dump();
+    let mut expected: Vec<(u32, i64)> = INITIAL.to_vec();
+    let new = [
+        (135, 1027),
+        (5001, 52_005_000),
+        (5003, 4_000),
+        (5007, 162_500),
+        (5015, 125),
+        (5016, 20_000),
+    ];
+    for (n, v) in new {
+        expected.iter_mut().find(|(m, _)| *m == n).expect("code").1 = v;
+    }
+    assert_eq!(values, expected, "{}", report.render());
+    let mut written = writes.clone();
+    written.sort_unstable();
+    assert_eq!(written, new, "each changed code written once: {writes:?}");
+    assert!(live_diff(&mut c, &changed).expect("live diff").is_empty());
+
+    // 3. a write the LocalNode refuses (C5010 is read-only there, not in
+    // driveset's schema): the abort, decoded.
+    let err = c
+        .write(CodeKey::new(5010), &RawValue::Int(30_000_000))
+        .expect_err("read-only object");
+    let EngineError::Device { cause, .. } = &err else {
+        panic!("not a device error: {err}");
+    };
+    assert_eq!(
+        cause.raw, "SDO abort 0x06010002 at index 0x4C6D subindex 0",
+        "{err}"
+    );
+    assert!(
+        cause.cause.to_lowercase().contains("read only"),
+        "{cause:?}"
+    );
+    let text = err.to_string();
+    assert!(
+        text.contains("C5010") && text.contains("0x06010002"),
+        "{text}"
+    );
+
+    finish(hub, server, c);
+}
+
+/// The upload runner treats a write the drive refused (SDO abort: not
+/// applied) as possibly written: the roll back tries to restore C5010,
+/// the server refuses that too, and the roll back stops there, leaving
+/// C5004 at its new value (state `failed`, "a mix of old and new
+/// values"). What should happen is below.
+#[test]
+#[ignore = "engine upload: roll back restores a code whose write the drive refused and stops at the first failed restore"]
+fn upload_touching_a_read_only_object_rolls_back() {
+    let (hub, mut server, mut c) = session();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let ro = set(
+        "interop-read-only.toml",
+        r#"
+schema = "../fixtures/fictional-ecs-demo.toml"
+[values]
+C5004 = "0.300 s"
+C5010 = "3000 rpm"
+"#,
+    );
+    let failure = upload(&mut c, &ro, &UploadOptions::new(dir.path().join("ro.json")))
+        .expect_err("the read-only write fails the upload");
+    let report = failure.report.as_ref().expect("a report");
+    assert_eq!(
+        report.state,
+        TxnState::RolledBack,
+        "{failure}\n{}",
+        report.render()
+    );
+    assert!(failure.to_string().contains("0x06010002"), "{failure}");
+    let (values, _) = server.dump();
+    assert_eq!(values, INITIAL.to_vec(), "nothing changed: {failure}");
+    finish(hub, server, c);
+}
