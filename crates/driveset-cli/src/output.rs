@@ -26,6 +26,8 @@ pub enum Format {
     Json,
     /// GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`).
     Github,
+    /// JUnit XML: a testsuite per file, a testcase per finding (GitLab, Jenkins).
+    Junit,
 }
 
 /// Colour on or off.
@@ -396,6 +398,7 @@ impl Report {
                 }
                 let _ = writeln!(out, "{}", self.summary(noun));
             }
+            Format::Junit => out.push_str(&crate::report::junit::render(self, "driveset")),
             Format::Json => {
                 let files: Vec<Value> = self
                     .files

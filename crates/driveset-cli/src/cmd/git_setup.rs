@@ -1,0 +1,234 @@
+//! `driveset git-setup [--global]`: make `git diff` show semantic diffs of
+//! set files. Writes `.gitattributes` lines (`parameter-sets/**/*.toml
+//! diff=driveset`, `.yaml`, `.yml`) at the top of the work tree, keeping
+//! what is there and adding only missing lines, and configures the diff
+//! driver `diff.driveset.textconv = driveset textconv` in the repository's
+//! config (or with `--global` in the user's, for every clone).
+//!
+//! Also the hidden `driveset textconv FILE` the driver runs (see
+//! `report::textconv`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::report::textconv;
+
+use super::validate::output;
+
+/// Arguments of `driveset git-setup`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Run once per clone (or once with --global). Afterwards `git diff`, `git log
+-p` and `git show` print set files as one line per code with its name and
+the value in engineering units:
+
+  -C0011 maximum_output_frequency = 50 Hz
+  +C0011 maximum_output_frequency = 60 Hz
+
+The .gitattributes lines are meant to be committed; the driver itself is git
+configuration, which git never takes from a repository: every clone (or
+user, with --global) runs git-setup once. Without the driver git falls back
+to the plain text diff.
+
+Exit codes: 0 ok, 2 not in a git work tree (without --global) or git failed.
+
+Examples:
+  driveset git-setup
+  driveset git-setup --global
+  driveset git-setup --sets line-2/sets")]
+pub struct Args {
+    /// Configure the diff driver in the user's global git config instead of
+    /// the repository's (`.gitattributes` is still written when run inside a
+    /// work tree).
+    #[arg(long)]
+    pub global: bool,
+    /// Folder of the set files, relative to the top of the work tree (repeatable).
+    #[arg(long = "sets", value_name = "DIR", default_value = "parameter-sets")]
+    pub sets: Vec<String>,
+    /// Command git runs as the textconv driver [default: `driveset textconv`
+    /// when `driveset` is on PATH, else this binary's absolute path].
+    #[arg(long, value_name = "CMD")]
+    pub command: Option<String>,
+}
+
+/// Arguments of the hidden `driveset textconv`.
+#[derive(clap::Args)]
+pub struct TextconvArgs {
+    /// Set file (git passes a temporary copy).
+    #[arg(value_name = "FILE")]
+    pub file: PathBuf,
+    /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+}
+
+/// Run the hidden `driveset textconv FILE`.
+pub fn run_textconv(args: TextconvArgs) -> anyhow::Result<u8> {
+    let registry = match output::registry(&args.schemas) {
+        Ok(r) => r,
+        Err(e) => return Ok(output::fail_input(&e)),
+    };
+    match textconv::render(&args.file, &registry) {
+        Ok(text) => {
+            output::emit(&text);
+            Ok(crate::EXIT_OK)
+        }
+        Err(e) => {
+            eprintln!("error: cannot read {}: {e}", args.file.display());
+            Ok(crate::EXIT_INPUT)
+        }
+    }
+}
+
+/// The attribute lines for set files under `dir`.
+pub fn attribute_lines(dir: &str) -> Vec<String> {
+    let dir = dir.trim_matches('/');
+    ["toml", "yaml", "yml"]
+        .iter()
+        .map(|ext| {
+            if dir.is_empty() || dir == "." {
+                format!("*.{ext} diff=driveset")
+            } else {
+                format!("{dir}/**/*.{ext} diff=driveset")
+            }
+        })
+        .collect()
+}
+
+/// `existing` plus every line of `want` it lacks (compared with surrounding
+/// whitespace trimmed and inner runs of blanks collapsed); `None` when
+/// nothing is missing.
+pub fn merge_attributes(existing: &str, want: &[String]) -> Option<String> {
+    let norm = |l: &str| l.split_whitespace().collect::<Vec<_>>().join(" ");
+    let have: Vec<String> = existing.lines().map(norm).collect();
+    let missing: Vec<&String> = want.iter().filter(|w| !have.contains(&norm(w))).collect();
+    if missing.is_empty() {
+        return None;
+    }
+    let mut out = existing.to_string();
+    if !out.is_empty() && !out.ends_with('\n') {
+        out.push('\n');
+    }
+    if !existing.contains("driveset") {
+        out.push_str("# semantic diffs of parameter sets (driveset git-setup)\n");
+    }
+    for m in missing {
+        out.push_str(m);
+        out.push('\n');
+    }
+    Some(out)
+}
+
+/// Quote a word for the shell git runs the textconv command with.
+fn sh_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"/._-+:=@%,".contains(&b))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+fn default_command() -> String {
+    let on_path = std::env::var_os("PATH").is_some_and(|p| {
+        std::env::split_paths(&p).any(|d| {
+            let f = d.join("driveset");
+            f.is_file()
+        })
+    });
+    if on_path {
+        return "driveset textconv".into();
+    }
+    match std::env::current_exe() {
+        Ok(exe) => format!("{} textconv", sh_quote(&exe.to_string_lossy())),
+        Err(_) => "driveset textconv".into(),
+    }
+}
+
+fn git(args: &[&str]) -> anyhow::Result<()> {
+    let status = Command::new("git").args(args).status()?;
+    anyhow::ensure!(status.success(), "`git {}` failed", args.join(" "));
+    Ok(())
+}
+
+/// Run `driveset git-setup`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let top = crate::report::git_output(Path::new("."), &["rev-parse", "--show-toplevel"])
+        .map(|s| PathBuf::from(s.trim_end_matches('\n')));
+    if top.is_none() && !args.global {
+        eprintln!(
+            "error: not inside a git work tree\n  = help: run it in your repository, or use --global to configure the driver for every repository"
+        );
+        return Ok(crate::EXIT_INPUT);
+    }
+    let command = args.command.clone().unwrap_or_else(default_command);
+    let scope = if args.global { "--global" } else { "--local" };
+    if let Err(e) = git(&["config", scope, "diff.driveset.textconv", &command]) {
+        eprintln!("error: {e}");
+        return Ok(crate::EXIT_INPUT);
+    }
+    println!(
+        "git config {scope} diff.driveset.textconv \"{}\"",
+        command.replace('"', "\\\"")
+    );
+    match top {
+        Some(top) => {
+            let path = top.join(".gitattributes");
+            let existing = match std::fs::read_to_string(&path) {
+                Ok(s) => s,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+                Err(e) => {
+                    eprintln!("error: cannot read {}: {e}", path.display());
+                    return Ok(crate::EXIT_INPUT);
+                }
+            };
+            let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
+            match merge_attributes(&existing, &want) {
+                None => println!("{}: up to date", path.display()),
+                Some(text) => {
+                    if let Err(e) = std::fs::write(&path, text) {
+                        eprintln!("error: cannot write {}: {e}", path.display());
+                        return Ok(crate::EXIT_INPUT);
+                    }
+                    println!(
+                        "{}: set files use the driveset diff driver (commit this file)",
+                        path.display()
+                    );
+                }
+            }
+        }
+        None => println!(
+            "not in a git work tree: add `{}` to each repository's .gitattributes",
+            attribute_lines("parameter-sets")[0]
+        ),
+    }
+    Ok(crate::EXIT_OK)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn merges_without_duplicates() {
+        let want = attribute_lines("parameter-sets/");
+        assert_eq!(want[0], "parameter-sets/**/*.toml diff=driveset");
+        let merged = merge_attributes("*.png binary", &want).unwrap();
+        assert!(merged.starts_with("*.png binary\n# semantic diffs"));
+        assert_eq!(merged.matches("diff=driveset").count(), 3);
+        assert_eq!(merge_attributes(&merged, &want), None);
+        // an existing line written with other spacing counts
+        let partial = "parameter-sets/**/*.toml   diff=driveset\n";
+        let m = merge_attributes(partial, &want).unwrap();
+        assert_eq!(m.matches("*.toml").count(), 1);
+        assert_eq!(attribute_lines(".")[1], "*.yaml diff=driveset");
+    }
+
+    #[test]
+    fn quotes_for_the_shell() {
+        assert_eq!(sh_quote("/usr/bin/driveset"), "/usr/bin/driveset");
+        assert_eq!(sh_quote("/a b/it's"), "'/a b/it'\\''s'");
+    }
+}
