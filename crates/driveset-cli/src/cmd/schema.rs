@@ -28,6 +28,8 @@ Examples:
   driveset schema check
   driveset schema check parameter-sets/fixtures/")]
     Check(CheckArgs),
+    /// Build a schema file from a LUSTBUS drive's own parameter descriptions.
+    Pull(super::schema_pull::Args),
 }
 
 /// Arguments of `driveset schema check`.
@@ -48,6 +50,7 @@ pub struct CheckArgs {
 pub fn run(cmd: SchemaCommand) -> anyhow::Result<u8> {
     match cmd {
         SchemaCommand::Check(a) => check(a),
+        SchemaCommand::Pull(a) => super::schema_pull::run(a),
     }
 }
 

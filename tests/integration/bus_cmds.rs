@@ -1,0 +1,268 @@
+//! `driveset identify` and `driveset scan` against simulated buses
+//! (`sim://` ports, virtual time), and the port / protocol checks.
+
+use predicates::prelude::*;
+
+use crate::util::driveset;
+
+#[test]
+fn identify_mc6000() {
+    driveset()
+        .args(["identify", "--port", "sim://mc6000?addresses=1", "--address", "1"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("family:   lustbus-mc\n"))
+        .stdout(predicate::str::contains("91-TYPE: "))
+        .stdout(predicate::str::contains("schema:   fictional-mc6000-demo (fits)\n"));
+}
+
+#[test]
+fn identify_vf1000() {
+    driveset()
+        .args(["identify", "--port", "sim://vf1000?addresses=2", "--address", "2"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("family:   lustbus-vf1000\n"))
+        .stdout(predicate::str::contains("schema:   fictional-vf1000-demo (fits)\n"));
+}
+
+#[test]
+fn identify_tmd_reports_type_codes_and_software() {
+    driveset()
+        .args(["identify", "--port", "sim://tmd?addresses=3", "--address", "3"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("family:   lecom\n"))
+        .stdout(predicate::str::contains("C0200: 33STMD-M_12000\n"))
+        .stdout(predicate::str::contains("software: 1.20\n"))
+        .stdout(predicate::str::contains("schema:   lenze-tmd (fits)\n"));
+}
+
+#[test]
+fn identify_ecs_json() {
+    let out = driveset()
+        .args([
+            "identify",
+            "--port",
+            "sim://ecs?addresses=5",
+            "--address",
+            "5",
+            "--format",
+            "json",
+        ])
+        .assert()
+        .code(0)
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(v["protocol"], "lenze-can-sdo");
+    assert_eq!(v["schema"], "fictional-ecs-demo");
+    assert_eq!(v["fits"], true);
+    assert_eq!(v["address"], 5);
+}
+
+#[test]
+fn identify_lustbus_protocol_tells_mc_from_vf1000() {
+    driveset()
+        .args([
+            "identify", "--port", "sim://vf1000?addresses=2", "--address", "2", "--protocol",
+            "lustbus",
+        ])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("schema:   lust-vf1000 (fits)\n"))
+        .stdout(predicate::str::contains("a VF1000 inverter"));
+    driveset()
+        .args([
+            "identify", "--port", "sim://mc6000?addresses=2", "--address", "2", "--protocol",
+            "lustbus",
+        ])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("schema:   lust-mc6000 (fits)\n"));
+}
+
+#[test]
+fn identify_refuses_a_schema_of_another_protocol() {
+    driveset()
+        .args([
+            "identify", "--port", "sim://mc6000?addresses=1", "--address", "1", "--schema",
+            "lenze-tmd",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "sim://mc6000?addresses=1 simulates mc6000 drives (lustbus-mc), schema `lenze-tmd` is for lecom",
+        ));
+    driveset()
+        .args([
+            "identify", "--port", "sim://ecs?addresses=1", "--address", "1", "--schema",
+            "lust-mc6000",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("is a CAN port"));
+}
+
+#[test]
+fn identify_needs_a_family_on_real_ports_and_a_valid_port() {
+    driveset()
+        .args(["identify", "--port", "/dev/ttyUSB0", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--schema ID|PATH, or --protocol"));
+    driveset()
+        .args(["identify", "--port", "bogus://x", "--address", "1", "--protocol", "lecom"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("invalid port `bogus://x`"));
+}
+
+#[test]
+fn identify_no_drive_at_the_address_is_a_bus_failure() {
+    driveset()
+        .args(["identify", "--port", "sim://mc6000?addresses=1", "--address", "4"])
+        .assert()
+        .code(3)
+        .stderr(predicate::str::contains("address 4: no answer"));
+}
+
+#[test]
+fn scan_mc6000_finds_exactly_3_and_7() {
+    driveset()
+        .args(["scan", "--port", "sim://mc6000?addresses=3,7"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::starts_with(
+            "scanned sim://mc6000?addresses=3,7 (LUSTBUS addresses 1..30)\naddress 3: 91-TYPE = ",
+        ))
+        .stdout(predicate::str::contains("\naddress 7: 91-TYPE = "))
+        .stdout(predicate::str::ends_with("2 drives found\n"));
+    let out = driveset()
+        .args(["scan", "--port", "sim://mc6000?addresses=3,7", "--format", "json"])
+        .assert()
+        .code(0)
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let found: Vec<u64> = v["found"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["address"].as_u64().unwrap())
+        .collect();
+    assert_eq!(found, vec![3, 7]);
+    assert_eq!(v["protocol"], "lustbus");
+}
+
+#[test]
+fn scan_lecom_and_can() {
+    driveset()
+        .args(["scan", "--port", "sim://tmd?addresses=3,17"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("address 3: C0093 = "))
+        .stdout(predicate::str::contains("address 17: C0093 = "))
+        .stdout(predicate::str::ends_with("2 drives found\n"));
+    driveset()
+        .args(["scan", "--port", "sim://ecs?addresses=4,100"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("(CAN node ids 1..127)"))
+        .stdout(predicate::str::contains("address 4: "))
+        .stdout(predicate::str::contains("address 100: "))
+        .stdout(predicate::str::ends_with("2 drives found\n"));
+}
+
+#[test]
+fn scan_detect_baud_reports_a_rate() {
+    driveset()
+        .args(["scan", "--port", "sim://vf1000?addresses=5", "--detect-baud"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("baud rate: "))
+        .stdout(predicate::str::contains("address 5: 91-TYPE = "));
+}
+
+#[test]
+fn scan_protocol_must_fit_the_simulated_family() {
+    driveset()
+        .args(["scan", "--port", "sim://mc6000?addresses=3", "--protocol", "lecom"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("scan it with --protocol lustbus"));
+}
+
+#[test]
+fn schema_pull_mc6000_passes_schema_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pulled-mc.toml");
+    driveset()
+        .args([
+            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
+            "mc6000", "--params", "1-200", "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .code(0)
+        .stdout(predicate::str::starts_with("pulled "))
+        .stdout(predicate::str::contains("(schema id pulled-mc6000-1)"));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("protocol = \"lustbus-mc\"\n"));
+    assert!(text.contains("spec = \"pulled from sim://mc6000?addresses=1 address 1\"\n"));
+    assert!(text.contains("\nnumber = 4\nname = \"PROG\"\n"));
+    // substitution texts became enumeration labels
+    assert!(text.contains("1 = \"Load factory settings\"\n"));
+    // units come from the 107-UNIT texts
+    assert!(text.contains("unit = \"1/min\"\n"));
+    driveset()
+        .args(["schema", "check"])
+        .arg(&out)
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("0 findings"));
+}
+
+#[test]
+fn schema_pull_vf1000_passes_schema_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pulled-vf.toml");
+    driveset()
+        .args([
+            "schema", "pull", "--port", "sim://vf1000?addresses=2", "--address", "2", "--family",
+            "vf1000", "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .code(0);
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("protocol = \"lustbus-vf1000\"\n"));
+    assert!(text.contains("basis = "));
+    driveset()
+        .args(["schema", "check"])
+        .arg(&out)
+        .assert()
+        .code(0);
+}
+
+#[test]
+fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
+    driveset()
+        .args([
+            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
+            "vf1000", "-o", "/nonexistent/x.toml",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("simulates mc6000 drives"));
+    driveset()
+        .args([
+            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
+            "mc6000", "--params", "5-1", "-o", "/nonexistent/x.toml",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("in --params"));
+}

@@ -1,0 +1,196 @@
+//! `driveset upload` and `driveset diff SET --port` against simulated drives.
+//! Consecutive runs see the same simulated drive through the simulator's
+//! state directory (`DRIVESET_SIM_STATE_DIR`); the journal goes to the
+//! default `.driveset/journal/` under the (temporary) working directory.
+
+use predicates::prelude::*;
+
+use crate::util::{driveset, workspace_root};
+
+const AXIS1: &str = "parameter-sets/mc6000/axis-1.toml";
+const PORT: &str = "sim://mc6000?addresses=1";
+
+fn set(p: &str) -> String {
+    workspace_root().join(p).display().to_string()
+}
+
+fn in_dir(dir: &std::path::Path) -> assert_cmd::Command {
+    let mut c = driveset();
+    c.current_dir(dir)
+        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
+    c
+}
+
+#[test]
+fn dry_run_prints_the_plan_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("; nothing is written\nplan: 78 of 195 codes differ (schema fictional-mc6000-demo, set sha256:"))
+        .stdout(predicate::str::contains("  dataset download (SLOAD = -1, CardWriteable values, SLOAD = -2, drive checks the set):\n"))
+        .stdout(predicate::str::contains("    100-PWMF: \"8 kHz\" -> \"16 kHz\"  [CardWriteable, EEPROM 1 B]\n"))
+        .stdout(predicate::str::contains("expected time: "));
+    assert!(!dir.path().join(".driveset").exists());
+    // still the factory state: the live diff shows the same 78 codes
+    in_dir(dir.path())
+        .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("78 differences (78 changed, 0 added, 0 removed)\n"));
+}
+
+#[test]
+fn upload_then_live_diff_shows_no_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let out = in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1"])
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.starts_with("sim://mc6000?addresses=1 address 1: complete (78 of 195 codes written, 1 attempt(s), "),
+        "{stdout}"
+    );
+    assert!(stdout.contains("dataset: accepted (SLOAD = 0)\n"));
+    assert!(stdout.contains("journal: .driveset/journal/sim___mc6000_addresses_1-1.journal.json"));
+    // not a terminal: plain progress lines on stderr
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("upload: reading 195 codes from the drive\nupload: writing\n"), "{stderr}");
+    let after = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("after:  "))
+        .unwrap()
+        .to_string();
+    driveset()
+        .arg("fingerprint")
+        .arg(set(AXIS1))
+        .assert()
+        .stdout(predicate::str::starts_with(after));
+    assert!(dir
+        .path()
+        .join(".driveset/journal/sim___mc6000_addresses_1-1.journal.json")
+        .exists());
+    in_dir(dir.path())
+        .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
+        .assert()
+        .code(0)
+        .stdout(format!(
+            "--- sim://mc6000?addresses=1 address 1\n+++ {}\nno differences\n",
+            set(AXIS1)
+        ));
+    // a second upload has nothing to write
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--format", "json"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("\"codes_written\": 0"))
+        .stdout(predicate::str::contains("\"state\": \"complete\""));
+    // another set of the family differs; JSON diff
+    in_dir(dir.path())
+        .args([
+            "diff",
+            &set("parameter-sets/mc6000/axis-2.toml"),
+            "--port",
+            PORT,
+            "--address",
+            "1",
+            "--format",
+            "json",
+        ])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("\"equal\": false"));
+}
+
+#[test]
+fn upload_to_another_family_is_refused_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", "sim://vf1000?addresses=1", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "sim://vf1000?addresses=1 simulates vf1000 drives (lustbus-vf1000), schema `fictional-mc6000-demo` is for lustbus-mc; use a set / schema of that family, or pass --force",
+        ));
+    // another protocol is refused even with --force
+    in_dir(dir.path())
+        .args([
+            "upload",
+            &set("parameter-sets/tmd/conveyor-3.toml"),
+            "--port",
+            PORT,
+            "--address",
+            "1",
+            "--force",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("schema `lenze-tmd` is for lecom"));
+    // forced onto a VF1000: the MC codes do not exist there, so the drive
+    // refuses them; nothing was written
+    in_dir(dir.path())
+        .args([
+            "upload",
+            &set(AXIS1),
+            "--port",
+            "sim://vf1000?addresses=1",
+            "--address",
+            "1",
+            "--force",
+            "--dry-run",
+        ])
+        .assert()
+        .code(3)
+        .stderr(predicate::str::contains("error: sim://vf1000?addresses=1 address 1: "));
+    assert!(!dir.path().join(".driveset").exists());
+}
+
+#[test]
+fn upload_of_an_invalid_set_is_an_input_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\n").unwrap();
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&bad)
+        .args(["--port", "sim://tmd?addresses=1", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("not uploaded"));
+}
+
+#[test]
+fn upload_tmd_json_report() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let out = in_dir(dir.path())
+        .args([
+            "upload",
+            &set("parameter-sets/tmd/conveyor-3.toml"),
+            "--port",
+            "sim://tmd?addresses=3",
+            "--address",
+            "3",
+            "--journal",
+            "j.json",
+            "--format",
+            "json",
+        ])
+        .assert()
+        .code(0)
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(v["state"], "complete");
+    assert_eq!(v["journal"], "j.json");
+    assert!(v["fingerprint_after"].as_str().unwrap().starts_with("sha256:"));
+    assert!(dir.path().join("j.json").exists());
+}
