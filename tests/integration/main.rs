@@ -5,12 +5,10 @@
 mod bus_cmds;
 mod decode;
 mod diff;
-mod e2e_pty;
 mod encode;
 mod fingerprint;
 mod pull;
 mod recover;
-mod report;
 mod schema_check;
 mod show;
 mod sim;
