@@ -9,6 +9,7 @@ mod encode;
 mod fingerprint;
 mod pull;
 mod recover;
+mod report;
 mod schema_check;
 mod show;
 mod sim;

@@ -52,6 +52,19 @@ fn drive_result(r: DriveResult) -> (&'static str, &'static str, &'static str) {
     }
 }
 
+/// Sort key of drive results: failures first.
+fn result_rank(r: DriveResult) -> u8 {
+    match r {
+        DriveResult::Failed => 0,
+        DriveResult::RolledBack => 1,
+        DriveResult::Drift => 2,
+        DriveResult::Verified => 3,
+        DriveResult::Unchanged => 4,
+        DriveResult::AlreadyVerified => 5,
+        DriveResult::NotSelected => 6,
+    }
+}
+
 fn badge((class, symbol, text): (&str, &str, &str)) -> String {
     format!(
         "<span class=\"badge {class}\"><span aria-hidden=\"true\">{symbol}</span> {text}</span>"
@@ -77,7 +90,7 @@ pub fn fmt_ms(ms: f64) -> String {
 
 /// `sha256:0123456789ab…` (the full value goes into a `title`).
 fn short_fp(fp: &str) -> String {
-    let cut = fp.find(':').map_or(0, |i| i + 1) + 12;
+    let cut = fp.find(':').map_or(0, |i| i + 1) + 10;
     match fp.char_indices().nth(cut) {
         Some((i, _)) => format!("{}\u{2026}", &fp[..i]),
         None => fp.to_string(),
@@ -94,6 +107,9 @@ h2{font-size:18px;margin:28px 0 10px;padding-bottom:4px;border-bottom:1px solid 
 h3{font-size:15px;margin:0}
 code,.mono{font:12.5px/1.4 "DejaVu Sans Mono",ui-monospace,Menlo,Consolas,monospace}
 .sub{color:var(--muted);margin:0 0 16px}
+.kicker{color:var(--muted);margin:0 0 2px;font-size:12.5px;text-transform:uppercase;letter-spacing:.04em}
+.nowrap,td.num{white-space:nowrap}
+#drives td:first-child a{font-weight:600;color:inherit}
 header.top{display:flex;gap:24px;align-items:flex-start;justify-content:space-between;background:#fff;border:1px solid var(--line);border-radius:8px;padding:18px 20px}
 .overall{font-size:22px;font-weight:700;padding:10px 18px;border-radius:8px;border:2px solid;white-space:nowrap}
 .overall.ok{color:var(--ok);background:var(--ok-bg)}.overall.warn{color:var(--warn);background:var(--warn-bg)}.overall.bad{color:var(--bad);background:var(--bad-bg)}
@@ -190,7 +206,6 @@ pub fn render(r: &LineReport) -> String {
         esc(env!("CARGO_PKG_VERSION")),
         r.report_version
     );
-    let _ = class;
     o
 }
 
@@ -198,10 +213,10 @@ fn header(o: &mut String, r: &LineReport, class: &str) {
     let (_, symbol, text) = line_result(r.result);
     let _ = write!(
         o,
-        "<header class=\"top\">\n<div>\n<h1>Line <span id=\"line\">{}</span></h1>\n\
-         <p class=\"sub\">Commissioning report (<code>driveset {}</code>)</p>\n<dl class=\"meta\">\n",
-        esc(&r.line),
-        esc(&r.command)
+        "<header class=\"top\">\n<div>\n<p class=\"kicker\">Commissioning report \u{b7} <code>driveset {}</code></p>\n\
+         <h1 id=\"line\">{}</h1>\n<dl class=\"meta\">\n",
+        esc(&r.command),
+        esc(&r.line)
     );
     let mut meta = |k: &str, v: String| {
         let _ = writeln!(o, "<dt>{k}</dt><dd>{v}</dd>");
@@ -237,11 +252,13 @@ fn header(o: &mut String, r: &LineReport, class: &str) {
         None => meta("Git commit", "<em>not in a git work tree</em>".into()),
     }
     let _ = writeln!(o, "</dl>");
-    // counts per drive result
-    let mut counts: BTreeMap<&str, (usize, (&str, &str, &str))> = BTreeMap::new();
+    // counts per drive result, in the order of the result kinds
+    let mut counts: BTreeMap<u8, (usize, (&str, &str, &str))> = BTreeMap::new();
     for d in &r.drives {
-        let res = drive_result(d.result);
-        counts.entry(res.2).or_insert((0, res)).0 += 1;
+        counts
+            .entry(result_rank(d.result))
+            .or_insert((0, drive_result(d.result)))
+            .0 += 1;
     }
     let _ = write!(
         o,
@@ -320,8 +337,8 @@ fn drives_table(o: &mut String, r: &LineReport) {
         let res = drive_result(d.result);
         let _ = writeln!(
             o,
-            "<tr class=\"{}\" data-drive=\"{}\"><td><a href=\"#drive-{i}\">{}</a></td>\
-             <td>{} / {}</td><td><code>{}</code></td><td>{}</td><td>{}</td>\
+            "<tr class=\"{}\" data-drive=\"{}\"><td class=\"nowrap\"><a href=\"#drive-{i}\">{}</a></td>\
+             <td class=\"nowrap\">{} / {}</td><td><code>{}</code></td><td class=\"nowrap\">{}</td><td class=\"nowrap\">{}</td>\
              <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td></tr>",
             res.0,
             esc(&d.name),
@@ -588,7 +605,7 @@ mod tests {
         assert_eq!(fmt_ms(f64::NAN), "-");
         assert_eq!(
             short_fp("sha256:0123456789abcdef"),
-            "sha256:0123456789ab\u{2026}"
+            "sha256:0123456789\u{2026}"
         );
         assert_eq!(short_fp("short"), "short");
         assert_eq!(tick_step(1000.0, 8.0), 200.0);
