@@ -3,3 +3,6 @@
 //! and the commissioning report.
 
 pub mod report;
+pub mod manifest;
+pub mod commission;
+pub mod status;

@@ -1,0 +1,1109 @@
+//! `driveset commission LINE`: bring every selected drive of a line to its
+//! set. Buses run in parallel (a thread per bus, each bus on its own link
+//! and clock); the drives of one bus run in turn. Per drive: identify, read
+//! back, diff, upload what differs as one transaction
+//! ([`crate::upload::upload`]), verify.
+//!
+//! **Resume.** Every drive that ends holding its set is recorded in the
+//! state file [`STATE_FILE`] in the report directory (bus, address, port,
+//! set fingerprint, the fingerprint read back, when). A rerun does not
+//! trust the file blindly: for a drive recorded at the set's current
+//! fingerprint it identifies the drive and reads the set's codes once
+//! (the cost of a `status` check, no planning, no journal, no writes); if
+//! the drive still holds the set the drive is [`DriveResult::AlreadyVerified`],
+//! otherwise it is commissioned again. A drive whose set changed since is
+//! commissioned again. `fresh` ignores the file.
+//!
+//! **Exit codes** ([`LineOutcome::exit_code`]): 0 every selected drive holds
+//! its set; 1 a drive does not (drift, refused, rolled back, failed); 3 a
+//! bus could not be opened, a link failed, a drive did not answer, or the
+//! run stopped before every drive was reached (`stop_after`). 3 wins over 1.
+//!
+//! **Broadcast** (`broadcast_common`, LECOM buses only): values every
+//! selected drive of a LECOM group (addresses x1..x9) sets identically are
+//! sent once per group with MULTICAST to x0 before the drives are done one
+//! by one; each drive's own transaction then reads every code back, writes
+//! what did not land and verifies, so the broadcast only saves telegrams.
+//! MULTICAST is unacknowledged and has no journal backup; drives of the
+//! group that the line does not list receive it too. LUSTBUS (address 31)
+//! and CAN have no broadcast in the engine's clients: those buses fall back
+//! to per-drive writes with a warning.
+
+// EngineError (the crate's contract type) is large; it is built on the
+// failure path only, so its size is no concern.
+#![allow(clippy::result_large_err)]
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
+
+use driveset_link::{Instant, Link, OpenOptions, PortSpec};
+use driveset_schema::{CodeKey, DiffKind, Protocol, RawValue, ResolvedSet, Schema};
+use serde::{Deserialize, Serialize};
+
+use super::manifest::{Bus, BusProtocol, Drive, Manifest};
+use super::report::{
+    BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LineReport, LineResult, REPORT_VERSION,
+    TimelineEntry,
+};
+use crate::client::{
+    BorrowedByteLink, BorrowedFrameLink, CanClient, ClientStats, DatasetOutcome, DriveClient,
+    Identity, LecomClient, LustbusClient, Target,
+};
+use crate::error::EngineError;
+use crate::identify::check_family;
+use crate::live::live_values;
+use crate::plan::value_text;
+use crate::upload::{UploadOptions, default_journal_path, upload};
+
+/// The state file's name inside the report directory.
+pub const STATE_FILE: &str = ".commission-state.json";
+/// The state file's format version.
+pub const STATE_VERSION: u32 = 1;
+
+/// Exit code: every selected drive holds its set.
+pub const EXIT_OK: u8 = 0;
+/// Exit code: a drive differs from its set or failed.
+pub const EXIT_DRIFT: u8 = 1;
+/// Exit code: a bus failed (or the run stopped early).
+pub const EXIT_BUS: u8 = 3;
+
+/// Opens a bus's port as a link. The CLI passes one that opens `sim://`
+/// ports with the simulator; [`open_port`] opens real ports.
+pub type Opener<'a> = dyn Fn(&Bus) -> Result<Link, String> + Sync + 'a;
+
+/// Open a real port (serial, TCP, slcan, SocketCAN); `sim://` is refused.
+pub fn open_port(bus: &Bus) -> Result<Link, String> {
+    driveset_link::open(&bus.port, &OpenOptions::default()).map_err(|e| e.to_string())
+}
+
+/// What a line run does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Upload what differs and verify.
+    Commission,
+    /// Read only: compare every drive with its set.
+    Status,
+}
+
+/// One drive done (for progress output).
+#[derive(Debug, Clone)]
+pub struct Progress {
+    /// Bus name.
+    pub bus: String,
+    /// Drives of this bus done so far (this one included).
+    pub done: usize,
+    /// Selected drives on this bus.
+    pub total: usize,
+    /// The drive's report.
+    pub drive: DriveReport,
+}
+
+/// A progress callback.
+pub type ProgressFn = Arc<dyn Fn(&Progress) + Send + Sync>;
+
+/// Options of a line run.
+#[derive(Clone)]
+pub struct LineOptions {
+    /// Drive (or bus) names to do; empty: all.
+    pub only: Vec<String>,
+    /// Drive (or bus) names to leave out.
+    pub skip: Vec<String>,
+    /// Label for the report.
+    pub label: Option<String>,
+    /// Where the report and the state file go.
+    pub report_dir: PathBuf,
+    /// Where the upload journals go.
+    pub journal_dir: PathBuf,
+    /// Passed to the upload (family / running refusals).
+    pub force: bool,
+    /// LECOM MULTICAST of the values common to a group (module docs).
+    pub broadcast_common: bool,
+    /// Ignore the state file (commission every drive again).
+    pub fresh: bool,
+    /// Test hook: every bus stops after this many drives, as if the run had
+    /// been killed there.
+    pub stop_after: Option<usize>,
+    /// Called after every drive.
+    pub progress: Option<ProgressFn>,
+}
+
+impl std::fmt::Debug for LineOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LineOptions")
+            .field("only", &self.only)
+            .field("skip", &self.skip)
+            .field("report_dir", &self.report_dir)
+            .field("stop_after", &self.stop_after)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LineOptions {
+    /// Defaults: everything selected, report in `report_dir`, journals in
+    /// `report_dir/journals`.
+    pub fn new(report_dir: impl Into<PathBuf>) -> Self {
+        let report_dir = report_dir.into();
+        LineOptions {
+            only: Vec::new(),
+            skip: Vec::new(),
+            label: None,
+            journal_dir: report_dir.join("journals"),
+            report_dir,
+            force: false,
+            broadcast_common: false,
+            fresh: false,
+            stop_after: None,
+            progress: None,
+        }
+    }
+}
+
+/// A run that could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum LineError {
+    /// `--only` / `--skip` name something the manifest does not have.
+    #[error("{0}")]
+    Selection(String),
+    /// The report directory or the state file cannot be used.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// The result of a line run.
+#[derive(Debug, Clone)]
+pub struct LineOutcome {
+    /// The report.
+    pub report: LineReport,
+    /// Whether a bus failed (exit 3).
+    pub bus_failure: bool,
+    /// Notes (broadcast fallbacks, state file trouble).
+    pub warnings: Vec<String>,
+    /// Real time the run took.
+    pub wall: Duration,
+}
+
+impl LineOutcome {
+    /// 0, 1 or 3 (module docs).
+    pub fn exit_code(&self) -> u8 {
+        if self.bus_failure {
+            EXIT_BUS
+        } else if self.report.result == LineResult::Ok {
+            EXIT_OK
+        } else {
+            EXIT_DRIFT
+        }
+    }
+
+    /// The slowest bus's time (ms on its clock): the line's time, as buses
+    /// run in parallel.
+    pub fn line_ms(&self) -> f64 {
+        self.report
+            .buses
+            .iter()
+            .map(|b| b.elapsed_ms)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The resume state (the file [`STATE_FILE`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CommissionState {
+    /// [`STATE_VERSION`].
+    pub state_version: u32,
+    /// Line name.
+    pub line: String,
+    /// Drives that held their set, by `BUS/ADDRESS`.
+    pub drives: BTreeMap<String, StateEntry>,
+}
+
+/// One drive in the resume state.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateEntry {
+    /// Drive name.
+    pub name: String,
+    /// Port of its bus.
+    pub port: String,
+    /// Set file as the manifest gives it.
+    pub set: String,
+    /// Fingerprint of the set at the time.
+    pub set_fingerprint: String,
+    /// Fingerprint read back from the drive.
+    pub fingerprint: String,
+    /// When (RFC 3339 UTC).
+    pub verified_at: String,
+}
+
+impl CommissionState {
+    /// Read the state file of `report_dir` (empty if there is none).
+    pub fn load(report_dir: &Path) -> Result<Self, String> {
+        let path = report_dir.join(STATE_FILE);
+        match std::fs::read_to_string(&path) {
+            Ok(text) => serde_json::from_str(&text).map_err(|e| {
+                format!(
+                    "state file {}: {e}; delete it (or pass --fresh) to commission every drive again",
+                    path.display()
+                )
+            }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Self::default()),
+            Err(e) => Err(format!("state file {}: {e}", path.display())),
+        }
+    }
+
+    /// Write it atomically (temp file, rename).
+    pub fn save(&self, report_dir: &Path) -> Result<(), String> {
+        let path = report_dir.join(STATE_FILE);
+        let tmp = report_dir.join(format!("{STATE_FILE}.tmp"));
+        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+        std::fs::write(&tmp, text + "\n")
+            .and_then(|()| std::fs::rename(&tmp, &path))
+            .map_err(|e| format!("state file {}: {e}", path.display()))
+    }
+}
+
+fn state_key(bus: &str, address: u8) -> String {
+    format!("{bus}/{address}")
+}
+
+/// Commission the line (module docs).
+pub fn commission(
+    manifest: &Manifest,
+    opts: &LineOptions,
+    opener: &Opener<'_>,
+) -> Result<LineOutcome, LineError> {
+    run_line(manifest, opts, opener, Mode::Commission)
+}
+
+/// Run the line in `mode`.
+pub fn run_line(
+    manifest: &Manifest,
+    opts: &LineOptions,
+    opener: &Opener<'_>,
+    mode: Mode,
+) -> Result<LineOutcome, LineError> {
+    let wall0 = std::time::Instant::now();
+    let started = now_rfc3339();
+    let selected = select(manifest, opts)?;
+    std::fs::create_dir_all(&opts.report_dir).map_err(|e| {
+        LineError::Io(format!(
+            "cannot create the report directory {}: {e}",
+            opts.report_dir.display()
+        ))
+    })?;
+    let mut warnings = Vec::new();
+    let state = if mode == Mode::Commission {
+        std::fs::create_dir_all(&opts.journal_dir).map_err(|e| {
+            LineError::Io(format!(
+                "cannot create the journal directory {}: {e}",
+                opts.journal_dir.display()
+            ))
+        })?;
+        let mut s = if opts.fresh {
+            CommissionState::default()
+        } else {
+            CommissionState::load(&opts.report_dir).map_err(LineError::Io)?
+        };
+        if s.line != manifest.name {
+            s.drives.clear();
+        }
+        s.state_version = STATE_VERSION;
+        s.line = manifest.name.clone();
+        Some(Mutex::new(s))
+    } else {
+        None
+    };
+    let ctx = Ctx {
+        opts,
+        mode,
+        state: state.as_ref(),
+        warnings: Mutex::new(Vec::new()),
+    };
+
+    let results: Vec<BusRun> = std::thread::scope(|scope| {
+        let handles: Vec<_> = manifest
+            .buses
+            .iter()
+            .enumerate()
+            .map(|(bi, bus)| {
+                let drives: Vec<&Drive> = manifest
+                    .drives
+                    .iter()
+                    .filter(|d| d.bus_index == bi && selected.contains(&d.name))
+                    .collect();
+                let ctx = &ctx;
+                scope.spawn(move || run_bus(bus, &drives, ctx, opener))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a bus thread panicked"))
+            .collect()
+    });
+
+    warnings.extend(
+        ctx.warnings
+            .into_inner()
+            .unwrap_or_else(PoisonError::into_inner),
+    );
+    let mut by_drive: BTreeMap<String, DriveReport> = BTreeMap::new();
+    let mut buses = Vec::new();
+    let mut bus_failure = false;
+    for r in results {
+        bus_failure |= r.failed;
+        for d in r.drives {
+            by_drive.insert(d.name.clone(), d);
+        }
+        buses.push(r.report);
+    }
+    let drives: Vec<DriveReport> = manifest
+        .drives
+        .iter()
+        .map(|d| {
+            by_drive.remove(&d.name).unwrap_or_else(|| {
+                blank_report(d, &manifest.buses[d.bus_index], DriveResult::NotSelected)
+            })
+        })
+        .collect();
+    let result = line_result(&drives);
+    let dir = manifest.path.parent().unwrap_or(Path::new("."));
+    let report = LineReport {
+        report_version: REPORT_VERSION,
+        command: match mode {
+            Mode::Commission => "commission".into(),
+            Mode::Status => "status".into(),
+        },
+        line: manifest.name.clone(),
+        manifest: manifest.path.display().to_string(),
+        label: opts.label.clone().or_else(|| manifest.label.clone()),
+        started,
+        finished: now_rfc3339(),
+        git: git_info(dir),
+        result,
+        buses,
+        drives,
+    };
+    Ok(LineOutcome {
+        report,
+        bus_failure,
+        warnings,
+        wall: wall0.elapsed(),
+    })
+}
+
+fn line_result(drives: &[DriveReport]) -> LineResult {
+    let mut r = LineResult::Ok;
+    for d in drives {
+        match d.result {
+            DriveResult::Verified
+            | DriveResult::Unchanged
+            | DriveResult::AlreadyVerified
+            | DriveResult::NotSelected => {}
+            DriveResult::Drift => {
+                if r == LineResult::Ok {
+                    r = LineResult::Drift;
+                }
+            }
+            DriveResult::RolledBack | DriveResult::Failed => r = LineResult::Failed,
+        }
+    }
+    r
+}
+
+/// The drive names `--only` / `--skip` select (names of drives or buses).
+fn select(manifest: &Manifest, opts: &LineOptions) -> Result<BTreeSet<String>, LineError> {
+    let known = |n: &str| {
+        manifest.drives.iter().any(|d| d.name == n) || manifest.buses.iter().any(|b| b.name == n)
+    };
+    for n in opts.only.iter().chain(&opts.skip) {
+        if !known(n) {
+            let names: Vec<&str> = manifest.drives.iter().map(|d| d.name.as_str()).collect();
+            return Err(LineError::Selection(format!(
+                "no drive or bus is named `{n}` in {}; drives: {}",
+                manifest.path.display(),
+                names.join(", ")
+            )));
+        }
+    }
+    let hit = |list: &[String], d: &Drive| list.iter().any(|n| *n == d.name || *n == d.bus);
+    Ok(manifest
+        .drives
+        .iter()
+        .filter(|d| (opts.only.is_empty() || hit(&opts.only, d)) && !hit(&opts.skip, d))
+        .map(|d| d.name.clone())
+        .collect())
+}
+
+struct Ctx<'a> {
+    opts: &'a LineOptions,
+    mode: Mode,
+    state: Option<&'a Mutex<CommissionState>>,
+    warnings: Mutex<Vec<String>>,
+}
+
+impl Ctx<'_> {
+    fn warn(&self, w: String) {
+        self.warnings
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(w);
+    }
+
+    fn recorded(&self, bus: &Bus, d: &Drive) -> Option<StateEntry> {
+        let s = self.state?.lock().unwrap_or_else(PoisonError::into_inner);
+        s.drives.get(&state_key(&bus.name, d.address)).cloned()
+    }
+
+    fn record(&self, bus: &Bus, d: &Drive, fingerprint: Option<&str>) {
+        let Some(state) = self.state else { return };
+        let mut s = state.lock().unwrap_or_else(PoisonError::into_inner);
+        let key = state_key(&bus.name, d.address);
+        match fingerprint {
+            Some(fp) => {
+                s.drives.insert(
+                    key,
+                    StateEntry {
+                        name: d.name.clone(),
+                        port: bus.port.to_string(),
+                        set: d.set_text.clone(),
+                        set_fingerprint: d.set.fingerprint(),
+                        fingerprint: fp.to_string(),
+                        verified_at: now_rfc3339(),
+                    },
+                );
+            }
+            None => {
+                if s.drives.remove(&key).is_none() {
+                    return;
+                }
+            }
+        }
+        if let Err(e) = s.save(&self.opts.report_dir) {
+            drop(s);
+            self.warn(e);
+        }
+    }
+}
+
+struct BusRun {
+    report: BusReport,
+    drives: Vec<DriveReport>,
+    failed: bool,
+}
+
+fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveReport {
+    DriveReport {
+        name: d.name.clone(),
+        position: d.position.clone(),
+        bus: bus.name.clone(),
+        address: d.address,
+        set: d.set_text.clone(),
+        schema: d.schema.id.clone(),
+        identity: Vec::new(),
+        set_fingerprint: d.set.fingerprint(),
+        fingerprint_before: None,
+        fingerprint_after: None,
+        codes_written: 0,
+        retries: 0,
+        telegrams: 0,
+        elapsed_ms: 0.0,
+        result,
+        error: None,
+        diff: Vec::new(),
+    }
+}
+
+fn link_now(link: &Link) -> Instant {
+    match link {
+        Link::Bytes(b) => b.clock().now(),
+        Link::Frames(f) => f.clock().now(),
+    }
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1000.0
+}
+
+fn since(start: Instant, at: Instant) -> f64 {
+    ms(at.saturating_duration_since(start))
+}
+
+/// A client for `address` with `schema`'s protocol on `link`.
+pub fn client_on<'l>(
+    link: &'l mut Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<Box<dyn DriveClient + 'l>, EngineError> {
+    let port = match &*link {
+        Link::Bytes(b) => b.port().to_string(),
+        Link::Frames(f) => f.port().to_string(),
+    };
+    match (link, schema.protocol) {
+        (Link::Bytes(b), Protocol::LustbusMc | Protocol::LustbusVf1000) => Ok(Box::new(
+            LustbusClient::new(BorrowedByteLink(&mut **b), schema, address)?,
+        )),
+        (Link::Bytes(b), Protocol::Lecom) => Ok(Box::new(LecomClient::new(
+            BorrowedByteLink(&mut **b),
+            schema,
+            address,
+        )?)),
+        (Link::Frames(f), Protocol::LenzeCanSdo) => Ok(Box::new(CanClient::new(
+            BorrowedFrameLink(&mut **f),
+            schema,
+            address,
+        )?)),
+        (_, p) => Err(EngineError::Refused {
+            target: Target { port, address },
+            reason: format!(
+                "schema `{}` (protocol {p:?}) does not run on this kind of link",
+                schema.id
+            ),
+        }),
+    }
+}
+
+fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> BusRun {
+    let mut report = BusReport {
+        name: bus.name.clone(),
+        port: bus.port.to_string(),
+        protocol: bus.protocol.as_str().into(),
+        rate: bus.rate,
+        elapsed_ms: 0.0,
+        timeline: Vec::new(),
+    };
+    let mut out = Vec::new();
+    if drives.is_empty() {
+        return BusRun {
+            report,
+            drives: out,
+            failed: false,
+        };
+    }
+    let total = drives.len();
+    let progress = |done: usize, d: &DriveReport| {
+        if let Some(p) = &ctx.opts.progress {
+            p(&Progress {
+                bus: bus.name.clone(),
+                done,
+                total,
+                drive: d.clone(),
+            });
+        }
+    };
+    let mut link = match opener(bus) {
+        Ok(l) => l,
+        Err(e) => {
+            for (i, d) in drives.iter().enumerate() {
+                let mut r = blank_report(d, bus, DriveResult::Failed);
+                r.error = Some(format!(
+                    "bus `{}` ({}) could not be opened: {e}",
+                    bus.name, bus.port
+                ));
+                progress(i + 1, &r);
+                out.push(r);
+            }
+            return BusRun {
+                report,
+                drives: out,
+                failed: true,
+            };
+        }
+    };
+    let start = link_now(&link);
+    let mut failed = false;
+    let mut dead: Option<String> = None;
+    if ctx.mode == Mode::Commission && ctx.opts.broadcast_common {
+        broadcast_common(bus, drives, &mut link, start, &mut report, ctx);
+    }
+    for (i, d) in drives.iter().enumerate() {
+        if let Some(why) = &dead {
+            let mut r = blank_report(d, bus, DriveResult::Failed);
+            r.error = Some(why.clone());
+            progress(i + 1, &r);
+            out.push(r);
+            continue;
+        }
+        if ctx.opts.stop_after.is_some_and(|n| i >= n) {
+            failed = true;
+            let why = format!(
+                "not reached: the run stopped after {} drive(s) on bus `{}` (--stop-after); run the command again to resume",
+                i, bus.name
+            );
+            dead = Some(why.clone());
+            let mut r = blank_report(d, bus, DriveResult::Failed);
+            r.error = Some(why);
+            progress(i + 1, &r);
+            out.push(r);
+            continue;
+        }
+        let (r, spans, link_failed) = run_drive(bus, d, &mut link, ctx);
+        for (phase, s, e) in spans {
+            report.timeline.push(TimelineEntry {
+                drive: d.name.clone(),
+                phase: phase.into(),
+                start_ms: since(start, s),
+                end_ms: since(start, e),
+            });
+        }
+        if let Some(kind) = link_failed {
+            failed = true;
+            if kind == Failure::Link {
+                dead = Some(format!(
+                    "not reached: the link of bus `{}` failed at drive `{}`",
+                    bus.name, d.name
+                ));
+            }
+        }
+        progress(i + 1, &r);
+        out.push(r);
+    }
+    report.elapsed_ms = since(start, link_now(&link));
+    BusRun {
+        report,
+        drives: out,
+        failed,
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Failure {
+    /// The link is gone: stop the bus.
+    Link,
+    /// This drive did not answer: go on with the next.
+    NoAnswer,
+}
+
+fn failure_of(e: &EngineError) -> Option<Failure> {
+    match e {
+        EngineError::Link { .. } => Some(Failure::Link),
+        EngineError::NoAnswer { .. } => Some(Failure::NoAnswer),
+        EngineError::RolledBack { cause, .. } => failure_of(cause),
+        _ => None,
+    }
+}
+
+type Span = (&'static str, Instant, Instant);
+
+fn run_drive(
+    bus: &Bus,
+    d: &Drive,
+    link: &mut Link,
+    ctx: &Ctx<'_>,
+) -> (DriveReport, Vec<Span>, Option<Failure>) {
+    let mut r = blank_report(d, bus, DriveResult::Failed);
+    let t0 = link_now(link);
+    let mut client = match client_on(link, d.schema.clone(), d.address) {
+        Ok(c) => Recorder::new(c),
+        Err(e) => {
+            r.error = Some(e.to_string());
+            return (r, Vec::new(), None);
+        }
+    };
+    let stats0 = client.stats();
+    let set_fp = d.set.fingerprint();
+    let mut failure = None;
+    let outcome: Result<(), EngineError> = (|| {
+        match ctx.mode {
+            Mode::Status => {
+                let id = check_family(&mut client)?;
+                r.identity = id.codes.clone();
+                let live = live_values(&mut client, &d.set)?;
+                let fp = live.fingerprint();
+                r.diff = diff_lines(&d.schema, &live, &d.set);
+                r.result = if fp == set_fp {
+                    DriveResult::Unchanged
+                } else {
+                    DriveResult::Drift
+                };
+                r.fingerprint_before = Some(fp.clone());
+                r.fingerprint_after = Some(fp);
+                Ok(())
+            }
+            Mode::Commission => {
+                if let Some(rec) = ctx.recorded(bus, d)
+                    && rec.set_fingerprint == set_fp
+                    && rec.port == bus.port.to_string()
+                {
+                    // confirm with one read of the set's codes
+                    let id = check_family(&mut client)?;
+                    r.identity = id.codes.clone();
+                    let live = live_values(&mut client, &d.set)?;
+                    let fp = live.fingerprint();
+                    if fp == set_fp {
+                        r.result = DriveResult::AlreadyVerified;
+                        r.fingerprint_before = Some(fp.clone());
+                        r.fingerprint_after = Some(fp);
+                        return Ok(());
+                    }
+                    ctx.warn(format!(
+                        "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
+                        d.name, rec.verified_at
+                    ));
+                }
+                let target = Target {
+                    port: bus.port.to_string(),
+                    address: d.address,
+                };
+                let mut uo = UploadOptions::new(default_journal_path(
+                    &ctx.opts.journal_dir,
+                    &Target {
+                        port: bus.name.clone(),
+                        address: target.address,
+                    },
+                ));
+                uo.force = ctx.opts.force;
+                match upload(&mut client, &d.set, &uo) {
+                    Ok(rep) => {
+                        fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
+                        r.fingerprint_before = Some(rep.fingerprint_before.clone());
+                        r.fingerprint_after = rep.fingerprint_after.clone();
+                        r.codes_written = rep.codes_written as u32;
+                        r.result = if rep.codes_written == 0 {
+                            DriveResult::Unchanged
+                        } else {
+                            DriveResult::Verified
+                        };
+                        Ok(())
+                    }
+                    Err(f) => {
+                        if let Some(rep) = &f.report {
+                            fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
+                            r.fingerprint_before = Some(rep.fingerprint_before.clone());
+                            r.fingerprint_after = rep.fingerprint_after.clone();
+                            r.codes_written = rep.codes_written as u32;
+                        }
+                        let e = *f.error;
+                        if matches!(e, EngineError::RolledBack { .. }) {
+                            r.result = DriveResult::RolledBack;
+                        }
+                        Err(e)
+                    }
+                }
+            }
+        }
+    })();
+    if let Err(e) = outcome {
+        failure = failure_of(&e);
+        if r.result != DriveResult::RolledBack {
+            r.result = DriveResult::Failed;
+        }
+        r.error = Some(e.to_string());
+    }
+    let _ = client.finish();
+    let stats = client.stats();
+    r.telegrams = stats.telegrams.saturating_sub(stats0.telegrams);
+    r.retries = stats.retries.saturating_sub(stats0.retries);
+    let t1 = client.clock().now();
+    r.elapsed_ms = since(t0, t1);
+    let spans = client.spans;
+    if ctx.mode == Mode::Commission {
+        let holds = matches!(
+            r.result,
+            DriveResult::Verified | DriveResult::Unchanged | DriveResult::AlreadyVerified
+        );
+        ctx.record(
+            bus,
+            d,
+            if holds {
+                r.fingerprint_after.as_deref()
+            } else {
+                None
+            },
+        );
+    }
+    (r, spans, failure)
+}
+
+fn fill_from_upload(
+    r: &mut DriveReport,
+    schema: &Schema,
+    identity: &Identity,
+    codes: &[crate::upload::CodeReport],
+) {
+    r.identity = identity.codes.clone();
+    r.diff = codes
+        .iter()
+        .filter(|c| c.outcome != crate::upload::CodeOutcome::Unchanged)
+        .map(|c| DiffLine {
+            code: schema.display_code(c.number, c.subcode),
+            name: schema
+                .code(c.number)
+                .map(|x| x.name.clone())
+                .unwrap_or_default(),
+            kind: "changed".into(),
+            old: Some(c.old.clone()),
+            new: Some(c.new.clone()),
+        })
+        .collect();
+}
+
+/// The semantic diff drive -> set as report lines.
+pub fn diff_lines(schema: &Schema, live: &ResolvedSet, set: &ResolvedSet) -> Vec<DiffLine> {
+    let Ok(d) = driveset_schema::diff(live, set, schema) else {
+        return Vec::new();
+    };
+    d.entries
+        .iter()
+        .map(|e| DiffLine {
+            code: schema.display_code(e.key.number, e.key.subcode),
+            name: schema
+                .code(e.key.number)
+                .map(|x| x.name.clone())
+                .unwrap_or_default(),
+            kind: match e.kind {
+                DiffKind::Added => "added",
+                DiffKind::Removed => "removed",
+                DiffKind::Changed => "changed",
+            }
+            .into(),
+            old: e.old.as_ref().map(|v| value_text(schema, e.key, v)),
+            new: e.new.as_ref().map(|v| value_text(schema, e.key, v)),
+        })
+        .collect()
+}
+
+/// LECOM MULTICAST of the values common to every selected drive of a group.
+fn broadcast_common(
+    bus: &Bus,
+    drives: &[&Drive],
+    link: &mut Link,
+    start: Instant,
+    report: &mut BusReport,
+    ctx: &Ctx<'_>,
+) {
+    if bus.protocol != BusProtocol::Lecom {
+        ctx.warn(format!(
+            "bus `{}` ({}): --broadcast-common is done on LECOM buses only (the engine's {} client has no broadcast); values were written drive by drive",
+            bus.name, bus.protocol, bus.protocol
+        ));
+        return;
+    }
+    let mut groups: BTreeMap<u8, Vec<&Drive>> = BTreeMap::new();
+    for d in drives {
+        if d.address >= 10 {
+            groups.entry(d.address / 10).or_default().push(d);
+        }
+    }
+    for (tens, members) in groups {
+        if members.len() < 2 || members.iter().any(|m| m.schema.id != members[0].schema.id) {
+            continue;
+        }
+        let common: Vec<(CodeKey, RawValue)> = members[0]
+            .set
+            .values
+            .iter()
+            // never the station address or the baud rate
+            .filter(|(k, _)| !matches!(k.number, 9 | 125))
+            .filter(|(k, v)| members[1..].iter().all(|m| m.set.values.get(k) == Some(v)))
+            .map(|(k, v)| (*k, v.clone()))
+            .collect();
+        if common.is_empty() {
+            continue;
+        }
+        let schema = members[0].schema.clone();
+        let t0 = link_now(link);
+        let Link::Bytes(b) = link else { return };
+        // refuse while a member runs (the per-drive upload would refuse too)
+        let mut running = Vec::new();
+        for m in &members {
+            if let Ok(mut c) =
+                LecomClient::new(BorrowedByteLink(&mut **b), schema.clone(), m.address)
+                && let Ok(Some(true)) = c.running()
+            {
+                running.push(m.name.clone());
+            }
+        }
+        if !running.is_empty() && !ctx.opts.force {
+            ctx.warn(format!(
+                "bus `{}` group {tens}0: not broadcast, running: {}",
+                bus.name,
+                running.join(", ")
+            ));
+            continue;
+        }
+        let mut c = match LecomClient::new(
+            BorrowedByteLink(&mut **b),
+            schema.clone(),
+            members[0].address,
+        ) {
+            Ok(c) => c,
+            Err(e) => {
+                ctx.warn(e.to_string());
+                continue;
+            }
+        };
+        for (k, v) in &common {
+            if let Err(e) = c.multicast(tens, *k, v) {
+                ctx.warn(format!(
+                    "bus `{}` group {tens}0: MULTICAST of {} failed: {e}; the drives get it one by one",
+                    bus.name,
+                    schema.display_code(k.number, k.subcode)
+                ));
+                break;
+            }
+        }
+        let _ = c.finish();
+        let t1 = link_now(link);
+        report.timeline.push(TimelineEntry {
+            drive: format!("group {tens}0"),
+            phase: "broadcast".into(),
+            start_ms: since(start, t0),
+            end_ms: since(start, t1),
+        });
+    }
+}
+
+/// A client that records which phase each bus exchange belonged to.
+struct Recorder<'c> {
+    inner: Box<dyn DriveClient + 'c>,
+    spans: Vec<Span>,
+    wrote: bool,
+}
+
+impl<'c> Recorder<'c> {
+    fn new(inner: Box<dyn DriveClient + 'c>) -> Self {
+        Recorder {
+            inner,
+            spans: Vec::new(),
+            wrote: false,
+        }
+    }
+
+    fn track<R>(&mut self, phase: &'static str, f: impl FnOnce(&mut Self) -> R) -> R {
+        let s = self.inner.clock().now();
+        let r = f(self);
+        let e = self.inner.clock().now();
+        match self.spans.last_mut() {
+            Some(last) if last.0 == phase => last.2 = e,
+            _ => self.spans.push((phase, s, e)),
+        }
+        r
+    }
+
+    fn read_phase(&self) -> &'static str {
+        if self.wrote { "verify" } else { "read" }
+    }
+}
+
+impl DriveClient for Recorder<'_> {
+    fn target(&self) -> &Target {
+        self.inner.target()
+    }
+    fn schema(&self) -> &Arc<Schema> {
+        self.inner.schema()
+    }
+    fn clock(&self) -> &dyn driveset_link::Clock {
+        self.inner.clock()
+    }
+    fn identify(&mut self) -> Result<Identity, EngineError> {
+        self.track("identify", |s| s.inner.identify())
+    }
+    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
+        let p = self.read_phase();
+        self.track(p, |s| s.inner.read(key))
+    }
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        self.wrote = true;
+        self.track("write", |s| s.inner.write(key, raw))
+    }
+    fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
+        self.inner.ready_for_write(key)
+    }
+    fn read_time(&self, key: CodeKey) -> Duration {
+        self.inner.read_time(key)
+    }
+    fn write_time(&self, key: CodeKey) -> Duration {
+        self.inner.write_time(key)
+    }
+    fn running(&mut self) -> Result<Option<bool>, EngineError> {
+        let p = self.read_phase();
+        self.track(p, |s| s.inner.running())
+    }
+    fn stats(&self) -> ClientStats {
+        self.inner.stats()
+    }
+    fn finish(&mut self) -> Result<(), EngineError> {
+        self.inner.finish()
+    }
+    fn has_dataset_download(&self) -> bool {
+        self.inner.has_dataset_download()
+    }
+    fn dataset_begin(&mut self) -> Result<(), EngineError> {
+        self.wrote = true;
+        self.track("write", |s| s.inner.dataset_begin())
+    }
+    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
+        self.track("write", |s| s.inner.dataset_commit(timeout))
+    }
+}
+
+/// Write the report as JSON to `dir/<command>.json` (the CLI renders HTML
+/// next to it); returns the path.
+pub fn write_json(report: &LineReport, dir: &Path) -> Result<PathBuf, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let path = dir.join(format!("{}.json", report.command));
+    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path)
+}
+
+/// HEAD and dirtiness of the git work tree holding `dir`, if any.
+pub fn git_info(dir: &Path) -> Option<GitInfo> {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let out = std::process::Command::new("git")
+        .arg("-C")
+        .arg(dir)
+        .args(["rev-parse", "HEAD"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let commit = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let dirty = std::process::Command::new("git")
+        .arg("-C")
+        .arg(dir)
+        .args(["status", "--porcelain", "--untracked-files=no"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()
+        .is_some_and(|o| !o.stdout.is_empty());
+    Some(GitInfo { commit, dirty })
+}
+
+/// Now, RFC 3339 UTC with milliseconds.
+pub fn now_rfc3339() -> String {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    let secs = now.as_secs() as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // civil from days (H. Hinnant)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{:03}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60,
+        now.subsec_millis()
+    )
+}
+
+/// Whether `spec` is a simulated bus.
+pub fn is_sim(spec: &PortSpec) -> bool {
+    matches!(spec, PortSpec::Sim(_))
+}

@@ -1,0 +1,406 @@
+//! Machine lines: manifest findings, commissioning the demo line against
+//! simulated buses (virtual time), resume, status drift, broadcast.
+#![allow(clippy::result_large_err)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use driveset_engine::line::commission::{
+    CommissionState, LineOptions, STATE_FILE, commission, run_line,
+};
+use driveset_engine::line::manifest::{Manifest, load_manifest, validate_manifest};
+use driveset_engine::line::report::{DriveResult, LineResult};
+use driveset_engine::line::status::status;
+use driveset_link::{Link, PortSpec, VirtualClock};
+use driveset_schema::{CodeKey, RawValue, Registry};
+use driveset_sim::open::{SimLink, open_sim};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn demo() -> Manifest {
+    let path = root().join("parameter-sets/demo-line/line.toml");
+    let mut reg = Registry::builtin().expect("builtin");
+    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    assert!(
+        l.findings.is_empty(),
+        "{}",
+        l.findings
+            .iter()
+            .map(|f| f.render_human())
+            .collect::<String>()
+    );
+    l.manifest.expect("manifest")
+}
+
+/// Simulated buses that live across runs (one virtual clock each).
+#[derive(Default)]
+struct Sims(Mutex<BTreeMap<String, SimLink>>);
+
+impl Sims {
+    fn open(&self, bus: &driveset_engine::line::manifest::Bus) -> Result<Link, String> {
+        let mut m = self.0.lock().unwrap();
+        if let Some(s) = m.get(&bus.name) {
+            return Ok(s.link());
+        }
+        let PortSpec::Sim(spec) = &bus.port else {
+            return Err("not a sim port".into());
+        };
+        let s = open_sim(spec, &VirtualClock::new()).map_err(|e| e.to_string())?;
+        let l = s.link();
+        m.insert(bus.name.clone(), s);
+        Ok(l)
+    }
+
+    fn get(&self, bus: &str) -> SimLink {
+        self.0.lock().unwrap()[bus].clone()
+    }
+}
+
+#[test]
+fn demo_manifest_loads_with_four_buses_and_thirteen_drives() {
+    let m = demo();
+    assert_eq!(m.name, "demo-line");
+    assert_eq!(m.buses.len(), 4);
+    assert_eq!(m.drives.len(), 13);
+    assert_eq!(
+        m.buses[0].port.to_string(),
+        "sim://mc6000?addresses=1,2,3,4&baud=19200"
+    );
+    assert_eq!(
+        validate_manifest(&root().join("parameter-sets/demo-line/line.toml"))
+            .expect("reads")
+            .len(),
+        0
+    );
+}
+
+#[test]
+fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let opts = LineOptions::new(dir.path());
+    let first = commission(&m, &opts, &opener).expect("runs");
+    for d in &first.report.drives {
+        assert_eq!(d.result, DriveResult::Verified, "{d:?}");
+        assert_eq!(
+            d.fingerprint_after.as_deref(),
+            Some(d.set_fingerprint.as_str())
+        );
+        assert!(d.codes_written > 0);
+        assert!(!d.diff.is_empty());
+    }
+    assert_eq!(first.exit_code(), 0);
+    assert_eq!(first.report.result, LineResult::Ok);
+    assert_eq!(first.report.buses.len(), 4);
+    for b in &first.report.buses {
+        assert!(b.elapsed_ms > 0.0);
+        assert!(b.timeline.iter().any(|t| t.phase == "write"), "{b:?}");
+        assert!(b.timeline.iter().any(|t| t.phase == "verify"), "{b:?}");
+    }
+    // state file: every drive at its set fingerprint
+    let state = CommissionState::load(dir.path()).expect("state");
+    assert_eq!(state.drives.len(), 13);
+    assert_eq!(
+        state.drives["press/2"].fingerprint,
+        m.drives[1].set.fingerprint()
+    );
+
+    // rerun: every drive already verified, confirmed by reads only
+    let second = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(second.exit_code(), 0);
+    for d in &second.report.drives {
+        assert_eq!(d.result, DriveResult::AlreadyVerified, "{d:?}");
+        assert_eq!(d.codes_written, 0);
+    }
+    for b in &second.report.buses {
+        assert!(
+            b.timeline
+                .iter()
+                .all(|t| t.phase == "identify" || t.phase == "read"),
+            "{b:?}"
+        );
+    }
+    // the read-only check costs the same bus time
+    let st = status(&m, &opts, &opener).expect("runs");
+    assert_eq!(st.exit_code(), 0);
+    assert_eq!(st.report.command, "status");
+    assert!(
+        second.line_ms() <= st.line_ms() * 1.02,
+        "{} vs {}",
+        second.line_ms(),
+        st.line_ms()
+    );
+
+    // a drive drifts: status names it and the code, exit 1
+    let tmd = sims.get("transfer");
+    tmd.poke(12, CodeKey::new(11), RawValue::Int(550_000))
+        .expect("poke");
+    let st = status(&m, &opts, &opener).expect("runs");
+    assert_eq!(st.exit_code(), 1);
+    assert_eq!(st.report.result, LineResult::Drift);
+    let drifted: Vec<_> = st
+        .report
+        .drives
+        .iter()
+        .filter(|d| d.result == DriveResult::Drift)
+        .collect();
+    assert_eq!(drifted.len(), 1, "{drifted:?}");
+    assert_eq!(drifted[0].name, "transfer-12");
+    assert_eq!(drifted[0].diff.len(), 1);
+    assert_eq!(drifted[0].diff[0].code, "C0011");
+    assert_eq!(drifted[0].diff[0].old.as_deref(), Some("55 Hz"));
+    assert_eq!(drifted[0].diff[0].new.as_deref(), Some("60 Hz"));
+
+    // commission again: the drifted drive is rewritten, the rest confirmed
+    let third = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(third.exit_code(), 0);
+    for d in &third.report.drives {
+        let want = if d.name == "transfer-12" {
+            DriveResult::Verified
+        } else {
+            DriveResult::AlreadyVerified
+        };
+        assert_eq!(d.result, want, "{d:?}");
+    }
+    assert_eq!(third.report.drives[8].codes_written, 1);
+}
+
+#[test]
+fn a_stopped_run_resumes_where_it_stopped() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path());
+    opts.stop_after = Some(2);
+    let first = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(first.exit_code(), 3);
+    let verified: Vec<&str> = first
+        .report
+        .drives
+        .iter()
+        .filter(|d| d.result == DriveResult::Verified)
+        .map(|d| d.name.as_str())
+        .collect();
+    assert_eq!(verified.len(), 8, "{verified:?}");
+    let stopped = &first.report.drives[2];
+    assert_eq!(stopped.result, DriveResult::Failed);
+    assert!(stopped.error.as_deref().unwrap().contains("--stop-after"));
+
+    opts.stop_after = None;
+    let second = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(second.exit_code(), 0);
+    for d in &second.report.drives {
+        let want = if verified.contains(&d.name.as_str()) {
+            DriveResult::AlreadyVerified
+        } else {
+            DriveResult::Verified
+        };
+        assert_eq!(d.result, want, "{}", d.name);
+    }
+}
+
+#[test]
+fn only_and_skip_select_by_drive_or_bus_name() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path());
+    opts.only = vec!["transfer".into(), "press-axis-1".into()];
+    opts.skip = vec!["transfer-13".into()];
+    let r = commission(&m, &opts, &opener).expect("runs");
+    let done: Vec<&str> = r
+        .report
+        .drives
+        .iter()
+        .filter(|d| d.result != DriveResult::NotSelected)
+        .map(|d| d.name.as_str())
+        .collect();
+    assert_eq!(done, ["press-axis-1", "transfer-11", "transfer-12"]);
+    assert_eq!(r.exit_code(), 0);
+    opts.only = vec!["nope".into()];
+    let e = commission(&m, &opts, &opener).unwrap_err();
+    assert!(
+        e.to_string().contains("no drive or bus is named `nope`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn broadcast_common_multicasts_to_the_lecom_group_then_verifies_each_drive() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path());
+    opts.only = vec!["transfer".into()];
+    opts.broadcast_common = true;
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+    let bus = &r.report.buses[2];
+    assert!(
+        bus.timeline
+            .iter()
+            .any(|t| t.phase == "broadcast" && t.drive == "group 10"),
+        "{bus:?}"
+    );
+    // the common values landed by MULTICAST: each drive wrote only its own
+    let written: Vec<u32> = r.report.drives[7..10]
+        .iter()
+        .map(|d| d.codes_written)
+        .collect();
+    assert!(written[0] < written[2], "{written:?}");
+    for d in &r.report.drives[7..10] {
+        assert!(
+            matches!(d.result, DriveResult::Verified | DriveResult::Unchanged),
+            "{d:?}"
+        );
+        assert_eq!(
+            d.fingerprint_after.as_deref(),
+            Some(d.set_fingerprint.as_str())
+        );
+    }
+}
+
+#[test]
+fn a_bus_that_cannot_be_opened_fails_its_drives_with_exit_3() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| {
+        if b.name == "handling" {
+            Err("port gone".to_string())
+        } else {
+            sims.open(b)
+        }
+    };
+    let r = run_line(
+        &m,
+        &LineOptions::new(dir.path()),
+        &opener,
+        driveset_engine::line::commission::Mode::Commission,
+    )
+    .expect("runs");
+    assert_eq!(r.exit_code(), 3);
+    assert_eq!(r.report.result, LineResult::Failed);
+    let h = &r.report.drives[10];
+    assert_eq!(h.result, DriveResult::Failed);
+    assert_eq!(
+        h.error.as_deref(),
+        Some(
+            "bus `handling` (sim://ecs?addresses=1,2,3&bitrate=500000) could not be opened: port gone"
+        )
+    );
+    assert!(dir.path().join(STATE_FILE).exists());
+}
+
+fn findings(text: &str, sets: &[(&str, &str)]) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, body) in sets {
+        std::fs::write(dir.path().join(name), body).unwrap();
+    }
+    let p = dir.path().join("line.toml");
+    std::fs::write(&p, text).unwrap();
+    let d = dir.path().display().to_string();
+    validate_manifest(&p)
+        .expect("reads")
+        .iter()
+        .map(|f| {
+            format!(
+                "{}:{} [{}] {}",
+                f.location.line, f.location.column, f.kind, f.message
+            )
+            .replace(&d, "DIR")
+        })
+        .collect()
+}
+
+const TMD_SET: &str = "schema = \"lenze-tmd\"\n[values]\nC0011 = \"50.0 Hz\"\n";
+const VF_SET: &str = "schema = \"lust-vf1000\"\n[values]\n";
+
+#[test]
+fn manifest_findings_have_exact_messages_and_locations() {
+    let text = r#"[line]
+name = "bad"
+colour = "red"
+
+[[bus]]
+name = "a"
+port = "sim://tmd"
+protocol = "lecom"
+
+[[bus]]
+name = "b"
+port = "/dev/ttyUSB0"
+protocol = "lustbus"
+baud = 19200
+
+[[drive]]
+bus = "a"
+address = 20
+set = "tmd.toml"
+
+[[drive]]
+bus = "a"
+address = 11
+set = "tmd.toml"
+
+[[drive]]
+name = "a/11"
+bus = "a"
+address = 11
+set = "tmd.toml"
+
+[[drive]]
+bus = "b"
+address = 31
+set = "tmd.toml"
+
+[[drive]]
+bus = "b"
+address = 40
+set = "vf.toml"
+
+[[drive]]
+bus = "c"
+address = 1
+set = "missing.toml"
+"#;
+    let got = findings(text, &[("tmd.toml", TMD_SET), ("vf.toml", VF_SET)]);
+    let want = [
+        "3:1 [unknown-key] unknown key `colour` in [line]",
+        "18:11 [group-address] address 20 on lecom bus `a`: LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0",
+        "29:11 [duplicate-address] address 11 is used twice on bus `a`",
+        "27:8 [duplicate-name] drive name `a/11` is used twice",
+        "34:11 [group-address] address 31 on lustbus bus `b`: LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30",
+        "35:7 [set-family] set `tmd.toml` is for schema `lenze-tmd` (protocol Lecom), which does not run on lustbus bus `b`",
+        "39:11 [address-out-of-range] address 40 on lustbus bus `b`: LUSTBUS drive addresses are 1..30",
+        "43:7 [unknown-bus] no bus is named `c`",
+        "45:7 [missing-set] set file `missing.toml` does not exist (DIR/missing.toml)",
+    ];
+    assert_eq!(got, want);
+}
+
+#[test]
+fn manifest_set_findings_and_sim_family_are_reported() {
+    let text = "[[bus]]\nname = \"a\"\nport = \"sim://vf1000\"\nprotocol = \"lustbus\"\nspeed = 1\n\n[[drive]]\nbus = \"a\"\naddress = 1\nset = \"mc.toml\"\n\n[[drive]]\nbus = \"a\"\naddress = 2\nset = \"bad.toml\"\n";
+    let mc = "schema = \"lust-mc6000\"\n[values]\n";
+    let bad = "schema = \"lust-vf1000\"\n[values]\nNOPE = 1\n";
+    let got = findings(text, &[("mc.toml", mc), ("bad.toml", bad)]);
+    assert_eq!(got.len(), 3, "{got:#?}");
+    assert_eq!(got[0], "5:1 [unknown-key] unknown key `speed` in a bus");
+    assert_eq!(
+        got[1],
+        "7:1 [set-family] drive `a/1` has a `lust-mc6000` set, but simulated bus `a` holds `vf1000` drives"
+    );
+    assert_eq!(
+        got[2],
+        "3:1 [unknown-code] `NOPE` is not a code name of lust-vf1000"
+    );
+}
