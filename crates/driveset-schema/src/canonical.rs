@@ -60,10 +60,34 @@ impl CodeKey {
                 }
             }
         }
-        let _ = write!(out, "{}", self.number);
+        push_int(out, i64::from(self.number));
         if let Some(sc) = self.subcode {
-            let _ = write!(out, "/{sc}");
+            out.push('/');
+            push_int(out, i64::from(sc));
         }
+    }
+}
+
+/// Append a decimal integer (the canonical form's hot path; no formatter).
+fn push_int(out: &mut String, v: i64) {
+    let mut buf = [0u8; 20];
+    let mut n = v.unsigned_abs();
+    let mut i = buf.len();
+    loop {
+        i -= 1;
+        if let Some(d) = buf.get_mut(i) {
+            *d = b'0' + (n % 10) as u8;
+        }
+        n /= 10;
+        if n == 0 || i == 0 {
+            break;
+        }
+    }
+    if v < 0 {
+        out.push('-');
+    }
+    for &d in buf.get(i..).unwrap_or(&[]) {
+        out.push(char::from(d));
     }
 }
 
@@ -103,9 +127,7 @@ impl ResolvedSet {
             k.write_canonical(self.code_style, &mut out);
             out.push(' ');
             match v {
-                RawValue::Int(i) => {
-                    let _ = write!(out, "{i}");
-                }
+                RawValue::Int(i) => push_int(&mut out, *i),
                 RawValue::Text(t) => {
                     out.push('s');
                     out.push_str(&serde_json::to_string(t).unwrap_or_else(|_| "\"\"".into()));
@@ -125,10 +147,12 @@ impl ResolvedSet {
     /// `sha256:` + lowercase hex sha256 of [`ResolvedSet::canonical`].
     pub fn fingerprint(&self) -> String {
         let digest = Sha256::digest(self.canonical().as_bytes());
+        const HEX: &[u8; 16] = b"0123456789abcdef";
         let mut s = String::with_capacity(71);
         s.push_str("sha256:");
         for b in digest.iter() {
-            let _ = write!(s, "{b:02x}");
+            s.push(char::from(HEX[usize::from(b >> 4)]));
+            s.push(char::from(HEX[usize::from(b & 15)]));
         }
         s
     }

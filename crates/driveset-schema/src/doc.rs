@@ -167,77 +167,7 @@ fn syntax_error(source: &SourceFile, span: Range<usize>, msg: &str, lang: &str) 
 }
 
 fn parse_toml(source: &SourceFile) -> Result<Node, InputError> {
-    use toml::de::{DeTable, DeValue};
-    let text: &str = &source.text;
-    let root = DeTable::parse(text).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        syntax_error(source, span, e.message(), "TOML")
-    })?;
-
-    fn conv(
-        source: &SourceFile,
-        v: &DeValue<'_>,
-        span: Range<usize>,
-        depth: usize,
-    ) -> Result<Node, InputError> {
-        if depth > MAX_DEPTH {
-            return Err(InputError::new(
-                InputErrorKind::Structure,
-                source.location(span),
-                format!("nesting deeper than {MAX_DEPTH} levels"),
-                "driveset files are flat; remove the nesting",
-            ));
-        }
-        let literal = || source.text.get(span.clone()).unwrap_or("").to_string();
-        let kind = match v {
-            DeValue::String(s) => NodeKind::Str(s.to_string()),
-            DeValue::Integer(_) => NodeKind::Num(literal()),
-            DeValue::Float(_) => {
-                let lit = literal();
-                if lit.contains("inf") || lit.contains("nan") {
-                    return Err(InputError::new(
-                        InputErrorKind::Structure,
-                        source.location(span),
-                        format!("`{lit}` is not a finite number"),
-                        "give a decimal number; NaN and infinity are not parameter values",
-                    ));
-                }
-                NodeKind::Num(lit)
-            }
-            DeValue::Boolean(b) => NodeKind::Bool(*b),
-            DeValue::Datetime(_) => NodeKind::Datetime,
-            DeValue::Array(a) => NodeKind::Array(
-                a.iter()
-                    .map(|item| conv(source, item.get_ref(), item.span(), depth + 1))
-                    .collect::<Result<_, _>>()?,
-            ),
-            DeValue::Table(t) => NodeKind::Table(conv_table(source, t, depth + 1)?),
-        };
-        Ok(Node { kind, span })
-    }
-
-    fn conv_table(
-        source: &SourceFile,
-        t: &DeTable<'_>,
-        depth: usize,
-    ) -> Result<Vec<Entry>, InputError> {
-        let mut entries = Vec::new();
-        for (k, v) in t.iter() {
-            entries.push(Entry {
-                key: k.get_ref().to_string(),
-                key_span: k.span(),
-                value: conv(source, v.get_ref(), v.span(), depth)?,
-            });
-        }
-        entries.sort_by_key(|e| (e.key_span.start, e.key_span.end));
-        Ok(entries)
-    }
-
-    let span = root.span();
-    Ok(Node {
-        kind: NodeKind::Table(conv_table(source, root.get_ref(), 0)?),
-        span,
-    })
+    crate::toml_reader::parse(source)
 }
 
 /// YAML 1.2 core schema resolution of a plain scalar.

@@ -29,8 +29,10 @@ pub mod diff;
 pub mod doc;
 pub mod error;
 pub mod export;
+mod fnv;
 pub mod schema;
 pub mod set;
+mod toml_reader;
 pub mod validate;
 pub mod value;
 

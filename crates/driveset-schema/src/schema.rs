@@ -215,6 +215,8 @@ pub struct Code {
     pub loc: Location,
     /// Where `name` is.
     pub name_loc: Option<Location>,
+    /// `type_name` resolved (set by the schema's index; `None` for an unknown name).
+    pub(crate) resolved_type: Option<ValueType>,
     /// min/max as raw values, computed on first use.
     pub(crate) bounds: std::sync::OnceLock<(Option<RawValue>, Option<RawValue>)>,
 }
@@ -295,7 +297,7 @@ pub struct Schema {
     /// Problems found while merging a fixture over its base (reported by `check_schema`).
     pub merge_findings: Vec<Finding>,
     by_number: BTreeMap<u32, usize>,
-    by_name: HashMap<String, usize>,
+    by_name: crate::fnv::FnvMap<String, usize>,
     numeric_names: bool,
 }
 
@@ -329,7 +331,7 @@ impl Schema {
     /// `None` when the type is unknown (or an unknown name).
     pub fn type_of(&self, code: &Code) -> Option<ValueType> {
         match &code.type_name {
-            Some((name, _)) => ValueType::from_name(name),
+            Some(_) => code.resolved_type,
             None => self.default_type,
         }
     }
@@ -394,6 +396,12 @@ impl Schema {
     fn reindex(&mut self) {
         self.by_number.clear();
         self.by_name.clear();
+        for c in &mut self.codes {
+            c.resolved_type = c
+                .type_name
+                .as_ref()
+                .and_then(|(n, _)| ValueType::from_name(n));
+        }
         for (i, c) in self.codes.iter().enumerate() {
             self.by_number.entry(c.number).or_insert(i);
             if !c.name.is_empty() {
@@ -738,6 +746,7 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         values,
         bits,
         loc,
+        resolved_type: None,
         bounds: std::sync::OnceLock::new(),
     };
     r.finish()?;
@@ -977,7 +986,7 @@ pub fn parse_schema(
                 fictional_loc: head_loc.clone(),
                 merge_findings: Vec::new(),
                 by_number: BTreeMap::new(),
-                by_name: HashMap::new(),
+                by_name: Default::default(),
                 numeric_names: false,
             }
         }

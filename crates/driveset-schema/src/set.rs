@@ -3,15 +3,15 @@
 //! key resolution (number, `C`+number, `/subcode`, name, alias), merging
 //! base then overlay, and the resulting [`LoadedSet`].
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::canonical::{CodeKey, ResolvedSet};
+use crate::canonical::{CodeKey, RawValue, ResolvedSet};
 use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use crate::error::{
     Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
 };
+use crate::fnv::FnvMap;
 use crate::schema::{Access, Code, CodeStyle, Registry, Schema};
 use crate::validate::{Placed, check_rules, convert_value, suggest};
 
@@ -130,10 +130,12 @@ fn load_source(
         }
     }
 
-    let mut merged: BTreeMap<CodeKey, Placed> = BTreeMap::new();
+    let mut merged: FnvMap<CodeKey, Placed> = FnvMap::default();
     for l in &layers {
         let Some(values) = &l.values else { continue };
-        let mut seen: BTreeMap<CodeKey, (&str, std::ops::Range<usize>)> = BTreeMap::new();
+        let mut seen: FnvMap<CodeKey, (&str, std::ops::Range<usize>)> = FnvMap::default();
+        seen.reserve(values.entries().len());
+        merged.reserve(values.entries().len());
         for e in values.entries() {
             let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
                 continue;
@@ -184,9 +186,11 @@ fn load_source(
     }
     check_rules(&schema, &merged, &mut findings);
     let mut resolved = ResolvedSet::new(&schema);
-    for (k, p) in merged {
-        resolved.insert(k, p.raw);
-    }
+    let mut sorted: Vec<(CodeKey, RawValue)> =
+        merged.into_iter().map(|(k, p)| (k, p.raw)).collect();
+    sorted.sort_unstable_by_key(|(k, _)| *k);
+    // built in bulk from sorted keys
+    resolved.values = sorted.into_iter().collect();
     Ok(LoadedSet {
         schema: Some(schema),
         resolved: Some(resolved),

@@ -3,7 +3,6 @@
 //! raw values"), and the cross-code rules of a schema (`[[rule]]`).
 
 use std::cmp::Ordering;
-use std::collections::BTreeMap;
 
 use crate::canonical::{CodeKey, RawValue};
 use crate::decimal::Decimal;
@@ -383,6 +382,11 @@ pub(crate) fn eng_cmp(
     let (RawValue::Int(a), RawValue::Int(b)) = (a, b) else {
         return None;
     };
+    // one integer-raw type: engineering = raw x positive factor, so raw order is
+    // engineering order (not so for f32 bit patterns)
+    if ta == tb && ta != ValueType::PT_FLOAT_IEEE {
+        return Some(a.cmp(b));
+    }
     let as_f = |_t: ValueType, r: i64| {
         u32::try_from(r)
             .ok()
@@ -654,7 +658,7 @@ fn member_value(
 /// Check the schema's cross-code rules on merged values.
 pub(crate) fn check_rules(
     schema: &Schema,
-    merged: &BTreeMap<CodeKey, Placed<'_>>,
+    merged: &crate::fnv::FnvMap<CodeKey, Placed<'_>>,
     out: &mut Vec<Finding>,
 ) {
     for rule in &schema.rules {
