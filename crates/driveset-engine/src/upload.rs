@@ -62,6 +62,24 @@ pub struct UploadOptions {
     pub max_restarts: u32,
     /// How long the MC6000/7000 dataset check may take (SLOAD poll).
     pub dataset_timeout: Duration,
+    /// How writes are paced. Default [`Strategy::Interleaved`].
+    pub strategy: Strategy,
+}
+
+/// How the runner paces writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Wait only what the drive needs and fill MC6000/7000 EEPROM gaps with
+    /// verification reads (see the module docs).
+    #[default]
+    Interleaved,
+    /// The naive reference for benchmarks: a fixed wait after every write
+    /// the drive stores in EEPROM on the spot (storage `eeprom` or
+    /// `fsel-isel`), nothing interleaved, every verification read at the end.
+    Naive {
+        /// The fixed wait after each EEPROM write (60 ms in the benchmark).
+        eeprom_wait: Duration,
+    },
 }
 
 impl UploadOptions {
@@ -73,6 +91,7 @@ impl UploadOptions {
             journal_every: 8,
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
+            strategy: Strategy::Interleaved,
         }
     }
 }
@@ -665,6 +684,11 @@ impl Txn<'_> {
             self.pace(w.key, &mut pending, &expected)?;
             self.write(w.key, &expected)?;
             pending.push_back(w.key);
+            if let Strategy::Naive { eeprom_wait } = self.opts.strategy
+                && matches!(w.storage, Storage::Eeprom | Storage::FselIsel)
+            {
+                self.client.clock().sleep(eeprom_wait);
+            }
         }
         self.set_state(TxnState::Verifying, None)?;
         while let Some(k) = pending.pop_front() {
@@ -704,6 +728,10 @@ impl Txn<'_> {
         pending: &mut VecDeque<CodeKey>,
         expected: &BTreeMap<CodeKey, RawValue>,
     ) -> Result<(), Stop> {
+        if matches!(self.opts.strategy, Strategy::Naive { .. }) {
+            // the client itself still waits whatever store time is left
+            return Ok(());
+        }
         let Some(ready) = self.client.ready_for_write(key) else {
             return Ok(());
         };
