@@ -5,6 +5,7 @@
 mod bus_cmds;
 mod decode;
 mod diff;
+mod e2e_pty;
 mod encode;
 mod fingerprint;
 mod pull;
