@@ -8,6 +8,8 @@ mod diff;
 mod e2e_pty;
 mod encode;
 mod fingerprint;
+mod git_setup;
+mod junit;
 mod pull;
 mod recover;
 mod report;
