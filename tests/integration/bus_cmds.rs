@@ -8,28 +8,50 @@ use crate::util::driveset;
 #[test]
 fn identify_mc6000() {
     driveset()
-        .args(["identify", "--port", "sim://mc6000?addresses=1", "--address", "1"])
+        .args([
+            "identify",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+        ])
         .assert()
         .code(0)
         .stdout(predicate::str::contains("family:   lustbus-mc\n"))
         .stdout(predicate::str::contains("91-TYPE: "))
-        .stdout(predicate::str::contains("schema:   fictional-mc6000-demo (fits)\n"));
+        .stdout(predicate::str::contains(
+            "schema:   fictional-mc6000-demo (fits)\n",
+        ));
 }
 
 #[test]
 fn identify_vf1000() {
     driveset()
-        .args(["identify", "--port", "sim://vf1000?addresses=2", "--address", "2"])
+        .args([
+            "identify",
+            "--port",
+            "sim://vf1000?addresses=2",
+            "--address",
+            "2",
+        ])
         .assert()
         .code(0)
         .stdout(predicate::str::contains("family:   lustbus-vf1000\n"))
-        .stdout(predicate::str::contains("schema:   fictional-vf1000-demo (fits)\n"));
+        .stdout(predicate::str::contains(
+            "schema:   fictional-vf1000-demo (fits)\n",
+        ));
 }
 
 #[test]
 fn identify_tmd_reports_type_codes_and_software() {
     driveset()
-        .args(["identify", "--port", "sim://tmd?addresses=3", "--address", "3"])
+        .args([
+            "identify",
+            "--port",
+            "sim://tmd?addresses=3",
+            "--address",
+            "3",
+        ])
         .assert()
         .code(0)
         .stdout(predicate::str::contains("family:   lecom\n"))
@@ -66,7 +88,12 @@ fn identify_ecs_json() {
 fn identify_lustbus_protocol_tells_mc_from_vf1000() {
     driveset()
         .args([
-            "identify", "--port", "sim://vf1000?addresses=2", "--address", "2", "--protocol",
+            "identify",
+            "--port",
+            "sim://vf1000?addresses=2",
+            "--address",
+            "2",
+            "--protocol",
             "lustbus",
         ])
         .assert()
@@ -75,7 +102,12 @@ fn identify_lustbus_protocol_tells_mc_from_vf1000() {
         .stdout(predicate::str::contains("a VF1000 inverter"));
     driveset()
         .args([
-            "identify", "--port", "sim://mc6000?addresses=2", "--address", "2", "--protocol",
+            "identify",
+            "--port",
+            "sim://mc6000?addresses=2",
+            "--address",
+            "2",
+            "--protocol",
             "lustbus",
         ])
         .assert()
@@ -97,7 +129,12 @@ fn identify_refuses_a_schema_of_another_protocol() {
         ));
     driveset()
         .args([
-            "identify", "--port", "sim://ecs?addresses=1", "--address", "1", "--schema",
+            "identify",
+            "--port",
+            "sim://ecs?addresses=1",
+            "--address",
+            "1",
+            "--schema",
             "lust-mc6000",
         ])
         .assert()
@@ -113,7 +150,15 @@ fn identify_needs_a_family_on_real_ports_and_a_valid_port() {
         .code(2)
         .stderr(predicate::str::contains("--schema ID|PATH, or --protocol"));
     driveset()
-        .args(["identify", "--port", "bogus://x", "--address", "1", "--protocol", "lecom"])
+        .args([
+            "identify",
+            "--port",
+            "bogus://x",
+            "--address",
+            "1",
+            "--protocol",
+            "lecom",
+        ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("invalid port `bogus://x`"));
@@ -122,7 +167,13 @@ fn identify_needs_a_family_on_real_ports_and_a_valid_port() {
 #[test]
 fn identify_no_drive_at_the_address_is_a_bus_failure() {
     driveset()
-        .args(["identify", "--port", "sim://mc6000?addresses=1", "--address", "4"])
+        .args([
+            "identify",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "4",
+        ])
         .assert()
         .code(3)
         .stderr(predicate::str::contains("address 4: no answer"));
@@ -140,7 +191,13 @@ fn scan_mc6000_finds_exactly_3_and_7() {
         .stdout(predicate::str::contains("\naddress 7: 91-TYPE = "))
         .stdout(predicate::str::ends_with("2 drives found\n"));
     let out = driveset()
-        .args(["scan", "--port", "sim://mc6000?addresses=3,7", "--format", "json"])
+        .args([
+            "scan",
+            "--port",
+            "sim://mc6000?addresses=3,7",
+            "--format",
+            "json",
+        ])
         .assert()
         .code(0)
         .get_output()
@@ -179,7 +236,12 @@ fn scan_lecom_and_can() {
 #[test]
 fn scan_detect_baud_reports_a_rate() {
     driveset()
-        .args(["scan", "--port", "sim://vf1000?addresses=5", "--detect-baud"])
+        .args([
+            "scan",
+            "--port",
+            "sim://vf1000?addresses=5",
+            "--detect-baud",
+        ])
         .assert()
         .code(0)
         .stdout(predicate::str::contains("baud rate: "))
@@ -189,7 +251,13 @@ fn scan_detect_baud_reports_a_rate() {
 #[test]
 fn scan_protocol_must_fit_the_simulated_family() {
     driveset()
-        .args(["scan", "--port", "sim://mc6000?addresses=3", "--protocol", "lecom"])
+        .args([
+            "scan",
+            "--port",
+            "sim://mc6000?addresses=3",
+            "--protocol",
+            "lecom",
+        ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("scan it with --protocol lustbus"));
@@ -201,8 +269,17 @@ fn schema_pull_mc6000_passes_schema_check() {
     let out = dir.path().join("pulled-mc.toml");
     driveset()
         .args([
-            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
-            "mc6000", "--params", "1-200", "-o",
+            "schema",
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+            "--family",
+            "mc6000",
+            "--params",
+            "1-200",
+            "-o",
         ])
         .arg(&out)
         .assert()
@@ -231,8 +308,15 @@ fn schema_pull_vf1000_passes_schema_check() {
     let out = dir.path().join("pulled-vf.toml");
     driveset()
         .args([
-            "schema", "pull", "--port", "sim://vf1000?addresses=2", "--address", "2", "--family",
-            "vf1000", "-o",
+            "schema",
+            "pull",
+            "--port",
+            "sim://vf1000?addresses=2",
+            "--address",
+            "2",
+            "--family",
+            "vf1000",
+            "-o",
         ])
         .arg(&out)
         .assert()
@@ -251,16 +335,34 @@ fn schema_pull_vf1000_passes_schema_check() {
 fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
     driveset()
         .args([
-            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
-            "vf1000", "-o", "/nonexistent/x.toml",
+            "schema",
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+            "--family",
+            "vf1000",
+            "-o",
+            "/nonexistent/x.toml",
         ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("simulates mc6000 drives"));
     driveset()
         .args([
-            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "--family",
-            "mc6000", "--params", "5-1", "-o", "/nonexistent/x.toml",
+            "schema",
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+            "--family",
+            "mc6000",
+            "--params",
+            "5-1",
+            "-o",
+            "/nonexistent/x.toml",
         ])
         .assert()
         .code(2)

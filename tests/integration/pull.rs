@@ -52,7 +52,9 @@ fn pull_mc6000_toml_round_trip_with_schema_path() {
         &[],
     );
     assert!(text.starts_with("# Pulled by driveset from sim://mc6000?addresses=1 address 1.\n# Drive: lustbus-mc, 91-TYPE = "));
-    assert!(text.contains("\n[drive]\nport = \"sim://mc6000?addresses=1\"\naddress = 1\nprotocol = \"lustbus-mc\"\n"));
+    assert!(text.contains(
+        "\n[drive]\nport = \"sim://mc6000?addresses=1\"\naddress = 1\nprotocol = \"lustbus-mc\"\n"
+    ));
     assert!(text.contains("#   85-SERR: reading clears it (status code)"));
     assert!(text.contains("# Read-only actual values (not part of the set): 77-SPEED = "));
     // the handshake and the overwrite command are no settings
@@ -83,8 +85,16 @@ fn pull_json_report_and_to_yaml() {
     let out = dir.path().join("x.set");
     let got = driveset()
         .args([
-            "pull", "--port", "sim://vf1000?addresses=1", "--address", "1", "--to", "yaml",
-            "--format", "json", "-o",
+            "pull",
+            "--port",
+            "sim://vf1000?addresses=1",
+            "--address",
+            "1",
+            "--to",
+            "yaml",
+            "--format",
+            "json",
+            "-o",
         ])
         .arg(&out)
         .assert()
@@ -104,8 +114,14 @@ fn pull_refuses_another_family() {
     let dir = tempfile::tempdir().unwrap();
     driveset()
         .args([
-            "pull", "--port", "sim://vf1000?addresses=1", "--address", "1", "--schema",
-            "lust-mc6000", "-o",
+            "pull",
+            "--port",
+            "sim://vf1000?addresses=1",
+            "--address",
+            "1",
+            "--schema",
+            "lust-mc6000",
+            "-o",
         ])
         .arg(dir.path().join("x.toml"))
         .assert()

@@ -55,7 +55,10 @@ fn interrupted_upload_then_recover() {
         .stdout(predicate::str::contains("drive holds: sha256:"));
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
-    assert!(j["state"] == "rolled-back" || j["state"] == "complete", "{j}");
+    assert!(
+        j["state"] == "rolled-back" || j["state"] == "complete",
+        "{j}"
+    );
     // settled: nothing more to do
     in_dir(dir.path())
         .args(["recover"])
@@ -72,7 +75,9 @@ fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
         .args(["recover", "nope.json"])
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("journal nope.json: cannot read it"));
+        .stderr(predicate::str::contains(
+            "journal nope.json: cannot read it",
+        ));
     std::fs::write(dir.path().join("x.json"), "{}").unwrap();
     in_dir(dir.path())
         .args(["recover", "x.json"])

@@ -39,7 +39,9 @@ fn dry_run_prints_the_plan_and_writes_nothing() {
         .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
         .code(1)
-        .stdout(predicate::str::contains("78 differences (78 changed, 0 added, 0 removed)\n"));
+        .stdout(predicate::str::contains(
+            "78 differences (78 changed, 0 added, 0 removed)\n",
+        ));
 }
 
 #[test]
@@ -54,14 +56,19 @@ fn upload_then_live_diff_shows_no_differences() {
         .clone();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.starts_with("sim://mc6000?addresses=1 address 1: complete (78 of 195 codes written, 1 attempt(s), "),
+        stdout.starts_with(
+            "sim://mc6000?addresses=1 address 1: complete (78 of 195 codes written, 1 attempt(s), "
+        ),
         "{stdout}"
     );
     assert!(stdout.contains("dataset: accepted (SLOAD = 0)\n"));
     assert!(stdout.contains("journal: .driveset/journal/sim___mc6000_addresses_1-1.journal.json"));
     // not a terminal: plain progress lines on stderr
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("upload: reading 195 codes from the drive\nupload: writing\n"), "{stderr}");
+    assert!(
+        stderr.contains("upload: reading 195 codes from the drive\nupload: writing\n"),
+        "{stderr}"
+    );
     let after = stdout
         .lines()
         .find_map(|l| l.strip_prefix("after:  "))
@@ -72,10 +79,11 @@ fn upload_then_live_diff_shows_no_differences() {
         .arg(set(AXIS1))
         .assert()
         .stdout(predicate::str::starts_with(after));
-    assert!(dir
-        .path()
-        .join(".driveset/journal/sim___mc6000_addresses_1-1.journal.json")
-        .exists());
+    assert!(
+        dir.path()
+            .join(".driveset/journal/sim___mc6000_addresses_1-1.journal.json")
+            .exists()
+    );
     in_dir(dir.path())
         .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
@@ -86,7 +94,16 @@ fn upload_then_live_diff_shows_no_differences() {
         ));
     // a second upload has nothing to write
     in_dir(dir.path())
-        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--format", "json"])
+        .args([
+            "upload",
+            &set(AXIS1),
+            "--port",
+            PORT,
+            "--address",
+            "1",
+            "--format",
+            "json",
+        ])
         .assert()
         .code(0)
         .stdout(predicate::str::contains("\"codes_written\": 0"))
@@ -148,7 +165,9 @@ fn upload_to_another_family_is_refused_unless_forced() {
         ])
         .assert()
         .code(3)
-        .stderr(predicate::str::contains("error: sim://vf1000?addresses=1 address 1: "));
+        .stderr(predicate::str::contains(
+            "error: sim://vf1000?addresses=1 address 1: ",
+        ));
     assert!(!dir.path().join(".driveset").exists());
 }
 
@@ -156,7 +175,11 @@ fn upload_to_another_family_is_refused_unless_forced() {
 fn upload_of_an_invalid_set_is_an_input_error() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.toml");
-    std::fs::write(&bad, "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\n").unwrap();
+    std::fs::write(
+        &bad,
+        "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\n",
+    )
+    .unwrap();
     in_dir(dir.path())
         .args(["upload"])
         .arg(&bad)
@@ -191,6 +214,11 @@ fn upload_tmd_json_report() {
     let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
     assert_eq!(v["state"], "complete");
     assert_eq!(v["journal"], "j.json");
-    assert!(v["fingerprint_after"].as_str().unwrap().starts_with("sha256:"));
+    assert!(
+        v["fingerprint_after"]
+            .as_str()
+            .unwrap()
+            .starts_with("sha256:")
+    );
     assert!(dir.path().join("j.json").exists());
 }

@@ -284,9 +284,9 @@ pub fn client(
 ) -> Result<Box<dyn DriveClient>, Fail> {
     check_fit(port, &schema, force)?;
     let c: Box<dyn DriveClient> = match (&port.link, schema.protocol) {
-        (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => Box::new(
-            LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?,
-        ),
+        (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
+            Box::new(LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
+        }
         (Link::Bytes(_), Protocol::Lecom) => {
             Box::new(LecomClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
         }

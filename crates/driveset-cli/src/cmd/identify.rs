@@ -75,8 +75,12 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     // --protocol wins over the family a sim:// port names (so the LUSTBUS
     // family probe below runs against simulated drives too).
     let sim_hint = if args.protocol.is_some() { None } else { sim };
-    let choice =
-        port::resolve_schema(args.schema.as_deref(), &args.schemas, sim_hint, args.protocol)?;
+    let choice = port::resolve_schema(
+        args.schema.as_deref(),
+        &args.schemas,
+        sim_hint,
+        args.protocol,
+    )?;
     let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
     let mut schema = choice.schema;
@@ -100,9 +104,7 @@ fn identify(args: &Args) -> Result<u8, Fail> {
             schema = registry
                 .get("lust-vf1000")
                 .ok_or_else(|| Fail::input("built-in schema lust-vf1000 is missing"))?;
-            note = Some(
-                "the drive NAKs the MC6000/7000 CODE 20091: a VF1000 inverter".to_string(),
-            );
+            note = Some("the drive NAKs the MC6000/7000 CODE 20091: a VF1000 inverter".to_string());
         } else {
             note = Some(
                 "the drive answers the MC6000/7000 CODE 20091: a MASTERCONTROL servo".to_string(),

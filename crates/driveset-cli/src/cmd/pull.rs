@@ -20,9 +20,9 @@ use serde_json::json;
 
 use super::identify::BusFormat;
 use super::validate::output;
+use crate::EXIT_OK;
 use crate::port::{self, Fail};
 use crate::progress::Progress;
-use crate::EXIT_OK;
 
 /// `--to` of `pull`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

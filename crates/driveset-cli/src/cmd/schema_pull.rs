@@ -189,7 +189,9 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let mut texts_read = 0usize;
     for &p in &params {
         let code = if mc {
-            u16::try_from(p).ok().and_then(ParameterCode::mc_description)
+            u16::try_from(p)
+                .ok()
+                .and_then(ParameterCode::mc_description)
         } else {
             u8::try_from(p)
                 .ok()
@@ -234,12 +236,12 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
             let unit = if d.unit == 0 {
                 None
             } else {
-                if !units.contains_key(&d.unit) {
+                if let std::collections::btree_map::Entry::Vacant(slot) = units.entry(d.unit) {
                     if stext_old.is_none() {
                         stext_old = Some(read_stext(&mut client)?);
                     }
                     let t = substitution_text(&mut client, u32::from(UNIT), d.unit)?;
-                    units.insert(d.unit, t.filter(|t| !t.is_empty()));
+                    slot.insert(t.filter(|t| !t.is_empty()));
                 }
                 units.get(&d.unit).cloned().flatten()
             };
@@ -376,9 +378,11 @@ fn substitution_text(
     else {
         return Ok(None);
     };
-    Ok(client
-        .enquire_code(code, 100)?
-        .and_then(|t| decode_substitution_text(t.as_bytes()).ok().map(str::to_string)))
+    Ok(client.enquire_code(code, 100)?.and_then(|t| {
+        decode_substitution_text(t.as_bytes())
+            .ok()
+            .map(str::to_string)
+    }))
 }
 
 fn render(args: &Args, id: &str, source: &str, codes: &[Pulled], mc: bool) -> String {
@@ -420,7 +424,10 @@ fn render(args: &Args, id: &str, source: &str, codes: &[Pulled], mc: bool) -> St
             .chars()
             .filter(|ch| ch.is_ascii_alphanumeric() || *ch == '_' || *ch == '-')
             .collect();
-        if name.is_empty() || name.chars().all(|ch| ch.is_ascii_digit()) || name.starts_with(['C', 'c']) && name[1..].chars().all(|ch| ch.is_ascii_digit()) {
+        if name.is_empty()
+            || name.chars().all(|ch| ch.is_ascii_digit())
+            || name.starts_with(['C', 'c']) && name[1..].chars().all(|ch| ch.is_ascii_digit())
+        {
             name = format!("P{}", c.number);
         }
         if !names.insert(name.clone()) {
@@ -447,7 +454,11 @@ fn render(args: &Args, id: &str, source: &str, codes: &[Pulled], mc: bool) -> St
                 let _ = writeln!(out, "min = {}", e(c.min));
                 let _ = writeln!(out, "max = {}", e(c.max));
             }
-            if c.kind != "ram-actual" && (c.min > c.max || (c.min..=c.max).contains(&c.default) || (c.min, c.max) == (0, 0)) {
+            if c.kind != "ram-actual"
+                && (c.min > c.max
+                    || (c.min..=c.max).contains(&c.default)
+                    || (c.min, c.max) == (0, 0))
+            {
                 let _ = writeln!(out, "default = {}", e(c.default));
             }
         }

@@ -113,8 +113,8 @@ pub fn load_set(
     // simulator's fixture schemas by id gets those too. (Not both at once:
     // a set naming a fixture by path would define its id twice.)
     let mut registry = output::registry(dirs).map_err(|e| output::fail_input(&e))?;
-    let unknown_schema = driveset_schema::load_set(path, &mut registry.clone())
-        .is_ok_and(|l| l.schema.is_none());
+    let unknown_schema =
+        driveset_schema::load_set(path, &mut registry.clone()).is_ok_and(|l| l.schema.is_none());
     if unknown_schema {
         registry = port::registry(dirs).map_err(|f| {
             eprintln!("error: {}", f.msg);
