@@ -189,3 +189,47 @@ fn git_setup_outside_a_work_tree_needs_global() {
         .code(2)
         .stderr(predicates::str::contains("not inside a git work tree"));
 }
+
+#[test]
+fn pre_commit_example_checks_the_staged_sets() {
+    let tmp = setup_repo();
+    let d = tmp.path();
+    let hook = d.join(".git/hooks/pre-commit");
+    std::fs::copy(workspace_root().join("examples/pre-commit"), &hook).unwrap();
+    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let commit = |msg: &str| {
+        Command::new("git")
+            .current_dir(d)
+            .args(["commit", "-q", "-m", msg])
+            .env("GIT_CONFIG_GLOBAL", "/dev/null")
+            .env("GIT_CONFIG_NOSYSTEM", "1")
+            .env("GIT_AUTHOR_NAME", "t")
+            .env("GIT_AUTHOR_EMAIL", "t@example.invalid")
+            .env("GIT_COMMITTER_NAME", "t")
+            .env("GIT_COMMITTER_EMAIL", "t@example.invalid")
+            .env("DRIVESET", &bin)
+            .output()
+            .unwrap()
+    };
+    let p = d.join("parameter-sets/tmd/conveyor-3.toml");
+    let good = std::fs::read_to_string(&p).unwrap();
+    std::fs::write(&p, good.replace("\"60.0 Hz\"", "\"999 Hz\"")).unwrap();
+    git(d, &["add", "-A"]);
+    // fixed in the work tree but not staged: the staged copy is checked
+    std::fs::write(&p, good.replace("\"60.0 Hz\"", "\"61 Hz\"")).unwrap();
+    let out = commit("bad");
+    // git sends a hook's stdout to stderr
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{said}");
+    assert!(
+        said.contains("parameter-sets/tmd/conveyor-3.toml:12:9"),
+        "{said}"
+    );
+    git(d, &["add", "-A"]);
+    let out = commit("good");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

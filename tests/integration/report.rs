@@ -233,6 +233,49 @@ fn headless(profile: &Path) -> Command {
     c
 }
 
+/// Run chromium, killing it after two minutes (a hung browser fails the
+/// test instead of hanging the suite).
+fn run(mut c: Command) -> std::process::Output {
+    use std::io::Read;
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let mut child = c
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run chromium");
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut buf = Vec::new();
+        let _ = stdout.read_to_end(&mut buf);
+        buf
+    });
+    let mut stderr = child.stderr.take().unwrap();
+    let err_reader = std::thread::spawn(move || {
+        let mut buf = Vec::new();
+        let _ = stderr.read_to_end(&mut buf);
+        buf
+    });
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("chromium did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    std::process::Output {
+        status,
+        stdout: reader.join().unwrap(),
+        stderr: err_reader.join().unwrap(),
+    }
+}
+
 fn file_url(p: &Path) -> String {
     format!("file://{}", p.canonicalize().unwrap().display())
 }
@@ -244,11 +287,9 @@ fn report_renders_in_headless_chromium() {
     let out = render(&report, tmp.path());
     let url = file_url(&out.join("report.html"));
 
-    let dom = headless(&tmp.path().join("profile-dom"))
-        .arg("--dump-dom")
-        .arg(&url)
-        .output()
-        .expect("run chromium");
+    let mut c = headless(&tmp.path().join("profile-dom"));
+    c.arg("--dump-dom").arg(&url);
+    let dom = run(c);
     assert!(
         dom.status.success(),
         "chromium --dump-dom failed: {}",
@@ -327,12 +368,11 @@ fn report_renders_in_headless_chromium() {
 
     // a screenshot of the whole page
     let png = tmp.path().join("report.png");
-    let shot = headless(&tmp.path().join("profile-shot"))
-        .arg(format!("--screenshot={}", png.display()))
+    let mut c = headless(&tmp.path().join("profile-shot"));
+    c.arg(format!("--screenshot={}", png.display()))
         .arg("--window-size=1280,2600")
-        .arg(&url)
-        .output()
-        .expect("run chromium");
+        .arg(&url);
+    let shot = run(c);
     assert!(
         shot.status.success(),
         "chromium --screenshot failed: {}",
