@@ -64,6 +64,10 @@ enum Command {
     Upload(cmd::upload::Args),
     /// Finish or roll back an interrupted upload from its journal.
     Recover(cmd::recover::Args),
+    /// Commission a machine line: every drive of a line manifest to its set.
+    Commission(cmd::commission::Args),
+    /// Read-only drift check of a machine line against its sets.
+    Status(cmd::status::Args),
     /// Make `git diff` show semantic diffs of set files (.gitattributes + diff driver).
     GitSetup(cmd::git_setup::Args),
     /// The textconv filter of the `driveset` git diff driver (one line per code).
@@ -97,6 +101,8 @@ fn main() -> ExitCode {
         Command::Pull(a) => cmd::pull::run(a),
         Command::Upload(a) => cmd::upload::run(a),
         Command::Recover(a) => cmd::recover::run(a),
+        Command::Commission(a) => cmd::commission::run(a),
+        Command::Status(a) => cmd::status::run(a),
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),
         Command::Report(a) => report::run(a),

@@ -1,6 +1,7 @@
 //! One module per subcommand; each has `Args` (clap) and `run(Args) -> Result<u8>`
 //! returning the process exit code.
 
+pub mod commission;
 pub mod decode;
 pub mod diff;
 pub mod diff_live;
@@ -15,5 +16,6 @@ pub mod schema;
 pub mod schema_pull;
 pub mod show;
 pub mod sim;
+pub mod status;
 pub mod upload;
 pub mod validate;

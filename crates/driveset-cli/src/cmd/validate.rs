@@ -131,6 +131,14 @@ pub fn check_schema_source(
 
 fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
     let mut report = FileReport::default();
+    // a line manifest (top-level [line] table or bus list): its own checks
+    if driveset_engine::line::manifest::is_manifest(path) {
+        match driveset_engine::line::manifest::validate_manifest(path) {
+            Ok(f) => report.findings = f.iter().map(|f| f.to_finding()).collect(),
+            Err(e) => report.error = Some(e),
+        }
+        return report;
+    }
     let source = match read_text_file(path) {
         Ok(s) => s,
         Err(e) => {

@@ -257,8 +257,21 @@ pub struct Bus {
     pub protocol: BusProtocol,
     /// Line rate (baud, or CAN bit/s).
     pub rate: u32,
+    /// `sim://` only: the simulator's `state=FILE` (taken out of the port
+    /// string before parsing; relative to the current directory).
+    pub sim_state: Option<String>,
     /// Where the bus is declared.
     pub location: Location,
+}
+
+impl Bus {
+    /// The port string to open: the canonical port plus `state=` if given.
+    pub fn open_string(&self) -> String {
+        match &self.sim_state {
+            Some(f) => format!("{}&state={f}", self.port),
+            None => self.port.to_string(),
+        }
+    }
 }
 
 /// One drive of a line.
@@ -840,6 +853,23 @@ impl<'a> Reader<'a> {
                 continue;
             };
             let mut text = port_text.clone();
+            let mut sim_state = None;
+            if text.starts_with("sim://")
+                && let Some((base, query)) = text.clone().split_once('?')
+            {
+                let mut kept = Vec::new();
+                for part in query.split('&') {
+                    match part.strip_prefix("state=") {
+                        Some(f) => sim_state = Some(f.to_string()),
+                        None => kept.push(part),
+                    }
+                }
+                text = if kept.is_empty() {
+                    base.to_string()
+                } else {
+                    format!("{base}?{}", kept.join("&"))
+                };
+            }
             if text.starts_with("sim://") && !text.contains("addresses=") {
                 let mut addrs: Vec<u8> = drives
                     .iter()
@@ -957,6 +987,7 @@ impl<'a> Reader<'a> {
                 port: spec,
                 protocol,
                 rate,
+                sim_state,
                 location: self.loc(&b.span),
             });
         }

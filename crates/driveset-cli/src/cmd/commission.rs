@@ -1,0 +1,352 @@
+//! `driveset commission LINE`: bring every drive of a machine line to its
+//! set (buses in parallel, drives on one bus in turn), write the
+//! commissioning report. Also holds what `driveset status` shares with it:
+//! loading the manifest, opening buses through [`crate::port`], progress
+//! lines, the summary table and writing the report.
+
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_engine::line::commission::{
+    LineError, LineOptions, LineOutcome, Mode, Progress, run_line,
+};
+use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
+use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
+use driveset_link::Link;
+
+use crate::{EXIT_INPUT, port, report};
+
+/// The report directory when neither `--report-dir` nor the manifest's
+/// `report_dir` gives one (relative to the current directory).
+pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
+
+/// Arguments of `driveset commission`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+For every selected drive: identify, read back, diff, upload what differs as
+one transaction (journal in the report directory), verify. Buses run in
+parallel, the drives of one bus in turn. One progress line per drive on
+stderr, a summary table on stdout, report.json + report.html in the report
+directory (default target/driveset-report, or the manifest's report_dir).
+
+Resume: drives that end holding their set are recorded in
+REPORT_DIR/.commission-state.json. A rerun confirms each recorded drive with
+one read of its set's codes (no writes) and reports it `already-verified`;
+drives whose set changed, that drifted, or that were not reached are
+commissioned. --fresh ignores the file.
+
+Exit codes: 0 every selected drive holds its set; 1 a drive does not
+(refused, rolled back, failed); 2 usage error or a manifest with findings;
+3 a bus could not be opened, a link failed or a drive did not answer (3 wins
+over 1).
+
+Examples:
+  driveset commission parameter-sets/demo-line/line.toml
+  driveset commission line.toml --only press,conveyor-5 --label \"FAT 7\"
+  driveset commission line.toml --skip handling --report-dir out/")]
+pub struct Args {
+    /// The line manifest (TOML or YAML).
+    #[arg(value_name = "LINE")]
+    pub manifest: PathBuf,
+    /// Only these drives (names; a bus name selects its drives).
+    #[arg(long, value_name = "NAME,..", value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Leave these drives (or buses) out.
+    #[arg(long, value_name = "NAME,..", value_delimiter = ',')]
+    pub skip: Vec<String>,
+    /// Label written into the report (default: the manifest's `label`).
+    #[arg(long, value_name = "TEXT")]
+    pub label: Option<String>,
+    /// Where report.json, report.html, the state file and the journals go.
+    #[arg(long, value_name = "DIR")]
+    pub report_dir: Option<PathBuf>,
+    /// Override the family / running refusals of the upload.
+    #[arg(long)]
+    pub force: bool,
+    /// LECOM: send values common to a group (x1..x9) once by MULTICAST,
+    /// then verify every drive (unacknowledged, no journal backup; other
+    /// buses: per-drive writes).
+    #[arg(long)]
+    pub broadcast_common: bool,
+    /// Ignore the resume state: commission every selected drive.
+    #[arg(long)]
+    pub fresh: bool,
+    /// Test hook: every bus stops after N drives, as if the run were killed.
+    #[arg(long, value_name = "N", hide = true)]
+    pub stop_after: Option<usize>,
+}
+
+/// Run `driveset commission`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let opts = Common {
+        manifest: args.manifest,
+        only: args.only,
+        skip: args.skip,
+        label: args.label,
+        report_dir: args.report_dir,
+    };
+    run_mode(opts, Mode::Commission, |o| {
+        o.force = args.force;
+        o.broadcast_common = args.broadcast_common;
+        o.fresh = args.fresh;
+        o.stop_after = args.stop_after;
+    })
+}
+
+/// What `commission` and `status` share.
+pub struct Common {
+    /// Manifest path.
+    pub manifest: PathBuf,
+    /// `--only`.
+    pub only: Vec<String>,
+    /// `--skip`.
+    pub skip: Vec<String>,
+    /// `--label`.
+    pub label: Option<String>,
+    /// `--report-dir`.
+    pub report_dir: Option<PathBuf>,
+}
+
+/// Load the manifest; print its findings (exit 2) if it has any.
+pub fn load(path: &Path) -> Result<Manifest, u8> {
+    // the built-in schemas only: sets name fixture schemas by path
+    let mut registry = match driveset_schema::Registry::builtin() {
+        Ok(r) => r,
+        Err(e) => {
+            eprint!("{}", e.render_human());
+            return Err(EXIT_INPUT);
+        }
+    };
+    let loaded = match load_manifest(path, &mut registry) {
+        Ok(l) => l,
+        Err(e) => {
+            eprint!("{}", e.render_human());
+            return Err(EXIT_INPUT);
+        }
+    };
+    match loaded.manifest {
+        Some(m) => Ok(m),
+        None => {
+            for f in &loaded.findings {
+                eprint!("{}", f.render_human());
+            }
+            eprintln!(
+                "error: {}: {} finding(s) in the line manifest; nothing was sent (see `driveset validate {}`)",
+                path.display(),
+                loaded.findings.len(),
+                path.display()
+            );
+            Err(EXIT_INPUT)
+        }
+    }
+}
+
+/// Open a bus through the CLI's port opener (`sim://` in-process).
+pub fn open_bus(bus: &Bus) -> Result<Link, String> {
+    port::open_port(&bus.open_string())
+        .map(|p| p.link)
+        .map_err(|f| f.msg)
+}
+
+/// Run a line command.
+pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> anyhow::Result<u8> {
+    let manifest = match load(&c.manifest) {
+        Ok(m) => m,
+        Err(code) => return Ok(code),
+    };
+    let report_dir = c
+        .report_dir
+        .or_else(|| manifest.report_dir.clone())
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
+    let mut opts = LineOptions::new(&report_dir);
+    if let Some(j) = &manifest.journal_dir {
+        opts.journal_dir = j.clone();
+    }
+    opts.only = c.only;
+    opts.skip = c.skip;
+    opts.label = c.label;
+    tweak(&mut opts);
+    let width = manifest
+        .buses
+        .iter()
+        .map(|b| b.name.len())
+        .max()
+        .unwrap_or(0);
+    opts.progress = Some(Arc::new(move |p: &Progress| {
+        let mut err = std::io::stderr().lock();
+        let _ = writeln!(err, "{}", progress_line(p, width));
+    }));
+    let outcome = match run_line(&manifest, &opts, &open_bus, mode) {
+        Ok(o) => o,
+        Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
+            eprintln!("error: {e}");
+            return Ok(EXIT_INPUT);
+        }
+    };
+    for w in &outcome.warnings {
+        eprintln!("warning: {w}");
+    }
+    print!("{}", summary(&outcome, mode));
+    match report::write_reports(&outcome.report, &report_dir) {
+        Ok((json, html)) => println!("report: {} {}", json.display(), html.display()),
+        Err(e) => {
+            eprintln!(
+                "error: cannot write the report into {}: {e}",
+                report_dir.display()
+            );
+            return Ok(EXIT_INPUT);
+        }
+    }
+    Ok(outcome.exit_code())
+}
+
+fn result_name(r: DriveResult) -> &'static str {
+    match r {
+        DriveResult::Verified => "verified",
+        DriveResult::Unchanged => "unchanged",
+        DriveResult::AlreadyVerified => "already-verified",
+        DriveResult::NotSelected => "not-selected",
+        DriveResult::Drift => "DRIFT",
+        DriveResult::RolledBack => "ROLLED-BACK",
+        DriveResult::Failed => "FAILED",
+    }
+}
+
+fn progress_line(p: &Progress, width: usize) -> String {
+    let d = &p.drive;
+    let mut s = format!(
+        "[{:width$}] {}/{} {}: {}",
+        p.bus,
+        p.done,
+        p.total,
+        d.name,
+        result_name(d.result)
+    );
+    if d.codes_written > 0 {
+        s.push_str(&format!(", {} codes written", d.codes_written));
+    }
+    if d.result == DriveResult::Drift {
+        s.push_str(&format!(", {} code(s) differ", d.diff.len()));
+    }
+    s.push_str(&format!(" ({:.3} s)", d.elapsed_ms / 1000.0));
+    if let Some(e) = &d.error {
+        s.push_str(&format!(": {e}"));
+    }
+    s
+}
+
+fn short_fp(fp: Option<&str>) -> String {
+    match fp {
+        Some(f) => f.chars().take(19).collect(),
+        None => "-".into(),
+    }
+}
+
+/// The summary table (and, for drift, the differences).
+pub fn summary(o: &LineOutcome, mode: Mode) -> String {
+    let r = &o.report;
+    let rows: Vec<[String; 5]> = r
+        .drives
+        .iter()
+        .map(|d| {
+            [
+                d.name.clone(),
+                format!("{}/{}", d.bus, d.address),
+                result_name(d.result).to_string(),
+                d.codes_written.to_string(),
+                short_fp(d.fingerprint_after.as_deref()),
+            ]
+        })
+        .collect();
+    let head = ["DRIVE", "BUS/ADDRESS", "RESULT", "WRITTEN", "FINGERPRINT"];
+    let mut w = head.map(str::len);
+    for row in &rows {
+        for (i, c) in row.iter().enumerate() {
+            w[i] = w[i].max(c.len());
+        }
+    }
+    let line = |c: &[String; 5]| {
+        format!(
+            "{:<w0$}  {:<w1$}  {:<w2$}  {:>w3$}  {}\n",
+            c[0],
+            c[1],
+            c[2],
+            c[3],
+            c[4],
+            w0 = w[0],
+            w1 = w[1],
+            w2 = w[2],
+            w3 = w[3]
+        )
+    };
+    let mut out = line(&head.map(String::from));
+    for row in &rows {
+        out.push_str(&line(row));
+    }
+    let drifted: Vec<&DriveReport> = r
+        .drives
+        .iter()
+        .filter(|d| !d.diff.is_empty() && d.result == DriveResult::Drift)
+        .collect();
+    for d in &drifted {
+        out.push_str(&format!(
+            "\n{} ({}/{}) differs from {}:\n",
+            d.name, d.bus, d.address, d.set
+        ));
+        for l in &d.diff {
+            out.push_str(&format!(
+                "  {} {}: {} -> {}\n",
+                l.code,
+                l.name,
+                l.old.as_deref().unwrap_or("(none)"),
+                l.new.as_deref().unwrap_or("(none)")
+            ));
+        }
+    }
+    for d in r.drives.iter().filter(|d| d.error.is_some()) {
+        out.push_str(&format!(
+            "\n{}: {}\n",
+            d.name,
+            d.error.as_deref().unwrap_or_default()
+        ));
+    }
+    let count = |k: DriveResult| r.drives.iter().filter(|d| d.result == k).count();
+    let selected = r.drives.len() - count(DriveResult::NotSelected);
+    let slowest = r
+        .buses
+        .iter()
+        .max_by(|a, b| a.elapsed_ms.total_cmp(&b.elapsed_ms))
+        .map_or("-", |b| b.name.as_str());
+    let verb = if mode == Mode::Status {
+        "checked"
+    } else {
+        "commissioned"
+    };
+    out.push_str(&format!(
+        "\n{} of {} drives {verb}: {} verified, {} unchanged, {} already verified, {} drift, {} rolled back, {} failed; line {}: {}\n",
+        selected,
+        r.drives.len(),
+        count(DriveResult::Verified),
+        count(DriveResult::Unchanged),
+        count(DriveResult::AlreadyVerified),
+        count(DriveResult::Drift),
+        count(DriveResult::RolledBack),
+        count(DriveResult::Failed),
+        r.line,
+        match r.result {
+            LineResult::Ok => "ok",
+            LineResult::Drift => "DRIFT",
+            LineResult::Failed => "FAILED",
+        },
+    ));
+    out.push_str(&format!(
+        "bus time {:.3} s (buses in parallel; slowest: {slowest}), wall time {:.3} s\n",
+        o.line_ms() / 1000.0,
+        o.wall.as_secs_f64()
+    ));
+    out
+}

@@ -1,0 +1,52 @@
+//! `driveset status LINE`: the read-only drift check of a machine line.
+
+use std::path::PathBuf;
+
+use driveset_engine::line::commission::Mode;
+
+use super::commission::{Common, run_mode};
+
+/// Arguments of `driveset status`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+For every selected drive: identify it, read the codes its set names, compare
+the live fingerprint with the set's and print the semantic differences.
+Nothing is written and the commissioning state is not touched. Writes
+report.json + report.html (command \"status\") into the report directory.
+
+Exit codes: 0 every selected drive holds its set; 1 a drive differs (drift)
+or was refused; 2 usage error or a manifest with findings; 3 a bus could not
+be opened, a link failed or a drive did not answer.
+
+Examples:
+  driveset status parameter-sets/demo-line/line.toml
+  driveset status line.toml --only transfer")]
+pub struct Args {
+    /// The line manifest (TOML or YAML).
+    #[arg(value_name = "LINE")]
+    pub manifest: PathBuf,
+    /// Only these drives (names; a bus name selects its drives).
+    #[arg(long, value_name = "NAME,..", value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Leave these drives (or buses) out.
+    #[arg(long, value_name = "NAME,..", value_delimiter = ',')]
+    pub skip: Vec<String>,
+    /// Label written into the report.
+    #[arg(long, value_name = "TEXT")]
+    pub label: Option<String>,
+    /// Where report.json and report.html go.
+    #[arg(long, value_name = "DIR")]
+    pub report_dir: Option<PathBuf>,
+}
+
+/// Run `driveset status`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let c = Common {
+        manifest: args.manifest,
+        only: args.only,
+        skip: args.skip,
+        label: args.label,
+        report_dir: args.report_dir,
+    };
+    run_mode(c, Mode::Status, |_| {})
+}

@@ -1,0 +1,282 @@
+//! `driveset commission` / `driveset status` on the demo line (four
+//! simulated buses, thirteen drives) and line manifests in `validate`.
+//! Consecutive runs see the same simulated drives through the simulator's
+//! state directory (`DRIVESET_SIM_STATE_DIR`, one file per family: every
+//! demo bus is a different family).
+
+use std::path::Path;
+
+use predicates::prelude::*;
+
+use crate::util::{driveset, workspace_root};
+
+fn demo() -> String {
+    workspace_root()
+        .join("parameter-sets/demo-line/line.toml")
+        .display()
+        .to_string()
+}
+
+fn in_dir(dir: &Path) -> assert_cmd::Command {
+    let mut c = driveset();
+    c.current_dir(dir)
+        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
+    c
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("target/driveset-report/report.json"))
+        .expect("report.json written");
+    serde_json::from_str(&text).expect("report.json parses")
+}
+
+fn results(r: &serde_json::Value) -> Vec<(String, String)> {
+    r["drives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            (
+                d["name"].as_str().unwrap().to_string(),
+                d["result"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+/// Change C0011 of the simulated Tmd at `address` in the state file.
+fn drift_tmd(dir: &Path, address: u8, raw: i64) {
+    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
+    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
+    let path = dir.join("sim/sim-tmd.json");
+    let mut dump = StateDump::read(&path).expect("tmd state saved");
+    let d = dump
+        .drives
+        .iter_mut()
+        .find(|d| d.address == address)
+        .expect("drive in the dump");
+    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
+    values.insert(CodeKey::new(11), RawValue::Int(raw));
+    let set = ResolvedSet {
+        schema,
+        code_style: CodeStyle::Lenze,
+        values,
+    };
+    *d = DriveDump::new(&d.family.clone(), address, &set);
+    dump.write(&path).expect("state written");
+}
+
+#[test]
+fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args(["commission", &demo(), "--label", "it test"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "DRIVE         BUS/ADDRESS  RESULT    WRITTEN  FINGERPRINT\n",
+        ))
+        .stdout(predicate::str::contains(
+            "13 of 13 drives commissioned: 13 verified, 0 unchanged, 0 already verified, 0 drift, 0 rolled back, 0 failed; line demo-line: ok\n",
+        ))
+        .stdout(predicate::str::contains(
+            "report: target/driveset-report/report.json target/driveset-report/report.html\n",
+        ))
+        .stderr(predicate::str::contains(
+            "[transfer ] 2/3 transfer-12: verified, 10 codes written",
+        ));
+    let r = report(dir.path());
+    assert_eq!(r["command"], "commission");
+    assert_eq!(r["line"], "demo-line");
+    assert_eq!(r["label"], "it test");
+    assert_eq!(r["result"], "ok");
+    assert_eq!(r["buses"].as_array().unwrap().len(), 4);
+    for d in r["drives"].as_array().unwrap() {
+        assert_eq!(d["result"], "verified", "{d}");
+        assert_eq!(d["fingerprint_after"], d["set_fingerprint"], "{d}");
+    }
+    assert!(
+        dir.path()
+            .join("target/driveset-report/report.html")
+            .exists()
+    );
+    assert!(
+        dir.path()
+            .join("target/driveset-report/.commission-state.json")
+            .exists()
+    );
+
+    // nothing drifted yet
+    in_dir(dir.path())
+        .args(["status", &demo()])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "13 of 13 drives checked: 0 verified, 13 unchanged, 0 already verified, 0 drift",
+        ));
+    assert_eq!(report(dir.path())["command"], "status");
+
+    // someone turns transfer-12 down to 55 Hz on the keypad
+    drift_tmd(dir.path(), 12, 550_000);
+    in_dir(dir.path())
+        .args(["status", &demo()])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains(
+            "transfer-12   transfer/12  DRIFT",
+        ))
+        .stdout(predicate::str::contains(
+            "transfer-12 (transfer/12) differs from sets/transfer-12.toml:\n  C0011 maximum_output_frequency: 55 Hz -> 60 Hz\n",
+        ))
+        .stdout(predicate::str::contains("line demo-line: DRIFT"));
+    let r = report(dir.path());
+    assert_eq!(r["result"], "drift");
+    let t12 = &r["drives"][8];
+    assert_eq!(t12["name"], "transfer-12");
+    assert_eq!(t12["result"], "drift");
+    assert_eq!(t12["diff"][0]["code"], "C0011");
+
+    // commission again: only the drifted drive is written
+    in_dir(dir.path())
+        .args(["commission", &demo()])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains(
+            "warning: transfer-12: recorded as verified at ",
+        ))
+        .stdout(predicate::str::contains(
+            "13 of 13 drives commissioned: 1 verified, 0 unchanged, 12 already verified",
+        ));
+    let r = report(dir.path());
+    for (name, result) in results(&r) {
+        let want = if name == "transfer-12" {
+            "verified"
+        } else {
+            "already-verified"
+        };
+        assert_eq!(result, want, "{name}");
+    }
+    assert_eq!(r["drives"][8]["codes_written"], 1);
+}
+
+#[test]
+fn a_killed_run_resumes_and_skips_the_verified_drives() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args(["commission", &demo(), "--stop-after", "1"])
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains(
+            "13 of 13 drives commissioned: 4 verified, 0 unchanged, 0 already verified, 0 drift, 0 rolled back, 9 failed; line demo-line: FAILED\n",
+        ))
+        .stdout(predicate::str::contains(
+            "press-axis-2: not reached: the run stopped after 1 drive(s) on bus `press` (--stop-after); run the command again to resume\n",
+        ));
+    in_dir(dir.path())
+        .args(["commission", &demo()])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "13 of 13 drives commissioned: 9 verified, 0 unchanged, 4 already verified",
+        ));
+    let r = report(dir.path());
+    let already: Vec<String> = results(&r)
+        .into_iter()
+        .filter(|(_, res)| res == "already-verified")
+        .map(|(n, _)| n)
+        .collect();
+    assert_eq!(
+        already,
+        ["press-axis-1", "conveyor-5", "transfer-11", "handling-1"]
+    );
+    // --fresh commissions everything again (the drives hold their sets: unchanged)
+    in_dir(dir.path())
+        .args(["commission", &demo(), "--fresh", "--only", "transfer"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "3 of 13 drives commissioned: 0 verified, 3 unchanged",
+        ));
+}
+
+#[test]
+fn only_names_an_unknown_drive_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    in_dir(dir.path())
+        .args(["commission", &demo(), "--only", "press-axis-9"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with(
+            "error: no drive or bus is named `press-axis-9` in ",
+        ));
+}
+
+const BAD: &str = r#"[line]
+name = "bad"
+
+[[bus]]
+name = "a"
+port = "sim://tmd"
+protocol = "lecom"
+
+[[drive]]
+bus = "a"
+address = 20
+set = "tmd.toml"
+
+[[drive]]
+bus = "a"
+address = 11
+set = "tmd.toml"
+
+[[drive]]
+name = "second"
+bus = "a"
+address = 11
+set = "nope.toml"
+"#;
+
+#[test]
+fn a_bad_manifest_fails_validation_with_locations() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("tmd.toml"),
+        "schema = \"lenze-tmd\"\n[values]\nC0011 = \"50 Hz\"\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("line.toml"), BAD).unwrap();
+    let out = in_dir(dir.path())
+        .args(["validate", "line.toml"])
+        .assert()
+        .code(1)
+        .get_output()
+        .stdout
+        .clone();
+    let out = String::from_utf8(out).unwrap();
+    for want in [
+        "address 20 on lecom bus `a`: LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0\n",
+        "  --> line.toml:11:11\n",
+        "address 11 is used twice on bus `a`\n",
+        "  --> line.toml:22:11\n",
+        "  --> line.toml:16:11\n",
+        "set file `nope.toml` does not exist (nope.toml)\n",
+        "  --> line.toml:23:7\n",
+        "3 findings in 1 of 1 file\n",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in:\n{out}");
+    }
+    // commission refuses it before opening any bus: exit 2, own kinds
+    in_dir(dir.path())
+        .args(["commission", "line.toml"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "error[duplicate-address]: address 11 is used twice on bus `a`\n  --> line.toml:22:11\n",
+        ))
+        .stderr(predicate::str::contains(
+            "error: line.toml: 3 finding(s) in the line manifest; nothing was sent (see `driveset validate line.toml`)\n",
+        ));
+    assert!(!dir.path().join("target").exists());
+}
