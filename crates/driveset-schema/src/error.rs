@@ -409,6 +409,21 @@ pub fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> 
     source_from_bytes(&display, bytes)
 }
 
+/// The checks of [`read_text_file`] on text already in memory (one copy, into the source).
+pub fn source_from_str(display: &str, text: &str) -> Result<SourceFile, InputError> {
+    if text.len() as u64 > MAX_FILE_BYTES || text.contains('\0') || text.starts_with('\u{feff}') {
+        return source_from_bytes(display, text.as_bytes().to_vec());
+    }
+    let meaningful = text.lines().any(|l| {
+        let t = l.trim();
+        !t.is_empty() && !t.starts_with('#') && t != "---" && t != "..."
+    });
+    if !meaningful {
+        return source_from_bytes(display, text.as_bytes().to_vec());
+    }
+    Ok(SourceFile::new(display, text))
+}
+
 /// The checks of [`read_text_file`] on bytes already in memory.
 pub fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, InputError> {
     let loc = || Location::file_only(display.to_string());

@@ -54,8 +54,7 @@ pub fn load_set_str(
     text: &str,
     registry: &mut Registry,
 ) -> Result<LoadedSet, InputError> {
-    let source =
-        crate::error::source_from_bytes(&path.display().to_string(), text.as_bytes().to_vec())?;
+    let source = crate::error::source_from_str(&path.display().to_string(), text)?;
     load_source(source, Syntax::from_path(path), path, registry)
 }
 

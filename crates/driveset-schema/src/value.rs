@@ -286,8 +286,18 @@ pub fn parse_radix_int(text: &str) -> Option<Result<i128, ()>> {
         } else {
             return None;
         };
-    let clean: String = digits.chars().filter(|c| *c != '_').collect();
-    if clean.is_empty() || clean.len() > 32 || digits.starts_with('_') || digits.ends_with('_') {
+    // `_` separators: only then build a cleaned copy
+    let clean: std::borrow::Cow<'_, str> = if digits.contains('_') {
+        std::borrow::Cow::Owned(digits.chars().filter(|c| *c != '_').collect())
+    } else {
+        std::borrow::Cow::Borrowed(digits)
+    };
+    if clean.is_empty()
+        || clean.len() > 32
+        || digits.starts_with('_')
+        || digits.ends_with('_')
+        || clean.starts_with(['+', '-'])
+    {
         return Some(Err(()));
     }
     Some(match i128::from_str_radix(&clean, radix) {
