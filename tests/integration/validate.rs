@@ -592,3 +592,23 @@ fn fixture_schemas_in_the_tree_are_checked_as_schemas() {
     ), "{out}");
     assert!(out.ends_with("1 finding in 1 of 2 files\n"));
 }
+
+#[test]
+fn schemas_dir_adds_schemas_by_id() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("axis.toml");
+    std::fs::write(
+        &p,
+        "schema = \"fictional-ecs-demo\"\n[values]\nmax_speed = \"3000 rpm\"\n",
+    )
+    .unwrap();
+    let p = p.to_str().unwrap();
+    let (out, code) = validate(&["--schemas", "parameter-sets/fixtures", p]);
+    assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+    let (out, code) = validate(&[p]);
+    assert_eq!(code, 1);
+    assert!(out.starts_with("error[unknown-schema]: unknown schema `fictional-ecs-demo`\n"));
+    let (out, code) = validate(&["--schemas", "no/such/dir", p]);
+    assert_eq!(code, 2);
+    assert!(out.is_empty(), "{out}");
+}
