@@ -404,3 +404,28 @@ fn manifest_set_findings_and_sim_family_are_reported() {
         "3:1 [unknown-code] `NOPE` is not a code name of lust-vf1000"
     );
 }
+
+#[test]
+fn yaml_manifest_with_buses_and_drives_lists_reads_like_toml() {
+    let text = "line:\n  name: yaml-line\nbuses:\n  - name: t\n    port: sim://tmd\n    protocol: lecom\n    baud: 19200\ndrives:\n  - bus: t\n    address: 11\n    set: tmd.toml\n  - bus: t\n    address: 12\n    set: tmd.toml\n    name: second\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tmd.toml"), TMD_SET).unwrap();
+    let p = dir.path().join("line.yaml");
+    std::fs::write(&p, text).unwrap();
+    let mut reg = Registry::builtin().unwrap();
+    let l = load_manifest(&p, &mut reg).expect("reads");
+    assert!(l.findings.is_empty(), "{:?}", l.findings);
+    let m = l.manifest.unwrap();
+    assert_eq!(m.name, "yaml-line");
+    assert_eq!(
+        m.buses[0].port.to_string(),
+        "sim://tmd?addresses=11,12&baud=19200"
+    );
+    let names: Vec<&str> = m.drives.iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(names, ["t/11", "second"]);
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let out = dir.path().join("out");
+    let r = commission(&m, &LineOptions::new(&out), &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+}
