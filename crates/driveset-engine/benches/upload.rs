@@ -43,7 +43,9 @@
 //!    (CAN: request frame + reaction + the reply frame counted at its
 //!    stuff-bit-free minimum of 111 bit times.) The bound sums the `N`
 //!    cheapest exchanges of the run: every required exchange is among the
-//!    run's exchanges, so that sum cannot exceed theirs.
+//!    run's exchanges, so that sum cannot exceed theirs. Reads and writes
+//!    are counted apart (a write is an exchange whose reply is an
+//!    acknowledgement), so an extra read never pushes out a write.
 //! 3. **Store time that cannot overlap.** MC6000 dataset: after SLOAD = -2
 //!    the drive checks and stores the staged values for width x 3 x 5 ms
 //!    each (section 10.2.2) and NAKs every SELECT meanwhile; the staged
@@ -87,9 +89,12 @@ fn hex_len(e: &Event) -> usize {
     e.hex.split_whitespace().count()
 }
 
-/// Exchange costs from the log: request start to reply end.
-fn exchanges(events: &[Event], can: bool) -> Vec<Duration> {
-    let mut out = Vec::new();
+/// Exchange costs from the log (request start to reply end), split into
+/// writes (the reply is an acknowledgement: LUSTBUS `ADR ACK`/`ADR NAK`,
+/// LECOM ACK/NAK, SDO download response 0x60) and reads (a value reply).
+fn exchanges(events: &[Event], can: bool) -> (Vec<Duration>, Vec<Duration>) {
+    let mut reads = Vec::new();
+    let mut writes = Vec::new();
     let mut pending: Option<&Event> = None;
     for e in events {
         match e.dir {
@@ -98,18 +103,26 @@ fn exchanges(events: &[Event], can: bool) -> Vec<Duration> {
                 if let Some(h) = pending.take() {
                     let start = Duration::from_nanos(h.t_ns);
                     let reply_start = Duration::from_nanos(e.t_ns);
-                    let reply = if can {
-                        bits_time(111, rig::BITRATE)
+                    let len = hex_len(e);
+                    let (reply, is_write) = if can {
+                        (bits_time(111, rig::BITRATE), e.hex.starts_with("60"))
                     } else {
-                        wire_time(hex_len(e), rig::BAUD)
+                        (wire_time(len, rig::BAUD), len <= 2)
                     };
-                    out.push(reply_start.saturating_sub(start) + reply);
+                    let cost = reply_start.saturating_sub(start) + reply;
+                    if is_write {
+                        writes.push(cost);
+                    } else {
+                        reads.push(cost);
+                    }
                 }
             }
             Dir::Event => {}
         }
     }
-    out
+    reads.sort();
+    writes.sort();
+    (reads, writes)
 }
 
 fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
@@ -148,8 +161,7 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
         )
     });
     let events = log.events();
-    let mut costs = exchanges(&events[skip..], family == Family::Ecs);
-    costs.sort();
+    let (reads, writes) = exchanges(&events[skip..], family == Family::Ecs);
     let w = prepared.plan.writes.len();
     let identify = rig::schema(family)
         .identify
@@ -164,20 +176,27 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
         .iter()
         .filter(|w| w.phase == Phase::Dataset)
         .collect();
-    let mut n = identify + set.values.len();
+    // required reads: identify, read-back, SIOF, verification, the last SLOAD poll
+    let mut n_reads = identify + set.values.len();
+    // required writes: one per code that differs, SLOAD -1 and -2
+    let mut n_writes = 0;
     if w > 0 {
-        n += 2 * w + usize::from(lustbus);
+        n_reads += w + usize::from(lustbus);
+        n_writes += w;
         if !staged.is_empty() {
-            n += 3;
+            n_reads += 1;
+            n_writes += 2;
         }
     }
     assert!(
-        costs.len() >= n,
-        "{}: {} exchanges in the log, {n} required",
+        reads.len() >= n_reads && writes.len() >= n_writes,
+        "{}: {}/{} read/write exchanges in the log, {n_reads}/{n_writes} required",
         family.name(),
-        costs.len()
+        reads.len(),
+        writes.len()
     );
-    let mut bound: Duration = costs.iter().take(n).sum();
+    let mut bound: Duration =
+        reads.iter().take(n_reads).sum::<Duration>() + writes.iter().take(n_writes).sum::<Duration>();
     if !staged.is_empty() {
         let store: Duration = staged
             .iter()
@@ -195,7 +214,8 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
         .collect();
     if paced.len() > 1 {
         let chain: Duration = paced[..paced.len() - 1].iter().map(|w| w.store_time).sum();
-        let work: Duration = costs.iter().take(paced.len() + w).sum();
+        let work: Duration = writes.iter().take(paced.len()).sum::<Duration>()
+            + reads.iter().take(w).sum::<Duration>();
         if chain > work {
             eprintln!(
                 "{}: EEPROM chain {chain:?} exceeds the phase's cheapest work {work:?}",

@@ -124,7 +124,23 @@ pub fn recover(
     let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
 
     let identity = client.identify()?;
-    if !jf.journal.identity.matches(&identity) {
+    // An identification code the transaction itself writes (Tmd C0093 in a
+    // set) may hold the old or the new value: leave it out of the match.
+    let planned_names: BTreeSet<String> = new_values
+        .keys()
+        .map(|k| schema.display_code(k.number, k.subcode))
+        .collect();
+    let strip = |codes: &[(String, String)]| -> Vec<(String, String)> {
+        codes
+            .iter()
+            .filter(|(n, _)| !planned_names.contains(n))
+            .cloned()
+            .collect()
+    };
+    let same_drive = jf.journal.identity.protocol == identity.protocol
+        && jf.journal.identity.software == identity.software
+        && strip(&jf.journal.identity.codes) == strip(&identity.codes);
+    if !same_drive {
         return Err(EngineError::Refused {
             target,
             reason: format!(

@@ -357,7 +357,8 @@ pub fn upload(
     }
     let identity = client.identify()?;
     popts.identity = Some(identity.clone());
-    popts.running = client.running()?;
+    // The running-motor check is done in the attempt, only when something
+    // has to be written (a re-run that changes nothing costs no exchange).
     let problems = check_set(&schema, set, &popts);
     if !problems.is_empty() {
         return Err(refused(&target, problems).into());
@@ -538,7 +539,14 @@ impl Txn<'_> {
     /// One attempt: read back, plan, journal, write, verify, complete.
     fn attempt(&mut self, set: &ResolvedSet) -> Result<(), Stop> {
         let current = read_values(self.client, set.values.keys().copied())?;
-        let plan = match plan(&self.schema, set, &current, &self.popts) {
+        let mut planned = plan(&self.schema, set, &current, &self.popts);
+        if self.popts.running.is_none() && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+            self.popts.running = self.client.running()?;
+            if self.popts.running.is_some() {
+                planned = plan(&self.schema, set, &current, &self.popts);
+            }
+        }
+        let plan = match planned {
             Ok(p) => p,
             Err(problems) => {
                 let e = refused(&self.target, problems);

@@ -972,12 +972,10 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
                 reason: "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)".into(),
             });
         }
-        if self.dataset_open {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: "a dataset download is already open; commit it first".into(),
-            });
-        }
+        // A download left open by a failed transfer (no answer, cable) is
+        // started over: SLOAD = -1 again discards what the drive staged
+        // (section 11.4), so a roll back or recover can stage the backup.
+        self.dataset_open = false;
         self.sload_present()?;
         let key = CodeKey::new(SLOAD);
         self.select(

@@ -99,7 +99,7 @@ pub fn campaign_set(family: Family) -> ResolvedSet {
     for (k, v) in &full.values {
         let ram = schema
             .code(k.number)
-            .is_some_and(|c| matches!(c.kind, Some(StorageKind::Ram)));
+            .is_some_and(|c| matches!(c.kind, Some(StorageKind::RamControl)));
         if !ram {
             set.insert(*k, v.clone());
         }
