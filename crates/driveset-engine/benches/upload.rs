@@ -195,8 +195,8 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
         reads.len(),
         writes.len()
     );
-    let mut bound: Duration =
-        reads.iter().take(n_reads).sum::<Duration>() + writes.iter().take(n_writes).sum::<Duration>();
+    let mut bound: Duration = reads.iter().take(n_reads).sum::<Duration>()
+        + writes.iter().take(n_writes).sum::<Duration>();
     if !staged.is_empty() {
         let store: Duration = staged
             .iter()
@@ -276,9 +276,7 @@ fn main() {
         }
     }
     println!();
-    println!(
-        "| family | run | set size | time | bound | ratio | naive time | naive ratio |"
-    );
+    println!("| family | run | set size | time | bound | ratio | naive time | naive ratio |");
     println!("|---|---|---|---|---|---|---|---|");
     for r in rows {
         println!("{r}");

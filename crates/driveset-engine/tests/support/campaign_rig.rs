@@ -202,7 +202,13 @@ pub fn full_set(family: Family, step: i64) -> ResolvedSet {
     let mut skip = BTreeSet::new();
     let dir = tempfile::tempdir().expect("tempdir");
     for round in 0..50 {
-        let b = bus(family, Some(ReactionTime::fixed(ms(1))), 0, None, EventLog::off());
+        let b = bus(
+            family,
+            Some(ReactionTime::fixed(ms(1))),
+            0,
+            None,
+            EventLog::off(),
+        );
         let state = drive_state(&b);
         let set = candidate_set(family, &schema, &state, step, &skip);
         let mut c = client(family, b, LustbusOptions::default());

@@ -2,16 +2,14 @@
 //! `recover` where the run was cut, and the transaction invariant after
 //! each: the drive holds exactly the old set or exactly the new one over the
 //! set's codes, and every failure names the target and a cause.
-#![allow(dead_code, clippy::result_large_err)]
+#![allow(dead_code, clippy::result_large_err, clippy::large_enum_variant)]
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::Arc;
 use std::time::{Duration, Instant as WallInstant};
 
-use driveset_engine::client::{
-    CanClient, DriveClient, LecomClient, LustbusClient, LustbusOptions,
-};
+use driveset_engine::client::{CanClient, DriveClient, LecomClient, LustbusClient, LustbusOptions};
 use driveset_engine::journal::JournalFile;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, upload};
@@ -214,8 +212,12 @@ pub fn campaign(family: Family, first: u64, runs: u64) -> Summary {
     let mut probe = Rig::new(family, first, &FaultPlan::default());
     let old_fp = fingerprint_over(&schema, &probe.state(), &set);
     assert_ne!(old_fp, new_fp, "{}: the set changes nothing", family.name());
-    upload(probe.client(), &set, &UploadOptions::new(dir.path().join("probe.json")))
-        .unwrap_or_else(|f| panic!("{}: clean upload fails: {f}", family.name()));
+    upload(
+        probe.client(),
+        &set,
+        &UploadOptions::new(dir.path().join("probe.json")),
+    )
+    .unwrap_or_else(|f| panic!("{}: clean upload fails: {f}", family.name()));
     let clean = probe.telegrams();
     let mut summary = Summary::default();
     for seed in first..first + runs {
