@@ -428,6 +428,23 @@ impl<'a> Builder<'a> {
                 _ => return Err(self.duplicate(span)),
             };
         }
+        // a big table: one hash for the lookup and the index entry
+        if let Some(ix) = &mut cur.index {
+            let i = cur.entries.len();
+            let existing = *ix.entry(hash_str(&last)).or_insert(i);
+            if existing != i
+                && (cur.entries.get(existing).is_some_and(|e| e.key == last)
+                    || cur.entries.iter().any(|e| e.key == last))
+            {
+                return Err(self.duplicate(last_span));
+            }
+            cur.entries.push(BEntry {
+                key: last,
+                key_span: last_span,
+                val: v,
+            });
+            return Ok(());
+        }
         if cur.find(&last).is_some() {
             return Err(self.duplicate(last_span));
         }
