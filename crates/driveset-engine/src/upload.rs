@@ -5,9 +5,11 @@
 //! **Pacing with interleaving.** Before each write the runner asks the
 //! client when the drive will take it ([`DriveClient::ready_for_write`]:
 //! MC6000/7000 EEPROM still storing an earlier value). Instead of sleeping
-//! through that gap it reads back codes written earlier whose read exchange
-//! ([`DriveClient::read_time`]) fits in what is left of the gap, oldest
-//! first, and waits only the rest. RAM writes never wait. Values staged in
+//! through that gap it reads back codes written earlier, oldest first,
+//! preferring one whose read exchange ([`DriveClient::read_time`]) fits in
+//! what is left of the gap (else any: the read is due anyway, and running
+//! past the gap by part of it beats idling through it), and waits only the
+//! rest. RAM writes never wait. Values staged in
 //! an MC dataset are verified only after the drive accepted the dataset.
 //!
 //! **Failure.** A failed write, a failed or mismatching verification, or a
@@ -749,9 +751,13 @@ impl Txn<'_> {
                 break;
             }
             let gap = ready - now;
+            // A read that fits the gap; else any read: it is work the
+            // transaction must do anyway, and running past `ready` by part of
+            // a read costs less than idling through the whole gap.
             let Some(i) = pending
                 .iter()
                 .position(|k| self.client.read_time(*k) <= gap)
+                .or(if pending.is_empty() { None } else { Some(0) })
             else {
                 break;
             };
