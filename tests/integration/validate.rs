@@ -263,7 +263,7 @@ fn unknown_schema_with_suggestion() {
         "unknown-schema.toml",
         &[("unknown-schema", "unknown schema `lenze-tdm`", 1, 10)],
     );
-    assert!(out.contains("  = help: did you mean `lenze-tmd`? known schemas: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000\n"));
+    assert!(out.contains("  = help: did you mean `lenze-tmd`? known schemas: fictional-ecs-demo, fictional-mc6000-demo, fictional-vf1000-demo, lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000\n"), "{out}");
 }
 
 #[test]
@@ -596,19 +596,40 @@ fn fixture_schemas_in_the_tree_are_checked_as_schemas() {
 #[test]
 fn schemas_dir_adds_schemas_by_id() {
     let dir = tempfile::tempdir().unwrap();
+    let schemas = dir.path().join("schemas");
+    std::fs::create_dir(&schemas).unwrap();
+    std::fs::write(
+        schemas.join("fictional-extra.toml"),
+        "[schema]\nid = \"fictional-extra\"\ntitle = \"FICTIONAL: extra\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\nfictional = true\n\n[[code]]\nnumber = 5001\nname = \"gain\"\ntitle = \"Gain\"\nspec = \"fictional\"\ntype = \"VD\"\n",
+    )
+    .unwrap();
+    let p = dir.path().join("axis.toml");
+    std::fs::write(&p, "schema = \"fictional-extra\"\n[values]\ngain = 1.5\n").unwrap();
+    let p = p.to_str().unwrap();
+    let (out, code) = validate(&["--schemas", schemas.to_str().unwrap(), p]);
+    assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+    let (out, code) = validate(&[p]);
+    assert_eq!(code, 1);
+    assert!(
+        out.starts_with("error[unknown-schema]: unknown schema `fictional-extra`\n"),
+        "{out}"
+    );
+    let (out, code) = validate(&["--schemas", "no/such/dir", p]);
+    assert_eq!(code, 2);
+    assert!(out.is_empty(), "{out}");
+}
+
+#[test]
+fn simulator_fixture_schemas_are_known_by_id() {
+    // The simulator's fictional fixtures are built in, so a set may name
+    // them by id as well as by path, without --schemas.
+    let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("axis.toml");
     std::fs::write(
         &p,
         "schema = \"fictional-ecs-demo\"\n[values]\nmax_speed = \"3000 rpm\"\n",
     )
     .unwrap();
-    let p = p.to_str().unwrap();
-    let (out, code) = validate(&["--schemas", "parameter-sets/fixtures", p]);
+    let (out, code) = validate(&[p.to_str().unwrap()]);
     assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
-    let (out, code) = validate(&[p]);
-    assert_eq!(code, 1);
-    assert!(out.starts_with("error[unknown-schema]: unknown schema `fictional-ecs-demo`\n"));
-    let (out, code) = validate(&["--schemas", "no/such/dir", p]);
-    assert_eq!(code, 2);
-    assert!(out.is_empty(), "{out}");
 }

@@ -2,10 +2,6 @@
 //! (`validate`, `schema check`, `diff`, `fingerprint`, `show`): human
 //! (rustc-style with a source snippet, colour only on a terminal and never
 //! with `NO_COLOR`), JSON, and GitHub workflow annotations.
-//!
-//! Declared from `cmd/validate.rs` with a `#[path]` attribute (main.rs and
-//! cmd/mod.rs belong to the lead); the other commands reach it as
-//! `super::validate::output`.
 
 // InputError carries a full Location; it is built on the error path only.
 #![allow(clippy::result_large_err)]
@@ -447,9 +443,18 @@ pub fn fail_input(e: &InputError) -> u8 {
     crate::EXIT_INPUT
 }
 
-/// A registry of the built-in schemas plus every `*.toml` schema of `dirs`.
+/// The schemas every command knows: the four built-ins, the simulator's
+/// fictional fixtures (so a set may name them by id as well as by path),
+/// and every `*.toml` schema of `dirs` (`--schemas`).
 pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    let mut r = driveset_schema::Registry::builtin()?;
+    let mut r = driveset_sim::catalog::registry().map_err(|e| {
+        InputError::new(
+            driveset_schema::InputErrorKind::Structure,
+            driveset_schema::Location::file_only("<built-in schemas>"),
+            format!("the schemas built into driveset do not load: {e}"),
+            "this is a build defect: report it with the output of `driveset --version`",
+        )
+    })?;
     for d in dirs {
         r.load_dir(d)?;
     }

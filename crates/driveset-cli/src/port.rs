@@ -351,15 +351,9 @@ pub fn into_client(
     Ok(c)
 }
 
-/// The built-in schemas, the simulator's fictional fixtures and every
-/// `*.toml` schema of `dirs`.
+/// The schemas every command knows ([`crate::output::registry`]).
 pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
-    let mut r = driveset_sim::catalog::registry().map_err(Fail::input)?;
-    for d in dirs {
-        r.load_dir(d)
-            .map_err(|e| Fail::input(e.render_human_string()))?;
-    }
-    Ok(r)
+    crate::output::registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
 }
 
 /// A schema and whether it came from a file.
@@ -380,15 +374,11 @@ pub fn resolve_schema(
     sim: Option<Family>,
     protocol: Option<ProtocolArg>,
 ) -> Result<SchemaChoice, Fail> {
-    let registry = registry(dirs)?;
+    let mut registry = registry(dirs)?;
     if let Some(a) = arg {
         let p = Path::new(a);
         if p.is_file() {
-            // A file is loaded over the built-in schemas only: the
-            // simulator's fixtures may be that very file.
-            let mut builtin = crate::cmd::validate::output::registry(dirs)
-                .map_err(|e| Fail::input(e.render_human_string()))?;
-            let schema = builtin
+            let schema = registry
                 .load_file(p)
                 .map_err(|e| Fail::input(e.render_human_string()))?;
             return Ok(SchemaChoice {
@@ -434,13 +424,10 @@ trait RenderString {
 
 impl RenderString for driveset_schema::InputError {
     fn render_human_string(&self) -> String {
-        crate::cmd::validate::output::input_error_human(
-            self,
-            crate::cmd::validate::output::Style::stderr(),
-        )
-        .trim_end()
-        .trim_start_matches("error: ")
-        .to_string()
+        crate::output::input_error_human(self, crate::output::Style::stderr())
+            .trim_end()
+            .trim_start_matches("error: ")
+            .to_string()
     }
 }
 

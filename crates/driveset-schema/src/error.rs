@@ -356,7 +356,8 @@ pub struct InputError {
 }
 
 impl InputError {
-    pub(crate) fn new(
+    /// An input error: what kind, where, what is wrong, what to do.
+    pub fn new(
         kind: InputErrorKind,
         location: Location,
         message: impl Into<String>,

@@ -1164,6 +1164,10 @@ pub const BUILTIN_FILES: [(&str, &str); 4] = [
 pub struct Registry {
     schemas: BTreeMap<String, Arc<Schema>>,
     by_path: HashMap<PathBuf, String>,
+    /// The source text each schema was parsed from, by id: the same file
+    /// reached twice (embedded and on disk, or by two relative paths) is one
+    /// schema, not a clash.
+    texts: HashMap<String, Arc<str>>,
 }
 
 impl Registry {
@@ -1184,11 +1188,15 @@ impl Registry {
     /// Add a schema from text (`extends` resolves against schemas already here).
     /// A second schema with an id already known is an error.
     pub fn add_source(&mut self, source: SourceFile) -> Result<Arc<Schema>, InputError> {
+        let text = source.text.clone();
         let schema = {
             let lookup = |id: &str| self.schemas.get(id).cloned();
             parse_schema(source, &lookup)?
         };
         if let Some(prev) = self.schemas.get(&schema.id) {
+            if self.texts.get(&schema.id).is_some_and(|t| **t == *text) {
+                return Ok(prev.clone());
+            }
             return Err(InputError::new(
                 InputErrorKind::Structure,
                 schema.id_loc.clone(),
@@ -1201,6 +1209,7 @@ impl Registry {
         }
         let schema = Arc::new(schema);
         self.schemas.insert(schema.id.clone(), schema.clone());
+        self.texts.insert(schema.id.clone(), text);
         Ok(schema)
     }
 

@@ -234,3 +234,29 @@ fn schema_structure_errors() {
         .unwrap_err();
     assert_eq!(e.message, "unknown protocol `can`");
 }
+
+#[test]
+fn the_same_schema_text_twice_is_one_schema_but_a_different_one_clashes() {
+    let mut r = Registry::builtin().unwrap();
+    let text = format!(
+        "{HEAD}\n[[code]]\nnumber = 5001\nname = \"a\"\ntitle = \"A\"\nspec = \"fictional\"\ntype = \"VD\"\n"
+    );
+    let first = r
+        .add_source(SourceFile::new("embedded/x.toml", text.as_str()))
+        .unwrap();
+    // Reached again from disk under another path: the same schema, no clash.
+    let again = r
+        .add_source(SourceFile::new("parameter-sets/x.toml", text.as_str()))
+        .unwrap();
+    assert!(std::sync::Arc::ptr_eq(&first, &again));
+    // A different file claiming the same id is still an error that names both.
+    let other = text.replace("title = \"A\"", "title = \"B\"");
+    let err = r
+        .add_source(SourceFile::new("other/x.toml", other.as_str()))
+        .unwrap_err();
+    assert_eq!(
+        err.message,
+        "schema id `fictional-x` is already defined by embedded/x.toml"
+    );
+    assert_eq!((err.location.line, err.location.column), (2, 6));
+}

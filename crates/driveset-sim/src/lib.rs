@@ -5,7 +5,15 @@
 //! The cut:
 //! - [`drive`]: the contract between a bus and a family model
 //!   ([`drive::ByteDrive`] for LUSTBUS / LECOM, [`drive::FrameDrive`] for
-//!   CAN), plus reaction-time settings.
+//!   CAN), plus reaction-time settings; [`table`] and [`catalog`]: the
+//!   parameter tables the models load from schemas.
+//! - Family models: [`mc6000`] and [`vf1000`] (sharing [`lustbus_drive`]),
+//!   [`tmd`], [`ecs`].
+//! - Buses: [`bus`] (a 7E1 line, `ByteLink`) and [`can_bus`] (`FrameLink`)
+//!   in virtual time, with [`faults`] and the [`log`]; [`open`] turns a
+//!   `sim://` port into one.
+//! - Real time: [`serve`] (pty / TCP), [`slcan_serve`] (an slcan adapter on
+//!   a pty), [`slcan_hub`] (two slcan hosts joined through two adapters).
 //! - [`rng`]: the seeded generator every random choice comes from, so a run
 //!   is reproducible from its seed.
 //!
@@ -21,9 +29,9 @@ pub mod drive;
 pub mod ecs;
 pub mod faults;
 pub mod log;
-pub mod open;
 pub mod lustbus_drive;
 pub mod mc6000;
+pub mod open;
 pub mod rng;
 pub mod serve;
 pub mod slcan_hub;

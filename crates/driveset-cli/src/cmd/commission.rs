@@ -113,13 +113,9 @@ pub struct Common {
 
 /// Load the manifest; print its findings (exit 2) if it has any.
 pub fn load(path: &Path) -> Result<Manifest, u8> {
-    // the built-in schemas only: sets name fixture schemas by path
-    let mut registry = match driveset_schema::Registry::builtin() {
+    let mut registry = match crate::output::registry(&[]) {
         Ok(r) => r,
-        Err(e) => {
-            eprint!("{}", e.render_human());
-            return Err(EXIT_INPUT);
-        }
+        Err(e) => return Err(crate::output::fail_input(&e)),
     };
     let loaded = match load_manifest(path, &mut registry) {
         Ok(l) => l,

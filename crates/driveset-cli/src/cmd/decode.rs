@@ -157,7 +157,8 @@ pub(crate) fn load_schema(registry: &mut Registry, arg: &str) -> anyhow::Result<
 }
 
 pub(crate) fn builtin_registry() -> anyhow::Result<Registry> {
-    Registry::builtin().map_err(|e| anyhow::anyhow!("built-in schemas: {}", e.render_human()))
+    crate::output::registry(&[])
+        .map_err(|e| anyhow::anyhow!("built-in schemas: {}", e.render_human()))
 }
 
 fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {

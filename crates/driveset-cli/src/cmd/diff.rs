@@ -13,7 +13,7 @@ use driveset_schema::{
 };
 use serde_json::{Value, json};
 
-use super::validate::output::{self, Style, plural};
+use crate::output::{self, Style, plural};
 
 /// Output format of `diff`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

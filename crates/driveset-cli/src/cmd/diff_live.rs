@@ -13,7 +13,7 @@ use driveset_schema::validate::display_value;
 use driveset_schema::{CodeKey, DiffKind, RawValue, Schema};
 use serde_json::{Value, json};
 
-use super::validate::output::{self, Style, plural};
+use crate::output::{self, Style, plural};
 use crate::port::{self, Fail};
 use crate::{EXIT_FINDINGS, EXIT_OK};
 

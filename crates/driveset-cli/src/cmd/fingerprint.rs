@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use super::validate::output;
+use crate::output;
 
 /// Arguments of `driveset fingerprint`.
 #[derive(clap::Args)]

@@ -13,7 +13,7 @@ use std::process::Command;
 
 use crate::report::textconv;
 
-use super::validate::output;
+use crate::output;
 
 /// Arguments of `driveset git-setup`.
 #[derive(clap::Args)]

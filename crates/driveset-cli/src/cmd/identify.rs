@@ -15,7 +15,7 @@ use driveset_proto::lustbus::ParameterCode;
 use driveset_schema::Protocol;
 use serde_json::json;
 
-use super::validate::output;
+use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::{EXIT_FINDINGS, EXIT_OK};
 

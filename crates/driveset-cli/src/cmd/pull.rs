@@ -19,8 +19,8 @@ use driveset_schema::{Format, Protocol, export};
 use serde_json::json;
 
 use super::identify::BusFormat;
-use super::validate::output;
 use crate::EXIT_OK;
+use crate::output;
 use crate::port::{self, Fail};
 use crate::progress::Progress;
 

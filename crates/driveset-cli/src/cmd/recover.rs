@@ -15,8 +15,8 @@ use driveset_engine::recover::{RecoverAction, RecoverOptions, recover as engine_
 use serde_json::json;
 
 use super::identify::BusFormat;
-use super::validate::output;
 use crate::EXIT_OK;
+use crate::output;
 use crate::port::{self, Fail};
 use crate::progress::Progress;
 

@@ -15,7 +15,7 @@ use driveset_link::{ByteLink, Link, LinkError, PortSpec};
 use serde_json::json;
 
 use super::identify::BusFormat;
-use super::validate::output;
+use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::{EXIT_BUS, EXIT_OK};
 

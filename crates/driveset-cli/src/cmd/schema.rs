@@ -11,7 +11,7 @@ use driveset_schema::error::read_text_file;
 use driveset_schema::schema::BUILTIN_FILES;
 use driveset_schema::{InputError, Schema, check_schema};
 
-use super::validate::output::{self, FileReport, Format, Report, Style};
+use crate::output::{self, FileReport, Format, Report, Style};
 
 /// `driveset schema ...`.
 #[derive(clap::Subcommand)]

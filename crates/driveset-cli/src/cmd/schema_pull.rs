@@ -30,8 +30,8 @@ use driveset_schema::value::raw_to_engineering;
 use serde_json::json;
 
 use super::identify::BusFormat;
-use super::validate::output;
 use crate::EXIT_OK;
+use crate::output;
 use crate::port::{self, Fail};
 
 /// `--family` of `schema pull`.

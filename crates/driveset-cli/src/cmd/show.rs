@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use driveset_schema::{Format, export};
 
-use super::validate::output;
+use crate::output;
 
 /// Target syntax of `show --to`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

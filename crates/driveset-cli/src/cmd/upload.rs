@@ -29,8 +29,8 @@ use driveset_engine::upload::{
 use serde_json::json;
 
 use super::identify::BusFormat;
-use super::validate::output;
 use crate::EXIT_OK;
+use crate::output;
 use crate::port::{self, Fail};
 use crate::progress::Progress;
 

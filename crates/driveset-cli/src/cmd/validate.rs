@@ -10,9 +10,6 @@
 // InputError carries a full Location; it is built on the error path only.
 #![allow(clippy::result_large_err)]
 
-#[path = "../output.rs"]
-pub mod output;
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -21,7 +18,7 @@ use driveset_schema::error::read_text_file;
 use driveset_schema::schema::parse_schema;
 use driveset_schema::{InputError, InputErrorKind, Location, Registry, Schema, check_schema};
 
-use output::{FileReport, Format, Report, Style};
+use crate::output::{FileReport, Format, Report, Style};
 
 /// Arguments of `driveset validate`.
 #[derive(clap::Args)]
@@ -171,9 +168,9 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
 
 /// Run `driveset validate`.
 pub fn run(args: Args) -> anyhow::Result<u8> {
-    let mut registry = match output::registry(&args.schemas) {
+    let mut registry = match crate::output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Ok(crate::output::fail_input(&e)),
     };
     let mut report = Report::default();
     for p in &args.paths {
@@ -194,6 +191,6 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         }
     }
     let style = Style::stdout();
-    output::emit(&report.render(args.format, style, ("file", "files")));
+    crate::output::emit(&report.render(args.format, style, ("file", "files")));
     Ok(report.exit_code())
 }

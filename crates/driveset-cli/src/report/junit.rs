@@ -10,7 +10,7 @@ use std::fmt::Write;
 
 use driveset_schema::{Finding, InputError, Location};
 
-use crate::cmd::validate::output::Report;
+use crate::output::Report;
 
 /// Escape text for XML 1.0 content and attribute values. Characters XML
 /// 1.0 cannot carry at all (most C0 controls) become U+FFFD.
