@@ -31,7 +31,9 @@ pub enum EngineError {
         source: LinkError,
     },
     /// No (valid) answer after every retry.
-    #[error("{target}: no answer to {what} after {tries} tries; check wiring, address and baud rate")]
+    #[error(
+        "{target}: no answer to {what} after {tries} tries; check wiring, address and baud rate"
+    )]
     NoAnswer {
         /// Where.
         target: Target,
@@ -52,7 +54,9 @@ pub enum EngineError {
     },
     /// The drive restarted (power-on indication) in the middle of the work:
     /// whatever was written since the last verified point is void.
-    #[error("{target}: the drive restarted during {what} (power-on flag set); the transaction is void and must be redone")]
+    #[error(
+        "{target}: the drive restarted during {what} (power-on flag set); the transaction is void and must be redone"
+    )]
     Restarted {
         /// Where.
         target: Target,
@@ -78,7 +82,9 @@ pub enum EngineError {
     },
     /// An upload did not land and was rolled back: the drive holds its old
     /// values again (read back and compared).
-    #[error("{target}: the upload did not land and was rolled back: {detail}; the drive holds its old values again (verified); journal {journal}")]
+    #[error(
+        "{target}: the upload did not land and was rolled back: {detail}; the drive holds its old values again (verified); journal {journal}"
+    )]
     RolledBack {
         /// Where.
         target: Target,
@@ -93,7 +99,9 @@ pub enum EngineError {
     /// An upload (or a recovery) failed and the drive could not be brought
     /// back to either the old or the new set: it holds a mix. The backup is
     /// in the journal.
-    #[error("{target}: the drive holds a mix of old and new values: {detail}; the backup is in {journal}: run `driveset recover {journal}` once the drive answers again")]
+    #[error(
+        "{target}: the drive holds a mix of old and new values: {detail}; the backup is in {journal}: run `driveset recover {journal}` once the drive answers again"
+    )]
     Inconsistent {
         /// Where.
         target: Target,

@@ -9,10 +9,10 @@
 //! virtual time against the in-process simulator.
 
 pub mod client;
-pub mod line;
 pub mod error;
 pub mod identify;
 pub mod journal;
+pub mod line;
 pub mod live;
 pub mod plan;
 pub mod pull;

@@ -2,7 +2,7 @@
 //! from its set (buses in parallel, drives on one bus in turn), drift status,
 //! and the commissioning report.
 
-pub mod report;
-pub mod manifest;
 pub mod commission;
+pub mod manifest;
+pub mod report;
 pub mod status;
