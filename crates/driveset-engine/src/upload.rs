@@ -722,6 +722,14 @@ impl Txn<'_> {
         };
         self.touched.insert(key);
         if let Err(e) = self.client.write(key, v) {
+            // A refusal the drive gave with its own cause (LUSTBUS / LECOM
+            // NAK: "the parameter value was not changed"; an SDO abort) left
+            // the code as it was: there is nothing of it to roll back. Any
+            // other failure (no answer, a garbled one) may or may not have
+            // landed, so the code stays touched.
+            if matches!(e, EngineError::Device { .. }) {
+                self.touched.remove(&key);
+            }
             self.outcomes
                 .insert(key, CodeOutcome::Failed(e.to_string()));
             return Err(Stop::Error(e));
@@ -1006,6 +1014,10 @@ impl Txn<'_> {
 /// Restore `backup` values of the `touched` codes in reverse `order`;
 /// CardWriteable codes (when `dataset`) again through a dataset download of
 /// every backed-up CardWriteable value, last (they were written first).
+///
+/// Every code is tried even when one fails, so as much of the old set as the
+/// drive takes is back; the first failure is returned and the caller reads
+/// back what each code holds.
 pub(crate) fn restore(
     client: &mut dyn DriveClient,
     schema: &Schema,
@@ -1015,12 +1027,15 @@ pub(crate) fn restore(
     dataset: bool,
     dataset_timeout: Duration,
 ) -> Result<(), EngineError> {
+    let mut first_error: Option<EngineError> = None;
     for (k, phase) in order.iter().rev() {
         if *phase == Phase::Dataset || !touched.contains(k) {
             continue;
         }
-        if let Some(old) = backup.get(k) {
-            client.write(*k, old)?;
+        if let Some(old) = backup.get(k)
+            && let Err(e) = client.write(*k, old)
+        {
+            first_error.get_or_insert(e);
         }
     }
     let staged: Vec<(CodeKey, &RawValue)> = order
@@ -1028,30 +1043,47 @@ pub(crate) fn restore(
         .filter(|(_, p)| *p == Phase::Dataset)
         .filter_map(|(k, _)| backup.get(k).map(|v| (*k, v)))
         .collect();
-    if dataset && !staged.is_empty() {
-        client.dataset_begin()?;
-        for (k, old) in &staged {
-            client.write(*k, old)?;
-        }
-        match client.dataset_commit(dataset_timeout)? {
-            DatasetOutcome::Accepted => {}
-            DatasetOutcome::Rejected { parameter } => {
-                let name = code_label(schema, CodeKey::new(parameter));
-                return Err(EngineError::Device {
-                    target: client.target().clone(),
-                    what: "dataset download of the backup (80-SLOAD)".into(),
-                    cause: crate::error::DeviceCause {
-                        cause: "dataset rejected".into(),
-                        raw: format!("SLOAD = {parameter}"),
-                        remedy: format!(
-                            "the drive refuses its own old value of {name}; restore it by hand"
-                        ),
-                    },
-                });
-            }
+    if dataset
+        && !staged.is_empty()
+        && let Err(e) = restore_dataset(client, schema, &staged, dataset_timeout)
+    {
+        first_error.get_or_insert(e);
+    }
+    match first_error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// The MC6000/7000 part of [`restore`]: one dataset download of the
+/// backed-up CardWriteable values.
+fn restore_dataset(
+    client: &mut dyn DriveClient,
+    schema: &Schema,
+    staged: &[(CodeKey, &RawValue)],
+    dataset_timeout: Duration,
+) -> Result<(), EngineError> {
+    client.dataset_begin()?;
+    for (k, old) in staged {
+        client.write(*k, old)?;
+    }
+    match client.dataset_commit(dataset_timeout)? {
+        DatasetOutcome::Accepted => Ok(()),
+        DatasetOutcome::Rejected { parameter } => {
+            let name = code_label(schema, CodeKey::new(parameter));
+            Err(EngineError::Device {
+                target: client.target().clone(),
+                what: "dataset download of the backup (80-SLOAD)".into(),
+                cause: crate::error::DeviceCause {
+                    cause: "dataset rejected".into(),
+                    raw: format!("SLOAD = {parameter}"),
+                    remedy: format!(
+                        "the drive refuses its own old value of {name}; restore it by hand"
+                    ),
+                },
+            })
         }
     }
-    Ok(())
 }
 
 /// What each backed-up code holds now: `old`, `new`, `other`, `unknown`.

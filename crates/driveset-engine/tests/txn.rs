@@ -319,6 +319,50 @@ fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_
 }
 
 #[test]
+fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let before = tmd_drive();
+    let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
+    client.fail_write = Some(4); // C0040 refused
+    client.also_fail_writes = vec![5]; // the restore of C0039/1 refused too
+    let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    // C0012 and C0011 were still restored after C0039/1 failed.
+    assert_eq!(
+        client.writes_logged(),
+        vec![
+            k(11),
+            k(12),
+            CodeKey::sub(39, 1),
+            k(40),
+            CodeKey::sub(39, 1),
+            k(12),
+            k(11),
+        ]
+    );
+    for key in [k(11), k(12), k(40)] {
+        assert_eq!(
+            client.drive.values.get(&key),
+            before.values.get(&key),
+            "{key:?}"
+        );
+    }
+    assert_ne!(
+        client.drive.values.get(&CodeKey::sub(39, 1)),
+        before.values.get(&CodeKey::sub(39, 1))
+    );
+    assert!(
+        matches!(*err.error, EngineError::Inconsistent { .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("driveset recover"), "{err}");
+    let j = JournalFile::open(&path).expect("journal");
+    assert_eq!(j.journal.state, TxnState::Failed);
+}
+
+#[test]
 fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_order() {
     let schema = tmd_schema();
     let dir = tempfile::tempdir().expect("tempdir");
@@ -344,9 +388,8 @@ fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_orde
             k(11),
             k(12),
             CodeKey::sub(39, 1),
-            k(40), // fails
-            k(40), // restore, reverse order
-            CodeKey::sub(39, 1),
+            k(40), // refused by the drive ("invalid value"): not changed, not restored
+            CodeKey::sub(39, 1), // restore, reverse order
             k(12),
             k(11),
         ]
@@ -536,7 +579,7 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     );
     let before = mc_drive();
     let mut client = FakeClient::new(schema, before.clone());
-    client.fail_write = Some(4); // 120, after 111
+    client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
         matches!(*err.error, EngineError::RolledBack { .. }),
@@ -552,7 +595,6 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     assert_eq!(
         ops[6..],
         [
-            Op::Write(k(120), RawValue::Int(0)),
             Op::Write(k(111), RawValue::Int(0)),
             Op::Begin,
             Op::Write(k(100), RawValue::Int(0)),

@@ -104,6 +104,8 @@ pub struct FakeClient {
     pub snapshots: Vec<Snapshot>,
     /// The n-th write (1-based, counted over the client's life) fails with a device error.
     pub fail_write: Option<usize>,
+    /// Further writes (1-based) that fail with a device error.
+    pub also_fail_writes: Vec<usize>,
     /// After this many writes every operation fails (cable pulled).
     pub dead_after_writes: Option<usize>,
     /// The n-th writes (1-based) find the drive restarted.
@@ -137,6 +139,7 @@ impl FakeClient {
             journal_at_first_write: None,
             snapshots: Vec::new(),
             fail_write: None,
+            also_fail_writes: Vec::new(),
             dead_after_writes: None,
             restart_at_writes: Vec::new(),
             writes: 0,
@@ -281,7 +284,7 @@ impl DriveClient for FakeClient {
                 what: format!("write {}", key.number),
             });
         }
-        if self.fail_write == Some(self.writes) {
+        if self.fail_write == Some(self.writes) || self.also_fail_writes.contains(&self.writes) {
             self.log.push((self.now(), Op::Write(key, raw.clone())));
             self.clock.sleep(self.write_time);
             return Err(EngineError::Device {
