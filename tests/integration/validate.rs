@@ -176,6 +176,29 @@ fn unrepresentable_with_nearest_values() {
 }
 
 #[test]
+fn not_an_enum_value() {
+    let out = expect(
+        "not-an-enum-value.toml",
+        &[(
+            "not-an-enum-value",
+            "C0001 = 2.5 is not one of its values",
+            4,
+            9,
+        )],
+    );
+    assert!(
+        out.contains("  = help: use a label or one of: 0 = \"Analog / Terminal / Keypad\", 1 = \"Code c40 / Terminal / Keypad\", "),
+        "{out}"
+    );
+}
+
+#[test]
+fn partial_enumeration_accepts_values_it_does_not_list() {
+    let (out, code) = validate(&["tests/data/sets/findings/partial-enum.toml"]);
+    assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+}
+
+#[test]
 fn unknown_enum_label() {
     let out = expect(
         "unknown-enum-label.toml",
@@ -333,8 +356,8 @@ fn lust_keys_in_spec_notation() {
 fn directory_summary_counts_files_and_findings() {
     let (out, code) = validate(&[DATA]);
     assert_eq!(code, 1);
-    // 18 files; rule-base.toml is the only clean one
-    assert!(out.ends_with("20 findings in 17 of 18 files\n"), "{out}");
+    // 20 files; rule-base.toml and partial-enum.toml are the clean ones
+    assert!(out.ends_with("21 findings in 18 of 20 files\n"), "{out}");
 }
 
 // ---------------------------------------------------------------------------

@@ -182,6 +182,8 @@ pub enum FindingKind {
     Unrepresentable,
     /// An enumeration label the code does not have.
     UnknownEnumLabel,
+    /// A number that is not one of a complete enumeration's values.
+    NotAnEnumValue,
     /// A bit-field member the code does not have.
     UnknownBitField,
     /// A value for a read-only code.
@@ -210,6 +212,7 @@ impl FindingKind {
             FindingKind::OutOfRange => "out-of-range",
             FindingKind::Unrepresentable => "unrepresentable",
             FindingKind::UnknownEnumLabel => "unknown-enum-label",
+            FindingKind::NotAnEnumValue => "not-an-enum-value",
             FindingKind::UnknownBitField => "unknown-bit-field",
             FindingKind::ReadOnly => "read-only",
             FindingKind::RuleViolation => "rule-violation",

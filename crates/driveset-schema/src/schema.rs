@@ -209,6 +209,11 @@ pub struct Code {
     pub compatible: Option<bool>,
     /// Enumeration labels.
     pub values: Option<EnumSource>,
+    /// The enumeration lists only some of the values the code takes (the
+    /// spec names a few, e.g. LUSTBUS 84-SIOT 0 = watchdog off): other
+    /// values in range are allowed. Without it an enumeration is complete
+    /// and a value it does not list is a finding.
+    pub values_partial: Option<bool>,
     /// Bit-field members.
     pub bits: Vec<BitField>,
     /// Where the `[[code]]` entry is (its `number`).
@@ -743,6 +748,7 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         password: r.boolean("password")?,
         read_clears: r.boolean("read_clears")?,
         compatible: r.boolean("compatible")?,
+        values_partial: r.boolean("values_partial")?,
         values,
         bits,
         loc,
@@ -1103,6 +1109,7 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
     fill!(password);
     fill!(read_clears);
     fill!(compatible);
+    fill!(values_partial);
     // facts with locations: compare by value only
     macro_rules! fill_loc {
         ($field:ident, $eq:expr) => {

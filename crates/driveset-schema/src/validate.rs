@@ -568,6 +568,30 @@ pub(crate) fn convert_value<'d>(
             return None;
         }
     }
+    // a complete enumeration: the value must be one it lists
+    if code.bits.is_empty()
+        && code.values_partial != Some(true)
+        && let RawValue::Int(v) = raw
+        && let Some(e) = code.values.as_ref().and_then(|src| schema.enum_of(src))
+        && schema.enum_label(code, v).is_none()
+    {
+        // enumeration keys are engineering integers
+        let listed: Vec<String> = e
+            .entries
+            .iter()
+            .map(|(value, label, _)| format!("{value} = {}", Quoted(label)))
+            .collect();
+        out.push(Finding::new(
+            FindingKind::NotAnEnumValue,
+            loc(),
+            format!(
+                "{what} = {} is not one of its values",
+                display_value(schema, code, &raw)
+            ),
+            format!("use a label or one of: {}", listed.join(", ")),
+        ));
+        return None;
+    }
     Some(Placed {
         raw,
         doc,
