@@ -13,6 +13,12 @@ mod report;
 
 use std::process::ExitCode;
 
+// `driveset validate` over a repository of sets allocates many small nodes;
+// mimalloc makes that ~10 % faster than the system allocator
+// (crates/driveset-schema/benches/validate_many.rs uses the same).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use clap::{Parser, Subcommand};
 
 /// Exit code: everything fine.
