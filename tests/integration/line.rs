@@ -1,8 +1,9 @@
-//! `driveset commission` / `driveset status` on the demo line (four
-//! simulated buses, thirteen drives) and line manifests in `validate`.
-//! Consecutive runs see the same simulated drives through the simulator's
-//! state directory (`DRIVESET_SIM_STATE_DIR`, one file per family: every
-//! demo bus is a different family).
+//! `driveset commission` / `driveset status` on the demo line (three
+//! simulated buses, one of them a LUSTBUS with MC6000 and VF1000 drives,
+//! thirteen drives) and line manifests in `validate`. Consecutive runs see
+//! the same simulated drives through the simulator's state directory
+//! (`DRIVESET_SIM_STATE_DIR`, one file per bus: `sim-lustbus.json` for the
+//! mixed LUSTBUS, `sim-FAMILY.json` for the others).
 
 use std::path::Path;
 
@@ -84,14 +85,14 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
             "report: target/driveset-report/report.json target/driveset-report/report.html\n",
         ))
         .stderr(predicate::str::contains(
-            "[transfer ] 2/3 transfer-12: verified, 10 codes written",
+            "[transfer] 2/3 transfer-12: verified, 10 codes written",
         ));
     let r = report(dir.path());
     assert_eq!(r["command"], "commission");
     assert_eq!(r["line"], "demo-line");
     assert_eq!(r["label"], "it test");
     assert_eq!(r["result"], "ok");
-    assert_eq!(r["buses"].as_array().unwrap().len(), 4);
+    assert_eq!(r["buses"].as_array().unwrap().len(), 3);
     for d in r["drives"].as_array().unwrap() {
         assert_eq!(d["result"], "verified", "{d}");
         assert_eq!(d["fingerprint_after"], d["set_fingerprint"], "{d}");
@@ -169,17 +170,17 @@ fn a_killed_run_resumes_and_skips_the_verified_drives() {
         .assert()
         .code(3)
         .stdout(predicate::str::contains(
-            "13 of 13 drives commissioned: 4 verified, 0 unchanged, 0 already verified, 0 drift, 0 rolled back, 9 failed; line demo-line: FAILED\n",
+            "13 of 13 drives commissioned: 3 verified, 0 unchanged, 0 already verified, 0 drift, 0 rolled back, 10 failed; line demo-line: FAILED\n",
         ))
         .stdout(predicate::str::contains(
-            "press-axis-2: not reached: the run stopped after 1 drive(s) on bus `press` (--stop-after); run the command again to resume\n",
+            "press-axis-2: not reached: the run stopped after 1 drive(s) on bus `lustbus` (--stop-after); run the command again to resume\n",
         ));
     in_dir(dir.path())
         .args(["commission", &demo()])
         .assert()
         .code(0)
         .stdout(predicate::str::contains(
-            "13 of 13 drives commissioned: 9 verified, 0 unchanged, 4 already verified",
+            "13 of 13 drives commissioned: 10 verified, 0 unchanged, 3 already verified",
         ));
     let r = report(dir.path());
     let already: Vec<String> = results(&r)
@@ -187,10 +188,7 @@ fn a_killed_run_resumes_and_skips_the_verified_drives() {
         .filter(|(_, res)| res == "already-verified")
         .map(|(n, _)| n)
         .collect();
-    assert_eq!(
-        already,
-        ["press-axis-1", "conveyor-5", "transfer-11", "handling-1"]
-    );
+    assert_eq!(already, ["press-axis-1", "transfer-11", "handling-1"]);
     // --fresh commissions everything again (the drives hold their sets: unchanged)
     in_dir(dir.path())
         .args(["commission", &demo(), "--fresh", "--only", "transfer"])

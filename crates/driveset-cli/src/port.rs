@@ -147,9 +147,26 @@ pub struct OpenPort {
 }
 
 impl OpenPort {
-    /// The family a `sim://` port simulates.
+    /// The family a `sim://` port simulates (on a mixed LUSTBUS,
+    /// `sim://lustbus`, the family of its first drive).
     pub fn sim_family(&self) -> Option<Family> {
         self.sim.as_ref().map(SimLink::family)
+    }
+
+    /// The family of the simulated drive at `address`; on a mixed LUSTBUS
+    /// without an address, or at an address it does not have, the family
+    /// of the bus that speaks `schema`'s protocol, if any, else the first.
+    fn sim_family_for(&self, schema: &Schema, address: Option<u8>) -> Option<Family> {
+        let sim = self.sim.as_ref()?;
+        if let Some(f) = address.and_then(|a| sim.family_of(a)) {
+            return Some(f);
+        }
+        let families = sim.families();
+        families
+            .iter()
+            .copied()
+            .find(|&f| family_protocol(f) == schema.protocol)
+            .or_else(|| families.first().copied())
     }
 }
 
@@ -177,13 +194,26 @@ fn split_state(port: &str) -> (String, Option<PathBuf>) {
     }
 }
 
-/// The family a `sim://` port names, without opening it.
+/// The family a `sim://` port names, without opening it (on a mixed
+/// LUSTBUS, `sim://lustbus?mc6000=..&vf1000=..`, the first family key's).
 pub fn peek_sim_family(port: &str) -> Option<Family> {
+    peek_sim_family_at(port, None)
+}
+
+/// The family of the drive at `address` on a `sim://` port, without
+/// opening it; without an address, or at one the port does not list, as
+/// [`peek_sim_family`].
+pub fn peek_sim_family_at(port: &str, address: Option<u8>) -> Option<Family> {
     let (port, _) = split_state(port);
-    match PortSpec::parse(&port).ok()? {
-        PortSpec::Sim(s) => driveset_sim::open::parse_family(&s.family).ok(),
-        _ => None,
-    }
+    let PortSpec::Sim(s) = PortSpec::parse(&port).ok()? else {
+        return None;
+    };
+    let drives = s.drives();
+    let name = address
+        .and_then(|a| drives.iter().find(|d| d.1 == a))
+        .or(drives.first())
+        .map_or(s.family.as_str(), |d| d.0);
+    driveset_sim::open::parse_family(name).ok()
 }
 
 /// Open a port string (see the module docs).
@@ -227,8 +257,14 @@ pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
 
 /// Check that `schema` can talk over `port`: the protocol's kind of link,
 /// and on `sim://` the simulated family (another family of the same
-/// protocol passes with `force`).
-pub fn check_fit(port: &OpenPort, schema: &Schema, force: bool) -> Result<(), Fail> {
+/// protocol passes with `force`): on a mixed LUSTBUS (`sim://lustbus`) the
+/// family of the drive at `address`.
+pub fn check_fit(
+    port: &OpenPort,
+    schema: &Schema,
+    address: Option<u8>,
+    force: bool,
+) -> Result<(), Fail> {
     let want = protocol_class(schema.protocol);
     let is_frames = matches!(port.link, Link::Frames(_));
     match (want, is_frames) {
@@ -248,13 +284,16 @@ pub fn check_fit(port: &OpenPort, schema: &Schema, force: bool) -> Result<(), Fa
         }
         _ => {}
     }
-    if let Some(f) = port.sim_family() {
+    if let Some(f) = port.sim_family_for(schema, address) {
+        let holds = match (address, port.sim.as_ref().is_some_and(SimLink::is_mixed)) {
+            (Some(a), true) => format!("has a {} drive at address {a}", f.name()),
+            _ => format!("simulates {} drives", f.name()),
+        };
         let sim_proto = family_protocol(f);
         if protocol_class(sim_proto) != want {
             return Err(Fail::input(format!(
-                "{} simulates {} drives ({}), schema `{}` is for {}; use a set / schema of that family",
+                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family",
                 port.name,
-                f.name(),
                 protocol_name(sim_proto),
                 schema.id,
                 protocol_name(schema.protocol)
@@ -262,9 +301,8 @@ pub fn check_fit(port: &OpenPort, schema: &Schema, force: bool) -> Result<(), Fa
         }
         if sim_proto != schema.protocol && !force {
             return Err(Fail::input(format!(
-                "{} simulates {} drives ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
+                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
                 port.name,
-                f.name(),
                 protocol_name(sim_proto),
                 schema.id,
                 protocol_name(schema.protocol)
@@ -282,7 +320,7 @@ pub fn client(
     address: u8,
     force: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
-    check_fit(port, &schema, force)?;
+    check_fit(port, &schema, Some(address), force)?;
     let c: Box<dyn DriveClient> = match (&port.link, schema.protocol) {
         (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
             Box::new(LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
@@ -335,7 +373,7 @@ pub fn into_client(
     if port.sim.is_some() {
         return client(&port, schema, address, force);
     }
-    check_fit(&port, &schema, force)?;
+    check_fit(&port, &schema, Some(address), force)?;
     let c: Box<dyn DriveClient> = match (port.link, schema.protocol) {
         (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
             Box::new(LustbusClient::new(l, schema, address).map_err(Fail::from)?)

@@ -9,6 +9,7 @@
 //! | `slcan:///dev/ttyACM0?bitrate=500000` | slcan (Lawicel) USB-CAN adapter ([`crate::slcan`]) |
 //! | `can://can0` | SocketCAN interface (feature `socketcan`) |
 //! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim) |
+//! | `sim://lustbus?mc6000=1,2&vf1000=5,6` | in-process simulated LUSTBUS with inverters and servocontrollers on one line |
 //!
 //! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
 //! adapter's own serial line; for `can://` a synonym of `bitrate`), the CAN
@@ -49,9 +50,21 @@ const SIM_KEYS: &[&str] = &[
     "bitrate",
     "faults",
     "keypad",
+    "mc6000",
+    "mc7000",
     "seed",
     "state",
+    "vf1000",
 ];
+
+/// The bus name of a simulated LUSTBUS that holds drives of several
+/// families: `sim://lustbus?mc6000=1,2&vf1000=5` (LUSTBUS protocol section
+/// 1, joint operation of inverters and servocontrollers).
+pub const SIM_MIXED_LUSTBUS: &str = "lustbus";
+
+/// The per-family address keys of [`SIM_MIXED_LUSTBUS`]: the LUSTBUS
+/// families.
+pub const SIM_FAMILY_KEYS: &[&str] = &["mc6000", "mc7000", "vf1000"];
 
 /// Where a bus is: a parsed port string. See the module docs for the forms.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -95,19 +108,54 @@ pub enum PortSpec {
     Sim(SimSpec),
 }
 
-/// A `sim://FAMILY?addresses=...` port: simulated drives of one family.
+/// A `sim://FAMILY?addresses=...` port (simulated drives of one family), or
+/// a `sim://lustbus?mc6000=...&vf1000=...` port (a LUSTBUS holding drives of
+/// several families, [`SIM_MIXED_LUSTBUS`]).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct SimSpec {
-    /// Drive family (schema name), e.g. `lust-vf1000`.
+    /// Drive family (schema name), e.g. `lust-vf1000`, or `lustbus` for a
+    /// mixed LUSTBUS.
     pub family: String,
-    /// Bus addresses of the simulated drives, in the order given.
+    /// Bus addresses of the simulated drives, in the order given (empty on
+    /// a mixed bus: see [`SimSpec::families`]).
     pub addresses: Vec<u8>,
+    /// A mixed bus's drives: per family key ([`SIM_FAMILY_KEYS`]) the
+    /// addresses, in the order given. Empty on a single-family bus.
+    pub families: BTreeMap<String, Vec<u8>>,
     /// Line rate for serial families.
     pub baud: Option<u32>,
     /// Bit rate for CAN families.
     pub bitrate: Option<u32>,
     /// Further simulator options ([`SIM_OPTION_KEYS`]), by key.
     pub options: BTreeMap<String, String>,
+}
+
+impl SimSpec {
+    /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`).
+    pub fn is_mixed(&self) -> bool {
+        !self.families.is_empty()
+    }
+
+    /// Every simulated drive as (family as given, address): the per-family
+    /// keys' drives on a mixed bus, else `family` at each of `addresses`.
+    pub fn drives(&self) -> Vec<(&str, u8)> {
+        if self.is_mixed() {
+            self.families
+                .iter()
+                .flat_map(|(f, list)| list.iter().map(move |&a| (f.as_str(), a)))
+                .collect()
+        } else {
+            self.addresses
+                .iter()
+                .map(|&a| (self.family.as_str(), a))
+                .collect()
+        }
+    }
+
+    /// Every simulated drive's address.
+    pub fn all_addresses(&self) -> Vec<u8> {
+        self.drives().into_iter().map(|(_, a)| a).collect()
+    }
 }
 
 /// A port string that does not parse: the input and what is wrong.
@@ -262,6 +310,13 @@ pub enum PortSpecErrorKind {
         /// The address.
         address: u8,
     },
+    /// A per-family address key (`mc6000=`) on a `sim://` port that is not
+    /// `sim://lustbus`, or `addresses=` on `sim://lustbus`.
+    #[error("{reason}")]
+    MixedBus {
+        /// What is wrong and what to write instead.
+        reason: String,
+    },
 }
 
 impl PortSpec {
@@ -313,7 +368,8 @@ impl std::str::FromStr for PortSpec {
 }
 
 /// Writes the canonical form: defaults not spelled out, options in a fixed
-/// order (`addresses`, `baud`, `bitrate`, then the rest alphabetically).
+/// order (`addresses` or the per-family keys alphabetically, `baud`,
+/// `bitrate`, then the rest alphabetically).
 impl fmt::Display for PortSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut q = Query::default();
@@ -351,7 +407,13 @@ impl fmt::Display for PortSpec {
                     .map(u8::to_string)
                     .collect::<Vec<_>>()
                     .join(",");
-                q.text("addresses", &addresses);
+                if !sim.is_mixed() {
+                    q.text("addresses", &addresses);
+                }
+                for (key, list) in &sim.families {
+                    let list = list.iter().map(u8::to_string).collect::<Vec<_>>();
+                    q.text(key, &list.join(","));
+                }
                 q.num("baud", sim.baud);
                 q.num("bitrate", sim.bitrate);
                 for (key, value) in &sim.options {
@@ -676,23 +738,66 @@ fn parse_sim(family: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErro
         });
     }
     let mut opts = Options::parse(query, "sim://", SIM_KEYS)?;
-    let Some(list) = opts.map.remove("addresses") else {
-        return Err(PortSpecErrorKind::Missing {
-            scheme: "sim",
-            what: "addresses= (the simulated drives' bus addresses)",
-            example: EXAMPLE,
-        });
+    let mut families = BTreeMap::new();
+    for key in SIM_FAMILY_KEYS {
+        if let Some(list) = opts.map.remove(*key) {
+            families.insert(key.to_string(), list);
+        }
+    }
+    let mixed = family.eq_ignore_ascii_case(SIM_MIXED_LUSTBUS);
+    let mut seen = Vec::new();
+    let mut address_list = |list: &str| -> Result<Vec<u8>, PortSpecErrorKind> {
+        let mut out = Vec::new();
+        for item in list.split(',') {
+            let address = item
+                .trim()
+                .parse::<u8>()
+                .map_err(|_| PortSpecErrorKind::BadAddress { value: item.into() })?;
+            if seen.contains(&address) {
+                return Err(PortSpecErrorKind::DuplicateAddress { address });
+            }
+            seen.push(address);
+            out.push(address);
+        }
+        Ok(out)
     };
     let mut addresses = Vec::new();
-    for item in list.split(',') {
-        let address = item
-            .trim()
-            .parse::<u8>()
-            .map_err(|_| PortSpecErrorKind::BadAddress { value: item.into() })?;
-        if addresses.contains(&address) {
-            return Err(PortSpecErrorKind::DuplicateAddress { address });
+    let mut per_family = BTreeMap::new();
+    if mixed {
+        if opts.map.contains_key("addresses") {
+            return Err(PortSpecErrorKind::MixedBus {
+                reason: format!(
+                    "sim://{family} takes the addresses per family ({}=...), not addresses=; e.g. sim://lustbus?mc6000=1,2&vf1000=5",
+                    SIM_FAMILY_KEYS.join("=..., ")
+                ),
+            });
         }
-        addresses.push(address);
+        if families.is_empty() {
+            return Err(PortSpecErrorKind::Missing {
+                scheme: "sim",
+                what: "the drives per family (mc6000=, mc7000=, vf1000=) on a mixed LUSTBUS",
+                example: "sim://lustbus?mc6000=1,2&vf1000=5",
+            });
+        }
+        for (key, list) in &families {
+            per_family.insert(key.clone(), address_list(list)?);
+        }
+    } else {
+        if let Some(key) = families.keys().next() {
+            return Err(PortSpecErrorKind::MixedBus {
+                reason: format!(
+                    "`{key}=` (drives per family) is for a mixed LUSTBUS, sim://lustbus?{key}=...; on sim://{family} give addresses="
+                ),
+            });
+        }
+        let Some(list) = opts.map.remove("addresses") else {
+            return Err(PortSpecErrorKind::Missing {
+                scheme: "sim",
+                what: "addresses= (the simulated drives' bus addresses)",
+                example: EXAMPLE,
+            });
+        };
+        addresses = address_list(&list)?;
     }
     let baud = opts.line_baud()?;
     let bitrate = opts.bitrate()?;
@@ -708,6 +813,7 @@ fn parse_sim(family: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErro
     Ok(PortSpec::Sim(SimSpec {
         family: family.into(),
         addresses,
+        families: per_family,
         baud,
         bitrate,
         options: opts.map,

@@ -126,6 +126,7 @@ fn sim_buses() {
         PortSpec::Sim(SimSpec {
             family: "lust-vf1000".into(),
             addresses: vec![3, 1, 2],
+            families: BTreeMap::new(),
             baud: Some(19200),
             bitrate: None,
             options,
@@ -150,6 +151,57 @@ fn sim_buses() {
             .map(|s| s.to_string()),
         Ok("sim://x?addresses=7".into())
     );
+}
+
+#[test]
+fn mixed_lustbus_sim_buses() {
+    let PortSpec::Sim(sim) = ok("sim://lustbus?vf1000=7,5&mc6000=1,2&baud=19200") else {
+        panic!("not a sim port");
+    };
+    assert!(sim.is_mixed());
+    assert!(sim.addresses.is_empty());
+    assert_eq!(sim.families["mc6000"], [1, 2]);
+    assert_eq!(sim.families["vf1000"], [7, 5]);
+    assert_eq!(
+        sim.drives(),
+        [("mc6000", 1), ("mc6000", 2), ("vf1000", 7), ("vf1000", 5)]
+    );
+    assert_eq!(sim.all_addresses(), [1, 2, 7, 5]);
+    round_trip(
+        "sim://lustbus?vf1000=7,5&seed=1&mc6000=1,2&baud=19200",
+        "sim://lustbus?mc6000=1,2&vf1000=7,5&baud=19200&seed=1",
+    );
+    round_trip("sim://lustbus?mc7000=3", "sim://lustbus?mc7000=3");
+    let PortSpec::Sim(single) = ok("sim://mc6000?addresses=1,2") else {
+        panic!("not a sim port");
+    };
+    assert!(!single.is_mixed());
+    assert_eq!(single.drives(), [("mc6000", 1), ("mc6000", 2)]);
+    // One address space across the families.
+    assert_eq!(
+        err("sim://lustbus?mc6000=1,2&vf1000=2"),
+        PortSpecErrorKind::DuplicateAddress { address: 2 }
+    );
+    assert_eq!(
+        err("sim://lustbus?vf1000=x"),
+        PortSpecErrorKind::BadAddress { value: "x".into() }
+    );
+    assert!(matches!(
+        err("sim://lustbus"),
+        PortSpecErrorKind::Missing { scheme: "sim", .. }
+    ));
+    assert!(matches!(
+        err("sim://lustbus?addresses=1&mc6000=2"),
+        PortSpecErrorKind::MixedBus { ref reason } if reason.contains("not addresses=")
+    ));
+    assert!(matches!(
+        err("sim://mc6000?addresses=1&vf1000=2"),
+        PortSpecErrorKind::MixedBus { ref reason } if reason.contains("sim://lustbus?vf1000=")
+    ));
+    assert!(matches!(
+        err("sim://lustbus?tmd=1"),
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "sim://", .. } if key == "tmd"
+    ));
 }
 
 #[test]

@@ -14,6 +14,15 @@
 //! Addresses: LUSTBUS 1..=30 (section 4.2), LECOM 1..=99 except the group
 //! addresses 10, 20, ... 90 (§4c), CAN node ids 1..=127.
 //!
+//! # Mixed LUSTBUS
+//!
+//! `sim://lustbus?mc6000=1,2&vf1000=5,6` puts MC6000/7000 servocontrollers
+//! and VF1000 inverters on one simulated line, as the LUSTBUS protocol
+//! allows (section 1, joint operation of inverters and servocontrollers):
+//! one address space 1..=30 across the families. Its state file (from
+//! [`STATE_DIR_ENV`]) is `DIR/sim-lustbus.json`, its dump's `family` is
+//! `lustbus`, each drive entry carries its own family.
+//!
 //! # Options
 //!
 //! - `seed=N`: every random choice of the drives (reaction times) and of
@@ -29,7 +38,8 @@
 //!   [`SimLink::save`]). `driveset-link`'s port parser does not accept this
 //!   key yet; until it does, set the environment variable
 //!   [`STATE_DIR_ENV`] (`DRIVESET_SIM_STATE_DIR=DIR`): every `sim://` bus
-//!   then keeps its state in `DIR/sim-FAMILY.json`, so a sequence of CLI
+//!   then keeps its state in `DIR/sim-FAMILY.json` (`sim-lustbus.json` for
+//!   a mixed LUSTBUS), so a sequence of CLI
 //!   invocations (`upload`, then `diff --port`) sees the same drives.
 //!
 //! # State dumps
@@ -54,7 +64,9 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
-use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE};
+use driveset_link::spec::{
+    ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE, SIM_MIXED_LUSTBUS,
+};
 use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, SimSpec};
 use driveset_link::{PortSpec, VirtualClock};
 use driveset_proto::can::NodeId;
@@ -108,6 +120,22 @@ pub enum SimOpenError {
     /// The same address twice.
     #[error("address {0} is given twice; every drive needs its own address")]
     DuplicateAddress(u8),
+    /// A mixed bus with a family that cannot share a LUSTBUS line.
+    #[error(
+        "{family} drives cannot be on a mixed LUSTBUS (sim://lustbus holds mc6000 / mc7000 and vf1000 drives only); put them on a sim://{family} bus of their own"
+    )]
+    NotLustbus {
+        /// The family.
+        family: &'static str,
+    },
+    /// A [`SimConfig`] whose per-drive families do not match its addresses.
+    #[error("{families} drive families for {addresses} addresses; give one family per address")]
+    FamilyCount {
+        /// How many families.
+        families: usize,
+        /// How many addresses.
+        addresses: usize,
+    },
     /// A line rate the simulated line does not run at.
     #[error("{baud} baud is not supported; a 7E1 line runs at one of {allowed} baud")]
     BadBaud {
@@ -230,10 +258,15 @@ pub fn check_address(family: Family, address: u8) -> Result<(), SimOpenError> {
 /// with which seed, faults and state file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimConfig {
-    /// The drive family (one family per bus).
+    /// The drive family; on a mixed LUSTBUS the family of the first drive
+    /// (see [`SimConfig::drive_families`]).
     pub family: Family,
     /// The drives' addresses (node ids on CAN), in the order given.
     pub addresses: Vec<u8>,
+    /// Empty: every drive is of `family`, the bus is named after it.
+    /// Otherwise a mixed LUSTBUS (`sim://lustbus`): the family of each drive,
+    /// in the order of `addresses`.
+    pub drive_families: Vec<Family>,
     /// Line rate (LUSTBUS / LECOM families).
     pub baud: u32,
     /// CAN bit rate (ECS).
@@ -255,6 +288,7 @@ impl SimConfig {
         SimConfig {
             family,
             addresses,
+            drive_families: Vec::new(),
             baud: DEFAULT_BAUD,
             bitrate: DEFAULT_BITRATE,
             seed: 0,
@@ -264,11 +298,51 @@ impl SimConfig {
         }
     }
 
+    /// A mixed LUSTBUS (`sim://lustbus`): `drives` as (family, address),
+    /// in bus order; otherwise as [`SimConfig::new`]. Not yet checked.
+    pub fn mixed(drives: &[(Family, u8)]) -> Self {
+        let family = drives.first().map_or(Family::Mc6000, |d| d.0);
+        let mut config = SimConfig::new(family, drives.iter().map(|d| d.1).collect());
+        config.drive_families = drives.iter().map(|d| d.0).collect();
+        config
+    }
+
+    /// Whether this is a mixed LUSTBUS.
+    pub fn is_mixed(&self) -> bool {
+        !self.drive_families.is_empty()
+    }
+
+    /// The bus's name in state files and dumps: the family, or `lustbus`
+    /// for a mixed LUSTBUS.
+    pub fn bus_name(&self) -> &'static str {
+        if self.is_mixed() {
+            SIM_MIXED_LUSTBUS
+        } else {
+            self.family.name()
+        }
+    }
+
+    /// Every drive as (family, address), in bus order.
+    pub fn drives(&self) -> Vec<(Family, u8)> {
+        self.addresses
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| (*self.drive_families.get(i).unwrap_or(&self.family), a))
+            .collect()
+    }
+
     /// The settings a `sim://` port gives; without `state=`, the state
     /// file comes from [`STATE_DIR_ENV`] if that is set.
     pub fn from_spec(spec: &SimSpec) -> Result<Self, SimOpenError> {
-        let family = parse_family(&spec.family)?;
-        let mut config = SimConfig::new(family, spec.addresses.clone());
+        let mut config = if spec.is_mixed() {
+            let mut drives = Vec::new();
+            for (name, address) in spec.drives() {
+                drives.push((parse_family(name)?, address));
+            }
+            SimConfig::mixed(&drives)
+        } else {
+            SimConfig::new(parse_family(&spec.family)?, spec.addresses.clone())
+        };
         config.baud = spec.baud.unwrap_or(DEFAULT_BAUD);
         config.bitrate = spec.bitrate.unwrap_or(DEFAULT_BITRATE);
         for (key, value) in &spec.options {
@@ -296,7 +370,7 @@ impl SimConfig {
             }
         }
         if config.state.is_none() {
-            config.state = state_file_from_env(family);
+            config.state = state_file_for(config.bus_name());
         }
         config.check()?;
         Ok(config)
@@ -307,8 +381,19 @@ impl SimConfig {
         if self.addresses.is_empty() {
             return Err(SimOpenError::NoAddresses);
         }
-        for (i, &a) in self.addresses.iter().enumerate() {
-            check_address(self.family, a)?;
+        if self.is_mixed() && self.drive_families.len() != self.addresses.len() {
+            return Err(SimOpenError::FamilyCount {
+                families: self.drive_families.len(),
+                addresses: self.addresses.len(),
+            });
+        }
+        for (i, (family, a)) in self.drives().into_iter().enumerate() {
+            if self.is_mixed() && !matches!(family, Family::Mc6000 | Family::Vf1000) {
+                return Err(SimOpenError::NotLustbus {
+                    family: family.name(),
+                });
+            }
+            check_address(family, a)?;
             if self.addresses[..i].contains(&a) {
                 return Err(SimOpenError::DuplicateAddress(a));
             }
@@ -339,10 +424,10 @@ impl SimConfig {
     pub fn byte_drives(&self) -> Result<Vec<Box<dyn ByteDrive>>, SimOpenError> {
         self.check()?;
         let mut drives: Vec<Box<dyn ByteDrive>> = Vec::new();
-        for &address in &self.addresses {
+        for (family, address) in self.drives() {
             let seed = self.drive_seed(address);
             let lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
-            let built: Result<Box<dyn ByteDrive>, String> = match self.family {
+            let built: Result<Box<dyn ByteDrive>, String> = match family {
                 Family::Mc6000 => Mc6000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Tmd => TmdDrive::new(TmdOptions {
@@ -353,7 +438,7 @@ impl SimConfig {
                 Family::Ecs => Err("ECS drives are on CAN, not on a character line".into()),
             };
             drives.push(built.map_err(|reason| SimOpenError::Drive {
-                family: self.family.name(),
+                family: family.name(),
                 address,
                 reason,
             })?);
@@ -390,7 +475,7 @@ impl SimConfig {
     pub fn byte_line(&self, log: EventLog) -> Result<ByteLine, SimOpenError> {
         let mut drives = self.byte_drives()?;
         if let Some(path) = &self.state {
-            load_state_into(path, self.family, &mut drives)?;
+            load_state_into(path, self.bus_name(), &mut drives)?;
         }
         Ok(ByteLine::new(self.baud, drives)?
             .with_faults(self.faults.clone(), self.seed)
@@ -401,7 +486,7 @@ impl SimConfig {
     pub fn frame_line(&self, log: EventLog) -> Result<FrameLine, SimOpenError> {
         let mut drives = self.frame_drives()?;
         if let Some(path) = &self.state {
-            load_state_into(path, self.family, &mut drives)?;
+            load_state_into(path, self.bus_name(), &mut drives)?;
         }
         Ok(FrameLine::new(self.bitrate, drives)?
             .with_faults(self.faults.clone(), self.seed)
@@ -411,8 +496,14 @@ impl SimConfig {
 
 /// `DIR/sim-FAMILY.json` if [`STATE_DIR_ENV`] is set and not empty.
 pub fn state_file_from_env(family: Family) -> Option<PathBuf> {
+    state_file_for(family.name())
+}
+
+/// `DIR/sim-BUS.json` (BUS a family name or `lustbus`) if
+/// [`STATE_DIR_ENV`] is set and not empty.
+fn state_file_for(bus: &str) -> Option<PathBuf> {
     let dir = std::env::var_os(STATE_DIR_ENV).filter(|d| !d.is_empty())?;
-    Some(PathBuf::from(dir).join(format!("sim-{}.json", family.name())))
+    Some(PathBuf::from(dir).join(format!("sim-{bus}.json")))
 }
 
 /// A state dump: every drive of one simulated bus (module docs).
@@ -420,7 +511,8 @@ pub fn state_file_from_env(family: Family) -> Option<PathBuf> {
 pub struct StateDump {
     /// [`STATE_FORMAT`].
     pub format: String,
-    /// The bus's family ([`Family::name`]).
+    /// The bus's family ([`Family::name`]), or `lustbus` for a mixed
+    /// LUSTBUS.
     pub family: String,
     /// The line rate (character lines), informative.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -501,10 +593,10 @@ impl StateDrive for Box<dyn FrameDrive> {
     }
 }
 
-fn dump_of<D: StateDrive>(family: Family, drives: &[D]) -> StateDump {
+fn dump_of<D: StateDrive>(bus: &str, drives: &[D]) -> StateDump {
     StateDump {
         format: STATE_FORMAT.into(),
-        family: family.name().into(),
+        family: bus.into(),
         baud: None,
         bitrate: None,
         telegrams: None,
@@ -517,10 +609,15 @@ fn dump_of<D: StateDrive>(family: Family, drives: &[D]) -> StateDump {
 
 /// The dump of a character line's drives, with rate and telegram count.
 pub fn byte_line_dump(family: Family, line: &ByteLine) -> StateDump {
+    named_byte_line_dump(family.name(), line)
+}
+
+/// [`byte_line_dump`] of a bus named `bus` (a family or `lustbus`).
+fn named_byte_line_dump(bus: &str, line: &ByteLine) -> StateDump {
     StateDump {
         baud: Some(line.baud()),
         telegrams: Some(line.telegrams()),
-        ..dump_of(family, line.drives())
+        ..dump_of(bus, line.drives())
     }
 }
 
@@ -529,7 +626,7 @@ pub fn frame_line_dump(family: Family, line: &FrameLine) -> StateDump {
     StateDump {
         bitrate: Some(line.bitrate()),
         telegrams: Some(line.telegrams()),
-        ..dump_of(family, line.drives())
+        ..dump_of(family.name(), line.drives())
     }
 }
 
@@ -633,22 +730,28 @@ pub fn parse_canonical(text: &str) -> Result<(String, BTreeMap<CodeKey, RawValue
     Ok((schema, values))
 }
 
-/// Load the state file at `path` (if it exists) into `drives`.
+/// Load the state file at `path` (if it exists) into `drives` of the bus
+/// named `bus` (a family or `lustbus`).
 fn load_state_into<D: StateDrive>(
     path: &Path,
-    family: Family,
+    bus: &str,
     drives: &mut [D],
 ) -> Result<(), SimOpenError> {
     if !path.exists() {
         return Ok(());
     }
     let dump = StateDump::read(path)?;
-    apply_dump(path, family, &dump, drives)
+    apply_dump(path, bus, &dump, drives)
+}
+
+/// A family or bus name as dumps compare it (`lust-mc6000` is `mc6000`).
+fn bus_key(name: &str) -> String {
+    parse_family(name).map_or_else(|_| name.trim().to_ascii_lowercase(), |f| f.name().into())
 }
 
 fn apply_dump<D: StateDrive>(
     path: &Path,
-    family: Family,
+    bus: &str,
     dump: &StateDump,
     drives: &mut [D],
 ) -> Result<(), SimOpenError> {
@@ -656,16 +759,20 @@ fn apply_dump<D: StateDrive>(
         path: path.into(),
         reason,
     };
-    if parse_family(&dump.family).ok() != Some(family) {
+    if bus_key(&dump.family) != bus_key(bus) {
         return Err(format_err(format!(
-            "it holds {} drives, this bus has {} drives",
-            dump.family,
-            family.name()
+            "it holds {} drives, this bus has {bus} drives",
+            dump.family
         )));
     }
     for drive in drives.iter_mut() {
         let address = drive.dump_address();
-        let Some(entry) = dump.drives.iter().find(|e| e.address == address) else {
+        let family = bus_key(drive.dump_family());
+        let Some(entry) = dump
+            .drives
+            .iter()
+            .find(|e| e.address == address && bus_key(&e.family) == family)
+        else {
             continue;
         };
         let (schema, values) = parse_canonical(&entry.canonical)
@@ -722,7 +829,10 @@ pub enum SimBus {
 #[derive(Debug)]
 struct Shared {
     bus: Mutex<SimBus>,
-    family: Family,
+    /// The bus's drives as (family, address), in bus order.
+    drives: Vec<(Family, u8)>,
+    /// A family name, or `lustbus` for a mixed LUSTBUS.
+    name: &'static str,
     state: Option<PathBuf>,
 }
 
@@ -732,10 +842,13 @@ impl Shared {
     }
 
     fn dump(&self) -> StateDump {
-        let family = self.family;
         match &*self.lock() {
-            SimBus::Bytes(b) => byte_line_dump(family, b.line()),
-            SimBus::Frames(b) => frame_line_dump(family, b.line()),
+            SimBus::Bytes(b) => named_byte_line_dump(self.name, b.line()),
+            SimBus::Frames(b) => StateDump {
+                bitrate: Some(b.line().bitrate()),
+                telegrams: Some(b.line().telegrams()),
+                ..dump_of(self.name, b.line().drives())
+            },
         }
     }
 }
@@ -783,6 +896,7 @@ pub fn open_sim_with(
     port: &str,
     log: EventLog,
 ) -> Result<SimLink, SimOpenError> {
+    config.check()?;
     let bus = if is_can(config.family) {
         SimBus::Frames(SimCanBus::from_line(clock, config.frame_line(log)?).with_name(port))
     } else {
@@ -791,7 +905,8 @@ pub fn open_sim_with(
     Ok(SimLink {
         shared: Arc::new(Shared {
             bus: Mutex::new(bus),
-            family: config.family,
+            drives: config.drives(),
+            name: config.bus_name(),
             state: config.state.clone(),
         }),
         clock: clock.clone(),
@@ -800,9 +915,40 @@ pub fn open_sim_with(
 }
 
 impl SimLink {
-    /// The family of the drives.
+    /// The family of the drives; on a mixed LUSTBUS the family of the
+    /// first drive (see [`SimLink::families`], [`SimLink::family_of`]).
     pub fn family(&self) -> Family {
-        self.shared.family
+        self.shared.drives.first().map_or(Family::Mc6000, |d| d.0)
+    }
+
+    /// Every family on the bus, each once, in bus order.
+    pub fn families(&self) -> Vec<Family> {
+        let mut out = Vec::new();
+        for &(f, _) in &self.shared.drives {
+            if !out.contains(&f) {
+                out.push(f);
+            }
+        }
+        out
+    }
+
+    /// The family of the drive at `address`.
+    pub fn family_of(&self, address: u8) -> Option<Family> {
+        self.shared
+            .drives
+            .iter()
+            .find(|d| d.1 == address)
+            .map(|d| d.0)
+    }
+
+    /// Whether this is a mixed LUSTBUS (`sim://lustbus`).
+    pub fn is_mixed(&self) -> bool {
+        self.shared.name == SIM_MIXED_LUSTBUS
+    }
+
+    /// The bus's name in state files: a family name or `lustbus`.
+    pub fn bus_name(&self) -> &'static str {
+        self.shared.name
     }
 
     /// The port name (`sim://...`).
@@ -812,7 +958,7 @@ impl SimLink {
 
     /// Whether this is a CAN bus (use [`SimLink::frame_link`]).
     pub fn is_can(&self) -> bool {
-        is_can(self.shared.family)
+        is_can(self.family())
     }
 
     /// The virtual clock the bus runs on.
@@ -1287,6 +1433,126 @@ mod tests {
         assert_eq!(values, s.values);
         assert!(parse_canonical("hello").is_err());
         assert!(parse_canonical("driveset-canonical 1\nschema x\nC0001 o0").is_err());
+    }
+
+    #[test]
+    fn a_mixed_lustbus_holds_servos_and_inverters_on_one_line() {
+        let sim = spec("sim://lustbus?vf1000=5,6&mc6000=1,2&seed=3");
+        let c = SimConfig::from_spec(&sim).unwrap();
+        assert!(c.is_mixed());
+        assert_eq!(c.bus_name(), "lustbus");
+        assert_eq!(
+            c.drives(),
+            [
+                (Family::Mc6000, 1),
+                (Family::Mc6000, 2),
+                (Family::Vf1000, 5),
+                (Family::Vf1000, 6)
+            ]
+        );
+        let link = open_sim(&sim, &VirtualClock::new()).unwrap();
+        assert!(link.is_mixed() && !link.is_can());
+        assert_eq!(link.families(), [Family::Mc6000, Family::Vf1000]);
+        assert_eq!(link.family_of(5), Some(Family::Vf1000));
+        assert_eq!(link.family_of(2), Some(Family::Mc6000));
+        assert_eq!(link.family_of(3), None);
+        assert_eq!(link.addresses(), [1, 2, 5, 6]);
+        assert_eq!(link.state(1).unwrap().schema, Family::Mc6000.schema_id());
+        assert_eq!(link.state(6).unwrap().schema, Family::Vf1000.schema_id());
+        // Both families answer on the same byte link, each at its address.
+        let (mc, _) = enquire_85(&link, 2);
+        assert!(mc.starts_with(b"B\x0200085="), "{mc:?}");
+        let (vf, _) = enquire_85(&link, 5);
+        assert!(vf.starts_with(b"E\x0200085="), "{vf:?}");
+        let dump = link.dump();
+        assert_eq!(dump.family, "lustbus");
+        let fams: Vec<(&str, u8)> = dump
+            .drives
+            .iter()
+            .map(|d| (d.family.as_str(), d.address))
+            .collect();
+        assert_eq!(
+            fams,
+            [("mc6000", 1), ("mc6000", 2), ("vf1000", 5), ("vf1000", 6)]
+        );
+    }
+
+    #[test]
+    fn a_mixed_lustbus_keeps_its_state_per_family_and_address() {
+        let file = TempPath::new("mixed");
+        let mut c = SimConfig::mixed(&[(Family::Mc6000, 1), (Family::Vf1000, 3)]);
+        c.state = Some(file.0.clone());
+        let link = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+        let mc_key = poke_something(&link, 1);
+        let vf_key = poke_something(&link, 3);
+        let (mc, vf) = (link.state(1).unwrap(), link.state(3).unwrap());
+        assert!(link.save().unwrap());
+        drop(link);
+        let again = open_sim_with(&c, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+        assert_eq!(again.state(1).unwrap().fingerprint(), mc.fingerprint());
+        assert_eq!(again.state(3).unwrap().fingerprint(), vf.fingerprint());
+        assert_eq!(again.state(1).unwrap().values[&mc_key], mc.values[&mc_key]);
+        assert_eq!(again.state(3).unwrap().values[&vf_key], vf.values[&vf_key]);
+        drop(again);
+        // Same addresses, families swapped: nothing in the file matches,
+        // every drive starts from factory state.
+        let mut swapped = SimConfig::mixed(&[(Family::Vf1000, 1), (Family::Mc6000, 3)]);
+        swapped.state = Some(file.0.clone());
+        let fresh = open_sim_with(&swapped, &VirtualClock::new(), "sim", EventLog::off()).unwrap();
+        let factory = open_sim_with(
+            &SimConfig::mixed(&[(Family::Vf1000, 1), (Family::Mc6000, 3)]),
+            &VirtualClock::new(),
+            "sim",
+            EventLog::off(),
+        )
+        .unwrap();
+        for a in [1, 3] {
+            assert_eq!(
+                fresh.state(a).unwrap().fingerprint(),
+                factory.state(a).unwrap().fingerprint()
+            );
+        }
+        drop(fresh);
+        // A single-family bus refuses the mixed bus's file.
+        let mut single = config(Family::Mc6000, &[1]);
+        single.state = Some(file.0.clone());
+        let e = open_sim_with(&single, &VirtualClock::new(), "sim", EventLog::off())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("it holds lustbus drives, this bus has mc6000 drives"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_mixed_lustbus_refuses_what_cannot_share_the_line() {
+        let e = SimConfig::mixed(&[(Family::Mc6000, 1), (Family::Tmd, 2)])
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("tmd drives cannot be on a mixed LUSTBUS"), "{e}");
+        let e = SimConfig::mixed(&[(Family::Mc6000, 1), (Family::Vf1000, 31)])
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("vf1000: address 31 is not allowed"), "{e}");
+        let mut c = SimConfig::mixed(&[(Family::Mc6000, 1), (Family::Vf1000, 2)]);
+        c.addresses.push(3);
+        let e = c.check().unwrap_err().to_string();
+        assert!(e.contains("2 drive families for 3 addresses"), "{e}");
+        let e = SimConfig::mixed(&[(Family::Mc6000, 4), (Family::Vf1000, 4)])
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("address 4 is given twice"), "{e}");
+        // A single family through the per-family key is a mixed bus too
+        // (named lustbus), and equal to itself on the wire.
+        let c = SimConfig::from_spec(&spec("sim://lustbus?mc7000=1")).unwrap();
+        assert_eq!(
+            (c.bus_name(), c.drives()),
+            ("lustbus", vec![(Family::Mc6000, 1)])
+        );
     }
 
     #[test]

@@ -71,7 +71,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
 }
 
 fn identify(args: &Args) -> Result<u8, Fail> {
-    let sim = port::peek_sim_family(&args.port);
+    let sim = port::peek_sim_family_at(&args.port, Some(args.address));
     // --protocol wins over the family a sim:// port names (so the LUSTBUS
     // family probe below runs against simulated drives too).
     let sim_hint = if args.protocol.is_some() { None } else { sim };

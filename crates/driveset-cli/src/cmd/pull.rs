@@ -132,7 +132,7 @@ fn toml_str(s: &str) -> String {
 }
 
 fn pull(args: &Args) -> Result<u8, Fail> {
-    let sim = port::peek_sim_family(&args.port);
+    let sim = port::peek_sim_family_at(&args.port, Some(args.address));
     let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, None)?;
     let schema = choice.schema.clone();
     let format = match args.to {

@@ -68,7 +68,7 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let port_text = args.port.clone().unwrap_or_else(|| j.target.port.clone());
     let address = args.address.unwrap_or(j.target.address);
     let schema_arg = args.schema.clone().unwrap_or_else(|| j.schema.clone());
-    let sim = port::peek_sim_family(&port_text);
+    let sim = port::peek_sim_family_at(&port_text, Some(address));
     let choice = port::resolve_schema(Some(&schema_arg), &args.schemas, sim, None)?;
     let json = args.format == BusFormat::Json;
     let state = j.state;

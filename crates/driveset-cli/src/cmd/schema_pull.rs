@@ -167,7 +167,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         .get(schema_id)
         .ok_or_else(|| Fail::input(format!("built-in schema {schema_id} is missing")))?;
     let opened = port::open_port(&args.port)?;
-    port::check_fit(&opened, &schema, false)?;
+    port::check_fit(&opened, &schema, Some(args.address), false)?;
     let port_name = opened.name.clone();
     let link: Box<dyn ByteLink> = match opened.link {
         Link::Bytes(l) => l,

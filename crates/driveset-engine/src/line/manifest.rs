@@ -44,6 +44,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_link::PortSpec;
+use driveset_link::spec::{SIM_FAMILY_KEYS, SIM_MIXED_LUSTBUS};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::{
@@ -870,7 +871,36 @@ impl<'a> Reader<'a> {
                     format!("{base}?{}", kept.join("&"))
                 };
             }
-            if text.starts_with("sim://") && !text.contains("addresses=") {
+            let sim_host = text
+                .strip_prefix("sim://")
+                .map(|rest| rest.split('?').next().unwrap_or_default().to_string());
+            let mixed = sim_host
+                .as_deref()
+                .is_some_and(|h| h.eq_ignore_ascii_case(SIM_MIXED_LUSTBUS));
+            let query = text.split_once('?').map_or("", |(_, q)| q).to_string();
+            let has_key = |key: &str| {
+                query
+                    .split('&')
+                    .any(|item| item.split('=').next() == Some(key))
+            };
+            if mixed && !SIM_FAMILY_KEYS.iter().any(|k| has_key(k)) {
+                // A mixed LUSTBUS without drives: each drive of the
+                // manifest under the key of its set's family.
+                let mut per: BTreeMap<&str, Vec<u8>> = BTreeMap::new();
+                for d in drives.iter().filter(|d| d.bus_index == i) {
+                    let key = match d.schema.protocol {
+                        Protocol::LustbusVf1000 => "vf1000",
+                        _ => "mc6000",
+                    };
+                    per.entry(key).or_default().push(d.address);
+                }
+                for (key, mut addrs) in per {
+                    addrs.sort_unstable();
+                    let list: Vec<String> = addrs.iter().map(u8::to_string).collect();
+                    let sep = if text.contains('?') { '&' } else { '?' };
+                    text = format!("{text}{sep}{key}={}", list.join(","));
+                }
+            } else if sim_host.is_some() && !mixed && !has_key("addresses") {
                 let mut addrs: Vec<u8> = drives
                     .iter()
                     .filter(|d| d.bus_index == i)
@@ -910,21 +940,36 @@ impl<'a> Reader<'a> {
                 continue;
             }
             if let PortSpec::Sim(sim) = &spec {
-                let fam = sim.family.to_ascii_lowercase();
+                let on_bus = sim.drives();
                 for d in drives.iter().filter(|d| d.bus_index == i) {
-                    if !sim_family_matches(&fam, &d.schema) {
+                    // The family the simulated bus has at the drive's address.
+                    let at = on_bus.iter().find(|(_, a)| *a == d.address);
+                    if let Some((fam, _)) = at
+                        && !sim_family_matches(&fam.to_ascii_lowercase(), &d.schema)
+                    {
+                        let (what, fix) = if sim.is_mixed() {
+                            (
+                                format!("has a `{fam}` drive at address {}", d.address),
+                                "on sim://lustbus give the address under the set's family (mc6000= or vf1000=)",
+                            )
+                        } else {
+                            (
+                                format!("holds `{}` drives", sim.family),
+                                "a simulated bus holds one family (sim://lustbus?mc6000=..&vf1000=.. mixes LUSTBUS families); put the drive on a bus of its family",
+                            )
+                        };
                         let f = ManifestFinding::new(
                             "set-family",
                             d.location.clone(),
                             format!(
-                                "drive `{}` has a `{}` set, but simulated bus `{bname}` holds `{}` drives",
-                                d.name, d.schema.id, sim.family
+                                "drive `{}` has a `{}` set, but simulated bus `{bname}` {what}",
+                                d.name, d.schema.id
                             ),
-                            "a simulated bus holds one family; put the drive on a bus of its family",
+                            fix,
                         );
                         self.findings.push(f);
                     }
-                    if !sim.addresses.contains(&d.address) {
+                    if at.is_none() {
                         self.push(
                             "unknown-bus",
                             pspan,
@@ -932,7 +977,11 @@ impl<'a> Reader<'a> {
                                 "drive `{}` is at address {}, which simulated bus `{bname}` does not have",
                                 d.name, d.address
                             ),
-                            "add the address to addresses=, or leave addresses= out to simulate the manifest's drives",
+                            if sim.is_mixed() {
+                                "add the address under its family (mc6000= / vf1000=), or write sim://lustbus without them to simulate the manifest's drives"
+                            } else {
+                                "add the address to addresses=, or leave addresses= out to simulate the manifest's drives"
+                            },
                         );
                     }
                 }
