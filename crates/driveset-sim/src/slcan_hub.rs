@@ -456,6 +456,12 @@ mod tests {
         let mut a = link(hub.path_a());
         let f = CanFrame::new(0x601, &[0x40, 0, 0, 0, 0, 0, 0, 0]).expect("frame");
         a.send(&f).expect("send");
+        // the hub's reader thread handles the frame asynchronously: wait
+        // (bounded) until it has been accounted for before stopping
+        let deadline = std::time::Instant::now() + Duration::from_secs(10);
+        while hub.stats().dropped == 0 && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
         drop(a);
         let stats = hub.stop().expect("stop");
         assert_eq!(stats.dropped, 1);
