@@ -14,7 +14,7 @@ use driveset_engine::client::{
 use driveset_engine::upload::{CodeOutcome, UploadOptions, upload};
 use driveset_link::VirtualClock;
 use driveset_proto::can::NodeId;
-use driveset_schema::schema::{Access, StorageKind};
+use driveset_schema::schema::{Access, EnumSource, StorageKind};
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 use driveset_sim::bus::SimByteBus;
 use driveset_sim::can_bus::SimCanBus;
@@ -124,13 +124,19 @@ pub fn client(family: Family, bus: Bus, lust: LustbusOptions) -> Box<dyn DriveCl
     }
 }
 
-/// Codes a generated set leaves alone: the bus link (address, baud), the
-/// control words (start the motor), commands, handshakes and status words.
+/// Codes a generated set leaves alone: the bus link (address, baud,
+/// watchdog), the control words (start the motor), commands, handshakes and
+/// status words.
 fn excluded(family: Family, number: u32) -> bool {
     let list: &[u32] = match family {
-        // 4-PROG, 80-SLOAD, 81-SBAUD, 82-SADDR, 83/84, 85-SERR, 91-TYPE,
-        // 416-SCTL1 control word, 108-STEXT text selector
-        Family::Mc6000 => &[4, 80, 81, 82, 83, 84, 85, 91, 108, 416],
+        // 4-PROG, 80-SLOAD, 81-SBAUD, 82-SADDR, 83/84 watchdog, 85-SERR,
+        // 91-TYPE, 108-STEXT text selector, 416-SCTL1 control word,
+        // 470-CANAD / 471-CANBD (CAN node address, baud), 700-SCTL2 control
+        // word 2, 704-RJOG jog command, 708-ERCLR clear error memory,
+        // 402-CLSEL control location (2 = SIO keeps control on the bus)
+        Family::Mc6000 => &[
+            4, 80, 81, 82, 83, 84, 85, 91, 108, 402, 416, 470, 471, 700, 704, 708,
+        ],
         // 3-CNTL, 11-STAT, 71-PROG, 81..85, 91
         Family::Vf1000 => &[3, 11, 71, 81, 82, 83, 84, 85, 91],
         // C0001 program source, C0002 command, C0009 address, C0040 enable,
@@ -152,9 +158,103 @@ fn raw_bounds(schema: &Schema, code: &driveset_schema::Code) -> (Option<i64>, Op
     (f(&code.min), f(&code.max))
 }
 
+/// Whether a family's generated set also changes enumerated and bit-field
+/// codes. The MC6000 set is the benchmark's "full set (200+ EEPROM codes of
+/// mixed width)"; the other families keep their plain numeric codes (their
+/// enumerations include interface and control settings the lists above do
+/// not name).
+fn changes_enums(family: Family) -> bool {
+    family == Family::Mc6000
+}
+
+/// Another value from `listed` (raw values, in the schema's order): the one
+/// `step` places after `old` (wrapping) that lies within min/max.
+fn other_listed(
+    listed: &[i64],
+    old: i64,
+    step: i64,
+    bounds: (Option<i64>, Option<i64>),
+) -> Option<i64> {
+    let (min, max) = bounds;
+    let ok: Vec<i64> = listed
+        .iter()
+        .copied()
+        .filter(|v| min.is_none_or(|m| *v >= m) && max.is_none_or(|m| *v <= m))
+        .collect();
+    let n = ok.len();
+    if n == 0 {
+        return None;
+    }
+    let at = ok.iter().position(|v| *v == old).unwrap_or(n - 1);
+    let step = usize::try_from(step.unsigned_abs()).ok()?.max(1);
+    (1..n).map(|k| ok[(at + step * k) % n]).find(|v| *v != old)
+}
+
+/// The raw values an enumeration lists (a code's: scaled like its values;
+/// a bit-field member's: the field's values).
+fn listed(
+    schema: &Schema,
+    code: &driveset_schema::Code,
+    src: &EnumSource,
+    member: bool,
+) -> Vec<i64> {
+    let Some(e) = schema.enum_of(src) else {
+        return Vec::new();
+    };
+    e.entries
+        .iter()
+        .filter_map(|(v, label, _)| {
+            if member {
+                Some(*v)
+            } else {
+                schema.enum_value(code, label)
+            }
+        })
+        .collect()
+}
+
+/// Another valid combination of a bit-field code: the first member whose
+/// field can change (to another listed value, or its lowest bit flipped),
+/// the other bits kept, within min/max.
+fn other_bits_value(
+    schema: &Schema,
+    code: &driveset_schema::Code,
+    old: i64,
+    step: i64,
+    bounds: (Option<i64>, Option<i64>),
+) -> Option<i64> {
+    let (min, max) = bounds;
+    for b in &code.bits {
+        let bits = b.msb.checked_sub(b.lsb)? + 1;
+        if bits >= 63 {
+            continue;
+        }
+        let mask = (1i64 << bits) - 1;
+        let field = (old >> b.lsb) & mask;
+        let new_field = match &b.values {
+            Some(src) => other_listed(
+                &listed(schema, code, src, true),
+                field,
+                step,
+                (Some(0), Some(mask)),
+            ),
+            None => Some(field ^ 1),
+        };
+        let Some(f) = new_field else { continue };
+        let new = (old & !(mask << b.lsb)) | (f << b.lsb);
+        if new != old && min.is_none_or(|m| new >= m) && max.is_none_or(|m| new <= m) {
+            return Some(new);
+        }
+    }
+    None
+}
+
 /// Candidate set: every writable integer code of the schema that the drive
 /// holds, changed by `step` (or `-step` at the top of its range), except
-/// `skip` and the codes [`excluded`] lists.
+/// `skip` and the codes [`excluded`] lists. Where [`changes_enums`], an
+/// enumerated code moves to another listed value and a bit-field code to
+/// another valid combination (a partial enumeration without another listed
+/// value is stepped like a number); passwords are never changed.
 pub fn candidate_set(
     family: Family,
     schema: &Schema,
@@ -172,14 +272,31 @@ pub fn candidate_set(
             || code.access == Some(Access::Ro)
             || code.kind == Some(StorageKind::RamActual)
             || code.read_clears == Some(true)
-            || code.values.is_some()
-            || !code.bits.is_empty()
             || schema.is_password(code)
         {
             continue;
         }
         let RawValue::Int(old) = v else { continue };
         let (min, max) = raw_bounds(schema, code);
+        if code.values.is_some() || !code.bits.is_empty() {
+            if !changes_enums(family) {
+                continue;
+            }
+            let new = match &code.values {
+                Some(src) => {
+                    other_listed(&listed(schema, code, src, false), *old, step, (min, max))
+                }
+                None => other_bits_value(schema, code, *old, step, (min, max)),
+            };
+            if let Some(new) = new {
+                set.insert(*k, RawValue::Int(new));
+                continue;
+            }
+            // a partial enumeration takes other values in range: step it
+            if code.values.is_none() || code.values_partial != Some(true) {
+                continue;
+            }
+        }
         let up = old + step;
         let down = old - step;
         let new = if max.is_none_or(|m| up <= m) && min.is_none_or(|m| up >= m) {
