@@ -2,7 +2,7 @@
 //! (enhanced protocol, `lustbus-protocol.txt`).
 //!
 //! Table: `fictional-mc6000-demo` (the real `lust-mc6000` schema extended
-//! by a FICTIONAL fixture; 240 parameters with types, kinds, widths and
+//! by a FICTIONAL fixture; 250 parameters with types, kinds, widths and
 //! CardWriteable flags).
 //!
 //! Behaviour, with the section it implements:
