@@ -27,7 +27,7 @@ use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use driveset_schema::schema::StorageKind;
 
 use crate::catalog::{self, Family};
-use crate::drive::{Heard, ReactionTime, Reply as LineReply};
+use crate::drive::{ByteDrive, Heard, ReactionTime, Reply as LineReply};
 use crate::rng::SimRng;
 use crate::table::{Param, ParamTable};
 
@@ -120,8 +120,15 @@ pub(crate) enum Answer {
 
 /// A family model on top of [`LustCore`].
 pub(crate) trait LustModel {
+    /// The family name logs and dumps use (`"mc6000"`, `"vf1000"`).
+    const FAMILY: &'static str;
+    /// The control word and its "running" bit (MC 416-SCTL1 bit 0, LUSTBUS
+    /// 7.2; VF 3-CNTL bit 7, 7.1.1).
+    const RUN_BIT: (u32, i64);
     /// The shared state.
     fn core(&mut self) -> &mut LustCore;
+    /// The shared state, read-only.
+    fn core_ref(&self) -> &LustCore;
     /// Time-driven state changes due by `now` (SLOAD check end).
     fn tick(&mut self, now: Instant);
     /// An ENQUIRY of `code`.
@@ -791,4 +798,56 @@ fn finish<M: LustModel>(
         bytes: reply,
         reaction,
     })
+}
+
+/// Both LUSTBUS families are [`ByteDrive`]s through their shared core; what
+/// differs (telegram handling, the running bit) comes from [`LustModel`].
+impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
+    fn family(&self) -> &'static str {
+        M::FAMILY
+    }
+
+    fn address(&self) -> u8 {
+        self.core_ref().address()
+    }
+
+    fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard {
+        hear(self, now, byte, parity_ok)
+    }
+
+    fn power_cycle(&mut self, now: Instant, off: Duration) {
+        LustModel::power_cycle(self, now, off);
+    }
+
+    fn state(&self) -> ResolvedSet {
+        self.core_ref().state()
+    }
+
+    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
+        let (word, bit) = M::RUN_BIT;
+        let core = self.core();
+        core.poke(key, raw)?;
+        if key == CodeKey::new(word) {
+            core.running = core.int(word).is_some_and(|v| v & bit != 0);
+        }
+        Ok(())
+    }
+
+    fn running(&self) -> bool {
+        self.core_ref().running
+    }
+
+    fn set_running(&mut self, running: bool) {
+        let (word, bit) = M::RUN_BIT;
+        let core = self.core();
+        core.running = running;
+        let w = core.int(word).unwrap_or(0);
+        core.set(CodeKey::new(word), if running { w | bit } else { w & !bit });
+    }
+
+    fn take_baud_change(&mut self) -> Option<u32> {
+        // The MC activates a new baud rate at 4-PROG = 111 (section 11.5);
+        // both families at a restart (power cycle, STAT / error reset).
+        self.core().baud_change.take()
+    }
 }

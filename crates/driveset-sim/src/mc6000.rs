@@ -42,12 +42,12 @@ use std::time::Duration;
 
 use driveset_link::Instant;
 use driveset_proto::lustbus::{CodeMeaning, ParameterCode, Siof, ValueText};
-use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use driveset_schema::canonical::CodeKey;
 use driveset_schema::schema::{Access, Rule, StorageKind};
 
 use crate::catalog::Family;
-use crate::drive::{ByteDrive, Heard, ReactionTime};
-use crate::lustbus_drive::{self, Answer, LustCore, LustModel, LustOptions, SIOF};
+use crate::drive::ReactionTime;
+use crate::lustbus_drive::{Answer, LustCore, LustModel, LustOptions, SIOF};
 
 /// 80-SLOAD (section 11.4).
 pub const SLOAD: u32 = 80;
@@ -230,8 +230,15 @@ impl Mc6000 {
 }
 
 impl LustModel for Mc6000 {
+    const FAMILY: &'static str = "mc6000";
+    const RUN_BIT: (u32, i64) = (SCTL1, 1);
+
     fn core(&mut self) -> &mut LustCore {
         &mut self.core
+    }
+
+    fn core_ref(&self) -> &LustCore {
+        &self.core
     }
 
     fn tick(&mut self, now: Instant) {
@@ -343,50 +350,5 @@ impl LustModel for Mc6000 {
         self.core.power_cycle(now, off);
         self.sload = Sload::Idle;
         self.eeprom_busy_until = None;
-    }
-}
-
-impl ByteDrive for Mc6000 {
-    fn family(&self) -> &'static str {
-        "mc6000"
-    }
-
-    fn address(&self) -> u8 {
-        self.core.address()
-    }
-
-    fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard {
-        lustbus_drive::hear(self, now, byte, parity_ok)
-    }
-
-    fn power_cycle(&mut self, now: Instant, off: Duration) {
-        LustModel::power_cycle(self, now, off);
-    }
-
-    fn state(&self) -> ResolvedSet {
-        self.core.state()
-    }
-
-    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
-        self.core.poke(key, raw)?;
-        if key == CodeKey::new(SCTL1) {
-            self.core.running = self.core.int(SCTL1).is_some_and(|v| v & 1 != 0);
-        }
-        Ok(())
-    }
-
-    fn running(&self) -> bool {
-        self.core.running
-    }
-
-    fn set_running(&mut self, running: bool) {
-        self.core.running = running;
-        let w = self.core.int(SCTL1).unwrap_or(0);
-        let w = if running { w | 1 } else { w & !1 };
-        self.core.set(CodeKey::new(SCTL1), w);
-    }
-
-    fn take_baud_change(&mut self) -> Option<u32> {
-        self.core.baud_change.take()
     }
 }

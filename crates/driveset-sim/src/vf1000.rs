@@ -38,12 +38,12 @@ use std::time::Duration;
 
 use driveset_link::Instant;
 use driveset_proto::lustbus::{CodeMeaning, ParameterCode, Siof, ValueText};
-use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use driveset_schema::canonical::CodeKey;
 use driveset_schema::schema::{Access, StorageKind};
 
 use crate::catalog::Family;
-use crate::drive::{ByteDrive, Heard, ReactionTime};
-use crate::lustbus_drive::{self, Answer, LustCore, LustModel, LustOptions, SIOF};
+use crate::drive::ReactionTime;
+use crate::lustbus_drive::{Answer, LustCore, LustModel, LustOptions, SIOF};
 
 /// 3-CNTL, the control word (section 7.1).
 pub const CNTL: u32 = 3;
@@ -102,8 +102,15 @@ impl Vf1000 {
 }
 
 impl LustModel for Vf1000 {
+    const FAMILY: &'static str = "vf1000";
+    const RUN_BIT: (u32, i64) = (CNTL, 0x80);
+
     fn core(&mut self) -> &mut LustCore {
         &mut self.core
+    }
+
+    fn core_ref(&self) -> &LustCore {
+        &self.core
     }
 
     fn tick(&mut self, _now: Instant) {}
@@ -193,52 +200,5 @@ impl LustModel for Vf1000 {
 
     fn power_cycle(&mut self, now: Instant, off: Duration) {
         self.core.power_cycle(now, off);
-    }
-}
-
-impl ByteDrive for Vf1000 {
-    fn family(&self) -> &'static str {
-        "vf1000"
-    }
-
-    fn address(&self) -> u8 {
-        self.core.address()
-    }
-
-    fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard {
-        lustbus_drive::hear(self, now, byte, parity_ok)
-    }
-
-    fn power_cycle(&mut self, now: Instant, off: Duration) {
-        LustModel::power_cycle(self, now, off);
-    }
-
-    fn state(&self) -> ResolvedSet {
-        self.core.state()
-    }
-
-    fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
-        self.core.poke(key, raw)?;
-        if key == CodeKey::new(CNTL) {
-            self.core.running = self.core.int(CNTL).is_some_and(|v| v & 0x80 != 0);
-        }
-        Ok(())
-    }
-
-    fn running(&self) -> bool {
-        self.core.running
-    }
-
-    fn set_running(&mut self, running: bool) {
-        self.core.running = running;
-        let w = self.core.int(CNTL).unwrap_or(0);
-        let w = if running { w | 0x80 } else { w & !0x80 };
-        self.core.set(CodeKey::new(CNTL), w);
-    }
-
-    fn take_baud_change(&mut self) -> Option<u32> {
-        // The VF1000 activates a new 81-SIOC only at a restart (section
-        // 11.5); a power cycle or STAT reset reports it here.
-        self.core.baud_change.take()
     }
 }
