@@ -193,6 +193,26 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             return Ok(crate::EXIT_INPUT);
         }
     };
+    Ok(render(
+        &d,
+        &schema,
+        &old_name,
+        &new_name,
+        matches!(args.format, DiffFormat::Json),
+    ))
+}
+
+/// Print a semantic diff, as human lines (`~`/`+`/`-` and a summary) or one
+/// JSON document, and return the exit code: 0 same, 1 different. The offline
+/// diff and `diff SET --port` (cmd/diff_live.rs) share it, so both print the
+/// same thing.
+pub(crate) fn render(
+    d: &driveset_schema::Diff,
+    schema: &Schema,
+    old_name: &str,
+    new_name: &str,
+    json_out: bool,
+) -> u8 {
     let count = |k: DiffKind| d.entries.iter().filter(|e| e.kind == k).count();
     let summary = format!(
         "{} changed, {} added, {} removed",
@@ -200,8 +220,8 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         count(DiffKind::Added),
         count(DiffKind::Removed)
     );
-    match args.format {
-        DiffFormat::Json => {
+    if json_out {
+        {
             let entries: Vec<Value> = d
                 .entries
                 .iter()
@@ -209,16 +229,16 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                     json!({
                         "code": schema.display_code(e.key.number, e.key.subcode),
                         "key": e.key.canonical(schema.code_style),
-                        "name": code_name(&schema, e.key),
+                        "name": code_name(schema, e.key),
                         "kind": match e.kind {
                             DiffKind::Added => "added",
                             DiffKind::Removed => "removed",
                             DiffKind::Changed => "changed",
                         },
-                        "old": e.old.as_ref().map(|r| shown(&schema, e.key, r)),
-                        "new": e.new.as_ref().map(|r| shown(&schema, e.key, r)),
-                        "old_raw": raw_json(&schema, e.key, e.old.as_ref()),
-                        "new_raw": raw_json(&schema, e.key, e.new.as_ref()),
+                        "old": e.old.as_ref().map(|r| shown(schema, e.key, r)),
+                        "new": e.new.as_ref().map(|r| shown(schema, e.key, r)),
+                        "old_raw": raw_json(schema, e.key, e.old.as_ref()),
+                        "new_raw": raw_json(schema, e.key, e.new.as_ref()),
                         "text": e.text,
                     })
                 })
@@ -233,9 +253,13 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 "removed": count(DiffKind::Removed),
                 "entries": entries,
             });
-            output::emit(&format!("{}\n", serde_json::to_string_pretty(&doc)?));
+            output::emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&doc).unwrap_or_default()
+            ));
         }
-        DiffFormat::Human => {
+    } else {
+        {
             let style = Style::stdout();
             let mut out = String::new();
             let _ = writeln!(out, "{}", style.bold(&format!("--- {old_name}")));
@@ -260,9 +284,9 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             output::emit(&out);
         }
     }
-    Ok(if d.is_empty() {
+    if d.is_empty() {
         crate::EXIT_OK
     } else {
         crate::EXIT_FINDINGS
-    })
+    }
 }
