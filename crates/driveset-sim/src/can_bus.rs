@@ -421,19 +421,8 @@ impl FrameLine {
                 }
             }
             Action::Cable { duration } => {
-                let until = at + duration;
-                self.cables.pull(at, until);
+                let until = self.cables.pull_logged(at, duration, &self.log);
                 self.in_flight.retain(|f| !(at <= f.at && f.at < until));
-                self.log.push(Event::note(
-                    at.as_nanos(),
-                    None,
-                    "cable-pulled",
-                    format!(
-                        "nothing crosses for {}, until t_ns={}",
-                        crate::faults::format_duration(duration),
-                        until.as_nanos()
-                    ),
-                ));
             }
         }
     }

@@ -533,6 +533,30 @@ impl CableWindows {
         self.windows.push((from, until));
     }
 
+    /// Pull the cable at `at` for `duration` (a scheduled `cable@...` fault)
+    /// and log it; returns when it is plugged back. The caller drops what is
+    /// in flight in `at..until`.
+    pub fn pull_logged(
+        &mut self,
+        at: driveset_link::Instant,
+        duration: std::time::Duration,
+        log: &crate::log::EventLog,
+    ) -> driveset_link::Instant {
+        let until = at + duration;
+        self.pull(at, until);
+        log.push(crate::log::Event::note(
+            at.as_nanos(),
+            None,
+            "cable-pulled",
+            format!(
+                "nothing crosses for {}, until t_ns={}",
+                format_duration(duration),
+                until.as_nanos()
+            ),
+        ));
+        until
+    }
+
     /// Whether the cable is out at `t`.
     pub fn down(&self, t: driveset_link::Instant) -> bool {
         self.windows.iter().any(|&(a, b)| a <= t && t < b)

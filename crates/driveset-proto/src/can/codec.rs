@@ -243,19 +243,24 @@ impl SdoRequest {
     /// The CAN frame to `node` (COB-ID 0x600 + node, DS301 predefined
     /// connection set).
     pub fn to_can(&self, node: NodeId) -> CanFrame {
-        CanFrame {
-            id: node.request_cob_id(),
-            data: self.encode(),
-            len: 8,
-            extended: false,
-            rtr: false,
-        }
+        sdo_frame(node.request_cob_id(), self.encode())
     }
 
     /// Decodes a frame that a server with id `node` receives.
     pub fn from_can(frame: &CanFrame, node: NodeId) -> Result<Self, SdoCodecError> {
         check_can(frame, node.request_cob_id())?;
         SdoRequest::decode(frame.payload())
+    }
+}
+
+/// An SDO frame: 11-bit identifier, always 8 data bytes (DS301).
+fn sdo_frame(id: u32, data: [u8; 8]) -> CanFrame {
+    CanFrame {
+        id,
+        data,
+        len: 8,
+        extended: false,
+        rtr: false,
     }
 }
 
@@ -337,13 +342,7 @@ impl SdoResponse {
 
     /// The CAN frame from `node` (COB-ID 0x580 + node).
     pub fn to_can(&self, node: NodeId) -> CanFrame {
-        CanFrame {
-            id: node.response_cob_id(),
-            data: self.encode(),
-            len: 8,
-            extended: false,
-            rtr: false,
-        }
+        sdo_frame(node.response_cob_id(), self.encode())
     }
 
     /// Decodes a frame that the client receives from server `node`.
