@@ -5,6 +5,7 @@
 //! Exit codes (DESIGN.md, "Output and errors"): 0 ok, 1 validation findings or
 //! differences, 2 usage or input error, 3 bus or device failure.
 
+mod args;
 mod cmd;
 mod output;
 mod port;

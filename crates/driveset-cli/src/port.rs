@@ -26,11 +26,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::{CanClient, DriveClient, LecomClient, LustbusClient};
+use driveset_engine::client::DriveClient;
 use driveset_engine::error::EngineError;
 use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
-use driveset_schema::{Protocol, Registry, Schema};
-use driveset_sim::catalog::Family;
+use driveset_schema::{BusProtocol, Family, Registry, Schema};
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
 
@@ -94,43 +93,11 @@ pub fn finish(r: Result<u8, Fail>) -> anyhow::Result<u8> {
     }
 }
 
-/// `--protocol` of the bus commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ProtocolArg {
-    /// LUSTBUS (Lust VF1000, MC6000/7000).
-    Lustbus,
-    /// LECOM-A/B (Lenze Tmd).
-    Lecom,
-    /// CAN SDO over the Lenze system bus (Lenze ECS).
-    Sdo,
-}
+pub use crate::args::BusArg as ProtocolArg;
 
-/// The protocol a simulated family speaks.
-pub fn family_protocol(f: Family) -> Protocol {
-    match f {
-        Family::Mc6000 => Protocol::LustbusMc,
-        Family::Vf1000 => Protocol::LustbusVf1000,
-        Family::Tmd => Protocol::Lecom,
-        Family::Ecs => Protocol::LenzeCanSdo,
-    }
-}
-
-/// Name of a protocol as schemas spell it.
-pub fn protocol_name(p: Protocol) -> &'static str {
-    match p {
-        Protocol::Lecom => "lecom",
-        Protocol::LustbusVf1000 => "lustbus-vf1000",
-        Protocol::LustbusMc => "lustbus-mc",
-        Protocol::LenzeCanSdo => "lenze-can-sdo",
-    }
-}
-
-fn protocol_class(p: Protocol) -> ProtocolArg {
-    match p {
-        Protocol::Lecom => ProtocolArg::Lecom,
-        Protocol::LustbusVf1000 | Protocol::LustbusMc => ProtocolArg::Lustbus,
-        Protocol::LenzeCanSdo => ProtocolArg::Sdo,
-    }
+/// Name of a family's protocol as schemas spell it (`[schema] protocol`).
+pub fn protocol_name(f: Family) -> &'static str {
+    f.descriptor().schema_protocol
 }
 
 /// An open port.
@@ -165,7 +132,7 @@ impl OpenPort {
         families
             .iter()
             .copied()
-            .find(|&f| family_protocol(f) == schema.protocol)
+            .find(|&f| f == schema.family)
             .or_else(|| families.first().copied())
     }
 }
@@ -265,20 +232,20 @@ pub fn check_fit(
     address: Option<u8>,
     force: bool,
 ) -> Result<(), Fail> {
-    let want = protocol_class(schema.protocol);
+    let want = schema.family.bus();
     let is_frames = matches!(port.link, Link::Frames(_));
     match (want, is_frames) {
-        (ProtocolArg::Sdo, false) => {
+        (BusProtocol::CanSdo, false) => {
             return Err(Fail::input(format!(
                 "schema `{}` speaks CAN SDO, but {} is a character line (LUSTBUS / LECOM); use a CAN port (slcan://..., can://..., sim://ecs?...)",
                 schema.id, port.name
             )));
         }
-        (ProtocolArg::Lustbus | ProtocolArg::Lecom, true) => {
+        (BusProtocol::Lustbus | BusProtocol::Lecom, true) => {
             return Err(Fail::input(format!(
                 "schema `{}` speaks {}, but {} is a CAN port; use a serial line (/dev/ttyUSB0, tcp://..., sim://mc6000?...)",
                 schema.id,
-                protocol_name(schema.protocol),
+                protocol_name(schema.family),
                 port.name
             )));
         }
@@ -289,23 +256,23 @@ pub fn check_fit(
             (Some(a), true) => format!("has a {} drive at address {a}", f.name()),
             _ => format!("simulates {} drives", f.name()),
         };
-        let sim_proto = family_protocol(f);
-        if protocol_class(sim_proto) != want {
+        let sim_proto = f;
+        if sim_proto.bus() != want {
             return Err(Fail::input(format!(
                 "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family",
                 port.name,
                 protocol_name(sim_proto),
                 schema.id,
-                protocol_name(schema.protocol)
+                protocol_name(schema.family)
             )));
         }
-        if sim_proto != schema.protocol && !force {
+        if sim_proto != schema.family && !force {
             return Err(Fail::input(format!(
                 "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
                 port.name,
                 protocol_name(sim_proto),
                 schema.id,
-                protocol_name(schema.protocol)
+                protocol_name(schema.family)
             )));
         }
     }
@@ -321,19 +288,11 @@ pub fn client(
     force: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
     check_fit(port, &schema, Some(address), force)?;
-    let c: Box<dyn DriveClient> = match (&port.link, schema.protocol) {
-        (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
-            Box::new(LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
-        }
-        (Link::Bytes(_), Protocol::Lecom) => {
-            Box::new(LecomClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
-        }
-        (Link::Frames(_), Protocol::LenzeCanSdo) => {
-            Box::new(CanClient::new(frame_link(port)?, schema, address).map_err(Fail::from)?)
-        }
-        _ => return Err(Fail::input("the schema's protocol does not fit the port")),
+    let link = match &port.link {
+        Link::Bytes(_) => Link::Bytes(byte_link(port)?),
+        Link::Frames(_) => Link::Frames(frame_link(port)?),
     };
-    Ok(c)
+    Ok(driveset_engine::connect::connect(link, schema, address)?)
 }
 
 /// A fresh byte-link handle of the port (sim ports hand out any number;
@@ -374,19 +333,9 @@ pub fn into_client(
         return client(&port, schema, address, force);
     }
     check_fit(&port, &schema, Some(address), force)?;
-    let c: Box<dyn DriveClient> = match (port.link, schema.protocol) {
-        (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
-            Box::new(LustbusClient::new(l, schema, address).map_err(Fail::from)?)
-        }
-        (Link::Bytes(l), Protocol::Lecom) => {
-            Box::new(LecomClient::new(l, schema, address).map_err(Fail::from)?)
-        }
-        (Link::Frames(l), Protocol::LenzeCanSdo) => {
-            Box::new(CanClient::new(l, schema, address).map_err(Fail::from)?)
-        }
-        _ => return Err(Fail::input("the schema's protocol does not fit the port")),
-    };
-    Ok(c)
+    Ok(driveset_engine::connect::connect(
+        port.link, schema, address,
+    )?)
 }
 
 /// The schemas every command knows ([`crate::output::registry`]).
@@ -439,10 +388,8 @@ pub fn resolve_schema(
         let schema = driveset_sim::catalog::schema(f).map_err(Fail::input)?;
         return Ok(SchemaChoice { schema, path: None });
     }
-    let id = match protocol {
-        Some(ProtocolArg::Lustbus) => "lust-mc6000",
-        Some(ProtocolArg::Lecom) => "lenze-tmd",
-        Some(ProtocolArg::Sdo) => "lenze-ecs",
+    let id = match protocol.and_then(|p| p.0.families().next()) {
+        Some(f) => f.descriptor().schema_id,
         None => {
             return Err(Fail::input(
                 "say which drive family is on the bus: --schema ID|PATH, or --protocol lustbus|lecom|sdo",

@@ -52,23 +52,18 @@ use std::time::Duration;
 
 use driveset_schema::schema::{Access, StorageKind};
 use driveset_schema::validate::display_value;
-use driveset_schema::{Code, CodeKey, CodeStyle, Protocol, RawValue, ResolvedSet, Schema};
+use driveset_schema::{Code, CodeKey, CodeStyle, Family, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DriveClient, Identity};
 
-/// LUSTBUS 80-SLOAD (MC6000/7000 dataset handshake, 11.4).
-pub const SLOAD: u32 = 80;
+/// The longest the MC6000/7000 dataset check may take before the upload
+/// gives up (the family descriptor's SLOAD handshake, LUSTBUS 11.4).
+pub const DATASET_TIMEOUT: Duration = driveset_schema::family::SLOAD.timeout;
 
-/// Per-byte EEPROM store time of MC6000/7000: every byte is saved three
-/// times at 5 ms (LUSTBUS 3, 10.2.2).
-pub const MC_STORE_PER_BYTE: Duration = Duration::from_millis(15);
-
-/// Extra ACK delay of a VF1000 per byte of an EEPROM value that changes
-/// (LUSTBUS 10, exception 4: +60 ms one-byte, +120 ms two-byte).
-pub const VF_ACK_DELAY_PER_BYTE: Duration = Duration::from_millis(60);
-
-/// The drive's check of a staged dataset: SLOAD is polled up to this long.
-pub const DATASET_TIMEOUT: Duration = Duration::from_secs(10);
+/// The dataset handshake code of `schema`'s family (MC6000/7000 80-SLOAD).
+fn dataset_code(schema: &Schema) -> Option<u32> {
+    schema.family.descriptor().dataset.map(|d| d.code)
+}
 
 /// How a code's value is kept by the drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -208,12 +203,12 @@ pub struct TimeEstimate {
     pub total: Duration,
 }
 
-pub(crate) fn protocol_name(p: Protocol) -> &'static str {
+pub(crate) fn protocol_name(p: Family) -> &'static str {
     match p {
-        Protocol::Lecom => "lecom",
-        Protocol::LustbusVf1000 => "lustbus-vf1000",
-        Protocol::LustbusMc => "lustbus-mc",
-        Protocol::LenzeCanSdo => "lenze-can-sdo",
+        Family::Tmd => "lecom",
+        Family::Vf1000 => "lustbus-vf1000",
+        Family::Mc6000 => "lustbus-mc",
+        Family::Ecs => "lenze-can-sdo",
     }
 }
 
@@ -245,50 +240,50 @@ pub fn is_secret(schema: &Schema, key: CodeKey) -> bool {
 
 /// Codes that switch operating mode or control source, in the order they
 /// are written (last phase).
-fn mode_codes(p: Protocol) -> &'static [u32] {
+fn mode_codes(p: Family) -> &'static [u32] {
     match p {
-        Protocol::Lecom => &[14, 1],
-        Protocol::LustbusVf1000 => &[2],
-        Protocol::LustbusMc | Protocol::LenzeCanSdo => &[],
+        Family::Tmd => &[14, 1],
+        Family::Vf1000 => &[2],
+        Family::Mc6000 | Family::Ecs => &[],
     }
 }
 
 /// Lenze codes that act at once (commands, setpoints, control words).
-fn control_codes(p: Protocol) -> &'static [u32] {
+fn control_codes(p: Family) -> &'static [u32] {
     match p {
-        Protocol::Lecom => &[40, 43, 46, 47, 135],
-        Protocol::LenzeCanSdo => &[135],
-        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[],
+        Family::Tmd => &[40, 43, 46, 47, 135],
+        Family::Ecs => &[135],
+        Family::Vf1000 | Family::Mc6000 => &[],
     }
 }
 
 /// Bus address codes (LUSTBUS 82-SIOA/SADDR, Tmd C0009): a change makes
 /// the drive answer at another address, cutting the transaction off.
-fn address_codes(p: Protocol) -> &'static [u32] {
+fn address_codes(p: Family) -> &'static [u32] {
     match p {
-        Protocol::Lecom => &[9],
-        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[82],
-        Protocol::LenzeCanSdo => &[],
+        Family::Tmd => &[9],
+        Family::Vf1000 | Family::Mc6000 => &[82],
+        Family::Ecs => &[],
     }
 }
 
 /// Baud rate codes (LUSTBUS 81-SIOC/SBAUD, effective after a restart per
 /// 11.5; Tmd C0125): written last.
-fn baud_codes(p: Protocol) -> &'static [u32] {
+fn baud_codes(p: Family) -> &'static [u32] {
     match p {
-        Protocol::Lecom => &[125],
-        Protocol::LustbusVf1000 | Protocol::LustbusMc => &[81],
-        Protocol::LenzeCanSdo => &[],
+        Family::Tmd => &[125],
+        Family::Vf1000 | Family::Mc6000 => &[81],
+        Family::Ecs => &[],
     }
 }
 
 /// Commands that overwrite every parameter (refused unless forced).
-fn command_codes(p: Protocol) -> &'static [u32] {
+fn command_codes(p: Family) -> &'static [u32] {
     match p {
-        Protocol::Lecom => &[2],
-        Protocol::LustbusVf1000 => &[71],
-        Protocol::LustbusMc => &[4],
-        Protocol::LenzeCanSdo => &[],
+        Family::Tmd => &[2],
+        Family::Vf1000 => &[71],
+        Family::Mc6000 => &[4],
+        Family::Ecs => &[],
     }
 }
 
@@ -308,14 +303,14 @@ fn storage_of(code: &Code, dataset: bool) -> Storage {
 fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
     if storage == Storage::CardWriteable {
         Phase::Dataset
-    } else if address_codes(schema.protocol).contains(&key.number)
-        || baud_codes(schema.protocol).contains(&key.number)
+    } else if address_codes(schema.family).contains(&key.number)
+        || baud_codes(schema.family).contains(&key.number)
     {
         Phase::Link
-    } else if mode_codes(schema.protocol).contains(&key.number) {
+    } else if mode_codes(schema.family).contains(&key.number) {
         Phase::Mode
     } else if matches!(storage, Storage::Ram | Storage::FselIsel)
-        || control_codes(schema.protocol).contains(&key.number)
+        || control_codes(schema.family).contains(&key.number)
     {
         Phase::Control
     } else {
@@ -335,7 +330,7 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
         ));
     }
     if let Some(id) = &opts.identity {
-        let want = protocol_name(schema.protocol);
+        let want = protocol_name(schema.family);
         if !id.protocol.is_empty() && id.protocol != want && !opts.force {
             out.push(format!(
                 "the drive identifies as protocol family `{}`, schema `{}` is for `{want}`; check the address, or pass --force",
@@ -388,12 +383,12 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
                 "{}: a status code that reading clears; it cannot be part of a set, remove it",
                 code_label(schema, *key)
             ));
-        } else if opts.dataset && key.number == SLOAD {
+        } else if opts.dataset && dataset_code(schema) == Some(key.number) {
             out.push(format!(
                 "{}: the dataset handshake code is driven by the upload itself; remove it from the set",
                 code_label(schema, *key)
             ));
-        } else if command_codes(schema.protocol).contains(&key.number) && !opts.force {
+        } else if command_codes(schema.family).contains(&key.number) && !opts.force {
             out.push(format!(
                 "{}: a command that overwrites parameters, not a setting; remove it from the set (or pass --force)",
                 code_label(schema, *key)
@@ -448,7 +443,7 @@ pub fn plan(
             unchanged.push(*key);
             continue;
         }
-        if address_codes(schema.protocol).contains(&key.number) {
+        if address_codes(schema.family).contains(&key.number) {
             if opts.force {
                 warnings.push(format!(
                     "forced: {} changes the drive's bus address; it will stop answering at its present address, so this write cannot be verified or rolled back",
@@ -464,7 +459,7 @@ pub fn plan(
                 continue;
             }
         }
-        if baud_codes(schema.protocol).contains(&key.number) {
+        if baud_codes(schema.family).contains(&key.number) {
             warnings.push(format!(
                 "{} changes the baud rate: talk to the drive at the new rate after its next restart",
                 code_label(schema, *key)
@@ -472,18 +467,14 @@ pub fn plan(
         }
         let storage = storage_of(code, opts.dataset);
         let phase = phase_of(schema, *key, storage);
-        let width_for_time = u32::from(code.width.unwrap_or(4));
-        let store_time = if schema.protocol == Protocol::LustbusMc && storage == Storage::Eeprom {
-            MC_STORE_PER_BYTE * width_for_time
+        let family = schema.family.descriptor();
+        let store_time = if storage == Storage::Eeprom {
+            family.store_time(code)
         } else {
             Duration::ZERO
         };
-        let ack_delay = if schema.protocol == Protocol::LustbusVf1000 && storage == Storage::Eeprom
-        {
-            VF_ACK_DELAY_PER_BYTE * u32::from(code.width.unwrap_or(2))
-        } else {
-            Duration::ZERO
-        };
+        // The same rule the client uses for its answer timeout.
+        let ack_delay = family.ack_delay(code, true);
         writes.push(PlannedWrite {
             key: *key,
             label: code_label(schema, *key),
@@ -502,7 +493,7 @@ pub fn plan(
     if !problems.is_empty() {
         return Err(problems);
     }
-    let mode_order = mode_codes(schema.protocol);
+    let mode_order = mode_codes(schema.family);
     writes.sort_by_key(|w| {
         let mode_rank = mode_order
             .iter()
@@ -547,7 +538,7 @@ impl Plan {
         }
         let mut t = est.read_back;
         let mut pending: std::collections::VecDeque<CodeKey> = Default::default();
-        let sload = CodeKey::new(SLOAD);
+        let sload = CodeKey::new(driveset_schema::family::SLOAD.code);
         if self.dataset {
             let mut d = client.write_time(sload);
             for w in self.writes.iter().filter(|w| w.phase == Phase::Dataset) {

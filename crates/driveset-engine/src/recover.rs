@@ -31,7 +31,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 use crate::client::DriveClient;
 use crate::error::EngineError;
 use crate::journal::{JournalFile, TxnState};
-use crate::plan::{DATASET_TIMEOUT, Phase, SLOAD, code_label};
+use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
 use crate::upload::{describe_holdings, holdings, read_values, restore};
 
 /// What recovery did.
@@ -185,8 +185,10 @@ pub fn recover(
     }
 
     let dataset = jf.journal.dataset && client.has_dataset_download();
-    let sload_open = if dataset && schema.code(SLOAD).is_some() {
-        client.read(CodeKey::new(SLOAD))? == RawValue::Int(-1)
+    let handshake = schema.family.descriptor().dataset;
+    let sload_open = if let Some(h) = handshake.filter(|h| dataset && schema.code(h.code).is_some())
+    {
+        client.read(CodeKey::new(h.code))? == RawValue::Int(h.begin)
     } else {
         false
     };

@@ -398,7 +398,7 @@ set = "missing.toml"
         "29:11 [duplicate-address] address 11 is used twice on bus `a`",
         "27:8 [duplicate-name] drive name `a/11` is used twice",
         "34:11 [group-address] address 31 on lustbus bus `b`: LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30",
-        "35:7 [set-family] set `tmd.toml` is for schema `lenze-tmd` (protocol Lecom), which does not run on lustbus bus `b`",
+        "35:7 [set-family] set `tmd.toml` is for schema `lenze-tmd` (tmd drives, protocol lecom), which does not run on lustbus bus `b`",
         "39:11 [address-out-of-range] address 40 on lustbus bus `b`: LUSTBUS drive addresses are 1..30",
         "43:7 [unknown-bus] no bus is named `c`",
         "45:7 [missing-set] set file `missing.toml` does not exist (DIR/missing.toml)",

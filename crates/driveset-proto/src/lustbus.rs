@@ -59,4 +59,4 @@ pub use frame::{
 pub use posmod::{PosModData, PosModError, PosModStatus};
 pub use siof::{Siof, SiofAction, SiofCause};
 pub use stream::{ReplyDecoder, RequestDecoder, Sniffer, StreamEvent};
-pub use value::{Family, ParameterType, ParameterValue, ValueError};
+pub use value::{Dialect, ParameterType, ParameterValue, ValueError};

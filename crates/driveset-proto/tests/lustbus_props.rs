@@ -13,7 +13,7 @@ use driveset_proto::lustbus::fuzzing::lustbus_stream;
 use driveset_proto::lustbus::posmod::{PosModData, PosModStatus};
 use driveset_proto::lustbus::value::{Fixpoint16, FloatIeee, Int32Q16, McError, VfError};
 use driveset_proto::lustbus::{
-    Address, Enquiry, Family, McDescription, ParameterCode, ParameterType, ParameterValue, Reply,
+    Address, Dialect, Enquiry, McDescription, ParameterCode, ParameterType, ParameterValue, Reply,
     Request, Select, Sniffer, Telegram, ValueReply, ValueText, VfDescription, decode_reply,
     decode_request,
 };
@@ -110,15 +110,15 @@ proptest! {
 
     #[test]
     fn value_round_trip(v in parameter_value()) {
-        for family in [Family::Vf1000, Family::Mc] {
+        for family in [Dialect::Vf1000, Dialect::Mc] {
             if !v.ty().in_family(family) {
                 prop_assert!(v.encode(family).is_err());
                 continue;
             }
             let text = v.encode(family).unwrap();
             match family {
-                Family::Vf1000 => prop_assert_eq!(text.len(), 4),
-                Family::Mc => {
+                Dialect::Vf1000 => prop_assert_eq!(text.len(), 4),
+                Dialect::Mc => {
                     prop_assert!((1..=8).contains(&text.len()));
                     prop_assert!(text.len() == 1 || text.as_bytes()[0] != b'0');
                     // Leading zeros are accepted on decode.
@@ -134,7 +134,7 @@ proptest! {
 
     #[test]
     fn value_decode_never_panics(ty in 0usize..10, text in proptest::collection::vec(any::<u8>(), 0..12)) {
-        for family in [Family::Vf1000, Family::Mc] {
+        for family in [Dialect::Vf1000, Dialect::Mc] {
             let _ = ParameterValue::decode(ParameterType::ALL[ty], family, &text);
         }
     }

@@ -9,7 +9,7 @@ use driveset_proto::lustbus::description::substitution_text_request;
 use driveset_proto::lustbus::posmod::{PosModData, PosModStatus};
 use driveset_proto::lustbus::value::{Fixpoint16, Int32Q16};
 use driveset_proto::lustbus::{
-    Address, CodeMeaning, CompatibleParameter, Direction, Enquiry, Family, ParameterCode,
+    Address, CodeMeaning, CompatibleParameter, Dialect, Direction, Enquiry, ParameterCode,
     ParameterType, ParameterValue, Reply, Request, Select, Siof, SiofAction, Sniffer, Telegram,
     ValueReply, ValueText, decode_reply, decode_request,
 };
@@ -93,7 +93,7 @@ fn section_6_1_1_1_vf1000_enquiry() {
     assert_eq!(&r.code.digits(), b"00112");
     assert_eq!(r.value.as_bytes(), b"03E8");
     assert_eq!(
-        r.typed(ParameterType::Fixpoint16, Family::Vf1000),
+        r.typed(ParameterType::Fixpoint16, Dialect::Vf1000),
         Ok(ParameterValue::Fixpoint16(Fixpoint16(1000)))
     );
     assert_eq!(Fixpoint16(1000).to_string(), "50.00");
@@ -135,12 +135,12 @@ fn section_6_1_1_2_mc_enquiry() {
     );
     let r = decode_reply(&wire).unwrap();
     let Reply::Value(r) = r else { panic!() };
-    let v = r.typed(ParameterType::Int32Q16, Family::Mc).unwrap();
+    let v = r.typed(ParameterType::Int32Q16, Dialect::Mc).unwrap();
     assert_eq!(v, ParameterValue::Int32Q16(Int32Q16(83_509_248)));
     assert_eq!(0x04FA_4000, 83_509_248);
     assert_eq!(Int32Q16(83_509_248).to_string(), "1274.25");
     // Our encoder writes no leading zero: "4FA4000" as in the worked number.
-    assert_eq!(v.encode(Family::Mc).unwrap().as_bytes(), b"4FA4000");
+    assert_eq!(v.encode(Dialect::Mc).unwrap().as_bytes(), b"4FA4000");
 }
 
 /// 6.2.2: setting 05-FSSIO to 50.00 Hz via address 0.
@@ -152,7 +152,7 @@ fn section_6_2_2_vf1000_select() {
         Address::ALL,
         ParameterCode::vf_value(1, 5).unwrap(),
         &ParameterValue::Fixpoint16(raw),
-        Family::Vf1000,
+        Dialect::Vf1000,
     )
     .unwrap();
     let bytes = s.encode();
@@ -181,7 +181,7 @@ fn section_6_2_3_mc_select() {
         Address::ALL,
         ParameterCode::mc_value(428).unwrap(),
         &ParameterValue::Int32Q16(raw),
-        Family::Mc,
+        Dialect::Mc,
     )
     .unwrap();
     assert_eq!(
@@ -223,7 +223,7 @@ fn section_7_1_1_vf1000_control_sequence() {
             Address::ALL,
             ParameterCode::vf_value(0, p).unwrap(),
             &v,
-            Family::Vf1000,
+            Dialect::Vf1000,
         )
         .unwrap();
         assert_eq!(s.encode().as_bytes(), select_bytes(b'@', text, bcc));
@@ -268,7 +268,7 @@ fn section_7_2_1_mc_control_sequence() {
             Address::ALL,
             ParameterCode::mc_value(p).unwrap(),
             &v,
-            Family::Mc,
+            Dialect::Mc,
         )
         .unwrap();
         assert_eq!(s.encode().as_bytes(), select_bytes(b'@', text, bcc));
@@ -296,7 +296,7 @@ fn section_7_2_1_mc_control_sequence() {
 fn section_9_2_siof() {
     let vf = decode_reply(&reply_bytes(b'@', b"00085=0081", 0x0A)).unwrap();
     let Reply::Value(vf) = vf else { panic!() };
-    let ParameterValue::Usign8(bits) = vf.typed(ParameterType::Usign8, Family::Vf1000).unwrap()
+    let ParameterValue::Usign8(bits) = vf.typed(ParameterType::Usign8, Dialect::Vf1000).unwrap()
     else {
         panic!()
     };
@@ -306,7 +306,7 @@ fn section_9_2_siof() {
     let mc = decode_reply(&reply_bytes(b'@', b"00085=81", 0x0A)).unwrap();
     let Reply::Value(mc) = mc else { panic!() };
     assert_eq!(
-        mc.typed(ParameterType::Usign8, Family::Mc),
+        mc.typed(ParameterType::Usign8, Dialect::Mc),
         Ok(ParameterValue::Usign8(0x81))
     );
     for (bits, descriptor, action) in [

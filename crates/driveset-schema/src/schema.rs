@@ -11,32 +11,8 @@ use crate::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use crate::error::{
     Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
 };
+use crate::family::Family;
 use crate::value::ValueType;
-
-/// Bus protocol of a family (`[schema] protocol`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Protocol {
-    /// Lenze LECOM-A/B.
-    Lecom,
-    /// LUSTBUS, SMARTDRIVE VF1000.
-    LustbusVf1000,
-    /// LUSTBUS, MASTERCONTROL MC6000/7000.
-    LustbusMc,
-    /// Lenze system bus (CAN) SDO.
-    LenzeCanSdo,
-}
-
-impl Protocol {
-    fn parse(s: &str) -> Option<Self> {
-        Some(match s {
-            "lecom" => Protocol::Lecom,
-            "lustbus-vf1000" => Protocol::LustbusVf1000,
-            "lustbus-mc" => Protocol::LustbusMc,
-            "lenze-can-sdo" => Protocol::LenzeCanSdo,
-            _ => return None,
-        })
-    }
-}
 
 /// How codes are spelled (`[schema] code_style`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -271,8 +247,9 @@ pub struct Schema {
     pub id: String,
     /// Title.
     pub title: String,
-    /// Protocol.
-    pub protocol: Protocol,
+    /// The drive family (`[schema] protocol`): its descriptor holds the
+    /// protocol, timing and handshake facts.
+    pub family: Family,
     /// Code spelling.
     pub code_style: CodeStyle,
     /// Source document.
@@ -834,12 +811,12 @@ pub fn parse_schema(
         .unwrap_or_else(|| h.loc());
     let protocol = match h.string("protocol")? {
         None => None,
-        Some((p, l)) => Some(Protocol::parse(&p).ok_or_else(|| {
+        Some((p, l)) => Some(Family::from_schema_protocol(&p).ok_or_else(|| {
             InputError::new(
                 InputErrorKind::Structure,
                 l,
                 format!("unknown protocol `{p}`"),
-                "use lecom, lustbus-vf1000, lustbus-mc or lenze-can-sdo",
+                format!("use one of {}", Family::schema_protocols()),
             )
         })?),
     };
@@ -976,7 +953,7 @@ pub fn parse_schema(
             Schema {
                 id: String::new(),
                 title: String::new(),
-                protocol: protocol.ok_or_else(|| missing("protocol"))?,
+                family: protocol.ok_or_else(|| missing("protocol"))?,
                 code_style: code_style.ok_or_else(|| missing("code_style"))?,
                 spec: None,
                 default_type: None,
@@ -1005,7 +982,7 @@ pub fn parse_schema(
     schema.extends = extends.map(|e| e.0);
     schema.path = doc.source.path.clone();
     if let Some(p) = protocol {
-        schema.protocol = p;
+        schema.family = p;
     }
     if let Some(c) = code_style {
         schema.code_style = c;

@@ -9,54 +9,17 @@ use std::sync::Arc;
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::{Registry, Schema};
 
-/// A simulated drive family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Family {
-    /// Lust MASTERCONTROL MC6000/7000 (LUSTBUS, enhanced).
-    Mc6000,
-    /// Lust SMARTDRIVE VF1000 (LUSTBUS).
-    Vf1000,
-    /// Lenze Tmd (LECOM-A/B).
-    Tmd,
-    /// Lenze ECS (system bus CAN, SDO).
-    Ecs,
-}
+/// The drive families (the schema crate's descriptor owns their names).
+pub use driveset_schema::Family;
 
-impl Family {
-    /// Every family.
-    pub const ALL: [Family; 4] = [Family::Mc6000, Family::Vf1000, Family::Tmd, Family::Ecs];
-
-    /// The name used in `sim://FAMILY` and `--family`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Mc6000 => "mc6000",
-            Family::Vf1000 => "vf1000",
-            Family::Tmd => "tmd",
-            Family::Ecs => "ecs",
-        }
-    }
-
-    /// Parse a family name (`mc6000`, `mc7000`, `vf1000`, `tmd`, `ecs`).
-    pub fn parse(name: &str) -> Result<Family, String> {
-        match name.to_ascii_lowercase().as_str() {
-            "mc6000" | "mc7000" | "mc" => Ok(Family::Mc6000),
-            "vf1000" | "vf" => Ok(Family::Vf1000),
-            "tmd" => Ok(Family::Tmd),
-            "ecs" => Ok(Family::Ecs),
-            other => Err(format!(
-                "unknown drive family `{other}`: use one of mc6000, vf1000, tmd, ecs"
-            )),
-        }
-    }
-
-    /// The id of the schema the simulated drive's table comes from.
-    pub fn schema_id(self) -> &'static str {
-        match self {
-            Family::Mc6000 => "fictional-mc6000-demo",
-            Family::Vf1000 => "fictional-vf1000-demo",
-            Family::Tmd => "lenze-tmd",
-            Family::Ecs => "fictional-ecs-demo",
-        }
+/// The id of the schema a simulated drive of `family` loads its table from
+/// (the fictional fixtures where the real schema documents too little).
+pub fn sim_schema_id(family: Family) -> &'static str {
+    match family {
+        Family::Mc6000 => "fictional-mc6000-demo",
+        Family::Vf1000 => "fictional-vf1000-demo",
+        Family::Tmd => "lenze-tmd",
+        Family::Ecs => "fictional-ecs-demo",
     }
 }
 
@@ -88,10 +51,10 @@ pub fn registry() -> Result<Registry, String> {
 /// The schema a simulated drive of `family` loads.
 pub fn schema(family: Family) -> Result<Arc<Schema>, String> {
     let r = registry()?;
-    r.get(family.schema_id()).ok_or_else(|| {
+    r.get(sim_schema_id(family)).ok_or_else(|| {
         format!(
             "schema `{}` missing from the simulator's catalog",
-            family.schema_id()
+            sim_schema_id(family)
         )
     })
 }

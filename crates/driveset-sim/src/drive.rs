@@ -135,20 +135,16 @@ impl ReactionTime {
         }
     }
 
-    /// MASTERCONTROL MC6000/7000 without KEYPAD: 1..25 ms (LUSTBUS section 10).
-    pub const MC_WITHOUT_KEYPAD: ReactionTime = ReactionTime::ms(1, 25);
-    /// MASTERCONTROL MC6000/7000 with KEYPAD: 1..30 ms (LUSTBUS section 10).
-    pub const MC_WITH_KEYPAD: ReactionTime = ReactionTime::ms(1, 30);
-    /// SMARTDRIVE VF1000 without KEYPAD: 1..30 ms (LUSTBUS section 10).
-    pub const VF_WITHOUT_KEYPAD: ReactionTime = ReactionTime::ms(1, 30);
-    /// SMARTDRIVE VF1000 with KEYPAD: 1..60 ms (LUSTBUS section 10).
-    pub const VF_WITH_KEYPAD: ReactionTime = ReactionTime::ms(1, 60);
-    /// Lenze Tmd: the LECOM manual gives no reaction time. FICTIONAL
-    /// simulator default, configurable.
-    pub const TMD_ASSUMED: ReactionTime = ReactionTime::ms(1, 20);
-    /// Lenze ECS SDO server: the excerpt gives no reaction time. FICTIONAL
-    /// simulator default, configurable.
-    pub const ECS_ASSUMED: ReactionTime = ReactionTime::ms(1, 2);
+    /// The reaction range of `family` as its descriptor gives it (LUSTBUS
+    /// section 10 for the Lust families; FICTIONAL assumptions for Tmd and
+    /// ECS, whose documents give none), with or without a KEYPAD.
+    pub fn of(family: driveset_schema::Family, keypad: bool) -> Self {
+        let r = family.descriptor().reaction;
+        ReactionTime {
+            min: r.min,
+            max: r.longest(keypad),
+        }
+    }
 
     /// A fixed reaction (min = max), for exact-timing tests.
     pub const fn fixed(d: Duration) -> Self {

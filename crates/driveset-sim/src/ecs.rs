@@ -49,7 +49,7 @@
 //!   [`FrameDrive`] contract has no unsolicited frames, and page 454 does
 //!   not mention one).
 //! - **Reaction time**: the excerpt gives no figure; the default is the
-//!   FICTIONAL [`ReactionTime::ECS_ASSUMED`], drawn per answer from the
+//!   FICTIONAL reaction of the family descriptor (`ReactionTime::of`), drawn per answer from the
 //!   drive's seeded [`SimRng`], configurable with
 //!   [`EcsDrive::with_reaction`].
 
@@ -218,7 +218,7 @@ impl EcsDrive {
     /// A drive at `node` with the simulator's ECS table
     /// ([`Family::Ecs`]: `schemas/lenze-ecs.toml` extended by the FICTIONAL
     /// `parameter-sets/fixtures/fictional-ecs-demo.toml`), every code at its
-    /// factory value, reaction [`ReactionTime::ECS_ASSUMED`], random choices
+    /// factory value, reaction from the family descriptor, random choices
     /// from `seed`.
     pub fn new(node: NodeId, seed: u64) -> Result<Self, String> {
         let table = ParamTable::from_schema(catalog::schema(Family::Ecs)?)?;
@@ -234,7 +234,7 @@ impl EcsDrive {
             values,
             server: SdoServer::new(),
             rng: SimRng::derive(seed, u64::from(node.get())),
-            reaction: ReactionTime::ECS_ASSUMED,
+            reaction: ReactionTime::of(driveset_schema::Family::Ecs, false),
             off_until: None,
         }
     }

@@ -17,7 +17,7 @@ use driveset_proto::ascii::{EOT, mask7};
 use driveset_proto::lustbus::description::{
     Attributes, McExtended, McExtension, McKind, ShortText, UserLevel, VfKind, VfStorage,
 };
-use driveset_proto::lustbus::value::Family as WireFamily;
+use driveset_proto::lustbus::value::Dialect as WireFamily;
 use driveset_proto::lustbus::{
     Address, FrameError, McDescription, ParameterCode, ParameterType, ParameterValue, Reply,
     Request, RequestDecoder, Siof, ValueReply, ValueText, VfDescription,

@@ -103,11 +103,7 @@ pub struct Mc6000 {
 impl Mc6000 {
     /// A drive with these options.
     pub fn new(opts: LustOptions) -> Result<Self, String> {
-        let default = if opts.keypad {
-            ReactionTime::MC_WITH_KEYPAD
-        } else {
-            ReactionTime::MC_WITHOUT_KEYPAD
-        };
+        let default = ReactionTime::of(Family::Mc6000, opts.keypad);
         Ok(Mc6000 {
             core: LustCore::new(Family::Mc6000, &opts, default)?,
             eeprom_busy_until: None,

@@ -1220,7 +1220,12 @@ mod tests {
             }
             for &a in &addresses {
                 let s = link.state(a).unwrap();
-                assert_eq!(s.schema, family.schema_id(), "{}", family.name());
+                assert_eq!(
+                    s.schema,
+                    crate::catalog::sim_schema_id(family),
+                    "{}",
+                    family.name()
+                );
             }
             assert!(link.state(3).is_none());
             let dump = link.dump();
@@ -1457,8 +1462,14 @@ mod tests {
         assert_eq!(link.family_of(2), Some(Family::Mc6000));
         assert_eq!(link.family_of(3), None);
         assert_eq!(link.addresses(), [1, 2, 5, 6]);
-        assert_eq!(link.state(1).unwrap().schema, Family::Mc6000.schema_id());
-        assert_eq!(link.state(6).unwrap().schema, Family::Vf1000.schema_id());
+        assert_eq!(
+            link.state(1).unwrap().schema,
+            crate::catalog::sim_schema_id(Family::Mc6000)
+        );
+        assert_eq!(
+            link.state(6).unwrap().schema,
+            crate::catalog::sim_schema_id(Family::Vf1000)
+        );
         // Both families answer on the same byte link, each at its address.
         let (mc, _) = enquire_85(&link, 2);
         assert!(mc.starts_with(b"B\x0200085="), "{mc:?}");

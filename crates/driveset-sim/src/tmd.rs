@@ -119,7 +119,7 @@ pub struct TmdOptions {
     /// Seed of the drive's random generator (reaction times).
     pub seed: u64,
     /// Reaction time. The manual gives no figure:
-    /// [`ReactionTime::TMD_ASSUMED`] is a fictional default.
+    /// the FICTIONAL default of the family descriptor (`ReactionTime::of`).
     pub reaction: ReactionTime,
     /// What a SEND that breaks the C0007 rule does.
     pub cfg_reaction: CfgReaction,
@@ -134,7 +134,7 @@ impl Default for TmdOptions {
             address: 1,
             control_source: 3,
             seed: 0,
-            reaction: ReactionTime::TMD_ASSUMED,
+            reaction: ReactionTime::of(Family::Tmd, false),
             cfg_reaction: CfgReaction::Refuse,
             boot: Duration::ZERO,
         }

@@ -61,11 +61,7 @@ pub struct Vf1000 {
 impl Vf1000 {
     /// A drive with these options.
     pub fn new(opts: LustOptions) -> Result<Self, String> {
-        let default = if opts.keypad {
-            ReactionTime::VF_WITH_KEYPAD
-        } else {
-            ReactionTime::VF_WITHOUT_KEYPAD
-        };
+        let default = ReactionTime::of(Family::Vf1000, opts.keypad);
         Ok(Vf1000 {
             core: LustCore::new(Family::Vf1000, &opts, default)?,
         })

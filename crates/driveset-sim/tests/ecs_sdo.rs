@@ -334,6 +334,6 @@ fn reaction_times_are_seeded_and_within_the_assumed_range() {
     let a = run(42);
     assert_eq!(a, run(42));
     assert_ne!(a, run(43));
-    let r = ReactionTime::ECS_ASSUMED;
+    let r = ReactionTime::of(driveset_schema::Family::Ecs, false);
     assert!(a.iter().all(|t| *t >= r.min && *t <= r.max), "{a:?}");
 }

@@ -39,8 +39,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context as _, bail};
-use driveset_proto::lustbus::Family;
-use driveset_schema::{Protocol as SchemaProtocol, Registry, Schema};
+use driveset_proto::lustbus::Dialect;
+use driveset_schema::{Family as SchemaProtocol, Registry, Schema};
 
 use crate::{EXIT_FINDINGS, EXIT_INPUT, EXIT_OK};
 use event::Event;
@@ -70,10 +70,10 @@ pub enum FamilyArg {
 }
 
 impl FamilyArg {
-    pub(crate) fn family(self) -> Family {
+    pub(crate) fn family(self) -> Dialect {
         match self {
-            FamilyArg::Vf1000 => Family::Vf1000,
-            FamilyArg::Mc6000 => Family::Mc,
+            FamilyArg::Vf1000 => Dialect::Vf1000,
+            FamilyArg::Mc6000 => Dialect::Mc,
         }
     }
 }
@@ -134,7 +134,7 @@ pub struct Args {
 pub struct Ctx {
     pub(crate) registry: Registry,
     pub(crate) schema: Option<Arc<Schema>>,
-    pub(crate) family: Option<Family>,
+    pub(crate) family: Option<Dialect>,
 }
 
 /// Loads `--schema` (an id of `registry` or a file).
@@ -246,14 +246,14 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     };
     let mut family = family;
     if let Some(s) = &schema {
-        let schema_family = match s.protocol {
-            SchemaProtocol::LustbusVf1000 => Some(Family::Vf1000),
-            SchemaProtocol::LustbusMc => Some(Family::Mc),
+        let schema_family = match s.family {
+            SchemaProtocol::Vf1000 => Some(Dialect::Vf1000),
+            SchemaProtocol::Mc6000 => Some(Dialect::Mc),
             _ => None,
         };
-        let fits = match (args.protocol, s.protocol) {
-            (DecodeProtocol::Lecom, SchemaProtocol::Lecom)
-            | (DecodeProtocol::Slcan, SchemaProtocol::LenzeCanSdo) => true,
+        let fits = match (args.protocol, s.family) {
+            (DecodeProtocol::Lecom, SchemaProtocol::Tmd)
+            | (DecodeProtocol::Slcan, SchemaProtocol::Ecs) => true,
             (DecodeProtocol::Lustbus, _) => {
                 schema_family.is_some() && (family.is_none() || family == schema_family)
             }

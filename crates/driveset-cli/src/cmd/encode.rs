@@ -50,7 +50,7 @@ use driveset_proto::can::{
 };
 use driveset_proto::lecom::{self, CodeAddress, ControllerAddress, Hex, Value};
 use driveset_proto::lustbus::{
-    Address, CompatibleParameter, Enquiry, Family, ParameterCode, ParameterValue, Reply, Request,
+    Address, CompatibleParameter, Dialect, Enquiry, ParameterCode, ParameterValue, Reply, Request,
     Select, ValueReply, ValueText,
 };
 use driveset_schema::value::{ConvError, Repr, decimal_to_raw};
@@ -60,7 +60,7 @@ use super::decode::input::{escaped, hex_spaced};
 use super::decode::{FamilyArg, builtin_registry, load_schema};
 use crate::{EXIT_INPUT, EXIT_OK};
 
-/// Protocol of the telegram to build.
+/// Family of the telegram to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum EncodeProtocol {
     /// LUSTBUS (Lust VF1000, MC6000/7000).
@@ -102,7 +102,7 @@ Examples:
   driveset encode --protocol lecom \"send address=34 code=11 value=95.2\"
   driveset encode --protocol sdo \"write node=1 code=11 value=50.0\"")]
 pub struct Args {
-    /// Protocol of the telegram.
+    /// Family of the telegram.
     #[arg(long, value_enum)]
     pub protocol: EncodeProtocol,
     /// LUSTBUS device family (for param= and decimal values).
@@ -280,15 +280,15 @@ fn lustbus(
         None => Address::ALL,
     };
     let family = match d.get("family") {
-        Some("vf1000") => Some(Family::Vf1000),
-        Some("mc6000" | "mc7000" | "mc") => Some(Family::Mc),
+        Some("vf1000") => Some(Dialect::Vf1000),
+        Some("mc6000" | "mc7000" | "mc") => Some(Dialect::Mc),
         Some(f) => bail!("family={f}: valid families: vf1000, mc6000"),
         None => args
             .family
             .map(FamilyArg::family)
-            .or(match schema.as_ref().map(|s| s.protocol) {
-                Some(driveset_schema::Protocol::LustbusVf1000) => Some(Family::Vf1000),
-                Some(driveset_schema::Protocol::LustbusMc) => Some(Family::Mc),
+            .or(match schema.as_ref().map(|s| s.family) {
+                Some(driveset_schema::Family::Vf1000) => Some(Dialect::Vf1000),
+                Some(driveset_schema::Family::Mc6000) => Some(Dialect::Mc),
                 _ => None,
             }),
     };
@@ -327,7 +327,10 @@ fn lustbus(
     Ok((bytes, text))
 }
 
-fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode, Option<Family>)> {
+fn lust_code(
+    d: &Desc,
+    family: Option<Dialect>,
+) -> anyhow::Result<(ParameterCode, Option<Dialect>)> {
     match (d.get("code"), d.get("param")) {
         (Some(_), Some(_)) => bail!("give code= or param=, not both"),
         (None, None) => bail!("{} needs code=NNNNN (five CODE digits) or param=P", d.verb),
@@ -357,8 +360,8 @@ fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode,
                 bail!("param={p} needs the device family: add family=vf1000 or family=mc6000");
             };
             let code = match fam {
-                Family::Mc => u16::try_from(n).ok().and_then(ParameterCode::mc_value),
-                Family::Vf1000 => {
+                Dialect::Mc => u16::try_from(n).ok().and_then(ParameterCode::mc_value),
+                Dialect::Vf1000 => {
                     let device = match d.get("device") {
                         None | Some("1") => 1,
                         Some("0") => 0,
@@ -373,7 +376,11 @@ fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode,
                 anyhow!(
                     "param={p}: {} parameters are {}",
                     fam,
-                    if fam == Family::Mc { "0..999" } else { "0..99" }
+                    if fam == Dialect::Mc {
+                        "0..999"
+                    } else {
+                        "0..99"
+                    }
                 )
             })?;
             Ok((code, Some(fam)))
@@ -384,20 +391,20 @@ fn lust_code(d: &Desc, family: Option<Family>) -> anyhow::Result<(ParameterCode,
 fn lust_value(
     v: &str,
     code: ParameterCode,
-    family: Option<Family>,
+    family: Option<Dialect>,
     schema: Option<Arc<Schema>>,
 ) -> anyhow::Result<ValueText> {
     if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
         let raw = u32::from_str_radix(h, 16)
             .map_err(|_| anyhow!("value={v}: not a hex number (at most 8 digits)"))?;
         let text = match family {
-            Some(Family::Vf1000) => {
+            Some(Dialect::Vf1000) => {
                 if raw > 0xFFFF {
                     bail!("value={v}: a VF1000 VALUE is 4 hex digits, at most 0xFFFF");
                 }
                 format!("{raw:04X}")
             }
-            Some(Family::Mc) => format!("{raw:X}"),
+            Some(Dialect::Mc) => format!("{raw:X}"),
             None => {
                 let digits = h.trim_start_matches('0');
                 if h.len() == 4 {

@@ -12,7 +12,7 @@ use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::error::EngineError;
 use driveset_link::Link;
 use driveset_proto::lustbus::ParameterCode;
-use driveset_schema::Protocol;
+use driveset_schema::Family;
 use serde_json::json;
 
 use crate::output;
@@ -54,7 +54,7 @@ pub struct Args {
     /// Schema id or file to talk with (decides the protocol).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
-    /// Protocol, when neither --schema nor a sim:// port says it.
+    /// Family, when neither --schema nor a sim:// port says it.
     #[arg(long, value_enum)]
     pub protocol: Option<ProtocolArg>,
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
@@ -87,7 +87,7 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     let mut note = None;
     // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
     // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
-    if args.schema.is_none() && sim_hint.is_none() && schema.protocol == Protocol::LustbusMc {
+    if args.schema.is_none() && sim_hint.is_none() && schema.family == Family::Mc6000 {
         let link = match opened.link {
             Link::Bytes(l) => l,
             Link::Frames(_) => {

@@ -15,7 +15,7 @@ use std::path::{Component, Path, PathBuf};
 
 use driveset_engine::pull::{PullOptions, pull as engine_pull};
 use driveset_schema::schema::{Access, StorageKind};
-use driveset_schema::{Format, Protocol, export};
+use driveset_schema::{Family, Format, export};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -118,12 +118,12 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
 /// parameter (MC 4-PROG, VF1000 71-PROG, Tmd C0002), as driveset-engine's
 /// planner lists them. A pulled set leaves them out so it can be uploaded
 /// back as it is.
-fn not_settings(p: Protocol, number: u32) -> bool {
+fn not_settings(p: Family, number: u32) -> bool {
     match p {
-        Protocol::LustbusMc => matches!(number, 4 | 80),
-        Protocol::LustbusVf1000 => number == 71,
-        Protocol::Lecom => number == 2,
-        Protocol::LenzeCanSdo => false,
+        Family::Mc6000 => matches!(number, 4 | 80),
+        Family::Vf1000 => number == 71,
+        Family::Tmd => number == 2,
+        Family::Ecs => false,
     }
 }
 
@@ -192,7 +192,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 driveset_engine::plan::value_text(&schema, *k, v)
             ));
         }
-        !ro && !not_settings(schema.protocol, k.number)
+        !ro && !not_settings(schema.family, k.number)
     });
     pulled.fingerprint = pulled.set.fingerprint();
 

@@ -18,6 +18,7 @@ use super::identify::BusFormat;
 use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::{EXIT_BUS, EXIT_OK};
+use driveset_schema::BusProtocol;
 
 /// Arguments of `driveset scan`.
 #[derive(clap::Args)]
@@ -42,7 +43,7 @@ pub struct Args {
     /// The port.
     #[arg(long)]
     pub port: String,
-    /// Protocol, when neither --schema nor a sim:// port says it.
+    /// Family, when neither --schema nor a sim:// port says it.
     #[arg(long, value_enum)]
     pub protocol: Option<ProtocolArg>,
     /// Schema id or file (decides the protocol and the probe code).
@@ -64,15 +65,6 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     port::finish(scan(&args))
 }
 
-fn proto_of(p: driveset_schema::Protocol) -> ProtocolArg {
-    use driveset_schema::Protocol as P;
-    match p {
-        P::Lecom => ProtocolArg::Lecom,
-        P::LustbusMc | P::LustbusVf1000 => ProtocolArg::Lustbus,
-        P::LenzeCanSdo => ProtocolArg::Sdo,
-    }
-}
-
 /// The port string at another rate (`baud=` replaced).
 fn at_baud(spec: &PortSpec, baud: u32) -> PortSpec {
     let mut s = spec.clone();
@@ -88,14 +80,14 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     let sim = port::peek_sim_family(&args.port);
     let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, args.protocol)?;
     let schema = choice.schema;
-    let protocol = args.protocol.unwrap_or_else(|| proto_of(schema.protocol));
+    let protocol = args.protocol.map_or_else(|| schema.family.bus(), |p| p.0);
     let opts = ScanOptions::default();
     let mut baud_found = None;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
         let rates: &[u32] = match protocol {
-            ProtocolArg::Lustbus => &LUSTBUS_BAUDS,
-            ProtocolArg::Lecom => &LECOM_BAUDS,
-            ProtocolArg::Sdo => {
+            BusProtocol::Lustbus => &LUSTBUS_BAUDS,
+            BusProtocol::Lecom => &LECOM_BAUDS,
+            BusProtocol::CanSdo => {
                 return Err(Fail::input(
                     "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
                 ));
@@ -130,7 +122,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         };
         let schema2 = schema.clone();
         let mut line_scan = |link: &mut dyn ByteLink| match protocol {
-            ProtocolArg::Lecom => scan_lecom(link, Some(&schema2), &lecom_addresses(), &opts),
+            BusProtocol::Lecom => scan_lecom(link, Some(&schema2), &lecom_addresses(), &opts),
             _ => scan_lustbus(link, &lustbus_addresses(), &opts),
         };
         match detect_baud(rates, &mut reopen, &mut line_scan)? {
@@ -144,31 +136,33 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         let opened = port::open_port(&args.port)?;
         let name = opened.name.clone();
         if let Some(f) = opened.sim_family() {
-            let sim_proto = proto_of(port::family_protocol(f));
+            let sim_proto = f.bus();
             if sim_proto != protocol {
                 return Err(Fail::input(format!(
                     "{name} simulates {} drives; scan it with --protocol {}",
                     f.name(),
-                    match sim_proto {
-                        ProtocolArg::Lustbus => "lustbus",
-                        ProtocolArg::Lecom => "lecom",
-                        ProtocolArg::Sdo => "sdo",
-                    }
+                    sim_proto.name()
                 )));
             }
         }
         let found = match (opened.link, protocol) {
-            (Link::Bytes(mut l), ProtocolArg::Lustbus) => {
+            (Link::Bytes(mut l), BusProtocol::Lustbus) => {
                 scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
             }
-            (Link::Bytes(mut l), ProtocolArg::Lecom) => {
+            (Link::Bytes(mut l), BusProtocol::Lecom) => {
                 scan_lecom(l.as_mut(), Some(&schema), &lecom_addresses(), &opts)?
             }
-            (Link::Frames(mut l), ProtocolArg::Sdo) => {
-                let s = if port::protocol_name(schema.protocol) == "lenze-can-sdo" {
+            (Link::Frames(mut l), BusProtocol::CanSdo) => {
+                let s = if schema.family.bus() == BusProtocol::CanSdo {
                     schema.clone()
                 } else {
-                    port::resolve_schema(None, &args.schemas, None, Some(ProtocolArg::Sdo))?.schema
+                    port::resolve_schema(
+                        None,
+                        &args.schemas,
+                        None,
+                        Some(ProtocolArg(BusProtocol::CanSdo)),
+                    )?
+                    .schema
                 };
                 scan_can(l.as_mut(), &s, &can_nodes(), &opts)?
             }
@@ -177,7 +171,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                     "{name} is a CAN port: scan it with --protocol sdo"
                 )));
             }
-            (Link::Bytes(_), ProtocolArg::Sdo) => {
+            (Link::Bytes(_), BusProtocol::CanSdo) => {
                 return Err(Fail::input(format!(
                     "{name} is a character line: scan it with --protocol lustbus or lecom"
                 )));
@@ -186,19 +180,15 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         (name, found)
     };
     let range = match protocol {
-        ProtocolArg::Lustbus => "LUSTBUS addresses 1..30",
-        ProtocolArg::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
-        ProtocolArg::Sdo => "CAN node ids 1..127",
+        BusProtocol::Lustbus => "LUSTBUS addresses 1..30",
+        BusProtocol::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
+        BusProtocol::CanSdo => "CAN node ids 1..127",
     };
     match args.format {
         BusFormat::Json => {
             let doc = json!({
                 "port": port_name,
-                "protocol": match protocol {
-                    ProtocolArg::Lustbus => "lustbus",
-                    ProtocolArg::Lecom => "lecom",
-                    ProtocolArg::Sdo => "sdo",
-                },
+                "protocol": protocol.name(),
                 "baud": baud_found,
                 "found": found.iter().map(|f| json!({
                     "address": f.address,

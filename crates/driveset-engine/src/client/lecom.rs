@@ -55,7 +55,7 @@ use driveset_proto::lecom::{
     Hex, OctetString, OperatingStatus, Receive, Response, ResponseDecoder, Send, Telegram, Value,
     VisibleString,
 };
-use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::{
     ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
@@ -303,12 +303,12 @@ impl<L: ByteLink> LecomClient<L> {
             port: link.port().to_string(),
             address,
         };
-        if schema.protocol != Protocol::Lecom {
+        if schema.family != Family::Tmd {
             return Err(EngineError::Refused {
                 target,
                 reason: format!(
-                    "schema `{}` is not a LECOM family (protocol {:?}); pick the client of its protocol",
-                    schema.id, schema.protocol
+                    "schema `{}` is not a LECOM family ({} drives); pick the client of its protocol",
+                    schema.id, schema.family
                 ),
             });
         }

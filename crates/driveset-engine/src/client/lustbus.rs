@@ -95,11 +95,11 @@ use std::time::Duration;
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, Instant, LinkError};
 use driveset_proto::lustbus::{
-    Address, Enquiry, Family, ParameterCode, ParameterType, ParameterValue, Reply, ReplyDecoder,
+    Address, Dialect, Enquiry, ParameterCode, ParameterType, ParameterValue, Reply, ReplyDecoder,
     Select, Siof, SiofAction, ValueText,
 };
 use driveset_schema::schema::StorageKind;
-use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::{
     ClientStats, DatasetOutcome, DriveClient, Identity, Target, code_name, device, link_error,
@@ -282,16 +282,16 @@ impl<L: ByteLink> LustLine<L> {
 }
 
 /// Wire family of a LUSTBUS schema.
-fn family_of(schema: &Schema) -> Option<Family> {
-    match schema.protocol {
-        Protocol::LustbusVf1000 => Some(Family::Vf1000),
-        Protocol::LustbusMc => Some(Family::Mc),
+fn family_of(schema: &Schema) -> Option<Dialect> {
+    match schema.family {
+        Family::Vf1000 => Some(Dialect::Vf1000),
+        Family::Mc6000 => Some(Dialect::Mc),
         _ => None,
     }
 }
 
 /// The codec type of a code (see the module docs for untyped codes).
-fn wire_type(schema: &Schema, code: &Code, family: Family) -> Option<ParameterType> {
+fn wire_type(schema: &Schema, code: &Code, family: Dialect) -> Option<ParameterType> {
     let t = match schema.type_of(code) {
         Some(ValueType::PT_USIGN8) => ParameterType::Usign8,
         Some(ValueType::PT_BINARY8) => ParameterType::Binary8,
@@ -348,7 +348,7 @@ pub struct LustbusClient<L: ByteLink = Box<dyn ByteLink>> {
     line: LustLine<L>,
     schema: Arc<Schema>,
     target: Target,
-    family: Family,
+    family: Dialect,
     address: Address,
     opts: LustbusOptions,
     /// SIOF/SERR has been read (and so cleared) in this session.
@@ -382,8 +382,8 @@ impl<L: ByteLink> LustbusClient<L> {
             return Err(EngineError::Refused {
                 target,
                 reason: format!(
-                    "schema `{}` is not a LUSTBUS family (protocol {:?}); pick the client of its protocol",
-                    schema.id, schema.protocol
+                    "schema `{}` is not a LUSTBUS family ({} drives); pick the client of its protocol",
+                    schema.id, schema.family
                 ),
             });
         };
@@ -448,10 +448,10 @@ impl<L: ByteLink> LustbusClient<L> {
 
     fn max_reaction(&self) -> Duration {
         Duration::from_millis(match (self.family, self.opts.keypad) {
-            (Family::Mc, true) => 30,
-            (Family::Mc, false) => 25,
-            (Family::Vf1000, true) => 60,
-            (Family::Vf1000, false) => 30,
+            (Dialect::Mc, true) => 30,
+            (Dialect::Mc, false) => 25,
+            (Dialect::Vf1000, true) => 60,
+            (Dialect::Vf1000, false) => 30,
         })
     }
 
@@ -481,11 +481,11 @@ impl<L: ByteLink> LustbusClient<L> {
             return ParameterCode::new(key.number).ok_or_else(|| refuse("cannot be addressed"));
         }
         match self.family {
-            Family::Vf1000 => u8::try_from(key.number)
+            Dialect::Vf1000 => u8::try_from(key.number)
                 .ok()
                 .and_then(|p| ParameterCode::vf_value(self.opts.vf_device, p))
                 .ok_or_else(|| refuse("is above 99, the VF1000 range (section 2.4.1)")),
-            Family::Mc => u16::try_from(key.number)
+            Dialect::Mc => u16::try_from(key.number)
                 .ok()
                 .and_then(ParameterCode::mc_value)
                 .ok_or_else(|| refuse("is above 999, the MC6000/7000 range (section 2.4.2)")),
@@ -496,9 +496,9 @@ impl<L: ByteLink> LustbusClient<L> {
     /// width (8 if unknown; `max`: the longest the codec allows, 8).
     fn value_len(&self, code: Option<&Code>, max: bool) -> usize {
         match self.family {
-            Family::Vf1000 => 4,
-            Family::Mc if max => 8,
-            Family::Mc => code
+            Dialect::Vf1000 => 4,
+            Dialect::Mc if max => 8,
+            Dialect::Mc => code
                 .and_then(|c| c.width)
                 .map_or(8, |w| usize::from(w).clamp(1, 4) * 2),
         }
@@ -579,8 +579,8 @@ impl<L: ByteLink> LustbusClient<L> {
 
     fn siof_name(&self) -> &'static str {
         match self.family {
-            Family::Vf1000 => "SIOF",
-            Family::Mc => "SERR",
+            Dialect::Vf1000 => "SIOF",
+            Dialect::Mc => "SERR",
         }
     }
 
@@ -645,7 +645,7 @@ impl<L: ByteLink> LustbusClient<L> {
 
     /// Whether the MC pacing applies to a write of `code` now.
     fn paced(&self, code: &Code) -> bool {
-        self.family == Family::Mc && Self::is_eeprom(code) && !self.dataset_open
+        self.family == Dialect::Mc && Self::is_eeprom(code) && !self.dataset_open
     }
 
     /// The SELECT path: encode, pace, send, handle NAK via SIOF.
@@ -699,7 +699,7 @@ impl<L: ByteLink> LustbusClient<L> {
             })?;
         let bytes = Select::new(self.address, pcode, value).encode();
         let mut timeout = self.timeout(2);
-        if self.family == Family::Vf1000
+        if self.family == Dialect::Vf1000
             && matches!(
                 code.kind,
                 Some(StorageKind::Eeprom) | Some(StorageKind::FselIsel) | None
@@ -877,8 +877,8 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             .unwrap_or_else(|| vec![TYPE]);
         let mut out = Identity {
             protocol: match self.family {
-                Family::Vf1000 => "lustbus-vf1000".into(),
-                Family::Mc => "lustbus-mc".into(),
+                Dialect::Vf1000 => "lustbus-vf1000".into(),
+                Dialect::Mc => "lustbus-mc".into(),
             },
             ..Identity::default()
         };
@@ -939,8 +939,8 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
         let (number, bit) = match self.family {
-            Family::Mc => (MC_SCTL1, 0),
-            Family::Vf1000 => (VF_CNTL, 7),
+            Dialect::Mc => (MC_SCTL1, 0),
+            Dialect::Vf1000 => (VF_CNTL, 7),
         };
         if self.schema.code(number).is_none() {
             return Ok(None);
@@ -962,11 +962,11 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
     }
 
     fn has_dataset_download(&self) -> bool {
-        self.family == Family::Mc
+        self.family == Dialect::Mc
     }
 
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        if self.family != Family::Mc {
+        if self.family != Dialect::Mc {
             return Err(EngineError::Refused {
                 target: self.target.clone(),
                 reason: "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)".into(),
@@ -1069,7 +1069,7 @@ impl<L: ByteLink> LustbusClient<L> {
     /// NAK is returned as the decoded [`EngineError::Device`] cause (SERR is
     /// read and so cleared, as after any refused SELECT).
     pub fn select_stext(&mut self, index: u8) -> Result<(), EngineError> {
-        if self.family != Family::Mc {
+        if self.family != Dialect::Mc {
             return Err(EngineError::Refused {
                 target: self.target.clone(),
                 reason: "108-STEXT substitution texts are MC6000/7000 only (section 11.3)".into(),
@@ -1078,7 +1078,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let code = ParameterCode::mc_value(driveset_proto::lustbus::description::STEXT)
             .unwrap_or(ParameterCode::POSMOD);
         let value = ParameterValue::Usign8(index)
-            .encode(Family::Mc)
+            .encode(Dialect::Mc)
             .map_err(|e| EngineError::Protocol {
                 target: self.target.clone(),
                 what: "write 108-STEXT".into(),

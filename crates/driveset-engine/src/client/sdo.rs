@@ -31,7 +31,7 @@ use driveset_proto::can::{
     ClientEvent, Completed, Index, NodeId, SdoClient, SdoRequest, SdoResponse, Subindex,
     lenze::INDEX_BASE,
 };
-use driveset_schema::{Code, CodeKey, Protocol, RawValue, Schema, ValueType};
+use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::{
     ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
@@ -223,12 +223,12 @@ impl<L: FrameLink> CanClient<L> {
             port: link.port().to_string(),
             address: node,
         };
-        if schema.protocol != Protocol::LenzeCanSdo {
+        if schema.family != Family::Ecs {
             return Err(EngineError::Refused {
                 target,
                 reason: format!(
-                    "schema `{}` is not a CAN SDO family (protocol {:?}); pick the client of its protocol",
-                    schema.id, schema.protocol
+                    "schema `{}` is not a CAN SDO family ({} drives); pick the client of its protocol",
+                    schema.id, schema.family
                 ),
             });
         }

@@ -39,7 +39,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use driveset_link::{Instant, Link, OpenOptions, PortSpec};
-use driveset_schema::{CodeKey, DiffKind, Protocol, RawValue, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, DiffKind, RawValue, ResolvedSet, Schema};
 use serde::{Deserialize, Serialize};
 
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
@@ -48,8 +48,7 @@ use super::report::{
     TimelineEntry,
 };
 use crate::client::{
-    BorrowedByteLink, BorrowedFrameLink, CanClient, ClientStats, DatasetOutcome, DriveClient,
-    Identity, LecomClient, LustbusClient, Target,
+    BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient, Target,
 };
 use crate::error::EngineError;
 use crate::identify::check_family;
@@ -528,45 +527,11 @@ fn since(start: Instant, at: Instant) -> f64 {
     ms(at.saturating_duration_since(start))
 }
 
-/// A client for `address` with `schema`'s protocol on `link`.
-pub fn client_on<'l>(
-    link: &'l mut Link,
-    schema: Arc<Schema>,
-    address: u8,
-) -> Result<Box<dyn DriveClient + 'l>, EngineError> {
-    let port = match &*link {
-        Link::Bytes(b) => b.port().to_string(),
-        Link::Frames(f) => f.port().to_string(),
-    };
-    match (link, schema.protocol) {
-        (Link::Bytes(b), Protocol::LustbusMc | Protocol::LustbusVf1000) => Ok(Box::new(
-            LustbusClient::new(BorrowedByteLink(&mut **b), schema, address)?,
-        )),
-        (Link::Bytes(b), Protocol::Lecom) => Ok(Box::new(LecomClient::new(
-            BorrowedByteLink(&mut **b),
-            schema,
-            address,
-        )?)),
-        (Link::Frames(f), Protocol::LenzeCanSdo) => Ok(Box::new(CanClient::new(
-            BorrowedFrameLink(&mut **f),
-            schema,
-            address,
-        )?)),
-        (_, p) => Err(EngineError::Refused {
-            target: Target { port, address },
-            reason: format!(
-                "schema `{}` (protocol {p:?}) does not run on this kind of link",
-                schema.id
-            ),
-        }),
-    }
-}
-
 fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> BusRun {
     let mut report = BusReport {
         name: bus.name.clone(),
         port: bus.port.to_string(),
-        protocol: bus.protocol.as_str().into(),
+        protocol: bus.protocol.name().into(),
         rate: bus.rate,
         elapsed_ms: 0.0,
         timeline: Vec::new(),
@@ -692,7 +657,7 @@ fn run_drive(
 ) -> (DriveReport, Vec<Span>, Option<Failure>) {
     let mut r = blank_report(d, bus, DriveResult::Failed);
     let t0 = link_now(link);
-    let mut client = match client_on(link, d.schema.clone(), d.address) {
+    let mut client = match crate::connect::connect_on(link, d.schema.clone(), d.address) {
         Ok(c) => Recorder::new(c),
         Err(e) => {
             r.error = Some(e.to_string());

@@ -48,83 +48,12 @@ use driveset_link::spec::{SIM_FAMILY_KEYS, SIM_MIXED_LUSTBUS};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::{
-    Finding, FindingKind, InputError, Location, Protocol, Registry, ResolvedSet, Schema, load_set,
+    Family, Finding, FindingKind, InputError, Location, Registry, ResolvedSet, Schema, load_set,
 };
 
-/// The bus protocols a manifest names.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum BusProtocol {
-    /// LUSTBUS (VF1000, MC6000/7000): drive addresses 1..=30.
-    Lustbus,
-    /// LECOM-A/B (Tmd): addresses 1..=99 except the group addresses x0.
-    Lecom,
-    /// Lenze system bus (CAN SDO, ECS): node ids 1..=127.
-    Can,
-}
-
-impl BusProtocol {
-    /// The manifest spelling.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            BusProtocol::Lustbus => "lustbus",
-            BusProtocol::Lecom => "lecom",
-            BusProtocol::Can => "can",
-        }
-    }
-
-    fn parse(s: &str) -> Option<Self> {
-        match s {
-            "lustbus" => Some(BusProtocol::Lustbus),
-            "lecom" => Some(BusProtocol::Lecom),
-            "can" => Some(BusProtocol::Can),
-            _ => None,
-        }
-    }
-
-    /// Whether a schema of protocol `p` runs on this bus.
-    pub fn carries(self, p: Protocol) -> bool {
-        matches!(
-            (self, p),
-            (
-                BusProtocol::Lustbus,
-                Protocol::LustbusMc | Protocol::LustbusVf1000
-            ) | (BusProtocol::Lecom, Protocol::Lecom)
-                | (BusProtocol::Can, Protocol::LenzeCanSdo)
-        )
-    }
-
-    /// Check a drive address: `Err((kind, rule))`.
-    pub fn check_address(self, address: i64) -> Result<(), (&'static str, &'static str)> {
-        match self {
-            BusProtocol::Lustbus => match address {
-                0 | 31 => Err((
-                    "group-address",
-                    "LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30",
-                )),
-                1..=30 => Ok(()),
-                _ => Err(("address-out-of-range", "LUSTBUS drive addresses are 1..30")),
-            },
-            BusProtocol::Lecom => match address {
-                0 | 10 | 20 | 30 | 40 | 50 | 60 | 70 | 80 | 90 => Err((
-                    "group-address",
-                    "LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0",
-                )),
-                1..=99 => Ok(()),
-                _ => Err(("address-out-of-range", "LECOM station addresses are 1..99")),
-            },
-            BusProtocol::Can => match address {
-                1..=127 => Ok(()),
-                _ => Err(("address-out-of-range", "CAN node ids are 1..127")),
-            },
-        }
-    }
-}
-
-impl fmt::Display for BusProtocol {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
+/// The bus protocols a manifest names (`lustbus | lecom | can`): the
+/// schema crate's family descriptor owns them, their addresses included.
+pub use driveset_schema::BusProtocol;
 
 /// One finding in a manifest (or in a set it names).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -254,7 +183,7 @@ pub struct Bus {
     /// The parsed port, with the manifest's rate applied and (for a
     /// `sim://` port without `addresses=`) the manifest's drives filled in.
     pub port: PortSpec,
-    /// Protocol.
+    /// Family.
     pub protocol: BusProtocol,
     /// Line rate (baud, or CAN bit/s).
     pub rate: u32,
@@ -716,7 +645,8 @@ impl<'a> Reader<'a> {
                 if let Some(p) = protocol {
                     match p.check_address(*a) {
                         Ok(()) => address = Some(*a as u8),
-                        Err((kind, rule)) => {
+                        Err((problem, rule)) => {
+                            let kind = problem.kind();
                             ok = false;
                             self.push(
                                 kind,
@@ -803,16 +733,17 @@ impl<'a> Reader<'a> {
                             }
                             if let (Some(schema), Some(set)) = (l.schema, l.resolved) {
                                 if let Some(p) = protocol
-                                    && !p.carries(schema.protocol)
+                                    && !p.carries(schema.family)
                                 {
                                     ok = false;
                                     self.push(
                                         "set-family",
                                         span,
                                         format!(
-                                            "set `{s}` is for schema `{}` (protocol {:?}), which does not run on {p} bus `{}`",
+                                            "set `{s}` is for schema `{}` ({} drives, protocol {}), which does not run on {p} bus `{}`",
                                             schema.id,
-                                            schema.protocol,
+                                            schema.family,
+                                            schema.family.bus(),
                                             r.bus.as_ref().map_or("", |b| &b.0)
                                         ),
                                         "put the drive on a bus of its family's protocol, or name the right set",
@@ -888,8 +819,8 @@ impl<'a> Reader<'a> {
                 // manifest under the key of its set's family.
                 let mut per: BTreeMap<&str, Vec<u8>> = BTreeMap::new();
                 for d in drives.iter().filter(|d| d.bus_index == i) {
-                    let key = match d.schema.protocol {
-                        Protocol::LustbusVf1000 => "vf1000",
+                    let key = match d.schema.family {
+                        Family::Vf1000 => "vf1000",
                         _ => "mc6000",
                     };
                     per.entry(key).or_default().push(d.address);
@@ -927,7 +858,7 @@ impl<'a> Reader<'a> {
                 PortSpec::Sim(sim) => sim.family.to_ascii_lowercase().contains("ecs"),
                 other => other.is_can(),
             };
-            if port_can != (protocol == BusProtocol::Can) {
+            if port_can != (protocol == BusProtocol::CanSdo) {
                 self.push(
                     "bad-port",
                     pspan,
@@ -987,12 +918,12 @@ impl<'a> Reader<'a> {
                 }
             }
             // rate
-            let (given, key) = if protocol == BusProtocol::Can {
+            let (given, key) = if protocol == BusProtocol::CanSdo {
                 (b.bitrate.clone(), "bitrate")
             } else {
                 (b.baud.clone(), "baud")
             };
-            let wrong = if protocol == BusProtocol::Can {
+            let wrong = if protocol == BusProtocol::CanSdo {
                 &b.baud
             } else {
                 &b.bitrate
@@ -1008,7 +939,7 @@ impl<'a> Reader<'a> {
                     &format!("use `{key}`"),
                 );
             }
-            let port_rate = if protocol == BusProtocol::Can {
+            let port_rate = if protocol == BusProtocol::CanSdo {
                 spec.can_bitrate()
             } else {
                 spec.line_baud()
@@ -1085,10 +1016,10 @@ fn sim_family_matches(fam: &str, schema: &Schema) -> bool {
         .trim_start_matches("lenze-")
         .trim_end_matches("-demo")
         .to_string();
-    match schema.protocol {
-        Protocol::LustbusMc => short == "mc6000" || short == "mc7000",
-        Protocol::LustbusVf1000 => short == "vf1000",
-        Protocol::Lecom => short == "tmd",
-        Protocol::LenzeCanSdo => short == "ecs",
+    match schema.family {
+        Family::Mc6000 => short == "mc6000" || short == "mc7000",
+        Family::Vf1000 => short == "vf1000",
+        Family::Tmd => short == "tmd",
+        Family::Ecs => short == "ecs",
     }
 }

@@ -116,7 +116,7 @@ pub struct FakeClient {
 
 impl FakeClient {
     pub fn new(schema: Arc<Schema>, drive: Drive) -> Self {
-        let mc = schema.protocol == driveset_schema::Protocol::LustbusMc;
+        let mc = schema.family == driveset_schema::Family::Mc6000;
         FakeClient {
             target: Target {
                 port: "fake0".into(),

@@ -56,7 +56,7 @@ use core::fmt;
 use thiserror::Error;
 
 use super::frame::{Address, Enquiry, ParameterCode, Select, ValueText};
-use super::value::{Family, ParameterType, ParameterValue, ValueError, hex_into, parse_hex};
+use super::value::{Dialect, ParameterType, ParameterValue, ValueError, hex_into, parse_hex};
 
 /// Why a description or substitution text could not be read or written.
 #[derive(Clone, Debug, PartialEq, Eq, Error)]
@@ -64,8 +64,8 @@ pub enum DescriptionError {
     /// Wrong VALUE length.
     #[error("{family} parameter description has {found} characters; expected {expected}")]
     Length {
-        /// Family.
-        family: Family,
+        /// Dialect.
+        family: Dialect,
         /// Characters received.
         found: usize,
         /// Accepted lengths.
@@ -108,8 +108,8 @@ pub enum DescriptionError {
         offset: usize,
         /// The character.
         found: u8,
-        /// Family.
-        family: Family,
+        /// Dialect.
+        family: Dialect,
     },
     /// Encoding: an element does not fit.
     #[error("description element {field} is {found} characters; at most {max} fit")]
@@ -134,8 +134,8 @@ pub enum DescriptionError {
     TypeNotInFamily {
         /// Type.
         ty: ParameterType,
-        /// Family.
-        family: Family,
+        /// Dialect.
+        family: Dialect,
     },
     /// Encoding: a VF1000 value area element is wider than 16 bits.
     #[error("VF1000 description {field} {value:#X} does not fit 4 hex digits")]
@@ -317,7 +317,7 @@ impl VfDescription {
     pub fn decode(v: &[u8]) -> Result<Self, DescriptionError> {
         if v.len() != Self::LEN {
             return Err(DescriptionError::Length {
-                family: Family::Vf1000,
+                family: Dialect::Vf1000,
                 found: v.len(),
                 expected: "26",
             });
@@ -330,11 +330,11 @@ impl VfDescription {
             expected: "'0'..='7'",
         })?;
         let ty = ParameterType::from_code(v[13])
-            .filter(|t| t.in_family(Family::Vf1000))
+            .filter(|t| t.in_family(Dialect::Vf1000))
             .ok_or(DescriptionError::Type {
                 offset: 13,
                 found: v[13],
-                family: Family::Vf1000,
+                family: Dialect::Vf1000,
             })?;
         Ok(Self {
             name,
@@ -349,10 +349,10 @@ impl VfDescription {
 
     /// Encodes the 26-character VALUE (name and unit right-justified).
     pub fn encode(&self) -> Result<ValueText, DescriptionError> {
-        if !self.ty.in_family(Family::Vf1000) {
+        if !self.ty.in_family(Dialect::Vf1000) {
             return Err(DescriptionError::TypeNotInFamily {
                 ty: self.ty,
-                family: Family::Vf1000,
+                family: Dialect::Vf1000,
             });
         }
         let mut out = [b' '; Self::LEN];
@@ -706,7 +706,7 @@ impl McDescription {
         let literal = matches!(v.len(), 42 | 43);
         if !(literal || v.len() == Self::BASIC_LEN || v.len() == Self::LEN) {
             return Err(DescriptionError::Length {
-                family: Family::Mc,
+                family: Dialect::Mc,
                 found: v.len(),
                 expected: "52 (34 basic; 42/43 literal table layout)",
             });
@@ -724,11 +724,11 @@ impl McDescription {
             expected: "'0', '1', '2'",
         })?;
         let ty = ParameterType::from_code(v[k + 1])
-            .filter(|t| t.in_family(Family::Mc))
+            .filter(|t| t.in_family(Dialect::Mc))
             .ok_or(DescriptionError::Type {
                 offset: k + 1,
                 found: v[k + 1],
-                family: Family::Mc,
+                family: Dialect::Mc,
             })?;
         let min = hex_field("minimum", v, base, 8)?;
         let max = hex_field("maximum", v, base + 8, 8)?;
@@ -770,10 +770,10 @@ impl McDescription {
     /// the 34-character basic part if the extension is [`McExtended::Absent`];
     /// a [`McExtended::Literal`] extension is written as all zeros.
     pub fn encode(&self) -> Result<ValueText, DescriptionError> {
-        if !self.ty.in_family(Family::Mc) {
+        if !self.ty.in_family(Dialect::Mc) {
             return Err(DescriptionError::TypeNotInFamily {
                 ty: self.ty,
-                family: Family::Mc,
+                family: Dialect::Mc,
             });
         }
         let name = self.name.as_bytes();
@@ -867,7 +867,7 @@ pub fn substitution_text_request(
 ) -> Option<(Select, Enquiry)> {
     let code = ParameterCode::substitution_text(parameter)?;
     let stext = ParameterCode::mc_value(STEXT)?;
-    let value = ParameterValue::Usign8(index).encode(Family::Mc).ok()?;
+    let value = ParameterValue::Usign8(index).encode(Dialect::Mc).ok()?;
     Some((
         Select::new(address, stext, value),
         Enquiry::new(address, code),
@@ -938,7 +938,7 @@ mod tests {
             Err(DescriptionError::Type {
                 offset: 13,
                 found: b'7',
-                family: Family::Vf1000
+                family: Dialect::Vf1000
             })
         );
         assert_eq!(

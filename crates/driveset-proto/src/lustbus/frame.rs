@@ -7,7 +7,7 @@ use core::fmt;
 
 use crate::ascii::{ACK, ENQ, EOT, ETX, NAK, STX};
 
-use super::value::{Family, ParameterValue, ValueError};
+use super::value::{Dialect, ParameterValue, ValueError};
 
 /// Longest VALUE string (section 2.3: "between 1 and 100 characters").
 pub const MAX_VALUE_LEN: usize = 100;
@@ -488,7 +488,7 @@ impl Select {
         address: Address,
         code: ParameterCode,
         value: &ParameterValue,
-        family: Family,
+        family: Dialect,
     ) -> Result<Self, ValueError> {
         Ok(Self::new(address, code, value.encode(family)?))
     }
@@ -511,7 +511,7 @@ impl ValueReply {
     pub fn typed(
         &self,
         ty: super::value::ParameterType,
-        family: Family,
+        family: Dialect,
     ) -> Result<ParameterValue, ValueError> {
         ParameterValue::decode(ty, family, self.value.as_bytes())
     }

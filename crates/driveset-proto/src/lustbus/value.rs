@@ -18,20 +18,21 @@ use thiserror::Error;
 
 use super::frame::ValueText;
 
-/// The two device families, whose VALUE syntax differs (section 2.3).
+/// The LUSTBUS dialect of a device family: VALUE syntax, CODE form and
+/// description layout differ between the two (sections 2.3, 2.4, 11.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Family {
+pub enum Dialect {
     /// SMARTDRIVE VF1000 inverter: 4 hex digits, always.
     Vf1000,
     /// MASTERCONTROL MC6000/7000 servocontroller: 1..8 hex digits.
     Mc,
 }
 
-impl fmt::Display for Family {
+impl fmt::Display for Dialect {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Family::Vf1000 => "VF1000",
-            Family::Mc => "MC6000/7000",
+            Dialect::Vf1000 => "VF1000",
+            Dialect::Mc => "MC6000/7000",
         })
     }
 }
@@ -93,9 +94,9 @@ impl ParameterType {
     }
 
     /// Whether `family` has this type (2.3.1 for VF1000, 2.3.2 for MC).
-    pub const fn in_family(self, family: Family) -> bool {
+    pub const fn in_family(self, family: Dialect) -> bool {
         match family {
-            Family::Vf1000 => matches!(
+            Dialect::Vf1000 => matches!(
                 self,
                 Self::Binary8
                     | Self::Fixpoint16
@@ -104,7 +105,7 @@ impl ParameterType {
                     | Self::VfError
                     | Self::Password
             ),
-            Family::Mc => !matches!(self, Self::Binary8 | Self::VfError),
+            Dialect::Mc => !matches!(self, Self::Binary8 | Self::VfError),
         }
     }
 
@@ -177,7 +178,7 @@ pub enum ValueError {
         /// What the family requires, e.g. "exactly 4" or "1 to 8".
         expected: &'static str,
         /// The family.
-        family: Family,
+        family: Dialect,
         /// The type being decoded.
         ty: ParameterType,
     },
@@ -207,7 +208,7 @@ pub enum ValueError {
         /// The type.
         ty: ParameterType,
         /// The family.
-        family: Family,
+        family: Dialect,
     },
     /// A decimal string could not be parsed.
     #[error("not a decimal number: {0}")]
@@ -526,14 +527,14 @@ impl ParameterValue {
 
     /// Encodes the VALUE string: VF1000 always 4 digits with leading zeros
     /// (`%04X`), MC without leading zeros (`%X`).
-    pub fn encode(&self, family: Family) -> Result<ValueText, ValueError> {
+    pub fn encode(&self, family: Dialect) -> Result<ValueText, ValueError> {
         let ty = self.ty();
         if !ty.in_family(family) {
             return Err(ValueError::TypeNotInFamily { ty, family });
         }
         let width = match family {
-            Family::Vf1000 => Some(4),
-            Family::Mc => None,
+            Dialect::Vf1000 => Some(4),
+            Dialect::Mc => None,
         };
         Ok(hex_text(self.raw(), width))
     }
@@ -544,13 +545,13 @@ impl ParameterValue {
     /// allowed. PT_INTEGER16 on MC also accepts the 32-bit sign extension a
     /// 32-bit `sprintf("%X", (int)v)` would produce (`FFFFFF85` = -123); any
     /// other value above 0xFFFF is out of range.
-    pub fn decode(ty: ParameterType, family: Family, text: &[u8]) -> Result<Self, ValueError> {
+    pub fn decode(ty: ParameterType, family: Dialect, text: &[u8]) -> Result<Self, ValueError> {
         if !ty.in_family(family) {
             return Err(ValueError::TypeNotInFamily { ty, family });
         }
         let (ok, expected) = match family {
-            Family::Vf1000 => (text.len() == 4, "exactly 4"),
-            Family::Mc => ((1..=8).contains(&text.len()), "1 to 8"),
+            Dialect::Vf1000 => (text.len() == 4, "exactly 4"),
+            Dialect::Mc => ((1..=8).contains(&text.len()), "1 to 8"),
         };
         if !ok {
             return Err(ValueError::Length {
@@ -618,39 +619,45 @@ fn pow10(n: u32) -> u128 {
 mod tests {
     use super::*;
 
-    fn enc(v: ParameterValue, f: Family) -> String {
+    fn enc(v: ParameterValue, f: Dialect) -> String {
         String::from_utf8(v.encode(f).unwrap().as_bytes().to_vec()).unwrap()
     }
 
     #[test]
     fn vf_always_four_digits() {
-        assert_eq!(enc(ParameterValue::Usign8(3), Family::Vf1000), "0003");
-        assert_eq!(enc(ParameterValue::Binary8(0x80), Family::Vf1000), "0080");
+        assert_eq!(enc(ParameterValue::Usign8(3), Dialect::Vf1000), "0003");
+        assert_eq!(enc(ParameterValue::Binary8(0x80), Dialect::Vf1000), "0080");
         assert_eq!(
-            enc(ParameterValue::Fixpoint16(Fixpoint16(1000)), Family::Vf1000),
+            enc(
+                ParameterValue::Fixpoint16(Fixpoint16(1000)),
+                Dialect::Vf1000
+            ),
             "03E8"
         );
-        assert_eq!(enc(ParameterValue::Usign16(0xFFFF), Family::Vf1000), "FFFF");
+        assert_eq!(
+            enc(ParameterValue::Usign16(0xFFFF), Dialect::Vf1000),
+            "FFFF"
+        );
     }
 
     #[test]
     fn mc_no_leading_zeros() {
-        assert_eq!(enc(ParameterValue::Usign8(0), Family::Mc), "0");
-        assert_eq!(enc(ParameterValue::Usign16(2), Family::Mc), "2");
-        assert_eq!(enc(ParameterValue::Integer16(-1), Family::Mc), "FFFF");
-        assert_eq!(enc(ParameterValue::Integer16(-32768), Family::Mc), "8000");
+        assert_eq!(enc(ParameterValue::Usign8(0), Dialect::Mc), "0");
+        assert_eq!(enc(ParameterValue::Usign16(2), Dialect::Mc), "2");
+        assert_eq!(enc(ParameterValue::Integer16(-1), Dialect::Mc), "FFFF");
+        assert_eq!(enc(ParameterValue::Integer16(-32768), Dialect::Mc), "8000");
         assert_eq!(
-            enc(ParameterValue::Int32Q16(Int32Q16(-1)), Family::Mc),
+            enc(ParameterValue::Int32Q16(Int32Q16(-1)), Dialect::Mc),
             "FFFFFFFF"
         );
         assert_eq!(
-            enc(ParameterValue::Int32Q16(Int32Q16(83_509_248)), Family::Mc),
+            enc(ParameterValue::Int32Q16(Int32Q16(83_509_248)), Dialect::Mc),
             "4FA4000"
         );
         assert_eq!(
             enc(
                 ParameterValue::FloatIeee(FloatIeee::from_f32(1.0)),
-                Family::Mc
+                Dialect::Mc
             ),
             "3F800000"
         );
@@ -659,58 +666,58 @@ mod tests {
     #[test]
     fn type_family_mismatch() {
         assert_eq!(
-            ParameterValue::Int32Q16(Int32Q16(1)).encode(Family::Vf1000),
+            ParameterValue::Int32Q16(Int32Q16(1)).encode(Dialect::Vf1000),
             Err(ValueError::TypeNotInFamily {
                 ty: ParameterType::Int32Q16,
-                family: Family::Vf1000
+                family: Dialect::Vf1000
             })
         );
-        assert!(ParameterValue::decode(ParameterType::Binary8, Family::Mc, b"1").is_err());
+        assert!(ParameterValue::decode(ParameterType::Binary8, Dialect::Mc, b"1").is_err());
     }
 
     #[test]
     fn decode_rules() {
         use ParameterType as T;
         assert_eq!(
-            ParameterValue::decode(T::Usign16, Family::Vf1000, b"3E8"),
+            ParameterValue::decode(T::Usign16, Dialect::Vf1000, b"3E8"),
             Err(ValueError::Length {
                 found: 3,
                 expected: "exactly 4",
-                family: Family::Vf1000,
+                family: Dialect::Vf1000,
                 ty: T::Usign16
             })
         );
         assert_eq!(
-            ParameterValue::decode(T::Usign16, Family::Vf1000, b"03e8"),
+            ParameterValue::decode(T::Usign16, Dialect::Vf1000, b"03e8"),
             Err(ValueError::NotHex {
                 offset: 2,
                 found: b'e'
             })
         );
         assert_eq!(
-            ParameterValue::decode(T::Usign8, Family::Vf1000, b"0100"),
+            ParameterValue::decode(T::Usign8, Dialect::Vf1000, b"0100"),
             Err(ValueError::OutOfRange {
                 raw: 0x100,
                 ty: T::Usign8
             })
         );
         assert_eq!(
-            ParameterValue::decode(T::Int32Q16, Family::Mc, b"04FA4000"),
+            ParameterValue::decode(T::Int32Q16, Dialect::Mc, b"04FA4000"),
             Ok(ParameterValue::Int32Q16(Int32Q16(83_509_248)))
         );
         assert_eq!(
-            ParameterValue::decode(T::Integer16, Family::Mc, b"FFFFFF85"),
+            ParameterValue::decode(T::Integer16, Dialect::Mc, b"FFFFFF85"),
             Ok(ParameterValue::Integer16(-123))
         );
         assert_eq!(
-            ParameterValue::decode(T::Integer16, Family::Mc, b"10000"),
+            ParameterValue::decode(T::Integer16, Dialect::Mc, b"10000"),
             Err(ValueError::OutOfRange {
                 raw: 0x10000,
                 ty: T::Integer16
             })
         );
-        assert!(ParameterValue::decode(T::Usign16, Family::Mc, b"").is_err());
-        assert!(ParameterValue::decode(T::McError, Family::Mc, b"123456789").is_err());
+        assert!(ParameterValue::decode(T::Usign16, Dialect::Mc, b"").is_err());
+        assert!(ParameterValue::decode(T::McError, Dialect::Mc, b"123456789").is_err());
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use driveset_proto::ascii::bcc;
 use driveset_proto::lustbus::{
-    Address, CodeMeaning, CompatibleParameter, Direction, Family, FrameError, ParameterCode,
+    Address, CodeMeaning, CompatibleParameter, Dialect, Direction, FrameError, ParameterCode,
     ParameterType, ParameterValue, Reply, Request, Siof, Sniffer, Telegram, codec,
 };
 use driveset_schema::{RawValue, Schema, validate::display_value};
@@ -15,24 +15,24 @@ use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
 use super::{Ctx, garbage_event};
 
 /// Schema id of a family's built-in schema.
-pub fn family_schema_id(family: Family) -> &'static str {
+pub fn family_schema_id(family: Dialect) -> &'static str {
     match family {
-        Family::Vf1000 => "lust-vf1000",
-        Family::Mc => "lust-mc6000",
+        Dialect::Vf1000 => "lust-vf1000",
+        Dialect::Mc => "lust-mc6000",
     }
 }
 
 /// The family a CODE belongs to, when its layout says so.
-pub fn family_of(code: ParameterCode) -> Option<Family> {
+pub fn family_of(code: ParameterCode) -> Option<Dialect> {
     if code.compatible_parameter().is_some() {
         return None;
     }
     match code.meaning() {
-        CodeMeaning::VfValue { .. } | CodeMeaning::VfDescription { .. } => Some(Family::Vf1000),
+        CodeMeaning::VfValue { .. } | CodeMeaning::VfDescription { .. } => Some(Dialect::Vf1000),
         CodeMeaning::McValue { .. }
         | CodeMeaning::McDescription { .. }
         | CodeMeaning::SubstitutionText { .. }
-        | CodeMeaning::PosMod => Some(Family::Mc),
+        | CodeMeaning::PosMod => Some(Dialect::Mc),
         CodeMeaning::Other => None,
     }
 }
@@ -70,7 +70,7 @@ pub fn schema_raw(v: &ParameterValue) -> i64 {
 
 struct State<'a> {
     ctx: &'a Ctx,
-    family: Option<Family>,
+    family: Option<Dialect>,
     last: Option<Request>,
 }
 

@@ -1,0 +1,85 @@
+//! Owns the one way to reach a drive: a link, a schema (whose family's
+//! descriptor names the bus protocol) and an address give the
+//! [`DriveClient`] of that protocol. Every command and `commission` connect
+//! through here; nothing else picks a client by family.
+
+use std::sync::Arc;
+
+use driveset_link::Link;
+use driveset_schema::{BusProtocol, Schema};
+
+use crate::client::{
+    BorrowedByteLink, BorrowedFrameLink, CanClient, DriveClient, LecomClient, LustbusClient, Target,
+};
+use crate::error::EngineError;
+
+/// A client for the drive at `address` on `link`, speaking the protocol of
+/// `schema`'s family. A schema whose protocol does not run on this kind of
+/// link (CAN SDO on a character line, LUSTBUS / LECOM on a CAN bus) is
+/// refused before anything is sent.
+pub fn connect(
+    link: Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<Box<dyn DriveClient>, EngineError> {
+    match (link, schema.family.bus()) {
+        (Link::Bytes(b), BusProtocol::Lustbus) => {
+            Ok(Box::new(LustbusClient::new(b, schema, address)?))
+        }
+        (Link::Bytes(b), BusProtocol::Lecom) => Ok(Box::new(LecomClient::new(b, schema, address)?)),
+        (Link::Frames(f), BusProtocol::CanSdo) => Ok(Box::new(CanClient::new(f, schema, address)?)),
+        (link, _) => Err(misfit(&link, &schema, address)),
+    }
+}
+
+/// As [`connect`], on a link the caller keeps (a line's bus, a scan).
+pub fn connect_on<'l>(
+    link: &'l mut Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<Box<dyn DriveClient + 'l>, EngineError> {
+    if !fits(link, &schema) {
+        return Err(misfit(link, &schema, address));
+    }
+    let bus = schema.family.bus();
+    match link {
+        Link::Bytes(b) => {
+            let b = BorrowedByteLink(&mut **b);
+            if bus == BusProtocol::Lecom {
+                Ok(Box::new(LecomClient::new(b, schema, address)?))
+            } else {
+                Ok(Box::new(LustbusClient::new(b, schema, address)?))
+            }
+        }
+        Link::Frames(f) => Ok(Box::new(CanClient::new(
+            BorrowedFrameLink(&mut **f),
+            schema,
+            address,
+        )?)),
+    }
+}
+
+/// Whether `schema`'s protocol runs on this kind of link.
+pub fn fits(link: &Link, schema: &Schema) -> bool {
+    matches!(
+        (link, schema.family.bus()),
+        (Link::Bytes(_), BusProtocol::Lustbus | BusProtocol::Lecom)
+            | (Link::Frames(_), BusProtocol::CanSdo)
+    )
+}
+
+fn misfit(link: &Link, schema: &Schema, address: u8) -> EngineError {
+    let (port, kind) = match link {
+        Link::Bytes(b) => (b.port().to_string(), "a character line"),
+        Link::Frames(f) => (f.port().to_string(), "a CAN bus"),
+    };
+    EngineError::Refused {
+        target: Target { port, address },
+        reason: format!(
+            "schema `{}` is for {} drives ({}), which do not run on {kind}",
+            schema.id,
+            schema.family,
+            schema.family.bus().title()
+        ),
+    }
+}

@@ -1,0 +1,668 @@
+//! Owns what driveset knows about each drive family that is not a fact of
+//! one code: its id and names, the bus protocol it speaks and that
+//! protocol's addresses, how it is identified, its timing rules (reaction
+//! ranges, EEPROM pacing, ACK delays, long acknowledgements) and its dataset
+//! handshake. Per-code facts (types, ranges, storage, roles) live in the
+//! family's schema file (`schemas/*.toml`); [`Descriptor::schema_id`] names
+//! the built-in one.
+//!
+//! This is the one home of those facts: the planner, the clients, pull,
+//! schema pull, the simulator and the CLI (its value enums included) ask a
+//! [`Descriptor`] instead of naming a family or a code number themselves.
+//!
+//! Sources: `lustbus-protocol.txt` §1, §2.4, §3, §4.2, §5, §10, §11.4;
+//! `lecom-ab-tmd-manual.txt` (addresses, C0093/C0200 identification);
+//! `lenze-system-bus-can-sdo.txt` (node ids, index mapping).
+
+use std::fmt;
+use std::ops::RangeInclusive;
+use std::time::Duration;
+
+use crate::schema::{Code, StorageKind};
+
+/// A drive family driveset knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Family {
+    /// Lust MASTERCONTROL MC6000/7000 servocontroller (LUSTBUS, enhanced).
+    Mc6000,
+    /// Lust SMARTDRIVE VF1000 inverter (LUSTBUS).
+    Vf1000,
+    /// Lenze Tmd vector inverter (LECOM-A/B).
+    Tmd,
+    /// Lenze ECS servo axis (system bus CAN, SDO).
+    Ecs,
+}
+
+/// The bus protocol a family speaks (what a port carries).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BusProtocol {
+    /// LUSTBUS (ISO 1745 fast select, ASCII 7E1): VF1000 and MC6000/7000
+    /// share one line (`lustbus-protocol.txt` §1).
+    Lustbus,
+    /// LECOM-A/B (DIN 66019, ASCII 7E1): Tmd.
+    Lecom,
+    /// Lenze system bus (CAN), SDO: ECS.
+    CanSdo,
+}
+
+/// The shape of the drive's reaction time: the answer comes `min..=max`
+/// after the request's last character.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reaction {
+    /// Shortest reaction.
+    pub min: Duration,
+    /// Longest reaction without a KEYPAD (or the only figure).
+    pub max: Duration,
+    /// Longest reaction with a KEYPAD attached (LUSTBUS §10), where it differs.
+    pub max_with_keypad: Option<Duration>,
+    /// Where the figures come from; `FICTIONAL` where no spec gives them.
+    pub source: &'static str,
+}
+
+impl Reaction {
+    /// The longest reaction, with or without a KEYPAD.
+    pub fn longest(&self, keypad: bool) -> Duration {
+        match (keypad, self.max_with_keypad) {
+            (true, Some(k)) => k,
+            _ => self.max,
+        }
+    }
+
+    /// Whether a spec gives the figures (false: driveset assumes them).
+    pub fn from_spec(&self) -> bool {
+        !self.source.starts_with("FICTIONAL")
+    }
+}
+
+/// How a family paces writes of stored (EEPROM) values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EepromPacing {
+    /// No pacing the spec states.
+    None,
+    /// MC6000/7000 (§3, §10.2.2): the ACK comes at once; the drive then
+    /// stores every byte three times at 5 ms in the background, so the next
+    /// EEPROM write must wait `per_byte` x width from the ACK.
+    StoreInBackground {
+        /// Store time per byte of the value's width (3 x 5 ms).
+        per_byte: Duration,
+        /// Width assumed when the schema gives none (the widest value).
+        unknown_width: u8,
+    },
+    /// VF1000 (§10 exception 4): writing an EEPROM value that differs from
+    /// the old one delays the ACK by `per_byte` x width (60 ms one-byte,
+    /// 120 ms two-byte).
+    AckDelay {
+        /// Delay per byte of the value's width.
+        per_byte: Duration,
+        /// Width assumed when the schema gives none (the safe, longer delay).
+        unknown_width: u8,
+    },
+}
+
+/// The dataset download handshake of MC6000/7000 (`lustbus-protocol.txt`
+/// §11.4): SLOAD = -1 registers a download, the CardWriteable values are
+/// staged, SLOAD = -2 asks the drive to check and store them, and SLOAD is
+/// polled: `checking` while the drive works, `accepted` when the set is in
+/// EEPROM, a positive parameter number when it rejected the set there (and
+/// reactivated the old one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DatasetHandshake {
+    /// The handshake parameter (80-SLOAD).
+    pub code: u32,
+    /// Its name.
+    pub name: &'static str,
+    /// Value that opens a download.
+    pub begin: i64,
+    /// Value that closes it and starts the check.
+    pub commit: i64,
+    /// Value while the drive checks and stores.
+    pub checking: i64,
+    /// Value once the drive took the set.
+    pub accepted: i64,
+    /// How long the drive may check (§11.4: 10 s).
+    pub timeout: Duration,
+}
+
+/// A command whose acknowledgement the drive holds back while it works
+/// (LUSTBUS §10 exception 1: PROG = 1 reinitialises every parameter and
+/// ACKs only when done, up to 10 s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LongAck {
+    /// The command parameter.
+    pub code: u32,
+    /// The value that triggers the long acknowledgement.
+    pub value: i64,
+    /// The longest the ACK may take.
+    pub within: Duration,
+}
+
+/// Everything driveset knows about one family beyond its codes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Descriptor {
+    /// The family.
+    pub family: Family,
+    /// Short name: `sim://NAME`, `--family NAME`, manifests, reports.
+    pub name: &'static str,
+    /// Other accepted spellings of `name`.
+    pub aliases: &'static [&'static str],
+    /// The product as people say it.
+    pub title: &'static str,
+    /// `[schema] protocol` of this family's schema files.
+    pub schema_protocol: &'static str,
+    /// The built-in schema (`schemas/*.toml`).
+    pub schema_id: &'static str,
+    /// The bus protocol.
+    pub bus: BusProtocol,
+    /// Codes read to identify a drive of this family, in order (the
+    /// built-in schema's `[schema.identify] codes` say the same: a test
+    /// holds them together).
+    pub identify: &'static [u32],
+    /// Reaction time.
+    pub reaction: Reaction,
+    /// EEPROM pacing.
+    pub eeprom: EepromPacing,
+    /// Dataset download handshake, where the family has one.
+    pub dataset: Option<DatasetHandshake>,
+    /// Commands acknowledged late.
+    pub long_acks: &'static [LongAck],
+}
+
+/// The MC6000/7000 handshake: 80-SLOAD (`lustbus-protocol.txt` §11.4).
+pub const SLOAD: DatasetHandshake = DatasetHandshake {
+    code: 80,
+    name: "SLOAD",
+    begin: -1,
+    commit: -2,
+    checking: -1,
+    accepted: 0,
+    timeout: Duration::from_secs(10),
+};
+
+const MC6000: Descriptor = Descriptor {
+    family: Family::Mc6000,
+    name: "mc6000",
+    aliases: &["mc7000", "mc"],
+    title: "Lust MASTERCONTROL MC6000/7000",
+    schema_protocol: "lustbus-mc",
+    schema_id: "lust-mc6000",
+    bus: BusProtocol::Lustbus,
+    identify: &[91],
+    reaction: Reaction {
+        min: Duration::from_millis(1),
+        max: Duration::from_millis(25),
+        max_with_keypad: Some(Duration::from_millis(30)),
+        source: "lustbus-protocol.txt §10 (servocontroller 1...30 ms with KEYPAD, 1...25 ms without)",
+    },
+    eeprom: EepromPacing::StoreInBackground {
+        per_byte: Duration::from_millis(15),
+        unknown_width: 4,
+    },
+    dataset: Some(SLOAD),
+    long_acks: &[LongAck {
+        code: 4,
+        value: 1,
+        within: Duration::from_secs(10),
+    }],
+};
+
+const VF1000: Descriptor = Descriptor {
+    family: Family::Vf1000,
+    name: "vf1000",
+    aliases: &["vf"],
+    title: "Lust SMARTDRIVE VF1000",
+    schema_protocol: "lustbus-vf1000",
+    schema_id: "lust-vf1000",
+    bus: BusProtocol::Lustbus,
+    identify: &[91],
+    reaction: Reaction {
+        min: Duration::from_millis(1),
+        max: Duration::from_millis(30),
+        max_with_keypad: Some(Duration::from_millis(60)),
+        source: "lustbus-protocol.txt §10 (inverter 1...60 ms with KEYPAD, 1...30 ms without)",
+    },
+    eeprom: EepromPacing::AckDelay {
+        per_byte: Duration::from_millis(60),
+        unknown_width: 2,
+    },
+    dataset: None,
+    long_acks: &[LongAck {
+        code: 71,
+        value: 1,
+        within: Duration::from_secs(10),
+    }],
+};
+
+const TMD: Descriptor = Descriptor {
+    family: Family::Tmd,
+    name: "tmd",
+    aliases: &[],
+    title: "Lenze Tmd",
+    schema_protocol: "lecom",
+    schema_id: "lenze-tmd",
+    bus: BusProtocol::Lecom,
+    identify: &[93, 99, 200],
+    reaction: Reaction {
+        min: Duration::from_millis(1),
+        max: Duration::from_millis(20),
+        max_with_keypad: None,
+        source: "FICTIONAL: the manual gives no reaction time; 1..20 ms assumed",
+    },
+    eeprom: EepromPacing::None,
+    dataset: None,
+    long_acks: &[],
+};
+
+const ECS: Descriptor = Descriptor {
+    family: Family::Ecs,
+    name: "ecs",
+    aliases: &[],
+    title: "Lenze ECS",
+    schema_protocol: "lenze-can-sdo",
+    schema_id: "lenze-ecs",
+    bus: BusProtocol::CanSdo,
+    identify: &[],
+    reaction: Reaction {
+        min: Duration::from_millis(1),
+        max: Duration::from_millis(2),
+        max_with_keypad: None,
+        source: "FICTIONAL: the system bus excerpt gives no reaction time; 1..2 ms assumed",
+    },
+    eeprom: EepromPacing::None,
+    dataset: None,
+    long_acks: &[],
+};
+
+impl Family {
+    /// Every family, in the order listings show them.
+    pub const ALL: [Family; 4] = [Family::Mc6000, Family::Vf1000, Family::Tmd, Family::Ecs];
+
+    /// The family's descriptor.
+    pub fn descriptor(self) -> &'static Descriptor {
+        match self {
+            Family::Mc6000 => &MC6000,
+            Family::Vf1000 => &VF1000,
+            Family::Tmd => &TMD,
+            Family::Ecs => &ECS,
+        }
+    }
+
+    /// Short name (`mc6000`, `vf1000`, `tmd`, `ecs`).
+    pub fn name(self) -> &'static str {
+        self.descriptor().name
+    }
+
+    /// Parse a family name or alias (any case).
+    pub fn parse(name: &str) -> Result<Family, String> {
+        let n = name.to_ascii_lowercase();
+        Family::ALL
+            .into_iter()
+            .find(|f| {
+                let d = f.descriptor();
+                d.name == n || d.aliases.contains(&n.as_str())
+            })
+            .ok_or_else(|| {
+                format!(
+                    "unknown drive family `{name}`: use one of {}",
+                    Family::ALL.map(Family::name).join(", ")
+                )
+            })
+    }
+
+    /// The family whose schema files say `[schema] protocol = "s"`.
+    pub fn from_schema_protocol(s: &str) -> Option<Family> {
+        Family::ALL
+            .into_iter()
+            .find(|f| f.descriptor().schema_protocol == s)
+    }
+
+    /// The `[schema] protocol` values, for messages.
+    pub fn schema_protocols() -> String {
+        Family::ALL
+            .map(|f| f.descriptor().schema_protocol)
+            .join(" | ")
+    }
+
+    /// The bus protocol.
+    pub fn bus(self) -> BusProtocol {
+        self.descriptor().bus
+    }
+}
+
+impl fmt::Display for Family {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Why an address is not a drive's own address on a bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AddressProblem {
+    /// A group or broadcast address.
+    Group,
+    /// Outside the protocol's range.
+    OutOfRange,
+}
+
+impl AddressProblem {
+    /// Kebab-case kind for findings.
+    pub fn kind(self) -> &'static str {
+        match self {
+            AddressProblem::Group => "group-address",
+            AddressProblem::OutOfRange => "address-out-of-range",
+        }
+    }
+}
+
+impl BusProtocol {
+    /// Every bus protocol.
+    pub const ALL: [BusProtocol; 3] = [
+        BusProtocol::Lustbus,
+        BusProtocol::Lecom,
+        BusProtocol::CanSdo,
+    ];
+
+    /// Name in manifests, `--protocol` and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BusProtocol::Lustbus => "lustbus",
+            BusProtocol::Lecom => "lecom",
+            BusProtocol::CanSdo => "can",
+        }
+    }
+
+    /// Other accepted spellings.
+    pub fn aliases(self) -> &'static [&'static str] {
+        match self {
+            BusProtocol::CanSdo => &["sdo"],
+            _ => &[],
+        }
+    }
+
+    /// One line for `--help`.
+    pub fn title(self) -> &'static str {
+        match self {
+            BusProtocol::Lustbus => "LUSTBUS (Lust VF1000, MC6000/7000)",
+            BusProtocol::Lecom => "LECOM-A/B (Lenze Tmd)",
+            BusProtocol::CanSdo => "CAN SDO over the Lenze system bus (Lenze ECS)",
+        }
+    }
+
+    /// Parse a name or alias (any case).
+    pub fn parse(s: &str) -> Option<BusProtocol> {
+        let s = s.to_ascii_lowercase();
+        BusProtocol::ALL
+            .into_iter()
+            .find(|p| p.name() == s || p.aliases().contains(&s.as_str()))
+    }
+
+    /// The families this protocol carries.
+    pub fn families(self) -> impl Iterator<Item = Family> {
+        Family::ALL.into_iter().filter(move |f| f.bus() == self)
+    }
+
+    /// Whether a drive of `family` runs on this bus.
+    pub fn carries(self, family: Family) -> bool {
+        family.bus() == self
+    }
+
+    /// Every address a drive of this protocol may have as its own.
+    pub fn drive_addresses(self) -> RangeInclusive<u8> {
+        match self {
+            BusProtocol::Lustbus => 1..=30,
+            BusProtocol::Lecom => 1..=99,
+            BusProtocol::CanSdo => 1..=127,
+        }
+    }
+
+    /// The address every drive executes without answering (LUSTBUS 31,
+    /// §4.2; LECOM 00, the broadcast address). CAN SDO has none.
+    pub fn broadcast_address(self) -> Option<u8> {
+        match self {
+            BusProtocol::Lustbus => Some(31),
+            BusProtocol::Lecom => Some(0),
+            BusProtocol::CanSdo => None,
+        }
+    }
+
+    /// Whether `address` addresses several drives at once (LUSTBUS 0 and
+    /// 31; LECOM 00 and the group addresses 10, 20 .. 90).
+    pub fn is_group_address(self, address: i64) -> bool {
+        match self {
+            BusProtocol::Lustbus => matches!(address, 0 | 31),
+            BusProtocol::Lecom => (0..=90).contains(&address) && address % 10 == 0,
+            BusProtocol::CanSdo => false,
+        }
+    }
+
+    /// Check a drive's own address: `Err((problem, rule))`, the rule in words.
+    pub fn check_address(self, address: i64) -> Result<(), (AddressProblem, &'static str)> {
+        if self.is_group_address(address) {
+            return Err((
+                AddressProblem::Group,
+                match self {
+                    BusProtocol::Lustbus => {
+                        "LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30"
+                    }
+                    _ => {
+                        "LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0"
+                    }
+                },
+            ));
+        }
+        let r = self.drive_addresses();
+        if address < i64::from(*r.start()) || address > i64::from(*r.end()) {
+            return Err((
+                AddressProblem::OutOfRange,
+                match self {
+                    BusProtocol::Lustbus => "LUSTBUS drive addresses are 1..30",
+                    BusProtocol::Lecom => "LECOM station addresses are 1..99",
+                    BusProtocol::CanSdo => "CAN node ids are 1..127",
+                },
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for BusProtocol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Descriptor {
+    /// The width a pacing rule counts for `code` (its schema width, or the
+    /// rule's assumption for an unknown one).
+    fn width(code: &Code, unknown: u8) -> u32 {
+        u32::from(code.width.unwrap_or(unknown))
+    }
+
+    /// Whether a write of `code` goes to EEPROM as far as pacing is
+    /// concerned: `eeprom` and `fsel-isel` values, and values whose kind the
+    /// schema does not give (the safe assumption); never RAM values.
+    pub fn paced(code: &Code) -> bool {
+        !matches!(
+            code.kind,
+            Some(StorageKind::RamControl | StorageKind::RamActual)
+        )
+    }
+
+    /// MC6000/7000: how long the drive stores `code` after its ACK (§3,
+    /// §10.2.2: width x 3 x 5 ms); zero for families that ACK after storing
+    /// or need no pacing, and for RAM values.
+    pub fn store_time(&self, code: &Code) -> Duration {
+        match self.eeprom {
+            EepromPacing::StoreInBackground {
+                per_byte,
+                unknown_width,
+            } if code.kind == Some(StorageKind::Eeprom) || code.kind.is_none() => {
+                per_byte * Self::width(code, unknown_width)
+            }
+            _ => Duration::ZERO,
+        }
+    }
+
+    /// VF1000: how much later the ACK to a write of `code` comes when the
+    /// value differs from the one the drive holds (§10 exception 4); zero
+    /// when it does not differ, for RAM values and for other families. The
+    /// planner and the client both use this one rule.
+    pub fn ack_delay(&self, code: &Code, changes_value: bool) -> Duration {
+        match self.eeprom {
+            EepromPacing::AckDelay {
+                per_byte,
+                unknown_width,
+            } if changes_value && Self::paced(code) => per_byte * Self::width(code, unknown_width),
+            _ => Duration::ZERO,
+        }
+    }
+
+    /// The long acknowledgement of writing `value` to `code`, if any.
+    pub fn long_ack(&self, code: u32, value: i64) -> Option<Duration> {
+        self.long_acks
+            .iter()
+            .find(|l| l.code == code && l.value == value)
+            .map(|l| l.within)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_back_and_aliases_resolve() {
+        for f in Family::ALL {
+            assert_eq!(Family::parse(f.name()), Ok(f));
+            assert_eq!(
+                Family::from_schema_protocol(f.descriptor().schema_protocol),
+                Some(f)
+            );
+        }
+        assert_eq!(Family::parse("MC7000"), Ok(Family::Mc6000));
+        assert_eq!(Family::parse("vf"), Ok(Family::Vf1000));
+        assert_eq!(
+            Family::parse("xyz").unwrap_err(),
+            "unknown drive family `xyz`: use one of mc6000, vf1000, tmd, ecs"
+        );
+        assert_eq!(BusProtocol::parse("SDO"), Some(BusProtocol::CanSdo));
+        assert_eq!(BusProtocol::parse("can"), Some(BusProtocol::CanSdo));
+        assert_eq!(
+            BusProtocol::Lustbus.families().collect::<Vec<_>>(),
+            [Family::Mc6000, Family::Vf1000]
+        );
+    }
+
+    #[test]
+    fn addresses_follow_the_specs() {
+        let l = BusProtocol::Lustbus;
+        assert_eq!(l.check_address(0).unwrap_err().0, AddressProblem::Group);
+        assert_eq!(l.check_address(31).unwrap_err().0, AddressProblem::Group);
+        assert_eq!(
+            l.check_address(32).unwrap_err().0,
+            AddressProblem::OutOfRange
+        );
+        assert!(l.check_address(30).is_ok());
+        let c = BusProtocol::Lecom;
+        for g in [0, 10, 50, 90] {
+            assert_eq!(c.check_address(g).unwrap_err().0, AddressProblem::Group);
+        }
+        assert!(c.check_address(99).is_ok());
+        assert_eq!(
+            c.check_address(100).unwrap_err().0,
+            AddressProblem::OutOfRange
+        );
+        assert_eq!(
+            BusProtocol::CanSdo.check_address(0).unwrap_err().0,
+            AddressProblem::OutOfRange
+        );
+        assert!(BusProtocol::CanSdo.check_address(127).is_ok());
+    }
+
+    #[test]
+    fn reaction_and_pacing_figures() {
+        let mc = Family::Mc6000.descriptor();
+        assert_eq!(mc.reaction.longest(true), Duration::from_millis(30));
+        assert_eq!(mc.reaction.longest(false), Duration::from_millis(25));
+        let vf = Family::Vf1000.descriptor();
+        assert_eq!(vf.reaction.longest(true), Duration::from_millis(60));
+        assert!(vf.reaction.from_spec());
+        assert!(!Family::Tmd.descriptor().reaction.from_spec());
+        assert_eq!(mc.dataset.map(|d| d.code), Some(80));
+        assert_eq!(vf.long_ack(71, 1), Some(Duration::from_secs(10)));
+        assert_eq!(vf.long_ack(71, 0), None);
+    }
+
+    fn parsed(text: &str) -> std::sync::Arc<crate::Schema> {
+        let mut r = crate::Registry::new();
+        r.add_source(crate::error::SourceFile::new("t.toml", text))
+            .expect("test schema parses")
+    }
+
+    #[test]
+    fn the_built_in_schemas_agree_with_their_descriptors() {
+        let r = crate::Registry::builtin().expect("built-in schemas parse");
+        for f in Family::ALL {
+            let d = f.descriptor();
+            let s = r.get(d.schema_id).expect(d.schema_id);
+            assert_eq!(s.family, f, "{}", d.schema_id);
+            let codes = s
+                .identify
+                .as_ref()
+                .map(|i| i.codes.clone())
+                .unwrap_or_default();
+            assert_eq!(codes, d.identify, "{}", d.schema_id);
+            if let Some(h) = d.dataset {
+                assert_eq!(s.code(h.code).map(|c| c.name.as_str()), Some(h.name));
+            }
+        }
+    }
+
+    #[test]
+    fn one_pacing_rule_for_planner_and_client() {
+        let s = parsed(
+            r#"
+[schema]
+id = "t"
+title = "t"
+protocol = "lustbus-vf1000"
+code_style = "lust"
+
+[[code]]
+number = 10
+name = "ONE"
+kind = "eeprom"
+width = 1
+
+[[code]]
+number = 11
+name = "UNKNOWN"
+
+[[code]]
+number = 12
+name = "RAM"
+kind = "ram-control"
+width = 2
+
+[[code]]
+number = 13
+name = "FSEL"
+kind = "fsel-isel"
+width = 2
+"#,
+        );
+        let vf = Family::Vf1000.descriptor();
+        let ms = Duration::from_millis;
+        let c = |n| s.code(n).expect("code");
+        assert_eq!(vf.ack_delay(c(10), true), ms(60));
+        assert_eq!(vf.ack_delay(c(10), false), ms(0));
+        assert_eq!(vf.ack_delay(c(11), true), ms(120));
+        assert_eq!(vf.ack_delay(c(12), true), ms(0));
+        assert_eq!(vf.ack_delay(c(13), true), ms(120));
+        assert_eq!(vf.store_time(c(10)), ms(0));
+        let mc = Family::Mc6000.descriptor();
+        assert_eq!(mc.store_time(c(10)), ms(15));
+        assert_eq!(mc.store_time(c(11)), ms(60));
+        assert_eq!(mc.store_time(c(12)), ms(0));
+        assert_eq!(mc.ack_delay(c(10), true), ms(0));
+    }
+}
