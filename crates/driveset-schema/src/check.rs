@@ -402,7 +402,10 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 if schema.protocol != crate::schema::Protocol::LenzeCanSdo {
                     out.push(f(
                         &c.loc,
-                        format!("code {}: `index` is for lenze-can-sdo schemas only", c.number),
+                        format!(
+                            "code {}: `index` is for lenze-can-sdo schemas only",
+                            c.number
+                        ),
                         "remove `index`",
                     ));
                     continue;

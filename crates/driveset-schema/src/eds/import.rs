@@ -1182,7 +1182,11 @@ AccessType=rw
             block(&i.toml, 0x1_1014),
             "[[code]]\nnumber = 69652\nindex = 0x1014\nname = \"cob_id_emcy\"\ntitle = \"COB-ID EMCY\"\nspec = \"t.eds [1014] line 23\"\ntype = \"UNSIGNED32\"\naccess = \"ro\""
         );
-        assert!(i.toml.contains("[schema]\nid = \"ecs-test\"\n"), "{}", i.toml);
+        assert!(
+            i.toml.contains("[schema]\nid = \"ecs-test\"\n"),
+            "{}",
+            i.toml
+        );
     }
 
     #[test]
