@@ -22,6 +22,12 @@ pub struct DcfError {
     pub help: String,
 }
 
+/// One object: its code and the set's (subcode, raw value) pairs.
+type Object<'a> = (&'a Code, Vec<(Option<u32>, &'a RawValue)>);
+
+/// A CiA 306 object list section and which indexes it lists.
+type ObjectList = (&'static str, fn(u16) -> bool);
+
 /// CiA 301 data type number of a schema type on CAN.
 fn data_type(ty: ValueType) -> Option<u16> {
     Some(match ty {
@@ -76,7 +82,7 @@ pub fn write_dcf(
     }
     let base = schema.can_index_base.unwrap_or(LENZE_INDEX_BASE);
     // index -> (code, [(subcode, raw)])
-    let mut objects: BTreeMap<u16, (&Code, Vec<(Option<u32>, &RawValue)>)> = BTreeMap::new();
+    let mut objects: BTreeMap<u16, Object<'_>> = BTreeMap::new();
     for (key, raw) in &set.values {
         let Some(code) = schema.code(key.number) else {
             return Err(DcfError {
@@ -133,7 +139,7 @@ pub fn write_dcf(
         let _ = writeln!(t, "NodeID=0x{n:02X}");
     }
     let _ = writeln!(t, "NodeName={}", name.as_deref().unwrap_or(&set.schema));
-    let lists: [(&str, fn(u16) -> bool); 3] = [
+    let lists: [ObjectList; 3] = [
         ("MandatoryObjects", |i| {
             matches!(i, 0x1000 | 0x1001 | 0x1018)
         }),

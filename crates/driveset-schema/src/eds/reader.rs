@@ -380,7 +380,7 @@ pub fn parse_int(text: &str) -> Option<IntValue> {
 /// (CiA 306 §4.4). `None` when the text is not that.
 pub fn parse_octets(text: &str) -> Option<Vec<u8>> {
     let t = text.trim();
-    if t.len() % 2 != 0 || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
+    if !t.len().is_multiple_of(2) || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
         return None;
     }
     (0..t.len())
