@@ -353,6 +353,11 @@ struct PySdoServer {
 
 impl PySdoServer {
     fn start(dir: &Path, pty: &str) -> PySdoServer {
+        PySdoServer::start_with(dir, pty, &[])
+    }
+
+    /// `extra`: further arguments of sdo_server.py (an EDS to import).
+    fn start_with(dir: &Path, pty: &str, extra: &[&str]) -> PySdoServer {
         let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
             || workspace_root().join("target/py/bin/python"),
             PathBuf::from,
@@ -367,6 +372,7 @@ impl PySdoServer {
         let mut child = Command::new(&python)
             .arg(workspace_root().join("crates/driveset-engine/tests/python/sdo_server.py"))
             .args([pty, "1"])
+            .args(extra)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&stderr).expect("stderr file"))
@@ -592,4 +598,184 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
     server.quit();
     let stats = hub.stop().expect("hub stops");
     assert_eq!(stats.dropped, 0);
+}
+
+/// The same EDS on both sides: `driveset schema import` makes the schema,
+/// canopen's own importer (`canopen.import_od`) builds the LocalNode's
+/// object dictionary, and `driveset pull` / `upload` with the imported
+/// schema talk to it over slcan (Lenze codes as FIX32 / BITCODED / VS,
+/// CiA 301 objects by index with their own widths). The DCF that `show
+/// --to dcf` writes from the pulled set is read back by canopen.
+#[test]
+fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let eds = workspace_root().join("tests/data/eds/fictional-ecs-axis.eds");
+    let eds_arg = eds.to_string_lossy().into_owned();
+    let schema = dir.path().join("schemas/fictional-ecs-axis.toml");
+    let schema_arg = schema.to_string_lossy().into_owned();
+    let (code, _, stderr) = run(&["schema", "import", &eds_arg, "-o", &schema_arg]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.ends_with("23 Lenze codes, 9 CiA 301 objects, 13 lints\n"),
+        "{stderr}"
+    );
+
+    let hub = driveset_sim::slcan_hub::SlcanHub::spawn(500_000).expect("slcan hub");
+    let mut server = PySdoServer::start_with(dir.path(), hub.path_b(), &[&eds_arg]);
+    let port = format!("slcan://{}?bitrate=500000", hub.path_a());
+    let log = |hub: &driveset_sim::slcan_hub::SlcanHub| hub.log().join("\n");
+
+    // pull every code of the imported schema
+    let pulled = dir.path().join("pulled.toml");
+    let pulled_arg = pulled.to_string_lossy().into_owned();
+    let (code, stdout, stderr) = run(&[
+        "pull",
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--schema",
+        &schema_arg,
+        "-o",
+        &pulled_arg,
+    ]);
+    assert_eq!(
+        code,
+        Some(0),
+        "pull\n{stdout}\n{stderr}\n{}\n{}",
+        server.stderr(),
+        log(&hub)
+    );
+    let mut registry = driveset_sim::catalog::registry().expect("registry");
+    let loaded_schema = registry.load_file(&schema).expect("imported schema loads");
+    let cia_index = |number: u32| loaded_schema.code(number).and_then(|c| c.index);
+    let canonical = std::process::Command::new(env!("CARGO_BIN_EXE_driveset"))
+        .args(["show", &pulled_arg])
+        .output()
+        .expect("show");
+    let canonical = String::from_utf8_lossy(&canonical.stdout).into_owned();
+    // what the pulled set holds, in the server's spelling (index/sub raw)
+    let mut got: Vec<String> = canonical
+        .lines()
+        .skip(2)
+        .map(|l| {
+            let (key, raw) = l.split_once(' ').expect("CODE RAW");
+            let (num, sub) = match key.trim_start_matches('C').split_once('/') {
+                Some((n, s)) => (n.parse::<u32>().expect("n"), s.parse::<u32>().expect("s")),
+                None => (key.trim_start_matches('C').parse::<u32>().expect("n"), 0),
+            };
+            let index = cia_index(num).map_or_else(|| 24575 - num, u32::from);
+            let raw = raw.strip_prefix('s').unwrap_or(raw);
+            format!("0x{index:04X}/{sub} {raw}")
+        })
+        .collect();
+    got.sort();
+    let served: Vec<String> = server.values();
+    let mut expected: Vec<String> = served
+        .iter()
+        .filter(|l| {
+            got.iter()
+                .any(|g| g.split(' ').next() == l.split(' ').next())
+        })
+        .cloned()
+        .collect();
+    expected.sort();
+    assert_eq!(got, expected, "{canonical}");
+    // pull leaves out the read-only codes (C0150, C5070, C5080 and the
+    // CiA 301 objects 0x1000, 0x1001, 0x1003, 0x1008, 0x1014, 0x1018)
+    assert_eq!(got.len(), 25, "{got:#?}");
+    for line in [
+        "0x4C76/0 30000000",  // C5001 3000 rpm, FIX32
+        "0x4C63/3 -5000000",  // C5020/3, a subcode
+        "0x4C59/0 \"AXIS1\"", // C5030, VS
+        "0x5F78/0 0",         // C0135 bit-coded
+        "0x6073/0 1500",      // UNSIGNED16 CiA 301 object
+        "0x6085/0 1000",      // UNSIGNED32 CiA 301 object
+    ] {
+        assert!(got.iter().any(|g| g == line), "{line}\n{got:?}");
+    }
+
+    // upload a changed set with the imported schema
+    let changed = dir.path().join("changed.toml");
+    std::fs::write(
+        &changed,
+        format!(
+            "schema = {:?}\n[values]\nmax_speed = 4500\n\"C5020/2\" = -250.5\nC5030 = \"AXIS9\"\nproducer_heartbeat_time = 100\nC90227 = 2000\nC0135 = 1025\n",
+            schema_arg
+        ),
+    )
+    .expect("write the set");
+    let changed_arg = changed.to_string_lossy().into_owned();
+    let journal_dir = dir.path().join("journal").to_string_lossy().into_owned();
+    let (code, stdout, stderr) = run(&[
+        "upload",
+        &changed_arg,
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--journal-dir",
+        &journal_dir,
+    ]);
+    assert_eq!(
+        code,
+        Some(0),
+        "upload\n{stdout}\n{stderr}\n{}\n{}",
+        server.stderr(),
+        log(&hub)
+    );
+    assert!(
+        stdout.contains("address 1: complete (6 of 6 codes written"),
+        "{stdout}"
+    );
+    let after = server.values();
+    for line in [
+        "0x4C76/0 45000000",
+        "0x4C63/2 -2505000",
+        "0x4C59/0 \"AXIS9\"",
+        "0x1017/0 100",
+        "0x6073/0 2000",
+        "0x5F78/0 1025",
+    ] {
+        assert!(after.iter().any(|g| g == line), "{line}\n{after:?}");
+    }
+
+    // the DCF of the changed set, read back by canopen's importer
+    let dcf = dir.path().join("changed.dcf");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_driveset"))
+        .args(["show", "--to", "dcf", "--node-id", "1", &changed_arg])
+        .output()
+        .expect("show --to dcf");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::write(&dcf, &out.stdout).expect("write dcf");
+    let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
+        || workspace_root().join("target/py/bin/python"),
+        PathBuf::from,
+    );
+    let read = std::process::Command::new(python)
+        .args([
+            "-c",
+            "import sys, canopen\nod = canopen.import_od(sys.argv[1], 1)\nprint(od.node_id, od[0x4C76].value, od[0x4C63][2].value, od[0x4C59].value, od[0x1017].value, od[0x6073].value, od[0x5F78].value)",
+        ])
+        .arg(&dcf)
+        .output()
+        .expect("python");
+    assert_eq!(
+        String::from_utf8_lossy(&read.stdout),
+        "1 45000000 -2505000 AXIS9 100 2000 1025\n",
+        "{}",
+        String::from_utf8_lossy(&read.stderr)
+    );
+
+    // 0x1017 = 100 ms started canopen's heartbeat producer (NMT
+    // heartbeat, COB-ID 0x700 + node): real CiA 301 behaviour, seen on the bus
+    assert!(log(&hub).contains(" 701 [1] "), "{}", log(&hub));
+    server.quit();
+    hub.stop().expect("hub stops");
 }

@@ -15,6 +15,7 @@ mod pull;
 mod recover;
 mod report;
 mod schema_check;
+mod schema_import;
 mod show;
 mod sim;
 mod upload;

@@ -39,6 +39,7 @@ pub fn check_schema(schema: &Schema) -> Vec<Finding> {
             "start the title with `FICTIONAL:`",
         ));
     }
+    check_can_indexes(schema, &mut out);
     let mut numbers: HashMap<u32, &Location> = HashMap::new();
     let mut names: HashMap<&str, (&Location, u32)> = HashMap::new();
     for c in &schema.codes {
@@ -386,6 +387,61 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
                 None,
                 out,
             );
+        }
+    }
+}
+
+/// `[[code]] index` (CiA 301 objects kept by index): only on lenze-can-sdo
+/// schemas, outside the Lenze code range, one code per index.
+fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
+    let base = schema.can_index_base.unwrap_or(24575);
+    let mut seen: HashMap<u32, u32> = HashMap::new();
+    for c in &schema.codes {
+        let index = match c.index {
+            Some(i) => {
+                if schema.protocol != crate::schema::Protocol::LenzeCanSdo {
+                    out.push(f(
+                        &c.loc,
+                        format!(
+                            "code {}: `index` is for lenze-can-sdo schemas only",
+                            c.number
+                        ),
+                        "remove `index`",
+                    ));
+                    continue;
+                }
+                if (0x2000..=0x5FFF).contains(&i) {
+                    out.push(f(
+                        &c.loc,
+                        format!(
+                            "code {}: index 0x{i:04X} is in the Lenze code range; it is code C{:04}",
+                            c.number,
+                            base.saturating_sub(u32::from(i))
+                        ),
+                        "write it as a Lenze code (number = index_base - index) without `index`",
+                    ));
+                }
+                u32::from(i)
+            }
+            None if schema.protocol == crate::schema::Protocol::LenzeCanSdo => {
+                match base.checked_sub(c.number) {
+                    Some(i) => i,
+                    None => continue,
+                }
+            }
+            None => continue,
+        };
+        if let Some(other) = seen.insert(index, c.number)
+            && other != c.number
+        {
+            out.push(f(
+                &c.loc,
+                format!(
+                    "code {} reaches SDO index 0x{index:04X}, as code {other} does",
+                    c.number
+                ),
+                "keep one code per object",
+            ));
         }
     }
 }

@@ -27,6 +27,7 @@ pub mod check;
 pub mod decimal;
 pub mod diff;
 pub mod doc;
+pub mod eds;
 pub mod error;
 pub mod export;
 pub mod family;

@@ -167,6 +167,10 @@ pub struct Code {
     pub lecom_only: Option<bool>,
     /// Subcodes 1..=n.
     pub subcodes: Option<u32>,
+    /// CAN: a CiA 301 object kept by its own SDO index (outside the Lenze
+    /// code range, e.g. 0x1017 or 0x6040); its number is
+    /// [`CIA_NUMBER_BASE`] + index and its subcodes are subindexes.
+    pub index: Option<u16>,
     /// Free text.
     pub note: Option<String>,
     /// LUSTBUS storage kind.
@@ -283,6 +287,10 @@ pub struct Schema {
     numeric_names: bool,
 }
 
+/// Code numbers of CiA 301 objects kept by index (`[[code]] index`):
+/// number = 65536 + index, above every Lenze code (index = 24575 - code).
+pub const CIA_NUMBER_BASE: u32 = 0x1_0000;
+
 /// `C` + digits or digits only: the shape of a code-number key.
 pub(crate) fn looks_numeric_key(key: &str) -> bool {
     let d = key.strip_prefix(['C', 'c']).unwrap_or(key);
@@ -329,7 +337,10 @@ impl Schema {
     /// Code as spelled for humans: `C0011`, `C0039/1`; lust `428-RSIO` (with name).
     pub fn display_code(&self, number: u32, subcode: Option<u32>) -> String {
         let mut s = match self.code_style {
-            CodeStyle::Lenze => format!("C{number:04}"),
+            CodeStyle::Lenze => match self.code(number).and_then(|c| c.index) {
+                Some(i) => format!("0x{i:04X}"),
+                None => format!("C{number:04}"),
+            },
             CodeStyle::Lust => match self.code(number) {
                 Some(c) if !c.name.is_empty() => format!("{number}-{}", c.name),
                 _ => number.to_string(),
@@ -611,9 +622,26 @@ fn parse_values(r: &mut Reader<'_>, what: &str) -> Result<Option<EnumSource>, In
 
 fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
     let mut r = Reader::new(doc, node, "[[code]]")?;
-    let Some((number, loc)) = r.uint::<u32>("number")? else {
-        return Err(doc.error(&node.span, "[[code]] has no `number`", "add `number = ...`"));
+    let index = r.uint::<u16>("index")?;
+    let (number, loc) = match (r.uint::<u32>("number")?, &index) {
+        (Some((n, l)), Some((i, _))) if n != CIA_NUMBER_BASE + u32::from(*i) => {
+            return Err(InputError::new(
+                InputErrorKind::Structure,
+                l,
+                format!(
+                    "code with `index` = 0x{i:04X} has number {n}, not {} (65536 + index)",
+                    CIA_NUMBER_BASE + u32::from(*i)
+                ),
+                "leave `number` out or write 65536 + index (docs/file-formats.md, \"CiA 301 objects\")",
+            ));
+        }
+        (Some(nl), _) => nl,
+        (None, Some((i, l))) => (CIA_NUMBER_BASE + u32::from(*i), l.clone()),
+        (None, None) => {
+            return Err(doc.error(&node.span, "[[code]] has no `number`", "add `number = ...`"));
+        }
     };
+    let index = index.map(|i| i.0);
     let what = format!("code {number}");
     r.what = what.clone();
     let name = r.string("name")?;
@@ -717,6 +745,7 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         access,
         lecom_only: r.boolean("lecom_only")?,
         subcodes: r.uint::<u32>("subcodes")?.map(|t| t.0),
+        index,
         note: r.string("note")?.map(|t| t.0),
         kind,
         basis: r.boolean("basis")?,
@@ -1078,6 +1107,7 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
     fill!(access);
     fill!(lecom_only);
     fill!(subcodes);
+    fill!(index);
     fill!(note);
     fill!(kind);
     fill!(basis);

@@ -39,10 +39,22 @@ pub enum ValueType {
     PT_VF_ERROR,
     /// LUSTBUS u32 error record.
     PT_MC_ERROR,
+    /// CAN (CiA 301 §7.1.4.4) UNSIGNED8: CiA 301 objects kept by index.
+    UNSIGNED8,
+    /// CAN (CiA 301) UNSIGNED16.
+    UNSIGNED16,
+    /// CAN (CiA 301) UNSIGNED32.
+    UNSIGNED32,
+    /// CAN (CiA 301 §7.1.4.5) INTEGER8.
+    INTEGER8,
+    /// CAN (CiA 301) INTEGER16.
+    INTEGER16,
+    /// CAN (CiA 301) INTEGER32.
+    INTEGER32,
 }
 
 /// Every type, in table order.
-pub const ALL_TYPES: [ValueType; 16] = [
+pub const ALL_TYPES: [ValueType; 22] = [
     ValueType::VD,
     ValueType::VH,
     ValueType::VS,
@@ -59,6 +71,12 @@ pub const ALL_TYPES: [ValueType; 16] = [
     ValueType::PT_FLOAT_IEEE,
     ValueType::PT_VF_ERROR,
     ValueType::PT_MC_ERROR,
+    ValueType::UNSIGNED8,
+    ValueType::UNSIGNED16,
+    ValueType::UNSIGNED32,
+    ValueType::INTEGER8,
+    ValueType::INTEGER16,
+    ValueType::INTEGER32,
 ];
 
 /// How a type's raw value relates to its engineering value.
@@ -120,6 +138,12 @@ impl ValueType {
             ValueType::PT_FLOAT_IEEE => "PT_FLOAT_IEEE",
             ValueType::PT_VF_ERROR => "PT_VF_ERROR",
             ValueType::PT_MC_ERROR => "PT_MC_ERROR",
+            ValueType::UNSIGNED8 => "UNSIGNED8",
+            ValueType::UNSIGNED16 => "UNSIGNED16",
+            ValueType::UNSIGNED32 => "UNSIGNED32",
+            ValueType::INTEGER8 => "INTEGER8",
+            ValueType::INTEGER16 => "INTEGER16",
+            ValueType::INTEGER32 => "INTEGER32",
         }
     }
 
@@ -172,7 +196,12 @@ impl ValueType {
             | ValueType::PT_PASSWORD
             | ValueType::PT_FIXPOINT16
             | ValueType::PT_VF_ERROR => (0, 0xFFFF),
-            ValueType::PT_INTEGER16 => (i16::MIN as i64, i16::MAX as i64),
+            ValueType::PT_INTEGER16 | ValueType::INTEGER16 => (i16::MIN as i64, i16::MAX as i64),
+            ValueType::UNSIGNED8 => (0, 0xFF),
+            ValueType::UNSIGNED16 => (0, 0xFFFF),
+            ValueType::UNSIGNED32 => (0, 0xFFFF_FFFF),
+            ValueType::INTEGER8 => (i8::MIN as i64, i8::MAX as i64),
+            ValueType::INTEGER32 => I32,
             ValueType::VS | ValueType::VO => return None,
         })
     }

@@ -13,6 +13,7 @@ pub mod pull;
 pub mod recover;
 pub mod scan;
 pub mod schema;
+pub mod schema_import;
 pub mod schema_pull;
 pub mod show;
 pub mod sim;

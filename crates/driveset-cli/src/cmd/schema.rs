@@ -30,6 +30,8 @@ Examples:
     Check(CheckArgs),
     /// Build a schema file from a LUSTBUS drive's own parameter descriptions.
     Pull(super::schema_pull::Args),
+    /// Build a Lenze ECS schema file from a CiA 306 EDS / DCF data sheet.
+    Import(super::schema_import::Args),
 }
 
 /// Arguments of `driveset schema check`.
@@ -51,6 +53,7 @@ pub fn run(cmd: SchemaCommand) -> anyhow::Result<u8> {
     match cmd {
         SchemaCommand::Check(a) => check(a),
         SchemaCommand::Pull(a) => super::schema_pull::run(a),
+        SchemaCommand::Import(a) => super::schema_import::run(a),
     }
 }
 

@@ -1,9 +1,11 @@
-//! `driveset show FILE [--to toml|yaml|json]`: a set in canonical form, or
-//! converted to another syntax (engineering values with labels, `extends`
-//! merged). Converting never changes the fingerprint.
+//! `driveset show FILE [--to toml|yaml|json|dcf]`: a set in canonical form,
+//! or converted to another syntax (engineering values with labels, `extends`
+//! merged; converting never changes the fingerprint), or written as a CiA
+//! 306 DCF for CANopen masters (Lenze ECS sets only; driveset_schema::eds).
 
 use std::path::PathBuf;
 
+use driveset_schema::eds::write_dcf;
 use driveset_schema::{Format, export};
 
 use crate::output;
@@ -17,6 +19,8 @@ pub enum To {
     Yaml,
     /// JSON set file (read back by driveset as YAML; save it as *.json).
     Json,
+    /// CiA 306 device configuration file (Lenze ECS sets only).
+    Dcf,
 }
 
 /// Arguments of `driveset show`.
@@ -30,11 +34,20 @@ engineering units with labels, the schema named by its id. A set whose schema
 was loaded from a file (a fixture) names that schema's id, so reading the
 converted file elsewhere needs `--schemas DIR` with that schema file.
 
-Exit codes: 0 ok, 2 the file could not be read or the set has findings.
+With --to dcf (Lenze ECS sets: schema protocol lenze-can-sdo), prints a CiA
+306 DCF: one object section per value (index 24575 - code, or the `index` of
+a CiA 301 object), the set's raw value as ParameterValue (FIX32 = value x
+10000), the schema's default and limits; --node-id fills
+[DeviceComissioning] NodeID. Password codes are written without a value.
+Sets of other families are refused (exit 2).
+
+Exit codes: 0 ok, 2 the file could not be read, the set has findings, or
+--to dcf was asked of a set that is not a CANopen family.
 
 Examples:
   driveset show parameter-sets/tmd/conveyor-3.toml
-  driveset show --to yaml parameter-sets/tmd/conveyor-3.toml > conveyor-3.yaml")]
+  driveset show --to yaml parameter-sets/tmd/conveyor-3.toml > conveyor-3.yaml
+  driveset show --to dcf --node-id 1 parameter-sets/ecs/axis-1.toml > axis-1.dcf")]
 pub struct Args {
     /// Set file.
     #[arg(value_name = "FILE")]
@@ -42,6 +55,9 @@ pub struct Args {
     /// Convert to this syntax instead of printing the canonical form.
     #[arg(long, value_enum)]
     pub to: Option<To>,
+    /// --to dcf: the node id written to [DeviceComissioning] NodeID (1..=127).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node_id: Option<u8>,
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
@@ -62,11 +78,30 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     };
     let text = match args.to {
         None => set.canonical(),
+        Some(To::Dcf) => {
+            let name = args
+                .file
+                .file_stem()
+                .map(|s| format!("{}.dcf", s.to_string_lossy()))
+                .unwrap_or_else(|| "set.dcf".into());
+            match write_dcf(set, schema, loaded.title.as_deref(), &name, args.node_id) {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!(
+                        "error: {}: cannot write a DCF: {}\n  = help: {}",
+                        args.file.display(),
+                        e.message,
+                        e.help
+                    );
+                    return Ok(crate::EXIT_INPUT);
+                }
+            }
+        }
         Some(to) => {
             let format = match to {
                 To::Toml => Format::Toml,
                 To::Yaml => Format::Yaml,
-                To::Json => Format::Json,
+                To::Json | To::Dcf => Format::Json,
             };
             export(set, schema, loaded.title.as_deref(), format)
         }

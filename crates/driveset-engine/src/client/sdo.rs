@@ -149,6 +149,11 @@ impl<L: FrameLink> SdoLine<L> {
 enum Wire {
     Fix32,
     BitCoded,
+    /// A CiA 301 basic integer type, little-endian, of its own width.
+    Int {
+        bytes: usize,
+        signed: bool,
+    },
     Text,
     Octets,
 }
@@ -159,6 +164,30 @@ fn wire_of(schema: &Schema, code: &Code) -> Option<Wire> {
         Some(ValueType::BITCODED) => Wire::BitCoded,
         Some(ValueType::VS) => Wire::Text,
         Some(ValueType::VO) => Wire::Octets,
+        Some(ValueType::UNSIGNED8) => Wire::Int {
+            bytes: 1,
+            signed: false,
+        },
+        Some(ValueType::UNSIGNED16) => Wire::Int {
+            bytes: 2,
+            signed: false,
+        },
+        Some(ValueType::UNSIGNED32) => Wire::Int {
+            bytes: 4,
+            signed: false,
+        },
+        Some(ValueType::INTEGER8) => Wire::Int {
+            bytes: 1,
+            signed: true,
+        },
+        Some(ValueType::INTEGER16) => Wire::Int {
+            bytes: 2,
+            signed: true,
+        },
+        Some(ValueType::INTEGER32) => Wire::Int {
+            bytes: 4,
+            signed: true,
+        },
         Some(_) => return None,
         None => match code.number {
             135 | 150 => Wire::BitCoded,
@@ -181,6 +210,16 @@ fn bytes_to_raw(wire: Wire, data: &[u8]) -> Option<RawValue> {
                 _ => i64::from(u32::from_le_bytes(b)),
             })
         }
+        Wire::Int { bytes, signed } => {
+            if data.is_empty() || data.len() > bytes {
+                return None;
+            }
+            let negative =
+                signed && data.len() == bytes && data.last().is_some_and(|b| b & 0x80 != 0);
+            let mut b = if negative { [0xFF; 8] } else { [0; 8] };
+            b[..data.len()].copy_from_slice(data);
+            RawValue::Int(i64::from_le_bytes(b))
+        }
         Wire::Text => RawValue::Text(String::from_utf8_lossy(data).into_owned()),
         Wire::Octets => RawValue::Octets(data.to_vec()),
     })
@@ -190,6 +229,18 @@ fn raw_to_bytes(wire: Wire, raw: &RawValue) -> Option<Vec<u8>> {
     Some(match (wire, raw) {
         (Wire::Fix32, RawValue::Int(n)) => i32::try_from(*n).ok()?.to_le_bytes().to_vec(),
         (Wire::BitCoded, RawValue::Int(n)) => u32::try_from(*n).ok()?.to_le_bytes().to_vec(),
+        (Wire::Int { bytes, signed }, RawValue::Int(n)) => {
+            let bits = 8 * bytes as u32;
+            let (lo, hi) = if signed {
+                (-(1i64 << (bits - 1)), (1i64 << (bits - 1)) - 1)
+            } else {
+                (0, (1i64 << bits) - 1)
+            };
+            if *n < lo || *n > hi {
+                return None;
+            }
+            n.to_le_bytes()[..bytes].to_vec()
+        }
         (Wire::Text, RawValue::Text(t)) => t.as_bytes().to_vec(),
         (Wire::Octets, RawValue::Octets(o)) => o.clone(),
         _ => return None,
@@ -363,9 +414,13 @@ impl<L: FrameLink> CanClient<L> {
 }
 
 /// Index and subindex of `key` under `schema`.
+/// A CiA 301 object kept by index (`[[code]] index`) uses its own index.
 fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
     let base = schema.can_index_base.unwrap_or(u32::from(INDEX_BASE));
-    let index = u16::try_from(base.checked_sub(key.number)?).ok()?;
+    let index = match schema.code(key.number).and_then(|c| c.index) {
+        Some(i) => i,
+        None => u16::try_from(base.checked_sub(key.number)?).ok()?,
+    };
     let sub = u8::try_from(key.subcode.unwrap_or(0)).ok()?;
     Some((Index(index), Subindex(sub)))
 }

@@ -20,9 +20,15 @@ Protocol on stdin / stdout, one line each:
                  in arrival order, then "end"
   <- "quit"   -> "bye", exit 0 (also on end of input)
 
-Usage: sdo_server.py PTY_PATH NODE_ID
+With a third argument, the object dictionary is instead imported from that
+CiA 306 EDS with canopen's own importer (canopen.import_od), and the dump
+lists every variable the EDS gives a value: "0x4C76/0 30000000" (index /
+subindex, raw; strings as JSON), writes as "wrote 0x4C76/0 45000000".
+
+Usage: sdo_server.py PTY_PATH NODE_ID [EDS]
 """
 
+import json
 import sys
 import threading
 
@@ -70,21 +76,38 @@ def build_od():
     return od
 
 
+def eds_variables(od):
+    """Every variable of an imported dictionary, in (index, subindex) order."""
+    out = []
+    for obj in od.values():
+        members = obj.values() if hasattr(obj, "values") else [obj]
+        for var in members:
+            out.append(var)
+    return sorted(out, key=lambda v: (v.index, v.subindex))
+
+
+def shown(raw):
+    return json.dumps(raw) if isinstance(raw, str) else str(raw)
+
+
 def main(argv):
     path = argv[1]
     node_id = int(argv[2])
+    eds = argv[3] if len(argv) > 3 else None
 
-    od = build_od()
+    od = canopen.import_od(eds, node_id) if eds else build_od()
     node = canopen.LocalNode(node_id, od)
     writes = []
     lock = threading.Lock()
 
     def on_write(index, subindex, od, data):
         # Called only for writes the server accepts (after its access check).
-        code = 24575 - index
         raw = od.decode_raw(data)
         with lock:
-            writes.append((code, raw))
+            if eds:
+                writes.append(f"0x{index:04X}/{subindex} {shown(raw)}")
+            else:
+                writes.append(f"C{24575 - index:04d} {raw}")
 
     node.add_write_callback(on_write)
 
@@ -96,14 +119,25 @@ def main(argv):
     try:
         for line in sys.stdin:
             command = line.strip()
-            if command == "dump":
+            if command == "dump" and eds:
+                for var in eds_variables(od):
+                    try:
+                        data = node.get_data(var.index, var.subindex)
+                    except Exception:  # no value in the EDS
+                        continue
+                    print(f"0x{var.index:04X}/{var.subindex} {shown(var.decode_raw(data))}")
+                with lock:
+                    for line in writes:
+                        print(f"wrote {line}")
+                print("end", flush=True)
+            elif command == "dump":
                 for code, _, _, _ in OBJECTS:
                     data = node.get_data(index(code), 0)
                     raw = od[index(code)].decode_raw(data)
                     print(f"C{code:04d} {raw}")
                 with lock:
-                    for code, raw in writes:
-                        print(f"wrote C{code:04d} {raw}")
+                    for line in writes:
+                        print(f"wrote {line}")
                 print("end", flush=True)
             elif command == "quit":
                 break

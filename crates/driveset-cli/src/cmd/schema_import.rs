@@ -1,0 +1,146 @@
+//! `driveset schema import FILE.eds|FILE.dcf [-o OUT] [--id ID]`: a Lenze
+//! ECS schema from the CiA 306 data sheet shipped for the axis
+//! (driveset_schema::eds; docs/file-formats.md, "Imported schemas"), with a
+//! lint for every object skipped or downgraded.
+
+use std::path::PathBuf;
+
+use driveset_schema::eds::{ImportOptions, import};
+use serde_json::json;
+
+use super::identify::BusFormat;
+use crate::output;
+
+/// Arguments of `driveset schema import`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Reads a CiA 306 EDS or DCF and writes a schema for the Lenze ECS family
+(protocol lenze-can-sdo): Lenze codes at index 24575 - code (0x2000..0x5FFF)
+as FIX32 (value x 10000), C0135 / C0150 as BITCODED, strings as VS;
+subindexes as subcodes; AccessType ro/const -> ro, rw/rwr/rww -> rw;
+LowLimit / HighLimit / DefaultValue as exact engineering values. CiA 301
+objects (0x1000..0x1FFF, 0x6000..) are kept by index (`index = 0x1017`,
+number 65536 + index, set key C69655 or the name). The schema passes
+`driveset schema check`; load it with `--schemas DIR` or name it by path.
+
+Every object skipped or downgraded (PDO / SDO channel objects, DOMAIN,
+write-only, $NODEID or empty values, types a Lenze code cannot have, ...) is
+a lint on stderr: FILE:LINE: OBJECT: what was done. With --format json the
+lints are one JSON document on stderr.
+
+Exit codes: 0 imported without lints, 1 imported with lints (the schema is
+written), 2 the file is unreadable or not an EDS / DCF (with its location).
+
+Examples:
+  driveset schema import tests/data/eds/fictional-ecs-axis.eds -o schemas-local/axis.toml
+  driveset pull --port slcan:///dev/ttyACM0 --address 1 --schema schemas-local/axis.toml -o axis.toml")]
+pub struct Args {
+    /// The EDS or DCF file.
+    #[arg(value_name = "FILE")]
+    pub file: PathBuf,
+    /// Write the schema here instead of stdout.
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Schema id (default: the file name without extension, lowercase; an
+    /// id starting with `fictional-` makes a fixture schema).
+    #[arg(long, value_name = "ID")]
+    pub id: Option<String>,
+    /// Format of the lint report on stderr.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset schema import`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    let shown = args.file.display().to_string();
+    let bytes = match std::fs::read(&args.file) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("error: cannot read {shown}: {e}\n  = help: check the path");
+            return Ok(crate::EXIT_INPUT);
+        }
+    };
+    let opts = ImportOptions {
+        id: args.id.clone(),
+        file: shown.clone(),
+    };
+    let imported = match import(&bytes, &opts) {
+        Ok(i) => i,
+        Err(e) => {
+            let at = match (e.line, e.column) {
+                (0, _) => shown.clone(),
+                (l, 0) => format!("{shown}:{l}"),
+                (l, c) => format!("{shown}:{l}:{c}"),
+            };
+            match args.format {
+                BusFormat::Human => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
+                BusFormat::Json => eprintln!(
+                    "{}",
+                    serde_json::to_string_pretty(&json!({
+                        "file": shown, "error": {"line": e.line, "column": e.column,
+                        "message": e.message, "help": e.help}
+                    }))
+                    .unwrap_or_default()
+                ),
+            }
+            return Ok(crate::EXIT_INPUT);
+        }
+    };
+    if let Some(out) = &args.output {
+        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        if let Err(e) = std::fs::write(out, &imported.toml) {
+            eprintln!(
+                "error: cannot write {}: {e}\n  = help: check the directory",
+                out.display()
+            );
+            return Ok(crate::EXIT_INPUT);
+        }
+    } else {
+        output::emit(&imported.toml);
+    }
+    let summary = format!(
+        "imported {}: schema {}, {} Lenze codes, {} CiA 301 objects, {} lints",
+        shown,
+        imported.id,
+        imported.lenze_codes,
+        imported.cia_objects,
+        imported.lints.len()
+    );
+    match args.format {
+        BusFormat::Human => {
+            let mut text = String::new();
+            for l in &imported.lints {
+                text.push_str(&format!("lint: {}\n", l.render(&shown)));
+            }
+            text.push_str(&summary);
+            text.push('\n');
+            eprint!("{text}");
+        }
+        BusFormat::Json => {
+            let lints: Vec<_> = imported
+                .lints
+                .iter()
+                .map(|l| json!({"line": l.line, "object": l.object, "message": l.message}))
+                .collect();
+            eprintln!(
+                "{}",
+                serde_json::to_string_pretty(&json!({
+                    "file": shown,
+                    "schema": imported.id,
+                    "output": args.output.as_ref().map(|o| o.display().to_string()),
+                    "lenze_codes": imported.lenze_codes,
+                    "cia_objects": imported.cia_objects,
+                    "lints": lints,
+                }))
+                .unwrap_or_default()
+            );
+        }
+    }
+    Ok(if imported.lints.is_empty() {
+        crate::EXIT_OK
+    } else {
+        crate::EXIT_FINDINGS
+    })
+}

@@ -1,0 +1,338 @@
+//! `driveset schema import FILE.eds|FILE.dcf` (CiA 306 -> Lenze ECS schema,
+//! lint report, exit codes) and `driveset show --to dcf`: exact stdout,
+//! stderr and exit codes; the imported schema through `schema check`,
+//! `--schemas DIR`, by path, and CiA 301 objects addressed by name and
+//! number.
+
+use std::path::Path;
+
+use crate::util::driveset;
+
+const AXIS: &str = "tests/data/eds/fictional-ecs-axis.eds";
+const MALFORMED: &str = "tests/data/eds/fictional-malformed.eds";
+
+fn run(args: &[&str]) -> (String, String, i32) {
+    let out = driveset()
+        .args(args)
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("runs");
+    (
+        String::from_utf8(out.stdout).expect("utf-8"),
+        String::from_utf8(out.stderr).expect("utf-8"),
+        out.status.code().expect("exit code"),
+    )
+}
+
+/// The lint report on the vendor-style fixture, exactly.
+const AXIS_LINTS: &str = "\
+lint: tests/data/eds/fictional-ecs-axis.eds:129: 0x1003sub0: number of entries is UNSIGNED8 (0x0005) writable; it is the structure, not a setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:153: 0x1010: store / restore parameters: a command (signature write), not a setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:179: 0x1014: DefaultValue `$NODEID+0x80` depends on the node id; left unset
+lint: tests/data/eds/fictional-ecs-axis.eds:192: 0x1018: DefaultValue differs by subindex; left unset
+lint: tests/data/eds/fictional-ecs-axis.eds:237: 0x1200: SDO channel parameter: bus configuration ($NODEID COB-IDs), not a drive setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:266: 0x1400: PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:295: 0x1600: PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:512: 0x4C63: DefaultValue differs by subindex; left unset
+lint: tests/data/eds/fictional-ecs-axis.eds:563: 0x4C4F: DataType UNSIGNED16 (0x0006) in the Lenze code range: page 454 transmits Lenze codes as FIX32 (4 bytes); skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:571: 0x4C45: DOMAIN object (no fixed size or type); skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:582: 0x4C3B: write-only (wo): driveset reads back every value it writes; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:586: 0x4C31: DataType UNSIGNED32 (0x0007) read as FIX32 (page 454: Lenze codes are FIX32, value x 10000)
+lint: tests/data/eds/fictional-ecs-axis.eds:599: 0x4C27: ObjFlags bit 0 (refuse write on download): kept read-only
+imported tests/data/eds/fictional-ecs-axis.eds: schema fictional-ecs-axis, 23 Lenze codes, 9 CiA 301 objects, 13 lints
+";
+
+#[test]
+fn vendor_style_eds_imports_with_the_exact_lint_list() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("schemas/fictional-ecs-axis.toml");
+    let out_arg = out.to_string_lossy().into_owned();
+    let (stdout, stderr, code) = run(&["schema", "import", AXIS, "-o", &out_arg]);
+    assert_eq!(
+        (stdout.as_str(), stderr.as_str(), code),
+        ("", AXIS_LINTS, 1)
+    );
+    let toml = std::fs::read_to_string(&out).expect("written");
+    assert_eq!(toml.matches("[[code]]").count(), 32);
+    assert!(
+        toml.contains(
+            "[[code]]\nnumber = 5001\nname = \"max_speed\"\ntitle = \"Max. speed\"\nspec = \"tests/data/eds/fictional-ecs-axis.eds [4C76] line 352\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"16000\"\ndefault = \"3000\"\naccess = \"rw\"\n"
+        ),
+        "{toml}"
+    );
+    assert!(
+        toml.contains(
+            "[[code]]\nnumber = 69655\nindex = 0x1017\nname = \"producer_heartbeat_time\"\n"
+        ),
+        "{toml}"
+    );
+    // the same schema on stdout without -o
+    let (stdout, stderr, code) = run(&["schema", "import", AXIS]);
+    assert_eq!(
+        (stdout.as_str(), stderr.as_str(), code),
+        (toml.as_str(), AXIS_LINTS, 1)
+    );
+
+    // it passes schema check, by path and with --schemas DIR
+    let (stdout, _, code) = run(&["schema", "check", &out_arg]);
+    assert_eq!(
+        (stdout.as_str(), code),
+        ("0 findings in 0 of 1 schema file\n", 0)
+    );
+    let set = dir.path().join("axis.toml");
+    std::fs::write(
+        &set,
+        "schema = \"fictional-ecs-axis\"\n[values]\nmax_speed = 4500\n\"C5020/2\" = -250.5\nproducer_heartbeat_time = 100\nC90227 = 2000\n",
+    )
+    .expect("write set");
+    let set_arg = set.to_string_lossy().into_owned();
+    let schemas = dir.path().join("schemas").to_string_lossy().into_owned();
+    let (stdout, stderr, code) = run(&["show", &set_arg, "--schemas", &schemas]);
+    assert_eq!(
+        (stdout.as_str(), stderr.as_str(), code),
+        (
+            "driveset-canonical 1\nschema fictional-ecs-axis\nC5001 45000000\nC5020/2 -2505000\nC69655 100\nC90227 2000\n",
+            "",
+            0
+        )
+    );
+    // a read-only CiA 301 object cannot be set; out of its UNSIGNED16 range neither
+    std::fs::write(
+        &set,
+        "schema = \"schemas/fictional-ecs-axis.toml\"\n[values]\ndevice_type = 1\nproducer_heartbeat_time = 70000\n",
+    )
+    .expect("write set");
+    let (stdout, _, code) = run(&["validate", &set_arg, "--format", "json"]);
+    assert_eq!(code, 1, "{stdout}");
+    let doc: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let kinds: Vec<&str> = doc["files"][0]["findings"]
+        .as_array()
+        .expect("findings")
+        .iter()
+        .map(|f| f["kind"].as_str().expect("kind"))
+        .collect();
+    assert_eq!(kinds, ["read-only", "out-of-range"], "{stdout}");
+}
+
+#[test]
+fn json_lint_report() {
+    let (stdout, stderr, code) = run(&[
+        "schema",
+        "import",
+        AXIS,
+        "--format",
+        "json",
+        "-o",
+        "/dev/null",
+    ]);
+    assert_eq!((stdout.as_str(), code), ("", 1));
+    let doc: serde_json::Value = serde_json::from_str(&stderr).expect("json");
+    assert_eq!(doc["schema"], "fictional-ecs-axis");
+    assert_eq!(doc["lenze_codes"], 23);
+    assert_eq!(doc["cia_objects"], 9);
+    let lints = doc["lints"].as_array().expect("lints");
+    assert_eq!(lints.len(), 13);
+    assert_eq!(
+        lints[6],
+        serde_json::json!({"line": 295, "object": "0x1600", "message": "PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped"})
+    );
+}
+
+#[test]
+fn malformed_files_python_canopen_users_report() {
+    let (stdout, stderr, code) = run(&["schema", "import", MALFORMED, "--id", "ecs-malformed"]);
+    assert_eq!(code, 1);
+    assert_eq!(
+        stderr,
+        "\
+lint: tests/data/eds/fictional-malformed.eds:12: key HighLimit given twice in [5FF4] (first at line 11); the first value is kept
+lint: tests/data/eds/fictional-malformed.eds:15: 0x1200sub1: no main section [1200]; skipped
+lint: tests/data/eds/fictional-malformed.eds:26: 0x1014: DefaultValue `0x80+$NODEID` depends on the node id; left unset
+lint: tests/data/eds/fictional-malformed.eds:33: 0x5FF5: DefaultValue `010` read as decimal 10 (a leading 0 means octal in C, giving 8)
+lint: tests/data/eds/fictional-malformed.eds:34: 0x5FF5: empty LowLimit; left unset
+lint: tests/data/eds/fictional-malformed.eds:35: 0x5FF5: HighLimit `00100000` read as decimal 100000 (a leading 0 means octal in C, giving 32768)
+imported tests/data/eds/fictional-malformed.eds: schema ecs-malformed, 2 Lenze codes, 1 CiA 301 objects, 6 lints
+"
+    );
+    assert!(
+        stdout.contains("[[code]]\nnumber = 11\nname = \"max_speed\"\ntitle = \"Max speed\"\nspec = \"tests/data/eds/fictional-malformed.eds [5FF4] line 4\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"0.0026\"\ndefault = \"0.0001\"\naccess = \"rw\"\n"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn unreadable_and_invalid_files_exit_2_with_the_location() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (stdout, stderr, code) = run(&["schema", "import", "tests/data/eds/missing.eds"]);
+    assert_eq!(code, 2);
+    assert_eq!(stdout, "");
+    assert!(
+        stderr.starts_with("error: cannot read tests/data/eds/missing.eds: "),
+        "{stderr}"
+    );
+    let bin = dir.path().join("x.eds");
+    std::fs::write(&bin, b"[1000]\nDataType=0x0007\nab\0cd\n").expect("write");
+    let bin_arg = bin.to_string_lossy().into_owned();
+    let (stdout, stderr, code) = run(&["schema", "import", &bin_arg]);
+    assert_eq!(
+        (stdout.as_str(), stderr, code),
+        (
+            "",
+            format!(
+                "error: {bin_arg}:3:3: NUL byte: this is a binary file, not a CiA 306 EDS / DCF\n  = help: give the .eds or .dcf text file shipped with the device\n"
+            ),
+            2
+        )
+    );
+    let (_, stderr, code) = run(&["schema", "import", "schemas/lenze-ecs.toml"]);
+    assert_eq!(
+        (stderr.as_str(), code),
+        (
+            "error: schemas/lenze-ecs.toml: no object section ([1000], [5FF4], [1018sub1], ...): not a CiA 306 EDS / DCF\n  = help: give the .eds or .dcf file shipped with the device\n",
+            2
+        )
+    );
+}
+
+#[test]
+fn show_to_dcf_writes_the_values_and_refuses_other_families() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let schema = dir.path().join("fictional-ecs-axis.toml");
+    let schema_arg = schema.to_string_lossy().into_owned();
+    let (_, _, code) = run(&["schema", "import", AXIS, "-o", &schema_arg]);
+    assert_eq!(code, 1);
+    let set = dir.path().join("axis-7.toml");
+    std::fs::write(
+        &set,
+        "schema = \"fictional-ecs-axis.toml\"\ntitle = \"Axis 7\"\n[values]\nmax_speed = 4500\n\"C5020/2\" = -250.5\nC5030 = \"AXIS9\"\nproducer_heartbeat_time = 100\n",
+    )
+    .expect("write set");
+    let set_arg = set.to_string_lossy().into_owned();
+    let (stdout, stderr, code) = run(&["show", "--to", "dcf", "--node-id", "7", &set_arg]);
+    assert_eq!((stderr.as_str(), code), ("", 0));
+    assert_eq!(
+        stdout,
+        "\
+; Device configuration file (CiA 306) written by `driveset show --to dcf`
+; from a set of schema fictional-ecs-axis. ParameterValue is the set's raw value: FIX32 codes
+; value x 10000, C0135 / C0150 bit-coded (lenze-system-bus-can-sdo.txt, p. 454).
+
+[FileInfo]
+FileName=axis-7.dcf
+FileVersion=1
+FileRevision=0
+EDSVersion=4.0
+Description=Axis 7
+CreatedBy=driveset
+
+[DeviceInfo]
+ProductName=FICTIONAL: FICTIONAL Vendor ECS-style axis, imported from fictional-ecs-axis.eds
+
+[DeviceComissioning]
+NodeID=0x07
+NodeName=Axis 7
+
+[MandatoryObjects]
+SupportedObjects=0
+
+[OptionalObjects]
+SupportedObjects=1
+1=0x1017
+
+[ManufacturerObjects]
+SupportedObjects=3
+1=0x4C59
+2=0x4C63
+3=0x4C76
+
+[1017]
+ParameterName=Producer heartbeat time
+ObjectType=0x7
+DataType=0x0006
+AccessType=rw
+DefaultValue=0
+LowLimit=0
+HighLimit=65535
+PDOMapping=0
+ParameterValue=100
+
+[4C59]
+ParameterName=Axis name
+ObjectType=0x7
+DataType=0x0009
+AccessType=rw
+DefaultValue=AXIS1
+PDOMapping=0
+ParameterValue=AXIS9
+
+[4C63]
+ParameterName=Fixed speed setpoints
+ObjectType=0x8
+SubNumber=2
+
+[4C63sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=3
+PDOMapping=0
+
+[4C63sub2]
+ParameterName=Fixed speed setpoints 2
+ObjectType=0x7
+DataType=0x0004
+AccessType=rw
+LowLimit=-160000000
+HighLimit=160000000
+PDOMapping=0
+ParameterValue=-2505000
+
+[4C76]
+ParameterName=Max. speed
+ObjectType=0x7
+DataType=0x0004
+AccessType=rw
+DefaultValue=30000000
+LowLimit=0
+HighLimit=160000000
+PDOMapping=0
+ParameterValue=45000000
+"
+    );
+    // the DCF imports back: same codes, its ParameterValues named in one lint
+    let dcf = dir.path().join("axis-7.dcf");
+    std::fs::write(&dcf, &stdout).expect("write dcf");
+    let dcf_arg = dcf.to_string_lossy().into_owned();
+    let (back, stderr, code) = run(&["schema", "import", &dcf_arg, "--id", "axis-7-dcf"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.starts_with(&format!("lint: {dcf_arg}: 4 ParameterValue entries ignored: a schema holds defaults and limits, not a configuration\n")),
+        "{stderr}"
+    );
+    assert!(
+        back.contains("number = 5001\nname = \"max_speed\""),
+        "{back}"
+    );
+
+    // an ECS set of the fictional demo schema too
+    let (stdout, _, code) = run(&["show", "--to", "dcf", "parameter-sets/ecs/axis-1.toml"]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("\n[4C76]\nParameterName=Maximum speed (fictional)\nObjectType=0x7\nDataType=0x0004\nAccessType=rw\nDefaultValue=30000000\nLowLimit=0\nHighLimit=160000000\nPDOMapping=0\nParameterValue=45000000\n"),
+        "{stdout}"
+    );
+
+    // other families are refused
+    let (stdout, stderr, code) =
+        run(&["show", "--to", "dcf", "parameter-sets/tmd/conveyor-3.toml"]);
+    assert_eq!(
+        (stdout.as_str(), stderr.as_str(), code),
+        (
+            "",
+            "error: parameter-sets/tmd/conveyor-3.toml: cannot write a DCF: set uses schema `lenze-tmd`, which is not a CANopen (lenze-can-sdo) family; a DCF describes CANopen SDO objects\n  = help: write a DCF from a Lenze ECS set (schema lenze-ecs or one made by `driveset schema import`); use --to toml|yaml|json for other families\n",
+            2
+        )
+    );
+    let _ = Path::new(AXIS);
+}
