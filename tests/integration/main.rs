@@ -13,6 +13,7 @@ mod junit;
 mod line;
 mod pull;
 mod recover;
+mod rfc2217;
 mod report;
 mod schema_check;
 mod schema_import;

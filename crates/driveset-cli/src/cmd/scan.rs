@@ -69,7 +69,9 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
 fn at_baud(spec: &PortSpec, baud: u32) -> PortSpec {
     let mut s = spec.clone();
     match &mut s {
-        PortSpec::Serial { baud: b, .. } | PortSpec::Tcp { baud: b, .. } => *b = Some(baud),
+        PortSpec::Serial { baud: b, .. }
+        | PortSpec::Tcp { baud: b, .. }
+        | PortSpec::Rfc2217 { baud: b, .. } => *b = Some(baud),
         PortSpec::Sim(sim) => sim.baud = Some(baud),
         PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => {}
     }
