@@ -12,6 +12,7 @@ pub mod client;
 pub mod error;
 pub mod identify;
 pub mod journal;
+pub mod learn;
 pub mod line;
 pub mod live;
 pub mod plan;
