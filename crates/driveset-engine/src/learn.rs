@@ -901,7 +901,13 @@ fn render_text(
             ""
         }
     );
-    let _ = writeln!(out, "# Drive: {}, {}.", source.drive, ident.join(", "));
+    let _ = writeln!(
+        out,
+        "# Drive: {}{}{}.",
+        source.drive,
+        if ident.is_empty() { "" } else { ", " },
+        ident.join(", ")
+    );
     let _ = writeln!(
         out,
         "# Merge rule: extends `{}`; the built-in schema's spec facts stand, the\n# drive's descriptions fill in what it leaves unset. `# learned:` lists the\n# facts taken from the drive, `guessed:` what is a guess.",
