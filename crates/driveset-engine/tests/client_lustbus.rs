@@ -630,7 +630,7 @@ mod learn {
             c(312).note.as_deref(),
             Some("guessed: type character 'Z' is not one driveset knows; kept as a raw integer PT_USIGN16 (the width its min/max/default need)")
         );
-        assert!(s.text.contains("# learned: type, min, max, default, kind, width\n[[code]]\nnumber = 312\n"), "{}", s.text);
+        assert!(s.text.contains("# learned: type, min, max, default, kind, width, card_writeable\n[[code]]\nnumber = 312\n"), "{}", s.text);
     }
 
     #[test]
