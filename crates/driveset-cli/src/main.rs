@@ -6,6 +6,7 @@
 //! differences, 2 usage or input error, 3 bus or device failure.
 
 mod cmd;
+mod learning;
 mod output;
 mod port;
 mod progress;

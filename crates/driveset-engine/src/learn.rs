@@ -173,10 +173,12 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 }
 
 /// Whether `schema` lacks facts a drive's descriptions could fill: a
-/// LUSTBUS schema with a code (other than a status code whose reading
-/// clears it) without a type, kind or range.
+/// LUSTBUS schema (not itself learned, `learned-...`) with a code (other
+/// than a status code whose reading clears it) without a type, kind or
+/// range.
 pub fn needs_learning(schema: &Schema) -> bool {
-    matches!(
+    !schema.id.starts_with("learned-")
+        && matches!(
         schema.protocol,
         Protocol::LustbusMc | Protocol::LustbusVf1000
     ) && schema.codes.iter().any(|c| {
@@ -946,6 +948,11 @@ fn render_text(
         ))
     );
     let _ = writeln!(out, "extends = {}", q(&base.id));
+    let _ = writeln!(
+        out,
+        "protocol = {}",
+        q(if mc { "lustbus-mc" } else { "lustbus-vf1000" })
+    );
     let _ = writeln!(
         out,
         "spec = {}",

@@ -88,6 +88,9 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
+    /// Learning the schema from the drive where the set's lacks facts.
+    #[command(flatten)]
+    pub learn: crate::learning::LearnArgs,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -129,18 +132,17 @@ pub fn load_set(
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {
-    let (schema, set) = match load_set(&args.set, &args.schemas) {
-        Ok(x) => x,
-        Err(code) => {
-            return Err(Fail {
-                code,
-                msg: format!("{}: not uploaded", args.set.display()),
-            });
-        }
-    };
-    let opened = port::open_port(&args.port)?;
-    let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    let on = crate::learning::set_on_drive(
+        &args.set,
+        &args.schemas,
+        &args.port,
+        args.address,
+        args.force,
+        &args.learn,
+        "not uploaded",
+    )?;
+    let (_schema, set, port_name, mut client, _sim) =
+        (on.schema, on.set, on.port_name, on.client, on._sim);
     let json = args.format == BusFormat::Json;
 
     if args.dry_run {
