@@ -173,20 +173,23 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 }
 
 /// Whether `schema` lacks facts a drive's descriptions could fill: a
-/// LUSTBUS schema (not itself learned, `learned-...`) with a code (other
-/// than a status code whose reading clears it) without a type, kind or
-/// range.
+/// LUSTBUS schema (not itself learned, `learned-...`, nor a fictional
+/// fixture, which is what the simulated drives are built from) with a code
+/// (other than a status code whose reading clears it) without a type, kind
+/// or range.
 pub fn needs_learning(schema: &Schema) -> bool {
     !schema.id.starts_with("learned-")
+        && !schema.fictional
         && matches!(
-        schema.protocol,
-        Protocol::LustbusMc | Protocol::LustbusVf1000
-    ) && schema.codes.iter().any(|c| {
-        c.read_clears != Some(true)
-            && (schema.type_of(c).is_none()
-                || c.kind.is_none()
-                || (c.min.is_none() && c.max.is_none() && c.values.is_none()))
-    })
+            schema.protocol,
+            Protocol::LustbusMc | Protocol::LustbusVf1000
+        )
+        && schema.codes.iter().any(|c| {
+            c.read_clears != Some(true)
+                && (schema.type_of(c).is_none()
+                    || c.kind.is_none()
+                    || (c.min.is_none() && c.max.is_none() && c.values.is_none()))
+        })
 }
 
 /// The file (and schema id) a learned schema is stored under:
