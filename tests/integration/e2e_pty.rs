@@ -352,7 +352,8 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
     let mut sim = Sim::start(dir.path(), "vf1000", 2, &[]);
     let set = dir.path().join("pulled").join("conveyor.toml");
     let set_s = set.to_str().unwrap().to_string();
-    let (code, stdout, stderr) = run(&["pull", "--port", &sim.path, "--address", "2", "-o", &set_s]);
+    let (code, stdout, stderr) =
+        run(&["pull", "--port", &sim.path, "--address", "2", "-o", &set_s]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}\n{}", sim.stderr());
     assert!(
         stdout.contains("protocol: lustbus-vf1000 (LUSTBUS ENQUIRY of 91-TYPE answered (0), the MC6000/7000 CODE 20091 not: a VF1000)\n"),
@@ -363,7 +364,10 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
         "{stderr}"
     );
     let text = std::fs::read_to_string(&set).unwrap();
-    assert!(text.contains("\nschema = \"learned-vf1000-type0-d"), "{text}");
+    assert!(
+        text.contains("\nschema = \"learned-vf1000-type0-d"),
+        "{text}"
+    );
     let (code, out, err) = run(&["validate", &set_s]);
     assert_eq!(code, Some(0), "{out}\n{err}");
     let (code, out, err) = run(&[
@@ -383,9 +387,20 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
     // A Tmd on LECOM: found by RECEIVE of C0093; its schema is complete.
     let mut tmd = Sim::start(dir.path(), "tmd", 13, &[]);
     let tset = dir.path().join("tmd.toml");
-    let (code, stdout, stderr) = run(&["pull", "--port", &tmd.path, "--address", "13", "-o", tset.to_str().unwrap()]);
+    let (code, stdout, stderr) = run(&[
+        "pull",
+        "--port",
+        &tmd.path,
+        "--address",
+        "13",
+        "-o",
+        tset.to_str().unwrap(),
+    ]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}\n{}", tmd.stderr());
-    assert!(stdout.contains("protocol: lecom (LECOM RECEIVE of C0093 answered ("), "{stdout}");
+    assert!(
+        stdout.contains("protocol: lecom (LECOM RECEIVE of C0093 answered ("),
+        "{stdout}"
+    );
     let text = std::fs::read_to_string(&tset).unwrap();
     assert!(text.contains("\nschema = \"lenze-tmd\"\n"), "{text}");
     assert!(tmd.terminate().success(), "{}", tmd.stderr());

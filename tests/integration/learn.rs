@@ -51,7 +51,16 @@ fn round_trip(query: &str, layout: &str, types: &str) {
     let port = format!("sim://mc6000?addresses=1{query}");
     let set = dir.path().join("set").join("axis.toml");
     let out = in_dir(dir.path())
-        .args(["pull", "--port", &port, "--address", "1", "--schema", "lust-mc6000", "-o"])
+        .args([
+            "pull",
+            "--port",
+            &port,
+            "--address",
+            "1",
+            "--schema",
+            "lust-mc6000",
+            "-o",
+        ])
         .arg(&set)
         .assert()
         .code(0)
@@ -68,18 +77,17 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         "{stderr}"
     );
     let mut text = std::fs::read_to_string(&set).unwrap();
-    assert!(text.contains(&format!("\nschema = \"{id}.toml\"\n")), "{text}");
+    assert!(
+        text.contains(&format!("\nschema = \"{id}.toml\"\n")),
+        "{text}"
+    );
     for (from, to) in EDITS {
         assert!(text.contains(&format!("\n{from}\n")), "{from} in {text}");
         text = text.replace(&format!("\n{from}\n"), &format!("\n{to}\n"));
     }
     std::fs::write(&set, &text).unwrap();
     // Offline: no port, no simulator state; the set names the learned file.
-    driveset()
-        .arg("validate")
-        .arg(&set)
-        .assert()
-        .code(0);
+    driveset().arg("validate").arg(&set).assert().code(0);
     driveset()
         .args(["schema", "check"])
         .arg(&schema)
@@ -93,7 +101,9 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         .arg(dir.path().join("journal"))
         .assert()
         .code(0)
-        .stdout(predicate::str::contains("100-PWMF: \"8 kHz\" -> \"16 kHz\"  verified"));
+        .stdout(predicate::str::contains(
+            "100-PWMF: \"8 kHz\" -> \"16 kHz\"  verified",
+        ));
     let again = dir.path().join("again.toml");
     in_dir(dir.path())
         .args(["pull", "--port", &port, "--address", "1", "--schema"])
@@ -153,7 +163,10 @@ fn pull_without_a_schema_on_sim_ports_without_addresses() {
                 "from {port}?addresses=3 address 3 into"
             )));
         let text = std::fs::read_to_string(&set).unwrap();
-        assert!(text.contains(&format!("\nschema = \"{schema}\"\n")), "{text}");
+        assert!(
+            text.contains(&format!("\nschema = \"{schema}\"\n")),
+            "{text}"
+        );
     }
 }
 
@@ -178,7 +191,10 @@ fn a_code_that_cannot_be_read_is_reported_and_the_pull_carries_on() {
             "error: sim://vf1000?addresses=1&faults=cable@10+300ms address 1: 61-SOUTA could not be read: the drive did not answer (3 tries)\n",
         ));
     let text = std::fs::read_to_string(&set).unwrap();
-    assert!(text.contains("#   61-SOUTA: the drive did not answer (3 tries)\n"), "{text}");
+    assert!(
+        text.contains("#   61-SOUTA: the drive did not answer (3 tries)\n"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -194,14 +210,32 @@ fn identify_names_the_schema_it_would_use_and_whether_learned() {
             "\nschema:   lust-mc6000 (fits)\nuses:     learned-mc6000-type0-* (learned from the drive's descriptions on pull / diff / upload; lust-mc6000 lacks types and ranges)\n",
         ));
     driveset()
-        .args(["pull", "--port", port, "--address", "1", "--schema", "lust-mc6000", "-o"])
+        .args([
+            "pull",
+            "--port",
+            port,
+            "--address",
+            "1",
+            "--schema",
+            "lust-mc6000",
+            "-o",
+        ])
         .arg(dir.path().join("axis.toml"))
         .assert()
         .code(0);
     let file = learned_file(dir.path());
     let id = file.file_stem().unwrap().to_str().unwrap().to_string();
     driveset()
-        .args(["identify", "--port", port, "--address", "1", "--schema", "lust-mc6000", "--schema-dir"])
+        .args([
+            "identify",
+            "--port",
+            port,
+            "--address",
+            "1",
+            "--schema",
+            "lust-mc6000",
+            "--schema-dir",
+        ])
         .arg(dir.path())
         .assert()
         .code(0)
@@ -260,11 +294,20 @@ fn schema_pull_with_a_forced_layout_reports_what_does_not_decode() {
         .code(0);
     driveset()
         .args([
-            "schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1",
-            "--type-chars", "1=PT_BINARY8", "-o",
+            "schema",
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+            "--type-chars",
+            "1=PT_BINARY8",
+            "-o",
         ])
         .arg(&out)
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("--type-chars: `1=PT_BINARY8`: PT_BINARY8 is not an MC6000/7000 type"));
+        .stderr(predicate::str::contains(
+            "--type-chars: `1=PT_BINARY8`: PT_BINARY8 is not an MC6000/7000 type",
+        ));
 }

@@ -58,9 +58,9 @@ impl LearnArgs {
         };
         let type_chars = match &self.type_chars {
             None => None,
-            Some(t) => Some(
-                McTypeChars::parse(t).map_err(|e| Fail::input(format!("--type-chars: {e}")))?,
-            ),
+            Some(t) => {
+                Some(McTypeChars::parse(t).map_err(|e| Fail::input(format!("--type-chars: {e}")))?)
+            }
         };
         Ok(LearnOptions {
             params: None,
@@ -162,7 +162,10 @@ impl LearnReport {
                 ))
         ));
         for f in &self.learned.findings {
-            out.push(format!("parameter {}: {}: {}", f.number, f.action, f.reason));
+            out.push(format!(
+                "parameter {}: {}: {}",
+                f.number, f.action, f.reason
+            ));
         }
         out
     }

@@ -49,11 +49,11 @@ use std::fmt::Write as _;
 use std::sync::Arc;
 
 use driveset_link::ByteLink;
+use driveset_proto::lustbus::description::McKind;
 use driveset_proto::lustbus::description::{
     Attributes, DescriptionError, McLayout, McRawDescription, McTypeChars, STEXT, UNIT,
     VfDescription, VfStorage, decode_substitution_text,
 };
-use driveset_proto::lustbus::description::McKind;
 use driveset_proto::lustbus::{ParameterCode, ParameterType};
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::StorageKind;
@@ -654,11 +654,7 @@ pub fn interpret(protocol: Protocol, raws: &[RawDescription], opts: &LearnOption
             set_bounds(
                 &mut c,
                 ty,
-                [
-                    u32::from(d.min),
-                    u32::from(d.max),
-                    u32::from(d.default),
-                ],
+                [u32::from(d.min), u32::from(d.max), u32::from(d.default)],
                 false,
                 &mut findings,
                 unknown_type.unwrap_or(d.ty.code()),

@@ -119,9 +119,9 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
                     "its VALUE does not fit the schema's type {}: {detail}",
                     schema.type_of(code).map_or("(none)", |t| t.name())
                 ))),
-                Err(EngineError::NoAnswer { tries, .. }) => skipped.push(fail(format!(
-                    "the drive did not answer ({tries} tries)"
-                ))),
+                Err(EngineError::NoAnswer { tries, .. }) => {
+                    skipped.push(fail(format!("the drive did not answer ({tries} tries)")))
+                }
                 Err(e) => return Err(e),
             }
         }

@@ -488,8 +488,7 @@ mod learn {
             drive: "sim address 1".into(),
             identity,
         };
-        let schema =
-            render_schema(&mut learned, &base, &id, &source, &registry).expect("render");
+        let schema = render_schema(&mut learned, &base, &id, &source, &registry).expect("render");
         assert!(check_schema(&schema.schema).is_empty());
         (learned, schema)
     }
@@ -540,7 +539,10 @@ mod learn {
                 "lust-mc6000",
                 &LearnOptions::default(),
             );
-            assert_eq!(learned.layouts.iter().copied().collect::<Vec<_>>(), vec![layout]);
+            assert_eq!(
+                learned.layouts.iter().copied().collect::<Vec<_>>(),
+                vec![layout]
+            );
             assert_eq!(learned.type_chars.as_ref(), Some(&types), "{layout:?}");
             assert!(learned.type_chars_guessed);
             assert_eq!(learned.findings, vec![], "{layout:?}");
@@ -573,13 +575,34 @@ mod learn {
     #[test]
     fn self_contradicting_descriptions_are_downgraded_or_left_out() {
         let raws = vec![
-            RawDescription { number: 310, text: mc52("MINMX", '4', 0x10, 0x05, 0x07) },
-            RawDescription { number: 311, text: mc52("DEFOU", '4', 0, 100, 200) },
-            RawDescription { number: 312, text: mc52("UNKTY", 'Z', 0, 0x1F4, 0x64) },
-            RawDescription { number: 313, text: mc52("WIDE", 'Z', 0, 0x0010_0000, 0) },
-            RawDescription { number: 314, text: mc52("NOFIT", '4', 0, 0x1FF, 0) },
-            RawDescription { number: 315, text: mc52("GOOD", '7', 0xFFFF_FF9C, 100, 0) },
-            RawDescription { number: 316, text: b"SHORT\0001".to_vec() },
+            RawDescription {
+                number: 310,
+                text: mc52("MINMX", '4', 0x10, 0x05, 0x07),
+            },
+            RawDescription {
+                number: 311,
+                text: mc52("DEFOU", '4', 0, 100, 200),
+            },
+            RawDescription {
+                number: 312,
+                text: mc52("UNKTY", 'Z', 0, 0x1F4, 0x64),
+            },
+            RawDescription {
+                number: 313,
+                text: mc52("WIDE", 'Z', 0, 0x0010_0000, 0),
+            },
+            RawDescription {
+                number: 314,
+                text: mc52("NOFIT", '4', 0, 0x1FF, 0),
+            },
+            RawDescription {
+                number: 315,
+                text: mc52("GOOD", '7', 0xFFFF_FF9C, 100, 0),
+            },
+            RawDescription {
+                number: 316,
+                text: b"SHORT\0001".to_vec(),
+            },
         ];
         let opts = LearnOptions {
             type_chars: Some(McTypeChars::Driveset),
@@ -608,8 +631,8 @@ mod learn {
             drive: "test".into(),
             identity: driveset_engine::client::Identity::default(),
         };
-        let s = render_schema(&mut learned, &base, "learned-test", &source, &registry)
-            .expect("render");
+        let s =
+            render_schema(&mut learned, &base, "learned-test", &source, &registry).expect("render");
         assert!(check_schema(&s.schema).is_empty());
         assert_eq!(s.codes, 6);
         let c = |n: u32| s.schema.code(n).expect("code");
@@ -628,7 +651,9 @@ mod learn {
         assert!(s.schema.code(316).is_none());
         assert_eq!(
             c(312).note.as_deref(),
-            Some("guessed: type character 'Z' is not one driveset knows; kept as a raw integer PT_USIGN16 (the width its min/max/default need)")
+            Some(
+                "guessed: type character 'Z' is not one driveset knows; kept as a raw integer PT_USIGN16 (the width its min/max/default need)"
+            )
         );
         assert!(s.text.contains("# learned: type, min, max, default, kind, width, card_writeable\n[[code]]\nnumber = 312\n"), "{}", s.text);
     }
@@ -636,10 +661,18 @@ mod learn {
     #[test]
     fn vf1000_learns_every_parameter() {
         let fixture = schema(Family::Vf1000);
-        let (learned, s) = learn_from(vf(1), Protocol::LustbusVf1000, "lust-vf1000", &LearnOptions::default());
+        let (learned, s) = learn_from(
+            vf(1),
+            Protocol::LustbusVf1000,
+            "lust-vf1000",
+            &LearnOptions::default(),
+        );
         assert_eq!(learned.findings, vec![]);
         let typed = agrees_with_fixture(&s.schema, &fixture);
-        assert_eq!((learned.asked, learned.absent, s.codes, typed), (99, 99 - s.codes, s.codes, s.codes));
+        assert_eq!(
+            (learned.asked, learned.absent, s.codes, typed),
+            (99, 99 - s.codes, s.codes, s.codes)
+        );
         assert_eq!(s.codes, 58);
     }
 }

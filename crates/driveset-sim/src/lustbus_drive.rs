@@ -15,7 +15,8 @@ use std::time::Duration;
 use driveset_link::Instant;
 use driveset_proto::ascii::{EOT, mask7};
 use driveset_proto::lustbus::description::{
-    Attributes, McExtended, McExtension, McKind, McLayout, McTypeChars, ShortText, UserLevel, VfKind, VfStorage,
+    Attributes, McExtended, McExtension, McKind, McLayout, McTypeChars, ShortText, UserLevel,
+    VfKind, VfStorage,
 };
 use driveset_proto::lustbus::value::Family as WireFamily;
 use driveset_proto::lustbus::{

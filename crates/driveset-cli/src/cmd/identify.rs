@@ -137,10 +137,22 @@ fn identify(args: &Args) -> Result<u8, Fail> {
                 args.address,
             )?)
         };
-        return report(args, &port_name, client.as_mut(), note, choice.path.as_deref());
+        return report(
+            args,
+            &port_name,
+            client.as_mut(),
+            note,
+            choice.path.as_deref(),
+        );
     }
     let mut client = port::into_client(opened, schema.clone(), args.address, false)?;
-    report(args, &port_name, client.as_mut(), note, choice.path.as_deref())
+    report(
+        args,
+        &port_name,
+        client.as_mut(),
+        note,
+        choice.path.as_deref(),
+    )
 }
 
 /// Which schema a bus command would talk with, and whether it is learned:
@@ -204,7 +216,10 @@ fn report(
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
     let identity = client.identify()?;
-    let dir = args.schema_dir.clone().unwrap_or_else(|| PathBuf::from("."));
+    let dir = args
+        .schema_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("."));
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
     let fits = match driveset_engine::identify::check_family(client) {
         Ok(_) => Ok(()),

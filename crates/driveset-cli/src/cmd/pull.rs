@@ -1,5 +1,7 @@
-//! `driveset pull --port P --address A --schema S -o FILE [--changed-only]
-//! [--to toml|yaml]`: read every readable code of a drive into a set file.
+//! `driveset pull --port P --address A [--schema S] -o FILE [--changed-only]
+//! [--to toml|yaml]`: read every readable code of a drive into a set file;
+//! without a schema the protocol is probed, and a LUSTBUS schema that lacks
+//! facts is learned from the drive first (crate::learning).
 //!
 //! The file starts with comments naming the port, the address, what the
 //! drive said it is and the fingerprint, and carries the same facts in the
@@ -44,10 +46,29 @@ units with labels, TOML or YAML by the file's extension (or --to), with the
 drive's identity and the fingerprint in comments and the [drive] table.
 `driveset fingerprint FILE` gives the same fingerprint.
 
+Without --schema (and not on a sim:// port, whose family names its schema)
+the protocol and family are found by read-only probes, as scan finds them:
+LUSTBUS ENQUIRY of 91-TYPE (and of the MC CODE 20091), LECOM RECEIVE of
+C0093 / C0200. Where the schema lacks a code's type, kind or range (the
+built-in lust-vf1000 / lust-mc6000 hold only what the LUSTBUS spec
+documents), the drive's own parameter descriptions are read and the schema
+learned: the spec's facts stand, the drive's fill in the rest. The learned
+schema is written beside the set (or into --schema-dir) as
+learned-<family>-type<TYPE>-<software>.toml and the set names it, so
+`driveset validate FILE` works offline. --description-layout and
+--type-chars override how MC6000/7000 descriptions are read (errata L22,
+L23); --no-learn pulls with the schema as it is.
+
+A code that cannot be read (refused, no answer, a VALUE its type cannot
+hold) is reported, listed in the file's header, and the pull carries on.
+
 Exit codes: 0 written, 1 the schema does not fit the drive (nothing written;
---force pulls anyway), 2 usage or input error, 3 bus or device failure.
+--force pulls anyway) or a code could not be read (the file is written
+without it), 2 usage or input error, 3 bus or device failure.
 
 Examples:
+  driveset pull --port /dev/ttyUSB0 --address 3 -o axis-3.toml
+  driveset pull --port 'sim://mc6000?layout=43&types=table' --address 1 --schema lust-mc6000 -o axis-1.toml
   driveset pull --port sim://mc6000?addresses=1 --address 1 -o axis-1.toml
   driveset pull --port /dev/ttyUSB0 --address 3 --schema lenze-tmd -o conveyor-3.yaml --changed-only")]
 pub struct Args {
@@ -165,27 +186,27 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .unwrap_or(Path::new("."))
         .to_path_buf();
     let mut _sim_alive = None;
-    let (mut client, schema, schema_path, learned) =
-        if learning::wants(&choice.schema, &args.learn) {
-            port::check_fit(&opened, &choice.schema, Some(args.address), args.force)?;
-            let (link, sim) = learning::take_byte_link(opened)?;
-            _sim_alive = sim;
-            let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
-            let (client, schema, report, _) = learning::learn(
-                link,
-                choice.schema.clone(),
-                args.address,
-                &port_name,
-                &args.learn,
-                &args.schemas,
-                Some(&dir),
-            )?;
-            (client, schema, report.file.clone(), Some(report))
-        } else {
-            let schema = choice.schema.clone();
-            let client = port::into_client(opened, schema.clone(), args.address, args.force)?;
-            (client, schema, choice.path.clone(), None)
-        };
+    let (mut client, schema, schema_path, learned) = if learning::wants(&choice.schema, &args.learn)
+    {
+        port::check_fit(&opened, &choice.schema, Some(args.address), args.force)?;
+        let (link, sim) = learning::take_byte_link(opened)?;
+        _sim_alive = sim;
+        let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
+        let (client, schema, report, _) = learning::learn(
+            link,
+            choice.schema.clone(),
+            args.address,
+            &port_name,
+            &args.learn,
+            &args.schemas,
+            Some(&dir),
+        )?;
+        (client, schema, report.file.clone(), Some(report))
+    } else {
+        let schema = choice.schema.clone();
+        let client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+        (client, schema, choice.path.clone(), None)
+    };
     if let Some(r) = &learned
         && args.format == BusFormat::Human
     {
@@ -242,7 +263,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         !ro && !not_settings(schema.protocol, k.number)
     });
     pulled.fingerprint = pulled.set.fingerprint();
-    let failed: Vec<_> = pulled.skipped.iter().filter(|s| s.failed).cloned().collect();
+    let failed: Vec<_> = pulled
+        .skipped
+        .iter()
+        .filter(|s| s.failed)
+        .cloned()
+        .collect();
 
     // The schema reference: a file named by path stays a path (relative to
     // the set file), an id stays an id.
@@ -399,7 +425,11 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             }
             let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);
             if let Some(d) = &detected {
-                let _ = writeln!(out, "protocol: {} ({d})", port::protocol_name(schema.protocol));
+                let _ = writeln!(
+                    out,
+                    "protocol: {} ({d})",
+                    port::protocol_name(schema.protocol)
+                );
             }
             if let Some(p) = &schema_path {
                 let _ = writeln!(out, "schema: {} ({})", schema.id, p.display());

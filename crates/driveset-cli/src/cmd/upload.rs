@@ -46,6 +46,12 @@ download), verifies, and on failure restores the old values from the
 journal. --dry-run prints the plan (codes, old -> new, RAM or EEPROM,
 expected time) and writes nothing.
 
+A set whose schema is a LUSTBUS schema that lacks types, kinds or ranges
+(e.g. the built-in lust-mc6000) is resolved against the schema learned from
+the drive's own descriptions first (the spec's facts stand; written to
+--schema-dir when given; --no-learn turns it off). A set pulled by
+`driveset pull` names its learned schema file already.
+
 Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
 --journal-dir DIR; default .driveset/journal/<port>-<address>.journal.json
 in the current directory (port characters other than letters and digits

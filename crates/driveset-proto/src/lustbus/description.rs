@@ -916,7 +916,11 @@ impl McLayout {
 
     /// Offsets of the unit, the kind character and the minimum.
     const fn offsets(self) -> (usize, usize, usize) {
-        if self.literal() { (6, 7, 9) } else { (6, 8, 10) }
+        if self.literal() {
+            (6, 7, 9)
+        } else {
+            (6, 8, 10)
+        }
     }
 
     /// The layouts a VALUE of this length and content can be: the length
@@ -1020,7 +1024,11 @@ impl McTypeChars {
                 ));
             }
             let t = t.trim().to_ascii_uppercase();
-            let t = if t.starts_with("PT_") { t } else { format!("PT_{t}") };
+            let t = if t.starts_with("PT_") {
+                t
+            } else {
+                format!("PT_{t}")
+            };
             let Some(ty) = ALL_PARAMETER_TYPES
                 .into_iter()
                 .find(|ty| ty.name() == t && ty.in_family(Family::Mc))
@@ -1484,14 +1492,27 @@ mod tests {
             b"RSIO\0\0315E00000002000000000000000Q2P0002?6\0"
         );
         // Table order: '1' PT_USIGN8 .. '8' PT_PASSWORD; driveset: '8' INT32Q16.
-        assert_eq!(McTypeChars::Table.type_of(b'8'), Some(ParameterType::Password));
-        assert_eq!(McTypeChars::Driveset.type_of(b'8'), Some(ParameterType::Int32Q16));
+        assert_eq!(
+            McTypeChars::Table.type_of(b'8'),
+            Some(ParameterType::Password)
+        );
+        assert_eq!(
+            McTypeChars::Driveset.type_of(b'8'),
+            Some(ParameterType::Int32Q16)
+        );
         assert_eq!(McTypeChars::Driveset.type_of(b'1'), None);
         assert_eq!(
             McTypeChars::parse("1=usign8, Z=PT_INTEGER16").unwrap(),
-            McTypeChars::Map(vec![(b'1', ParameterType::Usign8), (b'Z', ParameterType::Integer16)])
+            McTypeChars::Map(vec![
+                (b'1', ParameterType::Usign8),
+                (b'Z', ParameterType::Integer16)
+            ])
         );
-        assert!(McTypeChars::parse("1=PT_BINARY8").unwrap_err().contains("not an MC6000/7000 type"));
+        assert!(
+            McTypeChars::parse("1=PT_BINARY8")
+                .unwrap_err()
+                .contains("not an MC6000/7000 type")
+        );
         assert!(McTypeChars::parse("12=PT_USIGN8").is_err());
         assert!(McLayout::candidates(b"short").is_empty());
     }
