@@ -143,12 +143,15 @@ fn identify_refuses_a_schema_of_another_protocol() {
 }
 
 #[test]
-fn identify_needs_a_family_on_real_ports_and_a_valid_port() {
+fn identify_probes_real_ports_and_needs_a_valid_port() {
+    // No family given: the port is opened for the read-only probes.
     driveset()
         .args(["identify", "--port", "/dev/ttyUSB0", "--address", "1"])
         .assert()
-        .code(2)
-        .stderr(predicate::str::contains("--schema ID|PATH, or --protocol"));
+        .code(3)
+        .stderr(predicate::str::contains(
+            "error: cannot open /dev/ttyUSB0: /dev/ttyUSB0: no such serial device",
+        ));
     driveset()
         .args([
             "identify",
@@ -288,12 +291,15 @@ fn schema_pull_mc6000_passes_schema_check() {
         .stdout(predicate::str::contains("(schema id pulled-mc6000-1)"));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains("protocol = \"lustbus-mc\"\n"));
-    assert!(text.contains("spec = \"pulled from sim://mc6000?addresses=1 address 1\"\n"));
+    assert!(text.contains("\nextends = \"lust-mc6000\"\n"));
+    assert!(text.contains("spec = \"learned from the drive's descriptions (sim://mc6000?addresses=1 address 1); spec facts from lust-mc6000\"\n"));
+    // the spec's name stands
     assert!(text.contains("\nnumber = 4\nname = \"PROG\"\n"));
-    // substitution texts became enumeration labels
-    assert!(text.contains("1 = \"Load factory settings\"\n"));
+    // substitution texts became enumeration labels (100-PWMF: the spec
+    // gives it no values)
+    assert!(text.contains("\n[code.values]\n0 = \"4 kHz\"\n"));
     // units come from the 107-UNIT texts
-    assert!(text.contains("unit = \"1/min\"\n"));
+    assert!(text.contains("unit = \"Baud\"\n"));
     driveset()
         .args(["schema", "check"])
         .arg(&out)

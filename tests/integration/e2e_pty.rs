@@ -341,6 +341,71 @@ fn tmd_upload_over_a_pty_with_lecom() {
     assert!(!stdout.contains("C0089"), "{stdout}");
 }
 
+/// `driveset pull --port PTY --address N -o FILE` alone against a drive
+/// served on a real pty: the protocol and family come from the read-only
+/// probes, the VF1000's schema is learned from its descriptions and written
+/// beside the set, which then validates offline.
+#[test]
+fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = Sim::start(dir.path(), "vf1000", 2, &[]);
+    let set = dir.path().join("pulled").join("conveyor.toml");
+    let set_s = set.to_str().unwrap().to_string();
+    let (code, stdout, stderr) =
+        run(&["pull", "--port", &sim.path, "--address", "2", "-o", &set_s]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}\n{}", sim.stderr());
+    assert!(
+        stdout.contains("protocol: lustbus-vf1000 (LUSTBUS ENQUIRY of 91-TYPE answered (0), the MC6000/7000 CODE 20091 not: a VF1000)\n"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.starts_with("learned schema learned-vf1000-type0-d"),
+        "{stderr}"
+    );
+    let text = std::fs::read_to_string(&set).unwrap();
+    assert!(
+        text.contains("\nschema = \"learned-vf1000-type0-d"),
+        "{text}"
+    );
+    let (code, out, err) = run(&["validate", &set_s]);
+    assert_eq!(code, Some(0), "{out}\n{err}");
+    let (code, out, err) = run(&[
+        "identify",
+        "--port",
+        &sim.path,
+        "--address",
+        "2",
+        "--schema-dir",
+        set.parent().unwrap().to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{out}\n{err}");
+    assert!(out.contains("\nuses:     learned-vf1000-type0-d"), "{out}");
+    assert!(out.contains(" (learned, "), "{out}");
+    assert!(sim.terminate().success(), "{}", sim.stderr());
+
+    // A Tmd on LECOM: found by RECEIVE of C0093; its schema is complete.
+    let mut tmd = Sim::start(dir.path(), "tmd", 13, &[]);
+    let tset = dir.path().join("tmd.toml");
+    let (code, stdout, stderr) = run(&[
+        "pull",
+        "--port",
+        &tmd.path,
+        "--address",
+        "13",
+        "-o",
+        tset.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}\n{}", tmd.stderr());
+    assert!(
+        stdout.contains("protocol: lecom (LECOM RECEIVE of C0093 answered ("),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(&tset).unwrap();
+    assert!(text.contains("\nschema = \"lenze-tmd\"\n"), "{text}");
+    assert!(tmd.terminate().success(), "{}", tmd.stderr());
+}
+
 /// The `canopen` LocalNode of crates/driveset-engine/tests/python/sdo_server.py
 /// on python-can's slcan interface (see that crate's interop_canopen.rs):
 /// spoken to over stdin / stdout.

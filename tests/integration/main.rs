@@ -10,6 +10,7 @@ mod encode;
 mod fingerprint;
 mod git_setup;
 mod junit;
+mod learn;
 mod line;
 mod pull;
 mod recover;

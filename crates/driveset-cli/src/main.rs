@@ -7,6 +7,7 @@
 
 mod args;
 mod cmd;
+mod learning;
 mod output;
 mod port;
 mod progress;

@@ -185,12 +185,24 @@ pub fn peek_sim_family_at(port: &str, address: Option<u8>) -> Option<Family> {
 
 /// Open a port string (see the module docs).
 pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
+    open_port_at(port, None)
+}
+
+/// Open a port string for a command on one drive: a `sim://FAMILY` port
+/// without `addresses=` simulates one drive at `address`.
+pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     let (text, state) = split_state(port);
-    let spec = PortSpec::parse(&text).map_err(|e| {
+    let mut spec = PortSpec::parse(&text).map_err(|e| {
         Fail::input(format!(
             "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"
         ))
     })?;
+    if let (PortSpec::Sim(sim), Some(a)) = (&mut spec, address)
+        && sim.addresses.is_empty()
+        && !sim.is_mixed()
+    {
+        sim.addresses.push(a);
+    }
     match &spec {
         PortSpec::Sim(sim) => {
             let mut config =

@@ -13,6 +13,7 @@ pub mod connect;
 pub mod error;
 pub mod identify;
 pub mod journal;
+pub mod learn;
 pub mod line;
 pub mod live;
 pub mod plan;

@@ -8,9 +8,12 @@
 //! - codes whose type the schema does not know (the value could not be
 //!   converted or written back);
 //! - codes the drive refuses to read (says they do not exist, or read
-//!   protected): skipped and reported with the drive's cause.
+//!   protected), does not answer for, or answers with a VALUE the schema's
+//!   type cannot hold: skipped, reported with the cause and marked
+//!   [`Skipped::failed`]; the pull carries on with the next code.
 //!
-//! Transport failures end the pull with the error.
+//! Only a failure of the transport itself (the port is gone) or a drive
+//! restart ends the pull with the error.
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
@@ -44,6 +47,9 @@ pub struct Skipped {
     pub code: String,
     /// Why.
     pub reason: String,
+    /// The code could not be read (refused, no answer, a VALUE that does
+    /// not decode), as opposed to left out on purpose.
+    pub failed: bool,
 }
 
 /// A pulled set.
@@ -85,6 +91,11 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
                 subcode: key.subcode,
                 code: code_label(&schema, key),
                 reason: reason.into(),
+                failed: false,
+            };
+            let fail = |reason: String| Skipped {
+                failed: true,
+                ..skip(&reason)
             };
             if code.read_clears == Some(true) {
                 skipped.push(skip("reading clears it (status code)"));
@@ -100,10 +111,17 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
             }
             match client.read(key) {
                 Ok(v) => all.insert(key, v),
-                Err(EngineError::Device { cause, .. }) => skipped.push(skip(&format!(
+                Err(EngineError::Device { cause, .. }) => skipped.push(fail(format!(
                     "the drive refused to read it: {} ({})",
                     cause.cause, cause.raw
                 ))),
+                Err(EngineError::Protocol { detail, .. }) => skipped.push(fail(format!(
+                    "its VALUE does not fit the schema's type {}: {detail}",
+                    schema.type_of(code).map_or("(none)", |t| t.name())
+                ))),
+                Err(EngineError::NoAnswer { tries, .. }) => {
+                    skipped.push(fail(format!("the drive did not answer ({tries} tries)")))
+                }
                 Err(e) => return Err(e),
             }
         }

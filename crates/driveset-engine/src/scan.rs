@@ -15,6 +15,11 @@
 //! Every probe uses a short timeout ([`ScanOptions::timeout`], defaults per
 //! protocol below) and one try unless [`ScanOptions::tries`] says more.
 //!
+//! [`detect_protocol`] finds the protocol and family of the drive at one
+//! address of a serial line with the same read-only probes: LUSTBUS ENQUIRY
+//! of 91-TYPE (then of the MC CODE `20091`: a servocontroller answers it, an
+//! inverter NAKs it), else LECOM RECEIVE of C0093, then C0200.
+//!
 //! [`detect_baud`] runs a serial scan at every allowed rate, highest first
 //! (LUSTBUS 5.1: "the connection will be attempted using all possible
 //! transfer rates"), reopening the line through a caller's closure, and
@@ -304,6 +309,83 @@ pub fn detect_baud(
         if !found.is_empty() {
             return Ok(Some(BaudScan { baud, link, found }));
         }
+    }
+    Ok(None)
+}
+
+/// What [`detect_protocol`] found at an address.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Detected {
+    /// The protocol (and so the family) of the drive.
+    pub protocol: driveset_schema::Family,
+    /// What answered, for messages (`91-TYPE = 6000 and MC CODE 20091`).
+    pub evidence: String,
+}
+
+/// The protocol and family of the drive at `address` on a serial line, by
+/// read-only probes (module docs). `Ok(None)` when nothing answers any of
+/// them. Nothing is written.
+pub fn detect_protocol(
+    link: &mut dyn ByteLink,
+    address: u8,
+    opts: &ScanOptions,
+) -> Result<Option<Detected>, EngineError> {
+    use driveset_schema::Family;
+    let port = link.port().to_string();
+    let lust_timeout = opts
+        .timeout
+        .unwrap_or_else(|| Duration::from_millis(65) + wire_time(14, link.baud()));
+    if let Some(ad) = Address::new(address).filter(|a| a.is_individual()) {
+        let mut line = LustLine::new(BorrowedByteLink(&mut *link));
+        let got = crate::client::lustbus::probe_type(&mut line, ad, lust_timeout, opts.tries)
+            .map_err(|e| link_err(&port, address, e))?;
+        if let Some(value) = got {
+            let code = driveset_proto::lustbus::ParameterCode::mc_value(91)
+                .unwrap_or(driveset_proto::lustbus::ParameterCode::POSMOD);
+            let mc = crate::client::lustbus::probe_code(&mut line, ad, code, lust_timeout, 1)
+                .map_err(|e| link_err(&port, address, e))?;
+            line.finish().map_err(|e| link_err(&port, address, e))?;
+            let ty = value.map_or_else(|| "NAK".to_string(), |v| v.to_string());
+            return Ok(Some(match mc {
+                Some(Some(_)) => Detected {
+                    protocol: Family::Mc6000,
+                    evidence: format!(
+                        "LUSTBUS ENQUIRY of {TYPE}-TYPE answered ({ty}) and the MC6000/7000 CODE 20091 too"
+                    ),
+                },
+                _ => Detected {
+                    protocol: Family::Vf1000,
+                    evidence: format!(
+                        "LUSTBUS ENQUIRY of {TYPE}-TYPE answered ({ty}), the MC6000/7000 CODE 20091 not: a VF1000"
+                    ),
+                },
+            }));
+        }
+        line.finish().map_err(|e| link_err(&port, address, e))?;
+    }
+    if let Some(ad) = ControllerAddress::new(address).filter(|a| !a.is_broadcast()) {
+        let timeout = opts
+            .timeout
+            .unwrap_or_else(|| Duration::from_millis(40) + wire_time(24, link.baud()));
+        let mut line = LecomLine::new(BorrowedByteLink(&mut *link));
+        for number in [C0093, 200] {
+            let got = crate::client::lecom::probe(
+                &mut line,
+                ad,
+                CodeKey::new(number),
+                timeout,
+                opts.tries,
+            )
+            .map_err(|e| link_err(&port, address, e))?;
+            if let Some(text) = got {
+                line.finish().map_err(|e| link_err(&port, address, e))?;
+                return Ok(Some(Detected {
+                    protocol: Family::Tmd,
+                    evidence: format!("LECOM RECEIVE of C{number:04} answered ({text})"),
+                }));
+            }
+        }
+        line.finish().map_err(|e| link_err(&port, address, e))?;
     }
     Ok(None)
 }

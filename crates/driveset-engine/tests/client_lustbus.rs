@@ -457,3 +457,222 @@ fn options_change_the_answer_timeout() {
         wire_time(8, 9600) + Duration::from_millis(5)
     );
 }
+
+/// Learning a schema from the simulated drives' own descriptions
+/// (driveset_engine::learn) in every description layout and type-character
+/// reading the errata discuss, and the handling of descriptions that
+/// contradict themselves.
+mod learn {
+    use super::*;
+    use driveset_engine::learn::{
+        LearnOptions, LearnSource, Learned, LearnedSchema, RawDescription, interpret, learn,
+        learned_id, render_schema,
+    };
+    use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+    use driveset_schema::{Family, Registry, check_schema};
+
+    fn learn_from(
+        drive: Box<dyn ByteDrive>,
+        protocol: Family,
+        base_id: &str,
+        opts: &LearnOptions,
+    ) -> (Learned, LearnedSchema) {
+        let (_rig, bus) = sim_bus(9600, vec![drive], None);
+        let registry = Registry::builtin().expect("builtin");
+        let base = registry.get(base_id).expect("base");
+        let mut client = LustbusClient::new(bus, base.clone(), 1).expect("client");
+        let identity = client.identify().expect("identify");
+        let mut learned = learn(&mut client, protocol, opts).expect("learn");
+        let id = learned_id(protocol, &identity, &learned);
+        let source = LearnSource {
+            drive: "sim address 1".into(),
+            identity,
+        };
+        let schema = render_schema(&mut learned, &base, &id, &source, &registry).expect("render");
+        assert!(check_schema(&schema.schema).is_empty());
+        (learned, schema)
+    }
+
+    fn mc_with(layout: McLayout, types: McTypeChars) -> Box<dyn ByteDrive> {
+        let mut o = opts(1);
+        o.description_layout = layout;
+        o.type_chars = types;
+        Box::new(Mc6000::new(o).expect("mc6000"))
+    }
+
+    /// Every learned code has the type, kind and range of the simulated
+    /// drive's (fixture) schema wherever the spec leaves them unset.
+    fn agrees_with_fixture(s: &Schema, fixture: &Schema) -> usize {
+        let mut same = 0;
+        for c in &s.codes {
+            let Some(f) = fixture.code(c.number) else {
+                continue;
+            };
+            assert_eq!(
+                s.type_of(c).map(|t| t.name()),
+                fixture.type_of(f).map(|t| t.name()),
+                "type of {}",
+                c.number
+            );
+            assert_eq!(c.kind, f.kind, "kind of {}", c.number);
+            if s.type_of(c).is_some() {
+                same += 1;
+            }
+        }
+        same
+    }
+
+    #[test]
+    fn mc6000_every_layout_and_type_reading() {
+        let fixture = schema(Family::Mc6000);
+        let mut counts = Vec::new();
+        for (layout, types) in [
+            (McLayout::Hex52, McTypeChars::Driveset),
+            (McLayout::Table43, McTypeChars::Table),
+            (McLayout::Table42, McTypeChars::Table),
+            (McLayout::Basic34, McTypeChars::Driveset),
+            (McLayout::Table43, McTypeChars::Driveset),
+        ] {
+            let (learned, s) = learn_from(
+                mc_with(layout, types.clone()),
+                Family::Mc6000,
+                "lust-mc6000",
+                &LearnOptions::default(),
+            );
+            assert_eq!(
+                learned.layouts.iter().copied().collect::<Vec<_>>(),
+                vec![layout]
+            );
+            assert_eq!(learned.type_chars.as_ref(), Some(&types), "{layout:?}");
+            assert!(learned.type_chars_guessed);
+            assert_eq!(learned.findings, vec![], "{layout:?}");
+            let typed = agrees_with_fixture(&s.schema, &fixture);
+            counts.push((layout.name(), s.codes, typed, learned.texts_read));
+        }
+        assert_eq!(
+            counts,
+            vec![
+                ("52", 250, 250, 313),
+                ("43", 250, 250, 313),
+                ("42", 250, 250, 313),
+                // No ShowText attribute in 34 characters: texts are asked
+                // for, and a parameter whose minimum has no text is taken
+                // as one without texts.
+                ("34", 250, 250, 309),
+                ("43", 250, 250, 313),
+            ]
+        );
+    }
+
+    fn mc52(name: &str, ty: char, min: u32, max: u32, def: u32) -> Vec<u8> {
+        let mut v = name.as_bytes().to_vec();
+        v.resize(6, 0);
+        v.extend(format!("001{ty}{min:08X}{max:08X}{def:08X}000000000000000000").bytes());
+        assert_eq!(v.len(), 52);
+        v
+    }
+
+    #[test]
+    fn self_contradicting_descriptions_are_downgraded_or_left_out() {
+        let raws = vec![
+            RawDescription {
+                number: 310,
+                text: mc52("MINMX", '4', 0x10, 0x05, 0x07),
+            },
+            RawDescription {
+                number: 311,
+                text: mc52("DEFOU", '4', 0, 100, 200),
+            },
+            RawDescription {
+                number: 312,
+                text: mc52("UNKTY", 'Z', 0, 0x1F4, 0x64),
+            },
+            RawDescription {
+                number: 313,
+                text: mc52("WIDE", 'Z', 0, 0x0010_0000, 0),
+            },
+            RawDescription {
+                number: 314,
+                text: mc52("NOFIT", '4', 0, 0x1FF, 0),
+            },
+            RawDescription {
+                number: 315,
+                text: mc52("GOOD", '7', 0xFFFF_FF9C, 100, 0),
+            },
+            RawDescription {
+                number: 316,
+                text: b"SHORT\0001".to_vec(),
+            },
+        ];
+        let opts = LearnOptions {
+            type_chars: Some(McTypeChars::Driveset),
+            ..LearnOptions::default()
+        };
+        let mut learned = interpret(Family::Mc6000, &raws, &opts);
+        let findings: Vec<(u32, &str, String)> = learned
+            .findings
+            .iter()
+            .map(|f| (f.number, f.action, f.reason.clone()))
+            .collect();
+        assert_eq!(
+            findings,
+            vec![
+                (316, "left out", "its description does not decode: MC6000/7000 parameter description has 9 characters; expected 52, 43, 42 or 34".to_string()),
+                (310, "downgraded", "its minimum 16 is above its maximum 5; range and default left out".to_string()),
+                (311, "downgraded", "its default 200 is outside its range 0..100; default left out".to_string()),
+                (312, "downgraded", "type character 'Z' is not one driveset knows; kept as a raw integer PT_USIGN16 (the width its min/max/default need)".to_string()),
+                (313, "downgraded", "type character 'Z' is not one driveset knows; kept without a type (its min/max/default need 32 bits; LUSTBUS has no raw 32-bit type), so it is not read".to_string()),
+                (314, "downgraded", "its min/max/default (0x0, 0x1FF, 0x0) do not fit its type PT_USIGN8; type downgraded to the raw integer PT_USIGN16".to_string()),
+            ]
+        );
+        let registry = Registry::builtin().expect("builtin");
+        let base = registry.get("lust-mc6000").expect("base");
+        let source = LearnSource {
+            drive: "test".into(),
+            identity: driveset_engine::client::Identity::default(),
+        };
+        let s =
+            render_schema(&mut learned, &base, "learned-test", &source, &registry).expect("render");
+        assert!(check_schema(&s.schema).is_empty());
+        assert_eq!(s.codes, 6);
+        let c = |n: u32| s.schema.code(n).expect("code");
+        let ty = |n: u32| s.schema.type_of(c(n)).map(|t| t.name());
+        assert_eq!(ty(310), Some("PT_USIGN8"));
+        assert!(c(310).min.is_none() && c(310).max.is_none() && c(310).default.is_none());
+        assert!(c(311).min.is_some() && c(311).default.is_none());
+        assert_eq!(ty(312), Some("PT_USIGN16"));
+        assert_eq!(ty(313), None);
+        assert_eq!(ty(314), Some("PT_USIGN16"));
+        assert_eq!(ty(315), Some("PT_INTEGER16"));
+        assert_eq!(
+            c(315).min.as_ref().map(|m| m.value.clone()),
+            Some(driveset_schema::doc::NodeKind::Str("-100".into()))
+        );
+        assert!(s.schema.code(316).is_none());
+        assert_eq!(
+            c(312).note.as_deref(),
+            Some(
+                "guessed: type character 'Z' is not one driveset knows; kept as a raw integer PT_USIGN16 (the width its min/max/default need)"
+            )
+        );
+        assert!(s.text.contains("# learned: type, min, max, default, kind, width, card_writeable\n[[code]]\nnumber = 312\n"), "{}", s.text);
+    }
+
+    #[test]
+    fn vf1000_learns_every_parameter() {
+        let fixture = schema(Family::Vf1000);
+        let (learned, s) = learn_from(
+            vf(1),
+            Family::Vf1000,
+            "lust-vf1000",
+            &LearnOptions::default(),
+        );
+        assert_eq!(learned.findings, vec![]);
+        let typed = agrees_with_fixture(&s.schema, &fixture);
+        assert_eq!(
+            (learned.asked, learned.absent, s.codes, typed),
+            (99, 99 - s.codes, s.codes, s.codes)
+        );
+        assert_eq!(s.codes, 58);
+    }
+}

@@ -9,7 +9,7 @@
 //! | `rfc2217://host:port` | serial device server speaking RFC 2217 (telnet COM-PORT-OPTION: driveset sets 7E1 and the rate on the server, [`crate::rfc2217`]) |
 //! | `slcan:///dev/ttyACM0?bitrate=500000` | slcan (Lawicel) USB-CAN adapter ([`crate::slcan`]) |
 //! | `can://can0` | SocketCAN interface (feature `socketcan`) |
-//! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim) |
+//! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim); without `addresses=` a command that names one address simulates one drive there |
 //! | `sim://lustbus?mc6000=1,2&vf1000=5,6` | in-process simulated LUSTBUS with inverters and servocontrollers on one line |
 //!
 //! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
@@ -44,7 +44,7 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
 /// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
 /// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
+pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "layout", "seed", "state", "types"];
 
 const SERIAL_KEYS: &[&str] = &["baud", "echo"];
 const TCP_KEYS: &[&str] = &["baud", "echo"];
@@ -56,10 +56,12 @@ const SIM_KEYS: &[&str] = &[
     "bitrate",
     "faults",
     "keypad",
+    "layout",
     "mc6000",
     "mc7000",
     "seed",
     "state",
+    "types",
     "vf1000",
 ];
 
@@ -469,7 +471,7 @@ impl fmt::Display for PortSpec {
                     .map(u8::to_string)
                     .collect::<Vec<_>>()
                     .join(",");
-                if !sim.is_mixed() {
+                if !sim.is_mixed() && !addresses.is_empty() {
                     q.text("addresses", &addresses);
                 }
                 for (key, list) in &sim.families {
@@ -918,14 +920,11 @@ fn parse_sim(family: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErro
                 ),
             });
         }
-        let Some(list) = opts.map.remove("addresses") else {
-            return Err(PortSpecErrorKind::Missing {
-                scheme: "sim",
-                what: "addresses= (the simulated drives' bus addresses)",
-                example: EXAMPLE,
-            });
-        };
-        addresses = address_list(&list)?;
+        // Without addresses= the bus holds no drive yet: a command that
+        // names one address (`pull --address 3`) simulates one drive there.
+        if let Some(list) = opts.map.remove("addresses") {
+            addresses = address_list(&list)?;
+        }
     }
     let baud = opts.line_baud()?;
     let bitrate = opts.bitrate()?;

@@ -482,8 +482,8 @@ fn can_slcan_sim_errors() {
         }
     ));
     assert!(matches!(
-        err("sim://vf1000"),
-        PortSpecErrorKind::Missing { scheme: "sim", .. }
+        err("sim://vf1000?addresses=x"),
+        PortSpecErrorKind::BadAddress { .. }
     ));
     assert_eq!(
         err("sim://vf 1000?addresses=1"),
@@ -527,11 +527,17 @@ fn error_messages_carry_input_and_remedy() {
         e.to_string(),
         "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, echo"
     );
-    let e = PortSpec::parse("sim://vf1000").unwrap_err();
-    assert_eq!(
-        e.to_string(),
-        "invalid port `sim://vf1000`: `sim://` needs addresses= (the simulated drives' bus addresses), e.g. sim://lust-vf1000?addresses=1,2,3"
-    );
+    // Without addresses= the port parses with no drive; the command's
+    // --address supplies it (driveset-cli), the simulator refuses an empty bus.
+    let PortSpec::Sim(sim) = PortSpec::parse("sim://vf1000").unwrap() else {
+        panic!("not a sim port")
+    };
+    assert!(sim.addresses.is_empty());
+    let PortSpec::Sim(sim) = PortSpec::parse("sim://mc6000?layout=43&types=table").unwrap() else {
+        panic!("not a sim port")
+    };
+    assert_eq!(sim.options.get("layout").map(String::as_str), Some("43"));
+    assert_eq!(sim.options.get("types").map(String::as_str), Some("table"));
 }
 
 mod properties {

@@ -399,7 +399,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
     for c in &schema.codes {
         let index = match c.index {
             Some(i) => {
-                if schema.protocol != crate::schema::Protocol::LenzeCanSdo {
+                if schema.family != crate::family::Family::Ecs {
                     out.push(f(
                         &c.loc,
                         format!(
@@ -423,7 +423,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 }
                 u32::from(i)
             }
-            None if schema.protocol == crate::schema::Protocol::LenzeCanSdo => {
+            None if schema.family == crate::family::Family::Ecs => {
                 match base.checked_sub(c.number) {
                     Some(i) => i,
                     None => continue,

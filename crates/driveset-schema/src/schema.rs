@@ -1227,6 +1227,14 @@ impl Registry {
         Ok(schema)
     }
 
+    /// Make `id` name `schema` (replacing what it named): a set naming a
+    /// built-in schema is then resolved against a schema learned from the
+    /// drive that extends it (driveset-engine's `learn`).
+    pub fn insert_as(&mut self, id: &str, schema: Arc<Schema>) {
+        self.schemas.insert(id.to_string(), schema);
+        self.texts.remove(id);
+    }
+
     /// Load a schema file by path (cached: loading the same file twice returns the first).
     pub fn load_file(&mut self, path: &Path) -> Result<Arc<Schema>, InputError> {
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());

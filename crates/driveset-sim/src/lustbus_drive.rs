@@ -15,7 +15,8 @@ use std::time::Duration;
 use driveset_link::Instant;
 use driveset_proto::ascii::{EOT, mask7};
 use driveset_proto::lustbus::description::{
-    Attributes, McExtended, McExtension, McKind, ShortText, UserLevel, VfKind, VfStorage,
+    Attributes, McExtended, McExtension, McKind, McLayout, McTypeChars, ShortText, UserLevel,
+    VfKind, VfStorage,
 };
 use driveset_proto::lustbus::value::Dialect as WireFamily;
 use driveset_proto::lustbus::{
@@ -55,6 +56,11 @@ pub struct LustOptions {
     /// (VF1000 11-STAT = 000F, section 8.1.1). The spec gives no figure:
     /// FICTIONAL default 1 s.
     pub boot_time: Duration,
+    /// MC6000/7000: the layout of the parameter descriptions the drive
+    /// sends (errata L22; default [`McLayout::Hex52`]).
+    pub description_layout: McLayout,
+    /// MC6000/7000: the type characters of its descriptions (errata L23).
+    pub type_chars: McTypeChars,
 }
 
 impl LustOptions {
@@ -66,6 +72,8 @@ impl LustOptions {
             keypad: false,
             reaction: None,
             boot_time: Duration::from_secs(1),
+            description_layout: McLayout::Hex52,
+            type_chars: McTypeChars::Driveset,
         }
     }
 
@@ -167,6 +175,8 @@ pub(crate) struct LustCore {
     /// the 107-UNIT substitution text (section 11.2.1).
     pub units: Vec<String>,
     pub boot_time: Duration,
+    pub description_layout: McLayout,
+    pub type_chars: McTypeChars,
 }
 
 impl LustCore {
@@ -212,6 +222,8 @@ impl LustCore {
             baud_change: None,
             units,
             boot_time: opts.boot_time,
+            description_layout: opts.description_layout,
+            type_chars: opts.type_chars.clone(),
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);
@@ -528,8 +540,10 @@ impl LustCore {
         d.encode().ok()
     }
 
-    /// An MC parameter description (section 11.2) in the codec's 52
-    /// character layout (errata L22). Unit: index into [`Self::units`]
+    /// An MC parameter description (section 11.2) in the layout and with
+    /// the type characters of [`LustOptions::description_layout`] /
+    /// [`LustOptions::type_chars`] (default the codec's 52-character layout,
+    /// errata L22, L23). Unit: index into [`Self::units`]
     /// (0 = no unit). Simulator choices for the KEYPAD elements: levels 0,
     /// filters 0, attribute ShowText for PT_USIGN8 parameters with value
     /// texts and Password for PT_PASSWORD, subject area SIO (9) for the
@@ -576,7 +590,7 @@ impl LustCore {
                 ..McExtension::default()
             }),
         };
-        d.encode().ok()
+        d.encode_as(self.description_layout, &self.type_chars).ok()
     }
 
     fn unit_index(&self, p: &Param) -> u8 {

@@ -33,6 +33,11 @@
 //! - `keypad=true|false`: LUSTBUS families with a KEYPAD attached (slower
 //!   reactions, section 10). Not (yet) a key `driveset-link` accepts in a
 //!   port string; [`SimConfig::keypad`] is set by `driveset sim --keypad`.
+//! - `layout=52|43|42|34` and `types=driveset|table|C=TYPE,...`:
+//!   MC6000/7000 drives send their parameter descriptions (section 11.2)
+//!   in that layout and with those type characters (the readings errata
+//!   L22 and L23 discuss; default 52 and driveset's characters), so that
+//!   `schema pull` and the learning `pull` can be tested against each.
 //! - `state=FILE`: load the drives' state from a dump at open if the file
 //!   exists, save it back when the link is dropped (or on
 //!   [`SimLink::save`]). `driveset-link`'s port parser does not accept this
@@ -70,6 +75,7 @@ use driveset_link::spec::{
 use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, SimSpec};
 use driveset_link::{PortSpec, VirtualClock};
 use driveset_proto::can::NodeId;
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use serde::{Deserialize, Serialize};
 
@@ -95,7 +101,7 @@ pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
 pub const STATE_FORMAT: &str = "driveset-sim-state 1";
 
 /// The option keys [`SimConfig::from_spec`] understands.
-pub const OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
+pub const OPTION_KEYS: &[&str] = &["faults", "keypad", "layout", "seed", "state", "types"];
 
 /// Why a simulated bus could not be opened, loaded or saved.
 #[derive(Debug, thiserror::Error)]
@@ -279,6 +285,12 @@ pub struct SimConfig {
     pub keypad: bool,
     /// Where the drives' state is loaded from and saved to.
     pub state: Option<PathBuf>,
+    /// MC6000/7000: the layout the drives send their parameter
+    /// descriptions in (`layout=52|43|42|34`, errata L22).
+    pub description_layout: McLayout,
+    /// MC6000/7000: the type characters of their descriptions
+    /// (`types=driveset|table|C=TYPE,...`, errata L23).
+    pub type_chars: McTypeChars,
 }
 
 impl SimConfig {
@@ -295,6 +307,8 @@ impl SimConfig {
             faults: FaultPlan::none(),
             keypad: false,
             state: None,
+            description_layout: McLayout::Hex52,
+            type_chars: McTypeChars::Driveset,
         }
     }
 
@@ -366,6 +380,11 @@ impl SimConfig {
                     }
                 }
                 "state" => config.state = Some(PathBuf::from(value)),
+                "layout" => {
+                    config.description_layout = McLayout::from_name(value)
+                        .ok_or_else(|| bad("use 52, 43, 42 or 34 (errata L22)"))?;
+                }
+                "types" => config.type_chars = McTypeChars::parse(value).map_err(|e| bad(&e))?,
                 _ => return Err(SimOpenError::UnknownOption { key: key.clone() }),
             }
         }
@@ -426,7 +445,9 @@ impl SimConfig {
         let mut drives: Vec<Box<dyn ByteDrive>> = Vec::new();
         for (family, address) in self.drives() {
             let seed = self.drive_seed(address);
-            let lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
+            let mut lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
+            lust.description_layout = self.description_layout;
+            lust.type_chars = self.type_chars.clone();
             let built: Result<Box<dyn ByteDrive>, String> = match family {
                 Family::Mc6000 => Mc6000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),

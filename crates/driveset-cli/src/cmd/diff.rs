@@ -69,6 +69,9 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
+    /// With --port: learning the schema from the drive where the set's lacks facts.
+    #[command(flatten)]
+    pub learn: crate::learning::LearnArgs,
 }
 
 fn code_name(schema: &Schema, key: CodeKey) -> String {
@@ -113,6 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             },
             schemas: &args.schemas,
             force: false,
+            learn: &args.learn,
         });
     }
     let mut registry = match output::registry(&args.schemas) {

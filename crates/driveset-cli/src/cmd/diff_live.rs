@@ -34,6 +34,8 @@ pub struct LiveArgs<'a> {
     pub schemas: &'a [PathBuf],
     /// Compare even if the drive's identity does not fit the set's schema.
     pub force: bool,
+    /// Learning the schema from the drive where the set's lacks facts.
+    pub learn: &'a crate::learning::LearnArgs,
 }
 
 /// Run `driveset diff SET --port P --address A`.
@@ -42,18 +44,17 @@ pub fn run(args: LiveArgs<'_>) -> anyhow::Result<u8> {
 }
 
 fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
-    let (schema, set) = match super::upload::load_set(args.set, args.schemas) {
-        Ok(x) => x,
-        Err(code) => {
-            return Err(Fail {
-                code,
-                msg: format!("{}: not compared", args.set.display()),
-            });
-        }
-    };
-    let opened = port::open_port(args.port)?;
-    let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    let on = crate::learning::set_on_drive(
+        args.set,
+        args.schemas,
+        args.port,
+        args.address,
+        args.force,
+        args.learn,
+        "not compared",
+    )?;
+    let (schema, set, port_name, mut client, _sim) =
+        (on.schema, on.set, on.port_name, on.client, on._sim);
     if !args.force {
         driveset_engine::identify::check_family(client.as_mut())?;
     }

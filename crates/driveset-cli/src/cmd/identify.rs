@@ -6,7 +6,7 @@
 #![allow(clippy::result_large_err)]
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::error::EngineError;
@@ -15,6 +15,7 @@ use driveset_proto::lustbus::ParameterCode;
 use driveset_schema::Family;
 use serde_json::json;
 
+use crate::learning;
 use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::{EXIT_FINDINGS, EXIT_OK};
@@ -34,7 +35,11 @@ pub enum BusFormat {
 The protocol comes from --schema, else from a sim://FAMILY port, else from
 --protocol (with its built-in schema: lustbus -> lust-mc6000 or lust-vf1000,
 told apart by whether the drive answers an MC6000/7000 CODE, lecom ->
-lenze-tmd, sdo -> lenze-ecs). Nothing is written to the drive.
+lenze-tmd, sdo -> lenze-ecs), else from read-only probes as scan does
+(LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 / C0200). `uses:` says
+which schema pull / diff / upload would talk with and whether it is learned
+from the drive's descriptions (a learned-<family>-type<TYPE>-... file in
+--schema-dir, or learned on the next pull). Nothing is written to the drive.
 
 Exit codes: 0 identified and the schema fits, 1 identified but the schema
 does not fit (another family or TYPE), 2 usage or input error, 3 bus or
@@ -60,6 +65,9 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
+    /// Where learned schemas are looked for (default: the current directory).
+    #[arg(long, value_name = "DIR")]
+    pub schema_dir: Option<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -75,19 +83,29 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     // --protocol wins over the family a sim:// port names (so the LUSTBUS
     // family probe below runs against simulated drives too).
     let sim_hint = if args.protocol.is_some() { None } else { sim };
-    let choice = port::resolve_schema(
-        args.schema.as_deref(),
-        &args.schemas,
-        sim_hint,
-        args.protocol,
-    )?;
-    let opened = port::open_port(&args.port)?;
+    let mut opened = port::open_port_at(&args.port, Some(args.address))?;
+    let mut note = None;
+    let choice = if args.schema.is_none() && sim_hint.is_none() && args.protocol.is_none() {
+        let (schema, evidence) = learning::detect(&mut opened, args.address, &args.schemas)?;
+        note = Some(evidence);
+        port::SchemaChoice { schema, path: None }
+    } else {
+        port::resolve_schema(
+            args.schema.as_deref(),
+            &args.schemas,
+            sim_hint,
+            args.protocol,
+        )?
+    };
     let port_name = opened.name.clone();
     let mut schema = choice.schema;
-    let mut note = None;
     // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
     // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
-    if args.schema.is_none() && sim_hint.is_none() && schema.family == Family::Mc6000 {
+    if args.schema.is_none()
+        && sim_hint.is_none()
+        && args.protocol.is_some()
+        && schema.family == Family::Mc6000
+    {
         let link = match opened.link {
             Link::Bytes(l) => l,
             Link::Frames(_) => {
@@ -119,10 +137,74 @@ fn identify(args: &Args) -> Result<u8, Fail> {
                 args.address,
             )?)
         };
-        return report(args, &port_name, client.as_mut(), note);
+        return report(
+            args,
+            &port_name,
+            client.as_mut(),
+            note,
+            choice.path.as_deref(),
+        );
     }
     let mut client = port::into_client(opened, schema.clone(), args.address, false)?;
-    report(args, &port_name, client.as_mut(), note)
+    report(
+        args,
+        &port_name,
+        client.as_mut(),
+        note,
+        choice.path.as_deref(),
+    )
+}
+
+/// Which schema a bus command would talk with, and whether it is learned:
+/// a learned schema named (`learned-...`), a learned file of this drive's
+/// family and TYPE in the schema directory, or the schema as it is /
+/// learned from the drive when a command needs it.
+fn learned_status(
+    schema: &driveset_schema::Schema,
+    identity: &driveset_engine::client::Identity,
+    path: Option<&Path>,
+    dir: &Path,
+) -> (String, bool, Option<PathBuf>) {
+    if schema.id.starts_with("learned-") {
+        return (schema.id.clone(), true, path.map(Path::to_path_buf));
+    }
+    if !driveset_engine::learn::needs_learning(schema) {
+        return (schema.id.clone(), false, None);
+    }
+    let family = if schema.family == Family::Vf1000 {
+        "vf1000"
+    } else {
+        "mc6000"
+    };
+    let ty = identity
+        .codes
+        .iter()
+        .find(|(c, _)| c.starts_with("91"))
+        .map_or("unknown", |(_, v)| v.as_str());
+    let prefix = format!("learned-{family}-type{ty}-");
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".toml"))
+        })
+        .collect();
+    found.sort();
+    match found.pop() {
+        Some(f) => (
+            f.file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or_default()
+                .to_string(),
+            true,
+            Some(f),
+        ),
+        None => (format!("{prefix}*"), true, None),
+    }
 }
 
 fn report(
@@ -130,9 +212,15 @@ fn report(
     port_name: &str,
     client: &mut dyn DriveClient,
     note: Option<String>,
+    path: Option<&Path>,
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
     let identity = client.identify()?;
+    let dir = args
+        .schema_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("."));
+    let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
     let fits = match driveset_engine::identify::check_family(client) {
         Ok(_) => Ok(()),
         Err(EngineError::Refused { reason, .. }) => Err(reason),
@@ -150,6 +238,9 @@ fn report(
                 "schema": schema.id,
                 "schema_title": schema.title,
                 "fits": fits.is_ok(),
+                "would_use": would_use,
+                "learned": learned,
+                "learned_file": learned_file.as_ref().map(|p| p.display().to_string()),
                 "reason": fits.as_ref().err(),
                 "note": note,
             });
@@ -179,6 +270,16 @@ fn report(
                     let _ = writeln!(out, "schema:   {} does NOT fit: {r}", schema.id);
                 }
             }
+            let learned_text = match (&learned_file, learned, schema.id == would_use) {
+                (_, false, _) => format!("{would_use} (not learned: the schema gives every fact)"),
+                (Some(f), true, _) => format!("{would_use} (learned, {})", f.display()),
+                (None, true, true) => format!("{would_use} (learned)"),
+                (None, true, false) => format!(
+                    "{would_use} (learned from the drive's descriptions on pull / diff / upload; {} lacks types and ranges)",
+                    schema.id
+                ),
+            };
+            let _ = writeln!(out, "uses:     {learned_text}");
             if let Some(n) = &note {
                 let _ = writeln!(out, "note:     {n}");
             }

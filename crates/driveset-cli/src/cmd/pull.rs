@@ -1,5 +1,7 @@
-//! `driveset pull --port P --address A --schema S -o FILE [--changed-only]
-//! [--to toml|yaml]`: read every readable code of a drive into a set file.
+//! `driveset pull --port P --address A [--schema S] -o FILE [--changed-only]
+//! [--to toml|yaml]`: read every readable code of a drive into a set file;
+//! without a schema the protocol is probed, and a LUSTBUS schema that lacks
+//! facts is learned from the drive first (crate::learning).
 //!
 //! The file starts with comments naming the port, the address, what the
 //! drive said it is and the fingerprint, and carries the same facts in the
@@ -20,6 +22,7 @@ use serde_json::json;
 
 use super::identify::BusFormat;
 use crate::EXIT_OK;
+use crate::learning;
 use crate::output;
 use crate::port::{self, Fail};
 use crate::progress::Progress;
@@ -43,10 +46,29 @@ units with labels, TOML or YAML by the file's extension (or --to), with the
 drive's identity and the fingerprint in comments and the [drive] table.
 `driveset fingerprint FILE` gives the same fingerprint.
 
+Without --schema (and not on a sim:// port, whose family names its schema)
+the protocol and family are found by read-only probes, as scan finds them:
+LUSTBUS ENQUIRY of 91-TYPE (and of the MC CODE 20091), LECOM RECEIVE of
+C0093 / C0200. Where the schema lacks a code's type, kind or range (the
+built-in lust-vf1000 / lust-mc6000 hold only what the LUSTBUS spec
+documents), the drive's own parameter descriptions are read and the schema
+learned: the spec's facts stand, the drive's fill in the rest. The learned
+schema is written beside the set (or into --schema-dir) as
+learned-<family>-type<TYPE>-<software>.toml and the set names it, so
+`driveset validate FILE` works offline. --description-layout and
+--type-chars override how MC6000/7000 descriptions are read (errata L22,
+L23); --no-learn pulls with the schema as it is.
+
+A code that cannot be read (refused, no answer, a VALUE its type cannot
+hold) is reported, listed in the file's header, and the pull carries on.
+
 Exit codes: 0 written, 1 the schema does not fit the drive (nothing written;
---force pulls anyway), 2 usage or input error, 3 bus or device failure.
+--force pulls anyway) or a code could not be read (the file is written
+without it), 2 usage or input error, 3 bus or device failure.
 
 Examples:
+  driveset pull --port /dev/ttyUSB0 --address 3 -o axis-3.toml
+  driveset pull --port 'sim://mc6000?layout=43&types=table' --address 1 --schema lust-mc6000 -o axis-1.toml
   driveset pull --port sim://mc6000?addresses=1 --address 1 -o axis-1.toml
   driveset pull --port /dev/ttyUSB0 --address 3 --schema lenze-tmd -o conveyor-3.yaml --changed-only")]
 pub struct Args {
@@ -74,6 +96,9 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
+    /// Learning the schema from the drive.
+    #[command(flatten)]
+    pub learn: learning::LearnArgs,
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -133,8 +158,16 @@ fn toml_str(s: &str) -> String {
 
 fn pull(args: &Args) -> Result<u8, Fail> {
     let sim = port::peek_sim_family_at(&args.port, Some(args.address));
-    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, None)?;
-    let schema = choice.schema.clone();
+    let mut opened = port::open_port_at(&args.port, Some(args.address))?;
+    // No schema and no sim:// family: find the protocol as `scan` does.
+    let mut detected = None;
+    let choice = if args.schema.is_none() && sim.is_none() {
+        let (schema, evidence) = learning::detect(&mut opened, args.address, &args.schemas)?;
+        detected = Some(evidence);
+        port::SchemaChoice { schema, path: None }
+    } else {
+        port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, None)?
+    };
     let format = match args.to {
         Some(PullTo::Yaml) => Format::Yaml,
         Some(PullTo::Toml) => Format::Toml,
@@ -143,9 +176,44 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             _ => Format::Toml,
         },
     };
-    let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    // A LUSTBUS schema that lacks facts: learn them from the drive and
+    // write the learned schema beside the set (or into --schema-dir).
+    let set_dir = args
+        .output
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
+    let mut _sim_alive = None;
+    let (mut client, schema, schema_path, learned) = if learning::wants(&choice.schema, &args.learn)
+    {
+        port::check_fit(&opened, &choice.schema, Some(args.address), args.force)?;
+        let (link, sim) = learning::take_byte_link(opened)?;
+        _sim_alive = sim;
+        let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
+        let (client, schema, report, _) = learning::learn(
+            link,
+            choice.schema.clone(),
+            args.address,
+            &port_name,
+            &args.learn,
+            &args.schemas,
+            Some(&dir),
+        )?;
+        (client, schema, report.file.clone(), Some(report))
+    } else {
+        let schema = choice.schema.clone();
+        let client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+        (client, schema, choice.path.clone(), None)
+    };
+    if let Some(r) = &learned
+        && args.format == BusFormat::Human
+    {
+        for l in r.lines() {
+            eprintln!("{l}");
+        }
+    }
     if !args.force
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
@@ -195,18 +263,17 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         !ro && !not_settings(schema.family, k.number)
     });
     pulled.fingerprint = pulled.set.fingerprint();
+    let failed: Vec<_> = pulled
+        .skipped
+        .iter()
+        .filter(|s| s.failed)
+        .cloned()
+        .collect();
 
     // The schema reference: a file named by path stays a path (relative to
     // the set file), an id stays an id.
-    let schema_ref = match &choice.path {
-        Some(p) => {
-            let dir = args
-                .output
-                .parent()
-                .filter(|d| !d.as_os_str().is_empty())
-                .unwrap_or(Path::new("."));
-            relative_path(p, dir).display().to_string()
-        }
+    let schema_ref = match &schema_path {
+        Some(p) => relative_path(p, &set_dir).display().to_string(),
         None => schema.id.clone(),
     };
     let title = format!("pulled from {port_name} address {}", args.address);
@@ -316,6 +383,10 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 "read": pulled.read,
                 "dropped_defaults": pulled.dropped_defaults,
                 "skipped": pulled.skipped,
+                "not_readable": failed.len(),
+                "schema_file": schema_path.as_ref().map(|p| p.display().to_string()),
+                "learned": learned.as_ref().map(learning::LearnReport::json),
+                "detected": detected,
                 "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
             });
             output::emit(&format!(
@@ -353,8 +424,28 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 );
             }
             let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);
+            if let Some(d) = &detected {
+                let _ = writeln!(
+                    out,
+                    "protocol: {} ({d})",
+                    port::protocol_name(schema.family)
+                );
+            }
+            if let Some(p) = &schema_path {
+                let _ = writeln!(out, "schema: {} ({})", schema.id, p.display());
+            }
             output::emit(&out);
         }
     }
-    Ok(EXIT_OK)
+    if failed.is_empty() {
+        Ok(EXIT_OK)
+    } else {
+        for s in &failed {
+            eprintln!(
+                "error: {port_name} address {}: {} could not be read: {}",
+                args.address, s.code, s.reason
+            );
+        }
+        Ok(crate::EXIT_FINDINGS)
+    }
 }

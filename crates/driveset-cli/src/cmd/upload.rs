@@ -46,6 +46,12 @@ download), verifies, and on failure restores the old values from the
 journal. --dry-run prints the plan (codes, old -> new, RAM or EEPROM,
 expected time) and writes nothing.
 
+A set whose schema is a LUSTBUS schema that lacks types, kinds or ranges
+(e.g. the built-in lust-mc6000) is resolved against the schema learned from
+the drive's own descriptions first (the spec's facts stand; written to
+--schema-dir when given; --no-learn turns it off). A set pulled by
+`driveset pull` names its learned schema file already.
+
 Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
 --journal-dir DIR; default .driveset/journal/<port>-<address>.journal.json
 in the current directory (port characters other than letters and digits
@@ -88,6 +94,9 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
+    /// Learning the schema from the drive where the set's lacks facts.
+    #[command(flatten)]
+    pub learn: crate::learning::LearnArgs,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -129,18 +138,17 @@ pub fn load_set(
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {
-    let (schema, set) = match load_set(&args.set, &args.schemas) {
-        Ok(x) => x,
-        Err(code) => {
-            return Err(Fail {
-                code,
-                msg: format!("{}: not uploaded", args.set.display()),
-            });
-        }
-    };
-    let opened = port::open_port(&args.port)?;
-    let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    let on = crate::learning::set_on_drive(
+        &args.set,
+        &args.schemas,
+        &args.port,
+        args.address,
+        args.force,
+        &args.learn,
+        "not uploaded",
+    )?;
+    let (_schema, set, port_name, mut client, _sim) =
+        (on.schema, on.set, on.port_name, on.client, on._sim);
     let json = args.format == BusFormat::Json;
 
     if args.dry_run {

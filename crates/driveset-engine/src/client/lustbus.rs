@@ -1125,6 +1125,18 @@ pub(crate) fn probe_type<L: ByteLink>(
     tries: u32,
 ) -> Result<Option<Option<i64>>, LinkError> {
     let code = ParameterCode::new(TYPE).unwrap_or(ParameterCode::POSMOD);
+    probe_code(line, address, code, timeout, tries)
+}
+
+/// An ENQUIRY of `code` at `address` (a read-only probe): `Ok(None)` when
+/// nothing answers, `Ok(Some(None))` for a NAK, `Ok(Some(Some(value)))`.
+pub(crate) fn probe_code<L: ByteLink>(
+    line: &mut LustLine<L>,
+    address: Address,
+    code: ParameterCode,
+    timeout: Duration,
+    tries: u32,
+) -> Result<Option<Option<i64>>, LinkError> {
     let bytes = Enquiry::new(address, code).encode();
     for attempt in 0..tries.max(1) {
         if attempt > 0 {

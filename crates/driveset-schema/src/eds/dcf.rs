@@ -8,7 +8,8 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::canonical::{RawValue, ResolvedSet};
-use crate::schema::{Access, Code, Protocol, Schema};
+use crate::family::Family;
+use crate::schema::{Access, Code, Schema};
 use crate::value::ValueType;
 
 use super::import::LENZE_INDEX_BASE;
@@ -71,7 +72,7 @@ pub fn write_dcf(
     file_name: &str,
     node_id: Option<u8>,
 ) -> Result<String, DcfError> {
-    if schema.protocol != Protocol::LenzeCanSdo {
+    if schema.family != Family::Ecs {
         return Err(DcfError {
             message: format!(
                 "set uses schema `{}`, which is not a CANopen (lenze-can-sdo) family; a DCF describes CANopen SDO objects",

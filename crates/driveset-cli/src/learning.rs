@@ -1,0 +1,350 @@
+//! The schema a bus command talks with when none is given or the given one
+//! lacks facts: finding the drive's protocol by read-only probes
+//! ([`detect`], as `scan` does), and learning the schema from a LUSTBUS
+//! drive's own descriptions ([`learn`], driveset-engine's `learn` module)
+//! with the options every such command shares ([`LearnArgs`]).
+
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_engine::client::{DriveClient, Identity, LustbusClient};
+use driveset_engine::learn::{
+    LearnOptions, LearnSource, Learned, LearnedSchema, learn as engine_learn, learned_id,
+    needs_learning, render_schema,
+};
+use driveset_engine::scan::{ScanOptions, detect_protocol};
+use driveset_link::{ByteLink, Link};
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+use driveset_schema::{Family, Schema};
+use serde_json::json;
+
+use crate::port::{self, Fail, OpenPort};
+
+/// Options of the commands that learn a schema from the drive.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct LearnArgs {
+    /// Where a learned schema file is written and looked for (default:
+    /// beside the set file; `pull`, `schema pull`).
+    #[arg(long, value_name = "DIR")]
+    pub schema_dir: Option<PathBuf>,
+    /// MC6000/7000: the layout of the drive's parameter descriptions
+    /// (default: told by length and content; errata L22).
+    #[arg(long, value_name = "52|43|42|34")]
+    pub description_layout: Option<String>,
+    /// MC6000/7000: how the descriptions' type characters read: `driveset`,
+    /// `table` (section 2.3.2 order, '1' = PT_USIGN8 .. '8' = PT_PASSWORD)
+    /// or a map `1=PT_USIGN8,2=PT_USIGN16,...` (default: guessed from the
+    /// content; errata L23).
+    #[arg(long, value_name = "READING")]
+    pub type_chars: Option<String>,
+    /// Use the schema as it is: do not read the drive's descriptions.
+    #[arg(long)]
+    pub no_learn: bool,
+}
+
+impl LearnArgs {
+    /// The engine's options (parameters: the default range).
+    pub fn options(&self) -> Result<LearnOptions, Fail> {
+        let layout = match &self.description_layout {
+            None => None,
+            Some(l) => Some(McLayout::from_name(l.trim()).ok_or_else(|| {
+                Fail::input(format!(
+                    "--description-layout {l}: use 52, 43, 42 or 34 (the lengths errata L22 discusses)"
+                ))
+            })?),
+        };
+        let type_chars = match &self.type_chars {
+            None => None,
+            Some(t) => {
+                Some(McTypeChars::parse(t).map_err(|e| Fail::input(format!("--type-chars: {e}")))?)
+            }
+        };
+        Ok(LearnOptions {
+            params: None,
+            layout,
+            type_chars,
+            no_texts: false,
+        })
+    }
+}
+
+/// The built-in schema of a protocol.
+pub fn builtin_for(protocol: Family, dirs: &[PathBuf]) -> Result<Arc<Schema>, Fail> {
+    let id = match protocol {
+        Family::Mc6000 => "lust-mc6000",
+        Family::Vf1000 => "lust-vf1000",
+        Family::Tmd => "lenze-tmd",
+        Family::Ecs => "lenze-ecs",
+    };
+    port::registry(dirs)?
+        .get(id)
+        .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
+}
+
+/// The drive's protocol at `address` of an open serial port, by read-only
+/// probes (LUSTBUS ENQUIRY of 91-TYPE and of the MC CODE 20091, LECOM
+/// RECEIVE of C0093 / C0200), and the built-in schema for it. The port
+/// stays open for the command.
+pub fn detect(
+    opened: &mut OpenPort,
+    address: u8,
+    dirs: &[PathBuf],
+) -> Result<(Arc<Schema>, String), Fail> {
+    let name = opened.name.clone();
+    let mut sim_link;
+    let link: &mut dyn ByteLink = match (&mut opened.link, opened.sim.is_some()) {
+        (Link::Bytes(_), true) => {
+            sim_link = port::byte_link(opened)?;
+            sim_link.as_mut()
+        }
+        (Link::Bytes(l), false) => l.as_mut(),
+        (Link::Frames(_), _) => {
+            return Err(Fail::input(format!(
+                "{name} is a CAN port: say which schema the node speaks (--schema lenze-ecs or a schema file)"
+            )));
+        }
+    };
+    let found = detect_protocol(link, address, &ScanOptions::default()).map_err(Fail::from)?;
+    let Some(d) = found else {
+        return Err(Fail::bus(format!(
+            "{name} address {address}: no drive answered the read-only probes (LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200); check wiring, address and baud rate, or name the schema with --schema"
+        )));
+    };
+    Ok((builtin_for(d.protocol, dirs)?, d.evidence))
+}
+
+/// What learning did, for reports.
+#[derive(Debug, Clone)]
+pub struct LearnReport {
+    /// The learned schema's id.
+    pub id: String,
+    /// The file written, if any.
+    pub file: Option<PathBuf>,
+    /// The base schema.
+    pub base: String,
+    /// Codes learned (in the file).
+    pub codes: usize,
+    /// What was learned, in detail.
+    pub learned: Learned,
+}
+
+impl LearnReport {
+    /// One line per finding, for stderr / human output.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let layouts: Vec<&str> = self.learned.layouts.iter().map(|l| l.name()).collect();
+        out.push(format!(
+            "learned schema {} from the drive's descriptions: {} codes{}{}{}",
+            self.id,
+            self.codes,
+            self.file
+                .as_ref()
+                .map_or_else(String::new, |f| format!(", written to {}", f.display())),
+            if layouts.is_empty() {
+                String::new()
+            } else {
+                format!(", description layout {}", layouts.join("/"))
+            },
+            self.learned
+                .type_chars
+                .as_ref()
+                .map_or_else(String::new, |t| format!(
+                    ", type characters {}{}",
+                    t.name(),
+                    if self.learned.type_chars_guessed {
+                        " (guessed)"
+                    } else {
+                        ""
+                    }
+                ))
+        ));
+        for f in &self.learned.findings {
+            out.push(format!(
+                "parameter {}: {}: {}",
+                f.number, f.action, f.reason
+            ));
+        }
+        out
+    }
+
+    /// JSON for `--format json`.
+    pub fn json(&self) -> serde_json::Value {
+        json!({
+            "id": self.id,
+            "file": self.file.as_ref().map(|f| f.display().to_string()),
+            "base": self.base,
+            "codes": self.codes,
+            "layouts": self.learned.layouts.iter().map(|l| l.name()).collect::<Vec<_>>(),
+            "type_chars": self.learned.type_chars.as_ref().map(McTypeChars::name),
+            "type_chars_guessed": self.learned.type_chars_guessed,
+            "asked": self.learned.asked,
+            "absent": self.learned.absent,
+            "substitution_texts": self.learned.texts_read,
+            "findings": self.learned.findings,
+        })
+    }
+}
+
+/// Whether a command should learn: a LUSTBUS schema that lacks facts,
+/// unless `--no-learn`.
+pub fn wants(schema: &Schema, args: &LearnArgs) -> bool {
+    !args.no_learn && needs_learning(schema)
+}
+
+/// Learns the schema of the drive at `address` over `link`, speaking
+/// `base`'s protocol: reads its descriptions (and MC texts), renders and
+/// checks the schema, writes it to `dir/<id>.toml` when `dir` is given.
+/// Returns a client on the same link speaking the learned schema.
+pub fn learn(
+    link: Box<dyn ByteLink>,
+    base: Arc<Schema>,
+    address: u8,
+    port_name: &str,
+    args: &LearnArgs,
+    dirs: &[PathBuf],
+    dir: Option<&Path>,
+) -> Result<(Box<dyn DriveClient>, Arc<Schema>, LearnReport, Identity), Fail> {
+    let opts = args.options()?;
+    let mut client = LustbusClient::new(link, base.clone(), address).map_err(Fail::from)?;
+    let identity = client.identify().map_err(Fail::from)?;
+    let mut learned = engine_learn(&mut client, base.family, &opts).map_err(Fail::from)?;
+    client.finish().map_err(Fail::from)?;
+    let id = learned_id(base.family, &identity, &learned);
+    let source = LearnSource {
+        drive: format!("{port_name} address {address}"),
+        identity: identity.clone(),
+    };
+    let registry = port::registry(dirs)?;
+    let rendered: LearnedSchema = render_schema(&mut learned, &base, &id, &source, &registry)
+        .map_err(|e| Fail::bus(format!("{port_name} address {address}: {e}")))?;
+    let file = match dir {
+        Some(d) => {
+            std::fs::create_dir_all(d)
+                .map_err(|e| Fail::input(format!("cannot create {}: {e}", d.display())))?;
+            let f = d.join(format!("{id}.toml"));
+            std::fs::write(&f, &rendered.text)
+                .map_err(|e| Fail::input(format!("cannot write {}: {e}", f.display())))?;
+            Some(f)
+        }
+        None => None,
+    };
+    let schema = rendered.schema.clone();
+    let client: Box<dyn DriveClient> = Box::new(
+        LustbusClient::new(client.into_link(), schema.clone(), address).map_err(Fail::from)?,
+    );
+    Ok((
+        client,
+        schema,
+        LearnReport {
+            id,
+            file,
+            base: base.id.clone(),
+            codes: rendered.codes,
+            learned,
+        },
+        identity,
+    ))
+}
+
+/// The byte link of an open port for a LUSTBUS client: a fresh handle on
+/// a `sim://` port (whose simulated bus is returned too, to keep it alive),
+/// the port's one link otherwise.
+pub fn take_byte_link(
+    opened: OpenPort,
+) -> Result<(Box<dyn ByteLink>, Option<driveset_sim::open::SimLink>), Fail> {
+    if opened.sim.is_some() {
+        let l = port::byte_link(&opened)?;
+        return Ok((l, opened.sim));
+    }
+    match opened.link {
+        Link::Bytes(l) => Ok((l, None)),
+        Link::Frames(_) => Err(Fail::input(format!(
+            "{} is a CAN port; LUSTBUS needs a character line",
+            opened.name
+        ))),
+    }
+}
+
+/// A set for a command against one drive, with the client to talk to it:
+/// when the set's schema is a LUSTBUS schema that lacks facts, the drive's
+/// descriptions are learned first and the set is resolved against the
+/// learned schema (written to `--schema-dir` when given).
+pub struct SetOnDrive {
+    /// The client (speaking the schema below).
+    pub client: Box<dyn DriveClient>,
+    /// The schema the set resolved against.
+    pub schema: Arc<Schema>,
+    /// The set.
+    pub set: driveset_schema::ResolvedSet,
+    /// The port as reports name it.
+    pub port_name: String,
+    /// Keeps a `sim://` bus alive while the client uses it.
+    pub _sim: Option<driveset_sim::open::SimLink>,
+}
+
+/// Loads `set` and opens the drive at `address` of `port` for it (see
+/// [`SetOnDrive`]). `what` completes the refusal message (`not uploaded`).
+pub fn set_on_drive(
+    set: &Path,
+    dirs: &[PathBuf],
+    port_arg: &str,
+    address: u8,
+    force: bool,
+    args: &LearnArgs,
+    what: &str,
+) -> Result<SetOnDrive, Fail> {
+    let refused = |code: u8| Fail {
+        code,
+        msg: format!("{}: {what}", set.display()),
+    };
+    // Which schema does the set name (without validating it yet)?
+    let mut probe = port::registry(dirs)?;
+    let named = driveset_schema::load_set(set, &mut probe)
+        .ok()
+        .and_then(|l| l.schema);
+    if let Some(base) = named.filter(|s| wants(s, args)) {
+        let opened = port::open_port_at(port_arg, Some(address))?;
+        port::check_fit(&opened, &base, Some(address), force)?;
+        let port_name = opened.name.clone();
+        let (link, sim) = take_byte_link(opened)?;
+        let (client, schema, report, _) = learn(
+            link,
+            base.clone(),
+            address,
+            &port_name,
+            args,
+            dirs,
+            args.schema_dir.as_deref(),
+        )?;
+        for l in report.lines() {
+            eprintln!("{l}");
+        }
+        let mut registry = port::registry(dirs)?;
+        registry.insert_as(&base.id, schema.clone());
+        let loaded = crate::output::load_valid_set(set, &mut registry).map_err(refused)?;
+        let Some(resolved) = loaded.resolved else {
+            return Err(refused(crate::EXIT_INPUT));
+        };
+        return Ok(SetOnDrive {
+            client,
+            schema,
+            set: resolved,
+            port_name,
+            _sim: sim,
+        });
+    }
+    let (schema, resolved) = crate::cmd::upload::load_set(set, dirs).map_err(refused)?;
+    let opened = port::open_port_at(port_arg, Some(address))?;
+    let port_name = opened.name.clone();
+    let client = port::into_client(opened, schema.clone(), address, force)?;
+    Ok(SetOnDrive {
+        client,
+        schema,
+        set: resolved,
+        port_name,
+        _sim: None,
+    })
+}

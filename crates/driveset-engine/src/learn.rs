@@ -1,0 +1,1159 @@
+//! Learning a schema from a LUSTBUS drive: reading its own parameter
+//! descriptions (VF1000 specifier 1, section 11.1; MC6000/7000 specifier
+//! 3, section 11.2), the unit strings (107-UNIT) and value substitution
+//! texts (108-STEXT + `61ppp`, section 11.3), interpreting them whatever
+//! layout and type characters the drive uses (errata L22, L23), and writing
+//! the result as a schema file that `extends` the built-in schema.
+//!
+//! # Merge rule
+//!
+//! The learned file `extends` the built-in schema (`lust-vf1000` /
+//! `lust-mc6000`) and so merges like a fixture: **a fact the built-in schema
+//! gives (from the spec) stands**; the drive's description only fills the
+//! facts it leaves unset (type, unit, min, max, default, kind, width,
+//! card_writeable, access, value texts), and adds the parameters the spec
+//! does not name. Where the drive contradicts a spec fact, the file says so
+//! in a comment and keeps the spec's.
+//!
+//! # Markers
+//!
+//! Every learned code carries a `# learned: ...` comment listing the facts
+//! taken from the drive; a code the spec does not name has
+//! `spec = "learned from the drive's description ..."`; whatever is a
+//! guess rather than read (the layout or type-character reading chosen by
+//! content, a type kept as a raw integer because its character is unknown,
+//! a range left out because the description contradicts itself) is said in
+//! `note = "guessed: ..."` (or a `# guessed:` comment where the spec has a
+//! note).
+//!
+//! # Descriptions that contradict themselves
+//!
+//! Minimum above maximum: the range is left out. Default outside the
+//! range: the default is left out. A bound the type cannot hold: the type
+//! is downgraded to the raw integer the bounds need. An unknown type
+//! character: the code is kept as a raw integer of the width its min / max
+//! / default need (PT_USIGN8, PT_USIGN16 or PT_INTEGER16; a code that needs
+//! 32 bits is kept without a type, since LUSTBUS has no raw 32-bit type).
+//! A description that does not decode at all is left out. Each case is a
+//! [`LearnFinding`] naming the parameter and why. After rendering, the
+//! schema is parsed and checked ([`driveset_schema::check_schema`]); a code
+//! the check still objects to is left out, so a learned file always passes
+//! `driveset schema check`.
+
+// EngineError (the crate's contract type) is large; it is built on the
+// failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
+use std::sync::Arc;
+
+use driveset_link::ByteLink;
+use driveset_proto::lustbus::description::McKind;
+use driveset_proto::lustbus::description::{
+    Attributes, DescriptionError, McLayout, McRawDescription, McTypeChars, STEXT, UNIT,
+    VfDescription, VfStorage, decode_substitution_text,
+};
+use driveset_proto::lustbus::{ParameterCode, ParameterType};
+use driveset_schema::error::SourceFile;
+use driveset_schema::schema::StorageKind;
+use driveset_schema::value::raw_to_engineering;
+use driveset_schema::{Family, Registry, Schema, ValueType, check_schema};
+
+use crate::client::{Identity, LustbusClient};
+use crate::error::EngineError;
+
+/// How to learn.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LearnOptions {
+    /// Parameters to ask for (default VF1000 1..=99, MC6000/7000 1..=999).
+    pub params: Option<Vec<u32>>,
+    /// MC: read every description in this layout instead of telling the
+    /// layout by length and content.
+    pub layout: Option<McLayout>,
+    /// MC: read type characters this way instead of guessing the reading
+    /// from the descriptions' content.
+    pub type_chars: Option<McTypeChars>,
+    /// Do not read units and substitution texts (no 108-STEXT writes).
+    pub no_texts: bool,
+}
+
+/// One description as the drive sent it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawDescription {
+    /// Parameter number.
+    pub number: u32,
+    /// The VALUE characters.
+    pub text: Vec<u8>,
+}
+
+/// A parameter learned from its description.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LearnedCode {
+    /// Parameter number.
+    pub number: u32,
+    /// The description's name.
+    pub name: String,
+    /// The type, when known or guessed.
+    pub ty: Option<ParameterType>,
+    /// Unit string (VF1000: the description's; MC: the 107-UNIT text).
+    pub unit: Option<String>,
+    /// MC: the unit index into 107-UNIT.
+    pub unit_index: Option<u8>,
+    /// Storage kind.
+    pub kind: StorageKind,
+    /// VF1000: basis parameter.
+    pub basis: Option<bool>,
+    /// MC: CardWriteable (activity area other than SC_Nothing), when the
+    /// description carries the activity area.
+    pub card_writeable: Option<bool>,
+    /// Password (type PT_PASSWORD or the Password attribute).
+    pub password: bool,
+    /// MC: values shown as substitution texts: `Some(true)` by the
+    /// ShowText attribute, `None` when the description does not carry the
+    /// attribute (texts are then probed for PT_USIGN8 parameters).
+    pub show_text: Option<bool>,
+    /// Minimum, raw (sign-extended for signed types).
+    pub min: Option<i64>,
+    /// Maximum, raw.
+    pub max: Option<i64>,
+    /// Factory default, raw.
+    pub default: Option<i64>,
+    /// Value substitution texts.
+    pub texts: BTreeMap<i64, String>,
+    /// What is guessed, not read (rendered as `note = "guessed: ..."`).
+    pub guessed: Vec<String>,
+}
+
+/// Something about one parameter's description the learned schema could
+/// not take as it came.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct LearnFinding {
+    /// Parameter number.
+    pub number: u32,
+    /// `left out` or `downgraded`.
+    pub action: &'static str,
+    /// Why.
+    pub reason: String,
+}
+
+/// What was learned from one drive.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Learned {
+    /// The drive's protocol (LUSTBUS VF1000 or MC).
+    pub protocol: Family,
+    /// MC: the layouts the descriptions came in (by length and content, or
+    /// forced).
+    pub layouts: BTreeSet<McLayout>,
+    /// MC: the type-character reading used.
+    pub type_chars: Option<McTypeChars>,
+    /// MC: whether that reading was guessed from the content (not forced).
+    pub type_chars_guessed: bool,
+    /// The parameters learned.
+    pub codes: Vec<LearnedCode>,
+    /// Parameters left out or downgraded, and why.
+    pub findings: Vec<LearnFinding>,
+    /// Parameters asked for.
+    pub asked: usize,
+    /// Parameters the drive NAKed (no such parameter).
+    pub absent: usize,
+    /// Substitution texts read.
+    pub texts_read: usize,
+    /// FNV-1a of every description received (stands in for a software
+    /// version: LUSTBUS names no software-version parameter).
+    pub descriptions_hash: u32,
+}
+
+fn fnv1a(data: &[u8], mut h: u32) -> u32 {
+    for &b in data {
+        h ^= u32::from(b);
+        h = h.wrapping_mul(0x0100_0193);
+    }
+    h
+}
+
+/// Whether `schema` lacks facts a drive's descriptions could fill: a
+/// LUSTBUS schema (not itself learned, `learned-...`, nor a fictional
+/// fixture, which is what the simulated drives are built from) with a code
+/// (other than a status code whose reading clears it) without a type, kind
+/// or range.
+pub fn needs_learning(schema: &Schema) -> bool {
+    !schema.id.starts_with("learned-")
+        && !schema.fictional
+        && matches!(
+            schema.family,
+            Family::Mc6000 | Family::Vf1000
+        )
+        && schema.codes.iter().any(|c| {
+            c.read_clears != Some(true)
+                && (schema.type_of(c).is_none()
+                    || c.kind.is_none()
+                    || (c.min.is_none() && c.max.is_none() && c.values.is_none()))
+        })
+}
+
+/// The file (and schema id) a learned schema is stored under:
+/// `learned-<family>-type<TYPE>-<software>.toml`, the software being the
+/// identity's software version where the drive reports one, else
+/// `d<8 hex>`, the hash of the descriptions the drive sent.
+pub fn learned_id(protocol: Family, identity: &Identity, learned: &Learned) -> String {
+    let family = match protocol {
+        Family::Vf1000 => "vf1000",
+        _ => "mc6000",
+    };
+    let ty = identity
+        .codes
+        .iter()
+        .find(|(c, _)| c.starts_with("91"))
+        .map_or_else(|| "unknown".to_string(), |(_, v)| v.clone());
+    let sw = identity.software.as_deref().map_or_else(
+        || format!("d{:08x}", learned.descriptions_hash),
+        |s| {
+            s.chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                .collect()
+        },
+    );
+    format!("learned-{family}-type{}-{sw}", slug(&ty))
+}
+
+fn slug(s: &str) -> String {
+    s.chars()
+        .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+        .collect()
+}
+
+/// The parameters asked for by default.
+pub fn default_params(protocol: Family) -> Vec<u32> {
+    match protocol {
+        Family::Vf1000 => (1..=99).collect(),
+        _ => (1..=999).collect(),
+    }
+}
+
+/// Asks every parameter of `params` for its description (a NAK: no such
+/// parameter). Nothing is written. Returns the descriptions and how many
+/// parameters the drive NAKed.
+pub fn read_descriptions<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    protocol: Family,
+    params: &[u32],
+) -> Result<(Vec<RawDescription>, usize), EngineError> {
+    let mc = protocol == Family::Mc6000;
+    let mut out = Vec::new();
+    let mut absent = 0;
+    for &p in params {
+        let code = if mc {
+            u16::try_from(p)
+                .ok()
+                .and_then(ParameterCode::mc_description)
+        } else {
+            u8::try_from(p)
+                .ok()
+                .and_then(|n| ParameterCode::vf_description(1, n))
+        };
+        let Some(code) = code else { continue };
+        match client.enquire_code(code, if mc { 52 } else { 26 })? {
+            Some(t) => out.push(RawDescription {
+                number: p,
+                text: t.as_bytes().to_vec(),
+            }),
+            None => absent += 1,
+        }
+    }
+    Ok((out, absent))
+}
+
+/// Whether `raw` (32 bits as sent) is a value of `ty`.
+fn fits(ty: ParameterType, raw: u32) -> bool {
+    match ty {
+        ParameterType::Usign8 | ParameterType::Binary8 => raw <= 0xFF,
+        ParameterType::Integer16 => raw <= 0xFFFF || raw >= 0xFFFF_8000,
+        ParameterType::Usign16
+        | ParameterType::Fixpoint16
+        | ParameterType::Password
+        | ParameterType::VfError => raw <= 0xFFFF,
+        ParameterType::Int32Q16 | ParameterType::FloatIeee | ParameterType::McError => true,
+    }
+}
+
+/// The raw integer of a bound in `ty` (signed types sign-extended).
+fn signed(ty: ParameterType, raw: u32) -> i64 {
+    match ty {
+        ParameterType::Integer16 => i64::from(raw as u16 as i16),
+        ParameterType::Int32Q16 => i64::from(raw as i32),
+        _ => i64::from(raw),
+    }
+}
+
+/// The raw integer type the bounds need (an unknown type character).
+fn raw_type(bounds: [u32; 3], mc: bool) -> Option<ParameterType> {
+    if bounds.iter().all(|&b| b <= 0xFF) {
+        Some(ParameterType::Usign8)
+    } else if bounds.iter().all(|&b| b <= 0xFFFF) {
+        Some(ParameterType::Usign16)
+    } else if mc && bounds.iter().all(|&b| fits(ParameterType::Integer16, b)) {
+        Some(ParameterType::Integer16)
+    } else {
+        None
+    }
+}
+
+fn width_of(ty: ParameterType) -> u8 {
+    match ty {
+        ParameterType::Usign8 | ParameterType::Binary8 => 1,
+        ParameterType::Int32Q16 | ParameterType::FloatIeee | ParameterType::McError => 4,
+        _ => 2,
+    }
+}
+
+/// How well a type-character reading fits a drive's descriptions: one
+/// point per description whose character it knows and whose bounds the
+/// type holds in order, one more where the attribute agrees (ShowText is
+/// only allowed on PT_USIGN8, Password marks PT_PASSWORD).
+fn score(reading: &McTypeChars, raws: &[McRawDescription]) -> usize {
+    raws.iter()
+        .map(|r| {
+            let Some(ty) = reading.type_of(r.type_char) else {
+                return 0;
+            };
+            let mut s = 0;
+            if [r.min, r.max, r.default].into_iter().all(|b| fits(ty, b))
+                && ordered(ty, r.min, r.max)
+            {
+                s += 1;
+            }
+            if let Some(e) = r.extension {
+                let show = e.attributes.0 & Attributes::SHOW_TEXT.0 != 0;
+                let pw = e.attributes.0 & Attributes::PASSWORD.0 != 0;
+                if show && ty == ParameterType::Usign8 {
+                    s += 1;
+                }
+                if pw && ty == ParameterType::Password {
+                    s += 1;
+                }
+            }
+            s
+        })
+        .sum()
+}
+
+fn ordered(ty: ParameterType, min: u32, max: u32) -> bool {
+    if ty == ParameterType::FloatIeee {
+        let (a, b) = (f32::from_bits(min), f32::from_bits(max));
+        return a <= b;
+    }
+    signed(ty, min) <= signed(ty, max)
+}
+
+/// Fills `c`'s type and bounds from a description, downgrading what
+/// contradicts itself (module docs).
+fn set_bounds(
+    c: &mut LearnedCode,
+    ty: Option<ParameterType>,
+    bounds: [u32; 3],
+    mc: bool,
+    findings: &mut Vec<LearnFinding>,
+    type_char: u8,
+) {
+    let n = c.number;
+    let mut ty = ty;
+    if ty.is_none() {
+        ty = raw_type(bounds, mc);
+        let what = match ty {
+            Some(t) => format!(
+                "kept as a raw integer {} (the width its min/max/default need)",
+                t.name()
+            ),
+            None => "kept without a type (its min/max/default need 32 bits; LUSTBUS has no raw 32-bit type), so it is not read".to_string(),
+        };
+        let msg = format!(
+            "type character {} is not one driveset knows; {what}",
+            show_char(type_char)
+        );
+        c.guessed.push(msg.clone());
+        findings.push(LearnFinding {
+            number: n,
+            action: "downgraded",
+            reason: msg,
+        });
+    } else if let Some(t) = ty
+        && !bounds.iter().all(|&b| fits(t, b))
+    {
+        let down = raw_type(bounds, mc);
+        let msg = format!(
+            "its min/max/default ({:#X}, {:#X}, {:#X}) do not fit its type {}; {}",
+            bounds[0],
+            bounds[1],
+            bounds[2],
+            t.name(),
+            match down {
+                Some(d) => format!("type downgraded to the raw integer {}", d.name()),
+                None => "kept without a type, so it is not read".into(),
+            }
+        );
+        c.guessed.push(msg.clone());
+        findings.push(LearnFinding {
+            number: n,
+            action: "downgraded",
+            reason: msg,
+        });
+        ty = down;
+    }
+    c.ty = ty;
+    let Some(t) = ty else { return };
+    if matches!(
+        t,
+        ParameterType::Password | ParameterType::VfError | ParameterType::McError
+    ) {
+        return;
+    }
+    if !ordered(t, bounds[0], bounds[1]) {
+        let msg = format!(
+            "its minimum {} is above its maximum {}; range and default left out",
+            raw_to_engineering(value_type(t), signed(t, bounds[0])),
+            raw_to_engineering(value_type(t), signed(t, bounds[1]))
+        );
+        c.guessed.push(msg.clone());
+        findings.push(LearnFinding {
+            number: n,
+            action: "downgraded",
+            reason: msg,
+        });
+        return;
+    }
+    if t == ParameterType::FloatIeee
+        && [bounds[0], bounds[1], bounds[2]]
+            .iter()
+            .any(|b| !f32::from_bits(*b).is_finite())
+    {
+        return;
+    }
+    let (min, max, def) = (
+        signed(t, bounds[0]),
+        signed(t, bounds[1]),
+        signed(t, bounds[2]),
+    );
+    if (min, max) != (0, 0) {
+        c.min = Some(min);
+        c.max = Some(max);
+    }
+    let inside = if t == ParameterType::FloatIeee {
+        let d = f32::from_bits(bounds[2]);
+        f32::from_bits(bounds[0]) <= d && d <= f32::from_bits(bounds[1])
+    } else {
+        (min..=max).contains(&def)
+    };
+    if c.kind == StorageKind::RamActual {
+        return;
+    }
+    if inside || (min, max) == (0, 0) {
+        c.default = Some(def);
+    } else {
+        let msg = format!(
+            "its default {} is outside its range {}..{}; default left out",
+            raw_to_engineering(value_type(t), def),
+            raw_to_engineering(value_type(t), min),
+            raw_to_engineering(value_type(t), max)
+        );
+        c.guessed.push(msg.clone());
+        findings.push(LearnFinding {
+            number: n,
+            action: "downgraded",
+            reason: msg,
+        });
+    }
+}
+
+fn show_char(c: u8) -> String {
+    if (0x21..=0x7E).contains(&c) {
+        format!("'{}'", c as char)
+    } else {
+        format!("{c:#04x}")
+    }
+}
+
+fn value_type(t: ParameterType) -> ValueType {
+    ValueType::from_name(t.name()).unwrap_or(ValueType::PT_USIGN16)
+}
+
+fn new_code(number: u32, name: &str, kind: StorageKind) -> LearnedCode {
+    LearnedCode {
+        number,
+        name: name.to_string(),
+        ty: None,
+        unit: None,
+        unit_index: None,
+        kind,
+        basis: None,
+        card_writeable: None,
+        password: false,
+        show_text: None,
+        min: None,
+        max: None,
+        default: None,
+        texts: BTreeMap::new(),
+        guessed: Vec::new(),
+    }
+}
+
+/// Interprets the descriptions of a drive (pure; no bus). MC: each
+/// description's layout by length and content (or `opts.layout`); the
+/// type-character reading by which of driveset's and the table order fits
+/// more descriptions (ties: driveset's), or `opts.type_chars`.
+pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions) -> Learned {
+    let mut findings = Vec::new();
+    let mut codes = Vec::new();
+    let mut layouts = BTreeSet::new();
+    let mut hash = 0x811C_9DC5;
+    for r in raws {
+        hash = fnv1a(&r.number.to_le_bytes(), hash);
+        hash = fnv1a(&r.text, hash);
+    }
+    let mut type_chars = None;
+    let mut type_chars_guessed = false;
+    if protocol == Family::Mc6000 {
+        let mut decoded = Vec::new();
+        for r in raws {
+            let layout = match opts.layout {
+                Some(l) => Some(l),
+                None => McLayout::candidates(&r.text).into_iter().next(),
+            };
+            let d = match layout {
+                Some(l) => McRawDescription::decode(&r.text, l),
+                None => McLayout::ALL
+                    .into_iter()
+                    .find(|l| l.len() == r.text.len())
+                    .map_or(
+                        Err(DescriptionError::Length {
+                            family: driveset_proto::lustbus::Dialect::Mc,
+                            found: r.text.len(),
+                            expected: "52, 43, 42 or 34",
+                        }),
+                        |l| McRawDescription::decode(&r.text, l),
+                    ),
+            };
+            match d {
+                Ok(d) => {
+                    layouts.insert(d.layout);
+                    decoded.push((r.number, d));
+                }
+                Err(e) => findings.push(LearnFinding {
+                    number: r.number,
+                    action: "left out",
+                    reason: format!("its description does not decode: {e}"),
+                }),
+            }
+        }
+        let reading = match &opts.type_chars {
+            Some(t) => t.clone(),
+            None => {
+                let all: Vec<McRawDescription> = decoded.iter().map(|d| d.1).collect();
+                let (a, b) = (
+                    score(&McTypeChars::Driveset, &all),
+                    score(&McTypeChars::Table, &all),
+                );
+                type_chars_guessed = true;
+                if b > a {
+                    McTypeChars::Table
+                } else {
+                    McTypeChars::Driveset
+                }
+            }
+        };
+        for (number, d) in decoded {
+            let kind = match d.kind {
+                McKind::RamActual => StorageKind::RamActual,
+                McKind::RamControl => StorageKind::RamControl,
+                McKind::Eeprom => StorageKind::Eeprom,
+            };
+            let mut c = new_code(number, d.name.as_str(), kind);
+            c.unit_index = (d.unit != 0).then_some(d.unit);
+            if let Some(e) = d.extension {
+                c.show_text = Some(e.attributes.0 & Attributes::SHOW_TEXT.0 != 0);
+                c.password = e.attributes.0 & Attributes::PASSWORD.0 != 0;
+                c.card_writeable = e.activity_area().map(|a| a.card_exchange());
+                if matches!(d.layout, McLayout::Table43 | McLayout::Table42) {
+                    c.guessed.push(format!(
+                        "attribute and activity area read from the {}-character layout, one byte per printable character '0'+n (errata L22)",
+                        d.layout.len()
+                    ));
+                }
+            }
+            if type_chars_guessed && reading != McTypeChars::Driveset {
+                c.guessed.push(format!(
+                    "type character {} read in the {} reading (chosen by content, errata L23)",
+                    show_char(d.type_char),
+                    reading.name()
+                ));
+            }
+            let ty = reading.type_of(d.type_char);
+            set_bounds(
+                &mut c,
+                ty,
+                [d.min, d.max, d.default],
+                true,
+                &mut findings,
+                d.type_char,
+            );
+            if c.ty == Some(ParameterType::Password) {
+                c.password = true;
+            }
+            if c.show_text == Some(true) && c.ty != Some(ParameterType::Usign8) {
+                let msg = "it has the ShowText attribute but is not PT_USIGN8 (section 11.2.1 allows texts only on usign8); texts not read".to_string();
+                c.show_text = Some(false);
+                c.guessed.push(msg.clone());
+                findings.push(LearnFinding {
+                    number,
+                    action: "downgraded",
+                    reason: msg,
+                });
+            }
+            codes.push(c);
+        }
+        type_chars = Some(reading);
+    } else {
+        for r in raws {
+            let (d, unknown_type) = match VfDescription::decode(&r.text) {
+                Ok(d) => (Ok(d), None),
+                Err(DescriptionError::Type { offset, found, .. }) => {
+                    // Read the rest with a placeholder type; the character
+                    // is unknown (not '1'..'6').
+                    let mut t = r.text.clone();
+                    t[offset] = b'3';
+                    (VfDescription::decode(&t), Some(found))
+                }
+                Err(e) => (Err(e), None),
+            };
+            let d = match d {
+                Ok(d) => d,
+                Err(e) => {
+                    findings.push(LearnFinding {
+                        number: r.number,
+                        action: "left out",
+                        reason: format!("its description does not decode: {e}"),
+                    });
+                    continue;
+                }
+            };
+            let kind = match d.kind.storage {
+                VfStorage::RamActual => StorageKind::RamActual,
+                VfStorage::RamControl => StorageKind::RamControl,
+                VfStorage::Eeprom => StorageKind::Eeprom,
+                VfStorage::FselIsel => StorageKind::FselIsel,
+            };
+            let mut c = new_code(r.number, d.name.as_str().trim(), kind);
+            let unit = d.unit.as_str().trim().to_string();
+            c.unit = (!unit.is_empty()).then_some(unit);
+            c.basis = Some(!d.kind.inverter_specific);
+            let ty = if unknown_type.is_some() {
+                None
+            } else {
+                Some(d.ty)
+            };
+            set_bounds(
+                &mut c,
+                ty,
+                [u32::from(d.min), u32::from(d.max), u32::from(d.default)],
+                false,
+                &mut findings,
+                unknown_type.unwrap_or(d.ty.code()),
+            );
+            if c.ty == Some(ParameterType::Password) {
+                c.password = true;
+            }
+            codes.push(c);
+        }
+    }
+    Learned {
+        protocol,
+        layouts,
+        type_chars,
+        type_chars_guessed,
+        codes,
+        findings,
+        asked: raws.len(),
+        absent: 0,
+        texts_read: 0,
+        descriptions_hash: hash,
+    }
+}
+
+/// What 108-STEXT holds now (to set it back).
+fn read_stext<L: ByteLink>(client: &mut LustbusClient<L>) -> Result<u8, EngineError> {
+    let code = ParameterCode::mc_value(STEXT).unwrap_or(ParameterCode::POSMOD);
+    let v = client.enquire_code(code, 8)?;
+    Ok(v.and_then(|t| {
+        std::str::from_utf8(t.as_bytes())
+            .ok()
+            .and_then(|s| u32::from_str_radix(s, 16).ok())
+    })
+    .and_then(|n| u8::try_from(n).ok())
+    .unwrap_or(0))
+}
+
+/// Substitution text `index` of parameter `p` (section 11.3), `None` on
+/// NAK.
+fn substitution_text<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    p: u32,
+    index: u8,
+) -> Result<Option<String>, EngineError> {
+    client.select_stext(index)?;
+    let Some(code) = u16::try_from(p)
+        .ok()
+        .and_then(ParameterCode::substitution_text)
+    else {
+        return Ok(None);
+    };
+    Ok(client.enquire_code(code, 100)?.and_then(|t| {
+        decode_substitution_text(t.as_bytes())
+            .ok()
+            .map(str::to_string)
+    }))
+}
+
+/// MC: reads the unit strings (107-UNIT texts) and the value substitution
+/// texts of ShowText parameters (where the description does not carry the
+/// attribute, of every PT_USIGN8 parameter that answers text 0 or its
+/// minimum). Only the RAM selector 108-STEXT is written, and set back.
+pub fn read_texts<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    learned: &mut Learned,
+) -> Result<(), EngineError> {
+    if learned.protocol != Family::Mc6000 {
+        return Ok(());
+    }
+    let mut stext_old = None;
+    let mut units: BTreeMap<u8, Option<String>> = BTreeMap::new();
+    let mut read = 0;
+    for c in &mut learned.codes {
+        if let Some(u) = c.unit_index {
+            if let std::collections::btree_map::Entry::Vacant(slot) = units.entry(u) {
+                if stext_old.is_none() {
+                    stext_old = Some(read_stext(client)?);
+                }
+                let t = substitution_text(client, u32::from(UNIT), u)?;
+                slot.insert(t.filter(|t| !t.is_empty()));
+            }
+            c.unit = units.get(&u).cloned().flatten();
+        }
+        if c.ty != Some(ParameterType::Usign8) || c.show_text == Some(false) {
+            continue;
+        }
+        let lo = c.min.unwrap_or(0).clamp(0, 255);
+        let hi = c.max.unwrap_or(255).clamp(0, 255);
+        if stext_old.is_none() {
+            stext_old = Some(read_stext(client)?);
+        }
+        let mut seen = BTreeSet::new();
+        for i in lo..=hi {
+            match substitution_text(client, c.number, i as u8)? {
+                Some(t) if !t.is_empty() => {
+                    if seen.insert(t.clone()) {
+                        c.texts.insert(i, t);
+                        read += 1;
+                    }
+                }
+                // No ShowText attribute known: a NAK for the first value
+                // means the parameter has no texts.
+                _ if c.show_text.is_none() && i == lo => break,
+                _ => {}
+            }
+        }
+        if c.show_text.is_none() && !c.texts.is_empty() {
+            c.guessed.push(
+                "value texts found by asking for them (the description does not carry the ShowText attribute)".into(),
+            );
+        }
+    }
+    if let Some(old) = stext_old {
+        client.select_stext(old)?;
+    }
+    learned.texts_read = read;
+    Ok(())
+}
+
+/// Reads and interprets a drive's descriptions and texts.
+pub fn learn<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    protocol: Family,
+    opts: &LearnOptions,
+) -> Result<Learned, EngineError> {
+    let params = opts
+        .params
+        .clone()
+        .unwrap_or_else(|| default_params(protocol));
+    let (raws, absent) = read_descriptions(client, protocol, &params)?;
+    let mut learned = interpret(protocol, &raws, opts);
+    learned.asked = params.len();
+    learned.absent = absent;
+    if !opts.no_texts {
+        read_texts(client, &mut learned)?;
+    }
+    Ok(learned)
+}
+
+fn q(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
+/// Where a learned schema comes from, for its file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LearnSource {
+    /// `<port> address <a>`.
+    pub drive: String,
+    /// The drive's identity (for the header and `[schema.identify]`).
+    pub identity: Identity,
+}
+
+/// A rendered, checked learned schema.
+#[derive(Debug, Clone)]
+pub struct LearnedSchema {
+    /// Its id (also the file stem).
+    pub id: String,
+    /// The file text.
+    pub text: String,
+    /// The schema, parsed and checked.
+    pub schema: Arc<Schema>,
+    /// Codes in the file that came from the drive.
+    pub codes: usize,
+}
+
+/// Renders `learned` as a schema file extending `base` (merge rule in the
+/// module docs), parses and checks it, and leaves out any code the check
+/// objects to (recorded in `learned.findings`). `registry` must hold
+/// `base`.
+pub fn render_schema(
+    learned: &mut Learned,
+    base: &Schema,
+    id: &str,
+    source: &LearnSource,
+    registry: &Registry,
+) -> Result<LearnedSchema, String> {
+    let mut dropped: BTreeSet<u32> = BTreeSet::new();
+    for _ in 0..8 {
+        let (text, spans) = render_text(learned, base, id, source, &dropped);
+        let mut reg = registry.clone();
+        let parsed = reg.add_source(SourceFile::new(format!("{id}.toml"), text.clone()));
+        let objections: Vec<(usize, String)> = match parsed {
+            Ok(schema) => check_schema(&schema)
+                .into_iter()
+                .map(|f| (f.location.line, f.message))
+                .collect(),
+            Err(e) => vec![(e.location.line, e.message.clone())],
+        };
+        if objections.is_empty() {
+            let schema = reg
+                .get(id)
+                .ok_or_else(|| format!("learned schema {id} vanished"))?;
+            let codes = learned.codes.len() - dropped.len();
+            return Ok(LearnedSchema {
+                id: id.to_string(),
+                text,
+                schema,
+                codes,
+            });
+        }
+        let mut progress = false;
+        for (line, msg) in objections {
+            if let Some((n, _)) = spans.iter().find(|(_, r)| r.contains(&line))
+                && dropped.insert(*n)
+            {
+                learned.findings.push(LearnFinding {
+                    number: *n,
+                    action: "left out",
+                    reason: format!("the learned entry fails `schema check`: {msg}"),
+                });
+                progress = true;
+            } else if !progress {
+                return Err(format!(
+                    "the learned schema fails `schema check` at line {line}: {msg}"
+                ));
+            }
+        }
+    }
+    Err("the learned schema still fails `schema check` after leaving out codes".into())
+}
+
+/// The file text and the line range of each learned code's entry.
+fn render_text(
+    learned: &Learned,
+    base: &Schema,
+    id: &str,
+    source: &LearnSource,
+    dropped: &BTreeSet<u32>,
+) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
+    let mc = learned.protocol == Family::Mc6000;
+    let mut out = String::new();
+    let ident: Vec<String> = source
+        .identity
+        .codes
+        .iter()
+        .map(|(c, v)| format!("{c} = {v}"))
+        .collect();
+    let _ = writeln!(
+        out,
+        "# Schema learned by driveset from the drive's own parameter descriptions\n# (LUSTBUS section {}){}.",
+        if mc { "11.2" } else { "11.1" },
+        if mc {
+            " and substitution texts (section 11.3)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        out,
+        "# Drive: {}{}{}.",
+        source.drive,
+        if ident.is_empty() { "" } else { ", " },
+        ident.join(", ")
+    );
+    let _ = writeln!(
+        out,
+        "# Merge rule: extends `{}`; the built-in schema's spec facts stand, the\n# drive's descriptions fill in what it leaves unset. `# learned:` lists the\n# facts taken from the drive, `guessed:` what is a guess.",
+        base.id
+    );
+    if mc {
+        let _ = writeln!(
+            out,
+            "# Description layout(s): {}; type characters: {}{}.",
+            learned
+                .layouts
+                .iter()
+                .map(|l| l.name())
+                .collect::<Vec<_>>()
+                .join(", "),
+            learned
+                .type_chars
+                .as_ref()
+                .map_or_else(|| "-".to_string(), McTypeChars::name),
+            if learned.type_chars_guessed {
+                " (guessed from the content)"
+            } else {
+                " (given)"
+            }
+        );
+    }
+    let _ = writeln!(out, "\n[schema]");
+    let _ = writeln!(out, "id = {}", q(id));
+    let _ = writeln!(
+        out,
+        "title = {}",
+        q(&format!(
+            "{} learned from {}",
+            if mc { "MC6000/7000" } else { "VF1000" },
+            source.drive
+        ))
+    );
+    let _ = writeln!(out, "extends = {}", q(&base.id));
+    let _ = writeln!(
+        out,
+        "protocol = {}",
+        q(if mc { "lustbus-mc" } else { "lustbus-vf1000" })
+    );
+    let _ = writeln!(
+        out,
+        "spec = {}",
+        q(&format!(
+            "learned from the drive's descriptions ({}); spec facts from {}",
+            source.drive, base.id
+        ))
+    );
+    let ty_value = source
+        .identity
+        .codes
+        .iter()
+        .find(|(c, _)| c.starts_with("91"))
+        .and_then(|(_, v)| v.parse::<i64>().ok());
+    let _ = writeln!(out, "\n[schema.identify]\ncodes = [91]");
+    if let Some(t) = ty_value {
+        let _ = writeln!(out, "type_values = [{t}]");
+    }
+    let _ = writeln!(
+        out,
+        "note = {}",
+        q("learned: the TYPE the drive reported when its descriptions were read")
+    );
+    let mut names: BTreeSet<String> = base.codes.iter().map(|c| c.name.clone()).collect();
+    let mut spans = Vec::new();
+    for c in &learned.codes {
+        if dropped.contains(&c.number) {
+            continue;
+        }
+        let start = out.lines().count() + 1;
+        render_code(&mut out, c, base, &mut names, mc);
+        let end = out.lines().count() + 1;
+        spans.push((c.number, start..end));
+    }
+    (out, spans)
+}
+
+fn render_code(
+    out: &mut String,
+    c: &LearnedCode,
+    base: &Schema,
+    names: &mut BTreeSet<String>,
+    mc: bool,
+) {
+    let b = base.code(c.number);
+    let mut learned_facts: Vec<&str> = Vec::new();
+    let mut lines: Vec<String> = Vec::new();
+    let mut comments: Vec<String> = Vec::new();
+    lines.push(format!("number = {}", c.number));
+    match b {
+        Some(b) if !b.name.is_empty() => lines.push(format!("name = {}", q(&b.name))),
+        _ => {
+            let mut name: String = c
+                .name
+                .chars()
+                .filter(|ch| ch.is_ascii_alphanumeric() || *ch == '_' || *ch == '-')
+                .collect();
+            if name.is_empty()
+                || name.chars().all(|ch| ch.is_ascii_digit())
+                || name.starts_with(['C', 'c']) && name[1..].chars().all(|ch| ch.is_ascii_digit())
+            {
+                name = format!("P{}", c.number);
+            }
+            if names.contains(&name) {
+                name = format!("{name}_{}", c.number);
+            }
+            names.insert(name.clone());
+            lines.push(format!("name = {}", q(&name)));
+        }
+    }
+    if b.is_none_or(|b| b.title.is_none()) && !c.name.is_empty() {
+        lines.push(format!("title = {}", q(&c.name)));
+    }
+    if b.is_none_or(|b| b.spec.is_none()) {
+        lines.push(format!(
+            "spec = {}",
+            q(&format!(
+                "learned from the drive's description (LUSTBUS section {})",
+                if mc { "11.2" } else { "11.1" }
+            ))
+        ));
+    }
+    let base_type = b.and_then(|b| base.type_of(b));
+    let mut ty_ok = true;
+    match (base_type, c.ty) {
+        (None, Some(t)) => {
+            lines.push(format!("type = {}", q(t.name())));
+            learned_facts.push("type");
+        }
+        (Some(bt), Some(t)) if bt.name() != t.name() => {
+            comments.push(format!(
+                "# the drive describes it as {}; the spec's {} stands",
+                t.name(),
+                bt.name()
+            ));
+            ty_ok = false;
+        }
+        _ => {}
+    }
+    let eff_type = base_type.or_else(|| c.ty.and_then(|t| ValueType::from_name(t.name())));
+    if let Some(u) = &c.unit
+        && b.is_none_or(|b| b.unit.is_none())
+    {
+        lines.push(format!("unit = {}", q(u)));
+        learned_facts.push("unit");
+    }
+    if let (Some(vt), true) = (eff_type, ty_ok) {
+        let e = |raw: i64| q(&raw_to_engineering(vt, raw));
+        if let (Some(min), Some(max)) = (c.min, c.max)
+            && b.is_none_or(|b| b.min.is_none() && b.max.is_none())
+        {
+            lines.push(format!("min = {}", e(min)));
+            lines.push(format!("max = {}", e(max)));
+            learned_facts.push("min");
+            learned_facts.push("max");
+        }
+        if let Some(d) = c.default
+            && b.is_none_or(|b| b.default.is_none() && b.min.is_none() && b.max.is_none())
+        {
+            lines.push(format!("default = {}", e(d)));
+            learned_facts.push("default");
+        }
+    }
+    if c.kind == StorageKind::RamActual && b.is_none_or(|b| b.access.is_none()) {
+        lines.push("access = \"ro\"".into());
+        learned_facts.push("access");
+    }
+    if b.is_none_or(|b| b.kind.is_none()) {
+        lines.push(format!(
+            "kind = {}",
+            q(match c.kind {
+                StorageKind::RamActual => "ram-actual",
+                StorageKind::RamControl => "ram-control",
+                StorageKind::Eeprom => "eeprom",
+                StorageKind::FselIsel => "fsel-isel",
+            })
+        ));
+        learned_facts.push("kind");
+    }
+    if let Some(basis) = c.basis
+        && b.is_none_or(|b| b.basis.is_none())
+    {
+        lines.push(format!("basis = {basis}"));
+        learned_facts.push("basis");
+    }
+    if let Some(t) = c.ty
+        && ty_ok
+        && b.is_none_or(|b| b.width.is_none())
+    {
+        lines.push(format!("width = {}", width_of(t)));
+        learned_facts.push("width");
+    }
+    if let Some(cw) = c.card_writeable
+        && b.is_none_or(|b| b.card_writeable.is_none())
+    {
+        lines.push(format!("card_writeable = {cw}"));
+        learned_facts.push("card_writeable");
+    }
+    if c.password && b.is_none_or(|b| b.password.is_none()) {
+        lines.push("password = true".into());
+        learned_facts.push("password");
+    }
+    if b.is_none() && matches!(c.number, 81..=85 | 91) {
+        lines.push("compatible = true".into());
+    }
+    if b.is_none() && c.number == 85 {
+        lines.push("read_clears = true".into());
+    }
+    if !c.guessed.is_empty() {
+        let text = format!("guessed: {}", c.guessed.join("; "));
+        if b.is_none_or(|b| b.note.is_none()) {
+            lines.push(format!("note = {}", q(&text)));
+        } else {
+            comments.push(format!("# {}", text.replace('\n', " ")));
+        }
+    }
+    let texts = !c.texts.is_empty() && ty_ok && b.is_none_or(|b| b.values.is_none());
+    if texts {
+        lines.push("values_partial = true".into());
+        learned_facts.push("values");
+    }
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "# learned: {}",
+        if learned_facts.is_empty() {
+            "nothing (the spec gives every fact)".to_string()
+        } else {
+            learned_facts.join(", ")
+        }
+    );
+    for cm in &comments {
+        let _ = writeln!(out, "{cm}");
+    }
+    let _ = writeln!(out, "[[code]]");
+    for l in &lines {
+        let _ = writeln!(out, "{l}");
+    }
+    if texts {
+        let _ = writeln!(out, "\n[code.values]");
+        for (k, v) in &c.texts {
+            let _ = writeln!(out, "{k} = {}", q(v));
+        }
+    }
+}
