@@ -40,7 +40,6 @@
 //! (exit 2).
 
 use std::collections::BTreeMap;
-use std::io::Write as _;
 use std::sync::Arc;
 
 use anyhow::{anyhow, bail};
@@ -217,13 +216,11 @@ fn parse_int(key: &str, v: &str, what: &str) -> anyhow::Result<u32> {
 pub fn run(args: Args) -> anyhow::Result<u8> {
     match build(&args) {
         Ok((bytes, text)) => {
-            let mut out = std::io::stdout().lock();
             if args.raw {
-                out.write_all(&bytes)?;
+                crate::output::emit_bytes(&bytes);
             } else {
-                out.write_all(text.as_bytes())?;
+                crate::output::emit(&text);
             }
-            out.flush()?;
             Ok(EXIT_OK)
         }
         Err(e) => {

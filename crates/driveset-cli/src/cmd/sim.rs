@@ -39,7 +39,7 @@
 //! control).
 
 use std::fs::File;
-use std::io::{LineWriter, Write};
+use std::io::LineWriter;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -222,10 +222,8 @@ fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
 
 /// Print the one machine-readable line.
 fn announce(line: &str) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    writeln!(out, "{line}")
-        .and_then(|()| out.flush())
-        .context("cannot write to stdout")
+    crate::output::emit(&format!("{line}\n"));
+    Ok(())
 }
 
 fn describe(config: &SimConfig) -> String {
