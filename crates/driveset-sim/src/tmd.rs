@@ -34,7 +34,7 @@ use driveset_link::Instant;
 use driveset_proto::ascii::{self, ENQ, EOT, STX};
 use driveset_proto::lecom::codec::MAX_TEXT;
 use driveset_proto::lecom::{
-    CodeAddress, CodeBank, CommunicationError, ControllerAddress, ExtendedError, FrameError,
+    CodeAddress, CodeBank, CommunicationError, StandardAddressing, ControllerAddress, ExtendedError, FrameError,
     HostFrame, OperatingStatus, Response, StreamError, Telegram, TelegramDecoder, Value,
     ValueError,
 };
@@ -667,28 +667,23 @@ impl TmdDrive {
     // ----------------------------------------------------------------------
     // Addressing (8.A-8.D)
 
-    /// The table key a code field names. Standard addressing adds the code
-    /// bank offset 250 x C0249 (8.B; for numbers above 255 too: "the
-    /// code-number range increases correspondingly") and takes C0248 as
-    /// the subcode (8.C), except that 248 and 249 are always C0248 / C0249.
-    /// Extended addressing ignores both (8.D, Table 1 C0249).
+    /// The addressing state of C0249 / C0248 (8.B, 8.C).
+    fn addressing(&self) -> StandardAddressing {
+        StandardAddressing {
+            bank: u8::try_from(self.vd(C0249))
+                .ok()
+                .and_then(|b| CodeBank::new(b).ok())
+                .unwrap_or_default(),
+            input_selection: u8::try_from(self.vd(C0248)).unwrap_or(0),
+        }
+    }
+
+    /// The table key a code field names: [`StandardAddressing::resolve`]
+    /// under the drive's C0249 / C0248 (the one mapping `driveset decode`
+    /// uses as well).
     fn resolve(&self, code: CodeAddress) -> Result<CodeKey, Nak> {
-        let (number, sub) = match code {
-            CodeAddress::Standard(n) => {
-                let n = u32::from(n.get());
-                if n == C0248 || n == C0249 {
-                    (n, 0)
-                } else {
-                    let bank = u8::try_from(self.vd(C0249))
-                        .ok()
-                        .and_then(|b| CodeBank::new(b).ok())
-                        .unwrap_or_default();
-                    let sub = u32::try_from(self.vd(C0248)).unwrap_or(0);
-                    (u32::from(bank.offset()) + n, sub)
-                }
-            }
-            CodeAddress::Extended(e) => (u32::from(e.code), u32::from(e.subcode)),
-        };
+        let (number, sub) = self.addressing().resolve(code);
+        let (number, sub) = (u32::from(number), u32::from(sub));
         let key = if sub == 0 {
             CodeKey::new(number)
         } else {
