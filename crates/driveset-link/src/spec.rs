@@ -38,7 +38,7 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
 /// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
 /// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
+pub const SIM_OPTION_KEYS: &[&str] = &["c0001", "faults", "keypad", "seed", "state"];
 
 const SERIAL_KEYS: &[&str] = &["baud"];
 const TCP_KEYS: &[&str] = &["baud"];
@@ -48,6 +48,7 @@ const SIM_KEYS: &[&str] = &[
     "addresses",
     "baud",
     "bitrate",
+    "c0001",
     "faults",
     "keypad",
     "mc6000",

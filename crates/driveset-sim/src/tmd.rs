@@ -111,10 +111,11 @@ pub enum CfgReaction {
 pub struct TmdOptions {
     /// LECOM address, C0009 (§4c: 1..=99, not 10, 20, ... 90).
     pub address: u8,
-    /// C0001 as set at the keypad before LECOM use (§4e). Default 3
-    /// (control, programming and monitoring via LECOM); the factory value
-    /// of Table 1 is 0, in which LECOM may only read (and write C0040,
-    /// C0043, C0248, C0249).
+    /// C0001 as set at the keypad before LECOM use (§4e). Default 0, the
+    /// factory setting of Table 1, in which LECOM may only read (and write
+    /// C0040, C0043, C0248, C0249); 2 lets LECOM write parameters, 3 also
+    /// the control word (§4f). Tests and the demo line set what they need
+    /// ([`TmdOptions::c0001`], the `sim://tmd?c0001=3` port option).
     pub control_source: u8,
     /// Seed of the drive's random generator (reaction times).
     pub seed: u64,
@@ -132,7 +133,7 @@ impl Default for TmdOptions {
     fn default() -> Self {
         TmdOptions {
             address: 1,
-            control_source: 3,
+            control_source: 0,
             seed: 0,
             reaction: ReactionTime::TMD_ASSUMED,
             cfg_reaction: CfgReaction::Refuse,
@@ -147,6 +148,16 @@ impl TmdOptions {
         TmdOptions {
             address,
             ..TmdOptions::default()
+        }
+    }
+
+    /// These options with C0001 = `c0001` (as set at the keypad, §4e; 3 =
+    /// LECOM may program and control the drive).
+    #[must_use]
+    pub fn c0001(self, c0001: u8) -> Self {
+        TmdOptions {
+            control_source: c0001,
+            ..self
         }
     }
 }
