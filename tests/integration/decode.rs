@@ -90,7 +90,7 @@ fn lustbus_bad_bcc_and_garbage_exit_1() {
         .code(1)
         .stdout(r#"0..6        -               GARBAGE   6 byte(s) FF 00 6A 75 6E 6B belong to no telegram; skipped
 6..14       host -> drive   ENQUIRY   address 3 'C', code 00091 (91 TYPE)
-14..28      drive -> host   VALUE     address 3 'C', code 00091 (91 TYPE), value 1234, BCC bad: expected 0x02, found 0x00: BCC mismatch: the receiver discards this telegram
+14..28      drive -> host   VALUE     address 3 'C', code 00091 (91 TYPE), value 1234, BCC bad: expected 0x02, found 0x00: BCC mismatch: the host discards this reply; repeat the ENQUIRY
 28..29      host -> drive   EOT       end of transaction, every receiver resets
 "#)
         .stderr(r#""#);

@@ -326,7 +326,14 @@ fn mc6000_full_axis_set_over_a_pty_at_57600_baud() {
 
 #[test]
 fn tmd_upload_over_a_pty_with_lecom() {
-    let stdout = upload_over_pty("tmd", 13, "tests/data/sets/e2e/tmd-small.toml", &[], "");
+    let stdout = upload_over_pty(
+        "tmd",
+        13,
+        "tests/data/sets/e2e/tmd-small.toml",
+        // C0001 = 3 at the keypad: LECOM may program the drive (§4e)
+        &["--c0001", "3"],
+        "",
+    );
     // C0089 already holds 50 Hz: read back, not written.
     assert!(
         stdout.contains("address 13: complete (5 of 6 codes written"),

@@ -198,7 +198,7 @@ fn upload_tmd_json_report() {
             "upload",
             &set("parameter-sets/tmd/conveyor-3.toml"),
             "--port",
-            "sim://tmd?addresses=3",
+            "sim://tmd?addresses=3&c0001=3",
             "--address",
             "3",
             "--journal",

@@ -5,6 +5,24 @@
 //! Exit codes (DESIGN.md, "Output and errors"): 0 ok, 1 validation findings or
 //! differences, 2 usage or input error, 3 bus or device failure.
 
+// Every byte for stdout goes through `output::emit`, which handles a
+// closed stdout (EPIPE) in one place; `print!` would panic on it.
+#![deny(clippy::print_stdout)]
+
+/// `println!` through [`output::emit`] (closed-stdout safe).
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::output::emit(&format!("{}\n", format_args!($($t)*)))
+    };
+}
+
+/// `print!` through [`output::emit`] (closed-stdout safe).
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::output::emit(&format!($($t)*))
+    };
+}
+
 mod args;
 mod cmd;
 mod learning;

@@ -430,11 +430,35 @@ impl Report {
     }
 }
 
-/// Write to stdout; a closed pipe (`driveset ... | head`) is not an error.
+/// Set once stdout is found closed (EPIPE) or failing: later output is dropped.
+static STDOUT_GONE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Write to stdout. Every byte the binary prints goes through here (the
+/// crate denies `print!` / `println!`), so a closed stdout is handled in one
+/// place: a reader that went away (`driveset decode ... | head`, EPIPE /
+/// `BrokenPipe`) is not an error. The rest of the output is dropped
+/// quietly, the command finishes its work (an upload or commission is never
+/// cut short by a closed pipe) and exits with the code it would have had;
+/// no panic, no message. Any other write error (disk full on a redirect)
+/// is said once on stderr, and later output is dropped as well.
 pub fn emit(text: &str) {
+    emit_bytes(text.as_bytes());
+}
+
+/// [`emit`] for bytes (`encode --raw`).
+pub fn emit_bytes(bytes: &[u8]) {
     use std::io::Write as _;
+    use std::sync::atomic::Ordering;
+    if STDOUT_GONE.load(Ordering::Relaxed) {
+        return;
+    }
     let mut out = std::io::stdout().lock();
-    let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
+    if let Err(e) = out.write_all(bytes).and_then(|()| out.flush()) {
+        STDOUT_GONE.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("error: cannot write to stdout: {e}; the rest of the output is dropped");
+        }
+    }
 }
 
 /// Print an input error (human, to stderr) and return exit code 2.

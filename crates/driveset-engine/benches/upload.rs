@@ -49,9 +49,12 @@
 //!    run's exchanges, so that sum cannot exceed theirs. Reads and writes
 //!    are counted apart (a write is an exchange whose reply is an
 //!    acknowledgement), so an extra read never pushes out a write.
-//! 3. **Store time that cannot overlap.** MC6000 dataset: after SLOAD = -2
-//!    the drive checks and stores the staged values for width x 3 x 5 ms
-//!    each (section 10.2.2) and NAKs every SELECT meanwhile; the staged
+//! 3. **Check and store time that cannot overlap.** MC6000 dataset: after
+//!    SLOAD = -2 the drive checks the set (the simulator's FICTIONAL check
+//!    time, 20 ms + 1 ms per staged parameter; the spec gives none) and
+//!    stores the staged values for width x 3 x 5 ms each (section 10.2.2),
+//!    `driveset_sim::mc6000::dataset_busy_time`, reading SLOAD = -1 and
+//!    NAKing every SELECT meanwhile; the staged
 //!    values read back old until it is done and the DESIGN puts every other
 //!    write after the commit, so nothing useful overlaps it but the -2 ACK
 //!    and the final poll's request: `max(0, store - (1 ms + ACK + ENQUIRY))`.
@@ -202,10 +205,13 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
     let mut bound: Duration = reads.iter().take(n_reads).sum::<Duration>()
         + writes.iter().take(n_writes).sum::<Duration>();
     if !staged.is_empty() {
-        let store: Duration = staged
+        // the simulated drive's check + store time, from the one formula
+        // it runs (driveset_sim::mc6000::dataset_busy_time)
+        let widths: Vec<u32> = staged
             .iter()
-            .map(|w| Duration::from_millis(15 * u64::from(w.width.unwrap_or(4))))
-            .sum();
+            .map(|w| u32::from(w.width.unwrap_or(4)))
+            .collect();
+        let store = driveset_sim::mc6000::dataset_busy_time(&widths, true);
         let overlap = REACTION + wire_time(2, rig::BAUD) + wire_time(8, rig::BAUD);
         bound += store.saturating_sub(overlap);
     }

@@ -44,7 +44,7 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
 /// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
 /// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "layout", "seed", "state", "types"];
+pub const SIM_OPTION_KEYS: &[&str] = &["c0001", "faults", "keypad", "layout", "seed", "state", "types"];
 
 const SERIAL_KEYS: &[&str] = &["baud", "echo"];
 const TCP_KEYS: &[&str] = &["baud", "echo"];
@@ -54,6 +54,7 @@ const SIM_KEYS: &[&str] = &[
     "addresses",
     "baud",
     "bitrate",
+    "c0001",
     "faults",
     "keypad",
     "layout",

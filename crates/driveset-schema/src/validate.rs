@@ -128,6 +128,11 @@ pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
                 return format!("{{ {} }}", parts.join(", "));
             }
             let ty = schema.type_of(code).unwrap_or(ValueType::PT_MC_ERROR);
+            if schema.type_of(code).is_some()
+                && let Some(fields) = value::error_fields(ty, *i)
+            {
+                return fields;
+            }
             let num = raw_to_engineering(ty, *i);
             match &code.unit {
                 Some(u) => format!("{num} {u}"),
@@ -186,6 +191,14 @@ fn conv_err(schema: &Schema, code: &Code, text: &str, e: ConvError) -> ValueErr 
                 verr(
                     FindingKind::OutOfRange,
                     format!("{what} = {text} is negative, but {ty} is unsigned"),
+                    format!("give a value from {min} to {max}"),
+                )
+            } else if ty == "PT_FLOAT_IEEE" {
+                verr(
+                    FindingKind::OutOfRange,
+                    format!(
+                        "{what} = {text} is outside the f32 range of PT_FLOAT_IEEE ({min} ..= {max})"
+                    ),
                     format!("give a value from {min} to {max}"),
                 )
             } else {
@@ -293,11 +306,16 @@ fn scalar_to_raw(
             if let Some(v) = schema.enum_value(code, s) {
                 return Ok(RawValue::Int(v));
             }
+            // a quoted radix literal (`C0068 = "0x0900"`, docs/file-formats.md)
+            if parse_radix_int(s.trim()).is_some() {
+                return number_to_raw(schema, code, ty, s.trim()).map(RawValue::Int);
+            }
             let (num, unit) = split_unit(s);
             let looks_numeric = !num.is_empty()
                 && (parse_radix_int(num).is_some()
                     || Decimal::parse(num).is_ok()
-                    || (ty == ValueType::PT_FLOAT_IEEE && float_text_to_raw(num).is_ok()));
+                    || (ty == ValueType::PT_FLOAT_IEEE
+                        && !matches!(float_text_to_raw(num), Err(None))));
             if !looks_numeric {
                 if let Some(e) = enum_def {
                     return Err(verr(

@@ -216,6 +216,39 @@ impl ValueType {
     }
 }
 
+/// The fields of a PT_VF_ERROR / PT_MC_ERROR raw value as shown to people:
+/// `{ number = 3, time = 12 }` (VF1000, §2.3.1: number = high byte, time =
+/// low byte; errata L17), `{ number = 3, location = 2, time = 1234 }`
+/// (MC, §2.3.2: `number << 24 | location << 16 | time`; errata L19). A VF
+/// number of 15 or FFh adds `(no error)` (§2.3.1 note; errata L18). The
+/// same layout as `driveset_proto::lustbus::{VfError, McError}` (a test in
+/// driveset-engine checks that they agree). `None` for other types or a raw
+/// value outside the type.
+pub fn error_fields(ty: ValueType, raw: i64) -> Option<String> {
+    match ty {
+        ValueType::PT_VF_ERROR => {
+            let r = u16::try_from(raw).ok()?;
+            let (number, time) = (r >> 8, r & 0xFF);
+            let none = if number == 15 || number == 0xFF {
+                " (no error)"
+            } else {
+                ""
+            };
+            Some(format!("{{ number = {number}, time = {time} }}{none}"))
+        }
+        ValueType::PT_MC_ERROR => {
+            let r = u32::try_from(raw).ok()?;
+            Some(format!(
+                "{{ number = {}, location = {}, time = {} }}",
+                r >> 24,
+                (r >> 16) & 0xFF,
+                r & 0xFFFF
+            ))
+        }
+        _ => None,
+    }
+}
+
 /// Engineering text of a raw integer value (exact; PT_FLOAT_IEEE shows the
 /// shortest decimal that reads back to the same f32).
 pub fn raw_to_engineering(ty: ValueType, raw: i64) -> String {
@@ -284,7 +317,8 @@ pub fn decimal_to_raw(ty: ValueType, width: Option<u8>, value: &Decimal) -> Resu
 /// The engineering range of a type as texts (for messages).
 pub fn engineering_range(ty: ValueType, width: Option<u8>) -> (String, String) {
     if ty == ValueType::PT_FLOAT_IEEE {
-        return (format_f32(f32::MIN), format_f32(f32::MAX));
+        // the f32 range, in the exponent form sets accept (f32::MAX)
+        return ("-3.4028235e38".into(), "3.4028235e38".into());
     }
     match ty.raw_range(width) {
         Some((lo, hi)) => (raw_to_engineering(ty, lo), raw_to_engineering(ty, hi)),

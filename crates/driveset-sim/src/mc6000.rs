@@ -41,6 +41,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 use driveset_link::Instant;
+use driveset_proto::lustbus::timing::mc_eeprom_store_ms;
 use driveset_proto::lustbus::{CodeMeaning, ParameterCode, Siof, ValueText};
 use driveset_schema::canonical::CodeKey;
 use driveset_schema::schema::{Access, Rule, StorageKind};
@@ -62,6 +63,32 @@ pub const STEXT: u32 = 108;
 /// 101-MAINV (both invented parameters of the fixture). A violation
 /// rejects the set with SLOAD = 102.
 pub const FICTIONAL_RULE: (u32, u32) = (102, 101);
+
+/// FICTIONAL time the plausibility check of a dataset takes before the
+/// store starts (section 11.4 gives none, only the 10 s the host polls):
+/// a fixed 20 ms plus 1 ms per staged parameter. Also the time a rejected
+/// set reads -1 before SLOAD shows the parameter number.
+pub fn dataset_check_time(staged: usize) -> Duration {
+    Duration::from_millis(20 + staged as u64)
+}
+
+/// How long SLOAD reads -1 after `SLOAD = -2` (section 11.4: "still busy
+/// testing and saving"): [`dataset_check_time`], then for an accepted set
+/// the EEPROM store of every staged parameter, width x 3 x 5 ms each
+/// (sections 3, 10.2.2; `mc_eeprom_store_ms`; errata L33). `widths` are
+/// the staged parameters' byte widths. The engine's upload benchmark takes
+/// its bound's non-overlapping store time from here.
+pub fn dataset_busy_time(widths: &[u32], accepted: bool) -> Duration {
+    let store: u64 = if accepted {
+        widths
+            .iter()
+            .map(|w| u64::from(mc_eeprom_store_ms(*w)))
+            .sum()
+    } else {
+        0
+    };
+    dataset_check_time(widths.len()) + Duration::from_millis(store)
+}
 
 /// Where the SLOAD handshake stands.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -86,12 +113,13 @@ enum Sload {
 /// cannot be started). `80 = -2` ends the transfer (without a download:
 /// NAK 0x40) and starts the check of the complete staged set: every value
 /// within its min/max, plus [`FICTIONAL_RULE`]; the first invalid parameter
-/// is the lowest-numbered one. SLOAD reads -1 while checking and storing:
-/// for an accepted set that is the EEPROM store time of the staged values
-/// (width x 3 x 5 ms each, section 10.2.2), after which the values are in
-/// RAM and EEPROM and SLOAD reads 0; a rejected set is known at once
-/// (nothing is stored): SLOAD reads the parameter number and the old set
-/// stays active. Every SELECT during checking/storing is NAKed with SERR
+/// is the lowest-numbered one. SLOAD reads -1 while checking and storing
+/// ([`dataset_busy_time`]): the check ([`dataset_check_time`], FICTIONAL:
+/// 20 ms + 1 ms per staged parameter), then for an accepted set the EEPROM
+/// store of the staged values (width x 3 x 5 ms each, sections 3, 10.2.2),
+/// after which the values are in RAM and EEPROM and SLOAD reads 0; a
+/// rejected set reads -1 for the check time only (nothing is stored), then
+/// the parameter number, and the old set stays active. Every SELECT during checking/storing is NAKed with SERR
 /// 0x04 (EEPROM busy). A power cycle loses a staged or unstored set.
 #[derive(Debug)]
 pub struct Mc6000 {
@@ -187,17 +215,14 @@ impl Mc6000 {
                 let Sload::Staging(staged) = std::mem::replace(&mut self.sload, Sload::Idle) else {
                     return Answer::Refuse(Siof::NO_CHANGE);
                 };
-                let (until, result) = match self.check(&staged) {
-                    Ok(()) => {
-                        let ms: u64 = staged
-                            .keys()
-                            .filter_map(|n| self.core.param(*n))
-                            .map(|p| u64::from(p.byte_width()) * 15)
-                            .sum();
-                        (now.saturating_add(Duration::from_millis(ms)), Ok(staged))
-                    }
-                    Err(n) => (now, Err(n)),
-                };
+                let widths: Vec<u32> = staged
+                    .keys()
+                    .filter_map(|n| self.core.param(*n))
+                    .map(|p| u32::from(p.byte_width()))
+                    .collect();
+                let result = self.check(&staged).map(|()| staged);
+                let busy = dataset_busy_time(&widths, result.is_ok());
+                let until = now.saturating_add(busy);
                 self.sload = Sload::Checking { until, result };
                 self.sload_value(-1);
                 Answer::Ack {

@@ -30,6 +30,11 @@
 //!   it; default 0. The same seed and the same host traffic give the same
 //!   bytes at the same virtual instants.
 //! - `faults=PLAN`: the [`FaultPlan`] grammar (`crate::faults`).
+//! - `c0001=N` (Tmd, 0..=11): C0001 as set at the drive's keypad before
+//!   LECOM use (lecom-ab-tmd-manual.txt §4e). Default 0, Table 1's factory
+//!   setting, in which LECOM may only read (and write C0040, C0043, C0248,
+//!   C0249); `c0001=2` lets LECOM program the drive, `c0001=3` also control
+//!   it (§4f).
 //! - `keypad=true|false`: LUSTBUS families with a KEYPAD attached (slower
 //!   reactions, section 10). Not (yet) a key `driveset-link` accepts in a
 //!   port string; [`SimConfig::keypad`] is set by `driveset sim --keypad`.
@@ -101,7 +106,7 @@ pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
 pub const STATE_FORMAT: &str = "driveset-sim-state 1";
 
 /// The option keys [`SimConfig::from_spec`] understands.
-pub const OPTION_KEYS: &[&str] = &["faults", "keypad", "layout", "seed", "state", "types"];
+pub const OPTION_KEYS: &[&str] = &["c0001", "faults", "keypad", "layout", "seed", "state", "types"];
 
 /// Why a simulated bus could not be opened, loaded or saved.
 #[derive(Debug, thiserror::Error)]
@@ -291,6 +296,8 @@ pub struct SimConfig {
     /// MC6000/7000: the type characters of their descriptions
     /// (`types=driveset|table|C=TYPE,...`, errata L23).
     pub type_chars: McTypeChars,
+    /// Tmd: C0001 as set at the keypad (§4e); `None` = Table 1's 0.
+    pub c0001: Option<u8>,
 }
 
 impl SimConfig {
@@ -309,6 +316,7 @@ impl SimConfig {
             state: None,
             description_layout: McLayout::Hex52,
             type_chars: McTypeChars::Driveset,
+            c0001: None,
         }
     }
 
@@ -385,6 +393,15 @@ impl SimConfig {
                         .ok_or_else(|| bad("use 52, 43, 42 or 34 (errata L22)"))?;
                 }
                 "types" => config.type_chars = McTypeChars::parse(value).map_err(|e| bad(&e))?,
+                "c0001" => {
+                    config.c0001 = Some(
+                        value
+                            .parse::<u8>()
+                            .ok()
+                            .filter(|v| *v <= 11)
+                            .ok_or_else(|| bad("C0001 takes 0..=11 (Table 1; §4e)"))?,
+                    );
+                }
                 _ => return Err(SimOpenError::UnknownOption { key: key.clone() }),
             }
         }
@@ -453,6 +470,7 @@ impl SimConfig {
                 Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Tmd => TmdDrive::new(TmdOptions {
                     seed,
+                    control_source: self.c0001.unwrap_or(0),
                     ..TmdOptions::at(address)
                 })
                 .map(|d| Box::new(d) as Box<dyn ByteDrive>),

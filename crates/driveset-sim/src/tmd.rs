@@ -34,7 +34,7 @@ use driveset_link::Instant;
 use driveset_proto::ascii::{self, ENQ, EOT, STX};
 use driveset_proto::lecom::codec::MAX_TEXT;
 use driveset_proto::lecom::{
-    CodeAddress, CodeBank, CommunicationError, ControllerAddress, ExtendedError, FrameError,
+    CodeAddress, CodeBank, CommunicationError, StandardAddressing, ControllerAddress, ExtendedError, FrameError,
     HostFrame, OperatingStatus, Response, StreamError, Telegram, TelegramDecoder, Value,
     ValueError,
 };
@@ -111,10 +111,11 @@ pub enum CfgReaction {
 pub struct TmdOptions {
     /// LECOM address, C0009 (§4c: 1..=99, not 10, 20, ... 90).
     pub address: u8,
-    /// C0001 as set at the keypad before LECOM use (§4e). Default 3
-    /// (control, programming and monitoring via LECOM); the factory value
-    /// of Table 1 is 0, in which LECOM may only read (and write C0040,
-    /// C0043, C0248, C0249).
+    /// C0001 as set at the keypad before LECOM use (§4e). Default 0, the
+    /// factory setting of Table 1, in which LECOM may only read (and write
+    /// C0040, C0043, C0248, C0249); 2 lets LECOM write parameters, 3 also
+    /// the control word (§4f). Tests and the demo line set what they need
+    /// ([`TmdOptions::c0001`], the `sim://tmd?c0001=3` port option).
     pub control_source: u8,
     /// Seed of the drive's random generator (reaction times).
     pub seed: u64,
@@ -132,7 +133,7 @@ impl Default for TmdOptions {
     fn default() -> Self {
         TmdOptions {
             address: 1,
-            control_source: 3,
+            control_source: 0,
             seed: 0,
             reaction: ReactionTime::of(Family::Tmd, false),
             cfg_reaction: CfgReaction::Refuse,
@@ -147,6 +148,16 @@ impl TmdOptions {
         TmdOptions {
             address,
             ..TmdOptions::default()
+        }
+    }
+
+    /// These options with C0001 = `c0001` (as set at the keypad, §4e; 3 =
+    /// LECOM may program and control the drive).
+    #[must_use]
+    pub fn c0001(self, c0001: u8) -> Self {
+        TmdOptions {
+            control_source: c0001,
+            ..self
         }
     }
 }
@@ -667,28 +678,23 @@ impl TmdDrive {
     // ----------------------------------------------------------------------
     // Addressing (8.A-8.D)
 
-    /// The table key a code field names. Standard addressing adds the code
-    /// bank offset 250 x C0249 (8.B; for numbers above 255 too: "the
-    /// code-number range increases correspondingly") and takes C0248 as
-    /// the subcode (8.C), except that 248 and 249 are always C0248 / C0249.
-    /// Extended addressing ignores both (8.D, Table 1 C0249).
+    /// The addressing state of C0249 / C0248 (8.B, 8.C).
+    fn addressing(&self) -> StandardAddressing {
+        StandardAddressing {
+            bank: u8::try_from(self.vd(C0249))
+                .ok()
+                .and_then(|b| CodeBank::new(b).ok())
+                .unwrap_or_default(),
+            input_selection: u8::try_from(self.vd(C0248)).unwrap_or(0),
+        }
+    }
+
+    /// The table key a code field names: [`StandardAddressing::resolve`]
+    /// under the drive's C0249 / C0248 (the one mapping `driveset decode`
+    /// uses as well).
     fn resolve(&self, code: CodeAddress) -> Result<CodeKey, Nak> {
-        let (number, sub) = match code {
-            CodeAddress::Standard(n) => {
-                let n = u32::from(n.get());
-                if n == C0248 || n == C0249 {
-                    (n, 0)
-                } else {
-                    let bank = u8::try_from(self.vd(C0249))
-                        .ok()
-                        .and_then(|b| CodeBank::new(b).ok())
-                        .unwrap_or_default();
-                    let sub = u32::try_from(self.vd(C0248)).unwrap_or(0);
-                    (u32::from(bank.offset()) + n, sub)
-                }
-            }
-            CodeAddress::Extended(e) => (u32::from(e.code), u32::from(e.subcode)),
-        };
+        let (number, sub) = self.addressing().resolve(code);
+        let (number, sub) = (u32::from(number), u32::from(sub));
         let key = if sub == 0 {
             CodeKey::new(number)
         } else {

@@ -434,13 +434,24 @@ fn sload_accepted_set_lands_after_the_store_time() {
         ],
     );
     assert!(!h.d.running());
-    // Checking and storing: 15 + 30 ms; SLOAD reads -1, old values active,
-    // SELECTs refused as EEPROM busy.
+    // Checking (FICTIONAL 20 ms + 1 ms per staged parameter: 22 ms) and
+    // storing (1 and 2 bytes x 3 x 5 ms = 15 + 30 ms): SLOAD reads -1, old
+    // values active, SELECTs refused as EEPROM busy.
+    let busy = driveset_sim::mc6000::dataset_busy_time(&[1, 2], true);
+    assert_eq!(busy, Duration::from_millis(67));
+    assert_eq!(
+        driveset_sim::mc6000::dataset_busy_time(&[1, 2], false),
+        Duration::from_millis(22)
+    );
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "FFFF"));
     assert_eq!(raw(&h, 100), 1);
     assert_eq!(h.bytes(&sel(0, 20416, "0")), nak(0));
     assert_eq!(mc_serr(&mut h), val(0, 85, "04"));
-    h.wait(Duration::from_millis(45));
+    // the host polls: still -1 after the check time alone
+    h.wait(Duration::from_millis(22));
+    assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "FFFF"));
+    assert_eq!(raw(&h, 100), 1);
+    h.wait(busy);
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "0000"));
     assert_eq!((raw(&h, 100), raw(&h, 101), raw(&h, 103)), (2, 450, 790));
     assert_eq!(h.bytes(&sel(0, 20416, "1")), ack(0));
@@ -452,14 +463,19 @@ fn sload_rejected_set_reports_first_invalid_parameter() {
     let mut h = mc();
     // Out of range: 300-CFCON = 9 (max 7) and 417-RSSL1 = 8.
     sload_session(&mut h, &[(20100, "2"), (20417, "8"), (20300, "9")]);
+    // -1 while it checks (20 ms + 3 x 1 ms), then the first invalid number
+    assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "FFFF"));
+    h.wait(Duration::from_millis(23));
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "012C"));
     assert_eq!((raw(&h, 100), raw(&h, 300), raw(&h, 417)), (1, 2, 3));
     // The FICTIONAL cross rule: UVLIM (320) above MAINV (230).
     sload_session(&mut h, &[(20100, "2"), (20101, "E6")]);
+    h.wait(Duration::from_millis(22));
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "0066"));
     assert_eq!((raw(&h, 100), raw(&h, 101)), (1, 400));
     // Nothing of the rejected sets survives: an empty download is accepted.
     sload_session(&mut h, &[]);
+    h.wait(Duration::from_millis(20));
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "0000"));
     assert_eq!((raw(&h, 100), raw(&h, 101), raw(&h, 300)), (1, 400, 2));
 }

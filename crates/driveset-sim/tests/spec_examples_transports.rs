@@ -214,7 +214,7 @@ fn drive_for(ex: &Example) -> Box<dyn ByteDrive> {
         Family::Tmd => Box::new(
             TmdDrive::new(TmdOptions {
                 reaction: ReactionTime::fixed(Duration::from_millis(5)),
-                ..TmdOptions::at(ex.address)
+                ..TmdOptions::at(ex.address).c0001(3)
             })
             .unwrap(),
         ),

@@ -106,7 +106,7 @@ impl Line {
 fn drive(address: u8) -> TmdDrive {
     TmdDrive::new(TmdOptions {
         reaction: ReactionTime::fixed(Duration::from_millis(5)),
-        ..TmdOptions::at(address)
+        ..TmdOptions::at(address).c0001(3)
     })
     .unwrap()
 }
@@ -442,7 +442,7 @@ fn c0007_equal_inputs_are_refused_by_default() {
 fn c0007_equal_inputs_trip_cfg_when_configured() {
     let mut d = TmdDrive::new(TmdOptions {
         cfg_reaction: CfgReaction::Trip,
-        ..TmdOptions::at(1)
+        ..TmdOptions::at(1).c0001(3)
     })
     .unwrap();
     let mut l = Line::new();
@@ -674,7 +674,7 @@ fn power_cycle_keeps_values_and_resets_bank_and_selection() {
 fn state_poke_and_reaction_time() {
     let mut d = TmdDrive::new(TmdOptions {
         seed: 7,
-        ..TmdOptions::at(1)
+        ..TmdOptions::at(1).c0001(3)
     })
     .unwrap();
     let s = d.state();
@@ -697,7 +697,7 @@ fn state_poke_and_reaction_time() {
     // Reaction times: within TMD_ASSUMED, the same for the same seed.
     let mut e = TmdDrive::new(TmdOptions {
         seed: 7,
-        ..TmdOptions::at(1)
+        ..TmdOptions::at(1).c0001(3)
     })
     .unwrap();
     for _ in 0..20 {

@@ -186,9 +186,9 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
     }
-    print!("{}", summary(&outcome, mode));
+    out!("{}", summary(&outcome, mode));
     match report::write_reports(&outcome.report, &report_dir) {
-        Ok((json, html)) => println!("report: {} {}", json.display(), html.display()),
+        Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
         Err(e) => {
             eprintln!(
                 "error: cannot write the report into {}: {e}",

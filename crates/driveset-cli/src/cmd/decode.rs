@@ -161,6 +161,11 @@ pub(crate) fn builtin_registry() -> anyhow::Result<Registry> {
         .map_err(|e| anyhow::anyhow!("built-in schemas: {}", e.render_human()))
 }
 
+/// The most bytes `decode` reads from a file or stdin (16 MiB: at 57600
+/// baud that is 48 minutes of traffic), so `--raw -` fed from an endless
+/// stream ends with an error instead of filling memory.
+pub const MAX_CAPTURE_BYTES: u64 = 16 * 1024 * 1024;
+
 fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
     if let Some(h) = &args.hex {
         if args.raw {
@@ -182,12 +187,29 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
     let (bytes, name) = if file.as_os_str() == "-" {
         let mut b = Vec::new();
         std::io::stdin()
+            .lock()
+            .take(MAX_CAPTURE_BYTES + 1)
             .read_to_end(&mut b)
             .context("cannot read stdin")?;
+        if b.len() as u64 > MAX_CAPTURE_BYTES {
+            bail!(
+                "<stdin>: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts"
+            );
+        }
         (b, "<stdin>".to_string())
     } else {
-        let b = std::fs::read(file)
-            .with_context(|| format!("cannot read capture file {}", file.display()))?;
+        let b = driveset_schema::error::read_regular_file(
+            file,
+            MAX_CAPTURE_BYTES,
+            "bus captures",
+        )
+        .map_err(|e| match e.kind {
+            driveset_schema::InputErrorKind::TooLarge => anyhow::anyhow!(
+                "{}: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts",
+                file.display()
+            ),
+            _ => anyhow::anyhow!("{}; {}", e.message, e.help),
+        })?;
         (b, file.display().to_string())
     };
     if args.raw {
@@ -308,7 +330,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     if events.is_empty() && args.format == OutputFormat::Text {
         out.push_str("(no bytes)\n");
     }
-    print!("{out}");
+    crate::output::emit(&out);
     let bad = events.iter().any(|e| e.error.is_some());
     Ok(if bad { EXIT_FINDINGS } else { EXIT_OK })
 }

@@ -40,7 +40,6 @@
 //! (exit 2).
 
 use std::collections::BTreeMap;
-use std::io::Write as _;
 use std::sync::Arc;
 
 use anyhow::{anyhow, bail};
@@ -217,13 +216,11 @@ fn parse_int(key: &str, v: &str, what: &str) -> anyhow::Result<u32> {
 pub fn run(args: Args) -> anyhow::Result<u8> {
     match build(&args) {
         Ok((bytes, text)) => {
-            let mut out = std::io::stdout().lock();
             if args.raw {
-                out.write_all(&bytes)?;
+                crate::output::emit_bytes(&bytes);
             } else {
-                out.write_all(text.as_bytes())?;
+                crate::output::emit(&text);
             }
-            out.flush()?;
             Ok(EXIT_OK)
         }
         Err(e) => {
@@ -454,8 +451,18 @@ fn lust_value(
                 ),
             })?
         }
-        Repr::Float => driveset_schema::value::float_text_to_raw(v)
-            .map_err(|_| anyhow!("value={v}: not a finite decimal for {}", ty.name()))?,
+        Repr::Float => driveset_schema::value::float_text_to_raw(v).map_err(|e| match e {
+            Some(_) => {
+                let (min, max) =
+                    driveset_schema::value::engineering_range(vt, None);
+                anyhow!(
+                    "value={v}: outside the f32 range of {} ({}): {min} to {max}",
+                    schema.display_code(number, None),
+                    ty.name()
+                )
+            }
+            None => anyhow!("value={v}: not a finite decimal for {}", ty.name()),
+        })?,
         _ => bail!("value={v}: type {} takes raw hex (value=0x...)", ty.name()),
     };
     let pv = ParameterValue::from_raw(ty, raw as u32 & mask(ty))
@@ -489,6 +496,19 @@ fn lecom_code(c: &str) -> anyhow::Result<CodeAddress> {
     Ok(CodeAddress::select(n, s))
 }
 
+/// A decimal written with an exponent (`1e-4`, `2.5E3`), as sets accept
+/// it (docs/file-formats.md), as the plain decimal of the same exact number
+/// (`0.0001`): the wire formats (LECOM VD, 8.E; FIX32 text) have no
+/// exponent. `None` when `v` has no exponent or is not such a number.
+fn without_exponent(v: &str) -> Option<String> {
+    if !v.contains(['e', 'E'])
+        || !v.starts_with(|c: char| c.is_ascii_digit() || matches!(c, '-' | '+' | '.'))
+    {
+        return None;
+    }
+    Decimal::parse(v).ok().map(|d| d.to_string())
+}
+
 fn lecom_value(v: &str, code: CodeAddress, schema: Option<&Schema>) -> anyhow::Result<Value> {
     if let Some(h) = v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
         let raw = u32::from_str_radix(h, 16).map_err(|_| anyhow!("value={v}: not a hex number"))?;
@@ -510,6 +530,11 @@ fn lecom_value(v: &str, code: CodeAddress, schema: Option<&Schema>) -> anyhow::R
         return hex
             .map(Value::Hex)
             .ok_or_else(|| anyhow!("value={v}: does not fit {width} byte(s) of VH"));
+    }
+    if let Some(plain) = without_exponent(v) {
+        return Value::parse(plain.as_bytes()).map_err(|e| {
+            anyhow!("value={v} (= {plain}): {e}; VD has at most 6 integer digits and 4 decimals (8.E)")
+        });
     }
     Value::parse(v.as_bytes()).map_err(|e| {
         anyhow!("value={v}: {e}; valid: 95.2 (VD), H0900 or 0x0900 (VH), Stext (VS), O0102 (VO)")
@@ -628,7 +653,8 @@ fn sdo(
             if format == ValueFormat::BitCoded {
                 bail!("value={v}: {code} is bit-coded; give it in hex (value=0x0001)");
             }
-            LenzeValue::Fix32(Fix32::from_decimal_str(v).map_err(|e| {
+            let plain = without_exponent(v);
+            LenzeValue::Fix32(Fix32::from_decimal_str(plain.as_deref().unwrap_or(v)).map_err(|e| {
                 anyhow!("value={v}: {e}; FIX32 takes a decimal with up to 4 decimals, -214748.3648..214748.3647, or raw hex 0x...")
             })?)
         };

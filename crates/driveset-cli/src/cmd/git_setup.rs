@@ -169,7 +169,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         eprintln!("error: {e}");
         return Ok(crate::EXIT_INPUT);
     }
-    println!(
+    outln!(
         "git config {scope} diff.driveset.textconv \"{}\"",
         command.replace('"', "\\\"")
     );
@@ -186,20 +186,20 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             };
             let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
             match merge_attributes(&existing, &want) {
-                None => println!("{}: up to date", path.display()),
+                None => outln!("{}: up to date", path.display()),
                 Some(text) => {
                     if let Err(e) = std::fs::write(&path, text) {
                         eprintln!("error: cannot write {}: {e}", path.display());
                         return Ok(crate::EXIT_INPUT);
                     }
-                    println!(
+                    outln!(
                         "{}: set files use the driveset diff driver (commit this file)",
                         path.display()
                     );
                 }
             }
         }
-        None => println!(
+        None => outln!(
             "not in a git work tree: add `{}` to each repository's .gitattributes",
             attribute_lines("parameter-sets")[0]
         ),

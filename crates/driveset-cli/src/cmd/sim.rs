@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
-//!              [--baud 9600] [--bitrate 500000] [--keypad] [--faults PLAN]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--faults PLAN]
 //!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
 //! ```
 //!
@@ -44,7 +44,7 @@
 //! control).
 
 use std::fs::File;
-use std::io::{LineWriter, Write};
+use std::io::LineWriter;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -117,6 +117,12 @@ pub struct Args {
     /// section 10).
     #[arg(long)]
     keypad: bool,
+
+    /// Tmd: C0001 as set at the drive's keypad (0..=11, §4e). Default 0,
+    /// the factory setting (LECOM may only read); 2 lets LECOM write
+    /// parameters, 3 also the control word C0135.
+    #[arg(long, value_name = "N")]
+    c0001: Option<u8>,
 
     /// Faults to inject, e.g. `flip=0.01,lose=0.02,power-cycle@40:addr=1`.
     #[arg(long, value_name = "PLAN")]
@@ -192,6 +198,15 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
             config.baud = baud;
         }
     }
+    if let Some(c) = args.c0001 {
+        if family != Family::Tmd {
+            bail!("--c0001 applies to the Tmd (tmd) only");
+        }
+        if c > 11 {
+            bail!("--c0001 {c}: C0001 takes 0..=11 (Table 1; §4e)");
+        }
+    }
+    config.c0001 = args.c0001;
     config.keypad = args.keypad;
     config.seed = args.seed;
     if let Some(plan) = &args.faults {
@@ -235,10 +250,8 @@ fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
 
 /// Print the one machine-readable line.
 fn announce(line: &str) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    writeln!(out, "{line}")
-        .and_then(|()| out.flush())
-        .context("cannot write to stdout")
+    crate::output::emit(&format!("{line}\n"));
+    Ok(())
 }
 
 fn describe(config: &SimConfig) -> String {

@@ -54,9 +54,29 @@ pub struct Args {
 const EXTENSIONS: [&str; 3] = ["toml", "yaml", "yml"];
 
 /// Files under `path` (a file as given, a directory recursively, sorted).
+///
+/// Each real path is visited once: directories and files are keyed by their
+/// canonical path, so a symlink loop (`a/loop -> ..`) or two links back to a
+/// parent cost one visit each instead of an endless or exponential walk.
+/// Hidden entries are skipped. Entries are not opened here: a FIFO, socket
+/// or device file named `*.toml` is listed and then refused by the reader
+/// (exit 2, "not a regular file") without ever being opened.
 pub fn collect(path: &Path, out: &mut Vec<PathBuf>) -> Result<(), InputError> {
+    let mut visited = std::collections::HashSet::new();
+    walk(path, out, &mut visited)
+}
+
+fn walk(
+    path: &Path,
+    out: &mut Vec<PathBuf>,
+    visited: &mut std::collections::HashSet<PathBuf>,
+) -> Result<(), InputError> {
     let meta = std::fs::metadata(path)
         .map_err(|e| unreadable(path, format!("cannot read {}: {e}", path.display())))?;
+    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if !visited.insert(real) {
+        return Ok(());
+    }
     if !meta.is_dir() {
         out.push(path.to_path_buf());
         return Ok(());
@@ -77,14 +97,19 @@ pub fn collect(path: &Path, out: &mut Vec<PathBuf>) -> Result<(), InputError> {
         if hidden {
             continue;
         }
-        if p.is_dir() {
-            collect(&p, out)?;
+        // metadata follows symlinks; a dangling link is listed (the reader
+        // then says it cannot be read)
+        if std::fs::metadata(&p).is_ok_and(|m| m.is_dir()) {
+            walk(&p, out, visited)?;
         } else if p
             .extension()
             .and_then(|e| e.to_str())
             .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
         {
-            out.push(p);
+            let real = std::fs::canonicalize(&p).unwrap_or_else(|_| p.clone());
+            if visited.insert(real) {
+                out.push(p);
+            }
         }
     }
     Ok(())

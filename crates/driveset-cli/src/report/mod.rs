@@ -27,10 +27,16 @@ pub struct Args {
 
 /// Run `driveset report`: read a report.json, write report.json + report.html.
 pub fn run(args: Args) -> anyhow::Result<u8> {
-    let text = match std::fs::read_to_string(&args.input) {
+    let text = match driveset_schema::error::read_regular_file(
+        &args.input,
+        64 * 1024 * 1024,
+        "line reports",
+    )
+    .map(|b| String::from_utf8_lossy(&b).into_owned())
+    {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("error: cannot read {}: {e}", args.input.display());
+            eprintln!("error: {}\n  = help: {}", e.message, e.help);
             return Ok(crate::EXIT_INPUT);
         }
     };
@@ -51,7 +57,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             .unwrap_or_default()
     });
     let (json, html) = write_reports(&report, &dir)?;
-    println!("{}\n{}", json.display(), html.display());
+    outln!("{}\n{}", json.display(), html.display());
     Ok(crate::EXIT_OK)
 }
 

@@ -78,7 +78,8 @@ pub fn bus(
                     Box::new(Vf1000::new(o).expect("vf1000"))
                 }
                 _ => {
-                    let mut o = TmdOptions::at(ADDRESS);
+                    // C0001 = 3: LECOM programs the drive (§4e)
+                    let mut o = TmdOptions::at(ADDRESS).c0001(3);
                     o.seed = seed;
                     if let Some(r) = reaction {
                         o.reaction = r;

@@ -267,6 +267,89 @@ impl fmt::Display for CodeAddress {
     }
 }
 
+/// What a controller's standard addressing reaches: its C0249 code bank
+/// and C0248 input selection (sections 8.B, 8.C). One mapping for every
+/// crate: the simulated Tmd resolves the telegrams it receives with it,
+/// and `driveset decode` follows C0249 / C0248 writes in a capture with it.
+///
+/// A standard code field `n` names code `250 x C0249 + n` with subcode
+/// C0248, except that 248 and 249 are always C0248 / C0249 (subcode 0).
+/// The offset is added to numbers above 255 too (8.B note: "If the
+/// selected code numbers are higher than 255, the code-number range
+/// increases correspondingly"; the other reading is discussed in
+/// docs/errata/lecom.md). Extended addressing ignores both (8.D, Table 1
+/// C0249).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct StandardAddressing {
+    /// C0249.
+    pub bank: CodeBank,
+    /// C0248 (0 = no subcode).
+    pub input_selection: u8,
+}
+
+impl StandardAddressing {
+    /// The power-on state: bank 0, no input selection (Table 1: C0248 and
+    /// C0249 "always set to 0 when switching on").
+    pub const POWER_ON: Self = Self {
+        bank: CodeBank(0),
+        input_selection: 0,
+    };
+
+    /// The (code, subcode) a code field names on a controller in this state.
+    pub const fn resolve(self, code: CodeAddress) -> (u16, u8) {
+        match code {
+            CodeAddress::Standard(CodeNumber(n)) => {
+                if n == CodeNumber::C0248.0 || n == CodeNumber::C0249.0 {
+                    (n, 0)
+                } else {
+                    (self.bank.offset() + n, self.input_selection)
+                }
+            }
+            CodeAddress::Extended(e) => (e.code, e.subcode),
+        }
+    }
+
+    /// Whether `code` is a write target that changes this state: C0248 or
+    /// C0249 (by their fixed standard numbers or extended with subcode 0).
+    pub const fn is_selector(code: CodeAddress) -> bool {
+        matches!(
+            code,
+            CodeAddress::Standard(CodeNumber(248 | 249))
+                | CodeAddress::Extended(ExtendedAddress {
+                    code: 248 | 249,
+                    subcode: 0
+                })
+        )
+    }
+
+    /// The state after `code` was written with the integer `value`; `None`
+    /// when the write is not to C0248 / C0249 or the value is not one they
+    /// hold (C0249 0..=15, C0248 0..=255; Table 1), i.e. a controller
+    /// refuses it.
+    pub const fn after_write(self, code: CodeAddress, value: i64) -> Option<Self> {
+        if !Self::is_selector(code) {
+            return None;
+        }
+        if code.code() == 249 {
+            if value < 0 || value > CodeBank::MAX as i64 {
+                return None;
+            }
+            Some(Self {
+                bank: CodeBank(value as u8),
+                ..self
+            })
+        } else {
+            if value < 0 || value > u8::MAX as i64 {
+                return None;
+            }
+            Some(Self {
+                input_selection: value as u8,
+                ..self
+            })
+        }
+    }
+}
+
 /// A LECOM code bank, the value of C0249 (section 8.B; Table 1 C0249 lists
 /// banks 0..=15). The bank adds `250 * bank` to every code number sent with
 /// standard addressing, except 248 (C0248) and 249 (C0249), which stay

@@ -28,7 +28,9 @@ pub mod stream;
 pub mod value;
 
 pub use address::{AddressKind, ControllerAddress};
-pub use code::{CodeAddress, CodeBank, CodeNumber, ExtendedAddress, LegacyAccess};
+pub use code::{
+    CodeAddress, CodeBank, CodeNumber, ExtendedAddress, LegacyAccess, StandardAddressing,
+};
 pub use error::{CodeError, EncodeError, FrameError, ValueError};
 pub use frame::{Broadcast, Receive, Response, Send, Telegram};
 pub use status::{

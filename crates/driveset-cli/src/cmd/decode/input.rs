@@ -24,48 +24,60 @@ const NAMES: [(u8, &str); 12] = [
 /// prefixes, `,` and `#` comments to the end of the line. Errors name the
 /// line and column (1-based) of `origin`.
 pub fn parse_hex(text: &str, origin: &str) -> Result<Vec<u8>, String> {
-    let mut out = Vec::new();
+    // One pass over each line; columns are counted as the scan goes (a
+    // column recomputed from the line start for every token made a long
+    // one-line capture quadratic: 1 MB took seconds).
+    let mut out = Vec::with_capacity(text.len() / 3 + 1);
     for (ln, line) in text.lines().enumerate() {
         let line = match line.find('#') {
             Some(i) => &line[..i],
             None => line,
         };
-        let chars: Vec<(usize, char)> = line.char_indices().collect();
-        let mut i = 0;
-        while i < chars.len() {
-            let (_, c) = chars[i];
+        let mut chars = line.chars().peekable();
+        // 1-based column of the next character `chars` yields
+        let mut col = 1usize;
+        while let Some(&c) = chars.peek() {
             if c.is_whitespace() || c == ',' {
-                i += 1;
+                chars.next();
+                col += 1;
                 continue;
             }
-            let tok_start = i;
+            let tok_col = col;
+            let mut digits = String::new();
             // optional 0x prefix
-            if c == '0' && matches!(chars.get(i + 1), Some((_, 'x' | 'X'))) {
-                i += 2;
+            if c == '0' {
+                chars.next();
+                col += 1;
+                if matches!(chars.peek(), Some('x' | 'X')) {
+                    chars.next();
+                    col += 1;
+                } else {
+                    digits.push('0');
+                }
             }
-            let digits_start = i;
-            while i < chars.len() && !(chars[i].1.is_whitespace() || chars[i].1 == ',') {
-                let (_, d) = chars[i];
+            while let Some(&d) = chars.peek() {
+                if d.is_whitespace() || d == ',' {
+                    break;
+                }
                 if !d.is_ascii_hexdigit() {
-                    let col = line[..chars[i].0].chars().count() + 1;
                     return Err(format!(
                         "{origin}:{}:{col}: {d:?} is not a hex digit; write bytes as hex pairs like `04 40 30`, comments after `#`",
                         ln + 1
                     ));
                 }
-                i += 1;
+                digits.push(d);
+                chars.next();
+                col += 1;
             }
-            let digits: String = chars[digits_start..i].iter().map(|(_, c)| *c).collect();
-            let col = line[..chars[tok_start].0].chars().count() + 1;
             if digits.is_empty() {
                 return Err(format!(
-                    "{origin}:{}:{col}: `0x` without hex digits after it",
+                    "{origin}:{}:{tok_col}: `0x` without hex digits after it",
                     ln + 1
                 ));
             }
             if !digits.len().is_multiple_of(2) {
                 return Err(format!(
-                    "{origin}:{}:{col}: `{digits}` has an odd number of hex digits ({}); write every byte as two digits (`0{}` ...)",
+                    "{origin}:{}:{tok_col}: `{digits}` has an odd number of hex digits ({}); write every byte as two digits (`0{}` ...)",
                     ln + 1,
                     digits.len(),
                     &digits[..1]

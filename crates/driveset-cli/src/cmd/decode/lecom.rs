@@ -1,12 +1,20 @@
 //! LECOM-A/B captures: [`driveset_proto::lecom::BusSniffer`] events annotated
 //! with the Tmd schema (code names, VD values with units), C0068 / C1962
 //! values and the meaning of `?`, `STX C1 C2 EOT`, ACK and NAK replies.
+//!
+//! The decoder follows each controller's C0249 code bank and C0248 input
+//! selection as the capture writes them (sections 8.B, 8.C): a SEND of
+//! C0249 = 7 that the controller ACKs, or a BROADCAST of it, makes a later
+//! standard-addressed C0173 name C1923, through the same
+//! [`StandardAddressing`] the simulated Tmd resolves telegrams with.
+//! Replies the protocol rules out are errors (exit 1): any reply to a
+//! telegram for a broadcast or group address (8.J: none acknowledges).
 
 use driveset_proto::ascii::bcc;
 use driveset_proto::lecom::{
     AddressKind, BusSniffer, CodeAddress, ControllerAddress, Direction, ExchangeFailure,
-    ExtendedError, Frame, FrameError, HostFrame, OperatingStatus, Response, StreamError, Telegram,
-    Value,
+    ExtendedError, Frame, FrameError, HostFrame, OperatingStatus, Response, StandardAddressing,
+    StreamError, Telegram, Value,
 };
 use driveset_schema::{RawValue, ValueType, validate::display_value};
 
@@ -29,19 +37,91 @@ fn direction(d: Direction) -> Option<&'static str> {
     }
 }
 
-fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress) {
-    ev.code = Some(code.to_string());
+/// C0249 / C0248 of every controller as far as the capture shows them
+/// (power-on state until a write is seen).
+#[derive(Default)]
+struct Selectors {
+    /// What a BROADCAST to 00 set.
+    all: StandardAddressing,
+    /// What a multicast to x0 set, by tens digit.
+    groups: [Option<StandardAddressing>; 10],
+    /// What a SEND to one station set (once ACKed).
+    stations: std::collections::BTreeMap<u8, StandardAddressing>,
+}
+
+impl Selectors {
+    /// The state a telegram to `a` is resolved with.
+    fn get(&self, a: ControllerAddress) -> StandardAddressing {
+        let n = a.get();
+        let group = || self.groups[usize::from(n / 10)].unwrap_or(self.all);
+        match a.kind() {
+            AddressKind::All => self.all,
+            AddressKind::Group(_) => group(),
+            AddressKind::Station => self.stations.get(&n).copied().unwrap_or_else(group),
+        }
+    }
+
+    /// `code = value` reached `a` (an ACKed SEND or a BROADCAST).
+    fn written(&mut self, a: ControllerAddress, code: CodeAddress, value: &Value) {
+        let Value::Decimal(d) = value else { return };
+        let Some(v) = d.as_integer() else { return };
+        let n = a.get();
+        match a.kind() {
+            AddressKind::All => {
+                if let Some(next) = self.all.after_write(code, v) {
+                    self.all = next;
+                    self.groups = [None; 10];
+                    self.stations.clear();
+                }
+            }
+            AddressKind::Group(t) => {
+                if let Some(next) = self.get(a).after_write(code, v) {
+                    self.groups[usize::from(t)] = Some(next);
+                    self.stations.retain(|s, _| s / 10 != t);
+                }
+            }
+            AddressKind::Station => {
+                if let Some(next) = self.get(a).after_write(code, v) {
+                    self.stations.insert(n, next);
+                }
+            }
+        }
+    }
+}
+
+/// The code a field names under `sel`: number and subcode.
+fn target(sel: StandardAddressing, code: CodeAddress) -> (u16, u8) {
+    sel.resolve(code)
+}
+
+fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, sel: StandardAddressing) {
+    let (number, sub) = target(sel, code);
+    ev.code = Some(if sub == 0 {
+        format!("C{number:04}")
+    } else {
+        format!("C{number:04}/{sub}")
+    });
+    if let CodeAddress::Standard(c) = code
+        && (u16::from(number) != c.get() || sub != 0)
+    {
+        ev.details.push(format!(
+            "sent as {c} with code bank {} (C0249) and input selection {} (C0248): {} (8.B, 8.C)",
+            sel.bank.get(),
+            sel.input_selection,
+            ev.code.as_deref().unwrap_or("")
+        ));
+    }
     if let Some(s) = &ctx.schema
-        && let Some(c) = s.code(u32::from(code.code()))
+        && let Some(c) = s.code(u32::from(number))
         && !c.name.is_empty()
     {
         ev.name = Some(c.name.clone());
     }
 }
 
-fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
+fn value_fields(ctx: &Ctx, ev: &mut Event, number: u16, value: &Value) {
     ev.raw_value = Some(value.to_string());
-    match code.code() {
+    match number {
         68 => {
             if let Ok(s) = OperatingStatus::from_value(value) {
                 for (name, state) in s.describe() {
@@ -61,7 +141,7 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
         _ => {}
     }
     let Some(schema) = &ctx.schema else { return };
-    let Some(c) = schema.code(u32::from(code.code())) else {
+    let Some(c) = schema.code(u32::from(number)) else {
         return;
     };
     let ty = schema.type_of(c);
@@ -87,7 +167,7 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
         }
         return;
     }
-    if !c.bits.is_empty() && code.code() == 68 {
+    if !c.bits.is_empty() && number == 68 {
         return;
     }
     let shown = display_value(schema, c, &raw);
@@ -98,7 +178,10 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, value: &Value) {
 pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
     let raw = BusSniffer::decode_all(capture);
     let mut out = Vec::with_capacity(raw.len());
-    let mut last: Option<Telegram> = None;
+    let mut last: Option<(Telegram, StandardAddressing)> = None;
+    // whether the last telegram had a bad BCC (the controller discarded it)
+    let mut last_bad = false;
+    let mut selectors = Selectors::default();
     for ev in raw {
         let (start, end) = (ev.range.start, ev.range.end);
         let bytes = slice(capture, start, end);
@@ -156,35 +239,49 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
             Frame::Host(HostFrame::Telegram(t)) => {
                 e.direction = Some(HOST_TO_DRIVE);
                 e.address = Some(address_text(t.address()));
-                code_fields(ctx, &mut e, t.code());
+                let sel = selectors.get(t.address());
+                code_fields(ctx, &mut e, t.code(), sel);
+                let (number, _) = target(sel, t.code());
                 match t {
                     Telegram::Receive(_) => e.kind = "RECEIVE",
                     Telegram::Send(s) => {
                         e.kind = "SEND";
-                        value_fields(ctx, &mut e, s.code, &s.value);
+                        value_fields(ctx, &mut e, number, &s.value);
                         has_bcc = true;
                     }
                     Telegram::Broadcast(b) => {
                         e.kind = "BROADCAST";
-                        value_fields(ctx, &mut e, b.code, &b.value);
+                        value_fields(ctx, &mut e, number, &b.value);
                         e.meaning = Some("no controller answers a broadcast".into());
                         has_bcc = true;
+                        if bad_bcc.is_none() {
+                            selectors.written(b.address, b.code, &b.value);
+                        }
                     }
                 }
-                last = Some(t);
+                last = Some((t, sel));
+                last_bad = bad_bcc.is_some();
             }
             Frame::Controller(r) => {
                 e.direction = Some(DRIVE_TO_HOST);
-                if let Some(t) = last {
+                if let Some((t, _)) = last {
                     e.address = Some(address_text(t.address()));
+                    if t.address().kind() != AddressKind::Station {
+                        e.error = Some(format!(
+                            "no controller answers a telegram to {} (broadcast / multicast, 8.J): this reply cannot come from it",
+                            address_text(t.address())
+                        ));
+                    }
                 }
+                let sel = last.map(|(_, s)| s).unwrap_or_default();
                 match r {
                     Response::Value { code, value } => {
                         e.kind = "VALUE";
-                        code_fields(ctx, &mut e, code);
-                        value_fields(ctx, &mut e, code, &value);
+                        code_fields(ctx, &mut e, code, sel);
+                        let (number, _) = target(sel, code);
+                        value_fields(ctx, &mut e, number, &value);
                         has_bcc = true;
-                        if let Some(t) = last
+                        if let Some((t, _)) = last
                             && t.code() != code
                         {
                             e.meaning =
@@ -193,29 +290,55 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                     }
                     Response::ChecksumFault { code } => {
                         e.kind = "?";
-                        code_fields(ctx, &mut e, code);
+                        code_fields(ctx, &mut e, code, sel);
                         e.meaning = Some(ExchangeFailure::ChecksumFaultReply.text().into());
                         has_bcc = true;
                     }
                     Response::NoSuchCode { code } => {
                         e.kind = "NO CODE";
-                        code_fields(ctx, &mut e, code);
+                        code_fields(ctx, &mut e, code, sel);
                         e.meaning = Some(ExchangeFailure::NoSuchCode.text().into());
                     }
                     Response::Ack => {
                         e.kind = "ACK";
                         e.meaning = Some(match last {
-                            Some(Telegram::Send(s)) => format!("SEND of {} carried out", s.code),
+                            Some((Telegram::Send(s), sel)) => {
+                                let (n, sub) = target(sel, s.code);
+                                if !last_bad && e.error.is_none() {
+                                    selectors.written(s.address, s.code, &s.value);
+                                }
+                                if StandardAddressing::is_selector(s.code) {
+                                    let now = selectors.get(s.address);
+                                    e.details.push(format!(
+                                        "from now on standard addressing of {} uses code bank {} (C0249) and input selection {} (C0248)",
+                                        s.address,
+                                        now.bank.get(),
+                                        now.input_selection
+                                    ));
+                                }
+                                if sub == 0 {
+                                    format!("SEND of C{n:04} carried out")
+                                } else {
+                                    format!("SEND of C{n:04}/{sub} carried out")
+                                }
+                            }
                             _ => "carried out".into(),
                         });
                     }
                     Response::Nak => {
                         e.kind = "NAK";
                         e.meaning = Some(match last {
-                            Some(Telegram::Send(s)) => format!(
-                                "SEND of {} not carried out, the value is unchanged; read C0068 bits 4..7 or C1962 for the reason",
-                                s.code
-                            ),
+                            Some((Telegram::Send(s), sel)) => {
+                                let (n, sub) = target(sel, s.code);
+                                let shown = if sub == 0 {
+                                    format!("C{n:04}")
+                                } else {
+                                    format!("C{n:04}/{sub}")
+                                };
+                                format!(
+                                    "SEND of {shown} not carried out, the value is unchanged; read C0068 bits 4..7 or C1962 for the reason"
+                                )
+                            }
                             _ => ExchangeFailure::Nak.text().into(),
                         });
                     }

@@ -72,6 +72,8 @@ struct State<'a> {
     ctx: &'a Ctx,
     family: Option<Dialect>,
     last: Option<Request>,
+    /// Whether the last SELECT had a wrong BCC.
+    last_bad_bcc: bool,
 }
 
 impl State<'_> {
@@ -221,6 +223,7 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
         ctx,
         family: ctx.family,
         last: None,
+        last_bad_bcc: false,
     };
     let mut out = Vec::with_capacity(raw.len());
     for ev in raw {
@@ -284,6 +287,7 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                     e.meaning = Some("to the broadcast address: no device answers".into());
                 }
                 st.last = Some(r);
+                st.last_bad_bcc = false;
             }
             Telegram::Request(r @ Request::Select(s)) => {
                 st.see(s.code);
@@ -296,12 +300,14 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                     e.details.clear();
                     e.meaning = None;
                 }
-                if !s.address.expects_reply() {
+                if !s.address.expects_reply() && bad_bcc.is_none() {
                     e.meaning = Some("broadcast: every device acts on it, none replies".into());
                 }
                 st.last = Some(r);
+                st.last_bad_bcc = bad_bcc.is_some();
             }
             Telegram::Reply(Reply::Value(v)) => {
+                e.error = impossible_reply(st.last, v.address);
                 st.see(v.code);
                 e.kind = "VALUE";
                 e.address = Some(address_text(v.address));
@@ -309,6 +315,10 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                 st.value_fields(&mut e, v.code, v.value.as_bytes());
             }
             Telegram::Reply(Reply::Ack(a)) => {
+                e.error = impossible_reply(st.last, a);
+                if e.error.is_some() {
+                    st.last = None;
+                }
                 st.last = st.last.filter(|r| answers(r, a));
                 e.kind = "ACK";
                 e.address = Some(address_text(a));
@@ -318,10 +328,18 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
                 });
             }
             Telegram::Reply(Reply::Nak(a)) => {
+                e.error = impossible_reply(st.last, a);
+                if e.error.is_some() {
+                    st.last = None;
+                }
                 st.last = st.last.filter(|r| answers(r, a));
                 e.kind = "NAK";
                 e.address = Some(address_text(a));
                 e.meaning = Some(match st.last {
+                    Some(Request::Select(s)) if st.last_bad_bcc => format!(
+                        "SELECT of {} refused: its BCC was wrong (SERR bit 3, 08h, checksum error; §3, §9.2); read 85 to unlatch the device, then repeat it",
+                        s.code
+                    ),
                     Some(Request::Select(s)) => format!(
                         "SELECT of {} refused; read 85 (SIOF/SERR) for the cause, which also unlatches the device",
                         s.code
@@ -342,7 +360,16 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
         {
             e.bcc = Some(match bad_bcc {
                 Some((found, expected)) => {
-                    e.error = Some("BCC mismatch: the receiver discards this telegram".into());
+                    e.error = Some(match telegram {
+                        // §3: "ADR NAK: occurs with wrong BCC"; §9.2 bit 3
+                        Telegram::Request(Request::Select(s)) if !s.address.expects_reply() => {
+                            "BCC mismatch: every device refuses it and sets SERR bit 3 (08h, checksum error; §9.2); none answers a broadcast".into()
+                        }
+                        Telegram::Request(Request::Select(_)) => {
+                            "BCC mismatch: the drive answers NAK and sets SERR bit 3 (08h, checksum error; §3, §9.2); read 85 to unlatch it, then repeat the telegram".into()
+                        }
+                        _ => "BCC mismatch: the host discards this reply; repeat the ENQUIRY".into(),
+                    });
                     Bcc {
                         ok: false,
                         found: format!("0x{found:02X}"),
@@ -366,6 +393,33 @@ pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
         out.push(e);
     }
     out
+}
+
+/// Why a reply from `a` cannot answer `last` (the spec rules it out), if
+/// it cannot: no device answers address 31 (§4.2: "without giving a
+/// receipt"; §9.1: "There is no answer using bus address 31"), and only the
+/// addressed device answers (§3: the device tests "the slave-address";
+/// wrong address: "No answer"); every device answers address 0 (§4.2).
+fn impossible_reply(last: Option<Request>, a: Address) -> Option<String> {
+    let (kind, to) = match last? {
+        Request::Eot => return None,
+        Request::Enquiry(q) => ("ENQUIRY", q.address),
+        Request::Select(s) => ("SELECT", s.address),
+    };
+    if !to.expects_reply() {
+        return Some(format!(
+            "no device answers address 31 (broadcast; §4.2, §9.1): this reply cannot answer the {kind} to {}",
+            address_text(to)
+        ));
+    }
+    if to != a && to != Address::ALL {
+        return Some(format!(
+            "reply from address {}, but the {kind} asked address {}: only the addressed device answers (§3)",
+            address_text(a),
+            address_text(to)
+        ));
+    }
+    None
 }
 
 /// Whether a reply from `a` can answer `r` (same address, or address 0).
