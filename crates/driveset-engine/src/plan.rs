@@ -67,8 +67,46 @@ pub const MC_STORE_PER_BYTE: Duration = Duration::from_millis(15);
 /// (LUSTBUS 10, exception 4: +60 ms one-byte, +120 ms two-byte).
 pub const VF_ACK_DELAY_PER_BYTE: Duration = Duration::from_millis(60);
 
-/// The drive's check of a staged dataset: SLOAD is polled up to this long.
+/// The drive's check of a staged dataset: SLOAD is polled up to this long
+/// (LUSTBUS 11.4 step 4: "Poll parameter 80-SLOAD with a timeout of 10sec").
 pub const DATASET_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The shortest interval between two SLOAD polls while the drive checks a
+/// staged dataset (not a spec figure: 11.4 gives only the 10 s timeout; a
+/// poll at most every 50 ms, or one measured round trip when that is
+/// longer, instead of back-to-back ENQUIRYs).
+pub const SLOAD_POLL_INTERVAL: Duration = Duration::from_millis(50);
+
+/// The longest reaction time of an MC6000/7000 with a KEYPAD attached
+/// (LUSTBUS 10, table: 1...30 ms).
+pub const MC_MAX_REACTION_KEYPAD: Duration = Duration::from_millis(30);
+
+/// The longest reaction time of an MC6000/7000 without KEYPAD (LUSTBUS 10:
+/// 1...25 ms).
+pub const MC_MAX_REACTION: Duration = Duration::from_millis(25);
+
+/// The longest reaction time of a VF1000 with a KEYPAD attached (LUSTBUS
+/// 10: 1...60 ms).
+pub const VF_MAX_REACTION_KEYPAD: Duration = Duration::from_millis(60);
+
+/// The longest reaction time of a VF1000 without KEYPAD (LUSTBUS 10:
+/// 1...30 ms).
+pub const VF_MAX_REACTION: Duration = Duration::from_millis(30);
+
+/// The shortest reaction time of every LUSTBUS device (LUSTBUS 10: "1...").
+pub const LUSTBUS_MIN_REACTION: Duration = Duration::from_millis(1);
+
+/// LECOM 8.J b: "The monitoring time in the master should be approx. twice
+/// as long as the maximum response time."
+pub const LECOM_MONITORING_FACTOR: u32 = 2;
+
+/// The Tmd's longest response time. FICTIONAL: the LECOM manual gives none;
+/// 20 ms is the figure the simulator's Tmd uses.
+pub const TMD_MAX_REACTION: Duration = Duration::from_millis(20);
+
+/// The shortest response time assumed of a Tmd, for planning (FICTIONAL,
+/// as [`TMD_MAX_REACTION`]).
+pub const TMD_MIN_REACTION: Duration = Duration::from_millis(1);
 
 /// How a code's value is kept by the drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
