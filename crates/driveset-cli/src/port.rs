@@ -26,7 +26,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::{CanClient, DriveClient, LecomClient, LustbusClient};
+use driveset_engine::client::{
+    CanClient, DriveClient, LecomClient, LecomOptions, LustbusClient, LustbusOptions,
+};
 use driveset_engine::error::EngineError;
 use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
 use driveset_schema::{Protocol, Registry, Schema};
@@ -375,18 +377,36 @@ pub fn into_client(
     }
     check_fit(&port, &schema, Some(address), force)?;
     let c: Box<dyn DriveClient> = match (port.link, schema.protocol) {
-        (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
-            Box::new(LustbusClient::new(l, schema, address).map_err(Fail::from)?)
-        }
-        (Link::Bytes(l), Protocol::Lecom) => {
-            Box::new(LecomClient::new(l, schema, address).map_err(Fail::from)?)
-        }
+        (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => Box::new(
+            LustbusClient::with_options(l, schema, address, lustbus_options(&port.spec))
+                .map_err(Fail::from)?,
+        ),
+        (Link::Bytes(l), Protocol::Lecom) => Box::new(
+            LecomClient::with_options(l, schema, address, lecom_options(&port.spec))
+                .map_err(Fail::from)?,
+        ),
         (Link::Frames(l), Protocol::LenzeCanSdo) => {
             Box::new(CanClient::new(l, schema, address).map_err(Fail::from)?)
         }
         _ => return Err(Fail::input("the schema's protocol does not fit the port")),
     };
     Ok(c)
+}
+
+/// LUSTBUS client options of a port: its `?latency=`.
+pub fn lustbus_options(spec: &PortSpec) -> LustbusOptions {
+    LustbusOptions {
+        latency: spec.latency(),
+        ..LustbusOptions::default()
+    }
+}
+
+/// LECOM client options of a port: its `?latency=`.
+pub fn lecom_options(spec: &PortSpec) -> LecomOptions {
+    LecomOptions {
+        latency: spec.latency(),
+        ..LecomOptions::default()
+    }
 }
 
 /// The schemas every command knows ([`crate::output::registry`]).

@@ -54,11 +54,13 @@ impl Link {
 /// [`LinkError::SimPort`]: the CLI opens them with the simulator.
 pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
     match spec {
-        PortSpec::Serial { path, baud } => {
+        PortSpec::Serial { path, baud, .. } => {
             let link = SerialLink::open(path, baud.unwrap_or(DEFAULT_BAUD))?;
             Ok(Link::Bytes(Box::new(link)))
         }
-        PortSpec::Tcp { host, port, baud } => {
+        PortSpec::Tcp {
+            host, port, baud, ..
+        } => {
             let link = TcpLink::connect(
                 host,
                 *port,

@@ -13,7 +13,11 @@
 //!
 //! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
 //! adapter's own serial line; for `can://` a synonym of `bitrate`), the CAN
-//! forms and `sim://` also `bitrate=`. Unknown keys are rejected by name.
+//! forms and `sim://` also `bitrate=`. Serial and `tcp://` ports take
+//! `latency=` ([`parse_latency`]: `40ms`, `0.1s`), the round-trip delay the
+//! transport adds (USB adapter, device server), which the clients add to
+//! their answer timeouts from the first telegram on. Unknown keys are
+//! rejected by name.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -40,8 +44,11 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 /// to the simulator as text (`seed` must be a whole number).
 pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
 
-const SERIAL_KEYS: &[&str] = &["baud"];
-const TCP_KEYS: &[&str] = &["baud"];
+const SERIAL_KEYS: &[&str] = &["baud", "latency"];
+const TCP_KEYS: &[&str] = &["baud", "latency"];
+
+/// The largest `latency=` a port takes.
+pub const MAX_LATENCY: std::time::Duration = std::time::Duration::from_secs(10);
 const SLCAN_KEYS: &[&str] = &["bitrate", "baud"];
 const CAN_KEYS: &[&str] = &["bitrate", "baud"];
 const SIM_KEYS: &[&str] = &[
@@ -75,6 +82,8 @@ pub enum PortSpec {
         path: String,
         /// Line rate; `None` means [`DEFAULT_BAUD`].
         baud: Option<u32>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
     },
     /// A serial device server in raw TCP mode whose serial side runs 7E1.
     Tcp {
@@ -85,6 +94,8 @@ pub enum PortSpec {
         /// The device server's line rate (for wire timing); `None` means
         /// [`DEFAULT_BAUD`].
         baud: Option<u32>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
     },
     /// An slcan (Lawicel) USB-CAN adapter on a serial port.
     Slcan {
@@ -353,6 +364,14 @@ impl PortSpec {
         }
     }
 
+    /// The `latency=` of a serial or `tcp://` port.
+    pub fn latency(&self) -> Option<std::time::Duration> {
+        match self {
+            PortSpec::Serial { latency, .. } | PortSpec::Tcp { latency, .. } => *latency,
+            _ => None,
+        }
+    }
+
     /// Whether this port carries CAN frames (slcan, SocketCAN) rather than
     /// bytes. `sim://` is neither: it depends on the family.
     pub fn is_can(&self) -> bool {
@@ -374,17 +393,28 @@ impl fmt::Display for PortSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut q = Query::default();
         match self {
-            PortSpec::Serial { path, baud } => {
+            PortSpec::Serial {
+                path,
+                baud,
+                latency,
+            } => {
                 f.write_str(path)?;
                 q.num("baud", *baud);
+                q.latency(*latency);
             }
-            PortSpec::Tcp { host, port, baud } => {
+            PortSpec::Tcp {
+                host,
+                port,
+                baud,
+                latency,
+            } => {
                 if host.contains(':') {
                     write!(f, "tcp://[{host}]:{port}")?;
                 } else {
                     write!(f, "tcp://{host}:{port}")?;
                 }
                 q.num("baud", *baud);
+                q.latency(*latency);
             }
             PortSpec::Slcan {
                 path,
@@ -441,6 +471,58 @@ impl Query {
             self.text(key, &v.to_string());
         }
     }
+    /// `latency=` in whole milliseconds, or microseconds when it has a
+    /// fraction of a millisecond.
+    fn latency(&mut self, value: Option<std::time::Duration>) {
+        if let Some(d) = value {
+            let text = if d.as_micros() % 1000 == 0 {
+                format!("{}ms", d.as_millis())
+            } else {
+                format!("{}us", d.as_micros())
+            };
+            self.text("latency", &text);
+        }
+    }
+}
+
+/// A `latency=` value: a whole or decimal number with the unit `ms`, `s`
+/// or `us` (`40ms`, `0.1s`, `16.5ms`), at most [`MAX_LATENCY`], to the
+/// microsecond. `Err` says what is wrong.
+pub fn parse_latency(text: &str) -> Result<std::time::Duration, String> {
+    let (number, unit_us) = if let Some(n) = text.strip_suffix("ms") {
+        (n, 1_000u64)
+    } else if let Some(n) = text.strip_suffix("us") {
+        (n, 1)
+    } else if let Some(n) = text.strip_suffix('s') {
+        (n, 1_000_000)
+    } else {
+        return Err("give a unit: e.g. latency=40ms or latency=0.1s".into());
+    };
+    let (whole, frac) = number.split_once('.').unwrap_or((number, ""));
+    let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+    if !digits(whole) || (number.contains('.') && !digits(frac)) {
+        return Err("not a number with a unit (ms, s, us), e.g. latency=40ms".into());
+    }
+    let too_long = || format!("at most {} s", MAX_LATENCY.as_secs());
+    let whole: u64 = whole.parse().map_err(|_| too_long())?;
+    let mut us = whole.checked_mul(unit_us).ok_or_else(too_long)?;
+    // the fraction, to the microsecond
+    let mut scale = unit_us;
+    for b in frac.bytes() {
+        scale /= 10;
+        if scale == 0 {
+            if b != b'0' {
+                return Err("finer than a microsecond".into());
+            }
+            continue;
+        }
+        us += u64::from(b - b'0') * scale;
+    }
+    let d = std::time::Duration::from_micros(us);
+    if d > MAX_LATENCY {
+        return Err(too_long());
+    }
+    Ok(d)
 }
 
 /// The options after `?`, checked against the keys a scheme takes.
@@ -510,6 +592,20 @@ impl Options {
         }
     }
 
+    /// `latency=` ([`parse_latency`]).
+    fn latency(&mut self) -> Result<Option<std::time::Duration>, PortSpecErrorKind> {
+        let Some(value) = self.map.remove("latency") else {
+            return Ok(None);
+        };
+        parse_latency(&value)
+            .map(Some)
+            .map_err(|reason| PortSpecErrorKind::BadValue {
+                key: "latency".into(),
+                value,
+                reason,
+            })
+    }
+
     /// `bitrate=`, checked against [`ALLOWED_BITRATES`].
     fn bitrate(&mut self) -> Result<Option<u32>, PortSpecErrorKind> {
         match self.number("bitrate")? {
@@ -563,9 +659,11 @@ fn parse_serial(path: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErr
     }
     let mut opts = Options::parse(query, "serial", SERIAL_KEYS)?;
     let baud = opts.line_baud()?;
+    let latency = opts.latency()?;
     Ok(PortSpec::Serial {
         path: path.into(),
         baud,
+        latency,
     })
 }
 
@@ -644,10 +742,12 @@ fn parse_tcp(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorK
     }
     let mut opts = Options::parse(query, "tcp://", TCP_KEYS)?;
     let baud = opts.line_baud()?;
+    let latency = opts.latency()?;
     Ok(PortSpec::Tcp {
         host: host.into(),
         port,
         baud,
+        latency,
     })
 }
 

@@ -35,14 +35,16 @@ fn serial_paths() {
         ok("/dev/ttyUSB0"),
         PortSpec::Serial {
             path: "/dev/ttyUSB0".into(),
-            baud: None
+            baud: None,
+            latency: None
         }
     );
     assert_eq!(
         ok("COM3?baud=19200"),
         PortSpec::Serial {
             path: "COM3".into(),
-            baud: Some(19200)
+            baud: Some(19200),
+            latency: None
         }
     );
     round_trip("/dev/ttyUSB0?baud=9600", "/dev/ttyUSB0?baud=9600");
@@ -59,7 +61,8 @@ fn tcp_hosts() {
         PortSpec::Tcp {
             host: "192.168.0.7".into(),
             port: 4001,
-            baud: None
+            baud: None,
+            latency: None
         }
     );
     assert_eq!(
@@ -67,7 +70,8 @@ fn tcp_hosts() {
         PortSpec::Tcp {
             host: "::1".into(),
             port: 4001,
-            baud: Some(57600)
+            baud: Some(57600),
+            latency: None
         }
     );
     round_trip(
@@ -231,7 +235,7 @@ fn errors_name_what_is_wrong() {
     );
     assert!(matches!(
         err("/dev/ttyS0?parity=odd"),
-        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud"] } if key == "parity"
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud", "latency"] } if key == "parity"
     ));
     assert!(matches!(
         err("tcp://h:1?bitrate=500000"),
@@ -429,7 +433,7 @@ fn error_messages_carry_input_and_remedy() {
     let e = PortSpec::parse("/dev/ttyS0?parity=odd").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud"
+        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, latency"
     );
     let e = PortSpec::parse("sim://vf1000").unwrap_err();
     assert_eq!(
@@ -476,4 +480,62 @@ mod properties {
             }
         }
     }
+}
+
+#[test]
+fn latency_option_on_serial_and_tcp_ports() {
+    use std::time::Duration;
+    assert_eq!(
+        ok("tcp://127.0.0.1:4001?latency=40ms"),
+        PortSpec::Tcp {
+            host: "127.0.0.1".into(),
+            port: 4001,
+            baud: None,
+            latency: Some(Duration::from_millis(40))
+        }
+    );
+    assert_eq!(
+        ok("/dev/ttyUSB0?latency=0.1s&baud=19200").latency(),
+        Some(Duration::from_millis(100))
+    );
+    assert_eq!(
+        ok("COM3?latency=16.5ms").latency(),
+        Some(Duration::from_micros(16_500))
+    );
+    round_trip(
+        "tcp://127.0.0.1:4001?latency=0.25s&baud=57600",
+        "tcp://127.0.0.1:4001?baud=57600&latency=250ms",
+    );
+    round_trip("COM3?latency=16.5ms", "COM3?latency=16500us");
+    round_trip("COM3?latency=0ms", "COM3?latency=0ms");
+    assert_eq!(ok("COM3").latency(), None);
+    for (input, reason) in [
+        (
+            "COM3?latency=40",
+            "give a unit: e.g. latency=40ms or latency=0.1s",
+        ),
+        (
+            "COM3?latency=fast ms",
+            "not a number with a unit (ms, s, us), e.g. latency=40ms",
+        ),
+        (
+            "COM3?latency=-4ms",
+            "not a number with a unit (ms, s, us), e.g. latency=40ms",
+        ),
+        ("COM3?latency=11s", "at most 10 s"),
+        ("COM3?latency=0.0000001s", "finer than a microsecond"),
+    ] {
+        let e = PortSpec::parse(input).unwrap_err();
+        let value = input.split_once("latency=").unwrap().1;
+        assert_eq!(
+            e.to_string(),
+            format!("invalid port `{input}`: `latency={value}`: {reason}"),
+            "{input}"
+        );
+    }
+    let e = PortSpec::parse("slcan:///dev/ttyACM0?latency=4ms").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "invalid port `slcan:///dev/ttyACM0?latency=4ms`: unknown option `latency` for slcan:// ports; allowed: bitrate, baud"
+    );
 }

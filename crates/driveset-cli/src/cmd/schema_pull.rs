@@ -177,7 +177,12 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
             )));
         }
     };
-    let mut client = LustbusClient::new(link, schema.clone(), args.address)?;
+    let mut client = LustbusClient::with_options(
+        link,
+        schema.clone(),
+        args.address,
+        port::lustbus_options(&opened.spec),
+    )?;
     let mc = args.family == PullFamily::Mc6000;
     let source = format!("pulled from {port_name} address {}", args.address);
 
