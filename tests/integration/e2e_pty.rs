@@ -36,21 +36,45 @@ fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
 /// Hang guard for the simulator to stop after SIGTERM.
 const STOP_GUARD: Duration = Duration::from_secs(30);
 
-/// A running `driveset sim --pty`; killed if the test fails first.
-struct Sim {
+/// A running `driveset sim --pty` (or `--tcp`); killed if the test fails
+/// first.
+pub(crate) struct Sim {
     child: Child,
-    /// The pty's slave path from the first stdout line.
-    path: String,
+    /// The pty's slave path (or the TCP address) from the first stdout line.
+    pub(crate) path: String,
     stderr: PathBuf,
 }
 
 impl Sim {
-    fn start(dir: &Path, family: &str, address: u8, extra: &[&str]) -> Sim {
+    pub(crate) fn start(dir: &Path, family: &str, address: u8, extra: &[&str]) -> Sim {
+        Sim::start_on(dir, family, address, &["--pty"], "pty ", extra)
+    }
+
+    /// `driveset sim --tcp 127.0.0.1:0`; [`Sim::path`] is `IP:PORT`.
+    pub(crate) fn start_tcp(dir: &Path, family: &str, address: u8, extra: &[&str]) -> Sim {
+        Sim::start_on(
+            dir,
+            family,
+            address,
+            &["--tcp", "127.0.0.1:0"],
+            "tcp ",
+            extra,
+        )
+    }
+
+    fn start_on(
+        dir: &Path,
+        family: &str,
+        address: u8,
+        endpoint: &[&str],
+        announce: &str,
+        extra: &[&str],
+    ) -> Sim {
         let stderr = dir.join(format!("sim-{family}.stderr"));
         let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
             .args(["sim", "--family", family, "--address"])
             .arg(address.to_string())
-            .arg("--pty")
+            .args(endpoint)
             .arg("--dump")
             .arg(dir.join(format!("{family}.dump.json")))
             .args(extra)
@@ -65,10 +89,10 @@ impl Sim {
             .expect("read the first line");
         let path = first
             .trim_end()
-            .strip_prefix("pty ")
+            .strip_prefix(announce)
             .unwrap_or_else(|| {
                 panic!(
-                    "first line `{first}` is not `pty PATH`; stderr: {}",
+                    "first line `{first}` is not `{announce}PATH`; stderr: {}",
                     std::fs::read_to_string(&stderr).unwrap_or_default()
                 )
             })
@@ -80,12 +104,12 @@ impl Sim {
         }
     }
 
-    fn stderr(&self) -> String {
+    pub(crate) fn stderr(&self) -> String {
         std::fs::read_to_string(&self.stderr).unwrap_or_default()
     }
 
     /// SIGTERM, then wait (bounded) for the exit.
-    fn terminate(&mut self) -> ExitStatus {
+    pub(crate) fn terminate(&mut self) -> ExitStatus {
         let status = Command::new("kill")
             .args(["-TERM", &self.child.id().to_string()])
             .status()
@@ -115,7 +139,7 @@ impl Drop for Sim {
 }
 
 /// Run `driveset ARGS` from the workspace root; (exit code, stdout, stderr).
-fn run(args: &[&str]) -> (Option<i32>, String, String) {
+pub(crate) fn run(args: &[&str]) -> (Option<i32>, String, String) {
     let out = driveset()
         .args(args)
         .timeout(RUN_GUARD)
@@ -128,7 +152,7 @@ fn run(args: &[&str]) -> (Option<i32>, String, String) {
     )
 }
 
-fn load(rel: &str) -> ResolvedSet {
+pub(crate) fn load(rel: &str) -> ResolvedSet {
     let mut registry = Registry::builtin().expect("built-in schemas");
     let loaded = load_set(&workspace_root().join(rel), &mut registry).expect("set loads");
     assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
@@ -149,7 +173,7 @@ fn fingerprint_cli(rel: &str) -> String {
 /// The dump's canonical lines of the set's codes, as a canonical text of
 /// the set's schema: equal to the set's canonical form exactly when the
 /// drive holds every value of the set.
-fn dump_subset(dump: &serde_json::Value, address: u8, set: &ResolvedSet) -> String {
+pub(crate) fn dump_subset(dump: &serde_json::Value, address: u8, set: &ResolvedSet) -> String {
     let drive = dump["drives"]
         .as_array()
         .expect("drives")
