@@ -26,7 +26,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::DriveClient;
+use driveset_engine::client::{DriveClient, LustbusOptions};
+use driveset_engine::connect::ConnectOptions;
 use driveset_engine::error::EngineError;
 use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
@@ -304,7 +305,12 @@ pub fn client(
         Link::Bytes(_) => Link::Bytes(byte_link(port)?),
         Link::Frames(_) => Link::Frames(frame_link(port)?),
     };
-    Ok(driveset_engine::connect::connect(link, schema, address)?)
+    Ok(driveset_engine::connect::connect_with(
+        link,
+        schema,
+        address,
+        &connect_options(&port.spec),
+    )?)
 }
 
 /// A fresh byte-link handle of the port (sim ports hand out any number;
@@ -345,9 +351,24 @@ pub fn into_client(
         return client(&port, schema, address, force);
     }
     check_fit(&port, &schema, Some(address), force)?;
-    Ok(driveset_engine::connect::connect(
-        port.link, schema, address,
+    Ok(driveset_engine::connect::connect_with(
+        port.link,
+        schema,
+        address,
+        &connect_options(&port.spec),
     )?)
+}
+
+/// What the port string says about talking to its drives (`latency=`).
+pub fn connect_options(spec: &PortSpec) -> ConnectOptions {
+    ConnectOptions {
+        latency: spec.latency(),
+    }
+}
+
+/// LUSTBUS client options of a port: its `?latency=`.
+pub fn lustbus_options(spec: &PortSpec) -> LustbusOptions {
+    connect_options(spec).lustbus()
 }
 
 /// The schemas every command knows ([`crate::output::registry`]).

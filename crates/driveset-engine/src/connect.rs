@@ -4,14 +4,42 @@
 //! through here; nothing else picks a client by family.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use driveset_link::Link;
 use driveset_schema::{BusProtocol, Schema};
 
 use crate::client::{
-    BorrowedByteLink, BorrowedFrameLink, CanClient, DriveClient, LecomClient, LustbusClient, Target,
+    BorrowedByteLink, BorrowedFrameLink, CanClient, DriveClient, LecomClient, LecomOptions,
+    LustbusClient, LustbusOptions, Target,
 };
 use crate::error::EngineError;
+
+/// What a port says about how to talk to its drives.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ConnectOptions {
+    /// The round-trip delay the transport adds (the port's `latency=`),
+    /// added to the serial clients' answer timeouts from the first telegram.
+    pub latency: Option<Duration>,
+}
+
+impl ConnectOptions {
+    /// The LUSTBUS client's options.
+    pub fn lustbus(&self) -> LustbusOptions {
+        LustbusOptions {
+            latency: self.latency,
+            ..LustbusOptions::default()
+        }
+    }
+
+    /// The LECOM client's options.
+    pub fn lecom(&self) -> LecomOptions {
+        LecomOptions {
+            latency: self.latency,
+            ..LecomOptions::default()
+        }
+    }
+}
 
 /// A client for the drive at `address` on `link`, speaking the protocol of
 /// `schema`'s family. A schema whose protocol does not run on this kind of
@@ -22,11 +50,29 @@ pub fn connect(
     schema: Arc<Schema>,
     address: u8,
 ) -> Result<Box<dyn DriveClient>, EngineError> {
+    connect_with(link, schema, address, &ConnectOptions::default())
+}
+
+/// As [`connect`], with the port's options.
+pub fn connect_with(
+    link: Link,
+    schema: Arc<Schema>,
+    address: u8,
+    opts: &ConnectOptions,
+) -> Result<Box<dyn DriveClient>, EngineError> {
     match (link, schema.family.bus()) {
-        (Link::Bytes(b), BusProtocol::Lustbus) => {
-            Ok(Box::new(LustbusClient::new(b, schema, address)?))
-        }
-        (Link::Bytes(b), BusProtocol::Lecom) => Ok(Box::new(LecomClient::new(b, schema, address)?)),
+        (Link::Bytes(b), BusProtocol::Lustbus) => Ok(Box::new(LustbusClient::with_options(
+            b,
+            schema,
+            address,
+            opts.lustbus(),
+        )?)),
+        (Link::Bytes(b), BusProtocol::Lecom) => Ok(Box::new(LecomClient::with_options(
+            b,
+            schema,
+            address,
+            opts.lecom(),
+        )?)),
         (Link::Frames(f), BusProtocol::CanSdo) => Ok(Box::new(CanClient::new(f, schema, address)?)),
         (link, _) => Err(misfit(&link, &schema, address)),
     }

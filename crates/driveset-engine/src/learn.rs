@@ -180,10 +180,7 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 pub fn needs_learning(schema: &Schema) -> bool {
     !schema.id.starts_with("learned-")
         && !schema.fictional
-        && matches!(
-            schema.family,
-            Family::Mc6000 | Family::Vf1000
-        )
+        && matches!(schema.family, Family::Mc6000 | Family::Vf1000)
         && schema.codes.iter().any(|c| {
             c.read_clears != Some(true)
                 && (schema.type_of(c).is_none()

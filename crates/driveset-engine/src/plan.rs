@@ -65,6 +65,52 @@ fn dataset_code(schema: &Schema) -> Option<u32> {
     schema.family.descriptor().dataset.map(|d| d.code)
 }
 
+/// The shortest interval between two SLOAD polls while the drive checks a
+/// staged dataset (not a spec figure: 11.4 gives only the 10 s timeout; a
+/// poll at most every 50 ms, or one measured round trip when that is
+/// longer, instead of back-to-back ENQUIRYs).
+pub const SLOAD_POLL_INTERVAL: Duration = Duration::from_millis(50);
+
+/// The longest reaction time of an MC6000/7000 with a KEYPAD attached
+/// (the family descriptor: LUSTBUS 10, table: 1...30 ms).
+pub const MC_MAX_REACTION_KEYPAD: Duration = reaction(Family::Mc6000, true);
+
+/// The longest reaction time of an MC6000/7000 without KEYPAD (LUSTBUS 10:
+/// 1...25 ms).
+pub const MC_MAX_REACTION: Duration = reaction(Family::Mc6000, false);
+
+/// The longest reaction time of a VF1000 with a KEYPAD attached (LUSTBUS
+/// 10: 1...60 ms).
+pub const VF_MAX_REACTION_KEYPAD: Duration = reaction(Family::Vf1000, true);
+
+/// The longest reaction time of a VF1000 without KEYPAD (LUSTBUS 10:
+/// 1...30 ms).
+pub const VF_MAX_REACTION: Duration = reaction(Family::Vf1000, false);
+
+/// The shortest reaction time of every LUSTBUS device (LUSTBUS 10: "1...").
+pub const LUSTBUS_MIN_REACTION: Duration = Family::Mc6000.descriptor().reaction.min;
+
+/// The longest reaction of `family` from its descriptor.
+const fn reaction(family: Family, keypad: bool) -> Duration {
+    let r = family.descriptor().reaction;
+    match (keypad, r.max_with_keypad) {
+        (true, Some(k)) => k,
+        _ => r.max,
+    }
+}
+
+/// LECOM 8.J b: "The monitoring time in the master should be approx. twice
+/// as long as the maximum response time."
+pub const LECOM_MONITORING_FACTOR: u32 = 2;
+
+/// The Tmd's longest response time. FICTIONAL: the LECOM manual gives none;
+/// the family descriptor assumes 20 ms, as the simulator's Tmd does.
+pub const TMD_MAX_REACTION: Duration = Family::Tmd.descriptor().reaction.max;
+
+/// The shortest response time assumed of a Tmd, for planning (FICTIONAL,
+/// as [`TMD_MAX_REACTION`]).
+pub const TMD_MIN_REACTION: Duration = Family::Tmd.descriptor().reaction.min;
+
 /// How a code's value is kept by the drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]

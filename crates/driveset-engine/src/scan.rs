@@ -153,6 +153,9 @@ pub fn scan_lustbus(
         .timeout
         .unwrap_or_else(|| Duration::from_millis(65) + wire_time(14, link.baud()));
     let mut line = LustLine::new(BorrowedByteLink(link));
+    // Replies carry the address: a late one from the previous address is
+    // told apart, so no late window after each silent address.
+    line.wait_late = false;
     let mut found = Vec::new();
     for ad in targets {
         let got = crate::client::lustbus::probe_type(&mut line, ad, timeout, opts.tries)
@@ -208,6 +211,9 @@ pub fn scan_lecom(
     let timeout = opts
         .timeout
         .unwrap_or_else(|| Duration::from_millis(40) + wire_time(24, link.baud()));
+    // Answers carry no address: after a silent address the probe listens
+    // for a late answer as long again, so it is not taken for the next
+    // address's (client::timing).
     let mut line = LecomLine::new(BorrowedByteLink(link));
     let mut found = Vec::new();
     for ad in targets {

@@ -171,6 +171,11 @@ pub struct UploadReport {
     pub interleaved_reads: usize,
     /// Dataset handshake outcome (MC6000/7000), e.g. `accepted`.
     pub dataset: Option<String>,
+    /// 80-SLOAD polls while the drive checked the staged dataset
+    /// (MC6000/7000, LUSTBUS 11.4); `None` when no dataset was committed.
+    pub sload_polls: Option<u64>,
+    /// Replies recognised as late and dropped (client::timing).
+    pub late_replies: u64,
     /// Per code, in write order then the unchanged ones.
     pub codes: Vec<CodeReport>,
     /// Notes.
@@ -199,6 +204,16 @@ impl UploadReport {
         );
         if let Some(d) = &self.dataset {
             let _ = writeln!(out, "dataset: {d}");
+        }
+        if let Some(n) = self.sload_polls {
+            let _ = writeln!(out, "dataset check: {n} SLOAD poll(s)");
+        }
+        if self.late_replies > 0 {
+            let _ = writeln!(
+                out,
+                "late replies: {} (after their answer timeout; discarded)",
+                self.late_replies
+            );
         }
         let _ = writeln!(out, "before: {}", self.fingerprint_before);
         if let Some(a) = &self.fingerprint_after {
@@ -1005,6 +1020,9 @@ impl Txn<'_> {
             elapsed: self.client.clock().now() - self.start,
             interleaved_reads: self.interleaved,
             dataset: self.dataset_note.clone(),
+            sload_polls: Some(stats.sload_polls.saturating_sub(self.stats0.sload_polls))
+                .filter(|n| *n > 0),
+            late_replies: stats.late.saturating_sub(self.stats0.late),
             codes,
             warnings: self.warnings.clone(),
         }

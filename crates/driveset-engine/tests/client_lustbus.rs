@@ -291,9 +291,13 @@ fn no_answer_after_three_tries() {
     };
     assert_eq!(tries, 3);
     assert_eq!(c.stats().telegrams, 3);
-    // Each try: 8 characters out, 30 ms + 18 characters + 10 ms timeout.
-    let one = wire_time(8, 9600) + Duration::from_millis(40) + wire_time(18, 9600);
+    // Each try: 8 characters out, the timeout (30 ms + 18 characters + the
+    // first-contact allowance of 200 ms: nothing measured yet), then as
+    // long again listening for a late reply.
+    let timeout = Duration::from_millis(230) + wire_time(18, 9600);
+    let one = wire_time(8, 9600) + timeout * 2;
     assert_eq!(rig.clock.now() - t0, one * 3);
+    assert_eq!(c.stats().late, 0);
 }
 
 #[test]
@@ -452,9 +456,10 @@ fn options_change_the_answer_timeout() {
         c.read(CodeKey::new(300)).unwrap_err(),
         EngineError::NoAnswer { tries: 1, .. }
     ));
+    // 5 ms for the answer, then 5 ms more listening for a late one.
     assert_eq!(
         rig.clock.now() - t0,
-        wire_time(8, 9600) + Duration::from_millis(5)
+        wire_time(8, 9600) + Duration::from_millis(10)
     );
 }
 

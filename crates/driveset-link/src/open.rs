@@ -64,7 +64,9 @@ fn with_echo<L: ByteLink + 'static>(link: L, echo: Option<EchoMode>) -> Box<dyn 
 /// [`LinkError::SimPort`]: the CLI opens them with the simulator.
 pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
     match spec {
-        PortSpec::Serial { path, baud, echo } => {
+        PortSpec::Serial {
+            path, baud, echo, ..
+        } => {
             let link = SerialLink::open(path, baud.unwrap_or(DEFAULT_BAUD))?;
             Ok(Link::Bytes(with_echo(link, *echo)))
         }
@@ -73,6 +75,7 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
             port,
             baud,
             echo,
+            ..
         } => {
             let link = TcpLink::connect(
                 host,
@@ -87,6 +90,7 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
             port,
             baud,
             echo,
+            ..
         } => {
             let link = Rfc2217Link::connect(
                 host,

@@ -17,8 +17,11 @@
 //! forms and `sim://` also `bitrate=`. The character lines (serial,
 //! `tcp://`, `rfc2217://`) take `echo=auto|on|off` ([`crate::echo`]: strip
 //! the echo of a 2-wire RS-485 adapter; `auto`, the default, detects it
-//! from the first exchange; the canonical form leaves `auto` out). Unknown
-//! keys are rejected by name.
+//! from the first exchange; the canonical form leaves `auto` out). Serial, `tcp://`
+//! and `rfc2217://` ports take `latency=` ([`parse_latency`]: `40ms`,
+//! `0.1s`), the round-trip delay the transport adds (USB adapter, device
+//! server), which the clients add to their answer timeouts from the first
+//! telegram on. Unknown keys are rejected by name.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -44,10 +47,15 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
 /// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
 /// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &["c0001", "faults", "keypad", "layout", "seed", "state", "types"];
+pub const SIM_OPTION_KEYS: &[&str] = &[
+    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
+];
 
-const SERIAL_KEYS: &[&str] = &["baud", "echo"];
-const TCP_KEYS: &[&str] = &["baud", "echo"];
+const SERIAL_KEYS: &[&str] = &["baud", "echo", "latency"];
+const TCP_KEYS: &[&str] = &["baud", "echo", "latency"];
+
+/// The largest `latency=` a port takes.
+pub const MAX_LATENCY: std::time::Duration = std::time::Duration::from_secs(10);
 const SLCAN_KEYS: &[&str] = &["bitrate", "baud"];
 const CAN_KEYS: &[&str] = &["bitrate", "baud"];
 const SIM_KEYS: &[&str] = &[
@@ -87,6 +95,8 @@ pub enum PortSpec {
         /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
         /// gives `None` for `echo=auto`).
         echo: Option<EchoMode>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
     },
     /// A serial device server in raw TCP mode whose serial side runs 7E1.
     Tcp {
@@ -100,6 +110,8 @@ pub enum PortSpec {
         /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
         /// gives `None` for `echo=auto`).
         echo: Option<EchoMode>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
     },
     /// A serial device server speaking RFC 2217: driveset sets the line
     /// (rate, 7 data bits, even parity, 1 stop bit) on the server.
@@ -114,6 +126,8 @@ pub enum PortSpec {
         /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
         /// gives `None` for `echo=auto`).
         echo: Option<EchoMode>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
     },
     /// An slcan (Lawicel) USB-CAN adapter on a serial port.
     Slcan {
@@ -393,6 +407,16 @@ impl PortSpec {
         }
     }
 
+    /// The `latency=` of a serial, `tcp://` or `rfc2217://` port.
+    pub fn latency(&self) -> Option<std::time::Duration> {
+        match self {
+            PortSpec::Serial { latency, .. }
+            | PortSpec::Tcp { latency, .. }
+            | PortSpec::Rfc2217 { latency, .. } => *latency,
+            _ => None,
+        }
+    }
+
     /// The same port with `echo=` set (character lines only; other ports
     /// are returned unchanged).
     pub fn with_echo(mut self, mode: EchoMode) -> PortSpec {
@@ -426,30 +450,40 @@ impl fmt::Display for PortSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut q = Query::default();
         match self {
-            PortSpec::Serial { path, baud, echo } => {
+            PortSpec::Serial {
+                path,
+                baud,
+                echo,
+                latency,
+            } => {
                 f.write_str(path)?;
                 q.num("baud", *baud);
                 q.echo(*echo);
+                q.latency(*latency);
             }
             PortSpec::Tcp {
                 host,
                 port,
                 baud,
                 echo,
+                latency,
             } => {
                 write_host_port(f, "tcp", host, *port)?;
                 q.num("baud", *baud);
                 q.echo(*echo);
+                q.latency(*latency);
             }
             PortSpec::Rfc2217 {
                 host,
                 port,
                 baud,
                 echo,
+                latency,
             } => {
                 write_host_port(f, "rfc2217", host, *port)?;
                 q.num("baud", *baud);
                 q.echo(*echo);
+                q.latency(*latency);
             }
             PortSpec::Slcan {
                 path,
@@ -521,6 +555,58 @@ impl Query {
             self.text(key, &v.to_string());
         }
     }
+    /// `latency=` in whole milliseconds, or microseconds when it has a
+    /// fraction of a millisecond.
+    fn latency(&mut self, value: Option<std::time::Duration>) {
+        if let Some(d) = value {
+            let text = if d.as_micros() % 1000 == 0 {
+                format!("{}ms", d.as_millis())
+            } else {
+                format!("{}us", d.as_micros())
+            };
+            self.text("latency", &text);
+        }
+    }
+}
+
+/// A `latency=` value: a whole or decimal number with the unit `ms`, `s`
+/// or `us` (`40ms`, `0.1s`, `16.5ms`), at most [`MAX_LATENCY`], to the
+/// microsecond. `Err` says what is wrong.
+pub fn parse_latency(text: &str) -> Result<std::time::Duration, String> {
+    let (number, unit_us) = if let Some(n) = text.strip_suffix("ms") {
+        (n, 1_000u64)
+    } else if let Some(n) = text.strip_suffix("us") {
+        (n, 1)
+    } else if let Some(n) = text.strip_suffix('s') {
+        (n, 1_000_000)
+    } else {
+        return Err("give a unit: e.g. latency=40ms or latency=0.1s".into());
+    };
+    let (whole, frac) = number.split_once('.').unwrap_or((number, ""));
+    let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+    if !digits(whole) || (number.contains('.') && !digits(frac)) {
+        return Err("not a number with a unit (ms, s, us), e.g. latency=40ms".into());
+    }
+    let too_long = || format!("at most {} s", MAX_LATENCY.as_secs());
+    let whole: u64 = whole.parse().map_err(|_| too_long())?;
+    let mut us = whole.checked_mul(unit_us).ok_or_else(too_long)?;
+    // the fraction, to the microsecond
+    let mut scale = unit_us;
+    for b in frac.bytes() {
+        scale /= 10;
+        if scale == 0 {
+            if b != b'0' {
+                return Err("finer than a microsecond".into());
+            }
+            continue;
+        }
+        us += u64::from(b - b'0') * scale;
+    }
+    let d = std::time::Duration::from_micros(us);
+    if d > MAX_LATENCY {
+        return Err(too_long());
+    }
+    Ok(d)
 }
 
 /// The options after `?`, checked against the keys a scheme takes.
@@ -608,6 +694,20 @@ impl Options {
         }
     }
 
+    /// `latency=` ([`parse_latency`]).
+    fn latency(&mut self) -> Result<Option<std::time::Duration>, PortSpecErrorKind> {
+        let Some(value) = self.map.remove("latency") else {
+            return Ok(None);
+        };
+        parse_latency(&value)
+            .map(Some)
+            .map_err(|reason| PortSpecErrorKind::BadValue {
+                key: "latency".into(),
+                value,
+                reason,
+            })
+    }
+
     /// `bitrate=`, checked against [`ALLOWED_BITRATES`].
     fn bitrate(&mut self) -> Result<Option<u32>, PortSpecErrorKind> {
         match self.number("bitrate")? {
@@ -663,10 +763,12 @@ fn parse_serial(path: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErr
     let mut opts = Options::parse(query, "serial", SERIAL_KEYS)?;
     let baud = opts.line_baud()?;
     let echo = opts.echo()?;
+    let latency = opts.latency()?;
     Ok(PortSpec::Serial {
         path: path.into(),
         baud,
         echo,
+        latency,
     })
 }
 
@@ -764,6 +866,7 @@ fn parse_tcp(
     )?;
     let baud = opts.line_baud()?;
     let echo = opts.echo()?;
+    let latency = opts.latency()?;
     let host = host.to_string();
     Ok(if rfc2217 {
         PortSpec::Rfc2217 {
@@ -771,6 +874,7 @@ fn parse_tcp(
             port,
             baud,
             echo,
+            latency,
         }
     } else {
         PortSpec::Tcp {
@@ -778,6 +882,7 @@ fn parse_tcp(
             port,
             baud,
             echo,
+            latency,
         }
     })
 }

@@ -36,7 +36,8 @@ fn serial_paths() {
         PortSpec::Serial {
             path: "/dev/ttyUSB0".into(),
             baud: None,
-            echo: None
+            echo: None,
+            latency: None
         }
     );
     assert_eq!(
@@ -44,7 +45,8 @@ fn serial_paths() {
         PortSpec::Serial {
             path: "COM3".into(),
             baud: Some(19200),
-            echo: None
+            echo: None,
+            latency: None
         }
     );
     round_trip("/dev/ttyUSB0?baud=9600", "/dev/ttyUSB0?baud=9600");
@@ -62,7 +64,8 @@ fn tcp_hosts() {
             host: "192.168.0.7".into(),
             port: 4001,
             baud: None,
-            echo: None
+            echo: None,
+            latency: None
         }
     );
     assert_eq!(
@@ -71,7 +74,8 @@ fn tcp_hosts() {
             host: "::1".into(),
             port: 4001,
             baud: Some(57600),
-            echo: None
+            echo: None,
+            latency: None
         }
     );
     round_trip(
@@ -92,7 +96,8 @@ fn echo_option_on_character_lines() {
         PortSpec::Serial {
             path: "/dev/ttyUSB0".into(),
             baud: Some(19200),
-            echo: Some(EchoMode::On)
+            echo: Some(EchoMode::On),
+            latency: None
         }
     );
     // Canonical: baud before echo; auto (the default) left out.
@@ -126,7 +131,9 @@ fn echo_option_on_character_lines() {
         }
     );
     assert_eq!(
-        PortSpec::parse("COM3?echo=yes").expect_err("bad").to_string(),
+        PortSpec::parse("COM3?echo=yes")
+            .expect_err("bad")
+            .to_string(),
         "invalid port `COM3?echo=yes`: `echo=yes`: use auto (detect, the default), on (the line returns what driveset sends: strip it) or off"
     );
     // Not for CAN or simulated ports.
@@ -148,7 +155,8 @@ fn rfc2217_hosts() {
             host: "192.168.0.7".into(),
             port: 2217,
             baud: Some(19200),
-            echo: None
+            echo: None,
+            latency: None
         }
     );
     round_trip("rfc2217://[::1]:2217", "rfc2217://[::1]:2217");
@@ -167,7 +175,10 @@ fn rfc2217_hosts() {
     ));
     assert!(matches!(
         err("rfc2217://h:1/x"),
-        PortSpecErrorKind::TrailingPath { scheme: "rfc2217", .. }
+        PortSpecErrorKind::TrailingPath {
+            scheme: "rfc2217",
+            ..
+        }
     ));
     assert_eq!(
         PortSpec::parse("rfc2217://h:1?bitrate=500000")
@@ -327,7 +338,7 @@ fn errors_name_what_is_wrong() {
     );
     assert!(matches!(
         err("/dev/ttyS0?parity=odd"),
-        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud", "echo"] } if key == "parity"
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud", "echo", "latency"] } if key == "parity"
     ));
     assert!(matches!(
         err("tcp://h:1?bitrate=500000"),
@@ -525,7 +536,7 @@ fn error_messages_carry_input_and_remedy() {
     let e = PortSpec::parse("/dev/ttyS0?parity=odd").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, echo"
+        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, echo, latency"
     );
     // Without addresses= the port parses with no drive; the command's
     // --address supplies it (driveset-cli), the simulator refuses an empty bus.
@@ -580,4 +591,63 @@ mod properties {
             }
         }
     }
+}
+
+#[test]
+fn latency_option_on_serial_and_tcp_ports() {
+    use std::time::Duration;
+    assert_eq!(
+        ok("tcp://127.0.0.1:4001?latency=40ms"),
+        PortSpec::Tcp {
+            host: "127.0.0.1".into(),
+            port: 4001,
+            baud: None,
+            echo: None,
+            latency: Some(Duration::from_millis(40))
+        }
+    );
+    assert_eq!(
+        ok("/dev/ttyUSB0?latency=0.1s&baud=19200").latency(),
+        Some(Duration::from_millis(100))
+    );
+    assert_eq!(
+        ok("COM3?latency=16.5ms").latency(),
+        Some(Duration::from_micros(16_500))
+    );
+    round_trip(
+        "tcp://127.0.0.1:4001?latency=0.25s&baud=57600",
+        "tcp://127.0.0.1:4001?baud=57600&latency=250ms",
+    );
+    round_trip("COM3?latency=16.5ms", "COM3?latency=16500us");
+    round_trip("COM3?latency=0ms", "COM3?latency=0ms");
+    assert_eq!(ok("COM3").latency(), None);
+    for (input, reason) in [
+        (
+            "COM3?latency=40",
+            "give a unit: e.g. latency=40ms or latency=0.1s",
+        ),
+        (
+            "COM3?latency=fast ms",
+            "not a number with a unit (ms, s, us), e.g. latency=40ms",
+        ),
+        (
+            "COM3?latency=-4ms",
+            "not a number with a unit (ms, s, us), e.g. latency=40ms",
+        ),
+        ("COM3?latency=11s", "at most 10 s"),
+        ("COM3?latency=0.0000001s", "finer than a microsecond"),
+    ] {
+        let e = PortSpec::parse(input).unwrap_err();
+        let value = input.split_once("latency=").unwrap().1;
+        assert_eq!(
+            e.to_string(),
+            format!("invalid port `{input}`: `latency={value}`: {reason}"),
+            "{input}"
+        );
+    }
+    let e = PortSpec::parse("slcan:///dev/ttyACM0?latency=4ms").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "invalid port `slcan:///dev/ttyACM0?latency=4ms`: unknown option `latency` for slcan:// ports; allowed: bitrate, baud"
+    );
 }

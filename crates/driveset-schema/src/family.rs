@@ -277,7 +277,7 @@ impl Family {
     pub const ALL: [Family; 4] = [Family::Mc6000, Family::Vf1000, Family::Tmd, Family::Ecs];
 
     /// The family's descriptor.
-    pub fn descriptor(self) -> &'static Descriptor {
+    pub const fn descriptor(self) -> &'static Descriptor {
         match self {
             Family::Mc6000 => &MC6000,
             Family::Vf1000 => &VF1000,

@@ -106,7 +106,9 @@ pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
 pub const STATE_FORMAT: &str = "driveset-sim-state 1";
 
 /// The option keys [`SimConfig::from_spec`] understands.
-pub const OPTION_KEYS: &[&str] = &["c0001", "faults", "keypad", "layout", "seed", "state", "types"];
+pub const OPTION_KEYS: &[&str] = &[
+    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
+];
 
 /// Why a simulated bus could not be opened, loaded or saved.
 #[derive(Debug, thiserror::Error)]

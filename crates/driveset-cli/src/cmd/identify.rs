@@ -114,7 +114,9 @@ fn identify(args: &Args) -> Result<u8, Fail> {
                 )));
             }
         };
-        let mut probe = LustbusClient::new(link, schema.clone(), args.address)?;
+        let lust = port::lustbus_options(&opened.spec);
+        let mut probe =
+            LustbusClient::with_options(link, schema.clone(), args.address, lust.clone())?;
         let code = ParameterCode::mc_value(91).unwrap_or(ParameterCode::POSMOD);
         let mc = probe.enquire_code(code, 8)?.is_some();
         if !mc {
@@ -131,10 +133,11 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         let mut client: Box<dyn DriveClient> = if mc {
             Box::new(probe)
         } else {
-            Box::new(LustbusClient::new(
+            Box::new(LustbusClient::with_options(
                 probe.into_link(),
                 schema.clone(),
                 args.address,
+                lust,
             )?)
         };
         return report(

@@ -161,8 +161,9 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     opts.params = Some(params.clone());
     port::check_fit(&opened, &base, Some(args.address), false)?;
     let port_name = opened.name.clone();
+    let options = port::lustbus_options(&opened.spec);
     let (link, _sim) = learning::take_byte_link(opened)?;
-    let mut client = LustbusClient::new(link, base.clone(), args.address)?;
+    let mut client = LustbusClient::with_options(link, base.clone(), args.address, options)?;
     let identity = client.identify()?;
     let mut learned = learn(&mut client, base.family, &opts)?;
     client.finish()?;

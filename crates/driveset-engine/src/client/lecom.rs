@@ -35,9 +35,18 @@
 //! long as the maximum response time"; the manual gives no response time.
 //! Default: 2 x [`LecomOptions::max_reaction`] (20 ms, the simulator's
 //! assumed Tmd figure) + the wire time of the longest answer the code's
-//! format allows; [`LecomOptions::answer_timeout`] replaces it. No answer
-//! or a garbled one: repeat, [`LecomOptions::tries`] (3) sends in all, then
-//! [`EngineError::NoAnswer`].
+//! format allows + the link's allowance ([`super::timing`]: measured from
+//! the session's round trips, at least 10 ms, at most 1 s, 200 ms before
+//! the first answer; at least the port's `?latency=` plus 10 ms,
+//! [`LecomOptions::latency`]); [`LecomOptions::answer_timeout`] replaces
+//! it. No answer or a garbled one: the client listens as long again for a
+//! late answer (counted and dropped, [`ClientStats::late`]: an ACK or NAK
+//! is told apart by its sequence, arriving in the window of the telegram
+//! it answers), then repeats (input discarded first),
+//! [`LecomOptions::tries`] (3) sends in all, then
+//! [`EngineError::NoAnswer`]. An answer for another code (a late answer to
+//! an earlier RECEIVE, the C0068 read after a NAK included) is never taken
+//! for the answer.
 //!
 //! # running()
 //!
@@ -57,11 +66,13 @@ use driveset_proto::lecom::{
 };
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
+use super::timing::LinkLatency;
 use super::{
     ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
     schema_code, shown_value, write_what,
 };
 use crate::error::EngineError;
+use crate::plan;
 
 /// C0068, operating status (bits 4..7: last communication error).
 pub const C0068: u32 = 68;
@@ -75,7 +86,7 @@ pub const C0093: u32 = 93;
 pub const C0099: u32 = 99;
 
 /// The minimum reaction time assumed for planning (the manual gives none).
-const MIN_REACTION: Duration = Duration::from_millis(1);
+const MIN_REACTION: Duration = plan::TMD_MIN_REACTION;
 
 /// Options of a [`LecomClient`].
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -87,16 +98,21 @@ pub struct LecomOptions {
     /// 20 ms (FICTIONAL, as the simulator's Tmd). The monitoring time is
     /// twice this plus the answer's wire time (8.J b).
     pub max_reaction: Duration,
-    /// Replaces the computed monitoring time.
+    /// Replaces the computed monitoring time (no allowance is added).
     pub answer_timeout: Option<Duration>,
+    /// The round-trip delay the transport adds (the port's `?latency=`):
+    /// the least allowance is this plus 10 ms from the first telegram on
+    /// ([`super::timing`]). Default `None`: measured.
+    pub latency: Option<Duration>,
 }
 
 impl Default for LecomOptions {
     fn default() -> Self {
         LecomOptions {
             tries: 3,
-            max_reaction: Duration::from_millis(20),
+            max_reaction: plan::TMD_MAX_REACTION,
             answer_timeout: None,
+            latency: None,
         }
     }
 }
@@ -114,6 +130,10 @@ pub(crate) struct LecomLine<L> {
     pub(crate) link: L,
     pub(crate) stats: ClientStats,
     open: bool,
+    /// The link's measured latency ([`super::timing`]).
+    pub(crate) latency: LinkLatency,
+    /// Listen for a late answer after a timeout (not in scan probes).
+    pub(crate) wait_late: bool,
 }
 
 impl<L: ByteLink> LecomLine<L> {
@@ -122,6 +142,8 @@ impl<L: ByteLink> LecomLine<L> {
             link,
             stats: ClientStats::default(),
             open: false,
+            latency: LinkLatency::new(None),
+            wait_late: true,
         }
     }
 
@@ -136,7 +158,8 @@ impl<L: ByteLink> LecomLine<L> {
     }
 
     /// Sends a telegram and waits `timeout` from the end of the send for
-    /// the answer (a RECEIVE answer must echo `code`).
+    /// the answer (a RECEIVE answer must echo `code`). After a timeout,
+    /// listens for a late answer for as long again ([`super::timing`]).
     fn exchange(
         &mut self,
         bytes: &[u8],
@@ -144,27 +167,59 @@ impl<L: ByteLink> LecomLine<L> {
         timeout: Duration,
     ) -> Result<Outcome, LinkError> {
         self.send(bytes)?;
-        let deadline = self.link.clock().now() + timeout;
+        let start = self.link.clock().now();
+        let deadline = start + timeout;
+        let mut late_until: Option<driveset_link::Instant> = None;
         let mut decoder = ResponseDecoder::new();
         let mut garbled: Option<String> = None;
+        let mut received = 0usize;
         let mut buf = [0u8; 128];
         let mut events = Vec::new();
         loop {
-            let n = self.link.recv(&mut buf, deadline)?;
+            let n = self.link.recv(&mut buf, late_until.unwrap_or(deadline))?;
             if n == 0 {
+                if late_until.is_none() {
+                    self.latency.timed_out();
+                    if self.wait_late {
+                        // Timed out: an answer may still be on its way;
+                        // listen as long again so that the next telegram
+                        // cannot take it for its own.
+                        late_until = Some(deadline + self.latency.late_window(timeout));
+                        continue;
+                    }
+                }
                 decoder.finish(|e| events.push(e));
             } else {
                 let got = buf.get(..n).unwrap_or(&[]);
                 self.stats.received += got.len() as u64;
+                received += got.len();
                 decoder.feed(got, |e| events.push(e));
             }
             for ev in events.drain(..) {
                 match ev.result {
                     Ok(r) => match (r.code(), code) {
                         (Some(got), Some(want)) if got != want => {
-                            garbled = Some(format!("an answer for {got} instead of {want}"));
+                            // A late answer to an earlier RECEIVE.
+                            self.stats.late += 1;
+                            garbled = Some(format!(
+                                "an answer for {got} instead of {want} (late, discarded)"
+                            ));
                         }
-                        _ => return Ok(Outcome::Answer(r)),
+                        _ => {
+                            let elapsed = self.link.clock().now().saturating_duration_since(start);
+                            let expected =
+                                wire_time(received, self.link.baud()).saturating_add(MIN_REACTION);
+                            self.latency.observe(elapsed, expected);
+                            if late_until.is_some() {
+                                self.stats.late += 1;
+                                return Ok(Outcome::Garbled(format!(
+                                    "an answer {} ms after the request, later than the monitoring time of {} ms (late, discarded)",
+                                    elapsed.as_millis(),
+                                    timeout.as_millis()
+                                )));
+                            }
+                            return Ok(Outcome::Answer(r));
+                        }
                     },
                     Err(e) => garbled = Some(e.to_string()),
                 }
@@ -323,8 +378,10 @@ impl<L: ByteLink> LecomClient<L> {
                 });
             }
         };
+        let mut line = LecomLine::new(link);
+        line.latency = LinkLatency::new(opts.latency);
         Ok(LecomClient {
-            line: LecomLine::new(link),
+            line,
             schema,
             target,
             address,
@@ -355,13 +412,22 @@ impl<L: ByteLink> LecomClient<L> {
         self.line.link.baud()
     }
 
+    /// The monitoring time now for an answer of `answer_chars`
+    /// characters: 8.J b's twice the longest response time + the answer's
+    /// wire time + the link's allowance (module docs).
     fn timeout(&self, answer_chars: usize) -> Duration {
         self.opts.answer_timeout.unwrap_or_else(|| {
             self.opts
                 .max_reaction
-                .saturating_mul(2)
+                .saturating_mul(plan::LECOM_MONITORING_FACTOR)
                 .saturating_add(wire_time(answer_chars, self.baud()))
+                .saturating_add(self.line.latency.allowance())
         })
+    }
+
+    /// The link's measured latency so far.
+    pub fn latency(&self) -> &super::timing::LinkLatency {
+        &self.line.latency
     }
 
     fn refused(&self, reason: String) -> EngineError {
@@ -408,12 +474,12 @@ impl<L: ByteLink> LecomClient<L> {
         let bytes = t
             .to_bytes()
             .map_err(|e| self.refused(format!("{what}: {e}")))?;
-        let timeout = self.timeout(answer_len(code, ty));
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
                 self.line.stats.retries += 1;
             }
+            let timeout = self.timeout(answer_len(code, ty));
             let out = self
                 .line
                 .exchange(&bytes, Some(code), timeout)
@@ -612,7 +678,6 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             .map(Telegram::Send)
             .map_err(|e| self.refused(e.to_string()))?;
         let bytes = t.to_bytes().map_err(|e| self.refused(e.to_string()))?;
-        let timeout = self.timeout(1);
         let mut last = String::new();
         let mut sends = 0u32;
         while sends < self.tries() {
@@ -620,6 +685,8 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
                 self.line.stats.retries += 1;
             }
             sends += 1;
+            // ACK / NAK
+            let timeout = self.timeout(1);
             let out = self
                 .line
                 .exchange(&bytes, None, timeout)

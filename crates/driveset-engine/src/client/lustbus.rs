@@ -29,13 +29,19 @@
 //! From the end of the request: the longest reaction time of section 10
 //! (MC 30 ms / VF1000 60 ms with KEYPAD, 25 / 30 ms without:
 //! [`LustbusOptions::keypad`], default with) + the reply's wire time at 10
-//! bits a character + [`LustbusOptions::margin`] (default 10 ms). A VF1000
-//! SELECT to an EEPROM parameter (kind `eeprom`, `fsel-isel` or unknown)
-//! adds the ACK delay of section 10 exception 4: 60 ms for a one-byte, 120 ms
-//! for a wider parameter. [`LustbusOptions::answer_timeout`] replaces the
-//! computed figure. No answer or a garbled one: the telegram is sent again,
-//! [`LustbusOptions::tries`] times in all (default 3), then
-//! [`EngineError::NoAnswer`].
+//! bits a character + the link's allowance ([`super::timing`]: measured
+//! from the session's round trips, at least 10 ms, at most 1 s, 200 ms
+//! before the first reply; at least the port's `?latency=` plus 10 ms,
+//! [`LustbusOptions::latency`]). A VF1000 SELECT to an EEPROM parameter
+//! (kind `eeprom`, `fsel-isel` or unknown) adds the ACK delay of section 10
+//! exception 4: 60 ms for a one-byte, 120 ms for a wider parameter.
+//! [`LustbusOptions::answer_timeout`] replaces the computed figure. No
+//! answer or a garbled one: the client listens as long again for a late
+//! reply (counted and dropped, [`ClientStats::late`]), then the telegram is
+//! sent again (input discarded first), [`LustbusOptions::tries`] times in
+//! all (default 3), then [`EngineError::NoAnswer`]. A value reply from
+//! another address or for another CODE is a late reply too and never taken
+//! for the answer.
 //!
 //! # SIOF / SERR (85)
 //!
@@ -77,11 +83,12 @@
 //! CardWriteable codes are staged by the drive (no EEPROM pacing); a write
 //! of any other code is refused before sending, since the drive would ACK
 //! it and silently not take it. [`DriveClient::dataset_commit`] writes
-//! SLOAD = -2 and polls SLOAD with back-to-back ENQUIRYs (each takes about
-//! 20 ms at 9600 baud, so the drive sees at most ~50 a second; no extra wait
-//! is added) until it leaves -1 / -2: 0 accepted, > 0 rejected at that
-//! parameter; still checking when the timeout passes is a `Device` error
-//! (11.4: repeat the transfer or restart the drive).
+//! SLOAD = -2 and polls SLOAD until it leaves -1 / -2: 0 accepted, > 0
+//! rejected at that parameter; still checking when the timeout passes is a
+//! `Device` error (11.4: repeat the transfer or restart the drive). Polls
+//! start at most every [`crate::plan::SLOAD_POLL_INTERVAL`] (50 ms) or one
+//! measured round trip, whichever is longer, sleeping on the link's clock
+//! in between; the count is [`ClientStats::sload_polls`].
 //!
 //! # running()
 //!
@@ -101,11 +108,13 @@ use driveset_proto::lustbus::{
 use driveset_schema::schema::StorageKind;
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
+use super::timing::LinkLatency;
 use super::{
     ClientStats, DatasetOutcome, DriveClient, Identity, Target, code_name, device, link_error,
     refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::EngineError;
+use crate::plan;
 
 /// 80-SLOAD, the dataset download handshake (MC, section 11.4).
 pub const SLOAD: u32 = 80;
@@ -119,7 +128,7 @@ pub const MC_SCTL1: u32 = 416;
 pub const VF_CNTL: u32 = 3;
 
 /// The minimum reaction time of section 10 (both families), for planning.
-const MIN_REACTION: Duration = Duration::from_millis(1);
+const MIN_REACTION: Duration = plan::LUSTBUS_MIN_REACTION;
 
 /// The numerically compatible parameters (section 5.2), CODE `000xx`.
 const COMPATIBLE: [u32; 6] = [81, 82, 83, 84, 85, 91];
@@ -135,11 +144,13 @@ pub struct LustbusOptions {
     /// section 10 is then MC 30 ms / VF1000 60 ms, else 25 / 30 ms.
     /// Default `true` (the safe assumption).
     pub keypad: bool,
-    /// Added to the computed answer timeout (host and transport latency).
-    /// Default 10 ms.
-    pub margin: Duration,
+    /// The round-trip delay the transport adds (the port's `?latency=`):
+    /// the least allowance is this plus 10 ms from the first telegram on,
+    /// and measurement can only raise it ([`super::timing`]). Default
+    /// `None`: measured, 200 ms before the first reply.
+    pub latency: Option<Duration>,
     /// Replaces the computed answer timeout (still plus the VF1000 EEPROM
-    /// ACK delay for such writes).
+    /// ACK delay for such writes); no allowance is added.
     pub answer_timeout: Option<Duration>,
     /// Shortest wait after a SELECT refused with "EEPROM busy" (section
     /// 9.2: "> 60 ms"). Default 61 ms.
@@ -161,7 +172,7 @@ impl Default for LustbusOptions {
         LustbusOptions {
             tries: 3,
             keypad: true,
-            margin: Duration::from_millis(10),
+            latency: None,
             answer_timeout: None,
             eeprom_busy_wait: Duration::from_millis(61),
             busy_repeats: 10,
@@ -179,7 +190,8 @@ enum Outcome {
     Garbled(String),
 }
 
-/// The line: link, reply decoder, counters. Shared by the client and scan.
+/// The line: link, reply decoder, counters, the link's latency. Shared by
+/// the client and scan.
 #[derive(Debug)]
 pub(crate) struct LustLine<L> {
     pub(crate) link: L,
@@ -189,6 +201,11 @@ pub(crate) struct LustLine<L> {
     open: bool,
     /// Send a lone EOT after every reply ([`LustbusOptions::eot_after_reply`]).
     pub(crate) eot_after_reply: bool,
+    /// The link's measured latency ([`super::timing`]).
+    pub(crate) latency: LinkLatency,
+    /// Listen for a late reply after a timeout (scan probes do not: they
+    /// move on to another address, whose reply tells itself apart).
+    pub(crate) wait_late: bool,
 }
 
 impl<L: ByteLink> LustLine<L> {
@@ -199,18 +216,24 @@ impl<L: ByteLink> LustLine<L> {
             stats: ClientStats::default(),
             open: false,
             eot_after_reply: false,
+            latency: LinkLatency::new(None),
+            wait_late: true,
         }
     }
 
     /// Sends `bytes` (a complete telegram, leading EOT included) and waits
     /// `timeout` from the end of the send for a reply from `address`
-    /// (`expect_code`: the CODE a value reply must carry).
+    /// (`expect_code`: the CODE a value reply must carry). `known_delay`
+    /// is what the drive is known to add to its reaction (VF1000 EEPROM ACK
+    /// delay), left out of the latency sample. After a timeout, listens
+    /// for a late reply for as long again (see [`super::timing`]).
     fn exchange(
         &mut self,
         bytes: &[u8],
         address: Address,
         expect_code: Option<ParameterCode>,
         timeout: Duration,
+        known_delay: Duration,
     ) -> Result<Outcome, LinkError> {
         self.link.discard_input()?;
         self.decoder.reset();
@@ -219,12 +242,25 @@ impl<L: ByteLink> LustLine<L> {
         self.open = true;
         self.stats.telegrams += 1;
         self.stats.sent += bytes.len() as u64;
-        let deadline = self.link.clock().now() + timeout;
+        let start = self.link.clock().now();
+        let deadline = start + timeout;
+        let mut late_until: Option<Instant> = None;
         let mut garbled: Option<String> = None;
+        let mut received = 0usize;
         let mut buf = [0u8; 128];
         loop {
-            let n = self.link.recv(&mut buf, deadline)?;
+            let n = self.link.recv(&mut buf, late_until.unwrap_or(deadline))?;
             if n == 0 {
+                if late_until.is_none() {
+                    self.latency.timed_out();
+                    if self.wait_late {
+                        // Timed out: a reply may still be on its way.
+                        // Listen as long again so that it cannot be taken
+                        // for the answer to the next telegram.
+                        late_until = Some(deadline + self.latency.late_window(timeout));
+                        continue;
+                    }
+                }
                 for ev in self.decoder.finish() {
                     if let Err(e) = ev.result {
                         garbled = Some(e.to_string());
@@ -237,12 +273,16 @@ impl<L: ByteLink> LustLine<L> {
             }
             let got = buf.get(..n).unwrap_or(&[]);
             self.stats.received += got.len() as u64;
+            received += got.len();
             for ev in self.decoder.feed(got) {
                 match ev.result {
                     Ok(reply) => {
                         if address != Address::ALL && reply.address() != address {
+                            // A late reply of another drive (or a drive
+                            // with a wrong address): never this answer.
+                            self.stats.late += 1;
                             garbled = Some(format!(
-                                "a reply from address {} (another drive with a wrong address?)",
+                                "a reply from address {} (a late reply, or another drive with a wrong address?)",
                                 reply.address()
                             ));
                             continue;
@@ -250,11 +290,28 @@ impl<L: ByteLink> LustLine<L> {
                         if let (Reply::Value(v), Some(code)) = (&reply, expect_code)
                             && v.code != code
                         {
+                            // A late reply to an earlier ENQUIRY.
+                            self.stats.late += 1;
                             garbled = Some(format!(
-                                "a value reply for CODE {} instead of {code}",
+                                "a value reply for CODE {} instead of {code} (late, discarded)",
                                 v.code
                             ));
                             continue;
+                        }
+                        let elapsed = self.link.clock().now().saturating_duration_since(start);
+                        let expected = wire_time(received, self.link.baud())
+                            .saturating_add(MIN_REACTION)
+                            .saturating_add(known_delay);
+                        self.latency.observe(elapsed, expected);
+                        if late_until.is_some() {
+                            // The answer to this telegram, after its
+                            // timeout: dropped, the telegram is repeated.
+                            self.stats.late += 1;
+                            return Ok(Outcome::Garbled(format!(
+                                "a reply {} ms after the request, later than the answer timeout of {} ms (late, discarded)",
+                                elapsed.as_millis(),
+                                timeout.as_millis()
+                            )));
                         }
                         if self.eot_after_reply {
                             self.link.send(&[driveset_proto::ascii::EOT])?;
@@ -400,6 +457,7 @@ impl<L: ByteLink> LustbusClient<L> {
         };
         let mut line = LustLine::new(link);
         line.eot_after_reply = opts.eot_after_reply;
+        line.latency = LinkLatency::new(opts.latency);
         Ok(LustbusClient {
             line,
             schema,
@@ -447,21 +505,28 @@ impl<L: ByteLink> LustbusClient<L> {
     }
 
     fn max_reaction(&self) -> Duration {
-        Duration::from_millis(match (self.family, self.opts.keypad) {
-            (Dialect::Mc, true) => 30,
-            (Dialect::Mc, false) => 25,
-            (Dialect::Vf1000, true) => 60,
-            (Dialect::Vf1000, false) => 30,
-        })
+        match (self.family, self.opts.keypad) {
+            (Dialect::Mc, true) => plan::MC_MAX_REACTION_KEYPAD,
+            (Dialect::Mc, false) => plan::MC_MAX_REACTION,
+            (Dialect::Vf1000, true) => plan::VF_MAX_REACTION_KEYPAD,
+            (Dialect::Vf1000, false) => plan::VF_MAX_REACTION,
+        }
     }
 
-    /// The answer timeout for a reply of `reply_chars` characters.
+    /// The answer timeout now for a reply of `reply_chars` characters:
+    /// the longest reaction + the reply's wire time + the link's allowance
+    /// (module docs).
     fn timeout(&self, reply_chars: usize) -> Duration {
         self.opts.answer_timeout.unwrap_or_else(|| {
             self.max_reaction()
                 .saturating_add(wire_time(reply_chars, self.baud()))
-                .saturating_add(self.opts.margin)
+                .saturating_add(self.line.latency.allowance())
         })
+    }
+
+    /// The link's measured latency so far.
+    pub fn latency(&self) -> &LinkLatency {
+        &self.line.latency
     }
 
     /// CODE of a parameter number.
@@ -513,16 +578,16 @@ impl<L: ByteLink> LustbusClient<L> {
         what: &str,
     ) -> Result<Option<ValueText>, EngineError> {
         let bytes = Enquiry::new(self.address, code).encode();
-        // ADR STX CODE(5) '=' VALUE ETX BCC
-        let timeout = self.timeout(10 + value_len);
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
                 self.line.stats.retries += 1;
             }
+            // ADR STX CODE(5) '=' VALUE ETX BCC
+            let timeout = self.timeout(10 + value_len);
             let out = self
                 .line
-                .exchange(&bytes, self.address, Some(code), timeout)
+                .exchange(&bytes, self.address, Some(code), timeout, Duration::ZERO)
                 .map_err(|e| link_error(&self.target, e))?;
             match out {
                 Outcome::Reply(Reply::Value(v)) => return Ok(Some(v.value)),
@@ -539,7 +604,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let what = if last.is_empty() {
             what.to_string()
         } else {
-            format!("{what} (last answer garbled: {last})")
+            format!("{what} (last answer: {last})")
         };
         EngineError::NoAnswer {
             target: self.target.clone(),
@@ -548,11 +613,13 @@ impl<L: ByteLink> LustbusClient<L> {
         }
     }
 
-    /// One SELECT with retries on no answer: `Ok(true)` ACK, `Ok(false)` NAK.
+    /// One SELECT with retries on no answer: `Ok(true)` ACK, `Ok(false)`
+    /// NAK. `known_delay`: the drive's known extra reaction (VF1000 EEPROM
+    /// ACK delay), added to the timeout.
     fn select_once(
         &mut self,
         bytes: &[u8],
-        timeout: Duration,
+        known_delay: Duration,
         what: &str,
     ) -> Result<bool, EngineError> {
         let mut last = String::new();
@@ -560,9 +627,11 @@ impl<L: ByteLink> LustbusClient<L> {
             if attempt > 0 {
                 self.line.stats.retries += 1;
             }
+            // ADR ACK / ADR NAK
+            let timeout = self.timeout(2).saturating_add(known_delay);
             let out = self
                 .line
-                .exchange(bytes, self.address, None, timeout)
+                .exchange(bytes, self.address, None, timeout, known_delay)
                 .map_err(|e| link_error(&self.target, e))?;
             match out {
                 Outcome::Reply(Reply::Ack(_)) => return Ok(true),
@@ -698,16 +767,11 @@ impl<L: ByteLink> LustbusClient<L> {
                 ),
             })?;
         let bytes = Select::new(self.address, pcode, value).encode();
-        let mut timeout = self.timeout(2);
-        if self.family == Dialect::Vf1000
-            && matches!(
-                code.kind,
-                Some(StorageKind::Eeprom) | Some(StorageKind::FselIsel) | None
-            )
-        {
-            let extra = if code.width == Some(1) { 60 } else { 120 };
-            timeout = timeout.saturating_add(Duration::from_millis(extra));
-        }
+        // Section 10 exception 4 (VF1000: 60 ms one-byte, 120 ms two-byte
+        // when the value changes): the family descriptor's one rule, the
+        // planner's too. Whether the value changes is not known here, so
+        // the answer timeout allows for it.
+        let known_delay = schema.family.descriptor().ack_delay(code, true);
         self.ensure_session(what)?;
         let paced = self.paced(code);
         let mut checksum_repeats = 0u32;
@@ -719,7 +783,7 @@ impl<L: ByteLink> LustbusClient<L> {
             {
                 self.line.link.clock().sleep_until(until);
             }
-            if self.select_once(&bytes, timeout, what)? {
+            if self.select_once(&bytes, known_delay, what)? {
                 if paced {
                     self.eeprom_busy_until = Some(self.now() + Self::store_time(code));
                 }
@@ -1008,6 +1072,8 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         self.dataset_open = false;
         let deadline = self.now() + timeout;
         loop {
+            let poll_start = self.now();
+            self.line.stats.sload_polls += 1;
             let v = match self.read_key(key, "dataset download: poll 80-SLOAD")? {
                 RawValue::Int(v) => v,
                 _ => -1,
@@ -1020,7 +1086,9 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
                     });
                 }
                 -1 | -2 => {
-                    if self.now() >= deadline {
+                    // Still checking. The poll that started at the
+                    // deadline (section 11.4: 10 s) was the last.
+                    if poll_start >= deadline {
                         return Err(device(
                             &self.target,
                             "dataset download: poll 80-SLOAD",
@@ -1031,6 +1099,19 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
                             format!("SLOAD = {v}"),
                             "repeat the download or restart the drive (section 11.4)",
                         ));
+                    }
+                    // The next poll at most every 50 ms or one measured
+                    // round trip, whichever is longer, and not after the
+                    // deadline.
+                    let interval = self
+                        .line
+                        .latency
+                        .round_trip()
+                        .unwrap_or(Duration::ZERO)
+                        .max(plan::SLOAD_POLL_INTERVAL);
+                    let next = (poll_start + interval).min(deadline);
+                    if next > self.now() {
+                        self.line.link.clock().sleep_until(next);
                     }
                 }
                 other => {
@@ -1087,8 +1168,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let what = format!("write 108-STEXT = {index}");
         self.ensure_session(&what)?;
         let bytes = Select::new(self.address, code, value).encode();
-        let timeout = self.timeout(2);
-        if self.select_once(&bytes, timeout, &what)? {
+        if self.select_once(&bytes, Duration::ZERO, &what)? {
             return Ok(());
         }
         let siof = self.read_siof(&what)?;
@@ -1142,7 +1222,7 @@ pub(crate) fn probe_code<L: ByteLink>(
         if attempt > 0 {
             line.stats.retries += 1;
         }
-        match line.exchange(&bytes, address, Some(code), timeout)? {
+        match line.exchange(&bytes, address, Some(code), timeout, Duration::ZERO)? {
             Outcome::Reply(Reply::Value(v)) => return Ok(Some(parse_hex(v.value.as_bytes()))),
             Outcome::Reply(_) => return Ok(Some(None)),
             // Garbage at the right time: something is there (two drives on

@@ -22,6 +22,7 @@ use crate::error::{DeviceCause, EngineError};
 pub mod lecom;
 pub mod lustbus;
 pub mod sdo;
+pub mod timing;
 
 pub use lecom::{LecomClient, LecomOptions};
 pub use lustbus::{LustbusClient, LustbusOptions};
@@ -66,6 +67,12 @@ pub struct ClientStats {
     pub sent: u64,
     /// Characters (or frames) received.
     pub received: u64,
+    /// Replies recognised as late (after their answer timeout, or for
+    /// another address or code) and dropped ([`timing`]).
+    pub late: u64,
+    /// 80-SLOAD polls while an MC6000/7000 checked a staged dataset
+    /// (LUSTBUS 11.4).
+    pub sload_polls: u64,
 }
 
 /// Outcome of an MC6000/7000 dataset download (SLOAD, LUSTBUS 11.4).
