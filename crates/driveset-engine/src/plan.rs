@@ -264,7 +264,7 @@ fn control_codes(p: Protocol) -> &'static [u32] {
 
 /// Bus address codes (LUSTBUS 82-SIOA/SADDR, Tmd C0009): a change makes
 /// the drive answer at another address, cutting the transaction off.
-fn address_codes(p: Protocol) -> &'static [u32] {
+pub(crate) fn address_codes(p: Protocol) -> &'static [u32] {
     match p {
         Protocol::Lecom => &[9],
         Protocol::LustbusVf1000 | Protocol::LustbusMc => &[82],
