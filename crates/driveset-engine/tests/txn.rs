@@ -850,8 +850,23 @@ fn recover_refuses_another_drive() {
     drive.identity.codes = vec![("91 TYPE".into(), "9999".into())];
     let mut c = FakeClient::new(schema, drive);
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
-    assert!(err.to_string().contains("9999"), "{err}");
+    assert!(
+        matches!(
+            err,
+            EngineError::NotJournalDrive {
+                mismatch: driveset_engine::error::Mismatch::Identity,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "fake0 address 1: refused to recover journal {}: the drive identifies as lecom: 91 TYPE = 9999 but the journal was written for lecom: 91 TYPE = 4711; nothing was written. Connect the drive the journal belongs to",
+            path.display()
+        )
+    );
     assert!(c.writes_logged().is_empty());
 }
 
