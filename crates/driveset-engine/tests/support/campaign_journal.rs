@@ -269,8 +269,8 @@ pub fn journal_campaign(family: Family, first: u64, runs: u64) -> Table {
     let mut table = Table::new();
     for scenario in [Scenario::OtherAddress, Scenario::OtherSpelling, Scenario::Stale] {
         for seed in first..first + runs {
-            // cut in the last two thirds of the upload: mostly mid-write
-            let at = clean / 3 + (seed.wrapping_mul(0x9E37_79B9) % (clean - clean / 3).max(1));
+            // cut in the last four fifths of the upload: mostly mid-write
+            let at = clean / 5 + (seed.wrapping_mul(0x9E37_79B9) % (clean - clean / 5).max(1));
             let mut plan = FaultPlan::parse(&format!("cable@{at}+600s")).expect("plan");
             plan.seed = Some(seed);
             let out = one(family, &schema, &set1, &set2, scenario, seed, plan.clone())
