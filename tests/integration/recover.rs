@@ -103,7 +103,9 @@ fn cut_tmd_upload(dir: &std::path::Path) -> (String, String) {
         ])
         .assert()
         .code(3);
-    let state = std::fs::canonicalize(dir.join("sim")).unwrap().join("sim-tmd.json");
+    let state = std::fs::canonicalize(dir.join("sim"))
+        .unwrap()
+        .join("sim-tmd.json");
     let bus = format!("sim:tmd@{}", state.display());
     let name: String = bus
         .chars()
@@ -137,7 +139,10 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     let other_port = format!("sim://tmd?addresses=11,12&state={}", other.display());
     let other_bus = format!(
         "sim:tmd@{}",
-        std::fs::canonicalize(dir.path()).unwrap().join("other.json").display()
+        std::fs::canonicalize(dir.path())
+            .unwrap()
+            .join("other.json")
+            .display()
     );
     in_dir(dir.path())
         .args(["recover", &journal, "--port", &other_port])
@@ -153,8 +158,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     assert_eq!(after["drives"], before["drives"]);
     assert_eq!(sim_state(&other)["telegrams"], 0);
     let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join(&journal)).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join(&journal)).unwrap()).unwrap();
     assert_eq!(j["state"], "failed", "{j}");
     // the same bus, spelled otherwise (another address order, a seed): the
     // guard sees the journal; recover through it settles the drive
@@ -259,4 +263,67 @@ fn an_upload_in_a_git_repository_leaves_git_status_clean() {
         "# written by driveset: journals hold old values, passwords included\n*\n"
     );
     assert_eq!(git(&["status", "--porcelain", "--untracked-files=all"]), "");
+}
+
+#[test]
+fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let set = workspace_root().join("parameter-sets/demo-line/sets/transfer-11.toml");
+    std::fs::write(
+        dir.path().join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
+            set.display()
+        ),
+    )
+    .unwrap();
+    // an upload (not a commission) cut by a pulled cable
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&set)
+        .args([
+            "--port",
+            "sim://tmd?addresses=11&faults=cable@30+600s",
+            "--address",
+            "11",
+        ])
+        .assert()
+        .code(3);
+    let state = std::fs::canonicalize(dir.path().join("sim"))
+        .unwrap()
+        .join("sim-tmd.json");
+    let name: String = format!("sim:tmd@{}", state.display())
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let journal = format!(".driveset/journal/{name}-11.journal.json");
+    // status: not "unchanged", failed, exit 1, nothing written
+    in_dir(dir.path())
+        .args(["status", "line.toml", "--report-dir", "rep"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains(
+            "transfer-11  transfer/11  FAILED        0  -\n",
+        ))
+        .stdout(predicate::str::contains(format!(
+            "transfer-11: journal {journal}: the drive at sim://tmd?addresses=11&baud=9600 address 11 has an unfinished transaction ({journal} (state failed)); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {journal}`\n"
+        )));
+    // commission sees the upload's journal (same name, same directory), recovers it
+    in_dir(dir.path())
+        .args(["commission", "line.toml", "--report-dir", "rep"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "transfer-11  transfer/11  verified ",
+        ))
+        .stderr(predicate::str::contains(format!(
+            "warning: transfer-11: recovered the unfinished journal {journal} of an earlier run: "
+        )));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join(&journal)).unwrap()).unwrap();
+    assert!(
+        j["state"] == "complete" || j["state"] == "rolled-back",
+        "{j}"
+    );
 }

@@ -63,15 +63,27 @@ fn campaign_full_thousand_per_family() {
 fn journal_scenarios(family: Family) {
     let t = journal_campaign(family, 1, JOURNAL_RUNS);
     eprint!("{}", render(family, &t));
-    for sc in [Scenario::OtherAddress, Scenario::OtherSpelling, Scenario::Stale] {
-        let total: usize = t.iter().filter(|((s, _), _)| *s == sc).map(|(_, n)| n).sum();
+    for sc in [
+        Scenario::OtherAddress,
+        Scenario::OtherSpelling,
+        Scenario::Stale,
+    ] {
+        let total: usize = t
+            .iter()
+            .filter(|((s, _), _)| *s == sc)
+            .map(|(_, n)| n)
+            .sum();
         assert_eq!(total as u64, JOURNAL_RUNS, "{sc:?}");
         let bound: usize = t
             .iter()
             .filter(|((s, o), _)| *s == sc && *o != Outcome::NoJournal)
             .map(|(_, n)| n)
             .sum();
-        assert!(bound > 0, "{}: no {sc:?} run left a journal to recover", family.name());
+        assert!(
+            bound > 0,
+            "{}: no {sc:?} run left a journal to recover",
+            family.name()
+        );
     }
 }
 

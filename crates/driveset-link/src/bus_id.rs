@@ -82,14 +82,17 @@ mod tests {
         #[cfg(unix)]
         std::os::unix::fs::symlink(&real, &link).unwrap();
         #[cfg(unix)]
-        assert_eq!(serial(&link.display().to_string()), serial(&real.display().to_string()));
-        let canon = std::fs::canonicalize(&real).unwrap();
-        assert_eq!(serial(&real.display().to_string()), format!("serial:{}", canon.display()));
-        assert_eq!(serial("COM3"), "serial:COM3");
         assert_eq!(
-            slcan("COM4", 500_000),
-            "slcan:COM4?bitrate=500000"
+            serial(&link.display().to_string()),
+            serial(&real.display().to_string())
         );
+        let canon = std::fs::canonicalize(&real).unwrap();
+        assert_eq!(
+            serial(&real.display().to_string()),
+            format!("serial:{}", canon.display())
+        );
+        assert_eq!(serial("COM3"), "serial:COM3");
+        assert_eq!(slcan("COM4", 500_000), "slcan:COM4?bitrate=500000");
         assert_eq!(socketcan("can0"), "can:can0");
     }
 

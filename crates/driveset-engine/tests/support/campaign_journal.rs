@@ -267,7 +267,11 @@ pub fn journal_campaign(family: Family, first: u64, runs: u64) -> Table {
     let (set1, set2) = two_sets(family);
     let clean = clean_telegrams(family, &set1);
     let mut table = Table::new();
-    for scenario in [Scenario::OtherAddress, Scenario::OtherSpelling, Scenario::Stale] {
+    for scenario in [
+        Scenario::OtherAddress,
+        Scenario::OtherSpelling,
+        Scenario::Stale,
+    ] {
         for seed in first..first + runs {
             // cut in the last four fifths of the upload: mostly mid-write
             let at = clean / 5 + (seed.wrapping_mul(0x9E37_79B9) % (clean - clean / 5).max(1));
@@ -397,7 +401,10 @@ fn one(
                 let mut c = client_on(&mut llink, schema.clone(), a).expect("client");
                 let j2 = default_journal_path(dir.path(), &*c);
                 if j2 != journal {
-                    return Err(format!("another spelling names another journal: {}", j2.display()));
+                    return Err(format!(
+                        "another spelling names another journal: {}",
+                        j2.display()
+                    ));
                 }
                 let state = JournalFile::open(&journal).expect("journal").journal.state;
                 match upload(&mut *c, set1, &UploadOptions::new(&j2)) {
@@ -406,7 +413,8 @@ fn one(
                             "journal {jtext}: the drive at {PORT_LOCALHOST} address {a} has an unfinished transaction ({jtext} (state {})); nothing was sent. Run `driveset recover {jtext}` first",
                             state.as_str()
                         );
-                        if !matches!(*f.error, EngineError::Journal { .. }) || f.to_string() != want {
+                        if !matches!(*f.error, EngineError::Journal { .. }) || f.to_string() != want
+                        {
                             return Err(format!("guard\n  got:  {f}\n  want: {want}"));
                         }
                     }
@@ -424,7 +432,9 @@ fn one(
                 let mut c = client_on(&mut link, schema.clone(), a).expect("client");
                 match upload(&mut *c, set2, &UploadOptions::new(&journal)) {
                     Err(f) if matches!(*f.error, EngineError::Journal { .. }) => {}
-                    other => return Err(format!("guard did not block: {:?}", other.map(|r| r.state))),
+                    other => {
+                        return Err(format!("guard did not block: {:?}", other.map(|r| r.state)));
+                    }
                 }
             }
             if traffic(&bus.events()[before..]) != 0 {
@@ -434,20 +444,37 @@ fn one(
             let dir2 = tempfile::tempdir().expect("tempdir");
             {
                 let mut c = client_on(&mut link, schema.clone(), a).expect("client");
-                upload(&mut *c, set2, &UploadOptions::new(dir2.path().join("later.json")))
-                    .map_err(|f| format!("the later upload failed: {f}"))?;
+                upload(
+                    &mut *c,
+                    set2,
+                    &UploadOptions::new(dir2.path().join("later.json")),
+                )
+                .map_err(|f| format!("the later upload failed: {f}"))?;
             }
             let now = bus.state(a);
             let j = JournalFile::open(&journal).expect("journal").journal;
-            let old: BTreeMap<CodeKey, RawValue> = j.backup_values().expect("backup").into_iter().collect();
-            let new: BTreeMap<CodeKey, RawValue> = j.new_values().expect("plan").into_iter().collect();
+            let old: BTreeMap<CodeKey, RawValue> =
+                j.backup_values().expect("backup").into_iter().collect();
+            let new: BTreeMap<CodeKey, RawValue> =
+                j.new_values().expect("plan").into_iter().collect();
             let mut order: Vec<(CodeKey, String)> = j
                 .plan
                 .iter()
-                .map(|p| (CodeKey { number: p.number, subcode: p.subcode }, p.code.clone()))
+                .map(|p| {
+                    (
+                        CodeKey {
+                            number: p.number,
+                            subcode: p.subcode,
+                        },
+                        p.code.clone(),
+                    )
+                })
                 .collect();
             for bk in &j.backup {
-                let k = CodeKey { number: bk.number, subcode: bk.subcode };
+                let k = CodeKey {
+                    number: bk.number,
+                    subcode: bk.subcode,
+                };
                 if !order.iter().any(|(o, _)| *o == k) {
                     order.push((k, bk.code.clone()));
                 }
@@ -468,7 +495,9 @@ fn one(
                 let mut c = client_on(&mut link, schema.clone(), a).expect("client");
                 expect_mismatch(
                     recover(&mut *c, &journal, &RecoverOptions::default()),
-                    &Mismatch::Stale { codes: stale.clone() },
+                    &Mismatch::Stale {
+                        codes: stale.clone(),
+                    },
                     &format!(
                         "{PORT} address {a}: refused to recover journal {jtext}: {} {} neither the old nor the new value the journal records (written since the transaction was cut); nothing was written. The journal is stale: compare the drive with its set (`driveset diff SET --port ...`), upload the set again if needed, then delete the journal",
                         stale.join(", "),
@@ -566,7 +595,11 @@ fn phase_of(dir: &Path) -> String {
         names.sort();
         for p in names {
             if let Ok(j) = JournalFile::open(&p) {
-                phases.push(format!("{}:{}", j.journal.target.address, j.journal.state.as_str()));
+                phases.push(format!(
+                    "{}:{}",
+                    j.journal.target.address,
+                    j.journal.state.as_str()
+                ));
             }
         }
     }
@@ -708,7 +741,15 @@ fn line_manifest(family: Family, dir: &Path) -> Manifest {
     std::fs::write(&path, text).expect("manifest");
     let mut reg = Registry::builtin().expect("registry");
     let loaded = load_manifest(&path, &mut reg).expect("manifest loads");
-    assert!(loaded.findings.is_empty(), "{:?}", loaded.findings.iter().map(|f| f.render_human()).collect::<Vec<_>>());
+    assert!(
+        loaded.findings.is_empty(),
+        "{:?}",
+        loaded
+            .findings
+            .iter()
+            .map(|f| f.render_human())
+            .collect::<Vec<_>>()
+    );
     loaded.manifest.expect("manifest")
 }
 
@@ -719,8 +760,13 @@ fn sim_for(m: &Manifest) -> (SimLink, EventLog) {
     let mut config = SimConfig::from_spec(spec).expect("config");
     config.addresses = m.drives.iter().map(|d| d.address).collect();
     let log = EventLog::memory();
-    let sim = open_sim_with(&config, &VirtualClock::new(), &m.buses[0].port.to_string(), log.clone())
-        .expect("sim");
+    let sim = open_sim_with(
+        &config,
+        &VirtualClock::new(),
+        &m.buses[0].port.to_string(),
+        log.clone(),
+    )
+    .expect("sim");
     (sim, log)
 }
 
@@ -742,7 +788,12 @@ pub fn commission_kills(family: Family) -> KillTable {
     let mut opts = LineOptions::new(base.path().join("report"));
     opts.journal_dir = jdir.clone();
     let opener = |_: &driveset_engine::line::manifest::Bus| {
-        Ok(kill_link(&sim, &count, None, Some((jdir.clone(), rec.clone()))))
+        Ok(kill_link(
+            &sim,
+            &count,
+            None,
+            Some((jdir.clone(), rec.clone())),
+        ))
     };
     let clean = run_line(&m, &opts, &opener, Mode::Commission).expect("clean run");
     assert_eq!(clean.exit_code(), 0, "{}: clean commission", family.name());
@@ -774,7 +825,10 @@ pub fn commission_kills(family: Family) -> KillTable {
     let mut table = KillTable::new();
     for (phase, n) in kills {
         kill_run(family, &schema, &phase, n).unwrap_or_else(|why| {
-            panic!("commission kill {} at telegram {n} ({phase}): {why}", family.name())
+            panic!(
+                "commission kill {} at telegram {n} ({phase}): {why}",
+                family.name()
+            )
         });
         *table.entry(phase).or_default() += 1;
     }
@@ -790,8 +844,11 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
     let mut opts = LineOptions::new(base.path().join("report"));
     opts.journal_dir = jdir.clone();
     let count = Arc::new(AtomicU64::new(0));
-    let opener = |_: &driveset_engine::line::manifest::Bus| Ok(kill_link(&sim, &count, Some(n), None));
-    let killed = catch_unwind(AssertUnwindSafe(|| run_line(&m, &opts, &opener, Mode::Commission)));
+    let opener =
+        |_: &driveset_engine::line::manifest::Bus| Ok(kill_link(&sim, &count, Some(n), None));
+    let killed = catch_unwind(AssertUnwindSafe(|| {
+        run_line(&m, &opts, &opener, Mode::Commission)
+    }));
     if killed.is_ok() {
         return Err("the run was not killed".into());
     }
@@ -832,17 +889,36 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
         }
     }
     if !unfinished.is_empty() && st.exit_code() != 1 {
-        return Err(format!("status exit {} with an unfinished journal", st.exit_code()));
+        return Err(format!(
+            "status exit {} with an unfinished journal",
+            st.exit_code()
+        ));
     }
     // an upload sees the commission's journal (guard by drive)
     for (a, p) in &unfinished {
         let drive = m.drives.iter().find(|d| d.address == *a).expect("drive");
-        let mut link = Bus2 { sim: sim.clone(), log: log.clone(), family }.link("tcp://elsewhere:1", &sim_bus_id(&sim));
+        let mut link = Bus2 {
+            sim: sim.clone(),
+            log: log.clone(),
+            family,
+        }
+        .link("tcp://elsewhere:1", &sim_bus_id(&sim));
         let mut c = client_on(&mut link, schema.clone(), *a).expect("client");
         let before = log.events().len();
-        match upload(&mut *c, &drive.set, &UploadOptions::new(jdir.join("by-upload.json"))) {
-            Err(f) if matches!(*f.error, EngineError::Journal { .. }) && f.to_string().contains(&p.display().to_string()) => {}
-            other => return Err(format!("upload beside the commission journal: {:?}", other.map(|r| r.state))),
+        match upload(
+            &mut *c,
+            &drive.set,
+            &UploadOptions::new(jdir.join("by-upload.json")),
+        ) {
+            Err(f)
+                if matches!(*f.error, EngineError::Journal { .. })
+                    && f.to_string().contains(&p.display().to_string()) => {}
+            other => {
+                return Err(format!(
+                    "upload beside the commission journal: {:?}",
+                    other.map(|r| r.state)
+                ));
+            }
         }
         if traffic(&log.events()[before..]) != 0 {
             return Err("the guarded upload sent bytes".into());
@@ -854,16 +930,31 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
         return Err(format!(
             "rerun exit {}: {:?}",
             rerun.exit_code(),
-            rerun.report.drives.iter().map(|d| (&d.name, d.result, &d.error)).collect::<Vec<_>>()
+            rerun
+                .report
+                .drives
+                .iter()
+                .map(|d| (&d.name, d.result, &d.error))
+                .collect::<Vec<_>>()
         ));
     }
     for d in &rerun.report.drives {
         if unfinished.iter().any(|(a, _)| *a == d.address) {
             if d.result != DriveResult::Verified {
-                return Err(format!("{} with an unfinished journal ended {:?}", d.name, d.result));
+                return Err(format!(
+                    "{} with an unfinished journal ended {:?}",
+                    d.name, d.result
+                ));
             }
-            if !rerun.warnings.iter().any(|w| w.starts_with(&format!("{}: recovered the unfinished journal ", d.name))) {
-                return Err(format!("no recovery warning for {}: {:?}", d.name, rerun.warnings));
+            if !rerun
+                .warnings
+                .iter()
+                .any(|w| w.starts_with(&format!("{}: recovered the unfinished journal ", d.name)))
+            {
+                return Err(format!(
+                    "no recovery warning for {}: {:?}",
+                    d.name, rerun.warnings
+                ));
             }
         }
         let state = sim.state(d.address).expect("drive");
@@ -876,7 +967,10 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
         if let Ok(j) = JournalFile::open(&e.path())
             && !j.journal.state.is_settled()
         {
-            return Err(format!("{} still unfinished after the rerun", e.path().display()));
+            return Err(format!(
+                "{} still unfinished after the rerun",
+                e.path().display()
+            ));
         }
     }
     let _ = phase;
