@@ -14,6 +14,19 @@
 //! otherwise it is commissioned again. A drive whose set changed since is
 //! commissioned again. `fresh` ignores the file.
 //!
+//! **Unfinished journals.** Journals go to [`LineOptions::journal_dir`]
+//! under the one naming scheme of [`crate::journal::journal_path`] (bus id
+//! and address), so `upload` and `commission` see each other's. Before a
+//! drive is touched the directory is scanned for unfinished journals of
+//! that drive (by recorded bus and address, not file name). `commission`
+//! recovers each ([`crate::recover::recover`]: it refuses another drive or
+//! a stale journal), warns what it did, then commissions the drive; the
+//! drive is then [`DriveResult::Verified`], never `Unchanged`, and its
+//! recorded resume state is not trusted. A refused or failed recovery makes
+//! the drive [`DriveResult::Failed`]. `status` writes nothing: such a drive
+//! is `Failed` (exit 1). A LECOM group with an unfinished journal gets no
+//! MULTICAST (`broadcast_common`).
+//!
 //! **Exit codes** ([`LineOutcome::exit_code`]): 0 every selected drive holds
 //! its set; 1 a drive does not (drift, refused, rolled back, failed); 3 a
 //! bus could not be opened, a link failed, a drive did not answer, or the
@@ -945,6 +958,24 @@ fn broadcast_common(
         let schema = members[0].schema.clone();
         let t0 = link_now(link);
         let Link::Bytes(b) = link else { return };
+        // a MULTICAST reaches every drive of the group: none may hold an
+        // unfinished journal (each is recovered first, drive by drive)
+        let (bus_id, port) = (b.bus_id(), b.port().to_string());
+        let open: Vec<String> = (tens * 10..=tens * 10 + 9)
+            .flat_map(|a| {
+                crate::journal::unfinished_for(&ctx.opts.journal_dir, &bus_id, &port, a)
+                    .unwrap_or_default()
+            })
+            .map(|u| u.path.display().to_string())
+            .collect();
+        if !open.is_empty() {
+            ctx.warn(format!(
+                "bus `{}` group {tens}0: no MULTICAST while the group has unfinished journals ({}); values were written drive by drive after recovery",
+                bus.name,
+                open.join(", ")
+            ));
+            continue;
+        }
         // refuse while a member runs (the per-drive upload would refuse too)
         let mut running = Vec::new();
         for m in &members {
