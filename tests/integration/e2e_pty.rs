@@ -267,8 +267,11 @@ fn upload_over_pty(
     let journals: Vec<PathBuf> = std::fs::read_dir(&journal_dir)
         .expect("journal dir")
         .map(|e| e.expect("entry").path())
+        .filter(|p| p.to_string_lossy().ends_with(".journal.json"))
         .collect();
     assert_eq!(journals.len(), 1, "{journals:?}");
+    // the directory the upload created keeps itself out of git
+    assert!(journal_dir.join(".gitignore").exists());
     let journal: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&journals[0]).expect("journal"))
             .expect("journal JSON");

@@ -85,3 +85,245 @@ fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
         .code(2)
         .stderr(predicate::str::contains("is not a driveset journal"));
 }
+
+/// A Tmd upload to address 11 of `sim://tmd?addresses=11,12`, cut by a
+/// pulled cable mid-write (exit 3); returns the journal's path as the
+/// upload names it (relative to `dir`) and the simulated bus's id.
+fn cut_tmd_upload(dir: &std::path::Path) -> (String, String) {
+    std::fs::create_dir_all(dir.join("sim")).unwrap();
+    let set = workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    in_dir(dir)
+        .args(["upload"])
+        .arg(&set)
+        .args([
+            "--port",
+            "sim://tmd?addresses=11,12&faults=cable@30+600s",
+            "--address",
+            "11",
+        ])
+        .assert()
+        .code(3);
+    let state = std::fs::canonicalize(dir.join("sim"))
+        .unwrap()
+        .join("sim-tmd.json");
+    let bus = format!("sim:tmd@{}", state.display());
+    let name: String = bus
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let journal = format!(".driveset/journal/{name}-11.journal.json");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join(&journal)).unwrap()).unwrap();
+    assert_eq!(j["state"], "failed", "{j}");
+    assert_eq!(j["journal_version"], 2, "{j}");
+    assert_eq!(j["target"]["bus"], bus.as_str(), "{j}");
+    assert_eq!(j["target"]["address"], 11, "{j}");
+    (journal, bus)
+}
+
+#[test]
+fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (journal, bus) = cut_tmd_upload(dir.path());
+    let state = dir.path().join("sim/sim-tmd.json");
+    let before = sim_state(&state);
+    in_dir(dir.path())
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12", "--address", "12"])
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(format!(
+            "error: sim://tmd?addresses=11,12 address 12: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}`, not the one at address 12; nothing was sent. Recover at address 11 (leave out --address)\n"
+        ));
+    let other = dir.path().join("other.json");
+    let other_port = format!("sim://tmd?addresses=11,12&state={}", other.display());
+    let other_bus = format!(
+        "sim:tmd@{}",
+        std::fs::canonicalize(dir.path())
+            .unwrap()
+            .join("other.json")
+            .display()
+    );
+    in_dir(dir.path())
+        .args(["recover", &journal, "--port", &other_port])
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(format!(
+            "error: sim://tmd?addresses=11,12 address 11: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}` (port sim://tmd?addresses=11,12&faults=cable@30+600s), but this port reaches bus `{other_bus}`; nothing was sent. Recover through a port to that bus\n"
+        ));
+    // not one telegram reached the bus; the drives hold what the cut upload left
+    let after = sim_state(&state);
+    assert_eq!(after["telegrams"], 0, "{after}");
+    assert_eq!(after["drives"], before["drives"]);
+    assert_eq!(sim_state(&other)["telegrams"], 0);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join(&journal)).unwrap()).unwrap();
+    assert_eq!(j["state"], "failed", "{j}");
+    // the same bus, spelled otherwise (another address order, a seed): the
+    // guard sees the journal; recover through it settles the drive
+    let set = workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&set)
+        .args(["--port", "sim://tmd?addresses=12,11&seed=4", "--address", "11"])
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(format!(
+            "error: journal {journal}: the drive at sim://tmd?addresses=12,11&seed=4 address 11 has an unfinished transaction ({journal} (state failed)); nothing was sent. Run `driveset recover {journal}` first\n"
+        ));
+    in_dir(dir.path())
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=12,11&seed=4"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "sim://tmd?addresses=12,11&seed=4 address 11: journal was failed; rolled back: the drive holds its old values again (verified); journal marked rolled-back\n",
+        ))
+        .stdout(predicate::str::contains(format!(
+            "note: the journal was written through sim://tmd?addresses=11,12&faults=cable@30+600s address 11; sim://tmd?addresses=12,11&seed=4 address 11 reaches the same drive (bus `{bus}`)\n"
+        )));
+}
+
+#[test]
+fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (journal, _) = cut_tmd_upload(dir.path());
+    let later = workspace_root().join("parameter-sets/tmd/conveyor-commissioning.toml");
+    // the guard blocks the later upload ...
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&later)
+        .args(["--port", "sim://tmd?addresses=11,12", "--address", "11"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(format!(
+            "has an unfinished transaction ({journal} (state failed)); nothing was sent."
+        )));
+    // ... forced past it with another journal directory (nothing deleted)
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&later)
+        .args([
+            "--port",
+            "sim://tmd?addresses=11,12",
+            "--address",
+            "11",
+            "--journal-dir",
+            "later",
+        ])
+        .assert()
+        .code(0);
+    let state = dir.path().join("sim/sim-tmd.json");
+    let before = sim_state(&state);
+    in_dir(dir.path())
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12"])
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(predicate::str::ends_with(format!(
+            "error: sim://tmd?addresses=11,12 address 11: refused to recover journal {journal}: C0012 acceleration_time_1, C0013 deceleration_time_1, C0086 motor_rated_power, C0087 motor_rated_speed, C0088 motor_rated_current, C0091 motor_cosine_phi hold neither the old nor the new value the journal records (written since the transaction was cut); nothing was written. The journal is stale: compare the drive with its set (`driveset diff SET --port ...`), upload the set again if needed, then delete the journal\n"
+        )));
+    // only reads were sent: the drives hold the later set still
+    assert_eq!(sim_state(&state)["drives"], before["drives"]);
+}
+
+/// The simulator's state dump (`DRIVESET_SIM_STATE_DIR`): `telegrams` is
+/// what the last CLI run sent.
+fn sim_state(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn an_upload_in_a_git_repository_leaves_git_status_clean() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = tempfile::tempdir().unwrap();
+    let git = |args: &[&str]| {
+        let out = std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .expect("git runs");
+        assert!(out.status.success(), "git {args:?}: {out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    git(&["init", "-q"]);
+    let set = workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    driveset()
+        .current_dir(dir.path())
+        .env("DRIVESET_SIM_STATE_DIR", sim.path())
+        .args(["upload"])
+        .arg(&set)
+        .args(["--port", "sim://tmd?addresses=11", "--address", "11"])
+        .assert()
+        .code(0);
+    assert!(dir.path().join(".driveset/journal").is_dir());
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join(".driveset/.gitignore")).unwrap(),
+        "# written by driveset: journals hold old values, passwords included\n*\n"
+    );
+    assert_eq!(git(&["status", "--porcelain", "--untracked-files=all"]), "");
+}
+
+#[test]
+fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let set = workspace_root().join("parameter-sets/demo-line/sets/transfer-11.toml");
+    std::fs::write(
+        dir.path().join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
+            set.display()
+        ),
+    )
+    .unwrap();
+    // an upload (not a commission) cut by a pulled cable
+    in_dir(dir.path())
+        .args(["upload"])
+        .arg(&set)
+        .args([
+            "--port",
+            "sim://tmd?addresses=11&faults=cable@30+600s",
+            "--address",
+            "11",
+        ])
+        .assert()
+        .code(3);
+    let state = std::fs::canonicalize(dir.path().join("sim"))
+        .unwrap()
+        .join("sim-tmd.json");
+    let name: String = format!("sim:tmd@{}", state.display())
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let journal = format!(".driveset/journal/{name}-11.journal.json");
+    // status: not "unchanged", failed, exit 1, nothing written
+    in_dir(dir.path())
+        .args(["status", "line.toml", "--report-dir", "rep"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains(
+            "transfer-11  transfer/11  FAILED        0  -\n",
+        ))
+        .stdout(predicate::str::contains(format!(
+            "transfer-11: journal {journal}: the drive at sim://tmd?addresses=11&baud=9600 address 11 has an unfinished transaction ({journal} (state failed)); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {journal}`\n"
+        )));
+    // commission sees the upload's journal (same name, same directory), recovers it
+    in_dir(dir.path())
+        .args(["commission", "line.toml", "--report-dir", "rep"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "transfer-11  transfer/11  verified ",
+        ))
+        .stderr(predicate::str::contains(format!(
+            "warning: transfer-11: recovered the unfinished journal {journal} of an earlier run: "
+        )));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join(&journal)).unwrap()).unwrap();
+    assert!(
+        j["state"] == "complete" || j["state"] == "rolled-back",
+        "{j}"
+    );
+}

@@ -62,7 +62,20 @@ fn upload_then_live_diff_shows_no_differences() {
         "{stdout}"
     );
     assert!(stdout.contains("dataset: accepted (SLOAD = 0)\n"));
-    assert!(stdout.contains("journal: .driveset/journal/sim___mc6000_addresses_1-1.journal.json"));
+    // named after the bus id `sim:mc6000@<canonical state file>` and the address
+    let bus = format!(
+        "sim:mc6000@{}",
+        std::fs::canonicalize(dir.path().join("sim"))
+            .unwrap()
+            .join("sim-mc6000.json")
+            .display()
+    );
+    let name: String = bus
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let journal = format!(".driveset/journal/{name}-1.journal.json");
+    assert!(stdout.contains(&format!("journal: {journal} ")), "{stdout}");
     // not a terminal: plain progress lines on stderr
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -79,11 +92,8 @@ fn upload_then_live_diff_shows_no_differences() {
         .arg(set(AXIS1))
         .assert()
         .stdout(predicate::str::starts_with(after));
-    assert!(
-        dir.path()
-            .join(".driveset/journal/sim___mc6000_addresses_1-1.journal.json")
-            .exists()
-    );
+    assert!(dir.path().join(&journal).exists());
+    assert!(dir.path().join(".driveset/.gitignore").exists());
     in_dir(dir.path())
         .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()

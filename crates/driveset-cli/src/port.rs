@@ -69,7 +69,9 @@ impl Fail {
 /// values, the set did not land).
 pub fn engine_exit(e: &EngineError) -> u8 {
     match e {
-        EngineError::Refused { .. } | EngineError::Journal { .. } => EXIT_INPUT,
+        EngineError::Refused { .. }
+        | EngineError::Journal { .. }
+        | EngineError::NotJournalDrive { .. } => EXIT_INPUT,
         _ => EXIT_BUS,
     }
 }

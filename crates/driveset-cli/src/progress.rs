@@ -123,6 +123,9 @@ impl DriveClient for Progress<'_> {
     fn target(&self) -> &Target {
         self.inner.target()
     }
+    fn bus_id(&self) -> String {
+        self.inner.bus_id()
+    }
     fn schema(&self) -> &Arc<Schema> {
         self.inner.schema()
     }

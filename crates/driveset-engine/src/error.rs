@@ -18,6 +18,26 @@ pub struct DeviceCause {
     pub remedy: String,
 }
 
+/// Why `recover` refused a journal ([`EngineError::NotJournalDrive`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Mismatch {
+    /// A journal version that does not record the drive's bus (1).
+    Version,
+    /// The client's schema is not the journal's.
+    Schema,
+    /// The port reaches another bus.
+    Bus,
+    /// Another bus address.
+    Address,
+    /// The drive identifies differently (identify codes, family, software).
+    Identity,
+    /// These planned codes hold neither their old nor their new value.
+    Stale {
+        /// The codes, as humans spell them.
+        codes: Vec<String>,
+    },
+}
+
 /// Every way an engine operation fails.
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
@@ -108,6 +128,21 @@ pub enum EngineError {
         /// The journal file.
         journal: String,
         /// Which codes hold what, and the failure.
+        detail: String,
+    },
+    /// `recover` refused a journal: the drive it reaches is not the drive
+    /// the journal was written for, or a planned code holds neither its old
+    /// nor its new value. Nothing was written (for `Version`, `Schema`,
+    /// `Bus` and `Address` nothing was sent at all).
+    #[error("{target}: refused to recover journal {journal}: {detail}")]
+    NotJournalDrive {
+        /// Where recover was pointed.
+        target: Target,
+        /// The journal file.
+        journal: String,
+        /// What did not match.
+        mismatch: Mismatch,
+        /// What differs and what to do.
         detail: String,
     },
     /// The drive's answer could not be understood.

@@ -14,13 +14,36 @@
 //! delete it once the transaction is complete. Entries of password codes are
 //! marked `"secret": true` so tools that show a journal can redact them.
 //!
+//! **A journal is bound to its drive.** It records the drive's identity:
+//! the bus as [`DriveClient::bus_id`] names it (independent of how the port
+//! was spelled: resolved TCP peer, canonical device path, the simulator's
+//! bus id), the bus address, the identify codes' values, the schema id, and
+//! the plan (old values in `backup`, new ones in `plan`). `recover` refuses a
+//! drive that is not that drive ([`crate::recover`]).
+//!
+//! **One naming scheme** ([`journal_path`]): `DIR/<bus id>-<address>.journal.json`,
+//! the bus id sanitised to `[A-Za-z0-9_]` (long ids cut, with a hash of the
+//! whole id). `upload` and `commission` both use it; the guard against a
+//! second transaction ([`unfinished_for`]) does not trust names: it reads
+//! every journal in the directory and compares the recorded bus and address.
+//!
+//! **The directory keeps itself out of git**: [`ensure_dir`] writes a
+//! `.gitignore` holding `*` into the topmost directory it creates (as the
+//! cache directories of other tools do), so `.driveset/` never shows in
+//! `git status` of the repository the sets live in.
+//!
+//! **Versions.** This crate writes version 2. Version 1 journals (no bus
+//! id) are still read: the guard matches them by port string and address;
+//! `recover` refuses them with [`Mismatch::Version`] (it cannot check the
+//! bus), telling to finish them with the release that wrote them.
+//!
 //! Example (an MC6000 upload interrupted after its dataset was accepted):
 //!
 //! ```json
 //! {
-//!   "journal_version": 1,
+//!   "journal_version": 2,
 //!   "state": "committed",
-//!   "target": { "port": "/dev/ttyUSB0", "address": 1 },
+//!   "target": { "port": "/dev/ttyUSB0", "address": 1, "bus": "serial:/dev/ttyUSB0" },
 //!   "identity": { "protocol": "lustbus-mc", "codes": [["91 TYPE", "1234"]], "software": null },
 //!   "schema": "fictional-mc6000-demo",
 //!   "set_fingerprint": "sha256:5c1e...",
@@ -65,11 +88,15 @@ use std::path::{Path, PathBuf};
 use driveset_schema::{CodeKey, RawValue};
 use serde::{Deserialize, Serialize};
 
-use crate::client::{Identity, Target};
-use crate::error::EngineError;
+use crate::client::{DriveClient, Identity, Target};
+use crate::error::{EngineError, Mismatch};
 
-/// The journal format version this crate writes and reads.
-pub const JOURNAL_VERSION: u32 = 1;
+/// The journal format version this crate writes.
+pub const JOURNAL_VERSION: u32 = 2;
+/// The oldest journal version this crate reads (module docs, "Versions").
+pub const OLDEST_JOURNAL_VERSION: u32 = 1;
+/// The journal file name's ending.
+pub const JOURNAL_SUFFIX: &str = ".journal.json";
 
 /// Where a transaction stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -159,28 +186,45 @@ impl JournalValue {
     }
 }
 
-/// Port and address as recorded.
+/// Port, address and bus as recorded.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JournalTarget {
     /// Port as the user wrote it.
     pub port: String,
     /// Bus address / node id.
     pub address: u8,
+    /// The bus ([`DriveClient::bus_id`]); `None` in version 1 journals.
+    #[serde(default)]
+    pub bus: Option<String>,
 }
 
-impl From<&Target> for JournalTarget {
-    fn from(t: &Target) -> Self {
+impl JournalTarget {
+    /// The target of `client`: its port, address and bus.
+    pub fn of(client: &dyn DriveClient) -> Self {
+        let t: &Target = client.target();
         JournalTarget {
             port: t.port.clone(),
             address: t.address,
+            bus: Some(client.bus_id()),
         }
+    }
+
+    /// Whether this is the drive at `address` on bus `bus` (reached through
+    /// `port`): same bus id and address; a version 1 journal (no bus id)
+    /// by the port string as written.
+    pub fn is_drive(&self, bus: &str, port: &str, address: u8) -> bool {
+        self.address == address
+            && match &self.bus {
+                Some(b) => b == bus,
+                None => self.port == port,
+            }
     }
 }
 
 /// The drive's identity as recorded ([`Identity`]).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JournalIdentity {
-    /// Protocol family.
+    /// Family family.
     pub protocol: String,
     /// Identification codes and their values as text.
     pub codes: Vec<(String, String)>,
@@ -411,7 +455,7 @@ impl JournalFile {
         Ok(f)
     }
 
-    /// Read a journal.
+    /// Read a journal (versions [`OLDEST_JOURNAL_VERSION`]..=[`JOURNAL_VERSION`]).
     pub fn open(path: &Path) -> Result<Self, EngineError> {
         let text = fs::read_to_string(path)
             .map_err(|e| jerr(path, format!("cannot read it: {e}; check the path")))?;
@@ -421,11 +465,11 @@ impl JournalFile {
                 format!("is not a driveset journal ({e}); pass the file `driveset upload` wrote"),
             )
         })?;
-        if journal.journal_version != JOURNAL_VERSION {
+        if !(OLDEST_JOURNAL_VERSION..=JOURNAL_VERSION).contains(&journal.journal_version) {
             return Err(jerr(
                 path,
                 format!(
-                    "has journal version {}, this driveset reads version {JOURNAL_VERSION}; use the driveset release that wrote it",
+                    "has journal version {}, this driveset reads versions {OLDEST_JOURNAL_VERSION} to {JOURNAL_VERSION}; use the driveset release that wrote it",
                     journal.journal_version
                 ),
             ));
@@ -496,5 +540,195 @@ impl JournalFile {
         #[cfg(not(unix))]
         let _ = (&dir, File::open);
         Ok(())
+    }
+}
+
+/// The journal file name of the drive at `address` on bus `bus_id`
+/// (module docs, "One naming scheme"): the bus id with every character but
+/// `[A-Za-z0-9]` replaced by `_`, cut at 96 characters with `-` and the
+/// FNV-1a 64 hash of the whole id appended when longer, then `-ADDRESS` and
+/// [`JOURNAL_SUFFIX`]. `tcp:127.0.0.1:4001` at 3 ->
+/// `tcp_127_0_0_1_4001-3.journal.json`.
+pub fn journal_file_name(bus_id: &str, address: u8) -> String {
+    const MAX: usize = 96;
+    let clean: String = bus_id
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let stem = if clean.len() > MAX {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in bus_id.bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        format!("{}-{h:016x}", &clean[..MAX])
+    } else {
+        clean
+    };
+    format!("{stem}-{address}{JOURNAL_SUFFIX}")
+}
+
+/// `dir` joined with [`journal_file_name`].
+pub fn journal_path(dir: &Path, bus_id: &str, address: u8) -> PathBuf {
+    dir.join(journal_file_name(bus_id, address))
+}
+
+/// An unfinished journal of a drive, found by [`unfinished_for`].
+#[derive(Debug, Clone)]
+pub struct Unfinished {
+    /// The file.
+    pub path: PathBuf,
+    /// Its content.
+    pub journal: Journal,
+}
+
+/// Every journal in `dir` (not in subdirectories) of an unfinished
+/// transaction of the drive at `address` on bus `bus` (reached through
+/// `port`), found by content, not by file name (module docs), sorted by
+/// path. A missing directory holds none; files that are not journals are
+/// passed over.
+pub fn unfinished_for(
+    dir: &Path,
+    bus: &str,
+    port: &str,
+    address: u8,
+) -> Result<Vec<Unfinished>, EngineError> {
+    let entries = match fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => {
+            return Err(jerr(
+                dir,
+                format!(
+                    "cannot list the journal directory: {e}; nothing was sent. Check it is readable"
+                ),
+            ));
+        }
+    };
+    let mut out = Vec::new();
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if !name.ends_with(".json") || !entry.file_type().is_ok_and(|t| t.is_file()) {
+            continue;
+        }
+        let Ok(jf) = JournalFile::open(&path) else {
+            continue;
+        };
+        if !jf.journal.state.is_settled() && jf.journal.target.is_drive(bus, port, address) {
+            out.push(Unfinished {
+                path,
+                journal: jf.journal,
+            });
+        }
+    }
+    out.sort_by(|a, b| a.path.cmp(&b.path));
+    Ok(out)
+}
+
+/// The refusal for a drive with unfinished journals (nothing was sent).
+pub fn unfinished_error(target: &Target, found: &[Unfinished]) -> EngineError {
+    let list: Vec<String> = found
+        .iter()
+        .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
+        .collect();
+    let first = found
+        .first()
+        .map(|u| u.path.display().to_string())
+        .unwrap_or_default();
+    EngineError::Journal {
+        path: first.clone(),
+        detail: format!(
+            "the drive at {target} has an unfinished transaction ({}); nothing was sent. Run `driveset recover {first}` first",
+            list.join(", ")
+        ),
+    }
+}
+
+/// Create the journal directory `dir` if it is missing; the topmost
+/// directory this creates gets a `.gitignore` holding `*` (module docs).
+/// An existing directory is left as it is.
+pub fn ensure_dir(dir: &Path) -> Result<(), EngineError> {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    if dir.is_dir() {
+        return Ok(());
+    }
+    // the topmost missing ancestor
+    let mut top = dir.to_path_buf();
+    while let Some(parent) = top.parent() {
+        if parent.as_os_str().is_empty() || parent.exists() {
+            break;
+        }
+        top = parent.to_path_buf();
+    }
+    let fail = |what: &str, e: std::io::Error| {
+        jerr(
+            dir,
+            format!("cannot {what}: {e}; nothing was sent. Check the directory can be created"),
+        )
+    };
+    fs::create_dir_all(dir).map_err(|e| fail("create the journal directory", e))?;
+    fs::write(
+        top.join(".gitignore"),
+        "# written by driveset: journals hold old values, passwords included\n*\n",
+    )
+    .map_err(|e| fail("write its .gitignore", e))?;
+    Ok(())
+}
+
+/// [`Mismatch::Version`] for a journal that records no bus (version 1).
+pub(crate) fn version_refusal(target: &Target, path: &Path, version: u32) -> EngineError {
+    EngineError::NotJournalDrive {
+        target: target.clone(),
+        journal: path.display().to_string(),
+        mismatch: Mismatch::Version,
+        detail: format!(
+            "it has journal version {version}, which does not record the drive's bus, so driveset cannot check that it reaches the drive the journal was written for; nothing was sent. Finish it with the driveset release that wrote it, or restore the drive by hand from the journal's backup"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_names_come_from_bus_id_and_address() {
+        assert_eq!(
+            journal_file_name("tcp:127.0.0.1:4001", 3),
+            "tcp_127_0_0_1_4001-3.journal.json"
+        );
+        assert_eq!(
+            journal_file_name("serial:/dev/ttyUSB0", 12),
+            "serial__dev_ttyUSB0-12.journal.json"
+        );
+        let long = format!("sim:mc6000@/{}", "d/".repeat(80));
+        let name = journal_file_name(&long, 1);
+        assert_eq!(name.len(), 96 + 1 + 16 + "-1.journal.json".len());
+        assert!(name.ends_with("-1.journal.json"), "{name}");
+        assert_ne!(name, journal_file_name(&format!("{long}x"), 1));
+    }
+
+    #[test]
+    fn ensure_dir_writes_a_gitignore_into_the_topmost_directory_it_creates() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join(".driveset/journal");
+        ensure_dir(&dir).unwrap();
+        assert!(dir.is_dir());
+        assert_eq!(
+            fs::read_to_string(d.path().join(".driveset/.gitignore")).unwrap(),
+            "# written by driveset: journals hold old values, passwords included\n*\n"
+        );
+        assert!(!dir.join(".gitignore").exists());
+        // an existing directory is left alone
+        let other = d.path().join("mine");
+        fs::create_dir(&other).unwrap();
+        ensure_dir(&other).unwrap();
+        assert!(!other.join(".gitignore").exists());
     }
 }

@@ -305,7 +305,7 @@ fn control_codes(p: Family) -> &'static [u32] {
 
 /// Bus address codes (LUSTBUS 82-SIOA/SADDR, Tmd C0009): a change makes
 /// the drive answer at another address, cutting the transaction off.
-fn address_codes(p: Family) -> &'static [u32] {
+pub(crate) fn address_codes(p: Family) -> &'static [u32] {
     match p {
         Family::Tmd => &[9],
         Family::Vf1000 | Family::Mc6000 => &[82],

@@ -3,8 +3,21 @@
 //! same drive.
 //!
 //! - journal `complete` or `rolled-back`: nothing to do;
-//! - the drive's identity (or the client's schema) differs from the
-//!   journal's: refused, nothing is sent;
+//! - **the drive is not the journal's drive**: refused with
+//!   [`EngineError::NotJournalDrive`] (exit 2 in the CLI), in this order:
+//!   a version 1 journal (it records no bus, [`Mismatch::Version`]), another
+//!   schema ([`Mismatch::Schema`]), another bus ([`Mismatch::Bus`]: the
+//!   client's [`DriveClient::bus_id`] is not the recorded one, whatever the
+//!   port spelling), another address ([`Mismatch::Address`]; the planned
+//!   new value of a bus address code also counts) — all four before
+//!   anything is sent — then, after identify, other identify codes,
+//!   protocol or software ([`Mismatch::Identity`]);
+//! - **the journal is stale**: every planned code (and, on MC6000/7000,
+//!   80-SLOAD) is read; a planned code that holds neither its old nor its
+//!   new value was written since the transaction was cut: refused
+//!   ([`Mismatch::Stale`], naming those codes). These reads are the only
+//!   telegrams before the refusal; nothing is written, so a refusal never
+//!   opens a dataset download (SLOAD = -1) on the drive;
 //! - otherwise every code of the set is read. If every planned code holds
 //!   its new value (and, on MC6000/7000, no dataset download is left open:
 //!   80-SLOAD is not -1) the transaction landed: marked `complete`. Anything
@@ -29,8 +42,8 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 
 use crate::client::DriveClient;
-use crate::error::EngineError;
-use crate::journal::{JournalFile, TxnState};
+use crate::error::{EngineError, Mismatch};
+use crate::journal::{JournalFile, TxnState, version_refusal};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
 use crate::upload::{describe_holdings, holdings, read_values, restore};
 
@@ -100,14 +113,39 @@ pub fn recover(
     }
     let schema = client.schema().clone();
     let target = client.target().clone();
+    let refuse = |mismatch: Mismatch, detail: String| EngineError::NotJournalDrive {
+        target: target.clone(),
+        journal: journal_name.clone(),
+        mismatch,
+        detail,
+    };
+    // checks that need no telegram: version, schema, bus, address
+    let Some(journal_bus) = jf.journal.target.bus.clone() else {
+        return Err(version_refusal(
+            &target,
+            journal_path,
+            jf.journal.journal_version,
+        ));
+    };
     if schema.id != jf.journal.schema {
-        return Err(EngineError::Refused {
-            target,
-            reason: format!(
-                "the journal {journal_name} is for schema `{}`, the client uses `{}`; recover with the schema the upload used",
+        return Err(refuse(
+            Mismatch::Schema,
+            format!(
+                "it was written with schema `{}`, this client uses `{}`; nothing was sent. Recover with the schema the upload used",
                 jf.journal.schema, schema.id
             ),
-        });
+        ));
+    }
+    let bus = client.bus_id();
+    let jt = &jf.journal.target;
+    if bus != journal_bus {
+        return Err(refuse(
+            Mismatch::Bus,
+            format!(
+                "it belongs to the drive at address {} on bus `{journal_bus}` (port {}), but this port reaches bus `{bus}`; nothing was sent. Recover through a port to that bus",
+                jt.address, jt.port
+            ),
+        ));
     }
     let bad = |d: String| EngineError::Journal {
         path: journal_name.clone(),
@@ -122,6 +160,24 @@ pub fn recover(
     let planned = jf.journal.new_values().map_err(bad)?;
     let unchanged = jf.journal.unchanged_values().map_err(bad)?;
     let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
+    // the drive may answer at the address a planned bus address code gives it
+    let moved_to: Vec<u8> = new_values
+        .iter()
+        .filter(|(k, _)| crate::plan::address_codes(schema.family).contains(&k.number))
+        .filter_map(|(_, v)| match v {
+            RawValue::Int(a) => u8::try_from(*a).ok(),
+            _ => None,
+        })
+        .collect();
+    if target.address != jt.address && !moved_to.contains(&target.address) {
+        return Err(refuse(
+            Mismatch::Address,
+            format!(
+                "it belongs to the drive at address {} on bus `{journal_bus}`, not the one at address {}; nothing was sent. Recover at address {} (leave out --address)",
+                jt.address, target.address, jt.address
+            ),
+        ));
+    }
 
     let identity = client.identify()?;
     // An identification code the transaction itself writes (Tmd C0093 in a
@@ -141,18 +197,30 @@ pub fn recover(
         && jf.journal.identity.software == identity.software
         && strip(&jf.journal.identity.codes) == strip(&identity.codes);
     if !same_drive {
-        return Err(EngineError::Refused {
-            target,
-            reason: format!(
-                "the drive identifies as {:?} but the journal {journal_name} was written for {:?}; nothing was sent. Connect the drive the journal belongs to",
-                identity.codes, jf.journal.identity.codes
+        let show = |p: &str, codes: &[(String, String)], sw: &Option<String>| {
+            let mut s: Vec<String> = codes.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+            if let Some(sw) = sw {
+                s.push(format!("software {sw}"));
+            }
+            format!("{p}: {}", s.join(", "))
+        };
+        return Err(refuse(
+            Mismatch::Identity,
+            format!(
+                "the drive identifies as {} but the journal was written for {}; nothing was written. Connect the drive the journal belongs to",
+                show(&identity.protocol, &identity.codes, &identity.software),
+                show(
+                    &jf.journal.identity.protocol,
+                    &jf.journal.identity.codes,
+                    &jf.journal.identity.software
+                )
             ),
-        });
+        ));
     }
-    if jf.journal.target.port != target.port || jf.journal.target.address != target.address {
+    if jt.port != target.port || jt.address != target.address {
         report.target_note = Some(format!(
-            "the journal was written for {} address {}; the drive at {target} has the same identity",
-            jf.journal.target.port, jf.journal.target.address
+            "the journal was written through {} address {}; {target} reaches the same drive (bus `{bus}`)",
+            jt.port, jt.address
         ));
     }
 
@@ -193,6 +261,27 @@ pub fn recover(
         false
     };
     let current = read_values(client, backup.keys().copied())?;
+    // stale: a planned code holds neither its old nor its new value
+    let stale: Vec<String> = order
+        .iter()
+        .filter(|(k, _)| {
+            let now = current.values.get(k);
+            now != backup.get(k) && now != new_values.get(k)
+        })
+        .map(|(k, _)| code_label(&schema, *k))
+        .collect();
+    if !stale.is_empty() {
+        return Err(refuse(
+            Mismatch::Stale {
+                codes: stale.clone(),
+            },
+            format!(
+                "{} {} neither the old nor the new value the journal records (written since the transaction was cut); nothing was written. The journal is stale: compare the drive with its set (`driveset diff SET --port ...`), upload the set again if needed, then delete the journal",
+                stale.join(", "),
+                if stale.len() == 1 { "holds" } else { "hold" }
+            ),
+        ));
+    }
     let all_new = !new_values.is_empty()
         && new_values
             .iter()

@@ -42,8 +42,8 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
 use crate::error::EngineError;
 use crate::journal::{
-    BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalValue, PlanEntryRecord,
-    TxnState,
+    BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
+    PlanEntryRecord, TxnState,
 };
 use crate::plan::{
     DATASET_TIMEOUT, Phase, Plan, PlanOptions, Storage, TimeEstimate, check_set, code_label,
@@ -372,6 +372,7 @@ pub fn upload(
     if !problems.is_empty() {
         return Err(refused(&target, problems).into());
     }
+    check_unfinished(&*client, &opts.journal)?;
     let identity = client.identify()?;
     popts.identity = Some(identity.clone());
     // The running-motor check is done in the attempt, only when something
@@ -633,7 +634,7 @@ impl Txn<'_> {
                 let mut journal = Journal {
                     journal_version: JOURNAL_VERSION,
                     state: TxnState::Planned,
-                    target: (&self.target).into(),
+                    target: JournalTarget::of(&*self.client),
                     identity: (&self.identity).into(),
                     schema: self.schema.id.clone(),
                     set_fingerprint: plan.set_fingerprint.clone(),
@@ -649,6 +650,8 @@ impl Txn<'_> {
                     holding: Vec::new(),
                 };
                 journal.transition(TxnState::Planned, at, None);
+                crate::journal::ensure_dir(journal_dir(&self.opts.journal))
+                    .map_err(Stop::Settled)?;
                 self.journal =
                     Some(JournalFile::create(&self.opts.journal, journal).map_err(Stop::Settled)?);
             }
@@ -1156,12 +1159,36 @@ pub(crate) fn describe_holdings(h: &[Holding]) -> String {
     }
 }
 
-/// The journal path the CLI suggests for a target (`<dir>/<port>-<address>.journal.json`).
-pub fn default_journal_path(dir: &Path, target: &Target) -> PathBuf {
-    let port: String = target
-        .port
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect();
-    dir.join(format!("{port}-{}.journal.json", target.address))
+/// The journal path of the drive `client` reaches, in `dir`: the one
+/// naming scheme of `upload` and `commission`
+/// ([`crate::journal::journal_path`]: bus id and address, sanitised).
+pub fn default_journal_path(dir: &Path, client: &dyn DriveClient) -> PathBuf {
+    crate::journal::journal_path(dir, &client.bus_id(), client.target().address)
+}
+
+/// The directory [`upload`] scans for unfinished journals: the journal
+/// file's own.
+fn journal_dir(journal: &Path) -> &Path {
+    match journal.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// The guard: refuse (nothing sent) when the journal directory holds an
+/// unfinished journal of the drive `client` reaches, whatever its file
+/// name or port spelling ([`crate::journal::unfinished_for`]).
+pub fn check_unfinished(client: &dyn DriveClient, journal: &Path) -> Result<(), EngineError> {
+    let target = client.target();
+    let found = crate::journal::unfinished_for(
+        journal_dir(journal),
+        &client.bus_id(),
+        &target.port,
+        target.address,
+    )?;
+    if found.is_empty() {
+        Ok(())
+    } else {
+        Err(crate::journal::unfinished_error(target, &found))
+    }
 }

@@ -475,3 +475,59 @@ fn yaml_manifest_with_buses_and_drives_lists_reads_like_toml() {
     let r = commission(&m, &LineOptions::new(&out), &opener).expect("runs");
     assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
 }
+
+/// A LECOM group holding a drive with an unfinished journal gets no
+/// MULTICAST; that drive is recovered first (here: the journal does not fit
+/// it, so it fails), the others are commissioned drive by drive.
+#[test]
+fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path());
+    opts.only = vec!["transfer".into()];
+    opts.broadcast_common = true;
+    std::fs::create_dir_all(&opts.journal_dir).unwrap();
+    let journal = opts.journal_dir.join("by-hand.journal.json");
+    std::fs::write(
+        &journal,
+        r#"{"journal_version":2,"state":"writing",
+            "target":{"port":"sim://tmd","address":12,"bus":"sim:tmd"},
+            "identity":{"protocol":"lecom","codes":[["C0200","\"another drive\""]],"software":null},
+            "schema":"lenze-tmd","set_fingerprint":"x","fingerprint_before":"y","dataset":false,
+            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#,
+    )
+    .unwrap();
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 1, "{:?}", r.report.drives);
+    assert!(
+        r.warnings.contains(&format!(
+            "bus `transfer` group 10: no MULTICAST while the group has unfinished journals ({}); values were written drive by drive after recovery",
+            journal.display()
+        )),
+        "{:?}",
+        r.warnings
+    );
+    assert!(
+        !r.report.buses[1]
+            .timeline
+            .iter()
+            .any(|t| t.phase == "broadcast")
+    );
+    let by_name = |n: &str| r.report.drives.iter().find(|d| d.name == n).unwrap();
+    let t12 = by_name("transfer-12");
+    assert_eq!(t12.result, DriveResult::Failed);
+    let err = t12.error.as_deref().unwrap();
+    assert!(
+        err.starts_with(&format!(
+            "journal {}: the drive has an unfinished transaction from an earlier run, and recovering it failed: ",
+            journal.display()
+        )) && err.contains("refused to recover journal")
+            && err.contains("but the journal was written for lecom: C0200 = \"another drive\""),
+        "{err}"
+    );
+    for n in ["transfer-11", "transfer-13"] {
+        assert_eq!(by_name(n).result, DriveResult::Verified, "{:?}", by_name(n));
+    }
+}

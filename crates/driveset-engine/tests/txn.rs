@@ -850,8 +850,23 @@ fn recover_refuses_another_drive() {
     drive.identity.codes = vec![("91 TYPE".into(), "9999".into())];
     let mut c = FakeClient::new(schema, drive);
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
-    assert!(err.to_string().contains("9999"), "{err}");
+    assert!(
+        matches!(
+            err,
+            EngineError::NotJournalDrive {
+                mismatch: driveset_engine::error::Mismatch::Identity,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "fake0 address 1: refused to recover journal {}: the drive identifies as lecom: 91 TYPE = 9999 but the journal was written for lecom: 91 TYPE = 4711; nothing was written. Connect the drive the journal belongs to",
+            path.display()
+        )
+    );
     assert!(c.writes_logged().is_empty());
 }
 
@@ -951,4 +966,56 @@ fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
             .iter()
             .any(|w| w.contains("81-SBAUD changes the baud rate"))
     );
+}
+
+/// A version 1 journal (no bus id) is still read: the guard matches it by
+/// port and address; `recover` refuses it, nothing sent.
+#[test]
+fn version_1_journals_block_their_drive_and_recover_refuses_them() {
+    let schema = tmd_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = tmd_set();
+    let mut client = FakeClient::new(schema.clone(), tmd_drive());
+    client.dead_after_writes = Some(2);
+    upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("read")).expect("json");
+    assert_eq!(j["journal_version"], 2);
+    assert_eq!(j["target"]["bus"], "fake:fake0");
+    j["journal_version"] = 1.into();
+    j["target"].as_object_mut().expect("target").remove("bus");
+    std::fs::write(&path, j.to_string()).expect("write");
+    let drive = client.drive.clone();
+    // the guard: another journal name, the same drive by port and address
+    let mut c = FakeClient::new(schema.clone(), drive.clone());
+    let other = dir.path().join("other.journal.json");
+    let err = upload(&mut c, &set, &UploadOptions::new(&other)).expect_err("guarded");
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "journal {p}: the drive at fake0 address 1 has an unfinished transaction ({p} (state failed)); nothing was sent. Run `driveset recover {p}` first",
+            p = path.display()
+        )
+    );
+    let mut c = FakeClient::new(schema, drive);
+    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
+    assert!(
+        matches!(
+            err,
+            EngineError::NotJournalDrive {
+                mismatch: driveset_engine::error::Mismatch::Version,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "fake0 address 1: refused to recover journal {}: it has journal version 1, which does not record the drive's bus, so driveset cannot check that it reaches the drive the journal was written for; nothing was sent. Finish it with the driveset release that wrote it, or restore the drive by hand from the journal's backup",
+            path.display()
+        )
+    );
+    assert!(c.log.is_empty(), "{:?}", c.log);
 }

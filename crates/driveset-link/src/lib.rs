@@ -36,6 +36,7 @@
 
 #![warn(missing_docs)]
 
+pub mod bus_id;
 pub mod clock;
 pub mod echo;
 pub mod error;
@@ -64,6 +65,13 @@ pub trait ByteLink: Send + std::fmt::Debug {
     /// The port, as errors and reports name it.
     fn port(&self) -> &str;
 
+    /// Which bus this is, independent of how its port was spelled (see
+    /// [`bus_id`]): journals record it so a transaction stays bound to its
+    /// drive. Default: `port:` and [`ByteLink::port`].
+    fn bus_id(&self) -> String {
+        format!("port:{}", self.port())
+    }
+
     /// The line rate in baud (for wire-time calculations).
     fn baud(&self) -> u32;
 
@@ -91,6 +99,9 @@ impl<L: ByteLink + ?Sized> ByteLink for Box<L> {
     fn port(&self) -> &str {
         (**self).port()
     }
+    fn bus_id(&self) -> String {
+        (**self).bus_id()
+    }
     fn baud(&self) -> u32 {
         (**self).baud()
     }
@@ -116,6 +127,12 @@ pub trait FrameLink: Send + std::fmt::Debug {
     /// The port, as errors and reports name it.
     fn port(&self) -> &str;
 
+    /// Which bus this is, independent of how its port was spelled (see
+    /// [`bus_id`]). Default: `port:` and [`FrameLink::port`].
+    fn bus_id(&self) -> String {
+        format!("port:{}", self.port())
+    }
+
     /// The bus bit rate in bit/s (for wire-time calculations).
     fn bitrate(&self) -> u32;
 
@@ -134,6 +151,9 @@ pub trait FrameLink: Send + std::fmt::Debug {
 impl<L: FrameLink + ?Sized> FrameLink for Box<L> {
     fn port(&self) -> &str {
         (**self).port()
+    }
+    fn bus_id(&self) -> String {
+        (**self).bus_id()
     }
     fn bitrate(&self) -> u32 {
         (**self).bitrate()

@@ -21,6 +21,8 @@ use crate::spec::ALLOWED_BAUDS;
 pub struct SerialLink {
     port: Box<dyn SerialPort>,
     name: String,
+    /// [`crate::bus_id::serial`] of the path, resolved at open.
+    bus: String,
     baud: u32,
 }
 
@@ -48,6 +50,7 @@ impl SerialLink {
         Ok(SerialLink {
             port,
             name: path.into(),
+            bus: crate::bus_id::serial(path),
             baud,
         })
     }
@@ -148,6 +151,10 @@ pub(crate) fn flush(port: &mut dyn SerialPort, name: &str) -> Result<(), LinkErr
 impl ByteLink for SerialLink {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus.clone()
     }
 
     fn baud(&self) -> u32 {

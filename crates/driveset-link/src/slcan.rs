@@ -42,6 +42,8 @@ enum Reply {
 pub struct SlcanLink {
     port: Box<dyn SerialPort>,
     name: String,
+    /// [`crate::bus_id::slcan`] of the adapter's device, resolved at open.
+    bus: String,
     bitrate: u32,
     reply_timeout: Duration,
     decoder: ResponseDecoder,
@@ -97,9 +99,11 @@ impl SlcanLink {
         bitrate: Bitrate,
         reply_timeout: Duration,
     ) -> Result<SlcanLink, LinkError> {
+        let device = name.strip_prefix("slcan://").unwrap_or(name);
         let mut link = SlcanLink {
             port,
             name: name.into(),
+            bus: crate::bus_id::slcan(device, bitrate.bits_per_second()),
             bitrate: bitrate.bits_per_second(),
             reply_timeout,
             decoder: ResponseDecoder::new(),
@@ -196,6 +200,10 @@ impl SlcanLink {
 impl FrameLink for SlcanLink {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus.clone()
     }
 
     fn bitrate(&self) -> u32 {

@@ -104,6 +104,10 @@ impl FrameLink for SocketCanLink {
         &self.name
     }
 
+    fn bus_id(&self) -> String {
+        crate::bus_id::socketcan(self.name.strip_prefix("can://").unwrap_or(&self.name))
+    }
+
     fn bitrate(&self) -> u32 {
         self.bitrate
     }

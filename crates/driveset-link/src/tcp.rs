@@ -25,6 +25,8 @@ pub const DEFAULT_CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 pub struct TcpLink {
     stream: TcpStream,
     name: String,
+    /// [`crate::bus_id::tcp`] of the peer connected to.
+    bus: String,
     baud: u32,
 }
 
@@ -56,9 +58,14 @@ impl TcpLink {
         stream
             .set_nodelay(true)
             .map_err(|e| LinkError::io(name, "set TCP_NODELAY", e))?;
+        let bus = stream
+            .peer_addr()
+            .map(crate::bus_id::tcp)
+            .unwrap_or_else(|_| format!("port:{name}"));
         Ok(TcpLink {
             stream,
             name: name.into(),
+            bus,
             baud,
         })
     }
@@ -158,6 +165,10 @@ fn connect_error(name: &str, addr: SocketAddr, timeout: Duration, e: io::Error) 
 impl ByteLink for TcpLink {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus.clone()
     }
 
     fn baud(&self) -> u32 {

@@ -199,3 +199,23 @@ fn open_from_a_port_string() {
         "sim://lust-vf1000?addresses=1: open sim:// ports through the simulator (driveset-sim), not driveset-link"
     );
 }
+
+/// The bus id names the address connected to, not the host as spelled:
+/// `tcp://127.0.0.1:P` and `tcp://localhost:P` are one bus (journals bound
+/// to their drive, DESIGN.md "Transactions").
+#[test]
+fn bus_id_is_the_same_for_every_spelling_of_the_host() {
+    let (listener, port) = listener();
+    let server = thread::spawn(move || {
+        let a = listener.accept().expect("accept 1");
+        let b = listener.accept().expect("accept 2");
+        (a, b)
+    });
+    let by_ip = TcpLink::connect("127.0.0.1", port, 9600, CONNECT).expect("connect by ip");
+    let by_name = TcpLink::connect("localhost", port, 9600, CONNECT).expect("connect by name");
+    assert_eq!(by_ip.port(), format!("tcp://127.0.0.1:{port}"));
+    assert_eq!(by_name.port(), format!("tcp://localhost:{port}"));
+    assert_eq!(by_ip.bus_id(), format!("tcp:127.0.0.1:{port}"));
+    assert_eq!(by_name.bus_id(), by_ip.bus_id());
+    drop(server.join().expect("server"));
+}

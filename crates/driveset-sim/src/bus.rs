@@ -649,6 +649,8 @@ pub struct SimByteBus {
     line: ByteLine,
     clock: VirtualClock,
     name: String,
+    /// [`ByteLink::bus_id`]; `None`: `sim:` and the name.
+    bus_id: Option<String>,
     host_busy_until: Instant,
 }
 
@@ -670,6 +672,7 @@ impl SimByteBus {
             line,
             clock: clock.clone(),
             name: "sim".into(),
+            bus_id: None,
             host_busy_until: Instant::ZERO,
         }
     }
@@ -689,6 +692,13 @@ impl SimByteBus {
     /// Name the port (as errors and reports show it).
     pub fn with_name(mut self, name: impl Into<String>) -> Self {
         self.name = name.into();
+        self
+    }
+
+    /// Give the bus its identity ([`ByteLink::bus_id`], default `sim:` and
+    /// the port name): two buses with the same id are one bus to journals.
+    pub fn with_bus_id(mut self, id: impl Into<String>) -> Self {
+        self.bus_id = Some(id.into());
         self
     }
 
@@ -736,6 +746,12 @@ impl SimByteBus {
 impl ByteLink for SimByteBus {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus_id
+            .clone()
+            .unwrap_or_else(|| format!("sim:{}", self.name))
     }
 
     fn baud(&self) -> u32 {

@@ -435,6 +435,8 @@ pub struct SimCanBus {
     line: FrameLine,
     clock: VirtualClock,
     name: String,
+    /// [`FrameLink::bus_id`]; `None`: `sim:` and the name.
+    bus_id: Option<String>,
 }
 
 impl SimCanBus {
@@ -454,6 +456,7 @@ impl SimCanBus {
             line,
             clock: clock.clone(),
             name: "sim-can".into(),
+            bus_id: None,
         }
     }
 
@@ -472,6 +475,13 @@ impl SimCanBus {
     /// Name the port.
     pub fn with_name(mut self, name: impl Into<String>) -> Self {
         self.name = name.into();
+        self
+    }
+
+    /// Give the bus its identity ([`FrameLink::bus_id`], default `sim:` and
+    /// the port name): two buses with the same id are one bus to journals.
+    pub fn with_bus_id(mut self, id: impl Into<String>) -> Self {
+        self.bus_id = Some(id.into());
         self
     }
 
@@ -509,6 +519,12 @@ impl SimCanBus {
 impl FrameLink for SimCanBus {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus_id
+            .clone()
+            .unwrap_or_else(|| format!("sim:{}", self.name))
     }
 
     fn bitrate(&self) -> u32 {

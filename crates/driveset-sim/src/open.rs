@@ -355,6 +355,22 @@ impl SimConfig {
             .collect()
     }
 
+    /// The simulated bus's identity ([`driveset_link::bus_id`]): `sim:` and
+    /// the bus name ([`SimConfig::bus_name`]), plus `@` and the canonical
+    /// state file when the drives' state persists in one. Seed, faults,
+    /// keypad and rates are not part of it: `sim://mc6000?addresses=1&faults=..`
+    /// and `sim://mc6000?addresses=1` with one state file are one bus.
+    pub fn bus_id(&self) -> String {
+        match &self.state {
+            Some(p) => format!(
+                "sim:{}@{}",
+                self.bus_name(),
+                driveset_link::bus_id::canonical_file(p)
+            ),
+            None => format!("sim:{}", self.bus_name()),
+        }
+    }
+
     /// The settings a `sim://` port gives; without `state=`, the state
     /// file comes from [`STATE_DIR_ENV`] if that is set.
     pub fn from_spec(spec: &SimSpec) -> Result<Self, SimOpenError> {
@@ -938,10 +954,19 @@ pub fn open_sim_with(
     log: EventLog,
 ) -> Result<SimLink, SimOpenError> {
     config.check()?;
+    let id = config.bus_id();
     let bus = if is_can(config.family) {
-        SimBus::Frames(SimCanBus::from_line(clock, config.frame_line(log)?).with_name(port))
+        SimBus::Frames(
+            SimCanBus::from_line(clock, config.frame_line(log)?)
+                .with_name(port)
+                .with_bus_id(id),
+        )
     } else {
-        SimBus::Bytes(SimByteBus::from_line(clock, config.byte_line(log)?).with_name(port))
+        SimBus::Bytes(
+            SimByteBus::from_line(clock, config.byte_line(log)?)
+                .with_name(port)
+                .with_bus_id(id),
+        )
     };
     Ok(SimLink {
         shared: Arc::new(Shared {
@@ -1109,6 +1134,12 @@ impl ByteLink for SimByteHandle {
     fn port(&self) -> &str {
         &self.0.port
     }
+    fn bus_id(&self) -> String {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => ByteLink::bus_id(b),
+            SimBus::Frames(b) => FrameLink::bus_id(b),
+        })
+    }
     fn baud(&self) -> u32 {
         self.0.with_bus(|bus| match bus {
             SimBus::Bytes(b) => ByteLink::baud(b),
@@ -1151,6 +1182,12 @@ struct SimFrameHandle(SimLink);
 impl FrameLink for SimFrameHandle {
     fn port(&self) -> &str {
         &self.0.port
+    }
+    fn bus_id(&self) -> String {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => ByteLink::bus_id(b),
+            SimBus::Frames(b) => FrameLink::bus_id(b),
+        })
     }
     fn bitrate(&self) -> u32 {
         self.0.with_bus(|bus| match bus {

@@ -28,7 +28,7 @@ pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
 #[derive(clap::Args)]
 #[command(after_help = "\
 For every selected drive: identify, read back, diff, upload what differs as
-one transaction (journal in the report directory), verify. Buses run in
+one transaction, verify. Buses run in
 parallel, the drives of one bus in turn. One progress line per drive on
 stderr, a summary table on stdout, report.json + report.html in the report
 directory (default target/driveset-report, or the manifest's report_dir).
@@ -38,6 +38,14 @@ REPORT_DIR/.commission-state.json. A rerun confirms each recorded drive with
 one read of its set's codes (no writes) and reports it `already-verified`;
 drives whose set changed, that drifted, or that were not reached are
 commissioned. --fresh ignores the file.
+
+Journals: in the manifest's journal_dir, default .driveset/journal (the
+directory `driveset upload` uses; same naming: <bus>-<address>.journal.json).
+A drive with an unfinished journal (of an upload or of a killed commission
+run, found by bus and address, not by file name) is never `unchanged`: it is
+recovered first (`driveset recover`'s rules, a warning says what was done),
+then commissioned; if recovery refuses (the journal is stale or does not fit
+the drive) or fails, the drive is `failed`.
 
 Exit codes: 0 every selected drive holds its set; 1 a drive does not
 (refused, rolled back, failed); 2 usage error or a manifest with findings;
@@ -159,9 +167,11 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
         .or_else(|| manifest.report_dir.clone())
         .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
     let mut opts = LineOptions::new(&report_dir);
-    if let Some(j) = &manifest.journal_dir {
-        opts.journal_dir = j.clone();
-    }
+    // the journal directory `upload` uses, so each sees the other's journals
+    opts.journal_dir = manifest
+        .journal_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
     opts.only = c.only;
     opts.skip = c.skip;
     opts.label = c.label;

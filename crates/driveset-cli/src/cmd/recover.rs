@@ -23,18 +23,26 @@ use crate::progress::Progress;
 /// Arguments of `driveset recover`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads the journal an interrupted `driveset upload` left, identifies the drive
-(refused if it is not the one the journal names), reads the set's codes and:
-marks the journal complete if every planned code holds its new value, else
-restores the old values from the journal's backup, reads them back and marks
-it rolled-back. A journal already complete or rolled-back needs nothing.
+Reads the journal an interrupted `driveset upload` or `driveset commission`
+left and checks that the port reaches the drive the journal was written
+for. Refused (exit 2, nothing sent) when the port reaches another bus
+(compared by bus id, so tcp://localhost:P and tcp://127.0.0.1:P are one
+bus), when --address names another drive, when the schema differs or the
+journal is version 1; refused after identify (exit 2, nothing written) when
+the drive identifies differently, or when a planned code holds neither its
+old nor its new value (someone wrote it since: the journal is stale; the
+message names the codes). Otherwise it reads the set's codes and marks the
+journal complete if every planned code holds its new value, else restores
+the old values from the journal's backup, reads them back and marks it
+rolled-back. A journal already complete or rolled-back needs nothing.
 
 Exit codes: 0 settled (complete or rolled back, verified), 2 the journal
-cannot be read or does not fit the drive / schema, 3 bus or device failure
-(the journal then says what each code holds; run recover again).
+cannot be read or does not fit the drive (bus, address, identity, schema,
+stale codes), 3 bus or device failure (the journal then says what each code
+holds; run recover again).
 
 Examples:
-  driveset recover .driveset/journal/_dev_ttyUSB0-3.journal.json
+  driveset recover .driveset/journal/serial__dev_ttyUSB0-3.journal.json
   driveset recover axis-1.journal.json --port /dev/ttyUSB1")]
 pub struct Args {
     /// The journal file `driveset upload` wrote.
@@ -43,7 +51,7 @@ pub struct Args {
     /// The port (default: the journal's).
     #[arg(long)]
     pub port: Option<String>,
-    /// The bus address (default: the journal's).
+    /// The bus address (default: the journal's; another address is refused).
     #[arg(long)]
     pub address: Option<u8>,
     /// Schema id or file (default: the journal's schema id).

@@ -13,9 +13,12 @@ For every selected drive: identify it, read the codes its set names, compare
 the live fingerprint with the set's and print the semantic differences.
 Nothing is written and the commissioning state is not touched. Writes
 report.json + report.html (command \"status\") into the report directory.
+A drive with an unfinished journal in the journal directory (the manifest's
+journal_dir, default .driveset/journal) is reported `failed` (its values are
+not trusted): run `driveset commission` (it recovers it) or `driveset recover`.
 
-Exit codes: 0 every selected drive holds its set; 1 a drive differs (drift)
-or was refused; 2 usage error or a manifest with findings; 3 a bus could not
+Exit codes: 0 every selected drive holds its set; 1 a drive differs (drift),
+was refused or has an unfinished journal; 2 usage error or a manifest with findings; 3 a bus could not
 be opened, a link failed or a drive did not answer.
 
 Examples:

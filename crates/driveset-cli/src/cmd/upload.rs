@@ -2,11 +2,15 @@
 //! [--journal FILE | --journal-dir DIR]`: download a set to a drive as one
 //! transaction (driveset-engine's `upload`), or print the plan.
 //!
-//! Journal: by default `.driveset/journal/<port>-<address>.journal.json`
-//! under the current directory (every character of the port that is not a
-//! letter or digit becomes `_`), created before the first write with mode
-//! 0600. It holds old values (passwords included): keep it out of version
-//! control.
+//! Journal: by default `.driveset/journal/<bus>-<address>.journal.json`
+//! under the current directory, named after the drive's bus id (the bus
+//! independent of the port's spelling, every character that is not a
+//! letter or digit `_`; driveset-engine's `journal_path`, shared with
+//! `commission`), created before the first write with mode 0600. It holds
+//! old values (passwords included); a directory driveset creates gets a
+//! `.gitignore` holding `*`. Before anything is sent the journal directory
+//! is scanned: an unfinished journal of the same drive (same bus and
+//! address, whatever its file name) refuses the upload (exit 2).
 //!
 //! Exit codes: 0 the drive holds the set (verified; or nothing to write),
 //! 2 refused before anything was sent (another family's set without
@@ -52,10 +56,15 @@ the drive's own descriptions first (the spec's facts stand; written to
 --schema-dir when given; --no-learn turns it off). A set pulled by
 `driveset pull` names its learned schema file already.
 
-Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
---journal-dir DIR; default .driveset/journal/<port>-<address>.journal.json
-in the current directory (port characters other than letters and digits
-become _). It holds the old values, passwords included (mode 0600).
+Journal: --journal FILE, or DIR/<bus>-<address>.journal.json with
+--journal-dir DIR; default .driveset/journal/<bus>-<address>.journal.json
+in the current directory, <bus> the drive's bus id (tcp:127.0.0.1:4001,
+serial:/dev/ttyUSB0, sim:mc6000 ...) with characters other than letters and
+digits as _. It holds the old values, passwords included (mode 0600); a
+journal directory driveset creates gets a .gitignore holding *. Refused
+(exit 2, nothing sent) while the journal's directory holds an unfinished
+journal of the same drive (same bus and address, however the port was
+spelled): run `driveset recover JOURNAL` first.
 
 Refused unless --force: a set of another family, a running drive, commands
 that overwrite every parameter, a change of the drive's bus address.
@@ -214,17 +223,9 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             let dir = dir
                 .clone()
                 .unwrap_or_else(|| PathBuf::from(DEFAULT_JOURNAL_DIR));
-            default_journal_path(&dir, client.target())
+            default_journal_path(&dir, client.as_ref())
         }
     };
-    if let Some(dir) = journal.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            Fail::input(format!(
-                "cannot create the journal directory {}: {e}",
-                dir.display()
-            ))
-        })?;
-    }
     let mut opts = UploadOptions::new(&journal);
     opts.force = args.force;
     let result = {

@@ -613,6 +613,10 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         &self.target
     }
 
+    fn bus_id(&self) -> String {
+        self.line.link.bus_id()
+    }
+
     fn schema(&self) -> &Arc<Schema> {
         &self.schema
     }

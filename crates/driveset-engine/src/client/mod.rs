@@ -97,6 +97,12 @@ pub trait DriveClient: Send {
     /// Port and address.
     fn target(&self) -> &Target;
 
+    /// Which bus the client's link reaches, independent of how the port
+    /// was spelled ([`driveset_link::bus_id`]: resolved TCP peer, canonical
+    /// device path, the simulator's bus id). Journals record it with the
+    /// address, so a transaction stays bound to its drive.
+    fn bus_id(&self) -> String;
+
     /// The schema the client converts codes with.
     fn schema(&self) -> &Arc<Schema>;
 
@@ -270,6 +276,9 @@ impl driveset_link::ByteLink for BorrowedByteLink<'_> {
     fn port(&self) -> &str {
         self.0.port()
     }
+    fn bus_id(&self) -> String {
+        self.0.bus_id()
+    }
     fn baud(&self) -> u32 {
         self.0.baud()
     }
@@ -301,6 +310,9 @@ pub struct BorrowedFrameLink<'a>(pub &'a mut dyn driveset_link::FrameLink);
 impl driveset_link::FrameLink for BorrowedFrameLink<'_> {
     fn port(&self) -> &str {
         self.0.port()
+    }
+    fn bus_id(&self) -> String {
+        self.0.bus_id()
     }
     fn bitrate(&self) -> u32 {
         self.0.bitrate()

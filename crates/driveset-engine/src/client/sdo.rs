@@ -430,6 +430,10 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         &self.target
     }
 
+    fn bus_id(&self) -> String {
+        self.line.link.bus_id()
+    }
+
     fn schema(&self) -> &Arc<Schema> {
         &self.schema
     }

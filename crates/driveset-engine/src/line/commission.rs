@@ -14,6 +14,19 @@
 //! otherwise it is commissioned again. A drive whose set changed since is
 //! commissioned again. `fresh` ignores the file.
 //!
+//! **Unfinished journals.** Journals go to [`LineOptions::journal_dir`]
+//! under the one naming scheme of [`crate::journal::journal_path`] (bus id
+//! and address), so `upload` and `commission` see each other's. Before a
+//! drive is touched the directory is scanned for unfinished journals of
+//! that drive (by recorded bus and address, not file name). `commission`
+//! recovers each ([`crate::recover::recover`]: it refuses another drive or
+//! a stale journal), warns what it did, then commissions the drive; the
+//! drive is then [`DriveResult::Verified`], never `Unchanged`, and its
+//! recorded resume state is not trusted. A refused or failed recovery makes
+//! the drive [`DriveResult::Failed`]. `status` writes nothing: such a drive
+//! is `Failed` (exit 1). A LECOM group with an unfinished journal gets no
+//! MULTICAST (`broadcast_common`).
+//!
 //! **Exit codes** ([`LineOutcome::exit_code`]): 0 every selected drive holds
 //! its set; 1 a drive does not (drift, refused, rolled back, failed); 3 a
 //! bus could not be opened, a link failed, a drive did not answer, or the
@@ -54,6 +67,7 @@ use crate::error::EngineError;
 use crate::identify::check_family;
 use crate::live::live_values;
 use crate::plan::value_text;
+use crate::recover::{RecoverAction, RecoverOptions, recover};
 use crate::upload::{UploadOptions, default_journal_path, upload};
 
 /// The state file's name inside the report directory.
@@ -666,8 +680,54 @@ fn run_drive(
     };
     let stats0 = client.stats();
     let set_fp = d.set.fingerprint();
+    let mut recovered: Vec<String> = Vec::new();
     let mut failure = None;
+    let journal_path = default_journal_path(&ctx.opts.journal_dir, &client);
     let outcome: Result<(), EngineError> = (|| {
+        // A drive with an unfinished journal is not done (module docs,
+        // "Unfinished journals"): status reports it failed, commission
+        // recovers it first.
+        let unfinished = crate::journal::unfinished_for(
+            &ctx.opts.journal_dir,
+            &client.bus_id(),
+            &client.target().port,
+            d.address,
+        )?;
+        if !unfinished.is_empty() && ctx.mode == Mode::Status {
+            let list: Vec<String> = unfinished
+                .iter()
+                .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
+                .collect();
+            return Err(EngineError::Journal {
+                path: unfinished[0].path.display().to_string(),
+                detail: format!(
+                    "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
+                    client.target(),
+                    list.join(", "),
+                    unfinished[0].path.display()
+                ),
+            });
+        }
+        for u in &unfinished {
+            let rep = recover(&mut client, &u.path, &RecoverOptions::default()).map_err(|e| {
+                EngineError::Journal {
+                    path: u.path.display().to_string(),
+                    detail: format!(
+                        "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
+                    ),
+                }
+            })?;
+            let did = match rep.action {
+                RecoverAction::Completed => "completed (the drive held the new values)",
+                RecoverAction::RolledBack => "rolled back (old values restored)",
+                RecoverAction::Nothing => "already settled",
+            };
+            recovered.push(format!(
+                "{}: recovered the unfinished journal {} of an earlier run: {did}",
+                d.name,
+                u.path.display()
+            ));
+        }
         match ctx.mode {
             Mode::Status => {
                 let id = check_family(&mut client)?;
@@ -686,6 +746,7 @@ fn run_drive(
             }
             Mode::Commission => {
                 if let Some(rec) = ctx.recorded(bus, d)
+                    && recovered.is_empty()
                     && rec.set_fingerprint == set_fp
                     && rec.port == bus.port.to_string()
                 {
@@ -705,17 +766,7 @@ fn run_drive(
                         d.name, rec.verified_at
                     ));
                 }
-                let target = Target {
-                    port: bus.port.to_string(),
-                    address: d.address,
-                };
-                let mut uo = UploadOptions::new(default_journal_path(
-                    &ctx.opts.journal_dir,
-                    &Target {
-                        port: bus.name.clone(),
-                        address: target.address,
-                    },
-                ));
+                let mut uo = UploadOptions::new(&journal_path);
                 uo.force = ctx.opts.force;
                 match upload(&mut client, &d.set, &uo) {
                     Ok(rep) => {
@@ -723,7 +774,8 @@ fn run_drive(
                         r.fingerprint_before = Some(rep.fingerprint_before.clone());
                         r.fingerprint_after = rep.fingerprint_after.clone();
                         r.codes_written = rep.codes_written as u32;
-                        r.result = if rep.codes_written == 0 {
+                        // a recovered journal changed the drive: never "unchanged"
+                        r.result = if rep.codes_written == 0 && recovered.is_empty() {
                             DriveResult::Unchanged
                         } else {
                             DriveResult::Verified
@@ -747,6 +799,9 @@ fn run_drive(
             }
         }
     })();
+    for w in recovered {
+        ctx.warn(w);
+    }
     if let Err(e) = outcome {
         failure = failure_of(&e);
         if r.result != DriveResult::RolledBack {
@@ -868,6 +923,24 @@ fn broadcast_common(
         let schema = members[0].schema.clone();
         let t0 = link_now(link);
         let Link::Bytes(b) = link else { return };
+        // a MULTICAST reaches every drive of the group: none may hold an
+        // unfinished journal (each is recovered first, drive by drive)
+        let (bus_id, port) = (b.bus_id(), b.port().to_string());
+        let open: Vec<String> = (tens * 10..=tens * 10 + 9)
+            .flat_map(|a| {
+                crate::journal::unfinished_for(&ctx.opts.journal_dir, &bus_id, &port, a)
+                    .unwrap_or_default()
+            })
+            .map(|u| u.path.display().to_string())
+            .collect();
+        if !open.is_empty() {
+            ctx.warn(format!(
+                "bus `{}` group {tens}0: no MULTICAST while the group has unfinished journals ({}); values were written drive by drive after recovery",
+                bus.name,
+                open.join(", ")
+            ));
+            continue;
+        }
         // refuse while a member runs (the per-drive upload would refuse too)
         let mut running = Vec::new();
         for m in &members {
@@ -953,6 +1026,9 @@ impl<'c> Recorder<'c> {
 impl DriveClient for Recorder<'_> {
     fn target(&self) -> &Target {
         self.inner.target()
+    }
+    fn bus_id(&self) -> String {
+        self.inner.bus_id()
     }
     fn schema(&self) -> &Arc<Schema> {
         self.inner.schema()

@@ -3,7 +3,9 @@
 //! codes, compare the live fingerprint with the set's and list the
 //! semantic differences. Nothing is written; no state file is touched.
 //! A drive that holds its set is [`DriveResult::Unchanged`], one that does
-//! not is [`DriveResult::Drift`] (exit 1); bus failures exit 3.
+//! not is [`DriveResult::Drift`] (exit 1); one with an unfinished journal in
+//! the journal directory is `Failed` (exit 1: its values are not trusted,
+//! see `commission`'s module docs); bus failures exit 3.
 //!
 //! [`DriveResult::Unchanged`]: super::report::DriveResult::Unchanged
 //! [`DriveResult::Drift`]: super::report::DriveResult::Drift

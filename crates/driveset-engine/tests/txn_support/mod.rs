@@ -213,6 +213,9 @@ impl DriveClient for FakeClient {
     fn target(&self) -> &Target {
         &self.target
     }
+    fn bus_id(&self) -> String {
+        format!("fake:{}", self.target.port)
+    }
     fn schema(&self) -> &Arc<Schema> {
         &self.schema
     }
