@@ -200,6 +200,13 @@ pub enum FindingKind {
     UnitMismatch,
     /// A problem in a schema file itself (`schema check`).
     SchemaError,
+    /// A value for a code with role `command` (PROG, SLOAD, STAT reset,
+    /// C0002, C0043 ...): a set never holds a command.
+    Command,
+    /// A control word in a state other than stopped / inhibited (a start,
+    /// enable or release bit set, no inhibit bit set, a reset bit set, or a
+    /// control word whose bits the schema does not describe).
+    ControlWordNotStopped,
 }
 
 impl FindingKind {
@@ -221,6 +228,8 @@ impl FindingKind {
             FindingKind::UnknownType => "unknown-type",
             FindingKind::UnitMismatch => "unit-mismatch",
             FindingKind::SchemaError => "schema-error",
+            FindingKind::Command => "command",
+            FindingKind::ControlWordNotStopped => "control-word-not-stopped",
         }
     }
 }

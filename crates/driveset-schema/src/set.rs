@@ -175,6 +175,13 @@ fn load_source(
             }
             match convert_value(&schema, code, &l.doc, &e.value, &mut findings) {
                 Some(p) => {
+                    if let Some((kind, message, help)) =
+                        crate::role::refusal(&schema, code, key, &p.raw)
+                    {
+                        findings.push(Finding::new(kind, p.loc(), message, help));
+                        merged.remove(&key);
+                        continue;
+                    }
                     merged.insert(key, p);
                 }
                 None => {
