@@ -14,6 +14,7 @@ pub mod identify;
 pub mod journal;
 pub mod line;
 pub mod live;
+pub mod overrides;
 pub mod plan;
 pub mod pull;
 pub mod recover;

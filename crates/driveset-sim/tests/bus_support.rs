@@ -209,6 +209,14 @@ impl FrameDrive for FakeNode {
     fn poke(&mut self, _key: CodeKey, _raw: RawValue) -> Result<(), String> {
         Err("read-only fake".into())
     }
+
+    fn running(&self) -> bool {
+        false
+    }
+
+    fn set_running(&mut self, _running: bool) -> Result<(), String> {
+        Err("the fake node has no motor".into())
+    }
 }
 
 /// `EOT <addr digit> 0 0 1 1 2 ENQ`: an 8-character read request.

@@ -39,9 +39,10 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use driveset_link::{Instant, Link, OpenOptions, PortSpec};
-use driveset_schema::{CodeKey, DiffKind, Protocol, RawValue, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, DiffKind, Protocol, RawValue, ResolvedSet, Role, Schema};
 use serde::{Deserialize, Serialize};
 
+use crate::overrides::Overrides;
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
 use super::report::{
     BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LineReport, LineResult, REPORT_VERSION,
@@ -116,8 +117,9 @@ pub struct LineOptions {
     pub report_dir: PathBuf,
     /// Where the upload journals go.
     pub journal_dir: PathBuf,
-    /// Passed to the upload (family / running refusals).
-    pub force: bool,
+    /// Passed to every upload (each lifts one refusal; see
+    /// [`crate::overrides`]).
+    pub overrides: Overrides,
     /// LECOM MULTICAST of the values common to a group (module docs).
     pub broadcast_common: bool,
     /// Ignore the state file (commission every drive again).
@@ -151,7 +153,7 @@ impl LineOptions {
             label: None,
             journal_dir: report_dir.join("journals"),
             report_dir,
-            force: false,
+            overrides: Overrides::none(),
             broadcast_common: false,
             fresh: false,
             stop_after: None,
@@ -751,7 +753,7 @@ fn run_drive(
                         address: target.address,
                     },
                 ));
-                uo.force = ctx.opts.force;
+                uo.overrides = ctx.opts.overrides;
                 match upload(&mut client, &d.set, &uo) {
                     Ok(rep) => {
                         fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
@@ -893,7 +895,12 @@ fn broadcast_common(
             .values
             .iter()
             // never the station address or the baud rate
-            .filter(|(k, _)| !matches!(k.number, 9 | 125))
+            .filter(|(k, _)| {
+                !matches!(
+                    members[0].schema.role_of(k.number),
+                    Some(Role::BusAddress | Role::BaudRate)
+                )
+            })
             .filter(|(k, v)| members[1..].iter().all(|m| m.set.values.get(k) == Some(v)))
             .map(|(k, v)| (*k, v.clone()))
             .collect();
@@ -913,7 +920,7 @@ fn broadcast_common(
                 running.push(m.name.clone());
             }
         }
-        if !running.is_empty() && !ctx.opts.force {
+        if !running.is_empty() && !ctx.opts.overrides.allow_running {
             ctx.warn(format!(
                 "bus `{}` group {tens}0: not broadcast, running: {}",
                 bus.name,
