@@ -257,13 +257,13 @@ pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
 
 /// Check that `schema` can talk over `port`: the protocol's kind of link,
 /// and on `sim://` the simulated family (another family of the same
-/// protocol passes with `force`): on a mixed LUSTBUS (`sim://lustbus`) the
+/// protocol passes with `allow_family`, `--allow-family`): on a mixed LUSTBUS (`sim://lustbus`) the
 /// family of the drive at `address`.
 pub fn check_fit(
     port: &OpenPort,
     schema: &Schema,
     address: Option<u8>,
-    force: bool,
+    allow_family: bool,
 ) -> Result<(), Fail> {
     let want = protocol_class(schema.protocol);
     let is_frames = matches!(port.link, Link::Frames(_));
@@ -299,9 +299,9 @@ pub fn check_fit(
                 protocol_name(schema.protocol)
             )));
         }
-        if sim_proto != schema.protocol && !force {
+        if sim_proto != schema.protocol && !allow_family {
             return Err(Fail::input(format!(
-                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
+                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --allow-family",
                 port.name,
                 protocol_name(sim_proto),
                 schema.id,
@@ -318,9 +318,9 @@ pub fn client(
     port: &OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    force: bool,
+    allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
-    check_fit(port, &schema, Some(address), force)?;
+    check_fit(port, &schema, Some(address), allow_family)?;
     let c: Box<dyn DriveClient> = match (&port.link, schema.protocol) {
         (Link::Bytes(_), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
             Box::new(LustbusClient::new(byte_link(port)?, schema, address).map_err(Fail::from)?)
@@ -368,12 +368,12 @@ pub fn into_client(
     port: OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    force: bool,
+    allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
     if port.sim.is_some() {
-        return client(&port, schema, address, force);
+        return client(&port, schema, address, allow_family);
     }
-    check_fit(&port, &schema, Some(address), force)?;
+    check_fit(&port, &schema, Some(address), allow_family)?;
     let c: Box<dyn DriveClient> = match (port.link, schema.protocol) {
         (Link::Bytes(l), Protocol::LustbusMc | Protocol::LustbusVf1000) => {
             Box::new(LustbusClient::new(l, schema, address).map_err(Fail::from)?)

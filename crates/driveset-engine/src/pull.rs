@@ -94,7 +94,7 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
                 continue;
             }
             if schema.is_password(code) && !opts.include_passwords {
-                skipped.push(skip("password (pass include_passwords to read it)"));
+                skipped.push(skip("password (never read: its value stays on the drive)"));
                 continue;
             }
             if let Some(role) = code.role()

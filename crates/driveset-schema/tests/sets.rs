@@ -439,7 +439,7 @@ fn diff_semantic_defaults_unified() {
     assert!(u.starts_with("--- a\n+++ b\n@@ -1,6 +1,6 @@\n"), "{u}");
     assert!(u.contains("\n-C0011 500000\n"), "{u}");
     assert!(u.contains("\n+C0011 600000\n"), "{u}");
-    assert!(u.contains("\n C0404 <redacted>\n"), "{u}");
+    assert!(u.contains("\n C0404 <secret>\n"), "{u}");
     assert!(!u.contains("C0404 1"), "{u}");
     let other = ResolvedSet {
         schema: "lenze-tmd".into(),

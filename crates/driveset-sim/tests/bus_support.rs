@@ -70,6 +70,7 @@ fn set(schema: &str, value: i64) -> ResolvedSet {
         schema: schema.into(),
         code_style: CodeStyle::Lust,
         values,
+        secrets: Default::default(),
     }
 }
 

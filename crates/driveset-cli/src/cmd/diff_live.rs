@@ -33,7 +33,7 @@ pub struct LiveArgs<'a> {
     /// Extra schema directories.
     pub schemas: &'a [PathBuf],
     /// Compare even if the drive's identity does not fit the set's schema.
-    pub force: bool,
+    pub allow_family: bool,
 }
 
 /// Run `driveset diff SET --port P --address A`.
@@ -53,8 +53,8 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     };
     let opened = port::open_port(args.port)?;
     let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
-    if !args.force {
+    let mut client = port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
+    if !args.allow_family {
         driveset_engine::identify::check_family(client.as_mut())?;
     }
     let d = driveset_engine::live::live_diff(client.as_mut(), &set);

@@ -15,7 +15,7 @@ use std::path::{Component, Path, PathBuf};
 
 use driveset_engine::pull::{PullOptions, pull as engine_pull};
 use driveset_schema::schema::{Access, StorageKind};
-use driveset_schema::{Format, Protocol, export};
+use driveset_schema::{Format, export};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -43,8 +43,12 @@ units with labels, TOML or YAML by the file's extension (or --to), with the
 drive's identity and the fingerprint in comments and the [drive] table.
 `driveset fingerprint FILE` gives the same fingerprint.
 
+Commands and control words (schema role `command` / `control-word`) are left
+out too: a set cannot hold them. Passwords are never read: the file says
+which password codes were left out and holds no value of them.
+
 Exit codes: 0 written, 1 the schema does not fit the drive (nothing written;
---force pulls anyway), 2 usage or input error, 3 bus or device failure.
+--allow-family pulls anyway), 2 usage or input error, 3 bus or device failure.
 
 Examples:
   driveset pull --port sim://mc6000?addresses=1 --address 1 -o axis-1.toml
@@ -70,6 +74,9 @@ pub struct Args {
     pub to: Option<PullTo>,
     /// Pull even if the drive's identity does not fit the schema.
     #[arg(long)]
+    pub allow_family: bool,
+    /// Removed: use --allow-family.
+    #[arg(long, hide = true)]
     pub force: bool,
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
@@ -113,20 +120,6 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
     out
 }
 
-/// Codes an upload refuses in a set although they read fine: the MC6000/7000
-/// dataset handshake 80-SLOAD and the commands that overwrite every
-/// parameter (MC 4-PROG, VF1000 71-PROG, Tmd C0002), as driveset-engine's
-/// planner lists them. A pulled set leaves them out so it can be uploaded
-/// back as it is.
-fn not_settings(p: Protocol, number: u32) -> bool {
-    match p {
-        Protocol::LustbusMc => matches!(number, 4 | 80),
-        Protocol::LustbusVf1000 => number == 71,
-        Protocol::Lecom => number == 2,
-        Protocol::LenzeCanSdo => false,
-    }
-}
-
 fn toml_str(s: &str) -> String {
     serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
 }
@@ -143,10 +136,14 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             _ => Format::Toml,
         },
     };
+    if args.force {
+        return Err(Fail::input("--force was replaced by --allow-family"));
+    }
     let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
-    if !args.force
+    let mut client =
+        port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
+    if !args.allow_family
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
@@ -155,7 +152,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             } else {
                 port::engine_exit(&e)
             },
-            msg: format!("{e}; nothing written (pass --force to pull anyway)"),
+            msg: format!("{e}; nothing written (pass --allow-family to pull anyway)"),
         });
     }
     let quiet = args.format == BusFormat::Json;
@@ -192,7 +189,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 driveset_engine::plan::value_text(&schema, *k, v)
             ));
         }
-        !ro && !not_settings(schema.protocol, k.number)
+        !ro
     });
     pulled.fingerprint = pulled.set.fingerprint();
 

@@ -1,4 +1,4 @@
-//! `driveset upload SET --port P --address A [--dry-run] [--force]
+//! `driveset upload SET --port P --address A [--dry-run] [--allow-...]
 //! [--journal FILE | --journal-dir DIR]`: download a set to a drive as one
 //! transaction (driveset-engine's `upload`), or print the plan.
 //!
@@ -10,7 +10,8 @@
 //!
 //! Exit codes: 0 the drive holds the set (verified; or nothing to write),
 //! 2 refused before anything was sent (another family's set without
-//! `--force`, a read-only code, a running drive, an unfinished journal ...)
+//! `--allow-family`, a read-only code, a command, a control word that could
+//! start the motor, a running drive, an unfinished journal ...)
 //! or an input error, 3 bus or device failure: the error names what
 //! happened to the drive: "rolled back" (it holds its old values again,
 //! verified) or "holds a mix" (run `driveset recover JOURNAL`). A rolled-back
@@ -51,9 +52,17 @@ Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
 in the current directory (port characters other than letters and digits
 become _). It holds the old values, passwords included (mode 0600).
 
-Refused unless --force: a set of another family, a running drive, commands
-that overwrite every parameter, a change of the drive's bus address.
-Never written, even with --force: codes not in the schema, read-only codes.
+Refused before anything is sent, each unless its own override:
+  --allow-family           a set of another family, a drive that identifies
+                           as another family (or another 91-TYPE)
+  --allow-running          a drive that reports a running motor
+  --allow-running-unknown  a drive whose running state cannot be known
+                           (its schema names no running bit: lenze-ecs)
+  --allow-address-change   a change of the drive's own bus address
+Refused with no override: commands (PROG, SLOAD, STAT reset, C0002, C0043
+...), a control word in any state but stopped / inhibited (CNTL = 128,
+SCTL1 = { start = true }, C0040 = 1 ...), codes not in the schema,
+read-only codes. --dry-run shows the same refusals.
 
 Exit codes: 0 the drive holds the set (verified), 2 refused before anything
 was sent or an input error, 3 bus or device failure (the message says whether
@@ -76,9 +85,9 @@ pub struct Args {
     /// Print the plan; write nothing.
     #[arg(long)]
     pub dry_run: bool,
-    /// Override the family / running / command / address refusals.
-    #[arg(long)]
-    pub force: bool,
+    /// Named overrides, one per refusal.
+    #[command(flatten)]
+    pub allow: super::allow::AllowArgs,
     /// The journal file.
     #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
     pub journal: Option<PathBuf>,
@@ -138,13 +147,15 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             });
         }
     };
+    let overrides = args.allow.overrides()?;
     let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+    let mut client =
+        port::into_client(opened, schema.clone(), args.address, overrides.allow_family)?;
     let json = args.format == BusFormat::Json;
 
     if args.dry_run {
-        let prepared = prepare(client.as_mut(), &set, args.force);
+        let prepared = prepare(client.as_mut(), &set, overrides);
         let _ = client.finish();
         let prepared = prepared?;
         if json {
@@ -218,7 +229,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         })?;
     }
     let mut opts = UploadOptions::new(&journal);
-    opts.force = args.force;
+    opts.overrides = overrides;
     let result = {
         let mut p = Progress::new(client.as_mut(), "upload", set.values.len(), json);
         let r = engine_upload(&mut p, &set, &opts);
