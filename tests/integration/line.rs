@@ -62,6 +62,7 @@ fn drift_tmd(dir: &Path, address: u8, raw: i64) {
         schema,
         code_style: CodeStyle::Lenze,
         values,
+        secrets: Default::default(),
     };
     *d = DriveDump::new(&d.family.clone(), address, &set);
     dump.write(&path).expect("state written");

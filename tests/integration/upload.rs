@@ -136,7 +136,7 @@ fn upload_then_live_diff_shows_no_differences() {
 }
 
 #[test]
-fn upload_to_another_family_is_refused_unless_forced() {
+fn upload_to_another_family_is_refused_without_allow_family() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     in_dir(dir.path())
@@ -144,9 +144,9 @@ fn upload_to_another_family_is_refused_unless_forced() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains(
-            "sim://vf1000?addresses=1 simulates vf1000 drives (lustbus-vf1000), schema `fictional-mc6000-demo` is for lustbus-mc; use a set / schema of that family, or pass --force",
+            "sim://vf1000?addresses=1 simulates vf1000 drives (lustbus-vf1000), schema `fictional-mc6000-demo` is for lustbus-mc; use a set / schema of that family, or pass --allow-family",
         ));
-    // another protocol is refused even with --force
+    // another protocol is refused even with --allow-family
     in_dir(dir.path())
         .args([
             "upload",
@@ -155,12 +155,12 @@ fn upload_to_another_family_is_refused_unless_forced() {
             PORT,
             "--address",
             "1",
-            "--force",
+            "--allow-family",
         ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("schema `lenze-tmd` is for lecom"));
-    // forced onto a VF1000: the MC codes do not exist there, so the drive
+    // --allow-family onto a VF1000: the MC codes do not exist there, so the drive
     // refuses them; nothing was written
     in_dir(dir.path())
         .args([
@@ -170,7 +170,7 @@ fn upload_to_another_family_is_refused_unless_forced() {
             "sim://vf1000?addresses=1",
             "--address",
             "1",
-            "--force",
+            "--allow-family",
             "--dry-run",
         ])
         .assert()

@@ -239,13 +239,13 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
 
 /// Check that `schema` can talk over `port`: the protocol's kind of link,
 /// and on `sim://` the simulated family (another family of the same
-/// protocol passes with `force`): on a mixed LUSTBUS (`sim://lustbus`) the
+/// protocol passes with `allow_family`, `--allow-family`): on a mixed LUSTBUS (`sim://lustbus`) the
 /// family of the drive at `address`.
 pub fn check_fit(
     port: &OpenPort,
     schema: &Schema,
     address: Option<u8>,
-    force: bool,
+    allow_family: bool,
 ) -> Result<(), Fail> {
     let want = schema.family.bus();
     let is_frames = matches!(port.link, Link::Frames(_));
@@ -281,9 +281,9 @@ pub fn check_fit(
                 protocol_name(schema.family)
             )));
         }
-        if sim_proto != schema.family && !force {
+        if sim_proto != schema.family && !allow_family {
             return Err(Fail::input(format!(
-                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --force",
+                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --allow-family",
                 port.name,
                 protocol_name(sim_proto),
                 schema.id,
@@ -300,9 +300,9 @@ pub fn client(
     port: &OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    force: bool,
+    allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
-    check_fit(port, &schema, Some(address), force)?;
+    check_fit(port, &schema, Some(address), allow_family)?;
     let link = match &port.link {
         Link::Bytes(_) => Link::Bytes(byte_link(port)?),
         Link::Frames(_) => Link::Frames(frame_link(port)?),
@@ -347,12 +347,12 @@ pub fn into_client(
     port: OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    force: bool,
+    allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
     if port.sim.is_some() {
-        return client(&port, schema, address, force);
+        return client(&port, schema, address, allow_family);
     }
-    check_fit(&port, &schema, Some(address), force)?;
+    check_fit(&port, &schema, Some(address), allow_family)?;
     Ok(driveset_engine::connect::connect_with(
         port.link,
         schema,

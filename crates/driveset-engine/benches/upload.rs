@@ -74,6 +74,7 @@ mod rig;
 use std::time::Duration;
 
 use driveset_engine::client::LustbusOptions;
+use driveset_engine::overrides::Overrides;
 use driveset_engine::plan::Phase;
 use driveset_engine::upload::{Strategy, UploadOptions, UploadReport, prepare, upload};
 use driveset_link::mem::{bits_time, wire_time};
@@ -158,7 +159,7 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
         opts.journal = dir.path().join("second.json");
     }
     // the plan of this run (reads only; its exchanges are left out of the log)
-    let prepared = prepare(&mut *c, set, false).expect("prepare");
+    let prepared = prepare(&mut *c, set, Overrides::none()).expect("prepare");
     let skip = log.events().len();
     let report = upload(&mut *c, set, &opts).unwrap_or_else(|f| {
         panic!(

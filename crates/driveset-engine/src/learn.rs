@@ -1107,9 +1107,9 @@ fn render_code(
         lines.push(format!("card_writeable = {cw}"));
         learned_facts.push("card_writeable");
     }
-    if c.password && b.is_none_or(|b| b.password.is_none()) {
-        lines.push("password = true".into());
-        learned_facts.push("password");
+    if c.password && b.is_none_or(|b| b.role.is_none()) {
+        lines.push("role = \"password\"".into());
+        learned_facts.push("role");
     }
     if b.is_none() && matches!(c.number, 81..=85 | 91) {
         lines.push("compatible = true".into());

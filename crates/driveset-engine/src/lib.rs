@@ -16,6 +16,7 @@ pub mod journal;
 pub mod learn;
 pub mod line;
 pub mod live;
+pub mod overrides;
 pub mod plan;
 pub mod pull;
 pub mod recover;

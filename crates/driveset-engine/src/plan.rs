@@ -8,12 +8,20 @@
 //! - a read-only code (`access = "ro"` or a RAM actual value), a code whose
 //!   reading clears it (85-SIOF/SERR) and, on MC6000/7000, 80-SLOAD itself
 //!   (the runner drives the dataset handshake);
-//! - unless `force`: a set for another schema, a drive whose identity says
-//!   it is of another protocol family (or another 91-TYPE where the schema
-//!   lists the TYPE values), a running drive (`running() == Some(true)`), and
-//!   commands that overwrite every parameter (MC 4-PROG, VF1000 71-PROG,
-//!   Tmd C0002 "load Lenze setting"), and a change of the drive's bus
-//!   address (see "link" below).
+//! - with no override: a code of role `command` (PROG, SLOAD, STAT reset,
+//!   Tmd C0002 / C0043), and a `control-word` value in any state but
+//!   stopped / inhibited ([`driveset_schema::role::refusal`]): a set never
+//!   starts a motor;
+//! - each unless its named override ([`crate::overrides::Override`]): a set
+//!   for another schema or a drive whose identity says it is of another
+//!   protocol family or 91-TYPE (`--allow-family`), a running drive
+//!   (`--allow-running`), a drive whose running state cannot be known
+//!   (`--allow-running-unknown`), a change of the drive's bus address
+//!   (`--allow-address-change`, see "link" below).
+//!
+//! Which code is a command, control word, setpoint, mode / control source,
+//! bus address or baud rate comes from the schema's roles
+//! (`driveset_schema::role`); this module names no code number.
 //!
 //! # Write order
 //!
@@ -28,11 +36,12 @@
 //! 2. **stored**: configuration values (EEPROM, and codes whose storage the
 //!    schema does not give): they change how the drive will behave, not
 //!    what it does right now.
-//! 3. **control**: RAM control values and commands (LUSTBUS `ram-control`
-//!    and FSEL/ISEL values, Tmd C0040 controller inhibit, C0043 fault reset,
-//!    C0046/C0047 setpoints, C0135 control word; ECS C0135). They act at
-//!    once, so they come after the configuration they act on is in place.
-//! 4. **mode**: codes that switch the operating mode or the control source
+//! 3. **control**: RAM control values and codes of role `control-word`,
+//!    `setpoint` (LUSTBUS `ram-control` and FSEL/ISEL values, Tmd C0040
+//!    controller inhibit, C0046/C0047/C0140 setpoints, C0135 control word;
+//!    ECS C0135). They act at once, so they come after the configuration
+//!    they act on is in place.
+//! 4. **mode**: codes of role `operating-mode`, then `control-source`
 //!    (Tmd C0014 operating mode, then C0001 setpoint and control
 //!    source; VF1000 2-CSEL). On a Tmd, C0001 decides whether parameters may
 //!    still be written over LECOM at all (manual §4e: 0/1 read only, 2 and 3
@@ -40,10 +49,10 @@
 //!    set out, and a control word or setpoint would take effect under the
 //!    new control source before it is set. A roll back restores in the
 //!    reverse order, so the control source is put back first.
-//! 5. **link**: the baud rate (LUSTBUS 81-SIOC/SBAUD, effective after a
+//! 5. **link**: role `baud-rate` (LUSTBUS 81-SIOC/SBAUD, effective after a
 //!    restart, 11.5; Tmd C0125), last, so the rest of the set lands over the
-//!    link as it is. A change of the **bus address** (82-SIOA/SADDR, Tmd
-//!    C0009) is refused unless forced: the drive would stop answering at the
+//!    link as it is. A change of the **bus address** (role `bus-address`:
+//!    82-SIOA/SADDR, Tmd C0009) is refused without `--allow-address-change`: the drive would stop answering at the
 //!    address the transaction talks to (found against the simulated VF1000,
 //!    which takes a new 82-SIOA at once).
 
@@ -54,7 +63,10 @@ use driveset_schema::schema::{Access, StorageKind};
 use driveset_schema::validate::display_value;
 use driveset_schema::{Code, CodeKey, CodeStyle, Family, RawValue, ResolvedSet, Schema};
 
+use driveset_schema::Role;
+
 use crate::client::{DriveClient, Identity};
+use crate::overrides::{Override, Overrides};
 
 /// The longest the MC6000/7000 dataset check may take before the upload
 /// gives up (the family descriptor's SLOAD handshake, LUSTBUS 11.4).
@@ -200,15 +212,37 @@ pub struct PlannedWrite {
     pub ack_delay: Duration,
 }
 
+/// What the drive says about its motor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Running {
+    /// Not asked yet (the checks before the drive is identified).
+    #[default]
+    NotRead,
+    /// The drive reports it (true: running).
+    Known(bool),
+    /// The drive cannot say (its schema names no running bit).
+    Unknown,
+}
+
+impl From<Option<bool>> for Running {
+    /// A client's `running()` answer.
+    fn from(v: Option<bool>) -> Self {
+        match v {
+            Some(b) => Running::Known(b),
+            None => Running::Unknown,
+        }
+    }
+}
+
 /// What the planner needs besides the schema and values.
 #[derive(Debug, Clone, Default)]
 pub struct PlanOptions {
-    /// Override the family / running / command refusals.
-    pub force: bool,
+    /// The named overrides given (each lifts one refusal).
+    pub overrides: Overrides,
     /// Whether the client has the MC6000/7000 dataset handshake.
     pub dataset: bool,
     /// What the drive says about its motor.
-    pub running: Option<bool>,
+    pub running: Running,
     /// What the drive said it is (family check), if identified.
     pub identity: Option<Identity>,
 }
@@ -284,52 +318,13 @@ pub fn is_secret(schema: &Schema, key: CodeKey) -> bool {
         .is_some_and(|c| schema.is_password(c))
 }
 
-/// Codes that switch operating mode or control source, in the order they
-/// are written (last phase).
-fn mode_codes(p: Family) -> &'static [u32] {
-    match p {
-        Family::Tmd => &[14, 1],
-        Family::Vf1000 => &[2],
-        Family::Mc6000 | Family::Ecs => &[],
-    }
-}
-
-/// Lenze codes that act at once (commands, setpoints, control words).
-fn control_codes(p: Family) -> &'static [u32] {
-    match p {
-        Family::Tmd => &[40, 43, 46, 47, 135],
-        Family::Ecs => &[135],
-        Family::Vf1000 | Family::Mc6000 => &[],
-    }
-}
-
-/// Bus address codes (LUSTBUS 82-SIOA/SADDR, Tmd C0009): a change makes
-/// the drive answer at another address, cutting the transaction off.
-pub(crate) fn address_codes(p: Family) -> &'static [u32] {
-    match p {
-        Family::Tmd => &[9],
-        Family::Vf1000 | Family::Mc6000 => &[82],
-        Family::Ecs => &[],
-    }
-}
-
-/// Baud rate codes (LUSTBUS 81-SIOC/SBAUD, effective after a restart per
-/// 11.5; Tmd C0125): written last.
-fn baud_codes(p: Family) -> &'static [u32] {
-    match p {
-        Family::Tmd => &[125],
-        Family::Vf1000 | Family::Mc6000 => &[81],
-        Family::Ecs => &[],
-    }
-}
-
-/// Commands that overwrite every parameter (refused unless forced).
-fn command_codes(p: Family) -> &'static [u32] {
-    match p {
-        Family::Tmd => &[2],
-        Family::Vf1000 => &[71],
-        Family::Mc6000 => &[4],
-        Family::Ecs => &[],
+/// Rank of a [`Phase::Mode`] write: the operating mode first, then the
+/// control source (see the module docs, "mode").
+fn mode_rank(schema: &Schema, number: u32) -> u8 {
+    match schema.role_of(number) {
+        Some(Role::OperatingMode) => 0,
+        Some(Role::ControlSource) => 1,
+        _ => 0,
     }
 }
 
@@ -347,16 +342,18 @@ fn storage_of(code: &Code, dataset: bool) -> Storage {
 }
 
 fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
+    let role = schema.role_of(key.number);
     if storage == Storage::CardWriteable {
         Phase::Dataset
-    } else if address_codes(schema.family).contains(&key.number)
-        || baud_codes(schema.family).contains(&key.number)
-    {
+    } else if matches!(role, Some(Role::BusAddress | Role::BaudRate)) {
         Phase::Link
-    } else if mode_codes(schema.family).contains(&key.number) {
+    } else if matches!(role, Some(Role::OperatingMode | Role::ControlSource)) {
         Phase::Mode
     } else if matches!(storage, Storage::Ram | Storage::FselIsel)
-        || control_codes(schema.family).contains(&key.number)
+        || matches!(
+            role,
+            Some(Role::ControlWord | Role::Command | Role::Setpoint)
+        )
     {
         Phase::Control
     } else {
@@ -364,28 +361,45 @@ fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
     }
 }
 
+/// Why the running state of a drive of `schema` cannot be known.
+fn running_unknown_why(schema: &Schema) -> String {
+    format!(
+        "schema `{}` names no status bit (role `running`) or control word start bit that says whether the motor runs",
+        schema.id
+    )
+}
+
 /// Checks that need no bus: every code known, writable, not a handshake or
-/// status code; the set is for this schema; commands only with `force`.
+/// status code, no command, no control word in a start / enable state; the
+/// set is for this schema (unless [`Override::AllowFamily`]); and, once the
+/// drive was asked ([`PlanOptions::running`]), not running (unless
+/// [`Override::AllowRunning`]) and not of unknown running state (unless
+/// [`Override::AllowRunningUnknown`]).
 /// Returns every problem found (one line each), not just the first.
 pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<String> {
     let mut out = Vec::new();
-    if set.schema != schema.id && !opts.force {
+    let family = !opts.overrides.allow_family;
+    if set.schema != schema.id && family {
         out.push(format!(
-            "the set is for schema `{}` but the drive is handled with schema `{}`; upload a set for this drive family, or pass --force if they are compatible",
-            set.schema, schema.id
+            "the set is for schema `{}` but the drive is handled with schema `{}`; upload a set for this drive family, or pass {} if they are compatible",
+            set.schema,
+            schema.id,
+            Override::AllowFamily
         ));
     }
     if let Some(id) = &opts.identity {
         let want = protocol_name(schema.family);
-        if !id.protocol.is_empty() && id.protocol != want && !opts.force {
+        if !id.protocol.is_empty() && id.protocol != want && family {
             out.push(format!(
-                "the drive identifies as protocol family `{}`, schema `{}` is for `{want}`; check the address, or pass --force",
-                id.protocol, schema.id
+                "the drive identifies as protocol family `{}`, schema `{}` is for `{want}`; check the address, or pass {}",
+                id.protocol,
+                schema.id,
+                Override::AllowFamily
             ));
         }
         if let Some(ident) = &schema.identify
             && !ident.type_values.is_empty()
-            && !opts.force
+            && family
             && let Some(ty) = id
                 .codes
                 .iter()
@@ -394,8 +408,10 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
             && !ident.type_values.contains(&ty)
         {
             out.push(format!(
-                "the drive reports 91-TYPE {ty}, schema `{}` is for TYPE {:?}; check the address, or pass --force",
-                schema.id, ident.type_values
+                "the drive reports 91-TYPE {ty}, schema `{}` is for TYPE {:?}; check the address, or pass {}",
+                schema.id,
+                ident.type_values,
+                Override::AllowFamily
             ));
         }
     }
@@ -434,18 +450,25 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
                 "{}: the dataset handshake code is driven by the upload itself; remove it from the set",
                 code_label(schema, *key)
             ));
-        } else if command_codes(schema.family).contains(&key.number) && !opts.force {
-            out.push(format!(
-                "{}: a command that overwrites parameters, not a setting; remove it from the set (or pass --force)",
-                code_label(schema, *key)
-            ));
+        } else if let Some(value) = set.values.get(key)
+            && let Some((_, message, help)) =
+                driveset_schema::role::refusal(schema, code, *key, value)
+        {
+            // no override: a set never starts a motor or runs a command
+            out.push(format!("{message}; {help}"));
         }
     }
-    if opts.running == Some(true) && !opts.force {
-        out.push(
-            "the drive reports a running motor; stop it (standstill) before uploading, or pass --force"
-                .into(),
-        );
+    match opts.running {
+        Running::Known(true) if !opts.overrides.allow_running => out.push(format!(
+            "the drive reports a running motor; stop it (standstill) before uploading, or pass {}",
+            Override::AllowRunning
+        )),
+        Running::Unknown if !opts.overrides.allow_running_unknown => out.push(format!(
+            "running state unknown: {}; make sure the drive is at standstill, then pass {}",
+            running_unknown_why(schema),
+            Override::AllowRunningUnknown
+        )),
+        _ => {}
     }
     out
 }
@@ -463,16 +486,25 @@ pub fn plan(
     let mut writes = Vec::new();
     let mut unchanged = Vec::new();
     let mut warnings = Vec::new();
-    if opts.force {
-        if set.schema != schema.id {
-            warnings.push(format!(
-                "forced: set for schema `{}` uploaded with schema `{}`",
-                set.schema, schema.id
-            ));
-        }
-        if opts.running == Some(true) {
-            warnings.push("forced: the drive reports a running motor".into());
-        }
+    if opts.overrides.allow_family && set.schema != schema.id {
+        warnings.push(format!(
+            "{}: set for schema `{}` uploaded with schema `{}`",
+            Override::AllowFamily,
+            set.schema,
+            schema.id
+        ));
+    }
+    match opts.running {
+        Running::Known(true) if opts.overrides.allow_running => warnings.push(format!(
+            "{}: the drive reports a running motor",
+            Override::AllowRunning
+        )),
+        Running::Unknown if opts.overrides.allow_running_unknown => warnings.push(format!(
+            "running state unknown ({}): {}",
+            Override::AllowRunningUnknown,
+            running_unknown_why(schema)
+        )),
+        _ => {}
     }
     for (key, new) in &set.values {
         let Some(code) = schema.code(key.number) else {
@@ -489,23 +521,25 @@ pub fn plan(
             unchanged.push(*key);
             continue;
         }
-        if address_codes(schema.family).contains(&key.number) {
-            if opts.force {
+        if code.has_role(Role::BusAddress) {
+            if opts.overrides.allow_address_change {
                 warnings.push(format!(
-                    "forced: {} changes the drive's bus address; it will stop answering at its present address, so this write cannot be verified or rolled back",
+                    "{}: {} changes the drive's bus address; it will stop answering at its present address, so this write cannot be verified or rolled back",
+                    Override::AllowAddressChange,
                     code_label(schema, *key)
                 ));
             } else {
                 problems.push(format!(
-                    "{}: {} -> {} changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass --force)",
+                    "{}: {} -> {} changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass {})",
                     code_label(schema, *key),
                     display_value(schema, code, old),
-                    display_value(schema, code, new)
+                    display_value(schema, code, new),
+                    Override::AllowAddressChange
                 ));
                 continue;
             }
         }
-        if baud_codes(schema.family).contains(&key.number) {
+        if code.has_role(Role::BaudRate) {
             warnings.push(format!(
                 "{} changes the baud rate: talk to the drive at the new rate after its next restart",
                 code_label(schema, *key)
@@ -539,14 +573,7 @@ pub fn plan(
     if !problems.is_empty() {
         return Err(problems);
     }
-    let mode_order = mode_codes(schema.family);
-    writes.sort_by_key(|w| {
-        let mode_rank = mode_order
-            .iter()
-            .position(|&n| n == w.key.number)
-            .unwrap_or(0);
-        (w.phase, mode_rank, w.key)
-    });
+    writes.sort_by_key(|w| (w.phase, mode_rank(schema, w.key.number), w.key));
     let mut drive_before = ResolvedSet::new(schema);
     for k in set.values.keys() {
         if let Some(v) = current.values.get(k) {

@@ -5,6 +5,9 @@
 //! - codes whose reading clears them (85-SIOF/SERR): reading would unlatch
 //!   the drive's error state;
 //! - password codes, unless [`PullOptions::include_passwords`];
+//! - codes of role `command` or `control-word` (`driveset_schema::role`):
+//!   a set cannot hold them (it would run a command or could start a motor
+//!   when uploaded back), so a pulled set leaves them out;
 //! - codes whose type the schema does not know (the value could not be
 //!   converted or written back);
 //! - codes the drive refuses to read (says they do not exist, or read
@@ -21,7 +24,7 @@
 
 use std::time::Duration;
 
-use driveset_schema::{CodeKey, ResolvedSet};
+use driveset_schema::{CodeKey, ResolvedSet, Role};
 
 use crate::client::{DriveClient, Identity};
 use crate::error::EngineError;
@@ -102,7 +105,16 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
                 continue;
             }
             if schema.is_password(code) && !opts.include_passwords {
-                skipped.push(skip("password (pass include_passwords to read it)"));
+                skipped.push(skip("password (never read: its value stays on the drive)"));
+                continue;
+            }
+            if let Some(role) = code.role()
+                && role != Role::Password
+                && role.left_out_of_pulled_sets()
+            {
+                skipped.push(skip(&format!(
+                    "role `{role}`: left out, a set cannot hold it"
+                )));
                 continue;
             }
             if schema.type_of(code).is_none() {

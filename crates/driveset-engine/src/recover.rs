@@ -163,7 +163,11 @@ pub fn recover(
     // the drive may answer at the address a planned bus address code gives it
     let moved_to: Vec<u8> = new_values
         .iter()
-        .filter(|(k, _)| crate::plan::address_codes(schema.family).contains(&k.number))
+        .filter(|(k, _)| {
+            schema
+                .code(k.number)
+                .is_some_and(|c| c.has_role(driveset_schema::Role::BusAddress))
+        })
         .filter_map(|(_, v)| match v {
             RawValue::Int(a) => u8::try_from(*a).ok(),
             _ => None,

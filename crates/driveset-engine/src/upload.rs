@@ -45,9 +45,10 @@ use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
     PlanEntryRecord, TxnState,
 };
+use crate::overrides::Overrides;
 use crate::plan::{
-    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Storage, TimeEstimate, check_set, code_label,
-    is_secret, plan, value_text,
+    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
+    code_label, is_secret, plan, value_text,
 };
 
 /// How to run an upload.
@@ -55,8 +56,8 @@ use crate::plan::{
 pub struct UploadOptions {
     /// Journal file (created; must not hold an unfinished transaction).
     pub journal: PathBuf,
-    /// Override the family / running / command refusals.
-    pub force: bool,
+    /// The named overrides (each lifts one refusal; see [`crate::overrides`]).
+    pub overrides: Overrides,
     /// Rewrite the journal with the codes written so far every this many
     /// writes (and at every state transition). At least 1.
     pub journal_every: usize,
@@ -89,7 +90,7 @@ impl UploadOptions {
     pub fn new(journal: impl Into<PathBuf>) -> Self {
         UploadOptions {
             journal: journal.into(),
-            force: false,
+            overrides: Overrides::none(),
             journal_every: 8,
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
@@ -323,14 +324,14 @@ pub(crate) fn read_values(
 pub fn prepare(
     client: &mut dyn DriveClient,
     set: &ResolvedSet,
-    force: bool,
+    overrides: Overrides,
 ) -> Result<Prepared, EngineError> {
     let schema = client.schema().clone();
     let target = client.target().clone();
     let mut opts = PlanOptions {
-        force,
+        overrides,
         dataset: client.has_dataset_download(),
-        running: None,
+        running: Running::NotRead,
         identity: None,
     };
     let problems = check_set(&schema, set, &opts);
@@ -338,7 +339,7 @@ pub fn prepare(
         return Err(refused(&target, problems));
     }
     opts.identity = Some(client.identify()?);
-    opts.running = client.running()?;
+    opts.running = client.running()?.into();
     let current = read_values(client, set.values.keys().copied())?;
     let plan = plan(&schema, set, &current, &opts).map_err(|p| refused(&target, p))?;
     let estimate = plan.estimate(set, &*client);
@@ -363,9 +364,9 @@ pub fn upload(
     let start = client.clock().now();
     let stats0 = client.stats();
     let mut popts = PlanOptions {
-        force: opts.force,
+        overrides: opts.overrides,
         dataset: client.has_dataset_download(),
-        running: None,
+        running: Running::NotRead,
         identity: None,
     };
     let problems = check_set(&schema, set, &popts);
@@ -558,11 +559,9 @@ impl Txn<'_> {
     fn attempt(&mut self, set: &ResolvedSet) -> Result<(), Stop> {
         let current = read_values(self.client, set.values.keys().copied())?;
         let mut planned = plan(&self.schema, set, &current, &self.popts);
-        if self.popts.running.is_none() && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
-            self.popts.running = self.client.running()?;
-            if self.popts.running.is_some() {
-                planned = plan(&self.schema, set, &current, &self.popts);
-            }
+        if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+            self.popts.running = self.client.running()?.into();
+            planned = plan(&self.schema, set, &current, &self.popts);
         }
         let plan = match planned {
             Ok(p) => p,

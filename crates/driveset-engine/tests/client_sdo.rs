@@ -61,7 +61,8 @@ fn fix32_read_and_write() {
         c.read(CodeKey::new(5001)).unwrap(),
         RawValue::Int(12_345_678)
     );
-    assert_eq!(c.running().unwrap(), None);
+    // the FICTIONAL fixture's running bit, C0150 bit 1 (read over SDO)
+    assert_eq!(c.running().unwrap(), Some(false));
     let host: Vec<String> = log
         .events()
         .into_iter()
@@ -165,4 +166,151 @@ fn node_zero_and_unknown_codes_are_refused() {
         c.read(CodeKey::new(4242)).unwrap_err(),
         EngineError::Refused { .. }
     ));
+}
+
+/// A one-value set of `schema`: C5001 (max_speed of the fixtures) = raw.
+fn speed_set(schema: &Schema, raw: i64) -> driveset_schema::ResolvedSet {
+    let mut s = driveset_schema::ResolvedSet::new(schema);
+    s.insert(CodeKey::new(5001), RawValue::Int(raw));
+    s
+}
+
+#[test]
+fn upload_reads_the_running_state_from_c0150_and_refuses_a_running_axis() {
+    use driveset_engine::journal::TxnState;
+    use driveset_engine::overrides::{Override, Overrides};
+    use driveset_engine::upload::{UploadOptions, upload};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let schema = schema();
+    let set = speed_set(&schema, 12_345_678);
+
+    // stopped (C0150 bit 1 clear): the upload goes through, no warning
+    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, schema.clone(), 3).unwrap();
+    let report =
+        upload(&mut c, &set, &UploadOptions::new(dir.path().join("a.json"))).expect("stopped axis");
+    assert_eq!(report.state, TxnState::Complete);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+
+    // running: refused before anything is written
+    let (_clock, log, mut bus) = sim_bus(vec![ecs(3)], None);
+    bus.drive_mut(3).unwrap().set_running(true).unwrap();
+    assert!(bus.drives()[0].running());
+    let mut c = CanClient::new(bus, schema.clone(), 3).unwrap();
+    assert_eq!(c.running().unwrap(), Some(true));
+    let journal = dir.path().join("b.json");
+    let err = upload(&mut c, &set, &UploadOptions::new(&journal)).expect_err("running");
+    assert!(
+        err.to_string().ends_with(
+            "refused: the drive reports a running motor; stop it (standstill) before uploading, or pass --allow-running"
+        ),
+        "{err}"
+    );
+    assert!(!journal.exists());
+    // no SDO download request (command byte 0x2x) reached the axis
+    let downloads = log
+        .events()
+        .into_iter()
+        .filter(|e| e.dir == Dir::Host)
+        .filter(|e| {
+            e.hex
+                .split_whitespace()
+                .nth(2)
+                .is_some_and(|b| b.starts_with('2'))
+        })
+        .count();
+    assert_eq!(downloads, 0, "{:?}", log.events());
+    assert_eq!(
+        c.read(CodeKey::new(5001)).unwrap(),
+        RawValue::Int(30_000_000)
+    );
+
+    // --allow-running lifts exactly that refusal
+    let mut opts = UploadOptions::new(dir.path().join("c.json"));
+    opts.overrides = Overrides::only(Override::AllowRunning);
+    let report = upload(&mut c, &set, &opts).expect("allowed");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(
+        report.warnings,
+        vec!["--allow-running: the drive reports a running motor".to_string()]
+    );
+}
+
+#[test]
+fn upload_to_an_axis_whose_schema_names_no_running_bit_needs_allow_running_unknown() {
+    use driveset_engine::journal::TxnState;
+    use driveset_engine::overrides::{Override, Overrides};
+    use driveset_engine::upload::{UploadOptions, prepare, upload};
+    // lenze-ecs itself (its excerpt names no bit of C0150) plus one FIX32 code
+    let text = r#"
+[schema]
+id = "test-ecs-unknown"
+title = "test: lenze-ecs plus one FIX32 code, no running bit"
+extends = "lenze-ecs"
+fictional = true
+
+[[code]]
+number = 5001
+name = "max_speed"
+title = "Maximum speed (test)"
+spec = "test"
+type = "FIX32"
+note = "test"
+"#;
+    let mut reg = catalog::registry().unwrap();
+    let s = reg
+        .add_source(SourceFile::new("test-ecs-unknown.toml", text))
+        .expect("schema");
+    assert_eq!(s.running_indicator(), None);
+    let drive = || -> Box<dyn FrameDrive> {
+        let table = ParamTable::from_schema(Arc::clone(&s)).expect("table");
+        Box::new(
+            EcsDrive::with_table(NodeId::new(4).unwrap(), table, 1)
+                .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
+        )
+    };
+    let set = speed_set(&s, 12_345_678);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let why = "running state unknown: schema `test-ecs-unknown` names no status bit (role `running`) or control word start bit that says whether the motor runs";
+
+    let (_clock, _log, mut bus) = sim_bus(vec![drive()], None);
+    assert!(bus.drive_mut(4).unwrap().set_running(true).is_err());
+    let mut c = CanClient::new(bus, Arc::clone(&s), 4).unwrap();
+    assert_eq!(c.running().unwrap(), None);
+    // the dry run says so too
+    let err = prepare(&mut c, &set, Overrides::none()).expect_err("unknown");
+    assert!(
+        err.to_string().ends_with(&format!(
+            "refused: {why}; make sure the drive is at standstill, then pass --allow-running-unknown"
+        )),
+        "{err}"
+    );
+    let journal = dir.path().join("a.json");
+    let err = upload(&mut c, &set, &UploadOptions::new(&journal)).expect_err("unknown");
+    assert!(err.to_string().contains(why), "{err}");
+    assert!(!journal.exists());
+    // --allow-running does not lift it
+    let mut opts = UploadOptions::new(&journal);
+    opts.overrides = Overrides::only(Override::AllowRunning);
+    assert!(upload(&mut c, &set, &opts).is_err());
+
+    let mut opts = UploadOptions::new(dir.path().join("b.json"));
+    opts.overrides = Overrides::only(Override::AllowRunningUnknown);
+    let report = upload(&mut c, &set, &opts).expect("allowed");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(
+        report.warnings,
+        vec![
+            "running state unknown (--allow-running-unknown): schema `test-ecs-unknown` names no status bit (role `running`) or control word start bit that says whether the motor runs"
+                .to_string()
+        ]
+    );
+    let p = prepare(&mut c, &speed_set(&s, 1), opts.overrides).expect("plan");
+    assert!(
+        p.plan
+            .render(None)
+            .contains("warning: running state unknown (--allow-running-unknown)"),
+        "{}",
+        p.plan.render(None)
+    );
 }

@@ -321,7 +321,7 @@ C5003 = "0.400 s"
 C5007 = 16.25
 C5015 = "0.0125 rev"
 C5016 = "Position control"
-code_0135 = 1027
+code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a set holds a control word only inhibited
 "#,
     );
     let dir = tempfile::tempdir().expect("tempdir");
@@ -356,7 +356,7 @@ code_0135 = 1027
     let (values, writes) = server.dump();
     let mut expected: Vec<(u32, i64)> = INITIAL.to_vec();
     let new = [
-        (135, 1027),
+        (135, 1539),
         (5001, 52_005_000),
         (5003, 4_000),
         (5007, 162_500),

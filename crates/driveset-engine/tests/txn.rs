@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use driveset_engine::error::EngineError;
 use driveset_engine::journal::{JournalFile, TxnState};
+use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
@@ -29,7 +30,7 @@ fn tmd_drive() -> Drive {
             (k(14), RawValue::Int(20_000)),
             (CodeKey::sub(39, 1), RawValue::Int(0)),
             (CodeKey::sub(39, 2), RawValue::Int(0)),
-            (k(40), RawValue::Int(0)),
+            (k(40), RawValue::Int(10_000)), // enabled: the set inhibits it
             (k(46), RawValue::Int(0)),
             (k(50), RawValue::Int(123)),
             (k(94), RawValue::Int(0)),
@@ -69,7 +70,7 @@ fn tmd_set() -> driveset_schema::ResolvedSet {
             (k(12), 25_000),
             (k(13), 50_000), // unchanged
             (k(14), 40_000),
-            (k(40), 10_000),
+            (k(40), 0),
             (k(135), 0x0008),
             (CodeKey::sub(39, 1), 200_000),
         ],
@@ -188,7 +189,7 @@ fn refuses_unknown_read_only_status_and_handshake_codes_before_sending_anything(
 }
 
 #[test]
-fn refuses_a_running_drive_unless_forced_and_another_schema_unless_forced() {
+fn refuses_a_running_drive_without_allow_running_and_another_schema_without_allow_family() {
     let schema = tmd_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let mut drive = tmd_drive();
@@ -200,12 +201,26 @@ fn refuses_a_running_drive_unless_forced_and_another_schema_unless_forced() {
     assert!(err.to_string().contains("running motor"), "{err}");
     assert!(client.writes_logged().is_empty());
 
+    // another override does not lift it
     let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.force = true;
+    opts.overrides = Overrides::only(Override::AllowFamily);
+    let mut client = FakeClient::new(schema.clone(), drive.clone());
+    let err = upload(&mut client, &set, &opts).expect_err("running");
+    assert_eq!(
+        err.to_string(),
+        "fake0 address 1: refused: the drive reports a running motor; stop it (standstill) before uploading, or pass --allow-running"
+    );
+    assert!(client.writes_logged().is_empty());
+
+    let mut opts = UploadOptions::new(journal_in(&dir));
+    opts.overrides = Overrides::only(Override::AllowRunning);
     let mut client = FakeClient::new(schema.clone(), drive);
-    let report = upload(&mut client, &set, &opts).expect("forced");
+    let report = upload(&mut client, &set, &opts).expect("allowed");
     assert_eq!(report.state, TxnState::Complete);
-    assert!(report.warnings.iter().any(|w| w.contains("running")));
+    assert_eq!(
+        report.warnings,
+        vec!["--allow-running: the drive reports a running motor".to_string()]
+    );
 
     let mut other = set_of(&schema, &[(k(11), 600_000)]);
     other.schema = "lenze-tmd".into();
@@ -226,7 +241,7 @@ fn refuses_a_running_drive_unless_forced_and_another_schema_unless_forced() {
 }
 
 #[test]
-fn refuses_commands_unless_forced_and_bad_subcodes() {
+fn refuses_commands_with_no_override_and_bad_subcodes() {
     let schema = tmd_schema();
     let set = set_of(
         &schema,
@@ -240,7 +255,25 @@ fn refuses_commands_unless_forced_and_bad_subcodes() {
         FakeClient::new(schema.clone(), tmd_drive()).values_of(set.values.keys().copied());
     let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
     let all = problems.join("\n");
-    assert!(all.contains("C0002 load_lenze_setting: a command"), "{all}");
+    assert!(
+        all.contains("C0002 = 1 is a command (Load Lenze setting), not a setting; a set cannot hold it; remove this line: run the command on the drive itself, never from a set"),
+        "{all}"
+    );
+    // no override lifts it
+    let every = PlanOptions {
+        overrides: Overrides {
+            allow_family: true,
+            allow_running: true,
+            allow_running_unknown: true,
+            allow_address_change: true,
+        },
+        ..PlanOptions::default()
+    };
+    let again = plan(&schema, &set, &current, &every).expect_err("still refused");
+    assert!(
+        again.iter().any(|p| p.contains("C0002 = 1 is a command")),
+        "{again:?}"
+    );
     assert!(
         all.contains("C0039/3: code 39 has subcodes 1..=2 only"),
         "{all}"
@@ -614,7 +647,7 @@ fn eeprom_gaps_are_filled_with_verification_reads_and_time_matches_the_estimate(
         &[(k(110), 1), (k(111), 2), (k(112), 3), (k(120), 4)],
     );
     let mut client = FakeClient::new(schema.clone(), mc_drive());
-    let prepared = prepare(&mut client, &set, false).expect("prepare");
+    let prepared = prepare(&mut client, &set, Overrides::none()).expect("prepare");
     let mut client = FakeClient::new(schema, mc_drive());
     let report = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect("upload");
     let ops: Vec<(u64, Op)> = client.log.clone();
@@ -697,7 +730,7 @@ fn passwords_never_appear_in_plan_report_or_errors() {
     let dir = tempfile::tempdir().expect("tempdir");
     let set = set_of(&schema, &[(k(130), 2468), (k(111), 9)]);
     let mut client = FakeClient::new(schema.clone(), mc_drive());
-    let prepared = prepare(&mut client, &set, false).expect("prepare");
+    let prepared = prepare(&mut client, &set, Overrides::none()).expect("prepare");
     let text = prepared.plan.render(Some(&prepared.estimate));
     assert!(
         text.contains("130-PASS: <redacted> -> <redacted>"),
@@ -887,13 +920,24 @@ fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
     assert_eq!(
         skipped,
         vec![
+            ("C0002 load_lenze_setting".to_string(), "role"),
+            ("C0040 controller_inhibit".to_string(), "role"),
             ("C0046 frequency_setpoint".to_string(), "the"),
             ("C0094 user_password".to_string(), "password"),
+            ("C0135 control_word".to_string(), "role"),
             ("C0200 unknown_type_code".to_string(), "the"),
         ]
     );
-    assert!(pulled.skipped[0].reason.contains("no parameter"));
-    assert_eq!(pulled.read, 11);
+    assert_eq!(
+        pulled.skipped[0].reason,
+        "role `command`: left out, a set cannot hold it"
+    );
+    assert_eq!(
+        pulled.skipped[4].reason,
+        "role `control-word`: left out, a set cannot hold it"
+    );
+    assert!(pulled.skipped[2].reason.contains("no parameter"));
+    assert_eq!(pulled.read, 8);
     assert!(pulled.set.values.contains_key(&CodeKey::sub(39, 2)));
     assert!(!pulled.set.values.contains_key(&k(94)));
     assert_eq!(pulled.fingerprint, pulled.set.fingerprint());
@@ -905,8 +949,8 @@ fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
         include_passwords: true,
     };
     let changed = pull(&mut client, &opts).expect("pull");
-    // defaults: C0001 0, C0002 0, C0011 50, C0012 5, C0013 5, C0014 2, C0040 0
-    assert_eq!(changed.dropped_defaults, 7);
+    // defaults: C0001 0, C0011 50, C0012 5, C0013 5, C0014 2 (C0002 and C0040 are not pulled)
+    assert_eq!(changed.dropped_defaults, 5);
     assert!(changed.set.values.contains_key(&k(94)));
     assert!(!changed.set.values.contains_key(&k(11)));
     assert_ne!(changed.fingerprint, changed.full_fingerprint);

@@ -8,6 +8,7 @@ use std::time::Duration;
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::live::live_diff;
+use driveset_engine::overrides::Overrides;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, prepare, upload};
 use driveset_link::VirtualClock;
@@ -55,7 +56,7 @@ fn mc6000_axis_set_lands_through_the_dataset_and_verifies() {
         1,
     )
     .expect("client");
-    let prepared = prepare(&mut c, &set, false).expect("prepare");
+    let prepared = prepare(&mut c, &set, Overrides::none()).expect("prepare");
     assert!(prepared.plan.dataset, "{}", prepared.plan.render(None));
     let report = upload(&mut c, &set, &UploadOptions::new(&journal))
         .unwrap_or_else(|f| panic!("{f}\n{:?}", f.report.as_ref().map(|r| r.render())));
@@ -96,7 +97,7 @@ fn vf1000_power_cycle_mid_upload_voids_the_attempt_and_is_redone() {
         4,
     )
     .expect("client");
-    let prepared = prepare(&mut probe, &set, false).expect("prepare");
+    let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
     assert!(
         prepared.plan.writes.len() >= 3,
         "{}",
@@ -130,7 +131,7 @@ fn mc6000_cable_pulled_mid_upload_then_recover_ends_on_one_whole_set() {
     .expect("client");
     let before = driveset_engine::live::live_values(&mut probe, &set).expect("values");
     let n0 = probe.stats().telegrams;
-    let prepared = prepare(&mut probe, &set, false).expect("prepare");
+    let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
     // the telegrams the upload sends before its first write
     let n = probe.stats().telegrams - n0;
     // pull the cable for 60 s some writes into the transaction
@@ -168,7 +169,7 @@ fn mc6000_eeprom_gaps_carry_verification_reads_on_the_real_client() {
         1,
     )
     .expect("client");
-    let prepared = prepare(&mut c, &set, false).expect("prepare");
+    let prepared = prepare(&mut c, &set, Overrides::none()).expect("prepare");
     let mut c = LustbusClient::new(
         bus(Box::new(Mc6000::new(opts(1)).expect("mc")), None),
         schema,

@@ -2,7 +2,7 @@
 //! drives share), its canonical text and fingerprint (docs/file-formats.md,
 //! "Canonical form and fingerprint").
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
 use sha2::{Digest, Sha256};
@@ -98,7 +98,14 @@ pub struct ResolvedSet {
     pub code_style: CodeStyle,
     /// Values.
     pub values: BTreeMap<CodeKey, RawValue>,
+    /// Code numbers whose values are secrets (the schema's passwords, see
+    /// `Schema::is_password`): the canonical form and the fingerprint hold
+    /// them only as present ([`SECRET`]), never by value.
+    pub secrets: BTreeSet<u32>,
 }
+
+/// How the canonical form writes a secret's value.
+pub const SECRET: &str = "<secret>";
 
 impl ResolvedSet {
     /// An empty set for a schema (the engine fills it from values read off a bus).
@@ -107,7 +114,18 @@ impl ResolvedSet {
             schema: schema.id.clone(),
             code_style: schema.code_style,
             values: BTreeMap::new(),
+            secrets: schema
+                .codes
+                .iter()
+                .filter(|c| schema.is_password(c))
+                .map(|c| c.number)
+                .collect(),
         }
+    }
+
+    /// Whether `key`'s value is a secret.
+    pub fn is_secret(&self, key: &CodeKey) -> bool {
+        self.secrets.contains(&key.number)
     }
 
     /// Set a value.
@@ -117,13 +135,32 @@ impl ResolvedSet {
 
     /// The canonical text: `driveset-canonical 1`, `schema <id>`, then one
     /// line per value sorted by (number, subcode); every line ends with `\n`.
+    /// A secret's value is written as [`SECRET`]: the text (and so the
+    /// fingerprint) says that the set holds it, not what it is, so nobody
+    /// can recover it by trying values against a published fingerprint.
     pub fn canonical(&self) -> String {
+        self.canonical_text(false)
+    }
+
+    /// The canonical text with the secrets' values: only for what stays as
+    /// private as the drive itself (the simulator's state files). Never
+    /// print it, fingerprint it or put it in a report.
+    pub fn canonical_with_secrets(&self) -> String {
+        self.canonical_text(true)
+    }
+
+    fn canonical_text(&self, with_secrets: bool) -> String {
         let mut out = String::with_capacity(32 + self.values.len() * 16);
         out.push_str("driveset-canonical 1\n");
         let _ = writeln!(out, "schema {}", self.schema);
         for (k, v) in &self.values {
             k.write_canonical(self.code_style, &mut out);
             out.push(' ');
+            if !with_secrets && self.is_secret(k) {
+                out.push_str(SECRET);
+                out.push('\n');
+                continue;
+            }
             match v {
                 RawValue::Int(i) => push_int(&mut out, *i),
                 RawValue::Text(t) => {
@@ -166,6 +203,7 @@ mod tests {
             schema: "lenze-tmd".into(),
             code_style: CodeStyle::Lenze,
             values: BTreeMap::new(),
+            secrets: BTreeSet::new(),
         };
         s.insert(CodeKey::new(200), RawValue::Text("33STMD-M_12000".into()));
         s.insert(CodeKey::new(11), RawValue::Int(500000));
@@ -180,10 +218,27 @@ mod tests {
             schema: "x".into(),
             code_style: CodeStyle::Lust,
             values: BTreeMap::new(),
+            secrets: BTreeSet::new(),
         };
         // sha256 of "driveset-canonical 1\nschema x\n"
         assert_eq!(empty.fingerprint().len(), 71);
         empty.insert(CodeKey::new(428), RawValue::Int(-5));
         assert!(empty.canonical().ends_with("\n428 -5\n"));
+        // a secret is present / absent, never its value
+        empty.secrets.insert(70);
+        empty.insert(CodeKey::new(70), RawValue::Int(1234));
+        let fp = empty.fingerprint();
+        assert_eq!(
+            empty.canonical(),
+            "driveset-canonical 1\nschema x\n70 <secret>\n428 -5\n"
+        );
+        assert_eq!(
+            empty.canonical_with_secrets(),
+            "driveset-canonical 1\nschema x\n70 1234\n428 -5\n"
+        );
+        empty.insert(CodeKey::new(70), RawValue::Int(4321));
+        assert_eq!(empty.fingerprint(), fp);
+        empty.values.remove(&CodeKey::new(70));
+        assert_ne!(empty.fingerprint(), fp);
     }
 }

@@ -5,6 +5,7 @@ use std::cmp::Ordering;
 use std::collections::HashMap;
 
 use crate::error::{Finding, FindingKind, Location};
+use crate::role::Role;
 use crate::schema::{Code, EnumDef, EnumSource, Rule, Schema};
 use crate::validate::{eng_cmp, fact_to_raw};
 use crate::value::ValueType;
@@ -388,6 +389,80 @@ fn check_code(schema: &Schema, c: &Code, out: &mut Vec<Finding>) {
                 out,
             );
         }
+    }
+    check_roles(schema, c, &what, out);
+}
+
+/// Roles (docs/file-formats.md, "Code roles"): bit roles only on a code of
+/// the matching role and only on one-bit members; a password is not also
+/// something else; a control word is not read-only.
+fn check_roles(schema: &Schema, c: &Code, what: &str, out: &mut Vec<Finding>) {
+    let role_loc = c.role_loc.clone().unwrap_or_else(|| c.loc.clone());
+    for b in &c.bits {
+        let (Some(br), Some(loc)) = (b.role, b.role_loc.as_ref()) else {
+            continue;
+        };
+        let want = br.code_role();
+        if c.role != Some(want) {
+            out.push(f(
+                loc,
+                format!(
+                    "{what} bit field {} has role `{br}`, which belongs to a `{want}` code, but the code's role is {}",
+                    b.name,
+                    c.role.map_or("not set".to_string(), |r| format!("`{r}`"))
+                ),
+                format!("give the code `role = \"{want}\"`, or remove the bit field's role"),
+            ));
+        }
+        if b.width() != 1 {
+            out.push(f(
+                loc,
+                format!(
+                    "{what} bit field {} has role `{br}` but is {} bits wide",
+                    b.name,
+                    b.width()
+                ),
+                "a bit role names one bit: give it bits = [n, n]",
+            ));
+        }
+    }
+    if !c.stopped.is_empty() && c.role != Some(Role::ControlWord) {
+        out.push(f(
+            &c.loc,
+            format!("{what} has `stopped` values but is not a control word"),
+            "`stopped` lists the values of a `control-word` code that keep the drive stopped; give the role or remove it",
+        ));
+    }
+    if c.role == Some(Role::Password) && !c.bits.is_empty() {
+        out.push(f(
+            &role_loc,
+            format!("{what} is a password but has bit fields"),
+            "a password is one secret value; remove the bit fields or the role",
+        ));
+    }
+    if let Some(r) = c.role
+        && r != Role::Password
+        && schema.type_of(c) == Some(ValueType::PT_PASSWORD)
+    {
+        out.push(f(
+            &role_loc,
+            format!("{what} has type PT_PASSWORD (a secret) but role `{r}`"),
+            "a PT_PASSWORD code is a password; remove the role",
+        ));
+    }
+    if matches!(
+        c.role,
+        Some(Role::ControlWord | Role::Command | Role::Setpoint)
+    ) && c.access == Some(crate::schema::Access::Ro)
+    {
+        out.push(f(
+            &role_loc,
+            format!(
+                "{what} has role `{}` but is read-only",
+                c.role.map(Role::as_str).unwrap_or("")
+            ),
+            "a control word, command or setpoint is written; fix the access or the role",
+        ));
     }
 }
 

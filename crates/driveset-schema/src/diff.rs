@@ -105,6 +105,11 @@ pub fn diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema) -> Result<Diff, D
         let (old, new) = (a.values.get(&key), b.values.get(&key));
         let (kind, text) = match (old, new) {
             (Some(o), Some(n)) if o == n => continue,
+            // secrets are compared directly, but never shown
+            (Some(_), Some(_)) if a.is_secret(&key) || b.is_secret(&key) => (
+                DiffKind::Changed,
+                format!("{}: differs (secret)", label(schema, key)),
+            ),
             (Some(o), Some(n)) => (
                 DiffKind::Changed,
                 format!(
@@ -170,34 +175,35 @@ pub fn diff_defaults(set: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffErr
     Ok(d)
 }
 
-/// Unified text diff of the canonical forms; password values are redacted.
+/// Unified text diff of the canonical forms. Secrets are `<secret>` there
+/// (present, not their value); a secret that differs between the two sets
+/// shows as `<secret: old value>` / `<secret: new value>`, so the diff says
+/// that it differs without what it is.
 pub fn unified_diff(
     a: &ResolvedSet,
     b: &ResolvedSet,
-    schema: &Schema,
+    _schema: &Schema,
     a_name: &str,
     b_name: &str,
 ) -> String {
-    let (ca, cb) = (redacted_canonical(a, schema), redacted_canonical(b, schema));
+    let (ca, cb) = (marked_canonical(a, b, "old"), marked_canonical(b, a, "new"));
     similar::TextDiff::from_lines(&ca, &cb)
         .unified_diff()
         .header(a_name, b_name)
         .to_string()
 }
 
-fn redacted_canonical(set: &ResolvedSet, schema: &Schema) -> String {
-    let mut copy = set.clone();
-    let mut redacted = Vec::new();
-    for (k, v) in copy.values.iter_mut() {
-        if schema.code(k.number).is_some_and(|c| schema.is_password(c)) {
-            *v = RawValue::Int(0);
-            redacted.push(format!("{} 0\n", k.canonical(set.code_style)));
+/// `set`'s canonical form, with the secrets that differ from `other`'s
+/// marked `<secret: {side} value>`.
+fn marked_canonical(set: &ResolvedSet, other: &ResolvedSet, side: &str) -> String {
+    let mut text = set.canonical();
+    for (k, v) in &set.values {
+        if set.is_secret(k) && other.values.get(k).is_some_and(|o| o != v) {
+            let code = k.canonical(set.code_style);
+            let line = format!("\n{code} {}\n", crate::canonical::SECRET);
+            let repl = format!("\n{code} <secret: {side} value>\n");
+            text = text.replacen(&line, &repl, 1);
         }
-    }
-    let mut text = copy.canonical();
-    for line in redacted {
-        let repl = line.replacen(" 0\n", " <redacted>\n", 1);
-        text = text.replacen(&line, &repl, 1);
     }
     text
 }

@@ -145,6 +145,43 @@ impl Location {
         let _ = writeln!(out, "{pad} | {lead}{} {label}", "^".repeat(span_chars));
     }
 
+    /// Hide the text at `secret` (a byte span of the same file) in this
+    /// location's line: the snippet shows `<secret>` there instead of the
+    /// value. A location that is the secret's value itself then spans the
+    /// mask.
+    pub fn mask_secret(&mut self, secret: &Range<usize>) {
+        if self.line == 0 || self.line_text.is_empty() {
+            return;
+        }
+        let line_start = self.byte_col_offset();
+        let line_end = line_start + self.line_text.len();
+        if secret.start >= line_end || secret.end <= line_start {
+            return;
+        }
+        let s = secret.start.saturating_sub(line_start);
+        let e = (secret.end - line_start).min(self.line_text.len());
+        if !self.line_text.is_char_boundary(s) || !self.line_text.is_char_boundary(e) {
+            return;
+        }
+        let mask = crate::canonical::SECRET;
+        let before_chars = self.line_text.get(..s).map_or(0, |t| t.chars().count());
+        let value_chars = self.line_text.get(s..e).map_or(0, |t| t.chars().count());
+        self.line_text.replace_range(s..e, mask);
+        if self.span.start >= secret.start && self.span.start < secret.end {
+            // the location is (inside) the value: point at the mask
+            self.span = secret.start..secret.start + mask.len();
+            self.column = before_chars + 1;
+        } else if self.span.start >= secret.end {
+            // after the value on the same line: shift with the text
+            let (old_len, new_len) = (e - s, mask.len());
+            self.span = (self.span.start + new_len).saturating_sub(old_len)
+                ..(self.span.end + new_len).saturating_sub(old_len);
+            self.column = (self.column + mask.chars().count())
+                .saturating_sub(value_chars)
+                .max(1);
+        }
+    }
+
     /// Byte offset of the start of the line in the file (derived from span and column).
     fn byte_col_offset(&self) -> usize {
         let col_bytes: usize = self
@@ -200,6 +237,16 @@ pub enum FindingKind {
     UnitMismatch,
     /// A problem in a schema file itself (`schema check`).
     SchemaError,
+    /// A value for a code with role `command` (PROG, SLOAD, STAT reset,
+    /// C0002, C0043 ...): a set never holds a command.
+    Command,
+    /// A control word in a state other than stopped / inhibited (a start,
+    /// enable or release bit set, no inhibit bit set, a reset bit set, or a
+    /// control word whose bits the schema does not describe).
+    ControlWordNotStopped,
+    /// A secret given as the `<secret>` placeholder (an exported or pulled
+    /// set holds no secret's value).
+    SecretNotGiven,
 }
 
 impl FindingKind {
@@ -221,6 +268,9 @@ impl FindingKind {
             FindingKind::UnknownType => "unknown-type",
             FindingKind::UnitMismatch => "unit-mismatch",
             FindingKind::SchemaError => "schema-error",
+            FindingKind::Command => "command",
+            FindingKind::ControlWordNotStopped => "control-word-not-stopped",
+            FindingKind::SecretNotGiven => "secret-not-given",
         }
     }
 }

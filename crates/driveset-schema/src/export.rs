@@ -69,6 +69,11 @@ fn render(o: &Out, fmt: Format) -> String {
 
 fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) -> Out {
     let code = schema.code(key.number);
+    if code.is_some_and(|c| schema.is_password(c)) {
+        // an export never holds a secret's value (loading it back gives a
+        // `secret-not-given` finding that asks for the value)
+        return Out::Str(crate::canonical::SECRET.into());
+    }
     match raw {
         RawValue::Text(t) => Out::Str(t.clone()),
         RawValue::Octets(o) => Out::Str(o.iter().map(|b| format!("{b:02x}")).collect()),
@@ -121,7 +126,8 @@ fn value_out(schema: &Schema, key: crate::canonical::CodeKey, raw: &RawValue) ->
     }
 }
 
-/// Write a set in the given format. `title` is written when given.
+/// Write a set in the given format. `title` is written when given. A
+/// secret's value is written as `"<secret>"`, never its value.
 pub fn export(set: &ResolvedSet, schema: &Schema, title: Option<&str>, format: Format) -> String {
     let mut out = String::new();
     let entries: Vec<(String, String)> = set

@@ -32,6 +32,7 @@ pub mod error;
 pub mod export;
 pub mod family;
 mod fnv;
+pub mod role;
 pub mod schema;
 pub mod set;
 mod toml_reader;
@@ -45,6 +46,7 @@ pub use diff::{Diff, DiffEntry, DiffError, DiffKind, diff, diff_defaults, unifie
 pub use error::{Finding, FindingKind, InputError, InputErrorKind, Location};
 pub use export::{Format, export};
 pub use family::{BusProtocol, Descriptor, Family};
+pub use role::{BitRole, ControlState, Role, RunningIndicator};
 pub use schema::{Code, CodeStyle, Registry, Schema};
 pub use set::{LoadedSet, load_set, load_set_str};
 pub use value::ValueType;

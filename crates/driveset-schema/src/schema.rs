@@ -12,6 +12,7 @@ use crate::error::{
     Finding, FindingKind, InputError, InputErrorKind, Location, SourceFile, read_text_file,
 };
 use crate::family::Family;
+use crate::role::{BitRole, Role};
 use crate::value::ValueType;
 
 /// How codes are spelled (`[schema] code_style`).
@@ -119,6 +120,10 @@ pub struct BitField {
     pub loc: Location,
     /// Where `bits` is.
     pub bits_loc: Location,
+    /// What the member does in a control or status word (`role`).
+    pub role: Option<BitRole>,
+    /// Where `role` is written.
+    pub role_loc: Option<Location>,
 }
 
 impl BitField {
@@ -181,8 +186,16 @@ pub struct Code {
     pub width: Option<u8>,
     /// MC: CardWriteable.
     pub card_writeable: Option<bool>,
-    /// Value is a password.
-    pub password: Option<bool>,
+    /// What the code is for where it is not an ordinary setting
+    /// (`role`, or [`Role::Identify`] for `[schema.identify] codes`); see
+    /// [`crate::role`].
+    pub role: Option<Role>,
+    /// Where `role` is written.
+    pub role_loc: Option<Location>,
+    /// Control word without bit roles: the values that keep the drive
+    /// stopped / inhibited (`stopped = [0]`, Tmd C0040 0 = controller
+    /// inhibited).
+    pub stopped: Vec<i64>,
     /// Reading clears the code.
     pub read_clears: Option<bool>,
     /// Numerically compatible parameter (LUSTBUS 5.2).
@@ -376,9 +389,10 @@ impl Schema {
         }
     }
 
-    /// Whether a code's values are passwords (redacted in human output).
+    /// Whether a code's values are secrets (`role = "password"` or type
+    /// PT_PASSWORD): masked in every output and in the canonical form.
     pub fn is_password(&self, code: &Code) -> bool {
-        code.password == Some(true) || self.type_of(code) == Some(ValueType::PT_PASSWORD)
+        code.role == Some(Role::Password) || self.type_of(code) == Some(ValueType::PT_PASSWORD)
     }
 
     /// Convert a schema fact (min/max/default) to a raw value.
@@ -394,6 +408,13 @@ impl Schema {
                 .type_name
                 .as_ref()
                 .and_then(|(n, _)| ValueType::from_name(n));
+        }
+        if let Some(ident) = &self.identify {
+            for c in &mut self.codes {
+                if c.role.is_none() && ident.codes.contains(&c.number) {
+                    c.role = Some(Role::Identify);
+                }
+            }
         }
         for (i, c) in self.codes.iter().enumerate() {
             self.by_number.entry(c.number).or_insert(i);
@@ -680,6 +701,56 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         }),
     };
     let values = parse_values(&mut r, &what)?;
+    if let Some(e) = r.take("password") {
+        return Err(doc.error(
+            &e.key_span,
+            format!("`password` in {what} is now a role"),
+            "write `role = \"password\"` instead",
+        ));
+    }
+    let (role, role_loc) = match r.string("role")? {
+        None => (None, None),
+        Some((t, l)) => match Role::parse(&t) {
+            Some(x) => (Some(x), Some(l)),
+            None => {
+                let help = if t == "identify" {
+                    "identify codes are listed in `[schema.identify] codes`, not by a role key"
+                        .to_string()
+                } else {
+                    format!(
+                        "use one of: {}",
+                        Role::ALL
+                            .into_iter()
+                            .filter(|r| *r != Role::Identify)
+                            .map(Role::as_str)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                };
+                return Err(InputError::new(
+                    InputErrorKind::Structure,
+                    l,
+                    format!("unknown role `{t}` in {what}"),
+                    help,
+                ));
+            }
+        },
+    };
+    let stopped = match r.take("stopped") {
+        None => Vec::new(),
+        Some(e) => match &e.value.kind {
+            NodeKind::Array(items) => items
+                .iter()
+                .map(|n| match &n.kind {
+                    NodeKind::Num(t) => parse_int_text(t)
+                        .and_then(|v| i64::try_from(v).ok())
+                        .ok_or_else(|| r.wrong(e, "an array of integers (raw values)")),
+                    _ => Err(r.wrong(e, "an array of integers (raw values)")),
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+            _ => return Err(r.wrong(e, "an array of integers (raw values)")),
+        },
+    };
     let mut bits = Vec::new();
     if let Some(e) = r.take("bits") {
         let NodeKind::Array(items) = &e.value.kind else {
@@ -713,6 +784,23 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
             };
             let bits_loc = doc.loc(&be.value.span);
             let values = parse_values(&mut br, &format!("bit field {bname}"))?;
+            let (brole, brole_loc) = match br.string("role")? {
+                None => (None, None),
+                Some((t, l)) => match BitRole::parse(&t) {
+                    Some(r) => (Some(r), Some(l)),
+                    None => {
+                        return Err(InputError::new(
+                            InputErrorKind::Structure,
+                            l,
+                            format!("unknown role `{t}` of bit field {bname} of {what}"),
+                            format!(
+                                "use one of: {}",
+                                BitRole::ALL.map(BitRole::as_str).join(", ")
+                            ),
+                        ));
+                    }
+                },
+            };
             br.finish()?;
             bits.push(BitField {
                 name: bname,
@@ -722,6 +810,8 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
                 values,
                 loc: bloc,
                 bits_loc,
+                role: brole,
+                role_loc: brole_loc,
             });
         }
     }
@@ -751,7 +841,9 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         basis: r.boolean("basis")?,
         width: r.uint::<u8>("width")?.map(|t| t.0),
         card_writeable: r.boolean("card_writeable")?,
-        password: r.boolean("password")?,
+        role,
+        role_loc,
+        stopped,
         read_clears: r.boolean("read_clears")?,
         compatible: r.boolean("compatible")?,
         values_partial: r.boolean("values_partial")?,
@@ -1113,7 +1205,20 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
     fill!(basis);
     fill!(width);
     fill!(card_writeable);
-    fill!(password);
+    if base.stopped.is_empty() {
+        base.stopped = over.stopped;
+    }
+    if base.role.is_none() {
+        base.role = over.role;
+        base.role_loc = over.role_loc;
+    } else if over.role.is_some() && over.role != base.role {
+        out.push(Finding::new(
+            FindingKind::SchemaError,
+            over.role_loc.clone().unwrap_or_else(|| over.loc.clone()),
+            format!("fixture changes `role` of code {number}, which the base schema already gives"),
+            "a fixture may only fill facts the base leaves unset; remove it from the fixture",
+        ));
+    }
     fill!(read_clears);
     fill!(compatible);
     fill!(values_partial);

@@ -130,6 +130,9 @@ fn load_source(
     }
 
     let mut merged: FnvMap<CodeKey, Placed> = FnvMap::default();
+    // where secret values are written (file, byte span): masked in every
+    // finding's snippet at the end, whatever the finding is about
+    let mut secret_spans: Vec<(String, std::ops::Range<usize>)> = Vec::new();
     for l in &layers {
         let Some(values) = &l.values else { continue };
         let mut seen: FnvMap<CodeKey, (&str, std::ops::Range<usize>)> = FnvMap::default();
@@ -140,6 +143,9 @@ fn load_source(
                 continue;
             };
             let kloc = || l.doc.loc(&e.key_span);
+            if schema.is_password(code) {
+                secret_spans.push((l.doc.loc(&e.value.span).file, e.value.span.clone()));
+            }
             if let Some((first, fspan)) = seen.get(&key) {
                 let floc = l.doc.loc(fspan);
                 findings.push(
@@ -173,8 +179,51 @@ fn load_source(
                 merged.remove(&key);
                 continue;
             }
-            match convert_value(&schema, code, &l.doc, &e.value, &mut findings) {
+            let secret = schema.is_password(code);
+            if secret {
+                if matches!(&e.value.kind, NodeKind::Str(t) if t == crate::canonical::SECRET) {
+                    findings.push(Finding::new(
+                        FindingKind::SecretNotGiven,
+                        l.doc.loc(&e.value.span),
+                        format!(
+                            "{} ({}) is a secret whose value this file does not hold (`{}` is what exports and pulled sets write)",
+                            schema.display_code(key.number, key.subcode),
+                            code.name,
+                            crate::canonical::SECRET
+                        ),
+                        "give the password's value, or remove this line to leave the drive's password as it is",
+                    ));
+                    merged.remove(&key);
+                    continue;
+                }
+            }
+            let before = findings.len();
+            let converted = convert_value(&schema, code, &l.doc, &e.value, &mut findings);
+            if secret {
+                // a value problem of a secret: say what, never the value
+                for f in findings.iter_mut().skip(before) {
+                    f.message = format!(
+                        "{} ({}) = {}: the value is not valid for this code ({})",
+                        schema.display_code(key.number, key.subcode),
+                        code.name,
+                        crate::canonical::SECRET,
+                        f.kind
+                    );
+                    f.help =
+                        "give a valid password (the value is not shown: it is a secret)".into();
+                    // which schema fact it broke would narrow the value down
+                    f.related.clear();
+                }
+            }
+            match converted {
                 Some(p) => {
+                    if let Some((kind, message, help)) =
+                        crate::role::refusal(&schema, code, key, &p.raw)
+                    {
+                        findings.push(Finding::new(kind, p.loc(), message, help));
+                        merged.remove(&key);
+                        continue;
+                    }
                     merged.insert(key, p);
                 }
                 None => {
@@ -184,6 +233,18 @@ fn load_source(
         }
     }
     check_rules(&schema, &merged, &mut findings);
+    for f in &mut findings {
+        for (file, span) in &secret_spans {
+            if &f.location.file == file {
+                f.location.mask_secret(span);
+            }
+            for (_, r) in &mut f.related {
+                if &r.file == file {
+                    r.mask_secret(span);
+                }
+            }
+        }
+    }
     let mut resolved = ResolvedSet::new(&schema);
     let mut sorted: Vec<(CodeKey, RawValue)> =
         merged.into_iter().map(|(k, p)| (k, p.raw)).collect();

@@ -90,10 +90,10 @@ impl std::fmt::Display for TypeDesc<'_> {
 }
 
 /// Engineering text of a raw value with unit and label, for messages and diffs.
-/// Passwords show as `<redacted>`.
+/// Passwords show as `<secret>` ([`crate::canonical::SECRET`]).
 pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
     if schema.is_password(code) {
-        return "<redacted>".into();
+        return crate::canonical::SECRET.into();
     }
     match raw {
         RawValue::Text(t) => serde_json::to_string(t).unwrap_or_default(),

@@ -109,3 +109,76 @@ fn edge_raw_values_round_trip() {
         }
     }
 }
+
+/// Everything a set renders to outside the 0600 journal: fingerprint,
+/// canonical text, the three exports, every validate message rendered
+/// (human with snippet, and one-line), and the diffs against a set without
+/// the secret and against one with another frequency (semantic and
+/// unified).
+fn rendered(text: &str, other: &ResolvedSet) -> Vec<String> {
+    static REG: std::sync::OnceLock<Registry> = std::sync::OnceLock::new();
+    let mut r = REG.get_or_init(|| Registry::builtin().unwrap()).clone();
+    let l = load_set_str(Path::new("secret.toml"), text, &mut r).expect("loads");
+    let mut out: Vec<String> = l
+        .findings
+        .iter()
+        .flat_map(|f| [f.render_human(), f.to_string()])
+        .collect();
+    let schema = l.schema.expect("schema");
+    if let Some(s) = &l.resolved {
+        out.push(s.fingerprint());
+        out.push(s.canonical());
+        for fmt in [Format::Toml, Format::Yaml, Format::Json] {
+            out.push(export(s, &schema, Some("t"), fmt));
+        }
+        for (x, y) in [(s, other), (other, s)] {
+            out.push(diff(x, y, &schema).expect("diff").to_string());
+            out.push(unified_diff(x, y, &schema, "x", "y"));
+        }
+        out.push(diff_defaults(s, &schema).expect("defaults").to_string());
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Tmd C0094 (user password, 0..=999, role `password`): any two values,
+    /// valid or not, render the same everywhere (the secret is present /
+    /// absent, never its value).
+    #[test]
+    fn outputs_do_not_depend_on_a_secrets_value(
+        a in 0u32..=999,
+        b in 0u32..=999,
+        big_a in 1000u32..=1_000_000,
+        big_b in 1000u32..=1_000_000,
+        freq in 0u32..=240,
+        alias in any::<bool>(),
+    ) {
+        let key = if alias { "user_password" } else { "C0094" };
+        let text = |pw: u32| {
+            format!("schema = \"lenze-tmd\"\n[values]\nC0011 = \"{freq} Hz\"\n{key} = {pw}  # the password\nC0012 = 5\n")
+        };
+        let mut r = Registry::builtin().unwrap();
+        let other = load_set_str(
+            Path::new("other.toml"),
+            "schema = \"lenze-tmd\"\n[values]\nC0011 = \"61 Hz\"\nC0012 = 5\n",
+            &mut r,
+        )
+        .unwrap()
+        .resolved
+        .unwrap();
+        let ra = rendered(&text(a), &other);
+        prop_assert_eq!(&ra, &rendered(&text(b), &other));
+        for s in &ra {
+            prop_assert!(!s.contains(&format!("{key} = {a}")), "{}", s);
+        }
+        // out of range: the findings say so, without the value
+        let rb = rendered(&text(big_a), &other);
+        prop_assert_eq!(&rb, &rendered(&text(big_b), &other));
+        prop_assert!(rb.iter().any(|s| s.contains("C0094 (user_password) = <secret>: the value is not valid for this code (out-of-range)")));
+        for s in &rb {
+            prop_assert!(!s.contains(&big_a.to_string()), "{}", s);
+        }
+    }
+}

@@ -387,8 +387,10 @@ fn fingerprint_round_trips_through_all_formats() {
     assert_eq!(summary(&first), vec![]);
     let set = first.resolved.unwrap();
     let schema = first.schema.unwrap();
-    let fp = set.fingerprint();
+    // an export holds no secret's value (checked below): round trip the rest
     let mut current = set.clone();
+    current.values.remove(&CodeKey::new(404));
+    let fp = current.fingerprint();
     for (fmt, name) in [
         (Format::Yaml, "r.yaml"),
         (Format::Toml, "r.toml"),
@@ -408,7 +410,21 @@ fn fingerprint_round_trips_through_all_formats() {
         "{toml}"
     );
     assert!(toml.contains("\"C0039/1\" = \"-3.5 Hz\"\n"), "{toml}");
-    assert!(toml.contains("C0404 = 4711\n"), "{toml}");
+    assert!(toml.contains("C0404 = \"<secret>\"\n"), "{toml}");
+    assert!(!toml.contains("4711"), "{toml}");
+    let back = load(
+        "r.toml",
+        &toml.replace("\"fictional-test\"", "\"fictional-test.toml\""),
+    );
+    assert_eq!(
+        summary(&back),
+        vec![(
+            FindingKind::SecretNotGiven,
+            "C0404 (access_code) is a secret whose value this file does not hold (`<secret>` is what exports and pulled sets write)".to_string(),
+            16,
+            9
+        )]
+    );
 }
 
 #[test]
@@ -428,19 +444,34 @@ fn diff_semantic_defaults_unified() {
     let d = diff(&a, &b, &schema).unwrap();
     assert_eq!(
         d.to_string(),
-        "C0007 input_config: (unset) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0010 min_output_frequency: 1 Hz -> (unset)\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: \"0...10 V\" -> \"4...20 mA\"\nC0404 access_code: <redacted> -> <redacted>\n"
+        "C0007 input_config: (unset) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0010 min_output_frequency: 1 Hz -> (unset)\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: \"0...10 V\" -> \"4...20 mA\"\nC0404 access_code: differs (secret)\n"
     );
     let dd = diff_defaults(&b, &schema).unwrap();
     assert_eq!(
         dd.to_string(),
-        "C0007 input_config: (no factory default known) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: (no factory default known) -> \"4...20 mA\"\nC0404 access_code: (no factory default known) -> <redacted>\n"
+        "C0007 input_config: (no factory default known) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: (no factory default known) -> \"4...20 mA\"\nC0404 access_code: (no factory default known) -> <secret>\n"
     );
     let u = unified_diff(&a, &b, &schema, "a", "b");
     assert!(u.starts_with("--- a\n+++ b\n@@ -1,6 +1,6 @@\n"), "{u}");
     assert!(u.contains("\n-C0011 500000\n"), "{u}");
     assert!(u.contains("\n+C0011 600000\n"), "{u}");
-    assert!(u.contains("\n C0404 <redacted>\n"), "{u}");
-    assert!(!u.contains("C0404 1"), "{u}");
+    // the secret differs: said so, without either value
+    assert!(u.contains("\n-C0404 <secret: old value>\n"), "{u}");
+    assert!(u.contains("\n+C0404 <secret: new value>\n"), "{u}");
+    assert!(!u.contains("C0404 1") && !u.contains("C0404 2"), "{u}");
+    // only the secret differs: still a difference
+    let mut c = a.clone();
+    c.insert(CodeKey::new(404), RawValue::Int(2));
+    let u = unified_diff(&a, &c, &schema, "a", "c");
+    assert!(
+        u.contains("\n-C0404 <secret: old value>\n+C0404 <secret: new value>\n"),
+        "{u}"
+    );
+    assert_eq!(
+        diff(&a, &c, &schema).unwrap().to_string(),
+        "C0404 access_code: differs (secret)\n"
+    );
+    assert_eq!(a.fingerprint(), c.fingerprint());
     let other = ResolvedSet {
         schema: "lenze-tmd".into(),
         ..a.clone()

@@ -111,7 +111,7 @@ pub fn drive_dump(
         "address": address,
         "schema": state.schema,
         "fingerprint": state.fingerprint(),
-        "canonical": state.canonical(),
+        "canonical": state.canonical_with_secrets(),
     })
 }
 

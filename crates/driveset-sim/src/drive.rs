@@ -115,6 +115,15 @@ pub trait FrameDrive: Send + std::fmt::Debug {
 
     /// Set a value directly, bypassing the protocol.
     fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String>;
+
+    /// Whether the node reports a running motor (the schema's running
+    /// indicator, `Schema::running_indicator`; false when it names none).
+    fn running(&self) -> bool;
+
+    /// Start or stop the motor (test hook): sets or clears the running bit
+    /// the node reports. `Err` when the schema names no running bit (the
+    /// node cannot report it).
+    fn set_running(&mut self, running: bool) -> Result<(), String>;
 }
 
 /// A device reaction time range, drawn uniformly per telegram.

@@ -340,6 +340,40 @@ impl FrameDrive for EcsDrive {
         self.values.insert(key, raw);
         Ok(())
     }
+
+    /// The running bit of the schema's running indicator (FICTIONAL
+    /// `fictional-ecs-demo`: C0150 bit 1); the real `lenze-ecs` schema
+    /// names none, so such a node never reports running.
+    fn running(&self) -> bool {
+        let Some(ind) = self.table.schema().running_indicator() else {
+            return false;
+        };
+        matches!(
+            self.values.get(&CodeKey::new(ind.code)),
+            Some(RawValue::Int(v)) if v >> ind.bit & 1 == 1
+        )
+    }
+
+    fn set_running(&mut self, running: bool) -> Result<(), String> {
+        let ind = self.table.schema().running_indicator().ok_or_else(|| {
+            format!(
+                "ECS node {}: schema `{}` names no running bit",
+                self.node.get(),
+                self.table.schema().id
+            )
+        })?;
+        let key = CodeKey::new(ind.code);
+        let word = match self.values.get(&key) {
+            Some(RawValue::Int(v)) => *v,
+            _ => 0,
+        };
+        let bit = 1i64 << ind.bit;
+        self.values.insert(
+            key,
+            RawValue::Int(if running { word | bit } else { word & !bit }),
+        );
+        Ok(())
+    }
 }
 
 #[cfg(test)]

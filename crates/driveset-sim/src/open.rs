@@ -607,7 +607,8 @@ impl DriveDump {
             address,
             schema: state.schema.clone(),
             fingerprint: state.fingerprint(),
-            canonical: state.canonical(),
+            // the drive's memory, secrets included (a state file is as private as the drive)
+            canonical: state.canonical_with_secrets(),
         }
     }
 }
@@ -1506,6 +1507,7 @@ mod tests {
             schema: "lenze-tmd".into(),
             code_style: driveset_schema::schema::CodeStyle::Lenze,
             values: BTreeMap::new(),
+            secrets: Default::default(),
         };
         s.insert(CodeKey::new(7), RawValue::Int(-17185));
         s.insert(CodeKey::sub(39, 1), RawValue::Int(200000));

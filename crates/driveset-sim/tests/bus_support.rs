@@ -70,6 +70,7 @@ fn set(schema: &str, value: i64) -> ResolvedSet {
         schema: schema.into(),
         code_style: CodeStyle::Lust,
         values,
+        secrets: Default::default(),
     }
 }
 
@@ -208,6 +209,14 @@ impl FrameDrive for FakeNode {
 
     fn poke(&mut self, _key: CodeKey, _raw: RawValue) -> Result<(), String> {
         Err("read-only fake".into())
+    }
+
+    fn running(&self) -> bool {
+        false
+    }
+
+    fn set_running(&mut self, _running: bool) -> Result<(), String> {
+        Err("the fake node has no motor".into())
     }
 }
 

@@ -72,9 +72,9 @@ pub struct Args {
     /// Where report.json, report.html, the state file and the journals go.
     #[arg(long, value_name = "DIR")]
     pub report_dir: Option<PathBuf>,
-    /// Override the family / running refusals of the upload.
-    #[arg(long)]
-    pub force: bool,
+    /// Named overrides passed to every upload, one per refusal.
+    #[command(flatten)]
+    pub allow: super::allow::AllowArgs,
     /// LECOM: send values common to a group (x1..x9) once by MULTICAST,
     /// then verify every drive (unacknowledged, no journal backup; other
     /// buses: per-drive writes).
@@ -90,6 +90,13 @@ pub struct Args {
 
 /// Run `driveset commission`.
 pub fn run(args: Args) -> anyhow::Result<u8> {
+    let overrides = match args.allow.overrides() {
+        Ok(o) => o,
+        Err(f) => {
+            eprintln!("error: {}", f.msg);
+            return Ok(f.code);
+        }
+    };
     let opts = Common {
         manifest: args.manifest,
         only: args.only,
@@ -98,7 +105,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         report_dir: args.report_dir,
     };
     run_mode(opts, Mode::Commission, |o| {
-        o.force = args.force;
+        o.overrides = overrides;
         o.broadcast_common = args.broadcast_common;
         o.fresh = args.fresh;
         o.stop_after = args.stop_after;

@@ -28,9 +28,11 @@ pub enum DiffFormat {
 #[derive(clap::Args)]
 #[command(after_help = "\
 Lines start with `+` (only in B), `-` (only in A) or `~` (in both, changed)
-and show values in engineering units with labels; password values show as
-<redacted>. With --defaults, old values are the schema's factory defaults
-(`(no factory default known)` where the schema gives none).
+and show values in engineering units with labels; a password never shows
+its value: a differing one is `differs (secret)` (--unified: `<secret: old
+value>` / `<secret: new value>`). With --defaults, old values are the
+schema's factory defaults (`(no factory default known)` where the schema
+gives none).
 
 Exit codes: 0 same, 1 different, 2 error (unreadable or invalid set, sets of
 different schemas, usage); with --port also 3 (bus or device failure).
@@ -94,7 +96,7 @@ fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
         .is_some_and(|c| schema.is_password(c));
     match raw {
         None => Value::Null,
-        Some(_) if redact => json!("<redacted>"),
+        Some(_) if redact => json!(driveset_schema::canonical::SECRET),
         Some(RawValue::Int(i)) => json!(i),
         Some(RawValue::Text(t)) => json!(t),
         Some(RawValue::Octets(o)) => {
@@ -115,7 +117,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 DiffFormat::Json => super::diff_live::LiveFormat::Json,
             },
             schemas: &args.schemas,
-            force: false,
+            allow_family: false,
             learn: &args.learn,
         });
     }

@@ -33,7 +33,7 @@ pub struct LiveArgs<'a> {
     /// Extra schema directories.
     pub schemas: &'a [PathBuf],
     /// Compare even if the drive's identity does not fit the set's schema.
-    pub force: bool,
+    pub allow_family: bool,
     /// Learning the schema from the drive where the set's lacks facts.
     pub learn: &'a crate::learning::LearnArgs,
 }
@@ -49,13 +49,13 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
         args.schemas,
         args.port,
         args.address,
-        args.force,
+        args.allow_family,
         args.learn,
         "not compared",
     )?;
     let (schema, set, port_name, mut client, _sim) =
         (on.schema, on.set, on.port_name, on.client, on._sim);
-    if !args.force {
+    if !args.allow_family {
         driveset_engine::identify::check_family(client.as_mut())?;
     }
     let d = driveset_engine::live::live_diff(client.as_mut(), &set);

@@ -17,7 +17,7 @@ use std::path::{Component, Path, PathBuf};
 
 use driveset_engine::pull::{PullOptions, pull as engine_pull};
 use driveset_schema::schema::{Access, StorageKind};
-use driveset_schema::{Family, Format, export};
+use driveset_schema::{Format, export};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -59,11 +59,15 @@ learned-<family>-type<TYPE>-<software>.toml and the set names it, so
 --type-chars override how MC6000/7000 descriptions are read (errata L22,
 L23); --no-learn pulls with the schema as it is.
 
+Commands and control words (schema role `command` / `control-word`) are left
+out too: a set cannot hold them. Passwords are never read: the file says
+which password codes were left out and holds no value of them.
+
 A code that cannot be read (refused, no answer, a VALUE its type cannot
 hold) is reported, listed in the file's header, and the pull carries on.
 
 Exit codes: 0 written, 1 the schema does not fit the drive (nothing written;
---force pulls anyway) or a code could not be read (the file is written
+--allow-family pulls anyway) or a code could not be read (the file is written
 without it), 2 usage or input error, 3 bus or device failure.
 
 Examples:
@@ -92,6 +96,9 @@ pub struct Args {
     pub to: Option<PullTo>,
     /// Pull even if the drive's identity does not fit the schema.
     #[arg(long)]
+    pub allow_family: bool,
+    /// Removed: use --allow-family.
+    #[arg(long, hide = true)]
     pub force: bool,
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
@@ -138,20 +145,6 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
     out
 }
 
-/// Codes an upload refuses in a set although they read fine: the MC6000/7000
-/// dataset handshake 80-SLOAD and the commands that overwrite every
-/// parameter (MC 4-PROG, VF1000 71-PROG, Tmd C0002), as driveset-engine's
-/// planner lists them. A pulled set leaves them out so it can be uploaded
-/// back as it is.
-fn not_settings(p: Family, number: u32) -> bool {
-    match p {
-        Family::Mc6000 => matches!(number, 4 | 80),
-        Family::Vf1000 => number == 71,
-        Family::Tmd => number == 2,
-        Family::Ecs => false,
-    }
-}
-
 fn toml_str(s: &str) -> String {
     serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
 }
@@ -176,6 +169,9 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             _ => Format::Toml,
         },
     };
+    if args.force {
+        return Err(Fail::input("--force was replaced by --allow-family"));
+    }
     let port_name = opened.name.clone();
     // A LUSTBUS schema that lacks facts: learn them from the drive and
     // write the learned schema beside the set (or into --schema-dir).
@@ -188,7 +184,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let mut _sim_alive = None;
     let (mut client, schema, schema_path, learned) = if learning::wants(&choice.schema, &args.learn)
     {
-        port::check_fit(&opened, &choice.schema, Some(args.address), args.force)?;
+        port::check_fit(
+            &opened,
+            &choice.schema,
+            Some(args.address),
+            args.allow_family,
+        )?;
         let (link, sim) = learning::take_byte_link(opened)?;
         _sim_alive = sim;
         let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
@@ -204,7 +205,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         (client, schema, report.file.clone(), Some(report))
     } else {
         let schema = choice.schema.clone();
-        let client = port::into_client(opened, schema.clone(), args.address, args.force)?;
+        let client = port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
         (client, schema, choice.path.clone(), None)
     };
     if let Some(r) = &learned
@@ -214,7 +215,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             eprintln!("{l}");
         }
     }
-    if !args.force
+    if !args.allow_family
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
@@ -223,7 +224,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             } else {
                 port::engine_exit(&e)
             },
-            msg: format!("{e}; nothing written (pass --force to pull anyway)"),
+            msg: format!("{e}; nothing written (pass --allow-family to pull anyway)"),
         });
     }
     let quiet = args.format == BusFormat::Json;
@@ -260,7 +261,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 driveset_engine::plan::value_text(&schema, *k, v)
             ));
         }
-        !ro && !not_settings(schema.family, k.number)
+        !ro
     });
     pulled.fingerprint = pulled.set.fingerprint();
     let failed: Vec<_> = pulled

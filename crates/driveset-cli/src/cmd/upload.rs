@@ -1,4 +1,4 @@
-//! `driveset upload SET --port P --address A [--dry-run] [--force]
+//! `driveset upload SET --port P --address A [--dry-run] [--allow-...]
 //! [--journal FILE | --journal-dir DIR]`: download a set to a drive as one
 //! transaction (driveset-engine's `upload`), or print the plan.
 //!
@@ -14,7 +14,8 @@
 //!
 //! Exit codes: 0 the drive holds the set (verified; or nothing to write),
 //! 2 refused before anything was sent (another family's set without
-//! `--force`, a read-only code, a running drive, an unfinished journal ...)
+//! `--allow-family`, a read-only code, a command, a control word that could
+//! start the motor, a running drive, an unfinished journal ...)
 //! or an input error, 3 bus or device failure: the error names what
 //! happened to the drive: "rolled back" (it holds its old values again,
 //! verified) or "holds a mix" (run `driveset recover JOURNAL`). A rolled-back
@@ -66,9 +67,17 @@ journal directory driveset creates gets a .gitignore holding *. Refused
 journal of the same drive (same bus and address, however the port was
 spelled): run `driveset recover JOURNAL` first.
 
-Refused unless --force: a set of another family, a running drive, commands
-that overwrite every parameter, a change of the drive's bus address.
-Never written, even with --force: codes not in the schema, read-only codes.
+Refused before anything is sent, each unless its own override:
+  --allow-family           a set of another family, a drive that identifies
+                           as another family (or another 91-TYPE)
+  --allow-running          a drive that reports a running motor
+  --allow-running-unknown  a drive whose running state cannot be known
+                           (its schema names no running bit: lenze-ecs)
+  --allow-address-change   a change of the drive's own bus address
+Refused with no override: commands (PROG, SLOAD, STAT reset, C0002, C0043
+...), a control word in any state but stopped / inhibited (CNTL = 128,
+SCTL1 = { start = true }, C0040 = 1 ...), codes not in the schema,
+read-only codes. --dry-run shows the same refusals.
 
 Exit codes: 0 the drive holds the set (verified), 2 refused before anything
 was sent or an input error, 3 bus or device failure (the message says whether
@@ -91,9 +100,9 @@ pub struct Args {
     /// Print the plan; write nothing.
     #[arg(long)]
     pub dry_run: bool,
-    /// Override the family / running / command / address refusals.
-    #[arg(long)]
-    pub force: bool,
+    /// Named overrides, one per refusal.
+    #[command(flatten)]
+    pub allow: super::allow::AllowArgs,
     /// The journal file.
     #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
     pub journal: Option<PathBuf>,
@@ -147,12 +156,13 @@ pub fn load_set(
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {
+    let overrides = args.allow.overrides()?;
     let on = crate::learning::set_on_drive(
         &args.set,
         &args.schemas,
         &args.port,
         args.address,
-        args.force,
+        overrides.allow_family,
         &args.learn,
         "not uploaded",
     )?;
@@ -161,7 +171,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let json = args.format == BusFormat::Json;
 
     if args.dry_run {
-        let prepared = prepare(client.as_mut(), &set, args.force);
+        let prepared = prepare(client.as_mut(), &set, overrides);
         let _ = client.finish();
         let prepared = prepared?;
         if json {
@@ -227,7 +237,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         }
     };
     let mut opts = UploadOptions::new(&journal);
-    opts.force = args.force;
+    opts.overrides = overrides;
     let result = {
         let mut p = Progress::new(client.as_mut(), "upload", set.values.len(), json);
         let r = engine_upload(&mut p, &set, &opts);

@@ -50,9 +50,9 @@
 //!
 //! # running()
 //!
-//! C0150 bit 1 "power stage transistors energized" (Table 1); without
-//! C0150 in the schema, C0068 bit 11 (the same indication, 8.H c). `None`
-//! with neither.
+//! The schema's running indicator (`Schema::running_indicator`): C0150
+//! bit 1 "power stage transistors energized" (Table 1, role `running`).
+//! `None` when the schema names none.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -748,14 +748,10 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let (number, bit) = if self.schema.code(C0150).is_some() {
-            (C0150, 1)
-        } else if self.schema.code(C0068).is_some() {
-            (C0068, 11)
-        } else {
+        let Some(ind) = self.schema.running_indicator() else {
             return Ok(None);
         };
-        let key = CodeKey::new(number);
+        let key = CodeKey::new(ind.code);
         let what = format!("read {} (running?)", code_name(&self.schema, key));
         let v = self.receive(key, Some(ValueType::VH), &what)?;
         let word = match v {
@@ -763,7 +759,7 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             Value::Decimal(d) => d.as_integer().unwrap_or(0),
             _ => 0,
         };
-        Ok(Some(word >> bit & 1 == 1))
+        Ok(Some(word >> ind.bit & 1 == 1))
     }
 
     fn stats(&self) -> ClientStats {

@@ -92,9 +92,10 @@
 //!
 //! # running()
 //!
-//! MC: bit 0 ("start") of 416-SCTL1 (section 7.2.1); VF1000: bit 7 of
-//! 3-CNTL (7.1.1, CNTL = 128 "start clockwise"). `None` when the schema has
-//! no such code.
+//! The schema's running indicator (`Schema::running_indicator`: a status
+//! bit of role `running`, else the control word's `start` bit): MC bit 0
+//! ("start") of 416-SCTL1 (section 7.2.1); VF1000 bit 7 of 3-CNTL (7.1.1,
+//! CNTL = 128 "start clockwise"). `None` when the schema has none.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -1006,17 +1007,13 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let (number, bit) = match self.family {
-            Dialect::Mc => (MC_SCTL1, 0),
-            Dialect::Vf1000 => (VF_CNTL, 7),
-        };
-        if self.schema.code(number).is_none() {
+        let Some(ind) = self.schema.running_indicator() else {
             return Ok(None);
-        }
-        let key = CodeKey::new(number);
+        };
+        let key = CodeKey::new(ind.code);
         let what = format!("read {} (running?)", code_name(&self.schema, key));
         match self.read_key(key, &what)? {
-            RawValue::Int(v) => Ok(Some(v >> bit & 1 == 1)),
+            RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
             _ => Ok(None),
         }
     }

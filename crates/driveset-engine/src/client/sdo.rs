@@ -20,7 +20,12 @@
 //!   no response time) sends the timeout abort (0x05040000) and repeats the
 //!   transfer, [`CanOptions::tries`] (3) times in all, then
 //!   [`EngineError::NoAnswer`].
-//! - `running()` is `None`: the excerpt documents no status bits.
+//! - `running()`: the schema's running indicator
+//!   (`Schema::running_indicator`, a C0150 bit of role `running`), read
+//!   like any code. The excerpt documents no bits of C0150, so with the
+//!   real `lenze-ecs` schema it is `None` ("running state unknown": an
+//!   upload needs `--allow-running-unknown`); the FICTIONAL
+//!   `fictional-ecs-demo` fixture (the simulator's) names bit 1.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -509,7 +514,13 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        Ok(None)
+        let Some(ind) = self.schema.running_indicator() else {
+            return Ok(None);
+        };
+        match self.read(CodeKey::new(ind.code))? {
+            RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
+            _ => Ok(None),
+        }
     }
 
     fn stats(&self) -> ClientStats {

@@ -52,7 +52,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use driveset_link::{Instant, Link, OpenOptions, PortSpec};
-use driveset_schema::{CodeKey, DiffKind, RawValue, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, DiffKind, RawValue, ResolvedSet, Role, Schema};
 use serde::{Deserialize, Serialize};
 
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
@@ -66,6 +66,7 @@ use crate::client::{
 use crate::error::EngineError;
 use crate::identify::check_family;
 use crate::live::live_values;
+use crate::overrides::Overrides;
 use crate::plan::value_text;
 use crate::recover::{RecoverAction, RecoverOptions, recover};
 use crate::upload::{UploadOptions, default_journal_path, upload};
@@ -129,8 +130,9 @@ pub struct LineOptions {
     pub report_dir: PathBuf,
     /// Where the upload journals go.
     pub journal_dir: PathBuf,
-    /// Passed to the upload (family / running refusals).
-    pub force: bool,
+    /// Passed to every upload (each lifts one refusal; see
+    /// [`crate::overrides`]).
+    pub overrides: Overrides,
     /// LECOM MULTICAST of the values common to a group (module docs).
     pub broadcast_common: bool,
     /// Ignore the state file (commission every drive again).
@@ -164,7 +166,7 @@ impl LineOptions {
             label: None,
             journal_dir: report_dir.join("journals"),
             report_dir,
-            force: false,
+            overrides: Overrides::none(),
             broadcast_common: false,
             fresh: false,
             stop_after: None,
@@ -767,7 +769,7 @@ fn run_drive(
                     ));
                 }
                 let mut uo = UploadOptions::new(&journal_path);
-                uo.force = ctx.opts.force;
+                uo.overrides = ctx.opts.overrides;
                 match upload(&mut client, &d.set, &uo) {
                     Ok(rep) => {
                         fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
@@ -913,7 +915,12 @@ fn broadcast_common(
             .values
             .iter()
             // never the station address or the baud rate
-            .filter(|(k, _)| !matches!(k.number, 9 | 125))
+            .filter(|(k, _)| {
+                !matches!(
+                    members[0].schema.role_of(k.number),
+                    Some(Role::BusAddress | Role::BaudRate)
+                )
+            })
             .filter(|(k, v)| members[1..].iter().all(|m| m.set.values.get(k) == Some(v)))
             .map(|(k, v)| (*k, v.clone()))
             .collect();
@@ -951,7 +958,7 @@ fn broadcast_common(
                 running.push(m.name.clone());
             }
         }
-        if !running.is_empty() && !ctx.opts.force {
+        if !running.is_empty() && !ctx.opts.overrides.allow_running {
             ctx.warn(format!(
                 "bus `{}` group {tens}0: not broadcast, running: {}",
                 bus.name,

@@ -16,6 +16,7 @@ codes = [91]
 [[code]]
 number = 4
 name = "PROG"
+role = "command"
 title = "PROG"
 spec = "fictional"
 type = "PT_USIGN8"
@@ -25,6 +26,7 @@ width = 1
 [[code]]
 number = 80
 name = "SLOAD"
+role = "command"
 title = "SLOAD"
 spec = "fictional"
 type = "PT_INTEGER16"
@@ -35,6 +37,7 @@ access = "standstill"
 [[code]]
 number = 81
 name = "SBAUD"
+role = "baud-rate"
 title = "SBAUD"
 spec = "fictional"
 type = "PT_USIGN16"
@@ -44,6 +47,7 @@ width = 2
 [[code]]
 number = 82
 name = "SADDR"
+role = "bus-address"
 title = "SADDR"
 spec = "fictional"
 type = "PT_USIGN8"
@@ -53,6 +57,7 @@ width = 1
 [[code]]
 number = 85
 name = "SERR"
+role = "status"
 title = "SERR"
 spec = "fictional"
 type = "PT_BINARY8"
@@ -171,6 +176,7 @@ fictional = true
 [[code]]
 number = 1
 name = "control_source"
+role = "control-source"
 title = "Setpoint and control source"
 spec = "fictional"
 min = "0"
@@ -180,6 +186,7 @@ default = "0"
 [[code]]
 number = 2
 name = "load_lenze_setting"
+role = "command"
 title = "Load Lenze setting"
 spec = "fictional"
 default = "0"
@@ -211,6 +218,7 @@ default = "5"
 [[code]]
 number = 14
 name = "operating_mode"
+role = "operating-mode"
 title = "Operating mode"
 spec = "fictional"
 default = "2"
@@ -226,13 +234,16 @@ subcodes = 2
 [[code]]
 number = 40
 name = "controller_inhibit"
+role = "control-word"
 title = "Controller inhibit"
 spec = "fictional"
 default = "0"
+stopped = [0]
 
 [[code]]
 number = 46
 name = "frequency_setpoint"
+role = "setpoint"
 title = "Frequency setpoint"
 spec = "fictional"
 unit = "Hz"
@@ -250,15 +261,24 @@ number = 94
 name = "user_password"
 title = "User password"
 spec = "fictional"
-password = true
+role = "password"
 
 [[code]]
 number = 135
 name = "control_word"
+role = "control-word"
 title = "Control word"
 spec = "fictional"
 type = "VH"
 width = 2
+[[code.bits]]
+name = "quick_stop"
+bits = [3, 3]
+role = "inhibit"
+[[code.bits]]
+name = "controller_inhibit"
+bits = [9, 9]
+role = "inhibit"
 
 [[code]]
 number = 200

@@ -1,0 +1,95 @@
+//! Owns the named overrides of the upload refusals: each lifts exactly one
+//! refusal, and each refusal message names its override (`--allow-...`).
+//! Commands and control words in a start / enable state have no override:
+//! a set never holds them (`driveset_schema::role`).
+
+use std::fmt;
+
+/// One refusal that an explicit override can lift.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Override {
+    /// A set for another schema, a drive that identifies as another family
+    /// or 91-TYPE, a simulated drive of another family.
+    AllowFamily,
+    /// A drive that reports a running motor.
+    AllowRunning,
+    /// A drive whose running state cannot be known (its schema names no
+    /// running bit: Lenze ECS per its excerpt).
+    AllowRunningUnknown,
+    /// A change of the bus address of the drive being talked to.
+    AllowAddressChange,
+}
+
+impl Override {
+    /// Every override.
+    pub const ALL: [Override; 4] = [
+        Override::AllowFamily,
+        Override::AllowRunning,
+        Override::AllowRunningUnknown,
+        Override::AllowAddressChange,
+    ];
+
+    /// The command-line flag.
+    pub fn flag(self) -> &'static str {
+        match self {
+            Override::AllowFamily => "--allow-family",
+            Override::AllowRunning => "--allow-running",
+            Override::AllowRunningUnknown => "--allow-running-unknown",
+            Override::AllowAddressChange => "--allow-address-change",
+        }
+    }
+}
+
+impl fmt::Display for Override {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.flag())
+    }
+}
+
+/// The overrides given for one upload (all off by default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Overrides {
+    /// [`Override::AllowFamily`].
+    pub allow_family: bool,
+    /// [`Override::AllowRunning`].
+    pub allow_running: bool,
+    /// [`Override::AllowRunningUnknown`].
+    pub allow_running_unknown: bool,
+    /// [`Override::AllowAddressChange`].
+    pub allow_address_change: bool,
+}
+
+impl Overrides {
+    /// No override.
+    pub fn none() -> Self {
+        Overrides::default()
+    }
+
+    /// Only `o`.
+    pub fn only(o: Override) -> Self {
+        let mut x = Overrides::default();
+        x.set(o, true);
+        x
+    }
+
+    /// Whether `o` is given.
+    pub fn allows(&self, o: Override) -> bool {
+        match o {
+            Override::AllowFamily => self.allow_family,
+            Override::AllowRunning => self.allow_running,
+            Override::AllowRunningUnknown => self.allow_running_unknown,
+            Override::AllowAddressChange => self.allow_address_change,
+        }
+    }
+
+    /// Give or take `o`.
+    pub fn set(&mut self, o: Override, on: bool) {
+        match o {
+            Override::AllowFamily => self.allow_family = on,
+            Override::AllowRunning => self.allow_running = on,
+            Override::AllowRunningUnknown => self.allow_running_unknown = on,
+            Override::AllowAddressChange => self.allow_address_change = on,
+        }
+    }
+}
