@@ -67,7 +67,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         .get_output()
         .clone();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    let schema = learned_file(&set.parent().unwrap().to_path_buf());
+    let schema = learned_file(set.parent().unwrap());
     let id = schema.file_stem().unwrap().to_str().unwrap().to_string();
     assert!(
         stderr.starts_with(&format!(

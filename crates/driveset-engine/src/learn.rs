@@ -523,7 +523,7 @@ pub fn interpret(protocol: Protocol, raws: &[RawDescription], opts: &LearnOption
                 Some(l) => McRawDescription::decode(&r.text, l),
                 None => McLayout::ALL
                     .into_iter()
-                    .find(|l| l.len() == r.text.len())
+                    .find(|l| l.value_len() == r.text.len())
                     .map_or(
                         Err(DescriptionError::Length {
                             family: driveset_proto::lustbus::Family::Mc,
@@ -576,7 +576,7 @@ pub fn interpret(protocol: Protocol, raws: &[RawDescription], opts: &LearnOption
                 if matches!(d.layout, McLayout::Table43 | McLayout::Table42) {
                     c.guessed.push(format!(
                         "attribute and activity area read from the {}-character layout, one byte per printable character '0'+n (errata L22)",
-                        d.layout.len()
+                        d.layout.value_len()
                     ));
                 }
             }
@@ -750,10 +750,11 @@ pub fn read_texts<L: ByteLink>(
         for i in lo..=hi {
             match substitution_text(client, c.number, i as u8)? {
                 Some(t) if !t.is_empty() => {
-                    if seen.insert(t.clone()) {
+                    let fresh = seen.insert(t.clone());
+                    if fresh {
                         c.texts.insert(i, t);
-                        read += 1;
                     }
+                    read += usize::from(fresh);
                 }
                 // No ShowText attribute known: a NAK for the first value
                 // means the parameter has no texts.
