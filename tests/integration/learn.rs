@@ -67,7 +67,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         .get_output()
         .clone();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    let schema = learned_file(&set.parent().unwrap().to_path_buf());
+    let schema = learned_file(set.parent().unwrap());
     let id = schema.file_stem().unwrap().to_str().unwrap().to_string();
     assert!(
         stderr.starts_with(&format!(
@@ -310,4 +310,46 @@ fn schema_pull_with_a_forced_layout_reports_what_does_not_decode() {
         .stderr(predicate::str::contains(
             "--type-chars: `1=PT_BINARY8`: PT_BINARY8 is not an MC6000/7000 type",
         ));
+}
+
+#[test]
+fn upload_and_live_diff_of_a_set_naming_the_built_in_schema_learn_first() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let set = dir.path().join("mode.toml");
+    // 1-MODE has no type in lust-mc6000 (the spec gives none): `validate`
+    // alone refuses the value; against the drive its description gives it.
+    std::fs::write(&set, "schema = \"lust-mc6000\"\n\n[values]\n1 = 3\n").unwrap();
+    driveset().arg("validate").arg(&set).assert().code(1);
+    let port = "sim://mc6000?addresses=1&layout=42&types=table";
+    in_dir(dir.path())
+        .arg("diff")
+        .arg(&set)
+        .args(["--port", port, "--address", "1"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("~ 1-MODE: 0 -> 3\n"))
+        .stderr(predicate::str::contains(
+            " from the drive's descriptions: 250 codes, description layout 42, type characters table (guessed)\n",
+        ));
+    in_dir(dir.path())
+        .arg("upload")
+        .arg(&set)
+        .args(["--port", port, "--address", "1", "--journal-dir"])
+        .arg(dir.path().join("journal"))
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("  1-MODE: 0 -> 3  verified"));
+    in_dir(dir.path())
+        .arg("diff")
+        .arg(&set)
+        .args(["--port", port, "--address", "1", "--no-learn"])
+        .assert()
+        .code(2);
+    in_dir(dir.path())
+        .arg("diff")
+        .arg(&set)
+        .args(["--port", port, "--address", "1"])
+        .assert()
+        .code(0);
 }

@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::{DriveClient, Identity, LustbusClient};
+use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::learn::{
     LearnOptions, LearnSource, Learned, LearnedSchema, learn as engine_learn, learned_id,
     needs_learning, render_schema,
@@ -194,6 +194,9 @@ pub fn wants(schema: &Schema, args: &LearnArgs) -> bool {
     !args.no_learn && needs_learning(schema)
 }
 
+/// A client speaking a learned schema, the schema, and what learning did.
+pub type LearnedClient = (Box<dyn DriveClient>, Arc<Schema>, LearnReport);
+
 /// Learns the schema of the drive at `address` over `link`, speaking
 /// `base`'s protocol: reads its descriptions (and MC texts), renders and
 /// checks the schema, writes it to `dir/<id>.toml` when `dir` is given.
@@ -206,7 +209,7 @@ pub fn learn(
     args: &LearnArgs,
     dirs: &[PathBuf],
     dir: Option<&Path>,
-) -> Result<(Box<dyn DriveClient>, Arc<Schema>, LearnReport, Identity), Fail> {
+) -> Result<LearnedClient, Fail> {
     let opts = args.options()?;
     let mut client = LustbusClient::new(link, base.clone(), address).map_err(Fail::from)?;
     let identity = client.identify().map_err(Fail::from)?;
@@ -215,7 +218,7 @@ pub fn learn(
     let id = learned_id(base.family, &identity, &learned);
     let source = LearnSource {
         drive: format!("{port_name} address {address}"),
-        identity: identity.clone(),
+        identity,
     };
     let registry = port::registry(dirs)?;
     let rendered: LearnedSchema = render_schema(&mut learned, &base, &id, &source, &registry)
@@ -245,7 +248,6 @@ pub fn learn(
             codes: rendered.codes,
             learned,
         },
-        identity,
     ))
 }
 
@@ -310,7 +312,7 @@ pub fn set_on_drive(
         port::check_fit(&opened, &base, Some(address), force)?;
         let port_name = opened.name.clone();
         let (link, sim) = take_byte_link(opened)?;
-        let (client, schema, report, _) = learn(
+        let (client, schema, report) = learn(
             link,
             base.clone(),
             address,

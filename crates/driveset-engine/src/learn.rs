@@ -520,7 +520,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 Some(l) => McRawDescription::decode(&r.text, l),
                 None => McLayout::ALL
                     .into_iter()
-                    .find(|l| l.len() == r.text.len())
+                    .find(|l| l.value_len() == r.text.len())
                     .map_or(
                         Err(DescriptionError::Length {
                             family: driveset_proto::lustbus::Dialect::Mc,
@@ -573,7 +573,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 if matches!(d.layout, McLayout::Table43 | McLayout::Table42) {
                     c.guessed.push(format!(
                         "attribute and activity area read from the {}-character layout, one byte per printable character '0'+n (errata L22)",
-                        d.layout.len()
+                        d.layout.value_len()
                     ));
                 }
             }
@@ -747,10 +747,11 @@ pub fn read_texts<L: ByteLink>(
         for i in lo..=hi {
             match substitution_text(client, c.number, i as u8)? {
                 Some(t) if !t.is_empty() => {
-                    if seen.insert(t.clone()) {
+                    let fresh = seen.insert(t.clone());
+                    if fresh {
                         c.texts.insert(i, t);
-                        read += 1;
                     }
+                    read += usize::from(fresh);
                 }
                 // No ShowText attribute known: a NAK for the first value
                 // means the parameter has no texts.

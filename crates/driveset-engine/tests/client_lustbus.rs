@@ -606,7 +606,7 @@ mod learn {
             },
             RawDescription {
                 number: 316,
-                text: b"SHORT\0001".to_vec(),
+                text: b"SHORT\x00001".to_vec(),
             },
         ];
         let opts = LearnOptions {

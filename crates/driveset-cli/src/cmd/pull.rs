@@ -193,7 +193,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         let (link, sim) = learning::take_byte_link(opened)?;
         _sim_alive = sim;
         let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
-        let (client, schema, report, _) = learning::learn(
+        let (client, schema, report) = learning::learn(
             link,
             choice.schema.clone(),
             args.address,

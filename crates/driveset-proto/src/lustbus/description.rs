@@ -883,7 +883,7 @@ impl McLayout {
     ];
 
     /// The VALUE length of the layout.
-    pub const fn len(self) -> usize {
+    pub const fn value_len(self) -> usize {
         match self {
             McLayout::Hex52 => 52,
             McLayout::Table43 => 43,
@@ -929,7 +929,7 @@ impl McLayout {
     pub fn candidates(v: &[u8]) -> Vec<McLayout> {
         Self::ALL
             .into_iter()
-            .filter(|l| l.len() == v.len() && McRawDescription::decode(v, *l).is_ok())
+            .filter(|l| l.value_len() == v.len() && McRawDescription::decode(v, *l).is_ok())
             .collect()
     }
 }
@@ -1094,7 +1094,7 @@ pub struct McRawDescription {
 impl McRawDescription {
     /// Reads `v` in `layout` (the length must be the layout's).
     pub fn decode(v: &[u8], layout: McLayout) -> Result<Self, DescriptionError> {
-        if v.len() != layout.len() {
+        if v.len() != layout.value_len() {
             return Err(DescriptionError::Length {
                 family: Dialect::Mc,
                 found: v.len(),
@@ -1467,7 +1467,7 @@ mod tests {
         for layout in McLayout::ALL {
             for types in [McTypeChars::Driveset, McTypeChars::Table] {
                 let v = d.encode_as(layout, &types).unwrap();
-                assert_eq!(v.len(), layout.len());
+                assert_eq!(v.len(), layout.value_len());
                 assert_eq!(McLayout::candidates(v.as_bytes()), vec![layout]);
                 let r = McRawDescription::decode(v.as_bytes(), layout).unwrap();
                 assert_eq!(types.type_of(r.type_char), Some(ParameterType::Int32Q16));
@@ -1489,7 +1489,7 @@ mod tests {
             d.encode_as(McLayout::Table43, &McTypeChars::Table)
                 .unwrap()
                 .as_bytes(),
-            b"RSIO\0\0315E00000002000000000000000Q2P0002?6\0"
+            b"RSIO\0\x00315E00000002000000000000000Q2P0002?6\0"
         );
         // Table order: '1' PT_USIGN8 .. '8' PT_PASSWORD; driveset: '8' INT32Q16.
         assert_eq!(
