@@ -57,7 +57,7 @@ pub const EXIT_BUS: u8 = 3;
     about = "Parameter sets of industrial drives (Lenze Tmd, Lust VF1000 / MC6000, Lenze ECS) as reviewed files",
     propagate_version = true
 )]
-struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
 }
@@ -103,6 +103,10 @@ enum Command {
     /// Render a saved commissioning report (report.json) to report.html again.
     #[command(hide = true)]
     Report(report::Args),
+    /// Write a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(cmd::completions::Args),
+    /// Write the man page (roff) on stdout.
+    Man(cmd::completions::ManArgs),
 }
 
 fn main() -> ExitCode {
@@ -133,6 +137,8 @@ fn main() -> ExitCode {
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),
         Command::Report(a) => report::run(a),
+        Command::Completions(a) => cmd::completions::run(a),
+        Command::Man(a) => cmd::completions::run_man(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -3,6 +3,7 @@
 
 pub mod allow;
 pub mod commission;
+pub mod completions;
 pub mod decode;
 pub mod diff;
 pub mod diff_live;
