@@ -260,3 +260,99 @@ fn the_same_schema_text_twice_is_one_schema_but_a_different_one_clashes() {
     );
     assert_eq!((err.location.line, err.location.column), (2, 6));
 }
+
+const CAN_HEAD: &str = "[schema]\nid = \"fictional-can\"\ntitle = \"FICTIONAL: can\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\nfictional = true\n[schema.can]\nindex_base = 24575\n";
+
+#[test]
+fn cia_objects_kept_by_index() {
+    // number defaults to 65536 + index; a CiA object inside the Lenze code
+    // range, two codes on one object and `index` on LECOM are findings
+    let text = format!(
+        "{CAN_HEAD}
+[[code]]
+index = 0x1017
+name = \"heartbeat\"
+title = \"Producer heartbeat time\"
+spec = \"s\"
+type = \"UNSIGNED16\"
+max = \"65535\"
+
+[[code]]
+index = 0x5FF4
+name = \"inside\"
+title = \"Inside the Lenze range\"
+spec = \"s\"
+type = \"INTEGER32\"
+
+[[code]]
+number = 11
+name = \"c11\"
+title = \"C0011\"
+spec = \"s\"
+type = \"FIX32\"
+"
+    );
+    assert_eq!(
+        check(&text),
+        vec![
+            (
+                "code 90100: index 0x5FF4 is in the Lenze code range; it is code C0011".to_string(),
+                19,
+                9
+            ),
+            (
+                "code 11 reaches SDO index 0x5FF4, as code 90100 does".to_string(),
+                26,
+                10
+            ),
+        ]
+    );
+    let mut r = Registry::builtin().unwrap();
+    let s = r
+        .add_source(SourceFile::new("x.toml", text.as_str()))
+        .unwrap();
+    let c = s.code(0x1_1017).expect("number 65536 + index");
+    assert_eq!((c.index, c.name.as_str()), (Some(0x1017), "heartbeat"));
+    assert_eq!(s.display_code(0x1_1017, Some(2)), "0x1017/2");
+    assert_eq!(s.display_code(11, None), "C0011");
+
+    let wrong = format!(
+        "{CAN_HEAD}
+[[code]]
+index = 0x1017
+number = 4119
+name = \"heartbeat\"
+title = \"t\"
+spec = \"s\"
+"
+    );
+    let e = Registry::builtin()
+        .unwrap()
+        .add_source(SourceFile::new("x.toml", wrong.as_str()))
+        .unwrap_err();
+    assert_eq!(
+        (e.message.as_str(), e.location.line),
+        (
+            "code with `index` = 0x1017 has number 4119, not 69655 (65536 + index)",
+            12
+        )
+    );
+
+    let lecom = format!(
+        "{HEAD}
+[[code]]
+index = 0x1017
+name = \"heartbeat\"
+title = \"t\"
+spec = \"s\"
+"
+    );
+    assert_eq!(
+        check(&lecom),
+        vec![(
+            "code 69655: `index` is for lenze-can-sdo schemas only".to_string(),
+            9,
+            9
+        )]
+    );
+}

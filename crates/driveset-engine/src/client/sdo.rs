@@ -573,3 +573,47 @@ pub(crate) fn probe<L: FrameLink>(
     }
     Ok(None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// CiA 301 integer objects travel in their own width (CiA 301 §7.1.4),
+    /// little-endian, sign-extended only for INTEGERn.
+    #[test]
+    fn cia_integer_wires() {
+        let i16w = Wire::Int {
+            bytes: 2,
+            signed: true,
+        };
+        let u16w = Wire::Int {
+            bytes: 2,
+            signed: false,
+        };
+        let u8w = Wire::Int {
+            bytes: 1,
+            signed: false,
+        };
+        assert_eq!(
+            raw_to_bytes(i16w, &RawValue::Int(-2)),
+            Some(vec![0xFE, 0xFF])
+        );
+        assert_eq!(raw_to_bytes(i16w, &RawValue::Int(32768)), None);
+        assert_eq!(
+            raw_to_bytes(u16w, &RawValue::Int(65535)),
+            Some(vec![0xFF, 0xFF])
+        );
+        assert_eq!(raw_to_bytes(u16w, &RawValue::Int(-1)), None);
+        assert_eq!(raw_to_bytes(u8w, &RawValue::Int(256)), None);
+        assert_eq!(raw_to_bytes(u8w, &RawValue::Int(7)), Some(vec![7]));
+        assert_eq!(bytes_to_raw(i16w, &[0xFE, 0xFF]), Some(RawValue::Int(-2)));
+        assert_eq!(
+            bytes_to_raw(u16w, &[0xFE, 0xFF]),
+            Some(RawValue::Int(65534))
+        );
+        // a shorter answer is zero-extended; a longer one is refused
+        assert_eq!(bytes_to_raw(i16w, &[0xFE]), Some(RawValue::Int(254)));
+        assert_eq!(bytes_to_raw(u8w, &[1, 2]), None);
+        assert_eq!(bytes_to_raw(u8w, &[]), None);
+    }
+}

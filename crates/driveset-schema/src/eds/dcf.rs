@@ -239,3 +239,57 @@ pub fn write_dcf(
     }
     Ok(t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::canonical::CodeKey;
+    use crate::error::SourceFile;
+    use crate::schema::Registry;
+
+    fn schema(protocol: &str) -> std::sync::Arc<Schema> {
+        let text = format!(
+            "[schema]\nid = \"t\"\ntitle = \"T\"\nprotocol = \"{protocol}\"\ncode_style = \"lenze\"\n\
+             [[code]]\nnumber = 5001\nname = \"pin\"\ntitle = \"PIN\"\nspec = \"s\"\ntype = \"FIX32\"\npassword = true\ndefault = \"1\"\n\
+             [[code]]\nindex = 0x6040\nname = \"w\"\ntitle = \"W; x\"\nspec = \"s\"\ntype = \"INTEGER16\"\n"
+        );
+        Registry::new()
+            .add_source(SourceFile::new("t.toml", text))
+            .unwrap()
+    }
+
+    #[test]
+    fn passwords_are_not_written_and_cia_objects_use_their_index() {
+        let s = schema("lenze-can-sdo");
+        let mut set = ResolvedSet::new(&s);
+        set.insert(CodeKey::new(5001), RawValue::Int(12340000));
+        set.insert(CodeKey::new(0x1_6040), RawValue::Int(-2));
+        let t = write_dcf(&set, &s, None, "t.dcf", None).unwrap();
+        assert!(!t.contains("12340000"), "{t}");
+        assert!(!t.contains("DefaultValue=10000"), "{t}");
+        assert!(
+            t.contains("\n[4C76]\nParameterName=PIN\nObjectType=0x7\nDataType=0x0004\nAccessType=rw\nPDOMapping=0\n; ParameterValue not written: the code is a password\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n[6040]\nParameterName=W, x\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nPDOMapping=0\nParameterValue=-2\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n[OptionalObjects]\nSupportedObjects=1\n1=0x6040\n"),
+            "{t}"
+        );
+        assert!(!t.contains("NodeID="), "{t}");
+    }
+
+    #[test]
+    fn other_families_are_refused() {
+        let s = schema("lecom");
+        let set = ResolvedSet::new(&s);
+        let e = write_dcf(&set, &s, None, "t.dcf", None).unwrap_err();
+        assert_eq!(
+            e.message,
+            "set uses schema `t`, which is not a CANopen (lenze-can-sdo) family; a DCF describes CANopen SDO objects"
+        );
+    }
+}

@@ -565,6 +565,18 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     outs.sort_by_key(|o| o.number);
     assign_names(&mut outs);
     let id = opts.id.clone().unwrap_or_else(|| default_id(&opts.file));
+    if crate::schema::BUILTIN_FILES.iter().any(|(path, _)| {
+        path.strip_prefix("schemas/")
+            .and_then(|f| f.strip_suffix(".toml"))
+            == Some(id.as_str())
+    }) {
+        return Err(ImportError {
+            line: 0,
+            column: 0,
+            message: format!("schema id `{id}` is a built-in schema"),
+            help: "give the imported schema its own id with --id".into(),
+        });
+    }
     let toml = render(&file, &id, opts, &outs);
     // self-check: the written schema must load and pass `schema check`
     let mut reg = Registry::new();
@@ -1295,6 +1307,16 @@ DefaultValue=1
             e.message,
             "no object section ([1000], [5FF4], [1018sub1], ...): not a CiA 306 EDS / DCF"
         );
+    }
+
+    #[test]
+    fn builtin_ids_are_refused() {
+        let o = ImportOptions {
+            id: Some("lenze-ecs".into()),
+            file: "t.eds".into(),
+        };
+        let e = import(MALFORMED.as_bytes(), &o).unwrap_err();
+        assert_eq!(e.message, "schema id `lenze-ecs` is a built-in schema");
     }
 
     #[test]
