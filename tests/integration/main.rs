@@ -5,6 +5,7 @@
 mod bus_cmds;
 mod decode;
 mod diff;
+mod doctor;
 mod e2e_pty;
 mod encode;
 mod fingerprint;

@@ -64,6 +64,8 @@ pub enum DoctorProtocol {
     Lustbus,
     /// LECOM-A/B (Lenze Tmd).
     Lecom,
+    /// CAN SDO (Lenze ECS on the system bus): see [`run_can`].
+    Can,
 }
 
 impl DoctorProtocol {
@@ -72,6 +74,7 @@ impl DoctorProtocol {
         match self {
             DoctorProtocol::Lustbus => "lustbus",
             DoctorProtocol::Lecom => "lecom",
+            DoctorProtocol::Can => "can",
         }
     }
 
@@ -80,6 +83,7 @@ impl DoctorProtocol {
         match self {
             DoctorProtocol::Lustbus => &LUSTBUS_BAUDS,
             DoctorProtocol::Lecom => &LECOM_BAUDS,
+            DoctorProtocol::Can => &[],
         }
     }
 
@@ -87,7 +91,7 @@ impl DoctorProtocol {
     pub fn default_address(self) -> u8 {
         match self {
             DoctorProtocol::Lustbus => 0,
-            DoctorProtocol::Lecom => 1,
+            DoctorProtocol::Lecom | DoctorProtocol::Can => 1,
         }
     }
 
@@ -96,6 +100,7 @@ impl DoctorProtocol {
         match self {
             DoctorProtocol::Lustbus => "91-TYPE (ENQUIRY 00091)",
             DoctorProtocol::Lecom => "C0093 (RECEIVE)",
+            DoctorProtocol::Can => "the schema's first identification code (SDO upload)",
         }
     }
 }
@@ -112,6 +117,10 @@ pub struct DoctorOptions {
     /// How long to wait for an answer, from the end of the request.
     /// Default 300 ms (generous: a device server adds tens of ms each way).
     pub timeout: Duration,
+    /// Why only the port's rate is tried, if so: the rate is not
+    /// driveset's to change (a raw `tcp://` device server's line is set on
+    /// the server; a pseudo terminal has none). `None`: every rate.
+    pub fixed_rate: Option<String>,
 }
 
 impl DoctorOptions {
@@ -122,6 +131,7 @@ impl DoctorOptions {
             address: None,
             probes: 20,
             timeout: Duration::from_millis(300),
+            fixed_rate: None,
         }
     }
 }
@@ -251,6 +261,8 @@ pub struct DoctorReport {
     pub rates: Vec<RateResult>,
     /// The rates at which a drive answered.
     pub answering: Vec<u32>,
+    /// Why only the port's rate was tried, if so.
+    pub fixed_rate: Option<String>,
     /// Round trips at the answering rate (the port's, if it answers).
     pub round_trips: Option<RoundTrips>,
     /// Echo.
@@ -310,6 +322,7 @@ fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, String> {
                 .to_bytes()
                 .map_err(|e| e.to_string())
         }
+        DoctorProtocol::Can => Err("CAN ports are checked by run_can".into()),
     }
 }
 
@@ -338,6 +351,7 @@ fn decode(protocol: DoctorProtocol, bytes: &[u8], end: bool) -> Result<Option<St
                 }
             }
         }
+        DoctorProtocol::Can => return Ok(None),
         DoctorProtocol::Lecom => {
             let mut d = ResponseDecoder::new();
             let mut events = Vec::new();
@@ -499,7 +513,12 @@ pub fn run(
     let mut rates = Vec::new();
     let mut answering = Vec::new();
     let mut all: Vec<Probe> = Vec::new();
-    for baud in rate_order(protocol, port_baud) {
+    let order = if options.fixed_rate.is_some() {
+        vec![port_baud]
+    } else {
+        rate_order(protocol, port_baud)
+    };
+    for baud in order {
         let mut link = match open(baud) {
             Ok(l) => l,
             Err(LinkError::UnsupportedBaud { .. }) => continue,
@@ -582,10 +601,97 @@ pub fn run(
         port_baud,
         rates,
         answering,
+        fixed_rate: options.fixed_rate.clone(),
         round_trips: rtt,
         echo,
         parity,
         latency_timers,
+        advice: Vec::new(),
+    };
+    report.advice = advice(&report);
+    Ok(report)
+}
+
+/// Check a CAN bus (`--protocol can`): SDO reads of the schema's first
+/// identification code from node `options.address` (default 1) at the
+/// port's bit rate, [`DoctorOptions::probes`] times for the round trips.
+/// Nothing is written; echo and parity do not apply (the CAN controller
+/// checks every frame's CRC), the rate is the port's (`?bitrate=`).
+pub fn run_can(
+    link: &mut dyn driveset_link::FrameLink,
+    schema: &std::sync::Arc<driveset_schema::Schema>,
+    options: &DoctorOptions,
+) -> Result<DoctorReport, EngineError> {
+    use crate::scan::{ScanOptions, scan_can};
+    let port = link.port().to_string();
+    let node = options.address.unwrap_or(1);
+    let scan = ScanOptions {
+        timeout: Some(options.timeout),
+        tries: 1,
+    };
+    let bitrate = link.bitrate();
+    let mut times = Vec::new();
+    let mut first = None;
+    for _ in 0..options.probes.max(1) + 1 {
+        let start = link.clock().now();
+        let found = scan_can(link, schema, &[node], &scan)?;
+        let took = link.clock().now() - start;
+        let result = match found.first() {
+            Some(f) => ProbeResult::Answer {
+                value: f
+                    .identity
+                    .codes
+                    .first()
+                    .map(|(c, v)| format!("{c} = {v}"))
+                    .unwrap_or_default(),
+            },
+            None => ProbeResult::Silent,
+        };
+        let answered = matches!(result, ProbeResult::Answer { .. });
+        if first.is_none() {
+            first = Some(result);
+            continue;
+        }
+        if answered {
+            times.push(took);
+        }
+    }
+    let first = first.unwrap_or(ProbeResult::Silent);
+    let answering = if matches!(first, ProbeResult::Answer { .. }) || !times.is_empty() {
+        vec![bitrate]
+    } else {
+        Vec::new()
+    };
+    // An expedited SDO request and its answer: two 8-byte data frames of
+    // at most 135 bits each with worst-case stuffing (CAN 2.0A).
+    let wire = driveset_link::mem::bits_time(2 * 135, bitrate);
+    let mut report = DoctorReport {
+        port,
+        protocol: DoctorProtocol::Can,
+        address: node,
+        probe: DoctorProtocol::Can.probe_name(),
+        port_baud: bitrate,
+        rates: vec![RateResult {
+            baud: bitrate,
+            result: first,
+        }],
+        answering,
+        fixed_rate: Some("a CAN bus runs at the port's bit rate (?bitrate=)".into()),
+        round_trips: round_trips(bitrate, options.probes.max(1), times, wire),
+        echo: EchoFinding {
+            echo: false,
+            exchanges: 0,
+            echoed: 0,
+        },
+        parity: ParityFinding {
+            bytes: 0,
+            high_bit: 0,
+            odd_weight: 0,
+            bad_bcc: 0,
+            garbled: 0,
+            read_as_8_bits: false,
+        },
+        latency_timers: Vec::new(),
         advice: Vec::new(),
     };
     report.advice = advice(&report);
@@ -606,7 +712,12 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
     } else {
         format!("address {}", r.address)
     };
-    if r.answering.is_empty() {
+    if r.answering.is_empty() && r.protocol == DoctorProtocol::Can {
+        out.push(format!(
+            "no SDO answer from node {} at {} bit/s: check the bit rate (?bitrate= must match the drives' system bus rate), the termination (120 ohm at both ends of the bus), the node id (--address) and that the drives are powered",
+            r.address, r.port_baud
+        ));
+    } else if r.answering.is_empty() {
         let garbled: Vec<String> = r
             .rates
             .iter()
@@ -614,7 +725,8 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
             .map(|x| x.baud.to_string())
             .collect();
         let mut line = format!(
-            "nothing answered {who} at any rate ({}): check the wiring (A/B swapped?), the termination, that the drive is powered and set to this address, and that the port runs 7E1 (on a tcp:// device server set 7E1 there, or use rfc2217:// so driveset sets it)",
+            "nothing answered {who} at {} ({}): check the wiring (A/B swapped?), the termination, that the drive is powered and set to this address, and that the port runs 7E1 (on a tcp:// device server set 7E1 there, or use rfc2217:// so driveset sets it)",
+            if r.fixed_rate.is_some() { "the port's rate" } else { "any rate" },
             r.rates.iter().map(|x| x.baud.to_string()).collect::<Vec<_>>().join(", ")
         );
         if !garbled.is_empty() {
@@ -624,7 +736,7 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
             ));
         }
         out.push(line);
-    } else if !r.answering.contains(&r.port_baud) {
+    } else if !r.answering.contains(&r.port_baud) && r.protocol != DoctorProtocol::Can {
         out.push(format!(
             "the drive answers at {} baud, not at the port's {}: add ?baud={} to the port (or set the drive to {} baud)",
             r.answering[0], r.port_baud, r.answering[0], r.port_baud
