@@ -98,20 +98,23 @@ fn doctor_json_and_exit_codes() {
     assert_eq!(code, Some(3), "{err}");
     let (code, _, err) = run(&["--port", "sim://mc6000?addresses=1", "--protocol", "can"]);
     assert_eq!(code, Some(2), "{err}");
-    assert_eq!(err, "error: sim://mc6000?addresses=1 is a character line: use --protocol lustbus or lecom\n");
+    assert_eq!(
+        err,
+        "error: sim://mc6000?addresses=1 is a character line: use --protocol lustbus or lecom\n"
+    );
     let (code, _, err) = run(&["--port", "sim://mc6000?addresses=1", "--address", "31"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("31 is not a LUSTBUS drive address"), "{err}");
 }
 
 /// A running `driveset sim`; killed when dropped.
-struct Sim {
+pub(crate) struct Sim {
     child: Child,
-    first: String,
+    pub(crate) first: String,
 }
 
 impl Sim {
-    fn start(args: &[&str]) -> Sim {
+    pub(crate) fn start(args: &[&str]) -> Sim {
         let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
             .arg("sim")
             .args(args)
@@ -130,7 +133,7 @@ impl Sim {
         }
     }
 
-    fn stop(&mut self) {
+    pub(crate) fn stop(&mut self) {
         let _ = Command::new("kill")
             .args(["-TERM", &self.child.id().to_string()])
             .status();
@@ -146,7 +149,7 @@ impl Drop for Sim {
 }
 
 /// Every host chunk in the sim's log; panics on one with STX (a write).
-fn host_chunks_are_reads(log: &Path) -> usize {
+pub(crate) fn host_chunks_are_reads(log: &Path) -> usize {
     let text = std::fs::read_to_string(log).expect("sim log");
     let mut n = 0;
     for line in text.lines() {
@@ -174,9 +177,17 @@ fn doctor_on_a_pty_finds_the_usb_latency_timer_and_writes_nothing() {
         "--log",
         log.to_str().expect("utf-8"),
     ]);
-    let pty = sim.first.strip_prefix("pty ").expect("pty line").to_string();
+    let pty = sim
+        .first
+        .strip_prefix("pty ")
+        .expect("pty line")
+        .to_string();
     // A fake sysfs: this port's adapter at the FTDI default, another one.
-    let name = Path::new(&pty).file_name().expect("pts name").to_string_lossy().into_owned();
+    let name = Path::new(&pty)
+        .file_name()
+        .expect("pts name")
+        .to_string_lossy()
+        .into_owned();
     let sysfs = dir.path().join("sys");
     for (dev, ms) in [(name.as_str(), "16\n"), ("ttyUSB9", "1\n")] {
         let d = sysfs.join("bus/usb-serial/devices").join(dev);
@@ -200,9 +211,14 @@ fn doctor_on_a_pty_finds_the_usb_latency_timer_and_writes_nothing() {
         out.contains("rates: only the port's (a pseudo terminal has no line rate):\n     9600 baud (the port's): answers ("),
         "{out}"
     );
-    assert!(out.contains("round trips at 9600 baud: 5 of 5 answered; "), "{out}");
     assert!(
-        out.contains(&format!("latency timer: {name} 16 ms (this port), ttyUSB9 1 ms\n")),
+        out.contains("round trips at 9600 baud: 5 of 5 answered; "),
+        "{out}"
+    );
+    assert!(
+        out.contains(&format!(
+            "latency timer: {name} 16 ms (this port), ttyUSB9 1 ms\n"
+        )),
         "{out}"
     );
     let lat = sysfs.join(format!("bus/usb-serial/devices/{name}/latency_timer"));
@@ -217,16 +233,18 @@ fn doctor_on_a_pty_finds_the_usb_latency_timer_and_writes_nothing() {
     assert!(host_chunks_are_reads(&log) > 0);
 }
 
-/// A proxy like a 2-wire adapter on a device server left at 8N1: every
-/// byte from the client comes straight back, and the drive's 7E1
-/// characters arrive with their parity bit in bit 7.
-fn echo_8n1_proxy(upstream: String) -> u16 {
+/// A proxy like a 2-wire adapter on a device server: every byte from the
+/// client comes straight back; with `eight_bits` (a server left at 8N1)
+/// the drive's 7E1 characters arrive with their parity bit in bit 7.
+pub(crate) fn echo_proxy(upstream: String, eight_bits: bool) -> u16 {
     let l = TcpListener::bind("127.0.0.1:0").expect("bind");
     let port = l.local_addr().expect("addr").port();
     std::thread::spawn(move || {
         for client in l.incoming() {
             let Ok(mut client) = client else { return };
-            let Ok(mut sim) = TcpStream::connect(&upstream) else { return };
+            let Ok(mut sim) = TcpStream::connect(&upstream) else {
+                return;
+            };
             let mut back = client.try_clone().expect("clone");
             let mut sim_in = sim.try_clone().expect("clone");
             let down = std::thread::spawn(move || {
@@ -236,7 +254,7 @@ fn echo_8n1_proxy(upstream: String) -> u16 {
                         break;
                     }
                     for b in &mut buf[..n] {
-                        if b.count_ones() % 2 == 1 {
+                        if eight_bits && b.count_ones() % 2 == 1 {
                             *b |= 0x80;
                         }
                     }
@@ -247,7 +265,10 @@ fn echo_8n1_proxy(upstream: String) -> u16 {
             });
             let mut buf = [0u8; 256];
             while let Ok(n) = client.read(&mut buf) {
-                if n == 0 || client.write_all(&buf[..n]).is_err() || sim.write_all(&buf[..n]).is_err() {
+                if n == 0
+                    || client.write_all(&buf[..n]).is_err()
+                    || sim.write_all(&buf[..n]).is_err()
+                {
                     break;
                 }
             }
@@ -272,8 +293,12 @@ fn doctor_through_tcp_finds_echo_and_7e1_read_as_8_bits() {
         "--log",
         log.to_str().expect("utf-8"),
     ]);
-    let upstream = sim.first.strip_prefix("tcp ").expect("tcp line").to_string();
-    let port = echo_8n1_proxy(upstream);
+    let upstream = sim
+        .first
+        .strip_prefix("tcp ")
+        .expect("tcp line")
+        .to_string();
+    let port = echo_proxy(upstream, true);
     let (code, out, err) = run(&[
         "--port",
         &format!("tcp://127.0.0.1:{port}"),
@@ -297,7 +322,10 @@ fn doctor_through_tcp_finds_echo_and_7e1_read_as_8_bits() {
         .iter()
         .filter_map(|a| a.as_str())
         .collect();
-    assert!(advice[0].starts_with("the line returns every byte driveset sends"), "{advice:?}");
+    assert!(
+        advice[0].starts_with("the line returns every byte driveset sends"),
+        "{advice:?}"
+    );
     assert!(advice[1].ends_with("answer bytes have the parity bit in bit 7: the port reads 8 data bits on a 7E1 line (an adapter or device server left at 8N1); set it to 7 data bits, even parity, 1 stop bit (rfc2217:// sets it on the server); the drives may see driveset's characters with a wrong parity bit"), "{advice:?}");
     sim.stop();
     assert!(host_chunks_are_reads(&log) > 0);

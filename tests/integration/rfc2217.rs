@@ -64,14 +64,18 @@ impl Bridge {
             .trim_end()
             .strip_prefix("rfc2217 ")
             .unwrap_or_else(|| {
-                panic!("bridge said `{first}` (a ModuleNotFoundError means: run scripts/setup-python)")
+                panic!(
+                    "bridge said `{first}` (a ModuleNotFoundError means: run scripts/setup-python)"
+                )
             })
             .to_string();
         let lines = Arc::new(Mutex::new(Vec::new()));
         let sink = Arc::clone(&lines);
         std::thread::spawn(move || {
             for line in out.lines().map_while(Result::ok) {
-                sink.lock().unwrap_or_else(PoisonError::into_inner).push(line);
+                sink.lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .push(line);
             }
         });
         Bridge { child, addr, lines }
@@ -81,7 +85,11 @@ impl Bridge {
     fn lines(&self, n: usize) -> Vec<String> {
         let give_up = Instant::now() + Duration::from_secs(30);
         loop {
-            let l = self.lines.lock().unwrap_or_else(PoisonError::into_inner).clone();
+            let l = self
+                .lines
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .clone();
             if l.len() >= n || Instant::now() > give_up {
                 return l;
             }
@@ -158,7 +166,15 @@ fn identify_and_pull_through_pyserials_rfc2217_server_set_7e1_and_the_rate() {
     let bridge = Bridge::start(&python, &sim.path);
     let port = format!("rfc2217://{}?baud=19200", bridge.addr);
 
-    let (code, out, err) = run(&["identify", "--port", &port, "--address", "1", "--protocol", "lustbus"]);
+    let (code, out, err) = run(&[
+        "identify",
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--protocol",
+        "lustbus",
+    ]);
     assert_eq!(code, Some(0), "identify: {out}\n{err}");
     assert!(out.contains(&format!("port:     {port}\n")), "{out}");
     assert!(out.contains("family:   lustbus-mc\n"), "{out}");

@@ -328,7 +328,11 @@ fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, String> {
 
 /// Decode `bytes` (echo removed) as an answer. `Ok(Some)` for an answer,
 /// `Err(detail, bad_bcc)` for garbage so far, `Ok(None)` for nothing yet.
-fn decode(protocol: DoctorProtocol, bytes: &[u8], end: bool) -> Result<Option<String>, (String, bool)> {
+fn decode(
+    protocol: DoctorProtocol,
+    bytes: &[u8],
+    end: bool,
+) -> Result<Option<String>, (String, bool)> {
     let mut complaint: Option<(String, bool)> = None;
     match protocol {
         DoctorProtocol::Lustbus => {
@@ -340,7 +344,9 @@ fn decode(protocol: DoctorProtocol, bytes: &[u8], end: bool) -> Result<Option<St
             for ev in events {
                 match ev.result {
                     Ok(Reply::Value(v)) => {
-                        return Ok(Some(String::from_utf8_lossy(v.value.as_bytes()).into_owned()));
+                        return Ok(Some(
+                            String::from_utf8_lossy(v.value.as_bytes()).into_owned(),
+                        ));
                     }
                     Ok(Reply::Nak(_)) => return Ok(Some("NAK".into())),
                     Ok(Reply::Ack(_)) => return Ok(Some("ACK".into())),
@@ -465,7 +471,12 @@ pub fn rate_order(protocol: DoctorProtocol, port_baud: u32) -> Vec<u32> {
 }
 
 /// Statistics of the round trips (see [`RoundTrips`]).
-fn round_trips(baud: u32, probes: u32, mut times: Vec<Duration>, wire: Duration) -> Option<RoundTrips> {
+fn round_trips(
+    baud: u32,
+    probes: u32,
+    mut times: Vec<Duration>,
+    wire: Duration,
+) -> Option<RoundTrips> {
     if times.is_empty() {
         return None;
     }
@@ -543,7 +554,11 @@ pub fn run(
     // Round trips at the answering rate, the port's if it answers.
     let mut rtt = None;
     let mut measured = Vec::new();
-    if let Some(&baud) = answering.iter().find(|&&b| b == port_baud).or(answering.first()) {
+    if let Some(&baud) = answering
+        .iter()
+        .find(|&&b| b == port_baud)
+        .or(answering.first())
+    {
         let mut link = open(baud).map_err(|e| link_err(port, address, e))?;
         let mut times = Vec::new();
         let mut answer_len = 0;
@@ -578,12 +593,21 @@ pub fn run(
     };
     let at_answering: Vec<&Probe> = all
         .iter()
-        .zip(rates.iter().map(|r| Some(r.baud)).chain(std::iter::repeat(rtt.as_ref().map(|r| r.baud))))
+        .zip(
+            rates
+                .iter()
+                .map(|r| Some(r.baud))
+                .chain(std::iter::repeat(rtt.as_ref().map(|r| r.baud))),
+        )
         .filter(|(_, b)| b.is_some_and(|b| answering.contains(&b)))
         .map(|(p, _)| p)
         .collect();
     for p in &at_answering {
-        let skip = if p.echo == EchoVerdict::Echo { req.len() } else { 0 };
+        let skip = if p.echo == EchoVerdict::Echo {
+            req.len()
+        } else {
+            0
+        };
         for &b in p.received.iter().skip(skip) {
             parity.bytes += 1;
             parity.high_bit += u64::from(b & 0x80 != 0);
@@ -726,8 +750,16 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
             .collect();
         let mut line = format!(
             "nothing answered {who} at {} ({}): check the wiring (A/B swapped?), the termination, that the drive is powered and set to this address, and that the port runs 7E1 (on a tcp:// device server set 7E1 there, or use rfc2217:// so driveset sets it)",
-            if r.fixed_rate.is_some() { "the port's rate" } else { "any rate" },
-            r.rates.iter().map(|x| x.baud.to_string()).collect::<Vec<_>>().join(", ")
+            if r.fixed_rate.is_some() {
+                "the port's rate"
+            } else {
+                "any rate"
+            },
+            r.rates
+                .iter()
+                .map(|x| x.baud.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         if !garbled.is_empty() {
             line.push_str(&format!(
@@ -816,7 +848,10 @@ mod tests {
             (1000, 10_000, 19_000, 20_000)
         );
         let r = round_trips(9600, 3, vec![Duration::from_micros(7)], Duration::ZERO).expect("one");
-        assert_eq!((r.min_us, r.median_us, r.p95_us, r.max_us, r.answered), (7, 7, 7, 7, 1));
+        assert_eq!(
+            (r.min_us, r.median_us, r.p95_us, r.max_us, r.answered),
+            (7, 7, 7, 7, 1)
+        );
         assert_eq!(round_trips(9600, 3, Vec::new(), Duration::ZERO), None);
         assert_eq!(ms(16_042), "16.042 ms");
     }
@@ -840,8 +875,14 @@ mod tests {
         assert_eq!(lecom.last(), Some(&0x05));
         assert!(!lecom.contains(&0x02), "a RECEIVE carries no STX");
         assert!(request(DoctorProtocol::Lecom, 10).is_err());
-        assert_eq!(rate_order(DoctorProtocol::Lustbus, 9600), vec![9600, 57600, 38400, 19200, 4800, 2400]);
-        assert_eq!(rate_order(DoctorProtocol::Lecom, 1200), vec![1200, 9600, 4800, 2400]);
+        assert_eq!(
+            rate_order(DoctorProtocol::Lustbus, 9600),
+            vec![9600, 57600, 38400, 19200, 4800, 2400]
+        );
+        assert_eq!(
+            rate_order(DoctorProtocol::Lecom, 1200),
+            vec![1200, 9600, 4800, 2400]
+        );
     }
 
     use driveset_link::{Clock, VirtualClock};
@@ -948,7 +989,9 @@ mod tests {
         assert_eq!(order, vec![9600, 57600, 38400, 19200, 4800, 2400]);
         assert_eq!(
             r.rates[3].result,
-            ProbeResult::Answer { value: "0000".into() }
+            ProbeResult::Answer {
+                value: "0000".into()
+            }
         );
         assert!(!matches!(r.rates[0].result, ProbeResult::Answer { .. }));
         let rt = r.round_trips.clone().expect("round trips");
@@ -960,7 +1003,14 @@ mod tests {
         assert!(rt.min_us <= rt.median_us && rt.median_us <= rt.p95_us && rt.p95_us <= rt.max_us);
         // MC6000 reactions are 1..25 ms (LUSTBUS 10).
         assert!(rt.max_us <= rt.wire_us + 25_000, "{rt:?}");
-        assert_eq!(r.echo, EchoFinding { echo: false, exchanges: r.echo.exchanges, echoed: 0 });
+        assert_eq!(
+            r.echo,
+            EchoFinding {
+                echo: false,
+                exchanges: r.echo.exchanges,
+                echoed: 0
+            }
+        );
         assert!(!r.parity.read_as_8_bits);
         assert_eq!((r.parity.high_bit, r.parity.bad_bcc), (0, 0));
         assert_eq!(
@@ -1043,7 +1093,10 @@ mod tests {
         assert_eq!(r.answering, vec![9600]);
         assert_eq!(r.rates.len(), 4);
         assert!(matches!(r.rates[0].result, ProbeResult::Answer { .. }));
-        assert_eq!(r.round_trips.as_ref().map(|t| (t.probes, t.answered)), Some((5, 5)));
+        assert_eq!(
+            r.round_trips.as_ref().map(|t| (t.probes, t.answered)),
+            Some((5, 5))
+        );
         assert_eq!(
             r.advice,
             vec!["ttyUSB0: the USB adapter's latency timer is 16 ms, so every answer waits up to 16 ms in the adapter: set it to 1 (echo 1 > /sys/bus/usb-serial/devices/ttyUSB0/latency_timer, or a udev rule ATTR{latency_timer}=\"1\")".to_string()]

@@ -40,19 +40,19 @@ pub mod clock;
 pub mod echo;
 pub mod error;
 pub mod mem;
+pub mod rfc2217;
 pub mod serial;
 pub mod slcan;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
-pub mod rfc2217;
 pub mod spec;
 pub mod tcp;
 
 mod open;
 
 pub use clock::{Clock, Instant, RealClock, VirtualClock};
-pub use echo::{EchoLink, EchoMode};
 pub use driveset_proto::can::CanFrame;
+pub use echo::{EchoLink, EchoMode};
 pub use error::LinkError;
 pub use open::{Link, OpenOptions, open};
 pub use spec::{PortSpec, PortSpecError, PortSpecErrorKind, SimSpec};

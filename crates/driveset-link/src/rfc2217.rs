@@ -19,9 +19,9 @@
 //! - Line settings (RFC 2217 "SET-BAUDRATE" etc., client to server codes
 //!   1..4): `IAC SB 44 1 <baud, 4 bytes big-endian> IAC SE`, `IAC SB 44 2 7
 //!   IAC SE` (7 data bits), `IAC SB 44 3 3 IAC SE` (even parity), `IAC SB
-//!   44 4 1 IAC SE` (1 stop bit). The server confirms each with the code
-//!   + 100 and the value it now uses; a different value is an error naming
-//!   both.
+//!   44 4 1 IAC SE` (1 stop bit). The server confirms each with its code
+//!   plus 100 and the value it now uses; a different value is an error
+//!   naming both.
 //! - Data: `0xFF` (IAC) is doubled in both directions; telnet commands
 //!   and sub-negotiations inside the data stream (e.g. NOTIFY-MODEMSTATE,
 //!   107) are taken out and ignored.
@@ -224,12 +224,20 @@ impl Telnet {
             DONT => {
                 let was = self.said_us[o] == Some(true);
                 self.said_us[o] = Some(false);
-                if was { vec![IAC, WONT, option] } else { Vec::new() }
+                if was {
+                    vec![IAC, WONT, option]
+                } else {
+                    Vec::new()
+                }
             }
             WONT => {
                 let was = self.said_them[o] == Some(true);
                 self.said_them[o] = Some(false);
-                if was { vec![IAC, DONT, option] } else { Vec::new() }
+                if was {
+                    vec![IAC, DONT, option]
+                } else {
+                    Vec::new()
+                }
             }
             _ => Vec::new(),
         }
@@ -622,10 +630,7 @@ mod tests {
     #[test]
     fn options_are_answered_once() {
         let mut t = Telnet::new();
-        assert_eq!(
-            t.opening(),
-            vec![IAC, WILL, 0, IAC, DO, 0, IAC, WILL, 44]
-        );
+        assert_eq!(t.opening(), vec![IAC, WILL, 0, IAC, DO, 0, IAC, WILL, 44]);
         // Acknowledgements of our requests need no answer.
         assert_eq!(t.answer(DO, BINARY), Vec::<u8>::new());
         assert_eq!(t.answer(DO, COM_PORT_OPTION), Vec::<u8>::new());
@@ -663,7 +668,8 @@ mod tests {
     /// Reads exactly `n` bytes from the fake server's connection.
     fn read_n(s: &mut TcpStream, n: usize) -> Vec<u8> {
         let mut buf = vec![0u8; n];
-        s.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
+        s.set_read_timeout(Some(Duration::from_secs(10)))
+            .expect("timeout");
         s.read_exact(&mut buf).expect("read from the client");
         buf
     }
@@ -706,8 +712,10 @@ mod tests {
             assert_eq!(read_n(&mut s, 9), OPENING);
             // Like pyserial's PortManager: WILL ECHO, WILL SGA, DO BINARY,
             // WILL COM-PORT, then DO COM-PORT.
-            s.write_all(&[IAC, WILL, 1, IAC, WILL, 3, IAC, DO, 0, IAC, WILL, 44, IAC, DO, 44])
-                .expect("write");
+            s.write_all(&[
+                IAC, WILL, 1, IAC, WILL, 3, IAC, DO, 0, IAC, WILL, 44, IAC, DO, 44,
+            ])
+            .expect("write");
             // The client's answers: DONT ECHO, DO SGA, DO COM-PORT.
             assert_eq!(
                 read_n(&mut s, 9),

@@ -126,7 +126,9 @@ fn echo_option_on_character_lines() {
         }
     );
     assert_eq!(
-        PortSpec::parse("COM3?echo=yes").expect_err("bad").to_string(),
+        PortSpec::parse("COM3?echo=yes")
+            .expect_err("bad")
+            .to_string(),
         "invalid port `COM3?echo=yes`: `echo=yes`: use auto (detect, the default), on (the line returns what driveset sends: strip it) or off"
     );
     // Not for CAN or simulated ports.
@@ -167,7 +169,10 @@ fn rfc2217_hosts() {
     ));
     assert!(matches!(
         err("rfc2217://h:1/x"),
-        PortSpecErrorKind::TrailingPath { scheme: "rfc2217", .. }
+        PortSpecErrorKind::TrailingPath {
+            scheme: "rfc2217",
+            ..
+        }
     ));
     assert_eq!(
         PortSpec::parse("rfc2217://h:1?bitrate=500000")

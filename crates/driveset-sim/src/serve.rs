@@ -339,7 +339,13 @@ pub fn serve_tcp(
     listener: &TcpListener,
     stop: &AtomicBool,
 ) -> Result<(), ServeError> {
-    serve_tcp_with(line, listener, stop, &TcpServeOptions::default(), &mut |_| {})
+    serve_tcp_with(
+        line,
+        listener,
+        stop,
+        &TcpServeOptions::default(),
+        &mut |_| {},
+    )
 }
 
 /// Serve `line` to TCP clients of `listener`, one at a time, until `stop`
@@ -387,10 +393,7 @@ pub fn serve_tcp_with(
         }
         let next = match waiting.pop_front() {
             Some((stream, peer, since)) => Some((stream, peer, Some(since))),
-            None => match accept(listener, &what)? {
-                Some((stream, peer)) => Some((stream, peer, None)),
-                None => None,
-            },
+            None => accept(listener, &what)?.map(|(stream, peer)| (stream, peer, None)),
         };
         let Some((mut stream, peer, since)) = next else {
             RealClock.sleep(Duration::from_millis(20));
@@ -407,12 +410,13 @@ pub fn serve_tcp_with(
             });
         }
         let waited = since.map_or(String::new(), |t| {
-            format!(
-                " (waited {} ms)",
-                (RealClock.now() - t).as_millis()
-            )
+            format!(" (waited {} ms)", (RealClock.now() - t).as_millis())
         });
-        note(line, "connect", format!("host connected from {peer}{waited}"));
+        note(
+            line,
+            "connect",
+            format!("host connected from {peer}{waited}"),
+        );
         let mut tick = |line: &mut ByteLine| -> Result<(), ServeError> {
             while let Some((s, p)) = accept(listener, &what)? {
                 note(
@@ -431,7 +435,11 @@ pub fn serve_tcp_with(
                 "disconnect",
                 format!("host {peer} dropped: the simulator stops"),
             ),
-            StreamEnd::Closed => note(line, "disconnect", format!("host {peer} closed the connection")),
+            StreamEnd::Closed => note(
+                line,
+                "disconnect",
+                format!("host {peer} closed the connection"),
+            ),
             StreamEnd::Idle => {
                 let idle = options.idle_timeout.unwrap_or_default();
                 note(

@@ -168,13 +168,16 @@ fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_drop
             idle_timeout: Some(Duration::from_millis(1000)),
         };
         let r = serve::serve_tcp_with(&mut line, &listener, &flag, &options, &mut |e| {
-            sink.lock().unwrap().push(e.fault.clone().unwrap_or_default())
+            sink.lock()
+                .unwrap()
+                .push(e.fault.clone().unwrap_or_default())
         });
         (r, line)
     });
     let connect = || {
         let c = TcpStream::connect(addr).unwrap();
-        c.set_read_timeout(Some(Duration::from_millis(100))).unwrap();
+        c.set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
         c
     };
     let mut first = connect();
@@ -203,23 +206,24 @@ fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_drop
     let k = wait_for_kinds(&log, 5);
     assert_eq!(k, ["connect", "wait", "disconnect", "connect", "idle"]);
     let mut rest = Vec::new();
-    second.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    second
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
     assert_eq!(second.read_to_end(&mut rest).unwrap(), 0);
     stop.store(true, Ordering::SeqCst);
     let (r, line) = server.join().unwrap();
     r.unwrap();
     assert_eq!(line.telegrams(), 3);
-    let details: Vec<String> = log
-        .events()
-        .into_iter()
-        .filter_map(|e| e.detail)
-        .collect();
+    let details: Vec<String> = log.events().into_iter().filter_map(|e| e.detail).collect();
     assert_eq!(details[0], format!("host connected from {first_addr}"));
     assert_eq!(
         details[1],
         format!("host {second_addr} waits: the line is in use by {first_addr}")
     );
-    assert_eq!(details[2], format!("host {first_addr} closed the connection"));
+    assert_eq!(
+        details[2],
+        format!("host {first_addr} closed the connection")
+    );
     assert!(
         details[3].starts_with(&format!("host connected from {second_addr} (waited ")),
         "{}",

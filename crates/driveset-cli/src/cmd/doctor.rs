@@ -192,12 +192,12 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
                 Some(sim) => {
                     let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
                         sim.with_bus(|b| match b {
-                            driveset_sim::open::SimBus::Bytes(b) => b
-                                .set_baud(baud)
-                                .map_err(|_| LinkError::UnsupportedBaud {
+                            driveset_sim::open::SimBus::Bytes(b) => {
+                                b.set_baud(baud).map_err(|_| LinkError::UnsupportedBaud {
                                     port: name.clone(),
                                     baud,
-                                }),
+                                })
+                            }
                             driveset_sim::open::SimBus::Frames(_) => {
                                 Err(LinkError::UnsupportedBaud {
                                     port: name.clone(),
@@ -263,7 +263,11 @@ pub fn human(r: &DoctorReport) -> String {
     } else {
         "baud"
     };
-    let _ = writeln!(out, "doctor {} ({proto}, {who}; read-only: reads {} only)", r.port, r.probe);
+    let _ = writeln!(
+        out,
+        "doctor {} ({proto}, {who}; read-only: reads {} only)",
+        r.port, r.probe
+    );
     match &r.fixed_rate {
         Some(why) => {
             let _ = writeln!(out, "rates: only the port's ({why}):");
@@ -278,7 +282,11 @@ pub fn human(r: &DoctorReport) -> String {
             ProbeResult::Garbled { detail } => format!("garbled: {detail}"),
             ProbeResult::Silent => "silent".to_string(),
         };
-        let mark = if x.baud == r.port_baud { " (the port's)" } else { "" };
+        let mark = if x.baud == r.port_baud {
+            " (the port's)"
+        } else {
+            ""
+        };
         let _ = writeln!(out, "  {:>7} {unit}{mark}: {what}", x.baud);
     }
     match &r.round_trips {
@@ -346,7 +354,8 @@ pub fn human(r: &DoctorReport) -> String {
             out,
             "latency timer: {}",
             if timers.is_empty() {
-                "none found (no USB serial adapter in /sys/bus/usb-serial, or not Linux)".to_string()
+                "none found (no USB serial adapter in /sys/bus/usb-serial, or not Linux)"
+                    .to_string()
             } else {
                 timers.join(", ")
             }
