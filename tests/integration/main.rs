@@ -5,7 +5,9 @@
 mod bus_cmds;
 mod decode;
 mod diff;
+mod doctor;
 mod e2e_pty;
+mod echo;
 mod encode;
 mod fingerprint;
 mod git_setup;

@@ -19,9 +19,9 @@
 //! - Line settings (RFC 2217 "SET-BAUDRATE" etc., client to server codes
 //!   1..4): `IAC SB 44 1 <baud, 4 bytes big-endian> IAC SE`, `IAC SB 44 2 7
 //!   IAC SE` (7 data bits), `IAC SB 44 3 3 IAC SE` (even parity), `IAC SB
-//!   44 4 1 IAC SE` (1 stop bit). The server confirms each with the code
-//!   + 100 and the value it now uses; a different value is an error naming
-//!   both.
+//!   44 4 1 IAC SE` (1 stop bit). The server confirms each with its code
+//!   plus 100 and the value it now uses; a different value is an error
+//!   naming both.
 //! - Data: `0xFF` (IAC) is doubled in both directions; telnet commands
 //!   and sub-negotiations inside the data stream (e.g. NOTIFY-MODEMSTATE,
 //!   107) are taken out and ignored.

@@ -393,10 +393,7 @@ pub fn serve_tcp_with(
         }
         let next = match waiting.pop_front() {
             Some((stream, peer, since)) => Some((stream, peer, Some(since))),
-            None => match accept(listener, &what)? {
-                Some((stream, peer)) => Some((stream, peer, None)),
-                None => None,
-            },
+            None => accept(listener, &what)?.map(|(stream, peer)| (stream, peer, None)),
         };
         let Some((mut stream, peer, since)) = next else {
             RealClock.sleep(Duration::from_millis(20));

@@ -7,6 +7,7 @@ pub mod completions;
 pub mod decode;
 pub mod diff;
 pub mod diff_live;
+pub mod doctor;
 pub mod encode;
 pub mod fingerprint;
 pub mod git_setup;
