@@ -27,22 +27,28 @@ struct Family {
     sim: &'static str,
     address: u8,
     set: &'static str,
+    /// Extra `driveset sim` arguments (the Tmd: C0001 = 3 at the keypad,
+    /// so LECOM may write, manual §4e).
+    sim_args: &'static [&'static str],
 }
 
 const MC6000: Family = Family {
     sim: "mc6000",
     address: 1,
     set: "tests/data/sets/latency/mc6000.toml",
+    sim_args: &[],
 };
 const TMD: Family = Family {
     sim: "tmd",
     address: 13,
     set: "tests/data/sets/latency/tmd.toml",
+    sim_args: &["--c0001", "3"],
 };
 const VF1000: Family = Family {
     sim: "vf1000",
     address: 4,
     set: "tests/data/sets/latency/vf1000.toml",
+    sim_args: &[],
 };
 
 /// Where the proxy sits: between `--port` and the simulator's TCP port or
@@ -61,13 +67,13 @@ fn through(family: &Family, set_rel: &str, shape: Shape, via: Via, query: &str) 
     let (mut sim, tcp, pty);
     let port = match via {
         Via::Tcp => {
-            sim = Sim::start_tcp(dir.path(), family.sim, family.address, &[]);
+            sim = Sim::start_tcp(dir.path(), family.sim, family.address, family.sim_args);
             let target: SocketAddr = sim.path.parse().expect("sim address");
             tcp = TcpProxy::start(target, shape);
             tcp.port(query)
         }
         Via::Pty => {
-            sim = Sim::start(dir.path(), family.sim, family.address, &[]);
+            sim = Sim::start(dir.path(), family.sim, family.address, family.sim_args);
             pty = PtyProxy::start(&sim.path, shape);
             pty.port(query)
         }

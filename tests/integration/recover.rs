@@ -86,7 +86,7 @@ fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
         .stderr(predicate::str::contains("is not a driveset journal"));
 }
 
-/// A Tmd upload to address 11 of `sim://tmd?addresses=11,12`, cut by a
+/// A Tmd upload to address 11 of `sim://tmd?addresses=11,12&c0001=3`, cut by a
 /// pulled cable mid-write (exit 3); returns the journal's path as the
 /// upload names it (relative to `dir`) and the simulated bus's id.
 fn cut_tmd_upload(dir: &std::path::Path) -> (String, String) {
@@ -97,7 +97,7 @@ fn cut_tmd_upload(dir: &std::path::Path) -> (String, String) {
         .arg(&set)
         .args([
             "--port",
-            "sim://tmd?addresses=11,12&faults=cable@30+600s",
+            "sim://tmd?addresses=11,12&c0001=3&faults=cable@30+600s",
             "--address",
             "11",
         ])
@@ -128,15 +128,18 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     let state = dir.path().join("sim/sim-tmd.json");
     let before = sim_state(&state);
     in_dir(dir.path())
-        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12", "--address", "12"])
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12&c0001=3", "--address", "12"])
         .assert()
         .code(2)
         .stdout("")
         .stderr(format!(
-            "error: sim://tmd?addresses=11,12 address 12: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}`, not the one at address 12; nothing was sent. Recover at address 11 (leave out --address)\n"
+            "error: sim://tmd?addresses=11,12&c0001=3 address 12: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}`, not the one at address 12; nothing was sent. Recover at address 11 (leave out --address)\n"
         ));
     let other = dir.path().join("other.json");
-    let other_port = format!("sim://tmd?addresses=11,12&state={}", other.display());
+    let other_port = format!(
+        "sim://tmd?addresses=11,12&c0001=3&state={}",
+        other.display()
+    );
     let other_bus = format!(
         "sim:tmd@{}",
         std::fs::canonicalize(dir.path())
@@ -150,7 +153,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
         .code(2)
         .stdout("")
         .stderr(format!(
-            "error: sim://tmd?addresses=11,12 address 11: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}` (port sim://tmd?addresses=11,12&faults=cable@30+600s), but this port reaches bus `{other_bus}`; nothing was sent. Recover through a port to that bus\n"
+            "error: sim://tmd?addresses=11,12&c0001=3 address 11: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}` (port sim://tmd?addresses=11,12&c0001=3&faults=cable@30+600s), but this port reaches bus `{other_bus}`; nothing was sent. Recover through a port to that bus\n"
         ));
     // not one telegram reached the bus; the drives hold what the cut upload left
     let after = sim_state(&state);
@@ -166,22 +169,22 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     in_dir(dir.path())
         .args(["upload"])
         .arg(&set)
-        .args(["--port", "sim://tmd?addresses=12,11&seed=4", "--address", "11"])
+        .args(["--port", "sim://tmd?addresses=12,11&c0001=3&seed=4", "--address", "11"])
         .assert()
         .code(2)
         .stdout("")
         .stderr(format!(
-            "error: journal {journal}: the drive at sim://tmd?addresses=12,11&seed=4 address 11 has an unfinished transaction ({journal} (state failed)); nothing was sent. Run `driveset recover {journal}` first\n"
+            "error: journal {journal}: the drive at sim://tmd?addresses=12,11&c0001=3&seed=4 address 11 has an unfinished transaction ({journal} (state failed)); nothing was sent. Run `driveset recover {journal}` first\n"
         ));
     in_dir(dir.path())
-        .args(["recover", &journal, "--port", "sim://tmd?addresses=12,11&seed=4"])
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=12,11&c0001=3&seed=4"])
         .assert()
         .code(0)
         .stdout(predicate::str::contains(
-            "sim://tmd?addresses=12,11&seed=4 address 11: journal was failed; rolled back: the drive holds its old values again (verified); journal marked rolled-back\n",
+            "sim://tmd?addresses=12,11&c0001=3&seed=4 address 11: journal was failed; rolled back: the drive holds its old values again (verified); journal marked rolled-back\n",
         ))
         .stdout(predicate::str::contains(format!(
-            "note: the journal was written through sim://tmd?addresses=11,12&faults=cable@30+600s address 11; sim://tmd?addresses=12,11&seed=4 address 11 reaches the same drive (bus `{bus}`)\n"
+            "note: the journal was written through sim://tmd?addresses=11,12&c0001=3&faults=cable@30+600s address 11; sim://tmd?addresses=12,11&c0001=3&seed=4 address 11 reaches the same drive (bus `{bus}`)\n"
         )));
 }
 
@@ -194,7 +197,12 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
     in_dir(dir.path())
         .args(["upload"])
         .arg(&later)
-        .args(["--port", "sim://tmd?addresses=11,12", "--address", "11"])
+        .args([
+            "--port",
+            "sim://tmd?addresses=11,12&c0001=3",
+            "--address",
+            "11",
+        ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains(format!(
@@ -206,7 +214,7 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
         .arg(&later)
         .args([
             "--port",
-            "sim://tmd?addresses=11,12",
+            "sim://tmd?addresses=11,12&c0001=3",
             "--address",
             "11",
             "--journal-dir",
@@ -217,12 +225,12 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
     let state = dir.path().join("sim/sim-tmd.json");
     let before = sim_state(&state);
     in_dir(dir.path())
-        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12"])
+        .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12&c0001=3"])
         .assert()
         .code(2)
         .stdout("")
         .stderr(predicate::str::ends_with(format!(
-            "error: sim://tmd?addresses=11,12 address 11: refused to recover journal {journal}: C0012 acceleration_time_1, C0013 deceleration_time_1, C0086 motor_rated_power, C0087 motor_rated_speed, C0088 motor_rated_current, C0091 motor_cosine_phi hold neither the old nor the new value the journal records (written since the transaction was cut); nothing was written. The journal is stale: compare the drive with its set (`driveset diff SET --port ...`), upload the set again if needed, then delete the journal\n"
+            "error: sim://tmd?addresses=11,12&c0001=3 address 11: refused to recover journal {journal}: C0012 acceleration_time_1, C0013 deceleration_time_1, C0086 motor_rated_power, C0087 motor_rated_speed, C0088 motor_rated_current, C0091 motor_cosine_phi hold neither the old nor the new value the journal records (written since the transaction was cut); nothing was written. The journal is stale: compare the drive with its set (`driveset diff SET --port ...`), upload the set again if needed, then delete the journal\n"
         )));
     // only reads were sent: the drives hold the later set still
     assert_eq!(sim_state(&state)["drives"], before["drives"]);
@@ -254,7 +262,12 @@ fn an_upload_in_a_git_repository_leaves_git_status_clean() {
         .env("DRIVESET_SIM_STATE_DIR", sim.path())
         .args(["upload"])
         .arg(&set)
-        .args(["--port", "sim://tmd?addresses=11", "--address", "11"])
+        .args([
+            "--port",
+            "sim://tmd?addresses=11&c0001=3",
+            "--address",
+            "11",
+        ])
         .assert()
         .code(0);
     assert!(dir.path().join(".driveset/journal").is_dir());
@@ -273,7 +286,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
     std::fs::write(
         dir.path().join("line.toml"),
         format!(
-            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
             set.display()
         ),
     )
@@ -284,7 +297,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
         .arg(&set)
         .args([
             "--port",
-            "sim://tmd?addresses=11&faults=cable@30+600s",
+            "sim://tmd?addresses=11&c0001=3&faults=cable@30+600s",
             "--address",
             "11",
         ])
@@ -307,7 +320,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
             "transfer-11  transfer/11  FAILED        0  -\n",
         ))
         .stdout(predicate::str::contains(format!(
-            "transfer-11: journal {journal}: the drive at sim://tmd?addresses=11&baud=9600 address 11 has an unfinished transaction ({journal} (state failed)); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {journal}`\n"
+            "transfer-11: journal {journal}: the drive at sim://tmd?addresses=11&baud=9600&c0001=3 address 11 has an unfinished transaction ({journal} (state failed)); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {journal}`\n"
         )));
     // commission sees the upload's journal (same name, same directory), recovers it
     in_dir(dir.path())

@@ -56,51 +56,47 @@ use crate::client::Target;
 use crate::error::EngineError;
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
 
-/// The protocol the doctor speaks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DoctorProtocol {
-    /// LUSTBUS (Lust VF1000, MC6000/7000).
-    Lustbus,
-    /// LECOM-A/B (Lenze Tmd).
-    Lecom,
-    /// CAN SDO (Lenze ECS on the system bus): see [`run_can`].
-    Can,
+/// The protocol the doctor speaks: the family descriptor's bus protocol.
+pub use driveset_schema::BusProtocol as DoctorProtocol;
+
+/// What the doctor needs to know of a bus protocol beyond its descriptor.
+pub trait DoctorRules {
+    /// The rates the protocol's drives can run at, highest first.
+    fn rates(self) -> &'static [u32];
+    /// The address probed when none is given (see the module docs).
+    fn default_address(self) -> u8;
+    /// The read-only probe, for the report.
+    fn probe_name(self) -> &'static str;
 }
 
-impl DoctorProtocol {
-    /// The protocol's name as the CLI spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            DoctorProtocol::Lustbus => "lustbus",
-            DoctorProtocol::Lecom => "lecom",
-            DoctorProtocol::Can => "can",
-        }
-    }
+fn serialize_bus<S: serde::Serializer>(p: &DoctorProtocol, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(p.name())
+}
 
+impl DoctorRules for DoctorProtocol {
     /// The rates the protocol's drives can run at, highest first.
-    pub fn rates(self) -> &'static [u32] {
+    fn rates(self) -> &'static [u32] {
         match self {
             DoctorProtocol::Lustbus => &LUSTBUS_BAUDS,
             DoctorProtocol::Lecom => &LECOM_BAUDS,
-            DoctorProtocol::Can => &[],
+            DoctorProtocol::CanSdo => &[],
         }
     }
 
     /// The address probed when none is given (see the module docs).
-    pub fn default_address(self) -> u8 {
+    fn default_address(self) -> u8 {
         match self {
             DoctorProtocol::Lustbus => 0,
-            DoctorProtocol::Lecom | DoctorProtocol::Can => 1,
+            DoctorProtocol::Lecom | DoctorProtocol::CanSdo => 1,
         }
     }
 
     /// What is read, for reports.
-    pub fn probe_name(self) -> &'static str {
+    fn probe_name(self) -> &'static str {
         match self {
             DoctorProtocol::Lustbus => "91-TYPE (ENQUIRY 00091)",
             DoctorProtocol::Lecom => "C0093 (RECEIVE)",
-            DoctorProtocol::Can => "the schema's first identification code (SDO upload)",
+            DoctorProtocol::CanSdo => "the schema's first identification code (SDO upload)",
         }
     }
 }
@@ -110,7 +106,7 @@ impl DoctorProtocol {
 pub struct DoctorOptions {
     /// The protocol.
     pub protocol: DoctorProtocol,
-    /// The drive's address; `None`: [`DoctorProtocol::default_address`].
+    /// The drive's address; `None`: [`DoctorRules::default_address`].
     pub address: Option<u8>,
     /// Round-trip probes at the answering rate. Default 20.
     pub probes: u32,
@@ -250,6 +246,7 @@ pub struct DoctorReport {
     /// The port.
     pub port: String,
     /// The protocol.
+    #[serde(serialize_with = "serialize_bus")]
     pub protocol: DoctorProtocol,
     /// The address probed.
     pub address: u8,
@@ -322,7 +319,7 @@ fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, String> {
                 .to_bytes()
                 .map_err(|e| e.to_string())
         }
-        DoctorProtocol::Can => Err("CAN ports are checked by run_can".into()),
+        DoctorProtocol::CanSdo => Err("CAN ports are checked by run_can".into()),
     }
 }
 
@@ -357,7 +354,7 @@ fn decode(
                 }
             }
         }
-        DoctorProtocol::Can => return Ok(None),
+        DoctorProtocol::CanSdo => return Ok(None),
         DoctorProtocol::Lecom => {
             let mut d = ResponseDecoder::new();
             let mut events = Vec::new();
@@ -691,9 +688,9 @@ pub fn run_can(
     let wire = driveset_link::mem::bits_time(2 * 135, bitrate);
     let mut report = DoctorReport {
         port,
-        protocol: DoctorProtocol::Can,
+        protocol: DoctorProtocol::CanSdo,
         address: node,
-        probe: DoctorProtocol::Can.probe_name(),
+        probe: DoctorProtocol::CanSdo.probe_name(),
         port_baud: bitrate,
         rates: vec![RateResult {
             baud: bitrate,
@@ -736,7 +733,7 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
     } else {
         format!("address {}", r.address)
     };
-    if r.answering.is_empty() && r.protocol == DoctorProtocol::Can {
+    if r.answering.is_empty() && r.protocol == DoctorProtocol::CanSdo {
         out.push(format!(
             "no SDO answer from node {} at {} bit/s: check the bit rate (?bitrate= must match the drives' system bus rate), the termination (120 ohm at both ends of the bus), the node id (--address) and that the drives are powered",
             r.address, r.port_baud
@@ -768,7 +765,7 @@ pub fn advice(r: &DoctorReport) -> Vec<String> {
             ));
         }
         out.push(line);
-    } else if !r.answering.contains(&r.port_baud) && r.protocol != DoctorProtocol::Can {
+    } else if !r.answering.contains(&r.port_baud) && r.protocol != DoctorProtocol::CanSdo {
         out.push(format!(
             "the drive answers at {} baud, not at the port's {}: add ?baud={} to the port (or set the drive to {} baud)",
             r.answering[0], r.port_baud, r.answering[0], r.port_baud

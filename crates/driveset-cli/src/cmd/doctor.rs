@@ -24,17 +24,6 @@ use crate::output;
 use crate::port::{self, Fail};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK};
 
-/// `--protocol` of `driveset doctor`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DoctorProtocolArg {
-    /// LUSTBUS (Lust VF1000, MC6000/7000).
-    Lustbus,
-    /// LECOM-A/B (Lenze Tmd).
-    Lecom,
-    /// CAN SDO (Lenze ECS).
-    Can,
-}
-
 /// Arguments of `driveset doctor`.
 #[derive(clap::Args)]
 #[command(after_help = "\
@@ -71,7 +60,7 @@ pub struct Args {
     pub address: Option<u8>,
     /// Protocol, when a sim:// port does not say it.
     #[arg(long, value_enum)]
-    pub protocol: Option<DoctorProtocolArg>,
+    pub protocol: Option<crate::args::BusArg>,
     /// Round-trip probes at the answering rate.
     #[arg(long, value_name = "N", default_value_t = 20)]
     pub probes: u32,
@@ -139,15 +128,9 @@ pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
 fn doctor(args: &Args) -> Result<u8, Fail> {
     let opened = port::open_port(&args.port)?;
     let protocol = match (args.protocol, opened.sim_family()) {
-        (Some(DoctorProtocolArg::Lustbus), _) => DoctorProtocol::Lustbus,
-        (Some(DoctorProtocolArg::Lecom), _) => DoctorProtocol::Lecom,
-        (Some(DoctorProtocolArg::Can), _) => DoctorProtocol::Can,
-        (None, Some(f)) => match port::family_protocol(f) {
-            driveset_schema::Protocol::Lecom => DoctorProtocol::Lecom,
-            driveset_schema::Protocol::LenzeCanSdo => DoctorProtocol::Can,
-            _ => DoctorProtocol::Lustbus,
-        },
-        (None, None) if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::Can,
+        (Some(p), _) => p.0,
+        (None, Some(f)) => f.bus(),
+        (None, None) if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
         (None, None) => {
             return Err(Fail::input(
                 "say which protocol the line speaks: --protocol lustbus|lecom|can",
@@ -169,9 +152,14 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
     };
     let name = opened.name.clone();
     let report = match protocol {
-        DoctorProtocol::Can => {
-            let schema =
-                port::resolve_schema(None, &[], None, Some(port::ProtocolArg::Sdo))?.schema;
+        DoctorProtocol::CanSdo => {
+            let schema = port::resolve_schema(
+                None,
+                &[],
+                None,
+                Some(port::ProtocolArg(DoctorProtocol::CanSdo)),
+            )?
+            .schema;
             let Link::Frames(mut link) = opened.link else {
                 return Err(Fail::input(format!(
                     "{name} is a character line: use --protocol lustbus or lecom"
@@ -251,14 +239,14 @@ pub fn human(r: &DoctorReport) -> String {
     let proto = match r.protocol {
         DoctorProtocol::Lustbus => "LUSTBUS",
         DoctorProtocol::Lecom => "LECOM-A/B",
-        DoctorProtocol::Can => "CAN SDO",
+        DoctorProtocol::CanSdo => "CAN SDO",
     };
     let who = match (r.protocol, r.address) {
         (DoctorProtocol::Lustbus, 0) => "address 0 (any drive)".to_string(),
-        (DoctorProtocol::Can, a) => format!("node {a}"),
+        (DoctorProtocol::CanSdo, a) => format!("node {a}"),
         (_, a) => format!("address {a}"),
     };
-    let unit = if r.protocol == DoctorProtocol::Can {
+    let unit = if r.protocol == DoctorProtocol::CanSdo {
         "bit/s"
     } else {
         "baud"
@@ -308,7 +296,7 @@ pub fn human(r: &DoctorReport) -> String {
             let _ = writeln!(out, "round trips: none (nothing answered)");
         }
     }
-    if r.protocol != DoctorProtocol::Can {
+    if r.protocol != DoctorProtocol::CanSdo {
         let _ = writeln!(
             out,
             "echo: {}",

@@ -154,6 +154,10 @@ impl Bus2 {
     pub fn new(family: Family, seed: u64, faults: FaultPlan) -> Bus2 {
         let (a, b) = addresses(family);
         let mut config = SimConfig::new(family, vec![a, b]);
+        if family == Family::Tmd {
+            // C0001 = 3 at the keypad: LECOM may write (manual §4e).
+            config.c0001 = Some(3);
+        }
         config.seed = seed;
         config.faults = faults;
         let log = EventLog::memory();
@@ -715,7 +719,7 @@ fn line_manifest(family: Family, dir: &Path) -> Manifest {
             [("conveyor-5", 5), ("conveyor-6", 6)],
         ),
         Family::Tmd => (
-            "sim://tmd",
+            "sim://tmd?c0001=3",
             "lecom",
             "baud = 9600",
             [("transfer-11", 11), ("transfer-12", 12)],
