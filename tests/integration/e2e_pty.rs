@@ -599,14 +599,15 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
         .collect();
     // C0135 is the control word (role `control-word`): pull leaves it out,
     // a set cannot hold it.
-    let initial: Vec<String> = server
-        .values()
-        .into_iter()
+    let initial = server.values();
+    let settings: Vec<String> = initial
+        .iter()
         .filter(|v| !v.starts_with("C0135 "))
+        .cloned()
         .collect();
     assert_eq!(
         got,
-        initial,
+        settings,
         "{}",
         std::fs::read_to_string(&pulled).unwrap_or_default()
     );

@@ -184,7 +184,7 @@ fn rfc2217_hosts() {
         PortSpec::parse("rfc2217://h:1?bitrate=500000")
             .expect_err("bad")
             .to_string(),
-        "invalid port `rfc2217://h:1?bitrate=500000`: unknown option `bitrate` for rfc2217:// ports; allowed: baud, echo"
+        "invalid port `rfc2217://h:1?bitrate=500000`: unknown option `bitrate` for rfc2217:// ports; allowed: baud, echo, latency"
     );
 }
 
