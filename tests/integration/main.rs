@@ -2,6 +2,7 @@
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 
+mod audit;
 mod bus_cmds;
 mod decode;
 mod diff;
@@ -9,6 +10,7 @@ mod e2e_pty;
 mod encode;
 mod fingerprint;
 mod git_setup;
+mod inputs;
 mod junit;
 mod line;
 mod pull;
