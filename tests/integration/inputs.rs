@@ -66,6 +66,40 @@ fn a_fifo_as_set_file_is_an_input_error_without_blocking() {
 }
 
 #[test]
+fn a_fifo_named_by_extends_or_as_schema_path_is_an_input_error() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("base.toml"));
+    mkfifo(&dir.path().join("schema.toml"));
+    std::fs::write(
+        dir.path().join("over.toml"),
+        "schema = \"lenze-tmd\"\nextends = \"base.toml\"\n[values]\nC0011 = \"60 Hz\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("own.toml"),
+        "schema = \"schema.toml\"\n[values]\nC0011 = \"60 Hz\"\n",
+    )
+    .unwrap();
+    for (file, fifo) in [("over.toml", "base.toml"), ("own.toml", "schema.toml")] {
+        let out = driveset()
+            .current_dir(dir.path())
+            .args(["validate", file])
+            .timeout(HANG_GUARD)
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.starts_with(&format!(
+                "error: ./{fifo} is a FIFO (named pipe), not a regular file; "
+            )) || text.starts_with(&format!("error: {fifo} is a FIFO (named pipe), not a regular file; ")),
+            "{file}: {text}"
+        );
+    }
+}
+
+#[test]
 fn a_fifo_inside_a_directory_is_reported_and_the_rest_is_checked() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("a.toml"), TMD_SET).unwrap();

@@ -445,7 +445,7 @@ fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
 
 #[cfg(test)]
 mod tests {
-    use driveset_proto::lustbus::{McError, VfError};
+    use driveset_proto::lustbus::value::{McError, VfError};
     use driveset_schema::ValueType;
     use driveset_schema::value::error_fields;
 
