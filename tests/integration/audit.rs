@@ -280,7 +280,12 @@ fn float_range_and_exponents() {
         text.starts_with("error[out-of-range]: 105-BRRES = 1e39 is outside the f32 range of PT_FLOAT_IEEE (-3.4028235e38 ..= 3.4028235e38)\n"),
         "{text}"
     );
-    assert_eq!(text.matches("is outside the f32 range of PT_FLOAT_IEEE").count(), 2, "{text}");
+    assert_eq!(
+        text.matches("is outside the f32 range of PT_FLOAT_IEEE")
+            .count(),
+        2,
+        "{text}"
+    );
     driveset()
         .args([
             "encode",
@@ -307,10 +312,17 @@ fn float_range_and_exponents() {
         .code(2)
         .stderr("error: value=1e-5 (= 0.00001): VD: 5 digits after the decimal point, expected 1..=4 (8.E); VD has at most 6 integer digits and 4 decimals (8.E)\n");
     driveset()
-        .args(["encode", "--protocol", "sdo", "write node=1 code=11 value=1e-4"])
+        .args([
+            "encode",
+            "--protocol",
+            "sdo",
+            "write node=1 code=11 value=1e-4",
+        ])
         .assert()
         .code(0)
-        .stdout("cob-id: 0x601\ndata:   23 F4 5F 00 01 00 00 00\nslcan:  t601823F45F0001000000<CR>\n");
+        .stdout(
+            "cob-id: 0x601\ndata:   23 F4 5F 00 01 00 00 00\nslcan:  t601823F45F0001000000<CR>\n",
+        );
 }
 
 /// Table 1: the simulated Tmd leaves the factory with C0001 = 0 (§4e:
@@ -325,7 +337,14 @@ fn simulated_tmd_starts_at_c0001_0() {
     .unwrap();
     let out = driveset()
         .current_dir(dir.path())
-        .args(["upload", "t.toml", "--port", "sim://tmd?addresses=3", "--address", "3"])
+        .args([
+            "upload",
+            "t.toml",
+            "--port",
+            "sim://tmd?addresses=3",
+            "--address",
+            "3",
+        ])
         .args(["--journal", "j.json"])
         .assert()
         .code(3)
@@ -338,7 +357,14 @@ fn simulated_tmd_starts_at_c0001_0() {
     );
     driveset()
         .current_dir(dir.path())
-        .args(["upload", "t.toml", "--port", "sim://tmd?addresses=3&c0001=3", "--address", "3"])
+        .args([
+            "upload",
+            "t.toml",
+            "--port",
+            "sim://tmd?addresses=3&c0001=3",
+            "--address",
+            "3",
+        ])
         .args(["--journal", "j2.json"])
         .assert()
         .code(0)
@@ -346,8 +372,18 @@ fn simulated_tmd_starts_at_c0001_0() {
             "C0011 maximum_output_frequency: 50 Hz -> 60 Hz  verified\n",
         ));
     driveset()
-        .args(["pull", "--port", "sim://tmd?addresses=3&c0001=12", "--address", "3", "-o", "-"])
+        .args([
+            "pull",
+            "--port",
+            "sim://tmd?addresses=3&c0001=12",
+            "--address",
+            "3",
+            "-o",
+            "-",
+        ])
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("C0001 takes 0..=11 (Table 1; §4e)"));
+        .stderr(predicate::str::contains(
+            "C0001 takes 0..=11 (Table 1; §4e)",
+        ));
 }

@@ -16,7 +16,10 @@ use crate::util::driveset;
 const HANG_GUARD: Duration = Duration::from_secs(120);
 
 fn mkfifo(path: &Path) {
-    let st = Command::new("mkfifo").arg(path).status().expect("mkfifo runs");
+    let st = Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs");
     assert!(st.success(), "mkfifo {}", path.display());
 }
 
@@ -93,7 +96,9 @@ fn a_fifo_named_by_extends_or_as_schema_path_is_an_input_error() {
         assert!(
             text.starts_with(&format!(
                 "error: ./{fifo} is a FIFO (named pipe), not a regular file; "
-            )) || text.starts_with(&format!("error: {fifo} is a FIFO (named pipe), not a regular file; ")),
+            )) || text.starts_with(&format!(
+                "error: {fifo} is a FIFO (named pipe), not a regular file; "
+            )),
             "{file}: {text}"
         );
     }
@@ -328,7 +333,11 @@ fn validate_and_show_into_head_end_quietly() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(stderr, "", "{cmd}");
         // validate: 400 findings -> 1; show: 0
-        let want = if cmd.starts_with("validate") { "rc=1\n" } else { "rc=0\n" };
+        let want = if cmd.starts_with("validate") {
+            "rc=1\n"
+        } else {
+            "rc=0\n"
+        };
         assert_eq!(stdout, want, "{cmd}");
     }
 }

@@ -60,7 +60,13 @@ const BUSES: [(&str, &str, &str, &str, &str); 4] = [
         "baud = 9600",
         "vf1000-base.toml",
     ),
-    ("tmd", "sim://tmd?c0001=3", "lecom", "baud = 9600", "tmd-base.toml"),
+    (
+        "tmd",
+        "sim://tmd?c0001=3",
+        "lecom",
+        "baud = 9600",
+        "tmd-base.toml",
+    ),
     (
         "ecs",
         "sim://ecs",

@@ -449,7 +449,9 @@ pub fn read_regular_file(
         InputError::new(
             InputErrorKind::NotRegularFile,
             loc(),
-            format!("{display} is {kind}, not a regular file; driveset reads {what} from regular files only"),
+            format!(
+                "{display} is {kind}, not a regular file; driveset reads {what} from regular files only"
+            ),
             "give the path of a regular file (save a pipe's or device's data into a file first)",
         )
     };

@@ -34,9 +34,9 @@ use driveset_link::Instant;
 use driveset_proto::ascii::{self, ENQ, EOT, STX};
 use driveset_proto::lecom::codec::MAX_TEXT;
 use driveset_proto::lecom::{
-    CodeAddress, CodeBank, CommunicationError, StandardAddressing, ControllerAddress, ExtendedError, FrameError,
-    HostFrame, OperatingStatus, Response, StreamError, Telegram, TelegramDecoder, Value,
-    ValueError,
+    CodeAddress, CodeBank, CommunicationError, ControllerAddress, ExtendedError, FrameError,
+    HostFrame, OperatingStatus, Response, StandardAddressing, StreamError, Telegram,
+    TelegramDecoder, Value, ValueError,
 };
 use driveset_proto::lecom::{Decimal, Hex, OctetString, VisibleString};
 use driveset_schema::ValueType;

@@ -446,8 +446,7 @@ fn lust_value(
         }
         Repr::Float => driveset_schema::value::float_text_to_raw(v).map_err(|e| match e {
             Some(_) => {
-                let (min, max) =
-                    driveset_schema::value::engineering_range(vt, None);
+                let (min, max) = driveset_schema::value::engineering_range(vt, None);
                 anyhow!(
                     "value={v}: outside the f32 range of {} ({}): {min} to {max}",
                     schema.display_code(number, None),
@@ -526,7 +525,9 @@ fn lecom_value(v: &str, code: CodeAddress, schema: Option<&Schema>) -> anyhow::R
     }
     if let Some(plain) = without_exponent(v) {
         return Value::parse(plain.as_bytes()).map_err(|e| {
-            anyhow!("value={v} (= {plain}): {e}; VD has at most 6 integer digits and 4 decimals (8.E)")
+            anyhow!(
+                "value={v} (= {plain}): {e}; VD has at most 6 integer digits and 4 decimals (8.E)"
+            )
         });
     }
     Value::parse(v.as_bytes()).map_err(|e| {

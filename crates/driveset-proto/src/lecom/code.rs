@@ -674,10 +674,15 @@ mod standard_addressing_tests {
         let s = StandardAddressing::POWER_ON;
         let c173 = CodeAddress::Standard(CodeNumber(173));
         assert_eq!(s.resolve(c173), (173, 0));
-        let s = s.after_write(CodeAddress::Standard(CodeNumber::C0249), 7).unwrap();
+        let s = s
+            .after_write(CodeAddress::Standard(CodeNumber::C0249), 7)
+            .unwrap();
         assert_eq!(s.resolve(c173), (1923, 0));
         // 248 / 249 stay themselves in every bank (8.B, 8.C)
-        assert_eq!(s.resolve(CodeAddress::Standard(CodeNumber::C0249)), (249, 0));
+        assert_eq!(
+            s.resolve(CodeAddress::Standard(CodeNumber::C0249)),
+            (249, 0)
+        );
         // above 255 the offset applies too (8.B note; errata lecom 18)
         assert_eq!(s.resolve(CodeAddress::Standard(CodeNumber(300))), (2050, 0));
         let s = s
@@ -701,6 +706,9 @@ mod standard_addressing_tests {
             s.after_write(CodeAddress::Standard(CodeNumber::C0249), 16),
             None
         );
-        assert_eq!(s.after_write(CodeAddress::Standard(CodeNumber(11)), 1), None);
+        assert_eq!(
+            s.after_write(CodeAddress::Standard(CodeNumber(11)), 1),
+            None
+        );
     }
 }
