@@ -2,6 +2,7 @@
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 
+mod audit;
 mod bus_cmds;
 mod decode;
 mod diff;
@@ -11,6 +12,7 @@ mod echo;
 mod encode;
 mod fingerprint;
 mod git_setup;
+mod inputs;
 mod junit;
 mod latency;
 mod learn;

@@ -377,6 +377,10 @@ fn cap_message(m: String) -> String {
 pub enum InputErrorKind {
     /// The file could not be read.
     Unreadable,
+    /// The path is a FIFO, socket, device or directory, not a regular file
+    /// (never opened; an input error wherever the file is named, `extends`
+    /// and schema paths included).
+    NotRegularFile,
     /// The file is larger than [`MAX_FILE_BYTES`].
     TooLarge,
     /// The file is not UTF-8 text or contains NUL bytes.
@@ -472,8 +476,9 @@ fn not_regular(ft: std::fs::FileType) -> Option<&'static str> {
 /// the kind of input there ("parameter sets and schemas ...").
 ///
 /// # Errors
-/// [`InputErrorKind::Unreadable`] for a missing / unreadable path or one
-/// that is not a regular file (the message says what it is).
+/// [`InputErrorKind::Unreadable`] for a missing / unreadable path,
+/// [`InputErrorKind::NotRegularFile`] for one that is not a regular file
+/// (the message says what it is).
 pub fn read_regular_file(
     path: &std::path::Path,
     cap: u64,
@@ -492,7 +497,7 @@ pub fn read_regular_file(
     };
     let not_a_file = |kind: &str| {
         InputError::new(
-            InputErrorKind::Unreadable,
+            InputErrorKind::NotRegularFile,
             loc(),
             format!(
                 "{display} is {kind}, not a regular file; driveset reads {what} from regular files only"

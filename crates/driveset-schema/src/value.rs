@@ -222,7 +222,7 @@ impl ValueType {
 /// (MC, §2.3.2: `number << 24 | location << 16 | time`; errata L19). A VF
 /// number of 15 or FFh adds `(no error)` (§2.3.1 note; errata L18). The
 /// same layout as `driveset_proto::lustbus::{VfError, McError}` (a test in
-/// driveset-engine checks that they agree). `None` for other types or a raw
+/// driveset-cli's `decode::lustbus` checks that they agree). `None` for other types or a raw
 /// value outside the type.
 pub fn error_fields(ty: ValueType, raw: i64) -> Option<String> {
     match ty {

@@ -245,7 +245,10 @@ impl Nak {
 ///   control word C0135 only with C0001 = 3 (§4f); the protocol registers
 ///   C0248 / C0249 always (they are needed to read at all with a V1.0
 ///   driver). C0001 = 4..11 select another program source: the simulator
-///   keeps answering reads and refuses all writes but C0248 / C0249.
+///   keeps answering reads and refuses all writes but C0248 / C0249. The
+///   drive leaves the factory with Table 1's C0001 = 0 (LECOM reads only);
+///   [`TmdOptions::c0001`] / `sim://tmd?c0001=3` stand for the keypad
+///   setting §4e asks for before LECOM programming.
 /// - **C0007 rule.** [`CfgReaction`]: refuse (default) or accept and trip.
 /// - **C0010 <= C0011.** A SEND breaking it is refused (cause 5, C1962 14);
 ///   the manual does not even state the rule (erratum E14).

@@ -876,3 +876,27 @@ mod robustness {
         }
     }
 }
+
+#[test]
+fn factory_c0001_is_0_lecom_reads_and_switches_banks_only() {
+    // Table 1: C0001 factory setting 0 (§4e: programmed via keypad,
+    // monitored via LECOM).
+    let mut d = TmdDrive::new(TmdOptions::at(1)).unwrap();
+    let mut l = Line::new();
+    assert_eq!(int(&d, 1), 0);
+    assert_eq!(l.ask(&mut d, &send("01", b"1160")), Some(vec![NAK]));
+    assert_cause(&d, 6, 8);
+    assert_eq!(int(&d, 11), 500_000);
+    // C0249 = 7 is allowed: standard code 173 ("A3") then names C1923
+    // (StandardAddressing, shared with `driveset decode`).
+    assert_eq!(l.ask(&mut d, &send("01", b"H97")), Some(vec![ACK]));
+    assert_eq!(
+        l.ask(&mut d, &receive("01", b"A3")),
+        Some(value_reply(b"A350"))
+    );
+    // The keypad setting 3 lets LECOM program it (§4e).
+    let mut d = TmdDrive::new(TmdOptions::at(1).c0001(3)).unwrap();
+    assert_eq!(int(&d, 1), 30_000);
+    assert_eq!(l.ask(&mut d, &send("01", b"1160")), Some(vec![ACK]));
+    assert_eq!(int(&d, 11), 600_000);
+}

@@ -11,6 +11,9 @@
 //! `driveset encode` prints; or FILE (`-` = stdin) holding hex text
 //! (whitespace, `,`, `0x` prefixes and `#` comments allowed) or, with
 //! `--raw`, the bytes themselves. Bad input names line:column and exits 2.
+//! FILE must be a regular file (a FIFO or device is refused, never opened)
+//! and, like stdin, at most [`MAX_CAPTURE_BYTES`] (16 MiB); hex text is
+//! parsed in one linear pass.
 //!
 //! Output: one line per event (telegram, reply, skipped garbage, slcan line):
 //! byte range `start..end` (end exclusive), direction, kind, then address,
@@ -24,9 +27,15 @@
 //! family the CODE layout shows (`20ppp` MC6000/7000, `00dpp` VF1000; the
 //! shared codes 81..85, 91 keep the family seen last).
 //!
+//! LECOM: the decoder follows each controller's C0249 code bank and C0248
+//! input selection as the capture writes them (8.B, 8.C). Replies the specs
+//! rule out are bad telegrams: an answer to LUSTBUS address 31 (§4.2, §9.1),
+//! a reply from another LUSTBUS address than the one asked (§3), any reply
+//! to a LECOM broadcast or group address (8.J).
+//!
 //! Exit codes: 0 every byte decoded; 1 the capture holds bad telegrams
-//! (garbage, BCC mismatch, malformed or cut-off frames); 2 usage or input
-//! error.
+//! (garbage, BCC mismatch, malformed or cut-off frames, replies that cannot
+//! occur); 2 usage or input error.
 
 mod event;
 pub(crate) mod input;
@@ -99,8 +108,17 @@ Examples:
 Each line: byte range (end exclusive), direction, kind, address, code (schema name),
 value as sent = engineering value, BCC, meaning; details indented below.
 
+LECOM: C0249 (code bank) and C0248 (input selection) writes in the capture are
+followed, so a standard-addressed code names what the drive reads (8.B, 8.C).
+Replies that cannot occur are bad telegrams: an answer to LUSTBUS address 31, a
+reply from another address than the one asked, a reply to a LECOM broadcast or
+group address.
+
+FILE must be a regular file; FILE and stdin are read up to 16 MiB.
+
 Exit codes: 0 every byte decoded, 1 the capture holds bad telegrams (garbage, BCC
-mismatch, malformed or cut-off frames), 2 usage or input error.")]
+mismatch, malformed or cut-off frames, replies that cannot occur), 2 usage or
+input error.")]
 pub struct Args {
     /// Bus protocol of the capture.
     #[arg(long, value_enum)]

@@ -321,7 +321,7 @@ fn remedy(e: CommunicationError) -> &'static str {
             "the value is not allowed; choose a value inside the code's range"
         }
         CommunicationError::NoAccessPermission => {
-            "the code cannot be written now: inhibit the controller (many codes are writable only at standstill) or check the user password C0094"
+            "the code cannot be written now: inhibit the controller (many codes are writable only at standstill), check the user password C0094, or set C0001 to 2 or 3 at the keypad so LECOM may program the drive (§4e)"
         }
         CommunicationError::GeneralFault => "repeat; if it persists, check the drive",
         CommunicationError::Reserved | CommunicationError::Undocumented(_) => {

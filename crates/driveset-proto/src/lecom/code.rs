@@ -664,3 +664,51 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod standard_addressing_tests {
+    use super::*;
+
+    #[test]
+    fn bank_and_input_selection_resolve_standard_fields_only() {
+        let s = StandardAddressing::POWER_ON;
+        let c173 = CodeAddress::Standard(CodeNumber(173));
+        assert_eq!(s.resolve(c173), (173, 0));
+        let s = s
+            .after_write(CodeAddress::Standard(CodeNumber::C0249), 7)
+            .unwrap();
+        assert_eq!(s.resolve(c173), (1923, 0));
+        // 248 / 249 stay themselves in every bank (8.B, 8.C)
+        assert_eq!(
+            s.resolve(CodeAddress::Standard(CodeNumber::C0249)),
+            (249, 0)
+        );
+        // above 255 the offset applies too (8.B note; errata lecom 18)
+        assert_eq!(s.resolve(CodeAddress::Standard(CodeNumber(300))), (2050, 0));
+        let s = s
+            .after_write(
+                CodeAddress::Extended(ExtendedAddress {
+                    code: 248,
+                    subcode: 0,
+                }),
+                1,
+            )
+            .unwrap();
+        assert_eq!(s.resolve(CodeAddress::Standard(CodeNumber(39))), (1789, 1));
+        // extended addressing ignores both (8.D)
+        let ext = CodeAddress::Extended(ExtendedAddress {
+            code: 39,
+            subcode: 2,
+        });
+        assert_eq!(s.resolve(ext), (39, 2));
+        // values the registers do not hold, and other codes, change nothing
+        assert_eq!(
+            s.after_write(CodeAddress::Standard(CodeNumber::C0249), 16),
+            None
+        );
+        assert_eq!(
+            s.after_write(CodeAddress::Standard(CodeNumber(11)), 1),
+            None
+        );
+    }
+}

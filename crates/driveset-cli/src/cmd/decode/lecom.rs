@@ -102,7 +102,7 @@ fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, sel: StandardAddres
         format!("C{number:04}/{sub}")
     });
     if let CodeAddress::Standard(c) = code
-        && (u16::from(number) != c.get() || sub != 0)
+        && (number != c.get() || sub != 0)
     {
         ev.details.push(format!(
             "sent as {c} with code bank {} (C0249) and input selection {} (C0248): {} (8.B, 8.C)",

@@ -442,3 +442,36 @@ fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
         .max(s);
     &capture[s..e]
 }
+
+#[cfg(test)]
+mod tests {
+    use driveset_proto::lustbus::value::{McError, VfError};
+    use driveset_schema::ValueType;
+    use driveset_schema::value::error_fields;
+
+    /// The schema crate's display and the codec's types split the raw
+    /// values the same way (errata L17, L19).
+    #[test]
+    fn error_fields_agree_with_the_codec() {
+        for raw in [0u16, 0x0312, 0x0F00, 0xFF07, 0xFFFF] {
+            let v = VfError::from_raw(raw);
+            let none = if v.is_no_error() { " (no error)" } else { "" };
+            assert_eq!(
+                error_fields(ValueType::PT_VF_ERROR, i64::from(raw)).unwrap(),
+                format!("{{ number = {}, time = {} }}{none}", v.number, v.time)
+            );
+        }
+        for raw in [0u32, 0x0502_012C, 0xFFFF_FFFF] {
+            let v = McError::from_raw(raw);
+            assert_eq!(
+                error_fields(ValueType::PT_MC_ERROR, i64::from(raw)).unwrap(),
+                format!(
+                    "{{ number = {}, location = {}, time = {} }}",
+                    v.number, v.location, v.time
+                )
+            );
+        }
+        assert_eq!(error_fields(ValueType::PT_USIGN16, 5), None);
+        assert_eq!(error_fields(ValueType::PT_VF_ERROR, 0x1_0000), None);
+    }
+}

@@ -1,0 +1,343 @@
+//! Inputs that must never hang or run away (issue 10, item 5): FIFOs and
+//! device files, symlink loops in a directory walk, a 1 MB hex line, an
+//! endless stdin, a closed stdout. Every command runs with a timeout in
+//! the harness, so a regression fails instead of hanging the test run
+//! (the timeout is a hang guard, not a speed assertion: the outcomes are
+//! what the tests check).
+
+use std::io::Read as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use crate::util::driveset;
+
+/// Generous: only a hang reaches it.
+const HANG_GUARD: Duration = Duration::from_secs(120);
+
+fn mkfifo(path: &Path) {
+    let st = Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs");
+    assert!(st.success(), "mkfifo {}", path.display());
+}
+
+const TMD_SET: &str = "schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\n";
+
+#[test]
+fn a_fifo_as_set_file_is_an_input_error_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("set.toml");
+    mkfifo(&fifo);
+    let out = driveset()
+        .current_dir(dir.path())
+        .args(["validate", "set.toml"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "error: set.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n  --> set.toml\n  = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 1 file; 1 file could not be read\n"
+    );
+    // the same through the other readers of set files
+    for args in [
+        &["fingerprint", "set.toml"][..],
+        &["show", "set.toml"][..],
+        &["diff", "set.toml", "set.toml"][..],
+    ] {
+        let out = driveset()
+            .current_dir(dir.path())
+            .args(args)
+            .timeout(HANG_GUARD)
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            text.contains("set.toml is a FIFO (named pipe), not a regular file"),
+            "{args:?}: {text}"
+        );
+    }
+}
+
+#[test]
+fn a_fifo_named_by_extends_or_as_schema_path_is_an_input_error() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("base.toml"));
+    mkfifo(&dir.path().join("schema.toml"));
+    std::fs::write(
+        dir.path().join("over.toml"),
+        "schema = \"lenze-tmd\"\nextends = \"base.toml\"\n[values]\nC0011 = \"60 Hz\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("own.toml"),
+        "schema = \"schema.toml\"\n[values]\nC0011 = \"60 Hz\"\n",
+    )
+    .unwrap();
+    for (file, fifo) in [("over.toml", "base.toml"), ("own.toml", "schema.toml")] {
+        let out = driveset()
+            .current_dir(dir.path())
+            .args(["validate", file])
+            .timeout(HANG_GUARD)
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.starts_with(&format!(
+                "error: ./{fifo} is a FIFO (named pipe), not a regular file; "
+            )) || text.starts_with(&format!(
+                "error: {fifo} is a FIFO (named pipe), not a regular file; "
+            )),
+            "{file}: {text}"
+        );
+    }
+}
+
+#[test]
+fn a_fifo_inside_a_directory_is_reported_and_the_rest_is_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("a.toml"), TMD_SET).unwrap();
+    mkfifo(&dir.path().join("b.toml"));
+    let out = driveset()
+        .current_dir(dir.path())
+        .args(["validate", "."])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "error: ./b.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n  --> ./b.toml\n  = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 2 files; 1 file could not be read\n"
+    );
+    // a schema directory with a FIFO in it
+    let out = driveset()
+        .current_dir(dir.path())
+        .args(["validate", "--schemas", ".", "a.toml"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("b.toml is a FIFO (named pipe), not a regular file"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_device_file_is_refused_by_name() {
+    let out = driveset()
+        .args(["validate", "/dev/null"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    assert!(
+        String::from_utf8_lossy(&out.stdout).starts_with(
+            "error: /dev/null is a character device, not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n"
+        ),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+#[test]
+fn symlink_loops_and_links_back_to_a_parent_are_walked_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("sets");
+    let sub = root.join("line/a/b");
+    std::fs::create_dir_all(&sub).unwrap();
+    std::fs::write(root.join("line/t.toml"), TMD_SET).unwrap();
+    std::fs::write(sub.join("u.toml"), TMD_SET).unwrap();
+    // a loop, two links back to the parents (exponential without a
+    // visited set), and a second link to a file
+    std::os::unix::fs::symlink("..", sub.join("up")).unwrap();
+    std::os::unix::fs::symlink("../..", sub.join("up2")).unwrap();
+    std::os::unix::fs::symlink(".", sub.join("self")).unwrap();
+    std::os::unix::fs::symlink("../../..", root.join("line/a/top")).unwrap();
+    std::os::unix::fs::symlink("u.toml", sub.join("u-again.toml")).unwrap();
+    driveset()
+        .current_dir(dir.path())
+        .args(["validate", "sets"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(0)
+        .stdout("0 findings in 0 of 2 files\n");
+}
+
+/// A 1 MB hex capture on one line: the hex parser is linear (the column of
+/// an error was recomputed from the line start for every token before).
+#[test]
+fn decode_of_a_1_mb_hex_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let telegram = "04 40 30 30 31 31 32 05";
+    let n = 1_048_576 / (telegram.len() + 1) + 1;
+    let line = vec![telegram; n].join(" ");
+    assert!(line.len() >= 1_048_576);
+    std::fs::write(dir.path().join("big.hex"), format!("{line}\n")).unwrap();
+    let out = driveset()
+        .current_dir(dir.path())
+        .args(["decode", "--protocol", "lustbus", "big.hex"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(text.lines().count(), n);
+    let last = (n - 1) * 8;
+    assert_eq!(
+        text.lines().last().unwrap(),
+        format!(
+            "{:<11} host -> drive   ENQUIRY   address 0 '@' (all devices), code 00112 (12-rotary_field_frequency)",
+            format!("{last}..{}", last + 8)
+        )
+    );
+}
+
+#[test]
+fn decode_raw_dev_zero_and_an_endless_stdin_are_capped() {
+    driveset()
+        .args(["decode", "--protocol", "lustbus", "--raw", "/dev/zero"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(
+            "error: /dev/zero is a character device, not a regular file; driveset reads bus captures from regular files only; give the path of a regular file (save a pipe's or device's data into a file first)\n",
+        );
+    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let zero = std::fs::File::open("/dev/zero").unwrap();
+    let mut child = Command::new(bin)
+        .args(["decode", "--protocol", "lustbus", "--raw", "-"])
+        .stdin(Stdio::from(zero))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = String::new();
+    let mut stderr = String::new();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(2));
+    assert_eq!(stdout, "");
+    assert_eq!(
+        stderr,
+        "error: <stdin>: the capture is larger than 16777216 bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts\n"
+    );
+}
+
+#[test]
+fn a_capture_file_that_is_a_fifo_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("cap.hex"));
+    driveset()
+        .current_dir(dir.path())
+        .args(["decode", "--protocol", "lecom", "cap.hex"])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .stdout("")
+        .stderr(
+            "error: cap.hex is a FIFO (named pipe), not a regular file; driveset reads bus captures from regular files only; give the path of a regular file (save a pipe's or device's data into a file first)\n",
+        );
+}
+
+/// `driveset decode ... | head -c1`: the reader goes away after one byte;
+/// the rest of the output is dropped, no panic, no message, exit 0.
+#[test]
+fn decode_into_a_closed_pipe_ends_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    // a few MB of output: far more than a pipe buffer holds
+    let line = vec!["04 40 30 30 31 31 32 05"; 20_000].join(" ");
+    std::fs::write(dir.path().join("cap.hex"), format!("{line}\n")).unwrap();
+    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let mut child = Command::new(bin)
+        .current_dir(dir.path())
+        .args(["decode", "--protocol", "lustbus", "cap.hex"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut one = [0u8; 1];
+    let mut out = child.stdout.take().unwrap();
+    out.read_exact(&mut one).unwrap();
+    assert_eq!(&one, b"0");
+    drop(out);
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(stderr, "");
+    assert_eq!(status.code(), Some(0));
+}
+
+/// The same for a command whose output goes through the shared renderer
+/// (validate of many files), via a real `| head -c1`.
+#[test]
+fn validate_and_show_into_head_end_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..400 {
+        std::fs::write(
+            dir.path().join(format!("s{i:03}.toml")),
+            "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\n",
+        )
+        .unwrap();
+    }
+    std::fs::write(dir.path().join("ok.toml"), TMD_SET).unwrap();
+    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    for cmd in ["validate .", "show --to json ok.toml"] {
+        let out = Command::new("bash")
+            .current_dir(dir.path())
+            .arg("-c")
+            .arg(format!(
+                "set -o pipefail; '{}' {cmd} | head -c1 >/dev/null; echo \"rc=${{PIPESTATUS[0]}}\"",
+                bin.display()
+            ))
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(stderr, "", "{cmd}");
+        // validate: 400 findings -> 1; show: 0
+        let want = if cmd.starts_with("validate") {
+            "rc=1\n"
+        } else {
+            "rc=0\n"
+        };
+        assert_eq!(stdout, want, "{cmd}");
+    }
+}
