@@ -46,6 +46,12 @@ download), verifies, and on failure restores the old values from the
 journal. --dry-run prints the plan (codes, old -> new, RAM or EEPROM,
 expected time) and writes nothing.
 
+Answer timeouts fit the link: the spec's longest reaction + wire time +
+the latency measured from the session's round trips; over a USB adapter or
+a serial device server give its round-trip delay with ?latency= (e.g.
+--port tcp://moxa:4001?latency=80ms). The report counts the SLOAD polls of
+the MC6000/7000 dataset check and any late replies dropped.
+
 Journal: --journal FILE, or DIR/<port>-<address>.journal.json with
 --journal-dir DIR; default .driveset/journal/<port>-<address>.journal.json
 in the current directory (port characters other than letters and digits
