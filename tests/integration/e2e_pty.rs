@@ -25,9 +25,9 @@ const RUN_GUARD: Duration = Duration::from_secs(300);
 /// The real-time tests here run one at a time (within one test process):
 /// each is a timed exchange with the client's answer timeouts, and they
 /// should not load the machine for each other more than needed.
-static REAL_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+pub(crate) static REAL_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+pub(crate) fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     REAL_TIME
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)

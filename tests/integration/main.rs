@@ -5,7 +5,9 @@
 mod bus_cmds;
 mod decode;
 mod diff;
+mod doctor;
 mod e2e_pty;
+mod echo;
 mod encode;
 mod fingerprint;
 mod git_setup;
@@ -16,6 +18,7 @@ mod proxy;
 mod pull;
 mod recover;
 mod report;
+mod rfc2217;
 mod schema_check;
 mod show;
 mod sim;

@@ -385,3 +385,74 @@ fn bad_arguments_exit_2_with_the_reason() {
         assert!(out.stdout.is_empty(), "{args:?}");
     }
 }
+
+#[test]
+fn tcp_clients_wait_their_turn_and_an_idle_one_is_dropped() {
+    let mut sim = Sim::start(&[
+        "--family",
+        "mc6000",
+        "--address",
+        "1",
+        "--tcp",
+        "127.0.0.1:0",
+        "--idle-timeout",
+        "1",
+    ]);
+    let addr = sim
+        .first_line
+        .strip_prefix("tcp ")
+        .unwrap_or_else(|| panic!("first line `{}`", sim.first_line))
+        .to_string();
+    // The first client connects and says nothing; the second waits.
+    let idle = TcpStream::connect(&addr).unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    let mut second = TcpStream::connect(&addr).unwrap();
+    second
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .unwrap();
+    second
+        .write_all(&[EOT, b'A', b'0', b'0', b'0', b'8', b'5', ENQ])
+        .unwrap();
+    // Served once the first is dropped after 1 s of silence (hang guard 20 s).
+    let reply = read_n(&mut second, 12, Duration::from_secs(20));
+    assert_eq!(reply, b"A\x0200085=01\x03\x02");
+    let idle_addr = idle.local_addr().unwrap();
+    let second_addr = second.local_addr().unwrap();
+    drop(second);
+    let (status, stderr) = sim.terminate(Duration::from_secs(5));
+    assert_eq!(status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("(one connection at a time, others wait; idle clients dropped after 1 s)"),
+        "{stderr}"
+    );
+    for line in [
+        format!("sim: host connected from {idle_addr}\n"),
+        format!("sim: host {second_addr} waits: the line is in use by {idle_addr}\n"),
+        format!("sim: host {idle_addr} dropped: sent nothing for 1000 ms (idle timeout)\n"),
+        format!("sim: host {second_addr} closed the connection\n"),
+    ] {
+        assert!(stderr.contains(&line), "{line}\n{stderr}");
+    }
+    assert!(
+        stderr.contains(&format!("sim: host connected from {second_addr} (waited ")),
+        "{stderr}"
+    );
+    drop(idle);
+}
+
+#[test]
+fn idle_timeout_needs_tcp() {
+    driveset()
+        .args([
+            "sim",
+            "--family",
+            "mc6000",
+            "--address",
+            "1",
+            "--idle-timeout",
+            "5",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("--tcp"));
+}

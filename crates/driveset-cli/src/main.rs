@@ -63,6 +63,8 @@ enum Command {
     Sim(cmd::sim::Args),
     /// Identify the drive at a port and address: family, type codes, fitting schema.
     Identify(cmd::identify::Args),
+    /// Check a new line, read-only: rates that answer, round trips, echo, parity, USB latency timer, advice.
+    Doctor(cmd::doctor::Args),
     /// Find the drives on a bus (LUSTBUS 1..30, LECOM 1..99, CAN node ids).
     Scan(cmd::scan::Args),
     /// Read a drive's parameters into a set file.
@@ -104,6 +106,7 @@ fn main() -> ExitCode {
         Command::Encode(a) => cmd::encode::run(a),
         Command::Sim(a) => cmd::sim::run(a),
         Command::Identify(a) => cmd::identify::run(a),
+        Command::Doctor(a) => cmd::doctor::run(a),
         Command::Scan(a) => cmd::scan::run(a),
         Command::Pull(a) => cmd::pull::run(a),
         Command::Upload(a) => cmd::upload::run(a),

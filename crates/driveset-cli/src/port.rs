@@ -3,8 +3,11 @@
 //! [`DriveClient`] for a schema.
 //!
 //! - Real ports (`/dev/ttyUSB0`, `COM3`, `tcp://host:port`,
-//!   `slcan://...`, `can://...`) are opened by `driveset-link` and run on
-//!   its `RealClock`.
+//!   `rfc2217://host:port`, `slcan://...`, `can://...`) are opened by
+//!   `driveset-link` and run on its `RealClock`; its `open` hands the
+//!   character lines out behind an `EchoLink` with the port's `echo=`
+//!   (default `auto`), so every serial protocol gets the echo of a 2-wire
+//!   RS-485 adapter stripped.
 //! - `sim://FAMILY?addresses=1,2` ports are opened in-process by
 //!   `driveset-sim` on a `VirtualClock`: the simulated bus runs in virtual
 //!   time, so a whole upload takes milliseconds of real time. The drives'

@@ -9,6 +9,7 @@
 //! virtual time against the in-process simulator.
 
 pub mod client;
+pub mod doctor;
 pub mod error;
 pub mod identify;
 pub mod journal;

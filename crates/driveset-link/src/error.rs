@@ -173,6 +173,16 @@ pub enum LinkError {
         detail: String,
     },
 
+    /// An RFC 2217 device server refused or did not confirm the telnet
+    /// COM-PORT-OPTION or a line setting.
+    #[error("{port}: {detail}")]
+    Rfc2217 {
+        /// The port.
+        port: String,
+        /// What went wrong and what to do.
+        detail: String,
+    },
+
     /// `sim://` ports are opened by the CLI with the simulator crate.
     #[error("{port}: open sim:// ports through the simulator (driveset-sim), not driveset-link")]
     SimPort {

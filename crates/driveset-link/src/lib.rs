@@ -4,7 +4,10 @@
 //! - [`clock`]: [`Clock`], [`Instant`], [`RealClock`], [`VirtualClock`].
 //! - [`ByteLink`]: a LUSTBUS / LECOM line (ASCII 7E1 over RS-485), as a
 //!   local [`serial::SerialLink`], a [`tcp::TcpLink`] to a serial device
-//!   server, or one end of an in-memory [`mem::byte_pair`].
+//!   server in raw mode, an [`rfc2217::Rfc2217Link`] to a device server
+//!   speaking RFC 2217 (which sets 7E1 and the rate on the server), or one
+//!   end of an in-memory [`mem::byte_pair`]; [`echo::EchoLink`] strips the
+//!   echo of 2-wire RS-485 adapters (`?echo=auto|on|off`).
 //! - [`FrameLink`]: a CAN bus (Lenze system bus), as an
 //!   [`slcan::SlcanLink`] USB-CAN adapter, a SocketCAN interface (feature
 //!   `socketcan`), or one end of an in-memory [`mem::frame_pair`].
@@ -34,8 +37,10 @@
 #![warn(missing_docs)]
 
 pub mod clock;
+pub mod echo;
 pub mod error;
 pub mod mem;
+pub mod rfc2217;
 pub mod serial;
 pub mod slcan;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -47,6 +52,7 @@ mod open;
 
 pub use clock::{Clock, Instant, RealClock, VirtualClock};
 pub use driveset_proto::can::CanFrame;
+pub use echo::{EchoLink, EchoMode};
 pub use error::LinkError;
 pub use open::{Link, OpenOptions, open};
 pub use spec::{PortSpec, PortSpecError, PortSpecErrorKind, SimSpec};

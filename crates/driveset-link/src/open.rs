@@ -5,7 +5,9 @@ use std::time::Duration;
 
 use crate::ByteLink;
 use crate::FrameLink;
+use crate::echo::{EchoLink, EchoMode};
 use crate::error::LinkError;
+use crate::rfc2217::Rfc2217Link;
 use crate::serial::SerialLink;
 use crate::spec::{DEFAULT_BAUD, PortSpec};
 use crate::tcp::TcpLink;
@@ -14,7 +16,8 @@ use crate::tcp::TcpLink;
 #[derive(Debug, Clone, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct OpenOptions {
-    /// How long to wait for a TCP device server to accept the connection.
+    /// How long to wait for a TCP device server to accept the connection
+    /// (and, on `rfc2217://`, separately for the telnet negotiation).
     pub connect_timeout: Duration,
     /// How long an slcan adapter may take to answer each command of the
     /// open sequence.
@@ -50,16 +53,29 @@ impl Link {
     }
 }
 
-/// Open the transport `spec` names. `sim://` ports are refused with
+/// A character line behind its [`EchoLink`] (`echo=`, default `auto`).
+fn with_echo<L: ByteLink + 'static>(link: L, echo: Option<EchoMode>) -> Box<dyn ByteLink> {
+    Box::new(EchoLink::new(link, echo.unwrap_or_default()))
+}
+
+/// Open the transport `spec` names. Character lines (serial, `tcp://`,
+/// `rfc2217://`) come wrapped in an [`EchoLink`] with the port's `echo=`
+/// mode (`echo=off` makes it a pass-through). `sim://` ports are refused with
 /// [`LinkError::SimPort`]: the CLI opens them with the simulator.
 pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
     match spec {
-        PortSpec::Serial { path, baud, .. } => {
+        PortSpec::Serial {
+            path, baud, echo, ..
+        } => {
             let link = SerialLink::open(path, baud.unwrap_or(DEFAULT_BAUD))?;
-            Ok(Link::Bytes(Box::new(link)))
+            Ok(Link::Bytes(with_echo(link, *echo)))
         }
         PortSpec::Tcp {
-            host, port, baud, ..
+            host,
+            port,
+            baud,
+            echo,
+            ..
         } => {
             let link = TcpLink::connect(
                 host,
@@ -67,7 +83,22 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
                 baud.unwrap_or(DEFAULT_BAUD),
                 options.connect_timeout,
             )?;
-            Ok(Link::Bytes(Box::new(link)))
+            Ok(Link::Bytes(with_echo(link, *echo)))
+        }
+        PortSpec::Rfc2217 {
+            host,
+            port,
+            baud,
+            echo,
+            ..
+        } => {
+            let link = Rfc2217Link::connect(
+                host,
+                *port,
+                baud.unwrap_or(DEFAULT_BAUD),
+                options.connect_timeout,
+            )?;
+            Ok(Link::Bytes(with_echo(link, *echo)))
         }
         PortSpec::Sim(_) => Err(LinkError::SimPort {
             port: spec.to_string(),

@@ -6,6 +6,7 @@
 //! | --- | --- |
 //! | `/dev/ttyUSB0`, `COM3` | serial port, 7E1 ([`crate::serial`]) |
 //! | `tcp://host:port` | serial device server in raw TCP mode ([`crate::tcp`]) |
+//! | `rfc2217://host:port` | serial device server speaking RFC 2217 (telnet COM-PORT-OPTION: driveset sets 7E1 and the rate on the server, [`crate::rfc2217`]) |
 //! | `slcan:///dev/ttyACM0?bitrate=500000` | slcan (Lawicel) USB-CAN adapter ([`crate::slcan`]) |
 //! | `can://can0` | SocketCAN interface (feature `socketcan`) |
 //! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim) |
@@ -13,7 +14,10 @@
 //!
 //! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
 //! adapter's own serial line; for `can://` a synonym of `bitrate`), the CAN
-//! forms and `sim://` also `bitrate=`. Serial and `tcp://` ports take
+//! forms and `sim://` also `bitrate=`. The character lines (serial,
+//! `tcp://`, `rfc2217://`) take `echo=auto|on|off` ([`crate::echo`]: strip
+//! the echo of a 2-wire RS-485 adapter; `auto`, the default, detects it
+//! from the first exchange; the canonical form leaves `auto` out) and
 //! `latency=` ([`parse_latency`]: `40ms`, `0.1s`), the round-trip delay the
 //! transport adds (USB adapter, device server), which the clients add to
 //! their answer timeouts from the first telegram on. Unknown keys are
@@ -22,6 +26,7 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use crate::echo::EchoMode;
 use crate::error::list;
 
 /// The rates (baud) a LUSTBUS / LECOM line (7E1) can run at.
@@ -44,8 +49,8 @@ pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 /// to the simulator as text (`seed` must be a whole number).
 pub const SIM_OPTION_KEYS: &[&str] = &["faults", "keypad", "seed", "state"];
 
-const SERIAL_KEYS: &[&str] = &["baud", "latency"];
-const TCP_KEYS: &[&str] = &["baud", "latency"];
+const SERIAL_KEYS: &[&str] = &["baud", "echo", "latency"];
+const TCP_KEYS: &[&str] = &["baud", "echo", "latency"];
 
 /// The largest `latency=` a port takes.
 pub const MAX_LATENCY: std::time::Duration = std::time::Duration::from_secs(10);
@@ -82,6 +87,9 @@ pub enum PortSpec {
         path: String,
         /// Line rate; `None` means [`DEFAULT_BAUD`].
         baud: Option<u32>,
+        /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
+        /// gives `None` for `echo=auto`).
+        echo: Option<EchoMode>,
         /// `latency=`: the round-trip delay the transport adds.
         latency: Option<std::time::Duration>,
     },
@@ -94,6 +102,25 @@ pub enum PortSpec {
         /// The device server's line rate (for wire timing); `None` means
         /// [`DEFAULT_BAUD`].
         baud: Option<u32>,
+        /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
+        /// gives `None` for `echo=auto`).
+        echo: Option<EchoMode>,
+        /// `latency=`: the round-trip delay the transport adds.
+        latency: Option<std::time::Duration>,
+    },
+    /// A serial device server speaking RFC 2217: driveset sets the line
+    /// (rate, 7 data bits, even parity, 1 stop bit) on the server.
+    Rfc2217 {
+        /// Host name or IP address (IPv6 without brackets).
+        host: String,
+        /// TCP port.
+        port: u16,
+        /// The rate driveset sets on the server; `None` means
+        /// [`DEFAULT_BAUD`].
+        baud: Option<u32>,
+        /// `echo=on|off`; `None` means [`EchoMode::Auto`] (the parser
+        /// gives `None` for `echo=auto`).
+        echo: Option<EchoMode>,
         /// `latency=`: the round-trip delay the transport adds.
         latency: Option<std::time::Duration>,
     },
@@ -185,12 +212,12 @@ pub struct PortSpecError {
 pub enum PortSpecErrorKind {
     /// Nothing given.
     #[error(
-        "empty; give a serial port (/dev/ttyUSB0, COM3), tcp://host:port, slcan://PATH, can://IFACE or sim://FAMILY"
+        "empty; give a serial port (/dev/ttyUSB0, COM3), tcp://host:port, rfc2217://host:port, slcan://PATH, can://IFACE or sim://FAMILY"
     )]
     Empty,
     /// A scheme this crate does not know.
     #[error(
-        "unknown scheme `{scheme}://`; use a serial port (/dev/ttyUSB0, COM3), tcp://, slcan://, can:// or sim://"
+        "unknown scheme `{scheme}://`; use a serial port (/dev/ttyUSB0, COM3), tcp://, rfc2217://, slcan://, can:// or sim://"
     )]
     UnknownScheme {
         /// The scheme.
@@ -343,9 +370,9 @@ impl PortSpec {
     /// for CAN ports.
     pub fn line_baud(&self) -> Option<u32> {
         match self {
-            PortSpec::Serial { baud, .. } | PortSpec::Tcp { baud, .. } => {
-                Some(baud.unwrap_or(DEFAULT_BAUD))
-            }
+            PortSpec::Serial { baud, .. }
+            | PortSpec::Tcp { baud, .. }
+            | PortSpec::Rfc2217 { baud, .. } => Some(baud.unwrap_or(DEFAULT_BAUD)),
             PortSpec::Sim(sim) => Some(sim.baud.unwrap_or(DEFAULT_BAUD)),
             PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => None,
         }
@@ -360,16 +387,41 @@ impl PortSpec {
                 Some(bitrate.unwrap_or(DEFAULT_BITRATE))
             }
             PortSpec::Sim(sim) => Some(sim.bitrate.unwrap_or(DEFAULT_BITRATE)),
-            PortSpec::Serial { .. } | PortSpec::Tcp { .. } => None,
+            PortSpec::Serial { .. } | PortSpec::Tcp { .. } | PortSpec::Rfc2217 { .. } => None,
         }
     }
 
-    /// The `latency=` of a serial or `tcp://` port.
+    /// The `latency=` of a character line (serial, `tcp://`, `rfc2217://`).
     pub fn latency(&self) -> Option<std::time::Duration> {
         match self {
-            PortSpec::Serial { latency, .. } | PortSpec::Tcp { latency, .. } => *latency,
+            PortSpec::Serial { latency, .. }
+            | PortSpec::Tcp { latency, .. }
+            | PortSpec::Rfc2217 { latency, .. } => *latency,
             _ => None,
         }
+    }
+
+    /// The `echo=` mode of a character line (defaults applied), `None` for
+    /// CAN and `sim://` ports (the simulator does not echo).
+    pub fn echo(&self) -> Option<EchoMode> {
+        match self {
+            PortSpec::Serial { echo, .. }
+            | PortSpec::Tcp { echo, .. }
+            | PortSpec::Rfc2217 { echo, .. } => Some(echo.unwrap_or_default()),
+            _ => None,
+        }
+    }
+
+    /// The same port with `echo=` set (character lines only; other ports
+    /// are returned unchanged).
+    pub fn with_echo(mut self, mode: EchoMode) -> PortSpec {
+        if let PortSpec::Serial { echo, .. }
+        | PortSpec::Tcp { echo, .. }
+        | PortSpec::Rfc2217 { echo, .. } = &mut self
+        {
+            *echo = (mode != EchoMode::Auto).then_some(mode);
+        }
+        self
     }
 
     /// Whether this port carries CAN frames (slcan, SocketCAN) rather than
@@ -396,24 +448,36 @@ impl fmt::Display for PortSpec {
             PortSpec::Serial {
                 path,
                 baud,
+                echo,
                 latency,
             } => {
                 f.write_str(path)?;
                 q.num("baud", *baud);
+                q.echo(*echo);
                 q.latency(*latency);
             }
             PortSpec::Tcp {
                 host,
                 port,
                 baud,
+                echo,
                 latency,
             } => {
-                if host.contains(':') {
-                    write!(f, "tcp://[{host}]:{port}")?;
-                } else {
-                    write!(f, "tcp://{host}:{port}")?;
-                }
+                write_host_port(f, "tcp", host, *port)?;
                 q.num("baud", *baud);
+                q.echo(*echo);
+                q.latency(*latency);
+            }
+            PortSpec::Rfc2217 {
+                host,
+                port,
+                baud,
+                echo,
+                latency,
+            } => {
+                write_host_port(f, "rfc2217", host, *port)?;
+                q.num("baud", *baud);
+                q.echo(*echo);
                 q.latency(*latency);
             }
             PortSpec::Slcan {
@@ -455,6 +519,14 @@ impl fmt::Display for PortSpec {
     }
 }
 
+fn write_host_port(f: &mut fmt::Formatter<'_>, scheme: &str, host: &str, port: u16) -> fmt::Result {
+    if host.contains(':') {
+        write!(f, "{scheme}://[{host}]:{port}")
+    } else {
+        write!(f, "{scheme}://{host}:{port}")
+    }
+}
+
 /// Builds `?a=1&b=2`.
 #[derive(Default)]
 struct Query(String);
@@ -465,6 +537,13 @@ impl Query {
         self.0.push_str(key);
         self.0.push('=');
         self.0.push_str(value);
+    }
+    /// `echo=`, left out when it is the default (`auto`).
+    fn echo(&mut self, value: Option<EchoMode>) {
+        match value {
+            None | Some(EchoMode::Auto) => {}
+            Some(mode) => self.text("echo", mode.name()),
+        }
     }
     fn num(&mut self, key: &str, value: Option<u32>) {
         if let Some(v) = value {
@@ -606,6 +685,24 @@ impl Options {
             })
     }
 
+    /// `echo=auto|on|off`.
+    fn echo(&mut self) -> Result<Option<EchoMode>, PortSpecErrorKind> {
+        let Some(value) = self.map.remove("echo") else {
+            return Ok(None);
+        };
+        match EchoMode::parse(&value) {
+            // `auto` is the default: kept as `None` so that a port string
+            // and its canonical form are the same spec.
+            Some(EchoMode::Auto) => Ok(None),
+            Some(mode) => Ok(Some(mode)),
+            None => Err(PortSpecErrorKind::BadValue {
+                key: "echo".into(),
+                value,
+                reason: "use auto (detect, the default), on (the line returns what driveset sends: strip it) or off".into(),
+            }),
+        }
+    }
+
     /// `bitrate=`, checked against [`ALLOWED_BITRATES`].
     fn bitrate(&mut self) -> Result<Option<u32>, PortSpecErrorKind> {
         match self.number("bitrate")? {
@@ -639,7 +736,8 @@ fn parse(input: &str) -> Result<PortSpec, PortSpecErrorKind> {
         return parse_serial(body, query);
     };
     match scheme {
-        "tcp" => parse_tcp(rest, query),
+        "tcp" => parse_tcp(rest, query, "tcp"),
+        "rfc2217" => parse_tcp(rest, query, "rfc2217"),
         "slcan" => parse_slcan(rest, query),
         "can" => parse_can(rest, query),
         "sim" => parse_sim(rest, query),
@@ -659,21 +757,33 @@ fn parse_serial(path: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErr
     }
     let mut opts = Options::parse(query, "serial", SERIAL_KEYS)?;
     let baud = opts.line_baud()?;
+    let echo = opts.echo()?;
     let latency = opts.latency()?;
     Ok(PortSpec::Serial {
         path: path.into(),
         baud,
+        echo,
         latency,
     })
 }
 
-fn parse_tcp(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
-    const EXAMPLE: &str = "tcp://192.168.0.7:4001";
+/// `tcp://host:port` and `rfc2217://host:port` (`scheme`).
+fn parse_tcp(
+    rest: &str,
+    query: Option<&str>,
+    scheme: &'static str,
+) -> Result<PortSpec, PortSpecErrorKind> {
+    let rfc2217 = scheme == "rfc2217";
+    let (example, example6): (&'static str, &'static str) = if rfc2217 {
+        ("rfc2217://192.168.0.7:2217", "rfc2217://[fe80::1]:2217")
+    } else {
+        ("tcp://192.168.0.7:4001", "tcp://[fe80::1]:4001")
+    };
     if rest.is_empty() {
         return Err(PortSpecErrorKind::Missing {
-            scheme: "tcp",
+            scheme,
             what: "host:port",
-            example: EXAMPLE,
+            example,
         });
     }
     let (host_port, trailing) = match rest.find('/') {
@@ -689,33 +799,37 @@ fn parse_tcp(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorK
         };
         let Some(port) = after.strip_prefix(':') else {
             return Err(PortSpecErrorKind::Missing {
-                scheme: "tcp",
+                scheme,
                 what: "a port after the host",
-                example: "tcp://[fe80::1]:4001",
+                example: example6,
             });
         };
         (host, port)
     } else {
         let Some((host, port)) = host_port.rsplit_once(':') else {
             return Err(PortSpecErrorKind::Missing {
-                scheme: "tcp",
+                scheme,
                 what: "a port after the host",
-                example: EXAMPLE,
+                example,
             });
         };
         if host.contains(':') {
             return Err(PortSpecErrorKind::BadHost {
                 host: host.into(),
-                reason: "write IPv6 addresses in brackets: tcp://[::1]:4001",
+                reason: if rfc2217 {
+                    "write IPv6 addresses in brackets: rfc2217://[::1]:2217"
+                } else {
+                    "write IPv6 addresses in brackets: tcp://[::1]:4001"
+                },
             });
         }
         (host, port)
     };
     if host.is_empty() {
         return Err(PortSpecErrorKind::Missing {
-            scheme: "tcp",
+            scheme,
             what: "a host before the port",
-            example: EXAMPLE,
+            example,
         });
     }
     if host.chars().any(|c| c.is_whitespace() || c == '@') {
@@ -736,18 +850,35 @@ fn parse_tcp(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorK
         return Err(PortSpecErrorKind::TrailingPath {
             rest: trailing.into(),
             after: host_port.into(),
-            scheme: "tcp",
+            scheme,
             takes: "host:port",
         });
     }
-    let mut opts = Options::parse(query, "tcp://", TCP_KEYS)?;
+    let mut opts = Options::parse(
+        query,
+        if rfc2217 { "rfc2217://" } else { "tcp://" },
+        TCP_KEYS,
+    )?;
     let baud = opts.line_baud()?;
+    let echo = opts.echo()?;
     let latency = opts.latency()?;
-    Ok(PortSpec::Tcp {
-        host: host.into(),
-        port,
-        baud,
-        latency,
+    let host = host.to_string();
+    Ok(if rfc2217 {
+        PortSpec::Rfc2217 {
+            host,
+            port,
+            baud,
+            echo,
+            latency,
+        }
+    } else {
+        PortSpec::Tcp {
+            host,
+            port,
+            baud,
+            echo,
+            latency,
+        }
     })
 }
 

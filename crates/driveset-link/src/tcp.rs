@@ -46,35 +46,9 @@ impl TcpLink {
         if !ALLOWED_BAUDS.contains(&baud) {
             return Err(LinkError::UnsupportedBaud { port: name, baud });
         }
-        let addrs: Vec<SocketAddr> = (host, port)
-            .to_socket_addrs()
-            .map_err(|e| LinkError::Resolve {
-                port: name.clone(),
-                host: host.into(),
-                detail: e.to_string(),
-            })?
-            .collect();
-        if addrs.is_empty() {
-            return Err(LinkError::Resolve {
-                port: name,
-                host: host.into(),
-                detail: "no addresses".into(),
-            });
-        }
-        // A zero timeout is refused by std; wait at least a millisecond.
-        let timeout = connect_timeout.max(Duration::from_millis(1));
-        let mut last = None;
-        for addr in addrs {
-            match TcpStream::connect_timeout(&addr, timeout) {
-                Ok(stream) => return TcpLink::from_stream(stream, &name, baud),
-                Err(e) => last = Some(connect_error(&name, addr, timeout, e)),
-            }
-        }
-        Err(last.unwrap_or(LinkError::Resolve {
-            port: name,
-            host: host.into(),
-            detail: "no addresses".into(),
-        }))
+        let addrs = resolve(&name, host, port)?;
+        let stream = connect_stream(&name, host, &addrs, connect_timeout)?;
+        TcpLink::from_stream(stream, &name, baud)
     }
 
     /// Wrap a connected stream (sets TCP_NODELAY).
@@ -120,6 +94,50 @@ impl TcpLink {
             Err(e) => Err(LinkError::io(&self.name, "read from the device server", e)),
         }
     }
+}
+
+/// Connect to the first of `addrs` that accepts within `connect_timeout`
+/// each; errors name `name` (shared with [`crate::rfc2217`]).
+pub(crate) fn connect_stream(
+    name: &str,
+    host: &str,
+    addrs: &[SocketAddr],
+    connect_timeout: Duration,
+) -> Result<TcpStream, LinkError> {
+    // A zero timeout is refused by std; wait at least a millisecond.
+    let timeout = connect_timeout.max(Duration::from_millis(1));
+    let mut last = None;
+    for addr in addrs {
+        match TcpStream::connect_timeout(addr, timeout) {
+            Ok(stream) => return Ok(stream),
+            Err(e) => last = Some(connect_error(name, *addr, timeout, e)),
+        }
+    }
+    Err(last.unwrap_or(LinkError::Resolve {
+        port: name.into(),
+        host: host.into(),
+        detail: "no addresses".into(),
+    }))
+}
+
+/// Resolve `host:port`; errors name `name`.
+pub(crate) fn resolve(name: &str, host: &str, port: u16) -> Result<Vec<SocketAddr>, LinkError> {
+    let addrs: Vec<SocketAddr> = (host, port)
+        .to_socket_addrs()
+        .map_err(|e| LinkError::Resolve {
+            port: name.into(),
+            host: host.into(),
+            detail: e.to_string(),
+        })?
+        .collect();
+    if addrs.is_empty() {
+        return Err(LinkError::Resolve {
+            port: name.into(),
+            host: host.into(),
+            detail: "no addresses".into(),
+        });
+    }
+    Ok(addrs)
 }
 
 fn connect_error(name: &str, addr: SocketAddr, timeout: Duration, e: io::Error) -> LinkError {

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use driveset_link::spec::{DEFAULT_BAUD, DEFAULT_BITRATE};
-use driveset_link::{PortSpec, PortSpecErrorKind, SimSpec};
+use driveset_link::{EchoMode, PortSpec, PortSpecErrorKind, SimSpec};
 
 fn ok(input: &str) -> PortSpec {
     match PortSpec::parse(input) {
@@ -36,6 +36,7 @@ fn serial_paths() {
         PortSpec::Serial {
             path: "/dev/ttyUSB0".into(),
             baud: None,
+            echo: None,
             latency: None
         }
     );
@@ -44,6 +45,7 @@ fn serial_paths() {
         PortSpec::Serial {
             path: "COM3".into(),
             baud: Some(19200),
+            echo: None,
             latency: None
         }
     );
@@ -62,6 +64,7 @@ fn tcp_hosts() {
             host: "192.168.0.7".into(),
             port: 4001,
             baud: None,
+            echo: None,
             latency: None
         }
     );
@@ -71,6 +74,7 @@ fn tcp_hosts() {
             host: "::1".into(),
             port: 4001,
             baud: Some(57600),
+            echo: None,
             latency: None
         }
     );
@@ -83,6 +87,105 @@ fn tcp_hosts() {
         "tcp://[fe80::1]:4001?baud=1200",
     );
     assert_eq!(ok("tcp://h:1?baud=38400").line_baud(), Some(38400));
+}
+
+#[test]
+fn echo_option_on_character_lines() {
+    assert_eq!(
+        ok("/dev/ttyUSB0?echo=on&baud=19200"),
+        PortSpec::Serial {
+            path: "/dev/ttyUSB0".into(),
+            baud: Some(19200),
+            echo: Some(EchoMode::On),
+            latency: None
+        }
+    );
+    // Canonical: baud before echo; auto (the default) left out.
+    round_trip(
+        "/dev/ttyUSB0?echo=on&baud=19200",
+        "/dev/ttyUSB0?baud=19200&echo=on",
+    );
+    round_trip("COM3?echo=auto", "COM3");
+    round_trip("tcp://h:4001?echo=off", "tcp://h:4001?echo=off");
+    round_trip(
+        "rfc2217://h:2217?echo=on&baud=57600",
+        "rfc2217://h:2217?baud=57600&echo=on",
+    );
+    assert_eq!(ok("COM3").echo(), Some(EchoMode::Auto));
+    assert_eq!(ok("COM3?echo=off").echo(), Some(EchoMode::Off));
+    assert_eq!(ok("sim://mc6000?addresses=1").echo(), None);
+    assert_eq!(
+        ok("COM3?echo=on").with_echo(EchoMode::Off).to_string(),
+        "COM3?echo=off"
+    );
+    assert_eq!(
+        ok("COM3?echo=on").with_echo(EchoMode::Auto).to_string(),
+        "COM3"
+    );
+    assert_eq!(
+        err("COM3?echo=yes"),
+        PortSpecErrorKind::BadValue {
+            key: "echo".into(),
+            value: "yes".into(),
+            reason: "use auto (detect, the default), on (the line returns what driveset sends: strip it) or off".into()
+        }
+    );
+    assert_eq!(
+        PortSpec::parse("COM3?echo=yes")
+            .expect_err("bad")
+            .to_string(),
+        "invalid port `COM3?echo=yes`: `echo=yes`: use auto (detect, the default), on (the line returns what driveset sends: strip it) or off"
+    );
+    // Not for CAN or simulated ports.
+    assert!(matches!(
+        err("slcan:///dev/ttyACM0?echo=on"),
+        PortSpecErrorKind::UnknownOption { ref key, .. } if key == "echo"
+    ));
+    assert!(matches!(
+        err("sim://mc6000?addresses=1&echo=on"),
+        PortSpecErrorKind::UnknownOption { ref key, .. } if key == "echo"
+    ));
+}
+
+#[test]
+fn rfc2217_hosts() {
+    assert_eq!(
+        ok("rfc2217://192.168.0.7:2217?baud=19200"),
+        PortSpec::Rfc2217 {
+            host: "192.168.0.7".into(),
+            port: 2217,
+            baud: Some(19200),
+            echo: None,
+            latency: None
+        }
+    );
+    round_trip("rfc2217://[::1]:2217", "rfc2217://[::1]:2217");
+    assert_eq!(ok("rfc2217://h:7000").line_baud(), Some(DEFAULT_BAUD));
+    assert_eq!(ok("rfc2217://h:7000").can_bitrate(), None);
+    assert!(!ok("rfc2217://h:7000").is_can());
+    // raw tcp:// stays its own kind.
+    assert!(matches!(ok("tcp://h:7000"), PortSpec::Tcp { .. }));
+    assert!(matches!(
+        err("rfc2217://"),
+        PortSpecErrorKind::Missing {
+            scheme: "rfc2217",
+            what: "host:port",
+            example: "rfc2217://192.168.0.7:2217"
+        }
+    ));
+    assert!(matches!(
+        err("rfc2217://h:1/x"),
+        PortSpecErrorKind::TrailingPath {
+            scheme: "rfc2217",
+            ..
+        }
+    ));
+    assert_eq!(
+        PortSpec::parse("rfc2217://h:1?bitrate=500000")
+            .expect_err("bad")
+            .to_string(),
+        "invalid port `rfc2217://h:1?bitrate=500000`: unknown option `bitrate` for rfc2217:// ports; allowed: baud, echo, latency"
+    );
 }
 
 #[test]
@@ -235,7 +338,7 @@ fn errors_name_what_is_wrong() {
     );
     assert!(matches!(
         err("/dev/ttyS0?parity=odd"),
-        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud", "latency"] } if key == "parity"
+        PortSpecErrorKind::UnknownOption { ref key, scheme: "serial", allowed: &["baud", "echo", "latency"] } if key == "parity"
     ));
     assert!(matches!(
         err("tcp://h:1?bitrate=500000"),
@@ -433,7 +536,7 @@ fn error_messages_carry_input_and_remedy() {
     let e = PortSpec::parse("/dev/ttyS0?parity=odd").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, latency"
+        "invalid port `/dev/ttyS0?parity=odd`: unknown option `parity` for serial ports; allowed: baud, echo, latency"
     );
     let e = PortSpec::parse("sim://vf1000").unwrap_err();
     assert_eq!(
@@ -458,7 +561,7 @@ mod properties {
 
         #[test]
         fn generated_specs_round_trip(
-            scheme in 0usize..5,
+            scheme in 0usize..7,
             name in "[a-z][a-z0-9_-]{0,10}",
             port in 1u16..,
             baud in prop::sample::select(driveset_link::spec::ALLOWED_BAUDS),
@@ -471,6 +574,8 @@ mod properties {
                 1 => format!("tcp://{name}:{port}?baud={baud}"),
                 2 => format!("slcan:///dev/{name}?bitrate={bitrate}"),
                 3 => format!("can://{name}?bitrate={bitrate}"),
+                4 => format!("rfc2217://{name}:{port}?baud={baud}&echo=on"),
+                5 => format!("/dev/{name}?echo=off"),
                 _ => format!("sim://{name}?addresses={}&baud={baud}", addresses.join(",")),
             };
             let spec = PortSpec::parse(&input);
@@ -491,6 +596,7 @@ fn latency_option_on_serial_and_tcp_ports() {
             host: "127.0.0.1".into(),
             port: 4001,
             baud: None,
+            echo: None,
             latency: Some(Duration::from_millis(40))
         }
     );

@@ -12,10 +12,19 @@
 //! the CLI stop it cleanly; the caller keeps the [`ByteLine`] (drives,
 //! log) and can dump the drives' state afterwards.
 //!
+//! On TCP ([`serve_tcp_with`]) the simulator behaves like a serial device
+//! server in raw mode: one client at a time owns the line; a client that
+//! connects meanwhile is accepted and waits (logged as `wait`) until the
+//! one before it closes or is dropped, then is served; a client that sends
+//! nothing for the idle timeout ([`TcpServeOptions::idle_timeout`],
+//! default [`DEFAULT_IDLE_TIMEOUT`]) is dropped (logged as `idle`), so a
+//! forgotten session does not hold the line for ever.
+//!
 //! A pty has no baud rate: the host's characters cross it at once, so
 //! they reach the drives in a burst at the instant they are read (the
 //! reply pacing is what the host sees of the line rate).
 
+use std::collections::VecDeque;
 use std::io::{self, Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -28,6 +37,26 @@ use crate::log::{Event, LogError};
 
 /// The longest the loop goes without looking at the stop flag.
 pub const POLL: Duration = Duration::from_millis(50);
+
+/// How long a TCP client may send nothing before it is dropped, unless
+/// [`TcpServeOptions::idle_timeout`] says otherwise (device servers
+/// typically default to tens of seconds).
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// How [`serve_tcp_with`] treats its clients.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TcpServeOptions {
+    /// Drop a client that has sent nothing for this long; `None`: never.
+    pub idle_timeout: Option<Duration>,
+}
+
+impl Default for TcpServeOptions {
+    fn default() -> Self {
+        TcpServeOptions {
+            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
+        }
+    }
+}
 
 /// The shortest read timeout the loop sets (sockets refuse zero).
 const MIN_WAIT: Duration = Duration::from_micros(100);
@@ -73,6 +102,8 @@ pub enum StreamEnd {
     Stopped,
     /// The other end closed the connection.
     Closed,
+    /// The other end sent nothing for the idle timeout and was dropped.
+    Idle,
 }
 
 /// A byte stream the serve loop can run on: it must be able to bound how
@@ -176,22 +207,48 @@ pub fn serve_stream<S: ServeStream>(
     stream: &mut S,
     stop: &AtomicBool,
 ) -> Result<StreamEnd, ServeError> {
+    serve_session(line, stream, stop, None, &mut |_| Ok(()))
+}
+
+/// [`serve_stream`] with an idle timeout ([`StreamEnd::Idle`] once the
+/// other end has sent nothing for `idle` and no reply is pending) and a
+/// hook called with the line at least every [`POLL`] (the TCP server looks
+/// for waiting clients there).
+fn serve_session<S: ServeStream>(
+    line: &mut ByteLine,
+    stream: &mut S,
+    stop: &AtomicBool,
+    idle: Option<Duration>,
+    tick: &mut dyn FnMut(&mut ByteLine) -> Result<(), ServeError>,
+) -> Result<StreamEnd, ServeError> {
     let clock = RealClock;
     line.ensure_started(clock.now());
+    let mut last_heard = clock.now();
     let mut buf = [0u8; 512];
     loop {
         if stop.load(Ordering::SeqCst) {
             line.log().check()?;
             return Ok(StreamEnd::Stopped);
         }
+        tick(line)?;
         let now = clock.now();
         line.advance(now);
         if let Some(end) = write_due(line, stream, now)? {
             return Ok(end);
         }
-        let wait = line
+        if let Some(idle) = idle
+            && line.next_wakeup().is_none()
+            && now - last_heard >= idle
+        {
+            return Ok(StreamEnd::Idle);
+        }
+        let mut wait = line
             .next_wakeup()
             .map_or(POLL, |t| (t - clock.now()).min(POLL));
+        if let Some(idle) = idle {
+            let left = (last_heard + idle).saturating_duration_since(clock.now());
+            wait = wait.min(left.max(MIN_WAIT));
+        }
         if let Err(source) = stream.set_poll_timeout(wait) {
             return Err(ServeError::Io {
                 what: stream.describe(),
@@ -204,7 +261,8 @@ pub fn serve_stream<S: ServeStream>(
             Ok(0) => return Ok(StreamEnd::Closed),
             Ok(n) => {
                 let bytes: Vec<u8> = buf[..n].iter().map(|b| b & 0x7F).collect();
-                line.host_send(clock.now(), &bytes, false);
+                last_heard = clock.now();
+                line.host_send(last_heard, &bytes, false);
             }
             Err(e) if quiet(&e) => {}
             Err(e) if closed(&e) && stream.hangup_is_transient() => {
@@ -260,7 +318,7 @@ pub fn serve_pty(
         match serve_stream(line, master, stop)? {
             StreamEnd::Stopped => return Ok(()),
             // A pty does not really close; look again after a pause.
-            StreamEnd::Closed => RealClock.sleep(Duration::from_millis(10)),
+            StreamEnd::Closed | StreamEnd::Idle => RealClock.sleep(Duration::from_millis(10)),
         }
     }
 }
@@ -274,12 +332,33 @@ pub fn bind_loopback(port: u16) -> Result<TcpListener, ServeError> {
 }
 
 /// Serve `line` to TCP clients of `listener`, one at a time (like a
-/// serial device server in raw mode), until `stop` is set. The drives keep
-/// their state from one connection to the next.
+/// serial device server in raw mode), with the default
+/// [`TcpServeOptions`], until `stop` is set.
 pub fn serve_tcp(
     line: &mut ByteLine,
     listener: &TcpListener,
     stop: &AtomicBool,
+) -> Result<(), ServeError> {
+    serve_tcp_with(
+        line,
+        listener,
+        stop,
+        &TcpServeOptions::default(),
+        &mut |_| {},
+    )
+}
+
+/// Serve `line` to TCP clients of `listener`, one at a time, until `stop`
+/// is set (see the module docs: waiting clients, idle timeout). The drives
+/// keep their state from one connection to the next. Every `connect`,
+/// `wait`, `idle` and `disconnect` event goes to the line's log and to
+/// `report`.
+pub fn serve_tcp_with(
+    line: &mut ByteLine,
+    listener: &TcpListener,
+    stop: &AtomicBool,
+    options: &TcpServeOptions,
+    report: &mut dyn FnMut(&Event),
 ) -> Result<(), ServeError> {
     let what = || match listener.local_addr() {
         Ok(a) => format!("TCP listener {a}"),
@@ -292,55 +371,103 @@ pub fn serve_tcp(
             op: "set non-blocking mode",
             source,
         })?;
+    let mut note = |line: &ByteLine, kind: &str, detail: String| {
+        let event = Event::note(RealClock.now().as_nanos(), None, kind, detail);
+        report(&event);
+        line.log().push(event);
+    };
+    // Clients accepted while another had the line, oldest first, with the
+    // instant they connected.
+    let mut waiting: VecDeque<(TcpStream, SocketAddr, Instant)> = VecDeque::new();
     loop {
         if stop.load(Ordering::SeqCst) {
+            for (_, peer, _) in waiting.drain(..) {
+                note(
+                    line,
+                    "disconnect",
+                    format!("host {peer} dropped while waiting: the simulator stops"),
+                );
+            }
             line.log().check()?;
             return Ok(());
         }
-        match listener.accept() {
-            Ok((mut stream, peer)) => {
-                let setup = stream
-                    .set_nonblocking(false)
-                    .and_then(|()| stream.set_nodelay(true));
-                if let Err(source) = setup {
-                    return Err(ServeError::Io {
-                        what: format!("TCP connection from {peer}"),
-                        op: "configure",
-                        source,
-                    });
-                }
-                line.log().push(Event::note(
-                    RealClock.now().as_nanos(),
-                    None,
-                    "connect",
-                    format!("host connected from {peer}"),
-                ));
-                let end = serve_stream(line, &mut stream, stop)?;
-                line.log().push(Event::note(
-                    RealClock.now().as_nanos(),
-                    None,
-                    "disconnect",
-                    format!(
-                        "host {peer} {}",
-                        match end {
-                            StreamEnd::Stopped => "dropped: the simulator stops",
-                            StreamEnd::Closed => "closed the connection",
-                        }
-                    ),
-                ));
-                if end == StreamEnd::Stopped {
-                    line.log().check()?;
-                    return Ok(());
-                }
+        let next = match waiting.pop_front() {
+            Some((stream, peer, since)) => Some((stream, peer, Some(since))),
+            None => accept(listener, &what)?.map(|(stream, peer)| (stream, peer, None)),
+        };
+        let Some((mut stream, peer, since)) = next else {
+            RealClock.sleep(Duration::from_millis(20));
+            continue;
+        };
+        let setup = stream
+            .set_nonblocking(false)
+            .and_then(|()| stream.set_nodelay(true));
+        if let Err(source) = setup {
+            return Err(ServeError::Io {
+                what: format!("TCP connection from {peer}"),
+                op: "configure",
+                source,
+            });
+        }
+        let waited = since.map_or(String::new(), |t| {
+            format!(" (waited {} ms)", (RealClock.now() - t).as_millis())
+        });
+        note(
+            line,
+            "connect",
+            format!("host connected from {peer}{waited}"),
+        );
+        let mut tick = |line: &mut ByteLine| -> Result<(), ServeError> {
+            while let Some((s, p)) = accept(listener, &what)? {
+                note(
+                    line,
+                    "wait",
+                    format!("host {p} waits: the line is in use by {peer}"),
+                );
+                waiting.push_back((s, p, RealClock.now()));
             }
-            Err(e) if quiet(&e) => RealClock.sleep(Duration::from_millis(20)),
-            Err(source) => {
-                return Err(ServeError::Io {
-                    what: what(),
-                    op: "accept",
-                    source,
-                });
+            Ok(())
+        };
+        let end = serve_session(line, &mut stream, stop, options.idle_timeout, &mut tick)?;
+        match end {
+            StreamEnd::Stopped => note(
+                line,
+                "disconnect",
+                format!("host {peer} dropped: the simulator stops"),
+            ),
+            StreamEnd::Closed => note(
+                line,
+                "disconnect",
+                format!("host {peer} closed the connection"),
+            ),
+            StreamEnd::Idle => {
+                let idle = options.idle_timeout.unwrap_or_default();
+                note(
+                    line,
+                    "idle",
+                    format!(
+                        "host {peer} dropped: sent nothing for {} ms (idle timeout)",
+                        idle.as_millis()
+                    ),
+                );
+                let _ = stream.shutdown(std::net::Shutdown::Both);
             }
         }
+    }
+}
+
+/// Accept one pending connection, if any (the listener is non-blocking).
+fn accept(
+    listener: &TcpListener,
+    what: &dyn Fn() -> String,
+) -> Result<Option<(TcpStream, SocketAddr)>, ServeError> {
+    match listener.accept() {
+        Ok((stream, peer)) => Ok(Some((stream, peer))),
+        Err(e) if quiet(&e) => Ok(None),
+        Err(source) => Err(ServeError::Io {
+            what: what(),
+            op: "accept",
+            source,
+        }),
     }
 }

@@ -95,13 +95,16 @@ fn serves_tcp_clients_one_after_the_other_and_stops_promptly() {
         let r = serve::serve_tcp(&mut line, &listener, &flag);
         (r, line)
     });
-    for _ in 0..2 {
+    for i in 0..2 {
         let mut client = TcpStream::connect(addr).unwrap();
         client
             .set_read_timeout(Some(Duration::from_millis(100)))
             .unwrap();
         client.write_all(&telegram(b'1')).unwrap();
         assert_eq!(read_n(&mut client, 2, Duration::from_secs(5)), [ACK, b'1']);
+        drop(client);
+        // The next client comes once this one is gone (else it would wait).
+        wait_for_kinds(&log, 2 * (i + 1));
     }
     // Stop while a client is connected and idle.
     let _idle = TcpStream::connect(addr).unwrap();
@@ -130,6 +133,107 @@ fn serves_tcp_clients_one_after_the_other_and_stops_promptly() {
         ]
     );
     assert_eq!(line.into_drives().len(), 1);
+}
+
+/// The event kinds (`fault`) of the log's bus events so far.
+fn kinds(log: &EventLog) -> Vec<String> {
+    log.events().into_iter().filter_map(|e| e.fault).collect()
+}
+
+/// Wait (hang guard 10 s) until the log holds `n` bus events.
+fn wait_for_kinds(log: &EventLog, n: usize) -> Vec<String> {
+    let give_up = std::time::Instant::now() + Duration::from_secs(10);
+    loop {
+        let k = kinds(log);
+        if k.len() >= n {
+            return k;
+        }
+        assert!(std::time::Instant::now() < give_up, "only {k:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_dropped() {
+    let log = EventLog::memory();
+    let mut line = line(&log);
+    let listener = serve::bind_loopback(0).unwrap();
+    let addr = listener.local_addr().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let reported = Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    let sink = Arc::clone(&reported);
+    let server = std::thread::spawn(move || {
+        let options = serve::TcpServeOptions {
+            idle_timeout: Some(Duration::from_millis(1000)),
+        };
+        let r = serve::serve_tcp_with(&mut line, &listener, &flag, &options, &mut |e| {
+            sink.lock()
+                .unwrap()
+                .push(e.fault.clone().unwrap_or_default())
+        });
+        (r, line)
+    });
+    let connect = || {
+        let c = TcpStream::connect(addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
+        c
+    };
+    let mut first = connect();
+    first.write_all(&telegram(b'1')).unwrap();
+    assert_eq!(read_n(&mut first, 2, Duration::from_secs(5)), [ACK, b'1']);
+    let first_addr = first.local_addr().unwrap();
+    // The second connects while the first holds the line: it waits.
+    let mut second = connect();
+    let second_addr = second.local_addr().unwrap();
+    second.write_all(&telegram(b'1')).unwrap();
+    let k = wait_for_kinds(&log, 2);
+    assert_eq!(k, ["connect", "wait"]);
+    // Nothing for the second while the first is connected and busy.
+    first.write_all(&telegram(b'1')).unwrap();
+    assert_eq!(read_n(&mut first, 2, Duration::from_secs(5)), [ACK, b'1']);
+    let mut none = [0u8; 4];
+    assert!(matches!(
+        second.read(&mut none),
+        Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock)
+    ));
+    // The first leaves; the second's telegram (sent while it waited) is
+    // served.
+    drop(first);
+    assert_eq!(read_n(&mut second, 2, Duration::from_secs(5)), [ACK, b'1']);
+    // Then it says nothing: dropped after the idle timeout.
+    let k = wait_for_kinds(&log, 5);
+    assert_eq!(k, ["connect", "wait", "disconnect", "connect", "idle"]);
+    let mut rest = Vec::new();
+    second
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
+    assert_eq!(second.read_to_end(&mut rest).unwrap(), 0);
+    stop.store(true, Ordering::SeqCst);
+    let (r, line) = server.join().unwrap();
+    r.unwrap();
+    assert_eq!(line.telegrams(), 3);
+    let details: Vec<String> = log.events().into_iter().filter_map(|e| e.detail).collect();
+    assert_eq!(details[0], format!("host connected from {first_addr}"));
+    assert_eq!(
+        details[1],
+        format!("host {second_addr} waits: the line is in use by {first_addr}")
+    );
+    assert_eq!(
+        details[2],
+        format!("host {first_addr} closed the connection")
+    );
+    assert!(
+        details[3].starts_with(&format!("host connected from {second_addr} (waited ")),
+        "{}",
+        details[3]
+    );
+    assert_eq!(
+        details[4],
+        format!("host {second_addr} dropped: sent nothing for 1000 ms (idle timeout)")
+    );
+    assert_eq!(*reported.lock().unwrap(), kinds(&log));
 }
 
 #[test]

@@ -5,6 +5,7 @@ pub mod commission;
 pub mod decode;
 pub mod diff;
 pub mod diff_live;
+pub mod doctor;
 pub mod encode;
 pub mod fingerprint;
 pub mod git_setup;

@@ -77,7 +77,9 @@ fn proto_of(p: driveset_schema::Protocol) -> ProtocolArg {
 fn at_baud(spec: &PortSpec, baud: u32) -> PortSpec {
     let mut s = spec.clone();
     match &mut s {
-        PortSpec::Serial { baud: b, .. } | PortSpec::Tcp { baud: b, .. } => *b = Some(baud),
+        PortSpec::Serial { baud: b, .. }
+        | PortSpec::Tcp { baud: b, .. }
+        | PortSpec::Rfc2217 { baud: b, .. } => *b = Some(baud),
         PortSpec::Sim(sim) => sim.baud = Some(baud),
         PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => {}
     }

@@ -23,7 +23,12 @@
 //!   line: on `--pty` (the default) a client opens the printed path as a
 //!   serial port (`--port /dev/pts/7?baud=9600`), on `--tcp` it connects
 //!   like to a serial device server in raw mode (`--port
-//!   tcp://127.0.0.1:40123`), one connection at a time. Replies leave at
+//!   tcp://127.0.0.1:40123`), one connection at a time: a client that
+//!   connects while another holds the line waits until that one closes or
+//!   is dropped after `--idle-timeout` seconds without sending anything
+//!   (default 30; 0 never drops), as device servers do. Waiting, serving
+//!   and dropping are printed on stderr (`sim: ...`) and logged (`--log`:
+//!   `connect`, `wait`, `idle`, `disconnect`). Replies leave at
 //!   the line rate (10 bit times a character) after the family's reaction
 //!   time (LUSTBUS section 10; `--keypad` for the slower ranges with a
 //!   KEYPAD attached).
@@ -61,12 +66,15 @@ use crate::{EXIT_BUS, EXIT_INPUT, EXIT_OK};
 #[derive(clap::Args)]
 #[command(after_help = "\
 The first line on stdout is `pty PATH` or `tcp IP:PORT` (for scripts); the rest goes to stderr.
+On --tcp one client at a time has the line, as on a serial device server: others wait
+(`sim: host ... waits`) until it closes or has sent nothing for --idle-timeout seconds.
 Stop with Ctrl-C or SIGTERM; --dump then writes every drive's family, address, schema,
 fingerprint and canonical state as JSON.
 
 Examples:
   driveset sim --family mc6000 --address 1 --address 2
   driveset sim --family tmd --address 1 --tcp 127.0.0.1:4001 --log bus.jsonl
+  driveset sim --family mc6000 --address 1 --tcp 4001 --idle-timeout 10
   driveset sim --family ecs --address 1 --pty --bitrate 500000")]
 pub struct Args {
     /// Drive family: mc6000 (MC7000 too), vf1000, tmd, ecs.
@@ -91,6 +99,11 @@ pub struct Args {
     /// says otherwise; 0 picks a free port).
     #[arg(long, value_name = "[IP:]PORT")]
     tcp: Option<String>,
+
+    /// With --tcp: drop a client that has sent nothing for this many
+    /// seconds so the next waiting client gets the line (0: never).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30, requires = "tcp")]
+    idle_timeout: u64,
 
     /// Line rate of the LUSTBUS / LECOM line (7E1).
     #[arg(long, value_name = "BAUD")]
@@ -326,11 +339,23 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                         "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
                     );
                 }
+                let options = serve::TcpServeOptions {
+                    idle_timeout: (args.idle_timeout > 0)
+                        .then(|| std::time::Duration::from_secs(args.idle_timeout)),
+                };
+                let idle = match options.idle_timeout {
+                    Some(t) => format!("idle clients dropped after {} s", t.as_secs()),
+                    None => "idle clients never dropped".into(),
+                };
                 eprintln!(
-                    "connect with --port tcp://{local}?baud={} (one connection at a time); Ctrl-C stops",
+                    "connect with --port tcp://{local}?baud={} (one connection at a time, others wait; {idle}); Ctrl-C stops",
                     config.baud
                 );
-                serve::serve_tcp(&mut line, &listener, &stop)
+                serve::serve_tcp_with(&mut line, &listener, &stop, &options, &mut |e| {
+                    if let Some(detail) = &e.detail {
+                        eprintln!("sim: {detail}");
+                    }
+                })
             }
         };
         (

@@ -1064,7 +1064,9 @@ fn port_has_rate(port: &str, key: &str) -> bool {
 
 fn set_rate(spec: &mut PortSpec, rate: u32) {
     match spec {
-        PortSpec::Serial { baud, .. } | PortSpec::Tcp { baud, .. } => *baud = Some(rate),
+        PortSpec::Serial { baud, .. }
+        | PortSpec::Tcp { baud, .. }
+        | PortSpec::Rfc2217 { baud, .. } => *baud = Some(rate),
         PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
         PortSpec::Sim(s) => {
             if s.family.to_ascii_lowercase().contains("ecs") {

@@ -1,0 +1,373 @@
+//! `driveset doctor --port P [--address N] [--protocol lustbus|lecom|can]`:
+//! the read-only first check of a new line (driveset-engine's `doctor`
+//! module does the protocol work): which rates answer, round trips, echo,
+//! parity, the USB adapter's latency timer, and what to change.
+//!
+//! The latency timers come from `SYSFS/bus/usb-serial/devices/*/
+//! latency_timer`, `SYSFS` being `/sys` unless `--sysfs DIR` points at
+//! another tree (tests use a fake one).
+
+// EngineError is large by design; it is built on the failure path only.
+#![allow(clippy::result_large_err)]
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use driveset_engine::doctor::{
+    DoctorOptions, DoctorProtocol, DoctorReport, LatencyTimer, ProbeResult, ms, run as doctor_run,
+    run_can,
+};
+use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
+
+use super::identify::BusFormat;
+use crate::output;
+use crate::port::{self, Fail};
+use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK};
+
+/// `--protocol` of `driveset doctor`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DoctorProtocolArg {
+    /// LUSTBUS (Lust VF1000, MC6000/7000).
+    Lustbus,
+    /// LECOM-A/B (Lenze Tmd).
+    Lecom,
+    /// CAN SDO (Lenze ECS).
+    Can,
+}
+
+/// Arguments of `driveset doctor`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Read-only: the only telegrams sent are reads of an identification code
+(LUSTBUS: ENQUIRY of 91-TYPE; LECOM: RECEIVE of C0093; CAN: an SDO upload
+of the schema's first identification code). Nothing in a drive changes.
+
+Checks: which rates a drive answers at (the port's first, then every other
+rate of the protocol, highest first: LUSTBUS 5.1; only the port's on a raw
+tcp:// server, whose rate is set on the server, and on a pty); round-trip times over
+--probes exchanges (min / median / p95 / max against the wire time); echo
+of driveset's own bytes (2-wire RS-485 adapters); parity trouble (a 7E1
+line read as 8 data bits shows the parity bit in bit 7; bad BCCs); the USB
+adapter's latency timer (/sys/bus/usb-serial/devices/*/latency_timer);
+then one advice line per thing to change.
+
+Without --address: LUSTBUS address 0 (every drive answers; give the
+address on a line with several drives), LECOM station 01, CAN node 1.
+
+Exit codes: 0 a drive answers and nothing needs changing, 1 a drive
+answers but there is advice, 2 usage or input error, 3 nothing answered
+or the port failed.
+
+Examples:
+  driveset doctor --port /dev/ttyUSB0 --protocol lustbus --address 1
+  driveset doctor --port rfc2217://10.0.0.7:2217?baud=19200 --protocol lecom
+  driveset doctor --port sim://mc6000?addresses=1 --format json")]
+pub struct Args {
+    /// The port (the echo= option is ignored: the doctor looks at the raw bytes).
+    #[arg(long)]
+    pub port: String,
+    /// The drive's address (LUSTBUS 0..30, LECOM 01..99, CAN node id).
+    #[arg(long)]
+    pub address: Option<u8>,
+    /// Protocol, when a sim:// port does not say it.
+    #[arg(long, value_enum)]
+    pub protocol: Option<DoctorProtocolArg>,
+    /// Round-trip probes at the answering rate.
+    #[arg(long, value_name = "N", default_value_t = 20)]
+    pub probes: u32,
+    /// Answer timeout per probe, in milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 300)]
+    pub timeout: u64,
+    /// Root of the sysfs tree to read USB adapters' latency timers from.
+    #[arg(long, value_name = "DIR", default_value = "/sys")]
+    pub sysfs: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset doctor`.
+pub fn run(args: Args) -> anyhow::Result<u8> {
+    port::finish(doctor(&args))
+}
+
+/// The port string at another rate, echo stripping off.
+fn raw_at(spec: &PortSpec, baud: u32) -> PortSpec {
+    let mut s = spec.clone().with_echo(EchoMode::Off);
+    if let PortSpec::Serial { baud: b, .. }
+    | PortSpec::Tcp { baud: b, .. }
+    | PortSpec::Rfc2217 { baud: b, .. } = &mut s
+    {
+        *b = Some(baud);
+    }
+    s
+}
+
+/// The latency timers under `root`, marking the port's adapter.
+pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
+    let dir = root.join("bus/usb-serial/devices");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Vec::new();
+    };
+    let own = match spec {
+        PortSpec::Serial { path, .. } => {
+            let p = Path::new(path);
+            let real = std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+            real.file_name().map(|n| n.to_string_lossy().into_owned())
+        }
+        _ => None,
+    };
+    let mut out: Vec<LatencyTimer> = entries
+        .filter_map(Result::ok)
+        .filter_map(|e| {
+            let device = e.file_name().to_string_lossy().into_owned();
+            let path = e.path().join("latency_timer");
+            let text = std::fs::read_to_string(&path).ok()?;
+            let ms = text.trim().parse::<u32>().ok()?;
+            Some(LatencyTimer {
+                this_port: own.as_deref() == Some(device.as_str()),
+                device,
+                path: path.display().to_string(),
+                ms,
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| a.device.cmp(&b.device));
+    out
+}
+
+fn doctor(args: &Args) -> Result<u8, Fail> {
+    let opened = port::open_port(&args.port)?;
+    let protocol = match (args.protocol, opened.sim_family()) {
+        (Some(DoctorProtocolArg::Lustbus), _) => DoctorProtocol::Lustbus,
+        (Some(DoctorProtocolArg::Lecom), _) => DoctorProtocol::Lecom,
+        (Some(DoctorProtocolArg::Can), _) => DoctorProtocol::Can,
+        (None, Some(f)) => match port::family_protocol(f) {
+            driveset_schema::Protocol::Lecom => DoctorProtocol::Lecom,
+            driveset_schema::Protocol::LenzeCanSdo => DoctorProtocol::Can,
+            _ => DoctorProtocol::Lustbus,
+        },
+        (None, None) if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::Can,
+        (None, None) => {
+            return Err(Fail::input(
+                "say which protocol the line speaks: --protocol lustbus|lecom|can",
+            ));
+        }
+    };
+    let mut options = DoctorOptions::new(protocol);
+    options.address = args.address;
+    options.probes = args.probes.max(1);
+    options.timeout = std::time::Duration::from_millis(args.timeout.max(1));
+    options.fixed_rate = match &opened.spec {
+        PortSpec::Tcp { .. } => Some(
+            "a raw tcp:// device server's line rate is set on the server (rfc2217:// lets driveset set it)".into(),
+        ),
+        PortSpec::Serial { path, .. } if path.starts_with("/dev/pts/") => {
+            Some("a pseudo terminal has no line rate".into())
+        }
+        _ => None,
+    };
+    let name = opened.name.clone();
+    let report = match protocol {
+        DoctorProtocol::Can => {
+            let schema =
+                port::resolve_schema(None, &[], None, Some(port::ProtocolArg::Sdo))?.schema;
+            let Link::Frames(mut link) = opened.link else {
+                return Err(Fail::input(format!(
+                    "{name} is a character line: use --protocol lustbus or lecom"
+                )));
+            };
+            run_can(link.as_mut(), &schema, &options)?
+        }
+        _ => {
+            if matches!(opened.link, Link::Frames(_)) {
+                return Err(Fail::input(format!(
+                    "{name} is a CAN port: use --protocol can"
+                )));
+            }
+            let timers = latency_timers(&args.sysfs, &opened.spec);
+            let port_baud = opened.spec.line_baud().unwrap_or(9600);
+            let spec = opened.spec.clone();
+            match opened.sim {
+                Some(sim) => {
+                    let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
+                        sim.with_bus(|b| match b {
+                            driveset_sim::open::SimBus::Bytes(b) => {
+                                b.set_baud(baud).map_err(|_| LinkError::UnsupportedBaud {
+                                    port: name.clone(),
+                                    baud,
+                                })
+                            }
+                            driveset_sim::open::SimBus::Frames(_) => {
+                                Err(LinkError::UnsupportedBaud {
+                                    port: name.clone(),
+                                    baud,
+                                })
+                            }
+                        })?;
+                        sim.byte_link().ok_or(LinkError::UnsupportedBaud {
+                            port: name.clone(),
+                            baud,
+                        })
+                    };
+                    doctor_run(&name, port_baud, &mut open, &options, timers)?
+                }
+                None => {
+                    drop(opened.link);
+                    let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
+                        let s = raw_at(&spec, baud);
+                        match driveset_link::open(&s, &driveset_link::OpenOptions::default())? {
+                            Link::Bytes(l) => Ok(l),
+                            Link::Frames(_) => Err(LinkError::Unsupported {
+                                port: s.to_string(),
+                                what: "a CAN port".into(),
+                            }),
+                        }
+                    };
+                    doctor_run(&name, port_baud, &mut open, &options, timers)?
+                }
+            }
+        }
+    };
+    match args.format {
+        BusFormat::Json => output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&report).unwrap_or_default()
+        )),
+        BusFormat::Human => output::emit(&human(&report)),
+    }
+    Ok(if !report.answered() {
+        EXIT_BUS
+    } else if report.advice.is_empty() {
+        EXIT_OK
+    } else {
+        EXIT_FINDINGS
+    })
+}
+
+/// The human report.
+pub fn human(r: &DoctorReport) -> String {
+    let mut out = String::new();
+    let proto = match r.protocol {
+        DoctorProtocol::Lustbus => "LUSTBUS",
+        DoctorProtocol::Lecom => "LECOM-A/B",
+        DoctorProtocol::Can => "CAN SDO",
+    };
+    let who = match (r.protocol, r.address) {
+        (DoctorProtocol::Lustbus, 0) => "address 0 (any drive)".to_string(),
+        (DoctorProtocol::Can, a) => format!("node {a}"),
+        (_, a) => format!("address {a}"),
+    };
+    let unit = if r.protocol == DoctorProtocol::Can {
+        "bit/s"
+    } else {
+        "baud"
+    };
+    let _ = writeln!(
+        out,
+        "doctor {} ({proto}, {who}; read-only: reads {} only)",
+        r.port, r.probe
+    );
+    match &r.fixed_rate {
+        Some(why) => {
+            let _ = writeln!(out, "rates: only the port's ({why}):");
+        }
+        None => {
+            let _ = writeln!(out, "rates:");
+        }
+    }
+    for x in &r.rates {
+        let what = match &x.result {
+            ProbeResult::Answer { value } => format!("answers ({value})"),
+            ProbeResult::Garbled { detail } => format!("garbled: {detail}"),
+            ProbeResult::Silent => "silent".to_string(),
+        };
+        let mark = if x.baud == r.port_baud {
+            " (the port's)"
+        } else {
+            ""
+        };
+        let _ = writeln!(out, "  {:>7} {unit}{mark}: {what}", x.baud);
+    }
+    match &r.round_trips {
+        Some(t) => {
+            let _ = writeln!(
+                out,
+                "round trips at {} {unit}: {} of {} answered; min {}, median {}, p95 {}, max {}; wire time {}",
+                t.baud,
+                t.answered,
+                t.probes,
+                ms(t.min_us),
+                ms(t.median_us),
+                ms(t.p95_us),
+                ms(t.max_us),
+                ms(t.wire_us)
+            );
+        }
+        None => {
+            let _ = writeln!(out, "round trips: none (nothing answered)");
+        }
+    }
+    if r.protocol != DoctorProtocol::Can {
+        let _ = writeln!(
+            out,
+            "echo: {}",
+            if r.echo.echo {
+                format!(
+                    "yes, {} of {} exchanges came back starting with driveset's own bytes",
+                    r.echo.echoed, r.echo.exchanges
+                )
+            } else {
+                format!("none ({} exchanges with an answer)", r.echo.exchanges)
+            }
+        );
+        let p = &r.parity;
+        let _ = writeln!(
+            out,
+            "parity: {}: {} of {} answer bytes with bit 7 set, {} with odd 8-bit weight, {} bad BCC, {} garbled",
+            if p.read_as_8_bits {
+                "7E1 read as 8 data bits"
+            } else if p.high_bit > 0 || p.garbled > 0 {
+                "trouble"
+            } else {
+                "ok"
+            },
+            p.high_bit,
+            p.bytes,
+            p.odd_weight,
+            p.bad_bcc,
+            p.garbled
+        );
+        let timers: Vec<String> = r
+            .latency_timers
+            .iter()
+            .map(|t| {
+                format!(
+                    "{} {} ms{}",
+                    t.device,
+                    t.ms,
+                    if t.this_port { " (this port)" } else { "" }
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "latency timer: {}",
+            if timers.is_empty() {
+                "none found (no USB serial adapter in /sys/bus/usb-serial, or not Linux)"
+                    .to_string()
+            } else {
+                timers.join(", ")
+            }
+        );
+    }
+    if r.advice.is_empty() {
+        let _ = writeln!(out, "advice: none, the line looks fine");
+    } else {
+        let _ = writeln!(out, "advice:");
+        for a in &r.advice {
+            let _ = writeln!(out, "  - {a}");
+        }
+    }
+    out
+}

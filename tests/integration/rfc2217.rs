@@ -1,0 +1,219 @@
+//! RFC 2217 interop: pyserial's RFC 2217 server (`serial.rfc2217.PortManager`,
+//! in `scripts/rfc2217-bridge.py`) in front of `driveset sim --pty`, and
+//! `driveset identify` / `pull` through `rfc2217://127.0.0.1:PORT`. The
+//! bridge prints the line settings driveset gave it: the test checks they
+//! are 7E1 at the port's rate.
+//!
+//! Needs pyserial from `scripts/setup-python` (target/py; `DRIVESET_PYTHON`
+//! may name another interpreter). Without it the test is skipped with a
+//! message under plain `cargo test`; `./scripts/test` sets
+//! `DRIVESET_REQUIRE_INTEROP=1`, which turns the skip into a failure.
+//! Timeouts are hang guards only.
+#![cfg(unix)]
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use crate::util::{driveset, workspace_root};
+
+/// The interpreter with pyserial, or `None` (after saying why) when the
+/// test should be skipped.
+pub(crate) fn python_or_skip(what: &str) -> Option<PathBuf> {
+    let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
+        || workspace_root().join("target/py/bin/python"),
+        PathBuf::from,
+    );
+    if python.exists() {
+        return Some(python);
+    }
+    let msg = format!(
+        "{what}: {} is missing: run scripts/setup (or scripts/setup-python: the pinned pyserial into target/py), or set DRIVESET_PYTHON",
+        python.display()
+    );
+    if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
+        panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
+    }
+    eprintln!("skipped: {msg}");
+    None
+}
+
+/// The running bridge: its port and every stdout line after the first.
+struct Bridge {
+    child: Child,
+    addr: String,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl Bridge {
+    fn start(python: &PathBuf, pty: &str) -> Bridge {
+        let mut child = Command::new(python)
+            .arg(workspace_root().join("scripts/rfc2217-bridge.py"))
+            .arg(pty)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+        let mut out = BufReader::new(child.stdout.take().expect("stdout"));
+        let mut first = String::new();
+        out.read_line(&mut first).expect("bridge first line");
+        let addr = first
+            .trim_end()
+            .strip_prefix("rfc2217 ")
+            .unwrap_or_else(|| {
+                panic!(
+                    "bridge said `{first}` (a ModuleNotFoundError means: run scripts/setup-python)"
+                )
+            })
+            .to_string();
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&lines);
+        std::thread::spawn(move || {
+            for line in out.lines().map_while(Result::ok) {
+                sink.lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .push(line);
+            }
+        });
+        Bridge { child, addr, lines }
+    }
+
+    /// Wait (hang guard) until the bridge has printed `n` lines.
+    fn lines(&self, n: usize) -> Vec<String> {
+        let give_up = Instant::now() + Duration::from_secs(30);
+        loop {
+            let l = self
+                .lines
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .clone();
+            if l.len() >= n || Instant::now() > give_up {
+                return l;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+impl Drop for Bridge {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A running `driveset sim --pty`.
+struct PtySim {
+    child: Child,
+    path: String,
+}
+
+impl PtySim {
+    fn start(args: &[&str]) -> PtySim {
+        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+            .arg("sim")
+            .args(args)
+            .arg("--pty")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start driveset sim");
+        let mut first = String::new();
+        BufReader::new(child.stdout.take().expect("stdout"))
+            .read_line(&mut first)
+            .expect("sim first line");
+        let path = first
+            .trim_end()
+            .strip_prefix("pty ")
+            .unwrap_or_else(|| panic!("sim said `{first}`"))
+            .to_string();
+        PtySim { child, path }
+    }
+}
+
+impl Drop for PtySim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn run(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = driveset()
+        .args(args)
+        .timeout(Duration::from_secs(300))
+        .output()
+        .expect("run driveset");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn identify_and_pull_through_pyserials_rfc2217_server_set_7e1_and_the_rate() {
+    let Some(python) = python_or_skip("RFC 2217 interop test") else {
+        return;
+    };
+    let _one = crate::e2e_pty::one_at_a_time();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sim = PtySim::start(&["--family", "mc6000", "--address", "1", "--baud", "19200"]);
+    let bridge = Bridge::start(&python, &sim.path);
+    let port = format!("rfc2217://{}?baud=19200", bridge.addr);
+
+    let (code, out, err) = run(&[
+        "identify",
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--protocol",
+        "lustbus",
+    ]);
+    assert_eq!(code, Some(0), "identify: {out}\n{err}");
+    assert!(out.contains(&format!("port:     {port}\n")), "{out}");
+    assert!(out.contains("family:   lustbus-mc\n"), "{out}");
+
+    let file = dir.path().join("axis.toml");
+    let (code, out, err) = run(&[
+        "pull",
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--schema",
+        "fictional-mc6000-demo",
+        "-o",
+        file.to_str().expect("utf-8 path"),
+    ]);
+    assert_eq!(code, Some(0), "pull: {out}\n{err}");
+    assert!(
+        out.starts_with(&format!("pulled 227 values from {port} address 1 into ")),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&file).expect("pulled set");
+    assert!(
+        text.starts_with(&format!("# Pulled by driveset from {port} address 1.\n")),
+        "{text}"
+    );
+
+    let lines = bridge.lines(6);
+    let settings = "set baud=19200 bytesize=7 parity=E stopbits=1";
+    assert_eq!(lines.len(), 6, "{lines:?}");
+    for (i, want) in ["connected 127.0.0.1:", settings, "disconnected"]
+        .iter()
+        .cycle()
+        .take(6)
+        .enumerate()
+    {
+        assert!(lines[i].starts_with(want), "line {i}: {lines:?}");
+    }
+    // Exactly the settings, nothing else after `set`.
+    assert_eq!(lines[1], settings);
+    assert_eq!(lines[4], settings);
+}
