@@ -4,7 +4,7 @@
 //! --tcp`, through the [`crate::proxy`] that behaves like the hardware in
 //! between: none, 16 ms +- 4 ms each way (an FTDI adapter's latency timer),
 //! 40 ms +- 10 ms (a serial device server), 3 ms with every byte echoed (a
-//! 2-wire RS-485 adapter: pending the link-level `?echo=`), 5 ms forwarded
+//! 2-wire RS-485 adapter: stripped by the link's `?echo=auto`), 5 ms forwarded
 //! two bytes at a time, and 100 ms +- 20 ms. Short sets (four codes,
 //! `tests/data/sets/latency/`), so the suite stays fast; the full sets in
 //! the ignored [`full_sets_through_a_device_server`].
@@ -270,23 +270,19 @@ fn tmd_with_a_given_latency_through_100ms() {
     through(&TMD, TMD.set, FAR, Via::Tcp, "?latency=240ms");
 }
 
-// The echo row (3 ms, every byte sent comes back) needs the link-level
-// echo stripping (`?echo=auto`, issue 11, another branch). PENDING: the
-// proxy's echo mode is tested in proxy.rs; these run once `?echo=` lands.
+// The echo row (3 ms, every byte sent comes back): the link-level echo
+// stripping (`?echo=auto`, the default) removes the master's own bytes.
 #[test]
-#[ignore = "PENDING: needs the link-level echo stripping (?echo=, issue 11)"]
 fn mc6000_with_echo_3ms() {
     mc6000_short(ECHO);
 }
 
 #[test]
-#[ignore = "PENDING: needs the link-level echo stripping (?echo=, issue 11)"]
 fn tmd_with_echo_3ms() {
     short(&TMD, ECHO);
 }
 
 #[test]
-#[ignore = "PENDING: needs the link-level echo stripping (?echo=, issue 11)"]
 fn vf1000_with_echo_3ms() {
     short(&VF1000, ECHO);
 }

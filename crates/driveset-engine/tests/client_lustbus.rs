@@ -681,3 +681,77 @@ mod learn {
         assert_eq!(s.codes, 58);
     }
 }
+
+/// A drive (or link) 150 ms slow, far beyond section 10's 30 ms: the first
+/// telegram's first-contact allowance (200 ms) sees its reply, and from
+/// then on the measured latency sizes every timeout; nothing is repeated.
+#[test]
+fn a_slow_link_is_measured_not_timed_out() {
+    let slow = |a| -> Box<dyn ByteDrive> {
+        Box::new(
+            Mc6000::new(
+                LustOptions::new(a).reaction(ReactionTime::fixed(Duration::from_millis(150))),
+            )
+            .expect("mc6000"),
+        )
+    };
+    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
+    c.identify().expect("identify");
+    for _ in 0..10 {
+        c.read(CodeKey::new(100)).expect("read");
+    }
+    c.write(CodeKey::new(561), &RawValue::Int(-42))
+        .expect("write");
+    assert_eq!(c.read(CodeKey::new(561)).unwrap(), RawValue::Int(-42));
+    assert_eq!(c.stats().retries, 0);
+    assert_eq!(c.stats().late, 0);
+    // 150 ms less the 1 ms minimum reaction, measured; 1.5 x + 10 ms.
+    let a = c.latency().allowance();
+    assert!(
+        a >= Duration::from_millis(230) && a <= Duration::from_millis(240),
+        "{a:?}"
+    );
+
+    // The same drive with the fixed answer timeout of the spec alone
+    // (30 ms + wire time + 10 ms): the first try times out and its reply
+    // comes after the late window, during the repetition; being the same
+    // ENQUIRY (same address and CODE) it is that repetition's answer, but
+    // only after a retry.
+    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let o = LustbusOptions {
+        answer_timeout: Some(Duration::from_millis(40) + wire_time(18, 9600)),
+        ..LustbusOptions::default()
+    };
+    let mut c = LustbusClient::with_options(bus, schema(Family::Mc6000), 1, o).unwrap();
+    c.read(CodeKey::new(100)).expect("read");
+    assert_eq!(c.stats().retries, 1);
+}
+
+/// A reply after its answer timeout but within the late window (as long
+/// again) is counted as late and dropped, and the telegram repeated.
+#[test]
+fn a_late_reply_is_recognised_and_dropped() {
+    let late =
+        Mc6000::new(LustOptions::new(1).reaction(ReactionTime::fixed(Duration::from_millis(70))))
+            .expect("mc6000");
+    let (_rig, bus) = sim_bus(9600, vec![Box::new(late)], None);
+    let o = LustbusOptions {
+        tries: 2,
+        answer_timeout: Some(Duration::from_millis(50)),
+        ..LustbusOptions::default()
+    };
+    let mut c = LustbusClient::with_options(bus, schema(Family::Mc6000), 1, o).unwrap();
+    let err = c.read(CodeKey::new(100)).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        "{text}"
+    );
+    assert!(
+        text.contains("later than the answer timeout of 50 ms (late, discarded)"),
+        "{text}"
+    );
+    assert_eq!(c.stats().late, 2);
+    assert_eq!(c.stats().telegrams, 2);
+}

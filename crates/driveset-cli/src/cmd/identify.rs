@@ -50,7 +50,7 @@ Examples:
   driveset identify --port /dev/ttyUSB0?baud=9600 --address 3 --protocol lecom
   driveset identify --port tcp://10.0.0.7:4001 --address 1 --schema lust-vf1000 --format json")]
 pub struct Args {
-    /// The port (/dev/ttyUSB0?baud=9600, tcp://host:port, slcan://..., sim://FAMILY?addresses=...).
+    /// The port (/dev/ttyUSB0?baud=9600, tcp://host:port?latency=80ms, slcan://..., sim://FAMILY?addresses=...).
     #[arg(long)]
     pub port: String,
     /// Bus address (LUSTBUS 1..30, LECOM 1..99, CAN node id 1..127).

@@ -57,6 +57,12 @@ the drive's own descriptions first (the spec's facts stand; written to
 --schema-dir when given; --no-learn turns it off). A set pulled by
 `driveset pull` names its learned schema file already.
 
+Answer timeouts fit the link: the spec's longest reaction + wire time +
+the latency measured from the session's round trips; over a USB adapter or
+a serial device server give its round-trip delay with ?latency= (e.g.
+--port tcp://moxa:4001?latency=80ms). The report counts the SLOAD polls of
+the MC6000/7000 dataset check and any late replies dropped.
+
 Journal: --journal FILE, or DIR/<bus>-<address>.journal.json with
 --journal-dir DIR; default .driveset/journal/<bus>-<address>.journal.json
 in the current directory, <bus> the drive's bus id (tcp:127.0.0.1:4001,
