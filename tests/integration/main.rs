@@ -14,6 +14,7 @@ mod line;
 mod pull;
 mod recover;
 mod report;
+mod safety;
 mod schema_check;
 mod show;
 mod sim;

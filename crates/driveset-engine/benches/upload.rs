@@ -70,8 +70,8 @@ mod rig;
 
 use std::time::Duration;
 
-use driveset_engine::overrides::Overrides;
 use driveset_engine::client::LustbusOptions;
+use driveset_engine::overrides::Overrides;
 use driveset_engine::plan::Phase;
 use driveset_engine::upload::{Strategy, UploadOptions, UploadReport, prepare, upload};
 use driveset_link::mem::{bits_time, wire_time};

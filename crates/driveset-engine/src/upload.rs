@@ -41,15 +41,14 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
 use crate::error::EngineError;
-use crate::overrides::Overrides;
 use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalValue, PlanEntryRecord,
     TxnState,
 };
+use crate::overrides::Overrides;
 use crate::plan::{
     DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
-    code_label,
-    is_secret, plan, value_text,
+    code_label, is_secret, plan, value_text,
 };
 
 /// How to run an upload.
@@ -544,9 +543,7 @@ impl Txn<'_> {
     fn attempt(&mut self, set: &ResolvedSet) -> Result<(), Stop> {
         let current = read_values(self.client, set.values.keys().copied())?;
         let mut planned = plan(&self.schema, set, &current, &self.popts);
-        if self.popts.running == Running::NotRead
-            && planned.as_ref().is_ok_and(|p| !p.is_empty())
-        {
+        if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
             self.popts.running = self.client.running()?.into();
             planned = plan(&self.schema, set, &current, &self.popts);
         }

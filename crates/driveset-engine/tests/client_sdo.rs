@@ -187,8 +187,8 @@ fn upload_reads_the_running_state_from_c0150_and_refuses_a_running_axis() {
     // stopped (C0150 bit 1 clear): the upload goes through, no warning
     let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema.clone(), 3).unwrap();
-    let report = upload(&mut c, &set, &UploadOptions::new(dir.path().join("a.json")))
-        .expect("stopped axis");
+    let report =
+        upload(&mut c, &set, &UploadOptions::new(dir.path().join("a.json"))).expect("stopped axis");
     assert_eq!(report.state, TxnState::Complete);
     assert!(report.warnings.is_empty(), "{:?}", report.warnings);
 
@@ -307,7 +307,9 @@ note = "test"
     );
     let p = prepare(&mut c, &speed_set(&s, 1), opts.overrides).expect("plan");
     assert!(
-        p.plan.render(None).contains("warning: running state unknown (--allow-running-unknown)"),
+        p.plan
+            .render(None)
+            .contains("warning: running state unknown (--allow-running-unknown)"),
         "{}",
         p.plan.render(None)
     );

@@ -270,7 +270,10 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
         ..PlanOptions::default()
     };
     let again = plan(&schema, &set, &current, &every).expect_err("still refused");
-    assert!(again.iter().any(|p| p.contains("C0002 = 1 is a command")), "{again:?}");
+    assert!(
+        again.iter().any(|p| p.contains("C0002 = 1 is a command")),
+        "{again:?}"
+    );
     assert!(
         all.contains("C0039/3: code 39 has subcodes 1..=2 only"),
         "{all}"

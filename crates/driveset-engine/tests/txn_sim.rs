@@ -5,10 +5,10 @@
 use std::path::Path;
 use std::time::Duration;
 
-use driveset_engine::overrides::Overrides;
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::live::live_diff;
+use driveset_engine::overrides::Overrides;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, prepare, upload};
 use driveset_link::VirtualClock;

@@ -449,8 +449,10 @@ fn check_roles(schema: &Schema, c: &Code, what: &str, out: &mut Vec<Finding>) {
             "a PT_PASSWORD code is a password; remove the role",
         ));
     }
-    if matches!(c.role, Some(Role::ControlWord | Role::Command | Role::Setpoint))
-        && c.access == Some(crate::schema::Access::Ro)
+    if matches!(
+        c.role,
+        Some(Role::ControlWord | Role::Command | Role::Setpoint)
+    ) && c.access == Some(crate::schema::Access::Ro)
     {
         out.push(f(
             &role_loc,

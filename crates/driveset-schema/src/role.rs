@@ -362,7 +362,9 @@ pub fn refusal(
     match code.role? {
         Role::Command => Some((
             FindingKind::Command,
-            format!("{shown} = {value} is a command ({title}), not a setting; a set cannot hold it"),
+            format!(
+                "{shown} = {value} is a command ({title}), not a setting; a set cannot hold it"
+            ),
             "remove this line: run the command on the drive itself, never from a set".into(),
         )),
         Role::ControlWord => {

@@ -209,7 +209,8 @@ fn load_source(
                         crate::canonical::SECRET,
                         f.kind
                     );
-                    f.help = "give a valid password (the value is not shown: it is a secret)".into();
+                    f.help =
+                        "give a valid password (the value is not shown: it is a secret)".into();
                     // which schema fact it broke would narrow the value down
                     f.related.clear();
                 }

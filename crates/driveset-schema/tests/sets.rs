@@ -412,7 +412,10 @@ fn fingerprint_round_trips_through_all_formats() {
     assert!(toml.contains("\"C0039/1\" = \"-3.5 Hz\"\n"), "{toml}");
     assert!(toml.contains("C0404 = \"<secret>\"\n"), "{toml}");
     assert!(!toml.contains("4711"), "{toml}");
-    let back = load("r.toml", &toml.replace("\"fictional-test\"", "\"fictional-test.toml\""));
+    let back = load(
+        "r.toml",
+        &toml.replace("\"fictional-test\"", "\"fictional-test.toml\""),
+    );
     assert_eq!(
         summary(&back),
         vec![(
@@ -460,7 +463,10 @@ fn diff_semantic_defaults_unified() {
     let mut c = a.clone();
     c.insert(CodeKey::new(404), RawValue::Int(2));
     let u = unified_diff(&a, &c, &schema, "a", "c");
-    assert!(u.contains("\n-C0404 <secret: old value>\n+C0404 <secret: new value>\n"), "{u}");
+    assert!(
+        u.contains("\n-C0404 <secret: old value>\n+C0404 <secret: new value>\n"),
+        "{u}"
+    );
     assert_eq!(
         diff(&a, &c, &schema).unwrap().to_string(),
         "C0404 access_code: differs (secret)\n"

@@ -368,8 +368,10 @@ impl FrameDrive for EcsDrive {
             _ => 0,
         };
         let bit = 1i64 << ind.bit;
-        self.values
-            .insert(key, RawValue::Int(if running { word | bit } else { word & !bit }));
+        self.values.insert(
+            key,
+            RawValue::Int(if running { word | bit } else { word & !bit }),
+        );
         Ok(())
     }
 }

@@ -141,8 +141,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     }
     let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
-    let mut client =
-        port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
+    let mut client = port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
     if !args.allow_family
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {

@@ -474,7 +474,7 @@ fn render(args: &Args, id: &str, source: &str, codes: &[Pulled], mc: bool) -> St
             let _ = writeln!(out, "card_writeable = {cw}");
         }
         if c.ty == ParameterType::Password {
-            let _ = writeln!(out, "password = true");
+            let _ = writeln!(out, "role = \"password\"");
         }
         if matches!(c.number, 81..=85 | 91) {
             let _ = writeln!(out, "compatible = true");

@@ -42,7 +42,6 @@ use driveset_link::{Instant, Link, OpenOptions, PortSpec};
 use driveset_schema::{CodeKey, DiffKind, Protocol, RawValue, ResolvedSet, Role, Schema};
 use serde::{Deserialize, Serialize};
 
-use crate::overrides::Overrides;
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
 use super::report::{
     BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LineReport, LineResult, REPORT_VERSION,
@@ -55,6 +54,7 @@ use crate::client::{
 use crate::error::EngineError;
 use crate::identify::check_family;
 use crate::live::live_values;
+use crate::overrides::Overrides;
 use crate::plan::value_text;
 use crate::upload::{UploadOptions, default_journal_path, upload};
 
