@@ -445,3 +445,41 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
         .code(1)
         .stdout("error[out-of-range]: C0094 (user_password) = <secret>: the value is not valid for this code (out-of-range)\n --> bad.toml:3:9\n  |\n3 | C0094 = <secret>\n  |         ^^^^^^^^ here\n  = help: give a valid password (the value is not shown: it is a secret)\n\n1 finding in 1 of 1 file\n");
 }
+
+#[test]
+fn commission_refuses_a_line_whose_set_could_start_a_motor_before_anything_is_sent() {
+    let dir = tmp();
+    let d = dir.path();
+    set_file(
+        d,
+        "vf.toml",
+        "fictional-vf1000-demo.toml",
+        "CNTL = 128\nSIOT = 5\n",
+    );
+    std::fs::write(
+        d.join("line.toml"),
+        "[line]\nname = \"t\"\n\n[[bus]]\nname = \"b\"\nport = \"sim://vf1000?addresses=1\"\nprotocol = \"lustbus\"\n\n[[drive]]\nname = \"conveyor\"\nbus = \"b\"\naddress = 1\nset = \"vf.toml\"\n",
+    )
+    .unwrap();
+    for extra in [&[][..], &["--allow-running", "--allow-family"][..]] {
+        in_dir(d)
+            .args(["commission", "line.toml"])
+            .args(extra)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(
+                "error[control-word-not-stopped]: 3-CNTL = { start_clockwise = 1 } would start or enable the drive (start_clockwise set)\n --> vf.toml:3:8\n",
+            ))
+            .stderr(predicate::str::ends_with(
+                "error: line.toml: 1 finding(s) in the line manifest; nothing was sent (see `driveset validate line.toml`)\n",
+            ));
+    }
+    assert!(!d.join("sim/sim-vf1000.json").exists());
+    in_dir(d)
+        .args(["commission", "line.toml", "--force"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with(
+            "error: --force was replaced by named overrides",
+        ));
+}
