@@ -138,6 +138,7 @@ pub fn load_set(
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {
+    let overrides = args.allow.overrides()?;
     let (schema, set) = match load_set(&args.set, &args.schemas) {
         Ok(x) => x,
         Err(code) => {
@@ -147,7 +148,6 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             });
         }
     };
-    let overrides = args.allow.overrides()?;
     let opened = port::open_port(&args.port)?;
     let port_name = opened.name.clone();
     let mut client =
