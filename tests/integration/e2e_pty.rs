@@ -664,6 +664,7 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
     ] {
         assert!(stdout.lines().any(|l| l == line), "{line}\n{stdout}");
     }
+    // every object as before (C0135 included) but the three written
     let want: Vec<String> = initial
         .iter()
         .map(|l| match l.split_once(' ').expect("CODE RAW").0 {

@@ -22,6 +22,7 @@ mod pull;
 mod recover;
 mod report;
 mod rfc2217;
+mod safety;
 mod schema_check;
 mod schema_import;
 mod show;

@@ -172,6 +172,25 @@ pub fn diff_defaults(set: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffErr
             e.text = e.text.replacen("(unset)", "(no factory default known)", 1);
         }
     }
+    // whether a secret equals its (public) factory default would tell its
+    // value: every secret the set gives is listed, never compared
+    d.entries.retain(|e| !set.is_secret(&e.key));
+    for (key, v) in &set.values {
+        if set.is_secret(key) {
+            d.entries.push(DiffEntry {
+                key: *key,
+                kind: DiffKind::Changed,
+                old: None,
+                new: Some(v.clone()),
+                text: format!(
+                    "{}: {} (a secret: not compared with the factory default)",
+                    label(schema, *key),
+                    crate::canonical::SECRET
+                ),
+            });
+        }
+    }
+    d.entries.sort_by_key(|e| e.key);
     Ok(d)
 }
 

@@ -180,22 +180,21 @@ fn load_source(
                 continue;
             }
             let secret = schema.is_password(code);
-            if secret {
-                if matches!(&e.value.kind, NodeKind::Str(t) if t == crate::canonical::SECRET) {
-                    findings.push(Finding::new(
-                        FindingKind::SecretNotGiven,
-                        l.doc.loc(&e.value.span),
-                        format!(
-                            "{} ({}) is a secret whose value this file does not hold (`{}` is what exports and pulled sets write)",
-                            schema.display_code(key.number, key.subcode),
-                            code.name,
-                            crate::canonical::SECRET
-                        ),
-                        "give the password's value, or remove this line to leave the drive's password as it is",
-                    ));
-                    merged.remove(&key);
-                    continue;
-                }
+            if secret && matches!(&e.value.kind, NodeKind::Str(t) if t == crate::canonical::SECRET)
+            {
+                findings.push(Finding::new(
+                    FindingKind::SecretNotGiven,
+                    l.doc.loc(&e.value.span),
+                    format!(
+                        "{} ({}) is a secret whose value this file does not hold (`{}` is what exports and pulled sets write)",
+                        schema.display_code(key.number, key.subcode),
+                        code.name,
+                        crate::canonical::SECRET
+                    ),
+                    "give the password's value, or remove this line to leave the drive's password as it is",
+                ));
+                merged.remove(&key);
+                continue;
             }
             let before = findings.len();
             let converted = convert_value(&schema, code, &l.doc, &e.value, &mut findings);

@@ -356,3 +356,126 @@ spec = \"s\"
         )]
     );
 }
+
+#[test]
+fn roles_are_checked() {
+    let text = format!(
+        "{HEAD}
+[[code]]
+number = 1
+name = \"a\"
+title = \"A\"
+spec = \"s\"
+type = \"VH\"
+width = 2
+[[code.bits]]
+name = \"go\"
+bits = [0, 1]
+role = \"start\"
+
+[[code]]
+number = 2
+name = \"b\"
+title = \"B\"
+spec = \"s\"
+role = \"setpoint\"
+stopped = [0]
+access = \"ro\"
+
+[[code]]
+number = 3
+name = \"c\"
+title = \"C\"
+spec = \"s\"
+type = \"VH\"
+width = 2
+role = \"password\"
+[[code.bits]]
+name = \"x\"
+bits = [0, 0]
+"
+    );
+    assert_eq!(
+        check(&text),
+        vec![
+            (
+                "code 1 bit field go has role `start`, which belongs to a `control-word` code, but the code's role is not set".to_string(),
+                18,
+                8
+            ),
+            ("code 1 bit field go has role `start` but is 2 bits wide".to_string(), 18, 8),
+            ("code 2 has `stopped` values but is not a control word".to_string(), 21, 10),
+            ("code 2 has role `setpoint` but is read-only".to_string(), 25, 8),
+            ("code 3 is a password but has bit fields".to_string(), 36, 8),
+        ]
+    );
+    // unknown roles and the old `password = true` are load errors naming the fix
+    let mut r = Registry::builtin().unwrap();
+    for (body, msg, help) in [
+        (
+            "role = \"brake\"",
+            "unknown role `brake` in code 9",
+            "use one of: control-word, setpoint, command, operating-mode, control-source, bus-address, baud-rate, status, password",
+        ),
+        (
+            "role = \"identify\"",
+            "unknown role `identify` in code 9",
+            "identify codes are listed in `[schema.identify] codes`, not by a role key",
+        ),
+        (
+            "password = true",
+            "`password` in code 9 is now a role",
+            "write `role = \"password\"` instead",
+        ),
+    ] {
+        let e = r
+            .add_source(SourceFile::new(
+                "y.toml",
+                format!("{HEAD}\n[[code]]\nnumber = 9\nname = \"n\"\n{body}\n"),
+            ))
+            .unwrap_err();
+        assert_eq!((e.message.as_str(), e.help.as_str()), (msg, help));
+    }
+    // the built-in schemas carry the roles the planner, pull and the CLI read
+    let r = Registry::builtin().unwrap();
+    let tmd = r.get("lenze-tmd").unwrap();
+    let numbers =
+        |role: Role| -> Vec<u32> { tmd.codes_with_role(role).map(|c| c.number).collect() };
+    assert_eq!(numbers(Role::Command), vec![2, 43]);
+    assert_eq!(numbers(Role::ControlWord), vec![40, 135]);
+    assert_eq!(numbers(Role::Setpoint), vec![46, 47, 140]);
+    assert_eq!(numbers(Role::Identify), vec![93, 99, 200]);
+    assert_eq!(numbers(Role::Password), vec![94]);
+    assert_eq!(numbers(Role::Status), vec![68, 150]);
+    assert_eq!(
+        tmd.running_indicator(),
+        Some(RunningIndicator {
+            code: 150,
+            bit: 1,
+            from: Role::Status
+        })
+    );
+    let vf = r.get("lust-vf1000").unwrap();
+    assert_eq!(
+        vf.running_indicator(),
+        Some(RunningIndicator {
+            code: 3,
+            bit: 7,
+            from: Role::ControlWord
+        })
+    );
+    assert_eq!(r.get("lenze-ecs").unwrap().running_indicator(), None);
+    let c0135 = tmd.code(135).unwrap();
+    assert_eq!(
+        tmd.control_state(c0135, &RawValue::Int(0x0200)),
+        ControlState::Inhibited("controller_inhibit".into())
+    );
+    assert_eq!(
+        tmd.control_state(c0135, &RawValue::Int(0x0A00)),
+        ControlState::Command(vec!["trip_reset".into()])
+    );
+    assert_eq!(
+        tmd.control_state(c0135, &RawValue::Int(0)),
+        ControlState::NotInhibited(vec!["quick_stop".into(), "controller_inhibit".into()])
+    );
+}

@@ -449,7 +449,7 @@ fn diff_semantic_defaults_unified() {
     let dd = diff_defaults(&b, &schema).unwrap();
     assert_eq!(
         dd.to_string(),
-        "C0007 input_config: (no factory default known) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: (no factory default known) -> \"4...20 mA\"\nC0404 access_code: (no factory default known) -> <secret>\n"
+        "C0007 input_config: (no factory default known) -> { E1 = \"JOG1\", E2 = 0, E3 = 0, E4 = 0 }\nC0011 max_output_frequency: 50 Hz -> 60 Hz\nC0034 analog_input: (no factory default known) -> \"4...20 mA\"\nC0404 access_code: <secret> (a secret: not compared with the factory default)\n"
     );
     let u = unified_diff(&a, &b, &schema, "a", "b");
     assert!(u.starts_with("--- a\n+++ b\n@@ -1,6 +1,6 @@\n"), "{u}");

@@ -737,7 +737,9 @@ fn run_drive(
                 let live = live_values(&mut client, &d.set)?;
                 let fp = live.fingerprint();
                 r.diff = diff_lines(&d.schema, &live, &d.set);
-                r.result = if fp == set_fp {
+                // values, not fingerprints: a fingerprint does not cover a
+                // secret's value, a drifted password is drift too
+                r.result = if live.values == d.set.values {
                     DriveResult::Unchanged
                 } else {
                     DriveResult::Drift
@@ -757,7 +759,7 @@ fn run_drive(
                     r.identity = id.codes.clone();
                     let live = live_values(&mut client, &d.set)?;
                     let fp = live.fingerprint();
-                    if fp == set_fp {
+                    if live.values == d.set.values {
                         r.result = DriveResult::AlreadyVerified;
                         r.fingerprint_before = Some(fp.clone());
                         r.fingerprint_after = Some(fp);
