@@ -217,7 +217,11 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
         };
         opts.learn = Some(LineLearn {
             registry,
-            schema_dir: c.learn.schema_dir.clone().unwrap_or_else(|| report_dir.clone()),
+            schema_dir: c
+                .learn
+                .schema_dir
+                .clone()
+                .unwrap_or_else(|| report_dir.clone()),
             options: learn_options,
         });
     }

@@ -554,7 +554,11 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
             esc(&l.id),
             esc(&l.base),
             l.codes,
-            if l.texts { "" } else { ", without substitution texts" },
+            if l.texts {
+                ""
+            } else {
+                ", without substitution texts"
+            },
             l.file
                 .as_deref()
                 .map(|f| format!(", file <code>{}</code>", esc(f)))

@@ -83,9 +83,9 @@ use crate::client::{
     BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient,
     LustbusClient, Target,
 };
-use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::error::EngineError;
 use crate::identify::check_family;
+use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
 use crate::overrides::Overrides;
 use crate::plan::value_text;
@@ -915,10 +915,7 @@ fn learn_drive(
     link: &mut Link,
     ctx: &Ctx<'_>,
 ) -> Result<(Drive, LearnedSchemaReport), (String, Option<Failure>)> {
-    let what = format!(
-        "drive `{}` ({} address {})",
-        d.name, bus.port, d.address
-    );
+    let what = format!("drive `{}` ({} address {})", d.name, bus.port, d.address);
     let Some(cfg) = &ctx.opts.learn else {
         return Err((
             format!(
@@ -930,7 +927,10 @@ fn learn_drive(
     };
     let Link::Bytes(b) = link else {
         return Err((
-            format!("{what}: `{}` is a LUSTBUS schema, but bus `{}` is a CAN bus", base.id, bus.name),
+            format!(
+                "{what}: `{}` is a LUSTBUS schema, but bus `{}` is a CAN bus",
+                base.id, bus.name
+            ),
             None,
         ));
     };
@@ -971,9 +971,8 @@ fn learn_drive(
     } else {
         let rendered = render_schema(&mut learned, base, &id, &source, &registry).map_err(input)?;
         let file = if ctx.mode == Mode::Commission {
-            std::fs::create_dir_all(&cfg.schema_dir).map_err(|e| {
-                input(format!("cannot create {}: {e}", cfg.schema_dir.display()))
-            })?;
+            std::fs::create_dir_all(&cfg.schema_dir)
+                .map_err(|e| input(format!("cannot create {}: {e}", cfg.schema_dir.display())))?;
             std::fs::write(&path, &rendered.text)
                 .map_err(|e| input(format!("cannot write {}: {e}", path.display())))?;
             Some(path.display().to_string())
@@ -983,9 +982,8 @@ fn learn_drive(
         (rendered.schema, file, rendered.codes)
     };
     registry.insert_as(&base.id, schema.clone());
-    let loaded = load_set(&d.set_path, &mut registry).map_err(|e| {
-        input(format!("set {}: {}", d.set_path.display(), e.message))
-    })?;
+    let loaded = load_set(&d.set_path, &mut registry)
+        .map_err(|e| input(format!("set {}: {}", d.set_path.display(), e.message)))?;
     let resolved = match (loaded.findings.is_empty(), loaded.resolved) {
         (true, Some(set)) => set,
         _ => {

@@ -55,11 +55,11 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::learn::needs_learning;
 use driveset_link::PortSpec;
 use driveset_link::spec::{SIM_FAMILY_KEYS, SIM_MIXED_LUSTBUS};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
-use crate::learn::needs_learning;
 use driveset_schema::{
     Family, Finding, FindingKind, InputError, Location, Registry, ResolvedSet, Schema, load_set,
 };
@@ -761,9 +761,7 @@ impl<'a> Reader<'a> {
                             if !l.findings.is_empty() {
                                 match &learn_from {
                                     Some(base) => learnable.extend(
-                                        l.findings
-                                            .iter()
-                                            .map(|f| learnable_finding(f, base)),
+                                        l.findings.iter().map(|f| learnable_finding(f, base)),
                                     ),
                                     None => {
                                         ok = false;
