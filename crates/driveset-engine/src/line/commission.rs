@@ -988,8 +988,16 @@ fn learn_drive(
         (true, Some(set)) => set,
         _ => {
             let list: Vec<String> = loaded.findings.iter().map(|f| f.to_string()).collect();
+            let hint = if ctx.mode == Mode::Status && file.is_none() {
+                format!(
+                    "; status reads no substitution texts and found no learned file {} (run `driveset commission` first, whose file status then uses, or give --schema-dir where it is)",
+                    path.display()
+                )
+            } else {
+                String::new()
+            };
             return Err(input(format!(
-                "set `{}` does not fit the schema learned from the drive ({id}): {}; fix the set (`driveset validate {}` after naming the learned schema)",
+                "set `{}` does not fit the schema learned from the drive ({id}): {}; fix the set (`driveset validate {}` after naming the learned schema){hint}",
                 d.set_text,
                 list.join("; "),
                 d.set_path.display()
