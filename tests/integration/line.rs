@@ -279,3 +279,136 @@ fn a_bad_manifest_fails_validation_with_locations() {
         ));
     assert!(!dir.path().join("target").exists());
 }
+
+/// A line whose sets name the built-in `lust-mc6000` / `lust-vf1000` with
+/// codes those schemas have no type for: `validate` finds them (naming the
+/// remedy), `commission --no-learn` refuses at load (exit 2), `commission`
+/// learns each drive's schema, writes it into `--schema-dir`, names it in
+/// report.json and verifies; `status` then finds both drives unchanged,
+/// and a pull with the learned schema reads exactly the set's values.
+#[test]
+fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    std::fs::create_dir_all(d.join("sets")).unwrap();
+    std::fs::write(
+        d.join("line.toml"),
+        "[line]\nname = \"learn-line\"\n\n[[bus]]\nname = \"lustbus\"\nport = \"sim://lustbus?mc6000=1&vf1000=5\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n[[drive]]\nbus = \"lustbus\"\naddress = 1\nset = \"sets/press.toml\"\nname = \"press\"\n\n[[drive]]\nbus = \"lustbus\"\naddress = 5\nset = \"sets/fan.toml\"\nname = \"fan\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sets/press.toml"),
+        "schema = \"lust-mc6000\"\n\n[values]\n100 = \"16 kHz\"\n132 = \"5 A\"\n134 = \"3500 1/min\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sets/fan.toml"),
+        "schema = \"lust-vf1000\"\n\n[values]\n7 = \"60 Hz\"\n20 = \"15 Hz\"\n",
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["validate", "line.toml"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("error[unknown-code]: 132 is not a code of lust-mc6000\n"))
+        .stdout(predicate::str::contains(
+            "the set names `lust-mc6000`, which lacks facts (types, kinds, ranges) the drive's own descriptions give: `driveset commission` and `driveset status` learn the schema from the drive first",
+        ))
+        .stdout(predicate::str::contains("5 findings in 1 of 1 file"));
+    in_dir(d)
+        .args(["commission", "line.toml", "--no-learn"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "line.toml: 5 finding(s) in the line manifest; nothing was sent",
+        ));
+    let out = in_dir(d)
+        .args(["commission", "line.toml", "--schema-dir", "schemas"])
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let r = report(d);
+    assert_eq!(
+        results(&r),
+        [
+            ("press".to_string(), "verified".to_string()),
+            ("fan".to_string(), "verified".to_string())
+        ]
+    );
+    let mut files = Vec::new();
+    for (i, (base, family, codes, written)) in [
+        ("lust-mc6000", "mc6000", 250, 3),
+        ("lust-vf1000", "vf1000", 58, 2),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let dr = &r["drives"][i];
+        let ls = &dr["learned_schema"];
+        let id = ls["id"].as_str().unwrap().to_string();
+        assert!(id.starts_with(&format!("learned-{family}-type0-d")), "{id}");
+        assert_eq!(dr["schema"], id.as_str());
+        assert_eq!(ls["base"], base);
+        assert_eq!(ls["codes"], codes);
+        assert_eq!(ls["texts"], true);
+        assert_eq!(dr["codes_written"], written);
+        let file = format!("schemas/{id}.toml");
+        assert_eq!(ls["file"], file.as_str());
+        assert!(d.join(&file).is_file(), "{file}");
+        assert!(
+            stderr.contains(&format!(
+                " {}: verified, schema {id} learned, {written} codes written (",
+                dr["name"].as_str().unwrap()
+            )),
+            "{stderr}"
+        );
+        files.push(file);
+    }
+    // the learned files pass `schema check`
+    for f in &files {
+        in_dir(d).args(["schema", "check", f]).assert().code(0);
+    }
+    in_dir(d)
+        .args(["status", "line.toml", "--schema-dir", "schemas"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "2 unchanged, 0 already verified, 0 drift",
+        ));
+    let r = report(d);
+    assert_eq!(r["command"], "status");
+    assert_eq!(r["drives"][0]["learned_schema"]["file"], files[0].as_str());
+    assert_eq!(r["drives"][0]["learned_schema"]["texts"], false);
+    // exact values on the drives, read with the learned schemas
+    for (file, address, lines) in [
+        (
+            &files[0],
+            "1",
+            &["100 = \"16 kHz\"", "132 = \"5 A\"", "134 = \"3500 1/min\""][..],
+        ),
+        (&files[1], "5", &["7 = \"60 Hz\"", "20 = \"15 Hz\""][..]),
+    ] {
+        let out = d.join(format!("pulled-{address}.toml"));
+        in_dir(d)
+            .args([
+                "pull",
+                "--port",
+                "sim://lustbus?mc6000=1&vf1000=5",
+                "--address",
+                address,
+                "--schema",
+                file,
+                "-o",
+            ])
+            .arg(&out)
+            .assert()
+            .code(0);
+        let text = std::fs::read_to_string(&out).unwrap();
+        for l in lines {
+            assert!(text.contains(&format!("\n{l}\n")), "{l} in {text}");
+        }
+    }
+}

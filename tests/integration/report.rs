@@ -50,6 +50,7 @@ fn drive(name: &str, bus: &str, address: u8, result: DriveResult) -> DriveReport
         result,
         error: None,
         diff: Vec::new(),
+        learned_schema: None,
     }
 }
 

@@ -27,7 +27,8 @@ use crate::port::{self, Fail, OpenPort};
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct LearnArgs {
     /// Where a learned schema file is written and looked for (default:
-    /// beside the set file; `pull`, `schema pull`).
+    /// beside the set file for `pull` / `schema pull`; the report
+    /// directory for `commission` / `status`).
     #[arg(long, value_name = "DIR")]
     pub schema_dir: Option<PathBuf>,
     /// MC6000/7000: the layout of the drive's parameter descriptions

@@ -531,3 +531,166 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
         assert_eq!(by_name(n).result, DriveResult::Verified, "{:?}", by_name(n));
     }
 }
+
+/// A line whose sets name the built-in LUSTBUS schemas (which lack the
+/// codes' types and ranges): the manifest loads with the sets' findings
+/// kept apart (`learnable`), commission learns each drive's schema from its
+/// descriptions over the bus's link, writes it, resolves the set against it
+/// and verifies; the drive then holds the exact values; status learns
+/// read-only and finds no drift; without learning the drives fail.
+#[test]
+fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
+    use driveset_engine::line::commission::{LineLearn, Mode};
+    use driveset_engine::plan::value_text;
+
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("line.toml");
+    std::fs::write(
+        &p,
+        "[line]\nname = \"learn\"\n\n[[bus]]\nname = \"lb\"\nport = \"sim://lustbus?mc6000=1&vf1000=5\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n[[drive]]\nbus = \"lb\"\naddress = 1\nset = \"press.toml\"\nname = \"press\"\n\n[[drive]]\nbus = \"lb\"\naddress = 5\nset = \"fan.toml\"\nname = \"fan\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("press.toml"),
+        "schema = \"lust-mc6000\"\n\n[values]\n100 = \"16 kHz\"\n132 = \"5 A\"\n134 = \"3500 1/min\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("fan.toml"),
+        "schema = \"lust-vf1000\"\n\n[values]\n7 = \"60 Hz\"\n20 = \"15 Hz\"\n",
+    )
+    .unwrap();
+    let mut reg = Registry::builtin().unwrap();
+    let l = load_manifest(&p, &mut reg).unwrap();
+    assert!(l.findings.is_empty(), "{:?}", l.findings);
+    let learnable: Vec<String> = l
+        .learnable
+        .iter()
+        .map(|f| format!("{}:{} {}", f.location.line, f.location.column, f.message))
+        .collect();
+    assert_eq!(
+        learnable,
+        [
+            "4:1 100 is not a code of lust-mc6000",
+            "5:1 132 is not a code of lust-mc6000",
+            "6:1 134 is not a code of lust-mc6000",
+            "4:1 7 is not a code of lust-vf1000",
+            "5:1 20 is not a code of lust-vf1000",
+        ]
+    );
+    assert!(
+        l.learnable[0].help.contains(
+            "`driveset commission` and `driveset status` learn the schema from the drive first"
+        ),
+        "{}",
+        l.learnable[0].help
+    );
+    // offline, validate keeps them as findings
+    assert_eq!(validate_manifest(&p).unwrap().len(), 5);
+    let m = l.manifest.expect("loads");
+    assert_eq!(
+        m.drives
+            .iter()
+            .map(|d| d.learn_from.as_ref().map(|s| s.id.as_str()))
+            .collect::<Vec<_>>(),
+        [Some("lust-mc6000"), Some("lust-vf1000")]
+    );
+
+    // without learning: the drives fail, nothing is written
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let out = commission(&m, &LineOptions::new(dir.path().join("off")), &opener).unwrap();
+    assert_eq!(out.exit_code(), 1);
+    assert!(
+        out.report.drives[0]
+            .error
+            .as_deref()
+            .unwrap()
+            .ends_with("set `press.toml` names `lust-mc6000`, which lacks facts (types, kinds, ranges) the drive's descriptions give, and learning is off (--no-learn); name a learned schema in the set (`driveset schema pull`)"),
+        "{:?}",
+        out.report.drives[0].error
+    );
+
+    let schemas = dir.path().join("schemas");
+    let mut opts = LineOptions::new(dir.path().join("report"));
+    opts.learn = Some(LineLearn {
+        registry: Registry::builtin().unwrap(),
+        schema_dir: schemas.clone(),
+        options: Default::default(),
+    });
+    let out = commission(&m, &opts, &opener).unwrap();
+    assert_eq!(out.exit_code(), 0, "{:?}", out.report.drives);
+    let mut ids = Vec::new();
+    for (d, base, codes_written) in [
+        (&out.report.drives[0], "lust-mc6000", 3),
+        (&out.report.drives[1], "lust-vf1000", 2),
+    ] {
+        assert_eq!(d.result, DriveResult::Verified, "{:?}", d.error);
+        assert_eq!(d.codes_written, codes_written);
+        let ls = d.learned_schema.as_ref().expect("learned");
+        assert_eq!(ls.base, base);
+        assert_eq!(d.schema, ls.id);
+        assert!(ls.texts);
+        let file = schemas.join(format!("{}.toml", ls.id));
+        assert_eq!(
+            ls.file.as_deref(),
+            Some(file.display().to_string().as_str())
+        );
+        assert!(file.is_file());
+        ids.push(ls.id.clone());
+    }
+    assert!(ids[0].starts_with("learned-mc6000-type0-d"), "{ids:?}");
+    assert!(ids[1].starts_with("learned-vf1000-type0-d"), "{ids:?}");
+    let phases: Vec<(&str, &str)> = out.report.buses[0]
+        .timeline
+        .iter()
+        .map(|t| (t.drive.as_str(), t.phase.as_str()))
+        .filter(|(_, p)| *p == "learn")
+        .collect();
+    assert_eq!(phases, [("press", "learn"), ("fan", "learn")]);
+
+    // the drives hold exactly the set's values (read with the learned schemas)
+    let mut learned = Registry::builtin().unwrap();
+    learned.load_dir(&schemas).unwrap();
+    let mut link = sims.get("lb").link();
+    for (id, address, want) in [
+        (
+            &ids[0],
+            1,
+            &[(100, "\"16 kHz\""), (132, "5 A"), (134, "3500 1/min")][..],
+        ),
+        (&ids[1], 5, &[(7, "60 Hz"), (20, "15 Hz")][..]),
+    ] {
+        let schema = learned.get(id).unwrap();
+        let mut c =
+            driveset_engine::connect::connect_on(&mut link, schema.clone(), address).unwrap();
+        for (code, text) in want {
+            let key = CodeKey::new(*code);
+            let raw = c.read(key).unwrap();
+            assert_eq!(value_text(&schema, key, &raw), *text, "{id} {code}");
+        }
+        c.finish().unwrap();
+    }
+
+    // status: read-only learning, the commission's file is used; no drift
+    let mut sopts = opts.clone();
+    sopts.report_dir = dir.path().join("status");
+    let st = run_line(&m, &sopts, &opener, Mode::Status).unwrap();
+    assert_eq!(st.exit_code(), 0, "{:?}", st.report.drives);
+    for (d, id) in st.report.drives.iter().zip(&ids) {
+        assert_eq!(d.result, DriveResult::Unchanged);
+        let ls = d.learned_schema.as_ref().unwrap();
+        assert_eq!(&ls.id, id);
+        assert!(!ls.texts);
+        assert_eq!(
+            ls.file.as_deref(),
+            Some(
+                schemas
+                    .join(format!("{id}.toml"))
+                    .display()
+                    .to_string()
+                    .as_str()
+            )
+        );
+    }
+}

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::line::commission::{
-    LineError, LineOptions, LineOutcome, Mode, Progress, run_line,
+    LineError, LineLearn, LineOptions, LineOutcome, Mode, Progress, run_line,
 };
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
@@ -46,6 +46,15 @@ run, found by bus and address, not by file name) is never `unchanged`: it is
 recovered first (`driveset recover`'s rules, a warning says what was done),
 then commissioned; if recovery refuses (the journal is stale or does not fit
 the drive) or fails, the drive is `failed`.
+
+Sets naming a built-in LUSTBUS schema that lacks facts (lust-mc6000,
+lust-vf1000: most codes have no type or range in the spec): before the drive
+is planned, its own descriptions (VF1000 specifier 1, MC specifier 3) and MC
+substitution texts are read, the schema is learned as `driveset pull` learns
+it (the built-in schema's spec facts stand), written to
+--schema-dir/learned-<family>-type<TYPE>-<software>.toml (default: the
+report directory) and named in the report (`learned_schema`); the set is
+then checked against it. --no-learn refuses such sets at load instead.
 
 Exit codes: 0 every selected drive holds its set; 1 a drive does not
 (refused, rolled back, failed); 2 usage error or a manifest with findings;
@@ -86,6 +95,9 @@ pub struct Args {
     /// Test hook: every bus stops after N drives, as if the run were killed.
     #[arg(long, value_name = "N", hide = true)]
     pub stop_after: Option<usize>,
+    /// Learning the schema of drives whose set's schema lacks facts.
+    #[command(flatten)]
+    pub learn: crate::learning::LearnArgs,
 }
 
 /// Run `driveset commission`.
@@ -103,6 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         skip: args.skip,
         label: args.label,
         report_dir: args.report_dir,
+        learn: args.learn,
     };
     run_mode(opts, Mode::Commission, |o| {
         o.overrides = overrides;
@@ -124,10 +137,14 @@ pub struct Common {
     pub label: Option<String>,
     /// `--report-dir`.
     pub report_dir: Option<PathBuf>,
+    /// `--schema-dir`, `--no-learn`, the description overrides.
+    pub learn: crate::learning::LearnArgs,
 }
 
-/// Load the manifest; print its findings (exit 2) if it has any.
-pub fn load(path: &Path) -> Result<Manifest, u8> {
+/// Load the manifest; print its findings (exit 2) if it has any. The
+/// findings of sets whose schema is learned from the drive do not count,
+/// unless `no_learn`.
+pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
     let mut registry = match crate::output::registry(&[]) {
         Ok(r) => r,
         Err(e) => return Err(crate::output::fail_input(&e)),
@@ -139,16 +156,20 @@ pub fn load(path: &Path) -> Result<Manifest, u8> {
             return Err(EXIT_INPUT);
         }
     };
+    let mut findings = loaded.findings;
+    if no_learn {
+        findings.extend(loaded.learnable);
+    }
     match loaded.manifest {
-        Some(m) => Ok(m),
-        None => {
-            for f in &loaded.findings {
+        Some(m) if findings.is_empty() => Ok(m),
+        _ => {
+            for f in &findings {
                 eprint!("{}", f.render_human());
             }
             eprintln!(
                 "error: {}: {} finding(s) in the line manifest; nothing was sent (see `driveset validate {}`)",
                 path.display(),
-                loaded.findings.len(),
+                findings.len(),
                 path.display()
             );
             Err(EXIT_INPUT)
@@ -165,9 +186,16 @@ pub fn open_bus(bus: &Bus) -> Result<Link, String> {
 
 /// Run a line command.
 pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> anyhow::Result<u8> {
-    let manifest = match load(&c.manifest) {
+    let manifest = match load(&c.manifest, c.learn.no_learn) {
         Ok(m) => m,
         Err(code) => return Ok(code),
+    };
+    let learn_options = match c.learn.options() {
+        Ok(o) => o,
+        Err(f) => {
+            eprintln!("error: {}", f.msg);
+            return Ok(f.code);
+        }
     };
     let report_dir = c
         .report_dir
@@ -182,6 +210,21 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     opts.only = c.only;
     opts.skip = c.skip;
     opts.label = c.label;
+    if !c.learn.no_learn {
+        let registry = match crate::output::registry(&[]) {
+            Ok(r) => r,
+            Err(e) => return Ok(crate::output::fail_input(&e)),
+        };
+        opts.learn = Some(LineLearn {
+            registry,
+            schema_dir: c
+                .learn
+                .schema_dir
+                .clone()
+                .unwrap_or_else(|| report_dir.clone()),
+            options: learn_options,
+        });
+    }
     tweak(&mut opts);
     let width = manifest
         .buses
@@ -239,6 +282,9 @@ fn progress_line(p: &Progress, width: usize) -> String {
         d.name,
         result_name(d.result)
     );
+    if let Some(l) = &d.learned_schema {
+        s.push_str(&format!(", schema {} learned", l.id));
+    }
     if d.codes_written > 0 {
         s.push_str(&format!(", {} codes written", d.codes_written));
     }

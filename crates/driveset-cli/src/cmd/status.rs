@@ -17,6 +17,13 @@ A drive with an unfinished journal in the journal directory (the manifest's
 journal_dir, default .driveset/journal) is reported `failed` (its values are
 not trusted): run `driveset commission` (it recovers it) or `driveset recover`.
 
+Sets naming a built-in LUSTBUS schema that lacks facts: the schema is
+learned from the drive's descriptions as `commission` learns it, but
+read-only: descriptions only (ENQUIRY; no substitution texts, whose reading
+selects them by writing the RAM selector 108-STEXT). The file a commission
+run wrote for the same descriptions (in --schema-dir, default the report
+directory) is used when there is one; status writes no schema file.
+
 Exit codes: 0 every selected drive holds its set; 1 a drive differs (drift),
 was refused or has an unfinished journal; 2 usage error or a manifest with findings; 3 a bus could not
 be opened, a link failed or a drive did not answer.
@@ -40,6 +47,9 @@ pub struct Args {
     /// Where report.json and report.html go.
     #[arg(long, value_name = "DIR")]
     pub report_dir: Option<PathBuf>,
+    /// Learning the schema of drives whose set's schema lacks facts.
+    #[command(flatten)]
+    pub learn: crate::learning::LearnArgs,
 }
 
 /// Run `driveset status`.
@@ -50,6 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         skip: args.skip,
         label: args.label,
         report_dir: args.report_dir,
+        learn: args.learn,
     };
     run_mode(c, Mode::Status, |_| {})
 }

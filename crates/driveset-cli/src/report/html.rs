@@ -547,6 +547,24 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
     for (k, v) in rows {
         let _ = writeln!(o, "<dt>{k}</dt><dd>{v}</dd>");
     }
+    if let Some(l) = &d.learned_schema {
+        let _ = writeln!(
+            o,
+            "<dt>Learned schema</dt><dd><code>{}</code> from the drive's descriptions (extends <code>{}</code>; {} codes{}){}</dd>",
+            esc(&l.id),
+            esc(&l.base),
+            l.codes,
+            if l.texts {
+                ""
+            } else {
+                ", without substitution texts"
+            },
+            l.file
+                .as_deref()
+                .map(|f| format!(", file <code>{}</code>", esc(f)))
+                .unwrap_or_default()
+        );
+    }
     o.push_str("</dl>\n");
     if let Some(e) = &d.error {
         let _ = writeln!(

@@ -41,6 +41,24 @@
 //! group that the line does not list receive it too. LUSTBUS (address 31)
 //! and CAN have no broadcast in the engine's clients: those buses fall back
 //! to per-drive writes with a warning.
+//!
+//! **Learning the schema.** A drive whose set names a built-in LUSTBUS
+//! schema that lacks facts ([`Drive::learn_from`], see
+//! [`crate::learn::needs_learning`]) is learned first, as `pull` and
+//! `upload` do: over the bus's own link, before anything else is done to
+//! the drive, its descriptions (VF1000 specifier 1, MC specifier 3) are
+//! read and interpreted by [`crate::learn::learn`], rendered and checked by
+//! [`crate::learn::render_schema`] (the built-in schema's spec facts stand),
+//! and the set is resolved again against the learned schema; its findings
+//! then fail the drive. `commission` also reads the MC unit strings and
+//! value substitution texts (this selects texts with the RAM selector
+//! 108-STEXT and sets it back) and writes the learned schema to
+//! `LineLearn::schema_dir/<id>.toml`. `status` writes nothing: it reads the
+//! descriptions only (ENQUIRY), and uses the file an earlier `commission`
+//! wrote for the same descriptions (same id: the id holds their hash) when
+//! there is one, else the schema learned without texts. The drive's report
+//! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
+//! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
@@ -52,19 +70,22 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use driveset_link::{Instant, Link, OpenOptions, PortSpec};
-use driveset_schema::{CodeKey, DiffKind, RawValue, ResolvedSet, Role, Schema};
+use driveset_schema::error::SourceFile;
+use driveset_schema::{CodeKey, DiffKind, RawValue, Registry, ResolvedSet, Role, Schema, load_set};
 use serde::{Deserialize, Serialize};
 
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
 use super::report::{
-    BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LineReport, LineResult, REPORT_VERSION,
-    TimelineEntry,
+    BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LearnedSchemaReport, LineReport,
+    LineResult, REPORT_VERSION, TimelineEntry,
 };
 use crate::client::{
-    BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient, Target,
+    BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient,
+    LustbusClient, Target,
 };
 use crate::error::EngineError;
 use crate::identify::check_family;
+use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
 use crate::overrides::Overrides;
 use crate::plan::value_text;
@@ -142,6 +163,22 @@ pub struct LineOptions {
     pub stop_after: Option<usize>,
     /// Called after every drive.
     pub progress: Option<ProgressFn>,
+    /// How drives whose set's schema lacks facts are learned (module
+    /// docs); `None`: such drives fail.
+    pub learn: Option<LineLearn>,
+}
+
+/// How a line run learns the schema of a drive whose set names a built-in
+/// schema that lacks facts (module docs, "Learning the schema").
+#[derive(Debug, Clone)]
+pub struct LineLearn {
+    /// Holds the built-in schemas the learned ones extend.
+    pub registry: Registry,
+    /// Where `commission` writes learned schemas (`<id>.toml`) and where
+    /// `status` looks for them.
+    pub schema_dir: PathBuf,
+    /// Layout and type-character overrides (`status` forces `no_texts`).
+    pub options: LearnOptions,
 }
 
 impl std::fmt::Debug for LineOptions {
@@ -171,6 +208,7 @@ impl LineOptions {
             fresh: false,
             stop_after: None,
             progress: None,
+            learn: None,
         }
     }
 }
@@ -525,6 +563,7 @@ fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveReport {
         result,
         error: None,
         diff: Vec::new(),
+        learned_schema: None,
     }
 }
 
@@ -671,13 +710,40 @@ fn run_drive(
     link: &mut Link,
     ctx: &Ctx<'_>,
 ) -> (DriveReport, Vec<Span>, Option<Failure>) {
-    let mut r = blank_report(d, bus, DriveResult::Failed);
     let t0 = link_now(link);
+    let mut learn_span = Vec::new();
+    let learned_drive;
+    let mut learned_report = None;
+    let d = match &d.learn_from {
+        None => d,
+        Some(base) => {
+            let got = learn_drive(bus, d, base, link, ctx);
+            learn_span.push(("learn", t0, link_now(link)));
+            match got {
+                Ok((nd, rep)) => {
+                    learned_drive = nd;
+                    learned_report = Some(rep);
+                    &learned_drive
+                }
+                Err((e, failure)) => {
+                    let mut r = blank_report(d, bus, DriveResult::Failed);
+                    r.error = Some(e);
+                    r.elapsed_ms = since(t0, link_now(link));
+                    if ctx.mode == Mode::Commission {
+                        ctx.record(bus, d, None);
+                    }
+                    return (r, learn_span, failure);
+                }
+            }
+        }
+    };
+    let mut r = blank_report(d, bus, DriveResult::Failed);
+    r.learned_schema = learned_report;
     let mut client = match crate::connect::connect_on(link, d.schema.clone(), d.address) {
         Ok(c) => Recorder::new(c),
         Err(e) => {
             r.error = Some(e.to_string());
-            return (r, Vec::new(), None);
+            return (r, learn_span, None);
         }
     };
     let stats0 = client.stats();
@@ -819,7 +885,8 @@ fn run_drive(
     r.retries = stats.retries.saturating_sub(stats0.retries);
     let t1 = client.clock().now();
     r.elapsed_ms = since(t0, t1);
-    let spans = client.spans;
+    let mut spans = learn_span;
+    spans.extend(client.spans);
     if ctx.mode == Mode::Commission {
         let holds = matches!(
             r.result,
@@ -836,6 +903,123 @@ fn run_drive(
         );
     }
     (r, spans, failure)
+}
+
+/// Learns the schema of drive `d` (whose set names `base`, a built-in
+/// schema that lacks facts) over the bus's link and resolves its set
+/// against it (module docs, "Learning the schema"). Returns the drive as
+/// the run then treats it, or the error text and what kind of failure it
+/// was.
+fn learn_drive(
+    bus: &Bus,
+    d: &Drive,
+    base: &Arc<Schema>,
+    link: &mut Link,
+    ctx: &Ctx<'_>,
+) -> Result<(Drive, LearnedSchemaReport), (String, Option<Failure>)> {
+    let what = format!("drive `{}` ({} address {})", d.name, bus.port, d.address);
+    let Some(cfg) = &ctx.opts.learn else {
+        return Err((
+            format!(
+                "{what}: set `{}` names `{}`, which lacks facts (types, kinds, ranges) the drive's descriptions give, and learning is off (--no-learn); name a learned schema in the set (`driveset schema pull`)",
+                d.set_text, base.id
+            ),
+            None,
+        ));
+    };
+    let Link::Bytes(b) = link else {
+        return Err((
+            format!(
+                "{what}: `{}` is a LUSTBUS schema, but bus `{}` is a CAN bus",
+                base.id, bus.name
+            ),
+            None,
+        ));
+    };
+    let eng = |e: EngineError| {
+        let f = failure_of(&e);
+        (
+            format!("{what}: learning the schema from the drive's descriptions: {e}"),
+            f,
+        )
+    };
+    let mut opts = cfg.options.clone();
+    if ctx.mode == Mode::Status {
+        // descriptions only: reading texts selects them through 108-STEXT
+        opts.no_texts = true;
+    }
+    let mut client =
+        LustbusClient::new(BorrowedByteLink(&mut **b), base.clone(), d.address).map_err(eng)?;
+    let identity = client.identify().map_err(eng)?;
+    let mut learned = learn(&mut client, base.family, &opts).map_err(eng)?;
+    client.finish().map_err(eng)?;
+    let id = learned_id(base.family, &identity, &learned);
+    let source = LearnSource {
+        drive: format!("{} address {}", bus.port, d.address),
+        identity,
+    };
+    let path = cfg.schema_dir.join(format!("{id}.toml"));
+    let input = |e: String| (format!("{what}: {e}"), None);
+    let mut registry = cfg.registry.clone();
+    let (schema, file, codes) = if ctx.mode == Mode::Status && path.is_file() {
+        // the file an earlier commission wrote for these very descriptions
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| input(format!("cannot read {}: {e}", path.display())))?;
+        let schema = registry
+            .add_source(SourceFile::new(path.display().to_string(), text))
+            .map_err(|e| input(format!("learned schema {}: {}", path.display(), e.message)))?;
+        let codes = learned.codes.len();
+        (schema, Some(path.display().to_string()), codes)
+    } else {
+        let rendered = render_schema(&mut learned, base, &id, &source, &registry).map_err(input)?;
+        let file = if ctx.mode == Mode::Commission {
+            std::fs::create_dir_all(&cfg.schema_dir)
+                .map_err(|e| input(format!("cannot create {}: {e}", cfg.schema_dir.display())))?;
+            std::fs::write(&path, &rendered.text)
+                .map_err(|e| input(format!("cannot write {}: {e}", path.display())))?;
+            Some(path.display().to_string())
+        } else {
+            None
+        };
+        (rendered.schema, file, rendered.codes)
+    };
+    registry.insert_as(&base.id, schema.clone());
+    let loaded = load_set(&d.set_path, &mut registry)
+        .map_err(|e| input(format!("set {}: {}", d.set_path.display(), e.message)))?;
+    let resolved = match (loaded.findings.is_empty(), loaded.resolved) {
+        (true, Some(set)) => set,
+        _ => {
+            let list: Vec<String> = loaded.findings.iter().map(|f| f.to_string()).collect();
+            let hint = if ctx.mode == Mode::Status && file.is_none() {
+                format!(
+                    "; status reads no substitution texts and found no learned file {} (run `driveset commission` first, whose file status then uses, or give --schema-dir where it is)",
+                    path.display()
+                )
+            } else {
+                String::new()
+            };
+            return Err(input(format!(
+                "set `{}` does not fit the schema learned from the drive ({id}): {}; fix the set (`driveset validate {}` after naming the learned schema){hint}",
+                d.set_text,
+                list.join("; "),
+                d.set_path.display()
+            )));
+        }
+    };
+    let report = LearnedSchemaReport {
+        id: schema.id.clone(),
+        base: base.id.clone(),
+        file,
+        codes,
+        texts: !opts.no_texts,
+        findings: learned.findings.len(),
+    };
+    let drive = Drive {
+        schema,
+        set: resolved,
+        ..d.clone()
+    };
+    Ok((drive, report))
 }
 
 fn fill_from_upload(

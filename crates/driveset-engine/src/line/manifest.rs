@@ -33,6 +33,18 @@
 //! `duplicate-address`, `group-address`, `address-out-of-range`,
 //! `missing-set`, `set-family`, `no-drives`, and the findings of each set
 //! file (their own kinds, at their own locations).
+//!
+//! **Sets whose schema lacks facts.** A set naming a built-in LUSTBUS schema
+//! that lacks codes' types, kinds or ranges (`lust-mc6000`, `lust-vf1000`;
+//! [`crate::learn::needs_learning`]) gets its facts from the drive:
+//! `commission` and `status` learn the schema from each such drive's own
+//! descriptions before planning it (see `commission`'s module docs). Such a
+//! drive loads with [`Drive::learn_from`] set, and the findings its set has
+//! against the built-in schema do not stop the line: they are kept apart in
+//! [`LoadedManifest::learnable`]. Offline (`validate LINE`,
+//! [`validate_manifest`]) they are findings like any other, their help
+//! naming the remedy (commission learns the schema; or name a learned
+//! schema in the set).
 
 // InputError carries a full Location; it is built on the error path only.
 #![allow(clippy::result_large_err)]
@@ -43,6 +55,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::learn::needs_learning;
 use driveset_link::PortSpec;
 use driveset_link::spec::{SIM_FAMILY_KEYS, SIM_MIXED_LUSTBUS};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
@@ -223,8 +236,14 @@ pub struct Drive {
     pub position: Option<String>,
     /// The set's schema.
     pub schema: Arc<Schema>,
-    /// The set's values.
+    /// The set's values. For a drive with [`Drive::learn_from`] whose set
+    /// does not resolve against the built-in schema: empty until the run
+    /// learns the schema and resolves the set again.
     pub set: ResolvedSet,
+    /// The built-in schema the set names when it lacks facts a drive's
+    /// descriptions fill ([`crate::learn::needs_learning`]): line runs learn
+    /// the schema from the drive first and resolve the set against it.
+    pub learn_from: Option<Arc<Schema>>,
     /// Where the drive is declared.
     pub location: Location,
 }
@@ -255,6 +274,10 @@ pub struct LoadedManifest {
     pub manifest: Option<Manifest>,
     /// Every finding, manifest ones first, then the sets'.
     pub findings: Vec<ManifestFinding>,
+    /// The findings of sets whose schema lacks facts against that built-in
+    /// schema: a line run clears them by learning the schema from the
+    /// drive (module docs); they do not stop the manifest from loading.
+    pub learnable: Vec<ManifestFinding>,
 }
 
 /// Whether `path` holds a line manifest (a top-level `line` table, or a
@@ -280,9 +303,16 @@ pub fn is_manifest_doc(d: &Document) -> bool {
 
 /// Validate a manifest and every set it names (the `driveset validate`
 /// entry point). `Err` when the file cannot be read or parsed at all.
+///
+/// Offline the sets whose schema lacks facts cannot be checked: their
+/// findings ([`LoadedManifest::learnable`]) are reported with a help that
+/// names the remedy.
 pub fn validate_manifest(path: &Path) -> Result<Vec<ManifestFinding>, InputError> {
     let mut registry = Registry::builtin()?;
-    Ok(load_manifest(path, &mut registry)?.findings)
+    let loaded = load_manifest(path, &mut registry)?;
+    let mut out = loaded.findings;
+    out.extend(loaded.learnable);
+    Ok(out)
 }
 
 /// Load and check a manifest and its sets.
@@ -614,6 +644,7 @@ impl<'a> Reader<'a> {
         let mut seen_addr: BTreeMap<(usize, i64), Range<usize>> = BTreeMap::new();
         let mut seen_name: BTreeMap<String, Range<usize>> = BTreeMap::new();
         let mut set_findings = Vec::new();
+        let mut learnable = Vec::new();
         for r in &raw_drives {
             let mut ok = true;
             let bus_index = match &r.bus {
@@ -726,12 +757,26 @@ impl<'a> Reader<'a> {
                             self.findings.push(f);
                         }
                         Ok(l) => {
+                            let learn_from = l.schema.clone().filter(|s| needs_learning(s));
                             if !l.findings.is_empty() {
-                                ok = false;
-                                set_findings
-                                    .extend(l.findings.iter().map(ManifestFinding::from_set));
+                                match &learn_from {
+                                    Some(base) => learnable.extend(
+                                        l.findings.iter().map(|f| learnable_finding(f, base)),
+                                    ),
+                                    None => {
+                                        ok = false;
+                                        set_findings.extend(
+                                            l.findings.iter().map(ManifestFinding::from_set),
+                                        );
+                                    }
+                                }
                             }
-                            if let (Some(schema), Some(set)) = (l.schema, l.resolved) {
+                            let resolved = match (&l.schema, l.resolved, &learn_from) {
+                                (_, Some(set), _) if l.findings.is_empty() => Some(set),
+                                (Some(schema), _, Some(_)) => Some(ResolvedSet::new(schema)),
+                                (_, set, _) => set,
+                            };
+                            if let (Some(schema), Some(set)) = (l.schema, resolved) {
                                 if let Some(p) = protocol
                                     && !p.carries(schema.family)
                                 {
@@ -749,13 +794,13 @@ impl<'a> Reader<'a> {
                                         "put the drive on a bus of its family's protocol, or name the right set",
                                     );
                                 }
-                                loaded = Some((schema, set, set_path));
+                                loaded = Some((schema, set, set_path, learn_from));
                             }
                         }
                     }
                 }
             }
-            if let (true, Some(n), Some(bi), Some(a), Some((schema, set, set_path))) =
+            if let (true, Some(n), Some(bi), Some(a), Some((schema, set, set_path, learn_from))) =
                 (ok, name, bus_index, address, loaded)
             {
                 drives.push(Drive {
@@ -771,6 +816,7 @@ impl<'a> Reader<'a> {
                     position: r.position.clone(),
                     schema,
                     set,
+                    learn_from,
                     location: self.loc(&r.span),
                 });
             }
@@ -985,8 +1031,28 @@ impl<'a> Reader<'a> {
             buses,
             drives,
         });
-        LoadedManifest { manifest, findings }
+        LoadedManifest {
+            manifest,
+            findings,
+            learnable,
+        }
     }
+}
+
+/// A set's finding against a built-in schema that lacks facts, its help
+/// naming the remedy.
+fn learnable_finding(f: &Finding, base: &Schema) -> ManifestFinding {
+    let mut m = ManifestFinding::from_set(f);
+    let remedy = format!(
+        "the set names `{}`, which lacks facts (types, kinds, ranges) the drive's own descriptions give: `driveset commission` and `driveset status` learn the schema from the drive first and check the set then; to check it offline, name a learned schema in the set (`driveset schema pull`, or the learned-*.toml a commission run writes into its report directory)",
+        base.id
+    );
+    m.help = if m.help.is_empty() {
+        remedy
+    } else {
+        format!("{}; {remedy}", m.help)
+    };
+    m
 }
 
 fn port_has_rate(port: &str, key: &str) -> bool {

@@ -146,6 +146,33 @@ pub struct DriveReport {
     pub error: Option<String>,
     /// The semantic differences found before writing (or, for `status`, now).
     pub diff: Vec<DiffLine>,
+    /// The schema learned from the drive's own descriptions when the set
+    /// names a built-in schema that lacks facts (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learned_schema: Option<LearnedSchemaReport>,
+}
+
+/// The schema a line run learned from one drive (`commission`'s module
+/// docs, "Learning the schema").
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LearnedSchemaReport {
+    /// The learned schema's id (`learned-<family>-type<TYPE>-<software>`);
+    /// the drive's `schema` is this id too.
+    pub id: String,
+    /// The built-in schema the set names (and the learned one extends).
+    pub base: String,
+    /// The learned schema file: written by `commission`; for `status`, the
+    /// file of an earlier commission run when one fits the drive's
+    /// descriptions, else none (status writes nothing).
+    pub file: Option<String>,
+    /// Codes in the learned schema that came from the drive.
+    pub codes: usize,
+    /// Whether the MC value substitution texts and units were read (the
+    /// only learning step that writes: the RAM selector 108-STEXT; never
+    /// by `status`).
+    pub texts: bool,
+    /// Parameters whose description was left out or downgraded.
+    pub findings: usize,
 }
 
 /// One line of a semantic diff, in engineering units with labels
