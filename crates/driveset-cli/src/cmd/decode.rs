@@ -69,23 +69,8 @@ pub enum DecodeProtocol {
     Slcan,
 }
 
-/// LUSTBUS device family.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum FamilyArg {
-    /// SMARTDRIVE VF1000 (4 hex digit VALUEs).
-    Vf1000,
-    /// MASTERCONTROL MC6000/7000 (1..8 hex digit VALUEs).
-    Mc6000,
-}
-
-impl FamilyArg {
-    pub(crate) fn family(self) -> Dialect {
-        match self {
-            FamilyArg::Vf1000 => Dialect::Vf1000,
-            FamilyArg::Mc6000 => Dialect::Mc,
-        }
-    }
-}
+/// LUSTBUS device family (`--family`), from the family descriptor.
+pub use crate::args::LustFamilyArg as FamilyArg;
 
 /// Output format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -269,7 +254,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         }
     };
     let mut registry = builtin_registry()?;
-    let family = args.family.map(FamilyArg::family);
+    let family = args.family.map(FamilyArg::dialect);
     if args.family.is_some() && args.protocol != DecodeProtocol::Lustbus {
         eprintln!("error: --family applies to --protocol lustbus only");
         return Ok(EXIT_INPUT);
@@ -312,11 +297,9 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                     DecodeProtocol::Lecom => "lecom",
                     DecodeProtocol::Slcan => "slcan",
                 },
-                match args.family {
-                    Some(FamilyArg::Vf1000) => " --family vf1000",
-                    Some(FamilyArg::Mc6000) => " --family mc6000",
-                    None => "",
-                }
+                args.family
+                    .map(|f| format!(" --family {}", f.0.name()))
+                    .unwrap_or_default()
             );
             return Ok(EXIT_INPUT);
         }

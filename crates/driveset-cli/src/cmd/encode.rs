@@ -59,17 +59,6 @@ use super::decode::input::{escaped, hex_spaced};
 use super::decode::{FamilyArg, builtin_registry, load_schema};
 use crate::{EXIT_INPUT, EXIT_OK};
 
-/// Family of the telegram to build.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum EncodeProtocol {
-    /// LUSTBUS (Lust VF1000, MC6000/7000).
-    Lustbus,
-    /// LECOM-A/B (Lenze Tmd).
-    Lecom,
-    /// CAN SDO (Lenze ECS), printed as a CAN frame and an slcan line.
-    Sdo,
-}
-
 #[derive(clap::Args)]
 #[command(after_help = "\
 Grammar: VERB key=value ... (quote values with spaces: key=\"a b\")
@@ -103,7 +92,7 @@ Examples:
 pub struct Args {
     /// Family of the telegram.
     #[arg(long, value_enum)]
-    pub protocol: EncodeProtocol,
+    pub protocol: crate::args::BusArg,
     /// LUSTBUS device family (for param= and decimal values).
     #[arg(long, value_enum)]
     pub family: Option<FamilyArg>,
@@ -236,10 +225,10 @@ fn build(args: &Args) -> anyhow::Result<(Vec<u8>, String)> {
         Some(s) => Some(load_schema(&mut registry, s)?),
         None => None,
     };
-    match args.protocol {
-        EncodeProtocol::Lustbus => lustbus(args, &registry, schema),
-        EncodeProtocol::Lecom => lecom_telegram(args, &registry, schema),
-        EncodeProtocol::Sdo => sdo(args, &registry, schema),
+    match args.protocol.0 {
+        driveset_schema::BusProtocol::Lustbus => lustbus(args, &registry, schema),
+        driveset_schema::BusProtocol::Lecom => lecom_telegram(args, &registry, schema),
+        driveset_schema::BusProtocol::CanSdo => sdo(args, &registry, schema),
     }
 }
 
@@ -282,7 +271,7 @@ fn lustbus(
         Some(f) => bail!("family={f}: valid families: vf1000, mc6000"),
         None => args
             .family
-            .map(FamilyArg::family)
+            .map(FamilyArg::dialect)
             .or(match schema.as_ref().map(|s| s.family) {
                 Some(driveset_schema::Family::Vf1000) => Some(Dialect::Vf1000),
                 Some(driveset_schema::Family::Mc6000) => Some(Dialect::Mc),

@@ -26,15 +26,6 @@ use crate::learning;
 use crate::output;
 use crate::port::{self, Fail};
 
-/// `--family` of `schema pull`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum PullFamily {
-    /// Lust SMARTDRIVE VF1000 (descriptions only; parameters 1..99).
-    Vf1000,
-    /// Lust MASTERCONTROL MC6000/7000 (descriptions, units, substitution texts; 1..999).
-    Mc6000,
-}
-
 /// Arguments of `driveset schema pull`.
 #[derive(clap::Args)]
 #[command(after_help = "\
@@ -70,7 +61,7 @@ pub struct Args {
     pub address: u8,
     /// The drive family (decides the description format; default: probed).
     #[arg(long, value_enum)]
-    pub family: Option<PullFamily>,
+    pub family: Option<crate::args::LustFamilyArg>,
     /// Parameters to ask for: ranges and numbers, e.g. `1-99` or `1,5,100-120`
     /// (default VF1000 1-99, MC6000/7000 1-999).
     #[arg(long, value_name = "LIST")]
@@ -132,8 +123,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let mut opts = learn_args.options()?;
     let mut opened = port::open_port_at(&args.port, Some(args.address))?;
     let base = match args.family {
-        Some(PullFamily::Vf1000) => learning::builtin_for(Family::Vf1000, &[])?,
-        Some(PullFamily::Mc6000) => learning::builtin_for(Family::Mc6000, &[])?,
+        Some(f) => learning::builtin_for(f.0, &[])?,
         None => match port::peek_sim_family_at(&args.port, Some(args.address)) {
             Some(f) => learning::builtin_for(f, &[])?,
             None => learning::detect(&mut opened, args.address, &[])?.0,

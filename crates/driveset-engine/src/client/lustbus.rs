@@ -341,10 +341,17 @@ impl<L: ByteLink> LustLine<L> {
 
 /// Wire family of a LUSTBUS schema.
 fn family_of(schema: &Schema) -> Option<Dialect> {
-    match schema.family {
+    dialect_of(schema.family)
+}
+
+/// The LUSTBUS dialect a family speaks (sections 2.3, 2.4): `None` for
+/// the families on other buses. The one mapping from the family
+/// descriptor to the codec's dialect.
+pub fn dialect_of(family: Family) -> Option<Dialect> {
+    match family {
         Family::Vf1000 => Some(Dialect::Vf1000),
         Family::Mc6000 => Some(Dialect::Mc),
-        _ => None,
+        Family::Tmd | Family::Ecs => None,
     }
 }
 
