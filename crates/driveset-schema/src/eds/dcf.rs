@@ -250,7 +250,7 @@ mod tests {
     fn schema(protocol: &str) -> std::sync::Arc<Schema> {
         let text = format!(
             "[schema]\nid = \"t\"\ntitle = \"T\"\nprotocol = \"{protocol}\"\ncode_style = \"lenze\"\n\
-             [[code]]\nnumber = 5001\nname = \"pin\"\ntitle = \"PIN\"\nspec = \"s\"\ntype = \"FIX32\"\npassword = true\ndefault = \"1\"\n\
+             [[code]]\nnumber = 5001\nname = \"pin\"\ntitle = \"PIN\"\nspec = \"s\"\ntype = \"FIX32\"\nrole = \"password\"\ndefault = \"1\"\n\
              [[code]]\nindex = 0x6040\nname = \"w\"\ntitle = \"W; x\"\nspec = \"s\"\ntype = \"INTEGER16\"\n"
         );
         Registry::new()

@@ -1019,6 +1019,19 @@ pub(crate) fn toml_str(s: &str) -> String {
     out
 }
 
+/// The role of Lenze code `number` in the built-in `lenze-ecs` schema.
+fn builtin_role(number: u32) -> Option<crate::role::Role> {
+    static ECS: std::sync::OnceLock<Option<std::sync::Arc<crate::Schema>>> =
+        std::sync::OnceLock::new();
+    ECS.get_or_init(|| {
+        crate::Registry::builtin()
+            .ok()
+            .and_then(|r| r.get(crate::Family::Ecs.descriptor().schema_id))
+    })
+    .as_ref()
+    .and_then(|s| s.role_of(number))
+}
+
 fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out]) -> String {
     let info = |sec: &str, key: &str| {
         file.section(sec)
@@ -1085,6 +1098,14 @@ fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out]) -> Strin
             "access = {}",
             if o.access_ro { "\"ro\"" } else { "\"rw\"" }
         );
+        // The role a Lenze code has in the built-in lenze-ecs schema (C0135
+        // control word, C0150 status word): an imported schema keeps it, so
+        // a set against it cannot start a motor either.
+        if o.index.is_none()
+            && let Some(role) = builtin_role(o.number)
+        {
+            let _ = writeln!(t, "role = \"{}\"", role.as_str());
+        }
         if !o.notes.is_empty() {
             let _ = writeln!(t, "note = {}", toml_str(&o.notes.join("; ")));
         }
@@ -1234,7 +1255,7 @@ HighLimit=1
         );
         assert_eq!(
             block(&i.toml, 135),
-            "[[code]]\nnumber = 135\nname = \"code_0135\"\ntitle = \"C0135\"\nspec = \"t.eds [5F78] line 1\"\ntype = \"BITCODED\"\ndefault = \"1025\"\naccess = \"rw\""
+            "[[code]]\nnumber = 135\nname = \"code_0135\"\ntitle = \"C0135\"\nspec = \"t.eds [5F78] line 1\"\ntype = \"BITCODED\"\ndefault = \"1025\"\naccess = \"rw\"\nrole = \"control-word\""
         );
         assert_eq!(
             block(&i.toml, 1),
