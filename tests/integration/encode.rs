@@ -395,7 +395,7 @@ fn unknown_protocol() {
         .stdout("")
         .stderr(
             r#"error: invalid value 'modbus' for '--protocol <PROTOCOL>'
-  [possible values: lustbus, lecom, sdo]
+  [possible values: lustbus, lecom, can]
 
 For more information, try '--help'.
 "#,
