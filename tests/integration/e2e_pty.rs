@@ -557,6 +557,9 @@ impl Drop for PySdoServer {
 /// slcan interface), joined by driveset_sim::slcan_hub.
 #[test]
 fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
+    if crate::util::python_or_skip("canopen interop").is_none() {
+        return;
+    }
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
     let hub = driveset_sim::slcan_hub::SlcanHub::spawn(500_000).expect("slcan hub");
@@ -714,6 +717,9 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
 /// --to dcf` writes from the pulled set is read back by canopen.
 #[test]
 fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
+    if crate::util::python_or_skip("canopen interop").is_none() {
+        return;
+    }
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
     let eds = workspace_root().join("tests/data/eds/fictional-ecs-axis.eds");

@@ -20,24 +20,9 @@ use std::time::{Duration, Instant};
 use crate::util::{driveset, workspace_root};
 
 /// The interpreter with pyserial, or `None` (after saying why) when the
-/// test should be skipped.
+/// test should be skipped ([`crate::util::python_or_skip`]).
 pub(crate) fn python_or_skip(what: &str) -> Option<PathBuf> {
-    let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
-        || workspace_root().join("target/py/bin/python"),
-        PathBuf::from,
-    );
-    if python.exists() {
-        return Some(python);
-    }
-    let msg = format!(
-        "{what}: {} is missing: run scripts/setup (or scripts/setup-python: the pinned pyserial into target/py), or set DRIVESET_PYTHON",
-        python.display()
-    );
-    if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
-        panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
-    }
-    eprintln!("skipped: {msg}");
-    None
+    crate::util::python_or_skip(what)
 }
 
 /// The running bridge: its port and every stdout line after the first.

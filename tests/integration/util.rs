@@ -18,3 +18,34 @@ pub fn driveset() -> assert_cmd::Command {
     cmd.current_dir(workspace_root());
     cmd
 }
+
+/// Whether an interop test can run: `present` says its outside software is
+/// installed. When it is not, a plain `cargo test` skips the test with a
+/// message naming `scripts/setup`; README's test command (`./scripts/test`
+/// exports `DRIVESET_REQUIRE_INTEROP=1`) fails it instead.
+pub fn interop_or_skip(what: &str, present: bool, missing: &str) -> bool {
+    if present {
+        return true;
+    }
+    let msg = format!("{what}: {missing}: run scripts/setup");
+    if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
+        panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
+    }
+    eprintln!("skipped: {msg}");
+    false
+}
+
+/// The Python interpreter of the interop tests (`DRIVESET_PYTHON`, else the
+/// venv `scripts/setup-python` makes at `target/py`), or `None` after
+/// [`interop_or_skip`] said why the test is skipped.
+pub fn python_or_skip(what: &str) -> Option<PathBuf> {
+    let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
+        || workspace_root().join("target/py/bin/python"),
+        PathBuf::from,
+    );
+    let missing = format!(
+        "{} is missing (scripts/setup-python installs the pinned packages into target/py; or set DRIVESET_PYTHON)",
+        python.display()
+    );
+    interop_or_skip(what, python.exists(), &missing).then_some(python)
+}

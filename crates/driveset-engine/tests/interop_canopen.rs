@@ -70,6 +70,25 @@ fn python() -> PathBuf {
     root().join("target/py/bin/python")
 }
 
+/// Whether the venv is there. Without it a plain `cargo test` skips these
+/// tests with a message naming `scripts/setup`; README's test command
+/// (`./scripts/test` exports `DRIVESET_REQUIRE_INTEROP=1`) fails them.
+fn interop_available() -> bool {
+    let python = python();
+    if python.exists() {
+        return true;
+    }
+    let msg = format!(
+        "canopen interop: {} is missing: run scripts/setup (scripts/setup-python installs python-can and canopen into target/py), or set DRIVESET_PYTHON",
+        python.display()
+    );
+    if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
+        panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
+    }
+    eprintln!("skipped: {msg}");
+    false
+}
+
 /// (code number, raw value) pairs.
 type Values = Vec<(u32, i64)>;
 
@@ -277,6 +296,9 @@ fn finish(hub: SlcanHub, server: Server, c: CanClient<SlcanLink>) {
 
 #[test]
 fn engine_pulls_uploads_and_decodes_aborts_against_a_canopen_local_node() {
+    if !interop_available() {
+        return;
+    }
     let (hub, mut server, mut c) = session();
 
     // 1. pull: every code of the schema, exact values.
@@ -411,6 +433,9 @@ code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a
 /// the codes written before it are, and the drive ends exactly as it was.
 #[test]
 fn upload_touching_a_read_only_object_rolls_back() {
+    if !interop_available() {
+        return;
+    }
     let (hub, mut server, mut c) = session();
     let dir = tempfile::tempdir().expect("tempdir");
     let ro = set(

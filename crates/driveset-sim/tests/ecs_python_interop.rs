@@ -82,12 +82,20 @@ fn run_script(python: &PathBuf, path: &str) -> (Option<i32>, String, String) {
 #[test]
 fn python_can_slcan_and_canopen_sdo_client_against_simulated_ecs() {
     let python = python();
-    assert!(
-        python.exists(),
-        "{} is missing: run scripts/setup-python (installs the pinned python-can and canopen \
-         into target/py), or set DRIVESET_PYTHON to a Python that has them",
-        python.display()
-    );
+    // Without the venv a plain `cargo test` skips this test with a message
+    // naming `scripts/setup`; `./scripts/test` (DRIVESET_REQUIRE_INTEROP=1)
+    // fails it.
+    if !python.exists() {
+        let msg = format!(
+            "python-can interop: {} is missing: run scripts/setup (scripts/setup-python installs python-can and canopen into target/py), or set DRIVESET_PYTHON",
+            python.display()
+        );
+        if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
+            panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
+        }
+        eprintln!("skipped: {msg}");
+        return;
+    }
 
     let mut node1 = test_drive(1);
     node1
