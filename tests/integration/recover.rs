@@ -279,6 +279,47 @@ fn an_upload_in_a_git_repository_leaves_git_status_clean() {
 }
 
 #[test]
+fn a_commission_in_a_git_repository_leaves_git_status_clean() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = tempfile::tempdir().unwrap();
+    let git = |args: &[&str]| {
+        let out = std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .expect("git runs");
+        assert!(out.status.success(), "git {args:?}: {out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    git(&["init", "-q"]);
+    let set = workspace_root().join("parameter-sets/demo-line/sets/transfer-11.toml");
+    std::fs::write(
+        dir.path().join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = {:?}\n",
+            set.display().to_string()
+        ),
+    )
+    .unwrap();
+    git(&["add", "line.toml"]);
+    driveset()
+        .current_dir(dir.path())
+        .env("DRIVESET_SIM_STATE_DIR", sim.path())
+        .args(["commission", "line.toml", "--report-dir"])
+        .arg(sim.path().join("report"))
+        .assert()
+        .code(0);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join(".driveset/.gitignore")).unwrap(),
+        "# written by driveset: journals hold old values, passwords included\n*\n"
+    );
+    assert_eq!(
+        git(&["status", "--porcelain", "--untracked-files=all"]),
+        "A  line.toml\n"
+    );
+}
+
+#[test]
 fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();

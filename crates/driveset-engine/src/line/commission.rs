@@ -346,12 +346,9 @@ pub fn run_line(
     })?;
     let mut warnings = Vec::new();
     let state = if mode == Mode::Commission {
-        std::fs::create_dir_all(&opts.journal_dir).map_err(|e| {
-            LineError::Io(format!(
-                "cannot create the journal directory {}: {e}",
-                opts.journal_dir.display()
-            ))
-        })?;
+        // the one way to create a journal directory: it keeps itself out of
+        // git with its own .gitignore, as upload's does
+        crate::journal::ensure_dir(&opts.journal_dir).map_err(|e| LineError::Io(e.to_string()))?;
         let mut s = if opts.fresh {
             CommissionState::default()
         } else {
