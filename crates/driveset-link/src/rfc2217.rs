@@ -30,7 +30,7 @@
 //!   the server's confirmation (112) is ignored when it comes.
 
 use std::collections::VecDeque;
-use std::io::{self, Read, Write};
+use std::io::{Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::time::Duration;
 
@@ -498,23 +498,7 @@ impl Rfc2217Link {
                 .set_nonblocking(false)
                 .map_err(|e| LinkError::io(&self.name, "poll the connection", e))?;
         }
-        match result {
-            Ok(0) => Err(LinkError::ConnectionClosed {
-                port: self.name.clone(),
-            }),
-            Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock
-                        | io::ErrorKind::TimedOut
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
-            Err(e) => Err(LinkError::io(&self.name, "read from the device server", e)),
-        }
+        crate::tcp::read_outcome(&self.name, result)
     }
 
     fn pump(&mut self, deadline: Instant) -> Result<bool, LinkError> {

@@ -83,23 +83,28 @@ impl TcpLink {
     }
 
     fn read_result(&self, result: io::Result<usize>) -> Result<usize, LinkError> {
-        match result {
-            Ok(0) => Err(LinkError::ConnectionClosed {
-                port: self.name.clone(),
-            }),
-            Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock
-                        | io::ErrorKind::TimedOut
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
-            Err(e) => Err(LinkError::io(&self.name, "read from the device server", e)),
+        read_outcome(&self.name, result)
+    }
+}
+
+/// What one read from a device server's socket means: bytes, nothing yet
+/// (would block, timed out, interrupted), or a closed or failed connection
+/// naming `name` (shared with [`crate::rfc2217`]).
+pub(crate) fn read_outcome(name: &str, result: io::Result<usize>) -> Result<usize, LinkError> {
+    match result {
+        Ok(0) => Err(LinkError::ConnectionClosed {
+            port: name.to_string(),
+        }),
+        Ok(n) => Ok(n),
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+            ) =>
+        {
+            Ok(0)
         }
+        Err(e) => Err(LinkError::io(name, "read from the device server", e)),
     }
 }
 

@@ -105,10 +105,9 @@ pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
 /// The `format` value of a state dump.
 pub const STATE_FORMAT: &str = "driveset-sim-state 1";
 
-/// The option keys [`SimConfig::from_spec`] understands.
-pub const OPTION_KEYS: &[&str] = &[
-    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
-];
+/// The option keys [`SimConfig::from_spec`] understands: the one list the
+/// port parser accepts for `sim://` ports.
+pub use driveset_link::spec::SIM_OPTION_KEYS as OPTION_KEYS;
 
 /// Why a simulated bus could not be opened, loaded or saved.
 #[derive(Debug, thiserror::Error)]
