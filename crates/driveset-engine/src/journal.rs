@@ -339,6 +339,15 @@ pub struct Journal {
     /// Codes written (acknowledged) so far, canonical spelling; advisory:
     /// recovery reads the drive rather than trusting this list.
     pub written: Vec<String>,
+    /// Codes whose new value a LUSTBUS broadcast (SELECT to address 31,
+    /// section 4.2; `commission --broadcast-common`) sends into this
+    /// drive's dataset download instead of a SELECT of its own, canonical
+    /// spelling. No receipt says whether they landed, so they may be in
+    /// the drive's dataset though `written` does not list them; recovery
+    /// reads the drive anyway (a dataset download left open is rolled
+    /// back).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub broadcast: Vec<String>,
     /// State transitions.
     pub transitions: Vec<Transition>,
     /// Why the transaction failed, if it did.

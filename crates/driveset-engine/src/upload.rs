@@ -25,6 +25,21 @@
 //!   redone from the read-back, at most [`UploadOptions::max_restarts`]
 //!   times, keeping the first attempt's backup.
 //!
+//! **Steps.** [`Transaction`] is the transaction as explicit steps, each
+//! one call a caller (the line runner, a progress observer) can drive or
+//! watch: [`Transaction::begin`] (check, unfinished-journal guard,
+//! identify), then per attempt [`Transaction::replan`] (read back, plan),
+//! [`Transaction::journal`] (backup durable before any write),
+//! [`Transaction::open_dataset`] (SLOAD = -1), [`Transaction::write_dataset`],
+//! [`Transaction::commit`] (SLOAD = -2, poll), [`Transaction::write_rest`],
+//! [`Transaction::verify`], and [`Transaction::finish`] (the report). A
+//! failed step goes to [`Transaction::stopped`] (roll back, or redo after a
+//! restart). Each code has one record (old, new, texts, storage, phase,
+//! outcome, touched, verified). [`upload`] runs the steps in order. A
+//! failure to persist the journal is never discarded: the step fails with
+//! it, and a persist failure while settling is reported with what the
+//! drive holds and the state the journal on disk still says.
+//!
 //! Times come only from the client's clock.
 
 // EngineError (the crate's contract type) is large; it is built on the
@@ -39,7 +54,7 @@ use std::time::Duration;
 
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
-use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
+use crate::client::{ClientStats, DatasetOutcome, DriveClient, Identity, Target};
 use crate::error::EngineError;
 use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
@@ -100,12 +115,13 @@ impl UploadOptions {
 }
 
 /// What happened to one code of the set.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "kebab-case", tag = "outcome", content = "detail")]
 pub enum CodeOutcome {
     /// The drive already held the value.
     Unchanged,
     /// Planned, not written (the transaction stopped before it).
+    #[default]
     NotWritten,
     /// Acknowledged, not yet read back.
     Written,
@@ -354,130 +370,148 @@ pub fn prepare(
 /// Upload `set` to the drive as one transaction (see the module docs).
 /// `Ok` only when the drive holds the set (verified); the report then has
 /// `state == Complete`.
+///
+/// The one-call form of [`Transaction`]: begin, then attempts of
+/// replan, journal, dataset, writes and verify until one settles (an
+/// attempt voided by a drive restart is redone), then finish.
 pub fn upload(
     client: &mut dyn DriveClient,
     set: &ResolvedSet,
     opts: &UploadOptions,
 ) -> Result<UploadReport, UploadFailure> {
-    let schema = client.schema().clone();
-    let target = client.target().clone();
-    let start = client.clock().now();
-    let stats0 = client.stats();
-    let mut popts = PlanOptions {
-        overrides: opts.overrides,
-        dataset: client.has_dataset_download(),
-        running: Running::NotRead,
-        identity: None,
-    };
-    let problems = check_set(&schema, set, &popts);
-    if !problems.is_empty() {
-        return Err(refused(&target, problems).into());
-    }
-    check_unfinished(&*client, &opts.journal)?;
-    let identity = client.identify()?;
-    popts.identity = Some(identity.clone());
-    // The running-motor check is done in the attempt, only when something
-    // has to be written (a re-run that changes nothing costs no exchange).
-    let problems = check_set(&schema, set, &popts);
-    if !problems.is_empty() {
-        return Err(refused(&target, problems).into());
-    }
-    let mut tx = Txn {
-        client,
-        schema,
-        target,
-        opts,
-        popts,
-        identity,
-        journal: None,
-        backup: BTreeMap::new(),
-        order: Vec::new(),
-        touched: BTreeSet::new(),
-        new_values: BTreeMap::new(),
-        outcomes: BTreeMap::new(),
-        texts: BTreeMap::new(),
-        storages: BTreeMap::new(),
-        unchanged: BTreeMap::new(),
-        verified: BTreeMap::new(),
-        since_persist: 0,
-        dataset_touched: false,
-        dataset_note: None,
-        interleaved: 0,
-        written_count: 0,
-        attempts: 0,
-        fingerprint_before: String::new(),
-        warnings: Vec::new(),
-        start,
-        stats0,
-    };
+    let mut tx = Transaction::begin(client, set, opts)?;
     let result = loop {
-        tx.attempts += 1;
-        match tx.attempt(set) {
+        match tx.run_attempt(client, set) {
             Ok(()) => break Ok(()),
-            Err(Stop::Settled(e)) => break Err(e),
-            Err(Stop::Error(e @ EngineError::Restarted { .. }))
-                if tx.attempts <= tx.opts.max_restarts =>
-            {
-                if tx.journal.is_some() {
-                    let note = format!("{e}; redoing from the read-back");
-                    tx.warnings.push(note.clone());
-                    if let Err(je) = tx.set_state(TxnState::Planned, Some(note)) {
-                        break Err(tx.fail(je));
-                    }
-                }
-                continue;
-            }
-            Err(Stop::Error(e)) => {
-                if tx.journal.is_none() {
-                    break Err(e);
-                }
-                break Err(tx.fail(e));
-            }
+            Err(stop) => match tx.stopped(client, stop) {
+                Next::Redo => continue,
+                Next::Failed(e) => break Err(e),
+            },
         }
     };
-    let report = tx.report(set);
-    match result {
-        Ok(()) => Ok(report),
-        Err(e) => Err(UploadFailure {
-            error: Box::new(e),
-            report: tx.journal.as_ref().map(|_| Box::new(report)),
-        }),
-    }
+    tx.finish(client, set, result)
 }
 
-enum Stop {
-    /// The transaction reached a final state; return this error as is.
+/// Why a step of a [`Transaction`] stopped.
+#[derive(Debug)]
+pub enum StepError {
+    /// The transaction reached a final state; report this error as is.
     Settled(EngineError),
-    /// Failed; roll back if anything may have been written.
+    /// Failed; [`Transaction::stopped`] rolls back if anything may have
+    /// been written.
     Error(EngineError),
 }
 
-impl From<EngineError> for Stop {
+impl From<EngineError> for StepError {
     fn from(e: EngineError) -> Self {
-        Stop::Error(e)
+        StepError::Error(e)
     }
 }
 
-struct Txn<'a> {
-    client: &'a mut dyn DriveClient,
+impl StepError {
+    /// The error.
+    pub fn error(&self) -> &EngineError {
+        match self {
+            StepError::Settled(e) | StepError::Error(e) => e,
+        }
+    }
+}
+
+/// What [`Transaction::stopped`] decided.
+#[derive(Debug)]
+pub enum Next {
+    /// The attempt was voided by a drive restart: run the steps again from
+    /// [`Transaction::replan`] (the first attempt's backup is kept).
+    Redo,
+    /// The transaction is over (rolled back, failed, refused); this is the
+    /// error to report.
+    Failed(EngineError),
+}
+
+/// What [`Transaction::replan`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Replanned {
+    /// The drive holds the set and no journal exists: nothing to do (the
+    /// transaction is complete without a journal; go to
+    /// [`Transaction::finish`]).
+    Nothing,
+    /// Writes are planned: go on with [`Transaction::journal`].
+    Writes,
+}
+
+/// One code of a transaction: everything the runner knows about it.
+#[derive(Debug, Clone, Default)]
+struct CodeRecord {
+    /// The old value (the first attempt's), once the code was planned.
+    backup: Option<RawValue>,
+    /// The set's value, once the code was planned.
+    new: Option<RawValue>,
+    /// Old and new value for humans.
+    texts: (String, String),
+    /// How the drive keeps it.
+    storage: Option<Storage>,
+    /// The phase of the latest plan that wrote it.
+    phase: Option<Phase>,
+    /// What happened to it.
+    outcome: CodeOutcome,
+    /// A write was sent to it in some attempt (it may have landed).
+    touched: bool,
+    /// The value the latest read-back found equal to the set's.
+    unchanged: Option<RawValue>,
+    /// The value read back equal to the set's after writing it.
+    verified: Option<RawValue>,
+}
+
+/// The current attempt's plan and its progress.
+#[derive(Debug)]
+struct Attempt {
+    plan: Plan,
+    /// New values of the planned writes.
+    expected: BTreeMap<CodeKey, RawValue>,
+    /// Written, not yet read back (oldest first).
+    pending: VecDeque<CodeKey>,
+    /// The dataset's writes, in plan order.
+    staged: Vec<CodeKey>,
+    /// Dataset writes a broadcast sends instead of this drive's own
+    /// SELECT ([`Transaction::expect_broadcast`]).
+    broadcast: BTreeSet<CodeKey>,
+    /// Broadcast codes already repaired by an own write.
+    repaired: BTreeSet<CodeKey>,
+}
+
+/// An upload as explicit steps, for a caller that drives them one by one
+/// (the line runner's broadcast); [`upload`] runs them in order.
+///
+/// ```text
+/// begin -> replan -> journal -> open_dataset -> write_dataset -> commit
+///       -> write_rest -> verify -> finish
+/// ```
+///
+/// Each step takes the client it talks through; the transaction holds no
+/// borrow of it, so a caller can keep several transactions of one bus open
+/// and reach each drive through a client of its own per step
+/// ([`Transaction::attach`] / [`Transaction::detach`] carry the telegram
+/// counts across clients). A step's [`StepError`] goes to
+/// [`Transaction::stopped`], which rolls back (or asks for a redo after a
+/// drive restart). A failure to persist the journal is never dropped: the
+/// step fails with it, and when it happens while settling, the reported
+/// error names both what the drive holds and the journal failure.
+#[derive(Debug)]
+pub struct Transaction {
     schema: Arc<Schema>,
     target: Target,
-    opts: &'a UploadOptions,
+    opts: UploadOptions,
     popts: PlanOptions,
     identity: Identity,
     journal: Option<JournalFile>,
-    /// Old values (first attempt's), by code.
-    backup: BTreeMap<CodeKey, RawValue>,
-    /// Planned codes in write order (latest plan; earlier attempts' extra codes after).
-    order: Vec<(CodeKey, Phase)>,
-    /// Codes a write was sent to, in any attempt.
-    touched: BTreeSet<CodeKey>,
-    new_values: BTreeMap<CodeKey, RawValue>,
-    outcomes: BTreeMap<CodeKey, CodeOutcome>,
-    texts: BTreeMap<CodeKey, (String, String)>,
-    storages: BTreeMap<CodeKey, Storage>,
-    unchanged: BTreeMap<CodeKey, RawValue>,
-    verified: BTreeMap<CodeKey, RawValue>,
+    /// The state the journal on disk holds (the last one persisted).
+    on_disk: Option<TxnState>,
+    /// Every code the transaction planned or found unchanged.
+    records: BTreeMap<CodeKey, CodeRecord>,
+    /// Planned codes in write order (latest plan; earlier attempts' extra
+    /// codes after).
+    order: Vec<CodeKey>,
+    attempt: Option<Attempt>,
     since_persist: usize,
     dataset_touched: bool,
     dataset_note: Option<String>,
@@ -487,31 +521,165 @@ struct Txn<'a> {
     fingerprint_before: String,
     warnings: Vec<String>,
     start: driveset_link::Instant,
-    stats0: crate::client::ClientStats,
+    /// The attached client's counters when it was attached.
+    stats0: ClientStats,
+    /// What earlier (detached) clients did.
+    carried: ClientStats,
 }
 
-impl Txn<'_> {
-    fn now_ns(&self) -> u64 {
-        self.client.clock().now().as_nanos()
+fn stats_add(a: ClientStats, b: ClientStats) -> ClientStats {
+    ClientStats {
+        telegrams: a.telegrams + b.telegrams,
+        retries: a.retries + b.retries,
+        sent: a.sent + b.sent,
+        received: a.received + b.received,
+        late: a.late + b.late,
+        sload_polls: a.sload_polls + b.sload_polls,
+    }
+}
+
+fn stats_since(now: ClientStats, then: ClientStats) -> ClientStats {
+    ClientStats {
+        telegrams: now.telegrams.saturating_sub(then.telegrams),
+        retries: now.retries.saturating_sub(then.retries),
+        sent: now.sent.saturating_sub(then.sent),
+        received: now.received.saturating_sub(then.received),
+        late: now.late.saturating_sub(then.late),
+        sload_polls: now.sload_polls.saturating_sub(then.sload_polls),
+    }
+}
+
+/// A step called out of order (a caller's mistake, not the drive's).
+fn out_of_order(target: &Target, step: &str, before: &str) -> StepError {
+    StepError::Settled(EngineError::Refused {
+        target: target.clone(),
+        reason: format!("transaction step `{step}` called before `{before}`"),
+    })
+}
+
+impl Transaction {
+    /// Check the set, refuse when the journal directory holds an
+    /// unfinished journal of the drive, identify it and check again. Sends
+    /// only the identify reads; nothing is journalled yet.
+    pub fn begin(
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+        opts: &UploadOptions,
+    ) -> Result<Transaction, EngineError> {
+        let schema = client.schema().clone();
+        let target = client.target().clone();
+        let start = client.clock().now();
+        let stats0 = client.stats();
+        let mut popts = PlanOptions {
+            overrides: opts.overrides,
+            dataset: client.has_dataset_download(),
+            running: Running::NotRead,
+            identity: None,
+        };
+        let problems = check_set(&schema, set, &popts);
+        if !problems.is_empty() {
+            return Err(refused(&target, problems));
+        }
+        check_unfinished(&*client, &opts.journal)?;
+        let identity = client.identify()?;
+        popts.identity = Some(identity.clone());
+        // The running-motor check is done in replan, only when something
+        // has to be written (a re-run that changes nothing costs no exchange).
+        let problems = check_set(&schema, set, &popts);
+        if !problems.is_empty() {
+            return Err(refused(&target, problems));
+        }
+        Ok(Transaction {
+            schema,
+            target,
+            opts: opts.clone(),
+            popts,
+            identity,
+            journal: None,
+            on_disk: None,
+            records: BTreeMap::new(),
+            order: Vec::new(),
+            attempt: None,
+            since_persist: 0,
+            dataset_touched: false,
+            dataset_note: None,
+            interleaved: 0,
+            written_count: 0,
+            attempts: 0,
+            fingerprint_before: String::new(),
+            warnings: Vec::new(),
+            start,
+            stats0,
+            carried: ClientStats::default(),
+        })
+    }
+
+    /// What the drive said it is.
+    pub fn identity(&self) -> &Identity {
+        &self.identity
+    }
+
+    /// The journal file, once [`Transaction::journal`] created it.
+    pub fn journal_file(&self) -> Option<&JournalFile> {
+        self.journal.as_ref()
+    }
+
+    /// The current attempt's plan (after [`Transaction::replan`]).
+    pub fn plan(&self) -> Option<&Plan> {
+        self.attempt.as_ref().map(|a| &a.plan)
+    }
+
+    /// The codes the current attempt stages in the MC6000/7000 dataset, in
+    /// write order.
+    pub fn staged(&self) -> &[CodeKey] {
+        self.attempt.as_ref().map_or(&[], |a| &a.staged)
+    }
+
+    /// The client the next steps go through is no longer `client`: keep
+    /// its telegram counts for the report.
+    pub fn detach(&mut self, client: &dyn DriveClient) {
+        self.carried = stats_add(self.carried, stats_since(client.stats(), self.stats0));
+        self.stats0 = client.stats();
+    }
+
+    /// The next steps go through `client` (after [`Transaction::detach`]
+    /// of the previous one).
+    pub fn attach(&mut self, client: &dyn DriveClient) {
+        self.stats0 = client.stats();
+    }
+
+    /// Note for the report.
+    pub fn warn(&mut self, note: String) {
+        self.warnings.push(note);
+    }
+
+    fn stats(&self, client: &dyn DriveClient) -> ClientStats {
+        stats_add(self.carried, stats_since(client.stats(), self.stats0))
     }
 
     fn journal_path(&self) -> String {
         self.opts.journal.display().to_string()
     }
 
-    fn set_state(&mut self, state: TxnState, note: Option<String>) -> Result<(), EngineError> {
-        let at = self.now_ns();
+    fn set_state(
+        &mut self,
+        client: &dyn DriveClient,
+        state: TxnState,
+        note: Option<String>,
+    ) -> Result<(), EngineError> {
+        let at = client.clock().now().as_nanos();
         if let Some(j) = &mut self.journal {
             j.journal.transition(state, at, note);
             j.persist()?;
             self.since_persist = 0;
+            self.on_disk = Some(state);
         }
         Ok(())
     }
 
     fn note_written(&mut self, key: CodeKey) -> Result<(), EngineError> {
         self.written_count += 1;
-        self.outcomes.insert(key, CodeOutcome::Written);
+        self.records.entry(key).or_default().outcome = CodeOutcome::Written;
         let every = self.opts.journal_every.max(1);
         if let Some(j) = &mut self.journal {
             j.journal
@@ -526,19 +694,185 @@ impl Txn<'_> {
         Ok(())
     }
 
-    fn entry_records(&self, plan: &Plan) -> (Vec<BackupEntry>, Vec<PlanEntryRecord>) {
-        let backup = self
-            .backup
+    fn backup_entry(&self, key: CodeKey, v: &RawValue) -> BackupEntry {
+        BackupEntry {
+            number: key.number,
+            subcode: key.subcode,
+            code: code_label(&self.schema, key),
+            secret: is_secret(&self.schema, key),
+            old: JournalValue::from(v),
+        }
+    }
+
+    /// Old values by code (the journal's backup).
+    fn backup(&self) -> BTreeMap<CodeKey, RawValue> {
+        self.records
             .iter()
-            .map(|(k, v)| BackupEntry {
-                number: k.number,
-                subcode: k.subcode,
-                code: code_label(&self.schema, *k),
-                secret: is_secret(&self.schema, *k),
-                old: JournalValue::from(v),
-            })
+            .filter_map(|(k, r)| r.backup.clone().map(|v| (*k, v)))
+            .collect()
+    }
+
+    /// The planned codes' new values.
+    fn new_values(&self) -> BTreeMap<CodeKey, RawValue> {
+        self.records
+            .iter()
+            .filter_map(|(k, r)| r.new.clone().map(|v| (*k, v)))
+            .collect()
+    }
+
+    /// Codes a write was sent to.
+    fn touched(&self) -> BTreeSet<CodeKey> {
+        self.records
+            .iter()
+            .filter(|(_, r)| r.touched)
+            .map(|(k, _)| *k)
+            .collect()
+    }
+
+    /// Write order with each code's phase.
+    fn phased_order(&self) -> Vec<(CodeKey, Phase)> {
+        self.order
+            .iter()
+            .filter_map(|k| self.records.get(k).and_then(|r| r.phase).map(|p| (*k, p)))
+            .collect()
+    }
+
+    fn set_outcome(&mut self, key: CodeKey, outcome: CodeOutcome) {
+        self.records.entry(key).or_default().outcome = outcome;
+    }
+
+    fn take_attempt(&mut self, step: &str, before: &str) -> Result<Attempt, StepError> {
+        self.attempt
+            .take()
+            .ok_or_else(|| out_of_order(&self.target, step, before))
+    }
+
+    /// Runs `f` on the current attempt, which stays current whatever `f`
+    /// returns.
+    fn with_attempt<R>(
+        &mut self,
+        step: &str,
+        before: &str,
+        f: impl FnOnce(&mut Self, &mut Attempt) -> Result<R, StepError>,
+    ) -> Result<R, StepError> {
+        let mut a = self.take_attempt(step, before)?;
+        let r = f(self, &mut a);
+        self.attempt = Some(a);
+        r
+    }
+
+    /// One whole attempt: [`Transaction::replan`] and, when something is to
+    /// be written, every following step up to [`Transaction::verify`].
+    pub fn run_attempt(
+        &mut self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+    ) -> Result<(), StepError> {
+        if self.replan(client, set)? == Replanned::Nothing {
+            return Ok(());
+        }
+        self.journal(client)?;
+        self.open_dataset(client)?;
+        self.write_dataset(client)?;
+        self.commit(client)?;
+        self.write_rest(client)?;
+        self.verify(client, set)
+    }
+
+    /// Step 1 of an attempt: read the set's codes back, check the motor
+    /// when something is to be written, plan, and update each code's
+    /// record (the first attempt's old values are kept).
+    pub fn replan(
+        &mut self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+    ) -> Result<Replanned, StepError> {
+        self.attempts += 1;
+        self.attempt = None;
+        let current = read_values(client, set.values.keys().copied())?;
+        let mut planned = plan(&self.schema, set, &current, &self.popts);
+        if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+            self.popts.running = client.running()?.into();
+            planned = plan(&self.schema, set, &current, &self.popts);
+        }
+        let plan = match planned {
+            Ok(p) => p,
+            Err(problems) => {
+                let e = refused(&self.target, problems);
+                return Err(if self.journal.is_none() {
+                    StepError::Settled(e)
+                } else {
+                    StepError::Error(e)
+                });
+            }
+        };
+        if self.attempts == 1 {
+            self.fingerprint_before = plan.fingerprint_before.clone();
+            self.warnings.extend(plan.warnings.iter().cloned());
+        }
+        for r in self.records.values_mut() {
+            r.unchanged = None;
+        }
+        for k in &plan.unchanged {
+            if let Some(v) = current.values.get(k) {
+                let r = self.records.entry(*k).or_default();
+                r.unchanged = Some(v.clone());
+                // written by an earlier attempt and read back equal now
+                if r.new.as_ref() == Some(v) {
+                    r.outcome = CodeOutcome::Verified;
+                    r.verified = Some(v.clone());
+                }
+            }
+        }
+        for w in &plan.writes {
+            let schema = Arc::clone(&self.schema);
+            let r = self.records.entry(w.key).or_default();
+            let old = r.backup.get_or_insert_with(|| w.old.clone());
+            let old_text = value_text(&schema, w.key, old);
+            r.new = Some(w.new.clone());
+            r.storage = Some(w.storage);
+            r.phase = Some(w.phase);
+            r.texts = (old_text, w.new_text.clone());
+            r.outcome = CodeOutcome::NotWritten;
+        }
+        // write order: this plan's, then codes only an earlier attempt planned
+        let mut order: Vec<CodeKey> = plan.writes.iter().map(|w| w.key).collect();
+        for k in &self.order {
+            if !order.contains(k) {
+                order.push(*k);
+            }
+        }
+        self.order = order;
+        let nothing = plan.is_empty() && self.journal.is_none();
+        let expected = plan.writes.iter().map(|w| (w.key, w.new.clone())).collect();
+        let staged = plan
+            .writes
+            .iter()
+            .filter(|w| w.phase == Phase::Dataset)
+            .map(|w| w.key)
             .collect();
-        let records = plan
+        self.attempt = Some(Attempt {
+            plan,
+            expected,
+            pending: VecDeque::new(),
+            staged,
+            broadcast: BTreeSet::new(),
+            repaired: BTreeSet::new(),
+        });
+        Ok(if nothing {
+            Replanned::Nothing
+        } else {
+            Replanned::Writes
+        })
+    }
+
+    /// Step 2: create the journal with the backup (or, in a redone
+    /// attempt, update it) and make it durable; state `writing`. Nothing
+    /// is written to the drive before this returns `Ok`.
+    pub fn journal(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        let a = self.take_attempt("journal", "replan")?;
+        let records: Vec<PlanEntryRecord> = a
+            .plan
             .writes
             .iter()
             .map(|w| PlanEntryRecord {
@@ -552,107 +886,49 @@ impl Txn<'_> {
                 new: JournalValue::from(&w.new),
             })
             .collect();
-        (backup, records)
-    }
-
-    /// One attempt: read back, plan, journal, write, verify, complete.
-    fn attempt(&mut self, set: &ResolvedSet) -> Result<(), Stop> {
-        let current = read_values(self.client, set.values.keys().copied())?;
-        let mut planned = plan(&self.schema, set, &current, &self.popts);
-        if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
-            self.popts.running = self.client.running()?.into();
-            planned = plan(&self.schema, set, &current, &self.popts);
-        }
-        let plan = match planned {
-            Ok(p) => p,
-            Err(problems) => {
-                let e = refused(&self.target, problems);
-                return Err(if self.journal.is_none() {
-                    Stop::Settled(e)
-                } else {
-                    Stop::Error(e)
-                });
-            }
-        };
-        if self.attempts == 1 {
-            self.fingerprint_before = plan.fingerprint_before.clone();
-            self.warnings.extend(plan.warnings.iter().cloned());
-        }
-        self.unchanged.clear();
-        for k in &plan.unchanged {
-            if let Some(v) = current.values.get(k) {
-                self.unchanged.insert(*k, v.clone());
-                // written by an earlier attempt and read back equal now
-                if self.new_values.get(k) == Some(v) {
-                    self.outcomes.insert(*k, CodeOutcome::Verified);
-                    self.verified.insert(*k, v.clone());
-                }
-            }
-        }
-        for w in &plan.writes {
-            self.backup.entry(w.key).or_insert_with(|| w.old.clone());
-            self.new_values.insert(w.key, w.new.clone());
-            self.storages.insert(w.key, w.storage);
-            let old_text = self
-                .backup
-                .get(&w.key)
-                .map(|o| value_text(&self.schema, w.key, o))
-                .unwrap_or_default();
-            self.texts.insert(w.key, (old_text, w.new_text.clone()));
-            self.outcomes.insert(w.key, CodeOutcome::NotWritten);
-        }
-        // write order: this plan's, then codes only an earlier attempt planned
-        let mut order: Vec<(CodeKey, Phase)> =
-            plan.writes.iter().map(|w| (w.key, w.phase)).collect();
-        for (k, p) in &self.order {
-            if !order.iter().any(|(o, _)| o == k) {
-                order.push((*k, *p));
-            }
-        }
-        self.order = order;
-
-        if plan.is_empty() && self.journal.is_none() {
-            return Ok(());
-        }
-        let (backup, records) = self.entry_records(&plan);
-        let unchanged: Vec<BackupEntry> = self
-            .unchanged
+        let set_fingerprint = a.plan.set_fingerprint.clone();
+        let fingerprint_before = a.plan.fingerprint_before.clone();
+        self.attempt = Some(a);
+        let backup: Vec<BackupEntry> = self
+            .records
             .iter()
-            .filter(|(k, _)| !self.backup.contains_key(k))
-            .map(|(k, v)| BackupEntry {
-                number: k.number,
-                subcode: k.subcode,
-                code: code_label(&self.schema, *k),
-                secret: is_secret(&self.schema, *k),
-                old: JournalValue::from(v),
-            })
+            .filter_map(|(k, r)| r.backup.as_ref().map(|v| self.backup_entry(*k, v)))
+            .collect();
+        let unchanged: Vec<BackupEntry> = self
+            .records
+            .iter()
+            .filter(|(_, r)| r.backup.is_none())
+            .filter_map(|(k, r)| r.unchanged.as_ref().map(|v| self.backup_entry(*k, v)))
             .collect();
         match &mut self.journal {
             None => {
-                let at = self.now_ns();
+                let at = client.clock().now().as_nanos();
                 let mut journal = Journal {
                     journal_version: JOURNAL_VERSION,
                     state: TxnState::Planned,
-                    target: JournalTarget::of(&*self.client),
+                    target: JournalTarget::of(&*client),
                     identity: (&self.identity).into(),
                     schema: self.schema.id.clone(),
-                    set_fingerprint: plan.set_fingerprint.clone(),
-                    fingerprint_before: plan.fingerprint_before.clone(),
+                    set_fingerprint,
+                    fingerprint_before,
                     dataset: self.popts.dataset,
                     attempt: self.attempts,
                     backup,
                     plan: records,
                     unchanged,
                     written: Vec::new(),
+                    broadcast: Vec::new(),
                     transitions: Vec::new(),
                     failure: None,
                     holding: Vec::new(),
                 };
                 journal.transition(TxnState::Planned, at, None);
                 crate::journal::ensure_dir(journal_dir(&self.opts.journal))
-                    .map_err(Stop::Settled)?;
-                self.journal =
-                    Some(JournalFile::create(&self.opts.journal, journal).map_err(Stop::Settled)?);
+                    .map_err(StepError::Settled)?;
+                self.journal = Some(
+                    JournalFile::create(&self.opts.journal, journal).map_err(StepError::Settled)?,
+                );
+                self.on_disk = Some(TxnState::Planned);
             }
             Some(j) => {
                 // keep codes only an earlier attempt planned (their new value is the set's)
@@ -670,86 +946,254 @@ impl Txn<'_> {
                 j.journal.unchanged = unchanged;
                 j.journal.attempt = self.attempts;
                 j.journal.written.clear();
+                j.journal.broadcast.clear();
             }
         }
-        self.set_state(TxnState::Writing, None)?;
-
-        let expected: BTreeMap<CodeKey, RawValue> =
-            plan.writes.iter().map(|w| (w.key, w.new.clone())).collect();
-        let mut pending: VecDeque<CodeKey> = VecDeque::new();
-
-        // 1. dataset (MC6000/7000)
-        let staged: Vec<CodeKey> = plan
-            .writes
-            .iter()
-            .filter(|w| w.phase == Phase::Dataset)
-            .map(|w| w.key)
-            .collect();
-        if !staged.is_empty() {
-            self.dataset_touched = true;
-            self.client.dataset_begin()?;
-            for &k in &staged {
-                self.pace(k, &mut pending, &expected)?;
-                self.write(k, &expected)?;
-            }
-            match self.client.dataset_commit(self.opts.dataset_timeout)? {
-                DatasetOutcome::Accepted => {
-                    self.dataset_note = Some("accepted (SLOAD = 0)".into());
-                    self.set_state(
-                        TxnState::Committed,
-                        Some("the drive accepted the dataset (SLOAD = 0)".into()),
-                    )?;
-                    pending.extend(staged.iter().copied());
-                }
-                DatasetOutcome::Rejected { parameter } => {
-                    return Err(self.dataset_rejected(parameter, &staged));
-                }
-            }
-        }
-        // 2..4. the other writes, pacing EEPROM with verification reads
-        for w in plan.writes.iter().filter(|w| w.phase != Phase::Dataset) {
-            self.pace(w.key, &mut pending, &expected)?;
-            self.write(w.key, &expected)?;
-            pending.push_back(w.key);
-            if let Strategy::Naive { eeprom_wait } = self.opts.strategy
-                && matches!(w.storage, Storage::Eeprom | Storage::FselIsel)
-            {
-                self.client.clock().sleep(eeprom_wait);
-            }
-        }
-        self.set_state(TxnState::Verifying, None)?;
-        while let Some(k) = pending.pop_front() {
-            self.verify_one(k, &expected)?;
-        }
-        // what the drive holds now, over the set's codes
-        let mut after = ResolvedSet::new(&self.schema);
-        for k in set.values.keys() {
-            if let Some(v) = self.verified.get(k).or_else(|| self.unchanged.get(k)) {
-                after.insert(*k, v.clone());
-            }
-        }
-        let after_fp = after.fingerprint();
-        self.set_state(TxnState::Complete, Some(format!("drive holds {after_fp}")))?;
+        self.set_state(client, TxnState::Writing, None)?;
         Ok(())
     }
 
-    fn write(&mut self, key: CodeKey, expected: &BTreeMap<CodeKey, RawValue>) -> Result<(), Stop> {
-        let Some(v) = expected.get(&key) else {
+    /// Step 3 (MC6000/7000): when the plan stages values, register the
+    /// dataset download (SLOAD = -1, LUSTBUS 11.4). `Ok(true)`: a dataset
+    /// is open.
+    pub fn open_dataset(&mut self, client: &mut dyn DriveClient) -> Result<bool, StepError> {
+        let staged = self.staged().to_vec();
+        if self.attempt.is_none() {
+            return Err(out_of_order(&self.target, "open_dataset", "journal"));
+        }
+        if staged.is_empty() {
+            return Ok(false);
+        }
+        self.dataset_touched = true;
+        client.dataset_begin()?;
+        Ok(true)
+    }
+
+    /// Between [`Transaction::open_dataset`] and
+    /// [`Transaction::write_dataset`]: `keys` (staged codes of this
+    /// attempt) reach the drive's dataset by a broadcast the caller sends,
+    /// not by this drive's own SELECTs. Records them in the journal (field
+    /// `broadcast`: they may have landed) and makes it durable before the
+    /// caller broadcasts. [`Transaction::verify`] reads them back like every
+    /// code; one that did not land is written on its own and verified.
+    pub fn expect_broadcast(
+        &mut self,
+        client: &mut dyn DriveClient,
+        keys: &[CodeKey],
+    ) -> Result<(), StepError> {
+        let _ = client;
+        let mut a = self.take_attempt("expect_broadcast", "open_dataset")?;
+        let mut unknown = Vec::new();
+        for k in keys {
+            if a.staged.contains(k) {
+                a.broadcast.insert(*k);
+            } else {
+                unknown.push(code_label(&self.schema, *k));
+            }
+        }
+        let names: Vec<String> = a
+            .broadcast
+            .iter()
+            .map(|k| k.canonical(self.schema.code_style))
+            .collect();
+        let marked: Vec<CodeKey> = a.broadcast.iter().copied().collect();
+        self.attempt = Some(a);
+        if !unknown.is_empty() {
+            return Err(StepError::Error(EngineError::Refused {
+                target: self.target.clone(),
+                reason: format!(
+                    "broadcast of {} refused: not a value this drive's dataset stages",
+                    unknown.join(", ")
+                ),
+            }));
+        }
+        for k in marked {
+            self.records.entry(k).or_default().touched = true;
+        }
+        if let Some(j) = &mut self.journal {
+            j.journal.broadcast = names;
+            j.persist()?;
+            self.since_persist = 0;
+        }
+        Ok(())
+    }
+
+    /// Step 4: the staged writes (except those a broadcast sends).
+    pub fn write_dataset(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        self.with_attempt("write_dataset", "journal", |tx, a| {
+            let keys: Vec<CodeKey> = a
+                .staged
+                .iter()
+                .filter(|k| !a.broadcast.contains(k))
+                .copied()
+                .collect();
+            for k in keys {
+                tx.pace(client, k, a)?;
+                tx.write(client, k, a)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Step 5 (MC6000/7000): end the dataset download (SLOAD = -2) and poll
+    /// until the drive accepts it (state `committed`) or rejects it (the
+    /// drive reactivated its old set: confirmed by reading the backup
+    /// back, state `rolled-back`).
+    pub fn commit(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        self.with_attempt("commit", "journal", |tx, a| {
+            if a.staged.is_empty() {
+                return Ok(());
+            }
+            match client.dataset_commit(tx.opts.dataset_timeout)? {
+                DatasetOutcome::Accepted => {
+                    tx.dataset_note = Some("accepted (SLOAD = 0)".into());
+                    tx.set_state(
+                        client,
+                        TxnState::Committed,
+                        Some("the drive accepted the dataset (SLOAD = 0)".into()),
+                    )?;
+                    a.pending.extend(a.staged.iter().copied());
+                    Ok(())
+                }
+                DatasetOutcome::Rejected { parameter } => {
+                    let staged = a.staged.clone();
+                    Err(tx.dataset_rejected(client, parameter, &staged))
+                }
+            }
+        })
+    }
+
+    /// Step 6: the writes after the dataset (stored values, control, mode,
+    /// link), pacing MC6000/7000 EEPROM writes with verification reads.
+    pub fn write_rest(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        self.with_attempt("write_rest", "journal", |tx, a| {
+            let writes: Vec<(CodeKey, Storage)> = a
+                .plan
+                .writes
+                .iter()
+                .filter(|w| w.phase != Phase::Dataset)
+                .map(|w| (w.key, w.storage))
+                .collect();
+            for (key, storage) in writes {
+                tx.pace(client, key, a)?;
+                tx.write(client, key, a)?;
+                a.pending.push_back(key);
+                if let Strategy::Naive { eeprom_wait } = tx.opts.strategy
+                    && matches!(storage, Storage::Eeprom | Storage::FselIsel)
+                {
+                    client.clock().sleep(eeprom_wait);
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Step 7: read back every written code not yet verified (state
+    /// `verifying`), then `complete` with the fingerprint of what the
+    /// drive holds.
+    pub fn verify(
+        &mut self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+    ) -> Result<(), StepError> {
+        self.with_attempt("verify", "journal", |tx, a| {
+            tx.set_state(client, TxnState::Verifying, None)?;
+            while let Some(k) = a.pending.pop_front() {
+                tx.verify_one(client, k, a)?;
+            }
+            Ok(())
+        })?;
+        let after_fp = self.after(set).fingerprint();
+        self.set_state(
+            client,
+            TxnState::Complete,
+            Some(format!("drive holds {after_fp}")),
+        )?;
+        Ok(())
+    }
+
+    /// What the drive holds now, over the set's codes (verified or found
+    /// unchanged).
+    fn after(&self, set: &ResolvedSet) -> ResolvedSet {
+        let mut after = ResolvedSet::new(&self.schema);
+        for k in set.values.keys() {
+            if let Some(r) = self.records.get(k)
+                && let Some(v) = r.verified.as_ref().or(r.unchanged.as_ref())
+            {
+                after.insert(*k, v.clone());
+            }
+        }
+        after
+    }
+
+    /// After a step failed: a restart voids the attempt ([`Next::Redo`],
+    /// at most [`UploadOptions::max_restarts`] times); any other failure
+    /// rolls back when a journal exists.
+    pub fn stopped(&mut self, client: &mut dyn DriveClient, stop: StepError) -> Next {
+        match stop {
+            StepError::Settled(e) => Next::Failed(e),
+            StepError::Error(e @ EngineError::Restarted { .. })
+                if self.attempts <= self.opts.max_restarts =>
+            {
+                if self.journal.is_some() {
+                    let note = format!("{e}; redoing from the read-back");
+                    self.warnings.push(note.clone());
+                    if let Err(je) = self.set_state(client, TxnState::Planned, Some(note)) {
+                        return Next::Failed(self.fail(client, je));
+                    }
+                }
+                Next::Redo
+            }
+            StepError::Error(e) => {
+                if self.journal.is_none() {
+                    Next::Failed(e)
+                } else {
+                    Next::Failed(self.fail(client, e))
+                }
+            }
+        }
+    }
+
+    /// The end: the report, and the error when `result` is one (with the
+    /// report once a journal exists).
+    pub fn finish(
+        self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+        result: Result<(), EngineError>,
+    ) -> Result<UploadReport, UploadFailure> {
+        let report = self.report(&*client, set);
+        match result {
+            Ok(()) => Ok(report),
+            Err(e) => Err(UploadFailure {
+                error: Box::new(e),
+                report: self.journal.as_ref().map(|_| Box::new(report)),
+            }),
+        }
+    }
+
+    fn write(
+        &mut self,
+        client: &mut dyn DriveClient,
+        key: CodeKey,
+        a: &Attempt,
+    ) -> Result<(), StepError> {
+        let Some(v) = a.expected.get(&key) else {
             return Ok(());
         };
-        self.touched.insert(key);
-        if let Err(e) = self.client.write(key, v) {
+        self.records.entry(key).or_default().touched = true;
+        if let Err(e) = client.write(key, v) {
             // A refusal the drive gave with its own cause (LUSTBUS / LECOM
             // NAK: "the parameter value was not changed"; an SDO abort) left
             // the code as it was: there is nothing of it to roll back. Any
             // other failure (no answer, a garbled one) may or may not have
-            // landed, so the code stays touched.
-            if matches!(e, EngineError::Device { .. }) {
-                self.touched.remove(&key);
+            // landed, so the code stays touched (a broadcast one always).
+            let r = self.records.entry(key).or_default();
+            if matches!(e, EngineError::Device { .. }) && !a.broadcast.contains(&key) {
+                r.touched = false;
             }
-            self.outcomes
-                .insert(key, CodeOutcome::Failed(e.to_string()));
-            return Err(Stop::Error(e));
+            r.outcome = CodeOutcome::Failed(e.to_string());
+            return Err(StepError::Error(e));
         }
         self.note_written(key)?;
         Ok(())
@@ -759,19 +1203,19 @@ impl Txn<'_> {
     /// verification reads that fit.
     fn pace(
         &mut self,
+        client: &mut dyn DriveClient,
         key: CodeKey,
-        pending: &mut VecDeque<CodeKey>,
-        expected: &BTreeMap<CodeKey, RawValue>,
-    ) -> Result<(), Stop> {
+        a: &mut Attempt,
+    ) -> Result<(), StepError> {
         if matches!(self.opts.strategy, Strategy::Naive { .. }) {
             // the client itself still waits whatever store time is left
             return Ok(());
         }
-        let Some(ready) = self.client.ready_for_write(key) else {
+        let Some(ready) = client.ready_for_write(key) else {
             return Ok(());
         };
         loop {
-            let now = self.client.clock().now();
+            let now = client.clock().now();
             if ready <= now {
                 break;
             }
@@ -779,68 +1223,85 @@ impl Txn<'_> {
             // A read that fits the gap; else any read: it is work the
             // transaction must do anyway, and running past `ready` by part of
             // a read costs less than idling through the whole gap.
-            let Some(i) = pending
+            let Some(i) = a
+                .pending
                 .iter()
-                .position(|k| self.client.read_time(*k) <= gap)
-                .or(if pending.is_empty() { None } else { Some(0) })
+                .position(|k| client.read_time(*k) <= gap)
+                .or(if a.pending.is_empty() { None } else { Some(0) })
             else {
                 break;
             };
-            let Some(k) = pending.remove(i) else {
+            let Some(k) = a.pending.remove(i) else {
                 break;
             };
-            self.verify_one(k, expected)?;
+            self.verify_one(client, k, a)?;
             self.interleaved += 1;
         }
-        self.client.clock().sleep_until(ready);
+        client.clock().sleep_until(ready);
         Ok(())
     }
 
     fn verify_one(
         &mut self,
+        client: &mut dyn DriveClient,
         key: CodeKey,
-        expected: &BTreeMap<CodeKey, RawValue>,
-    ) -> Result<(), Stop> {
-        let Some(want) = expected.get(&key) else {
+        a: &mut Attempt,
+    ) -> Result<(), StepError> {
+        let Some(want) = a.expected.get(&key).cloned() else {
             return Ok(());
         };
-        let got = match self.client.read(key) {
+        let got = match client.read(key) {
             Ok(v) => v,
             Err(e) => {
-                self.outcomes
-                    .insert(key, CodeOutcome::Failed(format!("verify: {e}")));
-                return Err(Stop::Error(e));
+                self.set_outcome(key, CodeOutcome::Failed(format!("verify: {e}")));
+                return Err(StepError::Error(e));
             }
         };
-        if &got != want {
+        if got != want && a.broadcast.contains(&key) && a.repaired.insert(key) {
+            // The broadcast did not land on this drive (no receipt tells):
+            // the value is written on its own, then read back.
+            let note = format!(
+                "{}: the broadcast value did not land (reads back {}); written on its own and verified",
+                code_label(&self.schema, key),
+                value_text(&self.schema, key, &got)
+            );
+            self.warnings.push(note);
+            self.write(client, key, a)?;
+            return self.verify_one(client, key, a);
+        }
+        if got != want {
             let detail = format!(
                 "reads back {} instead of {}; the drive did not take the value",
                 value_text(&self.schema, key, &got),
-                value_text(&self.schema, key, want)
+                value_text(&self.schema, key, &want)
             );
-            self.outcomes
-                .insert(key, CodeOutcome::Failed(detail.clone()));
-            return Err(Stop::Error(EngineError::Protocol {
+            self.set_outcome(key, CodeOutcome::Failed(detail.clone()));
+            return Err(StepError::Error(EngineError::Protocol {
                 target: self.target.clone(),
                 what: format!("verify {}", code_label(&self.schema, key)),
                 detail,
             }));
         }
-        self.outcomes.insert(key, CodeOutcome::Verified);
-        self.verified.insert(key, got);
+        let r = self.records.entry(key).or_default();
+        r.outcome = CodeOutcome::Verified;
+        r.verified = Some(got);
         Ok(())
     }
 
     /// SLOAD went to a parameter number: the drive reactivated its old set.
-    fn dataset_rejected(&mut self, parameter: u32, staged: &[CodeKey]) -> Stop {
+    fn dataset_rejected(
+        &mut self,
+        client: &mut dyn DriveClient,
+        parameter: u32,
+        staged: &[CodeKey],
+    ) -> StepError {
         let name = code_label(&self.schema, CodeKey::new(parameter));
         let detail = format!(
             "the drive rejected the dataset at parameter {name} (the first invalid value) and reactivated its old set; fix {name} in the set"
         );
         self.dataset_note = Some(format!("rejected at parameter {name}"));
         for k in staged {
-            self.outcomes
-                .insert(*k, CodeOutcome::Failed("dataset rejected".into()));
+            self.set_outcome(*k, CodeOutcome::Failed("dataset rejected".into()));
         }
         let cause = EngineError::Device {
             target: self.target.clone(),
@@ -852,30 +1313,50 @@ impl Txn<'_> {
             },
         };
         // confirm nothing changed
-        match self.compare_with_backup() {
+        match self.compare_with_backup(client) {
             Ok(diffs) if diffs.is_empty() => {
                 self.dataset_touched = false;
-                if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail.clone())) {
-                    return Stop::Settled(e);
+                if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
+                    return StepError::Settled(self.journal_lost(
+                        e,
+                        TxnState::RolledBack,
+                        &format!("{detail}; the drive holds its old values again (verified)"),
+                    ));
                 }
-                Stop::Settled(EngineError::RolledBack {
+                StepError::Settled(EngineError::RolledBack {
                     target: self.target.clone(),
                     journal: self.journal_path(),
                     detail,
                     cause: Box::new(cause),
                 })
             }
-            _ => Stop::Error(cause),
+            _ => StepError::Error(cause),
+        }
+    }
+
+    /// A journal persist failed while the transaction settled in `state`:
+    /// the error names what the drive holds (`drive`) and that the journal
+    /// on disk still says an earlier state.
+    fn journal_lost(&self, persist: EngineError, state: TxnState, drive: &str) -> EngineError {
+        let on_disk = self.on_disk.map_or("an earlier state", TxnState::as_str);
+        EngineError::Journal {
+            path: self.journal_path(),
+            detail: format!(
+                "{drive}; but recording state `{}` failed ({persist}), so the journal on disk still says `{on_disk}`: fix the journal directory, then run `driveset recover {}`",
+                state.as_str(),
+                self.journal_path()
+            ),
         }
     }
 
     /// Read every backed-up code; the codes that differ from the backup.
-    fn compare_with_backup(&mut self) -> Result<Vec<CodeKey>, EngineError> {
+    fn compare_with_backup(
+        &mut self,
+        client: &mut dyn DriveClient,
+    ) -> Result<Vec<CodeKey>, EngineError> {
         let mut diffs = Vec::new();
-        let keys: Vec<(CodeKey, RawValue)> =
-            self.backup.iter().map(|(k, v)| (*k, v.clone())).collect();
-        for (k, old) in keys {
-            if self.client.read(k)? != old {
+        for (k, old) in self.backup() {
+            if client.read(k)? != old {
                 diffs.push(k);
             }
         }
@@ -883,35 +1364,45 @@ impl Txn<'_> {
     }
 
     /// Roll back after `cause`; returns the error to report.
-    fn fail(&mut self, cause: EngineError) -> EngineError {
+    fn fail(&mut self, client: &mut dyn DriveClient, cause: EngineError) -> EngineError {
         let cause_text = cause.to_string();
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
         }
-        if let Err(e) = self.set_state(TxnState::RollingBack, Some(cause_text.clone())) {
-            // The journal on disk still says an earlier state and holds the backup.
-            return e;
+        if let Err(e) = self.set_state(client, TxnState::RollingBack, Some(cause_text.clone())) {
+            // The journal on disk still says an earlier state and holds the
+            // backup; nothing is sent while it cannot be updated.
+            return self.journal_lost(
+                e,
+                TxnState::RollingBack,
+                &format!("{cause_text}; nothing was rolled back"),
+            );
         }
         let restore_result = restore(
-            self.client,
+            client,
             &self.schema,
-            &self.order,
-            &self.backup,
-            &self.touched,
+            &self.phased_order(),
+            &self.backup(),
+            &self.touched(),
             self.dataset_touched,
             self.opts.dataset_timeout,
         )
-        .and_then(|()| self.compare_with_backup());
+        .and_then(|()| self.compare_with_backup(client));
         match restore_result {
             Ok(diffs) if diffs.is_empty() => {
-                for k in &self.touched {
-                    if !matches!(self.outcomes.get(k), Some(CodeOutcome::Failed(_))) {
-                        self.outcomes.insert(*k, CodeOutcome::Restored);
+                for k in self.touched() {
+                    let r = self.records.entry(k).or_default();
+                    if !matches!(r.outcome, CodeOutcome::Failed(_)) {
+                        r.outcome = CodeOutcome::Restored;
                     }
                 }
                 let detail = format!("{cause_text}; restored the old values");
-                if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail)) {
-                    return e;
+                if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
+                    return self.journal_lost(
+                        e,
+                        TxnState::RolledBack,
+                        &format!("{detail} (read back and compared)"),
+                    );
                 }
                 EngineError::RolledBack {
                     target: self.target.clone(),
@@ -932,7 +1423,7 @@ impl Txn<'_> {
                     ),
                     Err(e) => format!("restoring the old values failed: {e}"),
                 };
-                let holding = holdings(self.client, &self.schema, &self.backup, &self.new_values);
+                let holding = holdings(client, &self.schema, &self.backup(), &self.new_values());
                 let detail = format!(
                     "{cause_text}; {restore_err}; {}",
                     describe_holdings(&holding)
@@ -940,7 +1431,13 @@ impl Txn<'_> {
                 if let Some(j) = &mut self.journal {
                     j.journal.holding = holding;
                 }
-                let _ = self.set_state(TxnState::Failed, Some(detail.clone()));
+                if let Err(e) = self.set_state(client, TxnState::Failed, Some(detail.clone())) {
+                    return self.journal_lost(
+                        e,
+                        TxnState::Failed,
+                        &format!("the drive holds a mix of old and new values: {detail}"),
+                    );
+                }
                 EngineError::Inconsistent {
                     target: self.target.clone(),
                     journal: self.journal_path(),
@@ -950,32 +1447,31 @@ impl Txn<'_> {
         }
     }
 
-    fn report(&self, set: &ResolvedSet) -> UploadReport {
-        let stats = self.client.stats();
+    /// The report so far.
+    pub fn report(&self, client: &dyn DriveClient, set: &ResolvedSet) -> UploadReport {
+        let stats = self.stats(client);
         let state = self
             .journal
             .as_ref()
             .map(|j| j.journal.state)
             .unwrap_or(TxnState::Complete);
         let mut codes = Vec::new();
-        for (k, _) in &self.order {
-            let (old, new) = self.texts.get(k).cloned().unwrap_or_default();
+        for k in &self.order {
+            let r = self.records.get(k).cloned().unwrap_or_default();
+            let (old, new) = r.texts;
             codes.push(CodeReport {
                 number: k.number,
                 subcode: k.subcode,
                 code: code_label(&self.schema, *k),
                 old,
                 new,
-                storage: self.storages.get(k).copied(),
-                outcome: self
-                    .outcomes
-                    .get(k)
-                    .cloned()
-                    .unwrap_or(CodeOutcome::NotWritten),
+                storage: r.storage,
+                outcome: r.outcome,
             });
         }
-        for (k, v) in &self.unchanged {
-            if self.new_values.contains_key(k) {
+        for (k, r) in &self.records {
+            let Some(v) = &r.unchanged else { continue };
+            if r.new.is_some() {
                 continue;
             }
             let t = value_text(&self.schema, *k, v);
@@ -990,15 +1486,7 @@ impl Txn<'_> {
             });
         }
         let fingerprint_after = match state {
-            TxnState::Complete => {
-                let mut after = ResolvedSet::new(&self.schema);
-                for k in set.values.keys() {
-                    if let Some(v) = self.verified.get(k).or_else(|| self.unchanged.get(k)) {
-                        after.insert(*k, v.clone());
-                    }
-                }
-                Some(after.fingerprint())
-            }
+            TxnState::Complete => Some(self.after(set).fingerprint()),
             TxnState::RolledBack => Some(self.fingerprint_before.clone()),
             _ => None,
         };
@@ -1017,14 +1505,13 @@ impl Txn<'_> {
             codes_in_set: set.values.len(),
             codes_written: self.written_count,
             attempts: self.attempts,
-            telegrams: stats.telegrams.saturating_sub(self.stats0.telegrams),
-            retries: stats.retries.saturating_sub(self.stats0.retries),
-            elapsed: self.client.clock().now() - self.start,
+            telegrams: stats.telegrams,
+            retries: stats.retries,
+            elapsed: client.clock().now() - self.start,
             interleaved_reads: self.interleaved,
             dataset: self.dataset_note.clone(),
-            sload_polls: Some(stats.sload_polls.saturating_sub(self.stats0.sload_polls))
-                .filter(|n| *n > 0),
-            late_replies: stats.late.saturating_sub(self.stats0.late),
+            sload_polls: Some(stats.sload_polls).filter(|n| *n > 0),
+            late_replies: stats.late,
             codes,
             warnings: self.warnings.clone(),
         }

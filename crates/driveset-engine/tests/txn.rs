@@ -1060,3 +1060,123 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
     );
     assert!(c.log.is_empty(), "{:?}", c.log);
 }
+
+/// The upload's steps one by one (`Transaction`), as the line runner
+/// drives them: the same writes in the same order as `upload`.
+#[test]
+fn transaction_steps_one_by_one_do_what_upload_does() {
+    use driveset_engine::upload::{Replanned, Transaction};
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let mut client = FakeClient::new(schema, mc_drive());
+    let opts = UploadOptions::new(&path);
+    let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
+    assert_eq!(
+        tx.replan(&mut client, &set).expect("replan"),
+        Replanned::Writes
+    );
+    assert_eq!(tx.staged(), &[k(100), k(101)]);
+    tx.journal(&mut client).expect("journal");
+    assert_eq!(
+        JournalFile::open(&path).expect("journal").journal.state,
+        TxnState::Writing
+    );
+    assert!(tx.open_dataset(&mut client).expect("open"));
+    tx.write_dataset(&mut client).expect("dataset writes");
+    tx.commit(&mut client).expect("commit");
+    tx.write_rest(&mut client).expect("writes");
+    tx.verify(&mut client, &set).expect("verify");
+    let report = tx.finish(&mut client, &set, Ok(())).expect("report");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(report.codes_written, 4);
+    let ops: Vec<Op> = client
+        .log
+        .iter()
+        .map(|(_, o)| o.clone())
+        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
+        .collect();
+    assert_eq!(
+        ops,
+        vec![
+            Op::Begin,
+            Op::Write(k(100), RawValue::Int(65536)),
+            Op::Write(k(101), RawValue::Int(20)),
+            Op::Commit,
+            Op::Write(k(111), RawValue::Int(5)),
+            Op::Write(k(120), RawValue::Int(-3)),
+        ]
+    );
+    // a step out of order is refused, never a panic
+    let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
+    let e = tx.write_rest(&mut client).expect_err("before replan");
+    assert_eq!(
+        e.error().to_string(),
+        "fake0 address 1: refused: transaction step `write_rest` called before `journal`"
+    );
+}
+
+/// A journal that cannot be persisted stops the transaction and is
+/// reported: never dropped. Here the journal directory disappears after
+/// the dataset writes; the commit's `committed` record fails, nothing more
+/// is written and the error says what the journal on disk still holds.
+#[test]
+fn a_failed_journal_persist_stops_the_transaction_and_is_reported() {
+    use driveset_engine::upload::{Next, Replanned, Transaction};
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let jdir = dir.path().join("journals");
+    let path = jdir.join("drive.journal.json");
+    let set = set_of(&schema, &[(k(100), 65536), (k(111), 5)]);
+    let mut client = FakeClient::new(schema, mc_drive());
+    let opts = UploadOptions::new(&path);
+    let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
+    assert_eq!(
+        tx.replan(&mut client, &set).expect("replan"),
+        Replanned::Writes
+    );
+    tx.journal(&mut client).expect("journal");
+    tx.open_dataset(&mut client).expect("open");
+    tx.write_dataset(&mut client).expect("dataset writes");
+    std::fs::remove_dir_all(&jdir).expect("remove the journal directory");
+    let stop = tx
+        .commit(&mut client)
+        .expect_err("the journal cannot record `committed`");
+    assert!(
+        matches!(stop.error(), EngineError::Journal { path: p, .. } if *p == path.display().to_string()),
+        "{stop:?}"
+    );
+    let writes_before = client.writes_logged().len();
+    let Next::Failed(e) = tx.stopped(&mut client, stop) else {
+        panic!("a journal failure is not redone");
+    };
+    // nothing is sent while the journal cannot be updated
+    assert_eq!(client.writes_logged().len(), writes_before);
+    let text = e.to_string();
+    let want = format!(
+        "journal {p}: {p_err}; nothing was rolled back; but recording state `rolling-back` failed",
+        p = path.display(),
+        p_err = "journal ".to_string()
+            + &path.display().to_string()
+            + ": cannot create the temporary file: No such file or directory (os error 2); check the directory exists, is writable and has space"
+    );
+    assert!(text.starts_with(&want), "{text}");
+    assert!(
+        text.ends_with(&format!(
+            "so the journal on disk still says `writing`: fix the journal directory, then run `driveset recover {}`",
+            path.display()
+        )),
+        "{text}"
+    );
+    let f = tx
+        .finish(&mut client, &set, Err(e))
+        .expect_err("the upload failed");
+    assert_eq!(
+        f.report.expect("a journal was written").state,
+        TxnState::RollingBack
+    );
+}
