@@ -976,12 +976,7 @@ impl Transaction {
     /// `broadcast`: they may have landed) and makes it durable before the
     /// caller broadcasts. [`Transaction::verify`] reads them back like every
     /// code; one that did not land is written on its own and verified.
-    pub fn expect_broadcast(
-        &mut self,
-        client: &mut dyn DriveClient,
-        keys: &[CodeKey],
-    ) -> Result<(), StepError> {
-        let _ = client;
+    pub fn expect_broadcast(&mut self, keys: &[CodeKey]) -> Result<(), StepError> {
         let mut a = self.take_attempt("expect_broadcast", "open_dataset")?;
         let mut unknown = Vec::new();
         for k in keys {
@@ -1016,6 +1011,19 @@ impl Transaction {
             self.since_persist = 0;
         }
         Ok(())
+    }
+
+    /// The broadcast [`Transaction::expect_broadcast`] announced is not
+    /// sent: this drive writes those values itself. The journal keeps
+    /// listing them until its next persist (harmless: recovery reads the
+    /// drive).
+    pub fn cancel_broadcast(&mut self) {
+        if let Some(a) = &mut self.attempt {
+            a.broadcast.clear();
+        }
+        if let Some(j) = &mut self.journal {
+            j.journal.broadcast.clear();
+        }
     }
 
     /// Step 4: the staged writes (except those a broadcast sends).

@@ -694,3 +694,392 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------
+// LUSTBUS broadcast of common values (address 31, inside each dataset)
+// ---------------------------------------------------------------------------
+
+/// A line of `n` MC6000 axes on one LUSTBUS (`sim://mc6000`, 9600 Bd): the
+/// demo line's common base set plus each axis' own SADDR and KPSC1.
+fn mc_axes_line(dir: &Path, n: u8) -> Manifest {
+    let sets = root().join("parameter-sets/demo-line/sets").canonicalize().unwrap();
+    let mut m = String::from(
+        "[line]\nname = \"axes\"\n\n[[bus]]\nname = \"axes\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n",
+    );
+    for a in 1..=n {
+        std::fs::write(
+            dir.join(format!("axis-{a}.toml")),
+            format!(
+                "schema = \"{}/../../fixtures/fictional-mc6000-demo.toml\"\nextends = \"{}/mc6000-base.toml\"\n\n[values]\nSADDR = {a}\nKPSC1 = \"0.0{}25 Nm/(rad/s)\"\n",
+                sets.display(),
+                sets.display(),
+                a % 9 + 1
+            ),
+        )
+        .unwrap();
+        m.push_str(&format!(
+            "[[drive]]\nname = \"axis-{a}\"\nbus = \"axes\"\naddress = {a}\nset = \"axis-{a}.toml\"\n\n"
+        ));
+    }
+    let path = dir.join("line.toml");
+    std::fs::write(&path, m).unwrap();
+    let mut reg = Registry::builtin().expect("builtin");
+    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    assert!(l.findings.is_empty(), "{:?}", l.findings);
+    l.manifest.expect("manifest")
+}
+
+/// Simulated buses with a memory event log each; `drop_broadcast`: the
+/// link loses the first telegram to address 31 (a noise burst), so no
+/// drive takes it.
+#[derive(Default)]
+struct LoggedSims {
+    sims: Mutex<BTreeMap<String, (SimLink, driveset_sim::log::EventLog)>>,
+    drop_broadcast: bool,
+}
+
+impl LoggedSims {
+    fn open(&self, bus: &driveset_engine::line::manifest::Bus) -> Result<Link, String> {
+        let mut m = self.sims.lock().unwrap();
+        if !m.contains_key(&bus.name) {
+            let PortSpec::Sim(spec) = &bus.port else {
+                return Err("not a sim port".into());
+            };
+            let config = driveset_sim::open::SimConfig::from_spec(spec).map_err(|e| e.to_string())?;
+            let log = driveset_sim::log::EventLog::memory();
+            let port = PortSpec::Sim(spec.clone()).to_string();
+            let s = driveset_sim::open::open_sim_with(&config, &VirtualClock::new(), &port, log.clone())
+                .map_err(|e| e.to_string())?;
+            m.insert(bus.name.clone(), (s, log));
+        }
+        let link = m[&bus.name].0.link();
+        Ok(match link {
+            Link::Bytes(b) if self.drop_broadcast => Link::Bytes(Box::new(DropBroadcast {
+                inner: b,
+                dropped: false,
+            })),
+            l => l,
+        })
+    }
+
+    fn sim(&self, bus: &str) -> SimLink {
+        self.sims.lock().unwrap()[bus].0.clone()
+    }
+
+    /// Host telegrams, as bytes, in order; and whether a drive replied
+    /// between each and the next.
+    fn host_telegrams(&self, bus: &str) -> Vec<(Vec<u8>, bool)> {
+        let events = self.sims.lock().unwrap()[bus].1.events();
+        let mut out: Vec<(Vec<u8>, bool)> = Vec::new();
+        for e in events {
+            match e.dir {
+                driveset_sim::log::Dir::Host => out.push((unhex(&e.hex), false)),
+                driveset_sim::log::Dir::Drive => {
+                    if let Some(last) = out.last_mut() {
+                        last.1 = true;
+                    }
+                }
+                driveset_sim::log::Dir::Event => {}
+            }
+        }
+        out
+    }
+}
+
+fn unhex(h: &str) -> Vec<u8> {
+    let h: String = h.chars().filter(|c| c.is_ascii_hexdigit()).collect();
+    (0..h.len() / 2)
+        .map(|i| u8::from_str_radix(&h[2 * i..2 * i + 2], 16).unwrap())
+        .collect()
+}
+
+/// A link that loses the first telegram to LUSTBUS address 31.
+#[derive(Debug)]
+struct DropBroadcast {
+    inner: Box<dyn driveset_link::ByteLink>,
+    dropped: bool,
+}
+
+impl driveset_link::ByteLink for DropBroadcast {
+    fn port(&self) -> &str {
+        self.inner.port()
+    }
+    fn bus_id(&self) -> String {
+        self.inner.bus_id()
+    }
+    fn baud(&self) -> u32 {
+        self.inner.baud()
+    }
+    fn clock(&self) -> &dyn driveset_link::Clock {
+        self.inner.clock()
+    }
+    fn send(&mut self, bytes: &[u8]) -> Result<(), driveset_link::LinkError> {
+        if !self.dropped && bytes.starts_with(&[0x04, b'_']) {
+            self.dropped = true;
+            return Ok(());
+        }
+        self.inner.send(bytes)
+    }
+    fn recv(
+        &mut self,
+        buf: &mut [u8],
+        deadline: driveset_link::Instant,
+    ) -> Result<usize, driveset_link::LinkError> {
+        self.inner.recv(buf, deadline)
+    }
+    fn discard_input(&mut self) -> Result<(), driveset_link::LinkError> {
+        self.inner.discard_input()
+    }
+    fn flush(&mut self) -> Result<(), driveset_link::LinkError> {
+        self.inner.flush()
+    }
+}
+
+/// Telegrams to address 31 (`EOT _ ...`).
+fn broadcasts(t: &[(Vec<u8>, bool)]) -> Vec<&(Vec<u8>, bool)> {
+    t.iter().filter(|(b, _)| b.starts_with(&[0x04, b'_'])).collect()
+}
+
+fn journals_of(dir: &Path) -> Vec<serde_json::Value> {
+    let mut out: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".journal.json"))
+        .map(|e| serde_json::from_str(&std::fs::read_to_string(e.path()).unwrap()).unwrap())
+        .collect();
+    out.sort_by_key(|j: &serde_json::Value| j["target"]["address"].as_u64());
+    out
+}
+
+#[test]
+fn lustbus_broadcast_sends_common_values_once_to_address_31_inside_each_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mc_axes_line(dir.path(), 3);
+    let sims = LoggedSims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path().join("out"));
+    opts.broadcast_common = true;
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?} {:?}", r.report.drives, r.warnings);
+    for d in &r.report.drives {
+        assert_eq!(d.result, DriveResult::Verified, "{d:?}");
+        assert_eq!(
+            d.fingerprint_after.as_deref(),
+            Some(d.set_fingerprint.as_str())
+        );
+    }
+    let bus = &r.report.buses[0];
+    let phases: Vec<&str> = bus
+        .timeline
+        .iter()
+        .filter(|t| t.phase == "broadcast")
+        .map(|t| t.drive.as_str())
+        .collect();
+    assert_eq!(phases, vec!["address 31"]);
+
+    // every drive's journal names the broadcast codes; they are the same list
+    let journals = journals_of(&opts.journal_dir);
+    assert_eq!(journals.len(), 3);
+    let listed: Vec<String> = journals[0]["broadcast"]
+        .as_array()
+        .expect("broadcast list")
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    for j in &journals {
+        assert_eq!(j["state"], "complete");
+        assert_eq!(j["broadcast"], journals[0]["broadcast"]);
+    }
+    assert!(listed.contains(&"171".to_string()), "{listed:?}");
+    assert_eq!(
+        r.warnings,
+        vec![format!(
+            "bus `axes`: {} value(s) common to its 3 drives sent once to address 31 (broadcast, no receipt) inside each drive's dataset download; every value verified drive by drive",
+            listed.len()
+        )]
+    );
+
+    let telegrams = sims.host_telegrams("axes");
+    let sent = broadcasts(&telegrams);
+    assert_eq!(sent.len(), listed.len());
+    // 171-ECLIN = 2048 (PT_USIGN16, hex without leading zeros), BCC 0x33
+    assert!(
+        sent.iter().any(|(b, _)| b.as_slice() == b"\x04_\x0220171=800\x033"),
+        "{:?}",
+        sent.iter().map(|(b, _)| String::from_utf8_lossy(b)).collect::<Vec<_>>()
+    );
+    for (b, replied) in &sent {
+        // no receipt was given, none awaited: the next telegram follows
+        assert!(!replied, "{}", String::from_utf8_lossy(b));
+        // never a numerically compatible code (CODE 000xx: 81..85, 91)
+        assert!(!b.starts_with(b"\x04_\x02000"), "{}", String::from_utf8_lossy(b));
+    }
+    // the broadcast sits inside every drive's dataset: SLOAD = -1 to each
+    // before the first one, SLOAD = -2 to each after the last
+    let pos = |pred: &dyn Fn(&[u8]) -> bool| telegrams.iter().position(|(b, _)| pred(b));
+    let first_bc = pos(&|b| b.starts_with(&[0x04, b'_'])).unwrap();
+    let last_bc = telegrams
+        .iter()
+        .rposition(|(b, _)| b.starts_with(&[0x04, b'_']))
+        .unwrap();
+    for a in [b'A', b'B', b'C'] {
+        let open = pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFF\x03")).unwrap();
+        let commit = pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03")).unwrap();
+        assert!(open < first_bc && commit > last_bc, "{a}: {open} {commit}");
+        // every code read back one by one after the commit, broadcast ones too
+        let read_eclin = telegrams[commit..]
+            .iter()
+            .any(|(b, _)| b.as_slice() == [0x04, a, b'2', b'0', b'1', b'7', b'1', 0x05]);
+        assert!(read_eclin, "{a}");
+    }
+    // and each drive holds it
+    for a in 1..=3 {
+        assert_eq!(
+            sims.sim("axes").state(a).unwrap().values[&CodeKey::new(171)],
+            RawValue::Int(2048)
+        );
+    }
+    // the drives wrote fewer values themselves than without the broadcast
+    let dir2 = tempfile::tempdir().unwrap();
+    let m2 = mc_axes_line(dir2.path(), 3);
+    let sims2 = LoggedSims::default();
+    let opener2 = |b: &driveset_engine::line::manifest::Bus| sims2.open(b);
+    let plain = commission(&m2, &LineOptions::new(dir2.path().join("out")), &opener2).expect("runs");
+    for (b, p) in r.report.drives.iter().zip(&plain.report.drives) {
+        assert_eq!(b.codes_written as usize + listed.len(), p.codes_written as usize);
+    }
+    assert!(r.line_ms() < plain.line_ms());
+}
+
+#[test]
+fn a_lost_lustbus_broadcast_value_is_written_on_its_own_and_verified() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mc_axes_line(dir.path(), 2);
+    let sims = LoggedSims {
+        drop_broadcast: true,
+        ..LoggedSims::default()
+    };
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path().join("out"));
+    opts.broadcast_common = true;
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?} {:?}", r.report.drives, r.warnings);
+    let journals = journals_of(&opts.journal_dir);
+    let first = journals[0]["broadcast"][0].as_str().unwrap().to_string();
+    let telegrams = sims.host_telegrams("axes");
+    // the lost one never reached the bus; the rest did
+    let n = journals[0]["broadcast"].as_array().unwrap().len();
+    assert_eq!(broadcasts(&telegrams).len(), n - 1);
+    for d in &r.report.drives {
+        assert_eq!(d.result, DriveResult::Verified, "{d:?}");
+        assert_eq!(
+            d.fingerprint_after.as_deref(),
+            Some(d.set_fingerprint.as_str())
+        );
+        let w = r
+            .warnings
+            .iter()
+            .find(|w| w.starts_with(&format!("{}: ", d.name)) && w.contains("did not land"))
+            .unwrap_or_else(|| panic!("{:?}", r.warnings));
+        assert!(
+            w.contains(&format!("{first}-"))
+                && w.ends_with("; written on its own and verified"),
+            "{w}"
+        );
+    }
+    // the own write went to each drive after its commit
+    for a in [b'A', b'B'] {
+        let commit = telegrams
+            .iter()
+            .position(|(b, _)| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03"))
+            .unwrap();
+        let code = format!("20{first:0>3}=");
+        assert!(
+            telegrams[commit..]
+                .iter()
+                .any(|(b, _)| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(code.as_bytes())),
+            "{first}"
+        );
+    }
+}
+
+#[test]
+fn lustbus_broadcast_refuses_a_bus_with_vf1000_drives() {
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = LoggedSims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path());
+    opts.only = vec!["lustbus".into()];
+    opts.broadcast_common = true;
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+    assert_eq!(
+        r.warnings,
+        vec!["bus `lustbus`: no broadcast (address 31): refused: the bus also has VF1000 drives (conveyor-5, conveyor-6, conveyor-7), which would execute every SELECT to address 31 as a write of their own parameter of that number (LUSTBUS 4.2); values were written drive by drive".to_string()]
+    );
+    assert!(broadcasts(&sims.host_telegrams("lustbus")).is_empty());
+    assert!(!r.report.buses[0].timeline.iter().any(|t| t.phase == "broadcast"));
+}
+
+#[test]
+fn lustbus_broadcast_never_while_a_drive_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mc_axes_line(dir.path(), 3);
+    let sims = LoggedSims::default();
+    sims.open(&m.buses[0]).unwrap();
+    // axis 2 runs (416-SCTL1 bit 0, "start")
+    sims.sim("axes").poke(2, CodeKey::new(416), RawValue::Int(1)).unwrap();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path().join("out"));
+    opts.broadcast_common = true;
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 1);
+    assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
+    assert_eq!(
+        r.warnings,
+        vec!["bus `axes`: no broadcast (address 31): `axis-2` did not reach its dataset download; values were written drive by drive".to_string()]
+    );
+    let results: Vec<DriveResult> = r.report.drives.iter().map(|d| d.result).collect();
+    assert_eq!(
+        results,
+        vec![DriveResult::Verified, DriveResult::Failed, DriveResult::Verified]
+    );
+    assert!(
+        r.report.drives[1].error.as_deref().unwrap().contains("running"),
+        "{:?}",
+        r.report.drives[1].error
+    );
+}
+
+#[test]
+fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mc_axes_line(dir.path(), 2);
+    let sims = LoggedSims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let mut opts = LineOptions::new(dir.path().join("out"));
+    opts.broadcast_common = true;
+    std::fs::create_dir_all(&opts.journal_dir).unwrap();
+    // an unfinished journal of address 9, a drive the line does not list
+    let journal = opts.journal_dir.join("by-hand.journal.json");
+    std::fs::write(
+        &journal,
+        r#"{"journal_version":2,"state":"writing",
+            "target":{"port":"sim://mc6000","address":9,"bus":"sim:mc6000"},
+            "identity":{"protocol":"lustbus-mc","codes":[["91-TYPE","6000"]],"software":null},
+            "schema":"fictional-mc6000-demo","set_fingerprint":"x","fingerprint_before":"y","dataset":true,
+            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#,
+    )
+    .unwrap();
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+    assert_eq!(
+        r.warnings,
+        vec![format!(
+            "bus `axes`: no broadcast (address 31): the bus has unfinished journals ({}); they are recovered drive by drive first; values were written drive by drive",
+            journal.display()
+        )]
+    );
+    assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
+}

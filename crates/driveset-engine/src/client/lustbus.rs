@@ -1189,6 +1189,112 @@ impl<L: ByteLink> LustbusClient<L> {
         ))
     }
 
+    /// MC6000/7000: SELECT `key` = `raw` to address 31, the broadcast
+    /// address (sections 2.1, 4.2): every device on the bus executes it and
+    /// none replies (9.1), so nothing is awaited. The value is encoded as
+    /// [`DriveClient::write`] encodes it for this client's schema. Then the
+    /// client waits the family's longest reaction time (section 10: 30 ms
+    /// with KEYPAD), so every device has taken the telegram before the next
+    /// one starts (the spec gives no figure for a broadcast; this is the
+    /// longest any device takes to process a telegram).
+    ///
+    /// Only for values staged in open dataset downloads (section 11.4):
+    /// refused before sending for a code that is not CardWriteable, for the
+    /// numerically compatible codes 81..85 and 91 (CODE `000xx`, which a
+    /// VF1000 on the same bus executes as its own SIOC, SIOA, ...), and for
+    /// a code with a role (address, baud rate, control, command, mode ...).
+    /// Address 31 reaches every device on the bus, listed anywhere or not.
+    pub fn broadcast(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        let schema = Arc::clone(&self.schema);
+        let code = schema_code(&schema, &self.target, key)?;
+        let refuse = |why: String| EngineError::Refused {
+            target: self.target.clone(),
+            reason: format!(
+                "broadcast (address 31) of {}: {why}",
+                code_name(&schema, key)
+            ),
+        };
+        if self.family != Dialect::Mc {
+            return Err(refuse(
+                "broadcasts go into MC6000/7000 dataset downloads only".into(),
+            ));
+        }
+        if COMPATIBLE.contains(&key.number) || code.compatible == Some(true) {
+            return Err(refuse(
+                "a numerically compatible code (81..85, 91; section 5.2) is never broadcast".into(),
+            ));
+        }
+        if let Some(role) = schema.role_of(key.number) {
+            return Err(refuse(format!(
+                "a code with role `{}` is never broadcast",
+                role.as_str()
+            )));
+        }
+        if code.card_writeable != Some(true) {
+            return Err(refuse(
+                "not CardWriteable: only values a dataset download stages are broadcast (section 11.4)"
+                    .into(),
+            ));
+        }
+        let pcode = self.code_for(key, Some(code))?;
+        let Some(ty) = wire_type(&schema, code, self.family) else {
+            return Err(refuse(format!(
+                "schema `{}` gives no type or width, so the value cannot be encoded",
+                schema.id
+            )));
+        };
+        let RawValue::Int(n) = raw else {
+            return Err(refuse("LUSTBUS parameters hold integers".into()));
+        };
+        let value = value_of(ty, *n)
+            .and_then(|v| v.encode(self.family).ok())
+            .ok_or_else(|| {
+                refuse(format!(
+                    "{} does not fit {}",
+                    shown_value(&schema, key, raw),
+                    ty.name()
+                ))
+            })?;
+        let bytes = Select::new(Address::BROADCAST, pcode, value).encode();
+        let line = &mut self.line;
+        line.link
+            .discard_input()
+            .and_then(|()| line.link.send(&bytes))
+            .and_then(|()| line.link.flush())
+            .map_err(|e| link_error(&self.target, e))?;
+        line.open = true;
+        line.stats.telegrams += 1;
+        line.stats.sent += bytes.len() as u64;
+        let wait = self.max_reaction();
+        self.line.link.clock().sleep(wait);
+        Ok(())
+    }
+
+    /// MC6000/7000: go on with a dataset download that this drive's
+    /// transaction opened (SLOAD = -1 ACKed) through another client of the
+    /// same drive, e.g. after the line runner's broadcast. Reads SERR first,
+    /// as any session does (section 6: the read clears what a broadcast
+    /// SELECT may have latched) and returns it; a power-on bit means the
+    /// drive restarted and lost its staged values: [`EngineError::Restarted`].
+    pub fn resume_dataset(&mut self) -> Result<Siof, EngineError> {
+        self.sload_present()?;
+        if self.family != Dialect::Mc {
+            return Err(EngineError::Refused {
+                target: self.target.clone(),
+                reason: "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)".into(),
+            });
+        }
+        let siof = self.read_siof("resuming the dataset download")?;
+        if siof.contains(Siof::POWER_ON) {
+            return Err(EngineError::Restarted {
+                target: self.target.clone(),
+                what: "the dataset download (SERR has the power-on bit)".into(),
+            });
+        }
+        self.dataset_open = true;
+        Ok(siof)
+    }
+
     fn sload_present(&self) -> Result<(), EngineError> {
         if self.schema.code(SLOAD).is_none() {
             return Err(EngineError::Refused {

@@ -90,7 +90,9 @@ use crate::live::live_values;
 use crate::overrides::Overrides;
 use crate::plan::value_text;
 use crate::recover::{RecoverAction, RecoverOptions, recover};
-use crate::upload::{UploadOptions, default_journal_path, upload};
+use crate::upload::{
+    Next, Replanned, StepError, Transaction, UploadOptions, default_journal_path, upload,
+};
 
 /// The state file's name inside the report directory.
 pub const STATE_FILE: &str = ".commission-state.json";
@@ -376,13 +378,15 @@ pub fn run_line(
             .iter()
             .enumerate()
             .map(|(bi, bus)| {
-                let drives: Vec<&Drive> = manifest
-                    .drives
+                let listed: Vec<&Drive> =
+                    manifest.drives.iter().filter(|d| d.bus_index == bi).collect();
+                let drives: Vec<&Drive> = listed
                     .iter()
-                    .filter(|d| d.bus_index == bi && selected.contains(&d.name))
+                    .filter(|d| selected.contains(&d.name))
+                    .copied()
                     .collect();
                 let ctx = &ctx;
-                scope.spawn(move || run_bus(bus, &drives, ctx, opener))
+                scope.spawn(move || run_bus(bus, &drives, &listed, ctx, opener))
             })
             .collect();
         handles
@@ -579,7 +583,13 @@ fn since(start: Instant, at: Instant) -> f64 {
     ms(at.saturating_duration_since(start))
 }
 
-fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> BusRun {
+fn run_bus(
+    bus: &Bus,
+    drives: &[&Drive],
+    listed: &[&Drive],
+    ctx: &Ctx<'_>,
+    opener: &Opener<'_>,
+) -> BusRun {
     let mut report = BusReport {
         name: bus.name.clone(),
         port: bus.port.to_string(),
@@ -630,7 +640,35 @@ fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> 
     let mut failed = false;
     let mut dead: Option<String> = None;
     if ctx.mode == Mode::Commission && ctx.opts.broadcast_common {
-        broadcast_common(bus, drives, &mut link, start, &mut report, ctx);
+        if bus.protocol == BusProtocol::Lustbus {
+            match lustbus_broadcast_refusal(drives, listed, &link, ctx) {
+                // the kill test hook runs drive by drive
+                None if ctx.opts.stop_after.is_none() => {
+                    let (out, failed) = run_lustbus_broadcast(
+                        bus,
+                        drives,
+                        &mut link,
+                        start,
+                        &mut report,
+                        ctx,
+                        &progress,
+                    );
+                    report.elapsed_ms = since(start, link_now(&link));
+                    return BusRun {
+                        report,
+                        drives: out,
+                        failed,
+                    };
+                }
+                None => {}
+                Some(why) => ctx.warn(format!(
+                    "bus `{}`: no broadcast (address 31): {why}; values were written drive by drive",
+                    bus.name
+                )),
+            }
+        } else {
+            broadcast_common(bus, drives, &mut link, start, &mut report, ctx);
+        }
     }
     for (i, d) in drives.iter().enumerate() {
         if let Some(why) = &dead {
@@ -1078,7 +1116,7 @@ fn broadcast_common(
 ) {
     if bus.protocol != BusProtocol::Lecom {
         ctx.warn(format!(
-            "bus `{}` ({}): --broadcast-common is done on LECOM buses only (the engine's {} client has no broadcast); values were written drive by drive",
+            "bus `{}` ({}): --broadcast-common is done on LECOM and LUSTBUS buses only (the engine's {} client has no broadcast); values were written drive by drive",
             bus.name, bus.protocol, bus.protocol
         ));
         return;
@@ -1337,4 +1375,545 @@ pub fn now_rfc3339() -> String {
 /// Whether `spec` is a simulated bus.
 pub fn is_sim(spec: &PortSpec) -> bool {
     matches!(spec, PortSpec::Sim(_))
+}
+
+// ---------------------------------------------------------------------------
+// LUSTBUS broadcast of common values (module docs, "Broadcast").
+// ---------------------------------------------------------------------------
+
+/// The values a LUSTBUS broadcast may carry for `drives` (module docs): the
+/// codes every drive's set gives the same value, CardWriteable (staged by
+/// the SLOAD dataset), never a numerically compatible code (81..85, 91),
+/// never a code with a role, never the handshake code itself.
+pub fn lustbus_common_values(drives: &[&Drive]) -> Vec<(CodeKey, RawValue)> {
+    let Some(first) = drives.first() else {
+        return Vec::new();
+    };
+    let schema = &first.schema;
+    let handshake = schema.family.descriptor().dataset.map(|h| h.code);
+    first
+        .set
+        .values
+        .iter()
+        .filter(|(k, _)| k.subcode.is_none())
+        .filter(|(k, _)| !LUSTBUS_COMPATIBLE.contains(&k.number) && Some(k.number) != handshake)
+        .filter(|(k, _)| {
+            schema.code(k.number).is_some_and(|c| {
+                c.card_writeable == Some(true) && c.compatible != Some(true)
+            })
+        })
+        .filter(|(k, _)| schema.role_of(k.number).is_none())
+        .filter(|(k, v)| drives[1..].iter().all(|m| m.set.values.get(k) == Some(*v)))
+        .map(|(k, v)| (*k, v.clone()))
+        .collect()
+}
+
+/// The numerically compatible LUSTBUS parameters (section 5.2): never
+/// broadcast.
+const LUSTBUS_COMPATIBLE: [u32; 6] = [81, 82, 83, 84, 85, 91];
+
+/// Why a LUSTBUS bus gets no broadcast, checked before anything is sent;
+/// `None`: it may (the values are then chosen per drive after the datasets
+/// are open). `listed`: every drive the manifest puts on the bus.
+fn lustbus_broadcast_refusal(
+    drives: &[&Drive],
+    listed: &[&Drive],
+    link: &Link,
+    ctx: &Ctx<'_>,
+) -> Option<String> {
+    let vf: Vec<&str> = listed
+        .iter()
+        .filter(|d| d.schema.family == driveset_schema::Family::Vf1000)
+        .map(|d| d.name.as_str())
+        .collect();
+    if !vf.is_empty() {
+        return Some(format!(
+            "refused: the bus also has VF1000 drives ({}), which would execute every SELECT to address 31 as a write of their own parameter of that number (LUSTBUS 4.2)",
+            vf.join(", ")
+        ));
+    }
+    let left_out: Vec<&str> = listed
+        .iter()
+        .filter(|d| !drives.iter().any(|s| s.name == d.name))
+        .map(|d| d.name.as_str())
+        .collect();
+    if !left_out.is_empty() {
+        return Some(format!(
+            "address 31 reaches every device on the bus, and {} are not part of this run (--only / --skip): they would take the values outside any transaction",
+            left_out.join(", ")
+        ));
+    }
+    if drives.len() < 2 {
+        return Some("fewer than two drives: nothing to share".into());
+    }
+    if let Some(d) = drives.iter().find(|d| d.learn_from.is_some()) {
+        return Some(format!(
+            "drive `{}` has its schema learned first; the broadcast needs every drive's schema up front",
+            d.name
+        ));
+    }
+    if let Some(d) = drives.iter().find(|d| d.schema.id != drives[0].schema.id) {
+        return Some(format!(
+            "the drives do not share one schema (`{}` has `{}`, `{}` has `{}`)",
+            drives[0].name, drives[0].schema.id, d.name, d.schema.id
+        ));
+    }
+    if drives[0].schema.family != driveset_schema::Family::Mc6000 {
+        return Some("broadcasts go into MC6000/7000 dataset downloads only".into());
+    }
+    let Link::Bytes(b) = link else {
+        return Some("not a character line".into());
+    };
+    // Every address, listed or not: a drive with an unfinished transaction
+    // must not take values outside its recovery.
+    let (bus_id, port) = (b.bus_id(), b.port().to_string());
+    let open: Vec<String> = (0..=30)
+        .flat_map(|a| {
+            crate::journal::unfinished_for(&ctx.opts.journal_dir, &bus_id, &port, a)
+                .unwrap_or_default()
+        })
+        .map(|u| u.path.display().to_string())
+        .collect();
+    if !open.is_empty() {
+        return Some(format!(
+            "the bus has unfinished journals ({}); they are recovered drive by drive first",
+            open.join(", ")
+        ));
+    }
+    if lustbus_common_values(drives).is_empty() {
+        return Some("the drives share no CardWriteable value".into());
+    }
+    None
+}
+
+/// A drive of a broadcast bus between its two halves.
+struct Parked<'d> {
+    d: &'d Drive,
+    tx: Transaction,
+    /// The transaction opened a dataset download.
+    dataset: bool,
+    r: DriveReport,
+    spans: Vec<Span>,
+    telegrams: u64,
+    retries: u64,
+    /// Bus time this drive's own exchanges took so far.
+    own: Duration,
+}
+
+/// What became of a drive in the first half.
+enum FirstHalf<'d> {
+    /// Done (unchanged, already verified, refused, failed).
+    Done(DriveReport, Vec<Span>, Option<Failure>),
+    /// Its transaction waits (dataset open, or nothing to stage).
+    Parked(Box<Parked<'d>>),
+}
+
+fn lust_client<'l>(
+    link: &'l mut Link,
+    d: &Drive,
+) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
+    match link {
+        Link::Bytes(b) => LustbusClient::new(BorrowedByteLink(&mut **b), d.schema.clone(), d.address),
+        Link::Frames(f) => Err(EngineError::Refused {
+            target: Target {
+                port: f.port().to_string(),
+                address: d.address,
+            },
+            reason: "a LUSTBUS drive on a CAN bus".into(),
+        }),
+    }
+}
+
+/// The end of a drive's transaction: the upload's outcome into its report,
+/// its notes (a broadcast value written on its own ...) into the run's
+/// warnings.
+fn settle_drive(
+    r: &mut DriveReport,
+    d: &Drive,
+    done: Result<crate::upload::UploadReport, crate::upload::UploadFailure>,
+    ctx: &Ctx<'_>,
+) -> Option<EngineError> {
+    let notes = match &done {
+        Ok(rep) => rep.warnings.clone(),
+        Err(f) => f.report.as_ref().map(|r| r.warnings.clone()).unwrap_or_default(),
+    };
+    for w in notes {
+        ctx.warn(format!("{}: {w}", d.name));
+    }
+    match done {
+        Ok(rep) => {
+            fill_from_upload(r, &d.schema, &rep.identity, &rep.codes);
+            r.fingerprint_before = Some(rep.fingerprint_before.clone());
+            r.fingerprint_after = rep.fingerprint_after.clone();
+            r.codes_written = rep.codes_written as u32;
+            // values a broadcast brought count as changed, though no own
+            // SELECT wrote them
+            let changed = rep
+                .codes
+                .iter()
+                .any(|c| c.outcome != crate::upload::CodeOutcome::Unchanged);
+            r.result = if !changed {
+                DriveResult::Unchanged
+            } else {
+                DriveResult::Verified
+            };
+            None
+        }
+        Err(f) => {
+            if let Some(rep) = &f.report {
+                fill_from_upload(r, &d.schema, &rep.identity, &rep.codes);
+                r.fingerprint_before = Some(rep.fingerprint_before.clone());
+                r.fingerprint_after = rep.fingerprint_after.clone();
+                r.codes_written = rep.codes_written as u32;
+            }
+            let e = *f.error;
+            r.result = if matches!(e, EngineError::RolledBack { .. }) {
+                DriveResult::RolledBack
+            } else {
+                DriveResult::Failed
+            };
+            r.error = Some(e.to_string());
+            Some(e)
+        }
+    }
+}
+
+/// Runs a step result to its end: on a stop, roll back or redo (the whole
+/// attempt again, as [`crate::upload::upload`] does).
+fn drive_to_end(
+    tx: &mut Transaction,
+    client: &mut dyn DriveClient,
+    set: &ResolvedSet,
+    mut res: Result<(), StepError>,
+) -> Result<(), EngineError> {
+    loop {
+        match res {
+            Ok(()) => return Ok(()),
+            Err(stop) => match tx.stopped(client, stop) {
+                Next::Redo => res = tx.run_attempt(client, set),
+                Next::Failed(e) => return Err(e),
+            },
+        }
+    }
+}
+
+/// First half of a drive on a broadcast bus: resume check, begin, replan,
+/// journal, SLOAD = -1.
+fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> FirstHalf<'d> {
+    let t0 = link_now(link);
+    let mut r = blank_report(d, bus, DriveResult::Failed);
+    let journal_dir = &ctx.opts.journal_dir;
+    let c = match lust_client(link, d) {
+        Ok(c) => c,
+        Err(e) => {
+            r.error = Some(e.to_string());
+            return FirstHalf::Done(r, Vec::new(), None);
+        }
+    };
+    let journal_path = default_journal_path(journal_dir, &c);
+    let mut client = Recorder::new(Box::new(c));
+    let stats0 = client.stats();
+    let set_fp = d.set.fingerprint();
+    let mut uo = UploadOptions::new(&journal_path);
+    uo.overrides = ctx.opts.overrides;
+    let mut parked_tx = None;
+    let outcome: Result<(), EngineError> = (|| {
+        if let Some(rec) = ctx.recorded(bus, d)
+            && rec.set_fingerprint == set_fp
+            && rec.port == bus.port.to_string()
+        {
+            let id = check_family(&mut client)?;
+            r.identity = id.codes.clone();
+            let live = live_values(&mut client, &d.set)?;
+            let fp = live.fingerprint();
+            if live.values == d.set.values {
+                r.result = DriveResult::AlreadyVerified;
+                r.fingerprint_before = Some(fp.clone());
+                r.fingerprint_after = Some(fp);
+                return Ok(());
+            }
+            ctx.warn(format!(
+                "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
+                d.name, rec.verified_at
+            ));
+        }
+        let mut tx = Transaction::begin(&mut client, &d.set, &uo)?;
+        let res = (|| {
+            if tx.replan(&mut client, &d.set)? == Replanned::Nothing {
+                return Ok(None);
+            }
+            tx.journal(&mut client)?;
+            tx.open_dataset(&mut client).map(Some)
+        })();
+        match res {
+            Ok(None) => {
+                let done = tx.finish(&mut client, &d.set, Ok(()));
+                if let Some(e) = settle_drive(&mut r, d, done, ctx) {
+                    return Err(e);
+                }
+                Ok(())
+            }
+            Ok(Some(dataset)) => {
+                parked_tx = Some((tx, dataset));
+                Ok(())
+            }
+            Err(stop) => {
+                let end = drive_to_end(&mut tx, &mut client, &d.set, Err(stop));
+                let done = tx.finish(&mut client, &d.set, end);
+                if let Some(e) = settle_drive(&mut r, d, done, ctx) {
+                    return Err(e);
+                }
+                Ok(())
+            }
+        }
+    })();
+    let _ = client.finish();
+    let stats = client.stats();
+    let telegrams = stats.telegrams.saturating_sub(stats0.telegrams);
+    let retries = stats.retries.saturating_sub(stats0.retries);
+    let own = client.clock().now().saturating_duration_since(t0);
+    let spans = std::mem::take(&mut client.spans);
+    if let Some((mut tx, dataset)) = parked_tx {
+        tx.detach(&client);
+        return FirstHalf::Parked(Box::new(Parked {
+            d,
+            tx,
+            dataset,
+            r,
+            spans,
+            telegrams,
+            retries,
+            own,
+        }));
+    }
+    let mut failure = None;
+    if let Err(e) = outcome {
+        failure = failure_of(&e);
+        if r.result != DriveResult::RolledBack {
+            r.result = DriveResult::Failed;
+        }
+        if r.error.is_none() {
+            r.error = Some(e.to_string());
+        }
+    }
+    r.telegrams = telegrams;
+    r.retries = retries;
+    r.elapsed_ms = ms(own);
+    record_drive(bus, d, &r, ctx);
+    FirstHalf::Done(r, spans, failure)
+}
+
+fn record_drive(bus: &Bus, d: &Drive, r: &DriveReport, ctx: &Ctx<'_>) {
+    let holds = matches!(
+        r.result,
+        DriveResult::Verified | DriveResult::Unchanged | DriveResult::AlreadyVerified
+    );
+    ctx.record(
+        bus,
+        d,
+        if holds {
+            r.fingerprint_after.as_deref()
+        } else {
+            None
+        },
+    );
+}
+
+/// Second half: (resume the dataset,) the drive's own dataset writes,
+/// SLOAD = -2, the other writes, verify every code, finish.
+fn second_half(
+    bus: &Bus,
+    mut p: Parked<'_>,
+    link: &mut Link,
+    ctx: &Ctx<'_>,
+) -> (DriveReport, Vec<Span>, Option<Failure>) {
+    let d = p.d;
+    let t0 = link_now(link);
+    let mut r = p.r;
+    let mut c = match lust_client(link, d) {
+        Ok(c) => c,
+        Err(e) => {
+            r.error = Some(e.to_string());
+            return (r, p.spans, None);
+        }
+    };
+    let resumed = if p.dataset {
+        c.resume_dataset().map(Some)
+    } else {
+        Ok(None)
+    };
+    let mut client = Recorder::new(Box::new(c));
+    client.wrote = true;
+    let stats0 = client.stats();
+    let tx = &mut p.tx;
+    tx.attach(&client);
+    let res = match resumed {
+        Ok(siof) => {
+            if let Some(s) = siof.filter(|s| !s.is_empty()) {
+                tx.warn(format!(
+                    "SERR read {s} after the broadcast (cleared); every value is read back"
+                ));
+            }
+            (|| {
+                tx.write_dataset(&mut client)?;
+                tx.commit(&mut client)?;
+                tx.write_rest(&mut client)?;
+                tx.verify(&mut client, &d.set)
+            })()
+        }
+        Err(e) => Err(StepError::Error(e)),
+    };
+    let end = drive_to_end(tx, &mut client, &d.set, res);
+    let done = p.tx.finish(&mut client, &d.set, end);
+    let err = settle_drive(&mut r, d, done, ctx);
+    let _ = client.finish();
+    let stats = client.stats();
+    r.telegrams = p.telegrams + stats.telegrams.saturating_sub(stats0.telegrams);
+    r.retries = p.retries + stats.retries.saturating_sub(stats0.retries);
+    r.elapsed_ms = ms(p.own + client.clock().now().saturating_duration_since(t0));
+    let mut spans = p.spans;
+    spans.append(&mut client.spans);
+    record_drive(bus, d, &r, ctx);
+    (r, spans, err.as_ref().and_then(failure_of))
+}
+
+/// A LUSTBUS bus with `--broadcast-common` (module docs, "Broadcast"):
+/// every drive to "dataset open", the common values once to address 31,
+/// then every drive to its end.
+fn run_lustbus_broadcast(
+    bus: &Bus,
+    drives: &[&Drive],
+    link: &mut Link,
+    start: Instant,
+    report: &mut BusReport,
+    ctx: &Ctx<'_>,
+    progress: &dyn Fn(usize, &DriveReport),
+) -> (Vec<DriveReport>, bool) {
+    let mut done: Vec<Option<DriveReport>> = vec![None; drives.len()];
+    let mut count = 0usize;
+    let mut failed = false;
+    let push_spans = |report: &mut BusReport, name: &str, spans: Vec<Span>| {
+        for (phase, s, e) in spans {
+            report.timeline.push(TimelineEntry {
+                drive: name.to_string(),
+                phase: phase.into(),
+                start_ms: since(start, s),
+                end_ms: since(start, e),
+            });
+        }
+    };
+    let mut parked: Vec<(usize, Parked<'_>)> = Vec::new();
+    let mut why_not: Option<String> = None;
+    for (i, d) in drives.iter().enumerate() {
+        match first_half(bus, d, link, ctx) {
+            FirstHalf::Done(r, spans, f) => {
+                push_spans(report, &d.name, spans);
+                failed |= f.is_some();
+                why_not.get_or_insert_with(|| match r.result {
+                    DriveResult::AlreadyVerified | DriveResult::Unchanged => format!(
+                        "`{}` already holds its set and opens no dataset download",
+                        d.name
+                    ),
+                    _ => format!("`{}` did not reach its dataset download", d.name),
+                });
+                count += 1;
+                progress(count, &r);
+                done[i] = Some(r);
+            }
+            FirstHalf::Parked(p) => {
+                if !p.dataset {
+                    why_not.get_or_insert_with(|| {
+                        format!("`{}` stages no value in a dataset download", d.name)
+                    });
+                }
+                parked.push((i, *p));
+            }
+        }
+    }
+    // the codes every waiting drive stages, with the common value
+    let common = lustbus_common_values(drives);
+    let codes: Vec<(CodeKey, RawValue)> = common
+        .into_iter()
+        .filter(|(k, _)| parked.iter().all(|(_, p)| p.tx.staged().contains(k)))
+        .collect();
+    if why_not.is_none() && codes.is_empty() {
+        why_not = Some("no common value is to be written on every drive".into());
+    }
+    let mut sent = false;
+    if why_not.is_none() {
+        // every drive's journal records the values first
+        let keys: Vec<CodeKey> = codes.iter().map(|(k, _)| *k).collect();
+        let mut ok = true;
+        for (_, p) in parked.iter_mut() {
+            if let Err(e) = p.tx.expect_broadcast(&keys) {
+                why_not = Some(format!(
+                    "`{}`: the journal could not record the broadcast: {}",
+                    p.d.name,
+                    e.error()
+                ));
+                ok = false;
+                break;
+            }
+        }
+        if ok {
+            let t0 = link_now(link);
+            let first = parked[0].1.d;
+            let res = lust_client(link, first).and_then(|mut c| {
+                for (k, v) in &codes {
+                    c.broadcast(*k, v)?;
+                }
+                c.finish()
+            });
+            let t1 = link_now(link);
+            report.timeline.push(TimelineEntry {
+                drive: "address 31".into(),
+                phase: "broadcast".into(),
+                start_ms: since(start, t0),
+                end_ms: since(start, t1),
+            });
+            match res {
+                Ok(()) => sent = true,
+                Err(e) => {
+                    // what did not go out is found missing and written drive by drive
+                    ctx.warn(format!(
+                        "bus `{}`: the broadcast stopped: {e}; each drive writes what did not land",
+                        bus.name
+                    ));
+                    sent = true;
+                }
+            }
+        } else {
+            for (_, p) in parked.iter_mut() {
+                p.tx.cancel_broadcast();
+            }
+        }
+    }
+    match (&why_not, sent) {
+        (Some(w), _) => ctx.warn(format!(
+            "bus `{}`: no broadcast (address 31): {w}; values were written drive by drive",
+            bus.name
+        )),
+        (None, true) => ctx.warn(format!(
+            "bus `{}`: {} value(s) common to its {} drives sent once to address 31 (broadcast, no receipt) inside each drive's dataset download; every value verified drive by drive",
+            bus.name,
+            codes.len(),
+            parked.len()
+        )),
+        (None, false) => {}
+    }
+    for (i, p) in parked {
+        let name = p.d.name.clone();
+        let (r, spans, f) = second_half(bus, p, link, ctx);
+        push_spans(report, &name, spans);
+        failed |= f.is_some();
+        count += 1;
+        progress(count, &r);
+        done[i] = Some(r);
+    }
+    let out = done
+        .into_iter()
+        .zip(drives)
+        .map(|(r, d)| r.unwrap_or_else(|| blank_report(d, bus, DriveResult::Failed)))
+        .collect();
+    (out, failed)
 }
