@@ -755,3 +755,70 @@ fn a_late_reply_is_recognised_and_dropped() {
     assert_eq!(c.stats().late, 2);
     assert_eq!(c.stats().telegrams, 2);
 }
+
+/// LUSTBUS 4.2 / 9.1: a SELECT to address 31 (`_`) is executed by every
+/// device without a receipt. The client sends it and awaits nothing but the
+/// longest MC reaction time (30 ms with KEYPAD); two drives with open
+/// datasets both stage it. Compatible codes, codes with a role and values
+/// no dataset stages are refused before anything is sent.
+#[test]
+fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() {
+    let (rig, bus) = sim_bus(9600, vec![mc(1), mc(2)], None);
+    let s = schema(Family::Mc6000);
+    let mut c1 = LustbusClient::new(bus, s.clone(), 1).unwrap();
+    c1.dataset_begin().unwrap();
+    let mut c2 = LustbusClient::new(c1.into_link(), s.clone(), 2).unwrap();
+    c2.dataset_begin().unwrap();
+    let before = wire(&rig.log, Dir::Host).len();
+    let replies_before = wire(&rig.log, Dir::Drive).len();
+    let t0 = rig.clock.now();
+    c2.broadcast(CodeKey::new(171), &RawValue::Int(2048))
+        .unwrap();
+    let host = wire(&rig.log, Dir::Host);
+    assert_eq!(host.len(), before + 1);
+    let sent = &host[before].1;
+    assert_eq!(sent, &select(31, "20171", "800"));
+    assert_eq!(sent.as_slice(), b"\x04_\x0220171=800\x033");
+    // no receipt, none awaited: the wire time, then 30 ms
+    assert_eq!(wire(&rig.log, Dir::Drive).len(), replies_before);
+    assert_eq!(
+        rig.clock.now() - t0,
+        wire_time(sent.len(), 9600) + Duration::from_millis(30)
+    );
+    for (key, why) in [
+        (
+            81,
+            "a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
+        ),
+        (
+            85,
+            "a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
+        ),
+        (416, "a code with role `control-word` is never broadcast"),
+        (80, "a code with role `command` is never broadcast"),
+    ] {
+        let e = c2
+            .broadcast(CodeKey::new(key), &RawValue::Int(1))
+            .expect_err("refused");
+        let name = s.display_code(key, None);
+        assert_eq!(
+            e.to_string(),
+            format!("sim address 2: refused: broadcast (address 31) of {name}: {why}")
+        );
+    }
+    assert_eq!(wire(&rig.log, Dir::Host).len(), before + 1);
+    // both drives commit it
+    assert_eq!(
+        c2.dataset_commit(Duration::from_secs(10)).unwrap(),
+        DatasetOutcome::Accepted
+    );
+    let mut c1 = LustbusClient::new(c2.into_link(), s.clone(), 1).unwrap();
+    assert!(c1.resume_dataset().unwrap().is_empty());
+    assert_eq!(
+        c1.dataset_commit(Duration::from_secs(10)).unwrap(),
+        DatasetOutcome::Accepted
+    );
+    assert_eq!(c1.read(CodeKey::new(171)).unwrap(), RawValue::Int(2048));
+    let mut c2 = LustbusClient::new(c1.into_link(), s, 2).unwrap();
+    assert_eq!(c2.read(CodeKey::new(171)).unwrap(), RawValue::Int(2048));
+}

@@ -702,7 +702,10 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
 /// A line of `n` MC6000 axes on one LUSTBUS (`sim://mc6000`, 9600 Bd): the
 /// demo line's common base set plus each axis' own SADDR and KPSC1.
 fn mc_axes_line(dir: &Path, n: u8) -> Manifest {
-    let sets = root().join("parameter-sets/demo-line/sets").canonicalize().unwrap();
+    let sets = root()
+        .join("parameter-sets/demo-line/sets")
+        .canonicalize()
+        .unwrap();
     let mut m = String::from(
         "[line]\nname = \"axes\"\n\n[[bus]]\nname = \"axes\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n",
     );
@@ -745,11 +748,17 @@ impl LoggedSims {
             let PortSpec::Sim(spec) = &bus.port else {
                 return Err("not a sim port".into());
             };
-            let config = driveset_sim::open::SimConfig::from_spec(spec).map_err(|e| e.to_string())?;
+            let config =
+                driveset_sim::open::SimConfig::from_spec(spec).map_err(|e| e.to_string())?;
             let log = driveset_sim::log::EventLog::memory();
             let port = PortSpec::Sim(spec.clone()).to_string();
-            let s = driveset_sim::open::open_sim_with(&config, &VirtualClock::new(), &port, log.clone())
-                .map_err(|e| e.to_string())?;
+            let s = driveset_sim::open::open_sim_with(
+                &config,
+                &VirtualClock::new(),
+                &port,
+                log.clone(),
+            )
+            .map_err(|e| e.to_string())?;
             m.insert(bus.name.clone(), (s, log));
         }
         let link = m[&bus.name].0.link();
@@ -837,7 +846,9 @@ impl driveset_link::ByteLink for DropBroadcast {
 
 /// Telegrams to address 31 (`EOT _ ...`).
 fn broadcasts(t: &[(Vec<u8>, bool)]) -> Vec<&(Vec<u8>, bool)> {
-    t.iter().filter(|(b, _)| b.starts_with(&[0x04, b'_'])).collect()
+    t.iter()
+        .filter(|(b, _)| b.starts_with(&[0x04, b'_']))
+        .collect()
 }
 
 fn journals_of(dir: &Path) -> Vec<serde_json::Value> {
@@ -904,15 +915,22 @@ fn lustbus_broadcast_sends_common_values_once_to_address_31_inside_each_dataset(
     assert_eq!(sent.len(), listed.len());
     // 171-ECLIN = 2048 (PT_USIGN16, hex without leading zeros), BCC 0x33
     assert!(
-        sent.iter().any(|(b, _)| b.as_slice() == b"\x04_\x0220171=800\x033"),
+        sent.iter()
+            .any(|(b, _)| b.as_slice() == b"\x04_\x0220171=800\x033"),
         "{:?}",
-        sent.iter().map(|(b, _)| String::from_utf8_lossy(b)).collect::<Vec<_>>()
+        sent.iter()
+            .map(|(b, _)| String::from_utf8_lossy(b))
+            .collect::<Vec<_>>()
     );
     for (b, replied) in &sent {
         // no receipt was given, none awaited: the next telegram follows
         assert!(!replied, "{}", String::from_utf8_lossy(b));
         // never a numerically compatible code (CODE 000xx: 81..85, 91)
-        assert!(!b.starts_with(b"\x04_\x02000"), "{}", String::from_utf8_lossy(b));
+        assert!(
+            !b.starts_with(b"\x04_\x02000"),
+            "{}",
+            String::from_utf8_lossy(b)
+        );
     }
     // the broadcast sits inside every drive's dataset: SLOAD = -1 to each
     // before the first one, SLOAD = -2 to each after the last
@@ -923,8 +941,12 @@ fn lustbus_broadcast_sends_common_values_once_to_address_31_inside_each_dataset(
         .rposition(|(b, _)| b.starts_with(&[0x04, b'_']))
         .unwrap();
     for a in [b'A', b'B', b'C'] {
-        let open = pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFF\x03")).unwrap();
-        let commit = pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03")).unwrap();
+        let open =
+            pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFF\x03"))
+                .unwrap();
+        let commit =
+            pos(&|b| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03"))
+                .unwrap();
         assert!(open < first_bc && commit > last_bc, "{a}: {open} {commit}");
         // every code read back one by one after the commit, broadcast ones too
         let read_eclin = telegrams[commit..]
@@ -944,9 +966,13 @@ fn lustbus_broadcast_sends_common_values_once_to_address_31_inside_each_dataset(
     let m2 = mc_axes_line(dir2.path(), 3);
     let sims2 = LoggedSims::default();
     let opener2 = |b: &driveset_engine::line::manifest::Bus| sims2.open(b);
-    let plain = commission(&m2, &LineOptions::new(dir2.path().join("out")), &opener2).expect("runs");
+    let plain =
+        commission(&m2, &LineOptions::new(dir2.path().join("out")), &opener2).expect("runs");
     for (b, p) in r.report.drives.iter().zip(&plain.report.drives) {
-        assert_eq!(b.codes_written as usize + listed.len(), p.codes_written as usize);
+        assert_eq!(
+            b.codes_written as usize + listed.len(),
+            p.codes_written as usize
+        );
     }
     assert!(r.line_ms() < plain.line_ms());
 }
@@ -982,8 +1008,7 @@ fn a_lost_lustbus_broadcast_value_is_written_on_its_own_and_verified() {
             .find(|w| w.starts_with(&format!("{}: ", d.name)) && w.contains("did not land"))
             .unwrap_or_else(|| panic!("{:?}", r.warnings));
         assert!(
-            w.contains(&format!("{first}-"))
-                && w.ends_with("; written on its own and verified"),
+            w.contains(&format!("{first}-")) && w.ends_with("; written on its own and verified"),
             "{w}"
         );
     }
@@ -991,13 +1016,15 @@ fn a_lost_lustbus_broadcast_value_is_written_on_its_own_and_verified() {
     for a in [b'A', b'B'] {
         let commit = telegrams
             .iter()
-            .position(|(b, _)| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03"))
+            .position(|(b, _)| {
+                b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(b"20080=FFFE\x03")
+            })
             .unwrap();
         let code = format!("20{first:0>3}=");
         assert!(
-            telegrams[commit..]
-                .iter()
-                .any(|(b, _)| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(code.as_bytes())),
+            telegrams[commit..].iter().any(
+                |(b, _)| b.starts_with(&[0x04, a, 0x02]) && b[3..].starts_with(code.as_bytes())
+            ),
             "{first}"
         );
     }
@@ -1019,7 +1046,12 @@ fn lustbus_broadcast_refuses_a_bus_with_vf1000_drives() {
         vec!["bus `lustbus`: no broadcast (address 31): refused: the bus also has VF1000 drives (conveyor-5, conveyor-6, conveyor-7), which would execute every SELECT to address 31 as a write of their own parameter of that number (LUSTBUS 4.2); values were written drive by drive".to_string()]
     );
     assert!(broadcasts(&sims.host_telegrams("lustbus")).is_empty());
-    assert!(!r.report.buses[0].timeline.iter().any(|t| t.phase == "broadcast"));
+    assert!(
+        !r.report.buses[0]
+            .timeline
+            .iter()
+            .any(|t| t.phase == "broadcast")
+    );
 }
 
 #[test]
@@ -1029,7 +1061,9 @@ fn lustbus_broadcast_never_while_a_drive_runs() {
     let sims = LoggedSims::default();
     sims.open(&m.buses[0]).unwrap();
     // axis 2 runs (416-SCTL1 bit 0, "start")
-    sims.sim("axes").poke(2, CodeKey::new(416), RawValue::Int(1)).unwrap();
+    sims.sim("axes")
+        .poke(2, CodeKey::new(416), RawValue::Int(1))
+        .unwrap();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
     let mut opts = LineOptions::new(dir.path().join("out"));
     opts.broadcast_common = true;
@@ -1043,10 +1077,18 @@ fn lustbus_broadcast_never_while_a_drive_runs() {
     let results: Vec<DriveResult> = r.report.drives.iter().map(|d| d.result).collect();
     assert_eq!(
         results,
-        vec![DriveResult::Verified, DriveResult::Failed, DriveResult::Verified]
+        vec![
+            DriveResult::Verified,
+            DriveResult::Failed,
+            DriveResult::Verified
+        ]
     );
     assert!(
-        r.report.drives[1].error.as_deref().unwrap().contains("running"),
+        r.report.drives[1]
+            .error
+            .as_deref()
+            .unwrap()
+            .contains("running"),
         "{:?}",
         r.report.drives[1].error
     );

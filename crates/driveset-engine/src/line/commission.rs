@@ -378,8 +378,11 @@ pub fn run_line(
             .iter()
             .enumerate()
             .map(|(bi, bus)| {
-                let listed: Vec<&Drive> =
-                    manifest.drives.iter().filter(|d| d.bus_index == bi).collect();
+                let listed: Vec<&Drive> = manifest
+                    .drives
+                    .iter()
+                    .filter(|d| d.bus_index == bi)
+                    .collect();
                 let drives: Vec<&Drive> = listed
                     .iter()
                     .filter(|d| selected.contains(&d.name))
@@ -1398,9 +1401,9 @@ pub fn lustbus_common_values(drives: &[&Drive]) -> Vec<(CodeKey, RawValue)> {
         .filter(|(k, _)| k.subcode.is_none())
         .filter(|(k, _)| !LUSTBUS_COMPATIBLE.contains(&k.number) && Some(k.number) != handshake)
         .filter(|(k, _)| {
-            schema.code(k.number).is_some_and(|c| {
-                c.card_writeable == Some(true) && c.compatible != Some(true)
-            })
+            schema
+                .code(k.number)
+                .is_some_and(|c| c.card_writeable == Some(true) && c.compatible != Some(true))
         })
         .filter(|(k, _)| schema.role_of(k.number).is_none())
         .filter(|(k, v)| drives[1..].iter().all(|m| m.set.values.get(k) == Some(*v)))
@@ -1513,7 +1516,9 @@ fn lust_client<'l>(
     d: &Drive,
 ) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
     match link {
-        Link::Bytes(b) => LustbusClient::new(BorrowedByteLink(&mut **b), d.schema.clone(), d.address),
+        Link::Bytes(b) => {
+            LustbusClient::new(BorrowedByteLink(&mut **b), d.schema.clone(), d.address)
+        }
         Link::Frames(f) => Err(EngineError::Refused {
             target: Target {
                 port: f.port().to_string(),
@@ -1535,7 +1540,11 @@ fn settle_drive(
 ) -> Option<EngineError> {
     let notes = match &done {
         Ok(rep) => rep.warnings.clone(),
-        Err(f) => f.report.as_ref().map(|r| r.warnings.clone()).unwrap_or_default(),
+        Err(f) => f
+            .report
+            .as_ref()
+            .map(|r| r.warnings.clone())
+            .unwrap_or_default(),
     };
     for w in notes {
         ctx.warn(format!("{}: {w}", d.name));
