@@ -412,3 +412,107 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         }
     }
 }
+
+/// Three MC6000 axes on one simulated LUSTBUS sharing the demo line's base
+/// set (each its own SADDR and KPSC1).
+fn mc_axes_line(dir: &Path) -> String {
+    let sets = workspace_root()
+        .join("parameter-sets/demo-line/sets")
+        .canonicalize()
+        .unwrap();
+    let mut m = String::from(
+        "[line]\nname = \"axes\"\n\n[[bus]]\nname = \"axes\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n",
+    );
+    for a in 1..=3u8 {
+        std::fs::write(
+            dir.join(format!("axis-{a}.toml")),
+            format!(
+                "schema = \"{s}/../../fixtures/fictional-mc6000-demo.toml\"\nextends = \"{s}/mc6000-base.toml\"\n\n[values]\nSADDR = {a}\nKPSC1 = \"0.0{k}25 Nm/(rad/s)\"\n",
+                s = sets.display(),
+                k = a + 1
+            ),
+        )
+        .unwrap();
+        m.push_str(&format!(
+            "[[drive]]\nname = \"axis-{a}\"\nbus = \"axes\"\naddress = {a}\nset = \"axis-{a}.toml\"\n\n"
+        ));
+    }
+    std::fs::write(dir.join("line.toml"), m).unwrap();
+    "line.toml".into()
+}
+
+#[test]
+fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every_drive() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let line = mc_axes_line(dir.path());
+    in_dir(dir.path())
+        .args(["commission", &line, "--broadcast-common"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "3 of 3 drives commissioned: 3 verified, 0 unchanged, 0 already verified, 0 drift, 0 rolled back, 0 failed; line axes: ok\n",
+        ))
+        .stderr(predicate::str::is_match(
+            "warning: bus `axes`: [0-9]+ value\\(s\\) common to its 3 drives sent once to address 31 \\(broadcast, no receipt\\) inside each drive's dataset download; every value verified drive by drive\n",
+        ).unwrap());
+    let r = report(dir.path());
+    let timeline = r["buses"][0]["timeline"].as_array().unwrap();
+    let bc: Vec<&serde_json::Value> = timeline
+        .iter()
+        .filter(|t| t["phase"] == "broadcast")
+        .collect();
+    assert_eq!(bc.len(), 1);
+    assert_eq!(bc[0]["drive"], "address 31");
+    for d in r["drives"].as_array().unwrap() {
+        assert_eq!(d["result"], "verified", "{d}");
+        assert_eq!(d["fingerprint_after"], d["set_fingerprint"], "{d}");
+    }
+    // every journal lists the broadcast codes: never 81..85 or 91
+    let jdir = dir.path().join(".driveset/journal");
+    let mut lists = Vec::new();
+    for e in std::fs::read_dir(&jdir).unwrap() {
+        let p = e.unwrap().path();
+        if p.to_string_lossy().ends_with(".journal.json") {
+            let j: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+            assert_eq!(j["state"], "complete");
+            lists.push(j["broadcast"].clone());
+        }
+    }
+    assert_eq!(lists.len(), 3);
+    assert!(lists.iter().all(|l| *l == lists[0]));
+    let codes: Vec<&str> = lists[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(codes.contains(&"171"), "{codes:?}");
+    for c in ["81", "82", "83", "84", "85", "91", "80", "416"] {
+        assert!(!codes.contains(&c), "{codes:?}");
+    }
+    // the drives hold their sets
+    in_dir(dir.path()).args(["status", &line]).assert().code(0);
+}
+
+#[test]
+fn commission_broadcast_common_refuses_a_lustbus_with_vf1000_drives() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args(["commission", &demo(), "--only", "lustbus", "--broadcast-common"])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains(
+            "warning: bus `lustbus`: no broadcast (address 31): refused: the bus also has VF1000 drives (conveyor-5, conveyor-6, conveyor-7), which would execute every SELECT to address 31 as a write of their own parameter of that number (LUSTBUS 4.2); values were written drive by drive\n",
+        ));
+    let r = report(dir.path());
+    assert!(
+        !r["buses"][0]["timeline"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|t| t["phase"] == "broadcast")
+    );
+}

@@ -84,9 +84,14 @@ pub struct Args {
     /// Named overrides passed to every upload, one per refusal.
     #[command(flatten)]
     pub allow: super::allow::AllowArgs,
-    /// LECOM: send values common to a group (x1..x9) once by MULTICAST,
-    /// then verify every drive (unacknowledged, no journal backup; other
-    /// buses: per-drive writes).
+    /// Send values the drives share once. LECOM: by MULTICAST to each
+    /// group (x1..x9; unacknowledged, no journal backup). LUSTBUS (MC6000/
+    /// 7000 only): CardWriteable values as one SELECT to address 31, which
+    /// every device on the bus executes without a receipt, inside every
+    /// drive's SLOAD dataset download (journalled); never 81..85, 91 or a
+    /// code with a role; refused on a bus with VF1000s, with unselected or
+    /// running drives, or with unfinished journals. Every drive is then
+    /// verified code by code. CAN: per-drive writes.
     #[arg(long)]
     pub broadcast_common: bool,
     /// Ignore the resume state: commission every selected drive.

@@ -24,23 +24,61 @@
 //! drive is then [`DriveResult::Verified`], never `Unchanged`, and its
 //! recorded resume state is not trusted. A refused or failed recovery makes
 //! the drive [`DriveResult::Failed`]. `status` writes nothing: such a drive
-//! is `Failed` (exit 1). A LECOM group with an unfinished journal gets no
-//! MULTICAST (`broadcast_common`).
+//! is `Failed` (exit 1). A LECOM group or a LUSTBUS bus with an unfinished
+//! journal gets no broadcast (`broadcast_common`).
 //!
 //! **Exit codes** ([`LineOutcome::exit_code`]): 0 every selected drive holds
 //! its set; 1 a drive does not (drift, refused, rolled back, failed); 3 a
 //! bus could not be opened, a link failed, a drive did not answer, or the
 //! run stopped before every drive was reached (`stop_after`). 3 wins over 1.
 //!
-//! **Broadcast** (`broadcast_common`, LECOM buses only): values every
-//! selected drive of a LECOM group (addresses x1..x9) sets identically are
-//! sent once per group with MULTICAST to x0 before the drives are done one
-//! by one; each drive's own transaction then reads every code back, writes
-//! what did not land and verifies, so the broadcast only saves telegrams.
-//! MULTICAST is unacknowledged and has no journal backup; drives of the
-//! group that the line does not list receive it too. LUSTBUS (address 31)
-//! and CAN have no broadcast in the engine's clients: those buses fall back
-//! to per-drive writes with a warning.
+//! **Broadcast** (`broadcast_common`; LECOM and LUSTBUS buses; CAN buses
+//! fall back to per-drive writes with a warning).
+//!
+//! LECOM: values every selected drive of a LECOM group (addresses x1..x9)
+//! sets identically are sent once per group with MULTICAST to x0 before
+//! the drives are done one by one; each drive's own transaction then reads
+//! every code back, writes what did not land and verifies, so the
+//! broadcast only saves telegrams. MULTICAST is unacknowledged and has no
+//! journal backup; drives of the group that the line does not list receive
+//! it too.
+//!
+//! LUSTBUS (sections 2.1, 4.2, 9.1, 11.4): a SELECT to address 31 is
+//! executed by every device on the bus, listed in the manifest or not, and
+//! none gives a receipt. The common values are the codes every selected
+//! MC6000/7000 drive's set gives the same value that are CardWriteable
+//! (the ones the SLOAD dataset stages, [`crate::plan::Phase::Dataset`]) and
+//! that every drive's plan writes; never the numerically compatible codes
+//! 81..85 and 91 (SBAUD, SADDR, SDMMY, SWDGT, SERR, TYPE), never a code
+//! with a role (address, baud rate, control, command, mode ...), never
+//! SLOAD itself. They go out once, inside every drive's dataset download:
+//! 1. every drive is taken through its own [`Transaction`] to "dataset
+//!    open": identify, read back, plan (the running check), journal with
+//!    backup, SERR cleared, SLOAD = -1 (taken at standstill only; the
+//!    drive is then secured against being started until the download
+//!    ends, 11.4);
+//! 2. each journal records the codes the broadcast sends (its `broadcast`
+//!    field) and is made durable;
+//! 3. one SELECT per value to address 31 (`_`), nothing awaited but the
+//!    longest MC reaction time (timeline phase `broadcast`, drive
+//!    `address 31`);
+//! 4. each drive in turn: SERR read (the new session's first read: clears
+//!    what a broadcast may have latched), its own remaining dataset writes,
+//!    SLOAD = -2 and the poll, the writes after the dataset, and the
+//!    verification of every code one by one, broadcast ones included. A
+//!    broadcast value that did not land is written on its own (after the
+//!    commit, as a plain SELECT) and verified; the run warns which.
+//!
+//! No broadcast (the drives are done one by one, with a warning saying
+//! why) when the bus also lists VF1000 drives (a VF1000 executes the
+//! SELECT as a write of its own parameter of that number), when a drive
+//! the manifest puts on the bus is not selected (`--only` / `--skip`), when
+//! the drives do not share one schema or learn theirs first, when any
+//! address 0..30 of the bus has an unfinished journal, when a drive does
+//! not reach "dataset open" (it runs, refuses, fails, or already holds its
+//! set: address 31 would reach it outside a dataset download), and with
+//! `stop_after`. A drive's `codes_written` counts its own SELECTs, not the
+//! broadcast; its `elapsed_ms` is the time of its own exchanges.
 //!
 //! **Learning the schema.** A drive whose set names a built-in LUSTBUS
 //! schema that lacks facts ([`Drive::learn_from`], see
@@ -156,7 +194,9 @@ pub struct LineOptions {
     /// Passed to every upload (each lifts one refusal; see
     /// [`crate::overrides`]).
     pub overrides: Overrides,
-    /// LECOM MULTICAST of the values common to a group (module docs).
+    /// Broadcast the values common to the drives: LECOM MULTICAST per
+    /// group, LUSTBUS SELECT to address 31 inside every MC dataset
+    /// download (module docs, "Broadcast").
     pub broadcast_common: bool,
     /// Ignore the state file (commission every drive again).
     pub fresh: bool,
