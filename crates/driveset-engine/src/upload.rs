@@ -514,6 +514,8 @@ pub struct Transaction {
     attempt: Option<Attempt>,
     since_persist: usize,
     dataset_touched: bool,
+    /// When SLOAD = -2 was ACKed ([`Transaction::end_dataset`]).
+    dataset_ended: Option<driveset_link::Instant>,
     dataset_note: Option<String>,
     interleaved: usize,
     written_count: usize,
@@ -602,6 +604,7 @@ impl Transaction {
             attempt: None,
             since_persist: 0,
             dataset_touched: false,
+            dataset_ended: None,
             dataset_note: None,
             interleaved: 0,
             written_count: 0,
@@ -1046,29 +1049,67 @@ impl Transaction {
     /// Step 5 (MC6000/7000): end the dataset download (SLOAD = -2) and poll
     /// until the drive accepts it (state `committed`) or rejects it (the
     /// drive reactivated its old set: confirmed by reading the backup
-    /// back, state `rolled-back`).
+    /// back, state `rolled-back`). [`Transaction::end_dataset`] and
+    /// [`Transaction::await_dataset`] are the same in two halves.
     pub fn commit(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
         self.with_attempt("commit", "journal", |tx, a| {
             if a.staged.is_empty() {
                 return Ok(());
             }
-            match client.dataset_commit(tx.opts.dataset_timeout)? {
-                DatasetOutcome::Accepted => {
-                    tx.dataset_note = Some("accepted (SLOAD = 0)".into());
-                    tx.set_state(
-                        client,
-                        TxnState::Committed,
-                        Some("the drive accepted the dataset (SLOAD = 0)".into()),
-                    )?;
-                    a.pending.extend(a.staged.iter().copied());
-                    Ok(())
-                }
-                DatasetOutcome::Rejected { parameter } => {
-                    let staged = a.staged.clone();
-                    Err(tx.dataset_rejected(client, parameter, &staged))
-                }
-            }
+            let outcome = client.dataset_commit(tx.opts.dataset_timeout)?;
+            tx.dataset_settled(client, a, outcome)
         })
+    }
+
+    /// Step 5, first half: SLOAD = -2 only; the drive checks and stores
+    /// while the caller talks to other drives of the bus.
+    pub fn end_dataset(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        self.with_attempt("end_dataset", "journal", |tx, a| {
+            if a.staged.is_empty() {
+                return Ok(());
+            }
+            tx.dataset_ended = Some(client.dataset_end()?);
+            Ok(())
+        })
+    }
+
+    /// Step 5, second half: poll SLOAD (the timeout counts from
+    /// [`Transaction::end_dataset`]), then as [`Transaction::commit`].
+    pub fn await_dataset(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
+        self.with_attempt("await_dataset", "journal", |tx, a| {
+            if a.staged.is_empty() {
+                return Ok(());
+            }
+            let Some(ended) = tx.dataset_ended.take() else {
+                return Err(out_of_order(&tx.target, "await_dataset", "end_dataset"));
+            };
+            let outcome = client.dataset_await(ended, tx.opts.dataset_timeout)?;
+            tx.dataset_settled(client, a, outcome)
+        })
+    }
+
+    fn dataset_settled(
+        &mut self,
+        client: &mut dyn DriveClient,
+        a: &mut Attempt,
+        outcome: DatasetOutcome,
+    ) -> Result<(), StepError> {
+        match outcome {
+            DatasetOutcome::Accepted => {
+                self.dataset_note = Some("accepted (SLOAD = 0)".into());
+                self.set_state(
+                    client,
+                    TxnState::Committed,
+                    Some("the drive accepted the dataset (SLOAD = 0)".into()),
+                )?;
+                a.pending.extend(a.staged.iter().copied());
+                Ok(())
+            }
+            DatasetOutcome::Rejected { parameter } => {
+                let staged = a.staged.clone();
+                Err(self.dataset_rejected(client, parameter, &staged))
+            }
+        }
     }
 
     /// Step 6: the writes after the dataset (stored values, control, mode,

@@ -1064,6 +1064,11 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
     }
 
     fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
+        let ended = self.dataset_end()?;
+        self.dataset_await(ended, timeout)
+    }
+
+    fn dataset_end(&mut self) -> Result<Instant, EngineError> {
         if !self.dataset_open {
             return Err(EngineError::Refused {
                 target: self.target.clone(),
@@ -1073,12 +1078,19 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         let key = CodeKey::new(SLOAD);
         let what = "dataset download: write 80-SLOAD = -2";
         let r = self.select(key, &RawValue::Int(-2), what, None);
-        if let Err(e) = r {
-            self.dataset_open = false;
-            return Err(e);
-        }
         self.dataset_open = false;
-        let deadline = self.now() + timeout;
+        r?;
+        Ok(self.now())
+    }
+
+    fn dataset_await(
+        &mut self,
+        ended: Instant,
+        timeout: Duration,
+    ) -> Result<DatasetOutcome, EngineError> {
+        self.sload_present()?;
+        let key = CodeKey::new(SLOAD);
+        let deadline = ended + timeout;
         loop {
             let poll_start = self.now();
             self.line.stats.sload_polls += 1;

@@ -170,6 +170,33 @@ pub trait DriveClient: Send {
             reason: "this drive family has no dataset download handshake".into(),
         })
     }
+
+    /// The first half of [`DriveClient::dataset_commit`]: SLOAD = -2 only
+    /// (the drive starts checking and storing); returns when the drive
+    /// ACKed it. [`DriveClient::dataset_await`] polls, through this or
+    /// another client of the drive, so a runner can use the drive's check
+    /// time for other drives of the bus.
+    fn dataset_end(&mut self) -> Result<Instant, EngineError> {
+        Err(EngineError::Refused {
+            target: self.target().clone(),
+            reason: "this drive family has no dataset download handshake".into(),
+        })
+    }
+
+    /// The second half of [`DriveClient::dataset_commit`]: poll SLOAD until
+    /// it leaves -1, or until `timeout` after `ended` (the instant
+    /// [`DriveClient::dataset_end`] returned) passes.
+    fn dataset_await(
+        &mut self,
+        ended: Instant,
+        timeout: Duration,
+    ) -> Result<DatasetOutcome, EngineError> {
+        let _ = (ended, timeout);
+        Err(EngineError::Refused {
+            target: self.target().clone(),
+            reason: "this drive family has no dataset download handshake".into(),
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------

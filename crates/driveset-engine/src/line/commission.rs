@@ -1347,6 +1347,16 @@ impl DriveClient for Recorder<'_> {
     fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
         self.track("write", |s| s.inner.dataset_commit(timeout))
     }
+    fn dataset_end(&mut self) -> Result<Instant, EngineError> {
+        self.track("write", |s| s.inner.dataset_end())
+    }
+    fn dataset_await(
+        &mut self,
+        ended: Instant,
+        timeout: Duration,
+    ) -> Result<DatasetOutcome, EngineError> {
+        self.track("write", |s| s.inner.dataset_await(ended, timeout))
+    }
 }
 
 /// Write the report as JSON to `dir/<command>.json` (the CLI renders HTML
@@ -1768,25 +1778,29 @@ fn record_drive(bus: &Bus, d: &Drive, r: &DriveReport, ctx: &Ctx<'_>) {
     );
 }
 
-/// Second half: (resume the dataset,) the drive's own dataset writes,
-/// SLOAD = -2, the other writes, verify every code, finish.
-fn second_half(
+/// The rest of a drive on a broadcast bus, in two calls. `last == false`:
+/// resume the dataset download, the drive's own dataset writes, SLOAD = -2
+/// (the drive then checks and stores while the others are done); the drive
+/// is parked again. `last == true`: poll SLOAD, the writes after the
+/// dataset, verify every code, finish. A failure ends the drive at once
+/// (roll back, report).
+fn next_half<'d>(
     bus: &Bus,
-    mut p: Parked<'_>,
+    mut p: Parked<'d>,
     link: &mut Link,
     ctx: &Ctx<'_>,
-) -> (DriveReport, Vec<Span>, Option<Failure>) {
+    last: bool,
+) -> FirstHalf<'d> {
     let d = p.d;
     let t0 = link_now(link);
-    let mut r = p.r;
     let mut c = match lust_client(link, d) {
         Ok(c) => c,
         Err(e) => {
-            r.error = Some(e.to_string());
-            return (r, p.spans, None);
+            p.r.error = Some(e.to_string());
+            return FirstHalf::Done(p.r, p.spans, None);
         }
     };
-    let resumed = if p.dataset {
+    let resumed = if p.dataset && !last {
         c.resume_dataset().map(Some)
     } else {
         Ok(None)
@@ -1804,26 +1818,60 @@ fn second_half(
                 ));
             }
             (|| {
-                tx.write_dataset(&mut client)?;
-                tx.commit(&mut client)?;
-                tx.write_rest(&mut client)?;
-                tx.verify(&mut client, &d.set)
+                if last {
+                    tx.await_dataset(&mut client)?;
+                    tx.write_rest(&mut client)?;
+                    tx.verify(&mut client, &d.set)
+                } else {
+                    tx.write_dataset(&mut client)?;
+                    tx.end_dataset(&mut client)
+                }
             })()
         }
         Err(e) => Err(StepError::Error(e)),
     };
-    let end = drive_to_end(tx, &mut client, &d.set, res);
-    let done = p.tx.finish(&mut client, &d.set, end);
-    let err = settle_drive(&mut r, d, done, ctx);
+    let ends = last || res.is_err();
+    let done = if ends {
+        let end = drive_to_end(tx, &mut client, &d.set, res);
+        Some(end)
+    } else {
+        None
+    };
+    let account = |p: &mut Parked<'_>, client: &mut Recorder<'_>| {
+        let _ = client.finish();
+        let stats = client.stats();
+        p.telegrams += stats.telegrams.saturating_sub(stats0.telegrams);
+        p.retries += stats.retries.saturating_sub(stats0.retries);
+        p.own += client.clock().now().saturating_duration_since(t0);
+        p.spans.append(&mut client.spans);
+    };
+    let Some(end) = done else {
+        account(&mut p, &mut client);
+        p.tx.detach(&client);
+        return FirstHalf::Parked(Box::new(p));
+    };
+    let Parked {
+        tx,
+        mut r,
+        mut spans,
+        mut telegrams,
+        mut retries,
+        mut own,
+        ..
+    } = p;
+    let finished = tx.finish(&mut client, &d.set, end);
+    let error = settle_drive(&mut r, d, finished, ctx);
     let _ = client.finish();
     let stats = client.stats();
-    r.telegrams = p.telegrams + stats.telegrams.saturating_sub(stats0.telegrams);
-    r.retries = p.retries + stats.retries.saturating_sub(stats0.retries);
-    r.elapsed_ms = ms(p.own + client.clock().now().saturating_duration_since(t0));
-    let mut spans = p.spans;
+    telegrams += stats.telegrams.saturating_sub(stats0.telegrams);
+    retries += stats.retries.saturating_sub(stats0.retries);
+    own += client.clock().now().saturating_duration_since(t0);
     spans.append(&mut client.spans);
+    r.telegrams = telegrams;
+    r.retries = retries;
+    r.elapsed_ms = ms(own);
     record_drive(bus, d, &r, ctx);
-    (r, spans, err.as_ref().and_then(failure_of))
+    FirstHalf::Done(r, spans, error.as_ref().and_then(failure_of))
 }
 
 /// A LUSTBUS bus with `--broadcast-common` (module docs, "Broadcast"):
@@ -1950,14 +1998,25 @@ fn run_lustbus_broadcast(
         )),
         (None, false) => {}
     }
-    for (i, p) in parked {
-        let name = p.d.name.clone();
-        let (r, spans, f) = second_half(bus, p, link, ctx);
-        push_spans(report, &name, spans);
-        failed |= f.is_some();
-        count += 1;
-        progress(count, &r);
-        done[i] = Some(r);
+    // every drive's own dataset writes and SLOAD = -2, then every drive's
+    // poll, writes and verification: each drive checks and stores its
+    // dataset while the bus serves the others
+    for last in [false, true] {
+        let mut again = Vec::new();
+        for (i, p) in parked {
+            let name = p.d.name.clone();
+            match next_half(bus, p, link, ctx, last) {
+                FirstHalf::Parked(p) => again.push((i, *p)),
+                FirstHalf::Done(r, spans, f) => {
+                    push_spans(report, &name, spans);
+                    failed |= f.is_some();
+                    count += 1;
+                    progress(count, &r);
+                    done[i] = Some(r);
+                }
+            }
+        }
+        parked = again;
     }
     let out = done
         .into_iter()
