@@ -1556,7 +1556,7 @@ struct Parked<'d> {
 /// What became of a drive in the first half.
 enum FirstHalf<'d> {
     /// Done (unchanged, already verified, refused, failed).
-    Done(DriveReport, Vec<Span>, Option<Failure>),
+    Done(Box<DriveReport>, Vec<Span>, Option<Failure>),
     /// Its transaction waits (dataset open, or nothing to stage).
     Parked(Box<Parked<'d>>),
 }
@@ -1666,7 +1666,7 @@ fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> Fi
         Ok(c) => c,
         Err(e) => {
             r.error = Some(e.to_string());
-            return FirstHalf::Done(r, Vec::new(), None);
+            return FirstHalf::Done(Box::new(r), Vec::new(), None);
         }
     };
     let journal_path = default_journal_path(journal_dir, &c);
@@ -1759,7 +1759,7 @@ fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> Fi
     r.retries = retries;
     r.elapsed_ms = ms(own);
     record_drive(bus, d, &r, ctx);
-    FirstHalf::Done(r, spans, failure)
+    FirstHalf::Done(Box::new(r), spans, failure)
 }
 
 fn record_drive(bus: &Bus, d: &Drive, r: &DriveReport, ctx: &Ctx<'_>) {
@@ -1797,7 +1797,7 @@ fn next_half<'d>(
         Ok(c) => c,
         Err(e) => {
             p.r.error = Some(e.to_string());
-            return FirstHalf::Done(p.r, p.spans, None);
+            return FirstHalf::Done(Box::new(p.r), p.spans, None);
         }
     };
     let resumed = if p.dataset && !last {
@@ -1871,7 +1871,7 @@ fn next_half<'d>(
     r.retries = retries;
     r.elapsed_ms = ms(own);
     record_drive(bus, d, &r, ctx);
-    FirstHalf::Done(r, spans, error.as_ref().and_then(failure_of))
+    FirstHalf::Done(Box::new(r), spans, error.as_ref().and_then(failure_of))
 }
 
 /// A LUSTBUS bus with `--broadcast-common` (module docs, "Broadcast"):
@@ -1904,6 +1904,7 @@ fn run_lustbus_broadcast(
     for (i, d) in drives.iter().enumerate() {
         match first_half(bus, d, link, ctx) {
             FirstHalf::Done(r, spans, f) => {
+                let r = *r;
                 push_spans(report, &d.name, spans);
                 failed |= f.is_some();
                 why_not.get_or_insert_with(|| match r.result {
@@ -2008,6 +2009,7 @@ fn run_lustbus_broadcast(
             match next_half(bus, p, link, ctx, last) {
                 FirstHalf::Parked(p) => again.push((i, *p)),
                 FirstHalf::Done(r, spans, f) => {
+                    let r = *r;
                     push_spans(report, &name, spans);
                     failed |= f.is_some();
                     count += 1;
