@@ -30,6 +30,15 @@
 //!
 //! A dataset download left open (SLOAD = -1) is always rolled back, even if
 //! the values read back look new: staged values are not committed.
+//!
+//! Codes the journal lists under `broadcast` (`commission
+//! --broadcast-common`: their new value went to LUSTBUS address 31 into
+//! the drive's open dataset download, with no receipt) are planned codes
+//! like the others: they are read and judged by what the drive holds, and
+//! since they only ever sit in a dataset download, a cut before SLOAD = -2
+//! leaves it open and so rolled back; after an accepted SLOAD = -2 each
+//! holds its new value, or its old one where the broadcast did not reach
+//! the drive (then not every planned code is new: rolled back).
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
