@@ -245,8 +245,9 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let mut opts = UploadOptions::new(&journal);
     opts.overrides = overrides;
     let result = {
-        let mut p = Progress::new(client.as_mut(), "upload", set.values.len(), json);
-        let r = engine_upload(&mut p, &set, &opts);
+        let p = Progress::new("upload", json);
+        opts.observer = p.hook();
+        let r = engine_upload(client.as_mut(), &set, &opts);
         p.done();
         r
     };
