@@ -9,8 +9,10 @@
 //! durability rules, and keeps its file operations in one place
 //! ([`crate::journal`]'s store functions).
 
+use std::collections::BTreeMap;
 use std::io;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError};
 
 use crate::line::report::GitInfo;
 
@@ -33,6 +35,71 @@ pub trait Environment: Send + Sync {
 
     /// Create the directory `dir` and its parents.
     fn create_dir(&self, dir: &Path) -> io::Result<()>;
+}
+
+/// An [`Environment`] that touches nothing: a fixed wall-clock time, the
+/// git commit it is given, files in memory. For tests and benchmarks (the
+/// way `VirtualClock` stands in for a real clock); one value shared by
+/// several runs keeps their files, so a resumed run sees its state.
+#[derive(Debug)]
+pub struct Memory {
+    now: jiff::Timestamp,
+    git: Option<GitInfo>,
+    files: Mutex<BTreeMap<PathBuf, String>>,
+}
+
+impl Memory {
+    /// Always `now`, outside any git work tree, no files.
+    pub fn at(now: jiff::Timestamp) -> Self {
+        Memory {
+            now,
+            git: None,
+            files: Mutex::new(BTreeMap::new()),
+        }
+    }
+
+    /// Report `git` for every directory.
+    pub fn with_git(mut self, git: GitInfo) -> Self {
+        self.git = Some(git);
+        self
+    }
+
+    /// The file at `path`, if one was written.
+    pub fn file(&self, path: &Path) -> Option<String> {
+        self.lock().get(path).cloned()
+    }
+
+    /// The paths written, in order.
+    pub fn paths(&self) -> Vec<PathBuf> {
+        self.lock().keys().cloned().collect()
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, BTreeMap<PathBuf, String>> {
+        self.files.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+impl Environment for Memory {
+    fn now_utc(&self) -> jiff::Timestamp {
+        self.now
+    }
+
+    fn git_info(&self, _dir: &Path) -> Option<GitInfo> {
+        self.git.clone()
+    }
+
+    fn read_file(&self, path: &Path) -> io::Result<Option<String>> {
+        Ok(self.file(path))
+    }
+
+    fn write_file(&self, path: &Path, text: &str) -> io::Result<()> {
+        self.lock().insert(path.to_path_buf(), text.to_string());
+        Ok(())
+    }
+
+    fn create_dir(&self, _dir: &Path) -> io::Result<()> {
+        Ok(())
+    }
 }
 
 /// A wall-clock instant as reports write it: RFC 3339, UTC, milliseconds
