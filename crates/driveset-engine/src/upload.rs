@@ -586,9 +586,8 @@ impl Txn<'_> {
         hook.enter(self.client.clock(), Step::Plan, None);
         let mut planned = plan(&self.schema, set, &current, &self.popts);
         if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
-            hook.enter(self.client.clock(), Step::Read, None);
+            // the running check is part of planning (one status read)
             self.popts.running = self.client.running()?.into();
-            hook.enter(self.client.clock(), Step::Plan, None);
             planned = plan(&self.schema, set, &current, &self.popts);
         }
         let plan = match planned {
