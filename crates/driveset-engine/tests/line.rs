@@ -158,9 +158,14 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
         assert!(b.timeline.iter().any(|t| t.phase == "write"), "{b:?}");
         assert!(b.timeline.iter().any(|t| t.phase == "verify"), "{b:?}");
     }
+    // wall-clock times come from the environment, RFC 3339 with ms
+    assert_eq!(first.report.started, FIXED_NOW);
+    assert_eq!(first.report.finished, FIXED_NOW);
+    assert_eq!(first.report.git, None);
     // state file: every drive at its set fingerprint
     let state = CommissionState::load(&DiskEnv, dir.path()).expect("state");
     assert_eq!(state.drives.len(), 13);
+    assert!(state.drives.values().all(|e| e.verified_at == FIXED_NOW));
     assert_eq!(
         state.drives["lustbus/2"].fingerprint,
         m.drives[1].set.fingerprint()
@@ -733,4 +738,67 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
             )
         );
     }
+}
+
+/// The line run's world is its Environment: the report's times and git
+/// commit and the resume state come from it, nothing else is written but
+/// the journals' directory.
+#[test]
+fn a_line_run_takes_time_git_and_its_state_file_from_the_environment() {
+    use driveset_engine::env::Memory;
+    use driveset_engine::line::report::GitInfo;
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let git = GitInfo {
+        commit: "0123456789abcdef0123456789abcdef01234567".into(),
+        dirty: true,
+    };
+    let env = std::sync::Arc::new(
+        Memory::at("2031-07-04T12:00:00Z".parse().unwrap()).with_git(git.clone()),
+    );
+    let report_dir = dir.path().join("report");
+    let mut opts = LineOptions::new(&report_dir, env.clone());
+    opts.journal_dir = dir.path().join("journal");
+    opts.only = vec!["transfer-11".into()];
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.verdict(), Verdict::Holds, "{:?}", r.report.drives);
+    assert_eq!(r.report.started, "2031-07-04T12:00:00.000Z");
+    assert_eq!(r.report.finished, "2031-07-04T12:00:00.000Z");
+    assert_eq!(r.report.git, Some(git));
+    // the state file went to the environment, not to the disk
+    let state_path = report_dir.join(STATE_FILE);
+    assert_eq!(env.paths(), [state_path.clone()]);
+    assert!(!report_dir.exists());
+    let text = env.file(&state_path).expect("state written");
+    assert!(
+        text.contains("\"verified_at\": \"2031-07-04T12:00:00.000Z\""),
+        "{text}"
+    );
+    let state = CommissionState::load(&*env, &report_dir).expect("state reads");
+    assert_eq!(state.drives.len(), 1);
+    // a rerun reads it back from there: already verified
+    let again = commission(&m, &opts, &opener).expect("runs");
+    let t11 = |r: &driveset_engine::line::commission::LineOutcome| {
+        r.report
+            .drives
+            .iter()
+            .find(|d| d.name == "transfer-11")
+            .unwrap()
+            .result
+    };
+    assert_eq!(t11(&again), DriveResult::AlreadyVerified);
+    // the timelines: the runner's own phases (planning holds the running
+    // check's status read; the journal writes take no time on the virtual
+    // clock and are left out), then the resume check
+    let phases = |r: &driveset_engine::line::commission::LineOutcome| -> Vec<String> {
+        r.report
+            .buses
+            .iter()
+            .flat_map(|b| b.timeline.iter().map(|t| t.phase.clone()))
+            .collect()
+    };
+    assert_eq!(phases(&r), ["identify", "read", "plan", "write", "verify"]);
+    assert_eq!(phases(&again), ["identify", "read"]);
 }
