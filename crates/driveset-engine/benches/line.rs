@@ -124,7 +124,10 @@ fn write_line(dir: &Path, per_bus: usize) -> std::path::PathBuf {
 }
 
 fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
-    let mut opts = LineOptions::new(dir, std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)));
+    let mut opts = LineOptions::new(
+        dir,
+        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
+    );
     opts.only = only.iter().map(|s| s.to_string()).collect();
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();

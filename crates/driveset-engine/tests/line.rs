@@ -6,10 +6,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use driveset_engine::env::Environment;
 use driveset_engine::line::commission::{
     CommissionState, LineOptions, STATE_FILE, Verdict, commission, run_line,
 };
-use driveset_engine::env::Environment;
 use driveset_engine::line::manifest::{Manifest, load_manifest, validate_manifest};
 use driveset_engine::line::report::{DriveResult, LineResult};
 use driveset_engine::line::status::status;
@@ -644,7 +644,12 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     // without learning: the drives fail, nothing is written
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let out = commission(&m, &LineOptions::new(dir.path().join("off"), disk_env()), &opener).unwrap();
+    let out = commission(
+        &m,
+        &LineOptions::new(dir.path().join("off"), disk_env()),
+        &opener,
+    )
+    .unwrap();
     assert_eq!(out.verdict(), Verdict::Differs);
     assert!(
         out.report.drives[0]
@@ -769,7 +774,7 @@ fn a_line_run_takes_time_git_and_its_state_file_from_the_environment() {
     assert_eq!(r.report.git, Some(git));
     // the state file went to the environment, not to the disk
     let state_path = report_dir.join(STATE_FILE);
-    assert_eq!(env.paths(), [state_path.clone()]);
+    assert_eq!(env.paths(), std::slice::from_ref(&state_path));
     assert!(!report_dir.exists());
     let text = env.file(&state_path).expect("state written");
     assert!(

@@ -1116,7 +1116,10 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
     let mut opts = UploadOptions::new(journal_in(&dir));
     opts.observer = Hook::new(log.clone());
     let err = upload(&mut client, &set, &opts).expect_err("fails");
-    assert!(matches!(*err.error, EngineError::RolledBack { .. }), "{err}");
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{err}"
+    );
     assert_eq!(
         log.phases(),
         [
@@ -1150,7 +1153,15 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
         .lock()
         .unwrap()
         .iter()
-        .skip_while(|e| !matches!(e, Event::Enter { phase: P::Rollback, .. }))
+        .skip_while(|e| {
+            !matches!(
+                e,
+                Event::Enter {
+                    phase: P::Rollback,
+                    ..
+                }
+            )
+        })
         .filter(|e| matches!(e, Event::Step { .. }))
         .count();
     assert_eq!(after_rollback, 0);

@@ -219,7 +219,10 @@ fn a_pulled_cable_is_observed_as_rollback_and_recover_as_read_rollback_verify() 
     let mut uo = UploadOptions::new(&journal);
     uo.observer = Hook::new(spans.clone());
     let failure = upload(&mut c, &set, &uo).expect_err("cable pulled");
-    assert!(failure.to_string().contains("driveset recover"), "{failure}");
+    assert!(
+        failure.to_string().contains("driveset recover"),
+        "{failure}"
+    );
     assert_eq!(
         spans.phases(),
         [

@@ -34,9 +34,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use driveset_engine::connect::connect_on as client_on;
+use driveset_engine::env::{Environment, Memory};
 use driveset_engine::error::{EngineError, Mismatch};
 use driveset_engine::journal::{JournalFile, journal_path};
-use driveset_engine::env::{Environment, Memory};
 use driveset_engine::line::commission::{LineOptions, Mode, Verdict, run_line};
 use driveset_engine::line::manifest::{Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
@@ -808,7 +808,12 @@ pub fn commission_kills(family: Family) -> KillTable {
         ))
     };
     let clean = run_line(&m, &opts, &opener, Mode::Commission).expect("clean run");
-    assert_eq!(clean.verdict(), Verdict::Holds, "{}: clean commission", family.name());
+    assert_eq!(
+        clean.verdict(),
+        Verdict::Holds,
+        "{}: clean commission",
+        family.name()
+    );
     let phases = rec.lock().unwrap().clone();
     // first, middle, last telegram of every phase
     let mut points: BTreeMap<String, Vec<u64>> = BTreeMap::new();
