@@ -86,7 +86,7 @@ impl Progress {
         let out = if quiet {
             Out::Quiet
         } else if bars_wanted() {
-            let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
+            let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
             bar.set_style(
                 ProgressStyle::with_template("{prefix}: {msg:<12} [{bar:30}] {pos}/{len}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -142,11 +142,14 @@ impl Observer for Progress {
                     }
                     Out::Bar(b) => {
                         b.set_message(now.verb());
-                        if let Some(n) = total {
-                            b.set_length(n as u64);
-                            if changed {
-                                b.set_position(0);
-                            }
+                        let n = total.map(|n| n as u64);
+                        if changed || (n.is_some() && b.length() != n) {
+                            b.set_position(0);
+                            b.set_length(n.unwrap_or(0));
+                        }
+                        if b.is_hidden() {
+                            // drawn from the first phase on, not before
+                            b.set_draw_target(ProgressDrawTarget::stderr());
                         }
                     }
                 }
