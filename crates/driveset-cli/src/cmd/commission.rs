@@ -30,8 +30,10 @@ pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
 For every selected drive: identify, read back, diff, upload what differs as
 one transaction, verify. Buses run in
 parallel, the drives of one bus in turn. One progress line per drive on
-stderr, a summary table on stdout, report.json + report.html in the report
-directory (default target/driveset-report, or the manifest's report_dir).
+stderr (on a terminal, with CI unset, above one progress bar per bus showing
+the drive and the phase its transaction is in), a summary table on stdout,
+report.json + report.html in the report directory (default
+target/driveset-report, or the manifest's report_dir).
 
 Resume: drives that end holding their set are recorded in
 REPORT_DIR/.commission-state.json. A rerun confirms each recorded drive with

@@ -85,6 +85,10 @@ Refused with no override: commands (PROG, SLOAD, STAT reset, C0002, C0043
 SCTL1 = { start = true }, C0040 = 1 ...), codes not in the schema,
 read-only codes. --dry-run shows the same refusals.
 
+Progress on stderr: a bar with the transaction's phase (reading, writing,
+verifying, rolling back) and code i of n on a terminal with CI unset; plain
+lines when a phase starts otherwise; none with --format json.
+
 Exit codes: 0 the drive holds the set (verified), 2 refused before anything
 was sent or an input error, 3 bus or device failure (the message says whether
 the drive was rolled back to its old values or holds a mix and needs
