@@ -3,7 +3,7 @@
 #![allow(clippy::result_large_err)]
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Mutex;
 
 use driveset_engine::env::Environment;
@@ -16,6 +16,8 @@ use driveset_engine::line::status::status;
 use driveset_link::{Link, PortSpec, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Registry};
 use driveset_sim::open::{SimLink, open_sim};
+
+use crate::util::root;
 
 /// The wall-clock instant every report and state entry of these tests
 /// carries.
@@ -54,10 +56,6 @@ impl Environment for DiskEnv {
 
 fn disk_env() -> std::sync::Arc<dyn Environment> {
     std::sync::Arc::new(DiskEnv)
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 fn demo() -> Manifest {
