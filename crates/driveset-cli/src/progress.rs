@@ -62,6 +62,31 @@ impl Shown {
     }
 }
 
+/// The plain line printed off a terminal when `now` starts.
+fn plain_line(what: &str, now: Shown, total: Option<usize>) -> String {
+    match (now, total) {
+        (Shown::Reading, Some(n)) => format!("{what}: reading {n} codes from the drive"),
+        _ => format!("{what}: {}", now.verb()),
+    }
+}
+
+/// The plain lines a run of `events` prints off a terminal.
+#[cfg(test)]
+fn plain_lines(what: &str, events: &[Event]) -> Vec<String> {
+    let mut last = None;
+    let mut out = Vec::new();
+    for e in events {
+        if let Event::Enter { phase, total } = *e
+            && let Some(now) = shown(phase, total)
+            && last != Some(now)
+        {
+            last = Some(now);
+            out.push(plain_line(what, now, total));
+        }
+    }
+    out
+}
+
 enum Out {
     Quiet,
     Lines,
@@ -131,12 +156,7 @@ impl Observer for Progress {
                     Out::Quiet => {}
                     Out::Lines => {
                         if changed {
-                            let line = match (now, total) {
-                                (Shown::Reading, Some(n)) => {
-                                    format!("{}: reading {n} codes from the drive", self.what)
-                                }
-                                _ => format!("{}: {}", self.what, now.verb()),
-                            };
+                            let line = plain_line(self.what, now, total);
                             let _ = writeln!(std::io::stderr().lock(), "{line}");
                         }
                     }
@@ -251,5 +271,70 @@ impl LineObserver for LineProgress {
             } => b.set_message(format!("{drive}: {phase} {done}/{total}")),
             Event::End => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn enter(phase: Phase, total: Option<usize>) -> Event {
+        Event::Enter { phase, total }
+    }
+
+    #[test]
+    fn plain_lines_follow_the_runners_phases() {
+        // an MC6000 upload that fails after the dataset's commit: the
+        // dataset, its commit and the other writes are one `writing`; the
+        // status read of the running check and the steps print nothing
+        let events = [
+            enter(Phase::Identify, None),
+            enter(Phase::Read, Some(195)),
+            Event::Step {
+                phase: Phase::Read,
+                done: 1,
+                total: 195,
+            },
+            enter(Phase::Plan, None),
+            enter(Phase::Read, None),
+            enter(Phase::Journal, None),
+            enter(Phase::Dataset, None),
+            enter(Phase::Write, Some(78)),
+            Event::Step {
+                phase: Phase::Verify,
+                done: 1,
+                total: 78,
+            },
+            enter(Phase::Commit, None),
+            enter(Phase::Write, Some(78)),
+            enter(Phase::Rollback, Some(40)),
+            Event::End,
+        ];
+        assert_eq!(
+            plain_lines("upload", &events),
+            [
+                "upload: reading 195 codes from the drive",
+                "upload: writing",
+                "upload: rolling back",
+            ]
+        );
+        // a redo after a restart reads again; a clean end verifies
+        let events = [
+            enter(Phase::Read, Some(3)),
+            enter(Phase::Write, Some(2)),
+            enter(Phase::Read, Some(3)),
+            enter(Phase::Write, Some(2)),
+            enter(Phase::Verify, Some(2)),
+        ];
+        assert_eq!(
+            plain_lines("upload", &events),
+            [
+                "upload: reading 3 codes from the drive",
+                "upload: writing",
+                "upload: reading 3 codes from the drive",
+                "upload: writing",
+                "upload: verifying",
+            ]
+        );
     }
 }
