@@ -56,8 +56,9 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use driveset_engine::env::Memory;
 use driveset_engine::line::commission::{
-    LineOptions, LineOutcome, Mode, lustbus_common_values, run_line,
+    LineOptions, LineOutcome, Mode, Verdict, lustbus_common_values, run_line,
 };
 use driveset_engine::line::manifest::{Bus, Drive, Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
@@ -224,15 +225,18 @@ fn write_line(dir: &Path, per_bus: usize) -> std::path::PathBuf {
 }
 
 fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
-    let mut opts = LineOptions::new(dir);
+    let mut opts = LineOptions::new(
+        dir,
+        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
+    );
     opts.only = only.iter().map(|s| s.to_string()).collect();
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
     let o = run_line(m, &opts, &opener, mode).expect("line runs");
     let wall = t.elapsed().as_secs_f64();
     assert_eq!(
-        o.exit_code(),
-        0,
+        o.verdict(),
+        Verdict::Holds,
         "{:?}",
         o.report.drives.iter().find(|d| d.error.is_some())
     );
@@ -362,13 +366,16 @@ const AXES_BAUD: u32 = 19200;
 fn run_axes(m: &Manifest, broadcast: bool) -> (LineOutcome, f64) {
     let sims = Sims::default();
     let d = tempfile::tempdir().unwrap();
-    let mut opts = LineOptions::new(d.path());
+    let mut opts = LineOptions::new(
+        d.path(),
+        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
+    );
     opts.broadcast_common = broadcast;
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
     let o = run_line(m, &opts, &opener, Mode::Commission).expect("line runs");
     let wall = t.elapsed().as_secs_f64();
-    assert_eq!(o.exit_code(), 0, "{:?}", o.warnings);
+    assert_eq!(o.verdict(), Verdict::Holds, "{:?}", o.warnings);
     for d in &o.report.drives {
         assert_eq!(d.result, DriveResult::Verified, "{d:?}");
         assert_eq!(

@@ -41,6 +41,12 @@
 //! drive holds and the state the journal on disk still says.
 //!
 //! Times come only from the client's clock.
+//!
+//! **Progress.** The runner reports its own phase to
+//! [`UploadOptions::observer`] ([`crate::observe`]): identify, read, plan,
+//! journal, dataset, write (code i of n), commit (SLOAD poll), verify,
+//! rollback; a rollback is reported as such, whatever telegrams it sends.
+//! Each step of [`Transaction`] enters its phase itself.
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
@@ -60,6 +66,7 @@ use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
     PlanEntryRecord, TxnState,
 };
+use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
 use crate::plan::{
     DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
@@ -82,6 +89,8 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
+    /// Told each phase and step of the transaction ([`crate::observe`]).
+    pub observer: Hook,
 }
 
 /// How the runner paces writes.
@@ -110,6 +119,7 @@ impl UploadOptions {
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
             strategy: Strategy::Interleaved,
+            observer: Hook::none(),
         }
     }
 }
@@ -326,11 +336,24 @@ pub(crate) fn read_values(
     client: &mut dyn DriveClient,
     keys: impl IntoIterator<Item = CodeKey>,
 ) -> Result<ResolvedSet, EngineError> {
+    read_observed(client, keys, &Hook::none(), Step::Read)
+}
+
+/// [`read_values`], entering `phase` on `hook` and reporting each code read.
+pub(crate) fn read_observed(
+    client: &mut dyn DriveClient,
+    keys: impl IntoIterator<Item = CodeKey>,
+    hook: &Hook,
+    phase: Step,
+) -> Result<ResolvedSet, EngineError> {
+    let keys: Vec<CodeKey> = keys.into_iter().collect();
+    hook.enter(client.clock(), phase, Some(keys.len()));
     let schema = client.schema().clone();
     let mut out = ResolvedSet::new(&schema);
-    for k in keys {
-        let v = client.read(k)?;
-        out.insert(k, v);
+    for (i, k) in keys.iter().enumerate() {
+        let v = client.read(*k)?;
+        out.insert(*k, v);
+        hook.step(client.clock(), phase, i + 1, keys.len());
     }
     Ok(out)
 }
@@ -583,6 +606,7 @@ impl Transaction {
             return Err(refused(&target, problems));
         }
         check_unfinished(&*client, &opts.journal)?;
+        opts.observer.enter(client.clock(), Step::Identify, None);
         let identity = client.identify()?;
         popts.identity = Some(identity.clone());
         // The running-motor check is done in replan, only when something
@@ -649,6 +673,12 @@ impl Transaction {
     /// of the previous one).
     pub fn attach(&mut self, client: &dyn DriveClient) {
         self.stats0 = client.stats();
+    }
+
+    /// The steps from now on report to `hook` (a caller that splits a
+    /// drive's work into parts gives each part its own).
+    pub fn set_observer(&mut self, hook: Hook) {
+        self.opts.observer = hook;
     }
 
     /// Note for the report.
@@ -792,9 +822,12 @@ impl Transaction {
     ) -> Result<Replanned, StepError> {
         self.attempts += 1;
         self.attempt = None;
-        let current = read_values(client, set.values.keys().copied())?;
+        let hook = &self.opts.observer;
+        let current = read_observed(client, set.values.keys().copied(), hook, Step::Read)?;
+        hook.enter(client.clock(), Step::Plan, None);
         let mut planned = plan(&self.schema, set, &current, &self.popts);
         if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+            // the running check is part of planning (one status read)
             self.popts.running = client.running()?.into();
             planned = plan(&self.schema, set, &current, &self.popts);
         }
@@ -874,6 +907,9 @@ impl Transaction {
     /// is written to the drive before this returns `Ok`.
     pub fn journal(&mut self, client: &mut dyn DriveClient) -> Result<(), StepError> {
         let a = self.take_attempt("journal", "replan")?;
+        self.opts
+            .observer
+            .enter(client.clock(), Step::Journal, None);
         let records: Vec<PlanEntryRecord> = a
             .plan
             .writes
@@ -968,6 +1004,9 @@ impl Transaction {
             return Ok(false);
         }
         self.dataset_touched = true;
+        self.opts
+            .observer
+            .enter(client.clock(), Step::Dataset, None);
         client.dataset_begin()?;
         Ok(true)
     }
@@ -1038,6 +1077,10 @@ impl Transaction {
                 .filter(|k| !a.broadcast.contains(k))
                 .copied()
                 .collect();
+            if !a.staged.is_empty() {
+                let n = Some(a.plan.writes.len());
+                tx.opts.observer.enter(client.clock(), Step::Write, n);
+            }
             for k in keys {
                 tx.pace(client, k, a)?;
                 tx.write(client, k, a)?;
@@ -1056,6 +1099,7 @@ impl Transaction {
             if a.staged.is_empty() {
                 return Ok(());
             }
+            tx.opts.observer.enter(client.clock(), Step::Commit, None);
             let outcome = client.dataset_commit(tx.opts.dataset_timeout)?;
             tx.dataset_settled(client, a, outcome)
         })
@@ -1068,6 +1112,7 @@ impl Transaction {
             if a.staged.is_empty() {
                 return Ok(());
             }
+            tx.opts.observer.enter(client.clock(), Step::Commit, None);
             tx.dataset_ended = Some(client.dataset_end()?);
             Ok(())
         })
@@ -1083,6 +1128,7 @@ impl Transaction {
             let Some(ended) = tx.dataset_ended.take() else {
                 return Err(out_of_order(&tx.target, "await_dataset", "end_dataset"));
             };
+            tx.opts.observer.enter(client.clock(), Step::Commit, None);
             let outcome = client.dataset_await(ended, tx.opts.dataset_timeout)?;
             tx.dataset_settled(client, a, outcome)
         })
@@ -1123,6 +1169,10 @@ impl Transaction {
                 .filter(|w| w.phase != Phase::Dataset)
                 .map(|w| (w.key, w.storage))
                 .collect();
+            if !writes.is_empty() {
+                let n = Some(a.plan.writes.len());
+                tx.opts.observer.enter(client.clock(), Step::Write, n);
+            }
             for (key, storage) in writes {
                 tx.pace(client, key, a)?;
                 tx.write(client, key, a)?;
@@ -1147,6 +1197,8 @@ impl Transaction {
     ) -> Result<(), StepError> {
         self.with_attempt("verify", "journal", |tx, a| {
             tx.set_state(client, TxnState::Verifying, None)?;
+            let n = Some(a.expected.len());
+            tx.opts.observer.enter(client.clock(), Step::Verify, n);
             while let Some(k) = a.pending.pop_front() {
                 tx.verify_one(client, k, a)?;
             }
@@ -1211,6 +1263,7 @@ impl Transaction {
         set: &ResolvedSet,
         result: Result<(), EngineError>,
     ) -> Result<UploadReport, UploadFailure> {
+        self.opts.observer.end(client.clock());
         let report = self.report(&*client, set);
         match result {
             Ok(()) => Ok(report),
@@ -1245,6 +1298,11 @@ impl Transaction {
             return Err(StepError::Error(e));
         }
         self.note_written(key)?;
+        let touched = self.records.values().filter(|r| r.touched).count();
+        let (done, total) = (touched, self.order.len().max(touched));
+        self.opts
+            .observer
+            .step(client.clock(), Step::Write, done, total);
         Ok(())
     }
 
@@ -1334,6 +1392,16 @@ impl Transaction {
         let r = self.records.entry(key).or_default();
         r.outcome = CodeOutcome::Verified;
         r.verified = Some(got);
+        if self.opts.observer.is_set() {
+            let done = a
+                .expected
+                .keys()
+                .filter(|k| self.records.get(k).is_some_and(|r| r.verified.is_some()))
+                .count();
+            self.opts
+                .observer
+                .step(client.clock(), Step::Verify, done, a.expected.len());
+        }
         Ok(())
     }
 
@@ -1362,6 +1430,8 @@ impl Transaction {
             },
         };
         // confirm nothing changed
+        let n = Some(self.backup().len());
+        self.opts.observer.enter(client.clock(), Step::Rollback, n);
         match self.compare_with_backup(client) {
             Ok(diffs) if diffs.is_empty() => {
                 self.dataset_touched = false;
@@ -1418,6 +1488,8 @@ impl Transaction {
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
         }
+        let n = Some(self.touched().len());
+        self.opts.observer.enter(client.clock(), Step::Rollback, n);
         if let Err(e) = self.set_state(client, TxnState::RollingBack, Some(cause_text.clone())) {
             // The journal on disk still says an earlier state and holds the
             // backup; nothing is sent while it cannot be updated.
