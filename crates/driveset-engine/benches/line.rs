@@ -73,9 +73,22 @@ use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
 #[path = "support/line_bound.rs"]
 mod line_bound;
 
-/// Simulated buses that live across runs, each with a memory event log.
-#[derive(Default)]
-struct Sims(Mutex<BTreeMap<String, (SimLink, EventLog)>>);
+/// Simulated buses that live across runs, each with a memory event log,
+/// and the one environment (state file, clock of the report) the runs on
+/// them share, so a rerun sees the first run's resume state.
+struct Sims(
+    Mutex<BTreeMap<String, (SimLink, EventLog)>>,
+    std::sync::Arc<dyn driveset_engine::env::Environment>,
+);
+
+impl Default for Sims {
+    fn default() -> Self {
+        Sims(
+            Mutex::default(),
+            std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
+        )
+    }
+}
 
 impl Sims {
     fn open(&self, bus: &Bus) -> Result<Link, String> {
@@ -225,10 +238,7 @@ fn write_line(dir: &Path, per_bus: usize) -> std::path::PathBuf {
 }
 
 fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
-    let mut opts = LineOptions::new(
-        dir,
-        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
-    );
+    let mut opts = LineOptions::new(dir, sims.1.clone());
     opts.only = only.iter().map(|s| s.to_string()).collect();
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
@@ -366,10 +376,7 @@ const AXES_BAUD: u32 = 19200;
 fn run_axes(m: &Manifest, broadcast: bool) -> (LineOutcome, f64) {
     let sims = Sims::default();
     let d = tempfile::tempdir().unwrap();
-    let mut opts = LineOptions::new(
-        d.path(),
-        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
-    );
+    let mut opts = LineOptions::new(d.path(), sims.1.clone());
     opts.broadcast_common = broadcast;
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
