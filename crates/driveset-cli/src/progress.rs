@@ -8,9 +8,6 @@
 //! when a phase starts, so logs stay short and readable. Nothing is printed
 //! with `quiet` (JSON output).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::io::{IsTerminal, Write};
 use std::sync::Arc;
 use std::time::Duration;

@@ -77,10 +77,6 @@
 //! `at_ns` is the client clock's instant (nanoseconds since that clock's
 //! epoch), not wall time: it orders the transitions of one run.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -416,10 +412,7 @@ pub struct JournalFile {
 }
 
 fn jerr(path: &Path, detail: impl Into<String>) -> EngineError {
-    EngineError::Journal {
-        path: path.display().to_string(),
-        detail: detail.into(),
-    }
+    EngineError::journal(path.display().to_string(), detail.into())
 }
 
 impl JournalFile {
@@ -637,13 +630,13 @@ pub fn unfinished_error(target: &Target, found: &[Unfinished]) -> EngineError {
         .first()
         .map(|u| u.path.display().to_string())
         .unwrap_or_default();
-    EngineError::Journal {
-        path: first.clone(),
-        detail: format!(
+    EngineError::journal(
+        first.clone(),
+        format!(
             "the drive at {target} has an unfinished transaction ({}); nothing was sent. Run `driveset recover {first}` first",
             list.join(", ")
         ),
-    }
+    )
 }
 
 /// Create the journal directory `dir` if it is missing; the topmost
@@ -683,14 +676,14 @@ pub fn ensure_dir(dir: &Path) -> Result<(), EngineError> {
 
 /// [`Mismatch::Version`] for a journal that records no bus (version 1).
 pub(crate) fn version_refusal(target: &Target, path: &Path, version: u32) -> EngineError {
-    EngineError::NotJournalDrive {
-        target: target.clone(),
-        journal: path.display().to_string(),
-        mismatch: Mismatch::Version,
-        detail: format!(
+    EngineError::not_journal_drive(
+        target.clone(),
+        path.display().to_string(),
+        Mismatch::Version,
+        format!(
             "it has journal version {version}, which does not record the drive's bus, so driveset cannot check that it reaches the drive the journal was written for; nothing was sent. Finish it with the driveset release that wrote it, or restore the drive by hand from the journal's backup"
         ),
-    }
+    )
 }
 
 #[cfg(test)]

@@ -40,10 +40,6 @@
 //! the check still objects to is left out, so a learned file always passes
 //! `driveset schema check`.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::sync::Arc;

@@ -363,10 +363,202 @@ fn phase_of(schema: &Schema, key: CodeKey, storage: Storage) -> Phase {
 
 /// Why the running state of a drive of `schema` cannot be known.
 fn running_unknown_why(schema: &Schema) -> String {
+    running_unknown_text(&schema.id)
+}
+
+fn running_unknown_text(schema: &str) -> String {
     format!(
-        "schema `{}` names no status bit (role `running`) or control word start bit that says whether the motor runs",
-        schema.id
+        "schema `{schema}` names no status bit (role `running`) or control word start bit that says whether the motor runs"
     )
+}
+
+/// One reason the planner (or the set check) refuses an upload: a
+/// [`crate::error::Refusal::Plan`] holds every one found. Codes are named
+/// as [`code_label`] spells them, values as [`value_text`] shows them.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "problem", rename_all = "snake_case")]
+pub enum Problem {
+    /// The set is for another schema (unless [`Override::AllowFamily`]).
+    SetSchema {
+        /// The set's schema.
+        set: String,
+        /// The client's schema.
+        schema: String,
+    },
+    /// The drive identifies as another protocol family.
+    ProtocolFamily {
+        /// What the drive said.
+        found: String,
+        /// Schema id.
+        schema: String,
+        /// The schema's protocol family.
+        want: String,
+    },
+    /// The drive's 91-TYPE is not one of the schema's.
+    DriveType {
+        /// The TYPE read.
+        found: i64,
+        /// Schema id.
+        schema: String,
+        /// The schema's TYPE values.
+        expected: Vec<i64>,
+    },
+    /// A code the schema does not know.
+    NotInSchema {
+        /// The code.
+        code: String,
+        /// Schema id.
+        schema: String,
+    },
+    /// A subcode out of the code's range.
+    SubcodeRange {
+        /// The code with its subcode.
+        code: String,
+        /// Its number.
+        number: u32,
+        /// How many subcodes it has.
+        subcodes: u32,
+    },
+    /// A subcode of a code that has none.
+    NoSubcodes {
+        /// The code with its subcode.
+        code: String,
+        /// Its number.
+        number: u32,
+        /// Schema id.
+        schema: String,
+    },
+    /// A read-only code (an actual value).
+    ReadOnly {
+        /// The code.
+        code: String,
+    },
+    /// A status code that reading clears.
+    ReadClears {
+        /// The code.
+        code: String,
+    },
+    /// The dataset handshake code (SLOAD).
+    DatasetCode {
+        /// The code.
+        code: String,
+    },
+    /// A role's rule (a command, a control word that starts the motor ...):
+    /// no override.
+    Role {
+        /// What the rule found.
+        message: String,
+        /// What to do.
+        help: String,
+    },
+    /// The drive reports a running motor (unless [`Override::AllowRunning`]).
+    Running,
+    /// The running state cannot be known (unless
+    /// [`Override::AllowRunningUnknown`]).
+    RunningUnknown {
+        /// Schema id.
+        schema: String,
+    },
+    /// The drive's current value of a code was not read.
+    NotRead {
+        /// The code.
+        code: String,
+    },
+    /// A write that changes the bus address of the drive being talked to
+    /// (unless [`Override::AllowAddressChange`]).
+    AddressChange {
+        /// The code.
+        code: String,
+        /// The value it holds.
+        old: String,
+        /// The value the set gives.
+        new: String,
+    },
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Problem::SetSchema { set, schema } => write!(
+                f,
+                "the set is for schema `{set}` but the drive is handled with schema `{schema}`; upload a set for this drive family, or pass {} if they are compatible",
+                Override::AllowFamily
+            ),
+            Problem::ProtocolFamily {
+                found,
+                schema,
+                want,
+            } => write!(
+                f,
+                "the drive identifies as protocol family `{found}`, schema `{schema}` is for `{want}`; check the address, or pass {}",
+                Override::AllowFamily
+            ),
+            Problem::DriveType {
+                found,
+                schema,
+                expected,
+            } => write!(
+                f,
+                "the drive reports 91-TYPE {found}, schema `{schema}` is for TYPE {expected:?}; check the address, or pass {}",
+                Override::AllowFamily
+            ),
+            Problem::NotInSchema { code, schema } => write!(
+                f,
+                "code {code} is not in schema `{schema}`; remove it from the set (or fix the number)"
+            ),
+            Problem::SubcodeRange {
+                code,
+                number,
+                subcodes,
+            } => write!(
+                f,
+                "{code}: code {number} has subcodes 1..={subcodes} only; fix the subcode"
+            ),
+            Problem::NoSubcodes {
+                code,
+                number,
+                schema,
+            } => write!(
+                f,
+                "{code}: code {number} has no subcodes in schema `{schema}`; drop the /subcode"
+            ),
+            Problem::ReadOnly { code } => {
+                write!(
+                    f,
+                    "{code}: read-only (an actual value); remove it from the set"
+                )
+            }
+            Problem::ReadClears { code } => write!(
+                f,
+                "{code}: a status code that reading clears; it cannot be part of a set, remove it"
+            ),
+            Problem::DatasetCode { code } => write!(
+                f,
+                "{code}: the dataset handshake code is driven by the upload itself; remove it from the set"
+            ),
+            Problem::Role { message, help } => write!(f, "{message}; {help}"),
+            Problem::Running => write!(
+                f,
+                "the drive reports a running motor; stop it (standstill) before uploading, or pass {}",
+                Override::AllowRunning
+            ),
+            Problem::RunningUnknown { schema } => write!(
+                f,
+                "running state unknown: {}; make sure the drive is at standstill, then pass {}",
+                running_unknown_text(schema),
+                Override::AllowRunningUnknown
+            ),
+            Problem::NotRead { code } => write!(
+                f,
+                "{code}: the drive's current value was not read; it cannot be backed up"
+            ),
+            Problem::AddressChange { code, old, new } => write!(
+                f,
+                "{code}: {old} -> {new} changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass {})",
+                Override::AllowAddressChange
+            ),
+        }
+    }
 }
 
 /// Checks that need no bus: every code known, writable, not a handshake or
@@ -376,26 +568,23 @@ fn running_unknown_why(schema: &Schema) -> String {
 /// [`Override::AllowRunning`]) and not of unknown running state (unless
 /// [`Override::AllowRunningUnknown`]).
 /// Returns every problem found (one line each), not just the first.
-pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<String> {
+pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<Problem> {
     let mut out = Vec::new();
     let family = !opts.overrides.allow_family;
     if set.schema != schema.id && family {
-        out.push(format!(
-            "the set is for schema `{}` but the drive is handled with schema `{}`; upload a set for this drive family, or pass {} if they are compatible",
-            set.schema,
-            schema.id,
-            Override::AllowFamily
-        ));
+        out.push(Problem::SetSchema {
+            set: set.schema.clone(),
+            schema: schema.id.clone(),
+        });
     }
     if let Some(id) = &opts.identity {
         let want = protocol_name(schema.family);
         if !id.protocol.is_empty() && id.protocol != want && family {
-            out.push(format!(
-                "the drive identifies as protocol family `{}`, schema `{}` is for `{want}`; check the address, or pass {}",
-                id.protocol,
-                schema.id,
-                Override::AllowFamily
-            ));
+            out.push(Problem::ProtocolFamily {
+                found: id.protocol.clone(),
+                schema: schema.id.clone(),
+                want: want.to_string(),
+            });
         }
         if let Some(ident) = &schema.identify
             && !ident.type_values.is_empty()
@@ -407,67 +596,62 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
                 .and_then(|(_, v)| v.trim().parse::<i64>().ok())
             && !ident.type_values.contains(&ty)
         {
-            out.push(format!(
-                "the drive reports 91-TYPE {ty}, schema `{}` is for TYPE {:?}; check the address, or pass {}",
-                schema.id,
-                ident.type_values,
-                Override::AllowFamily
-            ));
+            out.push(Problem::DriveType {
+                found: ty,
+                schema: schema.id.clone(),
+                expected: ident.type_values.clone(),
+            });
         }
     }
     for key in set.values.keys() {
         let shown = schema.display_code(key.number, key.subcode);
         let Some(code) = schema.code(key.number) else {
-            out.push(format!(
-                "code {shown} is not in schema `{}`; remove it from the set (or fix the number)",
-                schema.id
-            ));
+            out.push(Problem::NotInSchema {
+                code: shown,
+                schema: schema.id.clone(),
+            });
             continue;
         };
         match (key.subcode, code.subcodes) {
-            (Some(s), Some(n)) if s == 0 || s > n => out.push(format!(
-                "{shown}: code {} has subcodes 1..={n} only; fix the subcode",
-                key.number
-            )),
-            (Some(_), None) => out.push(format!(
-                "{shown}: code {} has no subcodes in schema `{}`; drop the /subcode",
-                key.number, schema.id
-            )),
+            (Some(s), Some(n)) if s == 0 || s > n => out.push(Problem::SubcodeRange {
+                code: shown,
+                number: key.number,
+                subcodes: n,
+            }),
+            (Some(_), None) => out.push(Problem::NoSubcodes {
+                code: shown,
+                number: key.number,
+                schema: schema.id.clone(),
+            }),
             _ => {}
         }
         if code.access == Some(Access::Ro) || code.kind == Some(StorageKind::RamActual) {
-            out.push(format!(
-                "{}: read-only (an actual value); remove it from the set",
-                code_label(schema, *key)
-            ));
+            out.push(Problem::ReadOnly {
+                code: code_label(schema, *key),
+            });
         } else if code.read_clears == Some(true) {
-            out.push(format!(
-                "{}: a status code that reading clears; it cannot be part of a set, remove it",
-                code_label(schema, *key)
-            ));
+            out.push(Problem::ReadClears {
+                code: code_label(schema, *key),
+            });
         } else if opts.dataset && dataset_code(schema) == Some(key.number) {
-            out.push(format!(
-                "{}: the dataset handshake code is driven by the upload itself; remove it from the set",
-                code_label(schema, *key)
-            ));
+            out.push(Problem::DatasetCode {
+                code: code_label(schema, *key),
+            });
         } else if let Some(value) = set.values.get(key)
             && let Some((_, message, help)) =
                 driveset_schema::role::refusal(schema, code, *key, value)
         {
             // no override: a set never starts a motor or runs a command
-            out.push(format!("{message}; {help}"));
+            out.push(Problem::Role { message, help });
         }
     }
     match opts.running {
-        Running::Known(true) if !opts.overrides.allow_running => out.push(format!(
-            "the drive reports a running motor; stop it (standstill) before uploading, or pass {}",
-            Override::AllowRunning
-        )),
-        Running::Unknown if !opts.overrides.allow_running_unknown => out.push(format!(
-            "running state unknown: {}; make sure the drive is at standstill, then pass {}",
-            running_unknown_why(schema),
-            Override::AllowRunningUnknown
-        )),
+        Running::Known(true) if !opts.overrides.allow_running => out.push(Problem::Running),
+        Running::Unknown if !opts.overrides.allow_running_unknown => {
+            out.push(Problem::RunningUnknown {
+                schema: schema.id.clone(),
+            })
+        }
         _ => {}
     }
     out
@@ -481,7 +665,7 @@ pub fn plan(
     set: &ResolvedSet,
     current: &ResolvedSet,
     opts: &PlanOptions,
-) -> Result<Plan, Vec<String>> {
+) -> Result<Plan, Vec<Problem>> {
     let mut problems = check_set(schema, set, opts);
     let mut writes = Vec::new();
     let mut unchanged = Vec::new();
@@ -511,10 +695,9 @@ pub fn plan(
             continue;
         };
         let Some(old) = current.values.get(key) else {
-            problems.push(format!(
-                "{}: the drive's current value was not read; it cannot be backed up",
-                code_label(schema, *key)
-            ));
+            problems.push(Problem::NotRead {
+                code: code_label(schema, *key),
+            });
             continue;
         };
         if old == new {
@@ -529,13 +712,11 @@ pub fn plan(
                     code_label(schema, *key)
                 ));
             } else {
-                problems.push(format!(
-                    "{}: {} -> {} changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass {})",
-                    code_label(schema, *key),
-                    display_value(schema, code, old),
-                    display_value(schema, code, new),
-                    Override::AllowAddressChange
-                ));
+                problems.push(Problem::AddressChange {
+                    code: code_label(schema, *key),
+                    old: display_value(schema, code, old),
+                    new: display_value(schema, code, new),
+                });
                 continue;
             }
         }

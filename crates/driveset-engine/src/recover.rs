@@ -31,10 +31,6 @@
 //! A dataset download left open (SLOAD = -1) is always rolled back, even if
 //! the values read back look new: staged values are not committed.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::time::Duration;
@@ -113,11 +109,8 @@ pub fn recover(
     }
     let schema = client.schema().clone();
     let target = client.target().clone();
-    let refuse = |mismatch: Mismatch, detail: String| EngineError::NotJournalDrive {
-        target: target.clone(),
-        journal: journal_name.clone(),
-        mismatch,
-        detail,
+    let refuse = |mismatch: Mismatch, detail: String| {
+        EngineError::not_journal_drive(target.clone(), journal_name.clone(), mismatch, detail)
     };
     // checks that need no telegram: version, schema, bus, address
     let Some(journal_bus) = jf.journal.target.bus.clone() else {
@@ -147,9 +140,11 @@ pub fn recover(
             ),
         ));
     }
-    let bad = |d: String| EngineError::Journal {
-        path: journal_name.clone(),
-        detail: format!("{d}; the file is damaged, restore the drive by hand from it"),
+    let bad = |d: String| {
+        EngineError::journal(
+            journal_name.clone(),
+            format!("{d}; the file is damaged, restore the drive by hand from it"),
+        )
     };
     let backup: BTreeMap<CodeKey, RawValue> = jf
         .journal
@@ -367,11 +362,7 @@ pub fn recover(
             jf.journal
                 .transition(TxnState::Failed, t, Some(detail.clone()));
             jf.persist()?;
-            return Err(EngineError::Inconsistent {
-                target,
-                journal: journal_name,
-                detail,
-            });
+            return Err(EngineError::inconsistent(target, journal_name, detail));
         }
         let t = at(&*client);
         jf.journal.transition(

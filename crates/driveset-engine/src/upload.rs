@@ -27,10 +27,6 @@
 //!
 //! Times come only from the client's clock.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -40,14 +36,14 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
-use crate::error::EngineError;
+use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
     PlanEntryRecord, TxnState,
 };
 use crate::overrides::Overrides;
 use crate::plan::{
-    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
+    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Problem, Running, Storage, TimeEstimate, check_set,
     code_label, is_secret, plan, value_text,
 };
 
@@ -294,15 +290,8 @@ pub struct Prepared {
     pub estimate: TimeEstimate,
 }
 
-pub(crate) fn refused(target: &Target, problems: Vec<String>) -> EngineError {
-    EngineError::Refused {
-        target: target.clone(),
-        reason: if problems.len() == 1 {
-            problems.concat()
-        } else {
-            format!("{} problems: {}", problems.len(), problems.join("; "))
-        },
-    }
+pub(crate) fn refused(target: &Target, problems: Vec<Problem>) -> EngineError {
+    EngineError::refused(target.clone(), Refusal::Plan { problems })
 }
 
 /// Read `keys` off the drive into a set of the client's schema.
@@ -415,8 +404,9 @@ pub fn upload(
         match tx.attempt(set) {
             Ok(()) => break Ok(()),
             Err(Stop::Settled(e)) => break Err(e),
-            Err(Stop::Error(e @ EngineError::Restarted { .. }))
-                if tx.attempts <= tx.opts.max_restarts =>
+            Err(Stop::Error(e))
+                if matches!(*e.kind, ErrorKind::Restarted { .. })
+                    && tx.attempts <= tx.opts.max_restarts =>
             {
                 if tx.journal.is_some() {
                     let note = format!("{e}; redoing from the read-back");
@@ -744,7 +734,7 @@ impl Txn<'_> {
             // the code as it was: there is nothing of it to roll back. Any
             // other failure (no answer, a garbled one) may or may not have
             // landed, so the code stays touched.
-            if matches!(e, EngineError::Device { .. }) {
+            if matches!(*e.kind, ErrorKind::Device { .. }) {
                 self.touched.remove(&key);
             }
             self.outcomes
@@ -820,11 +810,11 @@ impl Txn<'_> {
             );
             self.outcomes
                 .insert(key, CodeOutcome::Failed(detail.clone()));
-            return Err(Stop::Error(EngineError::Protocol {
-                target: self.target.clone(),
-                what: format!("verify {}", code_label(&self.schema, key)),
+            return Err(Stop::Error(EngineError::protocol(
+                self.target.clone(),
+                format!("verify {}", code_label(&self.schema, key)),
                 detail,
-            }));
+            )));
         }
         self.outcomes.insert(key, CodeOutcome::Verified);
         self.verified.insert(key, got);
@@ -842,15 +832,15 @@ impl Txn<'_> {
             self.outcomes
                 .insert(*k, CodeOutcome::Failed("dataset rejected".into()));
         }
-        let cause = EngineError::Device {
-            target: self.target.clone(),
-            what: "dataset download (80-SLOAD)".into(),
-            cause: crate::error::DeviceCause {
-                cause: "dataset rejected".into(),
-                raw: format!("SLOAD = {parameter}"),
-                remedy: format!("fix the value of {name}"),
+        let cause = EngineError::device(
+            self.target.clone(),
+            "dataset download (80-SLOAD)",
+            DeviceCause::DatasetRejected {
+                parameter,
+                name: name.clone(),
+                backup: false,
             },
-        };
+        );
         // confirm nothing changed
         match self.compare_with_backup() {
             Ok(diffs) if diffs.is_empty() => {
@@ -858,12 +848,12 @@ impl Txn<'_> {
                 if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail.clone())) {
                     return Stop::Settled(e);
                 }
-                Stop::Settled(EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
+                Stop::Settled(EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
                     detail,
-                    cause: Box::new(cause),
-                })
+                    cause,
+                ))
             }
             _ => Stop::Error(cause),
         }
@@ -913,12 +903,12 @@ impl Txn<'_> {
                 if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail)) {
                     return e;
                 }
-                EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail: cause_text,
-                    cause: Box::new(cause),
-                }
+                EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
+                    cause_text,
+                    cause,
+                )
             }
             other => {
                 let restore_err = match other {
@@ -941,11 +931,7 @@ impl Txn<'_> {
                     j.journal.holding = holding;
                 }
                 let _ = self.set_state(TxnState::Failed, Some(detail.clone()));
-                EngineError::Inconsistent {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail,
-                }
+                EngineError::inconsistent(self.target.clone(), self.journal_path(), detail)
             }
         }
     }
@@ -1091,17 +1077,15 @@ fn restore_dataset(
         DatasetOutcome::Accepted => Ok(()),
         DatasetOutcome::Rejected { parameter } => {
             let name = code_label(schema, CodeKey::new(parameter));
-            Err(EngineError::Device {
-                target: client.target().clone(),
-                what: "dataset download of the backup (80-SLOAD)".into(),
-                cause: crate::error::DeviceCause {
-                    cause: "dataset rejected".into(),
-                    raw: format!("SLOAD = {parameter}"),
-                    remedy: format!(
-                        "the drive refuses its own old value of {name}; restore it by hand"
-                    ),
+            Err(EngineError::device(
+                client.target().clone(),
+                "dataset download of the backup (80-SLOAD)",
+                DeviceCause::DatasetRejected {
+                    parameter,
+                    name,
+                    backup: true,
                 },
-            })
+            ))
         }
     }
 }

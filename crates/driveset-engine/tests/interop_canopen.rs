@@ -10,8 +10,6 @@
 //! makes at `target/py`; `DRIVESET_PYTHON` may name another interpreter
 //! with python-can 4.6 and canopen 2.4.
 #![cfg(unix)]
-#![allow(clippy::result_large_err)]
-
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
@@ -20,7 +18,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::TxnState;
 use driveset_engine::live::live_diff;
 use driveset_engine::pull::{PullOptions, pull};
@@ -409,15 +407,16 @@ code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a
     let err = c
         .write(CodeKey::new(5010), &RawValue::Int(30_000_000))
         .expect_err("read-only object");
-    let EngineError::Device { cause, .. } = &err else {
+    let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("not a device error: {err}");
     };
     assert_eq!(
-        cause.raw, "SDO abort 0x06010002 at index 0x4C6D subindex 0",
+        cause.raw(),
+        "SDO abort 0x06010002 at index 0x4C6D subindex 0",
         "{err}"
     );
     assert!(
-        cause.cause.to_lowercase().contains("read only"),
+        cause.cause().to_lowercase().contains("read only"),
         "{cause:?}"
     );
     let text = err.to_string();

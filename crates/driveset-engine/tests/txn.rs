@@ -1,11 +1,10 @@
 //! Transaction runner tests over an in-memory fake drive (tests/txn_support).
-#![allow(clippy::result_large_err)]
 
 mod txn_support;
 
 use std::time::Duration;
 
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
@@ -174,7 +173,7 @@ fn refuses_unknown_read_only_status_and_handshake_codes_before_sending_anything(
     let err =
         upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("refused");
     let text = err.to_string();
-    assert!(matches!(*err.error, EngineError::Refused { .. }), "{text}");
+    assert!(matches!(*err.error.kind, ErrorKind::Refused(_)), "{text}");
     for needle in [
         "999",
         "140-ACT: read-only",
@@ -254,7 +253,11 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
     let current =
         FakeClient::new(schema.clone(), tmd_drive()).values_of(set.values.keys().copied());
     let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
-    let all = problems.join("\n");
+    let all = problems
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("\n");
     assert!(
         all.contains("C0002 = 1 is a command (Load Lenze setting), not a setting; a set cannot hold it; remove this line: run the command on the drive itself, never from a set"),
         "{all}"
@@ -271,7 +274,9 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
     };
     let again = plan(&schema, &set, &current, &every).expect_err("still refused");
     assert!(
-        again.iter().any(|p| p.contains("C0002 = 1 is a command")),
+        again
+            .iter()
+            .any(|p| p.to_string().contains("C0002 = 1 is a command")),
         "{again:?}"
     );
     assert!(
@@ -387,7 +392,7 @@ fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
         before.values.get(&CodeKey::sub(39, 1))
     );
     assert!(
-        matches!(*err.error, EngineError::Inconsistent { .. }),
+        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
         "{err}"
     );
     assert!(err.to_string().contains("driveset recover"), "{err}");
@@ -406,7 +411,7 @@ fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_orde
     client.fail_write = Some(4); // C0040
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     let text = err.to_string();
@@ -476,7 +481,7 @@ fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() 
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     let text = err.to_string();
     assert!(
-        matches!(*err.error, EngineError::Inconsistent { .. }),
+        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
         "{text}"
     );
     assert!(
@@ -581,7 +586,7 @@ fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("rejected");
     let text = err.to_string();
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{text}"
     );
     assert!(
@@ -615,7 +620,7 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     assert_eq!(client.drive.values, before.values);
@@ -717,7 +722,7 @@ fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
     client.restart_at_writes = vec![2, 5];
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     assert!(err.to_string().contains("restarted"), "{err}");
@@ -882,8 +887,8 @@ fn recover_refuses_another_drive() {
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
     assert!(
         matches!(
-            err,
-            EngineError::NotJournalDrive {
+            *err.kind,
+            ErrorKind::NotJournalDrive {
                 mismatch: driveset_engine::error::Mismatch::Identity,
                 ..
             }
@@ -983,9 +988,9 @@ fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
     let current = drive.values_of(set.values.keys().copied());
     let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
     assert!(
-        problems
-            .concat()
-            .contains("82-SADDR: 1 -> 4 changes the bus address"),
+        problems.iter().any(|p| p
+            .to_string()
+            .contains("82-SADDR: 1 -> 4 changes the bus address")),
         "{problems:?}"
     );
     let set = set_of(
@@ -1043,8 +1048,8 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
     assert!(
         matches!(
-            err,
-            EngineError::NotJournalDrive {
+            *err.kind,
+            ErrorKind::NotJournalDrive {
                 mismatch: driveset_engine::error::Mismatch::Version,
                 ..
             }

@@ -2,14 +2,10 @@
 //! what the drive at an address says it is (family, TYPE / identification
 //! codes, software version) and whether the schema fits it.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::error::EngineError;
 use driveset_link::Link;
 use driveset_proto::lustbus::ParameterCode;
 use driveset_schema::Family;
@@ -226,8 +222,10 @@ fn report(
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
     let fits = match driveset_engine::identify::check_family(client) {
         Ok(_) => Ok(()),
-        Err(EngineError::Refused { reason, .. }) => Err(reason),
-        Err(e) => return Err(e.into()),
+        Err(e) => match e.refusal() {
+            Some(refusal) => Err(refusal.to_string()),
+            None => return Err(e.into()),
+        },
     };
     client.finish()?;
     match args.format {

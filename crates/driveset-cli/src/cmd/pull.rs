@@ -9,9 +9,6 @@
 //! loader), so `driveset validate` / `driveset fingerprint` read it back to
 //! the same fingerprint. Passwords are not read (they would land in the file).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
@@ -219,7 +216,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
-            code: if matches!(e, driveset_engine::error::EngineError::Refused { .. }) {
+            code: if e.is_refused() {
                 crate::EXIT_FINDINGS
             } else {
                 port::engine_exit(&e)

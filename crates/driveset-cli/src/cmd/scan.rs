@@ -1,9 +1,6 @@
 //! `driveset scan --port P [--protocol lustbus|lecom|sdo] [--detect-baud]`:
 //! which drives answer on a bus.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -7,9 +7,6 @@
 //! sets: they are checked with the `schema check` rules instead, so a broken
 //! fixture still fails the run, and counted as checked files.
 
-// InputError carries a full Location; it is built on the error path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

@@ -6,10 +6,6 @@
 //! transaction runner needs for pacing (EEPROM store time) and the MC6000
 //! dataset handshake (SLOAD).
 
-// EngineError is the lead's contract type (large by design: it carries
-// the target and the decoded cause); boxing it is not ours to decide.
-#![allow(clippy::result_large_err)]
-
 use std::fmt;
 use std::sync::Arc;
 use std::time::Duration;
@@ -17,7 +13,7 @@ use std::time::Duration;
 use driveset_link::{Clock, Instant};
 use driveset_schema::{CodeKey, RawValue, Schema};
 
-use crate::error::{DeviceCause, EngineError};
+use crate::error::{DeviceCause, EngineError, Refusal};
 
 pub mod lecom;
 pub mod lustbus;
@@ -155,20 +151,20 @@ pub trait DriveClient: Send {
     /// SLOAD = -1: register a dataset download (standstill only). Writes of
     /// CardWriteable codes until [`DriveClient::dataset_commit`] are staged.
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        Err(EngineError::Refused {
-            target: self.target().clone(),
-            reason: "this drive family has no dataset download handshake".into(),
-        })
+        Err(EngineError::refused(
+            self.target().clone(),
+            Refusal::NoDatasetHandshake,
+        ))
     }
 
     /// SLOAD = -2, then poll SLOAD until it leaves -1 or `timeout` (10 s
     /// per LUSTBUS 11.4) passes.
     fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
         let _ = timeout;
-        Err(EngineError::Refused {
-            target: self.target().clone(),
-            reason: "this drive family has no dataset download handshake".into(),
-        })
+        Err(EngineError::refused(
+            self.target().clone(),
+            Refusal::NoDatasetHandshake,
+        ))
     }
 }
 
@@ -183,13 +179,14 @@ pub(crate) fn schema_code<'s>(
     target: &Target,
     key: CodeKey,
 ) -> Result<&'s driveset_schema::Code, EngineError> {
-    schema.code(key.number).ok_or_else(|| EngineError::Refused {
-        target: target.clone(),
-        reason: format!(
-            "schema `{}` has no code {}; check the set names the right drive family",
-            schema.id,
-            key.canonical(schema.code_style)
-        ),
+    schema.code(key.number).ok_or_else(|| {
+        EngineError::refused(
+            target.clone(),
+            Refusal::UnknownCode {
+                schema: schema.id.clone(),
+                code: key.canonical(schema.code_style),
+            },
+        )
     })
 }
 
@@ -230,41 +227,23 @@ pub(crate) fn refuse_read_only(
     code: &driveset_schema::Code,
 ) -> Result<(), EngineError> {
     if code.access == Some(driveset_schema::schema::Access::Ro) {
-        return Err(EngineError::Refused {
-            target: target.clone(),
-            reason: format!(
-                "{} is read-only in schema `{}`; remove it from the set",
-                code_name(schema, key),
-                schema.id
-            ),
-        });
+        return Err(EngineError::refused(
+            target.clone(),
+            Refusal::ReadOnly {
+                code: code_name(schema, key),
+                schema: schema.id.clone(),
+            },
+        ));
     }
     Ok(())
 }
 
-pub(crate) fn device(
-    target: &Target,
-    what: impl Into<String>,
-    cause: impl Into<String>,
-    raw: impl Into<String>,
-    remedy: impl Into<String>,
-) -> EngineError {
-    EngineError::Device {
-        target: target.clone(),
-        what: what.into(),
-        cause: DeviceCause {
-            cause: cause.into(),
-            raw: raw.into(),
-            remedy: remedy.into(),
-        },
-    }
+pub(crate) fn device(target: &Target, what: impl Into<String>, cause: DeviceCause) -> EngineError {
+    EngineError::device(target.clone(), what, cause)
 }
 
 pub(crate) fn link_error(target: &Target, source: driveset_link::LinkError) -> EngineError {
-    EngineError::Link {
-        target: target.clone(),
-        source,
-    }
+    EngineError::link(target.clone(), source)
 }
 
 /// A [`driveset_link::ByteLink`] borrowed for a while (scan, baud

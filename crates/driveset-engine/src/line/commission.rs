@@ -60,10 +60,6 @@
 //! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
 //! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -83,7 +79,7 @@ use crate::client::{
     BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient,
     LustbusClient, Target,
 };
-use crate::error::EngineError;
+use crate::error::{EngineError, ErrorKind};
 use crate::identify::check_family;
 use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
@@ -691,10 +687,10 @@ enum Failure {
 }
 
 fn failure_of(e: &EngineError) -> Option<Failure> {
-    match e {
-        EngineError::Link { .. } => Some(Failure::Link),
-        EngineError::NoAnswer { .. } => Some(Failure::NoAnswer),
-        EngineError::RolledBack { cause, .. } => failure_of(cause),
+    match &*e.kind {
+        ErrorKind::Link(_) => Some(Failure::Link),
+        ErrorKind::NoAnswer { .. } => Some(Failure::NoAnswer),
+        ErrorKind::RolledBack { cause, .. } => failure_of(cause),
         _ => None,
     }
 }
@@ -763,24 +759,21 @@ fn run_drive(
                 .iter()
                 .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
                 .collect();
-            return Err(EngineError::Journal {
-                path: unfinished[0].path.display().to_string(),
-                detail: format!(
+            return Err(EngineError::journal(
+                unfinished[0].path.display().to_string(),
+                format!(
                     "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
                     client.target(),
                     list.join(", "),
                     unfinished[0].path.display()
                 ),
-            });
+            ));
         }
         for u in &unfinished {
             let rep = recover(&mut client, &u.path, &RecoverOptions::default()).map_err(|e| {
-                EngineError::Journal {
-                    path: u.path.display().to_string(),
-                    detail: format!(
+                EngineError::journal(u.path.display().to_string(), format!(
                         "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
-                    ),
-                }
+                    ))
             })?;
             let did = match rep.action {
                 RecoverAction::Completed => "completed (the drive held the new values)",
@@ -857,7 +850,7 @@ fn run_drive(
                             r.codes_written = rep.codes_written as u32;
                         }
                         let e = *f.error;
-                        if matches!(e, EngineError::RolledBack { .. }) {
+                        if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
                             r.result = DriveResult::RolledBack;
                         }
                         Err(e)
