@@ -376,7 +376,7 @@ fn running_unknown_text(schema: &str) -> String {
 /// [`crate::error::Refusal::Plan`] holds every one found. Codes are named
 /// as [`code_label`] spells them, values as [`value_text`] shows them.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(tag = "problem", rename_all = "snake_case")]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Problem {
     /// The set is for another schema (unless [`Override::AllowFamily`]).
     SetSchema {
@@ -913,5 +913,109 @@ impl Plan {
             out.push('\n');
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_problem_renders_its_message() {
+        let s = |x: &str| x.to_string();
+        let cases = vec![
+            (
+                Problem::SetSchema {
+                    set: s("a"),
+                    schema: s("b"),
+                },
+                "the set is for schema `a` but the drive is handled with schema `b`; upload a set for this drive family, or pass --allow-family if they are compatible",
+            ),
+            (
+                Problem::ProtocolFamily {
+                    found: s("lecom"),
+                    schema: s("b"),
+                    want: s("lustbus-mc"),
+                },
+                "the drive identifies as protocol family `lecom`, schema `b` is for `lustbus-mc`; check the address, or pass --allow-family",
+            ),
+            (
+                Problem::DriveType {
+                    found: 9999,
+                    schema: s("b"),
+                    expected: vec![1234],
+                },
+                "the drive reports 91-TYPE 9999, schema `b` is for TYPE [1234]; check the address, or pass --allow-family",
+            ),
+            (
+                Problem::NotInSchema {
+                    code: s("999"),
+                    schema: s("b"),
+                },
+                "code 999 is not in schema `b`; remove it from the set (or fix the number)",
+            ),
+            (
+                Problem::SubcodeRange {
+                    code: s("C0039/9"),
+                    number: 39,
+                    subcodes: 8,
+                },
+                "C0039/9: code 39 has subcodes 1..=8 only; fix the subcode",
+            ),
+            (
+                Problem::NoSubcodes {
+                    code: s("C0011/1"),
+                    number: 11,
+                    schema: s("b"),
+                },
+                "C0011/1: code 11 has no subcodes in schema `b`; drop the /subcode",
+            ),
+            (
+                Problem::ReadOnly { code: s("140-ACT") },
+                "140-ACT: read-only (an actual value); remove it from the set",
+            ),
+            (
+                Problem::ReadClears { code: s("85-SERR") },
+                "85-SERR: a status code that reading clears; it cannot be part of a set, remove it",
+            ),
+            (
+                Problem::DatasetCode {
+                    code: s("80-SLOAD"),
+                },
+                "80-SLOAD: the dataset handshake code is driven by the upload itself; remove it from the set",
+            ),
+            (
+                Problem::Role {
+                    message: s("C0002 = 1 is a command"),
+                    help: s("run it on the drive"),
+                },
+                "C0002 = 1 is a command; run it on the drive",
+            ),
+            (
+                Problem::Running,
+                "the drive reports a running motor; stop it (standstill) before uploading, or pass --allow-running",
+            ),
+            (
+                Problem::RunningUnknown { schema: s("b") },
+                "running state unknown: schema `b` names no status bit (role `running`) or control word start bit that says whether the motor runs; make sure the drive is at standstill, then pass --allow-running-unknown",
+            ),
+            (
+                Problem::NotRead {
+                    code: s("C0011 nmax"),
+                },
+                "C0011 nmax: the drive's current value was not read; it cannot be backed up",
+            ),
+            (
+                Problem::AddressChange {
+                    code: s("82-SADDR"),
+                    old: s("1"),
+                    new: s("4"),
+                },
+                "82-SADDR: 1 -> 4 changes the bus address of the drive being talked to; it would stop answering mid-transaction. Upload the set to the drive at its new address after changing the address on its own (or pass --allow-address-change)",
+            ),
+        ];
+        for (p, want) in cases {
+            assert_eq!(p.to_string(), want, "{p:?}");
+        }
     }
 }

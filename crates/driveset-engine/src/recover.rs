@@ -39,7 +39,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 
 use crate::client::DriveClient;
 use crate::error::{EngineError, Mismatch};
-use crate::journal::{JournalFile, TxnState, version_refusal};
+use crate::journal::{FailureCause, JournalFile, TxnState, version_refusal};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
 use crate::upload::{describe_holdings, holdings, read_values, restore};
 
@@ -345,19 +345,26 @@ pub fn recover(
                 if differ.is_empty() {
                     None
                 } else {
-                    Some(format!(
-                        "after restoring, {} still differ from the backup",
-                        differ.join(", ")
+                    Some((
+                        format!(
+                            "after restoring, {} still differ from the backup",
+                            differ.join(", ")
+                        ),
+                        FailureCause::StillDiffer { codes: differ },
                     ))
                 }
             }
-            Err(e) => Some(format!("restoring the old values failed: {e}")),
+            Err(e) => Some((
+                format!("restoring the old values failed: {e}"),
+                FailureCause::of(&e),
+            )),
         };
-        if let Some(f) = failure {
+        if let Some((f, cause)) = failure {
             let holding = holdings(client, &schema, &backup, &new_values);
             let detail = format!("{f}; {}", describe_holdings(&holding));
             jf.journal.holding = holding;
             jf.journal.failure = Some(detail.clone());
+            jf.journal.failure_cause = Some(cause);
             let t = at(&*client);
             jf.journal
                 .transition(TxnState::Failed, t, Some(detail.clone()));

@@ -38,8 +38,8 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
 use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::journal::{
-    BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
-    PlanEntryRecord, TxnState,
+    BackupEntry, CodeHolding, FailureCause, Holding, JOURNAL_VERSION, Journal, JournalFile,
+    JournalTarget, JournalValue, PlanEntryRecord, TxnState,
 };
 use crate::overrides::Overrides;
 use crate::plan::{
@@ -636,6 +636,7 @@ impl Txn<'_> {
                     written: Vec::new(),
                     transitions: Vec::new(),
                     failure: None,
+                    failure_cause: None,
                     holding: Vec::new(),
                 };
                 journal.transition(TxnState::Planned, at, None);
@@ -877,6 +878,7 @@ impl Txn<'_> {
         let cause_text = cause.to_string();
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
+            j.journal.failure_cause = Some(FailureCause::of(&cause));
         }
         if let Err(e) = self.set_state(TxnState::RollingBack, Some(cause_text.clone())) {
             // The journal on disk still says an earlier state and holds the backup.
@@ -1090,49 +1092,40 @@ fn restore_dataset(
     }
 }
 
-/// What each backed-up code holds now: `old`, `new`, `other`, `unknown`.
+/// What each backed-up code holds now.
 pub(crate) fn holdings(
     client: &mut dyn DriveClient,
     schema: &Schema,
     backup: &BTreeMap<CodeKey, RawValue>,
     new_values: &BTreeMap<CodeKey, RawValue>,
-) -> Vec<Holding> {
+) -> Vec<CodeHolding> {
     backup
         .iter()
         .map(|(k, old)| {
             let holds = match client.read(*k) {
-                Ok(v) if &v == old => "old",
-                Ok(v) if new_values.get(k) == Some(&v) => "new",
-                Ok(_) => "other",
-                Err(_) => "unknown",
+                Ok(v) if &v == old => Holding::Old,
+                Ok(v) if new_values.get(k) == Some(&v) => Holding::New,
+                Ok(_) => Holding::Other,
+                Err(_) => Holding::Unknown,
             };
-            Holding {
+            CodeHolding {
                 code: code_label(schema, *k),
-                holds: holds.into(),
+                holds,
             }
         })
         .collect()
 }
 
-pub(crate) fn describe_holdings(h: &[Holding]) -> String {
-    let mut by: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+pub(crate) fn describe_holdings(h: &[CodeHolding]) -> String {
+    let mut by: BTreeMap<Holding, Vec<&str>> = BTreeMap::new();
     for x in h {
-        by.entry(x.holds.as_str())
-            .or_default()
-            .push(x.code.as_str());
+        by.entry(x.holds).or_default().push(x.code.as_str());
     }
-    let parts: Vec<String> = ["new", "other", "unknown", "old"]
+    let parts: Vec<String> = [Holding::New, Holding::Other, Holding::Unknown, Holding::Old]
         .iter()
         .filter_map(|w| {
-            by.get(w).map(|codes| {
-                let what = match *w {
-                    "new" => "hold the new value",
-                    "other" => "hold neither the old nor the new value",
-                    "unknown" => "could not be read",
-                    _ => "hold the old value",
-                };
-                format!("{} {what}", codes.join(", "))
-            })
+            by.get(w)
+                .map(|codes| format!("{} {}", codes.join(", "), w.describe()))
         })
         .collect();
     if parts.is_empty() {
