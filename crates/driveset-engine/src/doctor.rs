@@ -660,7 +660,7 @@ pub fn run_can(
                     .identity
                     .codes
                     .first()
-                    .map(|(c, v)| format!("{c} = {v}"))
+                    .map(|c| format!("{} = {}", c.name, c.value))
                     .unwrap_or_default(),
             },
             None => ProbeResult::Silent,

@@ -2,7 +2,7 @@
 //! drive says it is, and refuse a schema (and so a set) for another family
 //! (DESIGN.md "Transactions", step 1).
 
-use crate::client::{DriveClient, Identity};
+use crate::client::{DriveClient, IdentValue, Identity};
 use crate::error::{EngineError, Refusal};
 
 /// The identification codes of the client's schema, read from the drive.
@@ -24,11 +24,7 @@ pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineErro
         return Ok(identity);
     }
     let type_name = schema.display_code(91, None);
-    let found = identity
-        .codes
-        .iter()
-        .find(|(name, _)| *name == type_name)
-        .and_then(|(_, v)| v.parse::<i64>().ok());
+    let found = identity.value_of(91).and_then(IdentValue::as_int);
     match found {
         Some(t) if ident.type_values.contains(&t) => Ok(identity),
         found => Err(EngineError::refused(

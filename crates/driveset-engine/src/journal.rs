@@ -231,8 +231,8 @@ pub struct JournalIdentity {
 impl From<&Identity> for JournalIdentity {
     fn from(i: &Identity) -> Self {
         JournalIdentity {
-            protocol: i.protocol.clone(),
-            codes: i.codes.clone(),
+            protocol: i.protocol.name().to_string(),
+            codes: i.pairs(),
             software: i.software.clone(),
         }
     }
@@ -241,8 +241,8 @@ impl From<&Identity> for JournalIdentity {
 impl JournalIdentity {
     /// Whether a freshly read identity is the same drive kind.
     pub fn matches(&self, other: &Identity) -> bool {
-        self.protocol == other.protocol
-            && self.codes == other.codes
+        self.protocol == other.protocol.name()
+            && self.codes == other.pairs()
             && self.software == other.software
     }
 }

@@ -65,7 +65,7 @@ use driveset_schema::{Code, CodeKey, CodeStyle, Family, RawValue, ResolvedSet, S
 
 use driveset_schema::Role;
 
-use crate::client::{DriveClient, Identity};
+use crate::client::{DriveClient, IdentValue, Identity};
 use crate::overrides::{Override, Overrides};
 
 /// The longest the MC6000/7000 dataset check may take before the upload
@@ -579,9 +579,10 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
     }
     if let Some(id) = &opts.identity {
         let want = protocol_name(schema.family);
-        if !id.protocol.is_empty() && id.protocol != want && family {
+        let found = id.protocol.name();
+        if !found.is_empty() && found != want && family {
             out.push(Problem::ProtocolFamily {
-                found: id.protocol.clone(),
+                found: found.to_string(),
                 schema: schema.id.clone(),
                 want: want.to_string(),
             });
@@ -589,11 +590,7 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
         if let Some(ident) = &schema.identify
             && !ident.type_values.is_empty()
             && family
-            && let Some(ty) = id
-                .codes
-                .iter()
-                .find(|(n, _)| n.trim_start().starts_with("91"))
-                .and_then(|(_, v)| v.trim().parse::<i64>().ok())
+            && let Some(ty) = id.value_of(91).and_then(IdentValue::as_int)
             && !ident.type_values.contains(&ty)
         {
             out.push(Problem::DriveType {

@@ -192,9 +192,10 @@ pub fn recover(
             .cloned()
             .collect()
     };
-    let same_drive = jf.journal.identity.protocol == identity.protocol
+    let codes = identity.pairs();
+    let same_drive = jf.journal.identity.protocol == identity.protocol.name()
         && jf.journal.identity.software == identity.software
-        && strip(&jf.journal.identity.codes) == strip(&identity.codes);
+        && strip(&jf.journal.identity.codes) == strip(&codes);
     if !same_drive {
         let show = |p: &str, codes: &[(String, String)], sw: &Option<String>| {
             let mut s: Vec<String> = codes.iter().map(|(n, v)| format!("{n} = {v}")).collect();
@@ -207,7 +208,7 @@ pub fn recover(
             Mismatch::Identity,
             format!(
                 "the drive identifies as {} but the journal was written for {}; nothing was written. Connect the drive the journal belongs to",
-                show(&identity.protocol, &identity.codes, &identity.software),
+                show(identity.protocol.name(), &codes, &identity.software),
                 show(
                     &jf.journal.identity.protocol,
                     &jf.journal.identity.codes,

@@ -33,12 +33,14 @@ use driveset_link::{ByteLink, FrameLink, LinkError};
 use driveset_proto::can::NodeId;
 use driveset_proto::lecom::ControllerAddress;
 use driveset_proto::lustbus::Address;
-use driveset_schema::{CodeKey, Schema};
+use driveset_schema::{BusProtocol, CodeKey, Family, Schema};
 
 use crate::client::lecom::{C0093, LecomLine};
 use crate::client::lustbus::{LustLine, TYPE};
 use crate::client::sdo::SdoLine;
-use crate::client::{BorrowedByteLink, BorrowedFrameLink, Identity, Target};
+use crate::client::{
+    BorrowedByteLink, BorrowedFrameLink, IdentCode, IdentProtocol, IdentValue, Identity, Target,
+};
 use crate::error::{EngineError, Refusal};
 
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
@@ -154,10 +156,11 @@ pub fn scan_lustbus(
             found.push(Found {
                 address: ad.number(),
                 identity: Identity {
-                    protocol: "lustbus".into(),
-                    codes: vec![(
+                    protocol: IdentProtocol::Bus(BusProtocol::Lustbus),
+                    codes: vec![IdentCode::new(
+                        CodeKey::new(TYPE),
                         format!("{TYPE}-TYPE"),
-                        value.map_or_else(|| "NAK".to_string(), |v| v.to_string()),
+                        value.map_or_else(|| IdentValue::Text("NAK".into()), IdentValue::Int),
                     )],
                     software: None,
                 },
@@ -207,8 +210,8 @@ pub fn scan_lecom(
             found.push(Found {
                 address: ad.get(),
                 identity: Identity {
-                    protocol: "lecom".into(),
-                    codes: vec![(name.clone(), text)],
+                    protocol: IdentProtocol::Family(Family::Tmd),
+                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
             });
@@ -265,8 +268,8 @@ pub fn scan_can(
             found.push(Found {
                 address: node.get(),
                 identity: Identity {
-                    protocol: "lenze-can-sdo".into(),
-                    codes: vec![(name.clone(), text)],
+                    protocol: IdentProtocol::Family(Family::Ecs),
+                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
             });

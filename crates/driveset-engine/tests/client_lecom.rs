@@ -199,12 +199,12 @@ fn running_identify_and_no_such_code() {
     c.link_mut().drive_mut(7).unwrap().set_running(false);
     assert_eq!(c.running().unwrap(), Some(false));
     let id = c.identify().unwrap();
-    assert_eq!(id.protocol, "lecom");
+    assert_eq!(id.protocol.name(), "lecom");
     assert_eq!(id.software.as_deref(), Some("1.20"));
     assert!(
         id.codes
             .iter()
-            .any(|(n, v)| n == "C0200" && v == "33STMD-M_12000"),
+            .any(|c| c.name == "C0200" && c.value.to_string() == "33STMD-M_12000"),
         "{id:?}"
     );
 }

@@ -4,13 +4,14 @@ mod txn_support;
 
 use std::time::Duration;
 
+use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
 use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
-use driveset_schema::{CodeKey, RawValue};
+use driveset_schema::{CodeKey, Family, RawValue};
 use txn_support::*;
 
 fn ms(n: u64) -> u64 {
@@ -19,7 +20,7 @@ fn ms(n: u64) -> u64 {
 
 fn tmd_drive() -> Drive {
     Drive::new(
-        "lecom",
+        Family::Tmd,
         [
             (k(1), RawValue::Int(0)),
             (k(2), RawValue::Int(0)),
@@ -40,7 +41,7 @@ fn tmd_drive() -> Drive {
 
 fn mc_drive() -> Drive {
     Drive::new(
-        "lustbus-mc",
+        Family::Mc6000,
         [
             (k(4), RawValue::Int(0)),
             (k(81), RawValue::Int(9600)),
@@ -231,7 +232,7 @@ fn refuses_a_running_drive_without_allow_running_and_another_schema_without_allo
 
     // a drive identifying as another family
     let mut drive = tmd_drive();
-    drive.identity.protocol = "lustbus-mc".into();
+    drive.identity.protocol = IdentProtocol::Family(Family::Mc6000);
     let mut client = FakeClient::new(schema, drive);
     let err =
         upload(&mut client, &set, &UploadOptions::new(journal_in(&dir2))).expect_err("family");
@@ -882,7 +883,11 @@ fn recover_refuses_another_drive() {
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     let mut drive = client.drive.clone();
-    drive.identity.codes = vec![("91 TYPE".into(), "9999".into())];
+    drive.identity.codes = vec![IdentCode::new(
+        CodeKey::new(91),
+        "91 TYPE",
+        IdentValue::Int(9999),
+    )];
     let mut c = FakeClient::new(schema, drive);
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
     assert!(
@@ -943,7 +948,7 @@ fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
     assert!(pulled.set.values.contains_key(&CodeKey::sub(39, 2)));
     assert!(!pulled.set.values.contains_key(&k(94)));
     assert_eq!(pulled.fingerprint, pulled.set.fingerprint());
-    assert_eq!(pulled.identity.protocol, "lecom");
+    assert_eq!(pulled.identity.protocol, IdentProtocol::Family(Family::Tmd));
 
     let mut client = FakeClient::new(schema, tmd_drive());
     let opts = PullOptions {

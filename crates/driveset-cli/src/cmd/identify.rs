@@ -176,10 +176,8 @@ fn learned_status(
         "mc6000"
     };
     let ty = identity
-        .codes
-        .iter()
-        .find(|(c, _)| c.starts_with("91"))
-        .map_or("unknown", |(_, v)| v.as_str());
+        .value_of(91)
+        .map_or_else(|| "unknown".to_string(), ToString::to_string);
     let prefix = format!("learned-{family}-type{ty}-");
     let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
         .into_iter()
@@ -233,8 +231,8 @@ fn report(
             let doc = json!({
                 "port": port_name,
                 "address": args.address,
-                "protocol": identity.protocol,
-                "codes": identity.codes.iter().map(|(c, v)| json!({"code": c, "value": v})).collect::<Vec<_>>(),
+                "protocol": identity.protocol.name(),
+                "codes": identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
                 "software": identity.software,
                 "schema": schema.id,
                 "schema_title": schema.title,
@@ -255,8 +253,8 @@ fn report(
             let _ = writeln!(out, "port:     {port_name}");
             let _ = writeln!(out, "address:  {}", args.address);
             let _ = writeln!(out, "family:   {}", identity.protocol);
-            for (c, v) in &identity.codes {
-                let _ = writeln!(out, "{c}: {v}");
+            for c in &identity.codes {
+                let _ = writeln!(out, "{}: {}", c.name, c.value);
             }
             let _ = writeln!(
                 out,

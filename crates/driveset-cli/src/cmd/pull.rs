@@ -282,7 +282,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .identity
         .codes
         .iter()
-        .map(|(c, v)| format!("{c} = {v}"))
+        .map(|c| format!("{} = {}", c.name, c.value))
         .collect();
     let mut text = String::new();
     let _ = writeln!(
@@ -335,8 +335,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             let _ = writeln!(text, "drive:");
             let _ = writeln!(text, "  port: {}", toml_str(&port_name));
             let _ = writeln!(text, "  address: {}", args.address);
-            let _ = writeln!(text, "  protocol: {}", toml_str(&pulled.identity.protocol));
-            for (c, v) in &pulled.identity.codes {
+            let _ = writeln!(
+                text,
+                "  protocol: {}",
+                toml_str(pulled.identity.protocol.name())
+            );
+            for (c, v) in &pulled.identity.pairs() {
                 let _ = writeln!(text, "  {}: {}", toml_str(c), toml_str(v));
             }
             let _ = writeln!(text, "  fingerprint: {}", toml_str(&pulled.fingerprint));
@@ -350,8 +354,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             let _ = writeln!(text, "[drive]");
             let _ = writeln!(text, "port = {}", toml_str(&port_name));
             let _ = writeln!(text, "address = {}", args.address);
-            let _ = writeln!(text, "protocol = {}", toml_str(&pulled.identity.protocol));
-            for (c, v) in &pulled.identity.codes {
+            let _ = writeln!(
+                text,
+                "protocol = {}",
+                toml_str(pulled.identity.protocol.name())
+            );
+            for (c, v) in &pulled.identity.pairs() {
                 let _ = writeln!(text, "{} = {}", toml_str(c), toml_str(v));
             }
             let _ = writeln!(text, "fingerprint = {}", toml_str(&pulled.fingerprint));

@@ -118,7 +118,7 @@ fn unreadable(path: &Path, message: String) -> InputError {
         kind: InputErrorKind::Unreadable,
         message,
         help: "check the path".to_string(),
-        location: Location::file_only(path.display().to_string()),
+        location: Box::new(Location::file_only(path.display().to_string())),
     }
 }
 

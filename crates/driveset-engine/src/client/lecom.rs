@@ -67,8 +67,8 @@ use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
-    schema_code, shown_value, write_what,
+    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
+    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{ClientProtocol, DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::plan;
@@ -603,10 +603,7 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             .map(|i| i.codes.clone())
             .filter(|c| !c.is_empty())
             .unwrap_or_else(|| vec![C0093]);
-        let mut out = Identity {
-            protocol: "lecom".into(),
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(Family::Tmd));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
@@ -617,22 +614,24 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
                 Err(e) if matches!(*e.kind, ErrorKind::Device { .. }) => continue,
                 Err(e) => return Err(e),
             };
-            let text = match &raw {
+            let value = match &raw {
                 RawValue::Int(v) => {
                     match self.schema.code(n).and_then(|c| self.schema.type_of(c)) {
-                        Some(ValueType::VD) | None => {
-                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v)
-                        }
-                        _ => v.to_string(),
+                        Some(ValueType::VD) | None => IdentValue::Text(
+                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v),
+                        ),
+                        _ => IdentValue::Int(*v),
                     }
                 }
-                RawValue::Text(t) => t.clone(),
-                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+                RawValue::Text(t) => IdentValue::Text(t.clone()),
+                RawValue::Octets(o) => {
+                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
+                }
             };
             if n == C0099 {
-                out.software = Some(text.clone());
+                out.software = Some(value.to_string());
             }
-            out.codes.push((name, text));
+            out.codes.push(IdentCode::new(key, name, value));
         }
         Ok(out)
     }

@@ -111,8 +111,8 @@ use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DatasetOutcome, DriveClient, Identity, Target, code_name, device, link_error,
-    refuse_read_only, schema_code, shown_value, write_what,
+    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
+    Target, code_name, device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{
     ClientProtocol, DeviceCause, EngineError, LustbusCodeProblem, Refusal, SiofRegister,
@@ -942,19 +942,17 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             .map(|i| i.codes.clone())
             .filter(|c| !c.is_empty())
             .unwrap_or_else(|| vec![TYPE]);
-        let mut out = Identity {
-            protocol: match self.family {
-                Dialect::Vf1000 => "lustbus-vf1000".into(),
-                Dialect::Mc => "lustbus-mc".into(),
-            },
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(match self.family {
+            Dialect::Vf1000 => Family::Vf1000,
+            Dialect::Mc => Family::Mc6000,
+        }));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
             let raw = self.read_key(key, &format!("identify: read {name}"))?;
             if let RawValue::Int(v) = raw {
-                out.codes.push((name, v.to_string()));
+                out.codes
+                    .push(IdentCode::new(key, name, IdentValue::Int(v)));
             }
         }
         Ok(out)

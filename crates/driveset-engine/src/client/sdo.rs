@@ -39,8 +39,8 @@ use driveset_proto::can::{
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::{
-    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
-    schema_code, shown_value, write_what,
+    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
+    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{ClientProtocol, DeviceCause, EngineError, Refusal};
 
@@ -460,20 +460,19 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
             .as_ref()
             .map(|i| i.codes.clone())
             .unwrap_or_default();
-        let mut out = Identity {
-            protocol: "lenze-can-sdo".into(),
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(Family::Ecs));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
             let raw = self.read_key(key, &format!("identify: read {name}"))?;
-            let text = match raw {
-                RawValue::Int(v) => v.to_string(),
-                RawValue::Text(t) => t,
-                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+            let value = match raw {
+                RawValue::Int(v) => IdentValue::Int(v),
+                RawValue::Text(t) => IdentValue::Text(t),
+                RawValue::Octets(o) => {
+                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
+                }
             };
-            out.codes.push((name, text));
+            out.codes.push(IdentCode::new(key, name, value));
         }
         Ok(out)
     }

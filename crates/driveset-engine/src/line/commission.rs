@@ -789,7 +789,7 @@ fn run_drive(
         match ctx.mode {
             Mode::Status => {
                 let id = check_family(&mut client)?;
-                r.identity = id.codes.clone();
+                r.identity = id.pairs();
                 let live = live_values(&mut client, &d.set)?;
                 let fp = live.fingerprint();
                 r.diff = diff_lines(&d.schema, &live, &d.set);
@@ -812,7 +812,7 @@ fn run_drive(
                 {
                     // confirm with one read of the set's codes
                     let id = check_family(&mut client)?;
-                    r.identity = id.codes.clone();
+                    r.identity = id.pairs();
                     let live = live_values(&mut client, &d.set)?;
                     let fp = live.fingerprint();
                     if live.values == d.set.values {
@@ -1018,7 +1018,7 @@ fn fill_from_upload(
     identity: &Identity,
     codes: &[crate::upload::CodeReport],
 ) {
-    r.identity = identity.codes.clone();
+    r.identity = identity.pairs();
     r.diff = codes
         .iter()
         .filter(|c| c.outcome != crate::upload::CodeOutcome::Unchanged)

@@ -750,7 +750,7 @@ impl<'a> Reader<'a> {
                                 format!("set file `{s}` cannot be read: {}", e.message),
                                 &e.help,
                             );
-                            f.related.push(("in the set".into(), e.location.clone()));
+                            f.related.push(("in the set".into(), (*e.location).clone()));
                             self.findings.push(f);
                         }
                         Ok(l) => {

@@ -12,7 +12,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use driveset_engine::client::{ClientStats, DatasetOutcome, DriveClient, Identity, Target};
+use driveset_engine::client::{
+    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
+    Target,
+};
 use driveset_engine::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
 use driveset_proto::lustbus::Siof;
 
@@ -27,7 +30,7 @@ fn serr(bits: Siof) -> DeviceCause {
 use driveset_link::{Clock, Instant, VirtualClock};
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::StorageKind;
-use driveset_schema::{CodeKey, RawValue, Registry, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, Family, RawValue, Registry, ResolvedSet, Schema};
 
 pub fn schema(text: &str) -> Arc<Schema> {
     let mut r = Registry::new();
@@ -60,14 +63,18 @@ pub struct Drive {
 }
 
 impl Drive {
-    pub fn new(protocol: &str, values: impl IntoIterator<Item = (CodeKey, RawValue)>) -> Self {
+    pub fn new(family: Family, values: impl IntoIterator<Item = (CodeKey, RawValue)>) -> Self {
         Drive {
             values: values.into_iter().collect(),
             staged: None,
             running: Some(false),
             identity: Identity {
-                protocol: protocol.into(),
-                codes: vec![("91 TYPE".into(), "4711".into())],
+                protocol: IdentProtocol::Family(family),
+                codes: vec![IdentCode::new(
+                    CodeKey::new(91),
+                    "91 TYPE",
+                    IdentValue::Int(4711),
+                )],
                 software: None,
             },
             missing: BTreeSet::new(),
