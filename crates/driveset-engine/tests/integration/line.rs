@@ -2,7 +2,6 @@
 //! simulated buses (virtual time), resume, status drift, broadcast.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use driveset_engine::line::commission::{
@@ -15,9 +14,7 @@ use driveset_link::{Link, PortSpec, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Registry};
 use driveset_sim::open::{SimLink, open_sim};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use crate::util::root;
 
 fn demo() -> Manifest {
     let path = root().join("parameter-sets/demo-line/line.toml");

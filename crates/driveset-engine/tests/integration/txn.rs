@@ -1,9 +1,8 @@
-//! Transaction runner tests over an in-memory fake drive (tests/txn_support).
-
-mod txn_support;
+//! Transaction runner tests over an in-memory fake drive (`txn_support`).
 
 use std::time::Duration;
 
+use crate::txn_support::*;
 use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
 use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::{JournalFile, TxnState};
@@ -12,7 +11,6 @@ use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
 use driveset_schema::{CodeKey, Family, RawValue};
-use txn_support::*;
 
 fn ms(n: u64) -> u64 {
     n * 1_000_000
