@@ -10,7 +10,7 @@
 use std::fmt;
 
 use driveset_link::LinkError;
-use driveset_proto::can::{AbortCode, Index, Subindex};
+use driveset_proto::can::{AbortCode, Index, NodeIdError, Subindex};
 use driveset_proto::lecom::{CommunicationError, ExtendedError, OperatingStatus};
 use driveset_proto::lustbus::Siof;
 use serde::{Deserialize, Serialize};
@@ -483,8 +483,8 @@ pub enum Refusal {
     },
     /// A CAN node id that addresses no SDO server (DS301).
     SdoNode {
-        /// The codec's range message.
-        detail: String,
+        /// The node id given.
+        node: u32,
     },
     /// A code with no SDO index.
     NoSdoIndex {
@@ -603,8 +603,8 @@ pub enum Refusal {
     },
     /// A CAN scan target that is no SDO server (DS301).
     ScanCanNode {
-        /// The codec's range message.
-        detail: String,
+        /// The node id given.
+        node: u32,
     },
     /// A schema with no code to probe a CAN scan with.
     NoProbeCode {
@@ -691,9 +691,11 @@ impl fmt::Display for Refusal {
                 Some(w) => write!(f, "{w}: {detail}"),
                 None => f.write_str(detail),
             },
-            Refusal::SdoNode { detail } => {
-                write!(f, "{detail}: 0 addresses no SDO server (DS301)")
-            }
+            Refusal::SdoNode { node } => write!(
+                f,
+                "{}: 0 addresses no SDO server (DS301)",
+                NodeIdError(*node)
+            ),
             Refusal::NoSdoIndex { code, base } => write!(
                 f,
                 "{code} has no SDO index (code above the index base {base} or subcode above 255)"
@@ -768,9 +770,10 @@ impl fmt::Display for Refusal {
                 f,
                 "{address:02} is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)"
             ),
-            Refusal::ScanCanNode { detail } => write!(
+            Refusal::ScanCanNode { node } => write!(
                 f,
-                "{detail}: node 0 is no SDO server and cannot be a scan target (DS301)"
+                "{}: node 0 is no SDO server and cannot be a scan target (DS301)",
+                NodeIdError(*node)
             ),
             Refusal::NoProbeCode { schema } => {
                 write!(f, "schema `{schema}` has no code to probe with")
@@ -1239,9 +1242,7 @@ mod tests {
                 "too long",
             ),
             (
-                Refusal::SdoNode {
-                    detail: s("node id 0 is out of range 1..=127"),
-                },
+                Refusal::SdoNode { node: 0 },
                 "node id 0 is out of range 1..=127: 0 addresses no SDO server (DS301)",
             ),
             (
@@ -1389,9 +1390,7 @@ mod tests {
                 "05 is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)",
             ),
             (
-                Refusal::ScanCanNode {
-                    detail: s("node id 0 is out of range 1..=127"),
-                },
+                Refusal::ScanCanNode { node: 0 },
                 "node id 0 is out of range 1..=127: node 0 is no SDO server and cannot be a scan target (DS301)",
             ),
             (

@@ -231,15 +231,8 @@ pub fn scan_can(
     let port = link.port().to_string();
     let mut targets = Vec::with_capacity(nodes.len());
     for &n in nodes {
-        let node = NodeId::new(n).map_err(|e| {
-            refuse(
-                &port,
-                n,
-                Refusal::ScanCanNode {
-                    detail: e.to_string(),
-                },
-            )
-        })?;
+        let node =
+            NodeId::new(n).map_err(|e| refuse(&port, n, Refusal::ScanCanNode { node: e.0 }))?;
         targets.push(node);
     }
     let number = schema

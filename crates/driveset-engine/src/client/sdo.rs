@@ -289,14 +289,8 @@ impl<L: FrameLink> CanClient<L> {
                 },
             ));
         }
-        let node = NodeId::new(node).map_err(|e| {
-            EngineError::refused(
-                target.clone(),
-                Refusal::SdoNode {
-                    detail: e.to_string(),
-                },
-            )
-        })?;
+        let node = NodeId::new(node)
+            .map_err(|e| EngineError::refused(target.clone(), Refusal::SdoNode { node: e.0 }))?;
         Ok(CanClient {
             line: SdoLine::new(link),
             schema,
