@@ -48,10 +48,6 @@
 //! rollback; a rollback is reported as such, whatever telegrams it sends.
 //! Each step of [`Transaction`] enters its phase itself.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -61,15 +57,15 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{ClientStats, DatasetOutcome, DriveClient, Identity, Target};
-use crate::error::EngineError;
+use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::journal::{
-    BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
-    PlanEntryRecord, TxnState,
+    BackupEntry, CodeHolding, FailureCause, Holding, JOURNAL_VERSION, Journal, JournalFile,
+    JournalTarget, JournalValue, PlanEntryRecord, TxnState,
 };
 use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
 use crate::plan::{
-    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
+    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Problem, Running, Storage, TimeEstimate, check_set,
     code_label, is_secret, plan, value_text,
 };
 
@@ -320,15 +316,8 @@ pub struct Prepared {
     pub estimate: TimeEstimate,
 }
 
-pub(crate) fn refused(target: &Target, problems: Vec<String>) -> EngineError {
-    EngineError::Refused {
-        target: target.clone(),
-        reason: if problems.len() == 1 {
-            problems.concat()
-        } else {
-            format!("{} problems: {}", problems.len(), problems.join("; "))
-        },
-    }
+pub(crate) fn refused(target: &Target, problems: Vec<Problem>) -> EngineError {
+    EngineError::refused(target.clone(), Refusal::Plan { problems })
 }
 
 /// Read `keys` off the drive into a set of the client's schema.
@@ -576,10 +565,13 @@ fn stats_since(now: ClientStats, then: ClientStats) -> ClientStats {
 
 /// A step called out of order (a caller's mistake, not the drive's).
 fn out_of_order(target: &Target, step: &str, before: &str) -> StepError {
-    StepError::Settled(EngineError::Refused {
-        target: target.clone(),
-        reason: format!("transaction step `{step}` called before `{before}`"),
-    })
+    StepError::Settled(EngineError::refused(
+        target.clone(),
+        Refusal::StepOutOfOrder {
+            step: step.into(),
+            before: before.into(),
+        },
+    ))
 }
 
 impl Transaction {
@@ -959,6 +951,7 @@ impl Transaction {
                     broadcast: Vec::new(),
                     transitions: Vec::new(),
                     failure: None,
+                    failure_cause: None,
                     holding: Vec::new(),
                 };
                 journal.transition(TxnState::Planned, at, None);
@@ -1036,13 +1029,10 @@ impl Transaction {
         let marked: Vec<CodeKey> = a.broadcast.iter().copied().collect();
         self.attempt = Some(a);
         if !unknown.is_empty() {
-            return Err(StepError::Error(EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "broadcast of {} refused: not a value this drive's dataset stages",
-                    unknown.join(", ")
-                ),
-            }));
+            return Err(StepError::Error(EngineError::refused(
+                self.target.clone(),
+                Refusal::BroadcastNotStaged { codes: unknown },
+            )));
         }
         for k in marked {
             self.records.entry(k).or_default().touched = true;
@@ -1233,8 +1223,9 @@ impl Transaction {
     pub fn stopped(&mut self, client: &mut dyn DriveClient, stop: StepError) -> Next {
         match stop {
             StepError::Settled(e) => Next::Failed(e),
-            StepError::Error(e @ EngineError::Restarted { .. })
-                if self.attempts <= self.opts.max_restarts =>
+            StepError::Error(e)
+                if matches!(*e.kind, ErrorKind::Restarted { .. })
+                    && self.attempts <= self.opts.max_restarts =>
             {
                 if self.journal.is_some() {
                     let note = format!("{e}; redoing from the read-back");
@@ -1291,7 +1282,7 @@ impl Transaction {
             // other failure (no answer, a garbled one) may or may not have
             // landed, so the code stays touched (a broadcast one always).
             let r = self.records.entry(key).or_default();
-            if matches!(e, EngineError::Device { .. }) && !a.broadcast.contains(&key) {
+            if matches!(*e.kind, ErrorKind::Device { .. }) && !a.broadcast.contains(&key) {
                 r.touched = false;
             }
             r.outcome = CodeOutcome::Failed(e.to_string());
@@ -1383,11 +1374,11 @@ impl Transaction {
                 value_text(&self.schema, key, &want)
             );
             self.set_outcome(key, CodeOutcome::Failed(detail.clone()));
-            return Err(StepError::Error(EngineError::Protocol {
-                target: self.target.clone(),
-                what: format!("verify {}", code_label(&self.schema, key)),
+            return Err(StepError::Error(EngineError::protocol(
+                self.target.clone(),
+                format!("verify {}", code_label(&self.schema, key)),
                 detail,
-            }));
+            )));
         }
         let r = self.records.entry(key).or_default();
         r.outcome = CodeOutcome::Verified;
@@ -1420,15 +1411,15 @@ impl Transaction {
         for k in staged {
             self.set_outcome(*k, CodeOutcome::Failed("dataset rejected".into()));
         }
-        let cause = EngineError::Device {
-            target: self.target.clone(),
-            what: "dataset download (80-SLOAD)".into(),
-            cause: crate::error::DeviceCause {
-                cause: "dataset rejected".into(),
-                raw: format!("SLOAD = {parameter}"),
-                remedy: format!("fix the value of {name}"),
+        let cause = EngineError::device(
+            self.target.clone(),
+            "dataset download (80-SLOAD)",
+            DeviceCause::DatasetRejected {
+                parameter,
+                name: name.clone(),
+                backup: false,
             },
-        };
+        );
         // confirm nothing changed
         let n = Some(self.backup().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
@@ -1442,12 +1433,12 @@ impl Transaction {
                         &format!("{detail}; the drive holds its old values again (verified)"),
                     ));
                 }
-                StepError::Settled(EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
+                StepError::Settled(EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
                     detail,
-                    cause: Box::new(cause),
-                })
+                    cause,
+                ))
             }
             _ => StepError::Error(cause),
         }
@@ -1458,14 +1449,14 @@ impl Transaction {
     /// on disk still says an earlier state.
     fn journal_lost(&self, persist: EngineError, state: TxnState, drive: &str) -> EngineError {
         let on_disk = self.on_disk.map_or("an earlier state", TxnState::as_str);
-        EngineError::Journal {
-            path: self.journal_path(),
-            detail: format!(
+        EngineError::journal(
+            self.journal_path(),
+            format!(
                 "{drive}; but recording state `{}` failed ({persist}), so the journal on disk still says `{on_disk}`: fix the journal directory, then run `driveset recover {}`",
                 state.as_str(),
                 self.journal_path()
             ),
-        }
+        )
     }
 
     /// Read every backed-up code; the codes that differ from the backup.
@@ -1487,6 +1478,7 @@ impl Transaction {
         let cause_text = cause.to_string();
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
+            j.journal.failure_cause = Some(FailureCause::of(&cause));
         }
         let n = Some(self.touched().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
@@ -1525,12 +1517,12 @@ impl Transaction {
                         &format!("{detail} (read back and compared)"),
                     );
                 }
-                EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail: cause_text,
-                    cause: Box::new(cause),
-                }
+                EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
+                    cause_text,
+                    cause,
+                )
             }
             other => {
                 let restore_err = match other {
@@ -1559,11 +1551,7 @@ impl Transaction {
                         &format!("the drive holds a mix of old and new values: {detail}"),
                     );
                 }
-                EngineError::Inconsistent {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail,
-                }
+                EngineError::inconsistent(self.target.clone(), self.journal_path(), detail)
             }
         }
     }
@@ -1699,64 +1687,53 @@ fn restore_dataset(
         DatasetOutcome::Accepted => Ok(()),
         DatasetOutcome::Rejected { parameter } => {
             let name = code_label(schema, CodeKey::new(parameter));
-            Err(EngineError::Device {
-                target: client.target().clone(),
-                what: "dataset download of the backup (80-SLOAD)".into(),
-                cause: crate::error::DeviceCause {
-                    cause: "dataset rejected".into(),
-                    raw: format!("SLOAD = {parameter}"),
-                    remedy: format!(
-                        "the drive refuses its own old value of {name}; restore it by hand"
-                    ),
+            Err(EngineError::device(
+                client.target().clone(),
+                "dataset download of the backup (80-SLOAD)",
+                DeviceCause::DatasetRejected {
+                    parameter,
+                    name,
+                    backup: true,
                 },
-            })
+            ))
         }
     }
 }
 
-/// What each backed-up code holds now: `old`, `new`, `other`, `unknown`.
+/// What each backed-up code holds now.
 pub(crate) fn holdings(
     client: &mut dyn DriveClient,
     schema: &Schema,
     backup: &BTreeMap<CodeKey, RawValue>,
     new_values: &BTreeMap<CodeKey, RawValue>,
-) -> Vec<Holding> {
+) -> Vec<CodeHolding> {
     backup
         .iter()
         .map(|(k, old)| {
             let holds = match client.read(*k) {
-                Ok(v) if &v == old => "old",
-                Ok(v) if new_values.get(k) == Some(&v) => "new",
-                Ok(_) => "other",
-                Err(_) => "unknown",
+                Ok(v) if &v == old => Holding::Old,
+                Ok(v) if new_values.get(k) == Some(&v) => Holding::New,
+                Ok(_) => Holding::Other,
+                Err(_) => Holding::Unknown,
             };
-            Holding {
+            CodeHolding {
                 code: code_label(schema, *k),
-                holds: holds.into(),
+                holds,
             }
         })
         .collect()
 }
 
-pub(crate) fn describe_holdings(h: &[Holding]) -> String {
-    let mut by: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+pub(crate) fn describe_holdings(h: &[CodeHolding]) -> String {
+    let mut by: BTreeMap<Holding, Vec<&str>> = BTreeMap::new();
     for x in h {
-        by.entry(x.holds.as_str())
-            .or_default()
-            .push(x.code.as_str());
+        by.entry(x.holds).or_default().push(x.code.as_str());
     }
-    let parts: Vec<String> = ["new", "other", "unknown", "old"]
+    let parts: Vec<String> = [Holding::New, Holding::Other, Holding::Unknown, Holding::Old]
         .iter()
         .filter_map(|w| {
-            by.get(w).map(|codes| {
-                let what = match *w {
-                    "new" => "hold the new value",
-                    "other" => "hold neither the old nor the new value",
-                    "unknown" => "could not be read",
-                    _ => "hold the old value",
-                };
-                format!("{} {what}", codes.join(", "))
-            })
+            by.get(w)
+                .map(|codes| format!("{} {}", codes.join(", "), w.describe()))
         })
         .collect();
     if parts.is_empty() {

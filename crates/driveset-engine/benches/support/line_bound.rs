@@ -83,7 +83,7 @@ pub fn mc_drive(
         .identity
         .codes
         .iter()
-        .find_map(|(_, v)| v.parse::<u64>().ok())
+        .find_map(|c| c.value.to_string().parse::<u64>().ok())
         .map_or(1, |t| format!("{t:X}").len());
     let mut before = mc_read(type_len, baud, reaction);
     for (k, v) in &prepared.current.values {

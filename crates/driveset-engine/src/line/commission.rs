@@ -113,10 +113,6 @@
 //! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
 //! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -134,7 +130,7 @@ use super::report::{
 };
 use crate::client::{BorrowedByteLink, DriveClient, Identity, LecomClient, LustbusClient, Target};
 use crate::env::{Environment, rfc3339};
-use crate::error::EngineError;
+use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::identify::check_family;
 use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
@@ -810,10 +806,10 @@ enum Failure {
 }
 
 fn failure_of(e: &EngineError) -> Option<Failure> {
-    match e {
-        EngineError::Link { .. } => Some(Failure::Link),
-        EngineError::NoAnswer { .. } => Some(Failure::NoAnswer),
-        EngineError::RolledBack { cause, .. } => failure_of(cause),
+    match &*e.kind {
+        ErrorKind::Link(_) => Some(Failure::Link),
+        ErrorKind::NoAnswer { .. } => Some(Failure::NoAnswer),
+        ErrorKind::RolledBack { cause, .. } => failure_of(cause),
         _ => None,
     }
 }
@@ -914,27 +910,24 @@ fn run_drive(
                 .iter()
                 .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
                 .collect();
-            return Err(EngineError::Journal {
-                path: unfinished[0].path.display().to_string(),
-                detail: format!(
+            return Err(EngineError::journal(
+                unfinished[0].path.display().to_string(),
+                format!(
                     "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
                     client.target(),
                     list.join(", "),
                     unfinished[0].path.display()
                 ),
-            });
+            ));
         }
         if !unfinished.is_empty() {
             hook.enter(client.clock(), Phase::Recover, None);
         }
         for u in &unfinished {
             let rep = recover(&mut *client, &u.path, &RecoverOptions::default()).map_err(|e| {
-                EngineError::Journal {
-                    path: u.path.display().to_string(),
-                    detail: format!(
+                EngineError::journal(u.path.display().to_string(), format!(
                         "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
-                    ),
-                }
+                    ))
             })?;
             let did = match rep.action {
                 RecoverAction::Completed => "completed (the drive held the new values)",
@@ -951,7 +944,7 @@ fn run_drive(
             Mode::Status => {
                 hook.enter(client.clock(), Phase::Identify, None);
                 let id = check_family(&mut *client)?;
-                r.identity = id.codes.clone();
+                r.identity = id.pairs();
                 hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
                 let live = live_values(&mut *client, &d.set)?;
                 let fp = live.fingerprint();
@@ -976,7 +969,7 @@ fn run_drive(
                     // confirm with one read of the set's codes
                     hook.enter(client.clock(), Phase::Identify, None);
                     let id = check_family(&mut *client)?;
-                    r.identity = id.codes.clone();
+                    r.identity = id.pairs();
                     hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
                     let live = live_values(&mut *client, &d.set)?;
                     let fp = live.fingerprint();
@@ -1016,7 +1009,7 @@ fn run_drive(
                             r.codes_written = rep.codes_written as u32;
                         }
                         let e = *f.error;
-                        if matches!(e, EngineError::RolledBack { .. }) {
+                        if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
                             r.result = DriveResult::RolledBack;
                         }
                         Err(e)
@@ -1189,7 +1182,7 @@ fn fill_from_upload(
     identity: &Identity,
     codes: &[crate::upload::CodeReport],
 ) {
-    r.identity = identity.codes.clone();
+    r.identity = identity.pairs();
     r.diff = codes
         .iter()
         .filter(|c| c.outcome != crate::upload::CodeOutcome::Unchanged)
@@ -1499,13 +1492,13 @@ fn lust_client<'l>(
         Link::Bytes(b) => {
             LustbusClient::new(BorrowedByteLink(&mut **b), d.schema.clone(), d.address)
         }
-        Link::Frames(f) => Err(EngineError::Refused {
-            target: Target {
+        Link::Frames(f) => Err(EngineError::refused(
+            Target {
                 port: f.port().to_string(),
                 address: d.address,
             },
-            reason: "a LUSTBUS drive on a CAN bus".into(),
-        }),
+            Refusal::LustbusOnCan,
+        )),
     }
 }
 
@@ -1556,7 +1549,7 @@ fn settle_drive(
                 r.codes_written = rep.codes_written as u32;
             }
             let e = *f.error;
-            r.result = if matches!(e, EngineError::RolledBack { .. }) {
+            r.result = if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
                 DriveResult::RolledBack
             } else {
                 DriveResult::Failed
@@ -1616,7 +1609,7 @@ fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> Fi
         {
             hook.enter(client.clock(), Phase::Identify, None);
             let id = check_family(&mut *client)?;
-            r.identity = id.codes.clone();
+            r.identity = id.pairs();
             hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
             let live = live_values(&mut *client, &d.set)?;
             let fp = live.fingerprint();
