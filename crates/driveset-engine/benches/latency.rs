@@ -101,6 +101,9 @@ impl<L: ByteLink> ByteLink for Delayed<L> {
     fn flush(&mut self) -> Result<(), LinkError> {
         self.inner.flush()
     }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.inner.set_baud(baud)
+    }
 }
 
 const LATENCIES_MS: [u64; 5] = [0, 5, 16, 40, 100];

@@ -67,6 +67,10 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
+    /// The transfer-rate switch [`crate::transfer`] recorded in the
+    /// journal before this upload: the journal file is this transaction's
+    /// (the guard has run), and the upload's journal keeps the record.
+    pub transfer: Option<crate::journal::TransferRecord>,
 }
 
 /// How the runner paces writes.
@@ -95,6 +99,7 @@ impl UploadOptions {
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
             strategy: Strategy::Interleaved,
+            transfer: None,
         }
     }
 }
@@ -181,6 +186,9 @@ pub struct UploadReport {
     pub codes: Vec<CodeReport>,
     /// Notes.
     pub warnings: Vec<String>,
+    /// The transfer rate (`--transfer-baud`): switched or not, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transfer: Option<crate::transfer::TransferReport>,
 }
 
 fn ser_duration_ms<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -229,6 +237,9 @@ impl UploadReport {
                 o => format!("{o:?}").to_lowercase(),
             };
             let _ = writeln!(out, "  {}: {} -> {}  {outcome}", c.code, c.old, c.new);
+        }
+        if let Some(t) = &self.transfer {
+            out.push_str(&t.render());
         }
         for w in &self.warnings {
             let _ = writeln!(out, "warning: {w}");
@@ -373,7 +384,9 @@ pub fn upload(
     if !problems.is_empty() {
         return Err(refused(&target, problems).into());
     }
-    check_unfinished(&*client, &opts.journal)?;
+    if opts.transfer.is_none() {
+        check_unfinished(&*client, &opts.journal)?;
+    }
     let identity = client.identify()?;
     popts.identity = Some(identity.clone());
     // The running-motor check is done in the attempt, only when something
@@ -647,12 +660,18 @@ impl Txn<'_> {
                     transitions: Vec::new(),
                     failure: None,
                     holding: Vec::new(),
+                    transfer: self.opts.transfer.clone(),
                 };
                 journal.transition(TxnState::Planned, at, None);
                 crate::journal::ensure_dir(journal_dir(&self.opts.journal))
                     .map_err(Stop::Settled)?;
-                self.journal =
-                    Some(JournalFile::create(&self.opts.journal, journal).map_err(Stop::Settled)?);
+                let file = if self.opts.transfer.is_some() {
+                    // crate::transfer's journal of this transaction
+                    JournalFile::replace(&self.opts.journal, journal)
+                } else {
+                    JournalFile::create(&self.opts.journal, journal)
+                };
+                self.journal = Some(file.map_err(Stop::Settled)?);
             }
             Some(j) => {
                 // keep codes only an earlier attempt planned (their new value is the set's)
@@ -1027,6 +1046,7 @@ impl Txn<'_> {
             late_replies: stats.late.saturating_sub(self.stats0.late),
             codes,
             warnings: self.warnings.clone(),
+            transfer: None,
         }
     }
 }

@@ -569,6 +569,57 @@ impl ByteLink for Rfc2217Link {
             .flush()
             .map_err(|e| LinkError::io(&self.name, "flush to the device server", e))
     }
+
+    /// RFC 2217 SET-BAUDRATE (`IAC SB 44 1 <baud, 4 bytes big-endian> IAC
+    /// SE`), then waits (up to 2 s) for the server's confirmation (code
+    /// 101) with the same rate; data arriving meanwhile is kept.
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        if !ALLOWED_BAUDS.contains(&baud) {
+            return Err(LinkError::UnsupportedBaud {
+                port: self.name.clone(),
+                baud,
+            });
+        }
+        let value = baud.to_be_bytes();
+        self.write_raw(&com_port_command(SET_BAUDRATE, &value))?;
+        let deadline = RealClock.deadline_in(Duration::from_secs(2));
+        loop {
+            let Some(events) = self.read_events(deadline)? else {
+                return Err(LinkError::Rfc2217 {
+                    port: self.name.clone(),
+                    detail: format!(
+                        "the server did not confirm the baud rate {baud} within 2 s; check that it is an RFC 2217 server"
+                    ),
+                });
+            };
+            let mut confirmed = None;
+            for e in events {
+                match e {
+                    TelnetEvent::Sub(sub)
+                        if sub.len() >= 2
+                            && sub[0] == COM_PORT_OPTION
+                            && sub[1] == SERVER_OFFSET + SET_BAUDRATE =>
+                    {
+                        confirmed = Some(sub[2..].to_vec());
+                    }
+                    other => self.handle(other)?,
+                }
+            }
+            if let Some(got) = confirmed {
+                if got != value {
+                    return Err(LinkError::Rfc2217 {
+                        port: self.name.clone(),
+                        detail: format!(
+                            "the server set the baud rate to {} instead of {baud}: its serial port cannot run at that rate; pick a rate it supports",
+                            setting_value(SET_BAUDRATE, &got)
+                        ),
+                    });
+                }
+                self.baud = baud;
+                return Ok(());
+            }
+        }
+    }
 }
 
 impl Drop for Rfc2217Link {

@@ -1259,6 +1259,12 @@ impl DriveClient for Recorder<'_> {
     fn has_dataset_download(&self) -> bool {
         self.inner.has_dataset_download()
     }
+    fn line_rate(&self) -> Option<u32> {
+        self.inner.line_rate()
+    }
+    fn set_line_rate(&mut self, baud: u32) -> Result<(), EngineError> {
+        self.inner.set_line_rate(baud)
+    }
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
         self.wrote = true;
         self.track("write", |s| s.inner.dataset_begin())
