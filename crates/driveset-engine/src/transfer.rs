@@ -1005,19 +1005,20 @@ pub fn pull(
     }
 }
 
-/// Read `keys` (a live diff) with a transfer rate; the journal at
-/// `journal` records the switch.
-pub fn read_set(
+/// A live diff ([`crate::live::live_diff`]) with a transfer rate; the
+/// journal at `journal` records the switch.
+pub fn live_diff(
     client: &mut dyn DriveClient,
-    keys: &[CodeKey],
+    set: &ResolvedSet,
     req: &TransferRequest,
     journal: &Path,
-) -> Result<(ResolvedSet, TransferReport), EngineError> {
-    let session = begin(client, req, journal, String::new(), keys, &[])?;
-    let result = crate::upload::read_values(client, keys.iter().copied());
+) -> Result<(driveset_schema::Diff, TransferReport), EngineError> {
+    let keys = upload_exchanges(set);
+    let session = begin(client, req, journal, set.fingerprint(), &keys, &[])?;
+    let result = crate::live::live_diff(client, set);
     let back = end(client, session, journal, result.is_ok());
     match (result, back) {
-        (Ok(s), Ok(t)) => Ok((s, t)),
+        (Ok(d), Ok(t)) => Ok((d, t)),
         (Ok(_), Err((_, why))) => Err(EngineError::NoAnswer {
             target: client.target().clone(),
             what: format!(

@@ -106,6 +106,10 @@ pub struct Args {
     /// Learning the schema from the drive.
     #[command(flatten)]
     pub learn: learning::LearnArgs,
+    /// The transfer rate (the switch is journaled in
+    /// .driveset/journal/<bus>-<address>.journal.json).
+    #[command(flatten)]
+    pub transfer: super::allow::TransferArgs,
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -233,18 +237,37 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .iter()
         .map(|c| c.subcodes.filter(|n| *n > 0).unwrap_or(1) as usize)
         .sum();
+    let popts = PullOptions {
+        changed_only: args.changed_only,
+        include_passwords: false,
+    };
+    let mut transfer_note = None;
     let pulled = {
         let mut p = Progress::new(client.as_mut(), "pull", count, quiet);
-        let r = engine_pull(
-            &mut p,
-            &PullOptions {
-                changed_only: args.changed_only,
-                include_passwords: false,
-            },
-        );
+        let r = match args
+            .transfer
+            .request(&driveset_engine::overrides::Overrides::none())
+        {
+            Some(req) => {
+                let journal = driveset_engine::upload::default_journal_path(
+                    Path::new(super::upload::DEFAULT_JOURNAL_DIR),
+                    &p,
+                );
+                driveset_engine::transfer::pull(&mut p, &popts, &req, &journal).map(|(x, t)| {
+                    transfer_note = Some(t.render());
+                    x
+                })
+            }
+            None => engine_pull(&mut p, &popts),
+        };
         p.done();
         r?
     };
+    if let Some(t) = &transfer_note
+        && !quiet
+    {
+        eprint!("{t}");
+    }
     client.finish()?;
     // Read-only codes (actual values) are read but cannot be part of a set
     // (`validate` refuses them): they go into the header as comments.

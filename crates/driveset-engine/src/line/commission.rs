@@ -835,7 +835,31 @@ fn run_drive(
                 }
                 let mut uo = UploadOptions::new(&journal_path);
                 uo.overrides = ctx.opts.overrides;
-                match upload(&mut client, &d.set, &uo) {
+                let transfer = bus
+                    .transfer_baud
+                    .filter(|_| d.schema.family.descriptor().line_rates.online.is_some())
+                    .map(|rate| {
+                        let mut others = bus.families.clone();
+                        if let Some(i) = others.iter().position(|f| *f == d.schema.family) {
+                            others.remove(i);
+                        }
+                        crate::transfer::TransferRequest {
+                            rate,
+                            others,
+                            allow_shared: ctx.opts.overrides.allow_shared_transfer_baud,
+                        }
+                    });
+                let result = match &transfer {
+                    Some(req) => crate::transfer::upload(&mut client, &d.set, &uo, req),
+                    None => upload(&mut client, &d.set, &uo),
+                };
+                if let Some(t) = result.as_ref().map_or_else(
+                    |f| f.report.as_ref().and_then(|r| r.transfer.clone()),
+                    |r| r.transfer.clone(),
+                ) {
+                    ctx.warn(format!("{}: {}", d.name, t.decision.summary()));
+                }
+                match result {
                     Ok(rep) => {
                         fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
                         r.fingerprint_before = Some(rep.fingerprint_before.clone());
