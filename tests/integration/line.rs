@@ -412,3 +412,46 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         }
     }
 }
+
+#[test]
+fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    let axis = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    let fan = workspace_root().join("parameter-sets/vf1000/conveyor-1.toml");
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"fast\"\n\n[[bus]]\nname = \"lustbus\"\nport = \"sim://lustbus?mc6000=1&vf1000=5\"\nprotocol = \"lustbus\"\nbaud = 9600\ntransfer_baud = 57600\n\n[[drive]]\nbus = \"lustbus\"\naddress = 1\nset = \"{}\"\nname = \"press\"\n\n[[drive]]\nbus = \"lustbus\"\naddress = 5\nset = \"{}\"\nname = \"fan\"\n",
+            axis.display(),
+            fan.display()
+        ),
+    )
+    .unwrap();
+    let out = in_dir(d)
+        .args(["commission", "line.toml"])
+        .assert()
+        .get_output()
+        .clone();
+    println!(
+        "code {:?}\n{}\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{}", serde_json::to_string_pretty(&report(d)).unwrap());
+    let out = in_dir(d)
+        .args(["commission", "line.toml", "--allow-shared-transfer-baud"])
+        .assert()
+        .get_output()
+        .clone();
+    println!(
+        "code {:?}\n{}\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{}", serde_json::to_string_pretty(&report(d)).unwrap());
+    panic!("look");
+}

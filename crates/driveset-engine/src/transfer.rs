@@ -120,8 +120,20 @@ fn ser_ms<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_f64(d.as_secs_f64() * 1000.0)
 }
 
+fn exchanges(n: usize) -> String {
+    if n == 1 {
+        "1 exchange".into()
+    } else {
+        format!("{n} exchanges")
+    }
+}
+
 fn secs(d: Duration) -> String {
-    format!("{:.1} s", d.as_secs_f64())
+    if d >= Duration::from_secs(1) {
+        format!("{:.1} s", d.as_secs_f64())
+    } else {
+        format!("{} ms", d.as_millis())
+    }
 }
 
 impl Decision {
@@ -137,11 +149,11 @@ impl Decision {
         }
         if self.switch {
             format!(
-                "transfer rate {}: saves {} of {} ({} exchanges: {} at {} baud, {} at {} baud plus {} to switch over and back)",
+                "transfer rate {}: saves {} of {} ({}: {} at {} baud, {} at {} baud plus {} to switch over and back)",
                 self.rate,
                 secs(self.at_old.saturating_sub(with)),
                 secs(self.at_old),
-                self.exchanges,
+                exchanges(self.exchanges),
                 secs(self.at_old),
                 self.old_rate,
                 secs(self.at_rate),
@@ -150,9 +162,9 @@ impl Decision {
             )
         } else {
             format!(
-                "transfer rate {}: not switched: it does not pay ({} exchanges: {} at {} baud against {} at {} baud plus {} to switch over and back)",
+                "transfer rate {}: not switched: it does not pay ({}: {} at {} baud against {} at {} baud plus {} to switch over and back)",
                 self.rate,
-                self.exchanges,
+                exchanges(self.exchanges),
                 secs(self.at_old),
                 self.old_rate,
                 secs(self.at_rate),

@@ -445,7 +445,7 @@ mod transfer_rate {
         assert!(!t.switched);
         assert_eq!(
             t.decision.summary(),
-            "transfer rate 57600: not switched: it does not pay (1 exchanges: 0.0 s at 9600 baud against 0.0 s at 57600 baud plus 0.1 s to switch over and back)"
+            "transfer rate 57600: not switched: it does not pay (1 exchange: 0.0 s at 9600 baud against 0.0 s at 57600 baud plus 0.1 s to switch over and back)"
         );
         assert!(
             !seq(&log).iter().any(|s| s.contains("00081=")),
