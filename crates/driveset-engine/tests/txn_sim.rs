@@ -295,7 +295,7 @@ mod transfer_rate {
         assert!(
             t.decision
                 .summary()
-                .starts_with("transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 1.0 s at 57600 baud plus 0.1 s to switch over and back)"),
+                .starts_with("transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 962 ms at 57600 baud plus 112 ms to switch over and back)"),
             "{}",
             t.decision.summary()
         );
@@ -445,7 +445,7 @@ mod transfer_rate {
         assert!(!t.switched);
         assert_eq!(
             t.decision.summary(),
-            "transfer rate 57600: not switched: it does not pay (1 exchange: 0.0 s at 9600 baud against 0.0 s at 57600 baud plus 0.1 s to switch over and back)"
+            "transfer rate 57600: not switched: it does not pay (1 exchange: 23 ms at 9600 baud against 4 ms at 57600 baud plus 112 ms to switch over and back)"
         );
         assert!(
             !seq(&log).iter().any(|s| s.contains("00081=")),
