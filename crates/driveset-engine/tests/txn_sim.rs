@@ -230,14 +230,6 @@ mod transfer_rate {
         bus
     }
 
-    fn host_texts(log: &EventLog) -> Vec<String> {
-        log.events()
-            .iter()
-            .filter(|e| e.dir == Dir::Host)
-            .map(|e| e.text.clone())
-            .collect()
-    }
-
     /// The log as `h:` host / `d:` drive texts and `e:` notes.
     fn seq(log: &EventLog) -> Vec<String> {
         log.events()
