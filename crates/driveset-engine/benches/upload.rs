@@ -281,6 +281,7 @@ fn pull_run(rate: Option<u32>) -> (Duration, Duration, usize) {
                 &popts,
                 &TransferRequest::new(r),
                 &dir.path().join("pull.json"),
+                &driveset_engine::observe::Hook::none(),
             )
             .expect("pull");
             assert!(t.switched, "{}", t.render());

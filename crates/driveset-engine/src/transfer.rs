@@ -996,10 +996,11 @@ pub fn pull(
     opts: &PullOptions,
     req: &TransferRequest,
     journal: &Path,
+    hook: &crate::observe::Hook,
 ) -> Result<(Pulled, TransferReport), EngineError> {
     let reads = pull_exchanges(client.schema(), opts);
     let session = begin(client, req, journal, String::new(), &reads, &[])?;
-    let result = crate::pull::pull(client, opts);
+    let result = crate::pull::pull_observed(client, opts, hook);
     let back = end(client, session, journal, result.is_ok());
     match (result, back) {
         (Ok(p), Ok(t)) => Ok((p, t)),

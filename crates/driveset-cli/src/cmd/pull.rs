@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
-use driveset_engine::pull::{PullOptions, pull as engine_pull};
+use driveset_engine::pull::{PullOptions, pull_observed as engine_pull};
 use driveset_schema::schema::{Access, StorageKind};
 use driveset_schema::{Format, export};
 use serde_json::json;
@@ -232,18 +232,13 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         });
     }
     let quiet = args.format == BusFormat::Json;
-    let count: usize = schema
-        .codes
-        .iter()
-        .map(|c| c.subcodes.filter(|n| *n > 0).unwrap_or(1) as usize)
-        .sum();
     let popts = PullOptions {
         changed_only: args.changed_only,
         include_passwords: false,
     };
     let mut transfer_note = None;
     let pulled = {
-        let mut p = Progress::new(client.as_mut(), "pull", count, quiet);
+        let p = Progress::new("pull", quiet);
         let r = match args
             .transfer
             .request(&driveset_engine::overrides::Overrides::none())
@@ -251,14 +246,15 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             Some(req) => {
                 let journal = driveset_engine::upload::default_journal_path(
                     Path::new(super::upload::DEFAULT_JOURNAL_DIR),
-                    &p,
+                    client.as_ref(),
                 );
-                driveset_engine::transfer::pull(&mut p, &popts, &req, &journal).map(|(x, t)| {
-                    transfer_note = Some(t.render());
-                    x
-                })
+                driveset_engine::transfer::pull(client.as_mut(), &popts, &req, &journal, &p.hook())
+                    .map(|(x, t)| {
+                        transfer_note = Some(t.render());
+                        x
+                    })
             }
-            None => engine_pull(&mut p, &popts),
+            None => engine_pull(client.as_mut(), &popts, &p.hook()),
         };
         p.done();
         r?
