@@ -23,15 +23,12 @@
 //! port string, a schema that does not fit the port, a refusal before
 //! anything was sent), 3 for bus and device failures.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::client::{DriveClient, LustbusOptions};
 use driveset_engine::connect::ConnectOptions;
-use driveset_engine::error::EngineError;
+use driveset_engine::error::{EngineError, ErrorKind};
 use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
 use driveset_sim::log::EventLog;
@@ -71,10 +68,10 @@ impl Fail {
 /// drive did is 3 (a rolled-back upload included: the drive holds its old
 /// values, the set did not land).
 pub fn engine_exit(e: &EngineError) -> u8 {
-    match e {
-        EngineError::Refused { .. }
-        | EngineError::Journal { .. }
-        | EngineError::NotJournalDrive { .. } => EXIT_INPUT,
+    match e.kind() {
+        ErrorKind::Refused(_) | ErrorKind::Journal { .. } | ErrorKind::NotJournalDrive { .. } => {
+            EXIT_INPUT
+        }
         _ => EXIT_BUS,
     }
 }

@@ -123,8 +123,6 @@
 //! upload at 9600 (the store time after SLOAD = -2 does not shrink with
 //! the rate), the re-run and the pull <= 0.30 x theirs at 9600.
 
-#![allow(clippy::result_large_err)]
-
 #[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
 

@@ -61,7 +61,7 @@ use driveset_schema::value::Repr;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DriveClient, Target};
-use crate::error::EngineError;
+use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::journal::{
     JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue, TransferRecord,
     TransferState, TxnState,
@@ -69,7 +69,7 @@ use crate::journal::{
 use crate::overrides::Override;
 use crate::plan::code_label;
 use crate::pull::{PullOptions, Pulled};
-use crate::upload::{UploadFailure, UploadOptions, UploadReport, refused};
+use crate::upload::{UploadFailure, UploadOptions, UploadReport};
 
 /// What the command asks for.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -207,7 +207,7 @@ struct Codes {
 }
 
 fn refuse(target: &Target, reason: String) -> EngineError {
-    refused(target, vec![reason])
+    EngineError::refused(target.clone(), Refusal::TransferRate { detail: reason })
 }
 
 /// Check everything that needs no telegram: the family can switch online,
@@ -333,9 +333,9 @@ pub fn check(client: &mut dyn DriveClient, req: &TransferRequest) -> Result<(), 
     if old != 0
         && let Err(e) = client.set_line_rate(old)
     {
-        let why = match e {
-            EngineError::Link { source, .. } => source.to_string(),
-            other => other.to_string(),
+        let why = match e.kind() {
+            ErrorKind::Link(source) => source.to_string(),
+            _ => e.to_string(),
         };
         return Err(refuse(
             &target,
@@ -484,6 +484,7 @@ fn placeholder(
         written: Vec::new(),
         transitions: Vec::new(),
         failure: None,
+        failure_cause: None,
         holding: Vec::new(),
         transfer: Some(record),
     }
@@ -515,14 +516,14 @@ fn confirm(client: &mut dyn DriveClient, c: Codes, want: u32) -> Result<(), Engi
     if as_rate(&got) == Some(want) {
         Ok(())
     } else {
-        Err(EngineError::Protocol {
-            target: client.target().clone(),
-            what: format!("confirm the line rate {want}"),
-            detail: format!(
+        Err(EngineError::protocol(
+            client.target().clone(),
+            format!("confirm the line rate {want}"),
+            format!(
                 "{} reads {got:?} at {want} baud instead of {want}",
                 code_label(client.schema(), c.rate)
             ),
-        })
+        ))
     }
 }
 
@@ -543,21 +544,23 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
     }
     for r in order {
         if client.line_rate() != Some(r) {
-            match client.set_line_rate(r) {
-                Ok(()) => {}
-                Err(EngineError::Link {
-                    source: driveset_link::LinkError::UnsupportedBaud { .. },
-                    ..
-                }) => continue,
-                Err(e) => return Err(e),
+            if let Err(e) = client.set_line_rate(r) {
+                if matches!(
+                    e.kind(),
+                    ErrorKind::Link(driveset_link::LinkError::UnsupportedBaud { .. })
+                ) {
+                    continue;
+                }
+                return Err(e);
             }
         }
         match client.read(c.rate) {
             Ok(_) => return Ok(Some(r)),
-            Err(EngineError::NoAnswer { .. } | EngineError::Protocol { .. }) => continue,
-            Err(e @ EngineError::Restarted { .. }) => return Err(e),
-            Err(EngineError::Device { .. }) => return Ok(Some(r)),
-            Err(e) => return Err(e),
+            Err(e) => match e.kind() {
+                ErrorKind::NoAnswer { .. } | ErrorKind::Protocol { .. } => continue,
+                ErrorKind::Device { .. } => return Ok(Some(r)),
+                _ => return Err(e),
+            },
         }
     }
     Ok(None)
@@ -695,11 +698,11 @@ fn switch_back_once(
         client.write(c.rate, &keep)?;
         let got = client.read(c.rate)?;
         if got != keep {
-            return Err(EngineError::Protocol {
-                target: client.target().clone(),
-                what: format!("verify {label}"),
-                detail: format!("reads back {got:?} instead of {keep:?}"),
-            });
+            return Err(EngineError::protocol(
+                client.target().clone(),
+                format!("verify {label}"),
+                format!("reads back {got:?} instead of {keep:?}"),
+            ));
         }
     }
     let stored = JournalValue::from(&keep);
@@ -720,45 +723,34 @@ fn with_rate_note(mut e: EngineError, back: &Back) -> EngineError {
         Ok(s) => s.clone(),
         Err(s) => format!("switching back from the transfer rate failed: {s}"),
     };
-    match &mut e {
-        EngineError::RolledBack { detail, .. }
-        | EngineError::Inconsistent { detail, .. }
-        | EngineError::Protocol { detail, .. } => {
+    match &mut *e.kind {
+        ErrorKind::RolledBack { detail, .. }
+        | ErrorKind::Inconsistent { detail, .. }
+        | ErrorKind::Protocol { detail, .. } => {
             let _ = write!(detail, "; {note}");
         }
-        EngineError::NoAnswer { what, .. } | EngineError::Device { what, .. } => {
+        ErrorKind::NoAnswer { what, .. } | ErrorKind::Device { what, .. } => {
             let _ = write!(what, " ({note})");
         }
-        EngineError::Refused { reason, .. } => {
-            let _ = write!(reason, "; {note}");
+        ErrorKind::Refused(Refusal::TransferRate { detail }) => {
+            let _ = write!(detail, "; {note}");
         }
         _ => {
-            return EngineError::Protocol {
-                target: target_of(&e),
-                what: "the transaction at the transfer rate".into(),
-                detail: format!("{e}; {note}"),
-            };
+            return EngineError::protocol(
+                target_of(&e),
+                "the transaction at the transfer rate",
+                format!("{e}; {note}"),
+            );
         }
     }
     e
 }
 
 fn target_of(e: &EngineError) -> Target {
-    match e {
-        EngineError::Link { target, .. }
-        | EngineError::NoAnswer { target, .. }
-        | EngineError::Device { target, .. }
-        | EngineError::Restarted { target, .. }
-        | EngineError::Refused { target, .. }
-        | EngineError::RolledBack { target, .. }
-        | EngineError::Inconsistent { target, .. }
-        | EngineError::NotJournalDrive { target, .. }
-        | EngineError::Protocol { target, .. } => target.clone(),
-        EngineError::Journal { path, .. } => Target {
-            port: path.clone(),
-            address: 0,
-        },
-    }
+    e.target.clone().unwrap_or_else(|| Target {
+        port: String::new(),
+        address: 0,
+    })
 }
 
 /// A switched session: what [`begin`] did, for [`end`].
@@ -935,15 +927,15 @@ pub fn upload(
         (Ok(mut report), Err((t, why))) => {
             report.transfer = Some(t);
             Err(UploadFailure {
-                error: Box::new(EngineError::NoAnswer {
-                    target: client.target().clone(),
-                    what: format!(
+                error: Box::new(EngineError::no_answer(
+                    client.target().clone(),
+                    format!(
                         "switching back from the transfer rate (the drive holds the set, verified; {why}; journal {}: run `driveset recover {}`)",
                         opts.journal.display(),
                         opts.journal.display()
                     ),
-                    tries: 1,
-                }),
+                    1,
+                )),
                 report: Some(Box::new(report)),
             })
         }
@@ -1004,15 +996,15 @@ pub fn pull(
     let back = end(client, session, journal, result.is_ok());
     match (result, back) {
         (Ok(p), Ok(t)) => Ok((p, t)),
-        (Ok(_), Err((_, why))) => Err(EngineError::NoAnswer {
-            target: client.target().clone(),
-            what: format!(
+        (Ok(_), Err((_, why))) => Err(EngineError::no_answer(
+            client.target().clone(),
+            format!(
                 "switching back from the transfer rate (the pull itself completed; {why}; journal {}: run `driveset recover {}`)",
                 journal.display(),
                 journal.display()
             ),
-            tries: 1,
-        }),
+            1,
+        )),
         (Err(e), Ok(t)) => Err(with_rate_note(e, &Ok(t.state))),
         (Err(e), Err((_, why))) => Err(with_rate_note(e, &Err(why))),
     }
@@ -1032,15 +1024,15 @@ pub fn live_diff(
     let back = end(client, session, journal, result.is_ok());
     match (result, back) {
         (Ok(d), Ok(t)) => Ok((d, t)),
-        (Ok(_), Err((_, why))) => Err(EngineError::NoAnswer {
-            target: client.target().clone(),
-            what: format!(
+        (Ok(_), Err((_, why))) => Err(EngineError::no_answer(
+            client.target().clone(),
+            format!(
                 "switching back from the transfer rate (the values were read; {why}; journal {}: run `driveset recover {}`)",
                 journal.display(),
                 journal.display()
             ),
-            tries: 1,
-        }),
+            1,
+        )),
         (Err(e), Ok(t)) => Err(with_rate_note(e, &Ok(t.state))),
         (Err(e), Err((_, why))) => Err(with_rate_note(e, &Err(why))),
     }
@@ -1075,16 +1067,16 @@ pub fn recover_rate(
     let here = client.line_rate().unwrap_or(rec.old_rate);
     let Some(found) = search(client, &[here, rec.transfer_rate, rec.old_rate])? else {
         let _ = client.set_line_rate(here);
-        return Err(EngineError::NoAnswer {
+        return Err(EngineError::no_answer(
             target,
-            what: format!(
+            format!(
                 "the search for the drive over every rate (lustbus-protocol.txt §5.1; the journal records a switch from {} to {} baud); {}",
                 rec.old_rate,
                 rec.transfer_rate,
                 whereabouts(&rec, None)
             ),
-            tries: 1,
-        });
+            1,
+        ));
     };
     let identity = client.identify()?;
     if !jf.journal.identity.matches(&identity) {
