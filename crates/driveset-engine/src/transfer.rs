@@ -543,16 +543,16 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
         }
     }
     for r in order {
-        if client.line_rate() != Some(r) {
-            if let Err(e) = client.set_line_rate(r) {
-                if matches!(
-                    e.kind(),
-                    ErrorKind::Link(driveset_link::LinkError::UnsupportedBaud { .. })
-                ) {
-                    continue;
-                }
-                return Err(e);
+        if client.line_rate() != Some(r)
+            && let Err(e) = client.set_line_rate(r)
+        {
+            if matches!(
+                e.kind(),
+                ErrorKind::Link(driveset_link::LinkError::UnsupportedBaud { .. })
+            ) {
+                continue;
             }
+            return Err(e);
         }
         match client.read(c.rate) {
             Ok(_) => return Ok(Some(r)),
