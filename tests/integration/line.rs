@@ -516,3 +516,51 @@ fn commission_broadcast_common_refuses_a_lustbus_with_vf1000_drives() {
             .any(|t| t["phase"] == "broadcast")
     );
 }
+
+#[test]
+fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    let axis = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    let fan = workspace_root().join("parameter-sets/vf1000/conveyor-1.toml");
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"fast\"\n\n[[bus]]\nname = \"lustbus\"\nport = \"sim://lustbus?mc6000=1&vf1000=4\"\nprotocol = \"lustbus\"\nbaud = 9600\ntransfer_baud = 57600\n\n[[drive]]\nbus = \"lustbus\"\naddress = 1\nset = \"{}\"\nname = \"press\"\n\n[[drive]]\nbus = \"lustbus\"\naddress = 4\nset = \"{}\"\nname = \"fan\"\n",
+            axis.display(),
+            fan.display()
+        ),
+    )
+    .unwrap();
+    // without the override the MC is refused before anything is sent to
+    // it; the VF1000 is uploaded at the bus's rate
+    in_dir(d)
+        .args(["commission", "line.toml"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains(
+            "press: sim://lustbus?mc6000=1&vf1000=4&baud=9600 address 1: refused: --transfer-baud 57600: the bus is shared with 1 drive(s) (Lust SMARTDRIVE VF1000) that cannot follow: while this drive talks at 57600 baud they hear garbage, and their watchdog (84-SIOT / SWDGT, lustbus-protocol.txt §5.2) may fire; give --allow-shared-transfer-baud to switch anyway, or leave out --transfer-baud\n",
+        ));
+    assert_eq!(
+        results(&report(d)),
+        [
+            ("press".to_string(), "failed".to_string()),
+            ("fan".to_string(), "verified".to_string())
+        ]
+    );
+    in_dir(d)
+        .args(["commission", "line.toml", "--allow-shared-transfer-baud"])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains(
+            "warning: press: transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 962 ms at 57600 baud plus 112 ms to switch over and back)\n",
+        ));
+    assert_eq!(
+        results(&report(d)),
+        [
+            ("press".to_string(), "verified".to_string()),
+            ("fan".to_string(), "already-verified".to_string())
+        ]
+    );
+}

@@ -129,3 +129,49 @@ fn pull_refuses_another_family() {
         .stderr(predicate::str::contains("simulates vf1000 drives"));
     assert!(!dir.path().join("x.toml").exists());
 }
+
+#[test]
+fn pull_with_transfer_baud_gives_the_same_file_as_at_9600() {
+    let dir = tempfile::tempdir().unwrap();
+    let pull = |file: &str, extra: &[&str]| {
+        let out = dir.path().join(file);
+        let got = driveset()
+            .current_dir(dir.path())
+            .args([
+                "pull",
+                "--port",
+                "sim://mc6000?addresses=1",
+                "--address",
+                "1",
+                "-o",
+            ])
+            .arg(&out)
+            .args(extra)
+            .assert()
+            .code(0)
+            .get_output()
+            .clone();
+        (
+            fingerprint_line(&got.stdout),
+            String::from_utf8_lossy(&got.stderr).to_string(),
+        )
+    };
+    let (plain, _) = pull("plain.toml", &[]);
+    let (fast, stderr) = pull("fast.toml", &["--transfer-baud", "57600"]);
+    assert_eq!(plain, fast);
+    assert!(
+        stderr.contains("transfer rate 57600: saves ")
+            && stderr.contains("line rate: the drive runs at 9600 baud again; 81-SBAUD = 9600\n"),
+        "{stderr}"
+    );
+    let j = std::fs::read_to_string(
+        dir.path()
+            .join(".driveset/journal/sim_mc6000-1.journal.json"),
+    )
+    .unwrap();
+    let j: serde_json::Value = serde_json::from_str(&j).unwrap();
+    assert_eq!(
+        (j["state"].as_str(), j["transfer"]["state"].as_str()),
+        (Some("complete"), Some("back"))
+    );
+}

@@ -155,7 +155,7 @@ fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given()
         .args(["upload", "ok.toml", "--port", VF, "--address", "1", "--force"])
         .assert()
         .code(2)
-        .stderr("error: --force was replaced by named overrides, each lifting one refusal: --allow-family, --allow-running, --allow-running-unknown, --allow-address-change (commands and control words that could start a motor have none)\n");
+        .stderr("error: --force was replaced by named overrides, each lifting one refusal: --allow-family, --allow-running, --allow-running-unknown, --allow-address-change, --allow-shared-transfer-baud (commands and control words that could start a motor have none)\n");
     assert!(!d.join("sim/sim-vf1000.json").exists());
 }
 

@@ -232,3 +232,91 @@ fn upload_tmd_json_report() {
     );
     assert!(dir.path().join("j.json").exists());
 }
+
+// --transfer-baud (issue 12): the switch itself is tested telegram by
+// telegram in driveset-engine's txn_sim; here the command line.
+
+#[test]
+fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    // the dry run says it would pay, and writes nothing
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run", "--transfer-baud", "57600"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 962 ms at 57600 baud plus 112 ms to switch over and back)\n",
+        ));
+    assert!(!dir.path().join(".driveset").exists());
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--transfer-baud", "57600"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "transfer rate 57600: saves 3.7 s of 4.8 s",
+        ))
+        .stdout(predicate::str::contains(
+            "\nline rate: the drive runs at 9600 baud again; 81-SBAUD holds 19200 (not active: in effect after the drive's next restart)\n",
+        ));
+    let journals: Vec<_> = std::fs::read_dir(dir.path().join(".driveset/journal"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.to_string_lossy().ends_with(".journal.json"))
+        .collect();
+    assert_eq!(journals.len(), 1, "{journals:?}");
+    let journal = &journals[0];
+    let text = std::fs::read_to_string(journal).unwrap();
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(j["state"], "complete");
+    assert_eq!(j["transfer"]["state"], "back");
+    assert_eq!(j["transfer"]["old_rate"], 9600);
+    assert_eq!(j["transfer"]["transfer_rate"], 57600);
+    assert_eq!(j["transfer"]["stored"], serde_json::json!({"int": 19200}));
+    // the next command talks at 9600 and finds the set
+    in_dir(dir.path())
+        .args([
+            "diff",
+            &set(AXIS1),
+            "--port",
+            PORT,
+            "--address",
+            "1",
+            "--transfer-baud",
+            "57600",
+        ])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains("transfer rate 57600: saves "));
+}
+
+#[test]
+fn transfer_baud_refusals_name_what_and_send_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    in_dir(dir.path())
+        .args([
+            "upload",
+            &set("parameter-sets/vf1000/conveyor-1.toml"),
+            "--port",
+            "sim://vf1000?addresses=4",
+            "--address",
+            "4",
+            "--transfer-baud",
+            "19200",
+        ])
+        .assert()
+        .code(2)
+        .stderr(
+            "error: sim://vf1000?addresses=4 address 4: refused: --transfer-baud 19200: a Lust SMARTDRIVE VF1000 runs at 9600 baud at most (lustbus-protocol.txt §4) and activates a new rate only at a restart (§11.5); leave out --transfer-baud\n",
+        );
+    in_dir(dir.path())
+        .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--transfer-baud", "1200"])
+        .assert()
+        .code(2)
+        .stderr(
+            "error: sim://mc6000?addresses=1 address 1: refused: --transfer-baud 1200: a Lust MASTERCONTROL MC6000/7000 runs at 2400, 4800, 9600, 19200, 38400, 57600 baud (lustbus-protocol.txt §4); pick one of these\n",
+        );
+    assert!(!dir.path().join(".driveset").exists());
+}

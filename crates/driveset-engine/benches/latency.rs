@@ -15,6 +15,11 @@
 //! would have hidden it, and timeouts if any: retries and late replies are
 //! printed too).
 //!
+//! The last column: the upload benchmark's first-principles bound (none
+//! can go under it: `upload.rs` docs, "The first-principles bound") plus
+//! the same round trips, and the ratio against it (a run under it fails
+//! the benchmark).
+//!
 //! The delay model: a request leaves the host `latency` before it reaches
 //! the line (the host's send returns then), and a reply is seen by the host
 //! `latency` after it left the drive. ECS (CAN) is not part of it: issue 11
@@ -29,7 +34,7 @@ mod bound;
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use bound::{REACTION, lower_bound};
+use bound::{REACTION, lower_bound, lustbus_upload_bound};
 use driveset_engine::client::{DriveClient, LecomClient, LustbusClient};
 use driveset_engine::upload::{UploadOptions, prepare, upload};
 use driveset_link::{ByteLink, Clock, Instant, LinkError};
@@ -99,6 +104,9 @@ impl<L: ByteLink> ByteLink for Delayed<L> {
     fn flush(&mut self) -> Result<(), LinkError> {
         self.inner.flush()
     }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.inner.set_baud(baud)
+    }
 }
 
 const LATENCIES_MS: [u64; 5] = [0, 5, 16, 40, 100];
@@ -145,8 +153,21 @@ fn main() {
             let b = lower_bound(family, &set, &prepared, &events[skip..]);
             let round_trips = one_way * 2 * u32::try_from(b.exchanges).expect("count");
             let bound = b.bound + round_trips;
+            // the first-principles bound (upload.rs docs) plus the same
+            // round trips; none for Tmd
+            let principled = matches!(family, Family::Mc6000 | Family::Vf1000).then(|| {
+                lustbus_upload_bound(family, &set, &prepared, rig::BAUD, None) + round_trips
+            });
+            if let Some(p) = principled {
+                assert!(
+                    report.elapsed >= p,
+                    "{} at {ms} ms: {:?} under its first-principles bound {p:?}",
+                    family.name(),
+                    report.elapsed
+                );
+            }
             rows.push(format!(
-                "| {} | {ms} ms | {} codes, {} written | {:.3} s | {:.3} s + {} x {} ms = {:.3} s | {:.4} | {} | {} | {} | {} |",
+                "| {} | {ms} ms | {} codes, {} written | {:.3} s | {:.3} s + {} x {} ms = {:.3} s | {:.4} | {} | {} | {} | {} | {} |",
                 family.name(),
                 set.values.len(),
                 report.codes_written,
@@ -160,14 +181,19 @@ fn main() {
                 report.retries,
                 report.late_replies,
                 report.sload_polls.map_or("-".to_string(), |n| n.to_string()),
+                principled.map_or("-".to_string(), |p| format!(
+                    "{:.3} s = {:.4}",
+                    p.as_secs_f64(),
+                    report.elapsed.as_secs_f64() / p.as_secs_f64()
+                )),
             ));
         }
     }
     println!();
     println!(
-        "| family | latency each way | set | time | bound + N x round trip | ratio | telegrams | retries | late replies | SLOAD polls |"
+        "| family | latency each way | set | time | bound + N x round trip | ratio | telegrams | retries | late replies | SLOAD polls | first-principles bound + N x round trip = ratio |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         println!("{r}");
     }

@@ -644,6 +644,14 @@ pub enum Refusal {
     },
     /// `doctor`: a CAN port given to the character-line check.
     DoctorCanPort,
+    /// `--transfer-baud` cannot be used here (another family, a rate the
+    /// drive does not run at, a port that cannot change its rate, a
+    /// running drive, a shared bus without its override): what and what
+    /// to do, as [`crate::transfer`] words it.
+    TransferRate {
+        /// The reason and the remedy.
+        detail: String,
+    },
 }
 
 impl fmt::Display for Refusal {
@@ -820,6 +828,7 @@ impl fmt::Display for Refusal {
                 "{address:02} is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)"
             ),
             Refusal::DoctorCanPort => f.write_str("CAN ports are checked by run_can"),
+            Refusal::TransferRate { detail } => f.write_str(detail),
         }
     }
 }

@@ -516,6 +516,69 @@ pub struct Journal {
     /// For `failed`: what each planned code holds.
     #[serde(default)]
     pub holding: Vec<CodeHolding>,
+    /// A transfer-rate switch (`--transfer-baud`, [`crate::transfer`]):
+    /// the drive may run at another rate than its port's until the record
+    /// says `back`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transfer: Option<TransferRecord>,
+}
+
+/// Where a transfer-rate switch stands ([`TransferRecord::state`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TransferState {
+    /// Recorded before the first telegram of the switch: the drive's rate
+    /// code may hold the transfer rate (in EEPROM) and it may be active.
+    Switching,
+    /// The drive runs at the transfer rate; its rate code holds its own
+    /// value again (not active).
+    AtTransferRate,
+    /// Switching back: the drive may run at either rate.
+    SwitchingBack,
+    /// Final: the drive runs at the old rate again and its rate code holds
+    /// [`TransferRecord::stored`].
+    Back,
+}
+
+impl TransferState {
+    /// Name as written in the journal.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TransferState::Switching => "switching",
+            TransferState::AtTransferRate => "at-transfer-rate",
+            TransferState::SwitchingBack => "switching-back",
+            TransferState::Back => "back",
+        }
+    }
+}
+
+/// A transfer-rate switch (LUSTBUS 11.5: 81-SBAUD, then 4-PROG = 111).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TransferRecord {
+    /// The rate code as humans spell it (`81-SBAUD`).
+    pub code: String,
+    /// The rate the port (and the drive) ran at before the switch.
+    pub old_rate: u32,
+    /// The transfer rate.
+    pub transfer_rate: u32,
+    /// The rate code's value before the switch (what it holds in EEPROM;
+    /// not necessarily the active rate).
+    pub before: JournalValue,
+    /// Where the switch stands.
+    pub state: TransferState,
+    /// When the drive was told to switch (client clock, ns).
+    pub switched_at_ns: Option<u64>,
+    /// When it ran at the old rate again.
+    pub back_at_ns: Option<u64>,
+    /// What the rate code holds at the end (the set's value, or `before`).
+    pub stored: Option<JournalValue>,
+}
+
+impl TransferRecord {
+    /// Whether the drive is known to run at the old rate again.
+    pub fn is_back(&self) -> bool {
+        self.state == TransferState::Back
+    }
 }
 
 impl Journal {
@@ -570,6 +633,12 @@ impl Journal {
             .collect()
     }
 
+    /// Whether nothing is left to do: the transaction is settled and no
+    /// transfer-rate switch is left open ([`TransferRecord::is_back`]).
+    pub fn is_finished(&self) -> bool {
+        self.state.is_settled() && self.transfer.as_ref().is_none_or(TransferRecord::is_back)
+    }
+
     /// Enter a state, recording the instant and a note.
     pub fn transition(&mut self, state: TxnState, at_ns: u64, note: Option<String>) {
         self.state = state;
@@ -595,7 +664,7 @@ impl JournalFile {
     pub fn create(path: &Path, journal: Journal) -> Result<Self, EngineError> {
         if store::exists(path) {
             match JournalFile::open(path) {
-                Ok(existing) if !existing.journal.state.is_settled() => {
+                Ok(existing) if !existing.journal.is_finished() => {
                     return Err(jerr(
                         path,
                         format!(
@@ -614,6 +683,18 @@ impl JournalFile {
                 }
             }
         }
+        let f = JournalFile {
+            path: path.to_path_buf(),
+            journal,
+        };
+        f.persist()?;
+        Ok(f)
+    }
+
+    /// Replace the journal at `path` with `journal` (the caller's own
+    /// journal of this transaction: [`crate::transfer`] records a rate
+    /// switch before the upload plans) and make it durable.
+    pub fn replace(path: &Path, journal: Journal) -> Result<Self, EngineError> {
         let f = JournalFile {
             path: path.to_path_buf(),
             journal,
@@ -736,7 +817,7 @@ pub fn unfinished_for(
         let Ok(jf) = JournalFile::open(&path) else {
             continue;
         };
-        if !jf.journal.state.is_settled() && jf.journal.target.is_drive(bus, port, address) {
+        if !jf.journal.is_finished() && jf.journal.target.is_drive(bus, port, address) {
             out.push(Unfinished {
                 path,
                 journal: jf.journal,

@@ -30,4 +30,5 @@ pub mod plan;
 pub mod pull;
 pub mod recover;
 pub mod scan;
+pub mod transfer;
 pub mod upload;

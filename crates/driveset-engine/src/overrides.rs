@@ -19,15 +19,20 @@ pub enum Override {
     AllowRunningUnknown,
     /// A change of the bus address of the drive being talked to.
     AllowAddressChange,
+    /// A transfer rate (`--transfer-baud`) on a bus shared with drives
+    /// that cannot follow it (VF1000: 9600 Bd at most): they hear garbage
+    /// while it lasts and their watchdog may fire ([`crate::transfer`]).
+    AllowSharedTransferBaud,
 }
 
 impl Override {
     /// Every override.
-    pub const ALL: [Override; 4] = [
+    pub const ALL: [Override; 5] = [
         Override::AllowFamily,
         Override::AllowRunning,
         Override::AllowRunningUnknown,
         Override::AllowAddressChange,
+        Override::AllowSharedTransferBaud,
     ];
 
     /// The command-line flag.
@@ -37,6 +42,7 @@ impl Override {
             Override::AllowRunning => "--allow-running",
             Override::AllowRunningUnknown => "--allow-running-unknown",
             Override::AllowAddressChange => "--allow-address-change",
+            Override::AllowSharedTransferBaud => "--allow-shared-transfer-baud",
         }
     }
 }
@@ -58,6 +64,8 @@ pub struct Overrides {
     pub allow_running_unknown: bool,
     /// [`Override::AllowAddressChange`].
     pub allow_address_change: bool,
+    /// [`Override::AllowSharedTransferBaud`].
+    pub allow_shared_transfer_baud: bool,
 }
 
 impl Overrides {
@@ -80,6 +88,7 @@ impl Overrides {
             Override::AllowRunning => self.allow_running,
             Override::AllowRunningUnknown => self.allow_running_unknown,
             Override::AllowAddressChange => self.allow_address_change,
+            Override::AllowSharedTransferBaud => self.allow_shared_transfer_baud,
         }
     }
 
@@ -90,6 +99,7 @@ impl Overrides {
             Override::AllowRunning => self.allow_running = on,
             Override::AllowRunningUnknown => self.allow_running_unknown = on,
             Override::AllowAddressChange => self.allow_address_change = on,
+            Override::AllowSharedTransferBaud => self.allow_shared_transfer_baud = on,
         }
     }
 }

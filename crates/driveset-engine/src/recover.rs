@@ -80,6 +80,10 @@ pub struct RecoverReport {
     pub fingerprint: Option<String>,
     /// The client's port/address differ from the journal's (identity matched).
     pub target_note: Option<String>,
+    /// A transfer-rate switch the journal left open: where the drive was
+    /// found and that it runs at the old rate again ([`crate::transfer`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transfer: Option<String>,
 }
 
 /// Options of [`recover`].
@@ -117,8 +121,9 @@ pub fn recover(
         restored: Vec::new(),
         fingerprint: None,
         target_note: None,
+        transfer: None,
     };
-    if found.is_settled() {
+    if jf.journal.is_finished() {
         return Ok(report);
     }
     let schema = client.schema().clone();
@@ -144,7 +149,7 @@ pub fn recover(
         ));
     }
     let bus = client.bus_id();
-    let jt = &jf.journal.target;
+    let jt = jf.journal.target.clone();
     if bus != journal_bus {
         return Err(refuse(
             Mismatch::Bus,
@@ -192,6 +197,12 @@ pub fn recover(
         ));
     }
 
+    // A transfer-rate switch left open: find the drive (LUSTBUS 5.1) and
+    // switch it back to the journal's old rate first.
+    report.transfer = crate::transfer::recover_rate(client, &mut jf)?;
+    if jf.journal.state.is_settled() {
+        return Ok(report);
+    }
     let hook = &opts.observer;
     hook.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;

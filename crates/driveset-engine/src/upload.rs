@@ -85,6 +85,10 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
+    /// The transfer-rate switch [`crate::transfer`] recorded in the
+    /// journal before this upload: the journal file is this transaction's
+    /// (the guard has run), and the upload's journal keeps the record.
+    pub transfer: Option<crate::journal::TransferRecord>,
     /// Told each phase and step of the transaction ([`crate::observe`]).
     pub observer: Hook,
 }
@@ -115,6 +119,7 @@ impl UploadOptions {
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
             strategy: Strategy::Interleaved,
+            transfer: None,
             observer: Hook::none(),
         }
     }
@@ -203,6 +208,9 @@ pub struct UploadReport {
     pub codes: Vec<CodeReport>,
     /// Notes.
     pub warnings: Vec<String>,
+    /// The transfer rate (`--transfer-baud`): switched or not, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transfer: Option<crate::transfer::TransferReport>,
 }
 
 fn ser_duration_ms<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -251,6 +259,9 @@ impl UploadReport {
                 o => format!("{o:?}").to_lowercase(),
             };
             let _ = writeln!(out, "  {}: {} -> {}  {outcome}", c.code, c.old, c.new);
+        }
+        if let Some(t) = &self.transfer {
+            out.push_str(&t.render());
         }
         for w in &self.warnings {
             let _ = writeln!(out, "warning: {w}");
@@ -597,7 +608,9 @@ impl Transaction {
         if !problems.is_empty() {
             return Err(refused(&target, problems));
         }
-        check_unfinished(&*client, &opts.journal)?;
+        if opts.transfer.is_none() {
+            check_unfinished(&*client, &opts.journal)?;
+        }
         opts.observer.enter(client.clock(), Step::Identify, None);
         let identity = client.identify()?;
         popts.identity = Some(identity.clone());
@@ -953,13 +966,18 @@ impl Transaction {
                     failure: None,
                     failure_cause: None,
                     holding: Vec::new(),
+                    transfer: self.opts.transfer.clone(),
                 };
                 journal.transition(TxnState::Planned, at, None);
                 crate::journal::ensure_dir(journal_dir(&self.opts.journal))
                     .map_err(StepError::Settled)?;
-                self.journal = Some(
-                    JournalFile::create(&self.opts.journal, journal).map_err(StepError::Settled)?,
-                );
+                let file = if self.opts.transfer.is_some() {
+                    // crate::transfer's journal of this transaction
+                    JournalFile::replace(&self.opts.journal, journal)
+                } else {
+                    JournalFile::create(&self.opts.journal, journal)
+                };
+                self.journal = Some(file.map_err(StepError::Settled)?);
                 self.on_disk = Some(TxnState::Planned);
             }
             Some(j) => {
@@ -1623,6 +1641,7 @@ impl Transaction {
             late_replies: stats.late,
             codes,
             warnings: self.warnings.clone(),
+            transfer: None,
         }
     }
 }

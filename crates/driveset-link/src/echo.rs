@@ -331,6 +331,10 @@ impl<L: ByteLink> ByteLink for EchoLink<L> {
     fn flush(&mut self) -> Result<(), LinkError> {
         self.inner.flush()
     }
+
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.inner.set_baud(baud)
+    }
 }
 
 #[cfg(test)]

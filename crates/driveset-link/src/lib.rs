@@ -93,6 +93,21 @@ pub trait ByteLink: Send + std::fmt::Debug {
 
     /// Wait until everything sent has left the transport.
     fn flush(&mut self) -> Result<(), LinkError>;
+
+    /// Set the host side of the line to `baud` (one of [`spec::ALLOWED_BAUDS`]),
+    /// after the drives were told to change their rate (LUSTBUS 11.5: an
+    /// MC6000/7000 activates a new 81-SBAUD at 4-PROG = 111). Characters
+    /// still in the transport were sent at the old rate: call
+    /// [`ByteLink::flush`] first. Default: [`LinkError::Unsupported`] naming
+    /// the port (a transport that cannot change its rate).
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        Err(LinkError::Unsupported {
+            port: self.port().to_string(),
+            what: format!(
+                "this transport cannot change its line rate (asked for {baud} baud); reopen the port at that rate"
+            ),
+        })
+    }
 }
 
 impl<L: ByteLink + ?Sized> ByteLink for Box<L> {
@@ -119,6 +134,9 @@ impl<L: ByteLink + ?Sized> ByteLink for Box<L> {
     }
     fn flush(&mut self) -> Result<(), LinkError> {
         (**self).flush()
+    }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        (**self).set_baud(baud)
     }
 }
 

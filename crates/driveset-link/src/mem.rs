@@ -274,6 +274,19 @@ impl ByteLink for MemByteLink {
         // `send` already returns when the last character is through.
         Ok(())
     }
+
+    /// This end sends at `baud` from now on (the other end keeps its own
+    /// rate; the in-memory line does not garble a mismatch).
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        if !ALLOWED_BAUDS.contains(&baud) {
+            return Err(LinkError::UnsupportedBaud {
+                port: self.end.name.clone(),
+                baud,
+            });
+        }
+        self.baud = baud;
+        Ok(())
+    }
 }
 /// One end of an in-memory CAN bus between two nodes (see the module docs
 /// for timing).

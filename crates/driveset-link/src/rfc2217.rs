@@ -569,6 +569,57 @@ impl ByteLink for Rfc2217Link {
             .flush()
             .map_err(|e| LinkError::io(&self.name, "flush to the device server", e))
     }
+
+    /// RFC 2217 SET-BAUDRATE (`IAC SB 44 1 <baud, 4 bytes big-endian> IAC
+    /// SE`), then waits (up to 2 s) for the server's confirmation (code
+    /// 101) with the same rate; data arriving meanwhile is kept.
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        if !ALLOWED_BAUDS.contains(&baud) {
+            return Err(LinkError::UnsupportedBaud {
+                port: self.name.clone(),
+                baud,
+            });
+        }
+        let value = baud.to_be_bytes();
+        self.write_raw(&com_port_command(SET_BAUDRATE, &value))?;
+        let deadline = RealClock.deadline_in(Duration::from_secs(2));
+        loop {
+            let Some(events) = self.read_events(deadline)? else {
+                return Err(LinkError::Rfc2217 {
+                    port: self.name.clone(),
+                    detail: format!(
+                        "the server did not confirm the baud rate {baud} within 2 s; check that it is an RFC 2217 server"
+                    ),
+                });
+            };
+            let mut confirmed = None;
+            for e in events {
+                match e {
+                    TelnetEvent::Sub(sub)
+                        if sub.len() >= 2
+                            && sub[0] == COM_PORT_OPTION
+                            && sub[1] == SERVER_OFFSET + SET_BAUDRATE =>
+                    {
+                        confirmed = Some(sub[2..].to_vec());
+                    }
+                    other => self.handle(other)?,
+                }
+            }
+            if let Some(got) = confirmed {
+                if got != value {
+                    return Err(LinkError::Rfc2217 {
+                        port: self.name.clone(),
+                        detail: format!(
+                            "the server set the baud rate to {} instead of {baud}: its serial port cannot run at that rate; pick a rate it supports",
+                            setting_value(SET_BAUDRATE, &got)
+                        ),
+                    });
+                }
+                self.baud = baud;
+                return Ok(());
+            }
+        }
+    }
 }
 
 impl Drop for Rfc2217Link {
@@ -744,6 +795,54 @@ mod tests {
         }
         assert_eq!(got, vec![0x02, b'1', 0xFF, 0x03]);
         link.discard_input().expect("discard");
+        drop(link);
+        h.join().expect("server");
+    }
+
+    #[test]
+    fn set_baud_sends_set_baudrate_and_needs_the_servers_confirmation() {
+        let (port, h) = fake_server(|mut s| {
+            assert_eq!(read_n(&mut s, 9), OPENING);
+            s.write_all(&[IAC, DO, 44]).expect("write");
+            let want = settings_bytes(9600);
+            assert_eq!(read_n(&mut s, want.len()), want);
+            s.write_all(&confirm(9600, PARITY_EVEN)).expect("write");
+            // set_baud(57600): SET-BAUDRATE 0x0000E100; confirmed, with a
+            // data byte before the confirmation (kept for recv)
+            assert_eq!(
+                read_n(&mut s, 10),
+                vec![IAC, SB, 44, 1, 0x00, 0x00, 0xE1, 0x00, IAC, SE]
+            );
+            let mut c = vec![b'x'];
+            c.extend(com_port_command(101, &57600u32.to_be_bytes()));
+            s.write_all(&c).expect("write");
+            // set_baud(38400): the server answers 19200
+            assert_eq!(
+                read_n(&mut s, 10),
+                vec![IAC, SB, 44, 1, 0x00, 0x00, 0x96, 0x00, IAC, SE]
+            );
+            s.write_all(&com_port_command(101, &19200u32.to_be_bytes()))
+                .expect("write");
+            let mut rest = Vec::new();
+            let _ = s.read_to_end(&mut rest);
+        });
+        let mut link =
+            Rfc2217Link::connect("127.0.0.1", port, 9600, Duration::from_secs(10)).expect("open");
+        link.set_baud(57600).expect("57600");
+        assert_eq!(link.baud(), 57600);
+        let mut buf = [0u8; 4];
+        let n = link
+            .recv(&mut buf, RealClock.deadline_in(Duration::from_secs(5)))
+            .expect("recv");
+        assert_eq!(&buf[..n], b"x");
+        let err = link.set_baud(38400).expect_err("other rate");
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "rfc2217://127.0.0.1:{port}: the server set the baud rate to 19200 instead of 38400: its serial port cannot run at that rate; pick a rate it supports"
+            )
+        );
+        assert_eq!(link.baud(), 57600);
         drop(link);
         h.join().expect("server");
     }

@@ -178,6 +178,27 @@ impl ByteLink for SerialLink {
         discard_input(self.port.as_mut(), &self.name)
     }
 
+    /// `serialport`'s `set_baud_rate` (termios / SetCommState); the port
+    /// stays open, 7E1 kept.
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        if !ALLOWED_BAUDS.contains(&baud) {
+            return Err(LinkError::UnsupportedBaud {
+                port: self.name.clone(),
+                baud,
+            });
+        }
+        flush(self.port.as_mut(), &self.name)?;
+        self.port
+            .set_baud_rate(baud)
+            .map_err(|source| LinkError::Serial {
+                port: self.name.clone(),
+                op: "set the line rate",
+                source,
+            })?;
+        self.baud = baud;
+        Ok(())
+    }
+
     fn flush(&mut self) -> Result<(), LinkError> {
         flush(self.port.as_mut(), &self.name)
     }

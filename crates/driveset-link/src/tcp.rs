@@ -191,6 +191,18 @@ impl ByteLink for TcpLink {
             .map_err(|e| LinkError::io(&self.name, "write to the device server", e))
     }
 
+    /// A raw TCP server's serial side is set on the server: driveset
+    /// cannot change it.
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        Err(LinkError::Unsupported {
+            port: self.name.clone(),
+            what: format!(
+                "a raw tcp:// device server keeps the line rate it is configured with, so driveset cannot switch it to {baud} baud; use rfc2217://{} so driveset can set the device server's rate",
+                self.name.trim_start_matches("tcp://")
+            ),
+        })
+    }
+
     fn recv(&mut self, buf: &mut [u8], deadline: Instant) -> Result<usize, LinkError> {
         if buf.is_empty() {
             return Ok(0);

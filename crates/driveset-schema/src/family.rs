@@ -165,7 +165,40 @@ pub struct Descriptor {
     pub dataset: Option<DatasetHandshake>,
     /// Commands acknowledged late.
     pub long_acks: &'static [LongAck],
+    /// How the family's line rate is set: the rates it runs at (highest
+    /// first) and, where the drive can activate a new rate without a
+    /// restart, how.
+    pub line_rates: LineRates,
 }
+
+/// A serial family's line rates (`lustbus-protocol.txt` §4, §11.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LineRates {
+    /// The rates the family runs at, highest first (empty: not a serial
+    /// family).
+    pub rates: &'static [u32],
+    /// The code holding the rate, where the family has one (LUSTBUS 81).
+    pub code: Option<u32>,
+    /// Online activation of a new rate (MC6000/7000 only).
+    pub online: Option<OnlineBaud>,
+}
+
+/// §11.5: "first set the new Baudrate. Then use the value 111 in the
+/// 4-PROG parameter to order the servocontroller to activate the
+/// Baudrate."
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnlineBaud {
+    /// The command code (4-PROG).
+    pub command: u32,
+    /// The value that activates the rate written to [`LineRates::code`] (111).
+    pub activate: i64,
+}
+
+/// §4: servocontrollers run "in steps ranging from 2400 Baud to 57600
+/// Baud" (the steps are the usual doubling ones plus 38400 and 57600).
+pub const SERVO_RATES: &[u32] = &[57600, 38400, 19200, 9600, 4800, 2400];
+/// §4: frequency inverters "from 2400 Baud to 9600 Baud".
+pub const INVERTER_RATES: &[u32] = &[9600, 4800, 2400];
 
 /// The MC6000/7000 handshake: 80-SLOAD (`lustbus-protocol.txt` §11.4).
 pub const SLOAD: DatasetHandshake = DatasetHandshake {
@@ -203,6 +236,14 @@ const MC6000: Descriptor = Descriptor {
         value: 1,
         within: Duration::from_secs(10),
     }],
+    line_rates: LineRates {
+        rates: SERVO_RATES,
+        code: Some(81),
+        online: Some(OnlineBaud {
+            command: 4,
+            activate: 111,
+        }),
+    },
 };
 
 const VF1000: Descriptor = Descriptor {
@@ -230,6 +271,11 @@ const VF1000: Descriptor = Descriptor {
         value: 1,
         within: Duration::from_secs(10),
     }],
+    line_rates: LineRates {
+        rates: INVERTER_RATES,
+        code: Some(81),
+        online: None,
+    },
 };
 
 const TMD: Descriptor = Descriptor {
@@ -250,6 +296,11 @@ const TMD: Descriptor = Descriptor {
     eeprom: EepromPacing::None,
     dataset: None,
     long_acks: &[],
+    line_rates: LineRates {
+        rates: &[9600, 4800, 2400, 1200],
+        code: Some(125),
+        online: None,
+    },
 };
 
 const ECS: Descriptor = Descriptor {
@@ -270,6 +321,11 @@ const ECS: Descriptor = Descriptor {
     eeprom: EepromPacing::None,
     dataset: None,
     long_acks: &[],
+    line_rates: LineRates {
+        rates: &[],
+        code: None,
+        online: None,
+    },
 };
 
 impl Family {

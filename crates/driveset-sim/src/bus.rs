@@ -814,4 +814,16 @@ impl ByteLink for SimByteBus {
         // `send` returns when the last character is through.
         Ok(())
     }
+
+    /// The host reopens its side at `baud`: from the next character on it
+    /// sends and listens at that rate; each drive keeps its own (a
+    /// mismatch garbles both ways, module docs).
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.line
+            .set_baud(baud)
+            .map_err(|_| LinkError::UnsupportedBaud {
+                port: self.name.clone(),
+                baud,
+            })
+    }
 }

@@ -1173,6 +1173,12 @@ impl ByteLink for SimByteHandle {
             SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
         })
     }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.0.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => ByteLink::set_baud(b, baud),
+            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
+        })
+    }
 }
 
 /// A [`SimLink`] as a [`FrameLink`].

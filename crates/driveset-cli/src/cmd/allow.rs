@@ -24,13 +24,18 @@ pub struct AllowArgs {
     /// (it stops answering: not verified, not rolled back).
     #[arg(long)]
     pub allow_address_change: bool,
+    /// With --transfer-baud on a bus shared with drives that cannot follow
+    /// the rate (VF1000s: 9600 baud at most): switch anyway (they hear
+    /// garbage meanwhile and their watchdog 84-SIOT may fire).
+    #[arg(long)]
+    pub allow_shared_transfer_baud: bool,
     /// Removed: use the named --allow-* overrides.
     #[arg(long, hide = true)]
     pub force: bool,
 }
 
 /// The message for the removed `--force`.
-pub const FORCE_REMOVED: &str = "--force was replaced by named overrides, each lifting one refusal: --allow-family, --allow-running, --allow-running-unknown, --allow-address-change (commands and control words that could start a motor have none)";
+pub const FORCE_REMOVED: &str = "--force was replaced by named overrides, each lifting one refusal: --allow-family, --allow-running, --allow-running-unknown, --allow-address-change, --allow-shared-transfer-baud (commands and control words that could start a motor have none)";
 
 impl AllowArgs {
     /// The engine's overrides; `--force` is an input error.
@@ -43,6 +48,32 @@ impl AllowArgs {
             allow_running: self.allow_running,
             allow_running_unknown: self.allow_running_unknown,
             allow_address_change: self.allow_address_change,
+            allow_shared_transfer_baud: self.allow_shared_transfer_baud,
+        })
+    }
+}
+
+/// `--transfer-baud RATE` of `upload`, `pull` and `diff --port`.
+#[derive(clap::Args, Debug, Clone, Copy, Default)]
+pub struct TransferArgs {
+    /// MC6000/7000 at standstill: switch the drive and the port to RATE
+    /// for the transaction and back afterwards (81-SBAUD, then 4-PROG =
+    /// 111; lustbus-protocol.txt 11.5), when the estimate says it pays.
+    /// 2400, 4800, 9600, 19200, 38400 or 57600.
+    #[arg(long, value_name = "RATE")]
+    pub transfer_baud: Option<u32>,
+}
+
+impl TransferArgs {
+    /// The engine's request (a single-drive command: no other drives known).
+    pub fn request(
+        &self,
+        overrides: &Overrides,
+    ) -> Option<driveset_engine::transfer::TransferRequest> {
+        self.transfer_baud.map(|rate| {
+            let mut r = driveset_engine::transfer::TransferRequest::new(rate);
+            r.allow_shared = overrides.allow_shared_transfer_baud;
+            r
         })
     }
 }

@@ -74,6 +74,10 @@ pub struct Args {
     /// With --port: learning the schema from the drive where the set's lacks facts.
     #[command(flatten)]
     pub learn: crate::learning::LearnArgs,
+    /// With --port: the transfer rate (the switch is journaled in
+    /// .driveset/journal/<bus>-<address>.journal.json).
+    #[command(flatten)]
+    pub transfer: super::allow::TransferArgs,
 }
 
 fn code_name(schema: &Schema, key: CodeKey) -> String {
@@ -119,6 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             schemas: &args.schemas,
             allow_family: false,
             learn: &args.learn,
+            transfer: args.transfer,
         });
     }
     let mut registry = match output::registry(&args.schemas) {

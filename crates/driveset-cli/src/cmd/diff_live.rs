@@ -33,6 +33,8 @@ pub struct LiveArgs<'a> {
     pub allow_family: bool,
     /// Learning the schema from the drive where the set's lacks facts.
     pub learn: &'a crate::learning::LearnArgs,
+    /// `--transfer-baud`.
+    pub transfer: super::allow::TransferArgs,
 }
 
 /// Run `driveset diff SET --port P --address A`.
@@ -55,7 +57,26 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     if !args.allow_family {
         driveset_engine::identify::check_family(client.as_mut())?;
     }
-    let d = driveset_engine::live::live_diff(client.as_mut(), &set);
+    let d = match args
+        .transfer
+        .request(&driveset_engine::overrides::Overrides::none())
+    {
+        Some(req) => {
+            let journal = driveset_engine::upload::default_journal_path(
+                Path::new(super::upload::DEFAULT_JOURNAL_DIR),
+                client.as_ref(),
+            );
+            driveset_engine::transfer::live_diff(client.as_mut(), &set, &req, &journal).map(
+                |(d, t)| {
+                    if args.format == LiveFormat::Human {
+                        eprint!("{}", t.render());
+                    }
+                    d
+                },
+            )
+        }
+        None => driveset_engine::live::live_diff(client.as_mut(), &set),
+    };
     let _ = client.finish();
     let d = d?;
     let old_name = format!("{port_name} address {}", args.address);

@@ -208,11 +208,31 @@ fn report(
     args: &Args,
     port_name: &str,
     client: &mut dyn DriveClient,
-    note: Option<String>,
+    mut note: Option<String>,
     path: Option<&Path>,
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
-    let identity = client.identify()?;
+    let identity = match client.identify() {
+        Ok(i) => i,
+        // A servo that activates rates online may have been left at a
+        // transfer rate (--transfer-baud): search every rate (LUSTBUS 5.1).
+        Err(e)
+            if matches!(e.kind(), driveset_engine::error::ErrorKind::NoAnswer { .. })
+                && schema.family.descriptor().line_rates.online.is_some() =>
+        {
+            let port_rate = client.line_rate().unwrap_or(0);
+            match driveset_engine::transfer::search(client, &[])? {
+                Some(r) => {
+                    note = Some(format!(
+                        "the drive answers at {r} baud, not at the port's {port_rate} (left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud={r} to the port)"
+                    ));
+                    client.identify()?
+                }
+                None => return Err(e.into()),
+            }
+        }
+        Err(e) => return Err(e.into()),
+    };
     let dir = args
         .schema_dir
         .clone()

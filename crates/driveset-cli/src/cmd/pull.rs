@@ -103,6 +103,10 @@ pub struct Args {
     /// Learning the schema from the drive.
     #[command(flatten)]
     pub learn: learning::LearnArgs,
+    /// The transfer rate (the switch is journaled in
+    /// .driveset/journal/<bus>-<address>.journal.json).
+    #[command(flatten)]
+    pub transfer: super::allow::TransferArgs,
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -225,19 +229,38 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         });
     }
     let quiet = args.format == BusFormat::Json;
+    let popts = PullOptions {
+        changed_only: args.changed_only,
+        include_passwords: false,
+    };
+    let mut transfer_note = None;
     let pulled = {
         let p = Progress::new("pull", quiet);
-        let r = engine_pull(
-            client.as_mut(),
-            &PullOptions {
-                changed_only: args.changed_only,
-                include_passwords: false,
-            },
-            &p.hook(),
-        );
+        let r = match args
+            .transfer
+            .request(&driveset_engine::overrides::Overrides::none())
+        {
+            Some(req) => {
+                let journal = driveset_engine::upload::default_journal_path(
+                    Path::new(super::upload::DEFAULT_JOURNAL_DIR),
+                    client.as_ref(),
+                );
+                driveset_engine::transfer::pull(client.as_mut(), &popts, &req, &journal, &p.hook())
+                    .map(|(x, t)| {
+                        transfer_note = Some(t.render());
+                        x
+                    })
+            }
+            None => engine_pull(client.as_mut(), &popts, &p.hook()),
+        };
         p.done();
         r?
     };
+    if let Some(t) = &transfer_note
+        && !quiet
+    {
+        eprint!("{t}");
+    }
     client.finish()?;
     // Read-only codes (actual values) are read but cannot be part of a set
     // (`validate` refuses them): they go into the header as comments.

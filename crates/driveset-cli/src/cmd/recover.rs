@@ -77,8 +77,9 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let choice = port::resolve_schema(Some(&schema_arg), &args.schemas, sim, None)?;
     let json = args.format == BusFormat::Json;
     let state = j.state;
+    let finished = j.is_finished();
     drop(jf);
-    if state.is_settled() {
+    if finished {
         let msg = format!(
             "{}: the transaction is already {}; nothing to do",
             args.journal.display(),
@@ -143,6 +144,9 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         }
         if let Some(n) = &report.target_note {
             let _ = writeln!(out, "note: {n}");
+        }
+        if let Some(t) = &report.transfer {
+            let _ = writeln!(out, "line rate: {t}");
         }
         let _ = writeln!(out, "journal: {}", report.journal);
         output::emit(&out);

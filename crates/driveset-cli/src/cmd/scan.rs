@@ -82,6 +82,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     let protocol = args.protocol.map_or_else(|| schema.family.bus(), |p| p.0);
     let opts = ScanOptions::default();
     let mut baud_found = None;
+    let mut other_rate: Option<u32> = None;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
         let rates: &[u32] = match protocol {
             BusProtocol::Lustbus => &LUSTBUS_BAUDS,
@@ -146,7 +147,26 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         }
         let found = match (opened.link, protocol) {
             (Link::Bytes(mut l), BusProtocol::Lustbus) => {
-                scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
+                let mut found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
+                // Nobody at the port's rate: a servo may have been left at
+                // a transfer rate (--transfer-baud); LUSTBUS 5.1 tries every
+                // rate, on the same port (a port that cannot change its
+                // rate stops the search).
+                if found.is_empty() {
+                    let here = l.baud();
+                    for r in LUSTBUS_BAUDS.iter().copied().filter(|r| *r != here) {
+                        if l.set_baud(r).is_err() {
+                            break;
+                        }
+                        found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
+                        if !found.is_empty() {
+                            baud_found = Some(r);
+                            other_rate = Some(here);
+                            break;
+                        }
+                    }
+                }
+                found
             }
             (Link::Bytes(mut l), BusProtocol::Lecom) => {
                 scan_lecom(l.as_mut(), Some(&schema), &lecom_addresses(), &opts)?
@@ -202,8 +222,17 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         BusFormat::Human => {
             let mut out = String::new();
             let _ = writeln!(out, "scanned {port_name} ({range})");
-            if let Some(b) = baud_found {
-                let _ = writeln!(out, "baud rate: {b}");
+            match (baud_found, other_rate) {
+                (Some(b), Some(here)) => {
+                    let _ = writeln!(
+                        out,
+                        "baud rate: {b}, not the port's {here} (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud={b} to the port)"
+                    );
+                }
+                (Some(b), None) => {
+                    let _ = writeln!(out, "baud rate: {b}");
+                }
+                _ => {}
             }
             for f in &found {
                 let codes: Vec<String> = f

@@ -110,6 +110,9 @@ pub struct Args {
     /// Named overrides, one per refusal.
     #[command(flatten)]
     pub allow: super::allow::AllowArgs,
+    /// The transfer rate.
+    #[command(flatten)]
+    pub transfer: super::allow::TransferArgs,
     /// The journal file.
     #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
     pub journal: Option<PathBuf>,
@@ -177,8 +180,25 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         (on.schema, on.set, on.port_name, on.client, on._sim);
     let json = args.format == BusFormat::Json;
 
+    let transfer = args.transfer.request(&overrides);
     if args.dry_run {
         let prepared = prepare(client.as_mut(), &set, overrides);
+        // what --transfer-baud would do (nothing is switched in a dry run)
+        let decision = match (&prepared, &transfer) {
+            (Ok(_), Some(req)) => match driveset_engine::transfer::check(client.as_mut(), req) {
+                Ok(()) => Some(driveset_engine::transfer::decide(
+                    client.as_ref(),
+                    req,
+                    &driveset_engine::transfer::upload_exchanges(&set),
+                    &[],
+                )),
+                Err(e) => {
+                    let _ = client.finish();
+                    return Err(Fail::from(e));
+                }
+            },
+            _ => None,
+        };
         let _ = client.finish();
         let prepared = prepared?;
         if json {
@@ -211,6 +231,10 @@ fn upload(args: &Args) -> Result<u8, Fail> {
                 "writes": writes,
                 "unchanged": prepared.plan.unchanged.len(),
                 "warnings": prepared.plan.warnings,
+                "transfer": decision.as_ref().map(|d| json!({
+                    "decision": d,
+                    "summary": d.summary(),
+                })),
                 "estimate_ms": {
                     "total": prepared.estimate.total.as_secs_f64() * 1000.0,
                     "read_back": prepared.estimate.read_back.as_secs_f64() * 1000.0,
@@ -225,10 +249,14 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             ));
         } else {
             output::emit(&format!(
-                "dry run: {} to {port_name} address {}; nothing is written\n{}",
+                "dry run: {} to {port_name} address {}; nothing is written\n{}{}",
                 args.set.display(),
                 args.address,
-                prepared.plan.render(Some(&prepared.estimate))
+                prepared.plan.render(Some(&prepared.estimate)),
+                decision
+                    .as_ref()
+                    .map(|d| format!("{}\n", d.summary()))
+                    .unwrap_or_default()
             ));
         }
         return Ok(EXIT_OK);
@@ -248,7 +276,10 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let result = {
         let p = Progress::new("upload", json);
         opts.observer = p.hook();
-        let r = engine_upload(client.as_mut(), &set, &opts);
+        let r = match &transfer {
+            Some(req) => driveset_engine::transfer::upload(client.as_mut(), &set, &opts, req),
+            None => engine_upload(client.as_mut(), &set, &opts),
+        };
         p.done();
         r
     };

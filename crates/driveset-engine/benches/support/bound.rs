@@ -142,3 +142,190 @@ pub fn lower_bound(
         exchanges: n_reads + n_writes,
     }
 }
+
+// ---------------------------------------------------------------------------
+// The first-principles bound (issue 12: "a lower bound that a run can beat
+// is not one"): see `upload.rs`'s docs, "The first-principles bound".
+// ---------------------------------------------------------------------------
+
+/// One required exchange of a LUSTBUS transaction.
+#[derive(Debug, Clone, Copy)]
+pub enum Need {
+    /// An ENQUIRY of a code.
+    Read(driveset_schema::CodeKey),
+    /// A SELECT of a code with a value (raw).
+    Write(driveset_schema::CodeKey, i64),
+}
+
+/// Hex digits of the VALUE of a SELECT at its shortest (§2.3.2: the MC
+/// takes 1..8 digits; a negative value needs every digit of its width;
+/// VF1000 values are 4 digits, §2.3.1).
+fn select_digits(family: Family, width: usize, v: i64) -> usize {
+    match family {
+        Family::Vf1000 => 4,
+        _ if v < 0 => 2 * width,
+        _ => {
+            let mut n = 1;
+            let mut x = v >> 4;
+            while x > 0 {
+                n += 1;
+                x >>= 4;
+            }
+            n
+        }
+    }
+}
+
+/// The drive's VALUE digits in a reply (MC: two per byte of the width,
+/// the simulator's and §6.1.1.2's `04FA4000`; VF1000: 4).
+fn reply_digits(family: Family, width: usize) -> usize {
+    match family {
+        Family::Vf1000 => 4,
+        _ => 2 * width,
+    }
+}
+
+/// The minimum time of one LUSTBUS exchange at `baud`: the minimal
+/// telegrams' characters at 10 bits each plus the §10 minimum reaction.
+/// ENQUIRY `EOT ADR CODE(5) ENQ` (8) + `ADR STX CODE(5) = VALUE ETX BCC`
+/// (10 + digits); SELECT `EOT ADR STX CODE(5) = VALUE ETX BCC` (11 +
+/// digits) + `ADR ACK` (2). One EOT per exchange: the trailing EOT of one
+/// is the leading EOT of the next (§3).
+pub fn lustbus_exchange(family: Family, need: Need, baud: u32) -> Duration {
+    let schema = rig::schema(family);
+    let width = |k: driveset_schema::CodeKey| {
+        usize::from(
+            schema
+                .code(k.number)
+                .and_then(|c| c.width)
+                .unwrap_or(1)
+                .clamp(1, 4),
+        )
+    };
+    let chars = match need {
+        Need::Read(k) => 8 + 10 + reply_digits(family, width(k)),
+        Need::Write(k, v) => 11 + select_digits(family, width(k), v) + 2,
+    };
+    wire_time(chars, baud) + REACTION
+}
+
+/// The first-principles lower bound of a LUSTBUS upload of `set` planned
+/// as `prepared`, at `baud`, switched to `transfer` (if any) for the work:
+/// see `upload.rs`'s docs. `rate_code` / `command` are 81-SBAUD / 4-PROG.
+#[allow(dead_code)] // not every bench uses every bound
+pub fn lustbus_upload_bound(
+    family: Family,
+    set: &ResolvedSet,
+    prepared: &Prepared,
+    baud: u32,
+    transfer: Option<u32>,
+) -> Duration {
+    use driveset_schema::{CodeKey, RawValue};
+    let at = |n: Need, b: u32| lustbus_exchange(family, n, b);
+    let int = |v: &RawValue| match v {
+        RawValue::Int(i) => *i,
+        _ => 0,
+    };
+    let work = transfer.unwrap_or(baud);
+    let writes = &prepared.plan.writes;
+    let mut t = at(Need::Read(CodeKey::new(91)), baud);
+    let selects = !writes.is_empty() || transfer.is_some();
+    if selects {
+        // SIOF/SERR before the first SELECT (§6: a set power-on bit blocks
+        // every change), at the rate of that SELECT
+        let first = if transfer.is_some() { baud } else { work };
+        t += at(Need::Read(CodeKey::new(85)), first);
+    }
+    if let Some(rate) = transfer {
+        t += at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
+            + at(Need::Write(CodeKey::new(4), 111), baud)
+            + at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
+            + at(Need::Write(CodeKey::new(4), 111), rate);
+    }
+    for k in set.values.keys() {
+        t += at(Need::Read(*k), work);
+    }
+    let staged: Vec<_> = writes
+        .iter()
+        .filter(|w| w.phase == Phase::Dataset)
+        .collect();
+    if !staged.is_empty() {
+        let sload = CodeKey::new(80);
+        t += at(Need::Write(sload, -1), work)
+            + at(Need::Write(sload, -2), work)
+            + at(Need::Read(sload), work);
+        let store: Duration = staged
+            .iter()
+            .map(|w| Duration::from_millis(15 * u64::from(w.width.unwrap_or(4))))
+            .sum();
+        // overlapping it: the -2 ACK and the final poll's ENQUIRY
+        let overlap = REACTION + wire_time(2, work) + wire_time(8, work);
+        t += store.saturating_sub(overlap);
+    }
+    for w in writes {
+        // VF1000: a changed EEPROM value delays the ACK (§10 exception 4:
+        // 60 ms one-byte, 120 ms two-byte parameters); every planned write
+        // changes its value
+        let ack = if family == Family::Vf1000 && w.storage == driveset_engine::plan::Storage::Eeprom
+        {
+            Duration::from_millis(if w.width == Some(1) { 60 } else { 120 })
+        } else {
+            Duration::ZERO
+        };
+        t += at(Need::Write(w.key, int(&w.new)), work) + ack + at(Need::Read(w.key), work);
+    }
+    // the MC EEPROM chain after the commit: stores of consecutive paced
+    // writes cannot overlap each other; the phase lasts at least the chain
+    let paced: Vec<_> = writes
+        .iter()
+        .filter(|w| w.phase != Phase::Dataset && !w.store_time.is_zero())
+        .collect();
+    if paced.len() > 1 {
+        let chain: Duration = paced[..paced.len() - 1].iter().map(|w| w.store_time).sum();
+        let phase: Duration = writes
+            .iter()
+            .filter(|w| w.phase != Phase::Dataset)
+            .map(|w| at(Need::Write(w.key, int(&w.new)), work) + at(Need::Read(w.key), work))
+            .sum();
+        t += chain.saturating_sub(phase);
+    }
+    t
+}
+
+/// The first-principles lower bound of a LUSTBUS pull of `keys` at
+/// `baud`, switched to `transfer` (if any).
+#[allow(dead_code)] // not every bench uses every bound
+pub fn lustbus_pull_bound(
+    family: Family,
+    keys: &[driveset_schema::CodeKey],
+    baud: u32,
+    transfer: Option<u32>,
+) -> Duration {
+    use driveset_schema::CodeKey;
+    let at = |n: Need, b: u32| lustbus_exchange(family, n, b);
+    let work = transfer.unwrap_or(baud);
+    let mut t = at(Need::Read(CodeKey::new(91)), baud);
+    if let Some(rate) = transfer {
+        t += at(Need::Read(CodeKey::new(85)), baud)
+            + at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
+            + at(Need::Write(CodeKey::new(4), 111), baud)
+            + at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
+            + at(Need::Write(CodeKey::new(4), 111), rate);
+    }
+    for k in keys {
+        t += at(Need::Read(*k), work);
+    }
+    t
+}
+
+/// The first-principles lower bound of an ECS (CAN SDO) upload: every
+/// required exchange (read-back, one expedited download per code that
+/// differs, one upload to verify it) is two 8-byte frames at their
+/// stuff-bit-free minimum (108 bits + 3 bits interframe space = 111 bit
+/// times each) plus the minimum reaction.
+#[allow(dead_code)] // not every bench uses every bound
+pub fn ecs_upload_bound(set: &ResolvedSet, prepared: &Prepared) -> Duration {
+    let one = bits_time(2 * 111, rig::BITRATE) + REACTION;
+    let n = set.values.len() + 2 * prepared.plan.writes.len();
+    one * u32::try_from(n).unwrap_or(u32::MAX)
+}

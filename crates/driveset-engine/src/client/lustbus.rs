@@ -330,6 +330,11 @@ impl<L: ByteLink> LustLine<L> {
         }
     }
 
+    /// Forget a partly decoded reply (after a rate change).
+    pub(crate) fn reset_decoder(&mut self) {
+        self.decoder.reset();
+    }
+
     /// The lone EOT that ends a session, if a telegram went out.
     pub(crate) fn finish(&mut self) -> Result<(), LinkError> {
         if self.open {
@@ -1019,6 +1024,27 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
 
     fn finish(&mut self) -> Result<(), EngineError> {
         self.line.finish().map_err(|e| link_error(&self.target, e))
+    }
+
+    fn line_rate(&self) -> Option<u32> {
+        Some(self.baud())
+    }
+
+    /// Flushes, sets the link's rate, forgets what was received and the
+    /// session's EOT state (the next telegram starts with its own EOT at
+    /// the new rate); the latency measured so far stays.
+    fn set_line_rate(&mut self, baud: u32) -> Result<(), EngineError> {
+        let target = self.target.clone();
+        let line = &mut self.line;
+        line.link.flush().map_err(|e| link_error(&target, e))?;
+        line.link
+            .set_baud(baud)
+            .map_err(|e| link_error(&target, e))?;
+        line.link
+            .discard_input()
+            .map_err(|e| link_error(&target, e))?;
+        line.reset_decoder();
+        Ok(())
     }
 
     fn has_dataset_download(&self) -> bool {

@@ -280,6 +280,26 @@ pub trait DriveClient: Send {
         false
     }
 
+    /// The rate the host side of a serial line runs at (baud); `None` on a
+    /// CAN bus.
+    fn line_rate(&self) -> Option<u32> {
+        None
+    }
+
+    /// Set the host side of the line to `baud` (after the drive was told to
+    /// change its rate: LUSTBUS 11.5, [`crate::transfer`]). The drive is
+    /// not told anything. Default: refused (a client without a serial line).
+    fn set_line_rate(&mut self, baud: u32) -> Result<(), EngineError> {
+        Err(EngineError::refused(
+            self.target().clone(),
+            crate::error::Refusal::TransferRate {
+                detail: format!(
+                    "this client has no serial line whose rate could be set to {baud} baud"
+                ),
+            },
+        ))
+    }
+
     /// SLOAD = -1: register a dataset download (standstill only). Writes of
     /// CardWriteable codes until [`DriveClient::dataset_commit`] are staged.
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
@@ -438,6 +458,9 @@ impl driveset_link::ByteLink for BorrowedByteLink<'_> {
     }
     fn flush(&mut self) -> Result<(), driveset_link::LinkError> {
         self.0.flush()
+    }
+    fn set_baud(&mut self, baud: u32) -> Result<(), driveset_link::LinkError> {
+        self.0.set_baud(baud)
     }
 }
 

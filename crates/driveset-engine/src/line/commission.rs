@@ -716,7 +716,14 @@ fn run_bus(
     let mut dead: Option<String> = None;
     if ctx.mode == Mode::Commission && ctx.opts.broadcast_common {
         if bus.protocol == BusProtocol::Lustbus {
-            match lustbus_broadcast_refusal(drives, listed, &link, ctx) {
+            let refusal = match bus.transfer_baud {
+                // the broadcast path runs every drive at the bus's rate
+                Some(rate) => Some(format!(
+                    "the bus has transfer_baud = {rate}, and a broadcast needs every drive of the bus at one rate (each MC drive is switched on its own)"
+                )),
+                None => lustbus_broadcast_refusal(drives, listed, &link, ctx),
+            };
+            match refusal {
                 // the kill test hook runs drive by drive
                 None if ctx.opts.stop_after.is_none() => {
                     let (out, failed) = run_lustbus_broadcast(
@@ -986,8 +993,32 @@ fn run_drive(
                 }
                 let mut uo = UploadOptions::new(&journal_path);
                 uo.overrides = ctx.opts.overrides;
+                let transfer = bus
+                    .transfer_baud
+                    .filter(|_| d.schema.family.descriptor().line_rates.online.is_some())
+                    .map(|rate| {
+                        let mut others = bus.families.clone();
+                        if let Some(i) = others.iter().position(|f| *f == d.schema.family) {
+                            others.remove(i);
+                        }
+                        crate::transfer::TransferRequest {
+                            rate,
+                            others,
+                            allow_shared: ctx.opts.overrides.allow_shared_transfer_baud,
+                        }
+                    });
                 uo.observer = hook.clone();
-                match upload(&mut *client, &d.set, &uo) {
+                let result = match &transfer {
+                    Some(req) => crate::transfer::upload(&mut *client, &d.set, &uo, req),
+                    None => upload(&mut *client, &d.set, &uo),
+                };
+                if let Some(t) = result.as_ref().map_or_else(
+                    |f| f.report.as_ref().and_then(|r| r.transfer.clone()),
+                    |r| r.transfer.clone(),
+                ) {
+                    ctx.warn(format!("{}: {}", d.name, t.decision.summary()));
+                }
+                match result {
                     Ok(rep) => {
                         fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
                         r.fingerprint_before = Some(rep.fingerprint_before.clone());

@@ -197,6 +197,12 @@ pub struct Bus {
     pub protocol: BusProtocol,
     /// Line rate (baud, or CAN bit/s).
     pub rate: u32,
+    /// `transfer_baud = RATE`: the MC6000/7000 drives of the bus are
+    /// commissioned at this rate (`crate::transfer`).
+    pub transfer_baud: Option<u32>,
+    /// The families of the bus's drives, one entry per drive (for the
+    /// transfer rate's shared-bus refusal).
+    pub families: Vec<driveset_schema::Family>,
     /// `sim://` only: the simulator's `state=FILE` (taken out of the port
     /// string before parsing; relative to the current directory).
     pub sim_state: Option<String>,
@@ -329,7 +335,14 @@ struct Reader<'a> {
 }
 
 const LINE_KEYS: &[&str] = &["name", "label", "report_dir", "journal_dir"];
-const BUS_KEYS: &[&str] = &["name", "port", "protocol", "baud", "bitrate"];
+const BUS_KEYS: &[&str] = &[
+    "name",
+    "port",
+    "protocol",
+    "baud",
+    "bitrate",
+    "transfer_baud",
+];
 const DRIVE_KEYS: &[&str] = &["name", "bus", "address", "set", "position"];
 const TOP_KEYS: &[&str] = &["line", "bus", "buses", "drive", "drives"];
 
@@ -339,6 +352,7 @@ struct RawBus {
     protocol: Option<BusProtocol>,
     baud: Option<(u32, Range<usize>)>,
     bitrate: Option<(u32, Range<usize>)>,
+    transfer_baud: Option<(u32, Range<usize>)>,
     span: Range<usize>,
 }
 
@@ -515,6 +529,7 @@ impl<'a> Reader<'a> {
                 protocol: None,
                 baud: None,
                 bitrate: None,
+                transfer_baud: None,
                 span: node.span.clone(),
             };
             for e in node.entries() {
@@ -531,6 +546,22 @@ impl<'a> Reader<'a> {
                                     format!("unknown bus protocol `{p}`"),
                                     "use lustbus, lecom or can",
                                 );
+                            }
+                        }
+                    }
+                    "transfer_baud" => {
+                        if let Some((v, span)) = self.integer(e, "a bus") {
+                            let ok = u32::try_from(v)
+                                .ok()
+                                .filter(|r| driveset_schema::family::SERVO_RATES.contains(r));
+                            match ok {
+                                Some(r) => b.transfer_baud = Some((r, span)),
+                                None => self.push(
+                                    "bad-transfer-baud",
+                                    &span,
+                                    format!("`transfer_baud` = {v} is not a rate MC6000/7000 servos run at"),
+                                    "use 2400, 4800, 9600, 19200, 38400 or 57600 (lustbus-protocol.txt §4)",
+                                ),
                             }
                         }
                     }
@@ -1004,15 +1035,32 @@ impl<'a> Reader<'a> {
                 (None, Some(p)) => p,
                 (None, None) => 0,
             };
+            if let Some((_, span)) = &b.transfer_baud
+                && protocol != BusProtocol::Lustbus
+            {
+                self.push(
+                    "unknown-key",
+                    span,
+                    format!("a {protocol} bus has no `transfer_baud`"),
+                    "only MC6000/7000 servos on a LUSTBUS bus switch their rate online (lustbus-protocol.txt §11.5); remove it",
+                );
+            }
             buses.push(Bus {
                 name: bname.clone(),
                 port_text: port_text.clone(),
                 port: spec,
                 protocol,
                 rate,
+                transfer_baud: b.transfer_baud.as_ref().map(|t| t.0),
+                families: Vec::new(),
                 sim_state,
                 location: self.loc(&b.span),
             });
+        }
+        for d in &drives {
+            if let Some(b) = buses.iter_mut().find(|b| b.name == d.bus) {
+                b.families.push(d.schema.family);
+            }
         }
         let mut findings = std::mem::take(&mut self.findings);
         findings.extend(set_findings);

@@ -268,6 +268,7 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
             allow_running: true,
             allow_running_unknown: true,
             allow_address_change: true,
+            allow_shared_transfer_baud: true,
         },
         ..PlanOptions::default()
     };

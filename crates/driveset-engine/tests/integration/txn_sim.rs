@@ -191,6 +191,414 @@ fn mc6000_eeprom_gaps_carry_verification_reads_on_the_real_client() {
     );
 }
 
+// ---------------------------------------------------------------------------
+// --transfer-baud (issue 12, driveset_engine::transfer)
+// ---------------------------------------------------------------------------
+
+mod transfer_rate {
+    use std::time::Duration;
+
+    use driveset_engine::client::{DriveClient, LustbusClient};
+    use driveset_engine::journal::{JournalFile, TransferState, TxnState};
+    use driveset_engine::live::live_diff;
+    use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
+    use driveset_engine::transfer::{self, TransferRequest};
+    use driveset_engine::upload::UploadOptions;
+    use driveset_link::VirtualClock;
+    use driveset_schema::{CodeKey, RawValue, ResolvedSet};
+    use driveset_sim::bus::SimByteBus;
+    use driveset_sim::catalog::{self, Family};
+    use driveset_sim::faults::FaultPlan;
+    use driveset_sim::log::{Dir, EventLog};
+    use driveset_sim::mc6000::Mc6000;
+
+    use super::{opts, set};
+
+    fn mc_bus(log: &EventLog, faults: Option<&str>) -> SimByteBus {
+        let clock = VirtualClock::new();
+        let mut bus = SimByteBus::new(
+            &clock,
+            9600,
+            vec![Box::new(Mc6000::new(opts(1)).expect("mc"))],
+        )
+        .expect("bus")
+        .with_log(log.clone());
+        if let Some(f) = faults {
+            bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
+        }
+        bus
+    }
+
+    /// The log as `h:` host / `d:` drive texts and `e:` notes.
+    fn seq(log: &EventLog) -> Vec<String> {
+        log.events()
+            .iter()
+            .map(|e| match e.dir {
+                Dir::Host => format!("h:{}", e.text),
+                Dir::Drive => format!("d:{}", e.text),
+                _ => format!("e:{}", e.detail.clone().unwrap_or_default()),
+            })
+            .collect()
+    }
+
+    fn window(all: &[String], from: &str, n: usize) -> Vec<String> {
+        let i = all
+            .iter()
+            .position(|s| s == from)
+            .unwrap_or_else(|| panic!("{from} not in the log: {all:#?}"));
+        all[i..(i + n).min(all.len())].to_vec()
+    }
+
+    fn last_window(all: &[String], from: &str, n: usize) -> Vec<String> {
+        let i = all
+            .iter()
+            .rposition(|s| s == from)
+            .unwrap_or_else(|| panic!("{from} not in the log"));
+        all[i..(i + n).min(all.len())].to_vec()
+    }
+
+    fn mc_client(log: &EventLog, faults: Option<&str>) -> LustbusClient<SimByteBus> {
+        let schema = catalog::schema(Family::Mc6000).expect("schema");
+        LustbusClient::new(mc_bus(log, faults), schema, 1).expect("client")
+    }
+
+    #[test]
+    fn upload_switches_to_57600_and_back_with_exact_telegrams() {
+        let set = set("parameter-sets/mc6000/axis-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let journal = dir.path().join("j.journal.json");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        let report = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(&journal),
+            &TransferRequest::new(57600),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        assert_eq!(report.state, TxnState::Complete, "{}", report.render());
+        let t = report.transfer.as_ref().expect("transfer report");
+        assert!(t.switched);
+        assert_eq!(
+            t.state,
+            "the drive runs at 9600 baud again; 81-SBAUD holds 19200 (not active: in effect after the drive's next restart)"
+        );
+        assert!(
+            t.decision
+                .summary()
+                .starts_with("transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 962 ms at 57600 baud plus 112 ms to switch over and back)"),
+            "{}",
+            t.decision.summary()
+        );
+        let all = seq(&log);
+        // before the switch, at 9600: the rate code is read (81 = 0x2580 = 9600)
+        assert_eq!(
+            window(&all, "h:<EOT>A00081<ENQ>", 2),
+            ["h:<EOT>A00081<ENQ>", "d:A<STX>00081=2580<ETX><BS>"]
+        );
+        // 81-SBAUD = 57600 (0xE100), 4-PROG = 111 (0x6F): ACK at 9600, then
+        // the first telegram at 57600 reads 81 back, and 81 gets the
+        // drive's own 9600 again, not activated
+        assert_eq!(
+            window(&all, "h:<EOT>A<STX>00081=E100<ETX>s", 9),
+            [
+                "h:<EOT>A<STX>00081=E100<ETX>s",
+                "d:A<ACK>",
+                "h:<EOT>A<STX>20004=6F<ETX>x",
+                "d:A<ACK>",
+                "e:drive 1 runs at 57600 baud from here",
+                "h:<EOT>A00081<ENQ>",
+                "d:A<STX>00081=E100<ETX>s",
+                "h:<EOT>A<STX>00081=2580<ETX><BS>",
+                "d:A<ACK>",
+            ]
+        );
+        // the first exchange at 57600: 8 characters out, 2 ms reaction
+        let ev = log.events();
+        let i = ev
+            .iter()
+            .position(|e| e.fault.as_deref() == Some("baud-change"))
+            .expect("baud change");
+        let (q, a) = (&ev[i + 1], &ev[i + 2]);
+        assert_eq!(a.t_ns - q.t_ns, 1_388_888 + 2_000_000);
+        // back: SBAUD read (the set's 19200 = 0x4B00), 81 = 9600, PROG = 111
+        // (ACK at 57600), then at 9600: confirm, write the set's 19200 back
+        // without activating it, verify
+        assert_eq!(
+            last_window(&all, "h:<EOT>A<STX>00081=2580<ETX><BS>", 11),
+            [
+                "h:<EOT>A<STX>00081=2580<ETX><BS>",
+                "d:A<ACK>",
+                "h:<EOT>A<STX>20004=6F<ETX>x",
+                "d:A<ACK>",
+                "e:drive 1 runs at 9600 baud from here",
+                "h:<EOT>A00081<ENQ>",
+                "d:A<STX>00081=2580<ETX><BS>",
+                "h:<EOT>A<STX>00081=4B00<ETX>q",
+                "d:A<ACK>",
+                "h:<EOT>A00081<ENQ>",
+                "d:A<STX>00081=4B00<ETX>q",
+            ]
+        );
+        // exactly two rate changes, and the drive runs at 9600 at the end
+        assert_eq!(
+            ev.iter()
+                .filter(|e| e.fault.as_deref() == Some("baud-change"))
+                .count(),
+            2
+        );
+        assert_eq!(c.link().line().drive_baud(1), Some(9600));
+        assert_eq!(c.link().line().baud(), 9600);
+        // the set's SBAUD is in EEPROM (not active), the set is on the drive
+        assert_eq!(c.read(CodeKey::new(81)).expect("81"), RawValue::Int(19200));
+        assert!(live_diff(&mut c, &set).expect("diff").is_empty());
+        let j = JournalFile::open(&journal).expect("journal").journal;
+        assert_eq!(j.state, TxnState::Complete);
+        let rec = j.transfer.expect("record");
+        assert_eq!(
+            (rec.state, rec.old_rate, rec.transfer_rate),
+            (TransferState::Back, 9600, 57600)
+        );
+        assert_eq!(
+            rec.before,
+            driveset_engine::journal::JournalValue::Int(9600)
+        );
+        assert_eq!(
+            rec.stored,
+            Some(driveset_engine::journal::JournalValue::Int(19200))
+        );
+        assert!(rec.switched_at_ns.expect("switched") < rec.back_at_ns.expect("back"));
+    }
+
+    #[test]
+    fn rerun_and_pull_at_the_transfer_rate_settle_their_journal() {
+        let set = set("parameter-sets/mc6000/axis-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let journal = dir.path().join("j.journal.json");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        driveset_engine::upload::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("first.json")),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let report = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(&journal),
+            &TransferRequest::new(57600),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        assert_eq!(report.codes_written, 0);
+        assert!(report.transfer.as_ref().is_some_and(|t| t.switched));
+        let j = JournalFile::open(&journal).expect("journal").journal;
+        assert_eq!(j.state, TxnState::Complete);
+        assert!(j.plan.is_empty() && j.is_finished());
+        // pull at 57600: the same values as at 9600
+        let pj = dir.path().join("pull.journal.json");
+        let (pulled, t) = transfer::pull(
+            &mut c,
+            &driveset_engine::pull::PullOptions::default(),
+            &TransferRequest::new(57600),
+            &pj,
+            &driveset_engine::observe::Hook::none(),
+        )
+        .expect("pull");
+        assert!(t.switched, "{}", t.render());
+        let plain = driveset_engine::pull::pull(&mut c, &Default::default()).expect("pull");
+        assert_eq!(pulled.full_fingerprint, plain.full_fingerprint);
+        assert!(
+            JournalFile::open(&pj)
+                .expect("journal")
+                .journal
+                .is_finished()
+        );
+        assert_eq!(c.link().line().drive_baud(1), Some(9600));
+    }
+
+    #[test]
+    fn a_small_set_is_not_switched_it_does_not_pay() {
+        let schema = catalog::schema(Family::Mc6000).expect("schema");
+        let mut set = ResolvedSet::new(&schema);
+        set.insert(CodeKey::new(103), RawValue::Int(800));
+        let dir = tempfile::tempdir().expect("tempdir");
+        let journal = dir.path().join("j.journal.json");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        let report = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(&journal),
+            &TransferRequest::new(57600),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let t = report.transfer.expect("transfer");
+        assert!(!t.switched);
+        assert_eq!(
+            t.decision.summary(),
+            "transfer rate 57600: not switched: it does not pay (1 exchange: 23 ms at 9600 baud against 4 ms at 57600 baud plus 112 ms to switch over and back)"
+        );
+        assert!(
+            !seq(&log).iter().any(|s| s.contains("00081=")),
+            "no SBAUD write"
+        );
+        assert!(
+            !seq(&log)
+                .iter()
+                .any(|s| s.starts_with("h:<EOT>A<STX>20004"))
+        );
+    }
+
+    #[test]
+    fn a_running_drive_is_refused_before_the_switch() {
+        let set = set("parameter-sets/mc6000/axis-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        // start the motor (416-SCTL1 bit 0)
+        c.write(CodeKey::new(416), &RawValue::Int(1))
+            .expect("start");
+        let n = log.events().len();
+        let err = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("j.json")),
+            &TransferRequest::new(57600),
+        )
+        .expect_err("running");
+        assert_eq!(
+            err.to_string(),
+            "sim address 1: refused: --transfer-baud 57600: the drive reports a running motor (or its running state cannot be read); the line rate is switched only at standstill, and no override lifts that: stop the drive, or leave out --transfer-baud"
+        );
+        // read-only exchanges only: identify and the running check
+        let after: Vec<String> = seq(&log)[n..].to_vec();
+        assert_eq!(
+            after
+                .iter()
+                .filter(|s| s.starts_with("h:"))
+                .cloned()
+                .collect::<Vec<_>>(),
+            ["h:<EOT>A00091<ENQ>", "h:<EOT>A20416<ENQ>"]
+        );
+        assert!(!dir.path().join("j.json").exists());
+    }
+
+    #[test]
+    fn vf1000_tcp_and_a_shared_bus_are_refused_before_anything_is_sent() {
+        use driveset_sim::vf1000::Vf1000;
+        let set = set("parameter-sets/vf1000/conveyor-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let log = EventLog::memory();
+        let clock = VirtualClock::new();
+        let bus = SimByteBus::new(
+            &clock,
+            9600,
+            vec![Box::new(Vf1000::new(opts(4)).expect("vf"))],
+        )
+        .expect("bus")
+        .with_log(log.clone());
+        let mut c = LustbusClient::new(bus, catalog::schema(Family::Vf1000).expect("schema"), 4)
+            .expect("client");
+        let err = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("j.json")),
+            &TransferRequest::new(19200),
+        )
+        .expect_err("vf1000");
+        assert_eq!(
+            err.to_string(),
+            "sim address 4: refused: --transfer-baud 19200: a Lust SMARTDRIVE VF1000 runs at 9600 baud at most (lustbus-protocol.txt §4) and activates a new rate only at a restart (§11.5); leave out --transfer-baud"
+        );
+        assert!(log.events().is_empty(), "nothing sent");
+        // an MC on a bus with VF1000s: refused unless overridden
+        let set = super::set("parameter-sets/mc6000/axis-1.toml");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        let mut req = TransferRequest::new(57600);
+        req.others = vec![
+            driveset_schema::Family::Vf1000,
+            driveset_schema::Family::Mc6000,
+        ];
+        let err = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("k.json")),
+            &req,
+        )
+        .expect_err("shared");
+        assert_eq!(
+            err.to_string(),
+            "sim address 1: refused: --transfer-baud 57600: the bus is shared with 1 drive(s) (Lust SMARTDRIVE VF1000) that cannot follow: while this drive talks at 57600 baud they hear garbage, and their watchdog (84-SIOT / SWDGT, lustbus-protocol.txt §5.2) may fire; give --allow-shared-transfer-baud to switch anyway, or leave out --transfer-baud"
+        );
+        assert!(log.events().is_empty(), "nothing sent");
+        req.allow_shared = true;
+        let r = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("k.json")),
+            &req,
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        assert!(r.transfer.is_some_and(|t| t.switched));
+        // a rate the family does not run at
+        let err = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("l.json")),
+            &TransferRequest::new(1200),
+        )
+        .expect_err("1200");
+        assert_eq!(
+            err.to_string(),
+            "sim address 1: refused: --transfer-baud 1200: a Lust MASTERCONTROL MC6000/7000 runs at 2400, 4800, 9600, 19200, 38400, 57600 baud (lustbus-protocol.txt §4); pick one of these"
+        );
+    }
+
+    #[test]
+    fn cable_pulled_at_the_transfer_rate_then_recover_finds_the_drive_and_switches_back() {
+        let set = set("parameter-sets/mc6000/axis-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let journal = dir.path().join("j.journal.json");
+        // telegram 40: well after the switch (the 9th telegram), in the read-back
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, Some("cable@40+60s"));
+        let f = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(&journal),
+            &TransferRequest::new(57600),
+        )
+        .expect_err("cable");
+        let text = f.to_string();
+        assert!(
+            text.contains("switching back from the transfer rate failed")
+                && text.contains("it may still run at the transfer rate 57600 baud; its 81-SBAUD holds 9600 in EEPROM, so a restart brings it to that rate"),
+            "{text}"
+        );
+        let j = JournalFile::open(&journal).expect("journal").journal;
+        assert!(!j.is_finished());
+        assert_ne!(
+            j.transfer.as_ref().map(|t| t.state),
+            Some(TransferState::Back)
+        );
+        assert_eq!(c.link().line().drive_baud(1), Some(57600));
+        // the cable is back; recover through a port at 9600
+        c.clock().sleep(Duration::from_secs(120));
+        c.set_line_rate(9600).expect("port at 9600");
+        let r = recover(&mut c, &journal, &RecoverOptions::default()).expect("recover");
+        assert_eq!(
+            r.transfer.as_deref(),
+            Some("found at 57600 baud; the drive runs at 9600 baud again; 81-SBAUD = 9600")
+        );
+        assert_eq!(r.action, RecoverAction::RolledBack);
+        assert_eq!(c.link().line().drive_baud(1), Some(9600));
+        let j = JournalFile::open(&journal).expect("journal").journal;
+        assert!(j.is_finished(), "{:?}", j.state);
+    }
+}
+
 #[test]
 fn a_pulled_cable_is_observed_as_rollback_and_recover_as_read_rollback_verify() {
     use driveset_engine::observe::{Hook, Phase as P, Spans};

@@ -206,3 +206,22 @@ fn bus_id_is_the_same_for_every_spelling_of_the_host() {
     assert_eq!(by_name.bus_id(), by_ip.bus_id());
     drop(server.join().expect("server"));
 }
+
+#[test]
+fn a_raw_tcp_link_cannot_change_its_rate_and_says_to_use_rfc2217() {
+    let (listener, port) = listener();
+    let h = thread::spawn(move || {
+        let _ = listener.accept().expect("accept");
+    });
+    let mut link = TcpLink::connect("127.0.0.1", port, 9600, CONNECT).expect("connect");
+    let err = link.set_baud(57600).expect_err("raw tcp");
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "tcp://127.0.0.1:{port}: a raw tcp:// device server keeps the line rate it is configured with, so driveset cannot switch it to 57600 baud; use rfc2217://127.0.0.1:{port} so driveset can set the device server's rate"
+        )
+    );
+    assert_eq!(link.baud(), 9600);
+    drop(link);
+    h.join().expect("server");
+}

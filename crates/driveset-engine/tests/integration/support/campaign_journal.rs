@@ -124,6 +124,9 @@ impl<L: ByteLink> ByteLink for Spelled<L> {
     fn flush(&mut self) -> Result<(), LinkError> {
         self.inner.flush()
     }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.inner.set_baud(baud)
+    }
 }
 
 impl<L: FrameLink> FrameLink for Spelled<L> {
@@ -660,6 +663,9 @@ impl<L: ByteLink> ByteLink for Kill<L> {
     }
     fn flush(&mut self) -> Result<(), LinkError> {
         self.inner.flush()
+    }
+    fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
+        self.inner.set_baud(baud)
     }
 }
 
