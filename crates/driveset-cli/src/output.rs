@@ -467,11 +467,21 @@ pub fn fail_input(e: &InputError) -> u8 {
     crate::EXIT_INPUT
 }
 
-/// The schemas every command knows: the four built-ins, the simulator's
-/// fictional fixtures (so a set may name them by id as well as by path),
-/// and every `*.toml` schema of `dirs` (`--schemas`).
+/// The schemas every command knows: the four vendor schemas built in and
+/// every `*.toml` schema of `dirs` (`--schemas`). The simulator's fictional
+/// fixture schemas are not among them: a set names a fixture by its file
+/// (`schema = "../fixtures/fictional-mc6000-demo.toml"`); only commands on a
+/// `sim://` port, whose drives load them, know them by id
+/// ([`sim_registry`]).
 pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    let mut r = driveset_sim::catalog::registry().map_err(|e| {
+    with_dirs(driveset_schema::Registry::builtin()?, dirs)
+}
+
+/// [`registry`] plus the simulator's fixture schemas, for a command talking
+/// to a `sim://` port (the simulated drives hold those schemas, and a set
+/// pulled from them names them by id).
+pub fn sim_registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
+    let r = driveset_sim::catalog::registry().map_err(|e| {
         InputError::new(
             driveset_schema::InputErrorKind::Structure,
             driveset_schema::Location::file_only("<built-in schemas>"),
@@ -479,19 +489,25 @@ pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputErro
             "this is a build defect: report it with the output of `driveset --version`",
         )
     })?;
+    with_dirs(r, dirs)
+}
+
+fn with_dirs(
+    mut r: driveset_schema::Registry,
+    dirs: &[PathBuf],
+) -> Result<driveset_schema::Registry, InputError> {
     for d in dirs {
         r.load_dir(d)?;
     }
     Ok(r)
 }
 
-/// Load one set for `diff`, `fingerprint` and `show`: an input error or a set
-/// with findings is reported on stderr and gives the exit code to return.
-pub fn load_valid_set(
+/// Report a loaded set's findings on stderr (with the exit code to return),
+/// or give it back when it has none.
+pub fn valid_set(
     path: &Path,
-    registry: &mut driveset_schema::Registry,
+    loaded: driveset_schema::LoadedSet,
 ) -> Result<driveset_schema::LoadedSet, u8> {
-    let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
     if loaded.findings.is_empty() && loaded.resolved.is_some() && loaded.schema.is_some() {
         return Ok(loaded);
     }
@@ -509,6 +525,16 @@ pub fn load_valid_set(
         ))
     );
     Err(crate::EXIT_INPUT)
+}
+
+/// Load one set for `diff`, `fingerprint` and `show`: an input error or a set
+/// with findings is reported on stderr and gives the exit code to return.
+pub fn load_valid_set(
+    path: &Path,
+    registry: &mut driveset_schema::Registry,
+) -> Result<driveset_schema::LoadedSet, u8> {
+    let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
+    valid_set(path, loaded)
 }
 
 #[cfg(test)]

@@ -381,6 +381,17 @@ pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
     crate::output::registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
 }
 
+/// The schemas a command on `port` knows: [`registry`], plus the
+/// simulator's fixture schemas when `port` is a `sim://` port
+/// ([`crate::output::sim_registry`]).
+pub fn registry_for(port: &str, dirs: &[PathBuf]) -> Result<Registry, Fail> {
+    if matches!(PortSpec::parse(port), Ok(PortSpec::Sim(_))) {
+        crate::output::sim_registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
+    } else {
+        registry(dirs)
+    }
+}
+
 /// A schema and whether it came from a file.
 #[derive(Debug, Clone)]
 pub struct SchemaChoice {
@@ -399,7 +410,12 @@ pub fn resolve_schema(
     sim: Option<Family>,
     protocol: Option<ProtocolArg>,
 ) -> Result<SchemaChoice, Fail> {
-    let mut registry = registry(dirs)?;
+    // On a `sim://` port the simulator's fixture schemas are known by id.
+    let mut registry = match sim {
+        Some(_) => crate::output::sim_registry(dirs)
+            .map_err(|e| Fail::input(e.render_human_string()))?,
+        None => registry(dirs)?,
+    };
     if let Some(a) = arg {
         let p = Path::new(a);
         if p.is_file() {

@@ -26,7 +26,7 @@
 // EngineError is large by design; it is built on the failure path only.
 #![allow(clippy::result_large_err)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use driveset_engine::upload::{
     UploadOptions, default_journal_path, prepare, upload as engine_upload,
@@ -129,36 +129,6 @@ pub struct Args {
 /// Run `driveset upload`.
 pub fn run(args: Args) -> anyhow::Result<u8> {
     port::finish(upload(&args))
-}
-
-/// Load a set file for the bus commands: a set with findings is an input error.
-pub fn load_set(
-    path: &Path,
-    dirs: &[PathBuf],
-) -> Result<
-    (
-        std::sync::Arc<driveset_schema::Schema>,
-        driveset_schema::ResolvedSet,
-    ),
-    u8,
-> {
-    // The built-in schemas (plus --schemas); a set naming one of the
-    // simulator's fixture schemas by id gets those too. (Not both at once:
-    // a set naming a fixture by path would define its id twice.)
-    let mut registry = output::registry(dirs).map_err(|e| output::fail_input(&e))?;
-    let unknown_schema =
-        driveset_schema::load_set(path, &mut registry.clone()).is_ok_and(|l| l.schema.is_none());
-    if unknown_schema {
-        registry = port::registry(dirs).map_err(|f| {
-            eprintln!("error: {}", f.msg);
-            f.code
-        })?;
-    }
-    let loaded = output::load_valid_set(path, &mut registry)?;
-    match (loaded.schema, loaded.resolved) {
-        (Some(s), Some(r)) => Ok((s, r)),
-        _ => Err(crate::EXIT_INPUT),
-    }
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {
