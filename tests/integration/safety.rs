@@ -368,8 +368,15 @@ fn pull_leaves_commands_control_words_and_passwords_out() {
     for code in ["\nCNTL", "\nPROG", "\nSTAT", "\nPASS", "\n3 =", "\n70 ="] {
         assert!(!text.contains(code), "{code}\n{text}");
     }
-    // what was pulled validates and uploads back unchanged
-    in_dir(d).args(["validate", "vf.toml"]).assert().code(0);
+    // what was pulled validates (against the simulator's fixture schema,
+    // which only `--schemas` or a sim:// port know by id) and uploads back
+    // unchanged
+    in_dir(d)
+        .args(["validate", "--schemas"])
+        .arg(crate::util::workspace_root().join("parameter-sets/fixtures"))
+        .arg("vf.toml")
+        .assert()
+        .code(0);
     in_dir(d)
         .args(["upload", "vf.toml", "--port", VF, "--address", "1"])
         .assert()

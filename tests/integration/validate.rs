@@ -643,14 +643,29 @@ fn schemas_dir_adds_schemas_by_id() {
 }
 
 #[test]
-fn simulator_fixture_schemas_are_known_by_id() {
-    // The simulator's fictional fixtures are built in, so a set may name
-    // them by id as well as by path, without --schemas.
+fn simulator_fixture_schemas_are_known_by_path_or_with_schemas() {
+    // The simulator's fictional fixtures are not built in (issue 9): a set
+    // names one by path, or the fixtures' directory is given explicitly.
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("axis.toml");
     std::fs::write(
         &p,
         "schema = \"fictional-ecs-demo\"\n[values]\nmax_speed = \"3000 rpm\"\n",
+    )
+    .unwrap();
+    let (out, code) = validate(&["--schemas", "parameter-sets/fixtures", p.to_str().unwrap()]);
+    assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+    let (out, code) = validate(&[p.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.starts_with("error[unknown-schema]: schema `fictional-ecs-demo` is a fictional fixture of the simulator; a set cannot name it by id\n"), "{out}");
+    let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../parameter-sets/fixtures/fictional-ecs-demo.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "schema = {:?}\n[values]\nmax_speed = \"3000 rpm\"\n",
+            fixture.display().to_string()
+        ),
     )
     .unwrap();
     let (out, code) = validate(&[p.to_str().unwrap()]);
@@ -664,15 +679,19 @@ fn simulator_fixture_schemas_are_known_by_id() {
 fn fictional_fixture_schema_by_id_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let set = dir.path().join("f.toml");
-    std::fs::write(&set, "schema = \"fictional-mc6000-demo\"\n[values]\nSWDGT = 100\n").unwrap();
+    std::fs::write(
+        &set,
+        "schema = \"fictional-mc6000-demo\"\n[values]\nSWDGT = 100\n",
+    )
+    .unwrap();
     let set = set.display().to_string();
     let (out, code) = validate(&[&set]);
-    let help = "name the fixture's file instead (e.g. schema = \"../fixtures/fictional-mc6000-demo.toml\", relative to this set), or a schema of a real drive: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000";
+    let help = "name its file instead (schema = \"PATH\", relative to this set; in driveset's sources it is parameter-sets/fixtures/fictional-mc6000-demo.toml), or a schema of a real drive: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000";
     assert_eq!(
         (out.as_str(), code),
         (
             format!(
-                "error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture schema, not one driveset knows by id
+                "error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture of the simulator; a set cannot name it by id
  --> {set}:1:10
   |
 1 | schema = \"fictional-mc6000-demo\"
@@ -695,8 +714,11 @@ fn fictional_fixture_schema_by_id_is_refused() {
     assert_eq!(String::from_utf8_lossy(&out.stdout), "");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.starts_with("error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture schema, not one driveset knows by id\n"),
+        err.starts_with("error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture of the simulator; a set cannot name it by id\n"),
         "{err}"
     );
-    assert!(err.ends_with(&format!("error: {set}: not uploaded\n")), "{err}");
+    assert!(
+        err.ends_with(&format!("error: {set}: not uploaded\n")),
+        "{err}"
+    );
 }

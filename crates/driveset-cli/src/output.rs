@@ -474,7 +474,9 @@ pub fn fail_input(e: &InputError) -> u8 {
 /// `sim://` port, whose drives load them, know them by id
 /// ([`sim_registry`]).
 pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    with_dirs(driveset_schema::Registry::builtin()?, dirs)
+    let mut r = driveset_schema::Registry::builtin()?;
+    driveset_sim::catalog::withhold_fixtures(&mut r);
+    with_dirs(r, dirs)
 }
 
 /// [`registry`] plus the simulator's fixture schemas, for a command talking

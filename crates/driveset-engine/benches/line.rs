@@ -37,7 +37,8 @@ impl Sims {
         let PortSpec::Sim(spec) = &bus.port else {
             return Err("not a sim port".into());
         };
-        let s = open_sim(spec, &VirtualClock::new()).map_err(|e| e.to_string())?;
+        let spec = driveset_sim::port::SimSpec::from_opaque(spec).map_err(|e| e.to_string())?;
+        let s = open_sim(&spec, &VirtualClock::new()).map_err(|e| e.to_string())?;
         let l = s.link();
         m.insert(bus.name.clone(), s);
         Ok(l)
@@ -142,7 +143,7 @@ fn main() {
     let tmp = tempfile::tempdir().unwrap();
     let path = write_line(tmp.path(), 25);
     let mut reg = Registry::builtin().unwrap();
-    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let m = l.manifest.unwrap();
     println!("line: {} drives on {} buses", m.drives.len(), m.buses.len());
@@ -203,4 +204,10 @@ fn main() {
     if !ok {
         std::process::exit(1);
     }
+}
+
+/// The simulator's port opener, as the CLI registers it.
+fn sim_openers() -> driveset_link::Openers {
+    driveset_link::Openers::none()
+        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

@@ -442,15 +442,15 @@ fn resolve_schema(
         };
     }
     let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
-    if sref.starts_with("fictional-") {
-        // The simulator's fixture schemas are not built in (issue 9): a
-        // set that means one names its file.
+    if let Some(file) = registry.withheld(sref) {
+        // The simulator's fixture schemas are not a user's (issue 9): a set
+        // that means one names its file.
         findings.push(Finding::new(
             FindingKind::UnknownSchema,
             loc.clone(),
-            format!("schema `{sref}` is a fictional fixture schema, not one driveset knows by id"),
+            format!("schema `{sref}` is a fictional fixture of the simulator; a set cannot name it by id"),
             format!(
-                "name the fixture's file instead (e.g. schema = \"../fixtures/{sref}.toml\", relative to this set), or a schema of a real drive: {}",
+                "name its file instead (schema = \"PATH\", relative to this set; in driveset's sources it is {file}), or a schema of a real drive: {}",
                 ids.join(", ")
             ),
         ));

@@ -149,7 +149,7 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
         Ok(r) => r,
         Err(e) => return Err(crate::output::fail_input(&e)),
     };
-    let loaded = match load_manifest(path, &mut registry) {
+    let loaded = match load_manifest(path, &mut registry, &port::openers()) {
         Ok(l) => l,
         Err(e) => {
             eprint!("{}", e.render_human());
@@ -177,11 +177,14 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
     }
 }
 
-/// Open a bus through the CLI's port opener (`sim://` in-process).
+/// Open a bus with the CLI's port openers (`sim://` in-process).
 pub fn open_bus(bus: &Bus) -> Result<Link, String> {
-    port::open_port(&bus.open_string())
-        .map(|p| p.link)
-        .map_err(|f| f.msg)
+    driveset_link::open_with(
+        &bus.port,
+        &driveset_link::OpenOptions::default(),
+        &port::openers(),
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// Run a line command.

@@ -155,7 +155,7 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
     let mut report = FileReport::default();
     // a line manifest (top-level [line] table or bus list): its own checks
     if driveset_engine::line::manifest::is_manifest(path) {
-        match driveset_engine::line::manifest::validate_manifest(path) {
+        match driveset_engine::line::manifest::validate_manifest(path, &crate::port::openers()) {
             Ok(f) => report.findings = f.iter().map(|f| f.to_finding()).collect(),
             Err(e) => report.error = Some(e),
         }

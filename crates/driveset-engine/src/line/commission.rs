@@ -514,7 +514,7 @@ impl Ctx<'_> {
                     key,
                     StateEntry {
                         name: d.name.clone(),
-                        port: bus.port.to_string(),
+                        port: bus.port_name.clone(),
                         set: d.set_text.clone(),
                         set_fingerprint: d.set.fingerprint(),
                         fingerprint: fp.to_string(),
@@ -582,7 +582,7 @@ fn since(start: Instant, at: Instant) -> f64 {
 fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> BusRun {
     let mut report = BusReport {
         name: bus.name.clone(),
-        port: bus.port.to_string(),
+        port: bus.port_name.clone(),
         protocol: bus.protocol.name().into(),
         rate: bus.rate,
         elapsed_ms: 0.0,
@@ -614,7 +614,7 @@ fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> 
                 let mut r = blank_report(d, bus, DriveResult::Failed);
                 r.error = Some(format!(
                     "bus `{}` ({}) could not be opened: {e}",
-                    bus.name, bus.port
+                    bus.name, bus.port_name
                 ));
                 progress(i + 1, &r);
                 out.push(r);
@@ -815,7 +815,7 @@ fn run_drive(
                 if let Some(rec) = ctx.recorded(bus, d)
                     && recovered.is_empty()
                     && rec.set_fingerprint == set_fp
-                    && rec.port == bus.port.to_string()
+                    && rec.port == bus.port_name
                 {
                     // confirm with one read of the set's codes
                     let id = check_family(&mut client)?;
@@ -914,7 +914,10 @@ fn learn_drive(
     link: &mut Link,
     ctx: &Ctx<'_>,
 ) -> Result<(Drive, LearnedSchemaReport), (String, Option<Failure>)> {
-    let what = format!("drive `{}` ({} address {})", d.name, bus.port, d.address);
+    let what = format!(
+        "drive `{}` ({} address {})",
+        d.name, bus.port_name, d.address
+    );
     let Some(cfg) = &ctx.opts.learn else {
         return Err((
             format!(
@@ -952,7 +955,7 @@ fn learn_drive(
     client.finish().map_err(eng)?;
     let id = learned_id(base.family, &identity, &learned);
     let source = LearnSource {
-        drive: format!("{} address {}", bus.port, d.address),
+        drive: format!("{} address {}", bus.port_name, d.address),
         identity,
     };
     let path = cfg.schema_dir.join(format!("{id}.toml"));
