@@ -12,8 +12,7 @@ use std::sync::Arc;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::learn::{
-    LearnOptions, LearnSource, Learned, LearnedSchema, learn as engine_learn, learned_id,
-    needs_learning, render_schema,
+    LearnOptions, Learned, LearnedSchema, PullSchemaError, needs_learning, pull_schema,
 };
 use driveset_engine::scan::{ScanOptions, detect_protocol};
 use driveset_link::{ByteLink, Link};
@@ -213,17 +212,21 @@ pub fn learn(
 ) -> Result<LearnedClient, Fail> {
     let opts = args.options()?;
     let mut client = LustbusClient::new(link, base.clone(), address).map_err(Fail::from)?;
-    let identity = client.identify().map_err(Fail::from)?;
-    let mut learned = engine_learn(&mut client, base.family, &opts).map_err(Fail::from)?;
-    client.finish().map_err(Fail::from)?;
-    let id = learned_id(base.family, &identity, &learned);
-    let source = LearnSource {
-        drive: format!("{port_name} address {address}"),
-        identity,
-    };
     let registry = port::registry_for(port_name, dirs)?;
-    let rendered: LearnedSchema = render_schema(&mut learned, &base, &id, &source, &registry)
-        .map_err(|e| Fail::bus(format!("{port_name} address {address}: {e}")))?;
+    let pulled = pull_schema(
+        &mut client,
+        &base,
+        &opts,
+        None,
+        format!("{port_name} address {address}"),
+        &registry,
+    )
+    .map_err(|e| match e {
+        PullSchemaError::Engine(e) => Fail::from(e),
+        PullSchemaError::Render(e) => Fail::bus(format!("{port_name} address {address}: {e}")),
+    })?;
+    let (rendered, learned): (LearnedSchema, _) = (pulled.rendered, pulled.learned);
+    let id = rendered.id.clone();
     let file = match dir {
         Some(d) => {
             std::fs::create_dir_all(d)

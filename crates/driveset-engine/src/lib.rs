@@ -10,6 +10,7 @@
 
 pub mod client;
 pub mod connect;
+pub mod decode;
 pub mod doctor;
 pub mod error;
 pub mod identify;
