@@ -25,6 +25,7 @@ macro_rules! out {
 
 mod args;
 mod cmd;
+mod fail;
 mod learning;
 mod output;
 mod port;
@@ -145,9 +146,6 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => ExitCode::from(code),
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(EXIT_INPUT)
-        }
+        Err(f) => ExitCode::from(f.report()),
     }
 }

@@ -21,9 +21,10 @@
 //! line, CAN SDO a CAN port; a mismatch is refused before anything is sent,
 //! as is a schema of another family than a `sim://` port simulates.
 //!
-//! Errors carry their exit code ([`Fail`]): 2 for usage and input (a bad
-//! port string, a schema that does not fit the port, a refusal before
-//! anything was sent), 3 for bus and device failures.
+//! Errors carry their exit code ([`Fail`], the CLI's one error
+//! convention): 2 for usage and input (a bad port string, a schema that
+//! does not fit the port, a refusal before anything was sent), 3 for bus
+//! and device failures.
 
 // EngineError is large by design; it is built on the failure path only.
 #![allow(clippy::result_large_err)]
@@ -33,74 +34,13 @@ use std::sync::Arc;
 
 use driveset_engine::client::{DriveClient, LustbusOptions};
 use driveset_engine::connect::ConnectOptions;
-use driveset_engine::error::EngineError;
 use driveset_link::{Link, OpenOptions, Openers, PortSpec, VirtualClock};
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimLink, open_sim_with};
 use driveset_sim::port::{SimOpener, SimSpec};
 
-use crate::{EXIT_BUS, EXIT_INPUT};
-
-/// A failure and the exit code it ends the command with.
-#[derive(Debug)]
-pub struct Fail {
-    /// Exit code (2 input/usage, 3 bus/device).
-    pub code: u8,
-    /// Message (without the `error: ` prefix).
-    pub msg: String,
-}
-
-impl Fail {
-    /// Usage or input error (exit 2).
-    pub fn input(msg: impl Into<String>) -> Self {
-        Fail {
-            code: EXIT_INPUT,
-            msg: msg.into(),
-        }
-    }
-
-    /// Bus or device failure (exit 3).
-    pub fn bus(msg: impl Into<String>) -> Self {
-        Fail {
-            code: EXIT_BUS,
-            msg: msg.into(),
-        }
-    }
-}
-
-/// The exit code of an engine error: refusals before anything was sent and
-/// journal file problems are input errors (2); everything the bus or the
-/// drive did is 3 (a rolled-back upload included: the drive holds its old
-/// values, the set did not land).
-pub fn engine_exit(e: &EngineError) -> u8 {
-    match e {
-        EngineError::Refused { .. }
-        | EngineError::Journal { .. }
-        | EngineError::NotJournalDrive { .. } => EXIT_INPUT,
-        _ => EXIT_BUS,
-    }
-}
-
-impl From<EngineError> for Fail {
-    fn from(e: EngineError) -> Self {
-        Fail {
-            code: engine_exit(&e),
-            msg: e.to_string(),
-        }
-    }
-}
-
-/// Print a failure on stderr and turn it into the exit code.
-pub fn finish(r: Result<u8, Fail>) -> anyhow::Result<u8> {
-    match r {
-        Ok(code) => Ok(code),
-        Err(f) => {
-            eprintln!("error: {}", f.msg);
-            Ok(f.code)
-        }
-    }
-}
+pub use crate::fail::{Fail, engine_exit};
 
 pub use crate::args::BusArg as ProtocolArg;
 

@@ -101,12 +101,11 @@ pub struct Args {
 }
 
 /// Run `driveset commission`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let overrides = match args.allow.overrides() {
         Ok(o) => o,
         Err(f) => {
-            eprintln!("error: {}", f.msg);
-            return Ok(f.code);
+            return Err(f);
         }
     };
     let opts = Common {
@@ -188,16 +187,19 @@ pub fn open_bus(bus: &Bus) -> Result<Link, String> {
 }
 
 /// Run a line command.
-pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> anyhow::Result<u8> {
+pub fn run_mode(
+    c: Common,
+    mode: Mode,
+    tweak: impl FnOnce(&mut LineOptions),
+) -> Result<u8, crate::fail::Fail> {
     let manifest = match load(&c.manifest, c.learn.no_learn) {
         Ok(m) => m,
-        Err(code) => return Ok(code),
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
     let learn_options = match c.learn.options() {
         Ok(o) => o,
         Err(f) => {
-            eprintln!("error: {}", f.msg);
-            return Ok(f.code);
+            return Err(f);
         }
     };
     let report_dir = c
@@ -216,7 +218,7 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     if !c.learn.no_learn {
         let registry = match crate::output::registry(&[]) {
             Ok(r) => r,
-            Err(e) => return Ok(crate::output::fail_input(&e)),
+            Err(e) => return Err(crate::fail::Fail::from(&e)),
         };
         opts.learn = Some(LineLearn {
             registry,
@@ -242,8 +244,7 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     let outcome = match run_line(&manifest, &opts, &open_bus, mode) {
         Ok(o) => o,
         Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
-            eprintln!("error: {e}");
-            return Ok(EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!("{e}")));
         }
     };
     for w in &outcome.warnings {
@@ -253,11 +254,10 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
         Err(e) => {
-            eprintln!(
-                "error: cannot write the report into {}: {e}",
+            return Err(crate::fail::Fail::input(format!(
+                "cannot write the report into {}: {e}",
                 report_dir.display()
-            );
-            return Ok(EXIT_INPUT);
+            )));
         }
     }
     Ok(outcome.exit_code())

@@ -47,7 +47,7 @@ use anyhow::{Context as _, bail};
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family as SchemaProtocol, Registry, Schema};
 
-use crate::{EXIT_FINDINGS, EXIT_INPUT, EXIT_OK};
+use crate::{EXIT_FINDINGS, EXIT_OK};
 pub(crate) use driveset_engine::decode::lustbus::{
     family_of as lustbus_family_of, family_schema_id as lustbus_schema_id,
     value_parameter as lustbus_value_parameter, wire_type as lustbus_wire_type,
@@ -228,26 +228,25 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
 }
 
 /// Runs `driveset decode`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let capture = match read_input(&args) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            return Ok(EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!("{e:#}")));
         }
     };
     let mut registry = builtin_registry()?;
     let family = args.family.map(FamilyArg::dialect);
     if args.family.is_some() && args.protocol != DecodeProtocol::Lustbus {
-        eprintln!("error: --family applies to --protocol lustbus only");
-        return Ok(EXIT_INPUT);
+        return Err(crate::fail::Fail::input(format!(
+            "--family applies to --protocol lustbus only"
+        )));
     }
     let mut schema = match &args.schema {
         Some(s) => match load_schema(&mut registry, s) {
             Ok(s) => Some(s),
             Err(e) => {
-                eprintln!("error: {e:#}");
-                return Ok(EXIT_INPUT);
+                return Err(crate::fail::Fail::input(format!("{e:#}")));
             }
         },
         None => None,
@@ -271,8 +270,8 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             family = schema_family;
         }
         if !fits {
-            eprintln!(
-                "error: --schema {}: schema {} is for another protocol or family than --protocol {}{}",
+            return Err(crate::fail::Fail::input(format!(
+                "--schema {}: schema {} is for another protocol or family than --protocol {}{}",
                 args.schema.as_deref().unwrap_or(""),
                 s.id,
                 match args.protocol {
@@ -283,8 +282,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 args.family
                     .map(|f| format!(" --family {}", f.0.name()))
                     .unwrap_or_default()
-            );
-            return Ok(EXIT_INPUT);
+            )));
         }
     } else {
         schema = match args.protocol {

@@ -61,8 +61,8 @@ pub struct Args {
 }
 
 /// Run `driveset scan`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(scan(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    scan(&args)
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {

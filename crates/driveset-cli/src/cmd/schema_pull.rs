@@ -83,8 +83,8 @@ pub struct Args {
 }
 
 /// Run `driveset schema pull`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(schema_pull(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    schema_pull(&args)
 }
 
 /// `1-99`, `1,5,100-120` -> sorted unique numbers.

@@ -36,7 +36,7 @@ use serde_json::json;
 use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
-use crate::port::{self, Fail};
+use crate::port::Fail;
 use crate::progress::Progress;
 
 /// The journal directory used when neither --journal nor --journal-dir is given.
@@ -127,8 +127,8 @@ pub struct Args {
 }
 
 /// Run `driveset upload`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(upload(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    upload(&args)
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {

@@ -192,10 +192,10 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
 }
 
 /// Run `driveset validate`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut registry = match crate::output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(crate::output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let mut report = Report::default();
     for p in &args.paths {
