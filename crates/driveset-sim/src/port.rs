@@ -327,7 +327,7 @@ impl SimOpener {
     /// The settings of `spec` (this opener's state file applied).
     pub fn config(&self, spec: &SimSpec) -> Result<SimConfig, SimOpenError> {
         let mut config = SimConfig::from_spec(spec)?;
-        if spec.options.get("state").is_none()
+        if !spec.options.contains_key("state")
             && let Some(s) = &self.state
         {
             config.state = Some(s.clone());

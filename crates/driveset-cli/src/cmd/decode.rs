@@ -238,9 +238,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut registry = builtin_registry()?;
     let family = args.family.map(FamilyArg::dialect);
     if args.family.is_some() && args.protocol != DecodeProtocol::Lustbus {
-        return Err(crate::fail::Fail::input(format!(
-            "--family applies to --protocol lustbus only"
-        )));
+        return Err(crate::fail::Fail::input(
+            "--family applies to --protocol lustbus only",
+        ));
     }
     let mut schema = match &args.schema {
         Some(s) => match load_schema(&mut registry, s) {

@@ -158,9 +158,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let top = crate::report::git_output(Path::new("."), &["rev-parse", "--show-toplevel"])
         .map(|s| PathBuf::from(s.trim_end_matches('\n')));
     if top.is_none() && !args.global {
-        return Err(crate::fail::Fail::input(format!(
-            "not inside a git work tree\n  = help: run it in your repository, or use --global to configure the driver for every repository"
-        )));
+        return Err(crate::fail::Fail::input(
+            "not inside a git work tree\n  = help: run it in your repository, or use --global to configure the driver for every repository",
+        ));
     }
     let command = args.command.clone().unwrap_or_else(default_command);
     let scope = if args.global { "--global" } else { "--local" };
