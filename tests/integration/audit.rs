@@ -17,7 +17,7 @@ fn decode(args: &[&str], code: i32, stdout: &str) {
 }
 
 /// LECOM 8.B: after C0249 = 7 (ACKed), standard code 173 is C1923, as the
-/// simulated Tmd resolves it (crates/driveset-sim/tests/tmd.rs,
+/// simulated Tmd resolves it (crates/driveset-sim/tests/integration/tmd.rs,
 /// `factory_c0001_is_0_lecom_reads_and_switches_banks_only`).
 #[test]
 fn lecom_read_after_bank_7_names_c1923() {

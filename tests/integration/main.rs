@@ -1,4 +1,4 @@
-//! The workspace's one integration-test binary (ripgrep style: one binary,
+//! The CLI crate's one integration-test binary (ripgrep style: one binary,
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 

@@ -2,7 +2,7 @@
 //! -p driveset-engine --bench latency`).
 //!
 //! For each serial family (MC6000, VF1000 at 9600 baud, Tmd; the upload
-//! benchmark's full sets from `tests/support/campaign_rig.rs`, drives with
+//! benchmark's full sets from `tests/integration/support/campaign_rig.rs`, drives with
 //! the spec's minimum reaction of 1 ms) the full upload with verification
 //! runs on an in-memory line with an added one-way latency of 0, 5, 16, 40
 //! and 100 ms (each way, constant). The table shows the upload's time on
@@ -22,7 +22,7 @@
 
 #![allow(clippy::result_large_err)]
 
-#[path = "../tests/support/campaign_rig.rs"]
+#[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
 
 #[path = "support/bound.rs"]

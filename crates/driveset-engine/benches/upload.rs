@@ -3,7 +3,7 @@
 //! For each simulated family (MC6000, VF1000 and Tmd at 9600 baud 7E1; ECS
 //! on CAN at 500 kbit/s) a generated set that changes every writable
 //! integer code of the family's schema the factory-fresh drive takes
-//! (`tests/support/campaign_rig.rs`, `full_set`; on the MC6000 also the
+//! (`tests/integration/support/campaign_rig.rs`, `full_set`; on the MC6000 also the
 //! enumerated and bit-field codes: a full set of 200+ EEPROM codes of mixed
 //! width; never address, baud, command or control codes) is uploaded with
 //! verification ("full upload"), then uploaded again to the same drive
@@ -68,7 +68,7 @@
 
 #![allow(clippy::result_large_err)]
 
-#[path = "../tests/support/campaign_rig.rs"]
+#[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
 
 #[path = "support/bound.rs"]

@@ -1,5 +1,5 @@
 """SDO server side of driveset's CAN interoperability test
-(crates/driveset-engine/tests/interop_canopen.rs).
+(crates/driveset-engine/tests/integration/interop_canopen.rs).
 
 A `canopen` LocalNode (an SDO server driveset did not write) with a Lenze
 ECS style object dictionary, on python-can's `slcan` interface. The Rust

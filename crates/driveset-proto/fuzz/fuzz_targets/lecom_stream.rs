@@ -1,6 +1,6 @@
 //! Fuzzes the LECOM-A/B streaming decoders (master, slave, bus sniffer) and
 //! the whole-frame decoders with one arbitrary byte stream. The body lives in
-//! `driveset_proto::lecom::fuzzing` so `tests/lecom_stream.rs` replays the
+//! `driveset_proto::lecom::fuzzing` so `tests/integration/lecom_stream.rs` replays the
 //! seed corpus in CI without cargo-fuzz.
 #![no_main]
 

@@ -1,6 +1,6 @@
 //! Fuzzes the LUSTBUS streaming decoders (bus sniffer, master, slave) and the
 //! whole-telegram decoder with one arbitrary byte stream. The body lives in
-//! `driveset_proto::lustbus::fuzzing` so `tests/lustbus_fuzz_corpus.rs`
+//! `driveset_proto::lustbus::fuzzing` so `tests/integration/lustbus_fuzz_corpus.rs`
 //! replays the seed corpus in CI without cargo-fuzz.
 #![no_main]
 

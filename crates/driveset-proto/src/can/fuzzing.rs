@@ -1,6 +1,6 @@
 //! The body of the `slcan_sdo_stream` fuzz target, here so that a plain
 //! unit test can replay the seed corpus without cargo-fuzz
-//! (`tests/can_fuzz_corpus.rs`). Not API.
+//! (`tests/integration/can_fuzz_corpus.rs`). Not API.
 //!
 //! The input is one byte stream fed to both slcan decoders (host side and
 //! adapter side). Every decoded message must re-encode to bytes that decode

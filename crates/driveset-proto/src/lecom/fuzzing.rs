@@ -1,5 +1,5 @@
 //! The body of the cargo-fuzz target `fuzz/fuzz_targets/lecom_stream.rs`,
-//! kept in the library so `tests/lecom_stream.rs` replays the seed corpus
+//! kept in the library so `tests/integration/lecom_stream.rs` replays the seed corpus
 //! (`fuzz/corpus/lecom_stream/`) without cargo-fuzz. Not part of the API.
 
 use super::codec::MAX_TEXT;

@@ -1,5 +1,5 @@
 //! The body of the `lustbus_stream` fuzz target, here so that
-//! `tests/lustbus_fuzz_corpus.rs` replays the seed corpus in CI without
+//! `tests/integration/lustbus_fuzz_corpus.rs` replays the seed corpus in CI without
 //! cargo-fuzz. It panics only when an invariant breaks.
 
 use crate::ascii::mask7;

@@ -3,7 +3,7 @@
 Talks to simulated Lenze ECS drives (driveset-sim's slcan adapter on a
 pseudo terminal) with python-can's `slcan` interface and the `canopen`
 package's SDO client, and prints one line per exchange. The Rust test
-(crates/driveset-sim/tests/ecs_python_interop.rs) compares the lines
+(crates/driveset-sim/tests/integration/ecs_python_interop.rs) compares the lines
 exactly.
 
 Lenze mapping (ECS manual EDBCSXA064 EN 3.2 p. 454): index = 24575 - code,

@@ -2,8 +2,7 @@
 //! (exact outcome), reproducibility, scheduled power cycles and pulled
 //! cables at exact instants.
 
-#[path = "bus_support.rs"]
-mod support;
+use crate::bus_support as support;
 
 use std::time::Duration;
 

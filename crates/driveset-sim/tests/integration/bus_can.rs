@@ -1,8 +1,7 @@
 //! SimCanBus: frame timing from the proto crate's bit counts, arbitration
 //! by time then identifier, CAN faults.
 
-#[path = "bus_support.rs"]
-mod support;
+use crate::bus_support as support;
 
 use std::time::Duration;
 

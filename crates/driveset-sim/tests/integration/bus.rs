@@ -1,8 +1,7 @@
 //! SimByteBus: exact wire timing in virtual time, collisions, baud
 //! changes, state dumps, errors.
 
-#[path = "bus_support.rs"]
-mod support;
+use crate::bus_support as support;
 
 use std::time::Duration;
 

@@ -1,8 +1,7 @@
 //! The event log: exact JSON lines for a small exchange, in memory and
 //! through a writer.
 
-#[path = "bus_support.rs"]
-mod support;
+use crate::bus_support as support;
 
 use std::io::Write;
 use std::sync::{Arc, Mutex};

@@ -1,6 +1,5 @@
-//! Tiny fake drives for the bus tests (included with `#[path]`; as a test
-//! crate of its own it holds no tests). They do not depend on the real
-//! family models.
+//! Tiny fake drives for the bus tests (`bus*.rs`, used as `support`). They
+//! do not depend on the real family models.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;

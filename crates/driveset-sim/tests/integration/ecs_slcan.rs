@@ -2,10 +2,8 @@
 //! host sees (python-can's open sequence, identity queries, an SDO
 //! exchange), and driveset's own `slcan://` link talking to a simulated ECS
 //! through it. Real time, but nothing asserts a duration.
-#![cfg(unix)]
 
-#[path = "ecs_support.rs"]
-mod support;
+use crate::ecs_support as support;
 
 use std::io::{Read, Write};
 use std::time::Duration;
@@ -20,12 +18,15 @@ use driveset_sim::slcan_serve::{SlcanEvent, SlcanServer};
 use serialport::TTYPort;
 use support::test_drive;
 
+use crate::util::pty_lock;
+
 fn server(nodes: &[u8]) -> SlcanServer {
     let drives: Vec<Box<dyn FrameDrive>> = nodes
         .iter()
         .map(|&n| Box::new(test_drive(n)) as Box<dyn FrameDrive>)
         .collect();
     let line = FrameLine::new(500_000, drives).expect("a 500 kbit/s bus");
+    let _guard = pty_lock();
     SlcanServer::spawn(line, |_: &SlcanEvent| {}).expect("serve on a pty")
 }
 

@@ -3,8 +3,7 @@
 //! [`FrameLink`], exact frames and exact virtual instants (request wire
 //! time + the drive's fixed 1 ms reaction + response wire time).
 
-#[path = "ecs_support.rs"]
-mod support;
+use crate::ecs_support as support;
 
 use std::time::Duration;
 

@@ -5,7 +5,6 @@
 //!
 //! A Linux pty accepts but ignores 7E1 (it runs 8N1), so nothing here
 //! asserts termios settings; the bytes are what is checked.
-#![cfg(unix)]
 
 use std::io::{Read, Write};
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -19,6 +18,8 @@ use driveset_link::{
     RealClock, open,
 };
 use serialport::{SerialPort, TTYPort};
+
+use crate::util::recv_n;
 
 /// Tests run in parallel: create ptys one at a time.
 static PTY_LOCK: Mutex<()> = Mutex::new(());
@@ -59,21 +60,6 @@ fn master_line(master: &mut TTYPort) -> Vec<u8> {
         line.push(byte[0]);
     }
     line
-}
-
-/// Receive on a byte link until `n` bytes arrived (5 s at most).
-fn recv_n(link: &mut dyn ByteLink, n: usize) -> Vec<u8> {
-    let deadline = RealClock.deadline_in(Duration::from_secs(5));
-    let mut got = Vec::new();
-    let mut buf = [0u8; 64];
-    while got.len() < n {
-        let k = link.recv(&mut buf, deadline).expect("recv");
-        if k == 0 {
-            break;
-        }
-        got.extend_from_slice(&buf[..k]);
-    }
-    got
 }
 
 #[test]

@@ -3,8 +3,7 @@
 //! (index = 24575 - code), FIX32 and bit-coded values, every abort the
 //! drive chooses, segmented transfers through the codec, power cycles.
 
-#[path = "ecs_support.rs"]
-mod support;
+use crate::ecs_support as support;
 
 use std::time::Duration;
 

@@ -5,10 +5,8 @@
 //! `scripts/setup-python` makes at `target/py` (pinned versions in
 //! `tests/python/requirements.txt`); `DRIVESET_PYTHON` may name another
 //! interpreter with those packages.
-#![cfg(unix)]
 
-#[path = "ecs_support.rs"]
-mod support;
+use crate::ecs_support as support;
 
 use std::io::Read;
 use std::path::PathBuf;
@@ -22,16 +20,11 @@ use driveset_sim::drive::FrameDrive;
 use driveset_sim::slcan_serve::SlcanServer;
 use support::test_drive;
 
+use crate::util::{pty_lock, python_or_skip};
+
 /// How long the script may run before the test kills it (a hang guard,
 /// not a timing assertion: the script needs well under a second).
 const HANG_GUARD: Duration = Duration::from_secs(120);
-
-fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("DRIVESET_PYTHON") {
-        return PathBuf::from(p);
-    }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/py/bin/python")
-}
 
 fn script() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/python/sdo_client.py")
@@ -81,21 +74,12 @@ fn run_script(python: &PathBuf, path: &str) -> (Option<i32>, String, String) {
 
 #[test]
 fn python_can_slcan_and_canopen_sdo_client_against_simulated_ecs() {
-    let python = python();
     // Without the venv a plain `cargo test` skips this test with a message
     // naming `scripts/setup`; `./scripts/test` (DRIVESET_REQUIRE_INTEROP=1)
     // fails it.
-    if !python.exists() {
-        let msg = format!(
-            "python-can interop: {} is missing: run scripts/setup (scripts/setup-python installs python-can and canopen into target/py), or set DRIVESET_PYTHON",
-            python.display()
-        );
-        if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
-            panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
-        }
-        eprintln!("skipped: {msg}");
+    let Some(python) = python_or_skip("python-can interop") else {
         return;
-    }
+    };
 
     let mut node1 = test_drive(1);
     node1
@@ -108,11 +92,14 @@ fn python_can_slcan_and_canopen_sdo_client_against_simulated_ecs() {
     let events = Arc::new(Mutex::new(Vec::<String>::new()));
     let sink = Arc::clone(&events);
     let line = FrameLine::new(500_000, drives).expect("a 500 kbit/s bus");
-    let server = SlcanServer::spawn(line, move |e| {
-        sink.lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push(e.to_string())
-    })
+    let server = {
+        let _guard = pty_lock();
+        SlcanServer::spawn(line, move |e| {
+            sink.lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push(e.to_string())
+        })
+    }
     .expect("serve on a pty");
     let (code, stdout, stderr) = run_script(&python, server.path());
     let (line, stats) = server.stop().expect("server stops cleanly");

@@ -2,8 +2,7 @@
 //! on the flag. Real time is only used with generous bounds: the exact
 //! timing is tested in virtual time elsewhere.
 
-#[path = "bus_support.rs"]
-mod support;
+use crate::bus_support as support;
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -50,7 +49,10 @@ fn serves_a_fake_drive_on_a_pty() {
     use serialport::SerialPort;
     let log = EventLog::memory();
     let mut line = line(&log);
-    let pty = serve::open_pty().unwrap();
+    let pty = {
+        let _guard = crate::util::pty_lock();
+        serve::open_pty().unwrap()
+    };
     assert!(pty.path.starts_with("/dev/"), "{}", pty.path);
     let serve::Pty {
         mut master,

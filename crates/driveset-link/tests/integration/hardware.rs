@@ -10,7 +10,6 @@
 //! - `DRIVESET_TEST_CAN=can0` (SocketCAN interface, up, on a bus with one
 //!   drive; needs `--features socketcan` too).
 //! - `DRIVESET_TEST_CAN_NODE` (default 1): the CAN drive's node id.
-#![cfg(feature = "hardware")]
 
 use std::time::Duration;
 

@@ -1,10 +1,9 @@
-//! Transaction runner tests over an in-memory fake drive (tests/txn_support).
+//! Transaction runner tests over an in-memory fake drive (`txn_support`).
 #![allow(clippy::result_large_err)]
-
-mod txn_support;
 
 use std::time::Duration;
 
+use crate::txn_support::*;
 use driveset_engine::error::EngineError;
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
@@ -12,7 +11,6 @@ use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
 use driveset_schema::{CodeKey, RawValue};
-use txn_support::*;
 
 fn ms(n: u64) -> u64 {
     n * 1_000_000

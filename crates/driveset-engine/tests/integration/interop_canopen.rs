@@ -9,11 +9,10 @@
 //! Part of the normal test run: needs the venv that `scripts/setup-python`
 //! makes at `target/py`; `DRIVESET_PYTHON` may name another interpreter
 //! with python-can 4.6 and canopen 2.4.
-#![cfg(unix)]
 #![allow(clippy::result_large_err)]
 
 use std::io::{BufRead, BufReader, Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -29,6 +28,8 @@ use driveset_link::slcan::SlcanLink;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, load_set_str};
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::slcan_hub::SlcanHub;
+
+use crate::util::{python, python_or_skip, root};
 
 /// Hang guard for one line from the script (not a timing assertion).
 const LINE_GUARD: Duration = Duration::from_secs(60);
@@ -58,36 +59,6 @@ const INITIAL: [(u32, i64); 18] = [
     (5015, 5_000),
     (5016, 0),
 ];
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("DRIVESET_PYTHON") {
-        return PathBuf::from(p);
-    }
-    root().join("target/py/bin/python")
-}
-
-/// Whether the venv is there. Without it a plain `cargo test` skips these
-/// tests with a message naming `scripts/setup`; README's test command
-/// (`./scripts/test` exports `DRIVESET_REQUIRE_INTEROP=1`) fails them.
-fn interop_available() -> bool {
-    let python = python();
-    if python.exists() {
-        return true;
-    }
-    let msg = format!(
-        "canopen interop: {} is missing: run scripts/setup (scripts/setup-python installs python-can and canopen into target/py), or set DRIVESET_PYTHON",
-        python.display()
-    );
-    if std::env::var_os("DRIVESET_REQUIRE_INTEROP").is_some_and(|v| v == "1") {
-        panic!("{msg} (DRIVESET_REQUIRE_INTEROP=1: not skipping)");
-    }
-    eprintln!("skipped: {msg}");
-    false
-}
 
 /// (code number, raw value) pairs.
 type Values = Vec<(u32, i64)>;
@@ -296,7 +267,7 @@ fn finish(hub: SlcanHub, server: Server, c: CanClient<SlcanLink>) {
 
 #[test]
 fn engine_pulls_uploads_and_decodes_aborts_against_a_canopen_local_node() {
-    if !interop_available() {
+    if python_or_skip("canopen interop").is_none() {
         return;
     }
     let (hub, mut server, mut c) = session();
@@ -433,7 +404,7 @@ code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a
 /// the codes written before it are, and the drive ends exactly as it was.
 #[test]
 fn upload_touching_a_read_only_object_rolls_back() {
-    if !interop_available() {
+    if python_or_skip("canopen interop").is_none() {
         return;
     }
     let (hub, mut server, mut c) = session();

@@ -9,13 +9,12 @@
 //! expectations are those of `lust_models.rs`, `tmd.rs` and `ecs_*.rs`.
 //! Real-time transports use bounded waits only; nothing asserts a duration.
 
-#[path = "ecs_support.rs"]
-mod support;
+use crate::ecs_support as support;
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use driveset_link::{ByteLink, Clock, FrameLink, VirtualClock};
@@ -33,6 +32,8 @@ use driveset_sim::tmd::{TmdDrive, TmdOptions};
 use driveset_sim::vf1000::Vf1000;
 use support::test_drive;
 
+use crate::util::pty_lock;
+
 const STX: u8 = 0x02;
 const ETX: u8 = 0x03;
 const EOT: u8 = 0x04;
@@ -45,13 +46,6 @@ const REPLY_WITHIN: Duration = Duration::from_secs(5);
 const QUIET_FOR: Duration = Duration::from_millis(300);
 /// The same, in virtual time (free).
 const QUIET_VIRTUAL: Duration = Duration::from_secs(1);
-
-/// Ptys are created one at a time in this process.
-static LOCK: Mutex<()> = Mutex::new(());
-
-fn pty_lock() -> MutexGuard<'static, ()> {
-    LOCK.lock().unwrap_or_else(|e| e.into_inner())
-}
 
 // ---------------------------------------------------------------- the table
 

@@ -3,7 +3,6 @@
 #![allow(clippy::result_large_err)]
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use driveset_engine::line::commission::{
@@ -16,9 +15,7 @@ use driveset_link::{Link, PortSpec, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Registry};
 use driveset_sim::open::{SimLink, open_sim};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use crate::util::root;
 
 fn demo() -> Manifest {
     let path = root().join("parameter-sets/demo-line/line.toml");

@@ -11,6 +11,8 @@ use driveset_link::{
     ByteLink, Clock, Instant, Link, LinkError, OpenOptions, PortSpec, RealClock, open,
 };
 
+use crate::util::recv_n;
+
 const CONNECT: Duration = Duration::from_secs(5);
 
 fn listener() -> (TcpListener, u16) {
@@ -27,21 +29,6 @@ fn read_n(stream: &mut TcpStream, n: usize) -> Vec<u8> {
     let mut buf = vec![0; n];
     stream.read_exact(&mut buf).expect("server reads");
     buf
-}
-
-/// Receive until `n` bytes arrived or 5 s passed.
-fn recv_n(link: &mut dyn ByteLink, n: usize) -> Vec<u8> {
-    let deadline = RealClock.deadline_in(Duration::from_secs(5));
-    let mut got = Vec::new();
-    let mut buf = [0u8; 64];
-    while got.len() < n {
-        let k = link.recv(&mut buf, deadline).expect("recv");
-        if k == 0 {
-            break;
-        }
-        got.extend_from_slice(&buf[..k]);
-    }
-    got
 }
 
 #[test]

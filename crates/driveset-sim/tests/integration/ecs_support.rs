@@ -1,5 +1,5 @@
-//! Helpers shared by the ECS tests (included with `#[path]`; as a test
-//! crate of its own it holds no tests).
+//! Helpers shared by the ECS tests (`ecs_*.rs` and
+//! `spec_examples_transports.rs`, used as `support`).
 #![allow(dead_code)]
 
 use std::time::Duration;

@@ -8,15 +8,11 @@
 //! `#[ignore]`d (TESTING.md, "Fault campaigns").
 #![allow(clippy::result_large_err)]
 
-mod support {
-    pub mod campaign_journal;
-    pub mod campaign_rig;
-    pub mod campaign_run;
-}
-
+use crate::support::campaign_journal::{
+    Outcome, Scenario, commission_kills, journal_campaign, render,
+};
+use crate::support::campaign_run::campaign;
 use driveset_sim::catalog::Family;
-use support::campaign_journal::{Outcome, Scenario, commission_kills, journal_campaign, render};
-use support::campaign_run::campaign;
 
 /// Seeds per family and journal scenario in the default `cargo test`.
 const JOURNAL_RUNS: u64 = 6;

@@ -1,0 +1,8 @@
+//! The seeded fault campaigns' rig: full sets and simulated buses
+//! (`campaign_rig`, also included by the benches with `#[path]`), the
+//! upload / recover campaign (`campaign_run`) and the journal campaign
+//! (`campaign_journal`).
+
+pub mod campaign_journal;
+pub mod campaign_rig;
+pub mod campaign_run;

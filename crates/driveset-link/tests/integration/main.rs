@@ -1,0 +1,13 @@
+//! The link crate's one integration-test binary (one binary per crate,
+//! fast to link). Each module tests one transport; `util` holds the shared
+//! helpers. `hardware` is built only with `--features hardware`
+//! (TESTING.md, "Hardware tests").
+
+#[cfg(feature = "hardware")]
+mod hardware;
+mod mem;
+#[cfg(unix)]
+mod pty;
+mod spec;
+mod tcp;
+mod util;

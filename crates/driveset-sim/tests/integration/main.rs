@@ -1,0 +1,23 @@
+//! The simulator's one integration-test binary (one binary per crate, fast
+//! to link). Each module tests one area; `bus_support` (tiny fake drives),
+//! `ecs_support` (ECS helpers) and `util` (the pty lock, the interop skip)
+//! are shared. Unit tests live beside the code in `src/`.
+
+mod bus;
+mod bus_can;
+mod bus_faults;
+mod bus_log;
+mod bus_serve;
+mod bus_support;
+#[cfg(unix)]
+mod ecs_python_interop;
+mod ecs_sdo;
+mod ecs_sim_can_bus;
+#[cfg(unix)]
+mod ecs_slcan;
+mod ecs_support;
+mod lust_bus;
+mod lust_models;
+mod spec_examples_transports;
+mod tmd;
+mod util;
