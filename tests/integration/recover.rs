@@ -38,12 +38,21 @@ fn interrupted_upload_then_recover() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("error: "), "{stderr}");
     assert!(stderr.contains("driveset recover"), "{stderr}");
+    // not a terminal: plain progress lines, the runner's own phases; the
+    // restore attempts are `rolling back`, not writing and verifying
+    assert!(
+        stderr.starts_with(
+            "upload: reading 195 codes from the drive\nupload: writing\nupload: rolling back\nerror: "
+        ),
+        "{stderr}"
+    );
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
     assert_eq!(j["state"], "failed", "{j}");
+    let backed_up = j["backup"].as_array().unwrap().len();
 
     // recover on the port without the fault
-    in_dir(dir.path())
+    let out = in_dir(dir.path())
         .args(["recover"])
         .arg(&journal)
         .args(["--port", "sim://mc6000?addresses=1"])
@@ -52,9 +61,19 @@ fn interrupted_upload_then_recover() {
         .stdout(predicate::str::contains(
             "sim://mc6000?addresses=1 address 1: journal was failed; ",
         ))
-        .stdout(predicate::str::contains("drive holds: sha256:"));
+        .stdout(predicate::str::contains("drive holds: sha256:"))
+        .get_output()
+        .clone();
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let reading = format!("recover: reading {backed_up} codes from the drive\n");
+    let want = if j["state"] == "rolled-back" {
+        format!("{reading}recover: rolling back\nrecover: verifying\n")
+    } else {
+        format!("{reading}recover: verifying\n")
+    };
+    assert_eq!(stderr, want, "{j}");
     assert!(
         j["state"] == "rolled-back" || j["state"] == "complete",
         "{j}"

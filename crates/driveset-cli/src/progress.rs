@@ -1,185 +1,340 @@
-//! Progress of long bus work (`upload`, `pull`, `recover`) on stderr.
+//! Progress of long bus work on stderr, fed by the engine's observer
+//! ([`driveset_engine::observe`]): the runners name their own phase, so a
+//! rollback shows as `rolling back`, never as writing and verifying.
 //!
-//! [`Progress`] wraps a [`DriveClient`] and counts what goes through it:
-//! reads before the first write are the read-back, writes, then reads after
-//! writes are verification. On a terminal (stderr is a tty and `NO_COLOR`
-//! does not matter here) one line is redrawn in place with a bar over the
-//! read-back and counters for the rest; otherwise plain lines are printed
-//! when a phase starts, so logs stay short and readable. Nothing is printed
-//! with `quiet` (JSON output).
+//! [`Progress`] serves `upload`, `pull` and `recover`; [`LineProgress`]
+//! serves `commission` and `status` (one bar per bus). On a terminal
+//! (stderr is a tty and `CI` is not set) they draw `indicatif` progress
+//! bars; otherwise (pipes, logs, CI, the tests) they print plain lines: for
+//! one drive a line when a phase starts (`upload: reading 195 codes from
+//! the drive`, `upload: writing`, `upload: verifying`, `upload: rolling
+//! back`), for a line one line per drive done. Nothing is printed with
+//! `quiet` (JSON output).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
+use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex, PoisonError};
 
-use driveset_engine::client::{ClientStats, DatasetOutcome, DriveClient, Identity, Target};
-use driveset_engine::error::EngineError;
-use driveset_link::{Clock, Instant};
-use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_engine::line::commission::{LineObserver, Progress as DriveDone};
+use driveset_engine::observe::{Event, Hook, Observer, Phase};
+use driveset_link::Instant;
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// Whether progress is drawn as bars: stderr is a terminal and `CI` is not
+/// set.
+pub fn bars_wanted() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("CI").is_none()
+}
+
+/// What a phase shows as; `None`: shown as the phase before it.
+fn shown(phase: Phase, total: Option<usize>) -> Option<Shown> {
+    match phase {
+        // an untotalled read (a status word) is part of what runs around it
+        Phase::Read => total.map(|_| Shown::Reading),
+        Phase::Dataset | Phase::Write | Phase::Commit => Some(Shown::Writing),
+        Phase::Verify => Some(Shown::Verifying),
+        Phase::Rollback => Some(Shown::RollingBack),
+        Phase::Identify
+        | Phase::Plan
+        | Phase::Journal
+        | Phase::Recover
+        | Phase::Learn
+        | Phase::Broadcast => None,
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    Start,
+enum Shown {
     Reading,
     Writing,
     Verifying,
+    RollingBack,
 }
 
-/// A [`DriveClient`] that reports progress on stderr.
-pub struct Progress<'a> {
-    inner: &'a mut dyn DriveClient,
+impl Shown {
+    fn verb(self) -> &'static str {
+        match self {
+            Shown::Reading => "reading",
+            Shown::Writing => "writing",
+            Shown::Verifying => "verifying",
+            Shown::RollingBack => "rolling back",
+        }
+    }
+}
+
+/// The plain line printed off a terminal when `now` starts.
+fn plain_line(what: &str, now: Shown, total: Option<usize>) -> String {
+    match (now, total) {
+        (Shown::Reading, Some(n)) => format!("{what}: reading {n} codes from the drive"),
+        _ => format!("{what}: {}", now.verb()),
+    }
+}
+
+/// The plain lines a run of `events` prints off a terminal.
+#[cfg(test)]
+fn plain_lines(what: &str, events: &[Event]) -> Vec<String> {
+    let mut last = None;
+    let mut out = Vec::new();
+    for e in events {
+        if let Event::Enter { phase, total } = *e
+            && let Some(now) = shown(phase, total)
+            && last != Some(now)
+        {
+            last = Some(now);
+            out.push(plain_line(what, now, total));
+        }
+    }
+    out
+}
+
+enum Out {
+    Quiet,
+    Lines,
+    Bar(ProgressBar),
+}
+
+struct State {
+    shown: Option<Shown>,
+}
+
+/// Progress of one drive's work (`upload`, `pull`, `recover`): an
+/// [`Observer`] to hand to the engine through [`Progress::hook`].
+pub struct Progress {
     what: &'static str,
-    expected_reads: usize,
-    reads: usize,
-    writes: usize,
-    verified: usize,
-    phase: Phase,
-    tty: bool,
-    quiet: bool,
-    drawn: bool,
+    out: Out,
+    state: Mutex<State>,
 }
 
-impl<'a> Progress<'a> {
-    /// Wrap `inner`; `what` names the work (`upload`), `expected_reads` the
-    /// codes of the read-back (for the bar).
-    pub fn new(
-        inner: &'a mut dyn DriveClient,
-        what: &'static str,
-        expected_reads: usize,
-        quiet: bool,
-    ) -> Self {
-        Progress {
-            inner,
-            what,
-            expected_reads,
-            reads: 0,
-            writes: 0,
-            verified: 0,
-            phase: Phase::Start,
-            tty: std::io::stderr().is_terminal(),
-            quiet,
-            drawn: false,
-        }
-    }
-
-    fn enter(&mut self, phase: Phase) {
-        if self.phase == phase {
-            return;
-        }
-        self.phase = phase;
-        if self.quiet || self.tty {
-            return;
-        }
-        let line = match phase {
-            Phase::Start => return,
-            Phase::Reading => format!(
-                "{}: reading {} codes from the drive",
-                self.what, self.expected_reads
-            ),
-            Phase::Writing => format!("{}: writing", self.what),
-            Phase::Verifying => format!("{}: verifying", self.what),
+impl Progress {
+    /// Progress of `what` (`upload`); `quiet` prints nothing.
+    pub fn new(what: &'static str, quiet: bool) -> Arc<Self> {
+        let out = if quiet {
+            Out::Quiet
+        } else if bars_wanted() {
+            let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
+            bar.set_style(
+                ProgressStyle::with_template("{prefix}: {msg:<12} [{bar:30}] {pos}/{len}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("#>-"),
+            );
+            bar.set_prefix(what);
+            Out::Bar(bar)
+        } else {
+            Out::Lines
         };
-        eprintln!("{line}");
+        Arc::new(Progress {
+            what,
+            out,
+            state: Mutex::new(State { shown: None }),
+        })
     }
 
-    fn draw(&mut self) {
-        if self.quiet || !self.tty {
-            return;
-        }
-        let total = self.expected_reads.max(1);
-        let done = self.reads.min(total);
-        let width = 30;
-        let filled = done * width / total;
-        let bar: String = "#".repeat(filled) + &"-".repeat(width - filled);
-        let mut err = std::io::stderr().lock();
-        let _ = write!(
-            err,
-            "\r{}: [{bar}] read {done}/{total}  written {}  verified {}\x1b[K",
-            self.what, self.writes, self.verified
-        );
-        let _ = err.flush();
-        self.drawn = true;
+    /// The hook to put into the engine's options.
+    pub fn hook(self: &Arc<Self>) -> Hook {
+        Hook::new(self.clone())
     }
 
-    /// End the progress line (call before printing the report).
-    pub fn done(&mut self) {
-        if self.drawn {
-            eprintln!();
-            self.drawn = false;
+    /// End the bar (call before printing the report).
+    pub fn done(&self) {
+        if let Out::Bar(b) = &self.out {
+            b.finish_and_clear();
         }
     }
 }
 
-impl Drop for Progress<'_> {
+impl Observer for Progress {
+    fn event(&self, _at: Instant, event: Event) {
+        let mut st = self.state.lock().unwrap_or_else(PoisonError::into_inner);
+        match event {
+            Event::Enter { phase, total } => {
+                let Some(now) = shown(phase, total) else {
+                    return;
+                };
+                let changed = st.shown != Some(now);
+                st.shown = Some(now);
+                match &self.out {
+                    Out::Quiet => {}
+                    Out::Lines => {
+                        if changed {
+                            let line = plain_line(self.what, now, total);
+                            let _ = writeln!(std::io::stderr().lock(), "{line}");
+                        }
+                    }
+                    Out::Bar(b) => {
+                        b.set_message(now.verb());
+                        let n = total.map(|n| n as u64);
+                        if changed || (n.is_some() && b.length() != n) {
+                            b.set_position(0);
+                            b.set_length(n.unwrap_or(0));
+                        }
+                        if b.is_hidden() {
+                            // drawn from the first phase on, not before
+                            b.set_draw_target(ProgressDrawTarget::stderr());
+                        }
+                    }
+                }
+            }
+            Event::Step { phase, done, total } => {
+                if let Out::Bar(b) = &self.out
+                    && shown(phase, Some(total)) == st.shown
+                {
+                    b.set_length(total as u64);
+                    b.set_position(done as u64);
+                }
+            }
+            Event::End => self.done(),
+        }
+    }
+}
+
+impl Drop for Progress {
     fn drop(&mut self) {
         self.done();
     }
 }
 
-impl DriveClient for Progress<'_> {
-    fn target(&self) -> &Target {
-        self.inner.target()
+/// Progress of a line run (`commission`, `status`): one line per drive
+/// done; on a terminal above one bar per bus (drives done of the bus's
+/// selected drives, the current drive and its phase).
+pub struct LineProgress {
+    width: usize,
+    multi: Option<MultiProgress>,
+    bars: Mutex<BTreeMap<String, ProgressBar>>,
+}
+
+impl LineProgress {
+    /// `width`: the longest bus name (the lines' bus column).
+    pub fn new(width: usize) -> Arc<Self> {
+        Arc::new(LineProgress {
+            width,
+            multi: bars_wanted()
+                .then(|| MultiProgress::with_draw_target(ProgressDrawTarget::stderr())),
+            bars: Mutex::new(BTreeMap::new()),
+        })
     }
-    fn bus_id(&self) -> String {
-        self.inner.bus_id()
-    }
-    fn schema(&self) -> &Arc<Schema> {
-        self.inner.schema()
-    }
-    fn clock(&self) -> &dyn Clock {
-        self.inner.clock()
-    }
-    fn identify(&mut self) -> Result<Identity, EngineError> {
-        self.inner.identify()
-    }
-    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
-        let r = self.inner.read(key);
-        if self.writes == 0 {
-            self.enter(Phase::Reading);
-            self.reads += 1;
-        } else {
-            self.enter(Phase::Verifying);
-            self.verified += 1;
+
+    /// A drive is done: print its line (`line` renders it), advance its
+    /// bus's bar.
+    pub fn drive_done(&self, p: &DriveDone, line: impl Fn(&DriveDone, usize) -> String) {
+        let text = line(p, self.width);
+        match &self.multi {
+            None => {
+                let _ = writeln!(std::io::stderr().lock(), "{text}");
+            }
+            Some(m) => {
+                let _ = m.println(&text);
+                let bars = self.bars.lock().unwrap_or_else(PoisonError::into_inner);
+                if let Some(b) = bars.get(&p.bus) {
+                    b.set_position(p.done as u64);
+                    if p.done >= p.total {
+                        b.finish_with_message("done");
+                    }
+                }
+            }
         }
-        self.draw();
-        r
     }
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        self.enter(Phase::Writing);
-        let r = self.inner.write(key, raw);
-        self.writes += 1;
-        self.draw();
-        r
+
+    /// Remove the bars (call before printing the summary).
+    pub fn done(&self) {
+        if let Some(m) = &self.multi {
+            let _ = m.clear();
+        }
     }
-    fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
-        self.inner.ready_for_write(key)
+}
+
+impl LineObserver for LineProgress {
+    fn bus(&self, bus: &str, drives: usize) {
+        let Some(m) = &self.multi else { return };
+        let bar = m.add(ProgressBar::new(drives as u64));
+        bar.set_style(
+            ProgressStyle::with_template("[{prefix}] [{bar:20}] {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("#>-"),
+        );
+        bar.set_prefix(format!("{bus:w$}", w = self.width));
+        self.bars
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .insert(bus.to_string(), bar);
     }
-    fn read_time(&self, key: CodeKey) -> Duration {
-        self.inner.read_time(key)
+
+    fn event(&self, bus: &str, drive: &str, _at: Instant, event: Event) {
+        if self.multi.is_none() {
+            return;
+        }
+        let bars = self.bars.lock().unwrap_or_else(PoisonError::into_inner);
+        let Some(b) = bars.get(bus) else { return };
+        match event {
+            Event::Enter { phase, .. } => b.set_message(format!("{drive}: {phase}")),
+            Event::Step {
+                phase, done, total, ..
+            } => b.set_message(format!("{drive}: {phase} {done}/{total}")),
+            Event::End => {}
+        }
     }
-    fn write_time(&self, key: CodeKey) -> Duration {
-        self.inner.write_time(key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn enter(phase: Phase, total: Option<usize>) -> Event {
+        Event::Enter { phase, total }
     }
-    fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        self.inner.running()
-    }
-    fn stats(&self) -> ClientStats {
-        self.inner.stats()
-    }
-    fn finish(&mut self) -> Result<(), EngineError> {
-        self.inner.finish()
-    }
-    fn has_dataset_download(&self) -> bool {
-        self.inner.has_dataset_download()
-    }
-    fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        self.enter(Phase::Writing);
-        self.inner.dataset_begin()
-    }
-    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
-        self.inner.dataset_commit(timeout)
+
+    #[test]
+    fn plain_lines_follow_the_runners_phases() {
+        // an MC6000 upload that fails after the dataset's commit: the
+        // dataset, its commit and the other writes are one `writing`; the
+        // status read of the running check and the steps print nothing
+        let events = [
+            enter(Phase::Identify, None),
+            enter(Phase::Read, Some(195)),
+            Event::Step {
+                phase: Phase::Read,
+                done: 1,
+                total: 195,
+            },
+            enter(Phase::Plan, None),
+            enter(Phase::Read, None),
+            enter(Phase::Journal, None),
+            enter(Phase::Dataset, None),
+            enter(Phase::Write, Some(78)),
+            Event::Step {
+                phase: Phase::Verify,
+                done: 1,
+                total: 78,
+            },
+            enter(Phase::Commit, None),
+            enter(Phase::Write, Some(78)),
+            enter(Phase::Rollback, Some(40)),
+            Event::End,
+        ];
+        assert_eq!(
+            plain_lines("upload", &events),
+            [
+                "upload: reading 195 codes from the drive",
+                "upload: writing",
+                "upload: rolling back",
+            ]
+        );
+        // a redo after a restart reads again; a clean end verifies
+        let events = [
+            enter(Phase::Read, Some(3)),
+            enter(Phase::Write, Some(2)),
+            enter(Phase::Read, Some(3)),
+            enter(Phase::Write, Some(2)),
+            enter(Phase::Verify, Some(2)),
+        ];
+        assert_eq!(
+            plain_lines("upload", &events),
+            [
+                "upload: reading 3 codes from the drive",
+                "upload: writing",
+                "upload: reading 3 codes from the drive",
+                "upload: writing",
+                "upload: verifying",
+            ]
+        );
     }
 }

@@ -18,7 +18,8 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use driveset_engine::line::commission::{LineOptions, LineOutcome, Mode, run_line};
+use driveset_engine::env::Memory;
+use driveset_engine::line::commission::{LineOptions, LineOutcome, Mode, Verdict, run_line};
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
 use driveset_link::{Link, PortSpec, VirtualClock};
@@ -124,15 +125,18 @@ fn write_line(dir: &Path, per_bus: usize) -> std::path::PathBuf {
 }
 
 fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
-    let mut opts = LineOptions::new(dir);
+    let mut opts = LineOptions::new(
+        dir,
+        std::sync::Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)),
+    );
     opts.only = only.iter().map(|s| s.to_string()).collect();
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
     let o = run_line(m, &opts, &opener, mode).expect("line runs");
     let wall = t.elapsed().as_secs_f64();
     assert_eq!(
-        o.exit_code(),
-        0,
+        o.verdict(),
+        Verdict::Holds,
         "{:?}",
         o.report.drives.iter().find(|d| d.error.is_some())
     );

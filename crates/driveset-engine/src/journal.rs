@@ -76,13 +76,17 @@
 //!
 //! `at_ns` is the client clock's instant (nanoseconds since that clock's
 //! epoch), not wall time: it orders the transitions of one run.
+//!
+//! **The one place of file IO.** Journals are the engine's durable store,
+//! the one kind of file the engine reads and writes itself (everything else
+//! a run keeps goes through [`crate::env::Environment`]). Every file
+//! operation on them is in the private `store` functions at the end of this
+//! module: read, the durable write, listing a directory, creating it.
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
 #![allow(clippy::result_large_err)]
 
-use std::fs::{self, File, OpenOptions};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use driveset_schema::{CodeKey, RawValue};
@@ -426,7 +430,7 @@ impl JournalFile {
     /// Create a new journal at `path` and make it durable. Refuses to
     /// replace a journal of an unfinished transaction.
     pub fn create(path: &Path, journal: Journal) -> Result<Self, EngineError> {
-        if path.exists() {
+        if store::exists(path) {
             match JournalFile::open(path) {
                 Ok(existing) if !existing.journal.state.is_settled() => {
                     return Err(jerr(
@@ -457,7 +461,7 @@ impl JournalFile {
 
     /// Read a journal (versions [`OLDEST_JOURNAL_VERSION`]..=[`JOURNAL_VERSION`]).
     pub fn open(path: &Path) -> Result<Self, EngineError> {
-        let text = fs::read_to_string(path)
+        let text = store::read(path)
             .map_err(|e| jerr(path, format!("cannot read it: {e}; check the path")))?;
         let journal: Journal = serde_json::from_str(&text).map_err(|e| {
             jerr(
@@ -491,55 +495,14 @@ impl JournalFile {
         let path = &self.path;
         let text = serde_json::to_string_pretty(&self.journal)
             .map_err(|e| jerr(path, format!("cannot encode it: {e}")))?;
-        let mut tmp_name = path.as_os_str().to_owned();
-        tmp_name.push(".tmp");
-        let tmp = PathBuf::from(tmp_name);
-        let fail = |what: &str, e: std::io::Error| {
+        store::write_durable(path, &text).map_err(|(what, e)| {
             jerr(
                 path,
                 format!(
                     "cannot {what}: {e}; check the directory exists, is writable and has space"
                 ),
             )
-        };
-        {
-            let mut opts = OpenOptions::new();
-            opts.write(true).create(true).truncate(true);
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::OpenOptionsExt;
-                opts.mode(0o600);
-            }
-            let mut f = opts
-                .open(&tmp)
-                .map_err(|e| fail("create the temporary file", e))?;
-            // An existing temp file keeps its old mode: force 0600.
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::PermissionsExt;
-                f.set_permissions(fs::Permissions::from_mode(0o600))
-                    .map_err(|e| fail("restrict the temporary file to mode 0600", e))?;
-            }
-            f.write_all(text.as_bytes())
-                .and_then(|()| f.write_all(b"\n"))
-                .map_err(|e| fail("write the temporary file", e))?;
-            f.sync_all()
-                .map_err(|e| fail("flush the temporary file to disk", e))?;
-        }
-        fs::rename(&tmp, path)
-            .map_err(|e| fail("rename the temporary file over the journal", e))?;
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        // Directory fsync makes the rename durable (Unix; a no-op elsewhere).
-        #[cfg(unix)]
-        File::open(&dir)
-            .and_then(|d| d.sync_all())
-            .map_err(|e| fail("flush the journal's directory to disk", e))?;
-        #[cfg(not(unix))]
-        let _ = (&dir, File::open);
-        Ok(())
+        })
     }
 }
 
@@ -593,9 +556,9 @@ pub fn unfinished_for(
     port: &str,
     address: u8,
 ) -> Result<Vec<Unfinished>, EngineError> {
-    let entries = match fs::read_dir(dir) {
-        Ok(e) => e,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+    let files = match store::json_files(dir) {
+        Ok(Some(f)) => f,
+        Ok(None) => return Ok(Vec::new()),
         Err(e) => {
             return Err(jerr(
                 dir,
@@ -606,13 +569,7 @@ pub fn unfinished_for(
         }
     };
     let mut out = Vec::new();
-    for entry in entries.flatten() {
-        let path = entry.path();
-        let name = entry.file_name();
-        let name = name.to_string_lossy();
-        if !name.ends_with(".json") || !entry.file_type().is_ok_and(|t| t.is_file()) {
-            continue;
-        }
+    for path in files {
         let Ok(jf) = JournalFile::open(&path) else {
             continue;
         };
@@ -655,30 +612,117 @@ pub fn ensure_dir(dir: &Path) -> Result<(), EngineError> {
     } else {
         dir
     };
-    if dir.is_dir() {
-        return Ok(());
-    }
-    // the topmost missing ancestor
-    let mut top = dir.to_path_buf();
-    while let Some(parent) = top.parent() {
-        if parent.as_os_str().is_empty() || parent.exists() {
-            break;
-        }
-        top = parent.to_path_buf();
-    }
-    let fail = |what: &str, e: std::io::Error| {
+    store::create_dir_ignored(dir).map_err(|(what, e)| {
         jerr(
             dir,
             format!("cannot {what}: {e}; nothing was sent. Check the directory can be created"),
         )
-    };
-    fs::create_dir_all(dir).map_err(|e| fail("create the journal directory", e))?;
-    fs::write(
-        top.join(".gitignore"),
-        "# written by driveset: journals hold old values, passwords included\n*\n",
-    )
-    .map_err(|e| fail("write its .gitignore", e))?;
-    Ok(())
+    })
+}
+
+/// Every file operation on journals (module docs, "The one place of file
+/// IO"). Errors name what failed, for the caller's message.
+mod store {
+    use std::fs::{self, File, OpenOptions};
+    use std::io::{self, Write};
+    use std::path::{Path, PathBuf};
+
+    pub(super) fn exists(path: &Path) -> bool {
+        path.exists()
+    }
+
+    pub(super) fn read(path: &Path) -> io::Result<String> {
+        fs::read_to_string(path)
+    }
+
+    /// Write `text` and a newline to `path` atomically and durably: temp
+    /// file `<path>.tmp` (mode 0600), fsync, rename over `path`, fsync the
+    /// directory.
+    pub(super) fn write_durable(path: &Path, text: &str) -> Result<(), (&'static str, io::Error)> {
+        let mut tmp_name = path.as_os_str().to_owned();
+        tmp_name.push(".tmp");
+        let tmp = PathBuf::from(tmp_name);
+        {
+            let mut opts = OpenOptions::new();
+            opts.write(true).create(true).truncate(true);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                opts.mode(0o600);
+            }
+            let mut f = opts
+                .open(&tmp)
+                .map_err(|e| ("create the temporary file", e))?;
+            // An existing temp file keeps its old mode: force 0600.
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                f.set_permissions(fs::Permissions::from_mode(0o600))
+                    .map_err(|e| ("restrict the temporary file to mode 0600", e))?;
+            }
+            f.write_all(text.as_bytes())
+                .and_then(|()| f.write_all(b"\n"))
+                .map_err(|e| ("write the temporary file", e))?;
+            f.sync_all()
+                .map_err(|e| ("flush the temporary file to disk", e))?;
+        }
+        fs::rename(&tmp, path).map_err(|e| ("rename the temporary file over the journal", e))?;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        // Directory fsync makes the rename durable (Unix; a no-op elsewhere).
+        #[cfg(unix)]
+        File::open(&dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| ("flush the journal's directory to disk", e))?;
+        #[cfg(not(unix))]
+        let _ = (&dir, File::open);
+        Ok(())
+    }
+
+    /// The regular files named `*.json` directly in `dir`; `None` when
+    /// `dir` does not exist.
+    pub(super) fn json_files(dir: &Path) -> io::Result<Option<Vec<PathBuf>>> {
+        let entries = match fs::read_dir(dir) {
+            Ok(e) => e,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        Ok(Some(
+            entries
+                .flatten()
+                .filter(|e| {
+                    e.file_name().to_string_lossy().ends_with(".json")
+                        && e.file_type().is_ok_and(|t| t.is_file())
+                })
+                .map(|e| e.path())
+                .collect(),
+        ))
+    }
+
+    /// Create `dir` if it is missing; the topmost directory this creates
+    /// gets a `.gitignore` holding `*`. An existing directory is left as it
+    /// is.
+    pub(super) fn create_dir_ignored(dir: &Path) -> Result<(), (&'static str, io::Error)> {
+        if dir.is_dir() {
+            return Ok(());
+        }
+        // the topmost missing ancestor
+        let mut top = dir.to_path_buf();
+        while let Some(parent) = top.parent() {
+            if parent.as_os_str().is_empty() || parent.exists() {
+                break;
+            }
+            top = parent.to_path_buf();
+        }
+        fs::create_dir_all(dir).map_err(|e| ("create the journal directory", e))?;
+        fs::write(
+            top.join(".gitignore"),
+            "# written by driveset: journals hold old values, passwords included\n*\n",
+        )
+        .map_err(|e| ("write its .gitignore", e))
+    }
 }
 
 /// [`Mismatch::Version`] for a journal that records no bus (version 1).
@@ -696,6 +740,7 @@ pub(crate) fn version_refusal(target: &Target, path: &Path, version: u32) -> Eng
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     #[test]
     fn file_names_come_from_bus_id_and_address() {

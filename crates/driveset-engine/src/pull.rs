@@ -28,6 +28,7 @@ use driveset_schema::{CodeKey, ResolvedSet, Role};
 
 use crate::client::{DriveClient, Identity};
 use crate::error::EngineError;
+use crate::observe::{Hook, Phase};
 use crate::plan::code_label;
 
 /// Options of [`pull`].
@@ -78,9 +79,28 @@ pub struct Pulled {
 
 /// Read every readable code of the client's schema.
 pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, EngineError> {
+    pull_observed(client, opts, &Hook::none())
+}
+
+/// [`pull`], telling `hook` its phases (identify, read) and each code read
+/// or passed over, of every code and subcode of the schema
+/// ([`crate::observe`]).
+pub fn pull_observed(
+    client: &mut dyn DriveClient,
+    opts: &PullOptions,
+    hook: &Hook,
+) -> Result<Pulled, EngineError> {
     let start = client.clock().now();
     let schema = client.schema().clone();
+    hook.enter(client.clock(), Phase::Identify, None);
     let identity = client.identify()?;
+    let total: usize = schema
+        .codes
+        .iter()
+        .map(|c| c.subcodes.filter(|n| *n > 0).unwrap_or(1) as usize)
+        .sum();
+    hook.enter(client.clock(), Phase::Read, Some(total));
+    let mut done = 0;
     let mut all = ResolvedSet::new(&schema);
     let mut skipped = Vec::new();
     for code in &schema.codes {
@@ -89,6 +109,8 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
             _ => vec![CodeKey::new(code.number)],
         };
         for key in keys {
+            done += 1;
+            hook.step(client.clock(), Phase::Read, done, total);
             let skip = |reason: &str| Skipped {
                 number: key.number,
                 subcode: key.subcode,
@@ -152,6 +174,7 @@ pub fn pull(client: &mut dyn DriveClient, opts: &PullOptions) -> Result<Pulled, 
         });
         dropped_defaults = before - set.values.len();
     }
+    hook.end(client.clock());
     Ok(Pulled {
         fingerprint: set.fingerprint(),
         set,

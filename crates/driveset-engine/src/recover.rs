@@ -44,8 +44,9 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 use crate::client::DriveClient;
 use crate::error::{EngineError, Mismatch};
 use crate::journal::{JournalFile, TxnState, version_refusal};
+use crate::observe::{Hook, Phase as Step};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
-use crate::upload::{describe_holdings, holdings, read_values, restore};
+use crate::upload::{describe_holdings, holdings, read_observed, read_values, restore};
 
 /// What recovery did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -81,12 +82,16 @@ pub struct RecoverReport {
 pub struct RecoverOptions {
     /// How long an MC6000/7000 dataset check may take.
     pub dataset_timeout: Duration,
+    /// Told each phase: identify, read, rollback (restore and read back),
+    /// verify (the final fingerprint read) ([`crate::observe`]).
+    pub observer: Hook,
 }
 
 impl Default for RecoverOptions {
     fn default() -> Self {
         RecoverOptions {
             dataset_timeout: DATASET_TIMEOUT,
+            observer: Hook::none(),
         }
     }
 }
@@ -183,6 +188,8 @@ pub fn recover(
         ));
     }
 
+    let hook = &opts.observer;
+    hook.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;
     // An identification code the transaction itself writes (Tmd C0093 in a
     // set) may hold the old or the new value: leave it out of the match.
@@ -258,13 +265,14 @@ pub fn recover(
 
     let dataset = jf.journal.dataset && client.has_dataset_download();
     let handshake = schema.family.descriptor().dataset;
+    hook.enter(client.clock(), Step::Read, None);
     let sload_open = if let Some(h) = handshake.filter(|h| dataset && schema.code(h.code).is_some())
     {
         client.read(CodeKey::new(h.code))? == RawValue::Int(h.begin)
     } else {
         false
     };
-    let current = read_values(client, backup.keys().copied())?;
+    let current = read_observed(client, backup.keys().copied(), hook, Step::Read)?;
     // stale: a planned code holds neither its old nor its new value
     let stale: Vec<String> = order
         .iter()
@@ -321,6 +329,7 @@ pub fn recover(
         let cw_differs = order
             .iter()
             .any(|(k, p)| *p == Phase::Dataset && touched.contains(k));
+        hook.enter(client.clock(), Step::Rollback, None);
         report.restored = order
             .iter()
             .rev()
@@ -389,9 +398,10 @@ pub fn recover(
         .copied()
         .collect();
     let mut holds = ResolvedSet::new(&schema);
-    for (k, v) in read_values(client, keys)?.values {
+    for (k, v) in read_observed(client, keys, hook, Step::Verify)?.values {
         holds.insert(k, v);
     }
     report.fingerprint = Some(holds.fingerprint());
+    hook.end(client.clock());
     Ok(report)
 }

@@ -26,6 +26,11 @@
 //!   times, keeping the first attempt's backup.
 //!
 //! Times come only from the client's clock.
+//!
+//! **Progress.** The runner reports its own phase to
+//! [`UploadOptions::observer`] ([`crate::observe`]): identify, read, plan,
+//! journal, dataset, write (code i of n), commit (SLOAD poll), verify,
+//! rollback; a rollback is reported as such, whatever telegrams it sends.
 
 // EngineError (the crate's contract type) is large; it is built on the
 // failure path only, so its size is no concern.
@@ -45,6 +50,7 @@ use crate::journal::{
     BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
     PlanEntryRecord, TxnState,
 };
+use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
 use crate::plan::{
     DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
@@ -67,6 +73,8 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
+    /// Told each phase and step of the transaction ([`crate::observe`]).
+    pub observer: Hook,
 }
 
 /// How the runner paces writes.
@@ -95,6 +103,7 @@ impl UploadOptions {
             max_restarts: 1,
             dataset_timeout: DATASET_TIMEOUT,
             strategy: Strategy::Interleaved,
+            observer: Hook::none(),
         }
     }
 }
@@ -310,11 +319,24 @@ pub(crate) fn read_values(
     client: &mut dyn DriveClient,
     keys: impl IntoIterator<Item = CodeKey>,
 ) -> Result<ResolvedSet, EngineError> {
+    read_observed(client, keys, &Hook::none(), Step::Read)
+}
+
+/// [`read_values`], entering `phase` on `hook` and reporting each code read.
+pub(crate) fn read_observed(
+    client: &mut dyn DriveClient,
+    keys: impl IntoIterator<Item = CodeKey>,
+    hook: &Hook,
+    phase: Step,
+) -> Result<ResolvedSet, EngineError> {
+    let keys: Vec<CodeKey> = keys.into_iter().collect();
+    hook.enter(client.clock(), phase, Some(keys.len()));
     let schema = client.schema().clone();
     let mut out = ResolvedSet::new(&schema);
-    for k in keys {
-        let v = client.read(k)?;
-        out.insert(k, v);
+    for (i, k) in keys.iter().enumerate() {
+        let v = client.read(*k)?;
+        out.insert(*k, v);
+        hook.step(client.clock(), phase, i + 1, keys.len());
     }
     Ok(out)
 }
@@ -374,6 +396,7 @@ pub fn upload(
         return Err(refused(&target, problems).into());
     }
     check_unfinished(&*client, &opts.journal)?;
+    opts.observer.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;
     popts.identity = Some(identity.clone());
     // The running-motor check is done in the attempt, only when something
@@ -435,6 +458,7 @@ pub fn upload(
             }
         }
     };
+    tx.opts.observer.end(tx.client.clock());
     let report = tx.report(set);
     match result {
         Ok(()) => Ok(report),
@@ -557,9 +581,12 @@ impl Txn<'_> {
 
     /// One attempt: read back, plan, journal, write, verify, complete.
     fn attempt(&mut self, set: &ResolvedSet) -> Result<(), Stop> {
-        let current = read_values(self.client, set.values.keys().copied())?;
+        let hook = &self.opts.observer;
+        let current = read_observed(self.client, set.values.keys().copied(), hook, Step::Read)?;
+        hook.enter(self.client.clock(), Step::Plan, None);
         let mut planned = plan(&self.schema, set, &current, &self.popts);
         if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+            // the running check is part of planning (one status read)
             self.popts.running = self.client.running()?.into();
             planned = plan(&self.schema, set, &current, &self.popts);
         }
@@ -614,6 +641,9 @@ impl Txn<'_> {
         if plan.is_empty() && self.journal.is_none() {
             return Ok(());
         }
+        self.opts
+            .observer
+            .enter(self.client.clock(), Step::Journal, None);
         let (backup, records) = self.entry_records(&plan);
         let unchanged: Vec<BackupEntry> = self
             .unchanged
@@ -687,11 +717,17 @@ impl Txn<'_> {
             .collect();
         if !staged.is_empty() {
             self.dataset_touched = true;
+            let hook = &self.opts.observer;
+            hook.enter(self.client.clock(), Step::Dataset, None);
             self.client.dataset_begin()?;
+            hook.enter(self.client.clock(), Step::Write, Some(plan.writes.len()));
             for &k in &staged {
                 self.pace(k, &mut pending, &expected)?;
                 self.write(k, &expected)?;
             }
+            self.opts
+                .observer
+                .enter(self.client.clock(), Step::Commit, None);
             match self.client.dataset_commit(self.opts.dataset_timeout)? {
                 DatasetOutcome::Accepted => {
                     self.dataset_note = Some("accepted (SLOAD = 0)".into());
@@ -707,6 +743,13 @@ impl Txn<'_> {
             }
         }
         // 2..4. the other writes, pacing EEPROM with verification reads
+        let others = plan.writes.iter().any(|w| w.phase != Phase::Dataset);
+        if others {
+            let n = Some(plan.writes.len());
+            self.opts
+                .observer
+                .enter(self.client.clock(), Step::Write, n);
+        }
         for w in plan.writes.iter().filter(|w| w.phase != Phase::Dataset) {
             self.pace(w.key, &mut pending, &expected)?;
             self.write(w.key, &expected)?;
@@ -718,6 +761,10 @@ impl Txn<'_> {
             }
         }
         self.set_state(TxnState::Verifying, None)?;
+        let n = Some(expected.len());
+        self.opts
+            .observer
+            .enter(self.client.clock(), Step::Verify, n);
         while let Some(k) = pending.pop_front() {
             self.verify_one(k, &expected)?;
         }
@@ -752,6 +799,10 @@ impl Txn<'_> {
             return Err(Stop::Error(e));
         }
         self.note_written(key)?;
+        let (done, total) = (self.touched.len(), self.order.len().max(self.touched.len()));
+        self.opts
+            .observer
+            .step(self.client.clock(), Step::Write, done, total);
         Ok(())
     }
 
@@ -828,6 +879,15 @@ impl Txn<'_> {
         }
         self.outcomes.insert(key, CodeOutcome::Verified);
         self.verified.insert(key, got);
+        if self.opts.observer.is_set() {
+            let done = expected
+                .keys()
+                .filter(|k| self.verified.contains_key(k))
+                .count();
+            self.opts
+                .observer
+                .step(self.client.clock(), Step::Verify, done, expected.len());
+        }
         Ok(())
     }
 
@@ -852,6 +912,10 @@ impl Txn<'_> {
             },
         };
         // confirm nothing changed
+        let n = Some(self.backup.len());
+        self.opts
+            .observer
+            .enter(self.client.clock(), Step::Rollback, n);
         match self.compare_with_backup() {
             Ok(diffs) if diffs.is_empty() => {
                 self.dataset_touched = false;
@@ -888,6 +952,10 @@ impl Txn<'_> {
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
         }
+        let n = Some(self.touched.len());
+        self.opts
+            .observer
+            .enter(self.client.clock(), Step::Rollback, n);
         if let Err(e) = self.set_state(TxnState::RollingBack, Some(cause_text.clone())) {
             // The journal on disk still says an earlier state and holds the backup.
             return e;

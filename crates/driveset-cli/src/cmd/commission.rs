@@ -7,18 +7,18 @@
 // EngineError is large by design; it is built on the failure path only.
 #![allow(clippy::result_large_err)]
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
 
 use driveset_engine::line::commission::{
-    LineError, LineLearn, LineOptions, LineOutcome, Mode, Progress, run_line,
+    LineError, LineLearn, LineOptions, LineOutcome, Mode, Progress, Verdict, run_line,
 };
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
 use driveset_link::Link;
 
-use crate::{EXIT_INPUT, port, report};
+use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_INPUT, EXIT_OK, port, report};
 
 /// The report directory when neither `--report-dir` nor the manifest's
 /// `report_dir` gives one (relative to the current directory).
@@ -30,8 +30,10 @@ pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
 For every selected drive: identify, read back, diff, upload what differs as
 one transaction, verify. Buses run in
 parallel, the drives of one bus in turn. One progress line per drive on
-stderr, a summary table on stdout, report.json + report.html in the report
-directory (default target/driveset-report, or the manifest's report_dir).
+stderr (on a terminal, with CI unset, above one progress bar per bus showing
+the drive and the phase its transaction is in), a summary table on stdout,
+report.json + report.html in the report directory (default
+target/driveset-report, or the manifest's report_dir).
 
 Resume: drives that end holding their set are recorded in
 REPORT_DIR/.commission-state.json. A rerun confirms each recorded drive with
@@ -206,7 +208,7 @@ pub fn run_mode(
         .report_dir
         .or_else(|| manifest.report_dir.clone())
         .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
-    let mut opts = LineOptions::new(&report_dir);
+    let mut opts = LineOptions::new(&report_dir, Arc::new(crate::env::SystemEnv));
     // the journal directory `upload` uses, so each sees the other's journals
     opts.journal_dir = manifest
         .journal_dir
@@ -237,11 +239,18 @@ pub fn run_mode(
         .map(|b| b.name.len())
         .max()
         .unwrap_or(0);
+    let bars = crate::progress::LineProgress::new(width);
+    let shown = bars.clone();
     opts.progress = Some(Arc::new(move |p: &Progress| {
-        let mut err = std::io::stderr().lock();
-        let _ = writeln!(err, "{}", progress_line(p, width));
+        shown.drive_done(p, progress_line);
     }));
-    let outcome = match run_line(&manifest, &opts, &open_bus, mode) {
+    opts.observer = Some(bars.clone());
+    // wall time is the CLI's to measure: the engine reads no system clock
+    let wall0 = std::time::Instant::now();
+    let outcome = run_line(&manifest, &opts, &open_bus, mode);
+    let wall = wall0.elapsed();
+    bars.done();
+    let outcome = match outcome {
         Ok(o) => o,
         Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
             return Err(crate::fail::Fail::input(format!("{e}")));
@@ -250,7 +259,7 @@ pub fn run_mode(
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
     }
-    out!("{}", summary(&outcome, mode));
+    out!("{}", summary(&outcome, mode, wall));
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
         Err(e) => {
@@ -260,7 +269,17 @@ pub fn run_mode(
             )));
         }
     }
-    Ok(outcome.exit_code())
+    Ok(exit_code(outcome.verdict()))
+}
+
+/// The process exit code of a line run: 0 every selected drive holds its
+/// set, 1 a drive does not, 3 a bus failed (it wins over 1).
+pub fn exit_code(v: Verdict) -> u8 {
+    match v {
+        Verdict::Holds => EXIT_OK,
+        Verdict::Differs => EXIT_FINDINGS,
+        Verdict::BusFailed => EXIT_BUS,
+    }
 }
 
 fn result_name(r: DriveResult) -> &'static str {
@@ -309,7 +328,7 @@ fn short_fp(fp: Option<&str>) -> String {
 }
 
 /// The summary table (and, for drift, the differences).
-pub fn summary(o: &LineOutcome, mode: Mode) -> String {
+pub fn summary(o: &LineOutcome, mode: Mode, wall: Duration) -> String {
     let r = &o.report;
     let rows: Vec<[String; 5]> = r
         .drives
@@ -408,7 +427,7 @@ pub fn summary(o: &LineOutcome, mode: Mode) -> String {
     out.push_str(&format!(
         "bus time {:.3} s (buses in parallel; slowest: {slowest}), wall time {:.3} s\n",
         o.line_ms() / 1000.0,
-        o.wall.as_secs_f64()
+        wall.as_secs_f64()
     ));
     out
 }

@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
-use driveset_engine::pull::{PullOptions, pull as engine_pull};
+use driveset_engine::pull::{PullOptions, pull_observed as engine_pull};
 use driveset_schema::schema::{Access, StorageKind};
 use driveset_schema::{Format, export};
 use serde_json::json;
@@ -228,19 +228,15 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         });
     }
     let quiet = args.format == BusFormat::Json;
-    let count: usize = schema
-        .codes
-        .iter()
-        .map(|c| c.subcodes.filter(|n| *n > 0).unwrap_or(1) as usize)
-        .sum();
     let pulled = {
-        let mut p = Progress::new(client.as_mut(), "pull", count, quiet);
+        let p = Progress::new("pull", quiet);
         let r = engine_pull(
-            &mut p,
+            client.as_mut(),
             &PullOptions {
                 changed_only: args.changed_only,
                 include_passwords: false,
             },
+            &p.hook(),
         );
         p.done();
         r?

@@ -80,7 +80,6 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let choice = port::resolve_schema(Some(&schema_arg), &args.schemas, sim, None)?;
     let json = args.format == BusFormat::Json;
     let state = j.state;
-    let codes = j.backup.len() + j.unchanged.len();
     drop(jf);
     if state.is_settled() {
         let msg = format!(
@@ -107,8 +106,12 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let port_name = opened.name.clone();
     let mut client = port::into_client(opened, choice.schema, address, false)?;
     let result = {
-        let mut p = Progress::new(client.as_mut(), "recover", codes, json);
-        let r = engine_recover(&mut p, &args.journal, &RecoverOptions::default());
+        let p = Progress::new("recover", json);
+        let opts = RecoverOptions {
+            observer: p.hook(),
+            ..RecoverOptions::default()
+        };
+        let r = engine_recover(client.as_mut(), &args.journal, &opts);
         p.done();
         r
     };

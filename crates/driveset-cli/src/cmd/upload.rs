@@ -85,6 +85,10 @@ Refused with no override: commands (PROG, SLOAD, STAT reset, C0002, C0043
 SCTL1 = { start = true }, C0040 = 1 ...), codes not in the schema,
 read-only codes. --dry-run shows the same refusals.
 
+Progress on stderr: a bar with the transaction's phase (reading, writing,
+verifying, rolling back) and code i of n on a terminal with CI unset; plain
+lines when a phase starts otherwise; none with --format json.
+
 Exit codes: 0 the drive holds the set (verified), 2 refused before anything
 was sent or an input error, 3 bus or device failure (the message says whether
 the drive was rolled back to its old values or holds a mix and needs
@@ -215,8 +219,9 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let mut opts = UploadOptions::new(&journal);
     opts.overrides = overrides;
     let result = {
-        let mut p = Progress::new(client.as_mut(), "upload", set.values.len(), json);
-        let r = engine_upload(&mut p, &set, &opts);
+        let p = Progress::new("upload", json);
+        opts.observer = p.hook();
+        let r = engine_upload(client.as_mut(), &set, &opts);
         p.done();
         r
     };

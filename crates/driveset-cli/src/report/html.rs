@@ -149,11 +149,17 @@ footer{color:var(--muted);margin-top:28px;font-size:12px}
 "#;
 
 /// Phases in legend order with their fill colour; unknown phases are grey.
-const PHASES: [(&str, &str); 7] = [
+/// The names are the engine's `observe::Phase` names (`journal` spans take
+/// no time on a virtual clock and are left out of timelines).
+const PHASES: [(&str, &str); 11] = [
+    ("learn", "#0550ae"),
+    ("recover", "#a40e26"),
     ("identify", "#6e7781"),
     ("read", "#54aeff"),
     ("plan", "#bf8700"),
+    ("dataset", "#e16f24"),
     ("write", "#fb8f44"),
+    ("commit", "#9a6700"),
     ("verify", "#2da44e"),
     ("broadcast", "#8250df"),
     ("rollback", "#cf222e"),

@@ -83,7 +83,8 @@ pub fn write_reports(report: &LineReport, dir: &Path) -> io::Result<(PathBuf, Pa
     Ok((json_path, html_path))
 }
 
-fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+/// Write `bytes` to `path` through a temporary name and a rename.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -100,7 +101,6 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// the line manifest; an empty path means the current directory). `None`
 /// outside a git work tree, in a repository without commits, or when git is
 /// not installed.
-#[allow(dead_code)] // called by the line runner (`commission`, `status`)
 pub fn git_info(manifest_dir: &Path) -> Option<GitInfo> {
     let dir = if manifest_dir.as_os_str().is_empty() {
         Path::new(".")

@@ -27,10 +27,25 @@
 //! is `Failed` (exit 1). A LECOM group with an unfinished journal gets no
 //! MULTICAST (`broadcast_common`).
 //!
-//! **Exit codes** ([`LineOutcome::exit_code`]): 0 every selected drive holds
-//! its set; 1 a drive does not (drift, refused, rolled back, failed); 3 a
-//! bus could not be opened, a link failed, a drive did not answer, or the
-//! run stopped before every drive was reached (`stop_after`). 3 wins over 1.
+//! **Verdict** ([`LineOutcome::verdict`], which the CLI maps to its exit
+//! codes 0, 1 and 3): [`Verdict::Holds`] every selected drive holds its
+//! set; [`Verdict::Differs`] a drive does not (drift, refused, rolled back,
+//! failed); [`Verdict::BusFailed`] a bus could not be opened, a link
+//! failed, a drive did not answer, or the run stopped before every drive
+//! was reached (`stop_after`). A bus failure wins over a difference.
+//!
+//! **The world** ([`LineOptions::env`], [`crate::env::Environment`]): the
+//! wall-clock times of the report and the state file, the git commit of the
+//! sets, and the state and learned-schema files go through it; the run
+//! itself does no file IO but the journals'.
+//!
+//! **Timeline and progress.** Each drive's work is observed
+//! ([`crate::observe`]): the transaction runner reports its own phases,
+//! the line runner adds `learn`, `recover`, `broadcast` and the `identify` /
+//! `read` of `status` and of a resume check. The bus report's timeline
+//! holds those spans (zero-length ones, planning and journal writes on a
+//! virtual clock, left out); [`LineOptions::observer`] gets every event
+//! with its bus and drive.
 //!
 //! **Broadcast** (`broadcast_common`, LECOM buses only): values every
 //! selected drive of a LECOM group (addresses x1..x9) sets identically are
@@ -69,24 +84,23 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use driveset_link::{Instant, Link, OpenOptions, PortSpec};
+use driveset_link::{Instant, Link, OpenOptions};
 use driveset_schema::error::SourceFile;
 use driveset_schema::{CodeKey, DiffKind, RawValue, Registry, ResolvedSet, Role, Schema, load_set};
 use serde::{Deserialize, Serialize};
 
 use super::manifest::{Bus, BusProtocol, Drive, Manifest};
 use super::report::{
-    BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LearnedSchemaReport, LineReport,
-    LineResult, REPORT_VERSION, TimelineEntry,
+    BusReport, DiffLine, DriveReport, DriveResult, LearnedSchemaReport, LineReport, LineResult,
+    REPORT_VERSION, TimelineEntry,
 };
-use crate::client::{
-    BorrowedByteLink, ClientStats, DatasetOutcome, DriveClient, Identity, LecomClient,
-    LustbusClient, Target,
-};
+use crate::client::{BorrowedByteLink, DriveClient, Identity, LecomClient, LustbusClient};
+use crate::env::{Environment, rfc3339};
 use crate::error::EngineError;
 use crate::identify::check_family;
 use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
+use crate::observe::{Event, Hook, Observer, Phase, Spans};
 use crate::overrides::Overrides;
 use crate::plan::value_text;
 use crate::recover::{RecoverAction, RecoverOptions, recover};
@@ -97,12 +111,29 @@ pub const STATE_FILE: &str = ".commission-state.json";
 /// The state file's format version.
 pub const STATE_VERSION: u32 = 1;
 
-/// Exit code: every selected drive holds its set.
-pub const EXIT_OK: u8 = 0;
-/// Exit code: a drive differs from its set or failed.
-pub const EXIT_DRIFT: u8 = 1;
-/// Exit code: a bus failed (or the run stopped early).
-pub const EXIT_BUS: u8 = 3;
+/// The outcome of a line run in one word (module docs, "Verdict").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Every selected drive holds its set.
+    Holds,
+    /// A drive differs from its set (drift, refused, rolled back, failed).
+    Differs,
+    /// A bus could not be opened, a link failed, a drive did not answer, or
+    /// the run stopped before every drive was reached.
+    BusFailed,
+}
+
+/// Told every event of every drive's work, with its bus and drive names
+/// (the CLI's progress bars). Called from the bus threads.
+pub trait LineObserver: Send + Sync {
+    /// Bus `bus` starts, with `drives` selected drives.
+    fn bus(&self, bus: &str, drives: usize) {
+        let _ = (bus, drives);
+    }
+
+    /// Drive `drive` on bus `bus` reached `event` at `at` (the bus clock).
+    fn event(&self, bus: &str, drive: &str, at: Instant, event: Event);
+}
 
 /// Opens a bus's port as a link. The CLI passes one that opens `sim://`
 /// ports with the simulator; [`open_port`] opens real ports.
@@ -149,6 +180,10 @@ pub struct LineOptions {
     pub label: Option<String>,
     /// Where the report and the state file go.
     pub report_dir: PathBuf,
+    /// Wall-clock time, git, the state and learned-schema files.
+    pub env: Arc<dyn Environment>,
+    /// Told the phases and steps of every drive's work.
+    pub observer: Option<Arc<dyn LineObserver>>,
     /// Where the upload journals go.
     pub journal_dir: PathBuf,
     /// Passed to every upload (each lifts one refusal; see
@@ -194,10 +229,12 @@ impl std::fmt::Debug for LineOptions {
 
 impl LineOptions {
     /// Defaults: everything selected, report in `report_dir`, journals in
-    /// `report_dir/journals`.
-    pub fn new(report_dir: impl Into<PathBuf>) -> Self {
+    /// `report_dir/journals`, the world through `env`.
+    pub fn new(report_dir: impl Into<PathBuf>, env: Arc<dyn Environment>) -> Self {
         let report_dir = report_dir.into();
         LineOptions {
+            env,
+            observer: None,
             only: Vec::new(),
             skip: Vec::new(),
             label: None,
@@ -233,19 +270,17 @@ pub struct LineOutcome {
     pub bus_failure: bool,
     /// Notes (broadcast fallbacks, state file trouble).
     pub warnings: Vec<String>,
-    /// Real time the run took.
-    pub wall: Duration,
 }
 
 impl LineOutcome {
-    /// 0, 1 or 3 (module docs).
-    pub fn exit_code(&self) -> u8 {
+    /// The run in one word (module docs).
+    pub fn verdict(&self) -> Verdict {
         if self.bus_failure {
-            EXIT_BUS
+            Verdict::BusFailed
         } else if self.report.result == LineResult::Ok {
-            EXIT_OK
+            Verdict::Holds
         } else {
-            EXIT_DRIFT
+            Verdict::Differs
         }
     }
 
@@ -284,33 +319,32 @@ pub struct StateEntry {
     pub set_fingerprint: String,
     /// Fingerprint read back from the drive.
     pub fingerprint: String,
-    /// When (RFC 3339 UTC).
+    /// When (RFC 3339 UTC, milliseconds: [`crate::env::rfc3339`]).
     pub verified_at: String,
 }
 
 impl CommissionState {
-    /// Read the state file of `report_dir` (empty if there is none).
-    pub fn load(report_dir: &Path) -> Result<Self, String> {
+    /// Read the state file of `report_dir` through `env` (empty if there
+    /// is none).
+    pub fn load(env: &dyn Environment, report_dir: &Path) -> Result<Self, String> {
         let path = report_dir.join(STATE_FILE);
-        match std::fs::read_to_string(&path) {
-            Ok(text) => serde_json::from_str(&text).map_err(|e| {
+        match env.read_file(&path) {
+            Ok(Some(text)) => serde_json::from_str(&text).map_err(|e| {
                 format!(
                     "state file {}: {e}; delete it (or pass --fresh) to commission every drive again",
                     path.display()
                 )
             }),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Self::default()),
+            Ok(None) => Ok(Self::default()),
             Err(e) => Err(format!("state file {}: {e}", path.display())),
         }
     }
 
-    /// Write it atomically (temp file, rename).
-    pub fn save(&self, report_dir: &Path) -> Result<(), String> {
+    /// Write it through `env` (atomically: [`Environment::write_file`]).
+    pub fn save(&self, env: &dyn Environment, report_dir: &Path) -> Result<(), String> {
         let path = report_dir.join(STATE_FILE);
-        let tmp = report_dir.join(format!("{STATE_FILE}.tmp"));
         let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
-        std::fs::write(&tmp, text + "\n")
-            .and_then(|()| std::fs::rename(&tmp, &path))
+        env.write_file(&path, &(text + "\n"))
             .map_err(|e| format!("state file {}: {e}", path.display()))
     }
 }
@@ -335,10 +369,10 @@ pub fn run_line(
     opener: &Opener<'_>,
     mode: Mode,
 ) -> Result<LineOutcome, LineError> {
-    let wall0 = std::time::Instant::now();
-    let started = now_rfc3339();
+    let env = &*opts.env;
+    let started = rfc3339(env.now_utc());
     let selected = select(manifest, opts)?;
-    std::fs::create_dir_all(&opts.report_dir).map_err(|e| {
+    env.create_dir(&opts.report_dir).map_err(|e| {
         LineError::Io(format!(
             "cannot create the report directory {}: {e}",
             opts.report_dir.display()
@@ -352,7 +386,7 @@ pub fn run_line(
         let mut s = if opts.fresh {
             CommissionState::default()
         } else {
-            CommissionState::load(&opts.report_dir).map_err(LineError::Io)?
+            CommissionState::load(env, &opts.report_dir).map_err(LineError::Io)?
         };
         if s.line != manifest.name {
             s.drives.clear();
@@ -427,8 +461,8 @@ pub fn run_line(
         manifest: manifest.path.display().to_string(),
         label: opts.label.clone().or_else(|| manifest.label.clone()),
         started,
-        finished: now_rfc3339(),
-        git: git_info(dir),
+        finished: rfc3339(env.now_utc()),
+        git: env.git_info(dir),
         result,
         buses,
         drives,
@@ -437,7 +471,6 @@ pub fn run_line(
         report,
         bus_failure,
         warnings,
-        wall: wall0.elapsed(),
     })
 }
 
@@ -518,7 +551,7 @@ impl Ctx<'_> {
                         set: d.set_text.clone(),
                         set_fingerprint: d.set.fingerprint(),
                         fingerprint: fp.to_string(),
-                        verified_at: now_rfc3339(),
+                        verified_at: rfc3339(self.opts.env.now_utc()),
                     },
                 );
             }
@@ -528,7 +561,7 @@ impl Ctx<'_> {
                 }
             }
         }
-        if let Err(e) = s.save(&self.opts.report_dir) {
+        if let Err(e) = s.save(&*self.opts.env, &self.opts.report_dir) {
             drop(s);
             self.warn(e);
         }
@@ -597,6 +630,9 @@ fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> 
         };
     }
     let total = drives.len();
+    if let Some(o) = &ctx.opts.observer {
+        o.bus(&bus.name, total);
+    }
     let progress = |done: usize, d: &DriveReport| {
         if let Some(p) = &ctx.opts.progress {
             p(&Progress {
@@ -654,10 +690,12 @@ fn run_bus(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, opener: &Opener<'_>) -> 
             continue;
         }
         let (r, spans, link_failed) = run_drive(bus, d, &mut link, ctx);
-        for (phase, s, e) in spans {
+        // zero-length spans (planning, journal writes on a virtual clock)
+        // would draw nothing
+        for (phase, s, e) in spans.into_iter().filter(|(_, s, e)| s != e) {
             report.timeline.push(TimelineEntry {
                 drive: d.name.clone(),
-                phase: phase.into(),
+                phase: phase.as_str().into(),
                 start_ms: since(start, s),
                 end_ms: since(start, e),
             });
@@ -699,7 +737,30 @@ fn failure_of(e: &EngineError) -> Option<Failure> {
     }
 }
 
-type Span = (&'static str, Instant, Instant);
+type Span = (Phase, Instant, Instant);
+
+/// The observer of one drive's work: keeps its spans for the timeline and
+/// passes every event on to the line's observer.
+struct DriveWatch {
+    spans: Spans,
+    line: Option<(Arc<dyn LineObserver>, String, String)>,
+}
+
+impl Observer for DriveWatch {
+    fn event(&self, at: Instant, event: Event) {
+        self.spans.event(at, event);
+        if let Some((o, bus, drive)) = &self.line {
+            o.event(bus, drive, at, event);
+        }
+    }
+}
+
+fn link_clock(link: &Link) -> &dyn driveset_link::Clock {
+    match link {
+        Link::Bytes(b) => b.clock(),
+        Link::Frames(f) => f.clock(),
+    }
+}
 
 fn run_drive(
     bus: &Bus,
@@ -708,14 +769,22 @@ fn run_drive(
     ctx: &Ctx<'_>,
 ) -> (DriveReport, Vec<Span>, Option<Failure>) {
     let t0 = link_now(link);
-    let mut learn_span = Vec::new();
+    let watch = Arc::new(DriveWatch {
+        spans: Spans::new(),
+        line: ctx
+            .opts
+            .observer
+            .clone()
+            .map(|o| (o, bus.name.clone(), d.name.clone())),
+    });
+    let hook = Hook::new(watch.clone());
     let learned_drive;
     let mut learned_report = None;
     let d = match &d.learn_from {
         None => d,
         Some(base) => {
+            hook.enter(link_clock(link), Phase::Learn, None);
             let got = learn_drive(bus, d, base, link, ctx);
-            learn_span.push(("learn", t0, link_now(link)));
             match got {
                 Ok((nd, rep)) => {
                     learned_drive = nd;
@@ -729,7 +798,8 @@ fn run_drive(
                     if ctx.mode == Mode::Commission {
                         ctx.record(bus, d, None);
                     }
-                    return (r, learn_span, failure);
+                    hook.end(link_clock(link));
+                    return (r, watch.spans.spans(), failure);
                 }
             }
         }
@@ -737,17 +807,17 @@ fn run_drive(
     let mut r = blank_report(d, bus, DriveResult::Failed);
     r.learned_schema = learned_report;
     let mut client = match crate::connect::connect_on(link, d.schema.clone(), d.address) {
-        Ok(c) => Recorder::new(c),
+        Ok(c) => c,
         Err(e) => {
             r.error = Some(e.to_string());
-            return (r, learn_span, None);
+            return (r, watch.spans.spans(), None);
         }
     };
     let stats0 = client.stats();
     let set_fp = d.set.fingerprint();
     let mut recovered: Vec<String> = Vec::new();
     let mut failure = None;
-    let journal_path = default_journal_path(&ctx.opts.journal_dir, &client);
+    let journal_path = default_journal_path(&ctx.opts.journal_dir, &*client);
     let outcome: Result<(), EngineError> = (|| {
         // A drive with an unfinished journal is not done (module docs,
         // "Unfinished journals"): status reports it failed, commission
@@ -773,8 +843,11 @@ fn run_drive(
                 ),
             });
         }
+        if !unfinished.is_empty() {
+            hook.enter(client.clock(), Phase::Recover, None);
+        }
         for u in &unfinished {
-            let rep = recover(&mut client, &u.path, &RecoverOptions::default()).map_err(|e| {
+            let rep = recover(&mut *client, &u.path, &RecoverOptions::default()).map_err(|e| {
                 EngineError::Journal {
                     path: u.path.display().to_string(),
                     detail: format!(
@@ -795,9 +868,11 @@ fn run_drive(
         }
         match ctx.mode {
             Mode::Status => {
-                let id = check_family(&mut client)?;
+                hook.enter(client.clock(), Phase::Identify, None);
+                let id = check_family(&mut *client)?;
                 r.identity = id.codes.clone();
-                let live = live_values(&mut client, &d.set)?;
+                hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
+                let live = live_values(&mut *client, &d.set)?;
                 let fp = live.fingerprint();
                 r.diff = diff_lines(&d.schema, &live, &d.set);
                 // values, not fingerprints: a fingerprint does not cover a
@@ -818,9 +893,11 @@ fn run_drive(
                     && rec.port == bus.port_name
                 {
                     // confirm with one read of the set's codes
-                    let id = check_family(&mut client)?;
+                    hook.enter(client.clock(), Phase::Identify, None);
+                    let id = check_family(&mut *client)?;
                     r.identity = id.codes.clone();
-                    let live = live_values(&mut client, &d.set)?;
+                    hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
+                    let live = live_values(&mut *client, &d.set)?;
                     let fp = live.fingerprint();
                     if live.values == d.set.values {
                         r.result = DriveResult::AlreadyVerified;
@@ -835,7 +912,8 @@ fn run_drive(
                 }
                 let mut uo = UploadOptions::new(&journal_path);
                 uo.overrides = ctx.opts.overrides;
-                match upload(&mut client, &d.set, &uo) {
+                uo.observer = hook.clone();
+                match upload(&mut *client, &d.set, &uo) {
                     Ok(rep) => {
                         fill_from_upload(&mut r, &d.schema, &rep.identity, &rep.codes);
                         r.fingerprint_before = Some(rep.fingerprint_before.clone());
@@ -882,8 +960,8 @@ fn run_drive(
     r.retries = stats.retries.saturating_sub(stats0.retries);
     let t1 = client.clock().now();
     r.elapsed_ms = since(t0, t1);
-    let mut spans = learn_span;
-    spans.extend(client.spans);
+    hook.end(client.clock());
+    let spans = watch.spans.spans();
     if ctx.mode == Mode::Commission {
         let holds = matches!(
             r.result,
@@ -961,10 +1039,15 @@ fn learn_drive(
     let path = cfg.schema_dir.join(format!("{id}.toml"));
     let input = |e: String| (format!("{what}: {e}"), None);
     let mut registry = cfg.registry.clone();
-    let (schema, file, codes) = if ctx.mode == Mode::Status && path.is_file() {
+    let env = &*ctx.opts.env;
+    let earlier = if ctx.mode == Mode::Status {
+        env.read_file(&path)
+            .map_err(|e| input(format!("cannot read {}: {e}", path.display())))?
+    } else {
+        None
+    };
+    let (schema, file, codes) = if let Some(text) = earlier {
         // the file an earlier commission wrote for these very descriptions
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| input(format!("cannot read {}: {e}", path.display())))?;
         let schema = registry
             .add_source(SourceFile::new(path.display().to_string(), text))
             .map_err(|e| input(format!("learned schema {}: {}", path.display(), e.message)))?;
@@ -973,9 +1056,9 @@ fn learn_drive(
     } else {
         let rendered = render_schema(&mut learned, base, &id, &source, &registry).map_err(input)?;
         let file = if ctx.mode == Mode::Commission {
-            std::fs::create_dir_all(&cfg.schema_dir)
+            env.create_dir(&cfg.schema_dir)
                 .map_err(|e| input(format!("cannot create {}: {e}", cfg.schema_dir.display())))?;
-            std::fs::write(&path, &rendered.text)
+            env.write_file(&path, &rendered.text)
                 .map_err(|e| input(format!("cannot write {}: {e}", path.display())))?;
             Some(path.display().to_string())
         } else {
@@ -1177,167 +1260,9 @@ fn broadcast_common(
         let t1 = link_now(link);
         report.timeline.push(TimelineEntry {
             drive: format!("group {tens}0"),
-            phase: "broadcast".into(),
+            phase: Phase::Broadcast.as_str().into(),
             start_ms: since(start, t0),
             end_ms: since(start, t1),
         });
     }
-}
-
-/// A client that records which phase each bus exchange belonged to.
-struct Recorder<'c> {
-    inner: Box<dyn DriveClient + 'c>,
-    spans: Vec<Span>,
-    wrote: bool,
-}
-
-impl<'c> Recorder<'c> {
-    fn new(inner: Box<dyn DriveClient + 'c>) -> Self {
-        Recorder {
-            inner,
-            spans: Vec::new(),
-            wrote: false,
-        }
-    }
-
-    fn track<R>(&mut self, phase: &'static str, f: impl FnOnce(&mut Self) -> R) -> R {
-        let s = self.inner.clock().now();
-        let r = f(self);
-        let e = self.inner.clock().now();
-        match self.spans.last_mut() {
-            Some(last) if last.0 == phase => last.2 = e,
-            _ => self.spans.push((phase, s, e)),
-        }
-        r
-    }
-
-    fn read_phase(&self) -> &'static str {
-        if self.wrote { "verify" } else { "read" }
-    }
-}
-
-impl DriveClient for Recorder<'_> {
-    fn target(&self) -> &Target {
-        self.inner.target()
-    }
-    fn bus_id(&self) -> String {
-        self.inner.bus_id()
-    }
-    fn schema(&self) -> &Arc<Schema> {
-        self.inner.schema()
-    }
-    fn clock(&self) -> &dyn driveset_link::Clock {
-        self.inner.clock()
-    }
-    fn identify(&mut self) -> Result<Identity, EngineError> {
-        self.track("identify", |s| s.inner.identify())
-    }
-    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
-        let p = self.read_phase();
-        self.track(p, |s| s.inner.read(key))
-    }
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        self.wrote = true;
-        self.track("write", |s| s.inner.write(key, raw))
-    }
-    fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
-        self.inner.ready_for_write(key)
-    }
-    fn read_time(&self, key: CodeKey) -> Duration {
-        self.inner.read_time(key)
-    }
-    fn write_time(&self, key: CodeKey) -> Duration {
-        self.inner.write_time(key)
-    }
-    fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let p = self.read_phase();
-        self.track(p, |s| s.inner.running())
-    }
-    fn stats(&self) -> ClientStats {
-        self.inner.stats()
-    }
-    fn finish(&mut self) -> Result<(), EngineError> {
-        self.inner.finish()
-    }
-    fn has_dataset_download(&self) -> bool {
-        self.inner.has_dataset_download()
-    }
-    fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        self.wrote = true;
-        self.track("write", |s| s.inner.dataset_begin())
-    }
-    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
-        self.track("write", |s| s.inner.dataset_commit(timeout))
-    }
-}
-
-/// Write the report as JSON to `dir/<command>.json` (the CLI renders HTML
-/// next to it); returns the path.
-pub fn write_json(report: &LineReport, dir: &Path) -> Result<PathBuf, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let path = dir.join(format!("{}.json", report.command));
-    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(path)
-}
-
-/// HEAD and dirtiness of the git work tree holding `dir`, if any.
-pub fn git_info(dir: &Path) -> Option<GitInfo> {
-    let dir = if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        dir
-    };
-    let out = std::process::Command::new("git")
-        .arg("-C")
-        .arg(dir)
-        .args(["rev-parse", "HEAD"])
-        .stderr(std::process::Stdio::null())
-        .output()
-        .ok()?;
-    if !out.status.success() {
-        return None;
-    }
-    let commit = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    let dirty = std::process::Command::new("git")
-        .arg("-C")
-        .arg(dir)
-        .args(["status", "--porcelain", "--untracked-files=no"])
-        .stderr(std::process::Stdio::null())
-        .output()
-        .ok()
-        .is_some_and(|o| !o.stdout.is_empty());
-    Some(GitInfo { commit, dirty })
-}
-
-/// Now, RFC 3339 UTC with milliseconds.
-pub fn now_rfc3339() -> String {
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default();
-    let secs = now.as_secs() as i64;
-    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
-    // civil from days (H. Hinnant)
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let y = yoe + era * 400;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = if m <= 2 { y + 1 } else { y };
-    format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{:03}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60,
-        now.subsec_millis()
-    )
-}
-
-/// Whether `spec` is a simulated bus.
-pub fn is_sim(spec: &PortSpec) -> bool {
-    matches!(spec, PortSpec::Sim(_))
 }

@@ -4,7 +4,9 @@
 //! report, and the CLI renders the self-contained HTML page from the same
 //! value. Times on a bus are milliseconds on that bus's clock since the bus
 //! started (virtual on `sim://` buses, real on ports); `started` /
-//! `finished` are wall-clock RFC 3339 instants.
+//! `finished` are wall-clock RFC 3339 instants (UTC, milliseconds) taken
+//! from the run's [`crate::env::Environment`]. Timeline phases are the
+//! runners' own ([`crate::observe::Phase`]).
 
 use serde::{Deserialize, Serialize};
 

@@ -3,10 +3,12 @@
 #![allow(clippy::result_large_err)]
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::sync::Mutex;
 
+use driveset_engine::env::Environment;
 use driveset_engine::line::commission::{
-    CommissionState, LineOptions, STATE_FILE, commission, run_line,
+    CommissionState, LineOptions, STATE_FILE, Verdict, commission, run_line,
 };
 use driveset_engine::line::manifest::{Manifest, load_manifest, validate_manifest};
 use driveset_engine::line::report::{DriveResult, LineResult};
@@ -16,6 +18,45 @@ use driveset_schema::{CodeKey, RawValue, Registry};
 use driveset_sim::open::{SimLink, open_sim};
 
 use crate::util::root;
+
+/// The wall-clock instant every report and state entry of these tests
+/// carries.
+const FIXED_NOW: &str = "2026-12-01T08:30:00.250Z";
+
+/// A fixed wall-clock time, no git, real files (the tests read the state
+/// and learned schema files back from disk).
+struct DiskEnv;
+
+impl Environment for DiskEnv {
+    fn now_utc(&self) -> jiff::Timestamp {
+        FIXED_NOW.parse().unwrap()
+    }
+    fn git_info(&self, _dir: &Path) -> Option<driveset_engine::line::report::GitInfo> {
+        None
+    }
+    fn read_file(&self, path: &Path) -> std::io::Result<Option<String>> {
+        match std::fs::read_to_string(path) {
+            Ok(t) => Ok(Some(t)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+    fn write_file(&self, path: &Path, text: &str) -> std::io::Result<()> {
+        if let Some(d) = path.parent() {
+            std::fs::create_dir_all(d)?;
+        }
+        let tmp = path.with_extension("tmp");
+        std::fs::write(&tmp, text)?;
+        std::fs::rename(&tmp, path)
+    }
+    fn create_dir(&self, dir: &Path) -> std::io::Result<()> {
+        std::fs::create_dir_all(dir)
+    }
+}
+
+fn disk_env() -> std::sync::Arc<dyn Environment> {
+    std::sync::Arc::new(DiskEnv)
+}
 
 fn demo() -> Manifest {
     let path = root().join("parameter-sets/demo-line/line.toml");
@@ -100,7 +141,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     let dir = tempfile::tempdir().unwrap();
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let opts = LineOptions::new(dir.path());
+    let opts = LineOptions::new(dir.path(), disk_env());
     let first = commission(&m, &opts, &opener).expect("runs");
     for d in &first.report.drives {
         assert_eq!(d.result, DriveResult::Verified, "{d:?}");
@@ -111,7 +152,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
         assert!(d.codes_written > 0);
         assert!(!d.diff.is_empty());
     }
-    assert_eq!(first.exit_code(), 0);
+    assert_eq!(first.verdict(), Verdict::Holds);
     assert_eq!(first.report.result, LineResult::Ok);
     assert_eq!(first.report.buses.len(), 3);
     for b in &first.report.buses {
@@ -119,9 +160,14 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
         assert!(b.timeline.iter().any(|t| t.phase == "write"), "{b:?}");
         assert!(b.timeline.iter().any(|t| t.phase == "verify"), "{b:?}");
     }
+    // wall-clock times come from the environment, RFC 3339 with ms
+    assert_eq!(first.report.started, FIXED_NOW);
+    assert_eq!(first.report.finished, FIXED_NOW);
+    assert_eq!(first.report.git, None);
     // state file: every drive at its set fingerprint
-    let state = CommissionState::load(dir.path()).expect("state");
+    let state = CommissionState::load(&DiskEnv, dir.path()).expect("state");
     assert_eq!(state.drives.len(), 13);
+    assert!(state.drives.values().all(|e| e.verified_at == FIXED_NOW));
     assert_eq!(
         state.drives["lustbus/2"].fingerprint,
         m.drives[1].set.fingerprint()
@@ -129,7 +175,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
 
     // rerun: every drive already verified, confirmed by reads only
     let second = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(second.exit_code(), 0);
+    assert_eq!(second.verdict(), Verdict::Holds);
     for d in &second.report.drives {
         assert_eq!(d.result, DriveResult::AlreadyVerified, "{d:?}");
         assert_eq!(d.codes_written, 0);
@@ -144,7 +190,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     }
     // the read-only check costs the same bus time
     let st = status(&m, &opts, &opener).expect("runs");
-    assert_eq!(st.exit_code(), 0);
+    assert_eq!(st.verdict(), Verdict::Holds);
     assert_eq!(st.report.command, "status");
     // (within 3%: the drives' seeded reaction times differ from run to run;
     // the slowest bus is the 7-drive mixed LUSTBUS at 9600 baud)
@@ -160,7 +206,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     tmd.poke(12, CodeKey::new(11), RawValue::Int(550_000))
         .expect("poke");
     let st = status(&m, &opts, &opener).expect("runs");
-    assert_eq!(st.exit_code(), 1);
+    assert_eq!(st.verdict(), Verdict::Differs);
     assert_eq!(st.report.result, LineResult::Drift);
     let drifted: Vec<_> = st
         .report
@@ -177,7 +223,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
 
     // commission again: the drifted drive is rewritten, the rest confirmed
     let third = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(third.exit_code(), 0);
+    assert_eq!(third.verdict(), Verdict::Holds);
     for d in &third.report.drives {
         let want = if d.name == "transfer-12" {
             DriveResult::Verified
@@ -195,10 +241,10 @@ fn a_stopped_run_resumes_where_it_stopped() {
     let dir = tempfile::tempdir().unwrap();
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let mut opts = LineOptions::new(dir.path());
+    let mut opts = LineOptions::new(dir.path(), disk_env());
     opts.stop_after = Some(2);
     let first = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(first.exit_code(), 3);
+    assert_eq!(first.verdict(), Verdict::BusFailed);
     let verified: Vec<&str> = first
         .report
         .drives
@@ -214,7 +260,7 @@ fn a_stopped_run_resumes_where_it_stopped() {
 
     opts.stop_after = None;
     let second = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(second.exit_code(), 0);
+    assert_eq!(second.verdict(), Verdict::Holds);
     for d in &second.report.drives {
         let want = if verified.contains(&d.name.as_str()) {
             DriveResult::AlreadyVerified
@@ -231,7 +277,7 @@ fn only_and_skip_select_by_drive_or_bus_name() {
     let dir = tempfile::tempdir().unwrap();
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let mut opts = LineOptions::new(dir.path());
+    let mut opts = LineOptions::new(dir.path(), disk_env());
     opts.only = vec!["transfer".into(), "press-axis-1".into()];
     opts.skip = vec!["transfer-13".into()];
     let r = commission(&m, &opts, &opener).expect("runs");
@@ -243,7 +289,7 @@ fn only_and_skip_select_by_drive_or_bus_name() {
         .map(|d| d.name.as_str())
         .collect();
     assert_eq!(done, ["press-axis-1", "transfer-11", "transfer-12"]);
-    assert_eq!(r.exit_code(), 0);
+    assert_eq!(r.verdict(), Verdict::Holds);
     opts.only = vec!["nope".into()];
     let e = commission(&m, &opts, &opener).unwrap_err();
     assert!(
@@ -258,11 +304,11 @@ fn broadcast_common_multicasts_to_the_lecom_group_then_verifies_each_drive() {
     let dir = tempfile::tempdir().unwrap();
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let mut opts = LineOptions::new(dir.path());
+    let mut opts = LineOptions::new(dir.path(), disk_env());
     opts.only = vec!["transfer".into()];
     opts.broadcast_common = true;
     let r = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+    assert_eq!(r.verdict(), Verdict::Holds, "{:?}", r.report.drives);
     let bus = &r.report.buses[1];
     assert!(
         bus.timeline
@@ -302,12 +348,12 @@ fn a_bus_that_cannot_be_opened_fails_its_drives_with_exit_3() {
     };
     let r = run_line(
         &m,
-        &LineOptions::new(dir.path()),
+        &LineOptions::new(dir.path(), disk_env()),
         &opener,
         driveset_engine::line::commission::Mode::Commission,
     )
     .expect("runs");
-    assert_eq!(r.exit_code(), 3);
+    assert_eq!(r.verdict(), Verdict::BusFailed);
     assert_eq!(r.report.result, LineResult::Failed);
     let h = &r.report.drives[10];
     assert_eq!(h.result, DriveResult::Failed);
@@ -470,8 +516,8 @@ fn yaml_manifest_with_buses_and_drives_lists_reads_like_toml() {
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
     let out = dir.path().join("out");
-    let r = commission(&m, &LineOptions::new(&out), &opener).expect("runs");
-    assert_eq!(r.exit_code(), 0, "{:?}", r.report.drives);
+    let r = commission(&m, &LineOptions::new(&out, disk_env()), &opener).expect("runs");
+    assert_eq!(r.verdict(), Verdict::Holds, "{:?}", r.report.drives);
 }
 
 /// A LECOM group holding a drive with an unfinished journal gets no
@@ -483,7 +529,7 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
     let dir = tempfile::tempdir().unwrap();
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let mut opts = LineOptions::new(dir.path());
+    let mut opts = LineOptions::new(dir.path(), disk_env());
     opts.only = vec!["transfer".into()];
     opts.broadcast_common = true;
     std::fs::create_dir_all(&opts.journal_dir).unwrap();
@@ -498,7 +544,7 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
     )
     .unwrap();
     let r = commission(&m, &opts, &opener).expect("runs");
-    assert_eq!(r.exit_code(), 1, "{:?}", r.report.drives);
+    assert_eq!(r.verdict(), Verdict::Differs, "{:?}", r.report.drives);
     assert!(
         r.warnings.contains(&format!(
             "bus `transfer` group 10: no MULTICAST while the group has unfinished journals ({}); values were written drive by drive after recovery",
@@ -597,8 +643,13 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     // without learning: the drives fail, nothing is written
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
-    let out = commission(&m, &LineOptions::new(dir.path().join("off")), &opener).unwrap();
-    assert_eq!(out.exit_code(), 1);
+    let out = commission(
+        &m,
+        &LineOptions::new(dir.path().join("off"), disk_env()),
+        &opener,
+    )
+    .unwrap();
+    assert_eq!(out.verdict(), Verdict::Differs);
     assert!(
         out.report.drives[0]
             .error
@@ -610,14 +661,14 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     );
 
     let schemas = dir.path().join("schemas");
-    let mut opts = LineOptions::new(dir.path().join("report"));
+    let mut opts = LineOptions::new(dir.path().join("report"), disk_env());
     opts.learn = Some(LineLearn {
         registry: Registry::builtin().unwrap(),
         schema_dir: schemas.clone(),
         options: Default::default(),
     });
     let out = commission(&m, &opts, &opener).unwrap();
-    assert_eq!(out.exit_code(), 0, "{:?}", out.report.drives);
+    assert_eq!(out.verdict(), Verdict::Holds, "{:?}", out.report.drives);
     let mut ids = Vec::new();
     for (d, base, codes_written) in [
         (&out.report.drives[0], "lust-mc6000", 3),
@@ -674,7 +725,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     let mut sopts = opts.clone();
     sopts.report_dir = dir.path().join("status");
     let st = run_line(&m, &sopts, &opener, Mode::Status).unwrap();
-    assert_eq!(st.exit_code(), 0, "{:?}", st.report.drives);
+    assert_eq!(st.verdict(), Verdict::Holds, "{:?}", st.report.drives);
     for (d, id) in st.report.drives.iter().zip(&ids) {
         assert_eq!(d.result, DriveResult::Unchanged);
         let ls = d.learned_schema.as_ref().unwrap();
@@ -691,6 +742,69 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
             )
         );
     }
+}
+
+/// The line run's world is its Environment: the report's times and git
+/// commit and the resume state come from it, nothing else is written but
+/// the journals' directory.
+#[test]
+fn a_line_run_takes_time_git_and_its_state_file_from_the_environment() {
+    use driveset_engine::env::Memory;
+    use driveset_engine::line::report::GitInfo;
+    let m = demo();
+    let dir = tempfile::tempdir().unwrap();
+    let sims = Sims::default();
+    let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
+    let git = GitInfo {
+        commit: "0123456789abcdef0123456789abcdef01234567".into(),
+        dirty: true,
+    };
+    let env = std::sync::Arc::new(
+        Memory::at("2031-07-04T12:00:00Z".parse().unwrap()).with_git(git.clone()),
+    );
+    let report_dir = dir.path().join("report");
+    let mut opts = LineOptions::new(&report_dir, env.clone());
+    opts.journal_dir = dir.path().join("journal");
+    opts.only = vec!["transfer-11".into()];
+    let r = commission(&m, &opts, &opener).expect("runs");
+    assert_eq!(r.verdict(), Verdict::Holds, "{:?}", r.report.drives);
+    assert_eq!(r.report.started, "2031-07-04T12:00:00.000Z");
+    assert_eq!(r.report.finished, "2031-07-04T12:00:00.000Z");
+    assert_eq!(r.report.git, Some(git));
+    // the state file went to the environment, not to the disk
+    let state_path = report_dir.join(STATE_FILE);
+    assert_eq!(env.paths(), std::slice::from_ref(&state_path));
+    assert!(!report_dir.exists());
+    let text = env.file(&state_path).expect("state written");
+    assert!(
+        text.contains("\"verified_at\": \"2031-07-04T12:00:00.000Z\""),
+        "{text}"
+    );
+    let state = CommissionState::load(&*env, &report_dir).expect("state reads");
+    assert_eq!(state.drives.len(), 1);
+    // a rerun reads it back from there: already verified
+    let again = commission(&m, &opts, &opener).expect("runs");
+    let t11 = |r: &driveset_engine::line::commission::LineOutcome| {
+        r.report
+            .drives
+            .iter()
+            .find(|d| d.name == "transfer-11")
+            .unwrap()
+            .result
+    };
+    assert_eq!(t11(&again), DriveResult::AlreadyVerified);
+    // the timelines: the runner's own phases (planning holds the running
+    // check's status read; the journal writes take no time on the virtual
+    // clock and are left out), then the resume check
+    let phases = |r: &driveset_engine::line::commission::LineOutcome| -> Vec<String> {
+        r.report
+            .buses
+            .iter()
+            .flat_map(|b| b.timeline.iter().map(|t| t.phase.clone()))
+            .collect()
+    };
+    assert_eq!(phases(&r), ["identify", "read", "plan", "write", "verify"]);
+    assert_eq!(phases(&again), ["identify", "read"]);
 }
 
 /// The simulator's port opener, as the CLI registers it.

@@ -1058,3 +1058,160 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
     );
     assert!(c.log.is_empty(), "{:?}", c.log);
 }
+
+/// Every event an observer gets, in order.
+#[derive(Default)]
+struct EventLog(std::sync::Mutex<Vec<driveset_engine::observe::Event>>);
+
+impl driveset_engine::observe::Observer for EventLog {
+    fn event(&self, _at: driveset_link::Instant, event: driveset_engine::observe::Event) {
+        self.0.lock().unwrap().push(event);
+    }
+}
+
+impl EventLog {
+    fn phases(&self) -> Vec<driveset_engine::observe::Phase> {
+        use driveset_engine::observe::Event;
+        let mut out: Vec<_> = Vec::new();
+        for e in self.0.lock().unwrap().iter() {
+            if let Event::Enter { phase, .. } = e
+                && out.last() != Some(phase)
+            {
+                out.push(*phase);
+            }
+        }
+        out
+    }
+
+    fn steps(&self, of: driveset_engine::observe::Phase) -> Vec<(usize, usize)> {
+        use driveset_engine::observe::Event;
+        self.0
+            .lock()
+            .unwrap()
+            .iter()
+            .filter_map(|e| match e {
+                Event::Step { phase, done, total } if *phase == of => Some((*done, *total)),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+#[test]
+fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
+    use driveset_engine::observe::{Event, Hook, Phase as P};
+    // the MC6000 failure after the dataset's commit: its restore writes and
+    // the card values' new dataset are the rollback's, and say so
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let set = set_of(
+        &schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    );
+    let mut client = FakeClient::new(schema, mc_drive());
+    client.fail_write = Some(4); // 120: refused by the drive
+    let log = std::sync::Arc::new(EventLog::default());
+    let mut opts = UploadOptions::new(journal_in(&dir));
+    opts.observer = Hook::new(log.clone());
+    let err = upload(&mut client, &set, &opts).expect_err("fails");
+    assert!(
+        matches!(*err.error, EngineError::RolledBack { .. }),
+        "{err}"
+    );
+    assert_eq!(
+        log.phases(),
+        [
+            P::Identify,
+            P::Read,
+            P::Plan,
+            P::Journal,
+            P::Dataset,
+            P::Write,
+            P::Commit,
+            P::Write,
+            P::Rollback,
+        ]
+    );
+    // code i of n: the read-back of the 4 codes, then 3 writes acknowledged
+    // (the fourth was refused)
+    assert_eq!(log.steps(P::Read), [(1, 4), (2, 4), (3, 4), (4, 4)]);
+    assert_eq!(log.steps(P::Write), [(1, 4), (2, 4), (3, 4)]);
+    assert_eq!(
+        log.0.lock().unwrap().iter().rev().nth(1),
+        Some(&Event::Enter {
+            phase: P::Rollback,
+            // 100, 101 and 111 were touched; 120 was refused (not changed)
+            total: Some(3)
+        })
+    );
+    assert_eq!(log.0.lock().unwrap().last(), Some(&Event::End));
+    // the writes the rollback sent are not counted as the upload's
+    let after_rollback = log
+        .0
+        .lock()
+        .unwrap()
+        .iter()
+        .skip_while(|e| {
+            !matches!(
+                e,
+                Event::Enter {
+                    phase: P::Rollback,
+                    ..
+                }
+            )
+        })
+        .filter(|e| matches!(e, Event::Step { .. }))
+        .count();
+    assert_eq!(after_rollback, 0);
+}
+
+#[test]
+fn the_observer_sees_a_rejected_dataset_confirmed_as_rollback_and_a_clean_upload_verified() {
+    use driveset_engine::observe::{Hook, Phase as P};
+    let schema = mc_schema();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let set = set_of(&schema, &[(k(100), 65536), (k(101), 20), (k(111), 5)]);
+    let mut drive = mc_drive();
+    drive.reject_dataset_at = Some(101);
+    let mut client = FakeClient::new(schema.clone(), drive);
+    let log = std::sync::Arc::new(EventLog::default());
+    let mut opts = UploadOptions::new(journal_in(&dir));
+    opts.observer = Hook::new(log.clone());
+    upload(&mut client, &set, &opts).expect_err("rejected");
+    assert_eq!(
+        log.phases(),
+        [
+            P::Identify,
+            P::Read,
+            P::Plan,
+            P::Journal,
+            P::Dataset,
+            P::Write,
+            P::Commit,
+            P::Rollback,
+        ]
+    );
+
+    // a Tmd upload that goes through: no rollback, every write verified
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut client = FakeClient::new(tmd_schema(), tmd_drive());
+    let log = std::sync::Arc::new(EventLog::default());
+    let mut opts = UploadOptions::new(journal_in(&dir));
+    opts.observer = Hook::new(log.clone());
+    let report = upload(&mut client, &tmd_set(), &opts).expect("uploads");
+    assert_eq!(
+        log.phases(),
+        [
+            P::Identify,
+            P::Read,
+            P::Plan,
+            P::Journal,
+            P::Write,
+            P::Verify,
+        ]
+    );
+    let n = report.codes_written;
+    let writes: Vec<(usize, usize)> = (1..=n).map(|i| (i, n)).collect();
+    assert_eq!(log.steps(P::Write), writes);
+    assert_eq!(log.steps(P::Verify), writes);
+}

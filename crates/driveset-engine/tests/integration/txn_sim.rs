@@ -191,3 +191,63 @@ fn mc6000_eeprom_gaps_carry_verification_reads_on_the_real_client() {
         prepared.estimate
     );
 }
+
+#[test]
+fn a_pulled_cable_is_observed_as_rollback_and_recover_as_read_rollback_verify() {
+    use driveset_engine::observe::{Hook, Phase as P, Spans};
+    use std::sync::Arc;
+    let set = set("parameter-sets/vf1000/conveyor-1.toml");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let journal = dir.path().join("vf.journal.json");
+    let schema = catalog::schema(Family::Vf1000).expect("schema");
+    let mut probe = LustbusClient::new(
+        bus(Box::new(Vf1000::new(opts(4)).expect("vf")), None),
+        schema.clone(),
+        4,
+    )
+    .expect("client");
+    let n0 = probe.stats().telegrams;
+    let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
+    let writes = prepared.plan.writes.len() as u64;
+    assert!(writes >= 3, "{}", prepared.plan.render(None));
+    // the cable goes after the second write, for 60 s
+    let at = probe.stats().telegrams - n0 + 2;
+    let vf = Box::new(Vf1000::new(opts(4)).expect("vf"));
+    let mut c =
+        LustbusClient::new(bus(vf, Some(&format!("cable@{at}+60s"))), schema, 4).expect("client");
+    let spans = Arc::new(Spans::new());
+    let mut uo = UploadOptions::new(&journal);
+    uo.observer = Hook::new(spans.clone());
+    let failure = upload(&mut c, &set, &uo).expect_err("cable pulled");
+    assert!(
+        failure.to_string().contains("driveset recover"),
+        "{failure}"
+    );
+    assert_eq!(
+        spans.phases(),
+        [
+            P::Identify,
+            P::Read,
+            P::Plan,
+            P::Journal,
+            P::Write,
+            P::Rollback
+        ]
+    );
+    // the rollback span holds the restore attempts: it takes bus time
+    let (_, s, e) = *spans.spans().last().unwrap();
+    assert!(e > s, "{s:?} {e:?}");
+
+    c.clock().sleep(Duration::from_secs(120));
+    let spans = Arc::new(Spans::new());
+    let ro = RecoverOptions {
+        observer: Hook::new(spans.clone()),
+        ..RecoverOptions::default()
+    };
+    let r = recover(&mut c, &journal, &ro).expect("recover");
+    assert_eq!(r.action, RecoverAction::RolledBack);
+    assert_eq!(
+        spans.phases(),
+        [P::Identify, P::Read, P::Rollback, P::Verify]
+    );
+}

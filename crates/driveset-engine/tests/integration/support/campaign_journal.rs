@@ -34,13 +34,20 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use driveset_engine::connect::connect_on as client_on;
+use driveset_engine::env::{Environment, Memory};
 use driveset_engine::error::{EngineError, Mismatch};
 use driveset_engine::journal::{JournalFile, journal_path};
-use driveset_engine::line::commission::{LineOptions, Mode, run_line};
+use driveset_engine::line::commission::{LineOptions, Mode, Verdict, run_line};
 use driveset_engine::line::manifest::{Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, default_journal_path, upload};
+
+/// A line run's world here: a fixed time, files (the resume state) in
+/// memory; the journals are real files in the temporary directory.
+fn memory_env() -> Arc<dyn Environment> {
+    Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH))
+}
 use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, VirtualClock};
 use driveset_schema::schema::StorageKind;
 use driveset_schema::{CodeKey, RawValue, Registry, ResolvedSet, Schema};
@@ -791,7 +798,7 @@ pub fn commission_kills(family: Family) -> KillTable {
     let count = Arc::new(AtomicU64::new(0));
     let jdir = base.path().join("journal");
     let rec = Arc::new(std::sync::Mutex::new(Vec::new()));
-    let mut opts = LineOptions::new(base.path().join("report"));
+    let mut opts = LineOptions::new(base.path().join("report"), memory_env());
     opts.journal_dir = jdir.clone();
     let opener = |_: &driveset_engine::line::manifest::Bus| {
         Ok(kill_link(
@@ -802,7 +809,12 @@ pub fn commission_kills(family: Family) -> KillTable {
         ))
     };
     let clean = run_line(&m, &opts, &opener, Mode::Commission).expect("clean run");
-    assert_eq!(clean.exit_code(), 0, "{}: clean commission", family.name());
+    assert_eq!(
+        clean.verdict(),
+        Verdict::Holds,
+        "{}: clean commission",
+        family.name()
+    );
     let phases = rec.lock().unwrap().clone();
     // first, middle, last telegram of every phase
     let mut points: BTreeMap<String, Vec<u64>> = BTreeMap::new();
@@ -847,7 +859,7 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
     let m = line_manifest(family, base.path());
     let (sim, log) = sim_for(&m);
     let jdir = base.path().join("journal");
-    let mut opts = LineOptions::new(base.path().join("report"));
+    let mut opts = LineOptions::new(base.path().join("report"), memory_env());
     opts.journal_dir = jdir.clone();
     let count = Arc::new(AtomicU64::new(0));
     let opener =
@@ -894,10 +906,10 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
             }
         }
     }
-    if !unfinished.is_empty() && st.exit_code() != 1 {
+    if !unfinished.is_empty() && st.verdict() != Verdict::Differs {
         return Err(format!(
-            "status exit {} with an unfinished journal",
-            st.exit_code()
+            "status {:?} with an unfinished journal",
+            st.verdict()
         ));
     }
     // an upload sees the commission's journal (guard by drive)
@@ -932,10 +944,10 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
     }
     // rerun: recovers, never "unchanged", exit 0
     let rerun = run_line(&m, &opts, &opener, Mode::Commission).map_err(|e| e.to_string())?;
-    if rerun.exit_code() != 0 {
+    if rerun.verdict() != Verdict::Holds {
         return Err(format!(
-            "rerun exit {}: {:?}",
-            rerun.exit_code(),
+            "rerun {:?}: {:?}",
+            rerun.verdict(),
             rerun
                 .report
                 .drives
