@@ -7,7 +7,7 @@
 //! their source snippets, [`Fail::reported`]) carries only its exit code.
 //! `anyhow` errors (the binary's plumbing) become input errors.
 
-use driveset_engine::error::EngineError;
+use driveset_engine::error::{EngineError, ErrorKind};
 
 use crate::{EXIT_BUS, EXIT_INPUT};
 
@@ -61,10 +61,10 @@ impl Fail {
 /// drive did is 3 (a rolled-back upload included: the drive holds its old
 /// values, the set did not land).
 pub fn engine_exit(e: &EngineError) -> u8 {
-    match e {
-        EngineError::Refused { .. }
-        | EngineError::Journal { .. }
-        | EngineError::NotJournalDrive { .. } => EXIT_INPUT,
+    match e.kind() {
+        ErrorKind::Refused(_) | ErrorKind::Journal { .. } | ErrorKind::NotJournalDrive { .. } => {
+            EXIT_INPUT
+        }
         _ => EXIT_BUS,
     }
 }

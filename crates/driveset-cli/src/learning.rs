@@ -4,9 +4,6 @@
 //! drive's own descriptions ([`learn`], driveset-engine's `learn` module)
 //! with the options every such command shares ([`LearnArgs`]).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

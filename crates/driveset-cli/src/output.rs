@@ -4,9 +4,6 @@
 //! through the schema crate; colour only on a terminal and never with
 //! `NO_COLOR`), JSON, and GitHub workflow annotations.
 
-// InputError carries a full Location; it is built on the error path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

@@ -26,9 +26,6 @@
 //! does not fit the port, a refusal before anything was sent), 3 for bus
 //! and device failures.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

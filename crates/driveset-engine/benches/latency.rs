@@ -20,8 +20,6 @@
 //! `latency` after it left the drive. ECS (CAN) is not part of it: issue 11
 //! is about serial lines.
 
-#![allow(clippy::result_large_err)]
-
 #[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
 

@@ -66,8 +66,6 @@
 //! The targets (issue): ratio <= 1.05 for the full upload, <= 1.02 for the
 //! re-run.
 
-#![allow(clippy::result_large_err)]
-
 #[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
 

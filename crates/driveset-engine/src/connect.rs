@@ -3,10 +3,6 @@
 //! [`DriveClient`] of that protocol. Every command and `commission` connect
 //! through here; nothing else picks a client by family.
 
-// EngineError is large (it carries the target and the decoded cause);
-// boxing it is issue 9 item 4, not done yet.
-#![allow(clippy::result_large_err)]
-
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -17,7 +13,7 @@ use crate::client::{
     BorrowedByteLink, BorrowedFrameLink, CanClient, DriveClient, LecomClient, LecomOptions,
     LustbusClient, LustbusOptions, Target,
 };
-use crate::error::EngineError;
+use crate::error::{EngineError, LinkKind, Refusal};
 
 /// What a port says about how to talk to its drives.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -119,17 +115,17 @@ pub fn fits(link: &Link, schema: &Schema) -> bool {
 }
 
 fn misfit(link: &Link, schema: &Schema, address: u8) -> EngineError {
-    let (port, kind) = match link {
-        Link::Bytes(b) => (b.port().to_string(), "a character line"),
-        Link::Frames(f) => (f.port().to_string(), "a CAN bus"),
+    let (port, link) = match link {
+        Link::Bytes(b) => (b.port().to_string(), LinkKind::CharacterLine),
+        Link::Frames(f) => (f.port().to_string(), LinkKind::CanBus),
     };
-    EngineError::Refused {
-        target: Target { port, address },
-        reason: format!(
-            "schema `{}` is for {} drives ({}), which do not run on {kind}",
-            schema.id,
-            schema.family,
-            schema.family.bus().title()
-        ),
-    }
+    EngineError::refused(
+        Target { port, address },
+        Refusal::LinkMisfit {
+            schema: schema.id.clone(),
+            family: schema.family.to_string(),
+            bus: schema.family.bus().title().to_string(),
+            link,
+        },
+    )
 }

@@ -40,9 +40,6 @@
 //! [`DoctorOptions::probes`] probes at the answering rate, and set against
 //! the wire time (10 bits a character) of request and answer.
 
-// EngineError is the lead's contract type (large by design).
-#![allow(clippy::result_large_err)]
-
 use std::time::Duration;
 
 use driveset_link::echo::{EchoVerdict, detect_echo};
@@ -53,7 +50,7 @@ use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, Reply, ReplyDecod
 use serde::Serialize;
 
 use crate::client::Target;
-use crate::error::EngineError;
+use crate::error::{EngineError, Refusal};
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
 
 /// The protocol the doctor speaks: the family descriptor's bus protocol.
@@ -283,43 +280,41 @@ impl DoctorReport {
 pub type OpenAt<'a> = dyn FnMut(u32) -> Result<Box<dyn ByteLink>, LinkError> + 'a;
 
 fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
-    EngineError::Link {
-        target: Target {
+    EngineError::link(
+        Target {
             port: port.to_string(),
             address,
         },
         source,
-    }
+    )
 }
 
 /// The request bytes.
-fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, String> {
+fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, Refusal> {
     match protocol {
         DoctorProtocol::Lustbus => {
             let ad = Address::new(address)
                 .filter(|a| a.number() <= 30)
-                .ok_or_else(|| {
-                    format!(
-                        "{address} is not a LUSTBUS drive address: use 1..30, or 0 (every drive answers, stand-alone operation, section 4.1)"
-                    )
-                })?;
-            let code = ParameterCode::new(91).ok_or("CODE 00091")?;
+                .ok_or(Refusal::DoctorLustbusAddress { address })?;
+            let code = ParameterCode::new(91).ok_or(Refusal::Encode {
+                what: None,
+                detail: "CODE 00091".into(),
+            })?;
             Ok(Enquiry::new(ad, code).encode().to_vec())
         }
         DoctorProtocol::Lecom => {
             let ad = ControllerAddress::new(address)
                 .filter(|a| !a.is_broadcast())
-                .ok_or_else(|| {
-                    format!(
-                        "{address:02} is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)"
-                    )
-                })?;
+                .ok_or(Refusal::DoctorLecomAddress { address })?;
             let code = driveset_proto::lecom::CodeAddress::select(93, 0);
             Telegram::Receive(Receive { address: ad, code })
                 .to_bytes()
-                .map_err(|e| e.to_string())
+                .map_err(|e| Refusal::Encode {
+                    what: None,
+                    detail: e.to_string(),
+                })
         }
-        DoctorProtocol::CanSdo => Err("CAN ports are checked by run_can".into()),
+        DoctorProtocol::CanSdo => Err(Refusal::DoctorCanPort),
     }
 }
 
@@ -511,12 +506,14 @@ pub fn run(
 ) -> Result<DoctorReport, EngineError> {
     let protocol = options.protocol;
     let address = options.address.unwrap_or(protocol.default_address());
-    let req = request(protocol, address).map_err(|reason| EngineError::Refused {
-        target: Target {
-            port: port.to_string(),
-            address,
-        },
-        reason,
+    let req = request(protocol, address).map_err(|refusal| {
+        EngineError::refused(
+            Target {
+                port: port.to_string(),
+                address,
+            },
+            refusal,
+        )
     })?;
     let mut rates = Vec::new();
     let mut answering = Vec::new();
@@ -663,7 +660,7 @@ pub fn run_can(
                     .identity
                     .codes
                     .first()
-                    .map(|(c, v)| format!("{c} = {v}"))
+                    .map(|c| format!("{} = {}", c.name, c.value))
                     .unwrap_or_default(),
             },
             None => ProbeResult::Silent,
@@ -864,7 +861,9 @@ mod tests {
             b"\x04@00091\x05"
         );
         assert_eq!(
-            request(DoctorProtocol::Lustbus, 31).expect_err("broadcast"),
+            request(DoctorProtocol::Lustbus, 31)
+                .expect_err("broadcast")
+                .to_string(),
             "31 is not a LUSTBUS drive address: use 1..30, or 0 (every drive answers, stand-alone operation, section 4.1)"
         );
         let lecom = request(DoctorProtocol::Lecom, 1).expect("receive");

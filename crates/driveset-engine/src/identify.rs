@@ -2,12 +2,8 @@
 //! drive says it is, and refuse a schema (and so a set) for another family
 //! (DESIGN.md "Transactions", step 1).
 
-// EngineError is the lead's contract type (large by design: it carries
-// the target and the decoded cause); boxing it is not ours to decide.
-#![allow(clippy::result_large_err)]
-
-use crate::client::{DriveClient, Identity};
-use crate::error::EngineError;
+use crate::client::{DriveClient, IdentValue, Identity};
+use crate::error::{EngineError, Refusal};
 
 /// The identification codes of the client's schema, read from the drive.
 pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
@@ -28,21 +24,17 @@ pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineErro
         return Ok(identity);
     }
     let type_name = schema.display_code(91, None);
-    let found = identity
-        .codes
-        .iter()
-        .find(|(name, _)| *name == type_name)
-        .and_then(|(_, v)| v.parse::<i64>().ok());
+    let found = identity.value_of(91).and_then(IdentValue::as_int);
     match found {
         Some(t) if ident.type_values.contains(&t) => Ok(identity),
-        other => Err(EngineError::Refused {
-            target: client.target().clone(),
-            reason: format!(
-                "the drive reports {type_name} = {}, which is not a `{}` type ({:?}); use the set and schema of the drive's family",
-                other.map_or_else(|| "nothing".to_string(), |t| t.to_string()),
-                schema.id,
-                ident.type_values
-            ),
-        }),
+        found => Err(EngineError::refused(
+            client.target().clone(),
+            Refusal::WrongType {
+                code: type_name,
+                found,
+                schema: schema.id.clone(),
+                expected: ident.type_values.clone(),
+            },
+        )),
     }
 }

@@ -83,17 +83,13 @@
 //! operation on them is in the private `store` functions at the end of this
 //! module: read, the durable write, listing a directory, creating it.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 
 use driveset_schema::{CodeKey, RawValue};
 use serde::{Deserialize, Serialize};
 
 use crate::client::{DriveClient, Identity, Target};
-use crate::error::{EngineError, Mismatch};
+use crate::error::{DeviceCause, EngineError, ErrorKind, Mismatch, Refusal};
 
 /// The journal format version this crate writes.
 pub const JOURNAL_VERSION: u32 = 2;
@@ -239,8 +235,8 @@ pub struct JournalIdentity {
 impl From<&Identity> for JournalIdentity {
     fn from(i: &Identity) -> Self {
         JournalIdentity {
-            protocol: i.protocol.clone(),
-            codes: i.codes.clone(),
+            protocol: i.protocol.name().to_string(),
+            codes: i.pairs(),
             software: i.software.clone(),
         }
     }
@@ -249,8 +245,8 @@ impl From<&Identity> for JournalIdentity {
 impl JournalIdentity {
     /// Whether a freshly read identity is the same drive kind.
     pub fn matches(&self, other: &Identity) -> bool {
-        self.protocol == other.protocol
-            && self.codes == other.codes
+        self.protocol == other.protocol.name()
+            && self.codes == other.pairs()
             && self.software == other.software
     }
 }
@@ -302,13 +298,170 @@ pub struct Transition {
     pub note: Option<String>,
 }
 
+/// What a planned code holds, read back after a failed roll back
+/// (`"old"`, `"new"`, `"other"`, `"unknown"` in the journal).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Holding {
+    /// Its value before the transaction (the backup).
+    Old,
+    /// The set's value.
+    New,
+    /// Neither.
+    Other,
+    /// It could not be read.
+    Unknown,
+}
+
+impl Holding {
+    /// The name the journal writes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Holding::Old => "old",
+            Holding::New => "new",
+            Holding::Other => "other",
+            Holding::Unknown => "unknown",
+        }
+    }
+
+    /// How a report says it of a list of codes (`C0011 hold the new value`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Holding::Old => "hold the old value",
+            Holding::New => "hold the new value",
+            Holding::Other => "hold neither the old nor the new value",
+            Holding::Unknown => "could not be read",
+        }
+    }
+}
+
+impl std::fmt::Display for Holding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// What a code held when a transaction ended `failed`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Holding {
+pub struct CodeHolding {
     /// Code as humans spell it.
     pub code: String,
-    /// `old`, `new`, `other` or `unknown` (could not be read).
-    pub holds: String,
+    /// What it holds.
+    pub holds: Holding,
+}
+
+/// Why a transaction failed, typed ([`Journal::failure_cause`]): the
+/// engine error that started the roll back (or ended a recovery), with the
+/// drive's own indication or the refusal kept as data.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FailureCause {
+    /// The transport failed.
+    Link {
+        /// The transport error's text.
+        detail: String,
+    },
+    /// No answer after every retry.
+    NoAnswer {
+        /// The operation.
+        what: String,
+        /// How many times it was sent.
+        tries: u32,
+    },
+    /// The drive refused and said why.
+    Device {
+        /// The operation.
+        what: String,
+        /// The drive's indication.
+        cause: DeviceCause,
+    },
+    /// The drive restarted (power-on flag).
+    Restarted {
+        /// The operation.
+        what: String,
+    },
+    /// A rule refused (a replan found a problem).
+    Refused {
+        /// The refusal.
+        refusal: Refusal,
+    },
+    /// A journal file could not be written or read.
+    Journal {
+        /// The file.
+        path: String,
+        /// What failed.
+        detail: String,
+    },
+    /// The drive's answer could not be understood.
+    Protocol {
+        /// The operation.
+        what: String,
+        /// What was wrong.
+        detail: String,
+    },
+    /// An earlier upload was rolled back, for this cause.
+    RolledBack {
+        /// Its text.
+        detail: String,
+        /// The failure that started it.
+        cause: Box<FailureCause>,
+    },
+    /// The drive holds a mix.
+    Inconsistent {
+        /// Which codes hold what.
+        detail: String,
+    },
+    /// `recover` refused the drive.
+    NotJournalDrive {
+        /// What did not match.
+        detail: String,
+    },
+    /// After restoring, these codes still differ from the backup.
+    StillDiffer {
+        /// The codes.
+        codes: Vec<String>,
+    },
+}
+
+impl FailureCause {
+    /// The typed cause of `e`.
+    pub fn of(e: &EngineError) -> Self {
+        match e.kind() {
+            ErrorKind::Link(source) => FailureCause::Link {
+                detail: source.to_string(),
+            },
+            ErrorKind::NoAnswer { what, tries } => FailureCause::NoAnswer {
+                what: what.clone(),
+                tries: *tries,
+            },
+            ErrorKind::Device { what, cause } => FailureCause::Device {
+                what: what.clone(),
+                cause: cause.clone(),
+            },
+            ErrorKind::Restarted { what } => FailureCause::Restarted { what: what.clone() },
+            ErrorKind::Refused(refusal) => FailureCause::Refused {
+                refusal: refusal.clone(),
+            },
+            ErrorKind::Journal { path, detail } => FailureCause::Journal {
+                path: path.clone(),
+                detail: detail.clone(),
+            },
+            ErrorKind::Protocol { what, detail } => FailureCause::Protocol {
+                what: what.clone(),
+                detail: detail.clone(),
+            },
+            ErrorKind::RolledBack { detail, cause, .. } => FailureCause::RolledBack {
+                detail: detail.clone(),
+                cause: Box::new(FailureCause::of(cause)),
+            },
+            ErrorKind::Inconsistent { detail, .. } => FailureCause::Inconsistent {
+                detail: detail.clone(),
+            },
+            ErrorKind::NotJournalDrive { detail, .. } => FailureCause::NotJournalDrive {
+                detail: detail.clone(),
+            },
+        }
+    }
 }
 
 /// The journal file's content.
@@ -345,11 +498,15 @@ pub struct Journal {
     pub written: Vec<String>,
     /// State transitions.
     pub transitions: Vec<Transition>,
-    /// Why the transaction failed, if it did.
+    /// Why the transaction failed, if it did (the message, as shown).
     pub failure: Option<String>,
+    /// The same, typed (absent in journals of releases before it was
+    /// added, and while nothing failed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_cause: Option<FailureCause>,
     /// For `failed`: what each planned code holds.
     #[serde(default)]
-    pub holding: Vec<Holding>,
+    pub holding: Vec<CodeHolding>,
 }
 
 impl Journal {
@@ -420,10 +577,7 @@ pub struct JournalFile {
 }
 
 fn jerr(path: &Path, detail: impl Into<String>) -> EngineError {
-    EngineError::Journal {
-        path: path.display().to_string(),
-        detail: detail.into(),
-    }
+    EngineError::journal(path.display().to_string(), detail.into())
 }
 
 impl JournalFile {
@@ -594,13 +748,13 @@ pub fn unfinished_error(target: &Target, found: &[Unfinished]) -> EngineError {
         .first()
         .map(|u| u.path.display().to_string())
         .unwrap_or_default();
-    EngineError::Journal {
-        path: first.clone(),
-        detail: format!(
+    EngineError::journal(
+        first.clone(),
+        format!(
             "the drive at {target} has an unfinished transaction ({}); nothing was sent. Run `driveset recover {first}` first",
             list.join(", ")
         ),
-    }
+    )
 }
 
 /// Create the journal directory `dir` if it is missing; the topmost
@@ -727,20 +881,118 @@ mod store {
 
 /// [`Mismatch::Version`] for a journal that records no bus (version 1).
 pub(crate) fn version_refusal(target: &Target, path: &Path, version: u32) -> EngineError {
-    EngineError::NotJournalDrive {
-        target: target.clone(),
-        journal: path.display().to_string(),
-        mismatch: Mismatch::Version,
-        detail: format!(
+    EngineError::not_journal_drive(
+        target.clone(),
+        path.display().to_string(),
+        Mismatch::Version,
+        format!(
             "it has journal version {version}, which does not record the drive's bus, so driveset cannot check that it reaches the drive the journal was written for; nothing was sent. Finish it with the driveset release that wrote it, or restore the drive by hand from the journal's backup"
         ),
-    }
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::fs;
+
+    /// A `failed` journal as the release before typed causes wrote it
+    /// (version 2, `failure` text only, `holding` names as strings).
+    const V2_FAILED: &str = r#"{
+  "journal_version": 2,
+  "state": "failed",
+  "target": { "port": "sim://demo", "address": 1, "bus": "sim:demo" },
+  "identity": { "protocol": "lustbus-mc", "codes": [["91-TYPE", "1234"]], "software": null },
+  "schema": "fictional-mc6000-demo",
+  "set_fingerprint": "sha256:5c1e",
+  "fingerprint_before": "sha256:09ab",
+  "dataset": false,
+  "attempt": 1,
+  "backup": [
+    { "number": 100, "subcode": null, "code": "100-KPSC1", "secret": false, "old": { "int": 1310 } },
+    { "number": 101, "subcode": null, "code": "101-TNSC1", "secret": false, "old": { "int": 200 } },
+    { "number": 102, "subcode": null, "code": "102-X", "secret": false, "old": { "int": 1 } },
+    { "number": 103, "subcode": null, "code": "103-Y", "secret": false, "old": { "int": 2 } }
+  ],
+  "plan": [],
+  "written": ["100"],
+  "transitions": [{ "state": "planned", "at_ns": 1, "note": null }],
+  "failure": "sim://demo address 1: no answer to write 101-TNSC1 after 3 tries",
+  "holding": [
+    { "code": "100-KPSC1", "holds": "new" },
+    { "code": "101-TNSC1", "holds": "unknown" },
+    { "code": "102-X", "holds": "other" },
+    { "code": "103-Y", "holds": "old" }
+  ]
+}"#;
+
+    #[test]
+    fn a_version_2_journal_without_typed_causes_is_read() {
+        let j: Journal = serde_json::from_str(V2_FAILED).expect("v2 journal");
+        assert_eq!(j.journal_version, 2);
+        assert_eq!(j.state, TxnState::Failed);
+        assert_eq!(j.failure_cause, None);
+        assert_eq!(
+            j.failure.as_deref(),
+            Some("sim://demo address 1: no answer to write 101-TNSC1 after 3 tries")
+        );
+        let holds: Vec<(&str, Holding)> = j
+            .holding
+            .iter()
+            .map(|h| (h.code.as_str(), h.holds))
+            .collect();
+        assert_eq!(
+            holds,
+            [
+                ("100-KPSC1", Holding::New),
+                ("101-TNSC1", Holding::Unknown),
+                ("102-X", Holding::Other),
+                ("103-Y", Holding::Old)
+            ]
+        );
+        // written back, the holding names are the same strings
+        let back = serde_json::to_value(&j).expect("json");
+        assert_eq!(back["holding"][2]["holds"], "other");
+        assert!(back.get("failure_cause").is_none(), "{back}");
+        // and through the file reader
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("sim_demo-1.journal.json");
+        fs::write(&path, V2_FAILED).expect("write");
+        let jf = JournalFile::open(&path).expect("open v2");
+        assert_eq!(jf.journal, j);
+    }
+
+    #[test]
+    fn the_failure_cause_is_stored_typed() {
+        let mut j: Journal = serde_json::from_str(V2_FAILED).expect("v2 journal");
+        let target = Target {
+            port: "sim://demo".into(),
+            address: 1,
+        };
+        let e = EngineError::device(
+            target.clone(),
+            "write 101-TNSC1 (raw 9)",
+            DeviceCause::Siof {
+                register: crate::error::SiofRegister::Serr,
+                bits: driveset_proto::lustbus::Siof(0x80),
+                verdict: crate::error::SiofVerdict::Failed,
+            },
+        );
+        let rolled = EngineError::rolled_back(target.clone(), "j", "it failed", e);
+        j.failure_cause = Some(FailureCause::of(&rolled));
+        let v = serde_json::to_value(&j).expect("json");
+        assert_eq!(
+            v["failure_cause"].to_string(),
+            r#"{"cause":{"cause":{"bits":128,"kind":"siof","register":"serr","verdict":{"kind":"failed"}},"kind":"device","what":"write 101-TNSC1 (raw 9)"},"detail":"it failed","kind":"rolled_back"}"#
+        );
+        let back: Journal = serde_json::from_value(v).expect("back");
+        assert_eq!(back, j);
+        let refused = EngineError::refused(target, Refusal::NoDatasetOpen);
+        assert_eq!(
+            serde_json::to_string(&FailureCause::of(&refused)).expect("json"),
+            r#"{"kind":"refused","refusal":{"kind":"no_dataset_open"}}"#
+        );
+    }
 
     #[test]
     fn file_names_come_from_bus_id_and_address() {

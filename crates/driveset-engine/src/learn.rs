@@ -40,10 +40,6 @@
 //! the check still objects to is left out, so a learned file always passes
 //! `driveset schema check`.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::sync::Arc;
@@ -60,7 +56,7 @@ use driveset_schema::schema::StorageKind;
 use driveset_schema::value::raw_to_engineering;
 use driveset_schema::{Family, Registry, Schema, ValueType, check_schema};
 
-use crate::client::{DriveClient as _, Identity, LustbusClient};
+use crate::client::{DriveClient as _, IdentValue, Identity, LustbusClient};
 use crate::error::EngineError;
 
 /// How to learn.
@@ -199,10 +195,8 @@ pub fn learned_id(protocol: Family, identity: &Identity, learned: &Learned) -> S
         _ => "mc6000",
     };
     let ty = identity
-        .codes
-        .iter()
-        .find(|(c, _)| c.starts_with("91"))
-        .map_or_else(|| "unknown".to_string(), |(_, v)| v.clone());
+        .value_of(91)
+        .map_or_else(|| "unknown".to_string(), ToString::to_string);
     let sw = identity.software.as_deref().map_or_else(
         || format!("d{:08x}", learned.descriptions_hash),
         |s| {
@@ -896,7 +890,7 @@ fn render_text(
         .identity
         .codes
         .iter()
-        .map(|(c, v)| format!("{c} = {v}"))
+        .map(|c| format!("{} = {}", c.name, c.value))
         .collect();
     let _ = writeln!(
         out,
@@ -966,12 +960,7 @@ fn render_text(
             source.drive, base.id
         ))
     );
-    let ty_value = source
-        .identity
-        .codes
-        .iter()
-        .find(|(c, _)| c.starts_with("91"))
-        .and_then(|(_, v)| v.parse::<i64>().ok());
+    let ty_value = source.identity.value_of(91).and_then(IdentValue::as_int);
     let _ = writeln!(out, "\n[schema.identify]\ncodes = [91]");
     if let Some(t) = ty_value {
         let _ = writeln!(out, "type_values = [{t}]");

@@ -1,13 +1,9 @@
 //! Live diff: a set against what a drive holds for the set's codes.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use driveset_schema::{Diff, ResolvedSet, diff};
 
 use crate::client::DriveClient;
-use crate::error::EngineError;
+use crate::error::{EngineError, Refusal};
 
 /// The drive's values of the codes `set` names (a set of the client's schema).
 pub fn live_values(
@@ -17,13 +13,13 @@ pub fn live_values(
     let schema = client.schema().clone();
     let target = client.target().clone();
     if set.schema != schema.id {
-        return Err(EngineError::Refused {
+        return Err(EngineError::refused(
             target,
-            reason: format!(
-                "the set is for schema `{}`, the drive is read with schema `{}`; compare a set of this drive family",
-                set.schema, schema.id
-            ),
-        });
+            Refusal::SetSchema {
+                set: set.schema.clone(),
+                schema: schema.id.clone(),
+            },
+        ));
     }
     let unknown: Vec<String> = set
         .values
@@ -32,14 +28,13 @@ pub fn live_values(
         .map(|k| schema.display_code(k.number, k.subcode))
         .collect();
     if !unknown.is_empty() {
-        return Err(EngineError::Refused {
+        return Err(EngineError::refused(
             target,
-            reason: format!(
-                "codes not in schema `{}`: {}; remove them from the set",
-                schema.id,
-                unknown.join(", ")
-            ),
-        });
+            Refusal::CodesNotInSchema {
+                schema: schema.id.clone(),
+                codes: unknown,
+            },
+        ));
     }
     crate::upload::read_values(client, set.values.keys().copied())
 }
@@ -50,8 +45,12 @@ pub fn live_values(
 pub fn live_diff(client: &mut dyn DriveClient, set: &ResolvedSet) -> Result<Diff, EngineError> {
     let drive = live_values(client, set)?;
     let schema = client.schema().clone();
-    diff(&drive, set, &schema).map_err(|e| EngineError::Refused {
-        target: client.target().clone(),
-        reason: e.to_string(),
+    diff(&drive, set, &schema).map_err(|e| {
+        EngineError::refused(
+            client.target().clone(),
+            Refusal::Diff {
+                detail: e.to_string(),
+            },
+        )
     })
 }

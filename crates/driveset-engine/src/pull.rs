@@ -18,16 +18,12 @@
 //! Only a failure of the transport itself (the port is gone) or a drive
 //! restart ends the pull with the error.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::time::Duration;
 
 use driveset_schema::{CodeKey, ResolvedSet, Role};
 
 use crate::client::{DriveClient, Identity};
-use crate::error::EngineError;
+use crate::error::{EngineError, ErrorKind};
 use crate::observe::{Hook, Phase};
 use crate::plan::code_label;
 
@@ -145,18 +141,21 @@ pub fn pull_observed(
             }
             match client.read(key) {
                 Ok(v) => all.insert(key, v),
-                Err(EngineError::Device { cause, .. }) => skipped.push(fail(format!(
-                    "the drive refused to read it: {} ({})",
-                    cause.cause, cause.raw
-                ))),
-                Err(EngineError::Protocol { detail, .. }) => skipped.push(fail(format!(
-                    "its VALUE does not fit the schema's type {}: {detail}",
-                    schema.type_of(code).map_or("(none)", |t| t.name())
-                ))),
-                Err(EngineError::NoAnswer { tries, .. }) => {
-                    skipped.push(fail(format!("the drive did not answer ({tries} tries)")))
-                }
-                Err(e) => return Err(e),
+                Err(e) => match &*e.kind {
+                    ErrorKind::Device { cause, .. } => skipped.push(fail(format!(
+                        "the drive refused to read it: {} ({})",
+                        cause.cause(),
+                        cause.raw()
+                    ))),
+                    ErrorKind::Protocol { detail, .. } => skipped.push(fail(format!(
+                        "its VALUE does not fit the schema's type {}: {detail}",
+                        schema.type_of(code).map_or("(none)", |t| t.name())
+                    ))),
+                    ErrorKind::NoAnswer { tries, .. } => {
+                        skipped.push(fail(format!("the drive did not answer ({tries} tries)")))
+                    }
+                    _ => return Err(e),
+                },
             }
         }
     }

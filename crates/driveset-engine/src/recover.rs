@@ -31,10 +31,6 @@
 //! A dataset download left open (SLOAD = -1) is always rolled back, even if
 //! the values read back look new: staged values are not committed.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::time::Duration;
@@ -43,7 +39,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 
 use crate::client::DriveClient;
 use crate::error::{EngineError, Mismatch};
-use crate::journal::{JournalFile, TxnState, version_refusal};
+use crate::journal::{FailureCause, JournalFile, TxnState, version_refusal};
 use crate::observe::{Hook, Phase as Step};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
 use crate::upload::{describe_holdings, holdings, read_observed, read_values, restore};
@@ -118,11 +114,8 @@ pub fn recover(
     }
     let schema = client.schema().clone();
     let target = client.target().clone();
-    let refuse = |mismatch: Mismatch, detail: String| EngineError::NotJournalDrive {
-        target: target.clone(),
-        journal: journal_name.clone(),
-        mismatch,
-        detail,
+    let refuse = |mismatch: Mismatch, detail: String| {
+        EngineError::not_journal_drive(target.clone(), journal_name.clone(), mismatch, detail)
     };
     // checks that need no telegram: version, schema, bus, address
     let Some(journal_bus) = jf.journal.target.bus.clone() else {
@@ -152,9 +145,11 @@ pub fn recover(
             ),
         ));
     }
-    let bad = |d: String| EngineError::Journal {
-        path: journal_name.clone(),
-        detail: format!("{d}; the file is damaged, restore the drive by hand from it"),
+    let bad = |d: String| {
+        EngineError::journal(
+            journal_name.clone(),
+            format!("{d}; the file is damaged, restore the drive by hand from it"),
+        )
     };
     let backup: BTreeMap<CodeKey, RawValue> = jf
         .journal
@@ -204,9 +199,10 @@ pub fn recover(
             .cloned()
             .collect()
     };
-    let same_drive = jf.journal.identity.protocol == identity.protocol
+    let codes = identity.pairs();
+    let same_drive = jf.journal.identity.protocol == identity.protocol.name()
         && jf.journal.identity.software == identity.software
-        && strip(&jf.journal.identity.codes) == strip(&identity.codes);
+        && strip(&jf.journal.identity.codes) == strip(&codes);
     if !same_drive {
         let show = |p: &str, codes: &[(String, String)], sw: &Option<String>| {
             let mut s: Vec<String> = codes.iter().map(|(n, v)| format!("{n} = {v}")).collect();
@@ -219,7 +215,7 @@ pub fn recover(
             Mismatch::Identity,
             format!(
                 "the drive identifies as {} but the journal was written for {}; nothing was written. Connect the drive the journal belongs to",
-                show(&identity.protocol, &identity.codes, &identity.software),
+                show(identity.protocol.name(), &codes, &identity.software),
                 show(
                     &jf.journal.identity.protocol,
                     &jf.journal.identity.codes,
@@ -359,28 +355,31 @@ pub fn recover(
                 if differ.is_empty() {
                     None
                 } else {
-                    Some(format!(
-                        "after restoring, {} still differ from the backup",
-                        differ.join(", ")
+                    Some((
+                        format!(
+                            "after restoring, {} still differ from the backup",
+                            differ.join(", ")
+                        ),
+                        FailureCause::StillDiffer { codes: differ },
                     ))
                 }
             }
-            Err(e) => Some(format!("restoring the old values failed: {e}")),
+            Err(e) => Some((
+                format!("restoring the old values failed: {e}"),
+                FailureCause::of(&e),
+            )),
         };
-        if let Some(f) = failure {
+        if let Some((f, cause)) = failure {
             let holding = holdings(client, &schema, &backup, &new_values);
             let detail = format!("{f}; {}", describe_holdings(&holding));
             jf.journal.holding = holding;
             jf.journal.failure = Some(detail.clone());
+            jf.journal.failure_cause = Some(cause);
             let t = at(&*client);
             jf.journal
                 .transition(TxnState::Failed, t, Some(detail.clone()));
             jf.persist()?;
-            return Err(EngineError::Inconsistent {
-                target,
-                journal: journal_name,
-                detail,
-            });
+            return Err(EngineError::inconsistent(target, journal_name, detail));
         }
         let t = at(&*client);
         jf.journal.transition(

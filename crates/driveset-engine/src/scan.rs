@@ -25,10 +25,6 @@
 //! transfer rates"), reopening the line through a caller's closure, and
 //! stops at the first rate where a drive answers.
 
-// EngineError is the lead's contract type (large by design: it carries
-// the target and the decoded cause); boxing it is not ours to decide.
-#![allow(clippy::result_large_err)]
-
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -37,13 +33,15 @@ use driveset_link::{ByteLink, FrameLink, LinkError};
 use driveset_proto::can::NodeId;
 use driveset_proto::lecom::ControllerAddress;
 use driveset_proto::lustbus::Address;
-use driveset_schema::{CodeKey, Schema};
+use driveset_schema::{BusProtocol, CodeKey, Family, Schema};
 
 use crate::client::lecom::{C0093, LecomLine};
 use crate::client::lustbus::{LustLine, TYPE};
 use crate::client::sdo::SdoLine;
-use crate::client::{BorrowedByteLink, BorrowedFrameLink, Identity, Target};
-use crate::error::EngineError;
+use crate::client::{
+    BorrowedByteLink, BorrowedFrameLink, IdentCode, IdentProtocol, IdentValue, Identity, Target,
+};
+use crate::error::{EngineError, Refusal};
 
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
 /// 2400..57600 servocontrollers).
@@ -92,24 +90,24 @@ pub struct BaudScan {
     pub found: Vec<Found>,
 }
 
-fn refuse(port: &str, address: u8, reason: String) -> EngineError {
-    EngineError::Refused {
-        target: Target {
+fn refuse(port: &str, address: u8, refusal: Refusal) -> EngineError {
+    EngineError::refused(
+        Target {
             port: port.to_string(),
             address,
         },
-        reason,
-    }
+        refusal,
+    )
 }
 
 fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
-    EngineError::Link {
-        target: Target {
+    EngineError::link(
+        Target {
             port: port.to_string(),
             address,
         },
         source,
-    }
+    )
 }
 
 /// LUSTBUS addresses 1..=30.
@@ -139,13 +137,7 @@ pub fn scan_lustbus(
         match Address::new(a) {
             Some(ad) if ad.is_individual() => targets.push(ad),
             _ => {
-                return Err(refuse(
-                    &port,
-                    a,
-                    format!(
-                        "{a} is not a scan target: LUSTBUS drive addresses are 1..30 (0 makes every drive answer at once, 31 is the broadcast address, section 4.2)"
-                    ),
-                ));
+                return Err(refuse(&port, a, Refusal::ScanLustbusAddress { address: a }));
             }
         }
     }
@@ -164,10 +156,11 @@ pub fn scan_lustbus(
             found.push(Found {
                 address: ad.number(),
                 identity: Identity {
-                    protocol: "lustbus".into(),
-                    codes: vec![(
+                    protocol: IdentProtocol::Bus(BusProtocol::Lustbus),
+                    codes: vec![IdentCode::new(
+                        CodeKey::new(TYPE),
                         format!("{TYPE}-TYPE"),
-                        value.map_or_else(|| "NAK".to_string(), |v| v.to_string()),
+                        value.map_or_else(|| IdentValue::Text("NAK".into()), IdentValue::Int),
                     )],
                     software: None,
                 },
@@ -192,13 +185,7 @@ pub fn scan_lecom(
         match ControllerAddress::new(a) {
             Some(ad) if !ad.is_broadcast() => targets.push(ad),
             _ => {
-                return Err(refuse(
-                    &port,
-                    a,
-                    format!(
-                        "{a:02} is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)"
-                    ),
-                ));
+                return Err(refuse(&port, a, Refusal::ScanLecomAddress { address: a }));
             }
         }
     }
@@ -223,8 +210,8 @@ pub fn scan_lecom(
             found.push(Found {
                 address: ad.get(),
                 identity: Identity {
-                    protocol: "lecom".into(),
-                    codes: vec![(name.clone(), text)],
+                    protocol: IdentProtocol::Family(Family::Tmd),
+                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
             });
@@ -244,13 +231,8 @@ pub fn scan_can(
     let port = link.port().to_string();
     let mut targets = Vec::with_capacity(nodes.len());
     for &n in nodes {
-        let node = NodeId::new(n).map_err(|e| {
-            refuse(
-                &port,
-                n,
-                format!("{e}: node 0 is no SDO server and cannot be a scan target (DS301)"),
-            )
-        })?;
+        let node =
+            NodeId::new(n).map_err(|e| refuse(&port, n, Refusal::ScanCanNode { node: e.0 }))?;
         targets.push(node);
     }
     let number = schema
@@ -262,7 +244,9 @@ pub fn scan_can(
             refuse(
                 &port,
                 0,
-                format!("schema `{}` has no code to probe with", schema.id),
+                Refusal::NoProbeCode {
+                    schema: schema.id.clone(),
+                },
             )
         })?;
     let key = CodeKey::new(number);
@@ -277,8 +261,8 @@ pub fn scan_can(
             found.push(Found {
                 address: node.get(),
                 identity: Identity {
-                    protocol: "lenze-can-sdo".into(),
-                    codes: vec![(name.clone(), text)],
+                    protocol: IdentProtocol::Family(Family::Ecs),
+                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
             });

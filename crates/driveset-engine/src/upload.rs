@@ -32,10 +32,6 @@
 //! journal, dataset, write (code i of n), commit (SLOAD poll), verify,
 //! rollback; a rollback is reported as such, whatever telegrams it sends.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -45,15 +41,15 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DatasetOutcome, DriveClient, Identity, Target};
-use crate::error::EngineError;
+use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::journal::{
-    BackupEntry, Holding, JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue,
-    PlanEntryRecord, TxnState,
+    BackupEntry, CodeHolding, FailureCause, Holding, JOURNAL_VERSION, Journal, JournalFile,
+    JournalTarget, JournalValue, PlanEntryRecord, TxnState,
 };
 use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
 use crate::plan::{
-    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Running, Storage, TimeEstimate, check_set,
+    DATASET_TIMEOUT, Phase, Plan, PlanOptions, Problem, Running, Storage, TimeEstimate, check_set,
     code_label, is_secret, plan, value_text,
 };
 
@@ -303,15 +299,8 @@ pub struct Prepared {
     pub estimate: TimeEstimate,
 }
 
-pub(crate) fn refused(target: &Target, problems: Vec<String>) -> EngineError {
-    EngineError::Refused {
-        target: target.clone(),
-        reason: if problems.len() == 1 {
-            problems.concat()
-        } else {
-            format!("{} problems: {}", problems.len(), problems.join("; "))
-        },
-    }
+pub(crate) fn refused(target: &Target, problems: Vec<Problem>) -> EngineError {
+    EngineError::refused(target.clone(), Refusal::Plan { problems })
 }
 
 /// Read `keys` off the drive into a set of the client's schema.
@@ -438,8 +427,9 @@ pub fn upload(
         match tx.attempt(set) {
             Ok(()) => break Ok(()),
             Err(Stop::Settled(e)) => break Err(e),
-            Err(Stop::Error(e @ EngineError::Restarted { .. }))
-                if tx.attempts <= tx.opts.max_restarts =>
+            Err(Stop::Error(e))
+                if matches!(*e.kind, ErrorKind::Restarted { .. })
+                    && tx.attempts <= tx.opts.max_restarts =>
             {
                 if tx.journal.is_some() {
                     let note = format!("{e}; redoing from the read-back");
@@ -676,6 +666,7 @@ impl Txn<'_> {
                     written: Vec::new(),
                     transitions: Vec::new(),
                     failure: None,
+                    failure_cause: None,
                     holding: Vec::new(),
                 };
                 journal.transition(TxnState::Planned, at, None);
@@ -791,7 +782,7 @@ impl Txn<'_> {
             // the code as it was: there is nothing of it to roll back. Any
             // other failure (no answer, a garbled one) may or may not have
             // landed, so the code stays touched.
-            if matches!(e, EngineError::Device { .. }) {
+            if matches!(*e.kind, ErrorKind::Device { .. }) {
                 self.touched.remove(&key);
             }
             self.outcomes
@@ -871,11 +862,11 @@ impl Txn<'_> {
             );
             self.outcomes
                 .insert(key, CodeOutcome::Failed(detail.clone()));
-            return Err(Stop::Error(EngineError::Protocol {
-                target: self.target.clone(),
-                what: format!("verify {}", code_label(&self.schema, key)),
+            return Err(Stop::Error(EngineError::protocol(
+                self.target.clone(),
+                format!("verify {}", code_label(&self.schema, key)),
                 detail,
-            }));
+            )));
         }
         self.outcomes.insert(key, CodeOutcome::Verified);
         self.verified.insert(key, got);
@@ -902,15 +893,15 @@ impl Txn<'_> {
             self.outcomes
                 .insert(*k, CodeOutcome::Failed("dataset rejected".into()));
         }
-        let cause = EngineError::Device {
-            target: self.target.clone(),
-            what: "dataset download (80-SLOAD)".into(),
-            cause: crate::error::DeviceCause {
-                cause: "dataset rejected".into(),
-                raw: format!("SLOAD = {parameter}"),
-                remedy: format!("fix the value of {name}"),
+        let cause = EngineError::device(
+            self.target.clone(),
+            "dataset download (80-SLOAD)",
+            DeviceCause::DatasetRejected {
+                parameter,
+                name: name.clone(),
+                backup: false,
             },
-        };
+        );
         // confirm nothing changed
         let n = Some(self.backup.len());
         self.opts
@@ -922,12 +913,12 @@ impl Txn<'_> {
                 if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail.clone())) {
                     return Stop::Settled(e);
                 }
-                Stop::Settled(EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
+                Stop::Settled(EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
                     detail,
-                    cause: Box::new(cause),
-                })
+                    cause,
+                ))
             }
             _ => Stop::Error(cause),
         }
@@ -951,6 +942,7 @@ impl Txn<'_> {
         let cause_text = cause.to_string();
         if let Some(j) = &mut self.journal {
             j.journal.failure = Some(cause_text.clone());
+            j.journal.failure_cause = Some(FailureCause::of(&cause));
         }
         let n = Some(self.touched.len());
         self.opts
@@ -981,12 +973,12 @@ impl Txn<'_> {
                 if let Err(e) = self.set_state(TxnState::RolledBack, Some(detail)) {
                     return e;
                 }
-                EngineError::RolledBack {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail: cause_text,
-                    cause: Box::new(cause),
-                }
+                EngineError::rolled_back(
+                    self.target.clone(),
+                    self.journal_path(),
+                    cause_text,
+                    cause,
+                )
             }
             other => {
                 let restore_err = match other {
@@ -1009,11 +1001,7 @@ impl Txn<'_> {
                     j.journal.holding = holding;
                 }
                 let _ = self.set_state(TxnState::Failed, Some(detail.clone()));
-                EngineError::Inconsistent {
-                    target: self.target.clone(),
-                    journal: self.journal_path(),
-                    detail,
-                }
+                EngineError::inconsistent(self.target.clone(), self.journal_path(), detail)
             }
         }
     }
@@ -1159,64 +1147,53 @@ fn restore_dataset(
         DatasetOutcome::Accepted => Ok(()),
         DatasetOutcome::Rejected { parameter } => {
             let name = code_label(schema, CodeKey::new(parameter));
-            Err(EngineError::Device {
-                target: client.target().clone(),
-                what: "dataset download of the backup (80-SLOAD)".into(),
-                cause: crate::error::DeviceCause {
-                    cause: "dataset rejected".into(),
-                    raw: format!("SLOAD = {parameter}"),
-                    remedy: format!(
-                        "the drive refuses its own old value of {name}; restore it by hand"
-                    ),
+            Err(EngineError::device(
+                client.target().clone(),
+                "dataset download of the backup (80-SLOAD)",
+                DeviceCause::DatasetRejected {
+                    parameter,
+                    name,
+                    backup: true,
                 },
-            })
+            ))
         }
     }
 }
 
-/// What each backed-up code holds now: `old`, `new`, `other`, `unknown`.
+/// What each backed-up code holds now.
 pub(crate) fn holdings(
     client: &mut dyn DriveClient,
     schema: &Schema,
     backup: &BTreeMap<CodeKey, RawValue>,
     new_values: &BTreeMap<CodeKey, RawValue>,
-) -> Vec<Holding> {
+) -> Vec<CodeHolding> {
     backup
         .iter()
         .map(|(k, old)| {
             let holds = match client.read(*k) {
-                Ok(v) if &v == old => "old",
-                Ok(v) if new_values.get(k) == Some(&v) => "new",
-                Ok(_) => "other",
-                Err(_) => "unknown",
+                Ok(v) if &v == old => Holding::Old,
+                Ok(v) if new_values.get(k) == Some(&v) => Holding::New,
+                Ok(_) => Holding::Other,
+                Err(_) => Holding::Unknown,
             };
-            Holding {
+            CodeHolding {
                 code: code_label(schema, *k),
-                holds: holds.into(),
+                holds,
             }
         })
         .collect()
 }
 
-pub(crate) fn describe_holdings(h: &[Holding]) -> String {
-    let mut by: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+pub(crate) fn describe_holdings(h: &[CodeHolding]) -> String {
+    let mut by: BTreeMap<Holding, Vec<&str>> = BTreeMap::new();
     for x in h {
-        by.entry(x.holds.as_str())
-            .or_default()
-            .push(x.code.as_str());
+        by.entry(x.holds).or_default().push(x.code.as_str());
     }
-    let parts: Vec<String> = ["new", "other", "unknown", "old"]
+    let parts: Vec<String> = [Holding::New, Holding::Other, Holding::Unknown, Holding::Old]
         .iter()
         .filter_map(|w| {
-            by.get(w).map(|codes| {
-                let what = match *w {
-                    "new" => "hold the new value",
-                    "other" => "hold neither the old nor the new value",
-                    "unknown" => "could not be read",
-                    _ => "hold the old value",
-                };
-                format!("{} {what}", codes.join(", "))
-            })
+            by.get(w)
+                .map(|codes| format!("{} {}", codes.join(", "), w.describe()))
         })
         .collect();
     if parts.is_empty() {

@@ -475,8 +475,9 @@ pub struct InputError {
     pub message: String,
     /// What to do.
     pub help: String,
-    /// Where (line 0 when only the file is known).
-    pub location: Location,
+    /// Where (line 0 when only the file is known); boxed, so a
+    /// `Result<_, InputError>` stays small.
+    pub location: Box<Location>,
 }
 
 impl InputError {
@@ -491,7 +492,7 @@ impl InputError {
             kind,
             message: cap_message(message.into()),
             help: cap_message(help.into()),
-            location,
+            location: Box::new(location),
         }
     }
 

@@ -18,10 +18,6 @@
 //! }
 //! ```
 
-// InputError carries a full Location (file, span, line text) so the CLI can
-// render it; it is built on the error path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 pub mod canonical;
 pub mod check;
 pub mod decimal;

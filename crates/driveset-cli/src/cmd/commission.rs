@@ -4,9 +4,6 @@
 //! loading the manifest, opening buses through [`crate::port`], progress
 //! lines, the summary table and writing the report.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;

@@ -3,9 +3,6 @@
 //! with the offline diff's output and exit codes: old (`---`) is the drive,
 //! new (`+++`) the set, so the lines read as what an upload would change.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 
 use crate::port::Fail;

@@ -7,9 +7,6 @@
 //! latency_timer`, `SYSFS` being `/sys` unless `--sysfs DIR` points at
 //! another tree (tests use a fake one).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

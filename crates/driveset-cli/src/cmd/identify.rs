@@ -2,14 +2,10 @@
 //! what the drive at an address says it is (family, TYPE / identification
 //! codes, software version) and whether the schema fits it.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::error::EngineError;
 use driveset_link::Link;
 use driveset_proto::lustbus::ParameterCode;
 use driveset_schema::Family;
@@ -180,10 +176,8 @@ fn learned_status(
         "mc6000"
     };
     let ty = identity
-        .codes
-        .iter()
-        .find(|(c, _)| c.starts_with("91"))
-        .map_or("unknown", |(_, v)| v.as_str());
+        .value_of(91)
+        .map_or_else(|| "unknown".to_string(), ToString::to_string);
     let prefix = format!("learned-{family}-type{ty}-");
     let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
         .into_iter()
@@ -226,8 +220,10 @@ fn report(
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
     let fits = match driveset_engine::identify::check_family(client) {
         Ok(_) => Ok(()),
-        Err(EngineError::Refused { reason, .. }) => Err(reason),
-        Err(e) => return Err(e.into()),
+        Err(e) => match e.refusal() {
+            Some(refusal) => Err(refusal.to_string()),
+            None => return Err(e.into()),
+        },
     };
     client.finish()?;
     match args.format {
@@ -235,8 +231,8 @@ fn report(
             let doc = json!({
                 "port": port_name,
                 "address": args.address,
-                "protocol": identity.protocol,
-                "codes": identity.codes.iter().map(|(c, v)| json!({"code": c, "value": v})).collect::<Vec<_>>(),
+                "protocol": identity.protocol.name(),
+                "codes": identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
                 "software": identity.software,
                 "schema": schema.id,
                 "schema_title": schema.title,
@@ -257,8 +253,8 @@ fn report(
             let _ = writeln!(out, "port:     {port_name}");
             let _ = writeln!(out, "address:  {}", args.address);
             let _ = writeln!(out, "family:   {}", identity.protocol);
-            for (c, v) in &identity.codes {
-                let _ = writeln!(out, "{c}: {v}");
+            for c in &identity.codes {
+                let _ = writeln!(out, "{}: {}", c.name, c.value);
             }
             let _ = writeln!(
                 out,

@@ -9,9 +9,6 @@
 //! loader), so `driveset validate` / `driveset fingerprint` read it back to
 //! the same fingerprint. Passwords are not read (they would land in the file).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
@@ -219,7 +216,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
-            code: if matches!(e, driveset_engine::error::EngineError::Refused { .. }) {
+            code: if e.is_refused() {
                 crate::EXIT_FINDINGS
             } else {
                 port::engine_exit(&e)
@@ -281,7 +278,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .identity
         .codes
         .iter()
-        .map(|(c, v)| format!("{c} = {v}"))
+        .map(|c| format!("{} = {}", c.name, c.value))
         .collect();
     let mut text = String::new();
     let _ = writeln!(
@@ -334,8 +331,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             let _ = writeln!(text, "drive:");
             let _ = writeln!(text, "  port: {}", toml_str(&port_name));
             let _ = writeln!(text, "  address: {}", args.address);
-            let _ = writeln!(text, "  protocol: {}", toml_str(&pulled.identity.protocol));
-            for (c, v) in &pulled.identity.codes {
+            let _ = writeln!(
+                text,
+                "  protocol: {}",
+                toml_str(pulled.identity.protocol.name())
+            );
+            for (c, v) in &pulled.identity.pairs() {
                 let _ = writeln!(text, "  {}: {}", toml_str(c), toml_str(v));
             }
             let _ = writeln!(text, "  fingerprint: {}", toml_str(&pulled.fingerprint));
@@ -349,8 +350,12 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             let _ = writeln!(text, "[drive]");
             let _ = writeln!(text, "port = {}", toml_str(&port_name));
             let _ = writeln!(text, "address = {}", args.address);
-            let _ = writeln!(text, "protocol = {}", toml_str(&pulled.identity.protocol));
-            for (c, v) in &pulled.identity.codes {
+            let _ = writeln!(
+                text,
+                "protocol = {}",
+                toml_str(pulled.identity.protocol.name())
+            );
+            for (c, v) in &pulled.identity.pairs() {
                 let _ = writeln!(text, "{} = {}", toml_str(c), toml_str(v));
             }
             let _ = writeln!(text, "fingerprint = {}", toml_str(&pulled.fingerprint));

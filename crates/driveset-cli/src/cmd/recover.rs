@@ -4,9 +4,6 @@
 //! replaces the port (the adapter moved, or a `sim://` port without the
 //! fault that interrupted the upload).
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

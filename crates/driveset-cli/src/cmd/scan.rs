@@ -1,9 +1,6 @@
 //! `driveset scan --port P [--protocol lustbus|lecom|sdo] [--detect-baud]`:
 //! which drives answer on a bus.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -181,7 +178,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 "baud": baud_found,
                 "found": found.iter().map(|f| json!({
                     "address": f.address,
-                    "codes": f.identity.codes.iter().map(|(c, v)| json!({"code": c, "value": v})).collect::<Vec<_>>(),
+                    "codes": f.identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
                 })).collect::<Vec<_>>(),
             });
             output::emit(&format!(
@@ -200,7 +197,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                     .identity
                     .codes
                     .iter()
-                    .map(|(c, v)| format!("{c} = {v}"))
+                    .map(|c| format!("{} = {}", c.name, c.value))
                     .collect();
                 let _ = writeln!(out, "address {}: {}", f.address, codes.join(", "));
             }

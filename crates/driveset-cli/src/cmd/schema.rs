@@ -81,7 +81,7 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
                         kind: driveset_schema::InputErrorKind::Structure,
                         message: format!("built-in schema {path} has no id `{id}`"),
                         help: "the file name and the id of a built-in schema agree".into(),
-                        location: driveset_schema::Location::file_only(path),
+                        location: Box::new(driveset_schema::Location::file_only(path)),
                     }),
                 },
             };

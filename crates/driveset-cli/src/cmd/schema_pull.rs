@@ -8,9 +8,6 @@
 //! check`. Nothing but the RAM selector 108-STEXT is written, and it is set
 //! back to what it held.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::PathBuf;

@@ -23,9 +23,6 @@
 //! failed, and scripts must not take it for a mere difference; `--format
 //! json` says `"state": "rolled-back"` to tell the two apart.
 
-// EngineError is large by design; it is built on the failure path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::PathBuf;
 
 use driveset_engine::upload::{

@@ -7,9 +7,6 @@
 //! sets: they are checked with the `schema check` rules instead, so a broken
 //! fixture still fails the run, and counted as checked files.
 
-// InputError carries a full Location; it is built on the error path only.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -121,7 +118,7 @@ fn unreadable(path: &Path, message: String) -> InputError {
         kind: InputErrorKind::Unreadable,
         message,
         help: "check the path".to_string(),
-        location: Location::file_only(path.display().to_string()),
+        location: Box::new(Location::file_only(path.display().to_string())),
     }
 }
 

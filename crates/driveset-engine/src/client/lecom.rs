@@ -60,18 +60,17 @@ use std::time::Duration;
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, LinkError};
 use driveset_proto::lecom::{
-    Advice, Broadcast, CodeAddress, CommunicationError, ControllerAddress, Decimal, ExtendedError,
-    Hex, OctetString, OperatingStatus, Receive, Response, ResponseDecoder, Send, Telegram, Value,
-    VisibleString,
+    Advice, Broadcast, CodeAddress, ControllerAddress, Decimal, ExtendedError, Hex, OctetString,
+    OperatingStatus, Receive, Response, ResponseDecoder, Send, Telegram, Value, VisibleString,
 };
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
-    schema_code, shown_value, write_what,
+    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
+    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
-use crate::error::EngineError;
+use crate::error::{ClientProtocol, DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::plan;
 
 /// C0068, operating status (bits 4..7: last communication error).
@@ -303,33 +302,6 @@ fn value_of(schema: &Schema, code: &Code, raw: &RawValue) -> Result<Value, Strin
     }
 }
 
-/// What to do about a communication error (C0068 bits 4..7).
-fn remedy(e: CommunicationError) -> &'static str {
-    match e {
-        CommunicationError::NoFault => {
-            "the drive refused without recording a cause; check the value against the code's range and the drive's state"
-        }
-        CommunicationError::ChecksumError
-        | CommunicationError::ProtocolFrameError
-        | CommunicationError::InterruptedByNewTelegram => {
-            "transmission faults persisted over every repetition; check termination, wiring and that only one master talks"
-        }
-        CommunicationError::InvalidCodeNumber => {
-            "the drive does not have this code (or cannot write it); check the set's schema matches the drive"
-        }
-        CommunicationError::InvalidVariable => {
-            "the value is not allowed; choose a value inside the code's range"
-        }
-        CommunicationError::NoAccessPermission => {
-            "the code cannot be written now: inhibit the controller (many codes are writable only at standstill), check the user password C0094, or set C0001 to 2 or 3 at the keypad so LECOM may program the drive (§4e)"
-        }
-        CommunicationError::GeneralFault => "repeat; if it persists, check the drive",
-        CommunicationError::Reserved | CommunicationError::Undocumented(_) => {
-            "undocumented communication error; check the drive"
-        }
-    }
-}
-
 /// A Lenze Tmd on LECOM-A/B at one station address.
 #[derive(Debug)]
 pub struct LecomClient<L: ByteLink = Box<dyn ByteLink>> {
@@ -359,23 +331,22 @@ impl<L: ByteLink> LecomClient<L> {
             address,
         };
         if schema.family != Family::Tmd {
-            return Err(EngineError::Refused {
+            return Err(EngineError::refused(
                 target,
-                reason: format!(
-                    "schema `{}` is not a LECOM family ({} drives); pick the client of its protocol",
-                    schema.id, schema.family
-                ),
-            });
+                Refusal::WrongClient {
+                    schema: schema.id.clone(),
+                    family: schema.family.to_string(),
+                    protocol: ClientProtocol::Lecom,
+                },
+            ));
         }
         let address = match ControllerAddress::new(address) {
             Some(a) if !a.is_broadcast() => a,
             _ => {
-                return Err(EngineError::Refused {
+                return Err(EngineError::refused(
                     target,
-                    reason: format!(
-                        "LECOM address {address} is not a station: use 01..99 except 00 and the group addresses 10, 20, .. 90 (BROADCAST / MULTICAST, section 8.J; use broadcast() for those)"
-                    ),
-                });
+                    Refusal::LecomAddress { address },
+                ));
             }
         };
         let mut line = LecomLine::new(link);
@@ -430,19 +401,22 @@ impl<L: ByteLink> LecomClient<L> {
         &self.line.latency
     }
 
-    fn refused(&self, reason: String) -> EngineError {
-        EngineError::Refused {
-            target: self.target.clone(),
-            reason,
-        }
+    fn refused(&self, refusal: Refusal) -> EngineError {
+        EngineError::refused(self.target.clone(), refusal)
+    }
+
+    fn encode_refused(&self, what: Option<&str>, e: impl std::fmt::Display) -> EngineError {
+        self.refused(Refusal::Encode {
+            what: what.map(str::to_string),
+            detail: e.to_string(),
+        })
     }
 
     fn field(&self, key: CodeKey) -> Result<CodeAddress, EngineError> {
         code_address(key).ok_or_else(|| {
-            self.refused(format!(
-                "{} cannot be addressed on LECOM (code above 65535 or subcode above 255, section 8.D)",
-                code_name(&self.schema, key)
-            ))
+            self.refused(Refusal::LecomUnaddressable {
+                code: code_name(&self.schema, key),
+            })
         })
     }
 
@@ -452,11 +426,7 @@ impl<L: ByteLink> LecomClient<L> {
         } else {
             format!("{what} (last answer: {last})")
         };
-        EngineError::NoAnswer {
-            target: self.target.clone(),
-            what,
-            tries: self.tries(),
-        }
+        EngineError::no_answer(self.target.clone(), what, self.tries())
     }
 
     /// RECEIVE with retries; the value as the codec decoded it.
@@ -473,7 +443,7 @@ impl<L: ByteLink> LecomClient<L> {
         });
         let bytes = t
             .to_bytes()
-            .map_err(|e| self.refused(format!("{what}: {e}")))?;
+            .map_err(|e| self.encode_refused(Some(what), e))?;
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
@@ -490,9 +460,9 @@ impl<L: ByteLink> LecomClient<L> {
                     return Err(device(
                         &self.target,
                         what,
-                        "no such code in this controller",
-                        format!("STX {code} EOT"),
-                        "check the set's schema matches the drive (family, software version)",
+                        DeviceCause::NoSuchCode {
+                            code: code.to_string(),
+                        },
                     ));
                 }
                 Outcome::Answer(Response::ChecksumFault { .. }) => {
@@ -511,39 +481,42 @@ impl<L: ByteLink> LecomClient<L> {
         let code = schema_code(&schema, &self.target, key)?;
         let ty = schema.type_of(code);
         let value = self.receive(key, ty, what)?;
-        raw_of(ty, &value).ok_or_else(|| EngineError::Protocol {
-            target: self.target.clone(),
-            what: what.to_string(),
-            detail: format!(
-                "the drive sent {}, which is not the {} format the schema gives",
-                if schema.is_password(code) {
-                    "a value (password, not shown)".to_string()
-                } else {
-                    format!("`{value}`")
-                },
-                ty.map_or("VD", ValueType::name)
-            ),
+        raw_of(ty, &value).ok_or_else(|| {
+            EngineError::protocol(
+                self.target.clone(),
+                what.to_string(),
+                format!(
+                    "the drive sent {}, which is not the {} format the schema gives",
+                    if schema.is_password(code) {
+                        "a value (password, not shown)".to_string()
+                    } else {
+                        format!("`{value}`")
+                    },
+                    ty.map_or("VD", ValueType::name)
+                ),
+            )
         })
     }
 
     /// After a NAK: C0068 bits 4..7, and C1962 for causes that fail.
-    fn nak_cause(&mut self, what: &str) -> Result<(CommunicationError, String), EngineError> {
+    fn nak_cause(
+        &mut self,
+        what: &str,
+    ) -> Result<(OperatingStatus, Option<ExtendedError>), EngineError> {
         let v = self.receive(
             CodeKey::new(C0068),
             Some(ValueType::VH),
             &format!("read C0068 after NAK to {what}"),
         )?;
-        let status = OperatingStatus::from_value(&v).map_err(|e| EngineError::Protocol {
-            target: self.target.clone(),
-            what: format!("read C0068 after NAK to {what}"),
-            detail: e.to_string(),
+        let status = OperatingStatus::from_value(&v).map_err(|e| {
+            EngineError::protocol(
+                self.target.clone(),
+                format!("read C0068 after NAK to {what}"),
+                e.to_string(),
+            )
         })?;
         let comm = status.last_communication_error();
-        let mut raw = format!(
-            "NAK; C0068 = H{:04X}, bits 4..7 = {}",
-            status.0,
-            comm.nibble()
-        );
+        let mut extended = None;
         if comm.advice() == Advice::Fail && self.schema.code(C1962).is_some() {
             // Best effort: C1962 only adds detail.
             if let Ok(v) = self.receive(
@@ -552,21 +525,21 @@ impl<L: ByteLink> LecomClient<L> {
                 &format!("read C1962 after NAK to {what}"),
             ) && let Ok(x) = ExtendedError::from_value(&v)
             {
-                raw.push_str(&format!("; C1962 = {x}"));
+                extended = Some(x);
             }
         }
-        Ok((comm, raw))
+        Ok((status, extended))
     }
 
     fn encode(&self, key: CodeKey, raw: &RawValue) -> Result<(CodeAddress, Value), EngineError> {
         let code = schema_code(&self.schema, &self.target, key)?;
         let field = self.field(key)?;
         let value = value_of(&self.schema, code, raw).map_err(|e| {
-            self.refused(format!(
-                "{} = {}: {e}",
-                code_name(&self.schema, key),
-                shown_value(&self.schema, key, raw)
-            ))
+            self.refused(Refusal::LecomValue {
+                code: code_name(&self.schema, key),
+                value: shown_value(&self.schema, key, raw),
+                detail: e,
+            })
         })?;
         Ok((field, value))
     }
@@ -581,11 +554,8 @@ impl<L: ByteLink> LecomClient<L> {
     /// MULTICAST (8.J) to the group `tens`1..`tens`9 (address `tens`0,
     /// `tens` = 1..=9). **Unacknowledged**, like [`LecomClient::broadcast`].
     pub fn multicast(&mut self, tens: u8, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        let to = ControllerAddress::group(tens).ok_or_else(|| {
-            self.refused(format!(
-                "group {tens} does not exist: groups are 1..9 (addresses 10..90, section 8.J)"
-            ))
-        })?;
+        let to = ControllerAddress::group(tens)
+            .ok_or_else(|| self.refused(Refusal::LecomGroup { tens }))?;
         self.send_broadcast(to, key, raw)
     }
 
@@ -600,8 +570,8 @@ impl<L: ByteLink> LecomClient<L> {
         let (field, value) = self.encode(key, raw)?;
         let t = Broadcast::new(to, field, value)
             .map(Telegram::Broadcast)
-            .map_err(|e| self.refused(e.to_string()))?;
-        let bytes = t.to_bytes().map_err(|e| self.refused(e.to_string()))?;
+            .map_err(|e| self.encode_refused(None, e))?;
+        let bytes = t.to_bytes().map_err(|e| self.encode_refused(None, e))?;
         self.line
             .send(&bytes)
             .map_err(|e| link_error(&self.target, e))
@@ -633,10 +603,7 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             .map(|i| i.codes.clone())
             .filter(|c| !c.is_empty())
             .unwrap_or_else(|| vec![C0093]);
-        let mut out = Identity {
-            protocol: "lecom".into(),
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(Family::Tmd));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
@@ -644,25 +611,27 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             let raw = match self.read_key(key, &what) {
                 Ok(r) => r,
                 // A code this controller lacks does not stop identification.
-                Err(EngineError::Device { .. }) => continue,
+                Err(e) if matches!(*e.kind, ErrorKind::Device { .. }) => continue,
                 Err(e) => return Err(e),
             };
-            let text = match &raw {
+            let value = match &raw {
                 RawValue::Int(v) => {
                     match self.schema.code(n).and_then(|c| self.schema.type_of(c)) {
-                        Some(ValueType::VD) | None => {
-                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v)
-                        }
-                        _ => v.to_string(),
+                        Some(ValueType::VD) | None => IdentValue::Text(
+                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v),
+                        ),
+                        _ => IdentValue::Int(*v),
                     }
                 }
-                RawValue::Text(t) => t.clone(),
-                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+                RawValue::Text(t) => IdentValue::Text(t.clone()),
+                RawValue::Octets(o) => {
+                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
+                }
             };
             if n == C0099 {
-                out.software = Some(text.clone());
+                out.software = Some(value.to_string());
             }
-            out.codes.push((name, text));
+            out.codes.push(IdentCode::new(key, name, value));
         }
         Ok(out)
     }
@@ -680,8 +649,8 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         let (field, value) = self.encode(key, raw)?;
         let t = Send::new(self.address, field, value)
             .map(Telegram::Send)
-            .map_err(|e| self.refused(e.to_string()))?;
-        let bytes = t.to_bytes().map_err(|e| self.refused(e.to_string()))?;
+            .map_err(|e| self.encode_refused(None, e))?;
+        let bytes = t.to_bytes().map_err(|e| self.encode_refused(None, e))?;
         let mut last = String::new();
         let mut sends = 0u32;
         while sends < self.tries() {
@@ -698,18 +667,15 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             match out {
                 Outcome::Answer(Response::Ack) => return Ok(()),
                 Outcome::Answer(Response::Nak) => {
-                    let (comm, raw_text) = self.nak_cause(&what)?;
+                    let (status, extended) = self.nak_cause(&what)?;
+                    let comm = status.last_communication_error();
                     match comm.advice() {
                         Advice::Repeat if sends < self.tries() => {
                             last = format!("NAK: {}", comm.text());
                         }
                         _ => {
-                            let cause = if comm == CommunicationError::NoFault {
-                                "refused (NAK) without a recorded communication error".to_string()
-                            } else {
-                                comm.text().to_string()
-                            };
-                            return Err(device(&self.target, &what, cause, raw_text, remedy(comm)));
+                            let cause = DeviceCause::LecomNak { status, extended };
+                            return Err(device(&self.target, &what, cause));
                         }
                     }
                 }

@@ -111,10 +111,13 @@ use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DatasetOutcome, DriveClient, Identity, Target, code_name, device, link_error,
-    refuse_read_only, schema_code, shown_value, write_what,
+    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
+    Target, code_name, device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
-use crate::error::EngineError;
+use crate::error::{
+    ClientProtocol, DeviceCause, EngineError, LustbusCodeProblem, Refusal, SiofRegister,
+    SiofVerdict,
+};
 use crate::plan;
 
 /// 80-SLOAD, the dataset download handshake (MC, section 11.4).
@@ -444,23 +447,22 @@ impl<L: ByteLink> LustbusClient<L> {
             address,
         };
         let Some(family) = family_of(&schema) else {
-            return Err(EngineError::Refused {
+            return Err(EngineError::refused(
                 target,
-                reason: format!(
-                    "schema `{}` is not a LUSTBUS family ({} drives); pick the client of its protocol",
-                    schema.id, schema.family
-                ),
-            });
+                Refusal::WrongClient {
+                    schema: schema.id.clone(),
+                    family: schema.family.to_string(),
+                    protocol: ClientProtocol::Lustbus,
+                },
+            ));
         };
         let address = match Address::new(address) {
             Some(a) if a != Address::BROADCAST => a,
             _ => {
-                return Err(EngineError::Refused {
+                return Err(EngineError::refused(
                     target,
-                    reason: format!(
-                        "LUSTBUS address {address} is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)"
-                    ),
-                });
+                    Refusal::LustbusAddress { address },
+                ));
             }
         };
         let mut line = LustLine::new(link);
@@ -539,29 +541,33 @@ impl<L: ByteLink> LustbusClient<L> {
 
     /// CODE of a parameter number.
     fn code_for(&self, key: CodeKey, code: Option<&Code>) -> Result<ParameterCode, EngineError> {
-        let refuse = |why: &str| EngineError::Refused {
-            target: self.target.clone(),
-            reason: format!("{} {why}", code_name(&self.schema, key)),
+        let refuse = |problem: LustbusCodeProblem| {
+            EngineError::refused(
+                self.target.clone(),
+                Refusal::LustbusCode {
+                    code: code_name(&self.schema, key),
+                    problem,
+                },
+            )
         };
         if key.subcode.is_some() {
-            return Err(refuse(
-                "has a subcode; LUSTBUS parameters have none (check the schema)",
-            ));
+            return Err(refuse(LustbusCodeProblem::HasSubcode));
         }
         let compatible =
             code.and_then(|c| c.compatible) == Some(true) || COMPATIBLE.contains(&key.number);
         if compatible && key.number < 100 {
-            return ParameterCode::new(key.number).ok_or_else(|| refuse("cannot be addressed"));
+            return ParameterCode::new(key.number)
+                .ok_or_else(|| refuse(LustbusCodeProblem::NotAddressable));
         }
         match self.family {
             Dialect::Vf1000 => u8::try_from(key.number)
                 .ok()
                 .and_then(|p| ParameterCode::vf_value(self.opts.vf_device, p))
-                .ok_or_else(|| refuse("is above 99, the VF1000 range (section 2.4.1)")),
+                .ok_or_else(|| refuse(LustbusCodeProblem::AboveVf1000Range)),
             Dialect::Mc => u16::try_from(key.number)
                 .ok()
                 .and_then(ParameterCode::mc_value)
-                .ok_or_else(|| refuse("is above 999, the MC6000/7000 range (section 2.4.2)")),
+                .ok_or_else(|| refuse(LustbusCodeProblem::AboveMcRange)),
         }
     }
 
@@ -614,11 +620,7 @@ impl<L: ByteLink> LustbusClient<L> {
         } else {
             format!("{what} (last answer: {last})")
         };
-        EngineError::NoAnswer {
-            target: self.target.clone(),
-            what,
-            tries: self.tries(),
-        }
+        EngineError::no_answer(self.target.clone(), what, self.tries())
     }
 
     /// One SELECT with retries on no answer: `Ok(true)` ACK, `Ok(false)`
@@ -661,27 +663,40 @@ impl<L: ByteLink> LustbusClient<L> {
         }
     }
 
+    /// [`DeviceCause::Siof`] of this family's register.
+    fn siof_cause(&self, what: &str, bits: Siof, verdict: SiofVerdict) -> EngineError {
+        let register = match self.family {
+            Dialect::Vf1000 => SiofRegister::Siof,
+            Dialect::Mc => SiofRegister::Serr,
+        };
+        device(
+            &self.target,
+            what,
+            DeviceCause::Siof {
+                register,
+                bits,
+                verdict,
+            },
+        )
+    }
+
     /// Reads (and so clears) SIOF/SERR. A power-on bit after the first
     /// read of the session is [`EngineError::Restarted`].
     fn read_siof(&mut self, during: &str) -> Result<Siof, EngineError> {
         let what = format!("read 85-{} after {during}", self.siof_name());
         let code = ParameterCode::new(SIOF).unwrap_or(ParameterCode::POSMOD);
-        let text = self.enquire(code, 4, &what)?.ok_or_else(|| {
-            device(
-                &self.target,
-                &what,
-                "SIOF/SERR cannot be read",
-                "NAK to ENQUIRY 00085",
-                "the drive does not answer its error word: check it is a LUSTBUS drive",
-            )
-        })?;
+        let text = self
+            .enquire(code, 4, &what)?
+            .ok_or_else(|| device(&self.target, &what, DeviceCause::SiofUnreadable))?;
         let v = ParameterValue::decode(ParameterType::Usign16, self.family, text.as_bytes())
             .ok()
             .and_then(|v| u8::try_from(v.raw()).ok())
-            .ok_or_else(|| EngineError::Protocol {
-                target: self.target.clone(),
-                what: what.clone(),
-                detail: format!("SIOF/SERR value `{text}` is not an 8-bit hex word"),
+            .ok_or_else(|| {
+                EngineError::protocol(
+                    self.target.clone(),
+                    what.clone(),
+                    format!("SIOF/SERR value `{text}` is not an 8-bit hex word"),
+                )
             })?;
         let siof = Siof(v);
         let first = !self.siof_checked;
@@ -689,10 +704,10 @@ impl<L: ByteLink> LustbusClient<L> {
         if !first && siof.contains(Siof::POWER_ON) {
             self.eeprom_busy_until = None;
             self.dataset_open = false;
-            return Err(EngineError::Restarted {
-                target: self.target.clone(),
-                what: during.to_string(),
-            });
+            return Err(EngineError::restarted(
+                self.target.clone(),
+                during.to_string(),
+            ));
         }
         Ok(siof)
     }
@@ -731,7 +746,7 @@ impl<L: ByteLink> LustbusClient<L> {
         key: CodeKey,
         raw: &RawValue,
         what: &str,
-        nak_40_cause: Option<(&str, &str)>,
+        nak_40_cause: Option<SiofVerdict>,
     ) -> Result<(), EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
@@ -743,36 +758,35 @@ impl<L: ByteLink> LustbusClient<L> {
             wire_type(&schema, code, self.family)
         };
         let Some(ty) = ty else {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "{}: schema `{}` gives no {} type or width, so the value cannot be encoded; add `type` to the schema",
-                    code_name(&schema, key),
-                    schema.id,
-                    self.family
-                ),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::NoWireType {
+                    code: code_name(&schema, key),
+                    schema: schema.id.clone(),
+                    family: self.family.to_string(),
+                },
+            ));
         };
         let RawValue::Int(n) = raw else {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "{}: LUSTBUS parameters hold integers, not {}",
-                    code_name(&schema, key),
-                    shown_value(&schema, key, raw)
-                ),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::NotInteger {
+                    code: code_name(&schema, key),
+                    value: shown_value(&schema, key, raw),
+                },
+            ));
         };
         let value = value_of(ty, *n)
             .and_then(|v| v.encode(self.family).ok())
-            .ok_or_else(|| EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "{}: {} does not fit {}",
-                    code_name(&schema, key),
-                    shown_value(&schema, key, raw),
-                    ty.name()
-                ),
+            .ok_or_else(|| {
+                EngineError::refused(
+                    self.target.clone(),
+                    Refusal::DoesNotFit {
+                        code: code_name(&schema, key),
+                        value: shown_value(&schema, key, raw),
+                        ty: ty.name().to_string(),
+                    },
+                )
             })?;
         let bytes = Select::new(self.address, pcode, value).encode();
         // Section 10 exception 4 (VF1000: 60 ms one-byte, 120 ms two-byte
@@ -798,20 +812,16 @@ impl<L: ByteLink> LustbusClient<L> {
                 return Ok(());
             }
             let siof = self.read_siof(what)?;
-            let raw_word = format!("{} {siof}", self.siof_name());
             match siof.action() {
                 SiofAction::RepeatAfter { wait_ms } => {
                     busy_repeats += 1;
                     if busy_repeats > self.opts.busy_repeats {
-                        return Err(device(
-                            &self.target,
+                        return Err(self.siof_cause(
                             what,
-                            "EEPROM busy",
-                            raw_word,
-                            format!(
-                                "the EEPROM stayed busy over {} repetitions; wait and retry the write",
-                                self.opts.busy_repeats
-                            ),
+                            siof,
+                            SiofVerdict::EepromBusy {
+                                repeats: self.opts.busy_repeats,
+                            },
                         ));
                     }
                     let now = self.now();
@@ -834,50 +844,29 @@ impl<L: ByteLink> LustbusClient<L> {
                 SiofAction::Repeat | SiofAction::None => {
                     checksum_repeats += 1;
                     if checksum_repeats >= self.tries() {
-                        let (cause, remedy) = if siof.is_empty() {
-                            (
-                                "refused (NAK) without a recorded cause",
-                                "check the value and the drive's operating state, then retry",
-                            )
+                        let verdict = if siof.is_empty() {
+                            SiofVerdict::Unrecorded
                         } else {
-                            (
-                                "checksum error",
-                                "check the line (termination, noise), then retry",
-                            )
+                            SiofVerdict::Checksum
                         };
-                        return Err(device(&self.target, what, cause, raw_word, remedy));
+                        return Err(self.siof_cause(what, siof, verdict));
                     }
                     self.line.stats.retries += 1;
                 }
                 SiofAction::RestartTransaction => {
                     // read_siof reports a power-on bit itself; kept for
                     // completeness.
-                    return Err(EngineError::Restarted {
-                        target: self.target.clone(),
-                        what: what.to_string(),
-                    });
+                    return Err(EngineError::restarted(
+                        self.target.clone(),
+                        what.to_string(),
+                    ));
                 }
                 SiofAction::Fail => {
-                    let causes: Vec<_> = siof.causes().collect();
-                    let cause = causes
-                        .iter()
-                        .map(|c| format!("{} ({})", c.descriptor.to_lowercase(), c.cause))
-                        .collect::<Vec<_>>()
-                        .join(", ");
-                    let remedy = match nak_40_cause {
-                        Some((_, r)) if siof.contains(Siof::NO_CHANGE) => r.to_string(),
-                        _ => causes
-                            .iter()
-                            .filter(|c| c.flag != Siof::POWER_ON)
-                            .map(|c| c.remedy)
-                            .collect::<Vec<_>>()
-                            .join("; "),
+                    let verdict = match nak_40_cause {
+                        Some(v) if siof.contains(Siof::NO_CHANGE) => v,
+                        _ => SiofVerdict::Failed,
                     };
-                    let cause = match nak_40_cause {
-                        Some((c, _)) if siof.contains(Siof::NO_CHANGE) => c.to_string(),
-                        _ => cause,
-                    };
-                    return Err(device(&self.target, what, cause, raw_word, remedy));
+                    return Err(self.siof_cause(what, siof, verdict));
                 }
             }
         }
@@ -897,9 +886,9 @@ impl<L: ByteLink> LustbusClient<L> {
             device(
                 &self.target,
                 what,
-                "no such parameter, or read-protected in the current operating state",
-                format!("NAK to ENQUIRY {pcode}"),
-                "check the drive is the family the schema names and the parameter is readable at this user level",
+                DeviceCause::NoSuchParameter {
+                    parameter: pcode.to_string(),
+                },
             )
         })?;
         let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
@@ -913,14 +902,16 @@ impl<L: ByteLink> LustbusClient<L> {
                 .map_err(|e| e.to_string()),
             None => parse_hex(text.as_bytes()).ok_or_else(|| "not a hex number".to_string()),
         }
-        .map_err(|e| EngineError::Protocol {
-            target: self.target.clone(),
-            what: what.to_string(),
-            detail: if schema.is_password(code) {
-                format!("the VALUE (password, not shown) does not decode: {e}")
-            } else {
-                format!("VALUE `{text}` does not decode: {e}")
-            },
+        .map_err(|e| {
+            EngineError::protocol(
+                self.target.clone(),
+                what.to_string(),
+                if schema.is_password(code) {
+                    format!("the VALUE (password, not shown) does not decode: {e}")
+                } else {
+                    format!("VALUE `{text}` does not decode: {e}")
+                },
+            )
         })?;
         Ok(RawValue::Int(raw))
     }
@@ -951,19 +942,17 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             .map(|i| i.codes.clone())
             .filter(|c| !c.is_empty())
             .unwrap_or_else(|| vec![TYPE]);
-        let mut out = Identity {
-            protocol: match self.family {
-                Dialect::Vf1000 => "lustbus-vf1000".into(),
-                Dialect::Mc => "lustbus-mc".into(),
-            },
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(match self.family {
+            Dialect::Vf1000 => Family::Vf1000,
+            Dialect::Mc => Family::Mc6000,
+        }));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
             let raw = self.read_key(key, &format!("identify: read {name}"))?;
             if let RawValue::Int(v) = raw {
-                out.codes.push((name, v.to_string()));
+                out.codes
+                    .push(IdentCode::new(key, name, IdentValue::Int(v)));
             }
         }
         Ok(out)
@@ -979,13 +968,12 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         let code = schema_code(&schema, &self.target, key)?;
         refuse_read_only(&schema, &self.target, key, code)?;
         if self.dataset_open && code.card_writeable != Some(true) {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "{} is not CardWriteable: during a dataset download the drive ACKs it but does not take the value (section 11.4); write it after dataset_commit",
-                    code_name(&schema, key)
-                ),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::NotCardWriteable {
+                    code: code_name(&schema, key),
+                },
+            ));
         }
         let what = write_what(&schema, key, raw);
         self.select(key, raw, &what, None)
@@ -1039,10 +1027,10 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
 
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)".into(),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::Vf1000NoDataset,
+            ));
         }
         // A download left open by a failed transfer (no answer, cable) is
         // started over: SLOAD = -1 again discards what the drive staged
@@ -1054,10 +1042,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             key,
             &RawValue::Int(-1),
             "dataset download: write 80-SLOAD = -1",
-            Some((
-                "the drive is not at standstill: SLOAD = -1 (register a download) is only taken at standstill",
-                "stop the drive (section 11.4), then start the download again",
-            )),
+            Some(SiofVerdict::NotAtStandstill),
         )?;
         self.dataset_open = true;
         Ok(())
@@ -1065,10 +1050,10 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
 
     fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
         if !self.dataset_open {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: "no dataset download is open; call dataset_begin first".into(),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::NoDatasetOpen,
+            ));
         }
         let key = CodeKey::new(SLOAD);
         let what = "dataset download: write 80-SLOAD = -2";
@@ -1100,12 +1085,10 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
                         return Err(device(
                             &self.target,
                             "dataset download: poll 80-SLOAD",
-                            format!(
-                                "the drive was still checking the dataset after {} ms",
-                                timeout.as_millis()
-                            ),
-                            format!("SLOAD = {v}"),
-                            "repeat the download or restart the drive (section 11.4)",
+                            DeviceCause::DatasetStillChecking {
+                                timeout_ms: u64::try_from(timeout.as_millis()).unwrap_or(u64::MAX),
+                                sload: v,
+                            },
                         ));
                     }
                     // The next poll at most every 50 ms or one measured
@@ -1123,13 +1106,13 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
                     }
                 }
                 other => {
-                    return Err(EngineError::Protocol {
-                        target: self.target.clone(),
-                        what: "dataset download: poll 80-SLOAD".into(),
-                        detail: format!(
+                    return Err(EngineError::protocol(
+                        self.target.clone(),
+                        "dataset download: poll 80-SLOAD",
+                        format!(
                             "SLOAD = {other}: section 11.4 knows only -1, 0 and parameter numbers"
                         ),
-                    });
+                    ));
                 }
             }
         }
@@ -1159,19 +1142,17 @@ impl<L: ByteLink> LustbusClient<L> {
     /// read and so cleared, as after any refused SELECT).
     pub fn select_stext(&mut self, index: u8) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: "108-STEXT substitution texts are MC6000/7000 only (section 11.3)".into(),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::StextMcOnly,
+            ));
         }
         let code = ParameterCode::mc_value(driveset_proto::lustbus::description::STEXT)
             .unwrap_or(ParameterCode::POSMOD);
         let value = ParameterValue::Usign8(index)
             .encode(Dialect::Mc)
-            .map_err(|e| EngineError::Protocol {
-                target: self.target.clone(),
-                what: "write 108-STEXT".into(),
-                detail: e.to_string(),
+            .map_err(|e| {
+                EngineError::protocol(self.target.clone(), "write 108-STEXT", e.to_string())
             })?;
         let what = format!("write 108-STEXT = {index}");
         self.ensure_session(&what)?;
@@ -1180,24 +1161,17 @@ impl<L: ByteLink> LustbusClient<L> {
             return Ok(());
         }
         let siof = self.read_siof(&what)?;
-        Err(device(
-            &self.target,
-            &what,
-            "refused (NAK)",
-            format!("{} {siof}", self.siof_name()),
-            "the drive has no substitution texts (not an MC6000/7000?)",
-        ))
+        Err(self.siof_cause(&what, siof, SiofVerdict::NoSubstitutionTexts))
     }
 
     fn sload_present(&self) -> Result<(), EngineError> {
         if self.schema.code(SLOAD).is_none() {
-            return Err(EngineError::Refused {
-                target: self.target.clone(),
-                reason: format!(
-                    "schema `{}` has no 80-SLOAD; the dataset download needs it",
-                    self.schema.id
-                ),
-            });
+            return Err(EngineError::refused(
+                self.target.clone(),
+                Refusal::NoSload {
+                    schema: self.schema.id.clone(),
+                },
+            ));
         }
         Ok(())
     }

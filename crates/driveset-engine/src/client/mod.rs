@@ -6,18 +6,14 @@
 //! transaction runner needs for pacing (EEPROM store time) and the MC6000
 //! dataset handshake (SLOAD).
 
-// EngineError is the lead's contract type (large by design: it carries
-// the target and the decoded cause); boxing it is not ours to decide.
-#![allow(clippy::result_large_err)]
-
 use std::fmt;
 use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_link::{Clock, Instant};
-use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
-use crate::error::{DeviceCause, EngineError};
+use crate::error::{DeviceCause, EngineError, Refusal};
 
 pub mod lecom;
 pub mod lustbus;
@@ -44,16 +40,148 @@ impl fmt::Display for Target {
     }
 }
 
-/// What a drive says it is.
-#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+/// What a drive says it is ([`DriveClient::identify`], or a scan's probe).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Identity {
-    /// Schema protocol family (`lustbus-mc`, `lustbus-vf1000`, `lecom`, `lenze-can-sdo`).
-    pub protocol: String,
-    /// Identification codes read and their values as text (`91 TYPE = 1234`,
-    /// `C0200 = "33STMD-M_12000"` ...), in the order read.
-    pub codes: Vec<(String, String)>,
+    /// Who answered: the family (a client knows it from its schema), or
+    /// only the bus (a scan's probe).
+    pub protocol: IdentProtocol,
+    /// Identification codes read and their values (`91-TYPE = 1234`,
+    /// `C0200 = 33STMD-M_12000` ...), in the order read.
+    pub codes: Vec<IdentCode>,
     /// Software version where the family has one (Tmd C0099).
     pub software: Option<String>,
+}
+
+/// Who answered an identification ([`Identity::protocol`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum IdentProtocol {
+    /// Not identified (an empty identity).
+    #[default]
+    Unknown,
+    /// A drive of this family.
+    Family(Family),
+    /// A drive on this bus, family not told apart (a LUSTBUS scan reads
+    /// only 91-TYPE).
+    Bus(BusProtocol),
+}
+
+impl IdentProtocol {
+    /// The name journals and reports write: the family's schema protocol
+    /// (`lustbus-mc`, `lustbus-vf1000`, `lecom`, `lenze-can-sdo`), the
+    /// bus's name (`lustbus`), or `""`.
+    pub fn name(self) -> &'static str {
+        match self {
+            IdentProtocol::Unknown => "",
+            IdentProtocol::Family(f) => f.descriptor().schema_protocol,
+            IdentProtocol::Bus(b) => b.name(),
+        }
+    }
+
+    /// The family, where known.
+    pub fn family(self) -> Option<Family> {
+        match self {
+            IdentProtocol::Family(f) => Some(f),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for IdentProtocol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One identification code read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IdentCode {
+    /// The code.
+    pub key: CodeKey,
+    /// It as the schema spells it (`91-TYPE`, `C0093`).
+    pub name: String,
+    /// What the drive holds.
+    pub value: IdentValue,
+}
+
+impl IdentCode {
+    /// `key` named `name` holding `value`.
+    pub fn new(key: CodeKey, name: impl Into<String>, value: IdentValue) -> Self {
+        IdentCode {
+            key,
+            name: name.into(),
+            value,
+        }
+    }
+}
+
+/// An identification value: an integer (LUSTBUS TYPE, CAN codes) or the
+/// drive's text (a LECOM VD value in engineering notation, a type string,
+/// octets in hex, `NAK` for a probe the drive refused).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum IdentValue {
+    /// An integer.
+    Int(i64),
+    /// Text.
+    Text(String),
+}
+
+impl IdentValue {
+    /// The integer, where it is one (or text that reads as one).
+    pub fn as_int(&self) -> Option<i64> {
+        match self {
+            IdentValue::Int(v) => Some(*v),
+            IdentValue::Text(t) => t.trim().parse().ok(),
+        }
+    }
+}
+
+impl fmt::Display for IdentValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            IdentValue::Int(v) => write!(f, "{v}"),
+            IdentValue::Text(t) => f.write_str(t),
+        }
+    }
+}
+
+impl Identity {
+    /// An identity of `protocol` with nothing read yet.
+    pub fn of(protocol: IdentProtocol) -> Self {
+        Identity {
+            protocol,
+            ..Identity::default()
+        }
+    }
+
+    /// The value of code `number`, where it was read.
+    pub fn value_of(&self, number: u32) -> Option<&IdentValue> {
+        self.codes
+            .iter()
+            .find(|c| c.key.number == number && c.key.subcode.is_none())
+            .map(|c| &c.value)
+    }
+
+    /// The codes and their values as text, in the order read (journals,
+    /// line reports).
+    pub fn pairs(&self) -> Vec<(String, String)> {
+        self.codes
+            .iter()
+            .map(|c| (c.name.clone(), c.value.to_string()))
+            .collect()
+    }
+}
+
+impl serde::Serialize for Identity {
+    /// `{"protocol": "lustbus-mc", "codes": [["91-TYPE", "1234"]], "software": null}`.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("Identity", 3)?;
+        st.serialize_field("protocol", self.protocol.name())?;
+        st.serialize_field("codes", &self.pairs())?;
+        st.serialize_field("software", &self.software)?;
+        st.end()
+    }
 }
 
 /// What one client has done so far (for reports and benchmarks).
@@ -155,20 +283,20 @@ pub trait DriveClient: Send {
     /// SLOAD = -1: register a dataset download (standstill only). Writes of
     /// CardWriteable codes until [`DriveClient::dataset_commit`] are staged.
     fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        Err(EngineError::Refused {
-            target: self.target().clone(),
-            reason: "this drive family has no dataset download handshake".into(),
-        })
+        Err(EngineError::refused(
+            self.target().clone(),
+            Refusal::NoDatasetHandshake,
+        ))
     }
 
     /// SLOAD = -2, then poll SLOAD until it leaves -1 or `timeout` (10 s
     /// per LUSTBUS 11.4) passes.
     fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
         let _ = timeout;
-        Err(EngineError::Refused {
-            target: self.target().clone(),
-            reason: "this drive family has no dataset download handshake".into(),
-        })
+        Err(EngineError::refused(
+            self.target().clone(),
+            Refusal::NoDatasetHandshake,
+        ))
     }
 }
 
@@ -183,13 +311,14 @@ pub(crate) fn schema_code<'s>(
     target: &Target,
     key: CodeKey,
 ) -> Result<&'s driveset_schema::Code, EngineError> {
-    schema.code(key.number).ok_or_else(|| EngineError::Refused {
-        target: target.clone(),
-        reason: format!(
-            "schema `{}` has no code {}; check the set names the right drive family",
-            schema.id,
-            key.canonical(schema.code_style)
-        ),
+    schema.code(key.number).ok_or_else(|| {
+        EngineError::refused(
+            target.clone(),
+            Refusal::UnknownCode {
+                schema: schema.id.clone(),
+                code: key.canonical(schema.code_style),
+            },
+        )
     })
 }
 
@@ -230,41 +359,23 @@ pub(crate) fn refuse_read_only(
     code: &driveset_schema::Code,
 ) -> Result<(), EngineError> {
     if code.access == Some(driveset_schema::schema::Access::Ro) {
-        return Err(EngineError::Refused {
-            target: target.clone(),
-            reason: format!(
-                "{} is read-only in schema `{}`; remove it from the set",
-                code_name(schema, key),
-                schema.id
-            ),
-        });
+        return Err(EngineError::refused(
+            target.clone(),
+            Refusal::ReadOnly {
+                code: code_name(schema, key),
+                schema: schema.id.clone(),
+            },
+        ));
     }
     Ok(())
 }
 
-pub(crate) fn device(
-    target: &Target,
-    what: impl Into<String>,
-    cause: impl Into<String>,
-    raw: impl Into<String>,
-    remedy: impl Into<String>,
-) -> EngineError {
-    EngineError::Device {
-        target: target.clone(),
-        what: what.into(),
-        cause: DeviceCause {
-            cause: cause.into(),
-            raw: raw.into(),
-            remedy: remedy.into(),
-        },
-    }
+pub(crate) fn device(target: &Target, what: impl Into<String>, cause: DeviceCause) -> EngineError {
+    EngineError::device(target.clone(), what, cause)
 }
 
 pub(crate) fn link_error(target: &Target, source: driveset_link::LinkError) -> EngineError {
-    EngineError::Link {
-        target: target.clone(),
-        source,
-    }
+    EngineError::link(target.clone(), source)
 }
 
 /// A [`driveset_link::ByteLink`] borrowed for a while (scan, baud
@@ -331,5 +442,43 @@ impl driveset_link::FrameLink for BorrowedFrameLink<'_> {
     }
     fn discard_input(&mut self) -> Result<(), driveset_link::LinkError> {
         self.0.discard_input()
+    }
+}
+
+#[cfg(test)]
+mod identity_tests {
+    use super::*;
+
+    #[test]
+    fn an_identity_names_its_protocol_and_keeps_typed_values() {
+        let mut id = Identity::of(IdentProtocol::Family(Family::Mc6000));
+        id.codes.push(IdentCode::new(
+            CodeKey::new(91),
+            "91-TYPE",
+            IdentValue::Int(1234),
+        ));
+        id.codes.push(IdentCode::new(
+            CodeKey::new(200),
+            "C0200",
+            IdentValue::Text("33STMD-M_12000".into()),
+        ));
+        assert_eq!(id.protocol.name(), "lustbus-mc");
+        assert_eq!(id.protocol.family(), Some(Family::Mc6000));
+        assert_eq!(id.value_of(91).and_then(IdentValue::as_int), Some(1234));
+        assert_eq!(id.value_of(200).and_then(IdentValue::as_int), None);
+        assert_eq!(id.value_of(92), None);
+        assert_eq!(
+            serde_json::to_string(&id).expect("json"),
+            r#"{"protocol":"lustbus-mc","codes":[["91-TYPE","1234"],["C0200","33STMD-M_12000"]],"software":null}"#
+        );
+        for (p, name) in [
+            (IdentProtocol::Family(Family::Vf1000), "lustbus-vf1000"),
+            (IdentProtocol::Family(Family::Tmd), "lecom"),
+            (IdentProtocol::Family(Family::Ecs), "lenze-can-sdo"),
+            (IdentProtocol::Bus(BusProtocol::Lustbus), "lustbus"),
+            (IdentProtocol::Unknown, ""),
+        ] {
+            assert_eq!(p.name(), name);
+        }
     }
 }

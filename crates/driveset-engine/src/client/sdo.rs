@@ -39,10 +39,10 @@ use driveset_proto::can::{
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
 use super::{
-    ClientStats, DriveClient, Identity, Target, code_name, device, link_error, refuse_read_only,
-    schema_code, shown_value, write_what,
+    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
+    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
-use crate::error::EngineError;
+use crate::error::{ClientProtocol, DeviceCause, EngineError, Refusal};
 
 /// Options of a [`CanClient`].
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -280,18 +280,17 @@ impl<L: FrameLink> CanClient<L> {
             address: node,
         };
         if schema.family != Family::Ecs {
-            return Err(EngineError::Refused {
+            return Err(EngineError::refused(
                 target,
-                reason: format!(
-                    "schema `{}` is not a CAN SDO family ({} drives); pick the client of its protocol",
-                    schema.id, schema.family
-                ),
-            });
+                Refusal::WrongClient {
+                    schema: schema.id.clone(),
+                    family: schema.family.to_string(),
+                    protocol: ClientProtocol::CanSdo,
+                },
+            ));
         }
-        let node = NodeId::new(node).map_err(|e| EngineError::Refused {
-            target: target.clone(),
-            reason: format!("{e}: 0 addresses no SDO server (DS301)"),
-        })?;
+        let node = NodeId::new(node)
+            .map_err(|e| EngineError::refused(target.clone(), Refusal::SdoNode { node: e.0 }))?;
         Ok(CanClient {
             line: SdoLine::new(link),
             schema,
@@ -320,20 +319,16 @@ impl<L: FrameLink> CanClient<L> {
         self.opts.tries.max(1)
     }
 
-    fn refused(&self, reason: String) -> EngineError {
-        EngineError::Refused {
-            target: self.target.clone(),
-            reason,
-        }
+    fn refused(&self, refusal: Refusal) -> EngineError {
+        EngineError::refused(self.target.clone(), refusal)
     }
 
     fn mux(&self, key: CodeKey) -> Result<(Index, Subindex), EngineError> {
         mux_of(&self.schema, key).ok_or_else(|| {
-            self.refused(format!(
-                "{} has no SDO index (code above the index base {} or subcode above 255)",
-                code_name(&self.schema, key),
-                self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE))
-            ))
+            self.refused(Refusal::NoSdoIndex {
+                code: code_name(&self.schema, key),
+                base: self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE)),
+            })
         })
     }
 
@@ -351,8 +346,12 @@ impl<L: FrameLink> CanClient<L> {
             if !self.line.sdo.is_idle() {
                 self.line.sdo = SdoClient::new();
             }
-            let first =
-                start(&mut self.line.sdo).map_err(|e| self.refused(format!("{what}: {e}")))?;
+            let first = start(&mut self.line.sdo).map_err(|detail| {
+                self.refused(Refusal::Encode {
+                    what: Some(what.to_string()),
+                    detail,
+                })
+            })?;
             let out = self
                 .line
                 .transfer(self.node, first, self.opts.answer_timeout)
@@ -363,14 +362,11 @@ impl<L: FrameLink> CanClient<L> {
                     return Err(device(
                         &self.target,
                         what,
-                        a.code.text().unwrap_or("unknown abort code"),
-                        format!(
-                            "SDO abort 0x{:08X} at index {} subindex {}",
-                            a.code.0, a.index, a.subindex
-                        ),
-                        a.code
-                            .hint()
-                            .unwrap_or("not a DS301 abort code; see the drive's manual"),
+                        DeviceCause::SdoAbort {
+                            code: a.code,
+                            index: a.index,
+                            subindex: a.subindex,
+                        },
                     ));
                 }
                 Outcome::Failed(e) => last = e,
@@ -382,38 +378,42 @@ impl<L: FrameLink> CanClient<L> {
         } else {
             format!("{what} (last transfer failed: {last})")
         };
-        Err(EngineError::NoAnswer {
-            target: self.target.clone(),
+        Err(EngineError::no_answer(
+            self.target.clone(),
             what,
-            tries: self.tries(),
-        })
+            self.tries(),
+        ))
     }
 
     fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
         let wire = wire_of(&schema, code).ok_or_else(|| {
-            self.refused(format!(
-                "{}: type {} does not travel over CAN SDO",
-                code_name(&schema, key),
-                schema.type_of(code).map_or("?", ValueType::name)
-            ))
+            self.refused(Refusal::NotSdoType {
+                code: code_name(&schema, key),
+                ty: schema
+                    .type_of(code)
+                    .map_or("?", ValueType::name)
+                    .to_string(),
+            })
         })?;
         let (index, subindex) = self.mux(key)?;
         let done = self.run(what, |c| {
             c.start_read(index, subindex).map_err(|e| e.to_string())
         })?;
         let Completed::Read { data, .. } = done else {
-            return Err(EngineError::Protocol {
-                target: self.target.clone(),
-                what: what.to_string(),
-                detail: "a write acknowledgement to a read".into(),
-            });
+            return Err(EngineError::protocol(
+                self.target.clone(),
+                what.to_string(),
+                "a write acknowledgement to a read",
+            ));
         };
-        bytes_to_raw(wire, &data).ok_or_else(|| EngineError::Protocol {
-            target: self.target.clone(),
-            what: what.to_string(),
-            detail: format!("{} data bytes for a 4-byte value", data.len()),
+        bytes_to_raw(wire, &data).ok_or_else(|| {
+            EngineError::protocol(
+                self.target.clone(),
+                what.to_string(),
+                format!("{} data bytes for a 4-byte value", data.len()),
+            )
         })
     }
 }
@@ -454,20 +454,19 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
             .as_ref()
             .map(|i| i.codes.clone())
             .unwrap_or_default();
-        let mut out = Identity {
-            protocol: "lenze-can-sdo".into(),
-            ..Identity::default()
-        };
+        let mut out = Identity::of(IdentProtocol::Family(Family::Ecs));
         for n in codes {
             let key = CodeKey::new(n);
             let name = code_name(&self.schema, key);
             let raw = self.read_key(key, &format!("identify: read {name}"))?;
-            let text = match raw {
-                RawValue::Int(v) => v.to_string(),
-                RawValue::Text(t) => t,
-                RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
+            let value = match raw {
+                RawValue::Int(v) => IdentValue::Int(v),
+                RawValue::Text(t) => IdentValue::Text(t),
+                RawValue::Octets(o) => {
+                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
+                }
             };
-            out.codes.push((name, text));
+            out.codes.push(IdentCode::new(key, name, value));
         }
         Ok(out)
     }
@@ -485,11 +484,10 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         let data = wire_of(&schema, code)
             .and_then(|w| raw_to_bytes(w, raw))
             .ok_or_else(|| {
-                self.refused(format!(
-                    "{} = {} does not fit its CAN format",
-                    code_name(&schema, key),
-                    shown_value(&schema, key, raw)
-                ))
+                self.refused(Refusal::NotCanFormat {
+                    code: code_name(&schema, key),
+                    value: shown_value(&schema, key, raw),
+                })
             })?;
         let (index, subindex) = self.mux(key)?;
         self.run(&what, |c| {

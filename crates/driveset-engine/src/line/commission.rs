@@ -75,10 +75,6 @@
 //! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
 //! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -96,7 +92,7 @@ use super::report::{
 };
 use crate::client::{BorrowedByteLink, DriveClient, Identity, LecomClient, LustbusClient};
 use crate::env::{Environment, rfc3339};
-use crate::error::EngineError;
+use crate::error::{EngineError, ErrorKind};
 use crate::identify::check_family;
 use crate::learn::{LearnOptions, LearnSource, learn, learned_id, render_schema};
 use crate::live::live_values;
@@ -729,10 +725,10 @@ enum Failure {
 }
 
 fn failure_of(e: &EngineError) -> Option<Failure> {
-    match e {
-        EngineError::Link { .. } => Some(Failure::Link),
-        EngineError::NoAnswer { .. } => Some(Failure::NoAnswer),
-        EngineError::RolledBack { cause, .. } => failure_of(cause),
+    match &*e.kind {
+        ErrorKind::Link(_) => Some(Failure::Link),
+        ErrorKind::NoAnswer { .. } => Some(Failure::NoAnswer),
+        ErrorKind::RolledBack { cause, .. } => failure_of(cause),
         _ => None,
     }
 }
@@ -833,27 +829,24 @@ fn run_drive(
                 .iter()
                 .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
                 .collect();
-            return Err(EngineError::Journal {
-                path: unfinished[0].path.display().to_string(),
-                detail: format!(
+            return Err(EngineError::journal(
+                unfinished[0].path.display().to_string(),
+                format!(
                     "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
                     client.target(),
                     list.join(", "),
                     unfinished[0].path.display()
                 ),
-            });
+            ));
         }
         if !unfinished.is_empty() {
             hook.enter(client.clock(), Phase::Recover, None);
         }
         for u in &unfinished {
             let rep = recover(&mut *client, &u.path, &RecoverOptions::default()).map_err(|e| {
-                EngineError::Journal {
-                    path: u.path.display().to_string(),
-                    detail: format!(
+                EngineError::journal(u.path.display().to_string(), format!(
                         "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
-                    ),
-                }
+                    ))
             })?;
             let did = match rep.action {
                 RecoverAction::Completed => "completed (the drive held the new values)",
@@ -870,7 +863,7 @@ fn run_drive(
             Mode::Status => {
                 hook.enter(client.clock(), Phase::Identify, None);
                 let id = check_family(&mut *client)?;
-                r.identity = id.codes.clone();
+                r.identity = id.pairs();
                 hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
                 let live = live_values(&mut *client, &d.set)?;
                 let fp = live.fingerprint();
@@ -895,7 +888,7 @@ fn run_drive(
                     // confirm with one read of the set's codes
                     hook.enter(client.clock(), Phase::Identify, None);
                     let id = check_family(&mut *client)?;
-                    r.identity = id.codes.clone();
+                    r.identity = id.pairs();
                     hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
                     let live = live_values(&mut *client, &d.set)?;
                     let fp = live.fingerprint();
@@ -935,7 +928,7 @@ fn run_drive(
                             r.codes_written = rep.codes_written as u32;
                         }
                         let e = *f.error;
-                        if matches!(e, EngineError::RolledBack { .. }) {
+                        if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
                             r.result = DriveResult::RolledBack;
                         }
                         Err(e)
@@ -1111,7 +1104,7 @@ fn fill_from_upload(
     identity: &Identity,
     codes: &[crate::upload::CodeReport],
 ) {
-    r.identity = identity.codes.clone();
+    r.identity = identity.pairs();
     r.diff = codes
         .iter()
         .filter(|c| c.outcome != crate::upload::CodeOutcome::Unchanged)

@@ -46,9 +46,6 @@
 //! naming the remedy (commission learns the schema; or name a learned
 //! schema in the set).
 
-// InputError carries a full Location; it is built on the error path only.
-#![allow(clippy::result_large_err)]
-
 use std::collections::BTreeMap;
 use std::fmt;
 use std::ops::Range;
@@ -774,7 +771,7 @@ impl<'a> Reader<'a> {
                                 format!("set file `{s}` cannot be read: {}", e.message),
                                 &e.help,
                             );
-                            f.related.push(("in the set".into(), e.location.clone()));
+                            f.related.push(("in the set".into(), (*e.location).clone()));
                             self.findings.push(f);
                         }
                         Ok(l) => {

@@ -6,7 +6,6 @@
 //!
 //! CI runs [`CI_RUNS`] per family ([`CI_RUNS_MC`] for the MC6000); the full thousand per family is
 //! `#[ignore]`d (TESTING.md, "Fault campaigns").
-#![allow(clippy::result_large_err)]
 
 use crate::support::campaign_journal::{
     Outcome, Scenario, commission_kills, journal_campaign, render,

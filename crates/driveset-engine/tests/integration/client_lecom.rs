@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LecomClient, LecomOptions};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_link::{Clock, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Schema};
 use driveset_sim::bus::SimByteBus;
@@ -97,18 +97,18 @@ fn nak_cause_is_read_from_c0068_and_c1962() {
     let err = c
         .write(CodeKey::new(11), &RawValue::Int(9_000_000))
         .unwrap_err();
-    let EngineError::Device { cause, what, .. } = &err else {
+    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("C0011"), "{what}");
-    assert_eq!(cause.cause, "invalid variable");
-    assert!(cause.raw.contains("bits 4..7 = 5"), "{}", cause.raw);
+    assert_eq!(cause.cause(), "invalid variable");
+    assert!(cause.raw().contains("bits 4..7 = 5"), "{}", cause.raw());
     assert!(
-        cause.raw.contains("C1962 = invalid variable (14)"),
+        cause.raw().contains("C1962 = invalid variable (14)"),
         "{}",
-        cause.raw
+        cause.raw()
     );
-    assert!(cause.remedy.contains("range"), "{}", cause.remedy);
+    assert!(cause.remedy().contains("range"), "{}", cause.remedy());
     // C0068 (RECEIVE "68") and C1962 (extended field? no: standard C1 C2) read.
     let host = wire(&log, Dir::Host);
     assert_eq!(host.len(), 3);
@@ -123,14 +123,14 @@ fn no_access_permission_names_the_remedy() {
     let err = c
         .write(CodeKey::new(11), &RawValue::Int(500_000))
         .unwrap_err();
-    let EngineError::Device { cause, .. } = &err else {
+    let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("{err}")
     };
-    assert_eq!(cause.cause, "no access permission");
+    assert_eq!(cause.cause(), "no access permission");
     assert!(
-        cause.raw.contains("C1962 = no access permission (8)"),
+        cause.raw().contains("C1962 = no access permission (8)"),
         "{}",
-        cause.raw
+        cause.raw()
     );
 }
 
@@ -160,7 +160,7 @@ fn no_answer_after_the_configured_tries() {
     let t0 = clock.now();
     let err = c.read(CodeKey::new(11)).unwrap_err();
     assert!(
-        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
         "{err}"
     );
     assert!(clock.now() - t0 >= Duration::from_millis(200));
@@ -199,12 +199,12 @@ fn running_identify_and_no_such_code() {
     c.link_mut().drive_mut(7).unwrap().set_running(false);
     assert_eq!(c.running().unwrap(), Some(false));
     let id = c.identify().unwrap();
-    assert_eq!(id.protocol, "lecom");
+    assert_eq!(id.protocol.name(), "lecom");
     assert_eq!(id.software.as_deref(), Some("1.20"));
     assert!(
         id.codes
             .iter()
-            .any(|(n, v)| n == "C0200" && v == "33STMD-M_12000"),
+            .any(|c| c.name == "C0200" && c.value.to_string() == "33STMD-M_12000"),
         "{id:?}"
     );
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{DatasetOutcome, DriveClient, LustbusClient, LustbusOptions};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, Instant, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Schema};
@@ -224,13 +224,13 @@ fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 2).unwrap();
     // 300-CFCON: 0..7.
     let err = c.write(CodeKey::new(300), &RawValue::Int(9)).unwrap_err();
-    let EngineError::Device { cause, what, .. } = &err else {
+    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("300-CFCON"), "{what}");
-    assert!(cause.cause.contains("invalid value"), "{}", cause.cause);
-    assert_eq!(cause.raw, "SERR 80H Invalid value");
-    assert_eq!(cause.remedy, "Choose a different value");
+    assert!(cause.cause().contains("invalid value"), "{}", cause.cause());
+    assert_eq!(cause.raw(), "SERR 80H Invalid value");
+    assert_eq!(cause.remedy(), "Choose a different value");
     let text = err.to_string();
     assert!(text.contains("sim address 2"), "{text}");
     // The error word was read and cleared: the next write goes through.
@@ -244,14 +244,18 @@ fn enquiry_nak_is_a_device_error() {
     let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.read(CodeKey::new(300)).unwrap_err();
-    let EngineError::Device { cause, .. } = &err else {
+    let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("{err}")
     };
-    assert!(cause.cause.contains("no such parameter"), "{}", cause.cause);
-    assert_eq!(cause.raw, "NAK to ENQUIRY 20300");
+    assert!(
+        cause.cause().contains("no such parameter"),
+        "{}",
+        cause.cause()
+    );
+    assert_eq!(cause.raw(), "NAK to ENQUIRY 20300");
     // A code the schema does not know is refused before sending.
     let err = c.read(CodeKey::new(12)).unwrap_err();
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
 }
 
 #[test]
@@ -266,7 +270,7 @@ fn restart_mid_session_is_reported() {
         .power_cycle(now, Duration::from_millis(50));
     rig.clock.advance(Duration::from_secs(2));
     let err = c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap_err();
-    assert!(matches!(err, EngineError::Restarted { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Restarted { .. }), "{err}");
     assert!(err.to_string().contains("restarted"));
 }
 
@@ -286,7 +290,7 @@ fn no_answer_after_three_tries() {
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 5).unwrap();
     let t0 = rig.clock.now();
     let err = c.read(CodeKey::new(300)).unwrap_err();
-    let EngineError::NoAnswer { tries, .. } = err else {
+    let ErrorKind::NoAnswer { tries, .. } = *err.kind else {
         panic!("{err}")
     };
     assert_eq!(tries, 3);
@@ -321,7 +325,7 @@ fn dataset_download_accepted() {
     c.write(CodeKey::new(300), &RawValue::Int(4)).unwrap();
     // Not CardWriteable: refused before sending (the drive would ignore it).
     let err = c.write(CodeKey::new(110), &RawValue::Int(3)).unwrap_err();
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
     assert_eq!(
         c.dataset_commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Accepted
@@ -353,11 +357,11 @@ fn dataset_begin_while_running_names_standstill() {
     c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap();
     assert_eq!(c.running().unwrap(), Some(true));
     let err = c.dataset_begin().unwrap_err();
-    let EngineError::Device { cause, .. } = &err else {
+    let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("{err}")
     };
-    assert!(cause.cause.contains("standstill"), "{}", cause.cause);
-    assert!(cause.raw.contains("40H"), "{}", cause.raw);
+    assert!(cause.cause().contains("standstill"), "{}", cause.cause());
+    assert!(cause.raw().contains("40H"), "{}", cause.raw());
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
     assert_eq!(c.running().unwrap(), Some(false));
     c.dataset_begin().unwrap();
@@ -410,7 +414,7 @@ fn vf1000_eeprom_write_allows_the_delayed_ack() {
 fn addresses_and_family_are_checked() {
     let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Mc6000), 31).unwrap_err();
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
     let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Tmd), 1).unwrap_err();
     assert!(err.to_string().contains("not a LUSTBUS family"), "{err}");
@@ -418,7 +422,7 @@ fn addresses_and_family_are_checked() {
     let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
     assert!(wire(&rig.log, Dir::Host).is_empty());
     let _ = c.link().baud();
 }
@@ -432,7 +436,7 @@ fn passwords_never_appear_in_errors() {
         .write(CodeKey::new(70), &RawValue::Int(54321))
         .unwrap_err();
     let text = err.to_string();
-    assert!(matches!(err, EngineError::Device { .. }), "{text}");
+    assert!(matches!(*err.kind, ErrorKind::Device { .. }), "{text}");
     assert!(!text.contains("54321") && !text.contains("D431"), "{text}");
     assert!(text.contains("password, not shown"), "{text}");
     // Out of the type's range: refused before sending, still redacted.
@@ -453,8 +457,8 @@ fn options_change_the_answer_timeout() {
     let mut c = LustbusClient::with_options(bus, schema(Family::Mc6000), 9, o).unwrap();
     let t0 = rig.clock.now();
     assert!(matches!(
-        c.read(CodeKey::new(300)).unwrap_err(),
-        EngineError::NoAnswer { tries: 1, .. }
+        *c.read(CodeKey::new(300)).unwrap_err().kind,
+        ErrorKind::NoAnswer { tries: 1, .. }
     ));
     // 5 ms for the answer, then 5 ms more listening for a late one.
     assert_eq!(
@@ -745,7 +749,7 @@ fn a_late_reply_is_recognised_and_dropped() {
     let err = c.read(CodeKey::new(100)).unwrap_err();
     let text = err.to_string();
     assert!(
-        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
         "{text}"
     );
     assert!(

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_engine::identify::check_family;
 use driveset_engine::scan::{
     LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses, lustbus_addresses,
@@ -42,10 +42,10 @@ fn lustbus_scan_finds_exactly_the_drives_present() {
     let found = scan_lustbus(&mut bus, &lustbus_addresses(), &ScanOptions::default()).unwrap();
     let addresses: Vec<u8> = found.iter().map(|f| f.address).collect();
     assert_eq!(addresses, vec![3, 7, 30]);
-    assert!(found.iter().all(|f| f.identity.codes[0].0 == "91-TYPE"));
+    assert!(found.iter().all(|f| f.identity.codes[0].name == "91-TYPE"));
     for bad in [0u8, 31] {
         let err = scan_lustbus(&mut bus, &[bad], &ScanOptions::default()).unwrap_err();
-        assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+        assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
     }
 }
 
@@ -64,9 +64,9 @@ fn lecom_scan_skips_group_addresses() {
     let found = scan_lecom(&mut bus, Some(&schema), &addrs, &ScanOptions::default()).unwrap();
     let addresses: Vec<u8> = found.iter().map(|f| f.address).collect();
     assert_eq!(addresses, vec![5, 23]);
-    assert_eq!(found[0].identity.codes[0].0, "C0093");
+    assert_eq!(found[0].identity.codes[0].name, "C0093");
     let err = scan_lecom(&mut bus, None, &[20], &ScanOptions::default()).unwrap_err();
-    assert!(matches!(err, EngineError::Refused { .. }), "{err}");
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
 }
 
 #[test]
@@ -85,7 +85,6 @@ fn can_scan_finds_the_nodes() {
 }
 
 #[test]
-#[allow(clippy::result_large_err)] // EngineError is the crate's error type
 fn baud_detection_tries_rates_highest_first() {
     let clock = VirtualClock::new();
     let mut tried = Vec::new();
@@ -114,7 +113,7 @@ fn identify_and_family_check() {
     let schema = catalog::schema(Family::Mc6000).unwrap();
     let mut c = LustbusClient::new(bus, Arc::clone(&schema), 3).unwrap();
     let id = check_family(&mut c).unwrap();
-    assert_eq!(id.protocol, "lustbus-mc");
-    assert_eq!(id.codes[0].0, "91-TYPE");
+    assert_eq!(id.protocol.name(), "lustbus-mc");
+    assert_eq!(id.codes[0].name, "91-TYPE");
     c.finish().unwrap();
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_link::{Clock, VirtualClock};
 use driveset_proto::can::NodeId;
 use driveset_schema::error::SourceFile;
@@ -83,13 +83,13 @@ fn abort_is_a_device_error_with_ds301_text() {
     let err = c
         .write(CodeKey::new(5001), &RawValue::Int(160_010_000))
         .unwrap_err();
-    let EngineError::Device { cause, what, .. } = &err else {
+    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("C5001"), "{what}");
-    assert_eq!(cause.cause, "Value of parameter written too high");
-    assert!(cause.raw.contains("0x06090031"), "{}", cause.raw);
-    assert!(cause.remedy.contains("lower"), "{}", cause.remedy);
+    assert_eq!(cause.cause(), "Value of parameter written too high");
+    assert!(cause.raw().contains("0x06090031"), "{}", cause.raw());
+    assert!(cause.remedy().contains("lower"), "{}", cause.remedy());
     assert_eq!(c.stats().retries, 0, "an abort is not repeated");
 }
 
@@ -114,7 +114,7 @@ fn lost_answers_are_repeated_then_no_answer() {
     let t0 = clock.now();
     let err = c.read(CodeKey::new(5001)).unwrap_err();
     assert!(
-        matches!(err, EngineError::NoAnswer { tries: 2, .. }),
+        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
         "{err}"
     );
     assert!(clock.now() - t0 >= Duration::from_millis(20));
@@ -157,14 +157,14 @@ note = "test"
 fn node_zero_and_unknown_codes_are_refused() {
     let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
     assert!(matches!(
-        CanClient::new(bus, schema(), 0).unwrap_err(),
-        EngineError::Refused { .. }
+        *CanClient::new(bus, schema(), 0).unwrap_err().kind,
+        ErrorKind::Refused(_)
     ));
     let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     assert!(matches!(
-        c.read(CodeKey::new(4242)).unwrap_err(),
-        EngineError::Refused { .. }
+        *c.read(CodeKey::new(4242)).unwrap_err().kind,
+        ErrorKind::Refused(_)
     ));
 }
 

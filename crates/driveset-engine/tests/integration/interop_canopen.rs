@@ -9,8 +9,6 @@
 //! Part of the normal test run: needs the venv that `scripts/setup-python`
 //! makes at `target/py`; `DRIVESET_PYTHON` may name another interpreter
 //! with python-can 4.6 and canopen 2.4.
-#![allow(clippy::result_large_err)]
-
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
 use std::process::{Child, ChildStdin, Command, Stdio};
@@ -19,7 +17,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
-use driveset_engine::error::EngineError;
+use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::TxnState;
 use driveset_engine::live::live_diff;
 use driveset_engine::pull::{PullOptions, pull};
@@ -380,15 +378,16 @@ code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a
     let err = c
         .write(CodeKey::new(5010), &RawValue::Int(30_000_000))
         .expect_err("read-only object");
-    let EngineError::Device { cause, .. } = &err else {
+    let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("not a device error: {err}");
     };
     assert_eq!(
-        cause.raw, "SDO abort 0x06010002 at index 0x4C6D subindex 0",
+        cause.raw(),
+        "SDO abort 0x06010002 at index 0x4C6D subindex 0",
         "{err}"
     );
     assert!(
-        cause.cause.to_lowercase().contains("read only"),
+        cause.cause().to_lowercase().contains("read only"),
         "{cause:?}"
     );
     let text = err.to_string();

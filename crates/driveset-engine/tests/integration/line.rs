@@ -1,6 +1,5 @@
 //! Machine lines: manifest findings, commissioning the demo line against
 //! simulated buses (virtual time), resume, status drift, broadcast.
-#![allow(clippy::result_large_err)]
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -1,16 +1,16 @@
 //! Transaction runner tests over an in-memory fake drive (`txn_support`).
-#![allow(clippy::result_large_err)]
 
 use std::time::Duration;
 
 use crate::txn_support::*;
-use driveset_engine::error::EngineError;
+use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
+use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{CodeOutcome, UploadOptions, prepare, upload};
-use driveset_schema::{CodeKey, RawValue};
+use driveset_schema::{CodeKey, Family, RawValue};
 
 fn ms(n: u64) -> u64 {
     n * 1_000_000
@@ -18,7 +18,7 @@ fn ms(n: u64) -> u64 {
 
 fn tmd_drive() -> Drive {
     Drive::new(
-        "lecom",
+        Family::Tmd,
         [
             (k(1), RawValue::Int(0)),
             (k(2), RawValue::Int(0)),
@@ -39,7 +39,7 @@ fn tmd_drive() -> Drive {
 
 fn mc_drive() -> Drive {
     Drive::new(
-        "lustbus-mc",
+        Family::Mc6000,
         [
             (k(4), RawValue::Int(0)),
             (k(81), RawValue::Int(9600)),
@@ -172,7 +172,7 @@ fn refuses_unknown_read_only_status_and_handshake_codes_before_sending_anything(
     let err =
         upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("refused");
     let text = err.to_string();
-    assert!(matches!(*err.error, EngineError::Refused { .. }), "{text}");
+    assert!(matches!(*err.error.kind, ErrorKind::Refused(_)), "{text}");
     for needle in [
         "999",
         "140-ACT: read-only",
@@ -230,7 +230,7 @@ fn refuses_a_running_drive_without_allow_running_and_another_schema_without_allo
 
     // a drive identifying as another family
     let mut drive = tmd_drive();
-    drive.identity.protocol = "lustbus-mc".into();
+    drive.identity.protocol = IdentProtocol::Family(Family::Mc6000);
     let mut client = FakeClient::new(schema, drive);
     let err =
         upload(&mut client, &set, &UploadOptions::new(journal_in(&dir2))).expect_err("family");
@@ -252,7 +252,11 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
     let current =
         FakeClient::new(schema.clone(), tmd_drive()).values_of(set.values.keys().copied());
     let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
-    let all = problems.join("\n");
+    let all = problems
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("\n");
     assert!(
         all.contains("C0002 = 1 is a command (Load Lenze setting), not a setting; a set cannot hold it; remove this line: run the command on the drive itself, never from a set"),
         "{all}"
@@ -269,7 +273,9 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
     };
     let again = plan(&schema, &set, &current, &every).expect_err("still refused");
     assert!(
-        again.iter().any(|p| p.contains("C0002 = 1 is a command")),
+        again
+            .iter()
+            .any(|p| p.to_string().contains("C0002 = 1 is a command")),
         "{again:?}"
     );
     assert!(
@@ -385,7 +391,7 @@ fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
         before.values.get(&CodeKey::sub(39, 1))
     );
     assert!(
-        matches!(*err.error, EngineError::Inconsistent { .. }),
+        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
         "{err}"
     );
     assert!(err.to_string().contains("driveset recover"), "{err}");
@@ -404,7 +410,7 @@ fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_orde
     client.fail_write = Some(4); // C0040
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     let text = err.to_string();
@@ -474,7 +480,7 @@ fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() 
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     let text = err.to_string();
     assert!(
-        matches!(*err.error, EngineError::Inconsistent { .. }),
+        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
         "{text}"
     );
     assert!(
@@ -579,7 +585,7 @@ fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("rejected");
     let text = err.to_string();
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{text}"
     );
     assert!(
@@ -613,7 +619,7 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     assert_eq!(client.drive.values, before.values);
@@ -715,7 +721,7 @@ fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
     client.restart_at_writes = vec![2, 5];
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     assert!(err.to_string().contains("restarted"), "{err}");
@@ -875,13 +881,17 @@ fn recover_refuses_another_drive() {
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     let mut drive = client.drive.clone();
-    drive.identity.codes = vec![("91 TYPE".into(), "9999".into())];
+    drive.identity.codes = vec![IdentCode::new(
+        CodeKey::new(91),
+        "91 TYPE",
+        IdentValue::Int(9999),
+    )];
     let mut c = FakeClient::new(schema, drive);
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
     assert!(
         matches!(
-            err,
-            EngineError::NotJournalDrive {
+            *err.kind,
+            ErrorKind::NotJournalDrive {
                 mismatch: driveset_engine::error::Mismatch::Identity,
                 ..
             }
@@ -936,7 +946,7 @@ fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
     assert!(pulled.set.values.contains_key(&CodeKey::sub(39, 2)));
     assert!(!pulled.set.values.contains_key(&k(94)));
     assert_eq!(pulled.fingerprint, pulled.set.fingerprint());
-    assert_eq!(pulled.identity.protocol, "lecom");
+    assert_eq!(pulled.identity.protocol, IdentProtocol::Family(Family::Tmd));
 
     let mut client = FakeClient::new(schema, tmd_drive());
     let opts = PullOptions {
@@ -981,9 +991,9 @@ fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
     let current = drive.values_of(set.values.keys().copied());
     let problems = plan(&schema, &set, &current, &PlanOptions::default()).expect_err("refused");
     assert!(
-        problems
-            .concat()
-            .contains("82-SADDR: 1 -> 4 changes the bus address"),
+        problems.iter().any(|p| p
+            .to_string()
+            .contains("82-SADDR: 1 -> 4 changes the bus address")),
         "{problems:?}"
     );
     let set = set_of(
@@ -1041,8 +1051,8 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
     let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
     assert!(
         matches!(
-            err,
-            EngineError::NotJournalDrive {
+            *err.kind,
+            ErrorKind::NotJournalDrive {
                 mismatch: driveset_engine::error::Mismatch::Version,
                 ..
             }
@@ -1115,7 +1125,7 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
     opts.observer = Hook::new(log.clone());
     let err = upload(&mut client, &set, &opts).expect_err("fails");
     assert!(
-        matches!(*err.error, EngineError::RolledBack { .. }),
+        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
         "{err}"
     );
     assert_eq!(

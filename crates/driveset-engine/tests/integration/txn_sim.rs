@@ -1,6 +1,5 @@
 //! The transaction runner over the real LUSTBUS client and the simulated
 //! MC6000 / VF1000 (driveset-sim) in virtual time.
-#![allow(clippy::result_large_err)]
 
 use std::path::Path;
 use std::time::Duration;

@@ -23,7 +23,7 @@
 //!   drive failed (no write telegram), an `upload` sees the commission's
 //!   journal, and a rerun recovers it: never "unchanged", exit 0, every
 //!   journal settled, every drive holding its set.
-#![allow(dead_code, clippy::result_large_err)]
+#![allow(dead_code)]
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -35,7 +35,7 @@ use std::time::Duration;
 
 use driveset_engine::connect::connect_on as client_on;
 use driveset_engine::env::{Environment, Memory};
-use driveset_engine::error::{EngineError, Mismatch};
+use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
 use driveset_engine::journal::{JournalFile, journal_path};
 use driveset_engine::line::commission::{LineOptions, Mode, Verdict, run_line};
 use driveset_engine::line::manifest::{Manifest, load_manifest};
@@ -308,9 +308,9 @@ fn expect_mismatch(
     message: &str,
 ) -> Result<(), String> {
     match r {
-        Err(e @ EngineError::NotJournalDrive { .. }) => {
-            let EngineError::NotJournalDrive { mismatch, .. } = &e else {
-                unreachable!()
+        Err(e) if matches!(*e.kind, ErrorKind::NotJournalDrive { .. }) => {
+            let ErrorKind::NotJournalDrive { mismatch, .. } = &*e.kind else {
+                return Err(format!("not a journal refusal: {e}"));
             };
             if mismatch != want {
                 return Err(format!("refused with {mismatch:?}, want {want:?}: {e}"));
@@ -425,7 +425,8 @@ fn one(
                             "journal {jtext}: the drive at {PORT_LOCALHOST} address {a} has an unfinished transaction ({jtext} (state {})); nothing was sent. Run `driveset recover {jtext}` first",
                             state.as_str()
                         );
-                        if !matches!(*f.error, EngineError::Journal { .. }) || f.to_string() != want
+                        if !matches!(*f.error.kind, ErrorKind::Journal { .. })
+                            || f.to_string() != want
                         {
                             return Err(format!("guard\n  got:  {f}\n  want: {want}"));
                         }
@@ -443,7 +444,7 @@ fn one(
             {
                 let mut c = client_on(&mut link, schema.clone(), a).expect("client");
                 match upload(&mut *c, set2, &UploadOptions::new(&journal)) {
-                    Err(f) if matches!(*f.error, EngineError::Journal { .. }) => {}
+                    Err(f) if matches!(*f.error.kind, ErrorKind::Journal { .. }) => {}
                     other => {
                         return Err(format!("guard did not block: {:?}", other.map(|r| r.state)));
                     }
@@ -929,7 +930,7 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
             &UploadOptions::new(jdir.join("by-upload.json")),
         ) {
             Err(f)
-                if matches!(*f.error, EngineError::Journal { .. })
+                if matches!(*f.error.kind, ErrorKind::Journal { .. })
                     && f.to_string().contains(&p.display().to_string()) => {}
             other => {
                 return Err(format!(

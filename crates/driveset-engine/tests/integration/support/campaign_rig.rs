@@ -2,7 +2,7 @@
 //! campaigns (`tests/campaign*.rs`): simulated drives of every family on a
 //! virtual bus, a client for each, and a generated "full" set that changes
 //! every writable code of the family's schema.
-#![allow(dead_code, clippy::result_large_err)]
+#![allow(dead_code)]
 
 use std::collections::BTreeSet;
 use std::sync::Arc;

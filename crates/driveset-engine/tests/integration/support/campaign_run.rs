@@ -2,7 +2,7 @@
 //! `recover` where the run was cut, and the transaction invariant after
 //! each: the drive holds exactly the old set or exactly the new one over the
 //! set's codes, and every failure names the target and a cause.
-#![allow(dead_code, clippy::result_large_err, clippy::large_enum_variant)]
+#![allow(dead_code, clippy::large_enum_variant)]
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

@@ -3,7 +3,7 @@
 //! busy times and SLOAD staging, scripted failures, an operation log and
 //! snapshots (drive + journal file) before every mutating operation, so a
 //! crash can be simulated at every point.
-#![allow(dead_code, clippy::result_large_err)]
+#![allow(dead_code)]
 
 pub mod schemas;
 
@@ -12,12 +12,25 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use driveset_engine::client::{ClientStats, DatasetOutcome, DriveClient, Identity, Target};
-use driveset_engine::error::{DeviceCause, EngineError};
+use driveset_engine::client::{
+    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
+    Target,
+};
+use driveset_engine::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
+use driveset_proto::lustbus::Siof;
+
+/// An MC6000 refusal with these SERR bits (section 9.2).
+fn serr(bits: Siof) -> DeviceCause {
+    DeviceCause::Siof {
+        register: SiofRegister::Serr,
+        bits,
+        verdict: SiofVerdict::Failed,
+    }
+}
 use driveset_link::{Clock, Instant, VirtualClock};
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::StorageKind;
-use driveset_schema::{CodeKey, RawValue, Registry, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, Family, RawValue, Registry, ResolvedSet, Schema};
 
 pub fn schema(text: &str) -> Arc<Schema> {
     let mut r = Registry::new();
@@ -50,14 +63,18 @@ pub struct Drive {
 }
 
 impl Drive {
-    pub fn new(protocol: &str, values: impl IntoIterator<Item = (CodeKey, RawValue)>) -> Self {
+    pub fn new(family: Family, values: impl IntoIterator<Item = (CodeKey, RawValue)>) -> Self {
         Drive {
             values: values.into_iter().collect(),
             staged: None,
             running: Some(false),
             identity: Identity {
-                protocol: protocol.into(),
-                codes: vec![("91 TYPE".into(), "4711".into())],
+                protocol: IdentProtocol::Family(family),
+                codes: vec![IdentCode::new(
+                    CodeKey::new(91),
+                    "91 TYPE",
+                    IdentValue::Int(4711),
+                )],
                 software: None,
             },
             missing: BTreeSet::new(),
@@ -161,11 +178,7 @@ impl FakeClient {
     }
 
     fn no_answer(&self, what: String) -> EngineError {
-        EngineError::NoAnswer {
-            target: self.target.clone(),
-            what,
-            tries: 3,
-        }
+        EngineError::no_answer(self.target.clone(), what, 3)
     }
 
     fn snapshot(&mut self, op: Op) {
@@ -244,15 +257,11 @@ impl DriveClient for FakeClient {
             }));
         }
         if self.drive.missing.contains(&key) {
-            return Err(EngineError::Device {
-                target: self.target.clone(),
-                what: format!("read {}", key.number),
-                cause: DeviceCause {
-                    cause: "no parameter".into(),
-                    raw: "NAK".into(),
-                    remedy: "check the code".into(),
-                },
-            });
+            return Err(EngineError::device(
+                self.target.clone(),
+                format!("read {}", key.number),
+                serr(Siof::NO_PARAMETER),
+            ));
         }
         self.drive
             .values
@@ -282,23 +291,19 @@ impl DriveClient for FakeClient {
         self.stats.telegrams += 1;
         if self.restart_at_writes.contains(&self.writes) {
             self.drive.staged = None;
-            return Err(EngineError::Restarted {
-                target: self.target.clone(),
-                what: format!("write {}", key.number),
-            });
+            return Err(EngineError::restarted(
+                self.target.clone(),
+                format!("write {}", key.number),
+            ));
         }
         if self.fail_write == Some(self.writes) || self.also_fail_writes.contains(&self.writes) {
             self.log.push((self.now(), Op::Write(key, raw.clone())));
             self.clock.sleep(self.write_time);
-            return Err(EngineError::Device {
-                target: self.target.clone(),
-                what: format!("write {}", key.number),
-                cause: DeviceCause {
-                    cause: "invalid value".into(),
-                    raw: "SERR 0x80".into(),
-                    remedy: "choose a different value".into(),
-                },
-            });
+            return Err(EngineError::device(
+                self.target.clone(),
+                format!("write {}", key.number),
+                serr(Siof::INVALID_VALUE),
+            ));
         }
         // the client waits itself if the EEPROM is busy
         if self.is_eeprom(key).is_some() && self.drive.staged.is_none() {
