@@ -264,7 +264,13 @@ fn float_range_and_exponents() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("f.toml"),
-        "schema = \"fictional-mc6000-demo\"\n[values]\n105 = 1e39\n106 = \"1e39\"\n",
+        format!(
+            "schema = {:?}\n[values]\n105 = 1e39\n106 = \"1e39\"\n",
+            crate::util::workspace_root()
+                .join("parameter-sets/fixtures/fictional-mc6000-demo.toml")
+                .display()
+                .to_string()
+        ),
     )
     .unwrap();
     let out = driveset()
@@ -294,7 +300,7 @@ fn float_range_and_exponents() {
             "--family",
             "mc6000",
             "--schema",
-            "fictional-mc6000-demo",
+            "parameter-sets/fixtures/fictional-mc6000-demo.toml",
             "select address=1 param=105 value=1e39",
         ])
         .assert()

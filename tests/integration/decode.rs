@@ -315,7 +315,7 @@ fn unknown_schema() {
         .assert()
         .code(2)
         .stdout("")
-        .stderr(r#"error: --schema no-such: no built-in schema has that id and no such file exists; built-in ids: fictional-ecs-demo, fictional-mc6000-demo, fictional-vf1000-demo, lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000
+        .stderr(r#"error: --schema no-such: no built-in schema has that id and no such file exists; built-in ids: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000
 "#);
 }
 

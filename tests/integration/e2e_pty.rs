@@ -577,7 +577,7 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
         "--address",
         "1",
         "--schema",
-        "fictional-ecs-demo",
+        "parameter-sets/fixtures/fictional-ecs-demo.toml",
         "-o",
         &pulled_arg,
     ]);

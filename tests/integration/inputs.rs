@@ -40,7 +40,7 @@ fn a_fifo_as_set_file_is_an_input_error_without_blocking() {
         .clone();
     assert_eq!(
         String::from_utf8_lossy(&out.stdout),
-        "error: set.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n  --> set.toml\n  = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 1 file; 1 file could not be read\n"
+        "error: set.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n = note: in set.toml\n = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 1 file; 1 file could not be read\n"
     );
     // the same through the other readers of set files
     for args in [
@@ -119,7 +119,7 @@ fn a_fifo_inside_a_directory_is_reported_and_the_rest_is_checked() {
         .clone();
     assert_eq!(
         String::from_utf8_lossy(&out.stdout),
-        "error: ./b.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n  --> ./b.toml\n  = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 2 files; 1 file could not be read\n"
+        "error: ./b.toml is a FIFO (named pipe), not a regular file; driveset reads parameter sets, schemas and line manifests from regular files only\n = note: in ./b.toml\n = help: give the path of a regular file (save a pipe's or device's data into a file first)\n\n0 findings in 0 of 2 files; 1 file could not be read\n"
     );
     // a schema directory with a FIFO in it
     let out = driveset()

@@ -259,7 +259,7 @@ fn a_bad_manifest_fails_validation_with_locations() {
         "  --> line.toml:11:11\n",
         "address 11 is used twice on bus `a`\n",
         "  --> line.toml:22:11\n",
-        "  --> line.toml:16:11\n",
+        "  ::: line.toml:16:11\n",
         "set file `nope.toml` does not exist (nope.toml)\n",
         "  --> line.toml:23:7\n",
         "3 findings in 1 of 1 file\n",

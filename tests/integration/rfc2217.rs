@@ -172,7 +172,7 @@ fn identify_and_pull_through_pyserials_rfc2217_server_set_7e1_and_the_rate() {
         "--address",
         "1",
         "--schema",
-        "fictional-mc6000-demo",
+        "parameter-sets/fixtures/fictional-mc6000-demo.toml",
         "-o",
         file.to_str().expect("utf-8 path"),
     ]);

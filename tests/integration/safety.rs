@@ -103,7 +103,7 @@ fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
         .assert()
         .code(1)
         .stdout(predicate::str::contains(
-            "error[control-word-not-stopped]: 3-CNTL = { start_clockwise = 1 } would start or enable the drive (start_clockwise set)\n --> vf.toml:3:8\n  |\n3 | CNTL = 128\n  |        ^^^ here\n  = help: clear start_clockwise or remove this line; a set may hold a control word only in a stopped or inhibited state\n",
+            "error[control-word-not-stopped]: 3-CNTL = { start_clockwise = 1 } would start or enable the drive (start_clockwise set)\n --> vf.toml:3:8\n  |\n3 | CNTL = 128\n  |        ^^^ here\n  |\n  = help: clear start_clockwise or remove this line; a set may hold a control word only in a stopped or inhibited state\n",
         ))
         .stdout(predicate::str::contains(
             "error[command]: 71-PROG = \"Load factory settings\" is a command (PROG), not a setting; a set cannot hold it\n --> vf.toml:4:8\n",
@@ -368,8 +368,15 @@ fn pull_leaves_commands_control_words_and_passwords_out() {
     for code in ["\nCNTL", "\nPROG", "\nSTAT", "\nPASS", "\n3 =", "\n70 ="] {
         assert!(!text.contains(code), "{code}\n{text}");
     }
-    // what was pulled validates and uploads back unchanged
-    in_dir(d).args(["validate", "vf.toml"]).assert().code(0);
+    // what was pulled validates (against the simulator's fixture schema,
+    // which only `--schemas` or a sim:// port know by id) and uploads back
+    // unchanged
+    in_dir(d)
+        .args(["validate", "--schemas"])
+        .arg(crate::util::workspace_root().join("parameter-sets/fixtures"))
+        .arg("vf.toml")
+        .assert()
+        .code(0);
     in_dir(d)
         .args(["upload", "vf.toml", "--port", VF, "--address", "1"])
         .assert()
@@ -443,7 +450,7 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
         .args(["validate", "bad.toml"])
         .assert()
         .code(1)
-        .stdout("error[out-of-range]: C0094 (user_password) = <secret>: the value is not valid for this code (out-of-range)\n --> bad.toml:3:9\n  |\n3 | C0094 = <secret>\n  |         ^^^^^^^^ here\n  = help: give a valid password (the value is not shown: it is a secret)\n\n1 finding in 1 of 1 file\n");
+        .stdout("error[out-of-range]: C0094 (user_password) = <secret>: the value is not valid for this code (out-of-range)\n --> bad.toml:3:9\n  |\n3 | C0094 = <secret>\n  |         ^^^^^^^^ here\n  |\n  = help: give a valid password (the value is not shown: it is a secret)\n\n1 finding in 1 of 1 file\n");
 }
 
 #[test]

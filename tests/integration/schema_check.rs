@@ -47,32 +47,37 @@ fn broken_fixture_reports_every_problem() {
    |
 16 | default = \"150\"
    |           ^^^^^ here
-  = help: fix the default or the range
+   |
+   = help: fix the default or the range
 
 error[schema-error]: code 9001 is defined twice
   --> tests/data/sets/schemas/fictional-broken.toml:19:10
    |
 19 | number = 9001
    |          ^^^^ here
- --> tests/data/sets/schemas/fictional-broken.toml:9:10
-  |
-9 | number = 9001
-  |          ^^^^ first defined here
-  = help: merge the two [[code]] entries
+   |
+  ::: tests/data/sets/schemas/fictional-broken.toml:9:10
+   |
+ 9 | number = 9001
+   |          ^^^^ first defined here
+   |
+   = help: merge the two [[code]] entries
 
 error[schema-error]: code 9002: value 300 (\"Too big\") is outside the raw range 0 ..= 255
   --> tests/data/sets/schemas/fictional-broken.toml:33:1
    |
 33 | 300 = \"Too big\"
    | ^^^ here
-  = help: fix the value
+   |
+   = help: fix the value
 
 error[schema-error]: code 9003: `default` is invalid: C9003 = 0.07 is not representable in steps of 0.05; nearest are 0.05 and 0.1
   --> tests/data/sets/schemas/fictional-broken.toml:41:11
    |
 41 | default = \"0.07\"
    |           ^^^^^^ here
-  = help: give a value the type can hold exactly
+   |
+   = help: give a value the type can hold exactly
 
 4 findings in 1 of 1 schema file
 "

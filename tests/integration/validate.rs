@@ -112,10 +112,12 @@ fn duplicate_code_by_number_and_by_name() {
   |
 4 | 11 = \"50 Hz\"
   | ^^ here
- --> tests/data/sets/findings/duplicate-code.toml:3:1
+  |
+ ::: tests/data/sets/findings/duplicate-code.toml:3:1
   |
 3 | C0011 = \"50 Hz\"
   | ^^^^^ first given here
+  |
   = help: keep one of them
 
 "
@@ -248,11 +250,13 @@ fn rule_c0007_inputs_must_differ() {
             54,
         )],
     );
+    // the gutter is as wide as the longest line number of all places
+    // (the schema's rule at line 1346)
     assert!(out.contains(
-        " --> tests/data/sets/findings/rule-distinct.toml:3:16
-  |
-3 | C0007 = { E1 = \"Quick stop\", E2 = \"TRIP reset\", E3 = \"Quick stop\" }
-  |                ^^^^^^^^^^^^ E1 set here
+        "    ::: tests/data/sets/findings/rule-distinct.toml:3:16
+     |
+   3 | C0007 = { E1 = \"Quick stop\", E2 = \"TRIP reset\", E3 = \"Quick stop\" }
+     |                ^^^^^^^^^^^^ E1 set here
 "
     ));
     assert!(out.contains(" rule stated here\n"));
@@ -271,10 +275,10 @@ fn rule_c0010_le_c0011_across_extends() {
     );
     // the other side of the rule is in the base file
     assert!(out.contains(
-        " --> tests/data/sets/findings/rule-base.toml:3:9
-  |
-3 | C0011 = \"50 Hz\"
-  |         ^^^^^^^ C0011 set here
+        "    ::: tests/data/sets/findings/rule-base.toml:3:9
+     |
+   3 | C0011 = \"50 Hz\"
+     |         ^^^^^^^ C0011 set here
 "
     ));
     assert!(out.contains("  = help: lower C0010 or raise C0011\n"));
@@ -286,7 +290,7 @@ fn unknown_schema_with_suggestion() {
         "unknown-schema.toml",
         &[("unknown-schema", "unknown schema `lenze-tdm`", 1, 10)],
     );
-    assert!(out.contains("  = help: did you mean `lenze-tmd`? known schemas: fictional-ecs-demo, fictional-mc6000-demo, fictional-vf1000-demo, lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000\n"), "{out}");
+    assert!(out.contains("  = help: did you mean `lenze-tmd`? known schemas: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000\n"), "{out}");
 }
 
 #[test]
@@ -300,6 +304,7 @@ fn bad_extends_cycle_and_missing_base() {
   |
 2 | extends = \"cycle-a.toml\"
   |           ^^^^^^^^^^^^^^ here
+  |
   = help: remove the extends that leads back to this file
 "
     ), "{out}");
@@ -385,6 +390,7 @@ fn malformed_toml() {
   |
 2 | [values
   |        ^ here
+  |
   = help: fix the TOML syntax at this position
 "
     ));
@@ -395,7 +401,7 @@ fn malformed_yaml() {
     let (out, _) = bad_input("m.yaml", b"schema: lenze-tmd\nvalues:\n  C0011: [1\n");
     assert!(
         out.starts_with(
-            "error: malformed YAML: while parsing a flow sequence, expected ',' or ']'\n --> m.yaml:4:1\n"
+            "error: malformed YAML: while parsing a flow sequence, expected ',' or ']'\n = note: at m.yaml:4:1\n"
         ),
         "{out}"
     );
@@ -407,7 +413,11 @@ fn malformed_yaml() {
 #[test]
 fn binary_and_non_utf8() {
     let (out, _) = bad_input("b.toml", b"schema = \"lenze-tmd\"\x00\x01\x02");
-    assert!(out.starts_with("error: b.toml is a binary file (contains NUL bytes)\n  --> b.toml\n"));
+    assert!(
+        out.starts_with(
+            "error: b.toml is a binary file (contains NUL bytes)\n = note: in b.toml\n"
+        )
+    );
     let (out, _) = bad_input("l.toml", b"schema = \"lenze-tmd\"\n# \xe9t\xe9\n");
     assert!(
         out.starts_with("error: l.toml is not UTF-8 text (invalid byte at offset 23)\n"),
@@ -420,7 +430,7 @@ fn empty_files() {
     for content in [&b""[..], b"\n\n# only a comment\n", b"---\n"] {
         let (out, _) = bad_input("e.yaml", content);
         assert!(
-            out.starts_with("error: e.yaml is empty\n  --> e.yaml\n  = help: a set needs at least `schema = \"...\"`\n"),
+            out.starts_with("error: e.yaml is empty\n = note: in e.yaml\n = help: a set needs at least `schema = \"...\"`\n"),
             "{out}"
         );
     }
@@ -431,7 +441,7 @@ fn huge_file_and_10_mb_string() {
     let mut huge = b"schema = \"lenze-tmd\"\n[values]\n".to_vec();
     huge.extend(std::iter::repeat_n(&b"# padding\n"[..], 450_000).flatten());
     let (out, _) = bad_input("h.toml", &huge);
-    assert!(out.starts_with("error: h.toml is larger than 4194304 bytes\n  --> h.toml\n"));
+    assert!(out.starts_with("error: h.toml is larger than 4194304 bytes\n = note: in h.toml\n"));
     let mut s = b"schema = \"lenze-tmd\"\n[values]\nC0200 = \"".to_vec();
     s.extend(std::iter::repeat_n(b'x', 10 * 1024 * 1024));
     s.extend(b"\"\n");
@@ -471,6 +481,7 @@ fn unknown_top_level_key() {
   |
 2 | colour = \"red\"
   | ^^^^^^ here
+  |
   = help: a set has schema, extends, title, [drive] and [values]; code values go under [values]
 "
     ));
@@ -497,7 +508,7 @@ fn missing_path_and_input_errors_beside_findings() {
     let (out, code) = validate(&["no/such/file.toml"]);
     assert_eq!(code, 2);
     assert!(out.starts_with(
-        "error: cannot read no/such/file.toml: No such file or directory (os error 2)\n  --> no/such/file.toml\n"
+        "error: cannot read no/such/file.toml: No such file or directory (os error 2)\n = note: in no/such/file.toml\n"
     ));
     // an unreadable file wins over findings elsewhere: exit 2, both reported
     let (out, code) = validate(&[&format!("{DATA}/wrong-type.toml"), "no/such/file.toml"]);
@@ -643,9 +654,9 @@ fn schemas_dir_adds_schemas_by_id() {
 }
 
 #[test]
-fn simulator_fixture_schemas_are_known_by_id() {
-    // The simulator's fictional fixtures are built in, so a set may name
-    // them by id as well as by path, without --schemas.
+fn simulator_fixture_schemas_are_known_by_path_or_with_schemas() {
+    // The simulator's fictional fixtures are not built in (issue 9): a set
+    // names one by path, or the fixtures' directory is given explicitly.
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("axis.toml");
     std::fs::write(
@@ -653,6 +664,73 @@ fn simulator_fixture_schemas_are_known_by_id() {
         "schema = \"fictional-ecs-demo\"\n[values]\nmax_speed = \"3000 rpm\"\n",
     )
     .unwrap();
+    let (out, code) = validate(&["--schemas", "parameter-sets/fixtures", p.to_str().unwrap()]);
+    assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+    let (out, code) = validate(&[p.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.starts_with("error[unknown-schema]: schema `fictional-ecs-demo` is a fictional fixture of the simulator; a set cannot name it by id\n"), "{out}");
+    let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../parameter-sets/fixtures/fictional-ecs-demo.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "schema = {:?}\n[values]\nmax_speed = \"3000 rpm\"\n",
+            fixture.display().to_string()
+        ),
+    )
+    .unwrap();
     let (out, code) = validate(&[p.to_str().unwrap()]);
     assert_eq!((out.as_str(), code), ("0 findings in 0 of 1 file\n", 0));
+}
+
+/// The simulator's fictional fixture schemas are not built in: a user's set
+/// naming one by id gets a finding that says to name its file (issue 9); a
+/// bus command refuses the set (exit 2) before opening the port.
+#[test]
+fn fictional_fixture_schema_by_id_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = dir.path().join("f.toml");
+    std::fs::write(
+        &set,
+        "schema = \"fictional-mc6000-demo\"\n[values]\nSWDGT = 100\n",
+    )
+    .unwrap();
+    let set = set.display().to_string();
+    let (out, code) = validate(&[&set]);
+    let help = "name its file instead (schema = \"PATH\", relative to this set; in driveset's sources it is parameter-sets/fixtures/fictional-mc6000-demo.toml), or a schema of a real drive: lenze-ecs, lenze-tmd, lust-mc6000, lust-vf1000";
+    assert_eq!(
+        (out.as_str(), code),
+        (
+            format!(
+                "error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture of the simulator; a set cannot name it by id
+ --> {set}:1:10
+  |
+1 | schema = \"fictional-mc6000-demo\"
+  |          ^^^^^^^^^^^^^^^^^^^^^^^ here
+  |
+  = help: {help}
+
+1 finding in 1 of 1 file
+"
+            )
+            .as_str(),
+            1
+        )
+    );
+    let out = driveset()
+        .args(["upload", &set, "--port", "/dev/null", "--address", "1"])
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(String::from_utf8_lossy(&out.stdout), "");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.starts_with("error[unknown-schema]: schema `fictional-mc6000-demo` is a fictional fixture of the simulator; a set cannot name it by id\n"),
+        "{err}"
+    );
+    assert!(
+        err.ends_with(&format!("error: {set}: not uploaded\n")),
+        "{err}"
+    );
 }

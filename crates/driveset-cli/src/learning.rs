@@ -9,8 +9,7 @@ use std::sync::Arc;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::learn::{
-    LearnOptions, LearnSource, Learned, LearnedSchema, learn as engine_learn, learned_id,
-    needs_learning, render_schema,
+    LearnOptions, Learned, LearnedSchema, PullSchemaError, needs_learning, pull_schema,
 };
 use driveset_engine::scan::{ScanOptions, detect_protocol};
 use driveset_link::{ByteLink, Link};
@@ -210,17 +209,21 @@ pub fn learn(
 ) -> Result<LearnedClient, Fail> {
     let opts = args.options()?;
     let mut client = LustbusClient::new(link, base.clone(), address).map_err(Fail::from)?;
-    let identity = client.identify().map_err(Fail::from)?;
-    let mut learned = engine_learn(&mut client, base.family, &opts).map_err(Fail::from)?;
-    client.finish().map_err(Fail::from)?;
-    let id = learned_id(base.family, &identity, &learned);
-    let source = LearnSource {
-        drive: format!("{port_name} address {address}"),
-        identity,
-    };
-    let registry = port::registry(dirs)?;
-    let rendered: LearnedSchema = render_schema(&mut learned, &base, &id, &source, &registry)
-        .map_err(|e| Fail::bus(format!("{port_name} address {address}: {e}")))?;
+    let registry = port::registry_for(port_name, dirs)?;
+    let pulled = pull_schema(
+        &mut client,
+        &base,
+        &opts,
+        None,
+        format!("{port_name} address {address}"),
+        &registry,
+    )
+    .map_err(|e| match e {
+        PullSchemaError::Engine(e) => Fail::from(e),
+        PullSchemaError::Render(e) => Fail::bus(format!("{port_name} address {address}: {e}")),
+    })?;
+    let (rendered, learned): (LearnedSchema, _) = (pulled.rendered, pulled.learned);
+    let id = rendered.id.clone();
     let file = match dir {
         Some(d) => {
             std::fs::create_dir_all(d)
@@ -300,12 +303,12 @@ pub fn set_on_drive(
         code,
         msg: format!("{}: {what}", set.display()),
     };
-    // Which schema does the set name (without validating it yet)?
-    let mut probe = port::registry(dirs)?;
-    let named = driveset_schema::load_set(set, &mut probe)
-        .ok()
-        .and_then(|l| l.schema);
-    if let Some(base) = named.filter(|s| wants(s, args)) {
+    // The set is read once; a LUSTBUS schema that lacks facts is learned
+    // from the drive and the set resolved again against what was learned.
+    let registry = port::registry_for(port_arg, dirs)?;
+    let loaded = driveset_schema::load_set(set, &mut registry.clone())
+        .map_err(|e| refused(crate::output::fail_input(&e)))?;
+    if let Some(base) = loaded.schema.clone().filter(|s| wants(s, args)) {
         let opened = port::open_port_at(port_arg, Some(address))?;
         port::check_fit(&opened, &base, Some(address), force)?;
         let port_name = opened.name.clone();
@@ -322,7 +325,7 @@ pub fn set_on_drive(
         for l in report.lines() {
             eprintln!("{l}");
         }
-        let mut registry = port::registry(dirs)?;
+        let mut registry = registry;
         registry.insert_as(&base.id, schema.clone());
         let loaded = crate::output::load_valid_set(set, &mut registry).map_err(refused)?;
         let Some(resolved) = loaded.resolved else {
@@ -336,7 +339,10 @@ pub fn set_on_drive(
             _sim: sim,
         });
     }
-    let (schema, resolved) = crate::cmd::upload::load_set(set, dirs).map_err(refused)?;
+    let loaded = crate::output::valid_set(set, loaded).map_err(refused)?;
+    let (Some(schema), Some(resolved)) = (loaded.schema, loaded.resolved) else {
+        return Err(refused(crate::EXIT_INPUT));
+    };
     let opened = port::open_port_at(port_arg, Some(address))?;
     let port_name = opened.name.clone();
     let client = port::into_client(opened, schema.clone(), address, force)?;

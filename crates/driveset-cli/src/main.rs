@@ -26,6 +26,7 @@ macro_rules! out {
 mod args;
 mod cmd;
 mod env;
+mod fail;
 mod learning;
 mod output;
 mod port;
@@ -146,9 +147,6 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => ExitCode::from(code),
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(EXIT_INPUT)
-        }
+        Err(f) => ExitCode::from(f.report()),
     }
 }

@@ -1,7 +1,8 @@
 //! Shared rendering of findings and input errors for the offline commands
 //! (`validate`, `schema check`, `diff`, `fingerprint`, `show`): human
-//! (rustc-style with a source snippet, colour only on a terminal and never
-//! with `NO_COLOR`), JSON, and GitHub workflow annotations.
+//! (rustc-style with a source snippet, rendered by `annotate-snippets`
+//! through the schema crate; colour only on a terminal and never with
+//! `NO_COLOR`), JSON, and GitHub workflow annotations.
 
 use std::fmt::Write;
 use std::io::IsTerminal;
@@ -30,15 +31,11 @@ pub struct Style {
 }
 
 const RED: &str = "\x1b[1;31m";
-const BLUE: &str = "\x1b[1;34m";
 const BOLD: &str = "\x1b[1m";
 const GREEN: &str = "\x1b[32m";
 const YELLOW: &str = "\x1b[33m";
 const DIM_RED: &str = "\x1b[31m";
 const RESET: &str = "\x1b[0m";
-
-/// Longest snippet line shown in full; longer lines show a window around the column.
-const MAX_SNIPPET_CHARS: usize = 160;
 
 impl Style {
     /// No colour.
@@ -87,9 +84,6 @@ impl Style {
     pub fn changed(self, text: &str) -> String {
         self.paint(YELLOW, text)
     }
-    fn gutter(self, text: &str) -> String {
-        self.paint(BLUE, text)
-    }
 }
 
 fn no_color_unset() -> bool {
@@ -101,116 +95,15 @@ pub fn plural(n: usize, one: &str, many: &str) -> String {
     format!("{n} {}", if n == 1 { one } else { many })
 }
 
-/// A snippet line and the caret range within it (in characters), shortened
-/// around the column when the line is very long.
-fn snippet_window(loc: &Location) -> (String, usize, usize) {
-    let col0 = loc.column.saturating_sub(1);
-    // byte offset of the line start, derived from the span start and the column
-    let col_bytes: usize = loc.line_text.chars().take(col0).map(char::len_utf8).sum();
-    let line_start = loc.span.start.saturating_sub(col_bytes);
-    let start_b = loc
-        .span
-        .start
-        .saturating_sub(line_start)
-        .min(loc.line_text.len());
-    let end_b = loc
-        .span
-        .end
-        .saturating_sub(line_start)
-        .clamp(start_b, loc.line_text.len());
-    let width = loc
-        .line_text
-        .get(start_b..end_b)
-        .map(|s| s.chars().count())
-        .unwrap_or(0)
-        .max(1);
-    let total = loc.line_text.chars().count();
-    if total <= MAX_SNIPPET_CHARS {
-        return (loc.line_text.clone(), col0, width);
-    }
-    let from = col0.saturating_sub(40);
-    let shown: String = loc
-        .line_text
-        .chars()
-        .skip(from)
-        .take(MAX_SNIPPET_CHARS)
-        .collect();
-    let mut text = String::new();
-    let mut col = col0 - from;
-    if from > 0 {
-        text.push_str("...");
-        col += 3;
-    }
-    text.push_str(&shown);
-    if from + MAX_SNIPPET_CHARS < total {
-        text.push_str("...");
-    }
-    let width = width
-        .min(MAX_SNIPPET_CHARS.saturating_sub(col0 - from))
-        .max(1);
-    (text, col, width)
-}
-
-fn render_snippet(out: &mut String, loc: &Location, label: &str, style: Style) {
-    if loc.line == 0 {
-        let _ = writeln!(out, "  {} {}", style.gutter("-->"), loc.file);
-        return;
-    }
-    let num = loc.line.to_string();
-    let pad = " ".repeat(num.len());
-    let _ = writeln!(
-        out,
-        "{pad}{} {}:{}:{}",
-        style.gutter("-->"),
-        loc.file,
-        loc.line,
-        loc.column
-    );
-    let _ = writeln!(out, "{pad} {}", style.gutter("|"));
-    let (text, col, width) = snippet_window(loc);
-    let _ = writeln!(out, "{} {}", style.gutter(&format!("{num} |")), text);
-    let lead: String = text
-        .chars()
-        .take(col)
-        .map(|c| if c == '\t' { '\t' } else { ' ' })
-        .collect();
-    let _ = writeln!(
-        out,
-        "{pad} {} {lead}{}",
-        style.gutter("|"),
-        style.error(&format!("{} {label}", "^".repeat(width)))
-    );
-}
-
-/// rustc-style finding (the same text as [`Finding::render_human`] when plain).
+/// rustc-style finding, rendered by `annotate-snippets` (the schema
+/// crate's [`Finding::render`]; colour on a terminal).
 pub fn finding_human(f: &Finding, style: Style) -> String {
-    let mut out = format!(
-        "{}{}\n",
-        style.error(&format!("error[{}]", f.kind)),
-        style.bold(&format!(": {}", f.message))
-    );
-    render_snippet(&mut out, &f.location, "here", style);
-    for (label, loc) in &f.related {
-        render_snippet(&mut out, loc, label, style);
-    }
-    if !f.help.is_empty() {
-        let _ = writeln!(out, "  {} {}", style.bold("= help:"), f.help);
-    }
-    out
+    f.render(style.color)
 }
 
-/// rustc-style input error (the same text as [`InputError::render_human`] when plain).
+/// rustc-style input error ([`InputError::render`]).
 pub fn input_error_human(e: &InputError, style: Style) -> String {
-    let mut out = format!(
-        "{}{}\n",
-        style.error("error"),
-        style.bold(&format!(": {}", e.message))
-    );
-    render_snippet(&mut out, &e.location, "here", style);
-    if !e.help.is_empty() {
-        let _ = writeln!(out, "  {} {}", style.bold("= help:"), e.help);
-    }
-    out
+    e.render(style.color)
 }
 
 fn loc_json(loc: &Location) -> Value {
@@ -464,11 +357,23 @@ pub fn fail_input(e: &InputError) -> u8 {
     crate::EXIT_INPUT
 }
 
-/// The schemas every command knows: the four built-ins, the simulator's
-/// fictional fixtures (so a set may name them by id as well as by path),
-/// and every `*.toml` schema of `dirs` (`--schemas`).
+/// The schemas every command knows: the four vendor schemas built in and
+/// every `*.toml` schema of `dirs` (`--schemas`). The simulator's fictional
+/// fixture schemas are not among them: a set names a fixture by its file
+/// (`schema = "../fixtures/fictional-mc6000-demo.toml"`); only commands on a
+/// `sim://` port, whose drives load them, know them by id
+/// ([`sim_registry`]).
 pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    let mut r = driveset_sim::catalog::registry().map_err(|e| {
+    let mut r = driveset_schema::Registry::builtin()?;
+    driveset_sim::catalog::withhold_fixtures(&mut r);
+    with_dirs(r, dirs)
+}
+
+/// [`registry`] plus the simulator's fixture schemas, for a command talking
+/// to a `sim://` port (the simulated drives hold those schemas, and a set
+/// pulled from them names them by id).
+pub fn sim_registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
+    let r = driveset_sim::catalog::registry().map_err(|e| {
         InputError::new(
             driveset_schema::InputErrorKind::Structure,
             driveset_schema::Location::file_only("<built-in schemas>"),
@@ -476,19 +381,25 @@ pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputErro
             "this is a build defect: report it with the output of `driveset --version`",
         )
     })?;
+    with_dirs(r, dirs)
+}
+
+fn with_dirs(
+    mut r: driveset_schema::Registry,
+    dirs: &[PathBuf],
+) -> Result<driveset_schema::Registry, InputError> {
     for d in dirs {
         r.load_dir(d)?;
     }
     Ok(r)
 }
 
-/// Load one set for `diff`, `fingerprint` and `show`: an input error or a set
-/// with findings is reported on stderr and gives the exit code to return.
-pub fn load_valid_set(
+/// Report a loaded set's findings on stderr (with the exit code to return),
+/// or give it back when it has none.
+pub fn valid_set(
     path: &Path,
-    registry: &mut driveset_schema::Registry,
+    loaded: driveset_schema::LoadedSet,
 ) -> Result<driveset_schema::LoadedSet, u8> {
-    let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
     if loaded.findings.is_empty() && loaded.resolved.is_some() && loaded.schema.is_some() {
         return Ok(loaded);
     }
@@ -508,24 +419,40 @@ pub fn load_valid_set(
     Err(crate::EXIT_INPUT)
 }
 
+/// Load one set for `diff`, `fingerprint` and `show`: an input error or a set
+/// with findings is reported on stderr and gives the exit code to return.
+pub fn load_valid_set(
+    path: &Path,
+    registry: &mut driveset_schema::Registry,
+) -> Result<driveset_schema::LoadedSet, u8> {
+    let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
+    valid_set(path, loaded)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use driveset_schema::{Registry, load_set_str};
 
     #[test]
-    fn plain_human_matches_the_library_rendering() {
+    fn findings_render_rustc_style() {
         let mut r = Registry::builtin().unwrap();
         let l = load_set_str(
             Path::new("t.toml"),
-            "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\nC9999 = 1\n",
+            "schema = \"lenze-tmd\"\n[values]\nC9999 = 1\n",
             &mut r,
         )
         .unwrap();
-        assert!(!l.findings.is_empty());
-        for f in &l.findings {
-            assert_eq!(finding_human(f, Style::PLAIN), f.render_human());
-        }
+        assert_eq!(l.findings.len(), 1);
+        let f = &l.findings[0];
+        assert_eq!(finding_human(f, Style::PLAIN), f.render_human());
+        assert_eq!(
+            finding_human(f, Style::PLAIN),
+            format!(
+                "error[unknown-code]: {}\n --> t.toml:3:1\n  |\n3 | C9999 = 1\n  | ^^^^^ here\n  |\n  = help: {}\n",
+                f.message, f.help
+            )
+        );
     }
 
     #[test]
@@ -538,9 +465,14 @@ mod tests {
             span: 499..502,
             line_text: text,
         };
-        let (shown, col, width) = snippet_window(&loc);
-        assert!(shown.starts_with("...") && shown.ends_with("..."));
-        assert_eq!((col, width), (43, 3));
+        let e = InputError::new(driveset_schema::InputErrorKind::Syntax, loc, "m", "");
+        let out = input_error_human(&e, Style::PLAIN);
+        let shown = out.lines().nth(3).unwrap();
+        assert!(
+            shown.starts_with("1 | ...") && shown.ends_with("..."),
+            "{out}"
+        );
+        assert!(shown.chars().count() < 200, "{out}");
     }
 
     #[test]

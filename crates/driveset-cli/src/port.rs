@@ -10,91 +10,34 @@
 //!   RS-485 adapter stripped.
 //! - `sim://FAMILY?addresses=1,2` ports are opened in-process by
 //!   `driveset-sim` on a `VirtualClock`: the simulated bus runs in virtual
-//!   time, so a whole upload takes milliseconds of real time. The drives'
-//!   state persists between CLI runs with `state=FILE` in the port string
-//!   (handled here: the option is taken out before the port string is
-//!   parsed) or with the simulator's `DRIVESET_SIM_STATE_DIR=DIR`.
+//!   time, so a whole upload takes milliseconds of real time. The port's
+//!   query is the simulator's ([`driveset_sim::port`]: its keys, checks and
+//!   messages); the CLI registers the simulator's opener ([`openers`]) and
+//!   passes port strings through as given. The drives' state persists
+//!   between CLI runs with `state=FILE` in the port string or with the
+//!   simulator's `DRIVESET_SIM_STATE_DIR=DIR`.
 //!
 //! The schema decides the protocol: LUSTBUS and LECOM need a character
 //! line, CAN SDO a CAN port; a mismatch is refused before anything is sent,
 //! as is a schema of another family than a `sim://` port simulates.
 //!
-//! Errors carry their exit code ([`Fail`]): 2 for usage and input (a bad
-//! port string, a schema that does not fit the port, a refusal before
-//! anything was sent), 3 for bus and device failures.
+//! Errors carry their exit code ([`Fail`], the CLI's one error
+//! convention): 2 for usage and input (a bad port string, a schema that
+//! does not fit the port, a refusal before anything was sent), 3 for bus
+//! and device failures.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::client::{DriveClient, LustbusOptions};
 use driveset_engine::connect::ConnectOptions;
-use driveset_engine::error::{EngineError, ErrorKind};
-use driveset_link::{Link, OpenOptions, PortSpec, VirtualClock};
+use driveset_link::{Link, OpenOptions, Openers, PortSpec, VirtualClock};
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
 use driveset_sim::log::EventLog;
-use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
+use driveset_sim::open::{SimLink, open_sim_with};
+use driveset_sim::port::{SimOpener, SimSpec};
 
-use crate::{EXIT_BUS, EXIT_INPUT};
-
-/// A failure and the exit code it ends the command with.
-#[derive(Debug)]
-pub struct Fail {
-    /// Exit code (2 input/usage, 3 bus/device).
-    pub code: u8,
-    /// Message (without the `error: ` prefix).
-    pub msg: String,
-}
-
-impl Fail {
-    /// Usage or input error (exit 2).
-    pub fn input(msg: impl Into<String>) -> Self {
-        Fail {
-            code: EXIT_INPUT,
-            msg: msg.into(),
-        }
-    }
-
-    /// Bus or device failure (exit 3).
-    pub fn bus(msg: impl Into<String>) -> Self {
-        Fail {
-            code: EXIT_BUS,
-            msg: msg.into(),
-        }
-    }
-}
-
-/// The exit code of an engine error: refusals before anything was sent and
-/// journal file problems are input errors (2); everything the bus or the
-/// drive did is 3 (a rolled-back upload included: the drive holds its old
-/// values, the set did not land).
-pub fn engine_exit(e: &EngineError) -> u8 {
-    match e.kind() {
-        ErrorKind::Refused(_) | ErrorKind::Journal { .. } | ErrorKind::NotJournalDrive { .. } => {
-            EXIT_INPUT
-        }
-        _ => EXIT_BUS,
-    }
-}
-
-impl From<EngineError> for Fail {
-    fn from(e: EngineError) -> Self {
-        Fail {
-            code: engine_exit(&e),
-            msg: e.to_string(),
-        }
-    }
-}
-
-/// Print a failure on stderr and turn it into the exit code.
-pub fn finish(r: Result<u8, Fail>) -> anyhow::Result<u8> {
-    match r {
-        Ok(code) => Ok(code),
-        Err(f) => {
-            eprintln!("error: {}", f.msg);
-            Ok(f.code)
-        }
-    }
-}
+pub use crate::fail::{Fail, engine_exit};
 
 pub use crate::args::BusArg as ProtocolArg;
 
@@ -140,28 +83,29 @@ impl OpenPort {
     }
 }
 
-/// Take `state=FILE` out of a `sim://` port string (the link crate's port
-/// parser does not know the key; the simulator does).
-fn split_state(port: &str) -> (String, Option<PathBuf>) {
-    if !port.trim_start().starts_with("sim://") {
-        return (port.to_string(), None);
-    }
-    let Some((base, query)) = port.split_once('?') else {
-        return (port.to_string(), None);
-    };
-    let mut state = None;
-    let mut kept = Vec::new();
-    for part in query.split('&') {
-        match part.strip_prefix("state=") {
-            Some(file) => state = Some(PathBuf::from(file)),
-            None => kept.push(part),
+/// The port openers the CLI registers for the schemes `driveset-link` does
+/// not open itself: the simulator's for `sim://`.
+pub fn openers() -> Openers {
+    Openers::none().with(Arc::new(SimOpener::default()))
+}
+
+/// `spec` at another line rate (`baud=` on a character line, `bitrate=`
+/// on CAN); an opener's port through its opener.
+pub fn with_rate(spec: &PortSpec, rate: u32) -> PortSpec {
+    let mut s = spec.clone();
+    match &mut s {
+        PortSpec::Serial { baud: b, .. }
+        | PortSpec::Tcp { baud: b, .. }
+        | PortSpec::Rfc2217 { baud: b, .. } => *b = Some(rate),
+        PortSpec::Sim(o) => {
+            if let Some(opener) = openers().get(&o.scheme) {
+                *o = opener.with_rate(o, rate);
+            }
         }
+        PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
+        PortSpec::SocketCan { .. } => {}
     }
-    if kept.is_empty() {
-        (base.to_string(), state)
-    } else {
-        (format!("{base}?{}", kept.join("&")), state)
-    }
+    s
 }
 
 /// The family a `sim://` port names, without opening it (on a mixed
@@ -174,10 +118,7 @@ pub fn peek_sim_family(port: &str) -> Option<Family> {
 /// opening it; without an address, or at one the port does not list, as
 /// [`peek_sim_family`].
 pub fn peek_sim_family_at(port: &str, address: Option<u8>) -> Option<Family> {
-    let (port, _) = split_state(port);
-    let PortSpec::Sim(s) = PortSpec::parse(&port).ok()? else {
-        return None;
-    };
+    let s = SimSpec::parse(port).ok()?;
     let drives = s.drives();
     let name = address
         .and_then(|a| drives.iter().find(|d| d.1 == a))
@@ -194,47 +135,45 @@ pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
 /// Open a port string for a command on one drive: a `sim://FAMILY` port
 /// without `addresses=` simulates one drive at `address`.
 pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
-    let (text, state) = split_state(port);
-    let mut spec = PortSpec::parse(&text).map_err(|e| {
+    let bad_port = |e: driveset_link::PortSpecError| {
         Fail::input(format!(
             "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"
         ))
-    })?;
-    if let (PortSpec::Sim(sim), Some(a)) = (&mut spec, address)
+    };
+    let spec = PortSpec::parse(port).map_err(bad_port)?;
+    if !matches!(spec, PortSpec::Sim(_)) {
+        let link = driveset_link::open(&spec, &OpenOptions::default())
+            .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
+        return Ok(OpenPort {
+            name: spec.to_string(),
+            link,
+            sim: None,
+            spec,
+        });
+    }
+    // The simulator's port: opened here rather than through
+    // `driveset_link::open_with`, because the commands also ask the
+    // simulated bus which drives it holds.
+    let mut sim = SimSpec::parse(port).map_err(bad_port)?;
+    if let Some(a) = address
         && sim.addresses.is_empty()
         && !sim.is_mixed()
     {
         sim.addresses.push(a);
     }
-    match &spec {
-        PortSpec::Sim(sim) => {
-            let mut config =
-                SimConfig::from_spec(sim).map_err(|e| Fail::input(format!("{text}: {e}")))?;
-            if state.is_some() {
-                config.state = state;
-            }
-            let clock = VirtualClock::new();
-            let name = spec.to_string();
-            let sim = open_sim_with(&config, &clock, &name, EventLog::off())
-                .map_err(|e| Fail::input(format!("{name}: {e}")))?;
-            Ok(OpenPort {
-                name,
-                link: sim.link(),
-                sim: Some(sim),
-                spec,
-            })
-        }
-        _ => {
-            let link = driveset_link::open(&spec, &OpenOptions::default())
-                .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
-            Ok(OpenPort {
-                name: spec.to_string(),
-                link,
-                sim: None,
-                spec,
-            })
-        }
-    }
+    let name = sim.name();
+    let config = SimOpener::default()
+        .config(&sim)
+        .map_err(|e| Fail::input(format!("{name}: {e}")))?;
+    let clock = VirtualClock::new();
+    let bus = open_sim_with(&config, &clock, &name, EventLog::off())
+        .map_err(|e| Fail::input(format!("{name}: {e}")))?;
+    Ok(OpenPort {
+        name,
+        link: bus.link(),
+        sim: Some(bus),
+        spec: PortSpec::Sim(sim.to_opaque()),
+    })
 }
 
 /// Check that `schema` can talk over `port`: the protocol's kind of link,
@@ -378,6 +317,17 @@ pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
     crate::output::registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
 }
 
+/// The schemas a command on `port` knows: [`registry`], plus the
+/// simulator's fixture schemas when `port` is a `sim://` port
+/// ([`crate::output::sim_registry`]).
+pub fn registry_for(port: &str, dirs: &[PathBuf]) -> Result<Registry, Fail> {
+    if matches!(PortSpec::parse(port), Ok(PortSpec::Sim(_))) {
+        crate::output::sim_registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
+    } else {
+        registry(dirs)
+    }
+}
+
 /// A schema and whether it came from a file.
 #[derive(Debug, Clone)]
 pub struct SchemaChoice {
@@ -396,7 +346,13 @@ pub fn resolve_schema(
     sim: Option<Family>,
     protocol: Option<ProtocolArg>,
 ) -> Result<SchemaChoice, Fail> {
-    let mut registry = registry(dirs)?;
+    // On a `sim://` port the simulator's fixture schemas are known by id.
+    let mut registry = match sim {
+        Some(_) => {
+            crate::output::sim_registry(dirs).map_err(|e| Fail::input(e.render_human_string()))?
+        }
+        None => registry(dirs)?,
+    };
     if let Some(a) = arg {
         let p = Path::new(a);
         if p.is_file() {
@@ -448,25 +404,5 @@ impl RenderString for driveset_schema::InputError {
             .trim_end()
             .trim_start_matches("error: ")
             .to_string()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn state_is_taken_out_of_sim_ports() {
-        assert_eq!(
-            split_state("sim://mc6000?addresses=1&state=/tmp/x.json&seed=3"),
-            (
-                "sim://mc6000?addresses=1&seed=3".to_string(),
-                Some(PathBuf::from("/tmp/x.json"))
-            )
-        );
-        assert_eq!(
-            split_state("/dev/ttyUSB0?baud=9600"),
-            ("/dev/ttyUSB0?baud=9600".to_string(), None)
-        );
     }
 }

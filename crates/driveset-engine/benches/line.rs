@@ -99,9 +99,10 @@ impl Sims {
         let PortSpec::Sim(spec) = &bus.port else {
             return Err("not a sim port".into());
         };
-        let config = SimConfig::from_spec(spec).map_err(|e| e.to_string())?;
+        let spec = driveset_sim::port::SimSpec::from_opaque(spec).map_err(|e| e.to_string())?;
+        let config = SimConfig::from_spec(&spec).map_err(|e| e.to_string())?;
         let log = EventLog::memory();
-        let port = PortSpec::Sim(spec.clone()).to_string();
+        let port = spec.to_string();
         let s = open_sim_with(&config, &VirtualClock::new(), &port, log.clone())
             .map_err(|e| e.to_string())?;
         let l = s.link();
@@ -257,7 +258,7 @@ fn main() {
     let tmp = tempfile::tempdir().unwrap();
     let path = write_line(tmp.path(), 25);
     let mut reg = Registry::builtin().unwrap();
-    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let m = l.manifest.unwrap();
     println!("line: {} drives on {} buses", m.drives.len(), m.buses.len());
@@ -457,7 +458,7 @@ fn broadcast_line() -> bool {
     let tmp = tempfile::tempdir().unwrap();
     let path = write_axes(tmp.path(), 25);
     let mut reg = Registry::builtin().unwrap();
-    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let m = l.manifest.unwrap();
     let sets: Vec<_> = m.drives.iter().map(|d| &d.set).collect();
@@ -500,4 +501,10 @@ fn broadcast_line() -> bool {
         if ok { "met" } else { "MISSED" }
     );
     ok
+}
+
+/// The simulator's port opener, as the CLI registers it.
+fn sim_openers() -> driveset_link::Openers {
+    driveset_link::Openers::none()
+        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

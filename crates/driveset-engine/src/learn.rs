@@ -56,7 +56,7 @@ use driveset_schema::schema::StorageKind;
 use driveset_schema::value::raw_to_engineering;
 use driveset_schema::{Family, Registry, Schema, ValueType, check_schema};
 
-use crate::client::{IdentValue, Identity, LustbusClient};
+use crate::client::{DriveClient as _, IdentValue, Identity, LustbusClient};
 use crate::error::EngineError;
 
 /// How to learn.
@@ -214,12 +214,20 @@ fn slug(s: &str) -> String {
         .collect()
 }
 
+/// The highest parameter number a LUSTBUS family describes (VF1000: 99,
+/// two CODE digits; MC6000/7000: 999, three); `None` for the families
+/// whose drives have no LUSTBUS descriptions.
+pub fn max_parameter(protocol: Family) -> Option<u32> {
+    match protocol {
+        Family::Vf1000 => Some(99),
+        Family::Mc6000 => Some(999),
+        Family::Tmd | Family::Ecs => None,
+    }
+}
+
 /// The parameters asked for by default.
 pub fn default_params(protocol: Family) -> Vec<u32> {
-    match protocol {
-        Family::Vf1000 => (1..=99).collect(),
-        _ => (1..=999).collect(),
-    }
+    (1..=max_parameter(protocol).unwrap_or(999)).collect()
 }
 
 /// Asks every parameter of `params` for its description (a NAK: no such
@@ -1143,4 +1151,60 @@ fn render_code(
             let _ = writeln!(out, "{k} = {}", q(v));
         }
     }
+}
+
+/// A schema learned from one drive ([`pull_schema`]).
+#[derive(Debug, Clone)]
+pub struct PulledSchema {
+    /// The drive's identity.
+    pub identity: Identity,
+    /// What was read and how it was interpreted.
+    pub learned: Learned,
+    /// The rendered, checked schema.
+    pub rendered: LearnedSchema,
+}
+
+/// Why [`pull_schema`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PullSchemaError {
+    /// The bus or the drive failed.
+    #[error(transparent)]
+    Engine(#[from] EngineError),
+    /// The learned schema does not render into a file that checks.
+    #[error("{0}")]
+    Render(String),
+}
+
+/// `schema pull` and the learning commands: identify the drive, read and
+/// interpret its descriptions (and MC texts) with `opts`, end the
+/// exchange, and render the schema extending `base` with `id` (default:
+/// [`learned_id`]); `drive` names it in the file (`<port> address <a>`).
+/// `registry` must hold `base`. Nothing but the RAM selector 108-STEXT is
+/// written, and it is set back.
+pub fn pull_schema<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    base: &Schema,
+    opts: &LearnOptions,
+    id: Option<&str>,
+    drive: String,
+    registry: &Registry,
+) -> Result<PulledSchema, PullSchemaError> {
+    let identity = client.identify()?;
+    let mut learned = learn(client, base.family, opts)?;
+    client.finish()?;
+    let id = id.map_or_else(
+        || learned_id(base.family, &identity, &learned),
+        str::to_string,
+    );
+    let source = LearnSource {
+        drive,
+        identity: identity.clone(),
+    };
+    let rendered = render_schema(&mut learned, base, &id, &source, registry)
+        .map_err(PullSchemaError::Render)?;
+    Ok(PulledSchema {
+        identity,
+        learned,
+        rendered,
+    })
 }

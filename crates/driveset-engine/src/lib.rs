@@ -16,6 +16,7 @@
 
 pub mod client;
 pub mod connect;
+pub mod decode;
 pub mod doctor;
 pub mod env;
 pub mod error;

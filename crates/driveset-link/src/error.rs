@@ -183,7 +183,8 @@ pub enum LinkError {
         detail: String,
     },
 
-    /// `sim://` ports are opened by the CLI with the simulator crate.
+    /// A port of a scheme no registered [`crate::PortOpener`] opens
+    /// (`sim://` without the simulator's opener).
     #[error("{port}: open sim:// ports through the simulator (driveset-sim), not driveset-link")]
     SimPort {
         /// The port.

@@ -55,8 +55,8 @@ pub use clock::{Clock, Instant, RealClock, VirtualClock};
 pub use driveset_proto::can::CanFrame;
 pub use echo::{EchoLink, EchoMode};
 pub use error::LinkError;
-pub use open::{Link, OpenOptions, open};
-pub use spec::{PortSpec, PortSpecError, PortSpecErrorKind, SimSpec};
+pub use open::{Link, OpenOptions, Openers, PortOpener, PortShape, open, open_with};
+pub use spec::{OpaqueSpec, PortSpec, PortSpecError, PortSpecErrorKind};
 
 /// A byte line to LUSTBUS / LECOM drives (7E1; the transport adds parity).
 ///

@@ -1,6 +1,10 @@
 //! Opening a transport from a [`PortSpec`]: [`open`], its [`OpenOptions`]
-//! and the [`Link`] it returns (a byte line or a CAN bus).
+//! and the [`Link`] it returns (a byte line or a CAN bus); the
+//! [`PortOpener`] trait for the schemes this crate does not open itself
+//! (`sim://`: the simulator implements it) and the registry of openers a
+//! program passes to [`open_with`] ([`Openers`]).
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use crate::ByteLink;
@@ -9,7 +13,7 @@ use crate::echo::{EchoLink, EchoMode};
 use crate::error::LinkError;
 use crate::rfc2217::Rfc2217Link;
 use crate::serial::SerialLink;
-use crate::spec::{DEFAULT_BAUD, PortSpec};
+use crate::spec::{DEFAULT_BAUD, OpaqueSpec, PortSpec, PortSpecError};
 use crate::tcp::TcpLink;
 
 /// Settings for [`open`] that the port string does not carry.
@@ -53,6 +57,95 @@ impl Link {
     }
 }
 
+/// What a [`PortOpener`]'s port holds, as far as a program checks a port
+/// before it opens it (a line manifest, `driveset validate`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PortShape {
+    /// Whether the port carries CAN frames (else bytes).
+    pub frames: bool,
+    /// The drives on it, as (family as the port names it, address), in
+    /// the port's order; empty when the port names none (a program that
+    /// knows which drives it wants gives them with
+    /// [`PortOpener::with_drives`]).
+    pub drives: Vec<(String, u8)>,
+    /// Whether it holds drives of several families (a mixed LUSTBUS).
+    pub mixed: bool,
+    /// The port as reports name it (canonical, without options that only
+    /// say where the opener keeps its own state).
+    pub name: String,
+}
+
+/// Opens the ports of one scheme this crate does not open itself
+/// ([`crate::spec::OPENER_SCHEMES`]): the simulator implements it for
+/// `sim://`. The opener owns the query's keys, their checks and their
+/// error messages (what, where, what to write instead).
+pub trait PortOpener: Send + Sync {
+    /// The scheme it opens (`sim`).
+    fn scheme(&self) -> &str;
+    /// Check `spec` without opening it and say what it holds.
+    fn check(&self, spec: &OpaqueSpec) -> Result<PortShape, PortSpecError>;
+    /// `spec` with `drives` (family name, address) put on it when it names
+    /// no drives itself (a line manifest's drives on `sim://FAMILY`);
+    /// `spec` unchanged when it does.
+    fn with_drives(&self, spec: &OpaqueSpec, drives: &[(&str, u8)]) -> OpaqueSpec;
+    /// `spec` running at `rate` (baud on a character line, bit/s on CAN).
+    fn with_rate(&self, spec: &OpaqueSpec, rate: u32) -> OpaqueSpec;
+    /// Open `spec`.
+    fn open(&self, spec: &OpaqueSpec, options: &OpenOptions) -> Result<Link, LinkError>;
+}
+
+/// The openers a program registers, by scheme ([`open_with`]).
+#[derive(Clone, Default)]
+pub struct Openers(Vec<Arc<dyn PortOpener>>);
+
+impl std::fmt::Debug for Openers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list()
+            .entries(self.0.iter().map(|o| o.scheme().to_string()))
+            .finish()
+    }
+}
+
+impl Openers {
+    /// No openers: only the ports this crate opens itself.
+    pub fn none() -> Self {
+        Openers(Vec::new())
+    }
+
+    /// These openers plus `opener` (which replaces one of the same scheme).
+    #[must_use]
+    pub fn with(mut self, opener: Arc<dyn PortOpener>) -> Self {
+        self.0.retain(|o| o.scheme() != opener.scheme());
+        self.0.push(opener);
+        self
+    }
+
+    /// The opener of `scheme`.
+    pub fn get(&self, scheme: &str) -> Option<&dyn PortOpener> {
+        self.0.iter().find(|o| o.scheme() == scheme).map(|o| &**o)
+    }
+
+    /// The opener of an opaque port, or the error that none is registered.
+    pub fn opener(&self, spec: &OpaqueSpec) -> Result<&dyn PortOpener, LinkError> {
+        self.get(&spec.scheme).ok_or_else(|| LinkError::SimPort {
+            port: spec.to_string(),
+        })
+    }
+}
+
+/// Open `spec`: an opaque port ([`PortSpec::Sim`]) through its registered
+/// opener, every other port as [`open`] does.
+pub fn open_with(
+    spec: &PortSpec,
+    options: &OpenOptions,
+    openers: &Openers,
+) -> Result<Link, LinkError> {
+    match spec {
+        PortSpec::Sim(o) => openers.opener(o)?.open(o, options),
+        _ => open(spec, options),
+    }
+}
+
 /// A character line behind its [`EchoLink`] (`echo=`, default `auto`).
 fn with_echo<L: ByteLink + 'static>(link: L, echo: Option<EchoMode>) -> Box<dyn ByteLink> {
     Box::new(EchoLink::new(link, echo.unwrap_or_default()))
@@ -61,7 +154,8 @@ fn with_echo<L: ByteLink + 'static>(link: L, echo: Option<EchoMode>) -> Box<dyn 
 /// Open the transport `spec` names. Character lines (serial, `tcp://`,
 /// `rfc2217://`) come wrapped in an [`EchoLink`] with the port's `echo=`
 /// mode (`echo=off` makes it a pass-through). `sim://` ports are refused with
-/// [`LinkError::SimPort`]: the CLI opens them with the simulator.
+/// [`LinkError::SimPort`]: [`open_with`] opens them with a registered
+/// [`PortOpener`].
 pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
     match spec {
         PortSpec::Serial {

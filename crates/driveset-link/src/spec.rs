@@ -9,19 +9,19 @@
 //! | `rfc2217://host:port` | serial device server speaking RFC 2217 (telnet COM-PORT-OPTION: driveset sets 7E1 and the rate on the server, [`crate::rfc2217`]) |
 //! | `slcan:///dev/ttyACM0?bitrate=500000` | slcan (Lawicel) USB-CAN adapter ([`crate::slcan`]) |
 //! | `can://can0` | SocketCAN interface (feature `socketcan`) |
-//! | `sim://FAMILY?addresses=1,2,3` | in-process simulated bus (opened by the CLI with driveset-sim); without `addresses=` a command that names one address simulates one drive there |
-//! | `sim://lustbus?mc6000=1,2&vf1000=5,6` | in-process simulated LUSTBUS with inverters and servocontrollers on one line |
+//! | `sim://...` | a port a registered [`crate::PortOpener`] opens (the simulator's `sim://FAMILY?addresses=1,2`, see driveset-sim's `open` module): this crate parses its path and keeps its query opaque ([`OpaqueSpec`]) |
 //!
 //! Every form takes `?baud=` (the 7E1 line rate; for slcan the rate of the
 //! adapter's own serial line; for `can://` a synonym of `bitrate`), the CAN
-//! forms and `sim://` also `bitrate=`. The character lines (serial,
+//! forms also `bitrate=`. The character lines (serial,
 //! `tcp://`, `rfc2217://`) take `echo=auto|on|off` ([`crate::echo`]: strip
 //! the echo of a 2-wire RS-485 adapter; `auto`, the default, detects it
 //! from the first exchange; the canonical form leaves `auto` out). Serial, `tcp://`
 //! and `rfc2217://` ports take `latency=` ([`parse_latency`]: `40ms`,
 //! `0.1s`), the round-trip delay the transport adds (USB adapter, device
 //! server), which the clients add to their answer timeouts from the first
-//! telegram on. Unknown keys are rejected by name.
+//! telegram on. Unknown keys are rejected by name (on `sim://` ports by
+//! their opener).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -45,12 +45,6 @@ pub const DEFAULT_BITRATE: u32 = 500_000;
 /// CDC adapters ignore it).
 pub const DEFAULT_SLCAN_BAUD: u32 = 115_200;
 
-/// Simulator options besides `addresses`, `baud` and `bitrate`: passed on
-/// to the simulator as text (`seed` must be a whole number).
-pub const SIM_OPTION_KEYS: &[&str] = &[
-    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
-];
-
 const SERIAL_KEYS: &[&str] = &["baud", "echo", "latency"];
 const TCP_KEYS: &[&str] = &["baud", "echo", "latency"];
 
@@ -58,30 +52,10 @@ const TCP_KEYS: &[&str] = &["baud", "echo", "latency"];
 pub const MAX_LATENCY: std::time::Duration = std::time::Duration::from_secs(10);
 const SLCAN_KEYS: &[&str] = &["bitrate", "baud"];
 const CAN_KEYS: &[&str] = &["bitrate", "baud"];
-const SIM_KEYS: &[&str] = &[
-    "addresses",
-    "baud",
-    "bitrate",
-    "c0001",
-    "faults",
-    "keypad",
-    "layout",
-    "mc6000",
-    "mc7000",
-    "seed",
-    "state",
-    "types",
-    "vf1000",
-];
-
-/// The bus name of a simulated LUSTBUS that holds drives of several
-/// families: `sim://lustbus?mc6000=1,2&vf1000=5` (LUSTBUS protocol section
-/// 1, joint operation of inverters and servocontrollers).
-pub const SIM_MIXED_LUSTBUS: &str = "lustbus";
-
-/// The per-family address keys of [`SIM_MIXED_LUSTBUS`]: the LUSTBUS
-/// families.
-pub const SIM_FAMILY_KEYS: &[&str] = &["mc6000", "mc7000", "vf1000"];
+/// The schemes whose ports a registered [`crate::PortOpener`] opens: this
+/// crate parses them into an [`OpaqueSpec`] and leaves their query to the
+/// opener (`sim://`: the simulator).
+pub const OPENER_SCHEMES: &[&str] = &["sim"];
 
 /// Where a bus is: a parsed port string. See the module docs for the forms.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -147,57 +121,42 @@ pub enum PortSpec {
         /// `None` means [`DEFAULT_BITRATE`].
         bitrate: Option<u32>,
     },
-    /// An in-process simulated bus.
-    Sim(SimSpec),
+    /// A port a registered [`crate::PortOpener`] opens (`sim://`, the
+    /// simulator's in-process bus).
+    Sim(OpaqueSpec),
 }
 
-/// A `sim://FAMILY?addresses=...` port (simulated drives of one family), or
-/// a `sim://lustbus?mc6000=...&vf1000=...` port (a LUSTBUS holding drives of
-/// several families, [`SIM_MIXED_LUSTBUS`]).
+/// A port of a scheme a [`crate::PortOpener`] opens ([`OPENER_SCHEMES`]):
+/// the scheme, the path after `://` and the query, key by key, as given.
+/// This crate checks only the query's form (`key=value` items, each key
+/// once, no empty value); which keys there are and what they mean is the
+/// opener's.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct SimSpec {
-    /// Drive family (schema name), e.g. `lust-vf1000`, or `lustbus` for a
-    /// mixed LUSTBUS.
-    pub family: String,
-    /// Bus addresses of the simulated drives, in the order given (empty on
-    /// a mixed bus: see [`SimSpec::families`]).
-    pub addresses: Vec<u8>,
-    /// A mixed bus's drives: per family key ([`SIM_FAMILY_KEYS`]) the
-    /// addresses, in the order given. Empty on a single-family bus.
-    pub families: BTreeMap<String, Vec<u8>>,
-    /// Line rate for serial families.
-    pub baud: Option<u32>,
-    /// Bit rate for CAN families.
-    pub bitrate: Option<u32>,
-    /// Further simulator options ([`SIM_OPTION_KEYS`]), by key.
-    pub options: BTreeMap<String, String>,
+pub struct OpaqueSpec {
+    /// The scheme (`sim`).
+    pub scheme: String,
+    /// What follows `://` up to `?` (`mc6000`, `lustbus`).
+    pub path: String,
+    /// The query's items by key.
+    pub query: BTreeMap<String, String>,
 }
 
-impl SimSpec {
-    /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`).
-    pub fn is_mixed(&self) -> bool {
-        !self.families.is_empty()
+impl OpaqueSpec {
+    /// The value of `key`, if given.
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.query.get(key).map(String::as_str)
     }
+}
 
-    /// Every simulated drive as (family as given, address): the per-family
-    /// keys' drives on a mixed bus, else `family` at each of `addresses`.
-    pub fn drives(&self) -> Vec<(&str, u8)> {
-        if self.is_mixed() {
-            self.families
-                .iter()
-                .flat_map(|(f, list)| list.iter().map(move |&a| (f.as_str(), a)))
-                .collect()
-        } else {
-            self.addresses
-                .iter()
-                .map(|&a| (self.family.as_str(), a))
-                .collect()
+/// `scheme://path?k=v&...`, the keys in alphabetical order.
+impl fmt::Display for OpaqueSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}://{}", self.scheme, self.path)?;
+        let mut q = Query::default();
+        for (key, value) in &self.query {
+            q.text(key, value);
         }
-    }
-
-    /// Every simulated drive's address.
-    pub fn all_addresses(&self) -> Vec<u8> {
-        self.drives().into_iter().map(|(_, a)| a).collect()
+        f.write_str(&q.0)
     }
 }
 
@@ -378,20 +337,21 @@ impl PortSpec {
             PortSpec::Serial { baud, .. }
             | PortSpec::Tcp { baud, .. }
             | PortSpec::Rfc2217 { baud, .. } => Some(baud.unwrap_or(DEFAULT_BAUD)),
-            PortSpec::Sim(sim) => Some(sim.baud.unwrap_or(DEFAULT_BAUD)),
+            PortSpec::Sim(sim) => Some(opaque_rate(sim, "baud").unwrap_or(DEFAULT_BAUD)),
             PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => None,
         }
     }
 
     /// The CAN bit rate (defaults applied) for CAN ports, `None` otherwise.
-    /// For `sim://` it is the given `bitrate=` or [`DEFAULT_BITRATE`]:
-    /// whether the family is a CAN one is the simulator's business.
+    /// For an [`OpaqueSpec`] it is its `bitrate=` if that is a number, else
+    /// [`DEFAULT_BITRATE`]: whether the port is a CAN one is the opener's
+    /// business (as `baud=` for [`PortSpec::line_baud`]).
     pub fn can_bitrate(&self) -> Option<u32> {
         match self {
             PortSpec::Slcan { bitrate, .. } | PortSpec::SocketCan { bitrate, .. } => {
                 Some(bitrate.unwrap_or(DEFAULT_BITRATE))
             }
-            PortSpec::Sim(sim) => Some(sim.bitrate.unwrap_or(DEFAULT_BITRATE)),
+            PortSpec::Sim(sim) => Some(opaque_rate(sim, "bitrate").unwrap_or(DEFAULT_BITRATE)),
             PortSpec::Serial { .. } | PortSpec::Tcp { .. } | PortSpec::Rfc2217 { .. } => None,
         }
     }
@@ -498,30 +458,15 @@ impl fmt::Display for PortSpec {
                 write!(f, "can://{interface}")?;
                 q.num("bitrate", *bitrate);
             }
-            PortSpec::Sim(sim) => {
-                write!(f, "sim://{}", sim.family)?;
-                let addresses = sim
-                    .addresses
-                    .iter()
-                    .map(u8::to_string)
-                    .collect::<Vec<_>>()
-                    .join(",");
-                if !sim.is_mixed() && !addresses.is_empty() {
-                    q.text("addresses", &addresses);
-                }
-                for (key, list) in &sim.families {
-                    let list = list.iter().map(u8::to_string).collect::<Vec<_>>();
-                    q.text(key, &list.join(","));
-                }
-                q.num("baud", sim.baud);
-                q.num("bitrate", sim.bitrate);
-                for (key, value) in &sim.options {
-                    q.text(key, value);
-                }
-            }
+            PortSpec::Sim(spec) => return write!(f, "{spec}"),
         }
         f.write_str(&q.0)
     }
+}
+
+/// A rate key of an opaque port, when it is a number (the opener checks it).
+fn opaque_rate(spec: &OpaqueSpec, key: &str) -> Option<u32> {
+    spec.get(key).and_then(|v| v.parse().ok())
 }
 
 fn write_host_port(f: &mut fmt::Formatter<'_>, scheme: &str, host: &str, port: u16) -> fmt::Result {
@@ -609,6 +554,46 @@ pub fn parse_latency(text: &str) -> Result<std::time::Duration, String> {
     Ok(d)
 }
 
+/// The items of a query (`key=value&...`), checked for their form and, with
+/// `allowed`, against the keys a scheme takes.
+fn query_items(
+    query: Option<&str>,
+    allowed: Option<(&'static str, &'static [&'static str])>,
+) -> Result<BTreeMap<String, String>, PortSpecErrorKind> {
+    let mut map = BTreeMap::new();
+    let Some(query) = query else {
+        return Ok(map);
+    };
+    for item in query.split('&') {
+        if item.is_empty() {
+            return Err(PortSpecErrorKind::EmptyOption);
+        }
+        let Some((key, value)) = item.split_once('=') else {
+            return Err(PortSpecErrorKind::MalformedOption { item: item.into() });
+        };
+        if let Some((scheme, allowed)) = allowed
+            && !allowed.contains(&key)
+        {
+            return Err(PortSpecErrorKind::UnknownOption {
+                key: key.into(),
+                scheme,
+                allowed,
+            });
+        }
+        if value.is_empty() {
+            return Err(PortSpecErrorKind::BadValue {
+                key: key.into(),
+                value: String::new(),
+                reason: "empty value".into(),
+            });
+        }
+        if map.insert(key.to_string(), value.to_string()).is_some() {
+            return Err(PortSpecErrorKind::DuplicateOption { key: key.into() });
+        }
+    }
+    Ok(map)
+}
+
 /// The options after `?`, checked against the keys a scheme takes.
 struct Options {
     map: BTreeMap<String, String>,
@@ -620,36 +605,7 @@ impl Options {
         scheme: &'static str,
         allowed: &'static [&'static str],
     ) -> Result<Options, PortSpecErrorKind> {
-        let mut map = BTreeMap::new();
-        let Some(query) = query else {
-            return Ok(Options { map });
-        };
-        for item in query.split('&') {
-            if item.is_empty() {
-                return Err(PortSpecErrorKind::EmptyOption);
-            }
-            let Some((key, value)) = item.split_once('=') else {
-                return Err(PortSpecErrorKind::MalformedOption { item: item.into() });
-            };
-            if !allowed.contains(&key) {
-                return Err(PortSpecErrorKind::UnknownOption {
-                    key: key.into(),
-                    scheme,
-                    allowed,
-                });
-            }
-            if value.is_empty() {
-                return Err(PortSpecErrorKind::BadValue {
-                    key: key.into(),
-                    value: String::new(),
-                    reason: "empty value".into(),
-                });
-            }
-            if map.insert(key.to_string(), value.to_string()).is_some() {
-                return Err(PortSpecErrorKind::DuplicateOption { key: key.into() });
-            }
-        }
-        Ok(Options { map })
+        query_items(query, Some((scheme, allowed))).map(|map| Options { map })
     }
 
     fn number(&mut self, key: &str) -> Result<Option<u32>, PortSpecErrorKind> {
@@ -745,7 +701,11 @@ fn parse(input: &str) -> Result<PortSpec, PortSpecErrorKind> {
         "rfc2217" => parse_tcp(rest, query, "rfc2217"),
         "slcan" => parse_slcan(rest, query),
         "can" => parse_can(rest, query),
-        "sim" => parse_sim(rest, query),
+        s if OPENER_SCHEMES.contains(&s) => Ok(PortSpec::Sim(OpaqueSpec {
+            scheme: s.to_string(),
+            path: rest.to_string(),
+            query: query_items(query, None)?,
+        })),
         _ => Err(PortSpecErrorKind::UnknownScheme {
             scheme: scheme.into(),
         }),
@@ -954,101 +914,4 @@ fn parse_can(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorK
         interface: interface.into(),
         bitrate,
     })
-}
-
-fn parse_sim(family: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorKind> {
-    const EXAMPLE: &str = "sim://lust-vf1000?addresses=1,2,3";
-    if family.is_empty() {
-        return Err(PortSpecErrorKind::Missing {
-            scheme: "sim",
-            what: "a drive family",
-            example: EXAMPLE,
-        });
-    }
-    if !family
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
-    {
-        return Err(PortSpecErrorKind::BadFamily {
-            family: family.into(),
-        });
-    }
-    let mut opts = Options::parse(query, "sim://", SIM_KEYS)?;
-    let mut families = BTreeMap::new();
-    for key in SIM_FAMILY_KEYS {
-        if let Some(list) = opts.map.remove(*key) {
-            families.insert(key.to_string(), list);
-        }
-    }
-    let mixed = family.eq_ignore_ascii_case(SIM_MIXED_LUSTBUS);
-    let mut seen = Vec::new();
-    let mut address_list = |list: &str| -> Result<Vec<u8>, PortSpecErrorKind> {
-        let mut out = Vec::new();
-        for item in list.split(',') {
-            let address = item
-                .trim()
-                .parse::<u8>()
-                .map_err(|_| PortSpecErrorKind::BadAddress { value: item.into() })?;
-            if seen.contains(&address) {
-                return Err(PortSpecErrorKind::DuplicateAddress { address });
-            }
-            seen.push(address);
-            out.push(address);
-        }
-        Ok(out)
-    };
-    let mut addresses = Vec::new();
-    let mut per_family = BTreeMap::new();
-    if mixed {
-        if opts.map.contains_key("addresses") {
-            return Err(PortSpecErrorKind::MixedBus {
-                reason: format!(
-                    "sim://{family} takes the addresses per family ({}=...), not addresses=; e.g. sim://lustbus?mc6000=1,2&vf1000=5",
-                    SIM_FAMILY_KEYS.join("=..., ")
-                ),
-            });
-        }
-        if families.is_empty() {
-            return Err(PortSpecErrorKind::Missing {
-                scheme: "sim",
-                what: "the drives per family (mc6000=, mc7000=, vf1000=) on a mixed LUSTBUS",
-                example: "sim://lustbus?mc6000=1,2&vf1000=5",
-            });
-        }
-        for (key, list) in &families {
-            per_family.insert(key.clone(), address_list(list)?);
-        }
-    } else {
-        if let Some(key) = families.keys().next() {
-            return Err(PortSpecErrorKind::MixedBus {
-                reason: format!(
-                    "`{key}=` (drives per family) is for a mixed LUSTBUS, sim://lustbus?{key}=...; on sim://{family} give addresses="
-                ),
-            });
-        }
-        // Without addresses= the bus holds no drive yet: a command that
-        // names one address (`pull --address 3`) simulates one drive there.
-        if let Some(list) = opts.map.remove("addresses") {
-            addresses = address_list(&list)?;
-        }
-    }
-    let baud = opts.line_baud()?;
-    let bitrate = opts.bitrate()?;
-    if let Some(seed) = opts.map.get("seed")
-        && seed.parse::<u64>().is_err()
-    {
-        return Err(PortSpecErrorKind::BadValue {
-            key: "seed".into(),
-            value: seed.clone(),
-            reason: "not a whole number in 0..=18446744073709551615".into(),
-        });
-    }
-    Ok(PortSpec::Sim(SimSpec {
-        family: family.into(),
-        addresses,
-        families: per_family,
-        baud,
-        bitrate,
-        options: opts.map,
-    }))
 }

@@ -105,44 +105,53 @@ impl Location {
         }
     }
 
-    /// Render the `--> file:line:col` header plus a caret snippet with `label`.
-    fn render_snippet(&self, out: &mut String, label: &str) {
-        use fmt::Write;
-        if self.line == 0 {
-            let _ = writeln!(out, "  --> {}", self.file);
-            return;
+    /// The line to show and the span's byte range in it: the whole line, or
+    /// for a line longer than [`MAX_SNIPPET_CHARS`] a window of that many
+    /// characters around the column, `...` marking what is cut (so one huge
+    /// value cannot make a huge report).
+    fn snippet_window(&self) -> (String, Range<usize>) {
+        let span = self.span_in_line();
+        let total = self.line_text.chars().count();
+        if total <= MAX_SNIPPET_CHARS {
+            return (self.line_text.clone(), span);
         }
-        let num = self.line.to_string();
-        let pad = " ".repeat(num.len());
-        let _ = writeln!(out, "{pad}--> {}:{}:{}", self.file, self.line, self.column);
-        let _ = writeln!(out, "{pad} |");
-        let _ = writeln!(out, "{num} | {}", self.line_text);
-        // caret width: the span's characters on this line (at least one)
+        let col0 = self.line_text[..span.start].chars().count();
+        let from = col0.saturating_sub(40);
+        let byte = |chars: usize| {
+            self.line_text
+                .char_indices()
+                .nth(chars)
+                .map_or(self.line_text.len(), |(i, _)| i)
+        };
+        let (a, b) = (byte(from), byte(from + MAX_SNIPPET_CHARS));
+        let mut text = String::new();
+        if from > 0 {
+            text.push_str("...");
+        }
+        let shift = text.len();
+        text.push_str(&self.line_text[a..b]);
+        let start = span.start - a + shift;
+        let end = span.end.clamp(a, b) - a + shift;
+        if b < self.line_text.len() {
+            text.push_str("...");
+        }
+        (text, start..end.max(start))
+    }
+
+    /// The byte range of the span within `line_text` (clamped to the line).
+    fn span_in_line(&self) -> Range<usize> {
         let line_start = self.byte_col_offset();
-        let col_byte = self
+        let start = self
             .span
             .start
             .saturating_sub(line_start)
             .min(self.line_text.len());
-        let end_byte = self
+        let end = self
             .span
             .end
             .saturating_sub(line_start)
-            .clamp(col_byte, self.line_text.len());
-        let span_chars = self
-            .line_text
-            .get(col_byte..end_byte)
-            .map(|s| s.chars().count())
-            .unwrap_or(0)
-            .max(1);
-        let start_col = self.column.saturating_sub(1);
-        let lead: String = self
-            .line_text
-            .chars()
-            .take(start_col)
-            .map(|c| if c == '\t' { '\t' } else { ' ' })
-            .collect();
-        let _ = writeln!(out, "{pad} | {lead}{} {label}", "^".repeat(span_chars));
+            .clamp(start, self.line_text.len());
+        start..end
     }
 
     /// Hide the text at `secret` (a byte span of the same file) in this
@@ -326,23 +335,77 @@ impl Finding {
     ///   |
     /// 3 | C0011 = 300
     ///   |         ^^^ here
+    ///   |
     ///   = help: give a value from 7.5 to 240 Hz
     /// ```
     pub fn render_human(&self) -> String {
-        let mut out = format!("error[{}]: {}\n", self.kind, self.message);
-        self.location.render_snippet(&mut out, "here");
-        for (label, loc) in &self.related {
-            self.render_related(&mut out, label, loc);
-        }
-        if !self.help.is_empty() {
-            out.push_str(&format!("  = help: {}\n", self.help));
-        }
-        out
+        self.render(false)
     }
 
-    fn render_related(&self, out: &mut String, label: &str, loc: &Location) {
-        loc.render_snippet(out, label);
+    /// [`Finding::render_human`], in colour when `color` (a terminal).
+    pub fn render(&self, color: bool) -> String {
+        let kind = self.kind.to_string();
+        let mut places = vec![("here", &self.location)];
+        places.extend(self.related.iter().map(|(l, loc)| (l.as_str(), loc)));
+        render_diagnostic(Some(&kind), &self.message, &places, &self.help, color)
     }
+}
+
+/// A diagnostic as rustc renders one, by `annotate-snippets` (the renderer
+/// rustc uses): `error[KIND]: MESSAGE`, then for each place its
+/// `file:line:col` with the source line and a caret under the span (the
+/// first place after `-->`, the others after `:::`), then `= help: HELP`.
+/// A place without source text (a file that could not be read, an empty
+/// line) shows as a note naming the file (and line:col). Ends with a
+/// newline.
+pub fn render_diagnostic(
+    kind: Option<&str>,
+    message: &str,
+    places: &[(&str, &Location)],
+    help: &str,
+    color: bool,
+) -> String {
+    use annotate_snippets::{Level, Renderer, Snippet};
+    let mut m = Level::Error.title(message);
+    if let Some(k) = kind {
+        m = m.id(k);
+    }
+    // A place without source text to show (a file that could not be read,
+    // the end of an empty line) is named in a note.
+    let shown = |loc: &Location| loc.line > 0 && !loc.line_text.is_empty();
+    let files: Vec<String> = places
+        .iter()
+        .filter(|(_, loc)| !shown(loc))
+        .map(|(_, loc)| match loc.line {
+            0 => format!("in {}", loc.file),
+            _ => format!("at {loc}"),
+        })
+        .collect();
+    let sources: Vec<(String, Range<usize>)> = places
+        .iter()
+        .filter(|(_, loc)| shown(loc))
+        .map(|(_, loc)| loc.snippet_window())
+        .collect();
+    for ((label, loc), (text, span)) in places.iter().filter(|(_, loc)| shown(loc)).zip(&sources) {
+        m = m.snippet(
+            Snippet::source(text)
+                .line_start(loc.line)
+                .origin(&loc.file)
+                .annotation(Level::Error.span(span.clone()).label(label)),
+        );
+    }
+    for f in &files {
+        m = m.footer(Level::Note.title(f));
+    }
+    if !help.is_empty() {
+        m = m.footer(Level::Help.title(help));
+    }
+    let renderer = if color {
+        Renderer::styled()
+    } else {
+        Renderer::plain()
+    };
+    format!("{}\n", renderer.render(m))
 }
 
 impl fmt::Display for Finding {
@@ -358,6 +421,10 @@ impl fmt::Display for Finding {
         Ok(())
     }
 }
+
+/// Longest snippet line shown in full; a longer one shows a window around
+/// the column.
+pub const MAX_SNIPPET_CHARS: usize = 160;
 
 /// Longest message kept in full; longer ones (a message quoting a huge key or
 /// number from the file) are cut, so one bad value cannot make a huge report.
@@ -431,12 +498,18 @@ impl InputError {
 
     /// rustc-style rendering, like [`Finding::render_human`].
     pub fn render_human(&self) -> String {
-        let mut out = format!("error: {}\n", self.message);
-        self.location.render_snippet(&mut out, "here");
-        if !self.help.is_empty() {
-            out.push_str(&format!("  = help: {}\n", self.help));
-        }
-        out
+        self.render(false)
+    }
+
+    /// [`InputError::render_human`], in colour when `color` (a terminal).
+    pub fn render(&self, color: bool) -> String {
+        render_diagnostic(
+            None,
+            &self.message,
+            &[("here", &self.location)],
+            &self.help,
+            color,
+        )
     }
 }
 

@@ -1287,9 +1287,26 @@ pub struct Registry {
     /// reached twice (embedded and on disk, or by two relative paths) is one
     /// schema, not a clash.
     texts: HashMap<String, Arc<str>>,
+    /// Schema ids a set may not name by id, with the file that holds each
+    /// (the simulator's fictional fixtures): see [`Registry::withhold`].
+    withheld: BTreeMap<String, String>,
 }
 
 impl Registry {
+    /// Withhold `id` from sets that name it by id: such a set gets a
+    /// finding that names `file`, where the schema is (the simulator's
+    /// fictional fixture schemas, which belong to the simulator and the
+    /// examples, not to a user's registry). A schema of that id added
+    /// later (`--schemas DIR`, a set naming the file) is known as usual.
+    pub fn withhold(&mut self, id: &str, file: &str) {
+        self.withheld.insert(id.to_string(), file.to_string());
+    }
+
+    /// The file of a withheld schema id ([`Registry::withhold`]).
+    pub fn withheld(&self, id: &str) -> Option<&str> {
+        self.withheld.get(id).map(String::as_str)
+    }
+
     /// An empty registry.
     pub fn new() -> Self {
         Registry::default()

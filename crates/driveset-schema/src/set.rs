@@ -442,6 +442,20 @@ fn resolve_schema(
         };
     }
     let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
+    if let Some(file) = registry.withheld(sref) {
+        // The simulator's fixture schemas are not a user's (issue 9): a set
+        // that means one names its file.
+        findings.push(Finding::new(
+            FindingKind::UnknownSchema,
+            loc.clone(),
+            format!("schema `{sref}` is a fictional fixture of the simulator; a set cannot name it by id"),
+            format!(
+                "name its file instead (schema = \"PATH\", relative to this set; in driveset's sources it is {file}), or a schema of a real drive: {}",
+                ids.join(", ")
+            ),
+        ));
+        return Ok(None);
+    }
     let close = ids
         .iter()
         .min_by_key(|i| crate::validate::edit_distance(sref, i));

@@ -38,6 +38,27 @@ const FIXTURES: [(&str, &str); 3] = [
     ),
 ];
 
+/// The fixture schemas' ids and files (`parameter-sets/fixtures/ID.toml`).
+pub fn fixtures() -> impl Iterator<Item = (&'static str, &'static str)> {
+    FIXTURES.iter().map(|(path, _)| {
+        let id = path
+            .rsplit('/')
+            .next()
+            .and_then(|f| f.strip_suffix(".toml"))
+            .unwrap_or(path);
+        (id, *path)
+    })
+}
+
+/// Withhold the fixture schemas' ids in `registry` (a user's registry: a
+/// set naming a fixture by id is told to name its file,
+/// [`Registry::withhold`]).
+pub fn withhold_fixtures(registry: &mut Registry) {
+    for (id, path) in fixtures() {
+        registry.withhold(id, path);
+    }
+}
+
 /// The built-in schemas plus the simulator's fictional fixtures.
 pub fn registry() -> Result<Registry, String> {
     let mut r = Registry::builtin().map_err(|e| e.to_string())?;
@@ -73,6 +94,23 @@ mod tests {
         }
         let mc = ParamTable::from_schema(schema(Family::Mc6000).unwrap()).unwrap();
         assert!(mc.len() >= 200, "MC6000 table has {} parameters", mc.len());
+    }
+
+    #[test]
+    fn fixture_ids_are_the_schemas_ids() {
+        let r = registry().unwrap();
+        let ids: Vec<&str> = fixtures().map(|f| f.0).collect();
+        assert_eq!(
+            ids,
+            [
+                "fictional-mc6000-demo",
+                "fictional-vf1000-demo",
+                "fictional-ecs-demo"
+            ]
+        );
+        for id in ids {
+            assert!(r.get(id).is_some(), "{id}");
+        }
     }
 
     #[test]

@@ -32,6 +32,7 @@ pub mod log;
 pub mod lustbus_drive;
 pub mod mc6000;
 pub mod open;
+pub mod port;
 pub mod rng;
 pub mod serve;
 pub mod slcan_hub;

@@ -74,11 +74,9 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
-use driveset_link::spec::{
-    ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE, SIM_MIXED_LUSTBUS,
-};
-use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, SimSpec};
-use driveset_link::{PortSpec, VirtualClock};
+use driveset_link::VirtualClock;
+use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE};
+use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError};
 use driveset_proto::can::NodeId;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
@@ -105,9 +103,10 @@ pub const STATE_DIR_ENV: &str = "DRIVESET_SIM_STATE_DIR";
 /// The `format` value of a state dump.
 pub const STATE_FORMAT: &str = "driveset-sim-state 1";
 
-/// The option keys [`SimConfig::from_spec`] understands: the one list the
-/// port parser accepts for `sim://` ports.
-pub use driveset_link::spec::SIM_OPTION_KEYS as OPTION_KEYS;
+/// The option keys [`SimConfig::from_spec`] understands ([`crate::port`]
+/// owns the `sim://` port's keys).
+pub use crate::port::OPTION_KEYS;
+pub use crate::port::{MIXED_LUSTBUS as SIM_MIXED_LUSTBUS, SimSpec};
 
 /// Why a simulated bus could not be opened, loaded or saved.
 #[derive(Debug, thiserror::Error)]
@@ -941,7 +940,7 @@ pub struct SimLink {
 /// `state=` or [`STATE_DIR_ENV`]. No event log.
 pub fn open_sim(spec: &SimSpec, clock: &VirtualClock) -> Result<SimLink, SimOpenError> {
     let config = SimConfig::from_spec(spec)?;
-    let port = PortSpec::Sim(spec.clone()).to_string();
+    let port = spec.to_string();
     open_sim_with(&config, clock, &port, EventLog::off())
 }
 
@@ -1233,10 +1232,7 @@ mod tests {
     use super::*;
 
     fn spec(s: &str) -> SimSpec {
-        match PortSpec::parse(s).unwrap() {
-            PortSpec::Sim(sim) => sim,
-            other => panic!("not a sim port: {other:?}"),
-        }
+        SimSpec::parse(s).unwrap_or_else(|e| panic!("not a sim port: {e}"))
     }
 
     /// A fresh file path in the temp dir (removed on drop).

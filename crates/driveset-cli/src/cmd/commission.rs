@@ -105,12 +105,11 @@ pub struct Args {
 }
 
 /// Run `driveset commission`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let overrides = match args.allow.overrides() {
         Ok(o) => o,
         Err(f) => {
-            eprintln!("error: {}", f.msg);
-            return Ok(f.code);
+            return Err(f);
         }
     };
     let opts = Common {
@@ -153,7 +152,7 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
         Ok(r) => r,
         Err(e) => return Err(crate::output::fail_input(&e)),
     };
-    let loaded = match load_manifest(path, &mut registry) {
+    let loaded = match load_manifest(path, &mut registry, &port::openers()) {
         Ok(l) => l,
         Err(e) => {
             eprint!("{}", e.render_human());
@@ -181,24 +180,30 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
     }
 }
 
-/// Open a bus through the CLI's port opener (`sim://` in-process).
+/// Open a bus with the CLI's port openers (`sim://` in-process).
 pub fn open_bus(bus: &Bus) -> Result<Link, String> {
-    port::open_port(&bus.open_string())
-        .map(|p| p.link)
-        .map_err(|f| f.msg)
+    driveset_link::open_with(
+        &bus.port,
+        &driveset_link::OpenOptions::default(),
+        &port::openers(),
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// Run a line command.
-pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> anyhow::Result<u8> {
+pub fn run_mode(
+    c: Common,
+    mode: Mode,
+    tweak: impl FnOnce(&mut LineOptions),
+) -> Result<u8, crate::fail::Fail> {
     let manifest = match load(&c.manifest, c.learn.no_learn) {
         Ok(m) => m,
-        Err(code) => return Ok(code),
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
     let learn_options = match c.learn.options() {
         Ok(o) => o,
         Err(f) => {
-            eprintln!("error: {}", f.msg);
-            return Ok(f.code);
+            return Err(f);
         }
     };
     let report_dir = c
@@ -217,7 +222,7 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     if !c.learn.no_learn {
         let registry = match crate::output::registry(&[]) {
             Ok(r) => r,
-            Err(e) => return Ok(crate::output::fail_input(&e)),
+            Err(e) => return Err(crate::fail::Fail::from(&e)),
         };
         opts.learn = Some(LineLearn {
             registry,
@@ -250,8 +255,7 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     let outcome = match outcome {
         Ok(o) => o,
         Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
-            eprintln!("error: {e}");
-            return Ok(EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!("{e}")));
         }
     };
     for w in &outcome.warnings {
@@ -261,11 +265,10 @@ pub fn run_mode(c: Common, mode: Mode, tweak: impl FnOnce(&mut LineOptions)) -> 
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
         Err(e) => {
-            eprintln!(
-                "error: cannot write the report into {}: {e}",
+            return Err(crate::fail::Fail::input(format!(
+                "cannot write the report into {}: {e}",
                 report_dir.display()
-            );
-            return Ok(EXIT_INPUT);
+            )));
         }
     }
     Ok(exit_code(outcome.verdict()))

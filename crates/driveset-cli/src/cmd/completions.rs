@@ -5,7 +5,7 @@
 
 use clap::CommandFactory;
 
-use crate::{EXIT_INPUT, EXIT_OK};
+use crate::EXIT_OK;
 
 /// Arguments of `driveset completions`.
 #[derive(clap::Args)]
@@ -28,7 +28,7 @@ Examples:
 pub struct ManArgs {}
 
 /// Write the completion script on stdout.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut cmd = crate::Cli::command();
     let mut buf = Vec::new();
     clap_complete::generate(args.shell, &mut cmd, "driveset", &mut buf);
@@ -37,12 +37,13 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
 }
 
 /// Write the man page (roff) on stdout.
-pub fn run_man(_args: ManArgs) -> anyhow::Result<u8> {
+pub fn run_man(_args: ManArgs) -> Result<u8, crate::fail::Fail> {
     let cmd = crate::Cli::command();
     let mut buf = Vec::new();
     if let Err(e) = clap_mangen::Man::new(cmd).render(&mut buf) {
-        eprintln!("error: cannot render the man page: {e}");
-        return Ok(EXIT_INPUT);
+        return Err(crate::fail::Fail::input(format!(
+            "cannot render the man page: {e}"
+        )));
     }
     crate::output::emit(&String::from_utf8_lossy(&buf));
     Ok(EXIT_OK)

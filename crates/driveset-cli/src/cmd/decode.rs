@@ -37,11 +37,7 @@
 //! (garbage, BCC mismatch, malformed or cut-off frames, replies that cannot
 //! occur); 2 usage or input error.
 
-mod event;
 pub(crate) mod input;
-mod lecom;
-mod lustbus;
-mod slcan;
 
 use std::io::Read as _;
 use std::path::PathBuf;
@@ -51,14 +47,15 @@ use anyhow::{Context as _, bail};
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family as SchemaProtocol, Registry, Schema};
 
-use crate::{EXIT_FINDINGS, EXIT_INPUT, EXIT_OK};
-use event::Event;
-pub(crate) use lustbus::{
+use crate::{EXIT_FINDINGS, EXIT_OK};
+pub(crate) use driveset_engine::decode::lustbus::{
     family_of as lustbus_family_of, family_schema_id as lustbus_schema_id,
     value_parameter as lustbus_value_parameter, wire_type as lustbus_wire_type,
 };
+use driveset_engine::decode::{Capture, Context};
 
-/// Bus protocol of a capture.
+/// Format of a capture (`--protocol`); [`DecodeProtocol::capture`] gives
+/// the engine's [`Capture`], whose `bus()` is the descriptor's protocol.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum DecodeProtocol {
     /// LUSTBUS (Lust VF1000, MC6000/7000).
@@ -67,6 +64,17 @@ pub enum DecodeProtocol {
     Lecom,
     /// slcan (Lawicel) lines carrying CAN SDO frames (Lenze ECS).
     Slcan,
+}
+
+impl DecodeProtocol {
+    /// The engine's capture format.
+    pub fn capture(self) -> Capture {
+        match self {
+            DecodeProtocol::Lustbus => Capture::Lustbus,
+            DecodeProtocol::Lecom => Capture::Lecom,
+            DecodeProtocol::Slcan => Capture::Slcan,
+        }
+    }
 }
 
 /// LUSTBUS device family (`--family`), from the family descriptor.
@@ -130,14 +138,6 @@ pub struct Args {
     /// Capture file (hex text, or bytes with --raw); `-` reads stdin.
     #[arg(value_name = "FILE")]
     pub file: Option<PathBuf>,
-}
-
-/// What the annotators need: the schema registry, a forced schema, a forced
-/// LUSTBUS family.
-pub struct Ctx {
-    pub(crate) registry: Registry,
-    pub(crate) schema: Option<Arc<Schema>>,
-    pub(crate) family: Option<Dialect>,
 }
 
 /// Loads `--schema` (an id of `registry` or a file).
@@ -227,44 +227,26 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
     input::parse_hex(&text, &name).map_err(anyhow::Error::msg)
 }
 
-/// An event for skipped garbage.
-pub(crate) fn garbage_event(capture: &[u8], start: u64, end: u64, len: u64) -> Event {
-    let mut e = Event::new(capture, start, end, "GARBAGE");
-    let shown: Vec<u8> = e
-        .bytes
-        .split(' ')
-        .take(16)
-        .filter_map(|h| u8::from_str_radix(h, 16).ok())
-        .collect();
-    let more = if len > 16 { " ..." } else { "" };
-    e.error = Some(format!(
-        "{len} byte(s) {}{more} belong to no telegram; skipped",
-        input::hex_spaced(&shown)
-    ));
-    e
-}
-
 /// Runs `driveset decode`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let capture = match read_input(&args) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            return Ok(EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!("{e:#}")));
         }
     };
     let mut registry = builtin_registry()?;
     let family = args.family.map(FamilyArg::dialect);
     if args.family.is_some() && args.protocol != DecodeProtocol::Lustbus {
-        eprintln!("error: --family applies to --protocol lustbus only");
-        return Ok(EXIT_INPUT);
+        return Err(crate::fail::Fail::input(
+            "--family applies to --protocol lustbus only",
+        ));
     }
     let mut schema = match &args.schema {
         Some(s) => match load_schema(&mut registry, s) {
             Ok(s) => Some(s),
             Err(e) => {
-                eprintln!("error: {e:#}");
-                return Ok(EXIT_INPUT);
+                return Err(crate::fail::Fail::input(format!("{e:#}")));
             }
         },
         None => None,
@@ -288,8 +270,8 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             family = schema_family;
         }
         if !fits {
-            eprintln!(
-                "error: --schema {}: schema {} is for another protocol or family than --protocol {}{}",
+            return Err(crate::fail::Fail::input(format!(
+                "--schema {}: schema {} is for another protocol or family than --protocol {}{}",
                 args.schema.as_deref().unwrap_or(""),
                 s.id,
                 match args.protocol {
@@ -300,8 +282,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 args.family
                     .map(|f| format!(" --family {}", f.0.name()))
                     .unwrap_or_default()
-            );
-            return Ok(EXIT_INPUT);
+            )));
         }
     } else {
         schema = match args.protocol {
@@ -310,16 +291,12 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             DecodeProtocol::Lustbus => None,
         };
     }
-    let ctx = Ctx {
+    let ctx = Context {
         registry,
         schema,
         family,
     };
-    let events = match args.protocol {
-        DecodeProtocol::Lustbus => lustbus::decode(&capture, &ctx),
-        DecodeProtocol::Lecom => lecom::decode(&capture, &ctx),
-        DecodeProtocol::Slcan => slcan::decode(&capture, &ctx),
-    };
+    let events = driveset_engine::decode::decode(args.protocol.capture(), &capture, &ctx);
     let mut out = String::new();
     for e in &events {
         match args.format {
@@ -332,6 +309,6 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         out.push_str("(no bytes)\n");
     }
     crate::output::emit(&out);
-    let bad = events.iter().any(|e| e.error.is_some());
+    let bad = driveset_engine::decode::has_errors(&events);
     Ok(if bad { EXIT_FINDINGS } else { EXIT_OK })
 }

@@ -110,7 +110,7 @@ fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
 }
 
 /// Run `driveset diff`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     if let (Some(port), Some(address)) = (&args.port, args.address) {
         return super::diff_live::run(super::diff_live::LiveArgs {
             set: &args.a,
@@ -128,14 +128,14 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     }
     let mut registry = match output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let a = match output::load_valid_set(&args.a, &mut registry) {
         Ok(l) => l,
-        Err(code) => return Ok(code),
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
     let (Some(schema), Some(set_a)) = (a.schema.clone(), a.resolved.as_ref()) else {
-        return Ok(crate::EXIT_INPUT);
+        return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
     };
     let a_name = args.a.display().to_string();
     let (old, new, old_name, new_name): (ResolvedSet, ResolvedSet, String, String) = match &args.b {
@@ -148,10 +148,10 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         Some(bp) => {
             let b = match output::load_valid_set(bp, &mut registry) {
                 Ok(l) => l,
-                Err(code) => return Ok(code),
+                Err(code) => return Err(crate::fail::Fail::reported(code)),
             };
             let Some(set_b) = b.resolved else {
-                return Ok(crate::EXIT_INPUT);
+                return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
             };
             if set_b.schema != set_a.schema {
                 eprintln!(
@@ -164,7 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                         ))
                     );
                 eprintln!("  = help: compare sets of one drive family");
-                return Ok(crate::EXIT_INPUT);
+                return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
             }
             (set_a.clone(), set_b, a_name, bp.display().to_string())
         }
@@ -201,7 +201,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         Ok(d) => d,
         Err(e) => {
             eprintln!("{}", Style::stderr().error(&format!("error: {e}")));
-            return Ok(crate::EXIT_INPUT);
+            return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
     };
     Ok(render(

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::port::{self, Fail};
+use crate::port::Fail;
 
 /// Whether the output is JSON (the offline diff's `--format json`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,8 +38,8 @@ pub struct LiveArgs<'a> {
 }
 
 /// Run `driveset diff SET --port P --address A`.
-pub fn run(args: LiveArgs<'_>) -> anyhow::Result<u8> {
-    port::finish(live(&args))
+pub fn run(args: LiveArgs<'_>) -> Result<u8, crate::fail::Fail> {
+    live(&args)
 }
 
 fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {

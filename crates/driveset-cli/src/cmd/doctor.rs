@@ -73,8 +73,8 @@ pub struct Args {
 }
 
 /// Run `driveset doctor`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(doctor(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    doctor(&args)
 }
 
 /// The port string at another rate, echo stripping off.

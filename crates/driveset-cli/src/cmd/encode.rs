@@ -57,7 +57,7 @@ use driveset_schema::{Decimal, Registry, Schema};
 
 use super::decode::input::{escaped, hex_spaced};
 use super::decode::{FamilyArg, builtin_registry, load_schema};
-use crate::{EXIT_INPUT, EXIT_OK};
+use crate::EXIT_OK;
 
 #[derive(clap::Args)]
 #[command(after_help = "\
@@ -202,7 +202,7 @@ fn parse_int(key: &str, v: &str, what: &str) -> anyhow::Result<u32> {
 }
 
 /// Runs `driveset encode`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     match build(&args) {
         Ok((bytes, text)) => {
             if args.raw {
@@ -212,10 +212,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             }
             Ok(EXIT_OK)
         }
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            Ok(EXIT_INPUT)
-        }
+        Err(e) => Err(e.into()),
     }
 }
 

@@ -27,10 +27,10 @@ pub struct Args {
 }
 
 /// Run `driveset fingerprint`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut registry = match output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let mut code = crate::EXIT_OK;
     for f in &args.files {

@@ -63,20 +63,20 @@ pub struct TextconvArgs {
 }
 
 /// Run the hidden `driveset textconv FILE`.
-pub fn run_textconv(args: TextconvArgs) -> anyhow::Result<u8> {
+pub fn run_textconv(args: TextconvArgs) -> Result<u8, crate::fail::Fail> {
     let registry = match output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     match textconv::render(&args.file, &registry) {
         Ok(text) => {
             output::emit(&text);
             Ok(crate::EXIT_OK)
         }
-        Err(e) => {
-            eprintln!("error: cannot read {}: {e}", args.file.display());
-            Ok(crate::EXIT_INPUT)
-        }
+        Err(e) => Err(crate::fail::Fail::input(format!(
+            "cannot read {}: {e}",
+            args.file.display()
+        ))),
     }
 }
 
@@ -154,20 +154,18 @@ fn git(args: &[&str]) -> anyhow::Result<()> {
 }
 
 /// Run `driveset git-setup`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let top = crate::report::git_output(Path::new("."), &["rev-parse", "--show-toplevel"])
         .map(|s| PathBuf::from(s.trim_end_matches('\n')));
     if top.is_none() && !args.global {
-        eprintln!(
-            "error: not inside a git work tree\n  = help: run it in your repository, or use --global to configure the driver for every repository"
-        );
-        return Ok(crate::EXIT_INPUT);
+        return Err(crate::fail::Fail::input(
+            "not inside a git work tree\n  = help: run it in your repository, or use --global to configure the driver for every repository",
+        ));
     }
     let command = args.command.clone().unwrap_or_else(default_command);
     let scope = if args.global { "--global" } else { "--local" };
     if let Err(e) = git(&["config", scope, "diff.driveset.textconv", &command]) {
-        eprintln!("error: {e}");
-        return Ok(crate::EXIT_INPUT);
+        return Err(crate::fail::Fail::input(format!("{e}")));
     }
     outln!(
         "git config {scope} diff.driveset.textconv \"{}\"",
@@ -180,8 +178,10 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 Ok(s) => s,
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
                 Err(e) => {
-                    eprintln!("error: cannot read {}: {e}", path.display());
-                    return Ok(crate::EXIT_INPUT);
+                    return Err(crate::fail::Fail::input(format!(
+                        "cannot read {}: {e}",
+                        path.display()
+                    )));
                 }
             };
             let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
@@ -189,8 +189,10 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                 None => outln!("{}: up to date", path.display()),
                 Some(text) => {
                     if let Err(e) = std::fs::write(&path, text) {
-                        eprintln!("error: cannot write {}: {e}", path.display());
-                        return Ok(crate::EXIT_INPUT);
+                        return Err(crate::fail::Fail::input(format!(
+                            "cannot write {}: {e}",
+                            path.display()
+                        )));
                     }
                     outln!(
                         "{}: set files use the driveset diff driver (commit this file)",

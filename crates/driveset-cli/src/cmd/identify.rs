@@ -70,8 +70,8 @@ pub struct Args {
 }
 
 /// Run `driveset identify`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(identify(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    identify(&args)
 }
 
 fn identify(args: &Args) -> Result<u8, Fail> {

@@ -113,8 +113,8 @@ pub struct Args {
 }
 
 /// Run `driveset pull`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(pull(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    pull(&args)
 }
 
 /// `to` relative to the directory `from` (both made absolute).

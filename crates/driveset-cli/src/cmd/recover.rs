@@ -63,8 +63,8 @@ pub struct Args {
 }
 
 /// Run `driveset recover`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(recover(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    recover(&args)
 }
 
 fn recover(args: &Args) -> Result<u8, Fail> {

@@ -8,7 +8,7 @@ use driveset_engine::scan::{
     Found, LECOM_BAUDS, LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses,
     lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
 };
-use driveset_link::{ByteLink, Link, LinkError, PortSpec};
+use driveset_link::{ByteLink, Link, LinkError};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -58,21 +58,8 @@ pub struct Args {
 }
 
 /// Run `driveset scan`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(scan(&args))
-}
-
-/// The port string at another rate (`baud=` replaced).
-fn at_baud(spec: &PortSpec, baud: u32) -> PortSpec {
-    let mut s = spec.clone();
-    match &mut s {
-        PortSpec::Serial { baud: b, .. }
-        | PortSpec::Tcp { baud: b, .. }
-        | PortSpec::Rfc2217 { baud: b, .. } => *b = Some(baud),
-        PortSpec::Sim(sim) => sim.baud = Some(baud),
-        PortSpec::Slcan { .. } | PortSpec::SocketCan { .. } => {}
-    }
-    s
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    scan(&args)
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {
@@ -105,7 +92,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         let name = first.name.clone();
         drop(first);
         let mut reopen = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-            let s = at_baud(&spec, baud);
+            let s = port::with_rate(&spec, baud);
             match port::open_port(&s.to_string()) {
                 Ok(p) => match p.link {
                     Link::Bytes(l) => Ok(l),

@@ -49,7 +49,7 @@ pub struct CheckArgs {
 }
 
 /// Run `driveset schema ...`.
-pub fn run(cmd: SchemaCommand) -> anyhow::Result<u8> {
+pub fn run(cmd: SchemaCommand) -> Result<u8, crate::fail::Fail> {
     match cmd {
         SchemaCommand::Check(a) => check(a),
         SchemaCommand::Pull(a) => super::schema_pull::run(a),
@@ -57,10 +57,10 @@ pub fn run(cmd: SchemaCommand) -> anyhow::Result<u8> {
     }
 }
 
-fn check(args: CheckArgs) -> anyhow::Result<u8> {
+fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
     let registry = match output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let mut report = Report::default();
     if args.files.is_empty() {

@@ -51,13 +51,14 @@ pub struct Args {
 }
 
 /// Run `driveset schema import`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let shown = args.file.display().to_string();
     let bytes = match std::fs::read(&args.file) {
         Ok(b) => b,
         Err(e) => {
-            eprintln!("error: cannot read {shown}: {e}\n  = help: check the path");
-            return Ok(crate::EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!(
+                "cannot read {shown}: {e}\n  = help: check the path"
+            )));
         }
     };
     let opts = ImportOptions {
@@ -83,7 +84,7 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
                     .unwrap_or_default()
                 ),
             }
-            return Ok(crate::EXIT_INPUT);
+            return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
     };
     if let Some(out) = &args.output {
@@ -91,11 +92,10 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             let _ = std::fs::create_dir_all(dir);
         }
         if let Err(e) = std::fs::write(out, &imported.toml) {
-            eprintln!(
-                "error: cannot write {}: {e}\n  = help: check the directory",
+            return Err(crate::fail::Fail::input(format!(
+                "cannot write {}: {e}\n  = help: check the directory",
                 out.display()
-            );
-            return Ok(crate::EXIT_INPUT);
+            )));
         }
     } else {
         output::emit(&imported.toml);

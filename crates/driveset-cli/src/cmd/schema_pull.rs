@@ -12,9 +12,8 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::learn::{LearnSource, learn, render_schema};
-use driveset_schema::Family;
+use driveset_engine::client::LustbusClient;
+use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -81,8 +80,8 @@ pub struct Args {
 }
 
 /// Run `driveset schema pull`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(schema_pull(&args))
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    schema_pull(&args)
 }
 
 /// `1-99`, `1,5,100-120` -> sorted unique numbers.
@@ -126,17 +125,14 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
             None => learning::detect(&mut opened, args.address, &[])?.0,
         },
     };
-    let (family_name, max_param) = match base.family {
-        Family::Vf1000 => ("vf1000", 99),
-        Family::Mc6000 => ("mc6000", 999),
-        _ => {
-            return Err(Fail::input(format!(
-                "{} address {}: the drive speaks {}; schema pull reads LUSTBUS descriptions (VF1000, MC6000/7000)",
-                opened.name,
-                args.address,
-                port::protocol_name(base.family)
-            )));
-        }
+    let family_name = base.family.name();
+    let Some(max_param) = max_parameter(base.family) else {
+        return Err(Fail::input(format!(
+            "{} address {}: the drive speaks {}; schema pull reads LUSTBUS descriptions (VF1000, MC6000/7000)",
+            opened.name,
+            args.address,
+            port::protocol_name(base.family)
+        )));
     };
     let params = parse_params(
         args.params
@@ -151,21 +147,26 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let options = port::lustbus_options(&opened.spec);
     let (link, _sim) = learning::take_byte_link(opened)?;
     let mut client = LustbusClient::with_options(link, base.clone(), args.address, options)?;
-    let identity = client.identify()?;
-    let mut learned = learn(&mut client, base.family, &opts)?;
-    client.finish()?;
-
     let id = args
         .id
         .clone()
         .unwrap_or_else(|| format!("pulled-{family_name}-{}", args.address));
-    let source = LearnSource {
-        drive: format!("{port_name} address {}", args.address),
-        identity,
-    };
     let registry = port::registry(&[])?;
-    let rendered = render_schema(&mut learned, &base, &id, &source, &registry)
-        .map_err(|e| Fail::bus(format!("{port_name} address {}: {e}", args.address)))?;
+    let pulled = pull_schema(
+        &mut client,
+        &base,
+        &opts,
+        Some(&id),
+        format!("{port_name} address {}", args.address),
+        &registry,
+    )
+    .map_err(|e| match e {
+        PullSchemaError::Engine(e) => Fail::from(e),
+        PullSchemaError::Render(e) => {
+            Fail::bus(format!("{port_name} address {}: {e}", args.address))
+        }
+    })?;
+    let (rendered, learned) = (pulled.rendered, pulled.learned);
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| Fail::input(format!("cannot create {}: {e}", dir.display())))?;

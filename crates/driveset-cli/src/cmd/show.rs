@@ -64,17 +64,17 @@ pub struct Args {
 }
 
 /// Run `driveset show`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut registry = match output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let loaded = match output::load_valid_set(&args.file, &mut registry) {
         Ok(l) => l,
-        Err(code) => return Ok(code),
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
     let (Some(schema), Some(set)) = (&loaded.schema, &loaded.resolved) else {
-        return Ok(crate::EXIT_INPUT);
+        return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
     };
     let text = match args.to {
         None => set.canonical(),
@@ -87,13 +87,12 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             match write_dcf(set, schema, loaded.title.as_deref(), &name, args.node_id) {
                 Ok(t) => t,
                 Err(e) => {
-                    eprintln!(
-                        "error: {}: cannot write a DCF: {}\n  = help: {}",
+                    return Err(crate::fail::Fail::input(format!(
+                        "{}: cannot write a DCF: {}\n  = help: {}",
                         args.file.display(),
                         e.message,
                         e.help
-                    );
-                    return Ok(crate::EXIT_INPUT);
+                    )));
                 }
             }
         }

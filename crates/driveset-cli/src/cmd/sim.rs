@@ -60,7 +60,7 @@ use driveset_sim::open::{
 };
 use driveset_sim::{serve, slcan_serve};
 
-use crate::{EXIT_BUS, EXIT_INPUT, EXIT_OK};
+use crate::{EXIT_BUS, EXIT_OK};
 
 /// Serve simulated drives on a pseudo terminal or a TCP port.
 #[derive(clap::Args)]
@@ -281,12 +281,11 @@ fn describe(config: &SimConfig) -> String {
     )
 }
 
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let (config, endpoint) = match configure(&args) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            return Ok(EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!("{e:#}")));
         }
     };
     let log = match &args.log {
@@ -389,10 +388,12 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
             if let Err(s) = saved {
                 eprintln!("error: {s:#}");
             }
-            eprintln!("error: {e:#}");
-            Ok(EXIT_BUS)
+            Err(crate::fail::Fail {
+                code: EXIT_BUS,
+                msg: format!("{e:#}"),
+            })
         }
-        (Ok(()), Err(e)) => Err(e),
+        (Ok(()), Err(e)) => Err(e.into()),
     }
 }
 

@@ -53,7 +53,7 @@ pub struct Args {
 }
 
 /// Run `driveset status`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let c = Common {
         manifest: args.manifest,
         only: args.only,

@@ -23,7 +23,7 @@
 //! failed, and scripts must not take it for a mere difference; `--format
 //! json` says `"state": "rolled-back"` to tell the two apart.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use driveset_engine::upload::{
     UploadOptions, default_journal_path, prepare, upload as engine_upload,
@@ -33,7 +33,7 @@ use serde_json::json;
 use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
-use crate::port::{self, Fail};
+use crate::port::Fail;
 use crate::progress::Progress;
 
 /// The journal directory used when neither --journal nor --journal-dir is given.
@@ -131,38 +131,8 @@ pub struct Args {
 }
 
 /// Run `driveset upload`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
-    port::finish(upload(&args))
-}
-
-/// Load a set file for the bus commands: a set with findings is an input error.
-pub fn load_set(
-    path: &Path,
-    dirs: &[PathBuf],
-) -> Result<
-    (
-        std::sync::Arc<driveset_schema::Schema>,
-        driveset_schema::ResolvedSet,
-    ),
-    u8,
-> {
-    // The built-in schemas (plus --schemas); a set naming one of the
-    // simulator's fixture schemas by id gets those too. (Not both at once:
-    // a set naming a fixture by path would define its id twice.)
-    let mut registry = output::registry(dirs).map_err(|e| output::fail_input(&e))?;
-    let unknown_schema =
-        driveset_schema::load_set(path, &mut registry.clone()).is_ok_and(|l| l.schema.is_none());
-    if unknown_schema {
-        registry = port::registry(dirs).map_err(|f| {
-            eprintln!("error: {}", f.msg);
-            f.code
-        })?;
-    }
-    let loaded = output::load_valid_set(path, &mut registry)?;
-    match (loaded.schema, loaded.resolved) {
-        (Some(s), Some(r)) => Ok((s, r)),
-        _ => Err(crate::EXIT_INPUT),
-    }
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    upload(&args)
 }
 
 fn upload(args: &Args) -> Result<u8, Fail> {

@@ -152,7 +152,7 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
     let mut report = FileReport::default();
     // a line manifest (top-level [line] table or bus list): its own checks
     if driveset_engine::line::manifest::is_manifest(path) {
-        match driveset_engine::line::manifest::validate_manifest(path) {
+        match driveset_engine::line::manifest::validate_manifest(path, &crate::port::openers()) {
             Ok(f) => report.findings = f.iter().map(|f| f.to_finding()).collect(),
             Err(e) => report.error = Some(e),
         }
@@ -189,10 +189,10 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
 }
 
 /// Run `driveset validate`.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let mut registry = match crate::output::registry(&args.schemas) {
         Ok(r) => r,
-        Err(e) => return Ok(crate::output::fail_input(&e)),
+        Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
     let mut report = Report::default();
     for p in &args.paths {

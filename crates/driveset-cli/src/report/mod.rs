@@ -26,7 +26,7 @@ pub struct Args {
 }
 
 /// Run `driveset report`: read a report.json, write report.json + report.html.
-pub fn run(args: Args) -> anyhow::Result<u8> {
+pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let text = match driveset_schema::error::read_regular_file(
         &args.input,
         64 * 1024 * 1024,
@@ -36,18 +36,19 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
     {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("error: {}\n  = help: {}", e.message, e.help);
-            return Ok(crate::EXIT_INPUT);
+            return Err(crate::fail::Fail::input(format!(
+                "{}\n  = help: {}",
+                e.message, e.help
+            )));
         }
     };
     let report: LineReport = match serde_json::from_str(&text) {
         Ok(r) => r,
         Err(e) => {
-            eprintln!(
-                "error: {}: not a line report: {e}\n  = help: give the report.json that `driveset commission` wrote",
+            return Err(crate::fail::Fail::input(format!(
+                "{}: not a line report: {e}\n  = help: give the report.json that `driveset commission` wrote",
                 args.input.display()
-            );
-            return Ok(crate::EXIT_INPUT);
+            )));
         }
     };
     let dir = args.out.clone().unwrap_or_else(|| {

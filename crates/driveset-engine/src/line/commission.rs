@@ -590,7 +590,7 @@ impl Ctx<'_> {
                     key,
                     StateEntry {
                         name: d.name.clone(),
-                        port: bus.port.to_string(),
+                        port: bus.port_name.clone(),
                         set: d.set_text.clone(),
                         set_fingerprint: d.set.fingerprint(),
                         fingerprint: fp.to_string(),
@@ -664,7 +664,7 @@ fn run_bus(
 ) -> BusRun {
     let mut report = BusReport {
         name: bus.name.clone(),
-        port: bus.port.to_string(),
+        port: bus.port_name.clone(),
         protocol: bus.protocol.name().into(),
         rate: bus.rate,
         elapsed_ms: 0.0,
@@ -699,7 +699,7 @@ fn run_bus(
                 let mut r = blank_report(d, bus, DriveResult::Failed);
                 r.error = Some(format!(
                     "bus `{}` ({}) could not be opened: {e}",
-                    bus.name, bus.port
+                    bus.name, bus.port_name
                 ));
                 progress(i + 1, &r);
                 out.push(r);
@@ -971,7 +971,7 @@ fn run_drive(
                 if let Some(rec) = ctx.recorded(bus, d)
                     && recovered.is_empty()
                     && rec.set_fingerprint == set_fp
-                    && rec.port == bus.port.to_string()
+                    && rec.port == bus.port_name
                 {
                     // confirm with one read of the set's codes
                     hook.enter(client.clock(), Phase::Identify, None);
@@ -1097,7 +1097,10 @@ fn learn_drive(
     link: &mut Link,
     ctx: &Ctx<'_>,
 ) -> Result<(Drive, LearnedSchemaReport), (String, Option<Failure>)> {
-    let what = format!("drive `{}` ({} address {})", d.name, bus.port, d.address);
+    let what = format!(
+        "drive `{}` ({} address {})",
+        d.name, bus.port_name, d.address
+    );
     let Some(cfg) = &ctx.opts.learn else {
         return Err((
             format!(
@@ -1135,7 +1138,7 @@ fn learn_drive(
     client.finish().map_err(eng)?;
     let id = learned_id(base.family, &identity, &learned);
     let source = LearnSource {
-        drive: format!("{} address {}", bus.port, d.address),
+        drive: format!("{} address {}", bus.port_name, d.address),
         identity,
     };
     let path = cfg.schema_dir.join(format!("{id}.toml"));

@@ -53,8 +53,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::learn::needs_learning;
-use driveset_link::PortSpec;
-use driveset_link::spec::{SIM_FAMILY_KEYS, SIM_MIXED_LUSTBUS};
+use driveset_link::{Openers, PortShape, PortSpec};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::{
@@ -191,8 +190,13 @@ pub struct Bus {
     /// Port as written in the manifest.
     pub port_text: String,
     /// The parsed port, with the manifest's rate applied and (for a
-    /// `sim://` port without `addresses=`) the manifest's drives filled in.
+    /// `sim://` port without drives) the manifest's drives put on it by
+    /// the port's opener ([`driveset_link::PortOpener::with_drives`]).
     pub port: PortSpec,
+    /// The port as reports, journals and messages name it: the canonical
+    /// form (for an opener's port, the opener's name of it: `sim://` leaves
+    /// out `state=`).
+    pub port_name: String,
     /// Family.
     pub protocol: BusProtocol,
     /// Line rate (baud, or CAN bit/s).
@@ -203,21 +207,8 @@ pub struct Bus {
     /// The families of the bus's drives, one entry per drive (for the
     /// transfer rate's shared-bus refusal).
     pub families: Vec<driveset_schema::Family>,
-    /// `sim://` only: the simulator's `state=FILE` (taken out of the port
-    /// string before parsing; relative to the current directory).
-    pub sim_state: Option<String>,
     /// Where the bus is declared.
     pub location: Location,
-}
-
-impl Bus {
-    /// The port string to open: the canonical port plus `state=` if given.
-    pub fn open_string(&self) -> String {
-        match &self.sim_state {
-            Some(f) => format!("{}&state={f}", self.port),
-            None => self.port.to_string(),
-        }
-    }
 }
 
 /// One drive of a line.
@@ -306,25 +297,37 @@ pub fn is_manifest_doc(d: &Document) -> bool {
 
 /// Validate a manifest and every set it names (the `driveset validate`
 /// entry point). `Err` when the file cannot be read or parsed at all.
+/// `openers` check the ports of the schemes `driveset-link` does not open
+/// itself (`sim://`: the simulator's opener).
 ///
 /// Offline the sets whose schema lacks facts cannot be checked: their
 /// findings ([`LoadedManifest::learnable`]) are reported with a help that
 /// names the remedy.
-pub fn validate_manifest(path: &Path) -> Result<Vec<ManifestFinding>, InputError> {
+pub fn validate_manifest(
+    path: &Path,
+    openers: &Openers,
+) -> Result<Vec<ManifestFinding>, InputError> {
     let mut registry = Registry::builtin()?;
-    let loaded = load_manifest(path, &mut registry)?;
+    let loaded = load_manifest(path, &mut registry, openers)?;
     let mut out = loaded.findings;
     out.extend(loaded.learnable);
     Ok(out)
 }
 
-/// Load and check a manifest and its sets.
-pub fn load_manifest(path: &Path, registry: &mut Registry) -> Result<LoadedManifest, InputError> {
+/// Load and check a manifest and its sets; `openers` check the ports of
+/// the schemes `driveset-link` does not open itself (as for
+/// [`validate_manifest`]).
+pub fn load_manifest(
+    path: &Path,
+    registry: &mut Registry,
+    openers: &Openers,
+) -> Result<LoadedManifest, InputError> {
     let source = read_text_file(path)?;
     let d = doc::parse(source, Syntax::from_path(path))?;
     let mut r = Reader {
         d: &d,
         findings: Vec::new(),
+        openers,
     };
     Ok(r.read(path, registry))
 }
@@ -332,6 +335,7 @@ pub fn load_manifest(path: &Path, registry: &mut Registry) -> Result<LoadedManif
 struct Reader<'a> {
     d: &'a Document,
     findings: Vec<ManifestFinding>,
+    openers: &'a Openers,
 }
 
 const LINE_KEYS: &[&str] = &["name", "label", "report_dir", "journal_dir"];
@@ -368,6 +372,23 @@ struct RawDrive {
 impl<'a> Reader<'a> {
     fn loc(&self, span: &Range<usize>) -> Location {
         self.d.loc(span)
+    }
+
+    /// `spec` running at `rate` (an opener's port through its opener).
+    fn set_rate(&self, mut spec: PortSpec, rate: u32) -> PortSpec {
+        match &mut spec {
+            PortSpec::Serial { baud, .. }
+            | PortSpec::Tcp { baud, .. }
+            | PortSpec::Rfc2217 { baud, .. } => *baud = Some(rate),
+            PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
+            PortSpec::Sim(o) => {
+                if let Some(opener) = self.openers.get(&o.scheme) {
+                    *o = opener.with_rate(o, rate);
+                }
+            }
+            PortSpec::SocketCan { .. } => {}
+        }
+        spec
     }
 
     fn push(&mut self, kind: &str, span: &Range<usize>, message: String, help: &str) {
@@ -858,65 +879,7 @@ impl<'a> Reader<'a> {
             else {
                 continue;
             };
-            let mut text = port_text.clone();
-            let mut sim_state = None;
-            if text.starts_with("sim://")
-                && let Some((base, query)) = text.clone().split_once('?')
-            {
-                let mut kept = Vec::new();
-                for part in query.split('&') {
-                    match part.strip_prefix("state=") {
-                        Some(f) => sim_state = Some(f.to_string()),
-                        None => kept.push(part),
-                    }
-                }
-                text = if kept.is_empty() {
-                    base.to_string()
-                } else {
-                    format!("{base}?{}", kept.join("&"))
-                };
-            }
-            let sim_host = text
-                .strip_prefix("sim://")
-                .map(|rest| rest.split('?').next().unwrap_or_default().to_string());
-            let mixed = sim_host
-                .as_deref()
-                .is_some_and(|h| h.eq_ignore_ascii_case(SIM_MIXED_LUSTBUS));
-            let query = text.split_once('?').map_or("", |(_, q)| q).to_string();
-            let has_key = |key: &str| {
-                query
-                    .split('&')
-                    .any(|item| item.split('=').next() == Some(key))
-            };
-            if mixed && !SIM_FAMILY_KEYS.iter().any(|k| has_key(k)) {
-                // A mixed LUSTBUS without drives: each drive of the
-                // manifest under the key of its set's family.
-                let mut per: BTreeMap<&str, Vec<u8>> = BTreeMap::new();
-                for d in drives.iter().filter(|d| d.bus_index == i) {
-                    let key = match d.schema.family {
-                        Family::Vf1000 => "vf1000",
-                        _ => "mc6000",
-                    };
-                    per.entry(key).or_default().push(d.address);
-                }
-                for (key, mut addrs) in per {
-                    addrs.sort_unstable();
-                    let list: Vec<String> = addrs.iter().map(u8::to_string).collect();
-                    let sep = if text.contains('?') { '&' } else { '?' };
-                    text = format!("{text}{sep}{key}={}", list.join(","));
-                }
-            } else if sim_host.is_some() && !mixed && !has_key("addresses") {
-                let mut addrs: Vec<u8> = drives
-                    .iter()
-                    .filter(|d| d.bus_index == i)
-                    .map(|d| d.address)
-                    .collect();
-                addrs.sort_unstable();
-                let list: Vec<String> = addrs.iter().map(u8::to_string).collect();
-                let sep = if text.contains('?') { '&' } else { '?' };
-                text = format!("{text}{sep}addresses={}", list.join(","));
-            }
-            let mut spec = match PortSpec::parse(&text) {
+            let mut spec = match PortSpec::parse(port_text) {
                 Ok(s) => s,
                 Err(e) => {
                     self.push(
@@ -928,10 +891,45 @@ impl<'a> Reader<'a> {
                     continue;
                 }
             };
-            let port_can = match &spec {
-                PortSpec::Sim(sim) => sim.family.to_ascii_lowercase().contains("ecs"),
-                other => other.is_can(),
-            };
+            // A port of an opener (`sim://`): the opener checks it and says
+            // what it holds; without drives it takes the manifest's.
+            let mut shape: Option<PortShape> = None;
+            if let PortSpec::Sim(o) = &spec {
+                let checked = match self.openers.get(&o.scheme) {
+                    None => Err(format!(
+                        "no opener for {}:// ports is registered; this program cannot open simulated buses",
+                        o.scheme
+                    )),
+                    Some(opener) => {
+                        let here: Vec<(&str, u8)> = drives
+                            .iter()
+                            .filter(|d| d.bus_index == i)
+                            .map(|d| (d.schema.family.name(), d.address))
+                            .collect();
+                        let filled = opener.with_drives(o, &here);
+                        opener
+                            .check(&filled)
+                            .map(|sh| (sh, filled))
+                            .map_err(|e| e.to_string())
+                    }
+                };
+                match checked {
+                    Ok((sh, filled)) => {
+                        spec = PortSpec::Sim(filled);
+                        shape = Some(sh);
+                    }
+                    Err(e) => {
+                        self.push(
+                            "bad-port",
+                            pspan,
+                            format!("port `{port_text}`: {e}"),
+                            "use the common port syntax: /dev/ttyUSB0?baud=19200, tcp://host:4001, slcan:///dev/ttyACM0, can://can0, sim://FAMILY",
+                        );
+                        continue;
+                    }
+                }
+            }
+            let port_can = shape.as_ref().map_or_else(|| spec.is_can(), |sh| sh.frames);
             if port_can != (protocol == BusProtocol::CanSdo) {
                 self.push(
                     "bad-port",
@@ -944,22 +942,22 @@ impl<'a> Reader<'a> {
                 );
                 continue;
             }
-            if let PortSpec::Sim(sim) = &spec {
-                let on_bus = sim.drives();
+            if let Some(sim) = &shape {
+                let on_bus = &sim.drives;
                 for d in drives.iter().filter(|d| d.bus_index == i) {
                     // The family the simulated bus has at the drive's address.
                     let at = on_bus.iter().find(|(_, a)| *a == d.address);
                     if let Some((fam, _)) = at
                         && !sim_family_matches(&fam.to_ascii_lowercase(), &d.schema)
                     {
-                        let (what, fix) = if sim.is_mixed() {
+                        let (what, fix) = if sim.mixed {
                             (
                                 format!("has a `{fam}` drive at address {}", d.address),
                                 "on sim://lustbus give the address under the set's family (mc6000= or vf1000=)",
                             )
                         } else {
                             (
-                                format!("holds `{}` drives", sim.family),
+                                format!("holds `{fam}` drives"),
                                 "a simulated bus holds one family (sim://lustbus?mc6000=..&vf1000=.. mixes LUSTBUS families); put the drive on a bus of its family",
                             )
                         };
@@ -982,7 +980,7 @@ impl<'a> Reader<'a> {
                                 "drive `{}` is at address {}, which simulated bus `{bname}` does not have",
                                 d.name, d.address
                             ),
-                            if sim.is_mixed() {
+                            if sim.mixed {
                                 "add the address under its family (mc6000= / vf1000=), or write sim://lustbus without them to simulate the manifest's drives"
                             } else {
                                 "add the address to addresses=, or leave addresses= out to simulate the manifest's drives"
@@ -1029,7 +1027,7 @@ impl<'a> Reader<'a> {
                     continue;
                 }
                 (Some((g, _)), _) => {
-                    set_rate(&mut spec, g);
+                    spec = self.set_rate(spec, g);
                     g
                 }
                 (None, Some(p)) => p,
@@ -1045,15 +1043,23 @@ impl<'a> Reader<'a> {
                     "only MC6000/7000 servos on a LUSTBUS bus switch their rate online (lustbus-protocol.txt §11.5); remove it",
                 );
             }
+            let port_name = match (&spec, &shape) {
+                (PortSpec::Sim(o), Some(_)) => self
+                    .openers
+                    .get(&o.scheme)
+                    .and_then(|op| op.check(o).ok())
+                    .map_or_else(|| spec.to_string(), |sh| sh.name),
+                _ => spec.to_string(),
+            };
             buses.push(Bus {
                 name: bname.clone(),
                 port_text: port_text.clone(),
                 port: spec,
+                port_name,
                 protocol,
                 rate,
                 transfer_baud: b.transfer_baud.as_ref().map(|t| t.0),
                 families: Vec::new(),
-                sim_state,
                 location: self.loc(&b.span),
             });
         }
@@ -1102,23 +1108,6 @@ fn learnable_finding(f: &Finding, base: &Schema) -> ManifestFinding {
 
 fn port_has_rate(port: &str, key: &str) -> bool {
     port.contains(&format!("{key}="))
-}
-
-fn set_rate(spec: &mut PortSpec, rate: u32) {
-    match spec {
-        PortSpec::Serial { baud, .. }
-        | PortSpec::Tcp { baud, .. }
-        | PortSpec::Rfc2217 { baud, .. } => *baud = Some(rate),
-        PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
-        PortSpec::Sim(s) => {
-            if s.family.to_ascii_lowercase().contains("ecs") {
-                s.bitrate = Some(rate);
-            } else {
-                s.baud = Some(rate);
-            }
-        }
-        _ => {}
-    }
 }
 
 fn sim_family_matches(fam: &str, schema: &Schema) -> bool {

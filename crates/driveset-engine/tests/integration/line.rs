@@ -60,7 +60,7 @@ fn disk_env() -> std::sync::Arc<dyn Environment> {
 fn demo() -> Manifest {
     let path = root().join("parameter-sets/demo-line/line.toml");
     let mut reg = Registry::builtin().expect("builtin");
-    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(
         l.findings.is_empty(),
         "{}",
@@ -85,7 +85,8 @@ impl Sims {
         let PortSpec::Sim(spec) = &bus.port else {
             return Err("not a sim port".into());
         };
-        let s = open_sim(spec, &VirtualClock::new()).map_err(|e| e.to_string())?;
+        let spec = driveset_sim::port::SimSpec::from_opaque(spec).map_err(|e| e.to_string())?;
+        let s = open_sim(&spec, &VirtualClock::new()).map_err(|e| e.to_string())?;
         let l = s.link();
         m.insert(bus.name.clone(), s);
         Ok(l)
@@ -104,7 +105,7 @@ fn demo_manifest_loads_with_three_buses_and_thirteen_drives() {
     assert_eq!(m.drives.len(), 13);
     // One LUSTBUS with servocontrollers and inverters on it.
     assert_eq!(
-        m.buses[0].port.to_string(),
+        m.buses[0].port_name,
         "sim://lustbus?mc6000=1,2,3,4&vf1000=5,6,7&baud=9600"
     );
     let on_lustbus: Vec<&str> = m
@@ -123,9 +124,12 @@ fn demo_manifest_loads_with_three_buses_and_thirteen_drives() {
         "{on_lustbus:?}"
     );
     assert_eq!(
-        validate_manifest(&root().join("parameter-sets/demo-line/line.toml"))
-            .expect("reads")
-            .len(),
+        validate_manifest(
+            &root().join("parameter-sets/demo-line/line.toml"),
+            &sim_openers()
+        )
+        .expect("reads")
+        .len(),
         0
     );
 }
@@ -369,7 +373,7 @@ fn findings(text: &str, sets: &[(&str, &str)]) -> Vec<String> {
     let p = dir.path().join("line.toml");
     std::fs::write(&p, text).unwrap();
     let d = dir.path().display().to_string();
-    validate_manifest(&p)
+    validate_manifest(&p, &sim_openers())
         .expect("reads")
         .iter()
         .map(|f| {
@@ -501,14 +505,11 @@ fn yaml_manifest_with_buses_and_drives_lists_reads_like_toml() {
     let p = dir.path().join("line.yaml");
     std::fs::write(&p, text).unwrap();
     let mut reg = Registry::builtin().unwrap();
-    let l = load_manifest(&p, &mut reg).expect("reads");
+    let l = load_manifest(&p, &mut reg, &sim_openers()).expect("reads");
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let m = l.manifest.unwrap();
     assert_eq!(m.name, "yaml-line");
-    assert_eq!(
-        m.buses[0].port.to_string(),
-        "sim://tmd?addresses=11,12&baud=19200"
-    );
+    assert_eq!(m.buses[0].port_name, "sim://tmd?addresses=11,12&baud=19200");
     let names: Vec<&str> = m.drives.iter().map(|d| d.name.as_str()).collect();
     assert_eq!(names, ["t/11", "second"]);
     let sims = Sims::default();
@@ -603,7 +604,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     )
     .unwrap();
     let mut reg = Registry::builtin().unwrap();
-    let l = load_manifest(&p, &mut reg).unwrap();
+    let l = load_manifest(&p, &mut reg, &sim_openers()).unwrap();
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let learnable: Vec<String> = l
         .learnable
@@ -628,7 +629,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         l.learnable[0].help
     );
     // offline, validate keeps them as findings
-    assert_eq!(validate_manifest(&p).unwrap().len(), 5);
+    assert_eq!(validate_manifest(&p, &sim_openers()).unwrap().len(), 5);
     let m = l.manifest.expect("loads");
     assert_eq!(
         m.drives
@@ -837,7 +838,7 @@ fn mc_axes_line(dir: &Path, n: u8) -> Manifest {
     let path = dir.join("line.toml");
     std::fs::write(&path, m).unwrap();
     let mut reg = Registry::builtin().expect("builtin");
-    let l = load_manifest(&path, &mut reg).expect("manifest reads");
+    let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     l.manifest.expect("manifest")
 }
@@ -858,10 +859,11 @@ impl LoggedSims {
             let PortSpec::Sim(spec) = &bus.port else {
                 return Err("not a sim port".into());
             };
+            let spec = driveset_sim::port::SimSpec::from_opaque(spec).map_err(|e| e.to_string())?;
             let config =
-                driveset_sim::open::SimConfig::from_spec(spec).map_err(|e| e.to_string())?;
+                driveset_sim::open::SimConfig::from_spec(&spec).map_err(|e| e.to_string())?;
             let log = driveset_sim::log::EventLog::memory();
-            let port = PortSpec::Sim(spec.clone()).to_string();
+            let port = spec.to_string();
             let s = driveset_sim::open::open_sim_with(
                 &config,
                 &VirtualClock::new(),
@@ -1250,4 +1252,10 @@ fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
         )]
     );
     assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
+}
+
+/// The simulator's port opener, as the CLI registers it.
+fn sim_openers() -> driveset_link::Openers {
+    driveset_link::Openers::none()
+        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

@@ -155,7 +155,7 @@ fn out_of_range_schema_and_type() {
     assert_eq!(
         f.render_human(),
         format!(
-            "error[out-of-range]: C0011 = 300 Hz is above the maximum 240 Hz\n --> {0}:3:9\n  |\n3 | C0011 = 300\n  |         ^^^ here\n  --> {1}:55:7\n   |\n55 | max = \"240\"\n   |       ^^^^^ maximum in the schema\n  = help: give a value from 7.5 Hz to 240 Hz\n",
+            "error[out-of-range]: C0011 = 300 Hz is above the maximum 240 Hz\n  --> {0}:3:9\n   |\n 3 | C0011 = 300\n   |         ^^^ here\n   |\n  ::: {1}:55:7\n   |\n55 | max = \"240\"\n   |       ^^^^^ maximum in the schema\n   |\n   = help: give a value from 7.5 Hz to 240 Hz\n",
             fixtures().join("s.toml").display(),
             fixtures().join("fictional-test.toml").display()
         )

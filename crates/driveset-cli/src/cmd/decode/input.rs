@@ -140,17 +140,7 @@ pub fn parse_ascii(text: &str, origin: &str) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// `04 40 30`.
-pub fn hex_spaced(bytes: &[u8]) -> String {
-    let mut s = String::with_capacity(bytes.len() * 3);
-    for (i, b) in bytes.iter().enumerate() {
-        if i > 0 {
-            s.push(' ');
-        }
-        let _ = write!(s, "{b:02X}");
-    }
-    s
-}
+pub use driveset_engine::decode::hex_spaced;
 
 /// The escaped ASCII form: `<EOT>@00112<ENQ>`.
 pub fn escaped(bytes: &[u8]) -> String {

@@ -759,7 +759,7 @@ fn line_manifest(family: Family, dir: &Path) -> Manifest {
     let path = dir.join("line.toml");
     std::fs::write(&path, text).expect("manifest");
     let mut reg = Registry::builtin().expect("registry");
-    let loaded = load_manifest(&path, &mut reg).expect("manifest loads");
+    let loaded = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest loads");
     assert!(
         loaded.findings.is_empty(),
         "{:?}",
@@ -776,13 +776,14 @@ fn sim_for(m: &Manifest) -> (SimLink, EventLog) {
     let driveset_link::PortSpec::Sim(spec) = &m.buses[0].port else {
         panic!("not a sim port")
     };
-    let mut config = SimConfig::from_spec(spec).expect("config");
+    let spec = driveset_sim::port::SimSpec::from_opaque(spec).expect("sim port");
+    let mut config = SimConfig::from_spec(&spec).expect("config");
     config.addresses = m.drives.iter().map(|d| d.address).collect();
     let log = EventLog::memory();
     let sim = open_sim_with(
         &config,
         &VirtualClock::new(),
-        &m.buses[0].port.to_string(),
+        &m.buses[0].port_name,
         log.clone(),
     )
     .expect("sim");
@@ -1006,4 +1007,10 @@ fn sim_bus_id(sim: &SimLink) -> String {
         Link::Bytes(l) => l.bus_id(),
         Link::Frames(l) => l.bus_id(),
     }
+}
+
+/// The simulator's port opener, as the CLI registers it.
+fn sim_openers() -> driveset_link::Openers {
+    driveset_link::Openers::none()
+        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

@@ -19,7 +19,7 @@ use driveset_proto::lecom::{
 use driveset_schema::{RawValue, ValueType, validate::display_value};
 
 use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
-use super::{Ctx, garbage_event};
+use super::{Context, garbage_event};
 
 fn address_text(a: ControllerAddress) -> String {
     match a.kind() {
@@ -94,7 +94,7 @@ fn target(sel: StandardAddressing, code: CodeAddress) -> (u16, u8) {
     sel.resolve(code)
 }
 
-fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, sel: StandardAddressing) {
+fn code_fields(ctx: &Context, ev: &mut Event, code: CodeAddress, sel: StandardAddressing) {
     let (number, sub) = target(sel, code);
     ev.code = Some(if sub == 0 {
         format!("C{number:04}")
@@ -119,7 +119,7 @@ fn code_fields(ctx: &Ctx, ev: &mut Event, code: CodeAddress, sel: StandardAddres
     }
 }
 
-fn value_fields(ctx: &Ctx, ev: &mut Event, number: u16, value: &Value) {
+fn value_fields(ctx: &Context, ev: &mut Event, number: u16, value: &Value) {
     ev.raw_value = Some(value.to_string());
     match number {
         68 => {
@@ -175,7 +175,7 @@ fn value_fields(ctx: &Ctx, ev: &mut Event, number: u16, value: &Value) {
 }
 
 /// Decodes a LECOM-A/B capture.
-pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
+pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
     let raw = BusSniffer::decode_all(capture);
     let mut out = Vec::with_capacity(raw.len());
     let mut last: Option<(Telegram, StandardAddressing)> = None;

@@ -77,7 +77,7 @@ impl Event {
             start,
             end,
             kind,
-            bytes: super::input::hex_spaced(&capture[s..e]),
+            bytes: super::hex_spaced(&capture[s..e]),
             ..Event::default()
         }
     }

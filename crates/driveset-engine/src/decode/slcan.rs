@@ -9,14 +9,14 @@ use driveset_proto::can::{
 };
 use driveset_schema::ValueType;
 
-use super::Ctx;
+use super::Context;
 use super::event::{DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
 
 const HOST_TO_ADAPTER: &str = "host -> adapter";
 const ADAPTER_TO_HOST: &str = "adapter -> host";
 
 /// Decodes an slcan capture.
-pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
+pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
     let mut out = Vec::new();
     let mut start = 0usize;
     let mut last_request: Option<(u8, SdoRequest)> = None;
@@ -63,7 +63,7 @@ fn line_event(
     start: usize,
     end: usize,
     line: &[u8],
-    ctx: &Ctx,
+    ctx: &Context,
     last: &mut Option<(u8, SdoRequest)>,
 ) -> Event {
     let mut e = Event::new(capture, start as u64, end as u64, "");
@@ -142,7 +142,7 @@ fn line_event(
     e
 }
 
-fn mux(ctx: &Ctx, e: &mut Event, index: Index, sub: Subindex) -> Option<CodeNumber> {
+fn mux(ctx: &Context, e: &mut Event, index: Index, sub: Subindex) -> Option<CodeNumber> {
     let Ok(code) = CodeNumber::from_index(index) else {
         e.code = Some(format!("index {index}/{sub}"));
         return None;
@@ -164,7 +164,7 @@ fn mux(ctx: &Ctx, e: &mut Event, index: Index, sub: Subindex) -> Option<CodeNumb
     Some(code)
 }
 
-fn value_text(ctx: &Ctx, e: &mut Event, code: Option<CodeNumber>, data: &[u8]) {
+fn value_text(ctx: &Context, e: &mut Event, code: Option<CodeNumber>, data: &[u8]) {
     let mut four = [0u8; 4];
     for (d, s) in four.iter_mut().zip(data) {
         *d = *s;
@@ -195,7 +195,12 @@ fn value_text(ctx: &Ctx, e: &mut Event, code: Option<CodeNumber>, data: &[u8]) {
     });
 }
 
-fn frame_event(e: &mut Event, frame: &CanFrame, ctx: &Ctx, last: &mut Option<(u8, SdoRequest)>) {
+fn frame_event(
+    e: &mut Event,
+    frame: &CanFrame,
+    ctx: &Context,
+    last: &mut Option<(u8, SdoRequest)>,
+) {
     let id = frame.id;
     let sdo = !frame.extended && !frame.rtr;
     if sdo && (0x601..=0x67F).contains(&id) {
@@ -242,7 +247,7 @@ fn frame_event(e: &mut Event, frame: &CanFrame, ctx: &Ctx, last: &mut Option<(u8
     ));
 }
 
-fn request_fields(e: &mut Event, r: &SdoRequest, ctx: &Ctx) {
+fn request_fields(e: &mut Event, r: &SdoRequest, ctx: &Context) {
     match *r {
         SdoRequest::Write {
             index,
@@ -267,7 +272,7 @@ fn request_fields(e: &mut Event, r: &SdoRequest, ctx: &Ctx) {
         }
         SdoRequest::WriteSegment { toggle, data, last } => {
             e.kind = "SEGMENT";
-            e.raw_value = Some(super::input::hex_spaced(data.as_bytes()));
+            e.raw_value = Some(super::hex_spaced(data.as_bytes()));
             e.meaning = Some(format!(
                 "write segment, toggle {}{}",
                 u8::from(toggle),
@@ -290,7 +295,7 @@ fn request_fields(e: &mut Event, r: &SdoRequest, ctx: &Ctx) {
     }
 }
 
-fn response_fields(e: &mut Event, r: &SdoResponse, ctx: &Ctx, req: Option<SdoRequest>) {
+fn response_fields(e: &mut Event, r: &SdoResponse, ctx: &Context, req: Option<SdoRequest>) {
     match *r {
         SdoResponse::WriteAck { index, subindex } => {
             e.kind = "WRITE OK";
@@ -332,7 +337,7 @@ fn response_fields(e: &mut Event, r: &SdoResponse, ctx: &Ctx, req: Option<SdoReq
         }
         SdoResponse::ReadSegment { toggle, data, last } => {
             e.kind = "SEGMENT";
-            e.raw_value = Some(super::input::hex_spaced(data.as_bytes()));
+            e.raw_value = Some(super::hex_spaced(data.as_bytes()));
             e.meaning = Some(format!(
                 "read segment, toggle {}{}",
                 u8::from(toggle),

@@ -12,7 +12,7 @@ use driveset_proto::lustbus::{
 use driveset_schema::{RawValue, Schema, validate::display_value};
 
 use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
-use super::{Ctx, garbage_event};
+use super::{Context, garbage_event};
 
 /// Schema id of a family's built-in schema.
 pub fn family_schema_id(family: Dialect) -> &'static str {
@@ -69,7 +69,7 @@ pub fn schema_raw(v: &ParameterValue) -> i64 {
 }
 
 struct State<'a> {
-    ctx: &'a Ctx,
+    ctx: &'a Context,
     family: Option<Dialect>,
     last: Option<Request>,
     /// Whether the last SELECT had a wrong BCC.
@@ -215,7 +215,7 @@ fn direction(d: Option<Direction>) -> Option<&'static str> {
 }
 
 /// Decodes a LUSTBUS capture.
-pub fn decode(capture: &[u8], ctx: &Ctx) -> Vec<Event> {
+pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
     let mut sniffer = Sniffer::new();
     let mut raw: Vec<_> = sniffer.feed(capture).collect();
     raw.extend(sniffer.finish());

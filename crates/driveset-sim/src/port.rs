@@ -1,0 +1,670 @@
+//! Owns the `sim://` port's query: its keys (the drives' addresses, a mixed
+//! LUSTBUS's per-family keys, [`OPTION_KEYS`]), their checks and messages,
+//! the port's canonical form ([`SimSpec`]), and the simulator's
+//! [`PortOpener`] ([`SimOpener`]), which a program registers so that
+//! `driveset_link::open_with` opens `sim://` ports in-process.
+//!
+//! `driveset-link` parses a `sim://` port only as far as scheme, path and
+//! `key=value` items ([`OpaqueSpec`]); everything below is the simulator's.
+//!
+//! | key | value |
+//! | --- | --- |
+//! | `addresses` | drive addresses, `1,2,3` (not on `sim://lustbus`) |
+//! | `mc6000`, `mc7000`, `vf1000` | a mixed LUSTBUS's drives per family ([`MIXED_LUSTBUS`]) |
+//! | `baud` | the 7E1 line rate (one of `driveset_link::spec::ALLOWED_BAUDS`) |
+//! | `bitrate` | the CAN bit rate |
+//! | `c0001`, `faults`, `keypad`, `layout`, `seed`, `state`, `types` | [`OPTION_KEYS`], see [`crate::open`] |
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::PathBuf;
+
+use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
+use driveset_link::{
+    Link, LinkError, OpaqueSpec, OpenOptions, PortOpener, PortShape, PortSpec, PortSpecError,
+    PortSpecErrorKind, VirtualClock,
+};
+
+use crate::log::EventLog;
+use crate::open::{SimConfig, SimOpenError, is_can, open_sim_with, parse_family};
+
+/// Simulator options besides the drives, `baud` and `bitrate`, passed on to
+/// [`SimConfig::from_spec`] as text (`seed` must be a whole number).
+pub const OPTION_KEYS: &[&str] = &[
+    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
+];
+
+/// Every key a `sim://` port takes.
+pub const KEYS: &[&str] = &[
+    "addresses",
+    "baud",
+    "bitrate",
+    "c0001",
+    "faults",
+    "keypad",
+    "layout",
+    "mc6000",
+    "mc7000",
+    "seed",
+    "state",
+    "types",
+    "vf1000",
+];
+
+/// The bus name of a simulated LUSTBUS that holds drives of several
+/// families: `sim://lustbus?mc6000=1,2&vf1000=5` (LUSTBUS protocol section
+/// 1, joint operation of inverters and servocontrollers).
+pub const MIXED_LUSTBUS: &str = "lustbus";
+
+/// The per-family address keys of [`MIXED_LUSTBUS`]: the LUSTBUS families.
+pub const FAMILY_KEYS: &[&str] = &["mc6000", "mc7000", "vf1000"];
+
+/// A checked `sim://FAMILY?addresses=...` port (simulated drives of one
+/// family), or a `sim://lustbus?mc6000=...&vf1000=...` port (a LUSTBUS
+/// holding drives of several families, [`MIXED_LUSTBUS`]).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct SimSpec {
+    /// Drive family (schema name), e.g. `lust-vf1000`, or `lustbus` for a
+    /// mixed LUSTBUS.
+    pub family: String,
+    /// Bus addresses of the simulated drives, in the order given (empty on
+    /// a mixed bus: see [`SimSpec::families`]).
+    pub addresses: Vec<u8>,
+    /// A mixed bus's drives: per family key ([`FAMILY_KEYS`]) the
+    /// addresses, in the order given. Empty on a single-family bus.
+    pub families: BTreeMap<String, Vec<u8>>,
+    /// Line rate for serial families.
+    pub baud: Option<u32>,
+    /// Bit rate for CAN families.
+    pub bitrate: Option<u32>,
+    /// Further simulator options ([`OPTION_KEYS`]), by key.
+    pub options: BTreeMap<String, String>,
+}
+
+impl SimSpec {
+    /// Parse a `sim://` port string; errors name `input` as given.
+    pub fn parse(input: &str) -> Result<SimSpec, PortSpecError> {
+        let err = |kind| PortSpecError {
+            input: input.to_string(),
+            kind,
+        };
+        match PortSpec::parse(input)? {
+            PortSpec::Sim(o) if o.scheme == "sim" => from_opaque(&o).map_err(err),
+            _ => Err(err(PortSpecErrorKind::UnknownScheme {
+                scheme: input.split("://").next().unwrap_or(input).to_string(),
+            })),
+        }
+    }
+
+    /// Check the opaque port `driveset-link` parsed.
+    pub fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecError> {
+        from_opaque(spec).map_err(|kind| PortSpecError {
+            input: spec.to_string(),
+            kind,
+        })
+    }
+
+    /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`).
+    pub fn is_mixed(&self) -> bool {
+        !self.families.is_empty()
+    }
+
+    /// Every simulated drive as (family as given, address): the per-family
+    /// keys' drives on a mixed bus, else `family` at each of `addresses`.
+    pub fn drives(&self) -> Vec<(&str, u8)> {
+        if self.is_mixed() {
+            self.families
+                .iter()
+                .flat_map(|(f, list)| list.iter().map(move |&a| (f.as_str(), a)))
+                .collect()
+        } else {
+            self.addresses
+                .iter()
+                .map(|&a| (self.family.as_str(), a))
+                .collect()
+        }
+    }
+
+    /// Every simulated drive's address.
+    pub fn all_addresses(&self) -> Vec<u8> {
+        self.drives().into_iter().map(|(_, a)| a).collect()
+    }
+
+    /// The port as reports name it: the canonical form without `state=`
+    /// (where the simulator keeps its drives is not part of the bus's name).
+    pub fn name(&self) -> String {
+        let mut s = self.clone();
+        s.options.remove("state");
+        s.to_string()
+    }
+
+    /// The opaque port `driveset-link` carries (what [`SimSpec::from_opaque`]
+    /// reads back).
+    pub fn to_opaque(&self) -> OpaqueSpec {
+        match PortSpec::parse(&self.to_string()) {
+            Ok(PortSpec::Sim(o)) => o,
+            // The canonical form is a valid opaque port by construction.
+            _ => OpaqueSpec {
+                scheme: "sim".into(),
+                path: self.family.clone(),
+                query: BTreeMap::new(),
+            },
+        }
+    }
+}
+
+/// Writes the canonical form: defaults not spelled out, options in a fixed
+/// order (`addresses` or the per-family keys alphabetically, `baud`,
+/// `bitrate`, then the rest alphabetically).
+impl fmt::Display for SimSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "sim://{}", self.family)?;
+        let mut items: Vec<(String, String)> = Vec::new();
+        let list = |l: &[u8]| l.iter().map(u8::to_string).collect::<Vec<_>>().join(",");
+        if !self.is_mixed() && !self.addresses.is_empty() {
+            items.push(("addresses".into(), list(&self.addresses)));
+        }
+        for (key, l) in &self.families {
+            items.push((key.clone(), list(l)));
+        }
+        if let Some(b) = self.baud {
+            items.push(("baud".into(), b.to_string()));
+        }
+        if let Some(b) = self.bitrate {
+            items.push(("bitrate".into(), b.to_string()));
+        }
+        for (key, value) in &self.options {
+            items.push((key.clone(), value.clone()));
+        }
+        for (i, (k, v)) in items.iter().enumerate() {
+            write!(f, "{}{k}={v}", if i == 0 { '?' } else { '&' })?;
+        }
+        Ok(())
+    }
+}
+
+fn number(map: &mut BTreeMap<String, String>, key: &str) -> Result<Option<u32>, PortSpecErrorKind> {
+    let Some(value) = map.remove(key) else {
+        return Ok(None);
+    };
+    match value.parse::<u32>() {
+        Ok(n) if n > 0 => Ok(Some(n)),
+        _ => Err(PortSpecErrorKind::BadValue {
+            key: key.into(),
+            value,
+            reason: "not a positive whole number".into(),
+        }),
+    }
+}
+
+fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
+    const EXAMPLE: &str = "sim://lust-vf1000?addresses=1,2,3";
+    let family = spec.path.as_str();
+    if family.is_empty() {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "a drive family",
+            example: EXAMPLE,
+        });
+    }
+    if !family
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
+    {
+        return Err(PortSpecErrorKind::BadFamily {
+            family: family.into(),
+        });
+    }
+    if let Some(key) = spec.query.keys().find(|k| !KEYS.contains(&k.as_str())) {
+        return Err(PortSpecErrorKind::UnknownOption {
+            key: key.clone(),
+            scheme: "sim://",
+            allowed: KEYS,
+        });
+    }
+    let mut map = spec.query.clone();
+    let mut families = BTreeMap::new();
+    for key in FAMILY_KEYS {
+        if let Some(list) = map.remove(*key) {
+            families.insert(key.to_string(), list);
+        }
+    }
+    let mixed = family.eq_ignore_ascii_case(MIXED_LUSTBUS);
+    let mut seen = Vec::new();
+    let mut address_list = |list: &str| -> Result<Vec<u8>, PortSpecErrorKind> {
+        let mut out = Vec::new();
+        for item in list.split(',') {
+            let address = item
+                .trim()
+                .parse::<u8>()
+                .map_err(|_| PortSpecErrorKind::BadAddress { value: item.into() })?;
+            if seen.contains(&address) {
+                return Err(PortSpecErrorKind::DuplicateAddress { address });
+            }
+            seen.push(address);
+            out.push(address);
+        }
+        Ok(out)
+    };
+    let mut addresses = Vec::new();
+    let mut per_family = BTreeMap::new();
+    if mixed {
+        if map.contains_key("addresses") {
+            return Err(PortSpecErrorKind::MixedBus {
+                reason: format!(
+                    "sim://{family} takes the addresses per family ({}=...), not addresses=; e.g. sim://lustbus?mc6000=1,2&vf1000=5",
+                    FAMILY_KEYS.join("=..., ")
+                ),
+            });
+        }
+        if families.is_empty() {
+            return Err(PortSpecErrorKind::Missing {
+                scheme: "sim",
+                what: "the drives per family (mc6000=, mc7000=, vf1000=) on a mixed LUSTBUS",
+                example: "sim://lustbus?mc6000=1,2&vf1000=5",
+            });
+        }
+        for (key, list) in &families {
+            per_family.insert(key.clone(), address_list(list)?);
+        }
+    } else {
+        if let Some(key) = families.keys().next() {
+            return Err(PortSpecErrorKind::MixedBus {
+                reason: format!(
+                    "`{key}=` (drives per family) is for a mixed LUSTBUS, sim://lustbus?{key}=...; on sim://{family} give addresses="
+                ),
+            });
+        }
+        // Without addresses= the bus holds no drive yet: a command that
+        // names one address (`pull --address 3`) simulates one drive there.
+        if let Some(list) = map.remove("addresses") {
+            addresses = address_list(&list)?;
+        }
+    }
+    let baud = match number(&mut map, "baud")? {
+        Some(baud) if !ALLOWED_BAUDS.contains(&baud) => {
+            return Err(PortSpecErrorKind::UnsupportedBaud { baud });
+        }
+        other => other,
+    };
+    let bitrate = match number(&mut map, "bitrate")? {
+        Some(bitrate) if !ALLOWED_BITRATES.contains(&bitrate) => {
+            return Err(PortSpecErrorKind::UnsupportedBitrate { bitrate });
+        }
+        other => other,
+    };
+    if let Some(seed) = map.get("seed")
+        && seed.parse::<u64>().is_err()
+    {
+        return Err(PortSpecErrorKind::BadValue {
+            key: "seed".into(),
+            value: seed.clone(),
+            reason: "not a whole number in 0..=18446744073709551615".into(),
+        });
+    }
+    Ok(SimSpec {
+        family: family.into(),
+        addresses,
+        families: per_family,
+        baud,
+        bitrate,
+        options: map,
+    })
+}
+
+/// The simulator's [`PortOpener`] for `sim://`: opens the simulated bus in
+/// virtual time (each port on a clock of its own). Its own options, which
+/// are not part of the port string: a state file for every bus it opens
+/// (used when the port gives no `state=`).
+#[derive(Debug, Clone, Default)]
+pub struct SimOpener {
+    /// Where the drives' state persists when the port names no `state=`
+    /// (else `DRIVESET_SIM_STATE_DIR`, see [`crate::open::STATE_DIR_ENV`]).
+    pub state: Option<PathBuf>,
+}
+
+impl SimOpener {
+    /// The settings of `spec` (this opener's state file applied).
+    pub fn config(&self, spec: &SimSpec) -> Result<SimConfig, SimOpenError> {
+        let mut config = SimConfig::from_spec(spec)?;
+        if !spec.options.contains_key("state")
+            && let Some(s) = &self.state
+        {
+            config.state = Some(s.clone());
+        }
+        Ok(config)
+    }
+}
+
+impl PortOpener for SimOpener {
+    fn scheme(&self) -> &str {
+        "sim"
+    }
+
+    fn check(&self, spec: &OpaqueSpec) -> Result<PortShape, PortSpecError> {
+        let sim = SimSpec::from_opaque(spec)?;
+        let frames = parse_family(sim.drives().first().map_or(&*sim.family, |d| d.0))
+            .map(is_can)
+            .unwrap_or(false);
+        Ok(PortShape {
+            frames,
+            drives: sim
+                .drives()
+                .into_iter()
+                .map(|(f, a)| (f.to_string(), a))
+                .collect(),
+            mixed: sim.is_mixed(),
+            name: sim.name(),
+        })
+    }
+
+    fn with_drives(&self, spec: &OpaqueSpec, drives: &[(&str, u8)]) -> OpaqueSpec {
+        let list = |mut a: Vec<u8>| {
+            a.sort_unstable();
+            a.iter().map(u8::to_string).collect::<Vec<_>>().join(",")
+        };
+        let mut out = spec.clone();
+        if spec.path.eq_ignore_ascii_case(MIXED_LUSTBUS) {
+            if FAMILY_KEYS.iter().any(|k| spec.query.contains_key(*k)) {
+                return out;
+            }
+            // each drive under the key of its family
+            let mut per: BTreeMap<&str, Vec<u8>> = BTreeMap::new();
+            for &(family, address) in drives {
+                let key = match parse_family(family) {
+                    Ok(driveset_schema::Family::Vf1000) => "vf1000",
+                    _ => "mc6000",
+                };
+                per.entry(key).or_default().push(address);
+            }
+            for (key, addresses) in per {
+                out.query.insert(key.to_string(), list(addresses));
+            }
+        } else if !spec.query.contains_key("addresses") && !drives.is_empty() {
+            out.query.insert(
+                "addresses".to_string(),
+                list(drives.iter().map(|d| d.1).collect()),
+            );
+        }
+        out
+    }
+
+    fn with_rate(&self, spec: &OpaqueSpec, rate: u32) -> OpaqueSpec {
+        let Ok(mut sim) = SimSpec::from_opaque(spec) else {
+            return spec.clone();
+        };
+        if parse_family(&sim.family).is_ok_and(is_can) {
+            sim.bitrate = Some(rate);
+        } else {
+            sim.baud = Some(rate);
+        }
+        sim.to_opaque()
+    }
+
+    fn open(&self, spec: &OpaqueSpec, _options: &OpenOptions) -> Result<Link, LinkError> {
+        let bad = |detail: String| LinkError::Unsupported {
+            port: spec.to_string(),
+            what: detail,
+        };
+        let sim = SimSpec::from_opaque(spec).map_err(|e| bad(e.to_string()))?;
+        let config = self.config(&sim).map_err(|e| bad(e.to_string()))?;
+        let clock = VirtualClock::new();
+        open_sim_with(&config, &clock, &sim.name(), EventLog::off())
+            .map(|l| l.link())
+            .map_err(|e| bad(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The `sim://` port's keys (moved here from driveset-link's port
+    //! parser tests with the keys): every form parses, prints back
+    //! canonically, every error says exactly what is wrong.
+
+    use std::collections::BTreeMap;
+
+    use driveset_link::{OpaqueSpec, PortOpener, PortSpecErrorKind};
+
+    use super::*;
+
+    fn ok(input: &str) -> SimSpec {
+        match SimSpec::parse(input) {
+            Ok(spec) => spec,
+            Err(e) => panic!("`{input}` should parse: {e}"),
+        }
+    }
+
+    fn err(input: &str) -> PortSpecErrorKind {
+        match SimSpec::parse(input) {
+            Ok(spec) => panic!("`{input}` should not parse, got {spec:?}"),
+            Err(e) => {
+                assert_eq!(e.input, input);
+                e.kind
+            }
+        }
+    }
+
+    fn round_trip(input: &str, canonical: &str) {
+        let spec = ok(input);
+        assert_eq!(spec.to_string(), canonical, "canonical form of `{input}`");
+        assert_eq!(ok(canonical), spec, "`{canonical}` parses back");
+    }
+
+    #[test]
+    fn sim_ports_take_no_line_options() {
+        assert!(matches!(
+            err("sim://mc6000?addresses=1&echo=on"),
+            PortSpecErrorKind::UnknownOption { ref key, .. } if key == "echo"
+        ));
+    }
+
+    #[test]
+    fn sim_buses() {
+        let mut options = BTreeMap::new();
+        options.insert("seed".to_string(), "42".to_string());
+        assert_eq!(
+            ok("sim://lust-vf1000?seed=42&addresses=3,1,2&baud=19200"),
+            (SimSpec {
+                family: "lust-vf1000".into(),
+                addresses: vec![3, 1, 2],
+                families: BTreeMap::new(),
+                baud: Some(19200),
+                bitrate: None,
+                options,
+            })
+        );
+        round_trip(
+            "sim://lust-vf1000?seed=42&addresses=3,1,2&baud=19200",
+            "sim://lust-vf1000?addresses=3,1,2&baud=19200&seed=42",
+        );
+        round_trip(
+            "sim://lenze_ecs?bitrate=125000&addresses=1&faults=drop:0.1",
+            "sim://lenze_ecs?addresses=1&bitrate=125000&faults=drop:0.1",
+        );
+        round_trip(
+            "sim://mc6000?state=/tmp/line/sim.json&keypad=true&addresses=1",
+            "sim://mc6000?addresses=1&keypad=true&state=/tmp/line/sim.json",
+        );
+        assert_eq!(ok("sim://x?addresses=0").baud, None);
+        assert_eq!(
+            SimSpec::parse("sim://x?addresses= 7").map(|s| s.to_string()),
+            Ok("sim://x?addresses=7".into())
+        );
+    }
+
+    #[test]
+    fn mixed_lustbus_sim_buses() {
+        let sim = ok("sim://lustbus?vf1000=7,5&mc6000=1,2&baud=19200");
+        assert!(sim.is_mixed());
+        assert!(sim.addresses.is_empty());
+        assert_eq!(sim.families["mc6000"], [1, 2]);
+        assert_eq!(sim.families["vf1000"], [7, 5]);
+        assert_eq!(
+            sim.drives(),
+            [("mc6000", 1), ("mc6000", 2), ("vf1000", 7), ("vf1000", 5)]
+        );
+        assert_eq!(sim.all_addresses(), [1, 2, 7, 5]);
+        round_trip(
+            "sim://lustbus?vf1000=7,5&seed=1&mc6000=1,2&baud=19200",
+            "sim://lustbus?mc6000=1,2&vf1000=7,5&baud=19200&seed=1",
+        );
+        round_trip("sim://lustbus?mc7000=3", "sim://lustbus?mc7000=3");
+        let single = ok("sim://mc6000?addresses=1,2");
+        assert!(!single.is_mixed());
+        assert_eq!(single.drives(), [("mc6000", 1), ("mc6000", 2)]);
+        // One address space across the families.
+        assert_eq!(
+            err("sim://lustbus?mc6000=1,2&vf1000=2"),
+            PortSpecErrorKind::DuplicateAddress { address: 2 }
+        );
+        assert_eq!(
+            err("sim://lustbus?vf1000=x"),
+            PortSpecErrorKind::BadAddress { value: "x".into() }
+        );
+        assert!(matches!(
+            err("sim://lustbus"),
+            PortSpecErrorKind::Missing { scheme: "sim", .. }
+        ));
+        assert!(matches!(
+            err("sim://lustbus?addresses=1&mc6000=2"),
+            PortSpecErrorKind::MixedBus { ref reason } if reason.contains("not addresses=")
+        ));
+        assert!(matches!(
+            err("sim://mc6000?addresses=1&vf1000=2"),
+            PortSpecErrorKind::MixedBus { ref reason } if reason.contains("sim://lustbus?vf1000=")
+        ));
+        assert!(matches!(
+            err("sim://lustbus?tmd=1"),
+            PortSpecErrorKind::UnknownOption { ref key, scheme: "sim://", .. } if key == "tmd"
+        ));
+    }
+
+    #[test]
+    fn errors_name_what_is_wrong() {
+        assert!(matches!(
+            err("sim://x?addresses=1&colour=red"),
+            PortSpecErrorKind::UnknownOption { ref key, scheme: "sim://", .. } if key == "colour"
+        ));
+
+        assert!(matches!(
+            err("sim://"),
+            PortSpecErrorKind::Missing {
+                scheme: "sim",
+                what: "a drive family",
+                ..
+            }
+        ));
+        assert!(matches!(
+            err("sim://vf1000?addresses=x"),
+            PortSpecErrorKind::BadAddress { .. }
+        ));
+        assert_eq!(
+            err("sim://vf 1000?addresses=1"),
+            PortSpecErrorKind::BadFamily {
+                family: "vf 1000".into()
+            }
+        );
+        assert_eq!(
+            err("sim://vf1000?addresses=1,,2"),
+            PortSpecErrorKind::BadAddress { value: "".into() }
+        );
+        assert_eq!(
+            err("sim://vf1000?addresses=256"),
+            PortSpecErrorKind::BadAddress {
+                value: "256".into()
+            }
+        );
+        assert_eq!(
+            err("sim://vf1000?addresses=1,2,1"),
+            PortSpecErrorKind::DuplicateAddress { address: 1 }
+        );
+        assert!(matches!(
+            err("sim://vf1000?addresses=1&seed=-1"),
+            PortSpecErrorKind::BadValue { ref key, .. } if key == "seed"
+        ));
+        assert_eq!(
+            err("sim://vf1000?addresses=1&baud=100"),
+            PortSpecErrorKind::UnsupportedBaud { baud: 100 }
+        );
+    }
+
+    #[test]
+    fn options_are_kept_for_the_config() {
+        // Without addresses= the port parses with no drive; the command's
+        // --address supplies it (driveset-cli), the simulator refuses an empty bus.
+        let sim = ok("sim://vf1000");
+        assert!(sim.addresses.is_empty());
+        let sim = ok("sim://mc6000?layout=43&types=table");
+        assert_eq!(sim.options.get("layout").map(String::as_str), Some("43"));
+        assert_eq!(sim.options.get("types").map(String::as_str), Some("table"));
+    }
+
+    /// The opener checks what driveset-link keeps opaque: unknown keys by
+    /// name, with the keys a `sim://` port takes.
+    #[test]
+    fn the_opener_checks_the_keys() {
+        let opener = SimOpener::default();
+        let opaque = |s: &str| match PortSpec::parse(s).unwrap() {
+            PortSpec::Sim(o) => o,
+            other => panic!("{other:?}"),
+        };
+        let e = opener
+            .check(&opaque("sim://mc6000?addresses=1&colour=red"))
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, faults, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
+        );
+        let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid port `sim://vf1000?baud=100&addresses=1`: baud=100 is not supported; a 7E1 line runs at one of 1200, 2400, 4800, 9600, 19200, 38400, 57600 baud"
+        );
+        let shape = opener
+            .check(&opaque("sim://lustbus?vf1000=5&mc6000=1&state=/tmp/s.json"))
+            .unwrap();
+        assert_eq!(
+            shape,
+            PortShape {
+                frames: false,
+                drives: vec![("mc6000".into(), 1), ("vf1000".into(), 5)],
+                mixed: true,
+                name: "sim://lustbus?mc6000=1&vf1000=5".into(),
+            }
+        );
+        assert!(
+            opener
+                .check(&opaque("sim://ecs?addresses=3"))
+                .unwrap()
+                .frames
+        );
+        // A manifest's drives go onto a port that names none; its rate too.
+        let filled = opener.with_drives(
+            &opaque("sim://lustbus?seed=2"),
+            &[("vf1000", 7), ("mc6000", 2), ("mc6000", 1)],
+        );
+        assert_eq!(
+            filled.to_string(),
+            "sim://lustbus?mc6000=1,2&seed=2&vf1000=7"
+        );
+        let kept = opener.with_drives(&opaque("sim://tmd?addresses=4"), &[("tmd", 9)]);
+        assert_eq!(kept.to_string(), "sim://tmd?addresses=4");
+        let mut q = BTreeMap::new();
+        q.insert("addresses".to_string(), "1".to_string());
+        q.insert("bitrate".to_string(), "250000".to_string());
+        assert_eq!(
+            opener.with_rate(&opaque("sim://ecs?addresses=1"), 250_000),
+            OpaqueSpec {
+                scheme: "sim".into(),
+                path: "ecs".into(),
+                query: q
+            }
+        );
+        assert_eq!(
+            opener
+                .with_rate(&opaque("sim://tmd?addresses=1"), 19200)
+                .to_string(),
+            "sim://tmd?addresses=1&baud=19200"
+        );
+    }
+}
