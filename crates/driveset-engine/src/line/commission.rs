@@ -968,28 +968,10 @@ fn run_drive(
                 Ok(())
             }
             Mode::Commission => {
-                if let Some(rec) = ctx.recorded(bus, d)
-                    && recovered.is_empty()
-                    && rec.set_fingerprint == set_fp
-                    && rec.port == bus.port_name
+                if recovered.is_empty()
+                    && still_holds(&mut *client, bus, d, &set_fp, &mut r, &hook, ctx)?
                 {
-                    // confirm with one read of the set's codes
-                    hook.enter(client.clock(), Phase::Identify, None);
-                    let id = check_family(&mut *client)?;
-                    r.identity = id.pairs();
-                    hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
-                    let live = live_values(&mut *client, &d.set)?;
-                    let fp = live.fingerprint();
-                    if live.values == d.set.values {
-                        r.result = DriveResult::AlreadyVerified;
-                        r.fingerprint_before = Some(fp.clone());
-                        r.fingerprint_after = Some(fp);
-                        return Ok(());
-                    }
-                    ctx.warn(format!(
-                        "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
-                        d.name, rec.verified_at
-                    ));
+                    return Ok(());
                 }
                 let mut uo = UploadOptions::new(&journal_path);
                 uo.overrides = ctx.opts.overrides;
@@ -1503,6 +1485,45 @@ enum FirstHalf<'d> {
     Parked(Box<Parked<'d>>),
 }
 
+/// The resume check ([module docs](self)): a drive the state file records
+/// as verified at its set's fingerprint, on this port, is identified and
+/// its set's codes read once. `true`: it still holds its set (`r` says
+/// [`DriveResult::AlreadyVerified`]); `false`: commission it (a warning
+/// says why when the record was there).
+fn still_holds(
+    client: &mut dyn DriveClient,
+    bus: &Bus,
+    d: &Drive,
+    set_fp: &str,
+    r: &mut DriveReport,
+    hook: &Hook,
+    ctx: &Ctx<'_>,
+) -> Result<bool, EngineError> {
+    let Some(rec) = ctx.recorded(bus, d) else {
+        return Ok(false);
+    };
+    if rec.set_fingerprint != set_fp || rec.port != bus.port_name {
+        return Ok(false);
+    }
+    hook.enter(client.clock(), Phase::Identify, None);
+    let id = check_family(&mut *client)?;
+    r.identity = id.pairs();
+    hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
+    let live = live_values(&mut *client, &d.set)?;
+    let fp = live.fingerprint();
+    if live.values == d.set.values {
+        r.result = DriveResult::AlreadyVerified;
+        r.fingerprint_before = Some(fp.clone());
+        r.fingerprint_after = Some(fp);
+        return Ok(true);
+    }
+    ctx.warn(format!(
+        "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
+        d.name, rec.verified_at
+    ));
+    Ok(false)
+}
+
 /// A drive's observer for one part of its work: its spans for the
 /// timeline, its events for the line's observer.
 fn drive_watch(bus: &Bus, d: &Drive, ctx: &Ctx<'_>) -> (Arc<DriveWatch>, Hook) {
@@ -1637,26 +1658,8 @@ fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> Fi
     uo.observer = hook.clone();
     let mut parked_tx = None;
     let outcome: Result<(), EngineError> = (|| {
-        if let Some(rec) = ctx.recorded(bus, d)
-            && rec.set_fingerprint == set_fp
-            && rec.port == bus.port.to_string()
-        {
-            hook.enter(client.clock(), Phase::Identify, None);
-            let id = check_family(&mut *client)?;
-            r.identity = id.pairs();
-            hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
-            let live = live_values(&mut *client, &d.set)?;
-            let fp = live.fingerprint();
-            if live.values == d.set.values {
-                r.result = DriveResult::AlreadyVerified;
-                r.fingerprint_before = Some(fp.clone());
-                r.fingerprint_after = Some(fp);
-                return Ok(());
-            }
-            ctx.warn(format!(
-                "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
-                d.name, rec.verified_at
-            ));
+        if still_holds(&mut *client, bus, d, &set_fp, &mut r, &hook, ctx)? {
+            return Ok(());
         }
         let mut tx = Transaction::begin(&mut *client, &d.set, &uo)?;
         let res = (|| {
