@@ -374,3 +374,71 @@ fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
         .code(2)
         .stderr(predicate::str::contains("in --params"));
 }
+
+/// Issue 12: a drive left at the transfer rate by an interrupted
+/// `--transfer-baud` upload (the cable pulled after the switch; the
+/// simulator's state file keeps the drive's rate, as a powered drive keeps
+/// it) is found by `identify` and `scan` through the rate search
+/// (LUSTBUS 5.1), and they say at which rate and what to do.
+#[test]
+fn identify_and_scan_find_a_drive_left_at_the_transfer_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("sim");
+    std::fs::create_dir_all(&state).unwrap();
+    let set = crate::util::workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state)
+        .current_dir(dir.path())
+        .args(["upload"])
+        .arg(&set)
+        .args([
+            "--port",
+            "sim://mc6000?addresses=1&faults=cable@60+600s",
+            "--address",
+            "1",
+            "--transfer-baud",
+            "57600",
+            "--journal",
+            "j.json",
+        ])
+        .assert()
+        .code(3)
+        .stderr(predicate::str::contains(
+            "the drive answers at no rate (it may still run at the transfer rate 57600 baud; its 81-SBAUD holds 9600 in EEPROM, so a restart brings it to that rate)",
+        ));
+    let note = "the drive answers at 57600 baud, not at the port's 9600 (left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\n";
+    driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state)
+        .args([
+            "identify",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+        ])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("family:   lustbus-mc\n"))
+        .stdout(predicate::str::contains(format!("note:     {note}")));
+    driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state)
+        .args(["scan", "--port", "sim://mc6000?addresses=1", "--protocol", "lustbus"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "baud rate: 57600, not the port's 9600 (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\naddress 1: 91-TYPE = 0\n1 drive found\n",
+        ));
+    // without the state file's rate the drive would answer at 9600: the
+    // search is what found it
+    let dump = std::fs::read_to_string(
+        std::fs::read_dir(&state)
+            .unwrap()
+            .next()
+            .unwrap()
+            .unwrap()
+            .path(),
+    )
+    .unwrap();
+    let dump: serde_json::Value = serde_json::from_str(&dump).unwrap();
+    assert_eq!(dump["drives"][0]["rate"], 57600, "{dump}");
+}

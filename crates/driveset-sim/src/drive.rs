@@ -85,6 +85,18 @@ pub trait ByteDrive: Send + std::fmt::Debug {
     fn take_baud_change(&mut self) -> Option<u32> {
         None
     }
+
+    /// The line rate the drive runs at now (`None`: the line's; a state
+    /// file keeps it, so a drive left at a transfer rate stays there
+    /// between commands, as a powered drive does).
+    fn active_rate(&self) -> Option<u32> {
+        None
+    }
+
+    /// Run at `baud` from now on (a state file's rate; no restart).
+    fn restore_rate(&mut self, baud: u32) {
+        let _ = baud;
+    }
 }
 
 /// What a CAN node sends in answer to a frame.

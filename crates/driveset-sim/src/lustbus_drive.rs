@@ -864,4 +864,21 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
         // both families at a restart (power cycle, STAT / error reset).
         self.core().baud_change.take()
     }
+
+    fn active_rate(&self) -> Option<u32> {
+        // only a rate 81 does not say (activated online, 81 changed since)
+        let core = self.core_ref();
+        if core.active_baud == core.int(BAUD) {
+            return None;
+        }
+        core.active_baud.and_then(|b| u32::try_from(b).ok())
+    }
+
+    fn restore_rate(&mut self, baud: u32) {
+        let core = self.core();
+        if core.active_baud != Some(i64::from(baud)) {
+            core.active_baud = Some(i64::from(baud));
+            core.baud_change = Some(baud);
+        }
+    }
 }

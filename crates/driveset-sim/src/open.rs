@@ -65,7 +65,11 @@
 //! `canonical` is the drive's whole state in the canonical form
 //! (docs/file-formats.md), `fingerprint` its sha256. `baud` / `bitrate` /
 //! `telegrams` are informative (written by `driveset sim`, ignored on
-//! load). Loading matches drives by family and address; a drive of the bus
+//! load). A drive's `rate` is written only when it runs at a rate its
+//! 81-SBAUD does not say (an MC6000 left at a `--transfer-baud` rate,
+//! LUSTBUS 11.5) and is restored on load, so the drive stays at that rate
+//! between commands as a powered drive does (`identify`, `scan` and
+//! `recover` then find it by the rate search, LUSTBUS 5.1). Loading matches drives by family and address; a drive of the bus
 //! missing from the file keeps its factory state, a drive in the file that
 //! is not on the bus is ignored (and not written back).
 
@@ -595,6 +599,11 @@ pub struct DriveDump {
     pub fingerprint: String,
     /// Its whole state, canonical form.
     pub canonical: String,
+    /// The rate the drive runs at, when its 81-SBAUD does not say it (an
+    /// MC6000 left at a transfer rate, LUSTBUS 11.5): it stays there in
+    /// the next command, as a powered drive does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate: Option<u32>,
 }
 
 impl DriveDump {
@@ -607,6 +616,7 @@ impl DriveDump {
             fingerprint: state.fingerprint(),
             // the drive's memory, secrets included (a state file is as private as the drive)
             canonical: state.canonical_with_secrets(),
+            rate: None,
         }
     }
 }
@@ -617,6 +627,12 @@ trait StateDrive {
     fn dump_address(&self) -> u8;
     fn dump_state(&self) -> ResolvedSet;
     fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String>;
+    fn dump_rate(&self) -> Option<u32> {
+        None
+    }
+    fn restore_rate(&mut self, baud: u32) {
+        let _ = baud;
+    }
 }
 
 impl StateDrive for Box<dyn ByteDrive> {
@@ -631,6 +647,12 @@ impl StateDrive for Box<dyn ByteDrive> {
     }
     fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
         self.poke(key, raw)
+    }
+    fn dump_rate(&self) -> Option<u32> {
+        self.active_rate()
+    }
+    fn restore_rate(&mut self, baud: u32) {
+        ByteDrive::restore_rate(self.as_mut(), baud);
     }
 }
 
@@ -658,7 +680,10 @@ fn dump_of<D: StateDrive>(bus: &str, drives: &[D]) -> StateDump {
         telegrams: None,
         drives: drives
             .iter()
-            .map(|d| DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state()))
+            .map(|d| DriveDump {
+                rate: d.dump_rate(),
+                ..DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state())
+            })
             .collect(),
     }
 }
@@ -849,6 +874,9 @@ fn apply_dump<D: StateDrive>(
             {
                 refused.push((*key, e));
             }
+        }
+        if let Some(rate) = entry.rate {
+            drive.restore_rate(rate);
         }
         let now = drive.dump_state();
         if now.values != values {
