@@ -330,25 +330,29 @@ pub enum Mismatch {
     },
 }
 
-/// The protocol a client speaks ([`Refusal::WrongClient`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ClientProtocol {
-    /// Lenze LECOM-A/B.
-    Lecom,
-    /// Lust LUSTBUS.
-    Lustbus,
-    /// CAN SDO (Lenze system bus).
-    CanSdo,
+/// [`Refusal::WrongClient`]'s protocol as its family descriptor names it
+/// (`lustbus`, `lecom`, `can`).
+mod bus_protocol_name {
+    use driveset_schema::BusProtocol;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(p: &BusProtocol, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(p.name())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<BusProtocol, D::Error> {
+        let name = String::deserialize(d)?;
+        BusProtocol::parse(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown bus protocol `{name}`")))
+    }
 }
 
-impl fmt::Display for ClientProtocol {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ClientProtocol::Lecom => "LECOM",
-            ClientProtocol::Lustbus => "LUSTBUS",
-            ClientProtocol::CanSdo => "CAN SDO",
-        })
+/// How a refusal names a client's protocol: `LUSTBUS`, `LECOM`, `CAN SDO`.
+fn protocol_label(p: driveset_schema::BusProtocol) -> &'static str {
+    match p {
+        driveset_schema::BusProtocol::Lustbus => "LUSTBUS",
+        driveset_schema::BusProtocol::Lecom => "LECOM",
+        driveset_schema::BusProtocol::CanSdo => "CAN SDO",
     }
 }
 
@@ -458,7 +462,8 @@ pub enum Refusal {
         /// The schema's family.
         family: String,
         /// The client's protocol.
-        protocol: ClientProtocol,
+        #[serde(with = "bus_protocol_name")]
+        protocol: driveset_schema::BusProtocol,
     },
     /// The port opened a link the schema's protocol does not run on.
     LinkMisfit {
@@ -700,7 +705,8 @@ impl fmt::Display for Refusal {
                 protocol,
             } => write!(
                 f,
-                "schema `{schema}` is not a {protocol} family ({family} drives); pick the client of its protocol"
+                "schema `{schema}` is not a {} family ({family} drives); pick the client of its protocol",
+                protocol_label(*protocol)
             ),
             Refusal::LinkMisfit {
                 schema,
@@ -1234,7 +1240,7 @@ mod tests {
                 Refusal::WrongClient {
                     schema: s("lenze-tmd"),
                     family: s("tmd"),
-                    protocol: ClientProtocol::Lustbus,
+                    protocol: driveset_schema::BusProtocol::Lustbus,
                 },
                 "schema `lenze-tmd` is not a LUSTBUS family (tmd drives); pick the client of its protocol",
             ),
@@ -1242,7 +1248,7 @@ mod tests {
                 Refusal::WrongClient {
                     schema: s("lust-mc6000"),
                     family: s("mc6000"),
-                    protocol: ClientProtocol::Lecom,
+                    protocol: driveset_schema::BusProtocol::Lecom,
                 },
                 "schema `lust-mc6000` is not a LECOM family (mc6000 drives); pick the client of its protocol",
             ),
@@ -1250,7 +1256,7 @@ mod tests {
                 Refusal::WrongClient {
                     schema: s("lenze-tmd"),
                     family: s("tmd"),
-                    protocol: ClientProtocol::CanSdo,
+                    protocol: driveset_schema::BusProtocol::CanSdo,
                 },
                 "schema `lenze-tmd` is not a CAN SDO family (tmd drives); pick the client of its protocol",
             ),

@@ -48,10 +48,6 @@
 //! may run, and the journal keeps the record open, so `driveset recover`
 //! ([`recover_rate`]) searches again before it completes or rolls back.
 
-// EngineError (the crate's contract type) is large; it is built on the
-// failure path only, so its size is no concern.
-#![allow(clippy::result_large_err)]
-
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Duration;
@@ -849,7 +845,7 @@ pub fn end(
     session: Session,
     journal: &Path,
     ok: bool,
-) -> Result<TransferReport, (TransferReport, String)> {
+) -> Result<TransferReport, Box<(TransferReport, String)>> {
     let (Some(c), Some(mut rec)) = (session.codes, session.record) else {
         return Ok(TransferReport {
             decision: session.decision,
@@ -884,12 +880,12 @@ pub fn end(
                 jf.journal
                     .transition(st, client.clock().now().as_nanos(), Some(note.into()));
                 if let Err(e) = jf.persist() {
-                    return Err((report(state), e.to_string()));
+                    return Err(Box::new((report(state), e.to_string())));
                 }
             }
             Ok(report(state))
         }
-        Err(why) => Err((report(why.clone()), why)),
+        Err(why) => Err(Box::new((report(why.clone()), why))),
     }
 }
 
@@ -919,7 +915,7 @@ pub fn upload(
     o.transfer = session.record().cloned();
     let result = crate::upload::upload(client, set, &o);
     let ok = result.is_ok();
-    let back = end(client, session, &opts.journal, ok);
+    let back = end(client, session, &opts.journal, ok).map_err(|b| *b);
     match (result, back) {
         (Ok(mut report), Ok(t)) => {
             report.transfer = Some(t);
@@ -994,7 +990,7 @@ pub fn pull(
     let reads = pull_exchanges(client.schema(), opts);
     let session = begin(client, req, journal, String::new(), &reads, &[])?;
     let result = crate::pull::pull_observed(client, opts, hook);
-    let back = end(client, session, journal, result.is_ok());
+    let back = end(client, session, journal, result.is_ok()).map_err(|b| *b);
     match (result, back) {
         (Ok(p), Ok(t)) => Ok((p, t)),
         (Ok(_), Err((_, why))) => Err(EngineError::no_answer(
@@ -1022,7 +1018,7 @@ pub fn live_diff(
     let keys = upload_exchanges(set);
     let session = begin(client, req, journal, set.fingerprint(), &keys, &[])?;
     let result = crate::live::live_diff(client, set);
-    let back = end(client, session, journal, result.is_ok());
+    let back = end(client, session, journal, result.is_ok()).map_err(|b| *b);
     match (result, back) {
         (Ok(d), Ok(t)) => Ok((d, t)),
         (Ok(_), Err((_, why))) => Err(EngineError::no_answer(

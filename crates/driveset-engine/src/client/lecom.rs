@@ -70,7 +70,7 @@ use super::{
     ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
     device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
-use crate::error::{ClientProtocol, DeviceCause, EngineError, ErrorKind, Refusal};
+use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
 use crate::plan;
 
 /// C0068, operating status (bits 4..7: last communication error).
@@ -336,7 +336,7 @@ impl<L: ByteLink> LecomClient<L> {
                 Refusal::WrongClient {
                     schema: schema.id.clone(),
                     family: schema.family.to_string(),
-                    protocol: ClientProtocol::Lecom,
+                    protocol: driveset_schema::BusProtocol::Lecom,
                 },
             ));
         }

@@ -115,8 +115,7 @@ use super::{
     Target, code_name, device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{
-    ClientProtocol, DeviceCause, EngineError, LustbusCodeProblem, Refusal, SiofRegister,
-    SiofVerdict,
+    DeviceCause, EngineError, LustbusCodeProblem, Refusal, SiofRegister, SiofVerdict,
 };
 use crate::plan;
 
@@ -457,7 +456,7 @@ impl<L: ByteLink> LustbusClient<L> {
                 Refusal::WrongClient {
                     schema: schema.id.clone(),
                     family: schema.family.to_string(),
-                    protocol: ClientProtocol::Lustbus,
+                    protocol: driveset_schema::BusProtocol::Lustbus,
                 },
             ));
         };

@@ -42,7 +42,7 @@ use super::{
     ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
     device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
-use crate::error::{ClientProtocol, DeviceCause, EngineError, Refusal};
+use crate::error::{DeviceCause, EngineError, Refusal};
 
 /// Options of a [`CanClient`].
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -285,7 +285,7 @@ impl<L: FrameLink> CanClient<L> {
                 Refusal::WrongClient {
                     schema: schema.id.clone(),
                     family: schema.family.to_string(),
-                    protocol: ClientProtocol::CanSdo,
+                    protocol: driveset_schema::BusProtocol::CanSdo,
                 },
             ));
         }
