@@ -989,22 +989,9 @@ pub fn pull(
 ) -> Result<(Pulled, TransferReport), EngineError> {
     let reads = pull_exchanges(client.schema(), opts);
     let session = begin(client, req, journal, String::new(), &reads, &[])?;
-    let result = crate::pull::pull_observed(client, opts, hook);
-    let back = end(client, session, journal, result.is_ok()).map_err(|b| *b);
-    match (result, back) {
-        (Ok(p), Ok(t)) => Ok((p, t)),
-        (Ok(_), Err((_, why))) => Err(EngineError::no_answer(
-            client.target().clone(),
-            format!(
-                "switching back from the transfer rate (the pull itself completed; {why}; journal {}: run `driveset recover {}`)",
-                journal.display(),
-                journal.display()
-            ),
-            1,
-        )),
-        (Err(e), Ok(t)) => Err(with_rate_note(e, &Ok(t.state))),
-        (Err(e), Err((_, why))) => Err(with_rate_note(e, &Err(why))),
-    }
+    read_only(client, session, journal, "the pull itself completed", |c| {
+        crate::pull::pull_observed(c, opts, hook)
+    })
 }
 
 /// A live diff ([`crate::live::live_diff`]) with a transfer rate; the
@@ -1017,14 +1004,29 @@ pub fn live_diff(
 ) -> Result<(driveset_schema::Diff, TransferReport), EngineError> {
     let keys = upload_exchanges(set);
     let session = begin(client, req, journal, set.fingerprint(), &keys, &[])?;
-    let result = crate::live::live_diff(client, set);
+    read_only(client, session, journal, "the values were read", |c| {
+        crate::live::live_diff(c, set)
+    })
+}
+
+/// Run the reads of a command that writes nothing but the rate inside
+/// `session`, then switch back; `done` says what completed when only the
+/// switch back failed.
+fn read_only<T>(
+    client: &mut dyn DriveClient,
+    session: Session,
+    journal: &Path,
+    done: &str,
+    work: impl FnOnce(&mut dyn DriveClient) -> Result<T, EngineError>,
+) -> Result<(T, TransferReport), EngineError> {
+    let result = work(&mut *client);
     let back = end(client, session, journal, result.is_ok()).map_err(|b| *b);
     match (result, back) {
-        (Ok(d), Ok(t)) => Ok((d, t)),
+        (Ok(v), Ok(t)) => Ok((v, t)),
         (Ok(_), Err((_, why))) => Err(EngineError::no_answer(
             client.target().clone(),
             format!(
-                "switching back from the transfer rate (the values were read; {why}; journal {}: run `driveset recover {}`)",
+                "switching back from the transfer rate ({done}; {why}; journal {}: run `driveset recover {}`)",
                 journal.display(),
                 journal.display()
             ),

@@ -136,6 +136,36 @@ const MIN_REACTION: Duration = plan::LUSTBUS_MIN_REACTION;
 /// The numerically compatible parameters (section 5.2), CODE `000xx`.
 const COMPATIBLE: [u32; 6] = [81, 82, 83, 84, 85, 91];
 
+/// Why the value of `code` is never broadcast to address 31 (`None`: it
+/// may be, inside open dataset downloads): a numerically compatible code
+/// (81..85, 91, section 5.2; a VF1000 executes CODE `000xx` as its own), a
+/// code with a role, one that is not CardWriteable (section 11.4), the
+/// dataset handshake itself. [`LustbusClient::broadcast`] refuses by it and
+/// the line runner chooses its values by it.
+pub fn not_broadcast(schema: &Schema, code: &driveset_schema::Code) -> Option<String> {
+    if COMPATIBLE.contains(&code.number) || code.compatible == Some(true) {
+        return Some(
+            "a numerically compatible code (81..85, 91; section 5.2) is never broadcast".into(),
+        );
+    }
+    if let Some(role) = schema.role_of(code.number) {
+        return Some(format!(
+            "a code with role `{}` is never broadcast",
+            role.as_str()
+        ));
+    }
+    if code.card_writeable != Some(true) {
+        return Some(
+            "not CardWriteable: only values a dataset download stages are broadcast (section 11.4)"
+                .into(),
+        );
+    }
+    if schema.family.descriptor().dataset.map(|h| h.code) == Some(code.number) {
+        return Some("the dataset handshake (80-SLOAD) is never broadcast".into());
+    }
+    None
+}
+
 /// Options of a [`LustbusClient`].
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LustbusOptions {
@@ -1233,22 +1263,8 @@ impl<L: ByteLink> LustbusClient<L> {
                 "broadcasts go into MC6000/7000 dataset downloads only".into(),
             ));
         }
-        if COMPATIBLE.contains(&key.number) || code.compatible == Some(true) {
-            return Err(refuse(
-                "a numerically compatible code (81..85, 91; section 5.2) is never broadcast".into(),
-            ));
-        }
-        if let Some(role) = schema.role_of(key.number) {
-            return Err(refuse(format!(
-                "a code with role `{}` is never broadcast",
-                role.as_str()
-            )));
-        }
-        if code.card_writeable != Some(true) {
-            return Err(refuse(
-                "not CardWriteable: only values a dataset download stages are broadcast (section 11.4)"
-                    .into(),
-            ));
+        if let Some(why) = not_broadcast(&schema, code) {
+            return Err(refuse(why));
         }
         let pcode = self.code_for(key, Some(code))?;
         let Some(ty) = wire_type(&schema, code, self.family) else {

@@ -1050,19 +1050,7 @@ fn run_drive(
     hook.end(client.clock());
     let spans = watch.spans.spans();
     if ctx.mode == Mode::Commission {
-        let holds = matches!(
-            r.result,
-            DriveResult::Verified | DriveResult::Unchanged | DriveResult::AlreadyVerified
-        );
-        ctx.record(
-            bus,
-            d,
-            if holds {
-                r.fingerprint_after.as_deref()
-            } else {
-                None
-            },
-        );
+        record_drive(bus, d, &r, ctx);
     }
     (r, spans, failure)
 }
@@ -1367,27 +1355,20 @@ pub fn lustbus_common_values(drives: &[&Drive]) -> Vec<(CodeKey, RawValue)> {
         return Vec::new();
     };
     let schema = &first.schema;
-    let handshake = schema.family.descriptor().dataset.map(|h| h.code);
     first
         .set
         .values
         .iter()
         .filter(|(k, _)| k.subcode.is_none())
-        .filter(|(k, _)| !LUSTBUS_COMPATIBLE.contains(&k.number) && Some(k.number) != handshake)
         .filter(|(k, _)| {
             schema
                 .code(k.number)
-                .is_some_and(|c| c.card_writeable == Some(true) && c.compatible != Some(true))
+                .is_some_and(|c| crate::client::lustbus::not_broadcast(schema, c).is_none())
         })
-        .filter(|(k, _)| schema.role_of(k.number).is_none())
         .filter(|(k, v)| drives[1..].iter().all(|m| m.set.values.get(k) == Some(*v)))
         .map(|(k, v)| (*k, v.clone()))
         .collect()
 }
-
-/// The numerically compatible LUSTBUS parameters (section 5.2): never
-/// broadcast.
-const LUSTBUS_COMPATIBLE: [u32; 6] = [81, 82, 83, 84, 85, 91];
 
 /// Why a LUSTBUS bus gets no broadcast, checked before anything is sent;
 /// `None`: it may (the values are then chosen per drive after the datasets
@@ -1734,6 +1715,7 @@ fn first_half<'d>(bus: &Bus, d: &'d Drive, link: &mut Link, ctx: &Ctx<'_>) -> Fi
     FirstHalf::Done(Box::new(r), spans, failure)
 }
 
+/// Record in the resume state whether the drive ended holding its set.
 fn record_drive(bus: &Bus, d: &Drive, r: &DriveReport, ctx: &Ctx<'_>) {
     let holds = matches!(
         r.result,
