@@ -254,6 +254,19 @@ impl<L: ByteLink> LustLine<L> {
         }
     }
 
+    /// Send one telegram: drop unread input first (a late answer to an
+    /// earlier request is not this one's reply), send, wait until it has
+    /// left, count it.
+    fn send_telegram(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.link.discard_input()?;
+        self.link.send(bytes)?;
+        self.link.flush()?;
+        self.open = true;
+        self.stats.telegrams += 1;
+        self.stats.sent += bytes.len() as u64;
+        Ok(())
+    }
+
     /// Sends `bytes` (a complete telegram, leading EOT included) and waits
     /// `timeout` from the end of the send for a reply from `address`
     /// (`expect_code`: the CODE a value reply must carry). `known_delay`
@@ -268,13 +281,8 @@ impl<L: ByteLink> LustLine<L> {
         timeout: Duration,
         known_delay: Duration,
     ) -> Result<Outcome, LinkError> {
-        self.link.discard_input()?;
         self.decoder.reset();
-        self.link.send(bytes)?;
-        self.link.flush()?;
-        self.open = true;
-        self.stats.telegrams += 1;
-        self.stats.sent += bytes.len() as u64;
+        self.send_telegram(bytes)?;
         let start = self.link.clock().now();
         let deadline = start + timeout;
         let mut late_until: Option<Instant> = None;
@@ -1286,15 +1294,9 @@ impl<L: ByteLink> LustbusClient<L> {
                 ))
             })?;
         let bytes = Select::new(Address::BROADCAST, pcode, value).encode();
-        let line = &mut self.line;
-        line.link
-            .discard_input()
-            .and_then(|()| line.link.send(&bytes))
-            .and_then(|()| line.link.flush())
+        self.line
+            .send_telegram(&bytes)
             .map_err(|e| link_error(&self.target, e))?;
-        line.open = true;
-        line.stats.telegrams += 1;
-        line.stats.sent += bytes.len() as u64;
         let wait = self.max_reaction();
         self.line.link.clock().sleep(wait);
         Ok(())
