@@ -57,6 +57,9 @@ impl<L: ByteLink> ByteLink for Delayed<L> {
     fn port(&self) -> &str {
         self.inner.port()
     }
+    fn bus_id(&self) -> String {
+        self.inner.bus_id()
+    }
     fn baud(&self) -> u32 {
         self.inner.baud()
     }

@@ -918,6 +918,9 @@ mod tests {
         fn port(&self) -> &str {
             self.inner.port()
         }
+        fn bus_id(&self) -> String {
+            self.inner.bus_id()
+        }
         fn baud(&self) -> u32 {
             self.inner.baud()
         }

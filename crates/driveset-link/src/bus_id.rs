@@ -64,6 +64,17 @@ pub fn slcan(path: &str, bitrate: u32) -> String {
     format!("slcan:{}?bitrate={bitrate}", canonical_device(path))
 }
 
+/// `mem:` + a number unique in the process: one in-memory pair
+/// ([`crate::mem::byte_pair`], [`crate::mem::frame_pair`]), both of its
+/// ends, is one bus; two pairs are two buses.
+pub fn mem() -> String {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    format!(
+        "mem:{}",
+        NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    )
+}
+
 /// `can:` + interface name.
 pub fn socketcan(interface: &str) -> String {
     format!("can:{interface}")

@@ -257,6 +257,11 @@ impl<L: ByteLink> ByteLink for EchoLink<L> {
         self.inner.port()
     }
 
+    /// The wrapped link's bus: stripping an echo does not change the bus.
+    fn bus_id(&self) -> String {
+        self.inner.bus_id()
+    }
+
     fn baud(&self) -> u32 {
         self.inner.baud()
     }
@@ -415,6 +420,9 @@ mod tests {
     impl ByteLink for Script {
         fn port(&self) -> &str {
             "script"
+        }
+        fn bus_id(&self) -> String {
+            "test:script".into()
         }
         fn baud(&self) -> u32 {
             9600

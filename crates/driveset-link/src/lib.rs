@@ -67,10 +67,10 @@ pub trait ByteLink: Send + std::fmt::Debug {
 
     /// Which bus this is, independent of how its port was spelled (see
     /// [`bus_id`]): journals record it so a transaction stays bound to its
-    /// drive. Default: `port:` and [`ByteLink::port`].
-    fn bus_id(&self) -> String {
-        format!("port:{}", self.port())
-    }
+    /// drive, name their file by it and lock it. No default: every link
+    /// and every wrapper says which bus it is (a wrapper asks the link it
+    /// wraps), so no spelling of a port can stand in for its bus.
+    fn bus_id(&self) -> String;
 
     /// The line rate in baud (for wire-time calculations).
     fn baud(&self) -> u32;
@@ -146,10 +146,8 @@ pub trait FrameLink: Send + std::fmt::Debug {
     fn port(&self) -> &str;
 
     /// Which bus this is, independent of how its port was spelled (see
-    /// [`bus_id`]). Default: `port:` and [`FrameLink::port`].
-    fn bus_id(&self) -> String {
-        format!("port:{}", self.port())
-    }
+    /// [`bus_id`]). No default, as [`ByteLink::bus_id`].
+    fn bus_id(&self) -> String;
 
     /// The bus bit rate in bit/s (for wire-time calculations).
     fn bitrate(&self) -> u32;

@@ -97,6 +97,9 @@ struct End<T> {
     side: usize,
     clock: VirtualClock,
     name: String,
+    /// [`crate::bus_id::mem`] of the pair: both ends are one bus, two
+    /// pairs two buses.
+    bus: String,
 }
 
 impl<T> End<T> {
@@ -104,11 +107,13 @@ impl<T> End<T> {
         let wire = Arc::new(Mutex::new(Wire {
             dirs: [Direction::default(), Direction::default()],
         }));
+        let bus = crate::bus_id::mem();
         let end = |side: usize| End {
             wire: Arc::clone(&wire),
             side,
             clock: clock.clone(),
             name: names[side].to_string(),
+            bus: bus.clone(),
         };
         (end(0), end(1))
     }
@@ -234,6 +239,10 @@ impl ByteLink for MemByteLink {
         &self.end.name
     }
 
+    fn bus_id(&self) -> String {
+        self.end.bus.clone()
+    }
+
     fn baud(&self) -> u32 {
         self.baud
     }
@@ -327,6 +336,10 @@ impl MemFrameLink {
 impl FrameLink for MemFrameLink {
     fn port(&self) -> &str {
         &self.end.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.end.bus.clone()
     }
 
     fn bitrate(&self) -> u32 {

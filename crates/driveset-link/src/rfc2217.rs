@@ -312,6 +312,8 @@ fn setting_value(code: u8, value: &[u8]) -> String {
 pub struct Rfc2217Link {
     stream: TcpStream,
     name: String,
+    /// [`crate::bus_id::tcp`] of the server connected to.
+    bus: String,
     baud: u32,
     telnet: Telnet,
     data: VecDeque<u8>,
@@ -350,9 +352,11 @@ impl Rfc2217Link {
         stream
             .set_nodelay(true)
             .map_err(|e| LinkError::io(name, "set TCP_NODELAY", e))?;
+        let bus = crate::tcp::peer_bus(&stream, name)?;
         let mut link = Rfc2217Link {
             stream,
             name: name.into(),
+            bus,
             baud,
             telnet: Telnet::new(),
             data: VecDeque::new(),
@@ -517,6 +521,10 @@ impl Rfc2217Link {
 impl ByteLink for Rfc2217Link {
     fn port(&self) -> &str {
         &self.name
+    }
+
+    fn bus_id(&self) -> String {
+        self.bus.clone()
     }
 
     fn baud(&self) -> u32 {

@@ -58,10 +58,7 @@ impl TcpLink {
         stream
             .set_nodelay(true)
             .map_err(|e| LinkError::io(name, "set TCP_NODELAY", e))?;
-        let bus = stream
-            .peer_addr()
-            .map(crate::bus_id::tcp)
-            .unwrap_or_else(|_| format!("port:{name}"));
+        let bus = peer_bus(&stream, name)?;
         Ok(TcpLink {
             stream,
             name: name.into(),
@@ -133,6 +130,17 @@ pub(crate) fn connect_stream(
 }
 
 /// Resolve `host:port`; errors name `name`.
+/// The bus a connected stream reaches: [`crate::bus_id::tcp`] of the
+/// address actually connected to (the host resolved, whichever of its
+/// addresses answered), shared by [`TcpLink`] and
+/// [`crate::rfc2217::Rfc2217Link`].
+pub(crate) fn peer_bus(stream: &TcpStream, name: &str) -> Result<String, LinkError> {
+    stream
+        .peer_addr()
+        .map(crate::bus_id::tcp)
+        .map_err(|e| LinkError::io(name, "read the address connected to", e))
+}
+
 pub(crate) fn resolve(name: &str, host: &str, port: u16) -> Result<Vec<SocketAddr>, LinkError> {
     let addrs: Vec<SocketAddr> = (host, port)
         .to_socket_addrs()
