@@ -751,28 +751,16 @@ impl JournalFile {
 }
 
 /// The journal file name of the drive at `address` on bus `bus_id`
-/// (module docs, "One naming scheme"): the bus id with every character but
-/// `[A-Za-z0-9]` replaced by `_`, cut at 96 characters with `-` and the
-/// FNV-1a 64 hash of the whole id appended when longer, then `-ADDRESS` and
-/// [`JOURNAL_SUFFIX`]. `tcp:127.0.0.1:4001` at 3 ->
+/// (module docs, "One naming scheme"): the bus id's file stem
+/// ([`driveset_link::bus_id::file_stem`]: every character but
+/// `[A-Za-z0-9]` replaced by `_`, long ids cut with a hash), then
+/// `-ADDRESS` and [`JOURNAL_SUFFIX`]. `tcp:127.0.0.1:4001` at 3 ->
 /// `tcp_127_0_0_1_4001-3.journal.json`.
 pub fn journal_file_name(bus_id: &str, address: u8) -> String {
-    const MAX: usize = 96;
-    let clean: String = bus_id
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect();
-    let stem = if clean.len() > MAX {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in bus_id.bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        format!("{}-{h:016x}", &clean[..MAX])
-    } else {
-        clean
-    };
-    format!("{stem}-{address}{JOURNAL_SUFFIX}")
+    format!(
+        "{}-{address}{JOURNAL_SUFFIX}",
+        driveset_link::bus_id::file_stem(bus_id)
+    )
 }
 
 /// `dir` joined with [`journal_file_name`].

@@ -49,6 +49,28 @@ pub fn canonical_file(path: &Path) -> String {
     }
 }
 
+/// A bus id as a file name stem (journals, bus locks): every character
+/// but `[A-Za-z0-9]` replaced by `_`; an id longer than 96 characters is
+/// cut there and gets `-` and the FNV-1a 64 hash of the whole id, so two
+/// long ids that share their first 96 characters stay apart.
+/// `tcp:127.0.0.1:4001` -> `tcp_127_0_0_1_4001`.
+pub fn file_stem(bus_id: &str) -> String {
+    const MAX: usize = 96;
+    let clean: String = bus_id
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if clean.len() <= MAX {
+        return clean;
+    }
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bus_id.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{}-{h:016x}", &clean[..MAX])
+}
+
 /// `serial:` + [`canonical_device`].
 pub fn serial(path: &str) -> String {
     format!("serial:{}", canonical_device(path))
@@ -105,6 +127,53 @@ mod tests {
         assert_eq!(serial("COM3"), "serial:COM3");
         assert_eq!(slcan("COM4", 500_000), "slcan:COM4?bitrate=500000");
         assert_eq!(socketcan("can0"), "can:can0");
+    }
+
+    #[test]
+    fn a_symlink_chain_and_dot_dot_spellings_are_one_device() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("ttyUSB7");
+        std::fs::write(&real, "").unwrap();
+        std::fs::create_dir(dir.path().join("by-id")).unwrap();
+        let hop = dir.path().join("by-id/usb-FTDI_FT232R-if00-port0");
+        let hop2 = dir.path().join("serial0");
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink("../ttyUSB7", &hop).unwrap();
+            std::os::unix::fs::symlink(&hop, &hop2).unwrap();
+            let want = serial(&real.display().to_string());
+            assert_eq!(serial(&hop.display().to_string()), want);
+            assert_eq!(serial(&hop2.display().to_string()), want);
+            let dotted = dir.path().join("by-id/../ttyUSB7");
+            assert_eq!(serial(&dotted.display().to_string()), want);
+            assert_eq!(
+                slcan(&hop.display().to_string(), 500_000),
+                slcan(&real.display().to_string(), 500_000)
+            );
+        }
+    }
+
+    #[test]
+    fn tcp_ids_are_the_peer_address_and_mem_pairs_are_apart() {
+        let v4: std::net::SocketAddr = "127.0.0.1:4001".parse().unwrap();
+        let v6: std::net::SocketAddr = "[::1]:4001".parse().unwrap();
+        assert_eq!(tcp(v4), "tcp:127.0.0.1:4001");
+        assert_eq!(tcp(v6), "tcp:[::1]:4001");
+        let (a, b) = (mem(), mem());
+        assert!(a.starts_with("mem:") && b.starts_with("mem:"), "{a} {b}");
+        assert_ne!(a, b);
+    }
+
+    #[test]
+    fn file_stems_keep_letters_and_digits_and_cut_long_ids_with_a_hash() {
+        assert_eq!(file_stem("tcp:127.0.0.1:4001"), "tcp_127_0_0_1_4001");
+        assert_eq!(file_stem("serial:/dev/ttyUSB0"), "serial__dev_ttyUSB0");
+        let long_a = format!("serial:/{}a", "x".repeat(120));
+        let long_b = format!("serial:/{}b", "x".repeat(120));
+        let (sa, sb) = (file_stem(&long_a), file_stem(&long_b));
+        assert_eq!(sa.len(), 96 + 1 + 16);
+        assert_eq!(sa[..96], sb[..96]);
+        assert_ne!(sa, sb);
     }
 
     #[test]

@@ -40,6 +40,7 @@ pub mod bus_id;
 pub mod clock;
 pub mod echo;
 pub mod error;
+pub mod lock;
 pub mod mem;
 pub mod rfc2217;
 pub mod serial;
@@ -55,6 +56,7 @@ pub use clock::{Clock, Instant, RealClock, VirtualClock};
 pub use driveset_proto::can::CanFrame;
 pub use echo::{EchoLink, EchoMode};
 pub use error::LinkError;
+pub use lock::{BusLock, LockError};
 pub use open::{Link, OpenOptions, Openers, PortOpener, PortShape, open, open_with};
 pub use spec::{OpaqueSpec, PortSpec, PortSpecError, PortSpecErrorKind};
 

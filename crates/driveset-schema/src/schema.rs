@@ -289,6 +289,11 @@ pub struct Schema {
     pub rules: Vec<Rule>,
     /// Display path of the file.
     pub path: String,
+    /// `sha256:` + hex of the file's text, chained over the base's
+    /// fingerprint for a schema that `extends` one
+    /// ([`schema_fingerprint`]): a journal records it so that `recover`
+    /// converts with the very schema the upload used.
+    pub fingerprint: String,
     /// Where `[schema] id` is.
     pub id_loc: Location,
     /// Where `fictional` is, or the `[schema]` table.
@@ -907,6 +912,25 @@ fn parse_rule(doc: &Document, node: &Node) -> Result<Rule, InputError> {
     Ok(rule)
 }
 
+/// A schema's fingerprint ([`Schema::fingerprint`]): `sha256:` + hex of
+/// the file's text; for a schema that extends a base, of the base's
+/// fingerprint, a newline and the text (so an edited base changes it too).
+pub fn schema_fingerprint(base: Option<&str>, text: &str) -> String {
+    use sha2::{Digest, Sha256};
+    use std::fmt::Write as _;
+    let mut h = Sha256::new();
+    if let Some(b) = base {
+        h.update(b.as_bytes());
+        h.update(b"\n");
+    }
+    h.update(text.as_bytes());
+    let mut s = String::from("sha256:");
+    for b in h.finalize().iter() {
+        let _ = write!(s, "{b:02x}");
+    }
+    s
+}
+
 /// Parse one schema file's text. `base` resolves `extends` (a schema id).
 pub fn parse_schema(
     source: SourceFile,
@@ -1086,6 +1110,7 @@ pub fn parse_schema(
                 enums: BTreeMap::new(),
                 rules: Vec::new(),
                 path: String::new(),
+                fingerprint: String::new(),
                 id_loc: id_loc.clone(),
                 fictional_loc: head_loc.clone(),
                 merge_findings: Vec::new(),
@@ -1102,6 +1127,11 @@ pub fn parse_schema(
     schema.fictional_loc = fictional_loc;
     schema.extends = extends.map(|e| e.0);
     schema.path = doc.source.path.clone();
+    let base_fingerprint = schema
+        .extends
+        .is_some()
+        .then(|| schema.fingerprint.clone());
+    schema.fingerprint = schema_fingerprint(base_fingerprint.as_deref(), &doc.source.text);
     if let Some(p) = protocol {
         schema.family = p;
     }
