@@ -144,6 +144,7 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     if !matches!(spec, PortSpec::Sim(_)) {
         let link = driveset_link::open(&spec, &OpenOptions::default())
             .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
+        lock_bus(&link.bus_id())?;
         return Ok(OpenPort {
             name: spec.to_string(),
             link,
@@ -168,12 +169,61 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     let clock = VirtualClock::new();
     let bus = open_sim_with(&config, &clock, &name, EventLog::off())
         .map_err(|e| Fail::input(format!("{name}: {e}")))?;
+    if config.state.is_some() {
+        lock_bus(&bus.link().bus_id())?;
+    }
     Ok(OpenPort {
         name,
         link: bus.link(),
         sim: Some(bus),
         spec: PortSpec::Sim(sim.to_opaque()),
     })
+}
+
+/// The bus locks this process holds ([`lock_bus`]), until it exits.
+static BUS_LOCKS: std::sync::Mutex<Vec<driveset_link::BusLock>> = std::sync::Mutex::new(Vec::new());
+
+/// Take the advisory lock of bus `bus_id` for the rest of the command
+/// (`driveset_link::lock`, in [`driveset_link::lock::lock_dir`]): refused,
+/// exit 3 (the bus is busy; nothing was sent), naming the process that
+/// holds it. A bus this process locked already (a command that opens its
+/// port again, a line run's second pass) stays locked. Every command that
+/// talks to drives opens its port through here (or [`lock_port`]), so two
+/// processes never drive one bus at once, whatever each spelled its port.
+pub fn lock_bus(bus_id: &str) -> Result<(), Fail> {
+    let mut held = BUS_LOCKS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if held.iter().any(|l| l.bus() == bus_id) {
+        return Ok(());
+    }
+    let holder = driveset_link::lock::Holder {
+        pid: std::process::id(),
+        command: std::env::args()
+            .nth(1)
+            .map_or_else(|| "driveset".to_string(), |c| format!("driveset {c}")),
+        since: format!("{:.3}", jiff::Timestamp::now()),
+    };
+    let lock = driveset_link::BusLock::acquire(&driveset_link::lock::lock_dir(), bus_id, &holder)
+        .map_err(|e| Fail::bus(e.to_string()))?;
+    held.push(lock);
+    Ok(())
+}
+
+/// [`lock_bus`] for a link opened from `spec` (a line's bus): a simulated
+/// bus without a state file lives in this process only, so there is
+/// nothing another process could drive and nothing is locked.
+pub fn lock_port(spec: &PortSpec, link: &Link) -> Result<(), Fail> {
+    if let PortSpec::Sim(o) = spec {
+        let private = SimSpec::from_opaque(o)
+            .ok()
+            .and_then(|s| SimOpener::default().config(&s).ok())
+            .is_some_and(|c| c.state.is_none());
+        if private {
+            return Ok(());
+        }
+    }
+    lock_bus(&link.bus_id())
 }
 
 /// Check that `schema` can talk over `port`: the protocol's kind of link,

@@ -221,6 +221,41 @@ impl JournalTarget {
     }
 }
 
+/// Where the journal's schema came from ([`Journal::schema_source`]), so
+/// that `recover` converts with the very schema the upload used, without
+/// `--schema`: its file (absolute) when it was read from one, and its
+/// fingerprint ([`driveset_schema::Schema::fingerprint`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SchemaSource {
+    /// The schema file, absolute; absent for a built-in schema (and in
+    /// journals of releases before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schema_path: Option<String>,
+    /// `sha256:` of the schema's text (chained over its base's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schema_fingerprint: Option<String>,
+}
+
+impl SchemaSource {
+    /// The source of `schema`: its file, absolute, when
+    /// [`driveset_schema::Schema::path`] names a file on disk (a built-in's
+    /// `schemas/x.toml` names none outside a checkout; `recover` looks the
+    /// id up among the known schemas first and takes the file only when
+    /// none of them has the fingerprint), and its fingerprint.
+    pub fn of(schema: &driveset_schema::Schema) -> Self {
+        let file = Path::new(&schema.path);
+        let schema_path = file
+            .is_file()
+            .then(|| std::fs::canonicalize(file).ok())
+            .flatten()
+            .map(|p| p.display().to_string());
+        SchemaSource {
+            schema_path,
+            schema_fingerprint: Some(schema.fingerprint.clone()),
+        }
+    }
+}
+
 /// The drive's identity as recorded ([`Identity`]).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JournalIdentity {
@@ -477,6 +512,10 @@ pub struct Journal {
     pub identity: JournalIdentity,
     /// Schema id.
     pub schema: String,
+    /// The schema's file and fingerprint (absent in journals of releases
+    /// before they were recorded): `recover` finds the schema from them.
+    #[serde(flatten)]
+    pub schema_source: SchemaSource,
     /// Fingerprint of the set being uploaded.
     pub set_fingerprint: String,
     /// Fingerprint of the drive's values of the set's codes before the upload.

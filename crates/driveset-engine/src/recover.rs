@@ -148,6 +148,23 @@ pub fn recover(
             ),
         ));
     }
+    if let Some(fp) = &jf.journal.schema_source.schema_fingerprint
+        && *fp != schema.fingerprint
+    {
+        let file = jf
+            .journal
+            .schema_source
+            .schema_path
+            .as_ref()
+            .map_or_else(String::new, |p| format!(" from {p}"));
+        return Err(refuse(
+            Mismatch::Schema,
+            format!(
+                "it was written with schema `{}`{file} ({fp}), this client's `{}` is another version of it ({}); nothing was sent. Recover with the schema file the upload used (restore it from version control)",
+                jf.journal.schema, schema.id, schema.fingerprint
+            ),
+        ));
+    }
     let bus = client.bus_id();
     let jt = jf.journal.target.clone();
     if bus != journal_bus {

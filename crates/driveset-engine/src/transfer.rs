@@ -470,6 +470,7 @@ fn placeholder(
         target: JournalTarget::of(client),
         identity: identity.into(),
         schema: schema.id.clone(),
+        schema_source: crate::journal::SchemaSource::of(schema),
         set_fingerprint,
         fingerprint_before: String::new(),
         dataset: false,

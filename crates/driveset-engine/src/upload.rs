@@ -953,6 +953,7 @@ impl Transaction {
                     target: JournalTarget::of(&*client),
                     identity: (&self.identity).into(),
                     schema: self.schema.id.clone(),
+                    schema_source: crate::journal::SchemaSource::of(&self.schema),
                     set_fingerprint,
                     fingerprint_before,
                     dataset: self.popts.dataset,

@@ -259,7 +259,10 @@ mod tests {
             command: "driveset\nupload\x1b[2J".into(),
             since: "now".into(),
         };
-        assert_eq!(h.to_text(), "pid=7\ncommand=driveset?upload?[2J\nsince=now\n");
+        assert_eq!(
+            h.to_text(),
+            "pid=7\ncommand=driveset?upload?[2J\nsince=now\n"
+        );
         assert_eq!(Holder::parse("pid=7\n"), None);
         assert_eq!(Holder::parse(&holder(9).to_text()), Some(holder(9)));
     }

@@ -55,6 +55,14 @@ impl Link {
             Link::Frames(link) => link.port(),
         }
     }
+
+    /// Which bus this is ([`ByteLink::bus_id`], [`FrameLink::bus_id`]).
+    pub fn bus_id(&self) -> String {
+        match self {
+            Link::Bytes(link) => link.bus_id(),
+            Link::Frames(link) => link.bus_id(),
+        }
+    }
 }
 
 /// What a [`PortOpener`]'s port holds, as far as a program checks a port

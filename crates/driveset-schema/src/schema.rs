@@ -1127,10 +1127,7 @@ pub fn parse_schema(
     schema.fictional_loc = fictional_loc;
     schema.extends = extends.map(|e| e.0);
     schema.path = doc.source.path.clone();
-    let base_fingerprint = schema
-        .extends
-        .is_some()
-        .then(|| schema.fingerprint.clone());
+    let base_fingerprint = schema.extends.is_some().then(|| schema.fingerprint.clone());
     schema.fingerprint = schema_fingerprint(base_fingerprint.as_deref(), &doc.source.text);
     if let Some(p) = protocol {
         schema.family = p;

@@ -34,6 +34,10 @@ pub const OPTION_KEYS: &[&str] = &[
     "c0001", "faults", "keypad", "layout", "seed", "state", "types",
 ];
 
+/// The keys of one run, not of the simulated bus: they are not part of
+/// its bus id, and [`SimSpec::without_run_keys`] drops them.
+pub const RUN_KEYS: &[&str] = &["faults", "seed"];
+
 /// Every key a `sim://` port takes.
 pub const KEYS: &[&str] = &[
     "addresses",
@@ -130,12 +134,28 @@ impl SimSpec {
         self.drives().into_iter().map(|(_, a)| a).collect()
     }
 
-    /// The port as reports name it: the canonical form without `state=`
-    /// (where the simulator keeps its drives is not part of the bus's name).
+    /// The port as reports and journals name it: the canonical form, a
+    /// `state=` file made absolute (`driveset_link::bus_id::canonical_file`),
+    /// so that the name a journal records reaches the same simulated
+    /// drives from any directory (`driveset recover J` needs no `--port`).
     pub fn name(&self) -> String {
         let mut s = self.clone();
-        s.options.remove("state");
+        if let Some(f) = s.options.get_mut("state") {
+            *f = driveset_link::bus_id::canonical_file(std::path::Path::new(f.as_str()));
+        }
         s.to_string()
+    }
+
+    /// The same simulated bus without the keys that belong to one run
+    /// ([`RUN_KEYS`]: the faults it injects and their seed): what a later
+    /// command (`driveset recover` of a journal the faults cut) opens to
+    /// reach the drives again, not cut again at the same telegram.
+    pub fn without_run_keys(&self) -> SimSpec {
+        let mut s = self.clone();
+        for k in RUN_KEYS {
+            s.options.remove(*k);
+        }
+        s
     }
 
     /// The opaque port `driveset-link` carries (what [`SimSpec::from_opaque`]

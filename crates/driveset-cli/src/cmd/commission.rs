@@ -182,12 +182,14 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
 
 /// Open a bus with the CLI's port openers (`sim://` in-process).
 pub fn open_bus(bus: &Bus) -> Result<Link, String> {
-    driveset_link::open_with(
+    let link = driveset_link::open_with(
         &bus.port,
         &driveset_link::OpenOptions::default(),
         &port::openers(),
     )
-    .map_err(|e| e.to_string())
+    .map_err(|e| e.to_string())?;
+    port::lock_port(&bus.port, &link).map_err(|f| f.msg)?;
+    Ok(link)
 }
 
 /// Run a line command.

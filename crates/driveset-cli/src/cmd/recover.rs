@@ -51,7 +51,8 @@ pub struct Args {
     /// The bus address (default: the journal's; another address is refused).
     #[arg(long)]
     pub address: Option<u8>,
-    /// Schema id or file (default: the journal's schema id).
+    /// Schema id or file (default: the journal's schema, found by the id,
+    /// file and fingerprint it records).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
@@ -62,6 +63,44 @@ pub struct Args {
     pub format: BusFormat,
 }
 
+/// The port a journal's drive is reached through again when `--port` is
+/// not given: the port it records; a `sim://` port without the keys of
+/// the run that was cut (its faults and their seed: they would cut the
+/// recovery at the same telegram), its state file as recorded (absolute).
+fn journal_port(recorded: &str) -> String {
+    match driveset_sim::port::SimSpec::parse(recorded) {
+        Ok(s) => s.without_run_keys().name(),
+        Err(_) => recorded.to_string(),
+    }
+}
+
+/// The schema to recover with: `--schema`, else the journal's: its id
+/// among the known schemas when one of them has the recorded fingerprint
+/// (a journal without one: the id), else the recorded schema file (the
+/// engine refuses it when its fingerprint differs, naming both).
+fn journal_schema(
+    args: &Args,
+    j: &driveset_engine::journal::Journal,
+    sim: Option<driveset_schema::Family>,
+) -> Result<port::SchemaChoice, Fail> {
+    if let Some(s) = &args.schema {
+        return port::resolve_schema(Some(s), &args.schemas, sim, None);
+    }
+    let want = j.schema_source.schema_fingerprint.as_deref();
+    let by_id = port::resolve_schema(Some(&j.schema), &args.schemas, sim, None);
+    if let Ok(c) = &by_id
+        && want.is_none_or(|f| f == c.schema.fingerprint)
+    {
+        return by_id;
+    }
+    match &j.schema_source.schema_path {
+        Some(p) if std::path::Path::new(p).is_file() => {
+            port::resolve_schema(Some(p), &args.schemas, sim, None)
+        }
+        _ => by_id,
+    }
+}
+
 /// Run `driveset recover`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     recover(&args)
@@ -70,11 +109,13 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 fn recover(args: &Args) -> Result<u8, Fail> {
     let jf = JournalFile::open(&args.journal)?;
     let j = &jf.journal;
-    let port_text = args.port.clone().unwrap_or_else(|| j.target.port.clone());
+    let port_text = args
+        .port
+        .clone()
+        .unwrap_or_else(|| journal_port(&j.target.port));
     let address = args.address.unwrap_or(j.target.address);
-    let schema_arg = args.schema.clone().unwrap_or_else(|| j.schema.clone());
     let sim = port::peek_sim_family_at(&port_text, Some(address));
-    let choice = port::resolve_schema(Some(&schema_arg), &args.schemas, sim, None)?;
+    let choice = journal_schema(args, j, sim)?;
     let json = args.format == BusFormat::Json;
     let state = j.state;
     let finished = j.is_finished();
