@@ -166,13 +166,15 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
             .join("other.json")
             .display()
     );
+    // the port's name carries its state file, absolute
+    let other_name = format!("sim://tmd?addresses=11,12&c0001=3&state={}", &other_bus["sim:tmd@".len()..]);
     in_dir(dir.path())
         .args(["recover", &journal, "--port", &other_port])
         .assert()
         .code(2)
         .stdout("")
         .stderr(format!(
-            "error: sim://tmd?addresses=11,12&c0001=3 address 11: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}` (port sim://tmd?addresses=11,12&c0001=3&faults=cable@30+600s), but this port reaches bus `{other_bus}`; nothing was sent. Recover through a port to that bus\n"
+            "error: {other_name} address 11: refused to recover journal {journal}: it belongs to the drive at address 11 on bus `{bus}` (port sim://tmd?addresses=11,12&c0001=3&faults=cable@30+600s), but this port reaches bus `{other_bus}`; nothing was sent. Recover through a port to that bus\n"
         ));
     // not one telegram reached the bus; the drives hold what the cut upload left
     let after = sim_state(&state);

@@ -142,6 +142,7 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     };
     let spec = PortSpec::parse(port).map_err(bad_port)?;
     if !matches!(spec, PortSpec::Sim(_)) {
+        lock_before_open(&spec)?;
         let link = driveset_link::open(&spec, &OpenOptions::default())
             .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
         lock_bus(&link.bus_id())?;
@@ -208,6 +209,17 @@ pub fn lock_bus(bus_id: &str) -> Result<(), Fail> {
         .map_err(|e| Fail::bus(e.to_string()))?;
     held.push(lock);
     Ok(())
+}
+
+/// [`lock_bus`] before `spec` is opened, when its spelling says the bus
+/// (`driveset_link::bus_id::before_open`: serial, slcan, SocketCAN): a
+/// port another driveset holds is refused naming the holder, before its
+/// open would fail on TIOCEXCL.
+pub fn lock_before_open(spec: &PortSpec) -> Result<(), Fail> {
+    match driveset_link::bus_id::before_open(spec) {
+        Some(bus) => lock_bus(&bus),
+        None => Ok(()),
+    }
 }
 
 /// [`lock_bus`] for a link opened from `spec` (a line's bus): a simulated

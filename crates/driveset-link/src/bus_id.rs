@@ -71,6 +71,24 @@ pub fn file_stem(bus_id: &str) -> String {
     format!("{}-{h:016x}", &clean[..MAX])
 }
 
+/// The bus a port reaches when its spelling alone says it (a serial
+/// device, an slcan adapter, a SocketCAN interface: what the opened link's
+/// `bus_id` will be), so a program can lock the bus before it opens the
+/// port; `None` for a TCP or RFC 2217 host (the address connected to is
+/// known only after connecting) and for an opener's port.
+pub fn before_open(spec: &crate::PortSpec) -> Option<String> {
+    use crate::PortSpec;
+    match spec {
+        PortSpec::Serial { path, .. } => Some(serial(path)),
+        PortSpec::Slcan { path, bitrate, .. } => Some(slcan(
+            path,
+            bitrate.unwrap_or(crate::spec::DEFAULT_BITRATE),
+        )),
+        PortSpec::SocketCan { interface, .. } => Some(socketcan(interface)),
+        PortSpec::Tcp { .. } | PortSpec::Rfc2217 { .. } | PortSpec::Sim(_) => None,
+    }
+}
+
 /// `serial:` + [`canonical_device`].
 pub fn serial(path: &str) -> String {
     format!("serial:{}", canonical_device(path))

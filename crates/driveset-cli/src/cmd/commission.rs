@@ -182,6 +182,7 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
 
 /// Open a bus with the CLI's port openers (`sim://` in-process).
 pub fn open_bus(bus: &Bus) -> Result<Link, String> {
+    port::lock_before_open(&bus.port).map_err(|f| f.msg)?;
     let link = driveset_link::open_with(
         &bus.port,
         &driveset_link::OpenOptions::default(),
