@@ -4,6 +4,7 @@
 
 mod audit;
 mod bus_cmds;
+mod bus_identity;
 mod decode;
 mod diff;
 mod doctor;

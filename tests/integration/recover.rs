@@ -167,7 +167,10 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
             .display()
     );
     // the port's name carries its state file, absolute
-    let other_name = format!("sim://tmd?addresses=11,12&c0001=3&state={}", &other_bus["sim:tmd@".len()..]);
+    let other_name = format!(
+        "sim://tmd?addresses=11,12&c0001=3&state={}",
+        &other_bus["sim:tmd@".len()..]
+    );
     in_dir(dir.path())
         .args(["recover", &journal, "--port", &other_port])
         .assert()

@@ -80,10 +80,9 @@ pub fn before_open(spec: &crate::PortSpec) -> Option<String> {
     use crate::PortSpec;
     match spec {
         PortSpec::Serial { path, .. } => Some(serial(path)),
-        PortSpec::Slcan { path, bitrate, .. } => Some(slcan(
-            path,
-            bitrate.unwrap_or(crate::spec::DEFAULT_BITRATE),
-        )),
+        PortSpec::Slcan { path, bitrate, .. } => {
+            Some(slcan(path, bitrate.unwrap_or(crate::spec::DEFAULT_BITRATE)))
+        }
         PortSpec::SocketCan { interface, .. } => Some(socketcan(interface)),
         PortSpec::Tcp { .. } | PortSpec::Rfc2217 { .. } | PortSpec::Sim(_) => None,
     }
