@@ -17,7 +17,8 @@
 //! **A journal is bound to its drive.** It records the drive's identity:
 //! the bus as [`DriveClient::bus_id`] names it (independent of how the port
 //! was spelled: resolved TCP peer, canonical device path, the simulator's
-//! bus id), the bus address, the identify codes' values, the schema id, and
+//! bus id), the bus address, the identify codes' values, the schema (id,
+//! file and fingerprint: [`SchemaSource`]), and
 //! the plan (old values in `backup`, new ones in `plan`). `recover` refuses a
 //! drive that is not that drive ([`crate::recover`]).
 //!
@@ -1071,6 +1072,22 @@ mod tests {
         let back = serde_json::to_value(&j).expect("json");
         assert_eq!(back["holding"][2]["holds"], "other");
         assert!(back.get("failure_cause").is_none(), "{back}");
+        // a journal of a release before the schema's file and fingerprint
+        // were recorded: read, and written back without them
+        assert_eq!(j.schema_source, SchemaSource::default());
+        assert!(back.get("schema_path").is_none(), "{back}");
+        assert!(back.get("schema_fingerprint").is_none(), "{back}");
+        assert_eq!(back["schema"], "fictional-mc6000-demo");
+        let mut with = j.clone();
+        with.schema_source = SchemaSource {
+            schema_path: Some("/plant/schemas/demo.toml".into()),
+            schema_fingerprint: Some("sha256:00".into()),
+        };
+        let v = serde_json::to_value(&with).expect("json");
+        assert_eq!(v["schema_path"], "/plant/schemas/demo.toml");
+        assert_eq!(v["schema_fingerprint"], "sha256:00");
+        let again: Journal = serde_json::from_value(v).expect("read back");
+        assert_eq!(again.schema_source, with.schema_source);
         // and through the file reader
         let dir = tempfile::tempdir().expect("tmp");
         let path = dir.path().join("sim_demo-1.journal.json");

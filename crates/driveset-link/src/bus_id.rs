@@ -7,10 +7,16 @@
 //! | transport | bus id | e.g. |
 //! | --- | --- | --- |
 //! | serial port | `serial:` + the canonical device path (symlinks such as `/dev/serial/by-id/...` resolved) | `serial:/dev/ttyUSB0` |
-//! | TCP device server | `tcp:` + the address actually connected to (host resolved) | `tcp:127.0.0.1:4001` |
+//! | TCP device server, raw or RFC 2217 | `tcp:` + the address actually connected to (host resolved) | `tcp:127.0.0.1:4001` |
 //! | slcan adapter | `slcan:` + canonical device path + `?bitrate=` | `slcan:/dev/ttyACM0?bitrate=500000` |
 //! | SocketCAN | `can:` + interface | `can:can0` |
 //! | simulated bus | `sim:` + bus name (+ `@` canonical state file) | `sim:mc6000@/tmp/s/sim-mc6000.json` |
+//! | in-memory pair (tests) | `mem:` + a number unique in the process | `mem:7` |
+//!
+//! The traits have no default: every link and every wrapper says which bus
+//! it is, a wrapper by asking the link it wraps. [`before_open`] gives the
+//! id of a port whose spelling says it, so a program can lock the bus
+//! ([`crate::lock`]) before opening it.
 //!
 //! The line rate is not part of the id: a drive is on its bus at whatever
 //! rate it answers.
@@ -179,6 +185,17 @@ mod tests {
         let (a, b) = (mem(), mem());
         assert!(a.starts_with("mem:") && b.starts_with("mem:"), "{a} {b}");
         assert_ne!(a, b);
+    }
+
+    #[test]
+    fn ports_whose_spelling_says_their_bus_give_it_before_they_are_opened() {
+        let id = |p: &str| before_open(&crate::PortSpec::parse(p).unwrap());
+        assert_eq!(id("COM3?baud=19200"), Some("serial:COM3".into()));
+        assert_eq!(id("slcan://COM4"), Some("slcan:COM4?bitrate=500000".into()));
+        assert_eq!(id("can://can0?bitrate=250000"), Some("can:can0".into()));
+        assert_eq!(id("tcp://localhost:4001"), None);
+        assert_eq!(id("rfc2217://localhost:4001"), None);
+        assert_eq!(id("sim://tmd?addresses=1"), None);
     }
 
     #[test]

@@ -447,6 +447,41 @@ mod tests {
 
     use super::*;
 
+    #[test]
+    fn a_port_name_keeps_its_state_file_absolute_and_drops_no_run_key_until_asked() {
+        let dir = std::env::temp_dir().join(format!("driveset-sim-port-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let canon = std::fs::canonicalize(&dir).unwrap();
+        let spelled = format!(
+            "sim://tmd?seed=7&state={}/./s.json&addresses=11&faults=cable@30+600s&c0001=3",
+            dir.display()
+        );
+        let s = SimSpec::parse(&spelled).unwrap();
+        assert_eq!(
+            s.name(),
+            format!(
+                "sim://tmd?addresses=11&c0001=3&faults=cable@30+600s&seed=7&state={}",
+                canon.join("s.json").display()
+            )
+        );
+        assert_eq!(
+            s.without_run_keys().name(),
+            format!(
+                "sim://tmd?addresses=11&c0001=3&state={}",
+                canon.join("s.json").display()
+            )
+        );
+        // the bus id ignores the run keys and the key order
+        let a = SimOpener::default().config(&s).unwrap().bus_id();
+        let b = SimOpener::default()
+            .config(&s.without_run_keys())
+            .unwrap()
+            .bus_id();
+        assert_eq!(a, b);
+        assert_eq!(a, format!("sim:tmd@{}", canon.join("s.json").display()));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     fn ok(input: &str) -> SimSpec {
         match SimSpec::parse(input) {
             Ok(spec) => spec,
@@ -649,7 +684,7 @@ mod tests {
                 frames: false,
                 drives: vec![("mc6000".into(), 1), ("vf1000".into(), 5)],
                 mixed: true,
-                name: "sim://lustbus?mc6000=1&vf1000=5".into(),
+                name: "sim://lustbus?mc6000=1&vf1000=5&state=/tmp/s.json".into(),
             }
         );
         assert!(

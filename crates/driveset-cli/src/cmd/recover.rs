@@ -1,8 +1,9 @@
 //! `driveset recover JOURNAL [--port P] [--address A]`: finish or roll back
 //! an interrupted upload from its journal alone (driveset-engine's
-//! `recover`). Port, address and schema come from the journal; `--port`
-//! replaces the port (the adapter moved, or a `sim://` port without the
-//! fault that interrupted the upload).
+//! `recover`). Port, address and schema come from the journal (a `sim://`
+//! port without the faults of the run that was cut; the schema by the id,
+//! file and fingerprint the journal records); `--port` replaces the port
+//! (the adapter moved; any spelling of the journal's bus is accepted).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -32,6 +33,13 @@ message names the codes). Otherwise it reads the set's codes and marks the
 journal complete if every planned code holds its new value, else restores
 the old values from the journal's backup, reads them back and marks it
 rolled-back. A journal already complete or rolled-back needs nothing.
+
+Without --port the journal's port is used (a sim:// port without the
+faults= and seed= of the run that was cut); without --schema the schema the
+journal records (its id among the known schemas when the fingerprint
+matches, else its file; a schema edited since the upload is refused, exit
+2). Like every bus command, recover holds the bus's lock while it runs: a
+bus another driveset drives is refused with exit 3, naming that process.
 
 Exit codes: 0 settled (complete or rolled back, verified), 2 the journal
 cannot be read or does not fit the drive (bus, address, identity, schema,
