@@ -155,7 +155,7 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
         format!("{}-11.journal.json", stem(&bus))
     );
     let jarg = journal.display().to_string();
-    let (code, stdout, stderr) = out(&mut cmd(
+    let (code, stdout, stderr) = out(cmd(
         &locks,
         &[
             "upload",
@@ -182,7 +182,7 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
     assert!(cut_in == "writing" || cut_in == "verifying", "{j}");
     assert_eq!(j["target"]["bus"], bus.as_str(), "{j}");
     assert_eq!(j["target"]["port"], sim.path.as_str(), "{j}");
-    let (code, stdout, stderr) = out(&mut cmd(
+    let (code, stdout, stderr) = out(cmd(
         &locks,
         &[
             "upload",
@@ -218,7 +218,7 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
     assert!(state == "rolled-back" || state == "complete", "{state}");
 
     // 4. the upload through the symlink now runs, and the drive holds the set
-    let (code, stdout, stderr) = out(&mut cmd(
+    let (code, stdout, stderr) = out(cmd(
         &locks,
         &[
             "upload",
@@ -351,7 +351,7 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
 
     // the drive holds its old values or the set, never a mix: the last
     // recover settled it; an upload by name completes it
-    let (code, stdout, stderr) = out(&mut cmd(
+    let (code, stdout, stderr) = out(cmd(
         &locks,
         &[
             "upload",
