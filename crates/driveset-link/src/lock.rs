@@ -5,9 +5,11 @@
 //! so `/dev/ttyUSB0` and a `/dev/serial/by-id/...` symlink to it, or
 //! `tcp://localhost:P` and `tcp://127.0.0.1:P`, take one lock. The
 //! directory is [`lock_dir`]: `DRIVESET_LOCK_DIR`, else
-//! `$XDG_RUNTIME_DIR/driveset`, else `driveset-locks` in the system's
-//! temporary directory (one per machine, not per journal directory, so two
-//! commands with different `--journal-dir` still exclude each other).
+//! `$XDG_RUNTIME_DIR/driveset`, else `driveset-locks-USER` in the system's
+//! temporary directory (one per user and machine, not per journal
+//! directory, so two commands with different `--journal-dir` still exclude
+//! each other; two users' commands on one serial port are kept apart by
+//! `TIOCEXCL`).
 //!
 //! The holder writes who it is into the file (pid, command, since when);
 //! a refused command reads it back to name the holder. The kernel drops
@@ -118,8 +120,9 @@ pub enum LockError {
 }
 
 /// The directory bus locks live in (module docs): `DRIVESET_LOCK_DIR`,
-/// else `$XDG_RUNTIME_DIR/driveset`, else `driveset-locks` in
-/// [`std::env::temp_dir`].
+/// else `$XDG_RUNTIME_DIR/driveset`, else `driveset-locks-USER` in
+/// [`std::env::temp_dir`] (per user, as the runtime directory is: a
+/// directory another user created could not take this user's lock files).
 pub fn lock_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("DRIVESET_LOCK_DIR").filter(|d| !d.is_empty()) {
         return PathBuf::from(d);
@@ -127,7 +130,11 @@ pub fn lock_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
         return PathBuf::from(d).join("driveset");
     }
-    std::env::temp_dir().join("driveset-locks")
+    let user = ["USER", "LOGNAME"]
+        .iter()
+        .find_map(|k| std::env::var(k).ok().filter(|u| !u.is_empty()))
+        .map_or_else(|| "default".to_string(), |u| crate::bus_id::file_stem(&u));
+    std::env::temp_dir().join(format!("driveset-locks-{user}"))
 }
 
 /// The lock file of bus `bus_id` in `dir`.
