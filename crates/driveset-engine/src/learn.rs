@@ -54,7 +54,7 @@ use driveset_proto::lustbus::{ParameterCode, ParameterType};
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::StorageKind;
 use driveset_schema::value::raw_to_engineering;
-use driveset_schema::{Family, Registry, Schema, ValueType, check_schema};
+use driveset_schema::{Code, Family, Location, Registry, Role, Schema, ValueType, check_schema};
 
 use crate::client::{DriveClient as _, IdentValue, Identity, LustbusClient};
 use crate::error::EngineError;
@@ -103,6 +103,9 @@ pub struct LearnedCode {
     /// MC: CardWriteable (activity area other than SC_Nothing), when the
     /// description carries the activity area.
     pub card_writeable: Option<bool>,
+    /// The description's kind character as sent (VF1000 '0'..'7',
+    /// MC '0'..'2').
+    pub kind_char: u8,
     /// Password (type PT_PASSWORD or the Password attribute).
     pub password: bool,
     /// MC: values shown as substitution texts: `Some(true)` by the
@@ -125,9 +128,13 @@ pub struct LearnedCode {
 /// not take as it came.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct LearnFinding {
+    /// The code as reports spell it (`11-STAT`; the description's name for
+    /// a code the base schema does not name), filled by [`render_schema`].
+    pub code: String,
     /// Parameter number.
     pub number: u32,
-    /// `left out` or `downgraded`.
+    /// `left out`, `downgraded`, or `kept the spec's` (the drive's
+    /// description contradicts a fact of the base schema, which stands).
     pub action: &'static str,
     /// Why.
     pub reason: String,
@@ -372,6 +379,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -393,6 +401,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -415,6 +424,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -457,6 +467,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -486,6 +497,7 @@ fn new_code(number: u32, name: &str, kind: StorageKind) -> LearnedCode {
         kind,
         basis: None,
         card_writeable: None,
+        kind_char: b'?',
         password: false,
         show_text: None,
         min: None,
@@ -538,6 +550,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                     decoded.push((r.number, d));
                 }
                 Err(e) => findings.push(LearnFinding {
+                    code: String::new(),
                     number: r.number,
                     action: "left out",
                     reason: format!("its description does not decode: {e}"),
@@ -567,6 +580,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 McKind::Eeprom => StorageKind::Eeprom,
             };
             let mut c = new_code(number, d.name.as_str(), kind);
+            c.kind_char = d.kind.code();
             c.unit_index = (d.unit != 0).then_some(d.unit);
             if let Some(e) = d.extension {
                 c.show_text = Some(e.attributes.0 & Attributes::SHOW_TEXT.0 != 0);
@@ -603,6 +617,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 c.show_text = Some(false);
                 c.guessed.push(msg.clone());
                 findings.push(LearnFinding {
+                    code: String::new(),
                     number,
                     action: "downgraded",
                     reason: msg,
@@ -628,6 +643,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 Ok(d) => d,
                 Err(e) => {
                     findings.push(LearnFinding {
+                        code: String::new(),
                         number: r.number,
                         action: "left out",
                         reason: format!("its description does not decode: {e}"),
@@ -642,6 +658,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 VfStorage::FselIsel => StorageKind::FselIsel,
             };
             let mut c = new_code(r.number, d.name.as_str().trim(), kind);
+            c.kind_char = d.kind.code();
             let unit = d.unit.as_str().trim().to_string();
             c.unit = (!unit.is_empty()).then_some(unit);
             c.basis = Some(!d.kind.inverter_specific);
@@ -820,10 +837,208 @@ pub struct LearnedSchema {
     pub codes: usize,
 }
 
+/// The [`LearnFinding::action`] of a contradiction: the base schema's
+/// fact stands, the drive's is recorded in the learned file.
+pub const KEPT_SPEC: &str = "kept the spec's";
+
+/// One fact on which a drive's description contradicts its base schema
+/// (whose fact stands; module docs, merge rule).
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Disagreement {
+    /// The schema key (`kind`, `type`, `min`, `max`, `default`, `unit`).
+    fact: &'static str,
+    /// The drive's value, as a schema file spells it.
+    drive: String,
+    /// The base schema's value, as its file spells it.
+    spec: String,
+}
+
+/// What a drive's description of `c` contradicts in its base code `b`:
+/// the facts the base gives otherwise, and the role (a command, control
+/// word or setpoint the drive calls an actual value).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+struct Contradictions {
+    facts: Vec<Disagreement>,
+    /// The base's role where the drive describes a read-only actual value
+    /// of a code that role must write.
+    role: Option<Role>,
+}
+
+impl Contradictions {
+    fn is_empty(&self) -> bool {
+        self.facts.is_empty() && self.role.is_none()
+    }
+}
+
+fn kind_name(k: StorageKind) -> &'static str {
+    match k {
+        StorageKind::RamActual => "ram-actual",
+        StorageKind::RamControl => "ram-control",
+        StorageKind::Eeprom => "eeprom",
+        StorageKind::FselIsel => "fsel-isel",
+    }
+}
+
+fn kind_words(k: StorageKind) -> &'static str {
+    match k {
+        StorageKind::RamActual => "an actual value",
+        StorageKind::RamControl => "a RAM control value",
+        StorageKind::Eeprom => "an EEPROM value",
+        StorageKind::FselIsel => "an FSEL/ISEL variable",
+    }
+}
+
+fn fact_text(f: &driveset_schema::schema::Fact) -> String {
+    match &f.value {
+        driveset_schema::doc::NodeKind::Str(t) | driveset_schema::doc::NodeKind::Num(t) => {
+            t.clone()
+        }
+        other => format!("{other:?}"),
+    }
+}
+
+/// Whether a drive's unit string says the spec's (VF1000 descriptions
+/// carry at most 6 characters: a cut spec unit agrees).
+fn same_unit(drive: &str, spec: &str) -> bool {
+    let (d, s) = (drive.trim(), spec.trim());
+    d.eq_ignore_ascii_case(s)
+        || (d.chars().count() == 6 && s.to_ascii_lowercase().starts_with(&d.to_ascii_lowercase()))
+}
+
+fn contradictions(c: &LearnedCode, b: &Code, base: &Schema) -> Contradictions {
+    let mut out = Contradictions::default();
+    let base_type = base.type_of(b);
+    if let (Some(bt), Some(t)) = (base_type, c.ty)
+        && bt.name() != t.name()
+    {
+        out.facts.push(Disagreement {
+            fact: "type",
+            drive: t.name().into(),
+            spec: bt.name().into(),
+        });
+    }
+    let write_role = b.role.filter(|r| {
+        matches!(r, Role::ControlWord | Role::Command | Role::Setpoint)
+            && b.access != Some(driveset_schema::schema::Access::Ro)
+    });
+    match b.kind {
+        Some(k) if k != c.kind => out.facts.push(Disagreement {
+            fact: "kind",
+            drive: kind_name(c.kind).into(),
+            spec: kind_name(k).into(),
+        }),
+        None if c.kind == StorageKind::RamActual && write_role.is_some() => {
+            out.role = write_role;
+        }
+        _ => {}
+    }
+    if let (Some(u), Some(bu)) = (&c.unit, &b.unit)
+        && !same_unit(u, bu)
+    {
+        out.facts.push(Disagreement {
+            fact: "unit",
+            drive: u.clone(),
+            spec: bu.clone(),
+        });
+    }
+    // Bounds compare raw, in the spec's type (a type disagreement says
+    // the rest).
+    if let Some(vt) = base_type
+        && c.ty.is_none_or(|t| t.name() == vt.name())
+    {
+        for (fact, drive, spec) in [
+            ("min", c.min, b.min.as_ref()),
+            ("max", c.max, b.max.as_ref()),
+            ("default", c.default, b.default.as_ref()),
+        ] {
+            let (Some(d), Some(f)) = (drive, spec) else {
+                continue;
+            };
+            if let Ok(driveset_schema::canonical::RawValue::Int(raw)) = base.fact_raw(b, f)
+                && raw != d
+            {
+                out.facts.push(Disagreement {
+                    fact,
+                    drive: raw_to_engineering(vt, d),
+                    spec: fact_text(f),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Where the base schema's facts of `b` come from, as reports cite it
+/// (`lustbus-protocol.txt section 8.1.1`).
+fn spec_source(b: &Code, base: &Schema) -> String {
+    b.spec
+        .clone()
+        .or_else(|| base.spec.clone())
+        .unwrap_or_else(|| format!("schema {}", base.id))
+        .replace('§', "section ")
+}
+
+/// The report's sentence for a contradiction (issue 18's wording).
+fn contradiction_message(c: &LearnedCode, b: &Code, base: &Schema, x: &Contradictions) -> String {
+    let code = base.display_code(c.number, None);
+    let spec = spec_source(b, base);
+    let ty = c.ty.map_or_else(
+        || "an unknown type".to_string(),
+        |t| t.name().trim_start_matches("PT_").to_string(),
+    );
+    let mut parts = Vec::new();
+    if let Some(role) = x.role {
+        let role = role.as_str().replace('-', " ");
+        parts.push(format!(
+            "the drive describes {} (kind {}, {ty}); {spec} makes it a {role}: kept as a {role}{}",
+            kind_words(c.kind),
+            show_char(c.kind_char).trim_matches('\''),
+            if x.role.is_some_and(Role::left_out_of_pulled_sets) {
+                ", left out of the set"
+            } else {
+                ""
+            }
+        ));
+    }
+    if !x.facts.is_empty() {
+        parts.push(format!(
+            "the drive describes {}; {spec} gives {}: the spec's {} (the drive's recorded in the learned file)",
+            x.facts
+                .iter()
+                .map(|d| format!("{} {}", d.fact, d.drive))
+                .collect::<Vec<_>>()
+                .join(", "),
+            x.facts
+                .iter()
+                .map(|d| format!("{} {}", d.fact, d.spec))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if x.facts.len() == 1 { "stands" } else { "stand" }
+        ));
+    }
+    format!("{code}: {}", parts.join("; "))
+}
+
+/// How reports name learned parameter `number`: the base schema's display
+/// code, else `<number>-<the description's name>`.
+fn code_name(learned: &Learned, base: &Schema, number: u32) -> String {
+    if base.code(number).is_some() {
+        return base.display_code(number, None);
+    }
+    match learned.codes.iter().find(|c| c.number == number) {
+        Some(c) if !c.name.trim().is_empty() => format!("{number}-{}", c.name.trim()),
+        _ => number.to_string(),
+    }
+}
+
 /// Renders `learned` as a schema file extending `base` (merge rule in the
 /// module docs), parses and checks it, and leaves out any code the check
-/// objects to (recorded in `learned.findings`). `registry` must hold
-/// `base`.
+/// objects to (recorded in `learned.findings`, naming the code and the
+/// check). Where the drive contradicts a fact of `base`, the base's fact
+/// stands, the drive's is recorded in the file (`# drive says:`) and a
+/// `kept the spec's` finding names the code, both facts and the spec
+/// section. `registry` must hold `base`. Fails only when the file's own
+/// head (not a code) does not check.
 pub fn render_schema(
     learned: &mut Learned,
     base: &Schema,
@@ -831,49 +1046,99 @@ pub fn render_schema(
     source: &LearnSource,
     registry: &Registry,
 ) -> Result<LearnedSchema, String> {
+    for c in &learned.codes {
+        if let Some(b) = base.code(c.number) {
+            let x = contradictions(c, b, base);
+            if !x.is_empty() {
+                learned.findings.push(LearnFinding {
+                    code: String::new(),
+                    number: c.number,
+                    action: KEPT_SPEC,
+                    reason: contradiction_message(c, b, base, &x),
+                });
+            }
+        }
+    }
+    let file = format!("{id}.toml");
     let mut dropped: BTreeSet<u32> = BTreeSet::new();
-    for _ in 0..8 {
+    let result = loop {
         let (text, spans) = render_text(learned, base, id, source, &dropped);
         let mut reg = registry.clone();
-        let parsed = reg.add_source(SourceFile::new(format!("{id}.toml"), text.clone()));
-        let objections: Vec<(usize, String)> = match parsed {
-            Ok(schema) => check_schema(&schema)
+        let parsed = reg.add_source(SourceFile::new(file.clone(), text.clone()));
+        let objections: Vec<(Location, String)> = match &parsed {
+            Ok(schema) => check_schema(schema)
                 .into_iter()
-                .map(|f| (f.location.line, f.message))
+                .map(|f| (f.location, f.message))
                 .collect(),
-            Err(e) => vec![(e.location.line, e.message.clone())],
+            Err(e) => vec![((*e.location).clone(), e.message.clone())],
         };
         if objections.is_empty() {
             let schema = reg
                 .get(id)
                 .ok_or_else(|| format!("learned schema {id} vanished"))?;
             let codes = learned.codes.len() - dropped.len();
-            return Ok(LearnedSchema {
+            break Ok(LearnedSchema {
                 id: id.to_string(),
                 text,
                 schema,
                 codes,
             });
         }
+        // The code an objection is about: the learned entry holding its
+        // line, or (a fact merged into a base code) the base code whose
+        // entry holds it.
+        let owner = |loc: &Location| -> Option<u32> {
+            if loc.file == file {
+                return spans
+                    .iter()
+                    .find(|(_, r)| r.contains(&loc.line))
+                    .map(|(n, _)| *n);
+            }
+            let codes = parsed.as_ref().map_or(&base.codes, |s| &s.codes);
+            codes
+                .iter()
+                .filter(|c| c.loc.file == loc.file && c.loc.line <= loc.line)
+                .max_by_key(|c| c.loc.line)
+                .map(|c| c.number)
+                .filter(|n| learned.codes.iter().any(|c| c.number == *n))
+        };
         let mut progress = false;
-        for (line, msg) in objections {
-            if let Some((n, _)) = spans.iter().find(|(_, r)| r.contains(&line))
-                && dropped.insert(*n)
-            {
-                learned.findings.push(LearnFinding {
-                    number: *n,
-                    action: "left out",
-                    reason: format!("the learned entry fails `schema check`: {msg}"),
-                });
-                progress = true;
-            } else if !progress {
-                return Err(format!(
-                    "the learned schema fails `schema check` at line {line}: {msg}"
-                ));
+        let mut unowned = Vec::new();
+        for (loc, msg) in objections {
+            match owner(&loc) {
+                Some(n) if !dropped.contains(&n) => {
+                    dropped.insert(n);
+                    learned.findings.push(LearnFinding {
+                        code: String::new(),
+                        number: n,
+                        action: "left out",
+                        reason: format!(
+                            "the learned entry fails `schema check` ({}:{}): {msg}",
+                            loc.file, loc.line
+                        ),
+                    });
+                    progress = true;
+                }
+                Some(_) => {}
+                None => unowned.push(format!("{}:{}: {msg}", loc.file, loc.line)),
             }
         }
+        if !progress {
+            break Err(format!(
+                "the learned schema {id} fails `schema check` outside any learned code: {}",
+                unowned.join("; ")
+            ));
+        }
+    };
+    let names: Vec<String> = learned
+        .findings
+        .iter()
+        .map(|f| code_name(learned, base, f.number))
+        .collect();
+    for (f, name) in learned.findings.iter_mut().zip(names) {
+        f.code = name;
     }
-    Err("the learned schema still fails `schema check` after leaving out codes".into())
+    result
 }
 
 /// The file text and the line range of each learned code's entry.
@@ -1030,21 +1295,31 @@ fn render_code(
         ));
     }
     let base_type = b.and_then(|b| base.type_of(b));
-    let mut ty_ok = true;
-    match (base_type, c.ty) {
-        (None, Some(t)) => {
-            lines.push(format!("type = {}", q(t.name())));
-            learned_facts.push("type");
+    let against = b.map(|b| contradictions(c, b, base)).unwrap_or_default();
+    if !against.is_empty() {
+        // The drive's facts as a guess beside the spec's (docs/file-formats.md,
+        // "Learned schema files").
+        let mut said: Vec<String> = Vec::new();
+        let mut stands: Vec<String> = Vec::new();
+        if let Some(r) = against.role {
+            said.push(format!("kind = {}", q(kind_name(c.kind))));
+            stands.push(format!("role = {}", q(r.as_str())));
         }
-        (Some(bt), Some(t)) if bt.name() != t.name() => {
-            comments.push(format!(
-                "# the drive describes it as {}; the spec's {} stands",
-                t.name(),
-                bt.name()
-            ));
-            ty_ok = false;
+        for d in &against.facts {
+            said.push(format!("{} = {}", d.fact, q(&d.drive)));
+            stands.push(format!("{} = {}", d.fact, q(&d.spec)));
         }
-        _ => {}
+        comments.push(format!(
+            "# drive says: {} (a guess; the spec's {} stands, {})",
+            said.join(", "),
+            stands.join(", "),
+            b.map(|b| spec_source(b, base)).unwrap_or_default()
+        ));
+    }
+    let ty_ok = !against.facts.iter().any(|d| d.fact == "type");
+    if let (None, Some(t)) = (base_type, c.ty) {
+        lines.push(format!("type = {}", q(t.name())));
+        learned_facts.push("type");
     }
     let eff_type = base_type.or_else(|| c.ty.and_then(|t| ValueType::from_name(t.name())));
     if let Some(u) = &c.unit
@@ -1070,11 +1345,12 @@ fn render_code(
             learned_facts.push("default");
         }
     }
-    if c.kind == StorageKind::RamActual && b.is_none_or(|b| b.access.is_none()) {
+    let role_stands = against.role.is_some();
+    if c.kind == StorageKind::RamActual && !role_stands && b.is_none_or(|b| b.access.is_none()) {
         lines.push("access = \"ro\"".into());
         learned_facts.push("access");
     }
-    if b.is_none_or(|b| b.kind.is_none()) {
+    if !role_stands && b.is_none_or(|b| b.kind.is_none()) {
         lines.push(format!(
             "kind = {}",
             q(match c.kind {
