@@ -52,7 +52,7 @@ use driveset_proto::lustbus::description::{
 };
 use driveset_proto::lustbus::{ParameterCode, ParameterType};
 use driveset_schema::error::SourceFile;
-use driveset_schema::schema::StorageKind;
+use driveset_schema::schema::{StorageKind, number_list_text};
 use driveset_schema::value::raw_to_engineering;
 use driveset_schema::{Code, Family, Location, Registry, Role, Schema, ValueType, check_schema};
 
@@ -158,6 +158,8 @@ pub struct Learned {
     pub findings: Vec<LearnFinding>,
     /// Parameters asked for.
     pub asked: usize,
+    /// Their numbers (written as `[schema.learned] asked`).
+    pub asked_params: BTreeSet<u32>,
     /// Parameters the drive NAKed (no such parameter).
     pub absent: usize,
     /// Substitution texts read.
@@ -176,11 +178,16 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 }
 
 /// Whether `schema` lacks facts a drive's descriptions could fill: a
-/// LUSTBUS schema (not itself learned, `learned-...`, nor a fictional
-/// fixture, which is what the simulated drives are built from) with a code
-/// (other than a status code whose reading clears it) without a type, kind
-/// or range.
+/// learned schema (`[schema.learned]`) that did not ask for every
+/// parameter of its family ([`unasked`]); or a LUSTBUS schema (not itself
+/// learned, `learned-...`, nor a fictional fixture, which is what the
+/// simulated drives are built from) with a code (other than a status code
+/// whose reading clears it) without a type, kind or range. A learned
+/// schema that asked for every parameter is used as it is.
 pub fn needs_learning(schema: &Schema) -> bool {
+    if schema.learned.is_some() {
+        return !unasked(schema).is_empty();
+    }
     !schema.id.starts_with("learned-")
         && !schema.fictional
         && matches!(schema.family, Family::Mc6000 | Family::Vf1000)
@@ -190,6 +197,29 @@ pub fn needs_learning(schema: &Schema) -> bool {
                     || c.kind.is_none()
                     || (c.min.is_none() && c.max.is_none() && c.values.is_none()))
         })
+}
+
+/// The parameters of `schema`'s family a learned schema did not ask for
+/// (empty for a schema that is not learned).
+pub fn unasked(schema: &Schema) -> Vec<u32> {
+    match &schema.learned {
+        Some(l) => default_params(schema.family)
+            .into_iter()
+            .filter(|p| !l.asked.contains(p))
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
+/// The options to learn on top of `base`: a learned base asks only for
+/// the parameters it did not ask for ([`unasked`]) unless `opts` names
+/// them.
+pub fn options_for(base: &Schema, opts: &LearnOptions) -> LearnOptions {
+    let mut o = opts.clone();
+    if base.learned.is_some() && o.params.is_none() {
+        o.params = Some(unasked(base));
+    }
+    o
 }
 
 /// The file (and schema id) a learned schema is stored under:
@@ -689,6 +719,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
         codes,
         findings,
         asked: raws.len(),
+        asked_params: raws.iter().map(|r| r.number).collect(),
         absent: 0,
         texts_read: 0,
         descriptions_hash: hash,
@@ -804,6 +835,7 @@ pub fn learn<L: ByteLink>(
     let (raws, absent) = read_descriptions(client, protocol, &params)?;
     let mut learned = interpret(protocol, &raws, opts);
     learned.asked = params.len();
+    learned.asked_params = params.iter().copied().collect();
     learned.absent = absent;
     if !opts.no_texts {
         read_texts(client, &mut learned)?;
@@ -1150,6 +1182,9 @@ fn render_text(
     dropped: &BTreeSet<u32>,
 ) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
     let mc = learned.protocol == Family::Mc6000;
+    if let Some(prev) = &base.learned {
+        return render_on_learned(learned, base, prev, id, source, dropped);
+    }
     let mut out = String::new();
     let ident: Vec<String> = source
         .identity
@@ -1235,6 +1270,24 @@ fn render_text(
         "note = {}",
         q("learned: the TYPE the drive reported when its descriptions were read")
     );
+    let _ = writeln!(
+        out,
+        "\n[schema.learned]\nasked = {}",
+        q(&number_list_text(&learned.asked_params))
+    );
+    let (out, spans) = render_entries(out, learned, base, dropped, mc);
+    (out, spans)
+}
+
+/// Appends the entries of the learned codes (not in `dropped`) to `out`;
+/// returns the text and the line range of each entry.
+fn render_entries(
+    mut out: String,
+    learned: &Learned,
+    base: &Schema,
+    dropped: &BTreeSet<u32>,
+    mc: bool,
+) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
     let mut names: BTreeSet<String> = base.codes.iter().map(|c| c.name.clone()).collect();
     let mut spans = Vec::new();
     for c in &learned.codes {
@@ -1247,6 +1300,52 @@ fn render_text(
         spans.push((c.number, start..end));
     }
     (out, spans)
+}
+
+/// A schema learned on top of a learned one (`prev`, the file `base` was
+/// read from): that file's own text with the new `id` and the union of
+/// the parameters asked for, and the newly learned codes' entries
+/// appended, so the result extends the same base as `prev` (a schema id
+/// every reader resolves) and carries every entry of both.
+fn render_on_learned(
+    learned: &Learned,
+    base: &Schema,
+    prev: &driveset_schema::schema::LearnedFrom,
+    id: &str,
+    source: &LearnSource,
+    dropped: &BTreeSet<u32>,
+) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
+    let mc = learned.protocol == Family::Mc6000;
+    let asked: BTreeSet<u32> = prev.asked.union(&learned.asked_params).copied().collect();
+    let mut out = String::new();
+    let mut table = "";
+    for line in prev.text.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            table = if t == "[schema]" {
+                "schema"
+            } else if t == "[schema.learned]" {
+                "learned"
+            } else {
+                "other"
+            };
+        }
+        if table == "schema" && t.starts_with("id ") | t.starts_with("id=") {
+            let _ = writeln!(out, "id = {}", q(id));
+        } else if table == "learned" && t.starts_with("asked") {
+            let _ = writeln!(out, "asked = {}", q(&number_list_text(&asked)));
+        } else {
+            let _ = writeln!(out, "{line}");
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\n# Learned on top of `{}` from {}: parameters {}.",
+        base.id,
+        source.drive,
+        number_list_text(&learned.asked_params)
+    );
+    render_entries(out, learned, base, dropped, mc)
 }
 
 fn render_code(
@@ -1466,7 +1565,7 @@ pub fn pull_schema<L: ByteLink>(
     registry: &Registry,
 ) -> Result<PulledSchema, PullSchemaError> {
     let identity = client.identify()?;
-    let mut learned = learn(client, base.family, opts)?;
+    let mut learned = learn(client, base.family, &options_for(base, opts))?;
     client.finish()?;
     let id = id.map_or_else(
         || learned_id(base.family, &identity, &learned),
