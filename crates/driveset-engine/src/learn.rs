@@ -973,9 +973,10 @@ fn contradictions(c: &LearnedCode, b: &Code, base: &Schema) -> Contradictions {
             spec: bu.clone(),
         });
     }
-    // Bounds compare raw, in the spec's type (a type disagreement says
-    // the rest).
-    if let Some(vt) = base_type
+    // Bounds compare raw, in the spec's type, else the drive's (a type
+    // disagreement says the rest).
+    let vt = base_type.or_else(|| c.ty.and_then(|t| ValueType::from_name(t.name())));
+    if let Some(vt) = vt
         && c.ty.is_none_or(|t| t.name() == vt.name())
     {
         for (fact, drive, spec) in [
@@ -986,7 +987,16 @@ fn contradictions(c: &LearnedCode, b: &Code, base: &Schema) -> Contradictions {
             let (Some(d), Some(f)) = (drive, spec) else {
                 continue;
             };
-            if let Ok(driveset_schema::canonical::RawValue::Int(raw)) = base.fact_raw(b, f)
+            // The spec's fact in raw units: as the schema converts it,
+            // or (a code the spec gives no type) in the drive's type.
+            let spec_raw = match base.fact_raw(b, f) {
+                Ok(driveset_schema::canonical::RawValue::Int(raw)) => Some(raw),
+                Ok(_) => None,
+                Err(_) => driveset_schema::Decimal::parse(&fact_text(f))
+                    .ok()
+                    .and_then(|v| driveset_schema::value::decimal_to_raw(vt, b.width, &v).ok()),
+            };
+            if let Some(raw) = spec_raw
                 && raw != d
             {
                 out.facts.push(Disagreement {
