@@ -407,3 +407,93 @@ fn learning_on_top_of_a_partial_learned_file_extends_its_base() {
         .code(0)
         .stderr(predicate::str::contains("learned schema").not());
 }
+
+/// `commission` and `status` with sets naming files `schema pull` wrote
+/// (README's second flow on a line): the line validates offline, the
+/// learned files are used as they are (nothing learned, no learned schema
+/// in the report), each drive verifies and `status` finds them unchanged;
+/// `upload` of a pulled set naming such a file lands its edit.
+#[test]
+fn commission_status_and_upload_use_a_learned_file_as_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    std::fs::create_dir_all(d.join("sets")).unwrap();
+    let port = "sim://lustbus?mc6000=1&vf1000=5";
+    for (family, address) in [("mc6000", "1"), ("vf1000", "5")] {
+        in_dir(d)
+            .args(["schema", "pull", "--port", port, "--address", address])
+            .args(["--family", family, "-o"])
+            .arg(format!("schemas/{family}.toml"))
+            .assert()
+            .code(0);
+    }
+    std::fs::write(
+        d.join("line.toml"),
+        format!("[line]\nname = \"learned-line\"\n\n[[bus]]\nname = \"lustbus\"\nport = \"{port}\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n[[drive]]\nbus = \"lustbus\"\naddress = 1\nset = \"sets/press.toml\"\nname = \"press\"\n\n[[drive]]\nbus = \"lustbus\"\naddress = 5\nset = \"sets/fan.toml\"\nname = \"fan\"\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sets/press.toml"),
+        "schema = \"../schemas/mc6000.toml\"\n\n[values]\n100 = \"16 kHz\"\n132 = \"5 A\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sets/fan.toml"),
+        "schema = \"../schemas/vf1000.toml\"\n\n[values]\n7 = \"60 Hz\"\n",
+    )
+    .unwrap();
+    in_dir(d).args(["validate", "line.toml"]).assert().code(0);
+    in_dir(d)
+        .args(["commission", "line.toml"])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains("learned").not());
+    let text = std::fs::read_to_string(d.join("target/driveset-report/report.json")).unwrap();
+    let r: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (i, (name, schema)) in [("press", "pulled-mc6000-1"), ("fan", "pulled-vf1000-5")]
+        .into_iter()
+        .enumerate()
+    {
+        let dr = &r["drives"][i];
+        assert_eq!(dr["name"], name);
+        assert_eq!(dr["result"], "verified");
+        assert_eq!(dr["schema"], schema);
+        assert!(dr["learned_schema"].is_null(), "{dr}");
+    }
+    in_dir(d)
+        .args(["status", "line.toml"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "2 unchanged, 0 already verified, 0 drift",
+        ));
+    // upload: a pulled set naming the learned file, edited.
+    in_dir(d)
+        .args(["pull", "--port", port, "--address", "5"])
+        .args(["--schema", "schemas/vf1000.toml", "-o", "fan-pulled.toml"])
+        .assert()
+        .code(0)
+        .stderr(predicate::str::contains("learned schema").not());
+    let pulled = d.join("fan-pulled.toml");
+    let text = std::fs::read_to_string(&pulled).unwrap();
+    assert!(
+        text.contains("\nschema = \"schemas/vf1000.toml\"\n"),
+        "{text}"
+    );
+    assert!(text.contains("\n7 = \"60 Hz\"\n"), "{text}");
+    std::fs::write(
+        &pulled,
+        text.replace("\n7 = \"60 Hz\"\n", "\n7 = \"55 Hz\"\n"),
+    )
+    .unwrap();
+    in_dir(d)
+        .arg("upload")
+        .arg(&pulled)
+        .args(["--port", port, "--address", "5", "--journal-dir", "journal"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("7-"))
+        .stdout(predicate::str::contains("\"60 Hz\" -> \"55 Hz\"  verified"))
+        .stderr(predicate::str::contains("learned schema").not());
+}
