@@ -493,6 +493,8 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         .args(["--port", port, "--address", "5", "--journal-dir", "journal"])
         .assert()
         .code(0)
-        .stdout(predicate::str::contains("\n  7-FMAX: 60 Hz -> 55 Hz  verified\n"))
+        .stdout(predicate::str::contains(
+            "\n  7-FMAX: 60 Hz -> 55 Hz  verified\n",
+        ))
         .stderr(predicate::str::contains("learned schema").not());
 }

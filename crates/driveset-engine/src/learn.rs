@@ -12,8 +12,21 @@
 //! gives (from the spec) stands**; the drive's description only fills the
 //! facts it leaves unset (type, unit, min, max, default, kind, width,
 //! card_writeable, access, value texts), and adds the parameters the spec
-//! does not name. Where the drive contradicts a spec fact, the file says so
-//! in a comment and keeps the spec's.
+//! does not name. Where the drive contradicts a spec fact (another kind,
+//! type, unit, min, max or default; an actual value where the spec has a
+//! command, control word or setpoint), the spec's fact stands for that
+//! code, the drive's is recorded as a guess in a `# drive says:` comment
+//! above the entry, and a [`KEPT_SPEC`] finding names the code, both facts
+//! and the spec section (docs/file-formats.md, "Learned schemas").
+//!
+//! # A learned schema is a schema
+//!
+//! The file carries `[schema.learned] asked` (the parameters asked for).
+//! [`needs_learning`] is false for a learned schema that asked for every
+//! parameter of its family; one that did not is learned on top of for the
+//! others only ([`options_for`]), and the result is the earlier file's own
+//! text with the new entries appended, so it extends the same base (an id
+//! every reader resolves).
 //!
 //! # Markers
 //!
@@ -37,8 +50,10 @@
 //! A description that does not decode at all is left out. Each case is a
 //! [`LearnFinding`] naming the parameter and why. After rendering, the
 //! schema is parsed and checked ([`driveset_schema::check_schema`]); a code
-//! the check still objects to is left out, so a learned file always passes
-//! `driveset schema check`.
+//! the check still objects to (the objection's line in its learned entry,
+//! or in the base entry a learned fact merged into) is left out, and the
+//! finding names the code and the check, so a learned file always passes
+//! `driveset schema check`; only an objection outside every code fails.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;

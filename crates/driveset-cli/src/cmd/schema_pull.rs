@@ -39,7 +39,13 @@ errata L23); --description-layout and --type-chars override the guesses. A
 description that contradicts itself (minimum above maximum, default outside
 the range, bounds the type cannot hold, an unknown type character) is
 downgraded, one that does not decode is left out; each is listed with the
-reason. Without --family the family is found by read-only probes.
+reason. Where a description contradicts the built-in schema (another
+kind, type, range or unit; an actual value where the spec has a command),
+the spec's fact stands, the drive's is recorded as `# drive says:` beside
+the code, and a line names the code, both facts and the spec section. The
+file's [schema.learned] asked lists the parameters asked for; commands given
+the file use it as it is (learning only parameters outside it). Without
+--family the family is found by read-only probes.
 
 Exit codes: 0 written, 2 usage or input error, 3 bus or device failure.
 
