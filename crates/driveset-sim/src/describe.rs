@@ -44,20 +44,6 @@ pub struct DescribeAs {
     pub unit: Option<String>,
 }
 
-/// Every type a LUSTBUS description can name.
-const TYPES: [ParameterType; 10] = [
-    ParameterType::Binary8,
-    ParameterType::Fixpoint16,
-    ParameterType::Usign16,
-    ParameterType::Usign8,
-    ParameterType::VfError,
-    ParameterType::Password,
-    ParameterType::Integer16,
-    ParameterType::Int32Q16,
-    ParameterType::FloatIeee,
-    ParameterType::McError,
-];
-
 /// Parses a `describe=` value (module docs). The error says which item is
 /// wrong and what the grammar takes.
 pub fn parse(value: &str) -> Result<BTreeMap<u32, DescribeAs>, String> {
@@ -95,11 +81,11 @@ pub fn parse(value: &str) -> Result<BTreeMap<u32, DescribeAs>, String> {
                     "fsel" => d.kind = Some(StorageKind::FselIsel),
                     t => {
                         let name = format!("PT_{}", t.trim_start_matches("pt_").to_uppercase());
-                        d.ty = Some(TYPES.into_iter().find(|ty| ty.name() == name).ok_or_else(
+                        d.ty = Some(ParameterType::ALL.into_iter().find(|ty| ty.name() == name).ok_or_else(
                             || {
                                 format!(
                                     "`{part}`: `{item}` is neither a kind (actual, control, eeprom, fsel) nor a type ({})",
-                                    TYPES.map(|t| t.name().trim_start_matches("PT_").to_lowercase()).join(", ")
+                                    ParameterType::ALL.map(|t| t.name().trim_start_matches("PT_").to_lowercase()).join(", ")
                                 )
                             },
                         )?);
