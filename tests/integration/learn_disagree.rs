@@ -445,6 +445,14 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
     .unwrap();
     in_dir(d).args(["validate", "line.toml"]).assert().code(0);
     in_dir(d)
+        .args(["identify", "--port", port, "--address", "5"])
+        .args(["--schema", "schemas/vf1000.toml"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "\nuses:     pulled-vf1000-5 (learned, schemas/vf1000.toml)\n",
+        ));
+    in_dir(d)
         .args(["commission", "line.toml"])
         .assert()
         .code(0)
