@@ -506,3 +506,49 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         ))
         .stderr(predicate::str::contains("learned schema").not());
 }
+
+/// A described type the bounds do not fit, where the spec gives the type:
+/// the spec's type stands (the code is read with it), and the report says
+/// so instead of "not read".
+#[test]
+fn a_described_type_the_bounds_do_not_fit_keeps_the_spec_s_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("speed.toml");
+    driveset()
+        .args([
+            "schema",
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1&describe=77:integer16",
+            "--address",
+            "1",
+            "--family",
+            "mc6000",
+            "--params",
+            "77",
+            "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .code(0)
+        .stdout(predicate::str::ends_with(
+            "\n77-SPEED: downgraded: its min/max/default (0x80000000, 0x7FFFFFFF, 0x0) do not fit its type PT_INTEGER16; the spec's type PT_INT32Q16 stands\n",
+        ));
+    let set = dir.path().join("speed-set.toml");
+    driveset()
+        .args([
+            "pull",
+            "--port",
+            "sim://mc6000?addresses=1",
+            "--address",
+            "1",
+        ])
+        .arg("--schema")
+        .arg(&out)
+        .arg("-o")
+        .arg(&set)
+        .assert()
+        .code(0);
+    let text = std::fs::read_to_string(&set).unwrap();
+    assert!(text.contains(": 77-SPEED = 0 1/min, "), "{text}");
+}

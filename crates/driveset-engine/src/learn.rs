@@ -1116,6 +1116,20 @@ pub fn render_schema(
             }
         }
     }
+    // A type the learner downgraded or dropped does not matter where the
+    // spec gives the type: say so rather than "not read".
+    for f in &mut learned.findings {
+        if let Some(bt) = base.code(f.number).and_then(|b| base.type_of(b))
+            && f.action == "downgraded"
+            && f.reason.contains("type")
+        {
+            let head = f
+                .reason
+                .rsplit_once("; ")
+                .map_or(f.reason.as_str(), |(h, _)| h);
+            f.reason = format!("{head}; the spec's type {} stands", bt.name());
+        }
+    }
     let file = format!("{id}.toml");
     let mut dropped: BTreeSet<u32> = BTreeSet::new();
     let result = loop {
