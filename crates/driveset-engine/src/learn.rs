@@ -917,6 +917,7 @@ impl Contradictions {
     }
 }
 
+/// A storage kind as schema files spell it (`kind = "..."`).
 fn kind_name(k: StorageKind) -> &'static str {
     match k {
         StorageKind::RamActual => "ram-actual",
@@ -1489,15 +1490,7 @@ fn render_code(
         learned_facts.push("access");
     }
     if !role_stands && b.is_none_or(|b| b.kind.is_none()) {
-        lines.push(format!(
-            "kind = {}",
-            q(match c.kind {
-                StorageKind::RamActual => "ram-actual",
-                StorageKind::RamControl => "ram-control",
-                StorageKind::Eeprom => "eeprom",
-                StorageKind::FselIsel => "fsel-isel",
-            })
-        ));
+        lines.push(format!("kind = {}", q(kind_name(c.kind))));
         learned_facts.push("kind");
     }
     if let Some(basis) = c.basis
