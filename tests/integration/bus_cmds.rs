@@ -372,7 +372,7 @@ fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
         ])
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("in --params"));
+        .stderr(predicate::str::contains("--params: `5-1`: a range goes up"));
 }
 
 /// Issue 12: a drive left at the transfer rate by an interrupted

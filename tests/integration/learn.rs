@@ -284,7 +284,7 @@ fn schema_pull_with_a_forced_layout_reports_what_does_not_decode() {
         .assert()
         .code(0)
         .stdout(predicate::str::diff(format!(
-            "pulled 0 parameter descriptions (0 substitution texts) from sim://mc6000?addresses=1 address 1 into {} (schema id pulled-mc6000-1)\n1 of 2 parameters asked for are not on the drive (NAK)\nparameter 1: left out: its description does not decode: MC6000/7000 parameter description has 52 characters; expected 52, 43, 42 or 34 (the layout's length)\n",
+            "pulled 0 parameter descriptions (0 substitution texts) from sim://mc6000?addresses=1 address 1 into {} (schema id pulled-mc6000-1)\n1 of 2 parameters asked for are not on the drive (NAK)\n1-MODE: left out: its description does not decode: MC6000/7000 parameter description has 52 characters; expected 52, 43, 42 or 34 (the layout's length)\n",
             out.display()
         )));
     driveset()

@@ -17,6 +17,7 @@ mod inputs;
 mod junit;
 mod latency;
 mod learn;
+mod learn_disagree;
 mod line;
 mod proxy;
 mod pull;

@@ -159,10 +159,12 @@ impl LearnReport {
                 ))
         ));
         for f in &self.learned.findings {
-            out.push(format!(
-                "parameter {}: {}: {}",
-                f.number, f.action, f.reason
-            ));
+            if f.action == KEPT_SPEC {
+                // the reason names the code, both facts and the spec
+                out.push(f.reason.clone());
+            } else {
+                out.push(format!("{}: {}: {}", f.code, f.action, f.reason));
+            }
         }
         out
     }
@@ -184,6 +186,9 @@ impl LearnReport {
         })
     }
 }
+
+/// The action of a finding where the drive contradicts the spec.
+const KEPT_SPEC: &str = driveset_engine::learn::KEPT_SPEC;
 
 /// Whether a command should learn: a LUSTBUS schema that lacks facts,
 /// unless `--no-learn`.

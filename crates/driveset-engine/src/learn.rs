@@ -12,8 +12,21 @@
 //! gives (from the spec) stands**; the drive's description only fills the
 //! facts it leaves unset (type, unit, min, max, default, kind, width,
 //! card_writeable, access, value texts), and adds the parameters the spec
-//! does not name. Where the drive contradicts a spec fact, the file says so
-//! in a comment and keeps the spec's.
+//! does not name. Where the drive contradicts a spec fact (another kind,
+//! type, unit, min, max or default; an actual value where the spec has a
+//! command, control word or setpoint), the spec's fact stands for that
+//! code, the drive's is recorded as a guess in a `# drive says:` comment
+//! above the entry, and a [`KEPT_SPEC`] finding names the code, both facts
+//! and the spec section (docs/file-formats.md, "Learned schemas").
+//!
+//! # A learned schema is a schema
+//!
+//! The file carries `[schema.learned] asked` (the parameters asked for).
+//! [`needs_learning`] is false for a learned schema that asked for every
+//! parameter of its family; one that did not is learned on top of for the
+//! others only ([`options_for`]), and the result is the earlier file's own
+//! text with the new entries appended, so it extends the same base (an id
+//! every reader resolves).
 //!
 //! # Markers
 //!
@@ -37,8 +50,10 @@
 //! A description that does not decode at all is left out. Each case is a
 //! [`LearnFinding`] naming the parameter and why. After rendering, the
 //! schema is parsed and checked ([`driveset_schema::check_schema`]); a code
-//! the check still objects to is left out, so a learned file always passes
-//! `driveset schema check`.
+//! the check still objects to (the objection's line in its learned entry,
+//! or in the base entry a learned fact merged into) is left out, and the
+//! finding names the code and the check, so a learned file always passes
+//! `driveset schema check`; only an objection outside every code fails.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -52,9 +67,9 @@ use driveset_proto::lustbus::description::{
 };
 use driveset_proto::lustbus::{ParameterCode, ParameterType};
 use driveset_schema::error::SourceFile;
-use driveset_schema::schema::StorageKind;
+use driveset_schema::schema::{StorageKind, number_list_text};
 use driveset_schema::value::raw_to_engineering;
-use driveset_schema::{Family, Registry, Schema, ValueType, check_schema};
+use driveset_schema::{Code, Family, Location, Registry, Role, Schema, ValueType, check_schema};
 
 use crate::client::{DriveClient as _, IdentValue, Identity, LustbusClient};
 use crate::error::EngineError;
@@ -103,6 +118,9 @@ pub struct LearnedCode {
     /// MC: CardWriteable (activity area other than SC_Nothing), when the
     /// description carries the activity area.
     pub card_writeable: Option<bool>,
+    /// The description's kind character as sent (VF1000 '0'..'7',
+    /// MC '0'..'2').
+    pub kind_char: u8,
     /// Password (type PT_PASSWORD or the Password attribute).
     pub password: bool,
     /// MC: values shown as substitution texts: `Some(true)` by the
@@ -125,9 +143,13 @@ pub struct LearnedCode {
 /// not take as it came.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct LearnFinding {
+    /// The code as reports spell it (`11-STAT`; the description's name for
+    /// a code the base schema does not name), filled by [`render_schema`].
+    pub code: String,
     /// Parameter number.
     pub number: u32,
-    /// `left out` or `downgraded`.
+    /// `left out`, `downgraded`, or `kept the spec's` (the drive's
+    /// description contradicts a fact of the base schema, which stands).
     pub action: &'static str,
     /// Why.
     pub reason: String,
@@ -151,6 +173,8 @@ pub struct Learned {
     pub findings: Vec<LearnFinding>,
     /// Parameters asked for.
     pub asked: usize,
+    /// Their numbers (written as `[schema.learned] asked`).
+    pub asked_params: BTreeSet<u32>,
     /// Parameters the drive NAKed (no such parameter).
     pub absent: usize,
     /// Substitution texts read.
@@ -169,11 +193,16 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 }
 
 /// Whether `schema` lacks facts a drive's descriptions could fill: a
-/// LUSTBUS schema (not itself learned, `learned-...`, nor a fictional
-/// fixture, which is what the simulated drives are built from) with a code
-/// (other than a status code whose reading clears it) without a type, kind
-/// or range.
+/// learned schema (`[schema.learned]`) that did not ask for every
+/// parameter of its family ([`unasked`]); or a LUSTBUS schema (not itself
+/// learned, `learned-...`, nor a fictional fixture, which is what the
+/// simulated drives are built from) with a code (other than a status code
+/// whose reading clears it) without a type, kind or range. A learned
+/// schema that asked for every parameter is used as it is.
 pub fn needs_learning(schema: &Schema) -> bool {
+    if schema.learned.is_some() {
+        return !unasked(schema).is_empty();
+    }
     !schema.id.starts_with("learned-")
         && !schema.fictional
         && matches!(schema.family, Family::Mc6000 | Family::Vf1000)
@@ -183,6 +212,29 @@ pub fn needs_learning(schema: &Schema) -> bool {
                     || c.kind.is_none()
                     || (c.min.is_none() && c.max.is_none() && c.values.is_none()))
         })
+}
+
+/// The parameters of `schema`'s family a learned schema did not ask for
+/// (empty for a schema that is not learned).
+pub fn unasked(schema: &Schema) -> Vec<u32> {
+    match &schema.learned {
+        Some(l) => default_params(schema.family)
+            .into_iter()
+            .filter(|p| !l.asked.contains(p))
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
+/// The options to learn on top of `base`: a learned base asks only for
+/// the parameters it did not ask for ([`unasked`]) unless `opts` names
+/// them.
+pub fn options_for(base: &Schema, opts: &LearnOptions) -> LearnOptions {
+    let mut o = opts.clone();
+    if base.learned.is_some() && o.params.is_none() {
+        o.params = Some(unasked(base));
+    }
+    o
 }
 
 /// The file (and schema id) a learned schema is stored under:
@@ -372,6 +424,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -393,6 +446,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -415,6 +469,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -457,6 +512,7 @@ fn set_bounds(
         );
         c.guessed.push(msg.clone());
         findings.push(LearnFinding {
+            code: String::new(),
             number: n,
             action: "downgraded",
             reason: msg,
@@ -486,6 +542,7 @@ fn new_code(number: u32, name: &str, kind: StorageKind) -> LearnedCode {
         kind,
         basis: None,
         card_writeable: None,
+        kind_char: b'?',
         password: false,
         show_text: None,
         min: None,
@@ -538,6 +595,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                     decoded.push((r.number, d));
                 }
                 Err(e) => findings.push(LearnFinding {
+                    code: String::new(),
                     number: r.number,
                     action: "left out",
                     reason: format!("its description does not decode: {e}"),
@@ -567,6 +625,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 McKind::Eeprom => StorageKind::Eeprom,
             };
             let mut c = new_code(number, d.name.as_str(), kind);
+            c.kind_char = d.kind.code();
             c.unit_index = (d.unit != 0).then_some(d.unit);
             if let Some(e) = d.extension {
                 c.show_text = Some(e.attributes.0 & Attributes::SHOW_TEXT.0 != 0);
@@ -603,6 +662,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 c.show_text = Some(false);
                 c.guessed.push(msg.clone());
                 findings.push(LearnFinding {
+                    code: String::new(),
                     number,
                     action: "downgraded",
                     reason: msg,
@@ -628,6 +688,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 Ok(d) => d,
                 Err(e) => {
                     findings.push(LearnFinding {
+                        code: String::new(),
                         number: r.number,
                         action: "left out",
                         reason: format!("its description does not decode: {e}"),
@@ -642,6 +703,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
                 VfStorage::FselIsel => StorageKind::FselIsel,
             };
             let mut c = new_code(r.number, d.name.as_str().trim(), kind);
+            c.kind_char = d.kind.code();
             let unit = d.unit.as_str().trim().to_string();
             c.unit = (!unit.is_empty()).then_some(unit);
             c.basis = Some(!d.kind.inverter_specific);
@@ -672,6 +734,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
         codes,
         findings,
         asked: raws.len(),
+        asked_params: raws.iter().map(|r| r.number).collect(),
         absent: 0,
         texts_read: 0,
         descriptions_hash: hash,
@@ -787,6 +850,7 @@ pub fn learn<L: ByteLink>(
     let (raws, absent) = read_descriptions(client, protocol, &params)?;
     let mut learned = interpret(protocol, &raws, opts);
     learned.asked = params.len();
+    learned.asked_params = params.iter().copied().collect();
     learned.absent = absent;
     if !opts.no_texts {
         read_texts(client, &mut learned)?;
@@ -820,10 +884,219 @@ pub struct LearnedSchema {
     pub codes: usize,
 }
 
+/// The [`LearnFinding::action`] of a contradiction: the base schema's
+/// fact stands, the drive's is recorded in the learned file.
+pub const KEPT_SPEC: &str = "kept the spec's";
+
+/// One fact on which a drive's description contradicts its base schema
+/// (whose fact stands; module docs, merge rule).
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Disagreement {
+    /// The schema key (`kind`, `type`, `min`, `max`, `default`, `unit`).
+    fact: &'static str,
+    /// The drive's value, as a schema file spells it.
+    drive: String,
+    /// The base schema's value, as its file spells it.
+    spec: String,
+}
+
+/// What a drive's description of `c` contradicts in its base code `b`:
+/// the facts the base gives otherwise, and the role (a command, control
+/// word or setpoint the drive calls an actual value).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+struct Contradictions {
+    facts: Vec<Disagreement>,
+    /// The base's role where the drive describes a read-only actual value
+    /// of a code that role must write.
+    role: Option<Role>,
+}
+
+impl Contradictions {
+    fn is_empty(&self) -> bool {
+        self.facts.is_empty() && self.role.is_none()
+    }
+}
+
+/// A storage kind as schema files spell it (`kind = "..."`).
+fn kind_name(k: StorageKind) -> &'static str {
+    match k {
+        StorageKind::RamActual => "ram-actual",
+        StorageKind::RamControl => "ram-control",
+        StorageKind::Eeprom => "eeprom",
+        StorageKind::FselIsel => "fsel-isel",
+    }
+}
+
+fn kind_words(k: StorageKind) -> &'static str {
+    match k {
+        StorageKind::RamActual => "an actual value",
+        StorageKind::RamControl => "a RAM control value",
+        StorageKind::Eeprom => "an EEPROM value",
+        StorageKind::FselIsel => "an FSEL/ISEL variable",
+    }
+}
+
+fn fact_text(f: &driveset_schema::schema::Fact) -> String {
+    match &f.value {
+        driveset_schema::doc::NodeKind::Str(t) | driveset_schema::doc::NodeKind::Num(t) => {
+            t.clone()
+        }
+        other => format!("{other:?}"),
+    }
+}
+
+/// Whether a drive's unit string says the spec's (VF1000 descriptions
+/// carry at most 6 characters: a cut spec unit agrees).
+fn same_unit(drive: &str, spec: &str) -> bool {
+    let (d, s) = (drive.trim(), spec.trim());
+    d.eq_ignore_ascii_case(s)
+        || (d.chars().count() == 6 && s.to_ascii_lowercase().starts_with(&d.to_ascii_lowercase()))
+}
+
+fn contradictions(c: &LearnedCode, b: &Code, base: &Schema) -> Contradictions {
+    let mut out = Contradictions::default();
+    let base_type = base.type_of(b);
+    if let (Some(bt), Some(t)) = (base_type, c.ty)
+        && bt.name() != t.name()
+    {
+        out.facts.push(Disagreement {
+            fact: "type",
+            drive: t.name().into(),
+            spec: bt.name().into(),
+        });
+    }
+    let write_role = b.role.filter(|r| {
+        matches!(r, Role::ControlWord | Role::Command | Role::Setpoint)
+            && b.access != Some(driveset_schema::schema::Access::Ro)
+    });
+    match b.kind {
+        Some(k) if k != c.kind => out.facts.push(Disagreement {
+            fact: "kind",
+            drive: kind_name(c.kind).into(),
+            spec: kind_name(k).into(),
+        }),
+        None if c.kind == StorageKind::RamActual && write_role.is_some() => {
+            out.role = write_role;
+        }
+        _ => {}
+    }
+    if let (Some(u), Some(bu)) = (&c.unit, &b.unit)
+        && !same_unit(u, bu)
+    {
+        out.facts.push(Disagreement {
+            fact: "unit",
+            drive: u.clone(),
+            spec: bu.clone(),
+        });
+    }
+    // Bounds compare raw, in the spec's type, else the drive's (a type
+    // disagreement says the rest).
+    let vt = base_type.or_else(|| c.ty.and_then(|t| ValueType::from_name(t.name())));
+    if let Some(vt) = vt
+        && c.ty.is_none_or(|t| t.name() == vt.name())
+    {
+        for (fact, drive, spec) in [
+            ("min", c.min, b.min.as_ref()),
+            ("max", c.max, b.max.as_ref()),
+            ("default", c.default, b.default.as_ref()),
+        ] {
+            let (Some(d), Some(f)) = (drive, spec) else {
+                continue;
+            };
+            // The spec's fact in raw units: as the schema converts it,
+            // or (a code the spec gives no type) in the drive's type.
+            let spec_raw = match base.fact_raw(b, f) {
+                Ok(driveset_schema::canonical::RawValue::Int(raw)) => Some(raw),
+                Ok(_) => None,
+                Err(_) => driveset_schema::Decimal::parse(&fact_text(f))
+                    .ok()
+                    .and_then(|v| driveset_schema::value::decimal_to_raw(vt, b.width, &v).ok()),
+            };
+            if let Some(raw) = spec_raw
+                && raw != d
+            {
+                out.facts.push(Disagreement {
+                    fact,
+                    drive: raw_to_engineering(vt, d),
+                    spec: fact_text(f),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Where the base schema's facts of `b` come from, as reports cite it
+/// (`lustbus-protocol.txt section 8.1.1`).
+fn spec_source(b: &Code, base: &Schema) -> String {
+    b.spec
+        .clone()
+        .or_else(|| base.spec.clone())
+        .unwrap_or_else(|| format!("schema {}", base.id))
+        .replace('§', "section ")
+}
+
+/// The report's sentence for a contradiction (issue 18's wording).
+fn contradiction_message(c: &LearnedCode, b: &Code, base: &Schema, x: &Contradictions) -> String {
+    let code = base.display_code(c.number, None);
+    let spec = spec_source(b, base);
+    let ty = c.ty.map_or_else(
+        || "an unknown type".to_string(),
+        |t| t.name().trim_start_matches("PT_").to_string(),
+    );
+    let mut parts = Vec::new();
+    if let Some(role) = x.role {
+        let role = role.as_str().replace('-', " ");
+        parts.push(format!(
+            "the drive describes {} (kind {}, {ty}); {spec} makes it a {role}: kept as a {role}{}",
+            kind_words(c.kind),
+            show_char(c.kind_char).trim_matches('\''),
+            if x.role.is_some_and(Role::left_out_of_pulled_sets) {
+                ", left out of the set"
+            } else {
+                ""
+            }
+        ));
+    }
+    if !x.facts.is_empty() {
+        parts.push(format!(
+            "the drive describes {}; {spec} gives {}: the spec's {} (the drive's recorded in the learned file)",
+            x.facts
+                .iter()
+                .map(|d| format!("{} {}", d.fact, d.drive))
+                .collect::<Vec<_>>()
+                .join(", "),
+            x.facts
+                .iter()
+                .map(|d| format!("{} {}", d.fact, d.spec))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if x.facts.len() == 1 { "stands" } else { "stand" }
+        ));
+    }
+    format!("{code}: {}", parts.join("; "))
+}
+
+/// How reports name learned parameter `number`: the base schema's display
+/// code, else `<number>-<the description's name>`.
+fn code_name(learned: &Learned, base: &Schema, number: u32) -> String {
+    if base.code(number).is_some() {
+        return base.display_code(number, None);
+    }
+    match learned.codes.iter().find(|c| c.number == number) {
+        Some(c) if !c.name.trim().is_empty() => format!("{number}-{}", c.name.trim()),
+        _ => number.to_string(),
+    }
+}
+
 /// Renders `learned` as a schema file extending `base` (merge rule in the
 /// module docs), parses and checks it, and leaves out any code the check
-/// objects to (recorded in `learned.findings`). `registry` must hold
-/// `base`.
+/// objects to (recorded in `learned.findings`, naming the code and the
+/// check). Where the drive contradicts a fact of `base`, the base's fact
+/// stands, the drive's is recorded in the file (`# drive says:`) and a
+/// `kept the spec's` finding names the code, both facts and the spec
+/// section. `registry` must hold `base`. Fails only when the file's own
+/// head (not a code) does not check.
 pub fn render_schema(
     learned: &mut Learned,
     base: &Schema,
@@ -831,49 +1104,113 @@ pub fn render_schema(
     source: &LearnSource,
     registry: &Registry,
 ) -> Result<LearnedSchema, String> {
+    for c in &learned.codes {
+        if let Some(b) = base.code(c.number) {
+            let x = contradictions(c, b, base);
+            if !x.is_empty() {
+                learned.findings.push(LearnFinding {
+                    code: String::new(),
+                    number: c.number,
+                    action: KEPT_SPEC,
+                    reason: contradiction_message(c, b, base, &x),
+                });
+            }
+        }
+    }
+    // A type the learner downgraded or dropped does not matter where the
+    // spec gives the type: say so rather than "not read".
+    for f in &mut learned.findings {
+        if let Some(bt) = base.code(f.number).and_then(|b| base.type_of(b))
+            && f.action == "downgraded"
+            && f.reason.contains("type")
+        {
+            let head = f
+                .reason
+                .rsplit_once("; ")
+                .map_or(f.reason.as_str(), |(h, _)| h);
+            f.reason = format!("{head}; the spec's type {} stands", bt.name());
+        }
+    }
+    let file = format!("{id}.toml");
     let mut dropped: BTreeSet<u32> = BTreeSet::new();
-    for _ in 0..8 {
+    let result = loop {
         let (text, spans) = render_text(learned, base, id, source, &dropped);
         let mut reg = registry.clone();
-        let parsed = reg.add_source(SourceFile::new(format!("{id}.toml"), text.clone()));
-        let objections: Vec<(usize, String)> = match parsed {
-            Ok(schema) => check_schema(&schema)
+        let parsed = reg.add_source(SourceFile::new(file.clone(), text.clone()));
+        let objections: Vec<(Location, String)> = match &parsed {
+            Ok(schema) => check_schema(schema)
                 .into_iter()
-                .map(|f| (f.location.line, f.message))
+                .map(|f| (f.location, f.message))
                 .collect(),
-            Err(e) => vec![(e.location.line, e.message.clone())],
+            Err(e) => vec![((*e.location).clone(), e.message.clone())],
         };
         if objections.is_empty() {
             let schema = reg
                 .get(id)
                 .ok_or_else(|| format!("learned schema {id} vanished"))?;
             let codes = learned.codes.len() - dropped.len();
-            return Ok(LearnedSchema {
+            break Ok(LearnedSchema {
                 id: id.to_string(),
                 text,
                 schema,
                 codes,
             });
         }
+        // The code an objection is about: the learned entry holding its
+        // line, or (a fact merged into a base code) the base code whose
+        // entry holds it.
+        let owner = |loc: &Location| -> Option<u32> {
+            if loc.file == file {
+                return spans
+                    .iter()
+                    .find(|(_, r)| r.contains(&loc.line))
+                    .map(|(n, _)| *n);
+            }
+            let codes = parsed.as_ref().map_or(&base.codes, |s| &s.codes);
+            codes
+                .iter()
+                .filter(|c| c.loc.file == loc.file && c.loc.line <= loc.line)
+                .max_by_key(|c| c.loc.line)
+                .map(|c| c.number)
+                .filter(|n| learned.codes.iter().any(|c| c.number == *n))
+        };
         let mut progress = false;
-        for (line, msg) in objections {
-            if let Some((n, _)) = spans.iter().find(|(_, r)| r.contains(&line))
-                && dropped.insert(*n)
-            {
-                learned.findings.push(LearnFinding {
-                    number: *n,
-                    action: "left out",
-                    reason: format!("the learned entry fails `schema check`: {msg}"),
-                });
-                progress = true;
-            } else if !progress {
-                return Err(format!(
-                    "the learned schema fails `schema check` at line {line}: {msg}"
-                ));
+        let mut unowned = Vec::new();
+        for (loc, msg) in objections {
+            match owner(&loc) {
+                Some(n) if !dropped.contains(&n) => {
+                    dropped.insert(n);
+                    learned.findings.push(LearnFinding {
+                        code: String::new(),
+                        number: n,
+                        action: "left out",
+                        reason: format!(
+                            "the learned entry fails `schema check` ({}:{}): {msg}",
+                            loc.file, loc.line
+                        ),
+                    });
+                    progress = true;
+                }
+                Some(_) => {}
+                None => unowned.push(format!("{}:{}: {msg}", loc.file, loc.line)),
             }
         }
+        if !progress {
+            break Err(format!(
+                "the learned schema {id} fails `schema check` outside any learned code: {}",
+                unowned.join("; ")
+            ));
+        }
+    };
+    let names: Vec<String> = learned
+        .findings
+        .iter()
+        .map(|f| code_name(learned, base, f.number))
+        .collect();
+    for (f, name) in learned.findings.iter_mut().zip(names) {
+        f.code = name;
     }
-    Err("the learned schema still fails `schema check` after leaving out codes".into())
+    result
 }
 
 /// The file text and the line range of each learned code's entry.
@@ -885,6 +1222,9 @@ fn render_text(
     dropped: &BTreeSet<u32>,
 ) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
     let mc = learned.protocol == Family::Mc6000;
+    if let Some(prev) = &base.learned {
+        return render_on_learned(learned, base, prev, id, source, dropped);
+    }
     let mut out = String::new();
     let ident: Vec<String> = source
         .identity
@@ -970,6 +1310,24 @@ fn render_text(
         "note = {}",
         q("learned: the TYPE the drive reported when its descriptions were read")
     );
+    let _ = writeln!(
+        out,
+        "\n[schema.learned]\nasked = {}",
+        q(&number_list_text(&learned.asked_params))
+    );
+    let (out, spans) = render_entries(out, learned, base, dropped, mc);
+    (out, spans)
+}
+
+/// Appends the entries of the learned codes (not in `dropped`) to `out`;
+/// returns the text and the line range of each entry.
+fn render_entries(
+    mut out: String,
+    learned: &Learned,
+    base: &Schema,
+    dropped: &BTreeSet<u32>,
+    mc: bool,
+) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
     let mut names: BTreeSet<String> = base.codes.iter().map(|c| c.name.clone()).collect();
     let mut spans = Vec::new();
     for c in &learned.codes {
@@ -982,6 +1340,52 @@ fn render_text(
         spans.push((c.number, start..end));
     }
     (out, spans)
+}
+
+/// A schema learned on top of a learned one (`prev`, the file `base` was
+/// read from): that file's own text with the new `id` and the union of
+/// the parameters asked for, and the newly learned codes' entries
+/// appended, so the result extends the same base as `prev` (a schema id
+/// every reader resolves) and carries every entry of both.
+fn render_on_learned(
+    learned: &Learned,
+    base: &Schema,
+    prev: &driveset_schema::schema::LearnedFrom,
+    id: &str,
+    source: &LearnSource,
+    dropped: &BTreeSet<u32>,
+) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
+    let mc = learned.protocol == Family::Mc6000;
+    let asked: BTreeSet<u32> = prev.asked.union(&learned.asked_params).copied().collect();
+    let mut out = String::new();
+    let mut table = "";
+    for line in prev.text.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            table = if t == "[schema]" {
+                "schema"
+            } else if t == "[schema.learned]" {
+                "learned"
+            } else {
+                "other"
+            };
+        }
+        if table == "schema" && t.starts_with("id ") | t.starts_with("id=") {
+            let _ = writeln!(out, "id = {}", q(id));
+        } else if table == "learned" && t.starts_with("asked") {
+            let _ = writeln!(out, "asked = {}", q(&number_list_text(&asked)));
+        } else {
+            let _ = writeln!(out, "{line}");
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\n# Learned on top of `{}` from {}: parameters {}.",
+        base.id,
+        source.drive,
+        number_list_text(&learned.asked_params)
+    );
+    render_entries(out, learned, base, dropped, mc)
 }
 
 fn render_code(
@@ -1030,21 +1434,31 @@ fn render_code(
         ));
     }
     let base_type = b.and_then(|b| base.type_of(b));
-    let mut ty_ok = true;
-    match (base_type, c.ty) {
-        (None, Some(t)) => {
-            lines.push(format!("type = {}", q(t.name())));
-            learned_facts.push("type");
+    let against = b.map(|b| contradictions(c, b, base)).unwrap_or_default();
+    if !against.is_empty() {
+        // The drive's facts as a guess beside the spec's (docs/file-formats.md,
+        // "Learned schema files").
+        let mut said: Vec<String> = Vec::new();
+        let mut stands: Vec<String> = Vec::new();
+        if let Some(r) = against.role {
+            said.push(format!("kind = {}", q(kind_name(c.kind))));
+            stands.push(format!("role = {}", q(r.as_str())));
         }
-        (Some(bt), Some(t)) if bt.name() != t.name() => {
-            comments.push(format!(
-                "# the drive describes it as {}; the spec's {} stands",
-                t.name(),
-                bt.name()
-            ));
-            ty_ok = false;
+        for d in &against.facts {
+            said.push(format!("{} = {}", d.fact, q(&d.drive)));
+            stands.push(format!("{} = {}", d.fact, q(&d.spec)));
         }
-        _ => {}
+        comments.push(format!(
+            "# drive says: {} (a guess; the spec's {} stands, {})",
+            said.join(", "),
+            stands.join(", "),
+            b.map(|b| spec_source(b, base)).unwrap_or_default()
+        ));
+    }
+    let ty_ok = !against.facts.iter().any(|d| d.fact == "type");
+    if let (None, Some(t)) = (base_type, c.ty) {
+        lines.push(format!("type = {}", q(t.name())));
+        learned_facts.push("type");
     }
     let eff_type = base_type.or_else(|| c.ty.and_then(|t| ValueType::from_name(t.name())));
     if let Some(u) = &c.unit
@@ -1070,20 +1484,13 @@ fn render_code(
             learned_facts.push("default");
         }
     }
-    if c.kind == StorageKind::RamActual && b.is_none_or(|b| b.access.is_none()) {
+    let role_stands = against.role.is_some();
+    if c.kind == StorageKind::RamActual && !role_stands && b.is_none_or(|b| b.access.is_none()) {
         lines.push("access = \"ro\"".into());
         learned_facts.push("access");
     }
-    if b.is_none_or(|b| b.kind.is_none()) {
-        lines.push(format!(
-            "kind = {}",
-            q(match c.kind {
-                StorageKind::RamActual => "ram-actual",
-                StorageKind::RamControl => "ram-control",
-                StorageKind::Eeprom => "eeprom",
-                StorageKind::FselIsel => "fsel-isel",
-            })
-        ));
+    if !role_stands && b.is_none_or(|b| b.kind.is_none()) {
+        lines.push(format!("kind = {}", q(kind_name(c.kind))));
         learned_facts.push("kind");
     }
     if let Some(basis) = c.basis
@@ -1190,7 +1597,7 @@ pub fn pull_schema<L: ByteLink>(
     registry: &Registry,
 ) -> Result<PulledSchema, PullSchemaError> {
     let identity = client.identify()?;
-    let mut learned = learn(client, base.family, opts)?;
+    let mut learned = learn(client, base.family, &options_for(base, opts))?;
     client.finish()?;
     let id = id.map_or_else(
         || learned_id(base.family, &identity, &learned),

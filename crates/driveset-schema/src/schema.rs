@@ -2,7 +2,7 @@
 //! from TOML with locations, fixture-schema `extends`, and the [`Registry`]
 //! of built-in and loaded schemas.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -300,9 +300,70 @@ pub struct Schema {
     pub fictional_loc: Location,
     /// Problems found while merging a fixture over its base (reported by `check_schema`).
     pub merge_findings: Vec<Finding>,
+    /// `[schema.learned]`: the file was learned from a drive's own
+    /// descriptions (this file's own table; an extending file does not
+    /// inherit it).
+    pub learned: Option<LearnedFrom>,
     by_number: BTreeMap<u32, usize>,
     by_name: crate::fnv::FnvMap<String, usize>,
     numeric_names: bool,
+}
+
+/// `[schema.learned]` of a schema file learned from a drive's own
+/// parameter descriptions (docs/file-formats.md, "Learned schema files").
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LearnedFrom {
+    /// The parameters whose descriptions were asked for (`asked`): a
+    /// command learns again only for parameters outside this.
+    pub asked: BTreeSet<u32>,
+    /// The file's own text (a schema learned on top of this one extends
+    /// the same base and carries these entries).
+    pub text: Arc<str>,
+}
+
+/// Parses a list of parameter numbers and ranges, `1-99` or
+/// `1,5,100-120`, into the numbers (the form of `--params` and of
+/// `[schema.learned] asked`).
+pub fn parse_number_list(text: &str) -> Result<BTreeSet<u32>, String> {
+    let mut out = BTreeSet::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (a, b) = match part.split_once('-') {
+            Some((a, b)) => (a.trim(), b.trim()),
+            None => (part, part),
+        };
+        let num = |s: &str| {
+            s.parse::<u32>()
+                .map_err(|_| format!("`{part}` is not a number or a range like 1-99"))
+        };
+        let (a, b) = (num(a)?, num(b)?);
+        if a > b {
+            return Err(format!("`{part}`: a range goes up"));
+        }
+        out.extend(a..=b);
+    }
+    if out.is_empty() {
+        return Err("names no parameter".into());
+    }
+    Ok(out)
+}
+
+/// The shortest [`parse_number_list`] text of `numbers` (`1-99,101`).
+pub fn number_list_text(numbers: &BTreeSet<u32>) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut it = numbers.iter().copied().peekable();
+    while let Some(a) = it.next() {
+        let mut b = a;
+        while it.peek() == Some(&(b + 1)) {
+            b += 1;
+            it.next();
+        }
+        parts.push(if a == b {
+            a.to_string()
+        } else {
+            format!("{a}-{b}")
+        });
+    }
+    parts.join(",")
 }
 
 /// Code numbers of CiA 301 objects kept by index (`[[code]] index`):
@@ -1038,6 +1099,26 @@ pub fn parse_schema(
             b
         }
     };
+    let learned = match h.take("learned") {
+        None => None,
+        Some(e) => {
+            let mut lr = Reader::new(&doc, &e.value, "[schema.learned]")?;
+            let (asked, loc) = lr.required_string("asked")?;
+            let asked = parse_number_list(&asked).map_err(|m| {
+                InputError::new(
+                    InputErrorKind::Structure,
+                    loc,
+                    format!("[schema.learned] asked: {m}"),
+                    "list the parameters whose descriptions were asked for, e.g. \"1-99\" or \"1,5,100-120\"",
+                )
+            })?;
+            lr.finish()?;
+            Some(LearnedFrom {
+                asked,
+                text: doc.source.text.clone(),
+            })
+        }
+    };
     let head_loc = h.loc();
     h.finish()?;
 
@@ -1114,6 +1195,7 @@ pub fn parse_schema(
                 id_loc: id_loc.clone(),
                 fictional_loc: head_loc.clone(),
                 merge_findings: Vec::new(),
+                learned: None,
                 by_number: BTreeMap::new(),
                 by_name: Default::default(),
                 numeric_names: false,
@@ -1125,6 +1207,7 @@ pub fn parse_schema(
     schema.id_loc = id_loc;
     schema.fictional = fictional.unwrap_or(false);
     schema.fictional_loc = fictional_loc;
+    schema.learned = learned;
     schema.extends = extends.map(|e| e.0);
     schema.path = doc.source.path.clone();
     let base_fingerprint = schema.extends.is_some().then(|| schema.fingerprint.clone());
@@ -1454,5 +1537,51 @@ impl Registry {
     /// All schemas, by id.
     pub fn schemas(&self) -> impl Iterator<Item = &Arc<Schema>> {
         self.schemas.values()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{number_list_text, parse_number_list};
+
+    #[test]
+    fn number_lists_parse_and_print_back() {
+        let n = parse_number_list("1-3, 7,5,100-102").unwrap();
+        assert_eq!(
+            n.iter().copied().collect::<Vec<_>>(),
+            [1, 2, 3, 5, 7, 100, 101, 102]
+        );
+        assert_eq!(number_list_text(&n), "1-3,5,7,100-102");
+        assert_eq!(
+            number_list_text(&parse_number_list("1-999").unwrap()),
+            "1-999"
+        );
+        assert_eq!(
+            parse_number_list("5-1").unwrap_err(),
+            "`5-1`: a range goes up"
+        );
+        assert_eq!(
+            parse_number_list("x").unwrap_err(),
+            "`x` is not a number or a range like 1-99"
+        );
+        assert_eq!(parse_number_list(" , ").unwrap_err(), "names no parameter");
+    }
+
+    #[test]
+    fn a_learned_table_is_read_and_not_inherited() {
+        use crate::error::SourceFile;
+        let mut reg = super::Registry::builtin().unwrap();
+        let text = "[schema]\nid = \"l\"\ntitle = \"t\"\nextends = \"lust-vf1000\"\n\n[schema.learned]\nasked = \"1-9,11\"\n";
+        let s = reg.add_source(SourceFile::new("l.toml", text)).unwrap();
+        let l = s.learned.as_ref().unwrap();
+        assert_eq!(number_list_text(&l.asked), "1-9,11");
+        assert_eq!(&*l.text, text);
+        let over = "[schema]\nid = \"m\"\ntitle = \"t\"\nextends = \"l\"\n";
+        let m = reg.add_source(SourceFile::new("m.toml", over)).unwrap();
+        assert!(m.learned.is_none());
+        let bad = "[schema]\nid = \"b\"\ntitle = \"t\"\nextends = \"lust-vf1000\"\n\n[schema.learned]\nasked = \"9-1\"\n";
+        let e = reg.add_source(SourceFile::new("b.toml", bad)).unwrap_err();
+        assert_eq!(e.message, "[schema.learned] asked: `9-1`: a range goes up");
+        assert_eq!(e.location.line, 7);
     }
 }

@@ -25,6 +25,7 @@
 pub mod bus;
 pub mod can_bus;
 pub mod catalog;
+pub mod describe;
 pub mod drive;
 pub mod ecs;
 pub mod faults;

@@ -28,6 +28,7 @@ use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use driveset_schema::schema::StorageKind;
 
 use crate::catalog::{self, Family};
+use crate::describe::DescribeAs;
 use crate::drive::{ByteDrive, Heard, ReactionTime, Reply as LineReply};
 use crate::rng::SimRng;
 use crate::table::{Param, ParamTable};
@@ -61,6 +62,9 @@ pub struct LustOptions {
     pub description_layout: McLayout,
     /// MC6000/7000: the type characters of its descriptions (errata L23).
     pub type_chars: McTypeChars,
+    /// Parameters whose description says something other than the
+    /// fixture (`describe=`, [`crate::describe`]).
+    pub describe: BTreeMap<u32, DescribeAs>,
 }
 
 impl LustOptions {
@@ -74,6 +78,7 @@ impl LustOptions {
             boot_time: Duration::from_secs(1),
             description_layout: McLayout::Hex52,
             type_chars: McTypeChars::Driveset,
+            describe: BTreeMap::new(),
         }
     }
 
@@ -177,6 +182,8 @@ pub(crate) struct LustCore {
     pub boot_time: Duration,
     pub description_layout: McLayout,
     pub type_chars: McTypeChars,
+    /// Descriptions that disagree with the fixture ([`crate::describe`]).
+    pub describe: BTreeMap<u32, DescribeAs>,
 }
 
 impl LustCore {
@@ -204,6 +211,14 @@ impl LustCore {
             .map(|u| printable(&u))
             .filter(|u| !u.trim().is_empty())
             .collect();
+        let mut units: BTreeSet<String> = units;
+        units.extend(
+            opts.describe
+                .values()
+                .filter_map(|d| d.unit.as_deref())
+                .map(printable)
+                .filter(|u| !u.trim().is_empty()),
+        );
         let mut units: Vec<String> = units.into_iter().collect();
         units.insert(0, String::new());
         let mut core = LustCore {
@@ -224,6 +239,7 @@ impl LustCore {
             boot_time: opts.boot_time,
             description_layout: opts.description_layout,
             type_chars: opts.type_chars.clone(),
+            describe: opts.describe.clone(),
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);
@@ -525,7 +541,7 @@ impl LustCore {
             RawValue::Int(v) => Some(v),
             _ => None,
         };
-        let d = VfDescription {
+        let mut d = VfDescription {
             name: ShortText::new(&short_name(&p.name, 6)).unwrap_or_default(),
             unit: ShortText::new(&truncate(&printable(&unit), 6)).unwrap_or_default(),
             kind: VfKind {
@@ -537,6 +553,23 @@ impl LustCore {
             max: w(p.max),
             default: w(factory),
         };
+        if let Some(o) = self.describe.get(&p.key.number) {
+            let raw = |v: i64| (v & 0xFFFF) as u16;
+            d.kind.storage = match o.kind {
+                Some(StorageKind::RamActual) => VfStorage::RamActual,
+                Some(StorageKind::RamControl) => VfStorage::RamControl,
+                Some(StorageKind::Eeprom) => VfStorage::Eeprom,
+                Some(StorageKind::FselIsel) => VfStorage::FselIsel,
+                None => d.kind.storage,
+            };
+            d.ty = o.ty.unwrap_or(d.ty);
+            d.min = o.min.map_or(d.min, raw);
+            d.max = o.max.map_or(d.max, raw);
+            d.default = o.default.map_or(d.default, raw);
+            if let Some(u) = &o.unit {
+                d.unit = ShortText::new(&truncate(&printable(u), 6)).unwrap_or_default();
+            }
+        }
         d.encode().ok()
     }
 
@@ -557,12 +590,28 @@ impl LustCore {
             None if p.writable() => McKind::RamControl,
             None => McKind::RamActual,
         };
-        let ty = self.wire_type(p);
-        let w = |r: Option<i64>| r.and_then(|r| self.to_wire(p, r)).map_or(0, |v| v.raw());
+        let over = self.describe.get(&p.key.number);
+        let kind = match over.and_then(|o| o.kind) {
+            Some(StorageKind::RamActual) => McKind::RamActual,
+            Some(StorageKind::RamControl) => McKind::RamControl,
+            Some(StorageKind::Eeprom | StorageKind::FselIsel) => McKind::Eeprom,
+            None => kind,
+        };
+        let ty = over.and_then(|o| o.ty).unwrap_or_else(|| self.wire_type(p));
+        let fixture = |r: Option<i64>| r.and_then(|r| self.to_wire(p, r)).map_or(0, |v| v.raw());
+        let given = |v: i64| match ty {
+            ParameterType::Integer16 => u32::from(v as i16 as u16),
+            _ => v as u32,
+        };
         let factory = match p.factory {
             RawValue::Int(v) => Some(v),
             _ => None,
         };
+        let (min, max, default) = (
+            over.and_then(|o| o.min).map_or(fixture(p.min), given),
+            over.and_then(|o| o.max).map_or(fixture(p.max), given),
+            over.and_then(|o| o.default).map_or(fixture(factory), given),
+        );
         let mut attributes = Attributes(0);
         if ty == ParameterType::Usign8 && !p.enum_values.is_empty() {
             attributes = Attributes(attributes.0 | Attributes::SHOW_TEXT.0);
@@ -575,9 +624,9 @@ impl LustCore {
             unit: self.unit_index(p),
             kind,
             ty,
-            min: w(p.min),
-            max: w(p.max),
-            default: w(factory),
+            min,
+            max,
+            default,
             extended: McExtended::Decoded(McExtension {
                 level: UserLevel::default(),
                 attributes,
@@ -595,10 +644,10 @@ impl LustCore {
 
     fn unit_index(&self, p: &Param) -> u8 {
         let unit = self
-            .table
-            .schema()
-            .code(p.key.number)
-            .and_then(|c| c.unit.clone())
+            .describe
+            .get(&p.key.number)
+            .and_then(|d| d.unit.clone())
+            .or_else(|| self.table.schema().code(p.key.number)?.unit.clone())
             .map(|u| printable(&u))
             .unwrap_or_default();
         self.units

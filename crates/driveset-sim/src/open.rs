@@ -43,6 +43,11 @@
 //!   in that layout and with those type characters (the readings errata
 //!   L22 and L23 discuss; default 52 and driveset's characters), so that
 //!   `schema pull` and the learning `pull` can be tested against each.
+//! - `describe=N:ITEM[:ITEM...][;N:...]` (LUSTBUS): parameter `N`'s own
+//!   description says another kind, type, range or unit than the fixture
+//!   (`11:actual:binary8`, `100:min=2:max=5`, `134:unit=rpm`; grammar in
+//!   [`crate::describe`]), the way a real drive may contradict the spec;
+//!   the parameter itself behaves as the fixture says.
 //! - `state=FILE`: load the drives' state from a dump at open if the file
 //!   exists, save it back when the link is dropped (or on
 //!   [`SimLink::save`]). `driveset-link`'s port parser does not accept this
@@ -302,6 +307,9 @@ pub struct SimConfig {
     pub type_chars: McTypeChars,
     /// Tmd: C0001 as set at the keypad (§4e); `None` = Table 1's 0.
     pub c0001: Option<u8>,
+    /// LUSTBUS: parameters whose description says something other than
+    /// the fixture (`describe=`, [`crate::describe`]).
+    pub describe: BTreeMap<u32, crate::describe::DescribeAs>,
 }
 
 impl SimConfig {
@@ -321,6 +329,7 @@ impl SimConfig {
             description_layout: McLayout::Hex52,
             type_chars: McTypeChars::Driveset,
             c0001: None,
+            describe: BTreeMap::new(),
         }
     }
 
@@ -413,6 +422,9 @@ impl SimConfig {
                         .ok_or_else(|| bad("use 52, 43, 42 or 34 (errata L22)"))?;
                 }
                 "types" => config.type_chars = McTypeChars::parse(value).map_err(|e| bad(&e))?,
+                "describe" => {
+                    config.describe = crate::describe::parse(value).map_err(|e| bad(&e))?
+                }
                 "c0001" => {
                     config.c0001 = Some(
                         value
@@ -485,6 +497,7 @@ impl SimConfig {
             let mut lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
             lust.description_layout = self.description_layout;
             lust.type_chars = self.type_chars.clone();
+            lust.describe = self.describe.clone();
             let built: Result<Box<dyn ByteDrive>, String> = match family {
                 Family::Mc6000 => Mc6000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),

@@ -13,7 +13,7 @@
 //! | `mc6000`, `mc7000`, `vf1000` | a mixed LUSTBUS's drives per family ([`MIXED_LUSTBUS`]) |
 //! | `baud` | the 7E1 line rate (one of `driveset_link::spec::ALLOWED_BAUDS`) |
 //! | `bitrate` | the CAN bit rate |
-//! | `c0001`, `faults`, `keypad`, `layout`, `seed`, `state`, `types` | [`OPTION_KEYS`], see [`crate::open`] |
+//! | `c0001`, `describe`, `faults`, `keypad`, `layout`, `seed`, `state`, `types` | [`OPTION_KEYS`], see [`crate::open`] |
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -31,7 +31,7 @@ use crate::open::{SimConfig, SimOpenError, is_can, open_sim_with, parse_family};
 /// Simulator options besides the drives, `baud` and `bitrate`, passed on to
 /// [`SimConfig::from_spec`] as text (`seed` must be a whole number).
 pub const OPTION_KEYS: &[&str] = &[
-    "c0001", "faults", "keypad", "layout", "seed", "state", "types",
+    "c0001", "describe", "faults", "keypad", "layout", "seed", "state", "types",
 ];
 
 /// The keys of one run, not of the simulated bus: they are not part of
@@ -44,6 +44,7 @@ pub const KEYS: &[&str] = &[
     "baud",
     "bitrate",
     "c0001",
+    "describe",
     "faults",
     "keypad",
     "layout",
@@ -668,7 +669,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, faults, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, faults, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
         );
         let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
         assert_eq!(

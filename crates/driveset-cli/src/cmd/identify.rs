@@ -164,7 +164,9 @@ fn learned_status(
     path: Option<&Path>,
     dir: &Path,
 ) -> (String, bool, Option<PathBuf>) {
-    if schema.id.starts_with("learned-") {
+    if (schema.learned.is_some() || schema.id.starts_with("learned-"))
+        && !driveset_engine::learn::needs_learning(schema)
+    {
         return (schema.id.clone(), true, path.map(Path::to_path_buf));
     }
     if !driveset_engine::learn::needs_learning(schema) {

@@ -8,7 +8,6 @@
 //! check`. Nothing but the RAM selector 108-STEXT is written, and it is set
 //! back to what it held.
 
-use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -40,7 +39,13 @@ errata L23); --description-layout and --type-chars override the guesses. A
 description that contradicts itself (minimum above maximum, default outside
 the range, bounds the type cannot hold, an unknown type character) is
 downgraded, one that does not decode is left out; each is listed with the
-reason. Without --family the family is found by read-only probes.
+reason. Where a description contradicts the built-in schema (another
+kind, type, range or unit; an actual value where the spec has a command),
+the spec's fact stands, the drive's is recorded as `# drive says:` beside
+the code, and a line names the code, both facts and the spec section. The
+file's [schema.learned] asked lists the parameters asked for; commands given
+the file use it as it is (learning only parameters outside it). Without
+--family the family is found by read-only probes.
 
 Exit codes: 0 written, 2 usage or input error, 3 bus or device failure.
 
@@ -84,28 +89,15 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     schema_pull(&args)
 }
 
-/// `1-99`, `1,5,100-120` -> sorted unique numbers.
+/// `1-99`, `1,5,100-120` -> sorted unique numbers (the grammar of
+/// `driveset_schema::schema::parse_number_list`), each within 0..=`max`.
 pub fn parse_params(text: &str, max: u32) -> Result<Vec<u32>, String> {
-    let mut out = BTreeSet::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (a, b) = match part.split_once('-') {
-            Some((a, b)) => (a.trim(), b.trim()),
-            None => (part, part),
-        };
-        let num = |s: &str| {
-            s.parse::<u32>()
-                .map_err(|_| format!("`{part}` in --params is not a number or a range like 1-99"))
-        };
-        let (a, b) = (num(a)?, num(b)?);
-        if a > b || b > max {
-            return Err(format!(
-                "`{part}` in --params: ranges go up, within 0..={max} for this family"
-            ));
-        }
-        out.extend(a..=b);
-    }
-    if out.is_empty() {
-        return Err("--params names no parameter".into());
+    let out =
+        driveset_schema::schema::parse_number_list(text).map_err(|e| format!("--params: {e}"))?;
+    if let Some(n) = out.iter().find(|n| **n > max) {
+        return Err(format!(
+            "--params: parameter {n} is outside 0..={max} for this family"
+        ));
     }
     Ok(out.into_iter().collect())
 }

@@ -1104,6 +1104,7 @@ fn learn_drive(
     let mut client =
         LustbusClient::new(BorrowedByteLink(&mut **b), base.clone(), d.address).map_err(eng)?;
     let identity = client.identify().map_err(eng)?;
+    let opts = crate::learn::options_for(base, &opts);
     let mut learned = learn(&mut client, base.family, &opts).map_err(eng)?;
     client.finish().map_err(eng)?;
     let id = learned_id(base.family, &identity, &learned);
