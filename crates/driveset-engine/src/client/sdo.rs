@@ -419,14 +419,20 @@ impl<L: FrameLink> CanClient<L> {
 }
 
 /// Index and subindex of `key` under `schema`.
-/// A CiA 301 object kept by index (`[[code]] index`) uses its own index.
+/// A CiA 301 object kept by index (`[[code]] index`) uses its own index,
+/// and a single subindex kept as a code (`subindex`) its own subindex.
 fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
     let base = schema.can_index_base.unwrap_or(u32::from(INDEX_BASE));
-    let index = match schema.code(key.number).and_then(|c| c.index) {
+    let code = schema.code(key.number);
+    let index = match code.and_then(|c| c.index) {
         Some(i) => i,
         None => u16::try_from(base.checked_sub(key.number)?).ok()?,
     };
-    let sub = u8::try_from(key.subcode.unwrap_or(0)).ok()?;
+    // a code that is one subindex of a record (`subindex`) has no subcodes
+    let sub = match code.and_then(|c| c.subindex) {
+        Some(s) => s,
+        None => u8::try_from(key.subcode.unwrap_or(0)).ok()?,
+    };
     Some((Index(index), Subindex(sub)))
 }
 
