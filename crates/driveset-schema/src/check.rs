@@ -510,10 +510,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 if c.subindex.is_some() && c.subcodes.is_some() {
                     out.push(f(
                         &c.loc,
-                        format!(
-                            "code {}: one `subindex` has no `subcodes`",
-                            c.number
-                        ),
+                        format!("code {}: one `subindex` has no `subcodes`", c.number),
                         "remove `subcodes`, or `subindex` to keep the whole object",
                     ));
                 }
@@ -532,7 +529,9 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
             None => seen
                 .insert(key, c.number)
                 .or_else(|| parts.get(&index).copied()),
-            Some(_) => seen.insert(key, c.number).or_else(|| whole.get(&index).copied()),
+            Some(_) => seen
+                .insert(key, c.number)
+                .or_else(|| whole.get(&index).copied()),
         };
         match key.1 {
             None => whole.insert(index, c.number),
@@ -557,7 +556,9 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
 /// and signedness class as the SDO transfer moves them).
 fn data_type_fits(ty: Option<ValueType>, dt: u16) -> bool {
     match ty {
-        Some(ValueType::FIX32 | ValueType::BITCODED | ValueType::INTEGER32 | ValueType::UNSIGNED32) => {
+        Some(
+            ValueType::FIX32 | ValueType::BITCODED | ValueType::INTEGER32 | ValueType::UNSIGNED32,
+        ) => {
             matches!(dt, 0x0004 | 0x0007)
         }
         Some(ValueType::UNSIGNED16 | ValueType::INTEGER16) => matches!(dt, 0x0003 | 0x0006),

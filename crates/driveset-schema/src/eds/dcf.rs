@@ -30,7 +30,7 @@ type Object<'a> = (&'a Code, Vec<(Option<u32>, &'a RawValue)>);
 type ObjectList = (&'static str, fn(u16) -> bool);
 
 /// CiA 301 data type number of a schema type on CAN.
-fn data_type(ty: ValueType) -> Option<u16> {
+pub(crate) fn data_type(ty: ValueType) -> Option<u16> {
     Some(match ty {
         ValueType::FIX32 | ValueType::INTEGER32 => 0x0004,
         ValueType::BITCODED | ValueType::UNSIGNED32 => 0x0007,

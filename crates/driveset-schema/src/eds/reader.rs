@@ -726,7 +726,11 @@ mod tests {
         for bytes in [&le, &be] {
             let f = parse(bytes).unwrap();
             assert_eq!(
-                f.section("5FF4").unwrap().get("ParameterName").unwrap().value,
+                f.section("5FF4")
+                    .unwrap()
+                    .get("ParameterName")
+                    .unwrap()
+                    .value,
                 "Drehzahl \u{fc}ber"
             );
         }
@@ -750,15 +754,32 @@ mod tests {
 
     #[test]
     fn object_shaped_names_out_of_range_and_hash_comments_are_lints() {
-        let f = parse(b"[10000]\nx=1\n[1018sub100]\nx=1\n[101sub1]\n# note\n[1003Name]\n[1000]\n").unwrap();
-        let got: Vec<(usize, &str)> = f.lints.iter().map(|l| (l.line, l.message.as_str())).collect();
+        let f = parse(b"[10000]\nx=1\n[1018sub100]\nx=1\n[101sub1]\n# note\n[1003Name]\n[1000]\n")
+            .unwrap();
+        let got: Vec<(usize, &str)> = f
+            .lints
+            .iter()
+            .map(|l| (l.line, l.message.as_str()))
+            .collect();
         assert_eq!(
             got,
             vec![
-                (1, "section [10000] is shaped like an object but its index has more than 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"),
-                (3, "section [1018sub100] is shaped like an object but its subindex is above FF (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"),
-                (5, "section [101sub1] is shaped like an object but its index is not 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"),
-                (6, "line starts with `#`: CiA 306 comments start with `;`; read as a comment, as python-canopen does"),
+                (
+                    1,
+                    "section [10000] is shaped like an object but its index has more than 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    3,
+                    "section [1018sub100] is shaped like an object but its subindex is above FF (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    5,
+                    "section [101sub1] is shaped like an object but its index is not 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    6,
+                    "line starts with `#`: CiA 306 comments start with `;`; read as a comment, as python-canopen does"
+                ),
             ]
         );
         assert_eq!(f.objects().len(), 1);
