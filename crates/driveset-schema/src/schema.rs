@@ -370,6 +370,17 @@ impl Schema {
         }
     }
 
+    /// The single-subindex code (`[[code]] index` + `subindex`) at Lenze
+    /// code `number`'s index (`index_base - number`) and `subcode`: what
+    /// `C5020/2` names when the schema keeps that subindex as its own code.
+    pub fn lenze_subindex_code(&self, number: u32, subcode: u32) -> Option<&Code> {
+        let base = self.can_index_base?;
+        let index = u16::try_from(base.checked_sub(number)?).ok()?;
+        let sub = u8::try_from(subcode).ok()?;
+        self.code(index_number(index, Some(sub)))
+            .filter(|c| c.index == Some(index) && c.subindex == Some(sub))
+    }
+
     /// Code as spelled for humans: `C0011`, `C0039/1`; lust `428-RSIO` (with name).
     pub fn display_code(&self, number: u32, subcode: Option<u32>) -> String {
         let mut s = match self.code_style {

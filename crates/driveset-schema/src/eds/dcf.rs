@@ -402,10 +402,18 @@ fn write_object(
                 .unwrap_or_else(|| format!("Object 0x{index:04X}"))
         }
     };
+    // CiA 301 makes 0x1018 a RECORD; entries of one DataType are an ARRAY
+    let types: Vec<u16> = obj
+        .parts
+        .values()
+        .map(|(c, _)| code_data_type(schema, c))
+        .collect::<Result<_, _>>()?;
+    let array = index != 0x1018 && types.windows(2).all(|w| w[0] == w[1]);
     let _ = writeln!(
         t,
-        "\n[{index:04X}]\nParameterName={}\nObjectType=0x9\nSubNumber={}",
+        "\n[{index:04X}]\nParameterName={}\nObjectType={}\nSubNumber={}",
         clean(&name),
+        if array { "0x8" } else { "0x9" },
         obj.parts.len() + 1
     );
     let _ = writeln!(
@@ -496,7 +504,7 @@ mod tests {
             "{t}"
         );
         // a record of single-subindex codes
-        assert!(t.contains("\n[6000]\nParameterName=Rec\nObjectType=0x9\nSubNumber=2\n\n[6000sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\nPDOMapping=0\n\n[6000sub3]\nParameterName=b\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\nPDOMapping=0\nParameterValue=7\n"), "{t}");
+        assert!(t.contains("\n[6000]\nParameterName=Rec\nObjectType=0x8\nSubNumber=2\n\n[6000sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\nPDOMapping=0\n\n[6000sub3]\nParameterName=b\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\nPDOMapping=0\nParameterValue=7\n"), "{t}");
         // [DeviceInfo] from the identity object; every mandatory object listed and written
         assert!(t.contains("\n[DeviceInfo]\nVendorName=\nVendorNumber=0x000004D2\nProductName=Axis\nProductNumber=0x00000042\nRevisionNumber=0x00000000\nOrderCode=\n"), "{t}");
         assert!(

@@ -69,9 +69,9 @@ pub struct Imported {
     pub toml: String,
     /// Schema id.
     pub id: String,
-    /// Lenze codes written.
+    /// Lenze codes written (a subindex kept as its own code counts once).
     pub lenze_codes: usize,
-    /// CiA 301 objects written (kept by index).
+    /// Other objects written (kept by index with their own CiA types).
     pub cia_objects: usize,
     /// Every object skipped or downgraded, in file order.
     pub lints: Vec<ImportLint>,
@@ -322,6 +322,9 @@ struct Out {
     subcodes: Option<u32>,
     /// One subindex of a RECORD / ARRAY whose subindexes differ.
     subindex: Option<u8>,
+    /// A Lenze code (FIX32 / BITCODED / VS / VO from a Lenze data sheet),
+    /// whole or one subindex.
+    lenze_code: bool,
     min: Option<String>,
     max: Option<String>,
     default: Option<String>,
@@ -576,6 +579,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
                 access_ro: ro(f.acc),
                 subcodes: None,
                 subindex: sub,
+                lenze_code: matches!(ar, Area::Lenze(_)),
                 min,
                 max,
                 default,
@@ -613,16 +617,36 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             .filter(|s| !kept.iter().any(|(k, _, _)| k == s))
             .map(|s| s.to_string())
             .collect();
+        let gaps = !missing.is_empty();
+        let list = |v: Vec<String>| v.join(", ");
+        let same_facts = kept.iter().all(|(_, f, _)| {
+            f.dt == f0.dt
+                && ro(f.acc) == ro(f0.acc)
+                && f.min == f0.min
+                && f.max == f0.max
+                && f.default == f0.default
+        });
+        let why = match (same_facts, missing.is_empty()) {
+            (false, true) => format!(
+                "subindexes {} differ in type, access, limits or default",
+                list(kept.iter().map(|(s, _, _)| s.to_string()).collect())
+            ),
+            (false, false) => format!(
+                "subindexes {} differ in type, access, limits or default, and {} are not kept",
+                list(kept.iter().map(|(s, _, _)| s.to_string()).collect()),
+                list(missing)
+            ),
+            _ => format!("subindexes {} are not kept", list(missing)),
+        };
         cx.lint(
             line,
             obj.clone(),
             format!(
-                "subindexes {} differ{}: each kept as a code of its own (index 0x{index:04X} + subindex), facts from its own section",
-                kept.iter().map(|(s, _, _)| s.to_string()).collect::<Vec<_>>().join(", "),
-                if missing.is_empty() {
-                    String::new()
+                "{why}: each kept subindex is a code of its own (index 0x{index:04X} + subindex) with the facts of its own section{}",
+                if gaps {
+                    "; a set cannot name the others"
                 } else {
-                    format!(" or miss neighbours ({} left out)", missing.join(", "))
+                    ""
                 }
             ),
         );
@@ -697,7 +721,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         });
     }
     cx.lints.sort_by_key(|l| l.line);
-    let cia = outs.iter().filter(|o| o.index.is_some()).count();
+    let cia = outs.iter().filter(|o| !o.lenze_code).count();
     Ok(Imported {
         toml,
         id,
@@ -1418,7 +1442,7 @@ DefaultValue=1
         assert_eq!(
             lints(&i),
             vec![
-                "t.eds:8: 0x6000: subindexes 1, 2 differ: each kept as a code of its own (index 0x6000 + subindex), facts from its own section".to_string(),
+                "t.eds:8: 0x6000: subindexes 1, 2 differ in type, access, limits or default: each kept subindex is a code of its own (index 0x6000 + subindex) with the facts of its own section".to_string(),
                 "t.eds:20: 0x6001: BOOLEAN kept as UNSIGNED8 (one byte, 0 or 1)".to_string(),
                 lenze_lint(26),
             ]
