@@ -26,7 +26,7 @@ fn run(args: &[&str]) -> (String, String, i32) {
 
 /// The lint report on the vendor-style fixture, exactly.
 const AXIS_LINTS: &str = "\
-lint: tests/data/eds/fictional-ecs-axis.eds:25: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x2000..0x38F0 are Lenze codes (code = 24575 - index, FIX32 value x 10000)
+lint: tests/data/eds/fictional-ecs-axis.eds:25: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types
 lint: tests/data/eds/fictional-ecs-axis.eds:129: 0x1003sub0: number of entries is UNSIGNED8 (0x0005) writable; it is the structure, not a setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:153: 0x1010: store / restore parameters: a command (signature write), not a setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:179: 0x1014: DefaultValue `$NODEID+0x80` depends on the node id; left unset

@@ -263,7 +263,7 @@ fn lenze_vendor(file: &EdsFile, cx: &mut Ctx) -> bool {
                 line(number),
                 String::new(),
                 format!(
-                    "VendorNumber {} is Lenze's CiA vendor ID (0x3B): objects 0x2000..0x38F0 are Lenze codes (code = 24575 - index, FIX32 value x 10000)",
+                    "VendorNumber {} is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
                     number.map_or("", |e| e.value.as_str())
                 ),
             );
@@ -286,7 +286,7 @@ fn lenze_vendor(file: &EdsFile, cx: &mut Ctx) -> bool {
                 line(name),
                 String::new(),
                 format!(
-                    "VendorName `{}` names Lenze (no VendorNumber to tell): objects 0x2000..0x38F0 are Lenze codes (code = 24575 - index, FIX32 value x 10000)",
+                    "VendorName `{}` names Lenze (no VendorNumber to tell): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
                     name.map_or("", |e| e.value.as_str())
                 ),
             );
@@ -1321,7 +1321,7 @@ VendorNumber=0x0000003B
 
     fn lenze_lint(line: usize) -> String {
         format!(
-            "t.eds:{line}: VendorName `Lenze` names Lenze (no VendorNumber to tell): objects 0x2000..0x38F0 are Lenze codes (code = 24575 - index, FIX32 value x 10000)"
+            "t.eds:{line}: VendorName `Lenze` names Lenze (no VendorNumber to tell): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types"
         )
     }
 
@@ -1338,7 +1338,7 @@ VendorNumber=0x0000003B
                 "t.eds:36: 0x5FF5: empty LowLimit; left unset",
                 "t.eds:37: 0x5FF5: HighLimit `00100000` read as decimal 100000 (a leading 0 means octal in C, giving 32768)",
                 "t.eds:39: 0x5FF6sub1: no main section [5FF6]; skipped",
-                "t.eds:44: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x2000..0x38F0 are Lenze codes (code = 24575 - index, FIX32 value x 10000)",
+                "t.eds:44: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
             ]
         );
         assert_eq!((i.lenze_codes, i.cia_objects), (2, 1));
