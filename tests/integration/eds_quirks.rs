@@ -42,6 +42,31 @@ fn block(toml: &str, number: u32) -> String {
     rest[..end].trim_end().to_string()
 }
 
+/// `validate --format json` of a set written to DIR/set.toml: exit code and
+/// the findings as (kind, message).
+fn validate(dir: &Path, set_text: &str) -> (i32, Vec<(String, String)>) {
+    let set = dir.join("set.toml");
+    std::fs::write(&set, set_text).expect("write set");
+    let o = driveset()
+        .args(["validate", "--format", "json"])
+        .arg(&set)
+        .output()
+        .expect("validate");
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    let findings = doc["files"][0]["findings"]
+        .as_array()
+        .expect("findings")
+        .iter()
+        .map(|f| {
+            (
+                f["kind"].as_str().expect("kind").to_string(),
+                f["message"].as_str().expect("message").to_string(),
+            )
+        })
+        .collect();
+    (o.status.code().expect("exit code"), findings)
+}
+
 fn codes(toml: &str) -> usize {
     toml.matches("[[code]]").count()
 }
@@ -76,24 +101,19 @@ fn a_record_is_never_filled_from_its_neighbours() {
         block(&toml, 31),
         "[[code]]\nnumber = 31\nname = \"block_detection\"\ntitle = \"Block detection\"\nspec = \"record-dropped-subs.eds [5FE0] line 8\"\ntype = \"FIX32\"\nsubcodes = 1\nmin = \"0\"\nmax = \"10\"\ndefault = \"0.5\"\naccess = \"rw\""
     );
-    let set = dir.path().join("set.toml");
-    std::fs::write(
-        &set,
+    let (code, findings) = validate(
+        dir.path(),
         "schema = \"record-dropped-subs.toml\"\n[values]\n\"C0031/1\" = 2\n\"C0031/2\" = 500\n",
-    )
-    .expect("write");
-    let o = driveset()
-        .args(["validate", "--format", "json"])
-        .arg(&set)
-        .output()
-        .expect("validate");
-    assert_eq!(o.status.code(), Some(1));
-    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
-    let findings = doc["files"][0]["findings"].as_array().expect("findings");
-    assert_eq!(findings.len(), 1, "{doc}");
+    );
     assert_eq!(
-        findings[0]["message"],
-        "C0031 has subcodes 1..=1; `C0031/2` names none of them"
+        (code, findings),
+        (
+            1,
+            vec![(
+                "unknown-code".to_string(),
+                "C0031 has subcodes 1..=1; `C0031/2` names none of them".to_string()
+            )]
+        )
     );
 }
 
@@ -145,26 +165,14 @@ fn per_subindex_defaults_and_limits_are_kept_per_subindex() {
         block(&toml, 59),
         "[[code]]\nnumber = 59\nname = \"analog_gains\"\ntitle = \"Analog gains\"\nspec = \"per-subindex-values.eds [5FC4] line 70\"\ntype = \"FIX32\"\nsubcodes = 2\nmin = \"0\"\nmax = \"10\"\ndefault = \"1\"\naccess = \"rw\""
     );
-    // C0039/2 names the subindex code; its own limits apply
-    let set = dir.path().join("set.toml");
-    std::fs::write(
-        &set,
+    // C0039/2 names the subindex code; its own limits apply (JOG 2 is
+    // -100..0, JOG 1 0..100)
+    let (code, findings) = validate(
+        dir.path(),
         "schema = \"per-subindex-values.toml\"\n[values]\n\"C0039/1\" = 50\n\"C0039/2\" = 50\n",
-    )
-    .expect("write");
-    let o = driveset()
-        .args(["validate", "--format", "json"])
-        .arg(&set)
-        .output()
-        .expect("validate");
-    assert_eq!(o.status.code(), Some(1));
-    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
-    let findings = doc["files"][0]["findings"].as_array().expect("findings");
-    let kinds: Vec<&str> = findings
-        .iter()
-        .map(|f| f["kind"].as_str().expect("kind"))
-        .collect();
-    assert_eq!(kinds, ["out-of-range"], "{doc}");
+    );
+    let kinds: Vec<&str> = findings.iter().map(|f| f.0.as_str()).collect();
+    assert_eq!((code, kinds), (1, vec!["out-of-range"]), "{findings:?}");
 }
 
 #[test]
