@@ -34,12 +34,15 @@ pub struct DcfError {
     pub help: String,
 }
 
+/// A whole code and the set's (subcode, raw value) pairs for it.
+type Whole<'a> = (&'a Code, Vec<(Option<u32>, &'a RawValue)>);
+
 /// One SDO object of the DCF: a whole code (VAR, or ARRAY of its subcodes)
 /// with the set's (subcode, raw) pairs, or single-subindex codes (RECORD
 /// entries, `[[code]] subindex`) with their values.
 #[derive(Default)]
 struct Object<'a> {
-    whole: Option<(&'a Code, Vec<(Option<u32>, &'a RawValue)>)>,
+    whole: Option<Whole<'a>>,
     parts: BTreeMap<u8, (&'a Code, Option<&'a RawValue>)>,
 }
 
