@@ -312,11 +312,12 @@ fn decode_line(raw: &[u8]) -> String {
     }
 }
 
-/// The text before an inline `;` comment as python-canopen reads one
-/// (`configparser`, `inline_comment_prefixes=(';',)`): a `;` at the start or
-/// after whitespace; a `;` right after other text is part of the value.
+/// The text after `=` (or `]`) before an inline `;` comment as
+/// python-canopen reads one (`configparser`, `inline_comment_prefixes=(';',)`:
+/// a `;` preceded by whitespace in the line); a `;` right after other text,
+/// the `=` included (`DefaultValue=;x`), is part of the value.
 fn strip_comment(s: &str) -> &str {
-    let mut prev_space = true;
+    let mut prev_space = false;
     for (i, c) in s.char_indices() {
         if c == ';' && prev_space {
             return &s[..i];
@@ -694,7 +695,8 @@ mod tests {
                 message: "`; five` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); DefaultValue is `5`".into()
             }]
         );
-        assert_eq!(strip_comment(";x"), "");
+        assert_eq!(strip_comment(";x"), ";x");
+        assert_eq!(strip_comment(" ;x"), " ");
         assert_eq!(strip_comment("a;b ;c"), "a;b ");
     }
 
