@@ -729,7 +729,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
     let (code, _, stderr) = run(&["schema", "import", &eds_arg, "-o", &schema_arg]);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(
-        stderr.ends_with("23 Lenze codes, 9 CiA 301 objects, 13 lints\n"),
+        stderr.ends_with("25 Lenze codes, 12 objects by index, 18 lints\n"),
         "{stderr}"
     );
 
@@ -762,6 +762,8 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
     let mut registry = driveset_sim::catalog::registry().expect("registry");
     let loaded_schema = registry.load_file(&schema).expect("imported schema loads");
     let cia_index = |number: u32| loaded_schema.code(number).and_then(|c| c.index);
+    // a subindex kept as a code of its own (C5020's, 0x1018's) is at its subindex
+    let own_sub = |number: u32| loaded_schema.code(number).and_then(|c| c.subindex);
     let canonical = std::process::Command::new(env!("CARGO_BIN_EXE_driveset"))
         .args(["show", &pulled_arg])
         .output()
@@ -775,7 +777,10 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
             let (key, raw) = l.split_once(' ').expect("CODE RAW");
             let (num, sub) = match key.trim_start_matches('C').split_once('/') {
                 Some((n, s)) => (n.parse::<u32>().expect("n"), s.parse::<u32>().expect("s")),
-                None => (key.trim_start_matches('C').parse::<u32>().expect("n"), 0),
+                None => {
+                    let n = key.trim_start_matches('C').parse::<u32>().expect("n");
+                    (n, own_sub(n).map_or(0, u32::from))
+                }
             };
             let index = cia_index(num).map_or_else(|| 24575 - num, u32::from);
             let raw = raw.strip_prefix('s').unwrap_or(raw);

@@ -10,6 +10,7 @@ mod diff;
 mod doctor;
 mod e2e_pty;
 mod echo;
+mod eds_quirks;
 mod encode;
 mod fingerprint;
 mod git_setup;

@@ -26,20 +26,25 @@ fn run(args: &[&str]) -> (String, String, i32) {
 
 /// The lint report on the vendor-style fixture, exactly.
 const AXIS_LINTS: &str = "\
+lint: tests/data/eds/fictional-ecs-axis.eds:25: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types
 lint: tests/data/eds/fictional-ecs-axis.eds:129: 0x1003sub0: number of entries is UNSIGNED8 (0x0005) writable; it is the structure, not a setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:153: 0x1010: store / restore parameters: a command (signature write), not a setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:179: 0x1014: DefaultValue `$NODEID+0x80` depends on the node id; left unset
-lint: tests/data/eds/fictional-ecs-axis.eds:192: 0x1018: DefaultValue differs by subindex; left unset
+lint: tests/data/eds/fictional-ecs-axis.eds:192: 0x1018: subindexes 1, 2, 3, 4 differ in type, access, limits or default: each kept subindex is a code of its own (index 0x1018 + subindex) with the facts of its own section
 lint: tests/data/eds/fictional-ecs-axis.eds:237: 0x1200: SDO channel parameter: bus configuration ($NODEID COB-IDs), not a drive setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:266: 0x1400: PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:295: 0x1600: PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped
-lint: tests/data/eds/fictional-ecs-axis.eds:512: 0x4C63: DefaultValue differs by subindex; left unset
+lint: tests/data/eds/fictional-ecs-axis.eds:321: `; per mille of the rated current` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); DefaultValue is `1500`
+lint: tests/data/eds/fictional-ecs-axis.eds:357: `; 3000 rpm` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); DefaultValue is `0x1c9c380`
+lint: tests/data/eds/fictional-ecs-axis.eds:359: `; 16000 rpm` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); HighLimit is `0X9896800`
+lint: tests/data/eds/fictional-ecs-axis.eds:512: 0x4C63: subindexes 1, 2, 3 differ in type, access, limits or default: each kept subindex is a code of its own (index 0x4C63 + subindex) with the facts of its own section
+lint: tests/data/eds/fictional-ecs-axis.eds:550: `; -500 rpm` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); DefaultValue is `-5000000`
 lint: tests/data/eds/fictional-ecs-axis.eds:563: 0x4C4F: DataType UNSIGNED16 (0x0006) in the Lenze code range: page 454 transmits Lenze codes as FIX32 (4 bytes); skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:571: 0x4C45: DOMAIN object (no fixed size or type); skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:582: 0x4C3B: write-only (wo): driveset reads back every value it writes; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:586: 0x4C31: DataType UNSIGNED32 (0x0007) read as FIX32 (page 454: Lenze codes are FIX32, value x 10000)
 lint: tests/data/eds/fictional-ecs-axis.eds:599: 0x4C27: ObjFlags bit 0 (refuse write on download): kept read-only
-imported tests/data/eds/fictional-ecs-axis.eds: schema fictional-ecs-axis, 23 Lenze codes, 9 CiA 301 objects, 13 lints
+imported tests/data/eds/fictional-ecs-axis.eds: schema fictional-ecs-axis, 25 Lenze codes, 12 objects by index, 18 lints
 ";
 
 #[test]
@@ -53,10 +58,10 @@ fn vendor_style_eds_imports_with_the_exact_lint_list() {
         ("", AXIS_LINTS, 1)
     );
     let toml = std::fs::read_to_string(&out).expect("written");
-    assert_eq!(toml.matches("[[code]]").count(), 32);
+    assert_eq!(toml.matches("[[code]]").count(), 37);
     assert!(
         toml.contains(
-            "[[code]]\nnumber = 5001\nname = \"max_speed\"\ntitle = \"Max. speed\"\nspec = \"tests/data/eds/fictional-ecs-axis.eds [4C76] line 352\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"16000\"\ndefault = \"3000\"\naccess = \"rw\"\n"
+            "[[code]]\nnumber = 5001\nname = \"max_speed\"\ntitle = \"Max. speed\"\nspec = \"fictional-ecs-axis.eds [4C76] line 352\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"16000\"\ndefault = \"3000\"\naccess = \"rw\"\n"
         ),
         "{toml}"
     );
@@ -91,7 +96,9 @@ fn vendor_style_eds_imports_with_the_exact_lint_list() {
     assert_eq!(
         (stdout.as_str(), stderr.as_str(), code),
         (
-            "driveset-canonical 1\nschema fictional-ecs-axis\nC5001 45000000\nC5020/2 -2505000\nC69655 100\nC90227 2000\n",
+            // C5020's subindexes differ in their defaults: each is a code of
+            // its own (16777216 + 0x4C63 x 256 + 2); `C5020/2` names it
+            "driveset-canonical 1\nschema fictional-ecs-axis\nC5001 45000000\nC69655 100\nC90227 2000\nC21783298 -2505000\n",
             "",
             0
         )
@@ -128,12 +135,12 @@ fn json_lint_report() {
     assert_eq!((stdout.as_str(), code), ("", 1));
     let doc: serde_json::Value = serde_json::from_str(&stderr).expect("json");
     assert_eq!(doc["schema"], "fictional-ecs-axis");
-    assert_eq!(doc["lenze_codes"], 23);
-    assert_eq!(doc["cia_objects"], 9);
+    assert_eq!(doc["lenze_codes"], 25);
+    assert_eq!(doc["cia_objects"], 12);
     let lints = doc["lints"].as_array().expect("lints");
-    assert_eq!(lints.len(), 13);
+    assert_eq!(lints.len(), 18);
     assert_eq!(
-        lints[6],
+        lints[7],
         serde_json::json!({"line": 295, "object": "0x1600", "message": "PDO communication / mapping parameter: configured by the CANopen master, not a drive setting; skipped"})
     );
 }
@@ -145,17 +152,20 @@ fn malformed_files_python_canopen_users_report() {
     assert_eq!(
         stderr,
         "\
+lint: tests/data/eds/fictional-malformed.eds: not a Lenze data sheet (VendorNumber not given, VendorName not given): manufacturer objects 0x2000..0x5FFF kept by index with their own CiA types (no x 10000 scaling)
 lint: tests/data/eds/fictional-malformed.eds:12: key HighLimit given twice in [5FF4] (first at line 11); the first value is kept
 lint: tests/data/eds/fictional-malformed.eds:15: 0x1200sub1: no main section [1200]; skipped
 lint: tests/data/eds/fictional-malformed.eds:26: 0x1014: DefaultValue `0x80+$NODEID` depends on the node id; left unset
 lint: tests/data/eds/fictional-malformed.eds:33: 0x5FF5: DefaultValue `010` read as decimal 10 (a leading 0 means octal in C, giving 8)
 lint: tests/data/eds/fictional-malformed.eds:34: 0x5FF5: empty LowLimit; left unset
 lint: tests/data/eds/fictional-malformed.eds:35: 0x5FF5: HighLimit `00100000` read as decimal 100000 (a leading 0 means octal in C, giving 32768)
-imported tests/data/eds/fictional-malformed.eds: schema ecs-malformed, 2 Lenze codes, 1 CiA 301 objects, 6 lints
+imported tests/data/eds/fictional-malformed.eds: schema ecs-malformed, 0 Lenze codes, 3 objects by index, 7 lints
 "
     );
     assert!(
-        stdout.contains("[[code]]\nnumber = 11\nname = \"max_speed\"\ntitle = \"Max speed\"\nspec = \"tests/data/eds/fictional-malformed.eds [5FF4] line 4\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"0.0026\"\ndefault = \"0.0001\"\naccess = \"rw\"\n"),
+        // no vendor said: 0x5FF4 is no Lenze code C0011 (FIX32) but an
+        // INTEGER32 of its own, unscaled
+        stdout.contains("[[code]]\nnumber = 90100\nindex = 0x5FF4\nname = \"max_speed\"\ntitle = \"Max speed\"\nspec = \"fictional-malformed.eds [5FF4] line 4\"\ntype = \"INTEGER32\"\nmin = \"0\"\nmax = \"26\"\ndefault = \"1\"\naccess = \"rw\"\n"),
         "{stdout}"
     );
 }
@@ -226,14 +236,39 @@ Description=Axis 7
 CreatedBy=driveset
 
 [DeviceInfo]
-ProductName=FICTIONAL: FICTIONAL Vendor ECS-style axis, imported from fictional-ecs-axis.eds
+VendorName=Lenze
+VendorNumber=0x0000003B
+ProductName=FICTIONAL: FICTIONAL Lenze-style vendor ECS-style axis, imported from fictional-ecs-axis.eds
+ProductNumber=0x00000001
+RevisionNumber=0x00010000
+OrderCode=
+; bit rates, PDOs, granularity, LSS: not in the schema, so 0 (not claimed); the data sheet says them
+BaudRate_10=0
+BaudRate_20=0
+BaudRate_50=0
+BaudRate_125=0
+BaudRate_250=0
+BaudRate_500=0
+BaudRate_800=0
+BaudRate_1000=0
+SimpleBootUpMaster=0
+SimpleBootUpSlave=0
+Granularity=0
+DynamicChannelsSupported=0
+GroupMessaging=0
+NrOfRXPDO=0
+NrOfTXPDO=0
+LSS_Supported=0
 
 [DeviceComissioning]
 NodeID=0x07
 NodeName=Axis 7
 
 [MandatoryObjects]
-SupportedObjects=0
+SupportedObjects=3
+1=0x1000
+2=0x1001
+3=0x1018
 
 [OptionalObjects]
 SupportedObjects=1
@@ -245,6 +280,22 @@ SupportedObjects=3
 2=0x4C63
 3=0x4C76
 
+[1000]
+ParameterName=Device type
+ObjectType=0x7
+DataType=0x0007
+AccessType=ro
+DefaultValue=131474
+PDOMapping=0
+
+[1001]
+ParameterName=Error register
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=0
+PDOMapping=0
+
 [1017]
 ParameterName=Producer heartbeat time
 ObjectType=0x7
@@ -255,6 +306,51 @@ LowLimit=0
 HighLimit=65535
 PDOMapping=0
 ParameterValue=100
+
+[1018]
+ParameterName=Identity object
+ObjectType=0x9
+SubNumber=5
+
+[1018sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=4
+PDOMapping=0
+
+[1018sub1]
+ParameterName=Vendor-ID
+ObjectType=0x7
+DataType=0x0007
+AccessType=ro
+DefaultValue=59
+PDOMapping=0
+
+[1018sub2]
+ParameterName=Product code
+ObjectType=0x7
+DataType=0x0007
+AccessType=ro
+DefaultValue=1
+PDOMapping=0
+
+[1018sub3]
+ParameterName=Revision number
+ObjectType=0x7
+DataType=0x0007
+AccessType=ro
+DefaultValue=65536
+PDOMapping=0
+
+[1018sub4]
+ParameterName=Serial number
+ObjectType=0x7
+DataType=0x0007
+AccessType=ro
+DefaultValue=42
+PDOMapping=0
 
 [4C59]
 ParameterName=Axis name
@@ -279,10 +375,11 @@ DefaultValue=3
 PDOMapping=0
 
 [4C63sub2]
-ParameterName=Fixed speed setpoints 2
+ParameterName=Fixed speed 2
 ObjectType=0x7
 DataType=0x0004
 AccessType=rw
+DefaultValue=10000000
 LowLimit=-160000000
 HighLimit=160000000
 PDOMapping=0

@@ -466,12 +466,34 @@ fn check_roles(schema: &Schema, c: &Code, what: &str, out: &mut Vec<Finding>) {
     }
 }
 
-/// `[[code]] index` (CiA 301 objects kept by index): only on lenze-can-sdo
-/// schemas, outside the Lenze code range, one code per index.
+/// `[[code]] index` (objects kept by index, docs/file-formats.md "CiA 301
+/// objects"): only on lenze-can-sdo schemas, one code per SDO object
+/// (a whole object and a single `subindex` of it are one object twice),
+/// `subindex` without `subcodes`, `data_type` a CiA 301 type of the code's
+/// width. An `index` in the Lenze code range is an object of its own CiA
+/// type (a non-Lenze device's manufacturer object, or a Lenze object whose
+/// subindexes differ), not a FIX32 Lenze code: the clash rule keeps it apart
+/// from the code number `index_base - index`.
 fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
     let base = schema.can_index_base.unwrap_or(24575);
-    let mut seen: HashMap<u32, u32> = HashMap::new();
+    // (index, subindex or None for the whole object) -> code number
+    let mut seen: HashMap<(u32, Option<u8>), u32> = HashMap::new();
+    let mut whole: HashMap<u32, u32> = HashMap::new();
+    let mut parts: HashMap<u32, u32> = HashMap::new();
     for c in &schema.codes {
+        if let Some(dt) = c.data_type
+            && !data_type_fits(schema.type_of(c), dt)
+        {
+            out.push(f(
+                &c.loc,
+                format!(
+                    "code {}: data_type 0x{dt:04X} does not carry type {}",
+                    c.number,
+                    schema.type_of(c).map_or("?", ValueType::name)
+                ),
+                "give the CiA 301 type number of the code's width (0x0004 / 0x0007 for 32-bit codes)",
+            ));
+        }
         let index = match c.index {
             Some(i) => {
                 if schema.family != crate::family::Family::Ecs {
@@ -485,15 +507,11 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                     ));
                     continue;
                 }
-                if (0x2000..=0x5FFF).contains(&i) {
+                if c.subindex.is_some() && c.subcodes.is_some() {
                     out.push(f(
                         &c.loc,
-                        format!(
-                            "code {}: index 0x{i:04X} is in the Lenze code range; it is code C{:04}",
-                            c.number,
-                            base.saturating_sub(u32::from(i))
-                        ),
-                        "write it as a Lenze code (number = index_base - index) without `index`",
+                        format!("code {}: one `subindex` has no `subcodes`", c.number),
+                        "remove `subcodes`, or `subindex` to keep the whole object",
                     ));
                 }
                 u32::from(i)
@@ -506,7 +524,20 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
             }
             None => continue,
         };
-        if let Some(other) = seen.insert(index, c.number)
+        let key = (index, c.subindex.filter(|_| c.index.is_some()));
+        let other = match key.1 {
+            None => seen
+                .insert(key, c.number)
+                .or_else(|| parts.get(&index).copied()),
+            Some(_) => seen
+                .insert(key, c.number)
+                .or_else(|| whole.get(&index).copied()),
+        };
+        match key.1 {
+            None => whole.insert(index, c.number),
+            Some(_) => parts.insert(index, c.number),
+        };
+        if let Some(other) = other
             && other != c.number
         {
             out.push(f(
@@ -518,5 +549,22 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 "keep one code per object",
             ));
         }
+    }
+}
+
+/// Whether CiA 301 data type `dt` carries values of `ty` on CAN (same width
+/// and signedness class as the SDO transfer moves them).
+fn data_type_fits(ty: Option<ValueType>, dt: u16) -> bool {
+    match ty {
+        Some(
+            ValueType::FIX32 | ValueType::BITCODED | ValueType::INTEGER32 | ValueType::UNSIGNED32,
+        ) => {
+            matches!(dt, 0x0004 | 0x0007)
+        }
+        Some(ValueType::UNSIGNED16 | ValueType::INTEGER16) => matches!(dt, 0x0003 | 0x0006),
+        Some(ValueType::UNSIGNED8 | ValueType::INTEGER8) => matches!(dt, 0x0001 | 0x0002 | 0x0005),
+        Some(ValueType::VS) => dt == 0x0009,
+        Some(ValueType::VO) => dt == 0x000A,
+        _ => false,
     }
 }

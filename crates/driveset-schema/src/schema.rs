@@ -176,6 +176,15 @@ pub struct Code {
     /// code range, e.g. 0x1017 or 0x6040); its number is
     /// [`CIA_NUMBER_BASE`] + index and its subcodes are subindexes.
     pub index: Option<u16>,
+    /// CAN: the one subindex of `index` this code is (`subindex = 1`): a
+    /// RECORD / ARRAY entry with facts of its own (an imported 0x1018sub1).
+    /// Its number is [`SUBINDEX_NUMBER_BASE`] + index x 256 + subindex; it
+    /// has no subcodes.
+    pub subindex: Option<u8>,
+    /// CAN: the CiA 301 data type number the device's data sheet gives
+    /// (`data_type = 0x0007`), where the schema type alone does not say it
+    /// (an UNSIGNED32 Lenze code read as FIX32); `show --to dcf` writes it.
+    pub data_type: Option<u16>,
     /// Free text.
     pub note: Option<String>,
     /// LUSTBUS storage kind.
@@ -370,6 +379,20 @@ pub fn number_list_text(numbers: &BTreeSet<u32>) -> String {
 /// number = 65536 + index, above every Lenze code (index = 24575 - code).
 pub const CIA_NUMBER_BASE: u32 = 0x1_0000;
 
+/// Code numbers of single subindexes kept by index (`[[code]] index` and
+/// `subindex`): number = 16777216 + index x 256 + subindex, above every
+/// whole object's number.
+pub const SUBINDEX_NUMBER_BASE: u32 = 0x100_0000;
+
+/// The code number of an object kept by index: 65536 + index, or with a
+/// subindex 16777216 + index x 256 + subindex.
+pub fn index_number(index: u16, subindex: Option<u8>) -> u32 {
+    match subindex {
+        None => CIA_NUMBER_BASE + u32::from(index),
+        Some(s) => SUBINDEX_NUMBER_BASE + (u32::from(index) << 8) + u32::from(s),
+    }
+}
+
 /// `C` + digits or digits only: the shape of a code-number key.
 pub(crate) fn looks_numeric_key(key: &str) -> bool {
     let d = key.strip_prefix(['C', 'c']).unwrap_or(key);
@@ -413,12 +436,24 @@ impl Schema {
         }
     }
 
+    /// The single-subindex code (`[[code]] index` + `subindex`) at Lenze
+    /// code `number`'s index (`index_base - number`) and `subcode`: what
+    /// `C5020/2` names when the schema keeps that subindex as its own code.
+    pub fn lenze_subindex_code(&self, number: u32, subcode: u32) -> Option<&Code> {
+        let base = self.can_index_base?;
+        let index = u16::try_from(base.checked_sub(number)?).ok()?;
+        let sub = u8::try_from(subcode).ok()?;
+        self.code(index_number(index, Some(sub)))
+            .filter(|c| c.index == Some(index) && c.subindex == Some(sub))
+    }
+
     /// Code as spelled for humans: `C0011`, `C0039/1`; lust `428-RSIO` (with name).
     pub fn display_code(&self, number: u32, subcode: Option<u32>) -> String {
         let mut s = match self.code_style {
-            CodeStyle::Lenze => match self.code(number).and_then(|c| c.index) {
-                Some(i) => format!("0x{i:04X}"),
-                None => format!("C{number:04}"),
+            CodeStyle::Lenze => match self.code(number).map(|c| (c.index, c.subindex)) {
+                Some((Some(i), Some(s))) => format!("0x{i:04X}sub{s}"),
+                Some((Some(i), None)) => format!("0x{i:04X}"),
+                _ => format!("C{number:04}"),
             },
             CodeStyle::Lust => match self.code(number) {
                 Some(c) if !c.name.is_empty() => format!("{number}-{}", c.name),
@@ -710,20 +745,36 @@ fn parse_values(r: &mut Reader<'_>, what: &str) -> Result<Option<EnumSource>, In
 fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
     let mut r = Reader::new(doc, node, "[[code]]")?;
     let index = r.uint::<u16>("index")?;
+    let subindex = r.uint::<u8>("subindex")?;
+    if let (Some((_, l)), None) = (&subindex, &index) {
+        return Err(InputError::new(
+            InputErrorKind::Structure,
+            l.clone(),
+            "`subindex` without `index`",
+            "add the object's `index` (docs/file-formats.md, \"CiA 301 objects\")",
+        ));
+    }
+    let sub = subindex.as_ref().map(|s| s.0);
     let (number, loc) = match (r.uint::<u32>("number")?, &index) {
-        (Some((n, l)), Some((i, _))) if n != CIA_NUMBER_BASE + u32::from(*i) => {
+        (Some((n, l)), Some((i, _))) if n != index_number(*i, sub) => {
             return Err(InputError::new(
                 InputErrorKind::Structure,
                 l,
-                format!(
-                    "code with `index` = 0x{i:04X} has number {n}, not {} (65536 + index)",
-                    CIA_NUMBER_BASE + u32::from(*i)
-                ),
-                "leave `number` out or write 65536 + index (docs/file-formats.md, \"CiA 301 objects\")",
+                match sub {
+                    None => format!(
+                        "code with `index` = 0x{i:04X} has number {n}, not {} (65536 + index)",
+                        index_number(*i, None)
+                    ),
+                    Some(s) => format!(
+                        "code with `index` = 0x{i:04X}, `subindex` = {s} has number {n}, not {} (16777216 + index x 256 + subindex)",
+                        index_number(*i, sub)
+                    ),
+                },
+                "leave `number` out or write the number `index` gives (docs/file-formats.md, \"CiA 301 objects\")",
             ));
         }
         (Some(nl), _) => nl,
-        (None, Some((i, l))) => (CIA_NUMBER_BASE + u32::from(*i), l.clone()),
+        (None, Some((i, l))) => (index_number(*i, sub), l.clone()),
         (None, None) => {
             return Err(doc.error(&node.span, "[[code]] has no `number`", "add `number = ...`"));
         }
@@ -902,6 +953,8 @@ fn parse_code(doc: &Document, node: &Node) -> Result<Code, InputError> {
         lecom_only: r.boolean("lecom_only")?,
         subcodes: r.uint::<u32>("subcodes")?.map(|t| t.0),
         index,
+        subindex: sub,
+        data_type: r.uint::<u16>("data_type")?.map(|t| t.0),
         note: r.string("note")?.map(|t| t.0),
         kind,
         basis: r.boolean("basis")?,
@@ -1310,6 +1363,8 @@ fn fill_unset(base: &mut Code, over: Code) -> Vec<Finding> {
     fill!(lecom_only);
     fill!(subcodes);
     fill!(index);
+    fill!(subindex);
+    fill!(data_type);
     fill!(note);
     fill!(kind);
     fill!(basis);

@@ -565,6 +565,12 @@ fn resolve_key<'s>(
             }
             Some(n) => match schema.code(n) {
                 Some(c) => c,
+                // `C5020/2` where the schema keeps that subindex as a code of
+                // its own (`[[code]] index` + `subindex`, an imported ARRAY
+                // whose subindexes differ): that code
+                None if let Some(c) = subcode.and_then(|s| schema.lenze_subindex_code(n, s)) => {
+                    return Some((c, CodeKey::new(c.number)));
+                }
                 None => {
                     out.push(Finding::new(
                         FindingKind::UnknownCode,

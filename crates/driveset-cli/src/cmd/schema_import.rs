@@ -101,7 +101,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         output::emit(&imported.toml);
     }
     let summary = format!(
-        "imported {}: schema {}, {} Lenze codes, {} CiA 301 objects, {} lints",
+        "imported {}: schema {}, {} Lenze codes, {} objects by index, {} lints",
         shown,
         imported.id,
         imported.lenze_codes,

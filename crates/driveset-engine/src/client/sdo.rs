@@ -419,14 +419,20 @@ impl<L: FrameLink> CanClient<L> {
 }
 
 /// Index and subindex of `key` under `schema`.
-/// A CiA 301 object kept by index (`[[code]] index`) uses its own index.
+/// A CiA 301 object kept by index (`[[code]] index`) uses its own index,
+/// and a single subindex kept as a code (`subindex`) its own subindex.
 fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
     let base = schema.can_index_base.unwrap_or(u32::from(INDEX_BASE));
-    let index = match schema.code(key.number).and_then(|c| c.index) {
+    let code = schema.code(key.number);
+    let index = match code.and_then(|c| c.index) {
         Some(i) => i,
         None => u16::try_from(base.checked_sub(key.number)?).ok()?,
     };
-    let sub = u8::try_from(key.subcode.unwrap_or(0)).ok()?;
+    // a code that is one subindex of a record (`subindex`) has no subcodes
+    let sub = match code.and_then(|c| c.subindex) {
+        Some(s) => s,
+        None => u8::try_from(key.subcode.unwrap_or(0)).ok()?,
+    };
     Some((Index(index), Subindex(sub)))
 }
 
@@ -575,6 +581,26 @@ pub(crate) fn probe<L: FrameLink>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Lenze codes at 24575 - code, objects kept by index at their index,
+    /// and a subindex kept as a code of its own (`subindex`) at its own
+    /// subindex, whatever subcode the key carries.
+    #[test]
+    fn sdo_addresses_of_codes_objects_and_single_subindexes() {
+        let text = "[schema]\nid = \"t\"\ntitle = \"T\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n\
+             [schema.can]\nindex_base = 24575\n\
+             [[code]]\nnumber = 39\nname = \"jog\"\ntitle = \"t\"\nspec = \"s\"\ntype = \"FIX32\"\nsubcodes = 2\n\
+             [[code]]\nindex = 0x1017\nname = \"hb\"\ntitle = \"t\"\nspec = \"s\"\ntype = \"UNSIGNED16\"\n\
+             [[code]]\nindex = 0x1018\nsubindex = 2\nname = \"product\"\ntitle = \"t\"\nspec = \"s\"\ntype = \"UNSIGNED32\"\naccess = \"ro\"\n";
+        let schema = driveset_schema::Registry::new()
+            .add_source(driveset_schema::error::SourceFile::new("t.toml", text))
+            .expect("schema");
+        let at = |key: CodeKey| mux_of(&schema, key).map(|(i, s)| (i.0, s.0));
+        assert_eq!(at(CodeKey::sub(39, 2)), Some((0x5FD8, 2)));
+        assert_eq!(at(CodeKey::new(0x1_1017)), Some((0x1017, 0)));
+        let product = 0x100_0000 + 0x1018 * 256 + 2;
+        assert_eq!(at(CodeKey::new(product)), Some((0x1018, 2)));
+    }
 
     /// CiA 301 integer objects travel in their own width (CiA 301 §7.1.4),
     /// little-endian, sign-extended only for INTEGERn.

@@ -3,6 +3,17 @@
 //! `ParameterValue` (CiA 306 §4.6.3, §5), for CANopen masters and
 //! configuration tools. Only `lenze-can-sdo` schemas (Lenze ECS) have SDO
 //! objects; password codes are written without their value.
+//!
+//! What a strict CiA 306 reader asks for is there: `[DeviceInfo]` with every
+//! key (§4.5: from the schema's 0x1018 identity where it has one, Lenze's
+//! vendor ID for Lenze codes, 0 = "not claimed" where driveset does not know
+//! the device's bit rates or PDOs), `[MandatoryObjects]` listing 0x1000,
+//! 0x1001 and 0x1018 with their sections (§4.6.2, CiA 301 §7.5: from the
+//! schema, else the CiA 301 minimum), every written object in exactly one
+//! list, each object's own `DataType` (the data sheet's, kept by `schema
+//! import` in `data_type`). Values are written as they are: a `;` stays a
+//! `;` (CiA 306 comments are whole lines); only a line break, which no INI
+//! value can hold, becomes a space.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -12,7 +23,7 @@ use crate::family::Family;
 use crate::schema::{Access, Code, Schema};
 use crate::value::ValueType;
 
-use super::import::LENZE_INDEX_BASE;
+use super::import::{LENZE_INDEX_BASE, LENZE_VENDOR_ID};
 
 /// Why a set cannot be written as a DCF.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -23,14 +34,28 @@ pub struct DcfError {
     pub help: String,
 }
 
-/// One object: its code and the set's (subcode, raw value) pairs.
-type Object<'a> = (&'a Code, Vec<(Option<u32>, &'a RawValue)>);
+/// A whole code and the set's (subcode, raw value) pairs for it.
+type Whole<'a> = (&'a Code, Vec<(Option<u32>, &'a RawValue)>);
+
+/// One SDO object of the DCF: a whole code (VAR, or ARRAY of its subcodes)
+/// with the set's (subcode, raw) pairs, or single-subindex codes (RECORD
+/// entries, `[[code]] subindex`) with their values.
+#[derive(Default)]
+struct Object<'a> {
+    whole: Option<Whole<'a>>,
+    parts: BTreeMap<u8, (&'a Code, Option<&'a RawValue>)>,
+}
 
 /// A CiA 306 object list section and which indexes it lists.
 type ObjectList = (&'static str, fn(u16) -> bool);
 
-/// CiA 301 data type number of a schema type on CAN.
-fn data_type(ty: ValueType) -> Option<u16> {
+/// The objects CiA 306 §4.6.2 lists as mandatory (CiA 301 §7.5: device
+/// type, error register, identity).
+const MANDATORY: [u16; 3] = [0x1000, 0x1001, 0x1018];
+
+/// CiA 301 data type number of a schema type on CAN (the data sheet's own,
+/// `data_type`, wins where the schema has it).
+pub(crate) fn data_type(ty: ValueType) -> Option<u16> {
     Some(match ty {
         ValueType::FIX32 | ValueType::INTEGER32 => 0x0004,
         ValueType::BITCODED | ValueType::UNSIGNED32 => 0x0007,
@@ -44,14 +69,11 @@ fn data_type(ty: ValueType) -> Option<u16> {
     })
 }
 
-/// A DCF value: text to the end of the line, so no `;` and no line breaks.
+/// A DCF value: text to the end of the line. Nothing is changed but a line
+/// break or other control character (which would end the line) -> space.
 fn clean(s: &str) -> String {
     s.chars()
-        .map(|c| match c {
-            ';' => ',',
-            c if c.is_control() => ' ',
-            c => c,
-        })
+        .map(|c| if c.is_control() { ' ' } else { c })
         .collect()
 }
 
@@ -61,6 +83,34 @@ fn raw_text(raw: &RawValue) -> String {
         RawValue::Text(t) => clean(t),
         RawValue::Octets(o) => o.iter().map(|b| format!("{b:02X}")).collect(),
     }
+}
+
+/// The SDO index of `code` (with its number), or an error.
+fn index_of(schema: &Schema, code: &Code, subcode: Option<u32>) -> Result<u16, DcfError> {
+    let base = schema.can_index_base.unwrap_or(LENZE_INDEX_BASE);
+    let index = match code.index {
+        Some(i) => Some(i),
+        None => base
+            .checked_sub(code.number)
+            .and_then(|i| u16::try_from(i).ok()),
+    };
+    index.ok_or_else(|| DcfError {
+        message: format!(
+            "{} has no SDO index (code above the index base {base})",
+            schema.display_code(code.number, subcode)
+        ),
+        help: "check the schema's [schema.can] index_base".into(),
+    })
+}
+
+/// A code's default as raw, unless it is a password.
+fn default_raw(schema: &Schema, code: &Code) -> Option<RawValue> {
+    if schema.is_password(code) {
+        return None;
+    }
+    code.default
+        .as_ref()
+        .and_then(|f| schema.fact_raw(code, f).ok())
 }
 
 /// Write `set` (of `schema`) as a DCF. `file_name` goes into `[FileInfo]`;
@@ -81,8 +131,6 @@ pub fn write_dcf(
             help: "write a DCF from a Lenze ECS set (schema lenze-ecs or one made by `driveset schema import`); use --to toml|yaml|json for other families".into(),
         });
     }
-    let base = schema.can_index_base.unwrap_or(LENZE_INDEX_BASE);
-    // index -> (code, [(subcode, raw)])
     let mut objects: BTreeMap<u16, Object<'_>> = BTreeMap::new();
     for (key, raw) in &set.values {
         let Some(code) = schema.code(key.number) else {
@@ -94,26 +142,33 @@ pub fn write_dcf(
                 help: "validate the set first (driveset validate)".into(),
             });
         };
-        let index = match code.index {
-            Some(i) => Some(i),
-            None => base
-                .checked_sub(key.number)
-                .and_then(|i| u16::try_from(i).ok()),
+        let index = index_of(schema, code, key.subcode)?;
+        let obj = objects.entry(index).or_default();
+        match code.subindex {
+            Some(sub) => {
+                obj.parts.insert(sub, (code, Some(raw)));
+            }
+            None => obj
+                .whole
+                .get_or_insert((code, Vec::new()))
+                .1
+                .push((key.subcode, raw)),
+        }
+    }
+    // the mandatory objects, from the schema where it has them
+    for code in &schema.codes {
+        let Some(index) = code.index.filter(|i| MANDATORY.contains(i)) else {
+            continue;
         };
-        let Some(index) = index else {
-            return Err(DcfError {
-                message: format!(
-                    "{} has no SDO index (code above the index base {base})",
-                    schema.display_code(key.number, key.subcode)
-                ),
-                help: "check the schema's [schema.can] index_base".into(),
-            });
-        };
-        objects
-            .entry(index)
-            .or_insert((code, Vec::new()))
-            .1
-            .push((key.subcode, raw));
+        let obj = objects.entry(index).or_default();
+        match code.subindex {
+            Some(sub) => {
+                obj.parts.entry(sub).or_insert((code, None));
+            }
+            None => {
+                obj.whole.get_or_insert((code, Vec::new()));
+            }
+        }
     }
     let name = title.map(clean);
     let mut t = String::new();
@@ -133,86 +188,177 @@ pub fn write_dcf(
         clean(name.as_deref().unwrap_or(&schema.title))
     );
     t.push_str("CreatedBy=driveset\n");
-    t.push_str("\n[DeviceInfo]\n");
-    let _ = writeln!(t, "ProductName={}", clean(&schema.title));
+    device_info(&mut t, schema);
     t.push_str("\n[DeviceComissioning]\n");
     if let Some(n) = node_id {
         let _ = writeln!(t, "NodeID=0x{n:02X}");
     }
     let _ = writeln!(t, "NodeName={}", name.as_deref().unwrap_or(&set.schema));
     let lists: [ObjectList; 3] = [
-        ("MandatoryObjects", |i| {
-            matches!(i, 0x1000 | 0x1001 | 0x1018)
-        }),
+        ("MandatoryObjects", |i| MANDATORY.contains(&i)),
         ("OptionalObjects", |i| {
-            !matches!(i, 0x1000 | 0x1001 | 0x1018) && !(0x2000..=0x5FFF).contains(&i)
+            !MANDATORY.contains(&i) && !(0x2000..=0x5FFF).contains(&i)
         }),
         ("ManufacturerObjects", |i| (0x2000..=0x5FFF).contains(&i)),
     ];
     for (section, belongs) in lists {
-        let here: Vec<u16> = objects.keys().copied().filter(|i| belongs(*i)).collect();
+        let mut here: Vec<u16> = objects.keys().copied().filter(|i| belongs(*i)).collect();
+        if section == "MandatoryObjects" {
+            here = MANDATORY.to_vec();
+        }
         let _ = writeln!(t, "\n[{section}]\nSupportedObjects={}", here.len());
         for (n, i) in here.iter().enumerate() {
             let _ = writeln!(t, "{}=0x{i:04X}", n + 1);
         }
     }
-    for (index, (code, values)) in &objects {
-        let ty = schema.type_of(code);
-        let Some(dt) = ty.and_then(data_type) else {
-            return Err(DcfError {
-                message: format!(
-                    "{}: type {} has no CANopen data type",
-                    schema.display_code(code.number, None),
-                    ty.map_or("?", ValueType::name)
-                ),
-                help: "give the code a CAN type in the schema (FIX32, BITCODED, VS, VO, UNSIGNED8..INTEGER32)".into(),
-            });
-        };
-        let pname = clean(code.title.as_deref().unwrap_or(&code.name));
-        let access = if code.access == Some(Access::Ro) {
-            "ro"
+    for index in MANDATORY {
+        if !objects.contains_key(&index) {
+            mandatory_minimum(&mut t, index);
+        }
+    }
+    for (index, obj) in &objects {
+        write_object(&mut t, schema, *index, obj)?;
+    }
+    Ok(t)
+}
+
+/// `[DeviceInfo]` (CiA 306 §4.5) from what the schema knows: the identity
+/// object's defaults (0x1018 sub 1..3), Lenze's vendor ID for a schema of
+/// Lenze codes, the title as product name; 0 ("not claimed") for what a
+/// schema does not hold (bit rates, PDOs, granularity, LSS).
+fn device_info(t: &mut String, schema: &Schema) {
+    let identity = |sub: u8| -> Option<i64> {
+        let code = schema
+            .codes
+            .iter()
+            .find(|c| c.index == Some(0x1018) && c.subindex == Some(sub))?;
+        match default_raw(schema, code)? {
+            RawValue::Int(v) => Some(v),
+            _ => None,
+        }
+    };
+    let lenze_codes = schema.codes.iter().any(|c| c.index.is_none());
+    let vendor = identity(1).or(lenze_codes.then_some(LENZE_VENDOR_ID as i64));
+    t.push_str("\n[DeviceInfo]\n");
+    let _ = writeln!(
+        t,
+        "VendorName={}",
+        if vendor == Some(LENZE_VENDOR_ID as i64) {
+            "Lenze"
         } else {
-            "rw"
-        };
-        let secret = schema.is_password(code);
-        let facts = |t: &mut String| {
-            if secret {
-                return;
+            ""
+        }
+    );
+    let hex = |v: Option<i64>| format!("0x{:08X}", v.unwrap_or(0));
+    let _ = writeln!(t, "VendorNumber={}", hex(vendor));
+    let _ = writeln!(t, "ProductName={}", clean(&schema.title));
+    let _ = writeln!(t, "ProductNumber={}", hex(identity(2)));
+    let _ = writeln!(t, "RevisionNumber={}", hex(identity(3)));
+    t.push_str("OrderCode=\n");
+    t.push_str(
+        "; bit rates, PDOs, granularity, LSS: not in the schema, so 0 (not claimed); the data sheet says them\n",
+    );
+    for rate in [10, 20, 50, 125, 250, 500, 800, 1000] {
+        let _ = writeln!(t, "BaudRate_{rate}=0");
+    }
+    t.push_str(
+        "SimpleBootUpMaster=0\nSimpleBootUpSlave=0\nGranularity=0\nDynamicChannelsSupported=0\nGroupMessaging=0\nNrOfRXPDO=0\nNrOfTXPDO=0\nLSS_Supported=0\n",
+    );
+}
+
+/// A mandatory object the schema does not hold: CiA 301's minimum (§7.5.2:
+/// 0x1000 device type and 0x1001 error register read-only, 0x1018 identity
+/// with sub 1 vendor-ID), no value.
+fn mandatory_minimum(t: &mut String, index: u16) {
+    match index {
+        0x1000 => t.push_str(
+            "\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nPDOMapping=0\n",
+        ),
+        0x1001 => t.push_str(
+            "\n[1001]\nParameterName=Error register\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nPDOMapping=0\n",
+        ),
+        _ => t.push_str(
+            "\n[1018]\nParameterName=Identity object\nObjectType=0x9\nSubNumber=2\n\
+             \n[1018sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\nPDOMapping=0\n\
+             \n[1018sub1]\nParameterName=Vendor-ID\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nPDOMapping=0\n",
+        ),
+    }
+}
+
+/// The `DataType` of a code: the data sheet's (`data_type`), else its type's.
+fn code_data_type(schema: &Schema, code: &Code) -> Result<u16, DcfError> {
+    let ty = schema.type_of(code);
+    code.data_type
+        .or_else(|| ty.and_then(data_type))
+        .ok_or_else(|| DcfError {
+            message: format!(
+                "{}: type {} has no CANopen data type",
+                schema.display_code(code.number, None),
+                ty.map_or("?", ValueType::name)
+            ),
+            help: "give the code a CAN type in the schema (FIX32, BITCODED, VS, VO, UNSIGNED8..INTEGER32)".into(),
+        })
+}
+
+/// One variable section: `[IIII]` or `[IIIIsubS]`.
+fn write_var(
+    t: &mut String,
+    schema: &Schema,
+    section: &str,
+    pname: &str,
+    code: &Code,
+    raw: Option<&RawValue>,
+) -> Result<(), DcfError> {
+    let dt = code_data_type(schema, code)?;
+    let access = if code.access == Some(Access::Ro) {
+        "ro"
+    } else {
+        "rw"
+    };
+    let _ = writeln!(
+        t,
+        "\n[{section}]\nParameterName={}\nObjectType=0x7\nDataType=0x{dt:04X}\nAccessType={access}",
+        clean(pname)
+    );
+    let secret = schema.is_password(code);
+    if !secret {
+        for (k, f) in [
+            ("DefaultValue", &code.default),
+            ("LowLimit", &code.min),
+            ("HighLimit", &code.max),
+        ] {
+            if let Some(raw) = f.as_ref().and_then(|f| schema.fact_raw(code, f).ok()) {
+                let _ = writeln!(t, "{k}={}", raw_text(&raw));
             }
-            for (k, f) in [
-                ("DefaultValue", &code.default),
-                ("LowLimit", &code.min),
-                ("HighLimit", &code.max),
-            ] {
-                if let Some(raw) = f.as_ref().and_then(|f| schema.fact_raw(code, f).ok()) {
-                    let _ = writeln!(t, "{k}={}", raw_text(&raw));
-                }
-            }
-        };
-        let value_line = |t: &mut String, raw: &RawValue| {
-            if secret {
-                t.push_str("; ParameterValue not written: the code is a password\n");
-            } else {
-                let _ = writeln!(t, "ParameterValue={}", raw_text(raw));
-            }
-        };
+        }
+    }
+    t.push_str("PDOMapping=0\n");
+    match raw {
+        Some(_) if secret => t.push_str("; ParameterValue not written: the code is a password\n"),
+        Some(raw) => {
+            let _ = writeln!(t, "ParameterValue={}", raw_text(raw));
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+fn write_object(
+    t: &mut String,
+    schema: &Schema,
+    index: u16,
+    obj: &Object<'_>,
+) -> Result<(), DcfError> {
+    if let Some((code, values)) = &obj.whole {
+        let pname = code.title.as_deref().unwrap_or(&code.name);
         let subs: Vec<(u32, &RawValue)> = values
             .iter()
             .filter_map(|(s, r)| s.map(|s| (s, *r)))
             .filter(|(s, _)| *s <= 255)
             .collect();
-        if subs.is_empty() {
+        if code.subcodes.is_none() {
             let raw = values.first().map(|v| v.1);
-            let _ = writeln!(
-                t,
-                "\n[{index:04X}]\nParameterName={pname}\nObjectType=0x7\nDataType=0x{dt:04X}\nAccessType={access}"
-            );
-            facts(&mut t);
-            t.push_str("PDOMapping=0\n");
-            if let Some(raw) = raw {
-                value_line(&mut t, raw);
-            }
-            continue;
+            return write_var(t, schema, &format!("{index:04X}"), pname, code, raw);
         }
         let top = code
             .subcodes
@@ -220,7 +366,8 @@ pub fn write_dcf(
             .max(subs.iter().map(|s| s.0).max().unwrap_or(0));
         let _ = writeln!(
             t,
-            "\n[{index:04X}]\nParameterName={pname}\nObjectType=0x8\nSubNumber={}",
+            "\n[{index:04X}]\nParameterName={}\nObjectType=0x8\nSubNumber={}",
+            clean(pname),
             subs.len() + 1
         );
         let _ = writeln!(
@@ -228,16 +375,67 @@ pub fn write_dcf(
             "\n[{index:04X}sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue={top}\nPDOMapping=0"
         );
         for (s, raw) in subs {
-            let _ = writeln!(
+            write_var(
                 t,
-                "\n[{index:04X}sub{s:X}]\nParameterName={pname} {s}\nObjectType=0x7\nDataType=0x{dt:04X}\nAccessType={access}"
-            );
-            facts(&mut t);
-            t.push_str("PDOMapping=0\n");
-            value_line(&mut t, raw);
+                schema,
+                &format!("{index:04X}sub{s:X}"),
+                &format!("{pname} {s}"),
+                code,
+                Some(raw),
+            )?;
         }
+        return Ok(());
     }
-    Ok(t)
+    // single-subindex codes: a RECORD of the entries the schema knows
+    let top = schema
+        .codes
+        .iter()
+        .filter(|c| c.index == Some(index))
+        .filter_map(|c| c.subindex)
+        .max()
+        .unwrap_or(0);
+    let name = match index {
+        0x1018 => "Identity object".to_string(),
+        _ => {
+            // the common part of the entries' titles ("Identity: Vendor-ID")
+            let first = obj.parts.values().next().map(|(c, _)| c);
+            first
+                .and_then(|c| c.title.as_deref())
+                .and_then(|t| t.split_once(": ").map(|p| p.0.to_string()))
+                .unwrap_or_else(|| format!("Object 0x{index:04X}"))
+        }
+    };
+    // CiA 301 makes 0x1018 a RECORD; entries of one DataType are an ARRAY
+    let types: Vec<u16> = obj
+        .parts
+        .values()
+        .map(|(c, _)| code_data_type(schema, c))
+        .collect::<Result<_, _>>()?;
+    let array = index != 0x1018 && types.windows(2).all(|w| w[0] == w[1]);
+    let _ = writeln!(
+        t,
+        "\n[{index:04X}]\nParameterName={}\nObjectType={}\nSubNumber={}",
+        clean(&name),
+        if array { "0x8" } else { "0x9" },
+        obj.parts.len() + 1
+    );
+    let _ = writeln!(
+        t,
+        "\n[{index:04X}sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue={top}\nPDOMapping=0"
+    );
+    for (sub, (code, raw)) in &obj.parts {
+        let pname = code.title.as_deref().unwrap_or(&code.name);
+        let pname = pname.split_once(": ").map_or(pname, |p| p.1);
+        write_var(
+            t,
+            schema,
+            &format!("{index:04X}sub{sub:X}"),
+            pname,
+            code,
+            *raw,
+        )?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -272,7 +470,7 @@ mod tests {
             "{t}"
         );
         assert!(
-            t.contains("\n[6040]\nParameterName=W, x\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nPDOMapping=0\nParameterValue=-2\n"),
+            t.contains("\n[6040]\nParameterName=W; x\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nPDOMapping=0\nParameterValue=-2\n"),
             "{t}"
         );
         assert!(
@@ -280,6 +478,52 @@ mod tests {
             "{t}"
         );
         assert!(!t.contains("NodeID="), "{t}");
+    }
+
+    #[test]
+    fn device_data_types_records_device_info_and_mandatory_objects() {
+        let text = "[schema]\nid = \"t\"\ntitle = \"Axis\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n\
+             [[code]]\nindex = 0x2001\nname = \"torque\"\ntitle = \"Block torque\"\nspec = \"s\"\ntype = \"UNSIGNED16\"\nmin = \"0\"\nmax = \"1000\"\n\
+             [[code]]\nnumber = 11\nname = \"u32\"\ntitle = \"U32\"\nspec = \"s\"\ntype = \"FIX32\"\ndata_type = 0x0007\n\
+             [[code]]\nindex = 0x1018\nsubindex = 1\nname = \"vendor\"\ntitle = \"Identity: Vendor-ID\"\nspec = \"s\"\ntype = \"UNSIGNED32\"\ndefault = \"1234\"\naccess = \"ro\"\n\
+             [[code]]\nindex = 0x1018\nsubindex = 2\nname = \"product\"\ntitle = \"Identity: Product code\"\nspec = \"s\"\ntype = \"UNSIGNED32\"\ndefault = \"0x42\"\naccess = \"ro\"\n\
+             [[code]]\nindex = 0x6000\nsubindex = 3\nname = \"b\"\ntitle = \"Rec: b\"\nspec = \"s\"\ntype = \"UNSIGNED8\"\n";
+        let s = Registry::new()
+            .add_source(SourceFile::new("t.toml", text))
+            .unwrap();
+        let mut set = ResolvedSet::new(&s);
+        set.insert(CodeKey::new(0x1_2001), RawValue::Int(500));
+        set.insert(CodeKey::new(11), RawValue::Int(70000));
+        set.insert(
+            CodeKey::new(crate::schema::index_number(0x6000, Some(3))),
+            RawValue::Int(7),
+        );
+        let t = write_dcf(&set, &s, None, "t.dcf", Some(3)).unwrap();
+        // its own DataType: UNSIGNED16 stays 0x0006, the UNSIGNED32 the
+        // data sheet gave a FIX32 code stays 0x0007
+        assert!(t.contains("\n[2001]\nParameterName=Block torque\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nLowLimit=0\nHighLimit=1000\nPDOMapping=0\nParameterValue=500\n"), "{t}");
+        assert!(
+            t.contains("\n[5FF4]\nParameterName=U32\nObjectType=0x7\nDataType=0x0007\n"),
+            "{t}"
+        );
+        // a record of single-subindex codes
+        assert!(t.contains("\n[6000]\nParameterName=Rec\nObjectType=0x8\nSubNumber=2\n\n[6000sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\nPDOMapping=0\n\n[6000sub3]\nParameterName=b\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\nPDOMapping=0\nParameterValue=7\n"), "{t}");
+        // [DeviceInfo] from the identity object; every mandatory object listed and written
+        assert!(t.contains("\n[DeviceInfo]\nVendorName=\nVendorNumber=0x000004D2\nProductName=Axis\nProductNumber=0x00000042\nRevisionNumber=0x00000000\nOrderCode=\n"), "{t}");
+        assert!(
+            t.contains("\n[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018\n"),
+            "{t}"
+        );
+        assert!(t.contains("\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nPDOMapping=0\n"), "{t}");
+        assert!(t.contains("\n[1018]\nParameterName=Identity object\nObjectType=0x9\nSubNumber=3\n\n[1018sub0]\nParameterName=Highest sub-index supported\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\nPDOMapping=0\n\n[1018sub1]\nParameterName=Vendor-ID\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=1234\nPDOMapping=0\n\n[1018sub2]\nParameterName=Product code\n"), "{t}");
+        assert!(
+            t.contains("\n[OptionalObjects]\nSupportedObjects=1\n1=0x6000\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n[ManufacturerObjects]\nSupportedObjects=2\n1=0x2001\n2=0x5FF4\n"),
+            "{t}"
+        );
     }
 
     #[test]

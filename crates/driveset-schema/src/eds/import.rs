@@ -29,7 +29,7 @@ use std::fmt::Write as _;
 use super::reader::{self, EdsFile, IntValue, ObjectName, Section, parse_int, parse_octets};
 use crate::decimal::Decimal;
 use crate::error::SourceFile;
-use crate::schema::{CIA_NUMBER_BASE, Registry, looks_numeric_key};
+use crate::schema::{Registry, index_number, looks_numeric_key};
 use crate::value::{ValueType, check_vs_text};
 
 /// The Lenze index base (p. 454: index = 24575 - code).
@@ -69,9 +69,9 @@ pub struct Imported {
     pub toml: String,
     /// Schema id.
     pub id: String,
-    /// Lenze codes written.
+    /// Lenze codes written (a subindex kept as its own code counts once).
     pub lenze_codes: usize,
-    /// CiA 301 objects written (kept by index).
+    /// Other objects written (kept by index with their own CiA types).
     pub cia_objects: usize,
     /// Every object skipped or downgraded, in file order.
     pub lints: Vec<ImportLint>,
@@ -97,6 +97,12 @@ pub struct ImportOptions {
     pub id: Option<String>,
     /// The file as named in messages and `spec` fields.
     pub file: String,
+}
+
+/// The file name of a path (`/home/x/axis.eds` -> `axis.eds`): what `spec`
+/// fields name, so a schema in git does not carry where it was imported.
+fn file_name(path: &str) -> &str {
+    path.rsplit(['/', '\\']).next().unwrap_or(path)
 }
 
 /// `FILE.eds` -> `file`: lowercase letters, digits and `-`.
@@ -212,7 +218,13 @@ enum Area {
     Skip(&'static str),
 }
 
-fn area(index: u16) -> Area {
+/// Lenze's CiA vendor ID (the CiA vendor-ID list: 0x0000003B, Lenze SE).
+pub const LENZE_VENDOR_ID: i128 = 0x3B;
+
+/// Highest Lenze code number (codes are C0000..C9999, four digits).
+const LENZE_CODE_MAX: u32 = 9999;
+
+fn area(index: u16, lenze: bool) -> Area {
     match index {
         0x0000..=0x0FFF => {
             Area::Skip("data type definition area (CiA 301 §7.4.3), not a parameter")
@@ -226,8 +238,72 @@ fn area(index: u16) -> Area {
         0x1400..=0x1BFF => Area::Skip(
             "PDO communication / mapping parameter: configured by the CANopen master, not a drive setting",
         ),
-        0x1000..=0x1FFF | 0x6000..=0xFFFF => Area::Cia,
-        _ => Area::Lenze(LENZE_INDEX_BASE - u32::from(index)),
+        0x2000..=0x5FFF if lenze && LENZE_INDEX_BASE - u32::from(index) <= LENZE_CODE_MAX => {
+            Area::Lenze(LENZE_INDEX_BASE - u32::from(index))
+        }
+        _ => Area::Cia,
+    }
+}
+
+/// Whether the data sheet is Lenze's (its manufacturer objects are Lenze
+/// codes), and the lint that says what decided: `VendorNumber` (Lenze's
+/// CiA vendor ID 0x3B) first, else `VendorName` naming Lenze.
+fn lenze_vendor(file: &EdsFile, cx: &mut Ctx) -> bool {
+    let info = file.section("DeviceInfo");
+    let number = info.and_then(|s| s.get("VendorNumber"));
+    let name = info.and_then(|s| s.get("VendorName"));
+    let number_value = number
+        .and_then(|e| parse_int(&e.value))
+        .filter(|v| !v.plus_node_id);
+    let name_says = name.is_some_and(|e| e.value.to_ascii_lowercase().contains("lenze"));
+    let line = |e: Option<&reader::Entry>| e.map_or(0, |e| e.line);
+    match (number_value, name_says) {
+        (Some(v), _) if v.value == LENZE_VENDOR_ID => {
+            cx.lint(
+                line(number),
+                String::new(),
+                format!(
+                    "VendorNumber {} is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
+                    number.map_or("", |e| e.value.as_str())
+                ),
+            );
+            true
+        }
+        (Some(v), true) => {
+            cx.lint(
+                line(number),
+                String::new(),
+                format!(
+                    "VendorNumber 0x{:08X} is not Lenze's (0x3B) though VendorName `{}` names Lenze: the VendorNumber decides; manufacturer objects kept by index with their own CiA types (no x 10000 scaling)",
+                    v.value,
+                    name.map_or("", |e| e.value.as_str())
+                ),
+            );
+            false
+        }
+        (None, true) => {
+            cx.lint(
+                line(name),
+                String::new(),
+                format!(
+                    "VendorName `{}` names Lenze (no VendorNumber to tell): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
+                    name.map_or("", |e| e.value.as_str())
+                ),
+            );
+            true
+        }
+        (v, false) => {
+            cx.lint(
+                line(number.or(name)),
+                String::new(),
+                format!(
+                    "not a Lenze data sheet (VendorNumber {}, VendorName {}): manufacturer objects 0x2000..0x5FFF kept by index with their own CiA types (no x 10000 scaling)",
+                    v.map_or_else(|| "not given".to_string(), |v| format!("0x{:08X}", v.value)),
+                    name.map_or_else(|| "not given".to_string(), |e| format!("`{}`", e.value))
+                ),
+            );
+            false
+        }
     }
 }
 
@@ -240,8 +316,15 @@ struct Out {
     title: String,
     spec: String,
     ty: ValueType,
+    /// The EDS's DataType where the schema type alone does not say it.
+    data_type: Option<u16>,
     access_ro: bool,
     subcodes: Option<u32>,
+    /// One subindex of a RECORD / ARRAY whose subindexes differ.
+    subindex: Option<u8>,
+    /// A Lenze code (FIX32 / BITCODED / VS / VO from a Lenze data sheet),
+    /// whole or one subindex.
+    lenze_code: bool,
     min: Option<String>,
     max: Option<String>,
     default: Option<String>,
@@ -292,6 +375,8 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             })
             .collect(),
     };
+    let lenze = lenze_vendor(&file, &mut cx);
+    let spec_file = file_name(&opts.file);
     let objects = file.objects();
     let mut outs: Vec<Out> = Vec::new();
     let mut parameter_values = 0usize;
@@ -324,7 +409,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             .chain(my_subs.iter().map(|(_, s)| *s))
             .filter(|s| s.get("ParameterValue").is_some_and(|e| !e.value.is_empty()))
             .count();
-        let ar = area(index);
+        let ar = area(index, lenze);
         if let Area::Skip(why) = ar {
             cx.lint(line, obj, format!("{why}; skipped"));
             continue;
@@ -382,6 +467,18 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
                     }
                 } else {
                     if let Some(e) = sec.get("SubNumber")
+                        && !matches!(parse_int(&e.value), Some(n) if !n.plus_node_id && (0..=0xFF).contains(&n.value))
+                    {
+                        cx.lint(
+                            e.line,
+                            obj.clone(),
+                            format!(
+                                "SubNumber `{}` is not a number of entries (0..255); the {} [{index:04X}subN] sections are used",
+                                e.value,
+                                my_subs.len()
+                            ),
+                        );
+                    } else if let Some(e) = sec.get("SubNumber")
                         && let Some(n) = parse_int(&e.value)
                         && n.value != my_subs.len() as i128
                     {
@@ -426,124 +523,145 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         }
         let name = sec
             .get("ParameterName")
-            .map(|e| e.value.clone())
+            .map(|e| e.value.trim().to_string())
             .unwrap_or_default();
-        let number = match ar {
-            Area::Lenze(c) => c,
-            _ => CIA_NUMBER_BASE + u32::from(index),
-        };
         let is_bitcoded = matches!(ar, Area::Lenze(135 | 150));
-        // variables -> facts
-        let mut kept: Vec<(u8, Facts, usize)> = Vec::new();
+        let has_subs = ot == 8 || ot == 9;
+        // variables -> facts, each subindex its own
+        let mut kept: Vec<(u8, Facts, &Section)> = Vec::new();
         for v in &vars {
-            let vobj = if ot == 8 || ot == 9 {
-                obj_text(index, Some(v.sub))
-            } else {
-                obj_text(index, None)
-            };
+            let vobj = obj_text(index, has_subs.then_some(v.sub));
             if let Some(f) = var_facts(&mut cx, v, &vobj, ar, is_bitcoded, ot) {
-                kept.push((v.sub, f, v.line()));
+                kept.push((v.sub, f, v.section));
             }
         }
         if kept.is_empty() {
             continue;
         }
-        let has_subs = ot == 8 || ot == 9;
-        // one type and access for all subcodes
-        let (first_dt, first_acc) = (kept[0].1.dt, kept[0].1.acc);
-        if let Some((s, f, _)) = kept.iter().find(|(_, f, _)| f.dt != first_dt) {
-            cx.lint(
-                line,
-                obj,
-                format!(
-                    "subindexes differ in DataType (sub{} {}, sub{s} {}); one code has one type; skipped",
-                    kept[0].0,
-                    data_type_name(first_dt),
-                    data_type_name(f.dt)
-                ),
-            );
-            continue;
-        }
         let ro = |a: Acc| matches!(a, Acc::Ro | Acc::Const);
-        if let Some((s, _, _)) = kept.iter().find(|(_, f, _)| ro(f.acc) != ro(first_acc)) {
-            cx.lint(
-                line,
-                obj,
-                format!(
-                    "subindexes differ in AccessType (sub{} and sub{s}); one code has one access; skipped",
-                    kept[0].0
-                ),
-            );
-            continue;
-        }
-        let Some(ty) = value_type(ar, is_bitcoded, first_dt) else {
-            continue; // var_facts already linted
-        };
-        let same =
-            |get: fn(&Facts) -> &Option<String>, what: &str, cx: &mut Ctx| -> Option<String> {
-                let first = get(&kept[0].1).clone();
-                if kept.iter().all(|(_, f, _)| *get(f) == first) {
-                    first
-                } else {
-                    cx.lint(
-                        line,
-                        obj.clone(),
-                        format!("{what} differs by subindex; left unset"),
-                    );
-                    None
+        let title_of = |what: &str| {
+            if what.is_empty() {
+                match ar {
+                    Area::Lenze(c) => format!("C{c:04} (the EDS gives no ParameterName)"),
+                    _ => format!("{obj} (the EDS gives no ParameterName)"),
                 }
-            };
-        let mut min = same(|f| &f.min, "LowLimit", &mut cx);
-        let mut max = same(|f| &f.max, "HighLimit", &mut cx);
-        let mut default = same(|f| &f.default, "DefaultValue", &mut cx);
-        order_facts(&mut cx, line, &obj, ty, &mut min, &mut max, &mut default);
-        let subcodes = if has_subs {
-            let top = kept.iter().map(|(s, _, _)| *s).max().unwrap_or(0);
-            let missing: Vec<String> = (1..=top)
-                .filter(|s| !kept.iter().any(|(k, _, _)| k == s))
-                .map(|s| s.to_string())
-                .collect();
-            if !missing.is_empty() {
-                cx.lint(
-                    line,
-                    obj.clone(),
-                    format!(
-                        "subindexes {} are not described; subcodes = {top} lets sets name them, the drive decides",
-                        missing.join(", ")
-                    ),
+            } else {
+                what.to_string()
+            }
+        };
+        let make = |cx: &mut Ctx, sub: Option<u8>, f: &Facts, sec_line: usize, title: String| {
+            // None: var_facts linted why the type cannot be carried
+            let ty = value_type(ar, is_bitcoded, f.dt)?;
+            let vobj = obj_text(index, sub);
+            let (mut min, mut max, mut default) = (f.min.clone(), f.max.clone(), f.default.clone());
+            order_facts(cx, sec_line, &vobj, ty, &mut min, &mut max, &mut default);
+            let mut notes = Vec::new();
+            if ty == ValueType::FIX32 && f.dt == 0x0007 {
+                notes.push(
+                    "UNSIGNED32 in the EDS, FIX32 as page 454 says of Lenze codes".to_string(),
                 );
             }
-            Some(u32::from(top))
-        } else {
-            None
+            let by_index = ar == Area::Cia || sub.is_some();
+            Some(Out {
+                number: match (ar, by_index) {
+                    (Area::Lenze(c), false) => c,
+                    _ => index_number(index, sub),
+                },
+                index: by_index.then_some(index),
+                name: title.clone(),
+                title,
+                spec: match sub {
+                    Some(s) => format!("{spec_file} [{index:04X}sub{s:X}] line {sec_line}"),
+                    None => format!("{spec_file} [{index:04X}] line {line}"),
+                },
+                ty,
+                data_type: (super::dcf::data_type(ty) != Some(f.dt)).then_some(f.dt),
+                access_ro: ro(f.acc),
+                subcodes: None,
+                subindex: sub,
+                lenze_code: matches!(ar, Area::Lenze(_)),
+                min,
+                max,
+                default,
+                notes,
+                line: sec_line,
+            })
         };
-        let mut notes = Vec::new();
-        if ty == ValueType::FIX32 && first_dt == 0x0007 {
-            notes.push("UNSIGNED32 in the EDS, FIX32 as page 454 says of Lenze codes".to_string());
+        if !has_subs {
+            outs.extend(make(&mut cx, None, &kept[0].1, line, title_of(&name)));
+            continue;
         }
-        let title = if name.trim().is_empty() {
-            match ar {
-                Area::Lenze(c) => format!("C{c:04} (the EDS gives no ParameterName)"),
-                _ => format!("{obj} (the EDS gives no ParameterName)"),
+        // An ARRAY / RECORD is one code with `subcodes = n` only when its
+        // subindexes 1..=n are all kept and say the same (type, access,
+        // limits, default); otherwise each kept subindex is a code of its
+        // own and a left-out subindex cannot be named.
+        let top = kept.iter().map(|(s, _, _)| *s).max().unwrap_or(0);
+        let all_there = kept.len() == usize::from(top) && kept.iter().all(|(s, _, _)| *s >= 1);
+        let f0 = &kept[0].1;
+        let uniform = all_there
+            && kept.iter().all(|(_, f, _)| {
+                f.dt == f0.dt
+                    && ro(f.acc) == ro(f0.acc)
+                    && f.min == f0.min
+                    && f.max == f0.max
+                    && f.default == f0.default
+            });
+        if uniform {
+            if let Some(mut o) = make(&mut cx, None, f0, line, title_of(&name)) {
+                o.subcodes = Some(u32::from(top));
+                outs.push(o);
             }
-        } else {
-            name.trim().to_string()
-        };
-        outs.push(Out {
-            number,
-            index: (ar == Area::Cia).then_some(index),
-            name: name.clone(),
-            title,
-            spec: format!("{} [{index:04X}] line {line}", opts.file),
-            ty,
-            access_ro: ro(first_acc),
-            subcodes,
-            min,
-            max,
-            default,
-            notes,
-            line,
+            continue;
+        }
+        let missing: Vec<String> = (1..=top)
+            .filter(|s| !kept.iter().any(|(k, _, _)| k == s))
+            .map(|s| s.to_string())
+            .collect();
+        let gaps = !missing.is_empty();
+        let list = |v: Vec<String>| v.join(", ");
+        let same_facts = kept.iter().all(|(_, f, _)| {
+            f.dt == f0.dt
+                && ro(f.acc) == ro(f0.acc)
+                && f.min == f0.min
+                && f.max == f0.max
+                && f.default == f0.default
         });
+        let why = match (same_facts, missing.is_empty()) {
+            (false, true) => format!(
+                "subindexes {} differ in type, access, limits or default",
+                list(kept.iter().map(|(s, _, _)| s.to_string()).collect())
+            ),
+            (false, false) => format!(
+                "subindexes {} differ in type, access, limits or default, and {} are not kept",
+                list(kept.iter().map(|(s, _, _)| s.to_string()).collect()),
+                list(missing)
+            ),
+            _ => format!("subindexes {} are not kept", list(missing)),
+        };
+        cx.lint(
+            line,
+            obj.clone(),
+            format!(
+                "{why}: each kept subindex is a code of its own (index 0x{index:04X} + subindex) with the facts of its own section{}",
+                if gaps {
+                    "; a set cannot name the others"
+                } else {
+                    ""
+                }
+            ),
+        );
+        for (sub, f, ssec) in &kept {
+            let own = ssec
+                .get("ParameterName")
+                .map(|e| e.value.trim().to_string())
+                .filter(|n| !n.is_empty() && !std::ptr::eq(*ssec, *sec));
+            let title = match own {
+                Some(n) if !name.is_empty() => format!("{name}: {n}"),
+                Some(n) => n,
+                None => format!("{} sub{sub}", title_of(&name)),
+            };
+            outs.extend(make(&mut cx, Some(*sub), f, ssec.line, title));
+        }
     }
     if parameter_values > 0 {
         cx.lint(
@@ -603,7 +721,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         });
     }
     cx.lints.sort_by_key(|l| l.line);
-    let cia = outs.iter().filter(|o| o.index.is_some()).count();
+    let cia = outs.iter().filter(|o| !o.lenze_code).count();
     Ok(Imported {
         toml,
         id,
@@ -974,9 +1092,10 @@ fn sanitise(name: &str) -> String {
 fn assign_names(outs: &mut [Out]) {
     let mut used: HashSet<String> = HashSet::new();
     for o in outs.iter_mut() {
-        let tag = match o.index {
-            Some(i) => format!("obj_{i:04x}"),
-            None => format!("code_{:04}", o.number),
+        let tag = match (o.index, o.subindex) {
+            (Some(i), Some(s)) => format!("obj_{i:04x}sub{s}"),
+            (Some(i), None) => format!("obj_{i:04x}"),
+            _ => format!("code_{:04}", o.number),
         };
         let mut base = sanitise(&o.name);
         if base.is_empty() || looks_numeric_key(&base) {
@@ -1052,23 +1171,25 @@ fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out]) -> Strin
     let _ = writeln!(
         t,
         "# Imported by `driveset schema import` from {} (CiA 306 EDS / DCF).",
-        opts.file
+        file_name(&opts.file)
     );
     t.push_str(
-        "# Lenze codes: index = 24575 - code (lenze-system-bus-can-sdo.txt, p. 454), FIX32\n\
-         # (value x 10000) except the bit-coded C0135 / C0150. CiA 301 objects are kept by\n\
-         # `index` (number = 65536 + index). Facts come from the file, not from a Lenze manual.\n\n",
+        "# Lenze codes (a Lenze data sheet only): index = 24575 - code (lenze-system-bus-can-sdo.txt,\n\
+         # p. 454), FIX32 (value x 10000) except the bit-coded C0135 / C0150. Other objects are\n\
+         # kept by `index` (number = 65536 + index) with their own CiA 301 type; a RECORD / ARRAY\n\
+         # entry with facts of its own by `index` + `subindex`. Facts come from the file, not\n\
+         # from a Lenze manual.\n\n",
     );
     t.push_str("[schema]\n");
     let _ = writeln!(t, "id = {}", toml_str(id));
     let title = format!(
         "{}{what}, imported from {}",
         if fictional { "FICTIONAL: " } else { "" },
-        opts.file.rsplit(['/', '\\']).next().unwrap_or(&opts.file)
+        file_name(&opts.file)
     );
     let _ = writeln!(t, "title = {}", toml_str(&title));
     t.push_str("protocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n");
-    let _ = writeln!(t, "spec = {}", toml_str(&opts.file));
+    let _ = writeln!(t, "spec = {}", toml_str(file_name(&opts.file)));
     if fictional {
         t.push_str("fictional = true\n");
     }
@@ -1081,10 +1202,16 @@ fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out]) -> Strin
         if let Some(i) = o.index {
             let _ = writeln!(t, "index = 0x{i:04X}");
         }
+        if let Some(s) = o.subindex {
+            let _ = writeln!(t, "subindex = {s}");
+        }
         let _ = writeln!(t, "name = {}", toml_str(&o.name));
         let _ = writeln!(t, "title = {}", toml_str(&o.title));
         let _ = writeln!(t, "spec = {}", toml_str(&o.spec));
         let _ = writeln!(t, "type = {}", toml_str(o.ty.name()));
+        if let Some(dt) = o.data_type {
+            let _ = writeln!(t, "data_type = 0x{dt:04X}");
+        }
         if let Some(s) = o.subcodes {
             let _ = writeln!(t, "subcodes = {s}");
         }
@@ -1185,7 +1312,18 @@ HighLimit=00100000
 ParameterName=orphan
 DataType=0x0004
 AccessType=rw
+[DeviceInfo]
+VendorNumber=0x0000003B
 ";
+
+    /// Appended to a test file: a Lenze data sheet (lint at `line`).
+    const LENZE: &str = "[DeviceInfo]\nVendorName=Lenze\n";
+
+    fn lenze_lint(line: usize) -> String {
+        format!(
+            "t.eds:{line}: VendorName `Lenze` names Lenze (no VendorNumber to tell): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types"
+        )
+    }
 
     #[test]
     fn malformed_vendor_file_exact_lints_and_codes() {
@@ -1200,6 +1338,7 @@ AccessType=rw
                 "t.eds:36: 0x5FF5: empty LowLimit; left unset",
                 "t.eds:37: 0x5FF5: HighLimit `00100000` read as decimal 100000 (a leading 0 means octal in C, giving 32768)",
                 "t.eds:39: 0x5FF6sub1: no main section [5FF6]; skipped",
+                "t.eds:44: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types",
             ]
         );
         assert_eq!((i.lenze_codes, i.cia_objects), (2, 1));
@@ -1245,17 +1384,19 @@ DefaultValue=5
 LowLimit=9
 HighLimit=1
 ";
+        let text = format!("{text}{LENZE}");
         let i = import(text.as_bytes(), &opts()).unwrap();
         assert_eq!(
             lints(&i),
             vec![
-                "t.eds:1: 0x5F78: DataType INTEGER32 (0x0004): typed BITCODED (u32) as page 454 says of C0135 / C0150",
-                "t.eds:13: 0x5FFD: LowLimit 0.0009 is above HighLimit 0.0001; both left unset",
+                "t.eds:1: 0x5F78: DataType INTEGER32 (0x0004): typed BITCODED (u32) as page 454 says of C0135 / C0150".to_string(),
+                "t.eds:13: 0x5FFD: LowLimit 0.0009 is above HighLimit 0.0001; both left unset".to_string(),
+                lenze_lint(21),
             ]
         );
         assert_eq!(
             block(&i.toml, 135),
-            "[[code]]\nnumber = 135\nname = \"code_0135\"\ntitle = \"C0135\"\nspec = \"t.eds [5F78] line 1\"\ntype = \"BITCODED\"\ndefault = \"1025\"\naccess = \"rw\"\nrole = \"control-word\""
+            "[[code]]\nnumber = 135\nname = \"code_0135\"\ntitle = \"C0135\"\nspec = \"t.eds [5F78] line 1\"\ntype = \"BITCODED\"\ndata_type = 0x0004\ndefault = \"1025\"\naccess = \"rw\"\nrole = \"control-word\""
         );
         assert_eq!(
             block(&i.toml, 1),
@@ -1296,18 +1437,24 @@ DataType=0x0001
 AccessType=rw
 DefaultValue=1
 ";
+        let text = format!("{text}{LENZE}");
         let i = import(text.as_bytes(), &opts()).unwrap();
         assert_eq!(
             lints(&i),
             vec![
-                "t.eds:8: 0x6000: SubNumber=2 but 2 [6000subN] sections found; the sections are used",
-                "t.eds:8: 0x6000: subindexes differ in DataType (sub1 UNSIGNED32 (0x0007), sub2 UNSIGNED8 (0x0005)); one code has one type; skipped",
-                "t.eds:20: 0x6001: BOOLEAN kept as UNSIGNED8 (one byte, 0 or 1)",
-            ][..]
-                .iter()
-                .filter(|l| !l.contains("SubNumber"))
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>()
+                "t.eds:8: 0x6000: subindexes 1, 2 differ in type, access, limits or default: each kept subindex is a code of its own (index 0x6000 + subindex) with the facts of its own section".to_string(),
+                "t.eds:20: 0x6001: BOOLEAN kept as UNSIGNED8 (one byte, 0 or 1)".to_string(),
+                lenze_lint(26),
+            ]
+        );
+        // a record whose subindexes differ in type: each its own code
+        assert_eq!(
+            block(&i.toml, 0x100_0000 + 0x6000 * 256 + 1),
+            "[[code]]\nnumber = 23068673\nindex = 0x6000\nsubindex = 1\nname = \"mixed_a\"\ntitle = \"Mixed: a\"\nspec = \"t.eds [6000sub1] line 12\"\ntype = \"UNSIGNED32\"\naccess = \"rw\""
+        );
+        assert_eq!(
+            block(&i.toml, 0x100_0000 + 0x6000 * 256 + 2),
+            "[[code]]\nnumber = 23068674\nindex = 0x6000\nsubindex = 2\nname = \"mixed_b\"\ntitle = \"Mixed: b\"\nspec = \"t.eds [6000sub2] line 16\"\ntype = \"UNSIGNED8\"\naccess = \"rw\""
         );
         assert_eq!(
             block(&i.toml, 5020),
@@ -1315,7 +1462,7 @@ DefaultValue=1
         );
         assert_eq!(
             block(&i.toml, 0x1_6001),
-            "[[code]]\nnumber = 90113\nindex = 0x6001\nname = \"flag\"\ntitle = \"Flag\"\nspec = \"t.eds [6001] line 20\"\ntype = \"UNSIGNED8\"\nmin = \"0\"\nmax = \"1\"\ndefault = \"1\"\naccess = \"rw\""
+            "[[code]]\nnumber = 90113\nindex = 0x6001\nname = \"flag\"\ntitle = \"Flag\"\nspec = \"t.eds [6001] line 20\"\ntype = \"UNSIGNED8\"\ndata_type = 0x0001\nmin = \"0\"\nmax = \"1\"\ndefault = \"1\"\naccess = \"rw\""
         );
     }
 

@@ -1,6 +1,6 @@
 //! Owns reading CiA 306 electronic data sheets (EDS) and device
 //! configuration files (DCF): the INI-style syntax (CiA 306 §4.1: sections,
-//! `key=value` lines, `;` comments), the object sections (`[1000]`,
+//! `key=value` lines, `;` comment lines), the object sections (`[1000]`,
 //! `[1018sub2]`, CiA 306 §4.6) with their keys (§4.6.3), and the value
 //! syntax (§4.4: decimal, `0x` hex, `$NODEID` arithmetic, strings and
 //! octet strings). Pure: bytes in, a model with line numbers and lints out.
@@ -10,10 +10,19 @@
 //! wins) and sections (merged), empty values, hex in any case (`0X1a`),
 //! decimal with leading zeros (`001`, read as decimal; see [`parse_int`]),
 //! `$NODEID+0x580` and `0x580+$NODEID`, Latin-1 bytes, a UTF-8 byte order
-//! mark, CR LF line ends, lines without `=`.
+//! mark, UTF-16 with a byte order mark, CR LF and CR-only line ends, lines
+//! without `=`, `#` comment lines, section names shaped like an object but
+//! out of range (`[10000]`, `[1018sub100]`).
 //!
-//! Refused (an [`EdsError`] with the line): a NUL byte (a binary file), a
-//! file with no object section at all.
+//! Comments (CiA 306 §4.1: a line whose first character is `;`): a `;`
+//! inside a value ends it only where python-canopen's reader
+//! (`configparser` with `inline_comment_prefixes=(';',)`) ends it, after
+//! whitespace (`Speed ; rpm` is `Speed`, with a lint); a `;` right after
+//! text stays in the value (`C0016 Block detection; torque and time`).
+//!
+//! Refused (an [`EdsError`] with the line): a NUL byte (a binary file, or
+//! UTF-16 without a byte order mark), UTF-16 that does not decode, a file
+//! with no object section at all.
 
 use std::collections::BTreeMap;
 
@@ -114,7 +123,8 @@ pub fn eq_key(a: &str, b: &str) -> bool {
     a.eq_ignore_ascii_case(b)
 }
 
-/// `1018` -> Main(0x1018), `1018sub2` / `1018SUB02` -> Sub(0x1018, 2).
+/// `1018` -> Main(0x1018), `1018sub2` / `1018SUB02` -> Sub(0x1018, 2);
+/// `None` for other sections and for a subindex above FF.
 pub fn object_name(name: &str) -> Option<ObjectName> {
     let n = name.trim();
     let hex4 = |s: &str| -> Option<u16> {
@@ -134,11 +144,13 @@ pub fn object_name(name: &str) -> Option<ObjectName> {
         return None;
     }
     let digits = rest.get(3..)?;
-    if digits.is_empty() || digits.len() > 2 || !digits.bytes().all(|b| b.is_ascii_hexdigit()) {
+    // leading zeros allowed (`sub01`, as python-canopen reads them)
+    if digits.is_empty() || digits.len() > 8 || !digits.bytes().all(|b| b.is_ascii_hexdigit()) {
         return None;
     }
-    u8::from_str_radix(digits, 16)
+    u32::from_str_radix(digits, 16)
         .ok()
+        .and_then(|s| u8::try_from(s).ok())
         .map(|s| ObjectName::Sub(index, s))
 }
 
@@ -158,24 +170,29 @@ pub fn parse(bytes: &[u8]) -> Result<EdsFile, EdsError> {
             help: "check that this is a CiA 306 data sheet".into(),
         });
     }
-    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let utf16 = decode_utf16(bytes)?;
+    let body: &[u8] = match &utf16 {
+        Some(text) => text.as_bytes(),
+        None => bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes),
+    };
     let mut file = EdsFile::default();
     let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
     let mut current: Option<usize> = None;
-    for (i, raw) in body.split(|&b| b == b'\n').enumerate() {
+    for (i, raw) in lines(body).enumerate() {
         let line = i + 1;
         if let Some(col) = raw.iter().position(|&b| b == 0) {
-            return Err(EdsError {
-                line,
-                column: col + 1,
-                message: "NUL byte: this is a binary file, not a CiA 306 EDS / DCF".into(),
-                help: "give the .eds or .dcf text file shipped with the device".into(),
-            });
+            return Err(nul_error(bytes, line, col));
         }
-        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
         let text = decode_line(raw);
         let t = text.trim();
         if t.is_empty() || t.starts_with(';') {
+            continue;
+        }
+        if t.starts_with('#') {
+            file.lints.push(Lint {
+                line,
+                message: "line starts with `#`: CiA 306 comments start with `;`; read as a comment, as python-canopen does".into(),
+            });
             continue;
         }
         if let Some(rest) = t.strip_prefix('[') {
@@ -188,6 +205,14 @@ pub fn parse(bytes: &[u8]) -> Result<EdsFile, EdsError> {
                 continue;
             };
             let name = rest[..end].trim().to_string();
+            if let Some(why) = out_of_range_object(&name) {
+                file.lints.push(Lint {
+                    line,
+                    message: format!(
+                        "section [{name}] is shaped like an object but {why} (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                    ),
+                });
+            }
             let after = strip_comment(&rest[end + 1..]);
             if !after.trim().is_empty() {
                 file.lints.push(Lint {
@@ -227,7 +252,19 @@ pub fn parse(bytes: &[u8]) -> Result<EdsFile, EdsError> {
             continue;
         };
         let key = t[..eq].trim().to_string();
-        let value = strip_comment(&t[eq + 1..]).trim().to_string();
+        let full = &t[eq + 1..];
+        let kept = strip_comment(full);
+        if kept.len() < full.len() {
+            file.lints.push(Lint {
+                line,
+                message: format!(
+                    "`{}` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); {key} is `{}`",
+                    shorten(full[kept.len()..].trim()),
+                    shorten(kept.trim())
+                ),
+            });
+        }
+        let value = kept.trim().to_string();
         let Some(sec) = current.and_then(|c| file.sections.get_mut(c)) else {
             file.lints.push(Lint {
                 line,
@@ -275,14 +312,161 @@ fn decode_line(raw: &[u8]) -> String {
     }
 }
 
-/// The text before a `;` comment (CiA 306 §4.1: comment lines start with
-/// `;`; vendor files also put `;` after values, which python-canopen
-/// accepts as well).
+/// The text after `=` (or `]`) before an inline `;` comment as
+/// python-canopen reads one (`configparser`, `inline_comment_prefixes=(';',)`:
+/// a `;` preceded by whitespace in the line); a `;` right after other text,
+/// the `=` included (`DefaultValue=;x`), is part of the value.
 fn strip_comment(s: &str) -> &str {
-    match s.find(';') {
-        Some(i) => &s[..i],
-        None => s,
+    let mut prev_space = false;
+    for (i, c) in s.char_indices() {
+        if c == ';' && prev_space {
+            return &s[..i];
+        }
+        prev_space = c.is_whitespace();
     }
+    s
+}
+
+/// Lines split at LF, CR LF or a lone CR (old Mac files), ends removed.
+fn lines(body: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = Some(body);
+    std::iter::from_fn(move || {
+        let r = rest?;
+        match r.iter().position(|&b| b == b'\n' || b == b'\r') {
+            None => {
+                rest = None;
+                Some(r)
+            }
+            Some(p) => {
+                let skip = if r[p] == b'\r' && r.get(p + 1) == Some(&b'\n') {
+                    2
+                } else {
+                    1
+                };
+                rest = Some(&r[p + skip..]);
+                Some(&r[..p])
+            }
+        }
+    })
+}
+
+/// A UTF-16 file (with its byte order mark) as text; `None` for other files.
+fn decode_utf16(bytes: &[u8]) -> Result<Option<String>, EdsError> {
+    let little = match bytes {
+        [0xFF, 0xFE, ..] => true,
+        [0xFE, 0xFF, ..] => false,
+        _ => return Ok(None),
+    };
+    let body = &bytes[2..];
+    let refuse = |line: usize, message: String| EdsError {
+        line,
+        column: 0,
+        message,
+        help: "save the data sheet as UTF-8 (or Latin-1) text and import that".into(),
+    };
+    if !body.len().is_multiple_of(2) {
+        return Err(refuse(
+            0,
+            format!(
+                "UTF-16 {} file (byte order mark) of an odd number of bytes ({}): cut short",
+                if little { "LE" } else { "BE" },
+                bytes.len()
+            ),
+        ));
+    }
+    let units = body.chunks_exact(2).map(|p| {
+        if little {
+            u16::from_le_bytes([p[0], p[1]])
+        } else {
+            u16::from_be_bytes([p[0], p[1]])
+        }
+    });
+    let mut text = String::with_capacity(body.len() / 2);
+    let mut line = 1;
+    for c in char::decode_utf16(units) {
+        match c {
+            Ok(c) => {
+                if c == '\n' {
+                    line += 1;
+                }
+                text.push(c);
+            }
+            Err(e) => {
+                return Err(refuse(
+                    line,
+                    format!(
+                        "UTF-16 {} file: unpaired surrogate 0x{:04X}: not UTF-16 text",
+                        if little { "LE" } else { "BE" },
+                        e.unpaired_surrogate()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(Some(text))
+}
+
+/// The refusal of a NUL byte at `line` / `col` (0-based): UTF-16 without a
+/// byte order mark when every other byte of the start is NUL.
+fn nul_error(bytes: &[u8], line: usize, col: usize) -> EdsError {
+    let head = &bytes[..bytes.len().min(64)];
+    let nul_at = |odd: bool| {
+        head.len() >= 4
+            && head
+                .iter()
+                .enumerate()
+                .all(|(i, &b)| (i % 2 == 1) == odd || b != 0)
+            && head
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| (i % 2 == 1) == odd)
+                .all(|(_, &b)| b == 0)
+    };
+    if nul_at(true) || nul_at(false) {
+        return EdsError {
+            line,
+            column: col + 1,
+            message: format!(
+                "UTF-16 {} text without a byte order mark",
+                if nul_at(true) { "LE" } else { "BE" }
+            ),
+            help: "save the data sheet as UTF-8, or as UTF-16 with a byte order mark".into(),
+        };
+    }
+    EdsError {
+        line,
+        column: col + 1,
+        message: "NUL byte: this is a binary file, not a CiA 306 EDS / DCF".into(),
+        help: "give the .eds or .dcf text file shipped with the device".into(),
+    }
+}
+
+/// Why a section name shaped like an object address (hex digits, or hex
+/// digits + `sub` + hex digits) is none; `None` for object names and for
+/// other sections (`[FileInfo]`, `[1003Name]`, `[1F50Value]`).
+fn out_of_range_object(name: &str) -> Option<&'static str> {
+    if object_name(name).is_some() {
+        return None;
+    }
+    let hex = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_hexdigit());
+    let n = name.trim();
+    if hex(n) && n.len() <= 8 && n.bytes().any(|b| b.is_ascii_digit()) {
+        return Some(if n.len() > 4 {
+            "its index has more than 4 hex digits"
+        } else {
+            "its index has fewer than 4 hex digits"
+        });
+    }
+    let lower = n.to_ascii_lowercase();
+    let (idx, sub) = lower.split_once("sub")?;
+    if !hex(idx) || !hex(sub) {
+        return None;
+    }
+    Some(if idx.len() != 4 {
+        "its index is not 4 hex digits"
+    } else {
+        "its subindex is above FF"
+    })
 }
 
 fn shorten(s: &str) -> String {
@@ -397,7 +581,13 @@ mod tests {
     fn sections_keys_comments_and_case() {
         let text = b"; header comment\r\n[FileInfo]\r\nFileName=x.eds ; trailing\r\n\r\n[1000]\r\nparametername=Device type\r\nDATATYPE=0x0007\r\n[1018SUB2]\nParameterName = Product code \n";
         let f = parse(text).unwrap();
-        assert_eq!(f.lints, vec![]);
+        assert_eq!(
+            f.lints,
+            vec![Lint {
+                line: 3,
+                message: "`; trailing` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); FileName is `x.eds`".into()
+            }]
+        );
         assert_eq!(f.sections.len(), 3);
         let fi = f.section("fileinfo").unwrap();
         assert_eq!(fi.get("FILENAME").unwrap().value, "x.eds");
@@ -490,6 +680,114 @@ mod tests {
     }
 
     #[test]
+    fn a_semicolon_after_text_stays_in_the_value() {
+        let f = parse(b"[5FE7]\nParameterName=C0016 Block detection; torque and time\nDefaultValue=5\t; five\n").unwrap();
+        let s = f.section("5FE7").unwrap();
+        assert_eq!(
+            s.get("ParameterName").unwrap().value,
+            "C0016 Block detection; torque and time"
+        );
+        assert_eq!(s.get("DefaultValue").unwrap().value, "5");
+        assert_eq!(
+            f.lints,
+            vec![Lint {
+                line: 3,
+                message: "`; five` after whitespace read as a comment, as python-canopen reads it (CiA 306 comments are whole lines); DefaultValue is `5`".into()
+            }]
+        );
+        assert_eq!(strip_comment(";x"), ";x");
+        assert_eq!(strip_comment(" ;x"), " ");
+        assert_eq!(strip_comment("a;b ;c"), "a;b ");
+    }
+
+    #[test]
+    fn cr_only_lf_and_crlf_line_ends() {
+        for text in [
+            &b"[1000]\rParameterName=Device type\rDataType=0x0007\r"[..],
+            b"[1000]\r\nParameterName=Device type\r\nDataType=0x0007",
+            b"[1000]\nParameterName=Device type\nDataType=0x0007\n",
+        ] {
+            let f = parse(text).unwrap();
+            let s = f.section("1000").unwrap();
+            assert_eq!(s.get("ParameterName").unwrap().value, "Device type");
+            assert_eq!(s.get("DataType").unwrap().line, 3);
+        }
+    }
+
+    #[test]
+    fn utf16_with_bom_is_read_without_is_refused() {
+        let text = "[5FF4]\r\nParameterName=Drehzahl \u{fc}ber\r\n";
+        let le: Vec<u8> = [0xFF, 0xFE]
+            .into_iter()
+            .chain(text.encode_utf16().flat_map(u16::to_le_bytes))
+            .collect();
+        let be: Vec<u8> = [0xFE, 0xFF]
+            .into_iter()
+            .chain(text.encode_utf16().flat_map(u16::to_be_bytes))
+            .collect();
+        for bytes in [&le, &be] {
+            let f = parse(bytes).unwrap();
+            assert_eq!(
+                f.section("5FF4")
+                    .unwrap()
+                    .get("ParameterName")
+                    .unwrap()
+                    .value,
+                "Drehzahl \u{fc}ber"
+            );
+        }
+        let e = parse(&le[2..]).unwrap_err();
+        assert_eq!((e.line, e.column), (1, 2));
+        assert_eq!(e.message, "UTF-16 LE text without a byte order mark");
+        let e = parse(&be[..be.len() - 1]).unwrap_err();
+        assert_eq!(
+            e.message,
+            "UTF-16 BE file (byte order mark) of an odd number of bytes (75): cut short"
+        );
+        let mut bad = le.clone();
+        bad.extend([0x00, 0xD8, b'x', 0]);
+        let e = parse(&bad).unwrap_err();
+        assert_eq!(e.line, 3);
+        assert_eq!(
+            e.message,
+            "UTF-16 LE file: unpaired surrogate 0xD800: not UTF-16 text"
+        );
+    }
+
+    #[test]
+    fn object_shaped_names_out_of_range_and_hash_comments_are_lints() {
+        let f = parse(b"[10000]\nx=1\n[1018sub100]\nx=1\n[101sub1]\n# note\n[1003Name]\n[1000]\n")
+            .unwrap();
+        let got: Vec<(usize, &str)> = f
+            .lints
+            .iter()
+            .map(|l| (l.line, l.message.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (
+                    1,
+                    "section [10000] is shaped like an object but its index has more than 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    3,
+                    "section [1018sub100] is shaped like an object but its subindex is above FF (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    5,
+                    "section [101sub1] is shaped like an object but its index is not 4 hex digits (CiA 306 §4.6: [IIII] or [IIIIsubS], IIII 4 hex digits, S 0..FF); its entries are ignored"
+                ),
+                (
+                    6,
+                    "line starts with `#`: CiA 306 comments start with `;`; read as a comment, as python-canopen does"
+                ),
+            ]
+        );
+        assert_eq!(f.objects().len(), 1);
+    }
+
+    #[test]
     fn latin1_and_bom() {
         let f = parse(b"\xEF\xBB\xBF[5FF4]\nParameterName=Drehzahl \xFCber\n").unwrap();
         assert_eq!(
@@ -511,6 +809,7 @@ mod tests {
         assert_eq!(object_name("1018sub10"), Some(ObjectName::Sub(0x1018, 16)));
         assert_eq!(object_name("1018sub"), None);
         assert_eq!(object_name("1018sub100"), None);
+        assert_eq!(object_name("1018sub001"), Some(ObjectName::Sub(0x1018, 1)));
         assert_eq!(object_name("1003Name"), None);
         assert_eq!(object_name("FileInfo"), None);
         assert_eq!(object_name("10180"), None);

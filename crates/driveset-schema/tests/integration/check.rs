@@ -265,8 +265,9 @@ const CAN_HEAD: &str = "[schema]\nid = \"fictional-can\"\ntitle = \"FICTIONAL: c
 
 #[test]
 fn cia_objects_kept_by_index() {
-    // number defaults to 65536 + index; a CiA object inside the Lenze code
-    // range, two codes on one object and `index` on LECOM are findings
+    // number defaults to 65536 + index; an object inside the Lenze code
+    // range is one of its own type (a non-Lenze device's), but two codes on
+    // one object and `index` on LECOM are findings
     let text = format!(
         "{CAN_HEAD}
 [[code]]
@@ -294,18 +295,11 @@ type = \"FIX32\"
     );
     assert_eq!(
         check(&text),
-        vec![
-            (
-                "code 90100: index 0x5FF4 is in the Lenze code range; it is code C0011".to_string(),
-                19,
-                9
-            ),
-            (
-                "code 11 reaches SDO index 0x5FF4, as code 90100 does".to_string(),
-                26,
-                10
-            ),
-        ]
+        vec![(
+            "code 11 reaches SDO index 0x5FF4, as code 90100 does".to_string(),
+            26,
+            10
+        ),]
     );
     let mut r = Registry::builtin().unwrap();
     let s = r
@@ -336,6 +330,91 @@ spec = \"s\"
             "code with `index` = 0x1017 has number 4119, not 69655 (65536 + index)",
             12
         )
+    );
+
+    // one subindex as a code: number 16777216 + index x 256 + subindex; a
+    // whole object and one of its subindexes are one object twice; one
+    // subindex has no subcodes; data_type must carry the type
+    let subs = format!(
+        "{CAN_HEAD}
+[[code]]
+index = 0x1018
+subindex = 1
+name = \"vendor_id\"
+title = \"Identity: Vendor-ID\"
+spec = \"s\"
+type = \"UNSIGNED32\"
+default = \"59\"
+access = \"ro\"
+
+[[code]]
+index = 0x1018
+name = \"identity\"
+title = \"Identity\"
+spec = \"s\"
+type = \"UNSIGNED32\"
+subcodes = 4
+
+[[code]]
+index = 0x6000
+subindex = 2
+subcodes = 2
+name = \"b\"
+title = \"b\"
+spec = \"s\"
+type = \"UNSIGNED8\"
+data_type = 0x0007
+"
+    );
+    assert_eq!(
+        check(&subs),
+        vec![
+            (
+                "code 69656 reaches SDO index 0x1018, as code 17831937 does".to_string(),
+                21,
+                9
+            ),
+            (
+                "code 23068674: data_type 0x0007 does not carry type UNSIGNED8".to_string(),
+                29,
+                9
+            ),
+            (
+                "code 23068674: one `subindex` has no `subcodes`".to_string(),
+                29,
+                9
+            ),
+        ]
+    );
+    let s = Registry::builtin()
+        .unwrap()
+        .add_source(SourceFile::new("x.toml", subs.as_str()))
+        .unwrap();
+    let c = s.code(0x100_0000 + 0x1018 * 256 + 1).expect("vendor_id");
+    assert_eq!(
+        (c.index, c.subindex, c.name.as_str()),
+        (Some(0x1018), Some(1), "vendor_id")
+    );
+    assert_eq!(s.display_code(c.number, None), "0x1018sub1");
+    let wrong_sub = format!(
+        "{CAN_HEAD}\n[[code]]\nindex = 0x1018\nsubindex = 1\nnumber = 69656\nname = \"v\"\n"
+    );
+    let e = Registry::builtin()
+        .unwrap()
+        .add_source(SourceFile::new("x.toml", wrong_sub.as_str()))
+        .unwrap_err();
+    assert_eq!(
+        e.message,
+        "code with `index` = 0x1018, `subindex` = 1 has number 69656, not 17831937 (16777216 + index x 256 + subindex)"
+    );
+    let no_index = format!("{CAN_HEAD}\n[[code]]\nnumber = 5\nsubindex = 1\nname = \"v\"\n");
+    let e = Registry::builtin()
+        .unwrap()
+        .add_source(SourceFile::new("x.toml", no_index.as_str()))
+        .unwrap_err();
+    assert_eq!(
+        (e.message.as_str(), e.location.line),
+        ("`subindex` without `index`", 12)
     );
 
     let lecom = format!(
