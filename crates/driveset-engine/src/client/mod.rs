@@ -14,6 +14,7 @@ use driveset_link::{Clock, Instant};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use crate::error::{DeviceCause, EngineError, Refusal};
+use crate::guard::Permit;
 
 pub mod lecom;
 pub mod lustbus;
@@ -249,6 +250,28 @@ pub trait DriveClient: Send {
     /// write yet (MC EEPROM still storing): correctness never depends on
     /// the caller's pacing.
     fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError>;
+
+    /// Write one code as one of the engine's own named operations
+    /// ([`Permit`]: the rate activation 4-PROG = 111, the `--transfer-baud`
+    /// rate switch ...), through the write guard ([`crate::guard`]), which
+    /// lets the permit cover exactly its code and values. Only the engine
+    /// can name a permit other than [`Permit::SETTING`]. Default: refused
+    /// (a client that does not perform named operations).
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        permit: Permit,
+    ) -> Result<(), EngineError> {
+        Err(EngineError::refused(
+            self.target().clone(),
+            Refusal::GuardPermit {
+                permit: permit.name().to_string(),
+                code: code_name(self.schema(), key),
+                value: shown_value(self.schema(), key, raw),
+            },
+        ))
+    }
 
     /// The earliest instant a write of `key` will be taken without waiting
     /// (MC6000/7000: the EEPROM is busy width x 3 x 5 ms after an EEPROM
