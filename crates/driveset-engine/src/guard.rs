@@ -214,13 +214,40 @@ fn stopped_list(code: &Code) -> String {
 
 /// The stopped state a rollback or recover writes instead of `old`, a
 /// control word value that is not stopped (the motor was running before
-/// the transaction): `old` with its start / enable / release and reset
-/// bits cleared, or the first of the code's `stopped` values. `None`: the
-/// schema knows no stopped state of the code (nothing is written then).
-pub fn stopped_instead(schema: &Schema, code: &Code, old: &RawValue) -> Option<RawValue> {
+/// the transaction): the transaction's `new` value where it is a stopped
+/// state (the stop the set asked for stays), else `old` with its start /
+/// enable / release and reset bits cleared, else the first of the code's
+/// `stopped` values. `None`: the schema knows no stopped state of the code
+/// (nothing is written then).
+pub fn stopped_instead(
+    schema: &Schema,
+    code: &Code,
+    old: &RawValue,
+    new: Option<&RawValue>,
+) -> Option<RawValue> {
+    if let Some(n) = new
+        && control_why(schema, code, n).is_none()
+    {
+        return Some(n.clone());
+    }
     let RawValue::Int(v) = old else {
         return None;
     };
+    let cleared = {
+        let mut cleared = *v;
+        for b in code.bits.iter().filter(|b| {
+            b.role
+                .is_some_and(|r| r.moves() || r == driveset_schema::BitRole::Reset)
+        }) {
+            for bit in b.lsb..=b.msb.min(62) {
+                cleared &= !(1i64 << bit);
+            }
+        }
+        RawValue::Int(cleared)
+    };
+    if control_why(schema, code, &cleared).is_none() {
+        return Some(cleared);
+    }
     let candidate = if let Some(first) = code.stopped.first() {
         let ty = schema.type_of(code)?;
         RawValue::Int(
@@ -232,16 +259,7 @@ pub fn stopped_instead(schema: &Schema, code: &Code, old: &RawValue) -> Option<R
             .ok()?,
         )
     } else {
-        let mut cleared = *v;
-        for b in code.bits.iter().filter(|b| {
-            b.role
-                .is_some_and(|r| r.moves() || r == driveset_schema::BitRole::Reset)
-        }) {
-            for bit in b.lsb..=b.msb.min(62) {
-                cleared &= !(1i64 << bit);
-            }
-        }
-        RawValue::Int(cleared)
+        return None;
     };
     control_why(schema, code, &candidate)
         .is_none()

@@ -363,7 +363,7 @@ pub fn recover(
             })
             .map(|(k, _)| code_label(&schema, *k))
             .collect();
-        let plan = RollbackPlan::new(&schema, &backup);
+        let plan = RollbackPlan::new(&schema, &backup, &new_values);
         report.notes = plan.notes(&schema, &touched);
         let result = restore(
             client,

@@ -1441,7 +1441,7 @@ impl Transaction {
         // confirm nothing changed
         let n = Some(self.backup().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
-        let plan = RollbackPlan::new(&self.schema, &self.backup());
+        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
         match self.compare_with_backup(client, &plan) {
             Ok(diffs) if diffs.is_empty() => {
                 self.dataset_touched = false;
@@ -1512,7 +1512,7 @@ impl Transaction {
                 &format!("{cause_text}; nothing was rolled back"),
             );
         }
-        let plan = RollbackPlan::new(&self.schema, &self.backup());
+        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
         let notes = plan.notes(&self.schema, &self.touched());
         self.warnings.extend(notes.iter().cloned());
         let restore_result = restore(
@@ -1674,15 +1674,20 @@ pub(crate) struct RollbackPlan {
 }
 
 impl RollbackPlan {
-    /// The plan for `backup` (old values) under `schema`'s roles.
-    pub(crate) fn new(schema: &Schema, backup: &BTreeMap<CodeKey, RawValue>) -> Self {
+    /// The plan for `backup` (old values) of a transaction that wrote
+    /// `new_values`, under `schema`'s roles.
+    pub(crate) fn new(
+        schema: &Schema,
+        backup: &BTreeMap<CodeKey, RawValue>,
+        new_values: &BTreeMap<CodeKey, RawValue>,
+    ) -> Self {
         let mut restore = BTreeMap::new();
         let mut running_old = BTreeMap::new();
         for (k, old) in backup {
             match schema.code(k.number) {
                 Some(code) if !crate::guard::is_stopped(schema, code, old) => {
                     running_old.insert(*k, old.clone());
-                    if let Some(stop) = crate::guard::stopped_instead(schema, code, old) {
+                    if let Some(stop) = crate::guard::stopped_instead(schema, code, old, new_values.get(k)) {
                         restore.insert(*k, stop);
                     }
                 }

@@ -1189,10 +1189,20 @@ impl Schema {
                 match code.bits.iter_mut().find(|b| b.lsb == fb.bit && b.msb == fb.bit) {
                     Some(b) => b.role = Some(fb.role),
                     None => {
-                        // A wider member over the bit loses its role; the
-                        // floor's one-bit member takes it.
-                        for b in code.bits.iter_mut().filter(|b| b.lsb <= fb.bit && fb.bit <= b.msb) {
-                            b.role = None;
+                        // A wider member over the bit: a start, enable,
+                        // release or reset bit makes the member count as
+                        // one when any of its bits is set (more values are
+                        // refused, none is let through); an inhibit bit
+                        // stays unnamed (no value is made safe by it).
+                        if let Some(b) = code
+                            .bits
+                            .iter_mut()
+                            .find(|b| b.lsb <= fb.bit && fb.bit <= b.msb)
+                        {
+                            if fb.role != BitRole::Inhibit {
+                                b.role = Some(fb.role);
+                            }
+                            continue;
                         }
                         code.bits.push(BitField {
                             name: fb.name.to_string(),
