@@ -470,7 +470,7 @@ fn verify_mismatch_rolls_back() {
     // rollback restores every other code and leaves both control words in
     // the stopped state the set gave them, saying so
     assert!(
-        text.contains("C0040 left stopped: the motor was running before; start it from the machine's control; C0135 left stopped: the motor was running before; start it from the machine's control"),
+        text.contains("C0040 controller_inhibit left stopped: the motor was running before; start it from the machine's control; C0135 control_word left stopped: the motor was running before; start it from the machine's control; the drive holds its old values again (verified)"),
         "{text}"
     );
     let mut stopped = before;
@@ -736,10 +736,15 @@ fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
         "{err}"
     );
     assert!(err.to_string().contains("restarted"), "{err}");
+    // C0040 was written (and is left stopped), C0135 never was
     let mut stopped = before.values;
     stopped.insert(k(40), RawValue::Int(0));
-    stopped.insert(k(135), RawValue::Int(8));
     assert_eq!(client.drive.values, stopped);
+    assert!(
+        err.to_string()
+            .contains("C0040 controller_inhibit left stopped: the motor was running before"),
+        "{err}"
+    );
 }
 
 #[test]
