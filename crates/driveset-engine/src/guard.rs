@@ -109,7 +109,9 @@ pub(crate) fn check(
     };
     let d = schema.family.descriptor();
     let value = || match code {
-        Some(c) if !schema.is_password(c) => driveset_schema::validate::display_value(schema, c, raw),
+        Some(c) if !schema.is_password(c) => {
+            driveset_schema::validate::display_value(schema, c, raw)
+        }
         _ => shown_value(schema, key, raw),
     };
     let int = match raw {
@@ -138,9 +140,7 @@ pub(crate) fn check(
             schema.family == Family::Mc6000
                 && key.number == u32::from(driveset_proto::lustbus::description::STEXT)
                 && key.subcode.is_none()
-                && code.is_none_or(|c| {
-                    !matches!(c.role, Some(Role::Command | Role::ControlWord))
-                }),
+                && code.is_none_or(|c| !matches!(c.role, Some(Role::Command | Role::ControlWord))),
         ),
     };
     match named {
@@ -312,4 +312,224 @@ pub(crate) fn sdo_download(
 ) -> Result<SdoRequest, String> {
     sdo.start_write(index, subindex, data)
         .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use driveset_schema::error::SourceFile;
+    use driveset_schema::{CodeKey, Family, RawValue, Registry, Schema};
+
+    use super::{Permit, check};
+    use crate::client::Target;
+    use crate::error::ErrorKind;
+
+    fn builtin(f: Family) -> Arc<Schema> {
+        Registry::builtin()
+            .expect("built-in schemas")
+            .get(f.descriptor().schema_id)
+            .expect("schema")
+    }
+
+    fn target() -> Target {
+        Target {
+            port: "p".into(),
+            address: 1,
+        }
+    }
+
+    /// The refusal text, or "ok".
+    fn verdict(s: &Schema, number: u32, raw: i64, permit: Permit) -> String {
+        match check(
+            s,
+            &target(),
+            CodeKey::new(number),
+            &RawValue::Int(raw),
+            permit,
+        ) {
+            Ok(_) => "ok".into(),
+            Err(e) => match *e.kind {
+                ErrorKind::Refused(r) => r.to_string(),
+                other => panic!("not a refusal: {other:?}"),
+            },
+        }
+    }
+
+    #[test]
+    fn mc6000_control_word_and_commands() {
+        let s = builtin(Family::Mc6000);
+        let w = |n, v| verdict(&s, n, v, Permit::SETTING);
+        assert_eq!(w(416, 0), "ok");
+        assert_eq!(
+            w(416, 1),
+            "416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+        );
+        assert_eq!(
+            w(416, 0x80),
+            "416-SCTL1 = { start = 0, error_reset = 1 } is a command (error_reset set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+        );
+        let prog = "4-PROG = 1 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself";
+        assert_eq!(w(4, 1), prog);
+        assert!(w(4, 111).starts_with("4-PROG = 111 is a command"));
+        assert!(w(80, -1).starts_with("80-SLOAD = -1 is a command"));
+        // settings pass, the rate code as a set's value too
+        assert_eq!(w(428, 1000), "ok");
+        assert_eq!(w(81, 19200), "ok");
+    }
+
+    #[test]
+    fn each_permit_covers_exactly_its_code_and_values() {
+        let s = builtin(Family::Mc6000);
+        let p = |n, v, permit| verdict(&s, n, v, permit);
+        assert_eq!(p(80, -1, Permit::DATASET_BEGIN), "ok");
+        assert_eq!(p(80, -2, Permit::DATASET_COMMIT), "ok");
+        assert_eq!(p(4, 111, Permit::ACTIVATE_RATE), "ok");
+        assert_eq!(p(81, 57600, Permit::RATE_SWITCH), "ok");
+        assert_eq!(p(108, 3, Permit::TEXT_SELECTOR), "ok");
+        assert_eq!(
+            p(80, -2, Permit::DATASET_BEGIN),
+            "the dataset-begin (80-SLOAD = -1) permit does not cover 80-SLOAD = -2; nothing was sent"
+        );
+        assert_eq!(
+            p(4, 1, Permit::ACTIVATE_RATE),
+            "the activate-rate (4-PROG = 111) permit does not cover 4-PROG = 1; nothing was sent"
+        );
+        assert_eq!(
+            p(416, 1, Permit::ACTIVATE_RATE),
+            "the activate-rate (4-PROG = 111) permit does not cover 416-SCTL1 = { start = 1, error_reset = 0 }; nothing was sent"
+        );
+        assert_eq!(
+            p(81, 12345, Permit::RATE_SWITCH),
+            "the rate-switch permit does not cover 81-SBAUD = 12345; nothing was sent"
+        );
+        assert_eq!(
+            p(4, 111, Permit::RATE_SWITCH),
+            "the rate-switch permit does not cover 4-PROG = 111; nothing was sent"
+        );
+        // no handshake, no online rate on a VF1000 or a Tmd
+        let vf = builtin(Family::Vf1000);
+        assert!(verdict(&vf, 71, 111, Permit::ACTIVATE_RATE).starts_with("the activate-rate"));
+        assert!(verdict(&vf, 80, -1, Permit::DATASET_BEGIN).contains("permit does not cover"));
+        assert!(verdict(&vf, 108, 1, Permit::TEXT_SELECTOR).contains("permit does not cover"));
+        assert!(verdict(&vf, 81, 57600, Permit::RATE_SWITCH).contains("permit does not cover"));
+        assert_eq!(verdict(&vf, 81, 9600, Permit::RATE_SWITCH), "ok");
+    }
+
+    #[test]
+    fn vf1000_and_tmd_control_words() {
+        let vf = builtin(Family::Vf1000);
+        assert_eq!(verdict(&vf, 3, 0, Permit::SETTING), "ok");
+        assert!(
+            verdict(&vf, 3, 128, Permit::SETTING)
+                .contains("would start or enable the drive (start_clockwise set)")
+        );
+        assert!(verdict(&vf, 11, 15, Permit::SETTING).contains("is a command"));
+        let tmd = builtin(Family::Tmd);
+        // C0040: VD, raw = value x 10000
+        assert_eq!(verdict(&tmd, 40, 0, Permit::SETTING), "ok");
+        assert!(
+            verdict(&tmd, 40, 10_000, Permit::SETTING)
+                .contains("would enable the drive (the stopped values are 0)"),
+        );
+        // C0135: bit 3 quick stop, bit 9 controller inhibit, bit 11 TRIP reset
+        assert_eq!(verdict(&tmd, 135, 0x0008, Permit::SETTING), "ok");
+        assert_eq!(verdict(&tmd, 135, 0x0200, Permit::SETTING), "ok");
+        assert!(verdict(&tmd, 135, 0, Permit::SETTING).contains("sets none of the inhibit bits"));
+        assert!(
+            verdict(&tmd, 135, 0x0808, Permit::SETTING).contains("is a command (trip_reset set)")
+        );
+        assert!(verdict(&tmd, 2, 1, Permit::SETTING).contains("is a command"));
+        assert!(verdict(&tmd, 43, 1, Permit::SETTING).contains("is a command"));
+    }
+
+    #[test]
+    fn a_schema_without_roles_gets_the_floor_and_cia_402_applies_to_ecs() {
+        // a Tmd schema naming C0040 and C0002 without any role
+        let mut r = Registry::new();
+        let tmd = r
+            .add_source(SourceFile::new(
+                "t.toml",
+                "[schema]\nid = \"t\"\ntitle = \"t\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n\n[[code]]\nnumber = 40\nname = \"c40\"\ntype = \"VD\"\n\n[[code]]\nnumber = 2\nname = \"c2\"\ntype = \"VD\"\n",
+            ))
+            .expect("parses");
+        assert!(verdict(&tmd, 40, 10_000, Permit::SETTING).contains("would enable the drive"));
+        assert!(verdict(&tmd, 2, 10_000, Permit::SETTING).contains("is a command"));
+        assert_eq!(verdict(&tmd, 40, 0, Permit::SETTING), "ok");
+        // an ECS schema (as an EDS import writes it) with CiA 402 objects
+        let ecs = r
+            .add_source(SourceFile::new(
+                "e.toml",
+                "[schema]\nid = \"e\"\ntitle = \"e\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"U16\"\n\n[[code]]\nindex = 0x60FF\nname = \"target_velocity\"\ntype = \"I32\"\n",
+            ))
+            .expect("parses");
+        let cw = driveset_schema::schema::CIA_NUMBER_BASE + 0x6040;
+        assert_eq!(verdict(&ecs, cw, 0x06, Permit::SETTING), "ok");
+        assert!(
+            verdict(&ecs, cw, 0x0F, Permit::SETTING)
+                .contains("would start or enable the drive (switch_on, enable_operation set)"),
+        );
+        assert!(
+            verdict(&ecs, cw, 0x80, Permit::SETTING).contains("is a command (fault_reset set)")
+        );
+        assert_eq!(
+            ecs.role_of(driveset_schema::schema::CIA_NUMBER_BASE + 0x60FF),
+            Some(driveset_schema::Role::Setpoint)
+        );
+    }
+
+    /// Tidy: the codecs' constructors of telegrams that change a drive
+    /// appear in the engine only in this module (decode/ only parses
+    /// captures and matches them), so every write leaves through
+    /// [`check`] and its [`super::Cleared`] proof.
+    #[test]
+    fn only_the_guard_builds_writing_telegrams() {
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let forbidden = [
+            "Select::new(",
+            "Send::new(",
+            "Broadcast::new(",
+            "start_write(",
+            "Telegram::Send)",
+            "Telegram::Broadcast)",
+            "SdoRequest::Write {",
+            "SdoRequest::InitiateWrite {",
+        ];
+        let mut files = Vec::new();
+        let mut dirs = vec![src.clone()];
+        while let Some(d) = dirs.pop() {
+            for e in std::fs::read_dir(&d).expect("src dir") {
+                let p = e.expect("entry").path();
+                if p.is_dir() {
+                    dirs.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    files.push(p);
+                }
+            }
+        }
+        assert!(files.len() > 20, "{} files", files.len());
+        let mut found = Vec::new();
+        for f in files {
+            let rel = f
+                .strip_prefix(&src)
+                .expect("under src")
+                .to_string_lossy()
+                .to_string();
+            if rel == "guard.rs" || rel.starts_with("decode/") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&f).expect("read");
+            for (i, line) in text.lines().enumerate() {
+                for t in forbidden {
+                    if line.contains(t) {
+                        found.push(format!("src/{rel}:{}: {t}", i + 1));
+                    }
+                }
+            }
+        }
+        assert!(
+            found.is_empty(),
+            "writing telegrams built outside guard.rs: {found:#?}"
+        );
+    }
 }

@@ -497,11 +497,7 @@ fn persist_record(path: &Path, record: &TransferRecord) -> Result<(), EngineErro
 
 /// Write `raw` to the rate code.
 fn write_rate(client: &mut dyn DriveClient, c: Codes, baud: u32) -> Result<(), EngineError> {
-    client.write_named(
-        c.rate,
-        &RawValue::Int(i64::from(baud)),
-        Permit::RATE_SWITCH,
-    )
+    client.write_named(c.rate, &RawValue::Int(i64::from(baud)), Permit::RATE_SWITCH)
 }
 
 /// Tell the drive to activate the rate its rate code holds (§11.5).

@@ -544,6 +544,10 @@ pub struct Transaction {
     written_count: usize,
     attempts: u32,
     fingerprint_before: String,
+    /// After a rollback that left a control word stopped instead of
+    /// restoring its running value: the fingerprint of what the drive
+    /// holds (read back), which is then not `fingerprint_before`.
+    rolled_back_to: Option<String>,
     warnings: Vec<String>,
     start: driveset_link::Instant,
     /// The attached client's counters when it was attached.
@@ -634,6 +638,7 @@ impl Transaction {
             since_persist: 0,
             dataset_touched: false,
             dataset_ended: None,
+            rolled_back_to: None,
             dataset_note: None,
             interleaved: 0,
             written_count: 0,
@@ -1486,10 +1491,25 @@ impl Transaction {
     ) -> Result<Vec<CodeKey>, EngineError> {
         let mut diffs = Vec::new();
         let keys: BTreeSet<CodeKey> = plan.keys().collect();
+        let mut held = ResolvedSet::new(&self.schema);
         for k in keys {
-            if !plan.holds(k, &client.read(k)?) {
+            let now = client.read(k)?;
+            if !plan.holds(k, &now) {
                 diffs.push(k);
             }
+            held.insert(k, now);
+        }
+        if held
+            .values
+            .iter()
+            .any(|(k, v)| self.backup().get(k) != Some(v))
+        {
+            for (k, r) in &self.records {
+                if let Some(v) = &r.unchanged {
+                    held.insert(*k, v.clone());
+                }
+            }
+            self.rolled_back_to = Some(held.fingerprint());
         }
         Ok(diffs)
     }
@@ -1514,7 +1534,6 @@ impl Transaction {
         }
         let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
         let notes = plan.notes(&self.schema, &self.touched());
-        self.warnings.extend(notes.iter().cloned());
         let restore_result = restore(
             client,
             &self.schema,
@@ -1533,6 +1552,7 @@ impl Transaction {
                         r.outcome = CodeOutcome::Restored;
                     }
                 }
+                self.warnings.extend(notes.iter().cloned());
                 let with_notes = std::iter::once(cause_text.clone())
                     .chain(notes.iter().cloned())
                     .collect::<Vec<_>>()
@@ -1624,7 +1644,11 @@ impl Transaction {
         }
         let fingerprint_after = match state {
             TxnState::Complete => Some(self.after(set).fingerprint()),
-            TxnState::RolledBack => Some(self.fingerprint_before.clone()),
+            TxnState::RolledBack => Some(
+                self.rolled_back_to
+                    .clone()
+                    .unwrap_or_else(|| self.fingerprint_before.clone()),
+            ),
             _ => None,
         };
         UploadReport {
@@ -1687,7 +1711,9 @@ impl RollbackPlan {
             match schema.code(k.number) {
                 Some(code) if !crate::guard::is_stopped(schema, code, old) => {
                     running_old.insert(*k, old.clone());
-                    if let Some(stop) = crate::guard::stopped_instead(schema, code, old, new_values.get(k)) {
+                    if let Some(stop) =
+                        crate::guard::stopped_instead(schema, code, old, new_values.get(k))
+                    {
                         restore.insert(*k, stop);
                     }
                 }

@@ -226,7 +226,11 @@ const fn cia(index: u32) -> u32 {
 
 /// MC6000/7000 (`lustbus-protocol.txt`).
 const MC6000_FLOOR: &[FloorRole] = &[
-    floor(4, Role::Command, "§10 exception 1 (PROG = 1 factory settings), §11.5 (PROG = 111)"),
+    floor(
+        4,
+        Role::Command,
+        "§10 exception 1 (PROG = 1 factory settings), §11.5 (PROG = 111)",
+    ),
     floor(80, Role::Command, "§11.4: SLOAD -1 / -2 dataset handshake"),
     floor(81, Role::BaudRate, "§4, §11.5: SBAUD"),
     floor(82, Role::BusAddress, "§4.2, §5.2: SADDR"),
@@ -263,8 +267,16 @@ const VF1000_FLOOR: &[FloorRole] = &[
         stopped: &[],
         source: "§7.1 step 4, §7.1.1: CNTL = 128 (80H) start clockwise",
     },
-    floor(11, Role::Command, "§8.1.1: STAT = 000F resets an error and reboots"),
-    floor(71, Role::Command, "§10 exception 1: PROG = 1 factory settings"),
+    floor(
+        11,
+        Role::Command,
+        "§8.1.1: STAT = 000F resets an error and reboots",
+    ),
+    floor(
+        71,
+        Role::Command,
+        "§10 exception 1: PROG = 1 factory settings",
+    ),
     floor(81, Role::BaudRate, "§4, §11.5: SIOC"),
     floor(82, Role::BusAddress, "§4.2, §5.2: SIOA"),
 ];
@@ -283,7 +295,11 @@ const TMD_FLOOR: &[FloorRole] = &[
     },
     floor(43, Role::Command, "Table 1: C0043 fault reset"),
     floor(94, Role::Password, "Table 1: C0094 user password"),
-    floor(125, Role::BaudRate, "Table 1, §3c, §4d: C0125 LECOM baud rate"),
+    floor(
+        125,
+        Role::BaudRate,
+        "Table 1, §3c, §4d: C0125 LECOM baud rate",
+    ),
     FloorRole {
         code: 135,
         role: Role::ControlWord,
@@ -335,9 +351,21 @@ const ECS_FLOOR: &[FloorRole] = &[
         stopped: &[],
         source: "CiA 402 0x6040 controlword: bit 0 switch on, bit 3 enable operation, bit 7 fault reset",
     },
-    floor(cia(0x6060), Role::OperatingMode, "CiA 402 0x6060 modes of operation"),
-    floor(cia(0x607A), Role::Setpoint, "CiA 402 0x607A target position"),
-    floor(cia(0x60FF), Role::Setpoint, "CiA 402 0x60FF target velocity"),
+    floor(
+        cia(0x6060),
+        Role::OperatingMode,
+        "CiA 402 0x6060 modes of operation",
+    ),
+    floor(
+        cia(0x607A),
+        Role::Setpoint,
+        "CiA 402 0x607A target position",
+    ),
+    floor(
+        cia(0x60FF),
+        Role::Setpoint,
+        "CiA 402 0x60FF target velocity",
+    ),
     floor(cia(0x6071), Role::Setpoint, "CiA 402 0x6071 target torque"),
 ];
 

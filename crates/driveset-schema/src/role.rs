@@ -257,7 +257,13 @@ impl Code {
             return if stopped_raw.contains(v) {
                 ControlState::Inhibited(self.name.clone())
             } else {
-                ControlState::Moving(names(BitRole::Start).into_iter().chain(names(BitRole::Enable)).chain(names(BitRole::Release)).collect())
+                ControlState::Moving(
+                    names(BitRole::Start)
+                        .into_iter()
+                        .chain(names(BitRole::Enable))
+                        .chain(names(BitRole::Release))
+                        .collect(),
+                )
             };
         }
         if let Some(b) = self

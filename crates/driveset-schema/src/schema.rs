@@ -1179,14 +1179,21 @@ impl Schema {
             // Only the floor's inhibit bits make a value safe.
             for b in &mut code.bits {
                 if b.role == Some(crate::role::BitRole::Inhibit)
-                    && !f.bits.iter().any(|fb| fb.bit == b.lsb && fb.role == crate::role::BitRole::Inhibit)
+                    && !f
+                        .bits
+                        .iter()
+                        .any(|fb| fb.bit == b.lsb && fb.role == crate::role::BitRole::Inhibit)
                 {
                     b.role = None;
                     b.role_loc = None;
                 }
             }
             for fb in f.bits {
-                match code.bits.iter_mut().find(|b| b.lsb == fb.bit && b.msb == fb.bit) {
+                match code
+                    .bits
+                    .iter_mut()
+                    .find(|b| b.lsb == fb.bit && b.msb == fb.bit)
+                {
                     Some(b) => b.role = Some(fb.role),
                     None => {
                         // A wider member over the bit: a start, enable,
@@ -1417,7 +1424,7 @@ impl Registry {
                     "schema id `{}` is the id of the simulator's fixture schema {file}",
                     schema.id
                 ),
-                "give your schema its own id (a schema file cannot reuse a built-in or fixture id)",
+                "give each schema file its own id (a schema file cannot reuse a built-in or fixture id)",
             ));
         }
         if let Some(prev) = self.schemas.get(&schema.id) {
