@@ -369,10 +369,10 @@ mod tests {
             w(416, 0x80),
             "416-SCTL1 = { start = 0, error_reset = 1 } is a command (error_reset set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
         );
-        let prog = "4-PROG = 1 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself";
+        let prog = "4-PROG = \"Load factory settings\" is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself";
         assert_eq!(w(4, 1), prog);
-        assert!(w(4, 111).starts_with("4-PROG = 111 is a command"));
-        assert!(w(80, -1).starts_with("80-SLOAD = -1 is a command"));
+        assert!(w(4, 111).contains(" is a command: driveset never writes one"));
+        assert!(w(80, -1).starts_with("80-SLOAD = ") && w(80, -1).contains(" is a command"));
         // settings pass, the rate code as a set's value too
         assert_eq!(w(428, 1000), "ok");
         assert_eq!(w(81, 19200), "ok");
@@ -389,11 +389,11 @@ mod tests {
         assert_eq!(p(108, 3, Permit::TEXT_SELECTOR), "ok");
         assert_eq!(
             p(80, -2, Permit::DATASET_BEGIN),
-            "the dataset-begin (80-SLOAD = -1) permit does not cover 80-SLOAD = -2; nothing was sent"
+            "the dataset-begin (80-SLOAD = -1) permit does not cover 80-SLOAD = \"End upload\"; nothing was sent"
         );
         assert_eq!(
             p(4, 1, Permit::ACTIVATE_RATE),
-            "the activate-rate (4-PROG = 111) permit does not cover 4-PROG = 1; nothing was sent"
+            "the activate-rate (4-PROG = 111) permit does not cover 4-PROG = \"Load factory settings\"; nothing was sent"
         );
         assert_eq!(
             p(416, 1, Permit::ACTIVATE_RATE),
@@ -405,7 +405,7 @@ mod tests {
         );
         assert_eq!(
             p(4, 111, Permit::RATE_SWITCH),
-            "the rate-switch permit does not cover 4-PROG = 111; nothing was sent"
+            "the rate-switch permit does not cover 4-PROG = \"Activate new baud rate\"; nothing was sent"
         );
         // no handshake, no online rate on a VF1000 or a Tmd
         let vf = builtin(Family::Vf1000);
