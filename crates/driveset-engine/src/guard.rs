@@ -460,7 +460,7 @@ mod tests {
         let ecs = r
             .add_source(SourceFile::new(
                 "e.toml",
-                "[schema]\nid = \"e\"\ntitle = \"e\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"U16\"\n\n[[code]]\nindex = 0x60FF\nname = \"target_velocity\"\ntype = \"I32\"\n",
+                "[schema]\nid = \"e\"\ntitle = \"e\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"UNSIGNED16\"\n\n[[code]]\nindex = 0x60FF\nname = \"target_velocity\"\ntype = \"INTEGER32\"\n",
             ))
             .expect("parses");
         let cw = driveset_schema::schema::CIA_NUMBER_BASE + 0x6040;

@@ -336,7 +336,7 @@ fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
     let bare = r
         .add_source(SourceFile::new(
             "bare.toml",
-            "[schema]\nid = \"bare-402\"\ntitle = \"CiA 402 objects, no roles\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"U16\"\n",
+            "[schema]\nid = \"bare-402\"\ntitle = \"CiA 402 objects, no roles\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"UNSIGNED16\"\n",
         ))
         .expect("schema");
     let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
