@@ -642,10 +642,6 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        self.write_named(key, raw, Permit::SETTING)
-    }
-
     fn write_named(
         &mut self,
         key: CodeKey,

@@ -1009,10 +1009,6 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        self.write_named(key, raw, Permit::SETTING)
-    }
-
     fn write_named(
         &mut self,
         key: CodeKey,

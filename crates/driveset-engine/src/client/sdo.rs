@@ -477,10 +477,6 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        self.write_named(key, raw, Permit::SETTING)
-    }
-
     fn write_named(
         &mut self,
         key: CodeKey,
