@@ -20,8 +20,8 @@
 //!   the MC6000/7000 dataset handshake (80-SLOAD = -1 / -2, LUSTBUS §11.4),
 //!   the online rate activation (4-PROG = 111, §11.5);
 //! - the `--transfer-baud` switch writes the rate code only with one of the
-//!   family's rates ([`Permit::RATE_SWITCH`], §4, §11.5); schema pull's
-//!   108-STEXT selector ([`Permit::TEXT_SELECTOR`], §11.3) only on an MC.
+//!   family's rates (permit `RATE_SWITCH`, §4, §11.5); schema pull's
+//!   108-STEXT selector (permit `TEXT_SELECTOR`, §11.3) only on an MC.
 //!
 //! The running-drive check (`--allow-running`) and the other named
 //! overrides stay with the planner: they decide whether a transaction may
