@@ -862,6 +862,85 @@ mod tests {
     }
 
     #[test]
+    fn the_floor_holds_whatever_a_schema_file_says() {
+        use crate::{BitRole, ControlState, RawValue, Role};
+        // 416 as a "setpoint" with bit 0 an "inhibit" bit, 4-PROG without a
+        // role: the floor makes 416 a control word whose bit 0 starts and
+        // PROG a command, and adds the reset bit
+        let mc = parsed(
+            r#"
+[schema]
+id = "f"
+title = "f"
+protocol = "lustbus-mc"
+code_style = "lust"
+
+[[code]]
+number = 4
+name = "PROG"
+
+[[code]]
+number = 416
+name = "SCTL1"
+type = "PT_USIGN16"
+role = "setpoint"
+
+[[code.bits]]
+name = "hold"
+bits = [0, 0]
+role = "inhibit"
+"#,
+        );
+        assert_eq!(mc.role_of(4), Some(Role::Command));
+        let c = mc.code(416).expect("416");
+        assert_eq!(c.role, Some(Role::ControlWord));
+        let roles: Vec<(u32, Option<BitRole>)> = c.bits.iter().map(|b| (b.lsb, b.role)).collect();
+        assert_eq!(
+            roles,
+            [(0, Some(BitRole::Start)), (7, Some(BitRole::Reset))]
+        );
+        assert_eq!(
+            mc.control_state(c, &RawValue::Int(1)),
+            ControlState::Moving(vec!["hold".into()])
+        );
+        assert_eq!(
+            mc.control_state(c, &RawValue::Int(0)),
+            ControlState::Stopped
+        );
+        // Tmd C0040 whose file widens the stopped values to 0 and 1
+        let tmd = parsed(
+            r#"
+[schema]
+id = "g"
+title = "g"
+protocol = "lecom"
+code_style = "lenze"
+
+[[code]]
+number = 40
+name = "c40"
+type = "VD"
+stopped = [0, 1]
+"#,
+        );
+        let c = tmd.code(40).expect("40");
+        assert_eq!(c.role, Some(Role::ControlWord));
+        assert_eq!(c.stopped, [0]);
+        assert!(!tmd.control_state(c, &RawValue::Int(10_000)).is_safe());
+        assert!(tmd.control_state(c, &RawValue::Int(0)).is_safe());
+        // every floor code of the built-in schemas carries its floor role
+        let r = crate::Registry::builtin().expect("built-in schemas parse");
+        for f in Family::ALL {
+            let s = r.get(f.descriptor().schema_id).expect("schema");
+            for fl in f.descriptor().floor {
+                if let Some(c) = s.code(fl.code) {
+                    assert_eq!(c.role, Some(fl.role), "{} {}", s.id, fl.code);
+                }
+            }
+        }
+    }
+
+    #[test]
     fn the_built_in_schemas_agree_with_their_descriptors() {
         let r = crate::Registry::builtin().expect("built-in schemas parse");
         for f in Family::ALL {
