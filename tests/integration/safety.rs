@@ -490,3 +490,312 @@ fn commission_refuses_a_line_whose_set_could_start_a_motor_before_anything_is_se
             "error: --force was replaced by named overrides",
         ));
 }
+
+// ---------------------------------------------------------------------------
+// Issue 17: the role floor no schema file removes, the write guard, and
+// rollbacks / recover that never restart a motor.
+// ---------------------------------------------------------------------------
+
+const MC: &str = "sim://mc6000?addresses=1";
+
+/// What the simulated drive at `address` holds in code `number` (state file
+/// `sim/sim-FAMILY.json`).
+fn held(dir: &Path, family: &str, address: u8, number: u32) -> i64 {
+    use driveset_schema::{CodeKey, RawValue};
+    use driveset_sim::open::{StateDump, parse_canonical};
+    let dump = StateDump::read(&dir.join(format!("sim/sim-{family}.json"))).expect("state");
+    let d = dump
+        .drives
+        .iter()
+        .find(|d| d.address == address)
+        .expect("drive in the dump");
+    let (_, values) = parse_canonical(&d.canonical).expect("canonical");
+    match values.get(&CodeKey::new(number)) {
+        Some(RawValue::Int(v)) => *v,
+        other => panic!("code {number}: {other:?}"),
+    }
+}
+
+/// `lenze-tmd.toml` with every `role` and `stopped` line removed, as `id`.
+fn tmd_without_roles(dir: &Path, id: &str) -> PathBuf {
+    let text = std::fs::read_to_string(workspace_root().join("schemas/lenze-tmd.toml")).unwrap();
+    let stripped: String = text
+        .lines()
+        .filter(|l| !l.starts_with("role = ") && !l.starts_with("stopped = "))
+        .map(|l| {
+            if l == "id = \"lenze-tmd\"" {
+                format!("id = \"{id}\"\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert!(!stripped.contains("role = "));
+    let p = dir.join(format!("{id}.toml"));
+    std::fs::write(&p, stripped).unwrap();
+    p
+}
+
+#[test]
+fn a_tmd_schema_copy_without_roles_named_by_path_refuses_c0040_enable_and_sends_nothing() {
+    let dir = tmp();
+    let d = dir.path();
+    tmd_without_roles(d, "my-tmd");
+    std::fs::write(
+        d.join("tmd.toml"),
+        "schema = \"my-tmd.toml\"\n[values]\nC0040 = 1\n",
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["validate", "tmd.toml"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::starts_with(
+            "error[control-word-not-stopped]: C0040 = \"Controller enabled\" would enable the drive (the stopped values are 0 \"Controller inhibited\")\n --> tmd.toml:3:9\n",
+        ));
+    for extra in [&[][..], &["--allow-running", "--allow-family"][..]] {
+        in_dir(d)
+            .args([
+                "upload",
+                "tmd.toml",
+                "--port",
+                "sim://tmd?addresses=1&c0001=3",
+                "--address",
+                "1",
+            ])
+            .args(extra)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::ends_with("error: tmd.toml: not uploaded\n"));
+    }
+    // the simulated bus was never opened: not a byte reached the drive
+    assert!(!d.join("sim/sim-tmd.json").exists());
+    // the same copy keeping the built-in id is refused as a schema
+    tmd_without_roles(d, "lenze-tmd");
+    std::fs::write(
+        d.join("tmd2.toml"),
+        "schema = \"lenze-tmd.toml\"\n[values]\nC0040 = 1\n",
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["upload", "tmd2.toml", "--port", "sim://tmd?addresses=1&c0001=3", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with(
+            "error: schema id `lenze-tmd` is already defined by schemas/lenze-tmd.toml\n",
+        ))
+        .stderr(predicate::str::contains(
+            "= help: give each schema file its own id (a schema file cannot reuse a built-in or fixture id)\n",
+        ));
+    assert!(!d.join("sim/sim-tmd.json").exists());
+}
+
+const MINIMAL_MC: &str = "[schema]\nid = \"my-mc\"\ntitle = \"A minimal MC6000 schema without roles\"\nprotocol = \"lustbus-mc\"\ncode_style = \"lust\"\n\n[[code]]\nnumber = 4\nname = \"PROG\"\ntype = \"PT_USIGN16\"\nwidth = 2\n\n[[code]]\nnumber = 91\nname = \"TYPE\"\ntype = \"PT_USIGN16\"\nwidth = 2\n\n[[code]]\nnumber = 416\nname = \"SCTL1\"\ntype = \"PT_USIGN16\"\nwidth = 2\nkind = \"ram-control\"\n";
+
+#[test]
+fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
+    let dir = tmp();
+    let d = dir.path();
+    std::fs::write(d.join("my-mc.toml"), MINIMAL_MC).unwrap();
+    std::fs::write(
+        d.join("start.toml"),
+        "schema = \"my-mc.toml\"\n[values]\nSCTL1 = 1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("prog.toml"),
+        "schema = \"my-mc.toml\"\n[values]\nPROG = 1\n",
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["validate", "start.toml"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::starts_with(
+            "error[control-word-not-stopped]: 416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set)\n --> start.toml:3:9\n",
+        ));
+    in_dir(d)
+        .args(["validate", "prog.toml"])
+        .assert()
+        .code(1)
+        .stdout(predicate::str::starts_with(
+            "error[command]: 4-PROG = 1 is a command (PROG), not a setting; a set cannot hold it\n --> prog.toml:3:8\n",
+        ));
+    for set in ["start.toml", "prog.toml"] {
+        in_dir(d)
+            .args(["upload", set, "--port", MC, "--address", "1", "--no-learn"])
+            .args([
+                "--allow-running",
+                "--allow-running-unknown",
+                "--allow-family",
+            ])
+            .assert()
+            .code(2)
+            .stderr(predicate::str::ends_with(format!(
+                "error: {set}: not uploaded\n"
+            )));
+    }
+    assert!(!d.join("sim/sim-mc6000.json").exists());
+}
+
+#[test]
+fn a_schemas_dir_cannot_reuse_a_built_in_or_fixture_id() {
+    let dir = tmp();
+    let d = dir.path();
+    let schemas = d.join("schemas");
+    std::fs::create_dir_all(&schemas).unwrap();
+    // the fixture's id with its codes and no roles
+    std::fs::write(
+        schemas.join("mine.toml"),
+        MINIMAL_MC.replace("id = \"my-mc\"", "id = \"fictional-mc6000-demo\""),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("set.toml"),
+        "schema = \"fictional-mc6000-demo\"\n[values]\nSCTL1 = 1\n",
+    )
+    .unwrap();
+    // validate's registry withholds the fixture; a command on a sim://
+    // port has it loaded (its drives hold it): refused either way
+    for (cmd, first) in [
+        (
+            "validate",
+            "error: schema id `fictional-mc6000-demo` is the id of the simulator's fixture schema parameter-sets/fixtures/fictional-mc6000-demo.toml\n",
+        ),
+        (
+            "upload",
+            "error: schema id `fictional-mc6000-demo` is already defined by parameter-sets/fixtures/fictional-mc6000-demo.toml\n",
+        ),
+    ] {
+        let mut c = in_dir(d);
+        c.args([cmd, "--schemas", "schemas", "set.toml"]);
+        if cmd == "upload" {
+            c.args(["--port", MC, "--address", "1"]);
+        }
+        c.assert()
+            .code(2)
+            .stderr(predicate::str::starts_with(first))
+            .stderr(predicate::str::contains(
+                " --> schemas/mine.toml:2:6\n",
+            ))
+            .stderr(predicate::str::contains(
+                "= help: give each schema file its own id (a schema file cannot reuse a built-in or fixture id)\n",
+            ));
+    }
+    assert!(!d.join("sim/sim-mc6000.json").exists());
+    // a built-in id
+    std::fs::write(
+        schemas.join("mine.toml"),
+        MINIMAL_MC.replace("id = \"my-mc\"", "id = \"lust-mc6000\""),
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["validate", "--schemas", "schemas", "set.toml"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "error: schema id `lust-mc6000` is already defined by schemas/lust-mc6000.toml\n",
+        ));
+}
+
+/// A running simulated MC6000 (416-SCTL1 = 1, started by the machine's
+/// control) and the set that stops it, with 81-SBAUD written after it.
+fn running_mc_and_stop_set(d: &Path) {
+    set_file(
+        d,
+        "stop.toml",
+        "fictional-mc6000-demo.toml",
+        "SCTL1 = { start = false }\nSBAUD = 19200\n",
+    );
+    in_dir(d)
+        .args([
+            "upload",
+            "stop.toml",
+            "--port",
+            MC,
+            "--address",
+            "1",
+            "--dry-run",
+        ])
+        .assert()
+        .code(0);
+    poke_state(d, "mc6000", 1, 416, 1);
+    assert_eq!(held(d, "mc6000", 1, 416), 1);
+}
+
+const LEFT_STOPPED: &str =
+    "416-SCTL1 left stopped: the motor was running before; start it from the machine's control";
+
+#[test]
+fn stopping_a_running_mc6000_cut_at_telegram_6_rolls_back_leaving_416_stopped() {
+    let dir = tmp();
+    let d = dir.path();
+    running_mc_and_stop_set(d);
+    let port = "sim://mc6000?addresses=1&faults=cable@6+1s";
+    in_dir(d)
+        .args(["upload", "stop.toml", "--port", port, "--address", "1", "--allow-running"])
+        .args(["--journal", "j.json"])
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains(format!("warning: {LEFT_STOPPED}\n")))
+        .stderr(predicate::str::contains(format!(
+            "the upload did not land and was rolled back: {port} address 1: no answer to write 416-SCTL1 (raw 0) after 3 tries; check wiring, address and baud rate; {LEFT_STOPPED}; "
+        )));
+    // the rollback wrote the stopped state, never 416 = 1
+    assert_eq!(held(d, "mc6000", 1, 416), 0);
+    assert_eq!(held(d, "mc6000", 1, 81), 9600);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("j.json")).unwrap()).unwrap();
+    assert_eq!(j["state"], "rolled-back", "{j}");
+}
+
+#[test]
+fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
+    let dir = tmp();
+    let d = dir.path();
+    running_mc_and_stop_set(d);
+    // the cable stays out: the upload cannot roll back, recover does
+    in_dir(d)
+        .args([
+            "upload",
+            "stop.toml",
+            "--port",
+            "sim://mc6000?addresses=1&faults=cable@6+600s",
+        ])
+        .args(["--address", "1", "--allow-running", "--journal", "j.json"])
+        .assert()
+        .code(3);
+    assert_eq!(held(d, "mc6000", 1, 416), 0);
+    let journal = d.join("j.json");
+    let cut: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
+    assert_eq!(cut["state"], "failed", "{cut}");
+    in_dir(d)
+        .args(["recover", "j.json", "--port", MC])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "journal was failed; rolled back: the drive holds its old values again (verified); journal marked rolled-back\nrestored: 416-SCTL1\n",
+        ))
+        .stdout(predicate::str::contains(format!("\n{LEFT_STOPPED}\n")));
+    assert_eq!(held(d, "mc6000", 1, 416), 0);
+    assert_eq!(held(d, "mc6000", 1, 81), 9600);
+
+    // the same journal edited by hand: unsettled again, and its old value
+    // of 416 a start with an error reset (129)
+    let mut edited = cut.clone();
+    for b in edited["backup"].as_array_mut().unwrap() {
+        if b["number"] == 416 {
+            b["old"] = serde_json::json!({"int": 129});
+        }
+    }
+    std::fs::write(&journal, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
+    in_dir(d)
+        .args(["recover", "j.json", "--port", MC, "--format", "json"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(format!(
+            "\"notes\": [\n    \"{LEFT_STOPPED}\"\n  ]"
+        )));
+    assert_eq!(held(d, "mc6000", 1, 416), 0);
+}

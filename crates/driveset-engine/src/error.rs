@@ -453,6 +453,35 @@ pub enum Refusal {
         /// The step that must come first.
         before: String,
     },
+    /// The write guard ([`crate::guard`]): a command, whatever asked for it
+    /// (only the engine's own named operations pass, with their permit).
+    GuardCommand {
+        /// The code.
+        code: String,
+        /// The value (never a password's).
+        value: String,
+    },
+    /// The write guard: a control word value that is not a stopped or
+    /// inhibited state (it would start, enable or release the drive, or is
+    /// a reset command), whatever asked for it.
+    GuardControlWord {
+        /// The code.
+        code: String,
+        /// The value.
+        value: String,
+        /// The state the value puts the drive in.
+        why: String,
+    },
+    /// The write guard: a permit used for a code or value it does not name
+    /// (a caller's mistake; nothing is sent).
+    GuardPermit {
+        /// The permit's name.
+        permit: String,
+        /// The code.
+        code: String,
+        /// The value.
+        value: String,
+    },
     /// A LUSTBUS drive listed on a CAN bus.
     LustbusOnCan,
     /// The client of one protocol was given a schema of another.
@@ -772,6 +801,22 @@ impl fmt::Display for Refusal {
             Refusal::DoesNotFit { code, value, ty } => {
                 write!(f, "{code}: {value} does not fit {ty}")
             }
+            Refusal::GuardCommand { code, value } => write!(
+                f,
+                "{code} = {value} is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
+            ),
+            Refusal::GuardControlWord { code, value, why } => write!(
+                f,
+                "{code} = {value} {why}: driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+            ),
+            Refusal::GuardPermit {
+                permit,
+                code,
+                value,
+            } => write!(
+                f,
+                "the {permit} permit does not cover {code} = {value}; nothing was sent"
+            ),
             Refusal::NotCardWriteable { code } => write!(
                 f,
                 "{code} is not CardWriteable: during a dataset download the drive ACKs it but does not take the value (section 11.4); write it after dataset_commit"

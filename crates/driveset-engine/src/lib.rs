@@ -20,6 +20,7 @@ pub mod decode;
 pub mod doctor;
 pub mod env;
 pub mod error;
+pub mod guard;
 pub mod identify;
 pub mod journal;
 pub mod learn;

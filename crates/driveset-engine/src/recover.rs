@@ -51,7 +51,9 @@ use crate::error::{EngineError, Mismatch};
 use crate::journal::{FailureCause, JournalFile, TxnState, version_refusal};
 use crate::observe::{Hook, Phase as Step};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
-use crate::upload::{describe_holdings, holdings, read_observed, read_values, restore};
+use crate::upload::{
+    RollbackPlan, describe_holdings, holdings, read_observed, read_values, restore,
+};
 
 /// What recovery did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -76,6 +78,11 @@ pub struct RecoverReport {
     pub action: RecoverAction,
     /// Codes written while rolling back.
     pub restored: Vec<String>,
+    /// Control words the rollback left stopped instead of restoring a
+    /// running state ("416-SCTL1 left stopped: the motor was running
+    /// before; start it from the machine's control").
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// Fingerprint of what the drive holds over the set's codes (when read).
     pub fingerprint: Option<String>,
     /// The client's port/address differ from the journal's (identity matched).
@@ -119,6 +126,7 @@ pub fn recover(
         found,
         action: RecoverAction::Nothing,
         restored: Vec::new(),
+        notes: Vec::new(),
         fingerprint: None,
         target_note: None,
         transfer: None,
@@ -372,11 +380,13 @@ pub fn recover(
             })
             .map(|(k, _)| code_label(&schema, *k))
             .collect();
+        let plan = RollbackPlan::new(&schema, &backup, &new_values);
+        report.notes = plan.notes(&schema, &touched);
         let result = restore(
             client,
             &schema,
             &order,
-            &backup,
+            &plan.restore,
             &touched,
             dataset && (sload_open || cw_differs),
             opts.dataset_timeout,
@@ -385,9 +395,9 @@ pub fn recover(
         let failure = match result {
             Ok(after) => {
                 let differ: Vec<String> = backup
-                    .iter()
-                    .filter(|(k, old)| after.values.get(*k) != Some(*old))
-                    .map(|(k, _)| code_label(&schema, *k))
+                    .keys()
+                    .filter(|k| !after.values.get(*k).is_some_and(|v| plan.holds(**k, v)))
+                    .map(|k| code_label(&schema, *k))
                     .collect();
                 if differ.is_empty() {
                     None
@@ -422,7 +432,12 @@ pub fn recover(
         jf.journal.transition(
             TxnState::RolledBack,
             t,
-            Some("recover: old values restored and read back".into()),
+            Some(
+                std::iter::once("recover: old values restored and read back".to_string())
+                    .chain(report.notes.iter().cloned())
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            ),
         );
         jf.persist()?;
         report.action = RecoverAction::RolledBack;

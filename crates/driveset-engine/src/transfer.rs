@@ -58,6 +58,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use crate::client::{DriveClient, Target};
 use crate::error::{EngineError, ErrorKind, Refusal};
+use crate::guard::Permit;
 use crate::journal::{
     JOURNAL_VERSION, Journal, JournalFile, JournalTarget, JournalValue, TransferRecord,
     TransferState, TxnState,
@@ -497,14 +498,15 @@ fn persist_record(path: &Path, record: &TransferRecord) -> Result<(), EngineErro
 
 /// Write `raw` to the rate code.
 fn write_rate(client: &mut dyn DriveClient, c: Codes, baud: u32) -> Result<(), EngineError> {
-    client.write(c.rate, &RawValue::Int(i64::from(baud)))
+    client.write_named(c.rate, &RawValue::Int(i64::from(baud)), Permit::RATE_SWITCH)
 }
 
 /// Tell the drive to activate the rate its rate code holds (§11.5).
 fn activate(client: &mut dyn DriveClient, c: Codes) -> Result<(), EngineError> {
-    client.write(
+    client.write_named(
         CodeKey::new(c.online.command),
         &RawValue::Int(c.online.activate),
+        Permit::ACTIVATE_RATE,
     )
 }
 

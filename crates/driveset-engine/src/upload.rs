@@ -544,6 +544,10 @@ pub struct Transaction {
     written_count: usize,
     attempts: u32,
     fingerprint_before: String,
+    /// After a rollback that left a control word stopped instead of
+    /// restoring its running value: the fingerprint of what the drive
+    /// holds (read back), which is then not `fingerprint_before`.
+    rolled_back_to: Option<String>,
     warnings: Vec<String>,
     start: driveset_link::Instant,
     /// The attached client's counters when it was attached.
@@ -634,6 +638,7 @@ impl Transaction {
             since_persist: 0,
             dataset_touched: false,
             dataset_ended: None,
+            rolled_back_to: None,
             dataset_note: None,
             interleaved: 0,
             written_count: 0,
@@ -1442,7 +1447,8 @@ impl Transaction {
         // confirm nothing changed
         let n = Some(self.backup().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
-        match self.compare_with_backup(client) {
+        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
+        match self.compare_with_backup(client, &plan) {
             Ok(diffs) if diffs.is_empty() => {
                 self.dataset_touched = false;
                 if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
@@ -1482,12 +1488,29 @@ impl Transaction {
     fn compare_with_backup(
         &mut self,
         client: &mut dyn DriveClient,
+        plan: &RollbackPlan,
     ) -> Result<Vec<CodeKey>, EngineError> {
         let mut diffs = Vec::new();
-        for (k, old) in self.backup() {
-            if client.read(k)? != old {
+        let keys: BTreeSet<CodeKey> = plan.keys().collect();
+        let mut held = ResolvedSet::new(&self.schema);
+        for k in keys {
+            let now = client.read(k)?;
+            if !plan.holds(k, &now) {
                 diffs.push(k);
             }
+            held.insert(k, now);
+        }
+        if held
+            .values
+            .iter()
+            .any(|(k, v)| self.backup().get(k) != Some(v))
+        {
+            for (k, r) in &self.records {
+                if let Some(v) = &r.unchanged {
+                    held.insert(*k, v.clone());
+                }
+            }
+            self.rolled_back_to = Some(held.fingerprint());
         }
         Ok(diffs)
     }
@@ -1510,16 +1533,18 @@ impl Transaction {
                 &format!("{cause_text}; nothing was rolled back"),
             );
         }
+        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
+        let notes = plan.notes(&self.schema, &self.touched());
         let restore_result = restore(
             client,
             &self.schema,
             &self.phased_order(),
-            &self.backup(),
+            &plan.restore,
             &self.touched(),
             self.dataset_touched,
             self.opts.dataset_timeout,
         )
-        .and_then(|()| self.compare_with_backup(client));
+        .and_then(|()| self.compare_with_backup(client, &plan));
         match restore_result {
             Ok(diffs) if diffs.is_empty() => {
                 for k in self.touched() {
@@ -1528,7 +1553,12 @@ impl Transaction {
                         r.outcome = CodeOutcome::Restored;
                     }
                 }
-                let detail = format!("{cause_text}; restored the old values");
+                self.warnings.extend(notes.iter().cloned());
+                let with_notes = std::iter::once(cause_text.clone())
+                    .chain(notes.iter().cloned())
+                    .collect::<Vec<_>>()
+                    .join("; ");
+                let detail = format!("{with_notes}; restored the old values");
                 if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
                     return self.journal_lost(
                         e,
@@ -1539,7 +1569,7 @@ impl Transaction {
                 EngineError::rolled_back(
                     self.target.clone(),
                     self.journal_path(),
-                    cause_text,
+                    with_notes,
                     cause,
                 )
             }
@@ -1615,7 +1645,11 @@ impl Transaction {
         }
         let fingerprint_after = match state {
             TxnState::Complete => Some(self.after(set).fingerprint()),
-            TxnState::RolledBack => Some(self.fingerprint_before.clone()),
+            TxnState::RolledBack => Some(
+                self.rolled_back_to
+                    .clone()
+                    .unwrap_or_else(|| self.fingerprint_before.clone()),
+            ),
             _ => None,
         };
         UploadReport {
@@ -1644,6 +1678,89 @@ impl Transaction {
             warnings: self.warnings.clone(),
             transfer: None,
         }
+    }
+}
+
+/// What a rollback (the upload's or `recover`'s) writes back and accepts:
+/// the backup, except a control word whose old value is not a stopped state
+/// (the motor was running before the transaction). That one is restored to
+/// its stopped state ([`crate::guard::stopped_instead`]: the old value with
+/// its start / enable / release and reset bits cleared, or its first
+/// `stopped` value), never to the running value, and a drive that still
+/// holds the old value (the code was never written) counts as restored
+/// too. A journal edited by hand is no different: its old values are what
+/// the plan is made from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct RollbackPlan {
+    /// The value each code is restored to.
+    pub restore: BTreeMap<CodeKey, RawValue>,
+    /// Control words whose old value was not stopped: that old value.
+    running_old: BTreeMap<CodeKey, RawValue>,
+}
+
+impl RollbackPlan {
+    /// The plan for `backup` (old values) of a transaction that wrote
+    /// `new_values`, under `schema`'s roles.
+    pub(crate) fn new(
+        schema: &Schema,
+        backup: &BTreeMap<CodeKey, RawValue>,
+        new_values: &BTreeMap<CodeKey, RawValue>,
+    ) -> Self {
+        let mut restore = BTreeMap::new();
+        let mut running_old = BTreeMap::new();
+        for (k, old) in backup {
+            match schema.code(k.number) {
+                Some(code) if !crate::guard::is_stopped(schema, code, old) => {
+                    running_old.insert(*k, old.clone());
+                    if let Some(stop) =
+                        crate::guard::stopped_instead(schema, code, old, new_values.get(k))
+                    {
+                        restore.insert(*k, stop);
+                    }
+                }
+                _ => {
+                    restore.insert(*k, old.clone());
+                }
+            }
+        }
+        RollbackPlan {
+            restore,
+            running_old,
+        }
+    }
+
+    /// Whether `now`, read from `key` after the rollback, is what the
+    /// rollback leaves there.
+    pub(crate) fn holds(&self, key: CodeKey, now: &RawValue) -> bool {
+        self.restore.get(&key) == Some(now) || self.running_old.get(&key) == Some(now)
+    }
+
+    /// The codes the plan restores (every backed-up code but a running
+    /// control word without a known stopped state), for `holds` checks.
+    pub(crate) fn keys(&self) -> impl Iterator<Item = CodeKey> + '_ {
+        self.restore.keys().chain(self.running_old.keys()).copied()
+    }
+
+    /// What the rollback says about the control words it left stopped
+    /// among `touched`: "416-SCTL1 left stopped: the motor was running
+    /// before; start it from the machine's control".
+    pub(crate) fn notes(&self, schema: &Schema, touched: &BTreeSet<CodeKey>) -> Vec<String> {
+        self.running_old
+            .keys()
+            .filter(|k| touched.contains(k))
+            .map(|k| {
+                let name = code_label(schema, *k);
+                if self.restore.contains_key(k) {
+                    format!(
+                        "{name} left stopped: the motor was running before; start it from the machine's control"
+                    )
+                } else {
+                    format!(
+                        "{name} not restored: the motor was running before and the schema knows no stopped state of it; start it from the machine's control"
+                    )
+                }
+            })
+            .collect()
     }
 }
 

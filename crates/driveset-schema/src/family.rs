@@ -18,7 +18,8 @@ use std::fmt;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
-use crate::schema::{Code, StorageKind};
+use crate::role::{BitRole, Role};
+use crate::schema::{CIA_NUMBER_BASE, Code, StorageKind};
 
 /// A drive family driveset knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -169,7 +170,204 @@ pub struct Descriptor {
     /// first) and, where the drive can activate a new rate without a
     /// restart, how.
     pub line_rates: LineRates,
+    /// The roles the specs give this family's codes ([`FloorRole`]): every
+    /// schema of the family gets at least these when it is loaded
+    /// (`schema::parse_schema`), whatever its file says.
+    pub floor: &'static [FloorRole],
 }
+
+/// A role the specs give one code of a family, which no schema file can
+/// take away (docs/file-formats.md, "Code roles"; docs/architecture.md,
+/// "The role floor"). Applied to every schema of the family when it is
+/// loaded: the code's role becomes `role`; a control word's bits get the
+/// floor's bit roles; a control word's `stopped` values are those the floor
+/// gives (a schema may narrow them, never widen them); and a schema's
+/// `inhibit` bits on a floor control word count only where the floor names
+/// them (an added inhibit bit would make a start value look safe).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FloorRole {
+    /// Code number ([`CIA_NUMBER_BASE`] + index for a CiA object).
+    pub code: u32,
+    /// Its role.
+    pub role: Role,
+    /// Control word: the bits and what they do.
+    pub bits: &'static [FloorBit],
+    /// Control word without bit roles: the values that keep it stopped
+    /// (engineering integers, as `stopped = [...]` in a schema file).
+    pub stopped: &'static [i64],
+    /// Where the spec says so.
+    pub source: &'static str,
+}
+
+/// A one-bit member of a floor control word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FloorBit {
+    /// The member's name where the schema gives the bit none.
+    pub name: &'static str,
+    /// The bit (0 = least significant).
+    pub bit: u32,
+    /// What a set bit does.
+    pub role: BitRole,
+}
+
+const fn floor(code: u32, role: Role, source: &'static str) -> FloorRole {
+    FloorRole {
+        code,
+        role,
+        bits: &[],
+        stopped: &[],
+        source,
+    }
+}
+
+const fn cia(index: u32) -> u32 {
+    CIA_NUMBER_BASE + index
+}
+
+/// MC6000/7000 (`lustbus-protocol.txt`).
+const MC6000_FLOOR: &[FloorRole] = &[
+    floor(
+        4,
+        Role::Command,
+        "§10 exception 1 (PROG = 1 factory settings), §11.5 (PROG = 111)",
+    ),
+    floor(80, Role::Command, "§11.4: SLOAD -1 / -2 dataset handshake"),
+    floor(81, Role::BaudRate, "§4, §11.5: SBAUD"),
+    floor(82, Role::BusAddress, "§4.2, §5.2: SADDR"),
+    FloorRole {
+        code: 416,
+        role: Role::ControlWord,
+        bits: &[
+            FloorBit {
+                name: "start",
+                bit: 0,
+                role: BitRole::Start,
+            },
+            FloorBit {
+                name: "error_reset",
+                bit: 7,
+                role: BitRole::Reset,
+            },
+        ],
+        stopped: &[],
+        source: "§7.2.1: SCTL1 = 0 standstill, bit 0 start; §8.1.2: bit 7 error reset",
+    },
+];
+
+/// VF1000 (`lustbus-protocol.txt`).
+const VF1000_FLOOR: &[FloorRole] = &[
+    FloorRole {
+        code: 3,
+        role: Role::ControlWord,
+        bits: &[FloorBit {
+            name: "start_clockwise",
+            bit: 7,
+            role: BitRole::Start,
+        }],
+        stopped: &[],
+        source: "§7.1 step 4, §7.1.1: CNTL = 128 (80H) start clockwise",
+    },
+    floor(
+        11,
+        Role::Command,
+        "§8.1.1: STAT = 000F resets an error and reboots",
+    ),
+    floor(
+        71,
+        Role::Command,
+        "§10 exception 1: PROG = 1 factory settings",
+    ),
+    floor(81, Role::BaudRate, "§4, §11.5: SIOC"),
+    floor(82, Role::BusAddress, "§4.2, §5.2: SIOA"),
+];
+
+/// Tmd (`lecom-ab-tmd-manual.txt`, Table 1).
+const TMD_FLOOR: &[FloorRole] = &[
+    floor(2, Role::Command, "Table 1: C0002 load Lenze setting"),
+    floor(9, Role::BusAddress, "Table 1, §4c: C0009 network address"),
+    floor(14, Role::OperatingMode, "Table 1: C0014 operating mode"),
+    FloorRole {
+        code: 40,
+        role: Role::ControlWord,
+        bits: &[],
+        stopped: &[0],
+        source: "Table 1: C0040 0 = controller inhibited, 1 = controller enabled",
+    },
+    floor(43, Role::Command, "Table 1: C0043 fault reset"),
+    floor(94, Role::Password, "Table 1: C0094 user password"),
+    floor(
+        125,
+        Role::BaudRate,
+        "Table 1, §3c, §4d: C0125 LECOM baud rate",
+    ),
+    FloorRole {
+        code: 135,
+        role: Role::ControlWord,
+        bits: &[
+            FloorBit {
+                name: "quick_stop",
+                bit: 3,
+                role: BitRole::Inhibit,
+            },
+            FloorBit {
+                name: "controller_inhibit",
+                bit: 9,
+                role: BitRole::Inhibit,
+            },
+            FloorBit {
+                name: "trip_reset",
+                bit: 11,
+                role: BitRole::Reset,
+            },
+        ],
+        stopped: &[],
+        source: "Table 1, §4f: C0135 bit 3 quick stop, bit 9 controller inhibit, bit 11 TRIP reset",
+    },
+];
+
+/// ECS: the CiA 402 drive profile's objects (the system bus excerpt
+/// documents none of its own; CiA 402 §6040h..60FFh).
+const ECS_FLOOR: &[FloorRole] = &[
+    FloorRole {
+        code: cia(0x6040),
+        role: Role::ControlWord,
+        bits: &[
+            FloorBit {
+                name: "switch_on",
+                bit: 0,
+                role: BitRole::Enable,
+            },
+            FloorBit {
+                name: "enable_operation",
+                bit: 3,
+                role: BitRole::Enable,
+            },
+            FloorBit {
+                name: "fault_reset",
+                bit: 7,
+                role: BitRole::Reset,
+            },
+        ],
+        stopped: &[],
+        source: "CiA 402 0x6040 controlword: bit 0 switch on, bit 3 enable operation, bit 7 fault reset",
+    },
+    floor(
+        cia(0x6060),
+        Role::OperatingMode,
+        "CiA 402 0x6060 modes of operation",
+    ),
+    floor(
+        cia(0x607A),
+        Role::Setpoint,
+        "CiA 402 0x607A target position",
+    ),
+    floor(
+        cia(0x60FF),
+        Role::Setpoint,
+        "CiA 402 0x60FF target velocity",
+    ),
+    floor(cia(0x6071), Role::Setpoint, "CiA 402 0x6071 target torque"),
+];
 
 /// A serial family's line rates (`lustbus-protocol.txt` §4, §11.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -244,6 +442,7 @@ const MC6000: Descriptor = Descriptor {
             activate: 111,
         }),
     },
+    floor: MC6000_FLOOR,
 };
 
 const VF1000: Descriptor = Descriptor {
@@ -276,6 +475,7 @@ const VF1000: Descriptor = Descriptor {
         code: Some(81),
         online: None,
     },
+    floor: VF1000_FLOOR,
 };
 
 const TMD: Descriptor = Descriptor {
@@ -301,6 +501,7 @@ const TMD: Descriptor = Descriptor {
         code: Some(125),
         online: None,
     },
+    floor: TMD_FLOOR,
 };
 
 const ECS: Descriptor = Descriptor {
@@ -326,6 +527,7 @@ const ECS: Descriptor = Descriptor {
         code: None,
         online: None,
     },
+    floor: ECS_FLOOR,
 };
 
 impl Family {
@@ -527,6 +729,11 @@ impl fmt::Display for BusProtocol {
 }
 
 impl Descriptor {
+    /// The floor role of code `number`, where the specs give it one.
+    pub fn floor_of(&self, number: u32) -> Option<&'static FloorRole> {
+        self.floor.iter().find(|f| f.code == number)
+    }
+
     /// The width a pacing rule counts for `code` (its schema width, or the
     /// rule's assumption for an unknown one).
     fn width(code: &Code, unknown: u8) -> u32 {
@@ -652,6 +859,85 @@ mod tests {
         let mut r = crate::Registry::new();
         r.add_source(crate::error::SourceFile::new("t.toml", text))
             .expect("test schema parses")
+    }
+
+    #[test]
+    fn the_floor_holds_whatever_a_schema_file_says() {
+        use crate::{BitRole, ControlState, RawValue, Role};
+        // 416 as a "setpoint" with bit 0 an "inhibit" bit, 4-PROG without a
+        // role: the floor makes 416 a control word whose bit 0 starts and
+        // PROG a command, and adds the reset bit
+        let mc = parsed(
+            r#"
+[schema]
+id = "f"
+title = "f"
+protocol = "lustbus-mc"
+code_style = "lust"
+
+[[code]]
+number = 4
+name = "PROG"
+
+[[code]]
+number = 416
+name = "SCTL1"
+type = "PT_USIGN16"
+role = "setpoint"
+
+[[code.bits]]
+name = "hold"
+bits = [0, 0]
+role = "inhibit"
+"#,
+        );
+        assert_eq!(mc.role_of(4), Some(Role::Command));
+        let c = mc.code(416).expect("416");
+        assert_eq!(c.role, Some(Role::ControlWord));
+        let roles: Vec<(u32, Option<BitRole>)> = c.bits.iter().map(|b| (b.lsb, b.role)).collect();
+        assert_eq!(
+            roles,
+            [(0, Some(BitRole::Start)), (7, Some(BitRole::Reset))]
+        );
+        assert_eq!(
+            mc.control_state(c, &RawValue::Int(1)),
+            ControlState::Moving(vec!["hold".into()])
+        );
+        assert_eq!(
+            mc.control_state(c, &RawValue::Int(0)),
+            ControlState::Stopped
+        );
+        // Tmd C0040 whose file widens the stopped values to 0 and 1
+        let tmd = parsed(
+            r#"
+[schema]
+id = "g"
+title = "g"
+protocol = "lecom"
+code_style = "lenze"
+
+[[code]]
+number = 40
+name = "c40"
+type = "VD"
+stopped = [0, 1]
+"#,
+        );
+        let c = tmd.code(40).expect("40");
+        assert_eq!(c.role, Some(Role::ControlWord));
+        assert_eq!(c.stopped, [0]);
+        assert!(!tmd.control_state(c, &RawValue::Int(10_000)).is_safe());
+        assert!(tmd.control_state(c, &RawValue::Int(0)).is_safe());
+        // every floor code of the built-in schemas carries its floor role
+        let r = crate::Registry::builtin().expect("built-in schemas parse");
+        for f in Family::ALL {
+            let s = r.get(f.descriptor().schema_id).expect("schema");
+            for fl in f.descriptor().floor {
+                if let Some(c) = s.code(fl.code) {
+                    assert_eq!(c.role, Some(fl.role), "{} {}", s.id, fl.code);
+                }
+            }
+        }
     }
 
     #[test]

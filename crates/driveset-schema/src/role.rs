@@ -251,6 +251,21 @@ impl Code {
         if !resets.is_empty() {
             return ControlState::Command(resets);
         }
+        if !stopped_raw.is_empty() {
+            // The stopped values decide, whatever bit roles the code has:
+            // a value among them is inhibited, any other may move.
+            return if stopped_raw.contains(v) {
+                ControlState::Inhibited(self.name.clone())
+            } else {
+                ControlState::Moving(
+                    names(BitRole::Start)
+                        .into_iter()
+                        .chain(names(BitRole::Enable))
+                        .chain(names(BitRole::Release))
+                        .collect(),
+                )
+            };
+        }
         if let Some(b) = self
             .bits_with_role(BitRole::Inhibit)
             .find(|b| bit_set(b, *v))
@@ -267,13 +282,6 @@ impl Code {
             return ControlState::Moving(moving);
         }
         let has_moving = self.bits.iter().any(|b| b.role.is_some_and(BitRole::moves));
-        if !has_moving && !stopped_raw.is_empty() && self.bits.iter().all(|b| b.role.is_none()) {
-            return if stopped_raw.contains(v) {
-                ControlState::Inhibited(self.name.clone())
-            } else {
-                ControlState::Moving(Vec::new())
-            };
-        }
         let inhibits: Vec<String> = self
             .bits_with_role(BitRole::Inhibit)
             .map(|b| b.name.clone())

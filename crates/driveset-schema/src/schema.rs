@@ -1317,8 +1317,87 @@ pub fn parse_schema(
         schema.enums.insert(name, def);
     }
     schema.rules.extend(rules);
+    schema.apply_floor();
     schema.reindex();
     Ok(schema)
+}
+
+impl Schema {
+    /// Give the codes the roles the family's specs give them
+    /// ([`crate::family::FloorRole`], the descriptor's `floor`): the one
+    /// place every schema passes when it is loaded (built-in, by path,
+    /// `extends`, learned, imported from an EDS, `--schemas DIR`), so a
+    /// schema file can add roles but never drop them. A code the schema
+    /// does not list stays unlisted (a client never writes it).
+    fn apply_floor(&mut self) {
+        let floor = self.family.descriptor().floor;
+        for code in &mut self.codes {
+            let Some(f) = floor.iter().find(|f| f.code == code.number) else {
+                continue;
+            };
+            code.role = Some(f.role);
+            if f.role != Role::ControlWord {
+                continue;
+            }
+            // Only the floor's inhibit bits make a value safe.
+            for b in &mut code.bits {
+                if b.role == Some(crate::role::BitRole::Inhibit)
+                    && !f
+                        .bits
+                        .iter()
+                        .any(|fb| fb.bit == b.lsb && fb.role == crate::role::BitRole::Inhibit)
+                {
+                    b.role = None;
+                    b.role_loc = None;
+                }
+            }
+            for fb in f.bits {
+                match code
+                    .bits
+                    .iter_mut()
+                    .find(|b| b.lsb == fb.bit && b.msb == fb.bit)
+                {
+                    Some(b) => b.role = Some(fb.role),
+                    None => {
+                        // A wider member over the bit: a start, enable,
+                        // release or reset bit makes the member count as
+                        // one when any of its bits is set (more values are
+                        // refused, none is let through); an inhibit bit
+                        // stays unnamed (no value is made safe by it).
+                        if let Some(b) = code
+                            .bits
+                            .iter_mut()
+                            .find(|b| b.lsb <= fb.bit && fb.bit <= b.msb)
+                        {
+                            if fb.role != BitRole::Inhibit {
+                                b.role = Some(fb.role);
+                            }
+                            continue;
+                        }
+                        code.bits.push(BitField {
+                            name: fb.name.to_string(),
+                            title: None,
+                            lsb: fb.bit,
+                            msb: fb.bit,
+                            values: None,
+                            loc: code.loc.clone(),
+                            bits_loc: code.loc.clone(),
+                            role: Some(fb.role),
+                            role_loc: None,
+                        });
+                    }
+                }
+            }
+            if f.stopped.is_empty() {
+                code.stopped.clear();
+            } else {
+                code.stopped.retain(|v| f.stopped.contains(v));
+                if code.stopped.is_empty() {
+                    code.stopped = f.stopped.to_vec();
+                }
+            }
+        }
+    }
 }
 
 /// Fill the unset facts of a base code from a fixture's code of the same
@@ -1463,8 +1542,14 @@ impl Registry {
     /// fictional fixture schemas, which belong to the simulator and the
     /// examples, not to a user's registry). A schema of that id added
     /// later (`--schemas DIR`, a set naming the file) is known as usual.
-    pub fn withhold(&mut self, id: &str, file: &str) {
+    ///
+    /// `text` is the fixture's own text: a schema of that id with any other
+    /// text is refused when added ([`Registry::add_source`]), so no file
+    /// (`--schemas DIR`, a set naming a file) can take a fixture's id and
+    /// give its codes other facts.
+    pub fn withhold(&mut self, id: &str, file: &str, text: &str) {
         self.withheld.insert(id.to_string(), file.to_string());
+        self.texts.insert(id.to_string(), Arc::from(text));
     }
 
     /// The file of a withheld schema id ([`Registry::withhold`]).
@@ -1494,6 +1579,19 @@ impl Registry {
             let lookup = |id: &str| self.schemas.get(id).cloned();
             parse_schema(source, &lookup)?
         };
+        if let (Some(file), None) = (self.withheld.get(&schema.id), self.schemas.get(&schema.id))
+            && self.texts.get(&schema.id).is_some_and(|t| **t != *text)
+        {
+            return Err(InputError::new(
+                InputErrorKind::Structure,
+                schema.id_loc.clone(),
+                format!(
+                    "schema id `{}` is the id of the simulator's fixture schema {file}",
+                    schema.id
+                ),
+                "give each schema file its own id (a schema file cannot reuse a built-in or fixture id)",
+            ));
+        }
         if let Some(prev) = self.schemas.get(&schema.id) {
             if self.texts.get(&schema.id).is_some_and(|t| **t == *text) {
                 return Ok(prev.clone());
@@ -1505,7 +1603,7 @@ impl Registry {
                     "schema id `{}` is already defined by {}",
                     schema.id, prev.path
                 ),
-                "give each schema file its own id",
+                "give each schema file its own id (a schema file cannot reuse a built-in or fixture id)",
             ));
         }
         let schema = Arc::new(schema);

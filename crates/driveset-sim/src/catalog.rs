@@ -54,8 +54,8 @@ pub fn fixtures() -> impl Iterator<Item = (&'static str, &'static str)> {
 /// set naming a fixture by id is told to name its file,
 /// [`Registry::withhold`]).
 pub fn withhold_fixtures(registry: &mut Registry) {
-    for (id, path) in fixtures() {
-        registry.withhold(id, path);
+    for ((id, path), (_, text)) in fixtures().zip(FIXTURES) {
+        registry.withhold(id, path, text);
     }
 }
 

@@ -188,6 +188,9 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         if !report.restored.is_empty() {
             let _ = writeln!(out, "restored: {}", report.restored.join(", "));
         }
+        for n in &report.notes {
+            let _ = writeln!(out, "{n}");
+        }
         if let Some(fp) = &report.fingerprint {
             let _ = writeln!(out, "drive holds: {fp}");
         }

@@ -60,8 +60,8 @@ use std::time::Duration;
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, LinkError};
 use driveset_proto::lecom::{
-    Advice, Broadcast, CodeAddress, ControllerAddress, Decimal, ExtendedError, Hex, OctetString,
-    OperatingStatus, Receive, Response, ResponseDecoder, Send, Telegram, Value, VisibleString,
+    Advice, CodeAddress, ControllerAddress, Decimal, ExtendedError, Hex, OctetString,
+    OperatingStatus, Receive, Response, ResponseDecoder, Telegram, Value, VisibleString,
 };
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
 
@@ -71,6 +71,7 @@ use super::{
     device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
+use crate::guard::{self, Permit};
 use crate::plan;
 
 /// C0068, operating status (bits 4..7: last communication error).
@@ -567,9 +568,9 @@ impl<L: ByteLink> LecomClient<L> {
     ) -> Result<(), EngineError> {
         let code = schema_code(&self.schema, &self.target, key)?;
         refuse_read_only(&self.schema, &self.target, key, code)?;
+        let cleared = guard::check(&self.schema, &self.target, key, raw, Permit::SETTING)?;
         let (field, value) = self.encode(key, raw)?;
-        let t = Broadcast::new(to, field, value)
-            .map(Telegram::Broadcast)
+        let t = guard::lecom_broadcast(&cleared, to, field, value)
             .map_err(|e| self.encode_refused(None, e))?;
         let bytes = t.to_bytes().map_err(|e| self.encode_refused(None, e))?;
         self.line
@@ -641,14 +642,19 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        permit: Permit,
+    ) -> Result<(), EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
         refuse_read_only(&schema, &self.target, key, code)?;
+        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
         let what = write_what(&schema, key, raw);
         let (field, value) = self.encode(key, raw)?;
-        let t = Send::new(self.address, field, value)
-            .map(Telegram::Send)
+        let t = guard::lecom_send(&cleared, self.address, field, value)
             .map_err(|e| self.encode_refused(None, e))?;
         let bytes = t.to_bytes().map_err(|e| self.encode_refused(None, e))?;
         let mut last = String::new();

@@ -104,7 +104,7 @@ use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, Instant, LinkError};
 use driveset_proto::lustbus::{
     Address, Dialect, Enquiry, ParameterCode, ParameterType, ParameterValue, Reply, ReplyDecoder,
-    Select, Siof, SiofAction, ValueText,
+    Siof, SiofAction, ValueText,
 };
 use driveset_schema::schema::StorageKind;
 use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
@@ -117,6 +117,7 @@ use super::{
 use crate::error::{
     DeviceCause, EngineError, LustbusCodeProblem, Refusal, SiofRegister, SiofVerdict,
 };
+use crate::guard::{self, Permit};
 use crate::plan;
 
 /// 80-SLOAD, the dataset download handshake (MC, section 11.4).
@@ -782,16 +783,19 @@ impl<L: ByteLink> LustbusClient<L> {
         self.family == Dialect::Mc && Self::is_eeprom(code) && !self.dataset_open
     }
 
-    /// The SELECT path: encode, pace, send, handle NAK via SIOF.
+    /// The SELECT path: the write guard ([`guard::check`] under
+    /// `permit`), encode, pace, send, handle NAK via SIOF.
     fn select(
         &mut self,
         key: CodeKey,
         raw: &RawValue,
         what: &str,
         nak_40_cause: Option<SiofVerdict>,
+        permit: Permit,
     ) -> Result<(), EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
+        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
         let pcode = self.code_for(key, Some(code))?;
         let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
             // 11.4 writes -1 / -2: a signed type, whatever the schema gives.
@@ -830,7 +834,7 @@ impl<L: ByteLink> LustbusClient<L> {
                     },
                 )
             })?;
-        let bytes = Select::new(self.address, pcode, value).encode();
+        let bytes = guard::lustbus_select(&cleared, self.address, pcode, value);
         // Section 10 exception 4 (VF1000: 60 ms one-byte, 120 ms two-byte
         // when the value changes): the family descriptor's one rule, the
         // planner's too. Whether the value changes is not known here, so
@@ -1005,7 +1009,12 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        permit: Permit,
+    ) -> Result<(), EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
         refuse_read_only(&schema, &self.target, key, code)?;
@@ -1018,7 +1027,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             ));
         }
         let what = write_what(&schema, key, raw);
-        self.select(key, raw, &what, None)
+        self.select(key, raw, &what, None, permit)
     }
 
     fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
@@ -1106,6 +1115,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             &RawValue::Int(-1),
             "dataset download: write 80-SLOAD = -1",
             Some(SiofVerdict::NotAtStandstill),
+            Permit::DATASET_BEGIN,
         )?;
         self.dataset_open = true;
         Ok(())
@@ -1125,7 +1135,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         }
         let key = CodeKey::new(SLOAD);
         let what = "dataset download: write 80-SLOAD = -2";
-        let r = self.select(key, &RawValue::Int(-2), what, None);
+        let r = self.select(key, &RawValue::Int(-2), what, None, Permit::DATASET_COMMIT);
         self.dataset_open = false;
         r?;
         Ok(self.now())
@@ -1230,8 +1240,15 @@ impl<L: ByteLink> LustbusClient<L> {
                 EngineError::protocol(self.target.clone(), "write 108-STEXT", e.to_string())
             })?;
         let what = format!("write 108-STEXT = {index}");
+        let cleared = guard::check(
+            &self.schema,
+            &self.target,
+            CodeKey::new(u32::from(driveset_proto::lustbus::description::STEXT)),
+            &RawValue::Int(i64::from(index)),
+            Permit::TEXT_SELECTOR,
+        )?;
         self.ensure_session(&what)?;
-        let bytes = Select::new(self.address, code, value).encode();
+        let bytes = guard::lustbus_select(&cleared, self.address, code, value);
         if self.select_once(&bytes, Duration::ZERO, &what)? {
             return Ok(());
         }
@@ -1293,7 +1310,8 @@ impl<L: ByteLink> LustbusClient<L> {
                     ty.name()
                 ))
             })?;
-        let bytes = Select::new(Address::BROADCAST, pcode, value).encode();
+        let cleared = guard::check(&schema, &self.target, key, raw, Permit::SETTING)?;
+        let bytes = guard::lustbus_select(&cleared, Address::BROADCAST, pcode, value);
         self.line
             .send_telegram(&bytes)
             .map_err(|e| link_error(&self.target, e))?;

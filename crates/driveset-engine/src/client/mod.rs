@@ -14,6 +14,7 @@ use driveset_link::{Clock, Instant};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use crate::error::{DeviceCause, EngineError, Refusal};
+use crate::guard::Permit;
 
 pub mod lecom;
 pub mod lustbus;
@@ -243,12 +244,28 @@ pub trait DriveClient: Send {
     /// Read one code's raw value.
     fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError>;
 
-    /// Write one code. Returns when the drive has acknowledged it; a write
-    /// the drive refuses is an [`EngineError::Device`] with the decoded
-    /// cause. Waits (on the link's clock) if the drive cannot take the
-    /// write yet (MC EEPROM still storing): correctness never depends on
-    /// the caller's pacing.
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError>;
+    /// Write one code as an ordinary setting (a set's value, a rollback's
+    /// or recover's old value): [`DriveClient::write_named`] with
+    /// [`Permit::SETTING`], the write guard's full rules.
+    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+        self.write_named(key, raw, Permit::SETTING)
+    }
+
+    /// Write one code through the write guard ([`crate::guard`]) under
+    /// `permit`: [`Permit::SETTING`], or one of the engine's own named
+    /// operations (the rate activation 4-PROG = 111, the `--transfer-baud`
+    /// rate switch ...), which covers exactly its code and values; only the
+    /// engine can name a permit other than `SETTING`. Returns when the
+    /// drive has acknowledged it; a write the drive refuses is an
+    /// [`EngineError::Device`] with the decoded cause. Waits (on the link's
+    /// clock) if the drive cannot take the write yet (MC EEPROM still
+    /// storing): correctness never depends on the caller's pacing.
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        permit: Permit,
+    ) -> Result<(), EngineError>;
 
     /// The earliest instant a write of `key` will be taken without waiting
     /// (MC6000/7000: the EEPROM is busy width x 3 x 5 ms after an EEPROM

@@ -43,6 +43,7 @@ use super::{
     device, link_error, refuse_read_only, schema_code, shown_value, write_what,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
+use crate::guard::{self, Permit};
 
 /// Options of a [`CanClient`].
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -482,10 +483,16 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         self.read_key(key, &what)
     }
 
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        permit: Permit,
+    ) -> Result<(), EngineError> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
         refuse_read_only(&schema, &self.target, key, code)?;
+        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
         let what = write_what(&schema, key, raw);
         let data = wire_of(&schema, code)
             .and_then(|w| raw_to_bytes(w, raw))
@@ -497,8 +504,7 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
             })?;
         let (index, subindex) = self.mux(key)?;
         self.run(&what, |c| {
-            c.start_write(index, subindex, &data)
-                .map_err(|e| e.to_string())
+            guard::sdo_download(&cleared, c, index, subindex, &data)
         })?;
         Ok(())
     }

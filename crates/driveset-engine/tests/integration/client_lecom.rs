@@ -208,3 +208,42 @@ fn running_identify_and_no_such_code() {
         "{id:?}"
     );
 }
+
+/// The write guard on LECOM's writing telegrams (issue 17): SEND,
+/// BROADCAST and MULTICAST of C0040 = 1 (controller enabled) or of the
+/// C0043 fault-reset command are refused and not a byte goes out.
+#[test]
+fn the_write_guard_refuses_enable_and_commands_on_send_broadcast_and_multicast() {
+    let (_clock, log, bus) = sim_bus(vec![tmd(11, 3), tmd(12, 3)], None);
+    let mut c = LecomClient::new(bus, schema(), 11).unwrap();
+    let enable = RawValue::Int(10_000);
+    let refusals = [
+        c.write(CodeKey::new(40), &enable).unwrap_err(),
+        c.broadcast(CodeKey::new(40), &enable).unwrap_err(),
+        c.multicast(1, CodeKey::new(40), &enable).unwrap_err(),
+        c.write(CodeKey::new(43), &RawValue::Int(10_000))
+            .unwrap_err(),
+    ];
+    for e in &refusals[..3] {
+        assert_eq!(
+            e.to_string(),
+            "sim address 11: refused: C0040 = \"Controller enabled\" would enable the drive (the stopped values are 0): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+        );
+    }
+    assert!(
+        refusals[3].to_string().contains("C0043 = "),
+        "{}",
+        refusals[3]
+    );
+    assert!(
+        refusals[3]
+            .to_string()
+            .contains(" is a command: driveset never writes one"),
+        "{}",
+        refusals[3]
+    );
+    assert!(wire(&log, Dir::Host).is_empty(), "nothing sent");
+    // the stopped value goes out
+    c.write(CodeKey::new(40), &RawValue::Int(0)).unwrap();
+    assert_eq!(wire(&log, Dir::Host).len(), 1);
+}

@@ -354,7 +354,14 @@ fn dataset_download_rejected_keeps_the_old_set() {
 fn dataset_begin_while_running_names_standstill() {
     let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
-    c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap();
+    // the write guard never writes a start: the machine's control starts it
+    let refused = c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap_err();
+    assert_eq!(
+        refused.to_string(),
+        "sim address 1: refused: 416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+    );
+    assert_eq!(c.running().unwrap(), Some(false));
+    c.link_mut().drive_mut(1).unwrap().set_running(true);
     assert_eq!(c.running().unwrap(), Some(true));
     let err = c.dataset_begin().unwrap_err();
     let ErrorKind::Device { cause, .. } = &*err.kind else {

@@ -314,3 +314,39 @@ note = "test"
         p.plan.render(None)
     );
 }
+
+/// The write guard on the SDO download (issue 17): a C0135 value of the
+/// fixture without its inhibit bit, and a CiA 402 controlword 0x6040 that
+/// enables operation in a schema without roles (the ECS floor), are
+/// refused and no frame goes out; a stopped value is downloaded.
+#[test]
+fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
+    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, schema(), 3).unwrap();
+    let e = c.write(CodeKey::new(135), &RawValue::Int(0)).unwrap_err();
+    assert!(matches!(*e.kind, ErrorKind::Refused(_)), "{e}");
+    assert!(e.to_string().contains("C0135 = "), "{e}");
+    assert!(
+        e.to_string().contains("sets none of the inhibit bits"),
+        "{e}"
+    );
+    assert!(log.events().is_empty(), "nothing sent");
+
+    let mut r = driveset_schema::Registry::new();
+    let bare = r
+        .add_source(SourceFile::new(
+            "bare.toml",
+            "[schema]\nid = \"bare-402\"\ntitle = \"CiA 402 objects, no roles\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"UNSIGNED16\"\n",
+        ))
+        .expect("schema");
+    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let mut c = CanClient::new(bus, bare, 3).unwrap();
+    let cw = CodeKey::new(driveset_schema::schema::CIA_NUMBER_BASE + 0x6040);
+    let e = c.write(cw, &RawValue::Int(0x0F)).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("would start or enable the drive (switch_on, enable_operation set)"),
+        "{e}"
+    );
+    assert!(log.events().is_empty(), "nothing sent");
+}

@@ -466,7 +466,17 @@ fn verify_mismatch_rolls_back() {
         text.contains("verify C0012") && text.contains("reads back 5 s instead of 2.5 s"),
         "{text}"
     );
-    assert_eq!(client.drive.values, before);
+    // the drive was enabled (C0040 = 1, C0135 without an inhibit bit): the
+    // rollback restores every other code and leaves both control words in
+    // the stopped state the set gave them, saying so
+    assert!(
+        text.contains("C0040 controller_inhibit left stopped: the motor was running before; start it from the machine's control; C0135 control_word left stopped: the motor was running before; start it from the machine's control; the drive holds its old values again (verified)"),
+        "{text}"
+    );
+    let mut stopped = before;
+    stopped.insert(k(40), RawValue::Int(0));
+    stopped.insert(k(135), RawValue::Int(8));
+    assert_eq!(client.drive.values, stopped);
 }
 
 #[test]
@@ -726,7 +736,15 @@ fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
         "{err}"
     );
     assert!(err.to_string().contains("restarted"), "{err}");
-    assert_eq!(client.drive.values, before.values);
+    // C0040 was written (and is left stopped), C0135 never was
+    let mut stopped = before.values;
+    stopped.insert(k(40), RawValue::Int(0));
+    assert_eq!(client.drive.values, stopped);
+    assert!(
+        err.to_string()
+            .contains("C0040 controller_inhibit left stopped: the motor was running before"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -781,6 +799,7 @@ fn crash_everywhere(
         .values_of(keys.clone())
         .fingerprint();
     let new_fp = set.fingerprint();
+    let drive_before = drive.clone();
     let mut client = FakeClient::new(schema.clone(), drive).with_journal(&path);
     setup(&mut client);
     let _ = upload(&mut client, set, &UploadOptions::new(&path));
@@ -799,8 +818,17 @@ fn crash_everywhere(
         let r = recover(&mut c, &p, &RecoverOptions::default())
             .unwrap_or_else(|e| panic!("snapshot {i} ({:?}): {e}", s.op));
         let holds = c.values_of(keys.clone()).fingerprint();
+        // old values, where a control word whose old value ran may instead
+        // hold the set's stopped value (a rollback never restarts a motor)
+        let old_or_stopped = keys.iter().all(|key| {
+            let now = c.drive.values.get(key);
+            let cw = schema
+                .code(key.number)
+                .is_some_and(|code| code.has_role(driveset_schema::Role::ControlWord));
+            now == drive_before.values.get(key) || (cw && now == set.values.get(key))
+        });
         assert!(
-            holds == old_fp || holds == new_fp,
+            holds == old_fp || holds == new_fp || old_or_stopped,
             "snapshot {i} ({:?}): drive holds a mix",
             s.op
         );
@@ -810,10 +838,10 @@ fn crash_everywhere(
         }
         let state = JournalFile::open(&p).expect("journal").journal.state;
         assert!(state.is_settled(), "snapshot {i}: {state:?}");
-        if holds == old_fp {
-            to_old += 1;
-        } else {
+        if holds == new_fp {
             to_new += 1;
+        } else {
+            to_old += 1;
         }
     }
     (to_old, to_new)

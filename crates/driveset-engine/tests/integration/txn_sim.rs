@@ -456,9 +456,8 @@ mod transfer_rate {
         let dir = tempfile::tempdir().expect("tempdir");
         let log = EventLog::memory();
         let mut c = mc_client(&log, None);
-        // start the motor (416-SCTL1 bit 0)
-        c.write(CodeKey::new(416), &RawValue::Int(1))
-            .expect("start");
+        // the machine's control starts the motor (416-SCTL1 bit 0)
+        c.link_mut().drive_mut(1).expect("drive").set_running(true);
         let n = log.events().len();
         let err = transfer::upload(
             &mut c,

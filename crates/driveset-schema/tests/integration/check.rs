@@ -484,7 +484,7 @@ bits = [0, 0]
             ),
             ("code 1 bit field go has role `start` but is 2 bits wide".to_string(), 18, 8),
             ("code 2 has `stopped` values but is not a control word".to_string(), 21, 10),
-            ("code 2 has role `setpoint` but is read-only".to_string(), 25, 8),
+            ("code 2 has role `command` but is read-only".to_string(), 25, 8),
             ("code 3 is a password but has bit fields".to_string(), 36, 8),
         ]
     );

@@ -17,6 +17,7 @@ use driveset_engine::client::{
     Target,
 };
 use driveset_engine::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
+use driveset_engine::guard::Permit;
 use driveset_proto::lustbus::Siof;
 
 /// An MC6000 refusal with these SERR bits (section 9.2).
@@ -269,7 +270,12 @@ impl DriveClient for FakeClient {
             .cloned()
             .ok_or_else(|| self.no_answer(format!("read {} (not in the fake)", key.number)))
     }
-    fn write(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
+    fn write_named(
+        &mut self,
+        key: CodeKey,
+        raw: &RawValue,
+        _permit: Permit,
+    ) -> Result<(), EngineError> {
         if self.writes == 0
             && let Some(p) = &self.journal
         {

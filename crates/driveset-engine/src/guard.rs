@@ -1,0 +1,535 @@
+//! Owns the one write guard: every telegram that changes a drive (LUSTBUS
+//! SELECT and broadcast, LECOM SEND, BROADCAST and MULTICAST, CAN SDO
+//! download) is built here, after [`check`] cleared it, whatever command
+//! or step asked for it (upload, rollback, recover, commission, broadcast,
+//! the `--transfer-baud` switch, the MC dataset handshake, schema pull's
+//! text selector). The clients call these builders on their write path;
+//! nothing else in the engine constructs a writing telegram (a tidy test
+//! holds the codecs' constructors to this module).
+//!
+//! The rules (docs/architecture.md, "The write guard"), on the schema's
+//! roles, which hold at least the family's floor
+//! (`driveset_schema::family::FloorRole`):
+//!
+//! - a control word is written only in a stopped or inhibited state
+//!   (`driveset_schema::ControlState::is_safe`): never a value that sets a
+//!   start, enable or release bit, a reset bit, or one the schema cannot
+//!   show to be stopped; a stop writes the stopped state and nothing else;
+//! - a command is never written, except the engine's own named operations,
+//!   each with its [`Permit`], which covers exactly its code and values:
+//!   the MC6000/7000 dataset handshake (80-SLOAD = -1 / -2, LUSTBUS §11.4),
+//!   the online rate activation (4-PROG = 111, §11.5);
+//! - the `--transfer-baud` switch writes the rate code only with one of the
+//!   family's rates (permit `RATE_SWITCH`, §4, §11.5); schema pull's
+//!   108-STEXT selector (permit `TEXT_SELECTOR`, §11.3) only on an MC.
+//!
+//! The running-drive check (`--allow-running`) and the other named
+//! overrides stay with the planner: they decide whether a transaction may
+//! start; the guard decides what may be sent, and no override widens it.
+
+use driveset_proto::can::{Index, SdoClient, SdoRequest, Subindex};
+use driveset_proto::lecom::{
+    Broadcast, CodeAddress, ControllerAddress, EncodeError, Send, Telegram, Value,
+};
+use driveset_proto::lustbus::{Address, ParameterCode, Select, TelegramBytes, ValueText};
+use driveset_schema::{Code, CodeKey, ControlState, Family, RawValue, Role, Schema};
+
+use crate::client::{Target, code_name, schema_code, shown_value};
+use crate::error::{EngineError, Refusal};
+
+/// Why a write is sent: an ordinary setting ([`Permit::SETTING`], the full
+/// rules), or one of the engine's own named operations, which only the
+/// engine can name (the other constants are crate-private).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Permit(Kind);
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Setting,
+    DatasetBegin,
+    DatasetCommit,
+    ActivateRate,
+    RateSwitch,
+    TextSelector,
+}
+
+impl Permit {
+    /// An ordinary setting (a set's value, a rollback's or recover's old
+    /// value, a broadcast value): commands and moving control word values
+    /// are refused.
+    pub const SETTING: Permit = Permit(Kind::Setting);
+    /// MC6000/7000 80-SLOAD = -1 (LUSTBUS §11.4).
+    pub(crate) const DATASET_BEGIN: Permit = Permit(Kind::DatasetBegin);
+    /// MC6000/7000 80-SLOAD = -2 (LUSTBUS §11.4).
+    pub(crate) const DATASET_COMMIT: Permit = Permit(Kind::DatasetCommit);
+    /// MC6000/7000 4-PROG = 111: activate the rate 81-SBAUD holds (§11.5).
+    pub(crate) const ACTIVATE_RATE: Permit = Permit(Kind::ActivateRate);
+    /// The `--transfer-baud` switch: the rate code to one of the family's
+    /// rates (§4, §11.5).
+    pub(crate) const RATE_SWITCH: Permit = Permit(Kind::RateSwitch);
+    /// MC6000/7000 108-STEXT, the RAM selector of substitution texts
+    /// (§11.3, schema pull).
+    pub(crate) const TEXT_SELECTOR: Permit = Permit(Kind::TextSelector);
+
+    /// The permit's name in messages.
+    pub fn name(self) -> &'static str {
+        match self.0 {
+            Kind::Setting => "setting",
+            Kind::DatasetBegin => "dataset-begin (80-SLOAD = -1)",
+            Kind::DatasetCommit => "dataset-commit (80-SLOAD = -2)",
+            Kind::ActivateRate => "activate-rate (4-PROG = 111)",
+            Kind::RateSwitch => "rate-switch",
+            Kind::TextSelector => "text-selector (108-STEXT)",
+        }
+    }
+}
+
+/// Proof that [`check`] let one write through; the builders below take it.
+/// Only [`check`] makes one.
+#[derive(Debug)]
+pub(crate) struct Cleared {
+    _private: (),
+}
+
+/// The one gate: whether `raw` may be written to `key` of the drive
+/// `target` (schema `schema`) under `permit`. `Err` is a typed
+/// [`Refusal`]: `GuardCommand`, `GuardControlWord`, `GuardPermit`, or
+/// `UnknownCode`; nothing is sent.
+pub(crate) fn check(
+    schema: &Schema,
+    target: &Target,
+    key: CodeKey,
+    raw: &RawValue,
+    permit: Permit,
+) -> Result<Cleared, EngineError> {
+    let refuse = |r: Refusal| Err(EngineError::refused(target.clone(), r));
+    let code = match (permit.0, schema.code(key.number)) {
+        (Kind::TextSelector, None) => None,
+        _ => Some(schema_code(schema, target, key)?),
+    };
+    let d = schema.family.descriptor();
+    let value = || match code {
+        Some(c) if !schema.is_password(c) => {
+            driveset_schema::validate::display_value(schema, c, raw)
+        }
+        _ => shown_value(schema, key, raw),
+    };
+    let int = match raw {
+        RawValue::Int(v) => Some(*v),
+        _ => None,
+    };
+    let named = match permit.0 {
+        Kind::Setting => None,
+        Kind::DatasetBegin => Some(d.dataset.is_some_and(|h| {
+            key.number == h.code && key.subcode.is_none() && int == Some(h.begin)
+        })),
+        Kind::DatasetCommit => Some(d.dataset.is_some_and(|h| {
+            key.number == h.code && key.subcode.is_none() && int == Some(h.commit)
+        })),
+        Kind::ActivateRate => Some(d.line_rates.online.is_some_and(|o| {
+            key.number == o.command && key.subcode.is_none() && int == Some(o.activate)
+        })),
+        Kind::RateSwitch => Some(
+            d.line_rates.code == Some(key.number)
+                && key.subcode.is_none()
+                && int.is_some_and(|v| {
+                    u32::try_from(v).is_ok_and(|r| d.line_rates.rates.contains(&r))
+                }),
+        ),
+        Kind::TextSelector => Some(
+            schema.family == Family::Mc6000
+                && key.number == u32::from(driveset_proto::lustbus::description::STEXT)
+                && key.subcode.is_none()
+                && code.is_none_or(|c| !matches!(c.role, Some(Role::Command | Role::ControlWord))),
+        ),
+    };
+    match named {
+        Some(true) => return Ok(Cleared { _private: () }),
+        Some(false) => {
+            return refuse(Refusal::GuardPermit {
+                permit: permit.name().to_string(),
+                code: code_name(schema, key),
+                value: value(),
+            });
+        }
+        None => {}
+    }
+    let Some(code) = code else {
+        return refuse(Refusal::UnknownCode {
+            schema: schema.id.clone(),
+            code: key.canonical(schema.code_style),
+        });
+    };
+    match code.role {
+        Some(Role::Command) => refuse(Refusal::GuardCommand {
+            code: code_name(schema, key),
+            value: value(),
+        }),
+        Some(Role::ControlWord) => match control_why(schema, code, raw) {
+            None => Ok(Cleared { _private: () }),
+            Some(why) => refuse(Refusal::GuardControlWord {
+                code: code_name(schema, key),
+                value: value(),
+                why,
+            }),
+        },
+        _ => Ok(Cleared { _private: () }),
+    }
+}
+
+/// Why a control word value is not a stopped state (`None`: it is).
+fn control_why(schema: &Schema, code: &Code, raw: &RawValue) -> Option<String> {
+    match schema.control_state(code, raw) {
+        ControlState::Stopped | ControlState::Inhibited(_) => None,
+        ControlState::Moving(bits) if bits.is_empty() => Some(format!(
+            "would enable the drive (the stopped values are {})",
+            stopped_list(code)
+        )),
+        ControlState::Moving(bits) => Some(format!(
+            "would start or enable the drive ({} set)",
+            bits.join(", ")
+        )),
+        ControlState::NotInhibited(inh) => Some(format!(
+            "sets none of the inhibit bits ({}): the drive would follow its setpoint",
+            inh.join(", ")
+        )),
+        ControlState::Command(bits) => Some(format!(
+            "is a command ({} set)",
+            bits.join(", ")
+        )),
+        ControlState::Unknown => Some(
+            "cannot be shown to be stopped: the schema documents no start, enable or inhibit bit of it"
+                .to_string(),
+        ),
+    }
+}
+
+fn stopped_list(code: &Code) -> String {
+    code.stopped
+        .iter()
+        .map(i64::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The stopped state a rollback or recover writes instead of `old`, a
+/// control word value that is not stopped (the motor was running before
+/// the transaction): the transaction's `new` value where it is a stopped
+/// state (the stop the set asked for stays), else `old` with its start /
+/// enable / release and reset bits cleared, else the first of the code's
+/// `stopped` values. `None`: the schema knows no stopped state of the code
+/// (nothing is written then).
+pub fn stopped_instead(
+    schema: &Schema,
+    code: &Code,
+    old: &RawValue,
+    new: Option<&RawValue>,
+) -> Option<RawValue> {
+    if let Some(n) = new
+        && control_why(schema, code, n).is_none()
+    {
+        return Some(n.clone());
+    }
+    let RawValue::Int(v) = old else {
+        return None;
+    };
+    let cleared = {
+        let mut cleared = *v;
+        for b in code.bits.iter().filter(|b| {
+            b.role
+                .is_some_and(|r| r.moves() || r == driveset_schema::BitRole::Reset)
+        }) {
+            for bit in b.lsb..=b.msb.min(62) {
+                cleared &= !(1i64 << bit);
+            }
+        }
+        RawValue::Int(cleared)
+    };
+    if control_why(schema, code, &cleared).is_none() {
+        return Some(cleared);
+    }
+    let candidate = if let Some(first) = code.stopped.first() {
+        let ty = schema.type_of(code)?;
+        RawValue::Int(
+            driveset_schema::value::decimal_to_raw(
+                ty,
+                code.width,
+                &driveset_schema::Decimal::from_int(i128::from(*first)),
+            )
+            .ok()?,
+        )
+    } else {
+        return None;
+    };
+    control_why(schema, code, &candidate)
+        .is_none()
+        .then_some(candidate)
+}
+
+/// Whether a control word value is a stopped or inhibited state (`true`
+/// for every code that is not a control word).
+pub fn is_stopped(schema: &Schema, code: &Code, raw: &RawValue) -> bool {
+    !code.has_role(Role::ControlWord) || control_why(schema, code, raw).is_none()
+}
+
+/// LUSTBUS SELECT (§5.1), to a drive or to address 31 (broadcast, §4.2).
+pub(crate) fn lustbus_select(
+    _cleared: &Cleared,
+    to: Address,
+    code: ParameterCode,
+    value: ValueText,
+) -> TelegramBytes {
+    Select::new(to, code, value).encode()
+}
+
+/// LECOM SEND (8.I) to one controller.
+pub(crate) fn lecom_send(
+    _cleared: &Cleared,
+    to: ControllerAddress,
+    field: CodeAddress,
+    value: Value,
+) -> Result<Telegram, EncodeError> {
+    Send::new(to, field, value).map(Telegram::Send)
+}
+
+/// LECOM BROADCAST / MULTICAST (8.J) to address 00 or a group x0.
+pub(crate) fn lecom_broadcast(
+    _cleared: &Cleared,
+    to: ControllerAddress,
+    field: CodeAddress,
+    value: Value,
+) -> Result<Telegram, EncodeError> {
+    Broadcast::new(to, field, value).map(Telegram::Broadcast)
+}
+
+/// CAN SDO download (CiA 301 initiate download): the first frame.
+pub(crate) fn sdo_download(
+    _cleared: &Cleared,
+    sdo: &mut SdoClient,
+    index: Index,
+    subindex: Subindex,
+    data: &[u8],
+) -> Result<SdoRequest, String> {
+    sdo.start_write(index, subindex, data)
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use driveset_schema::error::SourceFile;
+    use driveset_schema::{CodeKey, Family, RawValue, Registry, Schema};
+
+    use super::{Permit, check};
+    use crate::client::Target;
+    use crate::error::ErrorKind;
+
+    fn builtin(f: Family) -> Arc<Schema> {
+        Registry::builtin()
+            .expect("built-in schemas")
+            .get(f.descriptor().schema_id)
+            .expect("schema")
+    }
+
+    fn target() -> Target {
+        Target {
+            port: "p".into(),
+            address: 1,
+        }
+    }
+
+    /// The refusal text, or "ok".
+    fn verdict(s: &Schema, number: u32, raw: i64, permit: Permit) -> String {
+        match check(
+            s,
+            &target(),
+            CodeKey::new(number),
+            &RawValue::Int(raw),
+            permit,
+        ) {
+            Ok(_) => "ok".into(),
+            Err(e) => match *e.kind {
+                ErrorKind::Refused(r) => r.to_string(),
+                other => panic!("not a refusal: {other:?}"),
+            },
+        }
+    }
+
+    #[test]
+    fn mc6000_control_word_and_commands() {
+        let s = builtin(Family::Mc6000);
+        let w = |n, v| verdict(&s, n, v, Permit::SETTING);
+        assert_eq!(w(416, 0), "ok");
+        assert_eq!(
+            w(416, 1),
+            "416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+        );
+        assert_eq!(
+            w(416, 0x80),
+            "416-SCTL1 = { start = 0, error_reset = 1 } is a command (error_reset set): driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+        );
+        let prog = "4-PROG = \"Load factory settings\" is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself";
+        assert_eq!(w(4, 1), prog);
+        assert!(w(4, 111).contains(" is a command: driveset never writes one"));
+        assert!(w(80, -1).starts_with("80-SLOAD = ") && w(80, -1).contains(" is a command"));
+        // settings pass, the rate code as a set's value too
+        assert_eq!(w(428, 1000), "ok");
+        assert_eq!(w(81, 19200), "ok");
+    }
+
+    #[test]
+    fn each_permit_covers_exactly_its_code_and_values() {
+        let s = builtin(Family::Mc6000);
+        let p = |n, v, permit| verdict(&s, n, v, permit);
+        assert_eq!(p(80, -1, Permit::DATASET_BEGIN), "ok");
+        assert_eq!(p(80, -2, Permit::DATASET_COMMIT), "ok");
+        assert_eq!(p(4, 111, Permit::ACTIVATE_RATE), "ok");
+        assert_eq!(p(81, 57600, Permit::RATE_SWITCH), "ok");
+        assert_eq!(p(108, 3, Permit::TEXT_SELECTOR), "ok");
+        assert_eq!(
+            p(80, -2, Permit::DATASET_BEGIN),
+            "the dataset-begin (80-SLOAD = -1) permit does not cover 80-SLOAD = \"End upload\"; nothing was sent"
+        );
+        assert_eq!(
+            p(4, 1, Permit::ACTIVATE_RATE),
+            "the activate-rate (4-PROG = 111) permit does not cover 4-PROG = \"Load factory settings\"; nothing was sent"
+        );
+        assert_eq!(
+            p(416, 1, Permit::ACTIVATE_RATE),
+            "the activate-rate (4-PROG = 111) permit does not cover 416-SCTL1 = { start = 1, error_reset = 0 }; nothing was sent"
+        );
+        assert_eq!(
+            p(81, 12345, Permit::RATE_SWITCH),
+            "the rate-switch permit does not cover 81-SBAUD = 12345; nothing was sent"
+        );
+        assert_eq!(
+            p(4, 111, Permit::RATE_SWITCH),
+            "the rate-switch permit does not cover 4-PROG = \"Activate new baud rate\"; nothing was sent"
+        );
+        // no handshake, no online rate on a VF1000 or a Tmd
+        let vf = builtin(Family::Vf1000);
+        assert!(verdict(&vf, 71, 111, Permit::ACTIVATE_RATE).starts_with("the activate-rate"));
+        assert_ne!(verdict(&vf, 80, -1, Permit::DATASET_BEGIN), "ok");
+        assert!(verdict(&vf, 108, 1, Permit::TEXT_SELECTOR).contains("permit does not cover"));
+        assert!(verdict(&vf, 81, 57600, Permit::RATE_SWITCH).contains("permit does not cover"));
+        assert_eq!(verdict(&vf, 81, 9600, Permit::RATE_SWITCH), "ok");
+    }
+
+    #[test]
+    fn vf1000_and_tmd_control_words() {
+        let vf = builtin(Family::Vf1000);
+        assert_eq!(verdict(&vf, 3, 0, Permit::SETTING), "ok");
+        assert!(
+            verdict(&vf, 3, 128, Permit::SETTING)
+                .contains("would start or enable the drive (start_clockwise set)")
+        );
+        assert!(verdict(&vf, 11, 15, Permit::SETTING).contains("is a command"));
+        let tmd = builtin(Family::Tmd);
+        // C0040: VD, raw = value x 10000
+        assert_eq!(verdict(&tmd, 40, 0, Permit::SETTING), "ok");
+        assert!(
+            verdict(&tmd, 40, 10_000, Permit::SETTING)
+                .contains("would enable the drive (the stopped values are 0)"),
+        );
+        // C0135: bit 3 quick stop, bit 9 controller inhibit, bit 11 TRIP reset
+        assert_eq!(verdict(&tmd, 135, 0x0008, Permit::SETTING), "ok");
+        assert_eq!(verdict(&tmd, 135, 0x0200, Permit::SETTING), "ok");
+        assert!(verdict(&tmd, 135, 0, Permit::SETTING).contains("sets none of the inhibit bits"));
+        assert!(
+            verdict(&tmd, 135, 0x0808, Permit::SETTING).contains("is a command (trip_reset set)")
+        );
+        assert!(verdict(&tmd, 2, 1, Permit::SETTING).contains("is a command"));
+        assert!(verdict(&tmd, 43, 1, Permit::SETTING).contains("is a command"));
+    }
+
+    #[test]
+    fn a_schema_without_roles_gets_the_floor_and_cia_402_applies_to_ecs() {
+        // a Tmd schema naming C0040 and C0002 without any role
+        let mut r = Registry::new();
+        let tmd = r
+            .add_source(SourceFile::new(
+                "t.toml",
+                "[schema]\nid = \"t\"\ntitle = \"t\"\nprotocol = \"lecom\"\ncode_style = \"lenze\"\n\n[[code]]\nnumber = 40\nname = \"c40\"\ntype = \"VD\"\n\n[[code]]\nnumber = 2\nname = \"c2\"\ntype = \"VD\"\n",
+            ))
+            .expect("parses");
+        assert!(verdict(&tmd, 40, 10_000, Permit::SETTING).contains("would enable the drive"));
+        assert!(verdict(&tmd, 2, 10_000, Permit::SETTING).contains("is a command"));
+        assert_eq!(verdict(&tmd, 40, 0, Permit::SETTING), "ok");
+        // an ECS schema (as an EDS import writes it) with CiA 402 objects
+        let ecs = r
+            .add_source(SourceFile::new(
+                "e.toml",
+                "[schema]\nid = \"e\"\ntitle = \"e\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"UNSIGNED16\"\n\n[[code]]\nindex = 0x60FF\nname = \"target_velocity\"\ntype = \"INTEGER32\"\n",
+            ))
+            .expect("parses");
+        let cw = driveset_schema::schema::CIA_NUMBER_BASE + 0x6040;
+        assert_eq!(verdict(&ecs, cw, 0x06, Permit::SETTING), "ok");
+        assert!(
+            verdict(&ecs, cw, 0x0F, Permit::SETTING)
+                .contains("would start or enable the drive (switch_on, enable_operation set)"),
+        );
+        assert!(
+            verdict(&ecs, cw, 0x80, Permit::SETTING).contains("is a command (fault_reset set)")
+        );
+        assert_eq!(
+            ecs.role_of(driveset_schema::schema::CIA_NUMBER_BASE + 0x60FF),
+            Some(driveset_schema::Role::Setpoint)
+        );
+    }
+
+    /// Tidy: the codecs' constructors of telegrams that change a drive
+    /// appear in the engine only in this module (decode/ only parses
+    /// captures and matches them), so every write leaves through
+    /// [`check`] and its [`super::Cleared`] proof.
+    #[test]
+    fn only_the_guard_builds_writing_telegrams() {
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let forbidden = [
+            "Select::new(",
+            "Send::new(",
+            "Broadcast::new(",
+            "start_write(",
+            "Telegram::Send)",
+            "Telegram::Broadcast)",
+            "SdoRequest::Write {",
+            "SdoRequest::InitiateWrite {",
+        ];
+        let mut files = Vec::new();
+        let mut dirs = vec![src.clone()];
+        while let Some(d) = dirs.pop() {
+            for e in std::fs::read_dir(&d).expect("src dir") {
+                let p = e.expect("entry").path();
+                if p.is_dir() {
+                    dirs.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    files.push(p);
+                }
+            }
+        }
+        assert!(files.len() > 20, "{} files", files.len());
+        let mut found = Vec::new();
+        for f in files {
+            let rel = f
+                .strip_prefix(&src)
+                .expect("under src")
+                .to_string_lossy()
+                .to_string();
+            if rel == "guard.rs" || rel.starts_with("decode/") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&f).expect("read");
+            for (i, line) in text.lines().enumerate() {
+                for t in forbidden {
+                    if line.contains(t) {
+                        found.push(format!("src/{rel}:{}: {t}", i + 1));
+                    }
+                }
+            }
+        }
+        assert!(
+            found.is_empty(),
+            "writing telegrams built outside guard.rs: {found:#?}"
+        );
+    }
+}
