@@ -448,7 +448,7 @@ pub enum InputErrorKind {
     /// (never opened; an input error wherever the file is named, `extends`
     /// and schema paths included).
     NotRegularFile,
-    /// The file is larger than [`MAX_FILE_BYTES`].
+    /// The file is larger than its kind's cap ([`crate::input::InputKind`]).
     TooLarge,
     /// The file is not UTF-8 text or contains NUL bytes.
     Binary,
@@ -461,7 +461,8 @@ pub enum InputErrorKind {
     Structure,
 }
 
-/// Files larger than this are refused (4 MiB).
+/// Parameter sets, schemas and line manifests larger than this are
+/// refused (4 MiB; [`crate::input::InputKind::SET`]).
 pub const MAX_FILE_BYTES: u64 = 4 * 1024 * 1024;
 
 /// An input error: the file could not be read or is not a well-formed
@@ -496,6 +497,22 @@ impl InputError {
         }
     }
 
+    /// The message without the file's name, for a caller whose own message
+    /// names the file already (`journal J: cannot read it: ...`, `journal
+    /// J: is a FIFO (named pipe), not a regular file; ...`), and the help.
+    pub fn detail(&self) -> String {
+        let file = &self.location.file;
+        let m = &self.message;
+        let m = if let Some(rest) = m.strip_prefix(&format!("cannot read {file}: ")) {
+            format!("cannot read it: {rest}")
+        } else if let Some(rest) = m.strip_prefix(&format!("{file} ")) {
+            rest.to_string()
+        } else {
+            m.clone()
+        };
+        format!("{m}; {}", self.help)
+    }
+
     /// rustc-style rendering, like [`Finding::render_human`].
     pub fn render_human(&self) -> String {
         self.render(false)
@@ -513,112 +530,11 @@ impl InputError {
     }
 }
 
-/// What a path is when it is not a regular file (`None` for a regular file).
-fn not_regular(ft: std::fs::FileType) -> Option<&'static str> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt as _;
-        if ft.is_fifo() {
-            return Some("a FIFO (named pipe)");
-        }
-        if ft.is_socket() {
-            return Some("a socket");
-        }
-        if ft.is_char_device() {
-            return Some("a character device");
-        }
-        if ft.is_block_device() {
-            return Some("a block device");
-        }
-    }
-    if ft.is_dir() {
-        return Some("a directory");
-    }
-    if ft.is_file() {
-        None
-    } else {
-        Some("not a regular file")
-    }
-}
-
-/// Reads at most `cap` bytes of a **regular** file. The path's metadata is
-/// checked before it is opened, so a FIFO, socket or device file is never
-/// opened (opening a FIFO blocks until a writer comes); the open itself is
-/// non-blocking and the opened file is checked again, so a path swapped in
-/// between cannot block either. A file larger than `cap` is
-/// [`InputErrorKind::TooLarge`], with the cap in the message; `what` names
-/// the kind of input there ("parameter sets and schemas ...").
-///
-/// # Errors
-/// [`InputErrorKind::Unreadable`] for a missing / unreadable path,
-/// [`InputErrorKind::NotRegularFile`] for one that is not a regular file
-/// (the message says what it is).
-pub fn read_regular_file(
-    path: &std::path::Path,
-    cap: u64,
-    what: &str,
-) -> Result<Vec<u8>, InputError> {
-    use std::io::Read;
-    let display = path.display().to_string();
-    let loc = || Location::file_only(display.clone());
-    let unreadable = |e: std::io::Error| {
-        InputError::new(
-            InputErrorKind::Unreadable,
-            loc(),
-            format!("cannot read {display}: {e}"),
-            "check the path and the file's permissions",
-        )
-    };
-    let not_a_file = |kind: &str| {
-        InputError::new(
-            InputErrorKind::NotRegularFile,
-            loc(),
-            format!(
-                "{display} is {kind}, not a regular file; driveset reads {what} from regular files only"
-            ),
-            "give the path of a regular file (save a pipe's or device's data into a file first)",
-        )
-    };
-    let meta = std::fs::metadata(path).map_err(unreadable)?;
-    if let Some(kind) = not_regular(meta.file_type()) {
-        return Err(not_a_file(kind));
-    }
-    let mut opts = std::fs::OpenOptions::new();
-    opts.read(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt as _;
-        opts.custom_flags(libc::O_NONBLOCK);
-    }
-    let file = opts.open(path).map_err(unreadable)?;
-    let meta = file.metadata().map_err(unreadable)?;
-    if let Some(kind) = not_regular(meta.file_type()) {
-        return Err(not_a_file(kind));
-    }
-    let mut bytes = Vec::new();
-    file.take(cap + 1)
-        .read_to_end(&mut bytes)
-        .map_err(unreadable)?;
-    if bytes.len() as u64 > cap {
-        return Err(InputError::new(
-            InputErrorKind::TooLarge,
-            loc(),
-            format!("{display} is larger than {cap} bytes"),
-            format!("{what} are at most {cap} bytes; check that this is the right file"),
-        ));
-    }
-    Ok(bytes)
-}
-
 /// Read a file as UTF-8 text with the size, binary and empty checks of
-/// [`InputErrorKind`]; only regular files (see [`read_regular_file`]).
+/// [`InputErrorKind`]; only regular files (see [`crate::input::read_input`]).
 pub fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> {
     let display = path.display().to_string();
-    let bytes = read_regular_file(
-        path,
-        MAX_FILE_BYTES,
-        "parameter sets, schemas and line manifests",
-    )?;
+    let bytes = crate::input::read_input(path, crate::input::InputKind::SET)?;
     source_from_bytes(&display, bytes)
 }
 
@@ -685,3 +601,5 @@ pub fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, In
     }
     Ok(SourceFile::new(display, text))
 }
+
+pub use crate::input::read_regular_file;

@@ -139,13 +139,16 @@ fn load_source(
         seen.reserve(values.entries().len());
         merged.reserve(values.entries().len());
         for e in values.entries() {
-            let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
+            let (named, resolved) = resolve_key(&schema, &l.doc, e, &mut findings);
+            if named.is_some_and(|c| schema.is_password(c)) {
+                // also when the key is wrong (`"C0094/1"`): the value
+                // written beside a password's code is masked all the same
+                secret_spans.push((l.doc.loc(&e.value.span).file, e.value.span.clone()));
+            }
+            let Some((code, key)) = resolved else {
                 continue;
             };
             let kloc = || l.doc.loc(&e.key_span);
-            if schema.is_password(code) {
-                secret_spans.push((l.doc.loc(&e.value.span).file, e.value.span.clone()));
-            }
             if let Some((first, fspan)) = seen.get(&key) {
                 let floc = l.doc.loc(fspan);
                 findings.push(
@@ -498,7 +501,7 @@ fn resolve_key<'s>(
     doc: &Document,
     e: &Entry,
     out: &mut Vec<Finding>,
-) -> Option<(&'s Code, CodeKey)> {
+) -> (Option<&'s Code>, Option<(&'s Code, CodeKey)>) {
     let loc = || doc.loc(&e.key_span);
     let (base, sub) = match e.key.split_once('/') {
         Some((b, s)) => (b, Some(s)),
@@ -515,7 +518,7 @@ fn resolve_key<'s>(
                     format!("`{}`: subcode `{s}` is not a number", e.key),
                     "write e.g. `C0039/1`",
                 ));
-                return None;
+                return (None, None);
             }
         },
     };
@@ -541,7 +544,7 @@ fn resolve_key<'s>(
                                 c.name
                             ),
                         ));
-                        return None;
+                        return (Some(c), None);
                     }
                     None => {
                         out.push(Finding::new(
@@ -559,7 +562,7 @@ fn resolve_key<'s>(
                                 }
                             },
                         ));
-                        return None;
+                        return (None, None);
                     }
                 }
             }
@@ -576,7 +579,7 @@ fn resolve_key<'s>(
                         ),
                         format!("check the number against the schema ({})", schema.path),
                     ));
-                    return None;
+                    return (None, None);
                 }
             },
             None => {
@@ -592,7 +595,7 @@ fn resolve_key<'s>(
                         ),
                     },
                 ));
-                return None;
+                return (None, None);
             }
         },
     };
@@ -609,7 +612,7 @@ fn resolve_key<'s>(
                 ),
                 format!("write e.g. `{}`", schema.display_code(code.number, Some(1))),
             ));
-            return None;
+            return (Some(code), None);
         }
         (None, Some(_)) => {
             out.push(Finding::new(
@@ -621,15 +624,18 @@ fn resolve_key<'s>(
                     schema.display_code(code.number, None)
                 ),
             ));
-            return None;
+            return (Some(code), None);
         }
         (None, None) => {}
     }
-    Some((
-        code,
-        CodeKey {
-            number: code.number,
-            subcode,
-        },
-    ))
+    (
+        Some(code),
+        Some((
+            code,
+            CodeKey {
+                number: code.number,
+                subcode,
+            },
+        )),
+    )
 }

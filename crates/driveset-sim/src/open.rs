@@ -714,11 +714,13 @@ pub fn frame_line_dump(family: Family, line: &FrameLine) -> StateDump {
 impl StateDump {
     /// Read a dump file.
     pub fn read(path: &Path) -> Result<StateDump, SimOpenError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SimOpenError::StateIo {
+        use driveset_schema::input::{InputKind, read_input};
+        let bytes = read_input(path, InputKind::SIM_STATE).map_err(|e| SimOpenError::StateIo {
             path: path.into(),
             op: "read it",
-            source,
+            source: io::Error::other(e.detail()),
         })?;
+        let text = String::from_utf8_lossy(&bytes);
         let dump: StateDump =
             serde_json::from_str(&text).map_err(|e| SimOpenError::StateFormat {
                 path: path.into(),

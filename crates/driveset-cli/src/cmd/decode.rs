@@ -167,7 +167,7 @@ pub(crate) fn builtin_registry() -> anyhow::Result<Registry> {
 /// The most bytes `decode` reads from a file or stdin (16 MiB: at 57600
 /// baud that is 48 minutes of traffic), so `--raw -` fed from an endless
 /// stream ends with an error instead of filling memory.
-pub const MAX_CAPTURE_BYTES: u64 = 16 * 1024 * 1024;
+pub const MAX_CAPTURE_BYTES: u64 = driveset_schema::input::InputKind::CAPTURE.cap;
 
 fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
     if let Some(h) = &args.hex {
@@ -201,11 +201,7 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
         }
         (b, "<stdin>".to_string())
     } else {
-        let b = driveset_schema::error::read_regular_file(
-            file,
-            MAX_CAPTURE_BYTES,
-            "bus captures",
-        )
+        let b = driveset_schema::input::read_input(file, driveset_schema::input::InputKind::CAPTURE)
         .map_err(|e| match e.kind {
             driveset_schema::InputErrorKind::TooLarge => anyhow::anyhow!(
                 "{}: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts",
