@@ -384,16 +384,33 @@ pub fn render_diagnostic(
     let sources: Vec<(String, Range<usize>)> = places
         .iter()
         .filter(|(_, loc)| shown(loc))
-        .map(|(_, loc)| loc.snippet_window())
+        .map(|(_, loc)| {
+            let (text, span) = loc.snippet_window();
+            escape_with_span(&text, span)
+        })
         .collect();
-    for ((label, loc), (text, span)) in places.iter().filter(|(_, loc)| shown(loc)).zip(&sources) {
+    let origins: Vec<String> = places
+        .iter()
+        .filter(|(_, loc)| shown(loc))
+        .map(|(_, loc)| escape_controls(&loc.file).into_owned())
+        .collect();
+    for (((label, loc), (text, span)), origin) in places
+        .iter()
+        .filter(|(_, loc)| shown(loc))
+        .zip(&sources)
+        .zip(&origins)
+    {
         m = m.snippet(
             Snippet::source(text)
                 .line_start(loc.line)
-                .origin(&loc.file)
+                .origin(origin)
                 .annotation(Level::Error.span(span.clone()).label(label)),
         );
     }
+    let files: Vec<String> = files
+        .iter()
+        .map(|f| escape_controls(f).into_owned())
+        .collect();
     for f in &files {
         m = m.footer(Level::Note.title(f));
     }
@@ -430,7 +447,58 @@ pub const MAX_SNIPPET_CHARS: usize = 160;
 /// number from the file) are cut, so one bad value cannot make a huge report.
 pub const MAX_MESSAGE_CHARS: usize = 400;
 
+/// `text` with every control character (newline, ESC, DEL, C1 controls,
+/// ...) written as its escape (`\n`, `\u{1b}`), so a key or value from a
+/// file cannot reach a terminal or CI log raw (no forged lines, no escape
+/// sequences). Every message, help and snippet line of a finding or input
+/// error goes through it; the CLI's human renderings of names and values
+/// too.
+pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// [`escape_controls`] on a snippet line, with `span` (a byte range of
+/// `text`) moved to the same characters of the escaped line.
+fn escape_with_span(text: &str, span: Range<usize>) -> (String, Range<usize>) {
+    if !text.chars().any(char::is_control) {
+        return (text.to_string(), span);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    let (mut start, mut end) = (None, None);
+    for (i, c) in text.char_indices() {
+        if i >= span.start && start.is_none() {
+            start = Some(out.len());
+        }
+        if i >= span.end && end.is_none() {
+            end = Some(out.len());
+        }
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    let start = start.unwrap_or(out.len());
+    let end = end.unwrap_or(out.len()).max(start);
+    (out, start..end)
+}
+
 fn cap_message(m: String) -> String {
+    let m = match escape_controls(&m) {
+        std::borrow::Cow::Borrowed(_) => m,
+        std::borrow::Cow::Owned(e) => e,
+    };
     let n = m.chars().count();
     if n <= MAX_MESSAGE_CHARS {
         return m;

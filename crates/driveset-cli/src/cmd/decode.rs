@@ -292,19 +292,28 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         schema,
         family,
     };
-    let events = driveset_engine::decode::decode(args.protocol.capture(), &capture, &ctx);
-    let mut out = String::new();
-    for e in &events {
+    // each event is written out as it is decoded, in chunks of
+    // OUT_CHUNK: memory grows with one event, not with the capture
+    const OUT_CHUNK: usize = 64 * 1024;
+    let (mut out, mut any, mut bad) = (String::new(), false, false);
+    driveset_engine::decode::decode_each(args.protocol.capture(), &capture, &ctx, &mut |e| {
+        any = true;
+        bad |= e.error.is_some();
         match args.format {
             OutputFormat::Text => out.push_str(&e.render_text()),
-            OutputFormat::Json => out.push_str(&serde_json::to_string(e)?),
+            // serializing strings and integers cannot fail
+            OutputFormat::Json => out.push_str(&serde_json::to_string(&e).unwrap_or_default()),
         }
         out.push('\n');
-    }
-    if events.is_empty() && args.format == OutputFormat::Text {
+        if out.len() >= OUT_CHUNK {
+            crate::output::emit(&out);
+            out.clear();
+        }
+    });
+    drop(capture);
+    if !any && args.format == OutputFormat::Text {
         out.push_str("(no bytes)\n");
     }
     crate::output::emit(&out);
-    let bad = driveset_engine::decode::has_errors(&events);
     Ok(if bad { EXIT_FINDINGS } else { EXIT_OK })
 }
