@@ -191,6 +191,16 @@ impl Location {
         }
     }
 
+    /// Hide the rest of this location's line from byte `from` of
+    /// `line_text` on ([`Location::mask_secret`]).
+    pub fn mask_line_from(&mut self, from: usize) {
+        if self.line == 0 || from >= self.line_text.len() {
+            return;
+        }
+        let start = self.byte_col_offset();
+        self.mask_secret(&(start + from..start + self.line_text.len()));
+    }
+
     /// Byte offset of the start of the line in the file (derived from span and column).
     fn byte_col_offset(&self) -> usize {
         let col_bytes: usize = self

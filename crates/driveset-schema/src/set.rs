@@ -67,8 +67,9 @@ fn load_source(
     let mut findings = Vec::new();
     let mut layers = Vec::new();
     let mut stack = Vec::new();
-    let top = parse_layer(source, syntax, path)?;
-    collect(top, path, &mut stack, &mut layers, &mut findings)?;
+    let top = parse_layer(source, syntax, path).map_err(|e| mask_secret_line(e, registry))?;
+    collect(top, path, &mut stack, &mut layers, &mut findings)
+        .map_err(|e| mask_secret_line(e, registry))?;
     let Some(top) = layers.last() else {
         return Ok(LoadedSet {
             schema: None,
@@ -494,6 +495,44 @@ fn split_lust_key(s: &str) -> Option<(u32, &str)> {
         return None;
     }
     Some((num.parse().ok()?, name))
+}
+
+/// A syntax error's snippet can show a line whose value is a password
+/// (`C0094 = 12` given twice, `C0094 = 7771 x`): the file's schema is not
+/// known yet, so the line's key is compared with the password codes of
+/// every schema `registry` knows (by name, number or display spelling)
+/// and, when it names one, the value part of the line (and its text in
+/// the message) is masked.
+pub fn mask_secret_line(mut e: InputError, registry: &Registry) -> InputError {
+    let loc = &mut *e.location;
+    if loc.line == 0 || loc.line_text.is_empty() {
+        return e;
+    }
+    let text = loc.line_text.clone();
+    let Some(sep) = text.find(['=', ':']) else {
+        return e;
+    };
+    let key = text[..sep].trim().trim_matches(['"', '\'']);
+    let base = key.split_once('/').map_or(key, |(b, _)| b);
+    let names_secret = registry.schemas().any(|s| {
+        s.codes.iter().filter(|c| s.is_password(c)).any(|c| {
+            base == c.name
+                || base == s.display_code(c.number, None)
+                || base == c.number.to_string()
+                || base.strip_prefix(&format!("{}-", c.number)).is_some()
+                || parse_number_key(base) == Some(c.number)
+        })
+    });
+    if !names_secret {
+        return e;
+    }
+    let value = text[sep + 1..].trim();
+    if !value.is_empty() && e.message.contains(value) {
+        e.message = e.message.replace(value, crate::canonical::SECRET);
+    }
+    let from = sep + 1 + (text[sep + 1..].len() - text[sep + 1..].trim_start().len());
+    e.location.mask_line_from(from);
+    e
 }
 
 fn resolve_key<'s>(
