@@ -738,8 +738,8 @@ impl StateDump {
         Ok(dump)
     }
 
-    /// Write the dump as pretty JSON: to a temporary file next to `path`,
-    /// then renamed over it (a crash never leaves half a file).
+    /// Write the dump as pretty JSON: to a temporary file (mode 0600) next
+    /// to `path`, then renamed over it (a crash never leaves half a file).
     pub fn write(&self, path: &Path) -> Result<(), SimOpenError> {
         let io_err = |op, source| SimOpenError::StateIo {
             path: path.into(),
@@ -754,7 +754,17 @@ impl StateDump {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "state".into());
         let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-        std::fs::write(&tmp, text).map_err(|e| io_err("write it", e))?;
+        // 0600: a drive's memory holds its passwords
+        let mut opts = std::fs::OpenOptions::new();
+        opts.write(true).create(true).truncate(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt as _;
+            opts.mode(0o600);
+        }
+        opts.open(&tmp)
+            .and_then(|mut f| io::Write::write_all(&mut f, text.as_bytes()))
+            .map_err(|e| io_err("write it", e))?;
         std::fs::rename(&tmp, path).map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
             io_err("replace it", e)
