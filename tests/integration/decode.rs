@@ -491,7 +491,15 @@ fn a_lecom_password_is_masked_in_text_and_json_both_directions() {
         .clone();
     assert_no_secret(&out.stdout, "777", "37 37 37");
     let out = driveset()
-        .args(["decode", "--protocol", "lecom", "--format", "json", "--ascii", capture])
+        .args([
+            "decode",
+            "--protocol",
+            "lecom",
+            "--format",
+            "json",
+            "--ascii",
+            capture,
+        ])
         .assert()
         .code(0)
         .get_output()
@@ -545,8 +553,17 @@ fn a_lustbus_password_is_masked_in_text_and_json_both_directions() {
     assert_no_secret(&out.stdout, "04D2", "30 34 44 32");
     let out = driveset()
         .args([
-            "decode", "--protocol", "lustbus", "--family", "vf1000", "--schema", schema,
-            "--format", "json", "--ascii", capture,
+            "decode",
+            "--protocol",
+            "lustbus",
+            "--family",
+            "vf1000",
+            "--schema",
+            schema,
+            "--format",
+            "json",
+            "--ascii",
+            capture,
         ])
         .assert()
         .code(0)

@@ -490,7 +490,13 @@ fn a_failed_write_to_stdout_exits_2_and_says_so() {
         &["show", "set.toml"][..],
         &["validate", "set.toml"][..],
         &["fingerprint", "set.toml"][..],
-        &["decode", "--protocol", "lecom", "--ascii", "<EOT>01<STX>11600<ETX>6"][..],
+        &[
+            "decode",
+            "--protocol",
+            "lecom",
+            "--ascii",
+            "<EOT>01<STX>11600<ETX>6",
+        ][..],
     ] {
         let full = std::fs::OpenOptions::new()
             .write(true)

@@ -793,7 +793,10 @@ fn a_syntax_error_on_a_password_line_masks_the_value() {
                 .get_output()
                 .clone();
             let shown = String::from_utf8_lossy(&out.stdout);
-            assert!(!shown.contains("8812") && !shown.contains("7771"), "{name} {format}: {shown}");
+            assert!(
+                !shown.contains("8812") && !shown.contains("7771"),
+                "{name} {format}: {shown}"
+            );
             if format == "human" {
                 assert!(shown.contains(line), "{name}: {shown}");
             }
