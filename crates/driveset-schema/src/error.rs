@@ -681,3 +681,23 @@ pub fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, In
 }
 
 pub use crate::input::read_regular_file;
+
+#[cfg(test)]
+mod escape_tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_escaped_and_spans_follow() {
+        assert_eq!(escape_controls("plain ü"), "plain ü");
+        assert_eq!(
+            escape_controls("a\u{1b}[2J\nb\t\u{7f}\u{85}"),
+            "a\\u{1b}[2J\\nb\\t\\u{7f}\\u{85}"
+        );
+        // the span `x` after an ESC moves with the escaped text
+        let (text, span) = escape_with_span("k\u{1b} = x", 5..6);
+        assert_eq!(text, "k\\u{1b} = x");
+        assert_eq!(&text[span], "x");
+        let (text, span) = escape_with_span("\u{1b}key = 1", 0..4);
+        assert_eq!(&text[span], "\\u{1b}key");
+    }
+}

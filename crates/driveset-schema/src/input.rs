@@ -199,3 +199,48 @@ pub fn read_regular_file(
     }
     Ok(bytes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cap_is_checked_on_the_size_before_reading() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("j.json");
+        // sparse: 2 GB of nothing, refused from the metadata
+        std::fs::File::create(&p)
+            .unwrap()
+            .set_len(2_000_000_000)
+            .unwrap();
+        let e = read_input(&p, InputKind::JOURNAL).unwrap_err();
+        assert_eq!(e.kind, InputErrorKind::TooLarge);
+        assert_eq!(
+            e.message,
+            format!("{} is larger than 16777216 bytes", p.display())
+        );
+        std::fs::write(&p, b"{}").unwrap();
+        assert_eq!(read_input(&p, InputKind::JOURNAL).unwrap(), b"{}");
+    }
+
+    #[test]
+    fn special_files_are_refused_and_a_missing_output_path_is_fine() {
+        let d = tempfile::tempdir().unwrap();
+        let missing = d.path().join("new.json");
+        assert!(refuse_special_file(&missing, InputKind::JOURNAL).is_ok());
+        std::fs::write(&missing, "x").unwrap();
+        assert!(refuse_special_file(&missing, InputKind::JOURNAL).is_ok());
+        let e =
+            refuse_special_file(std::path::Path::new("/dev/null"), InputKind::JOURNAL).unwrap_err();
+        assert_eq!(e.kind, InputErrorKind::NotRegularFile);
+        assert_eq!(
+            e.detail(),
+            "is a character device, not a regular file; driveset reads journals from regular files only; give the path of a regular file (save a pipe's or device's data into a file first)"
+        );
+        let e = read_input(d.path(), InputKind::EDS).unwrap_err();
+        assert_eq!(e.kind, InputErrorKind::NotRegularFile);
+        assert!(e.message.ends_with(
+            " is a directory, not a regular file; driveset reads EDS / DCF files from regular files only"
+        ));
+    }
+}

@@ -403,3 +403,63 @@ impl EventLog {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn masked(mask: &mut SecretMask, dir: Dir, chunks: &[&[u8]]) -> String {
+        chunks
+            .iter()
+            .map(|c| text(&mask.apply(dir, c)))
+            .collect::<String>()
+    }
+
+    #[test]
+    fn a_lecom_password_is_masked_in_any_chunking_and_other_codes_are_not() {
+        let telegram = b"\x0401\x0294777\x039\x0401\x0211600\x036";
+        let whole = masked(
+            &mut SecretMask::new(MaskProtocol::Lecom, vec![94]),
+            Dir::Host,
+            &[telegram],
+        );
+        assert_eq!(whole, "<EOT>01<STX>94***<ETX>*<EOT>01<STX>11600<ETX>6");
+        // every split point gives the same log text
+        for cut in 0..telegram.len() {
+            let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+            let (a, b) = telegram.split_at(cut);
+            assert_eq!(masked(&mut m, Dir::Host, &[a, b]), whole, "cut at {cut}");
+        }
+        // a reply to a RECEIVE, in the drive's direction
+        let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+        assert_eq!(
+            masked(&mut m, Dir::Drive, &[b"\x0294777\x039"]),
+            "<STX>94***<ETX>*"
+        );
+        // extended addressing `!` + 4 hex code digits + 2 subcode digits
+        let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+        assert_eq!(
+            masked(&mut m, Dir::Host, &[b"\x0401\x02!005E0012\x03x"]),
+            "<EOT>01<STX>!005E00**<ETX>*"
+        );
+    }
+
+    #[test]
+    fn a_lustbus_password_is_masked_and_the_bcc_byte_too() {
+        let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
+        assert_eq!(
+            masked(
+                &mut m,
+                Dir::Host,
+                &[b"\x04A\x02001", b"70=04D2\x03z\x04A\x0200112=03E8\x03r"]
+            ),
+            "<EOT>A<STX>00170=****<ETX>*<EOT>A<STX>00112=03E8<ETX>r"
+        );
+        // the BCC after ETX is masked even when it is an EOT byte
+        let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
+        assert_eq!(
+            masked(&mut m, Dir::Drive, &[b"A\x0200170=1\x03\x04"]),
+            "A<STX>00170=*<ETX>*"
+        );
+    }
+}
