@@ -558,7 +558,7 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
             .get_output()
             .clone();
         assert!(
-            !out.stdout.iter().any(|&b| b == 0x1B),
+            !out.stdout.contains(&0x1B),
             "{format}: raw ESC in {}",
             String::from_utf8_lossy(&out.stdout)
         );
