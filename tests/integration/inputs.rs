@@ -350,6 +350,18 @@ fn outputs(out: &std::process::Output) -> (String, String) {
     )
 }
 
+/// `driveset ARGS` in `dir` under the hang guard, ending with `code`.
+fn run_in<const N: usize>(dir: &Path, args: [&str; N], code: i32) -> std::process::Output {
+    driveset()
+        .current_dir(dir)
+        .args(args)
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(code)
+        .get_output()
+        .clone()
+}
+
 const REFUSED_HELP: &str =
     "give the path of a regular file (save a pipe's or device's data into a file first)";
 
@@ -363,14 +375,7 @@ fn schema_import_refuses_a_fifo_a_device_and_a_directory_at_once() {
         ("/dev/zero", "a character device"),
         ("adir.eds", "a directory"),
     ] {
-        let out = driveset()
-            .current_dir(dir.path())
-            .args(["schema", "import", file])
-            .timeout(HANG_GUARD)
-            .assert()
-            .code(2)
-            .get_output()
-            .clone();
+        let out = run_in(dir.path(), ["schema", "import", file], 2);
         let (stdout, stderr) = outputs(&out);
         assert_eq!(stdout, "", "{file}");
         assert_eq!(
@@ -397,26 +402,12 @@ fn an_eds_or_journal_over_its_cap_is_refused_from_its_size_before_reading() {
         .unwrap()
         .set_len(17 * 1024 * 1024)
         .unwrap();
-    let out = driveset()
-        .current_dir(dir.path())
-        .args(["schema", "import", "big.eds"])
-        .timeout(HANG_GUARD)
-        .assert()
-        .code(2)
-        .get_output()
-        .clone();
+    let out = run_in(dir.path(), ["schema", "import", "big.eds"], 2);
     assert_eq!(
         outputs(&out).1,
         "error: big.eds is larger than 16777216 bytes\n  = help: EDS / DCF files are at most 16777216 bytes; check that this is the right file\n"
     );
-    let out = driveset()
-        .current_dir(dir.path())
-        .args(["recover", "big.journal.json"])
-        .timeout(HANG_GUARD)
-        .assert()
-        .code(2)
-        .get_output()
-        .clone();
+    let out = run_in(dir.path(), ["recover", "big.journal.json"], 2);
     assert_eq!(
         outputs(&out).1,
         "error: journal big.journal.json: is larger than 16777216 bytes; journals are at most 16777216 bytes; check that this is the right file\n"
@@ -432,14 +423,7 @@ fn recover_refuses_a_fifo_dev_zero_and_a_directory_without_blocking() {
         ("/dev/zero", "a character device"),
         (".", "a directory"),
     ] {
-        let out = driveset()
-            .current_dir(dir.path())
-            .args(["recover", file])
-            .timeout(HANG_GUARD)
-            .assert()
-            .code(2)
-            .get_output()
-            .clone();
+        let out = run_in(dir.path(), ["recover", file], 2);
         assert_eq!(
             outputs(&out).1,
             format!(
@@ -549,14 +533,7 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
     )
     .unwrap();
     let run = |format: &str| {
-        let out = driveset()
-            .current_dir(dir.path())
-            .args(["validate", "--format", format, "set.toml"])
-            .timeout(HANG_GUARD)
-            .assert()
-            .code(1)
-            .get_output()
-            .clone();
+        let out = run_in(dir.path(), ["validate", "--format", format, "set.toml"], 1);
         assert!(
             !out.stdout.contains(&0x1B),
             "{format}: raw ESC in {}",
@@ -581,14 +558,7 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
         b"schema = \"lenze-tmd\"\n[values]\nC0011 = \"a\x1b[2Jb\"\n",
     )
     .unwrap();
-    let out = driveset()
-        .current_dir(dir.path())
-        .args(["validate", "raw.toml"])
-        .timeout(HANG_GUARD)
-        .assert()
-        .code(2)
-        .get_output()
-        .clone();
+    let out = run_in(dir.path(), ["validate", "raw.toml"], 2);
     assert!(!out.stdout.contains(&0x1B), "{:?}", outputs(&out).0);
     assert!(
         outputs(&out).0.contains("3 | C0011 = \"a\\u{1b}[2Jb\"\n"),
