@@ -566,3 +566,51 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
         outputs(&out).0
     );
 }
+
+#[test]
+fn control_characters_in_a_schema_files_names_are_escaped_in_diff_and_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let schema =
+        std::fs::read_to_string(crate::util::workspace_root().join("schemas/lenze-tmd.toml"))
+            .unwrap()
+            .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
+            .replace(
+                "name = \"maximum_output_frequency\"",
+                "name = \"max\\u001b[31m_freq\"",
+            );
+    std::fs::write(dir.path().join("esc.toml"), schema).unwrap();
+    for (f, v) in [("a.toml", 60), ("b.toml", 70)] {
+        std::fs::write(
+            dir.path().join(f),
+            format!("schema = \"esc.toml\"\n[values]\nC0011 = {v}\n"),
+        )
+        .unwrap();
+    }
+    let out = run_in(dir.path(), ["diff", "a.toml", "b.toml"], 1);
+    assert_eq!(
+        outputs(&out).0,
+        "--- a.toml\n+++ b.toml\n~ C0011 max\\u{1b}[31m_freq: 60 Hz -> 70 Hz\n1 difference (1 changed, 0 added, 0 removed)\n"
+    );
+    let out = run_in(
+        dir.path(),
+        [
+            "upload",
+            "a.toml",
+            "--port",
+            "sim://tmd?c0001=3",
+            "--address",
+            "1",
+            "--dry-run",
+            "--allow-family",
+        ],
+        0,
+    );
+    assert!(!out.stdout.contains(&0x1B) && !out.stderr.contains(&0x1B));
+    assert!(
+        outputs(&out)
+            .0
+            .contains("    C0011 max\\u{1b}[31m_freq: 50 Hz -> 60 Hz  [stored by the drive]\n"),
+        "{}",
+        outputs(&out).0
+    );
+}
