@@ -463,3 +463,116 @@ fn unknown_protocol() {
             "invalid value 'modbus' for '--protocol <PROTOCOL>'",
         ));
 }
+
+/// Every field of decode's JSON lines, text: none may hold the secret.
+fn assert_no_secret(out: &[u8], value: &str, hex: &str) {
+    let text = String::from_utf8_lossy(out);
+    assert!(!text.contains(value), "{text}");
+    assert!(!text.contains(hex), "{text}");
+    assert!(!text.contains("raw_value"), "{text}");
+}
+
+#[test]
+fn a_lecom_password_is_masked_in_text_and_json_both_directions() {
+    // SEND C0094 = 777, ACK, RECEIVE C0094, the drive's answer 777
+    let capture = "<EOT>11<STX>94777<ETX>9<ACK><EOT>1194<ENQ><STX>94777<ETX>9";
+    let out = driveset()
+        .args(["decode", "--protocol", "lecom", "--ascii", capture])
+        .assert()
+        .code(0)
+        .stdout(
+            "0..11       host -> drive   SEND      address 11, code C0094 (user_password), value <secret>, BCC ok
+11..12      drive -> host   ACK       address 11: SEND of C0094 carried out
+12..18      host -> drive   RECEIVE   address 11, code C0094 (user_password)
+18..26      drive -> host   VALUE     address 11, code C0094 (user_password), value <secret>, BCC ok
+",
+        )
+        .get_output()
+        .clone();
+    assert_no_secret(&out.stdout, "777", "37 37 37");
+    let out = driveset()
+        .args([
+            "decode",
+            "--protocol",
+            "lecom",
+            "--format",
+            "json",
+            "--ascii",
+            capture,
+        ])
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    let lines: Vec<&str> = std::str::from_utf8(&out.stdout).unwrap().lines().collect();
+    assert_eq!(
+        lines[0],
+        r#"{"start":0,"end":11,"direction":"host -> drive","kind":"SEND","address":"11","code":"C0094","name":"user_password","value":"<secret>","bcc":{"ok":true,"found":"<secret>","expected":"<secret>"},"bytes":"<secret>","secret":true}"#
+    );
+    assert_eq!(
+        lines[3],
+        r#"{"start":18,"end":26,"direction":"drive -> host","kind":"VALUE","address":"11","code":"C0094","name":"user_password","value":"<secret>","bcc":{"ok":true,"found":"<secret>","expected":"<secret>"},"bytes":"<secret>","secret":true}"#
+    );
+    assert_no_secret(&out.stdout, "777", "37 37 37");
+}
+
+#[test]
+fn a_lecom_password_with_a_bad_bcc_hides_the_bcc_bytes_too() {
+    let out = driveset()
+        .args(["decode", "--protocol", "lecom", "--ascii", "<EOT>11<STX>94777<ETX>8"])
+        .assert()
+        .code(1)
+        .stdout("0..11       host -> drive   SEND      address 11, code C0094 (user_password), value <secret>, BCC bad: bad telegram (what is wrong is not shown: it carries a secret)\n")
+        .get_output()
+        .clone();
+    assert_no_secret(&out.stdout, "777", "0x39");
+}
+
+#[test]
+fn a_lustbus_password_is_masked_in_text_and_json_both_directions() {
+    // SELECT 70-PASS (PT_PASSWORD in the fictional VF1000 fixture) = 04D2,
+    // ENQUIRY of it and the device's answer
+    let capture = "<EOT>A<STX>00170=04D2<ETX>z<EOT>A00170<ENQ>A<STX>00170=04D2<ETX>z<EOT>";
+    let schema = "parameter-sets/fixtures/fictional-vf1000-demo.toml";
+    let out = driveset()
+        .args([
+            "decode", "--protocol", "lustbus", "--family", "vf1000", "--schema", schema,
+            "--ascii", capture,
+        ])
+        .assert()
+        .code(0)
+        .stdout(
+            "0..15       host -> drive   SELECT    address 1 'A', code 00170 (70-PASS), value <secret>, BCC ok
+15..23      host -> drive   ENQUIRY   address 1 'A', code 00170 (70-PASS)
+23..37      drive -> host   VALUE     address 1 'A', code 00170 (70-PASS), value <secret>, BCC ok
+37..38      host -> drive   EOT       end of transaction, every receiver resets
+",
+        )
+        .get_output()
+        .clone();
+    assert_no_secret(&out.stdout, "04D2", "30 34 44 32");
+    let out = driveset()
+        .args([
+            "decode",
+            "--protocol",
+            "lustbus",
+            "--family",
+            "vf1000",
+            "--schema",
+            schema,
+            "--format",
+            "json",
+            "--ascii",
+            capture,
+        ])
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    let lines: Vec<&str> = std::str::from_utf8(&out.stdout).unwrap().lines().collect();
+    assert_eq!(
+        lines[0],
+        r#"{"start":0,"end":15,"direction":"host -> drive","kind":"SELECT","address":"1 'A'","code":"00170","name":"70-PASS","value":"<secret>","bcc":{"ok":true,"found":"<secret>","expected":"<secret>"},"bytes":"<secret>","secret":true}"#
+    );
+    assert_no_secret(&out.stdout, "04D2", "30 34 44 32");
+}

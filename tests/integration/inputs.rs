@@ -341,3 +341,276 @@ fn validate_and_show_into_head_end_quietly() {
         assert_eq!(stdout, want, "{cmd}");
     }
 }
+
+/// Stdout and stderr of a finished command, as text.
+fn outputs(out: &std::process::Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `driveset ARGS` in `dir` under the hang guard, ending with `code`.
+fn run_in<const N: usize>(dir: &Path, args: [&str; N], code: i32) -> std::process::Output {
+    driveset()
+        .current_dir(dir)
+        .args(args)
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(code)
+        .get_output()
+        .clone()
+}
+
+const REFUSED_HELP: &str =
+    "give the path of a regular file (save a pipe's or device's data into a file first)";
+
+#[test]
+fn schema_import_refuses_a_fifo_a_device_and_a_directory_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("axis.eds"));
+    std::fs::create_dir(dir.path().join("adir.eds")).unwrap();
+    for (file, is) in [
+        ("axis.eds", "a FIFO (named pipe)"),
+        ("/dev/zero", "a character device"),
+        ("adir.eds", "a directory"),
+    ] {
+        let out = run_in(dir.path(), ["schema", "import", file], 2);
+        let (stdout, stderr) = outputs(&out);
+        assert_eq!(stdout, "", "{file}");
+        assert_eq!(
+            stderr,
+            format!(
+                "error: {file} is {is}, not a regular file; driveset reads EDS / DCF files from regular files only\n  = help: {REFUSED_HELP}\n"
+            ),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn an_eds_or_journal_over_its_cap_is_refused_from_its_size_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    // sparse files: 300 MB of EDS and 17 MiB of journal cost no disk
+    let eds = dir.path().join("big.eds");
+    std::fs::File::create(&eds)
+        .unwrap()
+        .set_len(300_000_000)
+        .unwrap();
+    let journal = dir.path().join("big.journal.json");
+    std::fs::File::create(&journal)
+        .unwrap()
+        .set_len(17 * 1024 * 1024)
+        .unwrap();
+    let out = run_in(dir.path(), ["schema", "import", "big.eds"], 2);
+    assert_eq!(
+        outputs(&out).1,
+        "error: big.eds is larger than 16777216 bytes\n  = help: EDS / DCF files are at most 16777216 bytes; check that this is the right file\n"
+    );
+    let out = run_in(dir.path(), ["recover", "big.journal.json"], 2);
+    assert_eq!(
+        outputs(&out).1,
+        "error: journal big.journal.json: is larger than 16777216 bytes; journals are at most 16777216 bytes; check that this is the right file\n"
+    );
+}
+
+#[test]
+fn recover_refuses_a_fifo_dev_zero_and_a_directory_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("j.json"));
+    for (file, is) in [
+        ("j.json", "a FIFO (named pipe)"),
+        ("/dev/zero", "a character device"),
+        (".", "a directory"),
+    ] {
+        let out = run_in(dir.path(), ["recover", file], 2);
+        assert_eq!(
+            outputs(&out).1,
+            format!(
+                "error: journal {file}: is {is}, not a regular file; driveset reads journals from regular files only; {REFUSED_HELP}\n"
+            ),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn upload_with_a_fifo_as_journal_is_refused_before_the_port_is_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("j.json"));
+    std::fs::write(dir.path().join("set.toml"), TMD_SET).unwrap();
+    let out = driveset()
+        .current_dir(dir.path())
+        .args([
+            "upload",
+            "set.toml",
+            "--port",
+            "sim://tmd?c0001=3&state=drive.json",
+            "--address",
+            "1",
+            "--journal",
+            "j.json",
+        ])
+        .timeout(HANG_GUARD)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    assert_eq!(
+        outputs(&out).1,
+        format!(
+            "error: --journal j.json: is a FIFO (named pipe), not a regular file; driveset reads journals from regular files only; {REFUSED_HELP}\n"
+        )
+    );
+    // the simulated bus was never opened: no state file, no byte sent
+    assert!(!dir.path().join("drive.json").exists());
+}
+
+#[test]
+fn a_failed_write_to_stdout_exits_2_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("set.toml"), TMD_SET).unwrap();
+    for args in [
+        &["show", "set.toml"][..],
+        &["validate", "set.toml"][..],
+        &["fingerprint", "set.toml"][..],
+        &[
+            "decode",
+            "--protocol",
+            "lecom",
+            "--ascii",
+            "<EOT>01<STX>11600<ETX>6",
+        ][..],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .expect("/dev/full");
+        let out = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+            .current_dir(dir.path())
+            .args(args)
+            .stdout(full)
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            "error: cannot write to stdout: No space left on device (os error 28); the output is incomplete\n",
+            "{args:?}"
+        );
+    }
+}
+
+#[test]
+fn show_into_head_exits_quietly_with_its_own_code() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("set.toml"), TMD_SET).unwrap();
+    let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+        .current_dir(dir.path())
+        .args(["show", "--to", "yaml", "set.toml"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // read one byte, then close the pipe (as `head -c1` does)
+    let mut stdout = child.stdout.take().unwrap();
+    let mut one = [0u8; 1];
+    stdout.read_exact(&mut one).unwrap();
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+}
+
+#[test]
+fn control_characters_in_keys_never_reach_the_terminal_raw() {
+    let dir = tempfile::tempdir().unwrap();
+    // a key holding ESC [ 2 J (clear screen) and a newline (a forged line)
+    std::fs::write(
+        dir.path().join("set.toml"),
+        "schema = \"lenze-tmd\"\n[values]\n\"C\\u001b[2J11\\nerror: forged\" = \"60 Hz\"\n",
+    )
+    .unwrap();
+    let run = |format: &str| {
+        let out = run_in(dir.path(), ["validate", "--format", format, "set.toml"], 1);
+        assert!(
+            !out.stdout.contains(&0x1B),
+            "{format}: raw ESC in {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    assert_eq!(
+        run("human"),
+        "error[unknown-code]: `C\\u{1b}[2J11\\nerror: forged` is not a code name of lenze-tmd\n --> set.toml:3:1\n  |\n3 | \"C\\u001b[2J11\\nerror: forged\" = \"60 Hz\"\n  | ^^^^^^^^^^^^^^^^^^^^^^^^^^^^^ here\n  |\n  = help: use a code number or a name from the schema (schemas/lenze-tmd.toml)\n\n1 finding in 1 of 1 file\n"
+    );
+    assert_eq!(
+        run("github"),
+        "::error file=set.toml,line=3,col=1,title=unknown-code::`C\\u{1b}[2J11\\nerror: forged` is not a code name of lenze-tmd%0Ahelp: use a code number or a name from the schema (schemas/lenze-tmd.toml)\n1 finding in 1 of 1 file\n"
+    );
+    assert!(run("junit").contains("`C\\u{1b}[2J11\\nerror: forged` is not a code name"));
+    assert!(!run("human").lines().any(|l| l.starts_with("error: forged")));
+
+    // a raw ESC in the file itself: the syntax error's snippet escapes it
+    std::fs::write(
+        dir.path().join("raw.toml"),
+        b"schema = \"lenze-tmd\"\n[values]\nC0011 = \"a\x1b[2Jb\"\n",
+    )
+    .unwrap();
+    let out = run_in(dir.path(), ["validate", "raw.toml"], 2);
+    assert!(!out.stdout.contains(&0x1B), "{:?}", outputs(&out).0);
+    assert!(
+        outputs(&out).0.contains("3 | C0011 = \"a\\u{1b}[2Jb\"\n"),
+        "{}",
+        outputs(&out).0
+    );
+}
+
+#[test]
+fn control_characters_in_a_schema_files_names_are_escaped_in_diff_and_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let schema =
+        std::fs::read_to_string(crate::util::workspace_root().join("schemas/lenze-tmd.toml"))
+            .unwrap()
+            .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
+            .replace(
+                "name = \"maximum_output_frequency\"",
+                "name = \"max\\u001b[31m_freq\"",
+            );
+    std::fs::write(dir.path().join("esc.toml"), schema).unwrap();
+    for (f, v) in [("a.toml", 60), ("b.toml", 70)] {
+        std::fs::write(
+            dir.path().join(f),
+            format!("schema = \"esc.toml\"\n[values]\nC0011 = {v}\n"),
+        )
+        .unwrap();
+    }
+    let out = run_in(dir.path(), ["diff", "a.toml", "b.toml"], 1);
+    assert_eq!(
+        outputs(&out).0,
+        "--- a.toml\n+++ b.toml\n~ C0011 max\\u{1b}[31m_freq: 60 Hz -> 70 Hz\n1 difference (1 changed, 0 added, 0 removed)\n"
+    );
+    let out = run_in(
+        dir.path(),
+        [
+            "upload",
+            "a.toml",
+            "--port",
+            "sim://tmd?c0001=3",
+            "--address",
+            "1",
+            "--dry-run",
+            "--allow-family",
+        ],
+        0,
+    );
+    assert!(!out.stdout.contains(&0x1B) && !out.stderr.contains(&0x1B));
+    assert!(
+        outputs(&out)
+            .0
+            .contains("    C0011 max\\u{1b}[31m_freq: 50 Hz -> 60 Hz  [stored by the drive]\n"),
+        "{}",
+        outputs(&out).0
+    );
+}

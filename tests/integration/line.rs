@@ -573,3 +573,65 @@ fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
         ]
     );
 }
+
+/// Issue 17: a password set by commission and then changed in the set:
+/// neither commission's nor status's output and reports show its value.
+#[test]
+fn commission_and_status_reports_never_show_a_password() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    std::fs::write(
+        d.join("line.toml"),
+        "[line]\nname = \"pw-line\"\n\n[[bus]]\nname = \"a\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\n\n[[drive]]\nbus = \"a\"\naddress = 1\nset = \"tmd.toml\"\nname = \"axis\"\n",
+    )
+    .unwrap();
+    let set = |pw: u32| {
+        std::fs::write(
+            d.join("tmd.toml"),
+            format!("schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\nC0094 = {pw}\n"),
+        )
+        .unwrap();
+    };
+    let no_secret = |out: &std::process::Output, what: &str| {
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for v in ["742", "743", "7420000", "7430000"] {
+            assert!(!crate::util::shows_value(&text, v), "{what}: {text}");
+        }
+    };
+    set(742);
+    let out = in_dir(d)
+        .args(["commission", "line.toml", "--report-dir", "out"])
+        .assert()
+        .code(0)
+        .get_output()
+        .clone();
+    no_secret(&out, "commission");
+    set(743);
+    let out = in_dir(d)
+        .args(["status", "line.toml", "--report-dir", "out2"])
+        .assert()
+        .code(1)
+        .get_output()
+        .clone();
+    no_secret(&out, "status");
+    assert!(
+        String::from_utf8_lossy(&out.stdout)
+            .contains("  C0094 user_password: <secret> -> <secret>\n")
+    );
+    for f in [
+        "out/report.json",
+        "out/report.html",
+        "out2/report.json",
+        "out2/report.html",
+    ] {
+        let text = std::fs::read_to_string(d.join(f)).unwrap();
+        for v in ["742", "743", "7420000", "7430000"] {
+            assert!(!crate::util::shows_value(&text, v), "{f}");
+        }
+    }
+}

@@ -798,4 +798,137 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
             "\"notes\": [\n    \"{LEFT_STOPPED}\"\n  ]"
         )));
     assert_eq!(held(d, "mc6000", 1, 416), 0);
+
+/// Issue 17: every output of the commands that see a set's password, with
+/// the password uploaded to a simulated Tmd: none shows its value.
+#[test]
+fn a_password_never_shows_in_upload_pull_diff_show_or_fingerprint() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let d = tmp();
+    let dir = d.path();
+    std::fs::write(
+        dir.join("p.toml"),
+        "schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\nC0094 = 742\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("q.toml"),
+        "schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\nC0094 = 743\n",
+    )
+    .unwrap();
+    let port = "sim://tmd?c0001=3";
+    let runs: [(&[&str], i32); 10] = [
+        (
+            &[
+                "upload",
+                "p.toml",
+                "--port",
+                port,
+                "--address",
+                "1",
+                "--dry-run",
+            ],
+            0,
+        ),
+        (
+            &[
+                "upload",
+                "p.toml",
+                "--port",
+                port,
+                "--address",
+                "1",
+                "--dry-run",
+                "--format",
+                "json",
+            ],
+            0,
+        ),
+        (
+            &[
+                "upload",
+                "p.toml",
+                "--port",
+                port,
+                "--address",
+                "1",
+                "--format",
+                "json",
+                "--journal",
+                "j.json",
+            ],
+            0,
+        ),
+        (&["upload", "p.toml", "--port", port, "--address", "1"], 0),
+        (
+            &[
+                "pull",
+                "--port",
+                port,
+                "--address",
+                "1",
+                "-o",
+                "pulled.toml",
+            ],
+            0,
+        ),
+        (&["diff", "q.toml", "--port", port, "--address", "1"], 1),
+        (&["diff", "p.toml", "q.toml"], 1),
+        (&["diff", "--unified", "p.toml", "q.toml"], 1),
+        (&["show", "p.toml"], 0),
+        (&["fingerprint", "p.toml"], 0),
+    ];
+    for (args, code) in runs {
+        let out = in_dir(dir)
+            .args(args)
+            .assert()
+            .code(code)
+            .get_output()
+            .clone();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for v in ["742", "743", "7420000", "7430000"] {
+            assert!(!crate::util::shows_value(&text, v), "{args:?}: {text}");
+        }
+    }
+    for t in ["toml", "yaml", "json"] {
+        let out = in_dir(dir)
+            .args(["show", "--to", t, "p.toml"])
+            .assert()
+            .code(0)
+            .get_output()
+            .clone();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(!crate::util::shows_value(&text, "742"), "--to {t}");
+    }
+    let pulled = std::fs::read_to_string(dir.join("pulled.toml")).unwrap();
+    assert!(!crate::util::shows_value(&pulled, "742"), "{pulled}");
+    // the drive does hold it (the state file is the drive's memory, 0600)
+    let state = dir.join("sim/sim-tmd.json");
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+    assert!(
+        dump["drives"][0]["canonical"]
+            .as_str()
+            .unwrap()
+            .contains("\nC0094 7420000\n")
+    );
+    assert_eq!(
+        std::fs::metadata(&state).unwrap().permissions().mode() & 0o777,
+        0o600
+    );
+    // the journal keeps the password for a rollback: 0600, marked secret
+    let j = dir.join("j.json");
+    assert_eq!(
+        std::fs::metadata(&j).unwrap().permissions().mode() & 0o777,
+        0o600
+    );
+    assert!(
+        std::fs::read_to_string(&j)
+            .unwrap()
+            .contains("\"secret\": true")
+    );
 }

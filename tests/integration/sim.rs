@@ -456,3 +456,69 @@ fn idle_timeout_needs_tcp() {
         .code(2)
         .stderr(predicates::str::contains("--tcp"));
 }
+
+#[test]
+fn pty_tmd_log_is_0600_and_masks_a_password_across_chunks() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bus.jsonl");
+    // an existing, world-readable log file is restricted too
+    std::fs::write(&log, "old").unwrap();
+    std::fs::set_permissions(&log, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let mut sim = Sim::start(&[
+        "--family",
+        "tmd",
+        "--address",
+        "1",
+        "--c0001",
+        "3",
+        "--pty",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    let path = sim.first_line.strip_prefix("pty ").unwrap().to_string();
+    let mut port = serialport::new(&path, 9600)
+        .timeout(Duration::from_millis(50))
+        .open()
+        .unwrap_or_else(|e| panic!("open {path}: {e}"));
+    // SEND C0094 (user password) = 777 in two writes: the simulator may
+    // read it in two chunks; the mask follows the telegram across them
+    let bcc = b"94777".iter().fold(ETX, |a, b| a ^ b);
+    port.write_all(&[EOT, b'0', b'1', STX, b'9', b'4']).unwrap();
+    port.flush().unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    port.write_all(&[b'7', b'7', b'7', ETX, bcc]).unwrap();
+    assert_eq!(read_n(&mut port, 1, Duration::from_secs(3)), [0x06], "ACK");
+    // RECEIVE C0094: the drive answers with the value
+    port.write_all(&[EOT, b'0', b'1', b'9', b'4', ENQ]).unwrap();
+    assert_eq!(
+        read_n(&mut port, 8, Duration::from_secs(3)),
+        [STX, b'9', b'4', b'7', b'7', b'7', ETX, bcc],
+        "the wire carries the value (only the log masks it)"
+    );
+    drop(port);
+    let (status, stderr) = sim.terminate(Duration::from_secs(5));
+    assert_eq!(status.code(), Some(0), "{stderr}");
+    let mode = std::fs::metadata(&log).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+    let lines = log_lines(&log);
+    // the bytes' fields (t_ns may hold any digits)
+    for l in &lines {
+        for field in ["hex", "text", "detail"] {
+            let v = l[field].as_str().unwrap_or("");
+            assert!(!v.contains("777") && !v.contains("37 37 37"), "{l}");
+        }
+    }
+    let host: String = lines
+        .iter()
+        .filter(|l| l["dir"] == "host")
+        .map(|l| l["text"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(host, "<EOT>01<STX>94***<ETX>*<EOT>0194<ENQ>");
+    let drive: Vec<&str> = lines
+        .iter()
+        .filter(|l| l["dir"] == "drive")
+        .map(|l| l["text"].as_str().unwrap())
+        .collect();
+    assert_eq!(drive, ["<ACK>", "<STX>94***<ETX>*"]);
+}

@@ -734,3 +734,72 @@ fn fictional_fixture_schema_by_id_is_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn a_password_under_a_wrong_key_is_masked_in_every_format() {
+    // issue 17: `"C0094/1"` is not a code, but its value is the password's
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("w.toml"),
+        "schema = \"lenze-tmd\"\n[values]\n\"C0094/1\" = 7771\n",
+    )
+    .unwrap();
+    let run = |format: &str| {
+        let out = driveset()
+            .current_dir(dir.path())
+            .args(["validate", "--format", format, "w.toml"])
+            .assert()
+            .code(1)
+            .get_output()
+            .clone();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(!text.contains("7771"), "{format}: {text}");
+        text
+    };
+    assert_eq!(
+        run("human"),
+        "error[unknown-code]: C0094 has no subcodes\n --> w.toml:3:1\n  |\n3 | \"C0094/1\" = <secret>\n  | ^^^^^^^^^ here\n  |\n  = help: write `C0094` without `/N`\n\n1 finding in 1 of 1 file\n"
+    );
+    assert!(
+        run("junit").contains("  | &quot;C0094/1&quot; = &lt;secret&gt;\n"),
+        "junit snippet"
+    );
+    run("json");
+    run("github");
+}
+
+#[test]
+fn a_syntax_error_on_a_password_line_masks_the_value() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text, line) in [
+        (
+            "dup.toml",
+            "schema = \"lenze-tmd\"\n[values]\nC0094 = 7771\nC0094 = 8812\n",
+            "4 | C0094 = <secret>",
+        ),
+        (
+            "bare.toml",
+            "schema = \"lenze-tmd\"\n[values]\nuser_password = 8812 x\n",
+            "3 | user_password = <secret>",
+        ),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        for format in ["human", "json", "github", "junit"] {
+            let out = driveset()
+                .current_dir(dir.path())
+                .args(["validate", "--format", format, name])
+                .assert()
+                .code(2)
+                .get_output()
+                .clone();
+            let shown = String::from_utf8_lossy(&out.stdout);
+            assert!(
+                !shown.contains("8812") && !shown.contains("7771"),
+                "{name} {format}: {shown}"
+            );
+            if format == "human" {
+                assert!(shown.contains(line), "{name}: {shown}");
+            }
+        }
+    }
+}

@@ -23,11 +23,17 @@ impl Environment for SystemEnv {
     }
 
     fn read_file(&self, path: &Path) -> io::Result<Option<String>> {
-        match std::fs::read_to_string(path) {
-            Ok(t) => Ok(Some(t)),
-            Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(e),
+        match std::fs::metadata(path) {
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+            _ => {}
         }
+        // the one file reader: regular files only, size checked first
+        let bytes =
+            driveset_schema::input::read_input(path, driveset_schema::input::InputKind::LINE_STATE)
+                .map_err(|e| io::Error::other(format!("{}; {}", e.message, e.help)))?;
+        String::from_utf8(bytes)
+            .map(Some)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))
     }
 
     fn write_file(&self, path: &Path, text: &str) -> io::Result<()> {

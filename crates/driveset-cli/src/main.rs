@@ -145,8 +145,13 @@ fn main() -> ExitCode {
         Command::Completions(a) => cmd::completions::run(a),
         Command::Man(a) => cmd::completions::run_man(a),
     };
-    match result {
-        Ok(code) => ExitCode::from(code),
-        Err(f) => ExitCode::from(f.report()),
+    let code = match result {
+        Ok(code) => code,
+        Err(f) => f.report(),
+    };
+    // output that did not arrive (`> /dev/full`) is an input/usage error
+    if output::stdout_failed() && code < EXIT_INPUT {
+        return ExitCode::from(EXIT_INPUT);
     }
+    ExitCode::from(code)
 }

@@ -323,14 +323,26 @@ impl Report {
 /// Set once stdout is found closed (EPIPE) or failing: later output is dropped.
 static STDOUT_GONE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Set when a write to stdout failed for another reason than a closed pipe
+/// (`> /dev/full`, a full disk): the command then exits 2 ([`stdout_failed`]).
+static STDOUT_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a write to stdout failed (not a closed pipe): `main` then ends
+/// the command with exit 2 whatever it would have returned below 2, since
+/// its output did not arrive.
+pub fn stdout_failed() -> bool {
+    STDOUT_FAILED.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Write to stdout. Every byte the binary prints goes through here (the
 /// crate denies `print!` / `println!`), so a closed stdout is handled in one
 /// place: a reader that went away (`driveset decode ... | head`, EPIPE /
 /// `BrokenPipe`) is not an error. The rest of the output is dropped
 /// quietly, the command finishes its work (an upload or commission is never
 /// cut short by a closed pipe) and exits with the code it would have had;
-/// no panic, no message. Any other write error (disk full on a redirect)
-/// is said once on stderr, and later output is dropped as well.
+/// no panic, no message. Any other write error (disk full on a redirect,
+/// `> /dev/full`) is said once on stderr, later output is dropped as well,
+/// and the command exits 2 ([`stdout_failed`]).
 pub fn emit(text: &str) {
     emit_bytes(text.as_bytes());
 }
@@ -346,7 +358,8 @@ pub fn emit_bytes(bytes: &[u8]) {
     if let Err(e) = out.write_all(bytes).and_then(|()| out.flush()) {
         STDOUT_GONE.store(true, Ordering::Relaxed);
         if e.kind() != std::io::ErrorKind::BrokenPipe {
-            eprintln!("error: cannot write to stdout: {e}; the rest of the output is dropped");
+            STDOUT_FAILED.store(true, Ordering::Relaxed);
+            eprintln!("error: cannot write to stdout: {e}; the output is incomplete");
         }
     }
 }

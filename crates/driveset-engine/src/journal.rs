@@ -745,8 +745,7 @@ impl JournalFile {
 
     /// Read a journal (versions [`OLDEST_JOURNAL_VERSION`]..=[`JOURNAL_VERSION`]).
     pub fn open(path: &Path) -> Result<Self, EngineError> {
-        let text = store::read(path)
-            .map_err(|e| jerr(path, format!("cannot read it: {e}; check the path")))?;
+        let text = store::read(path).map_err(|e| jerr(path, e))?;
         let journal: Journal = serde_json::from_str(&text).map_err(|e| {
             jerr(
                 path,
@@ -903,8 +902,17 @@ mod store {
         path.exists()
     }
 
-    pub(super) fn read(path: &Path) -> io::Result<String> {
-        fs::read_to_string(path)
+    /// The journal's text, through the schema crate's one file reader
+    /// (regular files only, at most 16 MiB, never a blocking open).
+    pub(super) fn read(path: &Path) -> Result<String, String> {
+        use driveset_schema::input::{InputKind, read_input};
+        let bytes = read_input(path, InputKind::JOURNAL).map_err(|e| e.detail())?;
+        String::from_utf8(bytes).map_err(|e| {
+            format!(
+                "is not text (invalid UTF-8 at byte {}); pass the file `driveset upload` wrote",
+                e.utf8_error().valid_up_to()
+            )
+        })
     }
 
     /// Write `text` and a newline to `path` atomically and durably: temp

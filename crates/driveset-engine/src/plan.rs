@@ -297,7 +297,11 @@ pub fn code_label(schema: &Schema, key: CodeKey) -> String {
     let code = schema.display_code(key.number, key.subcode);
     match schema.code(key.number) {
         Some(c) if !c.name.is_empty() && schema.code_style == CodeStyle::Lenze => {
-            format!("{code} {}", c.name)
+            // a schema file's name is shown to people: no raw control characters
+            format!(
+                "{code} {}",
+                driveset_schema::error::escape_controls(&c.name)
+            )
         }
         _ => code,
     }

@@ -75,7 +75,7 @@ fn label(schema: &Schema, key: CodeKey) -> String {
     let code = schema.display_code(key.number, key.subcode);
     match schema.code(key.number) {
         Some(c) if !c.name.is_empty() && schema.code_style == crate::schema::CodeStyle::Lenze => {
-            format!("{code} {}", c.name)
+            format!("{code} {}", crate::error::escape_controls(&c.name))
         }
         _ => code,
     }

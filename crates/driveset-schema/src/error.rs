@@ -191,6 +191,16 @@ impl Location {
         }
     }
 
+    /// Hide the rest of this location's line from byte `from` of
+    /// `line_text` on ([`Location::mask_secret`]).
+    pub fn mask_line_from(&mut self, from: usize) {
+        if self.line == 0 || from >= self.line_text.len() {
+            return;
+        }
+        let start = self.byte_col_offset();
+        self.mask_secret(&(start + from..start + self.line_text.len()));
+    }
+
     /// Byte offset of the start of the line in the file (derived from span and column).
     fn byte_col_offset(&self) -> usize {
         let col_bytes: usize = self
@@ -384,16 +394,33 @@ pub fn render_diagnostic(
     let sources: Vec<(String, Range<usize>)> = places
         .iter()
         .filter(|(_, loc)| shown(loc))
-        .map(|(_, loc)| loc.snippet_window())
+        .map(|(_, loc)| {
+            let (text, span) = loc.snippet_window();
+            escape_with_span(&text, span)
+        })
         .collect();
-    for ((label, loc), (text, span)) in places.iter().filter(|(_, loc)| shown(loc)).zip(&sources) {
+    let origins: Vec<String> = places
+        .iter()
+        .filter(|(_, loc)| shown(loc))
+        .map(|(_, loc)| escape_controls(&loc.file).into_owned())
+        .collect();
+    for (((label, loc), (text, span)), origin) in places
+        .iter()
+        .filter(|(_, loc)| shown(loc))
+        .zip(&sources)
+        .zip(&origins)
+    {
         m = m.snippet(
             Snippet::source(text)
                 .line_start(loc.line)
-                .origin(&loc.file)
+                .origin(origin)
                 .annotation(Level::Error.span(span.clone()).label(label)),
         );
     }
+    let files: Vec<String> = files
+        .iter()
+        .map(|f| escape_controls(f).into_owned())
+        .collect();
     for f in &files {
         m = m.footer(Level::Note.title(f));
     }
@@ -430,7 +457,58 @@ pub const MAX_SNIPPET_CHARS: usize = 160;
 /// number from the file) are cut, so one bad value cannot make a huge report.
 pub const MAX_MESSAGE_CHARS: usize = 400;
 
+/// `text` with every control character (newline, ESC, DEL, C1 controls,
+/// ...) written as its escape (`\n`, `\u{1b}`), so a key or value from a
+/// file cannot reach a terminal or CI log raw (no forged lines, no escape
+/// sequences). Every message, help and snippet line of a finding or input
+/// error goes through it; the CLI's human renderings of names and values
+/// too.
+pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// [`escape_controls`] on a snippet line, with `span` (a byte range of
+/// `text`) moved to the same characters of the escaped line.
+fn escape_with_span(text: &str, span: Range<usize>) -> (String, Range<usize>) {
+    if !text.chars().any(char::is_control) {
+        return (text.to_string(), span);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    let (mut start, mut end) = (None, None);
+    for (i, c) in text.char_indices() {
+        if i >= span.start && start.is_none() {
+            start = Some(out.len());
+        }
+        if i >= span.end && end.is_none() {
+            end = Some(out.len());
+        }
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    let start = start.unwrap_or(out.len());
+    let end = end.unwrap_or(out.len()).max(start);
+    (out, start..end)
+}
+
 fn cap_message(m: String) -> String {
+    let m = match escape_controls(&m) {
+        std::borrow::Cow::Borrowed(_) => m,
+        std::borrow::Cow::Owned(e) => e,
+    };
     let n = m.chars().count();
     if n <= MAX_MESSAGE_CHARS {
         return m;
@@ -448,7 +526,7 @@ pub enum InputErrorKind {
     /// (never opened; an input error wherever the file is named, `extends`
     /// and schema paths included).
     NotRegularFile,
-    /// The file is larger than [`MAX_FILE_BYTES`].
+    /// The file is larger than its kind's cap ([`crate::input::InputKind`]).
     TooLarge,
     /// The file is not UTF-8 text or contains NUL bytes.
     Binary,
@@ -461,7 +539,8 @@ pub enum InputErrorKind {
     Structure,
 }
 
-/// Files larger than this are refused (4 MiB).
+/// Parameter sets, schemas and line manifests larger than this are
+/// refused (4 MiB; [`crate::input::InputKind::SET`]).
 pub const MAX_FILE_BYTES: u64 = 4 * 1024 * 1024;
 
 /// An input error: the file could not be read or is not a well-formed
@@ -496,6 +575,22 @@ impl InputError {
         }
     }
 
+    /// The message without the file's name, for a caller whose own message
+    /// names the file already (`journal J: cannot read it: ...`, `journal
+    /// J: is a FIFO (named pipe), not a regular file; ...`), and the help.
+    pub fn detail(&self) -> String {
+        let file = &self.location.file;
+        let m = &self.message;
+        let m = if let Some(rest) = m.strip_prefix(&format!("cannot read {file}: ")) {
+            format!("cannot read it: {rest}")
+        } else if let Some(rest) = m.strip_prefix(&format!("{file} ")) {
+            rest.to_string()
+        } else {
+            m.clone()
+        };
+        format!("{m}; {}", self.help)
+    }
+
     /// rustc-style rendering, like [`Finding::render_human`].
     pub fn render_human(&self) -> String {
         self.render(false)
@@ -513,112 +608,11 @@ impl InputError {
     }
 }
 
-/// What a path is when it is not a regular file (`None` for a regular file).
-fn not_regular(ft: std::fs::FileType) -> Option<&'static str> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt as _;
-        if ft.is_fifo() {
-            return Some("a FIFO (named pipe)");
-        }
-        if ft.is_socket() {
-            return Some("a socket");
-        }
-        if ft.is_char_device() {
-            return Some("a character device");
-        }
-        if ft.is_block_device() {
-            return Some("a block device");
-        }
-    }
-    if ft.is_dir() {
-        return Some("a directory");
-    }
-    if ft.is_file() {
-        None
-    } else {
-        Some("not a regular file")
-    }
-}
-
-/// Reads at most `cap` bytes of a **regular** file. The path's metadata is
-/// checked before it is opened, so a FIFO, socket or device file is never
-/// opened (opening a FIFO blocks until a writer comes); the open itself is
-/// non-blocking and the opened file is checked again, so a path swapped in
-/// between cannot block either. A file larger than `cap` is
-/// [`InputErrorKind::TooLarge`], with the cap in the message; `what` names
-/// the kind of input there ("parameter sets and schemas ...").
-///
-/// # Errors
-/// [`InputErrorKind::Unreadable`] for a missing / unreadable path,
-/// [`InputErrorKind::NotRegularFile`] for one that is not a regular file
-/// (the message says what it is).
-pub fn read_regular_file(
-    path: &std::path::Path,
-    cap: u64,
-    what: &str,
-) -> Result<Vec<u8>, InputError> {
-    use std::io::Read;
-    let display = path.display().to_string();
-    let loc = || Location::file_only(display.clone());
-    let unreadable = |e: std::io::Error| {
-        InputError::new(
-            InputErrorKind::Unreadable,
-            loc(),
-            format!("cannot read {display}: {e}"),
-            "check the path and the file's permissions",
-        )
-    };
-    let not_a_file = |kind: &str| {
-        InputError::new(
-            InputErrorKind::NotRegularFile,
-            loc(),
-            format!(
-                "{display} is {kind}, not a regular file; driveset reads {what} from regular files only"
-            ),
-            "give the path of a regular file (save a pipe's or device's data into a file first)",
-        )
-    };
-    let meta = std::fs::metadata(path).map_err(unreadable)?;
-    if let Some(kind) = not_regular(meta.file_type()) {
-        return Err(not_a_file(kind));
-    }
-    let mut opts = std::fs::OpenOptions::new();
-    opts.read(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt as _;
-        opts.custom_flags(libc::O_NONBLOCK);
-    }
-    let file = opts.open(path).map_err(unreadable)?;
-    let meta = file.metadata().map_err(unreadable)?;
-    if let Some(kind) = not_regular(meta.file_type()) {
-        return Err(not_a_file(kind));
-    }
-    let mut bytes = Vec::new();
-    file.take(cap + 1)
-        .read_to_end(&mut bytes)
-        .map_err(unreadable)?;
-    if bytes.len() as u64 > cap {
-        return Err(InputError::new(
-            InputErrorKind::TooLarge,
-            loc(),
-            format!("{display} is larger than {cap} bytes"),
-            format!("{what} are at most {cap} bytes; check that this is the right file"),
-        ));
-    }
-    Ok(bytes)
-}
-
 /// Read a file as UTF-8 text with the size, binary and empty checks of
-/// [`InputErrorKind`]; only regular files (see [`read_regular_file`]).
+/// [`InputErrorKind`]; only regular files (see [`crate::input::read_input`]).
 pub fn read_text_file(path: &std::path::Path) -> Result<SourceFile, InputError> {
     let display = path.display().to_string();
-    let bytes = read_regular_file(
-        path,
-        MAX_FILE_BYTES,
-        "parameter sets, schemas and line manifests",
-    )?;
+    let bytes = crate::input::read_input(path, crate::input::InputKind::SET)?;
     source_from_bytes(&display, bytes)
 }
 
@@ -684,4 +678,26 @@ pub fn source_from_bytes(display: &str, bytes: Vec<u8>) -> Result<SourceFile, In
         ));
     }
     Ok(SourceFile::new(display, text))
+}
+
+pub use crate::input::read_regular_file;
+
+#[cfg(test)]
+mod escape_tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_escaped_and_spans_follow() {
+        assert_eq!(escape_controls("plain ü"), "plain ü");
+        assert_eq!(
+            escape_controls("a\u{1b}[2J\nb\t\u{7f}\u{85}"),
+            "a\\u{1b}[2J\\nb\\t\\u{7f}\\u{85}"
+        );
+        // the span `x` after an ESC moves with the escaped text
+        let (text, span) = escape_with_span("k\u{1b} = x", 5..6);
+        assert_eq!(text, "k\\u{1b} = x");
+        assert_eq!(&text[span], "x");
+        let (text, span) = escape_with_span("\u{1b}key = 1", 0..4);
+        assert_eq!(&text[span], "\\u{1b}key");
+    }
 }

@@ -28,6 +28,7 @@ pub mod error;
 pub mod export;
 pub mod family;
 mod fnv;
+pub mod input;
 pub mod role;
 pub mod schema;
 pub mod set;

@@ -67,8 +67,9 @@ fn load_source(
     let mut findings = Vec::new();
     let mut layers = Vec::new();
     let mut stack = Vec::new();
-    let top = parse_layer(source, syntax, path)?;
-    collect(top, path, &mut stack, &mut layers, &mut findings)?;
+    let top = parse_layer(source, syntax, path).map_err(|e| mask_secret_line(e, registry))?;
+    collect(top, path, &mut stack, &mut layers, &mut findings)
+        .map_err(|e| mask_secret_line(e, registry))?;
     let Some(top) = layers.last() else {
         return Ok(LoadedSet {
             schema: None,
@@ -139,13 +140,16 @@ fn load_source(
         seen.reserve(values.entries().len());
         merged.reserve(values.entries().len());
         for e in values.entries() {
-            let Some((code, key)) = resolve_key(&schema, &l.doc, e, &mut findings) else {
+            let (named, resolved) = resolve_key(&schema, &l.doc, e, &mut findings);
+            if named.is_some_and(|c| schema.is_password(c)) {
+                // also when the key is wrong (`"C0094/1"`): the value
+                // written beside a password's code is masked all the same
+                secret_spans.push((l.doc.loc(&e.value.span).file, e.value.span.clone()));
+            }
+            let Some((code, key)) = resolved else {
                 continue;
             };
             let kloc = || l.doc.loc(&e.key_span);
-            if schema.is_password(code) {
-                secret_spans.push((l.doc.loc(&e.value.span).file, e.value.span.clone()));
-            }
             if let Some((first, fspan)) = seen.get(&key) {
                 let floc = l.doc.loc(fspan);
                 findings.push(
@@ -493,12 +497,50 @@ fn split_lust_key(s: &str) -> Option<(u32, &str)> {
     Some((num.parse().ok()?, name))
 }
 
+/// A syntax error's snippet can show a line whose value is a password
+/// (`C0094 = 12` given twice, `C0094 = 7771 x`): the file's schema is not
+/// known yet, so the line's key is compared with the password codes of
+/// every schema `registry` knows (by name, number or display spelling)
+/// and, when it names one, the value part of the line (and its text in
+/// the message) is masked.
+pub fn mask_secret_line(mut e: InputError, registry: &Registry) -> InputError {
+    let loc = &mut *e.location;
+    if loc.line == 0 || loc.line_text.is_empty() {
+        return e;
+    }
+    let text = loc.line_text.clone();
+    let Some(sep) = text.find(['=', ':']) else {
+        return e;
+    };
+    let key = text[..sep].trim().trim_matches(['"', '\'']);
+    let base = key.split_once('/').map_or(key, |(b, _)| b);
+    let names_secret = registry.schemas().any(|s| {
+        s.codes.iter().filter(|c| s.is_password(c)).any(|c| {
+            base == c.name
+                || base == s.display_code(c.number, None)
+                || base == c.number.to_string()
+                || base.strip_prefix(&format!("{}-", c.number)).is_some()
+                || parse_number_key(base) == Some(c.number)
+        })
+    });
+    if !names_secret {
+        return e;
+    }
+    let value = text[sep + 1..].trim();
+    if !value.is_empty() && e.message.contains(value) {
+        e.message = e.message.replace(value, crate::canonical::SECRET);
+    }
+    let from = sep + 1 + (text[sep + 1..].len() - text[sep + 1..].trim_start().len());
+    e.location.mask_line_from(from);
+    e
+}
+
 fn resolve_key<'s>(
     schema: &'s Schema,
     doc: &Document,
     e: &Entry,
     out: &mut Vec<Finding>,
-) -> Option<(&'s Code, CodeKey)> {
+) -> (Option<&'s Code>, Option<(&'s Code, CodeKey)>) {
     let loc = || doc.loc(&e.key_span);
     let (base, sub) = match e.key.split_once('/') {
         Some((b, s)) => (b, Some(s)),
@@ -515,7 +557,7 @@ fn resolve_key<'s>(
                     format!("`{}`: subcode `{s}` is not a number", e.key),
                     "write e.g. `C0039/1`",
                 ));
-                return None;
+                return (None, None);
             }
         },
     };
@@ -541,7 +583,7 @@ fn resolve_key<'s>(
                                 c.name
                             ),
                         ));
-                        return None;
+                        return (Some(c), None);
                     }
                     None => {
                         out.push(Finding::new(
@@ -559,7 +601,7 @@ fn resolve_key<'s>(
                                 }
                             },
                         ));
-                        return None;
+                        return (None, None);
                     }
                 }
             }
@@ -582,7 +624,7 @@ fn resolve_key<'s>(
                         ),
                         format!("check the number against the schema ({})", schema.path),
                     ));
-                    return None;
+                    return (None, None);
                 }
             },
             None => {
@@ -598,7 +640,7 @@ fn resolve_key<'s>(
                         ),
                     },
                 ));
-                return None;
+                return (None, None);
             }
         },
     };
@@ -615,7 +657,7 @@ fn resolve_key<'s>(
                 ),
                 format!("write e.g. `{}`", schema.display_code(code.number, Some(1))),
             ));
-            return None;
+            return (Some(code), None);
         }
         (None, Some(_)) => {
             out.push(Finding::new(
@@ -627,15 +669,18 @@ fn resolve_key<'s>(
                     schema.display_code(code.number, None)
                 ),
             ));
-            return None;
+            return (Some(code), None);
         }
         (None, None) => {}
     }
-    Some((
-        code,
-        CodeKey {
-            number: code.number,
-            subcode,
-        },
-    ))
+    (
+        Some(code),
+        Some((
+            code,
+            CodeKey {
+                number: code.number,
+                subcode,
+            },
+        )),
+    )
 }

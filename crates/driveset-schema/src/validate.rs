@@ -92,6 +92,15 @@ impl std::fmt::Display for TypeDesc<'_> {
 /// Engineering text of a raw value with unit and label, for messages and diffs.
 /// Passwords show as `<secret>` ([`crate::canonical::SECRET`]).
 pub fn display_value(schema: &Schema, code: &Code, raw: &RawValue) -> String {
+    // labels and units come from schema files: no raw control characters
+    let shown = display_value_unescaped(schema, code, raw);
+    match crate::error::escape_controls(&shown) {
+        std::borrow::Cow::Borrowed(_) => shown,
+        std::borrow::Cow::Owned(e) => e,
+    }
+}
+
+fn display_value_unescaped(schema: &Schema, code: &Code, raw: &RawValue) -> String {
     if schema.is_password(code) {
         return crate::canonical::SECRET.into();
     }

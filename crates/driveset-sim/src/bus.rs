@@ -52,7 +52,7 @@ use crate::drive::{ByteDrive, Heard, Reply};
 use crate::faults::{
     Action, CableWindows, FaultInjector, FaultPlan, ReplyFault, Schedule, Scheduled,
 };
-use crate::log::{Dir, Event, EventLog, hex};
+use crate::log::{Dir, Event, EventLog, MASKED, MaskProtocol, SecretMask, hex};
 
 /// What a byte that crossed a rate mismatch turns into.
 const MISMATCH_XOR: u8 = 0x2A;
@@ -150,6 +150,8 @@ pub struct ByteLine {
     schedule: Schedule,
     cables: CableWindows,
     log: EventLog,
+    /// Masks the drives' secrets in what the log records.
+    mask: SecretMask,
     origin: Instant,
     started: bool,
     telegrams: u64,
@@ -183,8 +185,18 @@ impl ByteLine {
                 busy_until: Instant::ZERO,
             })
             .collect();
+        let protocol = if drives.iter().any(|d| d.family() == "tmd") {
+            MaskProtocol::Lecom
+        } else {
+            MaskProtocol::Lustbus
+        };
+        let mask = SecretMask::new(
+            protocol,
+            drives.iter().flat_map(|d| d.secret_codes()).collect(),
+        );
         Ok(ByteLine {
             drives,
+            mask,
             slots,
             baud,
             faults: FaultInjector::none(),
@@ -380,15 +392,22 @@ impl ByteLine {
         self.advance(start);
         let flip = self.faults.host_flip(n);
         let garbage = self.faults.garbage();
-        let mut line = Event::bytes(start.as_nanos(), Dir::Host, None, bytes);
+        let logged = self.mask.apply(Dir::Host, bytes);
+        let mut line = Event::bytes(start.as_nanos(), Dir::Host, None, &logged);
         if let Some(f) = flip
             && let Some(&b) = bytes.get(f.index)
         {
             let heard = (b ^ (1 << f.bit)) & 0x7F;
+            // a masked character stays masked in the fault's detail too
+            let heard = if logged.get(f.index) == Some(&MASKED) && b != MASKED {
+                "a masked character".to_string()
+            } else {
+                format!("0x{heard:02X}")
+            };
             line = line.with_fault(
                 "flip",
                 format!(
-                    "character {} bit {}: the drives heard 0x{heard:02X} with a parity error",
+                    "character {} bit {}: the drives heard {heard} with a parity error",
                     f.index, f.bit
                 ),
             );
@@ -499,7 +518,10 @@ impl ByteLine {
             slot.busy_until = start + wire_time(len, dbaud);
         }
         let mut bytes = original.clone();
-        let mut line = Event::bytes(start.as_nanos(), Dir::Drive, addr, &original);
+        let logged = self.mask.apply(Dir::Drive, &original);
+        let masked_at =
+            |k: usize| logged.get(k) == Some(&MASKED) && original.get(k) != Some(&MASKED);
+        let mut line = Event::bytes(start.as_nanos(), Dir::Drive, addr, &logged);
         match self.faults.reply(len) {
             ReplyFault::None => {}
             ReplyFault::Lose => {
@@ -517,13 +539,18 @@ impl ByteLine {
                 if let Some(b) = bytes.get_mut(f.index) {
                     let was = *b;
                     *b = (was ^ (1 << f.bit)) & 0x7F;
-                    line = line.with_fault(
-                        "flip",
+                    let detail = if masked_at(f.index) {
+                        format!(
+                            "character {} bit {}: the host got a masked character changed",
+                            f.index, f.bit
+                        )
+                    } else {
                         format!(
                             "character {} bit {}: the host got 0x{:02X} instead of 0x{was:02X}",
                             f.index, f.bit, *b
-                        ),
-                    );
+                        )
+                    };
+                    line = line.with_fault("flip", detail);
                 }
             }
         }
@@ -537,7 +564,11 @@ impl ByteLine {
                     format!(
                         "drive sends at {dbaud} baud, host listens at {}: the host got {}",
                         self.baud,
-                        hex(&bytes)
+                        hex(&bytes
+                            .iter()
+                            .enumerate()
+                            .map(|(k, &b)| if masked_at(k) { MASKED } else { b })
+                            .collect::<Vec<u8>>())
                     ),
                 );
             }

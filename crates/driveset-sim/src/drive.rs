@@ -93,6 +93,14 @@ pub trait ByteDrive: Send + std::fmt::Debug {
         None
     }
 
+    /// The numbers of the drive's codes whose values are secrets
+    /// (passwords: `role = "password"` or PT_PASSWORD in its schema); the
+    /// bus's log masks their values ([`crate::log::SecretMask`]). None by
+    /// default (a test drive without a schema).
+    fn secret_codes(&self) -> Vec<u32> {
+        Vec::new()
+    }
+
     /// Run at `baud` from now on (a state file's rate; no restart).
     fn restore_rate(&mut self, baud: u32) {
         let _ = baud;

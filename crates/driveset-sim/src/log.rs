@@ -30,8 +30,13 @@
 //! - `detail`: `null` or a short human text (which character and bit, how
 //!   many characters were kept, off time).
 //!
-//! The log records raw bytes: a LUSTBUS password written to a drive appears
-//! in it as sent. Treat log files like the bus capture they are.
+//! Secrets are masked ([`SecretMask`]): the value characters and the BCC
+//! of a telegram that carries a password (a code with `role =
+//! "password"` or type PT_PASSWORD in a drive's schema: LECOM `STX C1 C2
+//! VALUE ETX BCC`, LUSTBUS `STX CODE = VALUE ETX BCC`, in both directions)
+//! are logged as `*` (hex `2A`), whatever chunks the telegram arrives in.
+//! Everything else is logged as sent; `driveset sim --log` creates the
+//! file with mode 0600 all the same: treat it like the bus capture it is.
 
 use std::io::Write;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -107,6 +112,149 @@ impl Event {
     pub fn to_json(&self) -> String {
         // Serializing plain strings and integers cannot fail.
         serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+/// The protocol a [`SecretMask`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaskProtocol {
+    /// LECOM-A/B: the code is the two characters C1 C2 after STX (8.A) or
+    /// `!` and six characters (8.D).
+    Lecom,
+    /// LUSTBUS: the CODE is the five digits after STX, up to `=` (2.4).
+    Lustbus,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+enum MaskState {
+    /// Outside a text.
+    #[default]
+    Idle,
+    /// After STX: the code field so far.
+    Head(Vec<u8>),
+    /// The value, masked or not, until ETX.
+    Value(bool),
+    /// The BCC after ETX, masked or not.
+    Bcc(bool),
+}
+
+/// Masks secrets' values in the bytes the log records, as a stream: the
+/// state carries over from one chunk to the next (a pty read may end in
+/// the middle of a telegram), one state per direction.
+#[derive(Debug, Clone)]
+pub struct SecretMask {
+    protocol: MaskProtocol,
+    secrets: Vec<u32>,
+    host: MaskState,
+    drive: MaskState,
+}
+
+/// What a masked character is logged as.
+pub const MASKED: u8 = b'*';
+
+impl SecretMask {
+    /// A mask for the codes `secrets` (numbers) of a `protocol` line.
+    pub fn new(protocol: MaskProtocol, mut secrets: Vec<u32>) -> Self {
+        secrets.sort_unstable();
+        secrets.dedup();
+        SecretMask {
+            protocol,
+            secrets,
+            host: MaskState::Idle,
+            drive: MaskState::Idle,
+        }
+    }
+
+    /// `bytes` as the log records them: the characters of a secret's value
+    /// and its BCC replaced by [`MASKED`]. `dir` is who sent them.
+    pub fn apply(&mut self, dir: Dir, bytes: &[u8]) -> Vec<u8> {
+        let mut state = std::mem::take(match dir {
+            Dir::Drive => &mut self.drive,
+            _ => &mut self.host,
+        });
+        let out = bytes
+            .iter()
+            .map(|&b| {
+                let (next, masked) = self.step(state.clone(), b & 0x7F);
+                state = next;
+                if masked { MASKED } else { b }
+            })
+            .collect();
+        *match dir {
+            Dir::Drive => &mut self.drive,
+            _ => &mut self.host,
+        } = state;
+        out
+    }
+
+    /// One character: the next state and whether to mask it.
+    fn step(&self, state: MaskState, b: u8) -> (MaskState, bool) {
+        const STX: u8 = 0x02;
+        const ETX: u8 = 0x03;
+        const EOT: u8 = 0x04;
+        match state {
+            // the byte after ETX is the BCC, whatever it is (LECOM 8.G)
+            MaskState::Bcc(secret) => (MaskState::Idle, secret),
+            _ if b == EOT => (MaskState::Idle, false),
+            MaskState::Idle if b == STX => (MaskState::Head(Vec::new()), false),
+            MaskState::Idle => (MaskState::Idle, false),
+            MaskState::Head(_) if b == ETX => (MaskState::Bcc(false), false),
+            MaskState::Head(mut head) => {
+                head.push(b);
+                match self.code_of(&head) {
+                    Some(Some(n)) => (
+                        MaskState::Value(self.secrets.binary_search(&n).is_ok()),
+                        false,
+                    ),
+                    Some(None) => (MaskState::Value(false), false),
+                    None => (MaskState::Head(head), false),
+                }
+            }
+            MaskState::Value(secret) if b == ETX => (MaskState::Bcc(secret), false),
+            MaskState::Value(secret) => (MaskState::Value(secret), secret),
+        }
+    }
+
+    /// The code the head names: `None` while incomplete, `Some(None)` when
+    /// complete but no value code (or not a code at all).
+    fn code_of(&self, head: &[u8]) -> Option<Option<u32>> {
+        match self.protocol {
+            MaskProtocol::Lecom => {
+                use driveset_proto::lecom::CodeAddress;
+                let want = if head.first() == Some(&b'!') { 7 } else { 2 };
+                if head.len() < want {
+                    return None;
+                }
+                Some(CodeAddress::parse(head).ok().map(|c| match c {
+                    CodeAddress::Standard(n) => u32::from(n.get()),
+                    CodeAddress::Extended(x) => u32::from(x.code),
+                }))
+            }
+            MaskProtocol::Lustbus => {
+                use driveset_proto::lustbus::{CodeMeaning, ParameterCode};
+                if head.last() != Some(&b'=') && head.len() <= 5 {
+                    return None;
+                }
+                let digits: Option<[u8; 5]> = head.get(..5).and_then(|d| d.try_into().ok());
+                Some(
+                    digits
+                        .filter(|_| head.len() == 6)
+                        .and_then(ParameterCode::from_digits)
+                        .and_then(|code| {
+                            if let Some(c) = code.compatible_parameter() {
+                                return Some(u32::from(c.number()));
+                            }
+                            match code.meaning() {
+                                CodeMeaning::VfValue { parameter, .. } => {
+                                    Some(u32::from(parameter))
+                                }
+                                CodeMeaning::McValue { parameter } => Some(u32::from(parameter)),
+                                _ => None,
+                            }
+                        }),
+                )
+            }
+        }
     }
 }
 
@@ -253,5 +401,65 @@ impl EventLog {
             out.0.flush().map_err(LogError)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn masked(mask: &mut SecretMask, dir: Dir, chunks: &[&[u8]]) -> String {
+        chunks
+            .iter()
+            .map(|c| text(&mask.apply(dir, c)))
+            .collect::<String>()
+    }
+
+    #[test]
+    fn a_lecom_password_is_masked_in_any_chunking_and_other_codes_are_not() {
+        let telegram = b"\x0401\x0294777\x039\x0401\x0211600\x036";
+        let whole = masked(
+            &mut SecretMask::new(MaskProtocol::Lecom, vec![94]),
+            Dir::Host,
+            &[telegram],
+        );
+        assert_eq!(whole, "<EOT>01<STX>94***<ETX>*<EOT>01<STX>11600<ETX>6");
+        // every split point gives the same log text
+        for cut in 0..telegram.len() {
+            let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+            let (a, b) = telegram.split_at(cut);
+            assert_eq!(masked(&mut m, Dir::Host, &[a, b]), whole, "cut at {cut}");
+        }
+        // a reply to a RECEIVE, in the drive's direction
+        let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+        assert_eq!(
+            masked(&mut m, Dir::Drive, &[b"\x0294777\x039"]),
+            "<STX>94***<ETX>*"
+        );
+        // extended addressing `!` + 4 hex code digits + 2 subcode digits
+        let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
+        assert_eq!(
+            masked(&mut m, Dir::Host, &[b"\x0401\x02!005E0012\x03x"]),
+            "<EOT>01<STX>!005E00**<ETX>*"
+        );
+    }
+
+    #[test]
+    fn a_lustbus_password_is_masked_and_the_bcc_byte_too() {
+        let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
+        assert_eq!(
+            masked(
+                &mut m,
+                Dir::Host,
+                &[b"\x04A\x02001", b"70=04D2\x03z\x04A\x0200112=03E8\x03r"]
+            ),
+            "<EOT>A<STX>00170=****<ETX>*<EOT>A<STX>00112=03E8<ETX>r"
+        );
+        // the BCC after ETX is masked even when it is an EOT byte
+        let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
+        assert_eq!(
+            masked(&mut m, Dir::Drive, &[b"A\x0200170=1\x03\x04"]),
+            "A<STX>00170=*<ETX>*"
+        );
     }
 }

@@ -874,6 +874,10 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
         self.core_ref().address()
     }
 
+    fn secret_codes(&self) -> Vec<u32> {
+        self.core_ref().table.secret_codes()
+    }
+
     fn hear(&mut self, now: Instant, byte: u8, parity_ok: bool) -> Heard {
         hear(self, now, byte, parity_ok)
     }

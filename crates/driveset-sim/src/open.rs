@@ -727,11 +727,13 @@ pub fn frame_line_dump(family: Family, line: &FrameLine) -> StateDump {
 impl StateDump {
     /// Read a dump file.
     pub fn read(path: &Path) -> Result<StateDump, SimOpenError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SimOpenError::StateIo {
+        use driveset_schema::input::{InputKind, read_input};
+        let bytes = read_input(path, InputKind::SIM_STATE).map_err(|e| SimOpenError::StateIo {
             path: path.into(),
             op: "read it",
-            source,
+            source: io::Error::other(e.detail()),
         })?;
+        let text = String::from_utf8_lossy(&bytes);
         let dump: StateDump =
             serde_json::from_str(&text).map_err(|e| SimOpenError::StateFormat {
                 path: path.into(),
@@ -749,8 +751,8 @@ impl StateDump {
         Ok(dump)
     }
 
-    /// Write the dump as pretty JSON: to a temporary file next to `path`,
-    /// then renamed over it (a crash never leaves half a file).
+    /// Write the dump as pretty JSON: to a temporary file (mode 0600) next
+    /// to `path`, then renamed over it (a crash never leaves half a file).
     pub fn write(&self, path: &Path) -> Result<(), SimOpenError> {
         let io_err = |op, source| SimOpenError::StateIo {
             path: path.into(),
@@ -765,7 +767,17 @@ impl StateDump {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "state".into());
         let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-        std::fs::write(&tmp, text).map_err(|e| io_err("write it", e))?;
+        // 0600: a drive's memory holds its passwords
+        let mut opts = std::fs::OpenOptions::new();
+        opts.write(true).create(true).truncate(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt as _;
+            opts.mode(0o600);
+        }
+        opts.open(&tmp)
+            .and_then(|mut f| io::Write::write_all(&mut f, text.as_bytes()))
+            .map_err(|e| io_err("write it", e))?;
         std::fs::rename(&tmp, path).map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
             io_err("replace it", e)

@@ -141,6 +141,16 @@ impl ParamTable {
         Ok(ParamTable { schema, params })
     }
 
+    /// The numbers of the schema's codes whose values are secrets.
+    pub fn secret_codes(&self) -> Vec<u32> {
+        let s = &self.schema;
+        s.codes
+            .iter()
+            .filter(|c| s.is_password(c))
+            .map(|c| c.number)
+            .collect()
+    }
+
     /// The schema the table was built from.
     pub fn schema(&self) -> &Arc<Schema> {
         &self.schema

@@ -1042,6 +1042,10 @@ impl ByteDrive for TmdDrive {
         "tmd"
     }
 
+    fn secret_codes(&self) -> Vec<u32> {
+        self.table.secret_codes()
+    }
+
     /// C0009 (two digits on LECOM; a value above 99 is returned as stored,
     /// saturated to 255).
     fn address(&self) -> u8 {

@@ -167,7 +167,7 @@ pub(crate) fn builtin_registry() -> anyhow::Result<Registry> {
 /// The most bytes `decode` reads from a file or stdin (16 MiB: at 57600
 /// baud that is 48 minutes of traffic), so `--raw -` fed from an endless
 /// stream ends with an error instead of filling memory.
-pub const MAX_CAPTURE_BYTES: u64 = 16 * 1024 * 1024;
+pub const MAX_CAPTURE_BYTES: u64 = driveset_schema::input::InputKind::CAPTURE.cap;
 
 fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
     if let Some(h) = &args.hex {
@@ -201,11 +201,7 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
         }
         (b, "<stdin>".to_string())
     } else {
-        let b = driveset_schema::error::read_regular_file(
-            file,
-            MAX_CAPTURE_BYTES,
-            "bus captures",
-        )
+        let b = driveset_schema::input::read_input(file, driveset_schema::input::InputKind::CAPTURE)
         .map_err(|e| match e.kind {
             driveset_schema::InputErrorKind::TooLarge => anyhow::anyhow!(
                 "{}: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts",
@@ -296,19 +292,28 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         schema,
         family,
     };
-    let events = driveset_engine::decode::decode(args.protocol.capture(), &capture, &ctx);
-    let mut out = String::new();
-    for e in &events {
+    // each event is written out as it is decoded, in chunks of
+    // OUT_CHUNK: memory grows with one event, not with the capture
+    const OUT_CHUNK: usize = 64 * 1024;
+    let (mut out, mut any, mut bad) = (String::new(), false, false);
+    driveset_engine::decode::decode_each(args.protocol.capture(), &capture, &ctx, &mut |e| {
+        any = true;
+        bad |= e.error.is_some();
         match args.format {
             OutputFormat::Text => out.push_str(&e.render_text()),
-            OutputFormat::Json => out.push_str(&serde_json::to_string(e)?),
+            // serializing strings and integers cannot fail
+            OutputFormat::Json => out.push_str(&serde_json::to_string(&e).unwrap_or_default()),
         }
         out.push('\n');
-    }
-    if events.is_empty() && args.format == OutputFormat::Text {
+        if out.len() >= OUT_CHUNK {
+            crate::output::emit(&out);
+            out.clear();
+        }
+    });
+    drop(capture);
+    if !any && args.format == OutputFormat::Text {
         out.push_str("(no bytes)\n");
     }
     crate::output::emit(&out);
-    let bad = driveset_engine::decode::has_errors(&events);
     Ok(if bad { EXIT_FINDINGS } else { EXIT_OK })
 }

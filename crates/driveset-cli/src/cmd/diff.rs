@@ -83,7 +83,7 @@ pub struct Args {
 fn code_name(schema: &Schema, key: CodeKey) -> String {
     schema
         .code(key.number)
-        .map(|c| c.name.clone())
+        .map(|c| driveset_schema::error::escape_controls(&c.name).into_owned())
         .unwrap_or_default()
 }
 

@@ -3,6 +3,7 @@
 //! (driveset_schema::eds; docs/file-formats.md, "Imported schemas"), with a
 //! lint for every object skipped or downgraded.
 
+use driveset_schema::input::{InputKind, read_input};
 use std::path::PathBuf;
 
 use driveset_schema::eds::{ImportOptions, import};
@@ -53,11 +54,14 @@ pub struct Args {
 /// Run `driveset schema import`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let shown = args.file.display().to_string();
-    let bytes = match std::fs::read(&args.file) {
+    // regular files only, size checked before reading (a FIFO or
+    // /dev/zero is refused at once)
+    let bytes = match read_input(&args.file, InputKind::EDS) {
         Ok(b) => b,
         Err(e) => {
             return Err(crate::fail::Fail::input(format!(
-                "cannot read {shown}: {e}\n  = help: check the path"
+                "{}\n  = help: {}",
+                e.message, e.help
             )));
         }
     };

@@ -137,6 +137,12 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 
 fn upload(args: &Args) -> Result<u8, Fail> {
     let overrides = args.allow.overrides()?;
+    // a FIFO or device as --journal is refused before the port is opened
+    // (reading it back would block or never end)
+    if let Some(j) = &args.journal {
+        driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
+            .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
+    }
     let on = crate::learning::set_on_drive(
         &args.set,
         &args.schemas,

@@ -168,7 +168,7 @@ fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
     if Syntax::from_path(path) == Syntax::Toml {
         match doc::parse(source.clone(), Syntax::Toml) {
             Err(e) => {
-                report.error = Some(e);
+                report.error = Some(driveset_schema::set::mask_secret_line(e, registry));
                 return report;
             }
             Ok(d) if is_schema_doc(&d) => {

@@ -57,7 +57,11 @@ fn finding_case(o: &mut String, file: &str, f: &Finding) {
         let _ = writeln!(body, "{}: {label}", place(loc));
     }
     if f.location.line > 0 && !f.location.line_text.is_empty() {
-        let _ = writeln!(body, "  | {}", f.location.line_text);
+        let _ = writeln!(
+            body,
+            "  | {}",
+            driveset_schema::error::escape_controls(&f.location.line_text)
+        );
     }
     if !f.help.is_empty() {
         let _ = writeln!(body, "help: {}", f.help);

@@ -27,10 +27,9 @@ pub struct Args {
 
 /// Run `driveset report`: read a report.json, write report.json + report.html.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let text = match driveset_schema::error::read_regular_file(
+    let text = match driveset_schema::input::read_input(
         &args.input,
-        64 * 1024 * 1024,
-        "line reports",
+        driveset_schema::input::InputKind::REPORT,
     )
     .map(|b| String::from_utf8_lossy(&b).into_owned())
     {

@@ -136,12 +136,8 @@ fn extends_of(text: &str, path: &Path) -> Vec<String> {
 /// The semantic view of the set file at `path` (see the module docs); the
 /// file's text unchanged when it is not a set driveset can read here.
 pub fn render(path: &Path, registry: &Registry) -> std::io::Result<String> {
-    let bytes = driveset_schema::error::read_regular_file(
-        path,
-        driveset_schema::error::MAX_FILE_BYTES,
-        "parameter sets",
-    )
-    .map_err(|e| std::io::Error::other(format!("{}; {}", e.message, e.help)))?;
+    let bytes = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::SET)
+        .map_err(|e| std::io::Error::other(format!("{}; {}", e.message, e.help)))?;
     let Ok(text) = String::from_utf8(bytes.clone()) else {
         return Ok(String::from_utf8_lossy(&bytes).into_owned());
     };

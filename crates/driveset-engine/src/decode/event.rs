@@ -59,8 +59,12 @@ pub struct Event {
     /// What is wrong with these bytes (makes the exit code 1).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
-    /// The bytes, hex.
+    /// The bytes, hex (`<secret>` for a telegram carrying a secret).
     pub bytes: String,
+    /// The telegram carries a secret's value (a password): its value, raw
+    /// value, bytes and BCC bytes are never shown ([`Event::mask_secret`]).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub secret: bool,
 }
 
 impl Event {
@@ -79,6 +83,27 @@ impl Event {
             kind,
             bytes: super::hex_spaced(&capture[s..e]),
             ..Event::default()
+        }
+    }
+
+    /// Hide everything that could give a secret's value away: the value
+    /// shows as `<secret>`, the raw value is dropped, the bytes are
+    /// `<secret>`, the BCC says only whether it matched, and details about
+    /// the value are dropped.
+    pub fn mask_secret(&mut self) {
+        let secret = driveset_schema::canonical::SECRET;
+        self.secret = true;
+        self.raw_value = None;
+        self.value = Some(secret.to_string());
+        self.bytes = secret.to_string();
+        self.details.clear();
+        if self.error.is_some() {
+            self.error =
+                Some("bad telegram (what is wrong is not shown: it carries a secret)".into());
+        }
+        if let Some(b) = &mut self.bcc {
+            b.found = secret.to_string();
+            b.expected = secret.to_string();
         }
     }
 
@@ -108,7 +133,9 @@ impl Event {
             (None, None) => {}
         }
         if let Some(b) = &self.bcc {
-            if b.ok {
+            if self.secret {
+                parts.push(if b.ok { "BCC ok" } else { "BCC bad" }.to_string());
+            } else if b.ok {
                 parts.push(format!("BCC {} ok", b.found));
             } else {
                 parts.push(format!(
@@ -125,6 +152,9 @@ impl Event {
                 rest = format!("{rest}: {extra}");
             }
         }
+        // names and values come from the capture and the schema files:
+        // no control character reaches the terminal raw
+        let rest = driveset_schema::error::escape_controls(&rest);
         let range = format!("{}..{}", self.start, self.end);
         let mut line = format!(
             "{range:<11} {:<15} {:<9} {rest}",
@@ -136,7 +166,7 @@ impl Event {
         }
         for d in &self.details {
             line.push_str("\n            ");
-            line.push_str(d);
+            line.push_str(&driveset_schema::error::escape_controls(d));
         }
         line
     }

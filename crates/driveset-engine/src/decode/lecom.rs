@@ -144,6 +144,10 @@ fn value_fields(ctx: &Context, ev: &mut Event, number: u16, value: &Value) {
     let Some(c) = schema.code(u32::from(number)) else {
         return;
     };
+    if schema.is_password(c) {
+        ev.secret = true;
+        return;
+    }
     let ty = schema.type_of(c);
     let (raw, fits) = match value {
         Value::Decimal(d) => (RawValue::Int(d.raw()), ty == Some(ValueType::VD)),
@@ -175,22 +179,22 @@ fn value_fields(ctx: &Context, ev: &mut Event, number: u16, value: &Value) {
 }
 
 /// Decodes a LECOM-A/B capture.
-pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
-    let raw = BusSniffer::decode_all(capture);
-    let mut out = Vec::with_capacity(raw.len());
+pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
     let mut last: Option<(Telegram, StandardAddressing)> = None;
     // whether the last telegram had a bad BCC (the controller discarded it)
     let mut last_bad = false;
     let mut selectors = Selectors::default();
-    for ev in raw {
+    // each frame is annotated as the sniffer finds it (no list of the
+    // capture's frames is kept)
+    let mut on = |ev: driveset_proto::lecom::stream::Event<Frame>| {
         let (start, end) = (ev.range.start, ev.range.end);
         let bytes = slice(capture, start, end);
         let mut bad_bcc = None;
         let frame = match ev.result {
             Ok(f) => f,
             Err(StreamError::Garbage { len }) => {
-                out.push(garbage_event(capture, start, end, len));
-                continue;
+                out(garbage_event(capture, start, end, len));
+                return;
             }
             Err(StreamError::Frame(FrameError::BadBcc { expected, found })) => {
                 let mut fixed = bytes.to_vec();
@@ -214,8 +218,8 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                         e.error = Some(
                             StreamError::Frame(FrameError::BadBcc { expected, found }).to_string(),
                         );
-                        out.push(e);
-                        continue;
+                        out(e);
+                        return;
                     }
                 }
             }
@@ -223,8 +227,8 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                 let mut e = Event::new(capture, start, end, "ERROR");
                 e.direction = direction(ev.direction);
                 e.error = Some(err.to_string());
-                out.push(e);
-                continue;
+                out(e);
+                return;
             }
         };
         let mut e = Event::new(capture, start, end, "");
@@ -369,9 +373,11 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                 }
             });
         }
-        out.push(e);
-    }
-    out
+        out(e);
+    };
+    let mut sniffer = BusSniffer::new();
+    sniffer.feed(capture, &mut on);
+    sniffer.finish(&mut on);
 }
 
 fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {

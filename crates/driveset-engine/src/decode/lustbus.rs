@@ -135,6 +135,10 @@ impl State<'_> {
         else {
             return;
         };
+        if schema.code(number).is_some_and(|c| schema.is_password(c)) {
+            ev.secret = true;
+            return;
+        }
         let (Some(code_def), Some(ty)) = (schema.code(number), wire_type(&schema, number)) else {
             return;
         };
@@ -215,26 +219,25 @@ fn direction(d: Option<Direction>) -> Option<&'static str> {
 }
 
 /// Decodes a LUSTBUS capture.
-pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
+pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
     let mut sniffer = Sniffer::new();
-    let mut raw: Vec<_> = sniffer.feed(capture).collect();
-    raw.extend(sniffer.finish());
     let mut st = State {
         ctx,
         family: ctx.family,
         last: None,
         last_bad_bcc: false,
     };
-    let mut out = Vec::with_capacity(raw.len());
-    for ev in raw {
+    // each frame is annotated as the sniffer finds it (no list of the
+    // capture's frames is kept)
+    let mut on = |ev: driveset_proto::lustbus::StreamEvent| {
         let (start, end) = (ev.span.start, ev.span.end);
         let bytes = slice(capture, start, end);
         let mut bad_bcc = None;
         let telegram = match ev.result {
             Ok(t) => t,
             Err(FrameError::Garbage { len, .. }) => {
-                out.push(garbage_event(capture, start, end, len));
-                continue;
+                out(garbage_event(capture, start, end, len));
+                return;
             }
             Err(FrameError::BadBcc {
                 received, computed, ..
@@ -255,8 +258,8 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                         e.error = Some(format!(
                             "BCC is 0x{received:02X} but the text XORs to 0x{computed:02X}"
                         ));
-                        out.push(e);
-                        continue;
+                        out(e);
+                        return;
                     }
                 }
             }
@@ -264,8 +267,8 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                 let mut x = Event::new(capture, start, end, "ERROR");
                 x.direction = direction(ev.direction);
                 x.error = Some(e.to_string());
-                out.push(x);
-                continue;
+                out(x);
+                return;
             }
         };
         let mut e = Event::new(capture, start, end, "");
@@ -390,9 +393,14 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                 }
             });
         }
-        out.push(e);
+        out(e);
+    };
+    for ev in sniffer.feed(capture) {
+        on(ev);
     }
-    out
+    for ev in sniffer.finish() {
+        on(ev);
+    }
 }
 
 /// Why a reply from `a` cannot answer `last` (the spec rules it out), if

@@ -60,13 +60,29 @@ pub struct Context {
     pub family: Option<Dialect>,
 }
 
-/// Decode `capture` as `format`.
-pub fn decode(format: Capture, capture: &[u8], ctx: &Context) -> Vec<Event> {
+/// Decode `capture` as `format`, handing each event to `each` as soon as
+/// it is complete (so memory grows with one event, not with the capture:
+/// `driveset decode` writes each out at once). A telegram carrying a
+/// secret's value reaches `each` masked ([`Event::mask_secret`]).
+pub fn decode_each(format: Capture, capture: &[u8], ctx: &Context, each: &mut dyn FnMut(Event)) {
+    let mut masked = |mut e: Event| {
+        if e.secret {
+            e.mask_secret();
+        }
+        each(e);
+    };
     match format {
-        Capture::Lustbus => lustbus::decode(capture, ctx),
-        Capture::Lecom => lecom::decode(capture, ctx),
-        Capture::Slcan => slcan::decode(capture, ctx),
+        Capture::Lustbus => lustbus::decode(capture, ctx, &mut masked),
+        Capture::Lecom => lecom::decode(capture, ctx, &mut masked),
+        Capture::Slcan => slcan::decode(capture, ctx, &mut masked),
     }
+}
+
+/// [`decode_each`], collected.
+pub fn decode(format: Capture, capture: &[u8], ctx: &Context) -> Vec<Event> {
+    let mut out = Vec::new();
+    decode_each(format, capture, ctx, &mut |e| out.push(e));
+    out
 }
 
 /// Whether any event is an error (the capture holds bad telegrams).

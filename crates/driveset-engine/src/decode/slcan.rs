@@ -16,8 +16,7 @@ const HOST_TO_ADAPTER: &str = "host -> adapter";
 const ADAPTER_TO_HOST: &str = "adapter -> host";
 
 /// Decodes an slcan capture.
-pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
-    let mut out = Vec::new();
+pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
     let mut start = 0usize;
     let mut last_request: Option<(u8, SdoRequest)> = None;
     for (i, &b) in capture.iter().enumerate() {
@@ -30,7 +29,7 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                     i + 1
                 };
                 if !line.is_empty() || b == b'\r' {
-                    out.push(line_event(
+                    out(line_event(
                         capture,
                         start,
                         end,
@@ -43,7 +42,7 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
                     let mut e = Event::new(capture, i as u64, i as u64 + 1, "BELL");
                     e.direction = Some(ADAPTER_TO_HOST);
                     e.meaning = Some("the adapter refused the last command".into());
-                    out.push(e);
+                    out(e);
                 }
             }
             start = i + 1;
@@ -53,9 +52,8 @@ pub fn decode(capture: &[u8], ctx: &Context) -> Vec<Event> {
         let line = &capture[start..];
         let mut e = line_event(capture, start, capture.len(), line, ctx, &mut last_request);
         e.details.push("line not ended by CR".into());
-        out.push(e);
+        out(e);
     }
-    out
 }
 
 fn line_event(
@@ -176,6 +174,10 @@ fn value_text(ctx: &Context, e: &mut Event, code: Option<CodeNumber>, data: &[u8
         s.code(u32::from(code.get()))
             .map(|c| (s.clone(), c.clone()))
     });
+    if schema_code.as_ref().is_some_and(|(s, c)| s.is_password(c)) {
+        e.secret = true;
+        return;
+    }
     let format = match schema_code.as_ref().and_then(|(s, c)| s.type_of(c)) {
         Some(ValueType::BITCODED) => ValueFormat::BitCoded,
         Some(ValueType::FIX32) => ValueFormat::Fix32,
