@@ -25,6 +25,7 @@ macro_rules! out {
 
 mod args;
 mod cmd;
+mod editor;
 mod env;
 mod fail;
 mod learning;
