@@ -13,6 +13,7 @@ pub mod fingerprint;
 pub mod git_setup;
 pub mod identify;
 pub mod json_schema;
+pub mod lsp;
 pub mod pull;
 pub mod recover;
 pub mod scan;

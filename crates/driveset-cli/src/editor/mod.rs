@@ -5,3 +5,4 @@
 
 pub mod facts;
 pub mod json_schema;
+pub mod lsp;
