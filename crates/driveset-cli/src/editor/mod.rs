@@ -3,6 +3,7 @@
 //! TOML and YAML servers (`json_schema`), and the `driveset lsp` language
 //! server (`lsp`).
 
+pub mod associate;
 pub mod facts;
 pub mod json_schema;
 pub mod lsp;
