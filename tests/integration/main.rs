@@ -13,6 +13,7 @@ mod encode;
 mod fingerprint;
 mod git_setup;
 mod inputs;
+mod json_schema;
 mod junit;
 mod latency;
 mod learn;
