@@ -18,6 +18,7 @@ mod junit;
 mod latency;
 mod learn;
 mod line;
+mod lsp;
 mod proxy;
 mod pull;
 mod recover;
