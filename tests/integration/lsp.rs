@@ -53,7 +53,10 @@ fn uri(p: &Path) -> String {
 
 impl Client {
     fn start(cache: &Path) -> Client {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+        // DRIVESET_BIN: another build to measure (e.g. target/release/driveset)
+        let bin = std::env::var_os("DRIVESET_BIN")
+            .map_or_else(|| assert_cmd::cargo::cargo_bin("driveset"), PathBuf::from);
+        let mut child = Command::new(bin)
             .arg("lsp")
             .current_dir(workspace_root())
             .env("XDG_CACHE_HOME", cache)
@@ -437,6 +440,12 @@ fn lsp_reads_yaml_sets_learned_schemas_beside_the_set_and_line_manifests() {
     let line = def["range"]["start"]["line"].as_u64().unwrap() as usize;
     assert_eq!(text.lines().nth(line), Some("number = 100"));
 
+    // a TOML file that is no driveset file (Cargo.toml, CI files) is left alone
+    let other = dir.path().join("Cargo.toml");
+    assert_eq!(
+        c.open(&other, "[package]\nname = \"x\"\n"),
+        Vec::<Value>::new()
+    );
     // a line manifest: validate's manifest checks, at their line
     let manifest = workspace_root().join("parameter-sets/demo-line/line.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();

@@ -72,6 +72,18 @@ pub fn analyse(path: &Path, text: &Text, registry: &mut Registry) -> Analysis {
             };
         }
     };
+    // an editor starts the server for every TOML / YAML file (Cargo.toml,
+    // CI files): one that is no driveset file is left alone
+    let kind = kind_of(&parsed);
+    if kind == FileKind::Set
+        && parsed.root.get("schema").is_none()
+        && parsed.root.get("values").is_none()
+    {
+        return Analysis {
+            diagnostics: Vec::new(),
+            schema: None,
+        };
+    }
     // each finding with the kind its diagnostic's code names
     type Found = (Vec<(Finding, String)>, Option<Arc<Schema>>);
     let own = |fs: Vec<Finding>| -> Vec<(Finding, String)> {
@@ -82,7 +94,7 @@ pub fn analyse(path: &Path, text: &Text, registry: &mut Registry) -> Analysis {
             })
             .collect()
     };
-    let findings: Result<Found, InputError> = match kind_of(&parsed) {
+    let findings: Result<Found, InputError> = match kind {
         FileKind::Manifest => driveset_engine::line::manifest::validate_manifest_str(
             path,
             text.as_str(),
