@@ -531,6 +531,9 @@ fn code_of_key_text<'s>(schema: &'s Schema, key: &str) -> Option<&'s Code> {
 }
 
 /// The code actions of the diagnostics in the request that carry a fix.
+// `WorkspaceEdit::changes` is lsp-types' `HashMap<Uri, _>`; its `Uri` has a
+// lazily filled parse cache, never changed while it is a key
+#[allow(clippy::mutable_key_type)]
 fn code_actions(p: &CodeActionParams) -> Vec<CodeActionOrCommand> {
     p.context
         .diagnostics
