@@ -53,6 +53,8 @@ struct Doc {
 /// The server's state: open documents and the schema registry.
 pub struct Server {
     docs: HashMap<String, Doc>,
+    /// The document of the last completion, whose items `resolve` fills.
+    completed: Option<String>,
     registry: Registry,
     cache_dir: PathBuf,
 }
@@ -123,6 +125,7 @@ impl Server {
             .map_err(|e| anyhow::anyhow!("{}: {}", e.location, e.message))?;
         Ok(Server {
             docs: HashMap::new(),
+            completed: None,
             registry,
             cache_dir: config.cache_dir.clone().unwrap_or_else(default_cache_dir),
         })
@@ -212,6 +215,7 @@ impl Server {
                 .ok()
                 .map(|p| {
                     let pos = p.text_document_position;
+                    self.completed = Some(pos.text_document.uri.as_str().to_string());
                     serde_json::to_value(
                         self.completion(pos.text_document.uri.as_str(), pos.position),
                     )
@@ -311,13 +315,13 @@ impl Server {
         std::path::absolute(file).ok()
     }
 
-    /// A completion item with the code's facts (`data` names the document
-    /// and the code number).
+    /// A completion item of the last completion with the code's facts
+    /// (`data` is the code number: the items stay small).
     fn resolve(&self, mut item: CompletionItem) -> CompletionItem {
         let found = item.data.as_ref().and_then(|d| {
-            let doc = self.docs.get(d.get("uri")?.as_str()?)?;
+            let doc = self.docs.get(self.completed.as_deref()?)?;
             let schema = doc.schema.as_ref()?;
-            let number = u32::try_from(d.get("code")?.as_u64()?).ok()?;
+            let number = u32::try_from(d.as_u64()?).ok()?;
             Some(facts::markdown(schema, schema.code(number)?))
         });
         if let Some(md) = found {
@@ -363,7 +367,7 @@ impl Server {
                     .rfind(|c: char| c.is_whitespace() || c == '"')
                     .map_or(0, |i| i + 1);
                 let range = Range::new(doc.text.position(line_start + word_start), pos);
-                Some(key_items(schema, syntax, range, key))
+                Some(key_items(schema, syntax, range))
             }
             (None, Some(i)) if prefix[..i].trim() == "schema" => {
                 let mut ids: Vec<&str> = self.registry.schemas().map(|s| s.id.as_str()).collect();
@@ -430,7 +434,7 @@ fn section_of(text: &Text, line: usize, syntax: Syntax) -> Option<String> {
 
 /// Completion of `[values]` keys: every code a set may write, by its
 /// canonical key and its name (subcodes as `KEY/N`).
-fn key_items(schema: &Schema, syntax: Syntax, range: Range, uri: &str) -> Vec<CompletionItem> {
+fn key_items(schema: &Schema, syntax: Syntax, range: Range) -> Vec<CompletionItem> {
     let mut out = Vec::new();
     for code in &schema.codes {
         if facts::refused(schema, code).is_some() {
@@ -453,7 +457,7 @@ fn key_items(schema: &Schema, syntax: Syntax, range: Range, uri: &str) -> Vec<Co
                 label: k.clone(),
                 kind: Some(CompletionItemKind::FIELD),
                 detail: detail.clone(),
-                data: Some(serde_json::json!({"uri": uri, "code": code.number})),
+                data: Some(Value::from(code.number)),
                 text_edit: Some(CompletionTextEdit::Edit(TextEdit::new(range, insert))),
                 ..CompletionItem::default()
             });
