@@ -25,6 +25,7 @@ macro_rules! out {
 
 mod args;
 mod cmd;
+mod editor;
 mod env;
 mod fail;
 mod learning;
@@ -107,6 +108,8 @@ enum Command {
     /// Render a saved commissioning report (report.json) to report.html again.
     #[command(hide = true)]
     Report(report::Args),
+    /// Language server of set files and line manifests over stdio (for editors).
+    Lsp(cmd::lsp::Args),
     /// Write a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(cmd::completions::Args),
     /// Write the man page (roff) on stdout.
@@ -142,6 +145,7 @@ fn main() -> ExitCode {
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),
         Command::Report(a) => report::run(a),
+        Command::Lsp(a) => cmd::lsp::run(a),
         Command::Completions(a) => cmd::completions::run(a),
         Command::Man(a) => cmd::completions::run_man(a),
     };

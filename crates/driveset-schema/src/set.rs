@@ -535,6 +535,18 @@ pub fn mask_secret_line(mut e: InputError, registry: &Registry) -> InputError {
     e
 }
 
+/// The code a `[values]` key of `doc` names, as the set reader resolves it
+/// (number, `C`+number, name, alias, LUSTBUS `NN-NAME`, `/N` subcode);
+/// `None` where loading the set reports a finding for the key instead.
+/// For editors (hover, completion, go to definition).
+pub fn code_of_key<'s>(
+    schema: &'s Schema,
+    doc: &Document,
+    entry: &Entry,
+) -> Option<(&'s Code, CodeKey)> {
+    resolve_key(schema, doc, entry, &mut Vec::new())
+}
+
 fn resolve_key<'s>(
     schema: &'s Schema,
     doc: &Document,

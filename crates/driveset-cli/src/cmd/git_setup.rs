@@ -35,7 +35,8 @@ Exit codes: 0 ok, 2 not in a git work tree (without --global) or git failed.
 Examples:
   driveset git-setup
   driveset git-setup --global
-  driveset git-setup --sets line-2/sets")]
+  driveset git-setup --sets line-2/sets
+  driveset git-setup --json-schemas .driveset/json-schema")]
 pub struct Args {
     /// Configure the diff driver in the user's global git config instead of
     /// the repository's (`.gitattributes` is still written when run inside a
@@ -45,6 +46,12 @@ pub struct Args {
     /// Folder of the set files, relative to the top of the work tree (repeatable).
     #[arg(long = "sets", value_name = "DIR", default_value = "parameter-sets")]
     pub sets: Vec<String>,
+    /// Also write the JSON Schema of every schema the sets name into DIR
+    /// (relative to the top of the work tree) and associate the sets with
+    /// them for the editors: `.taplo.toml` (TOML) and
+    /// `.vscode/settings.json` `yaml.schemas` (YAML); docs/editors.md.
+    #[arg(long = "json-schemas", value_name = "DIR")]
+    pub json_schemas: Option<String>,
     /// Command git runs as the textconv driver [default: `driveset textconv`
     /// when `driveset` is on PATH, else this binary's absolute path].
     #[arg(long, value_name = "CMD")]
@@ -200,6 +207,18 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                     );
                 }
             }
+            if let Some(dir) = &args.json_schemas {
+                let said = crate::editor::associate::associate(&top, &args.sets, dir)
+                    .map_err(crate::fail::Fail::input)?;
+                for line in said {
+                    outln!("{line}");
+                }
+            }
+        }
+        None if args.json_schemas.is_some() => {
+            return Err(crate::fail::Fail::input(
+                "--json-schemas needs a git work tree (the associations are written at its top)",
+            ));
         }
         None => outln!(
             "not in a git work tree: add `{}` to each repository's .gitattributes",

@@ -12,6 +12,8 @@ pub mod encode;
 pub mod fingerprint;
 pub mod git_setup;
 pub mod identify;
+pub mod json_schema;
+pub mod lsp;
 pub mod pull;
 pub mod recover;
 pub mod scan;

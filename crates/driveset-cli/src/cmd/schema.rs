@@ -32,6 +32,8 @@ Examples:
     Pull(super::schema_pull::Args),
     /// Build a Lenze ECS schema file from a CiA 306 EDS / DCF data sheet.
     Import(super::schema_import::Args),
+    /// Write the JSON Schema of a schema's set files, for the editors' TOML and YAML servers.
+    JsonSchema(super::json_schema::Args),
 }
 
 /// Arguments of `driveset schema check`.
@@ -54,6 +56,7 @@ pub fn run(cmd: SchemaCommand) -> Result<u8, crate::fail::Fail> {
         SchemaCommand::Check(a) => check(a),
         SchemaCommand::Pull(a) => super::schema_pull::run(a),
         SchemaCommand::Import(a) => super::schema_import::run(a),
+        SchemaCommand::JsonSchema(a) => super::json_schema::run(a),
     }
 }
 

@@ -314,6 +314,27 @@ pub fn validate_manifest(
     Ok(out)
 }
 
+/// [`validate_manifest`] of a manifest given as text (an editor's unsaved
+/// buffer); `path` names it in findings and anchors its relative paths.
+pub fn validate_manifest_str(
+    path: &Path,
+    text: &str,
+    openers: &Openers,
+) -> Result<Vec<ManifestFinding>, InputError> {
+    let mut registry = Registry::builtin()?;
+    let source = driveset_schema::error::source_from_str(&path.display().to_string(), text)?;
+    let d = doc::parse(source, Syntax::from_path(path))?;
+    let mut r = Reader {
+        d: &d,
+        findings: Vec::new(),
+        openers,
+    };
+    let loaded = r.read(path, &mut registry);
+    let mut out = loaded.findings;
+    out.extend(loaded.learnable);
+    Ok(out)
+}
+
 /// Load and check a manifest and its sets; `openers` check the ports of
 /// the schemes `driveset-link` does not open itself (as for
 /// [`validate_manifest`]).

@@ -1,0 +1,142 @@
+//! Owns an open document's text as the language server holds it: edits
+//! applied incrementally (LSP `TextDocumentContentChangeEvent` ranges) and
+//! LSP positions (line, UTF-16 code unit) to byte offsets and back.
+
+use lsp_types::{Position, Range};
+
+/// The text of one open document and where its lines start.
+#[derive(Debug, Clone, Default)]
+pub struct Text {
+    text: String,
+    line_starts: Vec<usize>,
+}
+
+impl Text {
+    /// Wrap a full text.
+    pub fn new(text: String) -> Self {
+        let mut t = Text {
+            text,
+            line_starts: Vec::new(),
+        };
+        t.index();
+        t
+    }
+
+    fn index(&mut self) {
+        self.line_starts.clear();
+        self.line_starts.push(0);
+        for (i, b) in self.text.bytes().enumerate() {
+            if b == b'\n' {
+                self.line_starts.push(i + 1);
+            }
+        }
+    }
+
+    /// The text.
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    /// Replace `range` (or everything, for `None`) with `new`.
+    pub fn apply(&mut self, range: Option<Range>, new: &str) {
+        match range {
+            None => self.text = new.to_string(),
+            Some(r) => {
+                let start = self.offset(r.start);
+                let end = self.offset(r.end).max(start);
+                self.text.replace_range(start..end, new);
+            }
+        }
+        self.index();
+    }
+
+    /// The byte offset of an LSP position (clamped to the line and the text).
+    pub fn offset(&self, p: Position) -> usize {
+        let Some(&start) = self.line_starts.get(p.line as usize) else {
+            return self.text.len();
+        };
+        let end = self
+            .line_starts
+            .get(p.line as usize + 1)
+            .map_or(self.text.len(), |e| e - 1);
+        let line = &self.text[start..end];
+        let mut units = 0u32;
+        for (i, c) in line.char_indices() {
+            if units >= p.character {
+                return start + i;
+            }
+            units += c.len_utf16() as u32;
+        }
+        end
+    }
+
+    /// The LSP position of a byte offset.
+    pub fn position(&self, offset: usize) -> Position {
+        let offset = offset.min(self.text.len());
+        let line = match self.line_starts.binary_search(&offset) {
+            Ok(i) => i,
+            Err(i) => i.saturating_sub(1),
+        };
+        let start = self.line_starts.get(line).copied().unwrap_or(0);
+        let mut o = offset;
+        while !self.text.is_char_boundary(o) {
+            o -= 1;
+        }
+        let character: usize = self.text[start..o].chars().map(char::len_utf16).sum();
+        Position::new(line as u32, character as u32)
+    }
+
+    /// The LSP range of a byte span.
+    pub fn range(&self, span: std::ops::Range<usize>) -> Range {
+        Range::new(self.position(span.start), self.position(span.end))
+    }
+
+    /// The byte span of the whole line holding `offset`, its newline included.
+    pub fn line_span(&self, offset: usize) -> std::ops::Range<usize> {
+        let line = self.position(offset).line as usize;
+        let start = self.line_starts.get(line).copied().unwrap_or(0);
+        let end = self
+            .line_starts
+            .get(line + 1)
+            .copied()
+            .unwrap_or(self.text.len());
+        start..end
+    }
+
+    /// The text of line `line` (0-based) without its newline.
+    pub fn line(&self, line: usize) -> &str {
+        let Some(&start) = self.line_starts.get(line) else {
+            return "";
+        };
+        let end = self
+            .line_starts
+            .get(line + 1)
+            .map_or(self.text.len(), |e| e - 1);
+        &self.text[start..end]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn incremental_edits_in_utf16_units() {
+        let mut t = Text::new("a = \"ä😀x\"\nb = 1\n".into());
+        // the 😀 is two UTF-16 units: x is at character 7
+        assert_eq!(t.offset(Position::new(0, 7)), "a = \"ä😀".len());
+        t.apply(
+            Some(Range::new(Position::new(1, 4), Position::new(1, 5))),
+            "22",
+        );
+        assert_eq!(t.as_str(), "a = \"ä😀x\"\nb = 22\n");
+        assert_eq!(t.position(t.as_str().len()), Position::new(2, 0));
+        assert_eq!(t.line(1), "b = 22");
+        t.apply(
+            Some(Range::new(Position::new(0, 0), Position::new(1, 0))),
+            "",
+        );
+        assert_eq!(t.as_str(), "b = 22\n");
+        assert_eq!(t.line_span(2), 0..7);
+    }
+}
