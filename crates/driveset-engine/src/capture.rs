@@ -1,0 +1,129 @@
+//! Capturing a drive for a twin (docs/twins.md): read-only, through the
+//! clients' read, identify and description calls only. Owns [`capture`]
+//! (identity, every code of the schema the drive answers, the codes it
+//! refuses to read, the running state, the line rate and the reaction
+//! times it showed) and [`mc_descriptions`] (the layout and type characters
+//! an MC6000/7000 sends its parameter descriptions in, LUSTBUS 11.2,
+//! errata L22 / L23). The simulator's `twin` module owns the file.
+//!
+//! What is never read: password codes (listed in [`Capture::secrets`], no
+//! value kept) and codes whose reading clears them (85-SIOF/SERR, listed
+//! in [`Capture::unread`]): reading would unlatch the drive's error state.
+//! Unlike `pull`, commands and control words are read too (reading them
+//! changes nothing; the twin must answer them as the drive did).
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use driveset_link::ByteLink;
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+use driveset_schema::{CodeKey, Family, RawValue};
+
+use crate::client::{DriveClient, Identity, LustbusClient};
+use crate::error::{EngineError, ErrorKind};
+use crate::learn::{LearnOptions, interpret, read_descriptions};
+
+/// What a capture read from one drive.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Capture {
+    /// Who answered.
+    pub identity: Identity,
+    /// Every code it answered, raw.
+    pub values: BTreeMap<CodeKey, RawValue>,
+    /// Codes it refused to read (or did not answer for), with the cause.
+    pub refused: BTreeMap<CodeKey, String>,
+    /// Password codes: not read.
+    pub secrets: Vec<CodeKey>,
+    /// Codes not read on purpose (reading clears them) or without a type
+    /// in the schema.
+    pub unread: Vec<CodeKey>,
+    /// Whether the motor ran (`None`: the drive does not say).
+    pub running: Option<bool>,
+    /// The line rate (baud) the client talked at, when it knows it.
+    pub rate: Option<u32>,
+    /// The shortest and longest reaction time seen: per read, the time to
+    /// the answer less the telegrams' wire time ([`DriveClient::read_time`]
+    /// less the family's planning minimum).
+    pub reaction: Option<(Duration, Duration)>,
+}
+
+/// Read every code of the client's schema, read-only (module docs).
+pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
+    let schema = client.schema().clone();
+    let identity = client.identify()?;
+    let min_reaction = schema.family.descriptor().reaction.min;
+    let mut out = Capture {
+        identity,
+        values: BTreeMap::new(),
+        refused: BTreeMap::new(),
+        secrets: Vec::new(),
+        unread: Vec::new(),
+        running: None,
+        rate: client.line_rate(),
+        reaction: None,
+    };
+    for code in &schema.codes {
+        let keys: Vec<CodeKey> = match code.subcodes {
+            Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
+            _ => vec![CodeKey::new(code.number)],
+        };
+        for key in keys {
+            if schema.is_password(code) {
+                out.secrets.push(key);
+                continue;
+            }
+            if code.read_clears == Some(true) || schema.type_of(code).is_none() {
+                out.unread.push(key);
+                continue;
+            }
+            let before = client.clock().now();
+            match client.read(key) {
+                Ok(v) => {
+                    let took = client.clock().now() - before;
+                    let wire = client.read_time(key).saturating_sub(min_reaction);
+                    let reaction = took.saturating_sub(wire);
+                    out.reaction = Some(match out.reaction {
+                        Some((lo, hi)) => (lo.min(reaction), hi.max(reaction)),
+                        None => (reaction, reaction),
+                    });
+                    out.values.insert(key, v);
+                }
+                Err(e) => match &*e.kind {
+                    ErrorKind::Device { cause, .. } => {
+                        out.refused
+                            .insert(key, format!("{} ({})", cause.cause(), cause.raw()));
+                    }
+                    ErrorKind::Protocol { detail, .. } => {
+                        out.refused
+                            .insert(key, format!("answer does not fit the type: {detail}"));
+                    }
+                    ErrorKind::NoAnswer { tries, .. } => {
+                        out.refused
+                            .insert(key, format!("no answer ({tries} tries)"));
+                    }
+                    _ => return Err(e),
+                },
+            }
+        }
+    }
+    out.running = client.running()?;
+    client.finish()?;
+    Ok(out)
+}
+
+/// The layout and type characters an MC6000/7000 sends its parameter
+/// descriptions in (LUSTBUS 11.2, errata L22 / L23), read from the
+/// descriptions of `params` (enquiries only) and told apart as `schema
+/// pull` does ([`crate::learn::interpret`]). `(None, None)` when the drive
+/// sent none.
+pub fn mc_descriptions<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    params: &[u32],
+) -> Result<(Option<McLayout>, Option<McTypeChars>), EngineError> {
+    let (raws, _absent) = read_descriptions(client, Family::Mc6000, params)?;
+    if raws.is_empty() {
+        return Ok((None, None));
+    }
+    let learned = interpret(Family::Mc6000, &raws, &LearnOptions::default());
+    Ok((learned.layouts.iter().next().copied(), learned.type_chars))
+}
