@@ -27,6 +27,7 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod twin;
 mod upload;
 mod util;
 mod validate;

@@ -162,7 +162,10 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         {
             Ok(line) => outln!("{}: {line}", d.name),
             Err(f) => {
-                eprintln!("error: {} ({} address {}): {}", d.name, bus.name, d.address, f.msg);
+                eprintln!(
+                    "error: {} ({} address {}): {}",
+                    d.name, bus.name, d.address, f.msg
+                );
                 worst = worst.max(f.code);
             }
         }
@@ -295,7 +298,10 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
 
 /// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
 /// (`None`: not rehearsed).
-pub fn rehearsal_twins(manifest: &Manifest, dir: &Path) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
+pub fn rehearsal_twins(
+    manifest: &Manifest,
+    dir: &Path,
+) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
     let mut out = BTreeMap::new();
     for d in &manifest.drives {
         let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
@@ -340,9 +346,14 @@ pub fn rehearsal_opener(
             .cloned()
             .ok_or_else(|| format!("no twin for any drive of bus {}", bus.name))?;
         let config = SimConfig::of_twins(twins).map_err(|e| e.to_string())?;
-        open_sim_with(&config, &VirtualClock::new(), &bus.port_name, EventLog::off())
-            .map(|l| l.link())
-            .map_err(|e| e.to_string())
+        open_sim_with(
+            &config,
+            &VirtualClock::new(),
+            &bus.port_name,
+            EventLog::off(),
+        )
+        .map(|l| l.link())
+        .map_err(|e| e.to_string())
     }
 }
 
