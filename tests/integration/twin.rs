@@ -366,3 +366,362 @@ fn mc6000_twins_describe_their_parameters_in_the_captured_layout() {
         });
     }
 }
+
+fn report_at(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("report.json")).expect("report.json written");
+    serde_json::from_str(&text).expect("report.json parses")
+}
+
+/// Per drive: name, result, codes written, fingerprint after, error.
+fn outcomes(r: &serde_json::Value) -> Vec<(String, String, u64, String, String)> {
+    r["drives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            (
+                d["name"].as_str().unwrap().to_string(),
+                d["result"].as_str().unwrap().to_string(),
+                d["codes_written"].as_u64().unwrap(),
+                d["fingerprint_after"].as_str().unwrap_or("-").to_string(),
+                mask(d["error"].as_str().unwrap_or("")),
+            )
+        })
+        .collect()
+}
+
+/// Capture every drive of `manifest` into `dir/twins`, rehearse the line
+/// from them, then commission the (simulated) plant itself: the same
+/// per-drive results, codes written, fingerprints, errors and exit code.
+fn rehearse_then_commission(dir: &Path, manifest: &str, exit: i32) -> serde_json::Value {
+    let side = Side {
+        dir: dir.to_path_buf(),
+        port: String::new(),
+    };
+    std::fs::create_dir_all(dir.join("sim")).unwrap();
+    let out = side
+        .cmd()
+        .args(["twin", "capture-line", manifest, "-o", "twins"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rehearsal = side
+        .cmd()
+        .args([
+            "commission",
+            manifest,
+            "--rehearse",
+            "twins",
+            "--report-dir",
+            "rehearsal",
+        ])
+        .output()
+        .unwrap();
+    let plant = side
+        .cmd()
+        .args(["commission", manifest, "--report-dir", "plant", "--fresh"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&rehearsal.stdout).to_string();
+    assert_eq!(rehearsal.status.code(), Some(exit), "{stdout}");
+    assert_eq!(
+        plant.status.code(),
+        Some(exit),
+        "{}",
+        String::from_utf8_lossy(&plant.stdout)
+    );
+    let r = report_at(&dir.join("rehearsal"));
+    let p = report_at(&dir.join("plant"));
+    assert_eq!(outcomes(&r), outcomes(&p));
+    assert_eq!(r["command"], "rehearse");
+    assert_eq!(p["command"], "commission");
+    let date = std::fs::read_to_string(dir.join("twins/transfer-11.twin.toml"))
+        .unwrap()
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("captured = \"")
+                .map(|d| d.trim_end_matches('"').to_string())
+        })
+        .unwrap();
+    let label = r["label"].as_str().unwrap();
+    assert!(
+        label.starts_with(&format!(
+            "REHEARSAL against the twins in twins (captured {date}: conveyor-5, conveyor-6,"
+        )),
+        "{label}"
+    );
+    assert!(stdout.contains(label), "{stdout}");
+    let html = std::fs::read_to_string(dir.join("rehearsal/report.html")).unwrap();
+    assert!(
+        html.contains(": rehearsal report (against twins) of demo-line</title>"),
+        "{html}"
+    );
+    r
+}
+
+#[test]
+fn the_demo_line_rehearsed_from_its_twins_ends_as_its_commissioning() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = workspace_root().join("parameter-sets/demo-line/line.toml");
+    rehearse_then_commission(dir.path(), demo.to_str().unwrap(), 0);
+    let junit = std::fs::read_to_string(dir.path().join("rehearsal/report.junit.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&junit).unwrap();
+    let root = doc.root_element();
+    assert_eq!(root.attribute("tests"), Some("13"));
+    assert_eq!(root.attribute("failures"), Some("0"));
+    let cases: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("testcase"))
+        .collect();
+    assert_eq!(cases.len(), 13);
+    assert_eq!(cases[0].attribute("name"), Some("press-axis-1"));
+    assert_eq!(cases[0].attribute("classname"), Some("lustbus"));
+
+    // a drive without a twin is not rehearsed; the others are
+    std::fs::remove_file(dir.path().join("twins/conveyor-5.twin.toml")).unwrap();
+    let out = driveset()
+        .current_dir(dir.path())
+        .args([
+            "commission",
+            demo.to_str().unwrap(),
+            "--rehearse",
+            "twins",
+            "--report-dir",
+            "again",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.starts_with("conveyor-5: not rehearsed: no twin twins/conveyor-5.twin.toml\n"),
+        "{stderr}"
+    );
+    let r = report_at(&dir.path().join("again"));
+    assert!(
+        r["label"]
+            .as_str()
+            .unwrap()
+            .ends_with("; not rehearsed (no twin): conveyor-5")
+    );
+    let results: Vec<_> = outcomes(&r).into_iter().map(|o| (o.0, o.1)).collect();
+    assert_eq!(
+        results[4],
+        ("conveyor-5".to_string(), "not-selected".to_string())
+    );
+    assert_eq!(results.iter().filter(|r| r.1 == "verified").count(), 12);
+    let junit = std::fs::read_to_string(dir.path().join("again/report.junit.xml")).unwrap();
+    assert!(junit.contains(
+        "<testcase classname=\"lustbus\" name=\"conveyor-5\" file=\"sets/conveyor-5.toml\">\n      <skipped message=\"not rehearsed: no twin\"/>"
+    ), "{junit}");
+}
+
+#[test]
+fn a_line_whose_tmds_were_left_at_c0001_0_fails_the_rehearsal_as_it_fails_on_site() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(
+        &workspace_root().join("parameter-sets"),
+        &dir.path().join("ps"),
+    );
+    let manifest = dir.path().join("ps/demo-line/line.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    assert!(text.contains("port = \"sim://tmd?c0001=3\""));
+    // the keypad left C0001 at its factory 0: LECOM may only read (§4e)
+    std::fs::write(&manifest, text.replace("sim://tmd?c0001=3", "sim://tmd")).unwrap();
+    let r = rehearse_then_commission(dir.path(), manifest.to_str().unwrap(), 1);
+    for d in r["drives"].as_array().unwrap() {
+        let want = if d["bus"] == "transfer" {
+            "rolled-back"
+        } else {
+            "verified"
+        };
+        assert_eq!(d["result"], want, "{d}");
+    }
+    let junit = std::fs::read_to_string(dir.path().join("rehearsal/report.junit.xml")).unwrap();
+    assert!(junit.contains("failures=\"3\""), "{junit}");
+    assert!(
+        junit.contains("set C0001 to 2 or 3 at the keypad"),
+        "{junit}"
+    );
+}
+
+/// Host telegrams that carry a value (LUSTBUS SELECT, LECOM SEND: STX
+/// after the address), as the simulator's event log shows them.
+fn writes_in(log: &Path) -> Vec<String> {
+    std::fs::read_to_string(log)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|l| l["dir"] == "host")
+        .filter_map(|l| l["hex"].as_str().map(String::from))
+        .filter(|hex| hex.split(' ').any(|b| b == "02"))
+        .collect()
+}
+
+/// A `driveset sim` serving on TCP; killed when dropped.
+struct Served(std::process::Child, String);
+
+impl Served {
+    fn start(args: &[&str]) -> Served {
+        use std::io::BufRead;
+        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+            .arg("sim")
+            .args(args)
+            .args(["--tcp", "127.0.0.1:0"])
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let addr = line
+            .trim()
+            .strip_prefix("tcp ")
+            .unwrap_or_else(|| panic!("{line}"));
+        Served(child, format!("tcp://{addr}"))
+    }
+
+    fn stop(mut self) {
+        let _ = std::process::Command::new("kill")
+            .args(["-TERM", &self.0.id().to_string()])
+            .status();
+        let _ = self.0.wait();
+    }
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn a_capture_over_tcp_sends_no_write_and_the_twin_serves_in_real_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = d.join("bus.jsonl");
+    let sim = Served::start(&[
+        "--family",
+        "tmd",
+        "--address",
+        "4",
+        "--c0001",
+        "3",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    let port = sim.1.clone();
+    let twin = d.join("t.twin.toml");
+    driveset()
+        .args([
+            "twin",
+            "capture",
+            "--port",
+            &port,
+            "--address",
+            "4",
+            "--schema",
+            "lenze-tmd",
+            "-o",
+        ])
+        .arg(&twin)
+        .assert()
+        .code(0);
+    sim.stop();
+    let host = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        host.lines()
+            .filter(|l| l.contains("\"dir\":\"host\""))
+            .count()
+            > 80,
+        "{host}"
+    );
+    assert_eq!(writes_in(&log), Vec::<String>::new());
+    let text = std::fs::read_to_string(&twin).unwrap();
+    assert!(text.contains("\nc0001 = 3\n"), "{text}");
+    assert!(
+        text.contains("\nfamily = \"tmd\"\naddress = 4\nschema = \"lenze-tmd\"\n"),
+        "{text}"
+    );
+
+    // the twin served in real time answers a pull as the twin in process
+    let served = Served::start(&["--twin", twin.to_str().unwrap()]);
+    let pull = |port: &str, out: &str| {
+        driveset()
+            .current_dir(d)
+            .args([
+                "pull",
+                "--port",
+                port,
+                "--address",
+                "4",
+                "--schema",
+                "lenze-tmd",
+                "-o",
+                out,
+            ])
+            .assert()
+            .code(0);
+        // the values (the header names the port)
+        let t = std::fs::read_to_string(d.join(out)).unwrap();
+        t.split_once("\n[values]\n").unwrap().1.to_string()
+    };
+    let real_time = pull(&served.1, "rt.toml");
+    served.stop();
+    let in_process = pull(&format!("sim://twin?file={}", twin.display()), "ip.toml");
+    assert_eq!(real_time, in_process);
+    assert!(real_time.contains("C0011 = \"50 Hz\""), "{real_time}");
+}
+
+#[test]
+fn bad_twin_ports_and_files_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("bad.twin.toml"),
+        "format = \"driveset-twin 1\"\nfamily = \"tmd\"\naddress = 20\n",
+    )
+    .unwrap();
+    driveset()
+        .current_dir(d)
+        .args(["identify", "--port", "sim://twin?file=bad.twin.toml", "--address", "20"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "bad.twin.toml: address: tmd: address 20 is not allowed: LECOM station addresses are 1..=99 except the group addresses 10, 20, ... 90 (§4c)",
+        ));
+    driveset()
+        .current_dir(d)
+        .args(["identify", "--port", "sim://twin", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "exactly one of file= (a twin) or dir= (a directory of twins)",
+        ));
+    driveset()
+        .current_dir(d)
+        .args(["identify", "--port", "sim://twin?dir=.", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "bad.twin.toml: address: tmd: address 20 is not allowed",
+        ));
+    std::fs::remove_file(d.join("bad.twin.toml")).unwrap();
+    driveset()
+        .current_dir(d)
+        .args(["identify", "--port", "sim://twin?dir=.", "--address", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            ".: no *.twin.toml file in the directory; capture one with `driveset twin capture`",
+        ));
+}
