@@ -4,6 +4,7 @@
 
 mod audit;
 mod bus_cmds;
+mod ci;
 mod decode;
 mod diff;
 mod doctor;

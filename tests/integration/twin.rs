@@ -725,3 +725,45 @@ fn bad_twin_ports_and_files_say_what_is_wrong() {
             ".: no *.twin.toml file in the directory; capture one with `driveset twin capture`",
         ));
 }
+
+/// The twins `examples/ci/` rehearses against are the demo line's drives
+/// as captured: a recapture of the (factory) demo line keeps every file
+/// byte-identical, whatever day it runs.
+#[test]
+fn the_committed_demo_line_twins_are_what_a_recapture_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let twins = dir.path().join("twins");
+    copy_dir(&workspace_root().join("examples/ci/twins"), &twins);
+    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let demo = workspace_root().join("parameter-sets/demo-line/line.toml");
+    let out = driveset()
+        .current_dir(dir.path())
+        .env("DRIVESET_SIM_STATE_DIR", dir.path().join("sim"))
+        .args([
+            "twin",
+            "capture-line",
+            demo.to_str().unwrap(),
+            "-o",
+            "twins",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        stdout
+            .matches(", unchanged since the last capture (file kept); ")
+            .count(),
+        13,
+        "{stdout}"
+    );
+    for e in std::fs::read_dir(workspace_root().join("examples/ci/twins")).unwrap() {
+        let e = e.unwrap();
+        assert_eq!(
+            std::fs::read(e.path()).unwrap(),
+            std::fs::read(twins.join(e.file_name())).unwrap(),
+            "{}",
+            e.path().display()
+        );
+    }
+}
