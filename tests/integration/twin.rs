@@ -767,3 +767,118 @@ fn the_committed_demo_line_twins_are_what_a_recapture_gives() {
         );
     }
 }
+
+/// The bytes of a served session in the order they crossed the line,
+/// from the simulator's event log (what a line sniffer would record).
+fn session_bytes(log: &Path) -> Vec<u8> {
+    let mut out = Vec::new();
+    for l in std::fs::read_to_string(log).unwrap().lines() {
+        let v: serde_json::Value = serde_json::from_str(l).unwrap();
+        if v["dir"] == "host" || v["dir"] == "drive" {
+            for b in v["hex"]
+                .as_str()
+                .unwrap()
+                .split(' ')
+                .filter(|b| !b.is_empty())
+            {
+                out.push(u8::from_str_radix(b, 16).unwrap());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_dir(
+        &workspace_root().join("parameter-sets"),
+        &d.join("parameter-sets"),
+    );
+    let log = d.join("bus.jsonl");
+    let sim = Served::start(&[
+        "--family",
+        "tmd",
+        "--address",
+        "4",
+        "--c0001",
+        "3",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    // the "vendor tool": an upload over the line
+    let set = "parameter-sets/tmd/conveyor-3.toml";
+    driveset()
+        .current_dir(d)
+        .args(["upload", set, "--port", &sim.1, "--address", "4"])
+        .assert()
+        .code(0);
+    sim.stop();
+    std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
+    let out = driveset()
+        .current_dir(d)
+        .args([
+            "twin",
+            "from-capture",
+            "--protocol",
+            "lecom",
+            "session.bin",
+            "-o",
+            "twins",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.starts_with("tmd lenze-tmd at address 4: "),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
+    assert!(
+        text.contains("\nsource = \"capture session.bin\"\n"),
+        "{text}"
+    );
+    // written by the session's SENDs (C0011 = 60 Hz, C0012 = 8 s)
+    assert!(
+        text.contains("\n\"11\" = 600000  # C0011 maximum_output_frequency = 60 Hz\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n\"12\" = 80000  # C0012 acceleration_time_1 = 8 s\n"),
+        "{text}"
+    );
+    let t: toml::Table = toml::from_str(&text).unwrap();
+    let unknown = t["codes"]["unknown"].as_array().unwrap();
+    // the codes the upload neither read nor wrote
+    assert!(unknown.iter().any(|u| u.as_str() == Some("37")), "{text}");
+    assert!(!unknown.iter().any(|u| u.as_str() == Some("11")), "{text}");
+    let (secrets, values) = secrets_and_values(&text);
+    assert_eq!(secrets, ["94"]);
+    assert!(!values.contains(&"94".to_string()));
+    // the twin holds the set the session downloaded
+    driveset()
+        .current_dir(d)
+        .args([
+            "diff",
+            set,
+            "--port",
+            "sim://twin?file=twins/twin-4.twin.toml",
+            "--address",
+            "4",
+        ])
+        .assert()
+        .code(0);
+    driveset()
+        .current_dir(d)
+        .args(["twin", "from-capture", "--protocol", "lustbus", "session.bin", "-o", "twins"])
+        .assert()
+        .code(2)
+        .stderr("error: twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`\n");
+}

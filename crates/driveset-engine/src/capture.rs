@@ -127,3 +127,69 @@ pub fn mc_descriptions<L: ByteLink>(
     let learned = interpret(Family::Mc6000, &raws, &LearnOptions::default());
     Ok((learned.layouts.iter().next().copied(), learned.type_chars))
 }
+
+/// What a recorded LECOM session (`driveset decode`'s events) showed of
+/// one drive: the values it answered to RECEIVE, the values written to it
+/// by a SEND it acknowledged, and the codes it said it does not have.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Session {
+    /// Values seen, raw (the last one seen wins).
+    pub values: BTreeMap<CodeKey, RawValue>,
+    /// Codes answered with "no such code".
+    pub refused: BTreeMap<CodeKey, String>,
+}
+
+/// Per station address, what a decoded LECOM session showed
+/// ([`Session`]); events with an error (bad BCC, garbage) are passed over,
+/// as is a value the schema's type cannot hold.
+pub fn lecom_session(
+    events: &[crate::decode::Event],
+    schema: &driveset_schema::Schema,
+) -> BTreeMap<u8, Session> {
+    let key_of = |code: &str| -> Option<CodeKey> {
+        let c = code.strip_prefix('C')?;
+        match c.split_once('/') {
+            Some((n, s)) => Some(CodeKey::sub(n.parse().ok()?, s.parse().ok()?)),
+            None => Some(CodeKey::new(c.parse().ok()?)),
+        }
+    };
+    let raw = |key: CodeKey, text: &str| -> Option<RawValue> {
+        let value = driveset_proto::lecom::Value::parse(text.as_bytes()).ok()?;
+        let ty = schema.code(key.number).and_then(|c| schema.type_of(c));
+        crate::client::lecom::raw_of(ty, &value)
+    };
+    let mut out: BTreeMap<u8, Session> = BTreeMap::new();
+    let mut sent: Option<(u8, CodeKey, Option<RawValue>)> = None;
+    for e in events {
+        if e.error.is_some() {
+            sent = None;
+            continue;
+        }
+        let address = e.address.as_deref().and_then(|a| a.parse::<u8>().ok());
+        let key = e.code.as_deref().and_then(key_of);
+        match (e.kind, address, key) {
+            ("RECEIVE", Some(a), Some(k)) => sent = Some((a, k, None)),
+            ("SEND", Some(a), Some(k)) => {
+                sent = Some((a, k, e.raw_value.as_deref().and_then(|v| raw(k, v))));
+            }
+            ("VALUE", Some(a), Some(k)) => {
+                if let Some(v) = e.raw_value.as_deref().and_then(|v| raw(k, v)) {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+                sent = None;
+            }
+            ("ACK", _, _) => {
+                if let Some((a, k, Some(v))) = sent.take() {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+            }
+            ("NO CODE", Some(a), Some(k)) => {
+                let why = e.meaning.clone().unwrap_or_else(|| "no such code".into());
+                out.entry(a).or_default().refused.insert(k, why);
+                sent = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}

@@ -104,19 +104,24 @@ pub struct CaptureLineArgs {
 /// `driveset twin from-capture`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads a recorded bus session (the bytes `driveset decode` reads: what a vendor
-tool sent and the drive answered) and writes one twin per drive address seen:
-every value the drive answered to a read, and every value written to it and
-acknowledged. Codes of the schema the session did not show are listed as
-unknown in the twin ([codes] unknown); the twin's model answers them with its
-factory value.
+Reads a recorded bus session (the raw bytes `driveset decode --protocol lecom`
+reads: what a vendor tool sent and the drives answered) and writes one twin
+per station address seen, DIR/twin-<address>.twin.toml (rename it to
+<drive name>.twin.toml for a rehearsal): every value a drive answered to a
+RECEIVE, every value a SEND wrote and the drive acknowledged (the last one
+seen wins), and the codes it said it does not have. Codes of the schema the
+session did not show are listed as unknown ([codes] unknown); the served
+twin answers them with its model's factory value. LECOM sessions only (Tmd);
+LUSTBUS and slcan sessions are refused.
+
+Exit codes: 0 written; 2 usage, input, or a session that shows no drive.
 
 Example:
   driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/")]
 pub struct FromCaptureArgs {
-    /// The protocol of the session (lustbus, lecom).
+    /// The protocol of the session (lecom).
     #[arg(long, value_name = "P")]
-    pub protocol: crate::args::BusArg,
+    pub protocol: super::decode::DecodeProtocol,
     /// Schema id or file (default: the protocol's built-in schema).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
@@ -237,25 +242,28 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
     twin.refused = cap.refused.clone();
     twin.secrets = cap.secrets.clone();
     twin.unknown = cap.unread.clone();
-    let int = |n: u32| match cap.values.get(&CodeKey::new(n)) {
-        Some(RawValue::Int(v)) => Some(*v),
-        _ => None,
-    };
     match schema.family {
-        // C0001 in engineering units (raw x10000, LECOM VD)
-        Family::Tmd => {
-            twin.c0001 = int(1)
-                .zip(schema.code(1).and_then(|c| schema.type_of(c)))
-                .and_then(|(raw, ty)| {
-                    driveset_schema::value::raw_to_engineering(ty, raw)
-                        .parse()
-                        .ok()
-                });
+        Family::Tmd => twin.c0001 = c0001_of(&cap.values, schema),
+        Family::Mc6000 => {
+            twin.sload = match cap.values.get(&CodeKey::new(80)) {
+                Some(RawValue::Int(v)) => Some(*v),
+                _ => None,
+            }
         }
-        Family::Mc6000 => twin.sload = int(80),
         _ => {}
     }
     twin
+}
+
+/// Tmd: C0001 of `values` in engineering units (raw x10000, LECOM VD).
+fn c0001_of(values: &BTreeMap<CodeKey, RawValue>, schema: &Schema) -> Option<u8> {
+    let Some(RawValue::Int(raw)) = values.get(&CodeKey::new(1)) else {
+        return None;
+    };
+    let ty = schema.code(1).and_then(|c| schema.type_of(c))?;
+    driveset_schema::value::raw_to_engineering(ty, *raw)
+        .parse()
+        .ok()
 }
 
 fn today() -> String {
@@ -292,8 +300,71 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 }
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
-    let _ = a;
-    Err(Fail::input("twin from-capture is not available yet"))
+    use super::decode::DecodeProtocol;
+    if a.protocol != DecodeProtocol::Lecom {
+        return Err(Fail::input(
+            "twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`",
+        ));
+    }
+    let bytes = std::fs::read(&a.file)
+        .map_err(|e| Fail::input(format!("{}: cannot read: {e}", a.file.display())))?;
+    let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
+    let schema =
+        super::decode::load_schema(&mut registry, a.schema.as_deref().unwrap_or("lenze-tmd"))
+            .map_err(Fail::from)?;
+    if schema.family != Family::Tmd {
+        return Err(Fail::input(format!(
+            "--schema {}: a LECOM session needs a Tmd schema (lenze-tmd)",
+            schema.id
+        )));
+    }
+    let ctx = driveset_engine::decode::Context {
+        registry,
+        schema: Some(schema.clone()),
+        family: None,
+    };
+    let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
+    let sessions = driveset_engine::capture::lecom_session(&events, &schema);
+    if sessions.is_empty() {
+        return Err(Fail::input(format!(
+            "{}: the session shows no drive answering (no VALUE, no acknowledged SEND); is it a LECOM capture?",
+            a.file.display()
+        )));
+    }
+    std::fs::create_dir_all(&a.output)
+        .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
+    for (address, session) in sessions {
+        let mut twin = Twin::new(schema.family, address, &schema.id);
+        twin.driveset = env!("CARGO_PKG_VERSION").to_string();
+        twin.captured = today();
+        twin.source = format!("capture {}", a.file.display());
+        for code in &schema.codes {
+            let keys: Vec<CodeKey> = match code.subcodes {
+                Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
+                _ => vec![CodeKey::new(code.number)],
+            };
+            for key in keys {
+                if schema.is_password(code) {
+                    twin.secrets.push(key);
+                } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
+                {
+                    twin.unknown.push(key);
+                }
+            }
+        }
+        // a password a vendor tool wrote is not kept either
+        twin.values = session
+            .values
+            .into_iter()
+            .filter(|(k, _)| !twin.secrets.contains(k))
+            .collect();
+        twin.refused = session.refused;
+        twin.c0001 = c0001_of(&twin.values, &schema);
+        let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
+        let line = write_twin(&out, &twin, &schema)?;
+        outln!("{line}; {} code(s) unknown", twin.unknown.len());
+    }
+    Ok(EXIT_OK)
 }
 
 /// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
