@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use driveset_schema::doc::{Node, NodeKind, Syntax, parse};
 use driveset_schema::error::SourceFile;
 
-use crate::util::workspace_root;
+use crate::util::{copy_dir, workspace_root};
 
 fn yaml(path: &Path) -> Node {
     let text = std::fs::read_to_string(path).unwrap();
@@ -27,19 +27,6 @@ fn strings(n: &Node) -> Vec<String> {
         NodeKind::Str(s) => s.lines().map(String::from).collect(),
         NodeKind::Array(items) => items.iter().flat_map(strings).collect(),
         _ => Vec::new(),
-    }
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), &target).unwrap();
-        }
     }
 }
 

@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::util::{driveset, workspace_root};
+use crate::util::{copy_dir, driveset, workspace_root};
 
 /// One side of a comparison: a directory with its own copy of the sets,
 /// its own simulator state and journals.
@@ -62,19 +62,6 @@ impl Side {
             mask(&String::from_utf8_lossy(&out.stdout)),
             mask(&String::from_utf8_lossy(&out.stderr)),
         )
-    }
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), &target).unwrap();
-        }
     }
 }
 

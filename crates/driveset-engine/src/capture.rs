@@ -63,11 +63,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
         reaction: None,
     };
     for code in &schema.codes {
-        let keys: Vec<CodeKey> = match code.subcodes {
-            Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
-            _ => vec![CodeKey::new(code.number)],
-        };
-        for key in keys {
+        for key in code_keys(code) {
             if schema.is_password(code) {
                 out.secrets.push(key);
                 continue;
@@ -109,6 +105,15 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
     out.running = client.running()?;
     client.finish()?;
     Ok(out)
+}
+
+/// Every key of `code`: each subcode of a code that has subcodes, else the
+/// code itself.
+pub fn code_keys(code: &driveset_schema::Code) -> Vec<CodeKey> {
+    match code.subcodes {
+        Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
+        _ => vec![CodeKey::new(code.number)],
+    }
 }
 
 /// The layout and type characters an MC6000/7000 sends its parameter

@@ -339,11 +339,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         twin.captured = today();
         twin.source = format!("capture {}", a.file.display());
         for code in &schema.codes {
-            let keys: Vec<CodeKey> = match code.subcodes {
-                Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
-                _ => vec![CodeKey::new(code.number)],
-            };
-            for key in keys {
+            for key in driveset_engine::capture::code_keys(code) {
                 if schema.is_password(code) {
                     twin.secrets.push(key);
                 } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
