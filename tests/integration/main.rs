@@ -5,6 +5,7 @@
 mod audit;
 mod bus_cmds;
 mod bus_identity;
+mod ci;
 mod decode;
 mod diff;
 mod doctor;
@@ -32,6 +33,7 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod twin;
 mod upload;
 mod util;
 mod validate;

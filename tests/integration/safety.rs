@@ -49,7 +49,7 @@ fn tmp() -> tempfile::TempDir {
 
 /// Put `raw` into code `number` of the simulated drive at `address` in the
 /// state file `sim/sim-FAMILY.json` (written by an earlier run).
-fn poke_state(dir: &Path, family: &str, address: u8, number: u32, raw: i64) {
+pub(crate) fn poke_state(dir: &Path, family: &str, address: u8, number: u32, raw: i64) {
     use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
     use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
     let path = dir.join(format!("sim/sim-{family}.json"));
@@ -798,6 +798,7 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
             "\"notes\": [\n    \"{LEFT_STOPPED}\"\n  ]"
         )));
     assert_eq!(held(d, "mc6000", 1, 416), 0);
+}
 
 /// Issue 17: every output of the commands that see a set's password, with
 /// the password uploaded to a simulated Tmd: none shows its value.

@@ -2,7 +2,7 @@
 
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The workspace root (where `schemas/` and `parameter-sets/` live).
 pub fn workspace_root() -> PathBuf {
@@ -59,4 +59,18 @@ pub fn shows_value(text: &str, value: &str) -> bool {
     text.match_indices(value).any(|(i, _)| {
         !part(text[..i].chars().next_back()) && !part(text[i + value.len()..].chars().next())
     })
+}
+
+/// Copy the directory tree `from` to `to` (created).
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), &target).unwrap();
+        }
+    }
 }

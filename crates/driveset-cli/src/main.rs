@@ -98,6 +98,9 @@ enum Command {
     Recover(cmd::recover::Args),
     /// Commission a machine line: every drive of a line manifest to its set.
     Commission(cmd::commission::Args),
+    /// Twins: capture drives read-only into files that answer as they did.
+    #[command(subcommand)]
+    Twin(cmd::twin::TwinCommand),
     /// Read-only drift check of a machine line against its sets.
     Status(cmd::status::Args),
     /// Make `git diff` show semantic diffs of set files (.gitattributes + diff driver).
@@ -142,6 +145,7 @@ fn main() -> ExitCode {
         Command::Recover(a) => cmd::recover::run(a),
         Command::Commission(a) => cmd::commission::run(a),
         Command::Status(a) => cmd::status::run(a),
+        Command::Twin(c) => cmd::twin::run(c),
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),
         Command::Report(a) => report::run(a),

@@ -119,6 +119,12 @@ pub fn peek_sim_family(port: &str) -> Option<Family> {
 /// [`peek_sim_family`].
 pub fn peek_sim_family_at(port: &str, address: Option<u8>) -> Option<Family> {
     let s = SimSpec::parse(port).ok()?;
+    if s.is_twin() {
+        // a twin bus: the family of the twin at the address (else the first)
+        let twins = driveset_sim::port::twins_of(&s).ok()?;
+        let at = address.and_then(|a| twins.iter().find(|t| t.address == a));
+        return at.or(twins.first()).map(|t| t.family);
+    }
     let drives = s.drives();
     let name = address
         .and_then(|a| drives.iter().find(|d| d.1 == a))

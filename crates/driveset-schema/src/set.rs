@@ -544,7 +544,7 @@ pub fn code_of_key<'s>(
     doc: &Document,
     entry: &Entry,
 ) -> Option<(&'s Code, CodeKey)> {
-    resolve_key(schema, doc, entry, &mut Vec::new())
+    resolve_key(schema, doc, entry, &mut Vec::new()).1
 }
 
 fn resolve_key<'s>(
@@ -623,7 +623,7 @@ fn resolve_key<'s>(
                 // its own (`[[code]] index` + `subindex`, an imported ARRAY
                 // whose subindexes differ): that code
                 None if let Some(c) = subcode.and_then(|s| schema.lenze_subindex_code(n, s)) => {
-                    return Some((c, CodeKey::new(c.number)));
+                    return (Some(c), Some((c, CodeKey::new(c.number))));
                 }
                 None => {
                     out.push(Finding::new(

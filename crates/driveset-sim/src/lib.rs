@@ -14,6 +14,8 @@
 //!   `sim://` port into one.
 //! - Real time: [`serve`] (pty / TCP), [`slcan_serve`] (an slcan adapter on
 //!   a pty), [`slcan_hub`] (two slcan hosts joined through two adapters).
+//! - [`twin`]: twins, files that answer as one captured drive did, served
+//!   on the family models (`sim://twin?file=` / `?dir=`).
 //! - [`rng`]: the seeded generator every random choice comes from, so a run
 //!   is reproducible from its seed.
 //!
@@ -40,4 +42,5 @@ pub mod slcan_hub;
 pub mod slcan_serve;
 pub mod table;
 pub mod tmd;
+pub mod twin;
 pub mod vf1000;

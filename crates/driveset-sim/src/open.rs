@@ -204,6 +204,9 @@ pub enum SimOpenError {
         /// Why.
         reason: String,
     },
+    /// A twin file or directory that cannot be served ([`crate::twin`]).
+    #[error("{0}")]
+    Twin(String),
     /// The state file could not be read or written.
     #[error("simulator state file {}: cannot {op}: {source}", path.display())]
     StateIo {
@@ -310,6 +313,10 @@ pub struct SimConfig {
     /// LUSTBUS: parameters whose description says something other than
     /// the fixture (`describe=`, [`crate::describe`]).
     pub describe: BTreeMap<u32, crate::describe::DescribeAs>,
+    /// A twin bus (`sim://twin?file=F`, `?dir=DIR`, [`crate::twin`]): one
+    /// twin per drive, in the order of `addresses`; each drive is built with
+    /// its twin's state and holds its captured values. Empty otherwise.
+    pub twins: Vec<crate::twin::Twin>,
 }
 
 impl SimConfig {
@@ -330,7 +337,38 @@ impl SimConfig {
             type_chars: McTypeChars::Driveset,
             c0001: None,
             describe: BTreeMap::new(),
+            twins: Vec::new(),
         }
+    }
+
+    /// The bus of `twins` ([`crate::twin`]): their families and addresses,
+    /// the first twin's rate; not yet checked.
+    pub fn of_twins(twins: Vec<crate::twin::Twin>) -> Result<Self, SimOpenError> {
+        crate::twin::check_one_bus(&twins).map_err(|e| SimOpenError::Twin(e.to_string()))?;
+        let drives: Vec<(Family, u8)> = twins.iter().map(|t| (t.family, t.address)).collect();
+        let mixed = drives.iter().any(|d| d.0 != drives[0].0);
+        let mut config = if mixed {
+            SimConfig::mixed(&drives)
+        } else {
+            SimConfig::new(
+                drives.first().map_or(Family::Mc6000, |d| d.0),
+                drives.iter().map(|d| d.1).collect(),
+            )
+        };
+        if let Some(rate) = twins.first().and_then(|t| t.rate) {
+            if is_can(config.family) {
+                config.bitrate = rate;
+            } else {
+                config.baud = rate;
+            }
+        }
+        config.twins = twins;
+        Ok(config)
+    }
+
+    /// The twin of the drive at `address`, on a twin bus.
+    pub fn twin_at(&self, address: u8) -> Option<&crate::twin::Twin> {
+        self.twins.iter().find(|t| t.address == address)
     }
 
     /// A mixed LUSTBUS (`sim://lustbus`): `drives` as (family, address),
@@ -385,7 +423,9 @@ impl SimConfig {
     /// The settings a `sim://` port gives; without `state=`, the state
     /// file comes from [`STATE_DIR_ENV`] if that is set.
     pub fn from_spec(spec: &SimSpec) -> Result<Self, SimOpenError> {
-        let mut config = if spec.is_mixed() {
+        let mut config = if spec.is_twin() {
+            SimConfig::of_twins(crate::port::twins_of(spec)?)?
+        } else if spec.is_mixed() {
             let mut drives = Vec::new();
             for (name, address) in spec.drives() {
                 drives.push((parse_family(name)?, address));
@@ -417,6 +457,7 @@ impl SimConfig {
                     }
                 }
                 "state" => config.state = Some(PathBuf::from(value)),
+                "file" | "dir" => {}
                 "layout" => {
                     config.description_layout = McLayout::from_name(value)
                         .ok_or_else(|| bad("use 52, 43, 42 or 34 (errata L22)"))?;
@@ -494,26 +535,40 @@ impl SimConfig {
         let mut drives: Vec<Box<dyn ByteDrive>> = Vec::new();
         for (family, address) in self.drives() {
             let seed = self.drive_seed(address);
+            let twin = self.twin_at(address);
             let mut lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
-            lust.description_layout = self.description_layout;
-            lust.type_chars = self.type_chars.clone();
+            lust.description_layout = twin
+                .and_then(|t| t.layout)
+                .unwrap_or(self.description_layout);
+            lust.type_chars = twin
+                .and_then(|t| t.types.clone())
+                .unwrap_or_else(|| self.type_chars.clone());
             lust.describe = self.describe.clone();
+            lust.reaction = twin.and_then(|t| t.reaction_time());
+            let mut tmd = TmdOptions {
+                seed,
+                control_source: twin.and_then(|t| t.c0001).or(self.c0001).unwrap_or(0),
+                ..TmdOptions::at(address)
+            };
+            if let Some(r) = twin.and_then(|t| t.reaction_time()) {
+                tmd.reaction = r;
+            }
             let built: Result<Box<dyn ByteDrive>, String> = match family {
                 Family::Mc6000 => Mc6000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Vf1000 => Vf1000::new(lust).map(|d| Box::new(d) as Box<dyn ByteDrive>),
-                Family::Tmd => TmdDrive::new(TmdOptions {
-                    seed,
-                    control_source: self.c0001.unwrap_or(0),
-                    ..TmdOptions::at(address)
-                })
-                .map(|d| Box::new(d) as Box<dyn ByteDrive>),
+                Family::Tmd => TmdDrive::new(tmd).map(|d| Box::new(d) as Box<dyn ByteDrive>),
                 Family::Ecs => Err("ECS drives are on CAN, not on a character line".into()),
             };
-            drives.push(built.map_err(|reason| SimOpenError::Drive {
+            let mut drive = built.map_err(|reason| SimOpenError::Drive {
                 family: family.name(),
                 address,
                 reason,
-            })?);
+            })?;
+            if let Some(t) = twin {
+                t.apply_byte(drive.as_mut())
+                    .map_err(|e| SimOpenError::Twin(e.to_string()))?;
+            }
+            drives.push(drive);
         }
         Ok(drives)
     }
@@ -536,7 +591,15 @@ impl SimConfig {
             }
             let node = NodeId::new(address).map_err(|_| err("not a node id 1..=127".into()))?;
             // EcsDrive derives its stream from the seed and the node id.
-            drives.push(Box::new(EcsDrive::new(node, self.seed).map_err(err)?));
+            let mut drive = EcsDrive::new(node, self.seed).map_err(err)?;
+            if let Some(t) = self.twin_at(address) {
+                if let Some(r) = t.reaction_time() {
+                    drive = drive.with_reaction(r);
+                }
+                t.apply_frame(&mut drive)
+                    .map_err(|e| SimOpenError::Twin(e.to_string()))?;
+            }
+            drives.push(Box::new(drive));
         }
         Ok(drives)
     }

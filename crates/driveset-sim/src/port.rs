@@ -31,12 +31,17 @@ use crate::open::{SimConfig, SimOpenError, is_can, open_sim_with, parse_family};
 /// Simulator options besides the drives, `baud` and `bitrate`, passed on to
 /// [`SimConfig::from_spec`] as text (`seed` must be a whole number).
 pub const OPTION_KEYS: &[&str] = &[
-    "c0001", "describe", "faults", "keypad", "layout", "seed", "state", "types",
+    "c0001", "describe", "dir", "faults", "file", "keypad", "layout", "seed", "state", "types",
 ];
 
 /// The keys of one run, not of the simulated bus: they are not part of
 /// its bus id, and [`SimSpec::without_run_keys`] drops them.
 pub const RUN_KEYS: &[&str] = &["faults", "seed"];
+
+/// The bus name of a twin bus: `sim://twin?file=NAME.twin.toml` (one
+/// twin) or `sim://twin?dir=DIR` (every `*.twin.toml` of DIR on one bus by
+/// address), [`crate::twin`].
+pub const TWIN_BUS: &str = "twin";
 
 /// Every key a `sim://` port takes.
 pub const KEYS: &[&str] = &[
@@ -45,7 +50,9 @@ pub const KEYS: &[&str] = &[
     "bitrate",
     "c0001",
     "describe",
+    "dir",
     "faults",
+    "file",
     "keypad",
     "layout",
     "mc6000",
@@ -107,6 +114,11 @@ impl SimSpec {
             input: spec.to_string(),
             kind,
         })
+    }
+
+    /// Whether this is a twin bus (`sim://twin?file=` / `?dir=`).
+    pub fn is_twin(&self) -> bool {
+        self.family.eq_ignore_ascii_case(TWIN_BUS)
     }
 
     /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`).
@@ -243,6 +255,29 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
             allowed: KEYS,
         });
     }
+    let twin = family.eq_ignore_ascii_case(TWIN_BUS);
+    let sources = ["file", "dir"]
+        .iter()
+        .filter(|k| spec.query.contains_key(**k))
+        .count();
+    if twin && sources != 1 {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "exactly one of file= (a twin) or dir= (a directory of twins)",
+            example: "sim://twin?file=axis-1.twin.toml",
+        });
+    }
+    if !twin
+        && let Some(key) = ["file", "dir"]
+            .iter()
+            .find(|k| spec.query.contains_key(**k))
+    {
+        return Err(PortSpecErrorKind::BadValue {
+            key: key.to_string(),
+            value: spec.query[*key].clone(),
+            reason: "file= and dir= name twins; use sim://twin?file=NAME.twin.toml".into(),
+        });
+    }
     let mut map = spec.query.clone();
     let mut families = BTreeMap::new();
     for key in FAMILY_KEYS {
@@ -357,6 +392,20 @@ impl SimOpener {
     }
 }
 
+/// The twins a twin port names (`file=` or `dir=`), loaded.
+pub fn twins_of(spec: &SimSpec) -> Result<Vec<crate::twin::Twin>, SimOpenError> {
+    let twin = |e: crate::twin::TwinError| SimOpenError::Twin(e.to_string());
+    match (spec.options.get("file"), spec.options.get("dir")) {
+        (Some(f), _) => Ok(vec![
+            crate::twin::load_file(std::path::Path::new(f)).map_err(twin)?,
+        ]),
+        (None, Some(d)) => crate::twin::load_dir(std::path::Path::new(d)).map_err(twin),
+        (None, None) => Err(SimOpenError::Twin(
+            "a twin port names file=NAME.twin.toml or dir=DIR".into(),
+        )),
+    }
+}
+
 impl PortOpener for SimOpener {
     fn scheme(&self) -> &str {
         "sim"
@@ -364,6 +413,35 @@ impl PortOpener for SimOpener {
 
     fn check(&self, spec: &OpaqueSpec) -> Result<PortShape, PortSpecError> {
         let sim = SimSpec::from_opaque(spec)?;
+        if sim.is_twin() {
+            let twins = twins_of(&sim).map_err(|e| PortSpecError {
+                input: spec.to_string(),
+                kind: PortSpecErrorKind::BadValue {
+                    key: if sim.options.contains_key("file") {
+                        "file"
+                    } else {
+                        "dir"
+                    }
+                    .into(),
+                    value: sim
+                        .options
+                        .get("file")
+                        .or(sim.options.get("dir"))
+                        .cloned()
+                        .unwrap_or_default(),
+                    reason: e.to_string(),
+                },
+            })?;
+            return Ok(PortShape {
+                frames: twins.first().is_some_and(|t| is_can(t.family)),
+                drives: twins
+                    .iter()
+                    .map(|t| (t.family.name().to_string(), t.address))
+                    .collect(),
+                mixed: twins.iter().any(|t| t.family != twins[0].family),
+                name: sim.name(),
+            });
+        }
         let frames = parse_family(sim.drives().first().map_or(&*sim.family, |d| d.0))
             .map(is_can)
             .unwrap_or(false);
@@ -669,7 +747,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, faults, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
         );
         let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
         assert_eq!(

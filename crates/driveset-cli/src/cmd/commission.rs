@@ -102,6 +102,11 @@ pub struct Args {
     /// Learning the schema of drives whose set's schema lacks facts.
     #[command(flatten)]
     pub learn: crate::learning::LearnArgs,
+    /// Rehearse against the twins in DIR (DIR/<drive name>.twin.toml), in
+    /// virtual time: same plan, refusals, report and exit codes; drives
+    /// without a twin are not rehearsed (docs/twins.md).
+    #[arg(long, value_name = "DIR")]
+    pub rehearse: Option<PathBuf>,
 }
 
 /// Run `driveset commission`.
@@ -119,6 +124,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         label: args.label,
         report_dir: args.report_dir,
         learn: args.learn,
+        rehearse: args.rehearse,
     };
     run_mode(opts, Mode::Commission, |o| {
         o.overrides = overrides;
@@ -142,6 +148,8 @@ pub struct Common {
     pub report_dir: Option<PathBuf>,
     /// `--schema-dir`, `--no-learn`, the description overrides.
     pub learn: crate::learning::LearnArgs,
+    /// `commission --rehearse DIR`: the twins' directory.
+    pub rehearse: Option<PathBuf>,
 }
 
 /// Load the manifest; print its findings (exit 2) if it has any. The
@@ -238,6 +246,30 @@ pub fn run_mode(
         });
     }
     tweak(&mut opts);
+    // a rehearsal: the twins' buses, its own journals, no resume state
+    let rehearsal = match &c.rehearse {
+        Some(dir) => {
+            let twins = super::twin::rehearsal_twins(&manifest, dir)?;
+            let missing: Vec<String> = twins
+                .iter()
+                .filter(|(_, t)| t.is_none())
+                .map(|(n, _)| n.clone())
+                .collect();
+            opts.skip.extend(missing.iter().cloned());
+            opts.label = Some(super::twin::rehearsal_label(dir, &twins));
+            opts.fresh = true;
+            opts.journal_dir = report_dir.join("rehearsal-journal");
+            for m in &missing {
+                eprintln!(
+                    "{m}: not rehearsed: no twin {}",
+                    dir.join(format!("{m}{}", driveset_sim::twin::TWIN_SUFFIX))
+                        .display()
+                );
+            }
+            Some((super::twin::rehearsal_opener(&manifest, &twins), missing))
+        }
+        None => None,
+    };
     let width = manifest
         .buses
         .iter()
@@ -252,15 +284,30 @@ pub fn run_mode(
     opts.observer = Some(bars.clone());
     // wall time is the CLI's to measure: the engine reads no system clock
     let wall0 = std::time::Instant::now();
-    let outcome = run_line(&manifest, &opts, &open_bus, mode);
+    let outcome = match &rehearsal {
+        Some((opener, _)) => run_line(&manifest, &opts, opener, mode),
+        None => run_line(&manifest, &opts, &open_bus, mode),
+    };
     let wall = wall0.elapsed();
     bars.done();
-    let outcome = match outcome {
+    let mut outcome = match outcome {
         Ok(o) => o,
         Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
             return Err(crate::fail::Fail::input(format!("{e}")));
         }
     };
+    if let Some((_, missing)) = &rehearsal {
+        outcome.report.command = super::twin::REHEARSE_COMMAND.into();
+        outln!("{}", outcome.report.label.as_deref().unwrap_or_default());
+        let junit = report_dir.join("report.junit.xml");
+        let xml = super::twin::line_junit(&outcome.report, missing);
+        if let Err(e) = report::write_atomic(&junit, xml.as_bytes()) {
+            return Err(crate::fail::Fail::input(format!(
+                "cannot write {}: {e}",
+                junit.display()
+            )));
+        }
+    }
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
     }

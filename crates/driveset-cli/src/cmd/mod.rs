@@ -23,5 +23,6 @@ pub mod schema_pull;
 pub mod show;
 pub mod sim;
 pub mod status;
+pub mod twin;
 pub mod upload;
 pub mod validate;

@@ -77,8 +77,14 @@ Examples:
   driveset sim --family ecs --address 1 --pty --bitrate 500000")]
 pub struct Args {
     /// Drive family: mc6000 (MC7000 too), vf1000, tmd, ecs.
-    #[arg(long, value_name = "FAMILY")]
-    family: String,
+    #[arg(long, value_name = "FAMILY", required_unless_present = "twin")]
+    family: Option<String>,
+
+    /// Serve a twin (`NAME.twin.toml`, captured with `driveset twin
+    /// capture`) instead of factory drives, or every twin of a directory on
+    /// one bus by address (docs/twins.md).
+    #[arg(long, value_name = "FILE|DIR", conflicts_with_all = ["family", "addresses", "c0001", "keypad"])]
+    twin: Option<PathBuf>,
 
     /// Bus address of a simulated drive; repeat (or give a comma list) for
     /// several. LUSTBUS 1..30, LECOM 1..99 except 10, 20, ... 90, CAN 1..127.
@@ -86,7 +92,7 @@ pub struct Args {
         long = "address",
         value_name = "N",
         value_delimiter = ',',
-        required = true
+        required_unless_present = "twin"
     )]
     addresses: Vec<u8>,
 
@@ -166,8 +172,19 @@ fn parse_tcp(text: &str) -> anyhow::Result<SocketAddr> {
 
 /// Check the arguments into a bus configuration and an endpoint.
 fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
-    let family = parse_family(&args.family)?;
-    let mut config = SimConfig::new(family, args.addresses.clone());
+    let mut config = match (&args.twin, &args.family) {
+        (Some(path), _) => {
+            let twins = if path.is_dir() {
+                driveset_sim::twin::load_dir(path)?
+            } else {
+                vec![driveset_sim::twin::load_file(path)?]
+            };
+            SimConfig::of_twins(twins)?
+        }
+        (None, Some(f)) => SimConfig::new(parse_family(f)?, args.addresses.clone()),
+        (None, None) => bail!("give --family and --address, or --twin FILE"),
+    };
+    let family = config.family;
     if is_can(family) {
         if let Some(baud) = args.baud {
             bail!(

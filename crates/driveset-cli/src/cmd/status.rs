@@ -61,6 +61,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         label: args.label,
         report_dir: args.report_dir,
         learn: args.learn,
+        rehearse: None,
     };
     run_mode(c, Mode::Status, |_| {})
 }

@@ -190,7 +190,12 @@ fn class_token(s: &str) -> String {
 pub fn render(r: &LineReport) -> String {
     let mut o = String::with_capacity(16 * 1024);
     let (class, _, text) = line_result(r.result);
-    let title = format!("{text}: commissioning report of {}", r.line);
+    let kind = if r.command == crate::cmd::twin::REHEARSE_COMMAND {
+        "rehearsal report (against twins)"
+    } else {
+        "commissioning report"
+    };
+    let title = format!("{text}: {kind} of {}", r.line);
     let _ = write!(
         o,
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\

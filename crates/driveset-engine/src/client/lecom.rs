@@ -263,7 +263,7 @@ fn code_address(key: CodeKey) -> Option<CodeAddress> {
 }
 
 /// The raw value of an answer of a code of type `ty`.
-fn raw_of(ty: Option<ValueType>, value: &Value) -> Option<RawValue> {
+pub(crate) fn raw_of(ty: Option<ValueType>, value: &Value) -> Option<RawValue> {
     Some(match (ty, value) {
         (Some(ValueType::VD) | None, Value::Decimal(d)) => RawValue::Int(d.raw()),
         (Some(ValueType::VH), Value::Hex(h)) => RawValue::Int(i64::from(h.get())),

@@ -1,0 +1,521 @@
+//! `driveset twin capture | capture-line | from-capture` and the rehearsal
+//! behind `driveset commission MANIFEST --rehearse DIR` (docs/twins.md).
+//!
+//! The capture is read-only: identify, reads and (MC6000/7000) description
+//! enquiries through the engine's clients ([`driveset_engine::capture`]);
+//! the file is the simulator's twin format ([`driveset_sim::twin`]). A
+//! rehearsal opens every bus of the manifest as a simulated bus of the
+//! twins of its drives (`DIR/<drive name>.twin.toml`) in virtual time and
+//! runs the line as `commission` does; drives without a twin are not
+//! rehearsed.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_engine::capture::{Capture, capture, mc_descriptions};
+use driveset_engine::client::{DriveClient, LustbusClient};
+use driveset_engine::env::Environment;
+use driveset_engine::line::manifest::{Bus, Manifest};
+use driveset_engine::line::report::{DriveResult, LineReport};
+use driveset_link::{Link, VirtualClock};
+use driveset_schema::{CodeKey, Family, RawValue, Schema};
+use driveset_sim::log::EventLog;
+use driveset_sim::open::{SimConfig, open_sim_with};
+use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace, load_file};
+
+use crate::fail::Fail;
+use crate::{EXIT_OK, learning, port};
+
+/// The `command` of a rehearsal's report (report.json; the HTML title
+/// then says rehearsal).
+pub const REHEARSE_COMMAND: &str = "rehearse";
+
+/// `driveset twin ...`.
+#[derive(clap::Subcommand)]
+pub enum TwinCommand {
+    /// Capture one drive, read-only, into a twin file.
+    Capture(CaptureArgs),
+    /// Capture every drive of a line manifest into DIR/<drive name>.twin.toml.
+    CaptureLine(CaptureLineArgs),
+    /// Build a twin from a recorded bus session (what `decode` reads).
+    FromCapture(FromCaptureArgs),
+}
+
+/// `driveset twin capture`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Reads the drive read-only (identify, every code of the schema, MC6000/7000
+description enquiries; never a write): its identity, every value, the codes
+it refuses to read, the state that decides its refusals (Tmd C0001, running,
+MC6000 SLOAD, the description layout), the line rate and reaction times.
+Passwords are never read; the twin lists them without a value. The schema is
+found as `pull` finds it (a sim:// port's family, else the protocol probe),
+or given with --schema.
+
+A second capture of an unchanged drive leaves the file byte-identical: when
+only the date, the driveset version or reaction times inside the recorded
+range differ, the previous file is kept as it is (docs/twins.md).
+
+Exit codes: 0 written (or unchanged); 1 the drive is not of the schema's
+family; 2 usage or input; 3 bus or device.
+
+Examples:
+  driveset twin capture --port /dev/ttyUSB0 --address 3 -o conveyor-3.twin.toml
+  driveset twin capture --port 'sim://tmd?c0001=3' --address 4 -o t.twin.toml")]
+pub struct CaptureArgs {
+    /// Port (as `pull --port`).
+    #[arg(long, value_name = "PORT")]
+    pub port: String,
+    /// The drive's address.
+    #[arg(long, value_name = "N")]
+    pub address: u8,
+    /// Schema id or file (default: as `pull` finds it).
+    #[arg(long, value_name = "ID|PATH")]
+    pub schema: Option<String>,
+    /// Load every *.toml schema of DIR in addition to the built-in ones.
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// The twin file to write (NAME.twin.toml).
+    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    pub output: PathBuf,
+}
+
+/// `driveset twin capture-line`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Captures every drive of the manifest, bus by bus, into DIR/<drive name>.twin.toml
+(read-only, as `twin capture`), with each drive's set's schema (the simulator's
+schema on a sim:// port). Exit codes as `twin capture`; a drive that cannot be
+captured is reported and the others are captured all the same.
+
+Example:
+  driveset twin capture-line parameter-sets/demo-line/line.toml -o twins/")]
+pub struct CaptureLineArgs {
+    /// The line manifest.
+    #[arg(value_name = "LINE")]
+    pub manifest: PathBuf,
+    /// The directory of the twins.
+    #[arg(short = 'o', long = "output", value_name = "DIR")]
+    pub output: PathBuf,
+}
+
+/// `driveset twin from-capture`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Reads a recorded bus session (the raw bytes `driveset decode --protocol lecom`
+reads: what a vendor tool sent and the drives answered) and writes one twin
+per station address seen, DIR/twin-<address>.twin.toml (rename it to
+<drive name>.twin.toml for a rehearsal): every value a drive answered to a
+RECEIVE, every value a SEND wrote and the drive acknowledged (the last one
+seen wins), and the codes it said it does not have. Codes of the schema the
+session did not show are listed as unknown ([codes] unknown); the served
+twin answers them with its model's factory value. LECOM sessions only (Tmd);
+LUSTBUS and slcan sessions are refused.
+
+Exit codes: 0 written; 2 usage, input, or a session that shows no drive.
+
+Example:
+  driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/")]
+pub struct FromCaptureArgs {
+    /// The protocol of the session (lecom).
+    #[arg(long, value_name = "P")]
+    pub protocol: super::decode::DecodeProtocol,
+    /// Schema id or file (default: the protocol's built-in schema).
+    #[arg(long, value_name = "ID|PATH")]
+    pub schema: Option<String>,
+    /// The recorded session.
+    #[arg(value_name = "FILE")]
+    pub file: PathBuf,
+    /// The directory of the twins (twin-<address>.twin.toml).
+    #[arg(short = 'o', long = "output", value_name = "DIR")]
+    pub output: PathBuf,
+}
+
+/// Run `driveset twin ...`.
+pub fn run(c: TwinCommand) -> Result<u8, Fail> {
+    match c {
+        TwinCommand::Capture(a) => run_capture(a),
+        TwinCommand::CaptureLine(a) => run_capture_line(a),
+        TwinCommand::FromCapture(a) => run_from_capture(a),
+    }
+}
+
+fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
+    let (twin, schema) = capture_drive(&a.port, a.address, a.schema.as_deref(), &a.schemas)?;
+    let line = write_twin(&a.output, &twin, &schema)?;
+    outln!("{line}");
+    Ok(EXIT_OK)
+}
+
+fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
+    let manifest = super::commission::load(&a.manifest, true).map_err(Fail::reported)?;
+    std::fs::create_dir_all(&a.output)
+        .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
+    let mut worst = EXIT_OK;
+    for d in &manifest.drives {
+        let bus = &manifest.buses[d.bus_index];
+        let port_text = bus.port.to_string();
+        let sim = matches!(bus.port, driveset_link::PortSpec::Sim(_));
+        // on a sim:// port the simulator's own schema (as `pull` uses it);
+        // on a plant the set's
+        let schema_arg = if sim { None } else { Some(d.schema.id.clone()) };
+        let out = a.output.join(format!("{}{TWIN_SUFFIX}", d.name));
+        match capture_drive(&port_text, d.address, schema_arg.as_deref(), &[])
+            .and_then(|(t, s)| write_twin(&out, &t, &s))
+        {
+            Ok(line) => outln!("{}: {line}", d.name),
+            Err(f) => {
+                eprintln!(
+                    "error: {} ({} address {}): {}",
+                    d.name, bus.name, d.address, f.msg
+                );
+                worst = worst.max(f.code);
+            }
+        }
+    }
+    Ok(worst)
+}
+
+/// Capture the drive at `address` of `port_text` into a twin.
+pub fn capture_drive(
+    port_text: &str,
+    address: u8,
+    schema_arg: Option<&str>,
+    dirs: &[PathBuf],
+) -> Result<(Twin, Arc<Schema>), Fail> {
+    let sim = port::peek_sim_family_at(port_text, Some(address));
+    let mut opened = port::open_port_at(port_text, Some(address))?;
+    let schema = if schema_arg.is_none() && sim.is_none() {
+        learning::detect(&mut opened, address, dirs)?.0
+    } else {
+        port::resolve_schema(schema_arg, dirs, sim, None)?.schema
+    };
+    let port_name = opened.name.clone();
+    let rate = match &opened.link {
+        Link::Bytes(l) => l.baud(),
+        Link::Frames(l) => l.bitrate(),
+    };
+    let mut layout = (None, None);
+    let mut _sim_alive = None;
+    let mut client: Box<dyn DriveClient> = if schema.family == Family::Mc6000 {
+        port::check_fit(&opened, &schema, Some(address), false)?;
+        let options = port::lustbus_options(&opened.spec);
+        let (link, sim) = learning::take_byte_link(opened)?;
+        _sim_alive = sim;
+        let mut c = LustbusClient::with_options(link, schema.clone(), address, options)?;
+        let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
+        layout = mc_descriptions(&mut c, &params)?;
+        Box::new(c)
+    } else {
+        port::into_client(opened, schema.clone(), address, false)?
+    };
+    if let Err(e) = driveset_engine::identify::check_family(client.as_mut()) {
+        return Err(Fail {
+            code: if e.is_refused() {
+                crate::EXIT_FINDINGS
+            } else {
+                port::engine_exit(&e)
+            },
+            msg: format!("{e}; no twin written"),
+        });
+    }
+    let cap = capture(client.as_mut())?;
+    let mut twin = twin_of(&cap, &schema, address);
+    twin.source = format!("drive {port_name} address {address}");
+    twin.rate = cap.rate.or(Some(rate));
+    twin.layout = layout.0;
+    twin.types = layout.1;
+    Ok((twin, schema))
+}
+
+/// The twin of a capture (without source, rate and description layout).
+fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
+    let mut twin = Twin::new(schema.family, address, &schema.id);
+    twin.driveset = env!("CARGO_PKG_VERSION").to_string();
+    twin.captured = today();
+    twin.identity = cap.identity.pairs();
+    twin.running = cap.running;
+    twin.reaction = cap.reaction;
+    twin.values = cap.values.clone();
+    twin.refused = cap.refused.clone();
+    twin.secrets = cap.secrets.clone();
+    twin.unknown = cap.unread.clone();
+    match schema.family {
+        Family::Tmd => twin.c0001 = c0001_of(&cap.values, schema),
+        Family::Mc6000 => {
+            twin.sload = match cap.values.get(&CodeKey::new(80)) {
+                Some(RawValue::Int(v)) => Some(*v),
+                _ => None,
+            }
+        }
+        _ => {}
+    }
+    twin
+}
+
+/// Tmd: C0001 of `values` in engineering units (raw x10000, LECOM VD).
+fn c0001_of(values: &BTreeMap<CodeKey, RawValue>, schema: &Schema) -> Option<u8> {
+    let Some(RawValue::Int(raw)) = values.get(&CodeKey::new(1)) else {
+        return None;
+    };
+    let ty = schema.code(1).and_then(|c| schema.type_of(c))?;
+    driveset_schema::value::raw_to_engineering(ty, *raw)
+        .parse()
+        .ok()
+}
+
+fn today() -> String {
+    let now = crate::env::SystemEnv.now_utc().to_string();
+    now.get(..10).unwrap_or(&now).to_string()
+}
+
+/// Write `twin` to `path` ([`keep_or_replace`]: an unchanged drive keeps
+/// the file byte-identical); the line to print.
+fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail> {
+    let old = std::fs::read_to_string(path).ok();
+    let text = keep_or_replace(old.as_deref(), twin, Some(schema));
+    let unchanged = old.as_deref() == Some(text.as_str());
+    if !unchanged {
+        crate::report::write_atomic(path, text.as_bytes())
+            .map_err(|e| Fail::input(format!("cannot write {}: {e}", path.display())))?;
+    }
+    Ok(format!(
+        "{} {} at address {}: {} codes, {} refused, {} secret(s) not stored{}; {} ({} bytes)",
+        twin.family.name(),
+        twin.schema,
+        twin.address,
+        twin.values.len(),
+        twin.refused.len(),
+        twin.secrets.len(),
+        if unchanged {
+            ", unchanged since the last capture (file kept)"
+        } else {
+            ""
+        },
+        path.display(),
+        text.len()
+    ))
+}
+
+fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
+    use super::decode::DecodeProtocol;
+    if a.protocol != DecodeProtocol::Lecom {
+        return Err(Fail::input(
+            "twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`",
+        ));
+    }
+    let bytes = std::fs::read(&a.file)
+        .map_err(|e| Fail::input(format!("{}: cannot read: {e}", a.file.display())))?;
+    let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
+    let schema =
+        super::decode::load_schema(&mut registry, a.schema.as_deref().unwrap_or("lenze-tmd"))
+            .map_err(Fail::from)?;
+    if schema.family != Family::Tmd {
+        return Err(Fail::input(format!(
+            "--schema {}: a LECOM session needs a Tmd schema (lenze-tmd)",
+            schema.id
+        )));
+    }
+    let ctx = driveset_engine::decode::Context {
+        registry,
+        schema: Some(schema.clone()),
+        family: None,
+    };
+    let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
+    let sessions = driveset_engine::capture::lecom_session(&events, &schema);
+    if sessions.is_empty() {
+        return Err(Fail::input(format!(
+            "{}: the session shows no drive answering (no VALUE, no acknowledged SEND); is it a LECOM capture?",
+            a.file.display()
+        )));
+    }
+    std::fs::create_dir_all(&a.output)
+        .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
+    for (address, session) in sessions {
+        let mut twin = Twin::new(schema.family, address, &schema.id);
+        twin.driveset = env!("CARGO_PKG_VERSION").to_string();
+        twin.captured = today();
+        twin.source = format!("capture {}", a.file.display());
+        for code in &schema.codes {
+            for key in driveset_engine::capture::code_keys(code) {
+                if schema.is_password(code) {
+                    twin.secrets.push(key);
+                } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
+                {
+                    twin.unknown.push(key);
+                }
+            }
+        }
+        // a password a vendor tool wrote is not kept either
+        twin.values = session
+            .values
+            .into_iter()
+            .filter(|(k, _)| !twin.secrets.contains(k))
+            .collect();
+        twin.refused = session.refused;
+        twin.c0001 = c0001_of(&twin.values, &schema);
+        let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
+        let line = write_twin(&out, &twin, &schema)?;
+        outln!("{line}; {} code(s) unknown", twin.unknown.len());
+    }
+    Ok(EXIT_OK)
+}
+
+/// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
+/// (`None`: not rehearsed).
+pub fn rehearsal_twins(
+    manifest: &Manifest,
+    dir: &Path,
+) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
+    let mut out = BTreeMap::new();
+    for d in &manifest.drives {
+        let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
+        let twin = if file.is_file() {
+            let t = load_file(&file).map_err(|e| Fail::input(e.to_string()))?;
+            if t.address != d.address {
+                return Err(Fail::input(format!(
+                    "{}: the twin is of address {}, the manifest puts {} at address {}; capture it again (driveset twin capture-line)",
+                    file.display(),
+                    t.address,
+                    d.name,
+                    d.address
+                )));
+            }
+            Some(t)
+        } else {
+            None
+        };
+        out.insert(d.name.clone(), twin);
+    }
+    Ok(out)
+}
+
+/// The opener of a rehearsal: each bus a simulated bus of its drives'
+/// twins, in virtual time.
+pub fn rehearsal_opener(
+    manifest: &Manifest,
+    twins: &BTreeMap<String, Option<Twin>>,
+) -> impl Fn(&Bus) -> Result<Link, String> + Sync + use<> {
+    let mut per_bus: BTreeMap<String, Vec<Twin>> = BTreeMap::new();
+    for d in &manifest.drives {
+        if let Some(Some(t)) = twins.get(&d.name) {
+            per_bus
+                .entry(manifest.buses[d.bus_index].name.clone())
+                .or_default()
+                .push(t.clone());
+        }
+    }
+    move |bus: &Bus| {
+        let twins = per_bus
+            .get(&bus.name)
+            .cloned()
+            .ok_or_else(|| format!("no twin for any drive of bus {}", bus.name))?;
+        let config = SimConfig::of_twins(twins).map_err(|e| e.to_string())?;
+        open_sim_with(
+            &config,
+            &VirtualClock::new(),
+            &bus.port_name,
+            EventLog::off(),
+        )
+        .map(|l| l.link())
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// The label of a rehearsal report: it is a rehearsal, and of which twins.
+pub fn rehearsal_label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>) -> String {
+    let mut dates: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (name, t) in twins {
+        if let Some(t) = t {
+            dates.entry(t.captured.as_str()).or_default().push(name);
+        }
+    }
+    let mut s = format!("REHEARSAL against the twins in {}", dir.display());
+    let list: Vec<String> = dates
+        .iter()
+        .map(|(date, names)| format!("captured {date}: {}", names.join(", ")))
+        .collect();
+    if !list.is_empty() {
+        let _ = write!(s, " ({})", list.join("; "));
+    }
+    let missing: Vec<&str> = twins
+        .iter()
+        .filter(|(_, t)| t.is_none())
+        .map(|(n, _)| n.as_str())
+        .collect();
+    if !missing.is_empty() {
+        let _ = write!(s, "; not rehearsed (no twin): {}", missing.join(", "));
+    }
+    s
+}
+
+/// JUnit XML of a line report (one testcase per drive; a drive that does
+/// not hold its set is a failure, a drive not rehearsed is skipped), for
+/// CI test reports of a rehearsal (docs/ci.md).
+pub fn line_junit(r: &LineReport, not_rehearsed: &[String]) -> String {
+    use crate::report::junit::xml_esc;
+    let failed = |res: DriveResult| {
+        !matches!(
+            res,
+            DriveResult::Verified
+                | DriveResult::Unchanged
+                | DriveResult::AlreadyVerified
+                | DriveResult::NotSelected
+        )
+    };
+    let failures = r.drives.iter().filter(|d| failed(d.result)).count();
+    let skipped = r
+        .drives
+        .iter()
+        .filter(|d| d.result == DriveResult::NotSelected)
+        .count();
+    let mut o = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        o,
+        "<testsuites name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">",
+        xml_esc(&format!("driveset rehearsal {}", r.line)),
+        r.drives.len()
+    );
+    let _ = writeln!(
+        o,
+        "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"{skipped}\">",
+        xml_esc(r.label.as_deref().unwrap_or(&r.line)),
+        r.drives.len()
+    );
+    for d in &r.drives {
+        let _ = write!(
+            o,
+            "    <testcase classname=\"{}\" name=\"{}\" file=\"{}\"",
+            xml_esc(&d.bus),
+            xml_esc(&d.name),
+            xml_esc(&d.set)
+        );
+        let result = serde_json::to_value(d.result)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default();
+        if d.result == DriveResult::NotSelected {
+            let why = if not_rehearsed.contains(&d.name) {
+                "not rehearsed: no twin"
+            } else {
+                "not selected"
+            };
+            let _ = writeln!(o, ">\n      <skipped message=\"{why}\"/>\n    </testcase>");
+        } else if failed(d.result) {
+            let msg = d.error.clone().unwrap_or_else(|| result.clone());
+            let _ = writeln!(
+                o,
+                ">\n      <failure message=\"{}\" type=\"{}\">{}</failure>\n    </testcase>",
+                xml_esc(&msg),
+                xml_esc(&result),
+                xml_esc(&msg)
+            );
+        } else {
+            let _ = writeln!(o, "/>");
+        }
+    }
+    o.push_str("  </testsuite>\n</testsuites>\n");
+    o
+}

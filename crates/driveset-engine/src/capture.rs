@@ -1,0 +1,200 @@
+//! Capturing a drive for a twin (docs/twins.md): read-only, through the
+//! clients' read, identify and description calls only. Owns [`capture`]
+//! (identity, every code of the schema the drive answers, the codes it
+//! refuses to read, the running state, the line rate and the reaction
+//! times it showed) and [`mc_descriptions`] (the layout and type characters
+//! an MC6000/7000 sends its parameter descriptions in, LUSTBUS 11.2,
+//! errata L22 / L23). The simulator's `twin` module owns the file.
+//!
+//! What is never read: password codes (listed in [`Capture::secrets`], no
+//! value kept) and codes whose reading clears them (85-SIOF/SERR, listed
+//! in [`Capture::unread`]): reading would unlatch the drive's error state.
+//! Unlike `pull`, commands and control words are read too (reading them
+//! changes nothing; the twin must answer them as the drive did).
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use driveset_link::ByteLink;
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+use driveset_schema::{CodeKey, Family, RawValue};
+
+use crate::client::{DriveClient, Identity, LustbusClient};
+use crate::error::{EngineError, ErrorKind};
+use crate::learn::{LearnOptions, interpret, read_descriptions};
+
+/// What a capture read from one drive.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Capture {
+    /// Who answered.
+    pub identity: Identity,
+    /// Every code it answered, raw.
+    pub values: BTreeMap<CodeKey, RawValue>,
+    /// Codes it refused to read (or did not answer for), with the cause.
+    pub refused: BTreeMap<CodeKey, String>,
+    /// Password codes: not read.
+    pub secrets: Vec<CodeKey>,
+    /// Codes not read on purpose (reading clears them) or without a type
+    /// in the schema.
+    pub unread: Vec<CodeKey>,
+    /// Whether the motor ran (`None`: the drive does not say).
+    pub running: Option<bool>,
+    /// The line rate (baud) the client talked at, when it knows it.
+    pub rate: Option<u32>,
+    /// The shortest and longest reaction time seen: per read, the time to
+    /// the answer less the telegrams' wire time ([`DriveClient::read_time`]
+    /// less the family's planning minimum).
+    pub reaction: Option<(Duration, Duration)>,
+}
+
+/// Read every code of the client's schema, read-only (module docs).
+pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
+    let schema = client.schema().clone();
+    let identity = client.identify()?;
+    let min_reaction = schema.family.descriptor().reaction.min;
+    let mut out = Capture {
+        identity,
+        values: BTreeMap::new(),
+        refused: BTreeMap::new(),
+        secrets: Vec::new(),
+        unread: Vec::new(),
+        running: None,
+        rate: client.line_rate(),
+        reaction: None,
+    };
+    for code in &schema.codes {
+        for key in code_keys(code) {
+            if schema.is_password(code) {
+                out.secrets.push(key);
+                continue;
+            }
+            if code.read_clears == Some(true) || schema.type_of(code).is_none() {
+                out.unread.push(key);
+                continue;
+            }
+            let before = client.clock().now();
+            match client.read(key) {
+                Ok(v) => {
+                    let took = client.clock().now() - before;
+                    let wire = client.read_time(key).saturating_sub(min_reaction);
+                    let reaction = took.saturating_sub(wire);
+                    out.reaction = Some(match out.reaction {
+                        Some((lo, hi)) => (lo.min(reaction), hi.max(reaction)),
+                        None => (reaction, reaction),
+                    });
+                    out.values.insert(key, v);
+                }
+                Err(e) => match &*e.kind {
+                    ErrorKind::Device { cause, .. } => {
+                        out.refused
+                            .insert(key, format!("{} ({})", cause.cause(), cause.raw()));
+                    }
+                    ErrorKind::Protocol { detail, .. } => {
+                        out.refused
+                            .insert(key, format!("answer does not fit the type: {detail}"));
+                    }
+                    ErrorKind::NoAnswer { tries, .. } => {
+                        out.refused
+                            .insert(key, format!("no answer ({tries} tries)"));
+                    }
+                    _ => return Err(e),
+                },
+            }
+        }
+    }
+    out.running = client.running()?;
+    client.finish()?;
+    Ok(out)
+}
+
+/// Every key of `code`: each subcode of a code that has subcodes, else the
+/// code itself.
+pub fn code_keys(code: &driveset_schema::Code) -> Vec<CodeKey> {
+    match code.subcodes {
+        Some(n) if n > 0 => (1..=n).map(|s| CodeKey::sub(code.number, s)).collect(),
+        _ => vec![CodeKey::new(code.number)],
+    }
+}
+
+/// The layout and type characters an MC6000/7000 sends its parameter
+/// descriptions in (LUSTBUS 11.2, errata L22 / L23), read from the
+/// descriptions of `params` (enquiries only) and told apart as `schema
+/// pull` does ([`crate::learn::interpret`]). `(None, None)` when the drive
+/// sent none.
+pub fn mc_descriptions<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    params: &[u32],
+) -> Result<(Option<McLayout>, Option<McTypeChars>), EngineError> {
+    let (raws, _absent) = read_descriptions(client, Family::Mc6000, params)?;
+    if raws.is_empty() {
+        return Ok((None, None));
+    }
+    let learned = interpret(Family::Mc6000, &raws, &LearnOptions::default());
+    Ok((learned.layouts.iter().next().copied(), learned.type_chars))
+}
+
+/// What a recorded LECOM session (`driveset decode`'s events) showed of
+/// one drive: the values it answered to RECEIVE, the values written to it
+/// by a SEND it acknowledged, and the codes it said it does not have.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Session {
+    /// Values seen, raw (the last one seen wins).
+    pub values: BTreeMap<CodeKey, RawValue>,
+    /// Codes answered with "no such code".
+    pub refused: BTreeMap<CodeKey, String>,
+}
+
+/// Per station address, what a decoded LECOM session showed
+/// ([`Session`]); events with an error (bad BCC, garbage) are passed over,
+/// as is a value the schema's type cannot hold.
+pub fn lecom_session(
+    events: &[crate::decode::Event],
+    schema: &driveset_schema::Schema,
+) -> BTreeMap<u8, Session> {
+    let key_of = |code: &str| -> Option<CodeKey> {
+        let c = code.strip_prefix('C')?;
+        match c.split_once('/') {
+            Some((n, s)) => Some(CodeKey::sub(n.parse().ok()?, s.parse().ok()?)),
+            None => Some(CodeKey::new(c.parse().ok()?)),
+        }
+    };
+    let raw = |key: CodeKey, text: &str| -> Option<RawValue> {
+        let value = driveset_proto::lecom::Value::parse(text.as_bytes()).ok()?;
+        let ty = schema.code(key.number).and_then(|c| schema.type_of(c));
+        crate::client::lecom::raw_of(ty, &value)
+    };
+    let mut out: BTreeMap<u8, Session> = BTreeMap::new();
+    let mut sent: Option<(u8, CodeKey, Option<RawValue>)> = None;
+    for e in events {
+        if e.error.is_some() {
+            sent = None;
+            continue;
+        }
+        let address = e.address.as_deref().and_then(|a| a.parse::<u8>().ok());
+        let key = e.code.as_deref().and_then(key_of);
+        match (e.kind, address, key) {
+            ("RECEIVE", Some(a), Some(k)) => sent = Some((a, k, None)),
+            ("SEND", Some(a), Some(k)) => {
+                sent = Some((a, k, e.raw_value.as_deref().and_then(|v| raw(k, v))));
+            }
+            ("VALUE", Some(a), Some(k)) => {
+                if let Some(v) = e.raw_value.as_deref().and_then(|v| raw(k, v)) {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+                sent = None;
+            }
+            ("ACK", _, _) => {
+                if let Some((a, k, Some(v))) = sent.take() {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+            }
+            ("NO CODE", Some(a), Some(k)) => {
+                let why = e.meaning.clone().unwrap_or_else(|| "no such code".into());
+                out.entry(a).or_default().refused.insert(k, why);
+                sent = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}

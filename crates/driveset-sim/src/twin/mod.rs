@@ -1,0 +1,768 @@
+//! Twins: a file that answers as one real drive did. Owns the twin file
+//! format (`NAME.twin.toml`, [`Twin`], [`Twin::parse`], [`Twin::to_toml`]),
+//! loading one file or a directory of them ([`load_file`], [`load_dir`]),
+//! the recapture rule that keeps an unchanged twin byte-identical
+//! ([`Twin::same_drive`], [`keep_or_replace`]), and turning a twin into a
+//! simulated drive ([`Twin::apply_byte`], [`Twin::apply_frame`]).
+//!
+//! A twin is served on the simulator's own family models (`crate::mc6000`,
+//! `crate::vf1000`, `crate::tmd`, `crate::ecs`): the model of the twin's
+//! family at the twin's address, built with the captured state that decides
+//! its refusals (Tmd C0001, §4e; the running state; the MC6000/7000
+//! description layout and type characters, errata L22 / L23) and reaction
+//! time range, and then holding every captured value. So SLOAD (LUSTBUS
+//! 11.4), the running and C0001 refusals, EEPROM pacing and state across a
+//! session behave as the simulator's drives do. The format is described in
+//! docs/twins.md.
+//!
+//! A twin never holds a secret's value: password codes are listed by code
+//! in `secrets` only; the served model accepts any password write and reads
+//! the code as the model hides it.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+use driveset_schema::canonical::{CodeKey, RawValue};
+use driveset_schema::{Family, Schema};
+
+use crate::drive::{ByteDrive, FrameDrive, ReactionTime};
+
+/// The `format` value of a twin file.
+pub const TWIN_FORMAT: &str = "driveset-twin 1";
+
+/// The file name ending of a twin: `NAME.twin.toml`.
+pub const TWIN_SUFFIX: &str = ".twin.toml";
+
+/// Why a twin file cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TwinError {
+    /// The file or directory could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The text is not TOML.
+    #[error("{}: {detail}", path.display())]
+    Toml {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (with line and column).
+        detail: String,
+    },
+    /// A key is missing or has a bad value.
+    #[error("{}: {key}: {reason}", path.display())]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// The key (`[section] key`).
+        key: String,
+        /// What is wrong and what it should be.
+        reason: String,
+    },
+    /// A directory holds no twin.
+    #[error("{}: no *{TWIN_SUFFIX} file in the directory; capture one with `driveset twin capture`", path.display())]
+    Empty {
+        /// The directory.
+        path: PathBuf,
+    },
+    /// Two twins of one bus at one address.
+    #[error("{} and {}: both twins are at address {address}; one bus holds one drive per address", first.display(), second.display())]
+    SameAddress {
+        /// The first file.
+        first: PathBuf,
+        /// The second file.
+        second: PathBuf,
+        /// The address.
+        address: u8,
+    },
+    /// Twins of families that cannot share one bus.
+    #[error("{}: a {family} twin cannot share a bus with {other} twins (LUSTBUS holds mc6000 and vf1000, LECOM tmd, CAN ecs); serve it from a directory of its own", path.display())]
+    MixedBus {
+        /// The file.
+        path: PathBuf,
+        /// Its family.
+        family: &'static str,
+        /// The family of the first twin.
+        other: &'static str,
+    },
+    /// A captured value the family's model cannot hold.
+    #[error("{}: {reason}", path.display())]
+    Apply {
+        /// The file.
+        path: PathBuf,
+        /// What the model said.
+        reason: String,
+    },
+}
+
+/// One twin (module docs; the file format in docs/twins.md).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Twin {
+    /// Where the twin was read from (empty for a twin built in memory).
+    pub path: PathBuf,
+    /// The driveset version that wrote it.
+    pub driveset: String,
+    /// The capture date, `YYYY-MM-DD` (UTC).
+    pub captured: String,
+    /// What it was captured from: `drive PORT`, or `capture FILE`.
+    pub source: String,
+    /// The drive's family.
+    pub family: Family,
+    /// Its bus address (node id on CAN).
+    pub address: u8,
+    /// The schema the capture read with.
+    pub schema: String,
+    /// The identify codes as the drive answered them (label, value).
+    pub identity: Vec<(String, String)>,
+    /// Whether the motor ran (`None`: not known).
+    pub running: Option<bool>,
+    /// Tmd: C0001 (§4e).
+    pub c0001: Option<u8>,
+    /// MC6000/7000: 80-SLOAD as read.
+    pub sload: Option<i64>,
+    /// MC6000/7000: the layout its parameter descriptions came in (L22).
+    pub layout: Option<McLayout>,
+    /// MC6000/7000: the type characters of its descriptions (L23).
+    pub types: Option<McTypeChars>,
+    /// The line rate (baud) or CAN bit rate it answered at.
+    pub rate: Option<u32>,
+    /// The shortest and longest reaction time it showed.
+    pub reaction: Option<(Duration, Duration)>,
+    /// Every code it answered, raw.
+    pub values: BTreeMap<CodeKey, RawValue>,
+    /// Codes it refused to read, with its reason.
+    pub refused: BTreeMap<CodeKey, String>,
+    /// Password codes: never read, no value stored.
+    pub secrets: Vec<CodeKey>,
+    /// Codes of the schema the source did not show (from a bus capture).
+    pub unknown: Vec<CodeKey>,
+}
+
+impl Twin {
+    /// An empty twin of `family` at `address` (no values yet).
+    pub fn new(family: Family, address: u8, schema: &str) -> Self {
+        Twin {
+            path: PathBuf::new(),
+            driveset: String::new(),
+            captured: String::new(),
+            source: String::new(),
+            family,
+            address,
+            schema: schema.to_string(),
+            identity: Vec::new(),
+            running: None,
+            c0001: None,
+            sload: None,
+            layout: None,
+            types: None,
+            rate: None,
+            reaction: None,
+            values: BTreeMap::new(),
+            refused: BTreeMap::new(),
+            secrets: Vec::new(),
+            unknown: Vec::new(),
+        }
+    }
+
+    /// Whether `other` describes the same drive as this twin: everything
+    /// but the capture date, the driveset version and the measured
+    /// reaction times (which jitter on a real bus) equal, and `other`'s
+    /// reaction times within this twin's range ([`keep_or_replace`]).
+    pub fn same_drive(&self, other: &Twin) -> bool {
+        let strip = |t: &Twin| Twin {
+            path: PathBuf::new(),
+            driveset: String::new(),
+            captured: String::new(),
+            reaction: None,
+            ..t.clone()
+        };
+        let within = match (self.reaction, other.reaction) {
+            (Some((lo, hi)), Some((olo, ohi))) => olo >= lo && ohi <= hi,
+            (None, None) => true,
+            _ => false,
+        };
+        within && strip(self) == strip(other)
+    }
+
+    /// The reaction range the served drive draws from.
+    pub fn reaction_time(&self) -> Option<ReactionTime> {
+        self.reaction.map(|(min, max)| ReactionTime { min, max })
+    }
+
+    /// Parse a twin file's text; errors name `path` and the key.
+    pub fn parse(text: &str, path: &Path) -> Result<Twin, TwinError> {
+        let table: toml::Table = toml::from_str(text).map_err(|e| TwinError::Toml {
+            path: path.to_path_buf(),
+            detail: e.to_string().trim_end().replace('\n', " "),
+        })?;
+        Reader {
+            path,
+            table: &table,
+        }
+        .twin()
+    }
+
+    /// The file text (docs/twins.md): stable (fixed key order, codes in
+    /// code order), with a comment beside each value naming the code and
+    /// its value in engineering units when `schema` is given.
+    pub fn to_toml(&self, schema: Option<&Schema>) -> String {
+        let mut s = String::new();
+        let q = |v: &str| toml_str(v);
+        let _ = writeln!(
+            s,
+            "# A twin of one drive: it answers as the drive did when captured\n# (docs/twins.md). Serve it with sim://twin?file=THIS_FILE."
+        );
+        let _ = writeln!(s, "format = {}", q(TWIN_FORMAT));
+        let _ = writeln!(s, "driveset = {}", q(&self.driveset));
+        let _ = writeln!(s, "captured = {}", q(&self.captured));
+        let _ = writeln!(s, "source = {}", q(&self.source));
+        let _ = writeln!(s, "family = {}", q(self.family.name()));
+        let _ = writeln!(s, "address = {}", self.address);
+        let _ = writeln!(s, "schema = {}", q(&self.schema));
+        s.push_str("\n[identity]\n");
+        for (k, v) in &self.identity {
+            let _ = writeln!(s, "{} = {}", q(k), q(v));
+        }
+        s.push_str("\n[state]\n");
+        if let Some(r) = self.running {
+            let _ = writeln!(s, "running = {r}");
+        }
+        if let Some(c) = self.c0001 {
+            let _ = writeln!(s, "c0001 = {c}");
+        }
+        if let Some(v) = self.sload {
+            let _ = writeln!(s, "sload = {v}");
+        }
+        if let Some(l) = self.layout {
+            let _ = writeln!(s, "layout = {}", q(l.name()));
+        }
+        if let Some(t) = &self.types {
+            let _ = writeln!(s, "types = {}", q(&t.name()));
+        }
+        s.push_str("\n[timing]\n");
+        if let Some(r) = self.rate {
+            let _ = writeln!(s, "rate = {r}");
+        }
+        if let Some((lo, hi)) = self.reaction {
+            let _ = writeln!(s, "reaction_min_us = {}", lo.as_micros());
+            let _ = writeln!(s, "reaction_max_us = {}", hi.as_micros());
+        }
+        s.push_str("\n[values]\n");
+        for (k, v) in &self.values {
+            let value = match v {
+                RawValue::Int(i) => i.to_string(),
+                RawValue::Text(t) => q(t),
+                RawValue::Octets(o) => format!("{{ hex = {} }}", q(&hex(o))),
+            };
+            let _ = write!(s, "{} = {value}", q(&key_text(*k)));
+            if let Some(schema) = schema {
+                let _ = write!(s, "  # {}", comment(schema, *k, v));
+            }
+            s.push('\n');
+        }
+        s.push_str("\n[refused]\n");
+        for (k, why) in &self.refused {
+            let _ = writeln!(s, "{} = {}", q(&key_text(*k)), q(why));
+        }
+        let list = |keys: &[CodeKey]| {
+            keys.iter()
+                .map(|k| q(&key_text(*k)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        s.push_str("\n[codes]\n");
+        let _ = writeln!(s, "secrets = [{}]", list(&self.secrets));
+        let _ = writeln!(s, "unknown = [{}]", list(&self.unknown));
+        s
+    }
+
+    /// Put the twin's state on a freshly built model of its family: every
+    /// captured value, then the running state. Derived codes the model
+    /// refuses to be poked (Tmd C0068 / C0150 / C1962) follow from the
+    /// state; a captured code the model does not have is an error.
+    pub fn apply_byte(&self, drive: &mut dyn ByteDrive) -> Result<(), TwinError> {
+        let held = drive.state();
+        for (k, v) in &self.values {
+            if let Err(reason) = drive.poke(*k, v.clone())
+                && !held.values.contains_key(k)
+            {
+                return Err(self.apply_error(reason));
+            }
+        }
+        if let Some(r) = self.running {
+            drive.set_running(r);
+        }
+        Ok(())
+    }
+
+    /// [`Twin::apply_byte`] for a CAN node.
+    pub fn apply_frame(&self, drive: &mut dyn FrameDrive) -> Result<(), TwinError> {
+        let held = drive.state();
+        for (k, v) in &self.values {
+            if let Err(reason) = drive.poke(*k, v.clone())
+                && !held.values.contains_key(k)
+            {
+                return Err(self.apply_error(reason));
+            }
+        }
+        if let Some(r) = self.running
+            && drive.running() != r
+        {
+            drive
+                .set_running(r)
+                .map_err(|reason| self.apply_error(reason))?;
+        }
+        Ok(())
+    }
+
+    fn apply_error(&self, reason: String) -> TwinError {
+        TwinError::Apply {
+            path: self.path.clone(),
+            reason: format!(
+                "{reason}; the twin does not fit the simulator's {} model",
+                self.family.name()
+            ),
+        }
+    }
+}
+
+/// What a recapture writes: the previous file's text unchanged when it
+/// describes the same drive ([`Twin::same_drive`]: only the date, the
+/// version or reaction times inside the recorded range differ), so a
+/// second capture of an unchanged drive is byte-identical; else the new
+/// twin's text.
+pub fn keep_or_replace(previous: Option<&str>, new: &Twin, schema: Option<&Schema>) -> String {
+    if let Some(old_text) = previous
+        && let Ok(old) = Twin::parse(old_text, Path::new(""))
+        && old.same_drive(new)
+    {
+        return old_text.to_string();
+    }
+    new.to_toml(schema)
+}
+
+/// The code key as a twin file writes it: `11`, `11.2` with a subcode.
+pub fn key_text(k: CodeKey) -> String {
+    match k.subcode {
+        Some(s) => format!("{}.{s}", k.number),
+        None => k.number.to_string(),
+    }
+}
+
+/// Read a [`key_text`] back.
+pub fn parse_key(s: &str) -> Option<CodeKey> {
+    match s.split_once('.') {
+        Some((n, sub)) => Some(CodeKey::sub(n.parse().ok()?, sub.parse().ok()?)),
+        None => Some(CodeKey::new(s.parse().ok()?)),
+    }
+}
+
+fn comment(schema: &Schema, k: CodeKey, v: &RawValue) -> String {
+    let code = schema.display_code(k.number, k.subcode);
+    match schema.code(k.number) {
+        Some(c) => {
+            let shown = driveset_schema::validate::display_value(schema, c, v);
+            if c.name.is_empty() || code.contains(&c.name) {
+                format!("{code} = {shown}")
+            } else {
+                format!("{code} {} = {shown}", c.name)
+            }
+        }
+        None => code,
+    }
+}
+
+fn toml_str(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
+fn hex(o: &[u8]) -> String {
+    o.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn unhex(s: &str) -> Option<Vec<u8>> {
+    if !s.len().is_multiple_of(2) {
+        return None;
+    }
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(s.get(i..i + 2)?, 16).ok())
+        .collect()
+}
+
+struct Reader<'a> {
+    path: &'a Path,
+    table: &'a toml::Table,
+}
+
+impl Reader<'_> {
+    fn bad(&self, key: &str, reason: impl Into<String>) -> TwinError {
+        TwinError::Field {
+            path: self.path.to_path_buf(),
+            key: key.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    fn string(&self, key: &str) -> Result<String, TwinError> {
+        match self.table.get(key) {
+            Some(toml::Value::String(s)) => Ok(s.clone()),
+            Some(_) => Err(self.bad(key, "must be a string")),
+            None => Err(self.bad(key, "missing")),
+        }
+    }
+
+    fn section(&self, name: &str) -> Result<Option<&toml::Table>, TwinError> {
+        match self.table.get(name) {
+            Some(toml::Value::Table(t)) => Ok(Some(t)),
+            Some(_) => Err(self.bad(&format!("[{name}]"), "must be a table")),
+            None => Ok(None),
+        }
+    }
+
+    fn int_in(
+        &self,
+        t: Option<&toml::Table>,
+        sec: &str,
+        key: &str,
+    ) -> Result<Option<i64>, TwinError> {
+        match t.and_then(|t| t.get(key)) {
+            Some(toml::Value::Integer(i)) => Ok(Some(*i)),
+            Some(_) => Err(self.bad(&format!("[{sec}] {key}"), "must be a whole number")),
+            None => Ok(None),
+        }
+    }
+
+    fn str_in(
+        &self,
+        t: Option<&toml::Table>,
+        sec: &str,
+        key: &str,
+    ) -> Result<Option<String>, TwinError> {
+        match t.and_then(|t| t.get(key)) {
+            Some(toml::Value::String(s)) => Ok(Some(s.clone())),
+            Some(_) => Err(self.bad(&format!("[{sec}] {key}"), "must be a string")),
+            None => Ok(None),
+        }
+    }
+
+    fn key(&self, sec: &str, k: &str) -> Result<CodeKey, TwinError> {
+        parse_key(k).ok_or_else(|| {
+            self.bad(
+                &format!("[{sec}] \"{k}\""),
+                "not a code: write the code number, or NUMBER.SUBCODE",
+            )
+        })
+    }
+
+    fn keys(&self, t: Option<&toml::Table>, key: &str) -> Result<Vec<CodeKey>, TwinError> {
+        let Some(v) = t.and_then(|t| t.get(key)) else {
+            return Ok(Vec::new());
+        };
+        let toml::Value::Array(items) = v else {
+            return Err(self.bad(&format!("[codes] {key}"), "must be a list of codes"));
+        };
+        items
+            .iter()
+            .map(|i| match i {
+                toml::Value::String(s) => self.key("codes", s),
+                _ => Err(self.bad(&format!("[codes] {key}"), "must be a list of code strings")),
+            })
+            .collect()
+    }
+
+    fn twin(&self) -> Result<Twin, TwinError> {
+        let format = self.string("format")?;
+        if format != TWIN_FORMAT {
+            return Err(self.bad(
+                "format",
+                format!("`{format}` is not `{TWIN_FORMAT}`; capture the drive again"),
+            ));
+        }
+        let family_name = self.string("family")?;
+        let family = Family::parse(&family_name).map_err(|e| self.bad("family", e))?;
+        let address = match self.table.get("address") {
+            Some(toml::Value::Integer(a)) => u8::try_from(*a)
+                .map_err(|_| self.bad("address", format!("{a} is not a bus address")))?,
+            Some(_) => return Err(self.bad("address", "must be a whole number")),
+            None => return Err(self.bad("address", "missing")),
+        };
+        crate::open::check_address(family, address)
+            .map_err(|e| self.bad("address", e.to_string()))?;
+        let mut twin = Twin::new(family, address, &self.string("schema")?);
+        twin.path = self.path.to_path_buf();
+        twin.driveset = self.string("driveset")?;
+        twin.captured = self.string("captured")?;
+        twin.source = self.string("source").unwrap_or_default();
+        if let Some(t) = self.section("identity")? {
+            for (k, v) in t {
+                match v {
+                    toml::Value::String(s) => twin.identity.push((k.clone(), s.clone())),
+                    _ => return Err(self.bad(&format!("[identity] {k}"), "must be a string")),
+                }
+            }
+        }
+        let state = self.section("state")?;
+        twin.running = match state.and_then(|t| t.get("running")) {
+            Some(toml::Value::Boolean(b)) => Some(*b),
+            Some(_) => return Err(self.bad("[state] running", "must be true or false")),
+            None => None,
+        };
+        twin.c0001 =
+            match self.int_in(state, "state", "c0001")? {
+                Some(c) => Some(u8::try_from(c).ok().filter(|c| *c <= 11).ok_or_else(|| {
+                    self.bad("[state] c0001", "C0001 takes 0..=11 (Table 1; §4e)")
+                })?),
+                None => None,
+            };
+        twin.sload = self.int_in(state, "state", "sload")?;
+        twin.layout =
+            match self.str_in(state, "state", "layout")? {
+                Some(l) => Some(McLayout::from_name(&l).ok_or_else(|| {
+                    self.bad("[state] layout", "use 52, 43, 42 or 34 (errata L22)")
+                })?),
+                None => None,
+            };
+        twin.types = match self.str_in(state, "state", "types")? {
+            Some(t) => Some(McTypeChars::parse(&t).map_err(|e| self.bad("[state] types", e))?),
+            None => None,
+        };
+        let timing = self.section("timing")?;
+        twin.rate = match self.int_in(timing, "timing", "rate")? {
+            Some(r) => Some(
+                u32::try_from(r)
+                    .ok()
+                    .filter(|r| *r > 0)
+                    .ok_or_else(|| self.bad("[timing] rate", "not a line rate"))?,
+            ),
+            None => None,
+        };
+        let us = |key: &str| -> Result<Option<Duration>, TwinError> {
+            match self.int_in(timing, "timing", key)? {
+                Some(v) => u64::try_from(v)
+                    .map(|v| Some(Duration::from_micros(v)))
+                    .map_err(|_| self.bad(&format!("[timing] {key}"), "must not be negative")),
+                None => Ok(None),
+            }
+        };
+        twin.reaction = match (us("reaction_min_us")?, us("reaction_max_us")?) {
+            (Some(lo), Some(hi)) if lo <= hi => Some((lo, hi)),
+            (Some(_), Some(_)) => {
+                return Err(self.bad("[timing] reaction_min_us", "is above reaction_max_us"));
+            }
+            (None, None) => None,
+            _ => {
+                return Err(self.bad(
+                    "[timing]",
+                    "give both reaction_min_us and reaction_max_us, or neither",
+                ));
+            }
+        };
+        if let Some(t) = self.section("values")? {
+            for (k, v) in t {
+                let key = self.key("values", k)?;
+                let raw = match v {
+                    toml::Value::Integer(i) => RawValue::Int(*i),
+                    toml::Value::String(s) => RawValue::Text(s.clone()),
+                    toml::Value::Table(h) => match h.get("hex") {
+                        Some(toml::Value::String(x)) => {
+                            RawValue::Octets(unhex(x).ok_or_else(|| {
+                                self.bad(&format!("[values] \"{k}\" hex"), "not hex digits")
+                            })?)
+                        }
+                        _ => {
+                            return Err(self.bad(
+                                &format!("[values] \"{k}\""),
+                                "a table value must be { hex = \"...\" }",
+                            ));
+                        }
+                    },
+                    _ => {
+                        return Err(self.bad(
+                            &format!("[values] \"{k}\""),
+                            "must be a whole number, a string or { hex = \"...\" }",
+                        ));
+                    }
+                };
+                twin.values.insert(key, raw);
+            }
+        }
+        if let Some(t) = self.section("refused")? {
+            for (k, v) in t {
+                let key = self.key("refused", k)?;
+                let why = match v {
+                    toml::Value::String(s) => s.clone(),
+                    _ => return Err(self.bad(&format!("[refused] \"{k}\""), "must be a string")),
+                };
+                twin.refused.insert(key, why);
+            }
+        }
+        let codes = self.section("codes")?;
+        twin.secrets = self.keys(codes, "secrets")?;
+        twin.unknown = self.keys(codes, "unknown")?;
+        Ok(twin)
+    }
+}
+
+/// Read one twin file.
+pub fn load_file(path: &Path) -> Result<Twin, TwinError> {
+    let text = std::fs::read_to_string(path).map_err(|source| TwinError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Twin::parse(&text, path)
+}
+
+/// Every `*.twin.toml` of `dir`, in file-name order, checked to share one
+/// bus (one address each; LUSTBUS families together, or one Lenze family).
+pub fn load_dir(dir: &Path) -> Result<Vec<Twin>, TwinError> {
+    let io = |source| TwinError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(io)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.ends_with(TWIN_SUFFIX))
+        })
+        .collect();
+    files.sort();
+    let twins = files
+        .iter()
+        .map(|f| load_file(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_one_bus(&twins)?;
+    if twins.is_empty() {
+        return Err(TwinError::Empty {
+            path: dir.to_path_buf(),
+        });
+    }
+    Ok(twins)
+}
+
+/// Check that `twins` can share one simulated bus.
+pub fn check_one_bus(twins: &[Twin]) -> Result<(), TwinError> {
+    let Some(first) = twins.first() else {
+        return Ok(());
+    };
+    for (i, t) in twins.iter().enumerate() {
+        if t.family.bus() != first.family.bus() {
+            return Err(TwinError::MixedBus {
+                path: t.path.clone(),
+                family: t.family.name(),
+                other: first.family.name(),
+            });
+        }
+        if let Some(o) = twins[..i].iter().find(|o| o.address == t.address) {
+            return Err(TwinError::SameAddress {
+                first: o.path.clone(),
+                second: t.path.clone(),
+                address: t.address,
+            });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Twin {
+        let mut t = Twin::new(Family::Tmd, 4, "lenze-tmd");
+        t.driveset = "0.1.0".into();
+        t.captured = "2026-12-02".into();
+        t.source = "drive sim://tmd?addresses=4".into();
+        t.identity.push(("C0093".into(), "8201".into()));
+        t.running = Some(false);
+        t.c0001 = Some(3);
+        t.rate = Some(9600);
+        t.reaction = Some((Duration::from_micros(1500), Duration::from_micros(4200)));
+        t.values.insert(CodeKey::new(11), RawValue::Int(500));
+        t.values
+            .insert(CodeKey::sub(17, 2), RawValue::Text("a \"b\"".into()));
+        t.values
+            .insert(CodeKey::new(9), RawValue::Octets(vec![0xa1, 0x02]));
+        t.refused.insert(CodeKey::new(99), "no such code".into());
+        t.secrets.push(CodeKey::new(94));
+        t
+    }
+
+    #[test]
+    fn a_twin_round_trips_through_its_text() {
+        let t = sample();
+        let text = t.to_toml(None);
+        assert!(
+            text.contains(
+                "\n[values]\n\"9\" = { hex = \"a102\" }\n\"11\" = 500\n\"17.2\" = \"a \\\"b\\\"\"\n"
+            ),
+            "{text}"
+        );
+        assert!(text.contains("secrets = [\"94\"]"), "{text}");
+        let back = Twin::parse(&text, Path::new("t.twin.toml")).unwrap();
+        assert_eq!(
+            back,
+            Twin {
+                path: "t.twin.toml".into(),
+                ..t
+            }
+        );
+        assert_eq!(back.to_toml(None), text);
+    }
+
+    #[test]
+    fn a_recapture_of_the_same_drive_keeps_the_file() {
+        let t = sample();
+        let old = t.to_toml(None);
+        let mut again = t.clone();
+        again.captured = "2027-01-15".into();
+        again.reaction = Some((Duration::from_micros(1600), Duration::from_micros(4000)));
+        assert_eq!(keep_or_replace(Some(&old), &again, None), old);
+        again.reaction = Some((Duration::from_micros(1600), Duration::from_micros(9000)));
+        assert_ne!(keep_or_replace(Some(&old), &again, None), old);
+        let mut changed = t.clone();
+        changed.captured = "2027-01-15".into();
+        changed.values.insert(CodeKey::new(11), RawValue::Int(501));
+        let text = keep_or_replace(Some(&old), &changed, None);
+        assert!(text.contains("captured = \"2027-01-15\"") && text.contains("\"11\" = 501"));
+    }
+
+    #[test]
+    fn bad_fields_are_named() {
+        let t = sample().to_toml(None);
+        let p = Path::new("x.twin.toml");
+        let e = Twin::parse(&t.replace("c0001 = 3", "c0001 = 12"), p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [state] c0001: C0001 takes 0..=11 (Table 1; §4e)"
+        );
+        let e = Twin::parse(&t.replace("\"11\" = 500", "\"C11\" = 500"), p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [values] \"C11\": not a code: write the code number, or NUMBER.SUBCODE"
+        );
+        let e = Twin::parse(&t.replace("address = 4", "address = 10"), p).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("x.twin.toml: address: tmd: address 10 is not allowed"),
+            "{e}"
+        );
+        let e = Twin::parse("format = [", p).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("x.twin.toml: TOML parse error at line 1, column"),
+            "{e}"
+        );
+    }
+}
