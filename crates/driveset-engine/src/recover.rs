@@ -199,10 +199,11 @@ pub fn recover(
 
     // A transfer-rate switch left open: find the drive (LUSTBUS 5.1) and
     // switch it back to the journal's old rate first.
+    // A journal the upload had settled is then checked like any other: its
+    // `complete` or `rolled-back` is said again only after every code of
+    // the set is read back (a restart during the switch back loses RAM
+    // values).
     report.transfer = crate::transfer::recover_rate(client, &mut jf)?;
-    if jf.journal.state.is_settled() {
-        return Ok(report);
-    }
     let hook = &opts.observer;
     hook.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;
@@ -316,7 +317,46 @@ pub fn recover(
             .all(|(k, v)| current.values.get(k) == Some(v));
     let at = |c: &dyn DriveClient| c.clock().now().as_nanos();
 
-    if all_new && !sload_open {
+    if new_values.is_empty() && !sload_open {
+        // Nothing was planned (a transfer-rate switch around a run that
+        // had nothing to write, or that was cut before it planned): there
+        // is nothing to restore; the codes it found unchanged must still
+        // hold their values.
+        let now = read_observed(client, unchanged.iter().map(|(k, _)| *k), hook, Step::Verify)?;
+        let differ: Vec<String> = unchanged
+            .iter()
+            .filter(|(k, v)| now.values.get(k) != Some(v))
+            .map(|(k, _)| code_label(&schema, *k))
+            .collect();
+        if !differ.is_empty() {
+            let detail = format!(
+                "{} no longer {} the value the run found (nothing was planned, so nothing is restored); compare the drive with its set (`driveset diff SET --port ...`) and upload it again",
+                differ.join(", "),
+                if differ.len() == 1 { "holds" } else { "hold" }
+            );
+            jf.journal.failure = Some(detail.clone());
+            jf.journal
+                .transition(TxnState::Failed, at(&*client), Some(detail.clone()));
+            jf.persist()?;
+            return Err(EngineError::inconsistent(target, journal_name, detail));
+        }
+        let (state, action, note) = if found == TxnState::Complete {
+            (
+                TxnState::Complete,
+                RecoverAction::Completed,
+                "recover: nothing was planned; the codes the run found read back unchanged",
+            )
+        } else {
+            (
+                TxnState::RolledBack,
+                RecoverAction::RolledBack,
+                "recover: nothing was written but the line rate; read back",
+            )
+        };
+        jf.journal.transition(state, at(&*client), Some(note.into()));
+        jf.persist()?;
+        report.action = action;
+    } else if all_new && !sload_open {
         let t = at(&*client);
         jf.journal.transition(
             TxnState::Complete,

@@ -14,5 +14,6 @@ mod line;
 mod support;
 mod txn;
 mod txn_sim;
+mod transfer_cut;
 mod txn_support;
 mod util;
