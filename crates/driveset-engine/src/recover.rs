@@ -114,7 +114,7 @@ pub fn recover(
     let mut jf = JournalFile::open(journal_path)?;
     let journal_name = journal_path.display().to_string();
     let found = jf.journal.state;
-    let mut report = RecoverReport {
+    let report = RecoverReport {
         journal: journal_name.clone(),
         found,
         action: RecoverAction::Nothing,
@@ -165,14 +165,7 @@ pub fn recover(
             format!("{d}; the file is damaged, restore the drive by hand from it"),
         )
     };
-    let backup: BTreeMap<CodeKey, RawValue> = jf
-        .journal
-        .backup_values()
-        .map_err(bad)?
-        .into_iter()
-        .collect();
     let planned = jf.journal.new_values().map_err(bad)?;
-    let unchanged = jf.journal.unchanged_values().map_err(bad)?;
     let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
     // the drive may answer at the address a planned bus address code gives it
     let moved_to: Vec<u8> = new_values
@@ -203,7 +196,50 @@ pub fn recover(
     // `complete` or `rolled-back` is said again only after every code of
     // the set is read back (a restart during the switch back loses RAM
     // values).
-    report.transfer = crate::transfer::recover_rate(client, &mut jf)?;
+    let rate_found = crate::transfer::find_drive(client, &jf)?;
+    let settled_before = jf.journal.state.is_settled();
+    let result = settle(client, &mut jf, opts, report);
+    match rate_found {
+        None => result,
+        Some(rate) => {
+            crate::transfer::finish_rate(client, journal_path, rate, settled_before, result)
+        }
+    }
+}
+
+/// The transaction part of [`recover`], after the checks that need no
+/// telegram (and, for a journal with a transfer-rate switch, at whatever
+/// rate the drive was found).
+fn settle(
+    client: &mut dyn DriveClient,
+    jf: &mut JournalFile,
+    opts: &RecoverOptions,
+    mut report: RecoverReport,
+) -> Result<RecoverReport, EngineError> {
+    let journal_name = report.journal.clone();
+    let found = report.found;
+    let schema = client.schema().clone();
+    let target = client.target().clone();
+    let refuse = |mismatch: Mismatch, detail: String| {
+        EngineError::not_journal_drive(target.clone(), journal_name.clone(), mismatch, detail)
+    };
+    let bus = client.bus_id();
+    let jt = jf.journal.target.clone();
+    let bad = |d: String| {
+        EngineError::journal(
+            journal_name.clone(),
+            format!("{d}; the file is damaged, restore the drive by hand from it"),
+        )
+    };
+    let backup: BTreeMap<CodeKey, RawValue> = jf
+        .journal
+        .backup_values()
+        .map_err(bad)?
+        .into_iter()
+        .collect();
+    let planned = jf.journal.new_values().map_err(bad)?;
+    let unchanged = jf.journal.unchanged_values().map_err(bad)?;
+    let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
     let hook = &opts.observer;
     hook.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;
@@ -322,7 +358,12 @@ pub fn recover(
         // had nothing to write, or that was cut before it planned): there
         // is nothing to restore; the codes it found unchanged must still
         // hold their values.
-        let now = read_observed(client, unchanged.iter().map(|(k, _)| *k), hook, Step::Verify)?;
+        let now = read_observed(
+            client,
+            unchanged.iter().map(|(k, _)| *k),
+            hook,
+            Step::Verify,
+        )?;
         let differ: Vec<String> = unchanged
             .iter()
             .filter(|(k, v)| now.values.get(k) != Some(v))
@@ -353,7 +394,8 @@ pub fn recover(
                 "recover: nothing was written but the line rate; read back",
             )
         };
-        jf.journal.transition(state, at(&*client), Some(note.into()));
+        jf.journal
+            .transition(state, at(&*client), Some(note.into()));
         jf.persist()?;
         report.action = action;
     } else if all_new && !sload_open {

@@ -1077,10 +1077,18 @@ fn final_verify(
     };
     let mut detail = what.clone();
     if let Ok(mut jf) = JournalFile::open(journal) {
-        let backup: std::collections::BTreeMap<CodeKey, RawValue> =
-            jf.journal.backup_values().unwrap_or_default().into_iter().collect();
-        let new_values: std::collections::BTreeMap<CodeKey, RawValue> =
-            jf.journal.new_values().unwrap_or_default().into_iter().collect();
+        let backup: std::collections::BTreeMap<CodeKey, RawValue> = jf
+            .journal
+            .backup_values()
+            .unwrap_or_default()
+            .into_iter()
+            .collect();
+        let new_values: std::collections::BTreeMap<CodeKey, RawValue> = jf
+            .journal
+            .new_values()
+            .unwrap_or_default()
+            .into_iter()
+            .collect();
         if failure.is_none() {
             let holding = crate::upload::holdings(client, &schema, &backup, &new_values);
             detail = format!("{what}; {}", crate::upload::describe_holdings(&holding));
@@ -1183,24 +1191,22 @@ fn read_only<T>(
     }
 }
 
-/// `recover`'s first step for a journal whose transfer-rate switch is
-/// still open: find the drive (§5.1: the port's rate, the transfer rate,
-/// the old rate, then every rate), and, when it identifies as the
-/// journal's drive, switch it back to the old rate, keeping what its rate
-/// code holds. Returns what happened, for the report; `Ok(None)` when the
-/// journal has no open switch. A drive that identifies otherwise is left
-/// as found (the host at the rate it answered at) for recover's own
-/// identity refusal.
-pub fn recover_rate(
+/// `recover`'s first step for a journal that records a transfer-rate
+/// switch: find the drive at whatever rate it answers (§5.1: the port's
+/// rate, the transfer rate, the old rate, then every rate of the family)
+/// and leave the host there; `Ok(None)` when the journal records no
+/// switch. The transaction is then settled at that rate, and
+/// [`finish_rate`] switches back.
+pub fn find_drive(
     client: &mut dyn DriveClient,
-    jf: &mut JournalFile,
-) -> Result<Option<String>, EngineError> {
-    let Some(mut rec) = jf.journal.transfer.clone().filter(|t| !t.is_back()) else {
+    jf: &JournalFile,
+) -> Result<Option<u32>, EngineError> {
+    let Some(rec) = jf.journal.transfer.clone() else {
         return Ok(None);
     };
     let schema = client.schema().clone();
     let target = client.target().clone();
-    let Some(c) = codes_of(&schema) else {
+    if codes_of(&schema).is_none() {
         return Err(refuse(
             &target,
             format!(
@@ -1208,45 +1214,109 @@ pub fn recover_rate(
                 schema.id
             ),
         ));
-    };
-    let here = client.line_rate().unwrap_or(rec.old_rate);
-    let Some(found) = search(client, &[here, rec.transfer_rate, rec.old_rate])? else {
-        let _ = client.set_line_rate(here);
-        return Err(EngineError::no_answer(
-            target,
-            format!(
-                "the search for the drive over every rate (lustbus-protocol.txt §5.1; the journal records a switch from {} to {} baud); {}",
-                rec.old_rate,
-                rec.transfer_rate,
-                whereabouts(&rec, rec.state, None)
-            ),
-            1,
-        ));
-    };
-    let identity = client.identify()?;
-    if !jf.journal.identity.matches(&identity) {
-        return Ok(Some(format!("the drive answers at {found} baud")));
     }
-    let planned = planned_rate(&jf.journal, c);
-    let state0 = rec.state;
-    start_back(&mut rec);
-    let mut persist = |r: &TransferRecord| {
-        jf.journal.transfer = Some(r.clone());
-        jf.persist()
+    let here = client.line_rate().unwrap_or(rec.old_rate);
+    match search(client, &[here, rec.transfer_rate, rec.old_rate])? {
+        Some(found) => Ok(Some(found)),
+        None => {
+            let _ = client.set_line_rate(here);
+            Err(EngineError::no_answer(
+                target,
+                format!(
+                    "the search for the drive over every rate (lustbus-protocol.txt §5.1; the journal records a switch from {} to {} baud); {}",
+                    rec.old_rate,
+                    rec.transfer_rate,
+                    whereabouts(&rec, rec.state, None)
+                ),
+                1,
+            ))
+        }
+    }
+}
+
+/// `recover`'s last step for a journal that records a transfer-rate
+/// switch, after the transaction was settled (`result`) with the drive
+/// found at `found` baud: an open switch is switched back to the old rate,
+/// the rate code keeping what a successful settle left in it
+/// ([`keep_value`]: never the transfer rate unless the set's), or after a
+/// failed one the [`TransferRecord::keep`] the upload recorded when it had
+/// settled the transaction itself (`settled_before`).
+/// This is done after a failed settle too, so that the drive is not left
+/// at the transfer rate, but never when the drive is not the journal's.
+/// A switch already back with the drive found at another rate (it
+/// restarted at what its rate code held) is switched back the same way.
+pub fn finish_rate(
+    client: &mut dyn DriveClient,
+    journal: &Path,
+    found: u32,
+    settled_before: bool,
+    result: Result<crate::recover::RecoverReport, EngineError>,
+) -> Result<crate::recover::RecoverReport, EngineError> {
+    if let Err(e) = &result
+        && matches!(e.kind(), ErrorKind::NotJournalDrive { .. })
+    {
+        return result;
+    }
+    let mut jf = match JournalFile::open(journal) {
+        Ok(jf) => jf,
+        Err(e) => return result.and(Err(e)),
     };
-    persist(&rec)?;
-    let state = match switch_back_once(client, c, &mut rec, planned.as_ref(), &mut persist) {
-        Ok(s) => s,
-        Err(e) => {
-            return Err(with_rate_note(
-                e,
-                &Err(whereabouts(&rec, state0, client.line_rate())),
-            ));
+    let Some(mut rec) = jf.journal.transfer.clone() else {
+        return result;
+    };
+    let Some(c) = codes_of(client.schema()) else {
+        return result;
+    };
+    let back: Back = if rec.is_back() && found == rec.old_rate {
+        Ok(format!("the drive runs at {found} baud"))
+    } else {
+        // A drive found elsewhere though the switch was back has
+        // restarted since at what its rate code held: it is switched back
+        // too, keeping what the settle left there.
+        // What a successful settle left in the rate code is what the
+        // drive is to keep (read back with the set's codes); after a failed
+        // one, the decision the upload recorded stands.
+        if result.is_ok() || !settled_before || rec.is_back() {
+            rec.keep = None;
+        }
+        let planned = planned_rate(&jf.journal, c);
+        let state0 = rec.state;
+        start_back(&mut rec);
+        let mut persist = |r: &TransferRecord| {
+            jf.journal.transfer = Some(r.clone());
+            jf.persist()
+        };
+        match persist(&rec)
+            .and_then(|()| switch_back_once(client, c, &mut rec, planned.as_ref(), &mut persist))
+        {
+            Ok(state) => {
+                rec.state = TransferState::Back;
+                rec.back_at_ns = Some(client.clock().now().as_nanos());
+                jf.journal.transfer = Some(rec);
+                match jf.persist() {
+                    Ok(()) => Ok(format!("found at {found} baud; {state}")),
+                    Err(e) => Err(e.to_string()),
+                }
+            }
+            Err(e) => Err(format!(
+                "{e}; {}",
+                whereabouts(&rec, state0, client.line_rate())
+            )),
         }
     };
-    rec.state = TransferState::Back;
-    rec.back_at_ns = Some(client.clock().now().as_nanos());
-    jf.journal.transfer = Some(rec);
-    jf.persist()?;
-    Ok(Some(format!("found at {found} baud; {state}")))
+    match (result, back) {
+        (Ok(mut r), Ok(text)) => {
+            r.transfer = Some(text);
+            Ok(r)
+        }
+        (Ok(_), Err(why)) => Err(EngineError::no_answer(
+            client.target().clone(),
+            format!(
+                "switching back from the transfer rate (the transaction was settled; {why}; run `driveset recover {}` again)",
+                journal.display()
+            ),
+            1,
+        )),
+        (Err(e), back) => Err(with_rate_note(e, &back)),
+    }
 }
