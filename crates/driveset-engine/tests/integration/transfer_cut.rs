@@ -129,6 +129,7 @@ fn telegrams(set: &ResolvedSet) -> u64 {
 
 /// One run's result.
 #[derive(Debug)]
+#[derive(PartialEq)]
 struct Run {
     /// The upload returned success.
     exit0: bool,
@@ -299,4 +300,40 @@ fn campaign_every_telegram_of_a_small_transfer_upload_alternating_faults() {
 fn campaign_every_telegram_x_both_faults() {
     campaign(&small_set(), |_, _| true);
     campaign(&axis_set(), |_, _| true);
+}
+
+/// Issue 17's first reproduction: the cable goes right after 81-SBAUD =
+/// 57600 reached the drive (telegram 5, its ACK lost), for 600 s. Recover
+/// must put the drive's own 9600 back into 81 (it held 57600 in EEPROM)
+/// and read it back; after a restart the drive answers at 9600.
+#[test]
+fn cable_right_after_sbaud_57600_recover_restores_the_own_rate() {
+    let set = axis_set();
+    let r = run(&set, "cable@5+600s");
+    assert!(!r.exit0);
+    assert_eq!(r.recover, Some(Ok(RecoverAction::RolledBack)));
+    assert_eq!(r.outcome, "failed; recover RolledBack; after restart at 9600");
+}
+
+/// Issue 17's second and third reproductions: a cable cut or a power
+/// cycle at each telegram of the switch back of the axis set (read 81 at
+/// 57600, 81 = 9600, PROG = 111, confirm at 9600, 81 = the set's 19200,
+/// its read-back). No upload exits 0 (the final read-back at 9600 finds
+/// what a restart lost, or the switch back never finished); recover
+/// settles each, and after a restart every drive answers at the rate its
+/// 81 holds, which is the set's 19200 when recover completed.
+#[test]
+fn cuts_and_power_cycles_during_the_switch_back_never_pass_and_recover() {
+    let set = axis_set();
+    let n = telegrams(&set);
+    for i in n - 6..=n {
+        for f in [format!("cable@{i}+600s"), format!("power-cycle@{i}:off=200ms")] {
+            let r = run(&set, &f);
+            assert!(!r.exit0, "{f}: {}", r.outcome);
+            assert!(matches!(r.recover, Some(Ok(_))), "{f}: {}", r.outcome);
+            if r.recover == Some(Ok(RecoverAction::Completed)) {
+                assert!(r.outcome.ends_with("after restart at 19200"), "{f}: {}", r.outcome);
+            }
+        }
+    }
 }
