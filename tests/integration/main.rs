@@ -27,6 +27,7 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod transfer_pty;
 mod upload;
 mod util;
 mod validate;

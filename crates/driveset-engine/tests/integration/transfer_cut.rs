@@ -128,8 +128,7 @@ fn telegrams(set: &ResolvedSet) -> u64 {
 }
 
 /// One run's result.
-#[derive(Debug)]
-#[derive(PartialEq)]
+#[derive(Debug, PartialEq)]
 struct Run {
     /// The upload returned success.
     exit0: bool,
@@ -312,7 +311,10 @@ fn cable_right_after_sbaud_57600_recover_restores_the_own_rate() {
     let r = run(&set, "cable@5+600s");
     assert!(!r.exit0);
     assert_eq!(r.recover, Some(Ok(RecoverAction::RolledBack)));
-    assert_eq!(r.outcome, "failed; recover RolledBack; after restart at 9600");
+    assert_eq!(
+        r.outcome,
+        "failed; recover RolledBack; after restart at 9600"
+    );
 }
 
 /// Issue 17's second and third reproductions: a cable cut or a power
@@ -327,12 +329,19 @@ fn cuts_and_power_cycles_during_the_switch_back_never_pass_and_recover() {
     let set = axis_set();
     let n = telegrams(&set);
     for i in n - 6..=n {
-        for f in [format!("cable@{i}+600s"), format!("power-cycle@{i}:off=200ms")] {
+        for f in [
+            format!("cable@{i}+600s"),
+            format!("power-cycle@{i}:off=200ms"),
+        ] {
             let r = run(&set, &f);
             assert!(!r.exit0, "{f}: {}", r.outcome);
             assert!(matches!(r.recover, Some(Ok(_))), "{f}: {}", r.outcome);
             if r.recover == Some(Ok(RecoverAction::Completed)) {
-                assert!(r.outcome.ends_with("after restart at 19200"), "{f}: {}", r.outcome);
+                assert!(
+                    r.outcome.ends_with("after restart at 19200"),
+                    "{f}: {}",
+                    r.outcome
+                );
             }
         }
     }
