@@ -325,7 +325,12 @@ fn settle(
     } else {
         false
     };
-    let current = read_observed(client, backup.keys().copied(), hook, Step::Read)?;
+    let mut current = read_observed(client, backup.keys().copied(), hook, Step::Read)?;
+    for (k, v) in current.values.iter_mut() {
+        if let Some(keep) = crate::transfer::judged_rate(&jf.journal, &schema, *k, v) {
+            *v = keep;
+        }
+    }
     // stale: a planned code holds neither its old nor its new value
     let stale: Vec<String> = order
         .iter()

@@ -658,6 +658,57 @@ fn planned_rate(journal: &crate::journal::Journal, c: Codes) -> Option<RawValue>
         .and_then(|p| p.new.to_raw())
 }
 
+/// What the rate code keeps once recover settled the transaction with
+/// `action`: the planned new value (completed) or the backup (rolled back)
+/// when the transaction has the code, else the drive's own `before`.
+fn settled_keep(
+    journal: &crate::journal::Journal,
+    c: Codes,
+    rec: &TransferRecord,
+    action: crate::recover::RecoverAction,
+) -> JournalValue {
+    use crate::recover::RecoverAction;
+    let backup = journal
+        .backup
+        .iter()
+        .find(|b| b.number == c.rate.number && b.subcode == c.rate.subcode)
+        .map(|b| b.old.clone());
+    let planned = journal
+        .plan
+        .iter()
+        .find(|p| p.number == c.rate.number && p.subcode == c.rate.subcode)
+        .map(|p| p.new.clone());
+    let unchanged = journal
+        .unchanged
+        .iter()
+        .find(|b| b.number == c.rate.number && b.subcode == c.rate.subcode)
+        .map(|b| b.old.clone());
+    let chosen = match action {
+        RecoverAction::Completed => planned.or(unchanged),
+        RecoverAction::RolledBack | RecoverAction::Nothing => backup.or(unchanged),
+    };
+    chosen.unwrap_or_else(|| rec.before.clone())
+}
+
+/// While a switch back is open, the rate code may hold the old rate (the
+/// switch back writes it on the way) or the transfer rate (the
+/// switch-over): recover judges the code by the value the upload decided
+/// it keeps ([`TransferRecord::keep`]) instead, so that a cut in the switch
+/// back does not make a landed transaction look rolled back. `None`: judge
+/// what the drive holds.
+pub(crate) fn judged_rate(
+    journal: &crate::journal::Journal,
+    schema: &Schema,
+    key: CodeKey,
+    holds: &RawValue,
+) -> Option<RawValue> {
+    let rec = journal.transfer.as_ref().filter(|t| !t.is_back())?;
+    let c = codes_of(schema)?;
+    let keep = rec.keep.as_ref()?.to_raw()?;
+    let switch_wrote = as_rate(holds).is_some_and(|r| r == rec.old_rate || r == rec.transfer_rate);
+    (key == c.rate && switch_wrote).then_some(keep)
+}
+
 /// Mark the record `switching-back`, deciding [`TransferRecord::keep`]
 /// right away when the switch-over itself was cut (then it is `before`).
 fn start_back(rec: &mut TransferRecord) {
@@ -1273,11 +1324,14 @@ pub fn finish_rate(
         // A drive found elsewhere though the switch was back has
         // restarted since at what its rate code held: it is switched back
         // too, keeping what the settle left there.
-        // What a successful settle left in the rate code is what the
-        // drive is to keep (read back with the set's codes); after a failed
-        // one, the decision the upload recorded stands.
-        if result.is_ok() || !settled_before || rec.is_back() {
-            rec.keep = None;
+        // After a successful settle the outcome says what the rate code
+        // keeps: the set's value (completed) or the old one (rolled back)
+        // when the set has the code, else the drive's own `before`; after a
+        // failed one, the decision the upload recorded stands.
+        match result.as_ref().map(|r| r.action) {
+            Ok(action) => rec.keep = Some(settled_keep(&jf.journal, c, &rec, action)),
+            Err(_) if !settled_before || rec.is_back() => rec.keep = None,
+            Err(_) => {}
         }
         let planned = planned_rate(&jf.journal, c);
         let state0 = rec.state;
