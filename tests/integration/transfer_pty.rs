@@ -109,3 +109,173 @@ fn upload_at_57600_over_a_pty_switches_and_comes_back_to_9600() {
     let set = load(SET);
     assert_eq!(crate::e2e_pty::dump_subset(&d, 1, &set), set.canonical());
 }
+
+/// The simulator's state file of the `sim://` runs below: drive 1's rate
+/// (absent: the line's) and its canonical values.
+fn state(dir: &Path) -> (serde_json::Value, String) {
+    let path = std::fs::read_dir(dir)
+        .expect("state dir")
+        .next()
+        .expect("a state file")
+        .expect("entry")
+        .path();
+    let d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("state")).expect("JSON");
+    let drive = &d["drives"][0];
+    (
+        drive["rate"].clone(),
+        drive["canonical"].as_str().expect("canonical").to_string(),
+    )
+}
+
+fn code_line<'a>(canonical: &'a str, code: &str) -> &'a str {
+    canonical
+        .lines()
+        .find(|l| l.split_once(' ').is_some_and(|(c, _)| c == code))
+        .unwrap_or_else(|| panic!("no {code} in\n{canonical}"))
+}
+
+/// One of issue 17's reproductions through the binary: upload with
+/// `faults`, then `recover` through the same simulated bus (cable back, no
+/// faults), then `diff`. Returns (upload stderr, recover stdout, diff exit
+/// code, 81 and 428 as the drive holds them, its rate).
+fn cut_then_recover(
+    faults: &str,
+) -> (
+    String,
+    String,
+    Option<i32>,
+    String,
+    String,
+    serde_json::Value,
+) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let state_dir = dir.path().join("sim");
+    std::fs::create_dir_all(&state_dir).expect("state dir");
+    let set = crate::util::workspace_root().join(SET);
+    let journal = dir.path().join("j.json");
+    let up = crate::util::driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state_dir)
+        .arg("upload")
+        .arg(&set)
+        .args([
+            "--port",
+            &format!("sim://mc6000?addresses=1&faults={faults}"),
+            "--address",
+            "1",
+        ])
+        .args(["--transfer-baud", "57600", "--journal"])
+        .arg(&journal)
+        .output()
+        .expect("upload");
+    let up_err = String::from_utf8_lossy(&up.stderr).into_owned();
+    assert_eq!(
+        up.status.code(),
+        Some(3),
+        "{faults}: upload\n{}{up_err}",
+        String::from_utf8_lossy(&up.stdout)
+    );
+    assert!(
+        up_err.contains(&format!("driveset recover {}", journal.display())),
+        "{up_err}"
+    );
+    let rec = crate::util::driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state_dir)
+        .arg("recover")
+        .arg(&journal)
+        .args(["--port", "sim://mc6000?addresses=1"])
+        .output()
+        .expect("recover");
+    let rec_out = String::from_utf8_lossy(&rec.stdout).into_owned();
+    assert_eq!(
+        rec.status.code(),
+        Some(0),
+        "{faults}: recover\n{rec_out}{}",
+        String::from_utf8_lossy(&rec.stderr)
+    );
+    let diff = crate::util::driveset()
+        .env("DRIVESET_SIM_STATE_DIR", &state_dir)
+        .arg("diff")
+        .arg(&set)
+        .args(["--port", "sim://mc6000?addresses=1", "--address", "1"])
+        .output()
+        .expect("diff");
+    let (rate, canonical) = state(&state_dir);
+    (
+        up_err,
+        rec_out,
+        diff.status.code(),
+        code_line(&canonical, "81").to_string(),
+        code_line(&canonical, "428").to_string(),
+        rate,
+    )
+}
+
+/// Issue 17: the cable goes right after 81-SBAUD = 57600 reached the
+/// drive. Recover writes the drive's own 9600 back into 81 and reads it
+/// back before it says "rolled back"; nothing of the set was written.
+#[test]
+fn cable_right_after_sbaud_57600_then_recover_leaves_81_at_the_own_rate() {
+    let (_, rec, diff, sbaud, _, rate) = cut_then_recover("cable@5+600s");
+    assert!(
+        rec.contains(
+            "journal was planned; rolled back: the drive holds its old values again (verified)"
+        ),
+        "{rec}"
+    );
+    assert!(
+        rec.contains(
+            "line rate: found at 9600 baud; the drive runs at 9600 baud again; 81-SBAUD = 9600\n"
+        ),
+        "{rec}"
+    );
+    assert_eq!(sbaud, "81 9600");
+    assert_eq!(
+        rate,
+        serde_json::Value::Null,
+        "the drive runs at the line's 9600"
+    );
+    assert_eq!(diff, Some(1), "the set was not written");
+}
+
+/// Issue 17: the cable goes during the switch back (81 = 9600 written on
+/// the way): the upload does not exit 0; recover finds the drive, judges
+/// 81 by the value the journal says it keeps, completes, and writes the
+/// set's 19200 into 81 (read back); `diff` then finds nothing.
+#[test]
+fn cable_during_the_switch_back_then_recover_completes_with_the_sets_81() {
+    for at in ["432", "433"] {
+        let (_, rec, diff, sbaud, _, rate) = cut_then_recover(&format!("cable@{at}+600s"));
+        assert!(
+            rec.contains("journal was complete; completed: the drive holds the new set (verified)"),
+            "{at}: {rec}"
+        );
+        assert!(rec.contains("the drive runs at 9600 baud again; 81-SBAUD holds 19200 (not active: in effect after the drive's next restart)\n"), "{at}: {rec}");
+        assert_eq!(sbaud, "81 19200", "{at}");
+        assert_eq!(rate, 9600, "{at}");
+        assert_eq!(diff, Some(0), "{at}");
+    }
+}
+
+/// Issue 17: a power cycle during the switch back loses 428-RSIO (RAM):
+/// the upload does not exit 0 (it used to say "complete"); recover rolls
+/// back to the old set and leaves 81 at the drive's own 9600.
+#[test]
+fn power_cycle_during_the_switch_back_never_exits_0_and_recover_settles() {
+    let (up, rec, diff, sbaud, rsio, _) = cut_then_recover("power-cycle@432:off=200ms");
+    assert!(!up.contains("complete"), "{up}");
+    assert!(
+        rec.contains(
+            "journal was complete; rolled back: the drive holds its old values again (verified)"
+        ),
+        "{rec}"
+    );
+    assert!(
+        rec.contains(
+            "line rate: found at 9600 baud; the drive runs at 9600 baud again; 81-SBAUD = 9600\n"
+        ),
+        "{rec}"
+    );
+    assert_eq!((sbaud.as_str(), rsio.as_str()), ("81 9600", "428 0"));
+    assert_eq!(diff, Some(1));
+}

@@ -934,7 +934,10 @@ pub fn begin(
         )),
     );
     JournalFile::create(journal, j)?;
-    switch_over(client, c, &mut record, journal)?;
+    switch_over(client, c, &mut record, journal).map_err(|e| {
+        let j = journal.display();
+        with_rate_note(e, &Ok(format!("journal {j}: run `driveset recover {j}`")))
+    })?;
     Ok(Session {
         codes: Some(c),
         record: Some(record),
