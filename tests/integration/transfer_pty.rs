@@ -279,3 +279,112 @@ fn power_cycle_during_the_switch_back_never_exits_0_and_recover_settles() {
     assert_eq!((sbaud.as_str(), rsio.as_str()), ("81 9600", "428 0"));
     assert_eq!(diff, Some(1));
 }
+
+/// kill -9 of a `--transfer-baud 57600` upload over a real pty once the
+/// host's port went to 57600 (the simulator's log says so): the drive is
+/// left at 57600. `driveset recover` through the port at 9600 finds it
+/// there (the simulated drive hears garbage at 9600, as a real one would),
+/// settles the transaction and switches it back; the simulator's dump
+/// then shows the drive at 9600 with 81 = its own or the set's rate.
+#[test]
+fn upload_killed_at_57600_over_a_pty_then_recover_switches_the_drive_back() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let log = dir.path().join("bus.jsonl");
+    let log_arg = log.to_string_lossy().into_owned();
+    let mut sim = Sim::start(
+        dir.path(),
+        "mc6000",
+        1,
+        &["--baud", "9600", "--log", &log_arg],
+    );
+    let port = format!("{}?baud=9600", sim.path);
+    let journal = dir.path().join("j.json");
+    let mut up = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+        .current_dir(crate::util::workspace_root())
+        .args([
+            "upload",
+            SET,
+            "--port",
+            &port,
+            "--address",
+            "1",
+            "--transfer-baud",
+            "57600",
+            "--journal",
+        ])
+        .arg(&journal)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start the upload");
+    let give_up = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    loop {
+        let text = std::fs::read_to_string(&log).unwrap_or_default();
+        // a few telegrams into the transaction at 57600
+        let at_rate = text
+            .lines()
+            .position(|l| l.contains("the host's port runs at 57600 baud"));
+        if at_rate.is_some_and(|i| text.lines().count() > i + 40) {
+            break;
+        }
+        assert!(
+            up.try_wait().expect("wait").is_none(),
+            "the upload ended before it was killed: {}",
+            sim.stderr()
+        );
+        assert!(
+            std::time::Instant::now() < give_up,
+            "the upload never reached 57600: {}",
+            sim.stderr()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    up.kill().expect("kill -9");
+    up.wait().expect("reap");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&journal).expect("journal")).expect("JSON");
+    assert_eq!(j["transfer"]["state"], "at-transfer-rate", "{j}");
+    // a host at 9600 gets no answer from the drive at 57600
+    let (code, out, err) = run(&[
+        "identify",
+        "--port",
+        &port,
+        "--address",
+        "1",
+        "--family",
+        "mc6000",
+    ]);
+    assert!(
+        code != Some(0) || out.contains("57600"),
+        "identify at 9600 must not find the drive at 9600: {out}{err}"
+    );
+    // the set names its schema by path; the journal records only its id
+    // (recording the path is another part of issue 17)
+    let schema =
+        crate::util::workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
+    let (code, out, err) = run(&[
+        "recover",
+        &journal.to_string_lossy(),
+        "--port",
+        &port,
+        "--schema",
+        &schema.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(0), "{out}{err}\n--- sim\n{}", sim.stderr());
+    assert!(
+        out.contains("line rate: found at 57600 baud; the drive runs at 9600 baud again; 81-SBAUD"),
+        "{out}"
+    );
+    let (code, out, err) = run(&["diff", SET, "--port", &port, "--address", "1"]);
+    assert!(
+        matches!(code, Some(0 | 1)),
+        "the drive answers at 9600: {out}{err}"
+    );
+    assert!(sim.terminate().success(), "{}", sim.stderr());
+    let d = dump(dir.path());
+    let sbaud = sbaud(&d);
+    assert!(sbaud == "9600" || sbaud == "19200", "{sbaud}");
+    let rate = &d["drives"][0]["rate"];
+    assert!(rate.is_null() || *rate == 9600, "{d}");
+}
