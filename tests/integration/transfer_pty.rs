@@ -27,19 +27,22 @@ fn sbaud(dump: &serde_json::Value) -> String {
         .to_string()
 }
 
+/// `driveset sim --pty` with one MC6000 at address 1 at 9600 baud,
+/// logging into `DIR/bus.jsonl`: the simulator, the log and the port
+/// (`PTY?baud=9600`).
+fn logged_sim(dir: &Path) -> (Sim, std::path::PathBuf, String) {
+    let log = dir.join("bus.jsonl");
+    let log_arg = log.to_string_lossy().into_owned();
+    let sim = Sim::start(dir, "mc6000", 1, &["--baud", "9600", "--log", &log_arg]);
+    let port = format!("{}?baud=9600", sim.path);
+    (sim, log, port)
+}
+
 #[test]
 fn upload_at_57600_over_a_pty_switches_and_comes_back_to_9600() {
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
-    let log = dir.path().join("bus.jsonl");
-    let log_arg = log.to_string_lossy().into_owned();
-    let mut sim = Sim::start(
-        dir.path(),
-        "mc6000",
-        1,
-        &["--baud", "9600", "--log", &log_arg],
-    );
-    let port = format!("{}?baud=9600", sim.path);
+    let (mut sim, log, port) = logged_sim(dir.path());
     let jd = dir.path().join("journal").to_string_lossy().into_owned();
     let (code, stdout, stderr) = run(&[
         "upload",
@@ -290,15 +293,7 @@ fn power_cycle_during_the_switch_back_never_exits_0_and_recover_settles() {
 fn upload_killed_at_57600_over_a_pty_then_recover_switches_the_drive_back() {
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
-    let log = dir.path().join("bus.jsonl");
-    let log_arg = log.to_string_lossy().into_owned();
-    let mut sim = Sim::start(
-        dir.path(),
-        "mc6000",
-        1,
-        &["--baud", "9600", "--log", &log_arg],
-    );
-    let port = format!("{}?baud=9600", sim.path);
+    let (mut sim, log, port) = logged_sim(dir.path());
     let journal = dir.path().join("j.json");
     let mut up = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
         .current_dir(crate::util::workspace_root())
