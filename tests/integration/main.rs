@@ -33,6 +33,7 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod transfer_pty;
 mod twin;
 mod upload;
 mod util;

@@ -612,6 +612,15 @@ pub struct TransferRecord {
     pub back_at_ns: Option<u64>,
     /// What the rate code holds at the end (the set's value, or `before`).
     pub stored: Option<JournalValue>,
+    /// What the rate code is to hold once the drive runs at the old rate
+    /// again: decided once, at the first telegram of the switch back
+    /// (`before` when the switch-over itself failed, else what the
+    /// transaction left in it), so that a switch back cut anywhere and
+    /// resumed by `recover` writes the same value, never the transfer
+    /// rate nor the old rate it wrote on the way. Absent in journals of
+    /// releases before it was added, and before the switch back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub keep: Option<JournalValue>,
 }
 
 impl TransferRecord {

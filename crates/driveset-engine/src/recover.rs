@@ -121,7 +121,7 @@ pub fn recover(
     let mut jf = JournalFile::open(journal_path)?;
     let journal_name = journal_path.display().to_string();
     let found = jf.journal.state;
-    let mut report = RecoverReport {
+    let report = RecoverReport {
         journal: journal_name.clone(),
         found,
         action: RecoverAction::Nothing,
@@ -190,14 +190,7 @@ pub fn recover(
             format!("{d}; the file is damaged, restore the drive by hand from it"),
         )
     };
-    let backup: BTreeMap<CodeKey, RawValue> = jf
-        .journal
-        .backup_values()
-        .map_err(bad)?
-        .into_iter()
-        .collect();
     let planned = jf.journal.new_values().map_err(bad)?;
-    let unchanged = jf.journal.unchanged_values().map_err(bad)?;
     let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
     // the drive may answer at the address a planned bus address code gives it
     let moved_to: Vec<u8> = new_values
@@ -224,10 +217,54 @@ pub fn recover(
 
     // A transfer-rate switch left open: find the drive (LUSTBUS 5.1) and
     // switch it back to the journal's old rate first.
-    report.transfer = crate::transfer::recover_rate(client, &mut jf)?;
-    if jf.journal.state.is_settled() {
-        return Ok(report);
+    // A journal the upload had settled is then checked like any other: its
+    // `complete` or `rolled-back` is said again only after every code of
+    // the set is read back (a restart during the switch back loses RAM
+    // values).
+    let rate_found = crate::transfer::find_drive(client, &jf)?;
+    let settled_before = jf.journal.state.is_settled();
+    let result = settle(client, &mut jf, opts, report);
+    match rate_found {
+        None => result,
+        Some(rate) => {
+            crate::transfer::finish_rate(client, journal_path, rate, settled_before, result)
+        }
     }
+}
+
+/// The transaction part of [`recover`], after the checks that need no
+/// telegram (and, for a journal with a transfer-rate switch, at whatever
+/// rate the drive was found).
+fn settle(
+    client: &mut dyn DriveClient,
+    jf: &mut JournalFile,
+    opts: &RecoverOptions,
+    mut report: RecoverReport,
+) -> Result<RecoverReport, EngineError> {
+    let journal_name = report.journal.clone();
+    let found = report.found;
+    let schema = client.schema().clone();
+    let target = client.target().clone();
+    let refuse = |mismatch: Mismatch, detail: String| {
+        EngineError::not_journal_drive(target.clone(), journal_name.clone(), mismatch, detail)
+    };
+    let bus = client.bus_id();
+    let jt = jf.journal.target.clone();
+    let bad = |d: String| {
+        EngineError::journal(
+            journal_name.clone(),
+            format!("{d}; the file is damaged, restore the drive by hand from it"),
+        )
+    };
+    let backup: BTreeMap<CodeKey, RawValue> = jf
+        .journal
+        .backup_values()
+        .map_err(bad)?
+        .into_iter()
+        .collect();
+    let planned = jf.journal.new_values().map_err(bad)?;
+    let unchanged = jf.journal.unchanged_values().map_err(bad)?;
+    let new_values: BTreeMap<CodeKey, RawValue> = planned.iter().cloned().collect();
     let hook = &opts.observer;
     hook.enter(client.clock(), Step::Identify, None);
     let identity = client.identify()?;
@@ -313,7 +350,12 @@ pub fn recover(
     } else {
         false
     };
-    let current = read_observed(client, backup.keys().copied(), hook, Step::Read)?;
+    let mut current = read_observed(client, backup.keys().copied(), hook, Step::Read)?;
+    for (k, v) in current.values.iter_mut() {
+        if let Some(keep) = crate::transfer::judged_rate(&jf.journal, &schema, *k, v) {
+            *v = keep;
+        }
+    }
     // stale: a planned code holds neither its old nor its new value
     let stale: Vec<String> = order
         .iter()
@@ -341,7 +383,52 @@ pub fn recover(
             .all(|(k, v)| current.values.get(k) == Some(v));
     let at = |c: &dyn DriveClient| c.clock().now().as_nanos();
 
-    if all_new && !sload_open {
+    if new_values.is_empty() && !sload_open {
+        // Nothing was planned (a transfer-rate switch around a run that
+        // had nothing to write, or that was cut before it planned): there
+        // is nothing to restore; the codes it found unchanged must still
+        // hold their values.
+        let now = read_observed(
+            client,
+            unchanged.iter().map(|(k, _)| *k),
+            hook,
+            Step::Verify,
+        )?;
+        let differ: Vec<String> = unchanged
+            .iter()
+            .filter(|(k, v)| now.values.get(k) != Some(v))
+            .map(|(k, _)| code_label(&schema, *k))
+            .collect();
+        if !differ.is_empty() {
+            let detail = format!(
+                "{} no longer {} the value the run found (nothing was planned, so nothing is restored); compare the drive with its set (`driveset diff SET --port ...`) and upload it again",
+                differ.join(", "),
+                if differ.len() == 1 { "holds" } else { "hold" }
+            );
+            jf.journal.failure = Some(detail.clone());
+            jf.journal
+                .transition(TxnState::Failed, at(&*client), Some(detail.clone()));
+            jf.persist()?;
+            return Err(EngineError::inconsistent(target, journal_name, detail));
+        }
+        let (state, action, note) = if found == TxnState::Complete {
+            (
+                TxnState::Complete,
+                RecoverAction::Completed,
+                "recover: nothing was planned; the codes the run found read back unchanged",
+            )
+        } else {
+            (
+                TxnState::RolledBack,
+                RecoverAction::RolledBack,
+                "recover: nothing was written but the line rate; read back",
+            )
+        };
+        jf.journal
+            .transition(state, at(&*client), Some(note.into()));
+        jf.persist()?;
+        report.action = action;
+    } else if all_new && !sload_open {
         let t = at(&*client);
         jf.journal.transition(
             TxnState::Complete,

@@ -566,19 +566,25 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
     Ok(None)
 }
 
-/// Where the switch stands after a failure, for messages.
-fn whereabouts(rec: &TransferRecord, found: Option<u32>) -> String {
+/// Where the switch stands after a failure, for messages; `state`: where
+/// the record stood when the failing step began.
+fn whereabouts(rec: &TransferRecord, state: TransferState, found: Option<u32>) -> String {
+    let keep = value_text(rec.keep.as_ref().unwrap_or(&rec.before));
     match found {
         Some(r) if r == rec.old_rate => format!("the drive runs at {r} baud again"),
         Some(r) => format!(
             "the drive answers at {r} baud, not at the port's {} baud",
             rec.old_rate
         ),
-        None => format!(
+        None if state == TransferState::AtTransferRate => format!(
             "the drive answers at no rate (it may still run at the transfer rate {} baud; its {} holds {} in EEPROM, so a restart brings it to that rate)",
             rec.transfer_rate,
             rec.code,
             value_text(&rec.before)
+        ),
+        None => format!(
+            "the drive answers at no rate (it may run at the transfer rate {} baud or at {} baud, and its {} may hold {} in EEPROM until the switch back is finished: run `driveset recover` as soon as the drive is reachable again; it searches every rate and leaves {} holding {keep})",
+            rec.transfer_rate, rec.old_rate, rec.code, rec.transfer_rate, rec.code
         ),
     }
 }
@@ -626,23 +632,116 @@ fn as_rate_j(v: &JournalValue) -> Option<u32> {
 /// The outcome of [`switch_back`], for messages: `Ok(state text)`.
 type Back = Result<String, String>;
 
+/// What the rate code is to hold once the drive runs at the old rate again
+/// ([`TransferRecord::keep`]), given what it holds `now` and the value the
+/// transaction plans for it (`planned`): the recorded decision when there
+/// is one; `before` while the switch-over was under way (the transfer rate
+/// or `before` is in EEPROM, nothing of the set); else what the
+/// transaction left there (its old or its new value), but never the
+/// transfer rate unless that is the set's own value.
+fn keep_value(rec: &TransferRecord, planned: Option<&RawValue>, now: &RawValue) -> RawValue {
+    if let Some(k) = rec.keep.as_ref().and_then(JournalValue::to_raw) {
+        return k;
+    }
+    let before = rec.before.to_raw().unwrap_or_else(|| now.clone());
+    if rec.state == TransferState::Switching
+        || (as_rate(now) == Some(rec.transfer_rate) && planned != Some(now))
+    {
+        return before;
+    }
+    now.clone()
+}
+
+/// The value the journal at `path` plans for the rate code, if any.
+fn planned_rate(journal: &crate::journal::Journal, c: Codes) -> Option<RawValue> {
+    journal
+        .plan
+        .iter()
+        .find(|p| p.number == c.rate.number && p.subcode == c.rate.subcode)
+        .and_then(|p| p.new.to_raw())
+}
+
+/// What the rate code keeps once recover settled the transaction with
+/// `action`: the planned new value (completed) or the backup (rolled back)
+/// when the transaction has the code, else the drive's own `before`.
+fn settled_keep(
+    journal: &crate::journal::Journal,
+    c: Codes,
+    rec: &TransferRecord,
+    action: crate::recover::RecoverAction,
+) -> JournalValue {
+    use crate::recover::RecoverAction;
+    let backup = journal
+        .backup
+        .iter()
+        .find(|b| b.number == c.rate.number && b.subcode == c.rate.subcode)
+        .map(|b| b.old.clone());
+    let planned = journal
+        .plan
+        .iter()
+        .find(|p| p.number == c.rate.number && p.subcode == c.rate.subcode)
+        .map(|p| p.new.clone());
+    let unchanged = journal
+        .unchanged
+        .iter()
+        .find(|b| b.number == c.rate.number && b.subcode == c.rate.subcode)
+        .map(|b| b.old.clone());
+    let chosen = match action {
+        RecoverAction::Completed => planned.or(unchanged),
+        RecoverAction::RolledBack | RecoverAction::Nothing => backup.or(unchanged),
+    };
+    chosen.unwrap_or_else(|| rec.before.clone())
+}
+
+/// While a switch back is open, the rate code may hold the old rate (the
+/// switch back writes it on the way) or the transfer rate (the
+/// switch-over): recover judges the code by the value the upload decided
+/// it keeps ([`TransferRecord::keep`]) instead, so that a cut in the switch
+/// back does not make a landed transaction look rolled back. `None`: judge
+/// what the drive holds.
+pub(crate) fn judged_rate(
+    journal: &crate::journal::Journal,
+    schema: &Schema,
+    key: CodeKey,
+    holds: &RawValue,
+) -> Option<RawValue> {
+    let rec = journal.transfer.as_ref().filter(|t| !t.is_back())?;
+    let c = codes_of(schema)?;
+    let keep = rec.keep.as_ref()?.to_raw()?;
+    let switch_wrote = as_rate(holds).is_some_and(|r| r == rec.old_rate || r == rec.transfer_rate);
+    (key == c.rate && switch_wrote).then_some(keep)
+}
+
+/// Mark the record `switching-back`, deciding [`TransferRecord::keep`]
+/// right away when the switch-over itself was cut (then it is `before`).
+fn start_back(rec: &mut TransferRecord) {
+    if rec.state == TransferState::Switching && rec.keep.is_none() {
+        rec.keep = Some(rec.before.clone());
+    }
+    rec.state = TransferState::SwitchingBack;
+}
+
 /// Switch the drive back to `rec.old_rate` (module docs, step 4), searching
-/// for it first if it does not answer at the host's rate. Keeps what the
-/// transaction left in the rate code's EEPROM (`before` when the record is
-/// still `switching`).
+/// for it first if it does not answer at the host's rate. The rate code
+/// gets [`TransferRecord::keep`] ([`keep_value`]), journalled before the
+/// first write of the switch back.
 fn switch_back(
     client: &mut dyn DriveClient,
     c: Codes,
     rec: &mut TransferRecord,
     journal: &Path,
 ) -> Back {
-    let keep_before = rec.state == TransferState::Switching;
-    rec.state = TransferState::SwitchingBack;
+    let planned = JournalFile::open(journal)
+        .ok()
+        .and_then(|jf| planned_rate(&jf.journal, c));
+    let state0 = rec.state;
+    start_back(rec);
     persist_record(journal, rec).map_err(|e| e.to_string())?;
     let old = rec.old_rate;
     let mut tried_search = false;
+    let mut persist = |r: &TransferRecord| persist_record(journal, r);
     loop {
-        match switch_back_once(client, c, rec, keep_before) {
+        match switch_back_once(client, c, rec, planned.as_ref(), &mut persist) {
             Ok(state) => {
                 rec.state = TransferState::Back;
                 rec.back_at_ns = Some(client.clock().now().as_nanos());
@@ -654,7 +753,7 @@ fn switch_back(
                 let first = [client.line_rate().unwrap_or(old), rec.transfer_rate, old];
                 match search(client, &first) {
                     Ok(Some(_)) => continue,
-                    Ok(None) => return Err(format!("{e}; {}", whereabouts(rec, None))),
+                    Ok(None) => return Err(format!("{e}; {}", whereabouts(rec, state0, None))),
                     Err(e2) => return Err(format!("{e}; searching the drive: {e2}")),
                 }
             }
@@ -670,31 +769,38 @@ fn switch_back(
     }
 }
 
+/// One attempt at the switch back from wherever the host reaches the
+/// drive: decide and journal the value to keep (through `persist`) before
+/// the first write, activate the old rate if the drive is not at it, write
+/// the value to keep without activating it and read it back.
 fn switch_back_once(
     client: &mut dyn DriveClient,
     c: Codes,
     rec: &mut TransferRecord,
-    keep_before: bool,
+    planned: Option<&RawValue>,
+    persist: &mut dyn FnMut(&TransferRecord) -> Result<(), EngineError>,
 ) -> Result<String, EngineError> {
     let old = rec.old_rate;
     let label = rec.code.clone();
-    // What the EEPROM is to keep.
     let now = client.read(c.rate)?;
-    let keep = if keep_before {
-        rec.before.to_raw().unwrap_or(now)
-    } else {
-        now
-    };
-    if client.line_rate() != Some(old) {
+    let keep = keep_value(rec, planned, &now);
+    if rec.keep.is_none() {
+        rec.keep = Some(JournalValue::from(&keep));
+        persist(rec)?;
+    }
+    // What the rate code holds, read at the old rate: the confirm's read
+    // after a switch, else the read above (the drive answered at the old
+    // rate already).
+    let holds = if client.line_rate() != Some(old) {
         write_rate(client, c, old)?;
         activate(client, c)?;
         client.set_line_rate(old)?;
         confirm(client, c, old)?;
+        RawValue::Int(i64::from(old))
     } else {
-        // At the old rate already (a search found it there): make sure the
-        // EEPROM value is written back below.
-    }
-    if as_rate(&keep) != Some(old) || client.read(c.rate)? != keep {
+        now
+    };
+    if holds != keep {
         client.write(c.rate, &keep)?;
         let got = client.read(c.rate)?;
         if got != keep {
@@ -816,6 +922,7 @@ pub fn begin(
         switched_at_ns: None,
         back_at_ns: None,
         stored: None,
+        keep: None,
     };
     if let Some(dir) = journal.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::journal::ensure_dir(dir)?;
@@ -830,7 +937,10 @@ pub fn begin(
         )),
     );
     JournalFile::create(journal, j)?;
-    switch_over(client, c, &mut record, journal)?;
+    switch_over(client, c, &mut record, journal).map_err(|e| {
+        let j = journal.display();
+        with_rate_note(e, &Ok(format!("journal {j}: run `driveset recover {j}`")))
+    })?;
     Ok(Session {
         codes: Some(c),
         record: Some(record),
@@ -921,8 +1031,18 @@ pub fn upload(
     let back = end(client, session, &opts.journal, ok).map_err(|b| *b);
     match (result, back) {
         (Ok(mut report), Ok(t)) => {
+            let verified = final_verify(client, set, &report, &opts.journal);
             report.transfer = Some(t);
-            Ok(report)
+            match verified {
+                Ok(()) => Ok(report),
+                Err(e) => {
+                    report.state = TxnState::Failed;
+                    Err(UploadFailure {
+                        error: Box::new(e),
+                        report: Some(Box::new(report)),
+                    })
+                }
+            }
         }
         (Ok(mut report), Err((t, why))) => {
             report.transfer = Some(t);
@@ -956,6 +1076,94 @@ pub fn upload(
             Err(f)
         }
     }
+}
+
+/// The last step of a switched upload: read every code of the set the
+/// upload verified or found unchanged back again, at the rate the drive
+/// runs at now (the switch back came after the upload's own verify, and a
+/// restart in between loses RAM values and activates whatever the rate
+/// code held). Only then is the upload complete. A code that reads
+/// otherwise (or not at all) fails the upload: the journal goes to
+/// `failed` with what each planned code holds, for `driveset recover`.
+fn final_verify(
+    client: &mut dyn DriveClient,
+    set: &ResolvedSet,
+    report: &UploadReport,
+    journal: &Path,
+) -> Result<(), EngineError> {
+    use crate::upload::CodeOutcome;
+    let schema = client.schema().clone();
+    let rate = client.line_rate();
+    let mut differ: Vec<String> = Vec::new();
+    let mut failure: Option<EngineError> = None;
+    for c in &report.codes {
+        if !matches!(c.outcome, CodeOutcome::Verified | CodeOutcome::Unchanged) {
+            continue;
+        }
+        let key = CodeKey {
+            number: c.number,
+            subcode: c.subcode,
+        };
+        let Some(want) = set.values.get(&key) else {
+            continue;
+        };
+        match client.read(key) {
+            Ok(got) if &got == want => {}
+            Ok(got) => differ.push(format!(
+                "{} reads {} instead of {}",
+                code_label(&schema, key),
+                crate::plan::value_text(&schema, key, &got),
+                crate::plan::value_text(&schema, key, want)
+            )),
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        }
+    }
+    if differ.is_empty() && failure.is_none() {
+        return Ok(());
+    }
+    let at = rate.map_or_else(String::new, |r| format!(" at {r} baud"));
+    let what = match &failure {
+        Some(e) => format!("the final read-back{at} after the switch back failed: {e}"),
+        None => format!(
+            "after the switch back, the final read-back{at} finds {} (did the drive restart?)",
+            differ.join(", ")
+        ),
+    };
+    let mut detail = what.clone();
+    if let Ok(mut jf) = JournalFile::open(journal) {
+        let backup: std::collections::BTreeMap<CodeKey, RawValue> = jf
+            .journal
+            .backup_values()
+            .unwrap_or_default()
+            .into_iter()
+            .collect();
+        let new_values: std::collections::BTreeMap<CodeKey, RawValue> = jf
+            .journal
+            .new_values()
+            .unwrap_or_default()
+            .into_iter()
+            .collect();
+        if failure.is_none() {
+            let holding = crate::upload::holdings(client, &schema, &backup, &new_values);
+            detail = format!("{what}; {}", crate::upload::describe_holdings(&holding));
+            jf.journal.holding = holding;
+        }
+        jf.journal.failure = Some(detail.clone());
+        jf.journal.transition(
+            TxnState::Failed,
+            client.clock().now().as_nanos(),
+            Some(detail.clone()),
+        );
+        jf.persist()?;
+    }
+    Err(EngineError::inconsistent(
+        client.target().clone(),
+        journal.display().to_string(),
+        detail,
+    ))
 }
 
 /// The codes [`crate::pull::pull`] reads (for [`decide`]): every code
@@ -1040,24 +1248,22 @@ fn read_only<T>(
     }
 }
 
-/// `recover`'s first step for a journal whose transfer-rate switch is
-/// still open: find the drive (§5.1: the port's rate, the transfer rate,
-/// the old rate, then every rate), and, when it identifies as the
-/// journal's drive, switch it back to the old rate, keeping what its rate
-/// code holds. Returns what happened, for the report; `Ok(None)` when the
-/// journal has no open switch. A drive that identifies otherwise is left
-/// as found (the host at the rate it answered at) for recover's own
-/// identity refusal.
-pub fn recover_rate(
+/// `recover`'s first step for a journal that records a transfer-rate
+/// switch: find the drive at whatever rate it answers (§5.1: the port's
+/// rate, the transfer rate, the old rate, then every rate of the family)
+/// and leave the host there; `Ok(None)` when the journal records no
+/// switch. The transaction is then settled at that rate, and
+/// [`finish_rate`] switches back.
+pub fn find_drive(
     client: &mut dyn DriveClient,
-    jf: &mut JournalFile,
-) -> Result<Option<String>, EngineError> {
-    let Some(mut rec) = jf.journal.transfer.clone().filter(|t| !t.is_back()) else {
+    jf: &JournalFile,
+) -> Result<Option<u32>, EngineError> {
+    let Some(rec) = jf.journal.transfer.clone() else {
         return Ok(None);
     };
     let schema = client.schema().clone();
     let target = client.target().clone();
-    let Some(c) = codes_of(&schema) else {
+    if codes_of(&schema).is_none() {
         return Err(refuse(
             &target,
             format!(
@@ -1065,38 +1271,112 @@ pub fn recover_rate(
                 schema.id
             ),
         ));
-    };
-    let here = client.line_rate().unwrap_or(rec.old_rate);
-    let Some(found) = search(client, &[here, rec.transfer_rate, rec.old_rate])? else {
-        let _ = client.set_line_rate(here);
-        return Err(EngineError::no_answer(
-            target,
-            format!(
-                "the search for the drive over every rate (lustbus-protocol.txt §5.1; the journal records a switch from {} to {} baud); {}",
-                rec.old_rate,
-                rec.transfer_rate,
-                whereabouts(&rec, None)
-            ),
-            1,
-        ));
-    };
-    let identity = client.identify()?;
-    if !jf.journal.identity.matches(&identity) {
-        return Ok(Some(format!("the drive answers at {found} baud")));
     }
-    let keep_before = rec.state == TransferState::Switching;
-    let state = match switch_back_once(client, c, &mut rec, keep_before) {
-        Ok(s) => s,
-        Err(e) => {
-            return Err(with_rate_note(
-                e,
-                &Err(whereabouts(&rec, client.line_rate())),
-            ));
+    let here = client.line_rate().unwrap_or(rec.old_rate);
+    match search(client, &[here, rec.transfer_rate, rec.old_rate])? {
+        Some(found) => Ok(Some(found)),
+        None => {
+            let _ = client.set_line_rate(here);
+            Err(EngineError::no_answer(
+                target,
+                format!(
+                    "the search for the drive over every rate (lustbus-protocol.txt §5.1; the journal records a switch from {} to {} baud); {}",
+                    rec.old_rate,
+                    rec.transfer_rate,
+                    whereabouts(&rec, rec.state, None)
+                ),
+                1,
+            ))
+        }
+    }
+}
+
+/// `recover`'s last step for a journal that records a transfer-rate
+/// switch, after the transaction was settled (`result`) with the drive
+/// found at `found` baud: an open switch is switched back to the old rate,
+/// the rate code keeping what a successful settle left in it
+/// ([`keep_value`]: never the transfer rate unless the set's), or after a
+/// failed one the [`TransferRecord::keep`] the upload recorded when it had
+/// settled the transaction itself (`settled_before`).
+/// This is done after a failed settle too, so that the drive is not left
+/// at the transfer rate, but never when the drive is not the journal's.
+/// A switch already back with the drive found at another rate (it
+/// restarted at what its rate code held) is switched back the same way.
+pub fn finish_rate(
+    client: &mut dyn DriveClient,
+    journal: &Path,
+    found: u32,
+    settled_before: bool,
+    result: Result<crate::recover::RecoverReport, EngineError>,
+) -> Result<crate::recover::RecoverReport, EngineError> {
+    if let Err(e) = &result
+        && matches!(e.kind(), ErrorKind::NotJournalDrive { .. })
+    {
+        return result;
+    }
+    let mut jf = match JournalFile::open(journal) {
+        Ok(jf) => jf,
+        Err(e) => return result.and(Err(e)),
+    };
+    let Some(mut rec) = jf.journal.transfer.clone() else {
+        return result;
+    };
+    let Some(c) = codes_of(client.schema()) else {
+        return result;
+    };
+    let back: Back = if rec.is_back() && found == rec.old_rate {
+        Ok(format!("the drive runs at {found} baud"))
+    } else {
+        // A drive found elsewhere though the switch was back has
+        // restarted since at what its rate code held: it is switched back
+        // too, keeping what the settle left there.
+        // After a successful settle the outcome says what the rate code
+        // keeps: the set's value (completed) or the old one (rolled back)
+        // when the set has the code, else the drive's own `before`; after a
+        // failed one, the decision the upload recorded stands.
+        match result.as_ref().map(|r| r.action) {
+            Ok(action) => rec.keep = Some(settled_keep(&jf.journal, c, &rec, action)),
+            Err(_) if !settled_before || rec.is_back() => rec.keep = None,
+            Err(_) => {}
+        }
+        let planned = planned_rate(&jf.journal, c);
+        let state0 = rec.state;
+        start_back(&mut rec);
+        let mut persist = |r: &TransferRecord| {
+            jf.journal.transfer = Some(r.clone());
+            jf.persist()
+        };
+        match persist(&rec)
+            .and_then(|()| switch_back_once(client, c, &mut rec, planned.as_ref(), &mut persist))
+        {
+            Ok(state) => {
+                rec.state = TransferState::Back;
+                rec.back_at_ns = Some(client.clock().now().as_nanos());
+                jf.journal.transfer = Some(rec);
+                match jf.persist() {
+                    Ok(()) => Ok(format!("found at {found} baud; {state}")),
+                    Err(e) => Err(e.to_string()),
+                }
+            }
+            Err(e) => Err(format!(
+                "{e}; {}",
+                whereabouts(&rec, state0, client.line_rate())
+            )),
         }
     };
-    rec.state = TransferState::Back;
-    rec.back_at_ns = Some(client.clock().now().as_nanos());
-    jf.journal.transfer = Some(rec);
-    jf.persist()?;
-    Ok(Some(format!("found at {found} baud; {state}")))
+    match (result, back) {
+        (Ok(mut r), Ok(text)) => {
+            r.transfer = Some(text);
+            Ok(r)
+        }
+        (Ok(_), Err(why)) => Err(EngineError::no_answer(
+            client.target().clone(),
+            format!(
+                "switching back from the transfer rate (the transaction was settled; {why}; run `driveset recover {}` again)",
+                journal.display()
+            ),
+            1,
+        )),
+        (Err(e), back) => Err(with_rate_note(e, &back)),
+    }
 }

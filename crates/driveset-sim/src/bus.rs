@@ -347,6 +347,19 @@ impl ByteLine {
         }
     }
 
+    /// Cut the power of the drive at `address` (every drive: `None`) at
+    /// `at` for `off`, as the fault `power-cycle@..` does: RAM values
+    /// lost, the rate its rate code holds active after the restart.
+    pub fn power_cycle(&mut self, at: Instant, address: Option<u8>, off: Duration) {
+        self.apply(
+            Scheduled {
+                at: crate::faults::Trigger::Time(Duration::ZERO),
+                action: Action::PowerCycle { addr: address, off },
+            },
+            at,
+        );
+    }
+
     /// Copy characters arrived by `now` into `buf`; returns the count.
     pub fn take_arrived(&mut self, now: Instant, buf: &mut [u8]) -> usize {
         let mut n = 0;
@@ -650,8 +663,20 @@ impl ByteLine {
                 for j in targets {
                     let a = self.drives[j].address();
                     self.drives[j].power_cycle(at, off);
+                    // A restart activates the rate its rate code holds
+                    // (LUSTBUS 11.5): the drive boots at that rate.
+                    let change = self.drives[j].take_baud_change();
                     if let Some(slot) = self.slots.get_mut(j) {
                         slot.busy_until = slot.busy_until.min(at);
+                        if let Some(b) = change {
+                            slot.pending_baud = Some((at, b));
+                            self.log.push(Event::note(
+                                at.as_nanos(),
+                                Some(a),
+                                "baud-change",
+                                format!("drive {a} runs at {b} baud from here (restart)"),
+                            ));
+                        }
                     }
                     self.in_flight.retain(|f| !(f.from == Some(j) && f.at > at));
                     self.log.push(Event::note(
@@ -761,6 +786,16 @@ impl SimByteBus {
     /// The host reopens its port at `baud` (after an SBAUD change).
     pub fn set_baud(&mut self, baud: u32) -> Result<(), BusError> {
         self.line.set_baud(baud)
+    }
+
+    /// Restart the drive at `address` now ([`ByteLine::power_cycle`]) and
+    /// wait until it has booted.
+    pub fn restart(&mut self, address: u8, off: Duration) {
+        let now = self.clock.now();
+        self.line.power_cycle(now, Some(address), off);
+        self.clock.sleep(off + Duration::from_millis(100));
+        let now = self.clock.now();
+        self.line.advance(now);
     }
 
     /// The bus's clock.

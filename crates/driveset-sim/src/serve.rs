@@ -20,9 +20,13 @@
 //! default [`DEFAULT_IDLE_TIMEOUT`]) is dropped (logged as `idle`), so a
 //! forgotten session does not hold the line for ever.
 //!
-//! A pty has no baud rate: the host's characters cross it at once, so
-//! they reach the drives in a burst at the instant they are read (the
-//! reply pacing is what the host sees of the line rate).
+//! A pty has no baud rate on the wire: the host's characters cross it at
+//! once, so they reach the drives in a burst at the instant they are read
+//! (the reply pacing is what the host sees of the line rate). It does keep
+//! the rate the client set in its termios: the loop reads it back (through
+//! the master) before handing host bytes to the line and runs the line's
+//! host side at it, so a drive switched to another rate (MC6000 4-PROG =
+//! 111, `--transfer-baud`) answers only a host that followed.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
@@ -120,6 +124,13 @@ pub trait ServeStream: Read + Write {
         false
     }
 
+    /// The rate the host set its end to, where the stream has one (a
+    /// pty: the termios speed the client set on the slave, read through
+    /// the master); `None`: the stream has no rate (TCP).
+    fn host_baud(&self) -> Option<u32> {
+        None
+    }
+
     /// A name for errors.
     fn describe(&self) -> String;
 }
@@ -145,6 +156,12 @@ impl ServeStream for serialport::TTYPort {
 
     fn hangup_is_transient(&self) -> bool {
         true
+    }
+
+    fn host_baud(&self) -> Option<u32> {
+        // TCGETS on a pty master reads the slave's termios (Linux
+        // tty_mode_ioctl), which is what the client set.
+        serialport::SerialPort::baud_rate(self).ok()
     }
 
     fn describe(&self) -> String {
@@ -262,6 +279,7 @@ fn serve_session<S: ServeStream>(
             Ok(n) => {
                 let bytes: Vec<u8> = buf[..n].iter().map(|b| b & 0x7F).collect();
                 last_heard = clock.now();
+                follow_host_rate(line, stream, last_heard);
                 line.host_send(last_heard, &bytes, false);
             }
             Err(e) if quiet(&e) => {}
@@ -278,6 +296,25 @@ fn serve_session<S: ServeStream>(
                 });
             }
         }
+    }
+}
+
+/// Put the line's host side at the rate the host set its end of the
+/// stream to (a pty runs 8N1 at any rate, so the rate is only the number
+/// the client wrote into termios): a drive running at another rate then
+/// hears garbage and the host gets garbage back, as on a real line
+/// ([`crate::bus`], "Baud"). Rates a 7E1 line does not run at are ignored.
+fn follow_host_rate<S: ServeStream>(line: &mut ByteLine, stream: &S, now: Instant) {
+    let Some(b) = stream.host_baud() else {
+        return;
+    };
+    if b != line.baud() && line.set_baud(b).is_ok() {
+        line.log().push(Event::note(
+            now.as_nanos(),
+            None,
+            "host-baud",
+            format!("the host's port runs at {b} baud from here"),
+        ));
     }
 }
 
@@ -314,6 +351,13 @@ pub fn serve_pty(
     master: &mut serialport::TTYPort,
     stop: &AtomicBool,
 ) -> Result<(), ServeError> {
+    // The pty starts at the line's rate, so a client that leaves the rate
+    // alone talks to the drives at theirs.
+    serialport::SerialPort::set_baud_rate(master, line.baud()).map_err(|e| ServeError::Io {
+        what: "pseudo terminal".into(),
+        op: "set the rate",
+        source: io::Error::from(e),
+    })?;
     loop {
         match serve_stream(line, master, stop)? {
             StreamEnd::Stopped => return Ok(()),

@@ -12,6 +12,7 @@ mod client_sdo;
 mod interop_canopen;
 mod line;
 mod support;
+mod transfer_cut;
 mod txn;
 mod txn_sim;
 mod txn_support;
