@@ -544,3 +544,39 @@ fn every_dcf_driveset_writes_passes_a_strict_reading_and_python_canopen() {
         ]
     );
 }
+
+/// The ECS role floor (CiA 402, issue 17) reaches an imported schema: a set
+/// that puts 0x6040 into "enable operation" (15) is refused by `validate`,
+/// a stopped control word ("shutdown", 6) passes.
+#[test]
+fn an_imported_cia402_controlword_carries_its_profile_role() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (_, stderr, code) = import(dir.path(), "cia402");
+    assert_eq!(code, 1, "{stderr}");
+    let validate = |value: u32| {
+        std::fs::write(
+            dir.path().join("s.toml"),
+            format!("schema = \"cia402.toml\"\n[values]\ncontrolword = {value}\n"),
+        )
+        .unwrap();
+        let o = driveset()
+            .current_dir(dir.path())
+            .args(["validate", "s.toml"])
+            .env("NO_COLOR", "1")
+            .output()
+            .expect("runs");
+        (
+            String::from_utf8(o.stdout).expect("utf-8"),
+            o.status.code().expect("exit code"),
+        )
+    };
+    let (out, code) = validate(15);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.starts_with(
+            "error[control-word-not-stopped]: 0x6040 = { switch_on = 1, enable_operation = 1, fault_reset = 0 } would start or enable the drive (switch_on, enable_operation set)\n --> s.toml:3:15\n"
+        ),
+        "{out}"
+    );
+    assert_eq!(validate(6), ("0 findings in 0 of 1 file\n".to_string(), 0));
+}
