@@ -638,6 +638,36 @@ fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
     assert!(!d.join("sim/sim-mc6000.json").exists());
 }
 
+/// A schema of the user's own named by path is used as it is: no learning
+/// on top of it (a learned file could not name `my-mc` as its base), the
+/// stopped control word lands and is verified without `--no-learn`.
+#[test]
+fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
+    let dir = tmp();
+    let d = dir.path();
+    std::fs::write(d.join("my-mc.toml"), MINIMAL_MC).unwrap();
+    std::fs::write(
+        d.join("stop.toml"),
+        "schema = \"my-mc.toml\"\n[values]\nSCTL1 = 0\n",
+    )
+    .unwrap();
+    in_dir(d)
+        .args(["upload", "stop.toml", "--port", MC, "--address", "1"])
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains(
+            "address 1: complete (0 of 1 codes written, 1 attempt(s), 2 telegrams, 0 retries,",
+        ))
+        .stderr(predicate::str::contains("learn").not());
+    assert!(std::fs::read_dir(d).unwrap().all(|e| {
+        !e.unwrap()
+            .file_name()
+            .to_string_lossy()
+            .starts_with("learned-")
+    }));
+    assert_eq!(held(d, "mc6000", 1, 416), 0);
+}
+
 #[test]
 fn a_schemas_dir_cannot_reuse_a_built_in_or_fixture_id() {
     let dir = tmp();

@@ -198,12 +198,16 @@ fn fnv1a(data: &[u8], mut h: u32) -> u32 {
 /// learned, `learned-...`, nor a fictional fixture, which is what the
 /// simulated drives are built from) with a code (other than a status code
 /// whose reading clears it) without a type, kind or range. A learned
-/// schema that asked for every parameter is used as it is.
+/// schema that asked for every parameter is used as it is, and so is a
+/// schema of the user's own (a file by path or in `--schemas DIR` whose id
+/// is not its family's built-in one): a learned file names its base by id,
+/// and only the built-in and learned schemas have an id every later
+/// command resolves.
 pub fn needs_learning(schema: &Schema) -> bool {
     if schema.learned.is_some() {
         return !unasked(schema).is_empty();
     }
-    !schema.id.starts_with("learned-")
+    schema.id == schema.family.descriptor().schema_id
         && !schema.fictional
         && matches!(schema.family, Family::Mc6000 | Family::Vf1000)
         && schema.codes.iter().any(|c| {
