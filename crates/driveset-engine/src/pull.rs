@@ -203,3 +203,37 @@ pub fn pull_observed(
         elapsed: client.clock().now() - start,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Tmd's C0009 / C0125 (floor roles bus-address / baud-rate) are
+    /// left out unless kept; C0011 (an ordinary setting) never is.
+    #[test]
+    fn bus_codes_are_left_out_unless_kept() {
+        let registry = driveset_schema::Registry::builtin().expect("built-in schemas");
+        let schema = registry.get("lenze-tmd").expect("lenze-tmd");
+        let code = |n| schema.code(n).expect("code in lenze-tmd");
+        let plain = PullOptions::default();
+        assert_eq!(
+            left_out_reason(&schema, code(9), &plain).as_deref(),
+            Some(
+                "role `bus-address`: left out, the line manifest gives the drive's address and the bus's rate"
+            )
+        );
+        assert_eq!(
+            left_out_reason(&schema, code(125), &plain).as_deref(),
+            Some(
+                "role `baud-rate`: left out, the line manifest gives the drive's address and the bus's rate"
+            )
+        );
+        assert_eq!(left_out_reason(&schema, code(11), &plain), None);
+        let kept = PullOptions {
+            keep_bus_codes: true,
+            ..plain
+        };
+        assert_eq!(left_out_reason(&schema, code(9), &kept), None);
+        assert_eq!(left_out_reason(&schema, code(125), &kept), None);
+    }
+}
