@@ -225,6 +225,19 @@ fn pull_leaves_the_bus_address_and_rate_out_unless_kept() {
     assert!(text.contains("\n82 = 1\n"), "{text}");
 }
 
+/// `driveset validate LINE`, which must exit 1 (findings): its stdout.
+fn validate_findings(line: &std::path::Path) -> String {
+    let out = driveset()
+        .arg("validate")
+        .arg(line)
+        .assert()
+        .code(1)
+        .get_output()
+        .stdout
+        .clone();
+    String::from_utf8(out).unwrap()
+}
+
 /// Issue 20, "the manifest's address is the truth": axis-1's set pulled
 /// with its bus codes and copied for axis-2 is caught by `validate LINE`,
 /// naming the set's line and the manifest's address; the plain pull's copy
@@ -256,14 +269,7 @@ fn validate_line_catches_a_set_copied_with_its_address() {
         .expect("82 in the kept set")
         + 1;
     let set2 = sets.join("axis-2.toml");
-    let out = driveset()
-        .arg("validate")
-        .arg(&line)
-        .assert()
-        .code(1)
-        .get_output()
-        .clone();
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stdout = validate_findings(&line);
     let expected = format!(
         "error[rule-violation]: set `sets/axis-2.toml` gives 82-SADDR = 1, but the manifest puts drive `axis-2` at address 2 on bus `press`\n  --> {}:{addr_line}:1\n",
         set2.display()
@@ -290,14 +296,7 @@ fn validate_line_catches_a_set_copied_with_its_address() {
             .replace("baud = 9600", "baud = 19200"),
     )
     .unwrap();
-    let out = driveset()
-        .arg("validate")
-        .arg(&line)
-        .assert()
-        .code(1)
-        .get_output()
-        .clone();
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stdout = validate_findings(&line);
     for axis in ["axis-1", "axis-2"] {
         assert!(
             stdout.contains(&format!(
