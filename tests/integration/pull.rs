@@ -71,6 +71,17 @@ fn pull_tmd_yaml_changed_only_round_trip() {
     assert!(text.contains("equal to the factory default left out"));
     // a password is never read into the file
     assert!(text.contains("C0094 user_password: password"));
+    // nor the bus address and line rate (the manifest gives them)
+    assert!(
+        text.contains("\n#   C0009 network_address: role `bus-address`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n#   C0125 lecom_baud_rate: role `baud-rate`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+    assert!(!text.contains("\n  \"C0009\": "), "{text}");
+    assert!(!text.contains("\n  \"C0125\": "), "{text}");
 }
 
 #[test]
@@ -105,6 +116,10 @@ fn pull_json_report_and_to_yaml() {
     let v: serde_json::Value = serde_json::from_slice(&got).unwrap();
     assert_eq!(v["schema"], "fictional-vf1000-demo");
     assert!(v["fingerprint"].as_str().unwrap().starts_with("sha256:"));
+    assert_eq!(
+        v["left_out_bus_codes"],
+        serde_json::json!(["81-SIOC", "82-SIOA"])
+    );
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains("\nvalues:\n"));
 }
