@@ -7,7 +7,10 @@
 //! drive said it is and the fingerprint, and carries the same facts in the
 //! `[drive]` table (docs/file-formats.md: informational, ignored by the
 //! loader), so `driveset validate` / `driveset fingerprint` read it back to
-//! the same fingerprint. Passwords are not read (they would land in the file).
+//! the same fingerprint. Passwords are not read (they would land in the file);
+//! the bus address and line rate codes are left out unless --keep-bus-codes
+//! (the line manifest gives them; docs/file-formats.md, "The manifest's
+//! address is the truth"), and the report names them in one line.
 
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
