@@ -531,7 +531,22 @@ fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::create_dir_all(d.join("sim")).unwrap();
-    let axis = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    // axis-1 as its sample file has it, but at the bus's 9600 baud (its
+    // 81-SBAUD = 19200 disagrees with the manifest: `set-rate`)
+    let sample = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    let fixture = workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
+    let axis = d.join("axis-1.toml");
+    std::fs::write(
+        &axis,
+        std::fs::read_to_string(&sample)
+            .unwrap()
+            .replace(
+                "schema = \"../fixtures/fictional-mc6000-demo.toml\"",
+                &format!("schema = {:?}", fixture.display().to_string()),
+            )
+            .replace("SBAUD = \"19200 Baud\"", "SBAUD = \"9600 Baud\""),
+    )
+    .unwrap();
     let fan = workspace_root().join("parameter-sets/vf1000/conveyor-1.toml");
     std::fs::write(
         d.join("line.toml"),

@@ -71,6 +71,17 @@ fn pull_tmd_yaml_changed_only_round_trip() {
     assert!(text.contains("equal to the factory default left out"));
     // a password is never read into the file
     assert!(text.contains("C0094 user_password: password"));
+    // nor the bus address and line rate (the manifest gives them)
+    assert!(
+        text.contains("\n#   C0009 network_address: role `bus-address`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n#   C0125 lecom_baud_rate: role `baud-rate`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+    assert!(!text.contains("\n  \"C0009\": "), "{text}");
+    assert!(!text.contains("\n  \"C0125\": "), "{text}");
 }
 
 #[test]
@@ -105,6 +116,10 @@ fn pull_json_report_and_to_yaml() {
     let v: serde_json::Value = serde_json::from_slice(&got).unwrap();
     assert_eq!(v["schema"], "fictional-vf1000-demo");
     assert!(v["fingerprint"].as_str().unwrap().starts_with("sha256:"));
+    assert_eq!(
+        v["left_out_bus_codes"],
+        serde_json::json!(["81-SIOC", "82-SIOA"])
+    );
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains("\nvalues:\n"));
 }
@@ -174,4 +189,150 @@ fn pull_with_transfer_baud_gives_the_same_file_as_at_9600() {
         (j["state"].as_str(), j["transfer"]["state"].as_str()),
         (Some("complete"), Some("back"))
     );
+}
+
+/// Pull `address` of `port` with the fixture MC6000 schema into `out`
+/// (`extra` arguments appended); stdout.
+fn pull_demo_mc6000(port: &str, address: &str, out: &std::path::Path, extra: &[&str]) -> String {
+    let schema = workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
+    let got = driveset()
+        .args(["pull", "--port", port, "--address", address, "--schema"])
+        .arg(&schema)
+        .arg("-o")
+        .arg(out)
+        .args(extra)
+        .assert()
+        .code(0)
+        .get_output()
+        .stdout
+        .clone();
+    String::from_utf8(got).unwrap()
+}
+
+#[test]
+fn pull_leaves_the_bus_address_and_rate_out_unless_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = "sim://mc6000?addresses=1";
+    let plain = dir.path().join("plain.toml");
+    let stdout = pull_demo_mc6000(port, "1", &plain, &[]);
+    assert!(
+        stdout.contains("\nleft out 81-SBAUD, 82-SADDR: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)\n"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("not read: 81-SBAUD"), "{stdout}");
+    let text = std::fs::read_to_string(&plain).unwrap();
+    assert!(!text.contains("\n81 = "), "{text}");
+    assert!(!text.contains("\n82 = "), "{text}");
+    assert!(
+        text.contains("\n#   82-SADDR: role `bus-address`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n#   81-SBAUD: role `baud-rate`: left out, the line manifest gives the drive's address and the bus's rate\n"),
+        "{text}"
+    );
+
+    let kept = dir.path().join("kept.toml");
+    let stdout = pull_demo_mc6000(port, "1", &kept, &["--keep-bus-codes"]);
+    assert!(!stdout.contains("left out 8"), "{stdout}");
+    let text = std::fs::read_to_string(&kept).unwrap();
+    assert!(text.contains("\n81 = \"9600 Baud\"\n"), "{text}");
+    assert!(text.contains("\n82 = 1\n"), "{text}");
+}
+
+/// `driveset validate LINE`, which must exit 1 (findings): its stdout.
+fn validate_findings(line: &std::path::Path) -> String {
+    let out = driveset()
+        .arg("validate")
+        .arg(line)
+        .assert()
+        .code(1)
+        .get_output()
+        .stdout
+        .clone();
+    String::from_utf8(out).unwrap()
+}
+
+/// Issue 20, "the manifest's address is the truth": axis-1's set pulled
+/// with its bus codes and copied for axis-2 is caught by `validate LINE`,
+/// naming the set's line and the manifest's address; the plain pull's copy
+/// passes.
+#[test]
+fn validate_line_catches_a_set_copied_with_its_address() {
+    let dir = tempfile::tempdir().unwrap();
+    let sets = dir.path().join("sets");
+    let axis1 = sets.join("axis-1.toml");
+    pull_demo_mc6000(
+        "sim://mc6000?addresses=1",
+        "1",
+        &axis1,
+        &["--keep-bus-codes"],
+    );
+    let text = std::fs::read_to_string(&axis1).unwrap();
+    std::fs::write(sets.join("axis-2.toml"), &text).unwrap();
+    let line = dir.path().join("line.toml");
+    std::fs::write(
+        &line,
+        "[[bus]]\nname = \"press\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n\
+         [[drive]]\nname = \"axis-1\"\nbus = \"press\"\naddress = 1\nset = \"sets/axis-1.toml\"\n\n\
+         [[drive]]\nname = \"axis-2\"\nbus = \"press\"\naddress = 2\nset = \"sets/axis-2.toml\"\n",
+    )
+    .unwrap();
+    let addr_line = text
+        .lines()
+        .position(|l| l == "82 = 1")
+        .expect("82 in the kept set")
+        + 1;
+    let set2 = sets.join("axis-2.toml");
+    let stdout = validate_findings(&line);
+    let expected = format!(
+        "error[rule-violation]: set `sets/axis-2.toml` gives 82-SADDR = 1, but the manifest puts drive `axis-2` at address 2 on bus `press`\n  --> {}:{addr_line}:1\n",
+        set2.display()
+    );
+    assert!(stdout.starts_with(&expected), "{stdout}");
+    assert!(
+        stdout.contains(&format!(
+            "  ::: {}:16:11\n   |\n16 | address = 2\n   |           ^ the drive's address in the manifest\n",
+            line.display()
+        )),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("   = help: the manifest's address is the truth: remove 82-SADDR from the set, or give drive `axis-2` address 1 in the manifest\n"),
+        "{stdout}"
+    );
+    assert!(stdout.ends_with("1 finding in 1 of 1 file\n"), "{stdout}");
+
+    // a bus rate other than the sets' 81-SBAUD: both sets are reported
+    std::fs::write(
+        &line,
+        std::fs::read_to_string(&line)
+            .unwrap()
+            .replace("baud = 9600", "baud = 19200"),
+    )
+    .unwrap();
+    let stdout = validate_findings(&line);
+    for axis in ["axis-1", "axis-2"] {
+        assert!(
+            stdout.contains(&format!(
+                "error[rule-violation]: set `sets/{axis}.toml` gives 81-SBAUD = 9600 Baud, but bus `press` of drive `{axis}` runs at 19200 baud\n"
+            )),
+            "{stdout}"
+        );
+    }
+    assert!(
+        stdout.contains("   = help: the manifest's rate is the truth: remove 81-SBAUD from the set, or give bus `press` the set's rate in the manifest\n"),
+        "{stdout}"
+    );
+    assert!(stdout.ends_with("3 findings in 1 of 1 file\n"), "{stdout}");
+
+    // the plain pull (no bus codes) copied for axis-2: 0 findings
+    pull_demo_mc6000("sim://mc6000?addresses=1", "1", &axis1, &[]);
+    std::fs::copy(&axis1, &set2).unwrap();
+    driveset()
+        .arg("validate")
+        .arg(&line)
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("0 findings"));
 }

@@ -8,6 +8,12 @@
 //! - codes of role `command` or `control-word` (`driveset_schema::role`):
 //!   a set cannot hold them (it would run a command or could start a motor
 //!   when uploaded back), so a pulled set leaves them out;
+//! - codes of role `bus-address` or `baud-rate` (LUSTBUS 82-SIOA/SADDR and
+//!   81-SIOC/SBAUD, Tmd C0009 and C0125), unless
+//!   [`PullOptions::keep_bus_codes`]: the line manifest owns the drive's
+//!   address and the bus's rate, and a set copied for another drive must not
+//!   carry this drive's (docs/file-formats.md, "The manifest's address is
+//!   the truth");
 //! - codes whose type the schema does not know (the value could not be
 //!   converted or written back);
 //! - codes the drive refuses to read (says they do not exist, or read
@@ -20,7 +26,7 @@
 
 use std::time::Duration;
 
-use driveset_schema::{CodeKey, ResolvedSet, Role};
+use driveset_schema::{Code, CodeKey, ResolvedSet, Role, Schema};
 
 use crate::client::{DriveClient, Identity};
 use crate::error::{EngineError, ErrorKind};
@@ -34,6 +40,35 @@ pub struct PullOptions {
     pub changed_only: bool,
     /// Read password codes too (the file will hold them).
     pub include_passwords: bool,
+    /// Read the bus address and line rate codes too (roles `bus-address`,
+    /// `baud-rate`); left out by default.
+    pub keep_bus_codes: bool,
+}
+
+/// Why `pull` leaves `code` out on purpose, if it does (the module docs'
+/// list, but for codes the drive refuses): the one rule [`pull`] and
+/// [`crate::transfer::pull_exchanges`] share.
+pub fn left_out_reason(schema: &Schema, code: &Code, opts: &PullOptions) -> Option<String> {
+    if code.read_clears == Some(true) {
+        return Some("reading clears it (status code)".into());
+    }
+    if schema.is_password(code) && !opts.include_passwords {
+        return Some("password (never read: its value stays on the drive)".into());
+    }
+    if let Some(role) = code.role() {
+        if role != Role::Password && role.left_out_of_pulled_sets() {
+            return Some(format!("role `{role}`: left out, a set cannot hold it"));
+        }
+        if role.is_bus_link() && !opts.keep_bus_codes {
+            return Some(format!(
+                "role `{role}`: left out, the line manifest gives the drive's address and the bus's rate"
+            ));
+        }
+    }
+    if schema.type_of(code).is_none() {
+        return Some("the schema gives no type for it".into());
+    }
+    None
 }
 
 /// A code that was not read, and why.
@@ -118,25 +153,8 @@ pub fn pull_observed(
                 failed: true,
                 ..skip(&reason)
             };
-            if code.read_clears == Some(true) {
-                skipped.push(skip("reading clears it (status code)"));
-                continue;
-            }
-            if schema.is_password(code) && !opts.include_passwords {
-                skipped.push(skip("password (never read: its value stays on the drive)"));
-                continue;
-            }
-            if let Some(role) = code.role()
-                && role != Role::Password
-                && role.left_out_of_pulled_sets()
-            {
-                skipped.push(skip(&format!(
-                    "role `{role}`: left out, a set cannot hold it"
-                )));
-                continue;
-            }
-            if schema.type_of(code).is_none() {
-                skipped.push(skip("the schema gives no type for it"));
+            if let Some(reason) = left_out_reason(&schema, code, opts) {
+                skipped.push(skip(&reason));
                 continue;
             }
             match client.read(key) {
@@ -184,4 +202,38 @@ pub fn pull_observed(
         skipped,
         elapsed: client.clock().now() - start,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Tmd's C0009 / C0125 (floor roles bus-address / baud-rate) are
+    /// left out unless kept; C0011 (an ordinary setting) never is.
+    #[test]
+    fn bus_codes_are_left_out_unless_kept() {
+        let registry = driveset_schema::Registry::builtin().expect("built-in schemas");
+        let schema = registry.get("lenze-tmd").expect("lenze-tmd");
+        let code = |n| schema.code(n).expect("code in lenze-tmd");
+        let plain = PullOptions::default();
+        assert_eq!(
+            left_out_reason(&schema, code(9), &plain).as_deref(),
+            Some(
+                "role `bus-address`: left out, the line manifest gives the drive's address and the bus's rate"
+            )
+        );
+        assert_eq!(
+            left_out_reason(&schema, code(125), &plain).as_deref(),
+            Some(
+                "role `baud-rate`: left out, the line manifest gives the drive's address and the bus's rate"
+            )
+        );
+        assert_eq!(left_out_reason(&schema, code(11), &plain), None);
+        let kept = PullOptions {
+            keep_bus_codes: true,
+            ..plain
+        };
+        assert_eq!(left_out_reason(&schema, code(9), &kept), None);
+        assert_eq!(left_out_reason(&schema, code(125), &kept), None);
+    }
 }

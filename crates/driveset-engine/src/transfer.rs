@@ -1172,13 +1172,7 @@ fn final_verify(
 pub fn pull_exchanges(schema: &Schema, opts: &PullOptions) -> Vec<CodeKey> {
     let mut out = Vec::new();
     for code in &schema.codes {
-        let left_out = code.read_clears == Some(true)
-            || (schema.is_password(code) && !opts.include_passwords)
-            || code.role().is_some_and(|r| {
-                r != driveset_schema::Role::Password && r.left_out_of_pulled_sets()
-            })
-            || schema.type_of(code).is_none();
-        if left_out {
+        if crate::pull::left_out_reason(schema, code, opts).is_some() {
             continue;
         }
         match code.subcodes {

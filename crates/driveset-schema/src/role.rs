@@ -91,6 +91,15 @@ impl Role {
     pub fn left_out_of_pulled_sets(self) -> bool {
         matches!(self, Role::Command | Role::ControlWord | Role::Password)
     }
+
+    /// Whether the code sets how the drive is reached on its bus (its
+    /// address or its line rate): the line manifest owns these facts, so
+    /// `pull` leaves such codes out of a pulled set unless asked, and
+    /// `validate MANIFEST` reports a set whose value disagrees with the
+    /// manifest (docs/file-formats.md, "The manifest's address is the truth").
+    pub fn is_bus_link(self) -> bool {
+        matches!(self, Role::BusAddress | Role::BaudRate)
+    }
 }
 
 impl fmt::Display for Role {

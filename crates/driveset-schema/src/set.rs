@@ -30,6 +30,11 @@ pub struct LoadedSet {
     pub title: Option<String>,
     /// Findings.
     pub findings: Vec<Finding>,
+    /// Where the set gives its bus address and line rate codes (roles
+    /// [`crate::Role::is_bus_link`]), at the key of the layer whose value
+    /// stands: `validate MANIFEST` names the place when the value
+    /// disagrees with the manifest.
+    pub bus_codes: Vec<(CodeKey, Location)>,
 }
 
 struct Layer {
@@ -76,6 +81,7 @@ fn load_source(
             resolved: None,
             title: None,
             findings,
+            bus_codes: Vec::new(),
         });
     };
     let title = top.title.clone();
@@ -97,6 +103,7 @@ fn load_source(
             resolved: None,
             title,
             findings,
+            bus_codes: Vec::new(),
         });
     };
     let Some(schema) = resolve_schema(&sref, &sloc, &sdir, registry, &mut findings)? else {
@@ -105,6 +112,7 @@ fn load_source(
             resolved: None,
             title,
             findings,
+            bus_codes: Vec::new(),
         });
     };
     for l in &layers {
@@ -131,6 +139,7 @@ fn load_source(
     }
 
     let mut merged: FnvMap<CodeKey, Placed> = FnvMap::default();
+    let mut bus_codes: Vec<(CodeKey, Location)> = Vec::new();
     // where secret values are written (file, byte span): masked in every
     // finding's snippet at the end, whatever the finding is about
     let mut secret_spans: Vec<(String, std::ops::Range<usize>)> = Vec::new();
@@ -227,6 +236,10 @@ fn load_source(
                         merged.remove(&key);
                         continue;
                     }
+                    if code.role().is_some_and(crate::Role::is_bus_link) {
+                        bus_codes.retain(|(k, _)| *k != key);
+                        bus_codes.push((key, kloc()));
+                    }
                     merged.insert(key, p);
                 }
                 None => {
@@ -254,11 +267,13 @@ fn load_source(
     sorted.sort_unstable_by_key(|(k, _)| *k);
     // built in bulk from sorted keys
     resolved.values = sorted.into_iter().collect();
+    bus_codes.retain(|(k, _)| resolved.values.contains_key(k));
     Ok(LoadedSet {
         schema: Some(schema),
         resolved: Some(resolved),
         title,
         findings,
+        bus_codes,
     })
 }
 

@@ -7,7 +7,10 @@
 //! drive said it is and the fingerprint, and carries the same facts in the
 //! `[drive]` table (docs/file-formats.md: informational, ignored by the
 //! loader), so `driveset validate` / `driveset fingerprint` read it back to
-//! the same fingerprint. Passwords are not read (they would land in the file).
+//! the same fingerprint. Passwords are not read (they would land in the file);
+//! the bus address and line rate codes are left out unless --keep-bus-codes
+//! (the line manifest gives them; docs/file-formats.md, "The manifest's
+//! address is the truth"), and the report names them in one line.
 
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
@@ -57,7 +60,12 @@ learned-<family>-type<TYPE>-<software>.toml and the set names it, so
 L23); --no-learn pulls with the schema as it is.
 
 Commands and control words (schema role `command` / `control-word`) are left
-out too: a set cannot hold them. Passwords are never read: the file says
+out too: a set cannot hold them. The bus address and line rate codes (role
+`bus-address` / `baud-rate`: LUSTBUS 82-SIOA/SADDR and 81-SIOC/SBAUD, Tmd
+C0009 and C0125) are left out unless --keep-bus-codes is given: the line
+manifest gives each drive its address and each bus its rate, and a set copied
+for another drive must not carry this drive's (`driveset validate MANIFEST`
+reports a set whose codes disagree with the manifest). Passwords are never read: the file says
 which password codes were left out and holds no value of them.
 
 A code that cannot be read (refused, no answer, a VALUE its type cannot
@@ -94,6 +102,11 @@ pub struct Args {
     /// Pull even if the drive's identity does not fit the schema.
     #[arg(long)]
     pub allow_family: bool,
+    /// Keep the bus address and line rate codes (roles bus-address,
+    /// baud-rate) in the set; by default they are left out, as the line
+    /// manifest gives them.
+    #[arg(long)]
+    pub keep_bus_codes: bool,
     /// Removed: use --allow-family.
     #[arg(long, hide = true)]
     pub force: bool,
@@ -232,6 +245,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let popts = PullOptions {
         changed_only: args.changed_only,
         include_passwords: false,
+        keep_bus_codes: args.keep_bus_codes,
     };
     let mut transfer_note = None;
     let pulled = {
@@ -280,6 +294,18 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         !ro
     });
     pulled.fingerprint = pulled.set.fingerprint();
+    // The bus address / line rate codes left out (the manifest owns them).
+    let bus_codes: Vec<String> = pulled
+        .skipped
+        .iter()
+        .filter(|s| {
+            !s.failed
+                && schema
+                    .role_of(s.number)
+                    .is_some_and(driveset_schema::Role::is_bus_link)
+        })
+        .map(|s| s.code.clone())
+        .collect();
     let failed: Vec<_> = pulled
         .skipped
         .iter()
@@ -409,6 +435,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 "dropped_defaults": pulled.dropped_defaults,
                 "skipped": pulled.skipped,
                 "not_readable": failed.len(),
+                "left_out_bus_codes": bus_codes,
                 "schema_file": schema_path.as_ref().map(|p| p.display().to_string()),
                 "learned": learned.as_ref().map(learning::LearnReport::json),
                 "detected": detected,
@@ -436,16 +463,20 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                     pulled.dropped_defaults
                 );
             }
-            if !pulled.skipped.is_empty() {
+            let not_read: Vec<&str> = pulled
+                .skipped
+                .iter()
+                .map(|s| s.code.as_str())
+                .filter(|c| !bus_codes.iter().any(|b| b == c))
+                .collect();
+            if !not_read.is_empty() {
+                let _ = writeln!(out, "not read: {}", not_read.join(", "));
+            }
+            if !bus_codes.is_empty() {
                 let _ = writeln!(
                     out,
-                    "not read: {}",
-                    pulled
-                        .skipped
-                        .iter()
-                        .map(|s| s.code.clone())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    "left out {}: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)",
+                    bus_codes.join(", ")
                 );
             }
             let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);

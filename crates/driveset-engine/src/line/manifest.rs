@@ -31,8 +31,17 @@
 //! `missing-key`, `wrong-type`, `bad-port`, `bad-protocol`,
 //! `rate-mismatch`, `duplicate-bus`, `unknown-bus`, `duplicate-name`,
 //! `duplicate-address`, `group-address`, `address-out-of-range`,
-//! `missing-set`, `set-family`, `no-drives`, and the findings of each set
-//! file (their own kinds, at their own locations).
+//! `missing-set`, `set-family`, `no-drives`, `set-address`, `set-rate`,
+//! and the findings of each set file (their own kinds, at their own
+//! locations).
+//!
+//! **The manifest's address is the truth.** A set that gives its drive's
+//! bus address code (role `bus-address`: LUSTBUS 82-SIOA/SADDR, Tmd C0009)
+//! with a value other than the drive's `address`, or its line rate code
+//! (role `baud-rate`: 81-SIOC/SBAUD, C0125) with a rate other than its
+//! bus's `baud`, is a finding (`set-address`, `set-rate`) at the set's
+//! line, naming the manifest's place: a set copied from another drive is
+//! caught before the plant.
 //!
 //! **Sets whose schema lacks facts.** A set naming a built-in LUSTBUS schema
 //! that lacks codes' types, kinds or ranges (`lust-mc6000`, `lust-vf1000`;
@@ -57,7 +66,8 @@ use driveset_link::{Openers, PortShape, PortSpec};
 use driveset_schema::doc::{self, Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::{
-    Family, Finding, FindingKind, InputError, Location, Registry, ResolvedSet, Schema, load_set,
+    CodeKey, Family, Finding, FindingKind, InputError, Location, RawValue, Registry, ResolvedSet,
+    Role, Schema, load_set,
 };
 
 /// The bus protocols a manifest names (`lustbus | lecom | can`): the
@@ -711,6 +721,9 @@ impl<'a> Reader<'a> {
 
         // drives: bus, address, names, sets
         let mut drives = Vec::new();
+        // per drive of `drives`: where the set gives its bus codes, and
+        // where the manifest gives the drive's address
+        let mut bus_code_places: Vec<(Vec<(CodeKey, Location)>, Location)> = Vec::new();
         let mut seen_addr: BTreeMap<(usize, i64), Range<usize>> = BTreeMap::new();
         let mut seen_name: BTreeMap<String, Range<usize>> = BTreeMap::new();
         let mut set_findings = Vec::new();
@@ -864,15 +877,22 @@ impl<'a> Reader<'a> {
                                         "put the drive on a bus of its family's protocol, or name the right set",
                                     );
                                 }
-                                loaded = Some((schema, set, set_path, learn_from));
+                                loaded = Some((schema, set, set_path, learn_from, l.bus_codes));
                             }
                         }
                     }
                 }
             }
-            if let (true, Some(n), Some(bi), Some(a), Some((schema, set, set_path, learn_from))) =
-                (ok, name, bus_index, address, loaded)
+            if let (
+                true,
+                Some(n),
+                Some(bi),
+                Some(a),
+                Some((schema, set, set_path, learn_from, bus_codes)),
+            ) = (ok, name, bus_index, address, loaded)
             {
+                let addr_loc = r.address.as_ref().map_or(0..0, |x| x.1.clone());
+                bus_code_places.push((bus_codes, self.loc(&addr_loc)));
                 drives.push(Drive {
                     name: n,
                     bus: raw_buses[bi]
@@ -1089,6 +1109,22 @@ impl<'a> Reader<'a> {
                 b.families.push(d.schema.family);
             }
         }
+        for (d, (codes, addr_loc)) in drives.iter().zip(&bus_code_places) {
+            let bus = buses.iter().find(|b| b.name == d.bus);
+            let rate_loc = raw_buses[d.bus_index]
+                .baud
+                .as_ref()
+                .map(|x| x.1.clone())
+                .or_else(|| raw_buses[d.bus_index].port.as_ref().map(|x| x.1.clone()))
+                .map(|span| self.loc(&span));
+            for (key, set_loc) in codes {
+                if let Some(f) =
+                    bus_code_finding(d, *key, set_loc, addr_loc, bus, rate_loc.as_ref())
+                {
+                    self.findings.push(f);
+                }
+            }
+        }
         let mut findings = std::mem::take(&mut self.findings);
         findings.extend(set_findings);
         let manifest = findings.is_empty().then(|| Manifest {
@@ -1108,6 +1144,87 @@ impl<'a> Reader<'a> {
             findings,
             learnable,
         }
+    }
+}
+
+/// The engineering whole number a bus code's value stands for: the number
+/// its label starts with (Tmd C0125 `1 = "4800 bps ..."`), else its
+/// engineering value (a VD C0009 = 2.0000 is 2).
+fn bus_code_number(schema: &Schema, code: &driveset_schema::Code, raw: &RawValue) -> Option<i64> {
+    let RawValue::Int(r) = raw else { return None };
+    if let Some(label) = schema.enum_label(code, *r) {
+        let digits: String = label.chars().take_while(char::is_ascii_digit).collect();
+        return digits.parse().ok();
+    }
+    match schema.type_of(code) {
+        Some(ty) => match driveset_schema::value::raw_to_decimal(ty, *r) {
+            Some(d) => d.to_integer().and_then(|v| i64::try_from(v).ok()),
+            None => Some(*r),
+        },
+        None => Some(*r),
+    }
+}
+
+/// `set-address` / `set-rate`: the drive's set gives its bus address code
+/// (or its line rate code) a value other than the manifest's address of the
+/// drive (or its bus's rate). `None` where they agree, or where the bus has
+/// no rate to compare with.
+fn bus_code_finding(
+    d: &Drive,
+    key: CodeKey,
+    set_loc: &Location,
+    addr_loc: &Location,
+    bus: Option<&Bus>,
+    rate_loc: Option<&Location>,
+) -> Option<ManifestFinding> {
+    let schema = &d.schema;
+    let code = schema.code(key.number)?;
+    let raw = d.set.values.get(&key)?;
+    let got = bus_code_number(schema, code, raw);
+    let label = schema.display_code(key.number, key.subcode);
+    let shown = driveset_schema::validate::display_value(schema, code, raw);
+    match code.role()? {
+        Role::BusAddress => {
+            if got == Some(i64::from(d.address)) {
+                return None;
+            }
+            let f = ManifestFinding::new(
+                "set-address",
+                set_loc.clone(),
+                format!(
+                    "set `{}` gives {label} = {shown}, but the manifest puts drive `{}` at address {} on bus `{}`",
+                    d.set_text, d.name, d.address, d.bus
+                ),
+                format!(
+                    "the manifest's address is the truth: remove {label} from the set, or give drive `{}` address {shown} in the manifest",
+                    d.name
+                ),
+            );
+            Some(f.related("the drive's address in the manifest", addr_loc.clone()))
+        }
+        Role::BaudRate => {
+            let bus = bus?;
+            if bus.rate == 0 || got == Some(i64::from(bus.rate)) {
+                return None;
+            }
+            let f = ManifestFinding::new(
+                "set-rate",
+                set_loc.clone(),
+                format!(
+                    "set `{}` gives {label} = {shown}, but bus `{}` of drive `{}` runs at {} baud",
+                    d.set_text, d.bus, d.name, bus.rate
+                ),
+                format!(
+                    "the manifest's rate is the truth: remove {label} from the set, or give bus `{}` the set's rate in the manifest",
+                    d.bus
+                ),
+            );
+            Some(match rate_loc {
+                Some(l) => f.related("the bus's rate in the manifest", l.clone()),
+                None => f,
+            })
+        }
+        _ => None,
     }
 }
 

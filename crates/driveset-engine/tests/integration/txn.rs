@@ -981,6 +981,7 @@ fn pull_reads_every_readable_code_skips_and_reports_the_rest() {
     let opts = PullOptions {
         changed_only: true,
         include_passwords: true,
+        keep_bus_codes: false,
     };
     let changed = pull(&mut client, &opts).expect("pull");
     // defaults: C0001 0, C0011 50, C0012 5, C0013 5, C0014 2 (C0002 and C0040 are not pulled)
