@@ -20,7 +20,7 @@ use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{CodeKey, Family, RawValue};
 
 use crate::client::{DriveClient, Identity, LustbusClient};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceCause, EngineError, ErrorKind};
 use crate::learn::{LearnOptions, interpret, read_descriptions};
 
 /// What a capture read from one drive.
@@ -32,6 +32,9 @@ pub struct Capture {
     pub values: BTreeMap<CodeKey, RawValue>,
     /// Codes it refused to read (or did not answer for), with the cause.
     pub refused: BTreeMap<CodeKey, String>,
+    /// What the drive answered to each read it refused (the codes of
+    /// `refused` it answered at all), so a twin refuses them alike.
+    pub answers: BTreeMap<CodeKey, DeviceCause>,
     /// Password codes: not read.
     pub secrets: Vec<CodeKey>,
     /// Codes not read on purpose (reading clears them) or without a type
@@ -56,6 +59,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
         identity,
         values: BTreeMap::new(),
         refused: BTreeMap::new(),
+        answers: BTreeMap::new(),
         secrets: Vec::new(),
         unread: Vec::new(),
         running: None,
@@ -88,6 +92,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
                     ErrorKind::Device { cause, .. } => {
                         out.refused
                             .insert(key, format!("{} ({})", cause.cause(), cause.raw()));
+                        out.answers.insert(key, cause.clone());
                     }
                     ErrorKind::Protocol { detail, .. } => {
                         out.refused

@@ -17,10 +17,12 @@ use std::sync::Arc;
 use driveset_engine::capture::{Capture, capture, mc_descriptions};
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::env::Environment;
+use driveset_engine::error::DeviceCause;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_link::{Link, VirtualClock};
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
+use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, open_sim_with};
 use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace, load_file};
@@ -240,6 +242,11 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
     twin.reaction = cap.reaction;
     twin.values = cap.values.clone();
     twin.refused = cap.refused.clone();
+    twin.refusals = cap
+        .answers
+        .iter()
+        .filter_map(|(k, cause)| Some((*k, read_refusal(cause)?)))
+        .collect();
     twin.secrets = cap.secrets.clone();
     twin.unknown = cap.unread.clone();
     match schema.family {
@@ -253,6 +260,19 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         _ => {}
     }
     twin
+}
+
+/// How a drive refused a read on the wire, from the cause the client made
+/// of it: LUSTBUS NAK (with the SIOF/SERR bits read after it, section 9.2),
+/// LECOM EOT (8.H), CAN SDO abort (DS301 table 22).
+fn read_refusal(cause: &DeviceCause) -> Option<ReadRefusal> {
+    match cause {
+        DeviceCause::Siof { bits, .. } => Some(ReadRefusal::NakSiof(bits.bits())),
+        DeviceCause::NoSuchParameter { .. } | DeviceCause::SiofUnreadable => Some(ReadRefusal::Nak),
+        DeviceCause::NoSuchCode { .. } => Some(ReadRefusal::NoSuchCode),
+        DeviceCause::SdoAbort { code, .. } => Some(ReadRefusal::SdoAbort(code.0)),
+        _ => None,
+    }
 }
 
 /// Tmd: C0001 of `values` in engineering units (raw x10000, LECOM VD).
