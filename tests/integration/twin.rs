@@ -869,3 +869,111 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         .code(2)
         .stderr("error: twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`\n");
 }
+
+/// A drive that refuses to read a code it holds (`refuse=`, the
+/// simulator's way to hide a code) and its twin refuse it alike: the twin
+/// records the wire answer in `[refused]`, and `diff` and `pull` against
+/// drive and twin give the same output and exit code. A twin file of the
+/// first version (the refusal as a reason string only) is served alike.
+#[test]
+fn a_twin_refuses_the_reads_its_drive_refused() {
+    struct Refusing {
+        name: &'static str,
+        port: &'static str,
+        address: u8,
+        set: &'static str,
+        line: &'static str,
+        error: &'static str,
+    }
+    let cases = [
+        Refusing {
+            name: "tmd",
+            port: "sim://tmd?c0001=3&refuse=12",
+            address: 4,
+            set: "parameter-sets/tmd/conveyor-3.toml",
+            line: "\"12\" = { answer = \"EOT\", reason = \"no such code in this controller (STX C0012 EOT)\" }",
+            error: "read C0012 refused: no such code in this controller (STX C0012 EOT)",
+        },
+        Refusing {
+            name: "vf1000",
+            port: "sim://vf1000?refuse=5",
+            address: 4,
+            set: "parameter-sets/vf1000/conveyor-1.toml",
+            line: "\"5\" = { answer = \"NAK\", reason = \"no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00105)\" }",
+            error: "read 5-FSSIO refused: no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00105)",
+        },
+        Refusing {
+            name: "ecs",
+            port: "sim://ecs?refuse=5001",
+            address: 1,
+            set: "parameter-sets/ecs/axis-1.toml",
+            line: "\"5001\" = { answer = \"SDO abort 0x06010001\", reason = \"Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)\" }",
+            error: "read C5001 refused: Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)",
+        },
+    ];
+    for case in &cases {
+        let root = tempfile::tempdir().unwrap();
+        let drive = Side::new(root.path(), "drive", case.port);
+        let a = case.address.to_string();
+        let file = root.path().join(format!("{}.twin.toml", case.name));
+        let text = capture(&drive, case.address, &file);
+        assert!(
+            text.contains(&format!("\n[refused]\n{}\n\n", case.line)),
+            "{}: {text}",
+            case.name
+        );
+        // the same twin as the first version of the format wrote it
+        let old_file = root.path().join(format!("{}-v1.twin.toml", case.name));
+        let reason = case.line.split("reason = ").nth(1).unwrap();
+        let old_line = format!(
+            "{} = {}",
+            case.line.split(" = ").next().unwrap(),
+            reason.strip_suffix(" }").unwrap()
+        );
+        std::fs::write(&old_file, text.replace(case.line, &old_line)).unwrap();
+        let twins = [
+            Side::new(
+                root.path(),
+                "twin",
+                &format!("sim://twin?file={}", file.display()),
+            ),
+            Side::new(
+                root.path(),
+                "twin-v1",
+                &format!("sim://twin?file={}", old_file.display()),
+            ),
+        ];
+        let steps: [Vec<&str>; 2] = [
+            vec!["diff", case.set, "--port", "PORT", "--address", &a],
+            vec![
+                "pull",
+                "--port",
+                "PORT",
+                "--address",
+                &a,
+                "-o",
+                "pulled.toml",
+            ],
+        ];
+        for step in &steps {
+            let d = drive.run(step);
+            for twin in &twins {
+                assert_eq!(
+                    d,
+                    twin.run(step),
+                    "{}: `{}` differs between drive and twin",
+                    case.name,
+                    step.join(" ")
+                );
+            }
+        }
+        let (code, _, err) = drive.run(&steps[0]);
+        assert_eq!(code, 3, "{}: {err}", case.name);
+        assert_eq!(
+            err.lines().filter(|l| l.contains(case.error)).count(),
+            1,
+            "{}: {err}",
+            case.name
+        );
+    }
+}

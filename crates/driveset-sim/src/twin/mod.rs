@@ -819,6 +819,59 @@ mod tests {
     }
 
     #[test]
+    fn refusals_round_trip_and_first_version_reasons_name_their_answer() {
+        let mut t = sample();
+        t.refusals.insert(CodeKey::new(99), ReadRefusal::NoSuchCode);
+        t.refused
+            .insert(CodeKey::new(98), "no answer (3 tries)".into());
+        let text = t.to_toml(None);
+        assert!(
+            text.contains("\n[refused]\n\"98\" = \"no answer (3 tries)\"\n\"99\" = { answer = \"EOT\", reason = \"no such code\" }\n"),
+            "{text}"
+        );
+        let back = Twin::parse(&text, Path::new("t.twin.toml")).unwrap();
+        assert_eq!(back.refusals, t.refusals);
+        for r in [
+            ReadRefusal::Nak,
+            ReadRefusal::NakSiof(0x80),
+            ReadRefusal::NoSuchCode,
+            ReadRefusal::SdoAbort(0x0601_0001),
+        ] {
+            assert_eq!(ReadRefusal::parse(&r.text()), Some(r));
+        }
+        for (reason, answer) in [
+            (
+                "no such code in this controller (STX C0012 EOT)",
+                Some(ReadRefusal::NoSuchCode),
+            ),
+            (
+                "no such parameter (NAK to ENQUIRY 00105)",
+                Some(ReadRefusal::Nak),
+            ),
+            (
+                "invalid value (80) (SERR 80H invalid value)",
+                Some(ReadRefusal::NakSiof(0x80)),
+            ),
+            (
+                "Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)",
+                Some(ReadRefusal::SdoAbort(0x0601_0001)),
+            ),
+            ("no answer (3 tries)", None),
+        ] {
+            assert_eq!(answer_in_reason(reason), answer, "{reason}");
+        }
+        let e = Twin::parse(
+            &text.replace("answer = \"EOT\"", "answer = \"ACK\""),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [refused] \"99\": answer `ACK`: use NAK, NAK SIOF 80H, EOT or SDO abort 0x06010001"
+        );
+    }
+
+    #[test]
     fn bad_fields_are_named() {
         let t = sample().to_toml(None);
         let p = Path::new("x.twin.toml");
