@@ -203,3 +203,92 @@ pub fn lecom_session(
     }
     out
 }
+
+/// Per bus address, what a decoded LUSTBUS session showed of one drive of
+/// `schema`'s family ([`Session`]): the values it answered to an ENQUIRY
+/// (VALUE, section 6.1), the values a SELECT wrote and the drive
+/// acknowledged (ACK, section 6.2; the last one wins), and the parameters
+/// whose ENQUIRY it answered with NAK. Events with an error, broadcasts and
+/// a value the schema's type cannot hold are passed over.
+pub fn lustbus_session(
+    events: &[crate::decode::Event],
+    schema: &driveset_schema::Schema,
+) -> BTreeMap<u8, Session> {
+    use driveset_proto::lustbus::{Dialect, ParameterCode, ParameterValue};
+    let dialect = match schema.family {
+        Family::Vf1000 => Dialect::Vf1000,
+        _ => Dialect::Mc,
+    };
+    // "4 'D'": the number before the address character
+    let address_of = |e: &crate::decode::Event| -> Option<u8> {
+        let a = e
+            .address
+            .as_deref()?
+            .split(' ')
+            .next()?
+            .parse::<u8>()
+            .ok()?;
+        (a != 0 && a != 31).then_some(a)
+    };
+    let key_of = |e: &crate::decode::Event| -> Option<CodeKey> {
+        let code = ParameterCode::new(e.code.as_deref()?.parse().ok()?)?;
+        let number = crate::decode::lustbus::value_parameter(code)?;
+        schema.code(number)?;
+        Some(CodeKey::new(number))
+    };
+    let raw = |e: &crate::decode::Event, key: CodeKey| -> Option<RawValue> {
+        let ty = crate::decode::lustbus::wire_type(schema, key.number)?;
+        let text = e.raw_value.as_deref()?;
+        let v = ParameterValue::decode(ty, dialect, text.as_bytes()).ok()?;
+        Some(RawValue::Int(crate::decode::lustbus::schema_raw(&v)))
+    };
+    let mut out: BTreeMap<u8, Session> = BTreeMap::new();
+    // the request a reply answers: ENQUIRY (no value) or SELECT (its value)
+    let mut asked: Option<(u8, CodeKey, Option<RawValue>, String)> = None;
+    for e in events {
+        if e.error.is_some() {
+            asked = None;
+            continue;
+        }
+        match e.kind {
+            "ENQUIRY" => {
+                asked = address_of(e)
+                    .zip(key_of(e))
+                    .map(|(a, k)| (a, k, None, e.code.clone().unwrap_or_default()));
+            }
+            "SELECT" => {
+                asked = address_of(e).zip(key_of(e)).and_then(|(a, k)| {
+                    let v = raw(e, k)?;
+                    Some((a, k, Some(v), String::new()))
+                });
+            }
+            "VALUE" => {
+                if let (Some(a), Some(k)) = (address_of(e), key_of(e))
+                    && let Some(v) = raw(e, k)
+                {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+                asked = None;
+            }
+            "ACK" => {
+                if let Some((a, k, Some(v), _)) = asked.take()
+                    && address_of(e) == Some(a)
+                {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+            }
+            "NAK" => {
+                if let Some((a, k, None, code)) = asked.take()
+                    && address_of(e) == Some(a)
+                {
+                    let why = format!(
+                        "no such parameter, or read-protected in the current operating state (NAK to ENQUIRY {code})"
+                    );
+                    out.entry(a).or_default().refused.insert(k, why);
+                }
+            }
+            _ => {}
+        }
+    }
+    out
+}

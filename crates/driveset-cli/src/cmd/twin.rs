@@ -321,21 +321,37 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     use super::decode::DecodeProtocol;
-    if a.protocol != DecodeProtocol::Lecom {
+    let (default_schema, families, answer): (Option<&str>, &[Family], ReadRefusal) = match a
+        .protocol
+    {
+        DecodeProtocol::Lecom => (Some("lenze-tmd"), &[Family::Tmd], ReadRefusal::NoSuchCode),
+        DecodeProtocol::Lustbus => (None, &[Family::Mc6000, Family::Vf1000], ReadRefusal::Nak),
+        _ => {
+            return Err(Fail::input(
+                "twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`",
+            ));
+        }
+    };
+    let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
         return Err(Fail::input(
-            "twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`",
+            "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
         ));
-    }
+    };
     let bytes = std::fs::read(&a.file)
         .map_err(|e| Fail::input(format!("{}: cannot read: {e}", a.file.display())))?;
     let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
-    let schema =
-        super::decode::load_schema(&mut registry, a.schema.as_deref().unwrap_or("lenze-tmd"))
-            .map_err(Fail::from)?;
-    if schema.family != Family::Tmd {
+    let schema = super::decode::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
+    if !families.contains(&schema.family) {
         return Err(Fail::input(format!(
-            "--schema {}: a LECOM session needs a Tmd schema (lenze-tmd)",
-            schema.id
+            "--schema {}: a {} schema; a {} session needs a schema of {}",
+            schema.id,
+            schema.family.name(),
+            a.protocol.capture().bus().name(),
+            families
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(" or ")
         )));
     }
     let ctx = driveset_engine::decode::Context {
@@ -344,11 +360,15 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         family: None,
     };
     let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
-    let sessions = driveset_engine::capture::lecom_session(&events, &schema);
+    let sessions = match a.protocol {
+        DecodeProtocol::Lustbus => driveset_engine::capture::lustbus_session(&events, &schema),
+        _ => driveset_engine::capture::lecom_session(&events, &schema),
+    };
     if sessions.is_empty() {
         return Err(Fail::input(format!(
-            "{}: the session shows no drive answering (no VALUE, no acknowledged SEND); is it a LECOM capture?",
-            a.file.display()
+            "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {} capture?",
+            a.file.display(),
+            a.protocol.capture().bus().name()
         )));
     }
     std::fs::create_dir_all(&a.output)
@@ -374,8 +394,11 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             .into_iter()
             .filter(|(k, _)| !twin.secrets.contains(k))
             .collect();
+        twin.refusals = session.refused.keys().map(|k| (*k, answer)).collect();
         twin.refused = session.refused;
-        twin.c0001 = c0001_of(&twin.values, &schema);
+        if schema.family == Family::Tmd {
+            twin.c0001 = c0001_of(&twin.values, &schema);
+        }
         let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
