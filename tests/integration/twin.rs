@@ -864,10 +864,10 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         .code(0);
     driveset()
         .current_dir(d)
-        .args(["twin", "from-capture", "--protocol", "lustbus", "session.bin", "-o", "twins"])
+        .args(["twin", "from-capture", "--protocol", "slcan", "session.bin", "-o", "twins"])
         .assert()
         .code(2)
-        .stderr("error: twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`\n");
+        .stderr("error: twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`\n");
 }
 
 /// A drive that refuses to read a code it holds (`refuse=`, the
@@ -976,4 +976,94 @@ fn a_twin_refuses_the_reads_its_drive_refused() {
             case.name
         );
     }
+}
+
+#[test]
+fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_dir(
+        &workspace_root().join("parameter-sets"),
+        &d.join("parameter-sets"),
+    );
+    let log = d.join("bus.jsonl");
+    let sim = Served::start(&[
+        "--family",
+        "vf1000",
+        "--address",
+        "4",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    // the "vendor tool": an upload over the line
+    let set = "parameter-sets/vf1000/conveyor-1.toml";
+    driveset()
+        .current_dir(d)
+        .args(["upload", set, "--port", &sim.1, "--address", "4"])
+        .assert()
+        .code(0);
+    sim.stop();
+    std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
+    let from_capture = |schema: Option<&str>| {
+        let mut c = driveset();
+        c.current_dir(d)
+            .args(["twin", "from-capture", "--protocol", "lustbus"]);
+        if let Some(s) = schema {
+            c.args(["--schema", s]);
+        }
+        c.args(["session.bin", "-o", "twins"]).output().unwrap()
+    };
+    // a LUSTBUS session does not name its family
+    let out = from_capture(None);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "error: twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to\n"
+    );
+    let out = from_capture(Some("lenze-tmd"));
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "error: --schema lenze-tmd: a tmd schema; a lustbus session needs a schema of mc6000 or vf1000\n"
+    );
+    let out = from_capture(Some("parameter-sets/fixtures/fictional-vf1000-demo.toml"));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.starts_with("vf1000 fictional-vf1000-demo at address 4: "),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
+    assert!(
+        text.contains("\nsource = \"capture session.bin\"\n"),
+        "{text}"
+    );
+    // written by the session's SELECTs (5-FSSIO = 23.15 Hz, 0.05 Hz steps)
+    assert!(text.contains("\n\"5\" = 463  # 5-FSSIO"), "{text}");
+    let t: toml::Table = toml::from_str(&text).unwrap();
+    let unknown = t["codes"]["unknown"].as_array().unwrap();
+    assert!(!unknown.iter().any(|u| u.as_str() == Some("5")), "{text}");
+    assert!(!unknown.is_empty(), "{text}");
+    let (secrets, values) = secrets_and_values(&text);
+    assert_eq!(secrets, ["70"]);
+    assert!(!values.contains(&"70".to_string()));
+    // the twin holds the set the session downloaded
+    driveset()
+        .current_dir(d)
+        .env("DRIVESET_SIM_STATE_DIR", d.join("state"))
+        .args([
+            "diff",
+            set,
+            "--port",
+            "sim://twin?file=twins/twin-4.twin.toml",
+            "--address",
+            "4",
+        ])
+        .assert()
+        .code(0);
 }
