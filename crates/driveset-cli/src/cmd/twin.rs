@@ -106,25 +106,27 @@ pub struct CaptureLineArgs {
 /// `driveset twin from-capture`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads a recorded bus session (the raw bytes `driveset decode --protocol lecom`
-reads: what a vendor tool sent and the drives answered) and writes one twin
-per station address seen, DIR/twin-<address>.twin.toml (rename it to
-<drive name>.twin.toml for a rehearsal): every value a drive answered to a
-RECEIVE, every value a SEND wrote and the drive acknowledged (the last one
-seen wins), and the codes it said it does not have. Codes of the schema the
-session did not show are listed as unknown ([codes] unknown); the served
-twin answers them with its model's factory value. LECOM sessions only (Tmd);
-LUSTBUS and slcan sessions are refused.
+Reads a recorded bus session (the raw bytes `driveset decode --protocol
+lecom | lustbus` reads: what a vendor tool sent and the drives answered) and
+writes one twin per station address seen, DIR/twin-<address>.twin.toml
+(rename it to <drive name>.twin.toml for a rehearsal): every value a drive
+answered (RECEIVE, ENQUIRY), every value a write (SEND, SELECT) sent and the
+drive acknowledged (the last one seen wins), and the codes it refused to
+read (served refused alike). Codes of the schema the session did not show
+are listed as unknown ([codes] unknown); the served twin answers them with
+its model's factory value. A LUSTBUS session needs --schema (it does not
+name its family); slcan sessions are refused.
 
 Exit codes: 0 written; 2 usage, input, or a session that shows no drive.
 
 Example:
-  driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/")]
+  driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/
+  driveset twin from-capture --protocol lustbus --schema lust-vf1000 session.bin -o twins/")]
 pub struct FromCaptureArgs {
-    /// The protocol of the session (lecom).
+    /// The protocol of the session (lecom, lustbus).
     #[arg(long, value_name = "P")]
     pub protocol: super::decode::DecodeProtocol,
-    /// Schema id or file (default: the protocol's built-in schema).
+    /// Schema id or file (default for lecom: lenze-tmd; required for lustbus).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
     /// The recorded session.
