@@ -138,14 +138,16 @@ pub fn mc_descriptions<L: ByteLink>(
     Ok((learned.layouts.iter().next().copied(), learned.type_chars))
 }
 
-/// What a recorded LECOM session (`driveset decode`'s events) showed of
-/// one drive: the values it answered to RECEIVE, the values written to it
-/// by a SEND it acknowledged, and the codes it said it does not have.
+/// What a recorded LECOM or LUSTBUS session (`driveset decode`'s events)
+/// showed of one drive: the values it answered to a read, the values
+/// written to it by a write it acknowledged, and the codes it refused to
+/// read ([`lecom_session`], [`lustbus_session`]).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Session {
     /// Values seen, raw (the last one seen wins).
     pub values: BTreeMap<CodeKey, RawValue>,
-    /// Codes answered with "no such code".
+    /// Codes whose read it refused (LECOM "no such code", LUSTBUS NAK),
+    /// with the reason as a capture writes it.
     pub refused: BTreeMap<CodeKey, String>,
 }
 
