@@ -987,21 +987,31 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
         &d.join("parameter-sets"),
     );
     let log = d.join("bus.jsonl");
+    // a drive that refuses to read 12 (rotary_field_frequency)
     let sim = Served::start(&[
         "--family",
         "vf1000",
         "--address",
         "4",
+        "--refuse",
+        "12",
         "--log",
         log.to_str().unwrap(),
     ]);
-    // the "vendor tool": an upload over the line
+    // the "vendor tool": an upload, then a read of every code
     let set = "parameter-sets/vf1000/conveyor-1.toml";
     driveset()
         .current_dir(d)
         .args(["upload", set, "--port", &sim.1, "--address", "4"])
         .assert()
         .code(0);
+    let pull = ["pull", "--address", "4", "-o", "pulled.toml", "--port"];
+    let on_drive = driveset()
+        .current_dir(d)
+        .args(pull)
+        .arg(&sim.1)
+        .output()
+        .unwrap();
     sim.stop();
     std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
     let from_capture = |schema: Option<&str>| {
@@ -1045,6 +1055,11 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
     );
     // written by the session's SELECTs (5-FSSIO = 23.15 Hz, 0.05 Hz steps)
     assert!(text.contains("\n\"5\" = 463  # 5-FSSIO"), "{text}");
+    // the ENQUIRY the drive answered with NAK
+    assert!(
+        text.contains("\n[refused]\n\"12\" = { answer = \"NAK\", reason = \"no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00112)\" }\n"),
+        "{text}"
+    );
     let t: toml::Table = toml::from_str(&text).unwrap();
     let unknown = t["codes"]["unknown"].as_array().unwrap();
     assert!(!unknown.iter().any(|u| u.as_str() == Some("5")), "{text}");
@@ -1053,6 +1068,7 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
     assert_eq!(secrets, ["70"]);
     assert!(!values.contains(&"70".to_string()));
     // the twin holds the set the session downloaded
+    std::fs::create_dir_all(d.join("state")).unwrap();
     driveset()
         .current_dir(d)
         .env("DRIVESET_SIM_STATE_DIR", d.join("state"))
@@ -1066,4 +1082,18 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
         ])
         .assert()
         .code(0);
+    // and refuses the read the drive refused, as the drive did
+    let on_twin = driveset()
+        .current_dir(d)
+        .env("DRIVESET_SIM_STATE_DIR", d.join("state"))
+        .args(pull)
+        .arg("sim://twin?file=twins/twin-4.twin.toml")
+        .output()
+        .unwrap();
+    let refusal = "12-rotary_field_frequency could not be read: the drive refused to read it: no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00112)";
+    for out in [&on_drive, &on_twin] {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(refusal), "{err}");
+    }
 }

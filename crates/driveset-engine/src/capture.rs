@@ -234,6 +234,10 @@ pub fn lustbus_session(
     };
     let key_of = |e: &crate::decode::Event| -> Option<CodeKey> {
         let code = ParameterCode::new(e.code.as_deref()?.parse().ok()?)?;
+        // a CODE of the other family's layout (a probe) is not this drive's
+        if crate::decode::lustbus::family_of(code).is_some_and(|f| f != dialect) {
+            return None;
+        }
         let number = crate::decode::lustbus::value_parameter(code)?;
         schema.code(number)?;
         Some(CodeKey::new(number))
@@ -268,7 +272,9 @@ pub fn lustbus_session(
                 if let (Some(a), Some(k)) = (address_of(e), key_of(e))
                     && let Some(v) = raw(e, k)
                 {
-                    out.entry(a).or_default().values.insert(k, v);
+                    let s = out.entry(a).or_default();
+                    s.refused.remove(&k);
+                    s.values.insert(k, v);
                 }
                 asked = None;
             }
@@ -286,7 +292,9 @@ pub fn lustbus_session(
                     let why = format!(
                         "no such parameter, or read-protected in the current operating state (NAK to ENQUIRY {code})"
                     );
-                    out.entry(a).or_default().refused.insert(k, why);
+                    let s = out.entry(a).or_default();
+                    s.values.remove(&k);
+                    s.refused.insert(k, why);
                 }
             }
             _ => {}

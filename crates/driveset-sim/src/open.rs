@@ -664,6 +664,15 @@ impl SimConfig {
     }
 }
 
+/// The codes of a `refuse=` option (module docs): `11,17.2`.
+pub fn parse_refuse(value: &str) -> Result<Vec<CodeKey>, String> {
+    value
+        .split(',')
+        .map(|k| crate::twin::parse_key(k.trim()))
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| "a list of codes: NUMBER or NUMBER.SUBCODE, `,` between".into())
+}
+
 /// `DIR/sim-FAMILY.json` if [`STATE_DIR_ENV`] is set and not empty.
 pub fn state_file_from_env(family: Family) -> Option<PathBuf> {
     state_file_for(family.name())
