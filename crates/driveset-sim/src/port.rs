@@ -749,7 +749,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, refuse, seed, state, types, vf1000"
         );
         let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
         assert_eq!(
