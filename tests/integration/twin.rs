@@ -775,34 +775,40 @@ fn session_bytes(log: &Path) -> Vec<u8> {
     out
 }
 
-#[test]
-fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// A recorded session in `d/session.bin`: the sets copied to `d`, a drive
+/// served with `sim_args` over TCP with an event log, the "vendor tool" (an
+/// upload of `set`, exit 0, then `then` with the port) over the line.
+fn record_session<T>(d: &Path, sim_args: &[&str], set: &str, then: impl FnOnce(&str) -> T) -> T {
     copy_dir(
         &workspace_root().join("parameter-sets"),
         &d.join("parameter-sets"),
     );
     let log = d.join("bus.jsonl");
-    let sim = Served::start(&[
-        "--family",
-        "tmd",
-        "--address",
-        "4",
-        "--c0001",
-        "3",
-        "--log",
-        log.to_str().unwrap(),
-    ]);
-    // the "vendor tool": an upload over the line
-    let set = "parameter-sets/tmd/conveyor-3.toml";
+    let mut args = sim_args.to_vec();
+    args.extend(["--log", log.to_str().unwrap()]);
+    let sim = Served::start(&args);
     driveset()
         .current_dir(d)
         .args(["upload", set, "--port", &sim.1, "--address", "4"])
         .assert()
         .code(0);
+    let out = then(&sim.1);
     sim.stop();
     std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
+    out
+}
+
+#[test]
+fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let set = "parameter-sets/tmd/conveyor-3.toml";
+    record_session(
+        d,
+        &["--family", "tmd", "--address", "4", "--c0001", "3"],
+        set,
+        |_| (),
+    );
     let out = driveset()
         .current_dir(d)
         .args([
@@ -982,38 +988,23 @@ fn a_twin_refuses_the_reads_its_drive_refused() {
 fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_dir(
-        &workspace_root().join("parameter-sets"),
-        &d.join("parameter-sets"),
-    );
-    let log = d.join("bus.jsonl");
-    // a drive that refuses to read 12 (rotary_field_frequency)
-    let sim = Served::start(&[
-        "--family",
-        "vf1000",
-        "--address",
-        "4",
-        "--refuse",
-        "12",
-        "--log",
-        log.to_str().unwrap(),
-    ]);
-    // the "vendor tool": an upload, then a read of every code
     let set = "parameter-sets/vf1000/conveyor-1.toml";
-    driveset()
-        .current_dir(d)
-        .args(["upload", set, "--port", &sim.1, "--address", "4"])
-        .assert()
-        .code(0);
     let pull = ["pull", "--address", "4", "-o", "pulled.toml", "--port"];
-    let on_drive = driveset()
-        .current_dir(d)
-        .args(pull)
-        .arg(&sim.1)
-        .output()
-        .unwrap();
-    sim.stop();
-    std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
+    // a drive that refuses to read 12 (rotary_field_frequency); after the
+    // upload the "vendor tool" reads every code
+    let on_drive = record_session(
+        d,
+        &["--family", "vf1000", "--address", "4", "--refuse", "12"],
+        set,
+        |port| {
+            driveset()
+                .current_dir(d)
+                .args(pull)
+                .arg(port)
+                .output()
+                .unwrap()
+        },
+    );
     let from_capture = |schema: Option<&str>| {
         let mut c = driveset();
         c.current_dir(d)
