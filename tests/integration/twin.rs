@@ -775,6 +775,25 @@ fn session_bytes(log: &Path) -> Vec<u8> {
     out
 }
 
+/// The twin `twin from-capture` wrote (its output `out`: exit 0, the line
+/// starting `heading`) at address 4 from `d/session.bin`.
+fn session_twin(out: &std::process::Output, d: &Path, heading: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.starts_with(heading), "{stdout}");
+    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
+    assert!(
+        text.contains("\nsource = \"capture session.bin\"\n"),
+        "{text}"
+    );
+    text
+}
+
 /// A recorded session in `d/session.bin`: the sets copied to `d`, a drive
 /// served with `sim_args` over TCP with an event log, the "vendor tool" (an
 /// upload of `set`, exit 0, then `then` with the port) over the line.
@@ -822,22 +841,7 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         ])
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        stdout.starts_with("tmd lenze-tmd at address 4: "),
-        "{stdout}"
-    );
-    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
-    assert!(
-        text.contains("\nsource = \"capture session.bin\"\n"),
-        "{text}"
-    );
+    let text = session_twin(&out, d, "tmd lenze-tmd at address 4: ");
     // written by the session's SENDs (C0011 = 60 Hz, C0012 = 8 s)
     assert!(
         text.contains("\n\"11\" = 600000  # C0011 maximum_output_frequency = 60 Hz\n"),
@@ -1028,22 +1032,7 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
         "error: --schema lenze-tmd: a tmd schema; a lustbus session needs a schema of mc6000 or vf1000\n"
     );
     let out = from_capture(Some("parameter-sets/fixtures/fictional-vf1000-demo.toml"));
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        stdout.starts_with("vf1000 fictional-vf1000-demo at address 4: "),
-        "{stdout}"
-    );
-    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
-    assert!(
-        text.contains("\nsource = \"capture session.bin\"\n"),
-        "{text}"
-    );
+    let text = session_twin(&out, d, "vf1000 fictional-vf1000-demo at address 4: ");
     // written by the session's SELECTs (5-FSSIO = 23.15 Hz, 0.05 Hz steps)
     assert!(text.contains("\n\"5\" = 463  # 5-FSSIO"), "{text}");
     // the ENQUIRY the drive answered with NAK
