@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
-//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--faults PLAN]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES] [--faults PLAN]
 //!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
 //! ```
 //!
