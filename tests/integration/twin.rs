@@ -775,34 +775,59 @@ fn session_bytes(log: &Path) -> Vec<u8> {
     out
 }
 
-#[test]
-fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// The twin `twin from-capture` wrote (its output `out`: exit 0, the line
+/// starting `heading`) at address 4 from `d/session.bin`.
+fn session_twin(out: &std::process::Output, d: &Path, heading: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.starts_with(heading), "{stdout}");
+    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
+    assert!(
+        text.contains("\nsource = \"capture session.bin\"\n"),
+        "{text}"
+    );
+    text
+}
+
+/// A recorded session in `d/session.bin`: the sets copied to `d`, a drive
+/// served with `sim_args` over TCP with an event log, the "vendor tool" (an
+/// upload of `set`, exit 0, then `then` with the port) over the line.
+fn record_session<T>(d: &Path, sim_args: &[&str], set: &str, then: impl FnOnce(&str) -> T) -> T {
     copy_dir(
         &workspace_root().join("parameter-sets"),
         &d.join("parameter-sets"),
     );
     let log = d.join("bus.jsonl");
-    let sim = Served::start(&[
-        "--family",
-        "tmd",
-        "--address",
-        "4",
-        "--c0001",
-        "3",
-        "--log",
-        log.to_str().unwrap(),
-    ]);
-    // the "vendor tool": an upload over the line
-    let set = "parameter-sets/tmd/conveyor-3.toml";
+    let mut args = sim_args.to_vec();
+    args.extend(["--log", log.to_str().unwrap()]);
+    let sim = Served::start(&args);
     driveset()
         .current_dir(d)
         .args(["upload", set, "--port", &sim.1, "--address", "4"])
         .assert()
         .code(0);
+    let out = then(&sim.1);
     sim.stop();
     std::fs::write(d.join("session.bin"), session_bytes(&log)).unwrap();
+    out
+}
+
+#[test]
+fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let set = "parameter-sets/tmd/conveyor-3.toml";
+    record_session(
+        d,
+        &["--family", "tmd", "--address", "4", "--c0001", "3"],
+        set,
+        |_| (),
+    );
     let out = driveset()
         .current_dir(d)
         .args([
@@ -816,22 +841,7 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         ])
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        stdout.starts_with("tmd lenze-tmd at address 4: "),
-        "{stdout}"
-    );
-    let text = std::fs::read_to_string(d.join("twins/twin-4.twin.toml")).unwrap();
-    assert!(
-        text.contains("\nsource = \"capture session.bin\"\n"),
-        "{text}"
-    );
+    let text = session_twin(&out, d, "tmd lenze-tmd at address 4: ");
     // written by the session's SENDs (C0011 = 60 Hz, C0012 = 8 s)
     assert!(
         text.contains("\n\"11\" = 600000  # C0011 maximum_output_frequency = 60 Hz\n"),
@@ -864,8 +874,206 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         .code(0);
     driveset()
         .current_dir(d)
-        .args(["twin", "from-capture", "--protocol", "lustbus", "session.bin", "-o", "twins"])
+        .args(["twin", "from-capture", "--protocol", "slcan", "session.bin", "-o", "twins"])
         .assert()
         .code(2)
-        .stderr("error: twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`\n");
+        .stderr("error: twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`\n");
+}
+
+/// A drive that refuses to read a code it holds (`refuse=`, the
+/// simulator's way to hide a code) and its twin refuse it alike: the twin
+/// records the wire answer in `[refused]`, and `diff` and `pull` against
+/// drive and twin give the same output and exit code. A twin file of the
+/// first version (the refusal as a reason string only) is served alike.
+#[test]
+fn a_twin_refuses_the_reads_its_drive_refused() {
+    struct Refusing {
+        name: &'static str,
+        port: &'static str,
+        address: u8,
+        set: &'static str,
+        line: &'static str,
+        error: &'static str,
+    }
+    let cases = [
+        Refusing {
+            name: "tmd",
+            port: "sim://tmd?c0001=3&refuse=12",
+            address: 4,
+            set: "parameter-sets/tmd/conveyor-3.toml",
+            line: "\"12\" = { answer = \"EOT\", reason = \"no such code in this controller (STX C0012 EOT)\" }",
+            error: "read C0012 refused: no such code in this controller (STX C0012 EOT)",
+        },
+        Refusing {
+            name: "vf1000",
+            port: "sim://vf1000?refuse=5",
+            address: 4,
+            set: "parameter-sets/vf1000/conveyor-1.toml",
+            line: "\"5\" = { answer = \"NAK\", reason = \"no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00105)\" }",
+            error: "read 5-FSSIO refused: no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00105)",
+        },
+        Refusing {
+            name: "ecs",
+            port: "sim://ecs?refuse=5001",
+            address: 1,
+            set: "parameter-sets/ecs/axis-1.toml",
+            line: "\"5001\" = { answer = \"SDO abort 0x06010001\", reason = \"Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)\" }",
+            error: "read C5001 refused: Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)",
+        },
+    ];
+    for case in &cases {
+        let root = tempfile::tempdir().unwrap();
+        let drive = Side::new(root.path(), "drive", case.port);
+        let a = case.address.to_string();
+        let file = root.path().join(format!("{}.twin.toml", case.name));
+        let text = capture(&drive, case.address, &file);
+        assert!(
+            text.contains(&format!("\n[refused]\n{}\n\n", case.line)),
+            "{}: {text}",
+            case.name
+        );
+        // the same twin as the first version of the format wrote it
+        let old_file = root.path().join(format!("{}-v1.twin.toml", case.name));
+        let reason = case.line.split("reason = ").nth(1).unwrap();
+        let old_line = format!(
+            "{} = {}",
+            case.line.split(" = ").next().unwrap(),
+            reason.strip_suffix(" }").unwrap()
+        );
+        std::fs::write(&old_file, text.replace(case.line, &old_line)).unwrap();
+        let twins = [
+            Side::new(
+                root.path(),
+                "twin",
+                &format!("sim://twin?file={}", file.display()),
+            ),
+            Side::new(
+                root.path(),
+                "twin-v1",
+                &format!("sim://twin?file={}", old_file.display()),
+            ),
+        ];
+        let steps: [Vec<&str>; 2] = [
+            vec!["diff", case.set, "--port", "PORT", "--address", &a],
+            vec![
+                "pull",
+                "--port",
+                "PORT",
+                "--address",
+                &a,
+                "-o",
+                "pulled.toml",
+            ],
+        ];
+        for step in &steps {
+            let d = drive.run(step);
+            for twin in &twins {
+                assert_eq!(
+                    d,
+                    twin.run(step),
+                    "{}: `{}` differs between drive and twin",
+                    case.name,
+                    step.join(" ")
+                );
+            }
+        }
+        let (code, _, err) = drive.run(&steps[0]);
+        assert_eq!(code, 3, "{}: {err}", case.name);
+        assert_eq!(
+            err.lines().filter(|l| l.contains(case.error)).count(),
+            1,
+            "{}: {err}",
+            case.name
+        );
+    }
+}
+
+#[test]
+fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let set = "parameter-sets/vf1000/conveyor-1.toml";
+    let pull = ["pull", "--address", "4", "-o", "pulled.toml", "--port"];
+    // a drive that refuses to read 12 (rotary_field_frequency); after the
+    // upload the "vendor tool" reads every code
+    let on_drive = record_session(
+        d,
+        &["--family", "vf1000", "--address", "4", "--refuse", "12"],
+        set,
+        |port| {
+            driveset()
+                .current_dir(d)
+                .args(pull)
+                .arg(port)
+                .output()
+                .unwrap()
+        },
+    );
+    let from_capture = |schema: Option<&str>| {
+        let mut c = driveset();
+        c.current_dir(d)
+            .args(["twin", "from-capture", "--protocol", "lustbus"]);
+        if let Some(s) = schema {
+            c.args(["--schema", s]);
+        }
+        c.args(["session.bin", "-o", "twins"]).output().unwrap()
+    };
+    // a LUSTBUS session does not name its family
+    let out = from_capture(None);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "error: twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to\n"
+    );
+    let out = from_capture(Some("lenze-tmd"));
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "error: --schema lenze-tmd: a tmd schema; a lustbus session needs a schema of mc6000 or vf1000\n"
+    );
+    let out = from_capture(Some("parameter-sets/fixtures/fictional-vf1000-demo.toml"));
+    let text = session_twin(&out, d, "vf1000 fictional-vf1000-demo at address 4: ");
+    // written by the session's SELECTs (5-FSSIO = 23.15 Hz, 0.05 Hz steps)
+    assert!(text.contains("\n\"5\" = 463  # 5-FSSIO"), "{text}");
+    // the ENQUIRY the drive answered with NAK
+    assert!(
+        text.contains("\n[refused]\n\"12\" = { answer = \"NAK\", reason = \"no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00112)\" }\n"),
+        "{text}"
+    );
+    let t: toml::Table = toml::from_str(&text).unwrap();
+    let unknown = t["codes"]["unknown"].as_array().unwrap();
+    assert!(!unknown.iter().any(|u| u.as_str() == Some("5")), "{text}");
+    assert!(!unknown.is_empty(), "{text}");
+    let (secrets, values) = secrets_and_values(&text);
+    assert_eq!(secrets, ["70"]);
+    assert!(!values.contains(&"70".to_string()));
+    // the twin holds the set the session downloaded
+    std::fs::create_dir_all(d.join("state")).unwrap();
+    driveset()
+        .current_dir(d)
+        .env("DRIVESET_SIM_STATE_DIR", d.join("state"))
+        .args([
+            "diff",
+            set,
+            "--port",
+            "sim://twin?file=twins/twin-4.twin.toml",
+            "--address",
+            "4",
+        ])
+        .assert()
+        .code(0);
+    // and refuses the read the drive refused, as the drive did
+    let on_twin = driveset()
+        .current_dir(d)
+        .env("DRIVESET_SIM_STATE_DIR", d.join("state"))
+        .args(pull)
+        .arg("sim://twin?file=twins/twin-4.twin.toml")
+        .output()
+        .unwrap();
+    let refusal = "12-rotary_field_frequency could not be read: the drive refused to read it: no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 00112)";
+    for out in [&on_drive, &on_twin] {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(refusal), "{err}");
+    }
 }

@@ -20,7 +20,7 @@ use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{CodeKey, Family, RawValue};
 
 use crate::client::{DriveClient, Identity, LustbusClient};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceCause, EngineError, ErrorKind};
 use crate::learn::{LearnOptions, interpret, read_descriptions};
 
 /// What a capture read from one drive.
@@ -32,6 +32,9 @@ pub struct Capture {
     pub values: BTreeMap<CodeKey, RawValue>,
     /// Codes it refused to read (or did not answer for), with the cause.
     pub refused: BTreeMap<CodeKey, String>,
+    /// What the drive answered to each read it refused (the codes of
+    /// `refused` it answered at all), so a twin refuses them alike.
+    pub answers: BTreeMap<CodeKey, DeviceCause>,
     /// Password codes: not read.
     pub secrets: Vec<CodeKey>,
     /// Codes not read on purpose (reading clears them) or without a type
@@ -56,6 +59,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
         identity,
         values: BTreeMap::new(),
         refused: BTreeMap::new(),
+        answers: BTreeMap::new(),
         secrets: Vec::new(),
         unread: Vec::new(),
         running: None,
@@ -88,6 +92,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
                     ErrorKind::Device { cause, .. } => {
                         out.refused
                             .insert(key, format!("{} ({})", cause.cause(), cause.raw()));
+                        out.answers.insert(key, cause.clone());
                     }
                     ErrorKind::Protocol { detail, .. } => {
                         out.refused
@@ -133,14 +138,16 @@ pub fn mc_descriptions<L: ByteLink>(
     Ok((learned.layouts.iter().next().copied(), learned.type_chars))
 }
 
-/// What a recorded LECOM session (`driveset decode`'s events) showed of
-/// one drive: the values it answered to RECEIVE, the values written to it
-/// by a SEND it acknowledged, and the codes it said it does not have.
+/// What a recorded LECOM or LUSTBUS session (`driveset decode`'s events)
+/// showed of one drive: the values it answered to a read, the values
+/// written to it by a write it acknowledged, and the codes it refused to
+/// read ([`lecom_session`], [`lustbus_session`]).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Session {
     /// Values seen, raw (the last one seen wins).
     pub values: BTreeMap<CodeKey, RawValue>,
-    /// Codes answered with "no such code".
+    /// Codes whose read it refused (LECOM "no such code", LUSTBUS NAK),
+    /// with the reason as a capture writes it.
     pub refused: BTreeMap<CodeKey, String>,
 }
 
@@ -192,6 +199,103 @@ pub fn lecom_session(
                 let why = e.meaning.clone().unwrap_or_else(|| "no such code".into());
                 out.entry(a).or_default().refused.insert(k, why);
                 sent = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Per bus address, what a decoded LUSTBUS session showed of one drive of
+/// `schema`'s family ([`Session`]): the values it answered to an ENQUIRY
+/// (VALUE, section 6.1), the values a SELECT wrote and the drive
+/// acknowledged (ACK, section 6.2; the last one wins), and the parameters
+/// whose ENQUIRY it answered with NAK. Events with an error, broadcasts and
+/// a value the schema's type cannot hold are passed over.
+pub fn lustbus_session(
+    events: &[crate::decode::Event],
+    schema: &driveset_schema::Schema,
+) -> BTreeMap<u8, Session> {
+    use driveset_proto::lustbus::{Dialect, ParameterCode, ParameterValue};
+    let dialect = match schema.family {
+        Family::Vf1000 => Dialect::Vf1000,
+        _ => Dialect::Mc,
+    };
+    // "4 'D'": the number before the address character
+    let address_of = |e: &crate::decode::Event| -> Option<u8> {
+        let a = e
+            .address
+            .as_deref()?
+            .split(' ')
+            .next()?
+            .parse::<u8>()
+            .ok()?;
+        (a != 0 && a != 31).then_some(a)
+    };
+    let key_of = |e: &crate::decode::Event| -> Option<CodeKey> {
+        let code = ParameterCode::new(e.code.as_deref()?.parse().ok()?)?;
+        // a CODE of the other family's layout (a probe) is not this drive's
+        if crate::decode::lustbus::family_of(code).is_some_and(|f| f != dialect) {
+            return None;
+        }
+        let number = crate::decode::lustbus::value_parameter(code)?;
+        schema.code(number)?;
+        Some(CodeKey::new(number))
+    };
+    let raw = |e: &crate::decode::Event, key: CodeKey| -> Option<RawValue> {
+        let ty = crate::decode::lustbus::wire_type(schema, key.number)?;
+        let text = e.raw_value.as_deref()?;
+        let v = ParameterValue::decode(ty, dialect, text.as_bytes()).ok()?;
+        Some(RawValue::Int(crate::decode::lustbus::schema_raw(&v)))
+    };
+    let mut out: BTreeMap<u8, Session> = BTreeMap::new();
+    // the request a reply answers: ENQUIRY (no value) or SELECT (its value)
+    let mut asked: Option<(u8, CodeKey, Option<RawValue>, String)> = None;
+    for e in events {
+        if e.error.is_some() {
+            asked = None;
+            continue;
+        }
+        match e.kind {
+            "ENQUIRY" => {
+                asked = address_of(e)
+                    .zip(key_of(e))
+                    .map(|(a, k)| (a, k, None, e.code.clone().unwrap_or_default()));
+            }
+            "SELECT" => {
+                asked = address_of(e).zip(key_of(e)).and_then(|(a, k)| {
+                    let v = raw(e, k)?;
+                    Some((a, k, Some(v), String::new()))
+                });
+            }
+            "VALUE" => {
+                if let (Some(a), Some(k)) = (address_of(e), key_of(e))
+                    && let Some(v) = raw(e, k)
+                {
+                    let s = out.entry(a).or_default();
+                    s.refused.remove(&k);
+                    s.values.insert(k, v);
+                }
+                asked = None;
+            }
+            "ACK" => {
+                if let Some((a, k, Some(v), _)) = asked.take()
+                    && address_of(e) == Some(a)
+                {
+                    out.entry(a).or_default().values.insert(k, v);
+                }
+            }
+            "NAK" => {
+                if let Some((a, k, None, code)) = asked.take()
+                    && address_of(e) == Some(a)
+                {
+                    let why = format!(
+                        "no such parameter, or read-protected in the current operating state (NAK to ENQUIRY {code})"
+                    );
+                    let s = out.entry(a).or_default();
+                    s.values.remove(&k);
+                    s.refused.insert(k, why);
+                }
             }
             _ => {}
         }

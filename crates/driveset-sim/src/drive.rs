@@ -105,6 +105,59 @@ pub trait ByteDrive: Send + std::fmt::Debug {
     fn restore_rate(&mut self, baud: u32) {
         let _ = baud;
     }
+
+    /// Refuse every read of `key` from now on with `answer` (a twin's
+    /// `[refused]`, the `refuse=` option of a `sim://` port). `Err` when
+    /// the drive has no such code or its protocol cannot answer so.
+    fn refuse_read(&mut self, key: CodeKey, answer: ReadRefusal) -> Result<(), String> {
+        let _ = (key, answer);
+        Err(format!("a {} drive cannot refuse reads", self.family()))
+    }
+}
+
+/// How a simulated drive refuses a read of one code, as a real drive did
+/// (a twin's `[refused]`, docs/twins.md): the answer on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReadRefusal {
+    /// LUSTBUS: `ADR NAK` to the ENQUIRY, nothing entered in SIOF/SERR
+    /// (LUSTBUS 6.1 note).
+    Nak,
+    /// LUSTBUS: `ADR NAK`, the bits latched in SIOF/SERR (LUSTBUS 9.2).
+    NakSiof(u8),
+    /// LECOM: `STX code EOT` to the RECEIVE, no such code (LECOM 8.H).
+    NoSuchCode,
+    /// CAN: an SDO abort with this code (DS301 table 22).
+    SdoAbort(u32),
+}
+
+impl ReadRefusal {
+    /// The text a twin file writes: `NAK`, `NAK SIOF 80H`, `EOT`, `SDO
+    /// abort 0x06010001`.
+    pub fn text(self) -> String {
+        match self {
+            ReadRefusal::Nak => "NAK".into(),
+            ReadRefusal::NakSiof(b) => format!("NAK SIOF {b:02X}H"),
+            ReadRefusal::NoSuchCode => "EOT".into(),
+            ReadRefusal::SdoAbort(c) => format!("SDO abort 0x{c:08X}"),
+        }
+    }
+
+    /// Read a [`ReadRefusal::text`] back.
+    pub fn parse(s: &str) -> Option<ReadRefusal> {
+        let s = s.trim();
+        if s == "NAK" {
+            return Some(ReadRefusal::Nak);
+        }
+        if s == "EOT" {
+            return Some(ReadRefusal::NoSuchCode);
+        }
+        if let Some(bits) = s.strip_prefix("NAK SIOF ") {
+            let hex = bits.strip_suffix('H')?;
+            return u8::from_str_radix(hex, 16).ok().map(ReadRefusal::NakSiof);
+        }
+        let hex = s.strip_prefix("SDO abort 0x")?;
+        u32::from_str_radix(hex, 16).ok().map(ReadRefusal::SdoAbort)
+    }
 }
 
 /// What a CAN node sends in answer to a frame.
@@ -144,6 +197,13 @@ pub trait FrameDrive: Send + std::fmt::Debug {
     /// the node reports. `Err` when the schema names no running bit (the
     /// node cannot report it).
     fn set_running(&mut self, running: bool) -> Result<(), String>;
+
+    /// Refuse every read of `key` from now on with `answer`
+    /// ([`ByteDrive::refuse_read`]).
+    fn refuse_read(&mut self, key: CodeKey, answer: ReadRefusal) -> Result<(), String> {
+        let _ = (key, answer);
+        Err(format!("a {} node cannot refuse reads", self.family()))
+    }
 }
 
 /// A device reaction time range, drawn uniformly per telegram.

@@ -66,7 +66,7 @@ use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use driveset_schema::value::Repr;
 
 use crate::catalog::{self, Family};
-use crate::drive::{FrameDrive, FrameReply, ReactionTime};
+use crate::drive::{FrameDrive, FrameReply, ReactionTime, ReadRefusal};
 use crate::rng::SimRng;
 use crate::table::{Param, ParamTable, Refusal};
 
@@ -103,6 +103,7 @@ fn fits(format: ValueFormat, raw: i64) -> bool {
 struct Dictionary<'a> {
     table: &'a ParamTable,
     values: &'a mut BTreeMap<CodeKey, RawValue>,
+    refused_reads: &'a BTreeMap<CodeKey, AbortCode>,
 }
 
 impl Dictionary<'_> {
@@ -128,6 +129,9 @@ impl Dictionary<'_> {
 impl ObjectDictionary for Dictionary<'_> {
     fn read(&mut self, index: Index, subindex: Subindex) -> Result<Vec<u8>, AbortCode> {
         let (p, code) = self.param(index, subindex)?;
+        if let Some(abort) = self.refused_reads.get(&p.key) {
+            return Err(*abort);
+        }
         let value = self.values.get(&p.key).unwrap_or(&p.factory);
         match (wire_of(p, code), value) {
             (Wire::Lenze(ValueFormat::Fix32), RawValue::Int(v)) => i32::try_from(*v)
@@ -212,6 +216,9 @@ pub struct EcsDrive {
     reaction: ReactionTime,
     /// Answers nothing before this instant (power cut).
     off_until: Option<Instant>,
+    /// Codes whose SDO upload is aborted with this code although the
+    /// table holds them ([`FrameDrive::refuse_read`]).
+    refused_reads: BTreeMap<CodeKey, AbortCode>,
 }
 
 impl EcsDrive {
@@ -236,6 +243,7 @@ impl EcsDrive {
             rng: SimRng::derive(seed, u64::from(node.get())),
             reaction: ReactionTime::of(driveset_schema::Family::Ecs, false),
             off_until: None,
+            refused_reads: BTreeMap::new(),
         }
     }
 
@@ -272,6 +280,23 @@ impl FrameDrive for EcsDrive {
         Family::Ecs.name()
     }
 
+    /// An SDO upload of `key` is aborted with the given code (DS301 table
+    /// 22), the only refusal an upload has.
+    fn refuse_read(&mut self, key: CodeKey, answer: ReadRefusal) -> Result<(), String> {
+        let display = self.table.schema().display_code(key.number, key.subcode);
+        let ReadRefusal::SdoAbort(code) = answer else {
+            return Err(format!(
+                "{display}: an ECS node refuses an upload with an SDO abort only, not `{}`",
+                answer.text()
+            ));
+        };
+        if self.table.get(key).is_none() {
+            return Err(format!("{display}: no such code on an ECS node"));
+        }
+        self.refused_reads.insert(key, AbortCode(code));
+        Ok(())
+    }
+
     fn node_id(&self) -> u8 {
         self.node.get()
     }
@@ -291,6 +316,7 @@ impl FrameDrive for EcsDrive {
         let mut od = Dictionary {
             table: &self.table,
             values: &mut self.values,
+            refused_reads: &self.refused_reads,
         };
         let response = self.server.on_frame_data(frame.payload(), &mut od)?;
         Some(FrameReply {

@@ -29,7 +29,7 @@ use driveset_schema::schema::StorageKind;
 
 use crate::catalog::{self, Family};
 use crate::describe::DescribeAs;
-use crate::drive::{ByteDrive, Heard, ReactionTime, Reply as LineReply};
+use crate::drive::{ByteDrive, Heard, ReactionTime, ReadRefusal, Reply as LineReply};
 use crate::rng::SimRng;
 use crate::table::{Param, ParamTable};
 
@@ -184,6 +184,10 @@ pub(crate) struct LustCore {
     pub type_chars: McTypeChars,
     /// Descriptions that disagree with the fixture ([`crate::describe`]).
     pub describe: BTreeMap<u32, DescribeAs>,
+    /// Parameters whose ENQUIRY is refused although the table holds them
+    /// ([`ByteDrive::refuse_read`]): NAK, with the SIOF/SERR bits latched
+    /// when given.
+    pub refused_reads: BTreeMap<u32, Option<Siof>>,
 }
 
 impl LustCore {
@@ -240,11 +244,20 @@ impl LustCore {
             description_layout: opts.description_layout,
             type_chars: opts.type_chars.clone(),
             describe: opts.describe.clone(),
+            refused_reads: BTreeMap::new(),
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);
         core.active_baud = core.int(BAUD);
         Ok(core)
+    }
+
+    /// The refusal of an ENQUIRY of `number`'s value, when its reads are
+    /// refused ([`ByteDrive::refuse_read`]).
+    pub fn refused_read(&self, number: u32) -> Option<Answer> {
+        self.refused_reads
+            .get(&number)
+            .map(|bits| bits.map_or(Answer::Nak, Answer::Refuse))
     }
 
     /// The parameter `number` (no subcodes on LUSTBUS).
@@ -888,6 +901,32 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
 
     fn state(&self) -> ResolvedSet {
         self.core_ref().state()
+    }
+
+    /// An ENQUIRY of `key`'s value is answered `ADR NAK`, with the bits
+    /// of [`ReadRefusal::NakSiof`] latched in SIOF/SERR (LUSTBUS 9.2).
+    fn refuse_read(&mut self, key: CodeKey, answer: ReadRefusal) -> Result<(), String> {
+        let core = self.core();
+        let bits = match answer {
+            ReadRefusal::Nak => None,
+            ReadRefusal::NakSiof(b) => Some(Siof::from_bits_retain(b)),
+            other => {
+                return Err(format!(
+                    "{}: a LUSTBUS drive refuses an ENQUIRY with NAK only, not `{}`",
+                    key.number,
+                    other.text()
+                ));
+            }
+        };
+        if key.subcode.is_some() || core.param(key.number).is_none() {
+            return Err(format!(
+                "{}: no such parameter on a {}",
+                key.number,
+                M::FAMILY
+            ));
+        }
+        core.refused_reads.insert(key.number, bits);
+        Ok(())
     }
 
     fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {

@@ -234,6 +234,9 @@ impl Mc6000 {
     }
 
     fn read(&mut self, number: u32) -> Answer {
+        if let Some(refusal) = self.core.refused_read(number) {
+            return refusal;
+        }
         let Some(p) = self.core.param(number).cloned() else {
             return Answer::Nak;
         };

@@ -35,6 +35,11 @@
 //!   setting, in which LECOM may only read (and write C0040, C0043, C0248,
 //!   C0249); `c0001=2` lets LECOM program the drive, `c0001=3` also control
 //!   it (§4f).
+//! - `refuse=KEY,...` (`11`, `17.2`): every drive of the bus refuses to
+//!   read these codes, as a drive does that hides a code in its operating
+//!   state: LUSTBUS `ADR NAK` to the ENQUIRY, LECOM `STX code EOT` to the
+//!   RECEIVE (8.H), CAN SDO abort 0x06010001 "attempt to read a write-only
+//!   object" (DS301 table 22). Writes are not affected.
 //! - `keypad=true|false`: LUSTBUS families with a KEYPAD attached (slower
 //!   reactions, section 10). Not (yet) a key `driveset-link` accepts in a
 //!   port string; [`SimConfig::keypad`] is set by `driveset sim --keypad`.
@@ -86,7 +91,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use driveset_link::VirtualClock;
 use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT_BITRATE};
 use driveset_link::{ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError};
-use driveset_proto::can::NodeId;
+use driveset_proto::can::{AbortCode, NodeId};
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use serde::{Deserialize, Serialize};
@@ -94,7 +99,7 @@ use serde::{Deserialize, Serialize};
 use crate::bus::{BusError, ByteLine, SimByteBus, list};
 use crate::can_bus::{FrameLine, SimCanBus};
 use crate::catalog::Family;
-use crate::drive::{ByteDrive, FrameDrive};
+use crate::drive::{ByteDrive, FrameDrive, ReadRefusal};
 use crate::ecs::EcsDrive;
 use crate::faults::{FaultParseError, FaultPlan};
 use crate::log::EventLog;
@@ -317,6 +322,8 @@ pub struct SimConfig {
     /// twin per drive, in the order of `addresses`; each drive is built with
     /// its twin's state and holds its captured values. Empty otherwise.
     pub twins: Vec<crate::twin::Twin>,
+    /// Codes every drive refuses to read (`refuse=`, module docs).
+    pub refuse: Vec<CodeKey>,
 }
 
 impl SimConfig {
@@ -338,6 +345,7 @@ impl SimConfig {
             c0001: None,
             describe: BTreeMap::new(),
             twins: Vec::new(),
+            refuse: Vec::new(),
         }
     }
 
@@ -475,6 +483,15 @@ impl SimConfig {
                             .ok_or_else(|| bad("C0001 takes 0..=11 (Table 1; §4e)"))?,
                     );
                 }
+                "refuse" => {
+                    config.refuse = value
+                        .split(',')
+                        .map(|k| crate::twin::parse_key(k.trim()))
+                        .collect::<Option<Vec<_>>>()
+                        .ok_or_else(|| {
+                            bad("a list of codes: NUMBER or NUMBER.SUBCODE, `,` between")
+                        })?;
+                }
                 _ => return Err(SimOpenError::UnknownOption { key: key.clone() }),
             }
         }
@@ -568,6 +585,19 @@ impl SimConfig {
                 t.apply_byte(drive.as_mut())
                     .map_err(|e| SimOpenError::Twin(e.to_string()))?;
             }
+            let answer = match family {
+                Family::Tmd => ReadRefusal::NoSuchCode,
+                _ => ReadRefusal::Nak,
+            };
+            for k in &self.refuse {
+                drive
+                    .refuse_read(*k, answer)
+                    .map_err(|reason| SimOpenError::Drive {
+                        family: family.name(),
+                        address,
+                        reason,
+                    })?;
+            }
             drives.push(drive);
         }
         Ok(drives)
@@ -599,6 +629,11 @@ impl SimConfig {
                 t.apply_frame(&mut drive)
                     .map_err(|e| SimOpenError::Twin(e.to_string()))?;
             }
+            for k in &self.refuse {
+                drive
+                    .refuse_read(*k, ReadRefusal::SdoAbort(AbortCode::WRITE_ONLY.0))
+                    .map_err(err)?;
+            }
             drives.push(Box::new(drive));
         }
         Ok(drives)
@@ -627,6 +662,15 @@ impl SimConfig {
             .with_faults(self.faults.clone(), self.seed)
             .with_log(log))
     }
+}
+
+/// The codes of a `refuse=` option (module docs): `11,17.2`.
+pub fn parse_refuse(value: &str) -> Result<Vec<CodeKey>, String> {
+    value
+        .split(',')
+        .map(|k| crate::twin::parse_key(k.trim()))
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| "a list of codes: NUMBER or NUMBER.SUBCODE, `,` between".into())
 }
 
 /// `DIR/sim-FAMILY.json` if [`STATE_DIR_ENV`] is set and not empty.

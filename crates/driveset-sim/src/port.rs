@@ -31,7 +31,8 @@ use crate::open::{SimConfig, SimOpenError, is_can, open_sim_with, parse_family};
 /// Simulator options besides the drives, `baud` and `bitrate`, passed on to
 /// [`SimConfig::from_spec`] as text (`seed` must be a whole number).
 pub const OPTION_KEYS: &[&str] = &[
-    "c0001", "describe", "dir", "faults", "file", "keypad", "layout", "seed", "state", "types",
+    "c0001", "describe", "dir", "faults", "file", "keypad", "layout", "refuse", "seed", "state",
+    "types",
 ];
 
 /// The keys of one run, not of the simulated bus: they are not part of
@@ -57,6 +58,7 @@ pub const KEYS: &[&str] = &[
     "layout",
     "mc6000",
     "mc7000",
+    "refuse",
     "seed",
     "state",
     "types",
@@ -747,7 +749,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, seed, state, types, vf1000"
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, refuse, seed, state, types, vf1000"
         );
         let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
         assert_eq!(

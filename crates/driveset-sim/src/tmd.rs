@@ -44,7 +44,7 @@ use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
 use driveset_schema::schema::{Access, Rule};
 
 use crate::catalog::{self, Family};
-use crate::drive::{ByteDrive, Heard, ReactionTime, Reply};
+use crate::drive::{ByteDrive, Heard, ReactionTime, ReadRefusal, Reply};
 use crate::rng::SimRng;
 use crate::table::{ParamTable, Refusal};
 
@@ -222,6 +222,22 @@ impl Nak {
         ExtendedError::GeneralFault,
     );
 
+    /// Every cause a refusal records.
+    const ALL: [Nak; 12] = [
+        Nak::CHECKSUM,
+        Nak::PARITY,
+        Nak::FRAME,
+        Nak::NO_CODE,
+        Nak::NO_SUBCODE,
+        Nak::INVALID,
+        Nak::DATA_TYPE,
+        Nak::TOO_LONG,
+        Nak::READ_ONLY,
+        Nak::NO_ACCESS,
+        Nak::INTERRUPTED,
+        Nak::GENERAL,
+    ];
+
     fn of_value_error(e: ValueError) -> Nak {
         match e {
             ValueError::UnknownFormat { .. } | ValueError::WrongFormat { .. } => Nak::DATA_TYPE,
@@ -321,6 +337,9 @@ pub struct TmdDrive {
     /// The C0125 setting the line runs at.
     active_baud: i64,
     baud_change: Option<u32>,
+    /// Codes whose RECEIVE is answered "no such code" although the table
+    /// holds them (a twin's `[refused]`, [`ByteDrive::refuse_read`]).
+    refused_reads: std::collections::BTreeSet<CodeKey>,
 }
 
 impl std::fmt::Debug for TmdDrive {
@@ -394,6 +413,7 @@ impl TmdDrive {
             deaf_until: None,
             active_baud,
             baud_change: None,
+            refused_reads: std::collections::BTreeSet::new(),
         };
         d.power_up();
         Ok(d)
@@ -725,9 +745,12 @@ impl TmdDrive {
     /// The answer to a RECEIVE of `code` (8.H a): the value, or "no such
     /// code".
     fn read(&mut self, code: CodeAddress) -> Response {
-        let value = self
-            .resolve(code)
-            .and_then(|key| self.wire_value(key).ok_or(Nak::NO_CODE));
+        let value = self.resolve(code).and_then(|key| {
+            if self.refused_reads.contains(&key) {
+                return Err(Nak::NO_CODE);
+            }
+            self.wire_value(key).ok_or(Nak::NO_CODE)
+        });
         match value {
             Ok(value) => Response::Value { code, value },
             Err(nak) => {
@@ -1042,6 +1065,23 @@ impl ByteDrive for TmdDrive {
         "tmd"
     }
 
+    /// A RECEIVE of `key` is answered `STX code EOT` (8.H a), the only
+    /// refusal a RECEIVE has.
+    fn refuse_read(&mut self, key: CodeKey, answer: ReadRefusal) -> Result<(), String> {
+        let display = self.table.schema().display_code(key.number, key.subcode);
+        if answer != ReadRefusal::NoSuchCode {
+            return Err(format!(
+                "{display}: a Tmd refuses a RECEIVE with EOT only (LECOM 8.H), not `{}`",
+                answer.text()
+            ));
+        }
+        if self.table.get(key).is_none() {
+            return Err(format!("{display}: no such code on a Tmd"));
+        }
+        self.refused_reads.insert(key);
+        Ok(())
+    }
+
     fn secret_codes(&self) -> Vec<u32> {
         self.table.secret_codes()
     }
@@ -1108,6 +1148,23 @@ impl ByteDrive for TmdDrive {
             .table
             .get(key)
             .ok_or_else(|| format!("{display}: no such code on a Tmd"))?;
+        // A saved state's C1962 (the last refusal, 8.J c) restores the
+        // cause it records; C0068 bits 4..7 follow from it.
+        if key.number == C1962
+            && let RawValue::Int(v) = raw
+        {
+            if v == 0 {
+                self.record(None);
+                return Ok(());
+            }
+            if let Some(nak) = Nak::ALL
+                .into_iter()
+                .find(|n| i64::from(n.ext.code()) * VD == v)
+            {
+                self.record(Some(nak));
+                return Ok(());
+            }
+        }
         if matches!(key.number, C0068 | C0150 | C1962) {
             return Err(format!(
                 "{display} is derived from the drive state; poke the codes it reflects instead"

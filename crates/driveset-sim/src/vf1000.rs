@@ -117,6 +117,9 @@ impl LustModel for Vf1000 {
                 let Some(n) = self.number(device, parameter) else {
                     return Answer::Nak;
                 };
+                if let Some(refusal) = self.core.refused_read(n) {
+                    return refusal;
+                }
                 let Some(p) = self.core.param(n).cloned() else {
                     return Answer::Nak;
                 };

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
-//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--faults PLAN]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES] [--faults PLAN]
 //!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
 //! ```
 //!
@@ -129,6 +129,11 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     c0001: Option<u8>,
 
+    /// Codes every drive refuses to read (`11,17.2`): LUSTBUS NAK, LECOM
+    /// EOT, CAN SDO abort 0x06010001 (docs/twins.md "Refused reads").
+    #[arg(long, value_name = "CODES")]
+    refuse: Option<String>,
+
     /// Faults to inject, e.g. `flip=0.01,lose=0.02,power-cycle@40:addr=1`.
     #[arg(long, value_name = "PLAN")]
     faults: Option<String>,
@@ -223,6 +228,10 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
         }
     }
     config.c0001 = args.c0001;
+    if let Some(codes) = &args.refuse {
+        config.refuse = driveset_sim::open::parse_refuse(codes)
+            .map_err(|e| anyhow::anyhow!("--refuse {codes}: {e}"))?;
+    }
     config.keypad = args.keypad;
     config.seed = args.seed;
     if let Some(plan) = &args.faults {

@@ -17,10 +17,12 @@ use std::sync::Arc;
 use driveset_engine::capture::{Capture, capture, mc_descriptions};
 use driveset_engine::client::{DriveClient, LustbusClient};
 use driveset_engine::env::Environment;
+use driveset_engine::error::DeviceCause;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_link::{Link, VirtualClock};
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
+use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, open_sim_with};
 use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace, load_file};
@@ -104,25 +106,27 @@ pub struct CaptureLineArgs {
 /// `driveset twin from-capture`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads a recorded bus session (the raw bytes `driveset decode --protocol lecom`
-reads: what a vendor tool sent and the drives answered) and writes one twin
-per station address seen, DIR/twin-<address>.twin.toml (rename it to
-<drive name>.twin.toml for a rehearsal): every value a drive answered to a
-RECEIVE, every value a SEND wrote and the drive acknowledged (the last one
-seen wins), and the codes it said it does not have. Codes of the schema the
-session did not show are listed as unknown ([codes] unknown); the served
-twin answers them with its model's factory value. LECOM sessions only (Tmd);
-LUSTBUS and slcan sessions are refused.
+Reads a recorded bus session (the raw bytes `driveset decode --protocol
+lecom | lustbus` reads: what a vendor tool sent and the drives answered) and
+writes one twin per station address seen, DIR/twin-<address>.twin.toml
+(rename it to <drive name>.twin.toml for a rehearsal): every value a drive
+answered (RECEIVE, ENQUIRY), every value a write (SEND, SELECT) sent and the
+drive acknowledged (the last one seen wins), and the codes it refused to
+read (served refused alike). Codes of the schema the session did not show
+are listed as unknown ([codes] unknown); the served twin answers them with
+its model's factory value. A LUSTBUS session needs --schema (it does not
+name its family); slcan sessions are refused.
 
 Exit codes: 0 written; 2 usage, input, or a session that shows no drive.
 
 Example:
-  driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/")]
+  driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/
+  driveset twin from-capture --protocol lustbus --schema lust-vf1000 session.bin -o twins/")]
 pub struct FromCaptureArgs {
-    /// The protocol of the session (lecom).
+    /// The protocol of the session (lecom, lustbus).
     #[arg(long, value_name = "P")]
     pub protocol: super::decode::DecodeProtocol,
-    /// Schema id or file (default: the protocol's built-in schema).
+    /// Schema id or file (default for lecom: lenze-tmd; required for lustbus).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
     /// The recorded session.
@@ -240,6 +244,11 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
     twin.reaction = cap.reaction;
     twin.values = cap.values.clone();
     twin.refused = cap.refused.clone();
+    twin.refusals = cap
+        .answers
+        .iter()
+        .filter_map(|(k, cause)| Some((*k, read_refusal(cause)?)))
+        .collect();
     twin.secrets = cap.secrets.clone();
     twin.unknown = cap.unread.clone();
     match schema.family {
@@ -253,6 +262,19 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         _ => {}
     }
     twin
+}
+
+/// How a drive refused a read on the wire, from the cause the client made
+/// of it: LUSTBUS NAK (with the SIOF/SERR bits read after it, section 9.2),
+/// LECOM EOT (8.H), CAN SDO abort (DS301 table 22).
+fn read_refusal(cause: &DeviceCause) -> Option<ReadRefusal> {
+    match cause {
+        DeviceCause::Siof { bits, .. } => Some(ReadRefusal::NakSiof(bits.bits())),
+        DeviceCause::NoSuchParameter { .. } | DeviceCause::SiofUnreadable => Some(ReadRefusal::Nak),
+        DeviceCause::NoSuchCode { .. } => Some(ReadRefusal::NoSuchCode),
+        DeviceCause::SdoAbort { code, .. } => Some(ReadRefusal::SdoAbort(code.0)),
+        _ => None,
+    }
 }
 
 /// Tmd: C0001 of `values` in engineering units (raw x10000, LECOM VD).
@@ -301,21 +323,37 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     use super::decode::DecodeProtocol;
-    if a.protocol != DecodeProtocol::Lecom {
+    let (default_schema, families, answer): (Option<&str>, &[Family], ReadRefusal) = match a
+        .protocol
+    {
+        DecodeProtocol::Lecom => (Some("lenze-tmd"), &[Family::Tmd], ReadRefusal::NoSuchCode),
+        DecodeProtocol::Lustbus => (None, &[Family::Mc6000, Family::Vf1000], ReadRefusal::Nak),
+        _ => {
+            return Err(Fail::input(
+                "twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`",
+            ));
+        }
+    };
+    let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
         return Err(Fail::input(
-            "twin from-capture reads LECOM sessions (--protocol lecom, Tmd drives); for LUSTBUS and CAN drives capture the drive itself with `driveset twin capture`",
+            "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
         ));
-    }
+    };
     let bytes = std::fs::read(&a.file)
         .map_err(|e| Fail::input(format!("{}: cannot read: {e}", a.file.display())))?;
     let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
-    let schema =
-        super::decode::load_schema(&mut registry, a.schema.as_deref().unwrap_or("lenze-tmd"))
-            .map_err(Fail::from)?;
-    if schema.family != Family::Tmd {
+    let schema = super::decode::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
+    if !families.contains(&schema.family) {
         return Err(Fail::input(format!(
-            "--schema {}: a LECOM session needs a Tmd schema (lenze-tmd)",
-            schema.id
+            "--schema {}: a {} schema; a {} session needs a schema of {}",
+            schema.id,
+            schema.family.name(),
+            a.protocol.capture().bus().name(),
+            families
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(" or ")
         )));
     }
     let ctx = driveset_engine::decode::Context {
@@ -324,11 +362,15 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         family: None,
     };
     let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
-    let sessions = driveset_engine::capture::lecom_session(&events, &schema);
+    let sessions = match a.protocol {
+        DecodeProtocol::Lustbus => driveset_engine::capture::lustbus_session(&events, &schema),
+        _ => driveset_engine::capture::lecom_session(&events, &schema),
+    };
     if sessions.is_empty() {
         return Err(Fail::input(format!(
-            "{}: the session shows no drive answering (no VALUE, no acknowledged SEND); is it a LECOM capture?",
-            a.file.display()
+            "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {} capture?",
+            a.file.display(),
+            a.protocol.capture().bus().name()
         )));
     }
     std::fs::create_dir_all(&a.output)
@@ -354,8 +396,11 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             .into_iter()
             .filter(|(k, _)| !twin.secrets.contains(k))
             .collect();
+        twin.refusals = session.refused.keys().map(|k| (*k, answer)).collect();
         twin.refused = session.refused;
-        twin.c0001 = c0001_of(&twin.values, &schema);
+        if schema.family == Family::Tmd {
+            twin.c0001 = c0001_of(&twin.values, &schema);
+        }
         let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());

@@ -28,7 +28,7 @@ use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::{CodeKey, RawValue};
 use driveset_schema::{Family, Schema};
 
-use crate::drive::{ByteDrive, FrameDrive, ReactionTime};
+use crate::drive::{ByteDrive, FrameDrive, ReactionTime, ReadRefusal};
 
 /// The `format` value of a twin file.
 pub const TWIN_FORMAT: &str = "driveset-twin 1";
@@ -140,6 +140,9 @@ pub struct Twin {
     pub values: BTreeMap<CodeKey, RawValue>,
     /// Codes it refused to read, with its reason.
     pub refused: BTreeMap<CodeKey, String>,
+    /// How it refused them on the wire, where known (a code of `refused`
+    /// without one, "no answer" say, is answered by the model).
+    pub refusals: BTreeMap<CodeKey, ReadRefusal>,
     /// Password codes: never read, no value stored.
     pub secrets: Vec<CodeKey>,
     /// Codes of the schema the source did not show (from a bus capture).
@@ -167,6 +170,7 @@ impl Twin {
             reaction: None,
             values: BTreeMap::new(),
             refused: BTreeMap::new(),
+            refusals: BTreeMap::new(),
             secrets: Vec::new(),
             unknown: Vec::new(),
         }
@@ -270,7 +274,20 @@ impl Twin {
         }
         s.push_str("\n[refused]\n");
         for (k, why) in &self.refused {
-            let _ = writeln!(s, "{} = {}", q(&key_text(*k)), q(why));
+            match self.refusals.get(k) {
+                Some(a) => {
+                    let _ = writeln!(
+                        s,
+                        "{} = {{ answer = {}, reason = {} }}",
+                        q(&key_text(*k)),
+                        q(&a.text()),
+                        q(why)
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "{} = {}", q(&key_text(*k)), q(why));
+                }
+            }
         }
         let list = |keys: &[CodeKey]| {
             keys.iter()
@@ -300,6 +317,13 @@ impl Twin {
         if let Some(r) = self.running {
             drive.set_running(r);
         }
+        for (k, a) in &self.refusals {
+            if let Err(reason) = drive.refuse_read(*k, *a)
+                && held.values.contains_key(k)
+            {
+                return Err(self.apply_error(reason));
+            }
+        }
         Ok(())
     }
 
@@ -319,6 +343,13 @@ impl Twin {
             drive
                 .set_running(r)
                 .map_err(|reason| self.apply_error(reason))?;
+        }
+        for (k, a) in &self.refusals {
+            if let Err(reason) = drive.refuse_read(*k, *a)
+                && held.values.contains_key(k)
+            {
+                return Err(self.apply_error(reason));
+            }
         }
         Ok(())
     }
@@ -363,6 +394,30 @@ pub fn parse_key(s: &str) -> Option<CodeKey> {
         Some((n, sub)) => Some(CodeKey::sub(n.parse().ok()?, sub.parse().ok()?)),
         None => Some(CodeKey::new(s.parse().ok()?)),
     }
+}
+
+/// The wire answer a first-version `[refused]` reason names in its raw
+/// part (the capture wrote `cause (raw)`, `DeviceCause::raw`): `STX code
+/// EOT`, `NAK to ENQUIRY`, `SIOF 80H` / `SERR 80H`, `SDO abort 0x...`.
+/// `None` for a refusal that was no answer of the drive's (no answer, an
+/// answer that does not fit the type).
+fn answer_in_reason(reason: &str) -> Option<ReadRefusal> {
+    let raw = reason.rsplit_once('(')?.1.strip_suffix(')')?;
+    if raw.starts_with("STX ") && raw.ends_with(" EOT") {
+        return Some(ReadRefusal::NoSuchCode);
+    }
+    if raw.starts_with("NAK to ENQUIRY") {
+        return Some(ReadRefusal::Nak);
+    }
+    if let Some(rest) = raw.strip_prefix("SDO abort 0x") {
+        let hex = rest.split(' ').next()?;
+        return u32::from_str_radix(hex, 16).ok().map(ReadRefusal::SdoAbort);
+    }
+    let bits = raw
+        .strip_prefix("SIOF ")
+        .or_else(|| raw.strip_prefix("SERR "))?;
+    let hex = bits.split('H').next()?;
+    u8::from_str_radix(hex, 16).ok().map(ReadRefusal::NakSiof)
 }
 
 fn comment(schema: &Schema, k: CodeKey, v: &RawValue) -> String {
@@ -598,11 +653,36 @@ impl Reader<'_> {
         if let Some(t) = self.section("refused")? {
             for (k, v) in t {
                 let key = self.key("refused", k)?;
-                let why = match v {
-                    toml::Value::String(s) => s.clone(),
-                    _ => return Err(self.bad(&format!("[refused] \"{k}\""), "must be a string")),
+                let at = format!("[refused] \"{k}\"");
+                let (why, answer) = match v {
+                    // A file of the first version: the answer as the
+                    // reason's raw part names it.
+                    toml::Value::String(s) => (s.clone(), answer_in_reason(s)),
+                    toml::Value::Table(t) => {
+                        let why = match t.get("reason") {
+                            Some(toml::Value::String(s)) => s.clone(),
+                            _ => return Err(self.bad(&at, "reason must be a string")),
+                        };
+                        let answer = match t.get("answer") {
+                            Some(toml::Value::String(a)) => Some(ReadRefusal::parse(a).ok_or_else(|| {
+                                self.bad(&at, format!("answer `{a}`: use NAK, NAK SIOF 80H, EOT or SDO abort 0x06010001"))
+                            })?),
+                            None => None,
+                            Some(_) => return Err(self.bad(&at, "answer must be a string")),
+                        };
+                        (why, answer)
+                    }
+                    _ => {
+                        return Err(self.bad(
+                            &at,
+                            "must be a string or { answer = \"...\", reason = \"...\" }",
+                        ));
+                    }
                 };
                 twin.refused.insert(key, why);
+                if let Some(a) = answer {
+                    twin.refusals.insert(key, a);
+                }
             }
         }
         let codes = self.section("codes")?;
@@ -736,6 +816,59 @@ mod tests {
         changed.values.insert(CodeKey::new(11), RawValue::Int(501));
         let text = keep_or_replace(Some(&old), &changed, None);
         assert!(text.contains("captured = \"2027-01-15\"") && text.contains("\"11\" = 501"));
+    }
+
+    #[test]
+    fn refusals_round_trip_and_first_version_reasons_name_their_answer() {
+        let mut t = sample();
+        t.refusals.insert(CodeKey::new(99), ReadRefusal::NoSuchCode);
+        t.refused
+            .insert(CodeKey::new(98), "no answer (3 tries)".into());
+        let text = t.to_toml(None);
+        assert!(
+            text.contains("\n[refused]\n\"98\" = \"no answer (3 tries)\"\n\"99\" = { answer = \"EOT\", reason = \"no such code\" }\n"),
+            "{text}"
+        );
+        let back = Twin::parse(&text, Path::new("t.twin.toml")).unwrap();
+        assert_eq!(back.refusals, t.refusals);
+        for r in [
+            ReadRefusal::Nak,
+            ReadRefusal::NakSiof(0x80),
+            ReadRefusal::NoSuchCode,
+            ReadRefusal::SdoAbort(0x0601_0001),
+        ] {
+            assert_eq!(ReadRefusal::parse(&r.text()), Some(r));
+        }
+        for (reason, answer) in [
+            (
+                "no such code in this controller (STX C0012 EOT)",
+                Some(ReadRefusal::NoSuchCode),
+            ),
+            (
+                "no such parameter (NAK to ENQUIRY 00105)",
+                Some(ReadRefusal::Nak),
+            ),
+            (
+                "invalid value (80) (SERR 80H invalid value)",
+                Some(ReadRefusal::NakSiof(0x80)),
+            ),
+            (
+                "Attempt to read a write only object (SDO abort 0x06010001 at index 0x4C76 subindex 0)",
+                Some(ReadRefusal::SdoAbort(0x0601_0001)),
+            ),
+            ("no answer (3 tries)", None),
+        ] {
+            assert_eq!(answer_in_reason(reason), answer, "{reason}");
+        }
+        let e = Twin::parse(
+            &text.replace("answer = \"EOT\"", "answer = \"ACK\""),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [refused] \"99\": answer `ACK`: use NAK, NAK SIOF 80H, EOT or SDO abort 0x06010001"
+        );
     }
 
     #[test]
