@@ -178,7 +178,12 @@ fn identify_and_pull_through_pyserials_rfc2217_server_set_7e1_and_the_rate() {
     ]);
     assert_eq!(code, Some(0), "pull: {out}\n{err}");
     assert!(
-        out.starts_with(&format!("pulled 223 values from {port} address 1 into ")),
+        out.starts_with(&format!("pulled 221 values from {port} address 1 into ")),
+        "{out}"
+    );
+    // the bus address and rate are the manifest's (issue 20): left out
+    assert!(
+        out.contains("\nleft out 81-SBAUD, 82-SADDR: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)\n"),
         "{out}"
     );
     let text = std::fs::read_to_string(&file).expect("pulled set");
