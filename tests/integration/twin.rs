@@ -13,6 +13,8 @@
 
 use std::path::{Path, PathBuf};
 
+use predicates::prelude::*;
+
 use crate::util::{copy_dir, driveset, workspace_root};
 
 /// One side of a comparison: a directory with its own copy of the sets,
@@ -872,12 +874,93 @@ fn a_twin_from_a_recorded_lecom_session_holds_what_the_session_showed() {
         ])
         .assert()
         .code(0);
+}
+
+/// An slcan session (a vendor tool's expedited SDO transfers with an ECS
+/// at node 4: a read of C5001, a download of C5002, a read of C5003 the
+/// drive aborts) becomes a twin holding what it showed: the values, the
+/// refusal with its abort code, every other code unknown; the twin serves
+/// them (`diff` exit 0, the refused code refused alike).
+#[test]
+fn a_twin_from_a_recorded_slcan_session_holds_what_the_session_showed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixture = workspace_root().join("parameter-sets/fixtures/fictional-ecs-demo.toml");
+    // C5001 = index 0x4C76, C5002 = 0x4C75, C5003 = 0x4C74 (24575 - code)
+    let session = concat!(
+        "t604840764C0000000000\r",
+        "t584843764C0040A5AE02\r", // 4500 rpm = FIX32 45000000
+        "t604823754C0040420F00\r", // 100 rpm = FIX32 1000000
+        "t584860754C0000000000\r",
+        "t604840744C0000000000\r",
+        "t584880744C0000000206\r", // abort 0x06020000
+    );
+    std::fs::write(d.join("session.bin"), session).unwrap();
+    let from = |schema: &str| {
+        driveset()
+            .current_dir(d)
+            .args([
+                "twin",
+                "from-capture",
+                "--protocol",
+                "slcan",
+                "--schema",
+                schema,
+            ])
+            .args(["session.bin", "-o", "twins"])
+            .output()
+            .unwrap()
+    };
+    let wrong = from("lenze-tmd");
+    assert_eq!(wrong.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&wrong.stderr),
+        "error: --schema lenze-tmd: a tmd schema; a can session needs a schema of ecs\n"
+    );
+    let text = session_twin(
+        &from(fixture.to_str().unwrap()),
+        d,
+        "ecs fictional-ecs-demo at address 4: 2 codes, 1 refused, ",
+    );
+    let t: toml::Table = toml::from_str(&text).unwrap();
+    let values = t["values"].as_table().unwrap();
+    assert_eq!(values["5001"].as_integer(), Some(45_000_000), "{text}");
+    assert_eq!(values["5002"].as_integer(), Some(1_000_000), "{text}");
+    assert_eq!(values.len(), 2, "{text}");
+    assert!(
+        text.contains("\n\"5003\" = { answer = \"SDO abort 0x06020000\", "),
+        "{text}"
+    );
+    let unknown = t["codes"]["unknown"].as_array().unwrap();
+    assert!(unknown.iter().any(|u| u.as_str() == Some("5004")), "{text}");
+    std::fs::write(
+        d.join("set.toml"),
+        format!(
+            "schema = \"{}\"\n[values]\nC5001 = \"4500 rpm\"\nC5002 = \"100 rpm\"\n",
+            fixture.display()
+        ),
+    )
+    .unwrap();
+    let port = "sim://twin?file=twins/twin-4.twin.toml";
     driveset()
         .current_dir(d)
-        .args(["twin", "from-capture", "--protocol", "slcan", "session.bin", "-o", "twins"])
+        .args(["diff", "set.toml", "--port", port, "--address", "4"])
         .assert()
-        .code(2)
-        .stderr("error: twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`\n");
+        .code(0);
+    std::fs::write(
+        d.join("refused.toml"),
+        format!(
+            "schema = \"{}\"\n[values]\nC5003 = \"0.250 s\"\n",
+            fixture.display()
+        ),
+    )
+    .unwrap();
+    driveset()
+        .current_dir(d)
+        .args(["diff", "refused.toml", "--port", port, "--address", "4"])
+        .assert()
+        .code(3)
+        .stderr(predicate::str::contains("read C5003 refused: "));
 }
 
 /// A drive that refuses to read a code it holds (`refuse=`, the

@@ -149,6 +149,8 @@ pub struct Session {
     /// Codes whose read it refused (LECOM "no such code", LUSTBUS NAK),
     /// with the reason as a capture writes it.
     pub refused: BTreeMap<CodeKey, String>,
+    /// CAN: the SDO abort code each refused read was answered with.
+    pub aborts: BTreeMap<CodeKey, u32>,
 }
 
 /// Per station address, what a decoded LECOM session showed
@@ -199,6 +201,100 @@ pub fn lecom_session(
                 let why = e.meaning.clone().unwrap_or_else(|| "no such code".into());
                 out.entry(a).or_default().refused.insert(k, why);
                 sent = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The Lenze code a decoded event names (`C0011`, `C0039/2`).
+fn lenze_key(code: &str) -> Option<CodeKey> {
+    let c = code.strip_prefix('C')?;
+    match c.split_once('/') {
+        Some((n, s)) => Some(CodeKey::sub(n.parse().ok()?, s.parse().ok()?)),
+        None => Some(CodeKey::new(c.parse().ok()?)),
+    }
+}
+
+/// Per CAN node, what a decoded slcan session showed of one ECS drive
+/// ([`Session`]): the values of its expedited SDO uploads (VALUE,
+/// lenze-system-bus-can-sdo.txt "Reading parameters"), the values of the
+/// expedited downloads it acknowledged (WRITE OK; the last one wins), and
+/// the codes whose upload it aborted, with the abort code. Objects that are
+/// no Lenze code (`index 0x1018/1`), segmented transfers, events with an
+/// error and a value the schema does not know are passed over.
+pub fn can_session(
+    events: &[crate::decode::Event],
+    schema: &driveset_schema::Schema,
+) -> BTreeMap<u8, Session> {
+    let node_of = |e: &crate::decode::Event| -> Option<u8> {
+        e.address.as_deref()?.strip_prefix("node ")?.parse().ok()
+    };
+    let key_of = |e: &crate::decode::Event| -> Option<CodeKey> {
+        let k = lenze_key(e.code.as_deref()?)?;
+        schema.code(k.number)?;
+        Some(k)
+    };
+    // the four data bytes as the SDO client reads them: FIX32 signed
+    let raw = |e: &crate::decode::Event, key: CodeKey| -> Option<RawValue> {
+        let hex = e.raw_value.as_deref()?.strip_prefix("0x")?;
+        let v = u32::from_str_radix(hex, 16).ok()?;
+        let fix32 = schema
+            .code(key.number)
+            .and_then(|c| schema.type_of(c))
+            .is_some_and(|t| t == driveset_schema::ValueType::FIX32);
+        Some(RawValue::Int(if fix32 {
+            i64::from(v as i32)
+        } else {
+            i64::from(v)
+        }))
+    };
+    // "the drive refuses: 0x06020000 Object does not exist ..."
+    let abort_of = |e: &crate::decode::Event| -> Option<u32> {
+        let m = e.meaning.as_deref()?;
+        let at = m.find("0x")?;
+        u32::from_str_radix(m.get(at + 2..at + 10)?, 16).ok()
+    };
+    let mut out: BTreeMap<u8, Session> = BTreeMap::new();
+    // the request a response answers: READ (no value) or WRITE (its value)
+    let mut asked: Option<(u8, CodeKey, Option<RawValue>)> = None;
+    for e in events {
+        if e.error.is_some() {
+            asked = None;
+            continue;
+        }
+        match (e.kind, node_of(e), key_of(e)) {
+            ("READ", Some(n), Some(k)) => asked = Some((n, k, None)),
+            ("WRITE", Some(n), Some(k)) => asked = raw(e, k).map(|v| (n, k, Some(v))),
+            ("VALUE", Some(n), Some(k)) => {
+                if let Some(v) = raw(e, k) {
+                    let s = out.entry(n).or_default();
+                    s.refused.remove(&k);
+                    s.aborts.remove(&k);
+                    s.values.insert(k, v);
+                }
+                asked = None;
+            }
+            ("WRITE OK", Some(n), Some(k)) => {
+                if let Some((a, ak, Some(v))) = asked.take()
+                    && (a, ak) == (n, k)
+                {
+                    out.entry(n).or_default().values.insert(k, v);
+                }
+            }
+            ("ABORT", Some(n), Some(k)) if e.direction == Some(crate::decode::DRIVE_TO_HOST) => {
+                if let Some((a, ak, None)) = asked.take()
+                    && (a, ak) == (n, k)
+                {
+                    let s = out.entry(n).or_default();
+                    s.values.remove(&k);
+                    s.refused
+                        .insert(k, e.meaning.clone().unwrap_or_else(|| "SDO abort".into()));
+                    if let Some(code) = abort_of(e) {
+                        s.aborts.insert(k, code);
+                    }
+                }
             }
             _ => {}
         }

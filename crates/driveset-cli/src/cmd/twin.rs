@@ -107,21 +107,25 @@ pub struct CaptureLineArgs {
 #[derive(clap::Args)]
 #[command(after_help = "\
 Reads a recorded bus session (the raw bytes `driveset decode --protocol
-lecom | lustbus` reads: what a vendor tool sent and the drives answered) and
+lecom | lustbus | slcan` reads: what a vendor tool sent and the drives
+answered) and
 writes one twin per station address seen, DIR/twin-<address>.twin.toml
 (rename it to <drive name>.twin.toml for a rehearsal): every value a drive
 answered (RECEIVE, ENQUIRY), every value a write (SEND, SELECT) sent and the
 drive acknowledged (the last one seen wins), and the codes it refused to
-read (served refused alike). Codes of the schema the session did not show
+read (served refused alike; on CAN with the SDO abort code it gave). Codes
+of the schema the session did not show
 are listed as unknown ([codes] unknown); the served twin answers them with
 its model's factory value. A LUSTBUS session needs --schema (it does not
-name its family); slcan sessions are refused.
+name its family); an slcan session is read with lenze-ecs unless --schema
+names another ECS schema (expedited SDO transfers of Lenze codes).
 
 Exit codes: 0 written; 2 usage, input, or a session that shows no drive.
 
 Example:
   driveset twin from-capture --protocol lecom --schema lenze-tmd session.bin -o twins/
-  driveset twin from-capture --protocol lustbus --schema lust-vf1000 session.bin -o twins/")]
+  driveset twin from-capture --protocol lustbus --schema lust-vf1000 session.bin -o twins/
+  driveset twin from-capture --protocol slcan session.slcan -o twins/")]
 pub struct FromCaptureArgs {
     /// The protocol of the session (lecom, lustbus).
     #[arg(long, value_name = "P")]
@@ -323,24 +327,25 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     use super::decode::DecodeProtocol;
-    let (default_schema, families, answer): (Option<&str>, &[Family], ReadRefusal) = match a
-        .protocol
-    {
-        DecodeProtocol::Lecom => (Some("lenze-tmd"), &[Family::Tmd], ReadRefusal::NoSuchCode),
-        DecodeProtocol::Lustbus => (None, &[Family::Mc6000, Family::Vf1000], ReadRefusal::Nak),
-        _ => {
-            return Err(Fail::input(
-                "twin from-capture reads LECOM and LUSTBUS sessions (--protocol lecom | lustbus); for CAN drives capture the drive itself with `driveset twin capture`",
-            ));
-        }
-    };
+    let (default_schema, families, answer): (Option<&str>, &[Family], ReadRefusal) =
+        match a.protocol {
+            DecodeProtocol::Lecom => (Some("lenze-tmd"), &[Family::Tmd], ReadRefusal::NoSuchCode),
+            DecodeProtocol::Lustbus => (None, &[Family::Mc6000, Family::Vf1000], ReadRefusal::Nak),
+            // the abort code is each refusal's own (below); this one is never used
+            DecodeProtocol::Slcan => (
+                Some("lenze-ecs"),
+                &[Family::Ecs],
+                ReadRefusal::SdoAbort(0x0602_0000),
+            ),
+        };
     let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
         return Err(Fail::input(
             "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
         ));
     };
-    let bytes = std::fs::read(&a.file)
-        .map_err(|e| Fail::input(format!("{}: cannot read: {e}", a.file.display())))?;
+    let bytes =
+        driveset_schema::input::read_input(&a.file, driveset_schema::input::InputKind::CAPTURE)
+            .map_err(|e| Fail::input(e.to_string()))?;
     let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
     let schema = super::decode::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
     if !families.contains(&schema.family) {
@@ -364,7 +369,8 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
     let sessions = match a.protocol {
         DecodeProtocol::Lustbus => driveset_engine::capture::lustbus_session(&events, &schema),
-        _ => driveset_engine::capture::lecom_session(&events, &schema),
+        DecodeProtocol::Slcan => driveset_engine::capture::can_session(&events, &schema),
+        DecodeProtocol::Lecom => driveset_engine::capture::lecom_session(&events, &schema),
     };
     if sessions.is_empty() {
         return Err(Fail::input(format!(
@@ -396,7 +402,17 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             .into_iter()
             .filter(|(k, _)| !twin.secrets.contains(k))
             .collect();
-        twin.refusals = session.refused.keys().map(|k| (*k, answer)).collect();
+        twin.refusals = session
+            .refused
+            .keys()
+            .map(|k| {
+                let answer = match session.aborts.get(k) {
+                    Some(&code) => ReadRefusal::SdoAbort(code),
+                    None => answer,
+                };
+                (*k, answer)
+            })
+            .collect();
         twin.refused = session.refused;
         if schema.family == Family::Tmd {
             twin.c0001 = c0001_of(&twin.values, &schema);
