@@ -19,16 +19,7 @@ fn in_dir(dir: &Path) -> assert_cmd::Command {
 }
 
 fn learned_file(dir: &Path) -> PathBuf {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("learned-mc6000-type0-d") && n.ends_with(".toml"))
-        })
-        .collect();
+    let mut files = crate::util::toml_files_starting(dir, "learned-mc6000-type0-d");
     assert_eq!(files.len(), 1, "{files:?}");
     files.pop().unwrap()
 }

@@ -23,18 +23,7 @@ fn in_dir(dir: &Path) -> assert_cmd::Command {
 
 /// The learned files (`*.toml` other than the sets) in `dir`.
 fn learned_files(dir: &Path) -> Vec<std::path::PathBuf> {
-    let mut v: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("learned-") && n.ends_with(".toml"))
-        })
-        .collect();
-    v.sort();
-    v
+    crate::util::toml_files_starting(dir, "learned-")
 }
 
 /// (family, describe=, the report's line, the learned file's comment).

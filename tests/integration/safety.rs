@@ -659,12 +659,10 @@ fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
             "address 1: complete (0 of 1 codes written, 1 attempt(s), 2 telegrams, 0 retries,",
         ))
         .stderr(predicate::str::contains("learn").not());
-    assert!(std::fs::read_dir(d).unwrap().all(|e| {
-        !e.unwrap()
-            .file_name()
-            .to_string_lossy()
-            .starts_with("learned-")
-    }));
+    assert_eq!(
+        crate::util::toml_files_starting(d, "learned-"),
+        Vec::<PathBuf>::new()
+    );
     assert_eq!(held(d, "mc6000", 1, 416), 0);
 }
 

@@ -74,3 +74,20 @@ pub fn copy_dir(from: &Path, to: &Path) {
         }
     }
 }
+
+/// The files of `dir` whose name starts with `prefix` and ends `.toml`
+/// (learned schemas), sorted.
+pub fn toml_files_starting(dir: &Path, prefix: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(prefix) && n.ends_with(".toml"))
+        })
+        .collect();
+    v.sort();
+    v
+}

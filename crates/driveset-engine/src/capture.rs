@@ -160,13 +160,6 @@ pub fn lecom_session(
     events: &[crate::decode::Event],
     schema: &driveset_schema::Schema,
 ) -> BTreeMap<u8, Session> {
-    let key_of = |code: &str| -> Option<CodeKey> {
-        let c = code.strip_prefix('C')?;
-        match c.split_once('/') {
-            Some((n, s)) => Some(CodeKey::sub(n.parse().ok()?, s.parse().ok()?)),
-            None => Some(CodeKey::new(c.parse().ok()?)),
-        }
-    };
     let raw = |key: CodeKey, text: &str| -> Option<RawValue> {
         let value = driveset_proto::lecom::Value::parse(text.as_bytes()).ok()?;
         let ty = schema.code(key.number).and_then(|c| schema.type_of(c));
@@ -180,7 +173,7 @@ pub fn lecom_session(
             continue;
         }
         let address = e.address.as_deref().and_then(|a| a.parse::<u8>().ok());
-        let key = e.code.as_deref().and_then(key_of);
+        let key = e.code.as_deref().and_then(lenze_key);
         match (e.kind, address, key) {
             ("RECEIVE", Some(a), Some(k)) => sent = Some((a, k, None)),
             ("SEND", Some(a), Some(k)) => {
