@@ -1,0 +1,250 @@
+//! The line manifest: which drives (bus, address) a machine line has and
+//! which set each one gets. TOML or YAML, read through the schema crate's
+//! spanned document tree so every finding has file:line:column.
+//!
+//! ```toml
+//! [line]
+//! name = "demo-line"                  # optional; default: the file stem
+//! label = "FAT build 7"               # optional default for --label
+//! report_dir = "reports"              # optional, relative to this file
+//! journal_dir = "journals"            # optional, relative to this file
+//!
+//! [[bus]]
+//! name = "press"
+//! port = "sim://mc6000"               # the common port syntax (sim:// without
+//!                                     # addresses= simulates this bus' drives)
+//! protocol = "lustbus"                # lustbus | lecom | can
+//! baud = 19200                        # lustbus / lecom; `bitrate` for can
+//!
+//! [[drive]]
+//! bus = "press"
+//! address = 1
+//! set = "sets/press-axis-1.toml"      # relative to this file
+//! name = "press-axis-1"               # optional; default BUS/ADDRESS
+//! position = "press, X axis"          # optional, free text
+//! ```
+//!
+//! YAML manifests use the same keys (`line:`, `bus:` or `buses:`, `drive:`
+//! or `drives:` as sequences).
+//!
+//! Findings ([`ManifestFinding`], kind in brackets): `unknown-key`,
+//! `missing-key`, `wrong-type`, `bad-port`, `bad-protocol`,
+//! `rate-mismatch`, `duplicate-bus`, `unknown-bus`, `duplicate-name`,
+//! `duplicate-address`, `group-address`, `address-out-of-range`,
+//! `missing-set`, `set-family`, `no-drives`, `set-address`, `set-rate`,
+//! and the findings of each set file (their own kinds, at their own
+//! locations).
+//!
+//! **The manifest's address is the truth.** A set that gives its drive's
+//! bus address code (role `bus-address`: LUSTBUS 82-SIOA/SADDR, Tmd C0009)
+//! with a value other than the drive's `address`, or its line rate code
+//! (role `baud-rate`: 81-SIOC/SBAUD, C0125) with a rate other than its
+//! bus's `baud`, is a finding (`set-address`, `set-rate`) at the set's
+//! line, naming the manifest's place: a set copied from another drive is
+//! caught before the plant.
+//!
+//! **Sets whose schema lacks facts.** A set naming a built-in LUSTBUS schema
+//! that lacks codes' types, kinds or ranges (`lust-mc6000`, `lust-vf1000`;
+//! [`crate::learn::needs_learning`]) gets its facts from the drive:
+//! `commission` and `status` learn the schema from each such drive's own
+//! descriptions before planning it (see `commission`'s module docs). Such a
+//! drive loads with [`Drive::learn_from`] set, and the findings its set has
+//! against the built-in schema do not stop the line: they are kept apart in
+//! [`LoadedManifest::learnable`]. Offline (`validate LINE`,
+//! [`validate_manifest`]) they are findings like any other, their help
+//! naming the remedy (commission learns the schema; or name a learned
+//! schema in the set).
+//!
+//! Files: this one holds the model (buses, drives, the manifest) and the
+//! entry points; `finding.rs` the finding type, `reader.rs` the reader of
+//! the document, `bus_codes.rs` the set-address / set-rate check.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use driveset_link::{Openers, PortSpec};
+use driveset_schema::doc::{self, Document, NodeKind, Syntax};
+use driveset_schema::error::read_text_file;
+use driveset_schema::{InputError, Location, Registry, ResolvedSet, Schema};
+
+mod bus_codes;
+mod finding;
+mod reader;
+
+pub use finding::ManifestFinding;
+use reader::Reader;
+
+/// The bus protocols a manifest names (`lustbus | lecom | can`): the
+/// schema crate's family descriptor owns them, their addresses included.
+pub use driveset_schema::BusProtocol;
+
+/// One bus of a line.
+#[derive(Debug, Clone)]
+pub struct Bus {
+    /// Name.
+    pub name: String,
+    /// Port as written in the manifest.
+    pub port_text: String,
+    /// The parsed port, with the manifest's rate applied and (for a
+    /// `sim://` port without drives) the manifest's drives put on it by
+    /// the port's opener ([`driveset_link::PortOpener::with_drives`]).
+    pub port: PortSpec,
+    /// The port as reports, journals and messages name it: the canonical
+    /// form (for an opener's port, the opener's name of it: `sim://` leaves
+    /// out `state=`).
+    pub port_name: String,
+    /// Family.
+    pub protocol: BusProtocol,
+    /// Line rate (baud, or CAN bit/s).
+    pub rate: u32,
+    /// `transfer_baud = RATE`: the MC6000/7000 drives of the bus are
+    /// commissioned at this rate (`crate::transfer`).
+    pub transfer_baud: Option<u32>,
+    /// The families of the bus's drives, one entry per drive (for the
+    /// transfer rate's shared-bus refusal).
+    pub families: Vec<driveset_schema::Family>,
+    /// Where the bus is declared.
+    pub location: Location,
+}
+
+/// One drive of a line.
+#[derive(Debug, Clone)]
+pub struct Drive {
+    /// Name (given, else `BUS/ADDRESS`).
+    pub name: String,
+    /// Bus name.
+    pub bus: String,
+    /// Index into [`Manifest::buses`].
+    pub bus_index: usize,
+    /// Address / node id.
+    pub address: u8,
+    /// Set path as written.
+    pub set_text: String,
+    /// Set path (relative to the manifest's directory resolved).
+    pub set_path: PathBuf,
+    /// Position text.
+    pub position: Option<String>,
+    /// The set's schema.
+    pub schema: Arc<Schema>,
+    /// The set's values. For a drive with [`Drive::learn_from`] whose set
+    /// does not resolve against the built-in schema: empty until the run
+    /// learns the schema and resolves the set again.
+    pub set: ResolvedSet,
+    /// The built-in schema the set names when it lacks facts a drive's
+    /// descriptions fill ([`crate::learn::needs_learning`]): line runs learn
+    /// the schema from the drive first and resolve the set against it.
+    pub learn_from: Option<Arc<Schema>>,
+    /// Where the drive is declared.
+    pub location: Location,
+}
+
+/// A manifest without findings.
+#[derive(Debug, Clone)]
+pub struct Manifest {
+    /// The manifest path as given.
+    pub path: PathBuf,
+    /// Line name.
+    pub name: String,
+    /// Default label.
+    pub label: Option<String>,
+    /// Report directory (resolved against the manifest's directory), if given.
+    pub report_dir: Option<PathBuf>,
+    /// Journal directory (resolved), if given.
+    pub journal_dir: Option<PathBuf>,
+    /// Buses, in manifest order.
+    pub buses: Vec<Bus>,
+    /// Drives, in manifest order.
+    pub drives: Vec<Drive>,
+}
+
+/// The result of loading a manifest: the manifest when it has no findings.
+#[derive(Debug, Clone)]
+pub struct LoadedManifest {
+    /// The manifest (`None` when there are findings).
+    pub manifest: Option<Manifest>,
+    /// Every finding, manifest ones first, then the sets'.
+    pub findings: Vec<ManifestFinding>,
+    /// The findings of sets whose schema lacks facts against that built-in
+    /// schema: a line run clears them by learning the schema from the
+    /// drive (module docs); they do not stop the manifest from loading.
+    pub learnable: Vec<ManifestFinding>,
+}
+
+/// Whether `path` holds a line manifest (a top-level `line` table, or a
+/// `bus` / `buses` key). Unreadable or malformed files are not manifests.
+pub fn is_manifest(path: &Path) -> bool {
+    let Ok(source) = read_text_file(path) else {
+        return false;
+    };
+    let Ok(d) = doc::parse(source, Syntax::from_path(path)) else {
+        return false;
+    };
+    is_manifest_doc(&d)
+}
+
+/// [`is_manifest`] on a parsed document.
+pub fn is_manifest_doc(d: &Document) -> bool {
+    d.root
+        .get("line")
+        .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_)))
+        || d.root.get("bus").is_some()
+        || d.root.get("buses").is_some()
+}
+
+/// Validate a manifest and every set it names (the `driveset validate`
+/// entry point). `Err` when the file cannot be read or parsed at all.
+/// `openers` check the ports of the schemes `driveset-link` does not open
+/// itself (`sim://`: the simulator's opener).
+///
+/// Offline the sets whose schema lacks facts cannot be checked: their
+/// findings ([`LoadedManifest::learnable`]) are reported with a help that
+/// names the remedy.
+pub fn validate_manifest(
+    path: &Path,
+    openers: &Openers,
+) -> Result<Vec<ManifestFinding>, InputError> {
+    let mut registry = Registry::builtin()?;
+    let loaded = load_manifest(path, &mut registry, openers)?;
+    let mut out = loaded.findings;
+    out.extend(loaded.learnable);
+    Ok(out)
+}
+
+/// [`validate_manifest`] of a manifest given as text (an editor's unsaved
+/// buffer); `path` names it in findings and anchors its relative paths.
+pub fn validate_manifest_str(
+    path: &Path,
+    text: &str,
+    openers: &Openers,
+) -> Result<Vec<ManifestFinding>, InputError> {
+    let mut registry = Registry::builtin()?;
+    let source = driveset_schema::error::source_from_str(&path.display().to_string(), text)?;
+    let d = doc::parse(source, Syntax::from_path(path))?;
+    let mut r = Reader {
+        d: &d,
+        findings: Vec::new(),
+        openers,
+    };
+    let loaded = r.read(path, &mut registry);
+    let mut out = loaded.findings;
+    out.extend(loaded.learnable);
+    Ok(out)
+}
+
+/// Load and check a manifest and its sets; `openers` check the ports of
+/// the schemes `driveset-link` does not open itself (as for
+/// [`validate_manifest`]).
+pub fn load_manifest(
+    path: &Path,
+    registry: &mut Registry,
+    openers: &Openers,
+) -> Result<LoadedManifest, InputError> {
+    let source = read_text_file(path)?;
+    let d = doc::parse(source, Syntax::from_path(path))?;
+    let mut r = Reader {
+        d: &d,
+        findings: Vec::new(),
+        openers,
+    };
+    Ok(r.read(path, registry))
+}
