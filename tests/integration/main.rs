@@ -13,6 +13,7 @@ mod e2e_pty;
 mod echo;
 mod eds_quirks;
 mod encode;
+mod factory_settings;
 mod fingerprint;
 mod git_setup;
 mod inputs;

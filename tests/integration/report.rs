@@ -51,6 +51,7 @@ fn drive(name: &str, bus: &str, address: u8, result: DriveResult) -> DriveReport
         error: None,
         diff: Vec::new(),
         learned_schema: None,
+        factory_settings: false,
     }
 }
 

@@ -11,6 +11,7 @@ use std::time::Duration;
 use driveset_engine::line::commission::{
     LineError, LineLearn, LineOptions, LineOutcome, Mode, Progress, Verdict, run_line,
 };
+use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
 use driveset_link::Link;
@@ -365,11 +366,24 @@ fn progress_line(p: &Progress, width: usize) -> String {
     if d.result == DriveResult::Drift {
         s.push_str(&format!(", {} code(s) differ", d.diff.len()));
     }
+    if d.factory_settings {
+        s.push_str(&factory_note(d.result));
+    }
     s.push_str(&format!(" ({:.3} s)", d.elapsed_ms / 1000.0));
     if let Some(e) = &d.error {
         s.push_str(&format!(": {e}"));
     }
     s
+}
+
+/// ", at factory settings (a new or exchanged unit?)" for `status`, ", was at
+/// ..." once commission wrote the set (the engine's `line::factory` rule).
+fn factory_note(result: DriveResult) -> String {
+    let was = match result {
+        DriveResult::Drift | DriveResult::Failed => "",
+        _ => "was ",
+    };
+    format!(", {was}{FACTORY_WORDS}")
 }
 
 fn short_fp(fp: Option<&str>) -> String {
@@ -426,8 +440,13 @@ pub fn summary(o: &LineOutcome, mode: Mode, wall: Duration) -> String {
         .filter(|d| !d.diff.is_empty() && d.result == DriveResult::Drift)
         .collect();
     for d in &drifted {
+        let factory = if d.factory_settings {
+            format!(" is {FACTORY_WORDS}: it")
+        } else {
+            String::new()
+        };
         out.push_str(&format!(
-            "\n{} ({}/{}) differs from {}:\n",
+            "\n{} ({}/{}){factory} differs from {}:\n",
             d.name, d.bus, d.address, d.set
         ));
         for l in &d.diff {

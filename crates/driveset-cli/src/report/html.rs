@@ -577,6 +577,17 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
         );
     }
     o.push_str("</dl>\n");
+    if d.factory_settings {
+        let _ = writeln!(
+            o,
+            "<div class=\"factory\" role=\"note\"><strong>{}:</strong> where it differed from its set, the drive held its schema's defaults.</div>",
+            if d.result == DriveResult::Drift {
+                "At factory settings (a new or exchanged unit?)"
+            } else {
+                "Was at factory settings (a new or exchanged unit?)"
+            }
+        );
+    }
     if let Some(e) = &d.error {
         let _ = writeln!(
             o,

@@ -637,6 +637,7 @@ fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveReport {
         error: None,
         diff: Vec::new(),
         learned_schema: None,
+        factory_settings: false,
     }
 }
 
@@ -956,6 +957,8 @@ fn run_drive(
                 let live = live_values(&mut *client, &d.set)?;
                 let fp = live.fingerprint();
                 r.diff = diff_lines(&d.schema, &live, &d.set);
+                r.factory_settings =
+                    super::factory::live_at_factory_settings(&d.schema, &live, &d.set);
                 // values, not fingerprints: a fingerprint does not cover a
                 // secret's value, a drifted password is drift too
                 r.result = if live.values == d.set.values {
@@ -1188,6 +1191,7 @@ fn fill_from_upload(
     codes: &[crate::upload::CodeReport],
 ) {
     r.identity = identity.pairs();
+    r.factory_settings = super::factory::upload_at_factory_settings(schema, codes);
     r.diff = codes
         .iter()
         .filter(|c| c.outcome != crate::upload::CodeOutcome::Unchanged)

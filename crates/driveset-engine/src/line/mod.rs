@@ -3,6 +3,7 @@
 //! and the commissioning report.
 
 pub mod commission;
+pub mod factory;
 pub mod manifest;
 pub mod report;
 pub mod status;

@@ -152,6 +152,12 @@ pub struct DriveReport {
     /// names a built-in schema that lacks facts (absent otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub learned_schema: Option<LearnedSchemaReport>,
+    /// The drive was "at factory settings (a new or exchanged unit?)": where
+    /// it differed from its set it held its schema's defaults
+    /// ([`super::factory`] gives the rule). `status`: now; `commission`:
+    /// before writing. Absent (false) otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub factory_settings: bool,
 }
 
 /// The schema a line run learned from one drive (`commission`'s module
