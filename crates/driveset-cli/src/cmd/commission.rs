@@ -155,7 +155,8 @@ pub struct Common {
 
 /// Load the manifest; print its findings (exit 2) if it has any. The
 /// findings of sets whose schema is learned from the drive do not count,
-/// unless `no_learn`.
+/// unless `no_learn`, nor do the per-drive ones (`set-address`,
+/// `set-rate`: the line run refuses that drive).
 pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
     let mut registry = match crate::output::registry(&[]) {
         Ok(r) => r,
@@ -168,7 +169,13 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
             return Err(EXIT_INPUT);
         }
     };
-    let mut findings = loaded.findings;
+    // a set that disagrees with its drive's manifest address or rate
+    // refuses that drive, not the line (engine `line::address_truth`)
+    let mut findings: Vec<_> = loaded
+        .findings
+        .into_iter()
+        .filter(|f| !f.is_per_drive())
+        .collect();
     if no_learn {
         findings.extend(loaded.learnable);
     }
@@ -366,10 +373,10 @@ fn progress_line(p: &Progress, width: usize) -> String {
     if d.result == DriveResult::Drift {
         s.push_str(&format!(", {} code(s) differ", d.diff.len()));
     }
+    s.push_str(&format!(" ({:.3} s)", d.elapsed_ms / 1000.0));
     if d.factory_settings {
         s.push_str(&factory_note(d.result));
     }
-    s.push_str(&format!(" ({:.3} s)", d.elapsed_ms / 1000.0));
     if let Some(e) = &d.error {
         s.push_str(&format!(": {e}"));
     }

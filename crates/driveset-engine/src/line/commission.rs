@@ -442,6 +442,8 @@ pub fn run_line(
         warnings: Mutex::new(Vec::new()),
     };
 
+    // the manifest's address is the truth: refused before the bus is opened
+    let mut refused = super::address_truth::refuse_line(manifest, &selected);
     let results: Vec<BusRun> = std::thread::scope(|scope| {
         let handles: Vec<_> = manifest
             .buses
@@ -455,7 +457,7 @@ pub fn run_line(
                     .collect();
                 let drives: Vec<&Drive> = listed
                     .iter()
-                    .filter(|d| selected.contains(&d.name))
+                    .filter(|d| selected.contains(&d.name) && !refused.contains_key(&d.name))
                     .copied()
                     .collect();
                 let ctx = &ctx;
@@ -487,9 +489,12 @@ pub fn run_line(
         .drives
         .iter()
         .map(|d| {
-            by_drive.remove(&d.name).unwrap_or_else(|| {
-                blank_report(d, &manifest.buses[d.bus_index], DriveResult::NotSelected)
-            })
+            by_drive
+                .remove(&d.name)
+                .or_else(|| refused.remove(&d.name))
+                .unwrap_or_else(|| {
+                    blank_report(d, &manifest.buses[d.bus_index], DriveResult::NotSelected)
+                })
         })
         .collect();
     let result = line_result(&drives);
@@ -617,7 +622,7 @@ struct BusRun {
     failed: bool,
 }
 
-fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveReport {
+pub(super) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveReport {
     DriveReport {
         name: d.name.clone(),
         position: d.position.clone(),
@@ -891,6 +896,16 @@ fn run_drive(
     };
     let mut r = blank_report(d, bus, DriveResult::Failed);
     r.learned_schema = learned_report;
+    if r.learned_schema.is_some()
+        && let Err(e) = super::address_truth::check_drive(bus, d)
+    {
+        r.error = Some(e.to_string());
+        if ctx.mode == Mode::Commission {
+            ctx.record(bus, d, None);
+        }
+        hook.end(link_clock(link));
+        return (r, watch.spans.spans(), None);
+    }
     let mut client = match crate::connect::connect_on(link, d.schema.clone(), d.address) {
         Ok(c) => c,
         Err(e) => {
@@ -1179,6 +1194,7 @@ fn learn_drive(
     let drive = Drive {
         schema,
         set: resolved,
+        set_bus_codes: loaded.bus_codes,
         ..d.clone()
     };
     Ok((drive, report))

@@ -2,6 +2,7 @@
 //! from its set (buses in parallel, drives on one bus in turn), drift status,
 //! and the commissioning report.
 
+pub mod address_truth;
 pub mod commission;
 pub mod factory;
 pub mod manifest;

@@ -33,7 +33,7 @@ pub(crate) fn bus_code_number(
 /// (or its line rate code) a value other than the manifest's address of the
 /// drive (or its bus's rate). `None` where they agree, or where the bus has
 /// no rate to compare with.
-pub(super) fn bus_code_finding(
+pub(crate) fn bus_code_finding(
     d: &Drive,
     key: CodeKey,
     set_loc: &Location,

@@ -41,6 +41,13 @@ impl ManifestFinding {
         self
     }
 
+    /// A finding about one drive's set that a line run turns into a refusal
+    /// of that drive, not of the line: `set-address` / `set-rate` (the
+    /// manifest's address is the truth, `crate::line::address_truth`).
+    pub fn is_per_drive(&self) -> bool {
+        matches!(self.kind.as_str(), "set-address" | "set-rate")
+    }
+
     /// rustc-style text, like the schema crate's findings.
     pub fn render_human(&self) -> String {
         let mut f = self.to_finding();

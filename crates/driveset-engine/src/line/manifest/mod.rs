@@ -65,12 +65,13 @@ use std::sync::Arc;
 use driveset_link::{Openers, PortSpec};
 use driveset_schema::doc::{self, Document, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
-use driveset_schema::{InputError, Location, Registry, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, InputError, Location, Registry, ResolvedSet, Schema};
 
 mod bus_codes;
 mod finding;
 mod reader;
 
+pub(crate) use bus_codes::bus_code_finding;
 pub use finding::ManifestFinding;
 use reader::Reader;
 
@@ -105,6 +106,8 @@ pub struct Bus {
     pub families: Vec<driveset_schema::Family>,
     /// Where the bus is declared.
     pub location: Location,
+    /// Where the bus's rate is given (`baud` / `bitrate`, else the port).
+    pub rate_location: Option<Location>,
 }
 
 /// One drive of a line.
@@ -136,6 +139,12 @@ pub struct Drive {
     pub learn_from: Option<Arc<Schema>>,
     /// Where the drive is declared.
     pub location: Location,
+    /// Where the drive's `address` is given.
+    pub address_location: Location,
+    /// Where the set gives its bus address and line rate codes (roles
+    /// `bus-address`, `baud-rate`; [`driveset_schema::LoadedSet::bus_codes`]):
+    /// the manifest's address and rate are the truth (module docs).
+    pub set_bus_codes: Vec<(CodeKey, Location)>,
 }
 
 /// A manifest without findings.
@@ -157,10 +166,12 @@ pub struct Manifest {
     pub drives: Vec<Drive>,
 }
 
-/// The result of loading a manifest: the manifest when it has no findings.
+/// The result of loading a manifest: the manifest when it has no findings
+/// but per-drive ones ([`ManifestFinding::is_per_drive`]: a line run
+/// refuses such a drive, the others run).
 #[derive(Debug, Clone)]
 pub struct LoadedManifest {
-    /// The manifest (`None` when there are findings).
+    /// The manifest (`None` when there are findings other than per-drive ones).
     pub manifest: Option<Manifest>,
     /// Every finding, manifest ones first, then the sets'.
     pub findings: Vec<ManifestFinding>,

@@ -9,9 +9,7 @@ use std::path::Path;
 use crate::learn::needs_learning;
 use driveset_link::{Openers, PortShape, PortSpec};
 use driveset_schema::doc::{Document, Entry, Node, NodeKind};
-use driveset_schema::{
-    CodeKey, Family, Finding, Location, Registry, ResolvedSet, Schema, load_set,
-};
+use driveset_schema::{Family, Finding, Location, Registry, ResolvedSet, Schema, load_set};
 
 use super::bus_codes::bus_code_finding;
 use super::{Bus, BusProtocol, Drive, LoadedManifest, Manifest, ManifestFinding};
@@ -376,7 +374,6 @@ impl<'a> Reader<'a> {
         let mut drives = Vec::new();
         // per drive of `drives`: where the set gives its bus codes, and
         // where the manifest gives the drive's address
-        let mut bus_code_places: Vec<(Vec<(CodeKey, Location)>, Location)> = Vec::new();
         let mut seen_addr: BTreeMap<(usize, i64), Range<usize>> = BTreeMap::new();
         let mut seen_name: BTreeMap<String, Range<usize>> = BTreeMap::new();
         let mut set_findings = Vec::new();
@@ -545,7 +542,6 @@ impl<'a> Reader<'a> {
             ) = (ok, name, bus_index, address, loaded)
             {
                 let addr_loc = r.address.as_ref().map_or(0..0, |x| x.1.clone());
-                bus_code_places.push((bus_codes, self.loc(&addr_loc)));
                 drives.push(Drive {
                     name: n,
                     bus: raw_buses[bi]
@@ -561,6 +557,8 @@ impl<'a> Reader<'a> {
                     set,
                     learn_from,
                     location: self.loc(&r.span),
+                    address_location: self.loc(&addr_loc),
+                    set_bus_codes: bus_codes,
                 });
             }
         }
@@ -755,6 +753,12 @@ impl<'a> Reader<'a> {
                 transfer_baud: b.transfer_baud.as_ref().map(|t| t.0),
                 families: Vec::new(),
                 location: self.loc(&b.span),
+                rate_location: b
+                    .baud
+                    .as_ref()
+                    .map(|x| x.1.clone())
+                    .or_else(|| b.port.as_ref().map(|x| x.1.clone()))
+                    .map(|span| self.loc(&span)),
             });
         }
         for d in &drives {
@@ -762,36 +766,38 @@ impl<'a> Reader<'a> {
                 b.families.push(d.schema.family);
             }
         }
-        for (d, (codes, addr_loc)) in drives.iter().zip(&bus_code_places) {
+        for d in &drives {
             let bus = buses.iter().find(|b| b.name == d.bus);
-            let rate_loc = raw_buses[d.bus_index]
-                .baud
-                .as_ref()
-                .map(|x| x.1.clone())
-                .or_else(|| raw_buses[d.bus_index].port.as_ref().map(|x| x.1.clone()))
-                .map(|span| self.loc(&span));
-            for (key, set_loc) in codes {
-                if let Some(f) =
-                    bus_code_finding(d, *key, set_loc, addr_loc, bus, rate_loc.as_ref())
-                {
+            for (key, set_loc) in &d.set_bus_codes {
+                if let Some(f) = bus_code_finding(
+                    d,
+                    *key,
+                    set_loc,
+                    &d.address_location,
+                    bus,
+                    bus.and_then(|b| b.rate_location.as_ref()),
+                ) {
                     self.findings.push(f);
                 }
             }
         }
         let mut findings = std::mem::take(&mut self.findings);
         findings.extend(set_findings);
-        let manifest = findings.is_empty().then(|| Manifest {
-            path: path.to_path_buf(),
-            name: name.unwrap_or_else(|| {
-                path.file_stem()
-                    .map_or_else(|| "line".into(), |s| s.to_string_lossy().into_owned())
-            }),
-            label,
-            report_dir,
-            journal_dir,
-            buses,
-            drives,
-        });
+        let manifest = findings
+            .iter()
+            .all(ManifestFinding::is_per_drive)
+            .then(|| Manifest {
+                path: path.to_path_buf(),
+                name: name.unwrap_or_else(|| {
+                    path.file_stem()
+                        .map_or_else(|| "line".into(), |s| s.to_string_lossy().into_owned())
+                }),
+                label,
+                report_dir,
+                journal_dir,
+                buses,
+                drives,
+            });
         LoadedManifest {
             manifest,
             findings,
