@@ -278,7 +278,7 @@ impl fmt::Display for AssignRefusal {
             ),
             AssignRefusal::LecomReadOnly { c0001 } => write!(
                 f,
-                "C0001 = {c0001}: LECOM may read but not write (lecom-ab-tmd-manual.txt §4e, §4f); nothing was written. {}",
+                "C0001 = {c0001}: LECOM may read but not write (lecom-ab-tmd-manual.txt §4e, §4f); nothing was written; {}",
                 crate::error::LECOM_PROGRAMMING_ADVICE
             ),
             AssignRefusal::SchemaLacks { schema, code } => write!(
@@ -582,11 +582,12 @@ pub fn rate_raw(schema: &Schema, key: CodeKey, baud: u32) -> Option<RawValue> {
     let code = schema.code(key.number)?;
     if let Some(src) = &code.values {
         let e = schema.enum_of(src)?;
-        return e
+        let label = e
             .entries
             .iter()
             .find(|(_, label, _)| label_rate(label) == Some(baud))
-            .map(|(v, _, _)| RawValue::Int(*v));
+            .map(|(_, l, _)| l.clone())?;
+        return schema.enum_value(code, &label).map(RawValue::Int);
     }
     Some(RawValue::Int(i64::from(baud)))
 }
@@ -597,9 +598,8 @@ pub fn rate_of_raw(schema: &Schema, key: CodeKey, raw: &RawValue) -> Option<u32>
     let RawValue::Int(v) = raw else {
         return None;
     };
-    if let Some(src) = &code.values {
-        let label = schema.enum_of(src)?.label(*v)?;
-        return label_rate(label);
+    if code.values.is_some() {
+        return label_rate(schema.enum_label(code, *v)?);
     }
     u32::try_from(*v).ok()
 }
