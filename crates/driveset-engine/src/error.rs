@@ -686,6 +686,18 @@ pub enum Refusal {
         /// The reason and the remedy.
         detail: String,
     },
+    /// `driveset address` refused before writing ([`crate::assign`]).
+    Assign {
+        /// Which rule and what to do.
+        #[serde(flatten)]
+        refusal: crate::assign::AssignRefusal,
+    },
+}
+
+impl From<crate::assign::AssignRefusal> for Refusal {
+    fn from(refusal: crate::assign::AssignRefusal) -> Self {
+        Refusal::Assign { refusal }
+    }
 }
 
 impl fmt::Display for Refusal {
@@ -880,6 +892,7 @@ impl fmt::Display for Refusal {
             ),
             Refusal::DoctorCanPort => f.write_str("CAN ports are checked by run_can"),
             Refusal::TransferRate { detail } => f.write_str(detail),
+            Refusal::Assign { refusal } => write!(f, "{refusal}"),
         }
     }
 }
@@ -1127,6 +1140,12 @@ impl fmt::Display for DeviceCause {
     }
 }
 
+/// The advice for a LECOM write the drive refuses for want of access
+/// (C0068 cause 6: C0001 not 2 or 3, a password, a running drive;
+/// `lecom-ab-tmd-manual.txt` §4e): the upload's refused write and
+/// `driveset address`'s C0001 check give the same.
+pub const LECOM_PROGRAMMING_ADVICE: &str = "the code cannot be written now: inhibit the controller (many codes are writable only at standstill), check the user password C0094, or set C0001 to 2 or 3 at the keypad so LECOM may program the drive (§4e)";
+
 /// What to do about a communication error (C0068 bits 4..7).
 fn lecom_remedy(e: CommunicationError) -> &'static str {
     match e {
@@ -1144,9 +1163,7 @@ fn lecom_remedy(e: CommunicationError) -> &'static str {
         CommunicationError::InvalidVariable => {
             "the value is not allowed; choose a value inside the code's range"
         }
-        CommunicationError::NoAccessPermission => {
-            "the code cannot be written now: inhibit the controller (many codes are writable only at standstill), check the user password C0094, or set C0001 to 2 or 3 at the keypad so LECOM may program the drive (§4e)"
-        }
+        CommunicationError::NoAccessPermission => LECOM_PROGRAMMING_ADVICE,
         CommunicationError::GeneralFault => "repeat; if it persists, check the drive",
         CommunicationError::Reserved | CommunicationError::Undocumented(_) => {
             "undocumented communication error; check the drive"

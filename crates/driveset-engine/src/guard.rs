@@ -51,6 +51,8 @@ enum Kind {
     ActivateRate,
     RateSwitch,
     TextSelector,
+    BusAddress,
+    LineRate,
 }
 
 impl Permit {
@@ -70,6 +72,14 @@ impl Permit {
     /// MC6000/7000 108-STEXT, the RAM selector of substitution texts
     /// (§11.3, schema pull).
     pub(crate) const TEXT_SELECTOR: Permit = Permit(Kind::TextSelector);
+    /// `driveset address`: the family's bus-address code (its floor role
+    /// `bus-address`: LUSTBUS 82-SIOA/SADDR §4.2, Tmd C0009 §4c) to a
+    /// drive's own address ([`driveset_schema::BusProtocol::check_address`]).
+    pub(crate) const BUS_ADDRESS: Permit = Permit(Kind::BusAddress);
+    /// `driveset address --baud`: the family's rate code (81-SIOC/SBAUD
+    /// §4, §11.5; Tmd C0125) to a value that codes one of the family's
+    /// rates.
+    pub(crate) const LINE_RATE: Permit = Permit(Kind::LineRate);
 
     /// The permit's name in messages.
     pub fn name(self) -> &'static str {
@@ -80,6 +90,8 @@ impl Permit {
             Kind::ActivateRate => "activate-rate (4-PROG = 111)",
             Kind::RateSwitch => "rate-switch",
             Kind::TextSelector => "text-selector (108-STEXT)",
+            Kind::BusAddress => "bus-address",
+            Kind::LineRate => "line-rate",
         }
     }
 }
@@ -135,6 +147,17 @@ pub(crate) fn check(
                 && int.is_some_and(|v| {
                     u32::try_from(v).is_ok_and(|r| d.line_rates.rates.contains(&r))
                 }),
+        ),
+        Kind::BusAddress => Some(
+            crate::assign::address_code(schema.family) == Some(key)
+                && crate::assign::address_of_raw(schema, key, raw)
+                    .is_some_and(|a| schema.family.bus().check_address(a).is_ok()),
+        ),
+        Kind::LineRate => Some(
+            d.line_rates.code == Some(key.number)
+                && key.subcode.is_none()
+                && crate::assign::rate_of_raw(schema, key, raw)
+                    .is_some_and(|r| d.line_rates.rates.contains(&r)),
         ),
         Kind::TextSelector => Some(
             schema.family == Family::Mc6000

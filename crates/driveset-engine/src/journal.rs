@@ -561,6 +561,11 @@ pub struct Journal {
     /// says `back`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transfer: Option<TransferRecord>,
+    /// An address change (`driveset address`, [`crate::assign`]): the
+    /// drive may answer at its old or its new address, at the old or the
+    /// new rate, until the change is complete.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub assign: Option<crate::assign::AssignRecord>,
 }
 
 /// Where a transfer-rate switch stands ([`TransferRecord::state`]).

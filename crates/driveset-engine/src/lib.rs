@@ -14,6 +14,7 @@
 //! progress bars). The one file IO the engine does itself is the journal
 //! ([`journal`]), its durable store.
 
+pub mod assign;
 pub mod capture;
 pub mod client;
 pub mod connect;

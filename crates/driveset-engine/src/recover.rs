@@ -134,6 +134,12 @@ pub fn recover(
     if jf.journal.is_finished() {
         return Ok(report);
     }
+    if crate::assign::is_assign_journal(&jf.journal) {
+        return Err(crate::assign::not_for_upload_recover(
+            client.target().clone(),
+            journal_path,
+        ));
+    }
     let schema = client.schema().clone();
     let target = client.target().clone();
     let refuse = |mismatch: Mismatch, detail: String| {

@@ -486,6 +486,7 @@ fn placeholder(
         holding: Vec::new(),
         broadcast: Vec::new(),
         transfer: Some(record),
+        assign: None,
     }
 }
 

@@ -973,6 +973,7 @@ impl Transaction {
                     failure_cause: None,
                     holding: Vec::new(),
                     transfer: self.opts.transfer.clone(),
+                    assign: None,
                 };
                 journal.transition(TxnState::Planned, at, None);
                 crate::journal::ensure_dir(journal_dir(&self.opts.journal))

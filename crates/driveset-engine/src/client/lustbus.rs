@@ -1371,6 +1371,68 @@ pub(crate) fn probe_type<L: ByteLink>(
     probe_code(line, address, code, timeout, tries)
 }
 
+/// What one read-only ENQUIRY probe heard (`driveset address`'s lone
+/// device check, [`crate::assign`]): unlike [`probe_code`] it tells
+/// garbage (several devices answering at once, §4.2) from silence.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Heard {
+    /// A value reply (`None`: not a hex number).
+    Value(Option<i64>),
+    /// A NAK (or ACK) reply.
+    Nak,
+    /// Something arrived that does not decode.
+    Garbled(String),
+    /// Nothing.
+    Nothing,
+}
+
+/// An ENQUIRY of `code` at `address`, up to `tries` times: the first
+/// reply that decodes, else whether garbage arrived.
+pub(crate) fn probe_heard<L: ByteLink>(
+    line: &mut LustLine<L>,
+    address: Address,
+    code: ParameterCode,
+    timeout: Duration,
+    tries: u32,
+) -> Result<Heard, LinkError> {
+    let bytes = Enquiry::new(address, code).encode();
+    let mut garbled = None;
+    for attempt in 0..tries.max(1) {
+        if attempt > 0 {
+            line.stats.retries += 1;
+        }
+        match line.exchange(&bytes, address, Some(code), timeout, Duration::ZERO)? {
+            Outcome::Reply(Reply::Value(v)) => {
+                return Ok(Heard::Value(parse_hex(v.value.as_bytes())));
+            }
+            Outcome::Reply(_) => return Ok(Heard::Nak),
+            Outcome::Garbled(g) => garbled = Some(g),
+            Outcome::NoAnswer => {}
+        }
+    }
+    Ok(garbled.map_or(Heard::Nothing, Heard::Garbled))
+}
+
+/// The CODE a code of `schema` goes out with (for a dry run's listing):
+/// the numerically compatible parameters `000xx` (§5.2), else the family's
+/// form.
+pub(crate) fn wire_code_text(schema: &Schema, key: CodeKey) -> String {
+    let compatible = schema.code(key.number).and_then(|c| c.compatible) == Some(true)
+        || COMPATIBLE.contains(&key.number);
+    let code = if compatible && key.number < 100 {
+        ParameterCode::new(key.number)
+    } else if schema.family == Family::Mc6000 {
+        u16::try_from(key.number)
+            .ok()
+            .and_then(ParameterCode::mc_value)
+    } else {
+        u8::try_from(key.number)
+            .ok()
+            .and_then(|p| ParameterCode::vf_value(LustbusOptions::default().vf_device, p))
+    };
+    code.map_or_else(|| key.number.to_string(), |c| c.to_string())
+}
+
 /// An ENQUIRY of `code` at `address` (a read-only probe): `Ok(None)` when
 /// nothing answers, `Ok(Some(None))` for a NAK, `Ok(Some(Some(value)))`.
 pub(crate) fn probe_code<L: ByteLink>(

@@ -3,6 +3,7 @@
 //! by the benches), `txn_support` (the in-memory fake drive) and `util`
 //! hold the shared helpers. Unit tests live beside the code in `src/`.
 
+mod assign_cut;
 mod campaign;
 mod client_lecom;
 mod client_lustbus;
