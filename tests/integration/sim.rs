@@ -522,3 +522,87 @@ fn pty_tmd_log_is_0600_and_masks_a_password_across_chunks() {
         .collect();
     assert_eq!(drive, ["<ACK>", "<STX>94***<ETX>*"]);
 }
+
+/// `--factory 2`: two factory-fresh MC6000 at the factory address 1 (docs/ports.md);
+/// an ENQUIRY to 1 gets their colliding answers, never the valid one; the
+/// dump names each drive's slot.
+#[test]
+fn tcp_two_factory_mc6000_answer_address_1_with_garbage_and_dump_their_slots() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bus.jsonl");
+    let dump = dir.path().join("dump.json");
+    let mut sim = Sim::start(&[
+        "--family",
+        "mc6000",
+        "--factory",
+        "2",
+        "--tcp",
+        "127.0.0.1:0",
+        "--log",
+        log.to_str().unwrap(),
+        "--dump",
+        dump.to_str().unwrap(),
+    ]);
+    let addr = sim.first_line.strip_prefix("tcp ").unwrap().to_string();
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+    s.write_all(&[EOT, b'A', b'0', b'0', b'0', b'8', b'5', ENQ])
+        .unwrap();
+    let reply = read_n(&mut s, 64, Duration::from_secs(1));
+    assert!(!reply.is_empty());
+    assert_ne!(reply, b"A\x0200085=01\x03\x02");
+    drop(s);
+    let (status, stderr) = sim.terminate(Duration::from_secs(5));
+    assert_eq!(status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(
+            "serving 2 simulated mc6000 drives (addresses 1, 1, 2 of them factory-fresh)"
+        ),
+        "{stderr}"
+    );
+    let d = read_json(&dump);
+    assert_eq!(d["drives"][0]["slot"], "mc6000#1");
+    assert_eq!(d["drives"][1]["slot"], "mc6000#2");
+    assert_eq!(d["drives"][1]["address"], 1);
+    let lines = log_lines(&log);
+    assert!(lines.iter().any(|l| l["fault"] == "collision"), "{lines:?}");
+}
+
+#[test]
+fn factory_and_bench_arguments_are_checked() {
+    for (args, message) in [
+        (
+            &["--family", "ecs", "--factory", "1"][..],
+            "factory-fresh drives are modelled on LUSTBUS (mc6000, vf1000) and LECOM (tmd) only",
+        ),
+        (
+            &["--family", "mc6000", "--address", "1", "--bench"],
+            "--factory",
+        ),
+        (
+            &[
+                "--family",
+                "lustbus",
+                "--address",
+                "1",
+                "--factory",
+                "mc6000*2",
+            ],
+            "--family lustbus (a mixed LUSTBUS) takes its drives from --factory",
+        ),
+        (
+            &["--family", "lustbus", "--factory", "3"],
+            "--factory 3: `3`: on sim://lustbus every item names its family",
+        ),
+        (
+            &["--family", "tmd", "--factory", "vf1000*1"],
+            "sim://tmd holds tmd drives only",
+        ),
+    ] {
+        let out = driveset().arg("sim").args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(message), "{args:?}: {stderr}");
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+}

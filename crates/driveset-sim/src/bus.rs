@@ -28,11 +28,15 @@
 //!   [`driveset_link::mem`]: a host that talks over a reply does not
 //!   corrupt it.
 //! - Collisions: when characters of two drives' replies overlap in time
-//!   (address 0 / group telegrams with several drives on the line), the
-//!   host receives one character for each overlapping pair, at the time of
-//!   the character already on the line, holding the bitwise AND of both
-//!   (a low bit wins, as the start bit does); the later character is
-//!   swallowed. The result is garbage, deliberately.
+//!   (address 0 / group telegrams with several drives on the line, drives
+//!   sharing an address such as factory-fresh ones, `crate::factory`), the
+//!   line carries the AND of both (a low bit wins, as the start bit does)
+//!   and the host samples each data bit in the middle of its bit time of
+//!   the character already on the line: aligned characters give the
+//!   bitwise AND of both, characters shifted by a bit or more the bits of
+//!   the shifted one where they fall. The later character is swallowed
+//!   into every character it overlaps. The result is garbage,
+//!   deliberately.
 //! - Baud: each drive keeps its own rate (changed through
 //!   [`ByteDrive::take_baud_change`], effective once the reply that
 //!   announced it has left the line). A drive whose rate differs from the
@@ -138,6 +142,37 @@ struct Flight {
     char_time: Duration,
 }
 
+/// The level a 7E1 character `c` puts on the line at `t` (true = idle /
+/// mark): start bit low, 7 data bits LSB first, even parity, stop bit high.
+fn level(c: &Flight, t: Instant) -> bool {
+    let start = c.at - c.char_time;
+    let bit = (c.char_time.as_nanos() / 10).max(1);
+    if t < start || t >= c.at {
+        return true;
+    }
+    match (t - start).as_nanos() / bit {
+        0 => false,
+        k @ 1..=7 => (c.byte >> (k - 1)) & 1 == 1,
+        8 => c.byte.count_ones() % 2 == 1,
+        _ => true,
+    }
+}
+
+/// What the host reads in the window of `e` when `f` overlaps it: each
+/// data bit sampled mid-bit from the AND of both characters' levels.
+fn sampled(e: &Flight, f: &Flight) -> u8 {
+    let start = e.at - e.char_time;
+    let bit = e.char_time / 10;
+    (0..7u32).fold(0u8, |byte, i| {
+        let t = start + bit * (i + 1) + bit / 2;
+        if level(e, t) && level(f, t) {
+            byte | (1 << i)
+        } else {
+            byte
+        }
+    })
+}
+
 /// The clock-free core of a simulated character line: drives, reply
 /// scheduling, faults, log. Every method takes the instants it works at;
 /// [`SimByteBus`] feeds it virtual time, `crate::serve` real time.
@@ -176,6 +211,19 @@ impl ByteLine {
                     second: a.family(),
                 });
             }
+        }
+        ByteLine::sharing_addresses(baud, drives)
+    }
+
+    /// A line as [`ByteLine::new`] on which drives may share an address
+    /// (factory-fresh drives, `crate::factory`): a telegram to it is
+    /// answered by all of them at once, and their replies collide.
+    pub fn sharing_addresses(baud: u32, drives: Vec<Box<dyn ByteDrive>>) -> Result<Self, BusError> {
+        if !ALLOWED_BAUDS.contains(&baud) {
+            return Err(BusError::UnsupportedBaud {
+                baud,
+                allowed: list(ALLOWED_BAUDS),
+            });
         }
         let slots = drives
             .iter()
@@ -245,6 +293,15 @@ impl ByteLine {
     pub fn drive_baud(&self, address: u8) -> Option<u32> {
         let i = self.index_of(address)?;
         self.slots.get(i).map(|s| s.baud)
+    }
+
+    /// Run drive number `index` (in the order given) at `baud` from the
+    /// start (a factory-fresh drive at 9600 on a line the host opens at
+    /// another rate).
+    pub fn set_drive_baud(&mut self, index: usize, baud: u32) {
+        if let Some(slot) = self.slots.get_mut(index) {
+            slot.baud = baud;
+        }
     }
 
     /// Switch the host side to a new rate (the host reopened its port).
@@ -629,12 +686,16 @@ impl ByteLine {
     fn insert_flight(&mut self, f: Flight) -> bool {
         if let Some(src) = f.from {
             let begin = f.at - f.char_time;
+            let mut merged = false;
             for e in self.in_flight.iter_mut() {
                 let other = matches!(e.from, Some(o) if o != src);
                 if other && e.at - e.char_time < f.at && begin < e.at {
-                    e.byte &= f.byte;
-                    return true;
+                    e.byte = sampled(e, &f);
+                    merged = true;
                 }
+            }
+            if merged {
+                return true;
             }
         }
         let pos = self.in_flight.partition_point(|e| e.at <= f.at);

@@ -106,6 +106,23 @@ pub trait ByteDrive: Send + std::fmt::Debug {
         let _ = baud;
     }
 
+    /// Whether the drive's own address code (LUSTBUS 82-SIOA/SADDR, Tmd
+    /// C0009) was ever written over the bus and acknowledged: an engineer
+    /// gave it an address, perhaps the one it had. The service bench
+    /// (`crate::factory`) moves on to the next drive then.
+    fn address_assigned(&self) -> bool {
+        false
+    }
+
+    /// Mark the address as given (a state file's `assigned`).
+    fn restore_address_assigned(&mut self) {}
+
+    /// The line rate the drive's rate code says (LUSTBUS 81-SIOC/SBAUD,
+    /// Tmd C0125), the rate it boots at; `None` when it has none.
+    fn coded_rate(&self) -> Option<u32> {
+        None
+    }
+
     /// Refuse every read of `key` from now on with `answer` (a twin's
     /// `[refused]`, the `refuse=` option of a `sim://` port). `Err` when
     /// the drive has no such code or its protocol cannot answer so.

@@ -11,7 +11,8 @@
 //!   [`tmd`], [`ecs`].
 //! - Buses: [`bus`] (a 7E1 line, `ByteLink`) and [`can_bus`] (`FrameLink`)
 //!   in virtual time, with [`faults`] and the [`log`]; [`open`] turns a
-//!   `sim://` port into one.
+//!   `sim://` port into one; [`factory`]: factory-fresh drives and the
+//!   service bench.
 //! - Real time: [`serve`] (pty / TCP), [`slcan_serve`] (an slcan adapter on
 //!   a pty), [`slcan_hub`] (two slcan hosts joined through two adapters).
 //! - [`twin`]: twins, files that answer as one captured drive did, served
@@ -30,6 +31,7 @@ pub mod catalog;
 pub mod describe;
 pub mod drive;
 pub mod ecs;
+pub mod factory;
 pub mod faults;
 pub mod log;
 pub mod lustbus_drive;

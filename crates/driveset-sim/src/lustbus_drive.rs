@@ -188,6 +188,9 @@ pub(crate) struct LustCore {
     /// ([`ByteDrive::refuse_read`]): NAK, with the SIOF/SERR bits latched
     /// when given.
     pub refused_reads: BTreeMap<u32, Option<Siof>>,
+    /// 82-SIOA/SADDR was written and acknowledged
+    /// ([`ByteDrive::address_assigned`]).
+    pub address_assigned: bool,
 }
 
 impl LustCore {
@@ -245,6 +248,7 @@ impl LustCore {
             type_chars: opts.type_chars.clone(),
             describe: opts.describe.clone(),
             refused_reads: BTreeMap::new(),
+            address_assigned: false,
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);
@@ -787,6 +791,11 @@ pub(crate) fn hear<M: LustModel>(m: &mut M, now: Instant, byte: u8, parity_ok: b
                     } else {
                         m.select(now, s.code, &s.value)
                     };
+                    if s.code.number() == ADDRESS
+                        && matches!(a, Answer::Ack { .. } | Answer::AckThenReboot { .. })
+                    {
+                        m.core().address_assigned = true;
+                    }
                     finish(m, now, s.address, s.code, a)
                 };
                 Heard::Telegram { reply }
@@ -964,6 +973,20 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
             return None;
         }
         core.active_baud.and_then(|b| u32::try_from(b).ok())
+    }
+
+    fn address_assigned(&self) -> bool {
+        self.core_ref().address_assigned
+    }
+
+    fn restore_address_assigned(&mut self) {
+        self.core().address_assigned = true;
+    }
+
+    fn coded_rate(&self) -> Option<u32> {
+        self.core_ref()
+            .int(BAUD)
+            .and_then(|b| u32::try_from(b).ok())
     }
 
     fn restore_rate(&mut self, baud: u32) {

@@ -101,6 +101,7 @@ use crate::can_bus::{FrameLine, SimCanBus};
 use crate::catalog::Family;
 use crate::drive::{ByteDrive, FrameDrive, ReadRefusal};
 use crate::ecs::EcsDrive;
+use crate::factory::{BenchView, DriveSlot, FACTORY_BAUD, bench_pick, factory_address};
 use crate::faults::{FaultParseError, FaultPlan};
 use crate::log::EventLog;
 use crate::lustbus_drive::LustOptions;
@@ -212,6 +213,10 @@ pub enum SimOpenError {
     /// A twin file or directory that cannot be served ([`crate::twin`]).
     #[error("{0}")]
     Twin(String),
+    /// Factory-fresh drives the bus cannot hold, or a bench without them
+    /// ([`crate::factory`]).
+    #[error("{0}")]
+    Factory(String),
     /// The state file could not be read or written.
     #[error("simulator state file {}: cannot {op}: {source}", path.display())]
     StateIo {
@@ -324,6 +329,17 @@ pub struct SimConfig {
     pub twins: Vec<crate::twin::Twin>,
     /// Codes every drive refuses to read (`refuse=`, module docs).
     pub refuse: Vec<CodeKey>,
+    /// Factory-fresh drives (`factory=`, [`crate::factory`]), in port
+    /// order after the drives of `addresses`: each at its family's factory
+    /// address and rate, with its whole factory table.
+    pub factory: Vec<Family>,
+    /// The service bench (`bench=true`, [`crate::factory`]): at each open
+    /// the bus holds only the first factory drive still waiting for its
+    /// address; once none waits, every drive.
+    pub bench: bool,
+    /// A mixed LUSTBUS (`sim://lustbus`) even when `drive_families` is
+    /// empty (a bus of factory drives only).
+    pub mixed_bus: bool,
 }
 
 impl SimConfig {
@@ -346,6 +362,9 @@ impl SimConfig {
             describe: BTreeMap::new(),
             twins: Vec::new(),
             refuse: Vec::new(),
+            factory: Vec::new(),
+            bench: false,
+            mixed_bus: false,
         }
     }
 
@@ -385,12 +404,13 @@ impl SimConfig {
         let family = drives.first().map_or(Family::Mc6000, |d| d.0);
         let mut config = SimConfig::new(family, drives.iter().map(|d| d.1).collect());
         config.drive_families = drives.iter().map(|d| d.0).collect();
+        config.mixed_bus = true;
         config
     }
 
     /// Whether this is a mixed LUSTBUS.
     pub fn is_mixed(&self) -> bool {
-        !self.drive_families.is_empty()
+        self.mixed_bus || !self.drive_families.is_empty()
     }
 
     /// The bus's name in state files and dumps: the family, or `lustbus`
@@ -403,13 +423,38 @@ impl SimConfig {
         }
     }
 
-    /// Every drive as (family, address), in bus order.
+    /// Every drive the port names by address as (family, address), in bus
+    /// order (the factory drives: [`SimConfig::all_drives`]).
     pub fn drives(&self) -> Vec<(Family, u8)> {
         self.addresses
             .iter()
             .enumerate()
             .map(|(i, &a)| (*self.drive_families.get(i).unwrap_or(&self.family), a))
             .collect()
+    }
+
+    /// Every drive of the port as (family, address it starts at, slot), in
+    /// port order: the drives of `addresses`, then the factory drives at
+    /// their factory address ([`crate::factory`]).
+    pub fn all_drives(&self) -> Vec<(Family, u8, DriveSlot)> {
+        let mut out: Vec<(Family, u8, DriveSlot)> = self
+            .drives()
+            .into_iter()
+            .map(|(family, address)| (family, address, DriveSlot::Port { family, address }))
+            .collect();
+        let mut counts: BTreeMap<&'static str, usize> = BTreeMap::new();
+        for &family in &self.factory {
+            let n = counts.entry(family.name()).or_insert(0);
+            *n += 1;
+            let address = factory_address(family).unwrap_or(1);
+            out.push((family, address, DriveSlot::Factory { family, n: *n }));
+        }
+        out
+    }
+
+    /// Every drive's slot, in port order ([`SimConfig::all_drives`]).
+    pub fn slots(&self) -> Vec<DriveSlot> {
+        self.all_drives().into_iter().map(|d| d.2).collect()
     }
 
     /// The simulated bus's identity ([`driveset_link::bus_id`]): `sim:` and
@@ -442,6 +487,16 @@ impl SimConfig {
         } else {
             SimConfig::new(parse_family(&spec.family)?, spec.addresses.clone())
         };
+        for name in &spec.factory {
+            config.factory.push(parse_family(name)?);
+        }
+        if config.addresses.is_empty()
+            && config.is_mixed()
+            && let Some(&f) = config.factory.first()
+        {
+            config.family = f;
+        }
+        config.bench = spec.bench;
         config.baud = spec.baud.unwrap_or(DEFAULT_BAUD);
         config.bitrate = spec.bitrate.unwrap_or(DEFAULT_BITRATE);
         for (key, value) in &spec.options {
@@ -504,8 +559,28 @@ impl SimConfig {
 
     /// Check addresses (per family, no duplicates) and the rate.
     pub fn check(&self) -> Result<(), SimOpenError> {
-        if self.addresses.is_empty() {
+        if self.addresses.is_empty() && self.factory.is_empty() {
             return Err(SimOpenError::NoAddresses);
+        }
+        for &f in &self.factory {
+            if factory_address(f).is_none() {
+                return Err(SimOpenError::Factory(crate::factory::ECS_REFUSAL.into()));
+            }
+            if self.is_mixed() && !matches!(f, Family::Mc6000 | Family::Vf1000) {
+                return Err(SimOpenError::NotLustbus { family: f.name() });
+            }
+            if !self.is_mixed() && f != self.family {
+                return Err(SimOpenError::Factory(format!(
+                    "a factory-fresh {} drive cannot be on a sim://{} bus; put both families on sim://lustbus?factory=...",
+                    f.name(),
+                    self.family.name()
+                )));
+            }
+        }
+        if self.bench && self.factory.is_empty() {
+            return Err(SimOpenError::Factory(
+                "bench=true: the service bench connects factory-fresh drives one at a time; give them with factory=, e.g. sim://mc6000?factory=3&bench=true".into(),
+            ));
         }
         if self.is_mixed() && self.drive_families.len() != self.addresses.len() {
             return Err(SimOpenError::FamilyCount {
@@ -550,9 +625,15 @@ impl SimConfig {
     pub fn byte_drives(&self) -> Result<Vec<Box<dyn ByteDrive>>, SimOpenError> {
         self.check()?;
         let mut drives: Vec<Box<dyn ByteDrive>> = Vec::new();
-        for (family, address) in self.drives() {
-            let seed = self.drive_seed(address);
-            let twin = self.twin_at(address);
+        let mut factory_seen = 0usize;
+        for (i, (family, address, slot)) in self.all_drives().into_iter().enumerate() {
+            // Factory drives share an address: each draws from its place.
+            let (seed, twin) = if slot.is_factory() {
+                let seed = SimRng::derive(self.seed, 0x46_0000 + i as u64).next_u64();
+                (seed, None)
+            } else {
+                (self.drive_seed(address), self.twin_at(address))
+            };
             let mut lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
             lust.description_layout = twin
                 .and_then(|t| t.layout)
@@ -568,6 +649,13 @@ impl SimConfig {
                 ..TmdOptions::at(address)
             };
             if let Some(r) = twin.and_then(|t| t.reaction_time()) {
+                tmd.reaction = r;
+            }
+            if slot.is_factory() {
+                let k = factory_seen;
+                factory_seen += 1;
+                let r = crate::factory::factory_reaction(family, self.keypad, k);
+                lust.reaction = Some(r);
                 tmd.reaction = r;
             }
             let built: Result<Box<dyn ByteDrive>, String> = match family {
@@ -641,26 +729,166 @@ impl SimConfig {
 
     /// The character line of a LUSTBUS / LECOM family with its drives
     /// (state loaded from [`SimConfig::state`] if the file exists), faults
-    /// and `log`: the core `driveset sim` serves in real time.
+    /// and `log`: the core `driveset sim` serves in real time. Which
+    /// drives it holds: [`SimConfig::byte_line_drives`].
     pub fn byte_line(&self, log: EventLog) -> Result<ByteLine, SimOpenError> {
+        self.byte_line_drives(log).map(|(line, _)| line)
+    }
+
+    /// [`SimConfig::byte_line`] and which of the port's drives it holds
+    /// ([`LineDrives`]: with `bench=true` only the drive on the bench, the
+    /// others kept aside with their state). A factory drive runs at the
+    /// rate its rate code says (9600 from the factory), whatever rate the
+    /// host opens the line at.
+    pub fn byte_line_drives(&self, log: EventLog) -> Result<(ByteLine, LineDrives), SimOpenError> {
         let mut drives = self.byte_drives()?;
+        let order = self.slots();
         if let Some(path) = &self.state {
-            load_state_into(path, self.bus_name(), &mut drives)?;
+            load_state_into(path, self.bus_name(), &mut drives, &order)?;
         }
-        Ok(ByteLine::new(self.baud, drives)?
+        let pick = if self.bench {
+            let views: Vec<BenchView> = drives
+                .iter()
+                .zip(&order)
+                .map(|(d, slot)| BenchView {
+                    factory: slot.is_factory(),
+                    address: d.address(),
+                    factory_address: factory_address(slot.family()),
+                    assigned: d.address_assigned(),
+                })
+                .collect();
+            bench_pick(&views)
+        } else {
+            None
+        };
+        let mut on_line = Vec::new();
+        let mut slots = Vec::new();
+        let mut detached = Vec::new();
+        for (i, (d, slot)) in drives.into_iter().zip(order.iter().cloned()).enumerate() {
+            if pick.is_none_or(|p| p == i) {
+                on_line.push(d);
+                slots.push(slot);
+            } else {
+                detached.push(entry_of(&d, Some(&slot)));
+            }
+        }
+        let mut line = ByteLine::sharing_addresses(self.baud, on_line)?
             .with_faults(self.faults.clone(), self.seed)
-            .with_log(log))
+            .with_log(log);
+        for (j, slot) in slots.iter().enumerate() {
+            let drive = &line.drives()[j];
+            if slot.is_factory() && drive.active_rate().is_none() {
+                let rate = drive.coded_rate().unwrap_or(FACTORY_BAUD);
+                if ALLOWED_BAUDS.contains(&rate) {
+                    line.set_drive_baud(j, rate);
+                }
+            }
+        }
+        Ok((
+            line,
+            LineDrives {
+                slots,
+                detached,
+                order,
+            },
+        ))
     }
 
     /// The CAN bus of a CAN family, as [`SimConfig::byte_line`].
     pub fn frame_line(&self, log: EventLog) -> Result<FrameLine, SimOpenError> {
+        self.frame_line_drives(log).map(|(line, _)| line)
+    }
+
+    /// [`SimConfig::frame_line`] and its drives' slots (no bench on CAN).
+    pub fn frame_line_drives(
+        &self,
+        log: EventLog,
+    ) -> Result<(FrameLine, LineDrives), SimOpenError> {
         let mut drives = self.frame_drives()?;
+        let order = self.slots();
         if let Some(path) = &self.state {
-            load_state_into(path, self.bus_name(), &mut drives)?;
+            load_state_into(path, self.bus_name(), &mut drives, &order)?;
         }
-        Ok(FrameLine::new(self.bitrate, drives)?
+        let line = FrameLine::new(self.bitrate, drives)?
             .with_faults(self.faults.clone(), self.seed)
-            .with_log(log))
+            .with_log(log);
+        Ok((
+            line,
+            LineDrives {
+                slots: order.clone(),
+                detached: Vec::new(),
+                order,
+            },
+        ))
+    }
+}
+
+/// Which of a port's drives a line holds, by slot ([`DriveSlot`]), and the
+/// state of those it does not (the service bench, [`crate::factory`]):
+/// what a state dump of the line is made of.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LineDrives {
+    /// The slot of each drive on the line, in line order.
+    pub slots: Vec<DriveSlot>,
+    /// The drives off the line, with their state (`slot` set).
+    pub detached: Vec<DriveDump>,
+    /// Every slot of the port, in port order (the order of a dump).
+    pub order: Vec<DriveSlot>,
+}
+
+impl LineDrives {
+    fn dump<D: StateDrive>(&self, bus: &str, drives: &[D]) -> StateDump {
+        let mut entries: Vec<DriveDump> = drives
+            .iter()
+            .enumerate()
+            .map(|(j, d)| entry_of(d, self.slots.get(j)))
+            .chain(self.detached.iter().cloned())
+            .collect();
+        let place = |e: &DriveDump| {
+            e.slot
+                .as_deref()
+                .and_then(|s| self.order.iter().position(|o| o.to_string() == s))
+                .unwrap_or(usize::MAX)
+        };
+        entries.sort_by_key(place);
+        StateDump {
+            format: STATE_FORMAT.into(),
+            family: bus.into(),
+            baud: None,
+            bitrate: None,
+            telegrams: None,
+            drives: entries,
+        }
+    }
+
+    /// The dump of `line` (named `bus`: a family or `lustbus`) and the
+    /// drives off it, with rate and telegram count: what `driveset sim`
+    /// writes to `--state` / `--dump`.
+    pub fn byte_line_dump(&self, bus: &str, line: &ByteLine) -> StateDump {
+        StateDump {
+            baud: Some(line.baud()),
+            telegrams: Some(line.telegrams()),
+            ..self.dump(bus, line.drives())
+        }
+    }
+
+    /// The dump of a CAN bus's nodes, as [`LineDrives::byte_line_dump`].
+    pub fn frame_line_dump(&self, bus: &str, line: &FrameLine) -> StateDump {
+        StateDump {
+            bitrate: Some(line.bitrate()),
+            telegrams: Some(line.telegrams()),
+            ..self.dump(bus, line.drives())
+        }
+    }
+}
+
+/// The dump entry of `d`, in `slot`.
+fn entry_of<D: StateDrive>(d: &D, slot: Option<&DriveSlot>) -> DriveDump {
+    DriveDump {
+        rate: d.dump_rate(),
+        slot: slot.map(DriveSlot::to_string),
+        assigned: d.dump_assigned(),
+        ..DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state())
     }
 }
 
@@ -724,6 +952,16 @@ pub struct DriveDump {
     /// the next command, as a powered drive does.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate: Option<u32>,
+    /// Its place in the port ([`DriveSlot`]: `mc6000@5`, `mc6000#2`): what
+    /// loading matches it by, so that it is found again after its own
+    /// address changed. Absent in dumps of older versions (matched by
+    /// family and address).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slot: Option<String>,
+    /// Its address code was written over the bus
+    /// ([`ByteDrive::address_assigned`]; the bench moves on).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub assigned: bool,
 }
 
 impl DriveDump {
@@ -737,6 +975,8 @@ impl DriveDump {
             // the drive's memory, secrets included (a state file is as private as the drive)
             canonical: state.canonical_with_secrets(),
             rate: None,
+            slot: None,
+            assigned: false,
         }
     }
 }
@@ -753,6 +993,10 @@ trait StateDrive {
     fn restore_rate(&mut self, baud: u32) {
         let _ = baud;
     }
+    fn dump_assigned(&self) -> bool {
+        false
+    }
+    fn restore_assigned(&mut self) {}
 }
 
 impl StateDrive for Box<dyn ByteDrive> {
@@ -773,6 +1017,12 @@ impl StateDrive for Box<dyn ByteDrive> {
     }
     fn restore_rate(&mut self, baud: u32) {
         ByteDrive::restore_rate(self.as_mut(), baud);
+    }
+    fn dump_assigned(&self) -> bool {
+        self.address_assigned()
+    }
+    fn restore_assigned(&mut self) {
+        self.restore_address_assigned();
     }
 }
 
@@ -798,13 +1048,7 @@ fn dump_of<D: StateDrive>(bus: &str, drives: &[D]) -> StateDump {
         baud: None,
         bitrate: None,
         telegrams: None,
-        drives: drives
-            .iter()
-            .map(|d| DriveDump {
-                rate: d.dump_rate(),
-                ..DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state())
-            })
-            .collect(),
+        drives: drives.iter().map(|d| entry_of(d, None)).collect(),
     }
 }
 
@@ -949,12 +1193,40 @@ fn load_state_into<D: StateDrive>(
     path: &Path,
     bus: &str,
     drives: &mut [D],
+    slots: &[DriveSlot],
 ) -> Result<(), SimOpenError> {
     if !path.exists() {
         return Ok(());
     }
     let dump = StateDump::read(path)?;
-    apply_dump(path, bus, &dump, drives)
+    apply_dump(path, bus, &dump, drives, slots)
+}
+
+/// The entry of `dump` for the drive in `slot` now at `address`: the
+/// entry of that slot; else (a dump of an older version, or of another
+/// port of the same bus) an unused entry of the same family at that
+/// address whose slot is none of this port's.
+fn entry_for<'a>(
+    dump: &'a StateDump,
+    slot: &DriveSlot,
+    address: u8,
+    slots: &[String],
+    used: &[usize],
+) -> Option<(usize, &'a DriveDump)> {
+    let own = slot.to_string();
+    let family = slot.family().name();
+    dump.drives
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.slot.as_deref() == Some(own.as_str()))
+        .or_else(|| {
+            dump.drives.iter().enumerate().find(|(i, e)| {
+                !used.contains(i)
+                    && e.address == address
+                    && bus_key(&e.family) == family
+                    && e.slot.as_ref().is_none_or(|s| !slots.contains(s))
+            })
+        })
 }
 
 /// A family or bus name as dumps compare it (`lust-mc6000` is `mc6000`).
@@ -967,6 +1239,7 @@ fn apply_dump<D: StateDrive>(
     bus: &str,
     dump: &StateDump,
     drives: &mut [D],
+    slots: &[DriveSlot],
 ) -> Result<(), SimOpenError> {
     let format_err = |reason: String| SimOpenError::StateFormat {
         path: path.into(),
@@ -978,16 +1251,24 @@ fn apply_dump<D: StateDrive>(
             dump.family
         )));
     }
-    for drive in drives.iter_mut() {
+    let slot_texts: Vec<String> = slots.iter().map(DriveSlot::to_string).collect();
+    let mut used: Vec<usize> = Vec::new();
+    for (i, drive) in drives.iter_mut().enumerate() {
         let address = drive.dump_address();
-        let family = bus_key(drive.dump_family());
-        let Some(entry) = dump
-            .drives
-            .iter()
-            .find(|e| e.address == address && bus_key(&e.family) == family)
-        else {
+        let found = match slots.get(i) {
+            Some(slot) => entry_for(dump, slot, address, &slot_texts, &used),
+            None => {
+                let family = bus_key(drive.dump_family());
+                dump.drives
+                    .iter()
+                    .enumerate()
+                    .find(|(_, e)| e.address == address && bus_key(&e.family) == family)
+            }
+        };
+        let Some((at, entry)) = found else {
             continue;
         };
+        used.push(at);
         let (schema, values) = parse_canonical(&entry.canonical)
             .map_err(|e| format_err(format!("drive {address}: {e}")))?;
         let current = drive.dump_state();
@@ -1009,6 +1290,9 @@ fn apply_dump<D: StateDrive>(
         }
         if let Some(rate) = entry.rate {
             drive.restore_rate(rate);
+        }
+        if entry.assigned {
+            drive.restore_assigned();
         }
         let now = drive.dump_state();
         if now.values != values {
@@ -1045,8 +1329,11 @@ pub enum SimBus {
 #[derive(Debug)]
 struct Shared {
     bus: Mutex<SimBus>,
-    /// The bus's drives as (family, address), in bus order.
-    drives: Vec<(Family, u8)>,
+    /// The bus's family ([`SimConfig::family`]).
+    family: Family,
+    /// Which of the port's drives are on the line, by slot, and the
+    /// state of those that are not.
+    line: LineDrives,
     /// A family name, or `lustbus` for a mixed LUSTBUS.
     name: &'static str,
     state: Option<PathBuf>,
@@ -1059,12 +1346,8 @@ impl Shared {
 
     fn dump(&self) -> StateDump {
         match &*self.lock() {
-            SimBus::Bytes(b) => named_byte_line_dump(self.name, b.line()),
-            SimBus::Frames(b) => StateDump {
-                bitrate: Some(b.line().bitrate()),
-                telegrams: Some(b.line().telegrams()),
-                ..dump_of(self.name, b.line().drives())
-            },
+            SimBus::Bytes(b) => self.line.byte_line_dump(self.name, b.line()),
+            SimBus::Frames(b) => self.line.frame_line_dump(self.name, b.line()),
         }
     }
 }
@@ -1114,23 +1397,32 @@ pub fn open_sim_with(
 ) -> Result<SimLink, SimOpenError> {
     config.check()?;
     let id = config.bus_id();
-    let bus = if is_can(config.family) {
-        SimBus::Frames(
-            SimCanBus::from_line(clock, config.frame_line(log)?)
-                .with_name(port)
-                .with_bus_id(id),
+    let (bus, line) = if is_can(config.family) {
+        let (frames, line) = config.frame_line_drives(log)?;
+        (
+            SimBus::Frames(
+                SimCanBus::from_line(clock, frames)
+                    .with_name(port)
+                    .with_bus_id(id),
+            ),
+            line,
         )
     } else {
-        SimBus::Bytes(
-            SimByteBus::from_line(clock, config.byte_line(log)?)
-                .with_name(port)
-                .with_bus_id(id),
+        let (bytes, line) = config.byte_line_drives(log)?;
+        (
+            SimBus::Bytes(
+                SimByteBus::from_line(clock, bytes)
+                    .with_name(port)
+                    .with_bus_id(id),
+            ),
+            line,
         )
     };
     Ok(SimLink {
         shared: Arc::new(Shared {
             bus: Mutex::new(bus),
-            drives: config.drives(),
+            family: config.family,
+            line,
             name: config.bus_name(),
             state: config.state.clone(),
         }),
@@ -1143,13 +1435,13 @@ impl SimLink {
     /// The family of the drives; on a mixed LUSTBUS the family of the
     /// first drive (see [`SimLink::families`], [`SimLink::family_of`]).
     pub fn family(&self) -> Family {
-        self.shared.drives.first().map_or(Family::Mc6000, |d| d.0)
+        self.shared.family
     }
 
     /// Every family on the bus, each once, in bus order.
     pub fn families(&self) -> Vec<Family> {
         let mut out = Vec::new();
-        for &(f, _) in &self.shared.drives {
+        for f in self.shared.line.slots.iter().map(DriveSlot::family) {
             if !out.contains(&f) {
                 out.push(f);
             }
@@ -1157,13 +1449,53 @@ impl SimLink {
         out
     }
 
-    /// The family of the drive at `address`.
+    /// The family of the drive at `address` now (its own address code,
+    /// which the host may have changed; the first such drive when several
+    /// share it).
     pub fn family_of(&self, address: u8) -> Option<Family> {
+        let j = self.index_of(address)?;
+        self.shared.line.slots.get(j).map(DriveSlot::family)
+    }
+
+    /// The line index of the first drive at `address` now.
+    fn index_of(&self, address: u8) -> Option<usize> {
+        self.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.drives().iter().position(|d| d.address() == address),
+            SimBus::Frames(b) => b.drives().iter().position(|d| d.node_id() == address),
+        })
+    }
+
+    /// The slots ([`DriveSlot`]) of the drives on the line, in line order
+    /// (as [`SimLink::addresses`]).
+    pub fn slots(&self) -> Vec<DriveSlot> {
+        self.shared.line.slots.clone()
+    }
+
+    /// The slots of the port's drives the line does not hold (the service
+    /// bench's waiting or finished drives, [`crate::factory`]); their
+    /// state is in [`SimLink::dump`].
+    pub fn detached(&self) -> Vec<DriveSlot> {
         self.shared
-            .drives
+            .line
+            .detached
             .iter()
-            .find(|d| d.1 == address)
-            .map(|d| d.0)
+            .filter_map(|d| d.slot.as_deref().and_then(DriveSlot::parse))
+            .collect()
+    }
+
+    /// The address the drive in `slot` has now, if it is on the line.
+    pub fn address_of(&self, slot: &DriveSlot) -> Option<u8> {
+        let j = self.shared.line.slots.iter().position(|s| s == slot)?;
+        self.addresses().get(j).copied()
+    }
+
+    /// The state of the drive in `slot`, if it is on the line.
+    pub fn state_of(&self, slot: &DriveSlot) -> Option<ResolvedSet> {
+        let j = self.shared.line.slots.iter().position(|s| s == slot)?;
+        self.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => b.drives().get(j).map(|d| d.state()),
+            SimBus::Frames(b) => b.drives().get(j).map(|d| d.state()),
+        })
     }
 
     /// Whether this is a mixed LUSTBUS (`sim://lustbus`).

@@ -13,6 +13,8 @@
 //! | `mc6000`, `mc7000`, `vf1000` | a mixed LUSTBUS's drives per family ([`MIXED_LUSTBUS`]) |
 //! | `baud` | the 7E1 line rate (one of `driveset_link::spec::ALLOWED_BAUDS`) |
 //! | `bitrate` | the CAN bit rate |
+//! | `factory` | factory-fresh drives: `3` (one-family bus), `mc6000*4,vf1000*3` ([`crate::factory`]; not on `sim://ecs`) |
+//! | `bench` | `true`: the service bench, one factory drive on the bus per open ([`crate::factory`]) |
 //! | `c0001`, `describe`, `faults`, `keypad`, `layout`, `seed`, `state`, `types` | [`OPTION_KEYS`], see [`crate::open`] |
 
 use std::collections::BTreeMap;
@@ -48,10 +50,12 @@ pub const TWIN_BUS: &str = "twin";
 pub const KEYS: &[&str] = &[
     "addresses",
     "baud",
+    "bench",
     "bitrate",
     "c0001",
     "describe",
     "dir",
+    "factory",
     "faults",
     "file",
     "keypad",
@@ -87,6 +91,11 @@ pub struct SimSpec {
     /// A mixed bus's drives: per family key ([`FAMILY_KEYS`]) the
     /// addresses, in the order given. Empty on a single-family bus.
     pub families: BTreeMap<String, Vec<u8>>,
+    /// Factory-fresh drives (`factory=`, [`crate::factory`]): one family
+    /// name per drive, in port order, after the drives named by address.
+    pub factory: Vec<String>,
+    /// The service bench (`bench=true`, [`crate::factory`]).
+    pub bench: bool,
     /// Line rate for serial families.
     pub baud: Option<u32>,
     /// Bit rate for CAN families.
@@ -123,9 +132,10 @@ impl SimSpec {
         self.family.eq_ignore_ascii_case(TWIN_BUS)
     }
 
-    /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`).
+    /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`, also
+    /// `sim://lustbus?factory=...`).
     pub fn is_mixed(&self) -> bool {
-        !self.families.is_empty()
+        !self.families.is_empty() || self.family.eq_ignore_ascii_case(MIXED_LUSTBUS)
     }
 
     /// Every simulated drive as (family as given, address): the per-family
@@ -147,6 +157,27 @@ impl SimSpec {
     /// Every simulated drive's address.
     pub fn all_addresses(&self) -> Vec<u8> {
         self.drives().into_iter().map(|(_, a)| a).collect()
+    }
+
+    /// Whether the port names any drive itself (by address or as a
+    /// factory drive): a command's `--address` then adds none.
+    pub fn names_drives(&self) -> bool {
+        !self.addresses.is_empty() || self.is_mixed() || !self.factory.is_empty()
+    }
+
+    /// The factory drives as (family as given, factory address), in port
+    /// order ([`crate::factory::factory_address`]).
+    pub fn factory_drives(&self) -> Vec<(&str, u8)> {
+        self.factory
+            .iter()
+            .map(|f| {
+                let a = parse_family(f)
+                    .ok()
+                    .and_then(crate::factory::factory_address)
+                    .unwrap_or(1);
+                (f.as_str(), a)
+            })
+            .collect()
     }
 
     /// The port as reports and journals name it: the canonical form, a
@@ -189,8 +220,8 @@ impl SimSpec {
 }
 
 /// Writes the canonical form: defaults not spelled out, options in a fixed
-/// order (`addresses` or the per-family keys alphabetically, `baud`,
-/// `bitrate`, then the rest alphabetically).
+/// order (`addresses` or the per-family keys alphabetically, `factory`,
+/// `bench`, `baud`, `bitrate`, then the rest alphabetically).
 impl fmt::Display for SimSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "sim://{}", self.family)?;
@@ -201,6 +232,16 @@ impl fmt::Display for SimSpec {
         }
         for (key, l) in &self.families {
             items.push((key.clone(), list(l)));
+        }
+        if !self.factory.is_empty() {
+            let mixed = self.family.eq_ignore_ascii_case(MIXED_LUSTBUS);
+            items.push((
+                "factory".into(),
+                crate::factory::factory_text(mixed, &self.factory),
+            ));
+        }
+        if self.bench {
+            items.push(("bench".into(), "true".into()));
         }
         if let Some(b) = self.baud {
             items.push(("baud".into(), b.to_string()));
@@ -288,6 +329,48 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
         }
     }
     let mixed = family.eq_ignore_ascii_case(MIXED_LUSTBUS);
+    let factory = match map.remove("factory") {
+        None => Vec::new(),
+        Some(value) => {
+            let bad = |reason: String| PortSpecErrorKind::BadValue {
+                key: "factory".into(),
+                value: value.clone(),
+                reason,
+            };
+            if twin {
+                return Err(bad(
+                    "a twin bus holds its twins only; put factory drives on sim://FAMILY?factory=N"
+                        .into(),
+                ));
+            }
+            if !mixed && parse_family(family).is_ok_and(|f| f == driveset_schema::Family::Ecs) {
+                return Err(bad(crate::factory::ECS_REFUSAL.into()));
+            }
+            crate::factory::parse_factory(family, mixed, &value, |n| parse_family(n).ok())
+                .map_err(bad)?
+        }
+    };
+    let bench = match map.remove("bench") {
+        None => false,
+        Some(value) => {
+            let bad = |reason: &str| PortSpecErrorKind::BadValue {
+                key: "bench".into(),
+                value: value.clone(),
+                reason: reason.into(),
+            };
+            let on = match value.as_str() {
+                "true" | "1" | "yes" => true,
+                "false" | "0" | "no" => false,
+                _ => return Err(bad("use true or false")),
+            };
+            if on && factory.is_empty() {
+                return Err(bad(
+                    "the service bench connects factory-fresh drives one at a time; give them with factory=, e.g. sim://mc6000?factory=3&bench=true",
+                ));
+            }
+            on
+        }
+    };
     let mut seen = Vec::new();
     let mut address_list = |list: &str| -> Result<Vec<u8>, PortSpecErrorKind> {
         let mut out = Vec::new();
@@ -315,10 +398,10 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
                 ),
             });
         }
-        if families.is_empty() {
+        if families.is_empty() && factory.is_empty() {
             return Err(PortSpecErrorKind::Missing {
                 scheme: "sim",
-                what: "the drives per family (mc6000=, mc7000=, vf1000=) on a mixed LUSTBUS",
+                what: "the drives per family (mc6000=, mc7000=, vf1000=, or factory=) on a mixed LUSTBUS",
                 example: "sim://lustbus?mc6000=1,2&vf1000=5",
             });
         }
@@ -364,6 +447,8 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
         family: family.into(),
         addresses,
         families: per_family,
+        factory,
+        bench,
         baud,
         bitrate,
         options: map,
@@ -452,6 +537,7 @@ impl PortOpener for SimOpener {
             drives: sim
                 .drives()
                 .into_iter()
+                .chain(sim.factory_drives())
                 .map(|(f, a)| (f.to_string(), a))
                 .collect(),
             mixed: sim.is_mixed(),
@@ -465,6 +551,10 @@ impl PortOpener for SimOpener {
             a.iter().map(u8::to_string).collect::<Vec<_>>().join(",")
         };
         let mut out = spec.clone();
+        if spec.query.contains_key("factory") {
+            // the port names its drives (factory-fresh ones): keep it
+            return out;
+        }
         if spec.path.eq_ignore_ascii_case(MIXED_LUSTBUS) {
             if FAMILY_KEYS.iter().any(|k| spec.query.contains_key(*k)) {
                 return out;
@@ -604,6 +694,8 @@ mod tests {
                 family: "lust-vf1000".into(),
                 addresses: vec![3, 1, 2],
                 families: BTreeMap::new(),
+                factory: Vec::new(),
+                bench: false,
                 baud: Some(19200),
                 bitrate: None,
                 options,
@@ -749,7 +841,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bitrate, c0001, describe, dir, faults, file, keypad, layout, mc6000, mc7000, refuse, seed, state, types, vf1000"
+            "invalid port `sim://mc6000?addresses=1&colour=red`: unknown option `colour` for sim:// ports; allowed: addresses, baud, bench, bitrate, c0001, describe, dir, factory, faults, file, keypad, layout, mc6000, mc7000, refuse, seed, state, types, vf1000"
         );
         let e = SimSpec::parse("sim://vf1000?baud=100&addresses=1").unwrap_err();
         assert_eq!(

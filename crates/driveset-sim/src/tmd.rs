@@ -340,6 +340,8 @@ pub struct TmdDrive {
     /// Codes whose RECEIVE is answered "no such code" although the table
     /// holds them (a twin's `[refused]`, [`ByteDrive::refuse_read`]).
     refused_reads: std::collections::BTreeSet<CodeKey>,
+    /// C0009 was written and acknowledged ([`ByteDrive::address_assigned`]).
+    address_assigned: bool,
 }
 
 impl std::fmt::Debug for TmdDrive {
@@ -414,6 +416,7 @@ impl TmdDrive {
             active_baud,
             baud_change: None,
             refused_reads: std::collections::BTreeSet::new(),
+            address_assigned: false,
         };
         d.power_up();
         Ok(d)
@@ -952,6 +955,9 @@ impl TmdDrive {
                 } else {
                     self.write(s.code, &s.value)
                 };
+                if outcome.is_ok() && self.resolve(s.code).is_ok_and(|k| k.number == C0009) {
+                    self.address_assigned = true;
+                }
                 self.record(outcome.err());
                 station.then_some(if outcome.is_ok() {
                     Response::Ack
@@ -1063,6 +1069,18 @@ fn from_wire(ty: ValueType, value: &Value) -> Result<RawValue, Nak> {
 impl ByteDrive for TmdDrive {
     fn family(&self) -> &'static str {
         "tmd"
+    }
+
+    fn address_assigned(&self) -> bool {
+        self.address_assigned
+    }
+
+    fn restore_address_assigned(&mut self) {
+        self.address_assigned = true;
+    }
+
+    fn coded_rate(&self) -> Option<u32> {
+        baud_rate(self.int(C0125))
     }
 
     /// A RECEIVE of `key` is answered `STX code EOT` (8.H a), the only

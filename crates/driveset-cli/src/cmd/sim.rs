@@ -54,9 +54,7 @@ use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
 use driveset_sim::catalog::Family;
 use driveset_sim::faults::FaultPlan;
 use driveset_sim::log::EventLog;
-use driveset_sim::open::{
-    SimConfig, StateDump, byte_line_dump, frame_line_dump, is_can, parse_family,
-};
+use driveset_sim::open::{SimConfig, StateDump, is_can, parse_family};
 use driveset_sim::{serve, slcan_serve};
 
 use crate::{EXIT_BUS, EXIT_OK};
@@ -72,6 +70,8 @@ fingerprint and canonical state as JSON.
 
 Examples:
   driveset sim --family mc6000 --address 1 --address 2
+  driveset sim --family mc6000 --factory 3 --bench --state bench.json
+  driveset sim --family lustbus --factory mc6000*4,vf1000*3
   driveset sim --family tmd --address 1 --tcp 127.0.0.1:4001 --log bus.jsonl
   driveset sim --family mc6000 --address 1 --tcp 4001 --idle-timeout 10
   driveset sim --family ecs --address 1 --pty --bitrate 500000")]
@@ -92,9 +92,23 @@ pub struct Args {
         long = "address",
         value_name = "N",
         value_delimiter = ',',
-        required_unless_present = "twin"
+        required_unless_present_any = ["twin", "factory"]
     )]
     addresses: Vec<u8>,
+
+    /// Factory-fresh drives, as a `sim://` port's `factory=`: a count on
+    /// one family (`--factory 3`), `FAMILY*N,...` on `--family lustbus`
+    /// (`mc6000*4,vf1000*3`). Each at its family's factory address (1) and
+    /// 9600 baud; several answer at once (docs/ports.md).
+    #[arg(long, value_name = "N|FAMILY*N,...", conflicts_with = "twin")]
+    factory: Option<String>,
+
+    /// The service bench (with --factory): the line holds only the first
+    /// factory drive not yet given an address; once every one has one,
+    /// all drives. Decided when the server starts (use --state to carry
+    /// the drives from one start to the next).
+    #[arg(long, requires = "factory")]
+    bench: bool,
 
     /// Serve on a new pseudo terminal (the default).
     #[arg(long, conflicts_with = "tcp")]
@@ -186,9 +200,32 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
             };
             SimConfig::of_twins(twins)?
         }
+        (None, Some(f)) if f.eq_ignore_ascii_case(driveset_sim::port::MIXED_LUSTBUS) => {
+            if args.factory.is_none() || !args.addresses.is_empty() {
+                bail!(
+                    "--family lustbus (a mixed LUSTBUS) takes its drives from --factory FAMILY*N,... (e.g. --factory mc6000*4,vf1000*3); serve drives at addresses with --family mc6000 or vf1000"
+                );
+            }
+            SimConfig::mixed(&[])
+        }
         (None, Some(f)) => SimConfig::new(parse_family(f)?, args.addresses.clone()),
         (None, None) => bail!("give --family and --address, or --twin FILE"),
     };
+    if let (Some(value), Some(f)) = (&args.factory, &args.family) {
+        let names = driveset_sim::factory::parse_factory(f, config.is_mixed(), value, |n| {
+            parse_family(n).ok()
+        })
+        .map_err(|e| anyhow::anyhow!("--factory {value}: {e}"))?;
+        for name in names {
+            config.factory.push(parse_family(&name)?);
+        }
+        if config.addresses.is_empty()
+            && let Some(&first) = config.factory.first()
+        {
+            config.family = first;
+        }
+    }
+    config.bench = args.bench;
     let family = config.family;
     if is_can(family) {
         if let Some(baud) = args.baud {
@@ -280,13 +317,13 @@ fn announce(line: &str) -> anyhow::Result<()> {
 }
 
 fn describe(config: &SimConfig) -> String {
-    let addresses = config
-        .addresses
+    let drives = config.all_drives();
+    let addresses = drives
         .iter()
-        .map(u8::to_string)
+        .map(|d| d.1.to_string())
         .collect::<Vec<_>>()
         .join(", ");
-    let n = config.addresses.len();
+    let n = drives.len();
     let rate = if is_can(config.family) {
         format!("CAN at {} bit/s", config.bitrate)
     } else {
@@ -298,9 +335,20 @@ fn describe(config: &SimConfig) -> String {
     } else {
         format!(", faults {}", config.faults)
     };
+    let fresh = match config.factory.len() {
+        0 => String::new(),
+        k => format!(
+            ", {k} of them factory-fresh{}",
+            if config.bench {
+                " (service bench: one at a time)"
+            } else {
+                ""
+            }
+        ),
+    };
     format!(
-        "serving {n} simulated {} drive{plural} (address{} {addresses}) at {rate}, seed {}{faults}",
-        config.family.name(),
+        "serving {n} simulated {} drive{plural} (address{} {addresses}{fresh}) at {rate}, seed {}{faults}",
+        config.bus_name(),
         if n == 1 { "" } else { "es" },
         config.seed
     )
@@ -343,7 +391,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let stop = stop_flag()?;
     let family = config.family;
     let (outcome, dump) = if is_can(family) {
-        let mut line = config.frame_line(log.clone())?;
+        let (mut line, drives) = config.frame_line_drives(log.clone())?;
         let mut pty = slcan_serve::SlcanPty::open()?;
         announce(&format!("pty {}", pty.path()))?;
         eprintln!("{}", describe(&config));
@@ -356,9 +404,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         let outcome = slcan_serve::serve_slcan(&mut pty, &mut line, &stop, &mut |_| {})
             .map(|_| ())
             .map_err(anyhow::Error::from);
-        (outcome, frame_line_dump(family, &line))
+        (outcome, drives.frame_line_dump(config.bus_name(), &line))
     } else {
-        let mut line = config.byte_line(log.clone())?;
+        let (mut line, drives) = config.byte_line_drives(log.clone())?;
         let outcome = match endpoint {
             Endpoint::Pty => {
                 let serve::Pty {
@@ -416,7 +464,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         };
         (
             outcome.map_err(anyhow::Error::from),
-            byte_line_dump(family, &line),
+            drives.byte_line_dump(config.bus_name(), &line),
         )
     };
     let saved = finish(&args, &config, &dump, &log);

@@ -16,6 +16,7 @@ mod ecs_sim_can_bus;
 #[cfg(unix)]
 mod ecs_slcan;
 mod ecs_support;
+mod factory;
 mod lust_bus;
 mod lust_models;
 mod spec_examples_transports;
