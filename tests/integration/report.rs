@@ -52,6 +52,7 @@ fn drive(name: &str, bus: &str, address: u8, result: DriveResult) -> DriveReport
         diff: Vec::new(),
         learned_schema: None,
         factory_settings: false,
+        replacement: None,
     }
 }
 

@@ -107,6 +107,9 @@ pub struct AssignRequest {
     pub baud: Option<u32>,
     /// Probe timeouts and tries of the searches and the scan.
     pub scan: ScanOptions,
+    /// Write the address code even when the drive holds the address
+    /// already ([`AssignRequest::always_write_address`]).
+    pub always_write_address: bool,
 }
 
 impl AssignRequest {
@@ -118,7 +121,19 @@ impl AssignRequest {
             from: None,
             baud: None,
             scan: ScanOptions::default(),
+            always_write_address: false,
         }
+    }
+
+    /// The same, writing the address code even when the drive holds the
+    /// address already: the line's first contact (`commission --assign`,
+    /// `replace`) gives every unit its place explicitly, a factory-fresh
+    /// unit whose manifest address is the factory one included (the write
+    /// is stored; the simulator's service bench takes it as the cue that
+    /// this unit is done).
+    pub fn always_write_address(mut self) -> Self {
+        self.always_write_address = true;
+        self
     }
 
     /// The same with `--from`.
@@ -924,7 +939,7 @@ fn plan_lustbus(
         ));
     }
     let mut writes = Vec::new();
-    if old_address != Some(i64::from(req.to)) {
+    if old_address != Some(i64::from(req.to)) || req.always_write_address {
         let raw =
             address_raw(&schema, addr_key, req.to).unwrap_or(RawValue::Int(i64::from(req.to)));
         writes.push(lust_write(&schema, 0, rate, addr_key, raw, Step::Address));
@@ -1158,7 +1173,7 @@ fn plan_lecom(
     }
     let old_address = address_of_raw(&schema, addr_key, &old_raw);
     let mut writes = Vec::new();
-    if req.to != from || old_address != Some(i64::from(req.to)) {
+    if req.to != from || old_address != Some(i64::from(req.to)) || req.always_write_address {
         let raw =
             address_raw(&schema, addr_key, req.to).unwrap_or(RawValue::Int(i64::from(req.to)));
         writes.push(lecom_write(

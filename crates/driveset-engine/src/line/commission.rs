@@ -643,6 +643,7 @@ pub(super) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -> DriveRe
         diff: Vec::new(),
         learned_schema: None,
         factory_settings: false,
+        replacement: None,
     }
 }
 
@@ -1200,7 +1201,7 @@ fn learn_drive(
     Ok((drive, report))
 }
 
-fn fill_from_upload(
+pub(super) fn fill_from_upload(
     r: &mut DriveReport,
     schema: &Schema,
     identity: &Identity,

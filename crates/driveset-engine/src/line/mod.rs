@@ -3,8 +3,10 @@
 //! and the commissioning report.
 
 pub mod address_truth;
+pub mod assign;
 pub mod commission;
 pub mod factory;
 pub mod manifest;
+pub mod replace;
 pub mod report;
 pub mod status;

@@ -18,7 +18,7 @@ pub const REPORT_VERSION: u32 = 1;
 pub struct LineReport {
     /// [`REPORT_VERSION`].
     pub report_version: u32,
-    /// What produced it: `commission` or `status`.
+    /// What produced it: `commission`, `status` or `replace`.
     pub command: String,
     /// The line's name (manifest `name`, else the manifest file stem).
     pub line: String,
@@ -158,6 +158,32 @@ pub struct DriveReport {
     /// before writing. Absent (false) otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub factory_settings: bool,
+    /// `driveset replace`: the drive is a spare that was given the drive's
+    /// address and rate on a service port, then its set. Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replacement: Option<ReplacementReport>,
+}
+
+/// How a spare became the drive (`driveset replace`; the report of one
+/// drive, command `replace`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ReplacementReport {
+    /// The service port the spare was on.
+    pub service_port: String,
+    /// The address the spare was reached at (LUSTBUS 0, LECOM the factory 1).
+    pub found_address: u8,
+    /// The rate it was found at.
+    pub found_rate: u32,
+    /// Its own address before, where it read as one.
+    pub old_address: Option<i64>,
+    /// The drive's manifest address, given to it.
+    pub address: u8,
+    /// The rate it runs at now.
+    pub rate: u32,
+    /// When a stored rate takes effect (VF1000, Tmd: at the next restart).
+    pub rate_note: Option<String>,
+    /// The assignment's writes.
+    pub assigned: Vec<String>,
 }
 
 /// The schema a line run learned from one drive (`commission`'s module

@@ -73,6 +73,46 @@ impl<'a> Reader<'a> {
         spec
     }
 
+    /// A `sim://` port with `factory=` drives: every family the manifest
+    /// puts on bus `bname` (index `bi`) has at least as many drives on it.
+    fn check_factory_port(
+        &mut self,
+        sim: &driveset_link::PortShape,
+        drives: &[Drive],
+        bi: usize,
+        bname: &str,
+        pspan: &Range<usize>,
+    ) {
+        let mut want: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+        for d in drives.iter().filter(|d| d.bus_index == bi) {
+            want.entry(d.schema.family.name())
+                .or_default()
+                .push(d.name.as_str());
+        }
+        for (family, names) in want {
+            let have = sim
+                .drives
+                .iter()
+                .filter(|(f, _)| {
+                    driveset_schema::Family::parse(&f.to_ascii_lowercase())
+                        .is_ok_and(|x| x.name() == family)
+                })
+                .count();
+            if names.len() > have {
+                self.push(
+                    "set-family",
+                    pspan,
+                    format!(
+                        "simulated bus `{bname}` holds {have} factory-fresh {family} drive(s), but the manifest puts {} on it ({})",
+                        names.len(),
+                        names.join(", ")
+                    ),
+                    "give factory= one drive per manifest drive of the family, e.g. factory=mc6000*4,vf1000*3",
+                );
+            }
+        }
+    }
+
     fn push(&mut self, kind: &str, span: &Range<usize>, message: String, help: &str) {
         let loc = self.loc(span);
         self.findings
@@ -634,7 +674,14 @@ impl<'a> Reader<'a> {
                 );
                 continue;
             }
-            if let Some(sim) = &shape {
+            if let Some(sim) = &shape
+                && port_has_rate(port_text, "factory")
+            {
+                // factory-fresh drives share the factory address until
+                // `commission --assign` / `replace` give them theirs: the
+                // port must hold enough drives of each family
+                self.check_factory_port(sim, &drives, i, &bname, pspan);
+            } else if let Some(sim) = &shape {
                 let on_bus = &sim.drives;
                 for d in drives.iter().filter(|d| d.bus_index == i) {
                     // The family the simulated bus has at the drive's address.
