@@ -98,6 +98,8 @@ enum Command {
     Recover(cmd::recover::Args),
     /// Commission a machine line: every drive of a line manifest to its set.
     Commission(cmd::commission::Args),
+    /// Make a spare, alone on a service port, the line's drive NAME: address, rate, then its set.
+    Replace(cmd::replace::Args),
     /// Twins: capture drives read-only into files that answer as they did.
     #[command(subcommand)]
     Twin(cmd::twin::TwinCommand),
@@ -145,6 +147,7 @@ fn main() -> ExitCode {
         Command::Recover(a) => cmd::recover::run(a),
         Command::Commission(a) => cmd::commission::run(a),
         Command::Status(a) => cmd::status::run(a),
+        Command::Replace(a) => cmd::replace::run(a),
         Command::Twin(c) => cmd::twin::run(c),
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),

@@ -16,6 +16,7 @@ pub mod json_schema;
 pub mod lsp;
 pub mod pull;
 pub mod recover;
+pub mod replace;
 pub mod scan;
 pub mod schema;
 pub mod schema_import;

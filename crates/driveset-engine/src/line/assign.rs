@@ -167,7 +167,7 @@ fn ms(d: Duration) -> f64 {
 /// The schemas the assignment identifies with: every set's schema of the
 /// bus, `first` winning for its family.
 fn schemas_of(drives: &[&Drive], first: &Drive) -> Schemas {
-    let mut s = Schemas::new();
+    let mut s = super::replace::known_schemas();
     for d in drives {
         s = s.with(d.schema.clone());
     }

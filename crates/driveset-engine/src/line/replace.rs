@@ -28,7 +28,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use driveset_link::Link;
-use driveset_schema::BusProtocol;
+use driveset_schema::{BusProtocol, Family};
 
 use super::address_truth::{SetBusCodes, check_drive};
 use super::manifest::{Bus, Drive, Manifest};
@@ -246,6 +246,62 @@ pub fn drive_of<'m>(manifest: &'m Manifest, name: &str) -> Result<&'m Drive, Rep
     Ok(d)
 }
 
+/// A refused search on a LUSTBUS port whose unit is of another family
+/// than the set's (its built-in schema may lack what the search needs):
+/// the misfit, said as such; otherwise the search's own error.
+fn misfit_or(d: &Drive, link: &mut Link, opts: &ReplaceOptions, e: EngineError) -> ReplaceError {
+    if d.schema.family.bus() != BusProtocol::Lustbus
+        || !matches!(*e.kind, crate::error::ErrorKind::Refused(_))
+    {
+        return e.into();
+    }
+    let Link::Bytes(b) = link else {
+        return e.into();
+    };
+    match lone_family(&mut **b, opts) {
+        Some(found) if found != d.schema.family => ReplaceError::Misfit(Misfit {
+            drive: d.name.clone(),
+            set: d.set_text.clone(),
+            schema: d.schema.id.clone(),
+            expected: d.schema.family.name().to_string(),
+            found: found.name().to_string(),
+        }),
+        _ => e.into(),
+    }
+}
+
+/// The family of the lone LUSTBUS unit at address 0 (section 4.2: every
+/// device answers there) at the link's present rate: it answers the
+/// ENQUIRY of 91-TYPE; an MC6000/7000 also the MC CODE 20091, a VF1000
+/// NAKs it (as `crate::scan::detect_protocol` tells them apart).
+fn lone_family(b: &mut dyn driveset_link::ByteLink, opts: &ReplaceOptions) -> Option<Family> {
+    use crate::client::lustbus::{LustLine, probe_code, probe_type};
+    use driveset_proto::lustbus::{Address, ParameterCode};
+    let timeout = opts
+        .scan
+        .timeout
+        .unwrap_or_else(|| Duration::from_millis(65) + driveset_link::mem::wire_time(14, b.baud()));
+    let zero = Address::new(0)?;
+    let mut line = LustLine::new(crate::client::BorrowedByteLink(b));
+    let ty = probe_type(&mut line, zero, timeout, opts.scan.tries).ok()?;
+    ty?;
+    let code = ParameterCode::mc_value(91)?;
+    let mc = probe_code(&mut line, zero, code, timeout, 1).ok()?;
+    let _ = line.finish();
+    Some(match mc {
+        Some(Some(_)) => Family::Mc6000,
+        _ => Family::Vf1000,
+    })
+}
+
+/// Every family's built-in schema, so that a spare of another family is
+/// identified (and refused as a misfit by [`check_spare`]).
+pub(super) fn known_schemas() -> Schemas {
+    driveset_schema::Registry::builtin()
+        .map(|r| Schemas::from_registry(&r))
+        .unwrap_or_default()
+}
+
 fn link_now(link: &Link) -> driveset_link::Instant {
     match link {
         Link::Bytes(b) => b.clock().now(),
@@ -268,8 +324,11 @@ pub fn prepare(
         req = req.baud(bus.rate);
     }
     req.scan = opts.scan.clone();
-    let schemas = Schemas::new().with(d.schema.clone());
-    let plan = crate::assign::plan(link, &req, &schemas)?;
+    let schemas = known_schemas().with(d.schema.clone());
+    let plan = match crate::assign::plan(link, &req, &schemas) {
+        Ok(p) => p,
+        Err(e) => return Err(misfit_or(d, link, opts, e)),
+    };
     check_spare(d, &plan).map_err(ReplaceError::Misfit)?;
     Ok(Prepared {
         drive: d.clone(),

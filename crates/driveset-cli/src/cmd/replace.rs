@@ -1,0 +1,276 @@
+//! `driveset replace LINE --drive NAME --port SERVICE_PORT`: a spare, alone
+//! on a service port, becomes drive NAME of the line (the engine's
+//! `line::replace`): its manifest address and its bus's rate, then its set
+//! as one verified transaction. Also holds the confirmation prompt that
+//! `commission --assign` shares ([`confirm_allowed`]).
+
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::PathBuf;
+
+use driveset_engine::line::replace::{Prepared, ReplaceError, ReplaceOptions, finish, prepare};
+use driveset_link::{Link, OpenOptions, PortSpec};
+
+use crate::fail::Fail;
+use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
+
+/// Arguments of `driveset replace`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+The spare must be alone on the service port. It is found as `driveset
+address` finds a drive (LUSTBUS: at address 0, every rate tried, section
+5.1; LECOM: at the factory address 1), must be of the family (and, where
+the set's schema names them, the TYPE) of the drive's set, and then gets
+the drive's manifest address and its bus's rate (journalled, verified),
+then the drive's set as one upload transaction (read back, journal, write,
+verify). Nothing is written before you confirm (or give --yes).
+
+The report (one drive, marked as a replacement) goes to
+REPORT_DIR/replace-NAME/report.json and report.html (REPORT_DIR: --report-dir,
+else the manifest's report_dir, else target/driveset-report).
+
+Exit codes: 0 replaced and verified; 1 the set's upload failed (rolled back)
+or you declined; 2 usage error, a manifest with findings, a spare that does
+not fit, more than one unit on the port, no --yes on a non-interactive
+stdin; 3 the port could not be opened or the spare did not answer.
+
+Examples:
+  driveset replace line.toml --drive press-axis-3 --port /dev/ttyUSB1
+  driveset replace line.toml --drive press-axis-3 --port /dev/ttyUSB1 --yes --format json")]
+pub struct Args {
+    /// The line manifest (TOML or YAML).
+    #[arg(value_name = "LINE")]
+    pub manifest: PathBuf,
+    /// The drive of the line the spare becomes.
+    #[arg(long, value_name = "NAME")]
+    pub drive: String,
+    /// The service port the spare is alone on.
+    #[arg(long, value_name = "PORT")]
+    pub port: String,
+    /// Do not ask before writing.
+    #[arg(long)]
+    pub yes: bool,
+    /// Output: text, or one JSON object on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+    /// Where the report goes (REPORT_DIR/replace-NAME/).
+    #[arg(long, value_name = "DIR")]
+    pub report_dir: Option<PathBuf>,
+    /// Named overrides passed to the set's upload.
+    #[command(flatten)]
+    pub allow: super::allow::AllowArgs,
+    /// Test hook: read the answer from stdin even when it is not a terminal.
+    #[arg(long, hide = true)]
+    pub prompt_stdin: bool,
+}
+
+/// `--format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Human text.
+    Text,
+    /// One JSON object.
+    Json,
+}
+
+/// Whether a prompt may be shown: stdin is a terminal (or the test hook
+/// says to read it anyway). `Err` explains what to give instead.
+pub fn confirm_allowed(prompt_stdin: bool, what: &str) -> Result<(), Fail> {
+    if prompt_stdin || std::io::stdin().is_terminal() {
+        Ok(())
+    } else {
+        Err(Fail::input(format!(
+            "{what} asks before writing, and stdin is not a terminal; give --yes to run without asking (nothing was written)"
+        )))
+    }
+}
+
+/// Print `prompt` on stderr and read one line of stdin: `Ok(line)`
+/// trimmed; end of input is an empty answer.
+pub fn ask(prompt: &str) -> Result<String, Fail> {
+    eprint!("{prompt}");
+    let _ = std::io::stderr().flush();
+    let mut line = String::new();
+    std::io::stdin()
+        .lock()
+        .read_line(&mut line)
+        .map_err(|e| Fail::input(format!("cannot read stdin: {e}")))?;
+    Ok(line.trim().to_string())
+}
+
+/// Open a port string through the CLI's openers (`sim://` in-process),
+/// holding the bus lock.
+pub fn open_service_port(port_text: &str) -> Result<(Link, String), Fail> {
+    let spec = PortSpec::parse(port_text).map_err(|e| {
+        Fail::input(format!(
+            "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001 or sim://mc6000?factory=1"
+        ))
+    })?;
+    port::lock_before_open(&spec)?;
+    let link = driveset_link::open_with(&spec, &OpenOptions::default(), &port::openers())
+        .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
+    port::lock_port(&spec, &link)?;
+    Ok((link, spec.to_string()))
+}
+
+fn refusal(e: &ReplaceError) -> Fail {
+    let msg = e.to_string();
+    if e.is_refusal() {
+        Fail::input(msg)
+    } else {
+        Fail::bus(msg)
+    }
+}
+
+fn question(p: &Prepared, port: &str) -> String {
+    format!(
+        "replace {}: write address {}, {} baud and {} codes to the unit on {port}? [y/N] ",
+        p.drive.name,
+        p.drive.address,
+        p.bus.rate,
+        p.codes()
+    )
+}
+
+/// Run `driveset replace`.
+pub fn run(args: Args) -> Result<u8, Fail> {
+    let overrides = args.allow.overrides()?;
+    let manifest = match super::commission::load(&args.manifest, true) {
+        Ok(m) => m,
+        Err(code) => return Err(Fail::reported(code)),
+    };
+    // a known drive with a fitting set, before the port is touched
+    driveset_engine::line::replace::drive_of(&manifest, &args.drive).map_err(|e| refusal(&e))?;
+    if !args.yes {
+        confirm_allowed(args.prompt_stdin, "replace")?;
+    }
+    let report_dir = args
+        .report_dir
+        .clone()
+        .or_else(|| manifest.report_dir.clone())
+        .unwrap_or_else(|| PathBuf::from(super::commission::DEFAULT_REPORT_DIR))
+        .join(format!("replace-{}", args.drive));
+    let opts = ReplaceOptions {
+        journal_dir: manifest
+            .journal_dir
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR)),
+        scan: Default::default(),
+        overrides,
+    };
+    let (mut link, port_name) = open_service_port(&args.port)?;
+    let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
+    if args.format == Format::Text {
+        let id = prep
+            .plan
+            .identity
+            .pairs()
+            .iter()
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        outln!(
+            "spare on {port_name}: {} at address {}, {} baud{}",
+            prep.plan.family,
+            prep.plan.reached_at,
+            prep.plan.rate,
+            if id.is_empty() {
+                String::new()
+            } else {
+                format!(" ({id})")
+            }
+        );
+    }
+    if !args.yes {
+        let answer = ask(&question(&prep, &port_name))?;
+        if !matches!(answer.to_ascii_lowercase().as_str(), "y" | "yes") {
+            eprintln!("not replaced: nothing was written");
+            return Ok(EXIT_FINDINGS);
+        }
+    }
+    let env = crate::env::SystemEnv;
+    let outcome = finish(&manifest, &prep, &mut link, &port_name, &opts, &env);
+    let (report, done) = match outcome {
+        Ok(o) => (o.report.clone(), Ok(o)),
+        Err(ReplaceError::Upload { report, error }) => (*report, Err(error)),
+        Err(e) => return Err(refusal(&e)),
+    };
+    let written = report::write_reports(&report, &report_dir).map_err(|e| {
+        Fail::input(format!(
+            "cannot write the report into {}: {e}",
+            report_dir.display()
+        ))
+    })?;
+    let d = &prep.drive;
+    let status_cmd = format!(
+        "driveset status {} --only {}",
+        args.manifest.display(),
+        d.name
+    );
+    match done {
+        Ok(o) => {
+            let r = &o.report.drives[0];
+            if args.format == Format::Json {
+                let v = serde_json::json!({
+                    "drive": d.name,
+                    "service_port": port_name,
+                    "address": d.address,
+                    "rate": o.assign.rate_now,
+                    "rate_note": o.assign.rate_note,
+                    "codes": prep.codes(),
+                    "codes_written": r.codes_written,
+                    "factory_settings": r.factory_settings,
+                    "result": "replaced",
+                    "report": written.0.display().to_string(),
+                    "virtual_ms": {
+                        "assign": o.assign_time.as_secs_f64() * 1000.0,
+                        "upload": o.upload_time.as_secs_f64() * 1000.0,
+                        "total": o.total().as_secs_f64() * 1000.0,
+                    },
+                    "next": status_cmd,
+                });
+                outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+            } else {
+                for w in &o.assign.written {
+                    outln!("wrote {w}");
+                }
+                outln!(
+                    "{}: address {}, {} baud, {} codes written and verified ({} codes in the set){} ({:.3} s on the bus)",
+                    d.name,
+                    d.address,
+                    o.assign.rate_now,
+                    r.codes_written,
+                    prep.codes(),
+                    if r.factory_settings {
+                        "; the spare was at factory settings"
+                    } else {
+                        ""
+                    },
+                    o.total().as_secs_f64()
+                );
+                if let Some(n) = &o.assign.rate_note {
+                    outln!("note: {n}");
+                }
+                outln!("report: {} {}", written.0.display(), written.1.display());
+                outln!(
+                    "next: plug it into the line (bus `{}`, {}) and run `{status_cmd}`",
+                    prep.bus.name,
+                    prep.bus.port_name
+                );
+            }
+            Ok(EXIT_OK)
+        }
+        Err(e) => {
+            eprintln!(
+                "error: {}: given address {} and {} baud, but the set's upload failed: {e}",
+                d.name, d.address, prep.bus.rate
+            );
+            outln!("report: {} {}", written.0.display(), written.1.display());
+            let bus = matches!(
+                *e.kind,
+                driveset_engine::error::ErrorKind::Link(_)
+                    | driveset_engine::error::ErrorKind::NoAnswer { .. }
+            );
+            Ok(if bus { EXIT_BUS } else { EXIT_FINDINGS })
+        }
+    }
+}
