@@ -56,8 +56,17 @@ it (the built-in schema's spec facts stand), written to
 report directory) and named in the report (`learned_schema`); the set is
 then checked against it. --no-learn refuses such sets at load instead.
 
+--assign (a line fresh from the factory): first, per LUSTBUS / LECOM bus in
+manifest order, \"connect NAME alone to PORT, then press Enter\" for every
+drive; each gets its manifest address and its bus's rate (as `driveset
+address`); then the bus is scanned: every manifest address must answer with
+its set's family, nothing else may answer (a table is printed). CAN buses are
+skipped (ECS node ids are set at the unit). Only when every bus holds does
+the normal commission follow. --yes: no prompts (manifest order); without
+--yes stdin must be a terminal (exit 2 otherwise).
+
 Exit codes: 0 every selected drive holds its set; 1 a drive does not
-(refused, rolled back, failed); 2 usage error or a manifest with findings;
+(refused, rolled back, failed; or --assign found the line not as its manifest); 2 usage error or a manifest with findings;
 3 a bus could not be opened, a link failed or a drive did not answer (3 wins
 over 1).
 
@@ -108,6 +117,22 @@ pub struct Args {
     /// without a twin are not rehearsed (docs/twins.md).
     #[arg(long, value_name = "DIR")]
     pub rehearse: Option<PathBuf>,
+    /// The line's first contact: give every drive of the LUSTBUS / LECOM
+    /// buses its manifest address and its bus's rate, one drive at a time
+    /// (connect each alone when asked), scan every bus, then commission
+    /// (docs/factory-fresh.md).
+    #[arg(long)]
+    pub assign: bool,
+    /// With --assign: the port the drives are connected to one at a time
+    /// (default: the bus's own port; a line with one LUSTBUS/LECOM bus).
+    #[arg(long, value_name = "PORT", requires = "assign")]
+    pub port: Option<String>,
+    /// With --assign: do not prompt; the drives are taken in manifest order.
+    #[arg(long, requires = "assign")]
+    pub yes: bool,
+    /// Test hook: read the prompts' answers from stdin even when it is not a terminal.
+    #[arg(long, hide = true)]
+    pub prompt_stdin: bool,
 }
 
 /// Run `driveset commission`.
@@ -118,6 +143,29 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             return Err(f);
         }
     };
+    if args.assign {
+        let manifest = match load(&args.manifest, args.learn.no_learn) {
+            Ok(m) => m,
+            Err(code) => return Err(crate::fail::Fail::reported(code)),
+        };
+        let journal_dir = manifest
+            .journal_dir
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
+        let a = super::assign_line::AssignArgs {
+            port: args.port.clone(),
+            yes: args.yes,
+            prompt_stdin: args.prompt_stdin,
+            only: args.only.clone(),
+        };
+        if !super::assign_line::run(&manifest, &a, journal_dir)? {
+            eprintln!(
+                "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
+                args.manifest.display()
+            );
+            return Ok(EXIT_FINDINGS);
+        }
+    }
     let opts = Common {
         manifest: args.manifest,
         only: args.only,

@@ -2,6 +2,7 @@
 //! returning the process exit code.
 
 pub mod allow;
+pub mod assign_line;
 pub mod commission;
 pub mod completions;
 pub mod decode;
