@@ -28,6 +28,7 @@ mod lsp;
 mod proxy;
 mod pull;
 mod recover;
+mod replace;
 mod report;
 mod rfc2217;
 mod safety;

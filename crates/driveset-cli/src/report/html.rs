@@ -577,6 +577,24 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
         );
     }
     o.push_str("</dl>\n");
+    if let Some(rep) = &d.replacement {
+        let _ = writeln!(
+            o,
+            "<div class=\"replacement\" role=\"note\"><strong>Replacement unit:</strong> a spare on service port <code>{}</code> (found at address {}, {} baud) was given address {} and {} baud{}, then this drive's set.{}</div>",
+            esc(&rep.service_port),
+            rep.found_address,
+            rep.found_rate,
+            rep.address,
+            rep.rate,
+            rep.old_address
+                .map(|a| format!(" (its own address was {a})"))
+                .unwrap_or_default(),
+            rep.rate_note
+                .as_deref()
+                .map(|n| format!(" {}", esc(n)))
+                .unwrap_or_default()
+        );
+    }
     if d.factory_settings {
         let _ = writeln!(
             o,
