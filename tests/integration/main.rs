@@ -3,6 +3,7 @@
 //! holds the shared helpers.
 
 mod address_truth;
+mod assign;
 mod audit;
 mod bus_cmds;
 mod bus_identity;
