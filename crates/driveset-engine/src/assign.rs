@@ -1304,6 +1304,21 @@ pub fn run(link: &mut Link, p: &AssignPlan, journal: &Path) -> Result<AssignRepo
     if let Some(dir) = journal.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::journal::ensure_dir(dir)?;
     }
+    // an unfinished transaction of this drive (at its new address or the
+    // one it is reached at) is settled first
+    let dir = match journal.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    for a in [p.to, p.reached_at] {
+        let found = crate::journal::unfinished_for(dir, &p.bus, &p.port, a)?;
+        if !found.is_empty() {
+            return Err(crate::journal::unfinished_error(
+                &target(&p.port, a),
+                &found,
+            ));
+        }
+    }
     let at_ns = now(link).as_nanos();
     let mut jf = JournalFile::create(journal, new_journal(p, at_ns, record_of(p)))?;
     let result = finish(link, p, &mut jf);
