@@ -2,6 +2,7 @@
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 
+mod address;
 mod audit;
 mod bus_cmds;
 mod bus_identity;
