@@ -389,6 +389,9 @@ pub struct AssignPlan {
     pub elapsed: Duration,
     /// The writes, in order.
     pub writes: Vec<PlannedWrite>,
+    /// The probe options of the request (for the verification probes).
+    #[serde(skip)]
+    scan_opts: ScanOptions,
 }
 
 fn ser_name<T: fmt::Display, S: serde::Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
@@ -492,14 +495,11 @@ fn link_err(port: &str, address: u8, e: LinkError) -> EngineError {
     EngineError::link(target(port, address), e)
 }
 
-fn bytes<'l>(
-    link: &'l mut Link,
-    protocol: BusProtocol,
-) -> Result<&'l mut dyn ByteLink, EngineError> {
+fn bytes(link: &mut Link, protocol: BusProtocol) -> Result<&mut dyn ByteLink, EngineError> {
     match link {
         Link::Bytes(b) => Ok(b.as_mut()),
         Link::Frames(f) => Err(refuse(
-            &f.port().to_string(),
+            f.port(),
             0,
             AssignRefusal::NotSerial {
                 protocol: protocol.title().to_string(),
@@ -977,6 +977,7 @@ fn plan_lustbus(
         scan_time,
         elapsed: now(link) - start,
         writes,
+        scan_opts: req.scan.clone(),
     })
 }
 
@@ -1215,6 +1216,7 @@ fn plan_lecom(
         scan_time,
         elapsed: now(link) - start,
         writes,
+        scan_opts: req.scan.clone(),
     })
 }
 
@@ -1555,7 +1557,7 @@ fn pairs(id: &Identity) -> String {
 
 impl AssignPlan {
     fn scan_opts(&self) -> ScanOptions {
-        ScanOptions::default()
+        self.scan_opts.clone()
     }
 
     /// Whether there is nothing to write.
@@ -1776,6 +1778,7 @@ pub fn recover(
         scan_time: Duration::ZERO,
         elapsed: Duration::ZERO,
         writes,
+        scan_opts: ScanOptions::default(),
     };
     let (written, verified, rate_now, note) = finish(link, &p, &mut jf)?;
     set_step(&mut jf, AssignStep::Done)?;
