@@ -2,6 +2,7 @@
 //! fast to link). Each module tests one area of the `driveset` CLI; `util`
 //! holds the shared helpers.
 
+mod address;
 mod address_truth;
 mod assign;
 mod audit;

@@ -96,6 +96,8 @@ enum Command {
     Upload(cmd::upload::Args),
     /// Finish or roll back an interrupted upload from its journal.
     Recover(cmd::recover::Args),
+    /// Give one drive, alone on its line, its bus address (and line rate).
+    Address(cmd::address::Args),
     /// Commission a machine line: every drive of a line manifest to its set.
     Commission(cmd::commission::Args),
     /// Make a spare, alone on a service port, the line's drive NAME: address, rate, then its set.
@@ -145,6 +147,7 @@ fn main() -> ExitCode {
         Command::Pull(a) => cmd::pull::run(a),
         Command::Upload(a) => cmd::upload::run(a),
         Command::Recover(a) => cmd::recover::run(a),
+        Command::Address(a) => cmd::address::run(a),
         Command::Commission(a) => cmd::commission::run(a),
         Command::Status(a) => cmd::status::run(a),
         Command::Replace(a) => cmd::replace::run(a),

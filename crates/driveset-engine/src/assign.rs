@@ -404,6 +404,9 @@ pub struct AssignPlan {
     pub elapsed: Duration,
     /// The writes, in order.
     pub writes: Vec<PlannedWrite>,
+    /// The probe options of the request (for the verification probes).
+    #[serde(skip)]
+    scan_opts: ScanOptions,
 }
 
 fn ser_name<T: fmt::Display, S: serde::Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
@@ -507,14 +510,11 @@ fn link_err(port: &str, address: u8, e: LinkError) -> EngineError {
     EngineError::link(target(port, address), e)
 }
 
-fn bytes<'l>(
-    link: &'l mut Link,
-    protocol: BusProtocol,
-) -> Result<&'l mut dyn ByteLink, EngineError> {
+fn bytes(link: &mut Link, protocol: BusProtocol) -> Result<&mut dyn ByteLink, EngineError> {
     match link {
         Link::Bytes(b) => Ok(b.as_mut()),
         Link::Frames(f) => Err(refuse(
-            &f.port().to_string(),
+            f.port(),
             0,
             AssignRefusal::NotSerial {
                 protocol: protocol.title().to_string(),
@@ -992,6 +992,7 @@ fn plan_lustbus(
         scan_time,
         elapsed: now(link) - start,
         writes,
+        scan_opts: req.scan.clone(),
     })
 }
 
@@ -1230,6 +1231,7 @@ fn plan_lecom(
         scan_time,
         elapsed: now(link) - start,
         writes,
+        scan_opts: req.scan.clone(),
     })
 }
 
@@ -1318,6 +1320,21 @@ pub fn run(link: &mut Link, p: &AssignPlan, journal: &Path) -> Result<AssignRepo
     let start = now(link);
     if let Some(dir) = journal.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::journal::ensure_dir(dir)?;
+    }
+    // an unfinished transaction of this drive (at its new address or the
+    // one it is reached at) is settled first
+    let dir = match journal.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    for a in [p.to, p.reached_at] {
+        let found = crate::journal::unfinished_for(dir, &p.bus, &p.port, a)?;
+        if !found.is_empty() {
+            return Err(crate::journal::unfinished_error(
+                &target(&p.port, a),
+                &found,
+            ));
+        }
     }
     let at_ns = now(link).as_nanos();
     let mut jf = JournalFile::create(journal, new_journal(p, at_ns, record_of(p)))?;
@@ -1555,7 +1572,7 @@ fn pairs(id: &Identity) -> String {
 
 impl AssignPlan {
     fn scan_opts(&self) -> ScanOptions {
-        ScanOptions::default()
+        self.scan_opts.clone()
     }
 
     /// Whether there is nothing to write.
@@ -1776,6 +1793,7 @@ pub fn recover(
         scan_time: Duration::ZERO,
         elapsed: Duration::ZERO,
         writes,
+        scan_opts: ScanOptions::default(),
     };
     let (written, verified, rate_now, note) = finish(link, &p, &mut jf)?;
     set_step(&mut jf, AssignStep::Done)?;

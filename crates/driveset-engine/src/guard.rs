@@ -21,7 +21,11 @@
 //!   the online rate activation (4-PROG = 111, §11.5);
 //! - the `--transfer-baud` switch writes the rate code only with one of the
 //!   family's rates (permit `RATE_SWITCH`, §4, §11.5); schema pull's
-//!   108-STEXT selector (permit `TEXT_SELECTOR`, §11.3) only on an MC.
+//!   108-STEXT selector (permit `TEXT_SELECTOR`, §11.3) only on an MC;
+//! - `driveset address` (`crate::assign`) writes the family's bus-address
+//!   code only with a drive's own address (permit `BUS_ADDRESS`, §4.2,
+//!   Tmd §4c) and its rate code only with a value coding one of the
+//!   family's rates (permit `LINE_RATE`, §4, §11.5, Tmd C0125).
 //!
 //! The running-drive check (`--allow-running`) and the other named
 //! overrides stay with the planner: they decide whether a transaction may
@@ -437,6 +441,35 @@ mod tests {
         assert!(verdict(&vf, 108, 1, Permit::TEXT_SELECTOR).contains("permit does not cover"));
         assert!(verdict(&vf, 81, 57600, Permit::RATE_SWITCH).contains("permit does not cover"));
         assert_eq!(verdict(&vf, 81, 9600, Permit::RATE_SWITCH), "ok");
+    }
+
+    #[test]
+    fn bus_address_and_line_rate_permits_cover_exactly_their_code_and_values() {
+        let mc = builtin(Family::Mc6000);
+        let vf = builtin(Family::Vf1000);
+        let tmd = builtin(Family::Tmd);
+        // the built-in LUSTBUS schemas give 82 no type: the raw figure
+        assert_eq!(verdict(&mc, 82, 5, Permit::BUS_ADDRESS), "ok");
+        assert_eq!(verdict(&vf, 82, 30, Permit::BUS_ADDRESS), "ok");
+        for bad in [0, 31, 99] {
+            assert_eq!(
+                verdict(&mc, 82, bad, Permit::BUS_ADDRESS),
+                format!("the bus-address permit does not cover 82-SADDR = {bad}; nothing was sent")
+            );
+        }
+        assert!(verdict(&mc, 81, 5, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
+        assert!(verdict(&mc, 4, 111, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
+        // Tmd C0009 is VD: raw = address x 10000; group addresses refused
+        assert_eq!(verdict(&tmd, 9, 120_000, Permit::BUS_ADDRESS), "ok");
+        assert!(verdict(&tmd, 9, 200_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
+        assert!(verdict(&tmd, 9, 125_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
+        // rates: LUSTBUS the figure, the family's rates only; Tmd C0125 by its label
+        assert_eq!(verdict(&mc, 81, 38400, Permit::LINE_RATE), "ok");
+        assert!(verdict(&vf, 81, 38400, Permit::LINE_RATE).starts_with("the line-rate permit"));
+        assert_eq!(verdict(&vf, 81, 4800, Permit::LINE_RATE), "ok");
+        assert_eq!(verdict(&tmd, 125, 30_000, Permit::LINE_RATE), "ok");
+        assert!(verdict(&tmd, 125, 40_000, Permit::LINE_RATE).starts_with("the line-rate permit"));
+        assert!(verdict(&mc, 82, 9600, Permit::LINE_RATE).starts_with("the line-rate permit"));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! One module per subcommand; each has `Args` (clap) and `run(Args) -> Result<u8>`
 //! returning the process exit code.
 
+pub mod address;
 pub mod allow;
 pub mod assign_line;
 pub mod commission;

@@ -121,6 +121,15 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         .port
         .clone()
         .unwrap_or_else(|| journal_port(&j.target.port));
+    if driveset_engine::assign::is_assign_journal(j) && !j.is_finished() {
+        drop(jf);
+        return super::address::recover_journal(
+            &args.journal,
+            &port_text,
+            &args.schemas,
+            args.format == BusFormat::Json,
+        );
+    }
     let address = args.address.unwrap_or(j.target.address);
     let sim = port::peek_sim_family_at(&port_text, Some(address));
     let choice = journal_schema(args, j, sim)?;

@@ -1,0 +1,358 @@
+//! `driveset address --port P --protocol lustbus|lecom --to N [--from M]
+//! [--baud B] [--dry-run]`: give one drive, alone on its line, its bus
+//! address (and line rate) in stand-alone operation (driveset-engine's
+//! `assign`; `lustbus-protocol.txt` §4.1, §4.2, §5.1, §5.2, §11.5,
+//! `lecom-ab-tmd-manual.txt` §4c-§4e). Also recovers the journal of an
+//! address change cut short (`driveset recover` hands it here).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest, Schemas};
+use driveset_schema::{BusProtocol, Family};
+use serde_json::json;
+
+use super::identify::BusFormat;
+use super::upload::DEFAULT_JOURNAL_DIR;
+use crate::EXIT_OK;
+use crate::output;
+use crate::port::{self, Fail, ProtocolArg};
+
+/// Arguments of `driveset address`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Connect the drive alone to the port (stand-alone operation), then:
+
+LUSTBUS: finds the drive at address 0 (every device answers there,
+lustbus-protocol.txt 4.2), at 9600 baud first, then at every other rate
+(5.1); reads its TYPE (91) and tells an MC6000/7000 from a VF1000; scans
+1..30 (5.2). Refused (exit 2, nothing written) when the line holds more than
+one device (more than one answer in 1..30, or answers at address 0 that do
+not decode), when N is taken by another device, or N is not 1..30. Writes
+82-SIOA/SADDR = N at address 0 and verifies at N (82 = N, 91 = the same
+TYPE, nothing answering at the drive's old address any more).
+
+LECOM: the drive at --from M (default 1, the factory C0009); refused when
+another device answers at N, when N is not a station address, or when C0001
+does not let LECOM write (2 or 3, lecom-ab-tmd-manual.txt 4e: set it at the
+keypad). Writes C0009 = N at M and verifies at N.
+
+--baud B also sets the line rate, after the address: an MC6000/7000
+activates it at once (81-SBAUD = B, then 4-PROG = 111, 11.5) and is verified
+at B; a VF1000 (81-SIOC) and a Tmd (C0125) store it and take it at their
+next restart (the report says so; verified by reading it back).
+
+The journal (--journal FILE, or DIR/<bus>-<N>.journal.json with
+--journal-dir DIR; default .driveset/journal) is written before the first
+write; a change cut short is finished by `driveset recover JOURNAL`, which
+finds the drive at its old or new address and rate. --dry-run prints every
+probe's result and each telegram it would write; it writes nothing and
+makes no journal. The bus is locked for the whole command.
+
+Exit codes: 0 done (verified), 2 refused before anything was written or a
+usage error, 3 bus or device failure (the journal says how far it got).
+
+Examples:
+  driveset address --port /dev/ttyUSB0 --protocol lustbus --to 5
+  driveset address --port /dev/ttyUSB0 --protocol lustbus --to 5 --baud 38400 --dry-run
+  driveset address --port /dev/ttyUSB0 --protocol lecom --from 1 --to 12")]
+pub struct Args {
+    /// The port the drive is alone on.
+    #[arg(long)]
+    pub port: String,
+    /// The bus protocol (lustbus or lecom).
+    #[arg(long, value_enum)]
+    pub protocol: ProtocolArg,
+    /// The address to give the drive.
+    #[arg(long, value_name = "N")]
+    pub to: u8,
+    /// LECOM: the address the drive answers at now (default 1, the factory C0009).
+    #[arg(long, value_name = "M")]
+    pub from: Option<u8>,
+    /// Also set the line rate (baud).
+    #[arg(long, value_name = "B")]
+    pub baud: Option<u32>,
+    /// Print what would be written; write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// The journal file.
+    #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
+    pub journal: Option<PathBuf>,
+    /// Directory for the journal (file name from the bus and N).
+    #[arg(long, value_name = "DIR")]
+    pub journal_dir: Option<PathBuf>,
+    /// Schema id or file for the drive's family (repeatable), e.g. one
+    /// learned by `driveset schema pull` that types 81 / 82.
+    #[arg(long = "schema", value_name = "ID|PATH")]
+    pub schema: Vec<String>,
+    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
+    #[arg(long = "schemas", value_name = "DIR")]
+    pub schemas: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: BusFormat,
+}
+
+/// Run `driveset address`.
+pub fn run(args: Args) -> Result<u8, Fail> {
+    address(&args)
+}
+
+/// The schemas of each family for `port`: on a `sim://` port the
+/// simulator's (as every one-drive command picks them), else the built-in
+/// ones; then `--schema`.
+fn schemas_for(port_text: &str, dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
+    let registry = port::registry_for(port_text, dirs)?;
+    let mut s = Schemas::from_registry(&registry);
+    if port::peek_sim_family(port_text).is_some() {
+        for f in [Family::Mc6000, Family::Vf1000, Family::Tmd] {
+            if let Ok(c) = port::resolve_schema(None, dirs, Some(f), None) {
+                s = s.with(c.schema);
+            }
+        }
+    }
+    for g in given {
+        let c = port::resolve_schema(Some(g), dirs, None, None)?;
+        s = s.with(c.schema);
+    }
+    Ok(s)
+}
+
+fn address(args: &Args) -> Result<u8, Fail> {
+    let protocol = args.protocol.0;
+    if protocol == BusProtocol::CanSdo {
+        return Err(Fail::input(
+            "--protocol sdo: driveset address sets LUSTBUS and LECOM addresses; a CAN node id is set on the drive",
+        ));
+    }
+    if protocol == BusProtocol::Lustbus && args.from.is_some() {
+        return Err(Fail::input(
+            "--from is for LECOM: a lone LUSTBUS drive is reached at address 0 whatever its own address (lustbus-protocol.txt §4.1); leave out --from",
+        ));
+    }
+    if let Some(j) = &args.journal {
+        driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
+            .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
+    }
+    let schemas = schemas_for(&args.port, &args.schemas, &args.schema)?;
+    let mut req = AssignRequest::new(protocol, args.to);
+    req.from = args.from;
+    req.baud = args.baud;
+    let opened = port::open_port(&args.port)?;
+    let name = opened.name.clone();
+    if let Some(f) = opened.sim_family()
+        && f.bus() != protocol
+    {
+        return Err(Fail::input(format!(
+            "{name} simulates {} drives; give --protocol {}",
+            f.name(),
+            f.bus().name()
+        )));
+    }
+    // the bus lock: open_port takes it for real ports and state-backed
+    // sim ports, for the rest of the command
+    let mut link = opened.link;
+    let _sim = opened.sim;
+    let json = args.format == BusFormat::Json;
+    let plan = assign::plan(&mut link, &req, &schemas)?;
+    if args.dry_run {
+        emit_plan(&name, &plan, json);
+        return Ok(EXIT_OK);
+    }
+    let journal = match (&args.journal, &args.journal_dir) {
+        (Some(j), _) => j.clone(),
+        (None, dir) => driveset_engine::journal::journal_path(
+            dir.as_deref().unwrap_or(Path::new(DEFAULT_JOURNAL_DIR)),
+            &plan.bus,
+            plan.to,
+        ),
+    };
+    let report = assign::run(&mut link, &plan, &journal)?;
+    emit_report(&name, &report, json);
+    Ok(EXIT_OK)
+}
+
+fn found_line(plan: &AssignPlan) -> String {
+    let d = plan.family.descriptor();
+    let ty = match plan.type_value {
+        Some(t) => format!(" (91-TYPE = {t})"),
+        None if plan.protocol == BusProtocol::Lustbus => " (91-TYPE: NAK)".to_string(),
+        None => String::new(),
+    };
+    let at = if plan.protocol == BusProtocol::Lustbus {
+        "address 0".to_string()
+    } else {
+        format!("controller {:02}", plan.reached_at)
+    };
+    let own = plan
+        .old_address
+        .map_or_else(String::new, |a| format!(", own address {a}"));
+    format!("found a {} at {at} at {} baud{ty}{own}", d.title, plan.rate)
+}
+
+fn scan_line(plan: &AssignPlan) -> String {
+    let who: Vec<String> = plan
+        .scan
+        .iter()
+        .map(|f| {
+            let codes: Vec<String> = f
+                .identity
+                .codes
+                .iter()
+                .map(|c| format!("{} = {}", c.name, c.value))
+                .collect();
+            format!("address {}: {}", f.address, codes.join(", "))
+        })
+        .collect();
+    let what = if who.is_empty() {
+        "no answer".to_string()
+    } else {
+        who.join("; ")
+    };
+    match plan.protocol {
+        BusProtocol::Lustbus => format!(
+            "network list 1..30 ({} ms): {what}",
+            plan.scan_time.as_millis()
+        ),
+        _ => format!("address {:02}: {what}", plan.to),
+    }
+}
+
+fn writes_json(plan: &AssignPlan) -> serde_json::Value {
+    serde_json::to_value(&plan.writes).unwrap_or_default()
+}
+
+fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
+    if json {
+        let doc = json!({
+            "port": name,
+            "dry_run": true,
+            "family": plan.family.name(),
+            "type": plan.type_value,
+            "found_at": {"address": plan.reached_at, "baud": plan.rate},
+            "old_address": plan.old_address,
+            "to": plan.to,
+            "baud": plan.baud,
+            "rate_effect": plan.rate_effect,
+            "scan": plan.scan,
+            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
+            "writes": writes_json(plan),
+            "elapsed_ms": plan.elapsed.as_secs_f64() * 1000.0,
+        });
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&doc).unwrap_or_default()
+        ));
+        return;
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "{name}: {}", found_line(plan));
+    let _ = writeln!(out, "{}", scan_line(plan));
+    if plan.writes.is_empty() {
+        let _ = writeln!(
+            out,
+            "nothing to write: the drive is at address {} already",
+            plan.to
+        );
+    } else {
+        let _ = writeln!(out, "would write (dry run: nothing was written):");
+        for w in &plan.writes {
+            let _ = writeln!(
+                out,
+                "  {}: {} = {} at {} baud",
+                w.telegram, w.code, w.value, w.baud
+            );
+        }
+    }
+    output::emit(&out);
+}
+
+fn emit_report(name: &str, r: &AssignReport, json: bool) {
+    let plan = &r.plan;
+    if json {
+        let doc = json!({
+            "port": name,
+            "family": plan.family.name(),
+            "type": plan.type_value,
+            "found_at": {"address": plan.reached_at, "baud": plan.rate},
+            "old_address": plan.old_address,
+            "address": plan.to,
+            "baud": r.rate_now,
+            "rate_note": r.rate_note,
+            "scan": plan.scan,
+            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
+            "written": r.written,
+            "verified": r.verified,
+            "journal": r.journal,
+            "elapsed_ms": r.elapsed.as_secs_f64() * 1000.0,
+        });
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&doc).unwrap_or_default()
+        ));
+        return;
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "{name}: {}", found_line(plan));
+    let _ = writeln!(out, "{}", scan_line(plan));
+    for w in &r.written {
+        let _ = writeln!(out, "wrote {w}");
+    }
+    for v in &r.verified {
+        let _ = writeln!(out, "verified {v}");
+    }
+    if let Some(n) = &r.rate_note {
+        let _ = writeln!(out, "note: {n}");
+    }
+    let ty = plan
+        .type_value
+        .map_or_else(String::new, |t| format!(", 91-TYPE {t}"));
+    let _ = writeln!(
+        out,
+        "done: {} ({}{ty}) at address {}, {} baud ({} ms)",
+        plan.family.descriptor().title,
+        plan.family.name(),
+        plan.to,
+        r.rate_now,
+        r.elapsed.as_millis()
+    );
+    let _ = writeln!(out, "journal: {}", r.journal);
+    output::emit(&out);
+}
+
+/// `driveset recover JOURNAL` of an address change: the journal's port
+/// (or `port`), the drive found at its old or new address and rate, the
+/// change finished and verified.
+pub fn recover_journal(
+    journal: &Path,
+    port_text: &str,
+    dirs: &[PathBuf],
+    json: bool,
+) -> Result<u8, Fail> {
+    let schemas = schemas_for(port_text, dirs, &[])?;
+    let opened = port::open_port(port_text)?;
+    let name = opened.name.clone();
+    let mut link = opened.link;
+    let _sim = opened.sim;
+    let r = assign::recover(&mut link, journal, &schemas)?;
+    if json {
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&r).unwrap_or_default()
+        ));
+    } else {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{name}: address change journal {}: found the drive at address {} at {} baud",
+            r.journal, r.found_at.0, r.found_at.1
+        );
+        for w in &r.written {
+            let _ = writeln!(out, "wrote {w}");
+        }
+        let _ = writeln!(out, "completed: {}", r.state);
+        let _ = writeln!(out, "journal: {}", r.journal);
+        output::emit(&out);
+    }
+    Ok(EXIT_OK)
+}
