@@ -23,6 +23,15 @@
 //! [`STATE_DIR_ENV`]) is `DIR/sim-lustbus.json`, its dump's `family` is
 //! `lustbus`, each drive entry carries its own family.
 //!
+//! # Factory-fresh drives and the bench
+//!
+//! `factory=3` (one family) or `factory=mc6000*4,vf1000*3` (on
+//! `sim://lustbus`) adds factory-fresh drives after those of `addresses=`;
+//! `bench=true` holds only the first one still waiting for its address on
+//! the bus at each open ([`crate::factory`], which owns the factory address,
+//! FICTIONAL 1 on LUSTBUS, the rate and the bench rule). Their drives may
+//! share an address ([`ByteLine::sharing_addresses`]).
+//!
 //! # Options
 //!
 //! - `seed=N`: every random choice of the drives (reaction times) and of
@@ -69,7 +78,8 @@
 //! ```text
 //! {"format":"driveset-sim-state 1","family":"mc6000","baud":9600,
 //!  "drives":[{"family":"mc6000","address":1,"schema":"fictional-mc6000-demo",
-//!             "fingerprint":"sha256:...","canonical":"driveset-canonical 1\nschema ...\n..."}]}
+//!             "fingerprint":"sha256:...","canonical":"driveset-canonical 1\nschema ...\n...",
+//!             "slot":"mc6000@1"}]}
 //! ```
 //!
 //! `canonical` is the drive's whole state in the canonical form
@@ -79,9 +89,18 @@
 //! 81-SBAUD does not say (an MC6000 left at a `--transfer-baud` rate,
 //! LUSTBUS 11.5) and is restored on load, so the drive stays at that rate
 //! between commands as a powered drive does (`identify`, `scan` and
-//! `recover` then find it by the rate search, LUSTBUS 5.1). Loading matches drives by family and address; a drive of the bus
+//! `recover` then find it by the rate search, LUSTBUS 5.1).
+//!
+//! Each entry also carries its drive's `slot` ([`DriveSlot`]: `mc6000@5`,
+//! the family and the address the port names; `mc6000#2`, the port's second
+//! factory MC6000) and `assigned` when its address code was written over
+//! the bus (the bench moves on). Loading matches a drive by its slot, so a
+//! drive whose 82-SADDR / C0009 was written is found again at its new
+//! address; an entry without a slot (an older dump) or of a slot this port
+//! does not have matches by family and address. A drive of the bus
 //! missing from the file keeps its factory state, a drive in the file that
-//! is not on the bus is ignored (and not written back).
+//! is not on the bus is ignored (and not written back); the drives the
+//! bench holds off the line are written back as they were.
 
 use std::collections::BTreeMap;
 use std::io;
