@@ -81,7 +81,7 @@ pub struct SimLink {
 
 /// Open the simulated bus a `sim://` port names, on `clock`: drives of the
 /// family at the addresses, seed and faults from the options, state from
-/// `state=` or [`STATE_DIR_ENV`]. No event log.
+/// `state=` or [`super::STATE_DIR_ENV`]. No event log.
 pub fn open_sim(spec: &SimSpec, clock: &VirtualClock) -> Result<SimLink, SimOpenError> {
     let config = SimConfig::from_spec(spec)?;
     let port = spec.to_string();

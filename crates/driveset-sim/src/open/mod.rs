@@ -30,7 +30,7 @@
 //! `bench=true` holds only the first one still waiting for its address on
 //! the bus at each open ([`crate::factory`], which owns the factory address,
 //! FICTIONAL 1 on LUSTBUS, the rate and the bench rule). Their drives may
-//! share an address ([`ByteLine::sharing_addresses`]).
+//! share an address ([`crate::bus::ByteLine::sharing_addresses`]).
 //!
 //! # Options
 //!
@@ -38,7 +38,7 @@
 //!   the fault generator (unless the plan has its own `seed=`) comes from
 //!   it; default 0. The same seed and the same host traffic give the same
 //!   bytes at the same virtual instants.
-//! - `faults=PLAN`: the [`FaultPlan`] grammar (`crate::faults`).
+//! - `faults=PLAN`: the [`crate::faults::FaultPlan`] grammar (`crate::faults`).
 //! - `c0001=N` (Tmd, 0..=11): C0001 as set at the drive's keypad before
 //!   LECOM use (lecom-ab-tmd-manual.txt §4e). Default 0, Table 1's factory
 //!   setting, in which LECOM may only read (and write C0040, C0043, C0248,
@@ -91,7 +91,7 @@
 //! between commands as a powered drive does (`identify`, `scan` and
 //! `recover` then find it by the rate search, LUSTBUS 5.1).
 //!
-//! Each entry also carries its drive's `slot` ([`DriveSlot`]: `mc6000@5`,
+//! Each entry also carries its drive's `slot` ([`crate::factory::DriveSlot`]: `mc6000@5`,
 //! the family and the address the port names; `mc6000#2`, the port's second
 //! factory MC6000) and `assigned` when its address code was written over
 //! the bus (the bench moves on). Loading matches a drive by its slot, so a
