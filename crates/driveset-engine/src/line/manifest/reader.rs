@@ -680,7 +680,7 @@ impl<'a> Reader<'a> {
                 // factory-fresh drives share the factory address until
                 // `commission --assign` / `replace` give them theirs: the
                 // port must hold enough drives of each family
-                self.check_factory_port(sim, &drives, i, &bname, pspan);
+                self.check_factory_port(sim, &drives, i, bname, pspan);
             } else if let Some(sim) = &shape {
                 let on_bus = &sim.drives;
                 for d in drives.iter().filter(|d| d.bus_index == i) {
