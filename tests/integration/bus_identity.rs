@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::e2e_pty::{Sim, dump_subset, load, one_at_a_time};
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, driveset_in_with_locks, workspace_root};
 
 /// Hang guard of one command, and of waiting for a journal to appear.
 const GUARD: Duration = Duration::from_secs(300);
@@ -373,12 +373,9 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
 }
 
 /// `driveset` in `dir` (the simulator's state and the journals there).
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_LOCK_DIR", dir.join("locks"))
-        .env_remove("DRIVESET_SIM_STATE_DIR")
-        .timeout(GUARD);
+fn guarded_in(dir: &Path) -> assert_cmd::Command {
+    let mut c = driveset_in_with_locks(dir);
+    c.timeout(GUARD);
     c
 }
 
@@ -387,11 +384,12 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     let dir = tempfile::tempdir().unwrap();
     let set = workspace_root().join(SET);
     let port = "sim://tmd?addresses=11&c0001=3&state=drives.json&faults=cable@30+600s&seed=7";
-    let (code, _, stderr) =
-        out(in_dir(dir.path())
-            .arg("upload")
-            .arg(&set)
-            .args(["--port", port, "--address", "11"]));
+    let (code, _, stderr) = out(guarded_in(dir.path()).arg("upload").arg(&set).args([
+        "--port",
+        port,
+        "--address",
+        "11",
+    ]));
     assert_eq!(code, Some(3), "{stderr}");
     let state = std::fs::canonicalize(dir.path())
         .unwrap()
@@ -415,7 +413,7 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     // another relative path) is the same bus: the guard refuses it
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     let respelled = "sim://tmd?c0001=3&state=sub/../drives.json&addresses=11";
-    let (code, _, stderr) = out(in_dir(dir.path()).arg("upload").arg(&set).args([
+    let (code, _, stderr) = out(guarded_in(dir.path()).arg("upload").arg(&set).args([
         "--port",
         respelled,
         "--address",
@@ -433,7 +431,7 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     // recorded port without the run's faults, the state file absolute
     let elsewhere = tempfile::tempdir().unwrap();
     let journal = dir.path().join(&jarg);
-    let (code, stdout, stderr) = out(in_dir(elsewhere.path()).arg("recover").arg(&journal));
+    let (code, stdout, stderr) = out(guarded_in(elsewhere.path()).arg("recover").arg(&journal));
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     let reopened = format!("sim://tmd?addresses=11&c0001=3&state={}", state.display());
     assert!(
@@ -467,7 +465,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     )
     .unwrap();
     let port = "sim://tmd?addresses=11&c0001=3&state=drives.json&faults=cable@17+600s";
-    let (code, _, stderr) = out(in_dir(dir.path()).args([
+    let (code, _, stderr) = out(guarded_in(dir.path()).args([
         "upload",
         "sets/axis.toml",
         "--port",
@@ -498,7 +496,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     // the schema file edited since: refused, nothing sent, both named
     std::fs::write(&schema, format!("{text}\n# edited\n")).unwrap();
     let edited = driveset_schema::schema::schema_fingerprint(None, &format!("{text}\n# edited\n"));
-    let (code, stdout, stderr) = out(in_dir(dir.path()).arg("recover").arg(&jarg));
+    let (code, stdout, stderr) = out(guarded_in(dir.path()).arg("recover").arg(&jarg));
     assert_eq!(code, Some(2), "{stdout}{stderr}");
     let reopened = format!("sim://tmd?addresses=11&c0001=3&state={}", state.display());
     assert_eq!(
@@ -512,7 +510,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     // restored: recover with nothing but the journal, from another directory
     std::fs::write(&schema, &text).unwrap();
     let elsewhere = tempfile::tempdir().unwrap();
-    let (code, stdout, stderr) = out(in_dir(elsewhere.path()).arg("recover").arg(&journal));
+    let (code, stdout, stderr) = out(guarded_in(elsewhere.path()).arg("recover").arg(&journal));
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(
         stdout.starts_with(&format!("{reopened} address 11: journal was ")),

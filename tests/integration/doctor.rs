@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn run(args: &[&str]) -> (Option<i32>, String, String) {
     let out = driveset()

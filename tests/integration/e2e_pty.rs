@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use driveset_schema::{Registry, ResolvedSet, load_set};
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 /// Hang guard of one `driveset upload` / `diff` run.
 const RUN_GUARD: Duration = Duration::from_secs(300);
@@ -557,7 +557,7 @@ impl Drop for PySdoServer {
 /// slcan interface), joined by driveset_sim::slcan_hub.
 #[test]
 fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
-    if crate::util::python_or_skip("canopen interop").is_none() {
+    if driveset_test_support::python_or_skip("canopen interop").is_none() {
         return;
     }
     let _serial = one_at_a_time();
@@ -717,7 +717,7 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
 /// --to dcf` writes from the pulled set is read back by canopen.
 #[test]
 fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
-    if crate::util::python_or_skip("canopen interop").is_none() {
+    if driveset_test_support::python_or_skip("canopen interop").is_none() {
         return;
     }
     let _serial = one_at_a_time();

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use crate::doctor::{Sim, echo_proxy};
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn identify(port: &str, protocol: &str, address: &str) -> (Option<i32>, String, String) {
     let out = driveset()

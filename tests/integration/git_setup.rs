@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 fn git(dir: &Path, args: &[&str]) -> String {
     let out = Command::new("git")

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 /// Generous: only a hang reaches it.
 const HANG_GUARD: Duration = Duration::from_secs(120);
@@ -570,14 +570,15 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
 #[test]
 fn control_characters_in_a_schema_files_names_are_escaped_in_diff_and_plan() {
     let dir = tempfile::tempdir().unwrap();
-    let schema =
-        std::fs::read_to_string(crate::util::workspace_root().join("schemas/lenze-tmd.toml"))
-            .unwrap()
-            .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
-            .replace(
-                "name = \"maximum_output_frequency\"",
-                "name = \"max\\u001b[31m_freq\"",
-            );
+    let schema = std::fs::read_to_string(
+        driveset_test_support::workspace_root().join("schemas/lenze-tmd.toml"),
+    )
+    .unwrap()
+    .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
+    .replace(
+        "name = \"maximum_output_frequency\"",
+        "name = \"max\\u001b[31m_freq\"",
+    );
     std::fs::write(dir.path().join("esc.toml"), schema).unwrap();
     for (f, v) in [("a.toml", 60), ("b.toml", 70)] {
         std::fs::write(

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
-use crate::util::workspace_root;
+use driveset_test_support::workspace_root;
 
 const HANG_GUARD: Duration = Duration::from_secs(60);
 

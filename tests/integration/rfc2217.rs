@@ -17,12 +17,12 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 /// The interpreter with pyserial, or `None` (after saying why) when the
-/// test should be skipped ([`crate::util::python_or_skip`]).
+/// test should be skipped ([`driveset_test_support::python_or_skip`]).
 pub(crate) fn python_or_skip(what: &str) -> Option<PathBuf> {
-    crate::util::python_or_skip(what)
+    driveset_test_support::python_or_skip(what)
 }
 
 /// The running bridge: its port and every stdout line after the first.

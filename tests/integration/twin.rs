@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use crate::util::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset, workspace_root};
 
 /// One side of a comparison: a directory with its own copy of the sets,
 /// its own simulator state and journals.

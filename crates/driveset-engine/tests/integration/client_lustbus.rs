@@ -13,11 +13,11 @@ use driveset_schema::{CodeKey, RawValue, Schema};
 use driveset_sim::bus::SimByteBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::{ByteDrive, ReactionTime};
-use driveset_sim::faults::FaultPlan;
 use driveset_sim::log::{Dir, EventLog};
 use driveset_sim::lustbus_drive::LustOptions;
 use driveset_sim::mc6000::Mc6000;
 use driveset_sim::vf1000::Vf1000;
+use driveset_test_support::{sim_byte_bus, wire_timed};
 
 const REACTION: Duration = Duration::from_millis(2);
 
@@ -43,32 +43,8 @@ struct Rig {
 }
 
 fn sim_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
-    let clock = VirtualClock::new();
-    let log = EventLog::memory();
-    let mut bus = SimByteBus::new(&clock, baud, drives)
-        .expect("bus")
-        .with_log(log.clone());
-    if let Some(f) = faults {
-        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
-    }
+    let (clock, log, bus) = sim_byte_bus(baud, drives, faults);
     (Rig { clock, log }, bus)
-}
-
-/// Host telegrams and drive replies in the log, as byte vectors.
-fn wire(log: &EventLog, dir: Dir) -> Vec<(u64, Vec<u8>)> {
-    log.events()
-        .into_iter()
-        .filter(|e| e.dir == dir)
-        .map(|e| {
-            let bytes = e
-                .hex
-                .split(' ')
-                .filter(|s| !s.is_empty())
-                .map(|h| u8::from_str_radix(h, 16).expect("hex"))
-                .collect();
-            (e.t_ns, bytes)
-        })
-        .collect()
 }
 
 fn bcc(text: &[u8]) -> u8 {
@@ -111,7 +87,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
         RawValue::Int(_)
     ));
     c.finish().unwrap();
-    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+    let host: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Host)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -129,7 +105,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
         .map(|(i, _)| i)
         .collect();
     assert_eq!(lone, vec![host.len() - 1]);
-    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+    let drive: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Drive)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -163,7 +139,7 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
     assert_eq!(c.ready_for_write(CodeKey::new(416)), None);
     // 102-UVLIM issued immediately: the SELECT starts exactly at `busy`.
     c.write(CodeKey::new(102), &RawValue::Int(300)).unwrap();
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     let (t, bytes) = host.last().unwrap();
     assert_eq!(bytes, &select(1, "20102", "12C"));
     assert_eq!(Instant::from_nanos(*t), busy);
@@ -177,13 +153,13 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
     assert!(after_read < ack2 + Duration::from_millis(30));
     assert!(after_read > ack2 + Duration::from_millis(25));
     c.write(CodeKey::new(300), &RawValue::Int(3)).unwrap();
-    let (t, bytes) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    let (t, bytes) = wire_timed(&rig.log, Dir::Host).last().cloned().unwrap();
     assert_eq!(bytes, select(1, "20300", "3"));
     assert_eq!(Instant::from_nanos(t), ack2 + Duration::from_millis(30));
     // 300-CFCON is 1 byte: 15 ms; a RAM write meanwhile is not held back.
     let ack3 = rig.clock.now();
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
-    let (t, _) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    let (t, _) = wire_timed(&rig.log, Dir::Host).last().cloned().unwrap();
     assert_eq!(Instant::from_nanos(t), ack3);
     assert_eq!(c.stats().retries, 0);
 }
@@ -199,7 +175,7 @@ fn mc_eeprom_busy_nak_waits_and_repeats() {
     let mut b = LustbusClient::new(a.into_link(), s, 1).unwrap();
     b.write(CodeKey::new(102), &RawValue::Int(310)).unwrap();
     assert_eq!(b.read(CodeKey::new(102)).unwrap(), RawValue::Int(310));
-    let drive = wire(&rig.log, Dir::Drive);
+    let drive = wire_timed(&rig.log, Dir::Drive);
     assert!(drive.iter().any(|(_, r)| r == &vec![0x41, 0x15]), "a NAK");
     assert!(
         drive
@@ -207,7 +183,7 @@ fn mc_eeprom_busy_nak_waits_and_repeats() {
             .any(|(_, r)| r == &value_reply(1, "00085", "04")),
         "SERR read back: EEPROM busy"
     );
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     let selects: Vec<u64> = host
         .iter()
         .filter(|(_, b)| b == &select(1, "20102", "136"))
@@ -385,7 +361,7 @@ fn vf1000_read_and_write_exact_bytes() {
     // 3-CNTL bit 7: running.
     assert_eq!(c.running().unwrap(), Some(false));
     c.finish().unwrap();
-    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+    let host: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Host)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -396,7 +372,7 @@ fn vf1000_read_and_write_exact_bytes() {
     assert_eq!(host[4], enquiry(3, "00103"));
     assert_eq!(host[5], vec![0x04]);
     assert_eq!(host.len(), 6);
-    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+    let drive: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Drive)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -430,7 +406,7 @@ fn addresses_and_family_are_checked() {
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
-    assert!(wire(&rig.log, Dir::Host).is_empty());
+    assert!(wire_timed(&rig.log, Dir::Host).is_empty());
     let _ = c.link().baud();
 }
 
@@ -780,18 +756,18 @@ fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() 
     c1.dataset_begin().unwrap();
     let mut c2 = LustbusClient::new(c1.into_link(), s.clone(), 2).unwrap();
     c2.dataset_begin().unwrap();
-    let before = wire(&rig.log, Dir::Host).len();
-    let replies_before = wire(&rig.log, Dir::Drive).len();
+    let before = wire_timed(&rig.log, Dir::Host).len();
+    let replies_before = wire_timed(&rig.log, Dir::Drive).len();
     let t0 = rig.clock.now();
     c2.broadcast(CodeKey::new(171), &RawValue::Int(2048))
         .unwrap();
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     assert_eq!(host.len(), before + 1);
     let sent = &host[before].1;
     assert_eq!(sent, &select(31, "20171", "800"));
     assert_eq!(sent.as_slice(), b"\x04_\x0220171=800\x033");
     // no receipt, none awaited: the wire time, then 30 ms
-    assert_eq!(wire(&rig.log, Dir::Drive).len(), replies_before);
+    assert_eq!(wire_timed(&rig.log, Dir::Drive).len(), replies_before);
     assert_eq!(
         rig.clock.now() - t0,
         wire_time(sent.len(), 9600) + Duration::from_millis(30)
@@ -817,7 +793,7 @@ fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() 
             format!("sim address 2: refused: broadcast (address 31) of {name}: {why}")
         );
     }
-    assert_eq!(wire(&rig.log, Dir::Host).len(), before + 1);
+    assert_eq!(wire_timed(&rig.log, Dir::Host).len(), before + 1);
     // both drives commit it
     assert_eq!(
         c2.dataset_commit(Duration::from_secs(10)).unwrap(),

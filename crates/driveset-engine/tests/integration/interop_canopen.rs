@@ -27,7 +27,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, load_set_str};
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::slcan_hub::SlcanHub;
 
-use crate::util::{python, python_or_skip, root};
+use driveset_test_support::{python, python_or_skip, workspace_root};
 
 /// Hang guard for one line from the script (not a timing assertion).
 const LINE_GUARD: Duration = Duration::from_secs(60);
@@ -225,7 +225,7 @@ fn client(hub: &SlcanHub, node: u8) -> CanClient<SlcanLink> {
 
 /// A set of the fictional ECS fixture, from TOML text.
 fn set(name: &str, text: &str) -> ResolvedSet {
-    let path = root().join("parameter-sets/ecs").join(name);
+    let path = workspace_root().join("parameter-sets/ecs").join(name);
     let mut registry = driveset_schema::Registry::builtin().expect("registry");
     let loaded = load_set_str(&path, text, &mut registry).expect("set loads");
     assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
@@ -300,7 +300,7 @@ fn engine_pulls_uploads_and_decodes_aborts_against_a_canopen_local_node() {
     // server's initial values were chosen so), plus C5009, C5015 and the
     // two bit-coded codes.
     let axis1 = {
-        let path = root().join("parameter-sets/ecs/axis-1.toml");
+        let path = workspace_root().join("parameter-sets/ecs/axis-1.toml");
         let text = std::fs::read_to_string(&path).expect("axis-1.toml");
         set("axis-1.toml", &text)
     };
