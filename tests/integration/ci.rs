@@ -48,7 +48,7 @@ fn run_job(commands: &[String], reports: &[String]) {
         &root.join("examples/ci/twins"),
         &dir.path().join("examples/ci/twins"),
     );
-    let bin: PathBuf = assert_cmd::cargo::cargo_bin("driveset");
+    let bin: PathBuf = driveset_test_support::driveset_bin();
     let path = format!(
         "{}:{}",
         bin.parent().unwrap().display(),

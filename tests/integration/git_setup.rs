@@ -196,7 +196,7 @@ fn pre_commit_example_checks_the_staged_sets() {
     let d = tmp.path();
     let hook = d.join(".git/hooks/pre-commit");
     std::fs::copy(workspace_root().join("examples/pre-commit"), &hook).unwrap();
-    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let bin = driveset_test_support::driveset_bin();
     let commit = |msg: &str| {
         Command::new("git")
             .current_dir(d)

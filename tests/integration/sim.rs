@@ -2,13 +2,13 @@
 //! pty, stopped with SIGTERM; the first stdout line, exact reply bytes, the
 //! event log, the dump, and argument errors.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
-use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Child, ChildStdout, ExitStatus, Stdio};
+use std::time::Duration;
 
-use driveset_test_support::{driveset, read_until};
+use driveset_test_support::{Spawned, driveset, driveset_sim, read_until};
 
 const STX: u8 = 0x02;
 const ETX: u8 = 0x03;
@@ -17,26 +17,15 @@ const ENQ: u8 = 0x05;
 
 /// A running `driveset sim`; killed if a test fails before stopping it.
 struct Sim {
-    child: Child,
+    child: Spawned,
     _stdout: BufReader<ChildStdout>,
     first_line: String,
 }
 
 impl Sim {
     fn start(args: &[&str]) -> Sim {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .arg("sim")
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start driveset sim");
-        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
-        let mut first_line = String::new();
-        stdout
-            .read_line(&mut first_line)
-            .expect("read the first line");
+        let mut child = driveset_sim(args, Stdio::piped());
+        let (mut first_line, stdout) = child.first_line();
         assert!(
             first_line.ends_with('\n'),
             "no first line; stderr: {}",
@@ -57,31 +46,8 @@ impl Sim {
 
     /// Send `signal` (`-TERM`, `-INT`), then wait (bounded) for the exit.
     fn signal(&mut self, signal: &str, within: Duration) -> (ExitStatus, String) {
-        let status = Command::new("kill")
-            .args([signal, &self.child.id().to_string()])
-            .status()
-            .expect("run kill");
-        assert!(status.success());
-        let give_up = Instant::now() + within;
-        loop {
-            if let Some(s) = self.child.try_wait().expect("wait") {
-                return (s, stderr_of(&mut self.child));
-            }
-            assert!(
-                Instant::now() < give_up,
-                "driveset sim did not stop within {within:?} after kill {signal}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+        let status = self.child.signal(signal, within);
+        (status, stderr_of(&mut self.child))
     }
 }
 

@@ -295,7 +295,7 @@ fn upload_killed_at_57600_over_a_pty_then_recover_switches_the_drive_back() {
     let dir = tempfile::tempdir().expect("tempdir");
     let (mut sim, log, port) = logged_sim(dir.path());
     let journal = dir.path().join("j.json");
-    let mut up = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+    let mut up = std::process::Command::new(driveset_test_support::driveset_bin())
         .current_dir(driveset_test_support::workspace_root())
         .args([
             "upload",

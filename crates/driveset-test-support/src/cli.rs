@@ -41,3 +41,37 @@ pub fn driveset_in_with_locks(dir: &Path) -> Command {
         .env_remove("DRIVESET_SIM_STATE_DIR");
     c
 }
+
+/// The path of the built `driveset` binary, for a [`std::process::Command`]
+/// a test spawns itself (a server it talks to while it runs).
+pub fn driveset_bin() -> std::path::PathBuf {
+    assert_cmd::cargo::cargo_bin("driveset")
+}
+
+/// Run `cmd` to its end: (exit code, stdout, stderr), the output as text.
+pub fn outcome(cmd: &mut Command) -> (Option<i32>, String, String) {
+    let o = cmd.output().expect("run driveset");
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// `driveset sim ARGS` started in the background (stdin closed, stdout
+/// piped for its first line, stderr to `stderr`), killed when dropped.
+pub fn driveset_sim<S: AsRef<std::ffi::OsStr>>(
+    args: &[S],
+    stderr: std::process::Stdio,
+) -> crate::Spawned {
+    use std::process::Stdio;
+    let child = std::process::Command::new(driveset_bin())
+        .arg("sim")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(stderr)
+        .spawn()
+        .expect("start driveset sim");
+    crate::Spawned::new(child, "driveset sim")
+}
