@@ -42,7 +42,7 @@ struct Rig {
     log: EventLog,
 }
 
-fn sim_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
+fn rig_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
     let (clock, log, bus) = sim_byte_bus(baud, drives, faults);
     (Rig { clock, log }, bus)
 }
@@ -78,7 +78,7 @@ fn value_reply(adr: u8, code: &str, value: &str) -> Vec<u8> {
 
 #[test]
 fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
@@ -118,7 +118,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
 
 #[test]
 fn mc_signed_and_q16_values_round_trip() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(4)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(4)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 4).unwrap();
     // 428-RSIO: untyped, width 4 -> PT_INT32Q16 (as the simulator).
     let raw = RawValue::Int(-132 * 65536);
@@ -128,7 +128,7 @@ fn mc_signed_and_q16_values_round_trip() {
 
 #[test]
 fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     // 101-MAINV: EEPROM, 2 bytes -> 30 ms store.
     c.write(CodeKey::new(101), &RawValue::Int(410)).unwrap();
@@ -168,7 +168,7 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
 fn mc_eeprom_busy_nak_waits_and_repeats() {
     // A second session on the same line does not know the drive is still
     // storing: its SELECT is NAKed, SERR says 0x04, it waits and repeats.
-    let (rig, bus) = sim_bus(57600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(57600, vec![mc(1)], None);
     let s = schema(Family::Mc6000);
     let mut a = LustbusClient::new(bus, Arc::clone(&s), 1).unwrap();
     a.write(CodeKey::new(101), &RawValue::Int(420)).unwrap();
@@ -196,7 +196,7 @@ fn mc_eeprom_busy_nak_waits_and_repeats() {
 
 #[test]
 fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(2)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(2)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 2).unwrap();
     // 300-CFCON: 0..7.
     let err = c.write(CodeKey::new(300), &RawValue::Int(9)).unwrap_err();
@@ -217,7 +217,7 @@ fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
 fn enquiry_nak_is_a_device_error() {
     // The MC schema as the client sees it, but the drive on the line is a
     // VF1000: the MC CODE 20300 does not exist there -> NAK.
-    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.read(CodeKey::new(300)).unwrap_err();
     let ErrorKind::Device { cause, .. } = &*err.kind else {
@@ -236,7 +236,7 @@ fn enquiry_nak_is_a_device_error() {
 
 #[test]
 fn restart_mid_session_is_reported() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
     let now = rig.clock.now();
@@ -252,7 +252,7 @@ fn restart_mid_session_is_reported() {
 
 #[test]
 fn lost_replies_are_retried() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], Some("lose=0.3,seed=7"));
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], Some("lose=0.3,seed=7"));
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     for _ in 0..20 {
         assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
@@ -262,7 +262,7 @@ fn lost_replies_are_retried() {
 
 #[test]
 fn no_answer_after_three_tries() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 5).unwrap();
     let t0 = rig.clock.now();
     let err = c.read(CodeKey::new(300)).unwrap_err();
@@ -282,7 +282,7 @@ fn no_answer_after_three_tries() {
 
 #[test]
 fn garbled_replies_are_retried() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], Some("flip=0.3,seed=3"));
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], Some("flip=0.3,seed=3"));
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     for _ in 0..10 {
         assert_eq!(c.read(CodeKey::new(402)).unwrap(), RawValue::Int(2));
@@ -292,7 +292,7 @@ fn garbled_replies_are_retried() {
 
 #[test]
 fn dataset_download_accepted() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     assert!(c.has_dataset_download());
     c.dataset_begin().unwrap();
@@ -313,7 +313,7 @@ fn dataset_download_accepted() {
 
 #[test]
 fn dataset_download_rejected_keeps_the_old_set() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.dataset_begin().unwrap();
     // FICTIONAL rule of the simulator: 102-UVLIM <= 101-MAINV.
@@ -328,7 +328,7 @@ fn dataset_download_rejected_keeps_the_old_set() {
 
 #[test]
 fn dataset_begin_while_running_names_standstill() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     // the write guard never writes a start: the machine's control starts it
     let refused = c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap_err();
@@ -352,7 +352,7 @@ fn dataset_begin_while_running_names_standstill() {
 
 #[test]
 fn vf1000_read_and_write_exact_bytes() {
-    let (rig, bus) = sim_bus(9600, vec![vf(3)], None);
+    let (rig, bus) = rig_bus(9600, vec![vf(3)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 3).unwrap();
     c.read(CodeKey::new(12)).unwrap();
     // 20-FFIX1, PT_FIXPOINT16: 50.00 Hz = raw 1000 = 03E8.
@@ -382,7 +382,7 @@ fn vf1000_read_and_write_exact_bytes() {
 
 #[test]
 fn vf1000_eeprom_write_allows_the_delayed_ack() {
-    let (rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
     c.read(CodeKey::new(30)).unwrap();
     let t0 = rig.clock.now();
@@ -395,14 +395,14 @@ fn vf1000_eeprom_write_allows_the_delayed_ack() {
 
 #[test]
 fn addresses_and_family_are_checked() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Mc6000), 31).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Tmd), 1).unwrap_err();
     assert!(err.to_string().contains("not a LUSTBUS family"), "{err}");
     // Read-only codes are refused before anything is sent.
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
@@ -412,7 +412,7 @@ fn addresses_and_family_are_checked() {
 
 #[test]
 fn passwords_never_appear_in_errors() {
-    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
     // 70 keypad password, 0..9999: 54321 is refused with SIOF 0x80.
     let err = c
@@ -431,7 +431,7 @@ fn passwords_never_appear_in_errors() {
 
 #[test]
 fn options_change_the_answer_timeout() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let o = LustbusOptions {
         tries: 1,
         answer_timeout: Some(Duration::from_millis(5)),
@@ -469,7 +469,7 @@ mod learn {
         base_id: &str,
         opts: &LearnOptions,
     ) -> (Learned, LearnedSchema) {
-        let (_rig, bus) = sim_bus(9600, vec![drive], None);
+        let (_rig, bus) = rig_bus(9600, vec![drive], None);
         let registry = Registry::builtin().expect("builtin");
         let base = registry.get(base_id).expect("base");
         let mut client = LustbusClient::new(bus, base.clone(), 1).expect("client");
@@ -682,7 +682,7 @@ fn a_slow_link_is_measured_not_timed_out() {
             .expect("mc6000"),
         )
     };
-    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![slow(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.identify().expect("identify");
     for _ in 0..10 {
@@ -705,7 +705,7 @@ fn a_slow_link_is_measured_not_timed_out() {
     // comes after the late window, during the repetition; being the same
     // ENQUIRY (same address and CODE) it is that repetition's answer, but
     // only after a retry.
-    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![slow(1)], None);
     let o = LustbusOptions {
         answer_timeout: Some(Duration::from_millis(40) + wire_time(18, 9600)),
         ..LustbusOptions::default()
@@ -722,7 +722,7 @@ fn a_late_reply_is_recognised_and_dropped() {
     let late =
         Mc6000::new(LustOptions::new(1).reaction(ReactionTime::fixed(Duration::from_millis(70))))
             .expect("mc6000");
-    let (_rig, bus) = sim_bus(9600, vec![Box::new(late)], None);
+    let (_rig, bus) = rig_bus(9600, vec![Box::new(late)], None);
     let o = LustbusOptions {
         tries: 2,
         answer_timeout: Some(Duration::from_millis(50)),
@@ -750,7 +750,7 @@ fn a_late_reply_is_recognised_and_dropped() {
 /// no dataset stages are refused before anything is sent.
 #[test]
 fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1), mc(2)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1), mc(2)], None);
     let s = schema(Family::Mc6000);
     let mut c1 = LustbusClient::new(bus, s.clone(), 1).unwrap();
     c1.dataset_begin().unwrap();

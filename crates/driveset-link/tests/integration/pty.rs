@@ -16,7 +16,7 @@ use driveset_link::{
     ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, OpenOptions, PortSpec,
     RealClock, open,
 };
-use serialport::{SerialPort, TTYPort};
+use serialport::TTYPort;
 
 use driveset_test_support::{pty_pair, read_exact_n, recv_n};
 
