@@ -4,7 +4,7 @@
 
 use predicates::prelude::*;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn decode(args: &[&str], code: i32, stdout: &str) {
     driveset()
@@ -266,7 +266,7 @@ fn float_range_and_exponents() {
         dir.path().join("f.toml"),
         format!(
             "schema = {:?}\n[values]\n105 = 1e39\n106 = \"1e39\"\n",
-            crate::util::workspace_root()
+            driveset_test_support::workspace_root()
                 .join("parameter-sets/fixtures/fictional-mc6000-demo.toml")
                 .display()
                 .to_string()

@@ -3,7 +3,7 @@
 
 use predicates::prelude::*;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 #[test]
 fn identify_mc6000() {
@@ -385,7 +385,7 @@ fn identify_and_scan_find_a_drive_left_at_the_transfer_rate() {
     let dir = tempfile::tempdir().unwrap();
     let state = dir.path().join("sim");
     std::fs::create_dir_all(&state).unwrap();
-    let set = crate::util::workspace_root().join("parameter-sets/mc6000/axis-1.toml");
+    let set = driveset_test_support::workspace_root().join("parameter-sets/mc6000/axis-1.toml");
     driveset()
         .env("DRIVESET_SIM_STATE_DIR", &state)
         .current_dir(dir.path())

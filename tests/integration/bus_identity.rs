@@ -16,7 +16,9 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::e2e_pty::{Sim, dump_subset, load, one_at_a_time};
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{
+    driveset, driveset_in_with_locks, outcome, send_signal, workspace_root,
+};
 
 /// Hang guard of one command, and of waiting for a journal to appear.
 const GUARD: Duration = Duration::from_secs(300);
@@ -30,19 +32,10 @@ fn cmd(locks: &Path, args: &[&str]) -> assert_cmd::Command {
     c
 }
 
-fn out(c: &mut assert_cmd::Command) -> (Option<i32>, String, String) {
-    let o = c.output().expect("run driveset");
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
 /// `driveset upload SET --port PORT --address 11 --journal-dir DIR`,
 /// started in the background.
 fn spawn_upload(locks: &Path, port: &str, journals: &Path, stderr: &Path) -> Child {
-    Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+    Command::new(driveset_test_support::driveset_bin())
         .current_dir(workspace_root())
         .env("DRIVESET_LOCK_DIR", locks)
         .args([
@@ -98,11 +91,11 @@ fn journals(dir: &Path) -> Vec<PathBuf> {
 }
 
 fn kill9(child: &mut Child) {
-    let status = Command::new("kill")
-        .args(["-KILL", &child.id().to_string()])
-        .status()
-        .expect("run kill");
-    assert!(status.success());
+    assert!(
+        send_signal(child.id(), "-KILL"),
+        "kill -KILL {}",
+        child.id()
+    );
     let _ = child.wait();
 }
 
@@ -155,19 +148,21 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
         format!("{}-11.journal.json", stem(&bus))
     );
     let jarg = journal.display().to_string();
-    let (code, stdout, stderr) = out(cmd(
-        &locks,
-        &[
-            "upload",
-            SET,
-            "--port",
-            &link,
-            "--address",
-            "11",
-            "--journal-dir",
-        ],
-    )
-    .arg(&journal_dir));
+    let (code, stdout, stderr) = outcome(
+        cmd(
+            &locks,
+            &[
+                "upload",
+                SET,
+                "--port",
+                &link,
+                "--address",
+                "11",
+                "--journal-dir",
+            ],
+        )
+        .arg(&journal_dir),
+    );
     assert_eq!(code, Some(3), "{stderr}");
     assert_eq!(stdout, "");
     let lock = locks.join(format!("{}.lock", stem(&bus)));
@@ -182,19 +177,21 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
     assert!(cut_in == "writing" || cut_in == "verifying", "{j}");
     assert_eq!(j["target"]["bus"], bus.as_str(), "{j}");
     assert_eq!(j["target"]["port"], sim.path.as_str(), "{j}");
-    let (code, stdout, stderr) = out(cmd(
-        &locks,
-        &[
-            "upload",
-            SET,
-            "--port",
-            &link,
-            "--address",
-            "11",
-            "--journal-dir",
-        ],
-    )
-    .arg(&journal_dir));
+    let (code, stdout, stderr) = outcome(
+        cmd(
+            &locks,
+            &[
+                "upload",
+                SET,
+                "--port",
+                &link,
+                "--address",
+                "11",
+                "--journal-dir",
+            ],
+        )
+        .arg(&journal_dir),
+    );
     assert_eq!(code, Some(2), "{stderr}");
     assert_eq!(stdout, "");
     assert_eq!(
@@ -205,7 +202,7 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
     );
 
     // 3. recover through the symlink: the same bus, so it settles the drive
-    let (code, stdout, stderr) = out(&mut cmd(&locks, &["recover", &jarg, "--port", &link]));
+    let (code, stdout, stderr) = outcome(&mut cmd(&locks, &["recover", &jarg, "--port", &link]));
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(
         stdout.contains(&format!(
@@ -218,19 +215,21 @@ fn a_pty_upload_killed_mid_write_is_seen_locked_recovered_and_redone_through_a_s
     assert!(state == "rolled-back" || state == "complete", "{state}");
 
     // 4. the upload through the symlink now runs, and the drive holds the set
-    let (code, stdout, stderr) = out(cmd(
-        &locks,
-        &[
-            "upload",
-            SET,
-            "--port",
-            &link,
-            "--address",
-            "11",
-            "--journal-dir",
-        ],
-    )
-    .arg(&journal_dir));
+    let (code, stdout, stderr) = outcome(
+        cmd(
+            &locks,
+            &[
+                "upload",
+                SET,
+                "--port",
+                &link,
+                "--address",
+                "11",
+                "--journal-dir",
+            ],
+        )
+        .arg(&journal_dir),
+    );
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(
         stdout.starts_with(&format!("{link} address 11: complete (")),
@@ -273,7 +272,7 @@ fn tcp_cut_then_other_spelling(dir: &Path, sim: &Sim, cut: &str, other: &str, bu
         c.arg(&journal_dir);
         c
     };
-    let (code, _, stderr) = out(&mut upload_other());
+    let (code, _, stderr) = outcome(&mut upload_other());
     assert_eq!(code, Some(3), "{stderr}");
     assert!(stderr.starts_with(&held_prefix(bus, a.id())), "{stderr}");
     assert!(
@@ -282,7 +281,7 @@ fn tcp_cut_then_other_spelling(dir: &Path, sim: &Sim, cut: &str, other: &str, bu
     );
     kill9(&mut a);
     assert_eq!(json(&journal)["target"]["bus"], bus, "{}", json(&journal));
-    let (code, stdout, stderr) = out(&mut upload_other());
+    let (code, stdout, stderr) = outcome(&mut upload_other());
     assert_eq!(code, Some(2), "{stderr}");
     assert_eq!(stdout, "");
     let state = json(&journal)["state"].as_str().unwrap().to_string();
@@ -292,7 +291,7 @@ fn tcp_cut_then_other_spelling(dir: &Path, sim: &Sim, cut: &str, other: &str, bu
             "error: journal {jarg}: the drive at {other} address 11 has an unfinished transaction ({jarg} (state {state})); nothing was sent. Run `driveset recover {jarg}` first\n"
         )
     );
-    let (code, stdout, stderr) = out(&mut cmd(&locks, &["recover", &jarg, "--port", other]));
+    let (code, stdout, stderr) = outcome(&mut cmd(&locks, &["recover", &jarg, "--port", other]));
     assert_eq!(code, Some(0), "{stdout}{stderr}\n{}", sim.stderr());
     assert!(
         stdout.contains(&format!(
@@ -330,14 +329,14 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
     let jarg = journal.display().to_string();
     let before = std::fs::read(&journal).unwrap();
     let far = format!("tcp://localhost:{q}");
-    let (code, stdout, stderr) = out(&mut cmd(&locks, &["recover", &jarg, "--port", &far]));
+    let (code, stdout, stderr) = outcome(&mut cmd(&locks, &["recover", &jarg, "--port", &far]));
     assert_eq!(code, Some(0), "a settled journal needs nothing: {stderr}");
     assert!(stdout.contains("nothing to do"), "{stdout}");
     // an unfinished one of the same bus: written back to `writing`
     let mut j = json(&journal);
     j["state"] = "writing".into();
     std::fs::write(&journal, serde_json::to_vec_pretty(&j).unwrap()).unwrap();
-    let (code, stdout, stderr) = out(&mut cmd(&locks, &["recover", &jarg, "--port", &far]));
+    let (code, stdout, stderr) = outcome(&mut cmd(&locks, &["recover", &jarg, "--port", &far]));
     assert_eq!(code, Some(2), "{stderr}");
     assert_eq!(stdout, "");
     assert_eq!(
@@ -351,19 +350,21 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
 
     // the drive holds its old values or the set, never a mix: the last
     // recover settled it; an upload by name completes it
-    let (code, stdout, stderr) = out(cmd(
-        &locks,
-        &[
-            "upload",
-            SET,
-            "--port",
-            &by_name,
-            "--address",
-            "11",
-            "--journal-dir",
-        ],
-    )
-    .arg(dir.path().join("journal-final")));
+    let (code, stdout, stderr) = outcome(
+        cmd(
+            &locks,
+            &[
+                "upload",
+                SET,
+                "--port",
+                &by_name,
+                "--address",
+                "11",
+                "--journal-dir",
+            ],
+        )
+        .arg(dir.path().join("journal-final")),
+    );
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     let status = sim.terminate();
     assert!(status.success(), "{}", sim.stderr());
@@ -373,12 +374,9 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
 }
 
 /// `driveset` in `dir` (the simulator's state and the journals there).
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_LOCK_DIR", dir.join("locks"))
-        .env_remove("DRIVESET_SIM_STATE_DIR")
-        .timeout(GUARD);
+fn guarded_in(dir: &Path) -> assert_cmd::Command {
+    let mut c = driveset_in_with_locks(dir);
+    c.timeout(GUARD);
     c
 }
 
@@ -387,11 +385,12 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     let dir = tempfile::tempdir().unwrap();
     let set = workspace_root().join(SET);
     let port = "sim://tmd?addresses=11&c0001=3&state=drives.json&faults=cable@30+600s&seed=7";
-    let (code, _, stderr) =
-        out(in_dir(dir.path())
-            .arg("upload")
-            .arg(&set)
-            .args(["--port", port, "--address", "11"]));
+    let (code, _, stderr) = outcome(guarded_in(dir.path()).arg("upload").arg(&set).args([
+        "--port",
+        port,
+        "--address",
+        "11",
+    ]));
     assert_eq!(code, Some(3), "{stderr}");
     let state = std::fs::canonicalize(dir.path())
         .unwrap()
@@ -415,7 +414,7 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     // another relative path) is the same bus: the guard refuses it
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     let respelled = "sim://tmd?c0001=3&state=sub/../drives.json&addresses=11";
-    let (code, _, stderr) = out(in_dir(dir.path()).arg("upload").arg(&set).args([
+    let (code, _, stderr) = outcome(guarded_in(dir.path()).arg("upload").arg(&set).args([
         "--port",
         respelled,
         "--address",
@@ -433,7 +432,7 @@ fn a_journal_written_through_a_sim_port_with_state_and_faults_recovers_without_f
     // recorded port without the run's faults, the state file absolute
     let elsewhere = tempfile::tempdir().unwrap();
     let journal = dir.path().join(&jarg);
-    let (code, stdout, stderr) = out(in_dir(elsewhere.path()).arg("recover").arg(&journal));
+    let (code, stdout, stderr) = outcome(guarded_in(elsewhere.path()).arg("recover").arg(&journal));
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     let reopened = format!("sim://tmd?addresses=11&c0001=3&state={}", state.display());
     assert!(
@@ -467,7 +466,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     )
     .unwrap();
     let port = "sim://tmd?addresses=11&c0001=3&state=drives.json&faults=cable@17+600s";
-    let (code, _, stderr) = out(in_dir(dir.path()).args([
+    let (code, _, stderr) = outcome(guarded_in(dir.path()).args([
         "upload",
         "sets/axis.toml",
         "--port",
@@ -498,7 +497,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     // the schema file edited since: refused, nothing sent, both named
     std::fs::write(&schema, format!("{text}\n# edited\n")).unwrap();
     let edited = driveset_schema::schema::schema_fingerprint(None, &format!("{text}\n# edited\n"));
-    let (code, stdout, stderr) = out(in_dir(dir.path()).arg("recover").arg(&jarg));
+    let (code, stdout, stderr) = outcome(guarded_in(dir.path()).arg("recover").arg(&jarg));
     assert_eq!(code, Some(2), "{stdout}{stderr}");
     let reopened = format!("sim://tmd?addresses=11&c0001=3&state={}", state.display());
     assert_eq!(
@@ -512,7 +511,7 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
     // restored: recover with nothing but the journal, from another directory
     std::fs::write(&schema, &text).unwrap();
     let elsewhere = tempfile::tempdir().unwrap();
-    let (code, stdout, stderr) = out(in_dir(elsewhere.path()).arg("recover").arg(&journal));
+    let (code, stdout, stderr) = outcome(guarded_in(elsewhere.path()).arg("recover").arg(&journal));
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(
         stdout.starts_with(&format!("{reopened} address 11: journal was ")),

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use driveset_schema::doc::{Node, NodeKind, Syntax, parse};
 use driveset_schema::error::SourceFile;
 
-use crate::util::{copy_dir, workspace_root};
+use driveset_test_support::{copy_dir, workspace_root};
 
 fn yaml(path: &Path) -> Node {
     let text = std::fs::read_to_string(path).unwrap();
@@ -48,7 +48,7 @@ fn run_job(commands: &[String], reports: &[String]) {
         &root.join("examples/ci/twins"),
         &dir.path().join("examples/ci/twins"),
     );
-    let bin: PathBuf = assert_cmd::cargo::cargo_bin("driveset");
+    let bin: PathBuf = driveset_test_support::driveset_bin();
     let path = format!(
         "{}:{}",
         bin.parent().unwrap().display(),

@@ -1,7 +1,7 @@
 //! `driveset diff`: added / removed / changed lines, --defaults, --unified,
 //! json, exit codes 0 / 1 / 2.
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 const OLD: &str = "tests/data/sets/diff/old.toml";
 const NEW: &str = "tests/data/sets/diff/new.yaml";

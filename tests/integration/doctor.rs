@@ -4,25 +4,20 @@
 //! event log: no host telegram carries STX (SELECT / SEND do).
 #![cfg(unix)]
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 
-use crate::util::driveset;
+use driveset_test_support::{Spawned, driveset, driveset_sim, outcome, send_signal};
 
 fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = driveset()
-        .arg("doctor")
-        .args(args)
-        .timeout(Duration::from_secs(120))
-        .output()
-        .expect("run driveset doctor");
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+    outcome(
+        driveset()
+            .arg("doctor")
+            .args(args)
+            .timeout(Duration::from_secs(120)),
     )
 }
 
@@ -109,24 +104,14 @@ fn doctor_json_and_exit_codes() {
 
 /// A running `driveset sim`; killed when dropped.
 pub(crate) struct Sim {
-    child: Child,
+    child: Spawned,
     pub(crate) first: String,
 }
 
 impl Sim {
     pub(crate) fn start(args: &[&str]) -> Sim {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .arg("sim")
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start driveset sim");
-        let mut first = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut first)
-            .expect("first line");
+        let mut child = driveset_sim(args, Stdio::null());
+        let (first, _) = child.first_line();
         Sim {
             child,
             first: first.trim_end().to_string(),
@@ -134,16 +119,7 @@ impl Sim {
     }
 
     pub(crate) fn stop(&mut self) {
-        let _ = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
+        send_signal(self.child.id(), "-TERM");
         let _ = self.child.wait();
     }
 }

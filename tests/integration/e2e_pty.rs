@@ -10,14 +10,16 @@
 //! took.
 #![cfg(unix)]
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::ExitStatus;
+use std::time::Duration;
 
 use driveset_schema::{Registry, ResolvedSet, load_set};
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{
+    LinePeer, Spawned, driveset, driveset_bin, driveset_sim, outcome, python, sdo_server,
+    workspace_root,
+};
 
 /// Hang guard of one `driveset upload` / `diff` run.
 const RUN_GUARD: Duration = Duration::from_secs(300);
@@ -39,7 +41,7 @@ const STOP_GUARD: Duration = Duration::from_secs(30);
 /// A running `driveset sim --pty` (or `--tcp`); killed if the test fails
 /// first.
 pub(crate) struct Sim {
-    child: Child,
+    child: Spawned,
     /// The pty's slave path (or the TCP address) from the first stdout line.
     pub(crate) path: String,
     stderr: PathBuf,
@@ -71,22 +73,22 @@ impl Sim {
         extra: &[&str],
     ) -> Sim {
         let stderr = dir.join(format!("sim-{family}.stderr"));
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .args(["sim", "--family", family, "--address"])
-            .arg(address.to_string())
-            .args(endpoint)
-            .arg("--dump")
-            .arg(dir.join(format!("{family}.dump.json")))
-            .args(extra)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(&stderr).expect("sim stderr file"))
-            .spawn()
-            .expect("start driveset sim");
-        let mut first = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut first)
-            .expect("read the first line");
+        let mut args: Vec<std::ffi::OsString> = ["--family", family, "--address"]
+            .iter()
+            .map(Into::into)
+            .collect();
+        args.push(address.to_string().into());
+        args.extend(endpoint.iter().map(Into::into));
+        args.push("--dump".into());
+        args.push(dir.join(format!("{family}.dump.json")).into());
+        args.extend(extra.iter().map(Into::into));
+        let mut child = driveset_sim(
+            &args,
+            std::fs::File::create(&stderr)
+                .expect("sim stderr file")
+                .into(),
+        );
+        let (first, _) = child.first_line();
         let path = first
             .trim_end()
             .strip_prefix(announce)
@@ -110,46 +112,13 @@ impl Sim {
 
     /// SIGTERM, then wait (bounded) for the exit.
     pub(crate) fn terminate(&mut self) -> ExitStatus {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .expect("run kill");
-        assert!(status.success());
-        let give_up = Instant::now() + STOP_GUARD;
-        loop {
-            if let Some(s) = self.child.try_wait().expect("wait") {
-                return s;
-            }
-            assert!(
-                Instant::now() < give_up,
-                "driveset sim did not stop within {STOP_GUARD:?} after SIGTERM"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+        self.child.signal("-TERM", STOP_GUARD)
     }
 }
 
 /// Run `driveset ARGS` from the workspace root; (exit code, stdout, stderr).
 pub(crate) fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = driveset()
-        .args(args)
-        .timeout(RUN_GUARD)
-        .output()
-        .expect("run driveset");
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    outcome(driveset().args(args).timeout(RUN_GUARD))
 }
 
 pub(crate) fn load(rel: &str) -> ResolvedSet {
@@ -442,78 +411,28 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
 /// The `canopen` LocalNode of crates/driveset-engine/tests/python/sdo_server.py
 /// on python-can's slcan interface (see that crate's interop_canopen.rs):
 /// spoken to over stdin / stdout.
-struct PySdoServer {
-    child: Child,
-    stdin: Option<std::process::ChildStdin>,
-    lines: std::sync::mpsc::Receiver<String>,
-    stderr: PathBuf,
-}
+struct PySdoServer(LinePeer);
 
 impl PySdoServer {
-    fn start(dir: &Path, pty: &str) -> PySdoServer {
-        PySdoServer::start_with(dir, pty, &[])
+    fn start(pty: &str) -> PySdoServer {
+        PySdoServer::start_with(pty, &[])
     }
 
     /// `extra`: further arguments of sdo_server.py (an EDS to import).
-    fn start_with(dir: &Path, pty: &str, extra: &[&str]) -> PySdoServer {
-        let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
-            || workspace_root().join("target/py/bin/python"),
-            PathBuf::from,
-        );
-        assert!(
-            python.exists(),
-            "{} is missing: run scripts/setup-python (installs the pinned python-can and canopen \
-             into target/py), or set DRIVESET_PYTHON to a Python that has them",
-            python.display()
-        );
-        let stderr = dir.join("sdo_server.stderr");
-        let mut child = Command::new(&python)
-            .arg(workspace_root().join("crates/driveset-engine/tests/python/sdo_server.py"))
-            .args([pty, "1"])
-            .args(extra)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(&stderr).expect("stderr file"))
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let mut server = PySdoServer {
-            stdin: child.stdin.take(),
-            child,
-            lines,
-            stderr,
-        };
-        assert_eq!(server.line(), "ready", "{}", server.stderr());
-        server
+    fn start_with(pty: &str, extra: &[&str]) -> PySdoServer {
+        PySdoServer(sdo_server(pty, 1, extra, RUN_GUARD))
     }
 
     fn stderr(&self) -> String {
-        format!(
-            "sdo_server.py stderr (a ModuleNotFoundError means: run scripts/setup-python):\n{}",
-            std::fs::read_to_string(&self.stderr).unwrap_or_default()
-        )
+        self.0.stderr()
     }
 
     fn line(&mut self) -> String {
-        self.lines
-            .recv_timeout(RUN_GUARD)
-            .unwrap_or_else(|e| panic!("sdo_server.py: {e}\n{}", self.stderr()))
+        self.0.line()
     }
 
     fn send(&mut self, command: &str) {
-        use std::io::Write;
-        let stdin = self.stdin.as_mut().expect("stdin");
-        writeln!(stdin, "{command}")
-            .and_then(|()| stdin.flush())
-            .expect("write to sdo_server.py");
+        self.0.send(command);
     }
 
     /// `CODE RAW` lines of the object dictionary (writes left out).
@@ -531,24 +450,8 @@ impl PySdoServer {
         }
     }
 
-    fn quit(mut self) {
-        self.send("quit");
-        assert_eq!(self.line(), "bye", "{}", self.stderr());
-        drop(self.stdin.take());
-        let give_up = Instant::now() + STOP_GUARD;
-        while self.child.try_wait().expect("wait").is_none() {
-            assert!(Instant::now() < give_up, "sdo_server.py did not exit");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for PySdoServer {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+    fn quit(self) {
+        self.0.quit("quit", "bye");
     }
 }
 
@@ -557,13 +460,13 @@ impl Drop for PySdoServer {
 /// slcan interface), joined by driveset_sim::slcan_hub.
 #[test]
 fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
-    if crate::util::python_or_skip("canopen interop").is_none() {
+    if driveset_test_support::python_or_skip("canopen interop").is_none() {
         return;
     }
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
     let hub = driveset_sim::slcan_hub::SlcanHub::spawn(500_000).expect("slcan hub");
-    let mut server = PySdoServer::start(dir.path(), hub.path_b());
+    let mut server = PySdoServer::start(hub.path_b());
     let port = format!("slcan://{}?bitrate=500000", hub.path_a());
     let log = |hub: &driveset_sim::slcan_hub::SlcanHub| hub.log().join("\n");
 
@@ -717,7 +620,7 @@ fn pull_and_upload_against_a_canopen_local_node_over_slcan() {
 /// --to dcf` writes from the pulled set is read back by canopen.
 #[test]
 fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
-    if crate::util::python_or_skip("canopen interop").is_none() {
+    if driveset_test_support::python_or_skip("canopen interop").is_none() {
         return;
     }
     let _serial = one_at_a_time();
@@ -734,7 +637,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
     );
 
     let hub = driveset_sim::slcan_hub::SlcanHub::spawn(500_000).expect("slcan hub");
-    let mut server = PySdoServer::start_with(dir.path(), hub.path_b(), &[&eds_arg]);
+    let mut server = PySdoServer::start_with(hub.path_b(), &[&eds_arg]);
     let port = format!("slcan://{}?bitrate=500000", hub.path_a());
     let log = |hub: &driveset_sim::slcan_hub::SlcanHub| hub.log().join("\n");
 
@@ -764,7 +667,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
     let cia_index = |number: u32| loaded_schema.code(number).and_then(|c| c.index);
     // a subindex kept as a code of its own (C5020's, 0x1018's) is at its subindex
     let own_sub = |number: u32| loaded_schema.code(number).and_then(|c| c.subindex);
-    let canonical = std::process::Command::new(env!("CARGO_BIN_EXE_driveset"))
+    let canonical = std::process::Command::new(driveset_bin())
         .args(["show", &pulled_arg])
         .output()
         .expect("show");
@@ -865,7 +768,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
 
     // the DCF of the changed set, read back by canopen's importer
     let dcf = dir.path().join("changed.dcf");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_driveset"))
+    let out = std::process::Command::new(driveset_bin())
         .args(["show", "--to", "dcf", "--node-id", "1", &changed_arg])
         .output()
         .expect("show --to dcf");
@@ -876,11 +779,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
         String::from_utf8_lossy(&out.stderr)
     );
     std::fs::write(&dcf, &out.stdout).expect("write dcf");
-    let python = std::env::var_os("DRIVESET_PYTHON").map_or_else(
-        || workspace_root().join("target/py/bin/python"),
-        PathBuf::from,
-    );
-    let read = std::process::Command::new(python)
+    let read = std::process::Command::new(python())
         .args([
             "-c",
             "import sys, canopen\nod = canopen.import_od(sys.argv[1], 1)\nprint(od.node_id, od[0x4C76].value, od[0x4C63][2].value, od[0x4C59].value, od[0x1017].value, od[0x6073].value)",

@@ -6,26 +6,21 @@
 use std::time::Duration;
 
 use crate::doctor::{Sim, echo_proxy};
-use crate::util::driveset;
+use driveset_test_support::{driveset, outcome};
 
 fn identify(port: &str, protocol: &str, address: &str) -> (Option<i32>, String, String) {
-    let out = driveset()
-        .args([
-            "identify",
-            "--port",
-            port,
-            "--protocol",
-            protocol,
-            "--address",
-            address,
-        ])
-        .timeout(Duration::from_secs(60))
-        .output()
-        .expect("run driveset identify");
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+    outcome(
+        driveset()
+            .args([
+                "identify",
+                "--port",
+                port,
+                "--protocol",
+                protocol,
+                "--address",
+                address,
+            ])
+            .timeout(Duration::from_secs(60)),
     )
 }
 

@@ -12,7 +12,7 @@
 
 use std::path::Path;
 
-use crate::util::{driveset, python_or_skip, workspace_root};
+use driveset_test_support::{driveset, python_or_skip, workspace_root};
 
 const Q: &str = "tests/data/eds/quirks";
 

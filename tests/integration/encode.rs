@@ -1,6 +1,6 @@
 //! `driveset encode`: exact output and exit codes (generated from reviewed runs).
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 #[test]
 fn lustbus_6_1_1_1_enquiry() {

@@ -1,7 +1,7 @@
 //! `driveset fingerprint`: `sha256:...  FILE` lines; the same values in
 //! another spelling or syntax give the same fingerprint.
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn fingerprint(args: &[&str]) -> (String, String, i32) {
     let out = driveset()

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 fn git(dir: &Path, args: &[&str]) -> String {
     let out = Command::new("git")
@@ -196,7 +196,7 @@ fn pre_commit_example_checks_the_staged_sets() {
     let d = tmp.path();
     let hook = d.join(".git/hooks/pre-commit");
     std::fs::copy(workspace_root().join("examples/pre-commit"), &hook).unwrap();
-    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let bin = driveset_test_support::driveset_bin();
     let commit = |msg: &str| {
         Command::new("git")
             .current_dir(d)

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 /// Generous: only a hang reaches it.
 const HANG_GUARD: Duration = Duration::from_secs(120);
@@ -224,7 +224,7 @@ fn decode_raw_dev_zero_and_an_endless_stdin_are_capped() {
         .stderr(
             "error: /dev/zero is a character device, not a regular file; driveset reads bus captures from regular files only; give the path of a regular file (save a pipe's or device's data into a file first)\n",
         );
-    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let bin = driveset_test_support::driveset_bin();
     let zero = std::fs::File::open("/dev/zero").unwrap();
     let mut child = Command::new(bin)
         .args(["decode", "--protocol", "lustbus", "--raw", "-"])
@@ -280,7 +280,7 @@ fn decode_into_a_closed_pipe_ends_quietly() {
     // a few MB of output: far more than a pipe buffer holds
     let line = vec!["04 40 30 30 31 31 32 05"; 20_000].join(" ");
     std::fs::write(dir.path().join("cap.hex"), format!("{line}\n")).unwrap();
-    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let bin = driveset_test_support::driveset_bin();
     let mut child = Command::new(bin)
         .current_dir(dir.path())
         .args(["decode", "--protocol", "lustbus", "cap.hex"])
@@ -318,7 +318,7 @@ fn validate_and_show_into_head_end_quietly() {
         .unwrap();
     }
     std::fs::write(dir.path().join("ok.toml"), TMD_SET).unwrap();
-    let bin = assert_cmd::cargo::cargo_bin("driveset");
+    let bin = driveset_test_support::driveset_bin();
     for cmd in ["validate .", "show --to json ok.toml"] {
         let out = Command::new("bash")
             .current_dir(dir.path())
@@ -486,7 +486,7 @@ fn a_failed_write_to_stdout_exits_2_and_says_so() {
             .write(true)
             .open("/dev/full")
             .expect("/dev/full");
-        let out = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+        let out = Command::new(driveset_test_support::driveset_bin())
             .current_dir(dir.path())
             .args(args)
             .stdout(full)
@@ -506,7 +506,7 @@ fn a_failed_write_to_stdout_exits_2_and_says_so() {
 fn show_into_head_exits_quietly_with_its_own_code() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("set.toml"), TMD_SET).unwrap();
-    let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
+    let mut child = Command::new(driveset_test_support::driveset_bin())
         .current_dir(dir.path())
         .args(["show", "--to", "yaml", "set.toml"])
         .stdout(Stdio::piped())
@@ -570,14 +570,15 @@ fn control_characters_in_keys_never_reach_the_terminal_raw() {
 #[test]
 fn control_characters_in_a_schema_files_names_are_escaped_in_diff_and_plan() {
     let dir = tempfile::tempdir().unwrap();
-    let schema =
-        std::fs::read_to_string(crate::util::workspace_root().join("schemas/lenze-tmd.toml"))
-            .unwrap()
-            .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
-            .replace(
-                "name = \"maximum_output_frequency\"",
-                "name = \"max\\u001b[31m_freq\"",
-            );
+    let schema = std::fs::read_to_string(
+        driveset_test_support::workspace_root().join("schemas/lenze-tmd.toml"),
+    )
+    .unwrap()
+    .replace("id = \"lenze-tmd\"", "id = \"esc-tmd\"")
+    .replace(
+        "name = \"maximum_output_frequency\"",
+        "name = \"max\\u001b[31m_freq\"",
+    );
     std::fs::write(dir.path().join("esc.toml"), schema).unwrap();
     for (f, v) in [("a.toml", 60), ("b.toml", 70)] {
         std::fs::write(

@@ -12,7 +12,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-use crate::util::{driveset, interop_or_skip, python_or_skip, workspace_root};
+use driveset_test_support::{driveset, interop_or_skip, python_or_skip, workspace_root};
 
 fn taplo_or_skip(what: &str) -> Option<PathBuf> {
     let taplo = std::env::var_os("DRIVESET_TAPLO").map_or_else(

@@ -2,7 +2,7 @@
 //! testsuite per file, one testcase per finding, failures carrying
 //! file:line:col), parsed with an XML parser.
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn write(dir: &std::path::Path, name: &str, text: &str) -> String {
     let p = dir.join(name);

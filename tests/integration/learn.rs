@@ -10,16 +10,10 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use crate::util::driveset;
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
-}
+use driveset_test_support::{driveset, driveset_with_sim_state};
 
 fn learned_file(dir: &Path) -> PathBuf {
-    let mut files = crate::util::toml_files_starting(dir, "learned-mc6000-type0-d");
+    let mut files = driveset_test_support::toml_files_starting(dir, "learned-mc6000-type0-d");
     assert_eq!(files.len(), 1, "{files:?}");
     files.pop().unwrap()
 }
@@ -41,7 +35,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     let port = format!("sim://mc6000?addresses=1{query}");
     let set = dir.path().join("set").join("axis.toml");
-    let out = in_dir(dir.path())
+    let out = driveset_with_sim_state(dir.path())
         .args([
             "pull",
             "--port",
@@ -85,7 +79,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("0 findings"));
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("upload")
         .arg(&set)
         .args(["--port", &port, "--address", "1", "--journal-dir"])
@@ -96,7 +90,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
             "100-PWMF: \"8 kHz\" -> \"16 kHz\"  verified",
         ));
     let again = dir.path().join("again.toml");
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .args(["pull", "--port", &port, "--address", "1", "--schema"])
         .arg(&schema)
         .arg("-o")
@@ -108,7 +102,7 @@ fn round_trip(query: &str, layout: &str, types: &str) {
         assert!(back.contains(&format!("\n{to}\n")), "{to} in {back}");
     }
     // And the live diff of the edited set against the drive: nothing differs.
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("diff")
         .arg(&set)
         .args(["--port", &port, "--address", "1"])
@@ -315,7 +309,7 @@ fn upload_and_live_diff_of_a_set_naming_the_built_in_schema_learn_first() {
     std::fs::write(&set, "schema = \"lust-mc6000\"\n\n[values]\n1 = 3\n").unwrap();
     driveset().arg("validate").arg(&set).assert().code(1);
     let port = "sim://mc6000?addresses=1&layout=42&types=table";
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("diff")
         .arg(&set)
         .args(["--port", port, "--address", "1"])
@@ -325,7 +319,7 @@ fn upload_and_live_diff_of_a_set_naming_the_built_in_schema_learn_first() {
         .stderr(predicate::str::contains(
             " from the drive's descriptions: 250 codes, description layout 42, type characters table (guessed)\n",
         ));
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("upload")
         .arg(&set)
         .args(["--port", port, "--address", "1", "--journal-dir"])
@@ -333,13 +327,13 @@ fn upload_and_live_diff_of_a_set_naming_the_built_in_schema_learn_first() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("  1-MODE: 0 -> 3  verified"));
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("diff")
         .arg(&set)
         .args(["--port", port, "--address", "1", "--no-learn"])
         .assert()
         .code(2);
-    in_dir(dir.path())
+    driveset_with_sim_state(dir.path())
         .arg("diff")
         .arg(&set)
         .args(["--port", port, "--address", "1"])

@@ -12,18 +12,11 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::driveset;
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c.current_dir(dir);
-    c
-}
+use driveset_test_support::{driveset, driveset_in};
 
 /// The learned files (`*.toml` other than the sets) in `dir`.
 fn learned_files(dir: &Path) -> Vec<std::path::PathBuf> {
-    crate::util::toml_files_starting(dir, "learned-")
+    driveset_test_support::toml_files_starting(dir, "learned-")
 }
 
 /// (family, describe=, the report's line, the learned file's comment).
@@ -107,7 +100,7 @@ fn one_step_pull_keeps_the_spec_where_the_drive_contradicts_it() {
     for (family, describe, line, comment) in CASES {
         let dir = tempfile::tempdir().unwrap();
         let port = format!("sim://{family}?addresses=1&describe={describe}");
-        let out = in_dir(dir.path())
+        let out = driveset_in(dir.path())
             .args(["pull", "--port", &port, "--address", "1", "--schema"])
             .arg(format!("lust-{family}"))
             .args(["-o", "set.toml"])
@@ -143,7 +136,7 @@ fn two_step_schema_pull_then_pull_with_the_learned_file() {
     for (family, describe, line, comment) in CASES {
         let dir = tempfile::tempdir().unwrap();
         let port = format!("sim://{family}?addresses=1&describe={describe}");
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args(["schema", "pull", "--port", &port, "--address", "1"])
             .args(["--family", family, "-o", "drive.toml"])
             .assert()
@@ -153,7 +146,7 @@ fn two_step_schema_pull_then_pull_with_the_learned_file() {
         let text = std::fs::read_to_string(&schema).unwrap();
         assert!(text.contains(comment), "{describe}: {text}");
         // The learned file is used as it is: nothing learned again.
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args(["pull", "--port", &port, "--address", "1"])
             .args(["--schema", "drive.toml", "-o", "set.toml"])
             .assert()
@@ -287,7 +280,7 @@ fn readme_flows_in_every_layout() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(dir.path().join("sim")).unwrap();
         let port = format!("sim://{family}?addresses=1{query}");
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args(["pull", "--port", &port, "--address", "1", "-o", "one.toml"])
             .args(["--schema", &format!("lust-{family}")])
             .assert()
@@ -297,7 +290,7 @@ fn readme_flows_in_every_layout() {
         assert_eq!(files.len(), 1, "{query}: {files:?}");
         offline_ok(&dir.path().join("one.toml"), &files[0]);
         // Pulling again with the learned file learns nothing.
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args([
                 "pull",
                 "--port",
@@ -313,12 +306,12 @@ fn readme_flows_in_every_layout() {
             .code(0)
             .stderr(predicate::str::contains("learned schema").not());
 
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args(["schema", "pull", "--port", &port, "--address", "1"])
             .args(["--family", family, "-o", "drive.toml"])
             .assert()
             .code(0);
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .args(["pull", "--port", &port, "--address", "1"])
             .args(["--schema", "drive.toml", "-o", "two.toml"])
             .assert()
@@ -327,7 +320,7 @@ fn readme_flows_in_every_layout() {
         assert_eq!(learned_files(dir.path()).len(), 1, "{query}");
         let two = dir.path().join("two.toml");
         offline_ok(&two, &dir.path().join("drive.toml"));
-        in_dir(dir.path())
+        driveset_in(dir.path())
             .arg("diff")
             .arg(&two)
             .args(["--port", &port, "--address", "1"])
@@ -345,7 +338,7 @@ fn readme_flows_in_every_layout() {
 fn learning_on_top_of_a_partial_learned_file_extends_its_base() {
     let dir = tempfile::tempdir().unwrap();
     let port = "sim://mc6000?addresses=1&layout=43&types=table";
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["schema", "pull", "--port", port, "--address", "1"])
         .args(["--family", "mc6000", "--params", "1-150", "-o", "part.toml"])
         .assert()
@@ -353,7 +346,7 @@ fn learning_on_top_of_a_partial_learned_file_extends_its_base() {
         .stdout(predicate::str::contains(
             "pulled 44 parameter descriptions (18 substitution texts)",
         ));
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args(["pull", "--port", port, "--address", "1"])
         .args(["--schema", "part.toml", "-o", "set.toml"])
         .assert()
@@ -388,7 +381,7 @@ fn learning_on_top_of_a_partial_learned_file_extends_its_base() {
             .contains(&format!("\nschema = \"{id}.toml\"\n"))
     );
     offline_ok(&set, &files[0]);
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["pull", "--port", port, "--address", "1", "--schema"])
         .arg(&files[0])
         .args(["-o", "again.toml"])
@@ -410,7 +403,7 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
     std::fs::create_dir_all(d.join("sets")).unwrap();
     let port = "sim://lustbus?mc6000=1&vf1000=5";
     for (family, address) in [("mc6000", "1"), ("vf1000", "5")] {
-        in_dir(d)
+        driveset_in(d)
             .args(["schema", "pull", "--port", port, "--address", address])
             .args(["--family", family, "-o"])
             .arg(format!("schemas/{family}.toml"))
@@ -432,8 +425,11 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         "schema = \"../schemas/vf1000.toml\"\n\n[values]\n7 = \"60 Hz\"\n",
     )
     .unwrap();
-    in_dir(d).args(["validate", "line.toml"]).assert().code(0);
-    in_dir(d)
+    driveset_in(d)
+        .args(["validate", "line.toml"])
+        .assert()
+        .code(0);
+    driveset_in(d)
         .args(["identify", "--port", port, "--address", "5"])
         .args(["--schema", "schemas/vf1000.toml"])
         .assert()
@@ -441,7 +437,7 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         .stdout(predicate::str::contains(
             "\nuses:     pulled-vf1000-5 (learned, schemas/vf1000.toml)\n",
         ));
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "line.toml"])
         .assert()
         .code(0)
@@ -458,7 +454,7 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         assert_eq!(dr["schema"], schema);
         assert!(dr["learned_schema"].is_null(), "{dr}");
     }
-    in_dir(d)
+    driveset_in(d)
         .args(["status", "line.toml"])
         .assert()
         .code(0)
@@ -466,7 +462,7 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
             "2 unchanged, 0 already verified, 0 drift",
         ));
     // upload: a pulled set naming the learned file, edited.
-    in_dir(d)
+    driveset_in(d)
         .args(["pull", "--port", port, "--address", "5"])
         .args(["--schema", "schemas/vf1000.toml", "-o", "fan-pulled.toml"])
         .assert()
@@ -484,7 +480,7 @@ fn commission_status_and_upload_use_a_learned_file_as_it_is() {
         text.replace("\n7 = \"60 Hz\"\n", "\n7 = \"55 Hz\"\n"),
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .arg("upload")
         .arg(&pulled)
         .args(["--port", port, "--address", "5", "--journal-dir", "journal"])

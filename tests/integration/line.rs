@@ -9,20 +9,13 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset_in, workspace_root};
 
 fn demo() -> String {
     workspace_root()
         .join("parameter-sets/demo-line/line.toml")
         .display()
         .to_string()
-}
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
 }
 
 fn report(dir: &Path) -> serde_json::Value {
@@ -72,7 +65,7 @@ fn drift_tmd(dir: &Path, address: u8, raw: i64) {
 fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--label", "it test"])
         .assert()
         .code(0)
@@ -110,7 +103,7 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
     );
 
     // nothing drifted yet
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", &demo()])
         .assert()
         .code(0)
@@ -121,7 +114,7 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
 
     // someone turns transfer-12 down to 55 Hz on the keypad
     drift_tmd(dir.path(), 12, 550_000);
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", &demo()])
         .assert()
         .code(1)
@@ -140,7 +133,7 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
     assert_eq!(t12["diff"][0]["code"], "C0011");
 
     // commission again: only the drifted drive is written
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo()])
         .assert()
         .code(0)
@@ -166,7 +159,7 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
 fn a_killed_run_resumes_and_skips_the_verified_drives() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--stop-after", "1"])
         .assert()
         .code(3)
@@ -176,7 +169,7 @@ fn a_killed_run_resumes_and_skips_the_verified_drives() {
         .stdout(predicate::str::contains(
             "press-axis-2: not reached: the run stopped after 1 drive(s) on bus `lustbus` (--stop-after); run the command again to resume\n",
         ));
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo()])
         .assert()
         .code(0)
@@ -191,7 +184,7 @@ fn a_killed_run_resumes_and_skips_the_verified_drives() {
         .collect();
     assert_eq!(already, ["press-axis-1", "transfer-11", "handling-1"]);
     // --fresh commissions everything again (the drives hold their sets: unchanged)
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--fresh", "--only", "transfer"])
         .assert()
         .code(0)
@@ -203,7 +196,7 @@ fn a_killed_run_resumes_and_skips_the_verified_drives() {
 #[test]
 fn only_names_an_unknown_drive_exit_2() {
     let dir = tempfile::tempdir().unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--only", "press-axis-9"])
         .assert()
         .code(2)
@@ -246,7 +239,7 @@ fn a_bad_manifest_fails_validation_with_locations() {
     )
     .unwrap();
     std::fs::write(dir.path().join("line.toml"), BAD).unwrap();
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args(["validate", "line.toml"])
         .assert()
         .code(1)
@@ -267,7 +260,7 @@ fn a_bad_manifest_fails_validation_with_locations() {
         assert!(out.contains(want), "missing {want:?} in:\n{out}");
     }
     // commission refuses it before opening any bus: exit 2, own kinds
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", "line.toml"])
         .assert()
         .code(2)
@@ -307,7 +300,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         "schema = \"lust-vf1000\"\n\n[values]\n7 = \"60 Hz\"\n20 = \"15 Hz\"\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "line.toml"])
         .assert()
         .code(1)
@@ -316,14 +309,14 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
             "the set names `lust-mc6000`, which lacks facts (types, kinds, ranges) the drive's own descriptions give: `driveset commission` and `driveset status` learn the schema from the drive first",
         ))
         .stdout(predicate::str::contains("5 findings in 1 of 1 file"));
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "line.toml", "--no-learn"])
         .assert()
         .code(2)
         .stderr(predicate::str::contains(
             "line.toml: 5 finding(s) in the line manifest; nothing was sent",
         ));
-    let out = in_dir(d)
+    let out = driveset_in(d)
         .args(["commission", "line.toml", "--schema-dir", "schemas"])
         .assert()
         .code(0)
@@ -369,9 +362,9 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     }
     // the learned files pass `schema check`
     for f in &files {
-        in_dir(d).args(["schema", "check", f]).assert().code(0);
+        driveset_in(d).args(["schema", "check", f]).assert().code(0);
     }
-    in_dir(d)
+    driveset_in(d)
         .args(["status", "line.toml", "--schema-dir", "schemas"])
         .assert()
         .code(0)
@@ -392,7 +385,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         (&files[1], "5", &["7 = \"60 Hz\"", "20 = \"15 Hz\""][..]),
     ] {
         let out = d.join(format!("pulled-{address}.toml"));
-        in_dir(d)
+        driveset_in(d)
             .args([
                 "pull",
                 "--port",
@@ -446,7 +439,7 @@ fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     let line = mc_axes_line(dir.path());
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &line, "--broadcast-common"])
         .assert()
         .code(0)
@@ -493,10 +486,13 @@ fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every
         assert!(!codes.contains(&c), "{codes:?}");
     }
     // the drives hold their sets
-    in_dir(dir.path()).args(["status", &line]).assert().code(0);
+    driveset_in(dir.path())
+        .args(["status", &line])
+        .assert()
+        .code(0);
     // a rerun with broadcast trusts the state file as a drive-by-drive
     // run does: one read of each set, no broadcast, nothing written
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &line, "--broadcast-common"])
         .assert()
         .code(0)
@@ -509,7 +505,7 @@ fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every
 fn commission_broadcast_common_refuses_a_lustbus_with_vf1000_drives() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--only", "lustbus", "--broadcast-common"])
         .assert()
         .code(0)
@@ -559,7 +555,7 @@ fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
     .unwrap();
     // without the override the MC is refused before anything is sent to
     // it; the VF1000 is uploaded at the bus's rate
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "line.toml"])
         .assert()
         .code(1)
@@ -573,7 +569,7 @@ fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
             ("fan".to_string(), "verified".to_string())
         ]
     );
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "line.toml", "--allow-shared-transfer-baud"])
         .assert()
         .code(0)
@@ -615,11 +611,14 @@ fn commission_and_status_reports_never_show_a_password() {
             String::from_utf8_lossy(&out.stderr)
         );
         for v in ["742", "743", "7420000", "7430000"] {
-            assert!(!crate::util::shows_value(&text, v), "{what}: {text}");
+            assert!(
+                !driveset_test_support::shows_value(&text, v),
+                "{what}: {text}"
+            );
         }
     };
     set(742);
-    let out = in_dir(d)
+    let out = driveset_in(d)
         .args(["commission", "line.toml", "--report-dir", "out"])
         .assert()
         .code(0)
@@ -627,7 +626,7 @@ fn commission_and_status_reports_never_show_a_password() {
         .clone();
     no_secret(&out, "commission");
     set(743);
-    let out = in_dir(d)
+    let out = driveset_in(d)
         .args(["status", "line.toml", "--report-dir", "out2"])
         .assert()
         .code(1)
@@ -646,7 +645,7 @@ fn commission_and_status_reports_never_show_a_password() {
     ] {
         let text = std::fs::read_to_string(d.join(f)).unwrap();
         for v in ["742", "743", "7420000", "7430000"] {
-            assert!(!crate::util::shows_value(&text, v), "{f}");
+            assert!(!driveset_test_support::shows_value(&text, v), "{f}");
         }
     }
 }

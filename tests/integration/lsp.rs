@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
-use crate::util::workspace_root;
+use driveset_test_support::workspace_root;
 
 const HANG_GUARD: Duration = Duration::from_secs(60);
 
@@ -55,7 +55,7 @@ impl Client {
     fn start(cache: &Path) -> Client {
         // DRIVESET_BIN: another build to measure (e.g. target/release/driveset)
         let bin = std::env::var_os("DRIVESET_BIN")
-            .map_or_else(|| assert_cmd::cargo::cargo_bin("driveset"), PathBuf::from);
+            .map_or_else(driveset_test_support::driveset_bin, PathBuf::from);
         let mut child = Command::new(bin)
             .arg("lsp")
             .current_dir(workspace_root())

@@ -1,6 +1,7 @@
 //! The CLI crate's one integration-test binary (ripgrep style: one binary,
-//! fast to link). Each module tests one area of the `driveset` CLI; `util`
-//! holds the shared helpers.
+//! fast to link). Each module tests one area of the `driveset` CLI; `tidy`
+//! reads the repository's sources and docs and holds docs/architecture.md's
+//! invariants. The shared helpers are in the `driveset-test-support` crate.
 
 mod address;
 mod address_truth;
@@ -38,8 +39,8 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod tidy;
 mod transfer_pty;
 mod twin;
 mod upload;
-mod util;
 mod validate;

@@ -3,7 +3,7 @@
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 fn fingerprint_line(stdout: &[u8]) -> String {
     let text = String::from_utf8_lossy(stdout);

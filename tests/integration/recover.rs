@@ -5,14 +5,7 @@
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
-
-fn in_dir(dir: &std::path::Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
-}
+use driveset_test_support::{driveset, driveset_in, workspace_root};
 
 #[test]
 fn interrupted_upload_then_recover() {
@@ -20,7 +13,7 @@ fn interrupted_upload_then_recover() {
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     let set = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
     let journal = dir.path().join("axis-1.journal.json");
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args(["upload"])
         .arg(&set)
         .args([
@@ -52,7 +45,7 @@ fn interrupted_upload_then_recover() {
     let backed_up = j["backup"].as_array().unwrap().len();
 
     // recover on the port without the fault
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args(["recover"])
         .arg(&journal)
         .args(["--port", "sim://mc6000?addresses=1"])
@@ -79,7 +72,7 @@ fn interrupted_upload_then_recover() {
         "{j}"
     );
     // settled: nothing more to do
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover"])
         .arg(&journal)
         .assert()
@@ -90,7 +83,7 @@ fn interrupted_upload_then_recover() {
 #[test]
 fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
     let dir = tempfile::tempdir().unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", "nope.json"])
         .assert()
         .code(2)
@@ -98,7 +91,7 @@ fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
             "journal nope.json: cannot read it",
         ));
     std::fs::write(dir.path().join("x.json"), "{}").unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", "x.json"])
         .assert()
         .code(2)
@@ -111,7 +104,7 @@ fn recover_of_a_missing_or_foreign_file_is_an_input_error() {
 fn cut_tmd_upload(dir: &std::path::Path) -> (String, String) {
     std::fs::create_dir_all(dir.join("sim")).unwrap();
     let set = workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
-    in_dir(dir)
+    driveset_in(dir)
         .args(["upload"])
         .arg(&set)
         .args([
@@ -146,7 +139,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     let (journal, bus) = cut_tmd_upload(dir.path());
     let state = dir.path().join("sim/sim-tmd.json");
     let before = sim_state(&state);
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12&c0001=3", "--address", "12"])
         .assert()
         .code(2)
@@ -171,7 +164,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
         "sim://tmd?addresses=11,12&c0001=3&state={}",
         &other_bus["sim:tmd@".len()..]
     );
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", &journal, "--port", &other_port])
         .assert()
         .code(2)
@@ -190,7 +183,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
     // the same bus, spelled otherwise (another address order, a seed): the
     // guard sees the journal; recover through it settles the drive
     let set = workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload"])
         .arg(&set)
         .args(["--port", "sim://tmd?addresses=12,11&c0001=3&seed=4", "--address", "11"])
@@ -200,7 +193,7 @@ fn recover_refuses_another_address_and_another_bus_with_exit_2_and_sends_nothing
         .stderr(format!(
             "error: journal {journal}: the drive at sim://tmd?addresses=12,11&c0001=3&seed=4 address 11 has an unfinished transaction ({journal} (state failed)); nothing was sent. Run `driveset recover {journal}` first\n"
         ));
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", &journal, "--port", "sim://tmd?addresses=12,11&c0001=3&seed=4"])
         .assert()
         .code(0)
@@ -218,7 +211,7 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
     let (journal, _) = cut_tmd_upload(dir.path());
     let later = workspace_root().join("parameter-sets/tmd/conveyor-commissioning.toml");
     // the guard blocks the later upload ...
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload"])
         .arg(&later)
         .args([
@@ -233,7 +226,7 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
             "has an unfinished transaction ({journal} (state failed)); nothing was sent."
         )));
     // ... forced past it with another journal directory (nothing deleted)
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload"])
         .arg(&later)
         .args([
@@ -248,7 +241,7 @@ fn recover_of_a_journal_a_later_upload_made_stale_names_the_codes_and_exits_2() 
         .code(0);
     let state = dir.path().join("sim/sim-tmd.json");
     let before = sim_state(&state);
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["recover", &journal, "--port", "sim://tmd?addresses=11,12&c0001=3"])
         .assert()
         .code(2)
@@ -357,7 +350,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
     )
     .unwrap();
     // an upload (not a commission) cut by a pulled cable
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload"])
         .arg(&set)
         .args([
@@ -377,7 +370,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
         .collect();
     let journal = format!(".driveset/journal/{name}-11.journal.json");
     // status: not "unchanged", failed, exit 1, nothing written
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", "line.toml", "--report-dir", "rep"])
         .assert()
         .code(1)
@@ -388,7 +381,7 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
             "transfer-11: journal {journal}: the drive at sim://tmd?addresses=11&baud=9600&c0001=3 address 11 has an unfinished transaction ({journal} (state failed)); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {journal}`\n"
         )));
     // commission sees the upload's journal (same name, same directory), recovers it
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", "line.toml", "--report-dir", "rep"])
         .assert()
         .code(0)

@@ -11,7 +11,7 @@ use driveset_engine::line::report::{
     TimelineEntry,
 };
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 const EVIL: &str = "<script>document.title='pwned'</script> & \"quoted\"";
 
@@ -290,7 +290,7 @@ fn file_url(p: &Path) -> String {
 
 #[test]
 fn report_renders_in_headless_chromium() {
-    if !crate::util::interop_or_skip(
+    if !driveset_test_support::interop_or_skip(
         "report in headless chromium",
         find_chromium().is_some(),
         "chromium not found on PATH or in $CHROMIUM (scripts/setup-browser installs Debian's)",

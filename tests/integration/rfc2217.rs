@@ -11,30 +11,30 @@
 //! Timeouts are hang guards only.
 #![cfg(unix)]
 
-use std::io::{BufRead, BufReader};
+use std::io::BufRead;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{Spawned, driveset, driveset_sim, outcome, workspace_root};
 
 /// The interpreter with pyserial, or `None` (after saying why) when the
-/// test should be skipped ([`crate::util::python_or_skip`]).
+/// test should be skipped ([`driveset_test_support::python_or_skip`]).
 pub(crate) fn python_or_skip(what: &str) -> Option<PathBuf> {
-    crate::util::python_or_skip(what)
+    driveset_test_support::python_or_skip(what)
 }
 
 /// The running bridge: its port and every stdout line after the first.
 struct Bridge {
-    child: Child,
+    _child: Spawned,
     addr: String,
     lines: Arc<Mutex<Vec<String>>>,
 }
 
 impl Bridge {
     fn start(python: &PathBuf, pty: &str) -> Bridge {
-        let mut child = Command::new(python)
+        let child = Command::new(python)
             .arg(workspace_root().join("scripts/rfc2217-bridge.py"))
             .arg(pty)
             .stdin(Stdio::null())
@@ -42,9 +42,8 @@ impl Bridge {
             .stderr(Stdio::inherit())
             .spawn()
             .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-        let mut out = BufReader::new(child.stdout.take().expect("stdout"));
-        let mut first = String::new();
-        out.read_line(&mut first).expect("bridge first line");
+        let mut child = Spawned::new(child, "rfc2217-bridge.py");
+        let (first, out) = child.first_line();
         let addr = first
             .trim_end()
             .strip_prefix("rfc2217 ")
@@ -63,7 +62,11 @@ impl Bridge {
                     .push(line);
             }
         });
-        Bridge { child, addr, lines }
+        Bridge {
+            _child: child,
+            addr,
+            lines,
+        }
     }
 
     /// Wait (hang guard) until the bridge has printed `n` lines.
@@ -83,61 +86,30 @@ impl Bridge {
     }
 }
 
-impl Drop for Bridge {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
 /// A running `driveset sim --pty`.
 struct PtySim {
-    child: Child,
+    _child: Spawned,
     path: String,
 }
 
 impl PtySim {
     fn start(args: &[&str]) -> PtySim {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .arg("sim")
-            .args(args)
-            .arg("--pty")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start driveset sim");
-        let mut first = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut first)
-            .expect("sim first line");
+        let mut child = driveset_sim(&[args, &["--pty"]].concat(), Stdio::null());
+        let (first, _) = child.first_line();
         let path = first
             .trim_end()
             .strip_prefix("pty ")
             .unwrap_or_else(|| panic!("sim said `{first}`"))
             .to_string();
-        PtySim { child, path }
-    }
-}
-
-impl Drop for PtySim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        PtySim {
+            _child: child,
+            path,
+        }
     }
 }
 
 fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = driveset()
-        .args(args)
-        .timeout(Duration::from_secs(300))
-        .output()
-        .expect("run driveset");
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    outcome(driveset().args(args).timeout(Duration::from_secs(300)))
 }
 
 #[test]

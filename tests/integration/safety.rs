@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset_in, workspace_root};
 
 const VF: &str = "sim://vf1000?addresses=1";
 
@@ -21,13 +21,6 @@ fn fixture(name: &str) -> String {
         .join(name)
         .display()
         .to_string()
-}
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
 }
 
 /// A set file `name` in `dir` for the fixture schema `schema` with `values`.
@@ -98,7 +91,7 @@ fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
         "fictional-mc6000-demo.toml",
         "SCTL1 = { start = false, error_reset = false }\n",
     );
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "vf.toml"])
         .assert()
         .code(1)
@@ -109,7 +102,7 @@ fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
             "error[command]: 71-PROG = \"Load factory settings\" is a command (PROG), not a setting; a set cannot hold it\n --> vf.toml:4:8\n",
         ))
         .stdout(predicate::str::contains("2 findings in 1 of 1 file"));
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "mc.toml", "--format", "github"])
         .assert()
         .code(1)
@@ -117,7 +110,10 @@ fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
             "file=mc.toml,line=3,col=9,title=control-word-not-stopped::416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set)",
         ))
         .stdout(predicate::str::contains("line=4,col=8,title=command::704-RJOG = \"Off\" is a command (Jog command), not a setting"));
-    in_dir(d).args(["validate", "mc-ok.toml"]).assert().code(0);
+    driveset_in(d)
+        .args(["validate", "mc-ok.toml"])
+        .assert()
+        .code(0);
 }
 
 #[test]
@@ -128,7 +124,7 @@ fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given()
     let d = dir.path();
     set_file(d, "prog.toml", "fictional-vf1000-demo.toml", "PROG = 1\n");
     for dry in [false, true] {
-        let mut c = in_dir(d);
+        let mut c = driveset_in(d);
         c.args(["upload", "prog.toml", "--port", VF, "--address", "1"])
             .args([
                 "--allow-family",
@@ -151,7 +147,7 @@ fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given()
     assert!(!d.join(".driveset").exists());
     // the removed catch-all says what replaced it
     set_file(d, "ok.toml", "fictional-vf1000-demo.toml", "SIOT = 5\n");
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "ok.toml", "--port", VF, "--address", "1", "--force"])
         .assert()
         .code(2)
@@ -166,7 +162,7 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
     // 83-SIOW: a RAM value (the running VF1000 refuses EEPROM writes)
     set_file(d, "ok.toml", "fictional-vf1000-demo.toml", "SIOW = 7\n");
     // a first run creates the simulated drive's state; then start its motor
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "ok.toml",
@@ -188,14 +184,14 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
             "--allow-address-change",
         ][..],
     ] {
-        in_dir(d)
+        driveset_in(d)
             .args(["upload", "ok.toml", "--port", VF, "--address", "1"])
             .args(extra)
             .assert()
             .code(2)
             .stderr(predicate::str::ends_with(refusal));
     }
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "ok.toml",
@@ -208,7 +204,7 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
         .assert()
         .code(2)
         .stderr(predicate::str::ends_with(refusal));
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "ok.toml",
@@ -238,7 +234,7 @@ fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
         "C5001 = \"4000 rpm\"\n",
     );
     // stopped (the simulated axis starts so): uploads
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "axis.toml", "--port", port, "--address", "1"])
         .assert()
         .code(0)
@@ -253,12 +249,12 @@ fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
         "fictional-ecs-demo.toml",
         "C5001 = \"4100 rpm\"\n",
     );
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "axis2.toml", "--port", port, "--address", "1"])
         .assert()
         .code(2)
         .stderr(predicate::str::ends_with("error: sim://ecs?addresses=1 address 1: refused: the drive reports a running motor; stop it (standstill) before uploading, or pass --allow-running\n"));
-    in_dir(d)
+    driveset_in(d)
         .args(["diff", "axis2.toml", "--port", port, "--address", "1"])
         .assert()
         .code(1)
@@ -281,13 +277,13 @@ fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
     .unwrap();
     let schemas = schemas.display().to_string();
     let why = "running state unknown: schema `fictional-ecs-unknown` names no status bit (role `running`) or control word start bit that says whether the motor runs";
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "unknown.toml", "--port", port, "--address", "1", "--schemas", &schemas])
         .args(["--allow-running"])
         .assert()
         .code(2)
         .stderr(predicate::str::ends_with(format!("error: sim://ecs?addresses=1 address 1: refused: {why}; make sure the drive is at standstill, then pass --allow-running-unknown\n")));
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "unknown.toml", "--port", port, "--address", "1", "--schemas", &schemas])
         .args(["--allow-running-unknown", "--dry-run"])
         .assert()
@@ -295,7 +291,7 @@ fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
         .stdout(predicate::str::contains(
             "warning: running state unknown (--allow-running-unknown): schema `fictional-ecs-unknown` names no status bit (role `running`) or control word start bit that says whether the motor runs\n",
         ));
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "unknown.toml",
@@ -326,7 +322,7 @@ fn an_address_change_needs_allow_address_change() {
         "schema = \"lenze-tmd\"\n[values]\nC0009 = 12\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "addr.toml", "--port", "sim://tmd?addresses=1", "--address", "1", "--allow-running", "--allow-family"])
         .assert()
         .code(2)
@@ -334,7 +330,7 @@ fn an_address_change_needs_allow_address_change() {
     // read back only: no journal, nothing written
     let journals = d.join(".driveset/journal");
     assert!(!journals.exists() || std::fs::read_dir(&journals).unwrap().next().is_none());
-    in_dir(d)
+    driveset_in(d)
         .args([
             "diff",
             "addr.toml",
@@ -352,7 +348,7 @@ fn an_address_change_needs_allow_address_change() {
 fn pull_leaves_commands_control_words_and_passwords_out() {
     let dir = tmp();
     let d = dir.path();
-    in_dir(d)
+    driveset_in(d)
         .args(["pull", "--port", VF, "--address", "1", "-o", "vf.toml"])
         .assert()
         .code(0);
@@ -371,13 +367,13 @@ fn pull_leaves_commands_control_words_and_passwords_out() {
     // what was pulled validates (against the simulator's fixture schema,
     // which only `--schemas` or a sim:// port know by id) and uploads back
     // unchanged
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "--schemas"])
-        .arg(crate::util::workspace_root().join("parameter-sets/fixtures"))
+        .arg(driveset_test_support::workspace_root().join("parameter-sets/fixtures"))
         .arg("vf.toml")
         .assert()
         .code(0);
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "vf.toml", "--port", VF, "--address", "1"])
         .assert()
         .code(0)
@@ -401,7 +397,7 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
     )
     .unwrap();
     let fp = |f: &str| {
-        let out = in_dir(d)
+        let out = driveset_in(d)
             .args(["fingerprint", f])
             .assert()
             .code(0)
@@ -416,18 +412,18 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
             .to_string()
     };
     assert_eq!(fp("a.toml"), fp("b.toml"));
-    in_dir(d)
+    driveset_in(d)
         .args(["diff", "a.toml", "b.toml"])
         .assert()
         .code(1)
         .stdout("--- a.toml\n+++ b.toml\n~ C0094 user_password: differs (secret)\n1 difference (1 changed, 0 added, 0 removed)\n");
-    in_dir(d)
+    driveset_in(d)
         .args(["diff", "--unified", "a.toml", "b.toml"])
         .assert()
         .code(1)
         .stdout("--- a.toml\n+++ b.toml\n@@ -1,4 +1,4 @@\n driveset-canonical 1\n schema lenze-tmd\n C0011 600000\n-C0094 <secret: old value>\n+C0094 <secret: new value>\n");
     for to in ["toml", "yaml", "json"] {
-        let out = in_dir(d)
+        let out = driveset_in(d)
             .args(["show", "--to", to, "a.toml"])
             .assert()
             .code(0)
@@ -437,16 +433,20 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
         let out = String::from_utf8(out).unwrap();
         assert!(out.contains("<secret>") && !out.contains("123"), "{out}");
     }
-    in_dir(d).args(["show", "a.toml"]).assert().code(0).stdout(
-        predicate::str::contains("C0094 <secret>\n").and(predicate::str::contains("123").not()),
-    );
+    driveset_in(d)
+        .args(["show", "a.toml"])
+        .assert()
+        .code(0)
+        .stdout(
+            predicate::str::contains("C0094 <secret>\n").and(predicate::str::contains("123").not()),
+        );
     // validate masks the value in the snippet
     std::fs::write(
         d.join("bad.toml"),
         "schema = \"lenze-tmd\"\n[values]\nC0094 = 4711\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "bad.toml"])
         .assert()
         .code(1)
@@ -469,7 +469,7 @@ fn commission_refuses_a_line_whose_set_could_start_a_motor_before_anything_is_se
     )
     .unwrap();
     for extra in [&[][..], &["--allow-running", "--allow-family"][..]] {
-        in_dir(d)
+        driveset_in(d)
             .args(["commission", "line.toml"])
             .args(extra)
             .assert()
@@ -482,7 +482,7 @@ fn commission_refuses_a_line_whose_set_could_start_a_motor_before_anything_is_se
             ));
     }
     assert!(!d.join("sim/sim-vf1000.json").exists());
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "line.toml", "--force"])
         .assert()
         .code(2)
@@ -546,7 +546,7 @@ fn a_tmd_schema_copy_without_roles_named_by_path_refuses_c0040_enable_and_sends_
         "schema = \"my-tmd.toml\"\n[values]\nC0040 = 1\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "tmd.toml"])
         .assert()
         .code(1)
@@ -554,7 +554,7 @@ fn a_tmd_schema_copy_without_roles_named_by_path_refuses_c0040_enable_and_sends_
             "error[control-word-not-stopped]: C0040 = \"Controller enabled\" would enable the drive (the stopped values are 0 \"Controller inhibited\")\n --> tmd.toml:3:9\n",
         ));
     for extra in [&[][..], &["--allow-running", "--allow-family"][..]] {
-        in_dir(d)
+        driveset_in(d)
             .args([
                 "upload",
                 "tmd.toml",
@@ -577,7 +577,7 @@ fn a_tmd_schema_copy_without_roles_named_by_path_refuses_c0040_enable_and_sends_
         "schema = \"lenze-tmd.toml\"\n[values]\nC0040 = 1\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "tmd2.toml", "--port", "sim://tmd?addresses=1&c0001=3", "--address", "1"])
         .assert()
         .code(2)
@@ -607,14 +607,14 @@ fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
         "schema = \"my-mc.toml\"\n[values]\nPROG = 1\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "start.toml"])
         .assert()
         .code(1)
         .stdout(predicate::str::starts_with(
             "error[control-word-not-stopped]: 416-SCTL1 = { start = 1, error_reset = 0 } would start or enable the drive (start set)\n --> start.toml:3:9\n",
         ));
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "prog.toml"])
         .assert()
         .code(1)
@@ -622,7 +622,7 @@ fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
             "error[command]: 4-PROG = 1 is a command (PROG), not a setting; a set cannot hold it\n --> prog.toml:3:8\n",
         ));
     for set in ["start.toml", "prog.toml"] {
-        in_dir(d)
+        driveset_in(d)
             .args(["upload", set, "--port", MC, "--address", "1", "--no-learn"])
             .args([
                 "--allow-running",
@@ -651,7 +651,7 @@ fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
         "schema = \"my-mc.toml\"\n[values]\nSCTL1 = 0\n",
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "stop.toml", "--port", MC, "--address", "1"])
         .assert()
         .code(0)
@@ -660,7 +660,7 @@ fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
         ))
         .stderr(predicate::str::contains("learn").not());
     assert_eq!(
-        crate::util::toml_files_starting(d, "learned-"),
+        driveset_test_support::toml_files_starting(d, "learned-"),
         Vec::<PathBuf>::new()
     );
     assert_eq!(held(d, "mc6000", 1, 416), 0);
@@ -695,7 +695,7 @@ fn a_schemas_dir_cannot_reuse_a_built_in_or_fixture_id() {
             "error: schema id `fictional-mc6000-demo` is already defined by parameter-sets/fixtures/fictional-mc6000-demo.toml\n",
         ),
     ] {
-        let mut c = in_dir(d);
+        let mut c = driveset_in(d);
         c.args([cmd, "--schemas", "schemas", "set.toml"]);
         if cmd == "upload" {
             c.args(["--port", MC, "--address", "1"]);
@@ -717,7 +717,7 @@ fn a_schemas_dir_cannot_reuse_a_built_in_or_fixture_id() {
         MINIMAL_MC.replace("id = \"my-mc\"", "id = \"lust-mc6000\""),
     )
     .unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "--schemas", "schemas", "set.toml"])
         .assert()
         .code(2)
@@ -735,7 +735,7 @@ fn running_mc_and_stop_set(d: &Path) {
         "fictional-mc6000-demo.toml",
         "SCTL1 = { start = false }\nSBAUD = 19200\n",
     );
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "stop.toml",
@@ -760,7 +760,7 @@ fn stopping_a_running_mc6000_cut_at_telegram_6_rolls_back_leaving_416_stopped() 
     let d = dir.path();
     running_mc_and_stop_set(d);
     let port = "sim://mc6000?addresses=1&faults=cable@6+1s";
-    in_dir(d)
+    driveset_in(d)
         .args(["upload", "stop.toml", "--port", port, "--address", "1", "--allow-running"])
         .args(["--journal", "j.json"])
         .assert()
@@ -783,7 +783,7 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
     let d = dir.path();
     running_mc_and_stop_set(d);
     // the cable stays out: the upload cannot roll back, recover does
-    in_dir(d)
+    driveset_in(d)
         .args([
             "upload",
             "stop.toml",
@@ -798,7 +798,7 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
     let cut: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
     assert_eq!(cut["state"], "failed", "{cut}");
-    in_dir(d)
+    driveset_in(d)
         .args(["recover", "j.json", "--port", MC])
         .assert()
         .code(0)
@@ -818,7 +818,7 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
         }
     }
     std::fs::write(&journal, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
-    in_dir(d)
+    driveset_in(d)
         .args(["recover", "j.json", "--port", MC, "--format", "json"])
         .assert()
         .code(0)
@@ -908,7 +908,7 @@ fn a_password_never_shows_in_upload_pull_diff_show_or_fingerprint() {
         (&["fingerprint", "p.toml"], 0),
     ];
     for (args, code) in runs {
-        let out = in_dir(dir)
+        let out = driveset_in(dir)
             .args(args)
             .assert()
             .code(code)
@@ -920,21 +920,30 @@ fn a_password_never_shows_in_upload_pull_diff_show_or_fingerprint() {
             String::from_utf8_lossy(&out.stderr)
         );
         for v in ["742", "743", "7420000", "7430000"] {
-            assert!(!crate::util::shows_value(&text, v), "{args:?}: {text}");
+            assert!(
+                !driveset_test_support::shows_value(&text, v),
+                "{args:?}: {text}"
+            );
         }
     }
     for t in ["toml", "yaml", "json"] {
-        let out = in_dir(dir)
+        let out = driveset_in(dir)
             .args(["show", "--to", t, "p.toml"])
             .assert()
             .code(0)
             .get_output()
             .clone();
         let text = String::from_utf8_lossy(&out.stdout);
-        assert!(!crate::util::shows_value(&text, "742"), "--to {t}");
+        assert!(
+            !driveset_test_support::shows_value(&text, "742"),
+            "--to {t}"
+        );
     }
     let pulled = std::fs::read_to_string(dir.join("pulled.toml")).unwrap();
-    assert!(!crate::util::shows_value(&pulled, "742"), "{pulled}");
+    assert!(
+        !driveset_test_support::shows_value(&pulled, "742"),
+        "{pulled}"
+    );
     // the drive does hold it (the state file is the drive's memory, 0600)
     let state = dir.join("sim/sim-tmd.json");
     let dump: serde_json::Value =

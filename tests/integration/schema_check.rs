@@ -1,7 +1,7 @@
 //! `driveset schema check`: the built-in schemas pass, a broken fixture
 //! schema reports each problem with its location, bad input exits 2.
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn check(args: &[&str]) -> (String, i32) {
     let out = driveset()

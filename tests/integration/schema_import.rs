@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 const AXIS: &str = "tests/data/eds/fictional-ecs-axis.eds";
 const MALFORMED: &str = "tests/data/eds/fictional-malformed.eds";

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 fn run(args: &[&str]) -> (String, String, i32) {
     let out = driveset().args(args).output().expect("runs");

@@ -2,13 +2,13 @@
 //! pty, stopped with SIGTERM; the first stdout line, exact reply bytes, the
 //! event log, the dump, and argument errors.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
-use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Child, ChildStdout, ExitStatus, Stdio};
+use std::time::Duration;
 
-use crate::util::driveset;
+use driveset_test_support::{Spawned, driveset, driveset_sim, read_until};
 
 const STX: u8 = 0x02;
 const ETX: u8 = 0x03;
@@ -17,26 +17,15 @@ const ENQ: u8 = 0x05;
 
 /// A running `driveset sim`; killed if a test fails before stopping it.
 struct Sim {
-    child: Child,
+    child: Spawned,
     _stdout: BufReader<ChildStdout>,
     first_line: String,
 }
 
 impl Sim {
     fn start(args: &[&str]) -> Sim {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .arg("sim")
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start driveset sim");
-        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
-        let mut first_line = String::new();
-        stdout
-            .read_line(&mut first_line)
-            .expect("read the first line");
+        let mut child = driveset_sim(args, Stdio::piped());
+        let (mut first_line, stdout) = child.first_line();
         assert!(
             first_line.ends_with('\n'),
             "no first line; stderr: {}",
@@ -57,31 +46,8 @@ impl Sim {
 
     /// Send `signal` (`-TERM`, `-INT`), then wait (bounded) for the exit.
     fn signal(&mut self, signal: &str, within: Duration) -> (ExitStatus, String) {
-        let status = Command::new("kill")
-            .args([signal, &self.child.id().to_string()])
-            .status()
-            .expect("run kill");
-        assert!(status.success());
-        let give_up = Instant::now() + within;
-        loop {
-            if let Some(s) = self.child.try_wait().expect("wait") {
-                return (s, stderr_of(&mut self.child));
-            }
-            assert!(
-                Instant::now() < give_up,
-                "driveset sim did not stop within {within:?} after kill {signal}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+        let status = self.child.signal(signal, within);
+        (status, stderr_of(&mut self.child))
     }
 }
 
@@ -91,28 +57,6 @@ fn stderr_of(child: &mut Child) -> String {
         let _ = e.read_to_string(&mut s);
     }
     s
-}
-
-/// Read until `n` bytes arrived or `within` passed.
-fn read_n(r: &mut impl Read, n: usize, within: Duration) -> Vec<u8> {
-    let give_up = Instant::now() + within;
-    let mut got = Vec::new();
-    let mut buf = [0u8; 64];
-    while got.len() < n && Instant::now() < give_up {
-        match r.read(&mut buf) {
-            Ok(0) => break,
-            Ok(k) => got.extend_from_slice(&buf[..k]),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::TimedOut
-                        | std::io::ErrorKind::WouldBlock
-                        | std::io::ErrorKind::Interrupted
-                ) => {}
-            Err(e) => panic!("read: {e}"),
-        }
-    }
-    got
 }
 
 fn read_json(path: &Path) -> serde_json::Value {
@@ -158,7 +102,7 @@ fn tcp_mc6000_first_enquiry_of_85_reports_power_on_then_dumps_on_sigterm() {
     // LUSTBUS 6.1.1.2 ENQUIRY: EOT ADR CODE ENQ, drive 1 ('A'), SERR (85).
     s.write_all(&[EOT, b'A', b'0', b'0', b'0', b'8', b'5', ENQ])
         .unwrap();
-    let reply = read_n(&mut s, 12, Duration::from_secs(3));
+    let reply = read_until(&mut s, 12, Duration::from_secs(3));
     // ADR STX 00085 = 01 ETX BCC: the power-on bit; BCC = XOR of
     // "00085=01" and ETX.
     assert_eq!(reply, b"A\x0200085=01\x03\x02");
@@ -166,7 +110,7 @@ fn tcp_mc6000_first_enquiry_of_85_reports_power_on_then_dumps_on_sigterm() {
     s.write_all(&[EOT, b'A', b'0', b'0', b'0', b'8', b'5', ENQ])
         .unwrap();
     assert_eq!(
-        read_n(&mut s, 12, Duration::from_secs(3)),
+        read_until(&mut s, 12, Duration::from_secs(3)),
         b"A\x0200085=00\x03\x03"
     );
     drop(s);
@@ -263,7 +207,7 @@ fn pty_tmd_receive_of_c46_answers_the_manuals_example() {
         .unwrap_or_else(|e| panic!("open {path}: {e}"));
     // LECOM 8.H: EOT AD1 AD2 C1 C2 ENQ.
     port.write_all(&[EOT, b'0', b'1', b'4', b'6', ENQ]).unwrap();
-    let reply = read_n(&mut port, 9, Duration::from_secs(3));
+    let reply = read_until(&mut port, 9, Duration::from_secs(3));
     // STX 4 6 3 5 . 4 ETX BCC, BCC = XOR of "4635.4" and ETX.
     let bcc = b"4635.4".iter().fold(ETX, |a, b| a ^ b);
     assert_eq!(bcc, 0x1D);
@@ -309,10 +253,10 @@ fn pty_ecs_serves_an_slcan_adapter() {
         .open()
         .unwrap();
     port.write_all(b"C\rS6\rO\r").unwrap();
-    assert_eq!(read_n(&mut port, 3, Duration::from_secs(3)), b"\r\r\r");
+    assert_eq!(read_until(&mut port, 3, Duration::from_secs(3)), b"\r\r\r");
     // SDO upload request of C0001 (index 0x5FFE) to node 5.
     port.write_all(b"t605840FE5F0000000000\r").unwrap();
-    let got = read_n(&mut port, 2 + 22, Duration::from_secs(3));
+    let got = read_until(&mut port, 2 + 22, Duration::from_secs(3));
     let text = String::from_utf8_lossy(&got);
     assert!(text.starts_with("z\rt5858"), "{text:?}");
     drop(port);
@@ -414,7 +358,7 @@ fn tcp_clients_wait_their_turn_and_an_idle_one_is_dropped() {
         .write_all(&[EOT, b'A', b'0', b'0', b'0', b'8', b'5', ENQ])
         .unwrap();
     // Served once the first is dropped after 1 s of silence (hang guard 20 s).
-    let reply = read_n(&mut second, 12, Duration::from_secs(20));
+    let reply = read_until(&mut second, 12, Duration::from_secs(20));
     assert_eq!(reply, b"A\x0200085=01\x03\x02");
     let idle_addr = idle.local_addr().unwrap();
     let second_addr = second.local_addr().unwrap();
@@ -488,11 +432,15 @@ fn pty_tmd_log_is_0600_and_masks_a_password_across_chunks() {
     port.flush().unwrap();
     std::thread::sleep(Duration::from_millis(100));
     port.write_all(&[b'7', b'7', b'7', ETX, bcc]).unwrap();
-    assert_eq!(read_n(&mut port, 1, Duration::from_secs(3)), [0x06], "ACK");
+    assert_eq!(
+        read_until(&mut port, 1, Duration::from_secs(3)),
+        [0x06],
+        "ACK"
+    );
     // RECEIVE C0094: the drive answers with the value
     port.write_all(&[EOT, b'0', b'1', b'9', b'4', ENQ]).unwrap();
     assert_eq!(
-        read_n(&mut port, 8, Duration::from_secs(3)),
+        read_until(&mut port, 8, Duration::from_secs(3)),
         [STX, b'9', b'4', b'7', b'7', b'7', ETX, bcc],
         "the wire carries the value (only the log masks it)"
     );

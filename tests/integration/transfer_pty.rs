@@ -155,9 +155,9 @@ fn cut_then_recover(
     let dir = tempfile::tempdir().expect("tempdir");
     let state_dir = dir.path().join("sim");
     std::fs::create_dir_all(&state_dir).expect("state dir");
-    let set = crate::util::workspace_root().join(SET);
+    let set = driveset_test_support::workspace_root().join(SET);
     let journal = dir.path().join("j.json");
-    let up = crate::util::driveset()
+    let up = driveset_test_support::driveset()
         .env("DRIVESET_SIM_STATE_DIR", &state_dir)
         .arg("upload")
         .arg(&set)
@@ -182,7 +182,7 @@ fn cut_then_recover(
         up_err.contains(&format!("driveset recover {}", journal.display())),
         "{up_err}"
     );
-    let rec = crate::util::driveset()
+    let rec = driveset_test_support::driveset()
         .env("DRIVESET_SIM_STATE_DIR", &state_dir)
         .arg("recover")
         .arg(&journal)
@@ -196,7 +196,7 @@ fn cut_then_recover(
         "{faults}: recover\n{rec_out}{}",
         String::from_utf8_lossy(&rec.stderr)
     );
-    let diff = crate::util::driveset()
+    let diff = driveset_test_support::driveset()
         .env("DRIVESET_SIM_STATE_DIR", &state_dir)
         .arg("diff")
         .arg(&set)
@@ -295,8 +295,8 @@ fn upload_killed_at_57600_over_a_pty_then_recover_switches_the_drive_back() {
     let dir = tempfile::tempdir().expect("tempdir");
     let (mut sim, log, port) = logged_sim(dir.path());
     let journal = dir.path().join("j.json");
-    let mut up = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-        .current_dir(crate::util::workspace_root())
+    let mut up = std::process::Command::new(driveset_test_support::driveset_bin())
+        .current_dir(driveset_test_support::workspace_root())
         .args([
             "upload",
             SET,
@@ -356,8 +356,8 @@ fn upload_killed_at_57600_over_a_pty_then_recover_switches_the_drive_back() {
     );
     // the set names its schema by path; the journal records only its id
     // (recording the path is another part of issue 17)
-    let schema =
-        crate::util::workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
+    let schema = driveset_test_support::workspace_root()
+        .join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
     let (code, out, err) = run(&[
         "recover",
         &journal.to_string_lossy(),

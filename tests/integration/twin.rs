@@ -15,7 +15,9 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use crate::util::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{
+    Spawned, copy_dir, driveset, driveset_sim, send_signal, workspace_root,
+};
 
 /// One side of a comparison: a directory with its own copy of the sets,
 /// its own simulator state and journals.
@@ -553,24 +555,15 @@ fn writes_in(log: &Path) -> Vec<String> {
 }
 
 /// A `driveset sim` serving on TCP; killed when dropped.
-struct Served(std::process::Child, String);
+struct Served(Spawned, String);
 
 impl Served {
     fn start(args: &[&str]) -> Served {
-        use std::io::BufRead;
-        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("driveset"))
-            .arg("sim")
-            .args(args)
-            .args(["--tcp", "127.0.0.1:0"])
-            .stdin(std::process::Stdio::null())
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
-        let mut line = String::new();
-        std::io::BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
+        let mut child = driveset_sim(
+            &[args, &["--tcp", "127.0.0.1:0"]].concat(),
+            std::process::Stdio::null(),
+        );
+        let (line, _) = child.first_line();
         let addr = line
             .trim()
             .strip_prefix("tcp ")
@@ -579,16 +572,7 @@ impl Served {
     }
 
     fn stop(mut self) {
-        let _ = std::process::Command::new("kill")
-            .args(["-TERM", &self.0.id().to_string()])
-            .status();
-        let _ = self.0.wait();
-    }
-}
-
-impl Drop for Served {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
+        send_signal(self.0.id(), "-TERM");
         let _ = self.0.wait();
     }
 }

@@ -5,7 +5,7 @@
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, driveset_in, workspace_root};
 
 const AXIS1: &str = "parameter-sets/mc6000/axis-1.toml";
 const PORT: &str = "sim://mc6000?addresses=1";
@@ -14,18 +14,11 @@ fn set(p: &str) -> String {
     workspace_root().join(p).display().to_string()
 }
 
-fn in_dir(dir: &std::path::Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
-}
-
 #[test]
 fn dry_run_prints_the_plan_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run"])
         .assert()
         .code(0)
@@ -35,7 +28,7 @@ fn dry_run_prints_the_plan_and_writes_nothing() {
         .stdout(predicate::str::contains("expected time: "));
     assert!(!dir.path().join(".driveset").exists());
     // still the factory state: the live diff shows the same 78 codes
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
         .code(1)
@@ -48,7 +41,7 @@ fn dry_run_prints_the_plan_and_writes_nothing() {
 fn upload_then_live_diff_shows_no_differences() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
         .code(0)
@@ -94,7 +87,7 @@ fn upload_then_live_diff_shows_no_differences() {
         .stdout(predicate::str::starts_with(after));
     assert!(dir.path().join(&journal).exists());
     assert!(dir.path().join(".driveset/.gitignore").exists());
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["diff", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
         .code(0)
@@ -103,7 +96,7 @@ fn upload_then_live_diff_shows_no_differences() {
             set(AXIS1)
         ));
     // a second upload has nothing to write
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "upload",
             &set(AXIS1),
@@ -119,7 +112,7 @@ fn upload_then_live_diff_shows_no_differences() {
         .stdout(predicate::str::contains("\"codes_written\": 0"))
         .stdout(predicate::str::contains("\"state\": \"complete\""));
     // another set of the family differs; JSON diff
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "diff",
             &set("parameter-sets/mc6000/axis-2.toml"),
@@ -139,7 +132,7 @@ fn upload_then_live_diff_shows_no_differences() {
 fn upload_to_another_family_is_refused_without_allow_family() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", "sim://vf1000?addresses=1", "--address", "1"])
         .assert()
         .code(2)
@@ -147,7 +140,7 @@ fn upload_to_another_family_is_refused_without_allow_family() {
             "sim://vf1000?addresses=1 simulates vf1000 drives (lustbus-vf1000), schema `fictional-mc6000-demo` is for lustbus-mc; use a set / schema of that family, or pass --allow-family",
         ));
     // another protocol is refused even with --allow-family
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "upload",
             &set("parameter-sets/tmd/conveyor-3.toml"),
@@ -162,7 +155,7 @@ fn upload_to_another_family_is_refused_without_allow_family() {
         .stderr(predicate::str::contains("schema `lenze-tmd` is for lecom"));
     // --allow-family onto a VF1000: the MC codes do not exist there, so the drive
     // refuses them; nothing was written
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "upload",
             &set(AXIS1),
@@ -190,7 +183,7 @@ fn upload_of_an_invalid_set_is_an_input_error() {
         "schema = \"lenze-tmd\"\n[values]\nC0011 = \"999 Hz\"\n",
     )
     .unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload"])
         .arg(&bad)
         .args(["--port", "sim://tmd?addresses=1", "--address", "1"])
@@ -203,7 +196,7 @@ fn upload_of_an_invalid_set_is_an_input_error() {
 fn upload_tmd_json_report() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    let out = in_dir(dir.path())
+    let out = driveset_in(dir.path())
         .args([
             "upload",
             &set("parameter-sets/tmd/conveyor-3.toml"),
@@ -241,7 +234,7 @@ fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     // the dry run says it would pay, and writes nothing
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run", "--transfer-baud", "57600"])
         .assert()
         .code(0)
@@ -249,7 +242,7 @@ fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
             "transfer rate 57600: saves 3.7 s of 4.8 s (195 exchanges: 4.8 s at 9600 baud, 962 ms at 57600 baud plus 112 ms to switch over and back)\n",
         ));
     assert!(!dir.path().join(".driveset").exists());
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--transfer-baud", "57600"])
         .assert()
         .code(0)
@@ -275,7 +268,7 @@ fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
     assert_eq!(j["transfer"]["transfer_rate"], 57600);
     assert_eq!(j["transfer"]["stored"], serde_json::json!({"int": 19200}));
     // the next command talks at 9600 and finds the set
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "diff",
             &set(AXIS1),
@@ -295,7 +288,7 @@ fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
 fn transfer_baud_refusals_name_what_and_send_nothing() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args([
             "upload",
             &set("parameter-sets/vf1000/conveyor-1.toml"),
@@ -311,7 +304,7 @@ fn transfer_baud_refusals_name_what_and_send_nothing() {
         .stderr(
             "error: sim://vf1000?addresses=4 address 4: refused: --transfer-baud 19200: a Lust SMARTDRIVE VF1000 runs at 9600 baud at most (lustbus-protocol.txt §4) and activates a new rate only at a restart (§11.5); leave out --transfer-baud\n",
         );
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--transfer-baud", "1200"])
         .assert()
         .code(2)

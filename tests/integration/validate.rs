@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 const DATA: &str = "tests/data/sets/findings";
 
@@ -609,7 +609,7 @@ fn fixture_schemas_in_the_tree_are_checked_as_schemas() {
     let dir = tempfile::tempdir().unwrap();
     let good = Path::new("parameter-sets/fixtures/fictional-ecs-demo.toml");
     std::fs::copy(
-        crate::util::workspace_root().join(good),
+        driveset_test_support::workspace_root().join(good),
         dir.path().join("good.toml"),
     )
     .unwrap();

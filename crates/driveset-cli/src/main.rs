@@ -2,7 +2,7 @@
 //! parses arguments (clap), calls into `driveset-schema`, `driveset-proto`
 //! and friends, prints human or machine output and maps results to exit codes.
 //!
-//! Exit codes (DESIGN.md, "Output and errors"): 0 ok, 1 validation findings or
+//! Exit codes (README.md, "A short tour"): 0 ok, 1 validation findings or
 //! differences, 2 usage or input error, 3 bus or device failure.
 
 // Every byte for stdout goes through `output::emit`, which handles a

@@ -69,6 +69,7 @@ use driveset_link::{Link, PortSpec, VirtualClock};
 use driveset_schema::{CodeKey, Registry};
 use driveset_sim::log::{Event, EventLog};
 use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
+use driveset_test_support::sim_openers;
 
 #[path = "support/line_bound.rs"]
 mod line_bound;
@@ -501,10 +502,4 @@ fn broadcast_line() -> bool {
         if ok { "met" } else { "MISSED" }
     );
     ok
-}
-
-/// The simulator's port opener, as the CLI registers it.
-fn sim_openers() -> driveset_link::Openers {
-    driveset_link::Openers::none()
-        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

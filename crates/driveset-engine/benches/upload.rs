@@ -28,7 +28,7 @@
 //!
 //! # The lower bound
 //!
-//! What any correct client of the transaction in DESIGN.md ("Transactions")
+//! What any correct client of the transaction in docs/architecture.md ("The data path of an upload")
 //! must spend, and nothing else:
 //!
 //! 1. **Required exchanges.** identify (the schema's identify codes), one
@@ -77,7 +77,7 @@
 //! transfer-rate rows). Nothing in it comes from the run:
 //!
 //! 1. **Required exchanges**, counted by what any correct client of
-//!    DESIGN.md's transaction must do: identify (91-TYPE), one read-back
+//!    the transaction (docs/architecture.md) must do: identify (91-TYPE), one read-back
 //!    per code of the set; when any SELECT goes out (a write, or the rate
 //!    switch): the SIOF/SERR read before the first SELECT (§6: a set
 //!    power-on bit blocks every change), at the rate of that SELECT; one

@@ -1,6 +1,6 @@
 //! Identification helpers on top of [`DriveClient::identify`]: read what a
 //! drive says it is, and refuse a schema (and so a set) for another family
-//! (DESIGN.md "Transactions", step 1).
+//! (docs/architecture.md, "The data path of an upload": identify).
 
 use crate::client::{DriveClient, IdentValue, Identity};
 use crate::error::{EngineError, Refusal};

@@ -1,6 +1,6 @@
 //! The transaction journal: a JSON file that holds everything needed to
 //! finish or undo an upload after a crash or a pulled cable
-//! (DESIGN.md "Transactions"; `driveset recover JOURNAL`).
+//! (docs/journals.md; `driveset recover JOURNAL`).
 //!
 //! It is written and fsynced (file and directory) **before the first write**
 //! to the drive, and rewritten atomically (write `<journal>.tmp`, fsync,

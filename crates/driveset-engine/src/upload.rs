@@ -1,4 +1,4 @@
-//! The upload transaction (DESIGN.md "Transactions"): identify, read back,
+//! The upload transaction (docs/architecture.md, "The data path of an upload"): identify, read back,
 //! plan, journal, write (with the MC6000/7000 SLOAD handshake and EEPROM
 //! pacing), verify, and on failure roll back from the journal.
 //!

@@ -1,8 +1,8 @@
 //! Bus identities: which physical bus a link reaches, independent of how
 //! its port string was spelled ([`crate::ByteLink::bus_id`],
 //! [`crate::FrameLink::bus_id`]). Journals record it so that a transaction
-//! stays bound to its drive (DESIGN.md "Transactions", "Journals bound to
-//! their drive").
+//! stays bound to its drive (docs/journals.md, "One name per drive";
+//! docs/ports.md, "The bus a port reaches, and its lock").
 //!
 //! | transport | bus id | e.g. |
 //! | --- | --- | --- |

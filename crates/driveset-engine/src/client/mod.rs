@@ -2,7 +2,7 @@
 //! implementation per protocol (LUSTBUS for VF1000 and MC6000/7000,
 //! LECOM-A/B for Tmd, CAN SDO for ECS) turns reads and writes of schema
 //! codes into telegrams, handles the protocol's error indications
-//! (DESIGN.md "Transactions", step 3) and retries, and exposes what the
+//! (docs/architecture.md, "The data path of an upload": the writes) and retries, and exposes what the
 //! transaction runner needs for pacing (EEPROM store time) and the MC6000
 //! dataset handshake (SLOAD).
 

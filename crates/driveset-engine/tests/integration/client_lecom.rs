@@ -7,14 +7,13 @@ use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LecomClient, LecomOptions};
 use driveset_engine::error::ErrorKind;
-use driveset_link::{Clock, VirtualClock};
+use driveset_link::Clock;
 use driveset_schema::{CodeKey, RawValue, Schema};
-use driveset_sim::bus::SimByteBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::{ByteDrive, ReactionTime};
-use driveset_sim::faults::FaultPlan;
-use driveset_sim::log::{Dir, EventLog};
+use driveset_sim::log::Dir;
 use driveset_sim::tmd::{TmdDrive, TmdOptions};
+use driveset_test_support::{sim_byte_bus, wire_bytes};
 
 fn tmd(address: u8, control_source: u8) -> Box<dyn ByteDrive> {
     Box::new(
@@ -32,44 +31,15 @@ fn schema() -> Arc<Schema> {
     catalog::schema(Family::Tmd).expect("schema")
 }
 
-fn sim_bus(
-    drives: Vec<Box<dyn ByteDrive>>,
-    faults: Option<&str>,
-) -> (VirtualClock, EventLog, SimByteBus) {
-    let clock = VirtualClock::new();
-    let log = EventLog::memory();
-    let mut bus = SimByteBus::new(&clock, 9600, drives)
-        .expect("bus")
-        .with_log(log.clone());
-    if let Some(f) = faults {
-        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
-    }
-    (clock, log, bus)
-}
-
-fn wire(log: &EventLog, dir: Dir) -> Vec<Vec<u8>> {
-    log.events()
-        .into_iter()
-        .filter(|e| e.dir == dir)
-        .map(|e| {
-            e.hex
-                .split(' ')
-                .filter(|s| !s.is_empty())
-                .map(|h| u8::from_str_radix(h, 16).expect("hex"))
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn send_and_receive_exact_bytes() {
     // 8.I example: C11 = 95.2 at address 34.
-    let (_clock, log, bus) = sim_bus(vec![tmd(34, 3)], None);
+    let (_clock, log, bus) = sim_byte_bus(9600, vec![tmd(34, 3)], None);
     let mut c = LecomClient::new(bus, schema(), 34).unwrap();
     c.write(CodeKey::new(11), &RawValue::Int(952_000)).unwrap();
     assert_eq!(c.read(CodeKey::new(11)).unwrap(), RawValue::Int(952_000));
     c.finish().unwrap();
-    let host = wire(&log, Dir::Host);
+    let host = wire_bytes(&log, Dir::Host);
     let text = b"1195.2\x03";
     let bcc = text.iter().fold(0u8, |a, b| a ^ b);
     let mut send = vec![0x04, b'3', b'4', 0x02];
@@ -79,7 +49,7 @@ fn send_and_receive_exact_bytes() {
     assert_eq!(host[1], b"\x0434\x31\x31\x05".to_vec());
     assert_eq!(host[2], vec![0x04]);
     assert_eq!(host.len(), 3);
-    let drive = wire(&log, Dir::Drive);
+    let drive = wire_bytes(&log, Dir::Drive);
     assert_eq!(drive[0], vec![0x06]);
     let text = b"1195.2\x03";
     let bcc = text.iter().fold(0u8, |a, b| a ^ b);
@@ -91,7 +61,7 @@ fn send_and_receive_exact_bytes() {
 
 #[test]
 fn nak_cause_is_read_from_c0068_and_c1962() {
-    let (_clock, log, bus) = sim_bus(vec![tmd(1, 3)], None);
+    let (_clock, log, bus) = sim_byte_bus(9600, vec![tmd(1, 3)], None);
     let mut c = LecomClient::new(bus, schema(), 1).unwrap();
     // C0011 range 7.5..240 Hz.
     let err = c
@@ -110,7 +80,7 @@ fn nak_cause_is_read_from_c0068_and_c1962() {
     );
     assert!(cause.remedy().contains("range"), "{}", cause.remedy());
     // C0068 (RECEIVE "68") and C1962 (extended field? no: standard C1 C2) read.
-    let host = wire(&log, Dir::Host);
+    let host = wire_bytes(&log, Dir::Host);
     assert_eq!(host.len(), 3);
     assert_eq!(host[1], b"\x0401\x36\x38\x05".to_vec());
 }
@@ -118,7 +88,7 @@ fn nak_cause_is_read_from_c0068_and_c1962() {
 #[test]
 fn no_access_permission_names_the_remedy() {
     // C0001 = 0: LECOM may only read (manual 4e).
-    let (_clock, _log, bus) = sim_bus(vec![tmd(1, 0)], None);
+    let (_clock, _log, bus) = sim_byte_bus(9600, vec![tmd(1, 0)], None);
     let mut c = LecomClient::new(bus, schema(), 1).unwrap();
     let err = c
         .write(CodeKey::new(11), &RawValue::Int(500_000))
@@ -136,7 +106,8 @@ fn no_access_permission_names_the_remedy() {
 
 #[test]
 fn checksum_answers_and_lost_answers_are_repeated() {
-    let (_clock, _log, bus) = sim_bus(vec![tmd(1, 3)], Some("flip=0.15,lose=0.1,seed=11"));
+    let (_clock, _log, bus) =
+        sim_byte_bus(9600, vec![tmd(1, 3)], Some("flip=0.15,lose=0.1,seed=11"));
     let opts = LecomOptions {
         tries: 6,
         ..LecomOptions::default()
@@ -150,7 +121,7 @@ fn checksum_answers_and_lost_answers_are_repeated() {
 
 #[test]
 fn no_answer_after_the_configured_tries() {
-    let (clock, _log, bus) = sim_bus(vec![tmd(1, 3)], None);
+    let (clock, _log, bus) = sim_byte_bus(9600, vec![tmd(1, 3)], None);
     let opts = LecomOptions {
         tries: 2,
         answer_timeout: Some(Duration::from_millis(100)),
@@ -168,17 +139,17 @@ fn no_answer_after_the_configured_tries() {
 
 #[test]
 fn group_addresses_are_refused_and_broadcast_is_separate() {
-    let (_clock, log, bus) = sim_bus(vec![tmd(1, 3), tmd(2, 3)], None);
+    let (_clock, log, bus) = sim_byte_bus(9600, vec![tmd(1, 3), tmd(2, 3)], None);
     let err = LecomClient::new(bus, schema(), 10).unwrap_err();
     assert!(err.to_string().contains("BROADCAST"), "{err}");
-    let (_clock, log2, bus) = sim_bus(vec![tmd(1, 3), tmd(2, 3)], None);
+    let (_clock, log2, bus) = sim_byte_bus(9600, vec![tmd(1, 3), tmd(2, 3)], None);
     let _ = log;
     let mut c = LecomClient::new(bus, schema(), 1).unwrap();
     // C0011 = 60 Hz to everybody: unacknowledged.
     c.broadcast(CodeKey::new(11), &RawValue::Int(600_000))
         .unwrap();
     assert!(
-        wire(&log2, Dir::Drive).is_empty(),
+        wire_bytes(&log2, Dir::Drive).is_empty(),
         "nobody answers a broadcast"
     );
     assert_eq!(c.read(CodeKey::new(11)).unwrap(), RawValue::Int(600_000));
@@ -192,7 +163,7 @@ fn group_addresses_are_refused_and_broadcast_is_separate() {
 
 #[test]
 fn running_identify_and_no_such_code() {
-    let (_clock, _log, mut bus) = sim_bus(vec![tmd(7, 3)], None);
+    let (_clock, _log, mut bus) = sim_byte_bus(9600, vec![tmd(7, 3)], None);
     bus.drive_mut(7).unwrap().set_running(true);
     let mut c = LecomClient::new(bus, schema(), 7).unwrap();
     assert_eq!(c.running().unwrap(), Some(true));
@@ -214,7 +185,7 @@ fn running_identify_and_no_such_code() {
 /// C0043 fault-reset command are refused and not a byte goes out.
 #[test]
 fn the_write_guard_refuses_enable_and_commands_on_send_broadcast_and_multicast() {
-    let (_clock, log, bus) = sim_bus(vec![tmd(11, 3), tmd(12, 3)], None);
+    let (_clock, log, bus) = sim_byte_bus(9600, vec![tmd(11, 3), tmd(12, 3)], None);
     let mut c = LecomClient::new(bus, schema(), 11).unwrap();
     let enable = RawValue::Int(10_000);
     let refusals = [
@@ -242,8 +213,8 @@ fn the_write_guard_refuses_enable_and_commands_on_send_broadcast_and_multicast()
         "{}",
         refusals[3]
     );
-    assert!(wire(&log, Dir::Host).is_empty(), "nothing sent");
+    assert!(wire_bytes(&log, Dir::Host).is_empty(), "nothing sent");
     // the stopped value goes out
     c.write(CodeKey::new(40), &RawValue::Int(0)).unwrap();
-    assert_eq!(wire(&log, Dir::Host).len(), 1);
+    assert_eq!(wire_bytes(&log, Dir::Host).len(), 1);
 }

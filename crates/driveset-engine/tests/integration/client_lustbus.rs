@@ -13,11 +13,11 @@ use driveset_schema::{CodeKey, RawValue, Schema};
 use driveset_sim::bus::SimByteBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::{ByteDrive, ReactionTime};
-use driveset_sim::faults::FaultPlan;
 use driveset_sim::log::{Dir, EventLog};
 use driveset_sim::lustbus_drive::LustOptions;
 use driveset_sim::mc6000::Mc6000;
 use driveset_sim::vf1000::Vf1000;
+use driveset_test_support::{sim_byte_bus, wire_timed};
 
 const REACTION: Duration = Duration::from_millis(2);
 
@@ -42,33 +42,9 @@ struct Rig {
     log: EventLog,
 }
 
-fn sim_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
-    let clock = VirtualClock::new();
-    let log = EventLog::memory();
-    let mut bus = SimByteBus::new(&clock, baud, drives)
-        .expect("bus")
-        .with_log(log.clone());
-    if let Some(f) = faults {
-        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
-    }
+fn rig_bus(baud: u32, drives: Vec<Box<dyn ByteDrive>>, faults: Option<&str>) -> (Rig, SimByteBus) {
+    let (clock, log, bus) = sim_byte_bus(baud, drives, faults);
     (Rig { clock, log }, bus)
-}
-
-/// Host telegrams and drive replies in the log, as byte vectors.
-fn wire(log: &EventLog, dir: Dir) -> Vec<(u64, Vec<u8>)> {
-    log.events()
-        .into_iter()
-        .filter(|e| e.dir == dir)
-        .map(|e| {
-            let bytes = e
-                .hex
-                .split(' ')
-                .filter(|s| !s.is_empty())
-                .map(|h| u8::from_str_radix(h, 16).expect("hex"))
-                .collect();
-            (e.t_ns, bytes)
-        })
-        .collect()
 }
 
 fn bcc(text: &[u8]) -> u8 {
@@ -102,7 +78,7 @@ fn value_reply(adr: u8, code: &str, value: &str) -> Vec<u8> {
 
 #[test]
 fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
@@ -111,7 +87,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
         RawValue::Int(_)
     ));
     c.finish().unwrap();
-    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+    let host: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Host)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -129,7 +105,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
         .map(|(i, _)| i)
         .collect();
     assert_eq!(lone, vec![host.len() - 1]);
-    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+    let drive: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Drive)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -142,7 +118,7 @@ fn mc_read_and_write_exact_bytes_one_eot_between_exchanges() {
 
 #[test]
 fn mc_signed_and_q16_values_round_trip() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(4)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(4)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 4).unwrap();
     // 428-RSIO: untyped, width 4 -> PT_INT32Q16 (as the simulator).
     let raw = RawValue::Int(-132 * 65536);
@@ -152,7 +128,7 @@ fn mc_signed_and_q16_values_round_trip() {
 
 #[test]
 fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     // 101-MAINV: EEPROM, 2 bytes -> 30 ms store.
     c.write(CodeKey::new(101), &RawValue::Int(410)).unwrap();
@@ -163,7 +139,7 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
     assert_eq!(c.ready_for_write(CodeKey::new(416)), None);
     // 102-UVLIM issued immediately: the SELECT starts exactly at `busy`.
     c.write(CodeKey::new(102), &RawValue::Int(300)).unwrap();
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     let (t, bytes) = host.last().unwrap();
     assert_eq!(bytes, &select(1, "20102", "12C"));
     assert_eq!(Instant::from_nanos(*t), busy);
@@ -177,13 +153,13 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
     assert!(after_read < ack2 + Duration::from_millis(30));
     assert!(after_read > ack2 + Duration::from_millis(25));
     c.write(CodeKey::new(300), &RawValue::Int(3)).unwrap();
-    let (t, bytes) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    let (t, bytes) = wire_timed(&rig.log, Dir::Host).last().cloned().unwrap();
     assert_eq!(bytes, select(1, "20300", "3"));
     assert_eq!(Instant::from_nanos(t), ack2 + Duration::from_millis(30));
     // 300-CFCON is 1 byte: 15 ms; a RAM write meanwhile is not held back.
     let ack3 = rig.clock.now();
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
-    let (t, _) = wire(&rig.log, Dir::Host).last().cloned().unwrap();
+    let (t, _) = wire_timed(&rig.log, Dir::Host).last().cloned().unwrap();
     assert_eq!(Instant::from_nanos(t), ack3);
     assert_eq!(c.stats().retries, 0);
 }
@@ -192,14 +168,14 @@ fn mc_eeprom_pacing_waits_exactly_the_remaining_store_time() {
 fn mc_eeprom_busy_nak_waits_and_repeats() {
     // A second session on the same line does not know the drive is still
     // storing: its SELECT is NAKed, SERR says 0x04, it waits and repeats.
-    let (rig, bus) = sim_bus(57600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(57600, vec![mc(1)], None);
     let s = schema(Family::Mc6000);
     let mut a = LustbusClient::new(bus, Arc::clone(&s), 1).unwrap();
     a.write(CodeKey::new(101), &RawValue::Int(420)).unwrap();
     let mut b = LustbusClient::new(a.into_link(), s, 1).unwrap();
     b.write(CodeKey::new(102), &RawValue::Int(310)).unwrap();
     assert_eq!(b.read(CodeKey::new(102)).unwrap(), RawValue::Int(310));
-    let drive = wire(&rig.log, Dir::Drive);
+    let drive = wire_timed(&rig.log, Dir::Drive);
     assert!(drive.iter().any(|(_, r)| r == &vec![0x41, 0x15]), "a NAK");
     assert!(
         drive
@@ -207,7 +183,7 @@ fn mc_eeprom_busy_nak_waits_and_repeats() {
             .any(|(_, r)| r == &value_reply(1, "00085", "04")),
         "SERR read back: EEPROM busy"
     );
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     let selects: Vec<u64> = host
         .iter()
         .filter(|(_, b)| b == &select(1, "20102", "136"))
@@ -220,7 +196,7 @@ fn mc_eeprom_busy_nak_waits_and_repeats() {
 
 #[test]
 fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(2)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(2)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 2).unwrap();
     // 300-CFCON: 0..7.
     let err = c.write(CodeKey::new(300), &RawValue::Int(9)).unwrap_err();
@@ -241,7 +217,7 @@ fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
 fn enquiry_nak_is_a_device_error() {
     // The MC schema as the client sees it, but the drive on the line is a
     // VF1000: the MC CODE 20300 does not exist there -> NAK.
-    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.read(CodeKey::new(300)).unwrap_err();
     let ErrorKind::Device { cause, .. } = &*err.kind else {
@@ -260,7 +236,7 @@ fn enquiry_nak_is_a_device_error() {
 
 #[test]
 fn restart_mid_session_is_reported() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
     let now = rig.clock.now();
@@ -276,7 +252,7 @@ fn restart_mid_session_is_reported() {
 
 #[test]
 fn lost_replies_are_retried() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], Some("lose=0.3,seed=7"));
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], Some("lose=0.3,seed=7"));
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     for _ in 0..20 {
         assert_eq!(c.read(CodeKey::new(300)).unwrap(), RawValue::Int(2));
@@ -286,7 +262,7 @@ fn lost_replies_are_retried() {
 
 #[test]
 fn no_answer_after_three_tries() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 5).unwrap();
     let t0 = rig.clock.now();
     let err = c.read(CodeKey::new(300)).unwrap_err();
@@ -306,7 +282,7 @@ fn no_answer_after_three_tries() {
 
 #[test]
 fn garbled_replies_are_retried() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], Some("flip=0.3,seed=3"));
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], Some("flip=0.3,seed=3"));
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     for _ in 0..10 {
         assert_eq!(c.read(CodeKey::new(402)).unwrap(), RawValue::Int(2));
@@ -316,7 +292,7 @@ fn garbled_replies_are_retried() {
 
 #[test]
 fn dataset_download_accepted() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     assert!(c.has_dataset_download());
     c.dataset_begin().unwrap();
@@ -337,7 +313,7 @@ fn dataset_download_accepted() {
 
 #[test]
 fn dataset_download_rejected_keeps_the_old_set() {
-    let (_rig, bus) = sim_bus(19200, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.dataset_begin().unwrap();
     // FICTIONAL rule of the simulator: 102-UVLIM <= 101-MAINV.
@@ -352,7 +328,7 @@ fn dataset_download_rejected_keeps_the_old_set() {
 
 #[test]
 fn dataset_begin_while_running_names_standstill() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     // the write guard never writes a start: the machine's control starts it
     let refused = c.write(CodeKey::new(416), &RawValue::Int(1)).unwrap_err();
@@ -376,7 +352,7 @@ fn dataset_begin_while_running_names_standstill() {
 
 #[test]
 fn vf1000_read_and_write_exact_bytes() {
-    let (rig, bus) = sim_bus(9600, vec![vf(3)], None);
+    let (rig, bus) = rig_bus(9600, vec![vf(3)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 3).unwrap();
     c.read(CodeKey::new(12)).unwrap();
     // 20-FFIX1, PT_FIXPOINT16: 50.00 Hz = raw 1000 = 03E8.
@@ -385,7 +361,7 @@ fn vf1000_read_and_write_exact_bytes() {
     // 3-CNTL bit 7: running.
     assert_eq!(c.running().unwrap(), Some(false));
     c.finish().unwrap();
-    let host: Vec<Vec<u8>> = wire(&rig.log, Dir::Host)
+    let host: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Host)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -396,7 +372,7 @@ fn vf1000_read_and_write_exact_bytes() {
     assert_eq!(host[4], enquiry(3, "00103"));
     assert_eq!(host[5], vec![0x04]);
     assert_eq!(host.len(), 6);
-    let drive: Vec<Vec<u8>> = wire(&rig.log, Dir::Drive)
+    let drive: Vec<Vec<u8>> = wire_timed(&rig.log, Dir::Drive)
         .into_iter()
         .map(|(_, b)| b)
         .collect();
@@ -406,7 +382,7 @@ fn vf1000_read_and_write_exact_bytes() {
 
 #[test]
 fn vf1000_eeprom_write_allows_the_delayed_ack() {
-    let (rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
     c.read(CodeKey::new(30)).unwrap();
     let t0 = rig.clock.now();
@@ -419,24 +395,24 @@ fn vf1000_eeprom_write_allows_the_delayed_ack() {
 
 #[test]
 fn addresses_and_family_are_checked() {
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Mc6000), 31).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
-    let (_rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Tmd), 1).unwrap_err();
     assert!(err.to_string().contains("not a LUSTBUS family"), "{err}");
     // Read-only codes are refused before anything is sent.
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
-    assert!(wire(&rig.log, Dir::Host).is_empty());
+    assert!(wire_timed(&rig.log, Dir::Host).is_empty());
     let _ = c.link().baud();
 }
 
 #[test]
 fn passwords_never_appear_in_errors() {
-    let (_rig, bus) = sim_bus(9600, vec![vf(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 1).unwrap();
     // 70 keypad password, 0..9999: 54321 is refused with SIOF 0x80.
     let err = c
@@ -455,7 +431,7 @@ fn passwords_never_appear_in_errors() {
 
 #[test]
 fn options_change_the_answer_timeout() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let o = LustbusOptions {
         tries: 1,
         answer_timeout: Some(Duration::from_millis(5)),
@@ -493,7 +469,7 @@ mod learn {
         base_id: &str,
         opts: &LearnOptions,
     ) -> (Learned, LearnedSchema) {
-        let (_rig, bus) = sim_bus(9600, vec![drive], None);
+        let (_rig, bus) = rig_bus(9600, vec![drive], None);
         let registry = Registry::builtin().expect("builtin");
         let base = registry.get(base_id).expect("base");
         let mut client = LustbusClient::new(bus, base.clone(), 1).expect("client");
@@ -706,7 +682,7 @@ fn a_slow_link_is_measured_not_timed_out() {
             .expect("mc6000"),
         )
     };
-    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![slow(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     c.identify().expect("identify");
     for _ in 0..10 {
@@ -729,7 +705,7 @@ fn a_slow_link_is_measured_not_timed_out() {
     // comes after the late window, during the repetition; being the same
     // ENQUIRY (same address and CODE) it is that repetition's answer, but
     // only after a retry.
-    let (_rig, bus) = sim_bus(9600, vec![slow(1)], None);
+    let (_rig, bus) = rig_bus(9600, vec![slow(1)], None);
     let o = LustbusOptions {
         answer_timeout: Some(Duration::from_millis(40) + wire_time(18, 9600)),
         ..LustbusOptions::default()
@@ -746,7 +722,7 @@ fn a_late_reply_is_recognised_and_dropped() {
     let late =
         Mc6000::new(LustOptions::new(1).reaction(ReactionTime::fixed(Duration::from_millis(70))))
             .expect("mc6000");
-    let (_rig, bus) = sim_bus(9600, vec![Box::new(late)], None);
+    let (_rig, bus) = rig_bus(9600, vec![Box::new(late)], None);
     let o = LustbusOptions {
         tries: 2,
         answer_timeout: Some(Duration::from_millis(50)),
@@ -774,24 +750,24 @@ fn a_late_reply_is_recognised_and_dropped() {
 /// no dataset stages are refused before anything is sent.
 #[test]
 fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() {
-    let (rig, bus) = sim_bus(9600, vec![mc(1), mc(2)], None);
+    let (rig, bus) = rig_bus(9600, vec![mc(1), mc(2)], None);
     let s = schema(Family::Mc6000);
     let mut c1 = LustbusClient::new(bus, s.clone(), 1).unwrap();
     c1.dataset_begin().unwrap();
     let mut c2 = LustbusClient::new(c1.into_link(), s.clone(), 2).unwrap();
     c2.dataset_begin().unwrap();
-    let before = wire(&rig.log, Dir::Host).len();
-    let replies_before = wire(&rig.log, Dir::Drive).len();
+    let before = wire_timed(&rig.log, Dir::Host).len();
+    let replies_before = wire_timed(&rig.log, Dir::Drive).len();
     let t0 = rig.clock.now();
     c2.broadcast(CodeKey::new(171), &RawValue::Int(2048))
         .unwrap();
-    let host = wire(&rig.log, Dir::Host);
+    let host = wire_timed(&rig.log, Dir::Host);
     assert_eq!(host.len(), before + 1);
     let sent = &host[before].1;
     assert_eq!(sent, &select(31, "20171", "800"));
     assert_eq!(sent.as_slice(), b"\x04_\x0220171=800\x033");
     // no receipt, none awaited: the wire time, then 30 ms
-    assert_eq!(wire(&rig.log, Dir::Drive).len(), replies_before);
+    assert_eq!(wire_timed(&rig.log, Dir::Drive).len(), replies_before);
     assert_eq!(
         rig.clock.now() - t0,
         wire_time(sent.len(), 9600) + Duration::from_millis(30)
@@ -817,7 +793,7 @@ fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() 
             format!("sim address 2: refused: broadcast (address 31) of {name}: {why}")
         );
     }
-    assert_eq!(wire(&rig.log, Dir::Host).len(), before + 1);
+    assert_eq!(wire_timed(&rig.log, Dir::Host).len(), before + 1);
     // both drives commit it
     assert_eq!(
         c2.dataset_commit(Duration::from_secs(10)).unwrap(),

@@ -7,17 +7,16 @@ use std::time::Duration;
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
 use driveset_engine::error::ErrorKind;
-use driveset_link::{Clock, VirtualClock};
+use driveset_link::Clock;
 use driveset_proto::can::NodeId;
 use driveset_schema::error::SourceFile;
 use driveset_schema::{CodeKey, RawValue, Schema};
-use driveset_sim::can_bus::SimCanBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::{FrameDrive, ReactionTime};
 use driveset_sim::ecs::EcsDrive;
-use driveset_sim::faults::FaultPlan;
-use driveset_sim::log::{Dir, EventLog};
+use driveset_sim::log::Dir;
 use driveset_sim::table::ParamTable;
+use driveset_test_support::sim_can_bus;
 
 fn ecs(node: u8) -> Box<dyn FrameDrive> {
     Box::new(
@@ -31,24 +30,9 @@ fn schema() -> Arc<Schema> {
     catalog::schema(Family::Ecs).expect("schema")
 }
 
-fn sim_bus(
-    drives: Vec<Box<dyn FrameDrive>>,
-    faults: Option<&str>,
-) -> (VirtualClock, EventLog, SimCanBus) {
-    let clock = VirtualClock::new();
-    let log = EventLog::memory();
-    let mut bus = SimCanBus::new(&clock, 500_000, drives)
-        .expect("bus")
-        .with_log(log.clone());
-    if let Some(f) = faults {
-        bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
-    }
-    (clock, log, bus)
-}
-
 #[test]
 fn fix32_read_and_write() {
-    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     // C5001 max_speed, default 3000 rpm = raw 30 000 000.
     assert_eq!(
@@ -77,7 +61,7 @@ fn fix32_read_and_write() {
 
 #[test]
 fn abort_is_a_device_error_with_ds301_text() {
-    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     // max 16000 rpm.
     let err = c
@@ -95,7 +79,7 @@ fn abort_is_a_device_error_with_ds301_text() {
 
 #[test]
 fn lost_answers_are_repeated_then_no_answer() {
-    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], Some("lose=0.3,seed=5"));
+    let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], Some("lose=0.3,seed=5"));
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     for _ in 0..10 {
         assert_eq!(
@@ -105,7 +89,7 @@ fn lost_answers_are_repeated_then_no_answer() {
     }
     assert!(c.stats().retries > 0);
 
-    let (clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let (clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     let opts = CanOptions {
         tries: 2,
         answer_timeout: Duration::from_millis(10),
@@ -146,7 +130,7 @@ note = "test"
         EcsDrive::with_table(NodeId::new(4).unwrap(), table, 1)
             .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
     );
-    let (_clock, _log, bus) = sim_bus(vec![drive], None);
+    let (_clock, _log, bus) = sim_can_bus(vec![drive], None);
     let mut c = CanClient::new(bus, s, 4).unwrap();
     let name = RawValue::Text("X-axis gantry left".into());
     c.write(CodeKey::new(5100), &name).unwrap();
@@ -155,12 +139,12 @@ note = "test"
 
 #[test]
 fn node_zero_and_unknown_codes_are_refused() {
-    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     assert!(matches!(
         *CanClient::new(bus, schema(), 0).unwrap_err().kind,
         ErrorKind::Refused(_)
     ));
-    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     assert!(matches!(
         *c.read(CodeKey::new(4242)).unwrap_err().kind,
@@ -185,7 +169,7 @@ fn upload_reads_the_running_state_from_c0150_and_refuses_a_running_axis() {
     let set = speed_set(&schema, 12_345_678);
 
     // stopped (C0150 bit 1 clear): the upload goes through, no warning
-    let (_clock, _log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema.clone(), 3).unwrap();
     let report =
         upload(&mut c, &set, &UploadOptions::new(dir.path().join("a.json"))).expect("stopped axis");
@@ -193,7 +177,7 @@ fn upload_reads_the_running_state_from_c0150_and_refuses_a_running_axis() {
     assert!(report.warnings.is_empty(), "{:?}", report.warnings);
 
     // running: refused before anything is written
-    let (_clock, log, mut bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, log, mut bus) = sim_can_bus(vec![ecs(3)], None);
     bus.drive_mut(3).unwrap().set_running(true).unwrap();
     assert!(bus.drives()[0].running());
     let mut c = CanClient::new(bus, schema.clone(), 3).unwrap();
@@ -273,7 +257,7 @@ note = "test"
     let dir = tempfile::tempdir().expect("tempdir");
     let why = "running state unknown: schema `test-ecs-unknown` names no status bit (role `running`) or control word start bit that says whether the motor runs";
 
-    let (_clock, _log, mut bus) = sim_bus(vec![drive()], None);
+    let (_clock, _log, mut bus) = sim_can_bus(vec![drive()], None);
     assert!(bus.drive_mut(4).unwrap().set_running(true).is_err());
     let mut c = CanClient::new(bus, Arc::clone(&s), 4).unwrap();
     assert_eq!(c.running().unwrap(), None);
@@ -321,7 +305,7 @@ note = "test"
 /// refused and no frame goes out; a stopped value is downloaded.
 #[test]
 fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
-    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     let e = c.write(CodeKey::new(135), &RawValue::Int(0)).unwrap_err();
     assert!(matches!(*e.kind, ErrorKind::Refused(_)), "{e}");
@@ -339,7 +323,7 @@ fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
             "[schema]\nid = \"bare-402\"\ntitle = \"CiA 402 objects, no roles\"\nprotocol = \"lenze-can-sdo\"\ncode_style = \"lenze\"\n[schema.can]\nindex_base = 24575\n\n[[code]]\nindex = 0x6040\nname = \"controlword\"\ntype = \"UNSIGNED16\"\n",
         ))
         .expect("schema");
-    let (_clock, log, bus) = sim_bus(vec![ecs(3)], None);
+    let (_clock, log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, bare, 3).unwrap();
     let cw = CodeKey::new(driveset_schema::schema::CIA_NUMBER_BASE + 0x6040);
     let e = c.write(cw, &RawValue::Int(0x0F)).unwrap_err();

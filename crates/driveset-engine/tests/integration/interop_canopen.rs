@@ -9,12 +9,7 @@
 //! Part of the normal test run: needs the venv that `scripts/setup-python`
 //! makes at `target/py`; `DRIVESET_PYTHON` may name another interpreter
 //! with python-can 4.6 and canopen 2.4.
-use std::io::{BufRead, BufReader, Read, Write};
-use std::path::Path;
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
 use driveset_engine::error::ErrorKind;
@@ -27,7 +22,7 @@ use driveset_schema::{CodeKey, RawValue, ResolvedSet, load_set_str};
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::slcan_hub::SlcanHub;
 
-use crate::util::{python, python_or_skip, root};
+use driveset_test_support::{LinePeer, python_or_skip, sdo_server, workspace_root};
 
 /// Hang guard for one line from the script (not a timing assertion).
 const LINE_GUARD: Duration = Duration::from_secs(60);
@@ -62,100 +57,23 @@ const INITIAL: [(u32, i64); 18] = [
 type Values = Vec<(u32, i64)>;
 
 /// The Python SDO server, talked to over its stdin / stdout.
-struct Server {
-    child: Child,
-    stdin: Option<ChildStdin>,
-    lines: Receiver<String>,
-    stderr: Arc<Mutex<String>>,
-}
+struct Server(LinePeer);
 
 impl Server {
     fn start(path: &str, node: u8) -> Server {
-        let python = python();
-        assert!(
-            python.exists(),
-            "{} is missing: run scripts/setup-python (installs the pinned python-can and canopen \
-             into target/py), or set DRIVESET_PYTHON to a Python that has them",
-            python.display()
-        );
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/sdo_server.py");
-        let mut child = Command::new(&python)
-            .arg(script)
-            .arg(path)
-            .arg(node.to_string())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-        let stdout = child.stdout.take().expect("stdout piped");
-        let mut err = child.stderr.take().expect("stderr piped");
-        let (tx, lines) = channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let stderr = Arc::new(Mutex::new(String::new()));
-        let sink = Arc::clone(&stderr);
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 1024];
-            while let Ok(n) = err.read(&mut buf) {
-                if n == 0 {
-                    break;
-                }
-                sink.lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .push_str(&String::from_utf8_lossy(&buf[..n]));
-            }
-        });
-        let mut server = Server {
-            stdin: child.stdin.take(),
-            child,
-            lines,
-            stderr,
-        };
-        let first = server.line();
-        assert_eq!(first, "ready", "{}", server.stderr());
-        server
+        Server(sdo_server(path, node, &[], LINE_GUARD))
     }
 
     fn stderr(&self) -> String {
-        let text = self
-            .stderr
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone();
-        format!(
-            "sdo_server.py stderr (a ModuleNotFoundError means: run scripts/setup-python):\n{text}"
-        )
+        self.0.stderr()
     }
 
     fn line(&mut self) -> String {
-        match self.lines.recv_timeout(LINE_GUARD) {
-            Ok(l) => l,
-            Err(RecvTimeoutError::Timeout) => {
-                panic!(
-                    "sdo_server.py said nothing for {LINE_GUARD:?}\n{}",
-                    self.stderr()
-                )
-            }
-            Err(RecvTimeoutError::Disconnected) => {
-                let _ = self.child.wait();
-                std::thread::sleep(Duration::from_millis(100));
-                panic!("sdo_server.py ended early\n{}", self.stderr())
-            }
-        }
+        self.0.line()
     }
 
     fn send(&mut self, command: &str) {
-        let stdin = self.stdin.as_mut().expect("stdin open");
-        writeln!(stdin, "{command}")
-            .and_then(|()| stdin.flush())
-            .expect("write to sdo_server.py");
+        self.0.send(command);
     }
 
     /// The object dictionary's values and the accepted writes, in order.
@@ -182,28 +100,9 @@ impl Server {
         }
     }
 
-    fn quit(mut self) {
-        self.send("quit");
-        assert_eq!(self.line(), "bye", "{}", self.stderr());
-        drop(self.stdin.take());
-        let give_up = Instant::now() + LINE_GUARD;
-        loop {
-            if let Some(status) = self.child.try_wait().expect("wait") {
-                assert!(status.success(), "{status}\n{}", self.stderr());
-                return;
-            }
-            assert!(Instant::now() < give_up, "sdo_server.py did not exit");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+    fn quit(self) {
+        let (status, stderr) = self.0.quit("quit", "bye");
+        assert!(status.success(), "{status}\n{stderr}");
     }
 }
 
@@ -225,7 +124,7 @@ fn client(hub: &SlcanHub, node: u8) -> CanClient<SlcanLink> {
 
 /// A set of the fictional ECS fixture, from TOML text.
 fn set(name: &str, text: &str) -> ResolvedSet {
-    let path = root().join("parameter-sets/ecs").join(name);
+    let path = workspace_root().join("parameter-sets/ecs").join(name);
     let mut registry = driveset_schema::Registry::builtin().expect("registry");
     let loaded = load_set_str(&path, text, &mut registry).expect("set loads");
     assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
@@ -300,7 +199,7 @@ fn engine_pulls_uploads_and_decodes_aborts_against_a_canopen_local_node() {
     // server's initial values were chosen so), plus C5009, C5015 and the
     // two bit-coded codes.
     let axis1 = {
-        let path = root().join("parameter-sets/ecs/axis-1.toml");
+        let path = workspace_root().join("parameter-sets/ecs/axis-1.toml");
         let text = std::fs::read_to_string(&path).expect("axis-1.toml");
         set("axis-1.toml", &text)
     };

@@ -16,7 +16,7 @@ use driveset_link::{Link, PortSpec, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Registry};
 use driveset_sim::open::{SimLink, open_sim};
 
-use crate::util::root;
+use driveset_test_support::{sim_openers, workspace_root};
 
 /// The wall-clock instant every report and state entry of these tests
 /// carries.
@@ -58,7 +58,7 @@ fn disk_env() -> std::sync::Arc<dyn Environment> {
 }
 
 fn demo() -> Manifest {
-    let path = root().join("parameter-sets/demo-line/line.toml");
+    let path = workspace_root().join("parameter-sets/demo-line/line.toml");
     let mut reg = Registry::builtin().expect("builtin");
     let l = load_manifest(&path, &mut reg, &sim_openers()).expect("manifest reads");
     assert!(
@@ -125,7 +125,7 @@ fn demo_manifest_loads_with_three_buses_and_thirteen_drives() {
     );
     assert_eq!(
         validate_manifest(
-            &root().join("parameter-sets/demo-line/line.toml"),
+            &workspace_root().join("parameter-sets/demo-line/line.toml"),
             &sim_openers()
         )
         .expect("reads")
@@ -813,7 +813,7 @@ fn a_line_run_takes_time_git_and_its_state_file_from_the_environment() {
 /// A line of `n` MC6000 axes on one LUSTBUS (`sim://mc6000`, 9600 Bd): the
 /// demo line's common base set plus each axis' own SADDR and KPSC1.
 fn mc_axes_line(dir: &Path, n: u8) -> Manifest {
-    let sets = root()
+    let sets = workspace_root()
         .join("parameter-sets/demo-line/sets")
         .canonicalize()
         .unwrap();
@@ -1252,10 +1252,4 @@ fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
         )]
     );
     assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
-}
-
-/// The simulator's port opener, as the CLI registers it.
-fn sim_openers() -> driveset_link::Openers {
-    driveset_link::Openers::none()
-        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

@@ -1,7 +1,9 @@
 //! The engine's one integration-test binary (one binary per crate, fast to
-//! link). Each module tests one area; `support` (fault campaigns, also used
-//! by the benches), `txn_support` (the in-memory fake drive) and `util`
-//! hold the shared helpers. Unit tests live beside the code in `src/`.
+//! link). Each module tests one area; `support` holds the engine's own
+//! test rigs (the fault campaigns, also used by the benches, and the
+//! in-memory fake drive, `support::fake`); the helpers every crate's tests
+//! share are in the `driveset-test-support` crate. Unit tests live beside
+//! the code in `src/`.
 
 mod assign_cut;
 mod campaign;
@@ -16,5 +18,3 @@ mod support;
 mod transfer_cut;
 mod txn;
 mod txn_sim;
-mod txn_support;
-mod util;

@@ -1,8 +1,8 @@
-//! Transaction runner tests over an in-memory fake drive (`txn_support`).
+//! Transaction runner tests over an in-memory fake drive (`support::fake`).
 
 use std::time::Duration;
 
-use crate::txn_support::*;
+use crate::support::fake::*;
 use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
 use driveset_engine::error::ErrorKind;
 use driveset_engine::journal::{JournalFile, TxnState};

@@ -1,6 +1,7 @@
 //! The link crate's one integration-test binary (one binary per crate,
-//! fast to link). Each module tests one transport; `util` holds the shared
-//! helpers. `hardware` is built only with `--features hardware`
+//! fast to link). Each module tests one transport; the shared helpers (pty
+//! pairs, bounded reads, `recv_n`) come from `driveset-test-support`.
+//! `hardware` is built only with `--features hardware`
 //! (TESTING.md, "Hardware tests").
 
 #[cfg(feature = "hardware")]
@@ -10,4 +11,3 @@ mod mem;
 mod pty;
 mod spec;
 mod tcp;
-mod util;

@@ -7,7 +7,6 @@
 //! asserts termios settings; the bytes are what is checked.
 
 use std::io::{Read, Write};
-use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::thread;
 use std::time::Duration;
 
@@ -17,39 +16,9 @@ use driveset_link::{
     ByteLink, CanFrame, Clock, FrameLink, Instant, Link, LinkError, OpenOptions, PortSpec,
     RealClock, open,
 };
-use serialport::{SerialPort, TTYPort};
+use serialport::TTYPort;
 
-use crate::util::recv_n;
-
-/// Tests run in parallel: create ptys one at a time.
-static PTY_LOCK: Mutex<()> = Mutex::new(());
-
-fn pty_lock() -> MutexGuard<'static, ()> {
-    PTY_LOCK.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// A pty pair: the master end (kept alive: closing it hangs up the slave),
-/// the slave's path for the link under test to open (exclusively: the
-/// slave fd of `pair()` has neither TIOCEXCL nor a flock on it), and that
-/// first slave fd, which the test keeps open so that the link closing its
-/// own fd does not hang up the line: the master can still read what the
-/// link wrote last (the slcan close on drop).
-fn pty() -> (TTYPort, String, TTYPort) {
-    let _guard = pty_lock();
-    let (mut master, slave) = TTYPort::pair().expect("create a pty pair");
-    let path = slave.name().expect("the slave pty has a path");
-    master
-        .set_timeout(Duration::from_secs(5))
-        .expect("master timeout");
-    (master, path, slave)
-}
-
-/// Read exactly `n` bytes on the master end (5 s timeout).
-fn master_read(master: &mut TTYPort, n: usize) -> Vec<u8> {
-    let mut buf = vec![0; n];
-    master.read_exact(&mut buf).expect("master reads");
-    buf
-}
+use driveset_test_support::{pty_pair, read_exact_n, recv_n};
 
 /// Read on the master end up to and including the next CR.
 fn master_line(master: &mut TTYPort) -> Vec<u8> {
@@ -64,7 +33,7 @@ fn master_line(master: &mut TTYPort) -> Vec<u8> {
 
 #[test]
 fn serial_link_moves_exact_bytes_both_ways() {
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let mut link = SerialLink::open(&path, 9600).expect("open the slave pty");
     assert_eq!(link.port(), path);
     assert_eq!(link.baud(), 9600);
@@ -73,7 +42,7 @@ fn serial_link_moves_exact_bytes_both_ways() {
     let request = b"\x04001\x0291\x05";
     link.send(request).expect("send");
     link.flush().expect("flush");
-    assert_eq!(master_read(&mut master, request.len()), request);
+    assert_eq!(read_exact_n(&mut master, request.len()), request);
 
     let reply = b"\x0291(+1000.)\x03\x2d";
     master.write_all(reply).expect("master writes");
@@ -83,7 +52,7 @@ fn serial_link_moves_exact_bytes_both_ways() {
 #[test]
 fn serial_link_passes_received_bytes_unmasked() {
     // Masking bit 7 is the codec's job: the link hands over what it read.
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let mut link = SerialLink::open(&path, 19200).expect("open");
     master.write_all(&[0x86, 0x15]).expect("master writes");
     assert_eq!(recv_n(&mut link, 2), [0x86, 0x15]);
@@ -91,7 +60,7 @@ fn serial_link_passes_received_bytes_unmasked() {
 
 #[test]
 fn serial_link_deadline_and_discard() {
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let mut link = SerialLink::open(&path, 9600).expect("open");
     let mut buf = [0u8; 8];
     let deadline = RealClock.deadline_in(Duration::from_millis(30));
@@ -116,7 +85,7 @@ fn serial_link_deadline_and_discard() {
 
 #[test]
 fn serial_link_refuses_eight_bit_bytes() {
-    let (_master, path, _hold) = pty();
+    let (_master, path, _hold) = pty_pair();
     let mut link = SerialLink::open(&path, 9600).expect("open");
     match link.send(b"\x02\xB1\x03") {
         Err(LinkError::NotSevenBit {
@@ -130,7 +99,7 @@ fn serial_link_refuses_eight_bit_bytes() {
 
 #[test]
 fn serial_open_is_exclusive() {
-    let (_master, path, _hold) = pty();
+    let (_master, path, _hold) = pty_pair();
     let _first = SerialLink::open(&path, 9600).expect("first open");
     match SerialLink::open(&path, 9600) {
         Err(LinkError::Busy { port }) => assert_eq!(port, path),
@@ -155,14 +124,14 @@ fn serial_open_errors() {
 
 #[test]
 fn open_a_serial_port_string() {
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let spec = PortSpec::parse(&format!("{path}?baud=4800")).expect("parse");
     let Link::Bytes(mut link) = open(&spec, &OpenOptions::default()).expect("open") else {
         panic!("a serial path opens a byte link");
     };
     assert_eq!(link.baud(), 4800);
     link.send(b"\x04").expect("send");
-    assert_eq!(master_read(&mut master, 1), b"\x04");
+    assert_eq!(read_exact_n(&mut master, 1), b"\x04");
 }
 
 /// A fake slcan adapter on the master end: answers the open sequence with
@@ -178,7 +147,7 @@ fn fake_adapter_open(master: &mut TTYPort, replies: &[&[u8]]) -> Vec<Vec<u8>> {
 
 #[test]
 fn slcan_open_sequence_and_frames() {
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let adapter = thread::spawn(move || {
         let lines = fake_adapter_open(&mut master, &[b"\x07", b"\r", b"\r"]);
         (master, lines)
@@ -248,7 +217,7 @@ fn slcan_open_sequence_and_frames() {
 
 #[test]
 fn slcan_frames_arriving_during_a_reply_wait_are_kept() {
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let adapter = thread::spawn(move || {
         let lines = fake_adapter_open(&mut master, &[b"\r", b"\r", b"\r"]);
         // Before acknowledging the first transmit, a frame from the bus.
@@ -272,7 +241,7 @@ fn slcan_frames_arriving_during_a_reply_wait_are_kept() {
 #[test]
 fn slcan_open_failures_name_the_command() {
     // The adapter refuses the bit rate.
-    let (mut master, path, _hold) = pty();
+    let (mut master, path, _hold) = pty_pair();
     let adapter = thread::spawn(move || {
         let lines = fake_adapter_open(&mut master, &[b"\r", b"\x07"]);
         (master, lines)
@@ -288,7 +257,7 @@ fn slcan_open_failures_name_the_command() {
     assert_eq!(lines, [b"C\r".to_vec(), b"S5\r".to_vec()]);
 
     // A silent device: not an slcan adapter.
-    let (_master, path, _hold) = pty();
+    let (_master, path, _hold) = pty_pair();
     match SlcanLink::open(&path, 500_000, 115_200, Duration::from_millis(20)) {
         Err(LinkError::Slcan { detail, .. }) => {
             assert!(

@@ -2,7 +2,7 @@
 //! server in raw TCP mode.
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpListener;
 use std::thread;
 use std::time::Duration;
 
@@ -11,9 +11,12 @@ use driveset_link::{
     ByteLink, Clock, Instant, Link, LinkError, OpenOptions, PortSpec, RealClock, open,
 };
 
-use crate::util::recv_n;
+use driveset_test_support::{read_exact_n, recv_n};
 
 const CONNECT: Duration = Duration::from_secs(5);
+
+/// How long the server side waits for what it reads.
+const SERVER_READ: Duration = Duration::from_secs(5);
 
 fn listener() -> (TcpListener, u16) {
     let listener = TcpListener::bind("127.0.0.1:0").expect("bind a loopback port");
@@ -21,23 +24,14 @@ fn listener() -> (TcpListener, u16) {
     (listener, port)
 }
 
-/// Read exactly `n` bytes from the server side (bounded by a 5 s timeout).
-fn read_n(stream: &mut TcpStream, n: usize) -> Vec<u8> {
-    stream
-        .set_read_timeout(Some(Duration::from_secs(5)))
-        .expect("timeout");
-    let mut buf = vec![0; n];
-    stream.read_exact(&mut buf).expect("server reads");
-    buf
-}
-
 #[test]
 fn sends_and_receives_exact_bytes() {
     let (listener, port) = listener();
     let server = thread::spawn(move || {
         let (mut stream, _) = listener.accept().expect("accept");
+        stream.set_read_timeout(Some(SERVER_READ)).expect("timeout");
         assert!(stream.nodelay().is_ok());
-        let request = read_n(&mut stream, 10);
+        let request = read_exact_n(&mut stream, 10);
         stream.write_all(b"\x06").expect("write ack");
         stream
             .write_all(b"\x0211+12.5\x03\x1b")
@@ -80,9 +74,10 @@ fn discard_drops_pending_input() {
     let (listener, port) = listener();
     let server = thread::spawn(move || {
         let (mut stream, _) = listener.accept().expect("accept");
+        stream.set_read_timeout(Some(SERVER_READ)).expect("timeout");
         stream.write_all(b"stale").expect("write");
         // Wait for the client's go, then send the fresh reply.
-        let go = read_n(&mut stream, 1);
+        let go = read_exact_n(&mut stream, 1);
         stream.write_all(b"fresh").expect("write");
         go
     });
@@ -168,7 +163,8 @@ fn open_from_a_port_string() {
     let (listener, port) = listener();
     let server = thread::spawn(move || {
         let (mut stream, _) = listener.accept().expect("accept");
-        read_n(&mut stream, 3)
+        stream.set_read_timeout(Some(SERVER_READ)).expect("timeout");
+        read_exact_n(&mut stream, 3)
     });
     let spec = PortSpec::parse(&format!("tcp://127.0.0.1:{port}?baud=38400")).unwrap();
     let Link::Bytes(mut link) = open(&spec, &OpenOptions::default()).expect("open") else {
@@ -189,7 +185,7 @@ fn open_from_a_port_string() {
 
 /// The bus id names the address connected to, not the host as spelled:
 /// `tcp://127.0.0.1:P` and `tcp://localhost:P` are one bus (journals bound
-/// to their drive, DESIGN.md "Transactions").
+/// to their drive, docs/journals.md "One name per drive").
 #[test]
 fn bus_id_is_the_same_for_every_spelling_of_the_host() {
     let (listener, port) = listener();

@@ -2,23 +2,15 @@
 //! (`fuzz/corpus/lecom_stream/`) through the LECOM-A/B decoders, so CI
 //! checks it without cargo-fuzz, and checks what the clean captures hold.
 
-use std::path::PathBuf;
+use std::path::Path;
+
+use driveset_test_support::files_in;
 
 use driveset_proto::lecom::fuzzing::lecom_stream;
 use driveset_proto::lecom::{BusSniffer, Frame, HostFrame, Response, Telegram};
 
 fn corpus() -> Vec<(String, Vec<u8>)> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/lecom_stream");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|entry| {
-            let path = entry.unwrap().path();
-            let name = path.file_name().unwrap().to_string_lossy().into_owned();
-            (name, std::fs::read(&path).unwrap())
-        })
-        .collect();
-    files.sort();
-    files
+    files_in(&Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/lecom_stream"))
 }
 
 #[test]

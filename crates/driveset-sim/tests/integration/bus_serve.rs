@@ -13,28 +13,8 @@ use std::time::Duration;
 use driveset_sim::bus::ByteLine;
 use driveset_sim::log::EventLog;
 use driveset_sim::serve;
+use driveset_test_support::read_n_within;
 use support::{ACK, FakeDrive, telegram};
-
-/// Read exactly `n` bytes or fail after `within`.
-fn read_n(r: &mut impl Read, n: usize, within: Duration) -> Vec<u8> {
-    let give_up = std::time::Instant::now() + within;
-    let mut got = Vec::new();
-    let mut buf = [0u8; 16];
-    while got.len() < n {
-        assert!(std::time::Instant::now() < give_up, "only got {got:?}");
-        match r.read(&mut buf) {
-            Ok(0) => panic!("closed after {got:?}"),
-            Ok(k) => got.extend_from_slice(&buf[..k]),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
-                ) => {}
-            Err(e) => panic!("read: {e}"),
-        }
-    }
-    got
-}
 
 fn line(log: &EventLog) -> ByteLine {
     let (drive, _) = FakeDrive::boxed(1, Duration::from_millis(1));
@@ -50,7 +30,7 @@ fn serves_a_fake_drive_on_a_pty() {
     let log = EventLog::memory();
     let mut line = line(&log);
     let pty = {
-        let _guard = crate::util::pty_lock();
+        let _guard = driveset_test_support::pty_lock();
         serve::open_pty().unwrap()
     };
     assert!(pty.path.starts_with("/dev/"), "{}", pty.path);
@@ -70,10 +50,16 @@ fn serves_a_fake_drive_on_a_pty() {
     let mut t = telegram(b'1');
     t[0] |= 0x80;
     slave.write_all(&t).unwrap();
-    assert_eq!(read_n(&mut slave, 2, Duration::from_secs(5)), [ACK, b'1']);
+    assert_eq!(
+        read_n_within(&mut slave, 2, Duration::from_secs(5)),
+        [ACK, b'1']
+    );
     // A second telegram on the same session.
     slave.write_all(&telegram(b'1')).unwrap();
-    assert_eq!(read_n(&mut slave, 2, Duration::from_secs(5)), [ACK, b'1']);
+    assert_eq!(
+        read_n_within(&mut slave, 2, Duration::from_secs(5)),
+        [ACK, b'1']
+    );
     stop.store(true, Ordering::SeqCst);
     let (r, line) = server.join().unwrap();
     r.unwrap();
@@ -103,7 +89,10 @@ fn serves_tcp_clients_one_after_the_other_and_stops_promptly() {
             .set_read_timeout(Some(Duration::from_millis(100)))
             .unwrap();
         client.write_all(&telegram(b'1')).unwrap();
-        assert_eq!(read_n(&mut client, 2, Duration::from_secs(5)), [ACK, b'1']);
+        assert_eq!(
+            read_n_within(&mut client, 2, Duration::from_secs(5)),
+            [ACK, b'1']
+        );
         drop(client);
         // The next client comes once this one is gone (else it would wait).
         wait_for_kinds(&log, 2 * (i + 1));
@@ -184,7 +173,10 @@ fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_drop
     };
     let mut first = connect();
     first.write_all(&telegram(b'1')).unwrap();
-    assert_eq!(read_n(&mut first, 2, Duration::from_secs(5)), [ACK, b'1']);
+    assert_eq!(
+        read_n_within(&mut first, 2, Duration::from_secs(5)),
+        [ACK, b'1']
+    );
     let first_addr = first.local_addr().unwrap();
     // The second connects while the first holds the line: it waits.
     let mut second = connect();
@@ -194,7 +186,10 @@ fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_drop
     assert_eq!(k, ["connect", "wait"]);
     // Nothing for the second while the first is connected and busy.
     first.write_all(&telegram(b'1')).unwrap();
-    assert_eq!(read_n(&mut first, 2, Duration::from_secs(5)), [ACK, b'1']);
+    assert_eq!(
+        read_n_within(&mut first, 2, Duration::from_secs(5)),
+        [ACK, b'1']
+    );
     let mut none = [0u8; 4];
     assert!(matches!(
         second.read(&mut none),
@@ -203,7 +198,10 @@ fn a_second_tcp_client_waits_for_the_first_then_is_served_and_idle_ones_are_drop
     // The first leaves; the second's telegram (sent while it waited) is
     // served.
     drop(first);
-    assert_eq!(read_n(&mut second, 2, Duration::from_secs(5)), [ACK, b'1']);
+    assert_eq!(
+        read_n_within(&mut second, 2, Duration::from_secs(5)),
+        [ACK, b'1']
+    );
     // Then it says nothing: dropped after the idle timeout.
     let k = wait_for_kinds(&log, 5);
     assert_eq!(k, ["connect", "wait", "disconnect", "connect", "idle"]);

@@ -20,7 +20,7 @@ use driveset_sim::drive::FrameDrive;
 use driveset_sim::slcan_serve::SlcanServer;
 use support::test_drive;
 
-use crate::util::{pty_lock, python_or_skip};
+use driveset_test_support::{pty_lock, python_or_skip};
 
 /// How long the script may run before the test kills it (a hang guard,
 /// not a timing assertion: the script needs well under a second).

@@ -5,7 +5,7 @@
 
 use crate::ecs_support as support;
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::time::Duration;
 
 use driveset_link::slcan::SlcanLink;
@@ -18,7 +18,7 @@ use driveset_sim::slcan_serve::{SlcanEvent, SlcanServer};
 use serialport::TTYPort;
 use support::test_drive;
 
-use crate::util::pty_lock;
+use driveset_test_support::{pty_lock, read_exact_n};
 
 fn server(nodes: &[u8]) -> SlcanServer {
     let drives: Vec<Box<dyn FrameDrive>> = nodes
@@ -44,27 +44,21 @@ fn send(h: &mut TTYPort, bytes: &[u8]) {
     h.flush().expect("host flushes");
 }
 
-fn read_n(h: &mut TTYPort, n: usize) -> Vec<u8> {
-    let mut buf = vec![0; n];
-    h.read_exact(&mut buf).expect("host reads");
-    buf
-}
-
 #[test]
 fn python_can_open_sequence_and_identity_exact_bytes() {
     let s = server(&[1]);
     let mut h = host(s.path());
     // python-can 4.6 slcan: C, S6, empty line (no CAN FD data rate), O, O.
     send(&mut h, b"C\rS6\r\rO\rO\r");
-    assert_eq!(read_n(&mut h, 5), b"\r\r\r\r\x07");
+    assert_eq!(read_exact_n(&mut h, 5), b"\r\r\r\r\x07");
     send(&mut h, b"V\rN\rF\r");
-    assert_eq!(read_n(&mut h, 16), b"V1013\rNDSIM\rF00\r");
+    assert_eq!(read_exact_n(&mut h, 16), b"V1013\rNDSIM\rF00\r");
     // while open: no bit rate, no timestamps change; garbage is refused
     send(&mut h, b"S6\rZ1\rXYZ\r");
-    assert_eq!(read_n(&mut h, 3), b"\x07\x07\x07");
+    assert_eq!(read_exact_n(&mut h, 3), b"\x07\x07\x07");
     // closed: frames refused; a rate the bus does not run at is refused
     send(&mut h, b"C\rt601840764C0000000000\rS8\r");
-    assert_eq!(read_n(&mut h, 3), b"\r\x07\x07");
+    assert_eq!(read_exact_n(&mut h, 3), b"\r\x07\x07");
     let (_, stats) = s.stop().expect("stop");
     assert_eq!(stats.frames_from_host, 0);
     assert_eq!(stats.bad_lines, 1);
@@ -75,19 +69,19 @@ fn sdo_read_through_the_adapter_exact_bytes() {
     let s = server(&[1, 2]);
     let mut h = host(s.path());
     send(&mut h, b"C\rS6\r\rO\r");
-    assert_eq!(read_n(&mut h, 4), b"\r\r\r\r");
+    assert_eq!(read_exact_n(&mut h, 4), b"\r\r\r\r");
     // read C5001 (index 0x4C76) from node 1
     send(&mut h, b"t601840764C0000000000\r");
-    assert_eq!(read_n(&mut h, 2), b"z\r");
-    assert_eq!(read_n(&mut h, 22), b"t581843764C0080C3C901\r");
+    assert_eq!(read_exact_n(&mut h, 2), b"z\r");
+    assert_eq!(read_exact_n(&mut h, 22), b"t581843764C0080C3C901\r");
     // write C5002 = 1234.5678 to node 2 (lower-case hex is accepted)
     send(&mut h, b"t602823754c004e61bc00\r");
-    assert_eq!(read_n(&mut h, 2), b"z\r");
-    assert_eq!(read_n(&mut h, 22), b"t582860754C0000000000\r");
+    assert_eq!(read_exact_n(&mut h, 2), b"z\r");
+    assert_eq!(read_exact_n(&mut h, 22), b"t582860754C0000000000\r");
     // timestamps: Z1 while closed, then every received frame carries 4 digits
     send(&mut h, b"C\rZ1\rO\rt601840764C0000000000\r");
-    assert_eq!(read_n(&mut h, 5), b"\r\r\rz\r");
-    let line = read_n(&mut h, 26);
+    assert_eq!(read_exact_n(&mut h, 5), b"\r\r\rz\r");
+    let line = read_exact_n(&mut h, 26);
     assert_eq!(&line[..21], b"t581843764C0080C3C901");
     assert!(line[21..25].iter().all(u8::is_ascii_hexdigit), "{line:?}");
     assert_eq!(line[25], b'\r');

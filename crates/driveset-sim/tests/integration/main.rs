@@ -1,7 +1,8 @@
 //! The simulator's one integration-test binary (one binary per crate, fast
-//! to link). Each module tests one area; `bus_support` (tiny fake drives),
-//! `ecs_support` (ECS helpers) and `util` (the pty lock, the interop skip)
-//! are shared. Unit tests live beside the code in `src/`.
+//! to link). Each module tests one area; `bus_support` (tiny fake drives)
+//! and `ecs_support` (ECS helpers) are shared by its modules; the pty lock,
+//! bounded reads and the interop skip come from `driveset-test-support`.
+//! Unit tests live beside the code in `src/`.
 
 mod bus;
 mod bus_can;
@@ -21,4 +22,3 @@ mod lust_bus;
 mod lust_models;
 mod spec_examples_transports;
 mod tmd;
-mod util;

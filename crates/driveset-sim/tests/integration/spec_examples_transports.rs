@@ -32,7 +32,7 @@ use driveset_sim::tmd::{TmdDrive, TmdOptions};
 use driveset_sim::vf1000::Vf1000;
 use support::test_drive;
 
-use crate::util::pty_lock;
+use driveset_test_support::pty_lock;
 
 const STX: u8 = 0x02;
 const ETX: u8 = 0x03;

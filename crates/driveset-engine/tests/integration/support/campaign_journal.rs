@@ -57,6 +57,7 @@ use driveset_sim::log::{Dir, Event, EventLog};
 use driveset_sim::open::{SimConfig, SimLink, open_sim_with};
 
 use super::campaign_rig as rig;
+use driveset_test_support::sim_openers;
 
 /// The scenarios of [`journal_campaign`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -1007,10 +1008,4 @@ fn sim_bus_id(sim: &SimLink) -> String {
         Link::Bytes(l) => l.bus_id(),
         Link::Frames(l) => l.bus_id(),
     }
-}
-
-/// The simulator's port opener, as the CLI registers it.
-fn sim_openers() -> driveset_link::Openers {
-    driveset_link::Openers::none()
-        .with(std::sync::Arc::new(driveset_sim::port::SimOpener::default()))
 }

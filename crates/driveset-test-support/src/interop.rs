@@ -1,23 +1,9 @@
-//! Helpers shared by the engine's integration-test modules: the workspace
-//! root and the interop tests' Python interpreter and skip rule.
+//! Whether an interop test's outside software is there, and the Python
+//! interpreter of the interop tests.
 
-#![allow(dead_code)]
+use std::path::PathBuf;
 
-use std::path::{Path, PathBuf};
-
-/// The workspace root (where `schemas/` and `parameter-sets/` live).
-pub fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The Python interpreter of the interop tests: `DRIVESET_PYTHON`, else the
-/// venv `scripts/setup-python` makes at `target/py`.
-pub fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("DRIVESET_PYTHON") {
-        return PathBuf::from(p);
-    }
-    root().join("target/py/bin/python")
-}
+use crate::paths::workspace_root;
 
 /// Whether an interop test can run: `present` says its outside software is
 /// installed. When it is not, a plain `cargo test` skips the test with a
@@ -33,6 +19,15 @@ pub fn interop_or_skip(what: &str, present: bool, missing: &str) -> bool {
     }
     eprintln!("skipped: {msg}");
     false
+}
+
+/// The Python interpreter of the interop tests: `DRIVESET_PYTHON`, else the
+/// venv `scripts/setup-python` makes at `target/py`.
+pub fn python() -> PathBuf {
+    std::env::var_os("DRIVESET_PYTHON").map_or_else(
+        || workspace_root().join("target/py/bin/python"),
+        PathBuf::from,
+    )
 }
 
 /// [`python`], or `None` after [`interop_or_skip`] said why the test is
