@@ -18,6 +18,8 @@ use std::fmt;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
+use driveset_proto::lustbus::{CompatibleParameter, Dialect};
+
 use crate::role::{BitRole, Role};
 use crate::schema::{CIA_NUMBER_BASE, Code, StorageKind};
 
@@ -174,6 +176,70 @@ pub struct Descriptor {
     /// schema of the family gets at least these when it is loaded
     /// (`schema::parse_schema`), whatever its file says.
     pub floor: &'static [FloorRole],
+    /// The LUSTBUS wire dialect the family speaks (`lustbus-protocol.txt`
+    /// §2.3: VF1000 four hex digits, MC6000/7000 one to eight); `None` off
+    /// LUSTBUS.
+    pub dialect: Option<Dialect>,
+    /// The code whose value is the device type (LUSTBUS 91-TYPE, §5.2),
+    /// where identification reads one: learned file names, the manifest's
+    /// `type =` check and `identify` print it.
+    pub type_code: Option<u32>,
+    /// Learning a schema from the drive's own descriptions (LUSTBUS §11.1,
+    /// §11.2), where the family's drives describe their parameters.
+    pub learning: Option<Learning>,
+    /// Whether the drive executes every SELECT to the broadcast address as
+    /// a write of its own parameter of that number, whatever the CODE's
+    /// device digit says (VF1000, `lustbus-protocol.txt` §4.2, §5.2): a bus
+    /// holding one takes no broadcast.
+    pub broadcast_as_own: bool,
+}
+
+/// How a family's drives describe their parameters, for learning a schema
+/// from them (`lustbus-protocol.txt` §11.1, §11.2), and the file a learned
+/// schema is stored under.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Learning {
+    /// The family's part of a learned file's name (`learned-<stem>-...`).
+    pub stem: &'static str,
+    /// The highest parameter number the drive describes (§11.1: VF1000
+    /// CODE `000pp`, two digits: 99; MC6000/7000 `00ppp`, three: 999).
+    pub max_parameter: u32,
+}
+
+impl Learning {
+    /// The file (and schema id) a learned schema is stored under:
+    /// `learned-<stem>-type<TYPE>-<software>`. `device_type` is the value of
+    /// [`Descriptor::type_code`] (`unknown` where the drive gave none), kept
+    /// to its ASCII letters, digits, `-` and `_`; `software` the identity's
+    /// software version, its other characters made `_`, or, where the drive
+    /// reports none, `d<8 hex>` of `descriptions_hash` (the hash of the
+    /// descriptions the drive sent).
+    pub fn file_id(
+        &self,
+        device_type: Option<&str>,
+        software: Option<&str>,
+        descriptions_hash: u32,
+    ) -> String {
+        let ty: String = device_type
+            .unwrap_or("unknown")
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+            .collect();
+        let sw = software.map_or_else(
+            || format!("d{descriptions_hash:08x}"),
+            |s| {
+                s.chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect()
+            },
+        );
+        format!("learned-{}-type{ty}-{sw}", self.stem)
+    }
+
+    /// The parameters a learning run asks for by default: 1 ..= the highest.
+    pub fn default_params(&self) -> std::ops::RangeInclusive<u32> {
+        1..=self.max_parameter
+    }
 }
 
 /// A role the specs give one code of a family, which no schema file can
@@ -409,6 +475,10 @@ pub const SLOAD: DatasetHandshake = DatasetHandshake {
     timeout: Duration::from_secs(10),
 };
 
+/// 91-TYPE, the device type both LUSTBUS families report
+/// (`lustbus-protocol.txt` §5.2, a numerically compatible parameter).
+pub const TYPE: u32 = 91;
+
 const MC6000: Descriptor = Descriptor {
     family: Family::Mc6000,
     name: "mc6000",
@@ -443,6 +513,13 @@ const MC6000: Descriptor = Descriptor {
         }),
     },
     floor: MC6000_FLOOR,
+    dialect: Some(Dialect::Mc),
+    type_code: Some(TYPE),
+    learning: Some(Learning {
+        stem: "mc6000",
+        max_parameter: 999,
+    }),
+    broadcast_as_own: false,
 };
 
 const VF1000: Descriptor = Descriptor {
@@ -476,6 +553,13 @@ const VF1000: Descriptor = Descriptor {
         online: None,
     },
     floor: VF1000_FLOOR,
+    dialect: Some(Dialect::Vf1000),
+    type_code: Some(TYPE),
+    learning: Some(Learning {
+        stem: "vf1000",
+        max_parameter: 99,
+    }),
+    broadcast_as_own: true,
 };
 
 const TMD: Descriptor = Descriptor {
@@ -502,6 +586,10 @@ const TMD: Descriptor = Descriptor {
         online: None,
     },
     floor: TMD_FLOOR,
+    dialect: None,
+    type_code: None,
+    learning: None,
+    broadcast_as_own: false,
 };
 
 const ECS: Descriptor = Descriptor {
@@ -528,6 +616,10 @@ const ECS: Descriptor = Descriptor {
         online: None,
     },
     floor: ECS_FLOOR,
+    dialect: None,
+    type_code: None,
+    learning: None,
+    broadcast_as_own: false,
 };
 
 impl Family {
@@ -583,6 +675,22 @@ impl Family {
     /// The bus protocol.
     pub fn bus(self) -> BusProtocol {
         self.descriptor().bus
+    }
+
+    /// The family that speaks LUSTBUS dialect `dialect` ([`Descriptor::dialect`]).
+    pub fn from_dialect(dialect: Dialect) -> Family {
+        match dialect {
+            Dialect::Vf1000 => Family::Vf1000,
+            Dialect::Mc => Family::Mc6000,
+        }
+    }
+
+    /// The family whose learned files start `learned-<stem>-`
+    /// ([`Learning::stem`]).
+    pub fn from_learned_stem(stem: &str) -> Option<Family> {
+        Family::ALL
+            .into_iter()
+            .find(|f| f.descriptor().learning.is_some_and(|l| l.stem == stem))
     }
 }
 
@@ -692,10 +800,42 @@ impl BusProtocol {
         }
     }
 
-    /// Check a drive's own address: `Err((problem, rule))`, the rule in words.
-    pub fn check_address(self, address: i64) -> Result<(), (AddressProblem, &'static str)> {
+    /// Every address a telegram of this protocol can carry: a drive's own,
+    /// the group and the broadcast addresses (LUSTBUS 0..31, §4.2; LECOM
+    /// 00..99; CAN node ids 1..127).
+    pub fn wire_addresses(self) -> RangeInclusive<u8> {
+        match self {
+            BusProtocol::Lustbus => 0..=31,
+            BusProtocol::Lecom => 0..=99,
+            BusProtocol::CanSdo => 1..=127,
+        }
+    }
+
+    /// The rule [`BusProtocol::wire_addresses`] follows, in words.
+    pub fn wire_address_rule(self) -> &'static str {
+        match self {
+            BusProtocol::Lustbus => "LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)",
+            BusProtocol::Lecom => {
+                "LECOM addresses are 00..99 (00 broadcast, 10, 20, ... 90 groups)"
+            }
+            BusProtocol::CanSdo => "CAN node ids are 1..127",
+        }
+    }
+
+    /// Check a drive's own address. The one address rule: every refusal
+    /// of an address as a drive's own (manifest, simulator, CLI, engine) is
+    /// rendered from the [`AddressRefusal`] it returns.
+    pub fn check_address(self, address: i64) -> Result<(), AddressRefusal> {
+        let refuse = |problem, rule| {
+            Err(AddressRefusal {
+                bus: self,
+                address,
+                problem,
+                rule,
+            })
+        };
         if self.is_group_address(address) {
-            return Err((
+            return refuse(
                 AddressProblem::Group,
                 match self {
                     BusProtocol::Lustbus => {
@@ -705,20 +845,50 @@ impl BusProtocol {
                         "LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0"
                     }
                 },
-            ));
+            );
         }
         let r = self.drive_addresses();
         if address < i64::from(*r.start()) || address > i64::from(*r.end()) {
-            return Err((
+            return refuse(
                 AddressProblem::OutOfRange,
                 match self {
                     BusProtocol::Lustbus => "LUSTBUS drive addresses are 1..30",
                     BusProtocol::Lecom => "LECOM station addresses are 1..99",
                     BusProtocol::CanSdo => "CAN node ids are 1..127",
                 },
-            ));
+            );
         }
         Ok(())
+    }
+}
+
+/// Why [`BusProtocol::check_address`] refused an address as a drive's own:
+/// the one typed address refusal. Its `Display` is `address A: RULE`;
+/// callers that say more (the bus's name, the manifest line) add it around
+/// [`AddressRefusal::rule`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("address {address}: {rule}")]
+pub struct AddressRefusal {
+    /// The bus protocol whose rule refused it.
+    pub bus: BusProtocol,
+    /// The address refused.
+    pub address: i64,
+    /// Group / broadcast or out of range.
+    pub problem: AddressProblem,
+    /// The rule, in words (LUSTBUS §4.2, LECOM §4c, CAN node ids).
+    pub rule: &'static str,
+}
+
+impl AddressRefusal {
+    /// Kebab-case kind for findings ([`AddressProblem::kind`]).
+    pub fn kind(&self) -> &'static str {
+        self.problem.kind()
+    }
+
+    /// What to do about it: `give the drive its own address 1..30`.
+    pub fn hint(&self) -> String {
+        let r = self.bus.drive_addresses();
+        format!("give the drive its own address {}..{}", r.start(), r.end())
     }
 }
 
@@ -729,6 +899,64 @@ impl fmt::Display for BusProtocol {
 }
 
 impl Descriptor {
+    /// The numerically compatible parameters the family serves under CODE
+    /// `000xx` (LUSTBUS §5.2: 81..85, 91, proto's [`CompatibleParameter`]
+    /// table); empty off LUSTBUS.
+    pub fn compatible(&self) -> &'static [u32] {
+        match self.bus {
+            BusProtocol::Lustbus => &CompatibleParameter::NUMBERS,
+            BusProtocol::Lecom | BusProtocol::CanSdo => &[],
+        }
+    }
+
+    /// Whether `code` is one of [`Descriptor::compatible`].
+    pub fn is_compatible(&self, code: u32) -> bool {
+        self.bus == BusProtocol::Lustbus && CompatibleParameter::contains(code)
+    }
+
+    /// The dataset handshake's code (MC6000/7000 80-SLOAD, §11.4), where
+    /// the family has one.
+    pub fn dataset_code(&self) -> Option<u32> {
+        self.dataset.map(|h| h.code)
+    }
+
+    /// The address every drive on the family's bus executes without
+    /// answering ([`BusProtocol::broadcast_address`]: LUSTBUS 31, LECOM 00).
+    pub fn broadcast_address(&self) -> Option<u8> {
+        self.bus.broadcast_address()
+    }
+
+    /// Check a drive's own address on the family's bus
+    /// ([`BusProtocol::check_address`], the one rule).
+    pub fn check_address(&self, address: i64) -> Result<(), AddressRefusal> {
+        self.bus.check_address(address)
+    }
+
+    /// Whether the family's drives are on CAN (frames) rather than a
+    /// character line.
+    pub fn on_can(&self) -> bool {
+        self.bus == BusProtocol::CanSdo
+    }
+
+    /// The file (and schema id) a schema learned from a drive of this
+    /// family is stored under ([`Learning::file_id`]); `None` for families
+    /// whose drives do not describe their parameters.
+    pub fn learned_id(
+        &self,
+        device_type: Option<&str>,
+        software: Option<&str>,
+        descriptions_hash: u32,
+    ) -> Option<String> {
+        self.learning
+            .map(|l| l.file_id(device_type, software, descriptions_hash))
+    }
+
+    /// The highest parameter the family's drives describe (VF1000 99,
+    /// MC6000/7000 999; [`Learning::max_parameter`]).
+    pub fn max_parameter(&self) -> Option<u32> {
+        self.learning.map(|l| l.max_parameter)
+    }
+
     /// The floor role of code `number`, where the specs give it one.
     pub fn floor_of(&self, number: u32) -> Option<&'static FloorRole> {
         self.floor.iter().find(|f| f.code == number)
@@ -818,27 +1046,106 @@ mod tests {
     #[test]
     fn addresses_follow_the_specs() {
         let l = BusProtocol::Lustbus;
-        assert_eq!(l.check_address(0).unwrap_err().0, AddressProblem::Group);
-        assert_eq!(l.check_address(31).unwrap_err().0, AddressProblem::Group);
         assert_eq!(
-            l.check_address(32).unwrap_err().0,
+            l.check_address(0).unwrap_err().problem,
+            AddressProblem::Group
+        );
+        assert_eq!(
+            l.check_address(31).unwrap_err().problem,
+            AddressProblem::Group
+        );
+        assert_eq!(
+            l.check_address(32).unwrap_err().problem,
             AddressProblem::OutOfRange
         );
         assert!(l.check_address(30).is_ok());
         let c = BusProtocol::Lecom;
         for g in [0, 10, 50, 90] {
-            assert_eq!(c.check_address(g).unwrap_err().0, AddressProblem::Group);
+            assert_eq!(
+                c.check_address(g).unwrap_err().problem,
+                AddressProblem::Group
+            );
         }
         assert!(c.check_address(99).is_ok());
         assert_eq!(
-            c.check_address(100).unwrap_err().0,
+            c.check_address(100).unwrap_err().problem,
             AddressProblem::OutOfRange
         );
         assert_eq!(
-            BusProtocol::CanSdo.check_address(0).unwrap_err().0,
+            BusProtocol::CanSdo.check_address(0).unwrap_err().problem,
             AddressProblem::OutOfRange
         );
         assert!(BusProtocol::CanSdo.check_address(127).is_ok());
+    }
+
+    #[test]
+    fn address_refusals_carry_their_rule() {
+        let e = BusProtocol::Lustbus.check_address(31).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "address 31: LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30"
+        );
+        assert_eq!(e.kind(), "group-address");
+        assert_eq!(e.hint(), "give the drive its own address 1..30");
+        let e = Family::Tmd.descriptor().check_address(100).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "address 100: LECOM station addresses are 1..99"
+        );
+        assert_eq!(e.kind(), "address-out-of-range");
+        assert_eq!(e.hint(), "give the drive its own address 1..99");
+        assert_eq!(
+            Family::Ecs
+                .descriptor()
+                .check_address(128)
+                .unwrap_err()
+                .rule,
+            "CAN node ids are 1..127"
+        );
+        assert_eq!(BusProtocol::Lustbus.wire_addresses(), 0..=31);
+        assert_eq!(Family::Vf1000.descriptor().broadcast_address(), Some(31));
+        assert_eq!(Family::Tmd.descriptor().broadcast_address(), Some(0));
+        assert_eq!(Family::Ecs.descriptor().broadcast_address(), None);
+    }
+
+    #[test]
+    fn lustbus_facts_come_from_the_descriptor() {
+        let mc = Family::Mc6000.descriptor();
+        let vf = Family::Vf1000.descriptor();
+        for d in [mc, vf] {
+            assert_eq!(d.compatible(), [81, 82, 83, 84, 85, 91]);
+            assert!(d.is_compatible(85) && d.is_compatible(91));
+            assert!(!d.is_compatible(86) && !d.is_compatible(80));
+            assert_eq!(d.type_code, Some(91));
+            assert_eq!(d.type_code, Some(TYPE));
+            assert!(!d.on_can());
+        }
+        for f in [Family::Tmd, Family::Ecs] {
+            let d = f.descriptor();
+            assert!(d.compatible().is_empty() && !d.is_compatible(81));
+            assert_eq!((d.type_code, d.dialect, d.learning), (None, None, None));
+            assert_eq!(d.learned_id(Some("1"), None, 0), None);
+        }
+        assert!(Family::Ecs.descriptor().on_can());
+        assert!(vf.broadcast_as_own && !mc.broadcast_as_own);
+        assert_eq!(mc.dataset_code(), Some(80));
+        assert_eq!(vf.dataset_code(), None);
+        assert_eq!(mc.dialect, Some(Dialect::Mc));
+        assert_eq!(Family::from_dialect(Dialect::Vf1000), Family::Vf1000);
+        assert_eq!(Family::from_dialect(Dialect::Mc), Family::Mc6000);
+        assert_eq!(mc.max_parameter(), Some(999));
+        assert_eq!(vf.max_parameter(), Some(99));
+        assert_eq!(vf.learning.map(|l| l.default_params()), Some(1..=99));
+        assert_eq!(
+            mc.learned_id(Some("6.1"), Some("V 2.30/a"), 0xab),
+            Some("learned-mc6000-type61-V_2_30_a".to_string())
+        );
+        assert_eq!(
+            vf.learned_id(None, None, 0xab),
+            Some("learned-vf1000-typeunknown-d000000ab".to_string())
+        );
+        assert_eq!(Family::from_learned_stem("vf1000"), Some(Family::Vf1000));
+        assert_eq!(Family::from_learned_stem("tmd"), None);
     }
 
     #[test]

@@ -99,6 +99,27 @@ pub enum CompatibleParameter {
 }
 
 impl CompatibleParameter {
+    /// Every numerically compatible parameter, in number order (section
+    /// 5.2). The one table of them: the clients, the simulator and the
+    /// family descriptor (`driveset_schema::Descriptor::compatible`) ask it.
+    pub const ALL: [Self; 6] = [
+        Self::Baud,
+        Self::Address,
+        Self::Dummy,
+        Self::Watchdog,
+        Self::Siof,
+        Self::Type,
+    ];
+
+    /// The numbers of [`CompatibleParameter::ALL`] (81, 82, 83, 84, 85, 91).
+    pub const NUMBERS: [u32; 6] = [81, 82, 83, 84, 85, 91];
+
+    /// Whether parameter `n` is numerically compatible (81..=85, 91;
+    /// section 5.2).
+    pub const fn contains(n: u32) -> bool {
+        matches!(n, 81..=85 | 91)
+    }
+
     /// The parameter number.
     pub const fn number(self) -> u8 {
         self as u8
