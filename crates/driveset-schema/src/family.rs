@@ -892,6 +892,22 @@ impl AddressRefusal {
     }
 }
 
+/// A bus protocol is written by its name (`lustbus`, `lecom`, `can`), as
+/// manifests, reports and refusals spell it.
+impl serde::Serialize for BusProtocol {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for BusProtocol {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = <String as serde::Deserialize>::deserialize(d)?;
+        BusProtocol::parse(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown bus protocol `{name}`")))
+    }
+}
+
 impl fmt::Display for BusProtocol {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())

@@ -4,7 +4,6 @@
 
 use std::sync::Arc;
 
-use driveset_proto::ascii::bcc;
 use driveset_proto::lustbus::{
     Address, CodeMeaning, CompatibleParameter, Dialect, Direction, FrameError, ParameterCode,
     ParameterType, ParameterValue, Reply, Request, Siof, Sniffer, Telegram, codec,
@@ -355,13 +354,11 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                 });
             }
         }
-        if let Some(last) = bytes.last().copied()
-            && matches!(
-                telegram,
-                Telegram::Request(Request::Select(_)) | Telegram::Reply(Reply::Value(_))
-            )
-        {
-            e.bcc = Some(match bad_bcc {
+        if matches!(
+            telegram,
+            Telegram::Request(Request::Select(_)) | Telegram::Reply(Reply::Value(_))
+        ) {
+            e.bcc = match bad_bcc {
                 Some((found, expected)) => {
                     e.error = Some(match telegram {
                         // §3: "ADR NAK: occurs with wrong BCC"; §9.2 bit 3
@@ -373,25 +370,10 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                         }
                         _ => "BCC mismatch: the host discards this reply; repeat the ENQUIRY".into(),
                     });
-                    Bcc {
-                        ok: false,
-                        found: format!("0x{found:02X}"),
-                        expected: format!("0x{expected:02X}"),
-                    }
+                    Some(Bcc::mismatch(found, expected))
                 }
-                None => {
-                    let text_start = bytes
-                        .iter()
-                        .position(|&b| b & 0x7F == 0x02)
-                        .map_or(0, |p| p + 1);
-                    let computed = bcc(&bytes[text_start.min(bytes.len() - 1)..bytes.len() - 1]);
-                    Bcc {
-                        ok: true,
-                        found: format!("0x{:02X}", last & 0x7F),
-                        expected: format!("0x{computed:02X}"),
-                    }
-                }
-            });
+                None => Bcc::of_telegram(bytes),
+            };
         }
         out(e);
     };
