@@ -13,12 +13,12 @@ use driveset_schema::{RawValue, Schema, validate::display_value};
 use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
 use super::{Context, garbage_event};
 
-/// Schema id of a family's built-in schema.
+/// Schema id of the built-in schema of the family speaking `family`
+/// (the descriptor's `schema_id`).
 pub fn family_schema_id(family: Dialect) -> &'static str {
-    match family {
-        Dialect::Vf1000 => "lust-vf1000",
-        Dialect::Mc => "lust-mc6000",
-    }
+    driveset_schema::Family::from_dialect(family)
+        .descriptor()
+        .schema_id
 }
 
 /// The family a CODE belongs to, when its layout says so.
@@ -202,10 +202,12 @@ fn siof_fields(ev: &mut Event, text: &[u8]) {
 }
 
 fn address_text(a: Address) -> String {
-    let note = match a.number() {
-        0 => " (all devices)",
-        31 => " (broadcast)",
-        _ => "",
+    let note = if a == Address::ALL {
+        " (all devices)"
+    } else if !a.expects_reply() {
+        " (broadcast)"
+    } else {
+        ""
     };
     format!("{} '{}'{note}", a.number(), a.to_byte() as char)
 }
