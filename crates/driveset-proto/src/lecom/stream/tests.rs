@@ -1,4 +1,3 @@
-
 use super::*;
 use crate::lecom::code::CodeNumber;
 use crate::lecom::codec::tests::{any_response, any_telegram};

@@ -1,4 +1,3 @@
-
 use super::*;
 
 fn vf_example() -> VfDescription {
