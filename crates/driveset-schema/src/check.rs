@@ -496,7 +496,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
         }
         let index = match c.index {
             Some(i) => {
-                if schema.family != crate::family::Family::Ecs {
+                if !schema.family.descriptor().on_can() {
                     out.push(f(
                         &c.loc,
                         format!(
@@ -516,7 +516,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 }
                 u32::from(i)
             }
-            None if schema.family == crate::family::Family::Ecs => {
+            None if schema.family.descriptor().on_can() => {
                 match base.checked_sub(c.number) {
                     Some(i) => i,
                     None => continue,
