@@ -34,11 +34,11 @@ use crate::rng::SimRng;
 use crate::table::{Param, ParamTable};
 
 /// 85-SIOF/SERR, the numerically compatible error-status word (section 5.2).
-pub const SIOF: u32 = 85;
+pub const SIOF: u32 = driveset_proto::lustbus::CompatibleParameter::Siof.number() as u32;
 /// 81-SIOC/SBAUD, the baud rate (sections 4, 11.5).
-pub const BAUD: u32 = 81;
+pub const BAUD: u32 = driveset_proto::lustbus::CompatibleParameter::Baud.number() as u32;
 /// 82-SIOA/SADDR, the drive's own address (section 4.2).
-pub const ADDRESS: u32 = 82;
+pub const ADDRESS: u32 = driveset_proto::lustbus::CompatibleParameter::Address.number() as u32;
 
 /// How a simulated LUSTBUS drive is built.
 #[derive(Debug, Clone, PartialEq, Eq)]
