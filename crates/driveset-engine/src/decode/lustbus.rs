@@ -52,19 +52,7 @@ pub fn value_parameter(code: ParameterCode) -> Option<u32> {
 /// The wire type of a schema type name (`PT_FIXPOINT16` ...).
 pub fn wire_type(schema: &Schema, number: u32) -> Option<ParameterType> {
     let code = schema.code(number)?;
-    let ty = schema.type_of(code)?;
-    ParameterType::ALL
-        .into_iter()
-        .find(|t| t.name() == ty.name())
-}
-
-/// The signed raw value the schema works with.
-pub fn schema_raw(v: &ParameterValue) -> i64 {
-    match *v {
-        ParameterValue::Integer16(i) => i64::from(i),
-        ParameterValue::Int32Q16(q) => i64::from(q.0),
-        _ => i64::from(v.raw()),
-    }
+    ParameterType::from_name(schema.type_of(code)?.name())
 }
 
 struct State<'a> {
@@ -146,7 +134,7 @@ impl State<'_> {
                 ev.value = Some(display_value(
                     &schema,
                     code_def,
-                    &RawValue::Int(schema_raw(&v)),
+                    &RawValue::Int(v.raw_signed()),
                 ));
             }
             Err(e) => ev
