@@ -335,7 +335,7 @@ pub fn lustbus_session(
         let ty = crate::decode::lustbus::wire_type(schema, key.number)?;
         let text = e.raw_value.as_deref()?;
         let v = ParameterValue::decode(ty, dialect, text.as_bytes()).ok()?;
-        Some(RawValue::Int(crate::decode::lustbus::schema_raw(&v)))
+        Some(RawValue::Int(v.raw_signed()))
     };
     let mut out: BTreeMap<u8, Session> = BTreeMap::new();
     // the request a reply answers: ENQUIRY (no value) or SELECT (its value)

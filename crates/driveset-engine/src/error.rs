@@ -330,23 +330,6 @@ pub enum Mismatch {
     },
 }
 
-/// [`Refusal::WrongClient`]'s protocol as its family descriptor names it
-/// (`lustbus`, `lecom`, `can`).
-mod bus_protocol_name {
-    use driveset_schema::BusProtocol;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    pub fn serialize<S: Serializer>(p: &BusProtocol, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(p.name())
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<BusProtocol, D::Error> {
-        let name = String::deserialize(d)?;
-        BusProtocol::parse(&name)
-            .ok_or_else(|| serde::de::Error::custom(format!("unknown bus protocol `{name}`")))
-    }
-}
-
 /// How a refusal names a client's protocol: `LUSTBUS`, `LECOM`, `CAN SDO`.
 fn protocol_label(p: driveset_schema::BusProtocol) -> &'static str {
     match p {
@@ -491,7 +474,6 @@ pub enum Refusal {
         /// The schema's family.
         family: String,
         /// The client's protocol.
-        #[serde(with = "bus_protocol_name")]
         protocol: driveset_schema::BusProtocol,
     },
     /// The port opened a link the schema's protocol does not run on.
@@ -950,7 +932,6 @@ pub enum DeviceCause {
         /// SIOF or SERR.
         register: SiofRegister,
         /// The bits.
-        #[serde(with = "siof_bits")]
         bits: Siof,
         /// What the client made of them.
         verdict: SiofVerdict,
@@ -989,22 +970,17 @@ pub enum DeviceCause {
     /// (Table 1, section 8.J c).
     LecomNak {
         /// The C0068 word.
-        #[serde(with = "operating_status")]
         status: OperatingStatus,
         /// C1962, where read.
-        #[serde(with = "extended_error")]
         extended: Option<ExtendedError>,
     },
     /// CAN: an SDO abort (DS301 table 22; Lenze's codes).
     SdoAbort {
         /// The abort code.
-        #[serde(with = "abort_code")]
         code: AbortCode,
         /// The index it named.
-        #[serde(with = "index")]
         index: Index,
         /// The subindex it named.
-        #[serde(with = "subindex")]
         subindex: Subindex,
     },
 }
@@ -1168,74 +1144,6 @@ fn lecom_remedy(e: CommunicationError) -> &'static str {
         CommunicationError::Reserved | CommunicationError::Undocumented(_) => {
             "undocumented communication error; check the drive"
         }
-    }
-}
-
-// Serde forms of the proto types (the proto crate has no serde): the raw
-// numbers the drive sent.
-mod siof_bits {
-    use driveset_proto::lustbus::Siof;
-    use serde::{Deserialize, Deserializer, Serializer};
-    pub fn serialize<S: Serializer>(v: &Siof, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u8(v.0)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Siof, D::Error> {
-        u8::deserialize(d).map(Siof)
-    }
-}
-
-mod operating_status {
-    use driveset_proto::lecom::OperatingStatus;
-    use serde::{Deserialize, Deserializer, Serializer};
-    pub fn serialize<S: Serializer>(v: &OperatingStatus, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u16(v.0)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<OperatingStatus, D::Error> {
-        u16::deserialize(d).map(OperatingStatus)
-    }
-}
-
-mod extended_error {
-    use driveset_proto::lecom::ExtendedError;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-    pub fn serialize<S: Serializer>(v: &Option<ExtendedError>, s: S) -> Result<S::Ok, S::Error> {
-        v.map(ExtendedError::code).serialize(s)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<ExtendedError>, D::Error> {
-        Ok(Option::<u32>::deserialize(d)?.map(ExtendedError::from_code))
-    }
-}
-
-mod abort_code {
-    use driveset_proto::can::AbortCode;
-    use serde::{Deserialize, Deserializer, Serializer};
-    pub fn serialize<S: Serializer>(v: &AbortCode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u32(v.0)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<AbortCode, D::Error> {
-        u32::deserialize(d).map(AbortCode)
-    }
-}
-
-mod index {
-    use driveset_proto::can::Index;
-    use serde::{Deserialize, Deserializer, Serializer};
-    pub fn serialize<S: Serializer>(v: &Index, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u16(v.0)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Index, D::Error> {
-        u16::deserialize(d).map(Index)
-    }
-}
-
-mod subindex {
-    use driveset_proto::can::Subindex;
-    use serde::{Deserialize, Deserializer, Serializer};
-    pub fn serialize<S: Serializer>(v: &Subindex, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u8(v.0)
-    }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Subindex, D::Error> {
-        u8::deserialize(d).map(Subindex)
     }
 }
 
@@ -1755,6 +1663,31 @@ mod tests {
         let j = serde_json::to_string(&c).expect("json");
         assert_eq!(j, r#"{"kind":"lecom_nak","status":80,"extended":0}"#);
         assert_eq!(serde_json::from_str::<DeviceCause>(&j).expect("back"), c);
+        let c = DeviceCause::LecomNak {
+            status: OperatingStatus(0x0010),
+            extended: None,
+        };
+        let j = serde_json::to_string(&c).expect("json");
+        assert_eq!(j, r#"{"kind":"lecom_nak","status":16,"extended":null}"#);
+        assert_eq!(serde_json::from_str::<DeviceCause>(&j).expect("back"), c);
+        let r = Refusal::WrongClient {
+            schema: s("lenze-tmd"),
+            family: s("tmd"),
+            protocol: driveset_schema::BusProtocol::CanSdo,
+        };
+        let j = serde_json::to_string(&r).expect("json");
+        assert_eq!(
+            j,
+            r#"{"kind":"wrong_client","schema":"lenze-tmd","family":"tmd","protocol":"can"}"#
+        );
+        assert_eq!(serde_json::from_str::<Refusal>(&j).expect("back"), r);
+        let bad = j.replace(r#""can""#, r#""modbus""#);
+        assert_eq!(
+            serde_json::from_str::<Refusal>(&bad)
+                .expect_err("unknown protocol")
+                .to_string(),
+            "unknown bus protocol `modbus`"
+        );
         let c = DeviceCause::SdoAbort {
             code: AbortCode(0x0601_0002),
             index: Index(0x4C6D),

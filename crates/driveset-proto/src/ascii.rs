@@ -37,6 +37,40 @@ pub fn bcc(text_and_etx: &[u8]) -> u8 {
     text_and_etx.iter().fold(0u8, |acc, b| acc ^ b)
 }
 
+/// The block check of a telegram as received, its BCC the last byte: the
+/// BCC it carries (7 bits) and the one its text computes to, the XOR of
+/// every byte after its first STX up to the BCC ([`bcc`]; LUSTBUS §2.2,
+/// LECOM §8.G). A telegram without an STX counts from its first byte.
+/// `None` for an empty slice. The one annotation both capture decoders
+/// show.
+pub fn telegram_bcc(telegram: &[u8]) -> Option<BccCheck> {
+    let (&last, body) = telegram.split_last()?;
+    let text = body
+        .iter()
+        .position(|&b| mask7(b) == STX)
+        .map_or(0, |p| p + 1);
+    Some(BccCheck {
+        found: mask7(last),
+        computed: bcc(&body[text.min(body.len())..]),
+    })
+}
+
+/// A telegram's BCC against its text ([`telegram_bcc`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BccCheck {
+    /// The BCC byte received (parity bit stripped).
+    pub found: u8,
+    /// The BCC its text computes to.
+    pub computed: u8,
+}
+
+impl BccCheck {
+    /// Whether they agree.
+    pub const fn ok(self) -> bool {
+        self.found == self.computed
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -49,6 +83,40 @@ mod tests {
         assert_eq!(bcc(text), expected);
         assert_eq!(bcc(&[ETX]), ETX);
         assert_eq!(bcc(&[]), 0);
+    }
+
+    #[test]
+    fn telegram_bcc_checks_after_the_first_stx() {
+        let mut t = vec![EOT, b'0', b'0', STX];
+        t.extend_from_slice(b"00105=03E8\x03");
+        let b = bcc(b"00105=03E8\x03");
+        t.push(b | 0x80);
+        let c = telegram_bcc(&t).expect("non-empty");
+        assert_eq!(
+            c,
+            BccCheck {
+                found: b,
+                computed: b
+            }
+        );
+        assert!(c.ok());
+        *t.last_mut().expect("bcc") ^= 1;
+        assert!(!telegram_bcc(&t).expect("non-empty").ok());
+        assert_eq!(
+            telegram_bcc(&[b'A', ETX, 0x42]),
+            Some(BccCheck {
+                found: 0x42,
+                computed: b'A' ^ ETX
+            })
+        );
+        assert_eq!(
+            telegram_bcc(&[0x07]),
+            Some(BccCheck {
+                found: 7,
+                computed: 0
+            })
+        );
+        assert_eq!(telegram_bcc(&[]), None);
     }
 
     #[test]

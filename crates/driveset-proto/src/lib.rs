@@ -10,8 +10,13 @@
 //!   (`lenze-system-bus-can-sdo.txt`).
 //! - [`ascii`]: the control characters and the block check character that
 //!   LUSTBUS and LECOM share (both follow ISO 1745 / DIN 66019).
+//!
+//! Feature `serde`: `Serialize` / `Deserialize` for the types journals and
+//! reports carry, as the raw numbers on the wire (`serde_impls.rs`).
 
 pub mod ascii;
 pub mod can;
 pub mod lecom;
 pub mod lustbus;
+#[cfg(feature = "serde")]
+mod serde_impls;

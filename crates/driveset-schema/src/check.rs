@@ -496,7 +496,7 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
         }
         let index = match c.index {
             Some(i) => {
-                if schema.family != crate::family::Family::Ecs {
+                if !schema.family.descriptor().on_can() {
                     out.push(f(
                         &c.loc,
                         format!(
@@ -516,12 +516,10 @@ fn check_can_indexes(schema: &Schema, out: &mut Vec<Finding>) {
                 }
                 u32::from(i)
             }
-            None if schema.family == crate::family::Family::Ecs => {
-                match base.checked_sub(c.number) {
-                    Some(i) => i,
-                    None => continue,
-                }
-            }
+            None if schema.family.descriptor().on_can() => match base.checked_sub(c.number) {
+                Some(i) => i,
+                None => continue,
+            },
             None => continue,
         };
         let key = (index, c.subindex.filter(|_| c.index.is_some()));

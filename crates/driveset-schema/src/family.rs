@@ -10,6 +10,11 @@
 //! schema pull, the simulator and the CLI (its value enums included) ask a
 //! [`Descriptor`] instead of naming a family or a code number themselves.
 //!
+//! Layout: this file holds the descriptor's types and questions; `bus.rs`
+//! the bus protocols and their address rules; one file per family holds
+//! that family's data (`mc6000.rs`, `vf1000.rs`, `tmd.rs`, `ecs.rs`: its
+//! role floor and its [`Descriptor`]).
+//!
 //! Sources: `lustbus-protocol.txt` §1, §2.4, §3, §4.2, §5, §10, §11.4;
 //! `lecom-ab-tmd-manual.txt` (addresses, C0093/C0200 identification);
 //! `lenze-system-bus-can-sdo.txt` (node ids, index mapping).
@@ -18,8 +23,20 @@ use std::fmt;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
+use driveset_proto::lustbus::{CompatibleParameter, Dialect};
+
 use crate::role::{BitRole, Role};
 use crate::schema::{CIA_NUMBER_BASE, Code, StorageKind};
+
+mod bus;
+mod ecs;
+mod mc6000;
+mod tmd;
+mod vf1000;
+
+pub use bus::{AddressProblem, AddressRefusal, BusProtocol};
+pub use mc6000::{SERVO_RATES, SLOAD};
+pub use vf1000::INVERTER_RATES;
 
 /// A drive family driveset knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -32,18 +49,6 @@ pub enum Family {
     Tmd,
     /// Lenze ECS servo axis (system bus CAN, SDO).
     Ecs,
-}
-
-/// The bus protocol a family speaks (what a port carries).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum BusProtocol {
-    /// LUSTBUS (ISO 1745 fast select, ASCII 7E1): VF1000 and MC6000/7000
-    /// share one line (`lustbus-protocol.txt` §1).
-    Lustbus,
-    /// LECOM-A/B (DIN 66019, ASCII 7E1): Tmd.
-    Lecom,
-    /// Lenze system bus (CAN), SDO: ECS.
-    CanSdo,
 }
 
 /// The shape of the drive's reaction time: the answer comes `min..=max`
@@ -174,6 +179,70 @@ pub struct Descriptor {
     /// schema of the family gets at least these when it is loaded
     /// (`schema::parse_schema`), whatever its file says.
     pub floor: &'static [FloorRole],
+    /// The LUSTBUS wire dialect the family speaks (`lustbus-protocol.txt`
+    /// §2.3: VF1000 four hex digits, MC6000/7000 one to eight); `None` off
+    /// LUSTBUS.
+    pub dialect: Option<Dialect>,
+    /// The code whose value is the device type (LUSTBUS 91-TYPE, §5.2),
+    /// where identification reads one: learned file names, the manifest's
+    /// `type =` check and `identify` print it.
+    pub type_code: Option<u32>,
+    /// Learning a schema from the drive's own descriptions (LUSTBUS §11.1,
+    /// §11.2), where the family's drives describe their parameters.
+    pub learning: Option<Learning>,
+    /// Whether the drive executes every SELECT to the broadcast address as
+    /// a write of its own parameter of that number, whatever the CODE's
+    /// device digit says (VF1000, `lustbus-protocol.txt` §4.2, §5.2): a bus
+    /// holding one takes no broadcast.
+    pub broadcast_as_own: bool,
+}
+
+/// How a family's drives describe their parameters, for learning a schema
+/// from them (`lustbus-protocol.txt` §11.1, §11.2), and the file a learned
+/// schema is stored under.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Learning {
+    /// The family's part of a learned file's name (`learned-<stem>-...`).
+    pub stem: &'static str,
+    /// The highest parameter number the drive describes (§11.1: VF1000
+    /// CODE `000pp`, two digits: 99; MC6000/7000 `00ppp`, three: 999).
+    pub max_parameter: u32,
+}
+
+impl Learning {
+    /// The file (and schema id) a learned schema is stored under:
+    /// `learned-<stem>-type<TYPE>-<software>`. `device_type` is the value of
+    /// [`Descriptor::type_code`] (`unknown` where the drive gave none), kept
+    /// to its ASCII letters, digits, `-` and `_`; `software` the identity's
+    /// software version, its other characters made `_`, or, where the drive
+    /// reports none, `d<8 hex>` of `descriptions_hash` (the hash of the
+    /// descriptions the drive sent).
+    pub fn file_id(
+        &self,
+        device_type: Option<&str>,
+        software: Option<&str>,
+        descriptions_hash: u32,
+    ) -> String {
+        let ty: String = device_type
+            .unwrap_or("unknown")
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+            .collect();
+        let sw = software.map_or_else(
+            || format!("d{descriptions_hash:08x}"),
+            |s| {
+                s.chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect()
+            },
+        );
+        format!("learned-{}-type{ty}-{sw}", self.stem)
+    }
+
+    /// The parameters a learning run asks for by default: 1 ..= the highest.
+    pub fn default_params(&self) -> std::ops::RangeInclusive<u32> {
+        1..=self.max_parameter
+    }
 }
 
 /// A role the specs give one code of a family, which no schema file can
@@ -224,151 +293,6 @@ const fn cia(index: u32) -> u32 {
     CIA_NUMBER_BASE + index
 }
 
-/// MC6000/7000 (`lustbus-protocol.txt`).
-const MC6000_FLOOR: &[FloorRole] = &[
-    floor(
-        4,
-        Role::Command,
-        "§10 exception 1 (PROG = 1 factory settings), §11.5 (PROG = 111)",
-    ),
-    floor(80, Role::Command, "§11.4: SLOAD -1 / -2 dataset handshake"),
-    floor(81, Role::BaudRate, "§4, §11.5: SBAUD"),
-    floor(82, Role::BusAddress, "§4.2, §5.2: SADDR"),
-    FloorRole {
-        code: 416,
-        role: Role::ControlWord,
-        bits: &[
-            FloorBit {
-                name: "start",
-                bit: 0,
-                role: BitRole::Start,
-            },
-            FloorBit {
-                name: "error_reset",
-                bit: 7,
-                role: BitRole::Reset,
-            },
-        ],
-        stopped: &[],
-        source: "§7.2.1: SCTL1 = 0 standstill, bit 0 start; §8.1.2: bit 7 error reset",
-    },
-];
-
-/// VF1000 (`lustbus-protocol.txt`).
-const VF1000_FLOOR: &[FloorRole] = &[
-    FloorRole {
-        code: 3,
-        role: Role::ControlWord,
-        bits: &[FloorBit {
-            name: "start_clockwise",
-            bit: 7,
-            role: BitRole::Start,
-        }],
-        stopped: &[],
-        source: "§7.1 step 4, §7.1.1: CNTL = 128 (80H) start clockwise",
-    },
-    floor(
-        11,
-        Role::Command,
-        "§8.1.1: STAT = 000F resets an error and reboots",
-    ),
-    floor(
-        71,
-        Role::Command,
-        "§10 exception 1: PROG = 1 factory settings",
-    ),
-    floor(81, Role::BaudRate, "§4, §11.5: SIOC"),
-    floor(82, Role::BusAddress, "§4.2, §5.2: SIOA"),
-];
-
-/// Tmd (`lecom-ab-tmd-manual.txt`, Table 1).
-const TMD_FLOOR: &[FloorRole] = &[
-    floor(2, Role::Command, "Table 1: C0002 load Lenze setting"),
-    floor(9, Role::BusAddress, "Table 1, §4c: C0009 network address"),
-    floor(14, Role::OperatingMode, "Table 1: C0014 operating mode"),
-    FloorRole {
-        code: 40,
-        role: Role::ControlWord,
-        bits: &[],
-        stopped: &[0],
-        source: "Table 1: C0040 0 = controller inhibited, 1 = controller enabled",
-    },
-    floor(43, Role::Command, "Table 1: C0043 fault reset"),
-    floor(94, Role::Password, "Table 1: C0094 user password"),
-    floor(
-        125,
-        Role::BaudRate,
-        "Table 1, §3c, §4d: C0125 LECOM baud rate",
-    ),
-    FloorRole {
-        code: 135,
-        role: Role::ControlWord,
-        bits: &[
-            FloorBit {
-                name: "quick_stop",
-                bit: 3,
-                role: BitRole::Inhibit,
-            },
-            FloorBit {
-                name: "controller_inhibit",
-                bit: 9,
-                role: BitRole::Inhibit,
-            },
-            FloorBit {
-                name: "trip_reset",
-                bit: 11,
-                role: BitRole::Reset,
-            },
-        ],
-        stopped: &[],
-        source: "Table 1, §4f: C0135 bit 3 quick stop, bit 9 controller inhibit, bit 11 TRIP reset",
-    },
-];
-
-/// ECS: the CiA 402 drive profile's objects (the system bus excerpt
-/// documents none of its own; CiA 402 §6040h..60FFh).
-const ECS_FLOOR: &[FloorRole] = &[
-    FloorRole {
-        code: cia(0x6040),
-        role: Role::ControlWord,
-        bits: &[
-            FloorBit {
-                name: "switch_on",
-                bit: 0,
-                role: BitRole::Enable,
-            },
-            FloorBit {
-                name: "enable_operation",
-                bit: 3,
-                role: BitRole::Enable,
-            },
-            FloorBit {
-                name: "fault_reset",
-                bit: 7,
-                role: BitRole::Reset,
-            },
-        ],
-        stopped: &[],
-        source: "CiA 402 0x6040 controlword: bit 0 switch on, bit 3 enable operation, bit 7 fault reset",
-    },
-    floor(
-        cia(0x6060),
-        Role::OperatingMode,
-        "CiA 402 0x6060 modes of operation",
-    ),
-    floor(
-        cia(0x607A),
-        Role::Setpoint,
-        "CiA 402 0x607A target position",
-    ),
-    floor(
-        cia(0x60FF),
-        Role::Setpoint,
-        "CiA 402 0x60FF target velocity",
-    ),
-    floor(cia(0x6071), Role::Setpoint, "CiA 402 0x6071 target torque"),
-];
-
 /// A serial family's line rates (`lustbus-protocol.txt` §4, §11.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LineRates {
@@ -392,143 +316,9 @@ pub struct OnlineBaud {
     pub activate: i64,
 }
 
-/// §4: servocontrollers run "in steps ranging from 2400 Baud to 57600
-/// Baud" (the steps are the usual doubling ones plus 38400 and 57600).
-pub const SERVO_RATES: &[u32] = &[57600, 38400, 19200, 9600, 4800, 2400];
-/// §4: frequency inverters "from 2400 Baud to 9600 Baud".
-pub const INVERTER_RATES: &[u32] = &[9600, 4800, 2400];
-
-/// The MC6000/7000 handshake: 80-SLOAD (`lustbus-protocol.txt` §11.4).
-pub const SLOAD: DatasetHandshake = DatasetHandshake {
-    code: 80,
-    name: "SLOAD",
-    begin: -1,
-    commit: -2,
-    checking: -1,
-    accepted: 0,
-    timeout: Duration::from_secs(10),
-};
-
-const MC6000: Descriptor = Descriptor {
-    family: Family::Mc6000,
-    name: "mc6000",
-    aliases: &["mc7000", "mc"],
-    title: "Lust MASTERCONTROL MC6000/7000",
-    schema_protocol: "lustbus-mc",
-    schema_id: "lust-mc6000",
-    bus: BusProtocol::Lustbus,
-    identify: &[91],
-    reaction: Reaction {
-        min: Duration::from_millis(1),
-        max: Duration::from_millis(25),
-        max_with_keypad: Some(Duration::from_millis(30)),
-        source: "lustbus-protocol.txt §10 (servocontroller 1...30 ms with KEYPAD, 1...25 ms without)",
-    },
-    eeprom: EepromPacing::StoreInBackground {
-        per_byte: Duration::from_millis(15),
-        unknown_width: 4,
-    },
-    dataset: Some(SLOAD),
-    long_acks: &[LongAck {
-        code: 4,
-        value: 1,
-        within: Duration::from_secs(10),
-    }],
-    line_rates: LineRates {
-        rates: SERVO_RATES,
-        code: Some(81),
-        online: Some(OnlineBaud {
-            command: 4,
-            activate: 111,
-        }),
-    },
-    floor: MC6000_FLOOR,
-};
-
-const VF1000: Descriptor = Descriptor {
-    family: Family::Vf1000,
-    name: "vf1000",
-    aliases: &["vf"],
-    title: "Lust SMARTDRIVE VF1000",
-    schema_protocol: "lustbus-vf1000",
-    schema_id: "lust-vf1000",
-    bus: BusProtocol::Lustbus,
-    identify: &[91],
-    reaction: Reaction {
-        min: Duration::from_millis(1),
-        max: Duration::from_millis(30),
-        max_with_keypad: Some(Duration::from_millis(60)),
-        source: "lustbus-protocol.txt §10 (inverter 1...60 ms with KEYPAD, 1...30 ms without)",
-    },
-    eeprom: EepromPacing::AckDelay {
-        per_byte: Duration::from_millis(60),
-        unknown_width: 2,
-    },
-    dataset: None,
-    long_acks: &[LongAck {
-        code: 71,
-        value: 1,
-        within: Duration::from_secs(10),
-    }],
-    line_rates: LineRates {
-        rates: INVERTER_RATES,
-        code: Some(81),
-        online: None,
-    },
-    floor: VF1000_FLOOR,
-};
-
-const TMD: Descriptor = Descriptor {
-    family: Family::Tmd,
-    name: "tmd",
-    aliases: &[],
-    title: "Lenze Tmd",
-    schema_protocol: "lecom",
-    schema_id: "lenze-tmd",
-    bus: BusProtocol::Lecom,
-    identify: &[93, 99, 200],
-    reaction: Reaction {
-        min: Duration::from_millis(1),
-        max: Duration::from_millis(20),
-        max_with_keypad: None,
-        source: "FICTIONAL: the manual gives no reaction time; 1..20 ms assumed",
-    },
-    eeprom: EepromPacing::None,
-    dataset: None,
-    long_acks: &[],
-    line_rates: LineRates {
-        rates: &[9600, 4800, 2400, 1200],
-        code: Some(125),
-        online: None,
-    },
-    floor: TMD_FLOOR,
-};
-
-const ECS: Descriptor = Descriptor {
-    family: Family::Ecs,
-    name: "ecs",
-    aliases: &[],
-    title: "Lenze ECS",
-    schema_protocol: "lenze-can-sdo",
-    schema_id: "lenze-ecs",
-    bus: BusProtocol::CanSdo,
-    identify: &[],
-    reaction: Reaction {
-        min: Duration::from_millis(1),
-        max: Duration::from_millis(2),
-        max_with_keypad: None,
-        source: "FICTIONAL: the system bus excerpt gives no reaction time; 1..2 ms assumed",
-    },
-    eeprom: EepromPacing::None,
-    dataset: None,
-    long_acks: &[],
-    line_rates: LineRates {
-        rates: &[],
-        code: None,
-        online: None,
-    },
-    floor: ECS_FLOOR,
-};
+/// 91-TYPE, the device type both LUSTBUS families report
+/// (`lustbus-protocol.txt` §5.2, a numerically compatible parameter).
+pub const TYPE: u32 = 91;
 
 impl Family {
     /// Every family, in the order listings show them.
@@ -537,10 +327,10 @@ impl Family {
     /// The family's descriptor.
     pub const fn descriptor(self) -> &'static Descriptor {
         match self {
-            Family::Mc6000 => &MC6000,
-            Family::Vf1000 => &VF1000,
-            Family::Tmd => &TMD,
-            Family::Ecs => &ECS,
+            Family::Mc6000 => &mc6000::MC6000,
+            Family::Vf1000 => &vf1000::VF1000,
+            Family::Tmd => &tmd::TMD,
+            Family::Ecs => &ecs::ECS,
         }
     }
 
@@ -584,6 +374,22 @@ impl Family {
     pub fn bus(self) -> BusProtocol {
         self.descriptor().bus
     }
+
+    /// The family that speaks LUSTBUS dialect `dialect` ([`Descriptor::dialect`]).
+    pub fn from_dialect(dialect: Dialect) -> Family {
+        match dialect {
+            Dialect::Vf1000 => Family::Vf1000,
+            Dialect::Mc => Family::Mc6000,
+        }
+    }
+
+    /// The family whose learned files start `learned-<stem>-`
+    /// ([`Learning::stem`]).
+    pub fn from_learned_stem(stem: &str) -> Option<Family> {
+        Family::ALL
+            .into_iter()
+            .find(|f| f.descriptor().learning.is_some_and(|l| l.stem == stem))
+    }
 }
 
 impl fmt::Display for Family {
@@ -592,143 +398,65 @@ impl fmt::Display for Family {
     }
 }
 
-/// Why an address is not a drive's own address on a bus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AddressProblem {
-    /// A group or broadcast address.
-    Group,
-    /// Outside the protocol's range.
-    OutOfRange,
-}
-
-impl AddressProblem {
-    /// Kebab-case kind for findings.
-    pub fn kind(self) -> &'static str {
-        match self {
-            AddressProblem::Group => "group-address",
-            AddressProblem::OutOfRange => "address-out-of-range",
-        }
-    }
-}
-
-impl BusProtocol {
-    /// Every bus protocol.
-    pub const ALL: [BusProtocol; 3] = [
-        BusProtocol::Lustbus,
-        BusProtocol::Lecom,
-        BusProtocol::CanSdo,
-    ];
-
-    /// Name in manifests, `--protocol` and reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            BusProtocol::Lustbus => "lustbus",
-            BusProtocol::Lecom => "lecom",
-            BusProtocol::CanSdo => "can",
-        }
-    }
-
-    /// Other accepted spellings.
-    pub fn aliases(self) -> &'static [&'static str] {
-        match self {
-            BusProtocol::CanSdo => &["sdo"],
-            _ => &[],
-        }
-    }
-
-    /// One line for `--help`.
-    pub fn title(self) -> &'static str {
-        match self {
-            BusProtocol::Lustbus => "LUSTBUS (Lust VF1000, MC6000/7000)",
-            BusProtocol::Lecom => "LECOM-A/B (Lenze Tmd)",
-            BusProtocol::CanSdo => "CAN SDO over the Lenze system bus (Lenze ECS)",
-        }
-    }
-
-    /// Parse a name or alias (any case).
-    pub fn parse(s: &str) -> Option<BusProtocol> {
-        let s = s.to_ascii_lowercase();
-        BusProtocol::ALL
-            .into_iter()
-            .find(|p| p.name() == s || p.aliases().contains(&s.as_str()))
-    }
-
-    /// The families this protocol carries.
-    pub fn families(self) -> impl Iterator<Item = Family> {
-        Family::ALL.into_iter().filter(move |f| f.bus() == self)
-    }
-
-    /// Whether a drive of `family` runs on this bus.
-    pub fn carries(self, family: Family) -> bool {
-        family.bus() == self
-    }
-
-    /// Every address a drive of this protocol may have as its own.
-    pub fn drive_addresses(self) -> RangeInclusive<u8> {
-        match self {
-            BusProtocol::Lustbus => 1..=30,
-            BusProtocol::Lecom => 1..=99,
-            BusProtocol::CanSdo => 1..=127,
-        }
-    }
-
-    /// The address every drive executes without answering (LUSTBUS 31,
-    /// §4.2; LECOM 00, the broadcast address). CAN SDO has none.
-    pub fn broadcast_address(self) -> Option<u8> {
-        match self {
-            BusProtocol::Lustbus => Some(31),
-            BusProtocol::Lecom => Some(0),
-            BusProtocol::CanSdo => None,
-        }
-    }
-
-    /// Whether `address` addresses several drives at once (LUSTBUS 0 and
-    /// 31; LECOM 00 and the group addresses 10, 20 .. 90).
-    pub fn is_group_address(self, address: i64) -> bool {
-        match self {
-            BusProtocol::Lustbus => matches!(address, 0 | 31),
-            BusProtocol::Lecom => (0..=90).contains(&address) && address % 10 == 0,
-            BusProtocol::CanSdo => false,
-        }
-    }
-
-    /// Check a drive's own address: `Err((problem, rule))`, the rule in words.
-    pub fn check_address(self, address: i64) -> Result<(), (AddressProblem, &'static str)> {
-        if self.is_group_address(address) {
-            return Err((
-                AddressProblem::Group,
-                match self {
-                    BusProtocol::Lustbus => {
-                        "LUSTBUS address 0 is the group address and 31 the broadcast address; a drive needs its own address 1..30"
-                    }
-                    _ => {
-                        "LECOM 00 is the broadcast address and 10, 20, ... 90 are group addresses; a drive needs its own address 1..99 not ending in 0"
-                    }
-                },
-            ));
-        }
-        let r = self.drive_addresses();
-        if address < i64::from(*r.start()) || address > i64::from(*r.end()) {
-            return Err((
-                AddressProblem::OutOfRange,
-                match self {
-                    BusProtocol::Lustbus => "LUSTBUS drive addresses are 1..30",
-                    BusProtocol::Lecom => "LECOM station addresses are 1..99",
-                    BusProtocol::CanSdo => "CAN node ids are 1..127",
-                },
-            ));
-        }
-        Ok(())
-    }
-}
-
-impl fmt::Display for BusProtocol {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
 impl Descriptor {
+    /// The numerically compatible parameters the family serves under CODE
+    /// `000xx` (LUSTBUS §5.2: 81..85, 91, proto's [`CompatibleParameter`]
+    /// table); empty off LUSTBUS.
+    pub fn compatible(&self) -> &'static [u32] {
+        match self.bus {
+            BusProtocol::Lustbus => &CompatibleParameter::NUMBERS,
+            BusProtocol::Lecom | BusProtocol::CanSdo => &[],
+        }
+    }
+
+    /// Whether `code` is one of [`Descriptor::compatible`].
+    pub fn is_compatible(&self, code: u32) -> bool {
+        self.bus == BusProtocol::Lustbus && CompatibleParameter::contains(code)
+    }
+
+    /// The dataset handshake's code (MC6000/7000 80-SLOAD, §11.4), where
+    /// the family has one.
+    pub fn dataset_code(&self) -> Option<u32> {
+        self.dataset.map(|h| h.code)
+    }
+
+    /// The address every drive on the family's bus executes without
+    /// answering ([`BusProtocol::broadcast_address`]: LUSTBUS 31, LECOM 00).
+    pub fn broadcast_address(&self) -> Option<u8> {
+        self.bus.broadcast_address()
+    }
+
+    /// Check a drive's own address on the family's bus
+    /// ([`BusProtocol::check_address`], the one rule).
+    pub fn check_address(&self, address: i64) -> Result<(), AddressRefusal> {
+        self.bus.check_address(address)
+    }
+
+    /// Whether the family's drives are on CAN (frames) rather than a
+    /// character line.
+    pub fn on_can(&self) -> bool {
+        self.bus == BusProtocol::CanSdo
+    }
+
+    /// The file (and schema id) a schema learned from a drive of this
+    /// family is stored under ([`Learning::file_id`]); `None` for families
+    /// whose drives do not describe their parameters.
+    pub fn learned_id(
+        &self,
+        device_type: Option<&str>,
+        software: Option<&str>,
+        descriptions_hash: u32,
+    ) -> Option<String> {
+        self.learning
+            .map(|l| l.file_id(device_type, software, descriptions_hash))
+    }
+
+    /// The highest parameter the family's drives describe (VF1000 99,
+    /// MC6000/7000 999; [`Learning::max_parameter`]).
+    pub fn max_parameter(&self) -> Option<u32> {
+        self.learning.map(|l| l.max_parameter)
+    }
+
     /// The floor role of code `number`, where the specs give it one.
     pub fn floor_of(&self, number: u32) -> Option<&'static FloorRole> {
         self.floor.iter().find(|f| f.code == number)
@@ -789,222 +517,4 @@ impl Descriptor {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_parse_back_and_aliases_resolve() {
-        for f in Family::ALL {
-            assert_eq!(Family::parse(f.name()), Ok(f));
-            assert_eq!(
-                Family::from_schema_protocol(f.descriptor().schema_protocol),
-                Some(f)
-            );
-        }
-        assert_eq!(Family::parse("MC7000"), Ok(Family::Mc6000));
-        assert_eq!(Family::parse("vf"), Ok(Family::Vf1000));
-        assert_eq!(
-            Family::parse("xyz").unwrap_err(),
-            "unknown drive family `xyz`: use one of mc6000, vf1000, tmd, ecs"
-        );
-        assert_eq!(BusProtocol::parse("SDO"), Some(BusProtocol::CanSdo));
-        assert_eq!(BusProtocol::parse("can"), Some(BusProtocol::CanSdo));
-        assert_eq!(
-            BusProtocol::Lustbus.families().collect::<Vec<_>>(),
-            [Family::Mc6000, Family::Vf1000]
-        );
-    }
-
-    #[test]
-    fn addresses_follow_the_specs() {
-        let l = BusProtocol::Lustbus;
-        assert_eq!(l.check_address(0).unwrap_err().0, AddressProblem::Group);
-        assert_eq!(l.check_address(31).unwrap_err().0, AddressProblem::Group);
-        assert_eq!(
-            l.check_address(32).unwrap_err().0,
-            AddressProblem::OutOfRange
-        );
-        assert!(l.check_address(30).is_ok());
-        let c = BusProtocol::Lecom;
-        for g in [0, 10, 50, 90] {
-            assert_eq!(c.check_address(g).unwrap_err().0, AddressProblem::Group);
-        }
-        assert!(c.check_address(99).is_ok());
-        assert_eq!(
-            c.check_address(100).unwrap_err().0,
-            AddressProblem::OutOfRange
-        );
-        assert_eq!(
-            BusProtocol::CanSdo.check_address(0).unwrap_err().0,
-            AddressProblem::OutOfRange
-        );
-        assert!(BusProtocol::CanSdo.check_address(127).is_ok());
-    }
-
-    #[test]
-    fn reaction_and_pacing_figures() {
-        let mc = Family::Mc6000.descriptor();
-        assert_eq!(mc.reaction.longest(true), Duration::from_millis(30));
-        assert_eq!(mc.reaction.longest(false), Duration::from_millis(25));
-        let vf = Family::Vf1000.descriptor();
-        assert_eq!(vf.reaction.longest(true), Duration::from_millis(60));
-        assert!(vf.reaction.from_spec());
-        assert!(!Family::Tmd.descriptor().reaction.from_spec());
-        assert_eq!(mc.dataset.map(|d| d.code), Some(80));
-        assert_eq!(vf.long_ack(71, 1), Some(Duration::from_secs(10)));
-        assert_eq!(vf.long_ack(71, 0), None);
-    }
-
-    fn parsed(text: &str) -> std::sync::Arc<crate::Schema> {
-        let mut r = crate::Registry::new();
-        r.add_source(crate::error::SourceFile::new("t.toml", text))
-            .expect("test schema parses")
-    }
-
-    #[test]
-    fn the_floor_holds_whatever_a_schema_file_says() {
-        use crate::{BitRole, ControlState, RawValue, Role};
-        // 416 as a "setpoint" with bit 0 an "inhibit" bit, 4-PROG without a
-        // role: the floor makes 416 a control word whose bit 0 starts and
-        // PROG a command, and adds the reset bit
-        let mc = parsed(
-            r#"
-[schema]
-id = "f"
-title = "f"
-protocol = "lustbus-mc"
-code_style = "lust"
-
-[[code]]
-number = 4
-name = "PROG"
-
-[[code]]
-number = 416
-name = "SCTL1"
-type = "PT_USIGN16"
-role = "setpoint"
-
-[[code.bits]]
-name = "hold"
-bits = [0, 0]
-role = "inhibit"
-"#,
-        );
-        assert_eq!(mc.role_of(4), Some(Role::Command));
-        let c = mc.code(416).expect("416");
-        assert_eq!(c.role, Some(Role::ControlWord));
-        let roles: Vec<(u32, Option<BitRole>)> = c.bits.iter().map(|b| (b.lsb, b.role)).collect();
-        assert_eq!(
-            roles,
-            [(0, Some(BitRole::Start)), (7, Some(BitRole::Reset))]
-        );
-        assert_eq!(
-            mc.control_state(c, &RawValue::Int(1)),
-            ControlState::Moving(vec!["hold".into()])
-        );
-        assert_eq!(
-            mc.control_state(c, &RawValue::Int(0)),
-            ControlState::Stopped
-        );
-        // Tmd C0040 whose file widens the stopped values to 0 and 1
-        let tmd = parsed(
-            r#"
-[schema]
-id = "g"
-title = "g"
-protocol = "lecom"
-code_style = "lenze"
-
-[[code]]
-number = 40
-name = "c40"
-type = "VD"
-stopped = [0, 1]
-"#,
-        );
-        let c = tmd.code(40).expect("40");
-        assert_eq!(c.role, Some(Role::ControlWord));
-        assert_eq!(c.stopped, [0]);
-        assert!(!tmd.control_state(c, &RawValue::Int(10_000)).is_safe());
-        assert!(tmd.control_state(c, &RawValue::Int(0)).is_safe());
-        // every floor code of the built-in schemas carries its floor role
-        let r = crate::Registry::builtin().expect("built-in schemas parse");
-        for f in Family::ALL {
-            let s = r.get(f.descriptor().schema_id).expect("schema");
-            for fl in f.descriptor().floor {
-                if let Some(c) = s.code(fl.code) {
-                    assert_eq!(c.role, Some(fl.role), "{} {}", s.id, fl.code);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn the_built_in_schemas_agree_with_their_descriptors() {
-        let r = crate::Registry::builtin().expect("built-in schemas parse");
-        for f in Family::ALL {
-            let d = f.descriptor();
-            let s = r.get(d.schema_id).expect(d.schema_id);
-            assert_eq!(s.family, f, "{}", d.schema_id);
-            let codes = s
-                .identify
-                .as_ref()
-                .map(|i| i.codes.clone())
-                .unwrap_or_default();
-            assert_eq!(codes, d.identify, "{}", d.schema_id);
-            if let Some(h) = d.dataset {
-                assert_eq!(s.code(h.code).map(|c| c.name.as_str()), Some(h.name));
-            }
-        }
-    }
-
-    #[test]
-    fn one_pacing_rule_for_planner_and_client() {
-        let s = parsed(
-            r#"
-[schema]
-id = "t"
-title = "t"
-protocol = "lustbus-vf1000"
-code_style = "lust"
-
-[[code]]
-number = 10
-name = "ONE"
-kind = "eeprom"
-width = 1
-
-[[code]]
-number = 11
-name = "UNKNOWN"
-
-[[code]]
-number = 12
-name = "RAM"
-kind = "ram-control"
-width = 2
-
-[[code]]
-number = 13
-name = "FSEL"
-kind = "fsel-isel"
-width = 2
-"#,
-        );
-        let vf = Family::Vf1000.descriptor();
-        let ms = Duration::from_millis;
-        let c = |n| s.code(n).expect("code");
-        assert_eq!(vf.ack_delay(c(10), true), ms(60));
-        assert_eq!(vf.ack_delay(c(10), false), ms(0));
-        assert_eq!(vf.ack_delay(c(11), true), ms(120));
-        assert_eq!(vf.ack_delay(c(12), true), ms(0));
-        assert_eq!(vf.ack_delay(c(13), true), ms(120));
-        assert_eq!(vf.store_time(c(10)), ms(0));
-        let mc = Family::Mc6000.descriptor();
-        assert_eq!(mc.store_time(c(10)), ms(15));
-        assert_eq!(mc.store_time(c(11)), ms(60));
-        assert_eq!(mc.store_time(c(12)), ms(0));
-        assert_eq!(mc.ack_delay(c(10), true), ms(0));
-    }
-}
+mod tests;

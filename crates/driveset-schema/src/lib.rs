@@ -42,7 +42,7 @@ pub use decimal::Decimal;
 pub use diff::{Diff, DiffEntry, DiffError, DiffKind, diff, diff_defaults, unified_diff};
 pub use error::{Finding, FindingKind, InputError, InputErrorKind, Location};
 pub use export::{Format, export};
-pub use family::{BusProtocol, Descriptor, Family};
+pub use family::{AddressRefusal, BusProtocol, Descriptor, Family, Learning};
 pub use role::{BitRole, ControlState, Role, RunningIndicator};
 pub use schema::{Code, CodeStyle, Registry, Schema};
 pub use set::{LoadedSet, load_set, load_set_str};

@@ -91,7 +91,7 @@ impl Vf1000 {
             .unwrap_or(true);
         match device {
             1 => Some(p.key.number),
-            0 if basis || (81..=85).contains(&n) || n == 91 => Some(p.key.number),
+            0 if basis || Family::Vf1000.descriptor().is_compatible(n) => Some(p.key.number),
             _ => None,
         }
     }

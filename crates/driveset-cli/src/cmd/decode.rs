@@ -281,9 +281,16 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             )));
         }
     } else {
+        // LECOM and slcan carry one family each: its built-in schema (LUSTBUS
+        // picks per telegram, from the CODE's dialect)
         schema = match args.protocol {
-            DecodeProtocol::Lecom => registry.get("lenze-tmd"),
-            DecodeProtocol::Slcan => registry.get("lenze-ecs"),
+            DecodeProtocol::Lecom | DecodeProtocol::Slcan => {
+                let mut families = args.protocol.capture().bus().families();
+                match (families.next(), families.next()) {
+                    (Some(f), None) => registry.get(f.descriptor().schema_id),
+                    _ => None,
+                }
+            }
             DecodeProtocol::Lustbus => None,
         };
     }

@@ -53,7 +53,7 @@ use driveset_proto::lustbus::{
     Select, ValueReply, ValueText,
 };
 use driveset_schema::value::{ConvError, Repr, decimal_to_raw};
-use driveset_schema::{Decimal, Registry, Schema};
+use driveset_schema::{BusProtocol, Decimal, Registry, Schema};
 
 use super::decode::input::{escaped, hex_spaced};
 use super::decode::{FamilyArg, builtin_registry, load_schema};
@@ -251,29 +251,36 @@ fn lustbus(
     }
     let address = match d.get("address") {
         Some(a) => {
-            let n = parse_int(
-                "address",
-                a,
-                "LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)",
-            )?;
-            u8::try_from(n).ok().and_then(Address::new).ok_or_else(|| {
-                anyhow!("address={a}: LUSTBUS addresses are 0..31 (0 all devices, 31 broadcast)")
-            })?
+            let rule = BusProtocol::Lustbus.wire_address_rule();
+            let n = parse_int("address", a, rule)?;
+            u8::try_from(n)
+                .ok()
+                .filter(|n| BusProtocol::Lustbus.wire_addresses().contains(n))
+                .and_then(Address::new)
+                .ok_or_else(|| anyhow!("address={a}: {rule}"))?
         }
         None => Address::ALL,
     };
     let family = match d.get("family") {
-        Some("vf1000") => Some(Dialect::Vf1000),
-        Some("mc6000" | "mc7000" | "mc") => Some(Dialect::Mc),
-        Some(f) => bail!("family={f}: valid families: vf1000, mc6000"),
+        Some(f) => Some(
+            driveset_schema::Family::parse(f)
+                .ok()
+                .and_then(|f| f.descriptor().dialect)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "family={f}: valid families: {}",
+                        BusProtocol::Lustbus
+                            .families()
+                            .map(driveset_schema::Family::name)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })?,
+        ),
         None => args
             .family
             .map(FamilyArg::dialect)
-            .or(match schema.as_ref().map(|s| s.family) {
-                Some(driveset_schema::Family::Vf1000) => Some(Dialect::Vf1000),
-                Some(driveset_schema::Family::Mc6000) => Some(Dialect::Mc),
-                _ => None,
-            }),
+            .or_else(|| schema.as_ref().and_then(|s| s.family.descriptor().dialect)),
     };
     let bytes = match d.verb.as_str() {
         "eot" => Request::Eot.encode().as_bytes().to_vec(),

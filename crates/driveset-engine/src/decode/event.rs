@@ -20,6 +20,29 @@ pub struct Bcc {
     pub expected: String,
 }
 
+impl Bcc {
+    /// A BCC that did not match: `found` received, `expected` computed.
+    pub fn mismatch(found: u8, expected: u8) -> Bcc {
+        Bcc {
+            ok: false,
+            found: format!("0x{found:02X}"),
+            expected: format!("0x{expected:02X}"),
+        }
+    }
+
+    /// The check of a telegram as received, its BCC the last byte
+    /// (proto's [`driveset_proto::ascii::telegram_bcc`], LUSTBUS §2.2,
+    /// LECOM §8.G); `None` for no bytes.
+    pub fn of_telegram(bytes: &[u8]) -> Option<Bcc> {
+        let c = driveset_proto::ascii::telegram_bcc(bytes)?;
+        Some(Bcc {
+            ok: c.ok(),
+            found: format!("0x{:02X}", c.found),
+            expected: format!("0x{:02X}", c.computed),
+        })
+    }
+}
+
 /// One event of the decoded stream.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Event {

@@ -10,7 +10,6 @@
 //! Replies the protocol rules out are errors (exit 1): any reply to a
 //! telegram for a broadcast or group address (8.J: none acknowledges).
 
-use driveset_proto::ascii::bcc;
 use driveset_proto::lecom::{
     AddressKind, BusSniffer, CodeAddress, ControllerAddress, Direction, ExchangeFailure,
     ExtendedError, Frame, FrameError, HostFrame, OperatingStatus, Response, StandardAddressing,
@@ -349,29 +348,14 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                 }
             }
         }
-        if has_bcc && let Some(&l) = bytes.last() {
-            e.bcc = Some(match bad_bcc {
+        if has_bcc {
+            e.bcc = match bad_bcc {
                 Some((found, expected)) => {
                     e.error = Some("BCC mismatch: the receiver discards this telegram".into());
-                    Bcc {
-                        ok: false,
-                        found: format!("0x{found:02X}"),
-                        expected: format!("0x{expected:02X}"),
-                    }
+                    Some(Bcc::mismatch(found, expected))
                 }
-                None => {
-                    let stx = bytes
-                        .iter()
-                        .position(|&b| b & 0x7F == 0x02)
-                        .map_or(0, |p| p + 1);
-                    let computed = bcc(&bytes[stx.min(bytes.len() - 1)..bytes.len() - 1]);
-                    Bcc {
-                        ok: true,
-                        found: format!("0x{:02X}", l & 0x7F),
-                        expected: format!("0x{computed:02X}"),
-                    }
-                }
-            });
+                None => Bcc::of_telegram(bytes),
+            };
         }
         out(e);
     };

@@ -4,7 +4,6 @@
 
 use std::sync::Arc;
 
-use driveset_proto::ascii::bcc;
 use driveset_proto::lustbus::{
     Address, CodeMeaning, CompatibleParameter, Dialect, Direction, FrameError, ParameterCode,
     ParameterType, ParameterValue, Reply, Request, Siof, Sniffer, Telegram, codec,
@@ -14,12 +13,12 @@ use driveset_schema::{RawValue, Schema, validate::display_value};
 use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
 use super::{Context, garbage_event};
 
-/// Schema id of a family's built-in schema.
+/// Schema id of the built-in schema of the family speaking `family`
+/// (the descriptor's `schema_id`).
 pub fn family_schema_id(family: Dialect) -> &'static str {
-    match family {
-        Dialect::Vf1000 => "lust-vf1000",
-        Dialect::Mc => "lust-mc6000",
-    }
+    driveset_schema::Family::from_dialect(family)
+        .descriptor()
+        .schema_id
 }
 
 /// The family a CODE belongs to, when its layout says so.
@@ -53,19 +52,7 @@ pub fn value_parameter(code: ParameterCode) -> Option<u32> {
 /// The wire type of a schema type name (`PT_FIXPOINT16` ...).
 pub fn wire_type(schema: &Schema, number: u32) -> Option<ParameterType> {
     let code = schema.code(number)?;
-    let ty = schema.type_of(code)?;
-    ParameterType::ALL
-        .into_iter()
-        .find(|t| t.name() == ty.name())
-}
-
-/// The signed raw value the schema works with.
-pub fn schema_raw(v: &ParameterValue) -> i64 {
-    match *v {
-        ParameterValue::Integer16(i) => i64::from(i),
-        ParameterValue::Int32Q16(q) => i64::from(q.0),
-        _ => i64::from(v.raw()),
-    }
+    ParameterType::from_name(schema.type_of(code)?.name())
 }
 
 struct State<'a> {
@@ -147,7 +134,7 @@ impl State<'_> {
                 ev.value = Some(display_value(
                     &schema,
                     code_def,
-                    &RawValue::Int(schema_raw(&v)),
+                    &RawValue::Int(v.raw_signed()),
                 ));
             }
             Err(e) => ev
@@ -203,10 +190,12 @@ fn siof_fields(ev: &mut Event, text: &[u8]) {
 }
 
 fn address_text(a: Address) -> String {
-    let note = match a.number() {
-        0 => " (all devices)",
-        31 => " (broadcast)",
-        _ => "",
+    let note = if a == Address::ALL {
+        " (all devices)"
+    } else if !a.expects_reply() {
+        " (broadcast)"
+    } else {
+        ""
     };
     format!("{} '{}'{note}", a.number(), a.to_byte() as char)
 }
@@ -355,13 +344,11 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                 });
             }
         }
-        if let Some(last) = bytes.last().copied()
-            && matches!(
-                telegram,
-                Telegram::Request(Request::Select(_)) | Telegram::Reply(Reply::Value(_))
-            )
-        {
-            e.bcc = Some(match bad_bcc {
+        if matches!(
+            telegram,
+            Telegram::Request(Request::Select(_)) | Telegram::Reply(Reply::Value(_))
+        ) {
+            e.bcc = match bad_bcc {
                 Some((found, expected)) => {
                     e.error = Some(match telegram {
                         // §3: "ADR NAK: occurs with wrong BCC"; §9.2 bit 3
@@ -373,25 +360,10 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                         }
                         _ => "BCC mismatch: the host discards this reply; repeat the ENQUIRY".into(),
                     });
-                    Bcc {
-                        ok: false,
-                        found: format!("0x{found:02X}"),
-                        expected: format!("0x{expected:02X}"),
-                    }
+                    Some(Bcc::mismatch(found, expected))
                 }
-                None => {
-                    let text_start = bytes
-                        .iter()
-                        .position(|&b| b & 0x7F == 0x02)
-                        .map_or(0, |p| p + 1);
-                    let computed = bcc(&bytes[text_start.min(bytes.len() - 1)..bytes.len() - 1]);
-                    Bcc {
-                        ok: true,
-                        found: format!("0x{:02X}", last & 0x7F),
-                        expected: format!("0x{computed:02X}"),
-                    }
-                }
-            });
+                None => Bcc::of_telegram(bytes),
+            };
         }
         out(e);
     };

@@ -99,6 +99,35 @@ pub enum CompatibleParameter {
 }
 
 impl CompatibleParameter {
+    /// Every numerically compatible parameter, in number order (section
+    /// 5.2). The one table of them: the clients, the simulator and the
+    /// family descriptor (`driveset_schema::Descriptor::compatible`) ask it.
+    pub const ALL: [Self; 6] = [
+        Self::Baud,
+        Self::Address,
+        Self::Dummy,
+        Self::Watchdog,
+        Self::Siof,
+        Self::Type,
+    ];
+
+    /// The numbers of [`CompatibleParameter::ALL`] (81, 82, 83, 84, 85, 91).
+    pub const NUMBERS: [u32; 6] = {
+        let mut n = [0; 6];
+        let mut i = 0;
+        while i < n.len() {
+            n[i] = Self::ALL[i].number() as u32;
+            i += 1;
+        }
+        n
+    };
+
+    /// Whether parameter `n` is numerically compatible (81..=85, 91;
+    /// section 5.2).
+    pub const fn contains(n: u32) -> bool {
+        n <= u16::MAX as u32 && Self::from_number(n as u16).is_some()
+    }
+
     /// The parameter number.
     pub const fn number(self) -> u8 {
         self as u8
@@ -590,6 +619,19 @@ impl Telegram {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_compatible_parameters_are_one_table() {
+        assert_eq!(CompatibleParameter::NUMBERS, [81, 82, 83, 84, 85, 91]);
+        for p in CompatibleParameter::ALL {
+            let n = u32::from(p.number());
+            assert_eq!(CompatibleParameter::from_number(p.number().into()), Some(p));
+            assert!(CompatibleParameter::contains(n));
+        }
+        for n in [0, 80, 86, 90, 92, 181, 65_536 + 81] {
+            assert!(!CompatibleParameter::contains(n), "{n}");
+        }
+    }
 
     #[test]
     fn addresses() {

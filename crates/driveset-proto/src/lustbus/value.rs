@@ -93,6 +93,25 @@ impl ParameterType {
         }
     }
 
+    /// The type a spec name (`"PT_FIXPOINT16"`, as a schema's `type =`
+    /// writes it) names: the inverse of [`ParameterType::name`] and the one
+    /// table from a schema's LUSTBUS types to the codec's.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// The type driveset reads an untyped value of `width` bytes as (a
+    /// driveset choice, the spec types nothing by width): 1 PT_USIGN8, 2
+    /// PT_USIGN16, 4 PT_INT32Q16; `None` for other widths.
+    pub const fn of_width(width: u8) -> Option<Self> {
+        match width {
+            1 => Some(Self::Usign8),
+            2 => Some(Self::Usign16),
+            4 => Some(Self::Int32Q16),
+            _ => None,
+        }
+    }
+
     /// Whether `family` has this type (2.3.1 for VF1000, 2.3.2 for MC).
     pub const fn in_family(self, family: Dialect) -> bool {
         match family {
@@ -525,6 +544,44 @@ impl ParameterValue {
         })
     }
 
+    /// The value as a signed integer: PT_INTEGER16 and PT_INT32Q16
+    /// sign-extended, every other type its unsigned wire integer. The raw
+    /// value schemas and sets count in.
+    pub const fn raw_signed(&self) -> i64 {
+        match *self {
+            Self::Integer16(v) => v as i64,
+            Self::Int32Q16(v) => v.0 as i64,
+            _ => self.raw() as i64,
+        }
+    }
+
+    /// The inverse of [`ParameterValue::raw_signed`]: a value of type `ty`
+    /// from a signed raw integer (two's complement on the wire for the
+    /// signed types); `None` if the type cannot carry it.
+    pub const fn from_raw_signed(ty: ParameterType, raw: i64) -> Option<Self> {
+        let wire = match ty {
+            ParameterType::Integer16 => {
+                if raw < i16::MIN as i64 || raw > i16::MAX as i64 {
+                    return None;
+                }
+                raw as i16 as u16 as u32
+            }
+            ParameterType::Int32Q16 => {
+                if raw < i32::MIN as i64 || raw > i32::MAX as i64 {
+                    return None;
+                }
+                raw as i32 as u32
+            }
+            _ => {
+                if raw < 0 || raw > u32::MAX as i64 {
+                    return None;
+                }
+                raw as u32
+            }
+        };
+        Self::from_raw(ty, wire)
+    }
+
     /// Encodes the VALUE string: VF1000 always 4 digits with leading zeros
     /// (`%04X`), MC without leading zeros (`%X`).
     pub fn encode(&self, family: Dialect) -> Result<ValueText, ValueError> {
@@ -618,6 +675,42 @@ fn pow10(n: u32) -> u128 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_widths_and_signed_raws() {
+        for t in ParameterType::ALL {
+            assert_eq!(ParameterType::from_name(t.name()), Some(t));
+        }
+        assert_eq!(ParameterType::from_name("VD"), None);
+        assert_eq!(ParameterType::of_width(1), Some(ParameterType::Usign8));
+        assert_eq!(ParameterType::of_width(2), Some(ParameterType::Usign16));
+        assert_eq!(ParameterType::of_width(4), Some(ParameterType::Int32Q16));
+        assert_eq!(ParameterType::of_width(3), None);
+        let v = ParameterValue::from_raw_signed(ParameterType::Integer16, -2).expect("fits");
+        assert_eq!((v.raw(), v.raw_signed()), (0xFFFE, -2));
+        let v = ParameterValue::from_raw_signed(ParameterType::Int32Q16, -65536).expect("fits");
+        assert_eq!((v.raw(), v.raw_signed()), (0xFFFF_0000, -65536));
+        assert_eq!(
+            ParameterValue::from_raw_signed(ParameterType::Usign8, 255).map(|v| v.raw_signed()),
+            Some(255)
+        );
+        assert_eq!(
+            ParameterValue::from_raw_signed(ParameterType::Usign8, 256),
+            None
+        );
+        assert_eq!(
+            ParameterValue::from_raw_signed(ParameterType::Usign16, -1),
+            None
+        );
+        assert_eq!(
+            ParameterValue::from_raw_signed(ParameterType::Integer16, 32768),
+            None
+        );
+        assert_eq!(
+            ParameterValue::from_raw_signed(ParameterType::Int32Q16, i64::from(i32::MAX) + 1),
+            None
+        );
+    }
 
     fn enc(v: ParameterValue, f: Dialect) -> String {
         String::from_utf8(v.encode(f).unwrap().as_bytes().to_vec()).unwrap()

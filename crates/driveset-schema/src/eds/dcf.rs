@@ -19,7 +19,6 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::canonical::{RawValue, ResolvedSet};
-use crate::family::Family;
 use crate::schema::{Access, Code, Schema};
 use crate::value::ValueType;
 
@@ -122,7 +121,7 @@ pub fn write_dcf(
     file_name: &str,
     node_id: Option<u8>,
 ) -> Result<String, DcfError> {
-    if schema.family != Family::Ecs {
+    if !schema.family.descriptor().on_can() {
         return Err(DcfError {
             message: format!(
                 "set uses schema `{}`, which is not a CANopen (lenze-can-sdo) family; a DCF describes CANopen SDO objects",

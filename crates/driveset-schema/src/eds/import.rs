@@ -1143,9 +1143,11 @@ fn builtin_role(number: u32) -> Option<crate::role::Role> {
     static ECS: std::sync::OnceLock<Option<std::sync::Arc<crate::Schema>>> =
         std::sync::OnceLock::new();
     ECS.get_or_init(|| {
+        // the family on CAN SDO (ECS) is the one a CiA 306 file describes
+        let family = crate::BusProtocol::CanSdo.families().next()?;
         crate::Registry::builtin()
             .ok()
-            .and_then(|r| r.get(crate::Family::Ecs.descriptor().schema_id))
+            .and_then(|r| r.get(family.descriptor().schema_id))
     })
     .as_ref()
     .and_then(|s| s.role_of(number))

@@ -5,3 +5,4 @@
 mod check;
 mod prop;
 mod sets;
+mod tidy;

@@ -42,11 +42,11 @@ mod receive;
 use description::printable;
 
 /// 85-SIOF/SERR, the numerically compatible error-status word (section 5.2).
-pub const SIOF: u32 = 85;
+pub const SIOF: u32 = driveset_proto::lustbus::CompatibleParameter::Siof.number() as u32;
 /// 81-SIOC/SBAUD, the baud rate (sections 4, 11.5).
-pub const BAUD: u32 = 81;
+pub const BAUD: u32 = driveset_proto::lustbus::CompatibleParameter::Baud.number() as u32;
 /// 82-SIOA/SADDR, the drive's own address (section 4.2).
-pub const ADDRESS: u32 = 82;
+pub const ADDRESS: u32 = driveset_proto::lustbus::CompatibleParameter::Address.number() as u32;
 
 /// How a simulated LUSTBUS drive is built.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -347,23 +347,10 @@ impl LustCore {
     /// The codec type of a parameter: from the schema, else from its width
     /// (a simulator choice for parameters the schemas leave untyped).
     pub fn wire_type(&self, p: &Param) -> ParameterType {
-        let t = match p.ty {
-            Some(ValueType::PT_USIGN8) => ParameterType::Usign8,
-            Some(ValueType::PT_BINARY8) => ParameterType::Binary8,
-            Some(ValueType::PT_USIGN16) => ParameterType::Usign16,
-            Some(ValueType::PT_PASSWORD) => ParameterType::Password,
-            Some(ValueType::PT_INTEGER16) => ParameterType::Integer16,
-            Some(ValueType::PT_FIXPOINT16) => ParameterType::Fixpoint16,
-            Some(ValueType::PT_INT32Q16) => ParameterType::Int32Q16,
-            Some(ValueType::PT_FLOAT_IEEE) => ParameterType::FloatIeee,
-            Some(ValueType::PT_VF_ERROR) => ParameterType::VfError,
-            Some(ValueType::PT_MC_ERROR) => ParameterType::McError,
-            _ => match p.byte_width() {
-                1 => ParameterType::Usign8,
-                2 => ParameterType::Usign16,
-                _ => ParameterType::Int32Q16,
-            },
-        };
+        let t =
+            p.ty.and_then(|t| ParameterType::from_name(t.name()))
+                .or_else(|| ParameterType::of_width(p.byte_width()))
+                .unwrap_or(ParameterType::Int32Q16);
         if t.in_family(self.wire) {
             t
         } else if self.wire == WireFamily::Vf1000 {
@@ -376,13 +363,7 @@ impl LustCore {
     /// The wire integer of a raw value (two's complement for the signed
     /// types), if it fits the type.
     pub fn to_wire(&self, p: &Param, raw: i64) -> Option<ParameterValue> {
-        let ty = self.wire_type(p);
-        let w = match ty {
-            ParameterType::Integer16 => i16::try_from(raw).ok()? as u16 as u32,
-            ParameterType::Int32Q16 => i32::try_from(raw).ok()? as u32,
-            _ => u32::try_from(raw).ok()?,
-        };
-        ParameterValue::from_raw(ty, w)
+        ParameterValue::from_raw_signed(self.wire_type(p), raw)
     }
 
     /// The VALUE string of `raw` (section 2.3). VF1000: 4 digits. MC: the

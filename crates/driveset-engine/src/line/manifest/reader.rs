@@ -449,8 +449,8 @@ impl<'a> Reader<'a> {
                 if let Some(p) = protocol {
                     match p.check_address(*a) {
                         Ok(()) => address = Some(*a as u8),
-                        Err((problem, rule)) => {
-                            let kind = problem.kind();
+                        Err(refusal) => {
+                            let (kind, rule) = (refusal.kind(), refusal.rule);
                             ok = false;
                             self.push(
                                 kind,
