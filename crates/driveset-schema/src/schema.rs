@@ -466,6 +466,21 @@ impl Schema {
         s
     }
 
+    /// A code as humans read it in reports, plans and diffs: the display
+    /// code ([`Schema::display_code`]), and on Lenze codes the name after it
+    /// (`C0011 nmax`; Lust codes carry their name already: `428-RSIO`). A
+    /// schema file's name is shown to people, so control characters are
+    /// escaped.
+    pub fn code_label(&self, key: crate::canonical::CodeKey) -> String {
+        let code = self.display_code(key.number, key.subcode);
+        match self.code(key.number) {
+            Some(c) if !c.name.is_empty() && self.code_style == CodeStyle::Lenze => {
+                format!("{code} {}", crate::error::escape_controls(&c.name))
+            }
+            _ => code,
+        }
+    }
+
     /// Label of a code's raw value. Enumeration keys are engineering integers
     /// (so `1 = "..."` on a VD code means raw 10000; docs/file-formats.md).
     pub fn enum_label<'a>(&'a self, code: &'a Code, raw: i64) -> Option<&'a str> {
