@@ -4,7 +4,7 @@
 
 use crate::error::{Finding, FindingKind, Location};
 
-use super::*;
+use super::{Code, EnumSource, Fact};
 
 /// Fill the unset facts of a base code from a fixture's code of the same
 /// number; a fact both give differently is a finding.

@@ -4,7 +4,7 @@
 
 use crate::role::{BitRole, Role};
 
-use super::*;
+use super::{BitField, Schema};
 
 impl Schema {
     /// Give the codes the roles the family's specs give them

@@ -13,7 +13,7 @@ use crate::value::ValueType;
 use super::extends::fill_unset;
 use super::parse::{parse_code, parse_enum_table, parse_rule};
 use super::reader::Reader;
-use super::*;
+use super::{CodeStyle, Identify, LearnedFrom, Schema, parse_int_text, parse_number_list};
 
 /// A schema's fingerprint ([`Schema::fingerprint`]): `sha256:` + hex of
 /// the file's text; for a schema that extends a base, of the base's

@@ -6,7 +6,7 @@ use crate::canonical::RawValue;
 use crate::role::Role;
 use crate::value::ValueType;
 
-use super::*;
+use super::{Code, CodeStyle, EnumDef, EnumSource, Fact, Schema, index_number, looks_numeric_key};
 
 impl Schema {
     /// Code by number.

@@ -7,7 +7,9 @@ use crate::error::{InputError, InputErrorKind};
 use crate::role::{BitRole, Role};
 
 use super::reader::Reader;
-use super::*;
+use super::{
+    Access, BitField, Code, EnumDef, EnumSource, Rule, StorageKind, index_number, parse_int_text,
+};
 
 pub(super) fn parse_enum_table(
     doc: &Document,

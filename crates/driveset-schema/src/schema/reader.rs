@@ -5,7 +5,7 @@
 use crate::doc::{Document, Entry, Node, NodeKind};
 use crate::error::{InputError, Location};
 
-use super::*;
+use super::{Fact, parse_int_text};
 
 pub(super) struct Reader<'d> {
     pub(super) doc: &'d Document,

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use crate::error::{InputError, InputErrorKind, Location, SourceFile, read_text_file};
 
-use super::*;
+use super::{Schema, parse_schema};
 
 /// The schema file names embedded in the crate (docs: "one file per drive family").
 pub const BUILTIN_FILES: [(&str, &str); 4] = [
