@@ -2,7 +2,7 @@
 //! the USB adapter's latency timer), from the findings of a
 //! [`DoctorReport`].
 
-use super::*;
+use super::{DoctorProtocol, DoctorReport, ProbeResult, ms};
 
 /// What to change, from the findings.
 pub fn advice(r: &DoctorReport) -> Vec<String> {

@@ -204,8 +204,9 @@ pub struct EchoFinding {
     pub echoed: u32,
 }
 
-/// Parity: what the received bytes say (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// Parity: what the received bytes say (see the module docs). The
+/// default is a line with nothing received (and nothing found).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct ParityFinding {
     /// Answer bytes received (echo not counted).
     pub bytes: u64,

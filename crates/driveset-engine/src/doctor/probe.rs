@@ -10,7 +10,7 @@ use driveset_link::{ByteLink, Instant, LinkError};
 use driveset_proto::lecom::{ControllerAddress, Receive, Response, ResponseDecoder, Telegram};
 use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, Reply, ReplyDecoder};
 
-use super::*;
+use super::{DoctorProtocol, DoctorRules, ProbeResult, RoundTrips};
 use crate::client::Target;
 use crate::error::{EngineError, Refusal};
 

@@ -7,7 +7,10 @@ use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, LinkError};
 
 use super::probe::{Probe, link_err, probe, request, round_trips};
-use super::*;
+use super::{
+    DoctorOptions, DoctorProtocol, DoctorReport, DoctorRules, EchoFinding, LatencyTimer, OpenAt,
+    ParityFinding, ProbeResult, RateResult, advice, rate_order,
+};
 use crate::client::Target;
 use crate::error::EngineError;
 
@@ -94,14 +97,7 @@ pub fn run(
     };
     // Parity from the probes at rates that answered (bytes at a wrong rate
     // are framing garbage, not a parity finding).
-    let mut parity = ParityFinding {
-        bytes: 0,
-        high_bit: 0,
-        odd_weight: 0,
-        bad_bcc: 0,
-        garbled: 0,
-        read_as_8_bits: false,
-    };
+    let mut parity = ParityFinding::default();
     let at_answering: Vec<&Probe> = all
         .iter()
         .zip(
@@ -218,14 +214,7 @@ pub fn run_can(
             exchanges: 0,
             echoed: 0,
         },
-        parity: ParityFinding {
-            bytes: 0,
-            high_bit: 0,
-            odd_weight: 0,
-            bad_bcc: 0,
-            garbled: 0,
-            read_as_8_bits: false,
-        },
+        parity: ParityFinding::default(),
         latency_timers: Vec::new(),
         advice: Vec::new(),
     };

@@ -29,18 +29,20 @@ impl fmt::Display for PortSpec {
                 baud,
                 echo,
                 latency,
-            } => {
-                write_host_port(f, "tcp", host, *port)?;
-                q.line(*baud, *echo, *latency);
             }
-            PortSpec::Rfc2217 {
+            | PortSpec::Rfc2217 {
                 host,
                 port,
                 baud,
                 echo,
                 latency,
             } => {
-                write_host_port(f, "rfc2217", host, *port)?;
+                let scheme = if matches!(self, PortSpec::Rfc2217 { .. }) {
+                    "rfc2217"
+                } else {
+                    "tcp"
+                };
+                write_host_port(f, scheme, host, *port)?;
                 q.line(*baud, *echo, *latency);
             }
             PortSpec::Slcan {
