@@ -71,16 +71,6 @@ pub enum DiffError {
     },
 }
 
-fn label(schema: &Schema, key: CodeKey) -> String {
-    let code = schema.display_code(key.number, key.subcode);
-    match schema.code(key.number) {
-        Some(c) if !c.name.is_empty() && schema.code_style == crate::schema::CodeStyle::Lenze => {
-            format!("{code} {}", crate::error::escape_controls(&c.name))
-        }
-        _ => code,
-    }
-}
-
 fn show(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
     match schema.code(key.number) {
         Some(c) => display_value(schema, c, raw),
@@ -108,13 +98,13 @@ pub fn diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema) -> Result<Diff, D
             // secrets are compared directly, but never shown
             (Some(_), Some(_)) if a.is_secret(&key) || b.is_secret(&key) => (
                 DiffKind::Changed,
-                format!("{}: differs (secret)", label(schema, key)),
+                format!("{}: differs (secret)", schema.code_label(key)),
             ),
             (Some(o), Some(n)) => (
                 DiffKind::Changed,
                 format!(
                     "{}: {} -> {}",
-                    label(schema, key),
+                    schema.code_label(key),
                     show(schema, key, o),
                     show(schema, key, n)
                 ),
@@ -123,7 +113,7 @@ pub fn diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema) -> Result<Diff, D
                 DiffKind::Added,
                 format!(
                     "{}: (unset) -> {}",
-                    label(schema, key),
+                    schema.code_label(key),
                     show(schema, key, n)
                 ),
             ),
@@ -131,7 +121,7 @@ pub fn diff(a: &ResolvedSet, b: &ResolvedSet, schema: &Schema) -> Result<Diff, D
                 DiffKind::Removed,
                 format!(
                     "{}: {} -> (unset)",
-                    label(schema, key),
+                    schema.code_label(key),
                     show(schema, key, o)
                 ),
             ),
@@ -184,7 +174,7 @@ pub fn diff_defaults(set: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffErr
                 new: Some(v.clone()),
                 text: format!(
                     "{}: {} (a secret: not compared with the factory default)",
-                    label(schema, *key),
+                    schema.code_label(*key),
                     crate::canonical::SECRET
                 ),
             });
