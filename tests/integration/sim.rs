@@ -504,7 +504,7 @@ fn tcp_two_factory_mc6000_answer_address_1_with_garbage_and_dump_their_slots() {
     assert_eq!(status.code(), Some(0), "{stderr}");
     assert!(
         stderr.contains(
-            "serving 2 simulated mc6000 drives (addresses 1, 1, 2 of them factory-fresh)"
+            "serving 2 simulated mc6000 drives (addresses 1, 1; 2 factory-fresh) at 9600 baud 7E1"
         ),
         "{stderr}"
     );

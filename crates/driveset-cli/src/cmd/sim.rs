@@ -316,14 +316,15 @@ fn announce(line: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn describe(config: &SimConfig) -> String {
-    let drives = config.all_drives();
-    let addresses = drives
+/// What is served: the drives on the line (`on_line`: their addresses;
+/// with `--bench` only the drive on the bench).
+fn describe(config: &SimConfig, on_line: &[u8]) -> String {
+    let addresses = on_line
         .iter()
-        .map(|d| d.1.to_string())
+        .map(u8::to_string)
         .collect::<Vec<_>>()
         .join(", ");
-    let n = drives.len();
+    let n = on_line.len();
     let rate = if is_can(config.family) {
         format!("CAN at {} bit/s", config.bitrate)
     } else {
@@ -335,15 +336,12 @@ fn describe(config: &SimConfig) -> String {
     } else {
         format!(", faults {}", config.faults)
     };
-    let fresh = match config.factory.len() {
-        0 => String::new(),
-        k => format!(
-            ", {k} of them factory-fresh{}",
-            if config.bench {
-                " (service bench: one at a time)"
-            } else {
-                ""
-            }
+    let fresh = match (config.factory.len(), config.bench) {
+        (0, _) => String::new(),
+        (k, false) => format!("; {k} factory-fresh"),
+        (k, true) => format!(
+            "; service bench: {n} of {} drives on the line, {k} factory-fresh",
+            config.all_drives().len()
         ),
     };
     format!(
@@ -392,9 +390,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let family = config.family;
     let (outcome, dump) = if is_can(family) {
         let (mut line, drives) = config.frame_line_drives(log.clone())?;
+        let on_line: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
         let mut pty = slcan_serve::SlcanPty::open()?;
         announce(&format!("pty {}", pty.path()))?;
-        eprintln!("{}", describe(&config));
+        eprintln!("{}", describe(&config, &on_line));
         eprintln!(
             "a simulated slcan adapter: connect with --port slcan://{}?bitrate={} (python-can: interface='slcan', channel='{}'); Ctrl-C stops",
             pty.path(),
@@ -407,6 +406,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         (outcome, drives.frame_line_dump(config.bus_name(), &line))
     } else {
         let (mut line, drives) = config.byte_line_drives(log.clone())?;
+        let on_line: Vec<u8> = line.drives().iter().map(|d| d.address()).collect();
         let outcome = match endpoint {
             Endpoint::Pty => {
                 let serve::Pty {
@@ -415,7 +415,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                     path,
                 } = serve::open_pty()?;
                 announce(&format!("pty {path}"))?;
-                eprintln!("{}", describe(&config));
+                eprintln!("{}", describe(&config, &on_line));
                 eprintln!(
                     "connect with --port {path}?baud={}; Ctrl-C stops",
                     config.baud
@@ -432,7 +432,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                     .local_addr()
                     .context("cannot read the bound port")?;
                 announce(&format!("tcp {local}"))?;
-                eprintln!("{}", describe(&config));
+                eprintln!("{}", describe(&config, &on_line));
                 if !addr.ip().is_loopback() {
                     let what = match addr.ip() {
                         IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",

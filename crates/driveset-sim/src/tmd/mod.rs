@@ -707,4 +707,28 @@ impl ByteDrive for TmdDrive {
     fn take_baud_change(&mut self) -> Option<u32> {
         self.baud_change.take()
     }
+
+    /// The rate of the C0125 setting in effect when C0125 has been changed
+    /// since the last power-up (it takes effect only then, Table 1): a
+    /// state file keeps it, so the drive stays at that rate between
+    /// commands as a powered drive does.
+    fn active_rate(&self) -> Option<u32> {
+        if self.active_baud == self.int(C0125) {
+            return None;
+        }
+        baud_rate(self.active_baud)
+    }
+
+    fn restore_rate(&mut self, baud: u32) {
+        let Some(setting) = (0..=3)
+            .map(|s| s * VD)
+            .find(|s| baud_rate(*s) == Some(baud))
+        else {
+            return;
+        };
+        if setting != self.active_baud {
+            self.active_baud = setting;
+            self.baud_change = Some(baud);
+        }
+    }
 }

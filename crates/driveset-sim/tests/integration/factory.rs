@@ -312,3 +312,32 @@ fn the_bench_connects_one_waiting_drive_per_open_then_the_line() {
     assert_eq!(ask(&line, &enquiry(3, 82)), b"C\x0200082=03\x03\x07");
     assert_eq!(line.family_of(2), Some(Family::Mc6000));
 }
+
+#[test]
+fn a_factory_tmd_keeps_9600_after_c0125_is_written_until_it_restarts() {
+    let file = TempState::new("c0125");
+    let port = file.port("sim://tmd?factory=1&c0001=2");
+    let link = open(&port, EventLog::off());
+    // SEND C0125 = 1 (4800 bps) to station 01 with extended addressing
+    // (8.D: `!` code 0x007D, subcode 00, then the value).
+    let text = b"!007D001";
+    let mut send = vec![0x04, b'0', b'1', 0x02];
+    send.extend_from_slice(text);
+    send.push(0x03);
+    send.push(text.iter().fold(0x03, |a, b| a ^ b));
+    assert_eq!(ask(&link, &send), [0x06]);
+    drop(link);
+    let dump = StateDump::read(&file.0).unwrap();
+    assert_eq!(
+        dump.drives[0].rate,
+        Some(9600),
+        "C0125 waits for a power-up"
+    );
+    let again = open(&port, EventLog::off());
+    assert_eq!(
+        again.state(1).unwrap().values[&CodeKey::new(125)],
+        RawValue::Int(10_000)
+    );
+    // still at 9600: RECEIVE of C0009 answers at the host's 9600
+    assert_eq!(ask(&again, b"\x0401\x30\x39\x05"), b"\x02091\x03;");
+}
