@@ -11,7 +11,7 @@ use std::path::Path;
 use serde_json::Value;
 
 use crate::e2e_pty::{Sim, one_at_a_time, run};
-use crate::util::driveset;
+use driveset_test_support::driveset;
 
 /// The state file's drives as (address, canonical text).
 fn drives(state: &Path) -> Vec<(u64, String)> {

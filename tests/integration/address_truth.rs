@@ -8,7 +8,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset, workspace_root};
 
 fn in_dir(dir: &Path) -> assert_cmd::Command {
     let mut c = driveset();

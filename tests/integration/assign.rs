@@ -9,7 +9,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset, workspace_root};
 
 const NAMES: [&str; 7] = [
     "press-axis-1",

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::{driveset, workspace_root};
+use driveset_test_support::{driveset, workspace_root};
 
 fn demo() -> String {
     workspace_root()

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use crate::util::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset, workspace_root};
 
 fn setup() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();

@@ -535,14 +535,14 @@ fn check_address(
     option: &str,
     a: u8,
 ) -> Result<(), EngineError> {
-    protocol.check_address(i64::from(a)).map_err(|(_, rule)| {
+    protocol.check_address(i64::from(a)).map_err(|refusal| {
         refuse(
             port,
             a,
             AssignRefusal::InvalidAddress {
                 address: i64::from(a),
                 option: option.to_string(),
-                rule: rule.to_string(),
+                rule: refusal.rule.to_string(),
             },
         )
     })
