@@ -247,7 +247,7 @@ fn refusals_exit_2_and_write_nothing() {
         (
             "sim://mc6000?addresses=1,2",
             &["--protocol", "lustbus", "--to", "5"],
-            "refused: the answers at address 0 at 9600 baud do not decode (11 byte(s) starting with 0x02 (STX) belong to no telegram; skipped): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); nothing was written. Connect the drive alone and run again\n".into(),
+            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x04 but CODE..ETX XOR to 0x61): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); nothing was written. Connect the drive alone and run again\n".into(),
         ),
         (
             "sim://tmd?addresses=1,12&c0001=3",

@@ -17,7 +17,7 @@ use driveset_test_support::workspace_root;
 /// are free: the engine's tests use the simulator).
 const ARROWS: &[(&str, &[&str])] = &[
     ("driveset-proto", &[]),
-    ("driveset-schema", &[]),
+    ("driveset-schema", &["driveset-proto"]),
     ("driveset-link", &["driveset-proto"]),
     (
         "driveset-engine",
@@ -50,92 +50,36 @@ const MAX_LINES: usize = 900;
 /// says so). A table of data may stay here for good, saying so.
 const LARGE_FILES: &[(&str, &str)] = &[
     (
-        "crates/driveset-engine/src/line/commission.rs",
-        "about ten jobs (run, resume, per-drive work, learning, two broadcasts): issue 19 splits it",
-    ),
-    (
-        "crates/driveset-engine/src/upload.rs",
-        "the transaction's steps, journal writer, rollback, dataset and report in one: issue 19 splits it",
-    ),
-    (
-        "crates/driveset-sim/src/open.rs",
-        "the sim:// keys, checks and bus assembly; 440 lines of unit tests: to split",
-    ),
-    (
-        "crates/driveset-engine/src/error.rs",
-        "one flat Refusal of 41 variants: issue 19 moves refusals beside the modules that raise them",
-    ),
-    (
-        "crates/driveset-schema/src/schema.rs",
-        "the schema model, its TOML loading and checks in one: to split",
-    ),
-    (
-        "crates/driveset-engine/src/learn.rs",
-        "learning's descriptions, layouts and the learned file in one: to split",
-    ),
-    (
-        "crates/driveset-proto/src/lustbus/description.rs",
-        "the description layouts of VF1000 and MC (section 7) and 250 lines of unit tests: to split",
-    ),
-    (
-        "crates/driveset-schema/src/eds/import.rs",
-        "EDS / DCF to schema, object by object, and 280 lines of unit tests: to split",
+        "crates/driveset-engine/src/assign.rs",
+        "stand-alone address and rate assignment with its unit tests (issue 20): to split into plan / run / recover",
     ),
     (
         "crates/driveset-engine/src/client/lustbus.rs",
         "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
     ),
     (
-        "crates/driveset-engine/src/transfer.rs",
-        "the rate switch, its journal record and its recovery: issue 19 wraps the transaction instead",
-    ),
-    (
-        "crates/driveset-engine/src/line/manifest.rs",
-        "the manifest reader, its checks and its messages: to split",
-    ),
-    (
-        "crates/driveset-sim/src/tmd.rs",
-        "the simulated Tmd: LECOM slave, code table semantics, faults: to split",
+        "crates/driveset-engine/src/error.rs",
+        "refusals not yet beside their rooms: the split is on branch engine-split, not landed",
     ),
     (
         "crates/driveset-engine/src/journal.rs",
-        "the journal format, its store and 150 lines of unit tests: to split",
+        "records, store and tests in one: the split is on branch engine-split, not landed",
     ),
     (
-        "crates/driveset-engine/src/doctor.rs",
-        "830 lines of checks and 290 of unit tests: to split",
+        "crates/driveset-engine/src/learn.rs",
+        "learning's descriptions, layouts and the learned file in one: to split",
     ),
     (
-        "crates/driveset-engine/src/plan.rs",
-        "920 lines of planner and 100 of unit tests: to split",
+        "crates/driveset-engine/src/line/commission.rs",
+        "about ten jobs (run, resume, per-drive work, learning, two broadcasts): the split is on branch session, not landed",
     ),
     (
-        "crates/driveset-schema/src/family.rs",
-        "the descriptor table of four families (data) and 220 lines of unit tests",
+        "crates/driveset-engine/src/transfer.rs",
+        "the rate switch, its journal record and its recovery: the split is on branch engine-split, not landed",
     ),
     (
-        "crates/driveset-sim/src/lustbus_drive.rs",
-        "the machinery both simulated LUSTBUS drives share: to split",
-    ),
-    (
-        "crates/driveset-proto/src/can/transfer.rs",
-        "SDO client and server state machines and 280 lines of unit tests: to split",
-    ),
-    (
-        "crates/driveset-proto/src/lecom/stream.rs",
-        "480 lines of decoders and 470 of unit tests",
-    ),
-    (
-        "crates/driveset-link/src/spec.rs",
-        "the one port syntax, its parser and messages: to split",
-    ),
-    (
-        "crates/driveset-link/src/rfc2217.rs",
-        "640 lines of link and 280 of unit tests",
-    ),
-    (
-        "crates/driveset-sim/src/twin/mod.rs",
-        "760 lines of twin format and 140 of unit tests",
+        "crates/driveset-engine/src/upload.rs",
+        "the transaction's steps, journal writer, rollback, dataset and report in one: the split is on branch engine-split, not landed",
     ),
 ];
 
