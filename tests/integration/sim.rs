@@ -554,3 +554,27 @@ fn factory_and_bench_arguments_are_checked() {
         assert!(out.stdout.is_empty(), "{args:?}");
     }
 }
+
+/// `--address` on a port of factory drives adds no drive of its own: the
+/// command talks to the new unit the port names (it answers address 1),
+/// not to a second drive slipped in beside it.
+#[test]
+fn address_on_a_factory_port_adds_no_drive() {
+    let out = driveset()
+        .args([
+            "identify",
+            "--port",
+            "sim://mc6000?factory=1",
+            "--address",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert_eq!(
+        stdout.lines().next(),
+        Some("port:     sim://mc6000?factory=1"),
+        "{stdout}"
+    );
+}

@@ -164,8 +164,7 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     // simulated bus which drives it holds.
     let mut sim = SimSpec::parse(port).map_err(bad_port)?;
     if let Some(a) = address
-        && sim.addresses.is_empty()
-        && !sim.is_mixed()
+        && !sim.names_drives()
     {
         sim.addresses.push(a);
     }

@@ -457,8 +457,8 @@ pub enum AssignStep {
 /// enough for [`recover`] to find the drive and finish.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct AssignRecord {
-    /// `lustbus` or `lecom`.
-    pub protocol: String,
+    /// `lustbus` or `lecom` (an unknown name is a journal error, never a guess).
+    pub protocol: BusProtocol,
     /// The family name.
     pub family: String,
     /// The address the drive was reached at (LUSTBUS 0, LECOM `--from`).
@@ -561,6 +561,28 @@ pub fn address_code(family: Family) -> Option<CodeKey> {
 /// The family's rate code.
 pub fn rate_code(family: Family) -> Option<CodeKey> {
     family.descriptor().line_rates.code.map(CodeKey::new)
+}
+
+/// The family's address and rate codes (its descriptor's role floor and
+/// line rates): refused, not guessed, for a family that has none.
+fn bus_codes(
+    family: Family,
+    schema: &Schema,
+    port: &str,
+) -> Result<(CodeKey, CodeKey), EngineError> {
+    let lacks = |what: &str| {
+        refuse(
+            port,
+            0,
+            AssignRefusal::SchemaLacks {
+                schema: schema.id.clone(),
+                code: format!("the {what} code of {}", family.descriptor().title),
+            },
+        )
+    };
+    let address = address_code(family).ok_or_else(|| lacks("bus-address"))?;
+    let rate = rate_code(family).ok_or_else(|| lacks("line-rate"))?;
+    Ok((address, rate))
 }
 
 /// The raw value of the address code meaning address `a` (a scaled
@@ -903,9 +925,8 @@ fn plan_lustbus(
             },
         ));
     }
-    let addr_key = address_code(family).unwrap_or(CodeKey::new(82));
+    let (addr_key, rate_key) = bus_codes(family, &schema, &port)?;
     need_type(&schema, &port, addr_key)?;
-    let rate_key = rate_code(family).unwrap_or(CodeKey::new(81));
     if req.baud.is_some_and(|b| b != rate) {
         need_type(&schema, &port, rate_key)?;
     }
@@ -1088,8 +1109,7 @@ fn plan_lecom(
             },
         )
     })?;
-    let addr_key = address_code(family).unwrap_or(CodeKey::new(9));
-    let rate_key = rate_code(family).unwrap_or(CodeKey::new(125));
+    let (addr_key, rate_key) = bus_codes(family, &schema, &port)?;
     need_type(&schema, &port, addr_key)?;
     let start = now(link);
     let opts = &req.scan;
@@ -1251,7 +1271,7 @@ pub fn assign(
 
 fn record_of(p: &AssignPlan) -> AssignRecord {
     AssignRecord {
-        protocol: p.protocol.name().to_string(),
+        protocol: p.protocol,
         family: p.family.name().to_string(),
         from: p.reached_at,
         old_address: p.old_address,
@@ -1405,8 +1425,7 @@ fn finish(link: &mut Link, p: &AssignPlan, jf: &mut JournalFile) -> Result<Done,
     let port = p.port.clone();
     let mut written = Vec::new();
     let mut verified = Vec::new();
-    let addr_key = address_code(p.family).unwrap_or(CodeKey::new(82));
-    let rate_key = rate_code(p.family).unwrap_or(CodeKey::new(81));
+    let (addr_key, rate_key) = bus_codes(p.family, &schema, &port)?;
     let lustbus = p.protocol == BusProtocol::Lustbus;
     // 1. the address
     if let Some(w) = p.writes.iter().find(|w| w.step == Step::Address) {
@@ -1640,7 +1659,7 @@ pub fn recover(
             state: format!("the journal is already {}", jf.journal.state.as_str()),
         });
     }
-    let protocol = BusProtocol::parse(&rec.protocol).unwrap_or(BusProtocol::Lustbus);
+    let protocol = rec.protocol;
     let family = Family::parse(&rec.family).map_err(|_| {
         EngineError::journal(name.clone(), format!("unknown family `{}`", rec.family))
     })?;
@@ -1653,8 +1672,7 @@ pub fn recover(
             },
         )
     })?;
-    let addr_key = address_code(family).unwrap_or(CodeKey::new(82));
-    let rate_key = rate_code(family).unwrap_or(CodeKey::new(81));
+    let (addr_key, rate_key) = bus_codes(family, &schema, &port)?;
     // search: addresses N then the old one; rates: new, old, then all
     let mut rates = Vec::new();
     for r in rec
