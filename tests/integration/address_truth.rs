@@ -8,14 +8,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{copy_dir, driveset, workspace_root};
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
-}
+use driveset_test_support::{copy_dir, driveset_in, workspace_root};
 
 const PRESS: &str = "[line]\nname = \"press\"\n\n[[bus]]\nname = \"press\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n[[drive]]\nname = \"axis-1\"\nbus = \"press\"\naddress = 1\nset = \"sets/press-axis-1.toml\"\n\n[[drive]]\nname = \"axis-2\"\nbus = \"press\"\naddress = 2\nset = \"sets/AXIS2\"\n";
 
@@ -47,12 +40,12 @@ fn a_set_copied_from_axis_1_is_caught_by_validate_and_refused_by_commission() {
     let line = d.join("ps/demo-line/press.toml");
     std::fs::write(&line, PRESS.replace("AXIS2", "press-axis-2.toml")).unwrap();
     // the demo sets give SADDR = the manifest's address: a no-op
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "ps/demo-line/press.toml"])
         .assert()
         .code(0);
 
-    in_dir(d)
+    driveset_in(d)
         .args([
             "pull",
             "--port",
@@ -81,7 +74,7 @@ fn a_set_copied_from_axis_1_is_caught_by_validate_and_refused_by_commission() {
     std::fs::write(d.join("ps/demo-line/sets/axis-2.toml"), &copy).unwrap();
     std::fs::write(&line, PRESS.replace("AXIS2", "axis-2.toml")).unwrap();
 
-    in_dir(d)
+    driveset_in(d)
         .args(["validate", "ps/demo-line/press.toml"])
         .assert()
         .code(1)
@@ -99,7 +92,7 @@ fn a_set_copied_from_axis_1_is_caught_by_validate_and_refused_by_commission() {
         ));
 
     let before = held(d, 2);
-    in_dir(d)
+    driveset_in(d)
         .args(["commission", "ps/demo-line/press.toml", "--fresh"])
         .assert()
         .code(1)

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset_at, workspace_root};
 
 const NAMES: [&str; 7] = [
     "press-axis-1",
@@ -42,12 +42,6 @@ fn setup() -> tempfile::TempDir {
     );
     std::fs::write(d.join("ps/demo-line/bench.toml"), line).unwrap();
     dir
-}
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir);
-    c
 }
 
 const LINE: &str = "ps/demo-line/bench.toml";
@@ -93,7 +87,7 @@ fn assign_yes_gives_seven_factory_drives_their_addresses_then_commissions() {
             i + 1
         ));
     }
-    let out = in_dir(d)
+    let out = driveset_at(d)
         .args(["commission", LINE, "--assign", "--yes"])
         .assert()
         .code(0)
@@ -127,7 +121,7 @@ fn assign_yes_gives_seven_factory_drives_their_addresses_then_commissions() {
 fn assign_interactive_prompts_for_each_drive_in_manifest_order() {
     let dir = setup();
     let d = dir.path();
-    let assert = in_dir(d)
+    let assert = driveset_at(d)
         .args(["commission", LINE, "--assign", "--prompt-stdin"])
         .write_stdin("\n".repeat(7))
         .assert()
@@ -150,7 +144,7 @@ fn assign_interactive_prompts_for_each_drive_in_manifest_order() {
 fn assign_without_yes_on_a_non_interactive_stdin_is_refused() {
     let dir = setup();
     let d = dir.path();
-    in_dir(d)
+    driveset_at(d)
         .args(["commission", LINE, "--assign"])
         .assert()
         .code(2)
@@ -171,7 +165,7 @@ fn a_can_bus_is_skipped_with_a_message() {
         "[line]\nname = \"can-line\"\n\n[[bus]]\nname = \"handling\"\nport = \"sim://ecs\"\nprotocol = \"can\"\nbitrate = 500000\n\n{handling}"
     );
     std::fs::write(d.join("ps/demo-line/can.toml"), line).unwrap();
-    in_dir(d)
+    driveset_at(d)
         .env("DRIVESET_SIM_STATE_DIR", d.join("sim"))
         .args(["commission", "ps/demo-line/can.toml", "--assign", "--yes"])
         .assert()

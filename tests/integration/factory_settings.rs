@@ -8,20 +8,13 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset, workspace_root};
+use driveset_test_support::{driveset_in, workspace_root};
 
 fn demo() -> String {
     workspace_root()
         .join("parameter-sets/demo-line/line.toml")
         .display()
         .to_string()
-}
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
 }
 
 fn report(dir: &Path) -> serde_json::Value {
@@ -69,7 +62,7 @@ fn status_of_a_factory_fresh_drive_says_factory_settings_then_commission_says_it
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("sim")).unwrap();
     // the simulated Tmd starts at its schema's defaults
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", &demo(), "--only", "transfer-12"])
         .assert()
         .code(1)
@@ -95,7 +88,7 @@ fn status_of_a_factory_fresh_drive_says_factory_settings_then_commission_says_it
         std::fs::read_to_string(dir.path().join("target/driveset-report/report.html")).unwrap();
     assert!(html.contains("<strong>At factory settings (a new or exchanged unit?):</strong>"));
 
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["commission", &demo(), "--only", "transfer-12"])
         .assert()
         .code(0)
@@ -112,7 +105,7 @@ fn status_of_a_factory_fresh_drive_says_factory_settings_then_commission_says_it
     assert!(html.contains("<strong>Was at factory settings (a new or exchanged unit?):</strong>"));
 
     // holds its set: neither drift nor factory
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", &demo(), "--only", "transfer-12"])
         .assert()
         .code(0)
@@ -125,7 +118,7 @@ fn status_of_a_factory_fresh_drive_says_factory_settings_then_commission_says_it
 
     // turned to 55 Hz on the keypad (the default is 50 Hz): plain drift
     set_c0011(dir.path(), 550_000);
-    in_dir(dir.path())
+    driveset_in(dir.path())
         .args(["status", &demo(), "--only", "transfer-12"])
         .assert()
         .code(1)

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{copy_dir, driveset, workspace_root};
+use driveset_test_support::{copy_dir, driveset_in, workspace_root};
 
 fn setup() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
@@ -22,13 +22,6 @@ fn setup() -> tempfile::TempDir {
         &d.join("ps/fixtures"),
     );
     dir
-}
-
-fn in_dir(dir: &Path) -> assert_cmd::Command {
-    let mut c = driveset();
-    c.current_dir(dir)
-        .env("DRIVESET_SIM_STATE_DIR", dir.join("sim"));
-    c
 }
 
 const LINE: &str = "ps/demo-line/line.toml";
@@ -52,7 +45,7 @@ fn a_factory_fresh_spare_gets_the_address_the_rate_and_the_whole_set() {
     let dir = setup();
     let d = dir.path();
     let port = spare(d, "mc6000");
-    let out = in_dir(d)
+    let out = driveset_in(d)
         .args(["replace", LINE, "--drive", "press-axis-3", "--port", &port, "--yes"])
         .assert()
         .code(0)
@@ -74,7 +67,7 @@ fn a_factory_fresh_spare_gets_the_address_the_rate_and_the_whole_set() {
     assert_eq!(address, 3);
     assert!(canonical.lines().any(|l| l == "82 3"), "{canonical}");
     assert!(canonical.lines().any(|l| l == "81 9600"), "{canonical}");
-    let fp = in_dir(d)
+    let fp = driveset_in(d)
         .args(["fingerprint", "ps/demo-line/sets/press-axis-3.toml"])
         .assert()
         .code(0)
@@ -122,7 +115,7 @@ fn replace_json_reports_the_virtual_time() {
     let dir = setup();
     let d = dir.path();
     let port = spare(d, "mc6000");
-    let out = in_dir(d)
+    let out = driveset_in(d)
         .args([
             "replace",
             LINE,
@@ -158,7 +151,7 @@ fn a_spare_of_another_family_is_refused_with_nothing_written() {
     let dir = setup();
     let d = dir.path();
     let port = spare(d, "vf1000");
-    in_dir(d)
+    driveset_in(d)
         .args(["replace", LINE, "--drive", "press-axis-3", "--port", &port, "--yes"])
         .assert()
         .code(2)
@@ -180,7 +173,7 @@ fn without_yes_a_non_interactive_stdin_is_refused_and_no_is_no() {
     let dir = setup();
     let d = dir.path();
     let port = spare(d, "mc6000");
-    in_dir(d)
+    driveset_in(d)
         .args(["replace", LINE, "--drive", "press-axis-3", "--port", &port])
         .write_stdin("y\n")
         .assert()
@@ -193,7 +186,7 @@ fn without_yes_a_non_interactive_stdin_is_refused_and_no_is_no() {
         "the port was not even opened"
     );
     // answered (the test hook reads stdin as a terminal would be read): no
-    in_dir(d)
+    driveset_in(d)
         .args(["replace", LINE, "--drive", "press-axis-3", "--port", &port, "--prompt-stdin"])
         .write_stdin("n\n")
         .assert()
@@ -203,7 +196,7 @@ fn without_yes_a_non_interactive_stdin_is_refused_and_no_is_no() {
         ));
     assert_eq!(spare_state(d).0, 1);
     // yes
-    in_dir(d)
+    driveset_in(d)
         .args([
             "replace",
             LINE,

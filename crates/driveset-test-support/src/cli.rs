@@ -23,6 +23,14 @@ pub fn driveset_with_sim_state(dir: &Path) -> Command {
     c
 }
 
+/// `driveset` run in `dir`, nothing else changed (a test whose `sim://`
+/// ports name their own `state=` files).
+pub fn driveset_at(dir: &Path) -> Command {
+    let mut c = driveset();
+    c.current_dir(dir);
+    c
+}
+
 /// `driveset` run in `dir` (journals, reports and learned files land
 /// there), its simulated drives' state in `DIR/sim`.
 pub fn driveset_in(dir: &Path) -> Command {

@@ -28,7 +28,7 @@ mod text;
 
 #[cfg(feature = "cli")]
 pub use cli::{
-    driveset, driveset_bin, driveset_in, driveset_in_with_locks, driveset_sim,
+    driveset, driveset_at, driveset_bin, driveset_in, driveset_in_with_locks, driveset_sim,
     driveset_with_sim_state, outcome,
 };
 pub use interop::{interop_or_skip, python, python_or_skip};
