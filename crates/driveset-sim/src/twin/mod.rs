@@ -192,8 +192,10 @@ impl Twin {
             reaction: None,
             ..t.clone()
         };
+        // at the file's resolution: whole microseconds (`reaction_*_us`)
+        let us = |d: Duration| d.as_micros();
         let within = match (self.reaction, other.reaction) {
-            (Some((lo, hi)), Some((olo, ohi))) => olo >= lo && ohi <= hi,
+            (Some((lo, hi)), Some((olo, ohi))) => us(olo) >= us(lo) && us(ohi) <= us(hi),
             (None, None) => true,
             _ => false,
         };
@@ -574,6 +576,13 @@ mod tests {
         again.captured = "2027-01-15".into();
         again.reaction = Some((Duration::from_micros(1600), Duration::from_micros(4000)));
         assert_eq!(keep_or_replace(Some(&old), &again, None), old);
+        // the file holds whole microseconds: a measured 4200.4 us is the
+        // recorded 4200 us, 4201 us is above it
+        let max = Duration::from_nanos(4_200_400);
+        again.reaction = Some((Duration::from_micros(1500), max));
+        assert_eq!(keep_or_replace(Some(&old), &again, None), old);
+        again.reaction = Some((Duration::from_micros(1500), Duration::from_micros(4201)));
+        assert_ne!(keep_or_replace(Some(&old), &again, None), old);
         again.reaction = Some((Duration::from_micros(1600), Duration::from_micros(9000)));
         assert_ne!(keep_or_replace(Some(&old), &again, None), old);
         let mut changed = t.clone();
