@@ -83,6 +83,17 @@ impl BusProtocol {
         Family::ALL.into_iter().filter(move |f| f.bus() == self)
     }
 
+    /// The one family this protocol carries, when it carries only one
+    /// (LECOM: Tmd; CAN SDO: ECS); `None` for LUSTBUS, whose line is
+    /// shared by VF1000 and MC6000/7000 (`lustbus-protocol.txt` §1).
+    pub fn only_family(self) -> Option<Family> {
+        let mut all = self.families();
+        match (all.next(), all.next()) {
+            (Some(f), None) => Some(f),
+            _ => None,
+        }
+    }
+
     /// Whether a drive of `family` runs on this bus.
     pub fn carries(self, family: Family) -> bool {
         family.bus() == self

@@ -294,3 +294,10 @@ width = 2
     assert_eq!(mc.store_time(c(12)), ms(0));
     assert_eq!(mc.ack_delay(c(10), true), ms(0));
 }
+
+#[test]
+fn a_protocol_names_its_only_family_when_it_has_one() {
+    assert_eq!(BusProtocol::Lecom.only_family(), Some(Family::Tmd));
+    assert_eq!(BusProtocol::CanSdo.only_family(), Some(Family::Ecs));
+    assert_eq!(BusProtocol::Lustbus.only_family(), None);
+}
