@@ -8,7 +8,8 @@
 use driveset_schema::CodeKey;
 
 use super::rollback::RollbackPlan;
-use super::transaction::{Attempt, out_of_order};
+use super::state::Attempt;
+use super::transaction::out_of_order;
 use super::{CodeOutcome, StepError, Transaction};
 use crate::client::{DatasetOutcome, DriveClient};
 use crate::error::{DeviceCause, EngineError, Refusal};
@@ -23,12 +24,12 @@ impl Transaction {
     pub fn open_dataset(&mut self, client: &mut dyn DriveClient) -> Result<bool, StepError> {
         let staged = self.staged().to_vec();
         if self.attempt.is_none() {
-            return Err(out_of_order(&self.target, "open_dataset", "journal"));
+            return Err(out_of_order(&self.drive.target, "open_dataset", "journal"));
         }
         if staged.is_empty() {
             return Ok(false);
         }
-        self.dataset_touched = true;
+        self.dataset.touched = true;
         self.opts
             .observer
             .enter(client.clock(), Step::Dataset, None);
@@ -50,29 +51,29 @@ impl Transaction {
             if a.staged.contains(k) {
                 a.broadcast.insert(*k);
             } else {
-                unknown.push(code_label(&self.schema, *k));
+                unknown.push(code_label(&self.drive.schema, *k));
             }
         }
         let names: Vec<String> = a
             .broadcast
             .iter()
-            .map(|k| k.canonical(self.schema.code_style))
+            .map(|k| k.canonical(self.drive.schema.code_style))
             .collect();
         let marked: Vec<CodeKey> = a.broadcast.iter().copied().collect();
         self.attempt = Some(a);
         if !unknown.is_empty() {
             return Err(StepError::Error(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 Refusal::BroadcastNotStaged { codes: unknown },
             )));
         }
         for k in marked {
-            self.records.entry(k).or_default().touched = true;
+            self.codes.records.entry(k).or_default().touched = true;
         }
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.journal.file {
             j.journal.broadcast = names;
             j.persist()?;
-            self.since_persist = 0;
+            self.journal.since_persist = 0;
         }
         Ok(())
     }
@@ -85,7 +86,7 @@ impl Transaction {
         if let Some(a) = &mut self.attempt {
             a.broadcast.clear();
         }
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.journal.file {
             j.journal.broadcast.clear();
         }
     }
@@ -135,7 +136,7 @@ impl Transaction {
                 return Ok(());
             }
             tx.opts.observer.enter(client.clock(), Step::Commit, None);
-            tx.dataset_ended = Some(client.dataset_end()?);
+            tx.dataset.ended = Some(client.dataset_end()?);
             Ok(())
         })
     }
@@ -147,8 +148,12 @@ impl Transaction {
             if a.staged.is_empty() {
                 return Ok(());
             }
-            let Some(ended) = tx.dataset_ended.take() else {
-                return Err(out_of_order(&tx.target, "await_dataset", "end_dataset"));
+            let Some(ended) = tx.dataset.ended.take() else {
+                return Err(out_of_order(
+                    &tx.drive.target,
+                    "await_dataset",
+                    "end_dataset",
+                ));
             };
             tx.opts.observer.enter(client.clock(), Step::Commit, None);
             let outcome = client.dataset_await(ended, tx.opts.dataset_timeout)?;
@@ -164,7 +169,7 @@ impl Transaction {
     ) -> Result<(), StepError> {
         match outcome {
             DatasetOutcome::Accepted => {
-                self.dataset_note = Some("accepted (SLOAD = 0)".into());
+                self.dataset.note = Some("accepted (SLOAD = 0)".into());
                 self.set_state(
                     client,
                     TxnState::Committed,
@@ -187,16 +192,17 @@ impl Transaction {
         parameter: u32,
         staged: &[CodeKey],
     ) -> StepError {
-        let name = code_label(&self.schema, CodeKey::new(parameter));
+        let name = code_label(&self.drive.schema, CodeKey::new(parameter));
         let detail = format!(
             "the drive rejected the dataset at parameter {name} (the first invalid value) and reactivated its old set; fix {name} in the set"
         );
-        self.dataset_note = Some(format!("rejected at parameter {name}"));
+        self.dataset.note = Some(format!("rejected at parameter {name}"));
         for k in staged {
-            self.set_outcome(*k, CodeOutcome::Failed("dataset rejected".into()));
+            self.codes
+                .set_outcome(*k, CodeOutcome::Failed("dataset rejected".into()));
         }
         let cause = EngineError::device(
-            self.target.clone(),
+            self.drive.target.clone(),
             "dataset download (80-SLOAD)",
             DeviceCause::DatasetRejected {
                 parameter,
@@ -205,12 +211,16 @@ impl Transaction {
             },
         );
         // confirm nothing changed
-        let n = Some(self.backup().len());
+        let n = Some(self.codes.backup().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
-        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
+        let plan = RollbackPlan::new(
+            &self.drive.schema,
+            &self.codes.backup(),
+            &self.codes.new_values(),
+        );
         match self.compare_with_backup(client, &plan) {
             Ok(diffs) if diffs.is_empty() => {
-                self.dataset_touched = false;
+                self.dataset.touched = false;
                 if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
                     return StepError::Settled(self.journal_lost(
                         e,
@@ -219,7 +229,7 @@ impl Transaction {
                     ));
                 }
                 StepError::Settled(EngineError::rolled_back(
-                    self.target.clone(),
+                    self.drive.target.clone(),
                     self.journal_path(),
                     detail,
                     cause,

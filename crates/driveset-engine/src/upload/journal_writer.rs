@@ -30,27 +30,27 @@ impl Transaction {
         note: Option<String>,
     ) -> Result<(), EngineError> {
         let at = client.clock().now().as_nanos();
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.journal.file {
             j.journal.transition(state, at, note);
             j.persist()?;
-            self.since_persist = 0;
-            self.on_disk = Some(state);
+            self.journal.since_persist = 0;
+            self.journal.on_disk = Some(state);
         }
         Ok(())
     }
 
     pub(super) fn note_written(&mut self, key: CodeKey) -> Result<(), EngineError> {
-        self.written_count += 1;
-        self.records.entry(key).or_default().outcome = CodeOutcome::Written;
+        self.progress.written += 1;
+        self.codes.records.entry(key).or_default().outcome = CodeOutcome::Written;
         let every = self.opts.journal_every.max(1);
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.journal.file {
             j.journal
                 .written
-                .push(key.canonical(self.schema.code_style));
-            self.since_persist += 1;
-            if self.since_persist >= every {
+                .push(key.canonical(self.drive.schema.code_style));
+            self.journal.since_persist += 1;
+            if self.journal.since_persist >= every {
                 j.persist()?;
-                self.since_persist = 0;
+                self.journal.since_persist = 0;
             }
         }
         Ok(())
@@ -60,8 +60,8 @@ impl Transaction {
         BackupEntry {
             number: key.number,
             subcode: key.subcode,
-            code: code_label(&self.schema, key),
-            secret: is_secret(&self.schema, key),
+            code: code_label(&self.drive.schema, key),
+            secret: is_secret(&self.drive.schema, key),
             old: JournalValue::from(v),
         }
     }
@@ -93,30 +93,32 @@ impl Transaction {
         let fingerprint_before = a.plan.fingerprint_before.clone();
         self.attempt = Some(a);
         let backup: Vec<BackupEntry> = self
+            .codes
             .records
             .iter()
             .filter_map(|(k, r)| r.backup.as_ref().map(|v| self.backup_entry(*k, v)))
             .collect();
         let unchanged: Vec<BackupEntry> = self
+            .codes
             .records
             .iter()
             .filter(|(_, r)| r.backup.is_none())
             .filter_map(|(k, r)| r.unchanged.as_ref().map(|v| self.backup_entry(*k, v)))
             .collect();
-        match &mut self.journal {
+        match &mut self.journal.file {
             None => {
                 let at = client.clock().now().as_nanos();
                 let mut journal = Journal {
                     journal_version: JOURNAL_VERSION,
                     state: TxnState::Planned,
                     target: JournalTarget::of(&*client),
-                    identity: (&self.identity).into(),
-                    schema: self.schema.id.clone(),
-                    schema_source: crate::journal::SchemaSource::of(&self.schema),
+                    identity: (&self.drive.identity).into(),
+                    schema: self.drive.schema.id.clone(),
+                    schema_source: crate::journal::SchemaSource::of(&self.drive.schema),
                     set_fingerprint,
                     fingerprint_before,
-                    dataset: self.popts.dataset,
-                    attempt: self.attempts,
+                    dataset: self.drive.popts.dataset,
+                    attempt: self.progress.attempts,
                     backup,
                     plan: records,
                     unchanged,
@@ -138,8 +140,8 @@ impl Transaction {
                 } else {
                     JournalFile::create(&self.opts.journal, journal)
                 };
-                self.journal = Some(file.map_err(StepError::Settled)?);
-                self.on_disk = Some(TxnState::Planned);
+                self.journal.file = Some(file.map_err(StepError::Settled)?);
+                self.journal.on_disk = Some(TxnState::Planned);
             }
             Some(j) => {
                 // keep codes only an earlier attempt planned (their new value is the set's)
@@ -155,7 +157,7 @@ impl Transaction {
                 j.journal.backup = backup;
                 j.journal.plan = records;
                 j.journal.unchanged = unchanged;
-                j.journal.attempt = self.attempts;
+                j.journal.attempt = self.progress.attempts;
                 j.journal.written.clear();
                 j.journal.broadcast.clear();
             }
@@ -173,7 +175,10 @@ impl Transaction {
         state: TxnState,
         drive: &str,
     ) -> EngineError {
-        let on_disk = self.on_disk.map_or("an earlier state", TxnState::as_str);
+        let on_disk = self
+            .journal
+            .on_disk
+            .map_or("an earlier state", TxnState::as_str);
         EngineError::journal(
             self.journal_path(),
             format!(

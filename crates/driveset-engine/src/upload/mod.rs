@@ -61,6 +61,7 @@ mod dataset;
 mod journal_writer;
 mod report;
 mod rollback;
+mod state;
 mod transaction;
 mod write;
 

@@ -268,43 +268,44 @@ impl Transaction {
             Ok(()) => Ok(report),
             Err(e) => Err(UploadFailure {
                 error: Box::new(e),
-                report: self.journal.as_ref().map(|_| Box::new(report)),
+                report: self.journal.file.as_ref().map(|_| Box::new(report)),
             }),
         }
     }
 
     /// The report so far.
     pub fn report(&self, client: &dyn DriveClient, set: &ResolvedSet) -> UploadReport {
-        let stats = self.stats(client);
+        let stats = self.counters.total(client);
         let state = self
             .journal
+            .file
             .as_ref()
             .map(|j| j.journal.state)
             .unwrap_or(TxnState::Complete);
         let mut codes = Vec::new();
-        for k in &self.order {
-            let r = self.records.get(k).cloned().unwrap_or_default();
+        for k in &self.codes.order {
+            let r = self.codes.records.get(k).cloned().unwrap_or_default();
             let (old, new) = r.texts;
             codes.push(CodeReport {
                 number: k.number,
                 subcode: k.subcode,
-                code: code_label(&self.schema, *k),
+                code: code_label(&self.drive.schema, *k),
                 old,
                 new,
                 storage: r.storage,
                 outcome: r.outcome,
             });
         }
-        for (k, r) in &self.records {
+        for (k, r) in &self.codes.records {
             let Some(v) = &r.unchanged else { continue };
             if r.new.is_some() {
                 continue;
             }
-            let t = value_text(&self.schema, *k, v);
+            let t = value_text(&self.drive.schema, *k, v);
             codes.push(CodeReport {
                 number: k.number,
                 subcode: k.subcode,
-                code: code_label(&self.schema, *k),
+                code: code_label(&self.drive.schema, *k),
                 old: t.clone(),
                 new: t,
                 storage: None,
@@ -312,38 +313,40 @@ impl Transaction {
             });
         }
         let fingerprint_after = match state {
-            TxnState::Complete => Some(self.after(set).fingerprint()),
+            TxnState::Complete => Some(self.codes.after(&self.drive.schema, set).fingerprint()),
             TxnState::RolledBack => Some(
-                self.rolled_back_to
+                self.progress
+                    .rolled_back_to
                     .clone()
-                    .unwrap_or_else(|| self.fingerprint_before.clone()),
+                    .unwrap_or_else(|| self.progress.fingerprint_before.clone()),
             ),
             _ => None,
         };
         UploadReport {
-            target: self.target.to_string(),
-            identity: self.identity.clone(),
-            schema: self.schema.id.clone(),
+            target: self.drive.target.to_string(),
+            identity: self.drive.identity.clone(),
+            schema: self.drive.schema.id.clone(),
             journal: self
                 .journal
+                .file
                 .as_ref()
                 .map(|j| j.path().display().to_string()),
             state,
             set_fingerprint: set.fingerprint(),
-            fingerprint_before: self.fingerprint_before.clone(),
+            fingerprint_before: self.progress.fingerprint_before.clone(),
             fingerprint_after,
             codes_in_set: set.values.len(),
-            codes_written: self.written_count,
-            attempts: self.attempts,
+            codes_written: self.progress.written,
+            attempts: self.progress.attempts,
             telegrams: stats.telegrams,
             retries: stats.retries,
-            elapsed: client.clock().now() - self.start,
-            interleaved_reads: self.interleaved,
-            dataset: self.dataset_note.clone(),
+            elapsed: client.clock().now() - self.counters.start,
+            interleaved_reads: self.progress.interleaved,
+            dataset: self.dataset.note.clone(),
             sload_polls: Some(stats.sload_polls).filter(|n| *n > 0),
             late_replies: stats.late,
             codes,
-            warnings: self.warnings.clone(),
+            warnings: self.progress.warnings.clone(),
             transfer: None,
         }
     }

@@ -27,7 +27,7 @@ impl Transaction {
     ) -> Result<Vec<CodeKey>, EngineError> {
         let mut diffs = Vec::new();
         let keys: BTreeSet<CodeKey> = plan.keys().collect();
-        let mut held = ResolvedSet::new(&self.schema);
+        let mut held = ResolvedSet::new(&self.drive.schema);
         for k in keys {
             let now = client.read(k)?;
             if !plan.holds(k, &now) {
@@ -38,14 +38,14 @@ impl Transaction {
         if held
             .values
             .iter()
-            .any(|(k, v)| self.backup().get(k) != Some(v))
+            .any(|(k, v)| self.codes.backup().get(k) != Some(v))
         {
-            for (k, r) in &self.records {
+            for (k, r) in &self.codes.records {
                 if let Some(v) = &r.unchanged {
                     held.insert(*k, v.clone());
                 }
             }
-            self.rolled_back_to = Some(held.fingerprint());
+            self.progress.rolled_back_to = Some(held.fingerprint());
         }
         Ok(diffs)
     }
@@ -53,11 +53,11 @@ impl Transaction {
     /// Roll back after `cause`; returns the error to report.
     pub(super) fn fail(&mut self, client: &mut dyn DriveClient, cause: EngineError) -> EngineError {
         let cause_text = cause.to_string();
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.journal.file {
             j.journal.failure = Some(cause_text.clone());
             j.journal.failure_cause = Some(FailureCause::of(&cause));
         }
-        let n = Some(self.touched().len());
+        let n = Some(self.codes.touched().len());
         self.opts.observer.enter(client.clock(), Step::Rollback, n);
         if let Err(e) = self.set_state(client, TxnState::RollingBack, Some(cause_text.clone())) {
             // The journal on disk still says an earlier state and holds the
@@ -68,27 +68,31 @@ impl Transaction {
                 &format!("{cause_text}; nothing was rolled back"),
             );
         }
-        let plan = RollbackPlan::new(&self.schema, &self.backup(), &self.new_values());
-        let notes = plan.notes(&self.schema, &self.touched());
+        let plan = RollbackPlan::new(
+            &self.drive.schema,
+            &self.codes.backup(),
+            &self.codes.new_values(),
+        );
+        let notes = plan.notes(&self.drive.schema, &self.codes.touched());
         let restore_result = restore(
             client,
-            &self.schema,
-            &self.phased_order(),
+            &self.drive.schema,
+            &self.codes.phased_order(),
             &plan.restore,
-            &self.touched(),
-            self.dataset_touched,
+            &self.codes.touched(),
+            self.dataset.touched,
             self.opts.dataset_timeout,
         )
         .and_then(|()| self.compare_with_backup(client, &plan));
         match restore_result {
             Ok(diffs) if diffs.is_empty() => {
-                for k in self.touched() {
-                    let r = self.records.entry(k).or_default();
+                for k in self.codes.touched() {
+                    let r = self.codes.records.entry(k).or_default();
                     if !matches!(r.outcome, CodeOutcome::Failed(_)) {
                         r.outcome = CodeOutcome::Restored;
                     }
                 }
-                self.warnings.extend(notes.iter().cloned());
+                self.progress.warnings.extend(notes.iter().cloned());
                 let with_notes = std::iter::once(cause_text.clone())
                     .chain(notes.iter().cloned())
                     .collect::<Vec<_>>()
@@ -102,7 +106,7 @@ impl Transaction {
                     );
                 }
                 EngineError::rolled_back(
-                    self.target.clone(),
+                    self.drive.target.clone(),
                     self.journal_path(),
                     with_notes,
                     cause,
@@ -114,18 +118,23 @@ impl Transaction {
                         "after restoring, {} still differ from the backup",
                         diffs
                             .iter()
-                            .map(|k| code_label(&self.schema, *k))
+                            .map(|k| code_label(&self.drive.schema, *k))
                             .collect::<Vec<_>>()
                             .join(", ")
                     ),
                     Err(e) => format!("restoring the old values failed: {e}"),
                 };
-                let holding = holdings(client, &self.schema, &self.backup(), &self.new_values());
+                let holding = holdings(
+                    client,
+                    &self.drive.schema,
+                    &self.codes.backup(),
+                    &self.codes.new_values(),
+                );
                 let detail = format!(
                     "{cause_text}; {restore_err}; {}",
                     describe_holdings(&holding)
                 );
-                if let Some(j) = &mut self.journal {
+                if let Some(j) = &mut self.journal.file {
                     j.journal.holding = holding;
                 }
                 if let Err(e) = self.set_state(client, TxnState::Failed, Some(detail.clone())) {
@@ -135,7 +144,7 @@ impl Transaction {
                         &format!("the drive holds a mix of old and new values: {detail}"),
                     );
                 }
-                EngineError::inconsistent(self.target.clone(), self.journal_path(), detail)
+                EngineError::inconsistent(self.drive.target.clone(), self.journal_path(), detail)
             }
         }
     }

@@ -1,65 +1,25 @@
-//! The transaction's state ([`Transaction`]: per code one record, the
-//! current attempt, the counters the report needs) and the steps that
-//! frame an attempt: [`Transaction::begin`] (check, unfinished-journal
-//! guard, identify), [`Transaction::replan`] (read back, plan) and
-//! [`Transaction::stopped`] (roll back, or redo after a drive restart);
-//! the other steps are in the sibling modules (module docs of
-//! `crate::upload`).
+//! The transaction ([`Transaction`]: its parts are in `state.rs`) and the
+//! steps that frame an attempt: [`Transaction::begin`] (check,
+//! unfinished-journal guard, identify), [`Transaction::replan`] (read
+//! back, plan) and [`Transaction::stopped`] (roll back, or redo after a
+//! drive restart); the other steps are in the sibling modules (module
+//! docs of `crate::upload`).
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
 
-use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
+use driveset_schema::{CodeKey, ResolvedSet};
 
+use super::state::{Attempt, Codes, Counters, DatasetState, Drive, JournalState, Progress};
 use super::{
     CodeOutcome, Next, Replanned, StepError, UploadOptions, check_unfinished, read_observed,
     refused,
 };
-use crate::client::{ClientStats, DriveClient, Identity, Target};
+use crate::client::{DriveClient, Identity, Target};
 use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::journal::{JournalFile, TxnState};
 use crate::observe::{Hook, Phase as Step};
-use crate::plan::{Phase, Plan, PlanOptions, Running, Storage, check_set, plan, value_text};
-
-/// One code of a transaction: everything the runner knows about it.
-#[derive(Debug, Clone, Default)]
-pub(super) struct CodeRecord {
-    /// The old value (the first attempt's), once the code was planned.
-    pub(super) backup: Option<RawValue>,
-    /// The set's value, once the code was planned.
-    pub(super) new: Option<RawValue>,
-    /// Old and new value for humans.
-    pub(super) texts: (String, String),
-    /// How the drive keeps it.
-    pub(super) storage: Option<Storage>,
-    /// The phase of the latest plan that wrote it.
-    pub(super) phase: Option<Phase>,
-    /// What happened to it.
-    pub(super) outcome: CodeOutcome,
-    /// A write was sent to it in some attempt (it may have landed).
-    pub(super) touched: bool,
-    /// The value the latest read-back found equal to the set's.
-    pub(super) unchanged: Option<RawValue>,
-    /// The value read back equal to the set's after writing it.
-    pub(super) verified: Option<RawValue>,
-}
-
-/// The current attempt's plan and its progress.
-#[derive(Debug)]
-pub(super) struct Attempt {
-    pub(super) plan: Plan,
-    /// New values of the planned writes.
-    pub(super) expected: BTreeMap<CodeKey, RawValue>,
-    /// Written, not yet read back (oldest first).
-    pub(super) pending: VecDeque<CodeKey>,
-    /// The dataset's writes, in plan order.
-    pub(super) staged: Vec<CodeKey>,
-    /// Dataset writes a broadcast sends instead of this drive's own
-    /// SELECT ([`Transaction::expect_broadcast`]).
-    pub(super) broadcast: BTreeSet<CodeKey>,
-    /// Broadcast codes already repaired by an own write.
-    pub(super) repaired: BTreeSet<CodeKey>,
-}
+use crate::plan::{Phase, Plan, PlanOptions, Running, check_set, plan, value_text};
 
 /// An upload as explicit steps, for a caller that drives them one by one
 /// (the line runner's broadcast); [`super::upload`] runs them in order.
@@ -80,61 +40,22 @@ pub(super) struct Attempt {
 /// error names both what the drive holds and the journal failure.
 #[derive(Debug)]
 pub struct Transaction {
-    pub(super) schema: Arc<Schema>,
-    pub(super) target: Target,
+    /// The drive it is for.
+    pub(super) drive: Drive,
+    /// How it runs.
     pub(super) opts: UploadOptions,
-    pub(super) popts: PlanOptions,
-    pub(super) identity: Identity,
-    pub(super) journal: Option<JournalFile>,
-    /// The state the journal on disk holds (the last one persisted).
-    pub(super) on_disk: Option<TxnState>,
-    /// Every code the transaction planned or found unchanged.
-    pub(super) records: BTreeMap<CodeKey, CodeRecord>,
-    /// Planned codes in write order (latest plan; earlier attempts' extra
-    /// codes after).
-    pub(super) order: Vec<CodeKey>,
+    /// Its journal.
+    pub(super) journal: JournalState,
+    /// Every code it planned or found unchanged, in write order.
+    pub(super) codes: Codes,
+    /// The current attempt.
     pub(super) attempt: Option<Attempt>,
-    pub(super) since_persist: usize,
-    pub(super) dataset_touched: bool,
-    /// When SLOAD = -2 was ACKed ([`Transaction::end_dataset`]).
-    pub(super) dataset_ended: Option<driveset_link::Instant>,
-    pub(super) dataset_note: Option<String>,
-    pub(super) interleaved: usize,
-    pub(super) written_count: usize,
-    pub(super) attempts: u32,
-    pub(super) fingerprint_before: String,
-    /// After a rollback that left a control word stopped instead of
-    /// restoring its running value: the fingerprint of what the drive
-    /// holds (read back), which is then not `fingerprint_before`.
-    pub(super) rolled_back_to: Option<String>,
-    pub(super) warnings: Vec<String>,
-    pub(super) start: driveset_link::Instant,
-    /// The attached client's counters when it was attached.
-    pub(super) stats0: ClientStats,
-    /// What earlier (detached) clients did.
-    pub(super) carried: ClientStats,
-}
-
-fn stats_add(a: ClientStats, b: ClientStats) -> ClientStats {
-    ClientStats {
-        telegrams: a.telegrams + b.telegrams,
-        retries: a.retries + b.retries,
-        sent: a.sent + b.sent,
-        received: a.received + b.received,
-        late: a.late + b.late,
-        sload_polls: a.sload_polls + b.sload_polls,
-    }
-}
-
-fn stats_since(now: ClientStats, then: ClientStats) -> ClientStats {
-    ClientStats {
-        telegrams: now.telegrams.saturating_sub(then.telegrams),
-        retries: now.retries.saturating_sub(then.retries),
-        sent: now.sent.saturating_sub(then.sent),
-        received: now.received.saturating_sub(then.received),
-        late: now.late.saturating_sub(then.late),
-        sload_polls: now.sload_polls.saturating_sub(then.sload_polls),
-    }
+    /// The MC6000/7000 dataset handshake.
+    pub(super) dataset: DatasetState,
+    /// What it has done so far, for the report.
+    pub(super) progress: Progress,
+    /// Time and telegram counts across the clients it went through.
+    pub(super) counters: Counters,
 }
 
 /// A step called out of order (a caller's mistake, not the drive's).
@@ -159,8 +80,7 @@ impl Transaction {
     ) -> Result<Transaction, EngineError> {
         let schema = client.schema().clone();
         let target = client.target().clone();
-        let start = client.clock().now();
-        let stats0 = client.stats();
+        let counters = Counters::new(&*client);
         let mut popts = PlanOptions {
             overrides: opts.overrides,
             dataset: client.has_dataset_download(),
@@ -184,40 +104,30 @@ impl Transaction {
             return Err(refused(&target, problems));
         }
         Ok(Transaction {
-            schema,
-            target,
+            drive: Drive {
+                schema,
+                target,
+                identity,
+                popts,
+            },
             opts: opts.clone(),
-            popts,
-            identity,
-            journal: None,
-            on_disk: None,
-            records: BTreeMap::new(),
-            order: Vec::new(),
+            journal: JournalState::default(),
+            codes: Codes::default(),
             attempt: None,
-            since_persist: 0,
-            dataset_touched: false,
-            dataset_ended: None,
-            rolled_back_to: None,
-            dataset_note: None,
-            interleaved: 0,
-            written_count: 0,
-            attempts: 0,
-            fingerprint_before: String::new(),
-            warnings: Vec::new(),
-            start,
-            stats0,
-            carried: ClientStats::default(),
+            dataset: DatasetState::default(),
+            progress: Progress::default(),
+            counters,
         })
     }
 
     /// What the drive said it is.
     pub fn identity(&self) -> &Identity {
-        &self.identity
+        &self.drive.identity
     }
 
     /// The journal file, once [`Transaction::journal`] created it.
     pub fn journal_file(&self) -> Option<&JournalFile> {
-        self.journal.as_ref()
+        self.journal.file.as_ref()
     }
 
     /// The current attempt's plan (after [`Transaction::replan`]).
@@ -234,14 +144,13 @@ impl Transaction {
     /// The client the next steps go through is no longer `client`: keep
     /// its telegram counts for the report.
     pub fn detach(&mut self, client: &dyn DriveClient) {
-        self.carried = stats_add(self.carried, stats_since(client.stats(), self.stats0));
-        self.stats0 = client.stats();
+        self.counters.detach(client);
     }
 
     /// The next steps go through `client` (after [`Transaction::detach`]
     /// of the previous one).
     pub fn attach(&mut self, client: &dyn DriveClient) {
-        self.stats0 = client.stats();
+        self.counters.attach(client);
     }
 
     /// The steps from now on report to `hook` (a caller that splits a
@@ -252,54 +161,13 @@ impl Transaction {
 
     /// Note for the report.
     pub fn warn(&mut self, note: String) {
-        self.warnings.push(note);
-    }
-
-    pub(super) fn stats(&self, client: &dyn DriveClient) -> ClientStats {
-        stats_add(self.carried, stats_since(client.stats(), self.stats0))
-    }
-
-    /// Old values by code (the journal's backup).
-    pub(super) fn backup(&self) -> BTreeMap<CodeKey, RawValue> {
-        self.records
-            .iter()
-            .filter_map(|(k, r)| r.backup.clone().map(|v| (*k, v)))
-            .collect()
-    }
-
-    /// The planned codes' new values.
-    pub(super) fn new_values(&self) -> BTreeMap<CodeKey, RawValue> {
-        self.records
-            .iter()
-            .filter_map(|(k, r)| r.new.clone().map(|v| (*k, v)))
-            .collect()
-    }
-
-    /// Codes a write was sent to.
-    pub(super) fn touched(&self) -> BTreeSet<CodeKey> {
-        self.records
-            .iter()
-            .filter(|(_, r)| r.touched)
-            .map(|(k, _)| *k)
-            .collect()
-    }
-
-    /// Write order with each code's phase.
-    pub(super) fn phased_order(&self) -> Vec<(CodeKey, Phase)> {
-        self.order
-            .iter()
-            .filter_map(|k| self.records.get(k).and_then(|r| r.phase).map(|p| (*k, p)))
-            .collect()
-    }
-
-    pub(super) fn set_outcome(&mut self, key: CodeKey, outcome: CodeOutcome) {
-        self.records.entry(key).or_default().outcome = outcome;
+        self.progress.warnings.push(note);
     }
 
     pub(super) fn take_attempt(&mut self, step: &str, before: &str) -> Result<Attempt, StepError> {
         self.attempt
             .take()
-            .ok_or_else(|| out_of_order(&self.target, step, before))
+            .ok_or_else(|| out_of_order(&self.drive.target, step, before))
     }
 
     /// Runs `f` on the current attempt, which stays current whatever `f`
@@ -342,38 +210,40 @@ impl Transaction {
         client: &mut dyn DriveClient,
         set: &ResolvedSet,
     ) -> Result<Replanned, StepError> {
-        self.attempts += 1;
+        self.progress.attempts += 1;
         self.attempt = None;
         let hook = &self.opts.observer;
         let current = read_observed(client, set.values.keys().copied(), hook, Step::Read)?;
         hook.enter(client.clock(), Step::Plan, None);
-        let mut planned = plan(&self.schema, set, &current, &self.popts);
-        if self.popts.running == Running::NotRead && planned.as_ref().is_ok_and(|p| !p.is_empty()) {
+        let mut planned = plan(&self.drive.schema, set, &current, &self.drive.popts);
+        if self.drive.popts.running == Running::NotRead
+            && planned.as_ref().is_ok_and(|p| !p.is_empty())
+        {
             // the running check is part of planning (one status read)
-            self.popts.running = client.running()?.into();
-            planned = plan(&self.schema, set, &current, &self.popts);
+            self.drive.popts.running = client.running()?.into();
+            planned = plan(&self.drive.schema, set, &current, &self.drive.popts);
         }
         let plan = match planned {
             Ok(p) => p,
             Err(problems) => {
-                let e = refused(&self.target, problems);
-                return Err(if self.journal.is_none() {
+                let e = refused(&self.drive.target, problems);
+                return Err(if self.journal.file.is_none() {
                     StepError::Settled(e)
                 } else {
                     StepError::Error(e)
                 });
             }
         };
-        if self.attempts == 1 {
-            self.fingerprint_before = plan.fingerprint_before.clone();
-            self.warnings.extend(plan.warnings.iter().cloned());
+        if self.progress.attempts == 1 {
+            self.progress.fingerprint_before = plan.fingerprint_before.clone();
+            self.progress.warnings.extend(plan.warnings.iter().cloned());
         }
-        for r in self.records.values_mut() {
+        for r in self.codes.records.values_mut() {
             r.unchanged = None;
         }
         for k in &plan.unchanged {
             if let Some(v) = current.values.get(k) {
-                let r = self.records.entry(*k).or_default();
+                let r = self.codes.records.entry(*k).or_default();
                 r.unchanged = Some(v.clone());
                 // written by an earlier attempt and read back equal now
                 if r.new.as_ref() == Some(v) {
@@ -383,8 +253,8 @@ impl Transaction {
             }
         }
         for w in &plan.writes {
-            let schema = Arc::clone(&self.schema);
-            let r = self.records.entry(w.key).or_default();
+            let schema = Arc::clone(&self.drive.schema);
+            let r = self.codes.records.entry(w.key).or_default();
             let old = r.backup.get_or_insert_with(|| w.old.clone());
             let old_text = value_text(&schema, w.key, old);
             r.new = Some(w.new.clone());
@@ -395,13 +265,13 @@ impl Transaction {
         }
         // write order: this plan's, then codes only an earlier attempt planned
         let mut order: Vec<CodeKey> = plan.writes.iter().map(|w| w.key).collect();
-        for k in &self.order {
+        for k in &self.codes.order {
             if !order.contains(k) {
                 order.push(*k);
             }
         }
-        self.order = order;
-        let nothing = plan.is_empty() && self.journal.is_none();
+        self.codes.order = order;
+        let nothing = plan.is_empty() && self.journal.file.is_none();
         let expected = plan.writes.iter().map(|w| (w.key, w.new.clone())).collect();
         let staged = plan
             .writes
@@ -432,11 +302,11 @@ impl Transaction {
             StepError::Settled(e) => Next::Failed(e),
             StepError::Error(e)
                 if matches!(*e.kind, ErrorKind::Restarted { .. })
-                    && self.attempts <= self.opts.max_restarts =>
+                    && self.progress.attempts <= self.opts.max_restarts =>
             {
-                if self.journal.is_some() {
+                if self.journal.file.is_some() {
                     let note = format!("{e}; redoing from the read-back");
-                    self.warnings.push(note.clone());
+                    self.progress.warnings.push(note.clone());
                     if let Err(je) = self.set_state(client, TxnState::Planned, Some(note)) {
                         return Next::Failed(self.fail(client, je));
                     }
@@ -444,7 +314,7 @@ impl Transaction {
                 Next::Redo
             }
             StepError::Error(e) => {
-                if self.journal.is_none() {
+                if self.journal.file.is_none() {
                     Next::Failed(e)
                 } else {
                     Next::Failed(self.fail(client, e))

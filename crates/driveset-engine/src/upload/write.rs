@@ -6,7 +6,7 @@
 
 use driveset_schema::{CodeKey, ResolvedSet};
 
-use super::transaction::Attempt;
+use super::state::Attempt;
 use super::{CodeOutcome, StepError, Strategy, Transaction};
 use crate::client::DriveClient;
 use crate::error::{EngineError, ErrorKind};
@@ -61,27 +61,13 @@ impl Transaction {
             }
             Ok(())
         })?;
-        let after_fp = self.after(set).fingerprint();
+        let after_fp = self.codes.after(&self.drive.schema, set).fingerprint();
         self.set_state(
             client,
             TxnState::Complete,
             Some(format!("drive holds {after_fp}")),
         )?;
         Ok(())
-    }
-
-    /// What the drive holds now, over the set's codes (verified or found
-    /// unchanged).
-    pub(super) fn after(&self, set: &ResolvedSet) -> ResolvedSet {
-        let mut after = ResolvedSet::new(&self.schema);
-        for k in set.values.keys() {
-            if let Some(r) = self.records.get(k)
-                && let Some(v) = r.verified.as_ref().or(r.unchanged.as_ref())
-            {
-                after.insert(*k, v.clone());
-            }
-        }
-        after
     }
 
     pub(super) fn write(
@@ -93,14 +79,14 @@ impl Transaction {
         let Some(v) = a.expected.get(&key) else {
             return Ok(());
         };
-        self.records.entry(key).or_default().touched = true;
+        self.codes.records.entry(key).or_default().touched = true;
         if let Err(e) = client.write(key, v) {
             // A refusal the drive gave with its own cause (LUSTBUS / LECOM
             // NAK: "the parameter value was not changed"; an SDO abort) left
             // the code as it was: there is nothing of it to roll back. Any
             // other failure (no answer, a garbled one) may or may not have
             // landed, so the code stays touched (a broadcast one always).
-            let r = self.records.entry(key).or_default();
+            let r = self.codes.records.entry(key).or_default();
             if matches!(*e.kind, ErrorKind::Device { .. }) && !a.broadcast.contains(&key) {
                 r.touched = false;
             }
@@ -108,8 +94,8 @@ impl Transaction {
             return Err(StepError::Error(e));
         }
         self.note_written(key)?;
-        let touched = self.records.values().filter(|r| r.touched).count();
-        let (done, total) = (touched, self.order.len().max(touched));
+        let touched = self.codes.records.values().filter(|r| r.touched).count();
+        let (done, total) = (touched, self.codes.order.len().max(touched));
         self.opts
             .observer
             .step(client.clock(), Step::Write, done, total);
@@ -152,7 +138,7 @@ impl Transaction {
                 break;
             };
             self.verify_one(client, k, a)?;
-            self.interleaved += 1;
+            self.progress.interleaved += 1;
         }
         client.clock().sleep_until(ready);
         Ok(())
@@ -170,7 +156,8 @@ impl Transaction {
         let got = match client.read(key) {
             Ok(v) => v,
             Err(e) => {
-                self.set_outcome(key, CodeOutcome::Failed(format!("verify: {e}")));
+                self.codes
+                    .set_outcome(key, CodeOutcome::Failed(format!("verify: {e}")));
                 return Err(StepError::Error(e));
             }
         };
@@ -179,34 +166,40 @@ impl Transaction {
             // the value is written on its own, then read back.
             let note = format!(
                 "{}: the broadcast value did not land (reads back {}); written on its own and verified",
-                code_label(&self.schema, key),
-                value_text(&self.schema, key, &got)
+                code_label(&self.drive.schema, key),
+                value_text(&self.drive.schema, key, &got)
             );
-            self.warnings.push(note);
+            self.progress.warnings.push(note);
             self.write(client, key, a)?;
             return self.verify_one(client, key, a);
         }
         if got != want {
             let detail = format!(
                 "reads back {} instead of {}; the drive did not take the value",
-                value_text(&self.schema, key, &got),
-                value_text(&self.schema, key, &want)
+                value_text(&self.drive.schema, key, &got),
+                value_text(&self.drive.schema, key, &want)
             );
-            self.set_outcome(key, CodeOutcome::Failed(detail.clone()));
+            self.codes
+                .set_outcome(key, CodeOutcome::Failed(detail.clone()));
             return Err(StepError::Error(EngineError::protocol(
-                self.target.clone(),
-                format!("verify {}", code_label(&self.schema, key)),
+                self.drive.target.clone(),
+                format!("verify {}", code_label(&self.drive.schema, key)),
                 detail,
             )));
         }
-        let r = self.records.entry(key).or_default();
+        let r = self.codes.records.entry(key).or_default();
         r.outcome = CodeOutcome::Verified;
         r.verified = Some(got);
         if self.opts.observer.is_set() {
             let done = a
                 .expected
                 .keys()
-                .filter(|k| self.records.get(k).is_some_and(|r| r.verified.is_some()))
+                .filter(|k| {
+                    self.codes
+                        .records
+                        .get(k)
+                        .is_some_and(|r| r.verified.is_some())
+                })
                 .count();
             self.opts
                 .observer
