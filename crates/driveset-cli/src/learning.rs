@@ -11,9 +11,9 @@ use driveset_engine::client::DriveClient;
 use driveset_engine::learn::{LearnOptions, Learned, needs_learning};
 use driveset_engine::session::{self, LearnPolicy, Session, SessionPolicy};
 use driveset_link::Link;
-use driveset_sim::open::SimLink;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{Family, Schema};
+use driveset_sim::open::SimLink;
 use serde_json::json;
 
 use crate::port::{self, Fail, OpenPort};

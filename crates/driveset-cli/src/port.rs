@@ -395,7 +395,6 @@ pub fn connect_options(spec: &PortSpec) -> ConnectOptions {
     }
 }
 
-
 /// The schemas every command knows ([`crate::output::registry`]).
 pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
     crate::output::registry(dirs).map_err(|e| Fail::input(e.render_human_string()))

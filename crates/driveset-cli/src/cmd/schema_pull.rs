@@ -11,8 +11,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use driveset_engine::session::Session;
 use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
+use driveset_engine::session::Session;
 use serde_json::json;
 
 use super::identify::BusFormat;

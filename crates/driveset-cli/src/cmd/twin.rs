@@ -16,11 +16,11 @@ use std::sync::Arc;
 
 use driveset_engine::capture::{Capture, capture, mc_descriptions};
 use driveset_engine::client::DriveClient;
-use driveset_engine::session::Session;
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
+use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;

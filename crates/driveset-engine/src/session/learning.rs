@@ -65,14 +65,11 @@ pub fn learn_on<L: ByteLink>(
     let id = rendered.id.clone();
     let file = match &policy.dir {
         Some(dir) => {
-            policy
-                .env
-                .create_dir(dir)
-                .map_err(|e| SessionError::File {
-                    action: "create",
-                    path: dir.clone(),
-                    detail: e.to_string(),
-                })?;
+            policy.env.create_dir(dir).map_err(|e| SessionError::File {
+                action: "create",
+                path: dir.clone(),
+                detail: e.to_string(),
+            })?;
             let path = dir.join(format!("{id}.toml"));
             policy
                 .env
