@@ -73,14 +73,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "crates/driveset-engine/src/line/commission.rs",
         "about ten jobs (run, resume, per-drive work, learning, two broadcasts): the split is on branch session, not landed",
     ),
-    (
-        "crates/driveset-engine/src/transfer.rs",
-        "the rate switch, its journal record and its recovery: the split is on branch engine-split, not landed",
-    ),
-    (
-        "crates/driveset-engine/src/upload.rs",
-        "the transaction's steps, journal writer, rollback, dataset and report in one: the split is on branch engine-split, not landed",
-    ),
 ];
 
 /// Where the engine may touch files itself, beyond journal.rs's `store`

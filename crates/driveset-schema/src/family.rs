@@ -438,6 +438,15 @@ impl Descriptor {
         self.bus == BusProtocol::CanSdo
     }
 
+    /// Whether a new line rate takes effect only at the drive's next
+    /// restart: a LUSTBUS family without [`LineRates::online`]
+    /// (`lustbus-protocol.txt` §11.5: "the change first becomes active
+    /// once the device is restarted"; only the servocontroller activates
+    /// one online). `false` off LUSTBUS, whose specs say nothing of it.
+    pub fn rate_at_restart_only(&self) -> bool {
+        self.bus == BusProtocol::Lustbus && self.line_rates.online.is_none()
+    }
+
     /// The file (and schema id) a schema learned from a drive of this
     /// family is stored under ([`Learning::file_id`]); `None` for families
     /// whose drives do not describe their parameters.

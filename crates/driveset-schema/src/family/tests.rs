@@ -301,3 +301,13 @@ fn a_protocol_names_its_only_family_when_it_has_one() {
     assert_eq!(BusProtocol::CanSdo.only_family(), Some(Family::Ecs));
     assert_eq!(BusProtocol::Lustbus.only_family(), None);
 }
+
+#[test]
+fn only_the_lustbus_inverter_takes_a_new_rate_at_a_restart_only() {
+    let only: Vec<Family> = Family::ALL
+        .into_iter()
+        .filter(|f| f.descriptor().rate_at_restart_only())
+        .collect();
+    assert_eq!(only, [Family::Vf1000]);
+    assert!(Family::Mc6000.descriptor().line_rates.online.is_some());
+}
