@@ -165,10 +165,11 @@ impl Schemas {
     }
 
     /// Each serial family's built-in schema from `registry` (by the
-    /// descriptor's `schema_id`).
+    /// descriptor's `schema_id`; a family on CAN has no address to set
+    /// here).
     pub fn from_registry(registry: &Registry) -> Self {
         let mut s = Schemas::new();
-        for f in [Family::Mc6000, Family::Vf1000, Family::Tmd] {
+        for f in Family::ALL.into_iter().filter(|f| !f.descriptor().on_can()) {
             if let Some(schema) = registry.get(f.descriptor().schema_id) {
                 s = s.with(schema);
             }

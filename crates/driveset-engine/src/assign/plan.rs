@@ -6,7 +6,7 @@
 //! here.
 
 use driveset_link::Link;
-use driveset_proto::lustbus::{Address, ParameterCode};
+use driveset_proto::lustbus::{Address, Dialect, ParameterCode};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw, shown};
@@ -113,12 +113,13 @@ pub(super) fn plan_lustbus(
         return Err(refuse(&port, 0, AssignRefusal::Collision { baud, heard }));
     }
     // the family: the MC CODE 20091 (§5.2: the numerically compatible
-    // parameters are the same; MC codes above them are not)
+    // parameters are the same; MC codes above them are not): a drive that
+    // answers it speaks the MC dialect, one that does not the VF1000's
     let mc_code = ParameterCode::mc_value(91).unwrap_or(ParameterCode::POSMOD);
     let b = bytes(link, protocol)?;
     let family =
         match lust_probe(b, Address::ALL, mc_code, opts).map_err(|e| link_err(&port, 0, e))? {
-            Heard::Value(_) => Family::Mc6000,
+            Heard::Value(_) => Family::from_dialect(Dialect::Mc),
             Heard::Garbled(g) => {
                 return Err(refuse(
                     &port,
@@ -129,7 +130,7 @@ pub(super) fn plan_lustbus(
                     },
                 ));
             }
-            _ => Family::Vf1000,
+            _ => Family::from_dialect(Dialect::Vf1000),
         };
     if let Some(b) = req.baud {
         check_family_rate(&port, family, b)?;
@@ -309,6 +310,14 @@ pub(super) fn lecom_write(
     }
 }
 
+/// The family a LECOM line carries (its descriptor's only one, the Tmd):
+/// checked when the crate is built, so a second LECOM family in the
+/// descriptor stops the build here instead of being taken for a Tmd.
+const LECOM_FAMILY: Family = match BusProtocol::Lecom.only_family() {
+    Some(f) => f,
+    None => panic!("the descriptor names one family on LECOM"),
+};
+
 pub(super) fn plan_lecom(
     link: &mut Link,
     req: &AssignRequest,
@@ -316,7 +325,7 @@ pub(super) fn plan_lecom(
 ) -> Result<AssignPlan, EngineError> {
     let port = port_of(link);
     let protocol = BusProtocol::Lecom;
-    let family = Family::Tmd;
+    let family = LECOM_FAMILY;
     let from = req.from.unwrap_or(1);
     check_address(protocol, &port, "--to", req.to)?;
     check_address(protocol, &port, "--from", from)?;
