@@ -19,8 +19,6 @@ use std::path::{Path, PathBuf};
 /// a file; never add one.
 const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-cli/src/cmd/identify.rs", 2),
-    ("crates/driveset-cli/src/cmd/sim.rs", 2),
-    ("crates/driveset-cli/src/cmd/twin.rs", 8),
     ("crates/driveset-cli/src/learning.rs", 4),
     ("crates/driveset-engine/src/capture.rs", 3),
     ("crates/driveset-engine/src/client/lecom.rs", 2),
@@ -29,7 +27,6 @@ const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-engine/src/client/sdo.rs", 2),
     ("crates/driveset-engine/src/learn.rs", 12),
     ("crates/driveset-engine/src/line/commission.rs", 2),
-    ("crates/driveset-cli/src/cmd/address.rs", 3),
     ("crates/driveset-engine/src/scan.rs", 5),
     ("crates/driveset-engine/src/transfer.rs", 1),
 ];
