@@ -50,10 +50,6 @@ const MAX_LINES: usize = 900;
 /// says so). A table of data may stay here for good, saying so.
 const LARGE_FILES: &[(&str, &str)] = &[
     (
-        "crates/driveset-engine/src/assign.rs",
-        "stand-alone address and rate assignment with its unit tests (issue 20): to split into plan / run / recover",
-    ),
-    (
         "crates/driveset-engine/src/client/lustbus.rs",
         "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
     ),
