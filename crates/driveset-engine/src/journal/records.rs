@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::failure::{CodeHolding, FailureCause};
 use super::value::{JournalValue, raw_values};
 use crate::client::{DriveClient, Identity, Target};
+use crate::plan::{Phase, Storage};
 
 /// Where a transaction stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -194,12 +195,16 @@ pub struct PlanEntryRecord {
     pub code: String,
     /// A password: redact when showing.
     pub secret: bool,
-    /// `ram`, `eeprom`, `card-writeable`, `unspecified`.
-    pub storage: String,
+    /// How the drive keeps it: `ram`, `fsel-isel`, `eeprom`,
+    /// `card-writeable`, `unspecified` (an unknown name is a journal error).
+    #[serde(deserialize_with = "names::storage")]
+    pub storage: Storage,
     /// Byte width, where the schema gives it.
     pub width: Option<u8>,
-    /// `dataset`, `stored`, `control`, `mode`.
-    pub phase: String,
+    /// Its phase: `dataset`, `stored`, `control`, `mode`, `link` (an
+    /// unknown name is a journal error).
+    #[serde(deserialize_with = "names::phase")]
+    pub phase: Phase,
     /// The new raw value.
     pub new: JournalValue,
 }
@@ -395,5 +400,43 @@ impl Journal {
     pub fn transition(&mut self, state: TxnState, at_ns: u64, note: Option<String>) {
         self.state = state;
         self.transitions.push(Transition { state, at_ns, note });
+    }
+}
+
+/// Reading the plan entries' typed names (`storage`, `phase`): the name as
+/// [`Storage::as_str`] / [`Phase::as_str`] write it; any other is an error
+/// naming the field and the names it may hold, which [`super::JournalFile::open`]
+/// reports with the file.
+mod names {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    use crate::plan::{Phase, Storage};
+
+    /// The value of `field` among `all`, by `name_of`.
+    fn named<'de, D: Deserializer<'de>, T: Copy>(
+        de: D,
+        field: &str,
+        all: &[T],
+        name_of: fn(T) -> &'static str,
+    ) -> Result<T, D::Error> {
+        let name = String::deserialize(de)?;
+        all.iter()
+            .copied()
+            .find(|t| name_of(*t) == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = all.iter().map(|t| name_of(*t)).collect();
+                D::Error::custom(format!(
+                    "plan entry `{field}`: unknown name `{name}`, expected one of {}",
+                    names.join(", ")
+                ))
+            })
+    }
+
+    pub(super) fn storage<'de, D: Deserializer<'de>>(de: D) -> Result<Storage, D::Error> {
+        named(de, "storage", &Storage::ALL, Storage::as_str)
+    }
+
+    pub(super) fn phase<'de, D: Deserializer<'de>>(de: D) -> Result<Phase, D::Error> {
+        named(de, "phase", &Phase::ALL, Phase::as_str)
     }
 }

@@ -5,13 +5,15 @@
 //! back, an address change), each read with [`JournalFile::open`] and
 //! written back with the journal's own durable write, byte for byte; and a
 //! version 1 journal (no bus id), which is still read and is written back
-//! in today's form. The state files' paths in the bus ids are spelled
+//! in today's form; an unknown name in a typed field is a journal error
+//! naming the file and the field. The state files' paths in the bus ids are spelled
 //! `/plant/sim/...` instead of the temporary directories they were written
 //! in.
 
 use std::path::{Path, PathBuf};
 
 use driveset_engine::journal::{Journal, JournalFile, TxnState};
+use driveset_engine::plan::{Phase, Storage};
 
 /// The fixtures' folder.
 fn dir() -> PathBuf {
@@ -50,7 +52,11 @@ fn an_mc6000_dataset_upload_journal_is_written_back_byte_for_byte() {
     let j = round_trip("mc6000-dataset-upload.journal.json");
     assert_eq!(j.state, TxnState::Complete);
     assert!(j.dataset);
-    assert!(j.plan.iter().any(|p| p.storage == "card-writeable"));
+    assert!(
+        j.plan
+            .iter()
+            .any(|p| p.storage == Storage::CardWriteable && p.phase == Phase::Dataset)
+    );
 }
 
 #[test]
@@ -88,4 +94,30 @@ fn a_version_1_journal_is_read_and_written_back_in_todays_form() {
     let expected =
         std::fs::read_to_string(dir().join("v1-upload.written-back.json")).expect("fixture");
     assert_eq!(written(j), expected);
+}
+
+/// A plan entry's `storage` or `phase` that names nothing the engine knows
+/// is refused as a journal error naming the file and the field, not read
+/// as some other kind.
+#[test]
+fn an_unknown_storage_or_phase_is_a_journal_error_naming_file_and_field() {
+    let text =
+        std::fs::read_to_string(dir().join("mc6000-dataset-upload.journal.json")).expect("fixture");
+    let tmp = tempfile::tempdir().expect("tmp");
+    for (field, from, to) in [
+        ("storage", r#""storage": "ram""#, r#""storage": "flash""#),
+        ("phase", r#""phase": "link""#, r#""phase": "later""#),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let path = tmp.path().join(format!("{field}.journal.json"));
+        std::fs::write(&path, text.replacen(from, to, 1)).expect("write");
+        let e = JournalFile::open(&path)
+            .expect_err("an unknown name")
+            .to_string();
+        let name = to.rsplit('"').nth(1).expect("name");
+        assert!(
+            e.starts_with(&format!("journal {}: is not a driveset journal (plan entry `{field}`: unknown name `{name}`, expected one of ", path.display())),
+            "{e}"
+        );
+    }
 }
