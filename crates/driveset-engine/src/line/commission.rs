@@ -672,7 +672,7 @@ fn run_bus(
     let mut report = BusReport {
         name: bus.name.clone(),
         port: bus.port_name.clone(),
-        protocol: bus.protocol.name().into(),
+        protocol: bus.protocol,
         rate: bus.rate,
         elapsed_ms: 0.0,
         timeline: Vec::new(),
@@ -786,7 +786,7 @@ fn run_bus(
         for (phase, s, e) in spans.into_iter().filter(|(_, s, e)| s != e) {
             report.timeline.push(TimelineEntry {
                 drive: d.name.clone(),
-                phase: phase.as_str().into(),
+                phase,
                 start_ms: since(start, s),
                 end_ms: since(start, e),
             });
@@ -1357,7 +1357,7 @@ fn broadcast_common(
         let t1 = link_now(link);
         report.timeline.push(TimelineEntry {
             drive: format!("group {tens}0"),
-            phase: Phase::Broadcast.as_str().into(),
+            phase: Phase::Broadcast,
             start_ms: since(start, t0),
             end_ms: since(start, t1),
         });
@@ -1872,7 +1872,7 @@ fn run_lustbus_broadcast(
         for (phase, s, e) in spans.into_iter().filter(|(_, s, e)| s != e) {
             report.timeline.push(TimelineEntry {
                 drive: name.to_string(),
-                phase: phase.as_str().into(),
+                phase,
                 start_ms: since(start, s),
                 end_ms: since(start, e),
             });
@@ -1944,7 +1944,7 @@ fn run_lustbus_broadcast(
             let t1 = link_now(link);
             report.timeline.push(TimelineEntry {
                 drive: "address 31".into(),
-                phase: Phase::Broadcast.as_str().into(),
+                phase: Phase::Broadcast,
                 start_ms: since(start, t0),
                 end_ms: since(start, t1),
             });

@@ -411,7 +411,7 @@ pub fn finish(
     let bus_report = BusReport {
         name: prep.bus.name.clone(),
         port: service_port.to_string(),
-        protocol: prep.bus.protocol.name().into(),
+        protocol: prep.bus.protocol,
         rate: assign.rate_now,
         elapsed_ms: r.elapsed_ms,
         timeline: Vec::new(),

@@ -83,9 +83,9 @@ impl Transaction {
                 subcode: w.key.subcode,
                 code: w.label.clone(),
                 secret: w.secret,
-                storage: w.storage.as_str().into(),
+                storage: w.storage,
                 width: w.width,
-                phase: w.phase.as_str().into(),
+                phase: w.phase,
                 new: JournalValue::from(&w.new),
             })
             .collect();
