@@ -341,14 +341,18 @@ impl<L: ByteLink> LecomClient<L> {
                 },
             ));
         }
-        let address = match ControllerAddress::new(address) {
-            Some(a) if !a.is_broadcast() => a,
-            _ => {
-                return Err(EngineError::refused(
-                    target,
-                    Refusal::LecomAddress { address },
-                ));
-            }
+        let address = match crate::error::AddressRefused::check_client(
+            driveset_schema::BusProtocol::Lecom,
+            address,
+        )
+        .and_then(|()| {
+            ControllerAddress::new(address).ok_or(Refusal::Encode {
+                what: None,
+                detail: format!("address {address}"),
+            })
+        }) {
+            Ok(a) => a,
+            Err(refusal) => return Err(EngineError::refused(target, refusal)),
         };
         let mut line = LecomLine::new(link);
         line.latency = LinkLatency::new(opts.latency);

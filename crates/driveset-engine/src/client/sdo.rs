@@ -290,8 +290,19 @@ impl<L: FrameLink> CanClient<L> {
                 },
             ));
         }
-        let node = NodeId::new(node)
-            .map_err(|e| EngineError::refused(target.clone(), Refusal::SdoNode { node: e.0 }))?;
+        let node = match crate::error::AddressRefused::check_client(
+            driveset_schema::BusProtocol::CanSdo,
+            node,
+        )
+        .and_then(|()| {
+            NodeId::new(node).map_err(|e| Refusal::Encode {
+                what: None,
+                detail: e.to_string(),
+            })
+        }) {
+            Ok(n) => n,
+            Err(refusal) => return Err(EngineError::refused(target, refusal)),
+        };
         Ok(CanClient {
             line: SdoLine::new(link),
             schema,

@@ -14,11 +14,14 @@ use driveset_link::LinkError;
 
 use crate::client::Target;
 
+mod address;
 mod device;
+mod form;
 mod refusal;
 #[cfg(test)]
 mod tests;
 
+pub use address::{AddressRefused, AddressUse};
 pub use device::{DeviceCause, LECOM_PROGRAMMING_ADVICE, SiofRegister, SiofVerdict};
 pub use refusal::{LinkKind, LustbusCodeProblem, Refusal};
 

@@ -6,13 +6,14 @@
 
 use std::fmt;
 
-use driveset_proto::can::NodeIdError;
 use serde::{Deserialize, Serialize};
 
+use super::address::AddressRefused;
+use super::form::RefusalForm;
 use crate::plan::Problem;
 
 /// How a refusal names a client's protocol: `LUSTBUS`, `LECOM`, `CAN SDO`.
-fn protocol_label(p: driveset_schema::BusProtocol) -> &'static str {
+pub(super) fn protocol_label(p: driveset_schema::BusProtocol) -> &'static str {
     match p {
         driveset_schema::BusProtocol::Lustbus => "LUSTBUS",
         driveset_schema::BusProtocol::Lecom => "LECOM",
@@ -73,8 +74,10 @@ impl fmt::Display for LustbusCodeProblem {
 /// or input the engine cannot carry out). Codes are named as humans spell
 /// them (`C0011`, `428-RSIO`); values as the client shows them (passwords
 /// never shown).
+///
+/// Its JSON form (journals) is `RefusalForm`'s (`form.rs`), one `kind` per rule.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
+#[serde(into = "RefusalForm", try_from = "RefusalForm")]
 pub enum Refusal {
     /// The planner's (or the set check's) problems, every one found
     /// ([`crate::plan::check_set`], [`crate::plan::plan`]).
@@ -168,11 +171,6 @@ pub enum Refusal {
         /// What the port opened.
         link: LinkKind,
     },
-    /// A LECOM address that is no station (section 8.J).
-    LecomAddress {
-        /// The address.
-        address: u8,
-    },
     /// A LECOM MULTICAST group that does not exist (section 8.J).
     LecomGroup {
         /// The tens digit given.
@@ -199,11 +197,6 @@ pub enum Refusal {
         /// What the codec said.
         detail: String,
     },
-    /// A CAN node id that addresses no SDO server (DS301).
-    SdoNode {
-        /// The node id given.
-        node: u32,
-    },
     /// A code with no SDO index.
     NoSdoIndex {
         /// The code.
@@ -224,11 +217,6 @@ pub enum Refusal {
         code: String,
         /// The value as shown.
         value: String,
-    },
-    /// A LUSTBUS address that is no drive address (section 4.2).
-    LustbusAddress {
-        /// The address.
-        address: u8,
     },
     /// A code LUSTBUS cannot address.
     LustbusCode {
@@ -309,35 +297,10 @@ pub enum Refusal {
         /// The schema's TYPE values.
         expected: Vec<i64>,
     },
-    /// A LUSTBUS scan target that is no single drive (section 4.2).
-    ScanLustbusAddress {
-        /// The address.
-        address: u8,
-    },
-    /// A LECOM scan target that is no station (section 8.J).
-    ScanLecomAddress {
-        /// The address.
-        address: u8,
-    },
-    /// A CAN scan target that is no SDO server (DS301).
-    ScanCanNode {
-        /// The node id given.
-        node: u32,
-    },
     /// A schema with no code to probe a CAN scan with.
     NoProbeCode {
         /// Schema id.
         schema: String,
-    },
-    /// `doctor`: a LUSTBUS address it cannot probe (section 4.1).
-    DoctorLustbusAddress {
-        /// The address.
-        address: u8,
-    },
-    /// `doctor`: a LECOM address it cannot probe (section 8.J).
-    DoctorLecomAddress {
-        /// The address.
-        address: u8,
     },
     /// `doctor`: a CAN port given to the character-line check.
     DoctorCanPort,
@@ -355,6 +318,10 @@ pub enum Refusal {
         #[serde(flatten)]
         refusal: crate::assign::AssignRefusal,
     },
+    /// An address that is no drive's own ([`AddressRefused`]: the schema's
+    /// rule, [`driveset_schema::BusProtocol::check_address`], and what was
+    /// being done).
+    Address(AddressRefused),
 }
 
 impl From<crate::assign::AssignRefusal> for Refusal {
@@ -421,10 +388,6 @@ impl fmt::Display for Refusal {
                 f,
                 "schema `{schema}` is for {family} drives ({bus}), which do not run on {link}"
             ),
-            Refusal::LecomAddress { address } => write!(
-                f,
-                "LECOM address {address} is not a station: use 01..99 except 00 and the group addresses 10, 20, .. 90 (BROADCAST / MULTICAST, section 8.J; use broadcast() for those)"
-            ),
             Refusal::LecomGroup { tens } => write!(
                 f,
                 "group {tens} does not exist: groups are 1..9 (addresses 10..90, section 8.J)"
@@ -442,11 +405,6 @@ impl fmt::Display for Refusal {
                 Some(w) => write!(f, "{w}: {detail}"),
                 None => f.write_str(detail),
             },
-            Refusal::SdoNode { node } => write!(
-                f,
-                "{}: 0 addresses no SDO server (DS301)",
-                NodeIdError(*node)
-            ),
             Refusal::NoSdoIndex { code, base } => write!(
                 f,
                 "{code} has no SDO index (code above the index base {base} or subcode above 255)"
@@ -457,10 +415,6 @@ impl fmt::Display for Refusal {
             Refusal::NotCanFormat { code, value } => {
                 write!(f, "{code} = {value} does not fit its CAN format")
             }
-            Refusal::LustbusAddress { address } => write!(
-                f,
-                "LUSTBUS address {address} is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)"
-            ),
             Refusal::LustbusCode { code, problem } => write!(f, "{code} {problem}"),
             Refusal::NoWireType {
                 code,
@@ -529,33 +483,13 @@ impl fmt::Display for Refusal {
                 "the drive reports {code} = {}, which is not a `{schema}` type ({expected:?}); use the set and schema of the drive's family",
                 found.map_or_else(|| "nothing".to_string(), |t| t.to_string()),
             ),
-            Refusal::ScanLustbusAddress { address } => write!(
-                f,
-                "{address} is not a scan target: LUSTBUS drive addresses are 1..30 (0 makes every drive answer at once, 31 is the broadcast address, section 4.2)"
-            ),
-            Refusal::ScanLecomAddress { address } => write!(
-                f,
-                "{address:02} is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)"
-            ),
-            Refusal::ScanCanNode { node } => write!(
-                f,
-                "{}: node 0 is no SDO server and cannot be a scan target (DS301)",
-                NodeIdError(*node)
-            ),
             Refusal::NoProbeCode { schema } => {
                 write!(f, "schema `{schema}` has no code to probe with")
             }
-            Refusal::DoctorLustbusAddress { address } => write!(
-                f,
-                "{address} is not a LUSTBUS drive address: use 1..30, or 0 (every drive answers, stand-alone operation, section 4.1)"
-            ),
-            Refusal::DoctorLecomAddress { address } => write!(
-                f,
-                "{address:02} is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)"
-            ),
             Refusal::DoctorCanPort => f.write_str("CAN ports are checked by run_can"),
             Refusal::TransferRate { detail } => f.write_str(detail),
             Refusal::Assign { refusal } => write!(f, "{refusal}"),
+            Refusal::Address(refused) => write!(f, "{refused}"),
         }
     }
 }

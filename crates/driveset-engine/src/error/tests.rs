@@ -4,6 +4,8 @@ use driveset_proto::can::{AbortCode, Index, Subindex};
 use driveset_proto::lecom::{ExtendedError, OperatingStatus};
 use driveset_proto::lustbus::Siof;
 
+use driveset_schema::BusProtocol;
+
 use super::*;
 use crate::plan::Problem;
 
@@ -12,6 +14,21 @@ fn target() -> Target {
         port: "sim://demo".into(),
         address: 1,
     }
+}
+
+/// The address refusal a client's check gives.
+fn client(bus: BusProtocol, address: u8) -> Refusal {
+    AddressRefused::check_client(bus, address).expect_err("refused")
+}
+
+/// The address refusal a scan's check gives.
+fn scan(bus: BusProtocol, address: u8) -> Refusal {
+    AddressRefused::check_scan(bus, address).expect_err("refused")
+}
+
+/// The address refusal `doctor`'s check gives.
+fn doctor(bus: BusProtocol, address: u8) -> Refusal {
+    AddressRefused::check_doctor(bus, address).expect_err("refused")
 }
 
 fn s(x: &str) -> String {
@@ -105,7 +122,7 @@ fn every_refusal_renders_its_message() {
             "schema `lenze-tmd` is for tmd drives (LECOM), which do not run on a CAN bus",
         ),
         (
-            Refusal::LecomAddress { address: 20 },
+            client(BusProtocol::Lecom, 20),
             "LECOM address 20 is not a station: use 01..99 except 00 and the group addresses 10, 20, .. 90 (BROADCAST / MULTICAST, section 8.J; use broadcast() for those)",
         ),
         (
@@ -139,7 +156,7 @@ fn every_refusal_renders_its_message() {
             "too long",
         ),
         (
-            Refusal::SdoNode { node: 0 },
+            client(BusProtocol::CanSdo, 0),
             "node id 0 is out of range 1..=127: 0 addresses no SDO server (DS301)",
         ),
         (
@@ -164,7 +181,7 @@ fn every_refusal_renders_its_message() {
             "C0011 = \"x\" does not fit its CAN format",
         ),
         (
-            Refusal::LustbusAddress { address: 31 },
+            client(BusProtocol::Lustbus, 31),
             "LUSTBUS address 31 is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)",
         ),
         (
@@ -279,15 +296,15 @@ fn every_refusal_renders_its_message() {
             "the drive reports 91-TYPE = nothing, which is not a `x` type ([1]); use the set and schema of the drive's family",
         ),
         (
-            Refusal::ScanLustbusAddress { address: 0 },
+            scan(BusProtocol::Lustbus, 0),
             "0 is not a scan target: LUSTBUS drive addresses are 1..30 (0 makes every drive answer at once, 31 is the broadcast address, section 4.2)",
         ),
         (
-            Refusal::ScanLecomAddress { address: 5 },
-            "05 is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)",
+            scan(BusProtocol::Lecom, 0),
+            "00 is not a scan target: LECOM stations are 01..99 without 00 and the group addresses 10..90 (section 8.J)",
         ),
         (
-            Refusal::ScanCanNode { node: 0 },
+            scan(BusProtocol::CanSdo, 0),
             "node id 0 is out of range 1..=127: node 0 is no SDO server and cannot be a scan target (DS301)",
         ),
         (
@@ -295,11 +312,11 @@ fn every_refusal_renders_its_message() {
             "schema `x` has no code to probe with",
         ),
         (
-            Refusal::DoctorLustbusAddress { address: 31 },
+            doctor(BusProtocol::Lustbus, 31),
             "31 is not a LUSTBUS drive address: use 1..30, or 0 (every drive answers, stand-alone operation, section 4.1)",
         ),
         (
-            Refusal::DoctorLecomAddress { address: 0 },
+            doctor(BusProtocol::Lecom, 0),
             "00 is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)",
         ),
         (Refusal::DoctorCanPort, "CAN ports are checked by run_can"),
@@ -588,4 +605,75 @@ fn a_journal_error_names_no_drive_and_the_error_stays_small() {
             "sim://demo address 1: no answer to read C0011 after 3 tries; check wiring, address and baud rate"
         ))
     );
+}
+
+#[test]
+fn an_address_refusal_is_the_rule_s_and_lustbus_0_is_taken_by_a_client_and_doctor_only() {
+    for bus in BusProtocol::ALL {
+        for a in 0..=255u8 {
+            let rule = bus.check_address(i64::from(a));
+            let lustbus_zero = bus == BusProtocol::Lustbus && a == 0;
+            for (doing, got) in [
+                (AddressUse::Client, AddressRefused::check_client(bus, a)),
+                (AddressUse::Scan, AddressRefused::check_scan(bus, a)),
+                (AddressUse::Doctor, AddressRefused::check_doctor(bus, a)),
+            ] {
+                let taken = rule.is_ok() || (lustbus_zero && doing != AddressUse::Scan);
+                match got {
+                    Ok(()) => assert!(taken, "{bus:?} {a} {doing:?}"),
+                    Err(Refusal::Address(r)) => {
+                        assert!(!taken, "{bus:?} {a} {doing:?}");
+                        assert_eq!((r.doing, Err(r.refusal)), (doing, rule));
+                        assert_eq!(r.address(), i64::from(a));
+                    }
+                    Err(other) => panic!("{other:?}"),
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn address_refusals_keep_the_json_kinds_journals_hold() {
+    let cases = [
+        (
+            client(BusProtocol::Lecom, 20),
+            r#"{"kind":"lecom_address","address":20}"#,
+        ),
+        (
+            client(BusProtocol::CanSdo, 0),
+            r#"{"kind":"sdo_node","node":0}"#,
+        ),
+        (
+            client(BusProtocol::Lustbus, 31),
+            r#"{"kind":"lustbus_address","address":31}"#,
+        ),
+        (
+            scan(BusProtocol::Lustbus, 0),
+            r#"{"kind":"scan_lustbus_address","address":0}"#,
+        ),
+        (
+            scan(BusProtocol::Lecom, 50),
+            r#"{"kind":"scan_lecom_address","address":50}"#,
+        ),
+        (
+            scan(BusProtocol::CanSdo, 200),
+            r#"{"kind":"scan_can_node","node":200}"#,
+        ),
+        (
+            doctor(BusProtocol::Lustbus, 31),
+            r#"{"kind":"doctor_lustbus_address","address":31}"#,
+        ),
+        (
+            doctor(BusProtocol::Lecom, 0),
+            r#"{"kind":"doctor_lecom_address","address":0}"#,
+        ),
+    ];
+    for (r, want) in cases {
+        let j = serde_json::to_string(&r).expect("json");
+        assert_eq!(j, want);
+        assert_eq!(serde_json::from_str::<Refusal>(&j).expect("back"), r);
+    }
+    // an address the rule takes is no refusal
+    assert!(serde_json::from_str::<Refusal>(r#"{"kind":"lecom_address","address":5}"#).is_err());
 }
