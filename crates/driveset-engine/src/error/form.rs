@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::*;
+use crate::client::{LecomRefusal, SdoRefusal};
 use crate::plan::Problem;
 
 /// [`Refusal`]'s JSON form: one variant per `kind`, the fields as named
@@ -218,21 +219,29 @@ impl From<Refusal> for RefusalForm {
                 bus,
                 link,
             },
-            Refusal::LecomGroup { tens } => RefusalForm::LecomGroup { tens },
-            Refusal::LecomUnaddressable { code } => RefusalForm::LecomUnaddressable { code },
-            Refusal::LecomValue {
+            Refusal::Lecom(LecomRefusal::Group { tens }) => RefusalForm::LecomGroup { tens },
+            Refusal::Lecom(LecomRefusal::Unaddressable { code }) => {
+                RefusalForm::LecomUnaddressable { code }
+            }
+            Refusal::Lecom(LecomRefusal::Value {
                 code,
                 value,
                 detail,
-            } => RefusalForm::LecomValue {
+            }) => RefusalForm::LecomValue {
                 code,
                 value,
                 detail,
             },
             Refusal::Encode { what, detail } => RefusalForm::Encode { what, detail },
-            Refusal::NoSdoIndex { code, base } => RefusalForm::NoSdoIndex { code, base },
-            Refusal::NotSdoType { code, ty } => RefusalForm::NotSdoType { code, ty },
-            Refusal::NotCanFormat { code, value } => RefusalForm::NotCanFormat { code, value },
+            Refusal::Sdo(SdoRefusal::NoIndex { code, base }) => {
+                RefusalForm::NoSdoIndex { code, base }
+            }
+            Refusal::Sdo(SdoRefusal::NotSdoType { code, ty }) => {
+                RefusalForm::NotSdoType { code, ty }
+            }
+            Refusal::Sdo(SdoRefusal::NotCanFormat { code, value }) => {
+                RefusalForm::NotCanFormat { code, value }
+            }
             Refusal::LustbusCode { code, problem } => RefusalForm::LustbusCode { code, problem },
             Refusal::NoWireType {
                 code,
@@ -322,21 +331,29 @@ impl TryFrom<RefusalForm> for Refusal {
                 bus,
                 link,
             },
-            RefusalForm::LecomGroup { tens } => Refusal::LecomGroup { tens },
-            RefusalForm::LecomUnaddressable { code } => Refusal::LecomUnaddressable { code },
+            RefusalForm::LecomGroup { tens } => Refusal::Lecom(LecomRefusal::Group { tens }),
+            RefusalForm::LecomUnaddressable { code } => {
+                Refusal::Lecom(LecomRefusal::Unaddressable { code })
+            }
             RefusalForm::LecomValue {
                 code,
                 value,
                 detail,
-            } => Refusal::LecomValue {
+            } => Refusal::Lecom(LecomRefusal::Value {
                 code,
                 value,
                 detail,
-            },
+            }),
             RefusalForm::Encode { what, detail } => Refusal::Encode { what, detail },
-            RefusalForm::NoSdoIndex { code, base } => Refusal::NoSdoIndex { code, base },
-            RefusalForm::NotSdoType { code, ty } => Refusal::NotSdoType { code, ty },
-            RefusalForm::NotCanFormat { code, value } => Refusal::NotCanFormat { code, value },
+            RefusalForm::NoSdoIndex { code, base } => {
+                Refusal::Sdo(SdoRefusal::NoIndex { code, base })
+            }
+            RefusalForm::NotSdoType { code, ty } => {
+                Refusal::Sdo(SdoRefusal::NotSdoType { code, ty })
+            }
+            RefusalForm::NotCanFormat { code, value } => {
+                Refusal::Sdo(SdoRefusal::NotCanFormat { code, value })
+            }
             RefusalForm::LustbusCode { code, problem } => Refusal::LustbusCode { code, problem },
             RefusalForm::NoWireType {
                 code,

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::address::AddressRefused;
 use super::form::RefusalForm;
+use crate::client::{LecomRefusal, SdoRefusal};
 use crate::plan::Problem;
 
 /// How a refusal names a client's protocol: `LUSTBUS`, `LECOM`, `CAN SDO`.
@@ -171,52 +172,12 @@ pub enum Refusal {
         /// What the port opened.
         link: LinkKind,
     },
-    /// A LECOM MULTICAST group that does not exist (section 8.J).
-    LecomGroup {
-        /// The tens digit given.
-        tens: u8,
-    },
-    /// A code LECOM cannot address (section 8.D).
-    LecomUnaddressable {
-        /// The code.
-        code: String,
-    },
-    /// A value the schema's LECOM format cannot carry.
-    LecomValue {
-        /// The code.
-        code: String,
-        /// The value as shown.
-        value: String,
-        /// What the codec said.
-        detail: String,
-    },
     /// The codec could not build the telegram (or the SDO transfer).
     Encode {
         /// The operation, where named.
         what: Option<String>,
         /// What the codec said.
         detail: String,
-    },
-    /// A code with no SDO index.
-    NoSdoIndex {
-        /// The code.
-        code: String,
-        /// The index base in use.
-        base: u32,
-    },
-    /// A type that does not travel over CAN SDO.
-    NotSdoType {
-        /// The code.
-        code: String,
-        /// The type's name (`?` when the schema gives none).
-        ty: String,
-    },
-    /// A value that does not fit the code's CAN format.
-    NotCanFormat {
-        /// The code.
-        code: String,
-        /// The value as shown.
-        value: String,
     },
     /// A code LUSTBUS cannot address.
     LustbusCode {
@@ -322,6 +283,10 @@ pub enum Refusal {
     /// rule, [`driveset_schema::BusProtocol::check_address`], and what was
     /// being done).
     Address(AddressRefused),
+    /// What the LECOM client cannot send ([`LecomRefusal`]).
+    Lecom(LecomRefusal),
+    /// What the CAN SDO client cannot transfer ([`SdoRefusal`]).
+    Sdo(SdoRefusal),
 }
 
 impl From<crate::assign::AssignRefusal> for Refusal {
@@ -388,33 +353,10 @@ impl fmt::Display for Refusal {
                 f,
                 "schema `{schema}` is for {family} drives ({bus}), which do not run on {link}"
             ),
-            Refusal::LecomGroup { tens } => write!(
-                f,
-                "group {tens} does not exist: groups are 1..9 (addresses 10..90, section 8.J)"
-            ),
-            Refusal::LecomUnaddressable { code } => write!(
-                f,
-                "{code} cannot be addressed on LECOM (code above 65535 or subcode above 255, section 8.D)"
-            ),
-            Refusal::LecomValue {
-                code,
-                value,
-                detail,
-            } => write!(f, "{code} = {value}: {detail}"),
             Refusal::Encode { what, detail } => match what {
                 Some(w) => write!(f, "{w}: {detail}"),
                 None => f.write_str(detail),
             },
-            Refusal::NoSdoIndex { code, base } => write!(
-                f,
-                "{code} has no SDO index (code above the index base {base} or subcode above 255)"
-            ),
-            Refusal::NotSdoType { code, ty } => {
-                write!(f, "{code}: type {ty} does not travel over CAN SDO")
-            }
-            Refusal::NotCanFormat { code, value } => {
-                write!(f, "{code} = {value} does not fit its CAN format")
-            }
             Refusal::LustbusCode { code, problem } => write!(f, "{code} {problem}"),
             Refusal::NoWireType {
                 code,
@@ -490,6 +432,8 @@ impl fmt::Display for Refusal {
             Refusal::TransferRate { detail } => f.write_str(detail),
             Refusal::Assign { refusal } => write!(f, "{refusal}"),
             Refusal::Address(refused) => write!(f, "{refused}"),
+            Refusal::Lecom(refusal) => write!(f, "{refusal}"),
+            Refusal::Sdo(refusal) => write!(f, "{refusal}"),
         }
     }
 }

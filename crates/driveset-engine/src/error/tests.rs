@@ -7,6 +7,7 @@ use driveset_proto::lustbus::Siof;
 use driveset_schema::BusProtocol;
 
 use super::*;
+use crate::client::{LecomRefusal, SdoRefusal};
 use crate::plan::Problem;
 
 fn target() -> Target {
@@ -126,19 +127,20 @@ fn every_refusal_renders_its_message() {
             "LECOM address 20 is not a station: use 01..99 except 00 and the group addresses 10, 20, .. 90 (BROADCAST / MULTICAST, section 8.J; use broadcast() for those)",
         ),
         (
-            Refusal::LecomGroup { tens: 12 },
+            LecomRefusal::Group { tens: 12 }.into(),
             "group 12 does not exist: groups are 1..9 (addresses 10..90, section 8.J)",
         ),
         (
-            Refusal::LecomUnaddressable { code: s("C70000") },
+            LecomRefusal::Unaddressable { code: s("C70000") }.into(),
             "C70000 cannot be addressed on LECOM (code above 65535 or subcode above 255, section 8.D)",
         ),
         (
-            Refusal::LecomValue {
+            LecomRefusal::Value {
                 code: s("C0011"),
                 value: s("raw 12"),
                 detail: s("the schema gives no LECOM format"),
-            },
+            }
+            .into(),
             "C0011 = raw 12: the schema gives no LECOM format",
         ),
         (
@@ -160,24 +162,27 @@ fn every_refusal_renders_its_message() {
             "node id 0 is out of range 1..=127: 0 addresses no SDO server (DS301)",
         ),
         (
-            Refusal::NoSdoIndex {
+            SdoRefusal::NoIndex {
                 code: s("C30000"),
                 base: 24575,
-            },
+            }
+            .into(),
             "C30000 has no SDO index (code above the index base 24575 or subcode above 255)",
         ),
         (
-            Refusal::NotSdoType {
+            SdoRefusal::NotSdoType {
                 code: s("C0093"),
                 ty: s("?"),
-            },
+            }
+            .into(),
             "C0093: type ? does not travel over CAN SDO",
         ),
         (
-            Refusal::NotCanFormat {
+            SdoRefusal::NotCanFormat {
                 code: s("C0011"),
                 value: s("\"x\""),
-            },
+            }
+            .into(),
             "C0011 = \"x\" does not fit its CAN format",
         ),
         (
@@ -676,4 +681,35 @@ fn address_refusals_keep_the_json_kinds_journals_hold() {
     }
     // an address the rule takes is no refusal
     assert!(serde_json::from_str::<Refusal>(r#"{"kind":"lecom_address","address":5}"#).is_err());
+}
+
+#[test]
+fn the_clients_refusals_keep_the_json_kinds_journals_hold() {
+    let cases: [(Refusal, &str); 3] = [
+        (
+            LecomRefusal::Group { tens: 12 }.into(),
+            r#"{"kind":"lecom_group","tens":12}"#,
+        ),
+        (
+            SdoRefusal::NoIndex {
+                code: s("C30000"),
+                base: 24575,
+            }
+            .into(),
+            r#"{"kind":"no_sdo_index","code":"C30000","base":24575}"#,
+        ),
+        (
+            SdoRefusal::NotCanFormat {
+                code: s("C0011"),
+                value: s("x"),
+            }
+            .into(),
+            r#"{"kind":"not_can_format","code":"C0011","value":"x"}"#,
+        ),
+    ];
+    for (r, want) in cases {
+        let j = serde_json::to_string(&r).expect("json");
+        assert_eq!(j, want);
+        assert_eq!(serde_json::from_str::<Refusal>(&j).expect("back"), r);
+    }
 }
