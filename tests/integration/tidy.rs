@@ -54,10 +54,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
     ),
     (
-        "crates/driveset-engine/src/error.rs",
-        "refusals not yet beside their rooms: the split is on branch engine-split, not landed",
-    ),
-    (
         "crates/driveset-engine/src/learn.rs",
         "learning's descriptions, layouts and the learned file in one: to split",
     ),
