@@ -54,10 +54,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "stand-alone address and rate assignment with its unit tests (issue 20): to split into plan / run / recover",
     ),
     (
-        "crates/driveset-engine/src/client/lustbus.rs",
-        "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
-    ),
-    (
         "crates/driveset-engine/src/error.rs",
         "refusals not yet beside their rooms: the split is on branch engine-split, not landed",
     ),

@@ -24,7 +24,6 @@ const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-cli/src/learning.rs", 4),
     ("crates/driveset-engine/src/capture.rs", 3),
     ("crates/driveset-engine/src/client/lecom.rs", 2),
-    ("crates/driveset-engine/src/client/lustbus.rs", 7),
     ("crates/driveset-engine/src/client/mod.rs", 5),
     ("crates/driveset-engine/src/client/sdo.rs", 2),
     ("crates/driveset-engine/src/guard.rs", 1),
