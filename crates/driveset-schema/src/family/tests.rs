@@ -301,3 +301,20 @@ fn a_protocol_names_its_only_family_when_it_has_one() {
     assert_eq!(BusProtocol::CanSdo.only_family(), Some(Family::Ecs));
     assert_eq!(BusProtocol::Lustbus.only_family(), None);
 }
+
+/// The identify rules stay inside the identify codes: what is read
+/// without a schema's codes, and the software version code, are among
+/// the family's own identification codes.
+#[test]
+fn identify_rules_stay_within_the_identify_codes() {
+    for f in Family::ALL {
+        let d = f.descriptor();
+        let rules = d.identify_rules;
+        for n in rules.without_schema {
+            assert!(d.identify.contains(n), "{}: {n}", d.name);
+        }
+        if let Some(n) = rules.software {
+            assert!(d.identify.contains(&n), "{}: {n}", d.name);
+        }
+    }
+}

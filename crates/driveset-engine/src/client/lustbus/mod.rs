@@ -41,14 +41,14 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_link::mem::wire_time;
-use driveset_link::{ByteLink, Clock, Instant};
+use driveset_link::{ByteLink, Instant};
 use driveset_proto::lustbus::{Address, Dialect};
-use driveset_schema::{CodeKey, RawValue, Schema};
+use driveset_schema::{BusProtocol, CodeKey, RawValue, Schema};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
-    Target, code_name, link_error, refuse_read_only, schema_code, write_what,
+    DatasetOutcome, DriveClient, Target, code_name, link_error, refuse_read_only, schema_code,
+    write_what, wrong_client,
 };
 use crate::error::{EngineError, Refusal};
 use crate::guard::Permit;
@@ -169,14 +169,7 @@ impl<L: ByteLink> LustbusClient<L> {
             address,
         };
         let Some(family) = family_of(&schema) else {
-            return Err(EngineError::refused(
-                target,
-                Refusal::WrongClient {
-                    schema: schema.id.clone(),
-                    family: schema.family.to_string(),
-                    protocol: driveset_schema::BusProtocol::Lustbus,
-                },
-            ));
+            return Err(wrong_client(target, &schema, BusProtocol::Lustbus));
         };
         let address = match Address::new(address) {
             Some(a) if a != Address::BROADCAST => a,
@@ -263,47 +256,7 @@ impl<L: ByteLink> LustbusClient<L> {
 }
 
 impl<L: ByteLink> DriveClient for LustbusClient<L> {
-    fn target(&self) -> &Target {
-        &self.target
-    }
-
-    fn bus_id(&self) -> String {
-        self.line.link.bus_id()
-    }
-
-    fn schema(&self) -> &Arc<Schema> {
-        &self.schema
-    }
-
-    fn clock(&self) -> &dyn Clock {
-        self.line.link.clock()
-    }
-
-    fn identify(&mut self) -> Result<Identity, EngineError> {
-        let codes = self
-            .schema
-            .identify
-            .as_ref()
-            .map(|i| i.codes.clone())
-            .filter(|c| !c.is_empty())
-            .unwrap_or_else(|| vec![TYPE]);
-        let mut out = Identity::of(IdentProtocol::Family(self.schema.family));
-        for n in codes {
-            let key = CodeKey::new(n);
-            let name = code_name(&self.schema, key);
-            let raw = self.read_key(key, &format!("identify: read {name}"))?;
-            if let RawValue::Int(v) = raw {
-                out.codes
-                    .push(IdentCode::new(key, name, IdentValue::Int(v)));
-            }
-        }
-        Ok(out)
-    }
-
-    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
-        let what = format!("read {}", code_name(&self.schema, key));
-        self.read_key(key, &what)
-    }
+    super::shared_client_methods!(super::identify::shown);
 
     fn write_named(
         &mut self,
@@ -358,10 +311,6 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
             _ => Ok(None),
         }
-    }
-
-    fn stats(&self) -> ClientStats {
-        self.line.stats
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {
