@@ -25,28 +25,11 @@ pub fn dialect_of(family: Family) -> Option<Dialect> {
     family.descriptor().dialect
 }
 
-/// The codec type of a code (see the module docs for untyped codes).
+/// The codec type of a code (see the module docs for untyped codes):
+/// proto's [`ParameterType::of_code`], where the family has the type.
 pub(super) fn wire_type(schema: &Schema, code: &Code, family: Dialect) -> Option<ParameterType> {
-    let t = match schema.type_of(code) {
-        Some(ValueType::PT_USIGN8) => ParameterType::Usign8,
-        Some(ValueType::PT_BINARY8) => ParameterType::Binary8,
-        Some(ValueType::PT_USIGN16) => ParameterType::Usign16,
-        Some(ValueType::PT_PASSWORD) => ParameterType::Password,
-        Some(ValueType::PT_INTEGER16) => ParameterType::Integer16,
-        Some(ValueType::PT_FIXPOINT16) => ParameterType::Fixpoint16,
-        Some(ValueType::PT_INT32Q16) => ParameterType::Int32Q16,
-        Some(ValueType::PT_FLOAT_IEEE) => ParameterType::FloatIeee,
-        Some(ValueType::PT_VF_ERROR) => ParameterType::VfError,
-        Some(ValueType::PT_MC_ERROR) => ParameterType::McError,
-        Some(_) => return None,
-        None => match code.width {
-            Some(1) => ParameterType::Usign8,
-            Some(2) => ParameterType::Usign16,
-            Some(4) => ParameterType::Int32Q16,
-            _ => return None,
-        },
-    };
-    t.in_family(family).then_some(t)
+    ParameterType::of_code(schema.type_of(code).map(ValueType::name), code.width)
+        .filter(|t| t.in_family(family))
 }
 
 /// The raw integer of a typed value (signed types sign-extended).
