@@ -346,6 +346,71 @@ fn tidy_the_engine_does_no_io_but_its_journal() {
     report("engine IO (docs/architecture.md)", &problems);
 }
 
+/// The client constructors: only `connect.rs` (which `engine::session`
+/// calls) and the clients themselves use them.
+const CLIENT_CONSTRUCTORS: &[&str] = &[
+    "LustbusClient::new(",
+    "LustbusClient::with_options(",
+    "LecomClient::new(",
+    "LecomClient::with_options(",
+    "CanClient::new(",
+];
+
+/// Source files that still build a client themselves, with how many
+/// constructions each holds (a count may only go down).
+const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] =
+    &[("crates/driveset-engine/src/line/commission.rs", 4)];
+
+#[test]
+fn tidy_clients_are_built_only_by_connect_and_the_session() {
+    let root = workspace_root();
+    let mut problems = Vec::new();
+    for dir in ["crates/driveset-engine/src", "crates/driveset-cli/src"] {
+        for file in files(&root.join(dir), &[".rs"]) {
+            let path = rel(&root, &file);
+            if path == "crates/driveset-engine/src/connect.rs"
+                || path.starts_with("crates/driveset-engine/src/client/")
+            {
+                continue;
+            }
+            let text = read(&file);
+            let lines: Vec<&str> = text.lines().collect();
+            let skip = skipped_blocks(&lines, None);
+            let mut n = 0;
+            let mut first = 0;
+            for (i, line) in lines.iter().enumerate() {
+                if line.trim_start().starts_with("//")
+                    || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
+                {
+                    continue;
+                }
+                let here = CLIENT_CONSTRUCTORS
+                    .iter()
+                    .filter(|c| line.contains(*c))
+                    .count();
+                if here > 0 && n == 0 {
+                    first = i + 1;
+                }
+                n += here;
+            }
+            let allowed = CLIENTS_STILL_BUILT_ELSEWHERE
+                .iter()
+                .find(|(f, _)| *f == path)
+                .map_or(0, |(_, a)| *a);
+            if n > allowed {
+                problems.push(format!(
+                    "{path}:{first}: {n} client construction(s): reach a drive through `engine::session::Session` or `engine::connect` (docs/architecture.md, \"One path from a port to a drive\")"
+                ));
+            } else if n < allowed {
+                problems.push(format!(
+                    "{path}:1: {n} client construction(s), the allowlist says {allowed}: lower or remove its entry in CLIENTS_STILL_BUILT_ELSEWHERE (tests/integration/tidy.rs)"
+                ));
+            }
+        }
+    }
+    report("client construction (docs/architecture.md)", &problems);
+}
+
 #[test]
 fn tidy_no_source_file_over_900_lines() {
     let root = workspace_root();

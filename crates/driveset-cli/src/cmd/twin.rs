@@ -15,11 +15,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::capture::{Capture, capture, mc_descriptions};
-use driveset_engine::client::{DriveClient, LustbusClient};
+use driveset_engine::client::DriveClient;
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
+use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
@@ -209,10 +210,9 @@ pub fn capture_drive(
     let mut _sim_alive = None;
     let mut client: Box<dyn DriveClient> = if schema.family == Family::Mc6000 {
         port::check_fit(&opened, &schema, Some(address), false)?;
-        let options = port::lustbus_options(&opened.spec);
-        let (link, sim) = learning::take_byte_link(opened)?;
+        let (session_port, sim) = opened.into_session_port()?;
         _sim_alive = sim;
-        let mut c = LustbusClient::with_options(link, schema.clone(), address, options)?;
+        let mut c = Session::lustbus(session_port, schema.clone(), address)?;
         let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
         layout = mc_descriptions(&mut c, &params)?;
         Box::new(c)
