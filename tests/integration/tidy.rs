@@ -50,10 +50,6 @@ const MAX_LINES: usize = 900;
 /// says so). A table of data may stay here for good, saying so.
 const LARGE_FILES: &[(&str, &str)] = &[
     (
-        "crates/driveset-engine/src/client/lustbus.rs",
-        "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
-    ),
-    (
         "crates/driveset-engine/src/learn.rs",
         "learning's descriptions, layouts and the learned file in one: to split",
     ),

@@ -163,6 +163,8 @@ pub struct Descriptor {
     /// built-in schema's `[schema.identify] codes` say the same: a test
     /// holds them together).
     pub identify: &'static [u32],
+    /// How identification reads those codes ([`IdentifyRules`]).
+    pub identify_rules: IdentifyRules,
     /// Reaction time.
     pub reaction: Reaction,
     /// EEPROM pacing.
@@ -195,6 +197,28 @@ pub struct Descriptor {
     /// device digit says (VF1000, `lustbus-protocol.txt` §4.2, §5.2): a bus
     /// holding one takes no broadcast.
     pub broadcast_as_own: bool,
+}
+
+/// How a drive of the family is identified beyond the codes read
+/// ([`Descriptor::identify`]), where the families differ: the one identify
+/// loop of the clients (`driveset-engine`'s `client/identify.rs`) follows
+/// these.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct IdentifyRules {
+    /// The codes read when the schema names none (no `[schema.identify]
+    /// codes`): LUSTBUS 91-TYPE (§5.2), as the built-in schemas; LECOM
+    /// C0093 only (`lecom-ab-tmd-manual.txt` Table 1), since a schema that
+    /// names no identification codes may not know C0099 or C0200; none on
+    /// CAN.
+    pub without_schema: &'static [u32],
+    /// Whether a code the drive says it lacks (LECOM "no such code", a
+    /// device error) is left out instead of failing identification: Tmd
+    /// controllers differ in which of C0099 / C0200 they hold. LUSTBUS and
+    /// CAN fail on any code.
+    pub skips_missing: bool,
+    /// The code whose value is the drive's software version (Tmd C0099,
+    /// Table 1), where the family reports one.
+    pub software: Option<u32>,
 }
 
 /// How a family's drives describe their parameters, for learning a schema

@@ -58,19 +58,19 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_link::mem::wire_time;
-use driveset_link::{ByteLink, Clock, LinkError};
+use driveset_link::{ByteLink, LinkError};
 use driveset_proto::lecom::{
     Advice, CodeAddress, ControllerAddress, Decimal, ExtendedError, Hex, OctetString,
     OperatingStatus, Receive, Response, ResponseDecoder, Telegram, Value, VisibleString,
 };
-use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
+use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
-    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
+    ClientStats, DriveClient, IdentValue, Target, code_name, device, link_error, refuse_read_only,
+    schema_code, shown_value, write_what, wrong_client,
 };
-use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
+use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
 use crate::plan;
 
@@ -303,6 +303,21 @@ fn value_of(schema: &Schema, code: &Code, raw: &RawValue) -> Result<Value, Strin
     }
 }
 
+/// How a LECOM identification value shows: a VD value (8.E: raw = value
+/// x 10000; a code the schema leaves untyped is VD) in engineering
+/// notation (`C0093 = 33.0000`), any other as every client shows it.
+fn ident_value(schema: &Schema, key: CodeKey, raw: RawValue) -> IdentValue {
+    if let RawValue::Int(v) = raw
+        && matches!(
+            schema.code(key.number).and_then(|c| schema.type_of(c)),
+            Some(ValueType::VD) | None
+        )
+    {
+        return IdentValue::Text(driveset_schema::value::raw_to_engineering(ValueType::VD, v));
+    }
+    super::identify::shown(schema, key, raw)
+}
+
 /// A Lenze Tmd on LECOM-A/B at one station address.
 #[derive(Debug)]
 pub struct LecomClient<L: ByteLink = Box<dyn ByteLink>> {
@@ -331,15 +346,8 @@ impl<L: ByteLink> LecomClient<L> {
             port: link.port().to_string(),
             address,
         };
-        if schema.family != Family::Tmd {
-            return Err(EngineError::refused(
-                target,
-                Refusal::WrongClient {
-                    schema: schema.id.clone(),
-                    family: schema.family.to_string(),
-                    protocol: driveset_schema::BusProtocol::Lecom,
-                },
-            ));
+        if !BusProtocol::Lecom.carries(schema.family) {
+            return Err(wrong_client(target, &schema, BusProtocol::Lecom));
         }
         let address = match crate::error::AddressRefused::check_client(
             driveset_schema::BusProtocol::Lecom,
@@ -590,67 +598,7 @@ impl<L: ByteLink> LecomClient<L> {
 }
 
 impl<L: ByteLink> DriveClient for LecomClient<L> {
-    fn target(&self) -> &Target {
-        &self.target
-    }
-
-    fn bus_id(&self) -> String {
-        self.line.link.bus_id()
-    }
-
-    fn schema(&self) -> &Arc<Schema> {
-        &self.schema
-    }
-
-    fn clock(&self) -> &dyn Clock {
-        self.line.link.clock()
-    }
-
-    fn identify(&mut self) -> Result<Identity, EngineError> {
-        let codes = self
-            .schema
-            .identify
-            .as_ref()
-            .map(|i| i.codes.clone())
-            .filter(|c| !c.is_empty())
-            .unwrap_or_else(|| vec![C0093]);
-        let mut out = Identity::of(IdentProtocol::Family(Family::Tmd));
-        for n in codes {
-            let key = CodeKey::new(n);
-            let name = code_name(&self.schema, key);
-            let what = format!("identify: read {name}");
-            let raw = match self.read_key(key, &what) {
-                Ok(r) => r,
-                // A code this controller lacks does not stop identification.
-                Err(e) if matches!(*e.kind, ErrorKind::Device { .. }) => continue,
-                Err(e) => return Err(e),
-            };
-            let value = match &raw {
-                RawValue::Int(v) => {
-                    match self.schema.code(n).and_then(|c| self.schema.type_of(c)) {
-                        Some(ValueType::VD) | None => IdentValue::Text(
-                            driveset_schema::value::raw_to_engineering(ValueType::VD, *v),
-                        ),
-                        _ => IdentValue::Int(*v),
-                    }
-                }
-                RawValue::Text(t) => IdentValue::Text(t.clone()),
-                RawValue::Octets(o) => {
-                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
-                }
-            };
-            if n == C0099 {
-                out.software = Some(value.to_string());
-            }
-            out.codes.push(IdentCode::new(key, name, value));
-        }
-        Ok(out)
-    }
-
-    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
-        let what = format!("read {}", code_name(&self.schema, key));
-        self.read_key(key, &what)
-    }
+    super::shared_client_methods!(ident_value);
 
     fn write_named(
         &mut self,
@@ -742,10 +690,6 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
             _ => 0,
         };
         Ok(Some(word >> ind.bit & 1 == 1))
-    }
-
-    fn stats(&self) -> ClientStats {
-        self.line.stats
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {

@@ -16,6 +16,7 @@ use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::Permit;
 
+mod identify;
 pub mod lecom;
 pub mod lustbus;
 mod refusal;
@@ -370,6 +371,63 @@ pub trait DriveClient: Send {
 // Helpers the protocol clients share (not part of the contract).
 // ---------------------------------------------------------------------------
 
+/// The [`DriveClient`] methods every protocol client answers the same way,
+/// expanded inside its `impl DriveClient`: `target`, `schema` (its fields of
+/// those names), `bus_id`, `clock`, `stats` (its `line`'s `link` and
+/// `stats`), `read` (its `read_key(key, what)` with `read C0011`) and
+/// `identify` (the one loop of `identify.rs` over its `read_key`, values
+/// shown by `$show`).
+macro_rules! shared_client_methods {
+    ($show:path) => {
+        fn target(&self) -> &$crate::client::Target {
+            &self.target
+        }
+
+        fn bus_id(&self) -> String {
+            self.line.link.bus_id()
+        }
+
+        fn schema(&self) -> &std::sync::Arc<driveset_schema::Schema> {
+            &self.schema
+        }
+
+        fn clock(&self) -> &dyn driveset_link::Clock {
+            self.line.link.clock()
+        }
+
+        fn stats(&self) -> $crate::client::ClientStats {
+            self.line.stats
+        }
+
+        fn identify(&mut self) -> Result<$crate::client::Identity, $crate::error::EngineError> {
+            let schema = std::sync::Arc::clone(&self.schema);
+            $crate::client::identify::identify(&schema, |key, what| self.read_key(key, what), $show)
+        }
+
+        fn read(
+            &mut self,
+            key: driveset_schema::CodeKey,
+        ) -> Result<driveset_schema::RawValue, $crate::error::EngineError> {
+            let what = format!("read {}", $crate::client::code_name(&self.schema, key));
+            self.read_key(key, &what)
+        }
+    };
+}
+pub(crate) use shared_client_methods;
+
+/// The refusal of a client for `protocol` given a schema of a family on
+/// another bus.
+pub(crate) fn wrong_client(target: Target, schema: &Schema, protocol: BusProtocol) -> EngineError {
+    EngineError::refused(
+        target,
+        Refusal::WrongClient {
+            schema: schema.id.clone(),
+            family: schema.family.to_string(),
+            protocol,
+        },
+    )
+}
+
 /// The schema entry of `key`, or `Refused` (a client never touches a code
 /// its schema does not know).
 pub(crate) fn schema_code<'s>(
@@ -515,7 +573,7 @@ impl driveset_link::FrameLink for BorrowedFrameLink<'_> {
 }
 
 #[cfg(test)]
-mod identity_tests {
+mod tests {
     use super::*;
 
     #[test]

@@ -31,16 +31,16 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_link::mem::can_frame_time;
-use driveset_link::{Clock, FrameLink, LinkError};
+use driveset_link::{FrameLink, LinkError};
 use driveset_proto::can::{
     ClientEvent, Completed, Index, NodeId, SdoClient, SdoRequest, SdoResponse, Subindex,
     lenze::INDEX_BASE,
 };
-use driveset_schema::{Code, CodeKey, Family, RawValue, Schema, ValueType};
+use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::{
-    ClientStats, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity, Target, code_name,
-    device, link_error, refuse_read_only, schema_code, shown_value, write_what,
+    ClientStats, DriveClient, Target, code_name, device, link_error, refuse_read_only, schema_code,
+    shown_value, write_what, wrong_client,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
@@ -280,15 +280,8 @@ impl<L: FrameLink> CanClient<L> {
             port: link.port().to_string(),
             address: node,
         };
-        if schema.family != Family::Ecs {
-            return Err(EngineError::refused(
-                target,
-                Refusal::WrongClient {
-                    schema: schema.id.clone(),
-                    family: schema.family.to_string(),
-                    protocol: driveset_schema::BusProtocol::CanSdo,
-                },
-            ));
+        if !BusProtocol::CanSdo.carries(schema.family) {
+            return Err(wrong_client(target, &schema, BusProtocol::CanSdo));
         }
         let node = match crate::error::AddressRefused::check_client(
             driveset_schema::BusProtocol::CanSdo,
@@ -455,50 +448,7 @@ fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
 }
 
 impl<L: FrameLink> DriveClient for CanClient<L> {
-    fn target(&self) -> &Target {
-        &self.target
-    }
-
-    fn bus_id(&self) -> String {
-        self.line.link.bus_id()
-    }
-
-    fn schema(&self) -> &Arc<Schema> {
-        &self.schema
-    }
-
-    fn clock(&self) -> &dyn Clock {
-        self.line.link.clock()
-    }
-
-    fn identify(&mut self) -> Result<Identity, EngineError> {
-        let codes = self
-            .schema
-            .identify
-            .as_ref()
-            .map(|i| i.codes.clone())
-            .unwrap_or_default();
-        let mut out = Identity::of(IdentProtocol::Family(Family::Ecs));
-        for n in codes {
-            let key = CodeKey::new(n);
-            let name = code_name(&self.schema, key);
-            let raw = self.read_key(key, &format!("identify: read {name}"))?;
-            let value = match raw {
-                RawValue::Int(v) => IdentValue::Int(v),
-                RawValue::Text(t) => IdentValue::Text(t),
-                RawValue::Octets(o) => {
-                    IdentValue::Text(o.iter().map(|b| format!("{b:02X}")).collect())
-                }
-            };
-            out.codes.push(IdentCode::new(key, name, value));
-        }
-        Ok(out)
-    }
-
-    fn read(&mut self, key: CodeKey) -> Result<RawValue, EngineError> {
-        let what = format!("read {}", code_name(&self.schema, key));
-        self.read_key(key, &what)
-    }
+    super::shared_client_methods!(super::identify::shown);
 
     fn write_named(
         &mut self,
@@ -551,10 +501,6 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
             RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
             _ => Ok(None),
         }
-    }
-
-    fn stats(&self) -> ClientStats {
-        self.line.stats
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {

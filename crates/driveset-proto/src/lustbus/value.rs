@@ -112,6 +112,18 @@ impl ParameterType {
         }
     }
 
+    /// The type a schema's code travels as, from the schema's `type =`
+    /// name and `width`: a PT_* name its type ([`ParameterType::from_name`];
+    /// a name of another protocol's type: `None`), a code without a type
+    /// name by its width ([`ParameterType::of_width`]). The one table from
+    /// a schema code to the codec's type, for the client and the simulator.
+    pub fn of_code(type_name: Option<&str>, width: Option<u8>) -> Option<Self> {
+        match type_name {
+            Some(name) => Self::from_name(name),
+            None => Self::of_width(width?),
+        }
+    }
+
     /// Whether `family` has this type (2.3.1 for VF1000, 2.3.2 for MC).
     pub const fn in_family(self, family: Dialect) -> bool {
         match family {
@@ -686,6 +698,13 @@ mod tests {
         assert_eq!(ParameterType::of_width(2), Some(ParameterType::Usign16));
         assert_eq!(ParameterType::of_width(4), Some(ParameterType::Int32Q16));
         assert_eq!(ParameterType::of_width(3), None);
+        let of = ParameterType::of_code;
+        assert_eq!(
+            of(Some("PT_FIXPOINT16"), Some(4)),
+            Some(ParameterType::Fixpoint16)
+        );
+        assert_eq!((of(Some("VD"), Some(2)), of(None, None)), (None, None));
+        assert_eq!(of(None, Some(2)), Some(ParameterType::Usign16));
         let v = ParameterValue::from_raw_signed(ParameterType::Integer16, -2).expect("fits");
         assert_eq!((v.raw(), v.raw_signed()), (0xFFFE, -2));
         let v = ParameterValue::from_raw_signed(ParameterType::Int32Q16, -65536).expect("fits");

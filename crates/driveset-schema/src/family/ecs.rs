@@ -56,6 +56,11 @@ pub(super) const ECS: Descriptor = Descriptor {
     schema_id: "lenze-ecs",
     bus: BusProtocol::CanSdo,
     identify: &[],
+    identify_rules: IdentifyRules {
+        without_schema: &[],
+        skips_missing: false,
+        software: None,
+    },
     reaction: Reaction {
         min: Duration::from_millis(1),
         max: Duration::from_millis(2),

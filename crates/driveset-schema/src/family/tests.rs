@@ -341,3 +341,20 @@ fn only_the_lustbus_inverter_takes_a_new_rate_at_a_restart_only() {
     assert_eq!(only, [Family::Vf1000]);
     assert!(Family::Mc6000.descriptor().line_rates.online.is_some());
 }
+
+/// The identify rules stay inside the identify codes: what is read
+/// without a schema's codes, and the software version code, are among
+/// the family's own identification codes.
+#[test]
+fn identify_rules_stay_within_the_identify_codes() {
+    for f in Family::ALL {
+        let d = f.descriptor();
+        let rules = d.identify_rules;
+        for n in rules.without_schema {
+            assert!(d.identify.contains(n), "{}: {n}", d.name);
+        }
+        if let Some(n) = rules.software {
+            assert!(d.identify.contains(&n), "{}: {n}", d.name);
+        }
+    }
+}

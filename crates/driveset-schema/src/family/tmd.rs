@@ -56,6 +56,11 @@ pub(super) const TMD: Descriptor = Descriptor {
     schema_id: "lenze-tmd",
     bus: BusProtocol::Lecom,
     identify: &[93, 99, 200],
+    identify_rules: IdentifyRules {
+        without_schema: &[93],
+        skips_missing: true,
+        software: Some(99),
+    },
     reaction: Reaction {
         min: Duration::from_millis(1),
         max: Duration::from_millis(20),

@@ -42,6 +42,11 @@ pub(super) const VF1000: Descriptor = Descriptor {
     schema_id: "lust-vf1000",
     bus: BusProtocol::Lustbus,
     identify: &[91],
+    identify_rules: IdentifyRules {
+        without_schema: &[TYPE],
+        skips_missing: false,
+        software: None,
+    },
     reaction: Reaction {
         min: Duration::from_millis(1),
         max: Duration::from_millis(30),

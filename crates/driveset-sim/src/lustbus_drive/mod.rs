@@ -344,13 +344,15 @@ impl LustCore {
         Ok(())
     }
 
-    /// The codec type of a parameter: from the schema, else from its width
-    /// (a simulator choice for parameters the schemas leave untyped).
+    /// The codec type of a parameter: proto's [`ParameterType::of_code`]
+    /// of its schema type and width; a type of another protocol by its
+    /// width too, and any other by PT_INT32Q16 (simulator choices for
+    /// parameters the schemas leave untyped).
     pub fn wire_type(&self, p: &Param) -> ParameterType {
-        let t =
-            p.ty.and_then(|t| ParameterType::from_name(t.name()))
-                .or_else(|| ParameterType::of_width(p.byte_width()))
-                .unwrap_or(ParameterType::Int32Q16);
+        let width = p.byte_width();
+        let t = ParameterType::of_code(p.ty.map(|t| t.name()), Some(width))
+            .or_else(|| ParameterType::of_width(width))
+            .unwrap_or(ParameterType::Int32Q16);
         if t.in_family(self.wire) {
             t
         } else if self.wire == WireFamily::Vf1000 {
