@@ -70,10 +70,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "learning's descriptions, layouts and the learned file in one: to split",
     ),
     (
-        "crates/driveset-engine/src/line/commission.rs",
-        "about ten jobs (run, resume, per-drive work, learning, two broadcasts): the split is on branch session, not landed",
-    ),
-    (
         "crates/driveset-engine/src/transfer.rs",
         "the rate switch, its journal record and its recovery: the split is on branch engine-split, not landed",
     ),
