@@ -29,7 +29,6 @@ const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-engine/src/client/sdo.rs", 2),
     ("crates/driveset-engine/src/guard.rs", 1),
     ("crates/driveset-engine/src/learn.rs", 12),
-    ("crates/driveset-engine/src/line/commission.rs", 2),
     ("crates/driveset-engine/src/line/manifest/reader.rs", 4),
     ("crates/driveset-cli/src/cmd/address.rs", 3),
     ("crates/driveset-engine/src/assign.rs", 6),

@@ -9,7 +9,7 @@ use driveset_schema::{CodeKey, RawValue};
 
 use super::bus::OnBus;
 use super::drive::blank_report;
-use super::parked::{FirstHalf, Parked, first_half, lust_client, next_half};
+use super::parked::{FirstHalf, Parked, first_half, next_half};
 use super::recovery::unfinished_at;
 use super::run::Ctx;
 use super::timeline::{link_now, push_broadcast, push_spans};
@@ -79,7 +79,8 @@ pub(super) fn lustbus_broadcast_refusal(
 fn bus_refusal(drives: &[&Drive], listed: &[&Drive]) -> Option<String> {
     let vf: Vec<&str> = listed
         .iter()
-        .filter(|d| d.schema.family == driveset_schema::Family::Vf1000)
+        // a drive that executes every SELECT to address 31 as its own write
+        .filter(|d| d.schema.family.descriptor().broadcast_as_own)
         .map(|d| d.name.as_str())
         .collect();
     if !vf.is_empty() {
@@ -114,7 +115,8 @@ fn bus_refusal(drives: &[&Drive], listed: &[&Drive]) -> Option<String> {
             drives[0].name, drives[0].schema.id, d.name, d.schema.id
         ));
     }
-    if drives[0].schema.family != driveset_schema::Family::Mc6000 {
+    // the family's dataset handshake (MC6000/7000 80-SLOAD) carries the broadcast
+    if drives[0].schema.family.descriptor().dataset.is_none() {
         return Some("broadcasts go into MC6000/7000 dataset downloads only".into());
     }
     None
@@ -281,12 +283,13 @@ fn send(
     report: &mut BusReport,
 ) {
     let t0 = link_now(link);
-    let res = lust_client(link, first).and_then(|mut c| {
-        for (k, v) in codes {
-            c.broadcast(*k, v)?;
-        }
-        c.finish()
-    });
+    let res =
+        crate::connect::lustbus_on(link, first.schema.clone(), first.address).and_then(|mut c| {
+            for (k, v) in codes {
+                c.broadcast(*k, v)?;
+            }
+            c.finish()
+        });
     let t1 = link_now(link);
     push_broadcast(report, on.start, "address 31".into(), (t0, t1));
     if let Err(e) = res {

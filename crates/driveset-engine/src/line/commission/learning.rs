@@ -14,7 +14,7 @@ use driveset_schema::{CodeKey, Location, Registry, ResolvedSet, Schema, load_set
 use super::drive::{Failure, failure_of};
 use super::options::{LineLearn, Mode};
 use super::run::Ctx;
-use crate::client::{BorrowedByteLink, DriveClient, Identity, LustbusClient};
+use crate::client::{DriveClient, Identity};
 use crate::error::EngineError;
 use crate::learn::{LearnOptions, LearnSource, Learned, learn, learned_id, render_schema};
 use crate::line::manifest::{Bus, Drive};
@@ -126,11 +126,11 @@ fn read_drive(
     link: &mut Link,
     opts: &LearnOptions,
 ) -> Result<(Identity, Learned), Read> {
-    let Link::Bytes(b) = link else {
+    if !matches!(link, Link::Bytes(_)) {
         return Err(Read::Can);
-    };
-    let mut client = LustbusClient::new(BorrowedByteLink(&mut **b), base.clone(), d.address)
-        .map_err(Read::Engine)?;
+    }
+    let mut client =
+        crate::connect::lustbus_on(link, base.clone(), d.address).map_err(Read::Engine)?;
     let identity = client.identify().map_err(Read::Engine)?;
     let opts = crate::learn::options_for(base, opts);
     let learned = learn(&mut client, base.family, &opts).map_err(Read::Engine)?;

@@ -12,7 +12,8 @@ use driveset_schema::{CodeKey, RawValue, Role};
 use super::bus::OnBus;
 use super::recovery::unfinished_at;
 use super::timeline::{link_now, push_broadcast};
-use crate::client::{BorrowedByteLink, DriveClient, LecomClient};
+use crate::client::DriveClient;
+use crate::connect;
 use crate::line::manifest::{BusProtocol, Drive};
 use crate::line::report::BusReport;
 
@@ -104,7 +105,7 @@ fn may_multicast(on: &OnBus<'_>, tens: u8, members: &[&Drive], link: &mut Link) 
     let schema = members[0].schema.clone();
     let mut running = Vec::new();
     for m in members {
-        if let Ok(mut c) = LecomClient::new(BorrowedByteLink(&mut **b), schema.clone(), m.address)
+        if let Ok(mut c) = connect::lecom_on(link, schema.clone(), m.address)
             && let Ok(Some(true)) = c.running()
         {
             running.push(m.name.clone());
@@ -131,13 +132,8 @@ fn multicast(
     common: &[(CodeKey, RawValue)],
     link: &mut Link,
 ) -> bool {
-    let Link::Bytes(b) = link else { return false };
     let schema = members[0].schema.clone();
-    let mut c = match LecomClient::new(
-        BorrowedByteLink(&mut **b),
-        schema.clone(),
-        members[0].address,
-    ) {
+    let mut c = match connect::lecom_on(link, schema.clone(), members[0].address) {
         Ok(c) => c,
         Err(e) => {
             on.ctx.warn(e.to_string());

@@ -14,8 +14,8 @@ use super::drive::{Failure, blank_report, failure_of, mark_failed, take_upload};
 use super::resume::{record_drive, still_holds};
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_now, ms};
-use crate::client::{BorrowedByteLink, ClientStats, DriveClient, LustbusClient, Target};
-use crate::error::{EngineError, ErrorKind, Refusal};
+use crate::client::{ClientStats, DriveClient};
+use crate::error::{EngineError, ErrorKind};
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DriveReport, DriveResult};
 use crate::observe::{Event, Observer};
@@ -42,24 +42,6 @@ pub(super) enum FirstHalf<'d> {
     Done(Box<DriveReport>, Vec<Span>, Option<Failure>),
     /// Its transaction waits (dataset open, or nothing to stage).
     Parked(Box<Parked<'d>>),
-}
-
-pub(super) fn lust_client<'l>(
-    link: &'l mut Link,
-    d: &Drive,
-) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
-    match link {
-        Link::Bytes(b) => {
-            LustbusClient::new(BorrowedByteLink(&mut **b), d.schema.clone(), d.address)
-        }
-        Link::Frames(f) => Err(EngineError::refused(
-            Target {
-                port: f.port().to_string(),
-                address: d.address,
-            },
-            Refusal::LustbusOnCan,
-        )),
-    }
 }
 
 /// The end of a drive's transaction: the upload's outcome into its report,
@@ -143,7 +125,7 @@ pub(super) fn first_half<'d>(
 ) -> FirstHalf<'d> {
     let t0 = link_now(link);
     let mut r = blank_report(d, bus, DriveResult::Failed);
-    let c = match lust_client(link, d) {
+    let c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address) {
         Ok(c) => c,
         Err(e) => {
             r.error = Some(e.to_string());
@@ -285,7 +267,7 @@ pub(super) fn next_half<'d>(
 ) -> FirstHalf<'d> {
     let d = p.d;
     let t0 = link_now(link);
-    let mut c = match lust_client(link, d) {
+    let mut c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address) {
         Ok(c) => c,
         Err(e) => {
             p.r.error = Some(e.to_string());
