@@ -17,7 +17,7 @@ use crate::client::DriveClient;
 use crate::line::manifest::Drive;
 use crate::line::report::{BusReport, DriveReport, DriveResult};
 
-/// The values a LUSTBUS broadcast may carry for `drives` (module docs): the
+/// The values a LUSTBUS broadcast may carry for `drives` ([`super`] module docs): the
 /// codes every drive's set gives the same value, CardWriteable (staged by
 /// the SLOAD dataset), never a numerically compatible code (81..85, 91),
 /// never a code with a role, never the handshake code itself.

@@ -17,7 +17,7 @@ use crate::line::report::{DriveReport, LineReport, LineResult};
 use crate::observe::Event;
 use crate::overrides::Overrides;
 
-/// The outcome of a line run in one word (module docs, "Verdict").
+/// The outcome of a line run in one word ([`super`] module docs, "Verdict").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Verdict {
     /// Every selected drive holds its set.
@@ -97,7 +97,7 @@ pub struct LineOptions {
     pub overrides: Overrides,
     /// Broadcast the values common to the drives: LECOM MULTICAST per
     /// group, LUSTBUS SELECT to address 31 inside every MC dataset
-    /// download (module docs, "Broadcast").
+    /// download ([`super`] module docs, "Broadcast").
     pub broadcast_common: bool,
     /// Ignore the state file (commission every drive again).
     pub fresh: bool,
@@ -112,7 +112,7 @@ pub struct LineOptions {
 }
 
 /// How a line run learns the schema of a drive whose set names a built-in
-/// schema that lacks facts (module docs, "Learning the schema").
+/// schema that lacks facts ([`super`] module docs, "Learning the schema").
 #[derive(Debug, Clone)]
 pub struct LineLearn {
     /// Holds the built-in schemas the learned ones extend.
@@ -181,7 +181,7 @@ pub struct LineOutcome {
 }
 
 impl LineOutcome {
-    /// The run in one word (module docs).
+    /// The run in one word ([`super`] module docs).
     pub fn verdict(&self) -> Verdict {
         if self.bus_failure {
             Verdict::BusFailed
