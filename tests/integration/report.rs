@@ -22,7 +22,7 @@ fn fp(c: char) -> String {
 fn entry(drive: &str, phase: &str, start_ms: f64, end_ms: f64) -> TimelineEntry {
     TimelineEntry {
         drive: drive.into(),
-        phase: phase.into(),
+        phase: driveset_engine::observe::Phase::parse(phase).expect("a phase"),
         start_ms,
         end_ms,
     }
@@ -97,7 +97,7 @@ pub fn fixture() -> LineReport {
     let lecom = BusReport {
         name: "lecom-1".into(),
         port: "/dev/ttyUSB0".into(),
-        protocol: "lecom".into(),
+        protocol: driveset_schema::BusProtocol::Lecom,
         rate: 9600,
         elapsed_ms: 1840.0,
         timeline: vec![
@@ -113,7 +113,7 @@ pub fn fixture() -> LineReport {
     let lust = BusReport {
         name: "lust-1".into(),
         port: "tcp://10.0.0.7:4001".into(),
-        protocol: "lustbus".into(),
+        protocol: driveset_schema::BusProtocol::Lustbus,
         rate: 19200,
         elapsed_ms: 10_950.0,
         timeline: vec![
@@ -128,7 +128,7 @@ pub fn fixture() -> LineReport {
     let can = BusReport {
         name: "can-1".into(),
         port: "slcan:///dev/ttyACM0".into(),
-        protocol: "can".into(),
+        protocol: driveset_schema::BusProtocol::CanSdo,
         rate: 500_000,
         elapsed_ms: 42.0,
         timeline: vec![entry("spindle-1", "identify", 0.0, 42.0)],

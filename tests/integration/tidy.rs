@@ -50,39 +50,22 @@ const MAX_LINES: usize = 900;
 /// says so). A table of data may stay here for good, saying so.
 const LARGE_FILES: &[(&str, &str)] = &[
     (
-        "crates/driveset-engine/src/assign.rs",
-        "stand-alone address and rate assignment with its unit tests (issue 20): to split into plan / run / recover",
-    ),
-    (
         "crates/driveset-engine/src/client/lustbus.rs",
         "the LUSTBUS client with its dataset handshake and broadcasts: issue 19 narrows the client trait",
-    ),
-    (
-        "crates/driveset-engine/src/error.rs",
-        "refusals not yet beside their rooms: the split is on branch engine-split, not landed",
-    ),
-    (
-        "crates/driveset-engine/src/journal.rs",
-        "records, store and tests in one: the split is on branch engine-split, not landed",
     ),
     (
         "crates/driveset-engine/src/learn.rs",
         "learning's descriptions, layouts and the learned file in one: to split",
     ),
-    (
-        "crates/driveset-engine/src/transfer.rs",
-        "the rate switch, its journal record and its recovery: the split is on branch engine-split, not landed",
-    ),
-    (
-        "crates/driveset-engine/src/upload.rs",
-        "the transaction's steps, journal writer, rollback, dataset and report in one: the split is on branch engine-split, not landed",
-    ),
 ];
 
-/// Where the engine may touch files itself, beyond journal.rs's `store`
-/// module (which is skipped whole): `(file, the line's text, why)`.
+/// The journal's store, the engine's one file of file IO (skipped whole).
+const JOURNAL_STORE: &str = "crates/driveset-engine/src/journal/store.rs";
+
+/// Where the engine may touch files itself, beyond the journal's store
+/// ([`JOURNAL_STORE`]): `(file, the line's text, why)`.
 const ENGINE_IO_EXCEPTIONS: &[(&str, &str, &str)] = &[(
-    "crates/driveset-engine/src/journal.rs",
+    "crates/driveset-engine/src/journal/records.rs",
     ".then(|| std::fs::canonicalize(file).ok())",
     "SchemaSource::of records the schema file's absolute path in the journal for recover",
 )];
@@ -254,6 +237,25 @@ fn tidy_the_arrow_check_sees_an_arrow_up() {
     );
 }
 
+/// Whether `file` is a test module in a file of its own: a `tests.rs`
+/// whose parent module (`mod.rs` beside it, or the file named as its
+/// folder) declares it `#[cfg(test)] mod tests;`. Skipped whole, as an
+/// inline `#[cfg(test)]` module is ([`skipped_blocks`]).
+fn is_test_module_file(file: &Path) -> bool {
+    let Some(dir) = file.parent().filter(|_| file.ends_with("tests.rs")) else {
+        return false;
+    };
+    let parents = [dir.join("mod.rs"), dir.with_extension("rs")];
+    parents.iter().any(|p| {
+        std::fs::read_to_string(p).is_ok_and(|t| {
+            let lines: Vec<&str> = t.lines().map(str::trim).collect();
+            lines
+                .windows(2)
+                .any(|w| w[0] == "#[cfg(test)]" && w[1] == "mod tests;")
+        })
+    })
+}
+
 /// The 0-based line ranges of `lines` to skip: each `#[cfg(test)]` module
 /// (`mod x { .. }`) and, when `skip_mod` names one, that module too. A
 /// block ends at the first later line that is its opening line's
@@ -302,10 +304,12 @@ fn tidy_the_engine_does_no_io_but_its_journal() {
     let mut used_exceptions = BTreeSet::new();
     for file in files(&src, &[".rs"]) {
         let path = rel(&root, &file);
+        if path == JOURNAL_STORE || is_test_module_file(&file) {
+            continue;
+        }
         let text = read(&file);
         let lines: Vec<&str> = text.lines().collect();
-        let is_journal = path == "crates/driveset-engine/src/journal.rs";
-        let skip = skipped_blocks(&lines, is_journal.then_some("store"));
+        let skip = skipped_blocks(&lines, None);
         for (i, line) in lines.iter().enumerate() {
             let code = line.trim_start();
             if code.starts_with("//") || skip.iter().any(|&(a, b)| (a..=b).contains(&i)) {
@@ -331,7 +335,7 @@ fn tidy_the_engine_does_no_io_but_its_journal() {
                 continue;
             }
             problems.push(format!(
-                "{path}:{}: `{what}` in the engine: the engine does no IO of its own but its journal (docs/architecture.md, \"The engine's seams\"); take it through a seam (`Environment`, the link, the schema crate's `input` reader) or, if it is the journal's, put it in journal.rs's `store`",
+                "{path}:{}: `{what}` in the engine: the engine does no IO of its own but its journal (docs/architecture.md, \"The engine's seams\"); take it through a seam (`Environment`, the link, the schema crate's `input` reader) or, if it is the journal's, put it in its store (crates/driveset-engine/src/journal/store.rs)",
                 i + 1
             ));
         }
@@ -344,6 +348,70 @@ fn tidy_the_engine_does_no_io_but_its_journal() {
         }
     }
     report("engine IO (docs/architecture.md)", &problems);
+}
+
+/// The client constructors: only `connect.rs` (which `engine::session`
+/// calls) and the clients themselves use them.
+const CLIENT_CONSTRUCTORS: &[&str] = &[
+    "LustbusClient::new(",
+    "LustbusClient::with_options(",
+    "LecomClient::new(",
+    "LecomClient::with_options(",
+    "CanClient::new(",
+];
+
+/// Source files that still build a client themselves, with how many
+/// constructions each holds (a count may only go down).
+const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] = &[];
+
+#[test]
+fn tidy_clients_are_built_only_by_connect_and_the_session() {
+    let root = workspace_root();
+    let mut problems = Vec::new();
+    for dir in ["crates/driveset-engine/src", "crates/driveset-cli/src"] {
+        for file in files(&root.join(dir), &[".rs"]) {
+            let path = rel(&root, &file);
+            if path == "crates/driveset-engine/src/connect.rs"
+                || path.starts_with("crates/driveset-engine/src/client/")
+            {
+                continue;
+            }
+            let text = read(&file);
+            let lines: Vec<&str> = text.lines().collect();
+            let skip = skipped_blocks(&lines, None);
+            let mut n = 0;
+            let mut first = 0;
+            for (i, line) in lines.iter().enumerate() {
+                if line.trim_start().starts_with("//")
+                    || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
+                {
+                    continue;
+                }
+                let here = CLIENT_CONSTRUCTORS
+                    .iter()
+                    .filter(|c| line.contains(*c))
+                    .count();
+                if here > 0 && n == 0 {
+                    first = i + 1;
+                }
+                n += here;
+            }
+            let allowed = CLIENTS_STILL_BUILT_ELSEWHERE
+                .iter()
+                .find(|(f, _)| *f == path)
+                .map_or(0, |(_, a)| *a);
+            if n > allowed {
+                problems.push(format!(
+                    "{path}:{first}: {n} client construction(s): reach a drive through `engine::session::Session` or `engine::connect` (docs/architecture.md, \"One path from a port to a drive\")"
+                ));
+            } else if n < allowed {
+                problems.push(format!(
+                    "{path}:1: {n} client construction(s), the allowlist says {allowed}: lower or remove its entry in CLIENTS_STILL_BUILT_ELSEWHERE (tests/integration/tidy.rs)"
+                ));
+            }
+        }
+    }
+    report("client construction (docs/architecture.md)", &problems);
 }
 
 #[test]
@@ -569,8 +637,8 @@ fn tidy_no_reference_to_design_notes_outside_the_repository() {
     report("references outside the repository", &problems);
 }
 
-/// The helpers the checks stand on: test modules and journal.rs's `store`
-/// skipped to their closing brace, GitHub's anchors, link targets and
+/// The helpers the checks stand on: test modules (and a module named by the
+/// caller) skipped to their closing brace, GitHub's anchors, link targets and
 /// `docs/` mentions.
 #[test]
 fn tidy_the_source_and_link_readers() {

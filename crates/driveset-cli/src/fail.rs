@@ -78,6 +78,16 @@ impl From<EngineError> for Fail {
     }
 }
 
+impl From<driveset_engine::session::SessionError> for Fail {
+    fn from(e: driveset_engine::session::SessionError) -> Self {
+        match e {
+            driveset_engine::session::SessionError::Engine(e) => e.into(),
+            e if e.is_input() => Fail::input(e.to_string()),
+            e => Fail::bus(e.to_string()),
+        }
+    }
+}
+
 impl From<anyhow::Error> for Fail {
     fn from(e: anyhow::Error) -> Self {
         Fail::input(format!("{e:#}"))

@@ -7,14 +7,13 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::learn::{
-    LearnOptions, Learned, LearnedSchema, PullSchemaError, needs_learning, pull_schema,
-};
-use driveset_engine::scan::{ScanOptions, detect_protocol};
-use driveset_link::{ByteLink, Link};
+use driveset_engine::client::DriveClient;
+use driveset_engine::learn::{LearnOptions, Learned, needs_learning};
+use driveset_engine::session::{self, LearnPolicy, Session, SessionPolicy};
+use driveset_link::Link;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{Family, Schema};
+use driveset_sim::open::SimLink;
 use serde_json::json;
 
 use crate::port::{self, Fail, OpenPort};
@@ -68,49 +67,36 @@ impl LearnArgs {
     }
 }
 
-/// The built-in schema of a protocol.
-pub fn builtin_for(protocol: Family, dirs: &[PathBuf]) -> Result<Arc<Schema>, Fail> {
-    let id = match protocol {
-        Family::Mc6000 => "lust-mc6000",
-        Family::Vf1000 => "lust-vf1000",
-        Family::Tmd => "lenze-tmd",
-        Family::Ecs => "lenze-ecs",
-    };
+/// The built-in schema of a family (its descriptor's `schema_id`).
+pub fn builtin_for(family: Family, dirs: &[PathBuf]) -> Result<Arc<Schema>, Fail> {
+    let id = family.descriptor().schema_id;
     port::registry(dirs)?
         .get(id)
         .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
 }
 
 /// The drive's protocol at `address` of an open serial port, by read-only
-/// probes (LUSTBUS ENQUIRY of 91-TYPE and of the MC CODE 20091, LECOM
-/// RECEIVE of C0093 / C0200), and the built-in schema for it. The port
-/// stays open for the command.
+/// probes (the engine's `session::detect`: LUSTBUS ENQUIRY of 91-TYPE and
+/// of the MC CODE 20091, LECOM RECEIVE of C0093 / C0200), and the built-in
+/// schema for it. The port stays open for the command.
 pub fn detect(
     opened: &mut OpenPort,
     address: u8,
     dirs: &[PathBuf],
 ) -> Result<(Arc<Schema>, String), Fail> {
     let name = opened.name.clone();
-    let mut sim_link;
-    let link: &mut dyn ByteLink = match (&mut opened.link, opened.sim.is_some()) {
-        (Link::Bytes(_), true) => {
-            sim_link = port::byte_link(opened)?;
-            sim_link.as_mut()
-        }
-        (Link::Bytes(l), false) => l.as_mut(),
-        (Link::Frames(_), _) => {
-            return Err(Fail::input(format!(
-                "{name} is a CAN port: say which schema the node speaks (--schema lenze-ecs or a schema file)"
-            )));
-        }
+    let (family, evidence) = if opened.sim.is_some() {
+        let mut link = match &opened.link {
+            Link::Bytes(_) => Link::Bytes(port::byte_link(opened)?),
+            Link::Frames(_) => {
+                return Err(session::SessionError::DetectOnCan { port: name }.into());
+            }
+        };
+        session::detect(&mut link, &name, address)?
+    } else {
+        session::detect(&mut opened.link, &name, address)?
     };
-    let found = detect_protocol(link, address, &ScanOptions::default()).map_err(Fail::from)?;
-    let Some(d) = found else {
-        return Err(Fail::bus(format!(
-            "{name} address {address}: no drive answered the read-only probes (LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200); check wiring, address and baud rate, or name the schema with --schema"
-        )));
-    };
-    Ok((builtin_for(d.protocol, dirs)?, d.evidence))
+    Ok((builtin_for(family, dirs)?, evidence))
 }
 
 /// What learning did, for reports.
@@ -187,6 +173,18 @@ impl LearnReport {
     }
 }
 
+impl From<session::LearnedReport> for LearnReport {
+    fn from(r: session::LearnedReport) -> Self {
+        LearnReport {
+            id: r.id,
+            file: r.file,
+            base: r.base,
+            codes: r.codes,
+            learned: r.learned,
+        }
+    }
+}
+
 /// The action of a finding where the drive contradicts the spec.
 const KEPT_SPEC: &str = driveset_engine::learn::KEPT_SPEC;
 
@@ -196,84 +194,58 @@ pub fn wants(schema: &Schema, args: &LearnArgs) -> bool {
     !args.no_learn && needs_learning(schema)
 }
 
-/// A client speaking a learned schema, the schema, and what learning did.
-pub type LearnedClient = (Box<dyn DriveClient>, Arc<Schema>, LearnReport);
+/// A drive reached through the engine's session ([`open`]).
+pub struct OnDrive {
+    /// The client (speaking the schema below).
+    pub client: Box<dyn DriveClient>,
+    /// The schema it speaks: the learned one, when learning ran.
+    pub schema: Arc<Schema>,
+    /// What learning did, when it ran.
+    pub learned: Option<LearnReport>,
+    /// Keeps a `sim://` bus alive while the client uses it.
+    pub _sim: Option<SimLink>,
+}
 
-/// Learns the schema of the drive at `address` over `link`, speaking
-/// `base`'s protocol: reads its descriptions (and MC texts), renders and
-/// checks the schema, writes it to `dir/<id>.toml` when `dir` is given.
-/// Returns a client on the same link speaking the learned schema.
-pub fn learn(
-    link: Box<dyn ByteLink>,
-    base: Arc<Schema>,
+/// The drive at `address` of `opened`, speaking `schema` (after
+/// [`port::check_fit`]), through the engine's session: a LUSTBUS schema
+/// that lacks facts is learned from the drive's descriptions first
+/// (unless `--no-learn`) and the learned schema written to
+/// `dir/<id>.toml` when `dir` is given.
+pub fn open(
+    opened: OpenPort,
+    schema: Arc<Schema>,
     address: u8,
-    port_name: &str,
+    allow_family: bool,
     args: &LearnArgs,
     dirs: &[PathBuf],
     dir: Option<&Path>,
-) -> Result<LearnedClient, Fail> {
-    let opts = args.options()?;
-    let mut client = LustbusClient::new(link, base.clone(), address).map_err(Fail::from)?;
-    let registry = port::registry_for(port_name, dirs)?;
-    let pulled = pull_schema(
-        &mut client,
-        &base,
-        &opts,
-        None,
-        format!("{port_name} address {address}"),
-        &registry,
-    )
-    .map_err(|e| match e {
-        PullSchemaError::Engine(e) => Fail::from(e),
-        PullSchemaError::Render(e) => Fail::bus(format!("{port_name} address {address}: {e}")),
-    })?;
-    let (rendered, learned): (LearnedSchema, _) = (pulled.rendered, pulled.learned);
-    let id = rendered.id.clone();
-    let file = match dir {
-        Some(d) => {
-            std::fs::create_dir_all(d)
-                .map_err(|e| Fail::input(format!("cannot create {}: {e}", d.display())))?;
-            let f = d.join(format!("{id}.toml"));
-            std::fs::write(&f, &rendered.text)
-                .map_err(|e| Fail::input(format!("cannot write {}: {e}", f.display())))?;
-            Some(f)
-        }
-        None => None,
+) -> Result<OnDrive, Fail> {
+    port::check_fit(&opened, &schema, Some(address), allow_family)?;
+    let learning = wants(&schema, args);
+    let registry = if learning {
+        Some(port::registry_for(&opened.name, dirs)?)
+    } else {
+        None
     };
-    let schema = rendered.schema.clone();
-    let client: Box<dyn DriveClient> = Box::new(
-        LustbusClient::new(client.into_link(), schema.clone(), address).map_err(Fail::from)?,
-    );
-    Ok((
-        client,
-        schema,
-        LearnReport {
-            id,
-            file,
-            base: base.id.clone(),
-            codes: rendered.codes,
-            learned,
+    let policy = SessionPolicy {
+        learn: match &registry {
+            Some(registry) => Some(LearnPolicy {
+                options: args.options()?,
+                registry,
+                dir: dir.map(Path::to_path_buf),
+                env: &crate::env::SystemEnv,
+            }),
+            None => None,
         },
-    ))
-}
-
-/// The byte link of an open port for a LUSTBUS client: a fresh handle on
-/// a `sim://` port (whose simulated bus is returned too, to keep it alive),
-/// the port's one link otherwise.
-pub fn take_byte_link(
-    opened: OpenPort,
-) -> Result<(Box<dyn ByteLink>, Option<driveset_sim::open::SimLink>), Fail> {
-    if opened.sim.is_some() {
-        let l = port::byte_link(&opened)?;
-        return Ok((l, opened.sim));
-    }
-    match opened.link {
-        Link::Bytes(l) => Ok((l, None)),
-        Link::Frames(_) => Err(Fail::input(format!(
-            "{} is a CAN port; LUSTBUS needs a character line",
-            opened.name
-        ))),
-    }
+    };
+    let (port, sim) = opened.into_session_port()?;
+    let s = Session::open(port, schema, address, &policy)?;
+    Ok(OnDrive {
+        client: s.client,
+        schema: s.schema,
+        learned: s.learned.map(LearnReport::from),
+        _sim: sim,
+    })
 }
 
 /// A set for a command against one drive, with the client to talk to it:
@@ -290,7 +262,7 @@ pub struct SetOnDrive {
     /// The port as reports name it.
     pub port_name: String,
     /// Keeps a `sim://` bus alive while the client uses it.
-    pub _sim: Option<driveset_sim::open::SimLink>,
+    pub _sim: Option<SimLink>,
 }
 
 /// Loads `set` and opens the drive at `address` of `port` for it (see
@@ -315,21 +287,20 @@ pub fn set_on_drive(
         .map_err(|e| refused(crate::output::fail_input(&e)))?;
     if let Some(base) = loaded.schema.clone().filter(|s| wants(s, args)) {
         let opened = port::open_port_at(port_arg, Some(address))?;
-        port::check_fit(&opened, &base, Some(address), force)?;
         let port_name = opened.name.clone();
-        let (link, sim) = take_byte_link(opened)?;
-        let (client, schema, report) = learn(
-            link,
+        let on = open(
+            opened,
             base.clone(),
             address,
-            &port_name,
+            force,
             args,
             dirs,
             args.schema_dir.as_deref(),
         )?;
-        for l in report.lines() {
+        for l in on.learned.iter().flat_map(LearnReport::lines) {
             eprintln!("{l}");
         }
+        let (client, schema, sim) = (on.client, on.schema, on._sim);
         let mut registry = registry;
         registry.insert_as(&base.id, schema.clone());
         let loaded = crate::output::load_valid_set(set, &mut registry).map_err(refused)?;

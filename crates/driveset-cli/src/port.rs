@@ -29,8 +29,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::client::{DriveClient, LustbusOptions};
+use driveset_engine::client::DriveClient;
 use driveset_engine::connect::ConnectOptions;
+use driveset_engine::session::{OpenedPort as SessionPort, Session, SessionPolicy};
 use driveset_link::{Link, OpenOptions, Openers, PortSpec, VirtualClock};
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
 use driveset_sim::log::EventLog;
@@ -301,7 +302,7 @@ pub fn check_fit(
 }
 
 /// A client for the drive at `address` on `port`, speaking `schema`'s
-/// protocol (after [`check_fit`]).
+/// protocol (after [`check_fit`]), through the engine's session.
 pub fn client(
     port: &OpenPort,
     schema: Arc<Schema>,
@@ -309,16 +310,8 @@ pub fn client(
     allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
     check_fit(port, &schema, Some(address), allow_family)?;
-    let link = match &port.link {
-        Link::Bytes(_) => Link::Bytes(byte_link(port)?),
-        Link::Frames(_) => Link::Frames(frame_link(port)?),
-    };
-    Ok(driveset_engine::connect::connect_with(
-        link,
-        schema,
-        address,
-        &connect_options(&port.spec),
-    )?)
+    let opened = port.session_port()?;
+    Ok(Session::open(opened, schema, address, &SessionPolicy::default())?.client)
 }
 
 /// A fresh byte-link handle of the port (sim ports hand out any number;
@@ -347,6 +340,38 @@ fn frame_link(port: &OpenPort) -> Result<Box<dyn driveset_link::FrameLink>, Fail
     )))
 }
 
+impl OpenPort {
+    /// The engine's view of a `sim://` port: a fresh handle of its link
+    /// (the simulated bus stays with `self`).
+    fn session_port(&self) -> Result<SessionPort, Fail> {
+        let link = match &self.link {
+            Link::Bytes(_) => Link::Bytes(byte_link(self)?),
+            Link::Frames(_) => Link::Frames(frame_link(self)?),
+        };
+        Ok(SessionPort {
+            name: self.name.clone(),
+            link,
+            connect: connect_options(&self.spec),
+        })
+    }
+
+    /// The port as the engine's session takes it, and the simulated bus
+    /// behind a `sim://` port, which the caller keeps alive while the
+    /// session's client talks over it.
+    pub fn into_session_port(self) -> Result<(SessionPort, Option<SimLink>), Fail> {
+        if self.sim.is_some() {
+            let port = self.session_port()?;
+            return Ok((port, self.sim));
+        }
+        let port = SessionPort {
+            connect: connect_options(&self.spec),
+            name: self.name,
+            link: self.link,
+        };
+        Ok((port, None))
+    }
+}
+
 /// Like [`client`], consuming the port (the only way for a real port, whose
 /// one transport moves into the client).
 pub fn into_client(
@@ -359,12 +384,8 @@ pub fn into_client(
         return client(&port, schema, address, allow_family);
     }
     check_fit(&port, &schema, Some(address), allow_family)?;
-    Ok(driveset_engine::connect::connect_with(
-        port.link,
-        schema,
-        address,
-        &connect_options(&port.spec),
-    )?)
+    let (opened, _) = port.into_session_port()?;
+    Ok(Session::open(opened, schema, address, &SessionPolicy::default())?.client)
 }
 
 /// What the port string says about talking to its drives (`latency=`).
@@ -372,11 +393,6 @@ pub fn connect_options(spec: &PortSpec) -> ConnectOptions {
     ConnectOptions {
         latency: spec.latency(),
     }
-}
-
-/// LUSTBUS client options of a port: its `?latency=`.
-pub fn lustbus_options(spec: &PortSpec) -> LustbusOptions {
-    connect_options(spec).lustbus()
 }
 
 /// The schemas every command knows ([`crate::output::registry`]).

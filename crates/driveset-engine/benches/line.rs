@@ -397,7 +397,7 @@ fn run_axes(m: &Manifest, broadcast: bool) -> (LineOutcome, f64) {
             o.report.buses[0]
                 .timeline
                 .iter()
-                .any(|t| t.phase == "broadcast"),
+                .any(|t| t.phase.as_str() == "broadcast"),
             "{:?}",
             o.warnings
         );

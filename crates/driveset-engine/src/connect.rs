@@ -144,6 +144,19 @@ pub fn lecom_on<'l>(
     }
 }
 
+/// A LUSTBUS client for the drive at `address` on a character line, for
+/// what only LUSTBUS does (learning from the descriptions, schema pull, the
+/// MC-or-VF1000 probe): a schema of another protocol is refused
+/// (`Refusal::WrongClient`) before anything is sent.
+pub fn lustbus<L: driveset_link::ByteLink>(
+    line: L,
+    schema: Arc<Schema>,
+    address: u8,
+    opts: &ConnectOptions,
+) -> Result<LustbusClient<L>, EngineError> {
+    LustbusClient::with_options(line, schema, address, opts.lustbus())
+}
+
 /// Whether `schema`'s protocol runs on this kind of link.
 pub fn fits(link: &Link, schema: &Schema) -> bool {
     matches!(

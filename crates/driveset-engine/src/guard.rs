@@ -35,8 +35,8 @@ use driveset_proto::can::{Index, SdoClient, SdoRequest, Subindex};
 use driveset_proto::lecom::{
     Broadcast, CodeAddress, ControllerAddress, EncodeError, Send, Telegram, Value,
 };
-use driveset_proto::lustbus::{Address, ParameterCode, Select, TelegramBytes, ValueText};
-use driveset_schema::{Code, CodeKey, ControlState, Family, RawValue, Role, Schema};
+use driveset_proto::lustbus::{Address, Dialect, ParameterCode, Select, TelegramBytes, ValueText};
+use driveset_schema::{Code, CodeKey, ControlState, RawValue, Role, Schema};
 
 use crate::client::{Target, code_name, schema_code, shown_value};
 use crate::error::{EngineError, Refusal};
@@ -163,8 +163,10 @@ pub(crate) fn check(
                 && crate::assign::rate_of_raw(schema, key, raw)
                     .is_some_and(|r| d.line_rates.rates.contains(&r)),
         ),
+        // §11.3: the substitution texts are read through MC dialect codes
+        // (61ppp), so only the family that speaks it has the selector
         Kind::TextSelector => Some(
-            schema.family == Family::Mc6000
+            d.dialect == Some(Dialect::Mc)
                 && key.number == u32::from(driveset_proto::lustbus::description::STEXT)
                 && key.subcode.is_none()
                 && code.is_none_or(|c| !matches!(c.role, Some(Role::Command | Role::ControlWord))),

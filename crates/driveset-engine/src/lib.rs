@@ -34,5 +34,6 @@ pub mod plan;
 pub mod pull;
 pub mod recover;
 pub mod scan;
+pub mod session;
 pub mod transfer;
 pub mod upload;

@@ -68,6 +68,45 @@ impl Phase {
     }
 }
 
+impl Phase {
+    /// Every phase, in declaration order.
+    pub const ALL: [Phase; 12] = [
+        Phase::Identify,
+        Phase::Read,
+        Phase::Plan,
+        Phase::Journal,
+        Phase::Dataset,
+        Phase::Write,
+        Phase::Commit,
+        Phase::Verify,
+        Phase::Rollback,
+        Phase::Recover,
+        Phase::Learn,
+        Phase::Broadcast,
+    ];
+
+    /// The phase named `name` ([`Phase::as_str`]).
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.as_str() == name)
+    }
+}
+
+/// A phase is written by its name ([`Phase::as_str`]), as reports'
+/// timelines spell it.
+impl serde::Serialize for Phase {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Phase {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = <String as serde::Deserialize>::deserialize(d)?;
+        Phase::parse(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown phase `{name}`")))
+    }
+}
+
 impl fmt::Display for Phase {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.as_str())

@@ -320,27 +320,8 @@ fn settle(
     }
 
     // write order as planned; phase from the plan record
-    let mut order: Vec<(CodeKey, Phase)> = jf
-        .journal
-        .plan
-        .iter()
-        .map(|p| {
-            let phase = match p.phase.as_str() {
-                "dataset" => Phase::Dataset,
-                "control" => Phase::Control,
-                "mode" => Phase::Mode,
-                "link" => Phase::Link,
-                _ => Phase::Stored,
-            };
-            (
-                CodeKey {
-                    number: p.number,
-                    subcode: p.subcode,
-                },
-                phase,
-            )
-        })
-        .collect();
+    let mut order: Vec<(CodeKey, Phase)> =
+        jf.journal.plan.iter().map(|p| (p.key(), p.phase)).collect();
     for k in backup.keys() {
         if !order.iter().any(|(o, _)| o == k) {
             order.push((*k, Phase::Stored));

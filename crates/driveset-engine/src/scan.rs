@@ -41,7 +41,7 @@ use crate::client::sdo::SdoLine;
 use crate::client::{
     BorrowedByteLink, BorrowedFrameLink, IdentCode, IdentProtocol, IdentValue, Identity, Target,
 };
-use crate::error::{EngineError, Refusal};
+use crate::error::{AddressRefused, EngineError, Refusal};
 
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
 /// 2400..57600 servocontrollers).
@@ -100,6 +100,15 @@ fn refuse(port: &str, address: u8, refusal: Refusal) -> EngineError {
     )
 }
 
+/// The codec could not carry an address the rule took (it takes only
+/// addresses the codec carries).
+fn address_encode(address: u8) -> Refusal {
+    Refusal::Encode {
+        what: None,
+        detail: format!("address {address}"),
+    }
+}
+
 fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
     EngineError::link(
         Target {
@@ -134,12 +143,8 @@ pub fn scan_lustbus(
     let port = link.port().to_string();
     let mut targets = Vec::with_capacity(addresses.len());
     for &a in addresses {
-        match Address::new(a) {
-            Some(ad) if ad.is_individual() => targets.push(ad),
-            _ => {
-                return Err(refuse(&port, a, Refusal::ScanLustbusAddress { address: a }));
-            }
-        }
+        AddressRefused::check_scan(BusProtocol::Lustbus, a).map_err(|r| refuse(&port, a, r))?;
+        targets.push(Address::new(a).ok_or_else(|| refuse(&port, a, address_encode(a)))?);
     }
     let timeout = opts
         .timeout
@@ -182,12 +187,8 @@ pub fn scan_lecom(
     let port = link.port().to_string();
     let mut targets = Vec::with_capacity(addresses.len());
     for &a in addresses {
-        match ControllerAddress::new(a) {
-            Some(ad) if !ad.is_broadcast() => targets.push(ad),
-            _ => {
-                return Err(refuse(&port, a, Refusal::ScanLecomAddress { address: a }));
-            }
-        }
+        AddressRefused::check_scan(BusProtocol::Lecom, a).map_err(|r| refuse(&port, a, r))?;
+        targets.push(ControllerAddress::new(a).ok_or_else(|| refuse(&port, a, address_encode(a)))?);
     }
     let number = schema
         .and_then(|s| s.identify.as_ref())
@@ -231,9 +232,8 @@ pub fn scan_can(
     let port = link.port().to_string();
     let mut targets = Vec::with_capacity(nodes.len());
     for &n in nodes {
-        let node =
-            NodeId::new(n).map_err(|e| refuse(&port, n, Refusal::ScanCanNode { node: e.0 }))?;
-        targets.push(node);
+        AddressRefused::check_scan(BusProtocol::CanSdo, n).map_err(|r| refuse(&port, n, r))?;
+        targets.push(NodeId::new(n).map_err(|_| refuse(&port, n, address_encode(n)))?);
     }
     let number = schema
         .identify

@@ -356,6 +356,23 @@ impl Family {
             })
     }
 
+    /// The family a port or a listing names: a family name or alias, or a
+    /// schema id built on one (`lust-vf1000`, `fictional-tmd-demo`,
+    /// `lenze_ecs`), in any case and with `_` for `-`; the prefixes
+    /// `fictional-`, `lust-`, `lenze-` and the suffix `-demo` are left off
+    /// first. How `sim://` ports name their drives (a manifest's check of a
+    /// simulated bus asks this instead of spelling families itself);
+    /// `None` when the name is no family's.
+    pub fn from_port_name(name: &str) -> Option<Family> {
+        let lower = name.trim().to_ascii_lowercase().replace('_', "-");
+        let mut short = lower.as_str();
+        for prefix in ["fictional-", "lust-", "lenze-"] {
+            short = short.strip_prefix(prefix).unwrap_or(short);
+        }
+        short = short.strip_suffix("-demo").unwrap_or(short);
+        Family::parse(short).ok()
+    }
+
     /// The family whose schema files say `[schema] protocol = "s"`.
     pub fn from_schema_protocol(s: &str) -> Option<Family> {
         Family::ALL
@@ -376,7 +393,9 @@ impl Family {
     }
 
     /// The family that speaks LUSTBUS dialect `dialect` ([`Descriptor::dialect`]).
-    pub fn from_dialect(dialect: Dialect) -> Family {
+    /// A `const fn`, so that constants of one family's figures (the
+    /// planner's reaction times) ask by dialect too.
+    pub const fn from_dialect(dialect: Dialect) -> Family {
         match dialect {
             Dialect::Vf1000 => Family::Vf1000,
             Dialect::Mc => Family::Mc6000,
@@ -436,6 +455,15 @@ impl Descriptor {
     /// character line.
     pub fn on_can(&self) -> bool {
         self.bus == BusProtocol::CanSdo
+    }
+
+    /// Whether a new line rate takes effect only at the drive's next
+    /// restart: a LUSTBUS family without [`LineRates::online`]
+    /// (`lustbus-protocol.txt` §11.5: "the change first becomes active
+    /// once the device is restarted"; only the servocontroller activates
+    /// one online). `false` off LUSTBUS, whose specs say nothing of it.
+    pub fn rate_at_restart_only(&self) -> bool {
+        self.bus == BusProtocol::Lustbus && self.line_rates.online.is_none()
     }
 
     /// The file (and schema id) a schema learned from a drive of this

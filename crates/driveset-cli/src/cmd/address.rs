@@ -105,7 +105,7 @@ fn schemas_for(port_text: &str, dirs: &[PathBuf], given: &[String]) -> Result<Sc
     let registry = port::registry_for(port_text, dirs)?;
     let mut s = Schemas::from_registry(&registry);
     if port::peek_sim_family(port_text).is_some() {
-        for f in [Family::Mc6000, Family::Vf1000, Family::Tmd] {
+        for f in Family::ALL.into_iter().filter(|f| !f.descriptor().on_can()) {
             if let Ok(c) = port::resolve_schema(None, dirs, Some(f), None) {
                 s = s.with(c.schema);
             }

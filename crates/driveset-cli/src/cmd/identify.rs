@@ -5,8 +5,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_link::Link;
+use driveset_engine::client::DriveClient;
+use driveset_engine::session::Session;
 use driveset_proto::lustbus::ParameterCode;
 use driveset_schema::Family;
 use serde_json::json;
@@ -102,17 +102,9 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         && args.protocol.is_some()
         && schema.family == Family::Mc6000
     {
-        let link = match opened.link {
-            Link::Bytes(l) => l,
-            Link::Frames(_) => {
-                return Err(Fail::input(format!(
-                    "{port_name} is a CAN port; LUSTBUS needs a character line"
-                )));
-            }
-        };
-        let lust = port::lustbus_options(&opened.spec);
-        let mut probe =
-            LustbusClient::with_options(link, schema.clone(), args.address, lust.clone())?;
+        let (session_port, _sim) = opened.into_session_port()?;
+        let connect = session_port.connect;
+        let mut probe = Session::lustbus(session_port, schema.clone(), args.address)?;
         let code = ParameterCode::mc_value(91).unwrap_or(ParameterCode::POSMOD);
         let mc = probe.enquire_code(code, 8)?.is_some();
         if !mc {
@@ -129,11 +121,11 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         let mut client: Box<dyn DriveClient> = if mc {
             Box::new(probe)
         } else {
-            Box::new(LustbusClient::with_options(
+            Box::new(driveset_engine::connect::lustbus(
                 probe.into_link(),
                 schema.clone(),
                 args.address,
-                lust,
+                &connect,
             )?)
         };
         return report(

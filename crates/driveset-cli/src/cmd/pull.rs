@@ -195,32 +195,20 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."))
         .to_path_buf();
-    let mut _sim_alive = None;
-    let (mut client, schema, schema_path, learned) = if learning::wants(&choice.schema, &args.learn)
-    {
-        port::check_fit(
-            &opened,
-            &choice.schema,
-            Some(args.address),
-            args.allow_family,
-        )?;
-        let (link, sim) = learning::take_byte_link(opened)?;
-        _sim_alive = sim;
-        let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
-        let (client, schema, report) = learning::learn(
-            link,
-            choice.schema.clone(),
-            args.address,
-            &port_name,
-            &args.learn,
-            &args.schemas,
-            Some(&dir),
-        )?;
-        (client, schema, report.file.clone(), Some(report))
-    } else {
-        let schema = choice.schema.clone();
-        let client = port::into_client(opened, schema.clone(), args.address, args.allow_family)?;
-        (client, schema, choice.path.clone(), None)
+    let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
+    let on = learning::open(
+        opened,
+        choice.schema.clone(),
+        args.address,
+        args.allow_family,
+        &args.learn,
+        &args.schemas,
+        Some(&dir),
+    )?;
+    let (mut client, schema, learned, _sim_alive) = (on.client, on.schema, on.learned, on._sim);
+    let schema_path = match &learned {
+        Some(r) => r.file.clone(),
+        None => choice.path.clone(),
     };
     if let Some(r) = &learned
         && args.format == BusFormat::Human

@@ -11,8 +11,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use driveset_engine::client::LustbusClient;
 use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
+use driveset_engine::session::Session;
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -136,9 +136,8 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     opts.params = Some(params.clone());
     port::check_fit(&opened, &base, Some(args.address), false)?;
     let port_name = opened.name.clone();
-    let options = port::lustbus_options(&opened.spec);
-    let (link, _sim) = learning::take_byte_link(opened)?;
-    let mut client = LustbusClient::with_options(link, base.clone(), args.address, options)?;
+    let (session_port, _sim) = opened.into_session_port()?;
+    let mut client = Session::lustbus(session_port, base.clone(), args.address)?;
     let id = args
         .id
         .clone()

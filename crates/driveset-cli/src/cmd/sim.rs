@@ -51,7 +51,7 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, bail};
 use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
-use driveset_sim::catalog::Family;
+use driveset_schema::BusProtocol;
 use driveset_sim::faults::FaultPlan;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, StateDump, is_can, parse_family};
@@ -249,7 +249,7 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
                 join(ALLOWED_BAUDS)
             );
         }
-        if args.keypad && family == Family::Tmd {
+        if args.keypad && family.bus() != BusProtocol::Lustbus {
             bail!("--keypad applies to the LUSTBUS families (mc6000, vf1000) only");
         }
         if let Some(baud) = args.baud {
@@ -257,7 +257,7 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
         }
     }
     if let Some(c) = args.c0001 {
-        if family != Family::Tmd {
+        if family.bus() != BusProtocol::Lecom {
             bail!("--c0001 applies to the Tmd (tmd) only");
         }
         if c > 11 {

@@ -15,13 +15,15 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::capture::{Capture, capture, mc_descriptions};
-use driveset_engine::client::{DriveClient, LustbusClient};
+use driveset_engine::client::DriveClient;
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
+use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
-use driveset_schema::{CodeKey, Family, RawValue, Schema};
+use driveset_proto::lustbus::Dialect;
+use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, open_sim_with};
@@ -207,12 +209,14 @@ pub fn capture_drive(
     };
     let mut layout = (None, None);
     let mut _sim_alive = None;
-    let mut client: Box<dyn DriveClient> = if schema.family == Family::Mc6000 {
+    // the family that speaks the MC dialect describes its parameters in
+    // the MC layout (LUSTBUS §11.1), which the twin keeps
+    let mc = schema.family.descriptor().dialect == Some(Dialect::Mc);
+    let mut client: Box<dyn DriveClient> = if mc {
         port::check_fit(&opened, &schema, Some(address), false)?;
-        let options = port::lustbus_options(&opened.spec);
-        let (link, sim) = learning::take_byte_link(opened)?;
+        let (session_port, sim) = opened.into_session_port()?;
         _sim_alive = sim;
-        let mut c = LustbusClient::with_options(link, schema.clone(), address, options)?;
+        let mut c = Session::lustbus(session_port, schema.clone(), address)?;
         let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
         layout = mc_descriptions(&mut c, &params)?;
         Box::new(c)
@@ -255,15 +259,15 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         .collect();
     twin.secrets = cap.secrets.clone();
     twin.unknown = cap.unread.clone();
-    match schema.family {
-        Family::Tmd => twin.c0001 = c0001_of(&cap.values, schema),
-        Family::Mc6000 => {
-            twin.sload = match cap.values.get(&CodeKey::new(80)) {
-                Some(RawValue::Int(v)) => Some(*v),
-                _ => None,
-            }
+    if schema.family.bus() == BusProtocol::Lecom {
+        twin.c0001 = c0001_of(&cap.values, schema);
+    }
+    // the dataset handshake's code (MC6000/7000 80-SLOAD, §11.4)
+    if let Some(code) = schema.family.descriptor().dataset_code() {
+        twin.sload = match cap.values.get(&CodeKey::new(code)) {
+            Some(RawValue::Int(v)) => Some(*v),
+            _ => None,
         }
-        _ => {}
     }
     twin
 }
@@ -327,17 +331,17 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     use super::decode::DecodeProtocol;
-    let (default_schema, families, answer): (Option<&str>, &[Family], ReadRefusal) =
-        match a.protocol {
-            DecodeProtocol::Lecom => (Some("lenze-tmd"), &[Family::Tmd], ReadRefusal::NoSuchCode),
-            DecodeProtocol::Lustbus => (None, &[Family::Mc6000, Family::Vf1000], ReadRefusal::Nak),
-            // the abort code is each refusal's own (below); this one is never used
-            DecodeProtocol::Slcan => (
-                Some("lenze-ecs"),
-                &[Family::Ecs],
-                ReadRefusal::SdoAbort(0x0602_0000),
-            ),
-        };
+    // the session's families are its bus's; a bus of one family has that
+    // family's built-in schema as the default
+    let bus = a.protocol.capture().bus();
+    let families: Vec<Family> = bus.families().collect();
+    let default_schema = bus.only_family().map(|f| f.descriptor().schema_id);
+    let answer = match a.protocol {
+        DecodeProtocol::Lecom => ReadRefusal::NoSuchCode,
+        DecodeProtocol::Lustbus => ReadRefusal::Nak,
+        // the abort code is each refusal's own (below); this one is never used
+        DecodeProtocol::Slcan => ReadRefusal::SdoAbort(0x0602_0000),
+    };
     let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
         return Err(Fail::input(
             "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
@@ -353,7 +357,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             "--schema {}: a {} schema; a {} session needs a schema of {}",
             schema.id,
             schema.family.name(),
-            a.protocol.capture().bus().name(),
+            bus.name(),
             families
                 .iter()
                 .map(|f| f.name())
@@ -376,7 +380,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         return Err(Fail::input(format!(
             "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {} capture?",
             a.file.display(),
-            a.protocol.capture().bus().name()
+            bus.name()
         )));
     }
     std::fs::create_dir_all(&a.output)
@@ -414,7 +418,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             })
             .collect();
         twin.refused = session.refused;
-        if schema.family == Family::Tmd {
+        if schema.family.bus() == BusProtocol::Lecom {
             twin.c0001 = c0001_of(&twin.values, &schema);
         }
         let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));

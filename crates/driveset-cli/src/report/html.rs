@@ -306,8 +306,8 @@ fn buses(o: &mut String, r: &LineReport) {
              <td class=\"num\">{n}</td><td class=\"num\">{}</td></tr>",
             esc(&b.name),
             esc(&b.port),
-            esc(&b.protocol),
-            if b.protocol == "can" {
+            esc(b.protocol.name()),
+            if b.protocol == driveset_schema::BusProtocol::CanSdo {
                 format!("{} bit/s", b.rate)
             } else {
                 format!("{} Bd", b.rate)
@@ -402,7 +402,7 @@ fn timeline(o: &mut String, b: &BusReport, index: usize) {
         esc(&b.name),
         esc(&b.name),
         esc(&b.port),
-        esc(&b.protocol),
+        esc(b.protocol.name()),
         b.timeline.len(),
         fmt_ms(b.elapsed_ms)
     );
@@ -490,12 +490,12 @@ fn span(o: &mut String, e: &TimelineEntry, rows: &[&str], x: &dyn Fn(f64) -> f64
         o,
         "<rect class=\"span phase-{}\" data-drive=\"{}\" data-phase=\"{}\" x=\"{x0:.2}\" y=\"{y:.1}\" \
          width=\"{w:.2}\" height=\"18\" rx=\"2\" fill=\"{}\"><title>{}: {} {} \u{2192} {} ({})</title></rect>",
-        class_token(&e.phase),
+        class_token(e.phase.as_str()),
         esc(&e.drive),
-        esc(&e.phase),
-        phase_colour(&e.phase),
+        esc(e.phase.as_str()),
+        phase_colour(e.phase.as_str()),
         esc(&e.drive),
-        esc(&e.phase),
+        esc(e.phase.as_str()),
         esc(&fmt_ms(e.start_ms)),
         esc(&fmt_ms(e.end_ms)),
         esc(&fmt_ms(e.end_ms - e.start_ms))

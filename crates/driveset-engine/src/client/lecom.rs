@@ -341,14 +341,18 @@ impl<L: ByteLink> LecomClient<L> {
                 },
             ));
         }
-        let address = match ControllerAddress::new(address) {
-            Some(a) if !a.is_broadcast() => a,
-            _ => {
-                return Err(EngineError::refused(
-                    target,
-                    Refusal::LecomAddress { address },
-                ));
-            }
+        let address = match crate::error::AddressRefused::check_client(
+            driveset_schema::BusProtocol::Lecom,
+            address,
+        )
+        .and_then(|()| {
+            ControllerAddress::new(address).ok_or(Refusal::Encode {
+                what: None,
+                detail: format!("address {address}"),
+            })
+        }) {
+            Ok(a) => a,
+            Err(refusal) => return Err(EngineError::refused(target, refusal)),
         };
         let mut line = LecomLine::new(link);
         line.latency = LinkLatency::new(opts.latency);
@@ -415,9 +419,12 @@ impl<L: ByteLink> LecomClient<L> {
 
     fn field(&self, key: CodeKey) -> Result<CodeAddress, EngineError> {
         code_address(key).ok_or_else(|| {
-            self.refused(Refusal::LecomUnaddressable {
-                code: code_name(&self.schema, key),
-            })
+            self.refused(
+                super::LecomRefusal::Unaddressable {
+                    code: code_name(&self.schema, key),
+                }
+                .into(),
+            )
         })
     }
 
@@ -536,11 +543,14 @@ impl<L: ByteLink> LecomClient<L> {
         let code = schema_code(&self.schema, &self.target, key)?;
         let field = self.field(key)?;
         let value = value_of(&self.schema, code, raw).map_err(|e| {
-            self.refused(Refusal::LecomValue {
-                code: code_name(&self.schema, key),
-                value: shown_value(&self.schema, key, raw),
-                detail: e,
-            })
+            self.refused(
+                super::LecomRefusal::Value {
+                    code: code_name(&self.schema, key),
+                    value: shown_value(&self.schema, key, raw),
+                    detail: e,
+                }
+                .into(),
+            )
         })?;
         Ok((field, value))
     }
@@ -556,7 +566,7 @@ impl<L: ByteLink> LecomClient<L> {
     /// `tens` = 1..=9). **Unacknowledged**, like [`LecomClient::broadcast`].
     pub fn multicast(&mut self, tens: u8, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
         let to = ControllerAddress::group(tens)
-            .ok_or_else(|| self.refused(Refusal::LecomGroup { tens }))?;
+            .ok_or_else(|| self.refused(super::LecomRefusal::Group { tens }.into()))?;
         self.send_broadcast(to, key, raw)
     }
 

@@ -499,14 +499,18 @@ impl<L: ByteLink> LustbusClient<L> {
                 },
             ));
         };
-        let address = match Address::new(address) {
-            Some(a) if a != Address::BROADCAST => a,
-            _ => {
-                return Err(EngineError::refused(
-                    target,
-                    Refusal::LustbusAddress { address },
-                ));
-            }
+        let address = match crate::error::AddressRefused::check_client(
+            driveset_schema::BusProtocol::Lustbus,
+            address,
+        )
+        .and_then(|()| {
+            Address::new(address).ok_or(Refusal::Encode {
+                what: None,
+                detail: format!("address {address}"),
+            })
+        }) {
+            Ok(a) => a,
+            Err(refusal) => return Err(EngineError::refused(target, refusal)),
         };
         let mut line = LustLine::new(link);
         line.eot_after_reply = opts.eot_after_reply;

@@ -18,11 +18,13 @@ use crate::guard::Permit;
 
 pub mod lecom;
 pub mod lustbus;
+mod refusal;
 pub mod sdo;
 pub mod timing;
 
 pub use lecom::{LecomClient, LecomOptions};
 pub use lustbus::{LustbusClient, LustbusOptions};
+pub use refusal::{LecomRefusal, SdoRefusal};
 pub use sdo::{CanClient, CanOptions};
 
 /// Where a client talks: a port (in the common port syntax) and an address

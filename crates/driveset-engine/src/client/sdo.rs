@@ -290,8 +290,19 @@ impl<L: FrameLink> CanClient<L> {
                 },
             ));
         }
-        let node = NodeId::new(node)
-            .map_err(|e| EngineError::refused(target.clone(), Refusal::SdoNode { node: e.0 }))?;
+        let node = match crate::error::AddressRefused::check_client(
+            driveset_schema::BusProtocol::CanSdo,
+            node,
+        )
+        .and_then(|()| {
+            NodeId::new(node).map_err(|e| Refusal::Encode {
+                what: None,
+                detail: e.to_string(),
+            })
+        }) {
+            Ok(n) => n,
+            Err(refusal) => return Err(EngineError::refused(target, refusal)),
+        };
         Ok(CanClient {
             line: SdoLine::new(link),
             schema,
@@ -326,10 +337,13 @@ impl<L: FrameLink> CanClient<L> {
 
     fn mux(&self, key: CodeKey) -> Result<(Index, Subindex), EngineError> {
         mux_of(&self.schema, key).ok_or_else(|| {
-            self.refused(Refusal::NoSdoIndex {
-                code: code_name(&self.schema, key),
-                base: self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE)),
-            })
+            self.refused(
+                super::SdoRefusal::NoIndex {
+                    code: code_name(&self.schema, key),
+                    base: self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE)),
+                }
+                .into(),
+            )
         })
     }
 
@@ -390,13 +404,16 @@ impl<L: FrameLink> CanClient<L> {
         let schema = Arc::clone(&self.schema);
         let code = schema_code(&schema, &self.target, key)?;
         let wire = wire_of(&schema, code).ok_or_else(|| {
-            self.refused(Refusal::NotSdoType {
-                code: code_name(&schema, key),
-                ty: schema
-                    .type_of(code)
-                    .map_or("?", ValueType::name)
-                    .to_string(),
-            })
+            self.refused(
+                super::SdoRefusal::NotSdoType {
+                    code: code_name(&schema, key),
+                    ty: schema
+                        .type_of(code)
+                        .map_or("?", ValueType::name)
+                        .to_string(),
+                }
+                .into(),
+            )
         })?;
         let (index, subindex) = self.mux(key)?;
         let done = self.run(what, |c| {
@@ -497,10 +514,13 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         let data = wire_of(&schema, code)
             .and_then(|w| raw_to_bytes(w, raw))
             .ok_or_else(|| {
-                self.refused(Refusal::NotCanFormat {
-                    code: code_name(&schema, key),
-                    value: shown_value(&schema, key, raw),
-                })
+                self.refused(
+                    super::SdoRefusal::NotCanFormat {
+                        code: code_name(&schema, key),
+                        value: shown_value(&schema, key, raw),
+                    }
+                    .into(),
+                )
             })?;
         let (index, subindex) = self.mux(key)?;
         self.run(&what, |c| {

@@ -9,10 +9,11 @@ use driveset_link::echo::{EchoVerdict, detect_echo};
 use driveset_link::{ByteLink, Instant, LinkError};
 use driveset_proto::lecom::{ControllerAddress, Receive, Response, ResponseDecoder, Telegram};
 use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, Reply, ReplyDecoder};
+use driveset_schema::BusProtocol;
 
 use super::{DoctorProtocol, DoctorRules, ProbeResult, RoundTrips};
 use crate::client::Target;
-use crate::error::{EngineError, Refusal};
+use crate::error::{AddressRefused, EngineError, Refusal};
 
 /// One probe: the request, what came back, when.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,9 +42,8 @@ pub(super) fn link_err(port: &str, address: u8, source: LinkError) -> EngineErro
 pub(super) fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, Refusal> {
     match protocol {
         DoctorProtocol::Lustbus => {
-            let ad = Address::new(address)
-                .filter(|a| a.number() <= 30)
-                .ok_or(Refusal::DoctorLustbusAddress { address })?;
+            AddressRefused::check_doctor(BusProtocol::Lustbus, address)?;
+            let ad = Address::new(address).ok_or_else(|| address_encode(address))?;
             let code = ParameterCode::new(91).ok_or(Refusal::Encode {
                 what: None,
                 detail: "CODE 00091".into(),
@@ -51,9 +51,8 @@ pub(super) fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, 
             Ok(Enquiry::new(ad, code).encode().to_vec())
         }
         DoctorProtocol::Lecom => {
-            let ad = ControllerAddress::new(address)
-                .filter(|a| !a.is_broadcast())
-                .ok_or(Refusal::DoctorLecomAddress { address })?;
+            AddressRefused::check_doctor(BusProtocol::Lecom, address)?;
+            let ad = ControllerAddress::new(address).ok_or_else(|| address_encode(address))?;
             let code = driveset_proto::lecom::CodeAddress::select(93, 0);
             Telegram::Receive(Receive { address: ad, code })
                 .to_bytes()
@@ -63,6 +62,15 @@ pub(super) fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, 
                 })
         }
         DoctorProtocol::CanSdo => Err(Refusal::DoctorCanPort),
+    }
+}
+
+/// The codec could not carry an address the rule took (it takes only
+/// addresses the codec carries).
+fn address_encode(address: u8) -> Refusal {
+    Refusal::Encode {
+        what: None,
+        detail: format!("address {address}"),
     }
 }
 

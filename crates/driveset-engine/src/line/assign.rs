@@ -31,7 +31,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use driveset_link::Link;
-use driveset_schema::{BusProtocol, Family};
+use driveset_schema::BusProtocol;
 use serde::Serialize;
 
 use super::commission::Opener;
@@ -250,7 +250,7 @@ fn final_scan(
     };
     let lecom_schema = drives
         .iter()
-        .find(|d| d.schema.family == Family::Tmd)
+        .find(|d| d.schema.family.bus() == BusProtocol::Lecom)
         .map(|d| d.schema.clone());
     let found = match bus.protocol {
         BusProtocol::Lustbus => scan_lustbus(&mut **b, &lustbus_addresses(), &opts.scan),

@@ -273,10 +273,12 @@ fn misfit_or(d: &Drive, link: &mut Link, opts: &ReplaceOptions, e: EngineError) 
 /// The family of the lone LUSTBUS unit at address 0 (section 4.2: every
 /// device answers there) at the link's present rate: it answers the
 /// ENQUIRY of 91-TYPE; an MC6000/7000 also the MC CODE 20091, a VF1000
-/// NAKs it (as `crate::scan::detect_protocol` tells them apart).
+/// NAKs it (as `crate::scan::detect_protocol` tells them apart): the
+/// family is the one that speaks the dialect it answered in
+/// ([`Family::from_dialect`]).
 fn lone_family(b: &mut dyn driveset_link::ByteLink, opts: &ReplaceOptions) -> Option<Family> {
     use crate::client::lustbus::{LustLine, probe_code, probe_type};
-    use driveset_proto::lustbus::{Address, ParameterCode};
+    use driveset_proto::lustbus::{Address, Dialect, ParameterCode};
     let timeout = opts
         .scan
         .timeout
@@ -289,8 +291,8 @@ fn lone_family(b: &mut dyn driveset_link::ByteLink, opts: &ReplaceOptions) -> Op
     let mc = probe_code(&mut line, zero, code, timeout, 1).ok()?;
     let _ = line.finish();
     Some(match mc {
-        Some(Some(_)) => Family::Mc6000,
-        _ => Family::Vf1000,
+        Some(Some(_)) => Family::from_dialect(Dialect::Mc),
+        _ => Family::from_dialect(Dialect::Vf1000),
     })
 }
 
@@ -409,7 +411,7 @@ pub fn finish(
     let bus_report = BusReport {
         name: prep.bus.name.clone(),
         port: service_port.to_string(),
-        protocol: prep.bus.protocol.name().into(),
+        protocol: prep.bus.protocol,
         rate: assign.rate_now,
         elapsed_ms: r.elapsed_ms,
         timeline: Vec::new(),

@@ -8,7 +8,10 @@
 //! from the run's [`crate::env::Environment`]. Timeline phases are the
 //! runners' own ([`crate::observe::Phase`]).
 
+use driveset_schema::BusProtocol;
 use serde::{Deserialize, Serialize};
+
+use crate::observe::Phase;
 
 /// The report format version written into every report.
 pub const REPORT_VERSION: u32 = 1;
@@ -68,8 +71,8 @@ pub struct BusReport {
     pub name: String,
     /// Port in the common port syntax.
     pub port: String,
-    /// `lustbus`, `lecom` or `can`.
-    pub protocol: String,
+    /// The bus protocol, written by its name (`lustbus`, `lecom`, `can`).
+    pub protocol: BusProtocol,
     /// Line rate (baud, or CAN bit/s).
     pub rate: u32,
     /// Time the bus was busy, ms on the bus clock.
@@ -83,8 +86,9 @@ pub struct BusReport {
 pub struct TimelineEntry {
     /// The drive's name.
     pub drive: String,
-    /// `identify`, `read`, `plan`, `write`, `verify`, `broadcast`, `rollback`.
-    pub phase: String,
+    /// The runner's phase, written by its name (`identify`, `read`,
+    /// `plan`, `write`, `verify`, `broadcast`, `rollback`, ...).
+    pub phase: Phase,
     /// Start, ms on the bus clock.
     pub start_ms: f64,
     /// End, ms on the bus clock.

@@ -173,13 +173,10 @@ pub struct Plan {
     pub warnings: Vec<String>,
 }
 
+/// The `[schema] protocol` of `p`'s schema files (its descriptor's
+/// `schema_protocol`), as findings name a family's protocol.
 pub(crate) fn protocol_name(p: Family) -> &'static str {
-    match p {
-        Family::Tmd => "lecom",
-        Family::Vf1000 => "lustbus-vf1000",
-        Family::Mc6000 => "lustbus-mc",
-        Family::Ecs => "lenze-can-sdo",
-    }
+    p.descriptor().schema_protocol
 }
 
 /// Code as humans spell it: Lenze `C0011 name`, Lust `428-RSIO`.

@@ -23,6 +23,15 @@ pub enum Storage {
 }
 
 impl Storage {
+    /// Every storage kind, in declaration order.
+    pub const ALL: [Storage; 5] = [
+        Storage::Ram,
+        Storage::FselIsel,
+        Storage::Eeprom,
+        Storage::CardWriteable,
+        Storage::Unspecified,
+    ];
+
     /// Name as in journals and JSON.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -53,6 +62,15 @@ pub enum Phase {
 }
 
 impl Phase {
+    /// Every phase, in write order.
+    pub const ALL: [Phase; 5] = [
+        Phase::Dataset,
+        Phase::Stored,
+        Phase::Control,
+        Phase::Mode,
+        Phase::Link,
+    ];
+
     /// Name as in journals and JSON.
     pub fn as_str(self) -> &'static str {
         match self {

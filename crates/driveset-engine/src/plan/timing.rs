@@ -4,7 +4,8 @@
 
 use std::time::Duration;
 
-use driveset_schema::{CodeKey, Family, ResolvedSet};
+use driveset_proto::lustbus::Dialect;
+use driveset_schema::{BusProtocol, CodeKey, Family, ResolvedSet};
 
 use super::{Phase, Plan, Storage};
 use crate::client::DriveClient;
@@ -19,24 +20,44 @@ pub const DATASET_TIMEOUT: Duration = driveset_schema::family::SLOAD.timeout;
 /// longer, instead of back-to-back ENQUIRYs).
 pub const SLOAD_POLL_INTERVAL: Duration = Duration::from_millis(50);
 
+/// The family that speaks the MC dialect (MC6000/7000), by its descriptor.
+const MC: Family = Family::from_dialect(Dialect::Mc);
+
+/// The family that speaks the VF1000 dialect, by its descriptor.
+const VF: Family = Family::from_dialect(Dialect::Vf1000);
+
+/// The family a LECOM line carries (its descriptor's only one, the Tmd):
+/// checked when the crate is built.
+const LECOM: Family = match BusProtocol::Lecom.only_family() {
+    Some(f) => f,
+    None => panic!("the descriptor names one family on LECOM"),
+};
+
 /// The longest reaction time of an MC6000/7000 with a KEYPAD attached
 /// (the family descriptor: LUSTBUS 10, table: 1...30 ms).
-pub const MC_MAX_REACTION_KEYPAD: Duration = reaction(Family::Mc6000, true);
+pub const MC_MAX_REACTION_KEYPAD: Duration = reaction(MC, true);
 
 /// The longest reaction time of an MC6000/7000 without KEYPAD (LUSTBUS 10:
 /// 1...25 ms).
-pub const MC_MAX_REACTION: Duration = reaction(Family::Mc6000, false);
+pub const MC_MAX_REACTION: Duration = reaction(MC, false);
 
 /// The longest reaction time of a VF1000 with a KEYPAD attached (LUSTBUS
 /// 10: 1...60 ms).
-pub const VF_MAX_REACTION_KEYPAD: Duration = reaction(Family::Vf1000, true);
+pub const VF_MAX_REACTION_KEYPAD: Duration = reaction(VF, true);
 
 /// The longest reaction time of a VF1000 without KEYPAD (LUSTBUS 10:
 /// 1...30 ms).
-pub const VF_MAX_REACTION: Duration = reaction(Family::Vf1000, false);
+pub const VF_MAX_REACTION: Duration = reaction(VF, false);
 
-/// The shortest reaction time of every LUSTBUS device (LUSTBUS 10: "1...").
-pub const LUSTBUS_MIN_REACTION: Duration = Family::Mc6000.descriptor().reaction.min;
+/// The shortest reaction time of every LUSTBUS device (LUSTBUS 10: "1...";
+/// the shorter of the two families' descriptor minimums).
+pub const LUSTBUS_MIN_REACTION: Duration =
+    shorter(MC.descriptor().reaction.min, VF.descriptor().reaction.min);
+
+/// The shorter of `a` and `b` (a `const fn`: `Ord::min` is not one).
+const fn shorter(a: Duration, b: Duration) -> Duration {
+    if a.as_nanos() <= b.as_nanos() { a } else { b }
+}
 
 /// The longest reaction of `family` from its descriptor.
 const fn reaction(family: Family, keypad: bool) -> Duration {
@@ -53,11 +74,11 @@ pub const LECOM_MONITORING_FACTOR: u32 = 2;
 
 /// The Tmd's longest response time. FICTIONAL: the LECOM manual gives none;
 /// the family descriptor assumes 20 ms, as the simulator's Tmd does.
-pub const TMD_MAX_REACTION: Duration = Family::Tmd.descriptor().reaction.max;
+pub const TMD_MAX_REACTION: Duration = LECOM.descriptor().reaction.max;
 
 /// The shortest response time assumed of a Tmd, for planning (FICTIONAL,
 /// as [`TMD_MAX_REACTION`]).
-pub const TMD_MIN_REACTION: Duration = Family::Tmd.descriptor().reaction.min;
+pub const TMD_MIN_REACTION: Duration = LECOM.descriptor().reaction.min;
 
 /// Expected duration of a transaction, from the client's wire times and the
 /// spec's store times.

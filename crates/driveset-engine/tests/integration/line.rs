@@ -156,8 +156,14 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     assert_eq!(first.report.buses.len(), 3);
     for b in &first.report.buses {
         assert!(b.elapsed_ms > 0.0);
-        assert!(b.timeline.iter().any(|t| t.phase == "write"), "{b:?}");
-        assert!(b.timeline.iter().any(|t| t.phase == "verify"), "{b:?}");
+        assert!(
+            b.timeline.iter().any(|t| t.phase.as_str() == "write"),
+            "{b:?}"
+        );
+        assert!(
+            b.timeline.iter().any(|t| t.phase.as_str() == "verify"),
+            "{b:?}"
+        );
     }
     // wall-clock times come from the environment, RFC 3339 with ms
     assert_eq!(first.report.started, FIXED_NOW);
@@ -183,7 +189,7 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
         assert!(
             b.timeline
                 .iter()
-                .all(|t| t.phase == "identify" || t.phase == "read"),
+                .all(|t| t.phase.as_str() == "identify" || t.phase.as_str() == "read"),
             "{b:?}"
         );
     }
@@ -312,7 +318,7 @@ fn broadcast_common_multicasts_to_the_lecom_group_then_verifies_each_drive() {
     assert!(
         bus.timeline
             .iter()
-            .any(|t| t.phase == "broadcast" && t.drive == "group 10"),
+            .any(|t| t.phase.as_str() == "broadcast" && t.drive == "group 10"),
         "{bus:?}"
     );
     // the common values landed by MULTICAST: each drive wrote only its own
@@ -556,7 +562,7 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
         !r.report.buses[1]
             .timeline
             .iter()
-            .any(|t| t.phase == "broadcast")
+            .any(|t| t.phase.as_str() == "broadcast")
     );
     let by_name = |n: &str| r.report.drives.iter().find(|d| d.name == n).unwrap();
     let t12 = by_name("transfer-12");
@@ -799,7 +805,7 @@ fn a_line_run_takes_time_git_and_its_state_file_from_the_environment() {
         r.report
             .buses
             .iter()
-            .flat_map(|b| b.timeline.iter().map(|t| t.phase.clone()))
+            .flat_map(|b| b.timeline.iter().map(|t| t.phase.as_str().to_string()))
             .collect()
     };
     assert_eq!(phases(&r), ["identify", "read", "plan", "write", "verify"]);
@@ -1001,7 +1007,7 @@ fn lustbus_broadcast_sends_common_values_once_to_address_31_inside_each_dataset(
     let phases: Vec<&str> = bus
         .timeline
         .iter()
-        .filter(|t| t.phase == "broadcast")
+        .filter(|t| t.phase.as_str() == "broadcast")
         .map(|t| t.drive.as_str())
         .collect();
     assert_eq!(phases, vec!["address 31"]);
@@ -1178,7 +1184,7 @@ fn lustbus_broadcast_refuses_a_bus_with_vf1000_drives() {
         !r.report.buses[0]
             .timeline
             .iter()
-            .any(|t| t.phase == "broadcast")
+            .any(|t| t.phase.as_str() == "broadcast")
     );
 }
 

@@ -13,6 +13,7 @@ mod client_scan;
 mod client_sdo;
 #[cfg(unix)]
 mod interop_canopen;
+mod journal_forms;
 mod line;
 mod support;
 mod transfer_cut;

@@ -86,12 +86,22 @@ impl BusProtocol {
     /// The one family this protocol carries, when it carries only one
     /// (LECOM: Tmd; CAN SDO: ECS); `None` for LUSTBUS, whose line is
     /// shared by VF1000 and MC6000/7000 (`lustbus-protocol.txt` §1).
-    pub fn only_family(self) -> Option<Family> {
-        let mut all = self.families();
-        match (all.next(), all.next()) {
-            (Some(f), None) => Some(f),
-            _ => None,
+    /// A `const fn`, so that constants of that family's figures (the
+    /// planner's LECOM reaction times) ask the bus too.
+    pub const fn only_family(self) -> Option<Family> {
+        let mut found = None;
+        let mut i = 0;
+        while i < Family::ALL.len() {
+            let f = Family::ALL[i];
+            if f.descriptor().bus as u8 == self as u8 {
+                if found.is_some() {
+                    return None;
+                }
+                found = Some(f);
+            }
+            i += 1;
         }
+        found
     }
 
     /// Whether a drive of `family` runs on this bus.

@@ -24,6 +24,36 @@ fn names_parse_back_and_aliases_resolve() {
 }
 
 #[test]
+fn a_port_names_a_family_by_name_alias_or_schema_id() {
+    for f in Family::ALL {
+        let d = f.descriptor();
+        assert_eq!(Family::from_port_name(d.name), Some(f));
+        assert_eq!(
+            Family::from_port_name(d.schema_id),
+            Some(f),
+            "{}",
+            d.schema_id
+        );
+        for a in d.aliases {
+            assert_eq!(Family::from_port_name(a), Some(f));
+        }
+    }
+    assert_eq!(Family::from_port_name("MC7000"), Some(Family::Mc6000));
+    assert_eq!(
+        Family::from_port_name("fictional-tmd-demo"),
+        Some(Family::Tmd)
+    );
+    assert_eq!(Family::from_port_name("Lenze_ECS"), Some(Family::Ecs));
+    assert_eq!(Family::from_port_name("lustbus"), None);
+    assert_eq!(Family::from_port_name("xyz"), None);
+    // the dialects name their families, in const contexts too
+    const MC: Family = Family::from_dialect(Dialect::Mc);
+    assert_eq!(MC, Family::Mc6000);
+    const LECOM: Option<Family> = BusProtocol::Lecom.only_family();
+    assert_eq!(LECOM, Some(Family::Tmd));
+}
+
+#[test]
 fn addresses_follow_the_specs() {
     let l = BusProtocol::Lustbus;
     assert_eq!(
@@ -300,4 +330,14 @@ fn a_protocol_names_its_only_family_when_it_has_one() {
     assert_eq!(BusProtocol::Lecom.only_family(), Some(Family::Tmd));
     assert_eq!(BusProtocol::CanSdo.only_family(), Some(Family::Ecs));
     assert_eq!(BusProtocol::Lustbus.only_family(), None);
+}
+
+#[test]
+fn only_the_lustbus_inverter_takes_a_new_rate_at_a_restart_only() {
+    let only: Vec<Family> = Family::ALL
+        .into_iter()
+        .filter(|f| f.descriptor().rate_at_restart_only())
+        .collect();
+    assert_eq!(only, [Family::Vf1000]);
+    assert!(Family::Mc6000.descriptor().line_rates.online.is_some());
 }

@@ -19,25 +19,14 @@ use std::path::{Path, PathBuf};
 /// a file; never add one.
 const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-cli/src/cmd/identify.rs", 2),
-    ("crates/driveset-cli/src/cmd/sim.rs", 2),
-    ("crates/driveset-cli/src/cmd/twin.rs", 8),
     ("crates/driveset-cli/src/learning.rs", 4),
     ("crates/driveset-engine/src/capture.rs", 3),
     ("crates/driveset-engine/src/client/lecom.rs", 2),
     ("crates/driveset-engine/src/client/lustbus.rs", 7),
     ("crates/driveset-engine/src/client/mod.rs", 5),
     ("crates/driveset-engine/src/client/sdo.rs", 2),
-    ("crates/driveset-engine/src/guard.rs", 1),
     ("crates/driveset-engine/src/learn.rs", 12),
-    ("crates/driveset-engine/src/line/manifest/reader.rs", 4),
-    ("crates/driveset-cli/src/cmd/address.rs", 3),
-    ("crates/driveset-engine/src/assign.rs", 6),
-    ("crates/driveset-engine/src/line/assign.rs", 1),
-    ("crates/driveset-engine/src/line/replace.rs", 2),
-    ("crates/driveset-engine/src/plan/mod.rs", 4),
-    ("crates/driveset-engine/src/plan/timing.rs", 7),
     ("crates/driveset-engine/src/scan.rs", 5),
-    ("crates/driveset-engine/src/transfer.rs", 1),
 ];
 
 /// The families' variant names.

@@ -57,7 +57,7 @@ pub(super) fn run_bus(
     let mut report = BusReport {
         name: bus.name.clone(),
         port: bus.port_name.clone(),
-        protocol: bus.protocol.name().into(),
+        protocol: bus.protocol,
         rate: bus.rate,
         elapsed_ms: 0.0,
         timeline: Vec::new(),

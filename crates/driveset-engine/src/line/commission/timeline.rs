@@ -79,7 +79,7 @@ pub(super) fn push_spans(report: &mut BusReport, start: Instant, drive: &str, sp
     for (phase, s, e) in spans.into_iter().filter(|(_, s, e)| s != e) {
         report.timeline.push(TimelineEntry {
             drive: drive.to_string(),
-            phase: phase.as_str().into(),
+            phase,
             start_ms: since(start, s),
             end_ms: since(start, e),
         });
@@ -96,7 +96,7 @@ pub(super) fn push_broadcast(
 ) {
     report.timeline.push(TimelineEntry {
         drive: to,
-        phase: Phase::Broadcast.as_str().into(),
+        phase: Phase::Broadcast,
         start_ms: since(start, t0),
         end_ms: since(start, t1),
     });

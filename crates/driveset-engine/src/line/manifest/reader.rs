@@ -873,18 +873,9 @@ fn port_has_rate(port: &str, key: &str) -> bool {
     port.contains(&format!("{key}="))
 }
 
+/// Whether the family a simulated port names at an address (`fam`, as the
+/// port spells it) is `schema`'s: the descriptor reads the name
+/// ([`Family::from_port_name`]).
 fn sim_family_matches(fam: &str, schema: &Schema) -> bool {
-    let fam = fam.replace('_', "-");
-    let short = fam
-        .trim_start_matches("fictional-")
-        .trim_start_matches("lust-")
-        .trim_start_matches("lenze-")
-        .trim_end_matches("-demo")
-        .to_string();
-    match schema.family {
-        Family::Mc6000 => short == "mc6000" || short == "mc7000",
-        Family::Vf1000 => short == "vf1000",
-        Family::Tmd => short == "tmd",
-        Family::Ecs => short == "ecs",
-    }
+    Family::from_port_name(fam) == Some(schema.family)
 }
