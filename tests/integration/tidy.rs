@@ -53,10 +53,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "crates/driveset-engine/src/learn.rs",
         "learning's descriptions, layouts and the learned file in one: to split",
     ),
-    (
-        "crates/driveset-engine/src/line/commission.rs",
-        "about ten jobs (run, resume, per-drive work, learning, two broadcasts): the split is on branch session, not landed",
-    ),
 ];
 
 /// The journal's store, the engine's one file of file IO (skipped whole).
@@ -362,8 +358,7 @@ const CLIENT_CONSTRUCTORS: &[&str] = &[
 
 /// Source files that still build a client themselves, with how many
 /// constructions each holds (a count may only go down).
-const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] =
-    &[("crates/driveset-engine/src/line/commission.rs", 4)];
+const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] = &[];
 
 #[test]
 fn tidy_clients_are_built_only_by_connect_and_the_session() {

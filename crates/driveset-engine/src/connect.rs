@@ -1,7 +1,9 @@
 //! Owns the one way to reach a drive: a link, a schema (whose family's
 //! descriptor names the bus protocol) and an address give the
 //! [`DriveClient`] of that protocol. Every command and `commission` connect
-//! through here; nothing else picks a client by family.
+//! through here; nothing else picks a client by family. A line's work that
+//! only one protocol's client does (learning, the two broadcasts) gets that
+//! client here too ([`lustbus_on`], [`lecom_on`]).
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -105,6 +107,43 @@ pub fn connect_on<'l>(
     }
 }
 
+/// The LUSTBUS client for the drive at `address` on a link the caller
+/// keeps, for what only a LUSTBUS client does: a line's learning from the
+/// drive's descriptions (LUSTBUS §11.1, §11.2), its SELECT to address 31
+/// and the dataset download resumed around it (§4.2, §11.4). A CAN bus is
+/// refused ([`Refusal::LustbusOnCan`]) before anything is sent.
+pub fn lustbus_on<'l>(
+    link: &'l mut Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
+    match link {
+        Link::Bytes(b) => LustbusClient::new(BorrowedByteLink(&mut **b), schema, address),
+        Link::Frames(f) => Err(EngineError::refused(
+            Target {
+                port: f.port().to_string(),
+                address,
+            },
+            Refusal::LustbusOnCan,
+        )),
+    }
+}
+
+/// The LECOM client for the drive at `address` on a link the caller keeps,
+/// for what only a LECOM client does: a line's MULTICAST to a group and
+/// the running check of its members before it. A CAN bus is refused as a
+/// misfit ([`Refusal::LinkMisfit`]) before anything is sent.
+pub fn lecom_on<'l>(
+    link: &'l mut Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<LecomClient<BorrowedByteLink<'l>>, EngineError> {
+    match link {
+        Link::Bytes(b) => LecomClient::new(BorrowedByteLink(&mut **b), schema, address),
+        Link::Frames(f) => Err(misfit_on(f.port(), LinkKind::CanBus, &schema, address)),
+    }
+}
+
 /// A LUSTBUS client for the drive at `address` on a character line, for
 /// what only LUSTBUS does (learning from the descriptions, schema pull, the
 /// MC-or-VF1000 probe): a schema of another protocol is refused
@@ -128,12 +167,18 @@ pub fn fits(link: &Link, schema: &Schema) -> bool {
 }
 
 fn misfit(link: &Link, schema: &Schema, address: u8) -> EngineError {
-    let (port, link) = match link {
-        Link::Bytes(b) => (b.port().to_string(), LinkKind::CharacterLine),
-        Link::Frames(f) => (f.port().to_string(), LinkKind::CanBus),
-    };
+    match link {
+        Link::Bytes(b) => misfit_on(b.port(), LinkKind::CharacterLine, schema, address),
+        Link::Frames(f) => misfit_on(f.port(), LinkKind::CanBus, schema, address),
+    }
+}
+
+fn misfit_on(port: &str, link: LinkKind, schema: &Schema, address: u8) -> EngineError {
     EngineError::refused(
-        Target { port, address },
+        Target {
+            port: port.to_string(),
+            address,
+        },
         Refusal::LinkMisfit {
             schema: schema.id.clone(),
             family: schema.family.to_string(),

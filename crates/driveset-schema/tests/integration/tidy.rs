@@ -22,7 +22,6 @@ const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-cli/src/learning.rs", 4),
     ("crates/driveset-engine/src/capture.rs", 3),
     ("crates/driveset-engine/src/learn.rs", 12),
-    ("crates/driveset-engine/src/line/commission.rs", 2),
     ("crates/driveset-engine/src/scan.rs", 5),
 ];
 

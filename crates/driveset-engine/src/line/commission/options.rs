@@ -1,0 +1,204 @@
+//! Owns what a line run is told and what it gives back: the run's options
+//! (selection, report and journal directories, overrides, broadcast,
+//! learning, observers), its mode, progress callback and port opener, the
+//! reasons a run cannot start, and its outcome with the verdict the CLI
+//! maps to exit codes (module docs of [`super`], "Verdict").
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use driveset_link::{Instant, Link, OpenOptions};
+use driveset_schema::Registry;
+
+use crate::env::Environment;
+use crate::learn::LearnOptions;
+use crate::line::manifest::Bus;
+use crate::line::report::{DriveReport, LineReport, LineResult};
+use crate::observe::Event;
+use crate::overrides::Overrides;
+
+/// The outcome of a line run in one word ([`super`] module docs, "Verdict").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Every selected drive holds its set.
+    Holds,
+    /// A drive differs from its set (drift, refused, rolled back, failed).
+    Differs,
+    /// A bus could not be opened, a link failed, a drive did not answer, or
+    /// the run stopped before every drive was reached.
+    BusFailed,
+}
+
+/// Told every event of every drive's work, with its bus and drive names
+/// (the CLI's progress bars). Called from the bus threads.
+pub trait LineObserver: Send + Sync {
+    /// Bus `bus` starts, with `drives` selected drives.
+    fn bus(&self, bus: &str, drives: usize) {
+        let _ = (bus, drives);
+    }
+
+    /// Drive `drive` on bus `bus` reached `event` at `at` (the bus clock).
+    fn event(&self, bus: &str, drive: &str, at: Instant, event: Event);
+}
+
+/// Opens a bus's port as a link. The CLI passes one that opens `sim://`
+/// ports with the simulator; [`open_port`] opens real ports.
+pub type Opener<'a> = dyn Fn(&Bus) -> Result<Link, String> + Sync + 'a;
+
+/// Open a real port (serial, TCP, slcan, SocketCAN); `sim://` is refused.
+pub fn open_port(bus: &Bus) -> Result<Link, String> {
+    driveset_link::open(&bus.port, &OpenOptions::default()).map_err(|e| e.to_string())
+}
+
+/// What a line run does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Upload what differs and verify.
+    Commission,
+    /// Read only: compare every drive with its set.
+    Status,
+}
+
+/// One drive done (for progress output).
+#[derive(Debug, Clone)]
+pub struct Progress {
+    /// Bus name.
+    pub bus: String,
+    /// Drives of this bus done so far (this one included).
+    pub done: usize,
+    /// Selected drives on this bus.
+    pub total: usize,
+    /// The drive's report.
+    pub drive: DriveReport,
+}
+
+/// A progress callback.
+pub type ProgressFn = Arc<dyn Fn(&Progress) + Send + Sync>;
+
+/// Options of a line run.
+#[derive(Clone)]
+pub struct LineOptions {
+    /// Drive (or bus) names to do; empty: all.
+    pub only: Vec<String>,
+    /// Drive (or bus) names to leave out.
+    pub skip: Vec<String>,
+    /// Label for the report.
+    pub label: Option<String>,
+    /// Where the report and the state file go.
+    pub report_dir: PathBuf,
+    /// Wall-clock time, git, the state and learned-schema files.
+    pub env: Arc<dyn Environment>,
+    /// Told the phases and steps of every drive's work.
+    pub observer: Option<Arc<dyn LineObserver>>,
+    /// Where the upload journals go.
+    pub journal_dir: PathBuf,
+    /// Passed to every upload (each lifts one refusal; see
+    /// [`crate::overrides`]).
+    pub overrides: Overrides,
+    /// Broadcast the values common to the drives: LECOM MULTICAST per
+    /// group, LUSTBUS SELECT to address 31 inside every MC dataset
+    /// download ([`super`] module docs, "Broadcast").
+    pub broadcast_common: bool,
+    /// Ignore the state file (commission every drive again).
+    pub fresh: bool,
+    /// Test hook: every bus stops after this many drives, as if the run had
+    /// been killed there.
+    pub stop_after: Option<usize>,
+    /// Called after every drive.
+    pub progress: Option<ProgressFn>,
+    /// How drives whose set's schema lacks facts are learned (module
+    /// docs); `None`: such drives fail.
+    pub learn: Option<LineLearn>,
+}
+
+/// How a line run learns the schema of a drive whose set names a built-in
+/// schema that lacks facts ([`super`] module docs, "Learning the schema").
+#[derive(Debug, Clone)]
+pub struct LineLearn {
+    /// Holds the built-in schemas the learned ones extend.
+    pub registry: Registry,
+    /// Where `commission` writes learned schemas (`<id>.toml`) and where
+    /// `status` looks for them.
+    pub schema_dir: PathBuf,
+    /// Layout and type-character overrides (`status` forces `no_texts`).
+    pub options: LearnOptions,
+}
+
+impl std::fmt::Debug for LineOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LineOptions")
+            .field("only", &self.only)
+            .field("skip", &self.skip)
+            .field("report_dir", &self.report_dir)
+            .field("stop_after", &self.stop_after)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LineOptions {
+    /// Defaults: everything selected, report in `report_dir`, journals in
+    /// `report_dir/journals`, the world through `env`.
+    pub fn new(report_dir: impl Into<PathBuf>, env: Arc<dyn Environment>) -> Self {
+        let report_dir = report_dir.into();
+        LineOptions {
+            env,
+            observer: None,
+            only: Vec::new(),
+            skip: Vec::new(),
+            label: None,
+            journal_dir: report_dir.join("journals"),
+            report_dir,
+            overrides: Overrides::none(),
+            broadcast_common: false,
+            fresh: false,
+            stop_after: None,
+            progress: None,
+            learn: None,
+        }
+    }
+}
+
+/// A run that could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum LineError {
+    /// `--only` / `--skip` name something the manifest does not have.
+    #[error("{0}")]
+    Selection(String),
+    /// The report directory or the state file cannot be used.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// The result of a line run.
+#[derive(Debug, Clone)]
+pub struct LineOutcome {
+    /// The report.
+    pub report: LineReport,
+    /// Whether a bus failed (exit 3).
+    pub bus_failure: bool,
+    /// Notes (broadcast fallbacks, state file trouble).
+    pub warnings: Vec<String>,
+}
+
+impl LineOutcome {
+    /// The run in one word ([`super`] module docs).
+    pub fn verdict(&self) -> Verdict {
+        if self.bus_failure {
+            Verdict::BusFailed
+        } else if self.report.result == LineResult::Ok {
+            Verdict::Holds
+        } else {
+            Verdict::Differs
+        }
+    }
+
+    /// The slowest bus's time (ms on its clock): the line's time, as buses
+    /// run in parallel.
+    pub fn line_ms(&self) -> f64 {
+        self.report
+            .buses
+            .iter()
+            .map(|b| b.elapsed_ms)
+            .fold(0.0, f64::max)
+    }
+}

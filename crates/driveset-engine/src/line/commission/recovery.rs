@@ -1,0 +1,96 @@
+//! Owns what a line run does with unfinished journals (module docs of
+//! [`super`], "Unfinished journals"): before a drive is touched, its
+//! unfinished journals (found by recorded bus and address) are recovered
+//! (`commission`) or make the drive fail (`status`); a broadcast asks
+//! whether any address it reaches has one.
+
+use std::ops::RangeInclusive;
+
+use super::options::Mode;
+use super::run::Ctx;
+use crate::client::DriveClient;
+use crate::error::EngineError;
+use crate::journal::Unfinished;
+use crate::line::manifest::Drive;
+use crate::observe::{Hook, Phase};
+use crate::recover::{RecoverAction, RecoverOptions, recover};
+
+/// A drive with an unfinished journal is not done: `status` reports it
+/// failed, `commission` recovers each journal first
+/// ([`crate::recover::recover`]: it refuses another drive or a stale
+/// journal); `recovered` gets a note per journal recovered.
+pub(super) fn recover_unfinished(
+    client: &mut dyn DriveClient,
+    d: &Drive,
+    ctx: &Ctx<'_>,
+    hook: &Hook,
+    recovered: &mut Vec<String>,
+) -> Result<(), EngineError> {
+    let unfinished = crate::journal::unfinished_for(
+        &ctx.opts.journal_dir,
+        &client.bus_id(),
+        &client.target().port,
+        d.address,
+    )?;
+    if unfinished.is_empty() {
+        return Ok(());
+    }
+    if ctx.mode == Mode::Status {
+        return Err(untrusted(client, &unfinished));
+    }
+    hook.enter(client.clock(), Phase::Recover, None);
+    for u in &unfinished {
+        let rep = recover(&mut *client, &u.path, &RecoverOptions::default()).map_err(|e| {
+            EngineError::journal(u.path.display().to_string(), format!(
+                    "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
+                ))
+        })?;
+        let did = match rep.action {
+            RecoverAction::Completed => "completed (the drive held the new values)",
+            RecoverAction::RolledBack => "rolled back (old values restored)",
+            RecoverAction::Nothing => "already settled",
+        };
+        recovered.push(format!(
+            "{}: recovered the unfinished journal {} of an earlier run: {did}",
+            d.name,
+            u.path.display()
+        ));
+    }
+    Ok(())
+}
+
+/// `status`'s error for a drive with unfinished journals: its values are
+/// not trusted.
+fn untrusted(client: &dyn DriveClient, unfinished: &[Unfinished]) -> EngineError {
+    let list: Vec<String> = unfinished
+        .iter()
+        .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
+        .collect();
+    EngineError::journal(
+        unfinished[0].path.display().to_string(),
+        format!(
+            "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
+            client.target(),
+            list.join(", "),
+            unfinished[0].path.display()
+        ),
+    )
+}
+
+/// The unfinished journals of any address in `addresses` on the bus
+/// `bus_id` (port `port`): their paths, for a broadcast's refusal (an error
+/// reading them counts as none here; each drive's own check reports it).
+pub(super) fn unfinished_at(
+    ctx: &Ctx<'_>,
+    bus_id: &str,
+    port: &str,
+    addresses: RangeInclusive<u8>,
+) -> Vec<String> {
+    addresses
+        .flat_map(|a| {
+            crate::journal::unfinished_for(&ctx.opts.journal_dir, bus_id, port, a)
+                .unwrap_or_default()
+        })
+        .map(|u| u.path.display().to_string())
+        .collect()
+}

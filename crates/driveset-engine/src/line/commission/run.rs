@@ -1,0 +1,207 @@
+//! Owns a line run from start to report: the report and journal
+//! directories, the resume state it starts from, a thread per bus (the
+//! drives of one bus in turn), and the line report gathered from the
+//! buses' (module docs of [`super`]).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+use std::sync::{Mutex, PoisonError};
+
+use super::bus::{BusRun, run_bus};
+use super::drive::blank_report;
+use super::options::{LineError, LineOptions, LineOutcome, Mode, Opener};
+use super::resume::CommissionState;
+use super::select::select;
+use crate::env::rfc3339;
+use crate::line::manifest::{Drive, Manifest};
+use crate::line::report::{
+    BusReport, DriveReport, DriveResult, LineReport, LineResult, REPORT_VERSION,
+};
+
+/// What every bus thread of a run shares: the options, the mode, the
+/// resume state (`commission` only) and the warnings gathered so far.
+pub(super) struct Ctx<'a> {
+    pub(super) opts: &'a LineOptions,
+    pub(super) mode: Mode,
+    pub(super) state: Option<&'a Mutex<CommissionState>>,
+    pub(super) warnings: Mutex<Vec<String>>,
+}
+
+impl Ctx<'_> {
+    /// Add a warning to the run's.
+    pub(super) fn warn(&self, w: String) {
+        self.warnings
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(w);
+    }
+}
+
+/// Commission the line (module docs of [`super`]).
+pub fn commission(
+    manifest: &Manifest,
+    opts: &LineOptions,
+    opener: &Opener<'_>,
+) -> Result<LineOutcome, LineError> {
+    run_line(manifest, opts, opener, Mode::Commission)
+}
+
+/// Run the line in `mode`.
+pub fn run_line(
+    manifest: &Manifest,
+    opts: &LineOptions,
+    opener: &Opener<'_>,
+    mode: Mode,
+) -> Result<LineOutcome, LineError> {
+    let started = rfc3339(opts.env.now_utc());
+    let selected = select(manifest, opts)?;
+    create_report_dir(opts)?;
+    let state = if mode == Mode::Commission {
+        // the one way to create a journal directory: it keeps itself out of
+        // git with its own .gitignore, as upload's does
+        crate::journal::ensure_dir(&opts.journal_dir).map_err(|e| LineError::Io(e.to_string()))?;
+        Some(Mutex::new(CommissionState::for_run(manifest, opts)?))
+    } else {
+        None
+    };
+    let ctx = Ctx {
+        opts,
+        mode,
+        state: state.as_ref(),
+        warnings: Mutex::new(Vec::new()),
+    };
+    // the manifest's address is the truth: refused before the bus is opened
+    let mut refused = crate::line::address_truth::refuse_line(manifest, &selected);
+    let results = run_buses(manifest, &selected, &refused, &ctx, opener);
+    let warnings = ctx
+        .warnings
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner);
+    let (buses, mut by_drive, bus_failure) = gather(results);
+    // every drive of the manifest, in its order
+    let drives: Vec<DriveReport> = manifest
+        .drives
+        .iter()
+        .map(|d| {
+            by_drive
+                .remove(&d.name)
+                .or_else(|| refused.remove(&d.name))
+                .unwrap_or_else(|| {
+                    blank_report(d, &manifest.buses[d.bus_index], DriveResult::NotSelected)
+                })
+        })
+        .collect();
+    let report = line_report(manifest, opts, mode, started, buses, drives);
+    Ok(LineOutcome {
+        report,
+        bus_failure,
+        warnings,
+    })
+}
+
+fn create_report_dir(opts: &LineOptions) -> Result<(), LineError> {
+    opts.env.create_dir(&opts.report_dir).map_err(|e| {
+        LineError::Io(format!(
+            "cannot create the report directory {}: {e}",
+            opts.report_dir.display()
+        ))
+    })
+}
+
+/// A thread per bus, each given the bus's selected drives (neither left
+/// out nor refused) and every drive the manifest lists on it.
+fn run_buses(
+    manifest: &Manifest,
+    selected: &BTreeSet<String>,
+    refused: &BTreeMap<String, DriveReport>,
+    ctx: &Ctx<'_>,
+    opener: &Opener<'_>,
+) -> Vec<BusRun> {
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = manifest
+            .buses
+            .iter()
+            .enumerate()
+            .map(|(bi, bus)| {
+                let listed: Vec<&Drive> = manifest
+                    .drives
+                    .iter()
+                    .filter(|d| d.bus_index == bi)
+                    .collect();
+                let drives: Vec<&Drive> = listed
+                    .iter()
+                    .filter(|d| selected.contains(&d.name) && !refused.contains_key(&d.name))
+                    .copied()
+                    .collect();
+                scope.spawn(move || run_bus(bus, &drives, &listed, ctx, opener))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a bus thread panicked"))
+            .collect()
+    })
+}
+
+/// The buses' reports, their drives' by name, and whether a bus failed.
+fn gather(results: Vec<BusRun>) -> (Vec<BusReport>, BTreeMap<String, DriveReport>, bool) {
+    let mut by_drive: BTreeMap<String, DriveReport> = BTreeMap::new();
+    let mut buses = Vec::new();
+    let mut bus_failure = false;
+    for r in results {
+        bus_failure |= r.failed;
+        for d in r.drives {
+            by_drive.insert(d.name.clone(), d);
+        }
+        buses.push(r.report);
+    }
+    (buses, by_drive, bus_failure)
+}
+
+fn line_report(
+    manifest: &Manifest,
+    opts: &LineOptions,
+    mode: Mode,
+    started: String,
+    buses: Vec<BusReport>,
+    drives: Vec<DriveReport>,
+) -> LineReport {
+    let env = &*opts.env;
+    let result = line_result(&drives);
+    let dir = manifest.path.parent().unwrap_or(Path::new("."));
+    LineReport {
+        report_version: REPORT_VERSION,
+        command: match mode {
+            Mode::Commission => "commission".into(),
+            Mode::Status => "status".into(),
+        },
+        line: manifest.name.clone(),
+        manifest: manifest.path.display().to_string(),
+        label: opts.label.clone().or_else(|| manifest.label.clone()),
+        started,
+        finished: rfc3339(env.now_utc()),
+        git: env.git_info(dir),
+        result,
+        buses,
+        drives,
+    }
+}
+
+fn line_result(drives: &[DriveReport]) -> LineResult {
+    let mut r = LineResult::Ok;
+    for d in drives {
+        match d.result {
+            DriveResult::Verified
+            | DriveResult::Unchanged
+            | DriveResult::AlreadyVerified
+            | DriveResult::NotSelected => {}
+            DriveResult::Drift => {
+                if r == LineResult::Ok {
+                    r = LineResult::Drift;
+                }
+            }
+            DriveResult::RolledBack | DriveResult::Failed => r = LineResult::Failed,
+        }
+    }
+    r
+}
