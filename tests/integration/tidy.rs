@@ -66,10 +66,6 @@ const LARGE_FILES: &[(&str, &str)] = &[
         "records, store and tests in one: the split is on branch engine-split, not landed",
     ),
     (
-        "crates/driveset-engine/src/learn.rs",
-        "learning's descriptions, layouts and the learned file in one: to split",
-    ),
-    (
         "crates/driveset-engine/src/line/commission.rs",
         "about ten jobs (run, resume, per-drive work, learning, two broadcasts): the split is on branch session, not landed",
     ),
