@@ -7,6 +7,8 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use driveset_schema::error::SourceFile;
+use driveset_proto::lustbus::Dialect;
+use driveset_schema::family::TYPE;
 use driveset_schema::{Family, Location, Registry, Schema, check_schema};
 
 use super::contradict::{contradiction_message, contradictions};
@@ -17,30 +19,25 @@ use crate::client::Identity;
 /// The file (and schema id) a learned schema is stored under:
 /// `learned-<family>-type<TYPE>-<software>.toml`, the software being the
 /// identity's software version where the drive reports one, else
-/// `d<8 hex>`, the hash of the descriptions the drive sent.
+/// `d<8 hex>`, the hash of the descriptions the drive sent. The scheme is
+/// the descriptor's ([`driveset_schema::Learning::file_id`]), the TYPE the
+/// value of its [`driveset_schema::Descriptor::type_code`] (LUSTBUS
+/// 91-TYPE, section 5.2).
 pub fn learned_id(protocol: Family, identity: &Identity, learned: &Learned) -> String {
-    let family = match protocol {
-        Family::Vf1000 => "vf1000",
-        _ => "mc6000",
-    };
+    // A family without descriptions (none learns: only LUSTBUS clients do)
+    // is named as before the descriptor held the scheme: like an MC file.
+    let d = Some(protocol.descriptor())
+        .filter(|d| d.learning.is_some())
+        .unwrap_or_else(|| Family::from_dialect(Dialect::Mc).descriptor());
     let ty = identity
-        .value_of(91)
-        .map_or_else(|| "unknown".to_string(), ToString::to_string);
-    let sw = identity.software.as_deref().map_or_else(
-        || format!("d{:08x}", learned.descriptions_hash),
-        |s| {
-            s.chars()
-                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-                .collect()
-        },
-    );
-    format!("learned-{family}-type{}-{sw}", slug(&ty))
-}
-
-fn slug(s: &str) -> String {
-    s.chars()
-        .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
-        .collect()
+        .value_of(d.type_code.unwrap_or(TYPE))
+        .map(ToString::to_string);
+    d.learned_id(
+        ty.as_deref(),
+        identity.software.as_deref(),
+        learned.descriptions_hash,
+    )
+    .unwrap_or_default()
 }
 
 /// Where a learned schema comes from, for its file.

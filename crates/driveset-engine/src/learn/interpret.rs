@@ -5,7 +5,7 @@
 //! file's name.
 
 use super::model::{Learned, RawDescription};
-use super::{LearnOptions, mc, vf};
+use super::{LearnOptions, mc, speaks_mc, vf};
 use std::collections::BTreeSet;
 
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
@@ -47,7 +47,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
         hash = fnv1a(&r.number.to_le_bytes(), hash);
         hash = fnv1a(&r.text, hash);
     }
-    let reading = if protocol == Family::Mc6000 {
+    let reading = if speaks_mc(protocol) {
         mc::interpret(raws, opts)
     } else {
         vf::interpret(raws)

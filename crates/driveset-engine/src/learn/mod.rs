@@ -74,7 +74,9 @@
 //!   it until it checks ([`render_schema`]);
 //! - `pull.rs`: identify, learn and render in one ([`pull_schema`]).
 
+use driveset_proto::lustbus::Dialect;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
+use driveset_schema::Family;
 
 mod bounds;
 mod contradict;
@@ -108,4 +110,28 @@ pub struct LearnOptions {
     pub type_chars: Option<McTypeChars>,
     /// Do not read units and substitution texts (no 108-STEXT writes).
     pub no_texts: bool,
+}
+
+/// The LUSTBUS dialect `protocol`'s descriptions are read in, as its
+/// descriptor says ([`driveset_schema::Descriptor::dialect`]): MC6000/7000
+/// the MC one (specifier 3, section 11.2, with 107-UNIT and 108-STEXT
+/// texts); every other family is read as a VF1000 (specifier 1, section
+/// 11.1), as before the descriptor was asked.
+fn dialect(protocol: Family) -> Dialect {
+    protocol.descriptor().dialect.unwrap_or(Dialect::Vf1000)
+}
+
+/// Whether `protocol`'s descriptions are read in the MC dialect
+/// ([`dialect`]).
+fn speaks_mc(protocol: Family) -> bool {
+    dialect(protocol) == Dialect::Mc
+}
+
+/// The spec section of `protocol`'s parameter descriptions (LUSTBUS 11.2
+/// for the MC dialect, 11.1 for the VF1000 one), as learned files cite it.
+fn description_section(protocol: Family) -> &'static str {
+    match dialect(protocol) {
+        Dialect::Mc => "11.2",
+        Dialect::Vf1000 => "11.1",
+    }
 }

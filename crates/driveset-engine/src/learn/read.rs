@@ -12,7 +12,7 @@ use driveset_schema::Family;
 
 use super::model::{Learned, RawDescription};
 use super::scope::default_params;
-use super::{LearnOptions, interpret};
+use super::{LearnOptions, interpret, speaks_mc};
 use crate::client::LustbusClient;
 use crate::error::EngineError;
 
@@ -24,7 +24,7 @@ pub fn read_descriptions<L: ByteLink>(
     protocol: Family,
     params: &[u32],
 ) -> Result<(Vec<RawDescription>, usize), EngineError> {
-    let mc = protocol == Family::Mc6000;
+    let mc = speaks_mc(protocol);
     let mut out = Vec::new();
     let mut absent = 0;
     for &p in params {
@@ -91,7 +91,7 @@ pub fn read_texts<L: ByteLink>(
     client: &mut LustbusClient<L>,
     learned: &mut Learned,
 ) -> Result<(), EngineError> {
-    if learned.protocol != Family::Mc6000 {
+    if !speaks_mc(learned.protocol) {
         return Ok(());
     }
     let mut stext_old = None;

@@ -8,7 +8,9 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
+use driveset_proto::lustbus::CompatibleParameter;
 use driveset_proto::lustbus::description::McTypeChars;
+use driveset_schema::family::TYPE;
 use driveset_schema::schema::{StorageKind, number_list_text};
 use driveset_schema::value::raw_to_engineering;
 use driveset_schema::{Family, Schema, ValueType};
@@ -17,6 +19,7 @@ use super::bounds::width_of;
 use super::contradict::{contradictions, kind_name, spec_source};
 use super::file::LearnSource;
 use super::model::{Learned, LearnedCode};
+use super::{description_section, dialect, speaks_mc};
 use crate::client::IdentValue;
 
 fn q(s: &str) -> String {
@@ -31,7 +34,8 @@ pub(super) fn render_text(
     source: &LearnSource,
     dropped: &BTreeSet<u32>,
 ) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
-    let mc = learned.protocol == Family::Mc6000;
+    let mc = speaks_mc(learned.protocol);
+    let section = description_section(learned.protocol);
     if let Some(prev) = &base.learned {
         return render_on_learned(learned, base, prev, id, source, dropped);
     }
@@ -45,7 +49,7 @@ pub(super) fn render_text(
     let _ = writeln!(
         out,
         "# Schema learned by driveset from the drive's own parameter descriptions\n# (LUSTBUS section {}){}.",
-        if mc { "11.2" } else { "11.1" },
+        section,
         if mc {
             " and substitution texts (section 11.3)"
         } else {
@@ -100,7 +104,9 @@ pub(super) fn render_text(
     let _ = writeln!(
         out,
         "protocol = {}",
-        q(if mc { "lustbus-mc" } else { "lustbus-vf1000" })
+        q(Family::from_dialect(dialect(learned.protocol))
+            .descriptor()
+            .schema_protocol)
     );
     let _ = writeln!(
         out,
@@ -110,8 +116,15 @@ pub(super) fn render_text(
             source.drive, base.id
         ))
     );
-    let ty_value = source.identity.value_of(91).and_then(IdentValue::as_int);
-    let _ = writeln!(out, "\n[schema.identify]\ncodes = [91]");
+    let type_code = Family::from_dialect(dialect(learned.protocol))
+        .descriptor()
+        .type_code
+        .unwrap_or(TYPE);
+    let ty_value = source
+        .identity
+        .value_of(type_code)
+        .and_then(IdentValue::as_int);
+    let _ = writeln!(out, "\n[schema.identify]\ncodes = [{type_code}]");
     if let Some(t) = ty_value {
         let _ = writeln!(out, "type_values = [{t}]");
     }
@@ -125,7 +138,7 @@ pub(super) fn render_text(
         "\n[schema.learned]\nasked = {}",
         q(&number_list_text(&learned.asked_params))
     );
-    let (out, spans) = render_entries(out, learned, base, dropped, mc);
+    let (out, spans) = render_entries(out, learned, base, dropped);
     (out, spans)
 }
 
@@ -136,8 +149,8 @@ fn render_entries(
     learned: &Learned,
     base: &Schema,
     dropped: &BTreeSet<u32>,
-    mc: bool,
 ) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
+    let section = description_section(learned.protocol);
     let mut names: BTreeSet<String> = base.codes.iter().map(|c| c.name.clone()).collect();
     let mut spans = Vec::new();
     for c in &learned.codes {
@@ -145,7 +158,7 @@ fn render_entries(
             continue;
         }
         let start = out.lines().count() + 1;
-        render_code(&mut out, c, base, &mut names, mc);
+        render_code(&mut out, c, base, &mut names, section);
         let end = out.lines().count() + 1;
         spans.push((c.number, start..end));
     }
@@ -165,7 +178,6 @@ fn render_on_learned(
     source: &LearnSource,
     dropped: &BTreeSet<u32>,
 ) -> (String, Vec<(u32, std::ops::Range<usize>)>) {
-    let mc = learned.protocol == Family::Mc6000;
     let asked: BTreeSet<u32> = prev.asked.union(&learned.asked_params).copied().collect();
     let mut out = String::new();
     let mut table = "";
@@ -195,7 +207,7 @@ fn render_on_learned(
         source.drive,
         number_list_text(&learned.asked_params)
     );
-    render_entries(out, learned, base, dropped, mc)
+    render_entries(out, learned, base, dropped)
 }
 
 fn render_code(
@@ -203,7 +215,7 @@ fn render_code(
     c: &LearnedCode,
     base: &Schema,
     names: &mut BTreeSet<String>,
-    mc: bool,
+    section: &str,
 ) {
     let b = base.code(c.number);
     let mut learned_facts: Vec<&str> = Vec::new();
@@ -238,8 +250,7 @@ fn render_code(
         lines.push(format!(
             "spec = {}",
             q(&format!(
-                "learned from the drive's description (LUSTBUS section {})",
-                if mc { "11.2" } else { "11.1" }
+                "learned from the drive's description (LUSTBUS section {section})"
             ))
         ));
     }
@@ -326,10 +337,15 @@ fn render_code(
         lines.push("role = \"password\"".into());
         learned_facts.push("role");
     }
-    if b.is_none() && matches!(c.number, 81..=85 | 91) {
+    // The numerically compatible parameters (section 5.2) from proto's one
+    // table, and the one of them whose reading clears it (85-SIOF/SERR).
+    let compatible = u16::try_from(c.number)
+        .ok()
+        .and_then(CompatibleParameter::from_number);
+    if b.is_none() && compatible.is_some() {
         lines.push("compatible = true".into());
     }
-    if b.is_none() && c.number == 85 {
+    if b.is_none() && compatible == Some(CompatibleParameter::Siof) {
         lines.push("read_clears = true".into());
     }
     if !c.guessed.is_empty() {

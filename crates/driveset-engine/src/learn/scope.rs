@@ -24,7 +24,7 @@ pub fn needs_learning(schema: &Schema) -> bool {
     }
     schema.id == schema.family.descriptor().schema_id
         && !schema.fictional
-        && matches!(schema.family, Family::Mc6000 | Family::Vf1000)
+        && schema.family.descriptor().learning.is_some()
         && schema.codes.iter().any(|c| {
             c.read_clears != Some(true)
                 && (schema.type_of(c).is_none()
@@ -57,17 +57,21 @@ pub fn options_for(base: &Schema, opts: &LearnOptions) -> LearnOptions {
 }
 
 /// The highest parameter number a LUSTBUS family describes (VF1000: 99,
-/// two CODE digits; MC6000/7000: 999, three); `None` for the families
+/// two CODE digits; MC6000/7000: 999, three; the descriptor's
+/// [`driveset_schema::Descriptor::max_parameter`]); `None` for the families
 /// whose drives have no LUSTBUS descriptions.
 pub fn max_parameter(protocol: Family) -> Option<u32> {
-    match protocol {
-        Family::Vf1000 => Some(99),
-        Family::Mc6000 => Some(999),
-        Family::Tmd | Family::Ecs => None,
-    }
+    protocol.descriptor().max_parameter()
 }
 
-/// The parameters asked for by default.
+/// The parameters asked for by default (the descriptor's
+/// [`driveset_schema::Learning::default_params`]). A family without
+/// descriptions is asked for 1..=999, as before the descriptor held the
+/// figure (no caller learns from one: only LUSTBUS clients learn).
 pub fn default_params(protocol: Family) -> Vec<u32> {
-    (1..=max_parameter(protocol).unwrap_or(999)).collect()
+    protocol
+        .descriptor()
+        .learning
+        .map_or(1..=999, |l| l.default_params())
+        .collect()
 }
