@@ -6,8 +6,8 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
-use driveset_schema::error::SourceFile;
 use driveset_proto::lustbus::Dialect;
+use driveset_schema::error::SourceFile;
 use driveset_schema::family::TYPE;
 use driveset_schema::{Family, Location, Registry, Schema, check_schema};
 

@@ -301,3 +301,16 @@ fn a_protocol_names_its_only_family_when_it_has_one() {
     assert_eq!(BusProtocol::CanSdo.only_family(), Some(Family::Ecs));
     assert_eq!(BusProtocol::Lustbus.only_family(), None);
 }
+
+#[test]
+fn a_bus_line_rates_are_its_families_rates() {
+    for bus in BusProtocol::ALL {
+        let all: std::collections::BTreeSet<u32> = bus
+            .families()
+            .flat_map(|f| f.descriptor().line_rates.rates.iter().copied())
+            .collect();
+        let mut want: Vec<u32> = all.into_iter().collect();
+        want.reverse();
+        assert_eq!(bus.line_rates(), want.as_slice(), "{bus}");
+    }
+}

@@ -35,7 +35,6 @@ const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
     ("crates/driveset-engine/src/line/replace.rs", 2),
     ("crates/driveset-engine/src/plan/mod.rs", 4),
     ("crates/driveset-engine/src/plan/timing.rs", 7),
-    ("crates/driveset-engine/src/scan.rs", 5),
     ("crates/driveset-engine/src/transfer.rs", 1),
 ];
 
