@@ -68,14 +68,9 @@ impl LearnArgs {
     }
 }
 
-/// The built-in schema of a protocol.
+/// The built-in schema of a protocol ([`driveset_schema::Descriptor::schema_id`]).
 pub fn builtin_for(protocol: Family, dirs: &[PathBuf]) -> Result<Arc<Schema>, Fail> {
-    let id = match protocol {
-        Family::Mc6000 => "lust-mc6000",
-        Family::Vf1000 => "lust-vf1000",
-        Family::Tmd => "lenze-tmd",
-        Family::Ecs => "lenze-ecs",
-    };
+    let id = protocol.descriptor().schema_id;
     port::registry(dirs)?
         .get(id)
         .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
