@@ -49,10 +49,6 @@ const MAX_LINES: usize = 900;
 /// job each; whoever brings one under the limit removes its entry (the test
 /// says so). A table of data may stay here for good, saying so.
 const LARGE_FILES: &[(&str, &str)] = &[
-    (
-        "crates/driveset-engine/src/learn.rs",
-        "learning's descriptions, layouts and the learned file in one: to split",
-    ),
 ];
 
 /// The journal's store, the engine's one file of file IO (skipped whole).

@@ -16,8 +16,9 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use driveset_link::ByteLink;
+use driveset_proto::lustbus::Dialect;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
-use driveset_schema::{CodeKey, Family, RawValue};
+use driveset_schema::{BusProtocol, CodeKey, Family, RawValue};
 
 use crate::client::{DriveClient, Identity, LustbusClient};
 use crate::error::{DeviceCause, EngineError, ErrorKind};
@@ -130,11 +131,13 @@ pub fn mc_descriptions<L: ByteLink>(
     client: &mut LustbusClient<L>,
     params: &[u32],
 ) -> Result<(Option<McLayout>, Option<McTypeChars>), EngineError> {
-    let (raws, _absent) = read_descriptions(client, Family::Mc6000, params)?;
+    // The family that speaks the MC dialect (MC6000/7000), by its descriptor.
+    let mc = Family::from_dialect(Dialect::Mc);
+    let (raws, _absent) = read_descriptions(client, mc, params)?;
     if raws.is_empty() {
         return Ok((None, None));
     }
-    let learned = interpret(Family::Mc6000, &raws, &LearnOptions::default());
+    let learned = interpret(mc, &raws, &LearnOptions::default());
     Ok((learned.layouts.iter().next().copied(), learned.type_chars))
 }
 
@@ -305,11 +308,10 @@ pub fn lustbus_session(
     events: &[crate::decode::Event],
     schema: &driveset_schema::Schema,
 ) -> BTreeMap<u8, Session> {
-    use driveset_proto::lustbus::{Dialect, ParameterCode, ParameterValue};
-    let dialect = match schema.family {
-        Family::Vf1000 => Dialect::Vf1000,
-        _ => Dialect::Mc,
-    };
+    use driveset_proto::lustbus::{ParameterCode, ParameterValue};
+    // The family's dialect (its descriptor's); a schema off LUSTBUS is read
+    // as MC, as before the descriptor was asked.
+    let dialect = schema.family.descriptor().dialect.unwrap_or(Dialect::Mc);
     // "4 'D'": the number before the address character
     let address_of = |e: &crate::decode::Event| -> Option<u8> {
         let a = e
@@ -319,7 +321,8 @@ pub fn lustbus_session(
             .next()?
             .parse::<u8>()
             .ok()?;
-        (a != 0 && a != 31).then_some(a)
+        // not the group address 0 nor the broadcast address 31 (section 4.2)
+        (!BusProtocol::Lustbus.is_group_address(i64::from(a))).then_some(a)
     };
     let key_of = |e: &crate::decode::Event| -> Option<CodeKey> {
         let code = ParameterCode::new(e.code.as_deref()?.parse().ok()?)?;

@@ -32,11 +32,12 @@ use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, FrameLink, LinkError};
 use driveset_proto::can::NodeId;
 use driveset_proto::lecom::ControllerAddress;
-use driveset_proto::lustbus::Address;
+use driveset_proto::lustbus::{Address, Dialect};
+use driveset_schema::family::TYPE;
 use driveset_schema::{BusProtocol, CodeKey, Family, Schema};
 
 use crate::client::lecom::{C0093, LecomLine};
-use crate::client::lustbus::{LustLine, TYPE};
+use crate::client::lustbus::LustLine;
 use crate::client::sdo::SdoLine;
 use crate::client::{
     BorrowedByteLink, BorrowedFrameLink, IdentCode, IdentProtocol, IdentValue, Identity, Target,
@@ -44,10 +45,58 @@ use crate::client::{
 use crate::error::{AddressRefused, EngineError, Refusal};
 
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
-/// 2400..57600 servocontrollers).
-pub const LUSTBUS_BAUDS: [u32; 6] = [57600, 38400, 19200, 9600, 4800, 2400];
-/// LECOM line rates of the Tmd (C0125), highest first.
-pub const LECOM_BAUDS: [u32; 4] = [9600, 4800, 2400, 1200];
+/// 2400..57600 servocontrollers): the descriptor's
+/// [`BusProtocol::line_rates`].
+pub const LUSTBUS_BAUDS: [u32; 6] = rates(BusProtocol::Lustbus.line_rates());
+/// LECOM line rates of the Tmd (C0125), highest first: the descriptor's
+/// [`BusProtocol::line_rates`].
+pub const LECOM_BAUDS: [u32; 4] = rates(BusProtocol::Lecom.line_rates());
+
+/// A bus's rate list as the array its constant has always been (a build
+/// error if the descriptor's list has another length).
+const fn rates<const N: usize>(list: &[u32]) -> [u32; N] {
+    assert!(list.len() == N, "the descriptor's rate list changed length");
+    let mut out = [0; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = list[i];
+        i += 1;
+    }
+    out
+}
+
+/// The longest reaction of any drive on `bus`, with a KEYPAD where that is
+/// longer (the descriptors' [`driveset_schema::family::Reaction`]: LUSTBUS
+/// 60 ms, a VF1000 with KEYPAD, section 10; LECOM 20 ms).
+fn longest_reaction(bus: BusProtocol) -> Duration {
+    bus.families()
+        .map(|f| f.descriptor().reaction.longest(true))
+        .max()
+        .unwrap_or_default()
+}
+
+/// A LUSTBUS probe's answer timeout: `opts.timeout`, else the longest
+/// reaction + 5 ms + the wire time of a 14-character reply.
+fn lustbus_timeout(opts: &ScanOptions, baud: u32) -> Duration {
+    opts.timeout.unwrap_or_else(|| {
+        longest_reaction(BusProtocol::Lustbus) + Duration::from_millis(5) + wire_time(14, baud)
+    })
+}
+
+/// A LECOM probe's answer timeout: `opts.timeout`, else twice the longest
+/// reaction + the wire time of the answer (24 characters).
+fn lecom_timeout(opts: &ScanOptions, baud: u32) -> Duration {
+    opts.timeout
+        .unwrap_or_else(|| 2 * longest_reaction(BusProtocol::Lecom) + wire_time(24, baud))
+}
+
+/// The family of the drives on `bus` when it carries one (LECOM: Tmd; CAN
+/// SDO: ECS; [`BusProtocol::only_family`]), else the bus: what a found
+/// drive's identity names.
+fn ident_protocol(bus: BusProtocol) -> IdentProtocol {
+    bus.only_family()
+        .map_or(IdentProtocol::Bus(bus), IdentProtocol::Family)
+}
 
 /// How to scan.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -119,19 +168,24 @@ fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
     )
 }
 
-/// LUSTBUS addresses 1..=30.
+/// LUSTBUS addresses 1..=30 ([`BusProtocol::drive_addresses`]).
 pub fn lustbus_addresses() -> Vec<u8> {
-    (1..=30).collect()
+    BusProtocol::Lustbus.drive_addresses().collect()
 }
 
-/// LECOM stations 01..99 without 00 and the group addresses x0.
+/// LECOM stations 01..99 without 00 and the group addresses x0
+/// ([`BusProtocol::drive_addresses`] less [`BusProtocol::is_group_address`]).
 pub fn lecom_addresses() -> Vec<u8> {
-    (1..=99).filter(|a: &u8| !a.is_multiple_of(10)).collect()
+    let lecom = BusProtocol::Lecom;
+    lecom
+        .drive_addresses()
+        .filter(|a| !lecom.is_group_address(i64::from(*a)))
+        .collect()
 }
 
-/// CAN node ids 1..=127.
+/// CAN node ids 1..=127 ([`BusProtocol::drive_addresses`]).
 pub fn can_nodes() -> Vec<u8> {
-    (1..=127).collect()
+    BusProtocol::CanSdo.drive_addresses().collect()
 }
 
 /// Scans a LUSTBUS line (see the module docs).
@@ -146,9 +200,7 @@ pub fn scan_lustbus(
         AddressRefused::check_scan(BusProtocol::Lustbus, a).map_err(|r| refuse(&port, a, r))?;
         targets.push(Address::new(a).ok_or_else(|| refuse(&port, a, address_encode(a)))?);
     }
-    let timeout = opts
-        .timeout
-        .unwrap_or_else(|| Duration::from_millis(65) + wire_time(14, link.baud()));
+    let timeout = lustbus_timeout(opts, link.baud());
     let mut line = LustLine::new(BorrowedByteLink(link));
     // Replies carry the address: a late one from the previous address is
     // told apart, so no late window after each silent address.
@@ -196,9 +248,7 @@ pub fn scan_lecom(
         .unwrap_or(C0093);
     let key = CodeKey::new(number);
     let name = format!("C{number:04}");
-    let timeout = opts
-        .timeout
-        .unwrap_or_else(|| Duration::from_millis(40) + wire_time(24, link.baud()));
+    let timeout = lecom_timeout(opts, link.baud());
     // Answers carry no address: after a silent address the probe listens
     // for a late answer as long again, so it is not taken for the next
     // address's (client::timing).
@@ -211,7 +261,7 @@ pub fn scan_lecom(
             found.push(Found {
                 address: ad.get(),
                 identity: Identity {
-                    protocol: IdentProtocol::Family(Family::Tmd),
+                    protocol: ident_protocol(BusProtocol::Lecom),
                     codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
@@ -261,7 +311,7 @@ pub fn scan_can(
             found.push(Found {
                 address: node.get(),
                 identity: Identity {
-                    protocol: IdentProtocol::Family(Family::Ecs),
+                    protocol: ident_protocol(BusProtocol::CanSdo),
                     codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
                     software: None,
                 },
@@ -320,17 +370,16 @@ pub fn detect_protocol(
     address: u8,
     opts: &ScanOptions,
 ) -> Result<Option<Detected>, EngineError> {
-    use driveset_schema::Family;
     let port = link.port().to_string();
-    let lust_timeout = opts
-        .timeout
-        .unwrap_or_else(|| Duration::from_millis(65) + wire_time(14, link.baud()));
+    let lust_timeout = lustbus_timeout(opts, link.baud());
     if let Some(ad) = Address::new(address).filter(|a| a.is_individual()) {
         let mut line = LustLine::new(BorrowedByteLink(&mut *link));
         let got = crate::client::lustbus::probe_type(&mut line, ad, lust_timeout, opts.tries)
             .map_err(|e| link_err(&port, address, e))?;
         if let Some(value) = got {
-            let code = driveset_proto::lustbus::ParameterCode::mc_value(91)
+            let code = u16::try_from(TYPE)
+                .ok()
+                .and_then(driveset_proto::lustbus::ParameterCode::mc_value)
                 .unwrap_or(driveset_proto::lustbus::ParameterCode::POSMOD);
             let mc = crate::client::lustbus::probe_code(&mut line, ad, code, lust_timeout, 1)
                 .map_err(|e| link_err(&port, address, e))?;
@@ -338,13 +387,13 @@ pub fn detect_protocol(
             let ty = value.map_or_else(|| "NAK".to_string(), |v| v.to_string());
             return Ok(Some(match mc {
                 Some(Some(_)) => Detected {
-                    protocol: Family::Mc6000,
+                    protocol: Family::from_dialect(Dialect::Mc),
                     evidence: format!(
                         "LUSTBUS ENQUIRY of {TYPE}-TYPE answered ({ty}) and the MC6000/7000 CODE 20091 too"
                     ),
                 },
                 _ => Detected {
-                    protocol: Family::Vf1000,
+                    protocol: Family::from_dialect(Dialect::Vf1000),
                     evidence: format!(
                         "LUSTBUS ENQUIRY of {TYPE}-TYPE answered ({ty}), the MC6000/7000 CODE 20091 not: a VF1000"
                     ),
@@ -354,10 +403,11 @@ pub fn detect_protocol(
         line.finish().map_err(|e| link_err(&port, address, e))?;
     }
     if let Some(ad) = ControllerAddress::new(address).filter(|a| !a.is_broadcast()) {
-        let timeout = opts
-            .timeout
-            .unwrap_or_else(|| Duration::from_millis(40) + wire_time(24, link.baud()));
+        let timeout = lecom_timeout(opts, link.baud());
         let mut line = LecomLine::new(BorrowedByteLink(&mut *link));
+        // C0093, then C0200: the Tmd descriptor's identify codes are 93, 99,
+        // 200; the probe has always skipped C0099 (kept: one telegram less
+        // per silent address, and its messages name C0093 and C0200).
         for number in [C0093, 200] {
             let got = crate::client::lecom::probe(
                 &mut line,
@@ -367,10 +417,12 @@ pub fn detect_protocol(
                 opts.tries,
             )
             .map_err(|e| link_err(&port, address, e))?;
-            if let Some(text) = got {
+            if let Some(text) = got
+                && let Some(family) = BusProtocol::Lecom.only_family()
+            {
                 line.finish().map_err(|e| link_err(&port, address, e))?;
                 return Ok(Some(Detected {
-                    protocol: Family::Tmd,
+                    protocol: family,
                     evidence: format!("LECOM RECEIVE of C{number:04} answered ({text})"),
                 }));
             }

@@ -260,7 +260,19 @@ impl Learning {
                     .collect()
             },
         );
-        format!("learned-{}-type{ty}-{sw}", self.stem)
+        format!("{}{sw}", self.file_prefix(Some(&ty)))
+    }
+
+    /// How every learned file of a drive of `device_type` starts:
+    /// `learned-<stem>-type<TYPE>-` (`unknown` where the drive gave no
+    /// TYPE). `device_type` is taken as given; [`Learning::file_id`] passes
+    /// it kept to its ASCII letters, digits, `-` and `_`.
+    pub fn file_prefix(&self, device_type: Option<&str>) -> String {
+        format!(
+            "learned-{}-type{}-",
+            self.stem,
+            device_type.unwrap_or("unknown")
+        )
     }
 
     /// The parameters a learning run asks for by default: 1 ..= the highest.

@@ -44,8 +44,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context as _, bail};
-use driveset_proto::lustbus::Dialect;
-use driveset_schema::{Family as SchemaProtocol, Registry, Schema};
+use driveset_schema::{Registry, Schema};
 
 use crate::{EXIT_FINDINGS, EXIT_OK};
 pub(crate) use driveset_engine::decode::lustbus::{
@@ -249,18 +248,16 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     };
     let mut family = family;
     if let Some(s) = &schema {
-        let schema_family = match s.family {
-            SchemaProtocol::Vf1000 => Some(Dialect::Vf1000),
-            SchemaProtocol::Mc6000 => Some(Dialect::Mc),
-            _ => None,
-        };
-        let fits = match (args.protocol, s.family) {
-            (DecodeProtocol::Lecom, SchemaProtocol::Tmd)
-            | (DecodeProtocol::Slcan, SchemaProtocol::Ecs) => true,
-            (DecodeProtocol::Lustbus, _) => {
+        // the schema's LUSTBUS dialect, where it has one (its descriptor's)
+        let schema_family = s.family.descriptor().dialect;
+        let fits = match args.protocol {
+            // LECOM and slcan carry one family each (Tmd, ECS)
+            DecodeProtocol::Lecom | DecodeProtocol::Slcan => {
+                args.protocol.capture().bus().only_family() == Some(s.family)
+            }
+            DecodeProtocol::Lustbus => {
                 schema_family.is_some() && (family.is_none() || family == schema_family)
             }
-            _ => false,
         };
         if fits && args.protocol == DecodeProtocol::Lustbus {
             family = schema_family;
@@ -284,13 +281,12 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         // LECOM and slcan carry one family each: its built-in schema (LUSTBUS
         // picks per telegram, from the CODE's dialect)
         schema = match args.protocol {
-            DecodeProtocol::Lecom | DecodeProtocol::Slcan => {
-                let mut families = args.protocol.capture().bus().families();
-                match (families.next(), families.next()) {
-                    (Some(f), None) => registry.get(f.descriptor().schema_id),
-                    _ => None,
-                }
-            }
+            DecodeProtocol::Lecom | DecodeProtocol::Slcan => args
+                .protocol
+                .capture()
+                .bus()
+                .only_family()
+                .and_then(|f| registry.get(f.descriptor().schema_id)),
             DecodeProtocol::Lustbus => None,
         };
     }

@@ -363,15 +363,13 @@ fn lust_code(
                 }
             };
             let code = code.ok_or_else(|| {
-                anyhow!(
-                    "param={p}: {} parameters are {}",
-                    fam,
-                    if fam == Dialect::Mc {
-                        "0..999"
-                    } else {
-                        "0..99"
-                    }
-                )
+                // the CODE's parameter digits: the family's highest
+                // parameter (VF1000 99, MC 999; its descriptor's)
+                let max = driveset_schema::Family::from_dialect(fam)
+                    .descriptor()
+                    .max_parameter()
+                    .unwrap_or_default();
+                anyhow!("param={p}: {fam} parameters are 0..{max}")
             })?;
             Ok((code, Some(fam)))
         }

@@ -7,8 +7,9 @@ use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
 use driveset_engine::session::Session;
-use driveset_proto::lustbus::ParameterCode;
+use driveset_proto::lustbus::{Dialect, ParameterCode};
 use driveset_schema::Family;
+use driveset_schema::family::TYPE;
 use serde_json::json;
 
 use crate::learning;
@@ -100,18 +101,22 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     if args.schema.is_none()
         && sim_hint.is_none()
         && args.protocol.is_some()
-        && schema.family == Family::Mc6000
+        && schema.family.descriptor().dialect == Some(Dialect::Mc)
     {
         let (session_port, _sim) = opened.into_session_port()?;
         let connect = session_port.connect;
         let mut probe = Session::lustbus(session_port, schema.clone(), args.address)?;
-        let code = ParameterCode::mc_value(91).unwrap_or(ParameterCode::POSMOD);
+        let code = u16::try_from(TYPE)
+            .ok()
+            .and_then(ParameterCode::mc_value)
+            .unwrap_or(ParameterCode::POSMOD);
         let mc = probe.enquire_code(code, 8)?.is_some();
         if !mc {
             let registry = port::registry(&args.schemas)?;
+            let vf = Family::from_dialect(Dialect::Vf1000).descriptor().schema_id;
             schema = registry
-                .get("lust-vf1000")
-                .ok_or_else(|| Fail::input("built-in schema lust-vf1000 is missing"))?;
+                .get(vf)
+                .ok_or_else(|| Fail::input(format!("built-in schema {vf} is missing")))?;
             note = Some("the drive NAKs the MC6000/7000 CODE 20091: a VF1000 inverter".to_string());
         } else {
             note = Some(
@@ -164,15 +169,20 @@ fn learned_status(
     if !driveset_engine::learn::needs_learning(schema) {
         return (schema.id.clone(), false, None);
     }
-    let family = if schema.family == Family::Vf1000 {
-        "vf1000"
-    } else {
-        "mc6000"
-    };
+    // The descriptor's learned-file scheme (a schema that needs learning is
+    // of a family that has one; any other is looked for as an MC file, as
+    // before). The TYPE is taken as the drive sent it, not kept to the
+    // characters a learned file's name holds (as before).
+    let d = Some(schema.family.descriptor())
+        .filter(|d| d.learning.is_some())
+        .unwrap_or_else(|| Family::from_dialect(Dialect::Mc).descriptor());
     let ty = identity
-        .value_of(91)
-        .map_or_else(|| "unknown".to_string(), ToString::to_string);
-    let prefix = format!("learned-{family}-type{ty}-");
+        .value_of(d.type_code.unwrap_or(TYPE))
+        .map(ToString::to_string);
+    let prefix = d
+        .learning
+        .map(|l| l.file_prefix(ty.as_deref()))
+        .unwrap_or_default();
     let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
         .into_iter()
         .flatten()

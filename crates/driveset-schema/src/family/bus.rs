@@ -104,6 +104,18 @@ impl BusProtocol {
         found
     }
 
+    /// Every line rate a drive on this bus may run at, highest first: the
+    /// union of its families' [`LineRates::rates`] (LUSTBUS §4: the
+    /// servocontrollers' 2400..57600 hold the inverters' 2400..9600; LECOM:
+    /// the Tmd's C0125 rates); empty for CAN. What a baud scan tries.
+    pub const fn line_rates(self) -> &'static [u32] {
+        match self {
+            BusProtocol::Lustbus => super::mc6000::SERVO_RATES,
+            BusProtocol::Lecom => super::tmd::TMD.line_rates.rates,
+            BusProtocol::CanSdo => &[],
+        }
+    }
+
     /// Whether a drive of `family` runs on this bus.
     pub fn carries(self, family: Family) -> bool {
         family.bus() == self

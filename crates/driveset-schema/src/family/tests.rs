@@ -358,3 +358,16 @@ fn identify_rules_stay_within_the_identify_codes() {
         }
     }
 }
+
+#[test]
+fn a_bus_line_rates_are_its_families_rates() {
+    for bus in BusProtocol::ALL {
+        let all: std::collections::BTreeSet<u32> = bus
+            .families()
+            .flat_map(|f| f.descriptor().line_rates.rates.iter().copied())
+            .collect();
+        let mut want: Vec<u32> = all.into_iter().collect();
+        want.reverse();
+        assert_eq!(bus.line_rates(), want.as_slice(), "{bus}");
+    }
+}

@@ -18,11 +18,6 @@ use std::path::{Path, PathBuf};
 /// A count may only go down: lower (or remove) the entry when you convert
 /// a file; never add one.
 const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
-    ("crates/driveset-cli/src/cmd/identify.rs", 2),
-    ("crates/driveset-cli/src/learning.rs", 4),
-    ("crates/driveset-engine/src/capture.rs", 3),
-    ("crates/driveset-engine/src/learn.rs", 12),
-    ("crates/driveset-engine/src/scan.rs", 5),
 ];
 
 /// The families' variant names.
