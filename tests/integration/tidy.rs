@@ -48,8 +48,7 @@ const MAX_LINES: usize = 900;
 /// with why it may stay for now. Issue 19 splits them into modules of one
 /// job each; whoever brings one under the limit removes its entry (the test
 /// says so). A table of data may stay here for good, saying so.
-const LARGE_FILES: &[(&str, &str)] = &[
-];
+const LARGE_FILES: &[(&str, &str)] = &[];
 
 /// The journal's store, the engine's one file of file IO (skipped whole).
 const JOURNAL_STORE: &str = "crates/driveset-engine/src/journal/store.rs";

@@ -17,8 +17,7 @@ use std::path::{Path, PathBuf};
 /// until the helpers who own them convert them to descriptor questions.
 /// A count may only go down: lower (or remove) the entry when you convert
 /// a file; never add one.
-const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[
-];
+const FAMILY_VARIANTS_STILL_TO_CONVERT: &[(&str, usize)] = &[];
 
 /// The families' variant names.
 const VARIANTS: [&str; 4] = ["Mc6000", "Vf1000", "Tmd", "Ecs"];
