@@ -48,9 +48,17 @@
 //! rollback; a rollback is reported as such, whatever telegrams it sends.
 //! Each step of [`Transaction`] enters its phase itself.
 //!
+//! **The dry run.** [`prepare`] is [`Transaction::begin`] and
+//! [`Transaction::replan`] without a journal: the same check, identify,
+//! read-back and plan, minus the unfinished-journal guard, with the
+//! identity checked in the plan and the motor asked before the read-back
+//! (its docs say why). [`crate::dry_run`] adds what `--transfer-baud` would
+//! do and the forms a front end prints.
+//!
 //! **Rooms.** This module holds the public API: [`UploadOptions`],
 //! [`upload`] and the dry run's [`prepare`]. The transaction's state and
-//! its first steps are in `transaction.rs` (begin, replan, stopped), the
+//! its first steps are in `transaction.rs` (the checks and identify an
+//! upload shares with its dry run, begin, replan, stopped), the
 //! journal it keeps in `journal_writer.rs` (the journal step, state
 //! transitions, the unfinished-journal guard), the MC6000/7000 dataset
 //! handshake in `dataset.rs`, the paced writes and the verification in

@@ -1,9 +1,12 @@
 //! The transaction ([`Transaction`]: its parts are in `state.rs`) and the
 //! steps that frame an attempt: [`Transaction::begin`] (check,
-//! unfinished-journal guard, identify), [`Transaction::replan`] (read
-//! back, plan) and [`Transaction::stopped`] (roll back, or redo after a
-//! drive restart); the other steps are in the sibling modules (module
-//! docs of `crate::upload`).
+//! unfinished-journal guard, identify, check with the identity),
+//! [`Transaction::replan`] (read back, plan) and [`Transaction::stopped`]
+//! (roll back, or redo after a drive restart); the other steps are in the
+//! sibling modules (module docs of `crate::upload`). The steps the dry run
+//! shares ([`Opening`]: check, identify; the read-back, the motor and the
+//! plan) are written once here, and `super::prepare` takes them without
+//! a journal (docs/architecture.md, "The data path of an upload").
 
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
@@ -148,8 +151,9 @@ impl Opening {
 
 impl Transaction {
     /// Check the set, refuse when the journal directory holds an
-    /// unfinished journal of the drive ([`guard`]), identify it and check
-    /// again. Sends only the identify reads; nothing is journalled yet.
+    /// unfinished journal of the drive (the guard, `journal_writer::guard`),
+    /// identify it and check again. Sends only the identify reads; nothing
+    /// is journalled yet.
     ///
     /// The dry run ([`super::prepare`]) takes the same steps but the
     /// guard and the second check.
