@@ -25,6 +25,7 @@
 
 use std::path::PathBuf;
 
+use driveset_engine::overrides::Override;
 use driveset_engine::upload::{
     UploadOptions, default_journal_path, prepare, upload as engine_upload,
 };
@@ -148,7 +149,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         &args.port,
         args.address,
-        overrides.allow_family,
+        overrides.allows(Override::AllowFamily),
         &args.learn,
         "not uploaded",
     )?;

@@ -21,6 +21,7 @@ use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DriveReport, DriveResult};
 use crate::live::live_values;
 use crate::observe::{Hook, Phase};
+use crate::overrides::Override;
 use crate::plan::value_text;
 use crate::transfer::TransferRequest;
 use crate::upload::{
@@ -288,7 +289,7 @@ fn transfer_request(bus: &Bus, d: &Drive, ctx: &Ctx<'_>) -> Option<TransferReque
             TransferRequest {
                 rate,
                 others,
-                allow_shared: ctx.opts.overrides.allow_shared_transfer_baud,
+                allow_shared: ctx.opts.overrides.allows(Override::AllowSharedTransferBaud),
             }
         })
 }
