@@ -26,6 +26,7 @@
 use std::path::PathBuf;
 
 use driveset_engine::dry_run::{self, DryRunOptions, Subject};
+use driveset_engine::overrides::Override;
 use driveset_engine::upload::{UploadOptions, default_journal_path, upload as engine_upload};
 
 use super::identify::BusFormat;
@@ -146,7 +147,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         &args.port,
         args.address,
-        overrides.allow_family,
+        overrides.allows(Override::AllowFamily),
         &args.learn,
         "not uploaded",
     )?;
