@@ -196,7 +196,7 @@ pub fn prepare(
     let target = client.target().clone();
     let mut opts = PlanOptions {
         overrides,
-        dataset: client.has_dataset_download(),
+        dataset: client.dataset().is_some(),
         running: Running::NotRead,
         identity: None,
     };

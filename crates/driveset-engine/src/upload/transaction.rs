@@ -83,7 +83,7 @@ impl Transaction {
         let counters = Counters::new(&*client);
         let mut popts = PlanOptions {
             overrides: opts.overrides,
-            dataset: client.has_dataset_download(),
+            dataset: client.dataset().is_some(),
             running: Running::NotRead,
             identity: None,
         };
