@@ -328,7 +328,7 @@ fn settle(
         }
     }
 
-    let dataset = jf.journal.dataset && client.has_dataset_download();
+    let dataset = jf.journal.dataset && client.dataset().is_some();
     let handshake = schema.family.descriptor().dataset;
     hook.enter(client.clock(), Step::Read, None);
     let sload_open = if let Some(h) = handshake.filter(|h| dataset && schema.code(h.code).is_some())

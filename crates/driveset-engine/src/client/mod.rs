@@ -3,8 +3,10 @@
 //! LECOM-A/B for Tmd, CAN SDO for ECS) turns reads and writes of schema
 //! codes into telegrams, handles the protocol's error indications
 //! (docs/architecture.md, "The data path of an upload": the writes) and retries, and exposes what the
-//! transaction runner needs for pacing (EEPROM store time) and the MC6000
-//! dataset handshake (SLOAD).
+//! transaction runner needs for pacing (EEPROM store time). What only some
+//! drives have is a capability the client is asked for (`capability.rs`):
+//! the MC6000 dataset handshake (SLOAD, [`DatasetDownload`]) and a serial
+//! line whose rate can be set ([`SerialLine`]).
 
 use std::fmt;
 use std::sync::Arc;
@@ -16,6 +18,7 @@ use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::Permit;
 
+mod capability;
 mod identify;
 pub mod lecom;
 pub mod lustbus;
@@ -23,6 +26,9 @@ mod refusal;
 pub mod sdo;
 pub mod timing;
 
+pub use capability::{
+    DatasetDownload, DatasetOutcome, SerialLine, dataset_or_refuse, set_line_rate,
+};
 pub use lecom::{LecomClient, LecomOptions};
 pub use lustbus::{LustbusClient, LustbusOptions};
 pub use refusal::{LecomRefusal, SdoRefusal};
@@ -207,19 +213,6 @@ pub struct ClientStats {
     pub sload_polls: u64,
 }
 
-/// Outcome of an MC6000/7000 dataset download (SLOAD, LUSTBUS 11.4).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum DatasetOutcome {
-    /// SLOAD went to 0: the staged set is in EEPROM.
-    Accepted,
-    /// SLOAD went to a parameter number: the drive rejected the set at that
-    /// parameter and reactivated its old set.
-    Rejected {
-        /// The first invalid parameter.
-        parameter: u32,
-    },
-}
-
 /// A drive, reached through one protocol.
 ///
 /// Reads and writes take schema codes and raw values; every method that
@@ -295,75 +288,28 @@ pub trait DriveClient: Send {
     /// End the session cleanly (LUSTBUS / LECOM: the trailing EOT).
     fn finish(&mut self) -> Result<(), EngineError>;
 
-    /// Whether the family has a dataset handshake (MC6000/7000 SLOAD).
-    fn has_dataset_download(&self) -> bool {
-        false
-    }
-
-    /// The rate the host side of a serial line runs at (baud); `None` on a
-    /// CAN bus.
+    /// The rate the host side of the client's serial line runs at (baud):
+    /// [`SerialLine::rate`] where [`DriveClient::line`] has one, asked
+    /// without `&mut` (planning, reports). `None`: no line whose rate the
+    /// engine controls (CAN; the LECOM client offers none either).
     fn line_rate(&self) -> Option<u32> {
         None
     }
 
-    /// Set the host side of the line to `baud` (after the drive was told to
-    /// change its rate: LUSTBUS 11.5, [`crate::transfer`]). The drive is
-    /// not told anything. Default: refused (a client without a serial line).
-    fn set_line_rate(&mut self, baud: u32) -> Result<(), EngineError> {
-        Err(EngineError::refused(
-            self.target().clone(),
-            crate::error::Refusal::TransferRate {
-                detail: format!(
-                    "this client has no serial line whose rate could be set to {baud} baud"
-                ),
-            },
-        ))
+    /// The serial line whose host side rate the engine may set (the
+    /// transfer rate, [`crate::transfer`]); `None` without one. Callers that
+    /// need it go through [`set_line_rate`], which refuses a client
+    /// without one.
+    fn line(&mut self) -> Option<&mut dyn SerialLine> {
+        None
     }
 
-    /// SLOAD = -1: register a dataset download (standstill only). Writes of
-    /// CardWriteable codes until [`DriveClient::dataset_commit`] are staged.
-    fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        Err(EngineError::refused(
-            self.target().clone(),
-            Refusal::NoDatasetHandshake,
-        ))
-    }
-
-    /// SLOAD = -2, then poll SLOAD until it leaves -1 or `timeout` (10 s
-    /// per LUSTBUS 11.4) passes.
-    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
-        let _ = timeout;
-        Err(EngineError::refused(
-            self.target().clone(),
-            Refusal::NoDatasetHandshake,
-        ))
-    }
-
-    /// The first half of [`DriveClient::dataset_commit`]: SLOAD = -2 only
-    /// (the drive starts checking and storing); returns when the drive
-    /// ACKed it. [`DriveClient::dataset_await`] polls, through this or
-    /// another client of the drive, so a runner can use the drive's check
-    /// time for other drives of the bus.
-    fn dataset_end(&mut self) -> Result<Instant, EngineError> {
-        Err(EngineError::refused(
-            self.target().clone(),
-            Refusal::NoDatasetHandshake,
-        ))
-    }
-
-    /// The second half of [`DriveClient::dataset_commit`]: poll SLOAD until
-    /// it leaves -1, or until `timeout` after `ended` (the instant
-    /// [`DriveClient::dataset_end`] returned) passes.
-    fn dataset_await(
-        &mut self,
-        ended: Instant,
-        timeout: Duration,
-    ) -> Result<DatasetOutcome, EngineError> {
-        let _ = (ended, timeout);
-        Err(EngineError::refused(
-            self.target().clone(),
-            Refusal::NoDatasetHandshake,
-        ))
+    /// The dataset download handshake (MC6000/7000 80-SLOAD, LUSTBUS
+    /// 11.4), where the drive has one; `None` otherwise (the upload then
+    /// plans no staged writes). Callers that need it go through
+    /// [`dataset_or_refuse`], which keeps the refusals' words.
+    fn dataset(&mut self) -> Option<&mut dyn DatasetDownload> {
+        None
     }
 }
 

@@ -8,7 +8,7 @@ use driveset_schema::value::Repr;
 use driveset_schema::{CodeKey, RawValue, Schema};
 
 use super::{TransferRequest, refuse};
-use crate::client::DriveClient;
+use crate::client::{DriveClient, set_line_rate};
 use crate::error::{EngineError, ErrorKind};
 use crate::overrides::Override;
 use crate::plan::code_label;
@@ -135,7 +135,7 @@ pub fn check(client: &mut dyn DriveClient, req: &TransferRequest) -> Result<(), 
     // The port must be able to follow (raw tcp:// cannot): ask it for
     // the rate it runs at, which changes nothing.
     if old != 0
-        && let Err(e) = client.set_line_rate(old)
+        && let Err(e) = set_line_rate(client, old)
     {
         let why = match e.kind() {
             ErrorKind::Link(source) => source.to_string(),

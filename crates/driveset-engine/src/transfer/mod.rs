@@ -13,7 +13,7 @@
 //! 1. at the old rate: read 81-SBAUD (what its EEPROM holds, `before`);
 //!    journal the record (`switching`); write SBAUD = RATE; write PROG =
 //!    111 (the ACK still comes at the old rate);
-//! 2. the host's port to RATE ([`crate::client::DriveClient::set_line_rate`]); confirm
+//! 2. the host's port to RATE ([`crate::client::SerialLine::set_rate`]); confirm
 //!    contact by reading SBAUD (= RATE); write SBAUD = `before` again
 //!    **without** activating it, so that the EEPROM never keeps the
 //!    transfer rate: a drive restarted in the middle comes back at its own

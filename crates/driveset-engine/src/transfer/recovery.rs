@@ -11,7 +11,7 @@ use driveset_schema::{CodeKey, RawValue, Schema};
 use super::record::{planned_rate, start_back, whereabouts};
 use super::switch::{Back, search, switch_back_once, with_rate_note};
 use super::{Codes, as_rate, codes_of, refuse};
-use crate::client::DriveClient;
+use crate::client::{DriveClient, set_line_rate};
 use crate::error::{EngineError, ErrorKind};
 use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState};
 
@@ -94,7 +94,7 @@ pub fn find_drive(
     match search(client, &[here, rec.transfer_rate, rec.old_rate])? {
         Some(found) => Ok(Some(found)),
         None => {
-            let _ = client.set_line_rate(here);
+            let _ = set_line_rate(client, here);
             Err(EngineError::no_answer(
                 target,
                 format!(

@@ -13,7 +13,7 @@ use super::record::{
     as_rate_j, keep_value, persist_record, planned_rate, start_back, value_text, whereabouts,
 };
 use super::{Codes, as_rate, codes_of};
-use crate::client::{DriveClient, Target};
+use crate::client::{DriveClient, Target, set_line_rate};
 use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::guard::Permit;
 use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState};
@@ -67,7 +67,7 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
     }
     for r in order {
         if client.line_rate() != Some(r)
-            && let Err(e) = client.set_line_rate(r)
+            && let Err(e) = set_line_rate(client, r)
         {
             if matches!(
                 e.kind(),
@@ -104,7 +104,7 @@ pub(super) fn switch_over(
             write_rate(client, c, rate)?;
             rec.switched_at_ns = Some(client.clock().now().as_nanos());
             activate(client, c)?;
-            client.set_line_rate(rate)?;
+            set_line_rate(client, rate)?;
             confirm(client, c, rate)?;
             if as_rate_j(&rec.before) != Some(rate) {
                 let before = rec.before.to_raw().unwrap_or(RawValue::Int(0));
@@ -201,7 +201,7 @@ pub(super) fn switch_back_once(
     let holds = if client.line_rate() != Some(old) {
         write_rate(client, c, old)?;
         activate(client, c)?;
-        client.set_line_rate(old)?;
+        set_line_rate(client, old)?;
         confirm(client, c, old)?;
         RawValue::Int(i64::from(old))
     } else {

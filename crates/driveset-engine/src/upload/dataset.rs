@@ -11,7 +11,7 @@ use super::rollback::RollbackPlan;
 use super::state::Attempt;
 use super::transaction::out_of_order;
 use super::{CodeOutcome, StepError, Transaction};
-use crate::client::{DatasetOutcome, DriveClient};
+use crate::client::{DatasetOutcome, DriveClient, dataset_or_refuse};
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::journal::TxnState;
 use crate::observe::Phase as Step;
@@ -33,7 +33,7 @@ impl Transaction {
         self.opts
             .observer
             .enter(client.clock(), Step::Dataset, None);
-        client.dataset_begin()?;
+        dataset_or_refuse(client)?.begin()?;
         Ok(true)
     }
 
@@ -123,7 +123,7 @@ impl Transaction {
                 return Ok(());
             }
             tx.opts.observer.enter(client.clock(), Step::Commit, None);
-            let outcome = client.dataset_commit(tx.opts.dataset_timeout)?;
+            let outcome = dataset_or_refuse(client)?.commit(tx.opts.dataset_timeout)?;
             tx.dataset_settled(client, a, outcome)
         })
     }
@@ -136,7 +136,7 @@ impl Transaction {
                 return Ok(());
             }
             tx.opts.observer.enter(client.clock(), Step::Commit, None);
-            tx.dataset.ended = Some(client.dataset_end()?);
+            tx.dataset.ended = Some(dataset_or_refuse(client)?.end()?);
             Ok(())
         })
     }
@@ -156,7 +156,8 @@ impl Transaction {
                 ));
             };
             tx.opts.observer.enter(client.clock(), Step::Commit, None);
-            let outcome = client.dataset_await(ended, tx.opts.dataset_timeout)?;
+            let outcome =
+                dataset_or_refuse(client)?.await_outcome(ended, tx.opts.dataset_timeout)?;
             tx.dataset_settled(client, a, outcome)
         })
     }

@@ -223,7 +223,7 @@ pub fn prepare(
         overrides,
         ..UploadOptions::new(PathBuf::new())
     };
-    let mut tx = Opening::check(&*client, set, overrides)?.identify(client, &opts)?;
+    let mut tx = Opening::check(&mut *client, set, overrides)?.identify(client, &opts)?;
     tx.ask_running(client)?;
     let current = tx.read_back(client, set)?;
     tx.plan_against(client, set, &current).map_err(settled)?;

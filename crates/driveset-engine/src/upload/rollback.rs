@@ -12,7 +12,7 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use super::{CodeOutcome, Transaction};
-use crate::client::{DatasetOutcome, DriveClient};
+use crate::client::{DatasetOutcome, DriveClient, dataset_or_refuse};
 use crate::error::{DeviceCause, EngineError};
 use crate::journal::{CodeHolding, FailureCause, Holding, TxnState};
 use crate::observe::Phase as Step;
@@ -285,11 +285,11 @@ fn restore_dataset(
     staged: &[(CodeKey, &RawValue)],
     dataset_timeout: Duration,
 ) -> Result<(), EngineError> {
-    client.dataset_begin()?;
+    dataset_or_refuse(client)?.begin()?;
     for (k, old) in staged {
         client.write(*k, old)?;
     }
-    match client.dataset_commit(dataset_timeout)? {
+    match dataset_or_refuse(client)?.commit(dataset_timeout)? {
         DatasetOutcome::Accepted => Ok(()),
         DatasetOutcome::Rejected { parameter } => {
             let name = code_label(schema, CodeKey::new(parameter));

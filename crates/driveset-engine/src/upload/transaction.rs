@@ -88,16 +88,16 @@ impl Opening {
     /// family; the identity and the motor are not known yet). Sends
     /// nothing.
     pub(super) fn check(
-        client: &dyn DriveClient,
+        client: &mut dyn DriveClient,
         set: &ResolvedSet,
         overrides: Overrides,
     ) -> Result<Opening, EngineError> {
-        let counters = Counters::new(client);
+        let counters = Counters::new(&*client);
         let schema = client.schema().clone();
         let target = client.target().clone();
         let popts = PlanOptions {
             overrides,
-            dataset: client.has_dataset_download(),
+            dataset: client.dataset().is_some(),
             running: Running::NotRead,
             identity: None,
         };
@@ -162,7 +162,7 @@ impl Transaction {
         set: &ResolvedSet,
         opts: &UploadOptions,
     ) -> Result<Transaction, EngineError> {
-        let opening = Opening::check(&*client, set, opts.overrides)?;
+        let opening = Opening::check(&mut *client, set, opts.overrides)?;
         guard(&*client, opts)?;
         let tx = opening.identify(client, opts)?;
         tx.check_identity(set)?;

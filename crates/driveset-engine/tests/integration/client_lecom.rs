@@ -5,7 +5,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use driveset_engine::client::{DriveClient, LecomClient, LecomOptions};
+use driveset_engine::client::{
+    DriveClient, LecomClient, LecomOptions, dataset_or_refuse, set_line_rate,
+};
 use driveset_engine::error::ErrorKind;
 use driveset_link::Clock;
 use driveset_schema::{CodeKey, RawValue, Schema};
@@ -57,6 +59,32 @@ fn send_and_receive_exact_bytes() {
     answer.extend_from_slice(text);
     answer.push(bcc);
     assert_eq!(drive[1], answer);
+}
+
+/// The LECOM client has neither capability of [`DriveClient`]: no dataset
+/// handshake (an MC6000/7000 one, LUSTBUS 11.4) and no line rate the
+/// engine sets (`--transfer-baud` is LUSTBUS 11.5); a caller that needs
+/// one is refused, and nothing is sent.
+#[test]
+fn no_dataset_download_and_no_settable_line_rate() {
+    let (_clock, log, bus) = sim_byte_bus(9600, vec![tmd(1, 3)], None);
+    let mut c = LecomClient::new(bus, schema(), 1).unwrap();
+    assert!(c.dataset().is_none());
+    assert!(c.line().is_none());
+    assert_eq!(c.line_rate(), None);
+    let err = dataset_or_refuse(&mut c).err().expect("refused");
+    assert_eq!(
+        err.to_string(),
+        "sim address 1: refused: this drive family has no dataset download handshake"
+    );
+    let err = set_line_rate(&mut c, 19200).unwrap_err();
+    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        err.to_string()
+            .contains("this client has no serial line whose rate could be set to 19200 baud"),
+        "{err}"
+    );
+    assert!(wire_bytes(&log, Dir::Host).is_empty());
 }
 
 #[test]

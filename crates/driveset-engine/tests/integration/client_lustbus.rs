@@ -5,7 +5,10 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use driveset_engine::client::{DatasetOutcome, DriveClient, LustbusClient, LustbusOptions};
+use driveset_engine::client::{
+    DatasetDownload, DatasetOutcome, DriveClient, LustbusClient, LustbusOptions, dataset_or_refuse,
+    set_line_rate,
+};
 use driveset_engine::error::ErrorKind;
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, Instant, VirtualClock};
@@ -294,8 +297,8 @@ fn garbled_replies_are_retried() {
 fn dataset_download_accepted() {
     let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
-    assert!(c.has_dataset_download());
-    c.dataset_begin().unwrap();
+    assert!(c.dataset().is_some());
+    c.begin().unwrap();
     c.write(CodeKey::new(101), &RawValue::Int(230)).unwrap();
     c.write(CodeKey::new(102), &RawValue::Int(180)).unwrap();
     c.write(CodeKey::new(300), &RawValue::Int(4)).unwrap();
@@ -303,7 +306,7 @@ fn dataset_download_accepted() {
     let err = c.write(CodeKey::new(110), &RawValue::Int(3)).unwrap_err();
     assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
     assert_eq!(
-        c.dataset_commit(Duration::from_secs(10)).unwrap(),
+        c.commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Accepted
     );
     assert_eq!(c.read(CodeKey::new(101)).unwrap(), RawValue::Int(230));
@@ -315,12 +318,12 @@ fn dataset_download_accepted() {
 fn dataset_download_rejected_keeps_the_old_set() {
     let (_rig, bus) = rig_bus(19200, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
-    c.dataset_begin().unwrap();
+    c.begin().unwrap();
     // FICTIONAL rule of the simulator: 102-UVLIM <= 101-MAINV.
     c.write(CodeKey::new(101), &RawValue::Int(200)).unwrap();
     c.write(CodeKey::new(102), &RawValue::Int(300)).unwrap();
     assert_eq!(
-        c.dataset_commit(Duration::from_secs(10)).unwrap(),
+        c.commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Rejected { parameter: 102 }
     );
     assert_eq!(c.read(CodeKey::new(101)).unwrap(), RawValue::Int(400));
@@ -339,7 +342,7 @@ fn dataset_begin_while_running_names_standstill() {
     assert_eq!(c.running().unwrap(), Some(false));
     c.link_mut().drive_mut(1).unwrap().set_running(true);
     assert_eq!(c.running().unwrap(), Some(true));
-    let err = c.dataset_begin().unwrap_err();
+    let err = c.begin().unwrap_err();
     let ErrorKind::Device { cause, .. } = &*err.kind else {
         panic!("{err}")
     };
@@ -347,7 +350,27 @@ fn dataset_begin_while_running_names_standstill() {
     assert!(cause.raw().contains("40H"), "{}", cause.raw());
     c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap();
     assert_eq!(c.running().unwrap(), Some(false));
-    c.dataset_begin().unwrap();
+    c.begin().unwrap();
+}
+
+/// The VF1000 has no SLOAD handshake (section 11.4): its client offers no
+/// dataset download, and a caller that needs one is refused in the
+/// VF1000's words; its serial line's rate can be set like the MC's.
+#[test]
+fn vf1000_offers_no_dataset_download_but_a_serial_line() {
+    let (_rig, bus) = rig_bus(9600, vec![vf(3)], None);
+    let mut c = LustbusClient::new(bus, schema(Family::Vf1000), 3).unwrap();
+    assert!(c.dataset().is_none());
+    let err = dataset_or_refuse(&mut c).err().expect("refused");
+    assert_eq!(
+        err.to_string(),
+        "sim address 3: refused: the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)"
+    );
+    assert_eq!(c.line_rate(), Some(9600));
+    assert_eq!(c.line().map(|l| l.rate()), Some(9600));
+    set_line_rate(&mut c, 4800).unwrap();
+    assert_eq!(c.line_rate(), Some(4800));
+    assert_eq!(c.link().baud(), 4800);
 }
 
 #[test]
@@ -753,9 +776,9 @@ fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() 
     let (rig, bus) = rig_bus(9600, vec![mc(1), mc(2)], None);
     let s = schema(Family::Mc6000);
     let mut c1 = LustbusClient::new(bus, s.clone(), 1).unwrap();
-    c1.dataset_begin().unwrap();
+    c1.begin().unwrap();
     let mut c2 = LustbusClient::new(c1.into_link(), s.clone(), 2).unwrap();
-    c2.dataset_begin().unwrap();
+    c2.begin().unwrap();
     let before = wire_timed(&rig.log, Dir::Host).len();
     let replies_before = wire_timed(&rig.log, Dir::Drive).len();
     let t0 = rig.clock.now();
@@ -796,13 +819,13 @@ fn mc_broadcast_to_address_31_is_staged_by_every_open_dataset_without_a_reply() 
     assert_eq!(wire_timed(&rig.log, Dir::Host).len(), before + 1);
     // both drives commit it
     assert_eq!(
-        c2.dataset_commit(Duration::from_secs(10)).unwrap(),
+        c2.commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Accepted
     );
     let mut c1 = LustbusClient::new(c2.into_link(), s.clone(), 1).unwrap();
     assert!(c1.resume_dataset().unwrap().is_empty());
     assert_eq!(
-        c1.dataset_commit(Duration::from_secs(10)).unwrap(),
+        c1.commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Accepted
     );
     assert_eq!(c1.read(CodeKey::new(171)).unwrap(), RawValue::Int(2048));

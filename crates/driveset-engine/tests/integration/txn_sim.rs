@@ -198,7 +198,7 @@ fn mc6000_eeprom_gaps_carry_verification_reads_on_the_real_client() {
 mod transfer_rate {
     use std::time::Duration;
 
-    use driveset_engine::client::{DriveClient, LustbusClient};
+    use driveset_engine::client::{DriveClient, LustbusClient, set_line_rate};
     use driveset_engine::journal::{JournalFile, TransferState, TxnState};
     use driveset_engine::live::live_diff;
     use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
@@ -585,7 +585,7 @@ mod transfer_rate {
         assert_eq!(c.link().line().drive_baud(1), Some(57600));
         // the cable is back; recover through a port at 9600
         c.clock().sleep(Duration::from_secs(120));
-        c.set_line_rate(9600).expect("port at 9600");
+        set_line_rate(&mut c, 9600).expect("port at 9600");
         let r = recover(&mut c, &journal, &RecoverOptions::default()).expect("recover");
         assert_eq!(
             r.transfer.as_deref(),

@@ -3,11 +3,11 @@
 //! writes, SLOAD = -2 and the polls, and going on with a download another
 //! client of the drive opened.
 //!
-//! [`crate::client::DriveClient::dataset_begin`] writes 80-SLOAD = -1 (a NAK with 0x40:
+//! [`DatasetDownload::begin`] writes 80-SLOAD = -1 (a NAK with 0x40:
 //! the drive is not at standstill). While the download is open, writes of
 //! CardWriteable codes are staged by the drive (no EEPROM pacing); a write
 //! of any other code is refused before sending, since the drive would ACK
-//! it and silently not take it. [`crate::client::DriveClient::dataset_commit`] writes
+//! it and silently not take it. [`DatasetDownload::commit`] writes
 //! SLOAD = -2 and polls SLOAD until it leaves -1 / -2: 0 accepted, > 0
 //! rejected at that parameter; still checking when the timeout passes is a
 //! `Device` error (11.4: repeat the transfer or restart the drive). Polls
@@ -22,14 +22,16 @@ use driveset_proto::lustbus::{Dialect, Siof};
 use driveset_schema::{CodeKey, RawValue};
 
 use super::{LustbusClient, SLOAD};
-use crate::client::{DatasetOutcome, device};
+use crate::client::{DatasetDownload, DatasetOutcome, device};
 use crate::error::{DeviceCause, EngineError, Refusal, SiofVerdict};
 use crate::guard::Permit;
 use crate::plan;
 
-impl<L: ByteLink> LustbusClient<L> {
-    /// [`crate::client::DriveClient::dataset_begin`]: SLOAD = -1.
-    pub(super) fn sload_begin(&mut self) -> Result<(), EngineError> {
+/// What [`crate::client::DriveClient::dataset`] hands out for an MC (a
+/// VF1000 client gets `None` there; called directly, it is refused).
+impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
+    /// SLOAD = -1.
+    fn begin(&mut self) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
@@ -53,8 +55,8 @@ impl<L: ByteLink> LustbusClient<L> {
         Ok(())
     }
 
-    /// [`crate::client::DriveClient::dataset_end`]: SLOAD = -2.
-    pub(super) fn sload_end(&mut self) -> Result<Instant, EngineError> {
+    /// SLOAD = -2.
+    fn end(&mut self) -> Result<Instant, EngineError> {
         if !self.dataset_open {
             return Err(EngineError::refused(
                 self.target.clone(),
@@ -69,8 +71,8 @@ impl<L: ByteLink> LustbusClient<L> {
         Ok(self.now())
     }
 
-    /// [`crate::client::DriveClient::dataset_await`]: the SLOAD polls.
-    pub(super) fn sload_await(
+    /// The SLOAD polls.
+    fn await_outcome(
         &mut self,
         ended: Instant,
         timeout: Duration,
@@ -131,7 +133,9 @@ impl<L: ByteLink> LustbusClient<L> {
             }
         }
     }
+}
 
+impl<L: ByteLink> LustbusClient<L> {
     /// MC6000/7000: go on with a dataset download that this drive's
     /// transaction opened (SLOAD = -1 ACKed) through another client of the
     /// same drive, e.g. after the line runner's broadcast. Reads SERR first,

@@ -47,8 +47,8 @@ use driveset_schema::{BusProtocol, CodeKey, RawValue, Schema};
 
 use super::timing::LinkLatency;
 use super::{
-    DatasetOutcome, DriveClient, Target, code_name, link_error, refuse_read_only, schema_code,
-    write_what, wrong_client,
+    DatasetDownload, DriveClient, SerialLine, Target, code_name, link_error, refuse_read_only,
+    schema_code, write_what, wrong_client,
 };
 use crate::error::{EngineError, Refusal};
 use crate::guard::Permit;
@@ -325,10 +325,29 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         Some(self.baud())
     }
 
+    fn line(&mut self) -> Option<&mut dyn SerialLine> {
+        Some(self)
+    }
+
+    /// The MC's SLOAD handshake (`dataset.rs`); the VF1000 has none.
+    fn dataset(&mut self) -> Option<&mut dyn DatasetDownload> {
+        if self.family == Dialect::Mc {
+            Some(self)
+        } else {
+            None
+        }
+    }
+}
+
+impl<L: ByteLink> SerialLine for LustbusClient<L> {
+    fn rate(&self) -> u32 {
+        self.baud()
+    }
+
     /// Flushes, sets the link's rate, forgets what was received and the
     /// session's EOT state (the next telegram starts with its own EOT at
     /// the new rate); the latency measured so far stays.
-    fn set_line_rate(&mut self, baud: u32) -> Result<(), EngineError> {
+    fn set_rate(&mut self, baud: u32) -> Result<(), EngineError> {
         let target = self.target.clone();
         let line = &mut self.line;
         line.link.flush().map_err(|e| link_error(&target, e))?;
@@ -340,30 +359,5 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
             .map_err(|e| link_error(&target, e))?;
         line.reset_decoder();
         Ok(())
-    }
-
-    fn has_dataset_download(&self) -> bool {
-        self.family == Dialect::Mc
-    }
-
-    fn dataset_begin(&mut self) -> Result<(), EngineError> {
-        self.sload_begin()
-    }
-
-    fn dataset_commit(&mut self, timeout: Duration) -> Result<DatasetOutcome, EngineError> {
-        let ended = self.dataset_end()?;
-        self.dataset_await(ended, timeout)
-    }
-
-    fn dataset_end(&mut self) -> Result<Instant, EngineError> {
-        self.sload_end()
-    }
-
-    fn dataset_await(
-        &mut self,
-        ended: Instant,
-        timeout: Duration,
-    ) -> Result<DatasetOutcome, EngineError> {
-        self.sload_await(ended, timeout)
     }
 }

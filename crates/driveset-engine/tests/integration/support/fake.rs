@@ -13,8 +13,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{
-    ClientStats, DatasetOutcome, DriveClient, IdentCode, IdentProtocol, IdentValue, Identity,
-    Target,
+    ClientStats, DatasetDownload, DatasetOutcome, DriveClient, IdentCode, IdentProtocol,
+    IdentValue, Identity, Target,
 };
 use driveset_engine::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
 use driveset_engine::guard::Permit;
@@ -363,10 +363,15 @@ impl DriveClient for FakeClient {
     fn finish(&mut self) -> Result<(), EngineError> {
         Ok(())
     }
-    fn has_dataset_download(&self) -> bool {
-        self.dataset
+    fn dataset(&mut self) -> Option<&mut dyn DatasetDownload> {
+        if self.dataset { Some(self) } else { None }
     }
-    fn dataset_begin(&mut self) -> Result<(), EngineError> {
+}
+
+/// SLOAD staging (an MC-like drive); `commit` is the trait's `end` then
+/// `await_outcome`.
+impl DatasetDownload for FakeClient {
+    fn begin(&mut self) -> Result<(), EngineError> {
         self.snapshot(Op::Begin);
         if self.dead() {
             return Err(self.no_answer("write 80-SLOAD = -1".into()));
@@ -377,14 +382,26 @@ impl DriveClient for FakeClient {
         self.drive.staged = Some(BTreeMap::new());
         Ok(())
     }
-    fn dataset_commit(&mut self, _timeout: Duration) -> Result<DatasetOutcome, EngineError> {
+    fn end(&mut self) -> Result<Instant, EngineError> {
         self.snapshot(Op::Commit);
         if self.dead() {
             return Err(self.no_answer("write 80-SLOAD = -2".into()));
         }
         self.log.push((self.now(), Op::Commit));
-        self.clock.sleep(self.write_time + self.read_time);
-        self.stats.telegrams += 2;
+        self.clock.sleep(self.write_time);
+        self.stats.telegrams += 1;
+        Ok(self.clock.now())
+    }
+    fn await_outcome(
+        &mut self,
+        _ended: Instant,
+        _timeout: Duration,
+    ) -> Result<DatasetOutcome, EngineError> {
+        if self.dead() {
+            return Err(self.no_answer("poll 80-SLOAD".into()));
+        }
+        self.clock.sleep(self.read_time);
+        self.stats.telegrams += 1;
         let staged = self.drive.staged.take().unwrap_or_default();
         if let Some(p) = self.drive.reject_dataset_at.take() {
             return Ok(DatasetOutcome::Rejected { parameter: p });
