@@ -265,6 +265,16 @@ pub struct Learning {
 }
 
 impl Learning {
+    /// How every learned file's name (and schema id) starts, whatever its
+    /// family ([`Learning::file_prefix`]).
+    pub const PREFIX: &'static str = "learned-";
+
+    /// Whether schema id `id` is a learned schema's ([`Learning::PREFIX`]):
+    /// `identify` tells a learned schema named by its file this way.
+    pub fn is_learned_id(id: &str) -> bool {
+        id.starts_with(Self::PREFIX)
+    }
+
     /// The file (and schema id) a learned schema is stored under:
     /// `learned-<stem>-type<TYPE>-<software>`. `device_type` is the value of
     /// [`Descriptor::type_code`] (`unknown` where the drive gave none), kept
@@ -300,7 +310,8 @@ impl Learning {
     /// it kept to its ASCII letters, digits, `-` and `_`.
     pub fn file_prefix(&self, device_type: Option<&str>) -> String {
         format!(
-            "learned-{}-type{}-",
+            "{}{}-type{}-",
+            Self::PREFIX,
             self.stem,
             device_type.unwrap_or("unknown")
         )
