@@ -376,3 +376,18 @@ fn a_bus_line_rates_are_its_families_rates() {
         assert_eq!(bus.line_rates(), want.as_slice(), "{bus}");
     }
 }
+
+/// The device type code: LUSTBUS families read 91-TYPE, the others name
+/// none and fall back on it; learned ids are told by the one prefix every
+/// learned file name starts with.
+#[test]
+fn device_type_code_and_learned_ids() {
+    for f in Family::ALL {
+        let d = f.descriptor();
+        assert_eq!(d.device_type_code(), d.type_code.unwrap_or(TYPE), "{f}");
+        if let Some(l) = d.learning {
+            assert!(Learning::is_learned_id(&l.file_prefix(None)), "{f}");
+        }
+    }
+    assert!(!Learning::is_learned_id("lust-mc6000"));
+}
