@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use driveset_engine::line::report::{
-    BusReport, DiffLine, DriveReport, DriveResult, GitInfo, LineReport, LineResult, REPORT_VERSION,
-    TimelineEntry,
+    BusReport, DiffLine, DiffLineKind, DriveReport, DriveResult, GitInfo, LineReport, LineResult,
+    REPORT_VERSION, TimelineEntry,
 };
 
 use driveset_test_support::driveset;
@@ -67,14 +67,14 @@ pub fn fixture() -> LineReport {
         DiffLine {
             code: "C0011".into(),
             name: "maximum_output_frequency".into(),
-            kind: "changed".into(),
+            kind: DiffLineKind::Changed,
             old: Some("50 Hz".into()),
             new: Some("60 Hz".into()),
         },
         DiffLine {
             code: "C0034".into(),
             name: "configuration_analog_input".into(),
-            kind: "changed".into(),
+            kind: DiffLineKind::Changed,
             old: Some("\"0...10 V\"".into()),
             new: Some("\"4...20 mA\"".into()),
         },

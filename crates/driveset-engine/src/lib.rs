@@ -20,6 +20,7 @@ pub mod client;
 pub mod connect;
 pub mod decode;
 pub mod doctor;
+pub mod dry_run;
 pub mod env;
 pub mod error;
 pub mod guard;

@@ -53,20 +53,10 @@ impl fmt::Display for Override {
     }
 }
 
-/// The overrides given for one upload (all off by default).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Overrides {
-    /// [`Override::AllowFamily`].
-    pub allow_family: bool,
-    /// [`Override::AllowRunning`].
-    pub allow_running: bool,
-    /// [`Override::AllowRunningUnknown`].
-    pub allow_running_unknown: bool,
-    /// [`Override::AllowAddressChange`].
-    pub allow_address_change: bool,
-    /// [`Override::AllowSharedTransferBaud`].
-    pub allow_shared_transfer_baud: bool,
-}
+/// The overrides given for one upload (none by default): a set of
+/// [`Override`], one bit each.
+#[derive(Clone, Copy, PartialEq, Eq, Default)]
+pub struct Overrides(u8);
 
 impl Overrides {
     /// No override.
@@ -76,30 +66,38 @@ impl Overrides {
 
     /// Only `o`.
     pub fn only(o: Override) -> Self {
-        let mut x = Overrides::default();
-        x.set(o, true);
-        x
+        Overrides::none().with(o)
+    }
+
+    /// These overrides and `o`.
+    #[must_use]
+    pub fn with(self, o: Override) -> Self {
+        Overrides(self.0 | Self::bit(o))
     }
 
     /// Whether `o` is given.
     pub fn allows(&self, o: Override) -> bool {
-        match o {
-            Override::AllowFamily => self.allow_family,
-            Override::AllowRunning => self.allow_running,
-            Override::AllowRunningUnknown => self.allow_running_unknown,
-            Override::AllowAddressChange => self.allow_address_change,
-            Override::AllowSharedTransferBaud => self.allow_shared_transfer_baud,
-        }
+        self.0 & Self::bit(o) != 0
     }
 
-    /// Give or take `o`.
-    pub fn set(&mut self, o: Override, on: bool) {
-        match o {
-            Override::AllowFamily => self.allow_family = on,
-            Override::AllowRunning => self.allow_running = on,
-            Override::AllowRunningUnknown => self.allow_running_unknown = on,
-            Override::AllowAddressChange => self.allow_address_change = on,
-            Override::AllowSharedTransferBaud => self.allow_shared_transfer_baud = on,
-        }
+    /// The overrides given, in [`Override::ALL`] order.
+    pub fn iter(&self) -> impl Iterator<Item = Override> + '_ {
+        Override::ALL.into_iter().filter(|o| self.allows(*o))
+    }
+
+    fn bit(o: Override) -> u8 {
+        1 << (o as u8)
+    }
+}
+
+impl FromIterator<Override> for Overrides {
+    fn from_iter<I: IntoIterator<Item = Override>>(iter: I) -> Self {
+        iter.into_iter().fold(Overrides::none(), Overrides::with)
+    }
+}
+
+impl fmt::Debug for Overrides {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_set().entries(self.iter()).finish()
     }
 }

@@ -2,7 +2,7 @@
 //! `overrides`): one flag per refusal, each lifting exactly that one.
 //! Commands and control words that could start a motor have no override.
 
-use driveset_engine::overrides::Overrides;
+use driveset_engine::overrides::{Override, Overrides};
 
 use crate::port::Fail;
 
@@ -43,13 +43,21 @@ impl AllowArgs {
         if self.force {
             return Err(Fail::input(FORCE_REMOVED));
         }
-        Ok(Overrides {
-            allow_family: self.allow_family,
-            allow_running: self.allow_running,
-            allow_running_unknown: self.allow_running_unknown,
-            allow_address_change: self.allow_address_change,
-            allow_shared_transfer_baud: self.allow_shared_transfer_baud,
-        })
+        let given = [
+            (self.allow_family, Override::AllowFamily),
+            (self.allow_running, Override::AllowRunning),
+            (self.allow_running_unknown, Override::AllowRunningUnknown),
+            (self.allow_address_change, Override::AllowAddressChange),
+            (
+                self.allow_shared_transfer_baud,
+                Override::AllowSharedTransferBaud,
+            ),
+        ];
+        Ok(given
+            .into_iter()
+            .filter(|(on, _)| *on)
+            .map(|(_, o)| o)
+            .collect())
     }
 }
 
@@ -72,7 +80,7 @@ impl TransferArgs {
     ) -> Option<driveset_engine::transfer::TransferRequest> {
         self.transfer_baud.map(|rate| {
             let mut r = driveset_engine::transfer::TransferRequest::new(rate);
-            r.allow_shared = overrides.allow_shared_transfer_baud;
+            r.allow_shared = overrides.allows(Override::AllowSharedTransferBaud);
             r
         })
     }

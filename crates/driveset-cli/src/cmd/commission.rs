@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::line::commission::{
-    LineError, LineLearn, LineOptions, LineOutcome, Mode, Progress, Verdict, run_line,
+    LineLearn, LineOptions, LineOutcome, Mode, Progress, Verdict, run_line,
 };
 use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
@@ -348,7 +348,7 @@ pub fn run_mode(
     bars.done();
     let mut outcome = match outcome {
         Ok(o) => o,
-        Err(e @ LineError::Selection(_)) | Err(e @ LineError::Io(_)) => {
+        Err(e) => {
             return Err(crate::fail::Fail::input(format!("{e}")));
         }
     };

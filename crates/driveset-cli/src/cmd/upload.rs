@@ -25,10 +25,9 @@
 
 use std::path::PathBuf;
 
-use driveset_engine::upload::{
-    UploadOptions, default_journal_path, prepare, upload as engine_upload,
-};
-use serde_json::json;
+use driveset_engine::dry_run::{self, DryRunOptions, Subject};
+use driveset_engine::overrides::Override;
+use driveset_engine::upload::{UploadOptions, default_journal_path, upload as engine_upload};
 
 use super::identify::BusFormat;
 use crate::EXIT_OK;
@@ -148,7 +147,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         &args.port,
         args.address,
-        overrides.allow_family,
+        overrides.allows(Override::AllowFamily),
         &args.learn,
         "not uploaded",
     )?;
@@ -158,82 +157,25 @@ fn upload(args: &Args) -> Result<u8, Fail> {
 
     let transfer = args.transfer.request(&overrides);
     if args.dry_run {
-        let prepared = prepare(client.as_mut(), &set, overrides);
-        // what --transfer-baud would do (nothing is switched in a dry run)
-        let decision = match (&prepared, &transfer) {
-            (Ok(_), Some(req)) => match driveset_engine::transfer::check(client.as_mut(), req) {
-                Ok(()) => Some(driveset_engine::transfer::decide(
-                    client.as_ref(),
-                    req,
-                    &driveset_engine::transfer::upload_exchanges(&set),
-                    &[],
-                )),
-                Err(e) => {
-                    let _ = client.finish();
-                    return Err(Fail::from(e));
-                }
-            },
-            _ => None,
+        let opts = DryRunOptions {
+            overrides,
+            transfer,
         };
+        let result = dry_run::run(client.as_mut(), &set, &opts);
         let _ = client.finish();
-        let prepared = prepared?;
+        let dry = result?;
+        let of = Subject {
+            port: port_name,
+            address: args.address,
+            set: args.set.display().to_string(),
+        };
         if json {
-            let writes: Vec<_> = prepared
-                .plan
-                .writes
-                .iter()
-                .map(|w| {
-                    json!({
-                        "code": w.label,
-                        "old": w.old_text,
-                        "new": w.new_text,
-                        "storage": w.storage,
-                        "width": w.width,
-                        "phase": w.phase,
-                        "store_ms": w.store_time.as_secs_f64() * 1000.0,
-                        "ack_delay_ms": w.ack_delay.as_secs_f64() * 1000.0,
-                    })
-                })
-                .collect();
-            let doc = json!({
-                "port": port_name,
-                "address": args.address,
-                "set": args.set.display().to_string(),
-                "schema": prepared.plan.schema,
-                "identity": prepared.identity,
-                "set_fingerprint": prepared.plan.set_fingerprint,
-                "fingerprint_before": prepared.plan.fingerprint_before,
-                "dataset": prepared.plan.dataset,
-                "writes": writes,
-                "unchanged": prepared.plan.unchanged.len(),
-                "warnings": prepared.plan.warnings,
-                "transfer": decision.as_ref().map(|d| json!({
-                    "decision": d,
-                    "summary": d.summary(),
-                })),
-                "estimate_ms": {
-                    "total": prepared.estimate.total.as_secs_f64() * 1000.0,
-                    "read_back": prepared.estimate.read_back.as_secs_f64() * 1000.0,
-                    "writes": prepared.estimate.writes.as_secs_f64() * 1000.0,
-                    "verify": prepared.estimate.verify.as_secs_f64() * 1000.0,
-                    "waits": prepared.estimate.waits.as_secs_f64() * 1000.0,
-                },
-            });
             output::emit(&format!(
                 "{}\n",
-                serde_json::to_string_pretty(&doc).unwrap_or_default()
+                serde_json::to_string_pretty(&dry.json(&of)).unwrap_or_default()
             ));
         } else {
-            output::emit(&format!(
-                "dry run: {} to {port_name} address {}; nothing is written\n{}{}",
-                args.set.display(),
-                args.address,
-                prepared.plan.render(Some(&prepared.estimate)),
-                decision
-                    .as_ref()
-                    .map(|d| format!("{}\n", d.summary()))
-                    .unwrap_or_default()
-            ));
+            output::emit(&dry.render(&of));
         }
         return Ok(EXIT_OK);
     }

@@ -633,7 +633,7 @@ fn diff_table(o: &mut String, diff: &[DiffLine]) {
              <td class=\"old\"><code>{}</code></td><td class=\"arrow\">\u{2192}</td><td class=\"new\"><code>{}</code></td></tr>",
             esc(&l.code),
             esc(&l.name),
-            esc(&l.kind),
+            esc(l.kind.as_str()),
             l.old.as_deref().map_or(unset.clone(), esc),
             l.new.as_deref().map_or(unset, esc)
         );

@@ -8,7 +8,7 @@
 //! from the run's [`crate::env::Environment`]. Timeline phases are the
 //! runners' own ([`crate::observe::Phase`]).
 
-use driveset_schema::BusProtocol;
+use driveset_schema::{BusProtocol, DiffKind};
 use serde::{Deserialize, Serialize};
 
 use crate::observe::Phase;
@@ -222,9 +222,43 @@ pub struct DiffLine {
     /// Code name.
     pub name: String,
     /// `added`, `removed` or `changed`.
-    pub kind: String,
+    pub kind: DiffLineKind,
     /// Value on the drive (or in A), display text.
     pub old: Option<String>,
     /// Value in the set (or in B), display text.
     pub new: Option<String>,
+}
+
+/// What a [`DiffLine`] says happened to its code (the JSON strings
+/// `added`, `removed`, `changed`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DiffLineKind {
+    /// Only in the set (or in B).
+    Added,
+    /// Only on the drive (or in A).
+    Removed,
+    /// In both, different.
+    Changed,
+}
+
+impl DiffLineKind {
+    /// The report's word: `added`, `removed` or `changed`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DiffLineKind::Added => "added",
+            DiffLineKind::Removed => "removed",
+            DiffLineKind::Changed => "changed",
+        }
+    }
+}
+
+impl From<DiffKind> for DiffLineKind {
+    fn from(k: DiffKind) -> Self {
+        match k {
+            DiffKind::Added => DiffLineKind::Added,
+            DiffKind::Removed => DiffLineKind::Removed,
+            DiffKind::Changed => DiffLineKind::Changed,
+        }
+    }
 }

@@ -214,7 +214,7 @@ pub fn plan(
     let mut writes = Vec::new();
     let mut unchanged = Vec::new();
     let mut warnings = Vec::new();
-    if opts.overrides.allow_family && set.schema != schema.id {
+    if opts.overrides.allows(Override::AllowFamily) && set.schema != schema.id {
         warnings.push(format!(
             "{}: set for schema `{}` uploaded with schema `{}`",
             Override::AllowFamily,
@@ -223,15 +223,19 @@ pub fn plan(
         ));
     }
     match opts.running {
-        Running::Known(true) if opts.overrides.allow_running => warnings.push(format!(
-            "{}: the drive reports a running motor",
-            Override::AllowRunning
-        )),
-        Running::Unknown if opts.overrides.allow_running_unknown => warnings.push(format!(
-            "running state unknown ({}): {}",
-            Override::AllowRunningUnknown,
-            running_unknown_why(schema)
-        )),
+        Running::Known(true) if opts.overrides.allows(Override::AllowRunning) => {
+            warnings.push(format!(
+                "{}: the drive reports a running motor",
+                Override::AllowRunning
+            ))
+        }
+        Running::Unknown if opts.overrides.allows(Override::AllowRunningUnknown) => {
+            warnings.push(format!(
+                "running state unknown ({}): {}",
+                Override::AllowRunningUnknown,
+                running_unknown_why(schema)
+            ))
+        }
         _ => {}
     }
     for (key, new) in &set.values {
@@ -249,7 +253,7 @@ pub fn plan(
             continue;
         }
         if code.has_role(Role::BusAddress) {
-            if opts.overrides.allow_address_change {
+            if opts.overrides.allows(Override::AllowAddressChange) {
                 warnings.push(format!(
                     "{}: {} changes the drive's bus address; it will stop answering at its present address, so this write cannot be verified or rolled back",
                     Override::AllowAddressChange,

@@ -223,7 +223,7 @@ impl std::fmt::Display for Problem {
 /// Returns every problem found (one line each), not just the first.
 pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<Problem> {
     let mut out = Vec::new();
-    let family = !opts.overrides.allow_family;
+    let family = !opts.overrides.allows(Override::AllowFamily);
     if set.schema != schema.id && family {
         out.push(Problem::SetSchema {
             set: set.schema.clone(),
@@ -298,8 +298,10 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
         }
     }
     match opts.running {
-        Running::Known(true) if !opts.overrides.allow_running => out.push(Problem::Running),
-        Running::Unknown if !opts.overrides.allow_running_unknown => {
+        Running::Known(true) if !opts.overrides.allows(Override::AllowRunning) => {
+            out.push(Problem::Running)
+        }
+        Running::Unknown if !opts.overrides.allows(Override::AllowRunningUnknown) => {
             out.push(Problem::RunningUnknown {
                 schema: schema.id.clone(),
             })

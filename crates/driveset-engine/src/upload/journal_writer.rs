@@ -2,13 +2,14 @@
 //! ([`Transaction::journal`]: the backup durable before any write), its
 //! state transitions and periodic persists, the error when a persist
 //! fails while settling, and the guard that refuses a drive whose journal
-//! directory holds an unfinished journal ([`check_unfinished`]).
+//! directory holds an unfinished journal ([`check_unfinished`]; the real
+//! run's step [`guard`], which the dry run does not take).
 
 use std::path::{Path, PathBuf};
 
 use driveset_schema::{CodeKey, RawValue};
 
-use super::{CodeOutcome, StepError, Transaction};
+use super::{CodeOutcome, StepError, Transaction, UploadOptions};
 use crate::client::DriveClient;
 use crate::error::EngineError;
 use crate::journal::{
@@ -204,6 +205,20 @@ fn journal_dir(journal: &Path) -> &Path {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     }
+}
+
+/// The guard step of a real upload, between the check of the set and
+/// identify ([`Transaction::begin`]): [`check_unfinished`] for the
+/// journal of `opts`, unless [`crate::transfer`] ran it already before
+/// switching the rate (`opts.transfer`: the journal file is then this
+/// transaction's own). A dry run ([`super::prepare`]) writes no journal
+/// and nothing to the drive, so it does not take this step: a dry run
+/// next to an unfinished journal is not refused.
+pub(super) fn guard(client: &dyn DriveClient, opts: &UploadOptions) -> Result<(), EngineError> {
+    if opts.transfer.is_some() {
+        return Ok(());
+    }
+    check_unfinished(client, &opts.journal)
 }
 
 /// The guard: refuse (nothing sent) when the journal directory holds an

@@ -48,9 +48,17 @@
 //! rollback; a rollback is reported as such, whatever telegrams it sends.
 //! Each step of [`Transaction`] enters its phase itself.
 //!
+//! **The dry run.** [`prepare`] is [`Transaction::begin`] and
+//! [`Transaction::replan`] without a journal: the same check, identify,
+//! read-back and plan, minus the unfinished-journal guard, with the
+//! identity checked in the plan and the motor asked before the read-back
+//! (its docs say why). [`crate::dry_run`] adds what `--transfer-baud` would
+//! do and the forms a front end prints.
+//!
 //! **Rooms.** This module holds the public API: [`UploadOptions`],
 //! [`upload`] and the dry run's [`prepare`]. The transaction's state and
-//! its first steps are in `transaction.rs` (begin, replan, stopped), the
+//! its first steps are in `transaction.rs` (the checks and identify an
+//! upload shares with its dry run, begin, replan, stopped), the
 //! journal it keeps in `journal_writer.rs` (the journal step, state
 //! transitions, the unfinished-journal guard), the MC6000/7000 dataset
 //! handshake in `dataset.rs`, the paced writes and the verification in
@@ -74,15 +82,14 @@ use crate::client::{DriveClient, Identity, Target};
 use crate::error::{EngineError, Refusal};
 use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
-use crate::plan::{
-    DATASET_TIMEOUT, Plan, PlanOptions, Problem, Running, TimeEstimate, check_set, plan,
-};
+use crate::plan::{DATASET_TIMEOUT, Plan, Problem, TimeEstimate};
 
 pub use journal_writer::{check_unfinished, default_journal_path};
 pub use report::{
     CodeOutcome, CodeReport, Next, Replanned, StepError, UploadFailure, UploadReport,
 };
 pub(crate) use rollback::{RollbackPlan, describe_holdings, holdings, restore};
+use transaction::Opening;
 pub use transaction::Transaction;
 
 /// How to run an upload.
@@ -185,32 +192,45 @@ pub(crate) fn read_observed(
     Ok(out)
 }
 
-/// Identify, check, read back and plan: what an upload would do, without
-/// writing anything (`--dry-run`).
+/// What an upload would do, without writing anything (`--dry-run`): the
+/// steps of [`Transaction::begin`] and [`Transaction::replan`] without a
+/// journal. Three of them differ from the real run, each on purpose (the
+/// dry run reports what it always reported, telegram for telegram):
+///
+/// - no unfinished-journal guard (`journal_writer::guard`): a dry run
+///   writes nothing, so a journal left unfinished does not refuse it;
+/// - the identity is checked in the plan, with the read-back and the motor
+///   ([`check_set`](crate::plan::check_set) inside [`plan`](crate::plan::plan)), not on its own
+///   before the read-back ([`Transaction::begin`]'s second check): a dry
+///   run lists every refusal at once;
+/// - the motor is asked before the read-back, whether or not anything
+///   differs ([`Transaction::replan`] asks only when something is to be
+///   written): a dry run of a running drive is refused even when the drive
+///   already holds the set.
+///
+/// The sequence: check the set (nothing sent), identify, ask the motor,
+/// read back, plan, estimate.
 pub fn prepare(
     client: &mut dyn DriveClient,
     set: &ResolvedSet,
     overrides: Overrides,
 ) -> Result<Prepared, EngineError> {
-    let schema = client.schema().clone();
-    let target = client.target().clone();
-    let mut opts = PlanOptions {
-        overrides,
-        dataset: client.has_dataset_download(),
-        running: Running::NotRead,
-        identity: None,
+    let settled = |stop: StepError| match stop {
+        StepError::Settled(e) | StepError::Error(e) => e,
     };
-    let problems = check_set(&schema, set, &opts);
-    if !problems.is_empty() {
-        return Err(refused(&target, problems));
-    }
-    opts.identity = Some(client.identify()?);
-    opts.running = client.running()?.into();
-    let current = read_values(client, set.values.keys().copied())?;
-    let plan = plan(&schema, set, &current, &opts).map_err(|p| refused(&target, p))?;
+    // no journal step follows, so the journal path is never used
+    let opts = UploadOptions {
+        overrides,
+        ..UploadOptions::new(PathBuf::new())
+    };
+    let mut tx = Opening::check(&*client, set, overrides)?.identify(client, &opts)?;
+    tx.ask_running(client)?;
+    let current = tx.read_back(client, set)?;
+    tx.plan_against(client, set, &current).map_err(settled)?;
+    let plan = tx.take_attempt("dry run", "plan").map_err(settled)?.plan;
     let estimate = plan.estimate(set, &*client);
     Ok(Prepared {
-        identity: opts.identity.unwrap_or_default(),
+        identity: tx.drive.identity,
         current,
         plan,
         estimate,

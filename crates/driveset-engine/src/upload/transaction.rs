@@ -1,24 +1,26 @@
 //! The transaction ([`Transaction`]: its parts are in `state.rs`) and the
 //! steps that frame an attempt: [`Transaction::begin`] (check,
-//! unfinished-journal guard, identify), [`Transaction::replan`] (read
-//! back, plan) and [`Transaction::stopped`] (roll back, or redo after a
-//! drive restart); the other steps are in the sibling modules (module
-//! docs of `crate::upload`).
+//! unfinished-journal guard, identify, check with the identity),
+//! [`Transaction::replan`] (read back, plan) and [`Transaction::stopped`]
+//! (roll back, or redo after a drive restart); the other steps are in the
+//! sibling modules (module docs of `crate::upload`). The steps the dry run
+//! shares ([`Opening`]: check, identify; the read-back, the motor and the
+//! plan) are written once here, and `super::prepare` takes them without
+//! a journal (docs/architecture.md, "The data path of an upload").
 
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
 
-use driveset_schema::{CodeKey, ResolvedSet};
+use driveset_schema::{CodeKey, ResolvedSet, Schema};
 
+use super::journal_writer::guard;
 use super::state::{Attempt, Codes, Counters, DatasetState, Drive, JournalState, Progress};
-use super::{
-    CodeOutcome, Next, Replanned, StepError, UploadOptions, check_unfinished, read_observed,
-    refused,
-};
+use super::{CodeOutcome, Next, Replanned, StepError, UploadOptions, read_observed, refused};
 use crate::client::{DriveClient, Identity, Target};
 use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::journal::{JournalFile, TxnState};
 use crate::observe::{Hook, Phase as Step};
+use crate::overrides::Overrides;
 use crate::plan::{Phase, Plan, PlanOptions, Running, check_set, plan, value_text};
 
 /// An upload as explicit steps, for a caller that drives them one by one
@@ -69,20 +71,32 @@ pub(super) fn out_of_order(target: &Target, step: &str, before: &str) -> StepErr
     ))
 }
 
-impl Transaction {
-    /// Check the set, refuse when the journal directory holds an
-    /// unfinished journal of the drive, identify it and check again. Sends
-    /// only the identify reads; nothing is journalled yet.
-    pub fn begin(
-        client: &mut dyn DriveClient,
+/// The first steps an upload and its dry run share, before the drive is
+/// identified: the set checked against the schema and the overrides,
+/// nothing sent yet ([`Opening::check`]), then [`Opening::identify`],
+/// which makes the [`Transaction`].
+pub(super) struct Opening {
+    schema: Arc<Schema>,
+    target: Target,
+    popts: PlanOptions,
+    /// Counting from before the first telegram.
+    counters: Counters,
+}
+
+impl Opening {
+    /// Check the set without the drive ([`check_set`]: codes, roles,
+    /// family; the identity and the motor are not known yet). Sends
+    /// nothing.
+    pub(super) fn check(
+        client: &dyn DriveClient,
         set: &ResolvedSet,
-        opts: &UploadOptions,
-    ) -> Result<Transaction, EngineError> {
+        overrides: Overrides,
+    ) -> Result<Opening, EngineError> {
+        let counters = Counters::new(client);
         let schema = client.schema().clone();
         let target = client.target().clone();
-        let counters = Counters::new(&*client);
-        let mut popts = PlanOptions {
-            overrides: opts.overrides,
+        let popts = PlanOptions {
+            overrides,
             dataset: client.has_dataset_download(),
             running: Running::NotRead,
             identity: None,
@@ -91,18 +105,32 @@ impl Transaction {
         if !problems.is_empty() {
             return Err(refused(&target, problems));
         }
-        if opts.transfer.is_none() {
-            check_unfinished(&*client, &opts.journal)?;
-        }
+        Ok(Opening {
+            schema,
+            target,
+            popts,
+            counters,
+        })
+    }
+
+    /// Identify the drive (the identify reads, phase `identify` on the
+    /// observer of `opts`); the planner knows the identity from now on.
+    /// Nothing is checked against it here: the real run does that next
+    /// ([`Transaction::check_identity`]), the dry run in its plan.
+    pub(super) fn identify(
+        self,
+        client: &mut dyn DriveClient,
+        opts: &UploadOptions,
+    ) -> Result<Transaction, EngineError> {
+        let Opening {
+            schema,
+            target,
+            mut popts,
+            counters,
+        } = self;
         opts.observer.enter(client.clock(), Step::Identify, None);
         let identity = client.identify()?;
         popts.identity = Some(identity.clone());
-        // The running-motor check is done in replan, only when something
-        // has to be written (a re-run that changes nothing costs no exchange).
-        let problems = check_set(&schema, set, &popts);
-        if !problems.is_empty() {
-            return Err(refused(&target, problems));
-        }
         Ok(Transaction {
             drive: Drive {
                 schema,
@@ -118,6 +146,42 @@ impl Transaction {
             progress: Progress::default(),
             counters,
         })
+    }
+}
+
+impl Transaction {
+    /// Check the set, refuse when the journal directory holds an
+    /// unfinished journal of the drive (the guard, `journal_writer::guard`),
+    /// identify it and check again. Sends only the identify reads; nothing
+    /// is journalled yet.
+    ///
+    /// The dry run ([`super::prepare`]) takes the same steps but the
+    /// guard and the second check.
+    pub fn begin(
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+        opts: &UploadOptions,
+    ) -> Result<Transaction, EngineError> {
+        let opening = Opening::check(&*client, set, opts.overrides)?;
+        guard(&*client, opts)?;
+        let tx = opening.identify(client, opts)?;
+        tx.check_identity(set)?;
+        Ok(tx)
+    }
+
+    /// The set checked again with the drive's identity (its protocol and
+    /// 91-TYPE against the schema's, [`check_set`]), before the read-back:
+    /// a drive of another family is refused without reading a code. The
+    /// running-motor check is done in [`Transaction::replan`], only when
+    /// something has to be written (a re-run that changes nothing costs no
+    /// exchange).
+    pub(super) fn check_identity(&self, set: &ResolvedSet) -> Result<(), EngineError> {
+        let problems = check_set(&self.drive.schema, set, &self.drive.popts);
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(refused(&self.drive.target, problems))
+        }
     }
 
     /// What the drive said it is.
@@ -210,18 +274,48 @@ impl Transaction {
         client: &mut dyn DriveClient,
         set: &ResolvedSet,
     ) -> Result<Replanned, StepError> {
+        let current = self.read_back(client, set)?;
+        self.plan_against(client, set, &current)
+    }
+
+    /// The first half of [`Transaction::replan`]: a new attempt, the set's
+    /// codes read back (phase `read`).
+    pub(super) fn read_back(
+        &mut self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+    ) -> Result<ResolvedSet, EngineError> {
         self.progress.attempts += 1;
         self.attempt = None;
         let hook = &self.opts.observer;
-        let current = read_observed(client, set.values.keys().copied(), hook, Step::Read)?;
-        hook.enter(client.clock(), Step::Plan, None);
-        let mut planned = plan(&self.drive.schema, set, &current, &self.drive.popts);
+        read_observed(client, set.values.keys().copied(), hook, Step::Read)
+    }
+
+    /// Ask the drive whether its motor runs (one status read); the plan
+    /// refuses a running motor, or one whose state cannot be known, unless
+    /// overridden ([`check_set`]).
+    pub(super) fn ask_running(&mut self, client: &mut dyn DriveClient) -> Result<(), EngineError> {
+        self.drive.popts.running = client.running()?.into();
+        Ok(())
+    }
+
+    /// The second half of [`Transaction::replan`]: plan against `current`
+    /// (phase `plan`), asking the motor first when something is to be
+    /// written and it was not asked yet, and update each code's record.
+    pub(super) fn plan_against(
+        &mut self,
+        client: &mut dyn DriveClient,
+        set: &ResolvedSet,
+        current: &ResolvedSet,
+    ) -> Result<Replanned, StepError> {
+        self.opts.observer.enter(client.clock(), Step::Plan, None);
+        let mut planned = plan(&self.drive.schema, set, current, &self.drive.popts);
         if self.drive.popts.running == Running::NotRead
             && planned.as_ref().is_ok_and(|p| !p.is_empty())
         {
             // the running check is part of planning (one status read)
-            self.drive.popts.running = client.running()?.into();
-            planned = plan(&self.drive.schema, set, &current, &self.drive.popts);
+            self.ask_running(client)?;
+            planned = plan(&self.drive.schema, set, current, &self.drive.popts);
         }
         let plan = match planned {
             Ok(p) => p,

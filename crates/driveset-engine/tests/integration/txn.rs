@@ -263,13 +263,7 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
     );
     // no override lifts it
     let every = PlanOptions {
-        overrides: Overrides {
-            allow_family: true,
-            allow_running: true,
-            allow_running_unknown: true,
-            allow_address_change: true,
-            allow_shared_transfer_baud: true,
-        },
+        overrides: Override::ALL.into_iter().collect(),
         ..PlanOptions::default()
     };
     let again = plan(&schema, &set, &current, &every).expect_err("still refused");

@@ -6,7 +6,7 @@
 //! and how a failure ends it (the link gone, or the drive silent).
 
 use driveset_link::Link;
-use driveset_schema::{DiffKind, ResolvedSet, Schema};
+use driveset_schema::{ResolvedSet, Schema};
 
 use super::learning::learn_drive;
 use super::options::Mode;
@@ -18,9 +18,10 @@ use crate::client::{DriveClient, Identity};
 use crate::error::{EngineError, ErrorKind};
 use crate::identify::check_family;
 use crate::line::manifest::{Bus, Drive};
-use crate::line::report::{DiffLine, DriveReport, DriveResult};
+use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
 use crate::live::live_values;
 use crate::observe::{Hook, Phase};
+use crate::overrides::Override;
 use crate::plan::value_text;
 use crate::transfer::TransferRequest;
 use crate::upload::{
@@ -288,7 +289,7 @@ fn transfer_request(bus: &Bus, d: &Drive, ctx: &Ctx<'_>) -> Option<TransferReque
             TransferRequest {
                 rate,
                 others,
-                allow_shared: ctx.opts.overrides.allow_shared_transfer_baud,
+                allow_shared: ctx.opts.overrides.allows(Override::AllowSharedTransferBaud),
             }
         })
 }
@@ -320,7 +321,7 @@ pub(in crate::line) fn fill_from_upload(
                 .code(c.number)
                 .map(|x| x.name.clone())
                 .unwrap_or_default(),
-            kind: "changed".into(),
+            kind: DiffLineKind::Changed,
             old: Some(c.old.clone()),
             new: Some(c.new.clone()),
         })
@@ -340,12 +341,7 @@ pub fn diff_lines(schema: &Schema, live: &ResolvedSet, set: &ResolvedSet) -> Vec
                 .code(e.key.number)
                 .map(|x| x.name.clone())
                 .unwrap_or_default(),
-            kind: match e.kind {
-                DiffKind::Added => "added",
-                DiffKind::Removed => "removed",
-                DiffKind::Changed => "changed",
-            }
-            .into(),
+            kind: e.kind.into(),
             old: e.old.as_ref().map(|v| value_text(schema, e.key, v)),
             new: e.new.as_ref().map(|v| value_text(schema, e.key, v)),
         })

@@ -16,6 +16,7 @@ use crate::client::DriveClient;
 use crate::connect;
 use crate::line::manifest::{BusProtocol, Drive};
 use crate::line::report::BusReport;
+use crate::overrides::Override;
 
 /// LECOM MULTICAST of the values common to every selected drive of a group.
 pub(super) fn broadcast_common(
@@ -111,7 +112,7 @@ fn may_multicast(on: &OnBus<'_>, tens: u8, members: &[&Drive], link: &mut Link) 
             running.push(m.name.clone());
         }
     }
-    if !running.is_empty() && !ctx.opts.overrides.allow_running {
+    if !running.is_empty() && !ctx.opts.overrides.allows(Override::AllowRunning) {
         ctx.warn(format!(
             "bus `{}` group {tens}0: not broadcast, running: {}",
             bus.name,

@@ -11,6 +11,7 @@ use driveset_link::{Instant, Link, OpenOptions};
 use driveset_schema::Registry;
 
 use crate::env::Environment;
+use crate::error::EngineError;
 use crate::learn::LearnOptions;
 use crate::line::manifest::Bus;
 use crate::line::report::{DriveReport, LineReport, LineResult};
@@ -164,9 +165,22 @@ pub enum LineError {
     /// `--only` / `--skip` name something the manifest does not have.
     #[error("{0}")]
     Selection(String),
-    /// The report directory or the state file cannot be used.
+    /// The report directory cannot be created.
+    #[error("cannot create the report directory {}: {source}", dir.display())]
+    ReportDir {
+        /// The report directory (`LineOptions::report_dir`).
+        dir: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The journal directory cannot be created
+    /// ([`crate::journal::ensure_dir`]).
+    #[error(transparent)]
+    JournalDir(EngineError),
+    /// The state file cannot be read
+    /// ([`super::resume::CommissionState::load`]'s message).
     #[error("{0}")]
-    Io(String),
+    StateFile(String),
 }
 
 /// The result of a line run.

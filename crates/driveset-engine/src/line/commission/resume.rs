@@ -85,7 +85,7 @@ impl CommissionState {
         let mut s = if opts.fresh {
             CommissionState::default()
         } else {
-            CommissionState::load(&*opts.env, &opts.report_dir).map_err(LineError::Io)?
+            CommissionState::load(&*opts.env, &opts.report_dir).map_err(LineError::StateFile)?
         };
         if s.line != manifest.name {
             s.drives.clear();

@@ -59,7 +59,7 @@ pub fn run_line(
     let state = if mode == Mode::Commission {
         // the one way to create a journal directory: it keeps itself out of
         // git with its own .gitignore, as upload's does
-        crate::journal::ensure_dir(&opts.journal_dir).map_err(|e| LineError::Io(e.to_string()))?;
+        crate::journal::ensure_dir(&opts.journal_dir).map_err(LineError::JournalDir)?;
         Some(Mutex::new(CommissionState::for_run(manifest, opts)?))
     } else {
         None
@@ -100,12 +100,12 @@ pub fn run_line(
 }
 
 fn create_report_dir(opts: &LineOptions) -> Result<(), LineError> {
-    opts.env.create_dir(&opts.report_dir).map_err(|e| {
-        LineError::Io(format!(
-            "cannot create the report directory {}: {e}",
-            opts.report_dir.display()
-        ))
-    })
+    opts.env
+        .create_dir(&opts.report_dir)
+        .map_err(|source| LineError::ReportDir {
+            dir: opts.report_dir.clone(),
+            source,
+        })
 }
 
 /// A thread per bus, each given the bus's selected drives (neither left
