@@ -12,7 +12,8 @@ pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
 
 /// Identifies the drive and checks it against the client's schema: the
 /// protocol must match and, where the schema lists `type_values` (LUSTBUS
-/// 91-TYPE), the drive's TYPE must be one of them. A mismatch is
+/// 91-TYPE, `Descriptor::device_type_code`), the drive's TYPE must be one
+/// of them. A mismatch is
 /// [`EngineError::Refused`]; nothing is written either way.
 pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
     let identity = client.identify()?;
@@ -23,8 +24,9 @@ pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineErro
     if ident.type_values.is_empty() {
         return Ok(identity);
     }
-    let type_name = schema.display_code(91, None);
-    let found = identity.value_of(91).and_then(IdentValue::as_int);
+    let type_code = schema.family.descriptor().device_type_code();
+    let type_name = schema.display_code(type_code, None);
+    let found = identity.value_of(type_code).and_then(IdentValue::as_int);
     match found {
         Some(t) if ident.type_values.contains(&t) => Ok(identity),
         found => Err(EngineError::refused(

@@ -405,10 +405,12 @@ pub fn detect_protocol(
     if let Some(ad) = ControllerAddress::new(address).filter(|a| !a.is_broadcast()) {
         let timeout = lecom_timeout(opts, link.baud());
         let mut line = LecomLine::new(BorrowedByteLink(&mut *link));
-        // C0093, then C0200: the Tmd descriptor's identify codes are 93, 99,
-        // 200; the probe has always skipped C0099 (kept: one telegram less
-        // per silent address, and its messages name C0093 and C0200).
-        for number in [C0093, 200] {
+        // The LECOM family's probe codes (C0093, then C0200: its identify
+        // codes without the software version, `IdentifyRules::probe`).
+        let probe = BusProtocol::Lecom
+            .only_family()
+            .map_or(&[][..], |f| f.descriptor().identify_rules.probe);
+        for &number in probe {
             let got = crate::client::lecom::probe(
                 &mut line,
                 ad,

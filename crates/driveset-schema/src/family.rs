@@ -197,6 +197,29 @@ pub struct Descriptor {
     /// device digit says (VF1000, `lustbus-protocol.txt` §4.2, §5.2): a bus
     /// holding one takes no broadcast.
     pub broadcast_as_own: bool,
+    /// The code whose value decides whether the bus may write the drive's
+    /// parameters, where the family has one (Tmd C0001,
+    /// `lecom-ab-tmd-manual.txt` §4e, §4f): `driveset address` reads it
+    /// before writing an address.
+    pub bus_write: Option<BusWriteSource>,
+}
+
+/// The code that says where a drive takes its parameter writes from, and
+/// the values of it under which the bus may write (`lecom-ab-tmd-manual.txt`
+/// §4e, §4f: C0001 0 and 1 read only, 2 and 3 write).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BusWriteSource {
+    /// The code (C0001, setpoint and control source).
+    pub code: u32,
+    /// The values that let the bus write.
+    pub writes: &'static [i64],
+}
+
+impl BusWriteSource {
+    /// Whether `value` of [`BusWriteSource::code`] lets the bus write.
+    pub fn allows(&self, value: i64) -> bool {
+        self.writes.contains(&value)
+    }
 }
 
 /// How a drive of the family is identified beyond the codes read
@@ -219,6 +242,14 @@ pub struct IdentifyRules {
     /// The code whose value is the drive's software version (Tmd C0099,
     /// Table 1), where the family reports one.
     pub software: Option<u32>,
+    /// The codes a read-only probe of an unknown drive reads, in order, to
+    /// tell whether one of the family is there (`driveset-engine`'s
+    /// `scan::detect_protocol`; the first that answers decides): LUSTBUS
+    /// 91-TYPE (§5.2); LECOM C0093, then C0200 (`lecom-ab-tmd-manual.txt`
+    /// Table 1). The identify codes without the software version: a
+    /// probe needs no version, and leaving C0099 out saves one telegram
+    /// (and its timeout) per silent address. None on CAN (no probe).
+    pub probe: &'static [u32],
 }
 
 /// How a family's drives describe their parameters, for learning a schema
@@ -234,6 +265,16 @@ pub struct Learning {
 }
 
 impl Learning {
+    /// How every learned file's name (and schema id) starts, whatever its
+    /// family ([`Learning::file_prefix`]).
+    pub const PREFIX: &'static str = "learned-";
+
+    /// Whether schema id `id` is a learned schema's ([`Learning::PREFIX`]):
+    /// `identify` tells a learned schema named by its file this way.
+    pub fn is_learned_id(id: &str) -> bool {
+        id.starts_with(Self::PREFIX)
+    }
+
     /// The file (and schema id) a learned schema is stored under:
     /// `learned-<stem>-type<TYPE>-<software>`. `device_type` is the value of
     /// [`Descriptor::type_code`] (`unknown` where the drive gave none), kept
@@ -269,7 +310,8 @@ impl Learning {
     /// it kept to its ASCII letters, digits, `-` and `_`.
     pub fn file_prefix(&self, device_type: Option<&str>) -> String {
         format!(
-            "learned-{}-type{}-",
+            "{}{}-type{}-",
+            Self::PREFIX,
             self.stem,
             device_type.unwrap_or("unknown")
         )
@@ -467,6 +509,15 @@ impl Descriptor {
     /// Whether `code` is one of [`Descriptor::compatible`].
     pub fn is_compatible(&self, code: u32) -> bool {
         self.bus == BusProtocol::Lustbus && CompatibleParameter::contains(code)
+    }
+
+    /// The code a drive's device type is read from (LUSTBUS 91-TYPE, §5.2):
+    /// [`Descriptor::type_code`], or [`TYPE`] for a family whose
+    /// identification reads none (no identity of its drives holds 91, so a
+    /// schema's `[schema.identify] type_values` find nothing to check there).
+    /// What `type_values` are checked against and learned files are named by.
+    pub fn device_type_code(&self) -> u32 {
+        self.type_code.unwrap_or(TYPE)
     }
 
     /// The dataset handshake's code (MC6000/7000 80-SLOAD, §11.4), where

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use driveset_engine::client::DriveClient;
 use driveset_engine::session::Session;
 use driveset_proto::lustbus::{Dialect, ParameterCode};
-use driveset_schema::Family;
 use driveset_schema::family::TYPE;
+use driveset_schema::{Family, Learning};
 use serde_json::json;
 
 use crate::learning;
@@ -161,7 +161,7 @@ fn learned_status(
     path: Option<&Path>,
     dir: &Path,
 ) -> (String, bool, Option<PathBuf>) {
-    if (schema.learned.is_some() || schema.id.starts_with("learned-"))
+    if (schema.learned.is_some() || Learning::is_learned_id(&schema.id))
         && !driveset_engine::learn::needs_learning(schema)
     {
         return (schema.id.clone(), true, path.map(Path::to_path_buf));
@@ -177,7 +177,7 @@ fn learned_status(
         .filter(|d| d.learning.is_some())
         .unwrap_or_else(|| Family::from_dialect(Dialect::Mc).descriptor());
     let ty = identity
-        .value_of(d.type_code.unwrap_or(TYPE))
+        .value_of(d.device_type_code())
         .map(ToString::to_string);
     let prefix = d
         .learning

@@ -92,8 +92,10 @@ pub use run::run;
 /// LUSTBUS rates in the order §5.1 tries them: the standard 9600 first,
 /// then every other rate a LUSTBUS device runs at (§4), highest first.
 pub const LUSTBUS_SEARCH: [u32; 6] = [9600, 57600, 38400, 19200, 4800, 2400];
-/// LECOM rates of the Tmd (C0125), the factory 9600 first.
-pub const LECOM_SEARCH: [u32; 4] = [9600, 4800, 2400, 1200];
+/// LECOM rates of the Tmd (C0125), the factory 9600 first: the
+/// descriptor's rates highest first ([`crate::scan::LECOM_BAUDS`]), whose
+/// first is the factory 9600.
+pub const LECOM_SEARCH: [u32; 4] = crate::scan::LECOM_BAUDS;
 
 /// What `driveset address` asks for.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -7,6 +7,7 @@
 
 use driveset_link::Link;
 use driveset_proto::lustbus::{Address, Dialect, ParameterCode};
+use driveset_schema::family::{BusWriteSource, TYPE};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw, shown};
@@ -16,7 +17,7 @@ use super::report::{PlannedWrite, Step, found_text, list};
 use super::{
     AssignPlan, AssignRefusal, AssignRequest, LECOM_SEARCH, LUSTBUS_SEARCH, RateEffect, Schemas,
 };
-use crate::client::lustbus::{Heard, TYPE};
+use crate::client::lustbus::Heard;
 use crate::connect::connect_on;
 use crate::error::EngineError;
 use crate::plan::code_label;
@@ -318,6 +319,14 @@ const LECOM_FAMILY: Family = match BusProtocol::Lecom.only_family() {
     None => panic!("the descriptor names one family on LECOM"),
 };
 
+/// The code that must let LECOM write before an address is written (the
+/// LECOM family's [`BusWriteSource`], C0001 2 or 3, §4e): checked when
+/// the crate is built, like [`LECOM_FAMILY`].
+const LECOM_WRITE: BusWriteSource = match LECOM_FAMILY.descriptor().bus_write {
+    Some(w) => w,
+    None => panic!("the LECOM family's descriptor names its write source"),
+};
+
 pub(super) fn plan_lecom(
     link: &mut Link,
     req: &AssignRequest,
@@ -404,7 +413,7 @@ pub(super) fn plan_lecom(
     let (identity, c0001, old_raw, rate_now) = {
         let mut c = connect_on(link, schema.clone(), from)?;
         let identity = c.identify()?;
-        let c0001 = c.read(CodeKey::new(1))?;
+        let c0001 = c.read(CodeKey::new(LECOM_WRITE.code))?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {
             Some(c.read(rate_key)?)
@@ -415,13 +424,14 @@ pub(super) fn plan_lecom(
         (identity, c0001, old, r)
     };
     // §4e: 0 and 1 read only; 2 and 3 write
-    let program = address_of_raw(&schema, CodeKey::new(1), &c0001);
-    if !matches!(program, Some(2 | 3)) {
+    let write_key = CodeKey::new(LECOM_WRITE.code);
+    let program = address_of_raw(&schema, write_key, &c0001);
+    if !program.is_some_and(|p| LECOM_WRITE.allows(p)) {
         return Err(refuse(
             &port,
             from,
             AssignRefusal::LecomReadOnly {
-                c0001: shown(&schema, CodeKey::new(1), &c0001),
+                c0001: shown(&schema, write_key, &c0001),
             },
         ));
     }

@@ -171,7 +171,7 @@ pub(super) fn finish(
     if lustbus
         && let Some(old) = p.old_address.and_then(|a| u8::try_from(a).ok())
         && old != p.to
-        && (1..=30).contains(&old)
+        && BusProtocol::Lustbus.drive_addresses().contains(&old)
     {
         let b = bytes(link, p.protocol)?;
         let found = scan_lustbus(b, &[old], &p.scan_opts())?;

@@ -49,10 +49,15 @@ pub fn value_parameter(code: ParameterCode) -> Option<u32> {
     }
 }
 
-/// The wire type of a schema type name (`PT_FIXPOINT16` ...).
+/// The wire type of a schema code (`PT_FIXPOINT16` ...): proto's one
+/// table, [`ParameterType::of_code`], over the code's resolved type (its
+/// own, else the schema's `default_type`). A code the schema gives no type
+/// at all is not annotated: a capture shows only what the schema says,
+/// where the client would fall back on the code's width.
 pub fn wire_type(schema: &Schema, number: u32) -> Option<ParameterType> {
     let code = schema.code(number)?;
-    ParameterType::from_name(schema.type_of(code)?.name())
+    let ty = schema.type_of(code)?;
+    ParameterType::of_code(Some(ty.name()), code.width)
 }
 
 struct State<'a> {

@@ -1,8 +1,11 @@
 //! A journal's raw values (docs/journals.md, "The file": `{"int": N}`,
 //! `{"text": "..."}`, `{"octets": "0aff"}`, raw, in the drive's units):
 //! [`JournalValue`], the one conversion between a drive's raw value and its
-//! JSON form, both ways, and [`raw_values`], the one reading of a list of
+//! JSON form, both ways, its text for messages (its `Display`), and
+//! [`raw_values`], the one reading of a list of
 //! journal entries into codes and raw values (backup, plan, unchanged).
+
+use std::fmt;
 
 use driveset_schema::{CodeKey, RawValue};
 use serde::{Deserialize, Serialize};
@@ -48,6 +51,18 @@ impl JournalValue {
                 RawValue::Octets(out)
             }
         })
+    }
+}
+
+/// A journal value as messages show it, raw: the integer in decimal, the
+/// text as it is, the octets as their lowercase hex (the JSON form's
+/// content without its key).
+impl fmt::Display for JournalValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            JournalValue::Int(i) => write!(f, "{i}"),
+            JournalValue::Text(t) | JournalValue::Octets(t) => f.write_str(t),
+        }
     }
 }
 

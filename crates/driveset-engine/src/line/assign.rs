@@ -32,6 +32,7 @@ use std::time::Duration;
 
 use driveset_link::Link;
 use driveset_schema::BusProtocol;
+use driveset_schema::family::TYPE;
 use serde::Serialize;
 
 use super::commission::Opener;
@@ -285,7 +286,7 @@ fn final_scan(
         };
         let type_value = f.and_then(|f| {
             f.identity
-                .value_of(91)
+                .value_of(TYPE)
                 .or_else(|| f.identity.value_of(93))
                 .map(|v| v.to_string())
         });
@@ -294,7 +295,7 @@ fn final_scan(
             (Some(d), Some(f)) => d.schema.identify.as_ref().is_none_or(|i| {
                 i.type_values.is_empty()
                     || f.identity
-                        .value_of(91)
+                        .value_of(d.schema.family.descriptor().device_type_code())
                         .and_then(crate::client::IdentValue::as_int)
                         .is_some_and(|t| i.type_values.contains(&t))
             }),

@@ -243,7 +243,9 @@ pub fn check_set(schema: &Schema, set: &ResolvedSet, opts: &PlanOptions) -> Vec<
         if let Some(ident) = &schema.identify
             && !ident.type_values.is_empty()
             && family
-            && let Some(ty) = id.value_of(91).and_then(IdentValue::as_int)
+            && let Some(ty) = id
+                .value_of(schema.family.descriptor().device_type_code())
+                .and_then(IdentValue::as_int)
             && !ident.type_values.contains(&ty)
         {
             out.push(Problem::DriveType {

@@ -16,14 +16,6 @@ use crate::journal::{
     TransferState, TxnState,
 };
 
-pub(super) fn value_text(v: &JournalValue) -> String {
-    match v {
-        JournalValue::Int(i) => i.to_string(),
-        JournalValue::Text(t) => t.clone(),
-        JournalValue::Octets(o) => o.clone(),
-    }
-}
-
 /// A placeholder journal of the transaction, before anything is sent:
 /// the rate switch is recorded in it; an upload that plans writes replaces
 /// it, keeping the record.
@@ -73,7 +65,7 @@ pub(super) fn whereabouts(
     state: TransferState,
     found: Option<u32>,
 ) -> String {
-    let keep = value_text(rec.keep.as_ref().unwrap_or(&rec.before));
+    let keep = rec.keep.as_ref().unwrap_or(&rec.before);
     match found {
         Some(r) if r == rec.old_rate => format!("the drive runs at {r} baud again"),
         Some(r) => format!(
@@ -82,9 +74,7 @@ pub(super) fn whereabouts(
         ),
         None if state == TransferState::AtTransferRate => format!(
             "the drive answers at no rate (it may still run at the transfer rate {} baud; its {} holds {} in EEPROM, so a restart brings it to that rate)",
-            rec.transfer_rate,
-            rec.code,
-            value_text(&rec.before)
+            rec.transfer_rate, rec.code, rec.before
         ),
         None => format!(
             "the drive answers at no rate (it may run at the transfer rate {} baud or at {} baud, and its {} may hold {} in EEPROM until the switch back is finished: run `driveset recover` as soon as the drive is reachable again; it searches every rate and leaves {} holding {keep})",

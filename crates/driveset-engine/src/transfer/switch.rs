@@ -9,9 +9,7 @@ use std::path::Path;
 
 use driveset_schema::{CodeKey, RawValue};
 
-use super::record::{
-    as_rate_j, keep_value, persist_record, planned_rate, start_back, value_text, whereabouts,
-};
+use super::record::{as_rate_j, keep_value, persist_record, planned_rate, start_back, whereabouts};
 use super::{Codes, as_rate, codes_of};
 use crate::client::{DriveClient, Target, set_line_rate};
 use crate::error::{EngineError, ErrorKind, Refusal};
@@ -219,7 +217,7 @@ pub(super) fn switch_back_once(
         }
     }
     let stored = JournalValue::from(&keep);
-    let text = value_text(&stored);
+    let text = stored.to_string();
     rec.stored = Some(stored);
     Ok(if as_rate(&keep) == Some(old) {
         format!("the drive runs at {old} baud again; {label} = {text}")

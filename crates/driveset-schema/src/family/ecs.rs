@@ -60,6 +60,7 @@ pub(super) const ECS: Descriptor = Descriptor {
         without_schema: &[],
         skips_missing: false,
         software: None,
+        probe: &[],
     },
     reaction: Reaction {
         min: Duration::from_millis(1),
@@ -80,4 +81,5 @@ pub(super) const ECS: Descriptor = Descriptor {
     type_code: None,
     learning: None,
     broadcast_as_own: false,
+    bus_write: None,
 };

@@ -62,6 +62,7 @@ pub(super) const MC6000: Descriptor = Descriptor {
         without_schema: &[TYPE],
         skips_missing: false,
         software: None,
+        probe: &[TYPE],
     },
     reaction: Reaction {
         min: Duration::from_millis(1),
@@ -95,4 +96,5 @@ pub(super) const MC6000: Descriptor = Descriptor {
         max_parameter: 999,
     }),
     broadcast_as_own: false,
+    bus_write: None,
 };

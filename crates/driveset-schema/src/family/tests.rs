@@ -343,8 +343,9 @@ fn only_the_lustbus_inverter_takes_a_new_rate_at_a_restart_only() {
 }
 
 /// The identify rules stay inside the identify codes: what is read
-/// without a schema's codes, and the software version code, are among
-/// the family's own identification codes.
+/// without a schema's codes, the software version code and the probe's
+/// codes are among the family's own identification codes; the probe
+/// reads no software version.
 #[test]
 fn identify_rules_stay_within_the_identify_codes() {
     for f in Family::ALL {
@@ -355,6 +356,10 @@ fn identify_rules_stay_within_the_identify_codes() {
         }
         if let Some(n) = rules.software {
             assert!(d.identify.contains(&n), "{}: {n}", d.name);
+        }
+        for n in rules.probe {
+            assert!(d.identify.contains(n), "{}: {n}", d.name);
+            assert_ne!(rules.software, Some(*n), "{}: {n}", d.name);
         }
     }
 }
@@ -370,4 +375,19 @@ fn a_bus_line_rates_are_its_families_rates() {
         want.reverse();
         assert_eq!(bus.line_rates(), want.as_slice(), "{bus}");
     }
+}
+
+/// The device type code: LUSTBUS families read 91-TYPE, the others name
+/// none and fall back on it; learned ids are told by the one prefix every
+/// learned file name starts with.
+#[test]
+fn device_type_code_and_learned_ids() {
+    for f in Family::ALL {
+        let d = f.descriptor();
+        assert_eq!(d.device_type_code(), d.type_code.unwrap_or(TYPE), "{f}");
+        if let Some(l) = d.learning {
+            assert!(Learning::is_learned_id(&l.file_prefix(None)), "{f}");
+        }
+    }
+    assert!(!Learning::is_learned_id("lust-mc6000"));
 }

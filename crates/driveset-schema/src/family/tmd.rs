@@ -60,6 +60,7 @@ pub(super) const TMD: Descriptor = Descriptor {
         without_schema: &[93],
         skips_missing: true,
         software: Some(99),
+        probe: &[93, 200],
     },
     reaction: Reaction {
         min: Duration::from_millis(1),
@@ -80,4 +81,8 @@ pub(super) const TMD: Descriptor = Descriptor {
     type_code: None,
     learning: None,
     broadcast_as_own: false,
+    bus_write: Some(BusWriteSource {
+        code: 1,
+        writes: &[2, 3],
+    }),
 };

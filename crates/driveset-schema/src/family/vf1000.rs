@@ -46,6 +46,7 @@ pub(super) const VF1000: Descriptor = Descriptor {
         without_schema: &[TYPE],
         skips_missing: false,
         software: None,
+        probe: &[TYPE],
     },
     reaction: Reaction {
         min: Duration::from_millis(1),
@@ -76,4 +77,5 @@ pub(super) const VF1000: Descriptor = Descriptor {
         max_parameter: 99,
     }),
     broadcast_as_own: true,
+    bus_write: None,
 };

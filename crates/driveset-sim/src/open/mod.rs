@@ -242,24 +242,20 @@ pub enum SimOpenError {
 
 /// Parse a family as `sim://FAMILY` or `--family` gives it: a [`Family`]
 /// name or a schema id naming one (`lust-mc6000`, `lenze_ecs`,
-/// `fictional-vf1000-demo`).
+/// `fictional-vf1000-demo`): the descriptor's [`Family::from_port_name`].
 pub fn parse_family(name: &str) -> Result<Family, SimOpenError> {
-    let lower = name.trim().to_ascii_lowercase().replace('_', "-");
-    let mut short = lower.as_str();
-    for prefix in ["fictional-", "lust-", "lenze-"] {
-        short = short.strip_prefix(prefix).unwrap_or(short);
-    }
-    short = short.strip_suffix("-demo").unwrap_or(short);
-    Family::parse(short).map_err(|_| {
+    Family::from_port_name(name).ok_or_else(|| {
         SimOpenError::Family(format!(
-            "unknown drive family `{name}`: use one of mc6000, vf1000, tmd, ecs (or a schema id such as lust-vf1000)"
+            "unknown drive family `{name}`: use one of {} (or a schema id such as lust-vf1000)",
+            Family::ALL.map(Family::name).join(", ")
         ))
     })
 }
 
-/// Whether `family` runs on CAN (frames) rather than a character line.
+/// Whether `family` runs on CAN (frames) rather than a character line
+/// ([`driveset_schema::Descriptor::on_can`]).
 pub fn is_can(family: Family) -> bool {
-    family == Family::Ecs
+    family.descriptor().on_can()
 }
 
 /// Check that `address` is a valid drive address on `family`'s bus.

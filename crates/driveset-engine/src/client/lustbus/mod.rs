@@ -73,8 +73,6 @@ pub(crate) use probe::{Heard, probe_code, probe_heard, probe_type};
 pub const SLOAD: u32 = 80;
 /// 85-SIOF / SERR, the serial interface error word (sections 5.2, 9.2).
 pub const SIOF: u32 = 85;
-/// 91-TYPE, the device type (section 5.2).
-pub const TYPE: u32 = 91;
 /// MC 416-SCTL1, the LUSTBUS control word (section 7.2).
 pub const MC_SCTL1: u32 = 416;
 /// VF1000 3-CNTL, the control word (section 7.1).

@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use driveset_link::{ByteLink, LinkError};
 use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, Reply};
+use driveset_schema::family::TYPE;
 
-use super::TYPE;
 use super::encoding::parse_hex;
 use super::line::{LustLine, Outcome};
 
