@@ -191,23 +191,9 @@ fn found_line(plan: &AssignPlan) -> String {
 }
 
 fn scan_line(plan: &AssignPlan) -> String {
-    let who: Vec<String> = plan
-        .scan
-        .iter()
-        .map(|f| {
-            let codes: Vec<String> = f
-                .identity
-                .codes
-                .iter()
-                .map(|c| format!("{} = {}", c.name, c.value))
-                .collect();
-            format!("address {}: {}", f.address, codes.join(", "))
-        })
-        .collect();
-    let what = if who.is_empty() {
-        "no answer".to_string()
-    } else {
-        who.join("; ")
+    let what = match assign::found_text(&plan.scan) {
+        who if who.is_empty() => "no answer".to_string(),
+        who => who,
     };
     match plan.protocol {
         BusProtocol::Lustbus => format!(

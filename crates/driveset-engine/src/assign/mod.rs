@@ -86,7 +86,7 @@ pub use record::{AssignRecord, AssignStep};
 pub(crate) use recover::not_for_upload_recover;
 pub use recover::{is_assign_journal, recover};
 pub use refusal::AssignRefusal;
-pub use report::{AssignPlan, AssignRecovered, AssignReport, PlannedWrite, RateEffect};
+pub use report::{AssignPlan, AssignRecovered, AssignReport, PlannedWrite, RateEffect, found_text};
 pub use run::run;
 
 /// LUSTBUS rates in the order §5.1 tries them: the standard 9600 first,

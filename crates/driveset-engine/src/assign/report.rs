@@ -157,7 +157,9 @@ pub(super) fn list(rates: &[u32]) -> String {
     r.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
 }
 
-pub(super) fn found_text(found: &[Found]) -> String {
+/// The drives a scan found, each with its identify codes
+/// (`address 3: 91-TYPE = 1000; address 7: ...`); empty when none answered.
+pub fn found_text(found: &[Found]) -> String {
     found
         .iter()
         .map(|f| {
