@@ -5,7 +5,10 @@
 //! (`lecom-ab-tmd-manual.txt` §4c, §4d, §4e, Table 1). Nothing is written
 //! here.
 
-use driveset_link::Link;
+use std::sync::Arc;
+use std::time::Duration;
+
+use driveset_link::{Instant, Link};
 use driveset_proto::lustbus::{Address, Dialect, ParameterCode};
 use driveset_schema::family::{BusWriteSource, TYPE};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
@@ -17,11 +20,12 @@ use super::report::{PlannedWrite, Step, found_text, list};
 use super::{
     AssignPlan, AssignRefusal, AssignRequest, LECOM_SEARCH, LUSTBUS_SEARCH, RateEffect, Schemas,
 };
+use crate::client::Identity;
 use crate::client::lustbus::Heard;
 use crate::connect::connect_on;
 use crate::error::EngineError;
 use crate::plan::code_label;
-use crate::scan::{lustbus_addresses, scan_lecom, scan_lustbus};
+use crate::scan::{Found, lustbus_addresses, scan_lecom, scan_lustbus};
 
 /// Find the drive, run every check and list the writes; nothing is
 /// written (the dry run, and the first half of [`assign()`](super::assign())).
@@ -242,27 +246,71 @@ pub(super) fn plan_lustbus(
             rate_effect = Some(RateEffect::Online);
         }
     }
-    Ok(AssignPlan {
-        port: port.clone(),
-        bus: bus_of(link),
-        protocol,
+    Ok(Reached {
         family,
-        schema_id: schema.id.clone(),
         schema,
         identity,
         type_value,
         reached_at: 0,
         old_address,
-        to: req.to,
         rate,
-        baud: req.baud,
         rate_effect,
         scan: found,
         scan_time,
-        elapsed: now(link) - start,
         writes,
-        scan_opts: req.scan.clone(),
-    })
+    }
+    .plan(link, req, protocol, start))
+}
+
+/// What a plan found at its drive; [`Reached::plan`] adds the request's
+/// side of the [`AssignPlan`] (the port, the bus, the address and rate
+/// asked for, the discovery's time), the same for both protocols.
+struct Reached {
+    family: Family,
+    schema: Arc<Schema>,
+    identity: Identity,
+    type_value: Option<i64>,
+    reached_at: u8,
+    old_address: Option<i64>,
+    rate: u32,
+    rate_effect: Option<RateEffect>,
+    scan: Vec<Found>,
+    scan_time: Duration,
+    writes: Vec<PlannedWrite>,
+}
+
+impl Reached {
+    /// The plan of `req` on `link` for the drive reached, its discovery
+    /// begun at `start` (link clock).
+    fn plan(
+        self,
+        link: &Link,
+        req: &AssignRequest,
+        protocol: BusProtocol,
+        start: Instant,
+    ) -> AssignPlan {
+        AssignPlan {
+            port: port_of(link),
+            bus: bus_of(link),
+            protocol,
+            family: self.family,
+            schema_id: self.schema.id.clone(),
+            schema: self.schema,
+            identity: self.identity,
+            type_value: self.type_value,
+            reached_at: self.reached_at,
+            old_address: self.old_address,
+            to: req.to,
+            rate: self.rate,
+            baud: req.baud,
+            rate_effect: self.rate_effect,
+            scan: self.scan,
+            scan_time: self.scan_time,
+            elapsed: now(link) - start,
+            writes: self.writes,
+            scan_opts: req.scan.clone(),
+        }
+    }
 }
 
 pub(super) fn lust_write(
@@ -279,16 +327,8 @@ pub(super) fn lust_write(
         address.to_string()
     };
     let code = crate::client::lustbus::wire_code_text(schema, key);
-    PlannedWrite {
-        telegram: format!("LUSTBUS SELECT to address {at}, CODE {code}"),
-        code: code_label(schema, key),
-        value: shown(schema, key, &raw),
-        address,
-        baud,
-        key,
-        raw,
-        step,
-    }
+    let telegram = format!("LUSTBUS SELECT to address {at}, CODE {code}");
+    planned(telegram, schema, address, baud, key, raw, step)
 }
 
 pub(super) fn lecom_write(
@@ -299,8 +339,24 @@ pub(super) fn lecom_write(
     raw: RawValue,
     step: Step,
 ) -> PlannedWrite {
+    let telegram = format!("LECOM SEND to controller {address:02}, C{:04}", key.number);
+    planned(telegram, schema, address, baud, key, raw, step)
+}
+
+/// A write of `raw` to `key` at `address` and `baud` as the report shows
+/// it (the code's label, the value in the schema's terms) by `telegram`,
+/// which the protocol's [`lust_write`] / [`lecom_write`] name.
+fn planned(
+    telegram: String,
+    schema: &Schema,
+    address: u8,
+    baud: u32,
+    key: CodeKey,
+    raw: RawValue,
+    step: Step,
+) -> PlannedWrite {
     PlannedWrite {
-        telegram: format!("LECOM SEND to controller {address:02}, C{:04}", key.number),
+        telegram,
         code: code_label(schema, key),
         value: shown(schema, key, &raw),
         address,
@@ -475,25 +531,18 @@ pub(super) fn plan_lecom(
             rate_effect = Some(RateEffect::AtRestart);
         }
     }
-    Ok(AssignPlan {
-        port: port.clone(),
-        bus: bus_of(link),
-        protocol,
+    Ok(Reached {
         family,
-        schema_id: schema.id.clone(),
         schema,
         identity,
         type_value: None,
         reached_at: from,
         old_address,
-        to: req.to,
         rate,
-        baud: req.baud,
         rate_effect,
         scan: found,
         scan_time,
-        elapsed: now(link) - start,
         writes,
-        scan_opts: req.scan.clone(),
-    })
+    }
+    .plan(link, req, protocol, start))
 }
