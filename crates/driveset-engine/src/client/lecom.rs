@@ -67,8 +67,8 @@ use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::timing::LinkLatency;
 use super::{
-    ClientStats, DriveClient, IdentValue, Target, code_name, device, link_error, refuse_read_only,
-    schema_code, shown_value, write_what, wrong_client,
+    ClientStats, DriveClient, IdentValue, Target, client_address, code_name, device, link_error,
+    refuse_read_only, schema_code, shared_link_methods, shown_value, write_what, wrong_client,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
@@ -349,19 +349,9 @@ impl<L: ByteLink> LecomClient<L> {
         if !BusProtocol::Lecom.carries(schema.family) {
             return Err(wrong_client(target, &schema, BusProtocol::Lecom));
         }
-        let address = match crate::error::AddressRefused::check_client(
-            driveset_schema::BusProtocol::Lecom,
-            address,
-        )
-        .and_then(|()| {
-            ControllerAddress::new(address).ok_or(Refusal::Encode {
-                what: None,
-                detail: format!("address {address}"),
-            })
-        }) {
-            Ok(a) => a,
-            Err(refusal) => return Err(EngineError::refused(target, refusal)),
-        };
+        let address = client_address(&target, BusProtocol::Lecom, |a| {
+            ControllerAddress::new(a).ok_or_else(|| format!("address {a}"))
+        })?;
         let mut line = LecomLine::new(link);
         line.latency = LinkLatency::new(opts.latency);
         Ok(LecomClient {
@@ -373,24 +363,7 @@ impl<L: ByteLink> LecomClient<L> {
         })
     }
 
-    /// The link.
-    pub fn link(&self) -> &L {
-        &self.line.link
-    }
-
-    /// The link, mutably.
-    pub fn link_mut(&mut self) -> &mut L {
-        &mut self.line.link
-    }
-
-    /// The link back.
-    pub fn into_link(self) -> L {
-        self.line.link
-    }
-
-    fn tries(&self) -> u32 {
-        self.opts.tries.max(1)
-    }
+    shared_link_methods!(L);
 
     fn baud(&self) -> u32 {
         self.line.link.baud()

@@ -361,6 +361,52 @@ macro_rules! shared_client_methods {
 }
 pub(crate) use shared_client_methods;
 
+/// The link accessors every protocol client has, expanded inside its
+/// inherent `impl`: `link`, `link_mut`, `into_link` (its `line`'s `link`)
+/// and `tries` (its options' `tries`, 0 counting as 1).
+macro_rules! shared_link_methods {
+    ($L:ty) => {
+        /// The link.
+        pub fn link(&self) -> &$L {
+            &self.line.link
+        }
+
+        /// The link, mutably (tests, reopening).
+        pub fn link_mut(&mut self) -> &mut $L {
+            &mut self.line.link
+        }
+
+        /// The link back (without sending what [`DriveClient::finish`]
+        /// sends: call it first).
+        ///
+        /// [`DriveClient::finish`]: $crate::client::DriveClient::finish
+        pub fn into_link(self) -> $L {
+            self.line.link
+        }
+
+        fn tries(&self) -> u32 {
+            self.opts.tries.max(1)
+        }
+    };
+}
+pub(crate) use shared_link_methods;
+
+/// The address a client for `bus` speaks to at `target`: the bus's rule
+/// for a client ([`AddressRefused::check_client`](crate::error::AddressRefused::check_client)),
+/// then the codec's own address type (`make`; its error is the detail of
+/// a [`Refusal::Encode`]). Every refusal is `target`'s.
+pub(crate) fn client_address<A>(
+    target: &Target,
+    bus: BusProtocol,
+    make: impl FnOnce(u8) -> Result<A, String>,
+) -> Result<A, EngineError> {
+    crate::error::AddressRefused::check_client(bus, target.address)
+        .and_then(|()| {
+            make(target.address).map_err(|detail| Refusal::Encode { what: None, detail })
+        })
+        .map_err(|refusal| EngineError::refused(target.clone(), refusal))
+}
+
 /// The refusal of a client for `protocol` given a schema of a family on
 /// another bus.
 pub(crate) fn wrong_client(target: Target, schema: &Schema, protocol: BusProtocol) -> EngineError {
@@ -553,5 +599,37 @@ mod tests {
         ] {
             assert_eq!(p.name(), name);
         }
+    }
+
+    #[test]
+    fn a_client_address_passes_the_bus_rule_then_the_codec_for_its_target() {
+        let at = |address| Target {
+            port: "sim://line".into(),
+            address,
+        };
+        // LUSTBUS 0 is a client's (the single drive on the line)
+        let ok = client_address(&at(0), BusProtocol::Lustbus, Ok::<u8, String>);
+        assert_eq!(ok.ok(), Some(0));
+        // the bus's rule first: LECOM 10 is a group address, the codec
+        // is not asked
+        let e = client_address(&at(10), BusProtocol::Lecom, |_| -> Result<u8, String> {
+            panic!("the codec is asked only after the rule")
+        })
+        .expect_err("refused");
+        assert_eq!(e.target, Some(at(10)));
+        assert!(matches!(e.refusal(), Some(Refusal::Address(_))), "{e}");
+        // then the codec's own type, its error the detail
+        let e = client_address(&at(5), BusProtocol::CanSdo, |a| {
+            Err::<u8, String>(format!("node {a}"))
+        })
+        .expect_err("refused");
+        assert_eq!(e.target, Some(at(5)));
+        assert!(
+            matches!(
+                e.refusal(),
+                Some(Refusal::Encode { what: None, detail }) if detail == "node 5"
+            ),
+            "{e}"
+        );
     }
 }

@@ -39,8 +39,8 @@ use driveset_proto::can::{
 use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::{
-    ClientStats, DriveClient, Target, code_name, device, link_error, refuse_read_only, schema_code,
-    shown_value, write_what, wrong_client,
+    ClientStats, DriveClient, Target, client_address, code_name, device, link_error,
+    refuse_read_only, schema_code, shared_link_methods, shown_value, write_what, wrong_client,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
@@ -283,19 +283,9 @@ impl<L: FrameLink> CanClient<L> {
         if !BusProtocol::CanSdo.carries(schema.family) {
             return Err(wrong_client(target, &schema, BusProtocol::CanSdo));
         }
-        let node = match crate::error::AddressRefused::check_client(
-            driveset_schema::BusProtocol::CanSdo,
-            node,
-        )
-        .and_then(|()| {
-            NodeId::new(node).map_err(|e| Refusal::Encode {
-                what: None,
-                detail: e.to_string(),
-            })
-        }) {
-            Ok(n) => n,
-            Err(refusal) => return Err(EngineError::refused(target, refusal)),
-        };
+        let node = client_address(&target, BusProtocol::CanSdo, |n| {
+            NodeId::new(n).map_err(|e| e.to_string())
+        })?;
         Ok(CanClient {
             line: SdoLine::new(link),
             schema,
@@ -305,24 +295,7 @@ impl<L: FrameLink> CanClient<L> {
         })
     }
 
-    /// The link.
-    pub fn link(&self) -> &L {
-        &self.line.link
-    }
-
-    /// The link, mutably.
-    pub fn link_mut(&mut self) -> &mut L {
-        &mut self.line.link
-    }
-
-    /// The link back.
-    pub fn into_link(self) -> L {
-        self.line.link
-    }
-
-    fn tries(&self) -> u32 {
-        self.opts.tries.max(1)
-    }
+    shared_link_methods!(L);
 
     fn refused(&self, refusal: Refusal) -> EngineError {
         EngineError::refused(self.target.clone(), refusal)

@@ -47,8 +47,8 @@ use driveset_schema::{BusProtocol, CodeKey, RawValue, Schema};
 
 use super::timing::LinkLatency;
 use super::{
-    DatasetDownload, DriveClient, SerialLine, Target, code_name, link_error, refuse_read_only,
-    schema_code, write_what, wrong_client,
+    DatasetDownload, DriveClient, SerialLine, Target, client_address, code_name, link_error,
+    refuse_read_only, schema_code, shared_link_methods, write_what, wrong_client,
 };
 use crate::error::{EngineError, Refusal};
 use crate::guard::Permit;
@@ -169,19 +169,9 @@ impl<L: ByteLink> LustbusClient<L> {
         let Some(family) = family_of(&schema) else {
             return Err(wrong_client(target, &schema, BusProtocol::Lustbus));
         };
-        let address = match crate::error::AddressRefused::check_client(
-            driveset_schema::BusProtocol::Lustbus,
-            address,
-        )
-        .and_then(|()| {
-            Address::new(address).ok_or(Refusal::Encode {
-                what: None,
-                detail: format!("address {address}"),
-            })
-        }) {
-            Ok(a) => a,
-            Err(refusal) => return Err(EngineError::refused(target, refusal)),
-        };
+        let address = client_address(&target, BusProtocol::Lustbus, |a| {
+            Address::new(a).ok_or_else(|| format!("address {a}"))
+        })?;
         let mut line = LustLine::new(link);
         line.eot_after_reply = opts.eot_after_reply;
         line.latency = LinkLatency::new(opts.latency);
@@ -198,21 +188,7 @@ impl<L: ByteLink> LustbusClient<L> {
         })
     }
 
-    /// The link.
-    pub fn link(&self) -> &L {
-        &self.line.link
-    }
-
-    /// The link, mutably (tests, reopening).
-    pub fn link_mut(&mut self) -> &mut L {
-        &mut self.line.link
-    }
-
-    /// The link back (without sending the final EOT: call
-    /// [`DriveClient::finish`] first).
-    pub fn into_link(self) -> L {
-        self.line.link
-    }
+    shared_link_methods!(L);
 
     /// The options in use.
     pub fn options(&self) -> &LustbusOptions {
@@ -225,10 +201,6 @@ impl<L: ByteLink> LustbusClient<L> {
 
     fn baud(&self) -> u32 {
         self.line.link.baud()
-    }
-
-    fn tries(&self) -> u32 {
-        self.opts.tries.max(1)
     }
 
     fn max_reaction(&self) -> Duration {
