@@ -65,7 +65,7 @@ use driveset_proto::lecom::{
 };
 use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
-use super::timing::LinkLatency;
+use super::timing::{AnswerWait, LinkLatency};
 use super::{
     ClientStats, DriveClient, IdentValue, Target, client_address, code_name, device, link_error,
     refuse_read_only, schema_code, shared_link_methods, shown_value, write_what, wrong_client,
@@ -167,32 +167,25 @@ impl<L: ByteLink> LecomLine<L> {
         timeout: Duration,
     ) -> Result<Outcome, LinkError> {
         self.send(bytes)?;
-        let start = self.link.clock().now();
-        let deadline = start + timeout;
-        let mut late_until: Option<driveset_link::Instant> = None;
+        let mut wait = AnswerWait::begin(self.link.clock().now(), timeout);
         let mut decoder = ResponseDecoder::new();
         let mut garbled: Option<String> = None;
-        let mut received = 0usize;
         let mut buf = [0u8; 128];
         let mut events = Vec::new();
         loop {
-            let n = self.link.recv(&mut buf, late_until.unwrap_or(deadline))?;
+            let n = self.link.recv(&mut buf, wait.until())?;
             if n == 0 {
-                if late_until.is_none() {
-                    self.latency.timed_out();
-                    if self.wait_late {
-                        // Timed out: an answer may still be on its way;
-                        // listen as long again so that the next telegram
-                        // cannot take it for its own.
-                        late_until = Some(deadline + self.latency.late_window(timeout));
-                        continue;
-                    }
+                // Timed out: an answer may still be on its way; listen as
+                // long again so that the next telegram cannot take it for
+                // its own.
+                if wait.nothing_came(&mut self.latency, self.wait_late) {
+                    continue;
                 }
                 decoder.finish(|e| events.push(e));
             } else {
                 let got = buf.get(..n).unwrap_or(&[]);
                 self.stats.received += got.len() as u64;
-                received += got.len();
+                wait.came(got.len());
                 decoder.feed(got, |e| events.push(e));
             }
             for ev in events.drain(..) {
@@ -206,16 +199,18 @@ impl<L: ByteLink> LecomLine<L> {
                             ));
                         }
                         _ => {
-                            let elapsed = self.link.clock().now().saturating_duration_since(start);
-                            let expected =
-                                wire_time(received, self.link.baud()).saturating_add(MIN_REACTION);
-                            self.latency.observe(elapsed, expected);
-                            if late_until.is_some() {
+                            let elapsed = wait.answered(
+                                &mut self.latency,
+                                self.link.clock().now(),
+                                self.link.baud(),
+                                MIN_REACTION,
+                            );
+                            if wait.is_late() {
                                 self.stats.late += 1;
                                 return Ok(Outcome::Garbled(format!(
                                     "an answer {} ms after the request, later than the monitoring time of {} ms (late, discarded)",
                                     elapsed.as_millis(),
-                                    timeout.as_millis()
+                                    wait.timeout().as_millis()
                                 )));
                             }
                             return Ok(Outcome::Answer(r));

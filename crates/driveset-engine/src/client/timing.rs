@@ -48,6 +48,9 @@
 
 use std::time::Duration;
 
+use driveset_link::Instant;
+use driveset_link::mem::wire_time;
+
 /// The least allowance for the transport, whatever was measured (the
 /// figure the clients used before they measured: host scheduling and a
 /// direct serial port).
@@ -157,6 +160,89 @@ impl LinkLatency {
     }
 }
 
+/// One exchange's wait for its answer on a character line (LUSTBUS,
+/// LECOM; the module docs): until the answer timeout after the send, then,
+/// where the line listens for late answers, the late window; and the
+/// latency sample the answer gives.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct AnswerWait {
+    /// The end of the send.
+    start: Instant,
+    timeout: Duration,
+    /// The end of the late window, once the timeout has passed and the
+    /// line listens for a late answer.
+    late_until: Option<Instant>,
+    /// Characters received since the send.
+    received: usize,
+}
+
+impl AnswerWait {
+    /// The wait for the answer to a telegram whose send ended at `start`,
+    /// `timeout` long.
+    pub(crate) fn begin(start: Instant, timeout: Duration) -> Self {
+        AnswerWait {
+            start,
+            timeout,
+            late_until: None,
+            received: 0,
+        }
+    }
+
+    /// Until when the next receive waits: the timeout, or the end of the
+    /// late window.
+    pub(crate) fn until(&self) -> Instant {
+        self.late_until.unwrap_or(self.start + self.timeout)
+    }
+
+    /// Nothing came by [`until`](Self::until). At the timeout it is told
+    /// to `latency` (the repetition waits longer) and, where the line
+    /// `listens_late`, the late window opens: `true`, receive again.
+    /// Otherwise `false`: the wait is over.
+    pub(crate) fn nothing_came(&mut self, latency: &mut LinkLatency, listens_late: bool) -> bool {
+        if self.late_until.is_some() {
+            return false;
+        }
+        latency.timed_out();
+        if !listens_late {
+            return false;
+        }
+        self.late_until = Some(self.start + self.timeout + latency.late_window(self.timeout));
+        true
+    }
+
+    /// `n` characters came.
+    pub(crate) fn came(&mut self, n: usize) {
+        self.received += n;
+    }
+
+    /// Whether the timeout has passed (an answer now is a late one).
+    pub(crate) fn is_late(&self) -> bool {
+        self.late_until.is_some()
+    }
+
+    /// The answer timeout this wait began with.
+    pub(crate) fn timeout(&self) -> Duration {
+        self.timeout
+    }
+
+    /// An answer is complete at `now` on a line at `baud`: its sample
+    /// told to `latency` (what a direct line needs at least is the wire
+    /// time of every character received and `least_reaction`). The time
+    /// since the send.
+    pub(crate) fn answered(
+        &self,
+        latency: &mut LinkLatency,
+        now: Instant,
+        baud: u32,
+        least_reaction: Duration,
+    ) -> Duration {
+        let elapsed = now.saturating_duration_since(self.start);
+        let expected = wire_time(self.received, baud).saturating_add(least_reaction);
+        latency.observe(elapsed, expected);
+        elapsed
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,5 +299,47 @@ mod tests {
         l.observe(80 * MS, MS);
         l.observe(160 * MS, MS);
         assert_eq!(l.round_trip(), Some(90 * MS));
+    }
+
+    #[test]
+    fn an_answer_wait_opens_the_late_window_once_where_the_line_listens_late() {
+        let at = |ms: u64| Instant::from_nanos(ms * 1_000_000);
+        let mut latency = LinkLatency::new(None);
+        latency.observe(20 * MS, Duration::ZERO);
+        let before = latency.allowance();
+        let mut wait = AnswerWait::begin(at(100), 50 * MS);
+        assert_eq!(wait.until(), at(150));
+        assert!(!wait.is_late());
+        assert!(
+            wait.nothing_came(&mut latency, true),
+            "the late window opens"
+        );
+        assert!(latency.allowance() > before, "the timeout was told");
+        assert!(wait.is_late());
+        assert_eq!(wait.until(), at(200), "as long again");
+        assert!(!wait.nothing_came(&mut latency, true), "once only");
+        assert_eq!(wait.timeout(), 50 * MS);
+
+        // a scan probe's line does not listen late
+        let mut wait = AnswerWait::begin(at(0), 50 * MS);
+        assert!(!wait.nothing_came(&mut latency, false));
+        assert!(!wait.is_late());
+    }
+
+    #[test]
+    fn an_answered_wait_samples_what_exceeds_the_wire_time_and_the_least_reaction() {
+        let at = |ms: u64| Instant::from_nanos(ms * 1_000_000);
+        let mut latency = LinkLatency::new(None);
+        let mut wait = AnswerWait::begin(at(0), 50 * MS);
+        wait.came(4);
+        wait.came(6);
+        // 10 characters at 9600 baud: about 10.4 ms on the wire
+        let elapsed = wait.answered(&mut latency, at(40), 9600, MS);
+        assert_eq!(elapsed, 40 * MS);
+        assert_eq!(latency.samples(), 1);
+        assert_eq!(latency.round_trip(), Some(40 * MS));
+        let mut direct = LinkLatency::new(None);
+        direct.observe(40 * MS, wire_time(10, 9600) + MS);
+        assert_eq!(latency, direct);
     }
 }

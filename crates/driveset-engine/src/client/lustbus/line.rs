@@ -6,13 +6,12 @@
 
 use std::time::Duration;
 
-use driveset_link::mem::wire_time;
-use driveset_link::{ByteLink, Instant, LinkError};
+use driveset_link::{ByteLink, LinkError};
 use driveset_proto::lustbus::{Address, ParameterCode, Reply, ReplyDecoder};
 
 use super::MIN_REACTION;
 use crate::client::ClientStats;
-use crate::client::timing::LinkLatency;
+use crate::client::timing::{AnswerWait, LinkLatency};
 
 /// What one exchange gave.
 #[derive(Debug)]
@@ -82,24 +81,17 @@ impl<L: ByteLink> LustLine<L> {
     ) -> Result<Outcome, LinkError> {
         self.decoder.reset();
         self.send_telegram(bytes)?;
-        let start = self.link.clock().now();
-        let deadline = start + timeout;
-        let mut late_until: Option<Instant> = None;
+        let mut wait = AnswerWait::begin(self.link.clock().now(), timeout);
         let mut garbled: Option<String> = None;
-        let mut received = 0usize;
         let mut buf = [0u8; 128];
         loop {
-            let n = self.link.recv(&mut buf, late_until.unwrap_or(deadline))?;
+            let n = self.link.recv(&mut buf, wait.until())?;
             if n == 0 {
-                if late_until.is_none() {
-                    self.latency.timed_out();
-                    if self.wait_late {
-                        // Timed out: a reply may still be on its way.
-                        // Listen as long again so that it cannot be taken
-                        // for the answer to the next telegram.
-                        late_until = Some(deadline + self.latency.late_window(timeout));
-                        continue;
-                    }
+                // Timed out: a reply may still be on its way. Listen as
+                // long again so that it cannot be taken for the answer to
+                // the next telegram.
+                if wait.nothing_came(&mut self.latency, self.wait_late) {
+                    continue;
                 }
                 for ev in self.decoder.finish() {
                     if let Err(e) = ev.result {
@@ -113,7 +105,7 @@ impl<L: ByteLink> LustLine<L> {
             }
             let got = buf.get(..n).unwrap_or(&[]);
             self.stats.received += got.len() as u64;
-            received += got.len();
+            wait.came(got.len());
             for ev in self.decoder.feed(got) {
                 match ev.result {
                     Ok(reply) => {
@@ -138,19 +130,20 @@ impl<L: ByteLink> LustLine<L> {
                             ));
                             continue;
                         }
-                        let elapsed = self.link.clock().now().saturating_duration_since(start);
-                        let expected = wire_time(received, self.link.baud())
-                            .saturating_add(MIN_REACTION)
-                            .saturating_add(known_delay);
-                        self.latency.observe(elapsed, expected);
-                        if late_until.is_some() {
+                        let elapsed = wait.answered(
+                            &mut self.latency,
+                            self.link.clock().now(),
+                            self.link.baud(),
+                            MIN_REACTION.saturating_add(known_delay),
+                        );
+                        if wait.is_late() {
                             // The answer to this telegram, after its
                             // timeout: dropped, the telegram is repeated.
                             self.stats.late += 1;
                             return Ok(Outcome::Garbled(format!(
                                 "a reply {} ms after the request, later than the answer timeout of {} ms (late, discarded)",
                                 elapsed.as_millis(),
-                                timeout.as_millis()
+                                wait.timeout().as_millis()
                             )));
                         }
                         if self.eot_after_reply {
