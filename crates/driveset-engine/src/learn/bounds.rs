@@ -71,7 +71,6 @@ pub(super) fn set_bounds(
     findings: &mut Vec<LearnFinding>,
     type_char: u8,
 ) {
-    let n = c.number;
     let mut ty = ty;
     if ty.is_none() {
         ty = raw_type(bounds, mc);
@@ -86,13 +85,7 @@ pub(super) fn set_bounds(
             "type character {} is not one driveset knows; {what}",
             show_char(type_char)
         );
-        c.guessed.push(msg.clone());
-        findings.push(LearnFinding {
-            code: String::new(),
-            number: n,
-            action: "downgraded",
-            reason: msg,
-        });
+        c.downgrade(findings, msg);
     } else if let Some(t) = ty
         && !bounds.iter().all(|&b| fits(t, b))
     {
@@ -108,13 +101,7 @@ pub(super) fn set_bounds(
                 None => "kept without a type, so it is not read".into(),
             }
         );
-        c.guessed.push(msg.clone());
-        findings.push(LearnFinding {
-            code: String::new(),
-            number: n,
-            action: "downgraded",
-            reason: msg,
-        });
+        c.downgrade(findings, msg);
         ty = down;
     }
     c.ty = ty;
@@ -131,13 +118,7 @@ pub(super) fn set_bounds(
             raw_to_engineering(value_type(t), signed(t, bounds[0])),
             raw_to_engineering(value_type(t), signed(t, bounds[1]))
         );
-        c.guessed.push(msg.clone());
-        findings.push(LearnFinding {
-            code: String::new(),
-            number: n,
-            action: "downgraded",
-            reason: msg,
-        });
+        c.downgrade(findings, msg);
         return;
     }
     if t == ParameterType::FloatIeee
@@ -174,13 +155,7 @@ pub(super) fn set_bounds(
             raw_to_engineering(value_type(t), min),
             raw_to_engineering(value_type(t), max)
         );
-        c.guessed.push(msg.clone());
-        findings.push(LearnFinding {
-            code: String::new(),
-            number: n,
-            action: "downgraded",
-            reason: msg,
-        });
+        c.downgrade(findings, msg);
     }
 }
 

@@ -148,13 +148,7 @@ pub(super) fn interpret(raws: &[RawDescription], opts: &LearnOptions) -> Reading
         if c.show_text == Some(true) && c.ty != Some(ParameterType::Usign8) {
             let msg = "it has the ShowText attribute but is not PT_USIGN8 (section 11.2.1 allows texts only on usign8); texts not read".to_string();
             c.show_text = Some(false);
-            c.guessed.push(msg.clone());
-            findings.push(LearnFinding {
-                code: String::new(),
-                number,
-                action: "downgraded",
-                reason: msg,
-            });
+            c.downgrade(&mut findings, msg);
         }
         codes.push(c);
     }

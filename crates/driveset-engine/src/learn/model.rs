@@ -125,6 +125,44 @@ pub(super) fn new_code(number: u32, name: &str, kind: StorageKind) -> LearnedCod
     }
 }
 
+impl LearnedCode {
+    /// Something of the description contradicts itself and was left out
+    /// or kept in a weaker form (module docs of [`super`]): `reason` is
+    /// kept among the code's guesses and reported as a `downgraded`
+    /// finding.
+    pub(super) fn downgrade(&mut self, findings: &mut Vec<LearnFinding>, reason: String) {
+        self.guessed.push(reason.clone());
+        findings.push(LearnFinding {
+            code: String::new(),
+            number: self.number,
+            action: "downgraded",
+            reason,
+        });
+    }
+}
+
 /// The [`LearnFinding::action`] of a contradiction: the base schema's
 /// fact stands, the drive's is recorded in the learned file.
 pub const KEPT_SPEC: &str = "kept the spec's";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_downgrade_is_a_guess_of_the_code_and_a_finding() {
+        let mut c = new_code(82, "ADDR", StorageKind::Eeprom);
+        let mut findings = Vec::new();
+        c.downgrade(&mut findings, "its default is outside its range".into());
+        assert_eq!(c.guessed, ["its default is outside its range"]);
+        assert_eq!(
+            findings,
+            [LearnFinding {
+                code: String::new(),
+                number: 82,
+                action: "downgraded",
+                reason: "its default is outside its range".into(),
+            }]
+        );
+    }
+}
