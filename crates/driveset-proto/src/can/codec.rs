@@ -133,6 +133,37 @@ fn segment_fields(b: &[u8; 8]) -> (bool, SegmentData, bool) {
     (toggle, data, last)
 }
 
+/// An expedited transfer, either way (download request 0x23, upload
+/// response 0x43): `cs` with the count of unused bytes, the multiplexer,
+/// the value zero-padded to four bytes.
+fn expedited_bytes(cs: u8, index: Index, subindex: Subindex, data: &ExpeditedData) -> [u8; 8] {
+    let mut out = [0u8; 8];
+    out[0] = cs | expedited_n(data.as_bytes().len());
+    mux_bytes(&mut out, index, subindex);
+    out[4..].copy_from_slice(&data.padded());
+    out
+}
+
+/// The initiation of a segmented transfer, either way (download request
+/// 0x20, upload response 0x40): `cs` with the size-indicated bit, the
+/// multiplexer, the size (0 where none is indicated).
+fn initiate_bytes(cs: u8, index: Index, subindex: Subindex, size: Option<u32>) -> [u8; 8] {
+    let mut out = [0u8; 8];
+    out[0] = cs | u8::from(size.is_some());
+    mux_bytes(&mut out, index, subindex);
+    out[4..].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+    out
+}
+
+/// A segment, either way (download request, upload response): toggle,
+/// count of unused bytes and last flag, then the data.
+fn segment_bytes(toggle: bool, data: &SegmentData, last: bool) -> [u8; 8] {
+    let mut out = [0u8; 8];
+    out[0] = segment_byte(toggle, data, last);
+    out[1..1 + data.as_bytes().len()].copy_from_slice(data.as_bytes());
+    out
+}
+
 fn abort_bytes(a: &SdoAbort) -> [u8; 8] {
     let mut out = [0u8; 8];
     out[0] = ERROR_RESPONSE;
@@ -172,23 +203,14 @@ impl SdoRequest {
                 index,
                 subindex,
                 data,
-            } => {
-                out[0] = 0x23 | expedited_n(data.as_bytes().len());
-                mux_bytes(&mut out, *index, *subindex);
-                out[4..].copy_from_slice(&data.padded());
-            }
+            } => out = expedited_bytes(0x23, *index, *subindex, data),
             SdoRequest::InitiateWrite {
                 index,
                 subindex,
                 size,
-            } => {
-                out[0] = 0x20 | u8::from(size.is_some());
-                mux_bytes(&mut out, *index, *subindex);
-                out[4..].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
-            }
+            } => out = initiate_bytes(0x20, *index, *subindex, *size),
             SdoRequest::WriteSegment { toggle, data, last } => {
-                out[0] = segment_byte(*toggle, data, *last);
-                out[1..1 + data.as_bytes().len()].copy_from_slice(data.as_bytes());
+                out = segment_bytes(*toggle, data, *last);
             }
             SdoRequest::Read { index, subindex } => {
                 out[0] = READ_REQUEST;
@@ -278,23 +300,14 @@ impl SdoResponse {
                 index,
                 subindex,
                 data,
-            } => {
-                out[0] = 0x43 | expedited_n(data.as_bytes().len());
-                mux_bytes(&mut out, *index, *subindex);
-                out[4..].copy_from_slice(&data.padded());
-            }
+            } => out = expedited_bytes(0x43, *index, *subindex, data),
             SdoResponse::InitiateRead {
                 index,
                 subindex,
                 size,
-            } => {
-                out[0] = 0x40 | u8::from(size.is_some());
-                mux_bytes(&mut out, *index, *subindex);
-                out[4..].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
-            }
+            } => out = initiate_bytes(0x40, *index, *subindex, *size),
             SdoResponse::ReadSegment { toggle, data, last } => {
-                out[0] = segment_byte(*toggle, data, *last);
-                out[1..1 + data.as_bytes().len()].copy_from_slice(data.as_bytes());
+                out = segment_bytes(*toggle, data, *last);
             }
             SdoResponse::Abort(a) => out = abort_bytes(a),
         }
