@@ -128,6 +128,21 @@ pub struct Found {
     pub identity: Identity,
 }
 
+impl Found {
+    /// The drive at `address` on `bus` that answered a scan's probe with
+    /// `code`.
+    fn probed(address: u8, bus: BusProtocol, code: IdentCode) -> Self {
+        Found {
+            address,
+            identity: Identity {
+                protocol: ident_protocol(bus),
+                codes: vec![code],
+                software: None,
+            },
+        }
+    }
+}
+
 /// The result of [`detect_baud`].
 #[derive(Debug)]
 pub struct BaudScan {
@@ -149,13 +164,34 @@ fn refuse(port: &str, address: u8, refusal: Refusal) -> EngineError {
     )
 }
 
-/// The codec could not carry an address the rule took (it takes only
-/// addresses the codec carries).
-fn address_encode(address: u8) -> Refusal {
-    Refusal::Encode {
-        what: None,
-        detail: format!("address {address}"),
-    }
+/// The codec's addresses (`make`) of the scan targets `addresses` on
+/// `bus`, each checked by the bus's rule for a scan first
+/// ([`AddressRefused::check_scan`]); the first refused ends the scan
+/// before anything is sent.
+fn scan_targets<A>(
+    port: &str,
+    bus: BusProtocol,
+    addresses: &[u8],
+    make: impl Fn(u8) -> Option<A>,
+) -> Result<Vec<A>, EngineError> {
+    addresses
+        .iter()
+        .map(|&a| {
+            AddressRefused::check_scan(bus, a).map_err(|r| refuse(port, a, r))?;
+            // the codec could not carry an address the rule took (it
+            // takes only addresses the codec carries)
+            make(a).ok_or_else(|| {
+                refuse(
+                    port,
+                    a,
+                    Refusal::Encode {
+                        what: None,
+                        detail: format!("address {a}"),
+                    },
+                )
+            })
+        })
+        .collect()
 }
 
 fn link_err(port: &str, address: u8, source: LinkError) -> EngineError {
@@ -195,11 +231,7 @@ pub fn scan_lustbus(
     opts: &ScanOptions,
 ) -> Result<Vec<Found>, EngineError> {
     let port = link.port().to_string();
-    let mut targets = Vec::with_capacity(addresses.len());
-    for &a in addresses {
-        AddressRefused::check_scan(BusProtocol::Lustbus, a).map_err(|r| refuse(&port, a, r))?;
-        targets.push(Address::new(a).ok_or_else(|| refuse(&port, a, address_encode(a)))?);
-    }
+    let targets = scan_targets(&port, BusProtocol::Lustbus, addresses, Address::new)?;
     let timeout = lustbus_timeout(opts, link.baud());
     let mut line = LustLine::new(BorrowedByteLink(link));
     // Replies carry the address: a late one from the previous address is
@@ -210,18 +242,15 @@ pub fn scan_lustbus(
         let got = crate::client::lustbus::probe_type(&mut line, ad, timeout, opts.tries)
             .map_err(|e| link_err(&port, ad.number(), e))?;
         if let Some(value) = got {
-            found.push(Found {
-                address: ad.number(),
-                identity: Identity {
-                    protocol: IdentProtocol::Bus(BusProtocol::Lustbus),
-                    codes: vec![IdentCode::new(
-                        CodeKey::new(TYPE),
-                        format!("{TYPE}-TYPE"),
-                        value.map_or_else(|| IdentValue::Text("NAK".into()), IdentValue::Int),
-                    )],
-                    software: None,
-                },
-            });
+            found.push(Found::probed(
+                ad.number(),
+                BusProtocol::Lustbus,
+                IdentCode::new(
+                    CodeKey::new(TYPE),
+                    format!("{TYPE}-TYPE"),
+                    value.map_or_else(|| IdentValue::Text("NAK".into()), IdentValue::Int),
+                ),
+            ));
         }
     }
     line.finish().map_err(|e| link_err(&port, 0, e))?;
@@ -237,11 +266,7 @@ pub fn scan_lecom(
     opts: &ScanOptions,
 ) -> Result<Vec<Found>, EngineError> {
     let port = link.port().to_string();
-    let mut targets = Vec::with_capacity(addresses.len());
-    for &a in addresses {
-        AddressRefused::check_scan(BusProtocol::Lecom, a).map_err(|r| refuse(&port, a, r))?;
-        targets.push(ControllerAddress::new(a).ok_or_else(|| refuse(&port, a, address_encode(a)))?);
-    }
+    let targets = scan_targets(&port, BusProtocol::Lecom, addresses, ControllerAddress::new)?;
     let number = schema
         .and_then(|s| s.identify.as_ref())
         .and_then(|i| i.codes.first().copied())
@@ -258,14 +283,11 @@ pub fn scan_lecom(
         let got = crate::client::lecom::probe(&mut line, ad, key, timeout, opts.tries)
             .map_err(|e| link_err(&port, ad.get(), e))?;
         if let Some(text) = got {
-            found.push(Found {
-                address: ad.get(),
-                identity: Identity {
-                    protocol: ident_protocol(BusProtocol::Lecom),
-                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
-                    software: None,
-                },
-            });
+            found.push(Found::probed(
+                ad.get(),
+                BusProtocol::Lecom,
+                IdentCode::new(key, name.clone(), IdentValue::Text(text)),
+            ));
         }
     }
     line.finish().map_err(|e| link_err(&port, 0, e))?;
@@ -280,11 +302,7 @@ pub fn scan_can(
     opts: &ScanOptions,
 ) -> Result<Vec<Found>, EngineError> {
     let port = link.port().to_string();
-    let mut targets = Vec::with_capacity(nodes.len());
-    for &n in nodes {
-        AddressRefused::check_scan(BusProtocol::CanSdo, n).map_err(|r| refuse(&port, n, r))?;
-        targets.push(NodeId::new(n).map_err(|_| refuse(&port, n, address_encode(n)))?);
-    }
+    let targets = scan_targets(&port, BusProtocol::CanSdo, nodes, |n| NodeId::new(n).ok())?;
     let number = schema
         .identify
         .as_ref()
@@ -308,14 +326,11 @@ pub fn scan_can(
         let got = crate::client::sdo::probe(&mut line, schema, node, key, timeout, opts.tries)
             .map_err(|e| link_err(&port, node.get(), e))?;
         if let Some(text) = got {
-            found.push(Found {
-                address: node.get(),
-                identity: Identity {
-                    protocol: ident_protocol(BusProtocol::CanSdo),
-                    codes: vec![IdentCode::new(key, name.clone(), IdentValue::Text(text))],
-                    software: None,
-                },
-            });
+            found.push(Found::probed(
+                node.get(),
+                BusProtocol::CanSdo,
+                IdentCode::new(key, name.clone(), IdentValue::Text(text)),
+            ));
         }
     }
     Ok(found)
@@ -432,4 +447,43 @@ pub fn detect_protocol(
         line.finish().map_err(|e| link_err(&port, address, e))?;
     }
     Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scan_targets_pass_the_scan_rule_then_the_codec_and_stop_at_the_first_refused() {
+        let got =
+            scan_targets("sim://line", BusProtocol::Lecom, &[1, 11, 99], Some).expect("stations");
+        assert_eq!(got, [1, 11, 99]);
+        // LUSTBUS 0 is refused for a scan (every drive would answer)
+        let e = scan_targets("sim://line", BusProtocol::Lustbus, &[3, 0, 4], Some)
+            .expect_err("0 refused");
+        assert_eq!(e.target.as_ref().map(|t| t.address), Some(0));
+        assert!(matches!(e.refusal(), Some(Refusal::Address(_))), "{e}");
+        // then the codec
+        let e = scan_targets("sim://line", BusProtocol::CanSdo, &[5], |_| None::<u8>)
+            .expect_err("the codec refused");
+        assert!(
+            matches!(e.refusal(), Some(Refusal::Encode { what: None, detail }) if detail == "address 5"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_probed_drive_names_its_family_where_the_bus_has_one() {
+        let code = IdentCode::new(CodeKey::new(93), "C0093", IdentValue::Text("x".into()));
+        let lecom = Found::probed(7, BusProtocol::Lecom, code.clone());
+        assert_eq!(lecom.address, 7);
+        assert_eq!(lecom.identity.protocol, ident_protocol(BusProtocol::Lecom));
+        assert!(matches!(lecom.identity.protocol, IdentProtocol::Family(_)));
+        assert_eq!(lecom.identity.codes, std::slice::from_ref(&code));
+        let lust = Found::probed(3, BusProtocol::Lustbus, code);
+        assert_eq!(
+            lust.identity.protocol,
+            IdentProtocol::Bus(BusProtocol::Lustbus)
+        );
+    }
 }
