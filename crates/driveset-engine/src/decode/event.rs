@@ -90,22 +90,44 @@ pub struct Event {
     pub secret: bool,
 }
 
+/// The bytes `start..end` of `capture`, both clamped to the capture (an
+/// end before the start is an empty stretch).
+pub(super) fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
+    let s = usize::try_from(start)
+        .unwrap_or(usize::MAX)
+        .min(capture.len());
+    let e = usize::try_from(end)
+        .unwrap_or(usize::MAX)
+        .min(capture.len())
+        .max(s);
+    &capture[s..e]
+}
+
 impl Event {
     /// An event over `start..end` of `capture`.
     pub fn new(capture: &[u8], start: u64, end: u64, kind: &'static str) -> Self {
-        let s = usize::try_from(start)
-            .unwrap_or(usize::MAX)
-            .min(capture.len());
-        let e = usize::try_from(end)
-            .unwrap_or(usize::MAX)
-            .min(capture.len())
-            .max(s);
         Event {
             start,
             end,
             kind,
-            bytes: super::hex_spaced(&capture[s..e]),
+            bytes: super::hex_spaced(slice(capture, start, end)),
             ..Event::default()
+        }
+    }
+
+    /// An `ERROR` event over `start..end` of `capture`, sent in
+    /// `direction` where known: what could not be decoded, and why.
+    pub(super) fn error(
+        capture: &[u8],
+        start: u64,
+        end: u64,
+        direction: Option<&'static str>,
+        why: String,
+    ) -> Self {
+        Event {
+            direction,
+            error: Some(why),
+            ..Event::new(capture, start, end, "ERROR")
         }
     }
 
@@ -192,5 +214,30 @@ impl Event {
             line.push_str(&driveset_schema::error::escape_controls(d));
         }
         line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_slice_is_clamped_to_the_capture() {
+        let capture = [1u8, 2, 3, 4];
+        assert_eq!(slice(&capture, 1, 3), [2, 3]);
+        assert_eq!(slice(&capture, 2, 99), [3, 4]);
+        assert_eq!(slice(&capture, 3, 1), [0u8; 0]);
+        assert_eq!(slice(&capture, u64::MAX, u64::MAX), [0u8; 0]);
+    }
+
+    #[test]
+    fn an_error_event_keeps_its_bytes_direction_and_why() {
+        let e = Event::error(&[0x04, 0x30], 0, 2, Some(HOST_TO_DRIVE), "bad".into());
+        let n = Event::new(&[0x04, 0x30], 0, 2, "ERROR");
+        assert_eq!(e.kind, "ERROR");
+        assert_eq!(e.bytes, n.bytes);
+        assert_eq!((e.start, e.end), (0, 2));
+        assert_eq!(e.direction, Some(HOST_TO_DRIVE));
+        assert_eq!(e.error.as_deref(), Some("bad"));
     }
 }

@@ -17,7 +17,7 @@ use driveset_proto::lecom::{
 };
 use driveset_schema::{RawValue, ValueType, validate::display_value};
 
-use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
+use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE, slice};
 use super::{Context, garbage_event};
 
 fn address_text(a: ControllerAddress) -> String {
@@ -212,21 +212,25 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                         f
                     }
                     None => {
-                        let mut e = Event::new(capture, start, end, "ERROR");
-                        e.direction = direction(ev.direction);
-                        e.error = Some(
+                        out(Event::error(
+                            capture,
+                            start,
+                            end,
+                            direction(ev.direction),
                             StreamError::Frame(FrameError::BadBcc { expected, found }).to_string(),
-                        );
-                        out(e);
+                        ));
                         return;
                     }
                 }
             }
             Err(err) => {
-                let mut e = Event::new(capture, start, end, "ERROR");
-                e.direction = direction(ev.direction);
-                e.error = Some(err.to_string());
-                out(e);
+                out(Event::error(
+                    capture,
+                    start,
+                    end,
+                    direction(ev.direction),
+                    err.to_string(),
+                ));
                 return;
             }
         };
@@ -362,15 +366,4 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
     let mut sniffer = BusSniffer::new();
     sniffer.feed(capture, &mut on);
     sniffer.finish(&mut on);
-}
-
-fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
-    let s = usize::try_from(start)
-        .unwrap_or(usize::MAX)
-        .min(capture.len());
-    let e = usize::try_from(end)
-        .unwrap_or(usize::MAX)
-        .min(capture.len())
-        .max(s);
-    &capture[s..e]
 }

@@ -10,7 +10,7 @@ use driveset_proto::lustbus::{
 };
 use driveset_schema::{RawValue, Schema, validate::display_value};
 
-use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
+use super::event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE, slice};
 use super::{Context, garbage_event};
 
 /// Schema id of the built-in schema of the family speaking `family`
@@ -247,21 +247,27 @@ pub fn decode(capture: &[u8], ctx: &Context, out: &mut dyn FnMut(Event)) {
                         t
                     }
                     Err(_) => {
-                        let mut e = Event::new(capture, start, end, "ERROR");
-                        e.direction = direction(ev.direction);
-                        e.error = Some(format!(
-                            "BCC is 0x{received:02X} but the text XORs to 0x{computed:02X}"
+                        out(Event::error(
+                            capture,
+                            start,
+                            end,
+                            direction(ev.direction),
+                            format!(
+                                "BCC is 0x{received:02X} but the text XORs to 0x{computed:02X}"
+                            ),
                         ));
-                        out(e);
                         return;
                     }
                 }
             }
             Err(e) => {
-                let mut x = Event::new(capture, start, end, "ERROR");
-                x.direction = direction(ev.direction);
-                x.error = Some(e.to_string());
-                out(x);
+                out(Event::error(
+                    capture,
+                    start,
+                    end,
+                    direction(ev.direction),
+                    e.to_string(),
+                ));
                 return;
             }
         };
@@ -415,17 +421,6 @@ fn answers(r: &Request, a: Address) -> bool {
         Request::Select(s) => s.address,
     };
     to == a || to == Address::ALL
-}
-
-fn slice(capture: &[u8], start: u64, end: u64) -> &[u8] {
-    let s = usize::try_from(start)
-        .unwrap_or(usize::MAX)
-        .min(capture.len());
-    let e = usize::try_from(end)
-        .unwrap_or(usize::MAX)
-        .min(capture.len())
-        .max(s);
-    &capture[s..e]
 }
 
 #[cfg(test)]
