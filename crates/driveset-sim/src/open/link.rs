@@ -254,6 +254,30 @@ impl SimLink {
         f(&mut self.shared.lock())
     }
 
+    /// Work on a character line's bus under its lock; a CAN bus is the
+    /// wrong kind for a [`ByteLink`].
+    fn with_bytes<R>(
+        &self,
+        f: impl FnOnce(&mut SimByteBus) -> Result<R, LinkError>,
+    ) -> Result<R, LinkError> {
+        self.with_bus(|bus| match bus {
+            SimBus::Bytes(b) => f(b),
+            SimBus::Frames(_) => Err(wrong_kind(&self.port)),
+        })
+    }
+
+    /// Work on a CAN bus under its lock; a character line is the wrong
+    /// kind for a [`FrameLink`].
+    fn with_frames<R>(
+        &self,
+        f: impl FnOnce(&mut SimCanBus) -> Result<R, LinkError>,
+    ) -> Result<R, LinkError> {
+        self.with_bus(|bus| match bus {
+            SimBus::Frames(b) => f(b),
+            SimBus::Bytes(_) => Err(wrong_kind(&self.port)),
+        })
+    }
+
     /// The drives' addresses (node ids), in bus order.
     pub fn addresses(&self) -> Vec<u8> {
         self.with_bus(|bus| match bus {
@@ -342,34 +366,19 @@ impl ByteLink for SimByteHandle {
         &self.0.clock
     }
     fn send(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Bytes(b) => b.send(bytes),
-            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_bytes(|b| b.send(bytes))
     }
     fn recv(&mut self, buf: &mut [u8], deadline: Instant) -> Result<usize, LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Bytes(b) => b.recv(buf, deadline),
-            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_bytes(|b| b.recv(buf, deadline))
     }
     fn discard_input(&mut self) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Bytes(b) => b.discard_input(),
-            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_bytes(|b| b.discard_input())
     }
     fn flush(&mut self) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Bytes(b) => ByteLink::flush(b),
-            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_bytes(ByteLink::flush)
     }
     fn set_baud(&mut self, baud: u32) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Bytes(b) => ByteLink::set_baud(b, baud),
-            SimBus::Frames(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_bytes(|b| ByteLink::set_baud(b, baud))
     }
 }
 
@@ -397,21 +406,12 @@ impl FrameLink for SimFrameHandle {
         &self.0.clock
     }
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Frames(b) => b.send(frame),
-            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_frames(|b| b.send(frame))
     }
     fn recv(&mut self, deadline: Instant) -> Result<Option<CanFrame>, LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Frames(b) => b.recv(deadline),
-            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_frames(|b| b.recv(deadline))
     }
     fn discard_input(&mut self) -> Result<(), LinkError> {
-        self.0.with_bus(|bus| match bus {
-            SimBus::Frames(b) => b.discard_input(),
-            SimBus::Bytes(_) => Err(wrong_kind(&self.0.port)),
-        })
+        self.0.with_frames(|b| b.discard_input())
     }
 }
