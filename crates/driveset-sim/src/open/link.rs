@@ -415,3 +415,38 @@ impl FrameLink for SimFrameHandle {
         self.0.with_frames(|b| b.discard_input())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open(port: &str) -> SimLink {
+        let spec = SimSpec::parse(port).expect("spec");
+        open_sim(&spec, &VirtualClock::new()).expect("open")
+    }
+
+    #[test]
+    fn a_link_face_of_the_other_kind_of_bus_is_refused_for_every_transfer() {
+        let wrong = |e: LinkError| {
+            assert_eq!(
+                e.to_string(),
+                wrong_kind("sim://ecs?addresses=5").to_string()
+            )
+        };
+        let mut bytes = SimByteHandle(open("sim://ecs?addresses=5"));
+        wrong(bytes.send(b"x").expect_err("send"));
+        wrong(bytes.recv(&mut [0u8; 4], Instant::ZERO).expect_err("recv"));
+        wrong(bytes.discard_input().expect_err("discard"));
+        wrong(ByteLink::flush(&mut bytes).expect_err("flush"));
+        wrong(ByteLink::set_baud(&mut bytes, 9600).expect_err("baud"));
+        let mut frames = SimFrameHandle(open("sim://tmd?addresses=1"));
+        let wrong = |e: LinkError| {
+            assert_eq!(
+                e.to_string(),
+                wrong_kind("sim://tmd?addresses=1").to_string()
+            )
+        };
+        wrong(frames.recv(Instant::ZERO).expect_err("recv"));
+        wrong(frames.discard_input().expect_err("discard"));
+    }
+}
