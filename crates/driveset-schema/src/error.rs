@@ -437,16 +437,25 @@ pub fn render_diagnostic(
 
 impl fmt::Display for Finding {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}: error[{}]: {}",
-            self.location, self.kind, self.message
-        )?;
-        if !self.help.is_empty() {
-            write!(f, " (help: {})", self.help)?;
-        }
-        Ok(())
+        write_finding_line(f, &self.location, &self.kind, &self.message, &self.help)
     }
+}
+
+/// The one-line form of a finding: `LOCATION: error[KIND]: MESSAGE`, then
+/// ` (help: HELP)` where there is help. [`Finding`]'s, and the line
+/// manifest's findings' in the engine.
+pub fn write_finding_line(
+    f: &mut fmt::Formatter<'_>,
+    location: &Location,
+    kind: &dyn fmt::Display,
+    message: &str,
+    help: &str,
+) -> fmt::Result {
+    write!(f, "{location}: error[{kind}]: {message}")?;
+    if !help.is_empty() {
+        write!(f, " (help: {help})")?;
+    }
+    Ok(())
 }
 
 /// Longest snippet line shown in full; a longer one shows a window around
@@ -699,5 +708,32 @@ mod escape_tests {
         assert_eq!(&text[span], "x");
         let (text, span) = escape_with_span("\u{1b}key = 1", 0..4);
         assert_eq!(&text[span], "\\u{1b}key");
+    }
+}
+
+#[cfg(test)]
+mod finding_line_tests {
+    use super::*;
+
+    struct Line(&'static str);
+
+    impl fmt::Display for Line {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let at = Location::file_only("line.toml");
+            write_finding_line(f, &at, &"unknown-key", "no such key", self.0)
+        }
+    }
+
+    #[test]
+    fn a_finding_line_names_the_place_the_kind_and_help_only_where_there_is_some() {
+        let at = Location::file_only("line.toml").to_string();
+        assert_eq!(
+            Line("").to_string(),
+            format!("{at}: error[unknown-key]: no such key")
+        );
+        assert_eq!(
+            Line("remove it").to_string(),
+            format!("{at}: error[unknown-key]: no such key (help: remove it)")
+        );
     }
 }

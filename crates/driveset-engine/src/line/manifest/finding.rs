@@ -118,14 +118,12 @@ fn set_kind(s: &str) -> Option<FindingKind> {
 
 impl fmt::Display for ManifestFinding {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
+        driveset_schema::error::write_finding_line(
             f,
-            "{}: error[{}]: {}",
-            self.location, self.kind, self.message
-        )?;
-        if !self.help.is_empty() {
-            write!(f, " (help: {})", self.help)?;
-        }
-        Ok(())
+            &self.location,
+            &self.kind,
+            &self.message,
+            &self.help,
+        )
     }
 }
