@@ -37,7 +37,7 @@ use std::collections::BTreeMap;
 use crate::echo::EchoMode;
 
 pub use error::{PortSpecError, PortSpecErrorKind};
-pub use parse::parse_latency;
+pub use parse::{parse_latency, take_number};
 
 /// The rates (baud) a LUSTBUS / LECOM line (7E1) can run at.
 pub const ALLOWED_BAUDS: &[u32] = &[1200, 2400, 4800, 9600, 19200, 38400, 57600];

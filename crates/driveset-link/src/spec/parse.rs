@@ -11,6 +11,27 @@ use super::{
     PortSpecErrorKind, SERIAL_KEYS, SLCAN_KEYS, TCP_KEYS,
 };
 
+/// A whole-number option (`baud=`, `bitrate=`) taken out of a port's
+/// `key=value` items: `None` where `key` is not given, else a positive
+/// whole number or [`PortSpecErrorKind::BadValue`]. The simulator's
+/// `sim://` keys read theirs with it too.
+pub fn take_number(
+    map: &mut BTreeMap<String, String>,
+    key: &str,
+) -> Result<Option<u32>, PortSpecErrorKind> {
+    let Some(value) = map.remove(key) else {
+        return Ok(None);
+    };
+    match value.parse::<u32>() {
+        Ok(n) if n > 0 => Ok(Some(n)),
+        _ => Err(PortSpecErrorKind::BadValue {
+            key: key.into(),
+            value,
+            reason: "not a positive whole number".into(),
+        }),
+    }
+}
+
 /// A `latency=` value: a whole or decimal number with the unit `ms`, `s`
 /// or `us` (`40ms`, `0.1s`, `16.5ms`), at most [`MAX_LATENCY`], to the
 /// microsecond. `Err` says what is wrong.
@@ -109,17 +130,7 @@ impl Options {
     }
 
     fn number(&mut self, key: &str) -> Result<Option<u32>, PortSpecErrorKind> {
-        let Some(value) = self.map.remove(key) else {
-            return Ok(None);
-        };
-        match value.parse::<u32>() {
-            Ok(n) if n > 0 => Ok(Some(n)),
-            _ => Err(PortSpecErrorKind::BadValue {
-                key: key.into(),
-                value,
-                reason: "not a positive whole number".into(),
-            }),
-        }
+        take_number(&mut self.map, key)
     }
 
     /// `baud=`, checked against [`ALLOWED_BAUDS`].
@@ -419,4 +430,29 @@ fn parse_can(rest: &str, query: Option<&str>) -> Result<PortSpec, PortSpecErrorK
         interface: interface.into(),
         bitrate,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_number_option_is_taken_out_and_must_be_a_positive_whole_number() {
+        let mut map: BTreeMap<String, String> = [("baud", "9600"), ("bitrate", "0"), ("x", "y")]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        assert_eq!(take_number(&mut map, "baud"), Ok(Some(9600)));
+        assert!(!map.contains_key("baud"), "taken out");
+        assert_eq!(take_number(&mut map, "baud"), Ok(None));
+        assert_eq!(
+            take_number(&mut map, "bitrate"),
+            Err(PortSpecErrorKind::BadValue {
+                key: "bitrate".into(),
+                value: "0".into(),
+                reason: "not a positive whole number".into(),
+            })
+        );
+        assert!(take_number(&mut map, "x").is_err());
+    }
 }

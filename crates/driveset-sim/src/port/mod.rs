@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::PathBuf;
 
-use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
+use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, take_number};
 use driveset_link::{
     Link, LinkError, OpaqueSpec, OpenOptions, PortOpener, PortShape, PortSpec, PortSpecError,
     PortSpecErrorKind, VirtualClock,
@@ -259,20 +259,6 @@ impl fmt::Display for SimSpec {
     }
 }
 
-fn number(map: &mut BTreeMap<String, String>, key: &str) -> Result<Option<u32>, PortSpecErrorKind> {
-    let Some(value) = map.remove(key) else {
-        return Ok(None);
-    };
-    match value.parse::<u32>() {
-        Ok(n) if n > 0 => Ok(Some(n)),
-        _ => Err(PortSpecErrorKind::BadValue {
-            key: key.into(),
-            value,
-            reason: "not a positive whole number".into(),
-        }),
-    }
-}
-
 fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
     const EXAMPLE: &str = "sim://lust-vf1000?addresses=1,2,3";
     let family = spec.path.as_str();
@@ -422,13 +408,13 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
             addresses = address_list(&list)?;
         }
     }
-    let baud = match number(&mut map, "baud")? {
+    let baud = match take_number(&mut map, "baud")? {
         Some(baud) if !ALLOWED_BAUDS.contains(&baud) => {
             return Err(PortSpecErrorKind::UnsupportedBaud { baud });
         }
         other => other,
     };
-    let bitrate = match number(&mut map, "bitrate")? {
+    let bitrate = match take_number(&mut map, "bitrate")? {
         Some(bitrate) if !ALLOWED_BITRATES.contains(&bitrate) => {
             return Err(PortSpecErrorKind::UnsupportedBitrate { bitrate });
         }
