@@ -365,6 +365,26 @@ impl Machine {
     }
 }
 
+/// A decoder's event for what the machine completed: the frame as the
+/// decoder's item (`map`), or the error. `None` for a frame `map` does not
+/// take (one this decoder's settings do not produce): no event.
+fn event_of<T>(
+    map: fn(Frame) -> Option<T>,
+    direction: Direction,
+    range: Range<u64>,
+    result: Result<Frame, StreamError>,
+) -> Option<Event<T>> {
+    let result = match result {
+        Ok(frame) => Ok(map(frame)?),
+        Err(e) => Err(e),
+    };
+    Some(Event {
+        direction,
+        range,
+        result,
+    })
+}
+
 macro_rules! decoder {
     ($(#[$doc:meta])* $name:ident, $item:ty, $host:expr, $ctrl:expr, $dir:expr, $map:expr) => {
         $(#[$doc])*
@@ -386,17 +406,11 @@ macro_rules! decoder {
             /// Feeds bytes as they arrive; `on_event` gets every frame and
             /// every error they complete, in stream order.
             pub fn feed(&mut self, bytes: &[u8], mut on_event: impl FnMut(Event<$item>)) {
+                let map: fn(Frame) -> Option<$item> = $map;
                 self.0.feed(bytes, &mut |direction, range, result| {
-                    let map: fn(Frame) -> Option<$item> = $map;
-                    let result = match result {
-                        Ok(frame) => match map(frame) {
-                            Some(item) => Ok(item),
-                            // Not produced with this decoder's settings.
-                            None => return,
-                        },
-                        Err(e) => Err(e),
-                    };
-                    on_event(Event { direction, range, result });
+                    if let Some(event) = event_of(map, direction, range, result) {
+                        on_event(event);
+                    }
                 });
             }
 
@@ -405,14 +419,9 @@ macro_rules! decoder {
             pub fn finish(&mut self, mut on_event: impl FnMut(Event<$item>)) {
                 let map: fn(Frame) -> Option<$item> = $map;
                 self.0.finish(&mut |direction, range, result| {
-                    let result = match result {
-                        Ok(frame) => match map(frame) {
-                            Some(item) => Ok(item),
-                            None => return,
-                        },
-                        Err(e) => Err(e),
-                    };
-                    on_event(Event { direction, range, result });
+                    if let Some(event) = event_of(map, direction, range, result) {
+                        on_event(event);
+                    }
                 });
             }
 
