@@ -34,7 +34,7 @@ use driveset_engine::connect::ConnectOptions;
 use driveset_engine::session::{
     self, FitPolicy, OpenedPort, PortError, Ports, Session, SessionPolicy, SimulatedDrives,
 };
-use driveset_link::{Link, LockError, OpenOptions, Openers, PortSpec, VirtualClock};
+use driveset_link::{LockError, OpenOptions, Openers, PortSpec, VirtualClock};
 use driveset_schema::{Family, Registry, Schema};
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimLink, open_sim_with};
@@ -205,7 +205,8 @@ static BUS_LOCKS: std::sync::Mutex<Vec<driveset_link::BusLock>> = std::sync::Mut
 /// exit 3 (the bus is busy; nothing was sent), naming the process that
 /// holds it. A bus this process locked already (a command that opens its
 /// port again, a line run's second pass) stays locked. Every command that
-/// talks to drives opens its port through here (or [`lock_port`]), so two
+/// talks to drives opens its port through the engine's
+/// [`session::open_port`], which locks through here ([`CliPorts`]), so two
 /// processes never drive one bus at once, whatever each spelled its port.
 pub fn lock_bus(bus_id: &str) -> Result<(), LockError> {
     let mut held = BUS_LOCKS
@@ -224,33 +225,6 @@ pub fn lock_bus(bus_id: &str) -> Result<(), LockError> {
     let lock = driveset_link::BusLock::acquire(&driveset_link::lock::lock_dir(), bus_id, &holder)?;
     held.push(lock);
     Ok(())
-}
-
-/// [`lock_bus`] before `spec` is opened, when its spelling says the bus
-/// (`driveset_link::bus_id::before_open`: serial, slcan, SocketCAN): a
-/// port another driveset holds is refused naming the holder, before its
-/// open would fail on TIOCEXCL.
-pub fn lock_before_open(spec: &PortSpec) -> Result<(), Fail> {
-    match driveset_link::bus_id::before_open(spec) {
-        Some(bus) => lock_bus(&bus).map_err(|e| Fail::bus(e.to_string())),
-        None => Ok(()),
-    }
-}
-
-/// [`lock_bus`] for a link opened from `spec` (a line's bus): a simulated
-/// bus without a state file lives in this process only, so there is
-/// nothing another process could drive and nothing is locked.
-pub fn lock_port(spec: &PortSpec, link: &Link) -> Result<(), Fail> {
-    if let PortSpec::Sim(o) = spec {
-        let private = SimSpec::from_opaque(o)
-            .ok()
-            .and_then(|s| SimOpener::default().config(&s).ok())
-            .is_some_and(|c| c.state.is_none());
-        if private {
-            return Ok(());
-        }
-    }
-    lock_bus(&link.bus_id()).map_err(|e| Fail::bus(e.to_string()))
 }
 
 /// Check that `schema` can talk over `port` to the drive at `address`
