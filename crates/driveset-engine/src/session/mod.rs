@@ -13,6 +13,7 @@
 
 pub mod learning;
 pub mod open;
+pub mod rate;
 
 use std::path::PathBuf;
 use std::sync::Arc;
