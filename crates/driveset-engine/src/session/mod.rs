@@ -12,6 +12,7 @@
 //! port to a drive").
 
 pub mod learning;
+pub mod lustbus_family;
 pub mod open;
 pub mod rate;
 
@@ -136,6 +137,12 @@ pub enum SessionError {
         /// The probes sent ([`crate::scan::probes_text`]).
         probes: String,
     },
+    /// A family's built-in schema is not in the registry given.
+    #[error("built-in schema {id} is missing")]
+    MissingBuiltin {
+        /// The schema id.
+        id: &'static str,
+    },
     /// A LUSTBUS client was asked for on a CAN port.
     #[error("{port} is a CAN port; LUSTBUS needs a character line")]
     LustbusOnCan {
@@ -153,6 +160,7 @@ impl SessionError {
             SessionError::Engine(e) => e.is_refused(),
             SessionError::Port(e) => e.is_input(),
             SessionError::Fit(_)
+            | SessionError::MissingBuiltin { .. }
             | SessionError::File { .. }
             | SessionError::DetectOnCan { .. }
             | SessionError::LustbusOnCan { .. } => true,
