@@ -7,8 +7,12 @@
 use serde::{Deserialize, Serialize};
 
 use super::*;
+use crate::client::lustbus::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::guard::GuardRefusal;
+use crate::live::LiveRefusal;
 use crate::plan::Problem;
+use crate::transfer::TransferRefusal;
 
 /// [`Refusal`]'s JSON form: one variant per `kind`, the fields as named
 /// in journals.
@@ -180,20 +184,21 @@ impl From<Refusal> for RefusalForm {
             Refusal::UnknownCode { schema, code } => RefusalForm::UnknownCode { schema, code },
             Refusal::ReadOnly { code, schema } => RefusalForm::ReadOnly { code, schema },
             Refusal::NoDatasetHandshake => RefusalForm::NoDatasetHandshake,
-            Refusal::Broadcast { code, why } => RefusalForm::Broadcast { code, why },
             Refusal::BroadcastNotStaged { codes } => RefusalForm::BroadcastNotStaged { codes },
             Refusal::StepOutOfOrder { step, before } => {
                 RefusalForm::StepOutOfOrder { step, before }
             }
-            Refusal::GuardCommand { code, value } => RefusalForm::GuardCommand { code, value },
-            Refusal::GuardControlWord { code, value, why } => {
+            Refusal::Guard(GuardRefusal::Command { code, value }) => {
+                RefusalForm::GuardCommand { code, value }
+            }
+            Refusal::Guard(GuardRefusal::ControlWord { code, value, why }) => {
                 RefusalForm::GuardControlWord { code, value, why }
             }
-            Refusal::GuardPermit {
+            Refusal::Guard(GuardRefusal::Permit {
                 permit,
                 code,
                 value,
-            } => RefusalForm::GuardPermit {
+            }) => RefusalForm::GuardPermit {
                 permit,
                 code,
                 value,
@@ -242,28 +247,14 @@ impl From<Refusal> for RefusalForm {
             Refusal::Sdo(SdoRefusal::NotCanFormat { code, value }) => {
                 RefusalForm::NotCanFormat { code, value }
             }
-            Refusal::LustbusCode { code, problem } => RefusalForm::LustbusCode { code, problem },
-            Refusal::NoWireType {
-                code,
-                schema,
-                family,
-            } => RefusalForm::NoWireType {
-                code,
-                schema,
-                family,
-            },
-            Refusal::NotInteger { code, value } => RefusalForm::NotInteger { code, value },
-            Refusal::DoesNotFit { code, value, ty } => RefusalForm::DoesNotFit { code, value, ty },
-            Refusal::NotCardWriteable { code } => RefusalForm::NotCardWriteable { code },
-            Refusal::Vf1000NoDataset => RefusalForm::Vf1000NoDataset,
-            Refusal::NoDatasetOpen => RefusalForm::NoDatasetOpen,
-            Refusal::StextMcOnly => RefusalForm::StextMcOnly,
-            Refusal::NoSload { schema } => RefusalForm::NoSload { schema },
-            Refusal::SetSchema { set, schema } => RefusalForm::SetSchema { set, schema },
-            Refusal::CodesNotInSchema { schema, codes } => {
+            Refusal::Lustbus(l) => l.into(),
+            Refusal::Live(LiveRefusal::SetSchema { set, schema }) => {
+                RefusalForm::SetSchema { set, schema }
+            }
+            Refusal::Live(LiveRefusal::CodesNotInSchema { schema, codes }) => {
                 RefusalForm::CodesNotInSchema { schema, codes }
             }
-            Refusal::Diff { detail } => RefusalForm::Diff { detail },
+            Refusal::Live(LiveRefusal::Diff { detail }) => RefusalForm::Diff { detail },
             Refusal::WrongType {
                 code,
                 found,
@@ -277,7 +268,9 @@ impl From<Refusal> for RefusalForm {
             },
             Refusal::NoProbeCode { schema } => RefusalForm::NoProbeCode { schema },
             Refusal::DoctorCanPort => RefusalForm::DoctorCanPort,
-            Refusal::TransferRate { detail } => RefusalForm::TransferRate { detail },
+            Refusal::Transfer(TransferRefusal::Rate { detail }) => {
+                RefusalForm::TransferRate { detail }
+            }
             Refusal::Assign { refusal } => RefusalForm::Assign { refusal },
         }
     }
@@ -292,24 +285,26 @@ impl TryFrom<RefusalForm> for Refusal {
             RefusalForm::UnknownCode { schema, code } => Refusal::UnknownCode { schema, code },
             RefusalForm::ReadOnly { code, schema } => Refusal::ReadOnly { code, schema },
             RefusalForm::NoDatasetHandshake => Refusal::NoDatasetHandshake,
-            RefusalForm::Broadcast { code, why } => Refusal::Broadcast { code, why },
             RefusalForm::BroadcastNotStaged { codes } => Refusal::BroadcastNotStaged { codes },
             RefusalForm::StepOutOfOrder { step, before } => {
                 Refusal::StepOutOfOrder { step, before }
             }
-            RefusalForm::GuardCommand { code, value } => Refusal::GuardCommand { code, value },
+            RefusalForm::GuardCommand { code, value } => {
+                GuardRefusal::Command { code, value }.into()
+            }
             RefusalForm::GuardControlWord { code, value, why } => {
-                Refusal::GuardControlWord { code, value, why }
+                GuardRefusal::ControlWord { code, value, why }.into()
             }
             RefusalForm::GuardPermit {
                 permit,
                 code,
                 value,
-            } => Refusal::GuardPermit {
+            } => GuardRefusal::Permit {
                 permit,
                 code,
                 value,
-            },
+            }
+            .into(),
             RefusalForm::LustbusOnCan => Refusal::LustbusOnCan,
             RefusalForm::WrongClient {
                 schema,
@@ -354,28 +349,11 @@ impl TryFrom<RefusalForm> for Refusal {
             RefusalForm::NotCanFormat { code, value } => {
                 Refusal::Sdo(SdoRefusal::NotCanFormat { code, value })
             }
-            RefusalForm::LustbusCode { code, problem } => Refusal::LustbusCode { code, problem },
-            RefusalForm::NoWireType {
-                code,
-                schema,
-                family,
-            } => Refusal::NoWireType {
-                code,
-                schema,
-                family,
-            },
-            RefusalForm::NotInteger { code, value } => Refusal::NotInteger { code, value },
-            RefusalForm::DoesNotFit { code, value, ty } => Refusal::DoesNotFit { code, value, ty },
-            RefusalForm::NotCardWriteable { code } => Refusal::NotCardWriteable { code },
-            RefusalForm::Vf1000NoDataset => Refusal::Vf1000NoDataset,
-            RefusalForm::NoDatasetOpen => Refusal::NoDatasetOpen,
-            RefusalForm::StextMcOnly => Refusal::StextMcOnly,
-            RefusalForm::NoSload { schema } => Refusal::NoSload { schema },
-            RefusalForm::SetSchema { set, schema } => Refusal::SetSchema { set, schema },
+            RefusalForm::SetSchema { set, schema } => LiveRefusal::SetSchema { set, schema }.into(),
             RefusalForm::CodesNotInSchema { schema, codes } => {
-                Refusal::CodesNotInSchema { schema, codes }
+                LiveRefusal::CodesNotInSchema { schema, codes }.into()
             }
-            RefusalForm::Diff { detail } => Refusal::Diff { detail },
+            RefusalForm::Diff { detail } => LiveRefusal::Diff { detail }.into(),
             RefusalForm::WrongType {
                 code,
                 found,
@@ -389,9 +367,77 @@ impl TryFrom<RefusalForm> for Refusal {
             },
             RefusalForm::NoProbeCode { schema } => Refusal::NoProbeCode { schema },
             RefusalForm::DoctorCanPort => Refusal::DoctorCanPort,
-            RefusalForm::TransferRate { detail } => Refusal::TransferRate { detail },
+            RefusalForm::TransferRate { detail } => TransferRefusal::Rate { detail }.into(),
             RefusalForm::Assign { refusal } => Refusal::Assign { refusal },
+            form @ (RefusalForm::Broadcast { .. }
+            | RefusalForm::LustbusCode { .. }
+            | RefusalForm::NoWireType { .. }
+            | RefusalForm::NotInteger { .. }
+            | RefusalForm::DoesNotFit { .. }
+            | RefusalForm::NotCardWriteable { .. }
+            | RefusalForm::Vf1000NoDataset
+            | RefusalForm::NoDatasetOpen
+            | RefusalForm::StextMcOnly
+            | RefusalForm::NoSload { .. }) => Refusal::Lustbus(LustbusRefusal::from_form(form)?),
             address => Refusal::Address(AddressRefused::from_form(address)?),
+        })
+    }
+}
+
+/// The LUSTBUS client's refusals keep their flat kinds (`broadcast`,
+/// `lustbus_code`, `no_wire_type` ...).
+impl From<LustbusRefusal> for RefusalForm {
+    fn from(r: LustbusRefusal) -> Self {
+        match r {
+            LustbusRefusal::Broadcast { code, why } => RefusalForm::Broadcast { code, why },
+            LustbusRefusal::Code { code, problem } => RefusalForm::LustbusCode { code, problem },
+            LustbusRefusal::NoWireType {
+                code,
+                schema,
+                family,
+            } => RefusalForm::NoWireType {
+                code,
+                schema,
+                family,
+            },
+            LustbusRefusal::NotInteger { code, value } => RefusalForm::NotInteger { code, value },
+            LustbusRefusal::DoesNotFit { code, value, ty } => {
+                RefusalForm::DoesNotFit { code, value, ty }
+            }
+            LustbusRefusal::NotCardWriteable { code } => RefusalForm::NotCardWriteable { code },
+            LustbusRefusal::Vf1000NoDataset => RefusalForm::Vf1000NoDataset,
+            LustbusRefusal::NoDatasetOpen => RefusalForm::NoDatasetOpen,
+            LustbusRefusal::StextMcOnly => RefusalForm::StextMcOnly,
+            LustbusRefusal::NoSload { schema } => RefusalForm::NoSload { schema },
+        }
+    }
+}
+
+impl LustbusRefusal {
+    /// Back from the flat JSON form.
+    fn from_form(form: RefusalForm) -> Result<Self, String> {
+        Ok(match form {
+            RefusalForm::Broadcast { code, why } => LustbusRefusal::Broadcast { code, why },
+            RefusalForm::LustbusCode { code, problem } => LustbusRefusal::Code { code, problem },
+            RefusalForm::NoWireType {
+                code,
+                schema,
+                family,
+            } => LustbusRefusal::NoWireType {
+                code,
+                schema,
+                family,
+            },
+            RefusalForm::NotInteger { code, value } => LustbusRefusal::NotInteger { code, value },
+            RefusalForm::DoesNotFit { code, value, ty } => {
+                LustbusRefusal::DoesNotFit { code, value, ty }
+            }
+            RefusalForm::NotCardWriteable { code } => LustbusRefusal::NotCardWriteable { code },
+            RefusalForm::Vf1000NoDataset => LustbusRefusal::Vf1000NoDataset,
+            RefusalForm::NoDatasetOpen => LustbusRefusal::NoDatasetOpen,
+            RefusalForm::StextMcOnly => LustbusRefusal::StextMcOnly,
+            RefusalForm::NoSload { schema } => LustbusRefusal::NoSload { schema },
+            other => return Err(format!("{other:?} is not a LUSTBUS refusal")),
         })
     }
 }

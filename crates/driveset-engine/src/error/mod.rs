@@ -23,7 +23,7 @@ mod tests;
 
 pub use address::{AddressRefused, AddressUse};
 pub use device::{DeviceCause, LECOM_PROGRAMMING_ADVICE, SiofRegister, SiofVerdict};
-pub use refusal::{LinkKind, LustbusCodeProblem, Refusal};
+pub use refusal::{LinkKind, Refusal};
 
 /// Every way an engine operation fails: where ([`EngineError::target`]) and
 /// what ([`EngineError::kind`], boxed).
@@ -120,9 +120,10 @@ impl EngineError {
         }
     }
 
-    /// [`ErrorKind::Refused`].
-    pub fn refused(target: Target, refusal: Refusal) -> Self {
-        Self::new(target, ErrorKind::Refused(refusal))
+    /// [`ErrorKind::Refused`]: a [`Refusal`] or one of the sub-enums
+    /// gathered into it.
+    pub fn refused(target: Target, refusal: impl Into<Refusal>) -> Self {
+        Self::new(target, ErrorKind::Refused(refusal.into()))
     }
 
     /// [`ErrorKind::Link`].

@@ -7,7 +7,9 @@ use driveset_proto::lustbus::Siof;
 use driveset_schema::BusProtocol;
 
 use super::*;
+use crate::client::lustbus::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::live::LiveRefusal;
 use crate::plan::Problem;
 
 fn target() -> Target {
@@ -58,12 +60,13 @@ fn every_refusal_renders_its_message() {
             "this drive family has no dataset download handshake",
         ),
         (
-            Refusal::Broadcast {
+            LustbusRefusal::Broadcast {
                 code: s("85-SERR"),
                 why: s(
                     "a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
                 ),
-            },
+            }
+            .into(),
             "broadcast (address 31) of 85-SERR: a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
         ),
         (
@@ -190,96 +193,107 @@ fn every_refusal_renders_its_message() {
             "LUSTBUS address 31 is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("300-X"),
                 problem: LustbusCodeProblem::HasSubcode,
-            },
+            }
+            .into(),
             "300-X has a subcode; LUSTBUS parameters have none (check the schema)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("7-X"),
                 problem: LustbusCodeProblem::NotAddressable,
-            },
+            }
+            .into(),
             "7-X cannot be addressed",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("120-X"),
                 problem: LustbusCodeProblem::AboveVf1000Range,
-            },
+            }
+            .into(),
             "120-X is above 99, the VF1000 range (section 2.4.1)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("1200"),
                 problem: LustbusCodeProblem::AboveMcRange,
-            },
+            }
+            .into(),
             "1200 is above 999, the MC6000/7000 range (section 2.4.2)",
         ),
         (
-            Refusal::NoWireType {
+            LustbusRefusal::NoWireType {
                 code: s("300-X"),
                 schema: s("lust-mc6000"),
                 family: s("MC6000/7000"),
-            },
+            }
+            .into(),
             "300-X: schema `lust-mc6000` gives no MC6000/7000 type or width, so the value cannot be encoded; add `type` to the schema",
         ),
         (
-            Refusal::NotInteger {
+            LustbusRefusal::NotInteger {
                 code: s("300-X"),
                 value: s("\"a\""),
-            },
+            }
+            .into(),
             "300-X: LUSTBUS parameters hold integers, not \"a\"",
         ),
         (
-            Refusal::DoesNotFit {
+            LustbusRefusal::DoesNotFit {
                 code: s("300-X"),
                 value: s("raw 70000"),
                 ty: s("USIGN16"),
-            },
+            }
+            .into(),
             "300-X: raw 70000 does not fit USIGN16",
         ),
         (
-            Refusal::NotCardWriteable {
+            LustbusRefusal::NotCardWriteable {
                 code: s("428-RSIO"),
-            },
+            }
+            .into(),
             "428-RSIO is not CardWriteable: during a dataset download the drive ACKs it but does not take the value (section 11.4); write it after dataset_commit",
         ),
         (
-            Refusal::Vf1000NoDataset,
+            LustbusRefusal::Vf1000NoDataset.into(),
             "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)",
         ),
         (
-            Refusal::NoDatasetOpen,
+            LustbusRefusal::NoDatasetOpen.into(),
             "no dataset download is open; call dataset_begin first",
         ),
         (
-            Refusal::StextMcOnly,
+            LustbusRefusal::StextMcOnly.into(),
             "108-STEXT substitution texts are MC6000/7000 only (section 11.3)",
         ),
         (
-            Refusal::NoSload { schema: s("x") },
+            LustbusRefusal::NoSload { schema: s("x") }.into(),
             "schema `x` has no 80-SLOAD; the dataset download needs it",
         ),
         (
-            Refusal::SetSchema {
+            LiveRefusal::SetSchema {
                 set: s("a"),
                 schema: s("b"),
-            },
+            }
+            .into(),
             "the set is for schema `a`, the drive is read with schema `b`; compare a set of this drive family",
         ),
         (
-            Refusal::CodesNotInSchema {
+            LiveRefusal::CodesNotInSchema {
                 schema: s("b"),
                 codes: vec![s("7"), s("8")],
-            },
+            }
+            .into(),
             "codes not in schema `b`: 7, 8; remove them from the set",
         ),
         (
-            Refusal::Diff {
+            LiveRefusal::Diff {
                 detail: s("schemas differ"),
-            },
+            }
+            .into(),
             "schemas differ",
         ),
         (
