@@ -37,6 +37,7 @@ use driveset_proto::lecom::{
 };
 use driveset_proto::lustbus::{Address, Dialect, ParameterCode, Select, TelegramBytes, ValueText};
 use driveset_schema::{Code, CodeKey, ControlState, RawValue, Role, Schema};
+use serde::{Deserialize, Serialize};
 
 use crate::client::{Target, code_name, schema_code, shown_value};
 use crate::error::{EngineError, Refusal};
@@ -103,13 +104,15 @@ impl Permit {
 /// Why the guard refused a write ([`check`]; gathered into [`Refusal`] as
 /// `Refusal::Guard`, each with the JSON kind journals hold: `guard_command`,
 /// `guard_control_word`, `guard_permit`). Nothing was sent.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind")]
 pub enum GuardRefusal {
     /// A command, whatever asked for it (only the engine's own named
     /// operations pass, with their permit).
     #[error(
         "{code} = {value} is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
     )]
+    #[serde(rename = "guard_command")]
     Command {
         /// The code.
         code: String,
@@ -122,6 +125,7 @@ pub enum GuardRefusal {
     #[error(
         "{code} = {value} {why}: driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
     )]
+    #[serde(rename = "guard_control_word")]
     ControlWord {
         /// The code.
         code: String,
@@ -133,6 +137,7 @@ pub enum GuardRefusal {
     /// A permit used for a code or value it does not name (a caller's
     /// mistake; nothing is sent).
     #[error("the {permit} permit does not cover {code} = {value}; nothing was sent")]
+    #[serde(rename = "guard_permit")]
     Permit {
         /// The permit's name.
         permit: String,

@@ -2,6 +2,7 @@
 //! the refusals it raises ([`LiveRefusal`]).
 
 use driveset_schema::{Diff, ResolvedSet, diff};
+use serde::{Deserialize, Serialize};
 
 use crate::client::DriveClient;
 use crate::error::EngineError;
@@ -9,7 +10,8 @@ use crate::error::EngineError;
 /// Why a live diff was refused before anything was read (gathered into
 /// [`crate::error::Refusal`] as `Refusal::Live`, each with the JSON kind
 /// journals hold: `set_schema`, `codes_not_in_schema`, `diff`).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum LiveRefusal {
     /// A set of another schema than the client's.
     #[error(

@@ -8,7 +8,6 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::address::AddressRefused;
-use super::form::RefusalForm;
 use crate::client::lustbus::LustbusRefusal;
 use crate::client::{LecomRefusal, SdoRefusal};
 use crate::guard::GuardRefusal;
@@ -57,10 +56,17 @@ impl fmt::Display for LinkKind {
 /// ([`crate::assign::AssignRefusal`]) and the one address rule
 /// ([`AddressRefused`]); the rules several rooms raise stay flat here.
 ///
-/// Its JSON form (journals) is `RefusalForm`'s (`form.rs`), one `kind` per
-/// rule, whichever enum holds it.
+/// Its JSON form (journals) is one flat list of `kind`s, whichever enum
+/// holds the rule (`form.rs`): the flat variants' is derived here
+/// (`remote = "Self"`: the inherent `serialize` / `deserialize` that
+/// `form.rs`'s trait impls call), each sub-enum's beside it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
-#[serde(into = "RefusalForm", try_from = "RefusalForm")]
+#[serde(
+    remote = "Self",
+    tag = "kind",
+    rename_all = "snake_case",
+    expecting = "internally tagged enum RefusalForm"
+)]
 pub enum Refusal {
     /// The planner's (or the set check's) problems, every one found
     /// ([`crate::plan::check_set`], [`crate::plan::plan`]).
@@ -167,15 +173,19 @@ pub enum Refusal {
     DoctorCanPort,
     /// The write guard refused ([`crate::guard`]).
     #[error(transparent)]
+    #[serde(skip)]
     Guard(#[from] GuardRefusal),
     /// What the LUSTBUS client cannot (or will not now) send.
     #[error(transparent)]
+    #[serde(skip)]
     Lustbus(#[from] LustbusRefusal),
     /// A live diff refused ([`crate::live`]).
     #[error(transparent)]
+    #[serde(skip)]
     Live(#[from] LiveRefusal),
     /// `--transfer-baud` cannot be used here ([`crate::transfer`]).
     #[error(transparent)]
+    #[serde(skip)]
     Transfer(#[from] TransferRefusal),
     /// `driveset address` refused before writing ([`crate::assign`]).
     #[error("{refusal}")]
@@ -188,12 +198,15 @@ pub enum Refusal {
     /// rule, [`driveset_schema::BusProtocol::check_address`], and what was
     /// being done).
     #[error("{0}")]
+    #[serde(skip)]
     Address(AddressRefused),
     /// What the LECOM client cannot send ([`LecomRefusal`]).
     #[error("{0}")]
+    #[serde(skip)]
     Lecom(LecomRefusal),
     /// What the CAN SDO client cannot transfer ([`SdoRefusal`]).
     #[error("{0}")]
+    #[serde(skip)]
     Sdo(SdoRefusal),
 }
 

@@ -727,3 +727,73 @@ fn the_clients_refusals_keep_the_json_kinds_journals_hold() {
         assert_eq!(serde_json::from_str::<Refusal>(&j).expect("back"), r);
     }
 }
+
+/// A journal's refusal that does not read fails as it always has (the
+/// kinds listed in their order), and the forms serde has always taken (a
+/// kind by its index, a sequence) read the same refusal.
+#[test]
+fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
+    use crate::journal::FailureCause;
+    let read = |refusal: &str| {
+        serde_json::from_str::<FailureCause>(&format!(
+            r#"{{"kind":"refused","refusal":{refusal}}}"#
+        ))
+        .map_err(|e| e.to_string())
+    };
+    let refused = |refusal: Refusal| Ok(FailureCause::Refused { refusal });
+    assert_eq!(
+        read(r#"{"kind":"bogus"}"#),
+        Err(
+            "unknown variant `bogus`, expected one of `plan`, `unknown_code`, `read_only`, \
+             `no_dataset_handshake`, `broadcast`, `broadcast_not_staged`, `step_out_of_order`, \
+             `guard_command`, `guard_control_word`, `guard_permit`, `lustbus_on_can`, \
+             `wrong_client`, `link_misfit`, `lecom_address`, `lecom_group`, \
+             `lecom_unaddressable`, `lecom_value`, `encode`, `sdo_node`, `no_sdo_index`, \
+             `not_sdo_type`, `not_can_format`, `lustbus_address`, `lustbus_code`, \
+             `no_wire_type`, `not_integer`, `does_not_fit`, `not_card_writeable`, \
+             `vf1000_no_dataset`, `no_dataset_open`, `stext_mc_only`, `no_sload`, `set_schema`, \
+             `codes_not_in_schema`, `diff`, `wrong_type`, `scan_lustbus_address`, \
+             `scan_lecom_address`, `scan_can_node`, `no_probe_code`, `doctor_lustbus_address`, \
+             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`"
+                .to_string()
+        )
+    );
+    assert_eq!(
+        read(r#"{"code":"7"}"#),
+        Err("missing field `kind`".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":true}"#),
+        Err("invalid type: boolean `true`, expected variant identifier".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":"lecom_group","tens":300}"#),
+        Err("invalid value: integer `300`, expected u8".to_string())
+    );
+    assert_eq!(
+        read(r#""x""#),
+        Err("invalid type: string \"x\", expected internally tagged enum RefusalForm".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":29}"#),
+        refused(LustbusRefusal::NoDatasetOpen.into())
+    );
+    assert_eq!(
+        read(r#"{"kind":99}"#),
+        Err("invalid value: integer `99`, expected variant index 0 <= i < 45".to_string())
+    );
+    assert_eq!(
+        read(r#"["guard_command", "4-PROG", "1"]"#),
+        refused(
+            crate::guard::GuardRefusal::Command {
+                code: s("4-PROG"),
+                value: s("1"),
+            }
+            .into()
+        )
+    );
+    assert_eq!(
+        read(r#"["no_probe_code", "x"]"#),
+        refused(Refusal::NoProbeCode { schema: s("x") })
+    );
+}

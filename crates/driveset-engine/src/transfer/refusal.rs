@@ -4,13 +4,17 @@
 //! [`Refusal`](crate::error::Refusal) as `Refusal::Transfer`, with the JSON
 //! kind journals hold (`transfer_rate`).
 
+use serde::{Deserialize, Serialize};
+
 /// Why `--transfer-baud` cannot be used here.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind")]
 pub enum TransferRefusal {
     /// Another family, a rate the drive does not run at, a port or client
     /// that cannot change its rate, a running drive, a shared bus without
     /// its override: what and what to do, as [`crate::transfer`] words it.
     #[error("{detail}")]
+    #[serde(rename = "transfer_rate")]
     Rate {
         /// The reason and the remedy.
         detail: String,

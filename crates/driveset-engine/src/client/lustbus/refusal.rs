@@ -4,15 +4,16 @@
 //! (section 4.2), and the MC dataset download out of order or on a drive
 //! without one (80-SLOAD, section 11.4; 108-STEXT, section 11.3). Found
 //! before anything is sent; gathered into [`Refusal`](crate::error::Refusal) (`Refusal::Lustbus`)
-//! by `From`, each keeps the JSON kind journals hold (the engine's
-//! `error/form.rs`).
+//! by `From`, each with the JSON kind journals hold (`broadcast`,
+//! `lustbus_code`, `no_wire_type` ...).
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
 /// What the LUSTBUS client cannot send, or will not send now.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum LustbusRefusal {
     /// A LUSTBUS broadcast (address 31, section 4.2) the client will not send.
     #[error("broadcast (address 31) of {code}: {why}")]
@@ -24,6 +25,7 @@ pub enum LustbusRefusal {
     },
     /// A code LUSTBUS cannot address (sections 2.4.1 and 2.4.2).
     #[error("{code} {problem}")]
+    #[serde(rename = "lustbus_code")]
     Code {
         /// The code.
         code: String,
