@@ -58,8 +58,10 @@ impl fmt::Display for LinkKind {
 ///
 /// Its JSON form (journals) is one flat list of `kind`s, whichever enum
 /// holds the rule (`form.rs`): the flat variants' is derived here
-/// (`remote = "Self"`: the inherent `serialize` / `deserialize` that
-/// `form.rs`'s trait impls call), each sub-enum's beside it.
+/// (`remote = "Self"`: the inherent `Refusal::serialize` /
+/// `Refusal::deserialize` that `form.rs`'s trait impls call, which know
+/// only the flat variants; read and write a refusal through serde's traits,
+/// `serde_json::from_str` ...), each sub-enum's beside it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
 #[serde(
     remote = "Self",
