@@ -52,8 +52,7 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
         args.learn,
         "not compared",
     )?;
-    let (schema, set, port_name, mut client, _sim) =
-        (on.schema, on.set, on.port_name, on.client, on._sim);
+    let (schema, set, port_name, mut client) = (on.schema, on.set, on.port_name, on.client);
     if !args.allow_family {
         driveset_engine::identify::check_family(client.as_mut())?;
     }

@@ -205,7 +205,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         Some(&dir),
     )?;
-    let (mut client, schema, learned, _sim_alive) = (on.client, on.schema, on.learned, on._sim);
+    let (mut client, schema, learned) = (on.client, on.schema, on.learned);
     let schema_path = match &learned {
         Some(r) => r.file.clone(),
         None => choice.path.clone(),

@@ -151,8 +151,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.learn,
         "not uploaded",
     )?;
-    let (_schema, set, port_name, mut client, _sim) =
-        (on.schema, on.set, on.port_name, on.client, on._sim);
+    let (set, port_name, mut client) = (on.set, on.port_name, on.client);
     let json = args.format == BusFormat::Json;
 
     let transfer = args.transfer.request(&overrides);
