@@ -51,7 +51,7 @@ use super::{
     DatasetDownload, DriveClient, SerialLine, Target, client_address, code_name, link_error,
     refuse_read_only, schema_code, shared_link_methods, write_what, wrong_client,
 };
-use crate::error::{EngineError, Refusal};
+use crate::error::EngineError;
 use crate::guard::Permit;
 use crate::plan;
 use encoding::family_of;
