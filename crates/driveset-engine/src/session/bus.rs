@@ -82,3 +82,242 @@ impl<'l> BusSession<'l> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+    use std::time::Duration;
+
+    use driveset_link::VirtualClock;
+    use driveset_proto::can::NodeId;
+    use driveset_schema::Registry;
+    use driveset_sim::drive::{ByteDrive, FrameDrive, ReactionTime};
+    use driveset_sim::ecs::EcsDrive;
+    use driveset_sim::log::{Dir, EventLog};
+    use driveset_sim::lustbus_drive::LustOptions;
+    use driveset_sim::mc6000::Mc6000;
+    use driveset_sim::vf1000::Vf1000;
+    use driveset_test_support::{sim_byte_bus, sim_can_bus, wire_bytes};
+
+    use super::*;
+    use crate::env::{Environment, Memory};
+    use crate::session::{LearnPolicy, LearnStep, OpenedPort, Session};
+
+    const DIR: &str = "/schemas";
+
+    fn lust(address: u8) -> LustOptions {
+        LustOptions::new(address).reaction(ReactionTime::fixed(Duration::from_millis(2)))
+    }
+
+    /// A simulated LUSTBUS line with a VF1000 at 5 and an MC6000 at 1.
+    fn line() -> (VirtualClock, EventLog, Link) {
+        let drives: Vec<Box<dyn ByteDrive>> = vec![
+            Box::new(Vf1000::new(lust(5)).expect("vf1000")),
+            Box::new(Mc6000::new(lust(1)).expect("mc6000")),
+        ];
+        let (clock, log, bus) = sim_byte_bus(9600, drives, None);
+        (clock, log, Link::Bytes(Box::new(bus)))
+    }
+
+    fn builtin(id: &str) -> (Registry, Arc<Schema>) {
+        let registry = Registry::builtin().expect("built-in schemas");
+        let schema = registry.get(id).expect("built-in schema");
+        (registry, schema)
+    }
+
+    fn env() -> Memory {
+        Memory::at("2031-07-04T12:00:00Z".parse().expect("time"))
+    }
+
+    fn learning<'a>(registry: &'a Registry, env: &'a Memory, step: LearnStep) -> SessionPolicy<'a> {
+        SessionPolicy {
+            learn: Some(LearnPolicy {
+                options: Default::default(),
+                registry,
+                dir: Some(PathBuf::from(DIR)),
+                env,
+                step,
+            }),
+        }
+    }
+
+    fn file_of(id: &str) -> PathBuf {
+        Path::new(DIR).join(format!("{id}.toml"))
+    }
+
+    /// The host's SELECTs (STX after the address): what changes a drive.
+    fn selects(log: &EventLog) -> usize {
+        wire_bytes(log, Dir::Host)
+            .iter()
+            .filter(|t| t.get(2) == Some(&0x02))
+            .count()
+    }
+
+    #[test]
+    fn a_bus_session_learns_writes_its_file_and_leaves_the_link_to_the_next_drive() {
+        let (_clock, _log, mut link) = line();
+        let (registry, base) = builtin("lust-vf1000");
+        let env = env();
+        let policy = learning(&registry, &env, LearnStep::Render);
+        let mut s = BusSession::open(&mut link, "sim", base.clone(), 5, &policy).expect("opens");
+        let learned = s.learned.clone().expect("learned");
+        assert!(
+            learned.id.starts_with("learned-vf1000-type"),
+            "{}",
+            learned.id
+        );
+        assert_eq!(s.schema.id, learned.id);
+        assert_eq!(learned.base, "lust-vf1000");
+        assert!(learned.codes > 0);
+        assert_eq!(
+            learned.file.as_deref(),
+            Some(file_of(&learned.id).as_path())
+        );
+        let text = env.file(&file_of(&learned.id)).expect("file written");
+        assert!(text.contains(&learned.id), "{text}");
+        // the client speaks the learned schema
+        assert_eq!(s.client.schema().id, learned.id);
+        s.client.identify().expect("identify");
+        s.client.finish().expect("finish");
+        drop(s);
+        // the link is the caller's again: the next drive's session on it
+        let (_, mc) = builtin("lust-mc6000");
+        let mut next = BusSession::connect(&mut link, "sim", mc, 1).expect("connects");
+        assert!(next.learned.is_none());
+        assert_eq!(next.schema.id, "lust-mc6000");
+        next.client.identify().expect("identify");
+    }
+
+    #[test]
+    fn the_borrowed_and_the_owned_session_learn_the_same_file() {
+        let (registry, base) = builtin("lust-vf1000");
+        let (_c1, _l1, mut link) = line();
+        let borrowed_env = env();
+        let policy = learning(&registry, &borrowed_env, LearnStep::Render);
+        let borrowed = BusSession::open(&mut link, "sim", base.clone(), 5, &policy)
+            .expect("opens")
+            .learned
+            .expect("learned");
+        let (_c2, _l2, link) = line();
+        let owned_env = env();
+        let policy = learning(&registry, &owned_env, LearnStep::Render);
+        let port = OpenedPort {
+            name: "sim".into(),
+            link,
+            connect: Default::default(),
+        };
+        let owned = Session::open(port, base, 5, &policy)
+            .expect("opens")
+            .learned
+            .expect("learned");
+        assert_eq!(owned.id, borrowed.id);
+        assert_eq!(
+            owned_env.file(&file_of(&owned.id)),
+            borrowed_env.file(&file_of(&borrowed.id))
+        );
+    }
+
+    #[test]
+    fn reuse_earlier_uses_the_file_a_render_wrote_reads_no_texts_and_writes_nothing() {
+        let (registry, base) = builtin("lust-mc6000");
+        let env = env();
+        let (_clock, rendering, mut link) = line();
+        let policy = learning(&registry, &env, LearnStep::Render);
+        let first = BusSession::open(&mut link, "sim", base.clone(), 1, &policy)
+            .expect("opens")
+            .learned
+            .expect("learned");
+        let written = env.paths();
+        assert_eq!(written, [file_of(&first.id)]);
+
+        let (_clock, log, mut link) = line();
+        let policy = learning(&registry, &env, LearnStep::ReuseEarlier);
+        let s = BusSession::open(&mut link, "sim", base, 1, &policy).expect("opens");
+        let again = s.learned.clone().expect("learned");
+        assert_eq!(again.id, first.id);
+        assert_eq!(again.file, Some(file_of(&first.id)));
+        assert_eq!(s.schema.id, first.id);
+        // the descriptions only: no texts, so no SELECT of 108-STEXT
+        assert_eq!(again.learned.texts_read, 0);
+        assert!(first.learned.texts_read > 0);
+        assert!(selects(&rendering) > 0);
+        assert_eq!(selects(&log), 0);
+        assert_eq!(again.codes, again.learned.codes.len());
+        assert_eq!(env.paths(), written);
+    }
+
+    #[test]
+    fn reuse_earlier_without_a_file_renders_and_writes_nothing() {
+        let (registry, base) = builtin("lust-vf1000");
+        let env = env();
+        let (_clock, log, mut link) = line();
+        let policy = learning(&registry, &env, LearnStep::ReuseEarlier);
+        let s = BusSession::open(&mut link, "sim", base, 5, &policy).expect("opens");
+        let learned = s.learned.clone().expect("learned");
+        assert_eq!(learned.file, None);
+        assert_eq!(s.schema.id, learned.id);
+        assert!(env.paths().is_empty());
+        assert_eq!(selects(&log), 0);
+    }
+
+    #[test]
+    fn an_earlier_file_that_does_not_load_is_named() {
+        let (registry, base) = builtin("lust-vf1000");
+        let env = env();
+        let (_clock, _log, mut link) = line();
+        let policy = learning(&registry, &env, LearnStep::Render);
+        let id = BusSession::open(&mut link, "sim", base.clone(), 5, &policy)
+            .expect("opens")
+            .learned
+            .expect("learned")
+            .id;
+        env.write_file(&file_of(&id), "not a schema")
+            .expect("written");
+        let policy = learning(&registry, &env, LearnStep::ReuseEarlier);
+        let e = BusSession::open(&mut link, "sim", base, 5, &policy).expect_err("refused");
+        assert!(matches!(e, SessionError::Earlier { .. }), "{e:?}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("learned schema {}: ", file_of(&id).display())),
+            "{e}"
+        );
+        assert!(e.is_input());
+    }
+
+    #[test]
+    fn without_a_learn_policy_the_session_speaks_the_schema_as_it_is() {
+        let (_clock, log, mut link) = line();
+        let (_, base) = builtin("lust-vf1000");
+        let s =
+            BusSession::open(&mut link, "sim", base, 5, &SessionPolicy::default()).expect("opens");
+        assert!(s.learned.is_none());
+        assert_eq!(s.schema.id, "lust-vf1000");
+        assert_eq!(s.port, "sim");
+        assert_eq!(s.address, 5);
+        // nothing is sent before the client is asked
+        assert!(wire_bytes(&log, Dir::Host).is_empty());
+    }
+
+    #[test]
+    fn a_lustbus_schema_on_a_can_bus_is_refused_before_anything_is_sent() {
+        let drive: Box<dyn FrameDrive> = Box::new(
+            EcsDrive::new(NodeId::new(3).expect("node"), 1)
+                .expect("ecs")
+                .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
+        );
+        let (_clock, log, bus) = sim_can_bus(vec![drive], None);
+        let mut link = Link::Frames(Box::new(bus));
+        let (registry, base) = builtin("lust-vf1000");
+        let env = env();
+        let policy = learning(&registry, &env, LearnStep::Render);
+        let e = BusSession::open(&mut link, "can", base.clone(), 3, &policy).expect_err("refused");
+        let SessionError::Engine(e) = e else {
+            panic!("{e:?}")
+        };
+        assert!(e.is_refused(), "{e}");
+        let e = BusSession::connect(&mut link, "can", base, 3).expect_err("refused");
+        assert!(e.is_refused(), "{e}");
+        assert!(wire_bytes(&log, Dir::Host).is_empty());
+        assert!(env.paths().is_empty());
+    }
+}
