@@ -95,10 +95,8 @@ pub(super) fn learn_drive<'l>(
         base: base.id.clone(),
         file: learned.file.as_ref().map(|f| f.display().to_string()),
         codes: learned.codes,
-        texts: policy
-            .learn
-            .as_ref()
-            .is_some_and(|l| l.step == LearnStep::Render && !l.options.no_texts),
+        // status's `ReuseEarlier` reads no texts
+        texts: ctx.mode == Mode::Commission && !cfg.options.no_texts,
         findings: learned.learned.findings.len(),
     };
     let drive = Drive {
