@@ -103,9 +103,8 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         && args.protocol.is_some()
         && schema.family.descriptor().dialect == Some(Dialect::Mc)
     {
-        let (session_port, _sim) = opened.into_session_port()?;
-        let connect = session_port.connect;
-        let mut probe = Session::lustbus(session_port, schema.clone(), args.address)?;
+        let connect = opened.connect;
+        let mut probe = Session::lustbus(opened, schema.clone(), args.address)?;
         let code = u16::try_from(TYPE)
             .ok()
             .and_then(ParameterCode::mc_value)

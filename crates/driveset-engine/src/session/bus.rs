@@ -48,6 +48,9 @@ impl<'l> BusSession<'l> {
     /// [`super::Session::open`] does; a schema whose protocol does not run
     /// on the link is refused before anything is sent. The clients are
     /// [`crate::connect::connect_on`]'s (the default connect options).
+    /// `policy.fit` is not asked: there is no [`super::OpenedPort`] to
+    /// check ([`super::check_fit`]), a line's drives were checked against
+    /// their buses when its manifest loaded.
     pub fn open(
         link: &'l mut Link,
         port: &str,
@@ -138,6 +141,7 @@ mod tests {
                 env,
                 step,
             }),
+            ..SessionPolicy::default()
         }
     }
 
@@ -191,21 +195,19 @@ mod tests {
     #[test]
     fn the_borrowed_and_the_owned_session_learn_the_same_file() {
         let (registry, base) = builtin("lust-vf1000");
+        let (_c2, _l2, link) = line();
+        let spec = driveset_link::PortSpec::parse("tcp://127.0.0.1:9").expect("a port");
+        let port = OpenedPort::real(spec, link);
+        let name = port.name.clone();
         let (_c1, _l1, mut link) = line();
         let borrowed_env = env();
         let policy = learning(&registry, &borrowed_env, LearnStep::Render);
-        let borrowed = BusSession::open(&mut link, "sim", base.clone(), 5, &policy)
+        let borrowed = BusSession::open(&mut link, &name, base.clone(), 5, &policy)
             .expect("opens")
             .learned
             .expect("learned");
-        let (_c2, _l2, link) = line();
         let owned_env = env();
         let policy = learning(&registry, &owned_env, LearnStep::Render);
-        let port = OpenedPort {
-            name: "sim".into(),
-            link,
-            connect: Default::default(),
-        };
         let owned = Session::open(port, base, 5, &policy)
             .expect("opens")
             .learned
