@@ -21,6 +21,7 @@
 
 pub mod bus;
 pub mod learning;
+pub mod lustbus_family;
 pub mod open;
 pub mod rate;
 mod reach;
@@ -158,6 +159,12 @@ pub enum SessionError {
         /// The probes sent ([`crate::scan::probes_text`]).
         probes: String,
     },
+    /// A family's built-in schema is not in the registry given.
+    #[error("built-in schema {id} is missing")]
+    MissingBuiltin {
+        /// The schema id.
+        id: &'static str,
+    },
     /// A LUSTBUS client was asked for on a CAN port.
     #[error("{port} is a CAN port; LUSTBUS needs a character line")]
     LustbusOnCan {
@@ -175,6 +182,7 @@ impl SessionError {
             SessionError::Engine(e) => e.is_refused(),
             SessionError::Port(e) => e.is_input(),
             SessionError::Fit(_)
+            | SessionError::MissingBuiltin { .. }
             | SessionError::File { .. }
             | SessionError::Earlier { .. }
             | SessionError::DetectOnCan { .. }

@@ -21,9 +21,10 @@ use driveset_link::{ByteLink, Instant};
 use driveset_proto::lustbus::{Dialect, Siof};
 use driveset_schema::{CodeKey, RawValue};
 
+use super::LustbusRefusal;
 use super::{LustbusClient, SLOAD};
 use crate::client::{DatasetDownload, DatasetOutcome, device};
-use crate::error::{DeviceCause, EngineError, Refusal, SiofVerdict};
+use crate::error::{DeviceCause, EngineError, SiofVerdict};
 use crate::guard::Permit;
 use crate::plan;
 
@@ -35,7 +36,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::Vf1000NoDataset,
+                LustbusRefusal::Vf1000NoDataset,
             ));
         }
         // A download left open by a failed transfer (no answer, cable) is
@@ -60,7 +61,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         if !self.dataset_open {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NoDatasetOpen,
+                LustbusRefusal::NoDatasetOpen,
             ));
         }
         let key = CodeKey::new(SLOAD);
@@ -147,7 +148,7 @@ impl<L: ByteLink> LustbusClient<L> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::Vf1000NoDataset,
+                LustbusRefusal::Vf1000NoDataset,
             ));
         }
         let siof = self.read_siof("resuming the dataset download")?;
@@ -165,7 +166,7 @@ impl<L: ByteLink> LustbusClient<L> {
         if self.schema.code(SLOAD).is_none() {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NoSload {
+                LustbusRefusal::NoSload {
                     schema: self.schema.id.clone(),
                 },
             ));
