@@ -355,6 +355,47 @@ const CLIENT_CONSTRUCTORS: &[&str] = &[
 /// constructions each holds (a count may only go down).
 const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] = &[];
 
+/// `connect`'s clients on a link the caller keeps: a drive's work gets its
+/// client from the session (`engine::session::BusSession`, whose `reach`
+/// calls `connect_on`); only the bus-level work below asks `connect` for
+/// one itself.
+const BORROWED_CLIENTS: &[&str] = &["connect_on(", "lustbus_on(", "lecom_on("];
+
+/// Source files that ask `connect` for a client on a link they keep, with
+/// how many calls each holds (a count may only go down): `driveset
+/// address`'s work on a lone drive whose address it changes (`assign/`),
+/// and a line's work on its bus rather than on one drive: the LUSTBUS
+/// SELECT to address 31 and the transactions parked around it, the LECOM
+/// MULTICAST and the running check of its members (docs/architecture.md,
+/// "One path from a port to a drive").
+const BORROWED_CLIENTS_OUTSIDE_THE_SESSION: &[(&str, usize)] = &[
+    ("crates/driveset-engine/src/assign/plan.rs", 2),
+    ("crates/driveset-engine/src/assign/recover.rs", 3),
+    ("crates/driveset-engine/src/assign/run.rs", 5),
+    ("crates/driveset-engine/src/line/commission/broadcast.rs", 1),
+    ("crates/driveset-engine/src/line/commission/multicast.rs", 2),
+    ("crates/driveset-engine/src/line/commission/parked.rs", 2),
+];
+
+/// How often `patterns` occur in `lines` outside comments and test
+/// modules, and the 1-based line of the first.
+fn occurrences(lines: &[&str], patterns: &[&str]) -> (usize, usize) {
+    let skip = skipped_blocks(lines, None);
+    let mut n = 0;
+    let mut first = 0;
+    for (i, line) in lines.iter().enumerate() {
+        if line.trim_start().starts_with("//") || skip.iter().any(|&(a, b)| (a..=b).contains(&i)) {
+            continue;
+        }
+        let here = patterns.iter().filter(|c| line.contains(*c)).count();
+        if here > 0 && n == 0 {
+            first = i + 1;
+        }
+        n += here;
+    }
+    (n, first)
+}
+
 #[test]
 fn tidy_clients_are_built_only_by_connect_and_the_session() {
     let root = workspace_root();
@@ -369,24 +410,7 @@ fn tidy_clients_are_built_only_by_connect_and_the_session() {
             }
             let text = read(&file);
             let lines: Vec<&str> = text.lines().collect();
-            let skip = skipped_blocks(&lines, None);
-            let mut n = 0;
-            let mut first = 0;
-            for (i, line) in lines.iter().enumerate() {
-                if line.trim_start().starts_with("//")
-                    || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
-                {
-                    continue;
-                }
-                let here = CLIENT_CONSTRUCTORS
-                    .iter()
-                    .filter(|c| line.contains(*c))
-                    .count();
-                if here > 0 && n == 0 {
-                    first = i + 1;
-                }
-                n += here;
-            }
+            let (n, first) = occurrences(&lines, CLIENT_CONSTRUCTORS);
             let allowed = CLIENTS_STILL_BUILT_ELSEWHERE
                 .iter()
                 .find(|(f, _)| *f == path)
@@ -400,6 +424,30 @@ fn tidy_clients_are_built_only_by_connect_and_the_session() {
                     "{path}:1: {n} client construction(s), the allowlist says {allowed}: lower or remove its entry in CLIENTS_STILL_BUILT_ELSEWHERE (tests/integration/tidy.rs)"
                 ));
             }
+            if path.starts_with("crates/driveset-engine/src/session/") {
+                continue;
+            }
+            let (n, first) = occurrences(&lines, BORROWED_CLIENTS);
+            let allowed = BORROWED_CLIENTS_OUTSIDE_THE_SESSION
+                .iter()
+                .find(|(f, _)| *f == path)
+                .map_or(0, |(_, a)| *a);
+            if n > allowed {
+                problems.push(format!(
+                    "{path}:{first}: {n} client(s) asked of `connect` on a kept link: reach the drive through `engine::session::BusSession` (docs/architecture.md, \"One path from a port to a drive\")"
+                ));
+            } else if n < allowed {
+                problems.push(format!(
+                    "{path}:1: {n} client(s) asked of `connect` on a kept link, the allowlist says {allowed}: lower or remove its entry in BORROWED_CLIENTS_OUTSIDE_THE_SESSION (tests/integration/tidy.rs)"
+                ));
+            }
+        }
+    }
+    for (f, _) in BORROWED_CLIENTS_OUTSIDE_THE_SESSION {
+        if !root.join(f).is_file() {
+            problems.push(format!(
+                "{f}: listed in BORROWED_CLIENTS_OUTSIDE_THE_SESSION (tests/integration/tidy.rs) but no such file: remove its entry"
+            ));
         }
     }
     report("client construction (docs/architecture.md)", &problems);

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use driveset_engine::client::DriveClient;
 use driveset_engine::learn::{LearnOptions, Learned, needs_learning};
-use driveset_engine::session::{self, FitPolicy, LearnPolicy, Session, SessionPolicy};
+use driveset_engine::session::{self, FitPolicy, LearnPolicy, LearnStep, Session, SessionPolicy};
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{Family, Schema};
 use serde_json::json;
@@ -218,6 +218,7 @@ pub fn open(
                 registry,
                 dir: dir.map(Path::to_path_buf),
                 env: &crate::env::SystemEnv,
+                step: LearnStep::Render,
             }),
             None => None,
         },

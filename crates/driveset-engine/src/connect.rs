@@ -1,9 +1,10 @@
 //! Owns the one way to reach a drive: a link, a schema (whose family's
 //! descriptor names the bus protocol) and an address give the
 //! [`DriveClient`] of that protocol. Every command and `commission` connect
-//! through here; nothing else picks a client by family. A line's work that
-//! only one protocol's client does (learning, the two broadcasts) gets that
-//! client here too ([`lustbus_on`], [`lecom_on`]).
+//! through here (a drive's work through [`crate::session`]); nothing else
+//! picks a client by family. A line's work on its bus that only one
+//! protocol's client does (the two broadcasts) gets that client here too
+//! ([`lustbus_on`], [`lecom_on`]).
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -108,9 +109,8 @@ pub fn connect_on<'l>(
 }
 
 /// The LUSTBUS client for the drive at `address` on a link the caller
-/// keeps, for what only a LUSTBUS client does: a line's learning from the
-/// drive's descriptions (LUSTBUS §11.1, §11.2), its SELECT to address 31
-/// and the dataset download resumed around it (§4.2, §11.4). A CAN bus is
+/// keeps, for what only a LUSTBUS client does on a line's bus: its SELECT
+/// to address 31 and the dataset download resumed around it (§4.2, §11.4). A CAN bus is
 /// refused ([`Refusal::LustbusOnCan`]) before anything is sent.
 pub fn lustbus_on<'l>(
     link: &'l mut Link,

@@ -19,6 +19,7 @@ use crate::client::{LecomRefusal, SdoRefusal};
 use crate::guard::GuardRefusal;
 use crate::live::LiveRefusal;
 use crate::transfer::TransferRefusal;
+use crate::upload::UploadRefusal;
 
 impl Serialize for Refusal {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
@@ -26,6 +27,7 @@ impl Serialize for Refusal {
             Refusal::Guard(r) => r.serialize(s),
             Refusal::Lustbus(r) => r.serialize(s),
             Refusal::Live(r) => r.serialize(s),
+            Refusal::Upload(r) => r.serialize(s),
             Refusal::Transfer(r) => r.serialize(s),
             Refusal::Address(r) => r.serialize(s),
             Refusal::Lecom(r) => r.serialize(s),
@@ -67,6 +69,7 @@ impl<'de> Deserialize<'de> for Refusal {
             Room::Guard => GuardRefusal::deserialize(value).map(Refusal::Guard),
             Room::Lustbus => LustbusRefusal::deserialize(value).map(Refusal::Lustbus),
             Room::Live => LiveRefusal::deserialize(value).map(Refusal::Live),
+            Room::Upload => UploadRefusal::deserialize(value).map(Refusal::Upload),
             Room::Transfer => TransferRefusal::deserialize(value).map(Refusal::Transfer),
             Room::Address => AddressRefused::deserialize(value).map(Refusal::Address),
             Room::Lecom => LecomRefusal::deserialize(value).map(Refusal::Lecom),
@@ -83,6 +86,7 @@ enum Room {
     Guard,
     Lustbus,
     Live,
+    Upload,
     Transfer,
     Address,
     Lecom,
@@ -170,6 +174,7 @@ impl Kind {
             | Kind::StextMcOnly
             | Kind::NoSload => Room::Lustbus,
             Kind::SetSchema | Kind::CodesNotInSchema | Kind::Diff => Room::Live,
+            Kind::BroadcastNotStaged | Kind::StepOutOfOrder => Room::Upload,
             Kind::TransferRate => Room::Transfer,
             Kind::LecomAddress
             | Kind::SdoNode
@@ -185,8 +190,6 @@ impl Kind {
             | Kind::UnknownCode
             | Kind::ReadOnly
             | Kind::NoDatasetHandshake
-            | Kind::BroadcastNotStaged
-            | Kind::StepOutOfOrder
             | Kind::LustbusOnCan
             | Kind::WrongClient
             | Kind::LinkMisfit

@@ -14,6 +14,7 @@ use crate::guard::GuardRefusal;
 use crate::live::LiveRefusal;
 use crate::plan::Problem;
 use crate::transfer::TransferRefusal;
+use crate::upload::UploadRefusal;
 
 /// How a refusal names a client's protocol: `LUSTBUS`, `LECOM`, `CAN SDO`.
 pub(super) fn protocol_label(p: driveset_schema::BusProtocol) -> &'static str {
@@ -51,7 +52,7 @@ impl fmt::Display for LinkKind {
 /// The rules one room raises are its own sub-enum beside it, gathered here
 /// by `From`: the write guard's ([`GuardRefusal`]), the LUSTBUS client's
 /// ([`LustbusRefusal`]), the LECOM and SDO clients' ([`LecomRefusal`],
-/// [`SdoRefusal`]), the live diff's ([`LiveRefusal`]), `--transfer-baud`'s
+/// [`SdoRefusal`]), the live diff's ([`LiveRefusal`]), the transaction's ([`UploadRefusal`]), `--transfer-baud`'s
 /// ([`TransferRefusal`]), `driveset address`'s
 /// ([`crate::assign::AssignRefusal`]) and the one address rule
 /// ([`AddressRefused`]); the rules several rooms raise stay flat here.
@@ -96,23 +97,6 @@ pub enum Refusal {
     /// The family has no dataset download handshake (only MC6000/7000 do).
     #[error("this drive family has no dataset download handshake")]
     NoDatasetHandshake,
-    /// Broadcast values a drive's dataset does not stage.
-    #[error(
-        "broadcast of {} refused: not a value this drive's dataset stages",
-        .codes.join(", ")
-    )]
-    BroadcastNotStaged {
-        /// The codes.
-        codes: Vec<String>,
-    },
-    /// A transaction step called out of order (a caller's mistake).
-    #[error("transaction step `{step}` called before `{before}`")]
-    StepOutOfOrder {
-        /// The step called.
-        step: String,
-        /// The step that must come first.
-        before: String,
-    },
     /// A LUSTBUS drive listed on a CAN bus.
     #[error("a LUSTBUS drive on a CAN bus")]
     LustbusOnCan,
@@ -181,6 +165,10 @@ pub enum Refusal {
     #[error(transparent)]
     #[serde(skip)]
     Lustbus(#[from] LustbusRefusal),
+    /// The transaction refused a step ([`crate::upload`]).
+    #[error(transparent)]
+    #[serde(skip)]
+    Upload(#[from] UploadRefusal),
     /// A live diff refused ([`crate::live`]).
     #[error(transparent)]
     #[serde(skip)]

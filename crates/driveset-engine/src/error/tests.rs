@@ -11,6 +11,7 @@ use crate::client::lustbus::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::{LecomRefusal, SdoRefusal};
 use crate::live::LiveRefusal;
 use crate::plan::Problem;
+use crate::upload::UploadRefusal;
 
 fn target() -> Target {
     Target {
@@ -70,16 +71,18 @@ fn every_refusal_renders_its_message() {
             "broadcast (address 31) of 85-SERR: a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
         ),
         (
-            Refusal::BroadcastNotStaged {
+            UploadRefusal::BroadcastNotStaged {
                 codes: vec![s("416-A"), s("417-B")],
-            },
+            }
+            .into(),
             "broadcast of 416-A, 417-B refused: not a value this drive's dataset stages",
         ),
         (
-            Refusal::StepOutOfOrder {
+            UploadRefusal::StepOutOfOrder {
                 step: s("commit"),
                 before: s("open_dataset"),
-            },
+            }
+            .into(),
             "transaction step `commit` called before `open_dataset`",
         ),
         (Refusal::LustbusOnCan, "a LUSTBUS drive on a CAN bus"),

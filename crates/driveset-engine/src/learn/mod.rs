@@ -93,7 +93,7 @@ mod vf;
 pub use file::{LearnSource, LearnedSchema, learned_id, render_schema};
 pub use interpret::interpret;
 pub use model::{KEPT_SPEC, LearnFinding, Learned, LearnedCode, RawDescription};
-pub use pull::{PullSchemaError, PulledSchema, pull_schema};
+pub use pull::{PullSchemaError, PulledDescriptions, PulledSchema, pull_descriptions, pull_schema};
 pub use read::{learn, read_descriptions, read_texts};
 pub use scope::{default_params, max_parameter, needs_learning, options_for, unasked};
 

@@ -98,7 +98,8 @@
 //! **Learning the schema.** A drive whose set names a built-in LUSTBUS
 //! schema that lacks facts ([`Drive::learn_from`], see
 //! [`crate::learn::needs_learning`]) is learned first, as `pull` and
-//! `upload` do: over the bus's own link, before anything else is done to
+//! `upload` do and by the same code (the drive's session on the bus's own
+//! link, [`crate::session::BusSession`]): before anything else is done to
 //! the drive, its descriptions (VF1000 specifier 1, MC specifier 3) are
 //! read and interpreted by [`crate::learn::learn`], rendered and checked by
 //! [`crate::learn::render_schema`] (the built-in schema's spec facts stand),
@@ -109,7 +110,8 @@
 //! `LineLearn::schema_dir/<id>.toml`. `status` writes nothing: it reads the
 //! descriptions only (ENQUIRY), and uses the file an earlier `commission`
 //! wrote for the same descriptions (same id: the id holds their hash) when
-//! there is one, else the schema learned without texts. The drive's report
+//! there is one, else the schema learned without texts (the session's
+//! [`crate::session::LearnStep::ReuseEarlier`]). The drive's report
 //! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
 //! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 //!

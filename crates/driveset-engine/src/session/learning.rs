@@ -1,29 +1,37 @@
 //! Owns learning within a session: a LUSTBUS schema that lacks facts is
-//! learned from the drive's own descriptions ([`crate::learn::pull_schema`]:
-//! identify, read the descriptions and MC texts, render and check), and the
+//! learned from the drive's own descriptions (identify, read the
+//! descriptions and MC texts: [`crate::learn::pull_descriptions`]; render
+//! and check: [`crate::learn::PulledDescriptions::render`]), and the
 //! learned schema file `<id>.toml` is written through the
 //! [`crate::env::Environment`], the engine's one way to the file system
 //! besides its journals (`lustbus-protocol.txt` §5.3, the parameter
-//! descriptions; docs/file-formats.md, "Learned schemas").
+//! descriptions; docs/file-formats.md, "Learned schemas"). Two steps
+//! ([`LearnStep`]): render (and write), or `status`'s read-only reuse of an
+//! earlier learned file.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_link::ByteLink;
 use driveset_schema::Schema;
+use driveset_schema::error::SourceFile;
 
 use super::{LearnPolicy, SessionError};
 use crate::client::{DriveClient, LustbusClient};
-use crate::learn::{Learned, PullSchemaError, pull_schema};
+use crate::env::Environment;
+use crate::learn::{
+    LearnOptions, Learned, PullSchemaError, PulledDescriptions, PulledSchema, pull_descriptions,
+};
 
 /// What learning did, for reports.
 #[derive(Debug, Clone)]
 pub struct LearnedReport {
-    /// The learned schema's id.
+    /// The learned schema's id (as the drive's descriptions give it:
+    /// [`crate::learn::learned_id`]).
     pub id: String,
     /// The learned schema.
     pub schema: Arc<Schema>,
-    /// The file written, if any.
+    /// The file written (or, [`LearnStep::ReuseEarlier`], used), if any.
     pub file: Option<PathBuf>,
     /// The base schema's id.
     pub base: String,
@@ -33,23 +41,102 @@ pub struct LearnedReport {
     pub learned: Learned,
 }
 
+/// Which learning a session does ([`LearnPolicy::step`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum LearnStep {
+    /// Read the descriptions (and the MC texts unless
+    /// [`LearnOptions::no_texts`]), render the schema, and write it to
+    /// `<dir>/<id>.toml` when [`LearnPolicy::dir`] is given: the one-drive
+    /// commands and `commission`.
+    #[default]
+    Render,
+    /// `status`'s read-only learning: the descriptions only (no texts:
+    /// reading them selects them through 108-STEXT), then the file an
+    /// earlier run wrote to `<dir>/<id>.toml` for these very descriptions
+    /// (the id holds their hash), used as it is (not rendered), when there
+    /// is one; else the schema rendered. Nothing is written.
+    ReuseEarlier,
+}
+
 /// Learn the schema of the drive `client` talks to, extending `base`
-/// (which `client` speaks), with `policy`; `port` names the drive in the
-/// file (`<port> address <a>`). Nothing but the RAM selector 108-STEXT is
-/// written to the drive, and it is set back. The client goes on speaking
-/// `base`: the caller connects again with the learned schema.
+/// (which `client` speaks), with `policy` and its step ([`LearnStep`]);
+/// `port` names the drive in the file (`<port> address <a>`). Nothing but
+/// the RAM selector 108-STEXT is written to the drive, and it is set back.
+/// The client goes on speaking `base`: the caller connects again with the
+/// learned schema.
 pub fn learn_on<L: ByteLink>(
     client: &mut LustbusClient<L>,
     base: &Schema,
     port: &str,
     policy: &LearnPolicy<'_>,
 ) -> Result<LearnedReport, SessionError> {
+    match policy.step {
+        LearnStep::Render => render_on(client, base, port, policy),
+        LearnStep::ReuseEarlier => reuse_on(client, base, port, policy),
+    }
+}
+
+/// [`LearnStep::Render`].
+fn render_on<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    base: &Schema,
+    port: &str,
+    policy: &LearnPolicy<'_>,
+) -> Result<LearnedReport, SessionError> {
     let address = client.target().address;
-    let pulled = pull_schema(
-        client,
+    let read = pull_descriptions(client, base, &policy.options)?;
+    let id = read.id(base);
+    let pulled = render(read, base, &id, port, address, policy)?;
+    let file = match &policy.dir {
+        Some(dir) => Some(write(policy.env, dir, &id, &pulled.rendered.text)?),
+        None => None,
+    };
+    Ok(rendered_report(pulled, base, file))
+}
+
+/// [`LearnStep::ReuseEarlier`].
+fn reuse_on<L: ByteLink>(
+    client: &mut LustbusClient<L>,
+    base: &Schema,
+    port: &str,
+    policy: &LearnPolicy<'_>,
+) -> Result<LearnedReport, SessionError> {
+    let address = client.target().address;
+    let options = LearnOptions {
+        no_texts: true,
+        ..policy.options.clone()
+    };
+    let read = pull_descriptions(client, base, &options)?;
+    let id = read.id(base);
+    if let Some(dir) = &policy.dir {
+        let path = dir.join(format!("{id}.toml"));
+        if let Some(schema) = earlier(policy, &path)? {
+            return Ok(LearnedReport {
+                id,
+                schema,
+                file: Some(path),
+                base: base.id.clone(),
+                codes: read.learned.codes.len(),
+                learned: read.learned,
+            });
+        }
+    }
+    let pulled = render(read, base, &id, port, address, policy)?;
+    Ok(rendered_report(pulled, base, None))
+}
+
+/// The schema rendered from what was read ([`PulledDescriptions::render`]).
+fn render(
+    read: PulledDescriptions,
+    base: &Schema,
+    id: &str,
+    port: &str,
+    address: u8,
+    policy: &LearnPolicy<'_>,
+) -> Result<PulledSchema, SessionError> {
+    read.render(
         base,
-        &policy.options,
-        None,
+        id,
         format!("{port} address {address}"),
         policy.registry,
     )
@@ -60,35 +147,57 @@ pub fn learn_on<L: ByteLink>(
             address,
             detail,
         },
-    })?;
+    })
+}
+
+/// The report of a rendered schema, its file `file` if written.
+fn rendered_report(pulled: PulledSchema, base: &Schema, file: Option<PathBuf>) -> LearnedReport {
     let rendered = pulled.rendered;
-    let id = rendered.id.clone();
-    let file = match &policy.dir {
-        Some(dir) => {
-            policy.env.create_dir(dir).map_err(|e| SessionError::File {
-                action: "create",
-                path: dir.clone(),
-                detail: e.to_string(),
-            })?;
-            let path = dir.join(format!("{id}.toml"));
-            policy
-                .env
-                .write_file(&path, &rendered.text)
-                .map_err(|e| SessionError::File {
-                    action: "write",
-                    path: path.clone(),
-                    detail: e.to_string(),
-                })?;
-            Some(path)
-        }
-        None => None,
-    };
-    Ok(LearnedReport {
-        id,
+    LearnedReport {
+        id: rendered.id,
         schema: rendered.schema,
         file,
         base: base.id.clone(),
         codes: rendered.codes,
         learned: pulled.learned,
-    })
+    }
+}
+
+/// `text` written to `<dir>/<id>.toml` through `env` (the directory
+/// created first); the path.
+fn write(env: &dyn Environment, dir: &Path, id: &str, text: &str) -> Result<PathBuf, SessionError> {
+    env.create_dir(dir).map_err(|e| SessionError::File {
+        action: "create",
+        path: dir.to_path_buf(),
+        detail: e.to_string(),
+    })?;
+    let path = dir.join(format!("{id}.toml"));
+    env.write_file(&path, text)
+        .map_err(|e| SessionError::File {
+            action: "write",
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
+    Ok(path)
+}
+
+/// The learned schema in the file at `path` an earlier run wrote, if there
+/// is one, loaded against (a copy of) the policy's registry.
+fn earlier(policy: &LearnPolicy<'_>, path: &Path) -> Result<Option<Arc<Schema>>, SessionError> {
+    let text = policy.env.read_file(path).map_err(|e| SessionError::File {
+        action: "read",
+        path: path.to_path_buf(),
+        detail: e.to_string(),
+    })?;
+    let Some(text) = text else {
+        return Ok(None);
+    };
+    let mut registry = policy.registry.clone();
+    registry
+        .add_source(SourceFile::new(path.display().to_string(), text))
+        .map(Some)
+        .map_err(|e| SessionError::Earlier {
+            path: path.to_path_buf(),
+            detail: e.message,
+        })
 }

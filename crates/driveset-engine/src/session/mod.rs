@@ -10,11 +10,21 @@
 //! renders what the session returns; it builds no client and writes no
 //! learned file itself (docs/architecture.md, "One path from a
 //! port to a drive").
+//!
+//! A line's bus keeps its link from drive to drive: each drive's session
+//! borrows it ([`bus::BusSession`], learning as [`Session::open`] does,
+//! through the one implementation in `reach`; `status` learns with
+//! [`LearnStep::ReuseEarlier`]). What a line does to its bus rather than
+//! to one drive — the LUSTBUS SELECT to address 31 and the transactions
+//! parked around it, the LECOM MULTICAST — keeps its protocol's client
+//! from [`crate::connect::lustbus_on`] / [`crate::connect::lecom_on`].
 
+pub mod bus;
 pub mod learning;
 pub mod lustbus_family;
 pub mod open;
 pub mod rate;
+mod reach;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -29,7 +39,8 @@ use crate::error::EngineError;
 use crate::learn::LearnOptions;
 use crate::scan::{ScanOptions, detect_protocol};
 
-pub use learning::{LearnedReport, learn_on};
+pub use bus::BusSession;
+pub use learning::{LearnStep, LearnedReport, learn_on};
 pub use open::{
     FitError, FitPolicy, OpenedPort, PortError, Ports, SimulatedDrives, check_fit, open_port,
 };
@@ -46,6 +57,8 @@ pub struct LearnPolicy<'a> {
     pub dir: Option<PathBuf>,
     /// Through which the file is written.
     pub env: &'a dyn Environment,
+    /// Render (and write), or reuse an earlier file (`status`).
+    pub step: LearnStep,
 }
 
 /// How a session reaches its drive.
@@ -117,6 +130,15 @@ pub enum SessionError {
         /// What the file system said.
         detail: String,
     },
+    /// [`LearnStep::ReuseEarlier`]: the learned schema file an earlier run
+    /// wrote does not load.
+    #[error("learned schema {}: {detail}", path.display())]
+    Earlier {
+        /// The file.
+        path: PathBuf,
+        /// What the schema reader said.
+        detail: String,
+    },
     /// [`detect`] on a CAN port: a node's protocol is not probed.
     #[error(
         "{port} is a CAN port: say which schema the node speaks (--schema lenze-ecs or a schema file)"
@@ -162,6 +184,7 @@ impl SessionError {
             SessionError::Fit(_)
             | SessionError::MissingBuiltin { .. }
             | SessionError::File { .. }
+            | SessionError::Earlier { .. }
             | SessionError::DetectOnCan { .. }
             | SessionError::LustbusOnCan { .. } => true,
             SessionError::Render { .. } | SessionError::NoAnswer { .. } => false,
@@ -219,36 +242,18 @@ impl Session {
         policy: &SessionPolicy<'_>,
     ) -> Result<Session, SessionError> {
         check_fit(&port, &schema, Some(address), policy.fit)?;
-        let learn = policy
-            .learn
-            .as_ref()
-            .filter(|_| crate::learn::needs_learning(&schema));
-        match (learn, port.link) {
-            (Some(learn), Link::Bytes(line)) => {
-                let mut base = connect::lustbus(line, schema.clone(), address, &port.connect)?;
-                let learned = learn_on(&mut base, &schema, &port.name, learn)?;
-                let client = connect::lustbus(
-                    base.into_link(),
-                    learned.schema.clone(),
-                    address,
-                    &port.connect,
-                )?;
-                Ok(Session {
-                    port: port.name,
-                    address,
-                    schema: learned.schema.clone(),
-                    client: Box::new(client),
-                    learned: Some(learned),
-                })
-            }
-            (_, link) => Ok(Session {
-                client: connect::connect_with(link, schema.clone(), address, &port.connect)?,
-                port: port.name,
-                address,
-                schema,
-                learned: None,
-            }),
-        }
+        let way = reach::Owned {
+            link: port.link,
+            options: port.connect,
+        };
+        let reached = reach::reach(way, &port.name, schema, address, policy)?;
+        Ok(Session {
+            port: port.name,
+            address,
+            schema: reached.schema,
+            client: reached.client,
+            learned: reached.learned,
+        })
     }
 
     /// A LUSTBUS client for the drive at `address` of `port` (schema pull,

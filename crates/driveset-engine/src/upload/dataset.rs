@@ -12,7 +12,7 @@ use super::state::Attempt;
 use super::transaction::out_of_order;
 use super::{CodeOutcome, StepError, Transaction};
 use crate::client::{DatasetOutcome, DriveClient, dataset_or_refuse};
-use crate::error::{DeviceCause, EngineError, Refusal};
+use crate::error::{DeviceCause, EngineError};
 use crate::journal::TxnState;
 use crate::observe::Phase as Step;
 use crate::plan::code_label;
@@ -64,7 +64,7 @@ impl Transaction {
         if !unknown.is_empty() {
             return Err(StepError::Error(EngineError::refused(
                 self.drive.target.clone(),
-                Refusal::BroadcastNotStaged { codes: unknown },
+                super::UploadRefusal::BroadcastNotStaged { codes: unknown },
             )));
         }
         for k in marked {

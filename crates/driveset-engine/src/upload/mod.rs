@@ -67,6 +67,7 @@
 
 mod dataset;
 mod journal_writer;
+mod refusal;
 mod report;
 mod rollback;
 mod state;
@@ -85,6 +86,7 @@ use crate::overrides::Overrides;
 use crate::plan::{DATASET_TIMEOUT, Plan, Problem, TimeEstimate};
 
 pub use journal_writer::{check_unfinished, default_journal_path};
+pub use refusal::UploadRefusal;
 pub use report::{
     CodeOutcome, CodeReport, Next, Replanned, StepError, UploadFailure, UploadReport,
 };

@@ -17,7 +17,7 @@ use super::journal_writer::guard;
 use super::state::{Attempt, Codes, Counters, DatasetState, Drive, JournalState, Progress};
 use super::{CodeOutcome, Next, Replanned, StepError, UploadOptions, read_observed, refused};
 use crate::client::{DriveClient, Identity, Target};
-use crate::error::{EngineError, ErrorKind, Refusal};
+use crate::error::{EngineError, ErrorKind};
 use crate::journal::{JournalFile, TxnState};
 use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
@@ -64,7 +64,7 @@ pub struct Transaction {
 pub(super) fn out_of_order(target: &Target, step: &str, before: &str) -> StepError {
     StepError::Settled(EngineError::refused(
         target.clone(),
-        Refusal::StepOutOfOrder {
+        super::UploadRefusal::StepOutOfOrder {
             step: step.into(),
             before: before.into(),
         },

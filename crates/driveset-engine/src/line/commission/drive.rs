@@ -23,6 +23,7 @@ use crate::live::live_values;
 use crate::observe::{Hook, Phase};
 use crate::overrides::Override;
 use crate::plan::value_text;
+use crate::session::BusSession;
 use crate::transfer::TransferRequest;
 use crate::upload::{
     CodeOutcome, CodeReport, UploadOptions, UploadReport, default_journal_path, upload,
@@ -95,26 +96,32 @@ pub(super) fn run_drive(
     let t0 = link_now(link);
     let (watch, hook) = drive_watch(bus, d, ctx);
     let learned_drive;
-    let mut learned_report = None;
-    let d = match &d.learn_from {
-        None => d,
-        Some(base) => {
-            hook.enter(link_clock(link), Phase::Learn, None);
-            match learn_drive(bus, d, base, link, ctx) {
-                Ok((nd, rep)) => {
-                    learned_drive = nd;
-                    learned_report = Some(rep);
-                    &learned_drive
-                }
-                Err((e, failure)) => {
-                    let mut r = blank_report(d, bus, DriveResult::Failed);
-                    r.error = Some(e);
-                    r.elapsed_ms = since(t0, link_now(link));
-                    forget(bus, d, ctx);
-                    hook.end(link_clock(link));
-                    return (r, watch.spans.spans(), failure);
-                }
+    let (d, session, learned_report) = match &d.learn_from {
+        None => match BusSession::connect(link, &bus.port_name, d.schema.clone(), d.address) {
+            Ok(s) => (d, s, None),
+            Err(e) => {
+                let mut r = blank_report(d, bus, DriveResult::Failed);
+                r.error = Some(e.to_string());
+                return (r, watch.spans.spans(), None);
             }
+        },
+        Some(base) => 'learn: {
+            hook.enter(link_clock(link), Phase::Learn, None);
+            // the failed learning is dropped with its statement: the link
+            // is free again below
+            let (e, failure) = match learn_drive(bus, d, base, link, ctx) {
+                Ok((nd, rep, s)) => {
+                    learned_drive = nd;
+                    break 'learn (&learned_drive, s, Some(rep));
+                }
+                Err(err) => err,
+            };
+            let mut r = blank_report(d, bus, DriveResult::Failed);
+            r.error = Some(e);
+            r.elapsed_ms = since(t0, link_now(link));
+            forget(bus, d, ctx);
+            hook.end(link_clock(link));
+            return (r, watch.spans.spans(), failure);
         }
     };
     let mut r = blank_report(d, bus, DriveResult::Failed);
@@ -122,18 +129,13 @@ pub(super) fn run_drive(
     if r.learned_schema.is_some()
         && let Err(e) = crate::line::address_truth::check_drive(bus, d)
     {
+        drop(session);
         r.error = Some(e.to_string());
         forget(bus, d, ctx);
         hook.end(link_clock(link));
         return (r, watch.spans.spans(), None);
     }
-    let mut client = match crate::connect::connect_on(link, d.schema.clone(), d.address) {
-        Ok(c) => c,
-        Err(e) => {
-            r.error = Some(e.to_string());
-            return (r, watch.spans.spans(), None);
-        }
-    };
+    let mut client = session.client;
     let stats0 = client.stats();
     let job = Job {
         bus,
