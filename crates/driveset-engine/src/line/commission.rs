@@ -149,5 +149,5 @@ pub use options::{
     LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Mode, Opener, Progress,
     ProgressFn, Verdict, open_port,
 };
-pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry};
+pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
 pub use run::{commission, run_line};
