@@ -108,7 +108,7 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
-    /// The transfer-rate switch [`crate::transfer`] recorded in the
+    /// The transfer-rate switch (`--transfer-baud`) recorded in the
     /// journal before this upload: the journal file is this transaction's
     /// (the guard has run), and the upload's journal keeps the record.
     pub transfer: Option<crate::journal::TransferRecord>,

@@ -102,7 +102,7 @@ pub struct UploadReport {
     pub warnings: Vec<String>,
     /// The transfer rate (`--transfer-baud`): switched or not, and why.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub transfer: Option<crate::transfer::TransferReport>,
+    pub transfer: Option<crate::rate_report::TransferReport>,
 }
 
 fn ser_duration_ms<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
