@@ -4,7 +4,7 @@
 //!
 //! - journal `complete` or `rolled-back`: nothing to do;
 //! - **the drive is not the journal's drive**: refused with
-//!   [`EngineError::NotJournalDrive`] (exit 2 in the CLI), in this order:
+//!   [`ErrorKind::NotJournalDrive`](crate::error::ErrorKind::NotJournalDrive) (exit 2 in the CLI), in this order:
 //!   a version 1 journal (it records no bus, [`Mismatch::Version`]), another
 //!   schema ([`Mismatch::Schema`]), another bus ([`Mismatch::Bus`]: the
 //!   client's [`DriveClient::bus_id`] is not the recorded one, whatever the

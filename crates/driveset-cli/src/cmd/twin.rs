@@ -42,6 +42,7 @@ pub enum TwinCommand {
     /// Capture one drive, read-only, into a twin file.
     Capture(CaptureArgs),
     /// Capture every drive of a line manifest into DIR/<drive name>.twin.toml.
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     CaptureLine(CaptureLineArgs),
     /// Build a twin from a recorded bus session (what `decode` reads).
     FromCapture(FromCaptureArgs),
@@ -139,6 +140,7 @@ pub struct FromCaptureArgs {
     #[arg(value_name = "FILE")]
     pub file: PathBuf,
     /// The directory of the twins (twin-<address>.twin.toml).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(short = 'o', long = "output", value_name = "DIR")]
     pub output: PathBuf,
 }

@@ -246,7 +246,7 @@ pub struct Transition {
 /// The journal file's content.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Journal {
-    /// [`JOURNAL_VERSION`].
+    /// [`JOURNAL_VERSION`](super::JOURNAL_VERSION).
     pub journal_version: u32,
     /// Current state.
     pub state: TxnState,

@@ -172,8 +172,8 @@ impl UploadReport {
 /// transaction got far enough to have one.
 #[derive(Debug)]
 pub struct UploadFailure {
-    /// What went wrong ([`EngineError::RolledBack`], [`EngineError::Inconsistent`],
-    /// [`EngineError::Refused`], ...).
+    /// What went wrong ([`ErrorKind::RolledBack`](crate::error::ErrorKind::RolledBack), [`ErrorKind::Inconsistent`](crate::error::ErrorKind::Inconsistent),
+    /// [`ErrorKind::Refused`](crate::error::ErrorKind::Refused), ...).
     pub error: Box<EngineError>,
     /// Per-code outcomes, when a journal was written.
     pub report: Option<Box<UploadReport>>,

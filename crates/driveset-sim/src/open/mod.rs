@@ -263,7 +263,7 @@ pub fn is_can(family: Family) -> bool {
 /// Check that `address` is a valid drive address on `family`'s bus: the
 /// descriptor's one address rule ([`driveset_schema::Descriptor::check_address`],
 /// docs/architecture.md, "The family descriptor") decides; the refusal is
-/// worded in the simulator's own words ([`sim_address_rule`]), which its
+/// worded in the simulator's own words (`sim_address_rule`), which its
 /// messages have always shown.
 pub fn check_address(family: Family, address: u8) -> Result<(), SimOpenError> {
     family
