@@ -406,6 +406,73 @@ fn tidy_clients_are_built_only_by_connect_and_the_session() {
     report("client construction (docs/architecture.md)", &problems);
 }
 
+/// What opens a port or takes a bus lock; only the session's sequence
+/// (`session::open_port`, through the CLI's `Ports` in `cli/src/port.rs`)
+/// may, so every bus is locked before a command drives it.
+const PORT_OPENINGS: &[&str] = &[
+    "driveset_link::open(",
+    "open_with(",
+    "open_sim_with(",
+    "BusLock::acquire",
+];
+
+/// Files that open ports outside the session's sequence, and why (each
+/// must still hold such a call).
+const PORTS_OPENED_ELSEWHERE: &[(&str, &str)] = &[
+    (
+        "crates/driveset-cli/src/cmd/doctor.rs",
+        "reopens, at each line rate it tries, the port the session opened and locked",
+    ),
+    (
+        "crates/driveset-cli/src/cmd/twin.rs",
+        "a rehearsal's buses of twins live in this process only: nothing to lock",
+    ),
+];
+
+#[test]
+fn tidy_ports_are_opened_only_through_the_session() {
+    let root = workspace_root();
+    let mut problems = Vec::new();
+    let mut used = BTreeSet::new();
+    for dir in ["crates/driveset-engine/src", "crates/driveset-cli/src"] {
+        for file in files(&root.join(dir), &[".rs"]) {
+            let path = rel(&root, &file);
+            if path == "crates/driveset-cli/src/port.rs" || is_test_module_file(&file) {
+                continue;
+            }
+            let text = read(&file);
+            let lines: Vec<&str> = text.lines().collect();
+            let skip = skipped_blocks(&lines, None);
+            for (i, line) in lines.iter().enumerate() {
+                if line.trim_start().starts_with("//")
+                    || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
+                {
+                    continue;
+                }
+                let Some(what) = PORT_OPENINGS.iter().find(|p| line.contains(*p)) else {
+                    continue;
+                };
+                if PORTS_OPENED_ELSEWHERE.iter().any(|(f, _)| *f == path) {
+                    used.insert(path.clone());
+                    continue;
+                }
+                problems.push(format!(
+                    "{path}:{}: `{what}` opens a port (or takes a bus lock) outside the session: open it with `engine::session::open_port` (the CLI's `port::open_port_at`), which locks its bus (docs/architecture.md, \"One path from a port to a drive\")",
+                    i + 1
+                ));
+            }
+        }
+    }
+    for (f, _) in PORTS_OPENED_ELSEWHERE {
+        if !used.contains(*f) {
+            problems.push(format!(
+                "{f}:1: listed in PORTS_OPENED_ELSEWHERE (tests/integration/tidy.rs) but opens no port any more: remove its entry"
+            ));
+        }
+    }
+    report("port opening (docs/architecture.md)", &problems);
+}
+
 #[test]
 fn tidy_no_source_file_over_900_lines() {
     let root = workspace_root();

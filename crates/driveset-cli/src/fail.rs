@@ -88,6 +88,16 @@ impl From<driveset_engine::session::SessionError> for Fail {
     }
 }
 
+impl From<driveset_engine::session::PortError> for Fail {
+    fn from(e: driveset_engine::session::PortError) -> Self {
+        if e.is_input() {
+            Fail::input(e.to_string())
+        } else {
+            Fail::bus(e.to_string())
+        }
+    }
+}
+
 impl From<anyhow::Error> for Fail {
     fn from(e: anyhow::Error) -> Self {
         Fail::input(format!("{e:#}"))

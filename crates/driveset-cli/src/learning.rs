@@ -9,11 +9,9 @@ use std::sync::Arc;
 
 use driveset_engine::client::DriveClient;
 use driveset_engine::learn::{LearnOptions, Learned, needs_learning};
-use driveset_engine::session::{self, LearnPolicy, Session, SessionPolicy};
-use driveset_link::Link;
+use driveset_engine::session::{self, FitPolicy, LearnPolicy, Session, SessionPolicy};
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{Family, Schema};
-use driveset_sim::open::SimLink;
 use serde_json::json;
 
 use crate::port::{self, Fail, OpenPort};
@@ -84,18 +82,7 @@ pub fn detect(
     address: u8,
     dirs: &[PathBuf],
 ) -> Result<(Arc<Schema>, String), Fail> {
-    let name = opened.name.clone();
-    let (family, evidence) = if opened.sim.is_some() {
-        let mut link = match &opened.link {
-            Link::Bytes(_) => Link::Bytes(port::byte_link(opened)?),
-            Link::Frames(_) => {
-                return Err(session::SessionError::DetectOnCan { port: name }.into());
-            }
-        };
-        session::detect(&mut link, &name, address)?
-    } else {
-        session::detect(&mut opened.link, &name, address)?
-    };
+    let (family, evidence) = session::detect(&mut opened.link, &opened.name, address)?;
     Ok((builtin_for(family, dirs)?, evidence))
 }
 
@@ -202,12 +189,10 @@ pub struct OnDrive {
     pub schema: Arc<Schema>,
     /// What learning did, when it ran.
     pub learned: Option<LearnReport>,
-    /// Keeps a `sim://` bus alive while the client uses it.
-    pub _sim: Option<SimLink>,
 }
 
-/// The drive at `address` of `opened`, speaking `schema` (after
-/// [`port::check_fit`]), through the engine's session: a LUSTBUS schema
+/// The drive at `address` of `opened`, speaking `schema` (refused when
+/// it does not fit the port, [`session::check_fit`]), through the engine's session: a LUSTBUS schema
 /// that lacks facts is learned from the drive's descriptions first
 /// (unless `--no-learn`) and the learned schema written to
 /// `dir/<id>.toml` when `dir` is given.
@@ -220,7 +205,6 @@ pub fn open(
     dirs: &[PathBuf],
     dir: Option<&Path>,
 ) -> Result<OnDrive, Fail> {
-    port::check_fit(&opened, &schema, Some(address), allow_family)?;
     let learning = wants(&schema, args);
     let registry = if learning {
         Some(port::registry_for(&opened.name, dirs)?)
@@ -237,14 +221,13 @@ pub fn open(
             }),
             None => None,
         },
+        fit: FitPolicy { allow_family },
     };
-    let (port, sim) = opened.into_session_port()?;
-    let s = Session::open(port, schema, address, &policy)?;
+    let s = Session::open(opened, schema, address, &policy)?;
     Ok(OnDrive {
         client: s.client,
         schema: s.schema,
         learned: s.learned.map(LearnReport::from),
-        _sim: sim,
     })
 }
 
@@ -261,8 +244,6 @@ pub struct SetOnDrive {
     pub set: driveset_schema::ResolvedSet,
     /// The port as reports name it.
     pub port_name: String,
-    /// Keeps a `sim://` bus alive while the client uses it.
-    pub _sim: Option<SimLink>,
 }
 
 /// Loads `set` and opens the drive at `address` of `port` for it (see
@@ -300,7 +281,7 @@ pub fn set_on_drive(
         for l in on.learned.iter().flat_map(LearnReport::lines) {
             eprintln!("{l}");
         }
-        let (client, schema, sim) = (on.client, on.schema, on._sim);
+        let (client, schema) = (on.client, on.schema);
         let mut registry = registry;
         registry.insert_as(&base.id, schema.clone());
         let loaded = crate::output::load_valid_set(set, &mut registry).map_err(refused)?;
@@ -312,7 +293,6 @@ pub fn set_on_drive(
             schema,
             set: resolved,
             port_name,
-            _sim: sim,
         });
     }
     let loaded = crate::output::valid_set(set, loaded).map_err(refused)?;
@@ -327,6 +307,5 @@ pub fn set_on_drive(
         schema,
         set: resolved,
         port_name,
-        _sim: None,
     })
 }

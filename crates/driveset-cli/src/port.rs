@@ -31,9 +31,11 @@ use std::sync::Arc;
 
 use driveset_engine::client::DriveClient;
 use driveset_engine::connect::ConnectOptions;
-use driveset_engine::session::{OpenedPort as SessionPort, Session, SessionPolicy};
-use driveset_link::{Link, OpenOptions, Openers, PortSpec, VirtualClock};
-use driveset_schema::{BusProtocol, Family, Registry, Schema};
+use driveset_engine::session::{
+    self, FitPolicy, OpenedPort, PortError, Ports, Session, SessionPolicy, SimulatedDrives,
+};
+use driveset_link::{LockError, OpenOptions, Openers, PortSpec, VirtualClock};
+use driveset_schema::{Family, Registry, Schema};
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimLink, open_sim_with};
 use driveset_sim::port::{SimOpener, SimSpec};
@@ -47,40 +49,72 @@ pub fn protocol_name(f: Family) -> &'static str {
     f.descriptor().schema_protocol
 }
 
-/// An open port.
-#[derive(Debug)]
-pub struct OpenPort {
-    /// The port as reports name it (canonical form, without `state=`).
-    pub name: String,
-    /// The parsed port.
-    pub spec: PortSpec,
-    /// The transport.
-    pub link: Link,
-    /// The simulated bus behind a `sim://` port.
-    pub sim: Option<SimLink>,
-}
+/// An open port: the engine session's ([`driveset_engine::session::open_port`]).
+pub type OpenPort = OpenedPort;
 
-impl OpenPort {
-    /// The family a `sim://` port simulates (on a mixed LUSTBUS,
-    /// `sim://lustbus`, the family of its first drive).
-    pub fn sim_family(&self) -> Option<Family> {
-        self.sim.as_ref().map(SimLink::family)
+/// How the CLI opens ports and takes bus locks for the engine's session
+/// ([`Ports`]): real ports with `driveset-link`, `sim://` ports in-process
+/// with the simulator (module docs), locks in `driveset_link::lock`'s
+/// directory for the rest of the process ([`lock_bus`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CliPorts;
+
+impl Ports for CliPorts {
+    fn open(
+        &self,
+        port: &str,
+        spec: PortSpec,
+        address: Option<u8>,
+    ) -> Result<OpenedPort, PortError> {
+        if !matches!(spec, PortSpec::Sim(_)) {
+            let link = driveset_link::open(&spec, &OpenOptions::default()).map_err(|source| {
+                PortError::Open {
+                    port: spec.to_string(),
+                    source,
+                }
+            })?;
+            return Ok(OpenedPort::real(spec, link));
+        }
+        // The simulator's port: opened here rather than through
+        // `driveset_link::open_with`, because the session also asks the
+        // simulated bus which drives it holds.
+        let mut sim = SimSpec::parse(port).map_err(PortError::BadPort)?;
+        if let Some(a) = address
+            && !sim.names_drives()
+        {
+            sim.addresses.push(a);
+        }
+        let name = sim.name();
+        let settings = |detail: String| PortError::Settings {
+            port: name.clone(),
+            detail,
+        };
+        let config = SimOpener::default()
+            .config(&sim)
+            .map_err(|e| settings(e.to_string()))?;
+        let bus = open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
+            .map_err(|e| settings(e.to_string()))?;
+        let drives = bus
+            .addresses()
+            .into_iter()
+            .filter_map(|a| bus.family_of(a).map(|f| (f, a)))
+            .collect();
+        let spec = PortSpec::Sim(sim.to_opaque());
+        Ok(OpenedPort {
+            name,
+            connect: connect_options(&spec),
+            spec,
+            link: bus.link(),
+            simulated: Some(SimulatedDrives {
+                drives,
+                mixed: bus.is_mixed(),
+                in_process: config.state.is_none(),
+            }),
+        })
     }
 
-    /// The family of the simulated drive at `address`; on a mixed LUSTBUS
-    /// without an address, or at an address it does not have, the family
-    /// of the bus that speaks `schema`'s protocol, if any, else the first.
-    fn sim_family_for(&self, schema: &Schema, address: Option<u8>) -> Option<Family> {
-        let sim = self.sim.as_ref()?;
-        if let Some(f) = address.and_then(|a| sim.family_of(a)) {
-            return Some(f);
-        }
-        let families = sim.families();
-        families
-            .iter()
-            .copied()
-            .find(|&f| f == schema.family)
-            .or_else(|| families.first().copied())
+    fn lock(&self, bus: &str) -> Result<(), LockError> {
+        lock_bus(bus)
     }
 }
 
@@ -140,51 +174,27 @@ pub fn open_port(port: &str) -> Result<OpenPort, Fail> {
 }
 
 /// Open a port string for a command on one drive: a `sim://FAMILY` port
-/// without `addresses=` simulates one drive at `address`.
+/// without `addresses=` simulates one drive at `address`. The port's bus is
+/// locked (the engine's [`driveset_engine::session::open_port`]).
 pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
-    let bad_port = |e: driveset_link::PortSpecError| {
-        Fail::input(format!(
-            "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"
-        ))
+    Ok(session::open_port(&CliPorts, port, address)?)
+}
+
+/// The simulated bus behind a `sim://` port [`open_port`] opened (its
+/// `spec`), opened again as the simulator's own object, for what asks the
+/// bus itself rather than its drives (`doctor` sets its line rate). The
+/// port's first link is dropped first, so a state file is read as written.
+pub fn sim_bus(spec: &PortSpec) -> Result<SimLink, Fail> {
+    let PortSpec::Sim(o) = spec else {
+        return Err(Fail::input(format!("{spec} is not a sim:// port")));
     };
-    let spec = PortSpec::parse(port).map_err(bad_port)?;
-    if !matches!(spec, PortSpec::Sim(_)) {
-        lock_before_open(&spec)?;
-        let link = driveset_link::open(&spec, &OpenOptions::default())
-            .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
-        lock_bus(&link.bus_id())?;
-        return Ok(OpenPort {
-            name: spec.to_string(),
-            link,
-            sim: None,
-            spec,
-        });
-    }
-    // The simulator's port: opened here rather than through
-    // `driveset_link::open_with`, because the commands also ask the
-    // simulated bus which drives it holds.
-    let mut sim = SimSpec::parse(port).map_err(bad_port)?;
-    if let Some(a) = address
-        && !sim.names_drives()
-    {
-        sim.addresses.push(a);
-    }
+    let sim = SimSpec::from_opaque(o).map_err(|e| Fail::input(e.to_string()))?;
     let name = sim.name();
     let config = SimOpener::default()
         .config(&sim)
         .map_err(|e| Fail::input(format!("{name}: {e}")))?;
-    let clock = VirtualClock::new();
-    let bus = open_sim_with(&config, &clock, &name, EventLog::off())
-        .map_err(|e| Fail::input(format!("{name}: {e}")))?;
-    if config.state.is_some() {
-        lock_bus(&bus.link().bus_id())?;
-    }
-    Ok(OpenPort {
-        name,
-        link: bus.link(),
-        sim: Some(bus),
-        spec: PortSpec::Sim(sim.to_opaque()),
-    })
+    open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
+        .map_err(|e| Fail::input(format!("{name}: {e}")))
 }
 
 /// The bus locks this process holds ([`lock_bus`]), until it exits.
@@ -195,9 +205,10 @@ static BUS_LOCKS: std::sync::Mutex<Vec<driveset_link::BusLock>> = std::sync::Mut
 /// exit 3 (the bus is busy; nothing was sent), naming the process that
 /// holds it. A bus this process locked already (a command that opens its
 /// port again, a line run's second pass) stays locked. Every command that
-/// talks to drives opens its port through here (or [`lock_port`]), so two
+/// talks to drives opens its port through the engine's
+/// [`session::open_port`], which locks through here ([`CliPorts`]), so two
 /// processes never drive one bus at once, whatever each spelled its port.
-pub fn lock_bus(bus_id: &str) -> Result<(), Fail> {
+pub fn lock_bus(bus_id: &str) -> Result<(), LockError> {
     let mut held = BUS_LOCKS
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -211,181 +222,39 @@ pub fn lock_bus(bus_id: &str) -> Result<(), Fail> {
             .map_or_else(|| "driveset".to_string(), |c| format!("driveset {c}")),
         since: format!("{:.3}", jiff::Timestamp::now()),
     };
-    let lock = driveset_link::BusLock::acquire(&driveset_link::lock::lock_dir(), bus_id, &holder)
-        .map_err(|e| Fail::bus(e.to_string()))?;
+    let lock = driveset_link::BusLock::acquire(&driveset_link::lock::lock_dir(), bus_id, &holder)?;
     held.push(lock);
     Ok(())
 }
 
-/// [`lock_bus`] before `spec` is opened, when its spelling says the bus
-/// (`driveset_link::bus_id::before_open`: serial, slcan, SocketCAN): a
-/// port another driveset holds is refused naming the holder, before its
-/// open would fail on TIOCEXCL.
-pub fn lock_before_open(spec: &PortSpec) -> Result<(), Fail> {
-    match driveset_link::bus_id::before_open(spec) {
-        Some(bus) => lock_bus(&bus),
-        None => Ok(()),
-    }
-}
-
-/// [`lock_bus`] for a link opened from `spec` (a line's bus): a simulated
-/// bus without a state file lives in this process only, so there is
-/// nothing another process could drive and nothing is locked.
-pub fn lock_port(spec: &PortSpec, link: &Link) -> Result<(), Fail> {
-    if let PortSpec::Sim(o) = spec {
-        let private = SimSpec::from_opaque(o)
-            .ok()
-            .and_then(|s| SimOpener::default().config(&s).ok())
-            .is_some_and(|c| c.state.is_none());
-        if private {
-            return Ok(());
-        }
-    }
-    lock_bus(&link.bus_id())
-}
-
-/// Check that `schema` can talk over `port`: the protocol's kind of link,
-/// and on `sim://` the simulated family (another family of the same
-/// protocol passes with `allow_family`, `--allow-family`): on a mixed LUSTBUS (`sim://lustbus`) the
-/// family of the drive at `address`.
+/// Check that `schema` can talk over `port` to the drive at `address`
+/// (the engine's [`session::check_fit`]; another family of the same
+/// protocol on a `sim://` port passes with `allow_family`,
+/// `--allow-family`).
 pub fn check_fit(
     port: &OpenPort,
     schema: &Schema,
     address: Option<u8>,
     allow_family: bool,
 ) -> Result<(), Fail> {
-    let want = schema.family.bus();
-    let is_frames = matches!(port.link, Link::Frames(_));
-    match (want, is_frames) {
-        (BusProtocol::CanSdo, false) => {
-            return Err(Fail::input(format!(
-                "schema `{}` speaks CAN SDO, but {} is a character line (LUSTBUS / LECOM); use a CAN port (slcan://..., can://..., sim://ecs?...)",
-                schema.id, port.name
-            )));
-        }
-        (BusProtocol::Lustbus | BusProtocol::Lecom, true) => {
-            return Err(Fail::input(format!(
-                "schema `{}` speaks {}, but {} is a CAN port; use a serial line (/dev/ttyUSB0, tcp://..., sim://mc6000?...)",
-                schema.id,
-                protocol_name(schema.family),
-                port.name
-            )));
-        }
-        _ => {}
-    }
-    if let Some(f) = port.sim_family_for(schema, address) {
-        let holds = match (address, port.sim.as_ref().is_some_and(SimLink::is_mixed)) {
-            (Some(a), true) => format!("has a {} drive at address {a}", f.name()),
-            _ => format!("simulates {} drives", f.name()),
-        };
-        let sim_proto = f;
-        if sim_proto.bus() != want {
-            return Err(Fail::input(format!(
-                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family",
-                port.name,
-                protocol_name(sim_proto),
-                schema.id,
-                protocol_name(schema.family)
-            )));
-        }
-        if sim_proto != schema.family && !allow_family {
-            return Err(Fail::input(format!(
-                "{} {holds} ({}), schema `{}` is for {}; use a set / schema of that family, or pass --allow-family",
-                port.name,
-                protocol_name(sim_proto),
-                schema.id,
-                protocol_name(schema.family)
-            )));
-        }
-    }
-    Ok(())
+    session::check_fit(port, schema, address, FitPolicy { allow_family })
+        .map_err(|e| Fail::input(e.to_string()))
 }
 
 /// A client for the drive at `address` on `port`, speaking `schema`'s
-/// protocol (after [`check_fit`]), through the engine's session.
-pub fn client(
-    port: &OpenPort,
-    schema: Arc<Schema>,
-    address: u8,
-    allow_family: bool,
-) -> Result<Box<dyn DriveClient>, Fail> {
-    check_fit(port, &schema, Some(address), allow_family)?;
-    let opened = port.session_port()?;
-    Ok(Session::open(opened, schema, address, &SessionPolicy::default())?.client)
-}
-
-/// A fresh byte-link handle of the port (sim ports hand out any number;
-/// a real port hands out its one link once).
-pub fn byte_link(port: &OpenPort) -> Result<Box<dyn driveset_link::ByteLink>, Fail> {
-    if let Some(sim) = &port.sim {
-        return sim.byte_link().ok_or_else(|| {
-            Fail::input(format!("{} is a CAN bus, not a character line", port.name))
-        });
-    }
-    Err(Fail::input(format!(
-        "{}: the link was already taken; open the port again",
-        port.name
-    )))
-}
-
-fn frame_link(port: &OpenPort) -> Result<Box<dyn driveset_link::FrameLink>, Fail> {
-    if let Some(sim) = &port.sim {
-        return sim.frame_link().ok_or_else(|| {
-            Fail::input(format!("{} is a character line, not a CAN bus", port.name))
-        });
-    }
-    Err(Fail::input(format!(
-        "{}: the link was already taken; open the port again",
-        port.name
-    )))
-}
-
-impl OpenPort {
-    /// The engine's view of a `sim://` port: a fresh handle of its link
-    /// (the simulated bus stays with `self`).
-    fn session_port(&self) -> Result<SessionPort, Fail> {
-        let link = match &self.link {
-            Link::Bytes(_) => Link::Bytes(byte_link(self)?),
-            Link::Frames(_) => Link::Frames(frame_link(self)?),
-        };
-        Ok(SessionPort {
-            name: self.name.clone(),
-            link,
-            connect: connect_options(&self.spec),
-        })
-    }
-
-    /// The port as the engine's session takes it, and the simulated bus
-    /// behind a `sim://` port, which the caller keeps alive while the
-    /// session's client talks over it.
-    pub fn into_session_port(self) -> Result<(SessionPort, Option<SimLink>), Fail> {
-        if self.sim.is_some() {
-            let port = self.session_port()?;
-            return Ok((port, self.sim));
-        }
-        let port = SessionPort {
-            connect: connect_options(&self.spec),
-            name: self.name,
-            link: self.link,
-        };
-        Ok((port, None))
-    }
-}
-
-/// Like [`client`], consuming the port (the only way for a real port, whose
-/// one transport moves into the client).
+/// protocol, through the engine's session (which checks that the schema
+/// fits the port first, [`driveset_engine::session::check_fit`]).
 pub fn into_client(
     port: OpenPort,
     schema: Arc<Schema>,
     address: u8,
     allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
-    if port.sim.is_some() {
-        return client(&port, schema, address, allow_family);
-    }
-    check_fit(&port, &schema, Some(address), allow_family)?;
-    let (opened, _) = port.into_session_port()?;
-    Ok(Session::open(opened, schema, address, &SessionPolicy::default())?.client)
+    let policy = SessionPolicy {
+        fit: FitPolicy { allow_family },
+        ..SessionPolicy::default()
+    };
+    Ok(Session::open(port, schema, address, &policy)?.client)
 }
 
 /// What the port string says about talking to its drives (`latency=`).

@@ -37,6 +37,7 @@ use driveset_proto::lecom::{
 };
 use driveset_proto::lustbus::{Address, Dialect, ParameterCode, Select, TelegramBytes, ValueText};
 use driveset_schema::{Code, CodeKey, ControlState, RawValue, Role, Schema};
+use serde::{Deserialize, Serialize};
 
 use crate::client::{Target, code_name, schema_code, shown_value};
 use crate::error::{EngineError, Refusal};
@@ -100,6 +101,53 @@ impl Permit {
     }
 }
 
+/// Why the guard refused a write ([`check`]; gathered into [`Refusal`] as
+/// `Refusal::Guard`, each with the JSON kind journals hold: `guard_command`,
+/// `guard_control_word`, `guard_permit`). Nothing was sent.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind")]
+pub enum GuardRefusal {
+    /// A command, whatever asked for it (only the engine's own named
+    /// operations pass, with their permit).
+    #[error(
+        "{code} = {value} is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
+    )]
+    #[serde(rename = "guard_command")]
+    Command {
+        /// The code.
+        code: String,
+        /// The value (never a password's).
+        value: String,
+    },
+    /// A control word value that is not a stopped or inhibited state (it
+    /// would start, enable or release the drive, or is a reset command),
+    /// whatever asked for it.
+    #[error(
+        "{code} = {value} {why}: driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control"
+    )]
+    #[serde(rename = "guard_control_word")]
+    ControlWord {
+        /// The code.
+        code: String,
+        /// The value.
+        value: String,
+        /// The state the value puts the drive in.
+        why: String,
+    },
+    /// A permit used for a code or value it does not name (a caller's
+    /// mistake; nothing is sent).
+    #[error("the {permit} permit does not cover {code} = {value}; nothing was sent")]
+    #[serde(rename = "guard_permit")]
+    Permit {
+        /// The permit's name.
+        permit: String,
+        /// The code.
+        code: String,
+        /// The value.
+        value: String,
+    },
+}
+
 /// Proof that [`check`] let one write through; the builders below take it.
 /// Only [`check`] makes one.
 #[derive(Debug)]
@@ -109,7 +157,7 @@ pub(crate) struct Cleared {
 
 /// The one gate: whether `raw` may be written to `key` of the drive
 /// `target` (schema `schema`) under `permit`. `Err` is a typed
-/// [`Refusal`]: `GuardCommand`, `GuardControlWord`, `GuardPermit`, or
+/// [`Refusal`]: a [`GuardRefusal`] (`Refusal::Guard`), or
 /// `UnknownCode`; nothing is sent.
 pub(crate) fn check(
     schema: &Schema,
@@ -119,6 +167,7 @@ pub(crate) fn check(
     permit: Permit,
 ) -> Result<Cleared, EngineError> {
     let refuse = |r: Refusal| Err(EngineError::refused(target.clone(), r));
+    let guard = |r: GuardRefusal| Err(EngineError::refused(target.clone(), r));
     let code = match (permit.0, schema.code(key.number)) {
         (Kind::TextSelector, None) => None,
         _ => Some(schema_code(schema, target, key)?),
@@ -175,7 +224,7 @@ pub(crate) fn check(
     match named {
         Some(true) => return Ok(Cleared { _private: () }),
         Some(false) => {
-            return refuse(Refusal::GuardPermit {
+            return guard(GuardRefusal::Permit {
                 permit: permit.name().to_string(),
                 code: code_name(schema, key),
                 value: value(),
@@ -190,13 +239,13 @@ pub(crate) fn check(
         });
     };
     match code.role {
-        Some(Role::Command) => refuse(Refusal::GuardCommand {
+        Some(Role::Command) => guard(GuardRefusal::Command {
             code: code_name(schema, key),
             value: value(),
         }),
         Some(Role::ControlWord) => match control_why(schema, code, raw) {
             None => Ok(Cleared { _private: () }),
-            Some(why) => refuse(Refusal::GuardControlWord {
+            Some(why) => guard(GuardRefusal::ControlWord {
                 code: code_name(schema, key),
                 value: value(),
                 why,
@@ -350,9 +399,9 @@ mod tests {
     use driveset_schema::error::SourceFile;
     use driveset_schema::{CodeKey, Family, RawValue, Registry, Schema};
 
-    use super::{Permit, check};
+    use super::{GuardRefusal, Permit, check};
     use crate::client::Target;
-    use crate::error::ErrorKind;
+    use crate::error::{ErrorKind, assert_refusal_json};
 
     fn builtin(f: Family) -> Arc<Schema> {
         Registry::builtin()
@@ -589,5 +638,44 @@ mod tests {
             found.is_empty(),
             "writing telegrams built outside guard.rs: {found:#?}"
         );
+    }
+
+    /// Each guard refusal renders today's message, is a `Refusal` whose
+    /// JSON is the flat kind journals have always held, and reads back.
+    #[test]
+    fn guard_refusals_keep_their_messages_and_json_kinds() {
+        let s = |x: &str| x.to_string();
+        let cases = [
+            (
+                GuardRefusal::Command {
+                    code: s("4-PROG"),
+                    value: s("1"),
+                },
+                "4-PROG = 1 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself",
+                r#"{"kind":"guard_command","code":"4-PROG","value":"1"}"#,
+            ),
+            (
+                GuardRefusal::ControlWord {
+                    code: s("416-SCTL1"),
+                    value: s("1"),
+                    why: s("would start the motor"),
+                },
+                "416-SCTL1 = 1 would start the motor: driveset writes a control word only in a stopped or inhibited state; start the motor from the machine's control",
+                r#"{"kind":"guard_control_word","code":"416-SCTL1","value":"1","why":"would start the motor"}"#,
+            ),
+            (
+                GuardRefusal::Permit {
+                    permit: s("rate-switch"),
+                    code: s("81-SBAUD"),
+                    value: s("7"),
+                },
+                "the rate-switch permit does not cover 81-SBAUD = 7; nothing was sent",
+                r#"{"kind":"guard_permit","permit":"rate-switch","code":"81-SBAUD","value":"7"}"#,
+            ),
+        ];
+        for (refusal, message, json) in cases {
+            assert_eq!(refusal.to_string(), message);
+            assert_refusal_json(&refusal, json);
+        }
     }
 }

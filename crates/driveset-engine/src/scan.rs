@@ -353,6 +353,22 @@ pub fn detect_baud(
     Ok(None)
 }
 
+/// The read-only probes [`detect_protocol`] sends, as messages name them
+/// (`LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200`): the
+/// LUSTBUS TYPE code and the LECOM family's `IdentifyRules::probe`.
+pub fn probes_text() -> String {
+    let lecom: Vec<String> = BusProtocol::Lecom
+        .only_family()
+        .map_or(&[][..], |f| f.descriptor().identify_rules.probe)
+        .iter()
+        .map(|n| format!("C{n:04}"))
+        .collect();
+    format!(
+        "LUSTBUS ENQUIRY of {TYPE}-TYPE, LECOM RECEIVE of {}",
+        lecom.join(" and ")
+    )
+}
+
 /// What [`detect_protocol`] found at an address.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Detected {
@@ -432,4 +448,15 @@ pub fn detect_protocol(
         line.finish().map_err(|e| link_err(&port, address, e))?;
     }
     Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_probes_are_named_from_the_type_code_and_the_lecom_probe_list() {
+        assert_eq!(
+            super::probes_text(),
+            "LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200"
+        );
+    }
 }

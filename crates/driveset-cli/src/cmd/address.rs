@@ -140,7 +140,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
     req.baud = args.baud;
     let opened = port::open_port(&args.port)?;
     let name = opened.name.clone();
-    if let Some(f) = opened.sim_family()
+    if let Some(f) = opened.simulated_family()
         && f.bus() != protocol
     {
         return Err(Fail::input(format!(
@@ -152,7 +152,6 @@ fn address(args: &Args) -> Result<u8, Fail> {
     // the bus lock: open_port takes it for real ports and state-backed
     // sim ports, for the rest of the command
     let mut link = opened.link;
-    let _sim = opened.sim;
     let json = args.format == BusFormat::Json;
     let plan = assign::plan(&mut link, &req, &schemas)?;
     if args.dry_run {
@@ -319,7 +318,6 @@ pub fn recover_journal(
     let opened = port::open_port(port_text)?;
     let name = opened.name.clone();
     let mut link = opened.link;
-    let _sim = opened.sim;
     let r = assign::recover(&mut link, journal, &schemas)?;
     if json {
         output::emit(&format!(

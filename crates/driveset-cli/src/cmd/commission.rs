@@ -14,6 +14,7 @@ use driveset_engine::line::commission::{
 use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
+use driveset_engine::session::PortError;
 use driveset_link::Link;
 
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_INPUT, EXIT_OK, port, report};
@@ -245,17 +246,18 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
     }
 }
 
-/// Open a bus with the CLI's port openers (`sim://` in-process).
+/// Open a bus and lock it, as every command does (the engine's
+/// [`driveset_engine::session::open_port`] over [`port::CliPorts`]:
+/// `sim://` in-process); the message names the port as the manifest
+/// spells it.
 pub fn open_bus(bus: &Bus) -> Result<Link, String> {
-    port::lock_before_open(&bus.port).map_err(|f| f.msg)?;
-    let link = driveset_link::open_with(
-        &bus.port,
-        &driveset_link::OpenOptions::default(),
-        &port::openers(),
-    )
-    .map_err(|e| e.to_string())?;
-    port::lock_port(&bus.port, &link).map_err(|f| f.msg)?;
-    Ok(link)
+    let text = bus.port.to_string();
+    match driveset_engine::session::open_port(&port::CliPorts, &text, None) {
+        Ok(opened) => Ok(opened.link),
+        Err(PortError::Open { source, .. }) => Err(source.to_string()),
+        Err(PortError::Settings { detail, .. }) => Err(format!("{text}: {detail}")),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// Run a line command.

@@ -5,6 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+use driveset_engine::session::{self, rate::ReadRate};
+
 use crate::port::Fail;
 
 /// Whether the output is JSON (the offline diff's `--format json`).
@@ -52,31 +54,23 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
         args.learn,
         "not compared",
     )?;
-    let (schema, set, port_name, mut client, _sim) =
-        (on.schema, on.set, on.port_name, on.client, on._sim);
+    let (schema, set, port_name, mut client) = (on.schema, on.set, on.port_name, on.client);
     if !args.allow_family {
         driveset_engine::identify::check_family(client.as_mut())?;
     }
-    let d = match args
+    let req = args
         .transfer
-        .request(&driveset_engine::overrides::Overrides::none())
-    {
-        Some(req) => {
-            let journal = driveset_engine::upload::default_journal_path(
-                Path::new(super::upload::DEFAULT_JOURNAL_DIR),
-                client.as_ref(),
-            );
-            driveset_engine::transfer::live_diff(client.as_mut(), &set, &req, &journal).map(
-                |(d, t)| {
-                    if args.format == LiveFormat::Human {
-                        eprint!("{}", t.render());
-                    }
-                    d
-                },
-            )
+        .request(&driveset_engine::overrides::Overrides::none());
+    let journal_dir = Path::new(super::upload::DEFAULT_JOURNAL_DIR);
+    let rate = ReadRate::of(req.as_ref(), journal_dir);
+    let d = session::rate::live_diff(client.as_mut(), &set, rate).map(|(d, t)| {
+        if let Some(t) = t
+            && args.format == LiveFormat::Human
+        {
+            eprint!("{}", t.render());
         }
-        None => driveset_engine::live::live_diff(client.as_mut(), &set),
-    };
+        d
+    });
     let _ = client.finish();
     let d = d?;
     let old_name = format!("{port_name} address {}", args.address);

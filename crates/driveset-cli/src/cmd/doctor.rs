@@ -124,7 +124,7 @@ pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
 
 fn doctor(args: &Args) -> Result<u8, Fail> {
     let opened = port::open_port(&args.port)?;
-    let protocol = match (args.protocol, opened.sim_family()) {
+    let protocol = match (args.protocol, opened.simulated_family()) {
         (Some(p), _) => p.0,
         (None, Some(f)) => f.bus(),
         (None, None) if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
@@ -173,8 +173,11 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
             let timers = latency_timers(&args.sysfs, &opened.spec);
             let port_baud = opened.spec.line_baud().unwrap_or(9600);
             let spec = opened.spec.clone();
-            match opened.sim {
-                Some(sim) => {
+            match opened.simulated {
+                Some(_) => {
+                    // the rates are tried on the simulated bus itself
+                    drop(opened.link);
+                    let sim = port::sim_bus(&spec)?;
                     let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
                         sim.with_bus(|b| match b {
                             driveset_sim::open::SimBus::Bytes(b) => {

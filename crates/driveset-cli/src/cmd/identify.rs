@@ -6,9 +6,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::session::Session;
-use driveset_proto::lustbus::{Dialect, ParameterCode};
-use driveset_schema::family::TYPE;
+use driveset_engine::session::lustbus_family::open_lustbus_family;
+use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
 
@@ -95,7 +94,7 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         )?
     };
     let port_name = opened.name.clone();
-    let mut schema = choice.schema;
+    let schema = choice.schema;
     // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
     // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
     if args.schema.is_none()
@@ -103,41 +102,14 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         && args.protocol.is_some()
         && schema.family.descriptor().dialect == Some(Dialect::Mc)
     {
-        let (session_port, _sim) = opened.into_session_port()?;
-        let connect = session_port.connect;
-        let mut probe = Session::lustbus(session_port, schema.clone(), args.address)?;
-        let code = u16::try_from(TYPE)
-            .ok()
-            .and_then(ParameterCode::mc_value)
-            .unwrap_or(ParameterCode::POSMOD);
-        let mc = probe.enquire_code(code, 8)?.is_some();
-        if !mc {
-            let registry = port::registry(&args.schemas)?;
-            let vf = Family::from_dialect(Dialect::Vf1000).descriptor().schema_id;
-            schema = registry
-                .get(vf)
-                .ok_or_else(|| Fail::input(format!("built-in schema {vf} is missing")))?;
-            note = Some("the drive NAKs the MC6000/7000 CODE 20091: a VF1000 inverter".to_string());
-        } else {
-            note = Some(
-                "the drive answers the MC6000/7000 CODE 20091: a MASTERCONTROL servo".to_string(),
-            );
-        }
-        let mut client: Box<dyn DriveClient> = if mc {
-            Box::new(probe)
-        } else {
-            Box::new(driveset_engine::connect::lustbus(
-                probe.into_link(),
-                schema.clone(),
-                args.address,
-                &connect,
-            )?)
-        };
+        let registry = port::registry(&args.schemas)?;
+        let found = open_lustbus_family(opened, schema, &registry, args.address)?;
+        let mut client = found.session.client;
         return report(
             args,
             &port_name,
             client.as_mut(),
-            note,
+            Some(found.evidence),
             choice.path.as_deref(),
         );
     }

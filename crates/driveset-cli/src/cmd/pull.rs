@@ -15,7 +15,8 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
-use driveset_engine::pull::{PullOptions, pull_observed as engine_pull};
+use driveset_engine::pull::PullOptions;
+use driveset_engine::session::{self, rate::ReadRate};
 use driveset_schema::schema::{Access, StorageKind};
 use driveset_schema::{Format, export};
 use serde_json::json;
@@ -206,7 +207,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         Some(&dir),
     )?;
-    let (mut client, schema, learned, _sim_alive) = (on.client, on.schema, on.learned, on._sim);
+    let (mut client, schema, learned) = (on.client, on.schema, on.learned);
     let schema_path = match &learned {
         Some(r) => r.file.clone(),
         None => choice.path.clone(),
@@ -239,23 +240,15 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let mut transfer_note = None;
     let pulled = {
         let p = Progress::new("pull", quiet);
-        let r = match args
+        let req = args
             .transfer
-            .request(&driveset_engine::overrides::Overrides::none())
-        {
-            Some(req) => {
-                let journal = driveset_engine::upload::default_journal_path(
-                    Path::new(super::upload::DEFAULT_JOURNAL_DIR),
-                    client.as_ref(),
-                );
-                driveset_engine::transfer::pull(client.as_mut(), &popts, &req, &journal, &p.hook())
-                    .map(|(x, t)| {
-                        transfer_note = Some(t.render());
-                        x
-                    })
-            }
-            None => engine_pull(client.as_mut(), &popts, &p.hook()),
-        };
+            .request(&driveset_engine::overrides::Overrides::none());
+        let journal_dir = Path::new(super::upload::DEFAULT_JOURNAL_DIR);
+        let rate = ReadRate::of(req.as_ref(), journal_dir);
+        let r = session::rate::pull(client.as_mut(), &popts, rate, &p.hook()).map(|(x, t)| {
+            transfer_note = t.map(|t| t.render());
+            x
+        });
         p.done();
         r?
     };

@@ -8,7 +8,7 @@ use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
 use driveset_engine::line::replace::{Prepared, ReplaceError, ReplaceOptions, finish, prepare};
-use driveset_link::{Link, OpenOptions, PortSpec};
+use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
@@ -97,19 +97,18 @@ pub fn ask(prompt: &str) -> Result<String, Fail> {
     Ok(line.trim().to_string())
 }
 
-/// Open a port string through the CLI's openers (`sim://` in-process),
-/// holding the bus lock.
+/// Open a port string and lock its bus, as every command does (the
+/// engine's [`driveset_engine::session::open_port`] over
+/// [`port::CliPorts`]: `sim://` in-process); the port as its parsed form
+/// spells it.
 pub fn open_service_port(port_text: &str) -> Result<(Link, String), Fail> {
     let spec = PortSpec::parse(port_text).map_err(|e| {
         Fail::input(format!(
             "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001 or sim://mc6000?factory=1"
         ))
     })?;
-    port::lock_before_open(&spec)?;
-    let link = driveset_link::open_with(&spec, &OpenOptions::default(), &port::openers())
-        .map_err(|e| Fail::bus(format!("cannot open {spec}: {e}")))?;
-    port::lock_port(&spec, &link)?;
-    Ok((link, spec.to_string()))
+    let opened = driveset_engine::session::open_port(&port::CliPorts, port_text, None)?;
+    Ok((opened.link, spec.to_string()))
 }
 
 fn refusal(e: &ReplaceError) -> Fail {

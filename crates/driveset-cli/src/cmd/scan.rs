@@ -122,7 +122,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     } else {
         let opened = port::open_port(&args.port)?;
         let name = opened.name.clone();
-        if let Some(f) = opened.sim_family() {
+        if let Some(f) = opened.simulated_family() {
             let sim_proto = f.bus();
             if sim_proto != protocol {
                 return Err(Fail::input(format!(

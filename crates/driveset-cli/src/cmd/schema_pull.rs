@@ -136,8 +136,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     opts.params = Some(params.clone());
     port::check_fit(&opened, &base, Some(args.address), false)?;
     let port_name = opened.name.clone();
-    let (session_port, _sim) = opened.into_session_port()?;
-    let mut client = Session::lustbus(session_port, base.clone(), args.address)?;
+    let mut client = Session::lustbus(opened, base.clone(), args.address)?;
     let id = args
         .id
         .clone()

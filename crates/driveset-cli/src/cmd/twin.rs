@@ -210,15 +210,12 @@ pub fn capture_drive(
         Link::Frames(l) => l.bitrate(),
     };
     let mut layout = (None, None);
-    let mut _sim_alive = None;
     // the family that speaks the MC dialect describes its parameters in
     // the MC layout (LUSTBUS §11.1), which the twin keeps
     let mc = schema.family.descriptor().dialect == Some(Dialect::Mc);
     let mut client: Box<dyn DriveClient> = if mc {
         port::check_fit(&opened, &schema, Some(address), false)?;
-        let (session_port, sim) = opened.into_session_port()?;
-        _sim_alive = sim;
-        let mut c = Session::lustbus(session_port, schema.clone(), address)?;
+        let mut c = Session::lustbus(opened, schema.clone(), address)?;
         let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
         layout = mc_descriptions(&mut c, &params)?;
         Box::new(c)

@@ -27,7 +27,8 @@ use std::path::PathBuf;
 
 use driveset_engine::dry_run::{self, DryRunOptions, Subject};
 use driveset_engine::overrides::Override;
-use driveset_engine::upload::{UploadOptions, default_journal_path, upload as engine_upload};
+use driveset_engine::session;
+use driveset_engine::upload::{UploadOptions, default_journal_path};
 
 use super::identify::BusFormat;
 use crate::EXIT_OK;
@@ -152,8 +153,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.learn,
         "not uploaded",
     )?;
-    let (_schema, set, port_name, mut client, _sim) =
-        (on.schema, on.set, on.port_name, on.client, on._sim);
+    let (set, port_name, mut client) = (on.set, on.port_name, on.client);
     let json = args.format == BusFormat::Json;
 
     let transfer = args.transfer.request(&overrides);
@@ -195,10 +195,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let result = {
         let p = Progress::new("upload", json);
         opts.observer = p.hook();
-        let r = match &transfer {
-            Some(req) => driveset_engine::transfer::upload(client.as_mut(), &set, &opts, req),
-            None => engine_upload(client.as_mut(), &set, &opts),
-        };
+        let r = session::rate::upload(client.as_mut(), &set, &opts, transfer.as_ref());
         p.done();
         r
     };

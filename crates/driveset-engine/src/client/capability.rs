@@ -12,7 +12,9 @@ use std::time::Duration;
 use driveset_link::Instant;
 
 use super::DriveClient;
+use super::lustbus::LustbusRefusal;
 use crate::error::{EngineError, Refusal};
+use crate::transfer::TransferRefusal;
 
 /// Outcome of an MC6000/7000 dataset download (SLOAD, LUSTBUS 11.4).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -75,7 +77,7 @@ pub trait SerialLine {
 }
 
 /// The client's dataset download, or the refusal of a drive without one:
-/// [`Refusal::Vf1000NoDataset`] on a LUSTBUS family (the VF1000: its
+/// [`LustbusRefusal::Vf1000NoDataset`] on a LUSTBUS family (the VF1000: its
 /// descriptor names a wire dialect but no handshake), else
 /// [`Refusal::NoDatasetHandshake`].
 pub fn dataset_or_refuse(
@@ -85,7 +87,7 @@ pub fn dataset_or_refuse(
     // carries out of this function starts.
     let target = client.target().clone();
     let refusal = if client.schema().family.descriptor().dialect.is_some() {
-        Refusal::Vf1000NoDataset
+        Refusal::Lustbus(LustbusRefusal::Vf1000NoDataset)
     } else {
         Refusal::NoDatasetHandshake
     };
@@ -96,14 +98,14 @@ pub fn dataset_or_refuse(
 
 /// Set the host side of the client's serial line to `baud`
 /// ([`SerialLine::set_rate`]); a client without one is refused
-/// ([`Refusal::TransferRate`]).
+/// ([`TransferRefusal::Rate`]).
 pub fn set_line_rate(client: &mut dyn DriveClient, baud: u32) -> Result<(), EngineError> {
     if let Some(line) = client.line() {
         return line.set_rate(baud);
     }
     Err(EngineError::refused(
         client.target().clone(),
-        Refusal::TransferRate {
+        TransferRefusal::Rate {
             detail: format!(
                 "this client has no serial line whose rate could be set to {baud} baud"
             ),

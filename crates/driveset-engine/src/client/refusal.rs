@@ -3,28 +3,34 @@
 //! CAN SDO transfer (DS301) cannot carry, found before anything is sent.
 //! Each is gathered into [`Refusal`] by `From` (`Refusal::Lecom`,
 //! `Refusal::Sdo`), renders its message through `Display`, and keeps the
-//! JSON kind journals hold (the engine's `error/form.rs`).
+//! JSON kind journals hold (`lecom_group`, `no_sdo_index` ...).
 
 use std::fmt;
+
+use serde::{Deserialize, Serialize};
 
 use crate::error::Refusal;
 
 /// What the LECOM client cannot send (sections 8.D and 8.J).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind")]
 pub enum LecomRefusal {
     /// A MULTICAST group that does not exist (section 8.J: groups 1..9,
     /// addresses 10..90).
+    #[serde(rename = "lecom_group")]
     Group {
         /// The tens digit given.
         tens: u8,
     },
     /// A code LECOM cannot address (section 8.D: code up to 65535,
     /// subcode up to 255).
+    #[serde(rename = "lecom_unaddressable")]
     Unaddressable {
         /// The code.
         code: String,
     },
     /// A value the schema's LECOM format cannot carry.
+    #[serde(rename = "lecom_value")]
     Value {
         /// The code.
         code: String,
@@ -62,10 +68,12 @@ impl From<LecomRefusal> for Refusal {
 }
 
 /// What the CAN SDO client cannot transfer (DS301).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind")]
 pub enum SdoRefusal {
     /// A code with no SDO index (above the schema's index base, or a
     /// subcode above 255).
+    #[serde(rename = "no_sdo_index")]
     NoIndex {
         /// The code.
         code: String,
@@ -73,6 +81,7 @@ pub enum SdoRefusal {
         base: u32,
     },
     /// A type that does not travel over CAN SDO.
+    #[serde(rename = "not_sdo_type")]
     NotSdoType {
         /// The code.
         code: String,
@@ -80,6 +89,7 @@ pub enum SdoRefusal {
         ty: String,
     },
     /// A value that does not fit the code's CAN format.
+    #[serde(rename = "not_can_format")]
     NotCanFormat {
         /// The code.
         code: String,

@@ -15,8 +15,9 @@ use std::fmt;
 use driveset_proto::can::NodeIdError;
 use driveset_schema::{AddressRefusal, BusProtocol};
 
+use serde::{Deserialize, Serialize};
+
 use super::Refusal;
-use super::form::RefusalForm;
 
 /// What was being done when an address was refused: the message says it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,8 +31,9 @@ pub enum AddressUse {
 }
 
 /// [`Refusal::Address`]: the schema's typed refusal and what was being
-/// done.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// done. Its JSON is `AddressForm`'s, the kinds journals hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "AddressForm", try_from = "AddressForm")]
 pub struct AddressRefused {
     /// What was being done.
     pub doing: AddressUse,
@@ -74,53 +76,52 @@ impl AddressRefused {
     }
 
     /// The JSON form (the kinds journals have always recorded).
-    pub(super) fn form(self) -> RefusalForm {
+    fn form(self) -> AddressForm {
         let address = u8::try_from(self.refusal.address).unwrap_or(u8::MAX);
         let node = u32::try_from(self.refusal.address).unwrap_or(u32::MAX);
         match (self.refusal.bus, self.doing) {
-            (BusProtocol::Lustbus, AddressUse::Client) => RefusalForm::LustbusAddress { address },
-            (BusProtocol::Lecom, AddressUse::Client) => RefusalForm::LecomAddress { address },
+            (BusProtocol::Lustbus, AddressUse::Client) => AddressForm::LustbusAddress { address },
+            (BusProtocol::Lecom, AddressUse::Client) => AddressForm::LecomAddress { address },
             (BusProtocol::CanSdo, AddressUse::Client | AddressUse::Doctor) => {
-                RefusalForm::SdoNode { node }
+                AddressForm::SdoNode { node }
             }
-            (BusProtocol::Lustbus, AddressUse::Scan) => RefusalForm::ScanLustbusAddress { address },
-            (BusProtocol::Lecom, AddressUse::Scan) => RefusalForm::ScanLecomAddress { address },
-            (BusProtocol::CanSdo, AddressUse::Scan) => RefusalForm::ScanCanNode { node },
+            (BusProtocol::Lustbus, AddressUse::Scan) => AddressForm::ScanLustbusAddress { address },
+            (BusProtocol::Lecom, AddressUse::Scan) => AddressForm::ScanLecomAddress { address },
+            (BusProtocol::CanSdo, AddressUse::Scan) => AddressForm::ScanCanNode { node },
             (BusProtocol::Lustbus, AddressUse::Doctor) => {
-                RefusalForm::DoctorLustbusAddress { address }
+                AddressForm::DoctorLustbusAddress { address }
             }
-            (BusProtocol::Lecom, AddressUse::Doctor) => RefusalForm::DoctorLecomAddress { address },
+            (BusProtocol::Lecom, AddressUse::Doctor) => AddressForm::DoctorLecomAddress { address },
         }
     }
 
     /// Back from the JSON form: the refusal is the rule's again.
-    pub(super) fn from_form(form: RefusalForm) -> Result<Self, String> {
+    fn from_form(form: AddressForm) -> Result<Self, String> {
         let (doing, bus, address) = match form {
-            RefusalForm::LustbusAddress { address } => {
+            AddressForm::LustbusAddress { address } => {
                 (AddressUse::Client, BusProtocol::Lustbus, i64::from(address))
             }
-            RefusalForm::LecomAddress { address } => {
+            AddressForm::LecomAddress { address } => {
                 (AddressUse::Client, BusProtocol::Lecom, i64::from(address))
             }
-            RefusalForm::SdoNode { node } => {
+            AddressForm::SdoNode { node } => {
                 (AddressUse::Client, BusProtocol::CanSdo, i64::from(node))
             }
-            RefusalForm::ScanLustbusAddress { address } => {
+            AddressForm::ScanLustbusAddress { address } => {
                 (AddressUse::Scan, BusProtocol::Lustbus, i64::from(address))
             }
-            RefusalForm::ScanLecomAddress { address } => {
+            AddressForm::ScanLecomAddress { address } => {
                 (AddressUse::Scan, BusProtocol::Lecom, i64::from(address))
             }
-            RefusalForm::ScanCanNode { node } => {
+            AddressForm::ScanCanNode { node } => {
                 (AddressUse::Scan, BusProtocol::CanSdo, i64::from(node))
             }
-            RefusalForm::DoctorLustbusAddress { address } => {
+            AddressForm::DoctorLustbusAddress { address } => {
                 (AddressUse::Doctor, BusProtocol::Lustbus, i64::from(address))
             }
-            RefusalForm::DoctorLecomAddress { address } => {
+            AddressForm::DoctorLecomAddress { address } => {
                 (AddressUse::Doctor, BusProtocol::Lecom, i64::from(address))
             }
-            other => return Err(format!("{other:?} is not an address refusal")),
         };
         match bus.check_address(address) {
             Err(refusal) => Ok(AddressRefused { doing, refusal }),
@@ -129,6 +130,35 @@ impl AddressRefused {
                 super::refusal::protocol_label(bus)
             )),
         }
+    }
+}
+
+/// [`AddressRefused`]'s JSON form: one `kind` per bus and use, as journals
+/// have always recorded them (the address as given).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum AddressForm {
+    LecomAddress { address: u8 },
+    SdoNode { node: u32 },
+    LustbusAddress { address: u8 },
+    ScanLustbusAddress { address: u8 },
+    ScanLecomAddress { address: u8 },
+    ScanCanNode { node: u32 },
+    DoctorLustbusAddress { address: u8 },
+    DoctorLecomAddress { address: u8 },
+}
+
+impl From<AddressRefused> for AddressForm {
+    fn from(refused: AddressRefused) -> Self {
+        refused.form()
+    }
+}
+
+impl TryFrom<AddressForm> for AddressRefused {
+    type Error = String;
+
+    fn try_from(form: AddressForm) -> Result<Self, String> {
+        AddressRefused::from_form(form)
     }
 }
 

@@ -1,397 +1,224 @@
-//! The JSON form of a [`Refusal`], as journals record it (`kind` tagged,
-//! one flat list of kinds): [`Refusal`] is written and read through
-//! [`RefusalForm`], so its own shape (the one address refusal, the
-//! sub-enums beside the rooms that raise them) can change while old
-//! journals still read and new ones read the same.
+//! The JSON form of a [`Refusal`], as journals record it: one flat list of
+//! `kind`s, whichever enum holds the rule, so old journals still read and
+//! new ones read the same. The flat variants are written and read by
+//! `Refusal`'s own derive (`remote = "Self"`), each sub-enum by its own
+//! beside the room that raises it (`#[serde(tag = "kind")]`, its variants
+//! renamed to the kinds journals hold: `guard_command`, `lustbus_code`,
+//! `lecom_group` ...), the address refusal by `AddressForm` (`address.rs`).
+//! [`Kind`] names every kind, in the order journals' readers have always
+//! listed them in an error, and whose it is.
 
-use serde::{Deserialize, Serialize};
+use serde::de::value::Error as ValueError;
+use serde::de::{Error as _, IntoDeserializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde_json::Value;
 
-use super::*;
+use super::{AddressRefused, Refusal};
+use crate::client::lustbus::LustbusRefusal;
 use crate::client::{LecomRefusal, SdoRefusal};
-use crate::plan::Problem;
+use crate::guard::GuardRefusal;
+use crate::live::LiveRefusal;
+use crate::transfer::TransferRefusal;
 
-/// [`Refusal`]'s JSON form: one variant per `kind`, the fields as named
-/// in journals.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub(super) enum RefusalForm {
-    Plan {
-        problems: Vec<Problem>,
-    },
-    UnknownCode {
-        schema: String,
-        code: String,
-    },
-    ReadOnly {
-        code: String,
-        schema: String,
-    },
-    NoDatasetHandshake,
-    Broadcast {
-        code: String,
-        why: String,
-    },
-    BroadcastNotStaged {
-        codes: Vec<String>,
-    },
-    StepOutOfOrder {
-        step: String,
-        before: String,
-    },
-    GuardCommand {
-        code: String,
-        value: String,
-    },
-    GuardControlWord {
-        code: String,
-        value: String,
-        why: String,
-    },
-    GuardPermit {
-        permit: String,
-        code: String,
-        value: String,
-    },
-    LustbusOnCan,
-    WrongClient {
-        schema: String,
-        family: String,
-        protocol: driveset_schema::BusProtocol,
-    },
-    LinkMisfit {
-        schema: String,
-        family: String,
-        bus: String,
-        link: LinkKind,
-    },
-    LecomAddress {
-        address: u8,
-    },
-    LecomGroup {
-        tens: u8,
-    },
-    LecomUnaddressable {
-        code: String,
-    },
-    LecomValue {
-        code: String,
-        value: String,
-        detail: String,
-    },
-    Encode {
-        what: Option<String>,
-        detail: String,
-    },
-    SdoNode {
-        node: u32,
-    },
-    NoSdoIndex {
-        code: String,
-        base: u32,
-    },
-    NotSdoType {
-        code: String,
-        ty: String,
-    },
-    NotCanFormat {
-        code: String,
-        value: String,
-    },
-    LustbusAddress {
-        address: u8,
-    },
-    LustbusCode {
-        code: String,
-        problem: LustbusCodeProblem,
-    },
-    NoWireType {
-        code: String,
-        schema: String,
-        family: String,
-    },
-    NotInteger {
-        code: String,
-        value: String,
-    },
-    DoesNotFit {
-        code: String,
-        value: String,
-        ty: String,
-    },
-    NotCardWriteable {
-        code: String,
-    },
-    Vf1000NoDataset,
-    NoDatasetOpen,
-    StextMcOnly,
-    NoSload {
-        schema: String,
-    },
-    SetSchema {
-        set: String,
-        schema: String,
-    },
-    CodesNotInSchema {
-        schema: String,
-        codes: Vec<String>,
-    },
-    Diff {
-        detail: String,
-    },
-    WrongType {
-        code: String,
-        found: Option<i64>,
-        schema: String,
-        expected: Vec<i64>,
-    },
-    ScanLustbusAddress {
-        address: u8,
-    },
-    ScanLecomAddress {
-        address: u8,
-    },
-    ScanCanNode {
-        node: u32,
-    },
-    NoProbeCode {
-        schema: String,
-    },
-    DoctorLustbusAddress {
-        address: u8,
-    },
-    DoctorLecomAddress {
-        address: u8,
-    },
-    DoctorCanPort,
-    TransferRate {
-        detail: String,
-    },
-    Assign {
-        #[serde(flatten)]
-        refusal: crate::assign::AssignRefusal,
-    },
-}
-
-impl From<Refusal> for RefusalForm {
-    fn from(r: Refusal) -> Self {
-        match r {
-            Refusal::Address(a) => a.form(),
-            Refusal::Plan { problems } => RefusalForm::Plan { problems },
-            Refusal::UnknownCode { schema, code } => RefusalForm::UnknownCode { schema, code },
-            Refusal::ReadOnly { code, schema } => RefusalForm::ReadOnly { code, schema },
-            Refusal::NoDatasetHandshake => RefusalForm::NoDatasetHandshake,
-            Refusal::Broadcast { code, why } => RefusalForm::Broadcast { code, why },
-            Refusal::BroadcastNotStaged { codes } => RefusalForm::BroadcastNotStaged { codes },
-            Refusal::StepOutOfOrder { step, before } => {
-                RefusalForm::StepOutOfOrder { step, before }
-            }
-            Refusal::GuardCommand { code, value } => RefusalForm::GuardCommand { code, value },
-            Refusal::GuardControlWord { code, value, why } => {
-                RefusalForm::GuardControlWord { code, value, why }
-            }
-            Refusal::GuardPermit {
-                permit,
-                code,
-                value,
-            } => RefusalForm::GuardPermit {
-                permit,
-                code,
-                value,
-            },
-            Refusal::LustbusOnCan => RefusalForm::LustbusOnCan,
-            Refusal::WrongClient {
-                schema,
-                family,
-                protocol,
-            } => RefusalForm::WrongClient {
-                schema,
-                family,
-                protocol,
-            },
-            Refusal::LinkMisfit {
-                schema,
-                family,
-                bus,
-                link,
-            } => RefusalForm::LinkMisfit {
-                schema,
-                family,
-                bus,
-                link,
-            },
-            Refusal::Lecom(LecomRefusal::Group { tens }) => RefusalForm::LecomGroup { tens },
-            Refusal::Lecom(LecomRefusal::Unaddressable { code }) => {
-                RefusalForm::LecomUnaddressable { code }
-            }
-            Refusal::Lecom(LecomRefusal::Value {
-                code,
-                value,
-                detail,
-            }) => RefusalForm::LecomValue {
-                code,
-                value,
-                detail,
-            },
-            Refusal::Encode { what, detail } => RefusalForm::Encode { what, detail },
-            Refusal::Sdo(SdoRefusal::NoIndex { code, base }) => {
-                RefusalForm::NoSdoIndex { code, base }
-            }
-            Refusal::Sdo(SdoRefusal::NotSdoType { code, ty }) => {
-                RefusalForm::NotSdoType { code, ty }
-            }
-            Refusal::Sdo(SdoRefusal::NotCanFormat { code, value }) => {
-                RefusalForm::NotCanFormat { code, value }
-            }
-            Refusal::LustbusCode { code, problem } => RefusalForm::LustbusCode { code, problem },
-            Refusal::NoWireType {
-                code,
-                schema,
-                family,
-            } => RefusalForm::NoWireType {
-                code,
-                schema,
-                family,
-            },
-            Refusal::NotInteger { code, value } => RefusalForm::NotInteger { code, value },
-            Refusal::DoesNotFit { code, value, ty } => RefusalForm::DoesNotFit { code, value, ty },
-            Refusal::NotCardWriteable { code } => RefusalForm::NotCardWriteable { code },
-            Refusal::Vf1000NoDataset => RefusalForm::Vf1000NoDataset,
-            Refusal::NoDatasetOpen => RefusalForm::NoDatasetOpen,
-            Refusal::StextMcOnly => RefusalForm::StextMcOnly,
-            Refusal::NoSload { schema } => RefusalForm::NoSload { schema },
-            Refusal::SetSchema { set, schema } => RefusalForm::SetSchema { set, schema },
-            Refusal::CodesNotInSchema { schema, codes } => {
-                RefusalForm::CodesNotInSchema { schema, codes }
-            }
-            Refusal::Diff { detail } => RefusalForm::Diff { detail },
-            Refusal::WrongType {
-                code,
-                found,
-                schema,
-                expected,
-            } => RefusalForm::WrongType {
-                code,
-                found,
-                schema,
-                expected,
-            },
-            Refusal::NoProbeCode { schema } => RefusalForm::NoProbeCode { schema },
-            Refusal::DoctorCanPort => RefusalForm::DoctorCanPort,
-            Refusal::TransferRate { detail } => RefusalForm::TransferRate { detail },
-            Refusal::Assign { refusal } => RefusalForm::Assign { refusal },
+impl Serialize for Refusal {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Refusal::Guard(r) => r.serialize(s),
+            Refusal::Lustbus(r) => r.serialize(s),
+            Refusal::Live(r) => r.serialize(s),
+            Refusal::Transfer(r) => r.serialize(s),
+            Refusal::Address(r) => r.serialize(s),
+            Refusal::Lecom(r) => r.serialize(s),
+            Refusal::Sdo(r) => r.serialize(s),
+            flat => Refusal::serialize(flat, s),
         }
     }
 }
 
-impl TryFrom<RefusalForm> for Refusal {
-    type Error = String;
+impl<'de> Deserialize<'de> for Refusal {
+    /// The `kind` says whose the rule is; the enum that holds it reads the
+    /// rest (its errors as they were: an unknown kind, a field of the
+    /// wrong type, an address that is a drive's own).
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut value = Value::deserialize(d)?;
+        // the tag: the object's `kind`, or a sequence's first item (both
+        // as internally tagged enums read them)
+        let tag = match &mut value {
+            Value::Object(map) => match map.get_mut("kind") {
+                Some(tag) => Some(tag),
+                None => return Err(D::Error::missing_field("kind")),
+            },
+            Value::Array(items) => items.first_mut(),
+            _ => None,
+        };
+        let Some(tag) = tag else {
+            return Refusal::deserialize(value).map_err(D::Error::custom);
+        };
+        let kind = match tag.as_u64() {
+            Some(index) => Kind::deserialize(index.into_deserializer()),
+            None => Kind::deserialize(&*tag).map_err(ValueError::custom),
+        }
+        .map_err(D::Error::custom)?;
+        // by its name, which the enum that holds it knows (a kind given by
+        // its index reads as the same kind)
+        *tag = Value::from(kind.name());
+        match kind.room() {
+            Room::Flat => Refusal::deserialize(value),
+            Room::Guard => GuardRefusal::deserialize(value).map(Refusal::Guard),
+            Room::Lustbus => LustbusRefusal::deserialize(value).map(Refusal::Lustbus),
+            Room::Live => LiveRefusal::deserialize(value).map(Refusal::Live),
+            Room::Transfer => TransferRefusal::deserialize(value).map(Refusal::Transfer),
+            Room::Address => AddressRefused::deserialize(value).map(Refusal::Address),
+            Room::Lecom => LecomRefusal::deserialize(value).map(Refusal::Lecom),
+            Room::Sdo => SdoRefusal::deserialize(value).map(Refusal::Sdo),
+        }
+        .map_err(D::Error::custom)
+    }
+}
 
-    fn try_from(r: RefusalForm) -> Result<Self, String> {
-        Ok(match r {
-            RefusalForm::Plan { problems } => Refusal::Plan { problems },
-            RefusalForm::UnknownCode { schema, code } => Refusal::UnknownCode { schema, code },
-            RefusalForm::ReadOnly { code, schema } => Refusal::ReadOnly { code, schema },
-            RefusalForm::NoDatasetHandshake => Refusal::NoDatasetHandshake,
-            RefusalForm::Broadcast { code, why } => Refusal::Broadcast { code, why },
-            RefusalForm::BroadcastNotStaged { codes } => Refusal::BroadcastNotStaged { codes },
-            RefusalForm::StepOutOfOrder { step, before } => {
-                Refusal::StepOutOfOrder { step, before }
+/// Whose a kind is: `Refusal`'s flat variants or a sub-enum's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Room {
+    Flat,
+    Guard,
+    Lustbus,
+    Live,
+    Transfer,
+    Address,
+    Lecom,
+    Sdo,
+}
+
+/// Every refusal kind journals hold, in the order an unknown kind's error
+/// has always listed them (and a kind's index has always counted).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case", variant_identifier)]
+enum Kind {
+    Plan,
+    UnknownCode,
+    ReadOnly,
+    NoDatasetHandshake,
+    Broadcast,
+    BroadcastNotStaged,
+    StepOutOfOrder,
+    GuardCommand,
+    GuardControlWord,
+    GuardPermit,
+    LustbusOnCan,
+    WrongClient,
+    LinkMisfit,
+    LecomAddress,
+    LecomGroup,
+    LecomUnaddressable,
+    LecomValue,
+    Encode,
+    SdoNode,
+    NoSdoIndex,
+    NotSdoType,
+    NotCanFormat,
+    LustbusAddress,
+    LustbusCode,
+    NoWireType,
+    NotInteger,
+    DoesNotFit,
+    NotCardWriteable,
+    Vf1000NoDataset,
+    NoDatasetOpen,
+    StextMcOnly,
+    NoSload,
+    SetSchema,
+    CodesNotInSchema,
+    Diff,
+    WrongType,
+    ScanLustbusAddress,
+    ScanLecomAddress,
+    ScanCanNode,
+    NoProbeCode,
+    DoctorLustbusAddress,
+    DoctorLecomAddress,
+    DoctorCanPort,
+    TransferRate,
+    Assign,
+}
+
+impl Kind {
+    /// The kind as journals spell it: its variant's name in snake case, as
+    /// `rename_all` spells it.
+    fn name(self) -> String {
+        let mut name = String::new();
+        for (i, c) in format!("{self:?}").chars().enumerate() {
+            if c.is_uppercase() && i > 0 {
+                name.push('_');
             }
-            RefusalForm::GuardCommand { code, value } => Refusal::GuardCommand { code, value },
-            RefusalForm::GuardControlWord { code, value, why } => {
-                Refusal::GuardControlWord { code, value, why }
-            }
-            RefusalForm::GuardPermit {
-                permit,
-                code,
-                value,
-            } => Refusal::GuardPermit {
-                permit,
-                code,
-                value,
-            },
-            RefusalForm::LustbusOnCan => Refusal::LustbusOnCan,
-            RefusalForm::WrongClient {
-                schema,
-                family,
-                protocol,
-            } => Refusal::WrongClient {
-                schema,
-                family,
-                protocol,
-            },
-            RefusalForm::LinkMisfit {
-                schema,
-                family,
-                bus,
-                link,
-            } => Refusal::LinkMisfit {
-                schema,
-                family,
-                bus,
-                link,
-            },
-            RefusalForm::LecomGroup { tens } => Refusal::Lecom(LecomRefusal::Group { tens }),
-            RefusalForm::LecomUnaddressable { code } => {
-                Refusal::Lecom(LecomRefusal::Unaddressable { code })
-            }
-            RefusalForm::LecomValue {
-                code,
-                value,
-                detail,
-            } => Refusal::Lecom(LecomRefusal::Value {
-                code,
-                value,
-                detail,
-            }),
-            RefusalForm::Encode { what, detail } => Refusal::Encode { what, detail },
-            RefusalForm::NoSdoIndex { code, base } => {
-                Refusal::Sdo(SdoRefusal::NoIndex { code, base })
-            }
-            RefusalForm::NotSdoType { code, ty } => {
-                Refusal::Sdo(SdoRefusal::NotSdoType { code, ty })
-            }
-            RefusalForm::NotCanFormat { code, value } => {
-                Refusal::Sdo(SdoRefusal::NotCanFormat { code, value })
-            }
-            RefusalForm::LustbusCode { code, problem } => Refusal::LustbusCode { code, problem },
-            RefusalForm::NoWireType {
-                code,
-                schema,
-                family,
-            } => Refusal::NoWireType {
-                code,
-                schema,
-                family,
-            },
-            RefusalForm::NotInteger { code, value } => Refusal::NotInteger { code, value },
-            RefusalForm::DoesNotFit { code, value, ty } => Refusal::DoesNotFit { code, value, ty },
-            RefusalForm::NotCardWriteable { code } => Refusal::NotCardWriteable { code },
-            RefusalForm::Vf1000NoDataset => Refusal::Vf1000NoDataset,
-            RefusalForm::NoDatasetOpen => Refusal::NoDatasetOpen,
-            RefusalForm::StextMcOnly => Refusal::StextMcOnly,
-            RefusalForm::NoSload { schema } => Refusal::NoSload { schema },
-            RefusalForm::SetSchema { set, schema } => Refusal::SetSchema { set, schema },
-            RefusalForm::CodesNotInSchema { schema, codes } => {
-                Refusal::CodesNotInSchema { schema, codes }
-            }
-            RefusalForm::Diff { detail } => Refusal::Diff { detail },
-            RefusalForm::WrongType {
-                code,
-                found,
-                schema,
-                expected,
-            } => Refusal::WrongType {
-                code,
-                found,
-                schema,
-                expected,
-            },
-            RefusalForm::NoProbeCode { schema } => Refusal::NoProbeCode { schema },
-            RefusalForm::DoctorCanPort => Refusal::DoctorCanPort,
-            RefusalForm::TransferRate { detail } => Refusal::TransferRate { detail },
-            RefusalForm::Assign { refusal } => Refusal::Assign { refusal },
-            address => Refusal::Address(AddressRefused::from_form(address)?),
-        })
+            name.push(c.to_ascii_lowercase());
+        }
+        name
+    }
+
+    /// Whose the kind is.
+    fn room(self) -> Room {
+        match self {
+            Kind::GuardCommand | Kind::GuardControlWord | Kind::GuardPermit => Room::Guard,
+            Kind::Broadcast
+            | Kind::LustbusCode
+            | Kind::NoWireType
+            | Kind::NotInteger
+            | Kind::DoesNotFit
+            | Kind::NotCardWriteable
+            | Kind::Vf1000NoDataset
+            | Kind::NoDatasetOpen
+            | Kind::StextMcOnly
+            | Kind::NoSload => Room::Lustbus,
+            Kind::SetSchema | Kind::CodesNotInSchema | Kind::Diff => Room::Live,
+            Kind::TransferRate => Room::Transfer,
+            Kind::LecomAddress
+            | Kind::SdoNode
+            | Kind::LustbusAddress
+            | Kind::ScanLustbusAddress
+            | Kind::ScanLecomAddress
+            | Kind::ScanCanNode
+            | Kind::DoctorLustbusAddress
+            | Kind::DoctorLecomAddress => Room::Address,
+            Kind::LecomGroup | Kind::LecomUnaddressable | Kind::LecomValue => Room::Lecom,
+            Kind::NoSdoIndex | Kind::NotSdoType | Kind::NotCanFormat => Room::Sdo,
+            Kind::Plan
+            | Kind::UnknownCode
+            | Kind::ReadOnly
+            | Kind::NoDatasetHandshake
+            | Kind::BroadcastNotStaged
+            | Kind::StepOutOfOrder
+            | Kind::LustbusOnCan
+            | Kind::WrongClient
+            | Kind::LinkMisfit
+            | Kind::Encode
+            | Kind::WrongType
+            | Kind::NoProbeCode
+            | Kind::DoctorCanPort
+            | Kind::Assign => Room::Flat,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde::Deserialize;
+    use serde::de::IntoDeserializer;
+    use serde::de::value::Error;
+
+    use super::Kind;
+
+    /// Every kind's name is the one its `rename_all` reads, by index.
+    #[test]
+    fn every_kind_s_name_reads_back_as_that_kind() {
+        let mut index = 0u64;
+        while let Ok(kind) = Kind::deserialize(IntoDeserializer::<Error>::into_deserializer(index))
+        {
+            let by_name = Kind::deserialize(IntoDeserializer::<Error>::into_deserializer(
+                kind.name().as_str(),
+            ));
+            assert_eq!(by_name, Ok(kind), "{}", kind.name());
+            index += 1;
+        }
+        assert_eq!(index, 45);
     }
 }

@@ -21,9 +21,23 @@ mod refusal;
 #[cfg(test)]
 mod tests;
 
+/// For the sub-enums' tests: `refusal`, gathered into [`Refusal`], renders
+/// its own message, writes exactly `json` (the flat kind journals hold)
+/// and reads back as itself.
+#[cfg(test)]
+pub(crate) fn assert_refusal_json<R>(refusal: &R, json: &str)
+where
+    R: Clone + fmt::Display + Into<Refusal>,
+{
+    let r: Refusal = refusal.clone().into();
+    assert_eq!(r.to_string(), refusal.to_string());
+    assert_eq!(serde_json::to_string(&r).expect("json"), json);
+    assert_eq!(serde_json::from_str::<Refusal>(json).expect("back"), r);
+}
+
 pub use address::{AddressRefused, AddressUse};
 pub use device::{DeviceCause, LECOM_PROGRAMMING_ADVICE, SiofRegister, SiofVerdict};
-pub use refusal::{LinkKind, LustbusCodeProblem, Refusal};
+pub use refusal::{LinkKind, Refusal};
 
 /// Every way an engine operation fails: where ([`EngineError::target`]) and
 /// what ([`EngineError::kind`], boxed).
@@ -120,9 +134,10 @@ impl EngineError {
         }
     }
 
-    /// [`ErrorKind::Refused`].
-    pub fn refused(target: Target, refusal: Refusal) -> Self {
-        Self::new(target, ErrorKind::Refused(refusal))
+    /// [`ErrorKind::Refused`]: a [`Refusal`] or one of the sub-enums
+    /// gathered into it.
+    pub fn refused(target: Target, refusal: impl Into<Refusal>) -> Self {
+        Self::new(target, ErrorKind::Refused(refusal.into()))
     }
 
     /// [`ErrorKind::Link`].

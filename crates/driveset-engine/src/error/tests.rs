@@ -7,7 +7,9 @@ use driveset_proto::lustbus::Siof;
 use driveset_schema::BusProtocol;
 
 use super::*;
+use crate::client::lustbus::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::live::LiveRefusal;
 use crate::plan::Problem;
 
 fn target() -> Target {
@@ -58,12 +60,13 @@ fn every_refusal_renders_its_message() {
             "this drive family has no dataset download handshake",
         ),
         (
-            Refusal::Broadcast {
+            LustbusRefusal::Broadcast {
                 code: s("85-SERR"),
                 why: s(
                     "a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
                 ),
-            },
+            }
+            .into(),
             "broadcast (address 31) of 85-SERR: a numerically compatible code (81..85, 91; section 5.2) is never broadcast",
         ),
         (
@@ -190,96 +193,107 @@ fn every_refusal_renders_its_message() {
             "LUSTBUS address 31 is not a drive address: use 1..30, or 0 with a single drive on the line (31 is the broadcast address, section 4.2)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("300-X"),
                 problem: LustbusCodeProblem::HasSubcode,
-            },
+            }
+            .into(),
             "300-X has a subcode; LUSTBUS parameters have none (check the schema)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("7-X"),
                 problem: LustbusCodeProblem::NotAddressable,
-            },
+            }
+            .into(),
             "7-X cannot be addressed",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("120-X"),
                 problem: LustbusCodeProblem::AboveVf1000Range,
-            },
+            }
+            .into(),
             "120-X is above 99, the VF1000 range (section 2.4.1)",
         ),
         (
-            Refusal::LustbusCode {
+            LustbusRefusal::Code {
                 code: s("1200"),
                 problem: LustbusCodeProblem::AboveMcRange,
-            },
+            }
+            .into(),
             "1200 is above 999, the MC6000/7000 range (section 2.4.2)",
         ),
         (
-            Refusal::NoWireType {
+            LustbusRefusal::NoWireType {
                 code: s("300-X"),
                 schema: s("lust-mc6000"),
                 family: s("MC6000/7000"),
-            },
+            }
+            .into(),
             "300-X: schema `lust-mc6000` gives no MC6000/7000 type or width, so the value cannot be encoded; add `type` to the schema",
         ),
         (
-            Refusal::NotInteger {
+            LustbusRefusal::NotInteger {
                 code: s("300-X"),
                 value: s("\"a\""),
-            },
+            }
+            .into(),
             "300-X: LUSTBUS parameters hold integers, not \"a\"",
         ),
         (
-            Refusal::DoesNotFit {
+            LustbusRefusal::DoesNotFit {
                 code: s("300-X"),
                 value: s("raw 70000"),
                 ty: s("USIGN16"),
-            },
+            }
+            .into(),
             "300-X: raw 70000 does not fit USIGN16",
         ),
         (
-            Refusal::NotCardWriteable {
+            LustbusRefusal::NotCardWriteable {
                 code: s("428-RSIO"),
-            },
+            }
+            .into(),
             "428-RSIO is not CardWriteable: during a dataset download the drive ACKs it but does not take the value (section 11.4); write it after dataset_commit",
         ),
         (
-            Refusal::Vf1000NoDataset,
+            LustbusRefusal::Vf1000NoDataset.into(),
             "the VF1000 has no dataset download handshake (SLOAD is MC6000/7000 only, section 11.4)",
         ),
         (
-            Refusal::NoDatasetOpen,
+            LustbusRefusal::NoDatasetOpen.into(),
             "no dataset download is open; call dataset_begin first",
         ),
         (
-            Refusal::StextMcOnly,
+            LustbusRefusal::StextMcOnly.into(),
             "108-STEXT substitution texts are MC6000/7000 only (section 11.3)",
         ),
         (
-            Refusal::NoSload { schema: s("x") },
+            LustbusRefusal::NoSload { schema: s("x") }.into(),
             "schema `x` has no 80-SLOAD; the dataset download needs it",
         ),
         (
-            Refusal::SetSchema {
+            LiveRefusal::SetSchema {
                 set: s("a"),
                 schema: s("b"),
-            },
+            }
+            .into(),
             "the set is for schema `a`, the drive is read with schema `b`; compare a set of this drive family",
         ),
         (
-            Refusal::CodesNotInSchema {
+            LiveRefusal::CodesNotInSchema {
                 schema: s("b"),
                 codes: vec![s("7"), s("8")],
-            },
+            }
+            .into(),
             "codes not in schema `b`: 7, 8; remove them from the set",
         ),
         (
-            Refusal::Diff {
+            LiveRefusal::Diff {
                 detail: s("schemas differ"),
-            },
+            }
+            .into(),
             "schemas differ",
         ),
         (
@@ -712,4 +726,74 @@ fn the_clients_refusals_keep_the_json_kinds_journals_hold() {
         assert_eq!(j, want);
         assert_eq!(serde_json::from_str::<Refusal>(&j).expect("back"), r);
     }
+}
+
+/// A journal's refusal that does not read fails as it always has (the
+/// kinds listed in their order), and the forms serde has always taken (a
+/// kind by its index, a sequence) read the same refusal.
+#[test]
+fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
+    use crate::journal::FailureCause;
+    let read = |refusal: &str| {
+        serde_json::from_str::<FailureCause>(&format!(
+            r#"{{"kind":"refused","refusal":{refusal}}}"#
+        ))
+        .map_err(|e| e.to_string())
+    };
+    let refused = |refusal: Refusal| Ok(FailureCause::Refused { refusal });
+    assert_eq!(
+        read(r#"{"kind":"bogus"}"#),
+        Err(
+            "unknown variant `bogus`, expected one of `plan`, `unknown_code`, `read_only`, \
+             `no_dataset_handshake`, `broadcast`, `broadcast_not_staged`, `step_out_of_order`, \
+             `guard_command`, `guard_control_word`, `guard_permit`, `lustbus_on_can`, \
+             `wrong_client`, `link_misfit`, `lecom_address`, `lecom_group`, \
+             `lecom_unaddressable`, `lecom_value`, `encode`, `sdo_node`, `no_sdo_index`, \
+             `not_sdo_type`, `not_can_format`, `lustbus_address`, `lustbus_code`, \
+             `no_wire_type`, `not_integer`, `does_not_fit`, `not_card_writeable`, \
+             `vf1000_no_dataset`, `no_dataset_open`, `stext_mc_only`, `no_sload`, `set_schema`, \
+             `codes_not_in_schema`, `diff`, `wrong_type`, `scan_lustbus_address`, \
+             `scan_lecom_address`, `scan_can_node`, `no_probe_code`, `doctor_lustbus_address`, \
+             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`"
+                .to_string()
+        )
+    );
+    assert_eq!(
+        read(r#"{"code":"7"}"#),
+        Err("missing field `kind`".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":true}"#),
+        Err("invalid type: boolean `true`, expected variant identifier".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":"lecom_group","tens":300}"#),
+        Err("invalid value: integer `300`, expected u8".to_string())
+    );
+    assert_eq!(
+        read(r#""x""#),
+        Err("invalid type: string \"x\", expected internally tagged enum RefusalForm".to_string())
+    );
+    assert_eq!(
+        read(r#"{"kind":29}"#),
+        refused(LustbusRefusal::NoDatasetOpen.into())
+    );
+    assert_eq!(
+        read(r#"{"kind":99}"#),
+        Err("invalid value: integer `99`, expected variant index 0 <= i < 45".to_string())
+    );
+    assert_eq!(
+        read(r#"["guard_command", "4-PROG", "1"]"#),
+        refused(
+            crate::guard::GuardRefusal::Command {
+                code: s("4-PROG"),
+                value: s("1"),
+            }
+            .into()
+        )
+    );
+    assert_eq!(
+        read(r#"["no_probe_code", "x"]"#),
+        refused(Refusal::NoProbeCode { schema: s("x") })
+    );
 }

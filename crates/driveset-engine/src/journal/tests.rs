@@ -8,7 +8,8 @@ use std::fs;
 
 use super::*;
 use crate::client::Target;
-use crate::error::{DeviceCause, EngineError, Refusal};
+use crate::client::lustbus::LustbusRefusal;
+use crate::error::{DeviceCause, EngineError};
 
 /// A `failed` journal as the release before typed causes wrote it
 /// (version 2, `failure` text only, `holding` names as strings).
@@ -117,7 +118,7 @@ fn the_failure_cause_is_stored_typed() {
     );
     let back: Journal = serde_json::from_value(v).expect("back");
     assert_eq!(back, j);
-    let refused = EngineError::refused(target, Refusal::NoDatasetOpen);
+    let refused = EngineError::refused(target, LustbusRefusal::NoDatasetOpen);
     assert_eq!(
         serde_json::to_string(&FailureCause::of(&refused)).expect("json"),
         r#"{"kind":"refused","refusal":{"kind":"no_dataset_open"}}"#

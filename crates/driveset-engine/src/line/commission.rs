@@ -147,7 +147,7 @@ pub use drive::diff_lines;
 pub(super) use drive::{blank_report, fill_from_upload};
 pub use options::{
     LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Mode, Opener, Progress,
-    ProgressFn, Verdict, open_port,
+    ProgressFn, Verdict,
 };
 pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
 pub use run::{commission, run_line};

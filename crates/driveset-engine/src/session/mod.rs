@@ -1,14 +1,20 @@
-//! Owns the one path from an opened port to a ready client for one drive:
-//! the drive's protocol found by read-only probes when no schema is named
+//! Owns the one path from a port string to a ready client for one drive:
+//! the port opened and its bus locked ([`open`]: through the front end's
+//! [`Ports`]), the schema checked against the port ([`check_fit`]), the
+//! drive's protocol found by read-only probes when no schema is named
 //! ([`detect`]), a LUSTBUS schema that lacks facts learned from the drive's
 //! own descriptions and written through the [`Environment`]
 //! ([`learning`]), and the client that speaks the schema in the end
-//! ([`Session::open`]). The front end opens the port (and takes its bus
-//! lock) and renders what the session returns; it builds no client and
-//! writes no learned file itself (docs/architecture.md, "One path from a
+//! ([`Session::open`], [`Session::open_port`]). The front end opens
+//! transports and takes bus locks when the session asks ([`Ports`]) and
+//! renders what the session returns; it builds no client and writes no
+//! learned file itself (docs/architecture.md, "One path from a
 //! port to a drive").
 
 pub mod learning;
+pub mod lustbus_family;
+pub mod open;
+pub mod rate;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -17,24 +23,16 @@ use driveset_link::{ByteLink, Link};
 use driveset_schema::{Registry, Schema};
 
 use crate::client::{DriveClient, LustbusClient};
-use crate::connect::{self, ConnectOptions};
+use crate::connect;
 use crate::env::Environment;
 use crate::error::EngineError;
 use crate::learn::LearnOptions;
 use crate::scan::{ScanOptions, detect_protocol};
 
 pub use learning::{LearnedReport, learn_on};
-
-/// A port the front end opened for one command: what reports call it, its
-/// transport, and what its string says about talking to its drives.
-pub struct OpenedPort {
-    /// The port as reports name it.
-    pub name: String,
-    /// The transport (for a simulated bus, a handle of its own).
-    pub link: Link,
-    /// The port's `latency=` and the like.
-    pub connect: ConnectOptions,
-}
+pub use open::{
+    FitError, FitPolicy, OpenedPort, PortError, Ports, SimulatedDrives, check_fit, open_port,
+};
 
 /// Learning a LUSTBUS schema that lacks facts from the drive's
 /// descriptions ([`learning`]).
@@ -56,6 +54,8 @@ pub struct SessionPolicy<'a> {
     /// Learn the schema from the drive when it lacks facts (`None`: use
     /// the schema as it is, `--no-learn`).
     pub learn: Option<LearnPolicy<'a>>,
+    /// What [`check_fit`] lets through.
+    pub fit: FitPolicy,
 }
 
 /// A drive reached through a port: the client speaking `schema`, and what
@@ -91,6 +91,12 @@ pub enum SessionError {
     /// protocol does not run on the port's kind of link, say).
     #[error(transparent)]
     Engine(#[from] EngineError),
+    /// The port could not be opened or its bus locked ([`open_port`]).
+    #[error(transparent)]
+    Port(#[from] PortError),
+    /// The schema cannot talk over the port ([`check_fit`]).
+    #[error(transparent)]
+    Fit(#[from] FitError),
     /// The learned schema does not render into a file that checks.
     #[error("{port} address {address}: {detail}")]
     Render {
@@ -121,13 +127,21 @@ pub enum SessionError {
     },
     /// [`detect`]: nothing answered the read-only probes.
     #[error(
-        "{port} address {address}: no drive answered the read-only probes (LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200); check wiring, address and baud rate, or name the schema with --schema"
+        "{port} address {address}: no drive answered the read-only probes ({probes}); check wiring, address and baud rate, or name the schema with --schema"
     )]
     NoAnswer {
         /// The port.
         port: String,
         /// The address probed.
         address: u8,
+        /// The probes sent ([`crate::scan::probes_text`]).
+        probes: String,
+    },
+    /// A family's built-in schema is not in the registry given.
+    #[error("built-in schema {id} is missing")]
+    MissingBuiltin {
+        /// The schema id.
+        id: &'static str,
     },
     /// A LUSTBUS client was asked for on a CAN port.
     #[error("{port} is a CAN port; LUSTBUS needs a character line")]
@@ -144,7 +158,10 @@ impl SessionError {
     pub fn is_input(&self) -> bool {
         match self {
             SessionError::Engine(e) => e.is_refused(),
-            SessionError::File { .. }
+            SessionError::Port(e) => e.is_input(),
+            SessionError::Fit(_)
+            | SessionError::MissingBuiltin { .. }
+            | SessionError::File { .. }
             | SessionError::DetectOnCan { .. }
             | SessionError::LustbusOnCan { .. } => true,
             SessionError::Render { .. } | SessionError::NoAnswer { .. } => false,
@@ -153,8 +170,8 @@ impl SessionError {
 }
 
 /// The drive's family at `address` of an open character line, by the
-/// read-only probes `scan` uses (LUSTBUS ENQUIRY of 91-TYPE and of the MC
-/// CODE 20091, LECOM RECEIVE of C0093 / C0200), and what answered.
+/// read-only probes `scan` uses ([`crate::scan::probes_text`], and the MC
+/// CODE 20091 after an answered TYPE), and what answered.
 /// Nothing is written.
 pub fn detect(
     link: &mut Link,
@@ -171,21 +188,37 @@ pub fn detect(
         None => Err(SessionError::NoAnswer {
             port: port.to_string(),
             address,
+            probes: crate::scan::probes_text(),
         }),
     }
 }
 
 impl Session {
-    /// The drive at `address` of `port`, speaking `schema`: learned from
-    /// the drive first when `policy` says so and the schema lacks facts
-    /// ([`crate::learn::needs_learning`]); a schema whose protocol does not
-    /// run on the port's kind of link is refused before anything is sent.
+    /// The drive at `address` of the port string `port`, speaking
+    /// `schema`: the port opened and its bus locked through `ports`
+    /// ([`open_port`]), then [`Session::open`].
+    pub fn open_port(
+        ports: &dyn Ports,
+        port: &str,
+        schema: Arc<Schema>,
+        address: u8,
+        policy: &SessionPolicy<'_>,
+    ) -> Result<Session, SessionError> {
+        let opened = open_port(ports, port, Some(address))?;
+        Session::open(opened, schema, address, policy)
+    }
+
+    /// The drive at `address` of `port`, speaking `schema`: a schema that
+    /// cannot talk over the port is refused before anything is sent
+    /// ([`check_fit`]); learned from the drive first when `policy` says so
+    /// and the schema lacks facts ([`crate::learn::needs_learning`]).
     pub fn open(
         port: OpenedPort,
         schema: Arc<Schema>,
         address: u8,
         policy: &SessionPolicy<'_>,
     ) -> Result<Session, SessionError> {
+        check_fit(&port, &schema, Some(address), policy.fit)?;
         let learn = policy
             .learn
             .as_ref()

@@ -55,13 +55,15 @@
 //! record's bookkeeping in `record.rs`, a switched session ([`begin`],
 //! [`end`]) in `session.rs`, the commands run at a transfer rate
 //! ([`upload`], [`pull`], [`live_diff`]) in `commands.rs`, and `recover`'s
-//! part ([`find_drive`], [`finish_rate`]) in `recovery.rs`.
+//! part ([`find_drive`], [`finish_rate`]) in `recovery.rs`, the refusal
+//! ([`TransferRefusal`]) in `refusal.rs`.
 
 mod check;
 mod commands;
 mod decide;
 mod record;
 mod recovery;
+mod refusal;
 mod session;
 mod switch;
 
@@ -69,7 +71,7 @@ use driveset_schema::family::{Family, OnlineBaud};
 use driveset_schema::{CodeKey, RawValue, Schema};
 
 use crate::client::Target;
-use crate::error::{EngineError, Refusal};
+use crate::error::EngineError;
 
 pub use crate::rate_report::{Decision, TransferReport};
 pub use check::check;
@@ -77,6 +79,7 @@ pub use commands::{live_diff, pull, pull_exchanges, upload, upload_exchanges};
 pub use decide::{at_rate, decide};
 pub(crate) use recovery::judged_rate;
 pub use recovery::{find_drive, finish_rate};
+pub use refusal::TransferRefusal;
 pub use session::{Session, begin, end};
 pub use switch::search;
 
@@ -111,7 +114,7 @@ struct Codes {
 }
 
 fn refuse(target: &Target, reason: String) -> EngineError {
-    EngineError::refused(target.clone(), Refusal::TransferRate { detail: reason })
+    EngineError::refused(target.clone(), TransferRefusal::Rate { detail: reason })
 }
 
 fn codes_of(schema: &Schema) -> Option<Codes> {

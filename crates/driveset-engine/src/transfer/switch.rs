@@ -9,6 +9,7 @@ use std::path::Path;
 
 use driveset_schema::{CodeKey, RawValue};
 
+use super::TransferRefusal;
 use super::record::{as_rate_j, keep_value, persist_record, planned_rate, start_back, whereabouts};
 use super::{Codes, as_rate, codes_of};
 use crate::client::{DriveClient, Target, set_line_rate};
@@ -243,7 +244,7 @@ pub(super) fn with_rate_note(mut e: EngineError, back: &Back) -> EngineError {
         ErrorKind::NoAnswer { what, .. } | ErrorKind::Device { what, .. } => {
             let _ = write!(what, " ({note})");
         }
-        ErrorKind::Refused(Refusal::TransferRate { detail }) => {
+        ErrorKind::Refused(Refusal::Transfer(TransferRefusal::Rate { detail })) => {
             let _ = write!(detail, "; {note}");
         }
         _ => {

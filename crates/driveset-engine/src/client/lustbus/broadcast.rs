@@ -10,9 +10,10 @@ use driveset_proto::lustbus::{Address, CompatibleParameter, Dialect};
 use driveset_schema::{CodeKey, RawValue, Schema};
 
 use super::LustbusClient;
+use super::LustbusRefusal;
 use super::encoding::{value_of, wire_type};
 use crate::client::{code_name, link_error, schema_code, shown_value};
-use crate::error::{EngineError, Refusal};
+use crate::error::EngineError;
 use crate::guard::{self, Permit};
 
 /// Why the value of `code` is never broadcast to address 31 (`None`: it
@@ -67,7 +68,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let refuse = |why: String| {
             EngineError::refused(
                 self.target.clone(),
-                Refusal::Broadcast {
+                LustbusRefusal::Broadcast {
                     code: code_name(&schema, key),
                     why,
                 },

@@ -21,9 +21,9 @@ use driveset_link::{ByteLink, Instant};
 use driveset_proto::lustbus::{Dialect, Siof};
 use driveset_schema::{CodeKey, RawValue};
 
-use super::LustbusClient;
+use super::{LustbusClient, LustbusRefusal};
 use crate::client::{DatasetDownload, DatasetOutcome, device};
-use crate::error::{DeviceCause, EngineError, Refusal, SiofVerdict};
+use crate::error::{DeviceCause, EngineError, SiofVerdict};
 use crate::guard::Permit;
 use crate::plan;
 
@@ -35,7 +35,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::Vf1000NoDataset,
+                LustbusRefusal::Vf1000NoDataset,
             ));
         }
         // A download left open by a failed transfer (no answer, cable) is
@@ -59,7 +59,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         if !self.dataset_open {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NoDatasetOpen,
+                LustbusRefusal::NoDatasetOpen,
             ));
         }
         let key = self.sload_present()?;
@@ -145,7 +145,7 @@ impl<L: ByteLink> LustbusClient<L> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::Vf1000NoDataset,
+                LustbusRefusal::Vf1000NoDataset,
             ));
         }
         let siof = self.read_siof("resuming the dataset download")?;
@@ -167,7 +167,7 @@ impl<L: ByteLink> LustbusClient<L> {
             Some(n) if self.schema.code(n).is_some() => Ok(CodeKey::new(n)),
             _ => Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NoSload {
+                LustbusRefusal::NoSload {
                     schema: self.schema.id.clone(),
                 },
             )),

@@ -10,7 +10,8 @@ use driveset_proto::lustbus::{Dialect, ParameterCode, ParameterValue, ValueText}
 use driveset_schema::{CodeKey, RawValue};
 
 use super::LustbusClient;
-use crate::error::{EngineError, Refusal, SiofVerdict};
+use super::LustbusRefusal;
+use crate::error::{EngineError, SiofVerdict};
 use crate::guard::{self, Permit};
 
 impl<L: ByteLink> LustbusClient<L> {
@@ -38,7 +39,7 @@ impl<L: ByteLink> LustbusClient<L> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::StextMcOnly,
+                LustbusRefusal::StextMcOnly,
             ));
         }
         let code = ParameterCode::mc_value(driveset_proto::lustbus::description::STEXT)

@@ -10,8 +10,9 @@ use driveset_proto::lustbus::{
 use driveset_schema::{Code, CodeKey, Family, Schema, ValueType};
 
 use super::{LustbusClient, LustbusOptions};
+use super::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::code_name;
-use crate::error::{EngineError, LustbusCodeProblem, Refusal};
+use crate::error::EngineError;
 
 /// Wire family of a LUSTBUS schema.
 pub(super) fn family_of(schema: &Schema) -> Option<Dialect> {
@@ -90,7 +91,7 @@ impl<L: driveset_link::ByteLink> LustbusClient<L> {
         let refuse = |problem: LustbusCodeProblem| {
             EngineError::refused(
                 self.target.clone(),
-                Refusal::LustbusCode {
+                LustbusRefusal::Code {
                     code: code_name(&self.schema, key),
                     problem,
                 },

@@ -65,11 +65,12 @@ use driveset_proto::lustbus::{
 use driveset_schema::schema::StorageKind;
 use driveset_schema::{Code, CodeKey, RawValue};
 
+use super::LustbusRefusal;
 use super::encoding::{parse_hex, raw_of, value_of, wire_type};
 use super::line::Outcome;
 use super::{LustbusClient, SIOF};
 use crate::client::{code_name, device, link_error, schema_code, shown_value};
-use crate::error::{DeviceCause, EngineError, Refusal, SiofRegister, SiofVerdict};
+use crate::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
 use crate::guard::{self, Permit};
 
 impl<L: ByteLink> LustbusClient<L> {
@@ -253,7 +254,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let Some(ty) = ty else {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NoWireType {
+                LustbusRefusal::NoWireType {
                     code: code_name(&schema, key),
                     schema: schema.id.clone(),
                     family: self.family.to_string(),
@@ -263,7 +264,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let RawValue::Int(n) = raw else {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NotInteger {
+                LustbusRefusal::NotInteger {
                     code: code_name(&schema, key),
                     value: shown_value(&schema, key, raw),
                 },
@@ -274,7 +275,7 @@ impl<L: ByteLink> LustbusClient<L> {
             .ok_or_else(|| {
                 EngineError::refused(
                     self.target.clone(),
-                    Refusal::DoesNotFit {
+                    LustbusRefusal::DoesNotFit {
                         code: code_name(&schema, key),
                         value: shown_value(&schema, key, raw),
                         ty: ty.name().to_string(),

@@ -28,7 +28,8 @@
 //! EEPROM pacing are in `exchange.rs`; the dataset download in
 //! `dataset.rs`; broadcasts in `broadcast.rs`; the CODE and value encoding
 //! in `encoding.rs`; the line and its exchange in `line.rs`; the read-only
-//! probes in `probe.rs`; schema pull's raw access in `descriptions.rs`.
+//! probes in `probe.rs`; schema pull's raw access in `descriptions.rs`;
+//! the refusals the client raises ([`LustbusRefusal`]) in `refusal.rs`.
 //!
 //! # running()
 //!
@@ -62,12 +63,14 @@ mod encoding;
 mod exchange;
 mod line;
 mod probe;
+mod refusal;
 
 pub use broadcast::not_broadcast;
 pub use encoding::dialect_of;
 pub(crate) use encoding::wire_code_text;
 pub(crate) use line::LustLine;
 pub(crate) use probe::{Heard, probe_code, probe_heard, probe_type};
+pub use refusal::{LustbusCodeProblem, LustbusRefusal};
 
 /// 85-SIOF / SERR, the serial interface error word (sections 5.2, 9.2).
 pub const SIOF: u32 = 85;
@@ -270,7 +273,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         if self.dataset_open && code.card_writeable != Some(true) {
             return Err(EngineError::refused(
                 self.target.clone(),
-                Refusal::NotCardWriteable {
+                LustbusRefusal::NotCardWriteable {
                     code: code_name(&schema, key),
                 },
             ));

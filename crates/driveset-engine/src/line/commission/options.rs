@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use driveset_link::{Instant, Link, OpenOptions};
+use driveset_link::{Instant, Link};
 use driveset_schema::Registry;
 
 use super::resume::StateFileError;
@@ -43,14 +43,11 @@ pub trait LineObserver: Send + Sync {
     fn event(&self, bus: &str, drive: &str, at: Instant, event: Event);
 }
 
-/// Opens a bus's port as a link. The CLI passes one that opens `sim://`
-/// ports with the simulator; [`open_port`] opens real ports.
+/// Opens a bus's port as a link and locks its bus. The CLI passes one that
+/// runs the session's sequence ([`crate::session::open_port`]: the lock
+/// before and after the open, `sim://` in-process); tests pass the
+/// simulator's buses.
 pub type Opener<'a> = dyn Fn(&Bus) -> Result<Link, String> + Sync + 'a;
-
-/// Open a real port (serial, TCP, slcan, SocketCAN); `sim://` is refused.
-pub fn open_port(bus: &Bus) -> Result<Link, String> {
-    driveset_link::open(&bus.port, &OpenOptions::default()).map_err(|e| e.to_string())
-}
 
 /// What a line run does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

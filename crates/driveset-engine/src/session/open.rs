@@ -1,0 +1,437 @@
+//! Owns the first steps of a session: a port string opened and its bus
+//! locked, and the check that a schema can talk over it. The engine does no
+//! IO of its own (docs/architecture.md): the front end opens transports and
+//! the simulator through [`Ports`] and takes the advisory bus locks through
+//! it; this module is the one sequence every command runs them in, so no
+//! command drives a bus another process holds, however it spelled the port
+//! (docs/architecture.md, "One path from a port to a drive"):
+//!
+//! 1. the port string parsed ([`PortSpec::parse`]);
+//! 2. the bus its spelling names locked before it is opened
+//!    ([`driveset_link::bus_id::before_open`]: serial, slcan, SocketCAN),
+//!    so a port another driveset holds is refused naming the holder before
+//!    its open would fail on TIOCEXCL;
+//! 3. the port opened ([`Ports::open`]);
+//! 4. the bus the opened link reaches locked ([`driveset_link::Link::bus_id`]),
+//!    unless it lives in this process only (a simulated bus without a
+//!    state file: nothing another process could drive).
+//!
+//! [`check_fit`] is the refusal before anything is sent when a schema's
+//! protocol does not run on the port's kind of link, or a simulated bus
+//! holds another family than the schema's.
+
+use driveset_link::{Link, LinkError, LockError, PortSpec, PortSpecError};
+use driveset_schema::{BusProtocol, Family, Schema};
+
+use crate::connect::ConnectOptions;
+
+/// The drives a simulated bus holds, as far as a session checks a schema
+/// against them ([`check_fit`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SimulatedDrives {
+    /// Each drive's family and address, in bus order.
+    pub drives: Vec<(Family, u8)>,
+    /// Whether the bus holds drives of several families (a mixed LUSTBUS).
+    pub mixed: bool,
+    /// Whether the bus lives in this process only (no state file): nothing
+    /// another process could drive, so nothing is locked.
+    pub in_process: bool,
+}
+
+impl SimulatedDrives {
+    /// The families on the bus, first appearance first.
+    pub fn families(&self) -> Vec<Family> {
+        let mut out: Vec<Family> = Vec::new();
+        for &(f, _) in &self.drives {
+            if !out.contains(&f) {
+                out.push(f);
+            }
+        }
+        out
+    }
+
+    /// The family of the drive at `address`.
+    pub fn family_of(&self, address: u8) -> Option<Family> {
+        self.drives.iter().find(|d| d.1 == address).map(|&(f, _)| f)
+    }
+}
+
+/// A port the front end opened for one command: what reports call it, its
+/// parsed form, its transport, and what its string says about talking to
+/// its drives.
+pub struct OpenedPort {
+    /// The port as reports name it (canonical form, without `state=`).
+    pub name: String,
+    /// The parsed port (a `sim://` port with the drive a command on one
+    /// drive asked for).
+    pub spec: PortSpec,
+    /// The transport (a simulated bus stays alive while any handle of it
+    /// does).
+    pub link: Link,
+    /// The port's `latency=` and the like.
+    pub connect: ConnectOptions,
+    /// What a simulated bus holds (`None`: a real port).
+    pub simulated: Option<SimulatedDrives>,
+}
+
+impl std::fmt::Debug for OpenedPort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OpenedPort")
+            .field("name", &self.name)
+            .field("spec", &self.spec)
+            .field("simulated", &self.simulated)
+            .finish_non_exhaustive()
+    }
+}
+
+impl OpenedPort {
+    /// A real port as the front end opened it.
+    pub fn real(spec: PortSpec, link: Link) -> Self {
+        OpenedPort {
+            name: spec.to_string(),
+            connect: ConnectOptions {
+                latency: spec.latency(),
+            },
+            spec,
+            link,
+            simulated: None,
+        }
+    }
+
+    /// The family a simulated port simulates (on a mixed LUSTBUS, the
+    /// family of its first drive).
+    pub fn simulated_family(&self) -> Option<Family> {
+        self.simulated
+            .as_ref()
+            .and_then(|s| s.families().first().copied())
+    }
+
+    /// The family of the simulated drive at `address`; on a mixed LUSTBUS
+    /// without an address, or at an address it does not have, the family
+    /// of the bus that speaks `schema`'s protocol, if any, else the first.
+    fn simulated_family_for(&self, schema: &Schema, address: Option<u8>) -> Option<Family> {
+        let sim = self.simulated.as_ref()?;
+        if let Some(f) = address.and_then(|a| sim.family_of(a)) {
+            return Some(f);
+        }
+        let families = sim.families();
+        families
+            .iter()
+            .copied()
+            .find(|&f| f == schema.family)
+            .or_else(|| families.first().copied())
+    }
+}
+
+/// How the front end opens ports and takes bus locks (module docs): the
+/// CLI opens real ports with `driveset-link` and `sim://` ports with the
+/// simulator, and locks buses in `driveset_link::lock`'s directory for the
+/// rest of the process.
+pub trait Ports {
+    /// Open `spec` (parsed from `port` as given) for a command on the drive
+    /// at `address` (`None`: the whole bus; a `sim://FAMILY` port without
+    /// `addresses=` then simulates one drive there). Nothing is locked.
+    fn open(
+        &self,
+        port: &str,
+        spec: PortSpec,
+        address: Option<u8>,
+    ) -> Result<OpenedPort, PortError>;
+
+    /// Take the advisory lock of bus `bus` until the process ends; a bus
+    /// this process holds already stays held.
+    fn lock(&self, bus: &str) -> Result<(), LockError>;
+}
+
+/// Why a port could not be opened for a session.
+#[derive(Debug, thiserror::Error)]
+pub enum PortError {
+    /// The port string does not parse.
+    #[error(
+        "{0}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"
+    )]
+    BadPort(PortSpecError),
+    /// The port's own settings are wrong (a simulated bus's drives, its
+    /// state file, its twins).
+    #[error("{port}: {detail}")]
+    Settings {
+        /// The port as reports name it.
+        port: String,
+        /// What is wrong, and what to write instead.
+        detail: String,
+    },
+    /// The transport could not be opened.
+    #[error("cannot open {port}: {source}")]
+    Open {
+        /// The port.
+        port: String,
+        /// What the transport said.
+        source: LinkError,
+    },
+    /// Another process holds the bus, or its lock cannot be taken; nothing
+    /// was sent.
+    #[error(transparent)]
+    Busy(#[from] LockError),
+}
+
+impl PortError {
+    /// Whether the command's input was wrong (the CLI's exit 2) rather
+    /// than the bus being unavailable (exit 3).
+    pub fn is_input(&self) -> bool {
+        matches!(self, PortError::BadPort(_) | PortError::Settings { .. })
+    }
+}
+
+/// Open `port` for a command on the drive at `address` (`None`: the whole
+/// bus) and lock its bus, in the module docs' order.
+pub fn open_port(
+    ports: &dyn Ports,
+    port: &str,
+    address: Option<u8>,
+) -> Result<OpenedPort, PortError> {
+    let spec = PortSpec::parse(port).map_err(PortError::BadPort)?;
+    if let Some(bus) = driveset_link::bus_id::before_open(&spec) {
+        ports.lock(&bus)?;
+    }
+    let opened = ports.open(port, spec, address)?;
+    if !opened.simulated.as_ref().is_some_and(|s| s.in_process) {
+        ports.lock(&opened.link.bus_id())?;
+    }
+    Ok(opened)
+}
+
+/// Why a schema cannot talk over a port ([`check_fit`]); nothing was sent.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FitError {
+    /// A CAN SDO schema on a character line.
+    #[error(
+        "schema `{schema}` speaks CAN SDO, but {port} is a character line (LUSTBUS / LECOM); use a CAN port (slcan://..., can://..., sim://ecs?...)"
+    )]
+    CanOnLine {
+        /// Schema id.
+        schema: String,
+        /// The port.
+        port: String,
+    },
+    /// A LUSTBUS or LECOM schema on a CAN port.
+    #[error(
+        "schema `{schema}` speaks {protocol}, but {port} is a CAN port; use a serial line (/dev/ttyUSB0, tcp://..., sim://mc6000?...)"
+    )]
+    LineOnCan {
+        /// Schema id.
+        schema: String,
+        /// The schema's protocol as schemas spell it.
+        protocol: &'static str,
+        /// The port.
+        port: String,
+    },
+    /// A simulated bus whose drive speaks another protocol than the schema.
+    #[error(
+        "{port} {holds} ({protocol}), schema `{schema}` is for {wanted}; use a set / schema of that family"
+    )]
+    SimulatedProtocol {
+        /// The port.
+        port: String,
+        /// What the bus holds (`simulates MC6000 drives`, `has a VF1000
+        /// drive at address 5`).
+        holds: String,
+        /// The simulated family's protocol as schemas spell it.
+        protocol: &'static str,
+        /// Schema id.
+        schema: String,
+        /// The schema's protocol.
+        wanted: &'static str,
+    },
+    /// A simulated bus whose drive is of another family of the schema's
+    /// protocol, without `allow_family`.
+    #[error(
+        "{port} {holds} ({protocol}), schema `{schema}` is for {wanted}; use a set / schema of that family, or pass --allow-family"
+    )]
+    SimulatedFamily {
+        /// The port.
+        port: String,
+        /// What the bus holds.
+        holds: String,
+        /// The simulated family's protocol as schemas spell it.
+        protocol: &'static str,
+        /// Schema id.
+        schema: String,
+        /// The schema's protocol.
+        wanted: &'static str,
+    },
+}
+
+/// What a session lets through [`check_fit`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FitPolicy {
+    /// A simulated drive of another family of the schema's protocol passes
+    /// (`--allow-family`).
+    pub allow_family: bool,
+}
+
+/// Check that `schema` can talk over `port` to the drive at `address`: the
+/// protocol's kind of link, and on a simulated bus the family of the drive
+/// (at `address` on a mixed LUSTBUS); another family of the same protocol
+/// passes with [`FitPolicy::allow_family`].
+pub fn check_fit(
+    port: &OpenedPort,
+    schema: &Schema,
+    address: Option<u8>,
+    policy: FitPolicy,
+) -> Result<(), FitError> {
+    let want = schema.family.bus();
+    let protocol_of = |f: Family| f.descriptor().schema_protocol;
+    match (want, matches!(port.link, Link::Frames(_))) {
+        (BusProtocol::CanSdo, false) => {
+            return Err(FitError::CanOnLine {
+                schema: schema.id.clone(),
+                port: port.name.clone(),
+            });
+        }
+        (BusProtocol::Lustbus | BusProtocol::Lecom, true) => {
+            return Err(FitError::LineOnCan {
+                schema: schema.id.clone(),
+                protocol: protocol_of(schema.family),
+                port: port.name.clone(),
+            });
+        }
+        _ => {}
+    }
+    let Some(f) = port.simulated_family_for(schema, address) else {
+        return Ok(());
+    };
+    let mixed = port.simulated.as_ref().is_some_and(|s| s.mixed);
+    let holds = match (address, mixed) {
+        (Some(a), true) => format!("has a {} drive at address {a}", f.name()),
+        _ => format!("simulates {} drives", f.name()),
+    };
+    if f.bus() != want {
+        return Err(FitError::SimulatedProtocol {
+            port: port.name.clone(),
+            holds,
+            protocol: protocol_of(f),
+            schema: schema.id.clone(),
+            wanted: protocol_of(schema.family),
+        });
+    }
+    if f != schema.family && !policy.allow_family {
+        return Err(FitError::SimulatedFamily {
+            port: port.name.clone(),
+            holds,
+            protocol: protocol_of(f),
+            schema: schema.id.clone(),
+            wanted: protocol_of(schema.family),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::RefCell;
+
+    use super::*;
+
+    fn family(name: &str) -> Family {
+        Family::from_port_name(name).unwrap()
+    }
+
+    /// Opens every port as an in-memory line; records what was locked.
+    struct Recorder {
+        locked: RefCell<Vec<String>>,
+        simulated: Option<SimulatedDrives>,
+    }
+
+    impl Ports for Recorder {
+        fn open(
+            &self,
+            _port: &str,
+            spec: PortSpec,
+            _address: Option<u8>,
+        ) -> Result<OpenedPort, PortError> {
+            self.locked.borrow_mut().push(format!("open {spec}"));
+            let clock = driveset_link::VirtualClock::new();
+            let (host, _drive) = driveset_link::mem::byte_pair(&clock, 9600).unwrap();
+            let mut opened = OpenedPort::real(spec, Link::Bytes(Box::new(host)));
+            opened.simulated = self.simulated.clone();
+            Ok(opened)
+        }
+
+        fn lock(&self, bus: &str) -> Result<(), LockError> {
+            let bus = if bus.starts_with("mem:") {
+                "mem:N"
+            } else {
+                bus
+            };
+            self.locked.borrow_mut().push(format!("lock {bus}"));
+            Ok(())
+        }
+    }
+
+    fn recorder(simulated: Option<SimulatedDrives>) -> Recorder {
+        Recorder {
+            locked: RefCell::new(Vec::new()),
+            simulated,
+        }
+    }
+
+    #[test]
+    fn a_serial_port_is_locked_before_and_after_it_is_opened() {
+        let ports = recorder(None);
+        open_port(&ports, "/dev/ttyDRIVESET-none?baud=9600", Some(1)).unwrap();
+        assert_eq!(
+            ports.locked.into_inner(),
+            [
+                "lock serial:/dev/ttyDRIVESET-none",
+                "open /dev/ttyDRIVESET-none?baud=9600",
+                "lock mem:N"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_tcp_port_is_locked_once_opened_and_an_in_process_bus_not_at_all() {
+        let ports = recorder(None);
+        open_port(&ports, "tcp://127.0.0.1:4001", None).unwrap();
+        assert_eq!(
+            ports.locked.into_inner(),
+            ["open tcp://127.0.0.1:4001", "lock mem:N"]
+        );
+        let ports = recorder(Some(SimulatedDrives {
+            drives: vec![(family("mc6000"), 1)],
+            mixed: false,
+            in_process: true,
+        }));
+        open_port(&ports, "tcp://127.0.0.1:4001", None).unwrap();
+        assert_eq!(ports.locked.into_inner(), ["open tcp://127.0.0.1:4001"]);
+    }
+
+    #[test]
+    fn a_bad_port_string_is_refused_before_anything_is_opened() {
+        let ports = recorder(None);
+        let e = open_port(&ports, "tcp://", None).unwrap_err();
+        assert!(e.is_input());
+        assert!(
+            e.to_string()
+                .ends_with("; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"),
+            "{e}"
+        );
+        assert!(ports.locked.into_inner().is_empty());
+    }
+
+    #[test]
+    fn simulated_drives_name_their_families_in_bus_order() {
+        let s = SimulatedDrives {
+            drives: vec![
+                (family("vf1000"), 5),
+                (family("mc6000"), 1),
+                (family("vf1000"), 6),
+            ],
+            mixed: true,
+            in_process: true,
+        };
+        assert_eq!(s.families(), [family("vf1000"), family("mc6000")]);
+        assert_eq!(s.family_of(1), Some(family("mc6000")));
+        assert_eq!(s.family_of(2), None);
+    }
+}
