@@ -101,7 +101,7 @@ impl Permit {
     }
 }
 
-/// Why the guard refused a write ([`check`]; gathered into [`Refusal`] as
+/// Why the guard refused a write (`check`; gathered into [`Refusal`] as
 /// `Refusal::Guard`, each with the JSON kind journals hold: `guard_command`,
 /// `guard_control_word`, `guard_permit`). Nothing was sent.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
