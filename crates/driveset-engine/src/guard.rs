@@ -1,6 +1,6 @@
 //! Owns the one write guard: every telegram that changes a drive (LUSTBUS
 //! SELECT and broadcast, LECOM SEND, BROADCAST and MULTICAST, CAN SDO
-//! download) is built here, after [`check`] cleared it, whatever command
+//! download) is built here, after `check` cleared it, whatever command
 //! or step asked for it (upload, rollback, recover, commission, broadcast,
 //! the `--transfer-baud` switch, the MC dataset handshake, schema pull's
 //! text selector). The clients call these builders on their write path;
@@ -101,7 +101,7 @@ impl Permit {
     }
 }
 
-/// Why the guard refused a write ([`check`]; gathered into [`Refusal`] as
+/// Why the guard refused a write (`check`; gathered into [`Refusal`] as
 /// `Refusal::Guard`, each with the JSON kind journals hold: `guard_command`,
 /// `guard_control_word`, `guard_permit`). Nothing was sent.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]

@@ -33,6 +33,7 @@ pub mod observe;
 pub mod overrides;
 pub mod plan;
 pub mod pull;
+pub mod rate_report;
 pub mod recover;
 pub mod scan;
 pub mod session;

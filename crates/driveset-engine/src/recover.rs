@@ -4,7 +4,7 @@
 //!
 //! - journal `complete` or `rolled-back`: nothing to do;
 //! - **the drive is not the journal's drive**: refused with
-//!   [`EngineError::NotJournalDrive`] (exit 2 in the CLI), in this order:
+//!   [`ErrorKind::NotJournalDrive`](crate::error::ErrorKind::NotJournalDrive) (exit 2 in the CLI), in this order:
 //!   a version 1 journal (it records no bus, [`Mismatch::Version`]), another
 //!   schema ([`Mismatch::Schema`]), another bus ([`Mismatch::Bus`]: the
 //!   client's [`DriveClient::bus_id`] is not the recorded one, whatever the
@@ -288,7 +288,7 @@ fn settle(
             .collect()
     };
     let codes = identity.pairs();
-    let same_drive = jf.journal.identity.protocol == identity.protocol.name()
+    let same_drive = jf.journal.identity.same_protocol(identity.protocol)
         && jf.journal.identity.software == identity.software
         && strip(&jf.journal.identity.codes) == strip(&codes);
     if !same_drive {
@@ -305,7 +305,7 @@ fn settle(
                 "the drive identifies as {} but the journal was written for {}; nothing was written. Connect the drive the journal belongs to",
                 show(identity.protocol.name(), &codes, &identity.software),
                 show(
-                    &jf.journal.identity.protocol,
+                    jf.journal.identity.protocol.name(),
                     &jf.journal.identity.codes,
                     &jf.journal.identity.software
                 )

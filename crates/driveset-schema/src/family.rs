@@ -288,11 +288,7 @@ impl Learning {
         software: Option<&str>,
         descriptions_hash: u32,
     ) -> String {
-        let ty: String = device_type
-            .unwrap_or("unknown")
-            .chars()
-            .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
-            .collect();
+        let ty = Self::type_slug(device_type);
         let sw = software.map_or_else(
             || format!("d{descriptions_hash:08x}"),
             |s| {
@@ -304,16 +300,28 @@ impl Learning {
         format!("{}{sw}", self.file_prefix(Some(&ty)))
     }
 
+    /// The TYPE as a learned file's name holds it: `device_type` kept to
+    /// its ASCII letters, digits, `-` and `_` (`MC 6000/A` is `MC6000A`),
+    /// `unknown` where the drive gave none. The one slug of
+    /// [`Learning::file_id`] and [`Learning::file_prefix`], so a file is
+    /// looked for by the name it was written under.
+    pub fn type_slug(device_type: Option<&str>) -> String {
+        device_type
+            .unwrap_or("unknown")
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+            .collect()
+    }
+
     /// How every learned file of a drive of `device_type` starts:
-    /// `learned-<stem>-type<TYPE>-` (`unknown` where the drive gave no
-    /// TYPE). `device_type` is taken as given; [`Learning::file_id`] passes
-    /// it kept to its ASCII letters, digits, `-` and `_`.
+    /// `learned-<stem>-type<TYPE>-`, the TYPE slugged as
+    /// [`Learning::file_id`] names the file ([`Learning::type_slug`]).
     pub fn file_prefix(&self, device_type: Option<&str>) -> String {
         format!(
             "{}{}-type{}-",
             Self::PREFIX,
             self.stem,
-            device_type.unwrap_or("unknown")
+            Self::type_slug(device_type)
         )
     }
 

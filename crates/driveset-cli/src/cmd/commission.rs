@@ -116,6 +116,7 @@ pub struct Args {
     /// Rehearse against the twins in DIR (DIR/<drive name>.twin.toml), in
     /// virtual time: same plan, refusals, report and exit codes; drives
     /// without a twin are not rehearsed (docs/twins.md).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(long, value_name = "DIR")]
     pub rehearse: Option<PathBuf>,
     /// The line's first contact: give every drive of the LUSTBUS / LECOM

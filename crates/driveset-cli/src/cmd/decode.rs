@@ -126,6 +126,7 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["ascii", "file"])]
     pub hex: Option<String>,
     /// The capture in escaped ASCII, e.g. "<EOT>@00112<ENQ>" (<xx> = any byte in hex).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(long, conflicts_with_all = ["hex", "file"])]
     pub ascii: Option<String>,
     /// FILE holds the raw bytes (default: hex text).

@@ -76,6 +76,7 @@ pub struct Args {
     pub learn: crate::learning::LearnArgs,
     /// With --port: the transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
     pub transfer: super::allow::TransferArgs,
 }

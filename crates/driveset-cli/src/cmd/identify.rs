@@ -143,8 +143,8 @@ fn learned_status(
     }
     // The descriptor's learned-file scheme (a schema that needs learning is
     // of a family that has one; any other is looked for as an MC file, as
-    // before). The TYPE is taken as the drive sent it, not kept to the
-    // characters a learned file's name holds (as before).
+    // before). The TYPE is slugged as the learned file's name holds it
+    // (`Learning::file_prefix`, the slug of `Learning::file_id`).
     let d = Some(schema.family.descriptor())
         .filter(|d| d.learning.is_some())
         .unwrap_or_else(|| Family::from_dialect(Dialect::Mc).descriptor());
@@ -282,4 +282,50 @@ fn report(
         }
     }
     Ok(if fits.is_ok() { EXIT_OK } else { EXIT_FINDINGS })
+}
+
+#[cfg(test)]
+mod tests {
+    use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue, Identity};
+    use driveset_schema::{CodeKey, Registry};
+
+    use super::*;
+
+    /// A drive whose TYPE has characters a file name does not keep (`MC
+    /// 6000/A`) finds the learned file the engine named for it
+    /// (`learned-mc6000-typeMC6000A-...`): the search slugs the TYPE as
+    /// the learned id does.
+    #[test]
+    fn a_type_with_spaces_and_a_slash_finds_its_learned_file() {
+        let reg = Registry::builtin().expect("built-in schemas");
+        let schema = reg.get("lust-mc6000").expect("mc6000");
+        assert!(driveset_engine::learn::needs_learning(&schema));
+        let d = schema.family.descriptor();
+        let ty = "MC 6000/A";
+        let mut identity = Identity::of(IdentProtocol::Family(schema.family));
+        identity.codes.push(IdentCode::new(
+            CodeKey::new(d.device_type_code()),
+            "91-TYPE",
+            IdentValue::Text(ty.into()),
+        ));
+        let id = d
+            .learned_id(Some(ty), None, 0x1234)
+            .expect("a learning family");
+        assert_eq!(id, "learned-mc6000-typeMC6000A-d00001234");
+        let dir = tempfile::tempdir().expect("tmp");
+        let file = dir.path().join(format!("{id}.toml"));
+        std::fs::write(&file, "").expect("write");
+        let (uses, learned, found) = learned_status(&schema, &identity, None, dir.path());
+        assert_eq!(
+            (uses.as_str(), learned, found.as_deref()),
+            (id.as_str(), true, Some(file.as_path()))
+        );
+        // none there: the pattern it would be found by, slugged the same way
+        std::fs::remove_file(&file).expect("remove");
+        let (uses, _, found) = learned_status(&schema, &identity, None, dir.path());
+        assert_eq!(
+            (uses.as_str(), found),
+            ("learned-mc6000-typeMC6000A-*", None)
+        );
+    }
 }

@@ -119,6 +119,7 @@ pub struct Args {
     pub learn: learning::LearnArgs,
     /// The transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
     pub transfer: super::allow::TransferArgs,
     /// Output format of the report on stdout.

@@ -56,6 +56,7 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub to: Option<To>,
     /// --to dcf: the node id written to [DeviceComissioning] NodeID (1..=127).
+    #[allow(rustdoc::broken_intra_doc_links)] // clap's help text, printed as written
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
     pub node_id: Option<u8>,
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).

@@ -23,7 +23,7 @@ use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
 use driveset_proto::lustbus::Dialect;
-use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
+use driveset_schema::{CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, open_sim_with};
@@ -42,6 +42,7 @@ pub enum TwinCommand {
     /// Capture one drive, read-only, into a twin file.
     Capture(CaptureArgs),
     /// Capture every drive of a line manifest into DIR/<drive name>.twin.toml.
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     CaptureLine(CaptureLineArgs),
     /// Build a twin from a recorded bus session (what `decode` reads).
     FromCapture(FromCaptureArgs),
@@ -139,6 +140,7 @@ pub struct FromCaptureArgs {
     #[arg(value_name = "FILE")]
     pub file: PathBuf,
     /// The directory of the twins (twin-<address>.twin.toml).
+    #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(short = 'o', long = "output", value_name = "DIR")]
     pub output: PathBuf,
 }
@@ -256,8 +258,8 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         .collect();
     twin.secrets = cap.secrets.clone();
     twin.unknown = cap.unread.clone();
-    if schema.family.bus() == BusProtocol::Lecom {
-        twin.c0001 = c0001_of(&cap.values, schema);
+    if let Some(source) = schema.family.descriptor().bus_write {
+        twin.c0001 = c0001_of(&cap.values, schema, source.code);
     }
     // the dataset handshake's code (MC6000/7000 80-SLOAD, §11.4)
     if let Some(code) = schema.family.descriptor().dataset_code() {
@@ -282,12 +284,16 @@ fn read_refusal(cause: &DeviceCause) -> Option<ReadRefusal> {
     }
 }
 
-/// Tmd: C0001 of `values` in engineering units (raw x10000, LECOM VD).
-fn c0001_of(values: &BTreeMap<CodeKey, RawValue>, schema: &Schema) -> Option<u8> {
-    let Some(RawValue::Int(raw)) = values.get(&CodeKey::new(1)) else {
+/// The twin's `c0001`: the value in `values`, in engineering units (Tmd:
+/// raw x10000, LECOM VD), of `code`, the code that says where the drive
+/// takes its parameter writes from (the descriptor's
+/// [`driveset_schema::family::Descriptor::bus_write`]: Tmd C0001,
+/// `lecom-ab-tmd-manual.txt` §4e, §4f).
+fn c0001_of(values: &BTreeMap<CodeKey, RawValue>, schema: &Schema, code: u32) -> Option<u8> {
+    let Some(RawValue::Int(raw)) = values.get(&CodeKey::new(code)) else {
         return None;
     };
-    let ty = schema.code(1).and_then(|c| schema.type_of(c))?;
+    let ty = schema.code(code).and_then(|c| schema.type_of(c))?;
     driveset_schema::value::raw_to_engineering(ty, *raw)
         .parse()
         .ok()
@@ -415,8 +421,8 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             })
             .collect();
         twin.refused = session.refused;
-        if schema.family.bus() == BusProtocol::Lecom {
-            twin.c0001 = c0001_of(&twin.values, &schema);
+        if let Some(source) = schema.family.descriptor().bus_write {
+            twin.c0001 = c0001_of(&twin.values, &schema, source.code);
         }
         let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
         let line = write_twin(&out, &twin, &schema)?;
@@ -580,4 +586,28 @@ pub fn line_junit(r: &LineReport, not_rehearsed: &[String]) -> String {
     }
     o.push_str("  </testsuite>\n</testsuites>\n");
     o
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use driveset_schema::{CodeKey, RawValue, Registry};
+
+    use super::c0001_of;
+
+    /// The twin's `c0001` is the value of the descriptor's bus-write source
+    /// (Tmd C0001) in engineering units; a family without one has none.
+    #[test]
+    fn c0001_is_the_descriptors_bus_write_source() {
+        let reg = Registry::builtin().expect("built-in schemas");
+        let tmd = reg.get("lenze-tmd").expect("tmd");
+        let source = tmd.family.descriptor().bus_write.expect("tmd bus write");
+        assert_eq!(source.code, 1);
+        let values = BTreeMap::from([(CodeKey::new(1), RawValue::Int(30_000))]);
+        assert_eq!(c0001_of(&values, &tmd, source.code), Some(3));
+        assert_eq!(c0001_of(&BTreeMap::new(), &tmd, source.code), None);
+        let mc = reg.get("lust-mc6000").expect("mc6000");
+        assert_eq!(mc.family.descriptor().bus_write, None);
+    }
 }

@@ -102,6 +102,7 @@ pub struct Args {
     #[arg(long)]
     pub port: String,
     /// Bus address (default: the set's [drive] address is NOT used; give it).
+    #[allow(rustdoc::broken_intra_doc_links)] // clap's help text, printed as written
     #[arg(long)]
     pub address: u8,
     /// Print the plan; write nothing.

@@ -253,7 +253,7 @@ pub trait DriveClient: Send {
     /// rate switch ...), which covers exactly its code and values; only the
     /// engine can name a permit other than `SETTING`. Returns when the
     /// drive has acknowledged it; a write the drive refuses is an
-    /// [`EngineError::Device`] with the decoded cause. Waits (on the link's
+    /// [`ErrorKind::Device`](crate::error::ErrorKind::Device) with the decoded cause. Waits (on the link's
     /// clock) if the drive cannot take the write yet (MC EEPROM still
     /// storing): correctness never depends on the caller's pacing.
     fn write_named(

@@ -21,7 +21,7 @@
 //! Every rate is tried (not just until the first answer), so a drive set
 //! to another rate than the port shows as such. The link must be opened
 //! without echo stripping (`echo=off`): the doctor sees the raw bytes and
-//! decides itself with [`detect_echo`], then strips the echo before
+//! decides itself with [`detect_echo`](driveset_link::echo::detect_echo), then strips the echo before
 //! decoding.
 //!
 //! Parity: a 7E1 line read by a port set to 8 data bits (an adapter or
@@ -43,7 +43,7 @@
 //! # Rooms
 //!
 //! - this file: the options, the report and its findings;
-//! - [`probe`]: one read-only exchange (request bytes, decoding, echo and
+//! - `probe`: one read-only exchange (request bytes, decoding, echo and
 //!   parity evidence) and the round-trip statistics;
 //! - [`run`]: the check of a serial line ([`run()`]) and of a CAN bus
 //!   ([`run_can`]);

@@ -59,7 +59,7 @@ pub struct CodeHolding {
     pub holds: Holding,
 }
 
-/// Why a transaction failed, typed ([`Journal::failure_cause`]): the
+/// Why a transaction failed, typed ([`Journal::failure_cause`](super::Journal::failure_cause)): the
 /// engine error that started the roll back (or ended a recovery), with the
 /// drive's own indication or the refusal kept as data.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::failure::{CodeHolding, FailureCause};
 use super::value::{JournalValue, raw_values};
-use crate::client::{DriveClient, Identity, Target};
+use crate::client::{DriveClient, IdentProtocol, Identity, Target};
 use crate::plan::{Phase, Storage};
 
 /// Where a transaction stands.
@@ -132,8 +132,14 @@ impl SchemaSource {
 /// The drive's identity as recorded ([`Identity`]).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JournalIdentity {
-    /// Family family.
-    pub protocol: String,
+    /// Who answered, written as [`IdentProtocol::name`] writes it
+    /// (`lustbus-mc`, `lustbus-vf1000`, `lecom`, `lenze-can-sdo`, a bus's
+    /// name such as `lustbus`, or `""`); any other name is a journal error.
+    #[serde(
+        serialize_with = "names::write_ident_protocol",
+        deserialize_with = "names::ident_protocol"
+    )]
+    pub protocol: IdentProtocol,
     /// Identification codes and their values as text.
     pub codes: Vec<(String, String)>,
     /// Software version, where known.
@@ -143,7 +149,7 @@ pub struct JournalIdentity {
 impl From<&Identity> for JournalIdentity {
     fn from(i: &Identity) -> Self {
         JournalIdentity {
-            protocol: i.protocol.name().to_string(),
+            protocol: i.protocol,
             codes: i.pairs(),
             software: i.software.clone(),
         }
@@ -153,9 +159,16 @@ impl From<&Identity> for JournalIdentity {
 impl JournalIdentity {
     /// Whether a freshly read identity is the same drive kind.
     pub fn matches(&self, other: &Identity) -> bool {
-        self.protocol == other.protocol.name()
+        self.same_protocol(other.protocol)
             && self.codes == other.pairs()
             && self.software == other.software
+    }
+
+    /// Whether `protocol` is the one recorded: by the name both write
+    /// (`lecom` is Tmd's family and the LECOM bus alike, as the journal
+    /// has always compared them).
+    pub fn same_protocol(&self, protocol: IdentProtocol) -> bool {
+        self.protocol.name() == protocol.name()
     }
 }
 
@@ -233,7 +246,7 @@ pub struct Transition {
 /// The journal file's content.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Journal {
-    /// [`JOURNAL_VERSION`].
+    /// [`JOURNAL_VERSION`](super::JOURNAL_VERSION).
     pub journal_version: u32,
     /// Current state.
     pub state: TxnState,
@@ -403,13 +416,17 @@ impl Journal {
     }
 }
 
-/// Reading the plan entries' typed names (`storage`, `phase`): the name as
-/// [`Storage::as_str`] / [`Phase::as_str`] write it; any other is an error
-/// naming the field and the names it may hold, which [`super::JournalFile::open`]
-/// reports with the file.
+/// Reading the journal's typed names (the plan entries' `storage`,
+/// `phase`; the identity's `protocol`): the name as [`Storage::as_str`] /
+/// [`Phase::as_str`] / [`IdentProtocol::name`] write it; any other is an
+/// error naming the field and the names it may hold, which
+/// [`super::JournalFile::open`] reports with the file.
 mod names {
+    use driveset_schema::{BusProtocol, Family};
     use serde::de::{Deserialize, Deserializer, Error};
+    use serde::ser::Serializer;
 
+    use crate::client::IdentProtocol;
     use crate::plan::{Phase, Storage};
 
     /// The value of `field` among `all`, by `name_of`.
@@ -438,5 +455,80 @@ mod names {
 
     pub(super) fn phase<'de, D: Deserializer<'de>>(de: D) -> Result<Phase, D::Error> {
         named(de, "phase", &Phase::ALL, Phase::as_str)
+    }
+
+    /// Every protocol a journal's identity may name, in the order a name
+    /// is looked up: not identified (`""`), the families (their schema
+    /// protocols), the buses (their names; `lecom` is found as Tmd's
+    /// family first, which writes the same name).
+    fn ident_protocols() -> Vec<IdentProtocol> {
+        let mut all = vec![IdentProtocol::Unknown];
+        all.extend(Family::ALL.map(IdentProtocol::Family));
+        all.extend(BusProtocol::ALL.map(IdentProtocol::Bus));
+        all
+    }
+
+    /// The recorded protocol of `name`, if the engine writes it.
+    pub(super) fn ident_protocol_named(name: &str) -> Option<IdentProtocol> {
+        ident_protocols().into_iter().find(|p| p.name() == name)
+    }
+
+    pub(super) fn ident_protocol<'de, D: Deserializer<'de>>(
+        de: D,
+    ) -> Result<IdentProtocol, D::Error> {
+        let name = String::deserialize(de)?;
+        ident_protocol_named(&name).ok_or_else(|| {
+            let mut names: Vec<&str> = Vec::new();
+            for n in ident_protocols().iter().map(|p| p.name()) {
+                if !n.is_empty() && !names.contains(&n) {
+                    names.push(n);
+                }
+            }
+            D::Error::custom(format!(
+                "identity `protocol`: unknown name `{name}`, expected one of {}",
+                names.join(", ")
+            ))
+        })
+    }
+
+    pub(super) fn write_ident_protocol<S: Serializer>(
+        protocol: &IdentProtocol,
+        ser: S,
+    ) -> Result<S::Ok, S::Error> {
+        ser.serialize_str(protocol.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use driveset_schema::{BusProtocol, Family};
+
+    use super::*;
+
+    /// Every protocol an identity can hold is written as its name and
+    /// read back as a protocol of that name (`lecom`: Tmd's family, the
+    /// same name as the LECOM bus).
+    #[test]
+    fn every_identity_protocol_is_written_by_its_name_and_read_back() {
+        let mut all = vec![IdentProtocol::Unknown];
+        all.extend(Family::ALL.map(IdentProtocol::Family));
+        all.extend(BusProtocol::ALL.map(IdentProtocol::Bus));
+        for p in all {
+            let id = JournalIdentity {
+                protocol: p,
+                codes: vec![],
+                software: None,
+            };
+            let v = serde_json::to_value(&id).expect("json");
+            assert_eq!(v["protocol"], p.name(), "{p:?}");
+            let back: JournalIdentity = serde_json::from_value(v).expect("read back");
+            assert_eq!(back.protocol.name(), p.name(), "{p:?}");
+            assert!(back.same_protocol(p), "{p:?}");
+        }
+        assert_eq!(
+            names::ident_protocol_named("lecom"),
+            Some(IdentProtocol::Family(Family::Tmd))
+        );
+        assert_eq!(names::ident_protocol_named("LUSTBUS-MC"), None);
     }
 }

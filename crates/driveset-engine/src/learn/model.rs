@@ -64,7 +64,7 @@ pub struct LearnedCode {
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct LearnFinding {
     /// The code as reports spell it (`11-STAT`; the description's name for
-    /// a code the base schema does not name), filled by [`render_schema`].
+    /// a code the base schema does not name), filled by [`render_schema`](super::render_schema).
     pub code: String,
     /// Parameter number.
     pub number: u32,

@@ -151,5 +151,5 @@ pub use options::{
     LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Mode, Opener, Progress,
     ProgressFn, Verdict,
 };
-pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry};
+pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
 pub use run::{commission, run_line};

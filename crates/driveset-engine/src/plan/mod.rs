@@ -59,12 +59,12 @@
 //! # Rooms
 //!
 //! - this file: the plan's types and [`plan`], which orders the writes;
-//! - [`order`]: how a code is stored and which phase its write is in;
-//! - [`problem`]: the refusals and the checks that need no bus
+//! - `order`: how a code is stored and which phase its write is in;
+//! - `problem`: the refusals and the checks that need no bus
 //!   ([`check_set`]);
-//! - [`timing`]: the spec's reaction and store times and the expected
+//! - `timing`: the spec's reaction and store times and the expected
 //!   duration of a transaction ([`Plan::estimate`]);
-//! - [`render`]: the `--dry-run` text ([`Plan::render`]).
+//! - `render`: the `--dry-run` text ([`Plan::render`]).
 
 mod order;
 mod problem;

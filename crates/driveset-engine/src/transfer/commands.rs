@@ -8,7 +8,6 @@ use std::path::Path;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 
 use super::TransferRequest;
-use super::decide::TransferReport;
 use super::session::{Session, begin, end};
 use super::switch::{Back, with_rate_note};
 use crate::client::DriveClient;
@@ -16,6 +15,7 @@ use crate::error::EngineError;
 use crate::journal::{JournalFile, TxnState};
 use crate::plan::code_label;
 use crate::pull::{PullOptions, Pulled};
+use crate::rate_report::TransferReport;
 use crate::upload::{UploadFailure, UploadOptions, UploadReport};
 
 /// The exchanges an upload of `set` cannot avoid: the read-back of every

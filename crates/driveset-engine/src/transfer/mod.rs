@@ -73,9 +73,10 @@ use driveset_schema::{CodeKey, RawValue, Schema};
 use crate::client::Target;
 use crate::error::EngineError;
 
+pub use crate::rate_report::{Decision, TransferReport};
 pub use check::check;
 pub use commands::{live_diff, pull, pull_exchanges, upload, upload_exchanges};
-pub use decide::{Decision, TransferReport, at_rate, decide};
+pub use decide::{at_rate, decide};
 pub(crate) use recovery::judged_rate;
 pub use recovery::{find_drive, finish_rate};
 pub use refusal::TransferRefusal;

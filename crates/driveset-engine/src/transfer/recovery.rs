@@ -113,7 +113,7 @@ pub fn find_drive(
 /// switch, after the transaction was settled (`result`) with the drive
 /// found at `found` baud: an open switch is switched back to the old rate,
 /// the rate code keeping what a successful settle left in it
-/// ([`super::record::keep_value`]: never the transfer rate unless the set's), or after a
+/// (`keep_value`: never the transfer rate unless the set's), or after a
 /// failed one the [`TransferRecord::keep`] the upload recorded when it had
 /// settled the transaction itself (`settled_before`).
 /// This is done after a failed settle too, so that the drive is not left

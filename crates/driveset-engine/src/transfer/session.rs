@@ -7,7 +7,7 @@ use std::path::Path;
 
 use driveset_schema::CodeKey;
 
-use super::decide::{Decision, TransferReport, decide};
+use super::decide::decide;
 use super::record::placeholder;
 use super::switch::{switch_back, switch_over, with_rate_note};
 use super::{Codes, TransferRequest, check, codes_of, refuse};
@@ -15,6 +15,7 @@ use crate::client::DriveClient;
 use crate::error::EngineError;
 use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState, TxnState};
 use crate::plan::code_label;
+use crate::rate_report::{Decision, TransferReport};
 
 /// A switched session: what [`begin`] did, for [`end`].
 #[derive(Debug)]

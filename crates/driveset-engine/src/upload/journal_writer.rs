@@ -136,7 +136,7 @@ impl Transaction {
                 crate::journal::ensure_dir(journal_dir(&self.opts.journal))
                     .map_err(StepError::Settled)?;
                 let file = if self.opts.transfer.is_some() {
-                    // crate::transfer's journal of this transaction
+                    // the transfer-rate switch's journal of this transaction
                     JournalFile::replace(&self.opts.journal, journal)
                 } else {
                     JournalFile::create(&self.opts.journal, journal)
@@ -209,7 +209,7 @@ fn journal_dir(journal: &Path) -> &Path {
 
 /// The guard step of a real upload, between the check of the set and
 /// identify ([`Transaction::begin`]): [`check_unfinished`] for the
-/// journal of `opts`, unless [`crate::transfer`] ran it already before
+/// journal of `opts`, unless the transfer-rate switch ran it already before
 /// switching the rate (`opts.transfer`: the journal file is then this
 /// transaction's own). A dry run ([`super::prepare`]) writes no journal
 /// and nothing to the drive, so it does not take this step: a dry run

@@ -21,7 +21,7 @@
 //!   order (CardWriteable values again through a dataset download), read
 //!   back and compared: `rolled-back`; if that fails too, `failed` with what
 //!   each code holds, and the error says `driveset recover JOURNAL`.
-//! - [`EngineError::Restarted`] (the drive restarted; the attempt is void):
+//! - [`ErrorKind::Restarted`](crate::error::ErrorKind::Restarted) (the drive restarted; the attempt is void):
 //!   redone from the read-back, at most [`UploadOptions::max_restarts`]
 //!   times, keeping the first attempt's backup.
 //!
@@ -110,7 +110,7 @@ pub struct UploadOptions {
     pub dataset_timeout: Duration,
     /// How writes are paced. Default [`Strategy::Interleaved`].
     pub strategy: Strategy,
-    /// The transfer-rate switch [`crate::transfer`] recorded in the
+    /// The transfer-rate switch (`--transfer-baud`) recorded in the
     /// journal before this upload: the journal file is this transaction's
     /// (the guard has run), and the upload's journal keeps the record.
     pub transfer: Option<crate::journal::TransferRecord>,

@@ -102,7 +102,7 @@ pub struct UploadReport {
     pub warnings: Vec<String>,
     /// The transfer rate (`--transfer-baud`): switched or not, and why.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub transfer: Option<crate::transfer::TransferReport>,
+    pub transfer: Option<crate::rate_report::TransferReport>,
 }
 
 fn ser_duration_ms<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -172,8 +172,8 @@ impl UploadReport {
 /// transaction got far enough to have one.
 #[derive(Debug)]
 pub struct UploadFailure {
-    /// What went wrong ([`EngineError::RolledBack`], [`EngineError::Inconsistent`],
-    /// [`EngineError::Refused`], ...).
+    /// What went wrong ([`ErrorKind::RolledBack`](crate::error::ErrorKind::RolledBack), [`ErrorKind::Inconsistent`](crate::error::ErrorKind::Inconsistent),
+    /// [`ErrorKind::Refused`](crate::error::ErrorKind::Refused), ...).
     pub error: Box<EngineError>,
     /// Per-code outcomes, when a journal was written.
     pub report: Option<Box<UploadReport>>,

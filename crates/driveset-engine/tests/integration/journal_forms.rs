@@ -121,3 +121,51 @@ fn an_unknown_storage_or_phase_is_a_journal_error_naming_file_and_field() {
         );
     }
 }
+
+/// The identity's `protocol` is read typed: a name the engine writes is
+/// its protocol (a family's, or a bus's for a drive only probed); any other
+/// is a journal error naming the file and the field.
+#[test]
+fn an_unknown_identity_protocol_is_a_journal_error_naming_file_and_field() {
+    use driveset_engine::client::IdentProtocol;
+    use driveset_schema::{BusProtocol, Family};
+
+    assert_eq!(
+        open("mc6000-dataset-upload.journal.json")
+            .journal
+            .identity
+            .protocol,
+        IdentProtocol::Family(Family::Mc6000)
+    );
+    assert_eq!(
+        open("tmd-failed-upload.journal.json")
+            .journal
+            .identity
+            .protocol,
+        IdentProtocol::Family(Family::Tmd)
+    );
+    // the address change's own record keeps the bus it ran on
+    let a = open("address-change.journal.json").journal;
+    assert_eq!(a.identity.protocol, IdentProtocol::Family(Family::Mc6000));
+    assert_eq!(
+        a.assign.expect("assign record").protocol,
+        BusProtocol::Lustbus
+    );
+    let text =
+        std::fs::read_to_string(dir().join("mc6000-dataset-upload.journal.json")).expect("fixture");
+    let from = r#""protocol": "lustbus-mc""#;
+    assert!(text.contains(from), "{from}");
+    let tmp = tempfile::tempdir().expect("tmp");
+    let path = tmp.path().join("protocol.journal.json");
+    std::fs::write(&path, text.replacen(from, r#""protocol": "profibus""#, 1)).expect("write");
+    let e = JournalFile::open(&path)
+        .expect_err("an unknown name")
+        .to_string();
+    assert!(
+        e.starts_with(&format!(
+            "journal {}: is not a driveset journal (identity `protocol`: unknown name `profibus`, expected one of lustbus-mc, lustbus-vf1000, lecom, lenze-can-sdo, lustbus, can",
+            path.display()
+        )),
+        "{e}"
+    );
+}

@@ -31,7 +31,7 @@
 //!
 //! Rooms: this file holds the link ([`Rfc2217Link`]: connecting,
 //! negotiating, the line settings and the data stream over a socket);
-//! [`telnet`] the pure telnet codec and the COM-PORT-OPTION commands.
+//! `telnet` the pure telnet codec and the COM-PORT-OPTION commands.
 
 mod telnet;
 #[cfg(test)]

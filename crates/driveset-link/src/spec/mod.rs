@@ -24,8 +24,8 @@
 //! their opener).
 //!
 //! Rooms: this file holds the port kinds, the limits and the accessors;
-//! [`parse`] the parser ([`PortSpec::parse`], [`parse_latency`]),
-//! [`error`] what is wrong with a port string, [`display`] the canonical
+//! `parse` the parser ([`PortSpec::parse`], [`parse_latency`]),
+//! `error` what is wrong with a port string, `display` the canonical
 //! form.
 
 mod display;

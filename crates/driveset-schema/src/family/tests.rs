@@ -391,3 +391,21 @@ fn device_type_code_and_learned_ids() {
     }
     assert!(!Learning::is_learned_id("lust-mc6000"));
 }
+
+/// A learned file is found by the prefix of the TYPE it was named for,
+/// whatever characters the TYPE has: both slug it the one way.
+#[test]
+fn a_learned_file_starts_with_the_prefix_of_its_type() {
+    assert_eq!(Learning::type_slug(Some("MC 6000/A")), "MC6000A");
+    assert_eq!(Learning::type_slug(Some("x-1_2")), "x-1_2");
+    assert_eq!(Learning::type_slug(None), "unknown");
+    for f in Family::ALL {
+        let Some(l) = f.descriptor().learning else {
+            continue;
+        };
+        for ty in [Some("MC 6000/A"), Some("1234"), Some("ä b"), None] {
+            let id = l.file_id(ty, Some("2.1 b"), 7);
+            assert!(id.starts_with(&l.file_prefix(ty)), "{f} {ty:?}: {id}");
+        }
+    }
+}

@@ -3,16 +3,16 @@
 //! and what a learned schema was learned from. Its rooms:
 //!
 //! - this file: the model's types;
-//! - [`numbers`]: code numbers, number lists and integer text;
-//! - [`lookup`]: finding codes by number or name and spelling them for
+//! - `numbers`: code numbers, number lists and integer text;
+//! - `lookup`: finding codes by number or name and spelling them for
 //!   humans;
-//! - [`reader`]: reading a document's tables with locations (unknown keys,
+//! - `reader`: reading a document's tables with locations (unknown keys,
 //!   wrong types are findings with where and what to do);
-//! - [`parse`]: one `[[code]]`, `[[rule]]` or enumeration table;
-//! - [`load`]: a whole schema file, its `extends` and its fingerprint;
-//! - [`extends`]: filling a base's unset facts from a fixture schema;
-//! - [`floor`]: the roles the family's specs give, applied to every schema;
-//! - [`registry`]: the [`Registry`] of built-in and loaded schemas.
+//! - `parse`: one `[[code]]`, `[[rule]]` or enumeration table;
+//! - `load`: a whole schema file, its `extends` and its fingerprint;
+//! - `extends`: filling a base's unset facts from a fixture schema;
+//! - `floor`: the roles the family's specs give, applied to every schema;
+//! - `registry`: the [`Registry`] of built-in and loaded schemas.
 
 mod extends;
 mod floor;

@@ -169,7 +169,7 @@ fn finish<M: LustModel>(
 }
 
 /// Both LUSTBUS families are [`ByteDrive`]s through their shared core; what
-/// differs (telegram handling, the running bit) comes from [`LustModel`].
+/// differs (telegram handling, the running bit) comes from `LustModel`.
 impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
     fn family(&self) -> &'static str {
         M::FAMILY

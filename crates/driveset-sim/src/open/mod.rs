@@ -105,6 +105,8 @@
 use std::io;
 use std::path::PathBuf;
 
+use driveset_schema::BusProtocol;
+
 use crate::bus::BusError;
 use crate::catalog::Family;
 use crate::faults::FaultParseError;
@@ -258,27 +260,34 @@ pub fn is_can(family: Family) -> bool {
     family.descriptor().on_can()
 }
 
-/// Check that `address` is a valid drive address on `family`'s bus.
+/// Check that `address` is a valid drive address on `family`'s bus: the
+/// descriptor's one address rule ([`driveset_schema::Descriptor::check_address`],
+/// docs/architecture.md, "The family descriptor") decides; the refusal is
+/// worded in the simulator's own words (`sim_address_rule`), which its
+/// messages have always shown.
 pub fn check_address(family: Family, address: u8) -> Result<(), SimOpenError> {
-    let (ok, rule) = match family {
-        Family::Mc6000 | Family::Vf1000 => (
-            (1..=30).contains(&address),
-            "LUSTBUS drive addresses are 1..=30 (section 4.2; 0 is the group address)",
-        ),
-        Family::Tmd => (
-            (1..=99).contains(&address) && !address.is_multiple_of(10),
-            "LECOM station addresses are 1..=99 except the group addresses 10, 20, ... 90 (§4c)",
-        ),
-        Family::Ecs => ((1..=127).contains(&address), "CAN node ids are 1..=127"),
-    };
-    if ok {
-        Ok(())
-    } else {
-        Err(SimOpenError::BadAddress {
+    family
+        .descriptor()
+        .check_address(i64::from(address))
+        .map_err(|refusal| SimOpenError::BadAddress {
             family: family.name(),
             address,
-            rule,
+            rule: sim_address_rule(refusal.bus),
         })
+}
+
+/// The simulator's words for `bus`'s drive-address rule (`sim://` and twin
+/// files' messages, pinned by their tests); the rule itself is
+/// [`BusProtocol::check_address`].
+fn sim_address_rule(bus: BusProtocol) -> &'static str {
+    match bus {
+        BusProtocol::Lustbus => {
+            "LUSTBUS drive addresses are 1..=30 (section 4.2; 0 is the group address)"
+        }
+        BusProtocol::Lecom => {
+            "LECOM station addresses are 1..=99 except the group addresses 10, 20, ... 90 (§4c)"
+        }
+        BusProtocol::CanSdo => "CAN node ids are 1..=127",
     }
 }
 

@@ -448,3 +448,25 @@ fn ecs_answers_on_the_frame_link() {
     let answer = l.recv(deadline).unwrap().expect("an answer");
     assert_eq!(answer.id, 0x585);
 }
+
+/// The simulator refuses exactly the addresses the descriptor's rule
+/// refuses, on every family's bus, in its own words.
+#[test]
+fn the_address_check_is_the_descriptors_rule() {
+    for family in Family::ALL {
+        for address in 0..=u8::MAX {
+            let rule = family.descriptor().check_address(i64::from(address));
+            let sim = check_address(family, address);
+            assert_eq!(sim.is_ok(), rule.is_ok(), "{family:?} {address}");
+            if let Err(e) = sim {
+                assert!(
+                    e.to_string().starts_with(&format!(
+                        "{}: address {address} is not allowed: ",
+                        family.name()
+                    )),
+                    "{e}"
+                );
+            }
+        }
+    }
+}

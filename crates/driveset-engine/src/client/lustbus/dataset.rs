@@ -21,8 +21,7 @@ use driveset_link::{ByteLink, Instant};
 use driveset_proto::lustbus::{Dialect, Siof};
 use driveset_schema::{CodeKey, RawValue};
 
-use super::LustbusRefusal;
-use super::{LustbusClient, SLOAD};
+use super::{LustbusClient, LustbusRefusal};
 use crate::client::{DatasetDownload, DatasetOutcome, device};
 use crate::error::{DeviceCause, EngineError, SiofVerdict};
 use crate::guard::Permit;
@@ -43,8 +42,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         // started over: SLOAD = -1 again discards what the drive staged
         // (section 11.4), so a roll back or recover can stage the backup.
         self.dataset_open = false;
-        self.sload_present()?;
-        let key = CodeKey::new(SLOAD);
+        let key = self.sload_present()?;
         self.select(
             key,
             &RawValue::Int(-1),
@@ -64,7 +62,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
                 LustbusRefusal::NoDatasetOpen,
             ));
         }
-        let key = CodeKey::new(SLOAD);
+        let key = self.sload_present()?;
         let what = "dataset download: write 80-SLOAD = -2";
         let r = self.select(key, &RawValue::Int(-2), what, None, Permit::DATASET_COMMIT);
         self.dataset_open = false;
@@ -78,8 +76,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         ended: Instant,
         timeout: Duration,
     ) -> Result<DatasetOutcome, EngineError> {
-        self.sload_present()?;
-        let key = CodeKey::new(SLOAD);
+        let key = self.sload_present()?;
         let deadline = ended + timeout;
         loop {
             let poll_start = self.now();
@@ -142,7 +139,7 @@ impl<L: ByteLink> LustbusClient<L> {
     /// same drive, e.g. after the line runner's broadcast. Reads SERR first,
     /// as any session does (section 6: the read clears what a broadcast
     /// SELECT may have latched) and returns it; a power-on bit means the
-    /// drive restarted and lost its staged values: [`EngineError::Restarted`].
+    /// drive restarted and lost its staged values: [`ErrorKind::Restarted`](crate::error::ErrorKind::Restarted).
     pub fn resume_dataset(&mut self) -> Result<Siof, EngineError> {
         self.sload_present()?;
         if self.family != Dialect::Mc {
@@ -162,15 +159,18 @@ impl<L: ByteLink> LustbusClient<L> {
         Ok(siof)
     }
 
-    fn sload_present(&self) -> Result<(), EngineError> {
-        if self.schema.code(SLOAD).is_none() {
-            return Err(EngineError::refused(
+    /// The dataset handshake's code (80-SLOAD), the family's
+    /// ([`driveset_schema::family::Descriptor::dataset_code`]), when the
+    /// schema has it; refused otherwise.
+    fn sload_present(&self) -> Result<CodeKey, EngineError> {
+        match self.schema.family.descriptor().dataset_code() {
+            Some(n) if self.schema.code(n).is_some() => Ok(CodeKey::new(n)),
+            _ => Err(EngineError::refused(
                 self.target.clone(),
                 LustbusRefusal::NoSload {
                     schema: self.schema.id.clone(),
                 },
-            ));
+            )),
         }
-        Ok(())
     }
 }

@@ -68,7 +68,7 @@ use driveset_schema::{Code, CodeKey, RawValue};
 use super::LustbusRefusal;
 use super::encoding::{parse_hex, raw_of, value_of, wire_type};
 use super::line::Outcome;
-use super::{LustbusClient, SIOF, SLOAD};
+use super::{LustbusClient, SIOF};
 use crate::client::{code_name, device, link_error, schema_code, shown_value};
 use crate::error::{DeviceCause, EngineError, SiofRegister, SiofVerdict};
 use crate::guard::{self, Permit};
@@ -245,7 +245,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let code = schema_code(&schema, &self.target, key)?;
         let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
         let pcode = self.code_for(key, Some(code))?;
-        let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
+        let ty = if is_dataset_code(&schema, key) && schema.type_of(code).is_none() {
             // 11.4 writes -1 / -2: a signed type, whatever the schema gives.
             Some(ParameterType::Integer16)
         } else {
@@ -385,7 +385,7 @@ impl<L: ByteLink> LustbusClient<L> {
                 },
             )
         })?;
-        let ty = if key.number == SLOAD && schema.type_of(code).is_none() {
+        let ty = if is_dataset_code(&schema, key) && schema.type_of(code).is_none() {
             Some(ParameterType::Integer16)
         } else {
             wire_type(&schema, code, self.family)
@@ -408,5 +408,37 @@ impl<L: ByteLink> LustbusClient<L> {
             )
         })?;
         Ok(RawValue::Int(raw))
+    }
+}
+
+/// Whether `key` is the family's dataset handshake code (MC 80-SLOAD,
+/// section 11.4: [`driveset_schema::family::Descriptor::dataset_code`]).
+pub(super) fn is_dataset_code(schema: &driveset_schema::Schema, key: CodeKey) -> bool {
+    key.subcode.is_none() && schema.family.descriptor().dataset_code() == Some(key.number)
+}
+
+#[cfg(test)]
+mod tests {
+    use driveset_schema::{CodeKey, Registry};
+
+    use super::is_dataset_code;
+
+    /// The handshake code is the descriptor's: MC 80-SLOAD, no code of a
+    /// VF1000 (which has no handshake), never a subcode.
+    #[test]
+    fn the_dataset_code_is_the_descriptors() {
+        let reg = Registry::builtin().expect("built-in schemas");
+        let mc = reg.get("lust-mc6000").expect("mc6000");
+        let vf = reg.get("lust-vf1000").expect("vf1000");
+        assert!(is_dataset_code(&mc, CodeKey::new(80)));
+        assert!(!is_dataset_code(&mc, CodeKey::new(81)));
+        assert!(!is_dataset_code(
+            &mc,
+            CodeKey {
+                number: 80,
+                subcode: Some(1)
+            }
+        ));
+        assert!(!is_dataset_code(&vf, CodeKey::new(80)));
     }
 }

@@ -72,8 +72,6 @@ pub(crate) use line::LustLine;
 pub(crate) use probe::{Heard, probe_code, probe_heard, probe_type};
 pub use refusal::{LustbusCodeProblem, LustbusRefusal};
 
-/// 80-SLOAD, the dataset download handshake (MC, section 11.4).
-pub const SLOAD: u32 = 80;
 /// 85-SIOF / SERR, the serial interface error word (sections 5.2, 9.2).
 pub const SIOF: u32 = 85;
 /// MC 416-SCTL1, the LUSTBUS control word (section 7.2).

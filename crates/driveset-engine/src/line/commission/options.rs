@@ -10,6 +10,7 @@ use std::sync::Arc;
 use driveset_link::{Instant, Link};
 use driveset_schema::Registry;
 
+use super::resume::StateFileError;
 use crate::env::Environment;
 use crate::error::EngineError;
 use crate::learn::LearnOptions;
@@ -175,9 +176,9 @@ pub enum LineError {
     #[error(transparent)]
     JournalDir(EngineError),
     /// The state file cannot be read
-    /// ([`super::resume::CommissionState::load`]'s message).
-    #[error("{0}")]
-    StateFile(String),
+    /// ([`super::resume::CommissionState::load`]).
+    #[error(transparent)]
+    StateFile(#[from] StateFileError),
 }
 
 /// The result of a line run.

@@ -5,7 +5,8 @@
 //! the drive once.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::io;
+use std::path::{Path, PathBuf};
 use std::sync::PoisonError;
 
 use serde::{Deserialize, Serialize};
@@ -54,29 +55,82 @@ pub struct StateEntry {
     pub verified_at: String,
 }
 
+/// Why the state file could not be read or written: what went wrong and
+/// the file ([`CommissionState::load`], [`CommissionState::save`]).
+#[derive(Debug, thiserror::Error)]
+pub enum StateFileError {
+    /// The environment could not read it.
+    #[error("state file {}: {source}", path.display())]
+    Read {
+        /// The state file.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+    /// Its content is not a resume state.
+    #[error(
+        "state file {}: {source}; delete it (or pass --fresh) to commission every drive again",
+        path.display()
+    )]
+    Parse {
+        /// The state file.
+        path: PathBuf,
+        /// Why.
+        source: serde_json::Error,
+    },
+    /// The state could not be put in JSON form.
+    #[error("{source}")]
+    Encode {
+        /// The state file.
+        path: PathBuf,
+        /// Why.
+        source: serde_json::Error,
+    },
+    /// The environment could not write it.
+    #[error("state file {}: {source}", path.display())]
+    Write {
+        /// The state file.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+}
+
+impl StateFileError {
+    /// The state file it is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            StateFileError::Read { path, .. }
+            | StateFileError::Parse { path, .. }
+            | StateFileError::Encode { path, .. }
+            | StateFileError::Write { path, .. } => path,
+        }
+    }
+}
+
 impl CommissionState {
     /// Read the state file of `report_dir` through `env` (empty if there
     /// is none).
-    pub fn load(env: &dyn Environment, report_dir: &Path) -> Result<Self, String> {
+    pub fn load(env: &dyn Environment, report_dir: &Path) -> Result<Self, StateFileError> {
         let path = report_dir.join(STATE_FILE);
         match env.read_file(&path) {
-            Ok(Some(text)) => serde_json::from_str(&text).map_err(|e| {
-                format!(
-                    "state file {}: {e}; delete it (or pass --fresh) to commission every drive again",
-                    path.display()
-                )
-            }),
+            Ok(Some(text)) => {
+                serde_json::from_str(&text).map_err(|source| StateFileError::Parse { path, source })
+            }
             Ok(None) => Ok(Self::default()),
-            Err(e) => Err(format!("state file {}: {e}", path.display())),
+            Err(source) => Err(StateFileError::Read { path, source }),
         }
     }
 
     /// Write it through `env` (atomically: [`Environment::write_file`]).
-    pub fn save(&self, env: &dyn Environment, report_dir: &Path) -> Result<(), String> {
+    pub fn save(&self, env: &dyn Environment, report_dir: &Path) -> Result<(), StateFileError> {
         let path = report_dir.join(STATE_FILE);
-        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+        let text = match serde_json::to_string_pretty(self) {
+            Ok(text) => text,
+            Err(source) => return Err(StateFileError::Encode { path, source }),
+        };
         env.write_file(&path, &(text + "\n"))
-            .map_err(|e| format!("state file {}: {e}", path.display()))
+            .map_err(|source| StateFileError::Write { path, source })
     }
 
     /// The state a commissioning run of `manifest` starts from: the file's
@@ -135,7 +189,7 @@ impl Ctx<'_> {
         }
         if let Err(e) = s.save(&*self.opts.env, &self.opts.report_dir) {
             drop(s);
-            self.warn(e);
+            self.warn(e.to_string());
         }
     }
 }
@@ -194,4 +248,84 @@ pub(super) fn still_holds(
         d.name, rec.verified_at
     ));
     Ok(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::env::Memory;
+    use crate::line::report::GitInfo;
+
+    /// An environment whose files cannot be read nor written.
+    struct Broken;
+
+    impl Environment for Broken {
+        fn now_utc(&self) -> jiff::Timestamp {
+            jiff::Timestamp::UNIX_EPOCH
+        }
+        fn git_info(&self, _dir: &Path) -> Option<GitInfo> {
+            None
+        }
+        fn read_file(&self, _path: &Path) -> io::Result<Option<String>> {
+            Err(io::Error::new(io::ErrorKind::PermissionDenied, "denied"))
+        }
+        fn write_file(&self, _path: &Path, _text: &str) -> io::Result<()> {
+            Err(io::Error::new(io::ErrorKind::StorageFull, "full"))
+        }
+        fn create_dir(&self, _dir: &Path) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// The state file's errors say what went wrong and where, with the
+    /// messages the run has always shown; a missing file is an empty state
+    /// and a written one reads back.
+    #[test]
+    fn state_file_errors_are_typed_with_the_file_and_their_messages() {
+        let dir = Path::new("/plant/reports");
+        let path = dir.join(STATE_FILE);
+        let env = Memory::at(jiff::Timestamp::UNIX_EPOCH);
+        assert_eq!(
+            CommissionState::load(&env, dir).expect("none"),
+            CommissionState::default()
+        );
+        let state = CommissionState {
+            state_version: STATE_VERSION,
+            line: "press-3".into(),
+            drives: BTreeMap::new(),
+        };
+        state.save(&env, dir).expect("saved");
+        assert_eq!(CommissionState::load(&env, dir).expect("read"), state);
+
+        env.write_file(&path, "{ not json").expect("write");
+        let e = CommissionState::load(&env, dir).expect_err("parse");
+        assert!(matches!(e, StateFileError::Parse { .. }), "{e:?}");
+        assert_eq!(e.path(), path);
+        let m = e.to_string();
+        assert!(
+            m.starts_with("state file /plant/reports/.commission-state.json: key must be a string")
+                && m.ends_with("; delete it (or pass --fresh) to commission every drive again"),
+            "{m}"
+        );
+
+        let e = CommissionState::load(&Broken, dir).expect_err("read");
+        assert!(matches!(e, StateFileError::Read { .. }), "{e:?}");
+        assert_eq!(
+            e.to_string(),
+            "state file /plant/reports/.commission-state.json: denied"
+        );
+        let e = state.save(&Broken, dir).expect_err("write");
+        assert!(matches!(e, StateFileError::Write { .. }), "{e:?}");
+        assert_eq!(e.path(), path);
+        assert_eq!(
+            e.to_string(),
+            "state file /plant/reports/.commission-state.json: full"
+        );
+        // a run that cannot read its state does not start, with the same message
+        let line = LineError::from(CommissionState::load(&Broken, dir).expect_err("read"));
+        assert_eq!(
+            line.to_string(),
+            "state file /plant/reports/.commission-state.json: denied"
+        );
+    }
 }
