@@ -363,16 +363,11 @@ const CLIENTS_STILL_BUILT_ELSEWHERE: &[(&str, usize)] = &[];
 const BORROWED_CLIENTS: &[&str] = &["connect_on(", "lustbus_on(", "lecom_on("];
 
 /// Source files that ask `connect` for a client on a link they keep, with
-/// how many calls each holds (a count may only go down): `driveset
-/// address`'s work on a lone drive whose address it changes (`assign/`),
-/// and a line's work on its bus rather than on one drive: the LUSTBUS
+/// how many calls each holds (a count may only go down): a line's work on its bus rather than on one drive: the LUSTBUS
 /// SELECT to address 31 and the transactions parked around it, the LECOM
 /// MULTICAST and the running check of its members (docs/architecture.md,
 /// "One path from a port to a drive").
 const BORROWED_CLIENTS_OUTSIDE_THE_SESSION: &[(&str, usize)] = &[
-    ("crates/driveset-engine/src/assign/plan.rs", 2),
-    ("crates/driveset-engine/src/assign/recover.rs", 3),
-    ("crates/driveset-engine/src/assign/run.rs", 5),
     ("crates/driveset-engine/src/line/commission/broadcast.rs", 1),
     ("crates/driveset-engine/src/line/commission/multicast.rs", 2),
     ("crates/driveset-engine/src/line/commission/parked.rs", 2),

@@ -192,6 +192,18 @@ impl Schemas {
     }
 }
 
+/// The client for the drive at `address` of a link `driveset address`
+/// keeps while it changes the drive's address: the session's borrowed-link
+/// session, without learning ([`crate::session::BusSession::connect`]).
+fn drive_on(
+    link: &mut Link,
+    schema: Arc<Schema>,
+    address: u8,
+) -> Result<Box<dyn crate::client::DriveClient + '_>, EngineError> {
+    let port = link.port().to_string();
+    Ok(crate::session::BusSession::connect(link, &port, schema, address)?.client)
+}
+
 /// [`plan()`], then [`run()`].
 pub fn assign(
     link: &mut Link,

@@ -14,6 +14,7 @@ use driveset_schema::family::{BusWriteSource, TYPE};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw, shown};
+use super::drive_on;
 use super::probe::{baud_of, bus_of, bytes, lecom_probe, lust_probe, now, port_of, set_rate};
 use super::refusal::{check_address, check_family_rate, link_err, need_type, refuse, target};
 use super::report::{PlannedWrite, Step, found_text, list};
@@ -22,7 +23,6 @@ use super::{
 };
 use crate::client::Identity;
 use crate::client::lustbus::Heard;
-use crate::connect::connect_on;
 use crate::error::EngineError;
 use crate::plan::code_label;
 use crate::scan::{Found, lustbus_addresses, scan_lecom, scan_lustbus};
@@ -184,7 +184,7 @@ pub(super) fn plan_lustbus(
     }
     // read at address 0
     let (identity, old_raw, rate_raw_now) = {
-        let mut c = connect_on(link, schema.clone(), 0)?;
+        let mut c = drive_on(link, schema.clone(), 0)?;
         let identity = c.identify()?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {
@@ -467,7 +467,7 @@ pub(super) fn plan_lecom(
     }
     let scan_time = now(link) - scan_start;
     let (identity, c0001, old_raw, rate_now) = {
-        let mut c = connect_on(link, schema.clone(), from)?;
+        let mut c = drive_on(link, schema.clone(), from)?;
         let identity = c.identify()?;
         let c0001 = c.read(CodeKey::new(LECOM_WRITE.code))?;
         let old = c.read(addr_key)?;

@@ -11,6 +11,7 @@ use driveset_link::Link;
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue};
 
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw};
+use super::drive_on;
 use super::plan::{lecom_write, lust_write};
 use super::probe::{bus_of, now, port_of, set_rate};
 use super::record::set_step;
@@ -19,7 +20,6 @@ use super::report::{Step, list, pairs};
 use super::run::finish;
 use super::{AssignPlan, AssignRecovered, AssignRefusal, AssignStep, RateEffect, Schemas};
 use crate::client::Target;
-use crate::connect::connect_on;
 use crate::error::{EngineError, ErrorKind, Refusal};
 use crate::journal::{Journal, JournalFile, JournalIdentity, TxnState};
 use crate::scan::ScanOptions;
@@ -117,7 +117,7 @@ pub fn recover(
             continue;
         }
         for a in &addresses {
-            let mut c = connect_on(link, schema.clone(), *a)?;
+            let mut c = drive_on(link, schema.clone(), *a)?;
             let got = c.read(addr_key);
             let _ = c.finish();
             match got {
@@ -149,7 +149,7 @@ pub fn recover(
     };
     // the same drive?
     let identity = {
-        let mut c = connect_on(link, schema.clone(), at)?;
+        let mut c = drive_on(link, schema.clone(), at)?;
         let id = c.identify()?;
         c.finish()?;
         id
@@ -192,7 +192,7 @@ pub fn recover(
     if let Some(b) = rec.rate {
         let want = rate_raw(&schema, rate_key, b).unwrap_or(RawValue::Int(i64::from(b)));
         let holds = {
-            let mut c = connect_on(link, schema.clone(), at)?;
+            let mut c = drive_on(link, schema.clone(), at)?;
             let v = c.read(rate_key)?;
             c.finish()?;
             v

@@ -11,12 +11,12 @@ use driveset_link::Link;
 use driveset_schema::{BusProtocol, RawValue};
 
 use super::codes::{address_of_raw, bus_codes, rate_raw, shown};
+use super::drive_on;
 use super::probe::{bytes, now, set_rate};
 use super::record::{new_journal, record_of, set_step};
 use super::refusal::target;
 use super::report::{Step, found_text, pairs};
 use super::{AssignPlan, AssignReport, AssignStep, RateEffect};
-use crate::connect::connect_on;
 use crate::error::{EngineError, ErrorKind};
 use crate::guard::Permit;
 use crate::journal::{JournalFile, TxnState};
@@ -125,14 +125,14 @@ pub(super) fn finish(
     // 1. the address
     if let Some(w) = p.writes.iter().find(|w| w.step == Step::Address) {
         set_step(jf, AssignStep::Address)?;
-        let mut c = connect_on(link, schema.clone(), w.address)?;
+        let mut c = drive_on(link, schema.clone(), w.address)?;
         c.write_named(w.key, &w.raw, Permit::BUS_ADDRESS)?;
         c.finish()?;
         written.push(format!("{} = {} at address {}", w.code, w.value, w.address));
     }
     // verify at N
     {
-        let mut c = connect_on(link, schema.clone(), p.to)?;
+        let mut c = drive_on(link, schema.clone(), p.to)?;
         let got = c.read(addr_key)?;
         if address_of_raw(&schema, addr_key, &got) != Some(i64::from(p.to)) {
             return Err(EngineError::protocol(
@@ -193,7 +193,7 @@ pub(super) fn finish(
     let mut rate_note = None;
     if let Some(w) = p.writes.iter().find(|w| w.step == Step::Rate) {
         set_step(jf, AssignStep::Rate)?;
-        let mut c = connect_on(link, schema.clone(), p.to)?;
+        let mut c = drive_on(link, schema.clone(), p.to)?;
         c.write_named(w.key, &w.raw, Permit::LINE_RATE)?;
         written.push(format!("{} = {} at address {}", w.code, w.value, w.address));
         c.finish()?;
@@ -201,7 +201,7 @@ pub(super) fn finish(
     if let Some(a) = p.writes.iter().find(|w| w.step == Step::Activate) {
         let target_rate = p.baud.unwrap_or(p.rate);
         {
-            let mut c = connect_on(link, schema.clone(), p.to)?;
+            let mut c = drive_on(link, schema.clone(), p.to)?;
             c.write_named(a.key, &a.raw, Permit::ACTIVATE_RATE)?;
             c.finish()?;
         }
@@ -211,7 +211,7 @@ pub(super) fn finish(
     }
     if let (Some(b), Some(effect)) = (p.baud, p.rate_effect) {
         let want = rate_raw(&schema, rate_key, b).unwrap_or(RawValue::Int(i64::from(b)));
-        let mut c = connect_on(link, schema.clone(), p.to)?;
+        let mut c = drive_on(link, schema.clone(), p.to)?;
         let got = c.read(rate_key)?;
         if got != want {
             return Err(EngineError::protocol(
