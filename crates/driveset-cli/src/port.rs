@@ -84,16 +84,7 @@ impl Ports for CliPorts {
         {
             sim.addresses.push(a);
         }
-        let name = sim.name();
-        let settings = |detail: String| PortError::Settings {
-            port: name.clone(),
-            detail,
-        };
-        let config = SimOpener::default()
-            .config(&sim)
-            .map_err(|e| settings(e.to_string()))?;
-        let bus = open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
-            .map_err(|e| settings(e.to_string()))?;
+        let (bus, in_process) = open_sim(&sim)?;
         let drives = bus
             .addresses()
             .into_iter()
@@ -101,14 +92,14 @@ impl Ports for CliPorts {
             .collect();
         let spec = PortSpec::Sim(sim.to_opaque());
         Ok(OpenedPort {
-            name,
-            connect: connect_options(&spec),
+            name: sim.name(),
+            connect: ConnectOptions::of(&spec),
             spec,
             link: bus.link(),
             simulated: Some(SimulatedDrives {
                 drives,
                 mixed: bus.is_mixed(),
-                in_process: config.state.is_none(),
+                in_process,
             }),
         })
     }
@@ -116,6 +107,22 @@ impl Ports for CliPorts {
     fn lock(&self, bus: &str) -> Result<(), LockError> {
         lock_bus(bus)
     }
+}
+
+/// The simulated bus `sim` describes, in virtual time, and whether it lives
+/// in this process only (no state file).
+fn open_sim(sim: &SimSpec) -> Result<(SimLink, bool), PortError> {
+    let name = sim.name();
+    let settings = |detail: String| PortError::Settings {
+        port: name.clone(),
+        detail,
+    };
+    let config = SimOpener::default()
+        .config(sim)
+        .map_err(|e| settings(e.to_string()))?;
+    let bus = open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
+        .map_err(|e| settings(e.to_string()))?;
+    Ok((bus, config.state.is_none()))
 }
 
 /// The port openers the CLI registers for the schemes `driveset-link` does
@@ -189,12 +196,7 @@ pub fn sim_bus(spec: &PortSpec) -> Result<SimLink, Fail> {
         return Err(Fail::input(format!("{spec} is not a sim:// port")));
     };
     let sim = SimSpec::from_opaque(o).map_err(|e| Fail::input(e.to_string()))?;
-    let name = sim.name();
-    let config = SimOpener::default()
-        .config(&sim)
-        .map_err(|e| Fail::input(format!("{name}: {e}")))?;
-    open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
-        .map_err(|e| Fail::input(format!("{name}: {e}")))
+    Ok(open_sim(&sim)?.0)
 }
 
 /// The bus locks this process holds ([`lock_bus`]), until it exits.
@@ -255,13 +257,6 @@ pub fn into_client(
         ..SessionPolicy::default()
     };
     Ok(Session::open(port, schema, address, &policy)?.client)
-}
-
-/// What the port string says about talking to its drives (`latency=`).
-pub fn connect_options(spec: &PortSpec) -> ConnectOptions {
-    ConnectOptions {
-        latency: spec.latency(),
-    }
 }
 
 /// The schemas every command knows ([`crate::output::registry`]).

@@ -27,6 +27,13 @@ pub struct ConnectOptions {
 }
 
 impl ConnectOptions {
+    /// What `spec` says (its `latency=`).
+    pub fn of(spec: &driveset_link::PortSpec) -> Self {
+        ConnectOptions {
+            latency: spec.latency(),
+        }
+    }
+
     /// The LUSTBUS client's options.
     pub fn lustbus(&self) -> LustbusOptions {
         LustbusOptions {

@@ -129,6 +129,18 @@ pub struct Found {
 }
 
 impl Found {
+    /// The drive as scans list it: `address 3: 91-TYPE = 1000, ...` (its
+    /// identify codes).
+    pub fn text(&self) -> String {
+        let codes: Vec<String> = self
+            .identity
+            .codes
+            .iter()
+            .map(|c| format!("{} = {}", c.name, c.value))
+            .collect();
+        format!("address {}: {}", self.address, codes.join(", "))
+    }
+
     /// The drive at `address` on `bus` that answered a scan's probe with
     /// `code`.
     fn probed(address: u8, bus: BusProtocol, code: IdentCode) -> Self {

@@ -222,13 +222,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 _ => {}
             }
             for f in &found {
-                let codes: Vec<String> = f
-                    .identity
-                    .codes
-                    .iter()
-                    .map(|c| format!("{} = {}", c.name, c.value))
-                    .collect();
-                let _ = writeln!(out, "address {}: {}", f.address, codes.join(", "));
+                let _ = writeln!(out, "{}", f.text());
             }
             let _ = writeln!(
                 out,

@@ -160,19 +160,7 @@ pub(super) fn list(rates: &[u32]) -> String {
 /// The drives a scan found, each with its identify codes
 /// (`address 3: 91-TYPE = 1000; address 7: ...`); empty when none answered.
 pub fn found_text(found: &[Found]) -> String {
-    found
-        .iter()
-        .map(|f| {
-            let codes: Vec<String> = f
-                .identity
-                .codes
-                .iter()
-                .map(|c| format!("{} = {}", c.name, c.value))
-                .collect();
-            format!("address {}: {}", f.address, codes.join(", "))
-        })
-        .collect::<Vec<_>>()
-        .join("; ")
+    found.iter().map(Found::text).collect::<Vec<_>>().join("; ")
 }
 
 pub(super) fn pairs(id: &Identity) -> String {

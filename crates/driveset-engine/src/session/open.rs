@@ -89,9 +89,7 @@ impl OpenedPort {
     pub fn real(spec: PortSpec, link: Link) -> Self {
         OpenedPort {
             name: spec.to_string(),
-            connect: ConnectOptions {
-                latency: spec.latency(),
-            },
+            connect: ConnectOptions::of(&spec),
             spec,
             link,
             simulated: None,
