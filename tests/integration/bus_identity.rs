@@ -523,3 +523,83 @@ fn a_journal_of_a_schema_given_by_path_recovers_without_flags_and_refuses_an_edi
         "{settled}"
     );
 }
+
+/// A `sim://` bus with a state file, held by another process, is refused
+/// by every command before it is opened, through a symlink to the state
+/// file too: the state file is not read and written back (its bytes stay),
+/// the symlink stays a symlink, and once the lock is free the link reaches
+/// the same bus.
+#[test]
+fn a_held_sim_state_bus_is_refused_before_it_is_opened_through_a_symlink_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let locks = dir.path().join("locks");
+    let state = dir.path().join("state.json");
+    let link = dir.path().join("link.json");
+    let port = |file: &Path, addresses: &str| {
+        format!(
+            "sim://mc6000?addresses={addresses}&state={}",
+            file.display()
+        )
+    };
+    cmd(&locks, &["scan", "--port", &port(&state, "1,2")])
+        .assert()
+        .code(0);
+    std::os::unix::fs::symlink(&state, &link).unwrap();
+    let before = std::fs::read(&state).unwrap();
+    let canonical = std::fs::canonicalize(&state).unwrap();
+    let bus = format!("sim:mc6000@{}", canonical.display());
+    let holder = driveset_link::lock::Holder {
+        pid: 1,
+        command: "driveset upload".into(),
+        since: "2026-12-03T13:00:00.000Z".into(),
+    };
+    let held = driveset_link::BusLock::acquire(&locks, &bus, &holder).unwrap();
+    let refused = format!(
+        "error: bus `{bus}` is in use by another process: pid 1 (`driveset upload`, since 2026-12-03T13:00:00.000Z); nothing was sent."
+    );
+    for args in [
+        vec!["scan", "--port", &*port(&link, "1,2")],
+        vec!["identify", "--port", &*port(&link, "1"), "--address", "1"],
+        vec!["doctor", "--port", &*port(&link, "1")],
+        vec![
+            "address",
+            "--port",
+            &*port(&link, "1"),
+            "--protocol",
+            "lustbus",
+            "--to",
+            "5",
+            "--dry-run",
+        ],
+    ] {
+        let out = cmd(&locks, &args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{args:?}: {err}");
+        assert!(err.starts_with(&refused), "{args:?}: {err}");
+    }
+    assert_eq!(
+        std::fs::read(&state).unwrap(),
+        before,
+        "the state file was written"
+    );
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink(),
+        "the symlink was replaced by a file"
+    );
+    drop(held);
+    cmd(
+        &locks,
+        &["identify", "--port", &port(&link, "1"), "--address", "1"],
+    )
+    .assert()
+    .code(0);
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+}

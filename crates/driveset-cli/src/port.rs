@@ -104,6 +104,17 @@ impl Ports for CliPorts {
         })
     }
 
+    fn bus_before_open(&self, port: &str, spec: &PortSpec) -> Option<String> {
+        if !matches!(spec, PortSpec::Sim(_)) {
+            return driveset_link::bus_id::before_open(spec);
+        }
+        // a simulated bus with a state file is that file's bus (the
+        // simulator's `SimConfig::bus_id`); one without lives here only
+        let sim = SimSpec::parse(port).ok()?;
+        let config = SimOpener::default().config(&sim).ok()?;
+        config.state.is_some().then(|| config.bus_id())
+    }
+
     fn lock(&self, bus: &str) -> Result<(), LockError> {
         lock_bus(bus)
     }

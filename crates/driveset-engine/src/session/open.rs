@@ -8,9 +8,11 @@
 //!
 //! 1. the port string parsed ([`PortSpec::parse`]);
 //! 2. the bus its spelling names locked before it is opened
-//!    ([`driveset_link::bus_id::before_open`]: serial, slcan, SocketCAN),
-//!    so a port another driveset holds is refused naming the holder before
-//!    its open would fail on TIOCEXCL;
+//!    ([`Ports::bus_before_open`]: serial, slcan, SocketCAN, a simulated
+//!    bus with a state file), so a port another driveset holds is refused
+//!    naming the holder before its open would fail on TIOCEXCL (or, for a
+//!    simulated bus, read and later write back the state file the other
+//!    process drives);
 //! 3. the port opened ([`Ports::open`]);
 //! 4. the bus the opened link reaches locked ([`driveset_link::Link::bus_id`]),
 //!    unless it lives in this process only (a simulated bus without a
@@ -136,6 +138,17 @@ pub trait Ports {
         address: Option<u8>,
     ) -> Result<OpenedPort, PortError>;
 
+    /// The bus `spec` (parsed from `port`) reaches, when its spelling says
+    /// so before it is opened (step 2 of the module docs): by default
+    /// [`driveset_link::bus_id::before_open`] (serial, slcan, SocketCAN); a
+    /// front end whose own ports name their bus (a simulated bus with a
+    /// state file) says so too, so a bus another process holds is not
+    /// even opened.
+    fn bus_before_open(&self, port: &str, spec: &PortSpec) -> Option<String> {
+        let _ = port;
+        driveset_link::bus_id::before_open(spec)
+    }
+
     /// Take the advisory lock of bus `bus` until the process ends; a bus
     /// this process holds already stays held.
     fn lock(&self, bus: &str) -> Result<(), LockError>;
@@ -188,7 +201,7 @@ pub fn open_port(
     address: Option<u8>,
 ) -> Result<OpenedPort, PortError> {
     let spec = PortSpec::parse(port).map_err(PortError::BadPort)?;
-    if let Some(bus) = driveset_link::bus_id::before_open(&spec) {
+    if let Some(bus) = ports.bus_before_open(port, &spec) {
         ports.lock(&bus)?;
     }
     let opened = ports.open(port, spec, address)?;

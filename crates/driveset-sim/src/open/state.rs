@@ -278,6 +278,11 @@ impl StateDump {
     /// Write the dump as pretty JSON: to a temporary file (mode 0600) next
     /// to `path`, then renamed over it (a crash never leaves half a file).
     pub fn write(&self, path: &Path) -> Result<(), SimOpenError> {
+        // through a symlink to the file it names: the rename below would
+        // otherwise replace the link with a file of its own, and the next
+        // command given the link would drive another bus
+        let target = std::fs::canonicalize(path).ok();
+        let path = target.as_deref().unwrap_or(path);
         let io_err = |op, source| SimOpenError::StateIo {
             path: path.into(),
             op,
