@@ -79,6 +79,13 @@ pub fn read_input(path: &std::path::Path, kind: InputKind) -> Result<Vec<u8>, In
     read_regular_file(path, kind.cap, kind.what)
 }
 
+/// Whether anything is at `path` (a FIFO, a directory, a dangling symlink
+/// or a symlink loop count): a missing file is told apart from one that is
+/// there but not readable as a file, which [`read_input`] names.
+pub fn exists(path: &std::path::Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok()
+}
+
 /// Checks, from its metadata only, that `path` is a regular file or does
 /// not exist yet: for a file a command will create or replace (`upload
 /// --journal FILE`), so a FIFO or device there is refused before anything
