@@ -22,6 +22,7 @@ mod factory_settings;
 mod fingerprint;
 mod git_setup;
 mod harden;
+mod harden_small;
 mod inputs;
 mod json_schema;
 mod junit;

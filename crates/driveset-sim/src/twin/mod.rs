@@ -200,6 +200,9 @@ impl Twin {
             path: PathBuf::new(),
             driveset: String::new(),
             captured: String::new(),
+            // where it was captured from: the same drive through another
+            // spelling of its port (`?latency=`) is the same drive
+            source: String::new(),
             reaction: None,
             ..t.clone()
         };
