@@ -5,7 +5,7 @@
 //! exit 2, no bus ever taken (the test's lock directory stays empty: the
 //! refusal comes before the port is opened), and nothing at the path
 //! replaced (a FIFO stays a FIFO, a symlink a symlink, a directory keeps
-//! its entries). Each run has a watchdog that kills the child: a hang fails
+//! its entries), and the message names the file. Each run has a watchdog that kills the child: a hang fails
 //! the test (the watchdog is a hang guard, not a speed assertion).
 #![cfg(unix)]
 
@@ -58,7 +58,7 @@ const COMMANDS: &[Command] = &[
     Command { name: "schema import", args: &["schema", "import", "{F}"], role: Role::Input("tests/data/eds/fictional-ecs-axis.eds") , fine: CUT },
     Command { name: "schema json-schema", args: &["schema", "json-schema", "{F}"], role: Role::Input("schemas/lenze-tmd.toml") , fine: &[] },
     Command { name: "decode", args: &["decode", "--protocol", "lustbus", "--family", "mc6000", "{F}"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex") , fine: CUT },
-    Command { name: "twin from-capture", args: &["twin", "from-capture", "--protocol", "lustbus", "{F}", "-o", "out"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex") , fine: CUT },
+    Command { name: "twin from-capture", args: &["twin", "from-capture", "--protocol", "lustbus", "--schema", "lust-mc6000", "{F}", "-o", "out"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex") , fine: CUT },
     Command { name: "upload", args: &["upload", "{F}", "--port", P, "--address", "1"], role: Role::Input(SET) , fine: &[] },
     Command { name: "commission", args: &["commission", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml") , fine: &[] },
     Command { name: "status", args: &["status", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml") , fine: &[] },
@@ -72,7 +72,7 @@ const COMMANDS: &[Command] = &[
     Command { name: "schema json-schema -o", args: &["schema", "json-schema", "lenze-tmd", "-o", "{F}"], role: Role::Output , fine: &[] },
     Command { name: "twin capture -o", args: &["twin", "capture", "--port", P, "--address", "1", "-o", "{F}"], role: Role::Output , fine: &[] },
     Command { name: "upload --journal", args: &["upload", SET, "--port", P, "--address", "1", "--journal", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "sim --log", args: &["sim", "--family", "tmd", "--log", "{F}"], role: Role::Output , fine: &[] },
+    Command { name: "sim --log", args: &["sim", "--family", "tmd", "--address", "1", "--log", "{F}"], role: Role::Output , fine: &[] },
 ];
 
 /// Kinds of bad input file.
@@ -218,6 +218,17 @@ fn run(cmd: &Command, kind: InputKind) -> Vec<String> {
     match out {
         Err(e) => problems.push(format!("{at}: did not end within the watchdog: {e}")),
         Ok(o) => {
+            let text = format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            );
+            // the refusal names the file (an exit 2 for another reason,
+            // a usage error, would pass unseen)
+            let name = f.file_name().unwrap().to_string_lossy().into_owned();
+            if o.status.code() == Some(2) && !text.contains(&name) {
+                problems.push(format!("{at}: exit 2 without naming {name}: {text}"));
+            }
             if o.status.code() != Some(2) {
                 problems.push(format!(
                     "{at}: exit {:?}, not 2\n  stdout: {}\n  stderr: {}",
