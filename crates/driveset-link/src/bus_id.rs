@@ -7,7 +7,7 @@
 //! | transport | bus id | e.g. |
 //! | --- | --- | --- |
 //! | serial port | `serial:` + the canonical device path (symlinks such as `/dev/serial/by-id/...` resolved) | `serial:/dev/ttyUSB0` |
-//! | TCP device server, raw or RFC 2217 | `tcp:` + the address actually connected to (host resolved) | `tcp:127.0.0.1:4001` |
+//! | TCP device server, raw or RFC 2217 | `tcp:` + the address actually connected to (host resolved; IPv4-mapped and `::1` as IPv4, [`tcp`]) | `tcp:127.0.0.1:4001` |
 //! | slcan adapter | `slcan:` + canonical device path + `?bitrate=` | `slcan:/dev/ttyACM0?bitrate=500000` |
 //! | SocketCAN | `can:` + interface | `can:can0` |
 //! | simulated bus | `sim:` + bus name (+ `@` canonical state file) | `sim:mc6000@/tmp/s/sim-mc6000.json` |

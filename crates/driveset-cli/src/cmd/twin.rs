@@ -165,6 +165,10 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     let manifest = super::commission::load(&a.manifest, true).map_err(Fail::reported)?;
+    // every twin file is checked before a bus is opened
+    for d in &manifest.drives {
+        crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;
+    }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     let mut worst = EXIT_OK;
