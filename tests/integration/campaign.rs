@@ -34,7 +34,10 @@ struct Command {
 const DIRS: &[(InputKind, &str)] = &[(InputKind::Directory, "a directory of files is walked")];
 /// A capture cut short is a capture (its last telegram shown incomplete);
 /// an EDS has no end marker (a shorter data sheet is imported, linted).
-const CUT: &[(InputKind, &str)] = &[(InputKind::Truncated, "a file cut short is still one of its kind")];
+const CUT: &[(InputKind, &str)] = &[(
+    InputKind::Truncated,
+    "a file cut short is still one of its kind",
+)];
 
 #[derive(Clone, Copy)]
 enum Role {
@@ -49,30 +52,31 @@ const SET: &str = "parameter-sets/tmd/conveyor-3.toml";
 const P: &str = "sim://tmd?addresses=1";
 
 /// Every command that reads or writes a file argument.
+#[rustfmt::skip]
 const COMMANDS: &[Command] = &[
-    Command { name: "validate", args: &["validate", "{F}"], role: Role::Input(SET) , fine: DIRS },
-    Command { name: "fingerprint", args: &["fingerprint", "{F}"], role: Role::Input(SET) , fine: &[] },
-    Command { name: "show", args: &["show", "{F}"], role: Role::Input(SET) , fine: &[] },
-    Command { name: "diff", args: &["diff", "{F}", SET], role: Role::Input(SET) , fine: &[] },
-    Command { name: "schema check", args: &["schema", "check", "{F}"], role: Role::Input("schemas/lenze-tmd.toml") , fine: DIRS },
-    Command { name: "schema import", args: &["schema", "import", "{F}"], role: Role::Input("tests/data/eds/fictional-ecs-axis.eds") , fine: CUT },
-    Command { name: "schema json-schema", args: &["schema", "json-schema", "{F}"], role: Role::Input("schemas/lenze-tmd.toml") , fine: &[] },
-    Command { name: "decode", args: &["decode", "--protocol", "lustbus", "--family", "mc6000", "{F}"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex") , fine: CUT },
-    Command { name: "twin from-capture", args: &["twin", "from-capture", "--protocol", "lustbus", "--schema", "lust-mc6000", "{F}", "-o", "out"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex") , fine: CUT },
-    Command { name: "upload", args: &["upload", "{F}", "--port", P, "--address", "1"], role: Role::Input(SET) , fine: &[] },
-    Command { name: "commission", args: &["commission", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml") , fine: &[] },
-    Command { name: "status", args: &["status", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml") , fine: &[] },
-    Command { name: "twin capture-line", args: &["twin", "capture-line", "{F}", "-o", "out"], role: Role::Input("parameter-sets/demo-line/line.toml") , fine: &[] },
-    Command { name: "recover", args: &["recover", "{F}"], role: Role::Input("crates/driveset-engine/tests/data/journals/v1-upload.journal.json") , fine: &[] },
-    Command { name: "sim --twin", args: &["sim", "--twin", "{F}"], role: Role::Input("examples/ci/twins/conveyor-5.twin.toml") , fine: &[] },
+    Command { name: "validate", args: &["validate", "{F}"], role: Role::Input(SET), fine: DIRS },
+    Command { name: "fingerprint", args: &["fingerprint", "{F}"], role: Role::Input(SET), fine: &[] },
+    Command { name: "show", args: &["show", "{F}"], role: Role::Input(SET), fine: &[] },
+    Command { name: "diff", args: &["diff", "{F}", SET], role: Role::Input(SET), fine: &[] },
+    Command { name: "schema check", args: &["schema", "check", "{F}"], role: Role::Input("schemas/lenze-tmd.toml"), fine: DIRS },
+    Command { name: "schema import", args: &["schema", "import", "{F}"], role: Role::Input("tests/data/eds/fictional-ecs-axis.eds"), fine: CUT },
+    Command { name: "schema json-schema", args: &["schema", "json-schema", "{F}"], role: Role::Input("schemas/lenze-tmd.toml"), fine: &[] },
+    Command { name: "decode", args: &["decode", "--protocol", "lustbus", "--family", "mc6000", "{F}"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex"), fine: CUT },
+    Command { name: "twin from-capture", args: &["twin", "from-capture", "--protocol", "lustbus", "--schema", "lust-mc6000", "{F}", "-o", "out"], role: Role::Input("tests/data/captures/mc6000-eeprom-busy.hex"), fine: CUT },
+    Command { name: "upload", args: &["upload", "{F}", "--port", P, "--address", "1"], role: Role::Input(SET), fine: &[] },
+    Command { name: "commission", args: &["commission", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml"), fine: &[] },
+    Command { name: "status", args: &["status", "{F}"], role: Role::Input("parameter-sets/demo-line/line.toml"), fine: &[] },
+    Command { name: "twin capture-line", args: &["twin", "capture-line", "{F}", "-o", "out"], role: Role::Input("parameter-sets/demo-line/line.toml"), fine: &[] },
+    Command { name: "recover", args: &["recover", "{F}"], role: Role::Input("crates/driveset-engine/tests/data/journals/v1-upload.journal.json"), fine: &[] },
+    Command { name: "sim --twin", args: &["sim", "--twin", "{F}"], role: Role::Input("examples/ci/twins/conveyor-5.twin.toml"), fine: &[] },
     Command { name: "pull --port sim://twin?file=", args: &["pull", "--port", "sim://twin?file={F}", "--address", "5", "-o", "x.toml"], role: Role::Input("examples/ci/twins/conveyor-5.twin.toml"), fine: &[] },
-    Command { name: "pull -o", args: &["pull", "--port", P, "--address", "1", "-o", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "schema pull -o", args: &["schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "-o", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "schema import -o", args: &["schema", "import", "tests/data/eds/fictional-ecs-axis.eds", "-o", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "schema json-schema -o", args: &["schema", "json-schema", "lenze-tmd", "-o", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "twin capture -o", args: &["twin", "capture", "--port", P, "--address", "1", "-o", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "upload --journal", args: &["upload", SET, "--port", P, "--address", "1", "--journal", "{F}"], role: Role::Output , fine: &[] },
-    Command { name: "sim --log", args: &["sim", "--family", "tmd", "--address", "1", "--log", "{F}"], role: Role::Output , fine: &[] },
+    Command { name: "pull -o", args: &["pull", "--port", P, "--address", "1", "-o", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "schema pull -o", args: &["schema", "pull", "--port", "sim://mc6000?addresses=1", "--address", "1", "-o", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "schema import -o", args: &["schema", "import", "tests/data/eds/fictional-ecs-axis.eds", "-o", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "schema json-schema -o", args: &["schema", "json-schema", "lenze-tmd", "-o", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "twin capture -o", args: &["twin", "capture", "--port", P, "--address", "1", "-o", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "upload --journal", args: &["upload", SET, "--port", P, "--address", "1", "--journal", "{F}"], role: Role::Output, fine: &[] },
+    Command { name: "sim --log", args: &["sim", "--family", "tmd", "--address", "1", "--log", "{F}"], role: Role::Output, fine: &[] },
 ];
 
 /// Kinds of bad input file.
@@ -247,7 +251,10 @@ fn run(cmd: &Command, kind: InputKind) -> Vec<String> {
     }
     let after = fingerprint(&f);
     if after != before {
-        problems.push(format!("{at}: {} was replaced: {before} -> {after}", f.display()));
+        problems.push(format!(
+            "{at}: {} was replaced: {before} -> {after}",
+            f.display()
+        ));
     }
     problems
 }
@@ -256,7 +263,9 @@ fn run(cmd: &Command, kind: InputKind) -> Vec<String> {
 #[test]
 fn every_command_refuses_every_kind_of_bad_file_with_exit_2() {
     let mut problems = Vec::new();
-    let mut table = String::from("command | fifo | /dev/zero link | directory | symlink loop | oversize | truncated | binary\n");
+    let mut table = String::from(
+        "command | fifo | /dev/zero link | directory | symlink loop | oversize | truncated | binary\n",
+    );
     for cmd in COMMANDS {
         let cells: Vec<&str> = INPUT_KINDS
             .iter()

@@ -72,7 +72,10 @@ fn special_sets(dir: &Path) {
 fn manifest_sets_that_are_no_regular_files_are_named_in_validate_commission_and_lsp() {
     let dir = tempfile::tempdir().unwrap();
     special_sets(dir.path());
-    for args in [&["validate", "line.toml"][..], &["commission", "line.toml"][..]] {
+    for args in [
+        &["validate", "line.toml"][..],
+        &["commission", "line.toml"][..],
+    ] {
         let out = driveset()
             .current_dir(dir.path())
             .env("DRIVESET_LOCK_DIR", dir.path().join("locks"))

@@ -42,11 +42,28 @@ fn pull_and_twin_capture_write_through_a_symlink_and_keep_the_mode() {
     let d = dir.path();
     for (args, file) in [
         (
-            &["pull", "--port", "sim://tmd?addresses=1", "--address", "1", "-o", "link.toml"][..],
+            &[
+                "pull",
+                "--port",
+                "sim://tmd?addresses=1",
+                "--address",
+                "1",
+                "-o",
+                "link.toml",
+            ][..],
             "real.toml",
         ),
         (
-            &["twin", "capture", "--port", "sim://tmd?addresses=1", "--address", "1", "-o", "link.twin.toml"][..],
+            &[
+                "twin",
+                "capture",
+                "--port",
+                "sim://tmd?addresses=1",
+                "--address",
+                "1",
+                "-o",
+                "link.twin.toml",
+            ][..],
             "real.twin.toml",
         ),
     ] {
@@ -60,7 +77,11 @@ fn pull_and_twin_capture_write_through_a_symlink_and_keep_the_mode() {
         assert!(meta.file_type().is_symlink(), "{link} replaced by a file");
         let text = std::fs::read_to_string(d.join(file)).unwrap();
         assert!(text.len() > 100 && !text.starts_with("old"), "{text}");
-        let mode = std::fs::metadata(d.join(file)).unwrap().permissions().mode() & 0o777;
+        let mode = std::fs::metadata(d.join(file))
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o777;
         assert_eq!(mode, 0o640, "{file}");
     }
     // no temporary file left beside them
@@ -78,13 +99,23 @@ fn a_twin_that_is_a_fifo_is_named_in_sim_sim_ports_and_a_rehearsal() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     mkfifo(&d.join("t.twin.toml"));
-    let named = |text: &str| text.contains("t.twin.toml is a FIFO (named pipe), not a regular file; driveset reads twin files from regular files only");
+    let named = |text: &str| {
+        text.contains("t.twin.toml is a FIFO (named pipe), not a regular file; driveset reads twin files from regular files only")
+    };
     let (code, out, err) = run(d, &["sim", "--twin", "t.twin.toml"]);
     assert_eq!(code, Some(2), "{out}{err}");
     assert!(named(&err), "{err}");
     let (code, out, err) = run(
         d,
-        &["pull", "--port", "sim://twin?file=t.twin.toml", "--address", "1", "-o", "x.toml"],
+        &[
+            "pull",
+            "--port",
+            "sim://twin?file=t.twin.toml",
+            "--address",
+            "1",
+            "-o",
+            "x.toml",
+        ],
     );
     assert_eq!(code, Some(2), "{out}{err}");
     assert!(named(&err), "{err}");
@@ -102,7 +133,12 @@ fn a_twin_that_is_a_fifo_is_named_in_sim_sim_ports_and_a_rehearsal() {
     let manifest = workspace_root().join("parameter-sets/demo-line/line.toml");
     let (code, out, err) = run(
         d,
-        &["commission", manifest.to_str().unwrap(), "--rehearse", twins.to_str().unwrap()],
+        &[
+            "commission",
+            manifest.to_str().unwrap(),
+            "--rehearse",
+            twins.to_str().unwrap(),
+        ],
     );
     assert_eq!(code, Some(2), "{out}{err}");
     assert!(
@@ -116,7 +152,15 @@ fn address_protocol_can_is_refused_by_its_own_name() {
     let dir = tempfile::tempdir().unwrap();
     let (code, out, err) = run(
         dir.path(),
-        &["address", "--port", "sim://ecs", "--protocol", "can", "--to", "5"],
+        &[
+            "address",
+            "--port",
+            "sim://ecs",
+            "--protocol",
+            "can",
+            "--to",
+            "5",
+        ],
     );
     assert_eq!(code, Some(2), "{out}");
     assert_eq!(
@@ -135,7 +179,10 @@ fn a_refused_sload_with_every_code_old_is_a_rollback_not_a_mix() {
     // the drive runs (416-SCTL1 bit 0): SLOAD = -1 is refused (NAK 40H)
     let mut state: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("st.json")).unwrap()).unwrap();
-    let canonical = state["drives"][0]["canonical"].as_str().unwrap().to_string();
+    let canonical = state["drives"][0]["canonical"]
+        .as_str()
+        .unwrap()
+        .to_string();
     assert!(canonical.contains("\n416 0\n"), "{canonical}");
     state["drives"][0]["canonical"] = canonical.replace("\n416 0\n", "\n416 1\n").into();
     std::fs::write(d.join("st.json"), serde_json::to_vec(&state).unwrap()).unwrap();
@@ -146,7 +193,15 @@ fn a_refused_sload_with_every_code_old_is_a_rollback_not_a_mix() {
     .unwrap();
     let (code, out, err) = run(
         d,
-        &["upload", "s.toml", "--port", port, "--address", "1", "--allow-running"],
+        &[
+            "upload",
+            "s.toml",
+            "--port",
+            port,
+            "--address",
+            "1",
+            "--allow-running",
+        ],
     );
     assert_eq!(code, Some(3), "{out}{err}");
     assert!(!err.contains("mix of old and new"), "{err}");
@@ -158,7 +213,10 @@ fn a_refused_sload_with_every_code_old_is_a_rollback_not_a_mix() {
         err.contains("; every code reads back its old value); the drive holds its old values again (verified); journal "),
         "{err}"
     );
-    assert!(out.contains(" address 1: rolled-back (0 of 1 codes written"), "{out}");
+    assert!(
+        out.contains(" address 1: rolled-back (0 of 1 codes written"),
+        "{out}"
+    );
     let after: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("st.json")).unwrap()).unwrap();
     assert!(
@@ -176,13 +234,40 @@ fn a_twin_captured_again_through_latency_is_kept_byte_for_byte() {
     let d = dir.path();
     let mut sim = Sim::start_tcp(d, "tmd", 1, &["--c0001", "3"]);
     let port = format!("tcp://{}", sim.path);
-    let (code, out, err) = run(d, &["twin", "capture", "--port", &port, "--address", "1", "-o", "t.twin.toml"]);
+    let (code, out, err) = run(
+        d,
+        &[
+            "twin",
+            "capture",
+            "--port",
+            &port,
+            "--address",
+            "1",
+            "-o",
+            "t.twin.toml",
+        ],
+    );
     assert_eq!(code, Some(0), "{out}{err}");
     let first = std::fs::read(d.join("t.twin.toml")).unwrap();
     let slow = format!("{port}?latency=240ms");
-    let (code, out, err) = run(d, &["twin", "capture", "--port", &slow, "--address", "1", "-o", "t.twin.toml"]);
+    let (code, out, err) = run(
+        d,
+        &[
+            "twin",
+            "capture",
+            "--port",
+            &slow,
+            "--address",
+            "1",
+            "-o",
+            "t.twin.toml",
+        ],
+    );
     assert_eq!(code, Some(0), "{out}{err}");
-    assert!(out.contains("unchanged since the last capture (file kept)"), "{out}");
+    assert!(
+        out.contains("unchanged since the last capture (file kept)"),
+        "{out}"
+    );
     assert_eq!(std::fs::read(d.join("t.twin.toml")).unwrap(), first);
     let status = sim.terminate();
     assert!(status.success(), "{}", sim.stderr());

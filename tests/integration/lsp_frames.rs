@@ -45,11 +45,20 @@ fn lsp_answers_each_malformed_frame_with_its_json_rpc_error_and_goes_on() {
     let cache = tempfile::tempdir().unwrap();
     let mut c = Client::start(cache.path());
     let cases: [(&[u8], (Value, i64)); 6] = [
-        (&frame(b"{\"jsonrpc\": \"2.0\", \"id\": 1"), (Value::Null, -32700)),
+        (
+            &frame(b"{\"jsonrpc\": \"2.0\", \"id\": 1"),
+            (Value::Null, -32700),
+        ),
         (&frame(b"\xff\xfe\x00garbage"), (Value::Null, -32700)),
-        (b"Content-Length: twelve\r\n\r\n{\"a\": 1}", (Value::Null, -32700)),
+        (
+            b"Content-Length: twelve\r\n\r\n{\"a\": 1}",
+            (Value::Null, -32700),
+        ),
         (&frame(br#"{"hello": "world"}"#), (Value::Null, -32600)),
-        (&frame(br#"{"jsonrpc": "2.0", "id": 9, "method": 42}"#), (json!(9), -32600)),
+        (
+            &frame(br#"{"jsonrpc": "2.0", "id": 9, "method": 42}"#),
+            (json!(9), -32600),
+        ),
         (
             &frame(br#"[{"jsonrpc": "2.0", "id": 3, "method": "shutdown"}]"#),
             (Value::Null, -32600),
@@ -58,7 +67,12 @@ fn lsp_answers_each_malformed_frame_with_its_json_rpc_error_and_goes_on() {
     for (bytes, want) in cases {
         c.raw(bytes);
         let got = c.next();
-        assert_eq!(error(&got), want, "{}: {got}", String::from_utf8_lossy(bytes));
+        assert_eq!(
+            error(&got),
+            want,
+            "{}: {got}",
+            String::from_utf8_lossy(bytes)
+        );
         // and the server still answers
         let r = c.request("textDocument/hover", json!({"textDocument": {"uri": "file:///nowhere.toml"}, "position": {"line": 0, "character": 0}}));
         assert_eq!(r, Value::Null);

@@ -455,10 +455,7 @@ fn pty_tmd_log_is_0600_and_masks_a_password_across_chunks() {
     for l in &lines {
         for field in ["hex", "text", "detail"] {
             let v = l[field].as_str().unwrap_or("");
-            assert!(
-                !v.contains("9477") && !v.contains("37 37"),
-                "{l}"
-            );
+            assert!(!v.contains("9477") && !v.contains("37 37"), "{l}");
         }
     }
     let host: String = lines

@@ -314,11 +314,27 @@ mod tests {
         std::os::unix::fs::symlink("b", &loop_a).unwrap();
         std::os::unix::fs::symlink("a", d.path().join("b")).unwrap();
         let e = check_target(&loop_a).unwrap_err();
-        assert!(e.message.ends_with(" is a symlink loop, not a regular file; driveset writes only regular files"), "{}", e.message);
+        assert!(
+            e.message.ends_with(
+                " is a symlink loop, not a regular file; driveset writes only regular files"
+            ),
+            "{}",
+            e.message
+        );
         let zero = d.path().join("z");
         std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
-        assert!(check_target(&zero).unwrap_err().message.contains("is a character device"));
-        assert!(check_target(d.path()).unwrap_err().message.contains("is a directory"));
+        assert!(
+            check_target(&zero)
+                .unwrap_err()
+                .message
+                .contains("is a character device")
+        );
+        assert!(
+            check_target(d.path())
+                .unwrap_err()
+                .message
+                .contains("is a directory")
+        );
         assert!(create_log(&fifo).is_err());
         assert!(check_target(&d.path().join("new")).is_ok());
     }

@@ -185,9 +185,8 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             let existing = if std::fs::symlink_metadata(&path).is_err() {
                 String::new()
             } else {
-                crate::files::read_settings(&path).map_err(|e| {
-                    crate::fail::Fail::input(format!("{}; {}", e.message, e.help))
-                })?
+                crate::files::read_settings(&path)
+                    .map_err(|e| crate::fail::Fail::input(format!("{}; {}", e.message, e.help)))?
             };
             let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
             match merge_attributes(&existing, &want) {

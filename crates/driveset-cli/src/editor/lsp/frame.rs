@@ -335,7 +335,10 @@ mod tests {
                 None,
             ]
         );
-        assert!(matches!(frames[6], Frame::Message(Message::Notification(_))));
+        assert!(matches!(
+            frames[6],
+            Frame::Message(Message::Notification(_))
+        ));
         let Frame::Refused(v) = &frames[4] else {
             unreachable!()
         };

@@ -350,7 +350,8 @@ impl Server {
     fn schema_file(&self, file: &str) -> Option<PathBuf> {
         if let Some((path, text)) = BUILTIN_FILES.iter().find(|(p, _)| *p == file) {
             let copy = self.cache_dir.join(path);
-            let held = driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
+            let held =
+                driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
             if held.ok().as_deref() != Some(text.as_bytes()) {
                 std::fs::create_dir_all(copy.parent()?).ok()?;
                 if let Ok(m) = std::fs::metadata(&copy) {
