@@ -31,6 +31,7 @@ mod lsp;
 mod proxy;
 mod pull;
 mod recover;
+mod rehearse;
 mod replace;
 mod report;
 mod rfc2217;

@@ -432,11 +432,40 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
 }
 
 /// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
-/// (`None`: not rehearsed).
+/// (`None`: not rehearsed). A rehearsal that would rehearse nothing is an
+/// input error (exit 2): `dir` missing or not a directory, holding no twin,
+/// or no twin of any drive of `selected`.
 pub fn rehearsal_twins(
     manifest: &Manifest,
     dir: &Path,
+    selected: &std::collections::BTreeSet<String>,
 ) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
+    let capture = format!(
+        "capture the line's twins into it with `driveset twin capture-line {} -o {}`",
+        manifest.path.display(),
+        dir.display()
+    );
+    if !dir.is_dir() {
+        let what = if dir.exists() {
+            "is not a directory"
+        } else {
+            "no such directory"
+        };
+        return Err(Fail::input(format!(
+            "--rehearse {}: {what}; {capture}",
+            dir.display()
+        )));
+    }
+    let any_twin = std::fs::read_dir(dir)
+        .map_err(|e| Fail::input(format!("--rehearse {}: cannot read: {e}", dir.display())))?
+        .filter_map(Result::ok)
+        .any(|e| e.file_name().to_string_lossy().ends_with(TWIN_SUFFIX));
+    if !any_twin {
+        return Err(Fail::input(format!(
+            "--rehearse {}: the directory holds no twin (*{TWIN_SUFFIX}); {capture}",
+            dir.display()
+        )));
+    }
     let mut out = BTreeMap::new();
     for d in &manifest.drives {
         let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
@@ -456,6 +485,20 @@ pub fn rehearsal_twins(
             None
         };
         out.insert(d.name.clone(), twin);
+    }
+    if !selected
+        .iter()
+        .any(|n| out.get(n).is_some_and(Option::is_some))
+    {
+        let names: Vec<String> = selected
+            .iter()
+            .map(|n| format!("{n}{TWIN_SUFFIX}"))
+            .collect();
+        return Err(Fail::input(format!(
+            "--rehearse {}: no twin of any selected drive (looked for {}); {capture}",
+            dir.display(),
+            names.join(", ")
+        )));
     }
     Ok(out)
 }
@@ -492,8 +535,13 @@ pub fn rehearsal_opener(
     }
 }
 
-/// The label of a rehearsal report: it is a rehearsal, and of which twins.
-pub fn rehearsal_label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>) -> String {
+/// The label of a rehearsal report: it is a rehearsal, of which twins, and
+/// which selected drives were not rehearsed (`missing`: no twin).
+pub fn rehearsal_label(
+    dir: &Path,
+    twins: &BTreeMap<String, Option<Twin>>,
+    missing: &[String],
+) -> String {
     let mut dates: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
     for (name, t) in twins {
         if let Some(t) = t {
@@ -508,11 +556,6 @@ pub fn rehearsal_label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>) -> St
     if !list.is_empty() {
         let _ = write!(s, " ({})", list.join("; "));
     }
-    let missing: Vec<&str> = twins
-        .iter()
-        .filter(|(_, t)| t.is_none())
-        .map(|(n, _)| n.as_str())
-        .collect();
     if !missing.is_empty() {
         let _ = write!(s, "; not rehearsed (no twin): {}", missing.join(", "));
     }

@@ -6,8 +6,9 @@ use std::collections::BTreeSet;
 use super::options::{LineError, LineOptions};
 use crate::line::manifest::{Drive, Manifest};
 
-/// The drive names `--only` / `--skip` select (names of drives or buses).
-pub(super) fn select(
+/// The drive names `--only` / `--skip` select (names of drives or buses);
+/// a rehearsal asks it which drives need a twin.
+pub fn select(
     manifest: &Manifest,
     opts: &LineOptions,
 ) -> Result<BTreeSet<String>, LineError> {
