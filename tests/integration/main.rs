@@ -43,5 +43,6 @@ mod sim;
 mod tidy;
 mod transfer_pty;
 mod twin;
+mod twin_pty;
 mod upload;
 mod validate;

@@ -104,7 +104,13 @@ fn a_selected_drive_without_a_twin_fails_the_rehearsal_unless_allowed() {
         let mut c = driveset();
         c.current_dir(d)
             .env("DRIVESET_SIM_STATE_DIR", d.join("sim"))
-            .args(["twin", "capture", "--port", "sim://tmd?c0001=3", "--address"])
+            .args([
+                "twin",
+                "capture",
+                "--port",
+                "sim://tmd?c0001=3",
+                "--address",
+            ])
             .arg(address)
             .arg("-o")
             .arg(format!("twins/{name}.twin.toml"));

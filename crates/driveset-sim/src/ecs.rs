@@ -297,6 +297,18 @@ impl FrameDrive for EcsDrive {
         Ok(())
     }
 
+    /// From now on an upload or download of `key` is aborted as for any
+    /// object the node does not have (DS301 table 22).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        if !self.table.remove(key) {
+            let display = self.table.schema().display_code(key.number, key.subcode);
+            return Err(format!("{display}: no such code on an ECS node"));
+        }
+        self.values.remove(&key);
+        self.refused_reads.remove(&key);
+        Ok(())
+    }
+
     fn node_id(&self) -> u8 {
         self.node.get()
     }

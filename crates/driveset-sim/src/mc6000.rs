@@ -286,12 +286,22 @@ impl LustModel for Mc6000 {
         if let Some(n) = Mc6000::value_number(code) {
             return self.read(n);
         }
-        let text = match code.meaning() {
-            CodeMeaning::McDescription { parameter } => self
+        let text = match (code.meaning(), &self.core.recorded) {
+            // a twin: what its drive sent, nothing else
+            (CodeMeaning::McDescription { parameter }, Some(r)) => {
+                r.descriptions.get(&u32::from(parameter)).cloned()
+            }
+            (CodeMeaning::SubstitutionText { parameter }, Some(r)) => {
+                let index = self.core.int(STEXT).unwrap_or(0);
+                u8::try_from(index)
+                    .ok()
+                    .and_then(|i| r.texts.get(&(u32::from(parameter), i)).cloned())
+            }
+            (CodeMeaning::McDescription { parameter }, None) => self
                 .core
                 .param(u32::from(parameter))
                 .and_then(|p| self.core.mc_description(p)),
-            CodeMeaning::SubstitutionText { parameter } => {
+            (CodeMeaning::SubstitutionText { parameter }, None) => {
                 let index = self.core.int(STEXT).unwrap_or(0);
                 self.core.substitution_text(u32::from(parameter), index)
             }

@@ -135,11 +135,17 @@ impl LustModel for Vf1000 {
                 }
                 Answer::Value(text)
             }
-            CodeMeaning::VfDescription { device, parameter } => self
-                .number(device, parameter)
-                .and_then(|n| self.core.param(n))
-                .and_then(|p| self.core.vf_description(p))
-                .map_or(Answer::Nak, Answer::Value),
+            CodeMeaning::VfDescription { device, parameter } => {
+                let n = self.number(device, parameter);
+                match &self.core.recorded {
+                    // a twin: what its drive sent, nothing else
+                    Some(r) => n.and_then(|n| r.descriptions.get(&n).cloned()),
+                    None => n
+                        .and_then(|n| self.core.param(n))
+                        .and_then(|p| self.core.vf_description(p)),
+                }
+                .map_or(Answer::Nak, Answer::Value)
+            }
             _ => Answer::Nak,
         }
     }

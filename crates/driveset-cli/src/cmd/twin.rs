@@ -14,15 +14,15 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::capture::{Capture, capture, mc_descriptions};
+use driveset_engine::capture::{Capture, capture, describe};
 use driveset_engine::client::DriveClient;
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
+use driveset_engine::learn::{LearnOptions, PullSchemaError};
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
-use driveset_proto::lustbus::Dialect;
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
@@ -155,7 +155,14 @@ pub fn run(c: TwinCommand) -> Result<u8, Fail> {
 }
 
 fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
-    let (twin, schema) = capture_drive(&a.port, a.address, a.schema.as_deref(), &a.schemas)?;
+    let (twin, schema) = capture_drive(&a.port, a.address, |opened| {
+        let sim = port::peek_sim_family_at(&a.port, Some(a.address));
+        Ok(if a.schema.is_none() && sim.is_none() {
+            learning::detect(opened, a.address, &a.schemas)?.0
+        } else {
+            port::resolve_schema(a.schema.as_deref(), &a.schemas, sim, None)?.schema
+        })
+    })?;
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
     Ok(EXIT_OK)
@@ -166,15 +173,15 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     let mut worst = EXIT_OK;
+    let mut failed = Vec::new();
     for d in &manifest.drives {
         let bus = &manifest.buses[d.bus_index];
         let port_text = bus.port.to_string();
-        let sim = matches!(bus.port, driveset_link::PortSpec::Sim(_));
-        // on a sim:// port the simulator's own schema (as `pull` uses it);
-        // on a plant the set's
-        let schema_arg = if sim { None } else { Some(d.schema.id.clone()) };
         let out = a.output.join(format!("{}{TWIN_SUFFIX}", d.name));
-        match capture_drive(&port_text, d.address, schema_arg.as_deref(), &[])
+        // the set's schema as the manifest resolved it (a learned file
+        // `pull` wrote beside the set included); one that lacks facts is
+        // learned from the drive, as `pull` learns it
+        match capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()))
             .and_then(|(t, s)| write_twin(&out, &t, &s))
         {
             Ok(line) => outln!("{}: {line}", d.name),
@@ -183,42 +190,74 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
                     "error: {} ({} address {}): {}",
                     d.name, bus.name, d.address, f.msg
                 );
+                failed.push(d.name.clone());
                 worst = worst.max(f.code);
             }
         }
     }
+    if !failed.is_empty() {
+        eprintln!(
+            "error: {} of {} drive(s) not captured: {}",
+            failed.len(),
+            manifest.drives.len(),
+            failed.join(", ")
+        );
+    }
     Ok(worst)
 }
 
-/// Capture the drive at `address` of `port_text` into a twin.
+/// Capture the drive at `address` of `port_text` into a twin, with the
+/// schema `choose` gives for the opened port (given, or found as `pull`
+/// finds it). A LUSTBUS drive is described first, whatever the schema
+/// ([`describe`]: every description and substitution text it sends, the
+/// schema learned from them when the chosen one lacks facts, as `pull`
+/// learns it); then every code of the schema is read ([`capture`]).
 pub fn capture_drive(
     port_text: &str,
     address: u8,
-    schema_arg: Option<&str>,
-    dirs: &[PathBuf],
+    choose: impl FnOnce(&mut port::OpenPort) -> Result<Arc<Schema>, Fail>,
 ) -> Result<(Twin, Arc<Schema>), Fail> {
-    let sim = port::peek_sim_family_at(port_text, Some(address));
     let mut opened = port::open_port_at(port_text, Some(address))?;
-    let schema = if schema_arg.is_none() && sim.is_none() {
-        learning::detect(&mut opened, address, dirs)?.0
-    } else {
-        port::resolve_schema(schema_arg, dirs, sim, None)?.schema
-    };
+    let schema = choose(&mut opened)?;
     let port_name = opened.name.clone();
     let rate = match &opened.link {
         Link::Bytes(l) => l.baud(),
         Link::Frames(l) => l.bitrate(),
     };
-    let mut layout = (None, None);
-    // the family that speaks the MC dialect describes its parameters in
-    // the MC layout (LUSTBUS §11.1), which the twin keeps
-    let mc = schema.family.descriptor().dialect == Some(Dialect::Mc);
-    let mut client: Box<dyn DriveClient> = if mc {
+    let mut described = None;
+    let mut schema = schema;
+    // a family whose drives describe their parameters (LUSTBUS 11.1, 11.2)
+    let describes = schema.family.descriptor().learning.is_some();
+    let mut client: Box<dyn DriveClient> = if describes {
         port::check_fit(&opened, &schema, Some(address), false)?;
-        let mut c = Session::lustbus(opened, schema.clone(), address)?;
-        let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
-        layout = mc_descriptions(&mut c, &params)?;
-        Box::new(c)
+        let registry = port::registry_for(&opened.name, &[])?;
+        let connect = opened.connect;
+        let c = Session::lustbus(opened, schema.clone(), address)?;
+        let drive = format!("{port_name} address {address}");
+        let d = describe(
+            c,
+            schema,
+            &LearnOptions::default(),
+            &registry,
+            drive,
+            &connect,
+        )
+        .map_err(|e| match e {
+            PullSchemaError::Engine(e) => Fail::from(e),
+            PullSchemaError::Render(detail) => Fail {
+                code: crate::EXIT_BUS,
+                msg: format!("{port_name} address {address}: {detail}; no twin written"),
+            },
+        })?;
+        if let Some(l) = &d.learned {
+            eprintln!(
+                "learned schema {} from the drive's descriptions: {} codes (the twin holds the descriptions themselves)",
+                l.rendered.id, l.rendered.codes
+            );
+        }
+        schema = d.schema;
+        described = Some(d.described);
+        Box::new(d.client)
     } else {
         port::into_client(opened, schema.clone(), address, false)?
     };
@@ -236,8 +275,12 @@ pub fn capture_drive(
     let mut twin = twin_of(&cap, &schema, address);
     twin.source = format!("drive {port_name} address {address}");
     twin.rate = cap.rate.or(Some(rate));
-    twin.layout = layout.0;
-    twin.types = layout.1;
+    if let Some(d) = described {
+        twin.layout = d.layout;
+        twin.types = d.types;
+        twin.descriptions = Some(d.descriptions);
+        twin.texts = d.texts;
+    }
     Ok((twin, schema))
 }
 
@@ -257,6 +300,7 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         .filter_map(|(k, cause)| Some((*k, read_refusal(cause)?)))
         .collect();
     twin.secrets = cap.secrets.clone();
+    twin.unread = cap.clears.clone();
     twin.unknown = cap.unread.clone();
     if let Some(source) = schema.family.descriptor().bus_write {
         twin.c0001 = c0001_of(&cap.values, schema, source.code);
@@ -397,6 +441,9 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             for key in driveset_engine::capture::code_keys(code) {
                 if schema.is_password(code) {
                     twin.secrets.push(key);
+                } else if code.read_clears == Some(true) {
+                    // the served model latches it itself
+                    twin.unread.push(key);
                 } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
                 {
                     twin.unknown.push(key);

@@ -199,6 +199,20 @@ pub(crate) struct LustCore {
     /// 82-SIOA/SADDR was written and acknowledged
     /// ([`ByteDrive::address_assigned`]).
     pub address_assigned: bool,
+    /// A twin's descriptions and texts as its drive sent them
+    /// ([`ByteDrive::describe_as`]): when set, the drive describes only
+    /// these, whatever its table holds.
+    pub recorded: Option<Recorded>,
+}
+
+/// The descriptions and substitution texts a twin's drive sent
+/// ([`ByteDrive::describe_as`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Recorded {
+    /// The description of each parameter, by number.
+    pub descriptions: BTreeMap<u32, ValueText>,
+    /// The substitution texts, by parameter and 108-STEXT index.
+    pub texts: BTreeMap<(u32, u8), ValueText>,
 }
 
 impl LustCore {
@@ -257,6 +271,7 @@ impl LustCore {
             describe: opts.describe.clone(),
             refused_reads: BTreeMap::new(),
             address_assigned: false,
+            recorded: None,
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);

@@ -576,6 +576,18 @@ impl ByteDrive for TmdDrive {
         Ok(())
     }
 
+    /// From now on a RECEIVE of `key` is answered `STX code EOT` and a
+    /// SEND refused as for any code the Tmd does not have (8.H).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        if !self.table.remove(key) {
+            let display = self.table.schema().display_code(key.number, key.subcode);
+            return Err(format!("{display}: no such code on a Tmd"));
+        }
+        self.values.remove(&key);
+        self.refused_reads.remove(&key);
+        Ok(())
+    }
+
     fn secret_codes(&self) -> Vec<u32> {
         self.table.secret_codes()
     }

@@ -35,7 +35,11 @@ mod reader;
 use reader::Reader;
 
 /// The `format` value of a twin file.
-pub const TWIN_FORMAT: &str = "driveset-twin 1";
+pub const TWIN_FORMAT: &str = "driveset-twin 2";
+
+/// The `format` value of a first-version twin file (no descriptions, no
+/// `[codes] unread`): still read, docs/twins.md.
+pub const TWIN_FORMAT_1: &str = "driveset-twin 1";
 
 /// The file name ending of a twin: `NAME.twin.toml`.
 pub const TWIN_SUFFIX: &str = ".twin.toml";
@@ -149,8 +153,20 @@ pub struct Twin {
     pub refusals: BTreeMap<CodeKey, ReadRefusal>,
     /// Password codes: never read, no value stored.
     pub secrets: Vec<CodeKey>,
-    /// Codes of the schema the source did not show (from a bus capture).
+    /// Codes not read on purpose: reading clears them (85-SIOF/SERR). The
+    /// served model latches them itself.
+    pub unread: Vec<CodeKey>,
+    /// Codes of the schema the source did not show (not answered in a
+    /// recorded session, no type in the capture's schema). The served twin
+    /// does not have them.
     pub unknown: Vec<CodeKey>,
+    /// LUSTBUS: every parameter description the drive sent, as it sent it
+    /// (the VALUE characters, by parameter; `None`: none recorded, as from
+    /// a recorded session). The served twin describes these and no other.
+    pub descriptions: Option<BTreeMap<u32, Vec<u8>>>,
+    /// MC6000/7000: every substitution text the drive sent, as it sent it,
+    /// by parameter (107-UNIT for the units) and 108-STEXT index.
+    pub texts: BTreeMap<(u32, u8), Vec<u8>>,
 }
 
 impl Twin {
@@ -176,8 +192,21 @@ impl Twin {
             refused: BTreeMap::new(),
             refusals: BTreeMap::new(),
             secrets: Vec::new(),
+            unread: Vec::new(),
             unknown: Vec::new(),
+            descriptions: None,
+            texts: BTreeMap::new(),
         }
+    }
+
+    /// Whether the capture saw `key`: a value, a refusal, a password
+    /// (never read), or a code not read on purpose. The served twin has
+    /// these codes and no other.
+    pub fn saw(&self, key: CodeKey) -> bool {
+        self.values.contains_key(&key)
+            || self.refused.contains_key(&key)
+            || self.secrets.contains(&key)
+            || self.unread.contains(&key)
     }
 
     /// Whether `other` describes the same drive as this twin: everything
@@ -202,9 +231,22 @@ impl Twin {
         within && strip(self) == strip(other)
     }
 
-    /// The reaction range the served drive draws from.
+    /// The reaction range the served drive draws from: the recorded one
+    /// within the family's range (with a KEYPAD, the longest it has;
+    /// LUSTBUS section 10, the descriptor's figures). Times measured over
+    /// a real port hold the host's latency too (a read the operating
+    /// system delayed shows as a slow reaction); beyond the family's range
+    /// they are the host's, not the drive's, and a twin drawing them would
+    /// miss answer deadlines the drive meets.
     pub fn reaction_time(&self) -> Option<ReactionTime> {
-        self.reaction.map(|(min, max)| ReactionTime { min, max })
+        let family = ReactionTime::of(self.family, true);
+        self.reaction.map(|(min, max)| {
+            let min = min.clamp(family.min, family.max);
+            ReactionTime {
+                min,
+                max: max.clamp(min, family.max),
+            }
+        })
     }
 
     /// Parse a twin file's text; errors name `path` and the key.
@@ -303,14 +345,31 @@ impl Twin {
         };
         s.push_str("\n[codes]\n");
         let _ = writeln!(s, "secrets = [{}]", list(&self.secrets));
+        let _ = writeln!(s, "unread = [{}]", list(&self.unread));
         let _ = writeln!(s, "unknown = [{}]", list(&self.unknown));
+        if let Some(descriptions) = &self.descriptions {
+            s.push_str("\n[descriptions]\n");
+            for (n, v) in descriptions {
+                let _ = writeln!(s, "\"{n}\" = {}", q(&wire_text(v)));
+            }
+        }
+        if !self.texts.is_empty() {
+            s.push_str("\n[texts]\n");
+            for ((n, i), v) in &self.texts {
+                let _ = writeln!(s, "\"{n}.{i}\" = {}", q(&wire_text(v)));
+            }
+        }
         s
     }
 
     /// Put the twin's state on a freshly built model of its family: every
     /// captured value, then the running state. Derived codes the model
     /// refuses to be poked (Tmd C0068 / C0150 / C1962) follow from the
-    /// state; a captured code the model does not have is an error.
+    /// state; a captured code the model does not have is an error. The
+    /// codes the capture did not see ([`Twin::saw`]) are taken out of the
+    /// model, so no value of the model's fills a gap; a LUSTBUS twin
+    /// describes its parameters as its drive did (`descriptions`, `texts`),
+    /// and nothing else.
     pub fn apply_byte(&self, drive: &mut dyn ByteDrive) -> Result<(), TwinError> {
         let held = drive.state();
         for (k, v) in &self.values {
@@ -329,6 +388,17 @@ impl Twin {
             {
                 return Err(self.apply_error(reason));
             }
+        }
+        for k in held.values.keys().filter(|k| !self.saw(**k)) {
+            drive
+                .forget(*k)
+                .map_err(|reason| self.apply_error(reason))?;
+        }
+        if self.family.bus() == driveset_schema::BusProtocol::Lustbus {
+            let none = BTreeMap::new();
+            drive
+                .describe_as(self.descriptions.as_ref().unwrap_or(&none), &self.texts)
+                .map_err(|reason| self.apply_error(reason))?;
         }
         Ok(())
     }
@@ -356,6 +426,11 @@ impl Twin {
             {
                 return Err(self.apply_error(reason));
             }
+        }
+        for k in held.values.keys().filter(|k| !self.saw(**k)) {
+            drive
+                .forget(*k)
+                .map_err(|reason| self.apply_error(reason))?;
         }
         Ok(())
     }
@@ -439,6 +514,19 @@ fn comment(schema: &Schema, k: CodeKey, v: &RawValue) -> String {
         }
         None => code,
     }
+}
+
+/// Characters a drive sent (7-bit, a NUL included) as a string a twin
+/// file holds.
+fn wire_text(v: &[u8]) -> String {
+    v.iter().map(|b| char::from(*b)).collect()
+}
+
+/// A [`wire_text`] back; `None` when a character is not 7-bit.
+fn wire_bytes(s: &str) -> Option<Vec<u8>> {
+    s.chars()
+        .map(|c| u8::try_from(u32::from(c)).ok().filter(|b| *b < 0x80))
+        .collect()
 }
 
 fn toml_str(s: &str) -> String {

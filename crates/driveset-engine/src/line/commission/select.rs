@@ -8,10 +8,7 @@ use crate::line::manifest::{Drive, Manifest};
 
 /// The drive names `--only` / `--skip` select (names of drives or buses);
 /// a rehearsal asks it which drives need a twin.
-pub fn select(
-    manifest: &Manifest,
-    opts: &LineOptions,
-) -> Result<BTreeSet<String>, LineError> {
+pub fn select(manifest: &Manifest, opts: &LineOptions) -> Result<BTreeSet<String>, LineError> {
     let known = |n: &str| {
         manifest.drives.iter().any(|d| d.name == n) || manifest.buses.iter().any(|b| b.name == n)
     };
