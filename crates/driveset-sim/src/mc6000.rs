@@ -237,7 +237,7 @@ impl Mc6000 {
         if let Some(refusal) = self.core.refused_read(number) {
             return refusal;
         }
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Nak;
         };
         let Some(raw) = self.core.int(number) else {
@@ -317,7 +317,7 @@ impl LustModel for Mc6000 {
         let Some(number) = Mc6000::value_number(code) else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
         if matches!(self.sload, Sload::Checking { .. }) {

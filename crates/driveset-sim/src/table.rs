@@ -161,13 +161,6 @@ impl ParamTable {
         self.params.get(&key)
     }
 
-    /// Take `key` out of the table: the drive has no such code from now on
-    /// (a twin's codes its drive did not show, `crate::twin`). Whether it
-    /// was there.
-    pub fn remove(&mut self, key: CodeKey) -> bool {
-        self.params.remove(&key).is_some()
-    }
-
     /// All parameters in code order.
     pub fn iter(&self) -> impl Iterator<Item = &Param> {
         self.params.values()

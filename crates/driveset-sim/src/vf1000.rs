@@ -120,7 +120,7 @@ impl LustModel for Vf1000 {
                 if let Some(refusal) = self.core.refused_read(n) {
                     return refusal;
                 }
-                let Some(p) = self.core.param(n).cloned() else {
+                let Some(p) = self.core.wire_param(n).cloned() else {
                     return Answer::Nak;
                 };
                 let Some(text) = self
@@ -157,7 +157,7 @@ impl LustModel for Vf1000 {
         let Some(number) = self.number(device, parameter) else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
         if !p.writable() {

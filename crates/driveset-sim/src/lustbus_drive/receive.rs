@@ -223,15 +223,14 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
 
     fn forget(&mut self, key: CodeKey) -> Result<(), String> {
         let core = self.core();
-        if !core.table.remove(key) {
+        if key.subcode.is_some() || core.param(key.number).is_none() {
             return Err(format!(
                 "{}: no such parameter on a {}",
                 key.number,
                 M::FAMILY
             ));
         }
-        core.values.remove(&key);
-        core.refused_reads.remove(&key.number);
+        core.hidden.insert(key.number);
         Ok(())
     }
 
