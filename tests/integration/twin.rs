@@ -1145,3 +1145,52 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
         assert!(err.contains(refusal), "{err}");
     }
 }
+
+/// No value of the simulator's model fills a gap (issue 28): a twin
+/// captured with a schema of two codes has those two codes only; a pull
+/// from it with the schema the model is built from reads them and is
+/// refused every other code as a node refuses an object it does not have
+/// (SDO abort 0x06020000), exit 1, where the first version served the
+/// model's factory values.
+#[test]
+fn a_twin_has_only_the_codes_its_capture_saw() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let side = Side::new(d, "side", "sim://ecs");
+    let file = d.join("node.twin.toml");
+    let out = side
+        .cmd()
+        .args(["twin", "capture", "--port", "sim://ecs", "--address", "1"])
+        .args(["--schema", "lenze-ecs", "-o"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!(
+            "ecs lenze-ecs at address 1: 2 codes, 0 refused, 0 secret(s) not stored; {} ({} bytes)\n",
+            file.display(),
+            std::fs::metadata(&file).unwrap().len()
+        )
+    );
+    let fixture = workspace_root().join("parameter-sets/fixtures/fictional-ecs-demo.toml");
+    let (code, out, err) = side.run(&[
+        "pull",
+        "--port",
+        &format!("sim://twin?file={}", file.display()),
+        "--address",
+        "1",
+        "--schema",
+        fixture.to_str().unwrap(),
+        "-o",
+        "pulled.toml",
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        err.contains("C5001 max_speed could not be read: the drive refused to read it: Object does not exist in the object dictionary (SDO abort 0x06020000 at index 0x4C76 subindex 0)"),
+        "{err}"
+    );
+    let pulled = std::fs::read_to_string(side.dir.join("pulled.toml")).unwrap();
+    let values = pulled.split_once("\n[values]\n").unwrap().1;
+    assert_eq!(values, "C0150 = {}\n", "{pulled}");
+}

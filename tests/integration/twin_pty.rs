@@ -505,3 +505,52 @@ fn an_ecs_twin_is_the_drive_over_slcan() {
     twin.stop();
     drive.stop();
 }
+
+/// `twin capture-line` captures every drive it reaches when one does not
+/// answer: the failure is reported naming the drive, the others' twins are
+/// written, and the run exits 3 (bus).
+#[test]
+fn capture_line_captures_the_other_drives_when_one_fails() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let drive = Served::start(
+        root,
+        "tmd",
+        &["--family", "tmd", "--address", "4", "--c0001", "3"],
+    );
+    for f in ["conveyor-3.toml", "base.toml"] {
+        std::fs::copy(
+            workspace_root().join("parameter-sets/tmd").join(f),
+            root.join(f),
+        )
+        .unwrap();
+    }
+    std::fs::write(
+        root.join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"b\"\nport = \"{}\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"gone\"\nbus = \"b\"\naddress = 5\nset = \"conveyor-3.toml\"\n\n[[drive]]\nname = \"here\"\nbus = \"b\"\naddress = 4\nset = \"conveyor-3.toml\"\n",
+            drive.path
+        ),
+    )
+    .unwrap();
+    let (code, out, err) = run(
+        root,
+        &drive.path,
+        &["twin", "capture-line", "line.toml", "-o", "twins"],
+    );
+    assert_eq!(code, Some(3), "{out}{err}");
+    assert!(
+        out.starts_with("here: tmd lenze-tmd at address 4: "),
+        "{out}"
+    );
+    assert!(root.join("twins/here.twin.toml").is_file());
+    assert!(!root.join("twins/gone.twin.toml").exists());
+    let lines: Vec<&str> = err.lines().collect();
+    assert!(lines[0].starts_with("error: gone (b address 5): "), "{err}");
+    assert_eq!(
+        lines.last(),
+        Some(&"error: 1 of 2 drive(s) not captured: gone"),
+        "{err}"
+    );
+    drive.stop();
+}

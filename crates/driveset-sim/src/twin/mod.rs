@@ -734,6 +734,70 @@ mod tests {
     }
 
     #[test]
+    fn descriptions_texts_and_unread_codes_round_trip() {
+        let mut t = Twin::new(Family::Mc6000, 1, "learned-mc6000-type6000-1");
+        t.driveset = "0.1.0".into();
+        t.captured = "2026-12-03".into();
+        t.unread.push(CodeKey::new(85));
+        t.unknown.push(CodeKey::new(96));
+        // the 43-character layout ends with a NUL
+        let d43 = b"MODE\0\00024000000000000000A000000000000000000\0".to_vec();
+        t.descriptions = Some(BTreeMap::from([(1, d43.clone())]));
+        t.texts.insert((100, 2), b"8 kHz".to_vec());
+        let text = t.to_toml(None);
+        assert!(
+            text.contains(
+                "\n[codes]\nsecrets = []\nunread = [\"85\"]\nunknown = [\"96\"]\n\n[descriptions]\n\"1\" = \"MODE\\u0000\\u00000024000000000000000A000000000000000000\\u0000\"\n\n[texts]\n\"100.2\" = \"8 kHz\"\n"
+            ),
+            "{text}"
+        );
+        let back = Twin::parse(&text, Path::new("t.twin.toml")).unwrap();
+        assert_eq!(back.descriptions, Some(BTreeMap::from([(1, d43)])));
+        assert_eq!(back.texts, t.texts);
+        assert_eq!(back.unread, [CodeKey::new(85)]);
+        assert_eq!(back.unknown, [CodeKey::new(96)]);
+        assert!(back.saw(CodeKey::new(85)) && !back.saw(CodeKey::new(96)));
+        let e = Twin::parse(
+            &text.replace("\"100.2\" = ", "\"100\" = "),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [texts] \"100\": not PARAMETER.INDEX (the 108-STEXT index 0..=255)"
+        );
+        let e = Twin::parse(
+            &text.replace("8 kHz", "8 \u{b5}s"),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [texts] \"100.2\": holds a character a drive cannot send (not 7-bit)"
+        );
+    }
+
+    /// A first-version file of a LUSTBUS drive holds no descriptions: it is
+    /// refused with what to do; one of a Tmd is read, its `unknown` codes
+    /// (what the first version did not read on purpose) as `unread`.
+    #[test]
+    fn first_version_files_are_read_or_refused_with_what_to_do() {
+        let v1 = |family: &str, address: u8| {
+            format!(
+                "format = \"driveset-twin 1\"\ndriveset = \"0.1.0\"\ncaptured = \"2026-12-02\"\nfamily = \"{family}\"\naddress = {address}\nschema = \"x\"\n[codes]\nsecrets = []\nunknown = [\"85\"]\n"
+            )
+        };
+        let e = Twin::parse(&v1("mc6000", 1), Path::new("old.twin.toml")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "old.twin.toml: format: a `driveset-twin 1` twin of a mc6000 holds neither the drive's parameter descriptions nor its substitution texts, so it cannot answer as the drive did; capture the drive again with `driveset twin capture` (docs/twins.md)"
+        );
+        let t = Twin::parse(&v1("tmd", 4), Path::new("old.twin.toml")).unwrap();
+        assert_eq!(t.unread, [CodeKey::new(85)]);
+        assert!(t.unknown.is_empty());
+    }
+
+    #[test]
     fn bad_fields_are_named() {
         let t = sample().to_toml(None);
         let p = Path::new("x.twin.toml");
