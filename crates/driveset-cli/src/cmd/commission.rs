@@ -114,8 +114,10 @@ pub struct Args {
     #[command(flatten)]
     pub learn: crate::learning::LearnArgs,
     /// Rehearse against the twins in DIR (DIR/<drive name>.twin.toml), in
-    /// virtual time: same plan, refusals, report and exit codes; drives
-    /// without a twin are not rehearsed (docs/twins.md).
+    /// virtual time: same plan, refusals, report and exit codes. A missing
+    /// or empty DIR, or no twin of any selected drive, is an error (exit
+    /// 2); a selected drive without a twin is not rehearsed and fails the
+    /// run (exit 1) unless --allow-missing-twins (docs/twins.md).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(long, value_name = "DIR")]
     pub rehearse: Option<PathBuf>,

@@ -1,13 +1,15 @@
 //! `driveset twin capture | capture-line | from-capture` and the rehearsal
 //! behind `driveset commission MANIFEST --rehearse DIR` (docs/twins.md).
 //!
-//! The capture is read-only: identify, reads and (MC6000/7000) description
-//! enquiries through the engine's clients ([`driveset_engine::capture`]);
-//! the file is the simulator's twin format ([`driveset_sim::twin`]). A
-//! rehearsal opens every bus of the manifest as a simulated bus of the
-//! twins of its drives (`DIR/<drive name>.twin.toml`) in virtual time and
-//! runs the line as `commission` does; drives without a twin are not
-//! rehearsed.
+//! The capture reads: identify, a LUSTBUS drive's parameter descriptions
+//! and substitution texts as `pull` learns them (the only write the MC's RAM
+//! selector 108-STEXT, set back), and every code of the schema, through the
+//! engine ([`driveset_engine::capture`]); the file is the simulator's twin
+//! format ([`driveset_sim::twin`]). A rehearsal opens every bus of the
+//! manifest as a simulated bus of the twins of its drives (`DIR/<drive
+//! name>.twin.toml`) in virtual time and runs the line as `commission`
+//! does; a rehearsal that would rehearse nothing is refused, and selected
+//! drives without a twin fail it unless `--allow-missing-twins`.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -39,7 +41,7 @@ pub const REHEARSE_COMMAND: &str = "rehearse";
 /// `driveset twin ...`.
 #[derive(clap::Subcommand)]
 pub enum TwinCommand {
-    /// Capture one drive, read-only, into a twin file.
+    /// Capture one drive into a twin file (what it answers and describes).
     Capture(CaptureArgs),
     /// Capture every drive of a line manifest into DIR/<drive name>.twin.toml.
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
@@ -51,13 +53,16 @@ pub enum TwinCommand {
 /// `driveset twin capture`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads the drive read-only (identify, every code of the schema, MC6000/7000
-description enquiries; never a write): its identity, every value, the codes
-it refuses to read, the state that decides its refusals (Tmd C0001, running,
-MC6000 SLOAD, the description layout), the line rate and reaction times.
-Passwords are never read; the twin lists them without a value. The schema is
-found as `pull` finds it (a sim:// port's family, else the protocol probe),
-or given with --schema.
+Reads the drive (identify; a LUSTBUS drive's parameter descriptions and,
+MC6000/7000, its substitution texts, as `pull` learns them: the only write is
+the RAM selector 108-STEXT, set back; every code of the schema): its
+identity, every value, the codes it refuses to read, every description and
+text as it sent them, the state that decides its refusals (Tmd C0001,
+running, MC6000 SLOAD), the line rate and reaction times. Passwords are
+never read; the twin lists them without a value. The schema is found as
+`pull` finds it (a sim:// port's family, else the protocol probe), or given
+with --schema; one that lacks facts (lust-mc6000, lust-vf1000) is learned
+from the descriptions. The twin then answers only what the drive answered.
 
 A second capture of an unchanged drive leaves the file byte-identical: when
 only the date, the driveset version or reaction times inside the recorded
@@ -91,9 +96,10 @@ pub struct CaptureArgs {
 #[derive(clap::Args)]
 #[command(after_help = "\
 Captures every drive of the manifest, bus by bus, into DIR/<drive name>.twin.toml
-(read-only, as `twin capture`), with each drive's set's schema (the simulator's
-schema on a sim:// port). Exit codes as `twin capture`; a drive that cannot be
-captured is reported and the others are captured all the same.
+(as `twin capture`), with each drive's set's schema as the manifest resolved it
+(a learned file `pull` wrote beside the set included). A drive that cannot be
+captured is reported and the others are captured all the same; the exit code
+is the worst failure's (as `twin capture`), 0 when every drive was captured.
 
 Example:
   driveset twin capture-line parameter-sets/demo-line/line.toml -o twins/")]
