@@ -741,7 +741,7 @@ mod tests {
         t.unread.push(CodeKey::new(85));
         t.unknown.push(CodeKey::new(96));
         // the 43-character layout ends with a NUL
-        let d43 = b"MODE\0\00024000000000000000A000000000000000000\0".to_vec();
+        let d43 = b"MODE\x00\x000024000000000000000A000000000000000000\x00".to_vec();
         t.descriptions = Some(BTreeMap::from([(1, d43.clone())]));
         t.texts.insert((100, 2), b"8 kHz".to_vec());
         let text = t.to_toml(None);
