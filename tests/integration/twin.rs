@@ -1194,3 +1194,51 @@ fn a_twin_has_only_the_codes_its_capture_saw() {
     let values = pulled.split_once("\n[values]\n").unwrap().1;
     assert_eq!(values, "C0150 = {}\n", "{pulled}");
 }
+
+/// A drive describes a parameter the simulator's table does not have
+/// (a real MC6000's 96, say): its twin holds it as the drive described it,
+/// and a pull that learns from the twin reads it, where the first version
+/// refused the twin at open ("fictional-mc6000-demo has no parameter 96").
+#[test]
+fn a_twin_holds_a_parameter_only_its_drive_described() {
+    let dir = tempfile::tempdir().unwrap();
+    let side = Side::new(dir.path(), "side", "sim://mc6000");
+    let file = dir.path().join("axis.twin.toml");
+    let text = capture(&side, 1, &file);
+    // the drive's own description of 96: its 1-MODE's, renamed
+    let mode = text
+        .lines()
+        .find(|l| l.starts_with("\"1\" = \"MODE\\u0000\\u0000"))
+        .unwrap()
+        .to_string();
+    let extra = mode.replace("\"1\" = \"MODE\\u0000\\u0000", "\"96\" = \"XTRA9\\u0000");
+    let text = text.replace(&mode, &format!("{mode}\n{extra}")).replacen(
+        "\n\n[refused]\n",
+        "\n\"96\" = 2\n\n[refused]\n",
+        1,
+    );
+    std::fs::write(&file, text).unwrap();
+    // a side of its own: simulator state of the twin's bus apart from the
+    // drive's
+    let side = Side::new(dir.path(), "twin", "sim://twin");
+    let (code, out, err) = side.run(&[
+        "pull",
+        "--port",
+        &format!("sim://twin?file={}", file.display()),
+        "--address",
+        "1",
+        "--schema",
+        "lust-mc6000",
+        "-o",
+        "pulled.toml",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let pulled = std::fs::read_to_string(side.dir.join("pulled.toml")).unwrap();
+    assert!(pulled.contains("\n96 = 2\n"), "{pulled}");
+    let learned = driveset_test_support::toml_files_starting(&side.dir, "learned-mc6000-");
+    let learned = std::fs::read_to_string(&learned[0]).unwrap();
+    assert!(
+        learned.contains("number = 96\nname = \"XTRA9\"\n"),
+        "{learned}"
+    );
+}

@@ -245,6 +245,13 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
             recorded
                 .descriptions
                 .insert(*n, value(format!("the description of {n}"), v)?);
+            // a parameter the table does not have: as the drive describes it
+            if self.core_ref().param(*n).is_none() {
+                let p = self.core_ref().param_described(*n, v)?;
+                let core = self.core();
+                core.values.insert(p.key, p.factory.clone());
+                core.table.adopt(p);
+            }
         }
         for ((n, i), v) in texts {
             recorded

@@ -371,6 +371,14 @@ impl Twin {
     /// describes its parameters as its drive did (`descriptions`, `texts`),
     /// and nothing else.
     pub fn apply_byte(&self, drive: &mut dyn ByteDrive) -> Result<(), TwinError> {
+        // first the descriptions: a parameter the model's table lacks is
+        // taken as its drive described it
+        if self.family.bus() == driveset_schema::BusProtocol::Lustbus {
+            let none = BTreeMap::new();
+            drive
+                .describe_as(self.descriptions.as_ref().unwrap_or(&none), &self.texts)
+                .map_err(|reason| self.apply_error(reason))?;
+        }
         let held = drive.state();
         for (k, v) in &self.values {
             if let Err(reason) = drive.poke(*k, v.clone())
@@ -392,12 +400,6 @@ impl Twin {
         for k in held.values.keys().filter(|k| !self.saw(**k)) {
             drive
                 .forget(*k)
-                .map_err(|reason| self.apply_error(reason))?;
-        }
-        if self.family.bus() == driveset_schema::BusProtocol::Lustbus {
-            let none = BTreeMap::new();
-            drive
-                .describe_as(self.descriptions.as_ref().unwrap_or(&none), &self.texts)
                 .map_err(|reason| self.apply_error(reason))?;
         }
         Ok(())
