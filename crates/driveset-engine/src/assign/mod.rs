@@ -114,6 +114,9 @@ pub struct AssignRequest {
     /// Write the address code even when the drive holds the address
     /// already ([`AssignRequest::always_write_address`]).
     pub always_write_address: bool,
+    /// Prove the port holds this one device before anything is written
+    /// ([`AssignRequest::alone`]).
+    pub alone: bool,
 }
 
 impl AssignRequest {
@@ -126,7 +129,19 @@ impl AssignRequest {
             baud: None,
             scan: ScanOptions::default(),
             always_write_address: false,
+            alone: false,
         }
+    }
+
+    /// The same, proving first that the port holds this one device
+    /// (`replace`, `commission --assign`): on LECOM every station 01..99 is
+    /// scanned at the rate the drive answered, and any other answer refuses
+    /// ([`AssignRefusal::NotAlone`], naming who answered). LUSTBUS proves
+    /// it anyway (the network list of §5.2 and the collision check at
+    /// address 0).
+    pub fn alone(mut self) -> Self {
+        self.alone = true;
+        self
     }
 
     /// The same, writing the address code even when the drive holds the
