@@ -352,3 +352,41 @@ mod on_a_pty {
         assert_eq!(held[0].1, held[1].1);
     }
 }
+
+/// Issue 28: `replace` on a spare whose motor runs wrote the address first
+/// and refused the upload after (exit 1). Refused before anything is sent
+/// (exit 2), as upload refuses.
+#[test]
+fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
+    let _serial = crate::e2e_pty::one_at_a_time();
+    let dir = setup();
+    let d = dir.path();
+    let mut sim = crate::address::running_mc6000_on_a_pty(d, &[]);
+    let (code, stdout, stderr) = driveset_test_support::outcome(
+        driveset_test_support::driveset_at(d).args([
+            "replace",
+            LINE,
+            "--drive",
+            "press-axis-3",
+            "--port",
+            &sim.path,
+            "--yes",
+        ]),
+    );
+    assert_eq!(code, Some(2), "{stdout}\n{stderr}\n{}", sim.stderr());
+    assert_eq!(stdout, "");
+    assert_eq!(
+        stderr,
+        format!(
+            "error: {} address 0: refused: the drive reports a running motor; driveset changes a drive's bus address or line rate only at standstill: stop it (standstill), or pass --allow-running\n",
+            sim.path
+        )
+    );
+    assert_eq!(crate::address::selects_in_log(d), Vec::<String>::new());
+    assert!(sim.terminate().success());
+    let dump: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(dump["drives"][0]["address"], 1, "the spare keeps its address");
+}

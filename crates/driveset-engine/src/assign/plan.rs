@@ -179,6 +179,7 @@ pub(super) fn plan_lustbus(
     let (identity, old_raw, rate_raw_now) = {
         let mut c = drive_on(link, schema.clone(), 0)?;
         let identity = c.identify()?;
+        crate::guard::standstill(c.as_mut(), req.overrides)?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {
             Some(c.read(rate_key)?)
@@ -331,6 +332,7 @@ impl Reached {
             elapsed: now(link) - start,
             writes: self.writes,
             scan_opts: req.scan.clone(),
+            overrides: req.overrides,
         }
     }
 }
@@ -504,6 +506,7 @@ pub(super) fn plan_lecom(
     let (identity, c0001, old_raw, rate_now) = {
         let mut c = drive_on(link, schema.clone(), from)?;
         let identity = c.identify()?;
+        crate::guard::standstill(c.as_mut(), req.overrides)?;
         let c0001 = c.read(CodeKey::new(LECOM_WRITE.code))?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {

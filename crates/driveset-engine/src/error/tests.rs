@@ -757,7 +757,8 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
              `vf1000_no_dataset`, `no_dataset_open`, `stext_mc_only`, `no_sload`, `set_schema`, \
              `codes_not_in_schema`, `diff`, `wrong_type`, `scan_lustbus_address`, \
              `scan_lecom_address`, `scan_can_node`, `no_probe_code`, `doctor_lustbus_address`, \
-             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`"
+             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`, \
+             `guard_running`, `guard_running_unknown`"
                 .to_string()
         )
     );

@@ -60,6 +60,9 @@ pub struct AssignLineOptions {
     pub scan: ScanOptions,
     /// Drive (or bus) names to do; empty: all.
     pub only: Vec<String>,
+    /// The running rule's overrides (`--allow-running`,
+    /// `--allow-running-unknown`, [`crate::guard::standstill`]).
+    pub overrides: crate::overrides::Overrides,
 }
 
 /// One drive given its address and rate.
@@ -206,11 +209,14 @@ fn assign_one(
         }
     };
     let t0 = link_ms(&link);
-    let mut req = AssignRequest::new(bus.protocol, d.address).always_write_address();
+    let mut req = AssignRequest::new(bus.protocol, d.address)
+        .always_write_address()
+        .alone();
     if bus.rate != 0 {
         req = req.baud(bus.rate);
     }
     req.scan = opts.scan.clone();
+    req.overrides = opts.overrides;
     let schemas = schemas_of(drives, d);
     let result = (|| -> Result<crate::assign::AssignReport, AssignOneError> {
         let p = crate::assign::plan(&mut link, &req, &schemas)?;

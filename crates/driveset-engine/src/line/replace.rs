@@ -378,6 +378,7 @@ pub fn prepare(
         req = req.baud(bus.rate);
     }
     req.scan = opts.scan.clone();
+    req.overrides = opts.overrides;
     let schemas = known_schemas().with(d.schema.clone());
     let plan = match crate::assign::plan(link, &req, &schemas) {
         Ok(p) => p,
