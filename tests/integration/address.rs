@@ -573,12 +573,14 @@ fn a_running_mc6000_over_a_pty_gets_no_address_rate_or_prog() {
     let (code, _, err) = run(&args);
     assert_eq!(code, Some(2), "{err}");
     assert_eq!(selects_in_log(d), Vec::<String>::new());
-    assert!(!d.join("journal").exists(), "no journal: nothing was to be written");
+    assert!(
+        !d.join("journal").exists(),
+        "no journal: nothing was to be written"
+    );
     assert!(sim.terminate().success());
-    let dump: Value = serde_json::from_str(
-        &std::fs::read_to_string(d.join("mc6000.dump.json")).expect("dump"),
-    )
-    .expect("json");
+    let dump: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).expect("dump"))
+            .expect("json");
     assert_eq!(dump["drives"][0]["address"], 1);
     let c = dump["drives"][0]["canonical"].as_str().expect("canonical");
     assert_eq!(

@@ -281,7 +281,14 @@ mod on_a_pty {
             dir,
             "tmd",
             1,
-            &["--address", "14", "--c0001", "3", "--log", log.to_str().unwrap()],
+            &[
+                "--address",
+                "14",
+                "--c0001",
+                "3",
+                "--log",
+                log.to_str().unwrap(),
+            ],
         )
     }
 
@@ -316,7 +323,10 @@ mod on_a_pty {
         assert_eq!(sends(d), 0);
         let held = held(&mut sim, d, "tmd");
         assert_eq!(held.iter().map(|h| h.0).collect::<Vec<_>>(), [1, 14]);
-        assert_eq!(held[0].1, held[1].1, "conveyor-1 still holds what conveyor-4 holds");
+        assert_eq!(
+            held[0].1, held[1].1,
+            "conveyor-1 still holds what conveyor-4 holds"
+        );
     }
 
     /// A service port (not the line's bus) that holds two units: refused
@@ -328,15 +338,16 @@ mod on_a_pty {
         let d = dir.path();
         let mut sim = serve_two(d);
         lecom_line(d, "sim://tmd?c0001=3");
-        let (code, stdout, stderr) = outcome(driveset_at(d).env_remove("DRIVESET_SIM_STATE_DIR").args([
-            "replace",
-            "line.toml",
-            "--drive",
-            "conveyor-3",
-            "--port",
-            &sim.path,
-            "--yes",
-        ]));
+        let (code, stdout, stderr) =
+            outcome(driveset_at(d).env_remove("DRIVESET_SIM_STATE_DIR").args([
+                "replace",
+                "line.toml",
+                "--drive",
+                "conveyor-3",
+                "--port",
+                &sim.path,
+                "--yes",
+            ]));
         assert_eq!(code, Some(2), "{stdout}\n{stderr}");
         assert_eq!(stdout, "");
         assert_eq!(
@@ -362,8 +373,8 @@ fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
     let dir = setup();
     let d = dir.path();
     let mut sim = crate::address::running_mc6000_on_a_pty(d, &[]);
-    let (code, stdout, stderr) = driveset_test_support::outcome(
-        driveset_test_support::driveset_at(d).args([
+    let (code, stdout, stderr) =
+        driveset_test_support::outcome(driveset_test_support::driveset_at(d).args([
             "replace",
             LINE,
             "--drive",
@@ -371,8 +382,7 @@ fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
             "--port",
             &sim.path,
             "--yes",
-        ]),
-    );
+        ]));
     assert_eq!(code, Some(2), "{stdout}\n{stderr}\n{}", sim.stderr());
     assert_eq!(stdout, "");
     assert_eq!(
@@ -384,9 +394,11 @@ fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
     );
     assert_eq!(crate::address::selects_in_log(d), Vec::<String>::new());
     assert!(sim.terminate().success());
-    let dump: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap(),
-    )
-    .unwrap();
-    assert_eq!(dump["drives"][0]["address"], 1, "the spare keeps its address");
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        dump["drives"][0]["address"], 1,
+        "the spare keeps its address"
+    );
 }

@@ -327,15 +327,17 @@ fn emit_report(name: &str, r: &AssignReport, json: bool) {
 }
 
 /// `driveset recover JOURNAL` of an address change: the journal's port
-/// (or `port`), the drive found at its old or new address and rate, the
-/// change finished and verified.
+/// (or `port`), the drive found at its old or new address and rate with
+/// `schema` (the one the change was made with, which the journal records,
+/// or `--schema`) for its family, the change finished and verified.
 pub fn recover_journal(
     journal: &Path,
     port_text: &str,
     dirs: &[PathBuf],
+    schema: std::sync::Arc<driveset_schema::Schema>,
     json: bool,
 ) -> Result<u8, Fail> {
-    let schemas = schemas_for(port_text, dirs, &[])?;
+    let schemas = schemas_for(port_text, dirs, &[])?.with(schema);
     let opened = port::open_port(port_text)?;
     let name = opened.name.clone();
     let mut link = opened.link;

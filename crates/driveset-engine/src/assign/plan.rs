@@ -274,15 +274,7 @@ fn collision(
             .unwrap_or_default(),
         _ => String::new(),
     };
-    refuse(
-        port,
-        0,
-        AssignRefusal::Collision {
-            baud,
-            heard,
-            found,
-        },
-    )
+    refuse(port, 0, AssignRefusal::Collision { baud, heard, found })
 }
 
 /// What a plan found at its drive; [`Reached::plan`] adds the request's

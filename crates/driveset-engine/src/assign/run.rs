@@ -134,10 +134,7 @@ pub(super) fn finish(
         None => None,
     };
     // 1. the address
-    if let (Some(w), Some(still)) = (
-        p.writes.iter().find(|w| w.step == Step::Address),
-        &still,
-    ) {
+    if let (Some(w), Some(still)) = (p.writes.iter().find(|w| w.step == Step::Address), &still) {
         set_step(jf, AssignStep::Address)?;
         let mut c = drive_on(link, schema.clone(), w.address)?;
         c.write_named(w.key, &w.raw, Permit::bus_address(still))?;
@@ -212,10 +209,7 @@ pub(super) fn finish(
         written.push(format!("{} = {} at address {}", w.code, w.value, w.address));
         c.finish()?;
     }
-    if let (Some(a), Some(still)) = (
-        p.writes.iter().find(|w| w.step == Step::Activate),
-        &still,
-    ) {
+    if let (Some(a), Some(still)) = (p.writes.iter().find(|w| w.step == Step::Activate), &still) {
         let target_rate = p.baud.unwrap_or(p.rate);
         {
             let mut c = drive_on(link, schema.clone(), p.to)?;
