@@ -487,9 +487,7 @@ fn recover_of_an_address_change_cut_by_kill_9_uses_the_journal_s_schema() {
     let (code, out, err) = outcome(driveset_at(d).args(["recover", &j]));
     assert_eq!(code, Some(0), "{out}{err}\n{}", sim.stderr());
     assert!(
-        out.contains(&format!(
-            "completed: the drive answers at address 5 at 57600 baud"
-        )),
+        out.contains("completed: the drive answers at address 5 at 57600 baud"),
         "{out}"
     );
     let after: serde_json::Value =

@@ -473,6 +473,9 @@ pub(crate) fn sdo_download(
 
 #[cfg(test)]
 mod tests {
+    /// The proof a test of the permits stands on.
+    const STILL: super::Standstill = super::Standstill { _private: () };
+
     use std::sync::Arc;
 
     use driveset_schema::error::SourceFile;
@@ -579,27 +582,44 @@ mod tests {
         let vf = builtin(Family::Vf1000);
         let tmd = builtin(Family::Tmd);
         // the built-in LUSTBUS schemas give 82 no type: the raw figure
-        assert_eq!(verdict(&mc, 82, 5, Permit::BUS_ADDRESS), "ok");
-        assert_eq!(verdict(&vf, 82, 30, Permit::BUS_ADDRESS), "ok");
+        assert_eq!(verdict(&mc, 82, 5, Permit::bus_address(&STILL)), "ok");
+        assert_eq!(verdict(&vf, 82, 30, Permit::bus_address(&STILL)), "ok");
         for bad in [0, 31, 99] {
             assert_eq!(
-                verdict(&mc, 82, bad, Permit::BUS_ADDRESS),
+                verdict(&mc, 82, bad, Permit::bus_address(&STILL)),
                 format!("the bus-address permit does not cover 82-SADDR = {bad}; nothing was sent")
             );
         }
-        assert!(verdict(&mc, 81, 5, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
-        assert!(verdict(&mc, 4, 111, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
+        assert!(
+            verdict(&mc, 81, 5, Permit::bus_address(&STILL)).starts_with("the bus-address permit")
+        );
+        assert!(
+            verdict(&mc, 4, 111, Permit::bus_address(&STILL)).starts_with("the bus-address permit")
+        );
         // Tmd C0009 is VD: raw = address x 10000; group addresses refused
-        assert_eq!(verdict(&tmd, 9, 120_000, Permit::BUS_ADDRESS), "ok");
-        assert!(verdict(&tmd, 9, 200_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
-        assert!(verdict(&tmd, 9, 125_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
+        assert_eq!(verdict(&tmd, 9, 120_000, Permit::bus_address(&STILL)), "ok");
+        assert!(
+            verdict(&tmd, 9, 200_000, Permit::bus_address(&STILL))
+                .contains("permit does not cover")
+        );
+        assert!(
+            verdict(&tmd, 9, 125_000, Permit::bus_address(&STILL))
+                .contains("permit does not cover")
+        );
         // rates: LUSTBUS the figure, the family's rates only; Tmd C0125 by its label
-        assert_eq!(verdict(&mc, 81, 38400, Permit::LINE_RATE), "ok");
-        assert!(verdict(&vf, 81, 38400, Permit::LINE_RATE).starts_with("the line-rate permit"));
-        assert_eq!(verdict(&vf, 81, 4800, Permit::LINE_RATE), "ok");
-        assert_eq!(verdict(&tmd, 125, 30_000, Permit::LINE_RATE), "ok");
-        assert!(verdict(&tmd, 125, 40_000, Permit::LINE_RATE).starts_with("the line-rate permit"));
-        assert!(verdict(&mc, 82, 9600, Permit::LINE_RATE).starts_with("the line-rate permit"));
+        assert_eq!(verdict(&mc, 81, 38400, Permit::line_rate(&STILL)), "ok");
+        assert!(
+            verdict(&vf, 81, 38400, Permit::line_rate(&STILL)).starts_with("the line-rate permit")
+        );
+        assert_eq!(verdict(&vf, 81, 4800, Permit::line_rate(&STILL)), "ok");
+        assert_eq!(verdict(&tmd, 125, 30_000, Permit::line_rate(&STILL)), "ok");
+        assert!(
+            verdict(&tmd, 125, 40_000, Permit::line_rate(&STILL))
+                .starts_with("the line-rate permit")
+        );
+        assert!(
+            verdict(&mc, 82, 9600, Permit::line_rate(&STILL)).starts_with("the line-rate permit")
+        );
     }
 
     #[test]
