@@ -784,7 +784,7 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
     );
     assert_eq!(
         read(r#"{"kind":99}"#),
-        Err("invalid value: integer `99`, expected variant index 0 <= i < 45".to_string())
+        Err("invalid value: integer `99`, expected variant index 0 <= i < 47".to_string())
     );
     assert_eq!(
         read(r#"["guard_command", "4-PROG", "1"]"#),
