@@ -112,14 +112,16 @@ pub fn ask(prompt: &str) -> Result<String, Fail> {
 /// engine's [`driveset_engine::session::open_port`] over
 /// [`port::CliPorts`]: `sim://` in-process); the port as its parsed form
 /// spells it.
-pub fn open_service_port(port_text: &str) -> Result<(Link, String), Fail> {
+pub fn open_service_port(
+    port_text: &str,
+) -> Result<(Link, String, driveset_engine::connect::ConnectOptions), Fail> {
     let spec = PortSpec::parse(port_text).map_err(|e| {
         Fail::input(format!(
             "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001 or sim://mc6000?factory=1"
         ))
     })?;
     let opened = driveset_engine::session::open_port(&port::CliPorts, port_text, None)?;
-    Ok((opened.link, spec.to_string()))
+    Ok((opened.link, spec.to_string(), opened.connect))
 }
 
 /// The bus ids the line's buses reach, as far as their ports say before
@@ -195,8 +197,10 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         scan: Default::default(),
         overrides,
         line_buses: line_bus_ids(&manifest),
+        connect: Default::default(),
     };
-    let (mut link, port_name) = open_service_port(&args.port)?;
+    let (mut link, port_name, connect) = open_service_port(&args.port)?;
+    let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
     if args.format == Format::Text {
         let id = prep

@@ -219,6 +219,8 @@ pub struct ReplaceOptions {
     /// The line's buses and the bus ids their ports reach: a service port
     /// that reaches one of them is refused before anything is sent.
     pub line_buses: Vec<LineBusId>,
+    /// The service port's options (its `latency=`), for the set's upload.
+    pub connect: crate::connect::ConnectOptions,
 }
 
 /// The spare found and checked: what [`finish`] will write.
@@ -410,8 +412,14 @@ pub fn finish(
     let t1 = link_now(link);
     let d = &prep.drive;
     let mut client =
-        crate::session::BusSession::connect(link, service_port, d.schema.clone(), d.address)?
-            .client;
+        crate::session::BusSession::connect_with(
+            link,
+            service_port,
+            d.schema.clone(),
+            d.address,
+            opts.connect,
+        )?
+        .client;
     let stats0 = client.stats();
     let mut uo = UploadOptions::new(default_journal_path(&opts.journal_dir, &*client));
     uo.overrides = opts.overrides;

@@ -284,7 +284,8 @@ fn send(
 ) {
     let t0 = link_now(link);
     let res =
-        crate::connect::lustbus_on(link, first.schema.clone(), first.address).and_then(|mut c| {
+        crate::connect::lustbus_on(link, first.schema.clone(), first.address, &on.bus.connect())
+            .and_then(|mut c| {
             for (k, v) in codes {
                 c.broadcast(*k, v)?;
             }
