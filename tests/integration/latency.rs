@@ -346,9 +346,13 @@ fn a_line_bus_port_carries_its_latency_into_the_run() {
         ),
     )
     .unwrap();
-    let (code, out, err) = driveset_test_support::outcome(
-        driveset_test_support::driveset_at(d).args(["status", "line.toml", "--report-dir", "r"]),
-    );
+    let (code, out, err) =
+        driveset_test_support::outcome(driveset_test_support::driveset_at(d).args([
+            "status",
+            "line.toml",
+            "--report-dir",
+            "r",
+        ]));
     // the drive differs from its set (factory values): exit 1, reached
     assert_eq!(code, Some(1), "{out}\n{err}\n{}", sim.stderr());
     let report: serde_json::Value =

@@ -138,12 +138,9 @@ pub fn lustbus_on<'l>(
     opts: &ConnectOptions,
 ) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
     match link {
-        Link::Bytes(b) => LustbusClient::with_options(
-            BorrowedByteLink(&mut **b),
-            schema,
-            address,
-            opts.lustbus(),
-        ),
+        Link::Bytes(b) => {
+            LustbusClient::with_options(BorrowedByteLink(&mut **b), schema, address, opts.lustbus())
+        }
         Link::Frames(f) => Err(EngineError::refused(
             Target {
                 port: f.port().to_string(),
@@ -165,12 +162,9 @@ pub fn lecom_on<'l>(
     opts: &ConnectOptions,
 ) -> Result<LecomClient<BorrowedByteLink<'l>>, EngineError> {
     match link {
-        Link::Bytes(b) => LecomClient::with_options(
-            BorrowedByteLink(&mut **b),
-            schema,
-            address,
-            opts.lecom(),
-        ),
+        Link::Bytes(b) => {
+            LecomClient::with_options(BorrowedByteLink(&mut **b), schema, address, opts.lecom())
+        }
         Link::Frames(f) => Err(misfit_on(f.port(), LinkKind::CanBus, &schema, address)),
     }
 }

@@ -411,15 +411,14 @@ pub fn finish(
     let assign = crate::assign::run(link, p, &journal)?;
     let t1 = link_now(link);
     let d = &prep.drive;
-    let mut client =
-        crate::session::BusSession::connect_with(
-            link,
-            service_port,
-            d.schema.clone(),
-            d.address,
-            opts.connect,
-        )?
-        .client;
+    let mut client = crate::session::BusSession::connect_with(
+        link,
+        service_port,
+        d.schema.clone(),
+        d.address,
+        opts.connect,
+    )?
+    .client;
     let stats0 = client.stats();
     let mut uo = UploadOptions::new(default_journal_path(&opts.journal_dir, &*client));
     uo.overrides = opts.overrides;

@@ -11,9 +11,9 @@ use driveset_schema::Schema;
 
 use super::learning::LearnedReport;
 use super::reach::{Kept, Reached, connected, reach};
-use crate::connect::ConnectOptions;
 use super::{SessionError, SessionPolicy};
 use crate::client::DriveClient;
+use crate::connect::ConnectOptions;
 use crate::error::EngineError;
 
 /// A drive reached over a link the caller keeps: the client speaking
@@ -60,7 +60,14 @@ impl<'l> BusSession<'l> {
         address: u8,
         policy: &SessionPolicy<'_>,
     ) -> Result<BusSession<'l>, SessionError> {
-        BusSession::open_with(link, port, schema, address, policy, ConnectOptions::default())
+        BusSession::open_with(
+            link,
+            port,
+            schema,
+            address,
+            policy,
+            ConnectOptions::default(),
+        )
     }
 
     /// As [`BusSession::open`], the clients with `options`, the options of

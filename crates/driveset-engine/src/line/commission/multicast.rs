@@ -134,7 +134,8 @@ fn multicast(
     link: &mut Link,
 ) -> bool {
     let schema = members[0].schema.clone();
-    let mut c = match connect::lecom_on(link, schema.clone(), members[0].address, &on.bus.connect()) {
+    let mut c = match connect::lecom_on(link, schema.clone(), members[0].address, &on.bus.connect())
+    {
         Ok(c) => c,
         Err(e) => {
             on.ctx.warn(e.to_string());

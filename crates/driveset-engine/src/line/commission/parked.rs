@@ -267,7 +267,8 @@ pub(super) fn next_half<'d>(
 ) -> FirstHalf<'d> {
     let d = p.d;
     let t0 = link_now(link);
-    let mut c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address, &bus.connect()) {
+    let mut c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address, &bus.connect())
+    {
         Ok(c) => c,
         Err(e) => {
             p.r.error = Some(e.to_string());
