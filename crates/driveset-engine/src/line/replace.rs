@@ -411,7 +411,7 @@ pub fn finish(
     let assign = crate::assign::run(link, p, &journal)?;
     let t1 = link_now(link);
     let d = &prep.drive;
-    let mut client = crate::session::BusSession::connect_with(
+    let mut client = crate::session::BusSession::connect_using(
         link,
         service_port,
         d.schema.clone(),

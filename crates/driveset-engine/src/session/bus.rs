@@ -49,7 +49,7 @@ impl<'l> BusSession<'l> {
     /// [`super::Session::open`] does; a schema whose protocol does not run
     /// on the link is refused before anything is sent. The clients are
     /// [`crate::connect::connect_on`]'s (the default connect options;
-    /// [`BusSession::open_with`] gives the port's).
+    /// [`BusSession::open_using`] gives the port's).
     /// `policy.fit` is not asked: there is no [`super::OpenedPort`] to
     /// check ([`super::check_fit`]), a line's drives were checked against
     /// their buses when its manifest loaded.
@@ -60,7 +60,7 @@ impl<'l> BusSession<'l> {
         address: u8,
         policy: &SessionPolicy<'_>,
     ) -> Result<BusSession<'l>, SessionError> {
-        BusSession::open_with(
+        BusSession::open_using(
             link,
             port,
             schema,
@@ -74,7 +74,7 @@ impl<'l> BusSession<'l> {
     /// the port the link was opened from (a line's bus:
     /// `ConnectOptions::of` its port, so its `latency=` reaches every
     /// client as a one-drive command's does).
-    pub fn open_with(
+    pub fn open_using(
         link: &'l mut Link,
         port: &str,
         schema: Arc<Schema>,
@@ -95,12 +95,12 @@ impl<'l> BusSession<'l> {
         schema: Arc<Schema>,
         address: u8,
     ) -> Result<BusSession<'l>, EngineError> {
-        BusSession::connect_with(link, port, schema, address, ConnectOptions::default())
+        BusSession::connect_using(link, port, schema, address, ConnectOptions::default())
     }
 
     /// As [`BusSession::connect`], the client with `options` (as
-    /// [`BusSession::open_with`]).
-    pub fn connect_with(
+    /// [`BusSession::open_using`]).
+    pub fn connect_using(
         link: &'l mut Link,
         port: &str,
         schema: Arc<Schema>,

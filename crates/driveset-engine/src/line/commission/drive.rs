@@ -97,7 +97,7 @@ pub(super) fn run_drive(
     let (watch, hook) = drive_watch(bus, d, ctx);
     let learned_drive;
     let (d, session, learned_report) = match &d.learn_from {
-        None => match BusSession::connect_with(
+        None => match BusSession::connect_using(
             link,
             &bus.port_name,
             d.schema.clone(),

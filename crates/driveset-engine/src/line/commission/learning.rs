@@ -72,7 +72,7 @@ pub(super) fn learn_drive<'l>(
         }),
         ..SessionPolicy::default()
     };
-    let session = BusSession::open_with(
+    let session = BusSession::open_using(
         link,
         &bus.port_name,
         base.clone(),
