@@ -541,7 +541,10 @@ fn a_held_sim_state_bus_is_refused_before_it_is_opened_through_a_symlink_too() {
             file.display()
         )
     };
-    cmd(&locks, &["scan", "--port", &port(&state, "1,2")])
+    cmd(
+        &locks,
+        &["scan", "--port", &port(&state, "1,2"), "--protocol", "lustbus"],
+    )
         .assert()
         .code(0);
     std::os::unix::fs::symlink(&state, &link).unwrap();
@@ -558,7 +561,7 @@ fn a_held_sim_state_bus_is_refused_before_it_is_opened_through_a_symlink_too() {
         "error: bus `{bus}` is in use by another process: pid 1 (`driveset upload`, since 2026-12-03T13:00:00.000Z); nothing was sent."
     );
     for args in [
-        vec!["scan", "--port", &*port(&link, "1,2")],
+        vec!["scan", "--port", &*port(&link, "1,2"), "--protocol", "lustbus"],
         vec!["identify", "--port", &*port(&link, "1"), "--address", "1"],
         vec!["doctor", "--port", &*port(&link, "1")],
         vec![

@@ -40,6 +40,7 @@ mod schema_import;
 mod show;
 mod sim;
 mod tidy;
+mod tidy_transport;
 mod transfer_pty;
 mod twin;
 mod upload;

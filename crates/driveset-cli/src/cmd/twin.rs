@@ -169,12 +169,10 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     for d in &manifest.drives {
         let bus = &manifest.buses[d.bus_index];
         let port_text = bus.port.to_string();
-        let sim = matches!(bus.port, driveset_link::PortSpec::Sim(_));
-        // on a sim:// port the simulator's own schema (as `pull` uses it);
-        // on a plant the set's
-        let schema_arg = if sim { None } else { Some(d.schema.id.clone()) };
+        // the set's schema, on every port
         let out = a.output.join(format!("{}{TWIN_SUFFIX}", d.name));
-        match capture_drive(&port_text, d.address, schema_arg.as_deref(), &[])
+        match port::open_port_at(&port_text, Some(d.address))
+            .and_then(|opened| capture_with(opened, d.address, d.schema.clone()))
             .and_then(|(t, s)| write_twin(&out, &t, &s))
         {
             Ok(line) => outln!("{}: {line}", d.name),
@@ -197,13 +195,19 @@ pub fn capture_drive(
     schema_arg: Option<&str>,
     dirs: &[PathBuf],
 ) -> Result<(Twin, Arc<Schema>), Fail> {
-    let sim = port::peek_sim_family_at(port_text, Some(address));
     let mut opened = port::open_port_at(port_text, Some(address))?;
-    let schema = if schema_arg.is_none() && sim.is_none() {
-        learning::detect(&mut opened, address, dirs)?.0
-    } else {
-        port::resolve_schema(schema_arg, dirs, sim, None)?.schema
-    };
+    let schema = learning::resolve(&mut opened, address, schema_arg, None, dirs)?
+        .choice
+        .schema;
+    capture_with(opened, address, schema)
+}
+
+/// Capture the drive at `address` of `opened`, speaking `schema`.
+fn capture_with(
+    opened: port::OpenPort,
+    address: u8,
+    schema: Arc<Schema>,
+) -> Result<(Twin, Arc<Schema>), Fail> {
     let port_name = opened.name.clone();
     let rate = match &opened.link {
         Link::Bytes(l) => l.baud(),
@@ -214,13 +218,13 @@ pub fn capture_drive(
     // the MC layout (LUSTBUS §11.1), which the twin keeps
     let mc = schema.family.descriptor().dialect == Some(Dialect::Mc);
     let mut client: Box<dyn DriveClient> = if mc {
-        port::check_fit(&opened, &schema, Some(address), false)?;
+        port::check_fit(&opened, &schema)?;
         let mut c = Session::lustbus(opened, schema.clone(), address)?;
         let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
         layout = mc_descriptions(&mut c, &params)?;
         Box::new(c)
     } else {
-        port::into_client(opened, schema.clone(), address, false)?
+        port::into_client(opened, schema.clone(), address)?
     };
     if let Err(e) = driveset_engine::identify::check_family(client.as_mut()) {
         return Err(Fail {
