@@ -75,7 +75,12 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, protocol_arg)?;
     let schema = choice.schema;
     let protocol = protocol_arg.map_or_else(|| schema.family.bus(), |p| p.0);
-    let opts = ScanOptions::default();
+    // the port's ?latency=: each probe waits what the clients allow it
+    let opts = ScanOptions::behind(
+        driveset_link::PortSpec::parse(&args.port)
+            .ok()
+            .and_then(|p| p.latency()),
+    );
     let mut baud_found = None;
     let mut other_rate: Option<u32> = None;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {

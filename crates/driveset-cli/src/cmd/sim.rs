@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
-//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES] [--faults PLAN]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES] [--layout L] [--types T] [--describe D] [--faults PLAN]
 //!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
 //! ```
 //!
@@ -147,6 +147,19 @@ pub struct Args {
     /// EOT, CAN SDO abort 0x06010001 (docs/twins.md "Refused reads").
     #[arg(long, value_name = "CODES")]
     refuse: Option<String>,
+    /// MC6000/7000: the layout the drives send their parameter descriptions
+    /// in, as a `sim://` port's `layout=` (52, 43, 42, 34; errata L22).
+    #[arg(long, value_name = "52|43|42|34")]
+    layout: Option<String>,
+    /// MC6000/7000: the descriptions' type characters, as a `sim://`
+    /// port's `types=` (`driveset`, `table`, or `C=TYPE,...`; errata L23).
+    #[arg(long, value_name = "READING")]
+    types: Option<String>,
+    /// LUSTBUS: parameters whose own description says otherwise than the
+    /// simulator's fixture, as a `sim://` port's `describe=`
+    /// (`N:ITEM[:ITEM...][;N:...]`, docs/ports.md).
+    #[arg(long, value_name = "N:ITEM...")]
+    describe: Option<String>,
 
     /// Faults to inject, e.g. `flip=0.01,lose=0.02,power-cycle@40:addr=1`.
     #[arg(long, value_name = "PLAN")]
@@ -268,6 +281,23 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
     if let Some(codes) = &args.refuse {
         config.refuse = driveset_sim::open::parse_refuse(codes)
             .map_err(|e| anyhow::anyhow!("--refuse {codes}: {e}"))?;
+    }
+    if (args.layout.is_some() || args.types.is_some() || args.describe.is_some())
+        && family.bus() != BusProtocol::Lustbus
+    {
+        bail!("--layout, --types and --describe apply to the LUSTBUS families (mc6000, vf1000) only");
+    }
+    if let Some(l) = &args.layout {
+        config.description_layout = driveset_proto::lustbus::description::McLayout::from_name(l)
+            .ok_or_else(|| anyhow::anyhow!("--layout {l}: use 52, 43, 42 or 34 (errata L22)"))?;
+    }
+    if let Some(t) = &args.types {
+        config.type_chars = driveset_proto::lustbus::description::McTypeChars::parse(t)
+            .map_err(|e| anyhow::anyhow!("--types {t}: {e}"))?;
+    }
+    if let Some(d) = &args.describe {
+        config.describe =
+            driveset_sim::describe::parse(d).map_err(|e| anyhow::anyhow!("--describe {d}: {e}"))?;
     }
     config.keypad = args.keypad;
     config.seed = args.seed;

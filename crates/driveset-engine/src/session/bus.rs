@@ -141,7 +141,6 @@ mod tests {
                 env,
                 step,
             }),
-            ..SessionPolicy::default()
         }
     }
 

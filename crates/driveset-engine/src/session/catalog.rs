@@ -173,7 +173,8 @@ impl Catalog {
                 evidence: None,
             });
         }
-        let (family, evidence) = super::detect(&mut port.link, &port.name, address)?;
+        let (family, evidence) =
+            super::detect(&mut port.link, &port.name, address, port.connect.latency)?;
         Ok(Resolved {
             choice: SchemaChoice {
                 schema: self.builtin(family)?,

@@ -199,10 +199,16 @@ impl SessionError {
 /// CODE 20091 after an answered TYPE), and what answered; on a CAN port
 /// the one family that speaks CAN (a node's protocol is not probed: its
 /// identify says whether it is one). Nothing is written.
+///
+/// The probes wait as the clients do for a first contact
+/// ([`ScanOptions::first_contact`]: `latency`, the port's `?latency=`, plus
+/// the floor; without one the first-contact allowance), so a drive behind
+/// a slow device server is found.
 pub fn detect(
     link: &mut Link,
     port: &str,
     address: u8,
+    latency: Option<std::time::Duration>,
 ) -> Result<(driveset_schema::Family, String), SessionError> {
     let Link::Bytes(line) = link else {
         let mut on_can = driveset_schema::Family::ALL
@@ -218,7 +224,7 @@ pub fn detect(
             }),
         };
     };
-    let opts = ScanOptions::default();
+    let opts = ScanOptions::first_contact(latency);
     if let Some(d) = detect_protocol(line.as_mut(), address, &opts)? {
         return Ok((d.protocol, d.evidence));
     }

@@ -70,7 +70,6 @@ pub(super) fn learn_drive<'l>(
                 Mode::Status => LearnStep::ReuseEarlier,
             },
         }),
-        ..SessionPolicy::default()
     };
     let session = BusSession::open(link, &bus.port_name, base.clone(), d.address, &policy)
         .map_err(|e| worded(&what, e))?;
