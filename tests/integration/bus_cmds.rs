@@ -19,9 +19,7 @@ fn identify_mc6000() {
         .code(0)
         .stdout(predicate::str::contains("family:   lustbus-mc\n"))
         .stdout(predicate::str::contains("91-TYPE: "))
-        .stdout(predicate::str::contains(
-            "schema:   lust-mc6000 (fits)\n",
-        ));
+        .stdout(predicate::str::contains("schema:   lust-mc6000 (fits)\n"));
 }
 
 #[test]
@@ -37,9 +35,7 @@ fn identify_vf1000() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("family:   lustbus-vf1000\n"))
-        .stdout(predicate::str::contains(
-            "schema:   lust-vf1000 (fits)\n",
-        ));
+        .stdout(predicate::str::contains("schema:   lust-vf1000 (fits)\n"));
 }
 
 #[test]

@@ -150,10 +150,7 @@ fn pull_without_a_schema_on_sim_ports_without_addresses() {
                 "from {port}?addresses=3 address 3 into"
             )));
         let text = std::fs::read_to_string(&set).unwrap();
-        assert!(
-            text.contains(&format!("\nschema = \"{schema}")),
-            "{text}"
-        );
+        assert!(text.contains(&format!("\nschema = \"{schema}")), "{text}");
     }
 }
 

@@ -59,10 +59,7 @@ impl Side {
     /// `driveset ARGS` in the side's directory, `PORT` replaced by its
     /// port: exit code, masked stdout.
     fn run(&self, args: &[&str]) -> (Option<i32>, String, String) {
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| a.replace("PORT", &self.port))
-            .collect();
+        let args: Vec<String> = args.iter().map(|a| a.replace("PORT", &self.port)).collect();
         let (code, out, err) = outcome(
             driveset()
                 .current_dir(&self.dir)
@@ -165,15 +162,49 @@ fn script(case: &Case) -> Vec<Vec<String>> {
     let mut s: Vec<Vec<&str>> = vec![
         vec!["scan", "--port", "PORT", "--protocol", case.protocol],
         vec!["identify", "--port", "PORT", "--address", &a],
-        vec!["pull", "--port", "PORT", "--address", &a, "-o", "pulled/drive.toml"],
+        vec![
+            "pull",
+            "--port",
+            "PORT",
+            "--address",
+            &a,
+            "-o",
+            "pulled/drive.toml",
+        ],
     ];
     if !case.can && case.protocol == "lustbus" {
-        s.push(vec!["schema", "pull", "--port", "PORT", "--address", &a, "-o", "schema.toml"]);
+        s.push(vec![
+            "schema",
+            "pull",
+            "--port",
+            "PORT",
+            "--address",
+            &a,
+            "-o",
+            "schema.toml",
+        ]);
     }
     s.extend([
-        vec!["twin", "capture", "--port", "PORT", "--address", &a, "-o", "drive.twin.toml"],
+        vec![
+            "twin",
+            "capture",
+            "--port",
+            "PORT",
+            "--address",
+            &a,
+            "-o",
+            "drive.twin.toml",
+        ],
         vec!["diff", case.set, "--port", "PORT", "--address", &a],
-        vec!["upload", case.set, "--port", "PORT", "--address", &a, "--dry-run"],
+        vec![
+            "upload",
+            case.set,
+            "--port",
+            "PORT",
+            "--address",
+            &a,
+            "--dry-run",
+        ],
         vec!["upload", case.set, "--port", "PORT", "--address", &a],
         vec!["diff", case.set, "--port", "PORT", "--address", &a],
     ]);
@@ -317,8 +348,25 @@ fn parity_address_on_a_factory_fresh_mc6000() {
         first.trim_end().trim_start_matches("pty ").to_string(),
     );
     for args in [
-        vec!["address", "--port", "PORT", "--protocol", "lustbus", "--to", "5", "--dry-run"],
-        vec!["address", "--port", "PORT", "--protocol", "lustbus", "--to", "5"],
+        vec![
+            "address",
+            "--port",
+            "PORT",
+            "--protocol",
+            "lustbus",
+            "--to",
+            "5",
+            "--dry-run",
+        ],
+        vec![
+            "address",
+            "--port",
+            "PORT",
+            "--protocol",
+            "lustbus",
+            "--to",
+            "5",
+        ],
         vec!["identify", "--port", "PORT", "--address", "5"],
     ] {
         let (a_code, a_out, a_err) = sim.run(&args);

@@ -116,9 +116,8 @@ fn capture(side: &Side, address: u8, file: &Path) -> String {
         .into_iter()
         .find(|f| side.port.starts_with(&format!("sim://{f}")))
     {
-        c.arg("--schema").arg(
-            workspace_root().join(format!("parameter-sets/fixtures/fictional-{f}-demo.toml")),
-        );
+        c.arg("--schema")
+            .arg(workspace_root().join(format!("parameter-sets/fixtures/fictional-{f}-demo.toml")));
     }
     let out = c.arg("-o").arg(file).output().unwrap();
     assert_eq!(

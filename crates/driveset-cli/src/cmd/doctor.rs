@@ -142,12 +142,9 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
     let name = opened.name.clone();
     let report = match protocol {
         DoctorProtocol::CanSdo => {
-            let schema = port::resolve_schema(
-                None,
-                &[],
-                Some(port::ProtocolArg(DoctorProtocol::CanSdo)),
-            )?
-            .schema;
+            let schema =
+                port::resolve_schema(None, &[], Some(port::ProtocolArg(DoctorProtocol::CanSdo)))?
+                    .schema;
             let Link::Frames(mut link) = opened.link else {
                 return Err(Fail::input(format!(
                     "{name} is a character line: use --protocol lustbus or lecom"

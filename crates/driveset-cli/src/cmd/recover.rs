@@ -129,16 +129,10 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let address = args.address.unwrap_or(j.target.address);
     let json = args.format == BusFormat::Json;
     let state = j.state;
-    let finished = j.is_finished();
-    // a finished journal needs no schema (an address change's names the
-    // schema learned from the drive, which no file holds)
-    let choice = if finished {
-        None
-    } else {
-        Some(journal_schema(args, j)?)
-    };
-    drop(jf);
-    if finished {
+    if j.is_finished() {
+        // a finished journal needs no schema (an address change's names the
+        // schema learned from the drive, which no file holds)
+        drop(jf);
         let msg = format!(
             "{}: the transaction is already {}; nothing to do",
             args.journal.display(),
@@ -159,9 +153,8 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         }
         return Ok(EXIT_OK);
     }
-    let Some(choice) = choice else {
-        return Err(Fail::input("an unfinished journal without a schema"));
-    };
+    let choice = journal_schema(args, j)?;
+    drop(jf);
     let opened = port::open_port(&port_text)?;
     let port_name = opened.name.clone();
     let mut client = port::into_client(opened, choice.schema, address)?;

@@ -285,7 +285,9 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
     if (args.layout.is_some() || args.types.is_some() || args.describe.is_some())
         && family.bus() != BusProtocol::Lustbus
     {
-        bail!("--layout, --types and --describe apply to the LUSTBUS families (mc6000, vf1000) only");
+        bail!(
+            "--layout, --types and --describe apply to the LUSTBUS families (mc6000, vf1000) only"
+        );
     }
     if let Some(l) = &args.layout {
         config.description_layout = driveset_proto::lustbus::description::McLayout::from_name(l)

@@ -33,9 +33,9 @@ pub(super) fn online_command(family: Family) -> Option<CodeKey> {
 fn untyped(schema: &Schema, keys: &[CodeKey]) -> Vec<u32> {
     keys.iter()
         .filter(|k| {
-            !schema
+            schema
                 .code(k.number)
-                .is_some_and(|c| schema.type_of(c).is_some())
+                .is_none_or(|c| schema.type_of(c).is_none())
         })
         .map(|k| k.number)
         .collect()

@@ -13,9 +13,9 @@ use driveset_proto::lustbus::{Address, Dialect, ParameterCode};
 use driveset_schema::family::{BusWriteSource, TYPE};
 use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
-use super::learn::{online_command, typed_bus_codes};
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw, shown};
 use super::drive_on;
+use super::learn::{online_command, typed_bus_codes};
 use super::probe::{baud_of, bus_of, bytes, lecom_probe, lust_probe, now, port_of, set_rate};
 use super::refusal::{check_address, check_family_rate, link_err, need_type, refuse, target};
 use super::report::{PlannedWrite, Step, found_text, list};

@@ -41,8 +41,8 @@ use crate::learn::LearnOptions;
 use crate::scan::{ScanOptions, detect_protocol};
 
 pub use bus::BusSession;
-pub use learning::{LearnStep, LearnedReport, learn_on};
 pub use catalog::{Catalog, CatalogError, Resolved, SchemaAsk, SchemaChoice};
+pub use learning::{LearnStep, LearnedReport, learn_on};
 pub use open::{FitError, OpenedPort, PortError, Ports, check_fit, open_port};
 
 /// Learning a LUSTBUS schema that lacks facts from the drive's
@@ -234,7 +234,11 @@ pub fn detect(
     // finds the drive there and says so.
     let here = line.baud();
     let mut found = None;
-    for r in crate::scan::LUSTBUS_BAUDS.iter().copied().filter(|r| *r != here) {
+    for r in crate::scan::LUSTBUS_BAUDS
+        .iter()
+        .copied()
+        .filter(|r| *r != here)
+    {
         if line.set_baud(r).is_err() {
             break;
         }
