@@ -47,7 +47,7 @@ or the port failed.
 Examples:
   driveset doctor --port /dev/ttyUSB0 --protocol lustbus --address 1
   driveset doctor --port rfc2217://10.0.0.7:2217?baud=19200 --protocol lecom
-  driveset doctor --port sim://mc6000?addresses=1 --format json")]
+  driveset doctor --port sim://mc6000?addresses=1 --protocol lustbus --format json")]
 pub struct Args {
     /// The port (the echo= option is ignored: the doctor looks at the raw bytes).
     #[arg(long)]
