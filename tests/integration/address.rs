@@ -84,7 +84,7 @@ fn a_lone_mc6000_gets_address_5() {
              wrote 82-SADDR = 5 at address 0\n\
              verified address 5: 82-SADDR = 5, 91-TYPE = 0\n\
              verified nothing answers at the old address 1\n\
-             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3101 ms)\n\
+             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3220 ms)\n\
              journal: .driveset/journal/{jname}\n"
         )
     );
@@ -98,6 +98,8 @@ fn a_lone_mc6000_gets_address_5() {
             "scan",
             "--port",
             &format!("sim://mc6000?addresses=5&state={}", state.display()),
+            "--protocol",
+            "lustbus",
         ])
         .output()
         .expect("scan");
@@ -215,7 +217,7 @@ fn dry_run_prints_the_telegrams_and_writes_nothing() {
         out.ends_with(
             "would write (dry run: nothing was written):\n  \
              LUSTBUS SELECT to address 0 (@), CODE 00082: 82-SADDR = 5 at 9600 baud\n  \
-             LUSTBUS SELECT to address 5, CODE 00081: 81-SBAUD = 38400 Baud at 9600 baud\n  \
+             LUSTBUS SELECT to address 5, CODE 00081: 81-SBAUD = 38400 at 9600 baud\n  \
              LUSTBUS SELECT to address 5, CODE 20004: 4-PROG = \"Activate new baud rate\" at 9600 baud\n"
         ),
         "{out}"
@@ -422,7 +424,7 @@ fn a_cut_baud_change_is_finished_by_recover() {
     let journal = dir.path().join("a.journal.json");
     let j = journal.display().to_string();
     let port = format!(
-        "sim://mc6000?addresses=1&state={}&faults=cable@42+600s",
+        "sim://mc6000?addresses=1&state={}&faults=cable@46+600s",
         state.display()
     );
     let (code, out, err) = address(

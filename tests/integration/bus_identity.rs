@@ -559,9 +559,18 @@ fn a_held_sim_state_bus_is_refused_before_it_is_opened_through_a_symlink_too() {
             file.display()
         )
     };
-    cmd(&locks, &["scan", "--port", &port(&state, "1,2")])
-        .assert()
-        .code(0);
+    cmd(
+        &locks,
+        &[
+            "scan",
+            "--port",
+            &port(&state, "1,2"),
+            "--protocol",
+            "lustbus",
+        ],
+    )
+    .assert()
+    .code(0);
     std::os::unix::fs::symlink(&state, &link).unwrap();
     let before = std::fs::read(&state).unwrap();
     let canonical = std::fs::canonicalize(&state).unwrap();
@@ -576,7 +585,13 @@ fn a_held_sim_state_bus_is_refused_before_it_is_opened_through_a_symlink_too() {
         "error: bus `{bus}` is in use by another process: pid 1 (`driveset upload`, since 2026-12-03T13:00:00.000Z); nothing was sent."
     );
     for args in [
-        vec!["scan", "--port", &*port(&link, "1,2")],
+        vec![
+            "scan",
+            "--port",
+            &*port(&link, "1,2"),
+            "--protocol",
+            "lustbus",
+        ],
         vec!["identify", "--port", &*port(&link, "1"), "--address", "1"],
         vec!["doctor", "--port", &*port(&link, "1")],
         vec![

@@ -23,7 +23,14 @@ fn run(args: &[&str]) -> (Option<i32>, String, String) {
 
 #[test]
 fn doctor_on_a_simulated_mc6000_prints_every_finding_exactly() {
-    let (code, out, err) = run(&["--port", "sim://mc6000?addresses=1", "--address", "1"]);
+    let (code, out, err) = run(&[
+        "--port",
+        "sim://mc6000?addresses=1",
+        "--address",
+        "1",
+        "--protocol",
+        "lustbus",
+    ]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(
         out,
@@ -50,6 +57,8 @@ fn doctor_json_and_exit_codes() {
     let (code, out, err) = run(&[
         "--port",
         "sim://tmd?addresses=1",
+        "--protocol",
+        "lecom",
         "--probes",
         "4",
         "--format",
@@ -75,6 +84,8 @@ fn doctor_json_and_exit_codes() {
         "sim://mc6000?addresses=1",
         "--address",
         "5",
+        "--protocol",
+        "lustbus",
         "--probes",
         "2",
         "--timeout",
@@ -97,7 +108,14 @@ fn doctor_json_and_exit_codes() {
         err,
         "error: sim://mc6000?addresses=1 is a character line: use --protocol lustbus or lecom\n"
     );
-    let (code, _, err) = run(&["--port", "sim://mc6000?addresses=1", "--address", "31"]);
+    let (code, _, err) = run(&[
+        "--port",
+        "sim://mc6000?addresses=1",
+        "--address",
+        "31",
+        "--protocol",
+        "lustbus",
+    ]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("31 is not a LUSTBUS drive address"), "{err}");
 }

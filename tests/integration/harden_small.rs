@@ -186,9 +186,15 @@ fn a_refused_sload_with_every_code_old_is_a_rollback_not_a_mix() {
     assert!(canonical.contains("\n416 0\n"), "{canonical}");
     state["drives"][0]["canonical"] = canonical.replace("\n416 0\n", "\n416 1\n").into();
     std::fs::write(d.join("st.json"), serde_json::to_vec(&state).unwrap()).unwrap();
+    // the simulator's fixture, named by its file (a set cannot name a
+    // fixture by id, on any port)
+    let fixture = workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
     std::fs::write(
         d.join("s.toml"),
-        "schema = \"fictional-mc6000-demo\"\n[values]\nMAINV = 420\n",
+        format!(
+            "schema = {:?}\n[values]\nMAINV = 420\n",
+            fixture.display().to_string()
+        ),
     )
     .unwrap();
     let (code, out, err) = run(

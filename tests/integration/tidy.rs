@@ -454,6 +454,7 @@ fn tidy_clients_are_built_only_by_connect_and_the_session() {
 /// may, so every bus is locked before a command drives it.
 const PORT_OPENINGS: &[&str] = &[
     "driveset_link::open(",
+    "port::reopen(",
     "open_with(",
     "open_sim_with(",
     "BusLock::acquire",

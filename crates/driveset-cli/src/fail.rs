@@ -82,6 +82,9 @@ impl From<driveset_engine::session::SessionError> for Fail {
     fn from(e: driveset_engine::session::SessionError) -> Self {
         match e {
             driveset_engine::session::SessionError::Engine(e) => e.into(),
+            driveset_engine::session::SessionError::Catalog(e) => {
+                Fail::input(crate::port::catalog_error(&e))
+            }
             e if e.is_input() => Fail::input(e.to_string()),
             e => Fail::bus(e.to_string()),
         }

@@ -9,9 +9,9 @@ use std::sync::Arc;
 
 use driveset_engine::client::DriveClient;
 use driveset_engine::learn::{LearnOptions, Learned, needs_learning};
-use driveset_engine::session::{self, FitPolicy, LearnPolicy, LearnStep, Session, SessionPolicy};
+use driveset_engine::session::{self, LearnPolicy, LearnStep, Session, SessionPolicy};
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
-use driveset_schema::{Family, Schema};
+use driveset_schema::Schema;
 use serde_json::json;
 
 use crate::port::{self, Fail, OpenPort};
@@ -65,25 +65,23 @@ impl LearnArgs {
     }
 }
 
-/// The built-in schema of a family (its descriptor's `schema_id`).
-pub fn builtin_for(family: Family, dirs: &[PathBuf]) -> Result<Arc<Schema>, Fail> {
-    let id = family.descriptor().schema_id;
-    port::registry(dirs)?
-        .get(id)
-        .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
-}
-
-/// The drive's protocol at `address` of an open serial port, by read-only
-/// probes (the engine's `session::detect`: LUSTBUS ENQUIRY of 91-TYPE and
-/// of the MC CODE 20091, LECOM RECEIVE of C0093 / C0200), and the built-in
-/// schema for it. The port stays open for the command.
-pub fn detect(
+/// The schema a command on the drive at `address` of `opened` talks
+/// with (the engine's one resolution, [`session::Catalog::resolve`]):
+/// `--schema`, else `--protocol`'s built-in schema, else the built-in schema
+/// of the family the drive answers the read-only probes as, with what
+/// answered. The same on every port. The port stays open for the command.
+pub fn resolve(
     opened: &mut OpenPort,
     address: u8,
+    schema: Option<&str>,
+    protocol: Option<port::ProtocolArg>,
     dirs: &[PathBuf],
-) -> Result<(Arc<Schema>, String), Fail> {
-    let (family, evidence) = session::detect(&mut opened.link, &opened.name, address)?;
-    Ok((builtin_for(family, dirs)?, evidence))
+) -> Result<session::Resolved, Fail> {
+    let ask = session::SchemaAsk {
+        schema,
+        protocol: protocol.map(|p| p.0),
+    };
+    Ok(port::catalog(dirs).resolve(opened, address, ask)?)
 }
 
 /// What learning did, for reports.
@@ -200,14 +198,13 @@ pub fn open(
     opened: OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    allow_family: bool,
     args: &LearnArgs,
     dirs: &[PathBuf],
     dir: Option<&Path>,
 ) -> Result<OnDrive, Fail> {
     let learning = wants(&schema, args);
     let registry = if learning {
-        Some(port::registry_for(&opened.name, dirs)?)
+        Some(port::registry(dirs)?)
     } else {
         None
     };
@@ -222,7 +219,6 @@ pub fn open(
             }),
             None => None,
         },
-        fit: FitPolicy { allow_family },
     };
     let s = Session::open(opened, schema, address, &policy)?;
     Ok(OnDrive {
@@ -254,7 +250,6 @@ pub fn set_on_drive(
     dirs: &[PathBuf],
     port_arg: &str,
     address: u8,
-    force: bool,
     args: &LearnArgs,
     what: &str,
 ) -> Result<SetOnDrive, Fail> {
@@ -264,7 +259,7 @@ pub fn set_on_drive(
     };
     // The set is read once; a LUSTBUS schema that lacks facts is learned
     // from the drive and the set resolved again against what was learned.
-    let registry = port::registry_for(port_arg, dirs)?;
+    let registry = port::registry(dirs)?;
     let loaded = driveset_schema::load_set(set, &mut registry.clone())
         .map_err(|e| refused(crate::output::fail_input(&e)))?;
     if let Some(base) = loaded.schema.clone().filter(|s| wants(s, args)) {
@@ -274,7 +269,6 @@ pub fn set_on_drive(
             opened,
             base.clone(),
             address,
-            force,
             args,
             dirs,
             args.schema_dir.as_deref(),
@@ -302,7 +296,7 @@ pub fn set_on_drive(
     };
     let opened = port::open_port_at(port_arg, Some(address))?;
     let port_name = opened.name.clone();
-    let client = port::into_client(opened, schema.clone(), address, force)?;
+    let client = port::into_client(opened, schema.clone(), address)?;
     Ok(SetOnDrive {
         client,
         schema,

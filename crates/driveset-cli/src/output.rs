@@ -371,40 +371,13 @@ pub fn fail_input(e: &InputError) -> u8 {
 }
 
 /// The schemas every command knows: the four vendor schemas built in and
-/// every `*.toml` schema of `dirs` (`--schemas`). The simulator's fictional
-/// fixture schemas are not among them: a set names a fixture by its file
-/// (`schema = "../fixtures/fictional-mc6000-demo.toml"`); only commands on a
-/// `sim://` port, whose drives load them, know them by id
-/// ([`sim_registry`]).
+/// every `*.toml` schema of `dirs` (`--schemas`), from the engine's one
+/// catalog ([`crate::port::catalog`]). The simulator's fictional fixture
+/// schemas are not among them by id: a set names a fixture by its file
+/// (`schema = "../fixtures/fictional-mc6000-demo.toml"`), or
+/// `--schemas parameter-sets/fixtures` loads them.
 pub fn registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    let mut r = driveset_schema::Registry::builtin()?;
-    driveset_sim::catalog::withhold_fixtures(&mut r);
-    with_dirs(r, dirs)
-}
-
-/// [`registry`] plus the simulator's fixture schemas, for a command talking
-/// to a `sim://` port (the simulated drives hold those schemas, and a set
-/// pulled from them names them by id).
-pub fn sim_registry(dirs: &[PathBuf]) -> Result<driveset_schema::Registry, InputError> {
-    let r = driveset_sim::catalog::registry().map_err(|e| {
-        InputError::new(
-            driveset_schema::InputErrorKind::Structure,
-            driveset_schema::Location::file_only("<built-in schemas>"),
-            format!("the schemas built into driveset do not load: {e}"),
-            "this is a build defect: report it with the output of `driveset --version`",
-        )
-    })?;
-    with_dirs(r, dirs)
-}
-
-fn with_dirs(
-    mut r: driveset_schema::Registry,
-    dirs: &[PathBuf],
-) -> Result<driveset_schema::Registry, InputError> {
-    for d in dirs {
-        r.load_dir(d)?;
-    }
-    Ok(r)
+    crate::port::catalog(dirs).registry()
 }
 
 /// Report a loaded set's findings on stderr (with the exit code to return),

@@ -18,21 +18,22 @@
 //!   simulator's `DRIVESET_SIM_STATE_DIR=DIR`.
 //!
 //! The schema decides the protocol: LUSTBUS and LECOM need a character
-//! line, CAN SDO a CAN port; a mismatch is refused before anything is sent,
-//! as is a schema of another family than a `sim://` port simulates.
+//! line, CAN SDO a CAN port; a mismatch is refused before anything is sent.
+//! A `sim://` port is only a transport: past its opener ([`CliPorts`],
+//! [`openers`]) nothing here or in the engine asks whether a port is
+//! simulated (docs/architecture.md, "A simulated port is only a transport").
 //!
 //! Errors carry their exit code ([`Fail`], the CLI's one error
 //! convention): 2 for usage and input (a bad port string, a schema that
 //! does not fit the port, a refusal before anything was sent), 3 for bus
 //! and device failures.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::connect::ConnectOptions;
 use driveset_engine::session::{
-    self, FitPolicy, OpenedPort, PortError, Ports, Session, SessionPolicy, SimulatedDrives,
+    self, Catalog, OpenedPort, PortError, Ports, SchemaAsk, Session, SessionPolicy,
 };
 use driveset_link::{LockError, OpenOptions, Openers, PortSpec, VirtualClock};
 use driveset_schema::{Family, Registry, Schema};
@@ -84,24 +85,9 @@ impl Ports for CliPorts {
         {
             sim.addresses.push(a);
         }
-        let (bus, in_process) = open_sim(&sim)?;
-        let drives = bus
-            .addresses()
-            .into_iter()
-            .filter_map(|a| bus.family_of(a).map(|f| (f, a)))
-            .collect();
+        let bus = open_sim(&sim)?;
         let spec = PortSpec::Sim(sim.to_opaque());
-        Ok(OpenedPort {
-            name: sim.name(),
-            connect: ConnectOptions::of(&spec),
-            spec,
-            link: bus.link(),
-            simulated: Some(SimulatedDrives {
-                drives,
-                mixed: bus.is_mixed(),
-                in_process,
-            }),
-        })
+        Ok(OpenedPort::named(sim.name(), spec, bus.link()))
     }
 
     fn bus_before_open(&self, port: &str, spec: &PortSpec) -> Option<String> {
@@ -120,9 +106,8 @@ impl Ports for CliPorts {
     }
 }
 
-/// The simulated bus `sim` describes, in virtual time, and whether it lives
-/// in this process only (no state file).
-fn open_sim(sim: &SimSpec) -> Result<(SimLink, bool), PortError> {
+/// The simulated bus `sim` describes, in virtual time.
+fn open_sim(sim: &SimSpec) -> Result<SimLink, PortError> {
     let name = sim.name();
     let settings = |detail: String| PortError::Settings {
         port: name.clone(),
@@ -131,9 +116,8 @@ fn open_sim(sim: &SimSpec) -> Result<(SimLink, bool), PortError> {
     let config = SimOpener::default()
         .config(sim)
         .map_err(|e| settings(e.to_string()))?;
-    let bus = open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
-        .map_err(|e| settings(e.to_string()))?;
-    Ok((bus, config.state.is_none()))
+    open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
+        .map_err(|e| settings(e.to_string()))
 }
 
 /// The port openers the CLI registers for the schemes `driveset-link` does
@@ -161,29 +145,18 @@ pub fn with_rate(spec: &PortSpec, rate: u32) -> PortSpec {
     s
 }
 
-/// The family a `sim://` port names, without opening it (on a mixed
-/// LUSTBUS, `sim://lustbus?mc6000=..&vf1000=..`, the first family key's).
-pub fn peek_sim_family(port: &str) -> Option<Family> {
-    peek_sim_family_at(port, None)
-}
-
-/// The family of the drive at `address` on a `sim://` port, without
-/// opening it; without an address, or at one the port does not list, as
-/// [`peek_sim_family`].
-pub fn peek_sim_family_at(port: &str, address: Option<u8>) -> Option<Family> {
-    let s = SimSpec::parse(port).ok()?;
-    if s.is_twin() {
-        // a twin bus: the family of the twin at the address (else the first)
-        let twins = driveset_sim::port::twins_of(&s).ok()?;
-        let at = address.and_then(|a| twins.iter().find(|t| t.address == a));
-        return at.or(twins.first()).map(|t| t.family);
+/// The port `recorded` (a journal's) as a later command reaches the same
+/// drives: without the keys of the run that recorded it, through its
+/// opener ([`driveset_link::PortOpener::without_run_keys`]); a port
+/// `driveset-link` opens itself, as recorded.
+pub fn without_run_keys(recorded: &str) -> String {
+    match PortSpec::parse(recorded) {
+        Ok(PortSpec::Sim(o)) => match openers().get(&o.scheme) {
+            Some(opener) => PortSpec::Sim(opener.without_run_keys(&o)).to_string(),
+            None => recorded.to_string(),
+        },
+        _ => recorded.to_string(),
     }
-    let drives = s.drives();
-    let name = address
-        .and_then(|a| drives.iter().find(|d| d.1 == a))
-        .or(drives.first())
-        .map_or(s.family.as_str(), |d| d.0);
-    driveset_sim::open::parse_family(name).ok()
 }
 
 /// Open a port string (see the module docs).
@@ -198,16 +171,11 @@ pub fn open_port_at(port: &str, address: Option<u8>) -> Result<OpenPort, Fail> {
     Ok(session::open_port(&CliPorts, port, address)?)
 }
 
-/// The simulated bus behind a `sim://` port [`open_port`] opened (its
-/// `spec`), opened again as the simulator's own object, for what asks the
-/// bus itself rather than its drives (`doctor` sets its line rate). The
-/// port's first link is dropped first, so a state file is read as written.
-pub fn sim_bus(spec: &PortSpec) -> Result<SimLink, Fail> {
-    let PortSpec::Sim(o) = spec else {
-        return Err(Fail::input(format!("{spec} is not a sim:// port")));
-    };
-    let sim = SimSpec::from_opaque(o).map_err(|e| Fail::input(e.to_string()))?;
-    Ok(open_sim(&sim)?.0)
+/// Open `spec` as a raw link (no session, no lock: the caller holds the
+/// bus's lock already), through the registered openers, as `doctor`
+/// reopens a port at each rate it tries.
+pub fn reopen(spec: &PortSpec) -> Result<driveset_link::Link, driveset_link::LinkError> {
+    driveset_link::open_with(spec, &OpenOptions::default(), &openers())
 }
 
 /// The bus locks this process holds ([`lock_bus`]), until it exits.
@@ -240,18 +208,10 @@ pub fn lock_bus(bus_id: &str) -> Result<(), LockError> {
     Ok(())
 }
 
-/// Check that `schema` can talk over `port` to the drive at `address`
-/// (the engine's [`session::check_fit`]; another family of the same
-/// protocol on a `sim://` port passes with `allow_family`,
-/// `--allow-family`).
-pub fn check_fit(
-    port: &OpenPort,
-    schema: &Schema,
-    address: Option<u8>,
-    allow_family: bool,
-) -> Result<(), Fail> {
-    session::check_fit(port, schema, address, FitPolicy { allow_family })
-        .map_err(|e| Fail::input(e.to_string()))
+/// Check that `schema` can talk over `port` (the engine's
+/// [`session::check_fit`]: the protocol's kind of link).
+pub fn check_fit(port: &OpenPort, schema: &Schema) -> Result<(), Fail> {
+    session::check_fit(port, schema).map_err(|e| Fail::input(e.to_string()))
 }
 
 /// A client for the drive at `address` on `port`, speaking `schema`'s
@@ -261,94 +221,56 @@ pub fn into_client(
     port: OpenPort,
     schema: Arc<Schema>,
     address: u8,
-    allow_family: bool,
 ) -> Result<Box<dyn DriveClient>, Fail> {
-    let policy = SessionPolicy {
-        fit: FitPolicy { allow_family },
-        ..SessionPolicy::default()
-    };
-    Ok(Session::open(port, schema, address, &policy)?.client)
+    Ok(Session::open(port, schema, address, &SessionPolicy::default())?.client)
 }
 
-/// The schemas every command knows ([`crate::output::registry`]).
+/// The schemas every command knows: the engine's [`Catalog`] of the
+/// built-in schemas and `--schemas DIR`, with the simulator's fictional
+/// fixtures withheld by id (a set names a fixture by its file, or
+/// `--schemas parameter-sets/fixtures` loads them).
+pub fn catalog(dirs: &[PathBuf]) -> Catalog {
+    Catalog::new(dirs).withholding(driveset_sim::catalog::withheld())
+}
+
+/// The registry of [`catalog`].
 pub fn registry(dirs: &[PathBuf]) -> Result<Registry, Fail> {
-    crate::output::registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
+    catalog(dirs)
+        .registry()
+        .map_err(|e| Fail::input(e.render_human_string()))
 }
 
-/// The schemas a command on `port` knows: [`registry`], plus the
-/// simulator's fixture schemas when `port` is a `sim://` port
-/// ([`crate::output::sim_registry`]).
-pub fn registry_for(port: &str, dirs: &[PathBuf]) -> Result<Registry, Fail> {
-    if matches!(PortSpec::parse(port), Ok(PortSpec::Sim(_))) {
-        crate::output::sim_registry(dirs).map_err(|e| Fail::input(e.render_human_string()))
-    } else {
-        registry(dirs)
-    }
-}
+pub use driveset_engine::session::SchemaChoice;
 
-/// A schema and whether it came from a file.
-#[derive(Debug, Clone)]
-pub struct SchemaChoice {
-    /// The schema.
-    pub schema: Arc<Schema>,
-    /// The file it was loaded from, when `--schema` named a path.
-    pub path: Option<PathBuf>,
-}
-
-/// The schema to talk with: `--schema ID|PATH`, else the schema of the
-/// family a `sim://` port simulates, else the built-in schema of
-/// `--protocol` (LUSTBUS: `lust-mc6000`).
+/// The schema `--schema ID|PATH` names, else the built-in schema of
+/// `--protocol` ([`Catalog::chosen`]); neither: an error that says to
+/// give one (the commands that ask the drive use [`Catalog::resolve`]).
 pub fn resolve_schema(
     arg: Option<&str>,
     dirs: &[PathBuf],
-    sim: Option<Family>,
     protocol: Option<ProtocolArg>,
 ) -> Result<SchemaChoice, Fail> {
-    // On a `sim://` port the simulator's fixture schemas are known by id.
-    let mut registry = match sim {
-        Some(_) => {
-            crate::output::sim_registry(dirs).map_err(|e| Fail::input(e.render_human_string()))?
-        }
-        None => registry(dirs)?,
+    let ask = SchemaAsk {
+        schema: arg,
+        protocol: protocol.map(|p| p.0),
     };
-    if let Some(a) = arg {
-        let p = Path::new(a);
-        if p.is_file() {
-            let schema = registry
-                .load_file(p)
-                .map_err(|e| Fail::input(e.render_human_string()))?;
-            return Ok(SchemaChoice {
-                schema,
-                path: Some(p.to_path_buf()),
-            });
-        }
-        return registry
-            .get(a)
-            .map(|schema| SchemaChoice { schema, path: None })
-            .ok_or_else(|| {
-                let known: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
-                Fail::input(format!(
-                    "unknown schema `{a}`: not a file and not one of {}",
-                    known.join(", ")
-                ))
-            });
-    }
-    if let Some(f) = sim {
-        let schema = driveset_sim::catalog::schema(f).map_err(Fail::input)?;
-        return Ok(SchemaChoice { schema, path: None });
-    }
-    let id = match protocol.and_then(|p| p.0.families().next()) {
-        Some(f) => f.descriptor().schema_id,
-        None => {
-            return Err(Fail::input(
+    catalog(dirs)
+        .chosen(ask)
+        .map_err(|e| Fail::input(catalog_error(&e)))?
+        .ok_or_else(|| {
+            Fail::input(
                 "say which drive family is on the bus: --schema ID|PATH, or --protocol lustbus|lecom|sdo",
-            ));
-        }
-    };
-    registry
-        .get(id)
-        .map(|schema| SchemaChoice { schema, path: None })
-        .ok_or_else(|| Fail::input(format!("built-in schema `{id}` is missing")))
+            )
+        })
+}
+
+/// A catalog error as one text (an input error rendered as the CLI
+/// renders them).
+pub fn catalog_error(e: &session::CatalogError) -> String {
+    match e {
+        session::CatalogError::Input(i) => i.render_human_string(),
+        other => other.to_string(),
+    }
 }
 
 /// An [`driveset_schema::InputError`] as one human text.

@@ -79,15 +79,19 @@ fn longest_reaction(bus: BusProtocol) -> Duration {
 /// reaction + 5 ms + the wire time of a 14-character reply.
 fn lustbus_timeout(opts: &ScanOptions, baud: u32) -> Duration {
     opts.timeout.unwrap_or_else(|| {
-        longest_reaction(BusProtocol::Lustbus) + Duration::from_millis(5) + wire_time(14, baud)
+        longest_reaction(BusProtocol::Lustbus)
+            + Duration::from_millis(5)
+            + wire_time(14, baud)
+            + opts.allowance
     })
 }
 
 /// A LECOM probe's answer timeout: `opts.timeout`, else twice the longest
 /// reaction + the wire time of the answer (24 characters).
 fn lecom_timeout(opts: &ScanOptions, baud: u32) -> Duration {
-    opts.timeout
-        .unwrap_or_else(|| 2 * longest_reaction(BusProtocol::Lecom) + wire_time(24, baud))
+    opts.timeout.unwrap_or_else(|| {
+        2 * longest_reaction(BusProtocol::Lecom) + wire_time(24, baud) + opts.allowance
+    })
 }
 
 /// The family of the drives on `bus` when it carries one (LECOM: Tmd; CAN
@@ -108,6 +112,10 @@ pub struct ScanOptions {
     pub timeout: Option<Duration>,
     /// Probes per address. Default 1.
     pub tries: u32,
+    /// What the transport adds to the default timeouts, by the clients'
+    /// rules (`client::timing`): [`ScanOptions::behind`]. Default none (a
+    /// direct line).
+    pub allowance: Duration,
 }
 
 impl Default for ScanOptions {
@@ -115,6 +123,35 @@ impl Default for ScanOptions {
         ScanOptions {
             timeout: None,
             tries: 1,
+            allowance: Duration::ZERO,
+        }
+    }
+}
+
+impl ScanOptions {
+    /// A scan of many addresses behind a transport that adds `latency`
+    /// round trip (the port's `?latency=`): each probe's timeout gets the
+    /// clients' least allowance, `latency` + the floor
+    /// ([`crate::client::timing::LinkLatency`]); none without one (a silent
+    /// address is a scan's normal case, so nothing is added per probe).
+    pub fn behind(latency: Option<Duration>) -> Self {
+        ScanOptions {
+            allowance: latency.map_or(Duration::ZERO, |l| {
+                l.saturating_add(crate::client::timing::LATENCY_FLOOR)
+            }),
+            ..ScanOptions::default()
+        }
+    }
+
+    /// The probes of one drive (identify's, pull's, a twin capture's
+    /// protocol detection) behind a transport that adds `latency` (the
+    /// port's `?latency=`, or unknown): the clients' first-contact
+    /// allowance ([`crate::client::timing::LinkLatency::allowance`] before
+    /// any sample), so a slow link is not taken for a missing drive.
+    pub fn first_contact(latency: Option<Duration>) -> Self {
+        ScanOptions {
+            allowance: crate::client::timing::LinkLatency::new(latency).allowance(),
+            ..ScanOptions::default()
         }
     }
 }

@@ -98,6 +98,13 @@ pub trait PortOpener: Send + Sync {
     fn with_drives(&self, spec: &OpaqueSpec, drives: &[(&str, u8)]) -> OpaqueSpec;
     /// `spec` running at `rate` (baud on a character line, bit/s on CAN).
     fn with_rate(&self, spec: &OpaqueSpec, rate: u32) -> OpaqueSpec;
+    /// `spec` without the keys that belong to one run of a command (the
+    /// simulator's injected faults and their seed), as a later command
+    /// (`recover` of a journal such a run cut) reaches the same drives:
+    /// by default `spec` unchanged.
+    fn without_run_keys(&self, spec: &OpaqueSpec) -> OpaqueSpec {
+        spec.clone()
+    }
     /// Open `spec`.
     fn open(&self, spec: &OpaqueSpec, options: &OpenOptions) -> Result<Link, LinkError>;
 }

@@ -50,6 +50,15 @@ pub fn fixtures() -> impl Iterator<Item = (&'static str, &'static str)> {
     })
 }
 
+/// The fixture schemas' ids, files and texts, for a user's registry to
+/// withhold ([`Registry::withhold`]).
+pub fn withheld() -> Vec<(&'static str, &'static str, &'static str)> {
+    fixtures()
+        .zip(FIXTURES)
+        .map(|((id, path), (_, text))| (id, path, text))
+        .collect()
+}
+
 /// Withhold the fixture schemas' ids in `registry` (a user's registry: a
 /// set naming a fixture by id is told to name its file,
 /// [`Registry::withhold`]).

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest, Schemas};
 use driveset_engine::overrides::Override;
-use driveset_schema::{BusProtocol, Family};
+use driveset_schema::BusProtocol;
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -111,21 +111,13 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     address(&args)
 }
 
-/// The schemas of each family for `port`: on a `sim://` port the
-/// simulator's (as every one-drive command picks them), else the built-in
-/// ones; then `--schema`.
-fn schemas_for(port_text: &str, dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
-    let registry = port::registry_for(port_text, dirs)?;
+/// The schemas of each family: the built-in ones, on every port; then
+/// `--schema`.
+fn schemas_for(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
+    let registry = port::registry(dirs)?;
     let mut s = Schemas::from_registry(&registry);
-    if port::peek_sim_family(port_text).is_some() {
-        for f in Family::ALL.into_iter().filter(|f| !f.descriptor().on_can()) {
-            if let Ok(c) = port::resolve_schema(None, dirs, Some(f), None) {
-                s = s.with(c.schema);
-            }
-        }
-    }
     for g in given {
-        let c = port::resolve_schema(Some(g), dirs, None, None)?;
+        let c = port::resolve_schema(Some(g), dirs, None)?;
         s = s.with(c.schema);
     }
     Ok(s)
@@ -149,7 +141,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
-    let schemas = schemas_for(&args.port, &args.schemas, &args.schema)?;
+    let schemas = schemas_for(&args.schemas, &args.schema)?;
     let mut req = AssignRequest::new(protocol, args.to);
     req.from = args.from;
     req.baud = args.baud;
@@ -163,17 +155,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
     .collect();
     let opened = port::open_port(&args.port)?;
     let name = opened.name.clone();
-    if let Some(f) = opened.simulated_family()
-        && f.bus() != protocol
-    {
-        return Err(Fail::input(format!(
-            "{name} simulates {} drives; give --protocol {}",
-            f.name(),
-            f.bus().name()
-        )));
-    }
-    // the bus lock: open_port takes it for real ports and state-backed
-    // sim ports, for the rest of the command
+    // the bus lock: open_port takes it, for the rest of the command
     let mut link = opened.link;
     let json = args.format == BusFormat::Json;
     let plan = assign::plan(&mut link, &req, &schemas)?;
@@ -336,10 +318,13 @@ pub fn recover_journal(
     journal: &Path,
     port_text: &str,
     dirs: &[PathBuf],
-    schema: std::sync::Arc<driveset_schema::Schema>,
+    schema: Option<std::sync::Arc<driveset_schema::Schema>>,
     json: bool,
 ) -> Result<u8, Fail> {
-    let schemas = schemas_for(port_text, dirs, &[])?.with(schema);
+    let mut schemas = schemas_for(dirs, &[])?;
+    if let Some(s) = schema {
+        schemas = schemas.with(s);
+    }
     let opened = port::open_port(port_text)?;
     let name = opened.name.clone();
     let mut link = opened.link;

@@ -50,7 +50,6 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
         args.schemas,
         args.port,
         args.address,
-        args.allow_family,
         args.learn,
         "not compared",
     )?;

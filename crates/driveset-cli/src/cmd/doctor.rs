@@ -47,7 +47,7 @@ or the port failed.
 Examples:
   driveset doctor --port /dev/ttyUSB0 --protocol lustbus --address 1
   driveset doctor --port rfc2217://10.0.0.7:2217?baud=19200 --protocol lecom
-  driveset doctor --port sim://mc6000?addresses=1 --format json")]
+  driveset doctor --port sim://mc6000?addresses=1 --protocol lustbus --format json")]
 pub struct Args {
     /// The port (the echo= option is ignored: the doctor looks at the raw bytes).
     #[arg(long)]
@@ -77,16 +77,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     doctor(&args)
 }
 
-/// The port string at another rate, echo stripping off.
-fn raw_at(spec: &PortSpec, baud: u32) -> PortSpec {
-    let mut s = spec.clone().with_echo(EchoMode::Off);
-    if let PortSpec::Serial { baud: b, .. }
-    | PortSpec::Tcp { baud: b, .. }
-    | PortSpec::Rfc2217 { baud: b, .. } = &mut s
-    {
-        *b = Some(baud);
-    }
-    s
+/// The port string raw: echo stripping off.
+fn raw_at(spec: &PortSpec) -> PortSpec {
+    spec.clone().with_echo(EchoMode::Off)
 }
 
 /// The latency timers under `root`, marking the port's adapter.
@@ -124,11 +117,10 @@ pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
 
 fn doctor(args: &Args) -> Result<u8, Fail> {
     let opened = port::open_port(&args.port)?;
-    let protocol = match (args.protocol, opened.simulated_family()) {
-        (Some(p), _) => p.0,
-        (None, Some(f)) => f.bus(),
-        (None, None) if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
-        (None, None) => {
+    let protocol = match args.protocol {
+        Some(p) => p.0,
+        None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
+        None => {
             return Err(Fail::input(
                 "say which protocol the line speaks: --protocol lustbus|lecom|can",
             ));
@@ -150,13 +142,9 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
     let name = opened.name.clone();
     let report = match protocol {
         DoctorProtocol::CanSdo => {
-            let schema = port::resolve_schema(
-                None,
-                &[],
-                None,
-                Some(port::ProtocolArg(DoctorProtocol::CanSdo)),
-            )?
-            .schema;
+            let schema =
+                port::resolve_schema(None, &[], Some(port::ProtocolArg(DoctorProtocol::CanSdo)))?
+                    .schema;
             let Link::Frames(mut link) = opened.link else {
                 return Err(Fail::input(format!(
                     "{name} is a character line: use --protocol lustbus or lecom"
@@ -173,48 +161,26 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
             let timers = latency_timers(&args.sysfs, &opened.spec);
             let port_baud = opened.spec.line_baud().unwrap_or(9600);
             let spec = opened.spec.clone();
-            match opened.simulated {
-                Some(_) => {
-                    // the rates are tried on the simulated bus itself
-                    drop(opened.link);
-                    let sim = port::sim_bus(&spec)?;
-                    let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-                        sim.with_bus(|b| match b {
-                            driveset_sim::open::SimBus::Bytes(b) => {
-                                b.set_baud(baud).map_err(|_| LinkError::UnsupportedBaud {
-                                    port: name.clone(),
-                                    baud,
-                                })
-                            }
-                            driveset_sim::open::SimBus::Frames(_) => {
-                                Err(LinkError::UnsupportedBaud {
-                                    port: name.clone(),
-                                    baud,
-                                })
-                            }
-                        })?;
-                        sim.byte_link().ok_or(LinkError::UnsupportedBaud {
-                            port: name.clone(),
-                            baud,
-                        })
-                    };
-                    doctor_run(&name, port_baud, &mut open, &options, timers)?
-                }
-                None => {
-                    drop(opened.link);
-                    let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-                        let s = raw_at(&spec, baud);
-                        match driveset_link::open(&s, &driveset_link::OpenOptions::default())? {
-                            Link::Bytes(l) => Ok(l),
-                            Link::Frames(_) => Err(LinkError::Unsupported {
-                                port: s.to_string(),
-                                what: "a CAN port".into(),
-                            }),
+            // each rate reopens the port raw (echo stripping off) and sets
+            // the host's side to the rate, whatever transport it is: the
+            // drives keep their own rates
+            drop(opened.link);
+            let raw = raw_at(&spec);
+            let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
+                match port::reopen(&raw)? {
+                    Link::Bytes(mut l) => {
+                        if l.baud() != baud {
+                            l.set_baud(baud)?;
                         }
-                    };
-                    doctor_run(&name, port_baud, &mut open, &options, timers)?
+                        Ok(l)
+                    }
+                    Link::Frames(_) => Err(LinkError::Unsupported {
+                        port: raw.to_string(),
+                        what: "a CAN port".into(),
+                    }),
                 }
-            }
+            };
+            doctor_run(&name, port_baud, &mut open, &options, timers)?
         }
     };
     match args.format {

@@ -28,11 +28,12 @@ pub enum BusFormat {
 /// Arguments of `driveset identify`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-The protocol comes from --schema, else from a sim://FAMILY port, else from
+The protocol comes from --schema, else from
 --protocol (with its built-in schema: lustbus -> lust-mc6000 or lust-vf1000,
 told apart by whether the drive answers an MC6000/7000 CODE, lecom ->
 lenze-tmd, sdo -> lenze-ecs), else from read-only probes as scan does
-(LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 / C0200). `uses:` says
+(LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 / C0200; a CAN port
+speaks lenze-ecs), the same on every port, sim:// too. `uses:` says
 which schema pull / diff / upload would talk with and whether it is learned
 from the drive's descriptions (a learned-<family>-type<TYPE>-... file in
 --schema-dir, or learned on the next pull). Nothing is written to the drive.
@@ -55,7 +56,7 @@ pub struct Args {
     /// Schema id or file to talk with (decides the protocol).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
-    /// Family, when neither --schema nor a sim:// port says it.
+    /// Family, when --schema does not say it.
     #[arg(long, value_enum)]
     pub protocol: Option<ProtocolArg>,
     /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
@@ -75,30 +76,20 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn identify(args: &Args) -> Result<u8, Fail> {
-    let sim = port::peek_sim_family_at(&args.port, Some(args.address));
-    // --protocol wins over the family a sim:// port names (so the LUSTBUS
-    // family probe below runs against simulated drives too).
-    let sim_hint = if args.protocol.is_some() { None } else { sim };
     let mut opened = port::open_port_at(&args.port, Some(args.address))?;
-    let mut note = None;
-    let choice = if args.schema.is_none() && sim_hint.is_none() && args.protocol.is_none() {
-        let (schema, evidence) = learning::detect(&mut opened, args.address, &args.schemas)?;
-        note = Some(evidence);
-        port::SchemaChoice { schema, path: None }
-    } else {
-        port::resolve_schema(
-            args.schema.as_deref(),
-            &args.schemas,
-            sim_hint,
-            args.protocol,
-        )?
-    };
+    let resolved = learning::resolve(
+        &mut opened,
+        args.address,
+        args.schema.as_deref(),
+        args.protocol,
+        &args.schemas,
+    )?;
+    let (choice, note) = (resolved.choice, resolved.evidence);
     let port_name = opened.name.clone();
     let schema = choice.schema;
     // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
     // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
     if args.schema.is_none()
-        && sim_hint.is_none()
         && args.protocol.is_some()
         && schema.family.descriptor().dialect == Some(Dialect::Mc)
     {
@@ -113,7 +104,7 @@ fn identify(args: &Args) -> Result<u8, Fail> {
             choice.path.as_deref(),
         );
     }
-    let mut client = port::into_client(opened, schema.clone(), args.address, false)?;
+    let mut client = port::into_client(opened, schema.clone(), args.address)?;
     report(
         args,
         &port_name,

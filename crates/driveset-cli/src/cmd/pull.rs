@@ -168,17 +168,16 @@ fn toml_str(s: &str) -> String {
 }
 
 fn pull(args: &Args) -> Result<u8, Fail> {
-    let sim = port::peek_sim_family_at(&args.port, Some(args.address));
     let mut opened = port::open_port_at(&args.port, Some(args.address))?;
-    // No schema and no sim:// family: find the protocol as `scan` does.
-    let mut detected = None;
-    let choice = if args.schema.is_none() && sim.is_none() {
-        let (schema, evidence) = learning::detect(&mut opened, args.address, &args.schemas)?;
-        detected = Some(evidence);
-        port::SchemaChoice { schema, path: None }
-    } else {
-        port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, None)?
-    };
+    // No schema: find the protocol as `scan` does, on every port.
+    let resolved = learning::resolve(
+        &mut opened,
+        args.address,
+        args.schema.as_deref(),
+        None,
+        &args.schemas,
+    )?;
+    let (choice, detected) = (resolved.choice, resolved.evidence);
     let format = match args.to {
         Some(PullTo::Yaml) => Format::Yaml,
         Some(PullTo::Toml) => Format::Toml,
@@ -204,7 +203,6 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         opened,
         choice.schema.clone(),
         args.address,
-        args.allow_family,
         &args.learn,
         &args.schemas,
         Some(&dir),

@@ -76,10 +76,7 @@ pub struct Args {
 /// the run that was cut (its faults and their seed: they would cut the
 /// recovery at the same telegram), its state file as recorded (absolute).
 fn journal_port(recorded: &str) -> String {
-    match driveset_sim::port::SimSpec::parse(recorded) {
-        Ok(s) => s.without_run_keys().name(),
-        Err(_) => recorded.to_string(),
-    }
+    port::without_run_keys(recorded)
 }
 
 /// The schema to recover with: `--schema`, else the journal's: its id
@@ -89,13 +86,12 @@ fn journal_port(recorded: &str) -> String {
 fn journal_schema(
     args: &Args,
     j: &driveset_engine::journal::Journal,
-    sim: Option<driveset_schema::Family>,
 ) -> Result<port::SchemaChoice, Fail> {
     if let Some(s) = &args.schema {
-        return port::resolve_schema(Some(s), &args.schemas, sim, None);
+        return port::resolve_schema(Some(s), &args.schemas, None);
     }
     let want = j.schema_source.schema_fingerprint.as_deref();
-    let by_id = port::resolve_schema(Some(&j.schema), &args.schemas, sim, None);
+    let by_id = port::resolve_schema(Some(&j.schema), &args.schemas, None);
     if let Ok(c) = &by_id
         && want.is_none_or(|f| f == c.schema.fingerprint)
     {
@@ -103,7 +99,7 @@ fn journal_schema(
     }
     match &j.schema_source.schema_path {
         Some(p) if std::path::Path::new(p).is_file() => {
-            port::resolve_schema(Some(p), &args.schemas, sim, None)
+            port::resolve_schema(Some(p), &args.schemas, None)
         }
         _ => by_id,
     }
@@ -124,26 +120,30 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     if driveset_engine::assign::is_assign_journal(j) && !j.is_finished() {
         // the schema the change was made with (`--schema`, else the one
         // the journal records: a learned file types 81 / 82 where the
-        // built-in schema does not)
-        let sim = port::peek_sim_family_at(&port_text, Some(j.target.address));
-        let choice = journal_schema(args, j, sim)?;
+        // built-in schema does not); one no file holds any more leaves the
+        // types to be learned from the drive's descriptions (`assign`)
+        let schema = match journal_schema(args, j) {
+            Ok(c) => Some(c.schema),
+            // a schema the user named must resolve
+            Err(e) if args.schema.is_some() => return Err(e),
+            Err(_) => None,
+        };
         drop(jf);
         return super::address::recover_journal(
             &args.journal,
             &port_text,
             &args.schemas,
-            choice.schema,
+            schema,
             args.format == BusFormat::Json,
         );
     }
     let address = args.address.unwrap_or(j.target.address);
-    let sim = port::peek_sim_family_at(&port_text, Some(address));
-    let choice = journal_schema(args, j, sim)?;
     let json = args.format == BusFormat::Json;
     let state = j.state;
-    let finished = j.is_finished();
-    drop(jf);
-    if finished {
+    if j.is_finished() {
+        // a finished journal needs no schema (an address change's names the
+        // schema learned from the drive, which no file holds)
+        drop(jf);
         let msg = format!(
             "{}: the transaction is already {}; nothing to do",
             args.journal.display(),
@@ -164,9 +164,11 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         }
         return Ok(EXIT_OK);
     }
+    let choice = journal_schema(args, j)?;
+    drop(jf);
     let opened = port::open_port(&port_text)?;
     let port_name = opened.name.clone();
-    let mut client = port::into_client(opened, choice.schema, address, false)?;
+    let mut client = port::into_client(opened, choice.schema, address)?;
     let result = {
         let p = Progress::new("recover", json);
         let opts = RecoverOptions {

@@ -33,14 +33,14 @@ Exit codes: 0 drives found, 2 usage or input error, 3 bus failure or no
 drive answered.
 
 Examples:
-  driveset scan --port sim://mc6000?addresses=3,7
+  driveset scan --port sim://mc6000?addresses=3,7 --protocol lustbus
   driveset scan --port /dev/ttyUSB0 --protocol lecom --detect-baud
   driveset scan --port slcan:///dev/ttyACM0?bitrate=500000 --protocol sdo --format json")]
 pub struct Args {
     /// The port.
     #[arg(long)]
     pub port: String,
-    /// Family, when neither --schema nor a sim:// port says it.
+    /// Family, when --schema does not say it (a CAN port: sdo).
     #[arg(long, value_enum)]
     pub protocol: Option<ProtocolArg>,
     /// Schema id or file (decides the protocol and the probe code).
@@ -63,11 +63,24 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {
-    let sim = port::peek_sim_family(&args.port);
-    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, sim, args.protocol)?;
+    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; a
+    // character line must be told (the same on every port).
+    let protocol_arg = match (args.schema.as_deref(), args.protocol) {
+        (None, None) => match port::open_port(&args.port)?.link {
+            Link::Frames(_) => Some(ProtocolArg(BusProtocol::CanSdo)),
+            Link::Bytes(_) => None,
+        },
+        _ => args.protocol,
+    };
+    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, protocol_arg)?;
     let schema = choice.schema;
-    let protocol = args.protocol.map_or_else(|| schema.family.bus(), |p| p.0);
-    let opts = ScanOptions::default();
+    let protocol = protocol_arg.map_or_else(|| schema.family.bus(), |p| p.0);
+    // the port's ?latency=: each probe waits what the clients allow it
+    let opts = ScanOptions::behind(
+        driveset_link::PortSpec::parse(&args.port)
+            .ok()
+            .and_then(|p| p.latency()),
+    );
     let mut baud_found = None;
     let mut other_rate: Option<u32> = None;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
@@ -122,16 +135,6 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     } else {
         let opened = port::open_port(&args.port)?;
         let name = opened.name.clone();
-        if let Some(f) = opened.simulated_family() {
-            let sim_proto = f.bus();
-            if sim_proto != protocol {
-                return Err(Fail::input(format!(
-                    "{name} simulates {} drives; scan it with --protocol {}",
-                    f.name(),
-                    sim_proto.name()
-                )));
-            }
-        }
         let found = match (opened.link, protocol) {
             (Link::Bytes(mut l), BusProtocol::Lustbus) => {
                 let mut found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
@@ -165,7 +168,6 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                     port::resolve_schema(
                         None,
                         &args.schemas,
-                        None,
                         Some(ProtocolArg(BusProtocol::CanSdo)),
                     )?
                     .schema

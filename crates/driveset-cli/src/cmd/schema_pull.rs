@@ -112,12 +112,27 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     };
     let mut opts = learn_args.options()?;
     let mut opened = port::open_port_at(&args.port, Some(args.address))?;
+    // the drive's family by the read-only probes (an MC answers its own
+    // CODE form of 91-TYPE, a VF1000 NAKs it), on every port; --family
+    // names what the user expects, and another family answering is
+    // identify's finding (exit 1), nothing written
+    let found = learning::resolve(&mut opened, args.address, None, None, &[])?;
     let base = match args.family {
-        Some(f) => learning::builtin_for(f.0, &[])?,
-        None => match port::peek_sim_family_at(&args.port, Some(args.address)) {
-            Some(f) => learning::builtin_for(f, &[])?,
-            None => learning::detect(&mut opened, args.address, &[])?.0,
-        },
+        Some(f) if f.0 != found.choice.schema.family => {
+            return Err(Fail {
+                code: crate::EXIT_FINDINGS,
+                msg: format!(
+                    "{} address {}: the drive answers as {} ({}), not {}; nothing written (give --family {} or leave it out)",
+                    opened.name,
+                    args.address,
+                    found.choice.schema.family.descriptor().title,
+                    found.evidence.unwrap_or_default(),
+                    f.0.descriptor().title,
+                    found.choice.schema.family.name()
+                ),
+            });
+        }
+        _ => found.choice.schema,
     };
     let family_name = base.family.name();
     let Some(max_param) = max_parameter(base.family) else {
@@ -136,7 +151,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     )
     .map_err(Fail::input)?;
     opts.params = Some(params.clone());
-    port::check_fit(&opened, &base, Some(args.address), false)?;
+    port::check_fit(&opened, &base)?;
     let port_name = opened.name.clone();
     let mut client = Session::lustbus(opened, base.clone(), args.address)?;
     let id = args

@@ -286,6 +286,13 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
         config.refuse = driveset_sim::open::parse_refuse(codes)
             .map_err(|e| anyhow::anyhow!("--refuse {codes}: {e}"))?;
     }
+    if (args.layout.is_some() || args.types.is_some() || args.describe.is_some())
+        && family.bus() != BusProtocol::Lustbus
+    {
+        bail!(
+            "--layout, --types and --describe apply to the LUSTBUS families (mc6000, vf1000) only"
+        );
+    }
     if let Some(l) = &args.layout {
         config.description_layout = driveset_proto::lustbus::description::McLayout::from_name(l)
             .ok_or_else(|| anyhow::anyhow!("--layout {l}: use 52, 43, 42 or 34 (errata L22)"))?;

@@ -164,12 +164,11 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
     // a FIFO or device as -o is refused before the port is opened
     crate::files::check_output("-o", &a.output)?;
     let (twin, schema) = capture_drive(&a.port, a.address, |opened| {
-        let sim = port::peek_sim_family_at(&a.port, Some(a.address));
-        Ok(if a.schema.is_none() && sim.is_none() {
-            learning::detect(opened, a.address, &a.schemas)?.0
-        } else {
-            port::resolve_schema(a.schema.as_deref(), &a.schemas, sim, None)?.schema
-        })
+        Ok(
+            learning::resolve(opened, a.address, a.schema.as_deref(), None, &a.schemas)?
+                .choice
+                .schema,
+        )
     })?;
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
@@ -241,8 +240,8 @@ pub fn capture_drive(
     // a family whose drives describe their parameters (LUSTBUS 11.1, 11.2)
     let describes = schema.family.descriptor().learning.is_some();
     let mut client: Box<dyn DriveClient> = if describes {
-        port::check_fit(&opened, &schema, Some(address), false)?;
-        let registry = port::registry_for(&opened.name, &[])?;
+        port::check_fit(&opened, &schema)?;
+        let registry = port::registry(&[])?;
         let connect = opened.connect;
         let c = Session::lustbus(opened, schema.clone(), address)?;
         let drive = format!("{port_name} address {address}");
@@ -271,7 +270,7 @@ pub fn capture_drive(
         described = Some(d.described);
         Box::new(d.client)
     } else {
-        port::into_client(opened, schema.clone(), address, false)?
+        port::into_client(opened, schema.clone(), address)?
     };
     if let Err(e) = driveset_engine::identify::check_family(client.as_mut()) {
         return Err(Fail {

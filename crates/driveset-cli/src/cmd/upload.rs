@@ -26,7 +26,6 @@
 use std::path::PathBuf;
 
 use driveset_engine::dry_run::{self, DryRunOptions, Subject};
-use driveset_engine::overrides::Override;
 use driveset_engine::session;
 use driveset_engine::upload::{UploadOptions, default_journal_path};
 
@@ -149,7 +148,6 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         &args.schemas,
         &args.port,
         args.address,
-        overrides.allows(Override::AllowFamily),
         &args.learn,
         "not uploaded",
     )?;

@@ -68,6 +68,7 @@
 //! nothing is written and no journal is made.
 
 mod codes;
+mod learn;
 mod plan;
 mod probe;
 mod record;

@@ -15,6 +15,7 @@ use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
 
 use super::codes::{address_of_raw, address_raw, bus_codes, rate_raw, shown};
 use super::drive_on;
+use super::learn::{online_command, typed_bus_codes};
 use super::probe::{baud_of, bus_of, bytes, lecom_probe, lust_probe, now, port_of, set_rate};
 use super::refusal::{check_address, check_family_rate, link_err, need_type, refuse, target};
 use super::report::{PlannedWrite, Step, found_text, list};
@@ -171,6 +172,14 @@ pub(super) fn plan_lustbus(
         ));
     }
     let (addr_key, rate_key) = bus_codes(family, &schema, &port)?;
+    // the bus codes' types from the drive's own descriptions when the
+    // schema lacks them (the built-in schemas do), reading only those
+    let mut needed = vec![addr_key];
+    if req.baud.is_some() {
+        needed.push(rate_key);
+        needed.extend(online_command(family));
+    }
+    let schema = typed_bus_codes(link, &port, schema, 0, &needed)?;
     need_type(&schema, &port, addr_key)?;
     if req.baud.is_some_and(|b| b != rate) {
         need_type(&schema, &port, rate_key)?;

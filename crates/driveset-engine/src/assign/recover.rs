@@ -147,6 +147,11 @@ pub fn recover(
             1,
         ));
     };
+    // the bus codes' types from the drive's own descriptions when the
+    // schema lacks them, as the change's plan learned them
+    let mut needed = vec![addr_key, rate_key];
+    needed.extend(super::learn::online_command(family));
+    let schema = super::learn::typed_bus_codes(link, &port, schema, at, &needed)?;
     // the same drive?
     let identity = {
         let mut c = drive_on(link, schema.clone(), at)?;

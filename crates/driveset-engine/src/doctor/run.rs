@@ -159,6 +159,7 @@ pub fn run_can(
     let scan = ScanOptions {
         timeout: Some(options.timeout),
         tries: 1,
+        ..ScanOptions::default()
     };
     let bitrate = link.bitrate();
     let mut times = Vec::new();

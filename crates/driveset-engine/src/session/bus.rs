@@ -177,7 +177,6 @@ mod tests {
                 env,
                 step,
             }),
-            ..SessionPolicy::default()
         }
     }
 

@@ -20,6 +20,7 @@
 //! from [`crate::connect::lustbus_on`] / [`crate::connect::lecom_on`].
 
 pub mod bus;
+pub mod catalog;
 pub mod learning;
 pub mod lustbus_family;
 pub mod open;
@@ -40,10 +41,9 @@ use crate::learn::LearnOptions;
 use crate::scan::{ScanOptions, detect_protocol};
 
 pub use bus::BusSession;
+pub use catalog::{Catalog, CatalogError, Resolved, SchemaAsk, SchemaChoice};
 pub use learning::{LearnStep, LearnedReport, learn_on};
-pub use open::{
-    FitError, FitPolicy, OpenedPort, PortError, Ports, SimulatedDrives, check_fit, open_port,
-};
+pub use open::{FitError, OpenedPort, PortError, Ports, check_fit, open_port};
 
 /// Learning a LUSTBUS schema that lacks facts from the drive's
 /// descriptions ([`learning`]).
@@ -67,8 +67,6 @@ pub struct SessionPolicy<'a> {
     /// Learn the schema from the drive when it lacks facts (`None`: use
     /// the schema as it is, `--no-learn`).
     pub learn: Option<LearnPolicy<'a>>,
-    /// What [`check_fit`] lets through.
-    pub fit: FitPolicy,
 }
 
 /// A drive reached through a port: the client speaking `schema`, and what
@@ -110,6 +108,9 @@ pub enum SessionError {
     /// The schema cannot talk over the port ([`check_fit`]).
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// The schema named does not load or is not known ([`Catalog`]).
+    #[error(transparent)]
+    Catalog(#[from] CatalogError),
     /// The learned schema does not render into a file that checks.
     #[error("{port} address {address}: {detail}")]
     Render {
@@ -182,6 +183,7 @@ impl SessionError {
             SessionError::Engine(e) => e.is_refused(),
             SessionError::Port(e) => e.is_input(),
             SessionError::Fit(_)
+            | SessionError::Catalog(_)
             | SessionError::MissingBuiltin { .. }
             | SessionError::File { .. }
             | SessionError::Earlier { .. }
@@ -194,26 +196,73 @@ impl SessionError {
 
 /// The drive's family at `address` of an open character line, by the
 /// read-only probes `scan` uses ([`crate::scan::probes_text`], and the MC
-/// CODE 20091 after an answered TYPE), and what answered.
-/// Nothing is written.
+/// CODE 20091 after an answered TYPE), and what answered; on a CAN port
+/// the one family that speaks CAN (a node's protocol is not probed: its
+/// identify says whether it is one). Nothing is written.
+///
+/// The probes wait as the clients do for a first contact
+/// ([`ScanOptions::first_contact`]: `latency`, the port's `?latency=`, plus
+/// the floor; without one the first-contact allowance), so a drive behind
+/// a slow device server is found.
 pub fn detect(
     link: &mut Link,
     port: &str,
     address: u8,
+    latency: Option<std::time::Duration>,
 ) -> Result<(driveset_schema::Family, String), SessionError> {
     let Link::Bytes(line) = link else {
-        return Err(SessionError::DetectOnCan {
-            port: port.to_string(),
-        });
+        let mut on_can = driveset_schema::Family::ALL
+            .into_iter()
+            .filter(|f| f.descriptor().on_can());
+        return match (on_can.next(), on_can.next()) {
+            (Some(f), None) => Ok((
+                f,
+                format!("{port} is a CAN port: {} speaks CAN SDO", f.name()),
+            )),
+            _ => Err(SessionError::DetectOnCan {
+                port: port.to_string(),
+            }),
+        };
     };
-    match detect_protocol(line.as_mut(), address, &ScanOptions::default())? {
-        Some(d) => Ok((d.protocol, d.evidence)),
-        None => Err(SessionError::NoAnswer {
-            port: port.to_string(),
-            address,
-            probes: crate::scan::probes_text(),
-        }),
+    let opts = ScanOptions::first_contact(latency);
+    if let Some(d) = detect_protocol(line.as_mut(), address, &opts)? {
+        return Ok((d.protocol, d.evidence));
     }
+    // Nobody at the port's rate: a servo may have been left at a transfer
+    // rate (--transfer-baud); LUSTBUS 5.1 tries every rate, as `scan` does.
+    // The port's rate is set back, so the command's own search (identify's)
+    // finds the drive there and says so.
+    let here = line.baud();
+    let mut found = None;
+    for r in crate::scan::LUSTBUS_BAUDS
+        .iter()
+        .copied()
+        .filter(|r| *r != here)
+    {
+        if line.set_baud(r).is_err() {
+            break;
+        }
+        if let Some(d) = detect_protocol(line.as_mut(), address, &opts)? {
+            found = Some((d.protocol, d.evidence));
+            break;
+        }
+    }
+    if line.baud() != here {
+        line.set_baud(here).map_err(|e| {
+            EngineError::link(
+                crate::client::Target {
+                    port: port.to_string(),
+                    address,
+                },
+                e,
+            )
+        })?;
+    }
+    found.ok_or_else(|| SessionError::NoAnswer {
+        port: port.to_string(),
+        address,
+        probes: crate::scan::probes_text(),
+    })
 }
 
 impl Session {
@@ -241,7 +290,7 @@ impl Session {
         address: u8,
         policy: &SessionPolicy<'_>,
     ) -> Result<Session, SessionError> {
-        check_fit(&port, &schema, Some(address), policy.fit)?;
+        check_fit(&port, &schema)?;
         let way = reach::Owned {
             link: port.link,
             options: port.connect,

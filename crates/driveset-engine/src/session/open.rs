@@ -15,48 +15,18 @@
 //!    process drives);
 //! 3. the port opened ([`Ports::open`]);
 //! 4. the bus the opened link reaches locked ([`driveset_link::Link::bus_id`]),
-//!    unless it lives in this process only (a simulated bus without a
-//!    state file: nothing another process could drive).
+//!    whatever transport it is (a simulated bus that lives in this process
+//!    only names the process in its id, so no other process shares it).
 //!
 //! [`check_fit`] is the refusal before anything is sent when a schema's
-//! protocol does not run on the port's kind of link, or a simulated bus
-//! holds another family than the schema's.
+//! protocol does not run on the port's kind of link. Which drive answers is
+//! identify's finding, the same on every port: a simulated port is only a
+//! transport (docs/architecture.md).
 
 use driveset_link::{Link, LinkError, LockError, PortSpec, PortSpecError};
 use driveset_schema::{BusProtocol, Family, Schema};
 
 use crate::connect::ConnectOptions;
-
-/// The drives a simulated bus holds, as far as a session checks a schema
-/// against them ([`check_fit`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SimulatedDrives {
-    /// Each drive's family and address, in bus order.
-    pub drives: Vec<(Family, u8)>,
-    /// Whether the bus holds drives of several families (a mixed LUSTBUS).
-    pub mixed: bool,
-    /// Whether the bus lives in this process only (no state file): nothing
-    /// another process could drive, so nothing is locked.
-    pub in_process: bool,
-}
-
-impl SimulatedDrives {
-    /// The families on the bus, first appearance first.
-    pub fn families(&self) -> Vec<Family> {
-        let mut out: Vec<Family> = Vec::new();
-        for &(f, _) in &self.drives {
-            if !out.contains(&f) {
-                out.push(f);
-            }
-        }
-        out
-    }
-
-    /// The family of the drive at `address`.
-    pub fn family_of(&self, address: u8) -> Option<Family> {
-        self.drives.iter().find(|d| d.1 == address).map(|&(f, _)| f)
-    }
-}
 
 /// A port the front end opened for one command: what reports call it, its
 /// parsed form, its transport, and what its string says about talking to
@@ -72,8 +42,6 @@ pub struct OpenedPort {
     pub link: Link,
     /// The port's `latency=` and the like.
     pub connect: ConnectOptions,
-    /// What a simulated bus holds (`None`: a real port).
-    pub simulated: Option<SimulatedDrives>,
 }
 
 impl std::fmt::Debug for OpenedPort {
@@ -81,7 +49,6 @@ impl std::fmt::Debug for OpenedPort {
         f.debug_struct("OpenedPort")
             .field("name", &self.name)
             .field("spec", &self.spec)
-            .field("simulated", &self.simulated)
             .finish_non_exhaustive()
     }
 }
@@ -94,32 +61,18 @@ impl OpenedPort {
             connect: ConnectOptions::of(&spec),
             spec,
             link,
-            simulated: None,
         }
     }
 
-    /// The family a simulated port simulates (on a mixed LUSTBUS, the
-    /// family of its first drive).
-    pub fn simulated_family(&self) -> Option<Family> {
-        self.simulated
-            .as_ref()
-            .and_then(|s| s.families().first().copied())
-    }
-
-    /// The family of the simulated drive at `address`; on a mixed LUSTBUS
-    /// without an address, or at an address it does not have, the family
-    /// of the bus that speaks `schema`'s protocol, if any, else the first.
-    fn simulated_family_for(&self, schema: &Schema, address: Option<u8>) -> Option<Family> {
-        let sim = self.simulated.as_ref()?;
-        if let Some(f) = address.and_then(|a| sim.family_of(a)) {
-            return Some(f);
+    /// A port the front end opened, named `name` in reports (an opener's
+    /// canonical form), with its spec's connect options.
+    pub fn named(name: String, spec: PortSpec, link: Link) -> Self {
+        OpenedPort {
+            name,
+            connect: ConnectOptions::of(&spec),
+            spec,
+            link,
         }
-        let families = sim.families();
-        families
-            .iter()
-            .copied()
-            .find(|&f| f == schema.family)
-            .or_else(|| families.first().copied())
     }
 }
 
@@ -205,9 +158,7 @@ pub fn open_port(
         ports.lock(&bus)?;
     }
     let opened = ports.open(port, spec, address)?;
-    if !opened.simulated.as_ref().is_some_and(|s| s.in_process) {
-        ports.lock(&opened.link.bus_id())?;
-    }
+    ports.lock(&opened.link.bus_id())?;
     Ok(opened)
 }
 
@@ -236,60 +187,13 @@ pub enum FitError {
         /// The port.
         port: String,
     },
-    /// A simulated bus whose drive speaks another protocol than the schema.
-    #[error(
-        "{port} {holds} ({protocol}), schema `{schema}` is for {wanted}; use a set / schema of that family"
-    )]
-    SimulatedProtocol {
-        /// The port.
-        port: String,
-        /// What the bus holds (`simulates MC6000 drives`, `has a VF1000
-        /// drive at address 5`).
-        holds: String,
-        /// The simulated family's protocol as schemas spell it.
-        protocol: &'static str,
-        /// Schema id.
-        schema: String,
-        /// The schema's protocol.
-        wanted: &'static str,
-    },
-    /// A simulated bus whose drive is of another family of the schema's
-    /// protocol, without `allow_family`.
-    #[error(
-        "{port} {holds} ({protocol}), schema `{schema}` is for {wanted}; use a set / schema of that family, or pass --allow-family"
-    )]
-    SimulatedFamily {
-        /// The port.
-        port: String,
-        /// What the bus holds.
-        holds: String,
-        /// The simulated family's protocol as schemas spell it.
-        protocol: &'static str,
-        /// Schema id.
-        schema: String,
-        /// The schema's protocol.
-        wanted: &'static str,
-    },
 }
 
-/// What a session lets through [`check_fit`].
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FitPolicy {
-    /// A simulated drive of another family of the schema's protocol passes
-    /// (`--allow-family`).
-    pub allow_family: bool,
-}
-
-/// Check that `schema` can talk over `port` to the drive at `address`: the
-/// protocol's kind of link, and on a simulated bus the family of the drive
-/// (at `address` on a mixed LUSTBUS); another family of the same protocol
-/// passes with [`FitPolicy::allow_family`].
-pub fn check_fit(
-    port: &OpenedPort,
-    schema: &Schema,
-    address: Option<u8>,
-    policy: FitPolicy,
-) -> Result<(), FitError> {
+/// Check that `schema` can talk over `port`: the protocol's kind of link
+/// (a character line for LUSTBUS and LECOM, CAN for SDO). Which family
+/// answers is identify's finding (`identify::check_family`, which
+/// `--allow-family` lets through), the same on every port, not the port's.
+pub fn check_fit(port: &OpenedPort, schema: &Schema) -> Result<(), FitError> {
     let want = schema.family.bus();
     let protocol_of = |f: Family| f.descriptor().schema_protocol;
     match (want, matches!(port.link, Link::Frames(_))) {
@@ -308,32 +212,6 @@ pub fn check_fit(
         }
         _ => {}
     }
-    let Some(f) = port.simulated_family_for(schema, address) else {
-        return Ok(());
-    };
-    let mixed = port.simulated.as_ref().is_some_and(|s| s.mixed);
-    let holds = match (address, mixed) {
-        (Some(a), true) => format!("has a {} drive at address {a}", f.name()),
-        _ => format!("simulates {} drives", f.name()),
-    };
-    if f.bus() != want {
-        return Err(FitError::SimulatedProtocol {
-            port: port.name.clone(),
-            holds,
-            protocol: protocol_of(f),
-            schema: schema.id.clone(),
-            wanted: protocol_of(schema.family),
-        });
-    }
-    if f != schema.family && !policy.allow_family {
-        return Err(FitError::SimulatedFamily {
-            port: port.name.clone(),
-            holds,
-            protocol: protocol_of(f),
-            schema: schema.id.clone(),
-            wanted: protocol_of(schema.family),
-        });
-    }
     Ok(())
 }
 
@@ -343,14 +221,9 @@ mod tests {
 
     use super::*;
 
-    fn family(name: &str) -> Family {
-        Family::from_port_name(name).unwrap()
-    }
-
     /// Opens every port as an in-memory line; records what was locked.
     struct Recorder {
         locked: RefCell<Vec<String>>,
-        simulated: Option<SimulatedDrives>,
     }
 
     impl Ports for Recorder {
@@ -363,9 +236,7 @@ mod tests {
             self.locked.borrow_mut().push(format!("open {spec}"));
             let clock = driveset_link::VirtualClock::new();
             let (host, _drive) = driveset_link::mem::byte_pair(&clock, 9600).unwrap();
-            let mut opened = OpenedPort::real(spec, Link::Bytes(Box::new(host)));
-            opened.simulated = self.simulated.clone();
-            Ok(opened)
+            Ok(OpenedPort::real(spec, Link::Bytes(Box::new(host))))
         }
 
         fn lock(&self, bus: &str) -> Result<(), LockError> {
@@ -379,16 +250,15 @@ mod tests {
         }
     }
 
-    fn recorder(simulated: Option<SimulatedDrives>) -> Recorder {
+    fn recorder() -> Recorder {
         Recorder {
             locked: RefCell::new(Vec::new()),
-            simulated,
         }
     }
 
     #[test]
     fn a_serial_port_is_locked_before_and_after_it_is_opened() {
-        let ports = recorder(None);
+        let ports = recorder();
         open_port(&ports, "/dev/ttyDRIVESET-none?baud=9600", Some(1)).unwrap();
         assert_eq!(
             ports.locked.into_inner(),
@@ -401,25 +271,18 @@ mod tests {
     }
 
     #[test]
-    fn a_tcp_port_is_locked_once_opened_and_an_in_process_bus_not_at_all() {
-        let ports = recorder(None);
+    fn a_tcp_port_is_locked_once_opened() {
+        let ports = recorder();
         open_port(&ports, "tcp://127.0.0.1:4001", None).unwrap();
         assert_eq!(
             ports.locked.into_inner(),
             ["open tcp://127.0.0.1:4001", "lock mem:N"]
         );
-        let ports = recorder(Some(SimulatedDrives {
-            drives: vec![(family("mc6000"), 1)],
-            mixed: false,
-            in_process: true,
-        }));
-        open_port(&ports, "tcp://127.0.0.1:4001", None).unwrap();
-        assert_eq!(ports.locked.into_inner(), ["open tcp://127.0.0.1:4001"]);
     }
 
     #[test]
     fn a_bad_port_string_is_refused_before_anything_is_opened() {
-        let ports = recorder(None);
+        let ports = recorder();
         let e = open_port(&ports, "tcp://", None).unwrap_err();
         assert!(e.is_input());
         assert!(
@@ -428,21 +291,5 @@ mod tests {
             "{e}"
         );
         assert!(ports.locked.into_inner().is_empty());
-    }
-
-    #[test]
-    fn simulated_drives_name_their_families_in_bus_order() {
-        let s = SimulatedDrives {
-            drives: vec![
-                (family("vf1000"), 5),
-                (family("mc6000"), 1),
-                (family("vf1000"), 6),
-            ],
-            mixed: true,
-            in_process: true,
-        };
-        assert_eq!(s.families(), [family("vf1000"), family("mc6000")]);
-        assert_eq!(s.family_of(1), Some(family("mc6000")));
-        assert_eq!(s.family_of(2), None);
     }
 }

@@ -542,10 +542,12 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
     std::fs::write(
         &journal,
         r#"{"journal_version":2,"state":"writing",
-            "target":{"port":"sim://tmd","address":12,"bus":"sim:tmd"},
+            "target":{"port":"sim://tmd","address":12,"bus":"sim:tmd~PID"},
             "identity":{"protocol":"lecom","codes":[["C0200","\"another drive\""]],"software":null},
             "schema":"lenze-tmd","set_fingerprint":"x","fingerprint_before":"y","dataset":false,
-            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#,
+            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#
+            // the in-process bus's id names this process (sim:NAME~PID)
+            .replace("PID", &std::process::id().to_string()),
     )
     .unwrap();
     let r = commission(&m, &opts, &opener).expect("runs");
@@ -1247,10 +1249,12 @@ fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
     std::fs::write(
         &journal,
         r#"{"journal_version":2,"state":"writing",
-            "target":{"port":"sim://mc6000","address":9,"bus":"sim:mc6000"},
+            "target":{"port":"sim://mc6000","address":9,"bus":"sim:mc6000~PID"},
             "identity":{"protocol":"lustbus-mc","codes":[["91-TYPE","6000"]],"software":null},
             "schema":"fictional-mc6000-demo","set_fingerprint":"x","fingerprint_before":"y","dataset":true,
-            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#,
+            "attempt":1,"backup":[],"plan":[],"written":[],"transitions":[],"failure":null}"#
+            // the in-process bus's id names this process (sim:NAME~PID)
+            .replace("PID", &std::process::id().to_string()),
     )
     .unwrap();
     let r = commission(&m, &opts, &opener).expect("runs");

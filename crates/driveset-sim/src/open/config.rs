@@ -200,9 +200,12 @@ impl SimConfig {
 
     /// The simulated bus's identity ([`driveset_link::bus_id`]): `sim:` and
     /// the bus name ([`SimConfig::bus_name`]), plus `@` and the canonical
-    /// state file when the drives' state persists in one. Seed, faults,
-    /// keypad and rates are not part of it: `sim://mc6000?addresses=1&faults=..`
-    /// and `sim://mc6000?addresses=1` with one state file are one bus.
+    /// state file when the drives' state persists in one; without a state
+    /// file the drives live in this process only, and `~` and the process
+    /// id say so (two processes' buses are two buses, each locked as any
+    /// bus is). Seed, faults, keypad and rates are not part of it:
+    /// `sim://mc6000?addresses=1&faults=..` and `sim://mc6000?addresses=1`
+    /// with one state file are one bus.
     pub fn bus_id(&self) -> String {
         match &self.state {
             Some(p) => format!(
@@ -210,7 +213,7 @@ impl SimConfig {
                 self.bus_name(),
                 driveset_link::bus_id::canonical_file(p)
             ),
-            None => format!("sim:{}", self.bus_name()),
+            None => format!("sim:{}~{}", self.bus_name(), std::process::id()),
         }
     }
 

@@ -566,6 +566,11 @@ impl PortOpener for SimOpener {
         out
     }
 
+    fn without_run_keys(&self, spec: &OpaqueSpec) -> OpaqueSpec {
+        SimSpec::from_opaque(spec)
+            .map_or_else(|_| spec.clone(), |s| s.without_run_keys().to_opaque())
+    }
+
     fn with_rate(&self, spec: &OpaqueSpec, rate: u32) -> OpaqueSpec {
         let Ok(mut sim) = SimSpec::from_opaque(spec) else {
             return spec.clone();

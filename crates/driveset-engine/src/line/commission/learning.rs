@@ -70,7 +70,6 @@ pub(super) fn learn_drive<'l>(
                 Mode::Status => LearnStep::ReuseEarlier,
             },
         }),
-        ..SessionPolicy::default()
     };
     let session = BusSession::open_using(
         link,
