@@ -280,6 +280,11 @@ pub fn run_mode(
         .report_dir
         .or_else(|| manifest.report_dir.clone())
         .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
+    // the report's files are checked before any bus is opened: a FIFO or
+    // device there is refused, not found blocking after the line ran
+    for name in [report::JSON_NAME, report::HTML_NAME, "report.junit.xml"] {
+        crate::files::check_output("report", &report_dir.join(name))?;
+    }
     let mut opts = LineOptions::new(&report_dir, Arc::new(crate::env::SystemEnv));
     // the journal directory `upload` uses, so each sees the other's journals
     opts.journal_dir = manifest

@@ -362,26 +362,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let log = match &args.log {
         Some(path) => {
             // 0600: the log is a bus capture (secrets are masked in it,
-            // the rest of the traffic is not)
-            let mut opts = std::fs::OpenOptions::new();
-            opts.write(true).create(true).truncate(true);
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::OpenOptionsExt as _;
-                opts.mode(0o600);
-            }
-            let file = opts
-                .open(path)
-                .and_then(|f| {
-                    // an existing file keeps its mode: restrict it too
-                    #[cfg(unix)]
-                    {
-                        use std::os::unix::fs::PermissionsExt as _;
-                        f.set_permissions(std::fs::Permissions::from_mode(0o600))?;
-                    }
-                    Ok(f)
-                })
-                .with_context(|| format!("cannot create the log file {}", path.display()))?;
+            // the rest of the traffic is not); a FIFO or device is refused
+            let file = driveset_schema::output::create_log(path).map_err(|e| {
+                crate::fail::Fail::input(format!("--log {}: {}", path.display(), e.detail()))
+            })?;
             EventLog::writer(LineWriter::new(file))
         }
         None => EventLog::off(),

@@ -155,6 +155,8 @@ pub fn run(c: TwinCommand) -> Result<u8, Fail> {
 }
 
 fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
+    // a FIFO or device as -o is refused before the port is opened
+    crate::files::check_output("-o", &a.output)?;
     let (twin, schema) = capture_drive(&a.port, a.address, a.schema.as_deref(), &a.schemas)?;
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
@@ -163,6 +165,10 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     let manifest = super::commission::load(&a.manifest, true).map_err(Fail::reported)?;
+    // every twin file is checked before a bus is opened
+    for d in &manifest.drives {
+        crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;
+    }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     let mut worst = EXIT_OK;
@@ -307,12 +313,16 @@ fn today() -> String {
 /// Write `twin` to `path` ([`keep_or_replace`]: an unchanged drive keeps
 /// the file byte-identical); the line to print.
 fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail> {
-    let old = std::fs::read_to_string(path).ok();
+    crate::files::check_output("", path)?;
+    // the file it replaces, through the one reader (absent or unreadable:
+    // written anew)
+    let old = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::TWIN)
+        .ok()
+        .and_then(|b| String::from_utf8(b).ok());
     let text = keep_or_replace(old.as_deref(), twin, Some(schema));
     let unchanged = old.as_deref() == Some(text.as_str());
     if !unchanged {
-        crate::report::write_atomic(path, text.as_bytes())
-            .map_err(|e| Fail::input(format!("cannot write {}: {e}", path.display())))?;
+        crate::files::write_output("", path, text.as_bytes())?;
     }
     Ok(format!(
         "{} {} at address {}: {} codes, {} refused, {} secret(s) not stored{}; {} ({} bytes)",
@@ -440,7 +450,9 @@ pub fn rehearsal_twins(
     let mut out = BTreeMap::new();
     for d in &manifest.drives {
         let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
-        let twin = if file.is_file() {
+        // a file that is there but is no regular file is an error naming
+        // it (the reader says what it is), not a drive without a twin
+        let twin = if std::fs::symlink_metadata(&file).is_ok() {
             let t = load_file(&file).map_err(|e| Fail::input(e.to_string()))?;
             if t.address != d.address {
                 return Err(Fail::input(format!(

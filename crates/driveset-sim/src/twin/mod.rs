@@ -53,6 +53,17 @@ pub enum TwinError {
         #[source]
         source: std::io::Error,
     },
+    /// The file is not a regular file, larger than the twin cap, or not
+    /// UTF-8 (the one input reader's refusal, `driveset_schema::input`).
+    #[error("{message}; {help}")]
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the file.
+        message: String,
+        /// What to do.
+        help: String,
+    },
     /// The text is not TOML.
     #[error("{}: {detail}", path.display())]
     Toml {
@@ -189,6 +200,9 @@ impl Twin {
             path: PathBuf::new(),
             driveset: String::new(),
             captured: String::new(),
+            // where it was captured from: the same drive through another
+            // spelling of its port (`?latency=`) is the same drive
+            source: String::new(),
             reaction: None,
             ..t.clone()
         };
@@ -461,9 +475,19 @@ fn unhex(s: &str) -> Option<Vec<u8>> {
 
 /// Read one twin file.
 pub fn load_file(path: &Path) -> Result<Twin, TwinError> {
-    let text = std::fs::read_to_string(path).map_err(|source| TwinError::Io {
+    // the one input reader: regular files only, the twin cap checked first
+    let input = |message: String, help: String| TwinError::Input {
         path: path.to_path_buf(),
-        source,
+        message,
+        help,
+    };
+    let bytes = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::TWIN)
+        .map_err(|e| input(e.message, e.help))?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        input(
+            format!("{} is not UTF-8 text", path.display()),
+            "a twin file is TOML text; capture it again with `driveset twin capture`".into(),
+        )
     })?;
     Twin::parse(&text, path)
 }
