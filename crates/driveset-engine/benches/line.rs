@@ -14,9 +14,17 @@
 //!   their values (the demo base set, 46 values, 9 of them each axis'
 //!   own), commissioned fresh drive by drive and with `--broadcast-common`
 //!   (the shared CardWriteable values once to address 31 inside every
-//!   drive's dataset download); target with <= 0.80 x without; each
-//!   against its bound;
+//!   drive's dataset download); target with <= 0.70 x without (goal
+//!   0.60; issue 33); each against its bound;
 //! - real wall time of each run.
+//!
+//! Each MC6000 set gives 81-SBAUD = the bus's 19200 (the demo base set
+//! gives the demo line's 9600), or the manifest check refuses it. The
+//! 100-drive rehearsal from twins is `crates/driveset-cli/benches/rehearse.rs`
+//! (it runs the built binary). The history store (the history issue) does
+//! not exist yet: no figure of its overhead here.
+//!
+//! Exit code 1 when a target is missed or a run goes under its bound.
 //!
 //! # Bounds
 //!
@@ -73,6 +81,11 @@ use driveset_test_support::sim_openers;
 
 #[path = "support/line_bound.rs"]
 mod line_bound;
+
+#[path = "support/line_sets.rs"]
+mod line_sets;
+
+use line_sets::{BUSES, write_line};
 
 /// Simulated buses that live across runs, each with a memory event log,
 /// and the one environment (state file, clock of the report) the runs on
@@ -161,84 +174,6 @@ fn event_counts(m: &Manifest, sims: &Sims) -> BTreeMap<String, usize> {
         .collect()
 }
 
-const BUSES: [(&str, &str, &str, &str, &str); 4] = [
-    // name, port, protocol, rate line, base set
-    (
-        "mc",
-        "sim://mc6000",
-        "lustbus",
-        "baud = 19200",
-        "mc6000-base.toml",
-    ),
-    (
-        "vf",
-        "sim://vf1000",
-        "lustbus",
-        "baud = 9600",
-        "vf1000-base.toml",
-    ),
-    (
-        "tmd",
-        "sim://tmd?c0001=3",
-        "lecom",
-        "baud = 9600",
-        "tmd-base.toml",
-    ),
-    (
-        "ecs",
-        "sim://ecs",
-        "can",
-        "bitrate = 500000",
-        "ecs-base.toml",
-    ),
-];
-
-fn write_line(dir: &Path, per_bus: usize) -> std::path::PathBuf {
-    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../parameter-sets/demo-line/sets");
-    let base = base.canonicalize().expect("demo-line sets");
-    let mut m = String::from("[line]\nname = \"bench-line\"\n\n");
-    for (name, port, proto, rate, _) in BUSES {
-        m.push_str(&format!(
-            "[[bus]]\nname = \"{name}\"\nport = \"{port}\"\nprotocol = \"{proto}\"\n{rate}\n\n"
-        ));
-    }
-    for (bus, _, _, _, base_set) in BUSES {
-        let schema = std::fs::read_to_string(base.join(base_set))
-            .unwrap()
-            .lines()
-            .find(|l| l.starts_with("schema = "))
-            .unwrap()
-            .replace("../../", &format!("{}/../../", base.display()));
-        let addrs: Vec<u8> = match bus {
-            "tmd" => (1..=99).filter(|a| a % 10 != 0).take(per_bus).collect(),
-            _ => (1..=per_bus as u8).collect(),
-        };
-        for a in addrs {
-            let own = match bus {
-                "mc" => format!("SADDR = {a}\nKPSC1 = \"0.0{}25 Nm/(rad/s)\"\n", a % 9 + 1),
-                "vf" => format!("SIOA = {a}\n5 = \"{}.5 Hz\"\n", 10 + a),
-                "tmd" => format!("C0012 = \"{}.0 s\"\n", 2 + a % 7),
-                _ => format!("C5001 = \"{} rpm\"\n", 3000 + 10 * u32::from(a)),
-            };
-            let file = format!("{bus}-{a}.toml");
-            std::fs::write(
-                dir.join(&file),
-                format!(
-                    "{schema}\nextends = \"{}\"\n\n[values]\n{own}",
-                    base.join(base_set).display()
-                ),
-            )
-            .unwrap();
-            m.push_str(&format!(
-                "[[drive]]\nname = \"{bus}-{a}\"\nbus = \"{bus}\"\naddress = {a}\nset = \"{file}\"\n\n"
-            ));
-        }
-    }
-    let path = dir.join("line.toml");
-    std::fs::write(&path, m).unwrap();
-    path
-}
-
 fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
     let mut opts = LineOptions::new(dir, sims.1.clone());
     opts.only = only.iter().map(|s| s.to_string()).collect();
@@ -263,17 +198,24 @@ fn main() {
     assert!(l.findings.is_empty(), "{:?}", l.findings);
     let m = l.manifest.unwrap();
     println!("line: {} drives on {} buses", m.drives.len(), m.buses.len());
+    let mut rows: Vec<String> = Vec::new();
+    let mut walls: Vec<(String, f64)> = Vec::new();
 
     let mut alone = Vec::new();
-    for (bus, ..) in BUSES {
+    for ((bus, ..), what) in BUSES.into_iter().zip([
+        "25 MC6000, LUSTBUS 19200",
+        "25 VF1000, LUSTBUS 9600",
+        "25 Tmd, LECOM 9600",
+        "25 ECS, CAN 500 kbit/s",
+    ]) {
         let sims = Sims::default();
         let d = tempfile::tempdir().unwrap();
         let (o, wall) = run(&m, &sims, d.path(), Mode::Commission, &[bus]);
         let ms = o.line_ms();
-        println!(
-            "  bus {bus:<4} alone: {:>9.1} ms virtual, {:>6.3} s wall",
-            ms, wall
-        );
+        rows.push(format!(
+            "| commission, bus {bus} alone ({what}) | {ms:.1} | - | - | - |"
+        ));
+        walls.push((format!("bus {bus} alone"), wall));
         alone.push(ms);
     }
     let slowest = alone.iter().copied().fold(0.0, f64::max);
@@ -289,22 +231,20 @@ fn main() {
             .all(|d| d.result == DriveResult::Verified)
     );
     let line = full.line_ms();
-    println!(
-        "whole line, parallel: {:>9.1} ms virtual ({:.4} x slowest bus alone {:.1} ms; target <= 1.10; buses one after another would take {:.1} ms), {:.3} s wall",
-        line,
-        line / slowest,
-        slowest,
-        sum,
-        wall_full
-    );
+    rows.push(format!(
+        "| commission, whole line, buses in parallel (one after another: {sum:.1} ms) | {line:.1} | the slowest bus alone, {slowest:.1} ms | {:.4} | <= {LINE_TARGET} |",
+        line / slowest
+    ));
+    walls.push(("whole line".into(), wall_full));
     let before = event_counts(&m, &sims);
     let (st, wall_st) = run(&m, &sims, d.path(), Mode::Status, &[]);
     let status_ms = st.line_ms();
     let st_bound = read_only_bound(&m, &sims, &before);
-    println!(
-        "status (read-only run): {status_ms:>9.1} ms virtual ({:.4} x read-only bound {st_bound:.1} ms), {wall_st:.3} s wall",
+    rows.push(format!(
+        "| status (read-only) | {status_ms:.1} | read-only bound, {st_bound:.1} ms | {:.4} | >= 1 |",
         status_ms / st_bound
-    );
+    ));
+    walls.push(("status".into(), wall_st));
     let before = event_counts(&m, &sims);
     let (re, wall_re) = run(&m, &sims, d.path(), Mode::Commission, &[]);
     assert!(
@@ -315,24 +255,60 @@ fn main() {
     );
     let rerun = re.line_ms();
     let bound = read_only_bound(&m, &sims, &before);
-    println!(
-        "rerun, unchanged line: {:>9.1} ms virtual ({:.4} x read-only bound {bound:.1} ms, never under 1; {:.4} x status, target <= 1.02; {:.1} % of the first run), {:.3} s wall",
-        rerun,
-        rerun / bound,
-        rerun / status_ms,
+    rows.push(format!(
+        "| commission again, unchanged line ({:.1} % of the first run; {:.4} x its read-only bound {bound:.1} ms, >= 1) | {rerun:.1} | status | {:.4} | <= {RERUN_TARGET} |",
         100.0 * rerun / line,
-        wall_re
+        rerun / bound,
+        rerun / status_ms
+    ));
+    walls.push(("rerun".into(), wall_re));
+    let mut misses = Vec::new();
+    if line > LINE_TARGET * slowest {
+        misses.push(format!(
+            "whole line {:.4} x the slowest bus > {LINE_TARGET}",
+            line / slowest
+        ));
+    }
+    if rerun > RERUN_TARGET * status_ms {
+        misses.push(format!(
+            "rerun {:.4} x status > {RERUN_TARGET}",
+            rerun / status_ms
+        ));
+    }
+    if rerun < bound || status_ms < st_bound {
+        misses.push("a read-only run went under its bound: the bound is wrong".into());
+    }
+    println!("\n| run | virtual ms | against | ratio | target |");
+    println!("| --- | ---: | --- | ---: | --- |");
+    for r in rows {
+        println!("{r}");
+    }
+    broadcast_line(&mut misses, &mut walls);
+    let build = if cfg!(debug_assertions) {
+        "debug"
+    } else {
+        "release"
+    };
+    println!("\n| run ({build} build) | wall s |");
+    println!("| --- | ---: |");
+    for (what, w) in walls {
+        println!("| {what} | {w:.3} |");
+    }
+    println!(
+        "\nthe history store (the history issue) does not exist yet: no overhead figure for it"
     );
-    let ok = line <= 1.10 * slowest
-        && rerun <= 1.02 * status_ms
-        && rerun >= bound
-        && status_ms >= st_bound;
-    println!("targets: {}", if ok { "met" } else { "MISSED" });
-    let bc_ok = broadcast_line();
-    if !ok || !bc_ok {
+    if misses.is_empty() {
+        println!("line: all targets met");
+    } else {
+        println!("line: TARGETS MISSED:\n{}", misses.join("\n"));
         std::process::exit(1);
     }
 }
+
+/// The whole line against the slowest bus alone (buses run in parallel).
+const LINE_TARGET: f64 = 1.10;
+/// A rerun of the unchanged line against `status` (the same reads).
+const RERUN_TARGET: f64 = 1.02;
 
 /// The 25 MC6000 axes on one LUSTBUS (19200 Bd) sharing 80 % of their
 /// values: the demo base set (46 values) with 9 of them each axis' own.
@@ -344,7 +320,7 @@ fn write_axes(dir: &Path, n: u8) -> std::path::PathBuf {
     );
     for a in 1..=n {
         let own = format!(
-            "SADDR = {a}\nKPSC1 = \"0.0{}25 Nm/(rad/s)\"\nTNSC1 = \"{} ms\"\nSCFLT = \"{}.5 ms\"\nBRKT1 = \"{} ms\"\nBRKT2 = \"{} ms\"\nRACC0 = \"{} 1/min/s\"\nRDEC0 = \"{} 1/min/s\"\nTLIMP = {}\n",
+            "SADDR = {a}\nSBAUD = \"{AXES_BAUD} Baud\"\nKPSC1 = \"0.0{}25 Nm/(rad/s)\"\nTNSC1 = \"{} ms\"\nSCFLT = \"{}.5 ms\"\nBRKT1 = \"{} ms\"\nBRKT2 = \"{} ms\"\nRACC0 = \"{} 1/min/s\"\nRDEC0 = \"{} 1/min/s\"\nTLIMP = {}\n",
             a % 9 + 1,
             20 + u32::from(a),
             1 + a % 9,
@@ -373,6 +349,13 @@ fn write_axes(dir: &Path, n: u8) -> std::path::PathBuf {
 }
 
 const AXES: &str = "axes";
+/// The broadcast run against the drive-by-drive run: issue 33 tightened
+/// the target from 0.80 to 0.70 (0.659x was measured before the bench
+/// stopped running; a regression past 0.70 would go unseen under 0.80),
+/// goal 0.60.
+const BROADCAST_TARGET: f64 = 0.70;
+/// See [`BROADCAST_TARGET`].
+const BROADCAST_GOAL: f64 = 0.60;
 const AXES_BAUD: u32 = 19200;
 
 fn run_axes(m: &Manifest, broadcast: bool) -> (LineOutcome, f64) {
@@ -458,8 +441,9 @@ fn axes_bounds(m: &Manifest) -> (f64, f64, usize) {
     )
 }
 
-/// The broadcast comparison (module docs); whether its target is met.
-fn broadcast_line() -> bool {
+/// The broadcast comparison (module docs): its table; a missed target
+/// goes to `misses`, the runs' wall times to `walls`.
+fn broadcast_line(misses: &mut Vec<String>, walls: &mut Vec<(String, f64)>) {
     let tmp = tempfile::tempdir().unwrap();
     let path = write_axes(tmp.path(), 25);
     let mut reg = Registry::builtin().unwrap();
@@ -484,26 +468,42 @@ fn broadcast_line() -> bool {
     let ratio = tb / tp;
     let telegrams = |o: &LineOutcome| o.report.drives.iter().map(|d| d.telegrams).sum::<u64>();
     println!(
-        "| run | virtual ms | x without broadcast | bound ms | x bound | telegrams | wall s |"
+        "\n| run (25 MC6000 axes, LUSTBUS {AXES_BAUD}) | virtual ms | x drive by drive | bound ms | x bound | telegrams | target |"
     );
-    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | --- |");
     println!(
-        "| commission, drive by drive | {tp:.1} | 1.0000 | {bound_plain:.1} | {:.4} | {} | {wall_plain:.3} |",
+        "| commission, drive by drive | {tp:.1} | 1.0000 | {bound_plain:.1} | {:.4} | {} | - |",
         tp / bound_plain,
         telegrams(&plain)
     );
     println!(
-        "| commission --broadcast-common ({n_bc} values to address 31) | {tb:.1} | {ratio:.4} | {bound_bc:.1} | {:.4} | {} + {n_bc} | {wall_bc:.3} |",
+        "| commission --broadcast-common ({n_bc} values to address 31) | {tb:.1} | {ratio:.4} | {bound_bc:.1} | {:.4} | {} + {n_bc} | <= {BROADCAST_TARGET} (goal {BROADCAST_GOAL}) |",
         tb / bound_bc,
         telegrams(&bc)
     );
+    // one line per kind of note (the 25 axes give the same one each)
+    let mut kinds: Vec<(String, usize)> = Vec::new();
     for w in &bc.warnings {
-        println!("note: {w}");
+        let kind = w
+            .split_once(": ")
+            .map_or(w.as_str(), |(_, k)| k)
+            .to_string();
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, n)) => *n += 1,
+            None => kinds.push((kind, 1)),
+        }
     }
-    let ok = ratio <= 0.80 && tp >= bound_plain && tb >= bound_bc;
-    println!(
-        "broadcast target <= 0.80 x without: {}",
-        if ok { "met" } else { "MISSED" }
-    );
-    ok
+    for (k, n) in kinds {
+        println!("note ({n} x): {k}");
+    }
+    walls.push(("axes drive by drive".into(), wall_plain));
+    walls.push(("axes --broadcast-common".into(), wall_bc));
+    if ratio > BROADCAST_TARGET {
+        misses.push(format!(
+            "broadcast {ratio:.4} x drive by drive > {BROADCAST_TARGET}"
+        ));
+    }
+    if tp < bound_plain || tb < bound_bc {
+        misses.push("an axes run went under its bound: the bound is wrong".into());
+    }
 }

@@ -109,8 +109,8 @@
 //!    consecutive paced writes cannot overlap), where it exceeds that
 //!    phase's minimal exchanges.
 //!
-//! The benchmark fails (prints TARGETS MISSED) if any run comes out under
-//! its first-principles bound. Tmd (LECOM) has none yet: its reply length
+//! The benchmark fails (prints TARGETS MISSED, exit code 1) if any target
+//! is missed or any run comes out under its first-principles bound. Tmd (LECOM) has none yet: its reply length
 //! depends on the value's format, which the bound would have to derive
 //! from the drive's answers.
 //!
@@ -119,9 +119,12 @@
 //! The MC6000 full set uploaded and re-run with `--transfer-baud 57600`
 //! (`driveset_engine::transfer`), timed on the bus clock from before the
 //! switch to after the switch back, and an MC6000 pull of every readable
-//! code at 9600 and at 57600. Targets: the full upload <= 0.70 x the same
-//! upload at 9600 (the store time after SLOAD = -2 does not shrink with
-//! the rate), the re-run and the pull <= 0.30 x theirs at 9600.
+//! code at 9600 and at 57600. Targets (issue 33; issue 12's were 0.70,
+//! 0.30, 0.30): the full upload <= 0.50 x the same upload at 9600 (the
+//! store time after SLOAD = -2 does not shrink with the rate), the re-run
+//! <= 0.30 x and the pull <= 0.25 x theirs at 9600, and each within 1.10 x
+//! its first-principles bound, whose derivation (term by term) the
+//! benchmark prints below its tables.
 
 #[path = "../tests/integration/support/campaign_rig.rs"]
 mod rig;
@@ -140,7 +143,10 @@ use driveset_sim::catalog::Family;
 use driveset_sim::drive::ReactionTime;
 use driveset_sim::log::EventLog;
 
-use bound::{REACTION, ecs_upload_bound, lower_bound, lustbus_pull_bound, lustbus_upload_bound};
+use bound::{
+    Derivation, REACTION, ecs_upload_bound, lower_bound, lustbus_pull_derivation,
+    lustbus_upload_bound, lustbus_upload_derivation,
+};
 
 /// One measured run.
 struct Run {
@@ -221,7 +227,7 @@ fn run(family: Family, set: &ResolvedSet, naive: bool, rerun: bool) -> Run {
 /// the time on the bus clock from before the switch to after the switch
 /// back, and its first-principles bound (the plan is that of the upload:
 /// a `prepare` at 9600 before it, left out of the time).
-fn transfer_run(set: &ResolvedSet, rerun: bool, rate: u32) -> (Duration, Duration, UploadReport) {
+fn transfer_run(set: &ResolvedSet, rerun: bool, rate: u32) -> (Duration, Derivation, UploadReport) {
     use driveset_engine::transfer::{self, TransferRequest};
     let family = Family::Mc6000;
     let b = rig::bus(
@@ -249,13 +255,13 @@ fn transfer_run(set: &ResolvedSet, rerun: bool, rate: u32) -> (Duration, Duratio
         report.render()
     );
     let switched = (rate != rig::BAUD).then_some(rate);
-    let bound = lustbus_upload_bound(family, set, &prepared, rig::BAUD, switched);
+    let bound = lustbus_upload_derivation(family, set, &prepared, rig::BAUD, switched);
     (time, bound, report)
 }
 
 /// An MC6000 pull of every readable code, at 9600 (`rate` = None) or with
 /// `--transfer-baud rate`: time and first-principles bound.
-fn pull_run(rate: Option<u32>) -> (Duration, Duration, usize) {
+fn pull_run(rate: Option<u32>) -> (Duration, Derivation, usize) {
     use driveset_engine::pull::{PullOptions, pull};
     use driveset_engine::transfer::{self, TransferRequest};
     let family = Family::Mc6000;
@@ -290,7 +296,7 @@ fn pull_run(rate: Option<u32>) -> (Duration, Duration, usize) {
     assert!(pulled.skipped.iter().all(|s| !s.failed), "a code failed");
     (
         time,
-        lustbus_pull_bound(family, &keys, rig::BAUD, rate),
+        lustbus_pull_derivation(family, &keys, rig::BAUD, rate),
         pulled.read,
     )
 }
@@ -359,8 +365,9 @@ fn main() {
                 mc_times.push(fast.time);
             }
             rows.push(format!(
-                "| {} | {label} | 9600 | {} codes ({eeprom} EEPROM, {} written) | {} | {} | {:.4} | {} | {} | {} | {:.4} |",
+                "| {} | {label} | {} | {} codes ({eeprom} EEPROM, {} written) | {} | {} | {:.4} | {} | {} | {} | {:.4} |",
                 family.name(),
+                if family == Family::Ecs { "500 kbit/s" } else { "9600" },
                 set.values.len(),
                 fast.report.codes_written,
                 secs(fast.time),
@@ -377,23 +384,21 @@ fn main() {
     let set = rig::full_set(Family::Mc6000, 1);
     let rate = 57600;
     let mut xrows = Vec::new();
-    for (i, (label, rerun, target)) in [("full upload", false, 0.70), ("re-run", true, 0.30)]
-        .into_iter()
-        .enumerate()
+    let mut derivations = Vec::new();
+    for (i, (label, rerun, target)) in [
+        ("full upload", false, FULL_AT_RATE),
+        ("re-run", true, RERUN_AT_RATE),
+    ]
+    .into_iter()
+    .enumerate()
     {
-        let (time, bound, report) = transfer_run(&set, rerun, rate);
+        let (time, d, report) = transfer_run(&set, rerun, rate);
+        let bound = d.total();
         let base = mc_times[i];
-        if of(time, base) > target {
-            misses.push(format!(
-                "mc6000 {label} at {rate}: {:.4}x the 9600 run > {target}",
-                of(time, base)
-            ));
-        }
-        if time < bound {
-            misses.push(format!("mc6000 {label} at {rate}: beat its bound"));
-        }
+        check_transfer(&mut misses, label, time, bound, base, target);
+        derivations.push((format!("mc6000 {label} at {rate}"), d));
         xrows.push(format!(
-            "| mc6000 | {label} | 9600, transfer {rate} | {} codes ({} written) | {} | {} | {:.4} | {:.4}x (target <= {target}) |",
+            "| mc6000 | {label} | 9600, transfer {rate} | {} codes ({} written) | {} | {} | {:.4} (<= {WITHIN_BOUND}) | {:.4}x (<= {target}) |",
             set.values.len(),
             report.codes_written,
             secs(time),
@@ -404,17 +409,12 @@ fn main() {
     }
     let (p9600, b9600, n) = pull_run(None);
     let (pfast, bfast, _) = pull_run(Some(rate));
-    if of(pfast, p9600) > 0.30 {
-        misses.push(format!(
-            "mc6000 pull at {rate}: {:.4}x > 0.30",
-            of(pfast, p9600)
-        ));
+    let (b9600, bfast_t) = (b9600.total(), bfast.total());
+    if p9600 < b9600 {
+        misses.push("mc6000 pull at 9600 beat its bound: the bound is wrong".into());
     }
-    for (t, b) in [(p9600, b9600), (pfast, bfast)] {
-        if t < b {
-            misses.push("mc6000 pull beat its bound".into());
-        }
-    }
+    check_transfer(&mut misses, "pull", pfast, bfast_t, p9600, PULL_AT_RATE);
+    derivations.push((format!("mc6000 pull at {rate}"), bfast));
     xrows.push(format!(
         "| mc6000 | pull | 9600 | {n} codes read | {} | {} | {:.4} | - |",
         secs(p9600),
@@ -422,10 +422,10 @@ fn main() {
         of(p9600, b9600)
     ));
     xrows.push(format!(
-        "| mc6000 | pull | 9600, transfer {rate} | {n} codes read | {} | {} | {:.4} | {:.4}x (target <= 0.30) |",
+        "| mc6000 | pull | 9600, transfer {rate} | {n} codes read | {} | {} | {:.4} (<= {WITHIN_BOUND}) | {:.4}x (<= {PULL_AT_RATE}) |",
         secs(pfast),
-        secs(bfast),
-        of(pfast, bfast),
+        secs(bfast_t),
+        of(pfast, bfast_t),
         of(pfast, p9600)
     ));
     println!();
@@ -444,11 +444,61 @@ fn main() {
     for r in xrows {
         println!("{r}");
     }
+    println!("\nThe first-principles bounds of the transfer-rate rows, term by term:");
+    for (what, d) in &derivations {
+        println!("\n{what}:\n{}", d.render("  "));
+    }
     if misses.is_empty() {
         println!(
-            "\nall targets met (full upload <= 1.05, re-run <= 1.02 of the log bound; at 57600 full upload <= 0.70x, re-run and pull <= 0.30x the 9600 run; no run under its first-principles bound)"
+            "upload: all targets met (full upload <= 1.05, re-run <= 1.02 of the log bound; at 57600 full upload <= {FULL_AT_RATE}x, re-run <= {RERUN_AT_RATE}x, pull <= {PULL_AT_RATE}x the 9600 run, each within {WITHIN_BOUND}x its first-principles bound; no run under its first-principles bound)"
         );
     } else {
-        println!("\nTARGETS MISSED:\n{}", misses.join("\n"));
+        println!("upload: TARGETS MISSED:\n{}", misses.join("\n"));
+        std::process::exit(1);
+    }
+}
+
+/// Targets of the transfer-rate rows against the same run at 9600 and
+/// against their first-principles bound. Issue 12 set 0.70 / 0.30 / 0.30;
+/// issue 33 tightened them to what the switch reaches when nothing but the
+/// work runs at the transfer rate (0.478x / 0.235x / 0.231x measured
+/// before the regression it found): the full upload keeps the store time
+/// after SLOAD = -2, which no rate shortens, so it cannot go as low as the
+/// reads.
+const FULL_AT_RATE: f64 = 0.50;
+/// See [`FULL_AT_RATE`].
+const RERUN_AT_RATE: f64 = 0.30;
+/// See [`FULL_AT_RATE`].
+const PULL_AT_RATE: f64 = 0.25;
+/// How far over its first-principles bound a transfer-rate row may be
+/// (issue 33): the bound leaves out only the client's own choices (the
+/// switch's confirmation reads, the check for a restart after the switch
+/// back, the running check) and the host's gaps.
+const WITHIN_BOUND: f64 = 1.10;
+
+/// The checks of one transfer-rate row.
+fn check_transfer(
+    misses: &mut Vec<String>,
+    label: &str,
+    time: Duration,
+    bound: Duration,
+    base: Duration,
+    target: f64,
+) {
+    if of(time, base) > target {
+        misses.push(format!(
+            "mc6000 {label} at the transfer rate: {:.4}x the 9600 run > {target}",
+            of(time, base)
+        ));
+    }
+    if time < bound {
+        misses.push(format!(
+            "mc6000 {label} at the transfer rate beat its first-principles bound: the bound is wrong"
+        ));
+    } else if of(time, bound) > WITHIN_BOUND {
+        misses.push(format!(
+            "mc6000 {label} at the transfer rate: {:.4}x its first-principles bound > {WITHIN_BOUND}",
+            of(time, bound)
+        ));
     }
 }

@@ -373,15 +373,26 @@ pub fn refusal(
     raw: &RawValue,
 ) -> Option<(crate::FindingKind, String, String)> {
     use crate::FindingKind;
-    let shown = schema.display_code(key.number, key.subcode);
-    let value = crate::validate::display_value(schema, code, raw);
+    // every value of every set passes here: nothing is formatted for a
+    // code without a role (the names and value text below cost more than
+    // the whole check, issue 33's validate_many)
+    let role = code.role?;
+    let shown = || {
+        (
+            schema.display_code(key.number, key.subcode),
+            crate::validate::display_value(schema, code, raw),
+        )
+    };
     let title = code.title.as_deref().unwrap_or(&code.name);
-    match code.role? {
+    match role {
         Role::Command => Some((
             FindingKind::Command,
-            format!(
-                "{shown} = {value} is a command ({title}), not a setting; a set cannot hold it"
-            ),
+            {
+                let (shown, value) = shown();
+                format!(
+                    "{shown} = {value} is a command ({title}), not a setting; a set cannot hold it"
+                )
+            },
             "remove this line: run the command on the drive itself, never from a set".into(),
         )),
         Role::ControlWord => {
@@ -438,6 +449,7 @@ pub fn refusal(
                     "remove this line; control the drive from the control system, not from a set".to_string(),
                 ),
             };
+            let (shown, value) = shown();
             Some((
                 FindingKind::ControlWordNotStopped,
                 format!("{shown} = {value} {why}"),

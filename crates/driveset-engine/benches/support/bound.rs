@@ -191,8 +191,12 @@ fn reply_digits(family: Family, width: usize) -> usize {
 /// (10 + digits); SELECT `EOT ADR STX CODE(5) = VALUE ETX BCC` (11 +
 /// digits) + `ADR ACK` (2). One EOT per exchange: the trailing EOT of one
 /// is the leading EOT of the next (§3).
-pub fn lustbus_exchange(family: Family, need: Need, baud: u32) -> Duration {
-    let schema = rig::schema(family);
+pub fn lustbus_exchange(
+    schema: &driveset_schema::Schema,
+    family: Family,
+    need: Need,
+    baud: u32,
+) -> Duration {
     let width = |k: driveset_schema::CodeKey| {
         usize::from(
             schema
@@ -209,9 +213,47 @@ pub fn lustbus_exchange(family: Family, need: Need, baud: u32) -> Duration {
     wire_time(chars, baud) + REACTION
 }
 
+/// A first-principles bound as the sum of its terms, each named with what
+/// it stands for (the benchmarks print the derivation beside the figure).
+#[derive(Debug, Default)]
+pub struct Derivation {
+    /// (what, how many exchanges or `1`, time) per term.
+    pub terms: Vec<(String, Duration)>,
+}
+
+#[allow(dead_code)] // not every bench uses every method
+impl Derivation {
+    fn add(&mut self, what: impl Into<String>, t: Duration) {
+        if !t.is_zero() {
+            self.terms.push((what.into(), t));
+        }
+    }
+
+    /// The bound.
+    pub fn total(&self) -> Duration {
+        self.terms.iter().map(|(_, t)| *t).sum()
+    }
+
+    /// One line per term and the sum, indented by `indent`.
+    pub fn render(&self, indent: &str) -> String {
+        let mut out = String::new();
+        for (what, t) in &self.terms {
+            out.push_str(&format!(
+                "{indent}{:>9.3} ms  {what}\n",
+                t.as_secs_f64() * 1e3
+            ));
+        }
+        out.push_str(&format!(
+            "{indent}{:>9.3} ms  = the bound\n",
+            self.total().as_secs_f64() * 1e3
+        ));
+        out
+    }
+}
+
 /// The first-principles lower bound of a LUSTBUS upload of `set` planned
 /// as `prepared`, at `baud`, switched to `transfer` (if any) for the work:
-/// see `upload.rs`'s docs. `rate_code` / `command` are 81-SBAUD / 4-PROG.
+/// see `upload.rs`'s docs.
 #[allow(dead_code)] // not every bench uses every bound
 pub fn lustbus_upload_bound(
     family: Family,
@@ -220,60 +262,112 @@ pub fn lustbus_upload_bound(
     baud: u32,
     transfer: Option<u32>,
 ) -> Duration {
+    lustbus_upload_derivation(family, set, prepared, baud, transfer).total()
+}
+
+/// [`lustbus_upload_bound`] term by term.
+#[allow(dead_code)] // not every bench uses every bound
+pub fn lustbus_upload_derivation(
+    family: Family,
+    set: &ResolvedSet,
+    prepared: &Prepared,
+    baud: u32,
+    transfer: Option<u32>,
+) -> Derivation {
     use driveset_schema::{CodeKey, RawValue};
-    let at = |n: Need, b: u32| lustbus_exchange(family, n, b);
+    // the schema once (the simulator's catalog parses every schema it
+    // holds for each one it gives: once per exchange, that was most of the
+    // benchmark's own time)
+    let schema = rig::schema(family);
+    let at = |n: Need, b: u32| lustbus_exchange(&schema, family, n, b);
     let int = |v: &RawValue| match v {
         RawValue::Int(i) => *i,
         _ => 0,
     };
     let work = transfer.unwrap_or(baud);
     let writes = &prepared.plan.writes;
-    let mut t = at(Need::Read(CodeKey::new(91)), baud);
+    let mut d = Derivation::default();
+    d.add(
+        format!("identify: ENQUIRY 91-TYPE at {baud}"),
+        at(Need::Read(CodeKey::new(91)), baud),
+    );
     let selects = !writes.is_empty() || transfer.is_some();
     if selects {
         // SIOF/SERR before the first SELECT (§6: a set power-on bit blocks
         // every change), at the rate of that SELECT
         let first = if transfer.is_some() { baud } else { work };
-        t += at(Need::Read(CodeKey::new(85)), first);
+        d.add(
+            format!("SIOF/SERR before the first SELECT (§6) at {first}"),
+            at(Need::Read(CodeKey::new(85)), first),
+        );
     }
     if let Some(rate) = transfer {
-        t += at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
-            + at(Need::Write(CodeKey::new(4), 111), baud)
-            + at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
-            + at(Need::Write(CodeKey::new(4), 111), rate);
+        d.add(
+            format!("switch over at {baud} (§11.5): SELECT 81 = {rate}, 4 = 111"),
+            at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
+                + at(Need::Write(CodeKey::new(4), 111), baud),
+        );
+        d.add(
+            format!("switch back at {rate}: SELECT 81 = {baud}, 4 = 111"),
+            at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
+                + at(Need::Write(CodeKey::new(4), 111), rate),
+        );
     }
-    for k in set.values.keys() {
-        t += at(Need::Read(*k), work);
-    }
+    d.add(
+        format!(
+            "read-back: {} ENQUIRYs (8 + 10 + the value's digits characters) at {work}",
+            set.values.len()
+        ),
+        set.values.keys().map(|k| at(Need::Read(*k), work)).sum(),
+    );
     let staged: Vec<_> = writes
         .iter()
         .filter(|w| w.phase == Phase::Dataset)
         .collect();
     if !staged.is_empty() {
         let sload = CodeKey::new(80);
-        t += at(Need::Write(sload, -1), work)
-            + at(Need::Write(sload, -2), work)
-            + at(Need::Read(sload), work);
+        d.add(
+            format!("dataset (§11.4): SLOAD = -1, SLOAD = -2, one poll at {work}"),
+            at(Need::Write(sload, -1), work)
+                + at(Need::Write(sload, -2), work)
+                + at(Need::Read(sload), work),
+        );
         let store: Duration = staged
             .iter()
             .map(|w| Duration::from_millis(15 * u64::from(w.width.unwrap_or(4))))
             .sum();
         // overlapping it: the -2 ACK and the final poll's ENQUIRY
         let overlap = REACTION + wire_time(2, work) + wire_time(8, work);
-        t += store.saturating_sub(overlap);
+        d.add(
+            format!(
+                "store of the {} staged values after SLOAD = -2 (width x 3 x 5 ms, §10.2.2; rate-independent), less the -2 ACK and the poll's ENQUIRY",
+                staged.len()
+            ),
+            store.saturating_sub(overlap),
+        );
     }
+    let mut vf_ack = Duration::ZERO;
+    let mut selects_time = Duration::ZERO;
     for w in writes {
         // VF1000: a changed EEPROM value delays the ACK (§10 exception 4:
         // 60 ms one-byte, 120 ms two-byte parameters); every planned write
         // changes its value
-        let ack = if family == Family::Vf1000 && w.storage == driveset_engine::plan::Storage::Eeprom
-        {
-            Duration::from_millis(if w.width == Some(1) { 60 } else { 120 })
-        } else {
-            Duration::ZERO
-        };
-        t += at(Need::Write(w.key, int(&w.new)), work) + ack + at(Need::Read(w.key), work);
+        if family == Family::Vf1000 && w.storage == driveset_engine::plan::Storage::Eeprom {
+            vf_ack += Duration::from_millis(if w.width == Some(1) { 60 } else { 120 });
+        }
+        selects_time += at(Need::Write(w.key, int(&w.new)), work) + at(Need::Read(w.key), work);
     }
+    d.add(
+        format!(
+            "{} SELECTs (11 + the fewest digits + ADR ACK) and their verification ENQUIRYs at {work}",
+            writes.len()
+        ),
+        selects_time,
+    );
+    d.add(
+        "VF1000 forced ACK delays of changed EEPROM values (§10 exception 4)",
+        vf_ack,
+    );
     // the MC EEPROM chain after the commit: stores of consecutive paced
     // writes cannot overlap each other; the phase lasts at least the chain
     let paced: Vec<_> = writes
@@ -287,13 +381,59 @@ pub fn lustbus_upload_bound(
             .filter(|w| w.phase != Phase::Dataset)
             .map(|w| at(Need::Write(w.key, int(&w.new)), work) + at(Need::Read(w.key), work))
             .sum();
-        t += chain.saturating_sub(phase);
+        d.add(
+            "the EEPROM store chain after the commit beyond that phase's exchanges",
+            chain.saturating_sub(phase),
+        );
     }
-    t
+    d
 }
 
 /// The first-principles lower bound of a LUSTBUS pull of `keys` at
-/// `baud`, switched to `transfer` (if any).
+/// `baud`, switched to `transfer` (if any), term by term.
+#[allow(dead_code)] // not every bench uses every bound
+pub fn lustbus_pull_derivation(
+    family: Family,
+    keys: &[driveset_schema::CodeKey],
+    baud: u32,
+    transfer: Option<u32>,
+) -> Derivation {
+    use driveset_schema::CodeKey;
+    let schema = rig::schema(family);
+    let at = |n: Need, b: u32| lustbus_exchange(&schema, family, n, b);
+    let work = transfer.unwrap_or(baud);
+    let mut d = Derivation::default();
+    d.add(
+        format!("identify: ENQUIRY 91-TYPE at {baud}"),
+        at(Need::Read(CodeKey::new(91)), baud),
+    );
+    if let Some(rate) = transfer {
+        d.add(
+            format!("SIOF/SERR before the first SELECT (§6) at {baud}"),
+            at(Need::Read(CodeKey::new(85)), baud),
+        );
+        d.add(
+            format!("switch over at {baud} (§11.5): SELECT 81 = {rate}, 4 = 111"),
+            at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
+                + at(Need::Write(CodeKey::new(4), 111), baud),
+        );
+        d.add(
+            format!("switch back at {rate}: SELECT 81 = {baud}, 4 = 111"),
+            at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
+                + at(Need::Write(CodeKey::new(4), 111), rate),
+        );
+    }
+    d.add(
+        format!(
+            "{} ENQUIRYs (8 + 10 + the value's digits characters) at {work}",
+            keys.len()
+        ),
+        keys.iter().map(|k| at(Need::Read(*k), work)).sum(),
+    );
+    d
+}
+
+/// [`lustbus_pull_derivation`]'s bound.
 #[allow(dead_code)] // not every bench uses every bound
 pub fn lustbus_pull_bound(
     family: Family,
@@ -301,21 +441,7 @@ pub fn lustbus_pull_bound(
     baud: u32,
     transfer: Option<u32>,
 ) -> Duration {
-    use driveset_schema::CodeKey;
-    let at = |n: Need, b: u32| lustbus_exchange(family, n, b);
-    let work = transfer.unwrap_or(baud);
-    let mut t = at(Need::Read(CodeKey::new(91)), baud);
-    if let Some(rate) = transfer {
-        t += at(Need::Read(CodeKey::new(85)), baud)
-            + at(Need::Write(CodeKey::new(81), i64::from(rate)), baud)
-            + at(Need::Write(CodeKey::new(4), 111), baud)
-            + at(Need::Write(CodeKey::new(81), i64::from(baud)), rate)
-            + at(Need::Write(CodeKey::new(4), 111), rate);
-    }
-    for k in keys {
-        t += at(Need::Read(*k), work);
-    }
-    t
+    lustbus_pull_derivation(family, keys, baud, transfer).total()
 }
 
 /// The first-principles lower bound of an ECS (CAN SDO) upload: every

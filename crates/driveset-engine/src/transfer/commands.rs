@@ -1,6 +1,7 @@
 //! The commands at a transfer rate: [`upload`] (the upload between
-//! [`super::begin`] and [`super::end`], then a final read-back at the old
-//! rate), [`pull`] and [`live_diff`] (reads only), and the exchanges each
+//! [`super::begin`] and [`super::end`], then a check at the old rate that
+//! the drive did not restart in between, with a full read-back when it
+//! did), [`pull`] and [`live_diff`] (reads only), and the exchanges each
 //! cannot avoid, for [`super::decide`].
 
 use std::path::Path;
@@ -44,10 +45,11 @@ pub fn upload(
     o.transfer = session.record().cloned();
     let result = crate::upload::upload(client, set, &o);
     let ok = result.is_ok();
+    let restarts = client.restarts_seen();
     let back = end(client, session, &opts.journal, ok).map_err(|b| *b);
     match (result, back) {
         (Ok(mut report), Ok(t)) => {
-            let verified = final_verify(client, set, &report, &opts.journal);
+            let verified = final_verify(client, set, &report, &opts.journal, restarts);
             report.transfer = Some(t);
             match verified {
                 Ok(()) => Ok(report),
@@ -94,14 +96,55 @@ pub fn upload(
     }
 }
 
-/// The last step of a switched upload: read every code of the set the
-/// upload verified or found unchanged back again, at the rate the drive
-/// runs at now (the switch back came after the upload's own verify, and a
-/// restart in between loses RAM values and activates whatever the rate
-/// code held). Only then is the upload complete. A code that reads
-/// otherwise (or not at all) fails the upload: the journal goes to
-/// `failed` with what each planned code holds, for `driveset recover`.
+/// The last step of a switched upload. The switch back came after the
+/// upload's own verify, and a restart in between loses RAM values and
+/// activates whatever the rate code held; the drive's power-on bit says
+/// whether it restarted (`lustbus-protocol.txt` §6: SIOF/SERR has it set
+/// after every start until a read clears it, and the session's first
+/// read cleared it before the switch over). So: when the client saw no
+/// power-on bit since the upload returned (`restarts`: its
+/// [`DriveClient::restarts_seen`] then; the switch back reads SIOF/SERR
+/// after a NAKed SELECT and may recover from the restart it finds), one
+/// read of SIOF/SERR at the rate the drive runs at now; when that shows no
+/// restart either, the upload's verify stands and the upload is complete.
+/// Otherwise (or when the read fails, or the schema has no SIOF/SERR to
+/// ask), every code of the set the upload verified or found unchanged is
+/// read back again ([`read_back_all`]).
+///
+/// Before, every code was read back at the old rate whatever happened:
+/// 215 reads at 9600 baud made an MC6000 upload at 57600 baud 0.72x the
+/// same upload at 9600 and an unchanged re-run 1.23x (slower than not
+/// switching at all; issue 33, the upload bench's transfer-rate rows).
 fn final_verify(
+    client: &mut dyn DriveClient,
+    set: &ResolvedSet,
+    report: &UploadReport,
+    journal: &Path,
+    restarts: u64,
+) -> Result<(), EngineError> {
+    if client.restarts_seen() == restarts && not_restarted(client) {
+        return Ok(());
+    }
+    read_back_all(client, set, report, journal)
+}
+
+/// Whether the drive answers its SIOF/SERR without a power-on bit, so it
+/// has not restarted since the session's first read of it (a power-on bit
+/// now is [`crate::error::ErrorKind::Restarted`] from the LUSTBUS client,
+/// which clears it). `false` for a restart, for any other failure of the
+/// read (the read-back then says what fails and journals it), and when the
+/// schema has no SIOF/SERR code (nothing tells).
+fn not_restarted(client: &mut dyn DriveClient) -> bool {
+    let siof = CodeKey::new(crate::client::lustbus::SIOF);
+    client.schema().code(siof.number).is_some() && client.read(siof).is_ok()
+}
+
+/// After a restart ([`final_verify`]): read every code of the set the
+/// upload verified or found unchanged back again, at the rate the drive
+/// runs at now. A code that reads otherwise (or not at all) fails the
+/// upload: the journal goes to `failed` with what each planned code holds,
+/// for `driveset recover`.
+fn read_back_all(
     client: &mut dyn DriveClient,
     set: &ResolvedSet,
     report: &UploadReport,

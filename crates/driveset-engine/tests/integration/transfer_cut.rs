@@ -291,7 +291,9 @@ fn campaign(set: &ResolvedSet, pick: impl Fn(&str, u64) -> bool) -> (usize, usiz
 fn campaign_every_telegram_of_a_small_transfer_upload_alternating_faults() {
     let set = small_set();
     let (runs, exit0) = campaign(&set, |fault, i| (fault == "cable") == (i % 2 == 0));
-    assert!(runs > 60 && exit0 > 0, "{runs} runs, {exit0} exit 0");
+    // 54 telegrams since issue 33 (after the switch back one SERR read
+    // instead of reading the 18 codes again), 71 before
+    assert!(runs > 50 && exit0 > 0, "{runs} runs, {exit0} exit 0");
 }
 
 #[test]

@@ -417,6 +417,122 @@ mod transfer_rate {
         assert_eq!(c.link().line().drive_baud(1), Some(9600));
     }
 
+    /// Issue 33: after the switch back, a drive that did not restart is
+    /// asked once (SERR: no power-on bit, LUSTBUS §6) instead of having
+    /// every code of the set read again at 9600, which made a switched
+    /// re-run slower than staying at 9600. The re-run at 57600 now takes
+    /// less bus time than the same re-run at 9600.
+    #[test]
+    fn after_the_switch_back_one_serr_read_stands_for_the_read_back_and_a_rerun_gains() {
+        let set = set("parameter-sets/mc6000/axis-1.toml");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let log = EventLog::memory();
+        let mut c = mc_client(&log, None);
+        driveset_engine::upload::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("first.json")),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let t0 = c.clock().now();
+        driveset_engine::upload::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("plain.json")),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let plain = c.clock().now() - t0;
+        let before = log.events().len();
+        let t0 = c.clock().now();
+        let report = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("switched.json")),
+            &TransferRequest::new(57600),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let switched = c.clock().now() - t0;
+        assert!(report.transfer.as_ref().is_some_and(|t| t.switched));
+        assert_eq!(report.state, TxnState::Complete);
+        let all: Vec<String> = seq(&log).split_off(before);
+        let back = all
+            .iter()
+            .rposition(|s| s == "e:drive 1 runs at 9600 baud from here")
+            .expect("switched back");
+        assert_eq!(
+            all[back + 1..],
+            [
+                // confirm at 9600, the set's 19200 back into 81 (not
+                // activated), its read-back
+                "h:<EOT>A00081<ENQ>",
+                "d:A<STX>00081=2580<ETX><BS>",
+                "h:<EOT>A<STX>00081=4B00<ETX>q",
+                "d:A<ACK>",
+                "h:<EOT>A00081<ENQ>",
+                "d:A<STX>00081=4B00<ETX>q",
+                // the restart check: SERR without the power-on bit, and
+                // no code of the set read again
+                "h:<EOT>A00085<ENQ>",
+                "d:A<STX>00085=00<ETX><ETX>",
+            ],
+            "{:#?}",
+            &all[back + 1..]
+        );
+        assert!(
+            switched < plain,
+            "switched re-run {switched:?} against {plain:?} at 9600"
+        );
+    }
+
+    /// A power cycle right after the switch back: the SERR read after it
+    /// finds the power-on bit, every code is read back, and the RAM code
+    /// 428-RSIO the restart lost fails the upload.
+    #[test]
+    fn a_restart_after_the_switch_back_is_found_and_the_read_back_fails_the_upload() {
+        // without 81-SBAUD, so the drive restarts at its own 9600 and
+        // answers the SERR read with the power-on bit
+        let mut set = set("parameter-sets/mc6000/axis-1.toml");
+        set.values.remove(&CodeKey::new(81));
+        let dir = tempfile::tempdir().expect("tempdir");
+        let journal = dir.path().join("j.journal.json");
+        // the last host telegram of a clean run is the SERR read
+        let clean = EventLog::memory();
+        let mut c = mc_client(&clean, None);
+        transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(dir.path().join("clean.json")),
+            &TransferRequest::new(57600),
+        )
+        .unwrap_or_else(|f| panic!("{f}"));
+        let n = clean.events().iter().filter(|e| e.dir == Dir::Host).count();
+        assert_eq!(
+            seq(&clean)
+                .iter()
+                .rfind(|s| s.starts_with("h:"))
+                .map(String::as_str),
+            Some("h:<EOT>A00085<ENQ>")
+        );
+        let log = EventLog::memory();
+        let fault = format!("power-cycle@{n}:off=200ms");
+        let mut c = mc_client(&log, Some(&fault));
+        let f = transfer::upload(
+            &mut c,
+            &set,
+            &UploadOptions::new(&journal),
+            &TransferRequest::new(57600),
+        )
+        .expect_err("a restart after the switch back fails the upload");
+        let text = f.error.to_string();
+        assert!(
+            text.contains("after the switch back, the final read-back at 9600 baud finds")
+                && text.contains("428"),
+            "{text}"
+        );
+        let j = JournalFile::open(&journal).expect("journal").journal;
+        assert_eq!(j.state, TxnState::Failed);
+    }
+
     #[test]
     fn a_small_set_is_not_switched_it_does_not_pay() {
         let schema = catalog::schema(Family::Mc6000).expect("schema");

@@ -142,6 +142,8 @@ pub struct LustbusClient<L: ByteLink = Box<dyn ByteLink>> {
     opts: LustbusOptions,
     /// SIOF/SERR has been read (and so cleared) in this session.
     siof_checked: bool,
+    /// Power-on bits read after the first read ([`DriveClient::restarts_seen`]).
+    restarts_seen: u64,
     /// MC: the EEPROM is storing until then.
     eeprom_busy_until: Option<Instant>,
     /// MC: SLOAD = -1 was accepted and not yet committed.
@@ -184,6 +186,7 @@ impl<L: ByteLink> LustbusClient<L> {
             address,
             opts,
             siof_checked: false,
+            restarts_seen: 0,
             eeprom_busy_until: None,
             dataset_open: false,
         })
@@ -232,6 +235,10 @@ impl<L: ByteLink> LustbusClient<L> {
 
 impl<L: ByteLink> DriveClient for LustbusClient<L> {
     super::shared_client_methods!(super::identify::shown);
+
+    fn restarts_seen(&self) -> u64 {
+        self.restarts_seen
+    }
 
     fn write_named(
         &mut self,
