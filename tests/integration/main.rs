@@ -20,6 +20,7 @@ mod encode;
 mod factory_settings;
 mod fingerprint;
 mod git_setup;
+mod history;
 mod inputs;
 mod json_schema;
 mod junit;

@@ -41,7 +41,8 @@ pub struct Unit {
     /// The family's protocol name (`lustbus-mc`, `lecom` ...; empty when
     /// it was not identified).
     pub family: String,
-    /// Its device type (the family's TYPE code's value), when read.
+    /// Its device type (the family's TYPE code's value, else the first
+    /// identity code's), when read.
     pub device_type: Option<String>,
     /// Its software version, when the family has one.
     pub software: Option<String>,
@@ -60,6 +61,7 @@ impl Unit {
                 .codes
                 .iter()
                 .find(|c| c.key.number == type_code)
+                .or(identity.codes.first())
                 .map(|c| c.value.to_string()),
             software: identity.software.clone(),
             identity: identity.pairs(),
@@ -142,8 +144,8 @@ fn outcome_word(o: &CodeOutcome) -> &'static str {
     }
 }
 
-/// The code records of an upload's codes.
-pub fn upload_codes(codes: &[CodeReport]) -> Vec<CodeRecord> {
+/// The code records of an upload's codes (of `schema`).
+pub fn upload_codes(schema: &Schema, codes: &[CodeReport]) -> Vec<CodeRecord> {
     codes
         .iter()
         .map(|c| {
@@ -153,7 +155,7 @@ pub fn upload_codes(codes: &[CodeReport]) -> Vec<CodeRecord> {
                 _ => None,
             };
             CodeRecord {
-                code: c.code.clone(),
+                code: schema.display_code(c.number, c.subcode),
                 old: Some(c.old.clone()),
                 new: Some(c.new.clone()),
                 verified,
@@ -189,7 +191,7 @@ impl DriveRecord {
             cause: error.map(cause_json),
             error: error.map(|e| e.to_string()),
             journal: rep.journal.clone(),
-            codes: upload_codes(&rep.codes),
+            codes: upload_codes(schema, &rep.codes),
         }
     }
 

@@ -195,12 +195,12 @@ impl Postgres {
     /// Connect to `url` (`postgresql://...`); `shown` is the URL with its
     /// password masked, for messages.
     pub fn connect(url: &str, shown: &str) -> Result<Self, HistoryError> {
-        let mut config: postgres::Config = url.parse().map_err(|e: postgres::Error| {
-            HistoryError::Open {
-                store: shown.to_string(),
-                detail: e.to_string(),
-            }
-        })?;
+        let mut config: postgres::Config =
+            url.parse()
+                .map_err(|e: postgres::Error| HistoryError::Open {
+                    store: shown.to_string(),
+                    detail: e.to_string(),
+                })?;
         if config.get_connect_timeout().is_none() {
             config.connect_timeout(std::time::Duration::from_secs(5));
         }
@@ -213,12 +213,30 @@ impl Postgres {
         Ok(Postgres { client })
     }
 
-    fn params(params: &[Val]) -> Vec<&(dyn postgres::types::ToSql + Sync)> {
+    /// `params` for `stmt`: a NULL goes as the type the statement's
+    /// parameter has (a NULL read from SQLite has no type of its own).
+    fn params<'a>(
+        stmt: &postgres::Statement,
+        params: &'a [Val],
+    ) -> Vec<&'a (dyn postgres::types::ToSql + Sync)> {
+        static NO_INT: Option<i64> = None;
+        static NO_TEXT: Option<String> = None;
         params
             .iter()
-            .map(|v| match v {
-                Val::Int(n) => n as &(dyn postgres::types::ToSql + Sync),
-                Val::Text(s) => s as &(dyn postgres::types::ToSql + Sync),
+            .enumerate()
+            .map(|(i, v)| {
+                let int = stmt
+                    .params()
+                    .get(i)
+                    .is_some_and(|t| *t == postgres::types::Type::INT8);
+                match v {
+                    Val::Int(None) | Val::Text(None) if int => {
+                        &NO_INT as &(dyn postgres::types::ToSql + Sync)
+                    }
+                    Val::Int(None) | Val::Text(None) => &NO_TEXT,
+                    Val::Int(n) => n,
+                    Val::Text(s) => s,
+                }
             })
             .collect()
     }
@@ -230,19 +248,28 @@ impl Db for Postgres {
     }
 
     fn exec(&mut self, sql: &str, params: &[Val]) -> Result<u64, HistoryError> {
-        self.client.execute(sql, &Self::params(params)).map_err(pg)
+        let stmt = self.client.prepare(sql).map_err(pg)?;
+        self.client
+            .execute(&stmt, &Self::params(&stmt, params))
+            .map_err(pg)
     }
 
     fn query(&mut self, sql: &str, params: &[Val]) -> Result<Vec<Row>, HistoryError> {
         use postgres::types::Type;
-        let rows = self.client.query(sql, &Self::params(params)).map_err(pg)?;
+        let stmt = self.client.prepare(sql).map_err(pg)?;
+        let rows = self
+            .client
+            .query(&stmt, &Self::params(&stmt, params))
+            .map_err(pg)?;
         let mut out = Vec::with_capacity(rows.len());
         for r in rows {
             let mut row = Vec::with_capacity(r.len());
             for (i, c) in r.columns().iter().enumerate() {
                 let v = match *c.type_() {
                     Type::INT8 => Val::Int(r.try_get(i).map_err(pg)?),
-                    Type::INT4 => Val::Int(r.try_get::<_, Option<i32>>(i).map_err(pg)?.map(i64::from)),
+                    Type::INT4 => {
+                        Val::Int(r.try_get::<_, Option<i32>>(i).map_err(pg)?.map(i64::from))
+                    }
                     _ => Val::Text(r.try_get(i).map_err(pg)?),
                 };
                 row.push(v);

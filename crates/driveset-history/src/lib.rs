@@ -142,9 +142,7 @@ fn mask_key(s: &str, key: &str) -> String {
         return s.to_string();
     };
     let start = i + key.len();
-    let end = s[start..]
-        .find(['&', ' '])
-        .map_or(s.len(), |j| start + j);
+    let end = s[start..].find(['&', ' ']).map_or(s.len(), |j| start + j);
     format!("{}***{}", &s[..start], mask_key(&s[end..], key))
 }
 
@@ -172,7 +170,9 @@ mod tests {
             mask_url("postgresql://drv@db/history"),
             "postgresql://drv@db/history"
         );
-        let e = Target::parse("mysql://root:pw@x/y").unwrap_err().to_string();
+        let e = Target::parse("mysql://root:pw@x/y")
+            .unwrap_err()
+            .to_string();
         assert_eq!(
             e,
             "history store `mysql://root:***@x/y` not understood: give sqlite:PATH, postgresql://USER@HOST/DB (or postgres://), or off"

@@ -266,7 +266,12 @@ impl Store {
                         &[Val::i(seq), Val::t(c)],
                     )?
                     .first()
-                    .map(|c| (c[0].text().map(str::to_string), c[1].text().map(str::to_string))),
+                    .map(|c| {
+                        (
+                            c[0].text().map(str::to_string),
+                            c[1].text().map(str::to_string),
+                        )
+                    }),
                 None => None,
             };
             out.push(LogRow {

@@ -276,10 +276,9 @@ impl Store {
         row: &[Val],
         codes: &[Row],
     ) -> Result<i64, HistoryError> {
-        let last = self.db.query(
-            "SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1",
-            &[],
-        )?;
+        let last = self
+            .db
+            .query("SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1", &[])?;
         let (seq, prev) = match last.first() {
             Some(r) => (r[0].int().unwrap_or(0) + 1, r[1].str()),
             None => (1, GENESIS.to_string()),
@@ -460,11 +459,7 @@ impl Store {
             "SELECT COUNT(*) FROM session_ends",
         ]
         .iter()
-        .map(|q| {
-            self.db
-                .query(q, &[])
-                .map(|r| r[0][0].int().unwrap_or(0))
-        })
+        .map(|q| self.db.query(q, &[]).map(|r| r[0][0].int().unwrap_or(0)))
         .sum::<Result<i64, _>>()?;
         if counted != records as i64 {
             return Ok(Verdict::Broken {
@@ -633,7 +628,11 @@ impl Store {
     /// once, whatever failed between the copy and its note here (the
     /// shared store refuses a second copy of a session id). Gives the ids
     /// forwarded now.
-    pub fn forward_to(&mut self, shared: &mut Store, at: &str) -> Result<Vec<String>, HistoryError> {
+    pub fn forward_to(
+        &mut self,
+        shared: &mut Store,
+        at: &str,
+    ) -> Result<Vec<String>, HistoryError> {
         let target = shared.shown.clone();
         let mut done = Vec::new();
         for id in self.owed_to(&target)? {

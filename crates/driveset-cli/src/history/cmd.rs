@@ -272,11 +272,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             };
             let mut shared = open()?;
             let ids = super::forward_owed(&mut shared);
-            outln!(
-                "{} session(s) forwarded to {}",
-                ids.len(),
-                shared.shown
-            );
+            outln!("{} session(s) forwarded to {}", ids.len(), shared.shown);
             Ok(EXIT_OK)
         }
         HistoryCommand::Export => {
@@ -291,5 +287,8 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
 /// The line's name and its drives' names, from its manifest.
 fn manifest_drives(path: &std::path::Path) -> Result<(String, Vec<String>), Fail> {
     let m = crate::cmd::commission::load(path, false).map_err(Fail::reported)?;
-    Ok((m.name.clone(), m.drives.iter().map(|d| d.name.clone()).collect()))
+    Ok((
+        m.name.clone(),
+        m.drives.iter().map(|d| d.name.clone()).collect(),
+    ))
 }

@@ -54,9 +54,11 @@ fn args() -> HistoryArgs {
 
 /// The store the flags choose.
 pub fn target() -> Result<Target, Fail> {
-    let text = args()
-        .history
-        .or_else(|| std::env::var("DRIVESET_HISTORY").ok().filter(|s| !s.is_empty()));
+    let text = args().history.or_else(|| {
+        std::env::var("DRIVESET_HISTORY")
+            .ok()
+            .filter(|s| !s.is_empty())
+    });
     match text {
         None => Ok(Target::default_sqlite()),
         Some(t) => Target::parse(&t).map_err(|e| Fail::input(e.to_string())),
@@ -90,12 +92,32 @@ fn station() -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
+/// The OS user: `$USER` / `$LOGNAME`, else the name `/etc/passwd` gives
+/// the process's uid, else `uid N`.
 fn os_user() -> String {
-    std::env::var("USER")
+    if let Some(u) = std::env::var("USER")
         .or_else(|_| std::env::var("LOGNAME"))
         .ok()
         .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "unknown".into())
+    {
+        return u;
+    }
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let Some(uid) = status
+        .lines()
+        .find_map(|l| l.strip_prefix("Uid:"))
+        .and_then(|l| l.split_whitespace().next())
+    else {
+        return "unknown".into();
+    };
+    let passwd = std::fs::read_to_string("/etc/passwd").unwrap_or_default();
+    passwd
+        .lines()
+        .find_map(|l| {
+            let f: Vec<&str> = l.split(':').collect();
+            (f.len() > 2 && f[2] == uid).then(|| f[0].to_string())
+        })
+        .unwrap_or_else(|| format!("uid {uid}"))
 }
 
 /// The command line with secrets masked: a store URL's password, and the
@@ -131,8 +153,9 @@ fn open_for_run(target: &Target) -> Result<(Store, Option<String>), String> {
             }
             Ok(None) => Err("off".into()),
             Err(e) => {
-                let local = driveset_history::open_sqlite(Path::new(driveset_history::DEFAULT_SQLITE))
-                    .map_err(|l| format!("{e}; the local store too: {l}"))?;
+                let local =
+                    driveset_history::open_sqlite(Path::new(driveset_history::DEFAULT_SQLITE))
+                        .map_err(|l| format!("{e}; the local store too: {l}"))?;
                 eprintln!(
                     "warning: {e}; this run is recorded in {} and forwarded by the next run that reaches the store, or by `driveset history sync`",
                     driveset_history::DEFAULT_SQLITE
@@ -214,10 +237,11 @@ pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
         version: env!("CARGO_PKG_VERSION").to_string(),
         station,
         os_user: os_user(),
-        operator: a
-            .operator
-            .clone()
-            .or_else(|| std::env::var("DRIVESET_OPERATOR").ok().filter(|s| !s.is_empty())),
+        operator: a.operator.clone().or_else(|| {
+            std::env::var("DRIVESET_OPERATOR")
+                .ok()
+                .filter(|s| !s.is_empty())
+        }),
         reason: a.reason.clone(),
         label: ctx.label,
         manifest: ctx.manifest,
@@ -263,7 +287,9 @@ pub fn end(code: u8, failure: Option<&str>) {
         ended: rfc3339(jiff::Timestamp::now()),
         outcome: outcome.into(),
         exit_code: Some(code),
-        detail: failure.filter(|f| !f.is_empty()).map(driveset_history::mask_url),
+        detail: failure
+            .filter(|f| !f.is_empty())
+            .map(driveset_history::mask_url),
         closed_by: None,
     };
     let mut store = run.store.lock().unwrap_or_else(PoisonError::into_inner);

@@ -20,10 +20,12 @@ fn or_dash(s: &Option<String>) -> &str {
 pub fn log_table(rows: &[LogRow]) -> String {
     let with_change = rows.iter().any(|r| r.change.is_some());
     let mut table: Vec<Vec<String>> = vec![
-        ["AT", "DRIVE", "COMMAND", "OPERATOR", "RESULT", "WRITTEN", "REASON"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
+        [
+            "AT", "DRIVE", "COMMAND", "OPERATOR", "RESULT", "WRITTEN", "REASON",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect(),
     ];
     if with_change {
         table[0].push("CHANGE".into());
@@ -47,7 +49,13 @@ pub fn log_table(rows: &[LogRow]) -> String {
         table.push(row);
     }
     let widths: Vec<usize> = (0..table[0].len())
-        .map(|i| table.iter().map(|r| r[i].chars().count()).max().unwrap_or(0))
+        .map(|i| {
+            table
+                .iter()
+                .map(|r| r[i].chars().count())
+                .max()
+                .unwrap_or(0)
+        })
         .collect();
     let mut out = String::new();
     for r in &table {

@@ -17,8 +17,8 @@ use super::resume::{record_drive, still_holds};
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_clock, link_now, since};
 use crate::client::{DriveClient, IdentProtocol, Identity};
-use crate::history::{CodeRecord, DriveRecord, Unit};
 use crate::error::{EngineError, ErrorKind};
+use crate::history::{CodeRecord, DriveRecord, Unit};
 use crate::identify::check_family;
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
@@ -295,7 +295,7 @@ impl Job<'_> {
         if let Some(rep) = result.as_ref().map_or_else(|f| f.report.as_deref(), Some) {
             let mut rec = self.rec.borrow_mut();
             rec.unit = Some(Unit::of(&d.schema, &rep.identity));
-            rec.codes = crate::history::upload_codes(&rep.codes);
+            rec.codes = crate::history::upload_codes(&d.schema, &rep.codes);
         }
         if let Some(t) = result.as_ref().map_or_else(
             |f| f.report.as_ref().and_then(|r| r.transfer.clone()),
