@@ -776,3 +776,108 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
         );
     }
 }
+
+/// A commission over a pty served by `driveset sim` killed with SIGKILL
+/// while it writes leaves its session open; `recover` of its journal
+/// closes it with what it found.
+#[test]
+fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
+    use std::time::{Duration, Instant};
+    let _serial = crate::e2e_pty::one_at_a_time();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = crate::e2e_pty::Sim::start(d, "tmd", 13, &["--c0001", "3"]);
+    for f in ["conveyor-3.toml", "base.toml"] {
+        std::fs::copy(workspace_root().join("parameter-sets/tmd").join(f), d.join(f)).unwrap();
+    }
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"pty-line\"\n\n[[bus]]\nname = \"a\"\nport = \"{}\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nbus = \"a\"\naddress = 13\nset = \"conveyor-3.toml\"\nname = \"conveyor-3\"\n",
+            sim.path
+        ),
+    )
+    .unwrap();
+    let mut child = Command::new(driveset_test_support::driveset_bin())
+        .current_dir(d)
+        .env("DRIVESET_LOCK_DIR", d.join("locks"))
+        .env_remove("DRIVESET_HISTORY")
+        .args(["commission", "line.toml", "--operator", "carol", "--reason", "cut"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // the journal says writing: kill -9
+    let journal_dir = d.join(".driveset/journal");
+    let give_up = Instant::now() + Duration::from_secs(300);
+    let journal = loop {
+        let found = std::fs::read_dir(&journal_dir).ok().and_then(|rd| {
+            rd.filter_map(|e| e.ok().map(|e| e.path()))
+                .find(|p| p.to_string_lossy().ends_with(".journal.json"))
+        });
+        if let Some(p) = found
+            && let Ok(t) = std::fs::read_to_string(&p)
+            && let Ok(j) = serde_json::from_str::<serde_json::Value>(&t)
+            && j["state"] == "writing"
+        {
+            break p;
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the commission ended before it wrote");
+        assert!(Instant::now() < give_up, "no journal");
+        std::thread::sleep(Duration::from_millis(2));
+    };
+    assert!(driveset_test_support::send_signal(child.id(), "-KILL"));
+    let pid = child.id();
+    let _ = child.wait();
+    // the session is open: opened, nothing closed it
+    let (_, out, _) = run(d, &["history", "export"]);
+    let recs: Vec<serde_json::Value> = out.lines().map(json).collect();
+    assert_eq!(recs.len(), 1, "{out}");
+    assert_eq!(recs[0]["kind"], "session");
+    assert_eq!(recs[0]["content"][7], "carol");
+    let session = recs[0]["session"].as_str().unwrap().to_string();
+
+    let jarg = journal.display().to_string();
+    let out = driveset_in(d)
+        .env("DRIVESET_LOCK_DIR", d.join("locks"))
+        .env_remove("DRIVESET_HISTORY")
+        .args(["recover", &jarg, "--operator", "dave"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains(&format!(
+            "history: closed session {session} of `driveset commission` (process {pid} gone)\n"
+        )),
+        "{err}"
+    );
+    let (_, out, _) = run(d, &["history", "export"]);
+    let recs: Vec<serde_json::Value> = out.lines().map(json).collect();
+    // the commission's open, recover's open, its drive, the commission's
+    // end (written by recover), recover's end
+    let kinds: Vec<(&str, bool)> = recs
+        .iter()
+        .map(|r| (r["kind"].as_str().unwrap(), r["session"] == session.as_str()))
+        .collect();
+    assert_eq!(
+        kinds,
+        [("session", true), ("session", false), ("drive", false), ("end", true), ("end", false)]
+    );
+    let end = &recs[3]["content"];
+    assert_eq!(end[3], "interrupted");
+    assert_eq!(end[4], serde_json::Value::Null);
+    assert_eq!(end[6], recs[1]["session"]);
+    let detail = end[5].as_str().unwrap();
+    assert!(
+        detail.starts_with(&format!("process {pid} ended without closing its session (`driveset commission` started ")),
+        "{detail}"
+    );
+    assert!(
+        detail.ends_with(&format!("; `driveset recover {jarg}` found the journal writing and rolled-back it")),
+        "{detail}"
+    );
+    let (code, out, _) = run(d, &["history", "verify"]);
+    assert_eq!(code, 0, "{out}");
+}
