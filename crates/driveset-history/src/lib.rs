@@ -98,13 +98,29 @@ impl Target {
     pub fn open(&self) -> Result<Option<Store>, HistoryError> {
         match self {
             Target::Off => Ok(None),
-            Target::Sqlite(p) => open_sqlite(p).map(Some),
+            Target::Sqlite(p) => {
+                if p == Path::new(DEFAULT_SQLITE) {
+                    keep_out_of_git(p);
+                }
+                open_sqlite(p).map(Some)
+            }
             Target::Postgres(url) => {
                 let shown = mask_url(url);
                 let db = db::Postgres::connect(url, &shown)?;
                 Store::over(Box::new(db), shown).map(Some)
             }
         }
+    }
+}
+
+/// The default store's directory keeps the store out of git (as the
+/// journal directory keeps itself): a `.gitignore` naming it, written
+/// once when there is none.
+fn keep_out_of_git(path: &Path) {
+    let Some(dir) = path.parent() else { return };
+    let ignore = dir.join(".gitignore");
+    if !ignore.exists() && std::fs::create_dir_all(dir).is_ok() {
+        let _ = std::fs::write(&ignore, "# the plant history (docs/history.md)\nhistory.sqlite*\n");
     }
 }
 
