@@ -806,7 +806,11 @@ fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
     let d = dir.path();
     let sim = crate::e2e_pty::Sim::start(d, "tmd", 13, &["--c0001", "3"]);
     for f in ["conveyor-3.toml", "base.toml"] {
-        std::fs::copy(workspace_root().join("parameter-sets/tmd").join(f), d.join(f)).unwrap();
+        std::fs::copy(
+            workspace_root().join("parameter-sets/tmd").join(f),
+            d.join(f),
+        )
+        .unwrap();
     }
     std::fs::write(
         d.join("line.toml"),
@@ -820,7 +824,14 @@ fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
         .current_dir(d)
         .env("DRIVESET_LOCK_DIR", d.join("locks"))
         .env_remove("DRIVESET_HISTORY")
-        .args(["commission", "line.toml", "--operator", "carol", "--reason", "cut"])
+        .args([
+            "commission",
+            "line.toml",
+            "--operator",
+            "carol",
+            "--reason",
+            "cut",
+        ])
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -841,7 +852,10 @@ fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
         {
             break p;
         }
-        assert!(child.try_wait().unwrap().is_none(), "the commission ended before it wrote");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the commission ended before it wrote"
+        );
         assert!(Instant::now() < give_up, "no journal");
         std::thread::sleep(Duration::from_millis(2));
     };
@@ -877,11 +891,22 @@ fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
     // end (written by recover), recover's end
     let kinds: Vec<(&str, bool)> = recs
         .iter()
-        .map(|r| (r["kind"].as_str().unwrap(), r["session"] == session.as_str()))
+        .map(|r| {
+            (
+                r["kind"].as_str().unwrap(),
+                r["session"] == session.as_str(),
+            )
+        })
         .collect();
     assert_eq!(
         kinds,
-        [("session", true), ("session", false), ("drive", false), ("end", true), ("end", false)]
+        [
+            ("session", true),
+            ("session", false),
+            ("drive", false),
+            ("end", true),
+            ("end", false)
+        ]
     );
     let end = &recs[3]["content"];
     assert_eq!(end[3], "interrupted");
@@ -889,11 +914,15 @@ fn a_commission_killed_mid_write_leaves_an_open_session_that_recover_closes() {
     assert_eq!(end[6], recs[1]["session"]);
     let detail = end[5].as_str().unwrap();
     assert!(
-        detail.starts_with(&format!("process {pid} ended without closing its session (`driveset commission` started ")),
+        detail.starts_with(&format!(
+            "process {pid} ended without closing its session (`driveset commission` started "
+        )),
         "{detail}"
     );
     assert!(
-        detail.ends_with(&format!("; `driveset recover {jarg}` found the journal writing and rolled-back it")),
+        detail.ends_with(&format!(
+            "; `driveset recover {jarg}` found the journal writing and rolled-back it"
+        )),
         "{detail}"
     );
     let (code, out, _) = run(d, &["history", "verify"]);

@@ -9,6 +9,7 @@
 //! versioned migrations (`schema.rs`).
 
 pub mod db;
+pub mod generate;
 pub mod query;
 pub mod schema;
 pub mod store;
@@ -120,7 +121,10 @@ fn keep_out_of_git(path: &Path) {
     let Some(dir) = path.parent() else { return };
     let ignore = dir.join(".gitignore");
     if !ignore.exists() && std::fs::create_dir_all(dir).is_ok() {
-        let _ = std::fs::write(&ignore, "# the plant history (docs/history.md)\nhistory.sqlite*\n");
+        let _ = std::fs::write(
+            &ignore,
+            "# the plant history (docs/history.md)\nhistory.sqlite*\n",
+        );
     }
 }
 

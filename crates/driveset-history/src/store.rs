@@ -150,6 +150,10 @@ pub struct Store {
     db: Box<dyn Db>,
     /// The store as messages name it (a password masked).
     pub shown: String,
+    /// Inside [`Store::batch`]: the chain's last record, kept rather than
+    /// read again for every record.
+    head: Option<(i64, String)>,
+    in_batch: bool,
 }
 
 fn hash(prev: &str, content: &str) -> String {
@@ -254,7 +258,12 @@ impl Store {
     /// A store over `db`, migrated to this build's schema.
     pub fn over(mut db: Box<dyn Db>, shown: String) -> Result<Self, HistoryError> {
         crate::schema::migrate(&mut *db)?;
-        Ok(Store { db, shown })
+        Ok(Store {
+            db,
+            shown,
+            head: None,
+            in_batch: false,
+        })
     }
 
     /// `sqlite` or `postgresql`.
@@ -298,13 +307,20 @@ impl Store {
             ),
             &params,
         )?;
-        let sql = format!(
-            "INSERT INTO codes (drive_seq, {CODE_COLUMNS}) VALUES ({})",
-            placeholders(1, 8)
-        );
-        for c in codes {
-            let mut p = vec![Val::i(seq)];
-            p.extend(c.iter().cloned());
+        // many rows a statement
+        for chunk in codes.chunks(64) {
+            let values: Vec<String> = (0..chunk.len())
+                .map(|i| format!("({})", placeholders(1 + i * 8, 8)))
+                .collect();
+            let sql = format!(
+                "INSERT INTO codes (drive_seq, {CODE_COLUMNS}) VALUES {}",
+                values.join(", ")
+            );
+            let mut p = Vec::with_capacity(chunk.len() * 8);
+            for c in chunk {
+                p.push(Val::i(seq));
+                p.extend(c.iter().cloned());
+            }
             self.db.exec(&sql, &p)?;
         }
         self.db.exec(
@@ -314,17 +330,46 @@ impl Store {
                 Val::t(kind),
                 Val::t(session_id),
                 Val::t(prev),
-                Val::t(h),
+                Val::t(&h),
             ],
         )?;
+        if self.in_batch {
+            self.head = Some((seq, h));
+        }
         Ok(seq)
     }
 
-    /// Run `f` as one append transaction.
+    /// Run `f` (appends) as one transaction: a bulk load (the scale
+    /// bench) commits once, not per record.
+    pub fn batch<T>(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
+    ) -> Result<T, HistoryError> {
+        self.db.begin_append()?;
+        self.in_batch = true;
+        let r = f(self);
+        self.in_batch = false;
+        self.head = None;
+        match r {
+            Ok(t) => {
+                self.db.commit()?;
+                Ok(t)
+            }
+            Err(e) => {
+                self.db.rollback();
+                Err(e)
+            }
+        }
+    }
+
+    /// Run `f` as one append transaction (inside a batch: as part of it).
     fn append<T>(
         &mut self,
         f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
+        if self.in_batch {
+            return f(self);
+        }
         self.db.begin_append()?;
         match f(self) {
             Ok(t) => {
