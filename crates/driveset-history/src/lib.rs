@@ -123,7 +123,7 @@ fn keep_out_of_git(path: &Path) {
     if !ignore.exists() && std::fs::create_dir_all(dir).is_ok() {
         let _ = std::fs::write(
             &ignore,
-            "# the plant history (docs/history.md)\nhistory.sqlite*\n",
+            "# the plant history (docs/history.md)\n/.gitignore\nhistory.sqlite*\n",
         );
     }
 }
