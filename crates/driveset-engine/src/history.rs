@@ -239,6 +239,72 @@ impl DriveRecord {
     }
 }
 
+/// The code records a line drive's report shows (its diff: what was
+/// written or differs), for a run whose codes the report alone keeps
+/// (`replace`).
+pub fn diff_codes(r: &DriveReport) -> Vec<CodeRecord> {
+    let verified = r.result == DriveResult::Verified;
+    r.diff
+        .iter()
+        .map(|l| CodeRecord {
+            code: l.code.clone(),
+            old: l.old.clone(),
+            new: l.new.clone(),
+            verified: l.new.clone().filter(|_| verified),
+            outcome: if verified { "verified" } else { "not-written" }.into(),
+            phase: None,
+        })
+        .collect()
+}
+
+impl DriveRecord {
+    /// The record of `driveset address` (a lone drive given its address
+    /// and rate): the slot it was given, the codes written, each verified
+    /// or not.
+    pub fn of_assign(report: &crate::assign::AssignReport) -> Self {
+        let p = &report.plan;
+        DriveRecord {
+            slot: Slot {
+                line: None,
+                drive: None,
+                bus: p.bus.clone(),
+                address: p.to,
+            },
+            unit: Unit {
+                family: IdentProtocol::Family(p.family).name().to_string(),
+                device_type: p.type_value.map(|t| t.to_string()),
+                software: p.identity.software.clone(),
+                identity: p.identity.pairs(),
+            },
+            schema: p.schema_id.clone(),
+            set_fingerprint: None,
+            fingerprint_before: None,
+            fingerprint_after: None,
+            result: "complete".into(),
+            cause: None,
+            error: None,
+            journal: Some(report.journal.clone()),
+            codes: report
+                .written
+                .iter()
+                .map(|w| CodeRecord {
+                    code: w.clone(),
+                    old: None,
+                    new: None,
+                    verified: None,
+                    outcome: if report.verified.contains(w) {
+                        "verified"
+                    } else {
+                        "written"
+                    }
+                    .into(),
+                    phase: None,
+                })
+                .collect(),
+        }
+    }
+}
+
 /// A line drive's result as the report writes it.
 pub fn line_result(r: DriveResult) -> &'static str {
     match r {

@@ -114,17 +114,13 @@ impl Target {
     }
 }
 
-/// The default store's directory keeps the store out of git (as the
-/// journal directory keeps itself): a `.gitignore` naming it, written
-/// once when there is none.
+/// The default store's directory (`.driveset`) keeps itself out of git
+/// as the journals' does: created the one way the engine creates it
+/// ([`driveset_engine::journal::ensure_dir`], a `.gitignore` of `*` in the
+/// topmost directory it creates).
 fn keep_out_of_git(path: &Path) {
-    let Some(dir) = path.parent() else { return };
-    let ignore = dir.join(".gitignore");
-    if !ignore.exists() && std::fs::create_dir_all(dir).is_ok() {
-        let _ = std::fs::write(
-            &ignore,
-            "# the plant history (docs/history.md)\n/.gitignore\nhistory.sqlite*\n",
-        );
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        let _ = driveset_engine::journal::ensure_dir(dir);
     }
 }
 
