@@ -181,6 +181,9 @@ impl Db for Sqlite {
 /// A PostgreSQL server.
 pub struct Postgres {
     client: postgres::Client,
+    /// Statements prepared once per connection (a query is one round trip,
+    /// not two).
+    prepared: std::collections::HashMap<String, postgres::Statement>,
 }
 
 fn pg(e: postgres::Error) -> HistoryError {
@@ -210,7 +213,10 @@ impl Postgres {
                 store: shown.to_string(),
                 detail: e.to_string(),
             })?;
-        Ok(Postgres { client })
+        Ok(Postgres {
+            client,
+            prepared: std::collections::HashMap::new(),
+        })
     }
 
     /// `params` for `stmt`: a NULL goes as the type the statement's
@@ -242,13 +248,24 @@ impl Postgres {
     }
 }
 
+impl Postgres {
+    fn prepare(&mut self, sql: &str) -> Result<postgres::Statement, HistoryError> {
+        if let Some(s) = self.prepared.get(sql) {
+            return Ok(s.clone());
+        }
+        let s = self.client.prepare(sql).map_err(pg)?;
+        self.prepared.insert(sql.to_string(), s.clone());
+        Ok(s)
+    }
+}
+
 impl Db for Postgres {
     fn batch(&mut self, sql: &str) -> Result<(), HistoryError> {
         self.client.batch_execute(sql).map_err(pg)
     }
 
     fn exec(&mut self, sql: &str, params: &[Val]) -> Result<u64, HistoryError> {
-        let stmt = self.client.prepare(sql).map_err(pg)?;
+        let stmt = self.prepare(sql)?;
         self.client
             .execute(&stmt, &Self::params(&stmt, params))
             .map_err(pg)
@@ -256,7 +273,7 @@ impl Db for Postgres {
 
     fn query(&mut self, sql: &str, params: &[Val]) -> Result<Vec<Row>, HistoryError> {
         use postgres::types::Type;
-        let stmt = self.client.prepare(sql).map_err(pg)?;
+        let stmt = self.prepare(sql)?;
         let rows = self
             .client
             .query(&stmt, &Self::params(&stmt, params))

@@ -357,12 +357,21 @@ impl Store {
             At::Latest => (i64::MAX, None),
             At::Time(t) => (i64::MAX, Some(t.clone())),
             At::Label(l) => {
+                // from the label's sessions (its index) to their drives;
+                // the line is picked here, so no plan walks the line's
+                // every record
                 let r = self.db().query(
-                    "SELECT MAX(d.seq) FROM drives d JOIN sessions s ON s.id = d.session_id \
-                     WHERE s.label = $1 AND d.line = $2",
-                    &[Val::t(l), Val::t(line)],
+                    "SELECT d.seq, d.line FROM sessions s JOIN drives d ON d.session_id = s.id \
+                     WHERE s.label = $1",
+                    &[Val::t(l)],
                 )?;
-                (r.first().and_then(|r| r[0].int()).unwrap_or(0), None)
+                let cut = r
+                    .iter()
+                    .filter(|r| r[1].text() == Some(line))
+                    .filter_map(|r| r[0].int())
+                    .max()
+                    .unwrap_or(0);
+                (cut, None)
             }
         };
         let until = until.unwrap_or_else(|| "9999".into());
