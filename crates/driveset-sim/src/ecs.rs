@@ -104,6 +104,7 @@ struct Dictionary<'a> {
     table: &'a ParamTable,
     values: &'a mut BTreeMap<CodeKey, RawValue>,
     refused_reads: &'a BTreeMap<CodeKey, AbortCode>,
+    hidden: &'a std::collections::BTreeSet<CodeKey>,
 }
 
 impl Dictionary<'_> {
@@ -115,10 +116,15 @@ impl Dictionary<'_> {
             0 => CodeKey::new(number),
             s => CodeKey::sub(number, u32::from(s)),
         };
-        if let Some(p) = self.table.get(key) {
+        let seen = |k: &CodeKey| !self.hidden.contains(k);
+        if let Some(p) = self.table.get(key).filter(|_| seen(&key)) {
             return Ok((p, code));
         }
-        if self.table.iter().any(|p| p.key.number == number) {
+        if self
+            .table
+            .iter()
+            .any(|p| p.key.number == number && seen(&p.key))
+        {
             Err(AbortCode::NO_SUCH_SUBINDEX)
         } else {
             Err(AbortCode::NO_SUCH_OBJECT)
@@ -219,6 +225,9 @@ pub struct EcsDrive {
     /// Codes whose SDO upload is aborted with this code although the
     /// table holds them ([`FrameDrive::refuse_read`]).
     refused_reads: BTreeMap<CodeKey, AbortCode>,
+    /// Codes answered as objects the node does not have
+    /// ([`FrameDrive::forget`]); the model keeps their values for itself.
+    hidden: std::collections::BTreeSet<CodeKey>,
 }
 
 impl EcsDrive {
@@ -244,6 +253,7 @@ impl EcsDrive {
             reaction: ReactionTime::of(driveset_schema::Family::Ecs, false),
             off_until: None,
             refused_reads: BTreeMap::new(),
+            hidden: std::collections::BTreeSet::new(),
         }
     }
 
@@ -297,6 +307,17 @@ impl FrameDrive for EcsDrive {
         Ok(())
     }
 
+    /// From now on an upload or download of `key` is aborted as for any
+    /// object the node does not have (DS301 table 22).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        if self.table.get(key).is_none() {
+            let display = self.table.schema().display_code(key.number, key.subcode);
+            return Err(format!("{display}: no such code on an ECS node"));
+        }
+        self.hidden.insert(key);
+        Ok(())
+    }
+
     fn node_id(&self) -> u8 {
         self.node.get()
     }
@@ -317,6 +338,7 @@ impl FrameDrive for EcsDrive {
             table: &self.table,
             values: &mut self.values,
             refused_reads: &self.refused_reads,
+            hidden: &self.hidden,
         };
         let response = self.server.on_frame_data(frame.payload(), &mut od)?;
         Some(FrameReply {

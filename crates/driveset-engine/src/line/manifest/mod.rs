@@ -70,6 +70,7 @@ use driveset_schema::{CodeKey, InputError, Location, Registry, ResolvedSet, Sche
 mod bus_codes;
 mod finding;
 mod reader;
+mod same_device;
 
 pub(crate) use bus_codes::bus_code_finding;
 pub use finding::ManifestFinding;
@@ -108,6 +109,15 @@ pub struct Bus {
     pub location: Location,
     /// Where the bus's rate is given (`baud` / `bitrate`, else the port).
     pub rate_location: Option<Location>,
+}
+
+impl Bus {
+    /// What the bus's port says about talking to its drives (its
+    /// `latency=`): every client of a line run on the bus is connected with
+    /// it, as a one-drive command's client is with its port's.
+    pub fn connect(&self) -> crate::connect::ConnectOptions {
+        crate::connect::ConnectOptions::of(&self.port)
+    }
 }
 
 /// One drive of a line.
