@@ -23,6 +23,7 @@ mod fingerprint;
 mod git_setup;
 mod harden;
 mod harden_small;
+mod history;
 mod inputs;
 mod json_schema;
 mod junit;

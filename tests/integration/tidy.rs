@@ -28,10 +28,13 @@ const ARROWS: &[(&str, &[&str])] = &[
         "driveset-sim",
         &["driveset-link", "driveset-proto", "driveset-schema"],
     ),
+    // the plant history's store: implements the engine's seam, below the CLI
+    ("driveset-history", &["driveset-engine"]),
     (
         "driveset-cli",
         &[
             "driveset-engine",
+            "driveset-history",
             "driveset-sim",
             "driveset-link",
             "driveset-proto",

@@ -29,6 +29,7 @@ mod editor;
 mod env;
 mod fail;
 mod files;
+mod history;
 mod learning;
 mod output;
 mod port;
@@ -64,6 +65,9 @@ pub const EXIT_BUS: u8 = 3;
 pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Where the run is recorded (docs/history.md).
+    #[command(flatten)]
+    history: history::HistoryArgs,
 }
 
 #[derive(Subcommand)]
@@ -108,6 +112,9 @@ enum Command {
     Twin(cmd::twin::TwinCommand),
     /// Read-only drift check of a machine line against its sets.
     Status(cmd::status::Args),
+    /// The plant history: who wrote what to which drive, when and why (log, blame, as-built, diff, verify).
+    #[command(subcommand)]
+    History(history::cmd::HistoryCommand),
     /// Make `git diff` show semantic diffs of set files (.gitattributes + diff driver).
     GitSetup(cmd::git_setup::Args),
     /// The textconv filter of the `driveset` git diff driver (one line per code).
@@ -133,6 +140,7 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    history::set_args(cli.history);
     let result = match cli.command {
         Command::Validate(a) => cmd::validate::run(a),
         Command::Schema(c) => cmd::schema::run(c),
@@ -153,6 +161,7 @@ fn main() -> ExitCode {
         Command::Status(a) => cmd::status::run(a),
         Command::Replace(a) => cmd::replace::run(a),
         Command::Twin(c) => cmd::twin::run(c),
+        Command::History(c) => history::cmd::run(c),
         Command::GitSetup(a) => cmd::git_setup::run(a),
         Command::Textconv(a) => cmd::git_setup::run_textconv(a),
         Command::Report(a) => report::run(a),
@@ -160,9 +169,16 @@ fn main() -> ExitCode {
         Command::Completions(a) => cmd::completions::run(a),
         Command::Man(a) => cmd::completions::run_man(a),
     };
+    // the run's session (if a command opened one) closes with its outcome
     let code = match result {
-        Ok(code) => code,
-        Err(f) => f.report(),
+        Ok(code) => {
+            history::end(code, None);
+            code
+        }
+        Err(f) => {
+            history::end(f.code, Some(&f.msg));
+            f.report()
+        }
     };
     // output that did not arrive (`> /dev/full`) is an input/usage error
     if output::stdout_failed() && code < EXIT_INPUT {

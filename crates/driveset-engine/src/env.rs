@@ -1,7 +1,8 @@
 //! The world a line run needs beyond its links and their clocks: wall-clock
 //! time for the report's `started` / `finished` and the resume state's
-//! `verified_at`, the git commit of the sets, and the small files a line
-//! run keeps (the resume state, learned schemas). The engine does none of
+//! `verified_at`, the git commit of the sets, the small files a line
+//! run keeps (the resume state, learned schemas), and the plant history
+//! its drives go on record in ([`crate::history`]). The engine does none of
 //! this itself: the CLI implements [`Environment`] (system time, `git`,
 //! the file system), tests implement it with a fixed time.
 //!
@@ -14,6 +15,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
 
+use crate::history::History;
 use crate::line::report::GitInfo;
 
 /// What a line run asks of the world (module docs).
@@ -35,6 +37,12 @@ pub trait Environment: Send + Sync {
 
     /// Create the directory `dir` and its parents.
     fn create_dir(&self, dir: &Path) -> io::Result<()>;
+
+    /// Where the run's drives go on record ([`crate::history`]): the
+    /// session the front end opened for this run; none when history is off.
+    fn history(&self) -> Option<&dyn History> {
+        None
+    }
 }
 
 /// An [`Environment`] that touches nothing: a fixed wall-clock time, the

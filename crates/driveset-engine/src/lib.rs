@@ -24,6 +24,7 @@ pub mod dry_run;
 pub mod env;
 pub mod error;
 pub mod guard;
+pub mod history;
 pub mod identify;
 pub mod journal;
 pub mod learn;

@@ -171,7 +171,9 @@ fn address(args: &Args) -> Result<u8, Fail> {
             plan.to,
         ),
     };
+    crate::history::begin("address", crate::history::Context::default(), true)?;
     let report = assign::run(&mut link, &plan, &journal)?;
+    crate::history::drive(&driveset_engine::history::DriveRecord::of_assign(&report));
     emit_report(&name, &report, json);
     Ok(EXIT_OK)
 }

@@ -296,7 +296,22 @@ pub fn run_mode(
     for name in [report::JSON_NAME, report::HTML_NAME, "report.junit.xml"] {
         crate::files::check_output("report", &report_dir.join(name))?;
     }
-    let mut opts = LineOptions::new(&report_dir, Arc::new(crate::env::SystemEnv));
+    // a rehearsal writes to twins, not to drives: not on record
+    if c.rehearse.is_none() {
+        crate::history::begin(
+            match mode {
+                Mode::Commission => "commission",
+                Mode::Status => "status",
+            },
+            crate::history::Context {
+                label: c.label.clone().or_else(|| manifest.label.clone()),
+                manifest: Some(c.manifest.display().to_string()),
+                sets: Some(c.manifest.clone()),
+            },
+            mode == Mode::Commission,
+        )?;
+    }
+    let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::RecordedEnv::system()));
     // the journal directory `upload` uses, so each sees the other's journals
     opts.journal_dir = manifest
         .journal_dir

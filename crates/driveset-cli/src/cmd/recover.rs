@@ -105,6 +105,66 @@ fn journal_schema(
     }
 }
 
+/// Put the recovery on the run's record, and close the sessions of this
+/// station that processes killed mid-way left open with what it found.
+fn record(
+    port_name: &str,
+    address: u8,
+    schema: &driveset_schema::Schema,
+    journal: &std::path::Path,
+    result: &Result<driveset_engine::recover::RecoverReport, driveset_engine::error::EngineError>,
+) {
+    use driveset_engine::history::{DriveRecord, Slot};
+    let slot = Slot {
+        bus: port_name.to_string(),
+        address,
+        ..Slot::default()
+    };
+    let (record, found) = match result {
+        Ok(r) => {
+            let action = match r.action {
+                RecoverAction::Nothing => "nothing-to-do",
+                RecoverAction::Completed => "completed",
+                RecoverAction::RolledBack => "rolled-back",
+            };
+            let mut rec = DriveRecord::of_error(
+                slot,
+                schema,
+                &driveset_engine::error::EngineError::journal(journal.display().to_string(), ""),
+            );
+            rec.result = action.into();
+            rec.cause = None;
+            rec.error = None;
+            rec.fingerprint_after = r.fingerprint.clone();
+            rec.journal = Some(r.journal.clone());
+            rec.codes = r
+                .restored
+                .iter()
+                .map(|c| driveset_engine::history::CodeRecord {
+                    code: c.clone(),
+                    old: None,
+                    new: None,
+                    verified: None,
+                    outcome: "restored".into(),
+                    phase: None,
+                })
+                .collect();
+            let found = format!(
+                "`driveset recover {}` found the journal {} and {action} it",
+                journal.display(),
+                r.found.as_str()
+            );
+            (rec, found)
+        }
+        Err(e) => (
+            DriveRecord::of_error(slot, schema, e),
+            format!("`driveset recover {}` failed: {e}", journal.display()),
+        ),
+    };
+    crate::history::drive(&record);
+    crate::history::close_interrupted(&found);
+}
+
 /// Run `driveset recover`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     recover(&args)
@@ -166,8 +226,10 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     }
     let choice = journal_schema(args, j)?;
     drop(jf);
+    crate::history::begin("recover", crate::history::Context::default(), true)?;
     let opened = port::open_port(&port_text)?;
     let port_name = opened.name.clone();
+    let schema = choice.schema.clone();
     let mut client = port::into_client(opened, choice.schema, address)?;
     let result = {
         let p = Progress::new("recover", json);
@@ -180,6 +242,7 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         r
     };
     let _ = client.finish();
+    record(&port_name, address, &schema, &args.journal, &result);
     let report = result?;
     if json {
         output::emit(&format!(

@@ -230,6 +230,15 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             return Ok(EXIT_FINDINGS);
         }
     }
+    crate::history::begin(
+        "replace",
+        crate::history::Context {
+            manifest: Some(args.manifest.display().to_string()),
+            sets: Some(args.manifest.clone()),
+            label: manifest.label.clone(),
+        },
+        true,
+    )?;
     let env = crate::env::SystemEnv;
     let outcome = finish(&manifest, &prep, &mut link, &port_name, &opts, &env);
     let (report, done) = match outcome {
@@ -237,6 +246,17 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         Err(ReplaceError::Upload { report, error }) => (*report, Err(error)),
         Err(e) => return Err(refusal(&e)),
     };
+    // the slot's new unit, on record with what was written to it
+    for d in report.drives.iter().filter(|d| d.name == args.drive) {
+        use driveset_engine::history::{DriveRecord, Unit, diff_codes};
+        let unit = Unit {
+            family: prep.plan.family.to_string(),
+            device_type: d.identity.first().map(|(_, v)| v.clone()),
+            identity: d.identity.clone(),
+            ..Unit::default()
+        };
+        crate::history::drive(&DriveRecord::of_line(&report.line, d, unit, diff_codes(d)));
+    }
     let written = report::write_reports(&report, &report_dir).map_err(|e| {
         Fail::input(format!(
             "cannot write the report into {}: {e}",

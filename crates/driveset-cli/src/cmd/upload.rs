@@ -25,6 +25,8 @@
 
 use std::path::PathBuf;
 
+use driveset_engine::history::{DriveRecord, Slot};
+
 use driveset_engine::dry_run::{self, DryRunOptions, Subject};
 use driveset_engine::session;
 use driveset_engine::upload::{UploadOptions, default_journal_path};
@@ -188,6 +190,20 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             default_journal_path(&dir, client.as_ref())
         }
     };
+    crate::history::begin(
+        "upload",
+        crate::history::Context {
+            sets: Some(args.set.clone()),
+            ..Default::default()
+        },
+        true,
+    )?;
+    let slot = Slot {
+        bus: port_name.clone(),
+        address: args.address,
+        ..Slot::default()
+    };
+    let schema = client.schema().clone();
     let mut opts = UploadOptions::new(&journal);
     opts.overrides = overrides;
     let result = {
@@ -198,6 +214,13 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         r
     };
     let _ = client.finish();
+    match &result {
+        Ok(r) => crate::history::drive(&DriveRecord::of_upload(slot, &schema, r, None)),
+        Err(f) => crate::history::drive(&match &f.report {
+            Some(r) => DriveRecord::of_upload(slot, &schema, r, Some(&f.error)),
+            None => DriveRecord::of_error(slot, &schema, &f.error),
+        }),
+    }
     match result {
         Ok(report) => {
             if json {

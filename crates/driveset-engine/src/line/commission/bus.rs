@@ -90,7 +90,9 @@ pub(super) fn run_bus(
     };
     let (out, failed) = if ctx.mode == Mode::Commission && ctx.opts.broadcast_common {
         if bus.protocol == BusProtocol::Lustbus && may_broadcast(&on, drives, listed, &link) {
-            run_lustbus_broadcast(&on, drives, &mut link, &mut report)
+            let (out, failed) = run_lustbus_broadcast(&on, drives, &mut link, &mut report);
+            record_reports(bus, drives, &out, ctx);
+            (out, failed)
         } else {
             if bus.protocol != BusProtocol::Lustbus {
                 broadcast_common(&on, drives, &mut link, &mut report);
@@ -105,6 +107,36 @@ pub(super) fn run_bus(
         report,
         drives: out,
         failed,
+    }
+}
+
+/// The drives of a LUSTBUS broadcast run on the run's record
+/// ([`crate::history`]): their parked transactions end in their reports,
+/// whose diff holds the codes written.
+fn record_reports(bus: &Bus, drives: &[&Drive], out: &[DriveReport], ctx: &Ctx<'_>) {
+    use crate::history::{DriveRecord, Unit, diff_codes};
+    let Some(h) = ctx.opts.env.history() else {
+        return;
+    };
+    for r in out {
+        let Some(d) = drives.iter().find(|d| d.name == r.name) else {
+            continue;
+        };
+        let unit = Unit {
+            family: crate::client::IdentProtocol::Family(d.schema.family)
+                .name()
+                .to_string(),
+            device_type: r.identity.first().map(|(_, v)| v.clone()),
+            identity: r.identity.clone(),
+            ..Unit::default()
+        };
+        let record = DriveRecord::of_line(ctx.line, r, unit, diff_codes(r));
+        if let Err(e) = h.drive(&record) {
+            ctx.warn(format!(
+                "{} ({}): not recorded in the history: {e}",
+                r.name, bus.name
+            ));
+        }
     }
 }
 

@@ -5,6 +5,8 @@
 //! the online baud-rate switch where the bus asks for one); its report,
 //! and how a failure ends it (the link gone, or the drive silent).
 
+use std::cell::RefCell;
+
 use driveset_link::Link;
 use driveset_schema::{ResolvedSet, Schema};
 
@@ -14,8 +16,9 @@ use super::recovery::recover_unfinished;
 use super::resume::{record_drive, still_holds};
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_clock, link_now, since};
-use crate::client::{DriveClient, Identity};
+use crate::client::{DriveClient, IdentProtocol, Identity};
 use crate::error::{EngineError, ErrorKind};
+use crate::history::{CodeRecord, DriveRecord, Unit};
 use crate::identify::check_family;
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
@@ -84,14 +87,49 @@ pub(in crate::line) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -
     }
 }
 
+/// What a drive's work found for its history record ([`crate::history`]):
+/// the unit, the codes, the typed cause.
+#[derive(Default)]
+struct Recorded {
+    unit: Option<Unit>,
+    codes: Vec<CodeRecord>,
+    cause: Option<String>,
+}
+
 /// One drive on a bus drive by drive: learning, recovery, then `status` or
 /// `commission` (module docs of [`super`]). Gives its report, its spans for
-/// the timeline, and what kind of failure ended it.
+/// the timeline, and what kind of failure ended it; the drive goes on the
+/// run's record ([`crate::env::Environment::history`]) whatever happened.
 pub(super) fn run_drive(
     bus: &Bus,
     d: &Drive,
     link: &mut Link,
     ctx: &Ctx<'_>,
+) -> (DriveReport, Vec<Span>, Option<Failure>) {
+    let rec = RefCell::new(Recorded::default());
+    let out = work_drive(bus, d, link, ctx, &rec);
+    if let Some(h) = ctx.opts.env.history() {
+        let rec = rec.into_inner();
+        let unit = rec.unit.unwrap_or_else(|| Unit {
+            family: IdentProtocol::Family(d.schema.family).name().to_string(),
+            identity: out.0.identity.clone(),
+            ..Unit::default()
+        });
+        let mut record = DriveRecord::of_line(ctx.line, &out.0, unit, rec.codes);
+        record.cause = rec.cause;
+        if let Err(e) = h.drive(&record) {
+            ctx.warn(format!("{}: not recorded in the history: {e}", d.name));
+        }
+    }
+    out
+}
+
+fn work_drive(
+    bus: &Bus,
+    d: &Drive,
+    link: &mut Link,
+    ctx: &Ctx<'_>,
+    rec: &RefCell<Recorded>,
 ) -> (DriveReport, Vec<Span>, Option<Failure>) {
     let t0 = link_now(link);
     let (watch, hook) = drive_watch(bus, d, ctx);
@@ -148,11 +186,15 @@ pub(super) fn run_drive(
         d,
         ctx,
         hook: &hook,
+        rec,
     };
     let mut recovered: Vec<String> = Vec::new();
     let outcome = job.work(&mut *client, &mut r, &mut recovered);
     for w in recovered {
         ctx.warn(w);
+    }
+    if let Err(e) = &outcome {
+        rec.borrow_mut().cause = Some(crate::history::cause_json(e));
     }
     let failure = outcome.err().and_then(|e| mark_failed(&mut r, &e));
     let _ = client.finish();
@@ -182,6 +224,7 @@ struct Job<'a> {
     d: &'a Drive,
     ctx: &'a Ctx<'a>,
     hook: &'a Hook,
+    rec: &'a RefCell<Recorded>,
 }
 
 impl Job<'_> {
@@ -216,7 +259,9 @@ impl Job<'_> {
         r.identity = id.pairs();
         self.hook
             .enter(client.clock(), Phase::Read, Some(d.set.values.len()));
+        self.rec.borrow_mut().unit = Some(Unit::of(&d.schema, &id));
         let live = live_values(&mut *client, &d.set)?;
+        self.rec.borrow_mut().codes = read_codes(&d.schema, &live, &d.set);
         let fp = live.fingerprint();
         r.diff = diff_lines(&d.schema, &live, &d.set);
         r.factory_settings =
@@ -253,6 +298,11 @@ impl Job<'_> {
             Some(req) => crate::transfer::upload(&mut *client, &d.set, &uo, req),
             None => upload(&mut *client, &d.set, &uo),
         };
+        if let Some(rep) = result.as_ref().map_or_else(|f| f.report.as_deref(), Some) {
+            let mut rec = self.rec.borrow_mut();
+            rec.unit = Some(Unit::of(&d.schema, &rep.identity));
+            rec.codes = crate::history::upload_codes(&d.schema, &rep.codes);
+        }
         if let Some(t) = result.as_ref().map_or_else(
             |f| f.report.as_ref().and_then(|r| r.transfer.clone()),
             |r| r.transfer.clone(),
@@ -334,6 +384,27 @@ pub(in crate::line) fn fill_from_upload(
             new: Some(c.new.clone()),
         })
         .collect();
+}
+
+/// The code records of a read-only look at a drive (`status`): each code
+/// of the set, what the drive holds (`read`) or that it differs (`drift`);
+/// a secret's value is never put in a record.
+fn read_codes(schema: &Schema, live: &ResolvedSet, set: &ResolvedSet) -> Vec<CodeRecord> {
+    set.values
+        .iter()
+        .map(|(k, want)| {
+            let have = live.values.get(k);
+            let text = |v| value_text(schema, *k, v);
+            CodeRecord {
+                code: schema.display_code(k.number, k.subcode),
+                old: have.map(text),
+                new: Some(text(want)),
+                verified: have.filter(|h| *h == want).map(text),
+                outcome: if have == Some(want) { "read" } else { "drift" }.into(),
+                phase: None,
+            }
+        })
+        .collect()
 }
 
 /// The semantic diff drive -> set as report lines.

@@ -21,6 +21,8 @@ use crate::line::report::{
 /// What every bus thread of a run shares: the options, the mode, the
 /// resume state (`commission` only) and the warnings gathered so far.
 pub(super) struct Ctx<'a> {
+    /// The line's name (the history's slots name it).
+    pub(super) line: &'a str,
     pub(super) opts: &'a LineOptions,
     pub(super) mode: Mode,
     pub(super) state: Option<&'a Mutex<CommissionState>>,
@@ -65,6 +67,7 @@ pub fn run_line(
         None
     };
     let ctx = Ctx {
+        line: &manifest.name,
         opts,
         mode,
         state: state.as_ref(),
