@@ -58,6 +58,7 @@ enum Kind {
     TextSelector,
     BusAddress,
     LineRate,
+    Store,
 }
 
 impl Permit {
@@ -85,6 +86,10 @@ impl Permit {
     /// §4, §11.5; Tmd C0125) to a value that codes one of the family's
     /// rates.
     pub(crate) const LINE_RATE: Permit = Permit(Kind::LineRate);
+    /// The store step after a verified upload: the schema's store code to
+    /// the one value that stores (`[schema.store]`, CiA 301 0x1010 sub 1
+    /// = "save").
+    pub(crate) const STORE: Permit = Permit(Kind::Store);
 
     /// The permit's name in messages.
     pub fn name(self) -> &'static str {
@@ -97,6 +102,7 @@ impl Permit {
             Kind::TextSelector => "text-selector (108-STEXT)",
             Kind::BusAddress => "bus-address",
             Kind::LineRate => "line-rate",
+            Kind::Store => "store",
         }
     }
 }
@@ -212,6 +218,9 @@ pub(crate) fn check(
                 && crate::assign::rate_of_raw(schema, key, raw)
                     .is_some_and(|r| d.line_rates.rates.contains(&r)),
         ),
+        Kind::Store => Some(schema.store.command().is_some_and(|c| {
+            key.number == c.code && key.subcode.is_none() && int == Some(c.value)
+        })),
         // §11.3: the substitution texts are read through MC dialect codes
         // (61ppp), so only the family that speaks it has the selector
         Kind::TextSelector => Some(

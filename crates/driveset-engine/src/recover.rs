@@ -85,6 +85,10 @@ pub struct RecoverReport {
     pub notes: Vec<String>,
     /// Fingerprint of what the drive holds over the set's codes (when read).
     pub fingerprint: Option<String>,
+    /// The store command was written again (`[schema.store] keeps =
+    /// "on-command"`, the drive holding the new values).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub stored: bool,
     /// The client's port/address differ from the journal's (identity matched).
     pub target_note: Option<String>,
     /// A transfer-rate switch the journal left open: where the drive was
@@ -128,6 +132,7 @@ pub fn recover(
         restored: Vec::new(),
         notes: Vec::new(),
         fingerprint: None,
+        stored: false,
         target_note: None,
         transfer: None,
     };
@@ -416,11 +421,29 @@ fn settle(
         jf.persist()?;
         report.action = action;
     } else if all_new && !sload_open {
+        // a drive that keeps writes only on command holds them in RAM
+        // until stored: store (again: a store command is idempotent)
+        if let Some(command) = schema.store.command() {
+            let t = at(&*client);
+            jf.journal.transition(
+                TxnState::Storing,
+                t,
+                Some("recover: the drive holds the new values (read back); storing".into()),
+            );
+            jf.persist()?;
+            hook.enter(client.clock(), Step::Store, Some(1));
+            client.store(command)?;
+            report.stored = true;
+        }
         let t = at(&*client);
         jf.journal.transition(
             TxnState::Complete,
             t,
-            Some("recover: the drive holds the new values (read back)".into()),
+            Some(if report.stored {
+                "recover: the drive holds the new values (read back) and stored them".into()
+            } else {
+                "recover: the drive holds the new values (read back)".into()
+            }),
         );
         jf.persist()?;
         report.action = RecoverAction::Completed;

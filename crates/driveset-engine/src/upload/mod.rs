@@ -71,6 +71,7 @@ mod refusal;
 mod report;
 mod rollback;
 mod state;
+mod store;
 mod transaction;
 mod write;
 
@@ -90,6 +91,7 @@ pub use refusal::UploadRefusal;
 pub use report::{
     CodeOutcome, CodeReport, Next, Replanned, StepError, UploadFailure, UploadReport,
 };
+pub use store::Stored;
 pub(crate) use rollback::{RollbackPlan, describe_holdings, holdings, restore};
 use transaction::Opening;
 pub use transaction::Transaction;
