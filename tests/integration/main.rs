@@ -39,6 +39,7 @@ mod schema_check;
 mod schema_import;
 mod show;
 mod sim;
+mod store;
 mod tidy;
 mod transfer_pty;
 mod twin;

@@ -221,6 +221,23 @@ pub trait FrameDrive: Send + std::fmt::Debug {
         let _ = (key, answer);
         Err(format!("a {} node cannot refuse reads", self.family()))
     }
+
+    /// What the node has stored, where it keeps writes only until a store
+    /// command (`[schema.store] keeps = "on-command"`); `None` where every
+    /// write is kept (a state dump then holds the values alone).
+    fn stored_state(&self) -> Option<ResolvedSet> {
+        None
+    }
+
+    /// Set what the node has stored (loading a state dump); a node that
+    /// keeps every write ignores it.
+    fn restore_stored(
+        &mut self,
+        values: std::collections::BTreeMap<CodeKey, RawValue>,
+    ) -> Result<(), String> {
+        let _ = values;
+        Ok(())
+    }
 }
 
 /// A device reaction time range, drawn uniformly per telegram.

@@ -242,8 +242,9 @@ impl Store {
 /// "ram-control"`) that is not a control word is lost at power off
 /// (`lustbus-protocol.txt` §11.1: "They lose their values on power down";
 /// §11.2 likewise), so a set holding it would not survive a power cycle.
-/// A control word is exempt: its stopped state is what the set asks of a
-/// running machine, and the drive's power-up state is its own. The message
+/// A control word and a setpoint are exempt: they are the machine's run
+/// state (a set preloads them: the stopped state, a reference), which the
+/// drive takes from its power-up state and the machine's control again. The message
 /// names the code and the document the code's entry cites for its kind.
 pub fn ram_finding(
     schema: &Schema,
@@ -251,7 +252,10 @@ pub fn ram_finding(
     key: crate::CodeKey,
 ) -> Option<(crate::FindingKind, String, String)> {
     if code.kind != Some(super::StorageKind::RamControl)
-        || code.role == Some(crate::role::Role::ControlWord)
+        || matches!(
+            code.role,
+            Some(crate::role::Role::ControlWord | crate::role::Role::Setpoint)
+        )
     {
         return None;
     }
