@@ -27,7 +27,13 @@ fn upload(dir: &Path, state: &Path, faults: &str, journal: &Path) -> (Option<i32
         driveset_in_with_locks(dir)
             .arg("upload")
             .arg(set())
-            .args(["--port", &port(state, faults), "--address", "1", "--journal"])
+            .args([
+                "--port",
+                &port(state, faults),
+                "--address",
+                "1",
+                "--journal",
+            ])
             .arg(journal),
     )
 }
@@ -41,17 +47,20 @@ fn power_cycle(dir: &Path, state: &Path) {
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(
         err,
-        format!("power-cycled 1 simulated ecs drive of {}\n", state.display())
+        format!(
+            "power-cycled 1 simulated ecs drive of {}\n",
+            state.display()
+        )
     );
 }
 
 fn diff(dir: &Path, state: &Path) -> (Option<i32>, String) {
-    let (code, out, err) = outcome(
-        driveset_in_with_locks(dir)
-            .arg("diff")
-            .arg(set())
-            .args(["--port", &port(state, ""), "--address", "1"]),
-    );
+    let (code, out, err) = outcome(driveset_in_with_locks(dir).arg("diff").arg(set()).args([
+        "--port",
+        &port(state, ""),
+        "--address",
+        "1",
+    ]));
     (code, format!("{out}{err}"))
 }
 
@@ -117,7 +126,10 @@ fn a_cut_before_the_store_loses_the_set_at_power_off_and_recover_stores_it() {
         out.contains("\nstore: stored (the store command was written again)\n"),
         "{out}"
     );
-    assert!(out.contains("completed: the drive holds the new set"), "{out}");
+    assert!(
+        out.contains("completed: the drive holds the new set"),
+        "{out}"
+    );
     assert_eq!(
         transitions(&journal)[5..],
         ["storing", "complete"],
@@ -137,7 +149,14 @@ fn a_cut_during_the_store_is_journaled_as_storing_and_recovered() {
     assert_eq!(code, Some(3), "{out}{err}");
     assert_eq!(
         transitions(&journal),
-        ["planned", "writing", "verifying", "storing", "rolling-back", "failed"]
+        [
+            "planned",
+            "writing",
+            "verifying",
+            "storing",
+            "rolling-back",
+            "failed"
+        ]
     );
     let (code, out, err) = outcome(
         driveset_in_with_locks(dir.path())
@@ -152,26 +171,38 @@ fn a_cut_during_the_store_is_journaled_as_storing_and_recovered() {
 }
 
 #[test]
-fn a_set_holding_a_ram_code_is_a_validate_finding_naming_its_source() {
+fn an_upload_of_a_set_holding_a_ram_code_warns_naming_its_source() {
     let dir = tempfile::tempdir().unwrap();
     let f = dir.path().join("fan.toml");
     let schema = workspace_root().join("parameter-sets/fixtures/fictional-vf1000-demo.toml");
     std::fs::write(
         &f,
-        format!(
-            "schema = \"{}\"\n\n[values]\nSIOW = 5\n",
-            schema.display()
-        ),
+        format!("schema = \"{}\"\n\n[values]\nSIOW = 5\n", schema.display()),
     )
     .unwrap();
-    let (code, out, err) = outcome(driveset_in_with_locks(dir.path()).arg("validate").arg(&f));
-    let text = format!("{out}{err}");
-    assert_eq!(code, Some(1), "{text}");
-    assert!(text.contains("error[ram-code]"), "{text}");
+    let state = dir.path().join("vf.json");
+    let (code, out, err) = outcome(
+        driveset_in_with_locks(dir.path())
+            .arg("upload")
+            .arg(&f)
+            .args([
+                "--port",
+                &format!("sim://vf1000?addresses=1&state={}", state.display()),
+                "--address",
+                "1",
+                "--journal",
+            ])
+            .arg(dir.path().join("j.json")),
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
     assert!(
-        text.contains(
-            "83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off"
+        out.contains(
+            "warning: 83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off\n"
         ),
-        "{text}"
+        "{out}"
+    );
+    assert!(
+        out.contains("store: stored (the drive stores every write)\n"),
+        "{out}"
     );
 }

@@ -266,10 +266,6 @@ pub enum FindingKind {
     /// A secret given as the `<secret>` placeholder (an exported or pulled
     /// set holds no secret's value).
     SecretNotGiven,
-    /// A value for a RAM code (storage kind `ram-control`) that is not a
-    /// control word: the drive loses it at power off (LUSTBUS §11.1,
-    /// §11.2), so a set that holds it does not survive a power cycle.
-    RamCode,
 }
 
 impl FindingKind {
@@ -294,7 +290,6 @@ impl FindingKind {
             FindingKind::Command => "command",
             FindingKind::ControlWordNotStopped => "control-word-not-stopped",
             FindingKind::SecretNotGiven => "secret-not-given",
-            FindingKind::RamCode => "ram-code",
         }
     }
 }

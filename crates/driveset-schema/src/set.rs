@@ -231,7 +231,6 @@ fn load_source(
                 Some(p) => {
                     if let Some((kind, message, help)) =
                         crate::role::refusal(&schema, code, key, &p.raw)
-                            .or_else(|| crate::schema::ram_finding(&schema, code, key))
                     {
                         findings.push(Finding::new(kind, p.loc(), message, help));
                         merged.remove(&key);

@@ -533,7 +533,10 @@ fn power_cycle(config: &SimConfig) -> anyhow::Result<u8> {
                 d.power_cycle(at, off);
             }
         }
-        (drives.frame_line_dump(config.bus_name(), &line), nodes.len())
+        (
+            drives.frame_line_dump(config.bus_name(), &line),
+            nodes.len(),
+        )
     } else {
         let (mut line, drives) = config.byte_line_drives(EventLog::off())?;
         line.power_cycle(at, None, off);

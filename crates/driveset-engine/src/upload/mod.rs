@@ -91,8 +91,8 @@ pub use refusal::UploadRefusal;
 pub use report::{
     CodeOutcome, CodeReport, Next, Replanned, StepError, UploadFailure, UploadReport,
 };
-pub use store::Stored;
 pub(crate) use rollback::{RollbackPlan, describe_holdings, holdings, restore};
+pub use store::Stored;
 use transaction::Opening;
 pub use transaction::Transaction;
 

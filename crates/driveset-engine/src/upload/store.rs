@@ -67,7 +67,9 @@ impl Transaction {
             TxnState::Storing,
             Some(format!("verified; storing: {shown}")),
         )?;
-        self.opts.observer.enter(client.clock(), Step::Store, Some(1));
+        self.opts
+            .observer
+            .enter(client.clock(), Step::Store, Some(1));
         client.store(command).map_err(StepError::Error)?;
         self.opts.observer.step(client.clock(), Step::Store, 1, 1);
         self.progress.stored = true;

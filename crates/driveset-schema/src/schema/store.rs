@@ -238,19 +238,16 @@ impl Store {
     }
 }
 
-/// Why a set may not hold `code`: a RAM control value (`kind =
-/// "ram-control"`) that is not a control word is lost at power off
-/// (`lustbus-protocol.txt` §11.1: "They lose their values on power down";
-/// §11.2 likewise), so a set holding it would not survive a power cycle.
-/// A control word and a setpoint are exempt: they are the machine's run
-/// state (a set preloads them: the stopped state, a reference), which the
-/// drive takes from its power-up state and the machine's control again. The message
-/// names the code and the document the code's entry cites for its kind.
-pub fn ram_finding(
-    schema: &Schema,
-    code: &super::Code,
-    key: crate::CodeKey,
-) -> Option<(crate::FindingKind, String, String)> {
+/// What an upload says of a set's value for `code` when it is a RAM
+/// control value (`kind = "ram-control"`) that is not a control word or a
+/// setpoint: the drive loses it at power off (`lustbus-protocol.txt`
+/// §11.1: "They lose their values on power down"; §11.2 likewise). The
+/// message names the code and the document its entry cites for its kind.
+/// Control words and setpoints are the machine's run state (a set preloads
+/// them), which the drive takes from its power-up state and the machine's
+/// control again. A warning, not a validate finding: a pulled set holds
+/// every writable code, RAM ones included.
+pub fn ram_note(schema: &Schema, code: &super::Code, key: crate::CodeKey) -> Option<String> {
     if code.kind != Some(super::StorageKind::RamControl)
         || matches!(
             code.role,
@@ -265,11 +262,7 @@ pub fn ram_finding(
         .as_deref()
         .or(schema.spec.as_deref())
         .unwrap_or("the schema");
-    Some((
-        crate::FindingKind::RamCode,
-        format!(
-            "{shown} is a RAM control value (kind ram-control, {source}): the drive loses it at power off, so the set would not survive a power cycle"
-        ),
-        "remove this line: a RAM value comes back as its reference value after power-up; set it from the machine's control at run time".into(),
+    Some(format!(
+        "{shown} is a RAM control value (kind ram-control, {source}): the drive loses it at power off"
     ))
 }
