@@ -171,38 +171,61 @@ fn a_cut_during_the_store_is_journaled_as_storing_and_recovered() {
 }
 
 #[test]
-fn an_upload_of_a_set_holding_a_ram_code_warns_naming_its_source() {
+fn a_set_holding_a_ram_code_is_a_validate_finding_naming_its_source() {
     let dir = tempfile::tempdir().unwrap();
     let f = dir.path().join("fan.toml");
     let schema = workspace_root().join("parameter-sets/fixtures/fictional-vf1000-demo.toml");
     std::fs::write(
         &f,
-        format!("schema = \"{}\"\n\n[values]\nSIOW = 5\n", schema.display()),
+        format!(
+            "schema = \"{}\"\n\n[values]\nSIOW = 5\nOVRD = \"100 %\"\n",
+            schema.display()
+        ),
     )
     .unwrap();
+    let (code, out, err) = outcome(driveset_in_with_locks(dir.path()).arg("validate").arg(&f));
+    let text = format!("{out}{err}");
+    assert_eq!(code, Some(1), "{text}");
+    assert!(
+        text.contains(
+            "error[ram-code]: 83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off, so the set would not survive a power cycle\n"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("error[ram-code]: 27-OVRD is a RAM control value (kind ram-control, fictional)"),
+        "{text}"
+    );
+    assert!(text.contains("2 findings in 1 of 1 file"), "{text}");
+}
+
+#[test]
+fn pull_leaves_ram_control_values_out_so_a_pulled_set_validates() {
+    let dir = tempfile::tempdir().unwrap();
     let state = dir.path().join("vf.json");
+    let pulled = dir.path().join("pulled.toml");
     let (code, out, err) = outcome(
         driveset_in_with_locks(dir.path())
-            .arg("upload")
-            .arg(&f)
+            .arg("pull")
             .args([
                 "--port",
                 &format!("sim://vf1000?addresses=1&state={}", state.display()),
                 "--address",
                 "1",
-                "--journal",
+                "--schema",
             ])
-            .arg(dir.path().join("j.json")),
+            .arg(workspace_root().join("parameter-sets/fixtures/fictional-vf1000-demo.toml"))
+            .arg("-o")
+            .arg(&pulled),
     );
     assert_eq!(code, Some(0), "{out}{err}");
-    assert!(
-        out.contains(
-            "warning: 83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off\n"
-        ),
-        "{out}"
+    let text = std::fs::read_to_string(&pulled).unwrap();
+    assert!(!text.contains("\nOVRD ="), "{text}");
+    assert!(!text.contains("\nFJOG ="), "{text}");
+    let (code, out, err) = outcome(
+        driveset_in_with_locks(dir.path())
+            .arg("validate")
+            .arg(&pulled),
     );
-    assert!(
-        out.contains("store: stored (the drive stores every write)\n"),
-        "{out}"
-    );
+    assert_eq!(code, Some(0), "{out}{err}");
 }

@@ -352,16 +352,7 @@ impl Transaction {
             sload_polls: Some(stats.sload_polls).filter(|n| *n > 0),
             late_replies: stats.late,
             codes,
-            warnings: self
-                .progress
-                .warnings
-                .iter()
-                .cloned()
-                .chain(set.values.keys().filter_map(|k| {
-                    let code = self.drive.schema.code(k.number)?;
-                    driveset_schema::schema::ram_note(&self.drive.schema, code, *k)
-                }))
-                .collect(),
+            warnings: self.progress.warnings.clone(),
             stored: self.stored(state == TxnState::Complete),
             transfer: None,
         }

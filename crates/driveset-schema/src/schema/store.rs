@@ -238,15 +238,15 @@ impl Store {
     }
 }
 
-/// What an upload says of a set's value for `code` when it is a RAM
+/// Why a set may not hold `code` (a validate finding, and why `pull`
+/// leaves it out) when it is a RAM
 /// control value (`kind = "ram-control"`) that is not a control word or a
 /// setpoint: the drive loses it at power off (`lustbus-protocol.txt`
 /// §11.1: "They lose their values on power down"; §11.2 likewise). The
 /// message names the code and the document its entry cites for its kind.
 /// Control words and setpoints are the machine's run state (a set preloads
 /// them), which the drive takes from its power-up state and the machine's
-/// control again. A warning, not a validate finding: a pulled set holds
-/// every writable code, RAM ones included.
+/// control again.
 pub fn ram_note(schema: &Schema, code: &super::Code, key: crate::CodeKey) -> Option<String> {
     if code.kind != Some(super::StorageKind::RamControl)
         || matches!(
