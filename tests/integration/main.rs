@@ -16,6 +16,7 @@ mod doctor;
 mod e2e_pty;
 mod echo;
 mod eds_quirks;
+mod eds_sim;
 mod encode;
 mod factory_settings;
 mod fingerprint;

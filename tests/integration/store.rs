@@ -193,7 +193,9 @@ fn a_set_holding_a_ram_code_is_a_validate_finding_naming_its_source() {
         "{text}"
     );
     assert!(
-        text.contains("error[ram-code]: 27-OVRD is a RAM control value (kind ram-control, fictional)"),
+        text.contains(
+            "error[ram-code]: 27-OVRD is a RAM control value (kind ram-control, fictional)"
+        ),
         "{text}"
     );
     assert!(text.contains("2 findings in 1 of 1 file"), "{text}");

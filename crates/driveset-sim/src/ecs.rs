@@ -160,6 +160,10 @@ enum Storing {
     /// Every write is kept (`every-write`, and `unknown`: the simulator
     /// keeps what it is not told it loses).
     Kept,
+    /// Nothing written is kept: a power cycle brings the factory values
+    /// back (a device from a data sheet that declares no way to store,
+    /// [`EcsDrive::with_volatile_writes`]).
+    Volatile,
     /// Writes stay in RAM until the store command (`on-command`): what
     /// was stored last, and whether a store was just asked for.
     OnCommand {
@@ -398,13 +402,25 @@ impl EcsDrive {
         self
     }
 
+    /// The same drive keeping nothing written over a power cycle (a data
+    /// sheet that declares no store parameters object: what the device
+    /// keeps is not known, and the simulator shows the worst case its
+    /// upload report names, "not stored: lost at power off"). A drive that
+    /// stores on command keeps its store step.
+    pub fn with_volatile_writes(mut self) -> Self {
+        if self.storing == Storing::Kept {
+            self.storing = Storing::Volatile;
+        }
+        self
+    }
+
     /// What the drive has stored, where it keeps writes only on command
     /// (`[schema.store] keeps = "on-command"`); `None` where every write
     /// is kept.
     pub fn stored(&self) -> Option<ResolvedSet> {
         match &self.storing {
             Storing::OnCommand { stored, .. } => Some(self.table.resolved(stored)),
-            Storing::Kept => None,
+            Storing::Kept | Storing::Volatile => None,
         }
     }
 
@@ -503,8 +519,10 @@ impl FrameDrive for EcsDrive {
     fn power_cycle(&mut self, now: Instant, off: Duration) {
         self.off_until = Some(now + off);
         self.server = SdoServer::new();
-        if let Storing::OnCommand { stored, .. } = &self.storing {
-            self.values.clone_from(stored);
+        match &self.storing {
+            Storing::OnCommand { stored, .. } => self.values.clone_from(stored),
+            Storing::Volatile => self.values = self.table.factory_state(),
+            Storing::Kept => {}
         }
         for p in self.table.iter() {
             if !p.persistent() {

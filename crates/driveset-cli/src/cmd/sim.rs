@@ -77,7 +77,7 @@ Examples:
   driveset sim --family ecs --address 1 --pty --bitrate 500000")]
 pub struct Args {
     /// Drive family: mc6000 (MC7000 too), vf1000, tmd, ecs.
-    #[arg(long, value_name = "FAMILY", required_unless_present_any = ["twin", "power_cycle"])]
+    #[arg(long, value_name = "FAMILY", required_unless_present_any = ["twin", "power_cycle", "eds"])]
     family: Option<String>,
 
     /// Serve a twin (`NAME.twin.toml`, captured with `driveset twin
@@ -85,6 +85,13 @@ pub struct Args {
     /// one bus by address (docs/twins.md).
     #[arg(long, value_name = "FILE|DIR", conflicts_with_all = ["family", "addresses", "c0001", "keypad"])]
     twin: Option<PathBuf>,
+
+    /// Serve the CANopen device a CiA 306 EDS / DCF describes at each
+    /// --address (its objects, types, access, limits, defaults; 0x1010
+    /// "save" when the sheet declares it), as `sim://eds?file=FILE` does
+    /// (docs/ports.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["family", "twin", "factory", "c0001", "keypad"])]
+    eds: Option<PathBuf>,
 
     /// Bus address of a simulated drive; repeat (or give a comma list) for
     /// several. LUSTBUS 1..30, LECOM 1..99 except 10, 20, ... 90, CAN 1..127.
@@ -200,6 +207,22 @@ fn parse_tcp(text: &str) -> anyhow::Result<SocketAddr> {
 /// Check the arguments into a bus configuration and an endpoint.
 fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
     let mut config = match (&args.twin, &args.family) {
+        _ if args.eds.is_some() => {
+            let path = args.eds.as_deref().unwrap_or(std::path::Path::new(""));
+            let device = driveset_sim::eds::EdsDevice::load(path).map_err(anyhow::Error::msg)?;
+            let addresses = match (&args.state, args.addresses.is_empty()) {
+                (Some(state), true) if args.power_cycle => StateDump::read(state)?
+                    .drives
+                    .iter()
+                    .map(|d| d.address)
+                    .collect(),
+                _ => args.addresses.clone(),
+            };
+            // the family the sheet's schema is for (CAN SDO)
+            let mut c = SimConfig::new(device.schema.family, addresses);
+            c.eds = Some(device);
+            c
+        }
         (Some(path), _) => {
             let twins = if path.is_dir() {
                 driveset_sim::twin::load_dir(path)?

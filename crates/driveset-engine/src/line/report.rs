@@ -167,8 +167,10 @@ pub struct DriveReport {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replacement: Option<ReplacementReport>,
     /// Whether the drive keeps its set over a power cycle, when its upload
-    /// completed: "stored", or "not stored: lost at power off (...)"
-    /// ([`crate::upload::Stored::text`]). Absent otherwise.
+    /// completed and its schema does not say every write is stored:
+    /// "stored" (the store command was acknowledged), or "not stored: lost
+    /// at power off (...)" ([`crate::upload::Stored::text`]). Absent
+    /// otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stored: Option<String>,
 }

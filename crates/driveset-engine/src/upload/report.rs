@@ -155,7 +155,9 @@ impl UploadReport {
             };
             let _ = writeln!(out, "  {}: {} -> {}  {outcome}", c.code, c.old, c.new);
         }
-        if self.state == TxnState::Complete {
+        // a drive that stores every write needs no line of its own (the
+        // JSON says `every-write`)
+        if self.state == TxnState::Complete && self.stored != crate::upload::Stored::EveryWrite {
             let _ = writeln!(out, "store: {}", self.stored.text());
         }
         if let Some(t) = &self.transfer {
