@@ -443,6 +443,37 @@ mod tests {
         }
     }
 
+    /// A schema whose drives keep writes only on command: CiA 301 0x1010
+    /// sub 1 = "save" (`[schema.store]`).
+    fn storing_schema() -> Arc<Schema> {
+        let mut reg = Registry::builtin().expect("built-in schemas");
+        reg.add_source(SourceFile::new(
+            "store.toml",
+            "[schema]\nid = \"store-test\"\ntitle = \"t\"\nextends = \"lenze-ecs\"\n\n[schema.store]\nkeeps = \"on-command\"\ncode = \"store_parameters\"\nvalue = 0x65766173\n\n[[code]]\nindex = 0x1010\nsubindex = 1\nname = \"store_parameters\"\ntitle = \"Save all parameters\"\nspec = \"CiA 301\"\ntype = \"UNSIGNED32\"\nrole = \"command\"\n\n[[code]]\nnumber = 5001\nname = \"x\"\ntitle = \"x\"\nspec = \"t\"\n".to_string(),
+        ))
+        .expect("the schema loads")
+    }
+
+    #[test]
+    fn the_store_permit_covers_the_store_code_with_its_value_only() {
+        let s = storing_schema();
+        let store = driveset_schema::schema::index_number(0x1010, Some(1));
+        assert_eq!(verdict(&s, store, 0x6576_6173, Permit::STORE), "ok");
+        // a set's write of the store code is a command
+        assert_eq!(
+            verdict(&s, store, 0x6576_6173, Permit::SETTING),
+            "store_parameters = 1702257011 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
+        );
+        assert_eq!(
+            verdict(&s, store, 1, Permit::STORE),
+            "the store permit does not cover store_parameters = 1; nothing was sent"
+        );
+        assert!(verdict(&s, 5001, 0x6576_6173, Permit::STORE).starts_with("the store permit does not cover"));
+        // a schema without a store step: the permit covers nothing
+        let ecs = builtin(Family::Ecs);
+        assert!(verdict(&ecs, store, 0x6576_6173, Permit::STORE).starts_with("the store permit"));
+    }
+
     #[test]
     fn mc6000_control_word_and_commands() {
         let s = builtin(Family::Mc6000);

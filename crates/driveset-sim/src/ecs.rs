@@ -40,12 +40,20 @@
 //!   exactly 4 bytes is taken like an expedited one, any other length ends
 //!   in 0x06070010 after its last segment.
 //! - **Power cycle**: the drive answers nothing while it is off; the SDO
-//!   server's transfer state is lost; parameter values are **kept**. The
-//!   excerpt says nothing about storage; the simulator treats every ECS
-//!   code as stored (a real ECS keeps changes over a power cycle only after
-//!   a save command, which the excerpt does not describe). A code the
-//!   table marks as non-persistent (a RAM actual / control value) goes
-//!   back to its factory value. No DS301 boot-up message is sent (the
+//!   server's transfer state is lost. What the parameter values do is the
+//!   table's schema's `[schema.store]` (docs/file-formats.md): `on-command`
+//!   (the FICTIONAL demo fixture, CiA 301 0x1010 sub 1 "save"): they come
+//!   back as last stored; a write of the store code with its value copies
+//!   what the drive holds into what it has stored (any other value aborts
+//!   0x08000020, a read gives 1: "saves on command"); `every-write` and
+//!   `unknown` (the excerpt says nothing of storage): they are kept, but a
+//!   device from a data sheet without 0x1010 ([`crate::eds`]) keeps
+//!   nothing written. A code the table marks as non-persistent (a RAM
+//!   actual / control value) goes back to its factory value.
+//! - **Objects kept by index** (`[[code]] index`, CiA 301 objects and the
+//!   manufacturer objects of another vendor's data sheet): addressed by
+//!   their own index and subindex, their CiA 301 integer types little-endian
+//!   at their own width. No DS301 boot-up message is sent (the
 //!   [`FrameDrive`] contract has no unsolicited frames, and page 454 does
 //!   not mention one).
 //! - **Reaction time**: the excerpt gives no figure; the default is the
@@ -630,6 +638,45 @@ mod tests {
         assert!(enum_member(p, 20_000));
         assert!(!enum_member(p, 15_000));
         assert!(!enum_member(p, 2));
+    }
+
+    /// An expedited 4-byte download of `data` to `index`/`sub`, and the
+    /// reply's first data byte and abort code (0 for a confirmation).
+    fn download(d: &mut EcsDrive, at: Instant, index: u16, sub: u8, data: [u8; 4]) -> (u8, u32) {
+        let [lo, hi] = index.to_le_bytes();
+        let q = CanFrame::new(
+            0x601,
+            &[0x23, lo, hi, sub, data[0], data[1], data[2], data[3]],
+        )
+        .unwrap();
+        let r = d.hear(at, &q).expect("an answer").frame;
+        let p = r.payload();
+        (p[0], u32::from_le_bytes([p[4], p[5], p[6], p[7]]))
+    }
+
+    #[test]
+    fn demo_writes_are_lost_at_power_off_until_saved_to_0x1010() {
+        let mut d = drive().with_reaction(ReactionTime::fixed(Duration::from_millis(1)));
+        let c5001 = CodeKey::new(5001);
+        let factory = d.value(c5001).cloned().unwrap();
+        let t = Instant::from_nanos(1_000_000);
+        // C5001 (index 0x4C76) = 5000 rpm, raw 50_000_000
+        assert_eq!(download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()), (0x60, 0));
+        d.power_cycle(t, Duration::from_millis(1));
+        assert_eq!(d.value(c5001), Some(&factory), "not stored: lost");
+        let t = t + Duration::from_millis(10);
+        assert_eq!(download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()), (0x60, 0));
+        // a wrong signature: 0x08000020, nothing stored
+        assert_eq!(download(&mut d, t, 0x1010, 1, *b"evas"), (0x80, 0x0800_0020));
+        // "save" (0x65766173, bytes s a v e)
+        assert_eq!(download(&mut d, t, 0x1010, 1, *b"save"), (0x60, 0));
+        d.power_cycle(t, Duration::from_millis(1));
+        assert_eq!(d.value(c5001), Some(&RawValue::Int(50_000_000)), "stored: kept");
+        // a read of 0x1010 sub 1: bit 0, "saves on command"
+        let t = t + Duration::from_millis(10);
+        let q = CanFrame::new(0x601, &[0x40, 0x10, 0x10, 0x01, 0, 0, 0, 0]).unwrap();
+        let r = d.hear(t, &q).unwrap().frame;
+        assert_eq!(r.payload(), &[0x43, 0x10, 0x10, 0x01, 1, 0, 0, 0]);
     }
 
     #[test]

@@ -258,7 +258,7 @@ impl Transaction {
         if self.replan(client, set)? == Replanned::Nothing {
             // the drive holds the set; an earlier, cut run may have left it
             // in RAM only
-            return self.store(client);
+            return self.store(client, set);
         }
         self.journal(client)?;
         self.open_dataset(client)?;

@@ -62,7 +62,7 @@ impl Transaction {
             }
             Ok(())
         })?;
-        self.store(client)?;
+        self.store(client, set)?;
         let after_fp = self.codes.after(&self.drive.schema, set).fingerprint();
         self.set_state(
             client,
