@@ -220,7 +220,9 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
         .stdout(predicate::str::contains(
             "warning: --allow-running: the drive reports a running motor\n",
         ))
-        .stdout(predicate::str::contains("  5-FSSIO: 0 Hz -> 7 Hz  verified\n"));
+        .stdout(predicate::str::contains(
+            "  5-FSSIO: 0 Hz -> 7 Hz  verified\n",
+        ));
 }
 
 #[test]

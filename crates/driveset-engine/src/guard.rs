@@ -462,16 +462,22 @@ mod tests {
         // a set's write of the store code is a command
         assert_eq!(
             verdict(&s, store, 0x6576_6173, Permit::SETTING),
-            "store_parameters = 1702257011 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
+            "0x1010sub1 = 1702257011 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
         );
         assert_eq!(
             verdict(&s, store, 1, Permit::STORE),
-            "the store permit does not cover store_parameters = 1; nothing was sent"
+            "the store permit does not cover 0x1010sub1 = 1; nothing was sent"
         );
-        assert!(verdict(&s, 5001, 0x6576_6173, Permit::STORE).starts_with("the store permit does not cover"));
-        // a schema without a store step: the permit covers nothing
+        assert!(
+            verdict(&s, 5001, 0x6576_6173, Permit::STORE)
+                .starts_with("the store permit does not cover")
+        );
+        // a schema without a store step (and without the object): refused
         let ecs = builtin(Family::Ecs);
-        assert!(verdict(&ecs, store, 0x6576_6173, Permit::STORE).starts_with("the store permit"));
+        assert_ne!(verdict(&ecs, store, 0x6576_6173, Permit::STORE), "ok");
+        assert!(
+            verdict(&ecs, 135, 0, Permit::STORE).starts_with("the store permit does not cover")
+        );
     }
 
     #[test]

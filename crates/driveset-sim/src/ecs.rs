@@ -661,17 +661,30 @@ mod tests {
         let factory = d.value(c5001).cloned().unwrap();
         let t = Instant::from_nanos(1_000_000);
         // C5001 (index 0x4C76) = 5000 rpm, raw 50_000_000
-        assert_eq!(download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()), (0x60, 0));
+        assert_eq!(
+            download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()),
+            (0x60, 0)
+        );
         d.power_cycle(t, Duration::from_millis(1));
         assert_eq!(d.value(c5001), Some(&factory), "not stored: lost");
         let t = t + Duration::from_millis(10);
-        assert_eq!(download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()), (0x60, 0));
+        assert_eq!(
+            download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()),
+            (0x60, 0)
+        );
         // a wrong signature: 0x08000020, nothing stored
-        assert_eq!(download(&mut d, t, 0x1010, 1, *b"evas"), (0x80, 0x0800_0020));
+        assert_eq!(
+            download(&mut d, t, 0x1010, 1, *b"evas"),
+            (0x80, 0x0800_0020)
+        );
         // "save" (0x65766173, bytes s a v e)
         assert_eq!(download(&mut d, t, 0x1010, 1, *b"save"), (0x60, 0));
         d.power_cycle(t, Duration::from_millis(1));
-        assert_eq!(d.value(c5001), Some(&RawValue::Int(50_000_000)), "stored: kept");
+        assert_eq!(
+            d.value(c5001),
+            Some(&RawValue::Int(50_000_000)),
+            "stored: kept"
+        );
         // a read of 0x1010 sub 1: bit 0, "saves on command"
         let t = t + Duration::from_millis(10);
         let q = CanFrame::new(0x601, &[0x40, 0x10, 0x10, 0x01, 0, 0, 0, 0]).unwrap();

@@ -86,8 +86,13 @@ impl Transaction {
         // what was stored is what the drive holds now: a drive that lost
         // power between the last read-back and the store came back with
         // its old values and stored those, so every code is read again
-        let now = read_observed(client, set.values.keys().copied(), &self.opts.observer, Step::Verify)
-            .map_err(StepError::Error)?;
+        let now = read_observed(
+            client,
+            set.values.keys().copied(),
+            &self.opts.observer,
+            Step::Verify,
+        )
+        .map_err(StepError::Error)?;
         if let Some((key, want)) = set
             .values
             .iter()

@@ -73,9 +73,18 @@ impl Rig {
         let now = self.client().clock().now();
         let off = Duration::from_millis(1);
         match self {
-            Rig::Lust(c) => c.link_mut().drive_mut(rig::ADDRESS).map(|d| d.power_cycle(now, off)),
-            Rig::Lecom(c) => c.link_mut().drive_mut(rig::ADDRESS).map(|d| d.power_cycle(now, off)),
-            Rig::Can(c) => c.link_mut().drive_mut(rig::ADDRESS).map(|d| d.power_cycle(now, off)),
+            Rig::Lust(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
+            Rig::Lecom(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
+            Rig::Can(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
         }
         .expect("the campaign's drive");
     }
@@ -105,15 +114,20 @@ pub enum Kind {
 
 /// The campaign's set for a family: the generated full set without RAM
 /// values (volatile: a power cycle after a verified upload resets them to
-/// the factory value, which no transaction can prevent).
+/// the factory value, which no transaction can prevent) and without
+/// FSEL/ISEL variables (RAM or EEPROM by 2-CSEL, `lustbus-protocol.txt`
+/// §11.1: the campaign power-cycles after every complete run).
 pub fn campaign_set(family: Family) -> ResolvedSet {
     let schema = rig::schema(family);
     let full = rig::full_set(family, 1);
     let mut set = ResolvedSet::new(&schema);
     for (k, v) in &full.values {
-        let ram = schema
-            .code(k.number)
-            .is_some_and(|c| matches!(c.kind, Some(StorageKind::RamControl)));
+        let ram = schema.code(k.number).is_some_and(|c| {
+            matches!(
+                c.kind,
+                Some(StorageKind::RamControl | StorageKind::FselIsel)
+            )
+        });
         if !ram {
             set.insert(*k, v.clone());
         }
