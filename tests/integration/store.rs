@@ -231,3 +231,70 @@ fn pull_leaves_ram_control_values_out_so_a_pulled_set_validates() {
     );
     assert_eq!(code, Some(0), "{out}{err}");
 }
+
+#[test]
+fn the_demo_lines_ecs_drives_are_stored_and_still_hold_their_sets_after_a_power_cycle() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    let line = workspace_root().join("parameter-sets/demo-line/line.toml");
+    let only = "handling-1,handling-2,handling-3";
+    let (code, out, err) = outcome(
+        driveset_test_support::driveset_in(d)
+            .arg("commission")
+            .arg(&line)
+            .args(["--only", only, "--report-dir", "rep"]),
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
+    for name in ["handling-1", "handling-2", "handling-3"] {
+        assert!(
+            err.lines()
+                .any(|l| l.contains(&format!(" {name}: verified, "))
+                    && l.contains(" codes written, stored (")),
+            "{name}: {err}"
+        );
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rep/report.json")).unwrap()).unwrap();
+    let stored: Vec<(&str, &str)> = report["drives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|r| Some((r["name"].as_str()?, r["stored"].as_str()?)))
+        .collect();
+    assert_eq!(
+        stored,
+        [
+            ("handling-1", "stored"),
+            ("handling-2", "stored"),
+            ("handling-3", "stored")
+        ]
+    );
+    let state = d.join("sim/sim-ecs.json");
+    let (code, _, err) = outcome(
+        driveset_test_support::driveset_in(d)
+            .args(["sim", "--power-cycle", "--state"])
+            .arg(&state),
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(
+        err,
+        format!(
+            "power-cycled 3 simulated ecs drives of {}\n",
+            state.display()
+        )
+    );
+    let (code, out, err) = outcome(
+        driveset_test_support::driveset_in(d)
+            .arg("status")
+            .arg(&line)
+            .args(["--only", only]),
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(
+        out.contains(
+            "3 of 13 drives checked: 0 verified, 3 unchanged, 0 already verified, 0 drift"
+        ),
+        "{out}"
+    );
+}
