@@ -373,6 +373,24 @@ fn tcp_by_name_and_by_address_are_one_bus_both_ways_and_another_port_is_refused(
     assert_eq!(dump_subset(&dump, 11, &set), set.canonical());
 }
 
+/// The IPv4-mapped IPv6 spelling of an address is its bus (issue 29):
+/// with an unfinished journal of `tcp://127.0.0.1:P`, an upload through
+/// `tcp://[::ffff:127.0.0.1]:P` is refused by the lock while the first
+/// runs and by the journal after it was killed, and recover finishes it.
+#[test]
+fn an_ipv4_mapped_spelling_is_the_bus_of_its_ipv4_journal() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = Sim::start_tcp(dir.path(), "tmd", 11, &["--c0001", "3"]);
+    let port = sim.path.rsplit(':').next().unwrap().to_string();
+    let by_addr = format!("tcp://127.0.0.1:{port}");
+    let mapped = format!("tcp://[::ffff:127.0.0.1]:{port}");
+    let bus = format!("tcp:127.0.0.1:{port}");
+    tcp_cut_then_other_spelling(dir.path(), &sim, &by_addr, &mapped, &bus);
+    let status = sim.terminate();
+    assert!(status.success(), "{}", sim.stderr());
+}
+
 /// `driveset` in `dir` (the simulator's state and the journals there).
 fn guarded_in(dir: &Path) -> assert_cmd::Command {
     let mut c = driveset_in_with_locks(dir);

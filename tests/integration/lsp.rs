@@ -16,12 +16,12 @@ use serde_json::{Value, json};
 
 use driveset_test_support::workspace_root;
 
-const HANG_GUARD: Duration = Duration::from_secs(60);
+pub(crate) const HANG_GUARD: Duration = Duration::from_secs(60);
 
-struct Client {
-    child: Child,
-    stdin: ChildStdin,
-    rx: Receiver<Value>,
+pub(crate) struct Client {
+    pub(crate) child: Child,
+    pub(crate) stdin: ChildStdin,
+    pub(crate) rx: Receiver<Value>,
     next_id: i64,
     /// Notifications received while waiting for something else.
     pending: Vec<Value>,
@@ -52,7 +52,7 @@ fn uri(p: &Path) -> String {
 }
 
 impl Client {
-    fn start(cache: &Path) -> Client {
+    pub(crate) fn start(cache: &Path) -> Client {
         // DRIVESET_BIN: another build to measure (e.g. target/release/driveset)
         let bin = std::env::var_os("DRIVESET_BIN")
             .map_or_else(driveset_test_support::driveset_bin, PathBuf::from);
@@ -92,17 +92,17 @@ impl Client {
         c
     }
 
-    fn send(&mut self, v: &Value) {
+    pub(crate) fn send(&mut self, v: &Value) {
         let body = serde_json::to_string(v).unwrap();
         write!(self.stdin, "Content-Length: {}\r\n\r\n{body}", body.len()).unwrap();
         self.stdin.flush().unwrap();
     }
 
-    fn notify(&mut self, method: &str, params: Value) {
+    pub(crate) fn notify(&mut self, method: &str, params: Value) {
         self.send(&json!({"jsonrpc": "2.0", "method": method, "params": params}));
     }
 
-    fn request(&mut self, method: &str, params: Value) -> Value {
+    pub(crate) fn request(&mut self, method: &str, params: Value) -> Value {
         let id = self.next_id;
         self.next_id += 1;
         self.send(&json!({"jsonrpc": "2.0", "id": id, "method": method, "params": params}));
@@ -136,7 +136,7 @@ impl Client {
         }
     }
 
-    fn open(&mut self, path: &Path, text: &str) -> Vec<Value> {
+    pub(crate) fn open(&mut self, path: &Path, text: &str) -> Vec<Value> {
         let lang = if path.extension().is_some_and(|e| e == "toml") {
             "toml"
         } else {
@@ -178,7 +178,7 @@ impl Client {
         )
     }
 
-    fn shutdown(mut self) {
+    pub(crate) fn shutdown(mut self) {
         let r = self.request("shutdown", Value::Null);
         assert_eq!(r, Value::Null);
         self.notify("exit", Value::Null);

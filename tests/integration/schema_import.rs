@@ -123,6 +123,9 @@ fn vendor_style_eds_imports_with_the_exact_lint_list() {
 
 #[test]
 fn json_lint_report() {
+    // (not `-o /dev/null`: driveset writes regular files only, issue 29)
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("axis.toml");
     let (stdout, stderr, code) = run(&[
         "schema",
         "import",
@@ -130,7 +133,7 @@ fn json_lint_report() {
         "--format",
         "json",
         "-o",
-        "/dev/null",
+        out.to_str().unwrap(),
     ]);
     assert_eq!((stdout.as_str(), code), ("", 1));
     let doc: serde_json::Value = serde_json::from_str(&stderr).expect("json");

@@ -73,7 +73,7 @@ const ENGINE_IO: &[&str] = &[
 ];
 
 /// The path of `p` from the workspace root, with `/`.
-fn rel(root: &Path, p: &Path) -> String {
+pub(crate) fn rel(root: &Path, p: &Path) -> String {
     p.strip_prefix(root)
         .unwrap_or(p)
         .components()
@@ -84,7 +84,7 @@ fn rel(root: &Path, p: &Path) -> String {
 
 /// The files below `dir` (recursively, sorted) whose name ends with one of
 /// `exts`; build output, VCS data, hidden and cache folders skipped.
-fn files(dir: &Path, exts: &[&str]) -> Vec<PathBuf> {
+pub(crate) fn files(dir: &Path, exts: &[&str]) -> Vec<PathBuf> {
     fn walk(dir: &Path, exts: &[&str], out: &mut Vec<PathBuf>) {
         let Ok(entries) = std::fs::read_dir(dir) else {
             return;
@@ -109,12 +109,12 @@ fn files(dir: &Path, exts: &[&str]) -> Vec<PathBuf> {
     out
 }
 
-fn read(p: &Path) -> String {
+pub(crate) fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
 /// Fails the test with every problem found, one a line.
-fn report(what: &str, problems: &[String]) {
+pub(crate) fn report(what: &str, problems: &[String]) {
     assert!(
         problems.is_empty(),
         "{what}: {} problem(s):\n{}",
@@ -233,7 +233,7 @@ fn tidy_the_arrow_check_sees_an_arrow_up() {
 /// whose parent module (`mod.rs` beside it, or the file named as its
 /// folder) declares it `#[cfg(test)] mod tests;`. Skipped whole, as an
 /// inline `#[cfg(test)]` module is ([`skipped_blocks`]).
-fn is_test_module_file(file: &Path) -> bool {
+pub(crate) fn is_test_module_file(file: &Path) -> bool {
     let Some(dir) = file.parent().filter(|_| file.ends_with("tests.rs")) else {
         return false;
     };
@@ -252,7 +252,7 @@ fn is_test_module_file(file: &Path) -> bool {
 /// (`mod x { .. }`) and, when `skip_mod` names one, that module too. A
 /// block ends at the first later line that is its opening line's
 /// indentation and `}` (rustfmt's layout, which CI holds).
-fn skipped_blocks(lines: &[&str], skip_mod: Option<&str>) -> Vec<(usize, usize)> {
+pub(crate) fn skipped_blocks(lines: &[&str], skip_mod: Option<&str>) -> Vec<(usize, usize)> {
     let mut blocks = Vec::new();
     let mut i = 0;
     while i < lines.len() {

@@ -487,7 +487,8 @@ fn the_demo_line_rehearsed_from_its_twins_ends_as_its_commissioning() {
         ])
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0));
+    // a selected drive without a twin fails the run (issue 28)
+    assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.starts_with("conveyor-5: not rehearsed: no twin twins/conveyor-5.twin.toml\n"),
@@ -1143,4 +1144,101 @@ fn a_twin_from_a_recorded_lustbus_session_holds_what_the_session_showed() {
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains(refusal), "{err}");
     }
+}
+
+/// No value of the simulator's model fills a gap (issue 28): a twin
+/// captured with a schema of two codes has those two codes only; a pull
+/// from it with the schema the model is built from reads them and is
+/// refused every other code as a node refuses an object it does not have
+/// (SDO abort 0x06020000), exit 1, where the first version served the
+/// model's factory values.
+#[test]
+fn a_twin_has_only_the_codes_its_capture_saw() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let side = Side::new(d, "side", "sim://ecs");
+    let file = d.join("node.twin.toml");
+    let out = side
+        .cmd()
+        .args(["twin", "capture", "--port", "sim://ecs", "--address", "1"])
+        .args(["--schema", "lenze-ecs", "-o"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!(
+            "ecs lenze-ecs at address 1: 2 codes, 0 refused, 0 secret(s) not stored; {} ({} bytes)\n",
+            file.display(),
+            std::fs::metadata(&file).unwrap().len()
+        )
+    );
+    let fixture = workspace_root().join("parameter-sets/fixtures/fictional-ecs-demo.toml");
+    let (code, out, err) = side.run(&[
+        "pull",
+        "--port",
+        &format!("sim://twin?file={}", file.display()),
+        "--address",
+        "1",
+        "--schema",
+        fixture.to_str().unwrap(),
+        "-o",
+        "pulled.toml",
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        err.contains("C5001 max_speed could not be read: the drive refused to read it: Object does not exist in the object dictionary (SDO abort 0x06020000 at index 0x4C76 subindex 0)"),
+        "{err}"
+    );
+    let pulled = std::fs::read_to_string(side.dir.join("pulled.toml")).unwrap();
+    let values = pulled.split_once("\n[values]\n").unwrap().1;
+    assert_eq!(values, "C0150 = {}\n", "{pulled}");
+}
+
+/// A drive describes a parameter the simulator's table does not have
+/// (a real MC6000's 96, say): its twin holds it as the drive described it,
+/// and a pull that learns from the twin reads it, where the first version
+/// refused the twin at open ("fictional-mc6000-demo has no parameter 96").
+#[test]
+fn a_twin_holds_a_parameter_only_its_drive_described() {
+    let dir = tempfile::tempdir().unwrap();
+    let side = Side::new(dir.path(), "side", "sim://mc6000");
+    let file = dir.path().join("axis.twin.toml");
+    let text = capture(&side, 1, &file);
+    // the drive's own description of 96: its 1-MODE's, renamed
+    let mode = text
+        .lines()
+        .find(|l| l.starts_with("\"1\" = \"MODE\\u0000\\u0000"))
+        .unwrap()
+        .to_string();
+    let extra = mode.replace("\"1\" = \"MODE\\u0000\\u0000", "\"96\" = \"XTRA9\\u0000");
+    let text = text.replace(&mode, &format!("{mode}\n{extra}")).replacen(
+        "\n\n[refused]\n",
+        "\n\"96\" = 2\n\n[refused]\n",
+        1,
+    );
+    std::fs::write(&file, text).unwrap();
+    // a side of its own: simulator state of the twin's bus apart from the
+    // drive's
+    let side = Side::new(dir.path(), "twin", "sim://twin");
+    let (code, out, err) = side.run(&[
+        "pull",
+        "--port",
+        &format!("sim://twin?file={}", file.display()),
+        "--address",
+        "1",
+        "--schema",
+        "lust-mc6000",
+        "-o",
+        "pulled.toml",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let pulled = std::fs::read_to_string(side.dir.join("pulled.toml")).unwrap();
+    assert!(pulled.contains("\n96 = 2\n"), "{pulled}");
+    let learned = driveset_test_support::toml_files_starting(&side.dir, "learned-mc6000-");
+    let learned = std::fs::read_to_string(&learned[0]).unwrap();
+    assert!(
+        learned.contains("number = 96\nname = \"XTRA9\"\n"),
+        "{learned}"
+    );
 }

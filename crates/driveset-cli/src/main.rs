@@ -28,6 +28,7 @@ mod cmd;
 mod editor;
 mod env;
 mod fail;
+mod files;
 mod learning;
 mod output;
 mod port;

@@ -2,9 +2,11 @@
 //! clients' read, identify and description calls only. Owns [`capture`]
 //! (identity, every code of the schema the drive answers, the codes it
 //! refuses to read, the running state, the line rate and the reaction
-//! times it showed) and [`mc_descriptions`] (the layout and type characters
-//! an MC6000/7000 sends its parameter descriptions in, LUSTBUS 11.2,
-//! errata L22 / L23). The simulator's `twin` module owns the file.
+//! times it showed) and [`describe`] (what a LUSTBUS drive describes, as it
+//! sent it: its parameter descriptions, LUSTBUS 11.1 / 11.2, in its own
+//! layout and type characters, errata L22 / L23, and its substitution
+//! texts, 11.3; the schema learned from them as `pull` learns it). The
+//! simulator's `twin` module owns the file.
 //!
 //! What is never read: password codes (listed in [`Capture::secrets`], no
 //! value kept) and codes whose reading clears them (85-SIOF/SERR, listed
@@ -15,14 +17,19 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
+use std::sync::Arc;
+
 use driveset_link::ByteLink;
 use driveset_proto::lustbus::Dialect;
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
-use driveset_schema::{BusProtocol, CodeKey, Family, RawValue};
+use driveset_schema::{BusProtocol, CodeKey, RawValue, Registry, Schema};
 
 use crate::client::{DriveClient, Identity, LustbusClient};
+use crate::connect::ConnectOptions;
 use crate::error::{DeviceCause, EngineError, ErrorKind};
-use crate::learn::{LearnOptions, interpret, read_descriptions};
+use crate::learn::{
+    LearnOptions, PullSchemaError, PulledSchema, default_params, needs_learning, pull_descriptions,
+};
 
 /// What a capture read from one drive.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -38,8 +45,9 @@ pub struct Capture {
     pub answers: BTreeMap<CodeKey, DeviceCause>,
     /// Password codes: not read.
     pub secrets: Vec<CodeKey>,
-    /// Codes not read on purpose (reading clears them) or without a type
-    /// in the schema.
+    /// Codes not read on purpose: reading clears them (85-SIOF/SERR).
+    pub clears: Vec<CodeKey>,
+    /// Codes without a type in the schema: not read.
     pub unread: Vec<CodeKey>,
     /// Whether the motor ran (`None`: the drive does not say).
     pub running: Option<bool>,
@@ -62,6 +70,7 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
         refused: BTreeMap::new(),
         answers: BTreeMap::new(),
         secrets: Vec::new(),
+        clears: Vec::new(),
         unread: Vec::new(),
         running: None,
         rate: client.line_rate(),
@@ -73,7 +82,11 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
                 out.secrets.push(key);
                 continue;
             }
-            if code.read_clears == Some(true) || schema.type_of(code).is_none() {
+            if code.read_clears == Some(true) {
+                out.clears.push(key);
+                continue;
+            }
+            if schema.type_of(code).is_none() {
                 out.unread.push(key);
                 continue;
             }
@@ -122,23 +135,90 @@ pub fn code_keys(code: &driveset_schema::Code) -> Vec<CodeKey> {
     }
 }
 
-/// The layout and type characters an MC6000/7000 sends its parameter
-/// descriptions in (LUSTBUS 11.2, errata L22 / L23), read from the
-/// descriptions of `params` (enquiries only) and told apart as `schema
-/// pull` does ([`crate::learn::interpret`]). `(None, None)` when the drive
-/// sent none.
-pub fn mc_descriptions<L: ByteLink>(
-    client: &mut LustbusClient<L>,
-    params: &[u32],
-) -> Result<(Option<McLayout>, Option<McTypeChars>), EngineError> {
-    // The family that speaks the MC dialect (MC6000/7000), by its descriptor.
-    let mc = Family::from_dialect(Dialect::Mc);
-    let (raws, _absent) = read_descriptions(client, mc, params)?;
-    if raws.is_empty() {
-        return Ok((None, None));
+/// What a LUSTBUS drive says of its parameters, as it said it: every
+/// description it sent (VF1000 section 11.1, MC6000/7000 section 11.2) and
+/// every substitution text (MC section 11.3: the value texts and the
+/// 107-UNIT strings, by 108-STEXT index), and the layout and type
+/// characters they read in (errata L22, L23). A twin serves them as they
+/// came, so learning from the twin learns what learning from the drive did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Described {
+    /// The VALUE characters of each description, by parameter.
+    pub descriptions: BTreeMap<u32, Vec<u8>>,
+    /// The VALUE characters of each substitution text, by (parameter,
+    /// 108-STEXT index); a text the drive refused is not here.
+    pub texts: BTreeMap<(u32, u8), Vec<u8>>,
+    /// MC: the layout of its descriptions (the first, when they mix).
+    pub layout: Option<McLayout>,
+    /// MC: the type-character reading that fits them.
+    pub types: Option<McTypeChars>,
+}
+
+/// A LUSTBUS drive read for a twin ([`describe`]).
+pub struct DescribedDrive<L: ByteLink> {
+    /// The client, speaking `schema`.
+    pub client: LustbusClient<L>,
+    /// The schema the capture reads with: the one given, or the one
+    /// learned from the descriptions when it lacks facts.
+    pub schema: Arc<Schema>,
+    /// The descriptions and texts as sent.
+    pub described: Described,
+    /// The learned schema, when `base` needed learning.
+    pub learned: Option<PulledSchema>,
+}
+
+/// Read everything a LUSTBUS drive describes, as `pull` learns it
+/// ([`pull_descriptions`]: identify, every parameter of the family's range
+/// asked for its description, the MC texts; only the RAM selector
+/// 108-STEXT is written, and set back), whatever `base` is: a twin must
+/// answer the descriptions any later command asks for. When `base` lacks
+/// facts ([`needs_learning`]) the schema is learned from them and rendered
+/// as `pull` renders it (`drive` names the drive in it; `registry` holds
+/// `base`), and the client connected again speaking it (`connect`: the
+/// port's options).
+pub fn describe<L: ByteLink>(
+    mut client: LustbusClient<L>,
+    base: Arc<Schema>,
+    opts: &LearnOptions,
+    registry: &Registry,
+    drive: String,
+    connect: &ConnectOptions,
+) -> Result<DescribedDrive<L>, PullSchemaError> {
+    let opts = LearnOptions {
+        params: Some(default_params(base.family)),
+        ..opts.clone()
+    };
+    let read = pull_descriptions(&mut client, &base, &opts)?;
+    let described = Described {
+        descriptions: read
+            .learned
+            .raw
+            .iter()
+            .map(|r| (r.number, r.text.clone()))
+            .collect(),
+        texts: read.learned.raw_texts.clone(),
+        layout: read.learned.layouts.iter().next().copied(),
+        types: read.learned.type_chars.clone(),
+    };
+    if !needs_learning(&base) {
+        return Ok(DescribedDrive {
+            client,
+            schema: base,
+            described,
+            learned: None,
+        });
     }
-    let learned = interpret(mc, &raws, &LearnOptions::default());
-    Ok((learned.layouts.iter().next().copied(), learned.type_chars))
+    let id = read.id(&base);
+    let pulled = read.render(&base, &id, drive, registry)?;
+    let schema = pulled.rendered.schema.clone();
+    let address = client.target().address;
+    let client = crate::connect::lustbus(client.into_link(), schema.clone(), address, connect)?;
+    Ok(DescribedDrive {
+        client,
+        schema,
+        described,
+        learned: Some(pulled),
+    })
 }
 
 /// What a recorded LECOM or LUSTBUS session (`driveset decode`'s events)

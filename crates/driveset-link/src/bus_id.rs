@@ -7,7 +7,7 @@
 //! | transport | bus id | e.g. |
 //! | --- | --- | --- |
 //! | serial port | `serial:` + the canonical device path (symlinks such as `/dev/serial/by-id/...` resolved) | `serial:/dev/ttyUSB0` |
-//! | TCP device server, raw or RFC 2217 | `tcp:` + the address actually connected to (host resolved) | `tcp:127.0.0.1:4001` |
+//! | TCP device server, raw or RFC 2217 | `tcp:` + the address actually connected to (host resolved; IPv4-mapped and `::1` as IPv4, [`tcp`]) | `tcp:127.0.0.1:4001` |
 //! | slcan adapter | `slcan:` + canonical device path + `?bitrate=` | `slcan:/dev/ttyACM0?bitrate=500000` |
 //! | SocketCAN | `can:` + interface | `can:can0` |
 //! | simulated bus | `sim:` + bus name (+ `@` canonical state file) | `sim:mc6000@/tmp/s/sim-mc6000.json` |
@@ -94,14 +94,48 @@ pub fn before_open(spec: &crate::PortSpec) -> Option<String> {
     }
 }
 
+/// The device a port reaches, without opening it, for telling whether two
+/// ports of one line manifest are one device: a serial or slcan port's
+/// canonical device path (whatever its rate), a SocketCAN interface, a TCP
+/// or RFC 2217 port's address with its host resolved (a name lookup, no
+/// connection; in the spelling of [`tcp`], so `localhost`, `127.0.0.1` and
+/// `::ffff:127.0.0.1` are one). `None` for an opener's port (`sim://`)
+/// and a host that does not resolve.
+pub fn device(spec: &crate::PortSpec) -> Option<String> {
+    use crate::PortSpec;
+    use std::net::ToSocketAddrs as _;
+    match spec {
+        PortSpec::Serial { path, .. } | PortSpec::Slcan { path, .. } => {
+            Some(format!("device:{}", canonical_device(path)))
+        }
+        PortSpec::SocketCan { interface, .. } => Some(socketcan(interface)),
+        PortSpec::Tcp { host, port, .. } | PortSpec::Rfc2217 { host, port, .. } => {
+            let addr = (host.as_str(), *port).to_socket_addrs().ok()?.next()?;
+            Some(tcp(addr))
+        }
+        PortSpec::Sim(_) => None,
+    }
+}
+
 /// `serial:` + [`canonical_device`].
 pub fn serial(path: &str) -> String {
     format!("serial:{}", canonical_device(path))
 }
 
-/// `tcp:` + the peer address (`127.0.0.1:4001`, `[::1]:4001`).
+/// `tcp:` + the peer address in one spelling per device: an IPv4-mapped
+/// IPv6 address (`[::ffff:127.0.0.1]:4001`) as its IPv4 address, and the
+/// IPv6 loopback `[::1]` as `127.0.0.1` (one machine, one port), so
+/// `localhost`, `127.0.0.1`, `::1` and `::ffff:127.0.0.1` are one bus, as
+/// a device server's name and its address are (the host is resolved
+/// before it is connected to).
 pub fn tcp(peer: std::net::SocketAddr) -> String {
-    format!("tcp:{peer}")
+    use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+    let ip = match peer.ip() {
+        IpAddr::V6(v6) if v6.is_loopback() => IpAddr::V4(Ipv4Addr::LOCALHOST),
+        IpAddr::V6(v6) => v6.to_ipv4_mapped().map_or(IpAddr::V6(v6), IpAddr::V4),
+        v4 => v4,
+    };
+    format!("tcp:{}", SocketAddr::new(ip, peer.port()))
 }
 
 /// `slcan:` + [`canonical_device`] + `?bitrate=N`.
@@ -128,6 +162,16 @@ pub fn socketcan(interface: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_tcp_id_for_every_spelling_of_an_address() {
+        let id = |s: &str| tcp(s.parse().unwrap());
+        assert_eq!(id("127.0.0.1:4001"), "tcp:127.0.0.1:4001");
+        assert_eq!(id("[::ffff:127.0.0.1]:4001"), "tcp:127.0.0.1:4001");
+        assert_eq!(id("[::1]:4001"), "tcp:127.0.0.1:4001");
+        assert_eq!(id("[::ffff:10.0.0.5]:4001"), "tcp:10.0.0.5:4001");
+        assert_eq!(id("[2001:db8::5]:4001"), "tcp:[2001:db8::5]:4001");
+    }
 
     #[test]
     fn device_paths_resolve_symlinks() {
@@ -181,7 +225,7 @@ mod tests {
         let v4: std::net::SocketAddr = "127.0.0.1:4001".parse().unwrap();
         let v6: std::net::SocketAddr = "[::1]:4001".parse().unwrap();
         assert_eq!(tcp(v4), "tcp:127.0.0.1:4001");
-        assert_eq!(tcp(v6), "tcp:[::1]:4001");
+        assert_eq!(tcp(v6), "tcp:127.0.0.1:4001");
         let (a, b) = (mem(), mem());
         assert!(a.starts_with("mem:") && b.starts_with("mem:"), "{a} {b}");
         assert_ne!(a, b);

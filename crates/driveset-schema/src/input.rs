@@ -56,6 +56,12 @@ impl InputKind {
         what: "line state files and learned schemas",
         cap: 16 * MIB,
     };
+    /// Twin files (`NAME.twin.toml`: one drive's values, about 100 kB for
+    /// the largest family; 4 MiB).
+    pub const TWIN: InputKind = InputKind {
+        what: "twin files",
+        cap: 4 * MIB,
+    };
     /// Simulator state dumps (`driveset sim --state`, `sim://...&state=`).
     pub const SIM_STATE: InputKind = InputKind {
         what: "simulator state files",
@@ -73,6 +79,13 @@ pub fn read_input(path: &std::path::Path, kind: InputKind) -> Result<Vec<u8>, In
     read_regular_file(path, kind.cap, kind.what)
 }
 
+/// Whether anything is at `path` (a FIFO, a directory, a dangling symlink
+/// or a symlink loop count): a missing file is told apart from one that is
+/// there but not readable as a file, which [`read_input`] names.
+pub fn exists(path: &std::path::Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok()
+}
+
 /// Checks, from its metadata only, that `path` is a regular file or does
 /// not exist yet: for a file a command will create or replace (`upload
 /// --journal FILE`), so a FIFO or device there is refused before anything
@@ -82,8 +95,10 @@ pub fn read_input(path: &std::path::Path, kind: InputKind) -> Result<Vec<u8>, In
 /// [`InputErrorKind::NotRegularFile`] when something other
 /// than a regular file is at `path`.
 pub fn refuse_special_file(path: &std::path::Path, kind: InputKind) -> Result<(), InputError> {
-    let Ok(meta) = std::fs::metadata(path) else {
-        return Ok(());
+    let meta = match std::fs::metadata(path) {
+        Ok(m) => m,
+        Err(e) if is_loop(&e) => return Err(not_a_regular_file(path, "a symlink loop", kind.what)),
+        Err(_) => return Ok(()),
     };
     match not_regular(meta.file_type()) {
         None => Ok(()),
@@ -101,6 +116,20 @@ fn not_a_regular_file(path: &std::path::Path, is: &str, what: &str) -> InputErro
         ),
         "give the path of a regular file (save a pipe's or device's data into a file first)",
     )
+}
+
+/// Whether opening failed on a symlink loop (`ELOOP`): named as such, not
+/// as an unreadable file.
+fn is_loop(e: &std::io::Error) -> bool {
+    #[cfg(unix)]
+    {
+        e.raw_os_error() == Some(libc::ELOOP)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = e;
+        false
+    }
 }
 
 /// What a path is when it is not a regular file (`None` for a regular file).
@@ -169,7 +198,13 @@ pub fn read_regular_file(
             format!("{what} are at most {cap} bytes; check that this is the right file"),
         )
     };
-    let meta = std::fs::metadata(path).map_err(unreadable)?;
+    let meta = std::fs::metadata(path).map_err(|e| {
+        if is_loop(&e) {
+            not_a_file("a symlink loop")
+        } else {
+            unreadable(e)
+        }
+    })?;
     if let Some(kind) = not_regular(meta.file_type()) {
         return Err(not_a_file(kind));
     }

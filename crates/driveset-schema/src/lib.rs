@@ -29,6 +29,7 @@ pub mod export;
 pub mod family;
 mod fnv;
 pub mod input;
+pub mod output;
 pub mod role;
 pub mod schema;
 pub mod set;

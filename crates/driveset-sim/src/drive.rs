@@ -13,6 +13,7 @@
 //! the specs do not document, a fixture schema marked fictional), its
 //! decoder state, and its own seeded [`crate::rng::SimRng`].
 
+use std::collections::BTreeMap;
 use std::time::Duration;
 
 use driveset_link::Instant;
@@ -130,6 +131,31 @@ pub trait ByteDrive: Send + std::fmt::Debug {
         let _ = (key, answer);
         Err(format!("a {} drive cannot refuse reads", self.family()))
     }
+
+    /// The drive has no code `key` from now on: reads and writes of it are
+    /// answered as the family answers a code it does not have (a twin's
+    /// codes its drive did not show, `crate::twin`). `Err` for a code the
+    /// drive never had.
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        Err(format!("a {} drive cannot forget {key:?}", self.family()))
+    }
+
+    /// Describe the parameters with `descriptions` (the VALUE characters
+    /// of each, by parameter) and answer substitution texts with `texts`
+    /// (by parameter and 108-STEXT index), as a twin's drive sent them;
+    /// every other description and text is refused. `Err` for a drive
+    /// without descriptions (LECOM).
+    fn describe_as(
+        &mut self,
+        descriptions: &BTreeMap<u32, Vec<u8>>,
+        texts: &BTreeMap<(u32, u8), Vec<u8>>,
+    ) -> Result<(), String> {
+        let _ = (descriptions, texts);
+        Err(format!(
+            "a {} drive has no parameter descriptions",
+            self.family()
+        ))
+    }
 }
 
 /// How a simulated drive refuses a read of one code, as a real drive did
@@ -237,6 +263,11 @@ pub trait FrameDrive: Send + std::fmt::Debug {
     ) -> Result<(), String> {
         let _ = values;
         Ok(())
+    }
+
+    /// The node has no code `key` from now on ([`ByteDrive::forget`]).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        Err(format!("a {} node cannot forget {key:?}", self.family()))
     }
 }
 

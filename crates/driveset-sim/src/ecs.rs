@@ -151,6 +151,7 @@ struct Dictionary<'a> {
     table: &'a ParamTable,
     values: &'a mut BTreeMap<CodeKey, RawValue>,
     refused_reads: &'a BTreeMap<CodeKey, AbortCode>,
+    hidden: &'a std::collections::BTreeSet<CodeKey>,
     /// Objects kept by index (`[[code]] index`), by index and subindex.
     by_index: &'a BTreeMap<(u16, u8), CodeKey>,
     /// How the drive keeps writes ([`Storing`]); set when the store
@@ -188,11 +189,16 @@ impl Dictionary<'_> {
         if let Some(p) = self
             .by_index
             .get(&(index.0, subindex.0))
+            .filter(|k| !self.hidden.contains(*k))
             .and_then(|k| self.table.get(*k))
         {
             return Ok((p, indexed_wire(p)));
         }
-        if self.by_index.keys().any(|(i, _)| *i == index.0) {
+        if self
+            .by_index
+            .iter()
+            .any(|((i, _), k)| *i == index.0 && !self.hidden.contains(k))
+        {
             return Err(AbortCode::NO_SUCH_SUBINDEX);
         }
         let code = CodeNumber::from_index(index).map_err(|_| AbortCode::NO_SUCH_OBJECT)?;
@@ -201,10 +207,15 @@ impl Dictionary<'_> {
             0 => CodeKey::new(number),
             s => CodeKey::sub(number, u32::from(s)),
         };
-        if let Some(p) = self.table.get(key) {
+        let seen = |k: &CodeKey| !self.hidden.contains(k);
+        if let Some(p) = self.table.get(key).filter(|_| seen(&key)) {
             return Ok((p, wire_of(p, code)));
         }
-        if self.table.iter().any(|p| p.key.number == number) {
+        if self
+            .table
+            .iter()
+            .any(|p| p.key.number == number && seen(&p.key))
+        {
             Err(AbortCode::NO_SUCH_SUBINDEX)
         } else {
             Err(AbortCode::NO_SUCH_OBJECT)
@@ -348,6 +359,9 @@ pub struct EcsDrive {
     storing: Storing,
     /// A device from its data sheet: out of range is 0x06090030.
     general_range_abort: bool,
+    /// Codes answered as objects the node does not have
+    /// ([`FrameDrive::forget`]); the model keeps their values for itself.
+    hidden: std::collections::BTreeSet<CodeKey>,
 }
 
 impl EcsDrive {
@@ -399,6 +413,7 @@ impl EcsDrive {
             by_index,
             storing,
             general_range_abort: false,
+            hidden: std::collections::BTreeSet::new(),
         }
     }
 
@@ -482,6 +497,17 @@ impl FrameDrive for EcsDrive {
         Ok(())
     }
 
+    /// From now on an upload or download of `key` is aborted as for any
+    /// object the node does not have (DS301 table 22).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        if self.table.get(key).is_none() {
+            let display = self.table.schema().display_code(key.number, key.subcode);
+            return Err(format!("{display}: no such code on an ECS node"));
+        }
+        self.hidden.insert(key);
+        Ok(())
+    }
+
     fn node_id(&self) -> u8 {
         self.node.get()
     }
@@ -505,6 +531,7 @@ impl FrameDrive for EcsDrive {
             by_index: &self.by_index,
             storing: &mut self.storing,
             general_range_abort: self.general_range_abort,
+            hidden: &self.hidden,
         };
         let response = self.server.on_frame_data(frame.payload(), &mut od);
         if let Storing::OnCommand { stored, asked, .. } = &mut self.storing

@@ -149,8 +149,11 @@ pub struct SecretMask {
     drive: MaskState,
 }
 
-/// What a masked character is logged as.
+/// What a masked character (a secret's BCC) is logged as.
 pub const MASKED: u8 = b'*';
+
+/// What a secret's value is logged as, whatever its length.
+pub const SECRET_VALUE: &[u8] = b"***";
 
 impl SecretMask {
     /// A mask for the codes `secrets` (numbers) of a `protocol` line.
@@ -172,14 +175,23 @@ impl SecretMask {
             Dir::Drive => &mut self.drive,
             _ => &mut self.host,
         });
-        let out = bytes
-            .iter()
-            .map(|&b| {
-                let (next, masked) = self.step(state.clone(), b & 0x7F);
-                state = next;
-                if masked { MASKED } else { b }
-            })
-            .collect();
+        let mut out = Vec::with_capacity(bytes.len());
+        for &b in bytes {
+            let (next, masked) = self.step(state.clone(), b & 0x7F);
+            // a secret value's characters are dropped and its end shows
+            // as `***`, whatever its length (the length is a hint too)
+            if masked && matches!(state, MaskState::Value(true)) {
+                if b & 0x7F == 0x03 {
+                    out.extend_from_slice(SECRET_VALUE);
+                    out.push(b);
+                }
+            } else if masked {
+                out.push(MASKED);
+            } else {
+                out.push(b);
+            }
+            state = next;
+        }
         *match dir {
             Dir::Drive => &mut self.drive,
             _ => &mut self.host,
@@ -210,7 +222,7 @@ impl SecretMask {
                     None => (MaskState::Head(head), false),
                 }
             }
-            MaskState::Value(secret) if b == ETX => (MaskState::Bcc(secret), false),
+            MaskState::Value(secret) if b == ETX => (MaskState::Bcc(secret), secret),
             MaskState::Value(secret) => (MaskState::Value(secret), secret),
         }
     }
@@ -440,7 +452,7 @@ mod tests {
         let mut m = SecretMask::new(MaskProtocol::Lecom, vec![94]);
         assert_eq!(
             masked(&mut m, Dir::Host, &[b"\x0401\x02!005E0012\x03x"]),
-            "<EOT>01<STX>!005E00**<ETX>*"
+            "<EOT>01<STX>!005E00***<ETX>*"
         );
     }
 
@@ -453,13 +465,22 @@ mod tests {
                 Dir::Host,
                 &[b"\x04A\x02001", b"70=04D2\x03z\x04A\x0200112=03E8\x03r"]
             ),
-            "<EOT>A<STX>00170=****<ETX>*<EOT>A<STX>00112=03E8<ETX>r"
+            "<EOT>A<STX>00170=***<ETX>*<EOT>A<STX>00112=03E8<ETX>r"
         );
         // the BCC after ETX is masked even when it is an EOT byte
         let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
         assert_eq!(
             masked(&mut m, Dir::Drive, &[b"A\x0200170=1\x03\x04"]),
-            "A<STX>00170=*<ETX>*"
+            "A<STX>00170=***<ETX>*"
         );
+        // a password of any length, also none, logs alike
+        for value in ["", "1", "04D2", "FFFFFFFF"] {
+            let mut m = SecretMask::new(MaskProtocol::Lustbus, vec![70]);
+            let t = format!("A\x0200170={value}\x03z");
+            assert_eq!(
+                masked(&mut m, Dir::Drive, &[t.as_bytes()]),
+                "A<STX>00170=***<ETX>*"
+            );
+        }
     }
 }

@@ -237,7 +237,7 @@ impl Mc6000 {
         if let Some(refusal) = self.core.refused_read(number) {
             return refusal;
         }
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Nak;
         };
         let Some(raw) = self.core.int(number) else {
@@ -286,12 +286,22 @@ impl LustModel for Mc6000 {
         if let Some(n) = Mc6000::value_number(code) {
             return self.read(n);
         }
-        let text = match code.meaning() {
-            CodeMeaning::McDescription { parameter } => self
+        let text = match (code.meaning(), &self.core.recorded) {
+            // a twin: what its drive sent, nothing else
+            (CodeMeaning::McDescription { parameter }, Some(r)) => {
+                r.descriptions.get(&u32::from(parameter)).cloned()
+            }
+            (CodeMeaning::SubstitutionText { parameter }, Some(r)) => {
+                let index = self.core.int(STEXT).unwrap_or(0);
+                u8::try_from(index)
+                    .ok()
+                    .and_then(|i| r.texts.get(&(u32::from(parameter), i)).cloned())
+            }
+            (CodeMeaning::McDescription { parameter }, None) => self
                 .core
                 .param(u32::from(parameter))
                 .and_then(|p| self.core.mc_description(p)),
-            CodeMeaning::SubstitutionText { parameter } => {
+            (CodeMeaning::SubstitutionText { parameter }, None) => {
                 let index = self.core.int(STEXT).unwrap_or(0);
                 self.core.substitution_text(u32::from(parameter), index)
             }
@@ -307,7 +317,7 @@ impl LustModel for Mc6000 {
         let Some(number) = Mc6000::value_number(code) else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
         if matches!(self.sload, Sload::Checking { .. }) {

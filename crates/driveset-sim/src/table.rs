@@ -161,6 +161,12 @@ impl ParamTable {
         self.params.get(&key)
     }
 
+    /// Add `p` (a parameter a twin's drive described that the schema does
+    /// not have, `crate::twin`); an existing one is kept.
+    pub fn adopt(&mut self, p: Param) {
+        self.params.entry(p.key).or_insert(p);
+    }
+
     /// All parameters in code order.
     pub fn iter(&self) -> impl Iterator<Item = &Param> {
         self.params.values()

@@ -120,7 +120,7 @@ impl LustModel for Vf1000 {
                 if let Some(refusal) = self.core.refused_read(n) {
                     return refusal;
                 }
-                let Some(p) = self.core.param(n).cloned() else {
+                let Some(p) = self.core.wire_param(n).cloned() else {
                     return Answer::Nak;
                 };
                 let Some(text) = self
@@ -135,11 +135,17 @@ impl LustModel for Vf1000 {
                 }
                 Answer::Value(text)
             }
-            CodeMeaning::VfDescription { device, parameter } => self
-                .number(device, parameter)
-                .and_then(|n| self.core.param(n))
-                .and_then(|p| self.core.vf_description(p))
-                .map_or(Answer::Nak, Answer::Value),
+            CodeMeaning::VfDescription { device, parameter } => {
+                let n = self.number(device, parameter);
+                match &self.core.recorded {
+                    // a twin: what its drive sent, nothing else
+                    Some(r) => n.and_then(|n| r.descriptions.get(&n).cloned()),
+                    None => n
+                        .and_then(|n| self.core.param(n))
+                        .and_then(|p| self.core.vf_description(p)),
+                }
+                .map_or(Answer::Nak, Answer::Value)
+            }
             _ => Answer::Nak,
         }
     }
@@ -151,7 +157,7 @@ impl LustModel for Vf1000 {
         let Some(number) = self.number(device, parameter) else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
-        let Some(p) = self.core.param(number).cloned() else {
+        let Some(p) = self.core.wire_param(number).cloned() else {
             return Answer::Refuse(Siof::NO_PARAMETER);
         };
         if !p.writable() {

@@ -121,9 +121,11 @@ fn schemas_for(port_text: &str, dirs: &[PathBuf], given: &[String]) -> Result<Sc
 fn address(args: &Args) -> Result<u8, Fail> {
     let protocol = args.protocol.0;
     if protocol == BusProtocol::CanSdo {
-        return Err(Fail::input(
-            "--protocol sdo: driveset address sets LUSTBUS and LECOM addresses; a CAN node id is set on the drive",
-        ));
+        // the protocol's own name, not one of its aliases
+        return Err(Fail::input(format!(
+            "--protocol {}: driveset address sets LUSTBUS and LECOM addresses; a CAN node id is set on the drive",
+            protocol.name()
+        )));
     }
     if protocol == BusProtocol::Lustbus && args.from.is_some() {
         return Err(Fail::input(

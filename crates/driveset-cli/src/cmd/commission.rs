@@ -114,11 +114,18 @@ pub struct Args {
     #[command(flatten)]
     pub learn: crate::learning::LearnArgs,
     /// Rehearse against the twins in DIR (DIR/<drive name>.twin.toml), in
-    /// virtual time: same plan, refusals, report and exit codes; drives
-    /// without a twin are not rehearsed (docs/twins.md).
+    /// virtual time: same plan, refusals, report and exit codes. A missing
+    /// or empty DIR, or no twin of any selected drive, is an error (exit
+    /// 2); a selected drive without a twin is not rehearsed and fails the
+    /// run (exit 1) unless --allow-missing-twins (docs/twins.md).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[arg(long, value_name = "DIR")]
     pub rehearse: Option<PathBuf>,
+    /// With --rehearse: a selected drive without a twin is not rehearsed
+    /// and the run still exits 0 when every rehearsed drive holds its set
+    /// (without it such a run exits 1).
+    #[arg(long, requires = "rehearse")]
+    pub allow_missing_twins: bool,
     /// The line's first contact: give every drive of the LUSTBUS / LECOM
     /// buses its manifest address and its bus's rate, one drive at a time
     /// (connect each alone when asked), scan every bus, then commission
@@ -176,6 +183,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         report_dir: args.report_dir,
         learn: args.learn,
         rehearse: args.rehearse,
+        allow_missing_twins: args.allow_missing_twins,
     };
     run_mode(opts, Mode::Commission, |o| {
         o.overrides = overrides;
@@ -201,6 +209,8 @@ pub struct Common {
     pub learn: crate::learning::LearnArgs,
     /// `commission --rehearse DIR`: the twins' directory.
     pub rehearse: Option<PathBuf>,
+    /// `commission --allow-missing-twins`.
+    pub allow_missing_twins: bool,
 }
 
 /// Load the manifest; print its findings (exit 2) if it has any. The
@@ -280,6 +290,11 @@ pub fn run_mode(
         .report_dir
         .or_else(|| manifest.report_dir.clone())
         .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
+    // the report's files are checked before any bus is opened: a FIFO or
+    // device there is refused, not found blocking after the line ran
+    for name in [report::JSON_NAME, report::HTML_NAME, "report.junit.xml"] {
+        crate::files::check_output("report", &report_dir.join(name))?;
+    }
     let mut opts = LineOptions::new(&report_dir, Arc::new(crate::env::SystemEnv));
     // the journal directory `upload` uses, so each sees the other's journals
     opts.journal_dir = manifest
@@ -308,14 +323,16 @@ pub fn run_mode(
     // a rehearsal: the twins' buses, its own journals, no resume state
     let rehearsal = match &c.rehearse {
         Some(dir) => {
-            let twins = super::twin::rehearsal_twins(&manifest, dir)?;
+            let selected = driveset_engine::line::commission::select(&manifest, &opts)
+                .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
+            let twins = super::twin::rehearsal_twins(&manifest, dir, &selected)?;
             let missing: Vec<String> = twins
                 .iter()
-                .filter(|(_, t)| t.is_none())
+                .filter(|(n, t)| t.is_none() && selected.contains(*n))
                 .map(|(n, _)| n.clone())
                 .collect();
             opts.skip.extend(missing.iter().cloned());
-            opts.label = Some(super::twin::rehearsal_label(dir, &twins));
+            opts.label = Some(super::twin::rehearsal_label(dir, &twins, &missing));
             opts.fresh = true;
             opts.journal_dir = report_dir.join("rehearsal-journal");
             for m in &missing {
@@ -380,7 +397,18 @@ pub fn run_mode(
             )));
         }
     }
-    Ok(exit_code(outcome.verdict()))
+    let code = exit_code(outcome.verdict());
+    if let Some((_, missing)) = &rehearsal
+        && !missing.is_empty()
+        && !c.allow_missing_twins
+    {
+        eprintln!(
+            "error: not rehearsed (no twin): {}; capture them (driveset twin capture-line), leave them out with --skip, or give --allow-missing-twins",
+            missing.join(", ")
+        );
+        return Ok(code.max(EXIT_FINDINGS));
+    }
+    Ok(code)
 }
 
 /// The process exit code of a line run: 0 every selected drive holds its

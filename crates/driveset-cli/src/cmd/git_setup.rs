@@ -181,26 +181,18 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     match top {
         Some(top) => {
             let path = top.join(".gitattributes");
-            let existing = match std::fs::read_to_string(&path) {
-                Ok(s) => s,
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
-                Err(e) => {
-                    return Err(crate::fail::Fail::input(format!(
-                        "cannot read {}: {e}",
-                        path.display()
-                    )));
-                }
+            crate::files::check_output("", &path)?;
+            let existing = if std::fs::symlink_metadata(&path).is_err() {
+                String::new()
+            } else {
+                crate::files::read_settings(&path)
+                    .map_err(|e| crate::fail::Fail::input(format!("{}; {}", e.message, e.help)))?
             };
             let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
             match merge_attributes(&existing, &want) {
                 None => outln!("{}: up to date", path.display()),
                 Some(text) => {
-                    if let Err(e) = std::fs::write(&path, text) {
-                        return Err(crate::fail::Fail::input(format!(
-                            "cannot write {}: {e}",
-                            path.display()
-                        )));
-                    }
+                    crate::files::write_output("", &path, text.as_bytes())?;
                     outln!(
                         "{}: set files use the driveset diff driver (commit this file)",
                         path.display()

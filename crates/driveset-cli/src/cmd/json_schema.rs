@@ -67,8 +67,7 @@ pub fn lookup(registry: &mut Registry, name: &str) -> Result<Arc<Schema>, Fail> 
 }
 
 fn write(path: &Path, text: &str) -> Result<(), Fail> {
-    std::fs::write(path, text)
-        .map_err(|e| Fail::input(format!("cannot write {}: {e}", path.display())))
+    crate::files::write_output("", path, text.as_bytes())
 }
 
 /// Run `driveset schema json-schema`.

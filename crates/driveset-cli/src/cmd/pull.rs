@@ -129,6 +129,8 @@ pub struct Args {
 
 /// Run `driveset pull`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    // a FIFO or device as -o is refused before the port is opened
+    crate::files::check_output("-o", &args.output)?;
     pull(&args)
 }
 
@@ -394,12 +396,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             text.push_str(values);
         }
     }
-    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| Fail::input(format!("cannot create {}: {e}", dir.display())))?;
-    }
-    std::fs::write(&args.output, text)
-        .map_err(|e| Fail::input(format!("cannot write {}: {e}", args.output.display())))?;
+    crate::files::write_output("-o", &args.output, text.as_bytes())?;
 
     match args.format {
         BusFormat::Json => {

@@ -53,6 +53,9 @@ pub struct Args {
 
 /// Run `driveset schema import`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    if let Some(out) = &args.output {
+        crate::files::check_output("-o", out)?;
+    }
     let shown = args.file.display().to_string();
     // regular files only, size checked before reading (a FIFO or
     // /dev/zero is refused at once)
@@ -92,15 +95,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         }
     };
     if let Some(out) = &args.output {
-        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-            let _ = std::fs::create_dir_all(dir);
-        }
-        if let Err(e) = std::fs::write(out, &imported.toml) {
-            return Err(crate::fail::Fail::input(format!(
-                "cannot write {}: {e}\n  = help: check the directory",
-                out.display()
-            )));
-        }
+        crate::files::write_output("-o", out, imported.toml.as_bytes())?;
     } else {
         output::emit(&imported.toml);
     }

@@ -86,6 +86,8 @@ pub struct Args {
 
 /// Run `driveset schema pull`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
+    // a FIFO or device as -o is refused before the port is opened
+    crate::files::check_output("-o", &args.output)?;
     schema_pull(&args)
 }
 
@@ -157,12 +159,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         }
     })?;
     let (rendered, learned) = (pulled.rendered, pulled.learned);
-    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| Fail::input(format!("cannot create {}: {e}", dir.display())))?;
-    }
-    std::fs::write(&args.output, &rendered.text)
-        .map_err(|e| Fail::input(format!("cannot write {}: {e}", args.output.display())))?;
+    crate::files::write_output("-o", &args.output, rendered.text.as_bytes())?;
 
     let report = learning::LearnReport {
         id: id.clone(),

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! driveset sim --family mc6000 --address 1 --address 2 [--pty | --tcp 127.0.0.1:PORT]
-//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES] [--faults PLAN]
+//!              [--baud 9600] [--bitrate 500000] [--keypad] [--c0001 N] [--refuse CODES]
+//!              [--layout 52|43|42|34] [--types READING] [--describe N:ITEM...] [--faults PLAN]
 //!              [--seed N] [--log FILE] [--dump FILE] [--state FILE]
 //! ```
 //!
@@ -154,6 +155,22 @@ pub struct Args {
     /// EOT, CAN SDO abort 0x06010001 (docs/twins.md "Refused reads").
     #[arg(long, value_name = "CODES")]
     refuse: Option<String>,
+
+    /// MC6000/7000: the layout the drives send their parameter descriptions
+    /// in (52, 43, 42 or 34; errata L22), as a `sim://` port's `layout=`.
+    #[arg(long, value_name = "52|43|42|34", conflicts_with = "twin")]
+    layout: Option<String>,
+
+    /// MC6000/7000: the type characters of their descriptions (`driveset`,
+    /// `table` or `C=TYPE,...`; errata L23), as a `sim://` port's `types=`.
+    #[arg(long, value_name = "READING", conflicts_with = "twin")]
+    types: Option<String>,
+
+    /// LUSTBUS: parameters whose description says something other than the
+    /// drive does (`N:ITEM[:ITEM...][;N:...]`, e.g. `11:actual:binary8`),
+    /// as a `sim://` port's `describe=` (docs/ports.md).
+    #[arg(long, value_name = "N:ITEM...", conflicts_with = "twin")]
+    describe: Option<String>,
 
     /// Faults to inject, e.g. `flip=0.01,lose=0.02,power-cycle@40:addr=1`.
     #[arg(long, value_name = "PLAN")]
@@ -311,6 +328,18 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
         config.refuse = driveset_sim::open::parse_refuse(codes)
             .map_err(|e| anyhow::anyhow!("--refuse {codes}: {e}"))?;
     }
+    if let Some(l) = &args.layout {
+        config.description_layout = driveset_proto::lustbus::description::McLayout::from_name(l)
+            .ok_or_else(|| anyhow::anyhow!("--layout {l}: use 52, 43, 42 or 34 (errata L22)"))?;
+    }
+    if let Some(t) = &args.types {
+        config.type_chars = driveset_proto::lustbus::description::McTypeChars::parse(t)
+            .map_err(|e| anyhow::anyhow!("--types {t}: {e}"))?;
+    }
+    if let Some(d) = &args.describe {
+        config.describe =
+            driveset_sim::describe::parse(d).map_err(|e| anyhow::anyhow!("--describe {d}: {e}"))?;
+    }
     config.keypad = args.keypad;
     config.seed = args.seed;
     if let Some(plan) = &args.faults {
@@ -407,26 +436,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let log = match &args.log {
         Some(path) => {
             // 0600: the log is a bus capture (secrets are masked in it,
-            // the rest of the traffic is not)
-            let mut opts = std::fs::OpenOptions::new();
-            opts.write(true).create(true).truncate(true);
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::OpenOptionsExt as _;
-                opts.mode(0o600);
-            }
-            let file = opts
-                .open(path)
-                .and_then(|f| {
-                    // an existing file keeps its mode: restrict it too
-                    #[cfg(unix)]
-                    {
-                        use std::os::unix::fs::PermissionsExt as _;
-                        f.set_permissions(std::fs::Permissions::from_mode(0o600))?;
-                    }
-                    Ok(f)
-                })
-                .with_context(|| format!("cannot create the log file {}", path.display()))?;
+            // the rest of the traffic is not); a FIFO or device is refused
+            let file = driveset_schema::output::create_log(path).map_err(|e| {
+                crate::fail::Fail::input(format!("--log {}: {}", path.display(), e.detail()))
+            })?;
             EventLog::writer(LineWriter::new(file))
         }
         None => EventLog::off(),

@@ -62,6 +62,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         report_dir: args.report_dir,
         learn: args.learn,
         rehearse: None,
+        allow_missing_twins: false,
     };
     run_mode(c, Mode::Status, |_| {})
 }

@@ -1,28 +1,30 @@
 //! `driveset twin capture | capture-line | from-capture` and the rehearsal
 //! behind `driveset commission MANIFEST --rehearse DIR` (docs/twins.md).
 //!
-//! The capture is read-only: identify, reads and (MC6000/7000) description
-//! enquiries through the engine's clients ([`driveset_engine::capture`]);
-//! the file is the simulator's twin format ([`driveset_sim::twin`]). A
-//! rehearsal opens every bus of the manifest as a simulated bus of the
-//! twins of its drives (`DIR/<drive name>.twin.toml`) in virtual time and
-//! runs the line as `commission` does; drives without a twin are not
-//! rehearsed.
+//! The capture reads: identify, a LUSTBUS drive's parameter descriptions
+//! and substitution texts as `pull` learns them (the only write the MC's RAM
+//! selector 108-STEXT, set back), and every code of the schema, through the
+//! engine ([`driveset_engine::capture`]); the file is the simulator's twin
+//! format ([`driveset_sim::twin`]). A rehearsal opens every bus of the
+//! manifest as a simulated bus of the twins of its drives (`DIR/<drive
+//! name>.twin.toml`) in virtual time and runs the line as `commission`
+//! does; a rehearsal that would rehearse nothing is refused, and selected
+//! drives without a twin fail it unless `--allow-missing-twins`.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::capture::{Capture, capture, mc_descriptions};
+use driveset_engine::capture::{Capture, capture, describe};
 use driveset_engine::client::DriveClient;
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
+use driveset_engine::learn::{LearnOptions, PullSchemaError};
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
-use driveset_proto::lustbus::Dialect;
 use driveset_schema::{CodeKey, Family, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
@@ -39,7 +41,7 @@ pub const REHEARSE_COMMAND: &str = "rehearse";
 /// `driveset twin ...`.
 #[derive(clap::Subcommand)]
 pub enum TwinCommand {
-    /// Capture one drive, read-only, into a twin file.
+    /// Capture one drive into a twin file (what it answers and describes).
     Capture(CaptureArgs),
     /// Capture every drive of a line manifest into DIR/<drive name>.twin.toml.
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
@@ -51,13 +53,16 @@ pub enum TwinCommand {
 /// `driveset twin capture`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Reads the drive read-only (identify, every code of the schema, MC6000/7000
-description enquiries; never a write): its identity, every value, the codes
-it refuses to read, the state that decides its refusals (Tmd C0001, running,
-MC6000 SLOAD, the description layout), the line rate and reaction times.
-Passwords are never read; the twin lists them without a value. The schema is
-found as `pull` finds it (a sim:// port's family, else the protocol probe),
-or given with --schema.
+Reads the drive (identify; a LUSTBUS drive's parameter descriptions and,
+MC6000/7000, its substitution texts, as `pull` learns them: the only write is
+the RAM selector 108-STEXT, set back; every code of the schema): its
+identity, every value, the codes it refuses to read, every description and
+text as it sent them, the state that decides its refusals (Tmd C0001,
+running, MC6000 SLOAD), the line rate and reaction times. Passwords are
+never read; the twin lists them without a value. The schema is found as
+`pull` finds it (a sim:// port's family, else the protocol probe), or given
+with --schema; one that lacks facts (lust-mc6000, lust-vf1000) is learned
+from the descriptions. The twin then answers only what the drive answered.
 
 A second capture of an unchanged drive leaves the file byte-identical: when
 only the date, the driveset version or reaction times inside the recorded
@@ -91,9 +96,10 @@ pub struct CaptureArgs {
 #[derive(clap::Args)]
 #[command(after_help = "\
 Captures every drive of the manifest, bus by bus, into DIR/<drive name>.twin.toml
-(read-only, as `twin capture`), with each drive's set's schema (the simulator's
-schema on a sim:// port). Exit codes as `twin capture`; a drive that cannot be
-captured is reported and the others are captured all the same.
+(as `twin capture`), with each drive's set's schema as the manifest resolved it
+(a learned file `pull` wrote beside the set included). A drive that cannot be
+captured is reported and the others are captured all the same; the exit code
+is the worst failure's (as `twin capture`), 0 when every drive was captured.
 
 Example:
   driveset twin capture-line parameter-sets/demo-line/line.toml -o twins/")]
@@ -155,7 +161,16 @@ pub fn run(c: TwinCommand) -> Result<u8, Fail> {
 }
 
 fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
-    let (twin, schema) = capture_drive(&a.port, a.address, a.schema.as_deref(), &a.schemas)?;
+    // a FIFO or device as -o is refused before the port is opened
+    crate::files::check_output("-o", &a.output)?;
+    let (twin, schema) = capture_drive(&a.port, a.address, |opened| {
+        let sim = port::peek_sim_family_at(&a.port, Some(a.address));
+        Ok(if a.schema.is_none() && sim.is_none() {
+            learning::detect(opened, a.address, &a.schemas)?.0
+        } else {
+            port::resolve_schema(a.schema.as_deref(), &a.schemas, sim, None)?.schema
+        })
+    })?;
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
     Ok(EXIT_OK)
@@ -163,18 +178,22 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     let manifest = super::commission::load(&a.manifest, true).map_err(Fail::reported)?;
+    // every twin file is checked before a bus is opened
+    for d in &manifest.drives {
+        crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;
+    }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     let mut worst = EXIT_OK;
+    let mut failed = Vec::new();
     for d in &manifest.drives {
         let bus = &manifest.buses[d.bus_index];
         let port_text = bus.port.to_string();
-        let sim = matches!(bus.port, driveset_link::PortSpec::Sim(_));
-        // on a sim:// port the simulator's own schema (as `pull` uses it);
-        // on a plant the set's
-        let schema_arg = if sim { None } else { Some(d.schema.id.clone()) };
         let out = a.output.join(format!("{}{TWIN_SUFFIX}", d.name));
-        match capture_drive(&port_text, d.address, schema_arg.as_deref(), &[])
+        // the set's schema as the manifest resolved it (a learned file
+        // `pull` wrote beside the set included); one that lacks facts is
+        // learned from the drive, as `pull` learns it
+        match capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()))
             .and_then(|(t, s)| write_twin(&out, &t, &s))
         {
             Ok(line) => outln!("{}: {line}", d.name),
@@ -183,42 +202,74 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
                     "error: {} ({} address {}): {}",
                     d.name, bus.name, d.address, f.msg
                 );
+                failed.push(d.name.clone());
                 worst = worst.max(f.code);
             }
         }
     }
+    if !failed.is_empty() {
+        eprintln!(
+            "error: {} of {} drive(s) not captured: {}",
+            failed.len(),
+            manifest.drives.len(),
+            failed.join(", ")
+        );
+    }
     Ok(worst)
 }
 
-/// Capture the drive at `address` of `port_text` into a twin.
+/// Capture the drive at `address` of `port_text` into a twin, with the
+/// schema `choose` gives for the opened port (given, or found as `pull`
+/// finds it). A LUSTBUS drive is described first, whatever the schema
+/// ([`describe`]: every description and substitution text it sends, the
+/// schema learned from them when the chosen one lacks facts, as `pull`
+/// learns it); then every code of the schema is read ([`capture`]).
 pub fn capture_drive(
     port_text: &str,
     address: u8,
-    schema_arg: Option<&str>,
-    dirs: &[PathBuf],
+    choose: impl FnOnce(&mut port::OpenPort) -> Result<Arc<Schema>, Fail>,
 ) -> Result<(Twin, Arc<Schema>), Fail> {
-    let sim = port::peek_sim_family_at(port_text, Some(address));
     let mut opened = port::open_port_at(port_text, Some(address))?;
-    let schema = if schema_arg.is_none() && sim.is_none() {
-        learning::detect(&mut opened, address, dirs)?.0
-    } else {
-        port::resolve_schema(schema_arg, dirs, sim, None)?.schema
-    };
+    let schema = choose(&mut opened)?;
     let port_name = opened.name.clone();
     let rate = match &opened.link {
         Link::Bytes(l) => l.baud(),
         Link::Frames(l) => l.bitrate(),
     };
-    let mut layout = (None, None);
-    // the family that speaks the MC dialect describes its parameters in
-    // the MC layout (LUSTBUS §11.1), which the twin keeps
-    let mc = schema.family.descriptor().dialect == Some(Dialect::Mc);
-    let mut client: Box<dyn DriveClient> = if mc {
+    let mut described = None;
+    let mut schema = schema;
+    // a family whose drives describe their parameters (LUSTBUS 11.1, 11.2)
+    let describes = schema.family.descriptor().learning.is_some();
+    let mut client: Box<dyn DriveClient> = if describes {
         port::check_fit(&opened, &schema, Some(address), false)?;
-        let mut c = Session::lustbus(opened, schema.clone(), address)?;
-        let params: Vec<u32> = schema.codes.iter().map(|c| c.number).collect();
-        layout = mc_descriptions(&mut c, &params)?;
-        Box::new(c)
+        let registry = port::registry_for(&opened.name, &[])?;
+        let connect = opened.connect;
+        let c = Session::lustbus(opened, schema.clone(), address)?;
+        let drive = format!("{port_name} address {address}");
+        let d = describe(
+            c,
+            schema,
+            &LearnOptions::default(),
+            &registry,
+            drive,
+            &connect,
+        )
+        .map_err(|e| match e {
+            PullSchemaError::Engine(e) => Fail::from(e),
+            PullSchemaError::Render(detail) => Fail {
+                code: crate::EXIT_BUS,
+                msg: format!("{port_name} address {address}: {detail}; no twin written"),
+            },
+        })?;
+        if let Some(l) = &d.learned {
+            eprintln!(
+                "learned schema {} from the drive's descriptions: {} codes (the twin holds the descriptions themselves)",
+                l.rendered.id, l.rendered.codes
+            );
+        }
+        schema = d.schema;
+        described = Some(d.described);
+        Box::new(d.client)
     } else {
         port::into_client(opened, schema.clone(), address, false)?
     };
@@ -236,8 +287,12 @@ pub fn capture_drive(
     let mut twin = twin_of(&cap, &schema, address);
     twin.source = format!("drive {port_name} address {address}");
     twin.rate = cap.rate.or(Some(rate));
-    twin.layout = layout.0;
-    twin.types = layout.1;
+    if let Some(d) = described {
+        twin.layout = d.layout;
+        twin.types = d.types;
+        twin.descriptions = Some(d.descriptions);
+        twin.texts = d.texts;
+    }
     Ok((twin, schema))
 }
 
@@ -257,6 +312,7 @@ fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
         .filter_map(|(k, cause)| Some((*k, read_refusal(cause)?)))
         .collect();
     twin.secrets = cap.secrets.clone();
+    twin.unread = cap.clears.clone();
     twin.unknown = cap.unread.clone();
     if let Some(source) = schema.family.descriptor().bus_write {
         twin.c0001 = c0001_of(&cap.values, schema, source.code);
@@ -307,12 +363,16 @@ fn today() -> String {
 /// Write `twin` to `path` ([`keep_or_replace`]: an unchanged drive keeps
 /// the file byte-identical); the line to print.
 fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail> {
-    let old = std::fs::read_to_string(path).ok();
+    crate::files::check_output("", path)?;
+    // the file it replaces, through the one reader (absent or unreadable:
+    // written anew)
+    let old = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::TWIN)
+        .ok()
+        .and_then(|b| String::from_utf8(b).ok());
     let text = keep_or_replace(old.as_deref(), twin, Some(schema));
     let unchanged = old.as_deref() == Some(text.as_str());
     if !unchanged {
-        crate::report::write_atomic(path, text.as_bytes())
-            .map_err(|e| Fail::input(format!("cannot write {}: {e}", path.display())))?;
+        crate::files::write_output("", path, text.as_bytes())?;
     }
     Ok(format!(
         "{} {} at address {}: {} codes, {} refused, {} secret(s) not stored{}; {} ({} bytes)",
@@ -397,6 +457,9 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             for key in driveset_engine::capture::code_keys(code) {
                 if schema.is_password(code) {
                     twin.secrets.push(key);
+                } else if code.read_clears == Some(true) {
+                    // the served model latches it itself
+                    twin.unread.push(key);
                 } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
                 {
                     twin.unknown.push(key);
@@ -432,15 +495,46 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
 }
 
 /// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
-/// (`None`: not rehearsed).
+/// (`None`: not rehearsed). A rehearsal that would rehearse nothing is an
+/// input error (exit 2): `dir` missing or not a directory, holding no twin,
+/// or no twin of any drive of `selected`.
 pub fn rehearsal_twins(
     manifest: &Manifest,
     dir: &Path,
+    selected: &std::collections::BTreeSet<String>,
 ) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
+    let capture = format!(
+        "capture the line's twins into it with `driveset twin capture-line {} -o {}`",
+        manifest.path.display(),
+        dir.display()
+    );
+    if !dir.is_dir() {
+        let what = if dir.exists() {
+            "is not a directory"
+        } else {
+            "no such directory"
+        };
+        return Err(Fail::input(format!(
+            "--rehearse {}: {what}; {capture}",
+            dir.display()
+        )));
+    }
+    let any_twin = std::fs::read_dir(dir)
+        .map_err(|e| Fail::input(format!("--rehearse {}: cannot read: {e}", dir.display())))?
+        .filter_map(Result::ok)
+        .any(|e| e.file_name().to_string_lossy().ends_with(TWIN_SUFFIX));
+    if !any_twin {
+        return Err(Fail::input(format!(
+            "--rehearse {}: the directory holds no twin (*{TWIN_SUFFIX}); {capture}",
+            dir.display()
+        )));
+    }
     let mut out = BTreeMap::new();
     for d in &manifest.drives {
         let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
-        let twin = if file.is_file() {
+        // a file that is there but is no regular file is an error naming
+        // it (the reader says what it is), not a drive without a twin
+        let twin = if std::fs::symlink_metadata(&file).is_ok() {
             let t = load_file(&file).map_err(|e| Fail::input(e.to_string()))?;
             if t.address != d.address {
                 return Err(Fail::input(format!(
@@ -456,6 +550,20 @@ pub fn rehearsal_twins(
             None
         };
         out.insert(d.name.clone(), twin);
+    }
+    if !selected
+        .iter()
+        .any(|n| out.get(n).is_some_and(Option::is_some))
+    {
+        let names: Vec<String> = selected
+            .iter()
+            .map(|n| format!("{n}{TWIN_SUFFIX}"))
+            .collect();
+        return Err(Fail::input(format!(
+            "--rehearse {}: no twin of any selected drive (looked for {}); {capture}",
+            dir.display(),
+            names.join(", ")
+        )));
     }
     Ok(out)
 }
@@ -492,8 +600,13 @@ pub fn rehearsal_opener(
     }
 }
 
-/// The label of a rehearsal report: it is a rehearsal, and of which twins.
-pub fn rehearsal_label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>) -> String {
+/// The label of a rehearsal report: it is a rehearsal, of which twins, and
+/// which selected drives were not rehearsed (`missing`: no twin).
+pub fn rehearsal_label(
+    dir: &Path,
+    twins: &BTreeMap<String, Option<Twin>>,
+    missing: &[String],
+) -> String {
     let mut dates: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
     for (name, t) in twins {
         if let Some(t) = t {
@@ -508,11 +621,6 @@ pub fn rehearsal_label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>) -> St
     if !list.is_empty() {
         let _ = write!(s, " ({})", list.join("; "));
     }
-    let missing: Vec<&str> = twins
-        .iter()
-        .filter(|(_, t)| t.is_none())
-        .map(|(n, _)| n.as_str())
-        .collect();
     if !missing.is_empty() {
         let _ = write!(s, "; not rehearsed (no twin): {}", missing.join(", "));
     }

@@ -68,8 +68,8 @@ pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<Strin
     std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     for (id, schema) in &schemas {
         let p = out.join(crate::cmd::json_schema::file_name(id));
-        std::fs::write(&p, json_schema(schema))
-            .map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        driveset_schema::output::write_output(&p, json_schema(schema).as_bytes())
+            .map_err(|e| format!("{}; {}", e.message, e.help))?;
         said.push(format!("{}: JSON Schema of {id}", rel(top, &p)));
     }
     let taplo = top.join(".taplo.toml");
@@ -96,18 +96,18 @@ pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<Strin
 }
 
 fn read_or_empty(p: &PathBuf) -> Result<String, String> {
-    match std::fs::read_to_string(p) {
-        Ok(s) => Ok(s),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(String::new()),
-        Err(e) => Err(format!("cannot read {}: {e}", p.display())),
+    if std::fs::symlink_metadata(p).is_err() {
+        return Ok(String::new());
     }
+    crate::files::read_settings(p).map_err(|e| format!("{}; {}", e.message, e.help))
 }
 
 fn write_if_changed(p: &Path, old: &str, new: &str) -> Result<(), String> {
     if old == new {
         return Ok(());
     }
-    std::fs::write(p, new).map_err(|e| format!("cannot write {}: {e}", p.display()))
+    driveset_schema::output::write_output(p, new.as_bytes())
+        .map_err(|e| format!("{}; {}", e.message, e.help))
 }
 
 fn toml_str(s: &str) -> String {

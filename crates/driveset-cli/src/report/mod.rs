@@ -82,17 +82,11 @@ pub fn write_reports(report: &LineReport, dir: &Path) -> io::Result<(PathBuf, Pa
     Ok((json_path, html_path))
 }
 
-/// Write `bytes` to `path` through a temporary name and a rename.
+/// Write `bytes` to `path` through the one writer
+/// (`driveset_schema::output`: temporary name, fsync, rename).
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path).inspect_err(|_| {
-        let _ = std::fs::remove_file(&tmp);
-    })
+    driveset_schema::output::write_output(path, bytes)
+        .map_err(|e| io::Error::other(format!("{}; {}", e.message, e.help)))
 }
 
 /// The git commit of the sets: `git rev-parse HEAD` and `git status

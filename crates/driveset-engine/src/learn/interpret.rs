@@ -64,5 +64,7 @@ pub fn interpret(protocol: Family, raws: &[RawDescription], opts: &LearnOptions)
         absent: 0,
         texts_read: 0,
         descriptions_hash: hash,
+        raw: raws.to_vec(),
+        raw_texts: std::collections::BTreeMap::new(),
     }
 }

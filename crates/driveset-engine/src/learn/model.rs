@@ -102,6 +102,13 @@ pub struct Learned {
     /// FNV-1a of every description received (stands in for a software
     /// version: LUSTBUS names no software-version parameter).
     pub descriptions_hash: u32,
+    /// Every description as the drive sent it, in the order asked (a twin
+    /// serves them as they came, docs/twins.md).
+    pub raw: Vec<RawDescription>,
+    /// MC: every substitution text the drive sent (section 11.3), as
+    /// sent, by parameter (107-UNIT for the unit strings) and 108-STEXT
+    /// index; a text it answered with NAK is not here.
+    pub raw_texts: BTreeMap<(u32, u8), Vec<u8>>,
 }
 
 pub(super) fn new_code(number: u32, name: &str, kind: StorageKind) -> LearnedCode {

@@ -63,11 +63,12 @@ fn read_stext<L: ByteLink>(client: &mut LustbusClient<L>) -> Result<u8, EngineEr
 }
 
 /// Substitution text `index` of parameter `p` (section 11.3), `None` on
-/// NAK.
+/// NAK; the text as sent is kept in `raw`.
 fn substitution_text<L: ByteLink>(
     client: &mut LustbusClient<L>,
     p: u32,
     index: u8,
+    raw: &mut BTreeMap<(u32, u8), Vec<u8>>,
 ) -> Result<Option<String>, EngineError> {
     client.select_stext(index)?;
     let Some(code) = u16::try_from(p)
@@ -77,6 +78,7 @@ fn substitution_text<L: ByteLink>(
         return Ok(None);
     };
     Ok(client.enquire_code(code, 100)?.and_then(|t| {
+        raw.insert((p, index), t.as_bytes().to_vec());
         decode_substitution_text(t.as_bytes())
             .ok()
             .map(str::to_string)
@@ -97,13 +99,14 @@ pub fn read_texts<L: ByteLink>(
     let mut stext_old = None;
     let mut units: BTreeMap<u8, Option<String>> = BTreeMap::new();
     let mut read = 0;
+    let mut raw_texts = std::mem::take(&mut learned.raw_texts);
     for c in &mut learned.codes {
         if let Some(u) = c.unit_index {
             if let std::collections::btree_map::Entry::Vacant(slot) = units.entry(u) {
                 if stext_old.is_none() {
                     stext_old = Some(read_stext(client)?);
                 }
-                let t = substitution_text(client, u32::from(UNIT), u)?;
+                let t = substitution_text(client, u32::from(UNIT), u, &mut raw_texts)?;
                 slot.insert(t.filter(|t| !t.is_empty()));
             }
             c.unit = units.get(&u).cloned().flatten();
@@ -118,7 +121,7 @@ pub fn read_texts<L: ByteLink>(
         }
         let mut seen = BTreeSet::new();
         for i in lo..=hi {
-            match substitution_text(client, c.number, i as u8)? {
+            match substitution_text(client, c.number, i as u8, &mut raw_texts)? {
                 Some(t) if !t.is_empty() => {
                     let fresh = seen.insert(t.clone());
                     if fresh {
@@ -141,6 +144,7 @@ pub fn read_texts<L: ByteLink>(
     if let Some(old) = stext_old {
         client.select_stext(old)?;
     }
+    learned.raw_texts = raw_texts;
     learned.texts_read = read;
     Ok(())
 }

@@ -153,3 +153,4 @@ pub use options::{
 };
 pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
 pub use run::{commission, run_line};
+pub use select::select;

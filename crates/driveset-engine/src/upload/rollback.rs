@@ -138,6 +138,12 @@ impl Transaction {
                     &self.codes.backup(),
                     &self.codes.new_values(),
                 );
+                if holding.iter().all(|h| h.holds == Holding::Old) {
+                    // the restore could not run (a refused SLOAD = -1), but
+                    // every code reads back its old value: nothing landed,
+                    // which is a rollback, not a mix
+                    return self.nothing_landed(client, &cause_text, &restore_err, cause);
+                }
                 let detail = format!(
                     "{cause_text}; {restore_err}; {}",
                     describe_holdings(&holding)
@@ -155,6 +161,36 @@ impl Transaction {
                 EngineError::inconsistent(self.drive.target.clone(), self.journal_path(), detail)
             }
         }
+    }
+}
+
+impl Transaction {
+    /// [`Transaction::fail`] when the restore failed but every code reads
+    /// back its old value: settled `rolled-back`, said as such.
+    fn nothing_landed(
+        &mut self,
+        client: &mut dyn DriveClient,
+        cause_text: &str,
+        restore_err: &str,
+        cause: EngineError,
+    ) -> EngineError {
+        let with_notes = format!(
+            "{cause_text}; nothing landed ({restore_err}; every code reads back its old value)"
+        );
+        let detail = format!("{with_notes}; restored the old values");
+        if let Err(e) = self.set_state(client, TxnState::RolledBack, Some(detail.clone())) {
+            return self.journal_lost(
+                e,
+                TxnState::RolledBack,
+                &format!("{detail} (read back and compared)"),
+            );
+        }
+        EngineError::rolled_back(
+            self.drive.target.clone(),
+            self.journal_path(),
+            with_notes,
+            cause,
+        )
     }
 }
 

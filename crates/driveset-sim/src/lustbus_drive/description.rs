@@ -1,8 +1,10 @@
 //! The LUSTBUS drives' parameter descriptions (VF1000 section 11.1,
 //! MC6000/7000 section 11.2) and substitution texts, from the fixture
-//! table and the `describe=` overrides.
+//! table and the `describe=` overrides; and the parameter a twin's drive
+//! described that the table does not have.
 
 use super::*;
+use driveset_proto::lustbus::description::McRawDescription;
 
 impl LustCore {
     /// A VF1000 parameter description (section 11.1, 26 characters).
@@ -168,6 +170,79 @@ impl LustCore {
             return None;
         }
         ValueText::new(text.as_bytes()).ok()
+    }
+}
+
+impl LustCore {
+    /// The parameter a description of `number` says (VF1000 section 11.1;
+    /// MC6000/7000 section 11.2 in the drive's layout and type characters):
+    /// type, kind, bounds, factory value, CardWriteable. For a twin's
+    /// parameter the simulator's table does not have: the drive's own
+    /// description is the one account of it there is.
+    pub fn param_described(&self, number: u32, v: &[u8]) -> Result<Param, String> {
+        let bad = |e: String| format!("the description of {number} does not decode: {e}");
+        let (name, ty, kind, bounds, card) = if self.wire == WireFamily::Vf1000 {
+            let d = VfDescription::decode(v).map_err(|e| bad(e.to_string()))?;
+            let kind = match d.kind.storage {
+                VfStorage::RamActual => StorageKind::RamActual,
+                VfStorage::RamControl => StorageKind::RamControl,
+                VfStorage::Eeprom => StorageKind::Eeprom,
+                VfStorage::FselIsel => StorageKind::FselIsel,
+            };
+            let b = [d.min, d.max, d.default].map(u32::from);
+            (d.name.as_str().trim().to_string(), d.ty, kind, b, false)
+        } else {
+            let d = McRawDescription::decode(v, self.description_layout)
+                .map_err(|e| bad(e.to_string()))?;
+            let ty = self.type_chars.type_of(d.type_char).ok_or_else(|| {
+                bad(format!(
+                    "type character {:?} unknown in the {} reading",
+                    char::from(d.type_char),
+                    self.type_chars.name()
+                ))
+            })?;
+            let kind = match d.kind {
+                McKind::RamActual => StorageKind::RamActual,
+                McKind::RamControl => StorageKind::RamControl,
+                McKind::Eeprom => StorageKind::Eeprom,
+            };
+            let card = d
+                .extension
+                .and_then(|e| e.activity_area())
+                .is_some_and(|a| a.card_exchange());
+            (
+                d.name.as_str().trim().to_string(),
+                ty,
+                kind,
+                [d.min, d.max, d.default],
+                card,
+            )
+        };
+        // the raw value as the type reads it (two's complement where signed)
+        let raw = |b: u32| match ty {
+            ParameterType::Integer16 => i64::from(b as u16 as i16),
+            ParameterType::Int32Q16 => i64::from(b as i32),
+            _ => i64::from(b),
+        };
+        let value_type = driveset_schema::ValueType::from_name(ty.name());
+        Ok(Param {
+            key: CodeKey::new(number),
+            name,
+            ty: value_type,
+            min: Some(raw(bounds[0])),
+            max: Some(raw(bounds[1])),
+            factory: RawValue::Int(raw(bounds[2])),
+            access: if kind == StorageKind::RamActual {
+                driveset_schema::schema::Access::Ro
+            } else {
+                driveset_schema::schema::Access::default()
+            },
+            kind: Some(kind),
+            width: None,
+            card_writeable: card,
+            read_clears: false,
+            enum_values: Vec::new(),
+        })
     }
 }
 

@@ -199,6 +199,24 @@ pub(crate) struct LustCore {
     /// 82-SIOA/SADDR was written and acknowledged
     /// ([`ByteDrive::address_assigned`]).
     pub address_assigned: bool,
+    /// Parameters the drive answers on the bus as it answers a parameter it
+    /// does not have ([`ByteDrive::forget`]: ENQUIRY `ADR NAK`, SELECT NAK
+    /// with SIOF/SERR 0x20); the model keeps their values for itself.
+    pub hidden: BTreeSet<u32>,
+    /// A twin's descriptions and texts as its drive sent them
+    /// ([`ByteDrive::describe_as`]): when set, the drive describes only
+    /// these, whatever its table holds.
+    pub recorded: Option<Recorded>,
+}
+
+/// The descriptions and substitution texts a twin's drive sent
+/// ([`ByteDrive::describe_as`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Recorded {
+    /// The description of each parameter, by number.
+    pub descriptions: BTreeMap<u32, ValueText>,
+    /// The substitution texts, by parameter and 108-STEXT index.
+    pub texts: BTreeMap<(u32, u8), ValueText>,
 }
 
 impl LustCore {
@@ -257,6 +275,8 @@ impl LustCore {
             describe: opts.describe.clone(),
             refused_reads: BTreeMap::new(),
             address_assigned: false,
+            hidden: BTreeSet::new(),
+            recorded: None,
         };
         core.set(CodeKey::new(ADDRESS), i64::from(opts.address));
         core.set_siof(Siof::POWER_ON);
@@ -275,6 +295,15 @@ impl LustCore {
     /// The parameter `number` (no subcodes on LUSTBUS).
     pub fn param(&self, number: u32) -> Option<&Param> {
         self.table.get(CodeKey::new(number))
+    }
+
+    /// The parameter `number` as the bus sees it: `None` for a parameter
+    /// the drive does not have, or hides ([`LustCore::hidden`]).
+    pub fn wire_param(&self, number: u32) -> Option<&Param> {
+        if self.hidden.contains(&number) {
+            return None;
+        }
+        self.param(number)
     }
 
     /// Current raw integer of `number`.

@@ -221,6 +221,47 @@ impl<M: LustModel + Send + std::fmt::Debug> ByteDrive for M {
         Ok(())
     }
 
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        let core = self.core();
+        if key.subcode.is_some() || core.param(key.number).is_none() {
+            return Err(format!(
+                "{}: no such parameter on a {}",
+                key.number,
+                M::FAMILY
+            ));
+        }
+        core.hidden.insert(key.number);
+        Ok(())
+    }
+
+    fn describe_as(
+        &mut self,
+        descriptions: &BTreeMap<u32, Vec<u8>>,
+        texts: &BTreeMap<(u32, u8), Vec<u8>>,
+    ) -> Result<(), String> {
+        let value = |what: String, v: &[u8]| ValueText::new(v).map_err(|e| format!("{what}: {e}"));
+        let mut recorded = super::Recorded::default();
+        for (n, v) in descriptions {
+            recorded
+                .descriptions
+                .insert(*n, value(format!("the description of {n}"), v)?);
+            // a parameter the table does not have: as the drive describes it
+            if self.core_ref().param(*n).is_none() {
+                let p = self.core_ref().param_described(*n, v)?;
+                let core = self.core();
+                core.values.insert(p.key, p.factory.clone());
+                core.table.adopt(p);
+            }
+        }
+        for ((n, i), v) in texts {
+            recorded
+                .texts
+                .insert((*n, *i), value(format!("substitution text {i} of {n}"), v)?);
+        }
+        self.core().recorded = Some(recorded);
+        Ok(())
+    }
+
     fn poke(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
         let (word, bit) = M::RUN_BIT;
         let core = self.core();

@@ -312,26 +312,9 @@ impl StateDump {
         let mut text = serde_json::to_string_pretty(self)
             .map_err(|e| io_err("serialize it", io::Error::other(e)))?;
         text.push('\n');
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "state".into());
-        let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-        // 0600: a drive's memory holds its passwords
-        let mut opts = std::fs::OpenOptions::new();
-        opts.write(true).create(true).truncate(true);
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::OpenOptionsExt as _;
-            opts.mode(0o600);
-        }
-        opts.open(&tmp)
-            .and_then(|mut f| io::Write::write_all(&mut f, text.as_bytes()))
-            .map_err(|e| io_err("write it", e))?;
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io_err("replace it", e)
-        })
+        // the one writer; 0600: a drive's memory holds its passwords
+        driveset_schema::output::write_private(path, text.as_bytes())
+            .map_err(|e| io_err("write it", io::Error::other(e.detail())))
     }
 }
 

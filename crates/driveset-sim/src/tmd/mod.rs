@@ -343,6 +343,9 @@ pub struct TmdDrive {
     /// Codes whose RECEIVE is answered "no such code" although the table
     /// holds them (a twin's `[refused]`, [`ByteDrive::refuse_read`]).
     refused_reads: std::collections::BTreeSet<CodeKey>,
+    /// Codes answered as codes the Tmd does not have ([`ByteDrive::forget`]);
+    /// the model keeps their values for itself.
+    hidden: std::collections::BTreeSet<CodeKey>,
     /// C0009 was written and acknowledged ([`ByteDrive::address_assigned`]).
     address_assigned: bool,
 }
@@ -419,6 +422,7 @@ impl TmdDrive {
             active_baud,
             baud_change: None,
             refused_reads: std::collections::BTreeSet::new(),
+            hidden: std::collections::BTreeSet::new(),
             address_assigned: false,
         };
         d.power_up();
@@ -573,6 +577,17 @@ impl ByteDrive for TmdDrive {
             return Err(format!("{display}: no such code on a Tmd"));
         }
         self.refused_reads.insert(key);
+        Ok(())
+    }
+
+    /// From now on a RECEIVE of `key` is answered `STX code EOT` and a
+    /// SEND refused as for any code the Tmd does not have (8.H).
+    fn forget(&mut self, key: CodeKey) -> Result<(), String> {
+        if self.table.get(key).is_none() {
+            let display = self.table.schema().display_code(key.number, key.subcode);
+            return Err(format!("{display}: no such code on a Tmd"));
+        }
+        self.hidden.insert(key);
         Ok(())
     }
 

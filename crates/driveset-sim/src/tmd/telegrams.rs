@@ -29,9 +29,15 @@ impl TmdDrive {
         } else {
             CodeKey::sub(number, sub)
         };
-        if self.table.get(key).is_some() {
+        let seen = |k: &CodeKey| !self.hidden.contains(k);
+        if self.table.get(key).is_some() && seen(&key) {
             Ok(key)
-        } else if sub != 0 && self.table.iter().any(|p| p.key.number == number) {
+        } else if sub != 0
+            && self
+                .table
+                .iter()
+                .any(|p| p.key.number == number && seen(&p.key))
+        {
             Err(Nak::NO_SUBCODE)
         } else {
             Err(Nak::NO_CODE)

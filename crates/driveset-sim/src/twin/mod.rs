@@ -35,7 +35,11 @@ mod reader;
 use reader::Reader;
 
 /// The `format` value of a twin file.
-pub const TWIN_FORMAT: &str = "driveset-twin 1";
+pub const TWIN_FORMAT: &str = "driveset-twin 2";
+
+/// The `format` value of a first-version twin file (no descriptions, no
+/// `[codes] unread`): still read, docs/twins.md.
+pub const TWIN_FORMAT_1: &str = "driveset-twin 1";
 
 /// The file name ending of a twin: `NAME.twin.toml`.
 pub const TWIN_SUFFIX: &str = ".twin.toml";
@@ -52,6 +56,17 @@ pub enum TwinError {
         /// The cause.
         #[source]
         source: std::io::Error,
+    },
+    /// The file is not a regular file, larger than the twin cap, or not
+    /// UTF-8 (the one input reader's refusal, `driveset_schema::input`).
+    #[error("{message}; {help}")]
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the file.
+        message: String,
+        /// What to do.
+        help: String,
     },
     /// The text is not TOML.
     #[error("{}: {detail}", path.display())]
@@ -149,8 +164,20 @@ pub struct Twin {
     pub refusals: BTreeMap<CodeKey, ReadRefusal>,
     /// Password codes: never read, no value stored.
     pub secrets: Vec<CodeKey>,
-    /// Codes of the schema the source did not show (from a bus capture).
+    /// Codes not read on purpose: reading clears them (85-SIOF/SERR). The
+    /// served model latches them itself.
+    pub unread: Vec<CodeKey>,
+    /// Codes of the schema the source did not show (not answered in a
+    /// recorded session, no type in the capture's schema). The served twin
+    /// does not have them.
     pub unknown: Vec<CodeKey>,
+    /// LUSTBUS: every parameter description the drive sent, as it sent it
+    /// (the VALUE characters, by parameter; `None`: none recorded, as from
+    /// a recorded session). The served twin describes these and no other.
+    pub descriptions: Option<BTreeMap<u32, Vec<u8>>>,
+    /// MC6000/7000: every substitution text the drive sent, as it sent it,
+    /// by parameter (107-UNIT for the units) and 108-STEXT index.
+    pub texts: BTreeMap<(u32, u8), Vec<u8>>,
 }
 
 impl Twin {
@@ -176,8 +203,21 @@ impl Twin {
             refused: BTreeMap::new(),
             refusals: BTreeMap::new(),
             secrets: Vec::new(),
+            unread: Vec::new(),
             unknown: Vec::new(),
+            descriptions: None,
+            texts: BTreeMap::new(),
         }
+    }
+
+    /// Whether the capture saw `key`: a value, a refusal, a password
+    /// (never read), or a code not read on purpose. The served twin has
+    /// these codes and no other.
+    pub fn saw(&self, key: CodeKey) -> bool {
+        self.values.contains_key(&key)
+            || self.refused.contains_key(&key)
+            || self.secrets.contains(&key)
+            || self.unread.contains(&key)
     }
 
     /// Whether `other` describes the same drive as this twin: everything
@@ -189,6 +229,9 @@ impl Twin {
             path: PathBuf::new(),
             driveset: String::new(),
             captured: String::new(),
+            // where it was captured from: the same drive through another
+            // spelling of its port (`?latency=`) is the same drive
+            source: String::new(),
             reaction: None,
             ..t.clone()
         };
@@ -202,9 +245,22 @@ impl Twin {
         within && strip(self) == strip(other)
     }
 
-    /// The reaction range the served drive draws from.
+    /// The reaction range the served drive draws from: the recorded one
+    /// within the family's range (with a KEYPAD, the longest it has;
+    /// LUSTBUS section 10, the descriptor's figures). Times measured over
+    /// a real port hold the host's latency too (a read the operating
+    /// system delayed shows as a slow reaction); beyond the family's range
+    /// they are the host's, not the drive's, and a twin drawing them would
+    /// miss answer deadlines the drive meets.
     pub fn reaction_time(&self) -> Option<ReactionTime> {
-        self.reaction.map(|(min, max)| ReactionTime { min, max })
+        let family = ReactionTime::of(self.family, true);
+        self.reaction.map(|(min, max)| {
+            let min = min.clamp(family.min, family.max);
+            ReactionTime {
+                min,
+                max: max.clamp(min, family.max),
+            }
+        })
     }
 
     /// Parse a twin file's text; errors name `path` and the key.
@@ -303,15 +359,40 @@ impl Twin {
         };
         s.push_str("\n[codes]\n");
         let _ = writeln!(s, "secrets = [{}]", list(&self.secrets));
+        let _ = writeln!(s, "unread = [{}]", list(&self.unread));
         let _ = writeln!(s, "unknown = [{}]", list(&self.unknown));
+        if let Some(descriptions) = &self.descriptions {
+            s.push_str("\n[descriptions]\n");
+            for (n, v) in descriptions {
+                let _ = writeln!(s, "\"{n}\" = {}", q(&wire_text(v)));
+            }
+        }
+        if !self.texts.is_empty() {
+            s.push_str("\n[texts]\n");
+            for ((n, i), v) in &self.texts {
+                let _ = writeln!(s, "\"{n}.{i}\" = {}", q(&wire_text(v)));
+            }
+        }
         s
     }
 
     /// Put the twin's state on a freshly built model of its family: every
     /// captured value, then the running state. Derived codes the model
     /// refuses to be poked (Tmd C0068 / C0150 / C1962) follow from the
-    /// state; a captured code the model does not have is an error.
+    /// state; a captured code the model does not have is an error. The
+    /// codes the capture did not see ([`Twin::saw`]) are taken out of the
+    /// model, so no value of the model's fills a gap; a LUSTBUS twin
+    /// describes its parameters as its drive did (`descriptions`, `texts`),
+    /// and nothing else.
     pub fn apply_byte(&self, drive: &mut dyn ByteDrive) -> Result<(), TwinError> {
+        // first the descriptions: a parameter the model's table lacks is
+        // taken as its drive described it
+        if self.family.bus() == driveset_schema::BusProtocol::Lustbus {
+            let none = BTreeMap::new();
+            drive
+                .describe_as(self.descriptions.as_ref().unwrap_or(&none), &self.texts)
+                .map_err(|reason| self.apply_error(reason))?;
+        }
         let held = drive.state();
         for (k, v) in &self.values {
             if let Err(reason) = drive.poke(*k, v.clone())
@@ -329,6 +410,11 @@ impl Twin {
             {
                 return Err(self.apply_error(reason));
             }
+        }
+        for k in held.values.keys().filter(|k| !self.saw(**k)) {
+            drive
+                .forget(*k)
+                .map_err(|reason| self.apply_error(reason))?;
         }
         Ok(())
     }
@@ -356,6 +442,11 @@ impl Twin {
             {
                 return Err(self.apply_error(reason));
             }
+        }
+        for k in held.values.keys().filter(|k| !self.saw(**k)) {
+            drive
+                .forget(*k)
+                .map_err(|reason| self.apply_error(reason))?;
         }
         Ok(())
     }
@@ -441,6 +532,19 @@ fn comment(schema: &Schema, k: CodeKey, v: &RawValue) -> String {
     }
 }
 
+/// Characters a drive sent (7-bit, a NUL included) as a string a twin
+/// file holds.
+fn wire_text(v: &[u8]) -> String {
+    v.iter().map(|b| char::from(*b)).collect()
+}
+
+/// A [`wire_text`] back; `None` when a character is not 7-bit.
+fn wire_bytes(s: &str) -> Option<Vec<u8>> {
+    s.chars()
+        .map(|c| u8::try_from(u32::from(c)).ok().filter(|b| *b < 0x80))
+        .collect()
+}
+
 fn toml_str(s: &str) -> String {
     serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
 }
@@ -461,9 +565,19 @@ fn unhex(s: &str) -> Option<Vec<u8>> {
 
 /// Read one twin file.
 pub fn load_file(path: &Path) -> Result<Twin, TwinError> {
-    let text = std::fs::read_to_string(path).map_err(|source| TwinError::Io {
+    // the one input reader: regular files only, the twin cap checked first
+    let input = |message: String, help: String| TwinError::Input {
         path: path.to_path_buf(),
-        source,
+        message,
+        help,
+    };
+    let bytes = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::TWIN)
+        .map_err(|e| input(e.message, e.help))?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        input(
+            format!("{} is not UTF-8 text", path.display()),
+            "a twin file is TOML text; capture it again with `driveset twin capture`".into(),
+        )
     })?;
     Twin::parse(&text, path)
 }
@@ -643,6 +757,70 @@ mod tests {
             e.to_string(),
             "x.twin.toml: [refused] \"99\": answer `ACK`: use NAK, NAK SIOF 80H, EOT or SDO abort 0x06010001"
         );
+    }
+
+    #[test]
+    fn descriptions_texts_and_unread_codes_round_trip() {
+        let mut t = Twin::new(Family::Mc6000, 1, "learned-mc6000-type6000-1");
+        t.driveset = "0.1.0".into();
+        t.captured = "2026-12-03".into();
+        t.unread.push(CodeKey::new(85));
+        t.unknown.push(CodeKey::new(96));
+        // the 43-character layout ends with a NUL
+        let d43 = b"MODE\x00\x000024000000000000000A000000000000000000\x00".to_vec();
+        t.descriptions = Some(BTreeMap::from([(1, d43.clone())]));
+        t.texts.insert((100, 2), b"8 kHz".to_vec());
+        let text = t.to_toml(None);
+        assert!(
+            text.contains(
+                "\n[codes]\nsecrets = []\nunread = [\"85\"]\nunknown = [\"96\"]\n\n[descriptions]\n\"1\" = \"MODE\\u0000\\u00000024000000000000000A000000000000000000\\u0000\"\n\n[texts]\n\"100.2\" = \"8 kHz\"\n"
+            ),
+            "{text}"
+        );
+        let back = Twin::parse(&text, Path::new("t.twin.toml")).unwrap();
+        assert_eq!(back.descriptions, Some(BTreeMap::from([(1, d43)])));
+        assert_eq!(back.texts, t.texts);
+        assert_eq!(back.unread, [CodeKey::new(85)]);
+        assert_eq!(back.unknown, [CodeKey::new(96)]);
+        assert!(back.saw(CodeKey::new(85)) && !back.saw(CodeKey::new(96)));
+        let e = Twin::parse(
+            &text.replace("\"100.2\" = ", "\"100\" = "),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [texts] \"100\": not PARAMETER.INDEX (the 108-STEXT index 0..=255)"
+        );
+        let e = Twin::parse(
+            &text.replace("8 kHz", "8 \u{b5}s"),
+            Path::new("x.twin.toml"),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.twin.toml: [texts] \"100.2\": holds a character a drive cannot send (not 7-bit)"
+        );
+    }
+
+    /// A first-version file of a LUSTBUS drive holds no descriptions: it is
+    /// refused with what to do; one of a Tmd is read, its `unknown` codes
+    /// (what the first version did not read on purpose) as `unread`.
+    #[test]
+    fn first_version_files_are_read_or_refused_with_what_to_do() {
+        let v1 = |family: &str, address: u8| {
+            format!(
+                "format = \"driveset-twin 1\"\ndriveset = \"0.1.0\"\ncaptured = \"2026-12-02\"\nfamily = \"{family}\"\naddress = {address}\nschema = \"x\"\n[codes]\nsecrets = []\nunknown = [\"85\"]\n"
+            )
+        };
+        let e = Twin::parse(&v1("mc6000", 1), Path::new("old.twin.toml")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "old.twin.toml: format: a `driveset-twin 1` twin of a mc6000 holds neither the drive's parameter descriptions nor its substitution texts, so it cannot answer as the drive did; capture the drive again with `driveset twin capture` (docs/twins.md)"
+        );
+        let t = Twin::parse(&v1("tmd", 4), Path::new("old.twin.toml")).unwrap();
+        assert_eq!(t.unread, [CodeKey::new(85)]);
+        assert!(t.unknown.is_empty());
     }
 
     #[test]

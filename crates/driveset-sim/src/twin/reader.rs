@@ -88,9 +88,19 @@ impl Reader<'_> {
             .collect()
     }
 
+    /// The characters a drive sent, as a twin file holds them.
+    fn wire(&self, at: &str, v: &toml::Value) -> Result<Vec<u8>, TwinError> {
+        match v {
+            toml::Value::String(s) => wire_bytes(s)
+                .ok_or_else(|| self.bad(at, "holds a character a drive cannot send (not 7-bit)")),
+            _ => Err(self.bad(at, "must be a string (the characters the drive sent)")),
+        }
+    }
+
     pub(super) fn twin(&self) -> Result<Twin, TwinError> {
         let format = self.string("format")?;
-        if format != TWIN_FORMAT {
+        let first = format == TWIN_FORMAT_1;
+        if format != TWIN_FORMAT && !first {
             return Err(self.bad(
                 "format",
                 format!("`{format}` is not `{TWIN_FORMAT}`; capture the drive again"),
@@ -98,6 +108,15 @@ impl Reader<'_> {
         }
         let family_name = self.string("family")?;
         let family = Family::parse(&family_name).map_err(|e| self.bad("family", e))?;
+        if first && family.bus() == driveset_schema::BusProtocol::Lustbus {
+            return Err(self.bad(
+                "format",
+                format!(
+                    "a `{TWIN_FORMAT_1}` twin of a {} holds neither the drive's parameter descriptions nor its substitution texts, so it cannot answer as the drive did; capture the drive again with `driveset twin capture` (docs/twins.md)",
+                    family.name()
+                ),
+            ));
+        }
         let address = match self.table.get("address") {
             Some(toml::Value::Integer(a)) => u8::try_from(*a)
                 .map_err(|_| self.bad("address", format!("{a} is not a bus address")))?,
@@ -242,6 +261,35 @@ impl Reader<'_> {
         let codes = self.section("codes")?;
         twin.secrets = self.keys(codes, "secrets")?;
         twin.unknown = self.keys(codes, "unknown")?;
+        twin.unread = self.keys(codes, "unread")?;
+        if first {
+            // the first version listed the codes not read on purpose (and
+            // those without a type) as unknown, and served them
+            twin.unread = std::mem::take(&mut twin.unknown);
+        }
+        if let Some(t) = self.section("descriptions")? {
+            let mut out = BTreeMap::new();
+            for (k, v) in t {
+                let at = format!("[descriptions] \"{k}\"");
+                let n: u32 = k
+                    .parse()
+                    .map_err(|_| self.bad(&at, "not a parameter number"))?;
+                out.insert(n, self.wire(&at, v)?);
+            }
+            twin.descriptions = Some(out);
+        }
+        if let Some(t) = self.section("texts")? {
+            for (k, v) in t {
+                let at = format!("[texts] \"{k}\"");
+                let key = k
+                    .split_once('.')
+                    .and_then(|(n, i)| Some((n.parse::<u32>().ok()?, i.parse::<u8>().ok()?)))
+                    .ok_or_else(|| {
+                        self.bad(&at, "not PARAMETER.INDEX (the 108-STEXT index 0..=255)")
+                    })?;
+                twin.texts.insert(key, self.wire(&at, v)?);
+            }
+        }
         Ok(twin)
     }
 }

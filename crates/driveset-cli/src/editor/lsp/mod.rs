@@ -7,6 +7,7 @@
 //! with a mechanical fix.
 
 pub mod analysis;
+pub mod frame;
 pub mod text;
 pub mod uri;
 
@@ -18,7 +19,7 @@ use driveset_schema::doc::{Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::SourceFile;
 use driveset_schema::schema::{BUILTIN_FILES, Code};
 use driveset_schema::{Registry, Schema};
-use lsp_server::{Connection, Message, Notification, Request, Response};
+use lsp_server::{Message, Notification, Request, Response};
 use lsp_types::{
     CodeAction, CodeActionKind, CodeActionOrCommand, CodeActionParams,
     CodeActionProviderCapability, CompletionItem, CompletionItemKind, CompletionOptions,
@@ -78,35 +79,87 @@ pub fn capabilities() -> ServerCapabilities {
     }
 }
 
-/// Serve LSP over stdin / stdout until the client says `exit`.
+/// Serve LSP over stdin / stdout until the client says `exit` or closes
+/// stdin.
 pub fn serve(config: Config) -> anyhow::Result<()> {
-    let (conn, io) = Connection::stdio();
     let server = Server::new(&config)?;
-    conn.initialize(serde_json::to_value(capabilities())?)?;
-    run(&conn, server)?;
-    drop(conn);
-    io.join()?;
-    Ok(())
+    let stdin = std::io::stdin().lock();
+    let mut stdout = std::io::stdout().lock();
+    run(frame::Reader::new(stdin), &mut stdout, server)
 }
 
-fn run(conn: &Connection, mut server: Server) -> anyhow::Result<()> {
-    for msg in &conn.receiver {
-        match msg {
-            Message::Request(req) => {
-                if conn.handle_shutdown(&req)? {
-                    return Ok(());
-                }
-                conn.sender.send(Message::Response(server.request(req)))?;
+/// The JSON-RPC error of a request the server does not take now.
+fn refuse(req: &Request, code: lsp_server::ErrorCode, message: &str) -> Message {
+    Message::Response(Response::new_err(
+        req.id.clone(),
+        code as i32,
+        message.into(),
+    ))
+}
+
+/// The server's loop: the lifecycle (initialize, shutdown, exit; LSP 3.17
+/// "Lifecycle Messages") around [`Server::request`] and
+/// [`Server::notify`]; a refused frame is answered and reading goes on
+/// ([`frame`]).
+fn run(
+    mut reader: frame::Reader<impl std::io::BufRead>,
+    w: &mut impl std::io::Write,
+    mut server: Server,
+) -> anyhow::Result<()> {
+    let mut initialized = false;
+    let mut shut_down = false;
+    loop {
+        let msg = match reader.read()? {
+            frame::Frame::Eof => return Ok(()),
+            frame::Frame::Refused(e) => {
+                frame::write(w, &e)?;
+                continue;
             }
-            Message::Notification(n) => {
-                for out in server.notify(n) {
-                    conn.sender.send(Message::Notification(out))?;
+            frame::Frame::Message(m) => m,
+        };
+        let out: Vec<Message> = match msg {
+            Message::Request(req) if req.method == "initialize" => {
+                if initialized {
+                    vec![refuse(
+                        &req,
+                        lsp_server::ErrorCode::InvalidRequest,
+                        "the server is initialized already",
+                    )]
+                } else {
+                    initialized = true;
+                    vec![Message::Response(Response::new_ok(
+                        req.id,
+                        serde_json::json!({ "capabilities": capabilities() }),
+                    ))]
                 }
             }
-            Message::Response(_) => {}
+            Message::Request(req) if !initialized => vec![refuse(
+                &req,
+                lsp_server::ErrorCode::ServerNotInitialized,
+                "send `initialize` first",
+            )],
+            Message::Request(req) if shut_down => vec![refuse(
+                &req,
+                lsp_server::ErrorCode::InvalidRequest,
+                "the server is shut down; send `exit`",
+            )],
+            Message::Request(req) if req.method == "shutdown" => {
+                shut_down = true;
+                vec![Message::Response(Response::new_ok(req.id, Value::Null))]
+            }
+            Message::Request(req) => vec![Message::Response(server.request(req))],
+            Message::Notification(n) if n.method == "exit" => return Ok(()),
+            Message::Notification(n) if initialized && !shut_down => server
+                .notify(n)
+                .into_iter()
+                .map(Message::Notification)
+                .collect(),
+            Message::Notification(_) | Message::Response(_) => Vec::new(),
+        };
+        for m in &out {
+            frame::write_message(w, m)?;
         }
     }
-    Ok(())
 }
 
 fn default_cache_dir() -> PathBuf {
@@ -297,7 +350,9 @@ impl Server {
     fn schema_file(&self, file: &str) -> Option<PathBuf> {
         if let Some((path, text)) = BUILTIN_FILES.iter().find(|(p, _)| *p == file) {
             let copy = self.cache_dir.join(path);
-            if std::fs::read_to_string(&copy).ok().as_deref() != Some(*text) {
+            let held =
+                driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
+            if held.ok().as_deref() != Some(text.as_bytes()) {
                 std::fs::create_dir_all(copy.parent()?).ok()?;
                 if let Ok(m) = std::fs::metadata(&copy) {
                     let mut p = m.permissions();
@@ -305,7 +360,7 @@ impl Server {
                     p.set_readonly(false);
                     let _ = std::fs::set_permissions(&copy, p);
                 }
-                std::fs::write(&copy, text).ok()?;
+                driveset_schema::output::write_output(&copy, text.as_bytes()).ok()?;
                 let mut p = std::fs::metadata(&copy).ok()?.permissions();
                 p.set_readonly(true);
                 std::fs::set_permissions(&copy, p).ok()?;

@@ -6,11 +6,9 @@ use std::collections::BTreeSet;
 use super::options::{LineError, LineOptions};
 use crate::line::manifest::{Drive, Manifest};
 
-/// The drive names `--only` / `--skip` select (names of drives or buses).
-pub(super) fn select(
-    manifest: &Manifest,
-    opts: &LineOptions,
-) -> Result<BTreeSet<String>, LineError> {
+/// The drive names `--only` / `--skip` select (names of drives or buses);
+/// a rehearsal asks it which drives need a twin.
+pub fn select(manifest: &Manifest, opts: &LineOptions) -> Result<BTreeSet<String>, LineError> {
     let known = |n: &str| {
         manifest.drives.iter().any(|d| d.name == n) || manifest.buses.iter().any(|b| b.name == n)
     };

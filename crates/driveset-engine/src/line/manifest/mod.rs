@@ -70,6 +70,7 @@ use driveset_schema::{CodeKey, InputError, Location, Registry, ResolvedSet, Sche
 mod bus_codes;
 mod finding;
 mod reader;
+mod same_device;
 
 pub(crate) use bus_codes::bus_code_finding;
 pub use finding::ManifestFinding;

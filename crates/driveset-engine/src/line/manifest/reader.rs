@@ -508,7 +508,9 @@ impl<'a> Reader<'a> {
             let mut loaded = None;
             if let Some((s, span)) = &r.set {
                 let set_path = dir.join(s);
-                if !set_path.is_file() {
+                // missing, not "there but unreadable" (a FIFO, a directory,
+                // a device or a symlink loop is named by the reader below)
+                if !driveset_schema::input::exists(&set_path) {
                     ok = false;
                     self.push(
                         "missing-set",
@@ -808,6 +810,7 @@ impl<'a> Reader<'a> {
                     .map(|span| self.loc(&span)),
             });
         }
+        self.findings.extend(super::same_device::findings(&buses));
         for d in &drives {
             if let Some(b) = buses.iter_mut().find(|b| b.name == d.bus) {
                 b.families.push(d.schema.family);
