@@ -84,7 +84,7 @@ fn a_lone_mc6000_gets_address_5() {
              wrote 82-SADDR = 5 at address 0\n\
              verified address 5: 82-SADDR = 5, 91-TYPE = 0\n\
              verified nothing answers at the old address 1\n\
-             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3008 ms)\n\
+             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3101 ms)\n\
              journal: .driveset/journal/{jname}\n"
         )
     );
@@ -247,7 +247,7 @@ fn refusals_exit_2_and_write_nothing() {
         (
             "sim://mc6000?addresses=1,2",
             &["--protocol", "lustbus", "--to", "5"],
-            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x04 but CODE..ETX XOR to 0x61): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); nothing was written. Connect the drive alone and run again\n".into(),
+            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x04 but CODE..ETX XOR to 0x61): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); the network list at 9600 baud finds address 1: 91-TYPE = 0; address 2: 91-TYPE = 0; nothing was written. Connect the drive alone and run again\n".into(),
         ),
         (
             "sim://tmd?addresses=1,12&c0001=3",
@@ -422,7 +422,7 @@ fn a_cut_baud_change_is_finished_by_recover() {
     let journal = dir.path().join("a.journal.json");
     let j = journal.display().to_string();
     let port = format!(
-        "sim://mc6000?addresses=1&state={}&faults=cable@40+600s",
+        "sim://mc6000?addresses=1&state={}&faults=cable@42+600s",
         state.display()
     );
     let (code, out, err) = address(
@@ -487,4 +487,104 @@ fn a_cut_baud_change_is_finished_by_recover() {
         .expect("recover");
     assert_eq!(again.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&again.stdout).contains("already complete"));
+}
+
+/// A simulated MC6000 served on a pty by `driveset sim` whose motor runs
+/// (416-SCTL1 = 1, as the machine's control started it): a first start
+/// writes its `--state` file, the state is edited, the second start
+/// serves it, its telegrams in `DIR/bus.jsonl`. `extra`: more `driveset
+/// sim` arguments.
+pub(crate) fn running_mc6000_on_a_pty(dir: &Path, extra: &[&str]) -> Sim {
+    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
+    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
+    let state = dir.join("state.json");
+    let state_arg = state.display().to_string();
+    let mut args = vec!["--state", state_arg.as_str()];
+    args.extend_from_slice(extra);
+    let mut first = Sim::start(dir, "mc6000", 1, &args);
+    assert!(first.terminate().success(), "{}", first.stderr());
+    let mut dump = StateDump::read(&state).expect("state saved");
+    let d = &mut dump.drives[0];
+    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
+    values.insert(CodeKey::new(416), RawValue::Int(1));
+    let set = ResolvedSet {
+        schema,
+        code_style: CodeStyle::Lust,
+        values,
+        secrets: Default::default(),
+    };
+    *d = DriveDump::new(&d.family.clone(), d.address, &set);
+    dump.write(&state).expect("state written");
+    let log = dir.join("bus.jsonl");
+    let log_arg = log.display().to_string();
+    args.extend_from_slice(&["--log", log_arg.as_str()]);
+    Sim::start(dir, "mc6000", 1, &args)
+}
+
+/// The host's SELECTs (what changes a drive, LUSTBUS §5.1) in the log.
+pub(crate) fn selects_in_log(dir: &Path) -> Vec<String> {
+    std::fs::read_to_string(dir.join("bus.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .filter(|e| e["dir"] == "host")
+        .filter_map(|e| e["text"].as_str().map(str::to_string))
+        .filter(|t| t.contains("<STX>"))
+        .collect()
+}
+
+/// Issue 28: `address --baud 57600` on an MC6000 whose motor runs sent
+/// 82-SADDR, 81-SBAUD and 4-PROG = 111. Refused before anything is sent
+/// (exit 2), as upload refuses; `--allow-running` lifts exactly that.
+#[test]
+fn a_running_mc6000_over_a_pty_gets_no_address_rate_or_prog() {
+    let _guard = one_at_a_time();
+    let dir = tempfile::tempdir().expect("dir");
+    let d = dir.path();
+    let mut sim = running_mc6000_on_a_pty(d, &[]);
+    let journal_dir = d.join("journal").display().to_string();
+    let mut args = vec![
+        "address",
+        "--port",
+        &sim.path,
+        "--protocol",
+        "lustbus",
+        "--to",
+        "5",
+        "--baud",
+        "57600",
+        "--schema",
+        "parameter-sets/fixtures/fictional-mc6000-demo.toml",
+        "--journal-dir",
+        &journal_dir,
+    ];
+    let (code, out, err) = run(&args);
+    assert_eq!(code, Some(2), "{out}{err}\n{}", sim.stderr());
+    assert_eq!(out, "");
+    assert_eq!(
+        err,
+        format!(
+            "error: {} address 0: refused: the drive reports a running motor; driveset changes a drive's bus address or line rate only at standstill: stop it (standstill), or pass --allow-running\n",
+            sim.path
+        )
+    );
+    // another override does not lift it
+    args.push("--allow-running-unknown");
+    let (code, _, err) = run(&args);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(selects_in_log(d), Vec::<String>::new());
+    assert!(
+        !d.join("journal").exists(),
+        "no journal: nothing was to be written"
+    );
+    assert!(sim.terminate().success());
+    let dump: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).expect("dump"))
+            .expect("json");
+    assert_eq!(dump["drives"][0]["address"], 1);
+    let c = dump["drives"][0]["canonical"].as_str().expect("canonical");
+    assert_eq!(
+        (line(c, "81"), line(c, "82"), line(c, "416")),
+        ("81 9600", "82 1", "416 1")
+    );
 }

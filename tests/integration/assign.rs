@@ -175,3 +175,45 @@ fn a_can_bus_is_skipped_with_a_message() {
         ))
         .stdout(predicate::str::contains("3 of 3 drives commissioned: 3 verified"));
 }
+
+/// Issue 28: one unit on the port (an MC6000 served by `driveset sim` on a
+/// pty, always connected) and two drives of the manifest. The first gets
+/// address 3; the second finds the same unit holding 3, which this run
+/// gave press-axis-3, and is refused before anything is written (before:
+/// the unit was addressed twice and ended at 4).
+#[test]
+fn assign_never_gives_one_unit_two_manifest_addresses() {
+    let _serial = crate::e2e_pty::one_at_a_time();
+    let dir = setup();
+    let d = dir.path();
+    let mut sim = crate::e2e_pty::Sim::start(d, "mc6000", 1, &[]);
+    let demo = std::fs::read_to_string(d.join("ps/demo-line/line.toml")).unwrap();
+    let drives = &demo[demo.find("[[drive]]\nname = \"press-axis-3\"").unwrap()
+        ..demo.find("# lustbus: VF1000 conveyor").unwrap()];
+    std::fs::write(
+        d.join("ps/demo-line/one-unit.toml"),
+        format!(
+            "[line]\nname = \"one-unit\"\n\n[[bus]]\nname = \"lustbus\"\nport = \"{}\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n{drives}",
+            sim.path
+        ),
+    )
+    .unwrap();
+    let (code, out, err) = driveset_test_support::outcome(driveset_at(d).args([
+        "commission",
+        "ps/demo-line/one-unit.toml",
+        "--assign",
+        "--yes",
+    ]));
+    assert_eq!(code, Some(1), "{out}\n{err}\n{}", sim.stderr());
+    assert!(
+        out.starts_with(
+            "press-axis-3: address 3, 9600 baud (mc6000 TYPE 0, found at 9600 baud)\npress-axis-4: FAILED: the unit on the port holds address 3, which this run gave `press-axis-3`: it is `press-axis-3`'s unit again, not `press-axis-4`'s; nothing was written. Disconnect it and connect `press-axis-4`'s unit alone\nbus `lustbus`: not scanned: a drive of bus `lustbus` was not assigned\n"
+        ),
+        "{out}\n{err}"
+    );
+    assert!(sim.terminate().success());
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap())
+            .unwrap();
+    assert_eq!(dump["drives"][0]["address"], 3, "addressed once: {dump}");
+}

@@ -317,3 +317,50 @@ fn full_sets_through_a_device_server() {
         );
     }
 }
+
+/// Issue 28: a manifest's bus port carries its `?latency=` into every
+/// connection of the line run, as a one-drive command's port does. A Tmd
+/// behind a device server 150 ms away each way: with `latency=600ms` the
+/// first telegram already waits long enough (no repetition); before, the
+/// line runner connected with the default options, the first telegram
+/// timed out after the first-contact allowance and was repeated.
+#[test]
+fn a_line_bus_port_carries_its_latency_into_the_run() {
+    let _serial = crate::e2e_pty::one_at_a_time();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let mut sim = Sim::start_tcp(d, TMD.sim, TMD.address, TMD.sim_args);
+    let target: SocketAddr = sim.path.parse().expect("sim address");
+    let proxy = TcpProxy::start(target, Shape::delay(150, 0));
+    let port = proxy.port("?latency=600ms");
+    std::fs::create_dir_all(d.join("sets")).unwrap();
+    std::fs::write(
+        d.join("sets/conveyor-13.toml"),
+        "schema = \"lenze-tmd\"\ntitle = \"conveyor\"\n\n[values]\nC0010 = \"5.0 Hz\"\nC0011 = \"60.0 Hz\"\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"far\"\n\n[[bus]]\nname = \"far\"\nport = \"{port}\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"conveyor-13\"\nbus = \"far\"\naddress = 13\nset = \"sets/conveyor-13.toml\"\n"
+        ),
+    )
+    .unwrap();
+    let (code, out, err) =
+        driveset_test_support::outcome(driveset_test_support::driveset_at(d).args([
+            "status",
+            "line.toml",
+            "--report-dir",
+            "r",
+        ]));
+    // the drive differs from its set (factory values): exit 1, reached
+    assert_eq!(code, Some(1), "{out}\n{err}\n{}", sim.stderr());
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r/report.json")).unwrap()).unwrap();
+    let drive = &report["drives"][0];
+    assert_eq!(drive["result"], "drift", "{report}");
+    assert!(drive["telegrams"].as_u64().unwrap() > 0, "{report}");
+    assert_eq!(drive["retries"], 0, "{report}");
+    drop(proxy);
+    assert!(sim.terminate().success());
+}

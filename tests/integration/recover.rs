@@ -398,3 +398,108 @@ fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
         "{j}"
     );
 }
+
+/// Issue 28: `driveset address --baud` made with a schema learned by
+/// `schema pull` (given with `--schema`), over a pty behind 25 ms each
+/// way, killed with SIGKILL once its journal says the rate change is under
+/// way. `recover JOURNAL` (no `--schema`) takes the schema the journal
+/// records and finishes the change; before, it took the built-in
+/// `lust-mc6000`, which types no 81-SBAUD, and exited 2.
+#[cfg(unix)]
+#[test]
+fn recover_of_an_address_change_cut_by_kill_9_uses_the_journal_s_schema() {
+    use crate::e2e_pty::{Sim, one_at_a_time};
+    use driveset_test_support::{Spawned, driveset_at, driveset_bin, outcome};
+    use std::time::{Duration, Instant};
+
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut sim = Sim::start(d, "mc6000", 1, &[]);
+    let (code, out, err) = outcome(driveset_at(d).args([
+        "schema",
+        "pull",
+        "--port",
+        &sim.path,
+        "--address",
+        "1",
+        "-o",
+        "learned.toml",
+    ]));
+    assert_eq!(code, Some(0), "{out}{err}");
+    let port = sim.path.clone();
+    let journal = d.join("j.journal.json");
+    let mut address = Spawned::new(
+        std::process::Command::new(driveset_bin())
+            .current_dir(d)
+            .args([
+                "address",
+                "--port",
+                &port,
+                "--protocol",
+                "lustbus",
+                "--to",
+                "5",
+            ])
+            .args(["--baud", "57600", "--schema", "learned.toml", "--journal"])
+            .arg(&journal)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::fs::File::create(d.join("address.err")).unwrap())
+            .spawn()
+            .expect("start driveset address"),
+        "driveset address",
+    );
+    // SIGKILL once the journal says the address write is under way
+    let give_up = Instant::now() + Duration::from_secs(120);
+    loop {
+        let step = std::fs::read_to_string(&journal)
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .and_then(|v| v["assign"]["step"].as_str().map(str::to_string));
+        if step.as_deref() == Some("address") {
+            break;
+        }
+        assert!(
+            Instant::now() < give_up,
+            "the address step never came: {step:?}"
+        );
+        assert!(
+            address.try_wait().unwrap().is_none(),
+            "address ended first: {}",
+            std::fs::read_to_string(d.join("address.err")).unwrap_or_default()
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    address.signal("-KILL", Duration::from_secs(10));
+    let before: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
+    assert_eq!(before["state"], "planned", "{before}");
+    assert_eq!(
+        before["schema_path"],
+        d.join("learned.toml")
+            .canonicalize()
+            .unwrap()
+            .display()
+            .to_string(),
+        "{before}"
+    );
+    let j = journal.display().to_string();
+    let (code, out, err) = outcome(driveset_at(d).args(["recover", &j]));
+    assert_eq!(code, Some(0), "{out}{err}\n{}", sim.stderr());
+    assert!(
+        out.contains("completed: the drive answers at address 5 at 57600 baud"),
+        "{out}"
+    );
+    let after: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&journal).unwrap()).unwrap();
+    assert_eq!(after["state"], "complete");
+    assert!(sim.terminate().success());
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap())
+            .unwrap();
+    assert_eq!(dump["drives"][0]["address"], 5);
+    let canonical = dump["drives"][0]["canonical"].as_str().unwrap();
+    for want in ["81 57600", "82 5"] {
+        assert!(canonical.lines().any(|l| l == want), "{want}: {canonical}");
+    }
+}

@@ -211,3 +211,194 @@ fn without_yes_a_non_interactive_stdin_is_refused_and_no_is_no() {
         .code(0);
     assert_eq!(spare_state(d).0, 3);
 }
+
+/// The drives of a LECOM line served by `driveset sim` on a pty (issue
+/// 28): `replace` must prove the service port holds the spare alone.
+mod on_a_pty {
+    use std::path::Path;
+
+    use crate::e2e_pty::{Sim, one_at_a_time};
+    use driveset_test_support::{driveset_at, outcome};
+
+    /// A Tmd set of a few codes (no bus address, no rate: the manifest's
+    /// are the truth).
+    const TMD_SET: &str = "schema = \"lenze-tmd\"\ntitle = \"conveyor\"\n\n[values]\nC0010 = \"5.0 Hz\"\nC0011 = \"60.0 Hz\"\nC0012 = \"8.0 s\"\n";
+
+    /// `line.toml` in `dir`: bus `conveyors` on `port` (LECOM, 9600 baud)
+    /// with conveyor-1 (address 1), conveyor-3 (13) and conveyor-4 (14).
+    pub(super) fn lecom_line(dir: &Path, port: &str) {
+        std::fs::create_dir_all(dir.join("sets")).unwrap();
+        let mut line = format!(
+            "[line]\nname = \"conveyors\"\n\n[[bus]]\nname = \"conveyors\"\nport = \"{port}\"\nprotocol = \"lecom\"\nbaud = 9600\n"
+        );
+        for (name, address) in [("conveyor-1", 1), ("conveyor-3", 13), ("conveyor-4", 14)] {
+            std::fs::write(dir.join(format!("sets/{name}.toml")), TMD_SET).unwrap();
+            line.push_str(&format!(
+                "\n[[drive]]\nname = \"{name}\"\nbus = \"conveyors\"\naddress = {address}\nset = \"sets/{name}.toml\"\n"
+            ));
+        }
+        std::fs::write(dir.join("line.toml"), line).unwrap();
+    }
+
+    /// What the simulator's drives hold after SIGTERM: (address, canonical
+    /// lines without the address code C0009) per drive.
+    pub(super) fn held(sim: &mut Sim, dir: &Path, family: &str) -> Vec<(u8, String)> {
+        assert!(sim.terminate().success(), "{}", sim.stderr());
+        let dump: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(format!("{family}.dump.json"))).unwrap(),
+        )
+        .unwrap();
+        dump["drives"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| {
+                let canonical: Vec<&str> = d["canonical"]
+                    .as_str()
+                    .unwrap()
+                    .lines()
+                    .filter(|l| !l.starts_with("C0009 "))
+                    .collect();
+                (d["address"].as_u64().unwrap() as u8, canonical.join("\n"))
+            })
+            .collect()
+    }
+
+    /// The host's telegrams that change a drive (LECOM SEND: STX after the
+    /// address, §8) in the simulator's `--log`.
+    pub(super) fn sends(dir: &Path) -> usize {
+        let log = std::fs::read_to_string(dir.join("sim.log")).unwrap_or_default();
+        log.lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|e| e["dir"] == "host")
+            .filter(|e| e["hex"].as_str().unwrap_or_default().contains("02"))
+            .count()
+    }
+
+    fn serve_two(dir: &Path) -> Sim {
+        let log = dir.join("sim.log");
+        Sim::start(
+            dir,
+            "tmd",
+            1,
+            &[
+                "--address",
+                "14",
+                "--c0001",
+                "3",
+                "--log",
+                log.to_str().unwrap(),
+            ],
+        )
+    }
+
+    /// The issue's case: the service port is the line's own LECOM bus,
+    /// where conveyor-1 (1) and conveyor-4 (14) answer. Refused before
+    /// anything is sent, naming the bus; both drives keep what they hold.
+    #[test]
+    fn replace_through_the_lines_own_bus_is_refused_before_anything_is_sent() {
+        let _serial = one_at_a_time();
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut sim = serve_two(d);
+        lecom_line(d, &sim.path);
+        let (code, stdout, stderr) = outcome(driveset_at(d).args([
+            "replace",
+            "line.toml",
+            "--drive",
+            "conveyor-3",
+            "--port",
+            &sim.path,
+            "--yes",
+        ]));
+        assert_eq!(code, Some(2), "{stdout}\n{stderr}");
+        assert_eq!(stdout, "");
+        assert_eq!(
+            stderr,
+            format!(
+                "error: the service port {p} reaches bus `conveyors` of the line ({p}?baud=9600; bus id serial:{p}): the line's drives are on it, and a spare must be alone on its port; nothing was sent. Connect the spare alone to a service port and run again\n",
+                p = sim.path
+            )
+        );
+        assert_eq!(sends(d), 0);
+        let held = held(&mut sim, d, "tmd");
+        assert_eq!(held.iter().map(|h| h.0).collect::<Vec<_>>(), [1, 14]);
+        assert_eq!(
+            held[0].1, held[1].1,
+            "conveyor-1 still holds what conveyor-4 holds"
+        );
+    }
+
+    /// A service port (not the line's bus) that holds two units: refused
+    /// after the scan of every LECOM address, naming both; nothing written.
+    #[test]
+    fn replace_with_two_units_on_the_service_port_is_refused_naming_them() {
+        let _serial = one_at_a_time();
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut sim = serve_two(d);
+        lecom_line(d, "sim://tmd?c0001=3");
+        let (code, stdout, stderr) =
+            outcome(driveset_at(d).env_remove("DRIVESET_SIM_STATE_DIR").args([
+                "replace",
+                "line.toml",
+                "--drive",
+                "conveyor-3",
+                "--port",
+                &sim.path,
+                "--yes",
+            ]));
+        assert_eq!(code, Some(2), "{stdout}\n{stderr}");
+        assert_eq!(stdout, "");
+        assert_eq!(
+            stderr,
+            format!(
+                "error: {} address 1: refused: the service port holds more than one device (a scan of the LECOM stations 01..99 finds address 1: C0093 = 0; address 14: C0093 = 0); a spare must be alone on its port; nothing was written. Connect the spare alone and run again\n",
+                sim.path
+            )
+        );
+        assert_eq!(sends(d), 0);
+        let held = held(&mut sim, d, "tmd");
+        assert_eq!(held.iter().map(|h| h.0).collect::<Vec<_>>(), [1, 14]);
+        assert_eq!(held[0].1, held[1].1);
+    }
+}
+
+/// Issue 28: `replace` on a spare whose motor runs wrote the address first
+/// and refused the upload after (exit 1). Refused before anything is sent
+/// (exit 2), as upload refuses.
+#[test]
+fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
+    let _serial = crate::e2e_pty::one_at_a_time();
+    let dir = setup();
+    let d = dir.path();
+    let mut sim = crate::address::running_mc6000_on_a_pty(d, &[]);
+    let (code, stdout, stderr) =
+        driveset_test_support::outcome(driveset_test_support::driveset_at(d).args([
+            "replace",
+            LINE,
+            "--drive",
+            "press-axis-3",
+            "--port",
+            &sim.path,
+            "--yes",
+        ]));
+    assert_eq!(code, Some(2), "{stdout}\n{stderr}\n{}", sim.stderr());
+    assert_eq!(stdout, "");
+    assert_eq!(
+        stderr,
+        format!(
+            "error: {} address 0: refused: the drive reports a running motor; driveset changes a drive's bus address or line rate only at standstill: stop it (standstill), or pass --allow-running\n",
+            sim.path
+        )
+    );
+    assert_eq!(crate::address::selects_in_log(d), Vec::<String>::new());
+    assert!(sim.terminate().success());
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc6000.dump.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        dump["drives"][0]["address"], 1,
+        "the spare keeps its address"
+    );
+}

@@ -415,9 +415,13 @@ fn axes_bounds(m: &Manifest) -> (f64, f64, usize) {
     let preps: Vec<_> = drives
         .iter()
         .map(|d| {
-            let mut c =
-                driveset_engine::connect::connect_on(&mut link, d.schema.clone(), d.address)
-                    .expect("client");
+            let mut c = driveset_engine::connect::connect_on(
+                &mut link,
+                d.schema.clone(),
+                d.address,
+                &Default::default(),
+            )
+            .expect("client");
             let p = prepare(&mut *c, &d.set, Overrides::none()).expect("plan");
             c.finish().expect("finish");
             p

@@ -88,11 +88,13 @@ pub fn connect_with(
     }
 }
 
-/// As [`connect`], on a link the caller keeps (a line's bus, a scan).
+/// As [`connect_with`], on a link the caller keeps (a line's bus, a scan),
+/// with its port's options (a line's bus: `ConnectOptions::of` its port).
 pub fn connect_on<'l>(
     link: &'l mut Link,
     schema: Arc<Schema>,
     address: u8,
+    opts: &ConnectOptions,
 ) -> Result<Box<dyn DriveClient + 'l>, EngineError> {
     if !fits(link, &schema) {
         return Err(misfit(link, &schema, address));
@@ -102,9 +104,19 @@ pub fn connect_on<'l>(
         Link::Bytes(b) => {
             let b = BorrowedByteLink(&mut **b);
             if bus == BusProtocol::Lecom {
-                Ok(Box::new(LecomClient::new(b, schema, address)?))
+                Ok(Box::new(LecomClient::with_options(
+                    b,
+                    schema,
+                    address,
+                    opts.lecom(),
+                )?))
             } else {
-                Ok(Box::new(LustbusClient::new(b, schema, address)?))
+                Ok(Box::new(LustbusClient::with_options(
+                    b,
+                    schema,
+                    address,
+                    opts.lustbus(),
+                )?))
             }
         }
         Link::Frames(f) => Ok(Box::new(CanClient::new(
@@ -123,9 +135,12 @@ pub fn lustbus_on<'l>(
     link: &'l mut Link,
     schema: Arc<Schema>,
     address: u8,
+    opts: &ConnectOptions,
 ) -> Result<LustbusClient<BorrowedByteLink<'l>>, EngineError> {
     match link {
-        Link::Bytes(b) => LustbusClient::new(BorrowedByteLink(&mut **b), schema, address),
+        Link::Bytes(b) => {
+            LustbusClient::with_options(BorrowedByteLink(&mut **b), schema, address, opts.lustbus())
+        }
         Link::Frames(f) => Err(EngineError::refused(
             Target {
                 port: f.port().to_string(),
@@ -144,9 +159,12 @@ pub fn lecom_on<'l>(
     link: &'l mut Link,
     schema: Arc<Schema>,
     address: u8,
+    opts: &ConnectOptions,
 ) -> Result<LecomClient<BorrowedByteLink<'l>>, EngineError> {
     match link {
-        Link::Bytes(b) => LecomClient::new(BorrowedByteLink(&mut **b), schema, address),
+        Link::Bytes(b) => {
+            LecomClient::with_options(BorrowedByteLink(&mut **b), schema, address, opts.lecom())
+        }
         Link::Frames(f) => Err(misfit_on(f.port(), LinkKind::CanBus, &schema, address)),
     }
 }

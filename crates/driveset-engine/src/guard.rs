@@ -27,7 +27,18 @@
 //!   Tmd §4c) and its rate code only with a value coding one of the
 //!   family's rates (permit `LINE_RATE`, §4, §11.5, Tmd C0125).
 //!
-//! The running-drive check (`--allow-running`) and the other named
+//! - **No address, rate or rate activation to a running drive**
+//!   ([`standstill`]): the permits of the writes that change how a drive
+//!   is reached (`BUS_ADDRESS`, `LINE_RATE`, `ACTIVATE_RATE` as
+//!   `driveset address`, `replace` and `commission --assign` send them,
+//!   `crate::assign`) are made only from a [`Standstill`], the proof that
+//!   the drive was asked whether its motor runs and does not (a running
+//!   drive is refused unless `--allow-running`, one whose running state
+//!   cannot be read unless `--allow-running-unknown`: the upload's
+//!   policy). The `--transfer-baud` switch asks the same question with no
+//!   override.
+//!
+//! The upload's running check (`--allow-running`) and the other named
 //! overrides stay with the planner: they decide whether a transaction may
 //! start; the guard decides what may be sent, and no override widens it.
 
@@ -41,6 +52,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::client::{Target, code_name, schema_code, shown_value};
 use crate::error::{EngineError, Refusal};
+use crate::overrides::{Override, Overrides};
 
 /// Why a write is sent: an ordinary setting ([`Permit::SETTING`], the full
 /// rules), or one of the engine's own named operations, which only the
@@ -78,14 +90,28 @@ impl Permit {
     /// MC6000/7000 108-STEXT, the RAM selector of substitution texts
     /// (§11.3, schema pull).
     pub(crate) const TEXT_SELECTOR: Permit = Permit(Kind::TextSelector);
+
     /// `driveset address`: the family's bus-address code (its floor role
     /// `bus-address`: LUSTBUS 82-SIOA/SADDR §4.2, Tmd C0009 §4c) to a
-    /// drive's own address ([`driveset_schema::BusProtocol::check_address`]).
-    pub(crate) const BUS_ADDRESS: Permit = Permit(Kind::BusAddress);
+    /// drive's own address ([`driveset_schema::BusProtocol::check_address`]),
+    /// only to a drive at [`Standstill`].
+    pub(crate) fn bus_address(_still: &Standstill) -> Permit {
+        Permit(Kind::BusAddress)
+    }
+
     /// `driveset address --baud`: the family's rate code (81-SIOC/SBAUD
     /// §4, §11.5; Tmd C0125) to a value that codes one of the family's
-    /// rates.
-    pub(crate) const LINE_RATE: Permit = Permit(Kind::LineRate);
+    /// rates, only to a drive at [`Standstill`].
+    pub(crate) fn line_rate(_still: &Standstill) -> Permit {
+        Permit(Kind::LineRate)
+    }
+
+    /// [`Permit::ACTIVATE_RATE`] for `driveset address --baud`, only to a
+    /// drive at [`Standstill`].
+    pub(crate) fn activate_rate(_still: &Standstill) -> Permit {
+        Permit::ACTIVATE_RATE
+    }
+
     /// The store step after a verified upload: the schema's store code to
     /// the one value that stores (`[schema.store]`, CiA 301 0x1010 sub 1
     /// = "save").
@@ -152,6 +178,60 @@ pub enum GuardRefusal {
         /// The value.
         value: String,
     },
+    /// The drive reports a running motor, and its bus address or line rate
+    /// would be written ([`standstill`]; lifted by `--allow-running`).
+    #[error(
+        "the drive reports a running motor; driveset changes a drive's bus address or line rate only at standstill: stop it (standstill), or pass {}",
+        Override::AllowRunning
+    )]
+    #[serde(rename = "guard_running")]
+    Running,
+    /// The drive's running state cannot be read, and its bus address or
+    /// line rate would be written ([`standstill`]; lifted by
+    /// `--allow-running-unknown`).
+    #[error(
+        "running state unknown: {why}; driveset changes a drive's bus address or line rate only at standstill: make sure the drive is at standstill, then pass {}",
+        Override::AllowRunningUnknown
+    )]
+    #[serde(rename = "guard_running_unknown")]
+    RunningUnknown {
+        /// Why it cannot be read.
+        why: String,
+    },
+}
+
+/// Proof that [`standstill`] let the writes that change how a drive is
+/// reached through; [`Permit::bus_address`], [`Permit::line_rate`] and
+/// [`Permit::activate_rate`] take it. Only [`standstill`] makes one.
+#[derive(Debug)]
+pub(crate) struct Standstill {
+    _private: (),
+}
+
+/// The running rule of the bus address, the line rate and its activation
+/// (module docs): the drive is asked (`DriveClient::running`) before
+/// anything is sent; a running motor is refused unless `overrides` allow
+/// [`Override::AllowRunning`], an unknown running state unless they allow
+/// [`Override::AllowRunningUnknown`] (the upload's policy, its planner's
+/// `Problem::Running`). `Err`: [`GuardRefusal::Running`] /
+/// [`GuardRefusal::RunningUnknown`]; nothing was written.
+pub(crate) fn standstill(
+    client: &mut dyn crate::client::DriveClient,
+    overrides: Overrides,
+) -> Result<Standstill, EngineError> {
+    let refusal = match client.running()? {
+        Some(false) => None,
+        Some(true) if overrides.allows(Override::AllowRunning) => None,
+        Some(true) => Some(GuardRefusal::Running),
+        None if overrides.allows(Override::AllowRunningUnknown) => None,
+        None => Some(GuardRefusal::RunningUnknown {
+            why: crate::plan::running_unknown_why(client.schema()),
+        }),
+    };
+    match refusal {
+        None => Ok(Standstill { _private: () }),
+        Some(r) => Err(EngineError::refused(client.target().clone(), r)),
+    }
 }
 
 /// Proof that [`check`] let one write through; the builders below take it.
@@ -403,6 +483,9 @@ pub(crate) fn sdo_download(
 
 #[cfg(test)]
 mod tests {
+    /// The proof a test of the permits stands on.
+    const STILL: super::Standstill = super::Standstill { _private: () };
+
     use std::sync::Arc;
 
     use driveset_schema::error::SourceFile;
@@ -546,27 +629,44 @@ mod tests {
         let vf = builtin(Family::Vf1000);
         let tmd = builtin(Family::Tmd);
         // the built-in LUSTBUS schemas give 82 no type: the raw figure
-        assert_eq!(verdict(&mc, 82, 5, Permit::BUS_ADDRESS), "ok");
-        assert_eq!(verdict(&vf, 82, 30, Permit::BUS_ADDRESS), "ok");
+        assert_eq!(verdict(&mc, 82, 5, Permit::bus_address(&STILL)), "ok");
+        assert_eq!(verdict(&vf, 82, 30, Permit::bus_address(&STILL)), "ok");
         for bad in [0, 31, 99] {
             assert_eq!(
-                verdict(&mc, 82, bad, Permit::BUS_ADDRESS),
+                verdict(&mc, 82, bad, Permit::bus_address(&STILL)),
                 format!("the bus-address permit does not cover 82-SADDR = {bad}; nothing was sent")
             );
         }
-        assert!(verdict(&mc, 81, 5, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
-        assert!(verdict(&mc, 4, 111, Permit::BUS_ADDRESS).starts_with("the bus-address permit"));
+        assert!(
+            verdict(&mc, 81, 5, Permit::bus_address(&STILL)).starts_with("the bus-address permit")
+        );
+        assert!(
+            verdict(&mc, 4, 111, Permit::bus_address(&STILL)).starts_with("the bus-address permit")
+        );
         // Tmd C0009 is VD: raw = address x 10000; group addresses refused
-        assert_eq!(verdict(&tmd, 9, 120_000, Permit::BUS_ADDRESS), "ok");
-        assert!(verdict(&tmd, 9, 200_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
-        assert!(verdict(&tmd, 9, 125_000, Permit::BUS_ADDRESS).contains("permit does not cover"));
+        assert_eq!(verdict(&tmd, 9, 120_000, Permit::bus_address(&STILL)), "ok");
+        assert!(
+            verdict(&tmd, 9, 200_000, Permit::bus_address(&STILL))
+                .contains("permit does not cover")
+        );
+        assert!(
+            verdict(&tmd, 9, 125_000, Permit::bus_address(&STILL))
+                .contains("permit does not cover")
+        );
         // rates: LUSTBUS the figure, the family's rates only; Tmd C0125 by its label
-        assert_eq!(verdict(&mc, 81, 38400, Permit::LINE_RATE), "ok");
-        assert!(verdict(&vf, 81, 38400, Permit::LINE_RATE).starts_with("the line-rate permit"));
-        assert_eq!(verdict(&vf, 81, 4800, Permit::LINE_RATE), "ok");
-        assert_eq!(verdict(&tmd, 125, 30_000, Permit::LINE_RATE), "ok");
-        assert!(verdict(&tmd, 125, 40_000, Permit::LINE_RATE).starts_with("the line-rate permit"));
-        assert!(verdict(&mc, 82, 9600, Permit::LINE_RATE).starts_with("the line-rate permit"));
+        assert_eq!(verdict(&mc, 81, 38400, Permit::line_rate(&STILL)), "ok");
+        assert!(
+            verdict(&vf, 81, 38400, Permit::line_rate(&STILL)).starts_with("the line-rate permit")
+        );
+        assert_eq!(verdict(&vf, 81, 4800, Permit::line_rate(&STILL)), "ok");
+        assert_eq!(verdict(&tmd, 125, 30_000, Permit::line_rate(&STILL)), "ok");
+        assert!(
+            verdict(&tmd, 125, 40_000, Permit::line_rate(&STILL))
+                .starts_with("the line-rate permit")
+        );
+        assert!(
+            verdict(&mc, 82, 9600, Permit::line_rate(&STILL)).starts_with("the line-rate permit")
+        );
     }
 
     #[test]

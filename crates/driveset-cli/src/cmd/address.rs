@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest, Schemas};
+use driveset_engine::overrides::Override;
 use driveset_schema::{BusProtocol, Family};
 use serde_json::json;
 
@@ -41,6 +42,11 @@ keypad). Writes C0009 = N at M and verifies at N.
 activates it at once (81-SBAUD = B, then 4-PROG = 111, 11.5) and is verified
 at B; a VF1000 (81-SIOC) and a Tmd (C0125) store it and take it at their
 next restart (the report says so; verified by reading it back).
+
+The drive must be at standstill: it is asked whether its motor runs before
+anything is sent (and again before the first write); a running drive is
+refused (exit 2) unless --allow-running, one whose running state cannot be
+read unless --allow-running-unknown, as upload refuses.
 
 The journal (--journal FILE, or DIR/<bus>-<N>.journal.json with
 --journal-dir DIR; default .driveset/journal) is written before the first
@@ -91,6 +97,13 @@ pub struct Args {
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+    /// Write the address and rate to a drive that reports a running motor.
+    #[arg(long)]
+    pub allow_running: bool,
+    /// Write the address and rate to a drive whose running state cannot
+    /// be known (its schema names no running bit).
+    #[arg(long)]
+    pub allow_running_unknown: bool,
 }
 
 /// Run `driveset address`.
@@ -140,6 +153,14 @@ fn address(args: &Args) -> Result<u8, Fail> {
     let mut req = AssignRequest::new(protocol, args.to);
     req.from = args.from;
     req.baud = args.baud;
+    req.overrides = [
+        (args.allow_running, Override::AllowRunning),
+        (args.allow_running_unknown, Override::AllowRunningUnknown),
+    ]
+    .into_iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, o)| o)
+    .collect();
     let opened = port::open_port(&args.port)?;
     let name = opened.name.clone();
     if let Some(f) = opened.simulated_family()
@@ -308,15 +329,17 @@ fn emit_report(name: &str, r: &AssignReport, json: bool) {
 }
 
 /// `driveset recover JOURNAL` of an address change: the journal's port
-/// (or `port`), the drive found at its old or new address and rate, the
-/// change finished and verified.
+/// (or `port`), the drive found at its old or new address and rate with
+/// `schema` (the one the change was made with, which the journal records,
+/// or `--schema`) for its family, the change finished and verified.
 pub fn recover_journal(
     journal: &Path,
     port_text: &str,
     dirs: &[PathBuf],
+    schema: std::sync::Arc<driveset_schema::Schema>,
     json: bool,
 ) -> Result<u8, Fail> {
-    let schemas = schemas_for(port_text, dirs, &[])?;
+    let schemas = schemas_for(port_text, dirs, &[])?.with(schema);
     let opened = port::open_port(port_text)?;
     let name = opened.name.clone();
     let mut link = opened.link;

@@ -25,6 +25,9 @@ pub struct AssignArgs {
     pub prompt_stdin: bool,
     /// `--only`.
     pub only: Vec<String>,
+    /// The named overrides (`--allow-running` ...: the running rule of the
+    /// address and rate writes).
+    pub overrides: driveset_engine::overrides::Overrides,
 }
 
 /// The manifest with `--port` put on its one serial bus.
@@ -146,6 +149,7 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
         journal_dir,
         scan: Default::default(),
         only: args.only.clone(),
+        overrides: args.overrides,
     };
     let yes = args.yes;
     let mut connect = |bus: &Bus, d: &Drive| -> Result<(), Stopped> {

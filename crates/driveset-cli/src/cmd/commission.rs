@@ -166,6 +166,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             yes: args.yes,
             prompt_stdin: args.prompt_stdin,
             only: args.only.clone(),
+            overrides,
         };
         if !super::assign_line::run(&manifest, &a, journal_dir)? {
             eprintln!(

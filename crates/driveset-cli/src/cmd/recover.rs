@@ -36,7 +36,7 @@ rolled-back. A journal already complete or rolled-back needs nothing.
 
 Without --port the journal's port is used (a sim:// port without the
 faults= and seed= of the run that was cut); without --schema the schema the
-journal records (its id among the known schemas when the fingerprint
+journal records (an upload's and a `driveset address` change's alike) (its id among the known schemas when the fingerprint
 matches, else its file; a schema edited since the upload is refused, exit
 2). Like every bus command, recover holds the bus's lock while it runs: a
 bus another driveset drives is refused with exit 3, naming that process.
@@ -122,11 +122,17 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         .clone()
         .unwrap_or_else(|| journal_port(&j.target.port));
     if driveset_engine::assign::is_assign_journal(j) && !j.is_finished() {
+        // the schema the change was made with (`--schema`, else the one
+        // the journal records: a learned file types 81 / 82 where the
+        // built-in schema does not)
+        let sim = port::peek_sim_family_at(&port_text, Some(j.target.address));
+        let choice = journal_schema(args, j, sim)?;
         drop(jf);
         return super::address::recover_journal(
             &args.journal,
             &port_text,
             &args.schemas,
+            choice.schema,
             args.format == BusFormat::Json,
         );
     }

@@ -7,7 +7,11 @@
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
-use driveset_engine::line::replace::{Prepared, ReplaceError, ReplaceOptions, finish, prepare};
+use driveset_engine::line::manifest::Manifest;
+use driveset_engine::line::replace::{
+    LineBusId, Prepared, ReplaceError, ReplaceOptions, finish, prepare,
+};
+use driveset_engine::session::Ports;
 use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
@@ -16,9 +20,15 @@ use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
 /// Arguments of `driveset replace`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-The spare must be alone on the service port. It is found as `driveset
+The spare must be alone on the service port, and replace proves it before
+anything is written: a service port that reaches a bus of the line (the same
+bus id: the same serial device, device server or simulated bus) is refused
+before anything is sent, naming the bus; the spare is found as `driveset
 address` finds a drive (LUSTBUS: at address 0, every rate tried, section
-5.1; LECOM: at the factory address 1), must be of the family (and, where
+5.1; LECOM: at the factory address 1), and any other device that answers is
+refused, named (LUSTBUS: the network list 1..30 of section 5.2 and the
+answers at address 0; LECOM: a scan of every station 01..99 at the rate the
+spare answered). The spare must be of the family (and, where
 the set's schema names them, the TYPE) of the drive's set, and then gets
 the drive's manifest address and its bus's rate (journalled, verified),
 then the drive's set as one upload transaction (read back, journal, write,
@@ -31,7 +41,8 @@ else the manifest's report_dir, else target/driveset-report).
 Exit codes: 0 replaced and verified; 1 the set's upload failed (rolled back)
 or you declined; 2 usage error, a manifest with findings, a spare that does
 not fit, more than one unit on the port, no --yes on a non-interactive
-stdin; 3 the port could not be opened or the spare did not answer.
+stdin, a service port that reaches a bus of the line; 3 the port could not
+be opened or the spare did not answer.
 
 Examples:
   driveset replace line.toml --drive press-axis-3 --port /dev/ttyUSB1
@@ -101,14 +112,44 @@ pub fn ask(prompt: &str) -> Result<String, Fail> {
 /// engine's [`driveset_engine::session::open_port`] over
 /// [`port::CliPorts`]: `sim://` in-process); the port as its parsed form
 /// spells it.
-pub fn open_service_port(port_text: &str) -> Result<(Link, String), Fail> {
+pub fn open_service_port(
+    port_text: &str,
+) -> Result<(Link, String, driveset_engine::connect::ConnectOptions), Fail> {
     let spec = PortSpec::parse(port_text).map_err(|e| {
         Fail::input(format!(
             "{e}; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001 or sim://mc6000?factory=1"
         ))
     })?;
     let opened = driveset_engine::session::open_port(&port::CliPorts, port_text, None)?;
-    Ok((opened.link, spec.to_string()))
+    Ok((opened.link, spec.to_string(), opened.connect))
+}
+
+/// The bus ids the line's buses reach, as far as their ports say before
+/// they are opened (a serial device, an slcan adapter, a simulated bus's
+/// state file: [`Ports::bus_before_open`]; a TCP or RFC 2217 device server:
+/// every address its host resolves to), so that `replace` refuses a
+/// service port that reaches the line's own bus.
+fn line_bus_ids(manifest: &Manifest) -> Vec<LineBusId> {
+    use std::net::ToSocketAddrs;
+    let mut out = Vec::new();
+    for bus in &manifest.buses {
+        let text = bus.port.to_string();
+        let mut ids: Vec<String> = port::CliPorts
+            .bus_before_open(&text, &bus.port)
+            .into_iter()
+            .collect();
+        if let PortSpec::Tcp { host, port, .. } | PortSpec::Rfc2217 { host, port, .. } = &bus.port
+            && let Ok(addrs) = (host.as_str(), *port).to_socket_addrs()
+        {
+            ids.extend(addrs.map(driveset_link::bus_id::tcp));
+        }
+        out.extend(ids.into_iter().map(|id| LineBusId {
+            bus: bus.name.clone(),
+            port: bus.port_name.clone(),
+            id,
+        }));
+    }
+    out
 }
 
 fn refusal(e: &ReplaceError) -> Fail {
@@ -155,8 +196,11 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR)),
         scan: Default::default(),
         overrides,
+        line_buses: line_bus_ids(&manifest),
+        connect: Default::default(),
     };
-    let (mut link, port_name) = open_service_port(&args.port)?;
+    let (mut link, port_name, connect) = open_service_port(&args.port)?;
+    let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
     if args.format == Format::Text {
         let id = prep

@@ -17,11 +17,15 @@
 //!    one answer is more than one device on the line: refused; an answer at
 //!    the address asked for from another device: refused ("no address is
 //!    assigned twice", §4.2);
-//! 5. journal, then 82-SIOA/SADDR = N at address 0 (permit
+//! 5. the drive must be at standstill ([`crate::guard::standstill`]: a
+//!    running motor is refused unless `--allow-running`, an unknown
+//!    running state unless `--allow-running-unknown`), asked while the
+//!    plan reads and again before the first write;
+//! 6. journal, then 82-SIOA/SADDR = N at address 0 (permit
 //!    `Permit::BUS_ADDRESS`); verified at N (82 = N, 91 = the TYPE read
 //!    at 0) and, when the drive had another own address before, that
 //!    nothing answers there any more;
-//! 6. `--baud B` last, at N: 81-SBAUD/SIOC = B (permit
+//! 7. `--baud B` last, at N: 81-SBAUD/SIOC = B (permit
 //!    `Permit::LINE_RATE`); an MC6000/7000 activates it at once with
 //!    4-PROG = 111 (§11.5, permit `ACTIVATE_RATE`; its ACK still comes at
 //!    the old rate), the host follows and verifies 81, 82 and 91 at B; a
@@ -30,7 +34,8 @@
 //!
 //! **LECOM** (`lecom-ab-tmd-manual.txt` §4c, §4d, §4e, Table 1): the drive
 //! at `--from M` (default 1, the factory C0009); refused when another
-//! device answers at N; C0001 must allow LECOM writes (2 or 3, §4e): the
+//! device answers at N; the drive at standstill (as step 5 above); C0001
+//! must allow LECOM writes (2 or 3, §4e): the
 //! refusal gives the advice an upload's refused write gives
 //! ([`crate::error::LECOM_PROGRAMMING_ADVICE`]); C0009 = N at M, verified
 //! at N; `--baud`: C0125 = the code of the rate (Table 1: 0 = 9600,
@@ -78,6 +83,7 @@ use driveset_link::Link;
 use driveset_schema::{BusProtocol, Family, Registry, Schema};
 
 use crate::error::EngineError;
+use crate::overrides::Overrides;
 use crate::scan::ScanOptions;
 
 pub use codes::{address_code, address_of_raw, address_raw, rate_code, rate_of_raw, rate_raw};
@@ -114,6 +120,13 @@ pub struct AssignRequest {
     /// Write the address code even when the drive holds the address
     /// already ([`AssignRequest::always_write_address`]).
     pub always_write_address: bool,
+    /// Prove the port holds this one device before anything is written
+    /// ([`AssignRequest::alone`]).
+    pub alone: bool,
+    /// The named overrides of the running rule (`--allow-running`,
+    /// `--allow-running-unknown`): no address or rate is written to a
+    /// running drive otherwise ([`crate::guard::standstill`]).
+    pub overrides: Overrides,
 }
 
 impl AssignRequest {
@@ -126,7 +139,20 @@ impl AssignRequest {
             baud: None,
             scan: ScanOptions::default(),
             always_write_address: false,
+            alone: false,
+            overrides: Overrides::none(),
         }
+    }
+
+    /// The same, proving first that the port holds this one device
+    /// (`replace`, `commission --assign`): on LECOM every station 01..99 is
+    /// scanned at the rate the drive answered, and any other answer refuses
+    /// ([`AssignRefusal::NotAlone`], naming who answered). LUSTBUS proves
+    /// it anyway (the network list of §5.2 and the collision check at
+    /// address 0).
+    pub fn alone(mut self) -> Self {
+        self.alone = true;
+        self
     }
 
     /// The same, writing the address code even when the drive holds the

@@ -25,7 +25,7 @@ use crate::client::Identity;
 use crate::client::lustbus::Heard;
 use crate::error::EngineError;
 use crate::plan::code_label;
-use crate::scan::{Found, lustbus_addresses, scan_lecom, scan_lustbus};
+use crate::scan::{Found, lecom_addresses, lustbus_addresses, scan_lecom, scan_lustbus};
 
 /// Find the drive, run every check and list the writes; nothing is
 /// written (the dry run, and the first half of [`assign()`](super::assign())).
@@ -99,10 +99,12 @@ pub(super) fn plan_lustbus(
         }
     }
     let Some((rate, type_value)) = hit else {
-        let _ = set_rate(link, first_rate);
         if let Some((baud, heard)) = garbled {
-            return Err(refuse(&port, 0, AssignRefusal::Collision { baud, heard }));
+            let e = collision(link, &port, baud, heard, opts);
+            let _ = set_rate(link, first_rate);
+            return Err(e);
         }
+        let _ = set_rate(link, first_rate);
         return Err(EngineError::no_answer(
             target(&port, 0),
             format!(
@@ -115,7 +117,7 @@ pub(super) fn plan_lustbus(
     // a collision heard at the rate that answered (the other devices at
     // another rate would not answer there)
     if let Some((baud, heard)) = garbled.filter(|(b, _)| *b == rate) {
-        return Err(refuse(&port, 0, AssignRefusal::Collision { baud, heard }));
+        return Err(collision(link, &port, baud, heard, opts));
     }
     // the family: the MC CODE 20091 (§5.2: the numerically compatible
     // parameters are the same; MC codes above them are not): a drive that
@@ -125,16 +127,7 @@ pub(super) fn plan_lustbus(
     let family =
         match lust_probe(b, Address::ALL, mc_code, opts).map_err(|e| link_err(&port, 0, e))? {
             Heard::Value(_) => Family::from_dialect(Dialect::Mc),
-            Heard::Garbled(g) => {
-                return Err(refuse(
-                    &port,
-                    0,
-                    AssignRefusal::Collision {
-                        baud: rate,
-                        heard: g,
-                    },
-                ));
-            }
+            Heard::Garbled(g) => return Err(collision(link, &port, rate, g, opts)),
             _ => Family::from_dialect(Dialect::Vf1000),
         };
     if let Some(b) = req.baud {
@@ -186,6 +179,7 @@ pub(super) fn plan_lustbus(
     let (identity, old_raw, rate_raw_now) = {
         let mut c = drive_on(link, schema.clone(), 0)?;
         let identity = c.identify()?;
+        crate::guard::standstill(c.as_mut(), req.overrides)?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {
             Some(c.read(rate_key)?)
@@ -262,6 +256,27 @@ pub(super) fn plan_lustbus(
     .plan(link, req, protocol, start))
 }
 
+/// The refusal of answers at address 0 that do not decode at `baud`
+/// (several devices answer, §4.2), naming who the network list (§5.2) at
+/// that rate finds.
+fn collision(
+    link: &mut Link,
+    port: &str,
+    baud: u32,
+    heard: String,
+    opts: &crate::scan::ScanOptions,
+) -> EngineError {
+    let found = match set_rate(link, baud) {
+        Ok(true) => bytes(link, BusProtocol::Lustbus)
+            .ok()
+            .and_then(|b| scan_lustbus(b, &lustbus_addresses(), opts).ok())
+            .map(|f| found_text(&f))
+            .unwrap_or_default(),
+        _ => String::new(),
+    };
+    refuse(port, 0, AssignRefusal::Collision { baud, heard, found })
+}
+
 /// What a plan found at its drive; [`Reached::plan`] adds the request's
 /// side of the [`AssignPlan`] (the port, the bus, the address and rate
 /// asked for, the discovery's time), the same for both protocols.
@@ -309,6 +324,7 @@ impl Reached {
             elapsed: now(link) - start,
             writes: self.writes,
             scan_opts: req.scan.clone(),
+            overrides: req.overrides,
         }
     }
 }
@@ -448,10 +464,23 @@ pub(super) fn plan_lecom(
             opts.tries.max(1),
         ));
     };
-    // another device at N?
+    // another device on the port at all (`alone`), or at N?
     let scan_start = now(link);
     let mut found = Vec::new();
-    if req.to != from {
+    if req.alone {
+        let b = bytes(link, protocol)?;
+        found = scan_lecom(b, Some(&schema), &lecom_addresses(), opts)?;
+        if found.iter().any(|f| f.address != from) {
+            return Err(refuse(
+                &port,
+                from,
+                AssignRefusal::NotAlone {
+                    scanned: "the LECOM stations 01..99".into(),
+                    found: found_text(&found),
+                },
+            ));
+        }
+    } else if req.to != from {
         let b = bytes(link, protocol)?;
         found = scan_lecom(b, Some(&schema), &[req.to], opts)?;
         if !found.is_empty() {
@@ -469,6 +498,7 @@ pub(super) fn plan_lecom(
     let (identity, c0001, old_raw, rate_now) = {
         let mut c = drive_on(link, schema.clone(), from)?;
         let identity = c.identify()?;
+        crate::guard::standstill(c.as_mut(), req.overrides)?;
         let c0001 = c.read(CodeKey::new(LECOM_WRITE.code))?;
         let old = c.read(addr_key)?;
         let r = if req.baud.is_some() {

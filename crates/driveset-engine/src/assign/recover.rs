@@ -233,6 +233,8 @@ pub fn recover(
         elapsed: Duration::ZERO,
         writes,
         scan_opts: ScanOptions::default(),
+        // recover has no overrides: a running drive is refused
+        overrides: crate::overrides::Overrides::none(),
     };
     let (written, verified, rate_now, note) = finish(link, &p, &mut jf)?;
     set_step(&mut jf, AssignStep::Done)?;

@@ -44,9 +44,21 @@ pub enum AssignRefusal {
         baud: u32,
         /// What was heard.
         heard: String,
+        /// Who the network list at that rate finds (empty: nobody, or not
+        /// asked).
+        #[serde(default)]
+        found: String,
     },
     /// The network list (1..30) found more than one device.
     MoreThanOne {
+        /// Who answered where.
+        found: String,
+    },
+    /// A port that must hold one device (`replace`, `commission --assign`:
+    /// [`super::AssignRequest::alone`]) holds more.
+    NotAlone {
+        /// What was scanned.
+        scanned: String,
         /// Who answered where.
         found: String,
     },
@@ -107,9 +119,20 @@ impl fmt::Display for AssignRefusal {
                 f,
                 "--baud {baud}: {who} runs at {rates} baud (lustbus-protocol.txt §4, lecom-ab-tmd-manual.txt C0125); nothing was written. Pick one of these"
             ),
-            AssignRefusal::Collision { baud, heard } => write!(
+            AssignRefusal::Collision { baud, heard, found } => {
+                let list = if found.is_empty() {
+                    String::new()
+                } else {
+                    format!("; the network list at {baud} baud finds {found}")
+                };
+                write!(
+                    f,
+                    "the answers at address 0 at {baud} baud do not decode ({heard}): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0){list}; nothing was written. Connect the drive alone and run again"
+                )
+            }
+            AssignRefusal::NotAlone { scanned, found } => write!(
                 f,
-                "the answers at address 0 at {baud} baud do not decode ({heard}): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); nothing was written. Connect the drive alone and run again"
+                "the service port holds more than one device (a scan of {scanned} finds {found}); a spare must be alone on its port; nothing was written. Connect the spare alone and run again"
             ),
             AssignRefusal::MoreThanOne { found } => write!(
                 f,

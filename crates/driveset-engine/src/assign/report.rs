@@ -103,6 +103,10 @@ pub struct AssignPlan {
     /// The probe options of the request (for the verification probes).
     #[serde(skip)]
     pub(super) scan_opts: ScanOptions,
+    /// The request's overrides of the running rule (asked again before
+    /// the first write).
+    #[serde(skip)]
+    pub(super) overrides: crate::overrides::Overrides,
 }
 
 pub(super) fn ser_name<T: fmt::Display, S: serde::Serializer>(

@@ -18,7 +18,7 @@ use super::refusal::target;
 use super::report::{Step, found_text, pairs};
 use super::{AssignPlan, AssignReport, AssignStep, RateEffect};
 use crate::error::{EngineError, ErrorKind};
-use crate::guard::Permit;
+use crate::guard::{self, Permit};
 use crate::journal::{JournalFile, TxnState};
 use crate::plan::code_label;
 use crate::scan::scan_lustbus;
@@ -122,11 +122,22 @@ pub(super) fn finish(
     let mut verified = Vec::new();
     let (addr_key, rate_key) = bus_codes(p.family, &schema, &port)?;
     let lustbus = p.protocol == BusProtocol::Lustbus;
+    // 0. at standstill, asked where the first write goes, before it
+    // (the plan asked too; a prompt may have passed since)
+    let still = match p.writes.first() {
+        Some(w) => {
+            let mut c = drive_on(link, schema.clone(), w.address)?;
+            let still = guard::standstill(c.as_mut(), p.overrides)?;
+            c.finish()?;
+            Some(still)
+        }
+        None => None,
+    };
     // 1. the address
-    if let Some(w) = p.writes.iter().find(|w| w.step == Step::Address) {
+    if let (Some(w), Some(still)) = (p.writes.iter().find(|w| w.step == Step::Address), &still) {
         set_step(jf, AssignStep::Address)?;
         let mut c = drive_on(link, schema.clone(), w.address)?;
-        c.write_named(w.key, &w.raw, Permit::BUS_ADDRESS)?;
+        c.write_named(w.key, &w.raw, Permit::bus_address(still))?;
         c.finish()?;
         written.push(format!("{} = {} at address {}", w.code, w.value, w.address));
     }
@@ -191,18 +202,18 @@ pub(super) fn finish(
     // 2. the rate
     let mut rate_now = p.rate;
     let mut rate_note = None;
-    if let Some(w) = p.writes.iter().find(|w| w.step == Step::Rate) {
+    if let (Some(w), Some(still)) = (p.writes.iter().find(|w| w.step == Step::Rate), &still) {
         set_step(jf, AssignStep::Rate)?;
         let mut c = drive_on(link, schema.clone(), p.to)?;
-        c.write_named(w.key, &w.raw, Permit::LINE_RATE)?;
+        c.write_named(w.key, &w.raw, Permit::line_rate(still))?;
         written.push(format!("{} = {} at address {}", w.code, w.value, w.address));
         c.finish()?;
     }
-    if let Some(a) = p.writes.iter().find(|w| w.step == Step::Activate) {
+    if let (Some(a), Some(still)) = (p.writes.iter().find(|w| w.step == Step::Activate), &still) {
         let target_rate = p.baud.unwrap_or(p.rate);
         {
             let mut c = drive_on(link, schema.clone(), p.to)?;
-            c.write_named(a.key, &a.raw, Permit::ACTIVATE_RATE)?;
+            c.write_named(a.key, &a.raw, Permit::activate_rate(still))?;
             c.finish()?;
         }
         written.push(format!("{} = {} at address {}", a.code, a.value, a.address));

@@ -143,6 +143,8 @@ enum Kind {
     DoctorCanPort,
     TransferRate,
     Assign,
+    GuardRunning,
+    GuardRunningUnknown,
 }
 
 impl Kind {
@@ -162,7 +164,11 @@ impl Kind {
     /// Whose the kind is.
     fn room(self) -> Room {
         match self {
-            Kind::GuardCommand | Kind::GuardControlWord | Kind::GuardPermit => Room::Guard,
+            Kind::GuardCommand
+            | Kind::GuardControlWord
+            | Kind::GuardPermit
+            | Kind::GuardRunning
+            | Kind::GuardRunningUnknown => Room::Guard,
             Kind::Broadcast
             | Kind::LustbusCode
             | Kind::NoWireType
@@ -222,6 +228,6 @@ mod tests {
             assert_eq!(by_name, Ok(kind), "{}", kind.name());
             index += 1;
         }
-        assert_eq!(index, 45);
+        assert_eq!(index, 47);
     }
 }

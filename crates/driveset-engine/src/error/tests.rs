@@ -757,7 +757,8 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
              `vf1000_no_dataset`, `no_dataset_open`, `stext_mc_only`, `no_sload`, `set_schema`, \
              `codes_not_in_schema`, `diff`, `wrong_type`, `scan_lustbus_address`, \
              `scan_lecom_address`, `scan_can_node`, `no_probe_code`, `doctor_lustbus_address`, \
-             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`"
+             `doctor_lecom_address`, `doctor_can_port`, `transfer_rate`, `assign`, \
+             `guard_running`, `guard_running_unknown`"
                 .to_string()
         )
     );
@@ -783,7 +784,7 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
     );
     assert_eq!(
         read(r#"{"kind":99}"#),
-        Err("invalid value: integer `99`, expected variant index 0 <= i < 45".to_string())
+        Err("invalid value: integer `99`, expected variant index 0 <= i < 47".to_string())
     );
     assert_eq!(
         read(r#"["guard_command", "4-PROG", "1"]"#),

@@ -22,6 +22,17 @@
 //!    the schema allows, where it names some), and nothing may answer
 //!    where the manifest has no drive.
 //!
+//! **A unit only once.** A unit that holds an address this run gave an
+//! earlier drive of the bus is that drive's unit again (the engineer
+//! connected the wrong one, or never swapped): it is refused before
+//! anything is written, naming the earlier drive. The address the bus's
+//! first unit was found holding is taken as the one units leave the
+//! factory with (lustbus-protocol.txt §4.2: every device is set at the
+//! factory to the same address): a unit holding it cannot be told from a
+//! fresh one, so when a manifest address is that same address, a repeat of
+//! that one unit is caught by the final scan (its first address then stays
+//! silent), not before its write.
+//!
 //! CAN buses are not assigned this way (an ECS node id is set at the unit):
 //! they are listed as skipped, with the reason. A failure on a drive stops
 //! its bus (the next drive would be connected beside an unfinished one);
@@ -47,8 +58,51 @@ use crate::scan::{ScanOptions, lecom_addresses, lustbus_addresses, scan_lecom, s
 enum AssignOneError {
     #[error("{0}")]
     Misfit(super::replace::Misfit),
+    /// The unit holds an address this run gave an earlier drive of the bus
+    /// (module docs, "A unit only once").
+    #[error(
+        "the unit on the port holds address {held}, which this run gave `{earlier}`: it is `{earlier}`'s unit again, not `{drive}`'s; nothing was written. Disconnect it and connect `{drive}`'s unit alone"
+    )]
+    Again {
+        /// The address it holds.
+        held: u8,
+        /// The drive this run gave it to.
+        earlier: String,
+        /// The drive being assigned.
+        drive: String,
+    },
     #[error("{0}")]
     Engine(#[from] EngineError),
+}
+
+/// What a bus's first contact has done so far (module docs, "A unit only
+/// once"): the addresses it gave, to which drive, and the address the
+/// bus's first unit was found holding.
+#[derive(Debug, Default)]
+struct Given {
+    /// (address, drive) in the order given.
+    given: Vec<(u8, String)>,
+    /// The own address of the first unit found (taken as the factory's).
+    factory: Option<i64>,
+}
+
+impl Given {
+    /// The unit found by `p` for drive `d`: refused when it holds an
+    /// address this run gave, unless that is the factory's.
+    fn check(&mut self, d: &Drive, p: &crate::assign::AssignPlan) -> Result<(), AssignOneError> {
+        let Some(held) = p.old_address else {
+            return Ok(());
+        };
+        let factory = *self.factory.get_or_insert(held);
+        match self.given.iter().find(|(a, _)| i64::from(*a) == held) {
+            Some((a, earlier)) if held != factory => Err(AssignOneError::Again {
+                held: *a,
+                earlier: earlier.clone(),
+                drive: d.name.clone(),
+            }),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Options of [`assign_line`].
@@ -60,6 +114,9 @@ pub struct AssignLineOptions {
     pub scan: ScanOptions,
     /// Drive (or bus) names to do; empty: all.
     pub only: Vec<String>,
+    /// The running rule's overrides (`--allow-running`,
+    /// `--allow-running-unknown`, [`crate::guard::standstill`]).
+    pub overrides: crate::overrides::Overrides,
 }
 
 /// One drive given its address and rate.
@@ -182,6 +239,7 @@ fn assign_one(
     drives: &[&Drive],
     opener: &Opener<'_>,
     opts: &AssignLineOptions,
+    given: &mut Given,
 ) -> DriveAssigned {
     let mut out = DriveAssigned {
         drive: d.name.clone(),
@@ -206,17 +264,21 @@ fn assign_one(
         }
     };
     let t0 = link_ms(&link);
-    let mut req = AssignRequest::new(bus.protocol, d.address).always_write_address();
+    let mut req = AssignRequest::new(bus.protocol, d.address)
+        .always_write_address()
+        .alone();
     if bus.rate != 0 {
         req = req.baud(bus.rate);
     }
     req.scan = opts.scan.clone();
+    req.overrides = opts.overrides;
     let schemas = schemas_of(drives, d);
     let result = (|| -> Result<crate::assign::AssignReport, AssignOneError> {
         let p = crate::assign::plan(&mut link, &req, &schemas)?;
         out.family = Some(p.family.name().to_string());
         out.type_value = p.type_value;
         out.found_at = Some(p.rate);
+        given.check(d, &p)?;
         super::replace::check_spare(d, &p).map_err(AssignOneError::Misfit)?;
         let journal = crate::journal::journal_path(&opts.journal_dir, &p.bus, p.to);
         Ok(crate::assign::run(&mut link, &p, &journal)?)
@@ -225,6 +287,7 @@ fn assign_one(
         Ok(rep) => {
             out.written = rep.written;
             out.rate_note = rep.rate_note;
+            given.given.push((d.address, d.name.clone()));
         }
         Err(e) => out.error = Some(e.to_string()),
     }
@@ -353,12 +416,13 @@ pub fn assign_line(
             continue;
         }
         let mut stopped = None;
+        let mut given = Given::default();
         for d in listed.iter().filter(|d| selected(d)) {
             if let Err(Stopped(why)) = connect(bus, d) {
                 stopped = Some(why);
                 break;
             }
-            let r = assign_one(bus, d, &listed, opener, opts);
+            let r = assign_one(bus, d, &listed, opener, opts, &mut given);
             b.elapsed_ms += r.elapsed_ms;
             let failed = r.error.is_some();
             b.drives.push(r);

@@ -9,10 +9,18 @@
 //!    address is the truth: [`super::address_truth::check_drive`]); a set
 //!    whose schema is learned from the drive is refused (replace needs the
 //!    schema's facts before it talks to the spare).
-//! 2. [`prepare`]: the spare is found as `driveset address` finds a drive
-//!    ([`crate::assign::plan`]: LUSTBUS at address 0 at every rate, section
-//!    5.1; LECOM at the factory address 1), alone on the line (refused
-//!    otherwise, nothing written), and must fit the set's schema: its
+//! 2. [`prepare`]: **`replace` never takes a live drive.** A service port
+//!    that reaches a bus of the line (the same bus id,
+//!    [`ReplaceOptions::line_buses`]) is refused before anything is sent
+//!    ([`ReplaceError::LineBus`]). The spare is found as `driveset address`
+//!    finds a drive ([`crate::assign::plan`]: LUSTBUS at address 0 at every
+//!    rate, section 5.1; LECOM at the factory address 1) and must be alone
+//!    on the port ([`AssignRequest::alone`]): LUSTBUS by the network list
+//!    of section 5.2 and the answers at address 0 (several devices garble
+//!    them, section 4.2), LECOM by a scan of every station 01..99 at the
+//!    rate the spare answered; any other answer is refused, naming who
+//!    answered, nothing written. (A CAN bus is refused as a whole: an ECS
+//!    node id is set at the unit.) The spare must fit the set's schema: its
 //!    family, and its TYPE where the schema names the types it allows
 //!    ([`check_spare`], the same rule as `upload`'s identify check).
 //! 3. The caller asks the engineer (the CLI's prompt), then [`finish`]:
@@ -110,10 +118,40 @@ pub enum ReplaceError {
         /// The upload's failure.
         error: EngineError,
     },
+    /// The service port reaches a bus of the line (the same bus id): the
+    /// line's drives are on it. Nothing was sent.
+    #[error(
+        "the service port {port} reaches bus `{bus}` of the line ({bus_port}; bus id {id}): the line's drives are on it, and a spare must be alone on its port; nothing was sent. Connect the spare alone to a service port and run again"
+    )]
+    LineBus {
+        /// The service port as given.
+        port: String,
+        /// The line's bus it reaches.
+        bus: String,
+        /// That bus's port as the manifest names it.
+        bus_port: String,
+        /// The bus id both reach.
+        id: String,
+    },
     /// The engine refused or failed (the assignment's refusals: more than
     /// one unit on the port, the address taken ...; transport failures).
     #[error("{0}")]
     Engine(#[from] EngineError),
+}
+
+/// A bus of the line and the bus id its port reaches, as the front end
+/// knows it before opening the port (a serial device, a simulated bus's
+/// state file, a TCP device server's resolved addresses): `replace` refuses
+/// a service port that reaches it ([`ReplaceError::LineBus`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LineBusId {
+    /// The bus's name.
+    pub bus: String,
+    /// Its port as the manifest names it.
+    pub port: String,
+    /// A bus id its port reaches (one entry per id: a host name may
+    /// resolve to several addresses).
+    pub id: String,
 }
 
 impl ReplaceError {
@@ -178,6 +216,11 @@ pub struct ReplaceOptions {
     pub scan: ScanOptions,
     /// Passed to the upload (each lifts one refusal).
     pub overrides: Overrides,
+    /// The line's buses and the bus ids their ports reach: a service port
+    /// that reaches one of them is refused before anything is sent.
+    pub line_buses: Vec<LineBusId>,
+    /// The service port's options (its `latency=`), for the set's upload.
+    pub connect: crate::connect::ConnectOptions,
 }
 
 /// The spare found and checked: what [`finish`] will write.
@@ -321,11 +364,23 @@ pub fn prepare(
 ) -> Result<Prepared, ReplaceError> {
     let d = drive_of(manifest, name)?;
     let bus = &manifest.buses[d.bus_index];
-    let mut req = AssignRequest::new(bus.protocol, d.address).always_write_address();
+    let reached = link.bus_id();
+    if let Some(b) = opts.line_buses.iter().find(|b| b.id == reached) {
+        return Err(ReplaceError::LineBus {
+            port: link.port().to_string(),
+            bus: b.bus.clone(),
+            bus_port: b.port.clone(),
+            id: b.id.clone(),
+        });
+    }
+    let mut req = AssignRequest::new(bus.protocol, d.address)
+        .always_write_address()
+        .alone();
     if bus.rate != 0 {
         req = req.baud(bus.rate);
     }
     req.scan = opts.scan.clone();
+    req.overrides = opts.overrides;
     let schemas = known_schemas().with(d.schema.clone());
     let plan = match crate::assign::plan(link, &req, &schemas) {
         Ok(p) => p,
@@ -356,9 +411,14 @@ pub fn finish(
     let assign = crate::assign::run(link, p, &journal)?;
     let t1 = link_now(link);
     let d = &prep.drive;
-    let mut client =
-        crate::session::BusSession::connect(link, service_port, d.schema.clone(), d.address)?
-            .client;
+    let mut client = crate::session::BusSession::connect_using(
+        link,
+        service_port,
+        d.schema.clone(),
+        d.address,
+        opts.connect,
+    )?
+    .client;
     let stats0 = client.stats();
     let mut uo = UploadOptions::new(default_journal_path(&opts.journal_dir, &*client));
     uo.overrides = opts.overrides;

@@ -88,7 +88,7 @@ pub use timing::{
 };
 
 use order::{mode_rank, phase_of, storage_of};
-use problem::running_unknown_why;
+pub(crate) use problem::running_unknown_why;
 
 /// One write the plan needs.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -15,7 +15,7 @@ fn dataset_code(schema: &Schema) -> Option<u32> {
 }
 
 /// Why the running state of a drive of `schema` cannot be known.
-pub(super) fn running_unknown_why(schema: &Schema) -> String {
+pub(crate) fn running_unknown_why(schema: &Schema) -> String {
     running_unknown_text(&schema.id)
 }
 

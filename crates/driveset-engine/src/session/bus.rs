@@ -10,9 +10,10 @@ use driveset_link::Link;
 use driveset_schema::Schema;
 
 use super::learning::LearnedReport;
-use super::reach::{Reached, connected, reach};
+use super::reach::{Kept, Reached, connected, reach};
 use super::{SessionError, SessionPolicy};
 use crate::client::DriveClient;
+use crate::connect::ConnectOptions;
 use crate::error::EngineError;
 
 /// A drive reached over a link the caller keeps: the client speaking
@@ -47,7 +48,8 @@ impl<'l> BusSession<'l> {
     /// the schema lacks facts ([`crate::learn::needs_learning`]), as
     /// [`super::Session::open`] does; a schema whose protocol does not run
     /// on the link is refused before anything is sent. The clients are
-    /// [`crate::connect::connect_on`]'s (the default connect options).
+    /// [`crate::connect::connect_on`]'s (the default connect options;
+    /// [`BusSession::open_using`] gives the port's).
     /// `policy.fit` is not asked: there is no [`super::OpenedPort`] to
     /// check ([`super::check_fit`]), a line's drives were checked against
     /// their buses when its manifest loaded.
@@ -58,7 +60,29 @@ impl<'l> BusSession<'l> {
         address: u8,
         policy: &SessionPolicy<'_>,
     ) -> Result<BusSession<'l>, SessionError> {
-        let reached = reach(link, port, schema, address, policy)?;
+        BusSession::open_using(
+            link,
+            port,
+            schema,
+            address,
+            policy,
+            ConnectOptions::default(),
+        )
+    }
+
+    /// As [`BusSession::open`], the clients with `options`, the options of
+    /// the port the link was opened from (a line's bus:
+    /// `ConnectOptions::of` its port, so its `latency=` reaches every
+    /// client as a one-drive command's does).
+    pub fn open_using(
+        link: &'l mut Link,
+        port: &str,
+        schema: Arc<Schema>,
+        address: u8,
+        policy: &SessionPolicy<'_>,
+        options: ConnectOptions,
+    ) -> Result<BusSession<'l>, SessionError> {
+        let reached = reach(Kept { link, options }, port, schema, address, policy)?;
         Ok(BusSession::of(port, address, reached))
     }
 
@@ -71,7 +95,19 @@ impl<'l> BusSession<'l> {
         schema: Arc<Schema>,
         address: u8,
     ) -> Result<BusSession<'l>, EngineError> {
-        let reached = connected(link, schema, address)?;
+        BusSession::connect_using(link, port, schema, address, ConnectOptions::default())
+    }
+
+    /// As [`BusSession::connect`], the client with `options` (as
+    /// [`BusSession::open_using`]).
+    pub fn connect_using(
+        link: &'l mut Link,
+        port: &str,
+        schema: Arc<Schema>,
+        address: u8,
+        options: ConnectOptions,
+    ) -> Result<BusSession<'l>, EngineError> {
+        let reached = connected(Kept { link, options }, schema, address)?;
         Ok(BusSession::of(port, address, reached))
     }
 

@@ -65,19 +65,27 @@ impl Way<'static> for Owned {
     }
 }
 
-/// A link the caller keeps (a line's bus): [`connect::connect_on`]'s
-/// clients, with the default options.
-impl<'l> Way<'l> for &'l mut Link {
+/// A link the caller keeps (a line's bus), with its port's options:
+/// [`connect::connect_on`]'s clients.
+pub(super) struct Kept<'l> {
+    pub(super) link: &'l mut Link,
+    pub(super) options: ConnectOptions,
+}
+
+impl<'l> Way<'l> for Kept<'l> {
     type Line = BorrowedByteLink<'l>;
 
     fn options(&self) -> ConnectOptions {
-        ConnectOptions::default()
+        self.options
     }
 
     fn line(self) -> Result<Self::Line, Self> {
-        match self {
+        match self.link {
             Link::Bytes(line) => Ok(BorrowedByteLink(&mut **line)),
-            link => Err(link),
+            link => Err(Kept {
+                link,
+                options: self.options,
+            }),
         }
     }
 
@@ -86,7 +94,7 @@ impl<'l> Way<'l> for &'l mut Link {
         schema: Arc<Schema>,
         address: u8,
     ) -> Result<Box<dyn DriveClient + 'l>, EngineError> {
-        connect::connect_on(self, schema, address)
+        connect::connect_on(self.link, schema, address, &self.options)
     }
 }
 

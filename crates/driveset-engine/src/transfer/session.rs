@@ -61,7 +61,11 @@ pub fn begin(
     };
     let target = client.target().clone();
     let identity = client.identify()?;
-    if client.running()? != Some(false) {
+    // the guard's running rule, without override (module docs)
+    if let Err(e) = crate::guard::standstill(client, crate::overrides::Overrides::none()) {
+        if !e.is_refused() {
+            return Err(e);
+        }
         return Err(refuse(
             &target,
             format!(

@@ -716,8 +716,13 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         (&ids[1], 5, &[(7, "60 Hz"), (20, "15 Hz")][..]),
     ] {
         let schema = learned.get(id).unwrap();
-        let mut c =
-            driveset_engine::connect::connect_on(&mut link, schema.clone(), address).unwrap();
+        let mut c = driveset_engine::connect::connect_on(
+            &mut link,
+            schema.clone(),
+            address,
+            &Default::default(),
+        )
+        .unwrap();
         for (code, text) in want {
             let key = CodeKey::new(*code);
             let raw = c.read(key).unwrap();

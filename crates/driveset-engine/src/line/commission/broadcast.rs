@@ -284,12 +284,13 @@ fn send(
 ) {
     let t0 = link_now(link);
     let res =
-        crate::connect::lustbus_on(link, first.schema.clone(), first.address).and_then(|mut c| {
-            for (k, v) in codes {
-                c.broadcast(*k, v)?;
-            }
-            c.finish()
-        });
+        crate::connect::lustbus_on(link, first.schema.clone(), first.address, &on.bus.connect())
+            .and_then(|mut c| {
+                for (k, v) in codes {
+                    c.broadcast(*k, v)?;
+                }
+                c.finish()
+            });
     let t1 = link_now(link);
     push_broadcast(report, on.start, "address 31".into(), (t0, t1));
     if let Err(e) = res {

@@ -98,7 +98,13 @@ pub(super) fn run_drive(
     let (watch, hook) = drive_watch(bus, d, ctx);
     let learned_drive;
     let (d, session, learned_report) = match &d.learn_from {
-        None => match BusSession::connect(link, &bus.port_name, d.schema.clone(), d.address) {
+        None => match BusSession::connect_using(
+            link,
+            &bus.port_name,
+            d.schema.clone(),
+            d.address,
+            bus.connect(),
+        ) {
             Ok(s) => (d, s, None),
             Err(e) => {
                 let mut r = blank_report(d, bus, DriveResult::Failed);

@@ -72,8 +72,15 @@ pub(super) fn learn_drive<'l>(
         }),
         ..SessionPolicy::default()
     };
-    let session = BusSession::open(link, &bus.port_name, base.clone(), d.address, &policy)
-        .map_err(|e| worded(&what, e))?;
+    let session = BusSession::open_using(
+        link,
+        &bus.port_name,
+        base.clone(),
+        d.address,
+        &policy,
+        bus.connect(),
+    )
+    .map_err(|e| worded(&what, e))?;
     let Some(learned) = &session.learned else {
         // the manifest sets `learn_from` only for a schema that needs learning
         return Err((format!("{what}: `{}` needs no learning", base.id), None));

@@ -106,7 +106,7 @@ fn may_multicast(on: &OnBus<'_>, tens: u8, members: &[&Drive], link: &mut Link) 
     let schema = members[0].schema.clone();
     let mut running = Vec::new();
     for m in members {
-        if let Ok(mut c) = connect::lecom_on(link, schema.clone(), m.address)
+        if let Ok(mut c) = connect::lecom_on(link, schema.clone(), m.address, &bus.connect())
             && let Ok(Some(true)) = c.running()
         {
             running.push(m.name.clone());
@@ -134,7 +134,8 @@ fn multicast(
     link: &mut Link,
 ) -> bool {
     let schema = members[0].schema.clone();
-    let mut c = match connect::lecom_on(link, schema.clone(), members[0].address) {
+    let mut c = match connect::lecom_on(link, schema.clone(), members[0].address, &on.bus.connect())
+    {
         Ok(c) => c,
         Err(e) => {
             on.ctx.warn(e.to_string());

@@ -125,7 +125,7 @@ pub(super) fn first_half<'d>(
 ) -> FirstHalf<'d> {
     let t0 = link_now(link);
     let mut r = blank_report(d, bus, DriveResult::Failed);
-    let c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address) {
+    let c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address, &bus.connect()) {
         Ok(c) => c,
         Err(e) => {
             r.error = Some(e.to_string());
@@ -267,7 +267,8 @@ pub(super) fn next_half<'d>(
 ) -> FirstHalf<'d> {
     let d = p.d;
     let t0 = link_now(link);
-    let mut c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address) {
+    let mut c = match crate::connect::lustbus_on(link, d.schema.clone(), d.address, &bus.connect())
+    {
         Ok(c) => c,
         Err(e) => {
             p.r.error = Some(e.to_string());

@@ -111,6 +111,15 @@ pub struct Bus {
     pub rate_location: Option<Location>,
 }
 
+impl Bus {
+    /// What the bus's port says about talking to its drives (its
+    /// `latency=`): every client of a line run on the bus is connected with
+    /// it, as a one-drive command's client is with its port's.
+    pub fn connect(&self) -> crate::connect::ConnectOptions {
+        crate::connect::ConnectOptions::of(&self.port)
+    }
+}
+
 /// One drive of a line.
 #[derive(Debug, Clone)]
 pub struct Drive {

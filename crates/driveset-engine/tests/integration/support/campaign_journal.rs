@@ -33,7 +33,15 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use driveset_engine::connect::connect_on as client_on;
+/// A client on a link the test keeps, with the default connect options.
+fn client_on(
+    link: &mut driveset_link::Link,
+    schema: std::sync::Arc<driveset_schema::Schema>,
+    address: u8,
+) -> Result<Box<dyn driveset_engine::client::DriveClient + '_>, driveset_engine::error::EngineError>
+{
+    driveset_engine::connect::connect_on(link, schema, address, &Default::default())
+}
 use driveset_engine::env::{Environment, Memory};
 use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
 use driveset_engine::journal::{JournalFile, journal_path};
