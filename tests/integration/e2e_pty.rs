@@ -632,7 +632,7 @@ fn imported_eds_schema_pulls_and_uploads_against_a_canopen_local_node() {
     let (code, _, stderr) = run(&["schema", "import", &eds_arg, "-o", &schema_arg]);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(
-        stderr.ends_with("25 Lenze codes, 12 objects by index, 18 lints\n"),
+        stderr.ends_with("25 Lenze codes, 13 objects by index, 18 lints\n"),
         "{stderr}"
     );
 

@@ -440,7 +440,7 @@ fn python_canopen_reads_what_the_importer_imported() {
             "5 variables agree",
             "2 variables agree",
             "1 variables agree",
-            "37 variables agree",
+            "38 variables agree",
         ]
     );
 }

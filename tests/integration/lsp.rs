@@ -229,7 +229,7 @@ fn lsp_diagnostics_follow_open_and_incremental_changes_at_their_lines() {
     // the schema's maximum is named as related information
     let rel = &d[0]["relatedInformation"][0];
     assert_eq!(rel["message"], "maximum in the schema");
-    assert_eq!(rel["location"]["range"]["start"]["line"], 209);
+    assert_eq!(rel["location"]["range"]["start"]["line"], 217);
     assert_eq!(d[0]["source"], "driveset");
 
     // fix C0011 in place: `9999` -> `50`; the others stay where they are

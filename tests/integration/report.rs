@@ -53,6 +53,7 @@ fn drive(name: &str, bus: &str, address: u8, result: DriveResult) -> DriveReport
         learned_schema: None,
         factory_settings: false,
         replacement: None,
+        stored: None,
     }
 }
 

@@ -159,8 +159,9 @@ fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given()
 fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
     let dir = tmp();
     let d = dir.path();
-    // 83-SIOW: a RAM value (the running VF1000 refuses EEPROM writes)
-    set_file(d, "ok.toml", "fictional-vf1000-demo.toml", "SIOW = 7\n");
+    // 5-FSSIO: the setpoint, an FSEL/ISEL variable (the running VF1000
+    // refuses EEPROM writes; a set cannot hold a RAM control value)
+    set_file(d, "ok.toml", "fictional-vf1000-demo.toml", "FSSIO = 7\n");
     // a first run creates the simulated drive's state; then start its motor
     driveset_in(d)
         .args([
@@ -219,7 +220,9 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
         .stdout(predicate::str::contains(
             "warning: --allow-running: the drive reports a running motor\n",
         ))
-        .stdout(predicate::str::contains("  83-SIOW: 0 -> 7  verified\n"));
+        .stdout(predicate::str::contains(
+            "  5-FSSIO: 0 Hz -> 7 Hz  verified\n",
+        ));
 }
 
 #[test]

@@ -28,7 +28,7 @@ fn run(args: &[&str]) -> (String, String, i32) {
 const AXIS_LINTS: &str = "\
 lint: tests/data/eds/fictional-ecs-axis.eds:25: VendorNumber 0x0000003B is Lenze's CiA vendor ID (0x3B): objects 0x38F0..0x5FFF are Lenze codes C9999..C0000 (code = 24575 - index, FIX32 value x 10000), 0x2000..0x38EF kept by index with their own types
 lint: tests/data/eds/fictional-ecs-axis.eds:129: 0x1003sub0: number of entries is UNSIGNED8 (0x0005) writable; it is the structure, not a setting; skipped
-lint: tests/data/eds/fictional-ecs-axis.eds:153: 0x1010: store / restore parameters: a command (signature write), not a setting; skipped
+lint: tests/data/eds/fictional-ecs-axis.eds:153: 0x1010: store parameters: sub 1 (save all parameters) kept as the store step, [schema.store] keeps = \"on-command\" with \"save\" = 0x65766173 (CiA 301); a set cannot write it
 lint: tests/data/eds/fictional-ecs-axis.eds:179: 0x1014: DefaultValue `$NODEID+0x80` depends on the node id; left unset
 lint: tests/data/eds/fictional-ecs-axis.eds:192: 0x1018: subindexes 1, 2, 3, 4 differ in type, access, limits or default: each kept subindex is a code of its own (index 0x1018 + subindex) with the facts of its own section
 lint: tests/data/eds/fictional-ecs-axis.eds:237: 0x1200: SDO channel parameter: bus configuration ($NODEID COB-IDs), not a drive setting; skipped
@@ -44,7 +44,7 @@ lint: tests/data/eds/fictional-ecs-axis.eds:571: 0x4C45: DOMAIN object (no fixed
 lint: tests/data/eds/fictional-ecs-axis.eds:582: 0x4C3B: write-only (wo): driveset reads back every value it writes; skipped
 lint: tests/data/eds/fictional-ecs-axis.eds:586: 0x4C31: DataType UNSIGNED32 (0x0007) read as FIX32 (page 454: Lenze codes are FIX32, value x 10000)
 lint: tests/data/eds/fictional-ecs-axis.eds:599: 0x4C27: ObjFlags bit 0 (refuse write on download): kept read-only
-imported tests/data/eds/fictional-ecs-axis.eds: schema fictional-ecs-axis, 25 Lenze codes, 12 objects by index, 18 lints
+imported tests/data/eds/fictional-ecs-axis.eds: schema fictional-ecs-axis, 25 Lenze codes, 13 objects by index, 18 lints
 ";
 
 #[test]
@@ -58,7 +58,7 @@ fn vendor_style_eds_imports_with_the_exact_lint_list() {
         ("", AXIS_LINTS, 1)
     );
     let toml = std::fs::read_to_string(&out).expect("written");
-    assert_eq!(toml.matches("[[code]]").count(), 37);
+    assert_eq!(toml.matches("[[code]]").count(), 38);
     assert!(
         toml.contains(
             "[[code]]\nnumber = 5001\nname = \"max_speed\"\ntitle = \"Max. speed\"\nspec = \"fictional-ecs-axis.eds [4C76] line 352\"\ntype = \"FIX32\"\nmin = \"0\"\nmax = \"16000\"\ndefault = \"3000\"\naccess = \"rw\"\n"
@@ -139,7 +139,7 @@ fn json_lint_report() {
     let doc: serde_json::Value = serde_json::from_str(&stderr).expect("json");
     assert_eq!(doc["schema"], "fictional-ecs-axis");
     assert_eq!(doc["lenze_codes"], 25);
-    assert_eq!(doc["cia_objects"], 12);
+    assert_eq!(doc["cia_objects"], 13);
     let lints = doc["lints"].as_array().expect("lints");
     assert_eq!(lints.len(), 18);
     assert_eq!(

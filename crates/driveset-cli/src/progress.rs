@@ -33,6 +33,7 @@ fn shown(phase: Phase, total: Option<usize>) -> Option<Shown> {
         Phase::Read => total.map(|_| Shown::Reading),
         Phase::Dataset | Phase::Write | Phase::Commit => Some(Shown::Writing),
         Phase::Verify => Some(Shown::Verifying),
+        Phase::Store => Some(Shown::Storing),
         Phase::Rollback => Some(Shown::RollingBack),
         Phase::Identify
         | Phase::Plan
@@ -48,6 +49,7 @@ enum Shown {
     Reading,
     Writing,
     Verifying,
+    Storing,
     RollingBack,
 }
 
@@ -57,6 +59,7 @@ impl Shown {
             Shown::Reading => "reading",
             Shown::Writing => "writing",
             Shown::Verifying => "verifying",
+            Shown::Storing => "storing",
             Shown::RollingBack => "rolling back",
         }
     }

@@ -70,6 +70,7 @@ enum Kind {
     TextSelector,
     BusAddress,
     LineRate,
+    Store,
 }
 
 impl Permit {
@@ -111,6 +112,11 @@ impl Permit {
         Permit::ACTIVATE_RATE
     }
 
+    /// The store step after a verified upload: the schema's store code to
+    /// the one value that stores (`[schema.store]`, CiA 301 0x1010 sub 1
+    /// = "save").
+    pub(crate) const STORE: Permit = Permit(Kind::Store);
+
     /// The permit's name in messages.
     pub fn name(self) -> &'static str {
         match self.0 {
@@ -122,6 +128,7 @@ impl Permit {
             Kind::TextSelector => "text-selector (108-STEXT)",
             Kind::BusAddress => "bus-address",
             Kind::LineRate => "line-rate",
+            Kind::Store => "store",
         }
     }
 }
@@ -291,6 +298,9 @@ pub(crate) fn check(
                 && crate::assign::rate_of_raw(schema, key, raw)
                     .is_some_and(|r| d.line_rates.rates.contains(&r)),
         ),
+        Kind::Store => Some(schema.store.command().is_some_and(|c| {
+            key.number == c.code && key.subcode.is_none() && int == Some(c.value)
+        })),
         // §11.3: the substitution texts are read through MC dialect codes
         // (61ppp), so only the family that speaks it has the selector
         Kind::TextSelector => Some(
@@ -514,6 +524,43 @@ mod tests {
                 other => panic!("not a refusal: {other:?}"),
             },
         }
+    }
+
+    /// A schema whose drives keep writes only on command: CiA 301 0x1010
+    /// sub 1 = "save" (`[schema.store]`).
+    fn storing_schema() -> Arc<Schema> {
+        let mut reg = Registry::builtin().expect("built-in schemas");
+        reg.add_source(SourceFile::new(
+            "store.toml",
+            "[schema]\nid = \"store-test\"\ntitle = \"t\"\nextends = \"lenze-ecs\"\n\n[schema.store]\nkeeps = \"on-command\"\ncode = \"store_parameters\"\nvalue = 0x65766173\n\n[[code]]\nindex = 0x1010\nsubindex = 1\nname = \"store_parameters\"\ntitle = \"Save all parameters\"\nspec = \"CiA 301\"\ntype = \"UNSIGNED32\"\nrole = \"command\"\n\n[[code]]\nnumber = 5001\nname = \"x\"\ntitle = \"x\"\nspec = \"t\"\n".to_string(),
+        ))
+        .expect("the schema loads")
+    }
+
+    #[test]
+    fn the_store_permit_covers_the_store_code_with_its_value_only() {
+        let s = storing_schema();
+        let store = driveset_schema::schema::index_number(0x1010, Some(1));
+        assert_eq!(verdict(&s, store, 0x6576_6173, Permit::STORE), "ok");
+        // a set's write of the store code is a command
+        assert_eq!(
+            verdict(&s, store, 0x6576_6173, Permit::SETTING),
+            "0x1010sub1 = 1702257011 is a command: driveset never writes one (only its own named steps: the SLOAD handshake, PROG = 111 activating a rate); run it on the drive itself"
+        );
+        assert_eq!(
+            verdict(&s, store, 1, Permit::STORE),
+            "the store permit does not cover 0x1010sub1 = 1; nothing was sent"
+        );
+        assert!(
+            verdict(&s, 5001, 0x6576_6173, Permit::STORE)
+                .starts_with("the store permit does not cover")
+        );
+        // a schema without a store step (and without the object): refused
+        let ecs = builtin(Family::Ecs);
+        assert_ne!(verdict(&ecs, store, 0x6576_6173, Permit::STORE), "ok");
+        assert!(
+            verdict(&ecs, 135, 0, Permit::STORE).starts_with("the store permit does not cover")
+        );
     }
 
     #[test]

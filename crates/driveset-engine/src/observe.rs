@@ -36,6 +36,9 @@ pub enum Phase {
     Commit,
     /// Reading the written values back and comparing them.
     Verify,
+    /// The store command of a drive that keeps writes only on command
+    /// (`[schema.store]`, CiA 301 0x1010 "save").
+    Store,
     /// Restoring the old values from the backup and reading them back
     /// (also confirming the old set after a rejected dataset).
     Rollback,
@@ -60,6 +63,7 @@ impl Phase {
             Phase::Write => "write",
             Phase::Commit => "commit",
             Phase::Verify => "verify",
+            Phase::Store => "store",
             Phase::Rollback => "rollback",
             Phase::Recover => "recover",
             Phase::Learn => "learn",

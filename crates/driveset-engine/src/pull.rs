@@ -68,6 +68,11 @@ pub fn left_out_reason(schema: &Schema, code: &Code, opts: &PullOptions) -> Opti
     if schema.type_of(code).is_none() {
         return Some("the schema gives no type for it".into());
     }
+    if driveset_schema::schema::ram_note(schema, code, driveset_schema::CodeKey::new(code.number))
+        .is_some()
+    {
+        return Some("RAM control value: lost at power off, a set cannot hold it".into());
+    }
     None
 }
 

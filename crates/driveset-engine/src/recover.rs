@@ -85,6 +85,10 @@ pub struct RecoverReport {
     pub notes: Vec<String>,
     /// Fingerprint of what the drive holds over the set's codes (when read).
     pub fingerprint: Option<String>,
+    /// The store command was written again (`[schema.store] keeps =
+    /// "on-command"`, the drive holding the new values).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub stored: bool,
     /// The client's port/address differ from the journal's (identity matched).
     pub target_note: Option<String>,
     /// A transfer-rate switch the journal left open: where the drive was
@@ -128,6 +132,7 @@ pub fn recover(
         restored: Vec::new(),
         notes: Vec::new(),
         fingerprint: None,
+        stored: false,
         target_note: None,
         transfer: None,
     };
@@ -375,29 +380,11 @@ fn settle(
         // had nothing to write, or that was cut before it planned): there
         // is nothing to restore; the codes it found unchanged must still
         // hold their values.
-        let now = read_observed(
-            client,
-            unchanged.iter().map(|(k, _)| *k),
-            hook,
-            Step::Verify,
-        )?;
-        let differ: Vec<String> = unchanged
-            .iter()
-            .filter(|(k, v)| now.values.get(k) != Some(v))
-            .map(|(k, _)| code_label(&schema, *k))
-            .collect();
-        if !differ.is_empty() {
-            let detail = format!(
-                "{} no longer {} the value the run found (nothing was planned, so nothing is restored); compare the drive with its set (`driveset diff SET --port ...`) and upload it again",
-                differ.join(", "),
-                if differ.len() == 1 { "holds" } else { "hold" }
-            );
-            jf.journal.failure = Some(detail.clone());
-            jf.journal
-                .transition(TxnState::Failed, at(&*client), Some(detail.clone()));
-            jf.persist()?;
-            return Err(EngineError::inconsistent(target, journal_name, detail));
-        }
+        held_or_failed(client, jf, &unchanged, hook, |codes, verb| {
+            format!(
+                "{codes} no longer {verb} the value the run found (nothing was planned, so nothing is restored); compare the drive with its set (`driveset diff SET --port ...`) and upload it again"
+            )
+        })?;
         let (state, action, note) = if found == TxnState::Complete {
             (
                 TxnState::Complete,
@@ -416,11 +403,36 @@ fn settle(
         jf.persist()?;
         report.action = action;
     } else if all_new && !sload_open {
+        // a drive that keeps writes only on command holds them in RAM
+        // until stored: store (again: a store command is idempotent)
+        if let Some(command) = schema.store.command() {
+            let t = at(&*client);
+            jf.journal.transition(
+                TxnState::Storing,
+                t,
+                Some("recover: the drive holds the new values (read back); storing".into()),
+            );
+            jf.persist()?;
+            hook.enter(client.clock(), Step::Store, Some(1));
+            client.store(command)?;
+            // what was stored is what the drive holds now (a restart
+            // between the read and the store stores the old values)
+            held_or_failed(client, jf, &planned, hook, |codes, verb| {
+                format!(
+                    "after the store {codes} no longer {verb} the new value (did the drive restart?); run `driveset recover` again"
+                )
+            })?;
+            report.stored = true;
+        }
         let t = at(&*client);
         jf.journal.transition(
             TxnState::Complete,
             t,
-            Some("recover: the drive holds the new values (read back)".into()),
+            Some(if report.stored {
+                "recover: the drive holds the new values (read back) and stored them".into()
+            } else {
+                "recover: the drive holds the new values (read back)".into()
+            }),
         );
         jf.persist()?;
         report.action = RecoverAction::Completed;
@@ -466,6 +478,24 @@ fn settle(
             opts.dataset_timeout,
         )
         .and_then(|()| read_values(client, backup.keys().copied()));
+        // a store command the transaction sent may have stored new values:
+        // the restored old ones are stored again, once they read back
+        let store_sent = jf
+            .journal
+            .transitions
+            .iter()
+            .any(|t| t.state == TxnState::Storing);
+        let result = match (result, schema.store.command()) {
+            (Ok(after), Some(command))
+                if store_sent && backup.iter().all(|(k, v)| after.values.get(k) == Some(v)) =>
+            {
+                client.store(command).map(|()| {
+                    report.stored = true;
+                    after
+                })
+            }
+            (r, _) => r,
+        };
         let failure = match result {
             Ok(after) => {
                 let differ: Vec<String> = backup
@@ -529,4 +559,38 @@ fn settle(
     report.fingerprint = Some(holds.fingerprint());
     hook.end(client.clock());
     Ok(report)
+}
+
+/// Read `want`'s codes (phase verify); when any does not hold its value,
+/// the journal fails with `detail(codes, "holds" | "hold")` and so does
+/// the call ([`EngineError::inconsistent`]).
+fn held_or_failed(
+    client: &mut dyn DriveClient,
+    jf: &mut JournalFile,
+    want: &[(CodeKey, RawValue)],
+    hook: &Hook,
+    detail: impl FnOnce(String, &str) -> String,
+) -> Result<(), EngineError> {
+    let now = read_observed(client, want.iter().map(|(k, _)| *k), hook, Step::Verify)?;
+    let schema = client.schema().clone();
+    let differ: Vec<String> = want
+        .iter()
+        .filter(|(k, v)| now.values.get(k) != Some(v))
+        .map(|(k, _)| code_label(&schema, *k))
+        .collect();
+    if differ.is_empty() {
+        return Ok(());
+    }
+    let verb = if differ.len() == 1 { "holds" } else { "hold" };
+    let detail = detail(differ.join(", "), verb);
+    jf.journal.failure = Some(detail.clone());
+    let at = client.clock().now().as_nanos();
+    jf.journal
+        .transition(TxnState::Failed, at, Some(detail.clone()));
+    jf.persist()?;
+    Err(EngineError::inconsistent(
+        client.target().clone(),
+        jf.path().display().to_string(),
+        detail,
+    ))
 }

@@ -266,6 +266,10 @@ pub enum FindingKind {
     /// A secret given as the `<secret>` placeholder (an exported or pulled
     /// set holds no secret's value).
     SecretNotGiven,
+    /// A value for a RAM control value (`kind = "ram-control"`) that is
+    /// not a control word or a setpoint: the drive loses it at power off
+    /// (LUSTBUS §11.1, §11.2), so the set would not survive a power cycle.
+    RamCode,
 }
 
 impl FindingKind {
@@ -290,6 +294,7 @@ impl FindingKind {
             FindingKind::Command => "command",
             FindingKind::ControlWordNotStopped => "control-word-not-stopped",
             FindingKind::SecretNotGiven => "secret-not-given",
+            FindingKind::RamCode => "ram-code",
         }
     }
 }

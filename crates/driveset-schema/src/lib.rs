@@ -45,6 +45,6 @@ pub use error::{Finding, FindingKind, InputError, InputErrorKind, Location};
 pub use export::{Format, export};
 pub use family::{AddressRefusal, BusProtocol, Descriptor, Family, Learning};
 pub use role::{BitRole, ControlState, Role, RunningIndicator};
-pub use schema::{Code, CodeStyle, Registry, Schema};
+pub use schema::{Code, CodeStyle, Keeping, Registry, Schema, Store, StoreCommand};
 pub use set::{LoadedSet, load_set, load_set_str};
 pub use value::ValueType;

@@ -230,7 +230,15 @@ fn load_source(
             match converted {
                 Some(p) => {
                     if let Some((kind, message, help)) =
-                        crate::role::refusal(&schema, code, key, &p.raw)
+                        crate::role::refusal(&schema, code, key, &p.raw).or_else(|| {
+                            crate::schema::ram_note(&schema, code, key).map(|m| {
+                                (
+                                    crate::FindingKind::RamCode,
+                                    format!("{m}, so the set would not survive a power cycle"),
+                                    "remove this line: a RAM value comes back as its reference value after power-up; set it from the machine's control at run time".to_string(),
+                                )
+                            })
+                        })
                     {
                         findings.push(Finding::new(kind, p.loc(), message, help));
                         merged.remove(&key);

@@ -248,6 +248,23 @@ pub trait FrameDrive: Send + std::fmt::Debug {
         Err(format!("a {} node cannot refuse reads", self.family()))
     }
 
+    /// What the node has stored, where it keeps writes only until a store
+    /// command (`[schema.store] keeps = "on-command"`); `None` where every
+    /// write is kept (a state dump then holds the values alone).
+    fn stored_state(&self) -> Option<ResolvedSet> {
+        None
+    }
+
+    /// Set what the node has stored (loading a state dump); a node that
+    /// keeps every write ignores it.
+    fn restore_stored(
+        &mut self,
+        values: std::collections::BTreeMap<CodeKey, RawValue>,
+    ) -> Result<(), String> {
+        let _ = values;
+        Ok(())
+    }
+
     /// The node has no code `key` from now on ([`ByteDrive::forget`]).
     fn forget(&mut self, key: CodeKey) -> Result<(), String> {
         Err(format!("a {} node cannot forget {key:?}", self.family()))

@@ -40,12 +40,20 @@
 //!   exactly 4 bytes is taken like an expedited one, any other length ends
 //!   in 0x06070010 after its last segment.
 //! - **Power cycle**: the drive answers nothing while it is off; the SDO
-//!   server's transfer state is lost; parameter values are **kept**. The
-//!   excerpt says nothing about storage; the simulator treats every ECS
-//!   code as stored (a real ECS keeps changes over a power cycle only after
-//!   a save command, which the excerpt does not describe). A code the
-//!   table marks as non-persistent (a RAM actual / control value) goes
-//!   back to its factory value. No DS301 boot-up message is sent (the
+//!   server's transfer state is lost. What the parameter values do is the
+//!   table's schema's `[schema.store]` (docs/file-formats.md): `on-command`
+//!   (the FICTIONAL demo fixture, CiA 301 0x1010 sub 1 "save"): they come
+//!   back as last stored; a write of the store code with its value copies
+//!   what the drive holds into what it has stored (any other value aborts
+//!   0x08000020, a read gives 1: "saves on command"); `every-write` and
+//!   `unknown` (the excerpt says nothing of storage): they are kept, but a
+//!   device from a data sheet without 0x1010 ([`crate::eds`]) keeps
+//!   nothing written. A code the table marks as non-persistent (a RAM
+//!   actual / control value) goes back to its factory value.
+//! - **Objects kept by index** (`[[code]] index`, CiA 301 objects and the
+//!   manufacturer objects of another vendor's data sheet): addressed by
+//!   their own index and subindex, their CiA 301 integer types little-endian
+//!   at their own width. No DS301 boot-up message is sent (the
 //!   [`FrameDrive`] contract has no unsolicited frames, and page 454 does
 //!   not mention one).
 //! - **Reaction time**: the excerpt gives no figure; the default is the
@@ -79,16 +87,55 @@ enum Wire {
     Text,
     /// An octet code (`VO`): the bytes themselves.
     Octets,
+    /// A CiA 301 basic integer type of an object kept by index
+    /// (UNSIGNED8/16/32, INTEGER8/16/32), little-endian, its own width.
+    Int { bytes: usize, signed: bool },
 }
 
 fn wire_of(p: &Param, code: CodeNumber) -> Wire {
-    match p.ty {
+    cia_wire(p).unwrap_or_else(|| match p.ty {
         Some(ValueType::FIX32) => Wire::Lenze(ValueFormat::Fix32),
         Some(ValueType::BITCODED) => Wire::Lenze(ValueFormat::BitCoded),
         Some(ValueType::VS) => Wire::Text,
         Some(ValueType::VO) => Wire::Octets,
         _ => Wire::Lenze(code.value_format()),
-    }
+    })
+}
+
+/// The wire of a code by its CiA 301 type, if it has one.
+fn cia_wire(p: &Param) -> Option<Wire> {
+    let (bytes, signed) = match p.ty? {
+        ValueType::UNSIGNED8 => (1, false),
+        ValueType::UNSIGNED16 => (2, false),
+        ValueType::UNSIGNED32 => (4, false),
+        ValueType::INTEGER8 => (1, true),
+        ValueType::INTEGER16 => (2, true),
+        ValueType::INTEGER32 => (4, true),
+        _ => return None,
+    };
+    Some(Wire::Int { bytes, signed })
+}
+
+/// The wire of an object kept by index (`[[code]] index`): its CiA type,
+/// text or octets; FIX32 / BITCODED as the Lenze formats.
+fn indexed_wire(p: &Param) -> Wire {
+    cia_wire(p).unwrap_or(match p.ty {
+        Some(ValueType::VS) => Wire::Text,
+        Some(ValueType::VO) => Wire::Octets,
+        Some(ValueType::BITCODED) => Wire::Lenze(ValueFormat::BitCoded),
+        _ => Wire::Lenze(ValueFormat::Fix32),
+    })
+}
+
+/// Whether `raw` fits an integer wire of `bytes` (signed or not).
+fn int_fits(bytes: usize, signed: bool, raw: i64) -> bool {
+    let bits = 8 * bytes as u32;
+    let (lo, hi) = if signed {
+        (-(1i64 << (bits - 1)), (1i64 << (bits - 1)) - 1)
+    } else {
+        (0, (1i64 << bits) - 1)
+    };
+    (lo..=hi).contains(&raw)
 }
 
 /// The raw integer range a 4-byte Lenze format can carry.
@@ -105,11 +152,55 @@ struct Dictionary<'a> {
     values: &'a mut BTreeMap<CodeKey, RawValue>,
     refused_reads: &'a BTreeMap<CodeKey, AbortCode>,
     hidden: &'a std::collections::BTreeSet<CodeKey>,
+    /// Objects kept by index (`[[code]] index`), by index and subindex.
+    by_index: &'a BTreeMap<(u16, u8), CodeKey>,
+    /// How the drive keeps writes ([`Storing`]); set when the store
+    /// command was written.
+    storing: &'a mut Storing,
+    /// Out-of-range writes abort with the general 0x06090030 (a device
+    /// from its data sheet) rather than 0x06090031 / 0x06090032.
+    general_range_abort: bool,
+}
+
+/// What a drive keeps over a power cycle (`[schema.store]` of its table's
+/// schema).
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Storing {
+    /// Every write is kept (`every-write`, and `unknown`: the simulator
+    /// keeps what it is not told it loses).
+    Kept,
+    /// Nothing written is kept: a power cycle brings the factory values
+    /// back (a device from a data sheet that declares no way to store,
+    /// [`EcsDrive::with_volatile_writes`]).
+    Volatile,
+    /// Writes stay in RAM until the store command (`on-command`): what
+    /// was stored last, and whether a store was just asked for.
+    OnCommand {
+        code: u32,
+        value: i64,
+        stored: BTreeMap<CodeKey, RawValue>,
+        asked: bool,
+    },
 }
 
 impl Dictionary<'_> {
-    /// The parameter at `index`/`subindex`, with its code number.
-    fn param(&self, index: Index, subindex: Subindex) -> Result<(&Param, CodeNumber), AbortCode> {
+    /// The parameter at `index`/`subindex`, with its wire format.
+    fn param(&self, index: Index, subindex: Subindex) -> Result<(&Param, Wire), AbortCode> {
+        if let Some(p) = self
+            .by_index
+            .get(&(index.0, subindex.0))
+            .filter(|k| !self.hidden.contains(*k))
+            .and_then(|k| self.table.get(*k))
+        {
+            return Ok((p, indexed_wire(p)));
+        }
+        if self
+            .by_index
+            .iter()
+            .any(|((i, _), k)| *i == index.0 && !self.hidden.contains(k))
+        {
+            return Err(AbortCode::NO_SUCH_SUBINDEX);
+        }
         let code = CodeNumber::from_index(index).map_err(|_| AbortCode::NO_SUCH_OBJECT)?;
         let number = u32::from(code.get());
         let key = match subindex.0 {
@@ -118,7 +209,7 @@ impl Dictionary<'_> {
         };
         let seen = |k: &CodeKey| !self.hidden.contains(k);
         if let Some(p) = self.table.get(key).filter(|_| seen(&key)) {
-            return Ok((p, code));
+            return Ok((p, wire_of(p, code)));
         }
         if self
             .table
@@ -134,12 +225,20 @@ impl Dictionary<'_> {
 
 impl ObjectDictionary for Dictionary<'_> {
     fn read(&mut self, index: Index, subindex: Subindex) -> Result<Vec<u8>, AbortCode> {
-        let (p, code) = self.param(index, subindex)?;
+        let (p, wire) = self.param(index, subindex)?;
         if let Some(abort) = self.refused_reads.get(&p.key) {
             return Err(*abort);
         }
+        if let Storing::OnCommand { code, .. } = &*self.storing
+            && p.key.number == *code
+        {
+            // CiA 301 0x1010: a read gives the storage functionality, bit 0
+            // "saves parameters on command"
+            return Ok(1u32.to_le_bytes().to_vec());
+        }
         let value = self.values.get(&p.key).unwrap_or(&p.factory);
-        match (wire_of(p, code), value) {
+        match (wire, value) {
+            (Wire::Int { bytes, .. }, RawValue::Int(v)) => Ok(v.to_le_bytes()[..bytes].to_vec()),
             (Wire::Lenze(ValueFormat::Fix32), RawValue::Int(v)) => i32::try_from(*v)
                 .map(|v| v.to_le_bytes().to_vec())
                 .map_err(|_| AbortCode::GENERAL_ERROR),
@@ -155,11 +254,20 @@ impl ObjectDictionary for Dictionary<'_> {
     }
 
     fn write(&mut self, index: Index, subindex: Subindex, data: &[u8]) -> Result<(), AbortCode> {
-        let (p, code) = self.param(index, subindex)?;
+        let (p, wire) = self.param(index, subindex)?;
         if !p.writable() {
             return Err(AbortCode::READ_ONLY);
         }
-        let raw = match wire_of(p, code) {
+        let raw = match wire {
+            Wire::Int { bytes, signed } => {
+                if data.len() != bytes {
+                    return Err(AbortCode::LENGTH_MISMATCH);
+                }
+                let negative = signed && data.last().is_some_and(|b| b & 0x80 != 0);
+                let mut b = if negative { [0xFF; 8] } else { [0; 8] };
+                b[..bytes].copy_from_slice(data);
+                RawValue::Int(i64::from_le_bytes(b))
+            }
             Wire::Lenze(format) => {
                 let bytes: [u8; 4] = data.try_into().map_err(|_| AbortCode::LENGTH_MISMATCH)?;
                 RawValue::Int(match format {
@@ -173,7 +281,27 @@ impl ObjectDictionary for Dictionary<'_> {
             Wire::Octets => RawValue::Octets(data.to_vec()),
         };
         let key = p.key;
-        check_value(self.table, key, &raw)?;
+        if let Storing::OnCommand {
+            code, value, asked, ..
+        } = self.storing
+            && key.number == *code
+        {
+            // CiA 301 0x1010: only the signature stores; the write is
+            // acknowledged once stored (the caller copies the values)
+            if raw != RawValue::Int(*value) {
+                return Err(AbortCode::CANNOT_STORE);
+            }
+            *asked = true;
+            return Ok(());
+        }
+        check_value(self.table, key, &raw).map_err(|a| {
+            let range = [AbortCode::VALUE_TOO_HIGH, AbortCode::VALUE_TOO_LOW];
+            if self.general_range_abort && range.contains(&a) {
+                AbortCode::VALUE_RANGE_EXCEEDED
+            } else {
+                a
+            }
+        })?;
         self.values.insert(key, raw);
         Ok(())
     }
@@ -225,6 +353,12 @@ pub struct EcsDrive {
     /// Codes whose SDO upload is aborted with this code although the
     /// table holds them ([`FrameDrive::refuse_read`]).
     refused_reads: BTreeMap<CodeKey, AbortCode>,
+    /// Objects kept by index, by index and subindex.
+    by_index: BTreeMap<(u16, u8), CodeKey>,
+    /// What the drive keeps over a power cycle.
+    storing: Storing,
+    /// A device from its data sheet: out of range is 0x06090030.
+    general_range_abort: bool,
     /// Codes answered as objects the node does not have
     /// ([`FrameDrive::forget`]); the model keeps their values for itself.
     hidden: std::collections::BTreeSet<CodeKey>,
@@ -244,6 +378,29 @@ impl EcsDrive {
     /// A drive with a table of its own (tests, other fixture schemas).
     pub fn with_table(node: NodeId, table: ParamTable, seed: u64) -> Self {
         let values = table.factory_state();
+        let schema = table.schema().clone();
+        let mut by_index = BTreeMap::new();
+        for p in table.iter() {
+            let Some(code) = schema.code(p.key.number) else {
+                continue;
+            };
+            if let Some(index) = code.index {
+                let sub = code
+                    .subindex
+                    .or_else(|| p.key.subcode.and_then(|s| u8::try_from(s).ok()))
+                    .unwrap_or(0);
+                by_index.insert((index, sub), p.key);
+            }
+        }
+        let storing = match schema.store.command() {
+            Some(c) => Storing::OnCommand {
+                code: c.code,
+                value: c.value,
+                stored: values.clone(),
+                asked: false,
+            },
+            None => Storing::Kept,
+        };
         EcsDrive {
             node,
             table,
@@ -253,7 +410,40 @@ impl EcsDrive {
             reaction: ReactionTime::of(driveset_schema::Family::Ecs, false),
             off_until: None,
             refused_reads: BTreeMap::new(),
+            by_index,
+            storing,
+            general_range_abort: false,
             hidden: std::collections::BTreeSet::new(),
+        }
+    }
+
+    /// The same drive answering an out-of-range write with the general
+    /// DS301 abort 0x06090030 (a device simulated from its data sheet,
+    /// which gives limits but not which abort).
+    pub fn with_general_range_abort(mut self) -> Self {
+        self.general_range_abort = true;
+        self
+    }
+
+    /// The same drive keeping nothing written over a power cycle (a data
+    /// sheet that declares no store parameters object: what the device
+    /// keeps is not known, and the simulator shows the worst case its
+    /// upload report names, "not stored: lost at power off"). A drive that
+    /// stores on command keeps its store step.
+    pub fn with_volatile_writes(mut self) -> Self {
+        if self.storing == Storing::Kept {
+            self.storing = Storing::Volatile;
+        }
+        self
+    }
+
+    /// What the drive has stored, where it keeps writes only on command
+    /// (`[schema.store] keeps = "on-command"`); `None` where every write
+    /// is kept.
+    pub fn stored(&self) -> Option<ResolvedSet> {
+        match &self.storing {
+            Storing::OnCommand { stored, .. } => Some(self.table.resolved(stored)),
+            Storing::Kept | Storing::Volatile => None,
         }
     }
 
@@ -338,9 +528,19 @@ impl FrameDrive for EcsDrive {
             table: &self.table,
             values: &mut self.values,
             refused_reads: &self.refused_reads,
+            by_index: &self.by_index,
+            storing: &mut self.storing,
+            general_range_abort: self.general_range_abort,
             hidden: &self.hidden,
         };
-        let response = self.server.on_frame_data(frame.payload(), &mut od)?;
+        let response = self.server.on_frame_data(frame.payload(), &mut od);
+        if let Storing::OnCommand { stored, asked, .. } = &mut self.storing
+            && *asked
+        {
+            *asked = false;
+            stored.clone_from(&self.values);
+        }
+        let response = response?;
         Some(FrameReply {
             frame: response.to_can(self.node),
             reaction: self.reaction.draw(&mut self.rng),
@@ -348,11 +548,17 @@ impl FrameDrive for EcsDrive {
     }
 
     /// Off from `now` for `off`: no answers, a running segmented transfer
-    /// is lost, values are kept (see the module docs), non-persistent codes
-    /// go back to factory values.
+    /// is lost, values are kept (see the module docs) or, where the
+    /// schema keeps writes only on command, come back as last stored;
+    /// non-persistent codes go back to factory values.
     fn power_cycle(&mut self, now: Instant, off: Duration) {
         self.off_until = Some(now + off);
         self.server = SdoServer::new();
+        match &self.storing {
+            Storing::OnCommand { stored, .. } => self.values.clone_from(stored),
+            Storing::Volatile => self.values = self.table.factory_state(),
+            Storing::Kept => {}
+        }
         for p in self.table.iter() {
             if !p.persistent() {
                 self.values.insert(p.key, p.factory.clone());
@@ -364,6 +570,21 @@ impl FrameDrive for EcsDrive {
         self.table.resolved(&self.values)
     }
 
+    fn stored_state(&self) -> Option<ResolvedSet> {
+        self.stored()
+    }
+
+    /// Every value must be a code of the table.
+    fn restore_stored(&mut self, values: BTreeMap<CodeKey, RawValue>) -> Result<(), String> {
+        if let Some(k) = values.keys().find(|k| self.table.get(**k).is_none()) {
+            return Err(format!("ECS node {}: no code {k:?}", self.node.get()));
+        }
+        if let Storing::OnCommand { stored, .. } = &mut self.storing {
+            *stored = values;
+        }
+        Ok(())
+    }
+
     /// Sets a value without the protocol. Refused for an unknown code, a
     /// value of the wrong shape, or an integer the code's wire format
     /// cannot carry (FIX32: i32, bit-coded: u32). Range and read-only are
@@ -373,9 +594,13 @@ impl FrameDrive for EcsDrive {
             .table
             .get(key)
             .ok_or_else(|| format!("ECS node {}: no code {key:?}", self.node.get()))?;
-        let code = CodeNumber::new(key.number).map_err(|e| e.to_string())?;
-        let ok = match (wire_of(p, code), &raw) {
+        let wire = match self.table.schema().code(key.number).and_then(|c| c.index) {
+            Some(_) => indexed_wire(p),
+            None => wire_of(p, CodeNumber::new(key.number).map_err(|e| e.to_string())?),
+        };
+        let ok = match (wire, &raw) {
             (Wire::Lenze(format), RawValue::Int(v)) => fits(format, *v),
+            (Wire::Int { bytes, signed }, RawValue::Int(v)) => int_fits(bytes, signed, *v),
             (Wire::Text, RawValue::Text(_)) | (Wire::Octets, RawValue::Octets(_)) => true,
             _ => false,
         };
@@ -440,6 +665,58 @@ mod tests {
         assert!(enum_member(p, 20_000));
         assert!(!enum_member(p, 15_000));
         assert!(!enum_member(p, 2));
+    }
+
+    /// An expedited 4-byte download of `data` to `index`/`sub`, and the
+    /// reply's first data byte and abort code (0 for a confirmation).
+    fn download(d: &mut EcsDrive, at: Instant, index: u16, sub: u8, data: [u8; 4]) -> (u8, u32) {
+        let [lo, hi] = index.to_le_bytes();
+        let q = CanFrame::new(
+            0x601,
+            &[0x23, lo, hi, sub, data[0], data[1], data[2], data[3]],
+        )
+        .unwrap();
+        let r = d.hear(at, &q).expect("an answer").frame;
+        let p = r.payload();
+        (p[0], u32::from_le_bytes([p[4], p[5], p[6], p[7]]))
+    }
+
+    #[test]
+    fn demo_writes_are_lost_at_power_off_until_saved_to_0x1010() {
+        let mut d = drive().with_reaction(ReactionTime::fixed(Duration::from_millis(1)));
+        let c5001 = CodeKey::new(5001);
+        let factory = d.value(c5001).cloned().unwrap();
+        let t = Instant::from_nanos(1_000_000);
+        // C5001 (index 0x4C76) = 5000 rpm, raw 50_000_000
+        assert_eq!(
+            download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()),
+            (0x60, 0)
+        );
+        d.power_cycle(t, Duration::from_millis(1));
+        assert_eq!(d.value(c5001), Some(&factory), "not stored: lost");
+        let t = t + Duration::from_millis(10);
+        assert_eq!(
+            download(&mut d, t, 0x4C76, 0, 50_000_000i32.to_le_bytes()),
+            (0x60, 0)
+        );
+        // a wrong signature: 0x08000020, nothing stored
+        assert_eq!(
+            download(&mut d, t, 0x1010, 1, *b"evas"),
+            (0x80, 0x0800_0020)
+        );
+        // "save" (0x65766173, bytes s a v e)
+        assert_eq!(download(&mut d, t, 0x1010, 1, *b"save"), (0x60, 0));
+        d.power_cycle(t, Duration::from_millis(1));
+        assert_eq!(
+            d.value(c5001),
+            Some(&RawValue::Int(50_000_000)),
+            "stored: kept"
+        );
+        // a read of 0x1010 sub 1: bit 0, "saves on command"
+        let t = t + Duration::from_millis(10);
+        let q = CanFrame::new(0x601, &[0x40, 0x10, 0x10, 0x01, 0, 0, 0, 0]).unwrap();
+        let r = d.hear(t, &q).unwrap().frame;
+        assert_eq!(r.payload(), &[0x43, 0x10, 0x10, 0x01, 1, 0, 0, 0]);
     }
 
     #[test]

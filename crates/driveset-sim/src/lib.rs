@@ -31,6 +31,7 @@ pub mod catalog;
 pub mod describe;
 pub mod drive;
 pub mod ecs;
+pub mod eds;
 pub mod factory;
 pub mod faults;
 pub mod log;

@@ -465,6 +465,9 @@ fn progress_line(p: &Progress, width: usize) -> String {
     if d.codes_written > 0 {
         s.push_str(&format!(", {} codes written", d.codes_written));
     }
+    if let Some(stored) = &d.stored {
+        s.push_str(&format!(", {stored}"));
+    }
     if d.result == DriveResult::Drift {
         s.push_str(&format!(", {} code(s) differ", d.diff.len()));
     }

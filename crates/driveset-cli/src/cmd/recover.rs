@@ -265,6 +265,9 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             "{port_name} address {address}: journal was {}; {action}",
             report.found.as_str()
         );
+        if report.stored {
+            let _ = writeln!(out, "store: stored (the store command was written again)");
+        }
         if !report.restored.is_empty() {
             let _ = writeln!(out, "restored: {}", report.restored.join(", "));
         }

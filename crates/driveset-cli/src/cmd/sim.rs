@@ -78,7 +78,7 @@ Examples:
   driveset sim --family ecs --address 1 --pty --bitrate 500000")]
 pub struct Args {
     /// Drive family: mc6000 (MC7000 too), vf1000, tmd, ecs.
-    #[arg(long, value_name = "FAMILY", required_unless_present = "twin")]
+    #[arg(long, value_name = "FAMILY", required_unless_present_any = ["twin", "power_cycle", "eds"])]
     family: Option<String>,
 
     /// Serve a twin (`NAME.twin.toml`, captured with `driveset twin
@@ -87,13 +87,20 @@ pub struct Args {
     #[arg(long, value_name = "FILE|DIR", conflicts_with_all = ["family", "addresses", "c0001", "keypad"])]
     twin: Option<PathBuf>,
 
+    /// Serve the CANopen device a CiA 306 EDS / DCF describes at each
+    /// --address (its objects, types, access, limits, defaults; 0x1010
+    /// "save" when the sheet declares it), as `sim://eds?file=FILE` does
+    /// (docs/ports.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["family", "twin", "factory", "c0001", "keypad"])]
+    eds: Option<PathBuf>,
+
     /// Bus address of a simulated drive; repeat (or give a comma list) for
     /// several. LUSTBUS 1..30, LECOM 1..99 except 10, 20, ... 90, CAN 1..127.
     #[arg(
         long = "address",
         value_name = "N",
         value_delimiter = ',',
-        required_unless_present_any = ["twin", "factory"]
+        required_unless_present_any = ["twin", "factory", "power_cycle"]
     )]
     addresses: Vec<u8>,
 
@@ -186,6 +193,14 @@ pub struct Args {
     /// save it back on exit (the same file `sim://...` ports use).
     #[arg(long, value_name = "FILE")]
     state: Option<PathBuf>,
+
+    /// Power-cycle every drive of the --state file and exit (nothing is
+    /// served): each comes back with what its kind of drive keeps (RAM
+    /// values lost; CAN writes not yet stored lost where its schema keeps
+    /// writes only on command, `[schema.store]`). The family and addresses
+    /// are the state file's unless given.
+    #[arg(long, requires = "state", conflicts_with_all = ["twin", "factory", "tcp", "pty"])]
+    power_cycle: bool,
 }
 
 /// Where to serve.
@@ -209,6 +224,22 @@ fn parse_tcp(text: &str) -> anyhow::Result<SocketAddr> {
 /// Check the arguments into a bus configuration and an endpoint.
 fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
     let mut config = match (&args.twin, &args.family) {
+        _ if args.eds.is_some() => {
+            let path = args.eds.as_deref().unwrap_or(std::path::Path::new(""));
+            let device = driveset_sim::eds::EdsDevice::load(path).map_err(anyhow::Error::msg)?;
+            let addresses = match (&args.state, args.addresses.is_empty()) {
+                (Some(state), true) if args.power_cycle => StateDump::read(state)?
+                    .drives
+                    .iter()
+                    .map(|d| d.address)
+                    .collect(),
+                _ => args.addresses.clone(),
+            };
+            // the family the sheet's schema is for (CAN SDO)
+            let mut c = SimConfig::new(device.schema.family, addresses);
+            c.eds = Some(device);
+            c
+        }
         (Some(path), _) => {
             let twins = if path.is_dir() {
                 driveset_sim::twin::load_dir(path)?
@@ -226,6 +257,17 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
             SimConfig::mixed(&[])
         }
         (None, Some(f)) => SimConfig::new(parse_family(f)?, args.addresses.clone()),
+        (None, None) if args.power_cycle => {
+            // the state file says which drives it holds
+            let path = args.state.as_deref().unwrap_or(std::path::Path::new(""));
+            let dump = StateDump::read(path)?;
+            let addresses = if args.addresses.is_empty() {
+                dump.drives.iter().map(|d| d.address).collect()
+            } else {
+                args.addresses.clone()
+            };
+            SimConfig::new(parse_family(&dump.family)?, addresses)
+        }
         (None, None) => bail!("give --family and --address, or --twin FILE"),
     };
     if let (Some(value), Some(f)) = (&args.factory, &args.family) {
@@ -395,6 +437,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             return Err(crate::fail::Fail::input(format!("{e:#}")));
         }
     };
+    if args.power_cycle {
+        return power_cycle(&config).map_err(|e| crate::fail::Fail::input(format!("{e:#}")));
+    }
     let log = match &args.log {
         Some(path) => {
             // 0600: the log is a bus capture (secrets are masked in it,
@@ -507,6 +552,48 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         }
         (Ok(()), Err(e)) => Err(e.into()),
     }
+}
+
+/// `--power-cycle`: the drives of the state file loaded, powered off and
+/// on (each keeps what its kind keeps), written back.
+fn power_cycle(config: &SimConfig) -> anyhow::Result<u8> {
+    let Some(path) = &config.state else {
+        bail!("--power-cycle needs --state FILE");
+    };
+    if !path.exists() {
+        bail!(
+            "--state {}: no such state file; a power cycle needs the drives' state",
+            path.display()
+        );
+    }
+    let at = driveset_link::Instant::from_nanos(0);
+    let off = std::time::Duration::from_millis(1);
+    let (dump, n) = if is_can(config.family) {
+        let (mut line, drives) = config.frame_line_drives(EventLog::off())?;
+        let nodes: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
+        for node in &nodes {
+            if let Some(d) = line.drive_mut(*node) {
+                d.power_cycle(at, off);
+            }
+        }
+        (
+            drives.frame_line_dump(config.bus_name(), &line),
+            nodes.len(),
+        )
+    } else {
+        let (mut line, drives) = config.byte_line_drives(EventLog::off())?;
+        line.power_cycle(at, None, off);
+        let n = line.drives().len();
+        (drives.byte_line_dump(config.bus_name(), &line), n)
+    };
+    dump.write(path)?;
+    eprintln!(
+        "power-cycled {n} simulated {} drive{} of {}",
+        config.bus_name(),
+        if n == 1 { "" } else { "s" },
+        path.display()
+    );
+    Ok(EXIT_OK)
 }
 
 /// Flush the log, write `--dump` and `--state`.

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_link::{Clock, Instant};
-use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema};
+use driveset_schema::{BusProtocol, CodeKey, Family, RawValue, Schema, StoreCommand};
 
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::Permit;
@@ -262,6 +262,22 @@ pub trait DriveClient: Send {
         raw: &RawValue,
         permit: Permit,
     ) -> Result<(), EngineError>;
+
+    /// The store step of a schema whose drives keep writes only on command
+    /// (`[schema.store] keeps = "on-command"`): its store code written with
+    /// the one value that stores, under the write guard's store permit.
+    /// Returns when the drive has acknowledged it (CiA 301 0x1010: the
+    /// device confirms the SDO download once it has stored, so the
+    /// acknowledgement is the completion); a client whose answers are
+    /// awaited on its own timeout waits up to `command.timeout` for this
+    /// one ([`CanClient`](crate::client::CanClient) does).
+    fn store(&mut self, command: &StoreCommand) -> Result<(), EngineError> {
+        self.write_named(
+            CodeKey::new(command.code),
+            &RawValue::Int(command.value),
+            Permit::STORE,
+        )
+    }
 
     /// The earliest instant a write of `key` will be taken without waiting
     /// (MC6000/7000: the EEPROM is busy width x 3 x 5 ms after an EEPROM

@@ -452,6 +452,20 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         Ok(())
     }
 
+    fn store(&mut self, command: &driveset_schema::StoreCommand) -> Result<(), EngineError> {
+        // the store's acknowledgement comes once the device has stored:
+        // wait the schema's store timeout for it, not a read's
+        let usual = self.opts.answer_timeout;
+        self.opts.answer_timeout = usual.max(command.timeout);
+        let r = self.write_named(
+            CodeKey::new(command.code),
+            &RawValue::Int(command.value),
+            Permit::STORE,
+        );
+        self.opts.answer_timeout = usual;
+        r
+    }
+
     fn read_time(&self, key: CodeKey) -> Duration {
         let frame = SdoRequest::Read {
             index: Index(0),

@@ -28,6 +28,10 @@ pub enum TxnState {
     Committed,
     /// Every write acknowledged; the last verification reads run.
     Verifying,
+    /// Every written code read back equal; the store command of a drive
+    /// that keeps writes only on command is being sent (`[schema.store]`).
+    /// `recover` stores again.
+    Storing,
     /// The old values are being restored.
     RollingBack,
     /// Final: the drive holds the new set (verified).
@@ -46,6 +50,7 @@ impl TxnState {
             TxnState::Writing => "writing",
             TxnState::Committed => "committed",
             TxnState::Verifying => "verifying",
+            TxnState::Storing => "storing",
             TxnState::RollingBack => "rolling-back",
             TxnState::Complete => "complete",
             TxnState::RolledBack => "rolled-back",

@@ -166,6 +166,13 @@ pub struct DriveReport {
     /// address and rate on a service port, then its set. Absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replacement: Option<ReplacementReport>,
+    /// Whether the drive keeps its set over a power cycle, when its upload
+    /// completed and its schema does not say every write is stored:
+    /// "stored" (the store command was acknowledged), or "not stored: lost
+    /// at power off (...)" ([`crate::upload::Stored::text`]). Absent
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stored: Option<String>,
 }
 
 /// How a spare became the drive (`driveset replace`; the report of one

@@ -71,6 +71,7 @@ mod refusal;
 mod report;
 mod rollback;
 mod state;
+mod store;
 mod transaction;
 mod write;
 
@@ -91,6 +92,7 @@ pub use report::{
     CodeOutcome, CodeReport, Next, Replanned, StepError, UploadFailure, UploadReport,
 };
 pub(crate) use rollback::{RollbackPlan, describe_holdings, holdings, restore};
+pub use store::Stored;
 use transaction::Opening;
 pub use transaction::Transaction;
 

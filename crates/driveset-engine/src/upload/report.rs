@@ -100,6 +100,9 @@ pub struct UploadReport {
     pub codes: Vec<CodeReport>,
     /// Notes.
     pub warnings: Vec<String>,
+    /// Whether the drive keeps the set over a power cycle
+    /// ([`crate::upload::Stored`]).
+    pub stored: crate::upload::Stored,
     /// The transfer rate (`--transfer-baud`): switched or not, and why.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transfer: Option<crate::rate_report::TransferReport>,
@@ -151,6 +154,11 @@ impl UploadReport {
                 o => format!("{o:?}").to_lowercase(),
             };
             let _ = writeln!(out, "  {}: {} -> {}  {outcome}", c.code, c.old, c.new);
+        }
+        // a drive that stores every write needs no line of its own (the
+        // JSON says `every-write`)
+        if self.state == TxnState::Complete && self.stored != crate::upload::Stored::EveryWrite {
+            let _ = writeln!(out, "store: {}", self.stored.text());
         }
         if let Some(t) = &self.transfer {
             out.push_str(&t.render());
@@ -347,6 +355,7 @@ impl Transaction {
             late_replies: stats.late,
             codes,
             warnings: self.progress.warnings.clone(),
+            stored: self.stored(state == TxnState::Complete),
             transfer: None,
         }
     }

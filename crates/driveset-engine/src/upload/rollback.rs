@@ -84,6 +84,14 @@ impl Transaction {
             self.opts.dataset_timeout,
         )
         .and_then(|()| self.compare_with_backup(client, &plan));
+        // a store command already sent may have stored the new values: the
+        // restored old ones are stored again (`[schema.store]` on-command)
+        let restore_result = match (restore_result, self.drive.schema.store.command()) {
+            (Ok(diffs), Some(command)) if diffs.is_empty() && self.progress.store_sent => {
+                client.store(command).map(|()| diffs)
+            }
+            (r, _) => r,
+        };
         match restore_result {
             Ok(diffs) if diffs.is_empty() => {
                 for k in self.codes.touched() {

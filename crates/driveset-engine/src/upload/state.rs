@@ -167,6 +167,11 @@ pub(super) struct Progress {
     pub(super) rolled_back_to: Option<String>,
     /// Notes for the report.
     pub(super) warnings: Vec<String>,
+    /// The store command was acknowledged ([`super::Transaction::store`]).
+    pub(super) stored: bool,
+    /// The store command was sent (it may have stored, acknowledged or
+    /// not): a rollback stores the restored values again.
+    pub(super) store_sent: bool,
 }
 
 /// When the transaction began, and the telegram counts of the clients its

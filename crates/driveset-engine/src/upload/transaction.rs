@@ -256,7 +256,9 @@ impl Transaction {
         set: &ResolvedSet,
     ) -> Result<(), StepError> {
         if self.replan(client, set)? == Replanned::Nothing {
-            return Ok(());
+            // the drive holds the set; an earlier, cut run may have left it
+            // in RAM only
+            return self.store(client, set);
         }
         self.journal(client)?;
         self.open_dataset(client)?;

@@ -45,8 +45,9 @@ impl Transaction {
     }
 
     /// Step 7: read back every written code not yet verified (state
-    /// `verifying`), then `complete` with the fingerprint of what the
-    /// drive holds.
+    /// `verifying`), store where the schema's drives keep writes only on
+    /// command ([`Transaction::store`], state `storing`), then `complete`
+    /// with the fingerprint of what the drive holds.
     pub fn verify(
         &mut self,
         client: &mut dyn DriveClient,
@@ -61,6 +62,7 @@ impl Transaction {
             }
             Ok(())
         })?;
+        self.store(client, set)?;
         let after_fp = self.codes.after(&self.drive.schema, set).fingerprint();
         self.set_state(
             client,

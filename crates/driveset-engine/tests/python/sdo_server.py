@@ -34,8 +34,8 @@ import threading
 
 import can
 import canopen
-from canopen.objectdictionary import ODVariable, ObjectDictionary
-from canopen.objectdictionary.datatypes import INTEGER32, UNSIGNED32
+from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary
+from canopen.objectdictionary.datatypes import INTEGER32, UNSIGNED8, UNSIGNED32
 
 # (code, data type, access, initial raw value)
 OBJECTS = [
@@ -60,6 +60,9 @@ OBJECTS = [
 ]
 
 
+STORE_INDEX = 0x1010
+
+
 def index(code):
     """Page 454: index = 24575 - code."""
     return 24575 - code
@@ -73,6 +76,20 @@ def build_od():
         v.access_type = access
         v.default = initial
         od.add_object(v)
+    # CiA 301 0x1010 store parameters: the FICTIONAL store step the demo
+    # fixture declares ([schema.store]); a write of it is not a setting and
+    # is left out of the dump's writes
+    store = ODRecord("Store parameters", STORE_INDEX)
+    for sub, name, data_type, access, initial in [
+        (0, "Highest sub-index supported", UNSIGNED8, "ro", 1),
+        (1, "Save all parameters", UNSIGNED32, "rw", 1),
+    ]:
+        v = ODVariable(name, STORE_INDEX, sub)
+        v.data_type = data_type
+        v.access_type = access
+        v.default = initial
+        store.add_member(v)
+    od.add_object(store)
     return od
 
 
@@ -103,6 +120,8 @@ def main(argv):
     def on_write(index, subindex, od, data):
         # Called only for writes the server accepts (after its access check).
         raw = od.decode_raw(data)
+        if index == STORE_INDEX and not eds:
+            return
         with lock:
             if eds:
                 writes.append(f"0x{index:04X}/{subindex} {shown(raw)}")

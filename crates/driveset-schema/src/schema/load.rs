@@ -141,6 +141,14 @@ pub fn parse_schema(
             b
         }
     };
+    let store = match h.take("store") {
+        None => None,
+        Some(e) => Some(super::store::StoreTable::read(Reader::new(
+            &doc,
+            &e.value,
+            "[schema.store]",
+        )?)?),
+    };
     let learned = match h.take("learned") {
         None => None,
         Some(e) => {
@@ -227,6 +235,7 @@ pub fn parse_schema(
                 default_type: None,
                 identify: None,
                 can_index_base: None,
+                store: super::Store::default(),
                 fictional: false,
                 extends: None,
                 codes: Vec::new(),
@@ -308,5 +317,8 @@ pub fn parse_schema(
     schema.rules.extend(rules);
     schema.apply_floor();
     schema.reindex();
+    if let Some(table) = store {
+        schema.store = table.resolve(&schema)?;
+    }
     Ok(schema)
 }

@@ -12,7 +12,8 @@
 //! - `load`: a whole schema file, its `extends` and its fingerprint;
 //! - `extends`: filling a base's unset facts from a fixture schema;
 //! - `floor`: the roles the family's specs give, applied to every schema;
-//! - `registry`: the [`Registry`] of built-in and loaded schemas.
+//! - `registry`: the [`Registry`] of built-in and loaded schemas;
+//! - `store`: `[schema.store]`, how the drives keep what is written.
 
 mod extends;
 mod floor;
@@ -22,6 +23,7 @@ mod numbers;
 mod parse;
 mod reader;
 mod registry;
+mod store;
 #[cfg(test)]
 mod tests;
 
@@ -41,6 +43,7 @@ pub use numbers::{
 };
 pub(crate) use numbers::{looks_numeric_key, parse_int_text};
 pub use registry::{BUILTIN_FILES, Registry};
+pub use store::{DEFAULT_STORE_TIMEOUT, Keeping, Store, StoreCommand, ram_note};
 
 /// How codes are spelled (`[schema] code_style`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -313,6 +316,9 @@ pub struct Schema {
     pub identify: Option<Identify>,
     /// CAN: SDO index = index_base - code number.
     pub can_index_base: Option<u32>,
+    /// `[schema.store]`: how the drives keep what is written over a power
+    /// cycle (inherited from the base; `unknown` without one).
+    pub store: Store,
     /// Fixture schema.
     pub fictional: bool,
     /// Base schema id of a fixture.

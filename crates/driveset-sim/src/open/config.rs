@@ -81,6 +81,9 @@ pub struct SimConfig {
     /// A mixed LUSTBUS (`sim://lustbus`) even when `drive_families` is
     /// empty (a bus of factory drives only).
     pub mixed_bus: bool,
+    /// A data-sheet bus (`sim://eds?file=DEVICE.eds`, [`crate::eds`]):
+    /// every node is the device the sheet describes. `None` otherwise.
+    pub eds: Option<crate::eds::EdsDevice>,
 }
 
 impl SimConfig {
@@ -106,6 +109,7 @@ impl SimConfig {
             factory: Vec::new(),
             bench: false,
             mixed_bus: false,
+            eds: None,
         }
     }
 
@@ -222,6 +226,18 @@ impl SimConfig {
     pub fn from_spec(spec: &SimSpec) -> Result<Self, SimOpenError> {
         let mut config = if spec.is_twin() {
             SimConfig::of_twins(crate::port::twins_of(spec)?)?
+        } else if spec.is_eds() {
+            let file = spec.options.get("file").ok_or_else(|| {
+                SimOpenError::Eds(
+                    "a data-sheet port names its EDS / DCF: sim://eds?file=DEVICE.eds&addresses=N"
+                        .into(),
+                )
+            })?;
+            let device = crate::eds::EdsDevice::load(std::path::Path::new(file))
+                .map_err(SimOpenError::Eds)?;
+            let mut c = SimConfig::new(Family::Ecs, spec.addresses.clone());
+            c.eds = Some(device);
+            c
         } else if spec.is_mixed() {
             let mut drives = Vec::new();
             for (name, address) in spec.drives() {
@@ -453,7 +469,10 @@ impl SimConfig {
             }
             let node = NodeId::new(address).map_err(|_| err("not a node id 1..=127".into()))?;
             // EcsDrive derives its stream from the seed and the node id.
-            let mut drive = EcsDrive::new(node, self.seed).map_err(err)?;
+            let mut drive = match &self.eds {
+                Some(device) => device.drive(node, self.seed).map_err(err)?,
+                None => EcsDrive::new(node, self.seed).map_err(err)?,
+            };
             if let Some(t) = self.twin_at(address) {
                 if let Some(r) = t.reaction_time() {
                     drive = drive.with_reaction(r);

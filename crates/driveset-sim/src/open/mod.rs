@@ -214,6 +214,9 @@ pub enum SimOpenError {
     /// A twin file or directory that cannot be served ([`crate::twin`]).
     #[error("{0}")]
     Twin(String),
+    /// A data sheet that cannot be simulated ([`crate::eds`]).
+    #[error("{0}")]
+    Eds(String),
     /// Factory-fresh drives the bus cannot hold, or a bench without them
     /// ([`crate::factory`]).
     #[error("{0}")]

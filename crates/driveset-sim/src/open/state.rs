@@ -82,6 +82,7 @@ pub(super) fn entry_of<D: StateDrive>(d: &D, slot: Option<&DriveSlot>) -> DriveD
         rate: d.dump_rate(),
         slot: slot.map(DriveSlot::to_string),
         assigned: d.dump_assigned(),
+        stored: d.dump_stored().map(|s| s.canonical_with_secrets()),
         ..DriveDump::new(d.dump_family(), d.dump_address(), &d.dump_state())
     }
 }
@@ -135,6 +136,12 @@ pub struct DriveDump {
     /// ([`ByteDrive::address_assigned`]; the bench moves on).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub assigned: bool,
+    /// What the drive has stored, canonical form, where it keeps writes
+    /// only until a store command (`[schema.store] keeps = "on-command"`):
+    /// `canonical` is its RAM, this what a power cycle brings back. Absent
+    /// where every write is kept (and in older dumps: loaded as stored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stored: Option<String>,
 }
 
 impl DriveDump {
@@ -150,6 +157,7 @@ impl DriveDump {
             rate: None,
             slot: None,
             assigned: false,
+            stored: None,
         }
     }
 }
@@ -170,6 +178,13 @@ pub(super) trait StateDrive {
         false
     }
     fn restore_assigned(&mut self) {}
+    fn dump_stored(&self) -> Option<ResolvedSet> {
+        None
+    }
+    fn restore_stored(&mut self, values: BTreeMap<CodeKey, RawValue>) -> Result<(), String> {
+        let _ = values;
+        Ok(())
+    }
 }
 
 impl StateDrive for Box<dyn ByteDrive> {
@@ -211,6 +226,12 @@ impl StateDrive for Box<dyn FrameDrive> {
     }
     fn restore(&mut self, key: CodeKey, raw: RawValue) -> Result<(), String> {
         self.poke(key, raw)
+    }
+    fn dump_stored(&self) -> Option<ResolvedSet> {
+        self.stored_state()
+    }
+    fn restore_stored(&mut self, values: BTreeMap<CodeKey, RawValue>) -> Result<(), String> {
+        FrameDrive::restore_stored(self.as_mut(), values)
     }
 }
 
@@ -449,6 +470,18 @@ fn apply_dump<D: StateDrive>(
                 refused.push((*key, e));
             }
         }
+        // what it has stored: the dump's, else (an older dump) what it holds
+        let stored = match &entry.stored {
+            Some(text) => {
+                parse_canonical(text)
+                    .map_err(|e| format_err(format!("drive {address} (stored): {e}")))?
+                    .1
+            }
+            None => values.clone(),
+        };
+        drive
+            .restore_stored(stored)
+            .map_err(|e| format_err(format!("drive {address} (stored): {e}")))?;
         if let Some(rate) = entry.rate {
             drive.restore_rate(rate);
         }

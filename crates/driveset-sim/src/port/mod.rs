@@ -132,6 +132,11 @@ impl SimSpec {
         self.family.eq_ignore_ascii_case(TWIN_BUS)
     }
 
+    /// Whether this is a data-sheet bus (`sim://eds?file=`, [`crate::eds`]).
+    pub fn is_eds(&self) -> bool {
+        self.family.eq_ignore_ascii_case(crate::eds::EDS_BUS)
+    }
+
     /// Whether this is a mixed bus (`sim://lustbus?mc6000=...`, also
     /// `sim://lustbus?factory=...`).
     pub fn is_mixed(&self) -> bool {
@@ -296,10 +301,18 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
             example: "sim://twin?file=axis-1.twin.toml",
         });
     }
+    let eds = family.eq_ignore_ascii_case(crate::eds::EDS_BUS);
+    if eds && !spec.query.contains_key("file") {
+        return Err(PortSpecErrorKind::Missing {
+            scheme: "sim",
+            what: "file= (the device's EDS or DCF)",
+            example: "sim://eds?file=DEVICE.eds&addresses=1",
+        });
+    }
     if !twin
         && let Some(key) = ["file", "dir"]
             .iter()
-            .find(|k| spec.query.contains_key(**k))
+            .find(|k| spec.query.contains_key(**k) && !(eds && **k == "file"))
     {
         return Err(PortSpecErrorKind::BadValue {
             key: key.to_string(),
@@ -515,9 +528,10 @@ impl PortOpener for SimOpener {
                 name: sim.name(),
             });
         }
-        let frames = parse_family(sim.drives().first().map_or(&*sim.family, |d| d.0))
-            .map(is_can)
-            .unwrap_or(false);
+        let frames = sim.is_eds()
+            || parse_family(sim.drives().first().map_or(&*sim.family, |d| d.0))
+                .map(is_can)
+                .unwrap_or(false);
         Ok(PortShape {
             frames,
             drives: sim

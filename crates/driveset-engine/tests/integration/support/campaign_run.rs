@@ -1,7 +1,10 @@
 //! Seeded fault campaigns: many uploads with injected faults (`FaultPlan`),
 //! `recover` where the run was cut, and the transaction invariant after
 //! each: the drive holds exactly the old set or exactly the new one over the
-//! set's codes, and every failure names the target and a cause.
+//! set's codes, and every failure names the target and a cause; after every
+//! run that ends complete the drive is power-cycled and must still hold the
+//! new set (`[schema.store]`: the ECS demo axes keep writes only once
+//! stored).
 #![allow(dead_code, clippy::large_enum_variant)]
 
 use std::collections::BTreeMap;
@@ -64,6 +67,28 @@ impl Rig {
         }
     }
 
+    /// Power off and on again (1 ms off): the drive keeps what its kind of
+    /// drive keeps (RAM lost; an ECS's writes lost until stored).
+    fn power_cycle(&mut self) {
+        let now = self.client().clock().now();
+        let off = Duration::from_millis(1);
+        match self {
+            Rig::Lust(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
+            Rig::Lecom(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
+            Rig::Can(c) => c
+                .link_mut()
+                .drive_mut(rig::ADDRESS)
+                .map(|d| d.power_cycle(now, off)),
+        }
+        .expect("the campaign's drive");
+    }
+
     fn telegrams(&self) -> u64 {
         match self {
             Rig::Lust(c) => c.link().line().telegrams(),
@@ -89,15 +114,20 @@ pub enum Kind {
 
 /// The campaign's set for a family: the generated full set without RAM
 /// values (volatile: a power cycle after a verified upload resets them to
-/// the factory value, which no transaction can prevent).
+/// the factory value, which no transaction can prevent) and without
+/// FSEL/ISEL variables (RAM or EEPROM by 2-CSEL, `lustbus-protocol.txt`
+/// §11.1: the campaign power-cycles after every complete run).
 pub fn campaign_set(family: Family) -> ResolvedSet {
     let schema = rig::schema(family);
     let full = rig::full_set(family, 1);
     let mut set = ResolvedSet::new(&schema);
     for (k, v) in &full.values {
-        let ram = schema
-            .code(k.number)
-            .is_some_and(|c| matches!(c.kind, Some(StorageKind::RamControl)));
+        let ram = schema.code(k.number).is_some_and(|c| {
+            matches!(
+                c.kind,
+                Some(StorageKind::RamControl | StorageKind::FselIsel)
+            )
+        });
         if !ram {
             set.insert(*k, v.clone());
         }
@@ -338,5 +368,16 @@ pub fn one_run(
             }
         }
     };
+    // "complete" only for what the drive keeps: power-cycled, it still
+    // holds the new set
+    if matches!(kind, Kind::Clean | Kind::RecoveredToNew) {
+        rig.power_cycle();
+        let now = holds(&rig);
+        if now != new_fp {
+            return Err(format!(
+                "{kind:?}, but after a power cycle the drive holds {now} (new {new_fp}, old {old_fp}): the set was not stored"
+            ));
+        }
+    }
     Ok(kind)
 }

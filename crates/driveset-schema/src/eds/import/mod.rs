@@ -51,6 +51,71 @@ pub use objects::LENZE_VENDOR_ID;
 /// The Lenze index base (p. 454: index = 24575 - code).
 pub const LENZE_INDEX_BASE: u32 = 24575;
 
+/// CiA 301 0x1010 "store parameters": sub 1 "save all parameters" stores
+/// when written with the signature "save" (0x65766173, CiA 301 §7.5.2.13).
+pub const STORE_INDEX: u16 = 0x1010;
+
+/// The "save" signature (ASCII `s a v e`, little-endian: 0x65766173).
+pub const SAVE_SIGNATURE: i64 = 0x6576_6173;
+
+/// 0x1010 with a writable UNSIGNED32 sub 1: the schema's store step
+/// (`[schema.store] keeps = "on-command"`), kept as a code with role
+/// `command` (a set never writes it; the upload's store step does).
+fn store_step(
+    cx: &mut Ctx,
+    spec_file: &str,
+    main: &Section,
+    subs: &[(u8, &Section)],
+) -> Option<Out> {
+    let (_, sec) = subs.iter().find(|(s, _)| *s == 1)?;
+    let dt = sec.get("DataType").and_then(|e| parse_int(&e.value))?.value;
+    let acc = sec
+        .get("AccessType")
+        .map(|e| e.value.trim().to_ascii_lowercase())
+        .unwrap_or_default();
+    if dt != 0x0007 || !matches!(acc.as_str(), "rw" | "wo" | "rww" | "rwr") {
+        return None;
+    }
+    cx.lint(
+        main.line,
+        obj_text(STORE_INDEX, None),
+        "store parameters: sub 1 (save all parameters) kept as the store step, [schema.store] keeps = \"on-command\" with \"save\" = 0x65766173 (CiA 301); a set cannot write it",
+    );
+    Some(Out {
+        number: index_number(STORE_INDEX, Some(1)),
+        index: Some(STORE_INDEX),
+        name: "store_parameters".into(),
+        title: {
+            let name = |s: &Section| {
+                s.get("ParameterName")
+                    .map(|e| e.value.trim().to_string())
+                    .filter(|n| !n.is_empty())
+            };
+            match (name(main), name(sec)) {
+                (Some(m), Some(s)) => format!("{m}: {s}"),
+                (None, Some(s)) => s,
+                (Some(m), None) => format!("{m} sub1"),
+                (None, None) => "Store parameters: save all parameters".into(),
+            }
+        },
+        spec: format!("{spec_file} [1010sub1] line {}", sec.line),
+        ty: ValueType::UNSIGNED32,
+        data_type: None,
+        access_ro: false,
+        subcodes: None,
+        subindex: Some(1),
+        lenze_code: false,
+        min: None,
+        max: None,
+        default: None,
+        notes: vec![
+            "CiA 301 0x1010 sub 1: writing \"save\" (0x65766173) stores every parameter; a read gives the storage functionality (bit 0: on command)".into(),
+        ],
+        line: sec.line,
+        store: true,
+    })
+}
+
 /// One thing the importer skipped or downgraded.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ImportLint {
@@ -209,6 +274,12 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             .chain(my_subs.iter().map(|(_, s)| *s))
             .filter(|s| s.get("ParameterValue").is_some_and(|e| !e.value.is_empty()))
             .count();
+        if index == STORE_INDEX
+            && let Some(out) = store_step(&mut cx, spec_file, sec, my_subs)
+        {
+            outs.push(out);
+            continue;
+        }
         let ar = area(index, lenze);
         if let Area::Skip(why) = ar {
             cx.lint(line, obj, format!("{why}; skipped"));
@@ -385,6 +456,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
                 default,
                 notes,
                 line: sec_line,
+                store: false,
             })
         };
         if !has_subs {

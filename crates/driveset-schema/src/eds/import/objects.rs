@@ -111,8 +111,11 @@ pub(super) fn area(index: u16, lenze: bool) -> Area {
         0x0000..=0x0FFF => {
             Area::Skip("data type definition area (CiA 301 §7.4.3), not a parameter")
         }
-        0x1010 | 0x1011 => {
-            Area::Skip("store / restore parameters: a command (signature write), not a setting")
+        0x1010 => Area::Skip(
+            "store parameters without a writable sub 1 (save all parameters): no store step; skipped",
+        ),
+        0x1011 => {
+            Area::Skip("restore default parameters: a command (signature write), not a setting")
         }
         0x1200..=0x12FF => Area::Skip(
             "SDO channel parameter: bus configuration ($NODEID COB-IDs), not a drive setting",

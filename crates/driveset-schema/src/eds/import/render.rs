@@ -35,6 +35,8 @@ pub(super) struct Out {
     pub(super) notes: Vec<String>,
     /// Line of the object's section (for lints).
     pub(super) line: usize,
+    /// CiA 301 0x1010 sub 1: the store step (role `command`).
+    pub(super) store: bool,
 }
 
 /// ParameterName -> a schema name: lowercase ASCII letters, digits and `_`,
@@ -171,6 +173,27 @@ pub(super) fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out
         t.push_str("fictional = true\n");
     }
     let _ = writeln!(t, "\n[schema.can]\nindex_base = {LENZE_INDEX_BASE}");
+    match outs.iter().find(|o| o.store) {
+        Some(o) => {
+            let _ = writeln!(
+                t,
+                "\n[schema.store]\nkeeps = \"on-command\"\ncode = {}\nvalue = 0x{:08X}\nspec = {}",
+                o.number,
+                super::SAVE_SIGNATURE,
+                toml_str(&format!("{} (CiA 301 0x1010 sub 1 \"save\")", o.spec))
+            );
+        }
+        None => {
+            let _ = writeln!(
+                t,
+                "\n[schema.store]\nkeeps = \"unknown\"\nspec = {}",
+                toml_str(&format!(
+                    "{}: declares no store parameters object (0x1010)",
+                    file_name(&opts.file)
+                ))
+            );
+        }
+    }
     let mut sorted: Vec<&Out> = outs.iter().collect();
     sorted.sort_by_key(|o| o.number);
     for o in sorted {
@@ -205,7 +228,9 @@ pub(super) fn render(file: &EdsFile, id: &str, opts: &ImportOptions, outs: &[Out
         // The role a Lenze code has in the built-in lenze-ecs schema (C0135
         // control word, C0150 status word): an imported schema keeps it, so
         // a set against it cannot start a motor either.
-        if o.index.is_none()
+        if o.store {
+            t.push_str("role = \"command\"\n");
+        } else if o.index.is_none()
             && let Some(role) = builtin_role(o.number)
         {
             let _ = writeln!(t, "role = \"{}\"", role.as_str());
