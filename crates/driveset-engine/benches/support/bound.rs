@@ -66,6 +66,18 @@ pub struct Bound {
     pub exchanges: usize,
 }
 
+/// The reads the store step adds (the read-back of every code after the
+/// store command), when the family's schema keeps writes only on command
+/// (`[schema.store] keeps = "on-command"`); its store command is one more
+/// write exchange.
+fn store_step_exchanges(family: Family, set: &ResolvedSet) -> Option<usize> {
+    matches!(
+        rig::schema(family).store.keeping,
+        driveset_schema::Keeping::OnCommand(_)
+    )
+    .then_some(set.values.len())
+}
+
 /// The lower bound of the upload of `set` whose plan is `prepared`, from
 /// the run's `events` (those of the upload only).
 pub fn lower_bound(
@@ -100,6 +112,15 @@ pub fn lower_bound(
             n_reads += 1;
             n_writes += 2;
         }
+    }
+    // the store step (docs/file-formats.md, `[schema.store]`): a drive
+    // that keeps writes only on command gets its store command, written
+    // and acknowledged, and every code is read back once more after it;
+    // it runs whether or not anything was written (an earlier cut run may
+    // have left the values in RAM)
+    if let Some(extra) = store_step_exchanges(family, set) {
+        n_reads += extra;
+        n_writes += 1;
     }
     assert!(
         reads.len() >= n_reads && writes.len() >= n_writes,
@@ -448,10 +469,13 @@ pub fn lustbus_pull_bound(
 /// required exchange (read-back, one expedited download per code that
 /// differs, one upload to verify it) is two 8-byte frames at their
 /// stuff-bit-free minimum (108 bits + 3 bits interframe space = 111 bit
-/// times each) plus the minimum reaction.
+/// times each) plus the minimum reaction; where the schema keeps writes
+/// only on command, the store step adds the store command's download and
+/// one more upload of every code (`upload/store.rs`).
 #[allow(dead_code)] // not every bench uses every bound
 pub fn ecs_upload_bound(set: &ResolvedSet, prepared: &Prepared) -> Duration {
     let one = bits_time(2 * 111, rig::BITRATE) + REACTION;
-    let n = set.values.len() + 2 * prepared.plan.writes.len();
+    let store = store_step_exchanges(Family::Ecs, set).map_or(0, |reads| reads + 1);
+    let n = set.values.len() + 2 * prepared.plan.writes.len() + store;
     one * u32::try_from(n).unwrap_or(u32::MAX)
 }
