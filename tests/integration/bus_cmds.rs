@@ -384,7 +384,7 @@ fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
         .assert()
         .code(1)
         .stderr(predicate::str::contains(
-            "error: sim://mc6000?addresses=1 address 1: the drive answers as Lust MASTERCONTROL MC6000/7000 (LUSTBUS ENQUIRY of 91-TYPE answered (0) and the MC6000/7000 CODE 20091 too), not Lust SMARTDRIVE VF1000; nothing written",
+            "error: sim://mc6000?addresses=1 address 1: the drive answers as Lust MASTERCONTROL MC6000/7000 (LUSTBUS ENQUIRY of 91-TYPE answered (6000) and the MC6000/7000 CODE 20091 too), not Lust SMARTDRIVE VF1000; nothing written",
         ));
     driveset()
         .args([
@@ -457,7 +457,7 @@ fn identify_and_scan_find_a_drive_left_at_the_transfer_rate() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains(
-            "baud rate: 57600, not the port's 9600 (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\naddress 1: 91-TYPE = 0\n1 drive found\n",
+            "baud rate: 57600, not the port's 9600 (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\naddress 1: 91-TYPE = 6000\n1 drive found\n",
         ));
     // without the state file's rate the drive would answer at 9600: the
     // search is what found it

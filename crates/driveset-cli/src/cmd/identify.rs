@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::session::lustbus_family::open_lustbus_family;
+use driveset_engine::session::{self, lustbus_family::open_lustbus_family};
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
@@ -102,7 +102,17 @@ fn identify(args: &Args) -> Result<u8, Fail> {
             client.as_mut(),
             Some(found.evidence),
             choice.path.as_deref(),
+            None,
         );
+    }
+    // A LUSTBUS schema named: the drive's own family by the read-only
+    // probes, as when none is named; another family is the finding (exit
+    // 1), the same on every port.
+    let mut other = None;
+    if note.is_none() && schema.family.descriptor().dialect.is_some() {
+        let (found, evidence) =
+            session::detect(&mut opened.link, &port_name, args.address, opened.connect.latency)?;
+        other = driveset_engine::identify::other_family(found, &evidence, schema.family);
     }
     let mut client = port::into_client(opened, schema.clone(), args.address)?;
     report(
@@ -111,6 +121,7 @@ fn identify(args: &Args) -> Result<u8, Fail> {
         client.as_mut(),
         note,
         choice.path.as_deref(),
+        other,
     )
 }
 
@@ -177,6 +188,7 @@ fn report(
     client: &mut dyn DriveClient,
     mut note: Option<String>,
     path: Option<&Path>,
+    other_family: Option<String>,
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
     let identity = match client.identify() {
@@ -205,9 +217,10 @@ fn report(
         .clone()
         .unwrap_or_else(|| PathBuf::from("."));
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
-    let fits = match driveset_engine::identify::check_family(client) {
-        Ok(_) => Ok(()),
-        Err(e) => match e.refusal() {
+    let fits = match (other_family, driveset_engine::identify::check_family(client)) {
+        (Some(other), _) => Err(other),
+        (None, Ok(_)) => Ok(()),
+        (None, Err(e)) => match e.refusal() {
             Some(refusal) => Err(refusal.to_string()),
             None => return Err(e.into()),
         },

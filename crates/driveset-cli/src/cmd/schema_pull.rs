@@ -117,23 +117,25 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     // names what the user expects, and another family answering is
     // identify's finding (exit 1), nothing written
     let found = learning::resolve(&mut opened, args.address, None, None, &[])?;
-    let base = match args.family {
-        Some(f) if f.0 != found.choice.schema.family => {
-            return Err(Fail {
-                code: crate::EXIT_FINDINGS,
-                msg: format!(
-                    "{} address {}: the drive answers as {} ({}), not {}; nothing written (give --family {} or leave it out)",
-                    opened.name,
-                    args.address,
-                    found.choice.schema.family.descriptor().title,
-                    found.evidence.unwrap_or_default(),
-                    f.0.descriptor().title,
-                    found.choice.schema.family.name()
-                ),
-            });
-        }
-        _ => found.choice.schema,
-    };
+    let other = args.family.and_then(|f| {
+        driveset_engine::identify::other_family(
+            found.choice.schema.family,
+            found.evidence.as_deref().unwrap_or_default(),
+            f.0,
+        )
+    });
+    if let Some(other) = other {
+        return Err(Fail {
+            code: crate::EXIT_FINDINGS,
+            msg: format!(
+                "{} address {}: {other}; nothing written (give --family {} or leave it out)",
+                opened.name,
+                args.address,
+                found.choice.schema.family.name()
+            ),
+        });
+    }
+    let base = found.choice.schema;
     let family_name = base.family.name();
     let Some(max_param) = max_parameter(base.family) else {
         return Err(Fail::input(format!(
