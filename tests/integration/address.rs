@@ -105,7 +105,8 @@ fn a_lone_mc6000_gets_address_5() {
         .expect("scan");
     assert_eq!(scan.status.code(), Some(0));
     assert!(
-        String::from_utf8_lossy(&scan.stdout).contains("address 5: 91-TYPE = 6000\n1 drive found\n")
+        String::from_utf8_lossy(&scan.stdout)
+            .contains("address 5: 91-TYPE = 6000\n1 drive found\n")
     );
     // the journal is complete
     let j: Value =

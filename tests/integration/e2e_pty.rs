@@ -382,7 +382,10 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
         set.parent().unwrap().to_str().unwrap(),
     ]);
     assert_eq!(code, Some(0), "{out}\n{err}");
-    assert!(out.contains("\nuses:     learned-vf1000-type1000-d"), "{out}");
+    assert!(
+        out.contains("\nuses:     learned-vf1000-type1000-d"),
+        "{out}"
+    );
     assert!(out.contains(" (learned, "), "{out}");
     assert!(sim.terminate().success(), "{}", sim.stderr());
 

@@ -343,7 +343,10 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         let ls = &dr["learned_schema"];
         let id = ls["id"].as_str().unwrap().to_string();
         let ty = if family == "mc6000" { 6000 } else { 1000 };
-        assert!(id.starts_with(&format!("learned-{family}-type{ty}-d")), "{id}");
+        assert!(
+            id.starts_with(&format!("learned-{family}-type{ty}-d")),
+            "{id}"
+        );
         assert_eq!(dr["schema"], id.as_str());
         assert_eq!(ls["base"], base);
         assert_eq!(ls["codes"], codes);

@@ -37,6 +37,8 @@ line read as 8 data bits shows the parity bit in bit 7; bad BCCs); the USB
 adapter's latency timer (/sys/bus/usb-serial/devices/*/latency_timer);
 then one advice line per thing to change.
 
+Without --protocol the drive's protocol is found by the read-only probes
+identify uses (at --address, else LUSTBUS address 1 / LECOM station 01).
 Without --address: LUSTBUS address 0 (every drive answers; give the
 address on a line with several drives), LECOM station 01, CAN node 1.
 
@@ -47,7 +49,7 @@ or the port failed.
 Examples:
   driveset doctor --port /dev/ttyUSB0 --protocol lustbus --address 1
   driveset doctor --port rfc2217://10.0.0.7:2217?baud=19200 --protocol lecom
-  driveset doctor --port sim://mc6000?addresses=1 --protocol lustbus --format json")]
+  driveset doctor --port sim://mc6000?addresses=1 --format json")]
 pub struct Args {
     /// The port (the echo= option is ignored: the doctor looks at the raw bytes).
     #[arg(long)]
@@ -55,7 +57,7 @@ pub struct Args {
     /// The drive's address (LUSTBUS 0..30, LECOM 01..99, CAN node id).
     #[arg(long)]
     pub address: Option<u8>,
-    /// Protocol, when a sim:// port does not say it.
+    /// Protocol (default: found by the read-only probes; a CAN port: can).
     #[arg(long, value_enum)]
     pub protocol: Option<crate::args::BusArg>,
     /// Round-trip probes at the answering rate.
@@ -116,14 +118,32 @@ pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
 }
 
 fn doctor(args: &Args) -> Result<u8, Fail> {
-    let opened = port::open_port(&args.port)?;
+    let mut opened = port::open_port(&args.port)?;
+    // Without --protocol: a CAN port speaks CAN SDO; on a character line
+    // the drive's protocol by the read-only probes `identify` and `scan`
+    // use (at --address, else LUSTBUS address 1 and LECOM station 01), the
+    // same on every port.
     let protocol = match args.protocol {
         Some(p) => p.0,
         None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
         None => {
-            return Err(Fail::input(
-                "say which protocol the line speaks: --protocol lustbus|lecom|can",
-            ));
+            let name = opened.name.clone();
+            let (family, _) = driveset_engine::session::detect(
+                &mut opened.link,
+                &name,
+                args.address.unwrap_or(1),
+                opened.connect.latency,
+            )
+            .map_err(|e| match e {
+                driveset_engine::session::SessionError::NoAnswer { .. } => Fail {
+                    code: EXIT_BUS,
+                    msg: format!(
+                        "{e}; or say which protocol the line speaks: --protocol lustbus|lecom|can"
+                    ),
+                },
+                other => other.into(),
+            })?;
+            family.bus()
         }
     };
     let mut options = DoctorOptions::new(protocol);

@@ -110,8 +110,12 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     // 1), the same on every port.
     let mut other = None;
     if note.is_none() && schema.family.descriptor().dialect.is_some() {
-        let (found, evidence) =
-            session::detect(&mut opened.link, &port_name, args.address, opened.connect.latency)?;
+        let (found, evidence) = session::detect(
+            &mut opened.link,
+            &port_name,
+            args.address,
+            opened.connect.latency,
+        )?;
         other = driveset_engine::identify::other_family(found, &evidence, schema.family);
     }
     let mut client = port::into_client(opened, schema.clone(), args.address)?;
@@ -217,7 +221,10 @@ fn report(
         .clone()
         .unwrap_or_else(|| PathBuf::from("."));
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
-    let fits = match (other_family, driveset_engine::identify::check_family(client)) {
+    let fits = match (
+        other_family,
+        driveset_engine::identify::check_family(client),
+    ) {
         (Some(other), _) => Err(other),
         (None, Ok(_)) => Ok(()),
         (None, Err(e)) => match e.refusal() {

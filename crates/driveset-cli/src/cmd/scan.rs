@@ -24,7 +24,9 @@ LUSTBUS: an ENQUIRY of 91-TYPE (CODE 00091) to every address 1..30.
 LECOM: a read of C0093 (or the schema's first identification code) to every
 station 01..99 except the group addresses 10, 20 .. 90. CAN SDO: a read of
 the schema's first identification code from every node id 1..127. Any
-answer (a value or a refusal) counts. Nothing is written.
+answer (a value or a refusal) counts. Nothing is written. Without
+--protocol and --schema a character line is scanned as LUSTBUS, then, when
+no LUSTBUS drive answers, as LECOM (a CAN port: CAN SDO), on every port.
 
 --detect-baud tries every line rate, highest first (LUSTBUS 57600..2400,
 LECOM 9600..1200), and reports the first at which a drive answers.
@@ -33,7 +35,7 @@ Exit codes: 0 drives found, 2 usage or input error, 3 bus failure or no
 drive answered.
 
 Examples:
-  driveset scan --port sim://mc6000?addresses=3,7 --protocol lustbus
+  driveset scan --port sim://mc6000?addresses=3,7
   driveset scan --port /dev/ttyUSB0 --protocol lecom --detect-baud
   driveset scan --port slcan:///dev/ttyACM0?bitrate=500000 --protocol sdo --format json")]
 pub struct Args {
@@ -63,8 +65,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {
-    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; a
-    // character line must be told (the same on every port).
+    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; on a
+    // character line each protocol's addresses are probed in turn (LUSTBUS,
+    // then LECOM) and the one that answers is the line's (the same on every
+    // port).
     let protocol_arg = match (args.schema.as_deref(), args.protocol) {
         (None, None) => match port::open_port(&args.port)?.link {
             Link::Frames(_) => Some(ProtocolArg(BusProtocol::CanSdo)),
@@ -72,9 +76,24 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         },
         _ => args.protocol,
     };
-    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, protocol_arg)?;
-    let schema = choice.schema;
-    let protocol = protocol_arg.map_or_else(|| schema.family.bus(), |p| p.0);
+    let asked: Vec<BusProtocol> = match protocol_arg {
+        Some(p) => vec![p.0],
+        None if args.schema.is_some() => Vec::new(),
+        None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
+    };
+    let choices: Vec<(BusProtocol, std::sync::Arc<driveset_schema::Schema>)> = if asked.is_empty() {
+        let schema = port::resolve_schema(args.schema.as_deref(), &args.schemas, None)?.schema;
+        vec![(schema.family.bus(), schema)]
+    } else {
+        let mut v = Vec::new();
+        for p in asked {
+            let schema =
+                port::resolve_schema(args.schema.as_deref(), &args.schemas, Some(ProtocolArg(p)))?
+                    .schema;
+            v.push((p, schema));
+        }
+        v
+    };
     // the port's ?latency=: each probe waits what the clients allow it
     let opts = ScanOptions::behind(
         driveset_link::PortSpec::parse(&args.port)
@@ -83,16 +102,8 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     );
     let mut baud_found = None;
     let mut other_rate: Option<u32> = None;
+    let mut protocol = choices[0].0;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
-        let rates: &[u32] = match protocol {
-            BusProtocol::Lustbus => &LUSTBUS_BAUDS,
-            BusProtocol::Lecom => &LECOM_BAUDS,
-            BusProtocol::CanSdo => {
-                return Err(Fail::input(
-                    "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
-                ));
-            }
-        };
         // Opened once to check the port string and the protocol; each rate reopens it.
         let first = port::open_port(&args.port)?;
         if matches!(first.link, Link::Frames(_)) {
@@ -120,29 +131,59 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 }),
             }
         };
-        let schema2 = schema.clone();
-        let mut line_scan = |link: &mut dyn ByteLink| match protocol {
-            BusProtocol::Lecom => scan_lecom(link, Some(&schema2), &lecom_addresses(), &opts),
-            _ => scan_lustbus(link, &lustbus_addresses(), &opts),
-        };
-        match detect_baud(rates, &mut reopen, &mut line_scan)? {
-            Some(b) => {
+        let mut result = (name.clone(), Vec::new());
+        for (p, schema) in &choices {
+            let rates: &[u32] = match p {
+                BusProtocol::Lustbus => &LUSTBUS_BAUDS,
+                BusProtocol::Lecom => &LECOM_BAUDS,
+                BusProtocol::CanSdo => {
+                    return Err(Fail::input(
+                        "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
+                    ));
+                }
+            };
+            let mut line_scan = |link: &mut dyn ByteLink| match p {
+                BusProtocol::Lecom => scan_lecom(link, Some(schema), &lecom_addresses(), &opts),
+                _ => scan_lustbus(link, &lustbus_addresses(), &opts),
+            };
+            if let Some(b) = detect_baud(rates, &mut reopen, &mut line_scan)? {
                 baud_found = Some(b.baud);
-                (name, b.found)
+                protocol = *p;
+                result = (name, b.found);
+                break;
             }
-            None => (name, Vec::new()),
         }
+        result
     } else {
         let opened = port::open_port(&args.port)?;
         let name = opened.name.clone();
-        let found = match (opened.link, protocol) {
-            (Link::Bytes(mut l), BusProtocol::Lustbus) => {
-                let mut found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
+        let found = match opened.link {
+            Link::Bytes(mut l) => {
+                let mut found = Vec::new();
+                for (p, schema) in &choices {
+                    found = match p {
+                        BusProtocol::Lustbus => {
+                            scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
+                        }
+                        BusProtocol::Lecom => {
+                            scan_lecom(l.as_mut(), Some(schema), &lecom_addresses(), &opts)?
+                        }
+                        BusProtocol::CanSdo => {
+                            return Err(Fail::input(format!(
+                                "{name} is a character line: scan it with --protocol lustbus or lecom"
+                            )));
+                        }
+                    };
+                    if !found.is_empty() {
+                        protocol = *p;
+                        break;
+                    }
+                }
                 // Nobody at the port's rate: a servo may have been left at
                 // a transfer rate (--transfer-baud); LUSTBUS 5.1 tries every
                 // rate, on the same port (a port that cannot change its
                 // rate stops the search).
-                if found.is_empty() {
+                if found.is_empty() && choices.iter().any(|(p, _)| *p == BusProtocol::Lustbus) {
                     let here = l.baud();
                     for r in LUSTBUS_BAUDS.iter().copied().filter(|r| *r != here) {
                         if l.set_baud(r).is_err() {
@@ -150,6 +191,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                         }
                         found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
                         if !found.is_empty() {
+                            protocol = BusProtocol::Lustbus;
                             baud_found = Some(r);
                             other_rate = Some(here);
                             break;
@@ -158,10 +200,13 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 }
                 found
             }
-            (Link::Bytes(mut l), BusProtocol::Lecom) => {
-                scan_lecom(l.as_mut(), Some(&schema), &lecom_addresses(), &opts)?
-            }
-            (Link::Frames(mut l), BusProtocol::CanSdo) => {
+            Link::Frames(mut l) => {
+                if protocol != BusProtocol::CanSdo {
+                    return Err(Fail::input(format!(
+                        "{name} is a CAN port: scan it with --protocol sdo"
+                    )));
+                }
+                let schema = &choices[0].1;
                 let s = if schema.family.bus() == BusProtocol::CanSdo {
                     schema.clone()
                 } else {
@@ -174,23 +219,23 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 };
                 scan_can(l.as_mut(), &s, &can_nodes(), &opts)?
             }
-            (Link::Frames(_), _) => {
-                return Err(Fail::input(format!(
-                    "{name} is a CAN port: scan it with --protocol sdo"
-                )));
-            }
-            (Link::Bytes(_), BusProtocol::CanSdo) => {
-                return Err(Fail::input(format!(
-                    "{name} is a character line: scan it with --protocol lustbus or lecom"
-                )));
-            }
         };
         (name, found)
     };
-    let range = match protocol {
+    let range_of = |p: BusProtocol| match p {
         BusProtocol::Lustbus => "LUSTBUS addresses 1..30",
         BusProtocol::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
         BusProtocol::CanSdo => "CAN node ids 1..127",
+    };
+    // nothing found on a line whose protocol was not given: every range probed
+    let range = if found.is_empty() {
+        choices
+            .iter()
+            .map(|(p, _)| range_of(*p))
+            .collect::<Vec<_>>()
+            .join(", then ")
+    } else {
+        range_of(protocol).to_string()
     };
     match args.format {
         BusFormat::Json => {
