@@ -84,7 +84,7 @@ fn a_lone_mc6000_gets_address_5() {
              wrote 82-SADDR = 5 at address 0\n\
              verified address 5: 82-SADDR = 5, 91-TYPE = 6000\n\
              verified nothing answers at the old address 1\n\
-             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3220 ms)\n\
+             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 6000) at address 5, 9600 baud (3220 ms)\n\
              journal: .driveset/journal/{jname}\n"
         )
     );
@@ -250,7 +250,7 @@ fn refusals_exit_2_and_write_nothing() {
         (
             "sim://mc6000?addresses=1,2",
             &["--protocol", "lustbus", "--to", "5"],
-            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x04 but CODE..ETX XOR to 0x61): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); the network list at 9600 baud finds address 1: 91-TYPE = 6000; address 2: 91-TYPE = 6000; nothing was written. Connect the drive alone and run again\n".into(),
+            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x05 but CODE..ETX XOR to 0x41): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); the network list at 9600 baud finds address 1: 91-TYPE = 6000; address 2: 91-TYPE = 6000; nothing was written. Connect the drive alone and run again\n".into(),
         ),
         (
             "sim://tmd?addresses=1,12&c0001=3",

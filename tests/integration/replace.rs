@@ -157,7 +157,7 @@ fn a_spare_of_another_family_is_refused_with_nothing_written() {
         .code(2)
         .stdout("")
         .stderr(
-            "error: the unit on the port is vf1000 with 91-TYPE 0, but drive `press-axis-3`'s set `sets/press-axis-3.toml` (schema `fictional-mc6000-demo`) is for mc6000; nothing was written. Connect a spare of the drive's family and type\n",
+            "error: the unit on the port is vf1000 with 91-TYPE 1000, but drive `press-axis-3`'s set `sets/press-axis-3.toml` (schema `fictional-mc6000-demo`) is for mc6000; nothing was written. Connect a spare of the drive's family and type\n",
         );
     // the spare still at its factory address, nothing assigned
     let dump = driveset_sim::open::StateDump::read(&d.join("spare.json")).expect("spare state");

@@ -2,7 +2,6 @@
 //! which drives answer on a bus.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 use driveset_engine::scan::{
     Found, LECOM_BAUDS, LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses,
@@ -14,6 +13,7 @@ use serde_json::json;
 use super::identify::BusFormat;
 use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
+use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_BUS, EXIT_OK};
 use driveset_schema::BusProtocol;
 
@@ -39,24 +39,29 @@ Examples:
   driveset scan --port /dev/ttyUSB0 --protocol lecom --detect-baud
   driveset scan --port slcan:///dev/ttyACM0?bitrate=500000 --protocol sdo --format json")]
 pub struct Args {
-    /// The port.
-    #[arg(long)]
-    pub port: String,
-    /// Family, when --schema does not say it (a CAN port: sdo).
-    #[arg(long, value_enum)]
-    pub protocol: Option<ProtocolArg>,
-    /// Schema id or file (decides the protocol and the probe code).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
+    /// The port, the protocol (or the schema: it decides the protocol and
+    /// the probe code).
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Try every line rate, highest first; report the first that answers.
     #[arg(long)]
     pub detect_baud: bool,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port.",
+        schema: SchemaCount::One,
+        schema_help: "Schema id or file (decides the protocol and the probe code).",
+        schemas: true,
+        protocol: Need::Optional,
+        protocol_help: "Protocol, when --schema does not say it (default: a CAN port sdo; a character line LUSTBUS, then LECOM).",
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset scan`.
@@ -69,26 +74,26 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     // character line each protocol's addresses are probed in turn (LUSTBUS,
     // then LECOM) and the one that answers is the line's (the same on every
     // port).
-    let protocol_arg = match (args.schema.as_deref(), args.protocol) {
-        (None, None) => match port::open_port(&args.port)?.link {
+    let protocol_arg = match (args.at.schema(), args.at.protocol) {
+        (None, None) => match port::open_port(args.at.port()?)?.link {
             Link::Frames(_) => Some(ProtocolArg(BusProtocol::CanSdo)),
             Link::Bytes(_) => None,
         },
-        _ => args.protocol,
+        _ => args.at.protocol,
     };
     let asked: Vec<BusProtocol> = match protocol_arg {
         Some(p) => vec![p.0],
-        None if args.schema.is_some() => Vec::new(),
+        None if args.at.schema().is_some() => Vec::new(),
         None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
     };
     let choices: Vec<(BusProtocol, std::sync::Arc<driveset_schema::Schema>)> = if asked.is_empty() {
-        let schema = port::resolve_schema(args.schema.as_deref(), &args.schemas, None)?.schema;
+        let schema = port::resolve_schema(args.at.schema(), &args.at.schemas, None)?.schema;
         vec![(schema.family.bus(), schema)]
     } else {
         let mut v = Vec::new();
         for p in asked {
             let schema =
-                port::resolve_schema(args.schema.as_deref(), &args.schemas, Some(ProtocolArg(p)))?
+                port::resolve_schema(args.at.schema(), &args.at.schemas, Some(ProtocolArg(p)))?
                     .schema;
             v.push((p, schema));
         }
@@ -96,7 +101,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     };
     // the port's ?latency=: each probe waits what the clients allow it
     let opts = ScanOptions::behind(
-        driveset_link::PortSpec::parse(&args.port)
+        driveset_link::PortSpec::parse(args.at.port()?)
             .ok()
             .and_then(|p| p.latency()),
     );
@@ -105,7 +110,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     let mut protocol = choices[0].0;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
         // Opened once to check the port string and the protocol; each rate reopens it.
-        let first = port::open_port(&args.port)?;
+        let first = port::open_port(args.at.port()?)?;
         if matches!(first.link, Link::Frames(_)) {
             return Err(Fail::input(format!(
                 "{} is a CAN port; --detect-baud is for serial lines",
@@ -155,7 +160,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         }
         result
     } else {
-        let opened = port::open_port(&args.port)?;
+        let opened = port::open_port(args.at.port()?)?;
         let name = opened.name.clone();
         let found = match opened.link {
             Link::Bytes(mut l) => {
@@ -212,7 +217,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 } else {
                     port::resolve_schema(
                         None,
-                        &args.schemas,
+                        &args.at.schemas,
                         Some(ProtocolArg(BusProtocol::CanSdo)),
                     )?
                     .schema

@@ -157,6 +157,34 @@ impl Catalog {
         }
     }
 
+    /// The schema `recover` finishes a journal with: `named` (`--schema`),
+    /// else the journal's: its id `id` among the known schemas when one of
+    /// them has the recorded `fingerprint` (a journal without one: the
+    /// id), else the recorded schema file `path` when it is a file (the
+    /// engine refuses it when its fingerprint differs, naming both), else
+    /// what the id gives.
+    pub fn for_journal(
+        &self,
+        named: Option<&str>,
+        id: &str,
+        fingerprint: Option<&str>,
+        path: Option<&str>,
+    ) -> Result<SchemaChoice, CatalogError> {
+        if let Some(s) = named {
+            return self.named(s);
+        }
+        let by_id = self.named(id);
+        if let Ok(c) = &by_id
+            && fingerprint.is_none_or(|f| f == c.schema.fingerprint)
+        {
+            return by_id;
+        }
+        match path {
+            Some(p) if Path::new(p).is_file() => self.named(p),
+            _ => by_id,
+        }
+    }
+
     /// The schema a command on the drive at `address` of `port` talks
     /// with: [`Catalog::chosen`], else the built-in schema of the family the
     /// drive answers the read-only probes as ([`super::detect`]; on a CAN
