@@ -95,7 +95,9 @@ fn identify_lustbus_protocol_tells_mc_from_vf1000() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("schema:   lust-vf1000 (fits)\n"))
-        .stdout(predicate::str::contains("a VF1000 inverter"));
+        .stdout(predicate::str::contains(
+            "the MC6000/7000 CODE 20091 not: a VF1000",
+        ));
     driveset()
         .args([
             "identify",

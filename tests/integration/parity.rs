@@ -148,9 +148,7 @@ fn mask(text: &str, port: &str) -> String {
             let numeric = !core.is_empty() && core.chars().all(|c| c.is_ascii_digit() || c == '.');
             if w.contains(".journal.json") {
                 words.push("JOURNAL".to_string());
-            } else if numeric
-                && (next == "SLOAD" || next == "telegrams," || next == "retries,")
-            {
+            } else if numeric && (next == "SLOAD" || next == "telegrams," || next == "retries,") {
                 // the MC's dataset check polls until the drive is done: how
                 // many polls (and so telegrams) is a measure of time
                 words.push("N".to_string());

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::session::{self, lustbus_family::open_lustbus_family};
+use driveset_engine::session;
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
@@ -80,24 +80,6 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     let (choice, note) = (resolved.choice, resolved.evidence);
     let port_name = opened.name.clone();
     let schema = choice.schema;
-    // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
-    // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
-    if args.at.schema().is_none()
-        && args.at.protocol.is_some()
-        && schema.family.descriptor().dialect == Some(Dialect::Mc)
-    {
-        let registry = port::registry(&args.at.schemas)?;
-        let found = open_lustbus_family(opened, schema, &registry, address)?;
-        let mut client = found.session.client;
-        return report(
-            args,
-            &port_name,
-            client.as_mut(),
-            Some(found.evidence),
-            choice.path.as_deref(),
-            None,
-        );
-    }
     // A LUSTBUS schema named: the drive's own family by the read-only
     // probes, as when none is named; another family is the finding (exit
     // 1), the same on every port.

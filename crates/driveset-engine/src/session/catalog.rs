@@ -186,15 +186,38 @@ impl Catalog {
     }
 
     /// The schema a command on the drive at `address` of `port` talks
-    /// with: [`Catalog::chosen`], else the built-in schema of the family the
-    /// drive answers the read-only probes as ([`super::detect`]; on a CAN
-    /// port, the one family that speaks CAN). The same on every port.
+    /// with: [`Catalog::chosen`] (a protocol of several families: the
+    /// family of the drive, by the probes below), else the built-in schema
+    /// of the family the drive answers the read-only probes as
+    /// ([`super::detect`]; on a CAN port, the one family that speaks CAN).
+    /// The same on every port; the one rule every command's schema comes
+    /// from (docs/architecture.md, "One path from a port to a drive").
     pub fn resolve(
         &self,
         port: &mut OpenedPort,
         address: u8,
         ask: SchemaAsk<'_>,
     ) -> Result<Resolved, SessionError> {
+        // `--protocol` of several families (LUSTBUS: MC6000/7000 or
+        // VF1000), no schema named: the family by the same probes (an MC
+        // answers its own CODE form of 91-TYPE, a VF1000 NAKs it); when
+        // the drive speaks another protocol, the protocol's first family
+        // as named (identify then says the drive is not of it)
+        if ask.schema.is_none()
+            && let Some(p) = ask.protocol
+            && p.families().nth(1).is_some()
+            && let Ok((family, evidence)) =
+                super::detect(&mut port.link, &port.name, address, port.connect.latency)
+            && family.bus() == p
+        {
+            return Ok(Resolved {
+                choice: SchemaChoice {
+                    schema: self.builtin(family)?,
+                    path: None,
+                },
+                evidence: Some(evidence),
+            });
+        }
         if let Some(choice) = self.chosen(ask)? {
             return Ok(Resolved {
                 choice,

@@ -22,7 +22,6 @@
 pub mod bus;
 pub mod catalog;
 pub mod learning;
-pub mod lustbus_family;
 pub mod on_drive;
 pub mod open;
 pub mod rate;
