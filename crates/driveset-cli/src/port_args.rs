@@ -385,6 +385,15 @@ impl PortArgs {
         Ok(crate::port::catalog(&self.schemas).resolve(opened, address, self.ask())?)
     }
 
+    /// What a one-drive command opens and which schema it talks with,
+    /// resolved once: the port opened and its bus locked for the drive at
+    /// `address` ([`crate::port::open_port_at`]), then [`PortArgs::resolve`].
+    pub fn open_resolved(&self, address: u8) -> Result<(OpenedPort, Resolved), Fail> {
+        let mut opened = crate::port::open_port_at(self.port()?, Some(address))?;
+        let resolved = self.resolve(&mut opened, address)?;
+        Ok((opened, resolved))
+    }
+
     /// The drive at `address` of `opened`, speaking `schema`, learned from
     /// first where the schema lacks facts (unless `--no-learn`), the
     /// learned file written to `dir` (the engine's

@@ -75,8 +75,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 
 fn identify(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
-    let mut opened = port::open_port_at(args.at.port()?, Some(address))?;
-    let resolved = args.at.resolve(&mut opened, address)?;
+    let (mut opened, resolved) = args.at.open_resolved(address)?;
     let (choice, note) = (resolved.choice, resolved.evidence);
     let port_name = opened.name.clone();
     let schema = choice.schema;

@@ -171,9 +171,8 @@ fn toml_str(s: &str) -> String {
 
 fn pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
-    let mut opened = port::open_port_at(args.at.port()?, Some(address))?;
     // No schema: find the protocol as `scan` does, on every port.
-    let resolved = args.at.resolve(&mut opened, address)?;
+    let (opened, resolved) = args.at.open_resolved(address)?;
     let (choice, detected) = (resolved.choice, resolved.evidence);
     let format = match args.to {
         Some(PullTo::Yaml) => Format::Yaml,

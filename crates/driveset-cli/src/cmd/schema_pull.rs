@@ -109,12 +109,11 @@ pub fn parse_params(text: &str, max: u32) -> Result<Vec<u32>, String> {
 fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     let mut opts = args.at.learn.options()?;
-    let mut opened = port::open_port_at(args.at.port()?, Some(address))?;
     // the drive's family by the read-only probes (an MC answers its own
     // CODE form of 91-TYPE, a VF1000 NAKs it), on every port; --family
     // names what the user expects, and another family answering is
     // identify's finding (exit 1), nothing written
-    let found = args.at.resolve(&mut opened, address)?;
+    let (opened, found) = args.at.open_resolved(address)?;
     let other = args.family.and_then(|f| {
         driveset_engine::identify::other_family(
             found.choice.schema.family,
