@@ -571,7 +571,7 @@ mod tests {
         let a = parse::<Both>(&[
             "t",
             "--port",
-            "sim://mc6000",
+            "/dev/ttyUSB0?baud=9600",
             "--address",
             "7",
             "--schema",
@@ -592,7 +592,7 @@ mod tests {
             "--no-learn",
         ])
         .expect("parses");
-        assert_eq!(a.port.as_deref(), Some("sim://mc6000"));
+        assert_eq!(a.port.as_deref(), Some("/dev/ttyUSB0?baud=9600"));
         assert_eq!(a.address, Some(7));
         assert_eq!(a.schema, ["a", "b.toml"]);
         assert_eq!(a.schemas, [PathBuf::from("d")]);
