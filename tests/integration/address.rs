@@ -79,12 +79,12 @@ fn a_lone_mc6000_gets_address_5() {
     assert_eq!(
         out,
         format!(
-            "{name}: found a Lust MASTERCONTROL MC6000/7000 at address 0 at 9600 baud (91-TYPE = 0), own address 1\n\
-             network list 1..30 (2586 ms): address 1: 91-TYPE = 0\n\
+            "{name}: found a Lust MASTERCONTROL MC6000/7000 at address 0 at 9600 baud (91-TYPE = 6000), own address 1\n\
+             network list 1..30 (2586 ms): address 1: 91-TYPE = 6000\n\
              wrote 82-SADDR = 5 at address 0\n\
-             verified address 5: 82-SADDR = 5, 91-TYPE = 0\n\
+             verified address 5: 82-SADDR = 5, 91-TYPE = 6000\n\
              verified nothing answers at the old address 1\n\
-             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 0) at address 5, 9600 baud (3220 ms)\n\
+             done: Lust MASTERCONTROL MC6000/7000 (mc6000, 91-TYPE 6000) at address 5, 9600 baud (3220 ms)\n\
              journal: .driveset/journal/{jname}\n"
         )
     );
@@ -105,7 +105,8 @@ fn a_lone_mc6000_gets_address_5() {
         .expect("scan");
     assert_eq!(scan.status.code(), Some(0));
     assert!(
-        String::from_utf8_lossy(&scan.stdout).contains("address 5: 91-TYPE = 0\n1 drive found\n")
+        String::from_utf8_lossy(&scan.stdout)
+            .contains("address 5: 91-TYPE = 6000\n1 drive found\n")
     );
     // the journal is complete
     let j: Value =
@@ -249,7 +250,7 @@ fn refusals_exit_2_and_write_nothing() {
         (
             "sim://mc6000?addresses=1,2",
             &["--protocol", "lustbus", "--to", "5"],
-            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x04 but CODE..ETX XOR to 0x61): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); the network list at 9600 baud finds address 1: 91-TYPE = 0; address 2: 91-TYPE = 0; nothing was written. Connect the drive alone and run again\n".into(),
+            "refused: the answers at address 0 at 9600 baud do not decode (device telegram BCC is 0x05 but CODE..ETX XOR to 0x41): more than one device answers (lustbus-protocol.txt §4.2: every device answers at address 0); the network list at 9600 baud finds address 1: 91-TYPE = 6000; address 2: 91-TYPE = 6000; nothing was written. Connect the drive alone and run again\n".into(),
         ),
         (
             "sim://tmd?addresses=1,12&c0001=3",
@@ -401,7 +402,7 @@ fn lone_tmd_and_mc6000_over_a_pty() {
     ]);
     assert_eq!(code, Some(0), "{out}{err}\n{}", sim.stderr());
     assert!(
-        out.contains("verified address 6: 82-SADDR = 6, 91-TYPE = 0\n"),
+        out.contains("verified address 6: 82-SADDR = 6, 91-TYPE = 6000\n"),
         "{out}"
     );
     sim.terminate();

@@ -48,14 +48,14 @@ const LINE: &str = "ps/demo-line/bench.toml";
 
 fn scan_table(port: &str) -> String {
     let rows = [
-        "ADDRESS  DRIVE         EXPECTED  ANSWERED       CHECK",
-        "      1  press-axis-1  mc6000    mc6000 TYPE 0  ok",
-        "      2  press-axis-2  mc6000    mc6000 TYPE 0  ok",
-        "      3  press-axis-3  mc6000    mc6000 TYPE 0  ok",
-        "      4  press-axis-4  mc6000    mc6000 TYPE 0  ok",
-        "      5  conveyor-5    vf1000    vf1000 TYPE 0  ok",
-        "      6  conveyor-6    vf1000    vf1000 TYPE 0  ok",
-        "      7  conveyor-7    vf1000    vf1000 TYPE 0  ok",
+        "ADDRESS  DRIVE         EXPECTED  ANSWERED          CHECK",
+        "      1  press-axis-1  mc6000    mc6000 TYPE 6000  ok",
+        "      2  press-axis-2  mc6000    mc6000 TYPE 6000  ok",
+        "      3  press-axis-3  mc6000    mc6000 TYPE 6000  ok",
+        "      4  press-axis-4  mc6000    mc6000 TYPE 6000  ok",
+        "      5  conveyor-5    vf1000    vf1000 TYPE 1000  ok",
+        "      6  conveyor-6    vf1000    vf1000 TYPE 1000  ok",
+        "      7  conveyor-7    vf1000    vf1000 TYPE 1000  ok",
     ];
     format!(
         "\nbus `lustbus` ({port}), scanned:\n{}\nbus `lustbus`: 7 drive(s) assigned, every manifest address answers as its set's family, nothing else answers; ",
@@ -81,9 +81,13 @@ fn assign_yes_gives_seven_factory_drives_their_addresses_then_commissions() {
     let d = dir.path();
     let mut expect_assigned = String::new();
     for (i, n) in NAMES.iter().enumerate() {
-        let fam = if i < 4 { "mc6000" } else { "vf1000" };
+        let (fam, ty) = if i < 4 {
+            ("mc6000", 6000)
+        } else {
+            ("vf1000", 1000)
+        };
         expect_assigned.push_str(&format!(
-            "{n}: address {}, 9600 baud ({fam} TYPE 0, found at 9600 baud)\n",
+            "{n}: address {}, 9600 baud ({fam} TYPE {ty}, found at 9600 baud)\n",
             i + 1
         ));
     }
@@ -207,7 +211,7 @@ fn assign_never_gives_one_unit_two_manifest_addresses() {
     assert_eq!(code, Some(1), "{out}\n{err}\n{}", sim.stderr());
     assert!(
         out.starts_with(
-            "press-axis-3: address 3, 9600 baud (mc6000 TYPE 0, found at 9600 baud)\npress-axis-4: FAILED: the unit on the port holds address 3, which this run gave `press-axis-3`: it is `press-axis-3`'s unit again, not `press-axis-4`'s; nothing was written. Disconnect it and connect `press-axis-4`'s unit alone\nbus `lustbus`: not scanned: a drive of bus `lustbus` was not assigned\n"
+            "press-axis-3: address 3, 9600 baud (mc6000 TYPE 6000, found at 9600 baud)\npress-axis-4: FAILED: the unit on the port holds address 3, which this run gave `press-axis-3`: it is `press-axis-3`'s unit again, not `press-axis-4`'s; nothing was written. Disconnect it and connect `press-axis-4`'s unit alone\nbus `lustbus`: not scanned: a drive of bus `lustbus` was not assigned\n"
         ),
         "{out}\n{err}"
     );

@@ -95,7 +95,9 @@ fn identify_lustbus_protocol_tells_mc_from_vf1000() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("schema:   lust-vf1000 (fits)\n"))
-        .stdout(predicate::str::contains("a VF1000 inverter"));
+        .stdout(predicate::str::contains(
+            "the MC6000/7000 CODE 20091 not: a VF1000",
+        ));
     driveset()
         .args([
             "identify",
@@ -269,7 +271,7 @@ fn scan_detect_baud_reports_a_rate() {
 }
 
 /// Scanning a LUSTBUS line for LECOM stations finds none, as on a serial
-/// line; a character line must be told its protocol, whatever transport.
+/// line; without --protocol the line's protocol is found, whatever transport.
 #[test]
 fn scan_protocol_must_fit_the_simulated_family() {
     driveset()
@@ -286,13 +288,13 @@ fn scan_protocol_must_fit_the_simulated_family() {
         .stderr(predicate::str::contains(
             "error: no drive answered on sim://mc6000?addresses=3",
         ));
+    // no --protocol: the line's protocol is found by the probes, as on
+    // a serial line (issue 28)
     driveset()
         .args(["scan", "--port", "sim://mc6000?addresses=3"])
         .assert()
-        .code(2)
-        .stderr(predicate::str::contains(
-            "say which drive family is on the bus: --schema ID|PATH, or --protocol lustbus|lecom|sdo",
-        ));
+        .code(0)
+        .stdout("scanned sim://mc6000?addresses=3 (LUSTBUS addresses 1..30)\naddress 3: 91-TYPE = 6000\n1 drive found\n");
 }
 
 #[test]
@@ -384,7 +386,7 @@ fn schema_pull_refuses_the_wrong_family_and_bad_ranges() {
         .assert()
         .code(1)
         .stderr(predicate::str::contains(
-            "error: sim://mc6000?addresses=1 address 1: the drive answers as Lust MASTERCONTROL MC6000/7000 (LUSTBUS ENQUIRY of 91-TYPE answered (0) and the MC6000/7000 CODE 20091 too), not Lust SMARTDRIVE VF1000; nothing written",
+            "error: sim://mc6000?addresses=1 address 1: the drive answers as Lust MASTERCONTROL MC6000/7000 (LUSTBUS ENQUIRY of 91-TYPE answered (6000) and the MC6000/7000 CODE 20091 too), not Lust SMARTDRIVE VF1000; nothing written",
         ));
     driveset()
         .args([
@@ -457,7 +459,7 @@ fn identify_and_scan_find_a_drive_left_at_the_transfer_rate() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains(
-            "baud rate: 57600, not the port's 9600 (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\naddress 1: 91-TYPE = 0\n1 drive found\n",
+            "baud rate: 57600, not the port's 9600 (a drive left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud=57600 to the port)\naddress 1: 91-TYPE = 6000\n1 drive found\n",
         ));
     // without the state file's rate the drive would answer at 9600: the
     // search is what found it

@@ -37,7 +37,7 @@ fn doctor_on_a_simulated_mc6000_prints_every_finding_exactly() {
         "\
 doctor sim://mc6000?addresses=1 (LUSTBUS, address 1; read-only: reads 91-TYPE (ENQUIRY 00091) only)
 rates:
-     9600 baud (the port's): answers (0000)
+     9600 baud (the port's): answers (1770)
     57600 baud: silent
     38400 baud: silent
     19200 baud: silent
@@ -45,7 +45,7 @@ rates:
      2400 baud: silent
 round trips at 9600 baud: 20 of 20 answered; min 26.919 ms, median 40.580 ms, p95 47.299 ms, max 47.464 ms; wire time 22.916 ms
 echo: none (21 exchanges with an answer)
-parity: ok: 0 of 294 answer bytes with bit 7 set, 63 with odd 8-bit weight, 0 bad BCC, 0 garbled
+parity: ok: 0 of 294 answer bytes with bit 7 set, 147 with odd 8-bit weight, 0 bad BCC, 0 garbled
 latency timer: none found (no USB serial adapter in /sys/bus/usb-serial, or not Linux)
 advice: none, the line looks fine
 "
@@ -323,4 +323,61 @@ fn doctor_through_tcp_finds_echo_and_7e1_read_as_8_bits() {
     assert!(advice[1].ends_with("answer bytes have the parity bit in bit 7: the port reads 8 data bits on a 7E1 line (an adapter or device server left at 8N1); set it to 7 data bits, even parity, 1 stop bit (rfc2217:// sets it on the server); the drives may see driveset's characters with a wrong parity bit"), "{advice:?}");
     sim.stop();
     assert!(host_chunks_are_reads(&log) > 0);
+}
+
+/// Without `--protocol` (and without `--schema` for scan) the line's
+/// protocol is found by the read-only probes, on a simulated port and on
+/// a pty alike (issue 28: after the transport change both asked for
+/// `--protocol` on a `sim://` character line, which had worked before).
+#[test]
+fn doctor_and_scan_find_the_protocol_without_protocol_on_every_port() {
+    // (the VF1000's slow reaction draws advice: exit 1)
+    for (family, head, proto, exit) in [
+        ("tmd", "(LECOM-A/B, address 1;", "\"lecom\"", 0),
+        (
+            "vf1000",
+            "(LUSTBUS, address 0 (any drive);",
+            "\"lustbus\"",
+            1,
+        ),
+    ] {
+        let port = format!("sim://{family}?addresses=1");
+        let (code, out, err) = run(&["--port", &port, "--probes", "2"]);
+        assert_eq!(code, Some(exit), "{family}: {out}{err}");
+        assert!(out.starts_with(&format!("doctor {port} {head}")), "{out}");
+        let (code, out, err) =
+            outcome(driveset().args(["scan", "--port", &port, "--format", "json"]));
+        assert_eq!(code, Some(0), "{family}: {err}");
+        assert!(out.contains(&format!("\"protocol\": {proto}")), "{out}");
+    }
+    // nobody at the probed address: exit 3, saying what to give
+    let (code, _, err) = run(&["--port", "sim://mc6000?addresses=5", "--probes", "2"]);
+    assert_eq!(code, Some(3), "{err}");
+    assert!(
+        err.contains("address 1: no drive answered the read-only probes (LUSTBUS ENQUIRY of 91-TYPE, LECOM RECEIVE of C0093 and C0200)")
+            && err.ends_with("; or say which protocol the line speaks: --protocol lustbus|lecom|can\n"),
+        "{err}"
+    );
+
+    // the same on a pty: a LECOM drive for the doctor, an MC for scan
+    let mut sim = Sim::start(&["--family", "tmd", "--address", "1", "--pty"]);
+    let pty = sim.first.trim_start_matches("pty ").to_string();
+    let (code, out, err) = run(&["--port", &pty, "--address", "1", "--probes", "2"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        out.starts_with(&format!("doctor {pty} (LECOM-A/B, address 1;")),
+        "{out}"
+    );
+    sim.stop();
+    let mut sim = Sim::start(&["--family", "mc6000", "--address", "4", "--pty"]);
+    let pty = sim.first.trim_start_matches("pty ").to_string();
+    let (code, out, err) = outcome(driveset().args(["scan", "--port", &pty]));
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(
+        out,
+        format!(
+            "scanned {pty} (LUSTBUS addresses 1..30)\naddress 4: 91-TYPE = 6000\n1 drive found\n"
+        )
+    );
+    sim.stop();
 }

@@ -358,16 +358,16 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
         run(&["pull", "--port", &sim.path, "--address", "2", "-o", &set_s]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}\n{}", sim.stderr());
     assert!(
-        stdout.contains("protocol: lustbus-vf1000 (LUSTBUS ENQUIRY of 91-TYPE answered (0), the MC6000/7000 CODE 20091 not: a VF1000)\n"),
+        stdout.contains("protocol: lustbus-vf1000 (LUSTBUS ENQUIRY of 91-TYPE answered (1000), the MC6000/7000 CODE 20091 not: a VF1000)\n"),
         "{stdout}"
     );
     assert!(
-        stderr.starts_with("learned schema learned-vf1000-type0-d"),
+        stderr.starts_with("learned schema learned-vf1000-type1000-d"),
         "{stderr}"
     );
     let text = std::fs::read_to_string(&set).unwrap();
     assert!(
-        text.contains("\nschema = \"learned-vf1000-type0-d"),
+        text.contains("\nschema = \"learned-vf1000-type1000-d"),
         "{text}"
     );
     let (code, out, err) = run(&["validate", &set_s]);
@@ -382,7 +382,10 @@ fn pull_alone_over_a_pty_finds_the_family_and_learns_the_schema() {
         set.parent().unwrap().to_str().unwrap(),
     ]);
     assert_eq!(code, Some(0), "{out}\n{err}");
-    assert!(out.contains("\nuses:     learned-vf1000-type0-d"), "{out}");
+    assert!(
+        out.contains("\nuses:     learned-vf1000-type1000-d"),
+        "{out}"
+    );
     assert!(out.contains(" (learned, "), "{out}");
     assert!(sim.terminate().success(), "{}", sim.stderr());
 

@@ -13,7 +13,7 @@ use predicates::prelude::*;
 use driveset_test_support::{driveset, driveset_with_sim_state, workspace_root};
 
 fn learned_file(dir: &Path) -> PathBuf {
-    let mut files = driveset_test_support::toml_files_starting(dir, "learned-mc6000-type0-d");
+    let mut files = driveset_test_support::toml_files_starting(dir, "learned-mc6000-type6000-d");
     assert_eq!(files.len(), 1, "{files:?}");
     files.pop().unwrap()
 }
@@ -135,8 +135,8 @@ fn pull_without_a_schema_on_sim_ports_without_addresses() {
     // the vendor's built-in schema, learned from the simulated drive's own
     // descriptions where the family learns, as on a serial line
     for (port, schema) in [
-        ("sim://vf1000", "learned-vf1000-type0-"),
-        ("sim://mc6000", "learned-mc6000-type0-"),
+        ("sim://vf1000", "learned-vf1000-type1000-"),
+        ("sim://mc6000", "learned-mc6000-type6000-"),
         ("sim://tmd", "lenze-tmd\""),
     ] {
         let dir = tempfile::tempdir().unwrap();
@@ -196,7 +196,7 @@ fn identify_names_the_schema_it_would_use_and_whether_learned() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains(
-            "\nschema:   lust-mc6000 (fits)\nuses:     learned-mc6000-type0-* (learned from the drive's descriptions on pull / diff / upload; lust-mc6000 lacks types and ranges)\n",
+            "\nschema:   lust-mc6000 (fits)\nuses:     learned-mc6000-type6000-* (learned from the drive's descriptions on pull / diff / upload; lust-mc6000 lacks types and ranges)\n",
         ));
     driveset()
         .args([

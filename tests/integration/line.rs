@@ -342,7 +342,11 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         let dr = &r["drives"][i];
         let ls = &dr["learned_schema"];
         let id = ls["id"].as_str().unwrap().to_string();
-        assert!(id.starts_with(&format!("learned-{family}-type0-d")), "{id}");
+        let ty = if family == "mc6000" { 6000 } else { 1000 };
+        assert!(
+            id.starts_with(&format!("learned-{family}-type{ty}-d")),
+            "{id}"
+        );
         assert_eq!(dr["schema"], id.as_str());
         assert_eq!(ls["base"], base);
         assert_eq!(ls["codes"], codes);

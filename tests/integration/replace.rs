@@ -50,7 +50,7 @@ fn a_factory_fresh_spare_gets_the_address_the_rate_and_the_whole_set() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains(format!(
-            "spare on {port}: mc6000 at address 0, 9600 baud (91-TYPE = 0)\nwrote 82-SADDR = 3 at address 0\npress-axis-3: address 3, 9600 baud, 21 codes written and verified (46 codes in the set); the spare was at factory settings ("
+            "spare on {port}: mc6000 at address 0, 9600 baud (91-TYPE = 6000)\nwrote 82-SADDR = 3 at address 0\npress-axis-3: address 3, 9600 baud, 21 codes written and verified (46 codes in the set); the spare was at factory settings ("
         )))
         .stdout(predicate::str::contains(
             "report: target/driveset-report/replace-press-axis-3/report.json target/driveset-report/replace-press-axis-3/report.html\nnext: plug it into the line (bus `lustbus`, sim://lustbus?mc6000=1,2,3,4&vf1000=5,6,7&baud=9600) and run `driveset status ps/demo-line/line.toml --only press-axis-3`\n",
@@ -157,7 +157,7 @@ fn a_spare_of_another_family_is_refused_with_nothing_written() {
         .code(2)
         .stdout("")
         .stderr(
-            "error: the unit on the port is vf1000 with 91-TYPE 0, but drive `press-axis-3`'s set `sets/press-axis-3.toml` (schema `fictional-mc6000-demo`) is for mc6000; nothing was written. Connect a spare of the drive's family and type\n",
+            "error: the unit on the port is vf1000 with 91-TYPE 1000, but drive `press-axis-3`'s set `sets/press-axis-3.toml` (schema `fictional-mc6000-demo`) is for mc6000; nothing was written. Connect a spare of the drive's family and type\n",
         );
     // the spare still at its factory address, nothing assigned
     let dump = driveset_sim::open::StateDump::read(&d.join("spare.json")).expect("spare state");

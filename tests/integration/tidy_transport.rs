@@ -143,3 +143,67 @@ fn tidy_the_sim_branch_check_sees_a_branch() {
     let found = sim_branches();
     assert!(found.contains_key("crates/driveset-cli/src/port.rs"));
 }
+
+/// The commands that open a drive port: their port arguments come from
+/// the CLI's one `Port<C>` (`crates/driveset-cli/src/port_args.rs`).
+const PORT_COMMANDS: &[&str] = &[
+    "address",
+    "diff",
+    "doctor",
+    "identify",
+    "pull",
+    "recover",
+    "replace",
+    "scan",
+    "schema_pull",
+    "twin",
+    "upload",
+];
+
+/// Fields a command would define its own port arguments with.
+const PORT_FIELDS: &[&str] = &[
+    "pub port:",
+    "pub address:",
+    "pub schemas:",
+    "pub allow_family:",
+    "pub schema_dir:",
+    "pub no_learn:",
+    "pub description_layout:",
+    "pub type_chars:",
+];
+
+#[test]
+fn tidy_port_arguments_are_defined_once() {
+    let root = workspace_root();
+    let mut problems = Vec::new();
+    for cmd in PORT_COMMANDS {
+        let path = format!("crates/driveset-cli/src/cmd/{cmd}.rs");
+        let text = read(&root.join(&path));
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let field = line.trim_start();
+            // a clap field: an `#[arg(...)]` (or its doc comment) above it
+            let clap = lines[..i]
+                .iter()
+                .rev()
+                .take_while(|l| {
+                    l.trim_start().starts_with("#[") || l.trim_start().starts_with("///")
+                })
+                .any(|l| l.trim_start().starts_with("#[arg"));
+            if clap && PORT_FIELDS.iter().any(|f| field.starts_with(f)) {
+                problems.push(format!(
+                    "{path}:{}: `{field}` defines a port argument of its own: flatten `Port<Args>` and say what the command takes in its `PortCommand::TAKES` (crates/driveset-cli/src/port_args.rs)",
+                    i + 1
+                ));
+            }
+        }
+        assert!(
+            text.contains("impl PortCommand for"),
+            "{path}: takes no `Port<C>`"
+        );
+    }
+    report(
+        "one set of port arguments (docs/architecture.md)",
+        &problems,
+    );
+}

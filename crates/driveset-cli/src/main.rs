@@ -30,9 +30,9 @@ mod env;
 mod fail;
 mod files;
 mod history;
-mod learning;
 mod output;
 mod port;
+mod port_args;
 mod progress;
 mod report;
 

@@ -40,3 +40,22 @@ pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineErro
         )),
     }
 }
+
+/// Whether the drive's family, found by the read-only probes
+/// ([`crate::session::detect`]: an MC6000/7000 answers its own CODE form
+/// of 91-TYPE, a VF1000 NAKs it), is the schema's: `Some(finding)` when
+/// another family than `expected` answered (the same words `identify`
+/// and `schema pull` print, on every port). Nothing is written.
+pub fn other_family(
+    found: driveset_schema::Family,
+    evidence: &str,
+    expected: driveset_schema::Family,
+) -> Option<String> {
+    (found != expected).then(|| {
+        format!(
+            "the drive answers as {} ({evidence}), not {}",
+            found.descriptor().title,
+            expected.descriptor().title
+        )
+    })
+}

@@ -17,7 +17,8 @@ use super::identify::BusFormat;
 use super::upload::DEFAULT_JOURNAL_DIR;
 use crate::EXIT_OK;
 use crate::output;
-use crate::port::{self, Fail, ProtocolArg};
+use crate::port::{self, Fail};
+use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 
 /// Arguments of `driveset address`.
 #[derive(clap::Args)]
@@ -63,12 +64,10 @@ Examples:
   driveset address --port /dev/ttyUSB0 --protocol lustbus --to 5 --baud 38400 --dry-run
   driveset address --port /dev/ttyUSB0 --protocol lecom --from 1 --to 12")]
 pub struct Args {
-    /// The port the drive is alone on.
-    #[arg(long)]
-    pub port: String,
-    /// The bus protocol (lustbus or lecom).
-    #[arg(long, value_enum)]
-    pub protocol: ProtocolArg,
+    /// The port the drive is alone on, its bus protocol and the schemas of
+    /// its family.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// The address to give the drive.
     #[arg(long, value_name = "N")]
     pub to: u8,
@@ -87,13 +86,6 @@ pub struct Args {
     /// Directory for the journal (file name from the bus and N).
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
-    /// Schema id or file for the drive's family (repeatable), e.g. one
-    /// learned by `driveset schema pull` that types 81 / 82.
-    #[arg(long = "schema", value_name = "ID|PATH")]
-    pub schema: Vec<String>,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -104,6 +96,19 @@ pub struct Args {
     /// be known (its schema names no running bit).
     #[arg(long)]
     pub allow_running_unknown: bool,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port the drive is alone on.",
+        schema: SchemaCount::Many,
+        schema_help: "Schema id or file for the drive's family (repeatable), e.g. one learned by `driveset schema pull` that types 81 / 82.",
+        schemas: true,
+        protocol: Need::Required,
+        protocol_help: "The bus protocol (lustbus or lecom).",
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset address`.
@@ -124,7 +129,11 @@ fn schemas_for(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
 }
 
 fn address(args: &Args) -> Result<u8, Fail> {
-    let protocol = args.protocol.0;
+    let protocol = args
+        .at
+        .protocol
+        .ok_or_else(|| Fail::input("give the bus protocol: --protocol lustbus|lecom"))?
+        .0;
     if protocol == BusProtocol::CanSdo {
         // the protocol's own name, not one of its aliases
         return Err(Fail::input(format!(
@@ -141,7 +150,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
-    let schemas = schemas_for(&args.schemas, &args.schema)?;
+    let schemas = schemas_for(&args.at.schemas, &args.at.schema)?;
     let mut req = AssignRequest::new(protocol, args.to);
     req.from = args.from;
     req.baud = args.baud;
@@ -153,7 +162,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
     .filter(|(on, _)| *on)
     .map(|(_, o)| o)
     .collect();
-    let opened = port::open_port(&args.port)?;
+    let opened = port::open_port(args.at.port()?)?;
     let name = opened.name.clone();
     // the bus lock: open_port takes it, for the rest of the command
     let mut link = opened.link;

@@ -112,7 +112,7 @@ pub struct Args {
     pub stop_after: Option<usize>,
     /// Learning the schema of drives whose set's schema lacks facts.
     #[command(flatten)]
-    pub learn: crate::learning::LearnArgs,
+    pub learn: crate::port_args::LearnArgs,
     /// Rehearse against the twins in DIR (DIR/<drive name>.twin.toml), in
     /// virtual time: same plan, refusals, report and exit codes. A missing
     /// or empty DIR, or no twin of any selected drive, is an error (exit
@@ -207,7 +207,7 @@ pub struct Common {
     /// `--report-dir`.
     pub report_dir: Option<PathBuf>,
     /// `--schema-dir`, `--no-learn`, the description overrides.
-    pub learn: crate::learning::LearnArgs,
+    pub learn: crate::port_args::LearnArgs,
     /// `commission --rehearse DIR`: the twins' directory.
     pub rehearse: Option<PathBuf>,
     /// `commission --allow-missing-twins`.

@@ -14,6 +14,7 @@ use driveset_schema::{
 use serde_json::{Value, json};
 
 use crate::output::{self, Style, plural};
+use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
 /// Output format of `diff`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -53,27 +54,20 @@ pub struct Args {
         conflicts_with_all = ["defaults", "port"]
     )]
     pub b: Option<PathBuf>,
-    /// Compare A with the live drive at this port (needs --address; see `diff_live`).
-    #[arg(long, requires = "address", conflicts_with_all = ["defaults", "unified"])]
-    pub port: Option<String>,
-    /// Bus address of the drive for --port.
-    #[arg(long, requires = "port")]
-    pub address: Option<u8>,
+    /// The live drive to compare A with (`--port` and `--address`; see
+    /// `diff_live`), the schema directories and, with --port, learning the
+    /// schema from the drive where the set's lacks facts.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Compare A with the factory defaults of its schema.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "port")]
     pub defaults: bool,
     /// Unified text diff of the canonical forms (raw values) instead.
-    #[arg(long, conflicts_with = "format")]
+    #[arg(long, conflicts_with_all = ["format", "port"])]
     pub unified: bool,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: DiffFormat,
-    /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
-    /// With --port: learning the schema from the drive where the set's lacks facts.
-    #[command(flatten)]
-    pub learn: crate::learning::LearnArgs,
     /// With --port: the transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
@@ -110,24 +104,37 @@ fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
     }
 }
 
+/// `diff`'s port arguments (for `diff_live`).
+pub type DiffPort = Port<Args>;
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Optional,
+        port_help: "Compare A with the live drive at this port (needs --address; see `diff_live`).",
+        address: Need::Optional,
+        address_help: "Bus address of the drive for --port.",
+        together: true,
+        schemas: true,
+        learn: LearnFlags::All,
+        ..Takes::NONE
+    };
+}
+
 /// Run `driveset diff`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    if let (Some(port), Some(address)) = (&args.port, args.address) {
+    if let (Some(_), Some(address)) = (&args.at.port, args.at.address) {
         return super::diff_live::run(super::diff_live::LiveArgs {
             set: &args.a,
-            port,
+            at: &args.at,
             address,
             format: match args.format {
                 DiffFormat::Human => super::diff_live::LiveFormat::Human,
                 DiffFormat::Json => super::diff_live::LiveFormat::Json,
             },
-            schemas: &args.schemas,
-            allow_family: false,
-            learn: &args.learn,
             transfer: args.transfer,
         });
     }
-    let mut registry = match output::registry(&args.schemas) {
+    let mut registry = match output::registry(&args.at.schemas) {
         Ok(r) => r,
         Err(e) => return Err(crate::fail::Fail::from(&e)),
     };

@@ -3,7 +3,7 @@
 //! with the offline diff's output and exit codes: old (`---`) is the drive,
 //! new (`+++`) the set, so the lines read as what an upload would change.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use driveset_engine::session::{self, rate::ReadRate};
 
@@ -23,18 +23,12 @@ pub enum LiveFormat {
 pub struct LiveArgs<'a> {
     /// The set file.
     pub set: &'a Path,
-    /// The port.
-    pub port: &'a str,
+    /// The port arguments (`--port`, `--schemas`, learning).
+    pub at: &'a super::diff::DiffPort,
     /// The address.
     pub address: u8,
     /// Output.
     pub format: LiveFormat,
-    /// Extra schema directories.
-    pub schemas: &'a [PathBuf],
-    /// Compare even if the drive's identity does not fit the set's schema.
-    pub allow_family: bool,
-    /// Learning the schema from the drive where the set's lacks facts.
-    pub learn: &'a crate::learning::LearnArgs,
     /// `--transfer-baud`.
     pub transfer: super::allow::TransferArgs,
 }
@@ -45,18 +39,16 @@ pub fn run(args: LiveArgs<'_>) -> Result<u8, crate::fail::Fail> {
 }
 
 fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
-    let on = crate::learning::set_on_drive(
-        args.set,
-        args.schemas,
-        args.port,
-        args.address,
-        args.learn,
-        "not compared",
-    )?;
-    let (schema, set, port_name, mut client) = (on.schema, on.set, on.port_name, on.client);
-    if !args.allow_family {
-        driveset_engine::identify::check_family(client.as_mut())?;
-    }
+    let on = args
+        .at
+        .set_on_drive(args.set, args.address, "not compared")?;
+    let (schema, set, port_name, mut client) = (
+        on.session.schema,
+        on.set,
+        on.session.port,
+        on.session.client,
+    );
+    driveset_engine::identify::check_family(client.as_mut())?;
     let req = args
         .transfer
         .request(&driveset_engine::overrides::Overrides::none());

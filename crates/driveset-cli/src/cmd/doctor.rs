@@ -19,6 +19,7 @@ use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
 use super::identify::BusFormat;
 use crate::output;
 use crate::port::{self, Fail};
+use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK};
 
 /// Arguments of `driveset doctor`.
@@ -37,6 +38,8 @@ line read as 8 data bits shows the parity bit in bit 7; bad BCCs); the USB
 adapter's latency timer (/sys/bus/usb-serial/devices/*/latency_timer);
 then one advice line per thing to change.
 
+Without --protocol the drive's protocol is found by the read-only probes
+identify uses (at --address, else LUSTBUS address 1 / LECOM station 01).
 Without --address: LUSTBUS address 0 (every drive answers; give the
 address on a line with several drives), LECOM station 01, CAN node 1.
 
@@ -47,17 +50,11 @@ or the port failed.
 Examples:
   driveset doctor --port /dev/ttyUSB0 --protocol lustbus --address 1
   driveset doctor --port rfc2217://10.0.0.7:2217?baud=19200 --protocol lecom
-  driveset doctor --port sim://mc6000?addresses=1 --protocol lustbus --format json")]
+  driveset doctor --port sim://mc6000?addresses=1 --format json")]
 pub struct Args {
-    /// The port (the echo= option is ignored: the doctor looks at the raw bytes).
-    #[arg(long)]
-    pub port: String,
-    /// The drive's address (LUSTBUS 0..30, LECOM 01..99, CAN node id).
-    #[arg(long)]
-    pub address: Option<u8>,
-    /// Protocol, when a sim:// port does not say it.
-    #[arg(long, value_enum)]
-    pub protocol: Option<crate::args::BusArg>,
+    /// The port, the drive's address and the protocol.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Round-trip probes at the answering rate.
     #[arg(long, value_name = "N", default_value_t = 20)]
     pub probes: u32,
@@ -70,6 +67,18 @@ pub struct Args {
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port (the echo= option is ignored: the doctor looks at the raw bytes).",
+        address: Need::Optional,
+        address_help: "The drive's address (LUSTBUS 0..30, LECOM 01..99, CAN node id).",
+        protocol: Need::Optional,
+        protocol_help: "Protocol (default: found by the read-only probes; a CAN port: can).",
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset doctor`.
@@ -116,18 +125,36 @@ pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
 }
 
 fn doctor(args: &Args) -> Result<u8, Fail> {
-    let opened = port::open_port(&args.port)?;
-    let protocol = match args.protocol {
+    let mut opened = port::open_port(args.at.port()?)?;
+    // Without --protocol: a CAN port speaks CAN SDO; on a character line
+    // the drive's protocol by the read-only probes `identify` and `scan`
+    // use (at --address, else LUSTBUS address 1 and LECOM station 01), the
+    // same on every port.
+    let protocol = match args.at.protocol {
         Some(p) => p.0,
         None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
         None => {
-            return Err(Fail::input(
-                "say which protocol the line speaks: --protocol lustbus|lecom|can",
-            ));
+            let name = opened.name.clone();
+            let (family, _) = driveset_engine::session::detect(
+                &mut opened.link,
+                &name,
+                args.at.address.unwrap_or(1),
+                opened.connect.latency,
+            )
+            .map_err(|e| match e {
+                driveset_engine::session::SessionError::NoAnswer { .. } => Fail {
+                    code: EXIT_BUS,
+                    msg: format!(
+                        "{e}; or say which protocol the line speaks: --protocol lustbus|lecom|can"
+                    ),
+                },
+                other => other.into(),
+            })?;
+            family.bus()
         }
     };
     let mut options = DoctorOptions::new(protocol);
-    options.address = args.address;
+    options.address = args.at.address;
     options.probes = args.probes.max(1);
     options.timeout = std::time::Duration::from_millis(args.timeout.max(1));
     options.fixed_rate = match &opened.spec {

@@ -6,14 +6,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::session::lustbus_family::open_lustbus_family;
+use driveset_engine::session;
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
 
-use crate::learning;
 use crate::output;
-use crate::port::{self, Fail, ProtocolArg};
+use crate::port::{self, Fail};
+use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_FINDINGS, EXIT_OK};
 
 /// Output format of the bus commands.
@@ -47,27 +47,25 @@ Examples:
   driveset identify --port /dev/ttyUSB0?baud=9600 --address 3 --protocol lecom
   driveset identify --port tcp://10.0.0.7:4001 --address 1 --schema lust-vf1000 --format json")]
 pub struct Args {
-    /// The port (/dev/ttyUSB0?baud=9600, tcp://host:port?latency=80ms, slcan://..., sim://FAMILY?addresses=...).
-    #[arg(long)]
-    pub port: String,
-    /// Bus address (LUSTBUS 1..30, LECOM 1..99, CAN node id 1..127).
-    #[arg(long)]
-    pub address: u8,
-    /// Schema id or file to talk with (decides the protocol).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
-    /// Family, when --schema does not say it.
-    #[arg(long, value_enum)]
-    pub protocol: Option<ProtocolArg>,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
-    /// Where learned schemas are looked for (default: the current directory).
-    #[arg(long, value_name = "DIR")]
-    pub schema_dir: Option<PathBuf>,
+    /// The port, the address, the schema and where learned schemas are
+    /// looked for (default: the current directory).
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        address: Need::Required,
+        schema: SchemaCount::One,
+        schemas: true,
+        protocol: Need::Optional,
+        learn: LearnFlags::Dir,
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset identify`.
@@ -76,41 +74,32 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn identify(args: &Args) -> Result<u8, Fail> {
-    let mut opened = port::open_port_at(&args.port, Some(args.address))?;
-    let resolved = learning::resolve(
-        &mut opened,
-        args.address,
-        args.schema.as_deref(),
-        args.protocol,
-        &args.schemas,
-    )?;
+    let address = args.at.address()?;
+    let (mut opened, resolved) = args.at.open_resolved(address)?;
     let (choice, note) = (resolved.choice, resolved.evidence);
     let port_name = opened.name.clone();
     let schema = choice.schema;
-    // LUSTBUS with no schema named: MC6000/7000 or VF1000? An MC answers an
-    // ENQUIRY of its own CODE form (20091), a VF1000 NAKs it.
-    if args.schema.is_none()
-        && args.protocol.is_some()
-        && schema.family.descriptor().dialect == Some(Dialect::Mc)
-    {
-        let registry = port::registry(&args.schemas)?;
-        let found = open_lustbus_family(opened, schema, &registry, args.address)?;
-        let mut client = found.session.client;
-        return report(
-            args,
+    // A LUSTBUS schema named: the drive's own family by the read-only
+    // probes, as when none is named; another family is the finding (exit
+    // 1), the same on every port.
+    let mut other = None;
+    if note.is_none() && schema.family.descriptor().dialect.is_some() {
+        let (found, evidence) = session::detect(
+            &mut opened.link,
             &port_name,
-            client.as_mut(),
-            Some(found.evidence),
-            choice.path.as_deref(),
-        );
+            address,
+            opened.connect.latency,
+        )?;
+        other = driveset_engine::identify::other_family(found, &evidence, schema.family);
     }
-    let mut client = port::into_client(opened, schema.clone(), args.address)?;
+    let mut client = port::into_client(opened, schema.clone(), address)?;
     report(
         args,
         &port_name,
         client.as_mut(),
         note,
         choice.path.as_deref(),
+        other,
     )
 }
 
@@ -177,6 +166,7 @@ fn report(
     client: &mut dyn DriveClient,
     mut note: Option<String>,
     path: Option<&Path>,
+    other_family: Option<String>,
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
     let identity = match client.identify() {
@@ -201,13 +191,19 @@ fn report(
         Err(e) => return Err(e.into()),
     };
     let dir = args
+        .at
+        .learn
         .schema_dir
         .clone()
         .unwrap_or_else(|| PathBuf::from("."));
     let (would_use, learned, learned_file) = learned_status(&schema, &identity, path, &dir);
-    let fits = match driveset_engine::identify::check_family(client) {
-        Ok(_) => Ok(()),
-        Err(e) => match e.refusal() {
+    let fits = match (
+        other_family,
+        driveset_engine::identify::check_family(client),
+    ) {
+        (Some(other), _) => Err(other),
+        (None, Ok(_)) => Ok(()),
+        (None, Err(e)) => match e.refusal() {
             Some(refusal) => Err(refusal.to_string()),
             None => return Err(e.into()),
         },
@@ -217,7 +213,7 @@ fn report(
         BusFormat::Json => {
             let doc = json!({
                 "port": port_name,
-                "address": args.address,
+                "address": args.at.address,
                 "protocol": identity.protocol.name(),
                 "codes": identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
                 "software": identity.software,
@@ -238,7 +234,7 @@ fn report(
         BusFormat::Human => {
             let mut out = String::new();
             let _ = writeln!(out, "port:     {port_name}");
-            let _ = writeln!(out, "address:  {}", args.address);
+            let _ = writeln!(out, "address:  {}", args.at.address()?);
             let _ = writeln!(out, "family:   {}", identity.protocol);
             for c in &identity.codes {
                 let _ = writeln!(out, "{}: {}", c.name, c.value);

@@ -1,7 +1,7 @@
 //! `driveset pull --port P --address A [--schema S] -o FILE [--changed-only]
 //! [--to toml|yaml]`: read every readable code of a drive into a set file;
 //! without a schema the protocol is probed, and a LUSTBUS schema that lacks
-//! facts is learned from the drive first (crate::learning).
+//! facts is learned from the drive first (driveset-engine's `session::open_learning`).
 //!
 //! The file starts with comments naming the port, the address, what the
 //! drive said it is and the fingerprint, and carries the same facts in the
@@ -23,9 +23,9 @@ use serde_json::json;
 
 use super::identify::BusFormat;
 use crate::EXIT_OK;
-use crate::learning;
 use crate::output;
 use crate::port::{self, Fail};
+use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
 
 /// `--to` of `pull`.
@@ -82,15 +82,10 @@ Examples:
   driveset pull --port sim://mc6000?addresses=1 --address 1 -o axis-1.toml
   driveset pull --port /dev/ttyUSB0 --address 3 --schema lenze-tmd -o conveyor-3.yaml --changed-only")]
 pub struct Args {
-    /// The port.
-    #[arg(long)]
-    pub port: String,
-    /// Bus address.
-    #[arg(long)]
-    pub address: u8,
-    /// Schema id or file (default on sim:// ports: the simulated family's).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
+    /// The port, the address, the schema (default: as identify finds it),
+    /// `--allow-family` and learning the schema from the drive.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// The set file to write.
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: PathBuf,
@@ -100,9 +95,6 @@ pub struct Args {
     /// File syntax (default: by the extension; .yaml/.yml YAML, else TOML).
     #[arg(long, value_enum)]
     pub to: Option<PullTo>,
-    /// Pull even if the drive's identity does not fit the schema.
-    #[arg(long)]
-    pub allow_family: bool,
     /// Keep the bus address and line rate codes (roles bus-address,
     /// baud-rate) in the set; by default they are left out, as the line
     /// manifest gives them.
@@ -111,12 +103,6 @@ pub struct Args {
     /// Removed: use --allow-family.
     #[arg(long, hide = true)]
     pub force: bool,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
-    /// Learning the schema from the drive.
-    #[command(flatten)]
-    pub learn: learning::LearnArgs,
     /// The transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
@@ -125,6 +111,22 @@ pub struct Args {
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port.",
+        address: Need::Required,
+        address_help: "Bus address.",
+        schema: SchemaCount::One,
+        schema_help: "Schema id or file (default: the built-in schema of the family the drive answers the read-only probes as).",
+        schemas: true,
+        protocol: Need::Optional,
+        allow_family: true,
+        learn: LearnFlags::All,
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset pull`.
@@ -168,15 +170,9 @@ fn toml_str(s: &str) -> String {
 }
 
 fn pull(args: &Args) -> Result<u8, Fail> {
-    let mut opened = port::open_port_at(&args.port, Some(args.address))?;
+    let address = args.at.address()?;
     // No schema: find the protocol as `scan` does, on every port.
-    let resolved = learning::resolve(
-        &mut opened,
-        args.address,
-        args.schema.as_deref(),
-        None,
-        &args.schemas,
-    )?;
+    let (opened, resolved) = args.at.open_resolved(address)?;
     let (choice, detected) = (resolved.choice, resolved.evidence);
     let format = match args.to {
         Some(PullTo::Yaml) => Format::Yaml,
@@ -198,15 +194,10 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."))
         .to_path_buf();
-    let dir = args.learn.schema_dir.clone().unwrap_or(set_dir.clone());
-    let on = learning::open(
-        opened,
-        choice.schema.clone(),
-        args.address,
-        &args.learn,
-        &args.schemas,
-        Some(&dir),
-    )?;
+    let dir = args.at.learn.schema_dir.clone().unwrap_or(set_dir.clone());
+    let on = args
+        .at
+        .open_learning(opened, choice.schema.clone(), address, Some(dir))?;
     let (mut client, schema, learned) = (on.client, on.schema, on.learned);
     let schema_path = match &learned {
         Some(r) => r.file.clone(),
@@ -219,7 +210,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             eprintln!("{l}");
         }
     }
-    if !args.allow_family
+    if !args.at.allow_family
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
@@ -301,7 +292,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         Some(p) => relative_path(p, &set_dir).display().to_string(),
         None => schema.id.clone(),
     };
-    let title = format!("pulled from {port_name} address {}", args.address);
+    let title = format!("pulled from {port_name} address {}", address);
     let body = export(&pulled.set, &schema, Some(&title), format);
     // export starts with the schema line; replace it by the reference.
     let body = body.split_once('\n').map_or("", |(_, rest)| rest);
@@ -315,7 +306,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let _ = writeln!(
         text,
         "# Pulled by driveset from {port_name} address {}.",
-        args.address
+        address
     );
     let _ = writeln!(
         text,
@@ -361,7 +352,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             text.push_str(head);
             let _ = writeln!(text, "drive:");
             let _ = writeln!(text, "  port: {}", toml_str(&port_name));
-            let _ = writeln!(text, "  address: {}", args.address);
+            let _ = writeln!(text, "  address: {}", address);
             let _ = writeln!(
                 text,
                 "  protocol: {}",
@@ -380,7 +371,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             text.push_str(head);
             let _ = writeln!(text, "[drive]");
             let _ = writeln!(text, "port = {}", toml_str(&port_name));
-            let _ = writeln!(text, "address = {}", args.address);
+            let _ = writeln!(text, "address = {}", address);
             let _ = writeln!(
                 text,
                 "protocol = {}",
@@ -400,7 +391,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         BusFormat::Json => {
             let doc = json!({
                 "port": port_name,
-                "address": args.address,
+                "address": address,
                 "file": args.output.display().to_string(),
                 "schema": schema.id,
                 "identity": pulled.identity,
@@ -414,7 +405,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 "not_readable": failed.len(),
                 "left_out_bus_codes": bus_codes,
                 "schema_file": schema_path.as_ref().map(|p| p.display().to_string()),
-                "learned": learned.as_ref().map(learning::LearnReport::json),
+                "learned": learned.as_ref().map(session::LearnedReport::json),
                 "detected": detected,
                 "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
             });
@@ -429,7 +420,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 out,
                 "pulled {} values from {port_name} address {} into {} ({:.3} s on the bus)",
                 pulled.set.values.len(),
-                args.address,
+                address,
                 args.output.display(),
                 pulled.elapsed.as_secs_f64()
             );
@@ -476,7 +467,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         for s in &failed {
             eprintln!(
                 "error: {port_name} address {}: {} could not be read: {}",
-                args.address, s.code, s.reason
+                address, s.code, s.reason
             );
         }
         Ok(crate::EXIT_FINDINGS)

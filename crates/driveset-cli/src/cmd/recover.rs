@@ -16,6 +16,7 @@ use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
 use crate::port::{self, Fail};
+use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
 
 /// Arguments of `driveset recover`.
@@ -53,19 +54,10 @@ pub struct Args {
     /// The journal file `driveset upload` wrote.
     #[arg(value_name = "JOURNAL")]
     pub journal: PathBuf,
-    /// The port (default: the journal's).
-    #[arg(long)]
-    pub port: Option<String>,
-    /// The bus address (default: the journal's; another address is refused).
-    #[arg(long)]
-    pub address: Option<u8>,
-    /// Schema id or file (default: the journal's schema, found by the id,
-    /// file and fingerprint it records).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
+    /// The port, the address and the schema (each by default the
+    /// journal's).
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
@@ -79,30 +71,20 @@ fn journal_port(recorded: &str) -> String {
     port::without_run_keys(recorded)
 }
 
-/// The schema to recover with: `--schema`, else the journal's: its id
-/// among the known schemas when one of them has the recorded fingerprint
-/// (a journal without one: the id), else the recorded schema file (the
-/// engine refuses it when its fingerprint differs, naming both).
+/// The schema to recover with: `--schema`, else the journal's (the
+/// engine's [`driveset_engine::session::Catalog::for_journal`]).
 fn journal_schema(
     args: &Args,
     j: &driveset_engine::journal::Journal,
 ) -> Result<port::SchemaChoice, Fail> {
-    if let Some(s) = &args.schema {
-        return port::resolve_schema(Some(s), &args.schemas, None);
-    }
-    let want = j.schema_source.schema_fingerprint.as_deref();
-    let by_id = port::resolve_schema(Some(&j.schema), &args.schemas, None);
-    if let Ok(c) = &by_id
-        && want.is_none_or(|f| f == c.schema.fingerprint)
-    {
-        return by_id;
-    }
-    match &j.schema_source.schema_path {
-        Some(p) if std::path::Path::new(p).is_file() => {
-            port::resolve_schema(Some(p), &args.schemas, None)
-        }
-        _ => by_id,
-    }
+    port::catalog(&args.at.schemas)
+        .for_journal(
+            args.at.schema(),
+            &j.schema,
+            j.schema_source.schema_fingerprint.as_deref(),
+            j.schema_source.schema_path.as_deref(),
+        )
+        .map_err(|e| Fail::input(port::catalog_error(&e)))
 }
 
 /// Put the recovery on the run's record, and close the sessions of this
@@ -165,6 +147,19 @@ fn record(
     crate::history::close_interrupted(&found);
 }
 
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Optional,
+        port_help: "The port (default: the journal's).",
+        address: Need::Optional,
+        address_help: "The bus address (default: the journal's; another address is refused).",
+        schema: SchemaCount::One,
+        schema_help: "Schema id or file (default: the journal's schema, found by the id, file and fingerprint it records).",
+        schemas: true,
+        ..Takes::NONE
+    };
+}
+
 /// Run `driveset recover`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     recover(&args)
@@ -174,6 +169,7 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let jf = JournalFile::open(&args.journal)?;
     let j = &jf.journal;
     let port_text = args
+        .at
         .port
         .clone()
         .unwrap_or_else(|| journal_port(&j.target.port));
@@ -185,19 +181,19 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         let schema = match journal_schema(args, j) {
             Ok(c) => Some(c.schema),
             // a schema the user named must resolve
-            Err(e) if args.schema.is_some() => return Err(e),
+            Err(e) if args.at.schema().is_some() => return Err(e),
             Err(_) => None,
         };
         drop(jf);
         return super::address::recover_journal(
             &args.journal,
             &port_text,
-            &args.schemas,
+            &args.at.schemas,
             schema,
             args.format == BusFormat::Json,
         );
     }
-    let address = args.address.unwrap_or(j.target.address);
+    let address = args.at.address.unwrap_or(j.target.address);
     let json = args.format == BusFormat::Json;
     let state = j.state;
     if j.is_finished() {

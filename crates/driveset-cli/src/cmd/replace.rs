@@ -15,6 +15,7 @@ use driveset_engine::session::Ports;
 use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
+use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
 
 /// Arguments of `driveset replace`.
@@ -55,8 +56,8 @@ pub struct Args {
     #[arg(long, value_name = "NAME")]
     pub drive: String,
     /// The service port the spare is alone on.
-    #[arg(long, value_name = "PORT")]
-    pub port: String,
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Do not ask before writing.
     #[arg(long)]
     pub yes: bool,
@@ -171,6 +172,14 @@ fn question(p: &Prepared, port: &str) -> String {
     )
 }
 
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The service port the spare is alone on.",
+        ..Takes::NONE
+    };
+}
+
 /// Run `driveset replace`.
 pub fn run(args: Args) -> Result<u8, Fail> {
     let overrides = args.allow.overrides()?;
@@ -199,7 +208,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         line_buses: line_bus_ids(&manifest),
         connect: Default::default(),
     };
-    let (mut link, port_name, connect) = open_service_port(&args.port)?;
+    let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;
     let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
     if args.format == Format::Text {

@@ -2,7 +2,6 @@
 //! which drives answer on a bus.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 use driveset_engine::scan::{
     Found, LECOM_BAUDS, LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses,
@@ -14,6 +13,7 @@ use serde_json::json;
 use super::identify::BusFormat;
 use crate::output;
 use crate::port::{self, Fail, ProtocolArg};
+use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_BUS, EXIT_OK};
 use driveset_schema::BusProtocol;
 
@@ -24,7 +24,9 @@ LUSTBUS: an ENQUIRY of 91-TYPE (CODE 00091) to every address 1..30.
 LECOM: a read of C0093 (or the schema's first identification code) to every
 station 01..99 except the group addresses 10, 20 .. 90. CAN SDO: a read of
 the schema's first identification code from every node id 1..127. Any
-answer (a value or a refusal) counts. Nothing is written.
+answer (a value or a refusal) counts. Nothing is written. Without
+--protocol and --schema a character line is scanned as LUSTBUS, then, when
+no LUSTBUS drive answers, as LECOM (a CAN port: CAN SDO), on every port.
 
 --detect-baud tries every line rate, highest first (LUSTBUS 57600..2400,
 LECOM 9600..1200), and reports the first at which a drive answers.
@@ -33,28 +35,33 @@ Exit codes: 0 drives found, 2 usage or input error, 3 bus failure or no
 drive answered.
 
 Examples:
-  driveset scan --port sim://mc6000?addresses=3,7 --protocol lustbus
+  driveset scan --port sim://mc6000?addresses=3,7
   driveset scan --port /dev/ttyUSB0 --protocol lecom --detect-baud
   driveset scan --port slcan:///dev/ttyACM0?bitrate=500000 --protocol sdo --format json")]
 pub struct Args {
-    /// The port.
-    #[arg(long)]
-    pub port: String,
-    /// Family, when --schema does not say it (a CAN port: sdo).
-    #[arg(long, value_enum)]
-    pub protocol: Option<ProtocolArg>,
-    /// Schema id or file (decides the protocol and the probe code).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
+    /// The port, the protocol (or the schema: it decides the protocol and
+    /// the probe code).
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Try every line rate, highest first; report the first that answers.
     #[arg(long)]
     pub detect_baud: bool,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port.",
+        schema: SchemaCount::One,
+        schema_help: "Schema id or file (decides the protocol and the probe code).",
+        schemas: true,
+        protocol: Need::Optional,
+        protocol_help: "Protocol, when --schema does not say it (default: a CAN port sdo; a character line LUSTBUS, then LECOM).",
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset scan`.
@@ -63,38 +70,47 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {
-    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; a
-    // character line must be told (the same on every port).
-    let protocol_arg = match (args.schema.as_deref(), args.protocol) {
-        (None, None) => match port::open_port(&args.port)?.link {
+    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; on a
+    // character line each protocol's addresses are probed in turn (LUSTBUS,
+    // then LECOM) and the one that answers is the line's (the same on every
+    // port).
+    let protocol_arg = match (args.at.schema(), args.at.protocol) {
+        (None, None) => match port::open_port(args.at.port()?)?.link {
             Link::Frames(_) => Some(ProtocolArg(BusProtocol::CanSdo)),
             Link::Bytes(_) => None,
         },
-        _ => args.protocol,
+        _ => args.at.protocol,
     };
-    let choice = port::resolve_schema(args.schema.as_deref(), &args.schemas, protocol_arg)?;
-    let schema = choice.schema;
-    let protocol = protocol_arg.map_or_else(|| schema.family.bus(), |p| p.0);
+    let asked: Vec<BusProtocol> = match protocol_arg {
+        Some(p) => vec![p.0],
+        None if args.at.schema().is_some() => Vec::new(),
+        None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
+    };
+    let choices: Vec<(BusProtocol, std::sync::Arc<driveset_schema::Schema>)> = if asked.is_empty() {
+        let schema = port::resolve_schema(args.at.schema(), &args.at.schemas, None)?.schema;
+        vec![(schema.family.bus(), schema)]
+    } else {
+        let mut v = Vec::new();
+        for p in asked {
+            let schema =
+                port::resolve_schema(args.at.schema(), &args.at.schemas, Some(ProtocolArg(p)))?
+                    .schema;
+            v.push((p, schema));
+        }
+        v
+    };
     // the port's ?latency=: each probe waits what the clients allow it
     let opts = ScanOptions::behind(
-        driveset_link::PortSpec::parse(&args.port)
+        driveset_link::PortSpec::parse(args.at.port()?)
             .ok()
             .and_then(|p| p.latency()),
     );
     let mut baud_found = None;
     let mut other_rate: Option<u32> = None;
+    let mut protocol = choices[0].0;
     let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
-        let rates: &[u32] = match protocol {
-            BusProtocol::Lustbus => &LUSTBUS_BAUDS,
-            BusProtocol::Lecom => &LECOM_BAUDS,
-            BusProtocol::CanSdo => {
-                return Err(Fail::input(
-                    "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
-                ));
-            }
-        };
         // Opened once to check the port string and the protocol; each rate reopens it.
-        let first = port::open_port(&args.port)?;
+        let first = port::open_port(args.at.port()?)?;
         if matches!(first.link, Link::Frames(_)) {
             return Err(Fail::input(format!(
                 "{} is a CAN port; --detect-baud is for serial lines",
@@ -120,29 +136,59 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 }),
             }
         };
-        let schema2 = schema.clone();
-        let mut line_scan = |link: &mut dyn ByteLink| match protocol {
-            BusProtocol::Lecom => scan_lecom(link, Some(&schema2), &lecom_addresses(), &opts),
-            _ => scan_lustbus(link, &lustbus_addresses(), &opts),
-        };
-        match detect_baud(rates, &mut reopen, &mut line_scan)? {
-            Some(b) => {
+        let mut result = (name.clone(), Vec::new());
+        for (p, schema) in &choices {
+            let rates: &[u32] = match p {
+                BusProtocol::Lustbus => &LUSTBUS_BAUDS,
+                BusProtocol::Lecom => &LECOM_BAUDS,
+                BusProtocol::CanSdo => {
+                    return Err(Fail::input(
+                        "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
+                    ));
+                }
+            };
+            let mut line_scan = |link: &mut dyn ByteLink| match p {
+                BusProtocol::Lecom => scan_lecom(link, Some(schema), &lecom_addresses(), &opts),
+                _ => scan_lustbus(link, &lustbus_addresses(), &opts),
+            };
+            if let Some(b) = detect_baud(rates, &mut reopen, &mut line_scan)? {
                 baud_found = Some(b.baud);
-                (name, b.found)
+                protocol = *p;
+                result = (name, b.found);
+                break;
             }
-            None => (name, Vec::new()),
         }
+        result
     } else {
-        let opened = port::open_port(&args.port)?;
+        let opened = port::open_port(args.at.port()?)?;
         let name = opened.name.clone();
-        let found = match (opened.link, protocol) {
-            (Link::Bytes(mut l), BusProtocol::Lustbus) => {
-                let mut found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
+        let found = match opened.link {
+            Link::Bytes(mut l) => {
+                let mut found = Vec::new();
+                for (p, schema) in &choices {
+                    found = match p {
+                        BusProtocol::Lustbus => {
+                            scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
+                        }
+                        BusProtocol::Lecom => {
+                            scan_lecom(l.as_mut(), Some(schema), &lecom_addresses(), &opts)?
+                        }
+                        BusProtocol::CanSdo => {
+                            return Err(Fail::input(format!(
+                                "{name} is a character line: scan it with --protocol lustbus or lecom"
+                            )));
+                        }
+                    };
+                    if !found.is_empty() {
+                        protocol = *p;
+                        break;
+                    }
+                }
                 // Nobody at the port's rate: a servo may have been left at
                 // a transfer rate (--transfer-baud); LUSTBUS 5.1 tries every
                 // rate, on the same port (a port that cannot change its
                 // rate stops the search).
-                if found.is_empty() {
+                if found.is_empty() && choices.iter().any(|(p, _)| *p == BusProtocol::Lustbus) {
                     let here = l.baud();
                     for r in LUSTBUS_BAUDS.iter().copied().filter(|r| *r != here) {
                         if l.set_baud(r).is_err() {
@@ -150,6 +196,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                         }
                         found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
                         if !found.is_empty() {
+                            protocol = BusProtocol::Lustbus;
                             baud_found = Some(r);
                             other_rate = Some(here);
                             break;
@@ -158,39 +205,42 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 }
                 found
             }
-            (Link::Bytes(mut l), BusProtocol::Lecom) => {
-                scan_lecom(l.as_mut(), Some(&schema), &lecom_addresses(), &opts)?
-            }
-            (Link::Frames(mut l), BusProtocol::CanSdo) => {
+            Link::Frames(mut l) => {
+                if protocol != BusProtocol::CanSdo {
+                    return Err(Fail::input(format!(
+                        "{name} is a CAN port: scan it with --protocol sdo"
+                    )));
+                }
+                let schema = &choices[0].1;
                 let s = if schema.family.bus() == BusProtocol::CanSdo {
                     schema.clone()
                 } else {
                     port::resolve_schema(
                         None,
-                        &args.schemas,
+                        &args.at.schemas,
                         Some(ProtocolArg(BusProtocol::CanSdo)),
                     )?
                     .schema
                 };
                 scan_can(l.as_mut(), &s, &can_nodes(), &opts)?
             }
-            (Link::Frames(_), _) => {
-                return Err(Fail::input(format!(
-                    "{name} is a CAN port: scan it with --protocol sdo"
-                )));
-            }
-            (Link::Bytes(_), BusProtocol::CanSdo) => {
-                return Err(Fail::input(format!(
-                    "{name} is a character line: scan it with --protocol lustbus or lecom"
-                )));
-            }
         };
         (name, found)
     };
-    let range = match protocol {
+    let range_of = |p: BusProtocol| match p {
         BusProtocol::Lustbus => "LUSTBUS addresses 1..30",
         BusProtocol::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
         BusProtocol::CanSdo => "CAN node ids 1..127",
+    };
+    // nothing found on a line whose protocol was not given: every range probed
+    let range = if found.is_empty() {
+        choices
+            .iter()
+            .map(|(p, _)| range_of(*p))
+            .collect::<Vec<_>>()
+            .join(", then ")
+    } else {
+        range_of(protocol).to_string()
     };
     match args.format {
         BusFormat::Json => {

@@ -17,9 +17,9 @@ use serde_json::json;
 
 use super::identify::BusFormat;
 use crate::EXIT_OK;
-use crate::learning;
 use crate::output;
 use crate::port::{self, Fail};
+use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
 /// Arguments of `driveset schema pull`.
 #[derive(clap::Args)]
@@ -54,12 +54,9 @@ Examples:
   driveset schema pull --port 'sim://mc6000?layout=43&types=table' --address 1 -o mc-43.toml
   driveset schema pull --port /dev/ttyUSB0 --address 2 --family vf1000 -o vf1000-live.toml")]
 pub struct Args {
-    /// The port.
-    #[arg(long)]
-    pub port: String,
-    /// Bus address (1..30).
-    #[arg(long)]
-    pub address: u8,
+    /// The port, the address and how the descriptions read.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// The drive family (decides the description format; default: probed).
     #[arg(long, value_enum)]
     pub family: Option<crate::args::LustFamilyArg>,
@@ -73,15 +70,20 @@ pub struct Args {
     /// The schema id to write (default `pulled-<family>-<address>`).
     #[arg(long)]
     pub id: Option<String>,
-    /// MC6000/7000: the description layout (default: by length and content).
-    #[arg(long, value_name = "52|43|42|34")]
-    pub description_layout: Option<String>,
-    /// MC6000/7000: the type-character reading: driveset, table or CHAR=TYPE,...
-    #[arg(long, value_name = "READING")]
-    pub type_chars: Option<String>,
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port.",
+        address: Need::Required,
+        address_help: "Bus address (1..30).",
+        learn: LearnFlags::Reading,
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset schema pull`.
@@ -105,41 +107,38 @@ pub fn parse_params(text: &str, max: u32) -> Result<Vec<u32>, String> {
 }
 
 fn schema_pull(args: &Args) -> Result<u8, Fail> {
-    let learn_args = learning::LearnArgs {
-        description_layout: args.description_layout.clone(),
-        type_chars: args.type_chars.clone(),
-        ..learning::LearnArgs::default()
-    };
-    let mut opts = learn_args.options()?;
-    let mut opened = port::open_port_at(&args.port, Some(args.address))?;
+    let address = args.at.address()?;
+    let mut opts = args.at.learn.options()?;
     // the drive's family by the read-only probes (an MC answers its own
     // CODE form of 91-TYPE, a VF1000 NAKs it), on every port; --family
     // names what the user expects, and another family answering is
     // identify's finding (exit 1), nothing written
-    let found = learning::resolve(&mut opened, args.address, None, None, &[])?;
-    let base = match args.family {
-        Some(f) if f.0 != found.choice.schema.family => {
-            return Err(Fail {
-                code: crate::EXIT_FINDINGS,
-                msg: format!(
-                    "{} address {}: the drive answers as {} ({}), not {}; nothing written (give --family {} or leave it out)",
-                    opened.name,
-                    args.address,
-                    found.choice.schema.family.descriptor().title,
-                    found.evidence.unwrap_or_default(),
-                    f.0.descriptor().title,
-                    found.choice.schema.family.name()
-                ),
-            });
-        }
-        _ => found.choice.schema,
-    };
+    let (opened, found) = args.at.open_resolved(address)?;
+    let other = args.family.and_then(|f| {
+        driveset_engine::identify::other_family(
+            found.choice.schema.family,
+            found.evidence.as_deref().unwrap_or_default(),
+            f.0,
+        )
+    });
+    if let Some(other) = other {
+        return Err(Fail {
+            code: crate::EXIT_FINDINGS,
+            msg: format!(
+                "{} address {}: {other}; nothing written (give --family {} or leave it out)",
+                opened.name,
+                address,
+                found.choice.schema.family.name()
+            ),
+        });
+    }
+    let base = found.choice.schema;
     let family_name = base.family.name();
     let Some(max_param) = max_parameter(base.family) else {
         return Err(Fail::input(format!(
             "{} address {}: the drive speaks {}; schema pull reads LUSTBUS descriptions (VF1000, MC6000/7000)",
             opened.name,
-            args.address,
+            address,
             port::protocol_name(base.family)
         )));
     };
@@ -153,30 +152,28 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     opts.params = Some(params.clone());
     port::check_fit(&opened, &base)?;
     let port_name = opened.name.clone();
-    let mut client = Session::lustbus(opened, base.clone(), args.address)?;
+    let mut client = Session::lustbus(opened, base.clone(), address)?;
     let id = args
         .id
         .clone()
-        .unwrap_or_else(|| format!("pulled-{family_name}-{}", args.address));
+        .unwrap_or_else(|| format!("pulled-{family_name}-{}", address));
     let registry = port::registry(&[])?;
     let pulled = pull_schema(
         &mut client,
         &base,
         &opts,
         Some(&id),
-        format!("{port_name} address {}", args.address),
+        format!("{port_name} address {}", address),
         &registry,
     )
     .map_err(|e| match e {
         PullSchemaError::Engine(e) => Fail::from(e),
-        PullSchemaError::Render(e) => {
-            Fail::bus(format!("{port_name} address {}: {e}", args.address))
-        }
+        PullSchemaError::Render(e) => Fail::bus(format!("{port_name} address {}: {e}", address)),
     })?;
     let (rendered, learned) = (pulled.rendered, pulled.learned);
     crate::files::write_output("-o", &args.output, rendered.text.as_bytes())?;
 
-    let report = learning::LearnReport {
+    let report = driveset_engine::session::LearnSummary {
         id: id.clone(),
         file: Some(args.output.clone()),
         base: base.id.clone(),
@@ -187,7 +184,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         BusFormat::Json => {
             let mut doc = report.json();
             doc["port"] = json!(port_name);
-            doc["address"] = json!(args.address);
+            doc["address"] = json!(address);
             doc["family"] = json!(family_name);
             output::emit(&format!(
                 "{}\n",
@@ -201,7 +198,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
                 "pulled {} parameter descriptions ({} substitution texts) from {port_name} address {} into {} (schema id {id})",
                 rendered.codes,
                 report.learned.texts_read,
-                args.address,
+                address,
                 args.output.display()
             );
             let _ = writeln!(

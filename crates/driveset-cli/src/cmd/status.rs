@@ -49,7 +49,7 @@ pub struct Args {
     pub report_dir: Option<PathBuf>,
     /// Learning the schema of drives whose set's schema lacks facts.
     #[command(flatten)]
-    pub learn: crate::learning::LearnArgs,
+    pub learn: crate::port_args::LearnArgs,
 }
 
 /// Run `driveset status`.

@@ -32,7 +32,8 @@ use driveset_sim::open::{SimConfig, open_sim_with};
 use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace, load_file};
 
 use crate::fail::Fail;
-use crate::{EXIT_OK, learning, port};
+use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
+use crate::{EXIT_OK, port};
 
 /// The `command` of a rehearsal's report (report.json; the HTML title
 /// then says rehearsal).
@@ -75,21 +76,26 @@ Examples:
   driveset twin capture --port /dev/ttyUSB0 --address 3 -o conveyor-3.twin.toml
   driveset twin capture --port 'sim://tmd?c0001=3' --address 4 -o t.twin.toml")]
 pub struct CaptureArgs {
-    /// Port (as `pull --port`).
-    #[arg(long, value_name = "PORT")]
-    pub port: String,
-    /// The drive's address.
-    #[arg(long, value_name = "N")]
-    pub address: u8,
-    /// Schema id or file (default: as `pull` finds it).
-    #[arg(long, value_name = "ID|PATH")]
-    pub schema: Option<String>,
-    /// Load every *.toml schema of DIR in addition to the built-in ones.
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
+    /// The port, the address and the schema (as `pull` takes them).
+    #[command(flatten)]
+    pub at: Port<CaptureArgs>,
     /// The twin file to write (NAME.twin.toml).
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: PathBuf,
+}
+
+impl PortCommand for CaptureArgs {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "Port (as `pull --port`).",
+        address: Need::Required,
+        address_help: "The drive's address.",
+        schema: SchemaCount::One,
+        schema_help: "Schema id or file (default: as `pull` finds it).",
+        schemas: true,
+        protocol: Need::Optional,
+        ..Takes::NONE
+    };
 }
 
 /// `driveset twin capture-line`.
@@ -163,12 +169,9 @@ pub fn run(c: TwinCommand) -> Result<u8, Fail> {
 fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
     // a FIFO or device as -o is refused before the port is opened
     crate::files::check_output("-o", &a.output)?;
-    let (twin, schema) = capture_drive(&a.port, a.address, |opened| {
-        Ok(
-            learning::resolve(opened, a.address, a.schema.as_deref(), None, &a.schemas)?
-                .choice
-                .schema,
-        )
+    let address = a.at.address()?;
+    let (twin, schema) = capture_drive(a.at.port()?, address, |opened| {
+        Ok(a.at.resolve(opened, address)?.choice.schema)
     })?;
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");

@@ -35,6 +35,7 @@ use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
 use crate::port::Fail;
+use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 use crate::progress::Progress;
 
 /// The journal directory used when neither --journal nor --journal-dir is given.
@@ -99,13 +100,10 @@ pub struct Args {
     /// The set file.
     #[arg(value_name = "SET")]
     pub set: PathBuf,
-    /// The port.
-    #[arg(long)]
-    pub port: String,
-    /// Bus address (default: the set's [drive] address is NOT used; give it).
-    #[allow(rustdoc::broken_intra_doc_links)] // clap's help text, printed as written
-    #[arg(long)]
-    pub address: u8,
+    /// The port, the address and learning the schema from the drive
+    /// where the set's lacks facts.
+    #[command(flatten)]
+    pub at: Port<Args>,
     /// Print the plan; write nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -121,15 +119,22 @@ pub struct Args {
     /// Directory for the journal (file name from port and address).
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
-    /// Load every *.toml schema of DIR in addition to the built-in ones (repeatable).
-    #[arg(long = "schemas", value_name = "DIR")]
-    pub schemas: Vec<PathBuf>,
-    /// Learning the schema from the drive where the set's lacks facts.
-    #[command(flatten)]
-    pub learn: crate::learning::LearnArgs,
     /// Output format.
     #[arg(long, value_enum, default_value = "human")]
     pub format: BusFormat,
+}
+
+impl PortCommand for Args {
+    const TAKES: Takes = Takes {
+        port: Need::Required,
+        port_help: "The port.",
+        address: Need::Required,
+        address_help: "Bus address (the set's [drive] address is NOT used; give it).",
+        schemas: true,
+        // --allow-family is one of the named overrides (`AllowArgs`)
+        learn: LearnFlags::All,
+        ..Takes::NONE
+    };
 }
 
 /// Run `driveset upload`.
@@ -145,15 +150,9 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
-    let on = crate::learning::set_on_drive(
-        &args.set,
-        &args.schemas,
-        &args.port,
-        args.address,
-        &args.learn,
-        "not uploaded",
-    )?;
-    let (set, port_name, mut client) = (on.set, on.port_name, on.client);
+    let address = args.at.address()?;
+    let on = args.at.set_on_drive(&args.set, address, "not uploaded")?;
+    let (set, port_name, mut client) = (on.set, on.session.port, on.session.client);
     let json = args.format == BusFormat::Json;
 
     let transfer = args.transfer.request(&overrides);
@@ -167,7 +166,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         let dry = result?;
         let of = Subject {
             port: port_name,
-            address: args.address,
+            address,
             set: args.set.display().to_string(),
         };
         if json {
@@ -200,7 +199,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     )?;
     let slot = Slot {
         bus: port_name.clone(),
-        address: args.address,
+        address,
         ..Slot::default()
     };
     let schema = client.schema().clone();

@@ -270,7 +270,7 @@ pub trait DriveClient: Send {
     /// device confirms the SDO download once it has stored, so the
     /// acknowledgement is the completion); a client whose answers are
     /// awaited on its own timeout waits up to `command.timeout` for this
-    /// one ([`CanClient`](crate::client::CanClient) does).
+    /// one (`CanClient` does).
     fn store(&mut self, command: &StoreCommand) -> Result<(), EngineError> {
         self.write_named(
             CodeKey::new(command.code),

@@ -161,13 +161,14 @@ fn a_clean_mc6000_line_answers_at_its_rate_only_and_nothing_is_written() {
     assert_eq!(
         r.rates[3].result,
         ProbeResult::Answer {
-            value: "0000".into()
+            // the simulated MC6000's 91-TYPE, 6000
+            value: "1770".into()
         }
     );
     assert!(!matches!(r.rates[0].result, ProbeResult::Answer { .. }));
     let rt = r.round_trips.clone().expect("round trips");
     assert_eq!((rt.baud, rt.probes, rt.answered), (19200, 20, 20));
-    // Request `EOT A 00091 ENQ` (8) + answer `A STX 00091=0000 ETX
+    // Request `EOT A 00091 ENQ` (8) + answer `A STX 00091=1770 ETX
     // BCC` (14) characters, 10 bits each, at 19200 baud.
     assert_eq!(rt.wire_us, 11_458);
     assert!(rt.min_us > rt.wire_us, "{rt:?}");
@@ -217,7 +218,7 @@ fn echo_and_parity_in_bit_7_are_found_and_explained() {
     assert!(r.echo.echo);
     assert_eq!(r.echo.echoed, r.echo.exchanges);
     assert_eq!(r.round_trips.as_ref().map(|t| t.answered), Some(20));
-    // 21 answers of 14 bytes: `@ STX 00091=0000 ETX BCC`.
+    // 21 answers of 14 bytes: `@ STX 00091=1770 ETX BCC`.
     assert_eq!(r.parity.bytes, 21 * 14);
     assert!(r.parity.read_as_8_bits);
     assert_eq!(r.parity.odd_weight, 0);

@@ -157,16 +157,67 @@ impl Catalog {
         }
     }
 
+    /// The schema `recover` finishes a journal with: `named` (`--schema`),
+    /// else the journal's: its id `id` among the known schemas when one of
+    /// them has the recorded `fingerprint` (a journal without one: the
+    /// id), else the recorded schema file `path` when it is a file (the
+    /// engine refuses it when its fingerprint differs, naming both), else
+    /// what the id gives.
+    pub fn for_journal(
+        &self,
+        named: Option<&str>,
+        id: &str,
+        fingerprint: Option<&str>,
+        path: Option<&str>,
+    ) -> Result<SchemaChoice, CatalogError> {
+        if let Some(s) = named {
+            return self.named(s);
+        }
+        let by_id = self.named(id);
+        if let Ok(c) = &by_id
+            && fingerprint.is_none_or(|f| f == c.schema.fingerprint)
+        {
+            return by_id;
+        }
+        match path {
+            Some(p) if Path::new(p).is_file() => self.named(p),
+            _ => by_id,
+        }
+    }
+
     /// The schema a command on the drive at `address` of `port` talks
-    /// with: [`Catalog::chosen`], else the built-in schema of the family the
-    /// drive answers the read-only probes as ([`super::detect`]; on a CAN
-    /// port, the one family that speaks CAN). The same on every port.
+    /// with: [`Catalog::chosen`] (a protocol of several families: the
+    /// family of the drive, by the probes below), else the built-in schema
+    /// of the family the drive answers the read-only probes as
+    /// ([`super::detect`]; on a CAN port, the one family that speaks CAN).
+    /// The same on every port; the one rule every command's schema comes
+    /// from (docs/architecture.md, "One path from a port to a drive").
     pub fn resolve(
         &self,
         port: &mut OpenedPort,
         address: u8,
         ask: SchemaAsk<'_>,
     ) -> Result<Resolved, SessionError> {
+        // `--protocol` of several families (LUSTBUS: MC6000/7000 or
+        // VF1000), no schema named: the family by the same probes (an MC
+        // answers its own CODE form of 91-TYPE, a VF1000 NAKs it); when
+        // the drive speaks another protocol, the protocol's first family
+        // as named (identify then says the drive is not of it)
+        if ask.schema.is_none()
+            && let Some(p) = ask.protocol
+            && p.families().nth(1).is_some()
+            && let Ok((family, evidence)) =
+                super::detect(&mut port.link, &port.name, address, port.connect.latency)
+            && family.bus() == p
+        {
+            return Ok(Resolved {
+                choice: SchemaChoice {
+                    schema: self.builtin(family)?,
+                    path: None,
+                },
+                evidence: Some(evidence),
+            });
+        }
         if let Some(choice) = self.chosen(ask)? {
             return Ok(Resolved {
                 choice,

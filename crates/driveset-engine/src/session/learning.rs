@@ -41,6 +41,106 @@ pub struct LearnedReport {
     pub learned: Learned,
 }
 
+impl LearnedReport {
+    /// What [`LearnSummary::lines`] and [`LearnSummary::json`] render of it.
+    pub fn summary(&self) -> LearnSummary {
+        LearnSummary {
+            id: self.id.clone(),
+            file: self.file.clone(),
+            base: self.base.clone(),
+            codes: self.codes,
+            learned: self.learned.clone(),
+        }
+    }
+
+    /// [`LearnSummary::lines`] of this report.
+    pub fn lines(&self) -> Vec<String> {
+        self.summary().lines()
+    }
+
+    /// [`LearnSummary::json`] of this report.
+    pub fn json(&self) -> serde_json::Value {
+        self.summary().json()
+    }
+}
+
+/// What learning did, as reports show it (a session's learning, or
+/// `schema pull`'s file).
+#[derive(Debug, Clone)]
+pub struct LearnSummary {
+    /// The learned schema's id.
+    pub id: String,
+    /// The file written, if any.
+    pub file: Option<PathBuf>,
+    /// The base schema's id.
+    pub base: String,
+    /// Codes learned (in the file).
+    pub codes: usize,
+    /// What was read and how it was interpreted.
+    pub learned: Learned,
+}
+
+impl LearnSummary {
+    /// One line per finding, for stderr / human output: what was learned
+    /// (codes, the file, the description layout and type characters),
+    /// then each place the drive disagrees with the base schema.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let layouts: Vec<&str> = self.learned.layouts.iter().map(|l| l.name()).collect();
+        out.push(format!(
+            "learned schema {} from the drive's descriptions: {} codes{}{}{}",
+            self.id,
+            self.codes,
+            self.file
+                .as_ref()
+                .map_or_else(String::new, |f| format!(", written to {}", f.display())),
+            if layouts.is_empty() {
+                String::new()
+            } else {
+                format!(", description layout {}", layouts.join("/"))
+            },
+            self.learned
+                .type_chars
+                .as_ref()
+                .map_or_else(String::new, |t| format!(
+                    ", type characters {}{}",
+                    t.name(),
+                    if self.learned.type_chars_guessed {
+                        " (guessed)"
+                    } else {
+                        ""
+                    }
+                ))
+        ));
+        for f in &self.learned.findings {
+            if f.action == crate::learn::KEPT_SPEC {
+                // the reason names the code, both facts and the spec
+                out.push(f.reason.clone());
+            } else {
+                out.push(format!("{}: {}: {}", f.code, f.action, f.reason));
+            }
+        }
+        out
+    }
+
+    /// The report as the commands' `--format json` carries it.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "id": self.id,
+            "file": self.file.as_ref().map(|f| f.display().to_string()),
+            "base": self.base,
+            "codes": self.codes,
+            "layouts": self.learned.layouts.iter().map(|l| l.name()).collect::<Vec<_>>(),
+            "type_chars": self.learned.type_chars.as_ref().map(driveset_proto::lustbus::description::McTypeChars::name),
+            "type_chars_guessed": self.learned.type_chars_guessed,
+            "asked": self.learned.asked,
+            "absent": self.learned.absent,
+            "substitution_texts": self.learned.texts_read,
+            "findings": self.learned.findings,
+        })
+    }
+}
+
 /// Which learning a session does ([`LearnPolicy::step`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum LearnStep {

@@ -22,7 +22,7 @@
 pub mod bus;
 pub mod catalog;
 pub mod learning;
-pub mod lustbus_family;
+pub mod on_drive;
 pub mod open;
 pub mod rate;
 mod reach;
@@ -42,7 +42,8 @@ use crate::scan::{ScanOptions, detect_protocol};
 
 pub use bus::BusSession;
 pub use catalog::{Catalog, CatalogError, Resolved, SchemaAsk, SchemaChoice};
-pub use learning::{LearnStep, LearnedReport, learn_on};
+pub use learning::{LearnStep, LearnSummary, LearnedReport, learn_on};
+pub use on_drive::{LearnRequest, SetOnDrive, SetOnDriveError, open_learning, set_on_drive};
 pub use open::{FitError, OpenedPort, PortError, Ports, check_fit, open_port};
 
 /// Learning a LUSTBUS schema that lacks facts from the drive's

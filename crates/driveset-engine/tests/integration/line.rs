@@ -695,8 +695,8 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
         assert!(file.is_file());
         ids.push(ls.id.clone());
     }
-    assert!(ids[0].starts_with("learned-mc6000-type0-d"), "{ids:?}");
-    assert!(ids[1].starts_with("learned-vf1000-type0-d"), "{ids:?}");
+    assert!(ids[0].starts_with("learned-mc6000-type6000-d"), "{ids:?}");
+    assert!(ids[1].starts_with("learned-vf1000-type1000-d"), "{ids:?}");
     let phases: Vec<(&str, &str)> = out.report.buses[0]
         .timeline
         .iter()
