@@ -115,6 +115,23 @@ fn an_eds_with_0x1010_is_stored_and_held_over_a_power_cycle() {
         "{out}"
     );
     assert!(out.contains("\nstore: stored\n"), "{out}");
+    // the state file holds a data sheet's device: a power cycle without
+    // the sheet is refused, naming the option, and changes nothing
+    let before = std::fs::read(&state).unwrap();
+    let (code, _, err) = outcome(
+        driveset_in_with_locks(d)
+            .args(["sim", "--power-cycle", "--state"])
+            .arg(&state),
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(
+        err,
+        format!(
+            "error: --state {}: drive 5 was saved with schema `fictional-valve-store`, not the simulated ecs drives' `fictional-ecs-demo`; power-cycle it as it was served: add --eds FILE (a device from its data sheet) or --twin FILE\n",
+            state.display()
+        )
+    );
+    assert_eq!(std::fs::read(&state).unwrap(), before);
     power_cycle(d, name, &state);
     let (code, text) = diff(d, &set, &p);
     assert_eq!(code, Some(0), "{text}");
