@@ -386,6 +386,20 @@ pub fn poll_store<C: DriveClient + ?Sized>(
     }
 }
 
+/// Wait until the drive has saved the last of `keys` it saves in the
+/// background (MC6000/7000: an EEPROM value is acknowledged once in RAM and
+/// saved to the EEPROM width x 15 ms after, `lustbus-protocol.txt` §3,
+/// §10.2.2, §11.2.1; the client knows until when,
+/// [`DriveClient::ready_for_write`]): the transaction settles, and the
+/// transfer rate's switch back ends, only on what the drive keeps over a
+/// power cycle. Nothing to wait for elsewhere (a VF1000 acknowledges once
+/// stored, §3).
+pub(crate) fn saved(client: &mut dyn DriveClient, keys: impl Iterator<Item = CodeKey>) {
+    if let Some(at) = keys.filter_map(|k| client.ready_for_write(k)).max() {
+        client.clock().sleep_until(at);
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Helpers the protocol clients share (not part of the contract).
 // ---------------------------------------------------------------------------

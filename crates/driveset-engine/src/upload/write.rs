@@ -46,7 +46,7 @@ impl Transaction {
 
     /// Step 7: read back every written code not yet verified (state
     /// `verifying`), wait until the drive has saved its last EEPROM write
-    /// ([`saved`]), store where the schema's drives keep writes only on
+    /// ([`crate::client::saved`]), store where the schema's drives keep writes only on
     /// command ([`Transaction::store`], state `storing`), then `complete`
     /// with the fingerprint of what the drive holds.
     pub fn verify(
@@ -63,7 +63,7 @@ impl Transaction {
             }
             Ok(())
         })?;
-        saved(client, set.values.keys().copied());
+        crate::client::saved(client, set.values.keys().copied());
         self.store(client, set)?;
         let after_fp = self.codes.after(&self.drive.schema, set).fingerprint();
         self.set_state(
@@ -210,18 +210,5 @@ impl Transaction {
                 .step(client.clock(), Step::Verify, done, a.expected.len());
         }
         Ok(())
-    }
-}
-
-/// Wait until the drive has saved the last of `keys` it stores in the
-/// background (MC6000/7000: an EEPROM value is acknowledged once in RAM and
-/// saved to the EEPROM 15 ms a byte after, `lustbus-protocol.txt` §3,
-/// §10.2.2, §11.2.1; the client knows until when, [`DriveClient::ready_for_write`]):
-/// a transaction says `complete` only for what the drive keeps over a power
-/// cycle. Nothing to wait for elsewhere (a VF1000 acknowledges once stored,
-/// §3).
-pub(crate) fn saved(client: &mut dyn DriveClient, keys: impl Iterator<Item = CodeKey>) {
-    if let Some(at) = keys.filter_map(|k| client.ready_for_write(k)).max() {
-        client.clock().sleep_until(at);
     }
 }
