@@ -1,6 +1,6 @@
 //! The schema a bus command talks with when none is given or the given one
 //! lacks facts: finding the drive's protocol by read-only probes
-//! ([`detect`], as `scan` does), and learning the schema from a LUSTBUS
+//! (`session::detect`, as `scan` does), and learning the schema from a LUSTBUS
 //! drive's own descriptions ([`learn`](driveset_engine::learn), driveset-engine's `learn` module)
 //! with the options every such command shares ([`LearnArgs`]).
 

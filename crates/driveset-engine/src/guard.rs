@@ -28,10 +28,10 @@
 //!   family's rates (permit `LINE_RATE`, §4, §11.5, Tmd C0125).
 //!
 //! - **No address, rate or rate activation to a running drive**
-//!   ([`standstill`]): the permits of the writes that change how a drive
+//!   (`standstill`): the permits of the writes that change how a drive
 //!   is reached (`BUS_ADDRESS`, `LINE_RATE`, `ACTIVATE_RATE` as
 //!   `driveset address`, `replace` and `commission --assign` send them,
-//!   `crate::assign`) are made only from a [`Standstill`], the proof that
+//!   `crate::assign`) are made only from a `Standstill`, the proof that
 //!   the drive was asked whether its motor runs and does not (a running
 //!   drive is refused unless `--allow-running`, one whose running state
 //!   cannot be read unless `--allow-running-unknown`: the upload's
@@ -179,7 +179,7 @@ pub enum GuardRefusal {
         value: String,
     },
     /// The drive reports a running motor, and its bus address or line rate
-    /// would be written ([`standstill`]; lifted by `--allow-running`).
+    /// would be written (`standstill`; lifted by `--allow-running`).
     #[error(
         "the drive reports a running motor; driveset changes a drive's bus address or line rate only at standstill: stop it (standstill), or pass {}",
         Override::AllowRunning
@@ -187,7 +187,7 @@ pub enum GuardRefusal {
     #[serde(rename = "guard_running")]
     Running,
     /// The drive's running state cannot be read, and its bus address or
-    /// line rate would be written ([`standstill`]; lifted by
+    /// line rate would be written (`standstill`; lifted by
     /// `--allow-running-unknown`).
     #[error(
         "running state unknown: {why}; driveset changes a drive's bus address or line rate only at standstill: make sure the drive is at standstill, then pass {}",

@@ -17,7 +17,7 @@
 //!    one answer is more than one device on the line: refused; an answer at
 //!    the address asked for from another device: refused ("no address is
 //!    assigned twice", §4.2);
-//! 5. the drive must be at standstill ([`crate::guard::standstill`]: a
+//! 5. the drive must be at standstill (`crate::guard::standstill`: a
 //!    running motor is refused unless `--allow-running`, an unknown
 //!    running state unless `--allow-running-unknown`), asked while the
 //!    plan reads and again before the first write;
@@ -126,7 +126,7 @@ pub struct AssignRequest {
     pub alone: bool,
     /// The named overrides of the running rule (`--allow-running`,
     /// `--allow-running-unknown`): no address or rate is written to a
-    /// running drive otherwise ([`crate::guard::standstill`]).
+    /// running drive otherwise (`crate::guard::standstill`).
     pub overrides: Overrides,
 }
 

@@ -271,7 +271,7 @@ pub trait DriveClient: Send {
     /// stored (CiA 301 0x1010: the device confirms the SDO download once it
     /// has stored, so the acknowledgement is the completion); a client
     /// whose answers are awaited on its own timeout waits up to
-    /// `command.timeout` for this one ([`CanClient`](crate::client::CanClient)
+    /// `command.timeout` for this one ([`CanClient`]
     /// does).
     fn store(&mut self, command: &StoreCommand) -> Result<(), EngineError> {
         let sent = self.clock().now();

@@ -115,7 +115,7 @@ pub struct AssignLineOptions {
     /// Drive (or bus) names to do; empty: all.
     pub only: Vec<String>,
     /// The running rule's overrides (`--allow-running`,
-    /// `--allow-running-unknown`, [`crate::guard::standstill`]).
+    /// `--allow-running-unknown`, `crate::guard::standstill`).
     pub overrides: crate::overrides::Overrides,
 }
 

@@ -46,7 +46,7 @@ impl Transaction {
 
     /// Step 7: read back every written code not yet verified (state
     /// `verifying`), wait until the drive has saved its last EEPROM write
-    /// ([`crate::client::saved`]), store where the schema's drives keep writes only on
+    /// (`crate::client::saved`), store where the schema's drives keep writes only on
     /// command ([`Transaction::store`], state `storing`), then `complete`
     /// with the fingerprint of what the drive holds.
     pub fn verify(
