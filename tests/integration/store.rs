@@ -188,17 +188,35 @@ fn a_set_holding_a_ram_code_is_a_validate_finding_naming_its_source() {
     assert_eq!(code, Some(1), "{text}");
     assert!(
         text.contains(
-            "error[ram-code]: 83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off, so the set would not survive a power cycle\n"
+            "error[ram-code]: 83-SIOW is a RAM control value (kind ram-control, lustbus-protocol.txt §5.2): the drive loses it at power off (lustbus-protocol.txt §11.1: RAM control sizes (kinds '0', '4') \"lose their values on power down\"), so the set would not survive a power cycle\n"
         ),
         "{text}"
     );
     assert!(
         text.contains(
-            "error[ram-code]: 27-OVRD is a RAM control value (kind ram-control, fictional)"
+            "error[ram-code]: 27-OVRD is a RAM control value (kind ram-control, fictional): the drive loses it at power off (lustbus-protocol.txt §11.1: RAM control sizes (kinds '0', '4') \"lose their values on power down\"), so the set would not survive a power cycle\n"
         ),
         "{text}"
     );
     assert!(text.contains("2 findings in 1 of 1 file"), "{text}");
+
+    // an MC6000's RAM control value: the section is §11.2.1's
+    let mc = dir.path().join("axis.toml");
+    let schema = workspace_root().join("parameter-sets/fixtures/fictional-mc6000-demo.toml");
+    std::fs::write(
+        &mc,
+        format!("schema = \"{}\"\n\n[values]\nSCOPE = 1\n", schema.display()),
+    )
+    .unwrap();
+    let (code, out, err) = outcome(driveset_in_with_locks(dir.path()).arg("validate").arg(&mc));
+    let text = format!("{out}{err}");
+    assert_eq!(code, Some(1), "{text}");
+    assert!(
+        text.contains(
+            "error[ram-code]: 705-SCOPE is a RAM control value (kind ram-control, fictional): the drive loses it at power off (lustbus-protocol.txt §11.2.1: RAM control values \"lose their values on power down\"), so the set would not survive a power cycle\n"
+        ),
+        "{text}"
+    );
 }
 
 #[test]

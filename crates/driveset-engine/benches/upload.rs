@@ -36,7 +36,10 @@
 //!    SIOF/SERR read LUSTBUS forces before the first SELECT (power-on bit),
 //!    one SELECT per code that differs, one verification read per code
 //!    written, and on the MC6000 the SLOAD handshake (SLOAD = -1, SLOAD =
-//!    -2, one poll that reads 0). That is `N` exchanges. Not counted: the
+//!    -2, one poll that reads 0); for a drive whose schema keeps writes only
+//!    on command (the ECS demo fixture), on every run, the store command and
+//!    one read of every code of the set after it (`bound::store_exchanges`,
+//!    docs/file-formats.md "The store step"). That is `N` exchanges. Not counted: the
 //!    engine's running-motor check, retries, extra SLOAD polls, NAKed
 //!    SELECTs, lone EOTs, journal I/O (no virtual time).
 //! 2. **Cost of an exchange** = from the first character (frame) of the
@@ -82,7 +85,8 @@
 //!    switch): the SIOF/SERR read before the first SELECT (§6: a set
 //!    power-on bit blocks every change), at the rate of that SELECT; one
 //!    SELECT per code that differs and one verification read of it; on the
-//!    MC6000 SLOAD = -1, SLOAD = -2 and one poll. With a transfer rate:
+//!    MC6000 SLOAD = -1, SLOAD = -2 and one poll; on the ECS (demo fixture)
+//!    the store step's command and its read of every code. With a transfer rate:
 //!    81-SBAUD = RATE and 4-PROG = 111 at the old rate, 81-SBAUD = old and
 //!    4-PROG = 111 at RATE (confirmation reads and the EEPROM restore of
 //!    81 are this client's choice, not required). Not counted: the running

@@ -202,6 +202,12 @@ pub struct Descriptor {
     /// `lecom-ab-tmd-manual.txt` §4e, §4f): `driveset address` reads it
     /// before writing an address.
     pub bus_write: Option<BusWriteSource>,
+    /// Where the family's spec says a RAM value is lost at power down (the
+    /// section that defines its storage kinds), cited by the `ram-code`
+    /// finding ([`crate::schema::ram_note`]): LUSTBUS §11.1 (VF1000 kinds
+    /// '0' / '4') and §11.2.1 (MC6000/7000 "RAM control value"); `None`
+    /// where the family's codes have no storage kinds (Tmd, ECS).
+    pub ram_loss: Option<&'static str>,
 }
 
 /// The code that says where a drive takes its parameter writes from, and

@@ -125,6 +125,11 @@ enum Sload {
 pub struct Mc6000 {
     core: LustCore,
     eeprom_busy_until: Option<Instant>,
+    /// The EEPROM value being saved in the background and the value its
+    /// EEPROM held before (§3, §11.2.1: RAM first, the EEPROM "only as a
+    /// backup"): a power cycle before `eeprom_busy_until` comes back with
+    /// the old one, as the start copies EEPROM into RAM.
+    saving: Option<(CodeKey, Option<i64>)>,
     sload: Sload,
 }
 
@@ -135,6 +140,7 @@ impl Mc6000 {
         Ok(Mc6000 {
             core: LustCore::new(Family::Mc6000, &opts, default)?,
             eeprom_busy_until: None,
+            saving: None,
             sload: Sload::Idle,
         })
     }
@@ -356,6 +362,7 @@ impl LustModel for Mc6000 {
                 self.core.load_factory();
                 self.sload = Sload::Idle;
                 self.eeprom_busy_until = None;
+                self.saving = None;
                 return Answer::Ack {
                     extra: self.core.factory_reload_time(15),
                 };
@@ -372,6 +379,7 @@ impl LustModel for Mc6000 {
             }
             let store = Duration::from_millis(u64::from(p.byte_width()) * 15);
             self.eeprom_busy_until = Some(now.saturating_add(store));
+            self.saving = Some((CodeKey::new(number), self.core.int(number)));
         }
         self.core.set(CodeKey::new(number), raw);
         if number == SCTL1 {
@@ -381,6 +389,14 @@ impl LustModel for Mc6000 {
     }
 
     fn power_cycle(&mut self, now: Instant, off: Duration) {
+        // a background EEPROM save cut by the power: the EEPROM still
+        // holds the value before it, which the start copies into RAM
+        if let Some((key, before)) = self.saving.take()
+            && self.eeprom_busy_until.is_some_and(|t| now < t)
+            && let Some(before) = before
+        {
+            self.core.set(key, before);
+        }
         self.core.power_cycle(now, off);
         self.sload = Sload::Idle;
         self.eeprom_busy_until = None;

@@ -266,7 +266,21 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
             } else {
                 args.addresses.clone()
             };
-            SimConfig::new(parse_family(&dump.family)?, addresses)
+            let family = parse_family(&dump.family)?;
+            // a data sheet's device or a twin: its drives are not the
+            // family's simulated ones, so they need their own option
+            let own = driveset_sim::catalog::schema(family).map_err(anyhow::Error::msg)?;
+            if let Some(d) = dump.drives.iter().find(|d| d.schema != own.id) {
+                bail!(
+                    "--state {}: drive {} was saved with schema `{}`, not the simulated {} drives' `{}`; power-cycle it as it was served: add --eds FILE (a device from its data sheet) or --twin FILE",
+                    path.display(),
+                    d.address,
+                    d.schema,
+                    dump.family,
+                    own.id
+                );
+            }
+            SimConfig::new(family, addresses)
         }
         (None, None) => bail!("give --family and --address, or --twin FILE"),
     };

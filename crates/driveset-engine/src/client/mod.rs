@@ -265,18 +265,22 @@ pub trait DriveClient: Send {
 
     /// The store step of a schema whose drives keep writes only on command
     /// (`[schema.store] keeps = "on-command"`): its store code written with
-    /// the one value that stores, under the write guard's store permit.
-    /// Returns when the drive has acknowledged it (CiA 301 0x1010: the
-    /// device confirms the SDO download once it has stored, so the
-    /// acknowledgement is the completion); a client whose answers are
-    /// awaited on its own timeout waits up to `command.timeout` for this
-    /// one (`CanClient` does).
+    /// the one value that stores, under the write guard's store permit,
+    /// then, where the schema says what the code reads once stored
+    /// (`done`), polled for it ([`poll_store`]). Returns when the drive has
+    /// stored (CiA 301 0x1010: the device confirms the SDO download once it
+    /// has stored, so the acknowledgement is the completion); a client
+    /// whose answers are awaited on its own timeout waits up to
+    /// `command.timeout` for this one (`CanClient`
+    /// does).
     fn store(&mut self, command: &StoreCommand) -> Result<(), EngineError> {
+        let sent = self.clock().now();
         self.write_named(
             CodeKey::new(command.code),
             &RawValue::Int(command.value),
             Permit::STORE,
-        )
+        )?;
+        poll_store(self, command, sent)
     }
 
     /// The earliest instant a write of `key` will be taken without waiting
@@ -336,6 +340,63 @@ pub trait DriveClient: Send {
     /// [`dataset_or_refuse`], which keeps the refusals' words.
     fn dataset(&mut self) -> Option<&mut dyn DatasetDownload> {
         None
+    }
+}
+
+/// The wait of a store step whose schema gives `done` (`[schema.store]`,
+/// docs/file-formats.md): the store code read every `command.poll` until it
+/// reads `done`, for at most `command.timeout` from `since` (when the store
+/// command was sent). A Lenze device command reports its progress in its own
+/// code and 0 ("off / ready") once executed; CiA 301 0x1010 gives no
+/// progress (no `done`: nothing is read). `Err` when the time runs out,
+/// naming what the code read last.
+pub fn poll_store<C: DriveClient + ?Sized>(
+    client: &mut C,
+    command: &StoreCommand,
+    since: Instant,
+) -> Result<(), EngineError> {
+    let Some(done) = command.done else {
+        return Ok(());
+    };
+    let key = CodeKey::new(command.code);
+    let want = RawValue::Int(done);
+    loop {
+        let got = client.read(key)?;
+        if got == want {
+            return Ok(());
+        }
+        let waited = client.clock().now().saturating_duration_since(since);
+        if waited >= command.timeout {
+            let schema = std::sync::Arc::clone(client.schema());
+            let label = schema.code_label(key);
+            let text = |v: &RawValue| crate::plan::value_text(&schema, key, v);
+            return Err(EngineError::protocol(
+                client.target().clone(),
+                format!("store ({label} = {})", text(&RawValue::Int(command.value))),
+                format!(
+                    "{label} still reads {}, not {} (done), {} ms after the store command: the drive did not finish storing within [schema.store] timeout_ms; do not power it off before it has",
+                    text(&got),
+                    text(&want),
+                    command.timeout.as_millis()
+                ),
+            ));
+        }
+        let left = command.timeout - waited;
+        client.clock().sleep(command.poll.min(left));
+    }
+}
+
+/// Wait until the drive has saved the last of `keys` it saves in the
+/// background (MC6000/7000: an EEPROM value is acknowledged once in RAM and
+/// saved to the EEPROM width x 15 ms after, `lustbus-protocol.txt` §3,
+/// §10.2.2, §11.2.1; the client knows until when,
+/// [`DriveClient::ready_for_write`]): the transaction settles, and the
+/// transfer rate's switch back ends, only on what the drive keeps over a
+/// power cycle. Nothing to wait for elsewhere (a VF1000 acknowledges once
+/// stored, §3).
+pub(crate) fn saved(client: &mut dyn DriveClient, keys: impl Iterator<Item = CodeKey>) {
+    if let Some(at) = keys.filter_map(|k| client.ready_for_write(k)).max() {
+        client.clock().sleep_until(at);
     }
 }
 

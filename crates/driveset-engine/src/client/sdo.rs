@@ -457,13 +457,16 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         // wait the schema's store timeout for it, not a read's
         let usual = self.opts.answer_timeout;
         self.opts.answer_timeout = usual.max(command.timeout);
+        let sent = self.clock().now();
         let r = self.write_named(
             CodeKey::new(command.code),
             &RawValue::Int(command.value),
             Permit::STORE,
         );
         self.opts.answer_timeout = usual;
-        r
+        r?;
+        // a device command reports its progress: read it until done
+        crate::client::poll_store(self, command, sent)
     }
 
     fn read_time(&self, key: CodeKey) -> Duration {

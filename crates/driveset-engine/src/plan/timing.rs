@@ -103,7 +103,8 @@ impl Plan {
     /// dataset (SLOAD -1, staged writes, SLOAD -2, one poll), then the other
     /// writes; before an EEPROM write that would wait, verification reads
     /// of earlier writes that fit in the gap, then the rest of the gap;
-    /// finally the verification reads left over.
+    /// finally the verification reads left over, and what remains of the
+    /// last EEPROM save (the transaction settles only once it is done).
     pub fn estimate(&self, set: &ResolvedSet, client: &dyn DriveClient) -> TimeEstimate {
         let mut est = TimeEstimate::default();
         for k in set.values.keys() {
@@ -153,6 +154,14 @@ impl Plan {
             let r = client.read_time(k);
             est.verify += r;
             t += r;
+        }
+        // the last background EEPROM save, which the transaction waits out
+        // before it settles (MC6000/7000, §3)
+        if let Some(ready) = busy_until
+            && ready > t
+        {
+            est.waits += ready - t;
+            t = ready;
         }
         est.total = t;
         est

@@ -217,6 +217,9 @@ pub(super) fn switch_back_once(
             ));
         }
     }
+    // the rate code is an EEPROM value: back only once the drive has
+    // saved it (a restart before then comes up at the rate it held)
+    crate::client::saved(client, std::iter::once(c.rate));
     let stored = JournalValue::from(&keep);
     let text = stored.to_string();
     rec.stored = Some(stored);

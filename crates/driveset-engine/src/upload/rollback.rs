@@ -283,7 +283,8 @@ impl RollbackPlan {
 ///
 /// Every code is tried even when one fails, so as much of the old set as the
 /// drive takes is back; the first failure is returned and the caller reads
-/// back what each code holds.
+/// back what each code holds. Returns once the drive has saved its last
+/// EEPROM write ([`crate::client::saved`]).
 pub(crate) fn restore(
     client: &mut dyn DriveClient,
     schema: &Schema,
@@ -315,6 +316,9 @@ pub(crate) fn restore(
     {
         first_error.get_or_insert(e);
     }
+    // "rolled back" only once the drive keeps the old values: its last
+    // background EEPROM save done (MC6000/7000, §3)
+    crate::client::saved(client, order.iter().map(|(k, _)| *k));
     match first_error {
         Some(e) => Err(e),
         None => Ok(()),

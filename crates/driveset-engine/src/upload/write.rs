@@ -45,7 +45,8 @@ impl Transaction {
     }
 
     /// Step 7: read back every written code not yet verified (state
-    /// `verifying`), store where the schema's drives keep writes only on
+    /// `verifying`), wait until the drive has saved its last EEPROM write
+    /// (`crate::client::saved`), store where the schema's drives keep writes only on
     /// command ([`Transaction::store`], state `storing`), then `complete`
     /// with the fingerprint of what the drive holds.
     pub fn verify(
@@ -62,6 +63,7 @@ impl Transaction {
             }
             Ok(())
         })?;
+        crate::client::saved(client, set.values.keys().copied());
         self.store(client, set)?;
         let after_fp = self.codes.after(&self.drive.schema, set).fingerprint();
         self.set_state(

@@ -334,3 +334,99 @@ fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
     );
     assert!(log.events().is_empty(), "nothing sent");
 }
+
+/// A schema whose store step is a device command with a readable status
+/// (`[schema.store] done`, as Lenze's 8400 / 9400 C00002 "save start
+/// parameters"): C5990 = 1 (raw 10000, FIX32) stores, C5990 reads 0 once done. FICTIONAL code.
+fn device_command_schema(timeout_ms: u64) -> Arc<Schema> {
+    let text = format!(
+        r#"
+[schema]
+id = "test-ecs-device-command"
+title = "test: the ECS demo storing by a device command"
+extends = "fictional-ecs-demo"
+fictional = true
+
+[schema.store]
+keeps = "on-command"
+code = "save_parameters"
+value = 10000
+done = 0
+poll_ms = 50
+timeout_ms = {timeout_ms}
+spec = "test"
+
+[[code]]
+number = 5990
+name = "save_parameters"
+title = "Save parameters (test device command)"
+spec = "test"
+type = "FIX32"
+role = "command"
+"#
+    );
+    catalog::registry()
+        .unwrap()
+        .add_source(SourceFile::new("test-ecs-device-command.toml", text))
+        .expect("schema")
+}
+
+fn device_command_drive(s: &Arc<Schema>) -> Box<dyn FrameDrive> {
+    let table = ParamTable::from_schema(Arc::clone(s)).expect("table");
+    Box::new(
+        EcsDrive::with_table(NodeId::new(4).unwrap(), table, 1)
+            .with_reaction(ReactionTime::fixed(Duration::from_millis(1))),
+    )
+}
+
+/// The store step waits as its schema says: the acknowledgement, then the
+/// device command's status read every `poll_ms` until it reads `done`
+/// (the simulated store runs `STORE_RUNS`, 300 ms, after it is
+/// acknowledged); the values are stored only then.
+#[test]
+fn a_device_command_store_is_polled_until_done() {
+    let s = device_command_schema(2000);
+    let (clock, log, bus) = sim_can_bus(vec![device_command_drive(&s)], None);
+    let mut c = CanClient::new(bus, Arc::clone(&s), 4).unwrap();
+    c.write(CodeKey::new(5001), &RawValue::Int(25_000_000))
+        .unwrap();
+    let command = s.store.command().expect("on-command").clone();
+    let t0 = clock.now();
+    c.store(&command).unwrap();
+    let waited = clock.now() - t0;
+    assert!(
+        waited >= driveset_sim::ecs::STORE_RUNS
+            && waited < driveset_sim::ecs::STORE_RUNS + Duration::from_millis(60),
+        "{waited:?}"
+    );
+    // the write of C5990 (index 24575 - 5990 = 18585 = 0x4899), then its reads: one
+    // per 50 ms poll while the store runs, the last one 0
+    let reads = log
+        .events()
+        .iter()
+        .filter(|e| e.dir == Dir::Host && e.hex.contains("40 99 48 00"))
+        .count();
+    assert_eq!(reads, 7, "a read at 0, 50, ..., 300 ms");
+    assert_eq!(
+        c.read(CodeKey::new(5990)).unwrap(),
+        RawValue::Int(0),
+        "done"
+    );
+}
+
+/// A store that does not finish within `timeout_ms` fails naming what the
+/// status read last.
+#[test]
+fn a_device_command_store_that_does_not_finish_in_time_fails() {
+    let s = device_command_schema(200);
+    let (_clock, _log, bus) = sim_can_bus(vec![device_command_drive(&s)], None);
+    let mut c = CanClient::new(bus, Arc::clone(&s), 4).unwrap();
+    let command = s.store.command().expect("on-command").clone();
+    let err = c.store(&command).unwrap_err();
+    assert!(
+        err.to_string().ends_with(
+            "unexpected answer to store (C5990 save_parameters = 1): C5990 save_parameters still reads 1, not 0 (done), 200 ms after the store command: the drive did not finish storing within [schema.store] timeout_ms; do not power it off before it has"
+        ),
+        "{err}"
+    );
+}

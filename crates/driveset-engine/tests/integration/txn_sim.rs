@@ -773,3 +773,31 @@ fn a_pulled_cable_is_observed_as_rollback_and_recover_as_read_rollback_verify() 
         [P::Identify, P::Read, P::Rollback, P::Verify]
     );
 }
+
+/// An MC acknowledges an EEPROM value once it is in RAM and saves it to
+/// its EEPROM in the background (`lustbus-protocol.txt` §3: 15 ms a byte;
+/// §11.2.1: the EEPROM "only as a backup", copied into RAM at the start):
+/// an upload says `complete` only once the last save is done, so a power
+/// cycle right after it keeps the set (the simulated MC6000 comes back with
+/// the EEPROM's old value when the power goes during a save).
+#[test]
+fn mc6000_upload_completes_only_after_the_last_background_eeprom_save() {
+    let schema = catalog::schema(Family::Mc6000).expect("schema");
+    // 103-OVLIM: EEPROM, not CardWriteable (no dataset download), width
+    // 2: saved 30 ms after its ACK
+    let ovlim = CodeKey::new(103);
+    let want = RawValue::Int(800);
+    let mut set = ResolvedSet::new(&schema);
+    set.insert(ovlim, want.clone());
+    let dir = tempfile::tempdir().expect("tempdir");
+    let journal = dir.path().join("ovlim.journal.json");
+    let mc = Box::new(Mc6000::new(opts(1)).expect("mc"));
+    let mut c = LustbusClient::new(bus(mc, None), schema, 1).expect("client");
+    let report = upload(&mut c, &set, &UploadOptions::new(&journal)).expect("upload");
+    assert_eq!(report.state, TxnState::Complete);
+    assert_eq!(report.dataset, None);
+    let now = c.clock().now();
+    let drive = c.link_mut().drive_mut(1).expect("drive");
+    drive.power_cycle(now, Duration::from_millis(1));
+    assert_eq!(drive.state().values.get(&ovlim), Some(&want), "kept");
+}

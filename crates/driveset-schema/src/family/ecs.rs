@@ -82,4 +82,5 @@ pub(super) const ECS: Descriptor = Descriptor {
     learning: None,
     broadcast_as_own: false,
     bus_write: None,
+    ram_loss: None,
 };

@@ -97,4 +97,7 @@ pub(super) const MC6000: Descriptor = Descriptor {
     }),
     broadcast_as_own: false,
     bus_write: None,
+    ram_loss: Some(
+        "lustbus-protocol.txt §11.2.1: RAM control values \"lose their values on power down\"",
+    ),
 };

@@ -85,4 +85,5 @@ pub(super) const TMD: Descriptor = Descriptor {
         code: 1,
         writes: &[2, 3],
     }),
+    ram_loss: None,
 };

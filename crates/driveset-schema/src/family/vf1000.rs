@@ -78,4 +78,7 @@ pub(super) const VF1000: Descriptor = Descriptor {
     }),
     broadcast_as_own: true,
     bus_write: None,
+    ram_loss: Some(
+        "lustbus-protocol.txt §11.1: RAM control sizes (kinds '0', '4') \"lose their values on power down\"",
+    ),
 };

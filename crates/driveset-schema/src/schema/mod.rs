@@ -43,7 +43,9 @@ pub use numbers::{
 };
 pub(crate) use numbers::{looks_numeric_key, parse_int_text};
 pub use registry::{BUILTIN_FILES, Registry};
-pub use store::{DEFAULT_STORE_TIMEOUT, Keeping, Store, StoreCommand, ram_note};
+pub use store::{
+    DEFAULT_STORE_POLL, DEFAULT_STORE_TIMEOUT, Keeping, Store, StoreCommand, ram_note,
+};
 
 /// How codes are spelled (`[schema] code_style`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -7,7 +7,9 @@
 //!   docs/errata/lecom.md);
 //! - `on-command`: writes live in RAM until a store command is written (a
 //!   code of the schema, with role `command`, and the one value that
-//!   stores: CiA 301 0x1010 sub 1 = 0x65766173 "save");
+//!   stores: CiA 301 0x1010 sub 1 = 0x65766173 "save"; a Lenze device
+//!   command such as the 8400 / 9400 C00002 "save start parameters",
+//!   whose status is read back until it says done: `done`, `poll_ms`);
 //! - `unknown`: no document says; the upload reports the set "not
 //!   stored: lost at power off".
 //!
@@ -41,8 +43,17 @@ pub struct StoreCommand {
     pub code: u32,
     /// The value that stores (CiA 301: 0x65766173, "save").
     pub value: i64,
-    /// How long the acknowledgement may take (`timeout_ms`).
+    /// How long the store may take (`timeout_ms`): the acknowledgement of
+    /// the write and, with `done`, the polls until the code reads `done`.
     pub timeout: Duration,
+    /// The value the store code reads once the store has finished, where
+    /// the drive reports it (`done`; a Lenze device command reads 0, "off /
+    /// ready", when executed): the store step polls the code for it. `None`
+    /// (CiA 301 0x1010): the acknowledgement is the completion, nothing to
+    /// poll.
+    pub done: Option<i64>,
+    /// How often the store code is read while the store runs (`poll_ms`).
+    pub poll: Duration,
     /// Where `code` is written.
     pub loc: Location,
 }
@@ -61,6 +72,10 @@ pub struct Store {
 /// the devices whose manuals name one.
 pub const DEFAULT_STORE_TIMEOUT: Duration = Duration::from_secs(5);
 
+/// How often a store whose schema gives `done` is polled when the file gives
+/// no `poll_ms`: a tenth of a second, small beside the seconds a store takes.
+pub const DEFAULT_STORE_POLL: Duration = Duration::from_millis(100);
+
 /// How `[schema.store]` was written, before its code is checked against
 /// the schema's codes.
 #[derive(Debug, Clone)]
@@ -70,6 +85,8 @@ pub(super) struct StoreTable {
     code: Option<(CodeRef, Location)>,
     value: Option<(i128, Location)>,
     timeout_ms: Option<u64>,
+    done: Option<(i128, Location)>,
+    poll_ms: Option<u64>,
     at: Location,
 }
 
@@ -106,6 +123,11 @@ impl StoreTable {
             Some(e) => Some((r.int_node(e)?, r.doc.loc(&e.value.span))),
         };
         let timeout_ms = r.uint::<u64>("timeout_ms")?.map(|t| t.0);
+        let done = match r.take("done") {
+            None => None,
+            Some(e) => Some((r.int_node(e)?, r.doc.loc(&e.value.span))),
+        };
+        let poll_ms = r.uint::<u64>("poll_ms")?.map(|t| t.0);
         r.finish()?;
         Ok(StoreTable {
             keeps,
@@ -113,6 +135,8 @@ impl StoreTable {
             code,
             value,
             timeout_ms,
+            done,
+            poll_ms,
             at,
         })
     }
@@ -129,7 +153,7 @@ impl StoreTable {
                     "[schema.store] keeps = \"{}\" takes no `{what}`",
                     self.keeps.0
                 ),
-                "only keeps = \"on-command\" names a store code, value and timeout_ms",
+                "only keeps = \"on-command\" names a store code, value, timeout_ms, done and poll_ms",
             ))
         };
         let keeping = match self.keeps.0.as_str() {
@@ -142,6 +166,12 @@ impl StoreTable {
                 }
                 if self.timeout_ms.is_some() {
                     extra("timeout_ms")?;
+                }
+                if self.done.is_some() {
+                    extra("done")?;
+                }
+                if self.poll_ms.is_some() {
+                    extra("poll_ms")?;
                 }
                 if self.keeps.0 == "every-write" {
                     Keeping::EveryWrite
@@ -195,12 +225,40 @@ impl StoreTable {
                         "give the raw value that stores",
                     )
                 })?;
+                let done = match self.done {
+                    None => None,
+                    Some((d, dloc)) => Some(i64::try_from(d).map_err(|_| {
+                        err(
+                            dloc,
+                            "[schema.store] done does not fit a 64-bit integer".into(),
+                            "give the raw value the store code reads once stored",
+                        )
+                    })?),
+                };
+                if done.is_none() && self.poll_ms.is_some() {
+                    return Err(err(
+                        self.at.clone(),
+                        "[schema.store] gives poll_ms but no `done`: nothing says when the store has finished".into(),
+                        "give done = the value the store code reads once stored, or drop poll_ms",
+                    ));
+                }
+                if self.poll_ms == Some(0) {
+                    return Err(err(
+                        self.at.clone(),
+                        "[schema.store] poll_ms = 0 would read the store code without pause".into(),
+                        "give the interval between reads in milliseconds, e.g. poll_ms = 100",
+                    ));
+                }
                 Keeping::OnCommand(StoreCommand {
                     code: c.number,
                     value,
                     timeout: self
                         .timeout_ms
                         .map_or(DEFAULT_STORE_TIMEOUT, Duration::from_millis),
+                    done,
+                    poll: self
+                        .poll_ms
+                        .map_or(DEFAULT_STORE_POLL, Duration::from_millis),
                     loc,
                 })
             }
@@ -241,12 +299,13 @@ impl Store {
 /// Why a set may not hold `code` (a validate finding, and why `pull`
 /// leaves it out) when it is a RAM
 /// control value (`kind = "ram-control"`) that is not a control word or a
-/// setpoint: the drive loses it at power off (`lustbus-protocol.txt`
-/// §11.1: "They lose their values on power down"; §11.2 likewise). The
-/// message names the code and the document its entry cites for its kind.
-/// Control words and setpoints are the machine's run state (a set preloads
-/// them), which the drive takes from its power-up state and the machine's
-/// control again.
+/// setpoint: the drive loses it at power off. The message names the code,
+/// the document its entry cites, and the section of the family's spec that
+/// makes a value of its kind lost at power down (the descriptor's
+/// `ram_loss`: `lustbus-protocol.txt` §11.1 for the VF1000, §11.2.1 for the
+/// MC6000/7000). Control words and setpoints are the machine's run state (a
+/// set preloads them), which the drive takes from its power-up state and
+/// the machine's control again.
 pub fn ram_note(schema: &Schema, code: &super::Code, key: crate::CodeKey) -> Option<String> {
     if code.kind != Some(super::StorageKind::RamControl)
         || matches!(
@@ -262,7 +321,84 @@ pub fn ram_note(schema: &Schema, code: &super::Code, key: crate::CodeKey) -> Opt
         .as_deref()
         .or(schema.spec.as_deref())
         .unwrap_or("the schema");
+    let why = schema
+        .family
+        .descriptor()
+        .ram_loss
+        .map_or_else(String::new, |r| format!(" ({r})"));
     Some(format!(
-        "{shown} is a RAM control value (kind ram-control, {source}): the drive loses it at power off"
+        "{shown} is a RAM control value (kind ram-control, {source}): the drive loses it at power off{why}"
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::Registry;
+    use crate::error::SourceFile;
+    use std::time::Duration;
+
+    /// A schema over `lenze-ecs` with a device-command store code C5990
+    /// and `store` as its `[schema.store]` body.
+    fn load(store: &str) -> Result<std::sync::Arc<crate::Schema>, String> {
+        Registry::builtin()
+            .unwrap()
+            .add_source(SourceFile::new(
+                "t.toml",
+                format!(
+                    "[schema]\nid = \"t\"\ntitle = \"t\"\nextends = \"lenze-ecs\"\n\n[schema.store]\n{store}\n[[code]]\nnumber = 5990\nname = \"save\"\ntitle = \"t\"\nspec = \"t\"\nrole = \"command\"\n"
+                ),
+            ))
+            .map_err(|e| e.message.clone())
+    }
+
+    #[test]
+    fn done_and_poll_ms_make_a_polled_store_step() {
+        let s = load("keeps = \"on-command\"\ncode = \"save\"\nvalue = 10000\ndone = 0\npoll_ms = 250\ntimeout_ms = 7500\n").unwrap();
+        let c = s.store.command().unwrap();
+        assert_eq!(
+            (c.code, c.value, c.done, c.poll, c.timeout),
+            (
+                5990,
+                10000,
+                Some(0),
+                Duration::from_millis(250),
+                Duration::from_millis(7500)
+            )
+        );
+        // without them: the acknowledgement is the completion
+        let s = load("keeps = \"on-command\"\ncode = 5990\nvalue = 10000\n").unwrap();
+        let c = s.store.command().unwrap();
+        assert_eq!(
+            (c.done, c.poll, c.timeout),
+            (
+                None,
+                super::DEFAULT_STORE_POLL,
+                super::DEFAULT_STORE_TIMEOUT
+            )
+        );
+    }
+
+    #[test]
+    fn a_poll_without_done_or_a_done_without_a_store_command_is_refused() {
+        for (body, message) in [
+            (
+                "keeps = \"on-command\"\ncode = \"save\"\nvalue = 1\npoll_ms = 100\n",
+                "[schema.store] gives poll_ms but no `done`: nothing says when the store has finished",
+            ),
+            (
+                "keeps = \"on-command\"\ncode = \"save\"\nvalue = 1\ndone = 0\npoll_ms = 0\n",
+                "[schema.store] poll_ms = 0 would read the store code without pause",
+            ),
+            (
+                "keeps = \"every-write\"\ndone = 0\n",
+                "[schema.store] keeps = \"every-write\" takes no `done`",
+            ),
+            (
+                "keeps = \"unknown\"\npoll_ms = 100\n",
+                "[schema.store] keeps = \"unknown\" takes no `poll_ms`",
+            ),
+        ] {
+            assert_eq!(load(body).unwrap_err(), message, "{body}");
+        }
+    }
 }

@@ -314,6 +314,31 @@ impl SimLink {
         })
     }
 
+    /// Power the drive at `address` off at the bus clock's now and on
+    /// again after `off`: it comes back with what its kind of drive keeps
+    /// (RAM values lost; a CAN drive whose schema stores on command with
+    /// what it stored last). The fault campaigns do this after every run
+    /// that ends complete.
+    pub fn power_cycle(&self, address: u8, off: std::time::Duration) -> Result<(), String> {
+        let now = driveset_link::Clock::now(self.clock());
+        self.with_bus(|bus| {
+            let missing = || format!("no simulated drive at address {address}");
+            match bus {
+                SimBus::Bytes(b) => {
+                    if !b.drives().iter().any(|d| d.address() == address) {
+                        return Err(missing());
+                    }
+                    b.line_mut().power_cycle(now, Some(address), off);
+                }
+                SimBus::Frames(b) => b
+                    .drive_mut(address)
+                    .ok_or_else(missing)?
+                    .power_cycle(now, off),
+            }
+            Ok(())
+        })
+    }
+
     /// Every drive's state (the `--dump` / state file content).
     pub fn dump(&self) -> StateDump {
         self.shared.dump()

@@ -5,7 +5,8 @@
 //! - [`Scenario::OtherAddress`]: an upload to `A` is cut (cable pulled at a
 //!   seeded telegram for 600 s); `recover` aimed at `B` is refused
 //!   ([`Mismatch::Address`]) with not one byte on the bus; then `recover`
-//!   at `A` settles the drive to exactly its old or its new set.
+//!   at `A` settles the drive to exactly its old or its new set; where it
+//!   is the new set, the drive is power-cycled and must still hold it.
 //! - [`Scenario::OtherSpelling`]: the upload goes through
 //!   `tcp://127.0.0.1:4001`; `recover` through another bus
 //!   (`tcp://127.0.0.1:4002`) is refused ([`Mismatch::Bus`], no byte on
@@ -22,7 +23,8 @@
 //!   last telegram of every phase of a clean run; `status` then reports the
 //!   drive failed (no write telegram), an `upload` sees the commission's
 //!   journal, and a rerun recovers it: never "unchanged", exit 0, every
-//!   journal settled, every drive holding its set.
+//!   journal settled, every drive holding its set, also after a power
+//!   cycle.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
@@ -575,6 +577,17 @@ fn one(
     drop(c);
     let _ = b_now;
     if now == new_fp {
+        // "complete" only for what the drive keeps: power-cycled, it
+        // still holds the new set but for its RAM values ([`kept_part`])
+        bus.sim.power_cycle(a, Duration::from_millis(1))?;
+        let kept = kept_part(schema, set1);
+        let now = fingerprint_over(schema, &bus.state(a), &kept);
+        if now != kept.fingerprint() {
+            return Err(format!(
+                "recover did {action:?} and the drive held the new set, but after a power cycle it holds {now} over the codes it keeps (new {}): the set was not stored",
+                kept.fingerprint()
+            ));
+        }
         Ok(Outcome::RefusedThenNew)
     } else if now == old_fp {
         if action == RecoverAction::Completed {
@@ -996,6 +1009,19 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
         if fingerprint_over(&drive.schema, &state, &drive.set) != drive.set.fingerprint() {
             return Err(format!("{} does not hold its set after the rerun", d.name));
         }
+        // verified only for what the drive keeps: power-cycled, it still
+        // holds its set but for its RAM values (a demo conveyor's FSSIO
+        // setpoint is an FSEL/ISEL variable, RAM under CSEL = SIO, §11.1:
+        // run state the machine's control sets again)
+        sim.power_cycle(d.address, Duration::from_millis(1))?;
+        let state = sim.state(d.address).expect("drive");
+        let kept = kept_part(&drive.schema, &drive.set);
+        if fingerprint_over(&drive.schema, &state, &kept) != kept.fingerprint() {
+            return Err(format!(
+                "{} held its set after the rerun but not after a power cycle: it was not stored",
+                d.name
+            ));
+        }
     }
     for e in std::fs::read_dir(&jdir).expect("journal dir").flatten() {
         if let Ok(j) = JournalFile::open(&e.path())
@@ -1016,4 +1042,23 @@ fn sim_bus_id(sim: &SimLink) -> String {
         Link::Bytes(l) => l.bus_id(),
         Link::Frames(l) => l.bus_id(),
     }
+}
+
+/// The codes of `set` a drive keeps over a power cycle: all but RAM values
+/// and FSEL/ISEL variables (`lustbus-protocol.txt` §11.1, §11.2.1: lost at
+/// power down, or RAM under 2-CSEL = SIO).
+fn kept_part(schema: &Schema, set: &ResolvedSet) -> ResolvedSet {
+    let mut kept = ResolvedSet::new(schema);
+    for (k, v) in &set.values {
+        let volatile = schema.code(k.number).is_some_and(|c| {
+            matches!(
+                c.kind,
+                Some(StorageKind::RamControl | StorageKind::RamActual | StorageKind::FselIsel)
+            )
+        });
+        if !volatile {
+            kept.insert(*k, v.clone());
+        }
+    }
+    kept
 }
