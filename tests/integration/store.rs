@@ -274,6 +274,7 @@ fn the_demo_lines_ecs_drives_are_stored_and_still_hold_their_sets_after_a_power_
     }
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("rep/report.json")).unwrap()).unwrap();
+    // every verified drive is said kept or not
     let stored: Vec<(&str, &str)> = report["drives"]
         .as_array()
         .unwrap()
@@ -288,6 +289,19 @@ fn the_demo_lines_ecs_drives_are_stored_and_still_hold_their_sets_after_a_power_
             ("handling-3", "stored")
         ]
     );
+    let verified: Vec<_> = report["drives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["result"] == "verified")
+        .collect();
+    assert_eq!(verified.len(), 3, "{verified:?}");
+    assert!(
+        verified.iter().all(|r| r["stored"].is_string()),
+        "{verified:?}"
+    );
+    let html = std::fs::read_to_string(d.join("rep/report.html")).unwrap();
+    assert!(html.contains("<dt>Kept at power off</dt><dd>stored</dd>"));
     let state = d.join("sim/sim-ecs.json");
     let (code, _, err) = outcome(
         driveset_test_support::driveset_in(d)

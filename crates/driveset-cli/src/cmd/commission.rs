@@ -465,7 +465,7 @@ fn progress_line(p: &Progress, width: usize) -> String {
     if d.codes_written > 0 {
         s.push_str(&format!(", {} codes written", d.codes_written));
     }
-    if let Some(stored) = &d.stored {
+    if let Some(stored) = d.store_worth_saying() {
         s.push_str(&format!(", {stored}"));
     }
     if d.result == DriveResult::Drift {

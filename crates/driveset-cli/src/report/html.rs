@@ -558,6 +558,10 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
     for (k, v) in rows {
         let _ = writeln!(o, "<dt>{k}</dt><dd>{v}</dd>");
     }
+    if let Some(stored) = &d.stored {
+        // over a power cycle (docs/file-formats.md, `[schema.store]`)
+        let _ = writeln!(o, "<dt>Kept at power off</dt><dd>{}</dd>", esc(stored));
+    }
     if let Some(l) = &d.learned_schema {
         let _ = writeln!(
             o,

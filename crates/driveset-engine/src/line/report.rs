@@ -167,12 +167,24 @@ pub struct DriveReport {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replacement: Option<ReplacementReport>,
     /// Whether the drive keeps its set over a power cycle, when its upload
-    /// completed and its schema does not say every write is stored:
-    /// "stored" (the store command was acknowledged), or "not stored: lost
-    /// at power off (...)" ([`crate::upload::Stored::text`]). Absent
-    /// otherwise.
+    /// completed: "stored" (the store command was acknowledged), "stored
+    /// (the drive stores every write)", or "not stored: lost at power off
+    /// (...)" ([`crate::upload::Stored::text`]). Absent otherwise. The
+    /// human progress line leaves the every-write case out
+    /// ([`DriveReport::store_worth_saying`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stored: Option<String>,
+}
+
+impl DriveReport {
+    /// The `stored` text when it says more than the default: a drive that
+    /// stores every write needs no words on a progress line (the report
+    /// still says it).
+    pub fn store_worth_saying(&self) -> Option<&str> {
+        self.stored
+            .as_deref()
+            .filter(|s| *s != crate::upload::Stored::EveryWrite.text())
+    }
 }
 
 /// How a spare became the drive (`driveset replace`; the report of one

@@ -360,9 +360,8 @@ pub(super) fn take_upload(r: &mut DriveReport, schema: &Schema, rep: &UploadRepo
     r.fingerprint_before = Some(rep.fingerprint_before.clone());
     r.fingerprint_after = rep.fingerprint_after.clone();
     r.codes_written = rep.codes_written as u32;
-    r.stored = (rep.state == crate::journal::TxnState::Complete
-        && rep.stored != crate::upload::Stored::EveryWrite)
-        .then(|| rep.stored.text().to_string());
+    r.stored =
+        (rep.state == crate::journal::TxnState::Complete).then(|| rep.stored.text().to_string());
 }
 
 /// The identity, factory settings and diff of an upload's codes.
