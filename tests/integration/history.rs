@@ -258,6 +258,256 @@ fn two_commissions_by_two_operators_then_log_blame_as_built_diff_and_verify() {
     assert_eq!(recs[14]["content"][3], "ok");
 }
 
+/// The records of `history export` (JSON Lines) of one kind.
+fn exported(dir: &Path, kind: &str) -> Vec<serde_json::Value> {
+    let (code, out, err) = run(dir, &["history", "export"]);
+    assert_eq!(code, 0, "{err}");
+    out.lines()
+        .map(json)
+        .filter(|r| r["kind"] == kind)
+        .collect()
+}
+
+/// A drive record's code rows as the store holds them, by code:
+/// (old, new, verified, outcome).
+fn code_rows(
+    drive: &serde_json::Value,
+) -> std::collections::BTreeMap<String, (Option<String>, Option<String>, Option<String>, String)> {
+    let c = drive["content"].as_array().unwrap();
+    let s = |v: &serde_json::Value| v.as_str().map(str::to_string);
+    c.last()
+        .unwrap()
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r[1].as_str().unwrap().to_string(),
+                (
+                    s(&r[2]),
+                    s(&r[3]),
+                    s(&r[4]),
+                    r[5].as_str().unwrap().to_string(),
+                ),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn pull_live_diff_and_twin_capture_are_recorded_with_the_values_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let port = "sim://tmd?c0001=3";
+    // pull: every value read, the fingerprint the file carries
+    let (code, out, err) = run(
+        d,
+        &[
+            "pull",
+            "--port",
+            port,
+            "--address",
+            "4",
+            "-o",
+            "axis.toml",
+            "--format",
+            "json",
+            "--operator",
+            "carol",
+            "--reason",
+            "before SAT",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let pulled = json(&out);
+    let fp = pulled["fingerprint"].as_str().unwrap().to_string();
+    // the live diff of the pulled set: nothing differs, the same fingerprint
+    let (code, out, err) = run(d, &["diff", "axis.toml", "--port", port, "--address", "4"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // a set asking 55 Hz of C0011: drift, exit 1
+    let text = std::fs::read_to_string(d.join("axis.toml")).unwrap();
+    assert!(text.contains("C0011 = \"50 Hz\""), "{text}");
+    std::fs::write(
+        d.join("slow.toml"),
+        text.replace("C0011 = \"50 Hz\"", "C0011 = \"55.0 Hz\""),
+    )
+    .unwrap();
+    let (code, out, err) = run(d, &["diff", "slow.toml", "--port", port, "--address", "4"]);
+    assert_eq!(code, 1, "{out}{err}");
+    // a twin capture: every value of the schema read
+    let (code, out, err) = run(
+        d,
+        &[
+            "twin",
+            "capture",
+            "--port",
+            port,
+            "--address",
+            "4",
+            "-o",
+            "t.twin.toml",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(": 86 codes, 0 refused, 1 secret(s) not stored;"),
+        "{out}"
+    );
+
+    let (code, out, err) = run(d, &["history", "log", "--format", "json"]);
+    assert_eq!(code, 0, "{err}");
+    let rows = json(&out);
+    let rows = rows.as_array().unwrap();
+    let seen: Vec<(&str, &str, &str, i64, i64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+                r["bus"].as_str().unwrap(),
+                r["address"].as_i64().unwrap(),
+                r["codes_written"].as_i64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            ("pull", "read", port, 4, 0),
+            ("diff", "unchanged", port, 4, 0),
+            ("diff", "drift", port, 4, 0),
+            ("twin capture", "read", port, 4, 0),
+        ]
+    );
+    for r in rows {
+        assert_eq!(r["family"], "lecom");
+        assert_eq!(r["software"], "1.20");
+        assert_eq!(r["line"], serde_json::Value::Null);
+    }
+    assert_eq!(rows[0]["operator"], "carol");
+    assert_eq!(rows[0]["reason"], "before SAT");
+    // the drive's fingerprint, read three times: the pulled file's (the
+    // drifting set's codes are the file's, the drive unchanged)
+    for r in &rows[..3] {
+        assert_eq!(r["fingerprint_after"], fp.as_str());
+    }
+    let ends: Vec<String> = exported(d, "end")
+        .iter()
+        .map(|e| format!("{} {}", e["content"][3], e["content"][4]))
+        .collect();
+    assert_eq!(ends, ["\"ok\" 0", "\"ok\" 0", "\"differs\" 1", "\"ok\" 0"]);
+
+    // the values read, per code
+    let drives = exported(d, "drive");
+    assert_eq!(drives.len(), 4);
+    let pull = code_rows(&drives[0]);
+    // every value read, actual values (C0093 TYPE) included, no password
+    assert_eq!(
+        pull["C0011"],
+        (Some("50 Hz".into()), None, None, "read".into())
+    );
+    assert!(pull.contains_key("C0093"), "{pull:?}");
+    assert!(!pull.contains_key("C0094"), "{pull:?}");
+    assert_eq!(
+        pull.len(),
+        pulled["values"].as_u64().unwrap() as usize
+            + pulled["actual_values"].as_array().unwrap().len()
+    );
+    let same = code_rows(&drives[1]);
+    assert_eq!(
+        same["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            "read".into()
+        )
+    );
+    let drift = code_rows(&drives[2]);
+    assert_eq!(
+        drift["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("55 Hz".into()),
+            None,
+            "drift".into()
+        )
+    );
+    assert_eq!(drift.values().filter(|c| c.3 == "drift").count(), 1);
+    let twin = code_rows(&drives[3]);
+    assert_eq!(twin.len(), 86);
+    assert_eq!(twin["C0011"].0.as_deref(), Some("50 Hz"));
+    // the live diff's drive record names the set's fingerprint too
+    let (_, out, _) = run(d, &["fingerprint", "slow.toml"]);
+    assert!(
+        out.contains(drives[2]["content"][12].as_str().unwrap()),
+        "{out} {}",
+        drives[2]["content"]
+    );
+    let (code, out, err) = run(d, &["history", "verify"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains(": 12 records, chain intact;"), "{out}");
+}
+
+#[test]
+fn twin_capture_line_records_every_drive_of_the_line_as_status_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let line = demo_copy(d);
+    let line = line.to_str().unwrap();
+    let (code, out, err) = run(d, &["twin", "capture-line", line, "-o", "twins"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // status reads the same (fresh, simulated) drives
+    let (code, out, err) = run(d, &["status", line]);
+    assert_eq!(code, 1, "{out}{err}");
+    let (_, out, _) = run(d, &["history", "log", "--format", "json"]);
+    let rows = json(&out);
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 26);
+    // status runs its buses at once: its drives matched by name
+    let (capture, status) = rows.split_at(13);
+    for c in capture {
+        let s = status
+            .iter()
+            .find(|s| s["drive"] == c["drive"])
+            .unwrap_or_else(|| panic!("{} not read by status", c["drive"]));
+        assert_eq!(c["command"], "twin capture-line");
+        assert_eq!(s["command"], "status");
+        assert_eq!(c["line"], "demo-line");
+        assert_eq!(c["label"], "demo line, simulated");
+        assert_eq!(c["drive"], s["drive"]);
+        assert_eq!(c["bus"], s["bus"]);
+        assert_eq!(c["address"], s["address"]);
+        assert_eq!(c["result"], s["result"], "{}", c["drive"]);
+        assert_eq!(
+            c["fingerprint_after"], s["fingerprint_after"],
+            "{}",
+            c["drive"]
+        );
+    }
+    // transfer-12: each code of its set read against it
+    let drives = exported(d, "drive");
+    let t12 = |i: usize| {
+        drives
+            .iter()
+            .filter(|r| r["content"][4] == "transfer-12")
+            .nth(i)
+            .map(code_rows)
+            .unwrap()
+    };
+    let (cap, st) = (t12(0), t12(1));
+    assert_eq!(
+        cap["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("60 Hz".into()),
+            None,
+            "drift".into()
+        )
+    );
+    assert_eq!(cap, st);
+}
+
 #[test]
 fn a_row_altered_by_hand_is_caught_by_verify() {
     let dir = tempfile::tempdir().unwrap();
