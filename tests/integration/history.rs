@@ -256,6 +256,71 @@ fn two_commissions_by_two_operators_then_log_blame_as_built_diff_and_verify() {
     assert_eq!(recs[0]["content"][2], "commission");
     assert_eq!(recs[14]["kind"], "end");
     assert_eq!(recs[14]["content"][3], "ok");
+
+    // the SAT report links the run and each drive to the history
+    let report =
+        json(&std::fs::read_to_string(d.join("target/driveset-report/report.json")).unwrap());
+    let link = &report["history"];
+    assert_eq!(link["store"], "sqlite:.driveset/history.sqlite");
+    assert_eq!(link["session"], recs[15]["session"]);
+    assert_eq!(
+        link["as_built"],
+        format!("driveset history as-built {line} --at SAT").as_str()
+    );
+    let drives = report["drives"].as_array().unwrap();
+    assert_eq!(drives.len(), 13);
+    for (i, dr) in drives.iter().enumerate() {
+        let name = dr["name"].as_str().unwrap();
+        let h = &dr["history"];
+        assert_eq!(
+            h["log"],
+            format!("driveset history log --line demo-line --drive {name}").as_str()
+        );
+        // the record is the drive's in the SAT session
+        let rec = recs
+            .iter()
+            .find(|r| r["seq"] == h["record"])
+            .unwrap_or_else(|| panic!("{name}: no record {}", h["record"]));
+        assert_eq!(rec["kind"], "drive", "{name}");
+        assert_eq!(rec["session"], link["session"], "{name}");
+        assert_eq!(rec["content"][4], name, "{name} ({i})");
+    }
+    // the commands as written run and answer with that record
+    let t12 = &drives[8];
+    let words: Vec<&str> = t12["history"]["log"].as_str().unwrap().split(' ').collect();
+    assert_eq!(words[0], "driveset");
+    let mut args = words[1..].to_vec();
+    args.extend(["--format", "json"]);
+    let (code, out, err) = run(d, &args);
+    assert_eq!(code, 0, "{err}");
+    let rows = json(&out);
+    assert_eq!(rows.as_array().unwrap().len(), 2);
+    assert_eq!(rows[1]["seq"], t12["history"]["record"]);
+    assert_eq!(rows[1]["session"], link["session"]);
+    let words: Vec<&str> = link["as_built"].as_str().unwrap().split(' ').collect();
+    let mut args = words[1..].to_vec();
+    args.extend(["--format", "json"]);
+    let (code, out, err) = run(d, &args);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(json(&out)["drives"][8]["values"]["C0011"], "55 Hz");
+    // report.html shows them
+    let html = std::fs::read_to_string(d.join("target/driveset-report/report.html")).unwrap();
+    let session = link["session"].as_str().unwrap();
+    assert!(
+        html.contains(&format!(
+            "<dt>History</dt><dd>session <code id=\"history-session\">{session}</code> in \
+             <code id=\"history-store\">sqlite:.driveset/history.sqlite</code>; the line as built: \
+             <code id=\"history-as-built\">driveset history as-built {line} --at SAT</code></dd>"
+        )),
+        "{html}"
+    );
+    assert!(
+        html.contains(&format!(
+            "<dt>History</dt><dd class=\"history\">record {} \u{b7} <code>driveset history log --line demo-line --drive transfer-12</code></dd>",
+            t12["history"]["record"]
+        )),
+        "{html}"
+    );
 }
 
 /// The records of `history export` (JSON Lines) of one kind.

@@ -389,16 +389,17 @@ impl Store {
         self.append(|st| st.link("session", &s.id, &row, &[]).map(|_| ()))
     }
 
-    /// Put one drive on record in session `session_id`, at `at`.
+    /// Put one drive on record in session `session_id`, at `at`; gives
+    /// its place in the chain (`seq`).
     pub fn drive(
         &mut self,
         session_id: &str,
         at: &str,
         r: &DriveRecord,
-    ) -> Result<(), HistoryError> {
+    ) -> Result<i64, HistoryError> {
         let row = drive_row(session_id, at, r);
         let codes = code_rows(r);
-        self.append(|st| st.link("drive", session_id, &row, &codes).map(|_| ()))
+        self.append(|st| st.link("drive", session_id, &row, &codes))
     }
 
     /// Close session `session_id`.

@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use driveset_engine::env::{Environment, rfc3339};
 use driveset_engine::history::{DriveRecord, History};
-use driveset_engine::line::report::GitInfo;
+use driveset_engine::line::report::{DriveHistoryLink, GitInfo, HistoryLink, LineReport};
 use driveset_history::{SessionEnd, SessionStart, Store, Target};
 
 use crate::fail::Fail;
@@ -65,10 +65,14 @@ pub fn target() -> Result<Target, Fail> {
     }
 }
 
+/// The drive records of this run: (line, drive, place in the chain).
+type Records = Arc<Mutex<Vec<(Option<String>, Option<String>, i64)>>>;
+
 /// The open session of this run.
 struct Run {
     id: String,
     store: Arc<Mutex<Store>>,
+    records: Records,
 }
 
 /// What a command tells the history about its run.
@@ -257,6 +261,7 @@ pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
     *RUN.lock().unwrap_or_else(PoisonError::into_inner) = Some(Run {
         id: start.id,
         store: Arc::new(Mutex::new(store)),
+        records: Records::default(),
     });
     Ok(())
 }
@@ -334,11 +339,79 @@ pub fn close_interrupted(found: &str) {
     }
 }
 
+/// Link a line run's report to its session (report.json `history`, each
+/// drive's `history`; the HTML report shows them): the store, the
+/// session, each drive's record and the commands that list the drive's
+/// history and the line as built. No session: the report is left as it is.
+pub fn link_report(report: &mut LineReport) {
+    let Some(s) = Session::current() else { return };
+    let shown = s
+        .store
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .shown
+        .clone();
+    // the default store needs no flag; another is named
+    let flag = if shown == Target::default_sqlite().shown() {
+        String::new()
+    } else {
+        format!(" --history {}", sh_quote(&shown))
+    };
+    let at = report
+        .label
+        .as_deref()
+        .map(|l| format!(" --at {}", sh_quote(l)))
+        .unwrap_or_default();
+    report.history = Some(HistoryLink {
+        store: shown,
+        session: s.id.clone(),
+        as_built: format!(
+            "driveset history as-built {}{at}{flag}",
+            sh_quote(&report.manifest)
+        ),
+    });
+    let records = s.records.lock().unwrap_or_else(PoisonError::into_inner);
+    for d in &mut report.drives {
+        // the run's last record of the drive
+        let Some(seq) = records
+            .iter()
+            .rev()
+            .find(|(l, n, _)| {
+                l.as_deref() == Some(report.line.as_str()) && n.as_deref() == Some(d.name.as_str())
+            })
+            .map(|r| r.2)
+        else {
+            continue;
+        };
+        d.history = Some(DriveHistoryLink {
+            record: seq,
+            log: format!(
+                "driveset history log --line {} --drive {}{flag}",
+                sh_quote(&report.line),
+                sh_quote(&d.name)
+            ),
+        });
+    }
+}
+
+/// `s` as one shell word: as it is when it is plain, else single-quoted.
+fn sh_quote(s: &str) -> String {
+    let plain = !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"-_./:@,+=%".contains(&b));
+    if plain {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
 /// The open session as the engine's [`History`] seam.
 #[derive(Clone)]
 pub struct Session {
     id: String,
     store: Arc<Mutex<Store>>,
+    records: Records,
 }
 
 impl Session {
@@ -350,6 +423,7 @@ impl Session {
             .map(|r| Session {
                 id: r.id.clone(),
                 store: r.store.clone(),
+                records: r.records.clone(),
             })
     }
 }
@@ -357,11 +431,17 @@ impl Session {
 impl History for Session {
     fn drive(&self, record: &DriveRecord) -> Result<(), String> {
         let at = rfc3339(jiff::Timestamp::now());
-        self.store
+        let seq = self
+            .store
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .drive(&self.id, &at, record)
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        self.records
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push((record.slot.line.clone(), record.slot.drive.clone(), seq));
+        Ok(())
     }
 }
 

@@ -85,6 +85,7 @@ pub(in crate::line) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -
         factory_settings: false,
         replacement: None,
         stored: None,
+        history: None,
     }
 }
 
