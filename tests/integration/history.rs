@@ -574,6 +574,125 @@ fn twin_capture_line_records_every_drive_of_the_line_as_status_reads_it() {
 }
 
 #[test]
+fn rollbacks_are_on_record_with_the_values_restored() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let set = driveset_test_support::workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    let set = set.to_str().unwrap();
+    let state = d.join("drive.json");
+    let port = |faults: &str| {
+        format!(
+            "sim://tmd?addresses=11&c0001=3&state={}{faults}",
+            state.display()
+        )
+    };
+    // the cable out for 1 s at telegram 30: the upload rolls back itself
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set,
+            "--port",
+            &port("&faults=cable@30+1s"),
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(
+        err.contains("the upload did not land and was rolled back"),
+        "{err}"
+    );
+    // out for good: the drive holds a mix, recover rolls it back
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set,
+            "--port",
+            &port("&faults=cable@30+600s"),
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    let journal = std::fs::read_dir(d.join(".driveset/journal"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().contains("drive_json"))
+        .unwrap();
+    let (code, out, err) = run(
+        d,
+        &["recover", journal.to_str().unwrap(), "--port", &port("")],
+    );
+    assert_eq!(code, 0, "{out}{err}");
+
+    let (_, out, _) = run(
+        d,
+        &["history", "log", "--code", "C0011", "--format", "json"],
+    );
+    let rows = json(&out);
+    let seen: Vec<(&str, &str, &serde_json::Value)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+                &r["change"],
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            (
+                "upload",
+                "rolled-back",
+                &serde_json::json!(["50 Hz", "60 Hz"])
+            ),
+            ("upload", "failed", &serde_json::json!(["50 Hz", "60 Hz"])),
+            (
+                "recover",
+                "rolled-back",
+                &serde_json::json!(["60 Hz", "50 Hz"])
+            ),
+        ]
+    );
+    let drives = exported(d, "drive");
+    // the upload's own rollback: each code written, then restored and read back
+    let own = code_rows(&drives[0]);
+    assert_eq!(
+        own["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("60 Hz".into()),
+            Some("50 Hz".into()),
+            "restored".into()
+        )
+    );
+    assert_eq!(own.values().filter(|c| c.3 == "restored").count(), 5);
+    assert_eq!(own["C0018"].3, "failed");
+    // recover's: what the drive held, what it was restored to, read back
+    let rec = code_rows(&drives[2]);
+    assert_eq!(rec.len(), 5 + 1, "{rec:?}");
+    assert_eq!(
+        rec["C0011"],
+        (
+            Some("60 Hz".into()),
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            "restored".into()
+        )
+    );
+    assert!(rec.values().all(|c| c.3 == "restored"));
+    // both end where the drive began
+    assert_eq!(drives[0]["content"][14], drives[2]["content"][14]);
+    assert_eq!(drives[0]["content"][14], drives[0]["content"][13]);
+}
+
+#[test]
 fn a_row_altered_by_hand_is_caught_by_verify() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
