@@ -693,6 +693,83 @@ fn rollbacks_are_on_record_with_the_values_restored() {
 }
 
 #[test]
+fn a_commission_that_recovers_a_drive_first_records_the_rollback_before_the_upload() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    let set = driveset_test_support::workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
+            set.display()
+        ),
+    )
+    .unwrap();
+    // an upload cut by a pulled cable leaves its journal failed
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set.to_str().unwrap(),
+            "--port",
+            "sim://tmd?addresses=11&c0001=3&faults=cable@30+600s",
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    let (code, out, err) = run(d, &["commission", "line.toml"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(err.contains("rolled back (old values restored)"), "{err}");
+    let (_, out, _) = run(
+        d,
+        &[
+            "history",
+            "log",
+            "--drive",
+            "transfer-11",
+            "--format",
+            "json",
+        ],
+    );
+    let rows = json(&out);
+    let seen: Vec<(&str, &str)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [("commission", "rolled-back"), ("commission", "verified")]
+    );
+    assert_eq!(rows[0]["session"], rows[1]["session"]);
+    let drives = exported(d, "drive");
+    assert_eq!(drives.len(), 3);
+    let back = code_rows(&drives[1]);
+    assert!(!back.is_empty());
+    assert!(
+        back.values().all(|c| c.3 == "restored" && c.1 == c.2),
+        "{back:?}"
+    );
+    // what the rollback restored is what the upload then found
+    let up = code_rows(&drives[2]);
+    for (code, c) in &back {
+        assert_eq!(up[code].0, c.1, "{code}");
+    }
+    // the report links the drive to its last record: the upload's
+    let report =
+        json(&std::fs::read_to_string(d.join("target/driveset-report/report.json")).unwrap());
+    assert_eq!(report["drives"][0]["history"]["record"], rows[1]["seq"]);
+}
+
+#[test]
 fn a_row_altered_by_hand_is_caught_by_verify() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
