@@ -4,7 +4,7 @@
 //! row altered by hand caught by `verify`; no password in the store in
 //! any form; a shared PostgreSQL store (a real server: a cluster of our
 //! own in a temp dir on a unix socket, stopped after) refusing UPDATE and
-//! DELETE, down (recorded locally, `history sync` forwards once), and four
+//! DELETE, down (recorded locally, `history sync` forwards once), and eight
 //! lines commissioning into it at once.
 
 use std::path::{Path, PathBuf};
@@ -1236,10 +1236,13 @@ fn postgres_records_refuses_update_and_delete_and_forwards_a_run_recorded_while_
 }
 
 #[test]
-fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
+fn eight_stations_commissioning_at_once_into_one_postgres_lose_nothing_and_keep_one_chain() {
+    const STATIONS: usize = 8;
     let Some(pg) = Pg::start() else { return };
     let url = pg.url();
-    let dirs: Vec<tempfile::TempDir> = (0..4).map(|_| tempfile::tempdir().unwrap()).collect();
+    let dirs: Vec<tempfile::TempDir> = (0..STATIONS)
+        .map(|_| tempfile::tempdir().unwrap())
+        .collect();
     let mut children = Vec::new();
     for (i, d) in dirs.iter().enumerate() {
         let line = demo_copy(d.path());
@@ -1259,6 +1262,7 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
                     line.to_str().unwrap(),
                     "--history",
                     &url,
+                    "--history-required",
                     "--operator",
                     &format!("op{i}"),
                 ])
@@ -1268,6 +1272,7 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
                 .unwrap(),
         );
     }
+    // all eight started before any is waited for
     for c in children {
         let out = c.wait_with_output().unwrap();
         assert_eq!(
@@ -1276,13 +1281,49 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
+        // recorded in the shared store, not locally
+        assert!(
+            !String::from_utf8_lossy(&out.stderr).contains("warning"),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     let d = dirs[0].path();
     let (code, out, err) = run(d, &["history", "verify", "--history", &url]);
     assert_eq!(code, 0, "{err}");
-    // 4 x (open + 13 drives + close)
-    assert!(out.contains(": 60 records, chain intact; head "), "{out}");
-    for i in 0..4 {
+    // 8 x (open + 13 drives + close), one chain
+    assert!(out.contains(": 120 records, chain intact; head "), "{out}");
+    // nothing lost: every session opened and closed ok, each line's 13
+    // drives in its own session, by its own operator
+    let (_, out, _) = run(d, &["history", "export", "--history", &url]);
+    let recs: Vec<serde_json::Value> = out.lines().map(json).collect();
+    assert_eq!(recs.len(), 120);
+    let sessions: std::collections::BTreeSet<&str> = recs
+        .iter()
+        .filter(|r| r["kind"] == "session")
+        .map(|r| r["session"].as_str().unwrap())
+        .collect();
+    assert_eq!(sessions.len(), STATIONS);
+    for s in &sessions {
+        let of = |k: &str| {
+            recs.iter()
+                .filter(|r| r["session"] == *s && r["kind"] == k)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(of("drive").len(), 13, "{s}");
+        let end = of("end");
+        assert_eq!(end.len(), 1, "{s}");
+        assert_eq!(end[0]["content"][3], "ok", "{s}");
+        // the session opens before its drives and closes after them
+        let seq = |r: &serde_json::Value| r["seq"].as_i64().unwrap();
+        let open = seq(of("session")[0]);
+        assert!(
+            of("drive")
+                .iter()
+                .all(|r| open < seq(r) && seq(r) < seq(end[0]))
+        );
+    }
+    for i in 0..STATIONS {
         let (_, out, _) = run(
             d,
             &[
@@ -1301,8 +1342,13 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
         assert_eq!(rows.len(), 13);
         assert!(
             rows.iter()
-                .all(|r| r["operator"] == format!("op{i}").as_str())
+                .all(|r| r["operator"] == format!("op{i}").as_str() && r["result"] == "verified")
         );
+        let one: std::collections::BTreeSet<&str> = rows
+            .iter()
+            .map(|r| r["session"].as_str().unwrap())
+            .collect();
+        assert_eq!(one.len(), 1);
     }
 }
 

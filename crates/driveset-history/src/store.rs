@@ -285,12 +285,19 @@ impl Store {
         row: &[Val],
         codes: &[Row],
     ) -> Result<i64, HistoryError> {
-        let last = self
-            .db
-            .query("SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1", &[])?;
-        let (seq, prev) = match last.first() {
-            Some(r) => (r[0].int().unwrap_or(0) + 1, r[1].str()),
-            None => (1, GENESIS.to_string()),
+        // inside a batch the head is the batch's last record (the batch
+        // holds the chain alone); else the chain's, read under the lock
+        let (seq, prev) = match self.head.take().filter(|_| self.in_batch) {
+            Some((seq, hash)) => (seq + 1, hash),
+            None => {
+                let last = self
+                    .db
+                    .query("SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1", &[])?;
+                match last.first() {
+                    Some(r) => (r[0].int().unwrap_or(0) + 1, r[1].str()),
+                    None => (1, GENESIS.to_string()),
+                }
+            }
         };
         let h = hash(&prev, &content(kind, row, codes));
         let (table, columns) = match kind {
