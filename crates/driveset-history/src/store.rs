@@ -18,7 +18,7 @@ use sha2::{Digest, Sha256};
 use driveset_engine::history::DriveRecord;
 
 use crate::HistoryError;
-use crate::db::{Db, Row, Val};
+use crate::db::{Db, Durability, Row, Val};
 
 /// The first record's `prev_hash`.
 pub const GENESIS: &str = "0000000000000000000000000000000000000000000000000000000000000000";
@@ -352,7 +352,7 @@ impl Store {
         &mut self,
         f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
-        self.db.begin_append()?;
+        self.db.begin_append(Durability::Flushed)?;
         self.in_batch = true;
         let r = f(self);
         self.in_batch = false;
@@ -369,15 +369,17 @@ impl Store {
         }
     }
 
-    /// Run `f` as one append transaction (inside a batch: as part of it).
+    /// Run `f` as one append transaction committed as far as
+    /// `durability` (inside a batch: as part of it).
     fn append<T>(
         &mut self,
+        durability: Durability,
         f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
         if self.in_batch {
             return f(self);
         }
-        self.db.begin_append()?;
+        self.db.begin_append(durability)?;
         match f(self) {
             Ok(t) => {
                 self.db.commit()?;
@@ -390,14 +392,19 @@ impl Store {
         }
     }
 
-    /// Open a session (before the run's first write).
+    /// Open a session (before the run's first write), flushed to the disk
+    /// before it returns.
     pub fn open_session(&mut self, s: &SessionStart) -> Result<(), HistoryError> {
         let row = s.row();
-        self.append(|st| st.link("session", &s.id, &row, &[]).map(|_| ()))
+        self.append(Durability::Flushed, |st| {
+            st.link("session", &s.id, &row, &[]).map(|_| ())
+        })
     }
 
     /// Put one drive on record in session `session_id`, at `at`; gives
-    /// its place in the chain (`seq`).
+    /// its place in the chain (`seq`). Committed, kept if the process is
+    /// killed next, but not waited for on the disk: the session's close
+    /// flushes it (docs/history.md, "Recording's cost").
     pub fn drive(
         &mut self,
         session_id: &str,
@@ -406,10 +413,13 @@ impl Store {
     ) -> Result<i64, HistoryError> {
         let row = drive_row(session_id, at, r);
         let codes = code_rows(r);
-        self.append(|st| st.link("drive", session_id, &row, &codes))
+        self.append(Durability::Written, |st| {
+            st.link("drive", session_id, &row, &codes)
+        })
     }
 
-    /// Close session `session_id`.
+    /// Close session `session_id`, flushed to the disk with every record
+    /// before it.
     pub fn close_session(&mut self, session_id: &str, e: &SessionEnd) -> Result<(), HistoryError> {
         let row = vec![
             Val::t(session_id),
@@ -419,7 +429,9 @@ impl Store {
             Val::ot(e.detail.clone()),
             Val::ot(e.closed_by.clone()),
         ];
-        self.append(|st| st.link("end", session_id, &row, &[]).map(|_| ()))
+        self.append(Durability::Flushed, |st| {
+            st.link("end", session_id, &row, &[]).map(|_| ())
+        })
     }
 
     /// The sessions of `station` that were opened and never closed.
@@ -650,7 +662,7 @@ impl Store {
     /// here already (then it was forwarded before: `false`). One
     /// transaction: the session arrives whole or not at all.
     pub fn import(&mut self, id: &str, dump: &SessionDump) -> Result<bool, HistoryError> {
-        self.append(|st| {
+        self.append(Durability::Flushed, |st| {
             let have = st
                 .db
                 .query("SELECT 1 FROM sessions WHERE id = $1", &[Val::t(id)])?;
