@@ -333,11 +333,11 @@ fn exported(dir: &Path, kind: &str) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// A drive record's code rows as the store holds them, by code:
-/// (old, new, verified, outcome).
-fn code_rows(
-    drive: &serde_json::Value,
-) -> std::collections::BTreeMap<String, (Option<String>, Option<String>, Option<String>, String)> {
+/// A code row as the store holds it: (old, new, verified, outcome).
+type CodeRow = (Option<String>, Option<String>, Option<String>, String);
+
+/// A drive record's code rows as the store holds them, by code.
+fn code_rows(drive: &serde_json::Value) -> std::collections::BTreeMap<String, CodeRow> {
     let c = drive["content"].as_array().unwrap();
     let s = |v: &serde_json::Value| v.as_str().map(str::to_string);
     c.last()
