@@ -418,6 +418,25 @@ impl Store {
         })
     }
 
+    /// Put drives on record in session `session_id`, each `(at, record)`,
+    /// in one transaction (as [`Store::drive`] each); gives their places
+    /// in the chain.
+    pub fn drives(
+        &mut self,
+        session_id: &str,
+        records: &[(String, DriveRecord)],
+    ) -> Result<Vec<i64>, HistoryError> {
+        let rows: Vec<(Vec<Val>, Vec<Row>)> = records
+            .iter()
+            .map(|(at, r)| (drive_row(session_id, at, r), code_rows(r)))
+            .collect();
+        self.append(Durability::Written, |st| {
+            rows.iter()
+                .map(|(row, codes)| st.link("drive", session_id, row, codes))
+                .collect()
+        })
+    }
+
     /// Close session `session_id`, flushed to the disk with every record
     /// before it.
     pub fn close_session(&mut self, session_id: &str, e: &SessionEnd) -> Result<(), HistoryError> {

@@ -5,7 +5,9 @@
 //! command opens before its first write ([`begin`]) and `main` closes with
 //! the outcome ([`end`]), the engine's [`History`] seam over it
 //! ([`RecordedEnv`], for the line runner) and [`drive`] for the one-drive
-//! commands. A shared store that cannot be reached: the session goes to
+//! commands. Drive records go to the store through a thread of their own
+//! ([`Recorder`]: the records waiting, one transaction), flushed before
+//! the session closes. A shared store that cannot be reached: the session goes to
 //! the local SQLite store, owed to the shared one, and is forwarded by the
 //! next run that reaches it or by `driveset history sync`.
 
@@ -73,6 +75,79 @@ struct Run {
     id: String,
     store: Arc<Mutex<Store>>,
     records: Records,
+    recorder: Recorder,
+}
+
+/// What the recorder thread is sent.
+enum Job {
+    /// A drive's record, with the time it was taken.
+    Drive(String, Box<DriveRecord>),
+    /// Answer once every record sent before is in the store.
+    Flush(std::sync::mpsc::Sender<()>),
+}
+
+/// The thread that puts drive records into the store, so a bus thread
+/// never waits for the database: it takes every record waiting at once
+/// into one transaction (docs/history.md, "Recording's cost").
+#[derive(Clone)]
+struct Recorder {
+    tx: std::sync::mpsc::Sender<Job>,
+}
+
+impl Recorder {
+    fn start(id: String, store: Arc<Mutex<Store>>, records: Records) -> Recorder {
+        let (tx, rx) = std::sync::mpsc::channel::<Job>();
+        std::thread::spawn(move || {
+            while let Ok(first) = rx.recv() {
+                let mut batch = Vec::new();
+                let mut flushes = Vec::new();
+                let mut take = |job: Job| match job {
+                    Job::Drive(at, r) => batch.push((at, *r)),
+                    Job::Flush(done) => flushes.push(done),
+                };
+                take(first);
+                while let Ok(job) = rx.try_recv() {
+                    take(job);
+                }
+                if !batch.is_empty() {
+                    let done = store
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .drives(&id, &batch);
+                    match done {
+                        Ok(seqs) => records
+                            .lock()
+                            .unwrap_or_else(PoisonError::into_inner)
+                            .extend(batch.iter().zip(seqs).map(|((_, r), seq)| {
+                                (r.slot.line.clone(), r.slot.drive.clone(), seq)
+                            })),
+                        Err(e) => eprintln!(
+                            "warning: history: {} drive record(s) not recorded: {e}",
+                            batch.len()
+                        ),
+                    }
+                }
+                for done in flushes {
+                    let _ = done.send(());
+                }
+            }
+        });
+        Recorder { tx }
+    }
+
+    fn send(&self, at: String, record: &DriveRecord) -> Result<(), String> {
+        self.tx
+            .send(Job::Drive(at, Box::new(record.clone())))
+            .map_err(|_| "the recorder has stopped".to_string())
+    }
+
+    /// Wait until every record sent before is in the store.
+    fn flush(&self) {
+        let (done, wait) = std::sync::mpsc::channel();
+        if self.tx.send(Job::Flush(done)).is_ok() {
+            let _ = wait.recv();
+        }
+    }
 }
 
 /// What a command tells the history about its run.
@@ -258,10 +333,14 @@ pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
     if let Err(e) = store.open_session(&start) {
         return refuse(e.to_string());
     }
+    let store = Arc::new(Mutex::new(store));
+    let records = Records::default();
+    let recorder = Recorder::start(start.id.clone(), store.clone(), records.clone());
     *RUN.lock().unwrap_or_else(PoisonError::into_inner) = Some(Run {
         id: start.id,
-        store: Arc::new(Mutex::new(store)),
-        records: Records::default(),
+        store,
+        records,
+        recorder,
     });
     Ok(())
 }
@@ -282,6 +361,8 @@ pub fn end(code: u8, failure: Option<&str>) {
     let Some(run) = RUN.lock().unwrap_or_else(PoisonError::into_inner).take() else {
         return;
     };
+    // every drive's record before the close
+    run.recorder.flush();
     let outcome = match code {
         0 => "ok",
         1 => "differs",
@@ -307,6 +388,7 @@ pub fn end(code: u8, failure: Option<&str>) {
 /// gone (killed mid-way): `recover` does this with what it found.
 pub fn close_interrupted(found: &str) {
     let Some(s) = Session::current() else { return };
+    s.recorder.flush();
     let mut store = s.store.lock().unwrap_or_else(PoisonError::into_inner);
     let open = match store.open_sessions(&station()) {
         Ok(o) => o,
@@ -345,6 +427,8 @@ pub fn close_interrupted(found: &str) {
 /// history and the line as built. No session: the report is left as it is.
 pub fn link_report(report: &mut LineReport) {
     let Some(s) = Session::current() else { return };
+    // every drive's record in, with its place in the chain
+    s.recorder.flush();
     let shown = s
         .store
         .lock()
@@ -412,6 +496,7 @@ pub struct Session {
     id: String,
     store: Arc<Mutex<Store>>,
     records: Records,
+    recorder: Recorder,
 }
 
 impl Session {
@@ -424,24 +509,15 @@ impl Session {
                 id: r.id.clone(),
                 store: r.store.clone(),
                 records: r.records.clone(),
+                recorder: r.recorder.clone(),
             })
     }
 }
 
 impl History for Session {
     fn drive(&self, record: &DriveRecord) -> Result<(), String> {
-        let at = rfc3339(jiff::Timestamp::now());
-        let seq = self
-            .store
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .drive(&self.id, &at, record)
-            .map_err(|e| e.to_string())?;
-        self.records
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push((record.slot.line.clone(), record.slot.drive.clone(), seq));
-        Ok(())
+        // to the recorder thread: the caller (a bus thread) goes on
+        self.recorder.send(rfc3339(jiff::Timestamp::now()), record)
     }
 }
 
