@@ -143,8 +143,9 @@ fn upload_to_another_family_is_refused_without_allow_family() {
         .stderr(predicate::str::contains(
             "error: sim://vf1000?addresses=1 address 1: read 100-PWMF refused: no such parameter, or read-protected in the current operating state (NAK to ENQUIRY 20100); check the drive is the family the schema names",
         ));
-    // the read-back refused before anything was written: no journal
-    assert!(!dir.path().join(".driveset").exists());
+    // the read-back refused before anything was written: no journal (the
+    // run is on record in the plant history, `.driveset/history.sqlite`)
+    assert!(!dir.path().join(".driveset/journal").exists());
     // another protocol on the line: no drive understands it, as on a
     // serial line (nothing written)
     driveset_in(dir.path())
