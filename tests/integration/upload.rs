@@ -181,7 +181,7 @@ fn upload_to_another_family_is_refused_without_allow_family() {
         .stderr(predicate::str::contains(
             "error: sim://vf1000?addresses=1 address 1: ",
         ));
-    assert!(!dir.path().join(".driveset").exists());
+    assert!(!dir.path().join(".driveset/journal").exists());
 }
 
 #[test]
