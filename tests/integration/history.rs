@@ -4,7 +4,7 @@
 //! row altered by hand caught by `verify`; no password in the store in
 //! any form; a shared PostgreSQL store (a real server: a cluster of our
 //! own in a temp dir on a unix socket, stopped after) refusing UPDATE and
-//! DELETE, down (recorded locally, `history sync` forwards once), and four
+//! DELETE, down (recorded locally, `history sync` forwards once), and eight
 //! lines commissioning into it at once.
 
 use std::path::{Path, PathBuf};
@@ -256,6 +256,517 @@ fn two_commissions_by_two_operators_then_log_blame_as_built_diff_and_verify() {
     assert_eq!(recs[0]["content"][2], "commission");
     assert_eq!(recs[14]["kind"], "end");
     assert_eq!(recs[14]["content"][3], "ok");
+
+    // the SAT report links the run and each drive to the history
+    let report =
+        json(&std::fs::read_to_string(d.join("target/driveset-report/report.json")).unwrap());
+    let link = &report["history"];
+    assert_eq!(link["store"], "sqlite:.driveset/history.sqlite");
+    assert_eq!(link["session"], recs[15]["session"]);
+    assert_eq!(
+        link["as_built"],
+        format!("driveset history as-built {line} --at SAT").as_str()
+    );
+    let drives = report["drives"].as_array().unwrap();
+    assert_eq!(drives.len(), 13);
+    for (i, dr) in drives.iter().enumerate() {
+        let name = dr["name"].as_str().unwrap();
+        let h = &dr["history"];
+        assert_eq!(
+            h["log"],
+            format!("driveset history log --line demo-line --drive {name}").as_str()
+        );
+        // the record is the drive's in the SAT session
+        let rec = recs
+            .iter()
+            .find(|r| r["seq"] == h["record"])
+            .unwrap_or_else(|| panic!("{name}: no record {}", h["record"]));
+        assert_eq!(rec["kind"], "drive", "{name}");
+        assert_eq!(rec["session"], link["session"], "{name}");
+        assert_eq!(rec["content"][4], name, "{name} ({i})");
+    }
+    // the commands as written run and answer with that record
+    let t12 = &drives[8];
+    let words: Vec<&str> = t12["history"]["log"].as_str().unwrap().split(' ').collect();
+    assert_eq!(words[0], "driveset");
+    let mut args = words[1..].to_vec();
+    args.extend(["--format", "json"]);
+    let (code, out, err) = run(d, &args);
+    assert_eq!(code, 0, "{err}");
+    let rows = json(&out);
+    assert_eq!(rows.as_array().unwrap().len(), 2);
+    assert_eq!(rows[1]["seq"], t12["history"]["record"]);
+    assert_eq!(rows[1]["session"], link["session"]);
+    let words: Vec<&str> = link["as_built"].as_str().unwrap().split(' ').collect();
+    let mut args = words[1..].to_vec();
+    args.extend(["--format", "json"]);
+    let (code, out, err) = run(d, &args);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(json(&out)["drives"][8]["values"]["C0011"], "55 Hz");
+    // report.html shows them
+    let html = std::fs::read_to_string(d.join("target/driveset-report/report.html")).unwrap();
+    let session = link["session"].as_str().unwrap();
+    assert!(
+        html.contains(&format!(
+            "<dt>History</dt><dd>session <code id=\"history-session\">{session}</code> in \
+             <code id=\"history-store\">sqlite:.driveset/history.sqlite</code>; the line as built: \
+             <code id=\"history-as-built\">driveset history as-built {line} --at SAT</code></dd>"
+        )),
+        "{html}"
+    );
+    assert!(
+        html.contains(&format!(
+            "<dt>History</dt><dd class=\"history\">record {} \u{b7} <code>driveset history log --line demo-line --drive transfer-12</code></dd>",
+            t12["history"]["record"]
+        )),
+        "{html}"
+    );
+}
+
+/// The records of `history export` (JSON Lines) of one kind.
+fn exported(dir: &Path, kind: &str) -> Vec<serde_json::Value> {
+    let (code, out, err) = run(dir, &["history", "export"]);
+    assert_eq!(code, 0, "{err}");
+    out.lines()
+        .map(json)
+        .filter(|r| r["kind"] == kind)
+        .collect()
+}
+
+/// A code row as the store holds it: (old, new, verified, outcome).
+type CodeRow = (Option<String>, Option<String>, Option<String>, String);
+
+/// A drive record's code rows as the store holds them, by code.
+fn code_rows(drive: &serde_json::Value) -> std::collections::BTreeMap<String, CodeRow> {
+    let c = drive["content"].as_array().unwrap();
+    let s = |v: &serde_json::Value| v.as_str().map(str::to_string);
+    c.last()
+        .unwrap()
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r[1].as_str().unwrap().to_string(),
+                (
+                    s(&r[2]),
+                    s(&r[3]),
+                    s(&r[4]),
+                    r[5].as_str().unwrap().to_string(),
+                ),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn pull_live_diff_and_twin_capture_are_recorded_with_the_values_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let port = "sim://tmd?c0001=3";
+    // pull: every value read, the fingerprint the file carries
+    let (code, out, err) = run(
+        d,
+        &[
+            "pull",
+            "--port",
+            port,
+            "--address",
+            "4",
+            "-o",
+            "axis.toml",
+            "--format",
+            "json",
+            "--operator",
+            "carol",
+            "--reason",
+            "before SAT",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let pulled = json(&out);
+    let fp = pulled["fingerprint"].as_str().unwrap().to_string();
+    // the live diff of the pulled set: nothing differs, the same fingerprint
+    let (code, out, err) = run(d, &["diff", "axis.toml", "--port", port, "--address", "4"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // a set asking 55 Hz of C0011: drift, exit 1
+    let text = std::fs::read_to_string(d.join("axis.toml")).unwrap();
+    assert!(text.contains("C0011 = \"50 Hz\""), "{text}");
+    std::fs::write(
+        d.join("slow.toml"),
+        text.replace("C0011 = \"50 Hz\"", "C0011 = \"55.0 Hz\""),
+    )
+    .unwrap();
+    let (code, out, err) = run(d, &["diff", "slow.toml", "--port", port, "--address", "4"]);
+    assert_eq!(code, 1, "{out}{err}");
+    // a twin capture: every value of the schema read
+    let (code, out, err) = run(
+        d,
+        &[
+            "twin",
+            "capture",
+            "--port",
+            port,
+            "--address",
+            "4",
+            "-o",
+            "t.twin.toml",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(": 86 codes, 0 refused, 1 secret(s) not stored;"),
+        "{out}"
+    );
+
+    let (code, out, err) = run(d, &["history", "log", "--format", "json"]);
+    assert_eq!(code, 0, "{err}");
+    let rows = json(&out);
+    let rows = rows.as_array().unwrap();
+    let seen: Vec<(&str, &str, &str, i64, i64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+                r["bus"].as_str().unwrap(),
+                r["address"].as_i64().unwrap(),
+                r["codes_written"].as_i64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            ("pull", "read", port, 4, 0),
+            ("diff", "unchanged", port, 4, 0),
+            ("diff", "drift", port, 4, 0),
+            ("twin capture", "read", port, 4, 0),
+        ]
+    );
+    for r in rows {
+        assert_eq!(r["family"], "lecom");
+        assert_eq!(r["software"], "1.20");
+        assert_eq!(r["line"], serde_json::Value::Null);
+    }
+    assert_eq!(rows[0]["operator"], "carol");
+    assert_eq!(rows[0]["reason"], "before SAT");
+    // the drive's fingerprint, read three times: the pulled file's (the
+    // drifting set's codes are the file's, the drive unchanged)
+    for r in &rows[..3] {
+        assert_eq!(r["fingerprint_after"], fp.as_str());
+    }
+    let ends: Vec<String> = exported(d, "end")
+        .iter()
+        .map(|e| format!("{} {}", e["content"][3], e["content"][4]))
+        .collect();
+    assert_eq!(ends, ["\"ok\" 0", "\"ok\" 0", "\"differs\" 1", "\"ok\" 0"]);
+
+    // the values read, per code
+    let drives = exported(d, "drive");
+    assert_eq!(drives.len(), 4);
+    let pull = code_rows(&drives[0]);
+    // every value read, actual values (C0093 TYPE) included, no password
+    assert_eq!(
+        pull["C0011"],
+        (Some("50 Hz".into()), None, None, "read".into())
+    );
+    assert!(pull.contains_key("C0093"), "{pull:?}");
+    assert!(!pull.contains_key("C0094"), "{pull:?}");
+    assert_eq!(
+        pull.len(),
+        pulled["values"].as_u64().unwrap() as usize
+            + pulled["actual_values"].as_array().unwrap().len()
+    );
+    let same = code_rows(&drives[1]);
+    assert_eq!(
+        same["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            "read".into()
+        )
+    );
+    let drift = code_rows(&drives[2]);
+    assert_eq!(
+        drift["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("55 Hz".into()),
+            None,
+            "drift".into()
+        )
+    );
+    assert_eq!(drift.values().filter(|c| c.3 == "drift").count(), 1);
+    let twin = code_rows(&drives[3]);
+    assert_eq!(twin.len(), 86);
+    assert_eq!(twin["C0011"].0.as_deref(), Some("50 Hz"));
+    // the live diff's drive record names the set's fingerprint too
+    let (_, out, _) = run(d, &["fingerprint", "slow.toml"]);
+    assert!(
+        out.contains(drives[2]["content"][12].as_str().unwrap()),
+        "{out} {}",
+        drives[2]["content"]
+    );
+    let (code, out, err) = run(d, &["history", "verify"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains(": 12 records, chain intact;"), "{out}");
+}
+
+#[test]
+fn twin_capture_line_records_every_drive_of_the_line_as_status_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let line = demo_copy(d);
+    let line = line.to_str().unwrap();
+    let (code, out, err) = run(d, &["twin", "capture-line", line, "-o", "twins"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // status reads the same (fresh, simulated) drives
+    let (code, out, err) = run(d, &["status", line]);
+    assert_eq!(code, 1, "{out}{err}");
+    let (_, out, _) = run(d, &["history", "log", "--format", "json"]);
+    let rows = json(&out);
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 26);
+    // status runs its buses at once: its drives matched by name
+    let (capture, status) = rows.split_at(13);
+    for c in capture {
+        let s = status
+            .iter()
+            .find(|s| s["drive"] == c["drive"])
+            .unwrap_or_else(|| panic!("{} not read by status", c["drive"]));
+        assert_eq!(c["command"], "twin capture-line");
+        assert_eq!(s["command"], "status");
+        assert_eq!(c["line"], "demo-line");
+        assert_eq!(c["label"], "demo line, simulated");
+        assert_eq!(c["drive"], s["drive"]);
+        assert_eq!(c["bus"], s["bus"]);
+        assert_eq!(c["address"], s["address"]);
+        assert_eq!(c["result"], s["result"], "{}", c["drive"]);
+        assert_eq!(
+            c["fingerprint_after"], s["fingerprint_after"],
+            "{}",
+            c["drive"]
+        );
+    }
+    // transfer-12: each code of its set read against it
+    let drives = exported(d, "drive");
+    let t12 = |i: usize| {
+        drives
+            .iter()
+            .filter(|r| r["content"][4] == "transfer-12")
+            .nth(i)
+            .map(code_rows)
+            .unwrap()
+    };
+    let (cap, st) = (t12(0), t12(1));
+    assert_eq!(
+        cap["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("60 Hz".into()),
+            None,
+            "drift".into()
+        )
+    );
+    assert_eq!(cap, st);
+}
+
+#[test]
+fn rollbacks_are_on_record_with_the_values_restored() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let set = driveset_test_support::workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    let set = set.to_str().unwrap();
+    let state = d.join("drive.json");
+    let port = |faults: &str| {
+        format!(
+            "sim://tmd?addresses=11&c0001=3&state={}{faults}",
+            state.display()
+        )
+    };
+    // the cable out for 1 s at telegram 30: the upload rolls back itself
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set,
+            "--port",
+            &port("&faults=cable@30+1s"),
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(
+        err.contains("the upload did not land and was rolled back"),
+        "{err}"
+    );
+    // out for good: the drive holds a mix, recover rolls it back
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set,
+            "--port",
+            &port("&faults=cable@30+600s"),
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    let journal = std::fs::read_dir(d.join(".driveset/journal"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().contains("drive_json"))
+        .unwrap();
+    let (code, out, err) = run(
+        d,
+        &["recover", journal.to_str().unwrap(), "--port", &port("")],
+    );
+    assert_eq!(code, 0, "{out}{err}");
+
+    let (_, out, _) = run(
+        d,
+        &["history", "log", "--code", "C0011", "--format", "json"],
+    );
+    let rows = json(&out);
+    let seen: Vec<(&str, &str, &serde_json::Value)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+                &r["change"],
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            (
+                "upload",
+                "rolled-back",
+                &serde_json::json!(["50 Hz", "60 Hz"])
+            ),
+            ("upload", "failed", &serde_json::json!(["50 Hz", "60 Hz"])),
+            (
+                "recover",
+                "rolled-back",
+                &serde_json::json!(["60 Hz", "50 Hz"])
+            ),
+        ]
+    );
+    let drives = exported(d, "drive");
+    // the upload's own rollback: each code written, then restored and read back
+    let own = code_rows(&drives[0]);
+    assert_eq!(
+        own["C0011"],
+        (
+            Some("50 Hz".into()),
+            Some("60 Hz".into()),
+            Some("50 Hz".into()),
+            "restored".into()
+        )
+    );
+    assert_eq!(own.values().filter(|c| c.3 == "restored").count(), 5);
+    assert_eq!(own["C0018"].3, "failed");
+    // recover's: what the drive held, what it was restored to, read back
+    let rec = code_rows(&drives[2]);
+    assert_eq!(rec.len(), 5 + 1, "{rec:?}");
+    assert_eq!(
+        rec["C0011"],
+        (
+            Some("60 Hz".into()),
+            Some("50 Hz".into()),
+            Some("50 Hz".into()),
+            "restored".into()
+        )
+    );
+    assert!(rec.values().all(|c| c.3 == "restored"));
+    // both end where the drive began
+    assert_eq!(drives[0]["content"][14], drives[2]["content"][14]);
+    assert_eq!(drives[0]["content"][14], drives[0]["content"][13]);
+}
+
+#[test]
+fn a_commission_that_recovers_a_drive_first_records_the_rollback_before_the_upload() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("sim")).unwrap();
+    let set = driveset_test_support::workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
+    std::fs::write(
+        d.join("line.toml"),
+        format!(
+            "[line]\nname = \"l\"\n\n[[bus]]\nname = \"transfer\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\nbaud = 9600\n\n[[drive]]\nname = \"transfer-11\"\nbus = \"transfer\"\naddress = 11\nset = \"{}\"\n",
+            set.display()
+        ),
+    )
+    .unwrap();
+    // an upload cut by a pulled cable leaves its journal failed
+    let (code, out, err) = run(
+        d,
+        &[
+            "upload",
+            set.to_str().unwrap(),
+            "--port",
+            "sim://tmd?addresses=11&c0001=3&faults=cable@30+600s",
+            "--address",
+            "11",
+        ],
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    let (code, out, err) = run(d, &["commission", "line.toml"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(err.contains("rolled back (old values restored)"), "{err}");
+    let (_, out, _) = run(
+        d,
+        &[
+            "history",
+            "log",
+            "--drive",
+            "transfer-11",
+            "--format",
+            "json",
+        ],
+    );
+    let rows = json(&out);
+    let seen: Vec<(&str, &str)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["command"].as_str().unwrap(),
+                r["result"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [("commission", "rolled-back"), ("commission", "verified")]
+    );
+    assert_eq!(rows[0]["session"], rows[1]["session"]);
+    let drives = exported(d, "drive");
+    assert_eq!(drives.len(), 3);
+    let back = code_rows(&drives[1]);
+    assert!(!back.is_empty());
+    assert!(
+        back.values().all(|c| c.3 == "restored" && c.1 == c.2),
+        "{back:?}"
+    );
+    // what the rollback restored is what the upload then found
+    let up = code_rows(&drives[2]);
+    for (code, c) in &back {
+        assert_eq!(up[code].0, c.1, "{code}");
+    }
+    // the report links the drive to its last record: the upload's
+    let report =
+        json(&std::fs::read_to_string(d.join("target/driveset-report/report.json")).unwrap());
+    assert_eq!(report["drives"][0]["history"]["record"], rows[1]["seq"]);
 }
 
 #[test]
@@ -725,10 +1236,13 @@ fn postgres_records_refuses_update_and_delete_and_forwards_a_run_recorded_while_
 }
 
 #[test]
-fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
+fn eight_stations_commissioning_at_once_into_one_postgres_lose_nothing_and_keep_one_chain() {
+    const STATIONS: usize = 8;
     let Some(pg) = Pg::start() else { return };
     let url = pg.url();
-    let dirs: Vec<tempfile::TempDir> = (0..4).map(|_| tempfile::tempdir().unwrap()).collect();
+    let dirs: Vec<tempfile::TempDir> = (0..STATIONS)
+        .map(|_| tempfile::tempdir().unwrap())
+        .collect();
     let mut children = Vec::new();
     for (i, d) in dirs.iter().enumerate() {
         let line = demo_copy(d.path());
@@ -748,6 +1262,7 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
                     line.to_str().unwrap(),
                     "--history",
                     &url,
+                    "--history-required",
                     "--operator",
                     &format!("op{i}"),
                 ])
@@ -757,6 +1272,7 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
                 .unwrap(),
         );
     }
+    // all eight started before any is waited for
     for c in children {
         let out = c.wait_with_output().unwrap();
         assert_eq!(
@@ -765,13 +1281,49 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
+        // recorded in the shared store, not locally
+        assert!(
+            !String::from_utf8_lossy(&out.stderr).contains("warning"),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     let d = dirs[0].path();
     let (code, out, err) = run(d, &["history", "verify", "--history", &url]);
     assert_eq!(code, 0, "{err}");
-    // 4 x (open + 13 drives + close)
-    assert!(out.contains(": 60 records, chain intact; head "), "{out}");
-    for i in 0..4 {
+    // 8 x (open + 13 drives + close), one chain
+    assert!(out.contains(": 120 records, chain intact; head "), "{out}");
+    // nothing lost: every session opened and closed ok, each line's 13
+    // drives in its own session, by its own operator
+    let (_, out, _) = run(d, &["history", "export", "--history", &url]);
+    let recs: Vec<serde_json::Value> = out.lines().map(json).collect();
+    assert_eq!(recs.len(), 120);
+    let sessions: std::collections::BTreeSet<&str> = recs
+        .iter()
+        .filter(|r| r["kind"] == "session")
+        .map(|r| r["session"].as_str().unwrap())
+        .collect();
+    assert_eq!(sessions.len(), STATIONS);
+    for s in &sessions {
+        let of = |k: &str| {
+            recs.iter()
+                .filter(|r| r["session"] == *s && r["kind"] == k)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(of("drive").len(), 13, "{s}");
+        let end = of("end");
+        assert_eq!(end.len(), 1, "{s}");
+        assert_eq!(end[0]["content"][3], "ok", "{s}");
+        // the session opens before its drives and closes after them
+        let seq = |r: &serde_json::Value| r["seq"].as_i64().unwrap();
+        let open = seq(of("session")[0]);
+        assert!(
+            of("drive")
+                .iter()
+                .all(|r| open < seq(r) && seq(r) < seq(end[0]))
+        );
+    }
+    for i in 0..STATIONS {
         let (_, out, _) = run(
             d,
             &[
@@ -790,8 +1342,13 @@ fn four_lines_commissioning_at_once_into_one_postgres_keep_one_chain() {
         assert_eq!(rows.len(), 13);
         assert!(
             rows.iter()
-                .all(|r| r["operator"] == format!("op{i}").as_str())
+                .all(|r| r["operator"] == format!("op{i}").as_str() && r["result"] == "verified")
         );
+        let one: std::collections::BTreeSet<&str> = rows
+            .iter()
+            .map(|r| r["session"].as_str().unwrap())
+            .collect();
+        assert_eq!(one.len(), 1);
     }
 }
 

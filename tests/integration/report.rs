@@ -54,6 +54,7 @@ fn drive(name: &str, bus: &str, address: u8, result: DriveResult) -> DriveReport
         factory_settings: false,
         replacement: None,
         stored: None,
+        history: None,
     }
 }
 
@@ -149,6 +150,7 @@ pub fn fixture() -> LineReport {
         result: LineResult::Failed,
         buses: vec![lecom, lust, can],
         drives: vec![d1, d2, d3, d4, d5, d6],
+        history: None,
     }
 }
 

@@ -13,13 +13,14 @@
 //! `<secret>` / `<redacted>` here already: its value never reaches the
 //! seam in any form (the fingerprints do not cover a secret's value).
 
-use driveset_schema::Schema;
+use driveset_schema::{ResolvedSet, Schema};
 use serde::{Deserialize, Serialize};
 
 use crate::client::{IdentProtocol, Identity};
 use crate::error::EngineError;
 use crate::journal::FailureCause;
 use crate::line::report::{DriveReport, DriveResult};
+use crate::plan::value_text;
 use crate::upload::{CodeOutcome, CodeReport, UploadReport};
 
 /// Where a drive sits: what stays when its unit is exchanged.
@@ -315,5 +316,74 @@ pub fn line_result(r: DriveResult) -> &'static str {
         DriveResult::Drift => "drift",
         DriveResult::RolledBack => "rolled-back",
         DriveResult::Failed => "failed",
+    }
+}
+
+/// The code records of a read-only look at a drive against a set
+/// (`status`, the live `diff`, `twin capture-line`): each code of `set`,
+/// what the drive holds (`read`) or that it differs (`drift`); a secret's
+/// value is never put in a record (its display text is `<secret>`).
+pub fn read_codes(schema: &Schema, live: &ResolvedSet, set: &ResolvedSet) -> Vec<CodeRecord> {
+    set.values
+        .iter()
+        .map(|(k, want)| {
+            let have = live.values.get(k);
+            let text = |v| value_text(schema, *k, v);
+            CodeRecord {
+                code: schema.display_code(k.number, k.subcode),
+                old: have.map(text),
+                new: Some(text(want)),
+                verified: have.filter(|h| *h == want).map(text),
+                outcome: if have == Some(want) { "read" } else { "drift" }.into(),
+                phase: None,
+            }
+        })
+        .collect()
+}
+
+/// The code records of a read without a set (`pull`, `twin capture`):
+/// every value read, as `old` (what the drive holds), outcome `read`.
+pub fn values_read(schema: &Schema, values: &ResolvedSet) -> Vec<CodeRecord> {
+    values
+        .values
+        .iter()
+        .map(|(k, v)| CodeRecord {
+            code: schema.display_code(k.number, k.subcode),
+            old: Some(value_text(schema, *k, v)),
+            new: None,
+            verified: None,
+            outcome: "read".into(),
+            phase: None,
+        })
+        .collect()
+}
+
+impl DriveRecord {
+    /// The record of a command that read a drive and wrote nothing to it
+    /// (`pull`, the live `diff`, `twin capture`, `twin capture-line`):
+    /// the fingerprint of what it read is both before and after (a read
+    /// leaves the drive as it was); `result` is `read` without a set,
+    /// `unchanged` / `drift` against one.
+    pub fn of_read(
+        slot: Slot,
+        unit: Unit,
+        schema: &str,
+        fingerprint: String,
+        result: &str,
+        codes: Vec<CodeRecord>,
+    ) -> Self {
+        DriveRecord {
+            slot,
+            unit,
+            schema: schema.to_string(),
+            set_fingerprint: None,
+            fingerprint_before: Some(fingerprint.clone()),
+            fingerprint_after: Some(fingerprint),
+            result: result.to_string(),
+            cause: None,
+            error: None,
+            journal: None,
+            codes,
+        }
     }
 }

@@ -78,6 +78,11 @@ pub struct RecoverReport {
     pub action: RecoverAction,
     /// Codes written while rolling back.
     pub restored: Vec<String>,
+    /// The same codes with the values: what the drive held, what it was
+    /// restored to (display texts; a password `<secret>`), for the plant
+    /// history (docs/history.md). Not in the JSON report.
+    #[serde(skip)]
+    pub restored_values: Vec<crate::history::CodeRecord>,
     /// Control words the rollback left stopped instead of restoring a
     /// running state ("416-SCTL1 left stopped: the motor was running
     /// before; start it from the machine's control").
@@ -130,6 +135,7 @@ pub fn recover(
         found,
         action: RecoverAction::Nothing,
         restored: Vec::new(),
+        restored_values: Vec::new(),
         notes: Vec::new(),
         fingerprint: None,
         stored: false,
@@ -468,6 +474,23 @@ fn settle(
             .collect();
         let plan = RollbackPlan::new(&schema, &backup, &new_values);
         report.notes = plan.notes(&schema, &touched);
+        // read back equal to the plan's value when the rollback succeeds
+        // (a failure below returns the error, not this report)
+        let text =
+            |k: &CodeKey, v: Option<&RawValue>| v.map(|v| crate::plan::value_text(&schema, *k, v));
+        report.restored_values = order
+            .iter()
+            .rev()
+            .filter(|(k, _)| report.restored.contains(&code_label(&schema, *k)))
+            .map(|(k, _)| crate::history::CodeRecord {
+                code: schema.display_code(k.number, k.subcode),
+                old: text(k, current.values.get(k)),
+                new: text(k, plan.restore.get(k)),
+                verified: text(k, plan.restore.get(k)),
+                outcome: "restored".into(),
+                phase: None,
+            })
+            .collect();
         let result = restore(
             client,
             &schema,

@@ -5,6 +5,9 @@
 //! `DRIVESET_HISTORY_BENCH_PG` names a server (a URL; its database is
 //! used as it is: give an empty one).
 //!
+//! `DRIVESET_HISTORY_BENCH_SQLITE=0` leaves SQLite out (a PostgreSQL run
+//! alone).
+//!
 //! Size: `DRIVESET_HISTORY_BENCH_SESSIONS` sessions (default 20000), 200
 //! drives, `DRIVESET_HISTORY_BENCH_CODES` codes each (default 50): the
 //! issue's ten years are 1000000 sessions and 50 codes (50M code records).
@@ -90,8 +93,11 @@ fn main() {
         sessions: env("DRIVESET_HISTORY_BENCH_SESSIONS", 20_000),
     };
     let dir = tempfile::tempdir().expect("temp dir");
-    let store = driveset_history::open_sqlite(&dir.path().join("bench.sqlite")).expect("sqlite");
-    run("sqlite", store, &p);
+    if std::env::var("DRIVESET_HISTORY_BENCH_SQLITE").as_deref() != Ok("0") {
+        let store =
+            driveset_history::open_sqlite(&dir.path().join("bench.sqlite")).expect("sqlite");
+        run("sqlite", store, &p);
+    }
     if let Ok(url) = std::env::var("DRIVESET_HISTORY_BENCH_PG") {
         let store = Target::parse(&url)
             .expect("url")

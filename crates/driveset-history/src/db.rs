@@ -58,6 +58,21 @@ impl Val {
 /// A row of a query.
 pub type Row = Vec<Val>;
 
+/// How far an append's commit goes before it returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Durability {
+    /// To the disk (SQLite `synchronous = FULL`: the WAL is fsynced;
+    /// PostgreSQL: the WAL is flushed). It flushes every commit before it
+    /// too: the WAL is one log.
+    Flushed,
+    /// To the database's log, not waiting for the disk (SQLite
+    /// `synchronous = NORMAL` in WAL mode, PostgreSQL `synchronous_commit
+    /// = off`): kept when the process is killed, lost with the commits
+    /// after the last flushed one when the machine loses power; the
+    /// database stays consistent either way.
+    Written,
+}
+
 /// What the store asks of a database.
 pub trait Db: Send {
     /// Run statements without parameters (a migration).
@@ -67,8 +82,9 @@ pub trait Db: Send {
     /// Run one query.
     fn query(&mut self, sql: &str, params: &[Val]) -> Result<Vec<Row>, HistoryError>;
     /// Begin the transaction an append runs in, holding the chain for
-    /// this writer alone until [`Db::commit`].
-    fn begin_append(&mut self) -> Result<(), HistoryError>;
+    /// this writer alone until [`Db::commit`], which goes as far as
+    /// `durability`.
+    fn begin_append(&mut self, durability: Durability) -> Result<(), HistoryError>;
     /// Commit.
     fn commit(&mut self) -> Result<(), HistoryError>;
     /// Roll back (after a failed append).
@@ -80,6 +96,8 @@ pub trait Db: Send {
 /// SQLite in a file.
 pub struct Sqlite {
     conn: rusqlite::Connection,
+    /// The connection's `synchronous` setting.
+    durability: Durability,
 }
 
 fn sq(e: rusqlite::Error) -> HistoryError {
@@ -111,7 +129,10 @@ impl Sqlite {
             .map_err(sq)?;
         conn.execute_batch("PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL;")
             .map_err(sq)?;
-        Ok(Sqlite { conn })
+        Ok(Sqlite {
+            conn,
+            durability: Durability::Flushed,
+        })
     }
 }
 
@@ -161,7 +182,16 @@ impl Db for Sqlite {
         Ok(out)
     }
 
-    fn begin_append(&mut self) -> Result<(), HistoryError> {
+    fn begin_append(&mut self, durability: Durability) -> Result<(), HistoryError> {
+        if self.durability != durability {
+            self.conn
+                .execute_batch(match durability {
+                    Durability::Flushed => "PRAGMA synchronous = FULL",
+                    Durability::Written => "PRAGMA synchronous = NORMAL",
+                })
+                .map_err(sq)?;
+            self.durability = durability;
+        }
         self.conn.execute_batch("BEGIN IMMEDIATE").map_err(sq)
     }
 
@@ -296,9 +326,14 @@ impl Db for Postgres {
         Ok(out)
     }
 
-    fn begin_append(&mut self) -> Result<(), HistoryError> {
+    fn begin_append(&mut self, durability: Durability) -> Result<(), HistoryError> {
         self.client
-            .batch_execute("BEGIN; LOCK TABLE chain IN EXCLUSIVE MODE")
+            .batch_execute(match durability {
+                Durability::Flushed => "BEGIN; LOCK TABLE chain IN EXCLUSIVE MODE",
+                Durability::Written => {
+                    "BEGIN; SET LOCAL synchronous_commit = off; LOCK TABLE chain IN EXCLUSIVE MODE"
+                }
+            })
             .map_err(pg)
     }
 

@@ -18,7 +18,7 @@ use sha2::{Digest, Sha256};
 use driveset_engine::history::DriveRecord;
 
 use crate::HistoryError;
-use crate::db::{Db, Row, Val};
+use crate::db::{Db, Durability, Row, Val};
 
 /// The first record's `prev_hash`.
 pub const GENESIS: &str = "0000000000000000000000000000000000000000000000000000000000000000";
@@ -285,12 +285,19 @@ impl Store {
         row: &[Val],
         codes: &[Row],
     ) -> Result<i64, HistoryError> {
-        let last = self
-            .db
-            .query("SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1", &[])?;
-        let (seq, prev) = match last.first() {
-            Some(r) => (r[0].int().unwrap_or(0) + 1, r[1].str()),
-            None => (1, GENESIS.to_string()),
+        // inside a batch the head is the batch's last record (the batch
+        // holds the chain alone); else the chain's, read under the lock
+        let (seq, prev) = match self.head.take().filter(|_| self.in_batch) {
+            Some((seq, hash)) => (seq + 1, hash),
+            None => {
+                let last = self
+                    .db
+                    .query("SELECT seq, hash FROM chain ORDER BY seq DESC LIMIT 1", &[])?;
+                match last.first() {
+                    Some(r) => (r[0].int().unwrap_or(0) + 1, r[1].str()),
+                    None => (1, GENESIS.to_string()),
+                }
+            }
         };
         let h = hash(&prev, &content(kind, row, codes));
         let (table, columns) = match kind {
@@ -345,7 +352,7 @@ impl Store {
         &mut self,
         f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
-        self.db.begin_append()?;
+        self.db.begin_append(Durability::Flushed)?;
         self.in_batch = true;
         let r = f(self);
         self.in_batch = false;
@@ -362,15 +369,17 @@ impl Store {
         }
     }
 
-    /// Run `f` as one append transaction (inside a batch: as part of it).
+    /// Run `f` as one append transaction committed as far as
+    /// `durability` (inside a batch: as part of it).
     fn append<T>(
         &mut self,
+        durability: Durability,
         f: impl FnOnce(&mut Self) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
         if self.in_batch {
             return f(self);
         }
-        self.db.begin_append()?;
+        self.db.begin_append(durability)?;
         match f(self) {
             Ok(t) => {
                 self.db.commit()?;
@@ -383,25 +392,53 @@ impl Store {
         }
     }
 
-    /// Open a session (before the run's first write).
+    /// Open a session (before the run's first write), flushed to the disk
+    /// before it returns.
     pub fn open_session(&mut self, s: &SessionStart) -> Result<(), HistoryError> {
         let row = s.row();
-        self.append(|st| st.link("session", &s.id, &row, &[]).map(|_| ()))
+        self.append(Durability::Flushed, |st| {
+            st.link("session", &s.id, &row, &[]).map(|_| ())
+        })
     }
 
-    /// Put one drive on record in session `session_id`, at `at`.
+    /// Put one drive on record in session `session_id`, at `at`; gives
+    /// its place in the chain (`seq`). Committed, kept if the process is
+    /// killed next, but not waited for on the disk: the session's close
+    /// flushes it (docs/history.md, "Recording's cost").
     pub fn drive(
         &mut self,
         session_id: &str,
         at: &str,
         r: &DriveRecord,
-    ) -> Result<(), HistoryError> {
+    ) -> Result<i64, HistoryError> {
         let row = drive_row(session_id, at, r);
         let codes = code_rows(r);
-        self.append(|st| st.link("drive", session_id, &row, &codes).map(|_| ()))
+        self.append(Durability::Written, |st| {
+            st.link("drive", session_id, &row, &codes)
+        })
     }
 
-    /// Close session `session_id`.
+    /// Put drives on record in session `session_id`, each `(at, record)`,
+    /// in one transaction (as [`Store::drive`] each); gives their places
+    /// in the chain.
+    pub fn drives(
+        &mut self,
+        session_id: &str,
+        records: &[(String, DriveRecord)],
+    ) -> Result<Vec<i64>, HistoryError> {
+        let rows: Vec<(Vec<Val>, Vec<Row>)> = records
+            .iter()
+            .map(|(at, r)| (drive_row(session_id, at, r), code_rows(r)))
+            .collect();
+        self.append(Durability::Written, |st| {
+            rows.iter()
+                .map(|(row, codes)| st.link("drive", session_id, row, codes))
+                .collect()
+        })
+    }
+
+    /// Close session `session_id`, flushed to the disk with every record
+    /// before it.
     pub fn close_session(&mut self, session_id: &str, e: &SessionEnd) -> Result<(), HistoryError> {
         let row = vec![
             Val::t(session_id),
@@ -411,7 +448,9 @@ impl Store {
             Val::ot(e.detail.clone()),
             Val::ot(e.closed_by.clone()),
         ];
-        self.append(|st| st.link("end", session_id, &row, &[]).map(|_| ()))
+        self.append(Durability::Flushed, |st| {
+            st.link("end", session_id, &row, &[]).map(|_| ())
+        })
     }
 
     /// The sessions of `station` that were opened and never closed.
@@ -642,7 +681,7 @@ impl Store {
     /// here already (then it was forwarded before: `false`). One
     /// transaction: the session arrives whole or not at all.
     pub fn import(&mut self, id: &str, dump: &SessionDump) -> Result<bool, HistoryError> {
-        self.append(|st| {
+        self.append(Durability::Flushed, |st| {
             let have = st
                 .db
                 .query("SELECT 1 FROM sessions WHERE id = $1", &[Val::t(id)])?;

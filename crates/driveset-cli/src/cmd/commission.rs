@@ -404,6 +404,7 @@ pub fn run_mode(
         eprintln!("warning: {w}");
     }
     out!("{}", summary(&outcome, mode, wall));
+    crate::history::link_report(&mut outcome.report);
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
         Err(e) => {

@@ -115,6 +115,7 @@ impl PortCommand for Args {
         address_help: "Bus address of the drive for --port.",
         together: true,
         schemas: true,
+        allow_family: true,
         learn: LearnFlags::All,
         ..Takes::NONE
     };

@@ -15,6 +15,7 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
+use driveset_engine::history::{self, DriveRecord, Slot, Unit};
 use driveset_engine::pull::PullOptions;
 use driveset_engine::session::{self, rate::ReadRate};
 use driveset_schema::schema::{Access, StorageKind};
@@ -171,6 +172,15 @@ fn toml_str(s: &str) -> String {
 
 fn pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
+    // on record before the first read (docs/history.md)
+    crate::history::begin(
+        "pull",
+        crate::history::Context {
+            sets: Some(args.output.clone()),
+            ..Default::default()
+        },
+        false,
+    )?;
     // No schema: find the protocol as `scan` does, on every port.
     let (opened, resolved) = args.at.open_resolved(address)?;
     let (choice, detected) = (resolved.choice, resolved.evidence);
@@ -249,6 +259,8 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         eprint!("{t}");
     }
     client.finish()?;
+    // every value read, actual values included, on record
+    let read = history::values_read(&schema, &pulled.set);
     // Read-only codes (actual values) are read but cannot be part of a set
     // (`validate` refuses them): they go into the header as comments.
     let mut pulled = pulled;
@@ -267,6 +279,18 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         !ro
     });
     pulled.fingerprint = pulled.set.fingerprint();
+    crate::history::drive(&DriveRecord::of_read(
+        Slot {
+            bus: args.at.port()?.to_string(),
+            address,
+            ..Slot::default()
+        },
+        Unit::of(&schema, &pulled.identity),
+        &schema.id,
+        pulled.fingerprint.clone(),
+        "read",
+        read,
+    ));
     // The bus address / line rate codes left out (the manifest owns them).
     let bus_codes: Vec<String> = pulled
         .skipped

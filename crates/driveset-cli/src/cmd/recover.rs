@@ -119,18 +119,7 @@ fn record(
             rec.error = None;
             rec.fingerprint_after = r.fingerprint.clone();
             rec.journal = Some(r.journal.clone());
-            rec.codes = r
-                .restored
-                .iter()
-                .map(|c| driveset_engine::history::CodeRecord {
-                    code: c.clone(),
-                    old: None,
-                    new: None,
-                    verified: None,
-                    outcome: "restored".into(),
-                    phase: None,
-                })
-                .collect();
+            rec.codes = r.restored_values.clone();
             let found = format!(
                 "`driveset recover {}` found the journal {} and {action} it",
                 journal.display(),

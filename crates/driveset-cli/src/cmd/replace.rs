@@ -250,7 +250,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     )?;
     let env = crate::env::SystemEnv;
     let outcome = finish(&manifest, &prep, &mut link, &port_name, &opts, &env);
-    let (report, done) = match outcome {
+    let (mut report, done) = match outcome {
         Ok(o) => (o.report.clone(), Ok(o)),
         Err(ReplaceError::Upload { report, error }) => (*report, Err(error)),
         Err(e) => return Err(refusal(&e)),
@@ -266,6 +266,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         };
         crate::history::drive(&DriveRecord::of_line(&report.line, d, unit, diff_codes(d)));
     }
+    crate::history::link_report(&mut report);
     let written = report::write_reports(&report, &report_dir).map_err(|e| {
         Fail::input(format!(
             "cannot write the report into {}: {e}",

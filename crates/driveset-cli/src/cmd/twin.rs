@@ -9,7 +9,9 @@
 //! manifest as a simulated bus of the twins of its drives (`DIR/<drive
 //! name>.twin.toml`) in virtual time and runs the line as `commission`
 //! does; a rehearsal that would rehearse nothing is refused, and selected
-//! drives without a twin fail it unless `--allow-missing-twins`.
+//! drives without a twin fail it unless `--allow-missing-twins`. A
+//! capture is on record (docs/history.md): each drive's values read and
+//! their fingerprint; a rehearsal is not (it reads no drive).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -17,15 +19,16 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::capture::{Capture, capture, describe};
-use driveset_engine::client::DriveClient;
+use driveset_engine::client::{DriveClient, IdentProtocol, Identity};
 use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
+use driveset_engine::history::{self, DriveRecord, Slot, Unit};
 use driveset_engine::learn::{LearnOptions, PullSchemaError};
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
 use driveset_link::{Link, VirtualClock};
-use driveset_schema::{CodeKey, Family, RawValue, Schema};
+use driveset_schema::{CodeKey, Family, RawValue, ResolvedSet, Schema};
 use driveset_sim::drive::ReadRefusal;
 use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimConfig, open_sim_with};
@@ -170,9 +173,30 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
     // a FIFO or device as -o is refused before the port is opened
     crate::files::check_output("-o", &a.output)?;
     let address = a.at.address()?;
-    let (twin, schema) = capture_drive(a.at.port()?, address, |opened| {
+    crate::history::begin(
+        "twin capture",
+        crate::history::Context {
+            sets: Some(a.output.clone()),
+            ..Default::default()
+        },
+        false,
+    )?;
+    let (twin, schema, identity) = capture_drive(a.at.port()?, address, |opened| {
         Ok(a.at.resolve(opened, address)?.choice.schema)
     })?;
+    let read = read_set(&schema, &twin);
+    crate::history::drive(&DriveRecord::of_read(
+        Slot {
+            bus: a.at.port()?.to_string(),
+            address,
+            ..Slot::default()
+        },
+        Unit::of(&schema, &identity),
+        &schema.id,
+        read.fingerprint(),
+        "read",
+        history::values_read(&schema, &read),
+    ));
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
     Ok(EXIT_OK)
@@ -186,6 +210,15 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
+    crate::history::begin(
+        "twin capture-line",
+        crate::history::Context {
+            label: manifest.label.clone(),
+            manifest: Some(a.manifest.display().to_string()),
+            sets: Some(a.manifest.clone()),
+        },
+        false,
+    )?;
     let mut worst = EXIT_OK;
     let mut failed = Vec::new();
     for d in &manifest.drives {
@@ -195,9 +228,40 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         // the set's schema as the manifest resolved it (a learned file
         // `pull` wrote beside the set included); one that lacks facts is
         // learned from the drive, as `pull` learns it
-        match capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()))
-            .and_then(|(t, s)| write_twin(&out, &t, &s))
-        {
+        let slot = Slot {
+            line: Some(manifest.name.clone()),
+            drive: Some(d.name.clone()),
+            bus: bus.name.clone(),
+            address: d.address,
+        };
+        let captured = capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()));
+        let written = match captured {
+            Ok((t, s, identity)) => {
+                crate::history::drive(&line_record(slot, d, &t, &s, &identity));
+                write_twin(&out, &t, &s)
+            }
+            Err(f) => {
+                crate::history::drive(&DriveRecord {
+                    result: "failed".into(),
+                    error: Some(f.msg.clone()),
+                    fingerprint_before: None,
+                    fingerprint_after: None,
+                    ..DriveRecord::of_read(
+                        slot,
+                        Unit {
+                            family: IdentProtocol::Family(d.schema.family).name().to_string(),
+                            ..Unit::default()
+                        },
+                        &d.schema.id,
+                        String::new(),
+                        "failed",
+                        Vec::new(),
+                    )
+                });
+                Err(f)
+            }
+        };
+        match written {
             Ok(line) => outln!("{}: {line}", d.name),
             Err(f) => {
                 eprintln!(
@@ -220,17 +284,72 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     Ok(worst)
 }
 
+/// Every value a capture read, as a set of `schema` (its fingerprint is
+/// what the history records of a `twin capture`).
+fn read_set(schema: &Schema, twin: &Twin) -> ResolvedSet {
+    let mut set = ResolvedSet::new(schema);
+    set.values = twin.values.clone();
+    set
+}
+
+/// The history record of a line drive's capture: each code of its set,
+/// what the drive holds (`read`) or that it differs (`drift`), as `status`
+/// records it; a drive whose set waits for the learned schema (empty
+/// here): every value read.
+fn line_record(
+    slot: Slot,
+    d: &driveset_engine::line::manifest::Drive,
+    twin: &Twin,
+    schema: &Schema,
+    identity: &Identity,
+) -> DriveRecord {
+    let unit = Unit::of(schema, identity);
+    if d.set.values.is_empty() {
+        let read = read_set(schema, twin);
+        return DriveRecord::of_read(
+            slot,
+            unit,
+            &schema.id,
+            read.fingerprint(),
+            "read",
+            history::values_read(schema, &read),
+        );
+    }
+    let mut live = d.set.clone();
+    live.values = d
+        .set
+        .values
+        .keys()
+        .filter_map(|k| Some((*k, twin.values.get(k)?.clone())))
+        .collect();
+    let mut record = DriveRecord::of_read(
+        slot,
+        unit,
+        &schema.id,
+        live.fingerprint(),
+        if live.values == d.set.values {
+            "unchanged"
+        } else {
+            "drift"
+        },
+        history::read_codes(schema, &live, &d.set),
+    );
+    record.set_fingerprint = Some(d.set.fingerprint());
+    record
+}
+
 /// Capture the drive at `address` of `port_text` into a twin, with the
 /// schema `choose` gives for the opened port (given, or found as `pull`
 /// finds it). A LUSTBUS drive is described first, whatever the schema
 /// ([`describe`]: every description and substitution text it sends, the
 /// schema learned from them when the chosen one lacks facts, as `pull`
-/// learns it); then every code of the schema is read ([`capture`]).
+/// learns it); then every code of the schema is read ([`capture`]). Gives
+/// the twin, the schema and what the drive said it is.
 pub fn capture_drive(
     port_text: &str,
     address: u8,
     choose: impl FnOnce(&mut port::OpenPort) -> Result<Arc<Schema>, Fail>,
-) -> Result<(Twin, Arc<Schema>), Fail> {
+) -> Result<(Twin, Arc<Schema>, Identity), Fail> {
     let mut opened = port::open_port_at(port_text, Some(address))?;
     let schema = choose(&mut opened)?;
     let port_name = opened.name.clone();
@@ -295,7 +414,7 @@ pub fn capture_drive(
         twin.descriptions = Some(d.descriptions);
         twin.texts = d.texts;
     }
-    Ok((twin, schema))
+    Ok((twin, schema, cap.identity))
 }
 
 /// The twin of a capture (without source, rate and description layout).

@@ -5,7 +5,9 @@
 //! command opens before its first write ([`begin`]) and `main` closes with
 //! the outcome ([`end`]), the engine's [`History`] seam over it
 //! ([`RecordedEnv`], for the line runner) and [`drive`] for the one-drive
-//! commands. A shared store that cannot be reached: the session goes to
+//! commands. Drive records go to the store through a thread of their own
+//! ([`Recorder`]: the records waiting, one transaction), flushed before
+//! the session closes. A shared store that cannot be reached: the session goes to
 //! the local SQLite store, owed to the shared one, and is forwarded by the
 //! next run that reaches it or by `driveset history sync`.
 
@@ -17,7 +19,7 @@ use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use driveset_engine::env::{Environment, rfc3339};
 use driveset_engine::history::{DriveRecord, History};
-use driveset_engine::line::report::GitInfo;
+use driveset_engine::line::report::{DriveHistoryLink, GitInfo, HistoryLink, LineReport};
 use driveset_history::{SessionEnd, SessionStart, Store, Target};
 
 use crate::fail::Fail;
@@ -65,10 +67,87 @@ pub fn target() -> Result<Target, Fail> {
     }
 }
 
+/// The drive records of this run: (line, drive, place in the chain).
+type Records = Arc<Mutex<Vec<(Option<String>, Option<String>, i64)>>>;
+
 /// The open session of this run.
 struct Run {
     id: String,
     store: Arc<Mutex<Store>>,
+    records: Records,
+    recorder: Recorder,
+}
+
+/// What the recorder thread is sent.
+enum Job {
+    /// A drive's record, with the time it was taken.
+    Drive(String, Box<DriveRecord>),
+    /// Answer once every record sent before is in the store.
+    Flush(std::sync::mpsc::Sender<()>),
+}
+
+/// The thread that puts drive records into the store, so a bus thread
+/// never waits for the database: it takes every record waiting at once
+/// into one transaction (docs/history.md, "Recording's cost").
+#[derive(Clone)]
+struct Recorder {
+    tx: std::sync::mpsc::Sender<Job>,
+}
+
+impl Recorder {
+    fn start(id: String, store: Arc<Mutex<Store>>, records: Records) -> Recorder {
+        let (tx, rx) = std::sync::mpsc::channel::<Job>();
+        std::thread::spawn(move || {
+            while let Ok(first) = rx.recv() {
+                let mut batch = Vec::new();
+                let mut flushes = Vec::new();
+                let mut take = |job: Job| match job {
+                    Job::Drive(at, r) => batch.push((at, *r)),
+                    Job::Flush(done) => flushes.push(done),
+                };
+                take(first);
+                while let Ok(job) = rx.try_recv() {
+                    take(job);
+                }
+                if !batch.is_empty() {
+                    let done = store
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .drives(&id, &batch);
+                    match done {
+                        Ok(seqs) => records
+                            .lock()
+                            .unwrap_or_else(PoisonError::into_inner)
+                            .extend(batch.iter().zip(seqs).map(|((_, r), seq)| {
+                                (r.slot.line.clone(), r.slot.drive.clone(), seq)
+                            })),
+                        Err(e) => eprintln!(
+                            "warning: history: {} drive record(s) not recorded: {e}",
+                            batch.len()
+                        ),
+                    }
+                }
+                for done in flushes {
+                    let _ = done.send(());
+                }
+            }
+        });
+        Recorder { tx }
+    }
+
+    fn send(&self, at: String, record: &DriveRecord) -> Result<(), String> {
+        self.tx
+            .send(Job::Drive(at, Box::new(record.clone())))
+            .map_err(|_| "the recorder has stopped".to_string())
+    }
+
+    /// Wait until every record sent before is in the store.
+    fn flush(&self) {
+        let (done, wait) = std::sync::mpsc::channel();
+        if self.tx.send(Job::Flush(done)).is_ok() {
+            let _ = wait.recv();
+        }
+    }
 }
 
 /// What a command tells the history about its run.
@@ -254,9 +333,14 @@ pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
     if let Err(e) = store.open_session(&start) {
         return refuse(e.to_string());
     }
+    let store = Arc::new(Mutex::new(store));
+    let records = Records::default();
+    let recorder = Recorder::start(start.id.clone(), store.clone(), records.clone());
     *RUN.lock().unwrap_or_else(PoisonError::into_inner) = Some(Run {
         id: start.id,
-        store: Arc::new(Mutex::new(store)),
+        store,
+        records,
+        recorder,
     });
     Ok(())
 }
@@ -277,6 +361,8 @@ pub fn end(code: u8, failure: Option<&str>) {
     let Some(run) = RUN.lock().unwrap_or_else(PoisonError::into_inner).take() else {
         return;
     };
+    // every drive's record before the close
+    run.recorder.flush();
     let outcome = match code {
         0 => "ok",
         1 => "differs",
@@ -302,6 +388,7 @@ pub fn end(code: u8, failure: Option<&str>) {
 /// gone (killed mid-way): `recover` does this with what it found.
 pub fn close_interrupted(found: &str) {
     let Some(s) = Session::current() else { return };
+    s.recorder.flush();
     let mut store = s.store.lock().unwrap_or_else(PoisonError::into_inner);
     let open = match store.open_sessions(&station()) {
         Ok(o) => o,
@@ -334,11 +421,82 @@ pub fn close_interrupted(found: &str) {
     }
 }
 
+/// Link a line run's report to its session (report.json `history`, each
+/// drive's `history`; the HTML report shows them): the store, the
+/// session, each drive's record and the commands that list the drive's
+/// history and the line as built. No session: the report is left as it is.
+pub fn link_report(report: &mut LineReport) {
+    let Some(s) = Session::current() else { return };
+    // every drive's record in, with its place in the chain
+    s.recorder.flush();
+    let shown = s
+        .store
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .shown
+        .clone();
+    // the default store needs no flag; another is named
+    let flag = if shown == Target::default_sqlite().shown() {
+        String::new()
+    } else {
+        format!(" --history {}", sh_quote(&shown))
+    };
+    let at = report
+        .label
+        .as_deref()
+        .map(|l| format!(" --at {}", sh_quote(l)))
+        .unwrap_or_default();
+    report.history = Some(HistoryLink {
+        store: shown,
+        session: s.id.clone(),
+        as_built: format!(
+            "driveset history as-built {}{at}{flag}",
+            sh_quote(&report.manifest)
+        ),
+    });
+    let records = s.records.lock().unwrap_or_else(PoisonError::into_inner);
+    for d in &mut report.drives {
+        // the run's last record of the drive
+        let Some(seq) = records
+            .iter()
+            .rev()
+            .find(|(l, n, _)| {
+                l.as_deref() == Some(report.line.as_str()) && n.as_deref() == Some(d.name.as_str())
+            })
+            .map(|r| r.2)
+        else {
+            continue;
+        };
+        d.history = Some(DriveHistoryLink {
+            record: seq,
+            log: format!(
+                "driveset history log --line {} --drive {}{flag}",
+                sh_quote(&report.line),
+                sh_quote(&d.name)
+            ),
+        });
+    }
+}
+
+/// `s` as one shell word: as it is when it is plain, else single-quoted.
+fn sh_quote(s: &str) -> String {
+    let plain = !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"-_./:@,+=%".contains(&b));
+    if plain {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
 /// The open session as the engine's [`History`] seam.
 #[derive(Clone)]
 pub struct Session {
     id: String,
     store: Arc<Mutex<Store>>,
+    records: Records,
+    recorder: Recorder,
 }
 
 impl Session {
@@ -350,18 +508,16 @@ impl Session {
             .map(|r| Session {
                 id: r.id.clone(),
                 store: r.store.clone(),
+                records: r.records.clone(),
+                recorder: r.recorder.clone(),
             })
     }
 }
 
 impl History for Session {
     fn drive(&self, record: &DriveRecord) -> Result<(), String> {
-        let at = rfc3339(jiff::Timestamp::now());
-        self.store
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .drive(&self.id, &at, record)
-            .map_err(|e| e.to_string())
+        // to the recorder thread: the caller (a bus thread) goes on
+        self.recorder.send(rfc3339(jiff::Timestamp::now()), record)
     }
 }
 

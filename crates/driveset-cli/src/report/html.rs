@@ -262,6 +262,18 @@ fn header(o: &mut String, r: &LineReport, class: &str) {
         ),
         None => meta("Git commit", "<em>not in a git work tree</em>".into()),
     }
+    if let Some(h) = &r.history {
+        meta(
+            "History",
+            format!(
+                "session <code id=\"history-session\">{}</code> in <code id=\"history-store\">{}</code>; \
+                 the line as built: <code id=\"history-as-built\">{}</code>",
+                esc(&h.session),
+                esc(&h.store),
+                esc(&h.as_built)
+            ),
+        );
+    }
     let _ = writeln!(o, "</dl>");
     // counts per drive result, in the order of the result kinds
     let mut counts: BTreeMap<u8, (usize, (&str, &str, &str))> = BTreeMap::new();
@@ -578,6 +590,14 @@ fn drive_card(o: &mut String, d: &DriveReport, i: usize) {
                 .as_deref()
                 .map(|f| format!(", file <code>{}</code>", esc(f)))
                 .unwrap_or_default()
+        );
+    }
+    if let Some(h) = &d.history {
+        let _ = writeln!(
+            o,
+            "<dt>History</dt><dd class=\"history\">record {} \u{b7} <code>{}</code></dd>",
+            h.record,
+            esc(&h.log)
         );
     }
     o.push_str("</dl>\n");

@@ -491,6 +491,7 @@ pub fn finish(
         result,
         buses: vec![bus_report],
         drives: vec![r],
+        history: None,
     };
     if let Some(e) = failure {
         return Err(ReplaceError::Upload {

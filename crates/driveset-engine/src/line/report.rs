@@ -41,6 +41,34 @@ pub struct LineReport {
     pub buses: Vec<BusReport>,
     /// One entry per drive, in manifest order.
     pub drives: Vec<DriveReport>,
+    /// The plant history's session of this run (docs/history.md), when
+    /// it was recorded; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history: Option<HistoryLink>,
+}
+
+/// Where a run is on record in the plant history (docs/history.md).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HistoryLink {
+    /// The store as shown (a URL's password masked): `sqlite:PATH`,
+    /// `postgresql://...`.
+    pub store: String,
+    /// The session's id.
+    pub session: String,
+    /// The command that lists the line's state as built by the history
+    /// (`driveset history as-built MANIFEST ...`).
+    pub as_built: String,
+}
+
+/// Where one drive of a run is on record in the plant history.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DriveHistoryLink {
+    /// The drive record's place in the store's chain (`seq` of
+    /// `history log --format json`).
+    pub record: i64,
+    /// The command that lists the drive's history
+    /// (`driveset history log --line L --drive NAME ...`).
+    pub log: String,
 }
 
 /// Where the sets came from in git.
@@ -174,6 +202,10 @@ pub struct DriveReport {
     /// ([`DriveReport::store_worth_saying`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stored: Option<String>,
+    /// The drive's record in the plant history (docs/history.md), when the
+    /// run recorded it; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history: Option<DriveHistoryLink>,
 }
 
 impl DriveReport {

@@ -18,7 +18,7 @@ use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_clock, link_now, since};
 use crate::client::{DriveClient, IdentProtocol, Identity};
 use crate::error::{EngineError, ErrorKind};
-use crate::history::{CodeRecord, DriveRecord, Unit};
+use crate::history::{CodeRecord, DriveRecord, Unit, read_codes};
 use crate::identify::check_family;
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
@@ -85,6 +85,7 @@ pub(in crate::line) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -
         factory_settings: false,
         replacement: None,
         stored: None,
+        history: None,
     }
 }
 
@@ -387,27 +388,6 @@ pub(in crate::line) fn fill_from_upload(
             new: Some(c.new.clone()),
         })
         .collect();
-}
-
-/// The code records of a read-only look at a drive (`status`): each code
-/// of the set, what the drive holds (`read`) or that it differs (`drift`);
-/// a secret's value is never put in a record.
-fn read_codes(schema: &Schema, live: &ResolvedSet, set: &ResolvedSet) -> Vec<CodeRecord> {
-    set.values
-        .iter()
-        .map(|(k, want)| {
-            let have = live.values.get(k);
-            let text = |v| value_text(schema, *k, v);
-            CodeRecord {
-                code: schema.display_code(k.number, k.subcode),
-                old: have.map(text),
-                new: Some(text(want)),
-                verified: have.filter(|h| *h == want).map(text),
-                outcome: if have == Some(want) { "read" } else { "drift" }.into(),
-                phase: None,
-            }
-        })
-        .collect()
 }
 
 /// The semantic diff drive -> set as report lines.

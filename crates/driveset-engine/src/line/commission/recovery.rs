@@ -8,12 +8,13 @@ use std::ops::RangeInclusive;
 
 use super::options::Mode;
 use super::run::Ctx;
-use crate::client::DriveClient;
+use crate::client::{DriveClient, IdentProtocol};
 use crate::error::EngineError;
+use crate::history::{DriveRecord, Slot, Unit};
 use crate::journal::Unfinished;
 use crate::line::manifest::Drive;
 use crate::observe::{Hook, Phase};
-use crate::recover::{RecoverAction, RecoverOptions, recover};
+use crate::recover::{RecoverAction, RecoverOptions, RecoverReport, recover};
 
 /// A drive with an unfinished journal is not done: `status` reports it
 /// failed, `commission` recovers each journal first
@@ -45,6 +46,7 @@ pub(super) fn recover_unfinished(
                     "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
                 ))
         })?;
+        record_recovery(client, d, ctx, &u.path, &rep);
         let did = match rep.action {
             RecoverAction::Completed => "completed (the drive held the new values)",
             RecoverAction::RolledBack => "rolled back (old values restored)",
@@ -57,6 +59,51 @@ pub(super) fn recover_unfinished(
         ));
     }
     Ok(())
+}
+
+/// Put a recovery that wrote or settled the drive on the run's record
+/// ([`crate::history`]), before the drive's own record: result
+/// `rolled-back` (each code restored: what it held, what it was restored
+/// to, the read-back) or `completed`.
+fn record_recovery(
+    client: &dyn DriveClient,
+    d: &Drive,
+    ctx: &Ctx<'_>,
+    journal: &std::path::Path,
+    rep: &RecoverReport,
+) {
+    let result = match rep.action {
+        RecoverAction::Nothing => return,
+        RecoverAction::Completed => "completed",
+        RecoverAction::RolledBack => "rolled-back",
+    };
+    let Some(h) = ctx.opts.env.history() else {
+        return;
+    };
+    let record = DriveRecord {
+        slot: Slot {
+            line: Some(ctx.line.to_string()),
+            drive: Some(d.name.clone()),
+            bus: d.bus.clone(),
+            address: d.address,
+        },
+        unit: Unit {
+            family: IdentProtocol::Family(d.schema.family).name().to_string(),
+            ..Unit::default()
+        },
+        schema: client.schema().id.clone(),
+        set_fingerprint: None,
+        fingerprint_before: None,
+        fingerprint_after: rep.fingerprint.clone(),
+        result: result.into(),
+        cause: None,
+        error: None,
+        journal: Some(journal.display().to_string()),
+        codes: rep.restored_values.clone(),
+    };
+    if let Err(e) = h.drive(&record) {
+        ctx.warn(format!("{}: not recorded in the history: {e}", d.name));
+    }
 }
 
 /// `status`'s error for a drive with unfinished journals: its values are

@@ -187,6 +187,7 @@ fn line_report(
         result,
         buses,
         drives,
+        history: None,
     }
 }
 
