@@ -472,7 +472,7 @@ struct LineCase {
     cut_keys: &'static [(&'static str, &'static str)],
     cut_options: &'static [&'static str],
     cut_set: &'static str,
-    /// The pulled cable: at host telegram N (mid-write), for 5 s.
+    /// The pulled cable: at host telegram N (mid-write), for 20 s.
     cable: &'static str,
 }
 
@@ -604,9 +604,12 @@ fn parity_line(case: &LineCase) {
         "",
     );
     assert_eq!(code, Some(3), "{}: the cut upload", case.name);
-    // the pty's cable is back after its 5 s (the `sim://` side recovers
-    // through its port without the run's faults)
-    std::thread::sleep(Duration::from_millis(5500));
+    // the pty's cable is back after its 20 s (the `sim://` side recovers
+    // through its port without the run's faults). The outage outlasts the
+    // cut upload's rollback on both sides: with 5 s a loaded machine's pty
+    // run took longer than the outage, its rollback reached the drive and
+    // the outcomes differed (rolled back there, "a mix" on `sim://`)
+    std::thread::sleep(Duration::from_millis(20_500));
     let code = same(
         case.name,
         &sim,
@@ -641,7 +644,7 @@ fn parity_replace_and_recover_on_lustbus() {
         cut_keys: &[("addresses", "4")],
         cut_options: &["--address", "4"],
         cut_set: "parameter-sets/vf1000/conveyor-1.toml",
-        cable: "cable@48+5s",
+        cable: "cable@48+20s",
     });
 }
 
@@ -660,6 +663,6 @@ fn parity_replace_and_recover_on_lecom() {
         cut_keys: &[("addresses", "4"), ("c0001", "3")],
         cut_options: &["--address", "4", "--c0001", "3"],
         cut_set: "parameter-sets/tmd/conveyor-3.toml",
-        cable: "cable@30+5s",
+        cable: "cable@30+20s",
     });
 }
