@@ -50,8 +50,6 @@ mod show;
 mod sim;
 mod store;
 mod tidy;
-mod tidy_transport;
-mod tidy_writes;
 mod transfer_pty;
 mod twin;
 mod twin_pty;

@@ -5,4 +5,3 @@
 mod check;
 mod prop;
 mod sets;
-mod tidy;

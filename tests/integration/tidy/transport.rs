@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use driveset_test_support::workspace_root;
 
-use crate::tidy::{files, is_test_module_file, read, rel, report, skipped_blocks};
+use super::{read, report, sources};
 
 /// What a `sim://`-specific branch looks like in the CLI's and the
 /// engine's sources.
@@ -62,30 +62,21 @@ const OPAQUE_PORTS: &[(&str, usize, &str)] = &[(
 /// The lines of the CLI's and the engine's sources (comments and test
 /// modules left out) that name a `sim://`-specific item, by file.
 fn sim_branches() -> BTreeMap<String, Vec<(usize, String)>> {
-    let root = workspace_root();
     let mut out: BTreeMap<String, Vec<(usize, String)>> = BTreeMap::new();
-    for dir in ["crates/driveset-engine/src", "crates/driveset-cli/src"] {
-        for file in files(&root.join(dir), &[".rs"]) {
-            let path = rel(&root, &file);
-            if is_test_module_file(&file) || file.ends_with("tests.rs") {
+    for source in sources() {
+        let cli_or_engine =
+            source.under("crates/driveset-engine/src/") || source.under("crates/driveset-cli/src/");
+        if !cli_or_engine || source.path.ends_with("tests.rs") {
+            continue;
+        }
+        for (n, line) in source.code() {
+            if line.trim_start().starts_with("#[arg") {
                 continue;
             }
-            let text = read(&file);
-            let lines: Vec<&str> = text.lines().collect();
-            let skip = skipped_blocks(&lines, None);
-            for (i, line) in lines.iter().enumerate() {
-                let code = line.trim_start();
-                if code.starts_with("//")
-                    || code.starts_with("#[arg")
-                    || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
-                {
-                    continue;
-                }
-                if let Some(what) = SIM_BRANCHES.iter().find(|p| line.contains(*p)) {
-                    out.entry(path.clone())
-                        .or_default()
-                        .push((i + 1, (*what).to_string()));
-                }
+            if let Some(what) = SIM_BRANCHES.iter().find(|p| line.contains(*p)) {
+                out.entry(source.path.clone())
+                    .or_default()
+                    .push((n, (*what).to_string()));
             }
         }
     }
@@ -106,7 +97,7 @@ fn tidy_no_sim_branch_outside_the_opener_registration() {
         {
             if hits.len() > *max {
                 problems.push(format!(
-                    "{path}:{}: {} opaque-port branches, {max} listed in OPAQUE_PORTS (tests/integration/tidy_transport.rs): ask the registered opener, do not add branches",
+                    "{path}:{}: {} opaque-port branches, {max} listed in OPAQUE_PORTS (tests/integration/tidy/transport.rs): ask the registered opener, do not add branches",
                     hits[0].0,
                     hits.len()
                 ));

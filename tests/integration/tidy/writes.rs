@@ -3,8 +3,7 @@
 //! the justified exceptions listed here. Test code (`#[cfg(test)]` modules,
 //! `tests/`, benches) is free.
 
-use crate::tidy::{files, is_test_module_file, read, rel, report, skipped_blocks};
-use driveset_test_support::workspace_root;
+use super::{report, sources};
 
 /// The one writer.
 const WRITER: &str = "crates/driveset-schema/src/output.rs";
@@ -32,22 +31,14 @@ const WRITES: &[&str] = &[
 
 #[test]
 fn tidy_files_are_written_only_through_the_one_writer() {
-    let root = workspace_root();
     let mut problems = Vec::new();
     let mut used = std::collections::BTreeSet::new();
-    for file in files(&root.join("crates"), &[".rs"]) {
-        let path = rel(&root, &file);
-        if !path.contains("/src/") || path == WRITER || is_test_module_file(&file) {
+    for source in sources() {
+        let path = &source.path;
+        if path == WRITER {
             continue;
         }
-        let text = read(&file);
-        let lines: Vec<&str> = text.lines().collect();
-        let skip = skipped_blocks(&lines, None);
-        for (i, line) in lines.iter().enumerate() {
-            let code = line.trim_start();
-            if code.starts_with("//") || skip.iter().any(|&(a, b)| (a..=b).contains(&i)) {
-                continue;
-            }
+        for (n, line) in source.code() {
             let Some(what) = WRITES.iter().find(|w| {
                 line.match_indices(**w).any(|(at, _)| {
                     // `File::create` as its own path segment, not
@@ -60,20 +51,19 @@ fn tidy_files_are_written_only_through_the_one_writer() {
             }) else {
                 continue;
             };
-            if WRITES_ELSEWHERE.iter().any(|(f, _)| *f == path) {
+            if WRITES_ELSEWHERE.iter().any(|(f, _)| f == path) {
                 used.insert(path.clone());
                 continue;
             }
             problems.push(format!(
-                "{path}:{}: `{what}` outside the one writer: write files through `driveset_schema::output` ({WRITER}: regular files only, temp + fsync + rename, symlinks followed, mode kept), or list the file in WRITES_ELSEWHERE (tests/integration/tidy_writes.rs) with its reason",
-                i + 1
+                "{path}:{n}: `{what}` outside the one writer: write files through `driveset_schema::output` ({WRITER}: regular files only, temp + fsync + rename, symlinks followed, mode kept), or list the file in WRITES_ELSEWHERE (tests/integration/tidy/writes.rs) with its reason"
             ));
         }
     }
     for (f, _) in WRITES_ELSEWHERE {
         if !used.contains(*f) {
             problems.push(format!(
-                "{f}:1: listed in WRITES_ELSEWHERE (tests/integration/tidy_writes.rs) but writes no file any more: remove it"
+                "{f}:1: listed in WRITES_ELSEWHERE (tests/integration/tidy/writes.rs) but writes no file any more: remove it"
             ));
         }
     }
