@@ -498,26 +498,13 @@ fn a_cut_baud_change_is_finished_by_recover() {
 /// serves it, its telegrams in `DIR/bus.jsonl`. `extra`: more `driveset
 /// sim` arguments.
 pub(crate) fn running_mc6000_on_a_pty(dir: &Path, extra: &[&str]) -> Sim {
-    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
-    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
     let state = dir.join("state.json");
     let state_arg = state.display().to_string();
     let mut args = vec!["--state", state_arg.as_str()];
     args.extend_from_slice(extra);
     let mut first = Sim::start(dir, "mc6000", 1, &args);
     assert!(first.terminate().success(), "{}", first.stderr());
-    let mut dump = StateDump::read(&state).expect("state saved");
-    let d = &mut dump.drives[0];
-    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
-    values.insert(CodeKey::new(416), RawValue::Int(1));
-    let set = ResolvedSet {
-        schema,
-        code_style: CodeStyle::Lust,
-        values,
-        secrets: Default::default(),
-    };
-    *d = DriveDump::new(&d.family.clone(), d.address, &set);
-    dump.write(&state).expect("state written");
+    driveset_test_support::poke_state(&state, None, 416, 1, driveset_schema::CodeStyle::Lust);
     let log = dir.join("bus.jsonl");
     let log_arg = log.display().to_string();
     args.extend_from_slice(&["--log", log_arg.as_str()]);

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{copy_dir, driveset_in, workspace_root};
+use driveset_test_support::{demo_line_dir, driveset_in};
 
 const PRESS: &str = "[line]\nname = \"press\"\n\n[[bus]]\nname = \"press\"\nport = \"sim://mc6000\"\nprotocol = \"lustbus\"\nbaud = 9600\n\n[[drive]]\nname = \"axis-1\"\nbus = \"press\"\naddress = 1\nset = \"sets/press-axis-1.toml\"\n\n[[drive]]\nname = \"axis-2\"\nbus = \"press\"\naddress = 2\nset = \"sets/AXIS2\"\n";
 
@@ -26,17 +26,8 @@ fn held(dir: &Path, address: u8) -> String {
 
 #[test]
 fn a_set_copied_from_axis_1_is_caught_by_validate_and_refused_by_commission() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = demo_line_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
-    copy_dir(
-        &workspace_root().join("parameter-sets/demo-line"),
-        &d.join("ps/demo-line"),
-    );
-    copy_dir(
-        &workspace_root().join("parameter-sets/fixtures"),
-        &d.join("ps/fixtures"),
-    );
     let line = d.join("ps/demo-line/press.toml");
     std::fs::write(&line, PRESS.replace("AXIS2", "press-axis-2.toml")).unwrap();
     // the demo sets give SADDR = the manifest's address: a no-op

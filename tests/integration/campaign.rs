@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use driveset_test_support::{driveset, workspace_root};
+use driveset_test_support::{driveset, mkfifo, workspace_root};
 
 /// Kills a run that hangs (a blocking open of a FIFO, a read of
 /// `/dev/zero`); generous for a loaded machine.
@@ -108,14 +108,6 @@ const OUTPUT_KINDS: [InputKind; 4] = [
     InputKind::Directory,
     InputKind::SymlinkLoop,
 ];
-
-fn mkfifo(path: &Path) {
-    let st = std::process::Command::new("mkfifo")
-        .arg(path)
-        .status()
-        .expect("mkfifo runs");
-    assert!(st.success(), "mkfifo {}", path.display());
-}
 
 /// Makes `kind` at `dir/NAME` (cut from `good` for the truncated and
 /// binary kinds); the path.

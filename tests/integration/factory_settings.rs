@@ -8,7 +8,8 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset_in, workspace_root};
+use driveset_schema::CodeStyle;
+use driveset_test_support::{driveset_in, sim_dir, workspace_root};
 
 fn demo() -> String {
     workspace_root()
@@ -34,33 +35,15 @@ fn drive<'a>(r: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
 
 /// Set C0011 of the simulated Tmd at 12 to `raw` in the state file.
 fn set_c0011(dir: &Path, raw: i64) {
-    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
-    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
     let path = dir.join("sim/sim-tmd.json");
-    let mut dump = StateDump::read(&path).expect("tmd state saved");
-    let d = dump
-        .drives
-        .iter_mut()
-        .find(|d| d.address == 12)
-        .expect("drive in the dump");
-    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
-    values.insert(CodeKey::new(11), RawValue::Int(raw));
-    let set = ResolvedSet {
-        schema,
-        code_style: CodeStyle::Lenze,
-        values,
-        secrets: Default::default(),
-    };
-    *d = DriveDump::new(&d.family.clone(), 12, &set);
-    dump.write(&path).expect("state written");
+    driveset_test_support::poke_state(&path, Some(12), 11, raw, CodeStyle::Lenze);
 }
 
 const WORDS: &str = "at factory settings (a new or exchanged unit?)";
 
 #[test]
 fn status_of_a_factory_fresh_drive_says_factory_settings_then_commission_says_it_was() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     // the simulated Tmd starts at its schema's defaults
     driveset_in(dir.path())
         .args(["status", &demo(), "--only", "transfer-12"])

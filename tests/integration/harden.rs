@@ -10,17 +10,9 @@
 use std::path::Path;
 use std::time::Duration;
 
-use driveset_test_support::driveset;
+use driveset_test_support::{driveset, mkfifo};
 
 const GUARD: Duration = Duration::from_secs(60);
-
-fn mkfifo(path: &Path) {
-    let st = std::process::Command::new("mkfifo")
-        .arg(path)
-        .status()
-        .expect("mkfifo runs");
-    assert!(st.success());
-}
 
 const SPECIAL_SETS: &str = r#"[[bus]]
 name = "a"

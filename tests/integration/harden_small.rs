@@ -12,19 +12,11 @@ use std::os::unix::fs::PermissionsExt as _;
 use std::path::Path;
 use std::time::Duration;
 
-use driveset_test_support::{driveset, outcome, workspace_root};
+use driveset_test_support::{driveset, mkfifo, outcome, workspace_root};
 
 use crate::e2e_pty::Sim;
 
 const GUARD: Duration = Duration::from_secs(60);
-
-fn mkfifo(path: &Path) {
-    let st = std::process::Command::new("mkfifo")
-        .arg(path)
-        .status()
-        .expect("mkfifo runs");
-    assert!(st.success());
-}
 
 fn run(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
     let mut c = driveset();

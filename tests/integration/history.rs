@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use driveset_history::db::{Db, Postgres, Sqlite};
-use driveset_test_support::{copy_dir, driveset_in, workspace_root};
+use driveset_test_support::{copy_dir, driveset_in, sim_dir, workspace_root};
 
 /// The demo line copied into `dir/line` (its sets are edited by the tests).
 fn demo_copy(dir: &Path) -> PathBuf {
@@ -694,9 +694,8 @@ fn rollbacks_are_on_record_with_the_values_restored() {
 
 #[test]
 fn a_commission_that_recovers_a_drive_first_records_the_rollback_before_the_upload() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     let set = driveset_test_support::workspace_root().join("parameter-sets/tmd/conveyor-3.toml");
     std::fs::write(
         d.join("line.toml"),
@@ -810,9 +809,8 @@ fn a_row_altered_by_hand_is_caught_by_verify() {
 
 #[test]
 fn a_password_never_enters_the_store() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     std::fs::write(
         d.join("line.toml"),
         "[line]\nname = \"pw-line\"\n\n[[bus]]\nname = \"a\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\n\n[[drive]]\nbus = \"a\"\naddress = 1\nset = \"tmd.toml\"\nname = \"axis\"\n",

@@ -10,18 +10,10 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use driveset_test_support::driveset;
+use driveset_test_support::{driveset, mkfifo};
 
 /// Generous: only a hang reaches it.
 const HANG_GUARD: Duration = Duration::from_secs(120);
-
-fn mkfifo(path: &Path) {
-    let st = Command::new("mkfifo")
-        .arg(path)
-        .status()
-        .expect("mkfifo runs");
-    assert!(st.success(), "mkfifo {}", path.display());
-}
 
 const TMD_SET: &str = "schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\n";
 

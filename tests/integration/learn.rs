@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset, driveset_with_sim_state, workspace_root};
+use driveset_test_support::{driveset, driveset_with_sim_state, sim_dir, workspace_root};
 
 fn learned_file(dir: &Path) -> PathBuf {
     let mut files = driveset_test_support::toml_files_starting(dir, "learned-mc6000-type6000-d");
@@ -31,8 +31,7 @@ const EDITS: [(&str, &str); 4] = [
 /// values, validate offline, upload, pull again: the drive holds exactly
 /// the edited values.
 fn round_trip(query: &str, layout: &str, types: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let port = format!("sim://mc6000?addresses=1{query}");
     let set = dir.path().join("set").join("axis.toml");
     let out = driveset_with_sim_state(dir.path())
@@ -305,8 +304,7 @@ fn schema_pull_with_a_forced_layout_reports_what_does_not_decode() {
 
 #[test]
 fn upload_and_live_diff_of_a_set_naming_the_built_in_schema_learn_first() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let set = dir.path().join("mode.toml");
     // 1-MODE has no type in lust-mc6000 (the spec gives none): `validate`
     // alone refuses the value; against the drive its description gives it.

@@ -12,7 +12,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset, driveset_in};
+use driveset_test_support::{driveset, driveset_in, sim_dir};
 
 /// The learned files (`*.toml` other than the sets) in `dir`.
 fn learned_files(dir: &Path) -> Vec<std::path::PathBuf> {
@@ -277,8 +277,7 @@ fn readme_flows_in_every_layout() {
         ("mc6000", "&layout=34"),
         ("mc6000", "&layout=34&types=table"),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+        let dir = sim_dir();
         let port = format!("sim://{family}?addresses=1{query}");
         driveset_in(dir.path())
             .args(["pull", "--port", &port, "--address", "1", "-o", "one.toml"])
@@ -397,9 +396,8 @@ fn learning_on_top_of_a_partial_learned_file_extends_its_base() {
 /// `upload` of a pulled set naming such a file lands its edit.
 #[test]
 fn commission_status_and_upload_use_a_learned_file_as_it_is() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     std::fs::create_dir_all(d.join("sets")).unwrap();
     let port = "sim://lustbus?mc6000=1&vf1000=5";
     for (family, address) in [("mc6000", "1"), ("vf1000", "5")] {

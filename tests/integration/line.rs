@@ -9,7 +9,8 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset_in, workspace_root};
+use driveset_schema::CodeStyle;
+use driveset_test_support::{driveset_in, sim_dir, workspace_root};
 
 fn demo() -> String {
     workspace_root()
@@ -40,31 +41,13 @@ fn results(r: &serde_json::Value) -> Vec<(String, String)> {
 
 /// Change C0011 of the simulated Tmd at `address` in the state file.
 fn drift_tmd(dir: &Path, address: u8, raw: i64) {
-    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
-    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
     let path = dir.join("sim/sim-tmd.json");
-    let mut dump = StateDump::read(&path).expect("tmd state saved");
-    let d = dump
-        .drives
-        .iter_mut()
-        .find(|d| d.address == address)
-        .expect("drive in the dump");
-    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
-    values.insert(CodeKey::new(11), RawValue::Int(raw));
-    let set = ResolvedSet {
-        schema,
-        code_style: CodeStyle::Lenze,
-        values,
-        secrets: Default::default(),
-    };
-    *d = DriveDump::new(&d.family.clone(), address, &set);
-    dump.write(&path).expect("state written");
+    driveset_test_support::poke_state(&path, Some(address), 11, raw, CodeStyle::Lenze);
 }
 
 #[test]
 fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args(["commission", &demo(), "--label", "it test"])
         .assert()
@@ -165,8 +148,7 @@ fn commission_the_demo_line_then_status_finds_a_drifted_drive_then_recommission(
 
 #[test]
 fn a_killed_run_resumes_and_skips_the_verified_drives() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args(["commission", &demo(), "--stop-after", "1"])
         .assert()
@@ -289,9 +271,8 @@ fn a_bad_manifest_fails_validation_with_locations() {
 /// and a pull with the learned schema reads exactly the set's values.
 #[test]
 fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     std::fs::create_dir_all(d.join("sets")).unwrap();
     std::fs::write(
         d.join("line.toml"),
@@ -448,8 +429,7 @@ fn mc_axes_line(dir: &Path) -> String {
 
 #[test]
 fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every_drive() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let line = mc_axes_line(dir.path());
     driveset_in(dir.path())
         .args(["commission", &line, "--broadcast-common"])
@@ -515,8 +495,7 @@ fn commission_broadcast_common_on_lustbus_sends_to_address_31_and_verifies_every
 
 #[test]
 fn commission_broadcast_common_refuses_a_lustbus_with_vf1000_drives() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args(["commission", &demo(), "--only", "lustbus", "--broadcast-common"])
         .assert()
@@ -536,9 +515,8 @@ fn commission_broadcast_common_refuses_a_lustbus_with_vf1000_drives() {
 
 #[test]
 fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     // axis-1 as its sample file has it, but at the bus's 9600 baud (its
     // 81-SBAUD = 19200 disagrees with the manifest: `set-rate`)
     let sample = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
@@ -601,9 +579,8 @@ fn transfer_baud_on_a_bus_shared_with_vf1000s_needs_its_override() {
 /// neither commission's nor status's output and reports show its value.
 #[test]
 fn commission_and_status_reports_never_show_a_password() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     std::fs::write(
         d.join("line.toml"),
         "[line]\nname = \"pw-line\"\n\n[[bus]]\nname = \"a\"\nport = \"sim://tmd?c0001=3\"\nprotocol = \"lecom\"\n\n[[drive]]\nbus = \"a\"\naddress = 1\nset = \"tmd.toml\"\nname = \"axis\"\n",

@@ -5,12 +5,11 @@
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset, driveset_in, workspace_root};
+use driveset_test_support::{driveset, driveset_in, sim_dir, workspace_root};
 
 #[test]
 fn interrupted_upload_then_recover() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let set = workspace_root().join("parameter-sets/mc6000/axis-1.toml");
     let journal = dir.path().join("axis-1.journal.json");
     let out = driveset_in(dir.path())
@@ -338,8 +337,7 @@ fn a_commission_in_a_git_repository_leaves_git_status_clean() {
 
 #[test]
 fn status_fails_and_commission_recovers_a_drive_an_upload_left_unfinished() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let set = workspace_root().join("parameter-sets/demo-line/sets/transfer-11.toml");
     std::fs::write(
         dir.path().join("line.toml"),

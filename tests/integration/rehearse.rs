@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use driveset_test_support::{driveset, outcome, workspace_root};
+use driveset_test_support::{driveset, outcome, sim_dir, workspace_root};
 
 /// `commission DEMO --rehearse DIR [extra]` run in `d`: exit code, stdout,
 /// stderr.
@@ -96,9 +96,8 @@ fn a_rehearsal_without_a_twin_of_any_selected_drive_is_refused() {
 /// others and exits 1, or 0 with `--allow-missing-twins`.
 #[test]
 fn a_selected_drive_without_a_twin_fails_the_rehearsal_unless_allowed() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = sim_dir();
     let d = tmp.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     std::fs::create_dir_all(d.join("twins")).unwrap();
     for (name, address) in [("transfer-12", "12"), ("transfer-13", "13")] {
         let mut c = driveset();

@@ -7,22 +7,7 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use driveset_test_support::{copy_dir, driveset_in, workspace_root};
-
-fn setup() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
-    copy_dir(
-        &workspace_root().join("parameter-sets/demo-line"),
-        &d.join("ps/demo-line"),
-    );
-    copy_dir(
-        &workspace_root().join("parameter-sets/fixtures"),
-        &d.join("ps/fixtures"),
-    );
-    dir
-}
+use driveset_test_support::{demo_line_dir, driveset_in};
 
 const LINE: &str = "ps/demo-line/line.toml";
 
@@ -42,7 +27,7 @@ fn spare_state(dir: &Path) -> (u8, String) {
 
 #[test]
 fn a_factory_fresh_spare_gets_the_address_the_rate_and_the_whole_set() {
-    let dir = setup();
+    let dir = demo_line_dir();
     let d = dir.path();
     let port = spare(d, "mc6000");
     let out = driveset_in(d)
@@ -112,7 +97,7 @@ fn a_factory_fresh_spare_gets_the_address_the_rate_and_the_whole_set() {
 
 #[test]
 fn replace_json_reports_the_virtual_time() {
-    let dir = setup();
+    let dir = demo_line_dir();
     let d = dir.path();
     let port = spare(d, "mc6000");
     let out = driveset_in(d)
@@ -148,7 +133,7 @@ fn replace_json_reports_the_virtual_time() {
 
 #[test]
 fn a_spare_of_another_family_is_refused_with_nothing_written() {
-    let dir = setup();
+    let dir = demo_line_dir();
     let d = dir.path();
     let port = spare(d, "vf1000");
     driveset_in(d)
@@ -170,7 +155,7 @@ fn a_spare_of_another_family_is_refused_with_nothing_written() {
 
 #[test]
 fn without_yes_a_non_interactive_stdin_is_refused_and_no_is_no() {
-    let dir = setup();
+    let dir = demo_line_dir();
     let d = dir.path();
     let port = spare(d, "mc6000");
     driveset_in(d)
@@ -370,7 +355,7 @@ mod on_a_pty {
 #[test]
 fn a_running_spare_on_a_pty_is_refused_before_anything_is_sent() {
     let _serial = crate::e2e_pty::one_at_a_time();
-    let dir = setup();
+    let dir = demo_line_dir();
     let d = dir.path();
     let mut sim = crate::address::running_mc6000_on_a_pty(d, &[]);
     let (code, stdout, stderr) =

@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset_in, workspace_root};
+use driveset_schema::{CodeStyle, RawValue};
+use driveset_test_support::{driveset_in, sim_dir, state_raw, workspace_root};
 
 const VF: &str = "sim://vf1000?addresses=1";
 
@@ -34,44 +35,21 @@ fn set_file(dir: &Path, name: &str, schema: &str, values: &str) -> PathBuf {
     p
 }
 
-fn tmp() -> tempfile::TempDir {
-    let d = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(d.path().join("sim")).unwrap();
-    d
-}
-
 /// Put `raw` into code `number` of the simulated drive at `address` in the
 /// state file `sim/sim-FAMILY.json` (written by an earlier run).
 pub(crate) fn poke_state(dir: &Path, family: &str, address: u8, number: u32, raw: i64) {
-    use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
-    use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
-    let path = dir.join(format!("sim/sim-{family}.json"));
-    let mut dump = StateDump::read(&path).expect("state saved");
-    let d = dump
-        .drives
-        .iter_mut()
-        .find(|d| d.address == address)
-        .expect("drive in the dump");
-    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
-    values.insert(CodeKey::new(number), RawValue::Int(raw));
     let style = if family == "ecs" {
         CodeStyle::Lenze
     } else {
         CodeStyle::Lust
     };
-    let set = ResolvedSet {
-        schema,
-        code_style: style,
-        values,
-        secrets: Default::default(),
-    };
-    *d = DriveDump::new(&d.family.clone(), address, &set);
-    dump.write(&path).expect("state written");
+    let path = dir.join(format!("sim/sim-{family}.json"));
+    driveset_test_support::poke_state(&path, Some(address), number, raw, style);
 }
 
 #[test]
 fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     set_file(
         d,
@@ -120,7 +98,7 @@ fn validate_reports_commands_and_control_words_that_could_start_a_motor() {
 fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given() {
     // the scenario: PROG = 1 under the old --force was sent three
     // times and reset the drive; now it never reaches the bus
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     set_file(d, "prog.toml", "fictional-vf1000-demo.toml", "PROG = 1\n");
     for dry in [false, true] {
@@ -157,7 +135,7 @@ fn upload_refuses_a_command_before_anything_is_sent_whatever_override_is_given()
 
 #[test]
 fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     // 5-FSSIO: the setpoint, an FSEL/ISEL variable (the running VF1000
     // refuses EEPROM writes; a set cannot hold a RAM control value)
@@ -227,7 +205,7 @@ fn a_running_vf1000_needs_allow_running_and_no_other_override_lifts_it() {
 
 #[test]
 fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     let port = "sim://ecs?addresses=1";
     set_file(
@@ -318,7 +296,7 @@ fn ecs_running_state_comes_from_c0150_and_is_unknown_with_the_real_schema() {
 
 #[test]
 fn an_address_change_needs_allow_address_change() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     std::fs::write(
         d.join("addr.toml"),
@@ -349,7 +327,7 @@ fn an_address_change_needs_allow_address_change() {
 
 #[test]
 fn pull_leaves_commands_control_words_and_passwords_out() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     driveset_in(d)
         .args(["pull", "--port", VF, "--address", "1", "-o", "vf.toml"])
@@ -387,7 +365,7 @@ fn pull_leaves_commands_control_words_and_passwords_out() {
 
 #[test]
 fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_differs() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     std::fs::write(
         d.join("a.toml"),
@@ -458,7 +436,7 @@ fn sets_differing_only_in_a_password_share_the_fingerprint_and_diff_says_it_diff
 
 #[test]
 fn commission_refuses_a_line_whose_set_could_start_a_motor_before_anything_is_sent() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     set_file(
         d,
@@ -504,17 +482,9 @@ const MC: &str = "sim://mc6000?addresses=1";
 /// What the simulated drive at `address` holds in code `number` (state file
 /// `sim/sim-FAMILY.json`).
 fn held(dir: &Path, family: &str, address: u8, number: u32) -> i64 {
-    use driveset_schema::{CodeKey, RawValue};
-    use driveset_sim::open::{StateDump, parse_canonical};
-    let dump = StateDump::read(&dir.join(format!("sim/sim-{family}.json"))).expect("state");
-    let d = dump
-        .drives
-        .iter()
-        .find(|d| d.address == address)
-        .expect("drive in the dump");
-    let (_, values) = parse_canonical(&d.canonical).expect("canonical");
-    match values.get(&CodeKey::new(number)) {
-        Some(RawValue::Int(v)) => *v,
+    let path = dir.join(format!("sim/sim-{family}.json"));
+    match state_raw(&path, address, number) {
+        Some(RawValue::Int(v)) => v,
         other => panic!("code {number}: {other:?}"),
     }
 }
@@ -541,7 +511,7 @@ fn tmd_without_roles(dir: &Path, id: &str) -> PathBuf {
 
 #[test]
 fn a_tmd_schema_copy_without_roles_named_by_path_refuses_c0040_enable_and_sends_nothing() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     tmd_without_roles(d, "my-tmd");
     std::fs::write(
@@ -597,7 +567,7 @@ const MINIMAL_MC: &str = "[schema]\nid = \"my-mc\"\ntitle = \"A minimal MC6000 s
 
 #[test]
 fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     std::fs::write(d.join("my-mc.toml"), MINIMAL_MC).unwrap();
     std::fs::write(
@@ -646,7 +616,7 @@ fn a_minimal_mc_schema_without_roles_refuses_sctl1_start_and_prog() {
 /// stopped control word lands and is verified without `--no-learn`.
 #[test]
 fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     std::fs::write(d.join("my-mc.toml"), MINIMAL_MC).unwrap();
     std::fs::write(
@@ -671,7 +641,7 @@ fn a_user_schema_by_path_is_used_as_it_is_without_learning() {
 
 #[test]
 fn a_schemas_dir_cannot_reuse_a_built_in_or_fixture_id() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     let schemas = d.join("schemas");
     std::fs::create_dir_all(&schemas).unwrap();
@@ -761,7 +731,7 @@ const LEFT_STOPPED: &str =
 
 #[test]
 fn stopping_a_running_mc6000_cut_at_telegram_6_rolls_back_leaving_416_stopped() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     running_mc_and_stop_set(d);
     let port = "sim://mc6000?addresses=1&faults=cable@6+1s";
@@ -784,7 +754,7 @@ fn stopping_a_running_mc6000_cut_at_telegram_6_rolls_back_leaving_416_stopped() 
 
 #[test]
 fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
-    let dir = tmp();
+    let dir = sim_dir();
     let d = dir.path();
     running_mc_and_stop_set(d);
     // the cable stays out: the upload cannot roll back, recover does
@@ -838,7 +808,7 @@ fn recover_of_a_cut_stop_and_of_an_edited_journal_leave_416_stopped() {
 #[test]
 fn a_password_never_shows_in_upload_pull_diff_show_or_fingerprint() {
     use std::os::unix::fs::PermissionsExt as _;
-    let d = tmp();
+    let d = sim_dir();
     let dir = d.path();
     std::fs::write(
         dir.join("p.toml"),

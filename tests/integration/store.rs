@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use driveset_test_support::{driveset_in_with_locks, outcome, workspace_root};
+use driveset_test_support::{driveset_in_with_locks, outcome, sim_dir, workspace_root};
 
 fn set() -> PathBuf {
     workspace_root().join("parameter-sets/ecs/axis-1.toml")
@@ -252,9 +252,8 @@ fn pull_leaves_ram_control_values_out_so_a_pulled_set_validates() {
 
 #[test]
 fn the_demo_lines_ecs_drives_are_stored_and_still_hold_their_sets_after_a_power_cycle() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = sim_dir();
     let d = dir.path();
-    std::fs::create_dir_all(d.join("sim")).unwrap();
     let line = workspace_root().join("parameter-sets/demo-line/line.toml");
     let only = "handling-1,handling-2,handling-3";
     let (code, out, err) = outcome(

@@ -5,7 +5,7 @@
 
 use predicates::prelude::*;
 
-use driveset_test_support::{driveset, driveset_in, workspace_root};
+use driveset_test_support::{driveset, driveset_in, sim_dir, workspace_root};
 
 const AXIS1: &str = "parameter-sets/mc6000/axis-1.toml";
 const PORT: &str = "sim://mc6000?addresses=1";
@@ -16,8 +16,7 @@ fn set(p: &str) -> String {
 
 #[test]
 fn dry_run_prints_the_plan_and_writes_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run"])
         .assert()
@@ -39,8 +38,7 @@ fn dry_run_prints_the_plan_and_writes_nothing() {
 
 #[test]
 fn upload_then_live_diff_shows_no_differences() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let out = driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1"])
         .assert()
@@ -134,8 +132,7 @@ fn upload_then_live_diff_shows_no_differences() {
 /// the families apart by).
 #[test]
 fn upload_to_another_family_is_refused_without_allow_family() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", "sim://vf1000?addresses=1", "--address", "1"])
         .assert()
@@ -204,8 +201,7 @@ fn upload_of_an_invalid_set_is_an_input_error() {
 
 #[test]
 fn upload_tmd_json_report() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     let out = driveset_in(dir.path())
         .args([
             "upload",
@@ -241,8 +237,7 @@ fn upload_tmd_json_report() {
 
 #[test]
 fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     // the dry run says it would pay, and writes nothing
     driveset_in(dir.path())
         .args(["upload", &set(AXIS1), "--port", PORT, "--address", "1", "--dry-run", "--transfer-baud", "57600"])
@@ -296,8 +291,7 @@ fn upload_with_transfer_baud_switches_back_and_keeps_the_sets_sbaud() {
 
 #[test]
 fn transfer_baud_refusals_name_what_and_send_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("sim")).unwrap();
+    let dir = sim_dir();
     driveset_in(dir.path())
         .args([
             "upload",

@@ -35,10 +35,14 @@ pub use interop::{interop_or_skip, python, python_or_skip};
 #[cfg(feature = "link")]
 pub use io::recv_n;
 pub use io::{pty_lock, read_exact_n, read_n_within, read_until};
-pub use paths::{copy_dir, files_in, toml_files_starting, workspace_root};
+pub use paths::{
+    copy_dir, demo_line_dir, files_in, mkfifo, sim_dir, toml_files_starting, workspace_root,
+};
 pub use process::{LinePeer, Spawned, sdo_server, send_signal};
 #[cfg(all(feature = "pty", unix))]
 pub use pty::pty_pair;
 #[cfg(feature = "sim")]
-pub use sim::{sim_byte_bus, sim_can_bus, sim_openers, wire_bytes, wire_timed};
+pub use sim::{
+    poke_state, sim_byte_bus, sim_can_bus, sim_openers, state_raw, wire_bytes, wire_timed,
+};
 pub use text::shows_value;

@@ -74,3 +74,38 @@ pub fn files_in(dir: &Path) -> Vec<(String, Vec<u8>)> {
     files.sort();
     files
 }
+
+/// A FIFO at `path` (`mkfifo`): an input that would block a reader that
+/// opened it.
+pub fn mkfifo(path: &Path) {
+    let st = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs");
+    assert!(st.success(), "mkfifo {}", path.display());
+}
+
+/// A fresh temporary directory holding an empty `sim/`: the state folder
+/// of the simulated drives of a `driveset_in(dir)` run.
+pub fn sim_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    std::fs::create_dir_all(dir.path().join("sim")).expect("create sim/");
+    dir
+}
+
+/// [`sim_dir`] with the demo line's sets and the fixture schemas copied
+/// under `ps/` (`ps/demo-line/`, `ps/fixtures/`), for a test that edits
+/// them.
+pub fn demo_line_dir() -> tempfile::TempDir {
+    let dir = sim_dir();
+    let d = dir.path();
+    copy_dir(
+        &workspace_root().join("parameter-sets/demo-line"),
+        &d.join("ps/demo-line"),
+    );
+    copy_dir(
+        &workspace_root().join("parameter-sets/fixtures"),
+        &d.join("ps/fixtures"),
+    );
+    dir
+}

@@ -1,8 +1,13 @@
 //! Simulated buses (driveset-sim) in virtual time with an in-memory wire
 //! log, the host's and the drives' telegrams read back from that log, and
-//! the port openers a `sim://` port needs.
+//! the port openers a `sim://` port needs; a simulated drive's state file
+//! read and changed behind the tool's back (as a keypad would).
 
+use std::path::Path;
 use std::sync::Arc;
+
+use driveset_schema::{CodeKey, CodeStyle, RawValue, ResolvedSet};
+use driveset_sim::open::{DriveDump, StateDump, parse_canonical};
 
 use driveset_link::{Openers, VirtualClock};
 use driveset_sim::bus::SimByteBus;
@@ -77,4 +82,50 @@ pub fn wire_bytes(log: &EventLog, dir: Dir) -> Vec<Vec<u8>> {
 /// The port openers with the simulator's: what a `sim://` port needs.
 pub fn sim_openers() -> Openers {
     Openers::none().with(Arc::new(SimOpener::default()))
+}
+
+/// Put `raw` into code `number` of the simulated drive at `address` (the
+/// file's first drive where `None`) in the state file `path` an earlier
+/// run saved, its canonical text written with `style`'s code names: a
+/// change made on the drive itself, behind the tool's back.
+pub fn poke_state(path: &Path, address: Option<u8>, number: u32, raw: i64, style: CodeStyle) {
+    let mut dump = StateDump::read(path)
+        .unwrap_or_else(|e| panic!("{}: simulator state saved: {e}", path.display()));
+    let d = match address {
+        Some(a) => dump
+            .drives
+            .iter_mut()
+            .find(|d| d.address == a)
+            .unwrap_or_else(|| panic!("{}: no drive at {a} in the dump", path.display())),
+        None => dump
+            .drives
+            .first_mut()
+            .unwrap_or_else(|| panic!("{}: no drive in the dump", path.display())),
+    };
+    let (schema, mut values) = parse_canonical(&d.canonical).expect("canonical");
+    values.insert(CodeKey::new(number), RawValue::Int(raw));
+    let set = ResolvedSet {
+        schema,
+        code_style: style,
+        values,
+        secrets: Default::default(),
+    };
+    let at = d.address;
+    *d = DriveDump::new(&d.family.clone(), at, &set);
+    dump.write(path)
+        .unwrap_or_else(|e| panic!("{}: state written: {e}", path.display()));
+}
+
+/// The raw value of code `number` that the simulated drive at `address`
+/// holds in the state file `path`; `None` where it holds none.
+pub fn state_raw(path: &Path, address: u8, number: u32) -> Option<RawValue> {
+    let dump = StateDump::read(path)
+        .unwrap_or_else(|e| panic!("{}: simulator state saved: {e}", path.display()));
+    let d = dump
+        .drives
+        .iter()
+        .find(|d| d.address == address)
+        .unwrap_or_else(|| panic!("{}: no drive at {address} in the dump", path.display()));
+    let (_, values) = parse_canonical(&d.canonical).expect("canonical");
+    values.get(&CodeKey::new(number)).cloned()
 }

@@ -36,7 +36,10 @@ const ARROWS: &[(&str, &[&str])] = &[
         ],
     ),
     // dev-only: only ever a dev-dependency (nobody lists it above)
-    ("driveset-test-support", &["driveset-link", "driveset-sim"]),
+    (
+        "driveset-test-support",
+        &["driveset-link", "driveset-schema", "driveset-sim"],
+    ),
 ];
 
 /// The crate manifests `crates/*/Cargo.toml`.
