@@ -3,14 +3,20 @@
 //! SQLite in `.driveset/history.sqlite` by default, or a PostgreSQL server
 //! many commissioning stations share — as records of a hash chain
 //! (`store.rs`), which `driveset history verify` walks. The engine's
-//! [`driveset_engine::history::History`] seam is implemented by the CLI
-//! over a [`Store`]; this crate does the storing and the queries
-//! (`query.rs`), with one SQL text for both databases (`db.rs`) and
-//! versioned migrations (`schema.rs`).
+//! [`driveset_engine::history::History`] seam is implemented here by a
+//! run's open session (`run.rs`: the session a command opens, drive
+//! records put into the store by a thread of their own, closing it, the
+//! links a line report carries to it); this crate does the storing and the
+//! queries (`query.rs`) and how `driveset history` prints them
+//! (`render.rs`), with one SQL text for both databases (`db.rs`) and
+//! versioned migrations (`schema.rs`). The CLI keeps the flags that choose
+//! a store and when a command opens its session.
 
 pub mod db;
 pub mod generate;
 pub mod query;
+pub mod render;
+pub mod run;
 pub mod schema;
 pub mod store;
 

@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use driveset_history::query::{At, LogFilter, as_built_diff};
 use driveset_history::{Store, Target, Verdict};
 
-use super::render;
 use crate::fail::Fail;
 use crate::{EXIT_FINDINGS, EXIT_OK};
+use driveset_history::render;
 
 /// `driveset history ...`.
 #[derive(clap::Subcommand)]
@@ -271,7 +271,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
                 )));
             };
             let mut shared = open()?;
-            let ids = super::forward_owed(&mut shared);
+            let ids = driveset_history::run::forward_owed(&mut shared, |l| eprintln!("{l}"));
             outln!("{} session(s) forwarded to {}", ids.len(), shared.shown);
             Ok(EXIT_OK)
         }

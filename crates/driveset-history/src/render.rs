@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use driveset_history::query::{AsBuilt, Blame, Difference, LogRow, Who};
+use crate::query::{AsBuilt, Blame, Difference, LogRow, Who};
 
 fn slot(r: &LogRow) -> String {
     match (&r.line, &r.drive) {
