@@ -93,8 +93,8 @@ impl<L: FrameLink> DriveLine for super::sdo::SdoLine<L> {
 
 /// What a protocol adds to its [`Drive`]: reading and writing one code,
 /// the running state, the end of a session and the wire times; optionally
-/// its own identification, store step, write pacing, restarts seen, a
-/// serial line whose rate can be set and the dataset download
+/// its own identification, store step, write pacing, a serial line
+/// whose rate can be set and the dataset download
 /// (`capability.rs`). Every `Protocol` is a [`DriveClient`].
 pub trait Protocol: Send {
     /// The line of its [`Drive`].
@@ -161,11 +161,6 @@ pub trait Protocol: Send {
     fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
         let _ = key;
         None
-    }
-
-    /// [`DriveClient::restarts_seen`]: by default none shown.
-    fn restarts_seen(&self) -> u64 {
-        0
     }
 
     /// [`DriveClient::line_rate`]: by default none.
@@ -245,10 +240,6 @@ impl<P: Protocol> DriveClient for P {
 
     fn stats(&self) -> ClientStats {
         self.drive().line.stats()
-    }
-
-    fn restarts_seen(&self) -> u64 {
-        Protocol::restarts_seen(self)
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {

@@ -215,6 +215,14 @@ pub struct ClientStats {
     /// 80-SLOAD polls while an MC6000/7000 checked a staged dataset
     /// (LUSTBUS 11.4).
     pub sload_polls: u64,
+    /// Restarts of the drive seen (LUSTBUS: a power-on bit in SIOF/SERR
+    /// after the session's first read of it, §6, each one
+    /// [`crate::error::ErrorKind::Restarted`] where it was read), also where
+    /// the caller recovered from the error; 0 where the protocol shows none.
+    /// A switched upload compares it across the switch back
+    /// (`crate::transfer`). Not in reports.
+    #[serde(skip)]
+    pub restarts: u64,
 }
 
 /// A drive, reached through one protocol: the face callers use.
@@ -311,16 +319,6 @@ pub trait DriveClient: Send {
 
     /// Counters so far.
     fn stats(&self) -> ClientStats;
-
-    /// How many restarts of the drive this client has seen (LUSTBUS: a
-    /// power-on bit in SIOF/SERR after the session's first read of it, §6,
-    /// each one [`crate::error::ErrorKind::Restarted`] where it was read),
-    /// also where the caller recovered from the error; 0 where the protocol
-    /// shows none. A switched upload asks it after the switch back
-    /// (`crate::transfer`).
-    fn restarts_seen(&self) -> u64 {
-        0
-    }
 
     /// End the session cleanly (LUSTBUS / LECOM: the trailing EOT).
     fn finish(&mut self) -> Result<(), EngineError>;

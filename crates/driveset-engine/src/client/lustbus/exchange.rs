@@ -195,7 +195,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let first = !self.siof_checked;
         self.siof_checked = true;
         if !first && siof.contains(Siof::POWER_ON) {
-            self.restarts_seen += 1;
+            self.drive.line.stats.restarts += 1;
             self.eeprom_busy_until = None;
             self.dataset_open = false;
             return Err(EngineError::restarted(

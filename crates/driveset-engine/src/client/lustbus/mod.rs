@@ -140,8 +140,6 @@ pub struct LustbusClient<L: ByteLink = Box<dyn ByteLink>> {
     opts: LustbusOptions,
     /// SIOF/SERR has been read (and so cleared) in this session.
     siof_checked: bool,
-    /// Power-on bits read after the first read ([`DriveClient::restarts_seen`](super::DriveClient::restarts_seen)).
-    restarts_seen: u64,
     /// MC: the EEPROM is storing until then.
     eeprom_busy_until: Option<Instant>,
     /// MC: SLOAD = -1 was accepted and not yet committed.
@@ -182,7 +180,6 @@ impl<L: ByteLink> LustbusClient<L> {
             address,
             opts,
             siof_checked: false,
-            restarts_seen: 0,
             eeprom_busy_until: None,
             dataset_open: false,
         })
@@ -258,10 +255,6 @@ impl<L: ByteLink> Protocol for LustbusClient<L> {
 
     fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
         self.read_code(key, what)
-    }
-
-    fn restarts_seen(&self) -> u64 {
-        self.restarts_seen
     }
 
     fn write_named(
