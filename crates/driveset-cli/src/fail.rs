@@ -156,3 +156,22 @@ input_errors!(
     driveset_sim::serve::ServeError,
     driveset_sim::slcan_serve::SlcanServeError,
 );
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_one_mapping_gives_input_and_refusal_2_and_the_bus_3() {
+        for (layer, code) in [
+            (Layer::Input, 2),
+            (Layer::Refusal, 2),
+            (Layer::Link, 3),
+            (Layer::Device, 3),
+            (Layer::Transaction, 3),
+        ] {
+            assert_eq!(exit_code(layer), code, "{layer:?}");
+            assert_eq!(Fail::of(layer, "x").code, code, "{layer:?}");
+        }
+    }
+}

@@ -52,3 +52,58 @@ impl EngineError {
         self.kind.layer()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use driveset_link::LinkError;
+
+    use super::*;
+    use crate::client::Target;
+    use crate::error::{DeviceCause, Mismatch, Refusal};
+
+    #[test]
+    fn every_kind_says_its_layer() {
+        let t = || Target {
+            port: "sim://line".into(),
+            address: 1,
+        };
+        let closed = LinkError::ConnectionClosed {
+            port: "tcp://x:1".into(),
+        };
+        for (e, layer) in [
+            (EngineError::link(t(), closed), Layer::Link),
+            (EngineError::no_answer(t(), "read C0011", 3), Layer::Link),
+            (EngineError::protocol(t(), "read C0011", "?"), Layer::Link),
+            (
+                EngineError::device(t(), "write C0011", DeviceCause::SiofUnreadable),
+                Layer::Device,
+            ),
+            (EngineError::restarted(t(), "write C0011"), Layer::Device),
+            (
+                EngineError::refused(t(), Refusal::NoDatasetHandshake),
+                Layer::Refusal,
+            ),
+            (
+                EngineError::not_journal_drive(t(), "j.json", Mismatch::Bus, "another bus"),
+                Layer::Refusal,
+            ),
+            (EngineError::journal("j.json", "cannot write"), Layer::Input),
+            (
+                EngineError::rolled_back(
+                    t(),
+                    "j.json",
+                    "C0011",
+                    EngineError::restarted(t(), "write C0011"),
+                ),
+                Layer::Transaction,
+            ),
+            (
+                EngineError::inconsistent(t(), "j.json", "C0011 new"),
+                Layer::Transaction,
+            ),
+        ] {
+            assert_eq!(e.layer(), layer, "{e}");
+            assert_eq!(e.kind().layer(), layer, "{e}");
+        }
+    }
+}
