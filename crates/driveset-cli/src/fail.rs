@@ -5,11 +5,13 @@
 //! message, which `main` prints on stderr, once, as `error: MESSAGE`. A
 //! failure whose diagnostics were already rendered on stderr (findings with
 //! their source snippets, [`Fail::reported`]) carries only its exit code.
-//! `anyhow` errors (the binary's plumbing) become input errors.
+//! `anyhow` errors (the binary's plumbing) become input errors. The engine's
+//! errors say their layer ([`Layer`]); [`exit_code`] is the one mapping
+//! from a layer to an exit code.
 
-use driveset_engine::error::{EngineError, ErrorKind};
+use driveset_engine::error::{EngineError, Layer};
 
-use crate::{EXIT_BUS, EXIT_INPUT};
+use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_INPUT};
 
 /// A failure and the exit code it ends the command with.
 #[derive(Debug)]
@@ -56,48 +58,69 @@ impl Fail {
     }
 }
 
-/// The exit code of an engine error: refusals before anything was sent and
-/// journal file problems are input errors (2); everything the bus or the
-/// drive did is 3 (a rolled-back upload included: the drive holds its old
-/// values, the set did not land).
+/// The one mapping from failures to exit codes: what the command was
+/// given or a rule refused before anything was sent is an input error (2);
+/// whatever the link, the drive or a transaction did is 3 (a rolled-back
+/// upload included: the drive holds its old values, the set did not land).
+pub fn exit_code(layer: Layer) -> u8 {
+    match layer {
+        Layer::Input | Layer::Refusal => EXIT_INPUT,
+        Layer::Link | Layer::Device | Layer::Transaction => EXIT_BUS,
+    }
+}
+
+/// The exit code of an engine error ([`exit_code`] of its layer).
 pub fn engine_exit(e: &EngineError) -> u8 {
-    match e.kind() {
-        ErrorKind::Refused(_) | ErrorKind::Journal { .. } | ErrorKind::NotJournalDrive { .. } => {
-            EXIT_INPUT
+    exit_code(e.layer())
+}
+
+/// The exit code of the family check (`identify::check_family`) before a
+/// command reads a drive for a file: a drive of another family is a finding
+/// (1, what `identify` says of it); its other failures as [`exit_code`].
+pub fn family_exit(e: &EngineError) -> u8 {
+    if e.is_refused() {
+        EXIT_FINDINGS
+    } else {
+        engine_exit(e)
+    }
+}
+
+impl Fail {
+    /// A failure of `layer` ([`exit_code`]) saying `msg`.
+    pub fn of(layer: Layer, msg: impl Into<String>) -> Self {
+        Fail {
+            code: exit_code(layer),
+            msg: msg.into(),
         }
-        _ => EXIT_BUS,
     }
 }
 
 impl From<EngineError> for Fail {
     fn from(e: EngineError) -> Self {
-        Fail {
-            code: engine_exit(&e),
-            msg: e.to_string(),
-        }
+        Fail::of(e.layer(), e.to_string())
     }
 }
 
 impl From<driveset_engine::session::SessionError> for Fail {
     fn from(e: driveset_engine::session::SessionError) -> Self {
         match e {
-            driveset_engine::session::SessionError::Engine(e) => e.into(),
             driveset_engine::session::SessionError::Catalog(e) => {
                 Fail::input(crate::port::catalog_error(&e))
             }
-            e if e.is_input() => Fail::input(e.to_string()),
-            e => Fail::bus(e.to_string()),
+            e => Fail::of(e.layer(), e.to_string()),
         }
     }
 }
 
 impl From<driveset_engine::session::PortError> for Fail {
     fn from(e: driveset_engine::session::PortError) -> Self {
-        if e.is_input() {
-            Fail::input(e.to_string())
-        } else {
-            Fail::bus(e.to_string())
-        }
+        Fail::of(e.layer(), e.to_string())
+    }
+}
+
+impl From<&driveset_engine::line::replace::ReplaceError> for Fail {
+    fn from(e: &driveset_engine::line::replace::ReplaceError) -> Self {
+        Fail::of(e.layer(), e.to_string())
     }
 }
 
@@ -133,3 +156,22 @@ input_errors!(
     driveset_sim::serve::ServeError,
     driveset_sim::slcan_serve::SlcanServeError,
 );
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_one_mapping_gives_input_and_refusal_2_and_the_bus_3() {
+        for (layer, code) in [
+            (Layer::Input, 2),
+            (Layer::Refusal, 2),
+            (Layer::Link, 3),
+            (Layer::Device, 3),
+            (Layer::Transaction, 3),
+        ] {
+            assert_eq!(exit_code(layer), code, "{layer:?}");
+            assert_eq!(Fail::of(layer, "x").code, code, "{layer:?}");
+        }
+    }
+}

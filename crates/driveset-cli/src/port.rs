@@ -41,7 +41,7 @@ use driveset_sim::log::EventLog;
 use driveset_sim::open::{SimLink, open_sim_with};
 use driveset_sim::port::{SimOpener, SimSpec};
 
-pub use crate::fail::{Fail, engine_exit};
+pub use crate::fail::{Fail, family_exit};
 
 pub use crate::args::BusArg as ProtocolArg;
 

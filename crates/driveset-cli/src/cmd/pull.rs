@@ -224,11 +224,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         && let Err(e) = driveset_engine::identify::check_family(client.as_mut())
     {
         return Err(Fail {
-            code: if e.is_refused() {
-                crate::EXIT_FINDINGS
-            } else {
-                port::engine_exit(&e)
-            },
+            code: port::family_exit(&e),
             msg: format!("{e}; nothing written (pass --allow-family to pull anyway)"),
         });
     }

@@ -153,15 +153,6 @@ fn line_bus_ids(manifest: &Manifest) -> Vec<LineBusId> {
     out
 }
 
-fn refusal(e: &ReplaceError) -> Fail {
-    let msg = e.to_string();
-    if e.is_refusal() {
-        Fail::input(msg)
-    } else {
-        Fail::bus(msg)
-    }
-}
-
 fn question(p: &Prepared, port: &str) -> String {
     format!(
         "replace {}: write address {}, {} baud and {} codes to the unit on {port}? [y/N] ",
@@ -188,7 +179,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         Err(code) => return Err(Fail::reported(code)),
     };
     // a known drive with a fitting set, before the port is touched
-    driveset_engine::line::replace::drive_of(&manifest, &args.drive).map_err(|e| refusal(&e))?;
+    driveset_engine::line::replace::drive_of(&manifest, &args.drive).map_err(|e| Fail::from(&e))?;
     if !args.yes {
         confirm_allowed(args.prompt_stdin, "replace")?;
     }
@@ -210,7 +201,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     };
     let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;
     let opts = ReplaceOptions { connect, ..opts };
-    let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
+    let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| Fail::from(&e))?;
     if args.format == Format::Text {
         let id = prep
             .plan
@@ -253,7 +244,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     let (mut report, done) = match outcome {
         Ok(o) => (o.report.clone(), Ok(o)),
         Err(ReplaceError::Upload { report, error }) => (*report, Err(error)),
-        Err(e) => return Err(refusal(&e)),
+        Err(e) => return Err(Fail::from(&e)),
     };
     // the slot's new unit, on record with what was written to it
     for d in report.drives.iter().filter(|d| d.name == args.drive) {

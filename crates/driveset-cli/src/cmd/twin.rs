@@ -396,11 +396,7 @@ pub fn capture_drive(
     };
     if let Err(e) = driveset_engine::identify::check_family(client.as_mut()) {
         return Err(Fail {
-            code: if e.is_refused() {
-                crate::EXIT_FINDINGS
-            } else {
-                port::engine_exit(&e)
-            },
+            code: port::family_exit(&e),
             msg: format!("{e}; no twin written"),
         });
     }

@@ -26,7 +26,7 @@
 //!   refused. [`LecomClient::broadcast`] / [`LecomClient::multicast`] send
 //!   an unacknowledged SEND to all drives or a group, separately.
 //! - Every telegram starts with EOT (the end of the previous transmission),
-//!   so nothing is sent after an answer; [`DriveClient::finish`] sends the
+//!   so nothing is sent after an answer; [`DriveClient::finish`](super::DriveClient::finish) sends the
 //!   final EOT.
 //!
 //! # Answer monitoring and retries
@@ -67,8 +67,8 @@ use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::timing::{AnswerWait, LinkLatency};
 use super::{
-    ClientStats, DriveClient, IdentValue, Target, client_address, code_name, device, link_error,
-    refuse_read_only, schema_code, shared_link_methods, shown_value, write_what, wrong_client,
+    ClientStats, Drive, IdentValue, Protocol, Target, client_address, code_name, device,
+    link_error, refuse_read_only, schema_code, shown_value, write_what, wrong_client,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
@@ -126,7 +126,7 @@ enum Outcome {
 
 /// The line: link, answer decoder, counters. Shared with scan.
 #[derive(Debug)]
-pub(crate) struct LecomLine<L> {
+pub struct LecomLine<L> {
     pub(crate) link: L,
     pub(crate) stats: ClientStats,
     open: bool,
@@ -316,9 +316,7 @@ fn ident_value(schema: &Schema, key: CodeKey, raw: RawValue) -> IdentValue {
 /// A Lenze Tmd on LECOM-A/B at one station address.
 #[derive(Debug)]
 pub struct LecomClient<L: ByteLink = Box<dyn ByteLink>> {
-    line: LecomLine<L>,
-    schema: Arc<Schema>,
-    target: Target,
+    drive: Drive<LecomLine<L>>,
     address: ControllerAddress,
     opts: LecomOptions,
 }
@@ -350,18 +348,36 @@ impl<L: ByteLink> LecomClient<L> {
         let mut line = LecomLine::new(link);
         line.latency = LinkLatency::new(opts.latency);
         Ok(LecomClient {
-            line,
-            schema,
-            target,
+            drive: Drive::new(target, schema, line),
             address,
             opts,
         })
     }
 
-    shared_link_methods!(L);
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.drive.line.link
+    }
+
+    /// The link, mutably (tests, reopening).
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.drive.line.link
+    }
+
+    /// The link back (without sending what [`DriveClient::finish`]
+    /// sends: call it first).
+    ///
+    /// [`DriveClient::finish`]: crate::client::DriveClient::finish
+    pub fn into_link(self) -> L {
+        self.drive.line.link
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
 
     fn baud(&self) -> u32 {
-        self.line.link.baud()
+        self.drive.line.link.baud()
     }
 
     /// The monitoring time now for an answer of `answer_chars`
@@ -373,17 +389,17 @@ impl<L: ByteLink> LecomClient<L> {
                 .max_reaction
                 .saturating_mul(plan::LECOM_MONITORING_FACTOR)
                 .saturating_add(wire_time(answer_chars, self.baud()))
-                .saturating_add(self.line.latency.allowance())
+                .saturating_add(self.drive.line.latency.allowance())
         })
     }
 
     /// The link's measured latency so far.
     pub fn latency(&self) -> &super::timing::LinkLatency {
-        &self.line.latency
+        &self.drive.line.latency
     }
 
     fn refused(&self, refusal: Refusal) -> EngineError {
-        EngineError::refused(self.target.clone(), refusal)
+        EngineError::refused(self.drive.target.clone(), refusal)
     }
 
     fn encode_refused(&self, what: Option<&str>, e: impl std::fmt::Display) -> EngineError {
@@ -397,7 +413,7 @@ impl<L: ByteLink> LecomClient<L> {
         code_address(key).ok_or_else(|| {
             self.refused(
                 super::LecomRefusal::Unaddressable {
-                    code: code_name(&self.schema, key),
+                    code: code_name(&self.drive.schema, key),
                 }
                 .into(),
             )
@@ -410,7 +426,7 @@ impl<L: ByteLink> LecomClient<L> {
         } else {
             format!("{what} (last answer: {last})")
         };
-        EngineError::no_answer(self.target.clone(), what, self.tries())
+        EngineError::no_answer(self.drive.target.clone(), what, self.tries())
     }
 
     /// RECEIVE with retries; the value as the codec decoded it.
@@ -431,18 +447,19 @@ impl<L: ByteLink> LecomClient<L> {
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
-                self.line.stats.retries += 1;
+                self.drive.line.stats.retries += 1;
             }
             let timeout = self.timeout(answer_len(code, ty));
             let out = self
+                .drive
                 .line
                 .exchange(&bytes, Some(code), timeout)
-                .map_err(|e| link_error(&self.target, e))?;
+                .map_err(|e| link_error(&self.drive.target, e))?;
             match out {
                 Outcome::Answer(Response::Value { value, .. }) => return Ok(value),
                 Outcome::Answer(Response::NoSuchCode { .. }) => {
                     return Err(device(
-                        &self.target,
+                        &self.drive.target,
                         what,
                         DeviceCause::NoSuchCode {
                             code: code.to_string(),
@@ -460,14 +477,14 @@ impl<L: ByteLink> LecomClient<L> {
         Err(self.no_answer(what, &last))
     }
 
-    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
+    fn read_code(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
         let ty = schema.type_of(code);
         let value = self.receive(key, ty, what)?;
         raw_of(ty, &value).ok_or_else(|| {
             EngineError::protocol(
-                self.target.clone(),
+                self.drive.target.clone(),
                 what.to_string(),
                 format!(
                     "the drive sent {}, which is not the {} format the schema gives",
@@ -494,14 +511,14 @@ impl<L: ByteLink> LecomClient<L> {
         )?;
         let status = OperatingStatus::from_value(&v).map_err(|e| {
             EngineError::protocol(
-                self.target.clone(),
+                self.drive.target.clone(),
                 format!("read C0068 after NAK to {what}"),
                 e.to_string(),
             )
         })?;
         let comm = status.last_communication_error();
         let mut extended = None;
-        if comm.advice() == Advice::Fail && self.schema.code(C1962).is_some() {
+        if comm.advice() == Advice::Fail && self.drive.schema.code(C1962).is_some() {
             // Best effort: C1962 only adds detail.
             if let Ok(v) = self.receive(
                 CodeKey::new(C1962),
@@ -516,13 +533,13 @@ impl<L: ByteLink> LecomClient<L> {
     }
 
     fn encode(&self, key: CodeKey, raw: &RawValue) -> Result<(CodeAddress, Value), EngineError> {
-        let code = schema_code(&self.schema, &self.target, key)?;
+        let code = schema_code(&self.drive.schema, &self.drive.target, key)?;
         let field = self.field(key)?;
-        let value = value_of(&self.schema, code, raw).map_err(|e| {
+        let value = value_of(&self.drive.schema, code, raw).map_err(|e| {
             self.refused(
                 super::LecomRefusal::Value {
-                    code: code_name(&self.schema, key),
-                    value: shown_value(&self.schema, key, raw),
+                    code: code_name(&self.drive.schema, key),
+                    value: shown_value(&self.drive.schema, key, raw),
                     detail: e,
                 }
                 .into(),
@@ -552,21 +569,43 @@ impl<L: ByteLink> LecomClient<L> {
         key: CodeKey,
         raw: &RawValue,
     ) -> Result<(), EngineError> {
-        let code = schema_code(&self.schema, &self.target, key)?;
-        refuse_read_only(&self.schema, &self.target, key, code)?;
-        let cleared = guard::check(&self.schema, &self.target, key, raw, Permit::SETTING)?;
+        let code = schema_code(&self.drive.schema, &self.drive.target, key)?;
+        refuse_read_only(&self.drive.schema, &self.drive.target, key, code)?;
+        let cleared = guard::check(
+            &self.drive.schema,
+            &self.drive.target,
+            key,
+            raw,
+            Permit::SETTING,
+        )?;
         let (field, value) = self.encode(key, raw)?;
         let t = guard::lecom_broadcast(&cleared, to, field, value)
             .map_err(|e| self.encode_refused(None, e))?;
         let bytes = t.to_bytes().map_err(|e| self.encode_refused(None, e))?;
-        self.line
+        self.drive
+            .line
             .send(&bytes)
-            .map_err(|e| link_error(&self.target, e))
+            .map_err(|e| link_error(&self.drive.target, e))
     }
 }
 
-impl<L: ByteLink> DriveClient for LecomClient<L> {
-    super::shared_client_methods!(ident_value);
+impl<L: ByteLink> Protocol for LecomClient<L> {
+    type Line = LecomLine<L>;
+
+    fn drive(&self) -> &Drive<LecomLine<L>> {
+        &self.drive
+    }
+
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        self.read_code(key, what)
+    }
+
+    /// The one identify loop, VD values in engineering notation
+    /// ([`ident_value`]).
+    fn identify(&mut self) -> Result<super::Identity, EngineError> {
+        let schema = Arc::clone(&self.drive.schema);
+        super::identify::identify(&schema, |key, what| self.read_code(key, what), ident_value)
+    }
 
     fn write_named(
         &mut self,
@@ -574,10 +613,10 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         raw: &RawValue,
         permit: Permit,
     ) -> Result<(), EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
-        refuse_read_only(&schema, &self.target, key, code)?;
-        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
+        refuse_read_only(&schema, &self.drive.target, key, code)?;
+        let cleared = guard::check(&schema, &self.drive.target, key, raw, permit)?;
         let what = write_what(&schema, key, raw);
         let (field, value) = self.encode(key, raw)?;
         let t = guard::lecom_send(&cleared, self.address, field, value)
@@ -587,15 +626,16 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
         let mut sends = 0u32;
         while sends < self.tries() {
             if sends > 0 {
-                self.line.stats.retries += 1;
+                self.drive.line.stats.retries += 1;
             }
             sends += 1;
             // ACK / NAK
             let timeout = self.timeout(1);
             let out = self
+                .drive
                 .line
                 .exchange(&bytes, None, timeout)
-                .map_err(|e| link_error(&self.target, e))?;
+                .map_err(|e| link_error(&self.drive.target, e))?;
             match out {
                 Outcome::Answer(Response::Ack) => return Ok(()),
                 Outcome::Answer(Response::Nak) => {
@@ -607,7 +647,7 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
                         }
                         _ => {
                             let cause = DeviceCause::LecomNak { status, extended };
-                            return Err(device(&self.target, &what, cause));
+                            return Err(device(&self.drive.target, &what, cause));
                         }
                     }
                 }
@@ -621,9 +661,10 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
 
     fn read_time(&self, key: CodeKey) -> Duration {
         let ty = self
+            .drive
             .schema
             .code(key.number)
-            .and_then(|c| self.schema.type_of(c));
+            .and_then(|c| self.drive.schema.type_of(c));
         let Some(code) = code_address(key) else {
             return Duration::ZERO;
         };
@@ -646,11 +687,11 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let Some(ind) = self.schema.running_indicator() else {
+        let Some(ind) = self.drive.schema.running_indicator() else {
             return Ok(None);
         };
         let key = CodeKey::new(ind.code);
-        let what = format!("read {} (running?)", code_name(&self.schema, key));
+        let what = format!("read {} (running?)", code_name(&self.drive.schema, key));
         let v = self.receive(key, Some(ValueType::VH), &what)?;
         let word = match v {
             Value::Hex(h) => i64::from(h.get()),
@@ -661,7 +702,10 @@ impl<L: ByteLink> DriveClient for LecomClient<L> {
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {
-        self.line.finish().map_err(|e| link_error(&self.target, e))
+        self.drive
+            .line
+            .finish()
+            .map_err(|e| link_error(&self.drive.target, e))
     }
 }
 

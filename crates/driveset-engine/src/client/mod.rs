@@ -6,7 +6,9 @@
 //! transaction runner needs for pacing (EEPROM store time). What only some
 //! drives have is a capability the client is asked for (`capability.rs`):
 //! the MC6000 dataset handshake (SLOAD, [`DatasetDownload`]) and a serial
-//! line whose rate can be set ([`SerialLine`]).
+//! line whose rate can be set ([`SerialLine`]). A client is a [`Drive`]
+//! (target, schema, line: link and counters) under a small [`Protocol`]
+//! (`drive.rs`); every `Protocol` is a `DriveClient`, implemented once.
 
 use std::fmt;
 use std::sync::Arc;
@@ -19,6 +21,7 @@ use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::Permit;
 
 mod capability;
+mod drive;
 mod identify;
 pub mod lecom;
 pub mod lustbus;
@@ -29,6 +32,7 @@ pub mod timing;
 pub use capability::{
     DatasetDownload, DatasetOutcome, SerialLine, dataset_or_refuse, set_line_rate,
 };
+pub use drive::{Drive, DriveLine, Protocol};
 pub use lecom::{LecomClient, LecomOptions};
 pub use lustbus::{LustbusClient, LustbusOptions};
 pub use refusal::{LecomRefusal, SdoRefusal};
@@ -211,13 +215,24 @@ pub struct ClientStats {
     /// 80-SLOAD polls while an MC6000/7000 checked a staged dataset
     /// (LUSTBUS 11.4).
     pub sload_polls: u64,
+    /// Restarts of the drive seen (LUSTBUS: a power-on bit in SIOF/SERR
+    /// after the session's first read of it, §6, each one
+    /// [`crate::error::ErrorKind::Restarted`] where it was read), also where
+    /// the caller recovered from the error; 0 where the protocol shows none.
+    /// A switched upload compares it across the switch back
+    /// (`crate::transfer`). Not in reports.
+    #[serde(skip)]
+    pub restarts: u64,
 }
 
-/// A drive, reached through one protocol.
+/// A drive, reached through one protocol: the face callers use.
 ///
 /// Reads and writes take schema codes and raw values; every method that
 /// touches the bus returns an [`EngineError`] naming the target and code.
-/// Implementations never write a code the schema does not know.
+/// Implementations never write a code the schema does not know. The
+/// protocol clients implement the narrower [`Protocol`] over a [`Drive`];
+/// this trait is implemented once for every `Protocol` (`drive.rs`), and
+/// directly only by tests' fakes.
 pub trait DriveClient: Send {
     /// Port and address.
     fn target(&self) -> &Target;
@@ -304,16 +319,6 @@ pub trait DriveClient: Send {
 
     /// Counters so far.
     fn stats(&self) -> ClientStats;
-
-    /// How many restarts of the drive this client has seen (LUSTBUS: a
-    /// power-on bit in SIOF/SERR after the session's first read of it, §6,
-    /// each one [`crate::error::ErrorKind::Restarted`] where it was read),
-    /// also where the caller recovered from the error; 0 where the protocol
-    /// shows none. A switched upload asks it after the switch back
-    /// (`crate::transfer`).
-    fn restarts_seen(&self) -> u64 {
-        0
-    }
 
     /// End the session cleanly (LUSTBUS / LECOM: the trailing EOT).
     fn finish(&mut self) -> Result<(), EngineError>;
@@ -403,80 +408,6 @@ pub(crate) fn saved(client: &mut dyn DriveClient, keys: impl Iterator<Item = Cod
 // ---------------------------------------------------------------------------
 // Helpers the protocol clients share (not part of the contract).
 // ---------------------------------------------------------------------------
-
-/// The [`DriveClient`] methods every protocol client answers the same way,
-/// expanded inside its `impl DriveClient`: `target`, `schema` (its fields of
-/// those names), `bus_id`, `clock`, `stats` (its `line`'s `link` and
-/// `stats`), `read` (its `read_key(key, what)` with `read C0011`) and
-/// `identify` (the one loop of `identify.rs` over its `read_key`, values
-/// shown by `$show`).
-macro_rules! shared_client_methods {
-    ($show:path) => {
-        fn target(&self) -> &$crate::client::Target {
-            &self.target
-        }
-
-        fn bus_id(&self) -> String {
-            self.line.link.bus_id()
-        }
-
-        fn schema(&self) -> &std::sync::Arc<driveset_schema::Schema> {
-            &self.schema
-        }
-
-        fn clock(&self) -> &dyn driveset_link::Clock {
-            self.line.link.clock()
-        }
-
-        fn stats(&self) -> $crate::client::ClientStats {
-            self.line.stats
-        }
-
-        fn identify(&mut self) -> Result<$crate::client::Identity, $crate::error::EngineError> {
-            let schema = std::sync::Arc::clone(&self.schema);
-            $crate::client::identify::identify(&schema, |key, what| self.read_key(key, what), $show)
-        }
-
-        fn read(
-            &mut self,
-            key: driveset_schema::CodeKey,
-        ) -> Result<driveset_schema::RawValue, $crate::error::EngineError> {
-            let what = format!("read {}", $crate::client::code_name(&self.schema, key));
-            self.read_key(key, &what)
-        }
-    };
-}
-pub(crate) use shared_client_methods;
-
-/// The link accessors every protocol client has, expanded inside its
-/// inherent `impl`: `link`, `link_mut`, `into_link` (its `line`'s `link`)
-/// and `tries` (its options' `tries`, 0 counting as 1).
-macro_rules! shared_link_methods {
-    ($L:ty) => {
-        /// The link.
-        pub fn link(&self) -> &$L {
-            &self.line.link
-        }
-
-        /// The link, mutably (tests, reopening).
-        pub fn link_mut(&mut self) -> &mut $L {
-            &mut self.line.link
-        }
-
-        /// The link back (without sending what [`DriveClient::finish`]
-        /// sends: call it first).
-        ///
-        /// [`DriveClient::finish`]: $crate::client::DriveClient::finish
-        pub fn into_link(self) -> $L {
-            self.line.link
-        }
-
-        fn tries(&self) -> u32 {
-            self.opts.tries.max(1)
-        }
-    };
-}
-pub(crate) use shared_link_methods;
 
 /// The address a client for `bus` speaks to at `target`: the bus's rule
 /// for a client ([`AddressRefused::check_client`](crate::error::AddressRefused::check_client)),

@@ -39,8 +39,8 @@ use driveset_proto::can::{
 use driveset_schema::{BusProtocol, Code, CodeKey, RawValue, Schema, ValueType};
 
 use super::{
-    ClientStats, DriveClient, Target, client_address, code_name, device, link_error,
-    refuse_read_only, schema_code, shared_link_methods, shown_value, write_what, wrong_client,
+    ClientStats, Drive, Protocol, Target, client_address, code_name, device, link_error,
+    refuse_read_only, schema_code, shown_value, write_what, wrong_client,
 };
 use crate::error::{DeviceCause, EngineError, Refusal};
 use crate::guard::{self, Permit};
@@ -74,7 +74,7 @@ enum Outcome {
 
 /// The bus side: link, SDO state machine, counters. Shared with scan.
 #[derive(Debug)]
-pub(crate) struct SdoLine<L> {
+pub struct SdoLine<L> {
     pub(crate) link: L,
     sdo: SdoClient,
     pub(crate) stats: ClientStats,
@@ -256,9 +256,7 @@ fn raw_to_bytes(wire: Wire, raw: &RawValue) -> Option<Vec<u8>> {
 /// A Lenze ECS axis (SDO server) at one node id.
 #[derive(Debug)]
 pub struct CanClient<L: FrameLink = Box<dyn FrameLink>> {
-    line: SdoLine<L>,
-    schema: Arc<Schema>,
-    target: Target,
+    drive: Drive<SdoLine<L>>,
     node: NodeId,
     opts: CanOptions,
 }
@@ -287,26 +285,48 @@ impl<L: FrameLink> CanClient<L> {
             NodeId::new(n).map_err(|e| e.to_string())
         })?;
         Ok(CanClient {
-            line: SdoLine::new(link),
-            schema,
-            target,
+            drive: Drive::new(target, schema, SdoLine::new(link)),
             node,
             opts,
         })
     }
 
-    shared_link_methods!(L);
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.drive.line.link
+    }
+
+    /// The link, mutably (tests, reopening).
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.drive.line.link
+    }
+
+    /// The link back (without sending what [`DriveClient::finish`]
+    /// sends: call it first).
+    ///
+    /// [`DriveClient::finish`]: crate::client::DriveClient::finish
+    pub fn into_link(self) -> L {
+        self.drive.line.link
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
 
     fn refused(&self, refusal: Refusal) -> EngineError {
-        EngineError::refused(self.target.clone(), refusal)
+        EngineError::refused(self.drive.target.clone(), refusal)
     }
 
     fn mux(&self, key: CodeKey) -> Result<(Index, Subindex), EngineError> {
-        mux_of(&self.schema, key).ok_or_else(|| {
+        mux_of(&self.drive.schema, key).ok_or_else(|| {
             self.refused(
                 super::SdoRefusal::NoIndex {
-                    code: code_name(&self.schema, key),
-                    base: self.schema.can_index_base.unwrap_or(u32::from(INDEX_BASE)),
+                    code: code_name(&self.drive.schema, key),
+                    base: self
+                        .drive
+                        .schema
+                        .can_index_base
+                        .unwrap_or(u32::from(INDEX_BASE)),
                 }
                 .into(),
             )
@@ -322,26 +342,27 @@ impl<L: FrameLink> CanClient<L> {
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
-                self.line.stats.retries += 1;
+                self.drive.line.stats.retries += 1;
             }
-            if !self.line.sdo.is_idle() {
-                self.line.sdo = SdoClient::new();
+            if !self.drive.line.sdo.is_idle() {
+                self.drive.line.sdo = SdoClient::new();
             }
-            let first = start(&mut self.line.sdo).map_err(|detail| {
+            let first = start(&mut self.drive.line.sdo).map_err(|detail| {
                 self.refused(Refusal::Encode {
                     what: Some(what.to_string()),
                     detail,
                 })
             })?;
             let out = self
+                .drive
                 .line
                 .transfer(self.node, first, self.opts.answer_timeout)
-                .map_err(|e| link_error(&self.target, e))?;
+                .map_err(|e| link_error(&self.drive.target, e))?;
             match out {
                 Outcome::Done(c) => return Ok(c),
                 Outcome::Aborted(a) => {
                     return Err(device(
-                        &self.target,
+                        &self.drive.target,
                         what,
                         DeviceCause::SdoAbort {
                             code: a.code,
@@ -360,15 +381,15 @@ impl<L: FrameLink> CanClient<L> {
             format!("{what} (last transfer failed: {last})")
         };
         Err(EngineError::no_answer(
-            self.target.clone(),
+            self.drive.target.clone(),
             what,
             self.tries(),
         ))
     }
 
-    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
+    fn read_code(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
         let wire = wire_of(&schema, code).ok_or_else(|| {
             self.refused(
                 super::SdoRefusal::NotSdoType {
@@ -387,14 +408,14 @@ impl<L: FrameLink> CanClient<L> {
         })?;
         let Completed::Read { data, .. } = done else {
             return Err(EngineError::protocol(
-                self.target.clone(),
+                self.drive.target.clone(),
                 what.to_string(),
                 "a write acknowledgement to a read",
             ));
         };
         bytes_to_raw(wire, &data).ok_or_else(|| {
             EngineError::protocol(
-                self.target.clone(),
+                self.drive.target.clone(),
                 what.to_string(),
                 format!("{} data bytes for a 4-byte value", data.len()),
             )
@@ -420,8 +441,16 @@ fn mux_of(schema: &Schema, key: CodeKey) -> Option<(Index, Subindex)> {
     Some((Index(index), Subindex(sub)))
 }
 
-impl<L: FrameLink> DriveClient for CanClient<L> {
-    super::shared_client_methods!(super::identify::shown);
+impl<L: FrameLink> Protocol for CanClient<L> {
+    type Line = SdoLine<L>;
+
+    fn drive(&self) -> &Drive<SdoLine<L>> {
+        &self.drive
+    }
+
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        self.read_code(key, what)
+    }
 
     fn write_named(
         &mut self,
@@ -429,10 +458,10 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         raw: &RawValue,
         permit: Permit,
     ) -> Result<(), EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
-        refuse_read_only(&schema, &self.target, key, code)?;
-        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
+        refuse_read_only(&schema, &self.drive.target, key, code)?;
+        let cleared = guard::check(&schema, &self.drive.target, key, raw, permit)?;
         let what = write_what(&schema, key, raw);
         let data = wire_of(&schema, code)
             .and_then(|w| raw_to_bytes(w, raw))
@@ -457,8 +486,9 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         // wait the schema's store timeout for it, not a read's
         let usual = self.opts.answer_timeout;
         self.opts.answer_timeout = usual.max(command.timeout);
-        let sent = self.clock().now();
-        let r = self.write_named(
+        let sent = self.drive.line.link.clock().now();
+        let r = Protocol::write_named(
+            self,
             CodeKey::new(command.code),
             &RawValue::Int(command.value),
             Permit::STORE,
@@ -476,7 +506,7 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
         }
         .to_can(self.node);
         let _ = key;
-        can_frame_time(&frame, self.line.link.bitrate()).unwrap_or_default() * 2
+        can_frame_time(&frame, self.drive.line.link.bitrate()).unwrap_or_default() * 2
     }
 
     fn write_time(&self, key: CodeKey) -> Duration {
@@ -484,10 +514,10 @@ impl<L: FrameLink> DriveClient for CanClient<L> {
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let Some(ind) = self.schema.running_indicator() else {
+        let Some(ind) = self.drive.schema.running_indicator() else {
             return Ok(None);
         };
-        match self.read(CodeKey::new(ind.code))? {
+        match super::DriveClient::read(self, CodeKey::new(ind.code))? {
             RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
             _ => Ok(None),
         }

@@ -6,7 +6,9 @@
 //! said: LUSTBUS SIOF/SERR bits, section 9.2; LECOM C0068 bits 4..7 and
 //! C1962, Table 1 and section 8.J c; SDO abort codes, DS301 table 22) in
 //! `device.rs`, kept apart from transport failures. Every variant renders
-//! the message the CLI prints through `Display`.
+//! the message the CLI prints through `Display` and says its [`Layer`]
+//! (`layer.rs`: input, refusal, link, device, transaction outcome), which a
+//! front end maps to an exit code in one place.
 
 use std::fmt;
 
@@ -17,6 +19,7 @@ use crate::client::Target;
 mod address;
 mod device;
 mod form;
+mod layer;
 mod refusal;
 #[cfg(test)]
 mod tests;
@@ -37,6 +40,7 @@ where
 
 pub use address::{AddressRefused, AddressUse};
 pub use device::{DeviceCause, LECOM_PROGRAMMING_ADVICE, SiofRegister, SiofVerdict};
+pub use layer::Layer;
 pub use refusal::{LinkKind, Refusal};
 
 /// Every way an engine operation fails: where ([`EngineError::target`]) and

@@ -155,15 +155,22 @@ pub struct LineBusId {
 }
 
 impl ReplaceError {
-    /// Whether nothing was written because a rule refused (exit 2), not a
-    /// failure on the way.
-    pub fn is_refusal(&self) -> bool {
+    /// The layer this failure comes from ([`crate::error::Layer`]): a rule
+    /// refused and nothing was written (the manifest, the set, the spare,
+    /// the engine's refusals), or the replacement failed on the way (the
+    /// engine's other failures, the journal's included, and the set's
+    /// upload: the report says what the spare holds).
+    pub fn layer(&self) -> crate::error::Layer {
+        use crate::error::Layer;
         match self {
-            ReplaceError::Engine(e) => {
-                matches!(*e.kind, crate::error::ErrorKind::Refused(_))
-            }
-            ReplaceError::Upload { .. } => false,
-            _ => true,
+            ReplaceError::Engine(e) if e.is_refused() => Layer::Refusal,
+            ReplaceError::Engine(_) | ReplaceError::Upload { .. } => Layer::Transaction,
+            ReplaceError::UnknownDrive { .. }
+            | ReplaceError::CanBus(_)
+            | ReplaceError::Learned { .. }
+            | ReplaceError::SetBusCodes(_)
+            | ReplaceError::Misfit(_)
+            | ReplaceError::LineBus { .. } => Layer::Refusal,
         }
     }
 }

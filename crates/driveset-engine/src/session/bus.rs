@@ -318,7 +318,7 @@ mod tests {
                 .starts_with(&format!("learned schema {}: ", file_of(&id).display())),
             "{e}"
         );
-        assert!(e.is_input());
+        assert_eq!(e.layer(), crate::error::Layer::Input);
     }
 
     #[test]

@@ -176,21 +176,25 @@ pub enum SessionError {
 }
 
 impl SessionError {
-    /// Whether nothing reached a drive because the command's input was
-    /// wrong (the CLI's exit 2) rather than the bus or drive failing
-    /// (exit 3).
-    pub fn is_input(&self) -> bool {
+    /// The layer this failure comes from ([`crate::error::Layer`]): the
+    /// engine's and the port's own; the command's input (a schema that does
+    /// not fit, is not known or missing, a learned schema file, a CAN port
+    /// where a line is needed); the drive (its descriptions do not render);
+    /// the link (nothing answered the probes).
+    pub fn layer(&self) -> crate::error::Layer {
+        use crate::error::Layer;
         match self {
-            SessionError::Engine(e) => e.is_refused(),
-            SessionError::Port(e) => e.is_input(),
+            SessionError::Engine(e) => e.layer(),
+            SessionError::Port(e) => e.layer(),
             SessionError::Fit(_)
             | SessionError::Catalog(_)
             | SessionError::MissingBuiltin { .. }
             | SessionError::File { .. }
             | SessionError::Earlier { .. }
             | SessionError::DetectOnCan { .. }
-            | SessionError::LustbusOnCan { .. } => true,
-            SessionError::Render { .. } | SessionError::NoAnswer { .. } => false,
+            | SessionError::LustbusOnCan { .. } => Layer::Input,
+            SessionError::Render { .. } => Layer::Device,
+            SessionError::NoAnswer { .. } => Layer::Link,
         }
     }
 }

@@ -139,10 +139,15 @@ pub enum PortError {
 }
 
 impl PortError {
-    /// Whether the command's input was wrong (the CLI's exit 2) rather
-    /// than the bus being unavailable (exit 3).
-    pub fn is_input(&self) -> bool {
-        matches!(self, PortError::BadPort(_) | PortError::Settings { .. })
+    /// The layer this failure comes from ([`crate::error::Layer`]): a bad
+    /// port string or settings are the command's input; a transport that
+    /// does not open or a bus another process holds are the link's.
+    pub fn layer(&self) -> crate::error::Layer {
+        use crate::error::Layer;
+        match self {
+            PortError::BadPort(_) | PortError::Settings { .. } => Layer::Input,
+            PortError::Open { .. } | PortError::Busy(_) => Layer::Link,
+        }
     }
 }
 
@@ -284,7 +289,7 @@ mod tests {
     fn a_bad_port_string_is_refused_before_anything_is_opened() {
         let ports = recorder();
         let e = open_port(&ports, "tcp://", None).unwrap_err();
-        assert!(e.is_input());
+        assert_eq!(e.layer(), crate::error::Layer::Input);
         assert!(
             e.to_string()
                 .ends_with("; ports look like /dev/ttyUSB0?baud=9600, tcp://host:4001, slcan:///dev/ttyACM0?bitrate=500000 or sim://mc6000?addresses=1"),

@@ -45,7 +45,7 @@ pub fn upload(
     o.transfer = session.record().cloned();
     let result = crate::upload::upload(client, set, &o);
     let ok = result.is_ok();
-    let restarts = client.restarts_seen();
+    let restarts = client.stats().restarts;
     let back = end(client, session, &opts.journal, ok).map_err(|b| *b);
     match (result, back) {
         (Ok(mut report), Ok(t)) => {
@@ -103,7 +103,7 @@ pub fn upload(
 /// after every start until a read clears it, and the session's first
 /// read cleared it before the switch over). So: when the client saw no
 /// power-on bit since the upload returned (`restarts`: its
-/// [`DriveClient::restarts_seen`] then; the switch back reads SIOF/SERR
+/// [`ClientStats::restarts`](crate::client::ClientStats::restarts) then; the switch back reads SIOF/SERR
 /// after a NAKed SELECT and may recover from the restart it finds), one
 /// read of SIOF/SERR at the rate the drive runs at now; when that shows no
 /// restart either, the upload's verify stands and the upload is complete.
@@ -122,7 +122,7 @@ fn final_verify(
     journal: &Path,
     restarts: u64,
 ) -> Result<(), EngineError> {
-    if client.restarts_seen() == restarts && not_restarted(client) {
+    if client.stats().restarts == restarts && not_restarted(client) {
         return Ok(());
     }
     read_back_all(client, set, report, journal)

@@ -220,6 +220,7 @@ fn stats_add(a: ClientStats, b: ClientStats) -> ClientStats {
         received: a.received + b.received,
         late: a.late + b.late,
         sload_polls: a.sload_polls + b.sload_polls,
+        restarts: a.restarts + b.restarts,
     }
 }
 
@@ -231,5 +232,6 @@ fn stats_since(now: ClientStats, then: ClientStats) -> ClientStats {
         received: now.received.saturating_sub(then.received),
         late: now.late.saturating_sub(then.late),
         sload_polls: now.sload_polls.saturating_sub(then.sload_polls),
+        restarts: now.restarts.saturating_sub(then.restarts),
     }
 }

@@ -63,11 +63,11 @@ impl<L: ByteLink> LustbusClient<L> {
     /// a code with a role (address, baud rate, control, command, mode ...).
     /// Address 31 reaches every device on the bus, listed anywhere or not.
     pub fn broadcast(&mut self, key: CodeKey, raw: &RawValue) -> Result<(), EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
         let refuse = |why: String| {
             EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::Broadcast {
                     code: code_name(&schema, key),
                     why,
@@ -101,13 +101,14 @@ impl<L: ByteLink> LustbusClient<L> {
                     ty.name()
                 ))
             })?;
-        let cleared = guard::check(&schema, &self.target, key, raw, Permit::SETTING)?;
+        let cleared = guard::check(&schema, &self.drive.target, key, raw, Permit::SETTING)?;
         let bytes = guard::lustbus_select(&cleared, Address::BROADCAST, pcode, value);
-        self.line
+        self.drive
+            .line
             .send_telegram(&bytes)
-            .map_err(|e| link_error(&self.target, e))?;
+            .map_err(|e| link_error(&self.drive.target, e))?;
         let wait = self.max_reaction();
-        self.line.link.clock().sleep(wait);
+        self.drive.line.link.clock().sleep(wait);
         Ok(())
     }
 }

@@ -34,7 +34,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
     fn begin(&mut self) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::Vf1000NoDataset,
             ));
         }
@@ -58,7 +58,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
     fn end(&mut self) -> Result<Instant, EngineError> {
         if !self.dataset_open {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::NoDatasetOpen,
             ));
         }
@@ -80,8 +80,8 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
         let deadline = ended + timeout;
         loop {
             let poll_start = self.now();
-            self.line.stats.sload_polls += 1;
-            let v = match self.read_key(key, "dataset download: poll 80-SLOAD")? {
+            self.drive.line.stats.sload_polls += 1;
+            let v = match self.read_code(key, "dataset download: poll 80-SLOAD")? {
                 RawValue::Int(v) => v,
                 _ => -1,
             };
@@ -97,7 +97,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
                     // deadline (section 11.4: 10 s) was the last.
                     if poll_start >= deadline {
                         return Err(device(
-                            &self.target,
+                            &self.drive.target,
                             "dataset download: poll 80-SLOAD",
                             DeviceCause::DatasetStillChecking {
                                 timeout_ms: u64::try_from(timeout.as_millis()).unwrap_or(u64::MAX),
@@ -109,6 +109,7 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
                     // round trip, whichever is longer, and not after the
                     // deadline.
                     let interval = self
+                        .drive
                         .line
                         .latency
                         .round_trip()
@@ -116,12 +117,12 @@ impl<L: ByteLink> DatasetDownload for LustbusClient<L> {
                         .max(plan::SLOAD_POLL_INTERVAL);
                     let next = (poll_start + interval).min(deadline);
                     if next > self.now() {
-                        self.line.link.clock().sleep_until(next);
+                        self.drive.line.link.clock().sleep_until(next);
                     }
                 }
                 other => {
                     return Err(EngineError::protocol(
-                        self.target.clone(),
+                        self.drive.target.clone(),
                         "dataset download: poll 80-SLOAD",
                         format!(
                             "SLOAD = {other}: section 11.4 knows only -1, 0 and parameter numbers"
@@ -144,14 +145,14 @@ impl<L: ByteLink> LustbusClient<L> {
         self.sload_present()?;
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::Vf1000NoDataset,
             ));
         }
         let siof = self.read_siof("resuming the dataset download")?;
         if siof.contains(Siof::POWER_ON) {
             return Err(EngineError::restarted(
-                self.target.clone(),
+                self.drive.target.clone(),
                 "the dataset download (SERR has the power-on bit)",
             ));
         }
@@ -163,12 +164,12 @@ impl<L: ByteLink> LustbusClient<L> {
     /// ([`driveset_schema::family::Descriptor::dataset_code`]), when the
     /// schema has it; refused otherwise.
     fn sload_present(&self) -> Result<CodeKey, EngineError> {
-        match self.schema.family.descriptor().dataset_code() {
-            Some(n) if self.schema.code(n).is_some() => Ok(CodeKey::new(n)),
+        match self.drive.schema.family.descriptor().dataset_code() {
+            Some(n) if self.drive.schema.code(n).is_some() => Ok(CodeKey::new(n)),
             _ => Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::NoSload {
-                    schema: self.schema.id.clone(),
+                    schema: self.drive.schema.id.clone(),
                 },
             )),
         }

@@ -38,7 +38,7 @@ impl<L: ByteLink> LustbusClient<L> {
     pub fn select_stext(&mut self, index: u8) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::StextMcOnly,
             ));
         }
@@ -47,12 +47,12 @@ impl<L: ByteLink> LustbusClient<L> {
         let value = ParameterValue::Usign8(index)
             .encode(Dialect::Mc)
             .map_err(|e| {
-                EngineError::protocol(self.target.clone(), "write 108-STEXT", e.to_string())
+                EngineError::protocol(self.drive.target.clone(), "write 108-STEXT", e.to_string())
             })?;
         let what = format!("write 108-STEXT = {index}");
         let cleared = guard::check(
-            &self.schema,
-            &self.target,
+            &self.drive.schema,
+            &self.drive.target,
             CodeKey::new(u32::from(driveset_proto::lustbus::description::STEXT)),
             &RawValue::Int(i64::from(index)),
             Permit::TEXT_SELECTOR,

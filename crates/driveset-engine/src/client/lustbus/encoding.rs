@@ -90,9 +90,9 @@ impl<L: driveset_link::ByteLink> LustbusClient<L> {
     ) -> Result<ParameterCode, EngineError> {
         let refuse = |problem: LustbusCodeProblem| {
             EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::Code {
-                    code: code_name(&self.schema, key),
+                    code: code_name(&self.drive.schema, key),
                     problem,
                 },
             )

@@ -86,14 +86,15 @@ impl<L: ByteLink> LustbusClient<L> {
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
-                self.line.stats.retries += 1;
+                self.drive.line.stats.retries += 1;
             }
             // ADR STX CODE(5) '=' VALUE ETX BCC
             let timeout = self.timeout(10 + value_len);
             let out = self
+                .drive
                 .line
                 .exchange(&bytes, self.address, Some(code), timeout, Duration::ZERO)
-                .map_err(|e| link_error(&self.target, e))?;
+                .map_err(|e| link_error(&self.drive.target, e))?;
             match out {
                 Outcome::Reply(Reply::Value(v)) => return Ok(Some(v.value)),
                 Outcome::Reply(Reply::Nak(_)) => return Ok(None),
@@ -111,7 +112,7 @@ impl<L: ByteLink> LustbusClient<L> {
         } else {
             format!("{what} (last answer: {last})")
         };
-        EngineError::no_answer(self.target.clone(), what, self.tries())
+        EngineError::no_answer(self.drive.target.clone(), what, self.tries())
     }
 
     /// One SELECT with retries on no answer: `Ok(true)` ACK, `Ok(false)`
@@ -126,14 +127,15 @@ impl<L: ByteLink> LustbusClient<L> {
         let mut last = String::new();
         for attempt in 0..self.tries() {
             if attempt > 0 {
-                self.line.stats.retries += 1;
+                self.drive.line.stats.retries += 1;
             }
             // ADR ACK / ADR NAK
             let timeout = self.timeout(2).saturating_add(known_delay);
             let out = self
+                .drive
                 .line
                 .exchange(bytes, self.address, None, timeout, known_delay)
-                .map_err(|e| link_error(&self.target, e))?;
+                .map_err(|e| link_error(&self.drive.target, e))?;
             match out {
                 Outcome::Reply(Reply::Ack(_)) => return Ok(true),
                 Outcome::Reply(Reply::Nak(_)) => return Ok(false),
@@ -161,7 +163,7 @@ impl<L: ByteLink> LustbusClient<L> {
             Dialect::Mc => SiofRegister::Serr,
         };
         device(
-            &self.target,
+            &self.drive.target,
             what,
             DeviceCause::Siof {
                 register,
@@ -178,13 +180,13 @@ impl<L: ByteLink> LustbusClient<L> {
         let code = ParameterCode::new(SIOF).unwrap_or(ParameterCode::POSMOD);
         let text = self
             .enquire(code, 4, &what)?
-            .ok_or_else(|| device(&self.target, &what, DeviceCause::SiofUnreadable))?;
+            .ok_or_else(|| device(&self.drive.target, &what, DeviceCause::SiofUnreadable))?;
         let v = ParameterValue::decode(ParameterType::Usign16, self.family, text.as_bytes())
             .ok()
             .and_then(|v| u8::try_from(v.raw()).ok())
             .ok_or_else(|| {
                 EngineError::protocol(
-                    self.target.clone(),
+                    self.drive.target.clone(),
                     what.clone(),
                     format!("SIOF/SERR value `{text}` is not an 8-bit hex word"),
                 )
@@ -193,11 +195,11 @@ impl<L: ByteLink> LustbusClient<L> {
         let first = !self.siof_checked;
         self.siof_checked = true;
         if !first && siof.contains(Siof::POWER_ON) {
-            self.restarts_seen += 1;
+            self.drive.line.stats.restarts += 1;
             self.eeprom_busy_until = None;
             self.dataset_open = false;
             return Err(EngineError::restarted(
-                self.target.clone(),
+                self.drive.target.clone(),
                 during.to_string(),
             ));
         }
@@ -242,9 +244,9 @@ impl<L: ByteLink> LustbusClient<L> {
         nak_40_cause: Option<SiofVerdict>,
         permit: Permit,
     ) -> Result<(), EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
-        let cleared = guard::check(&schema, &self.target, key, raw, permit)?;
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
+        let cleared = guard::check(&schema, &self.drive.target, key, raw, permit)?;
         let pcode = self.code_for(key, Some(code))?;
         let ty = if is_dataset_code(&schema, key) && schema.type_of(code).is_none() {
             // 11.4 writes -1 / -2: a signed type, whatever the schema gives.
@@ -254,7 +256,7 @@ impl<L: ByteLink> LustbusClient<L> {
         };
         let Some(ty) = ty else {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::NoWireType {
                     code: code_name(&schema, key),
                     schema: schema.id.clone(),
@@ -264,7 +266,7 @@ impl<L: ByteLink> LustbusClient<L> {
         };
         let RawValue::Int(n) = raw else {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::NotInteger {
                     code: code_name(&schema, key),
                     value: shown_value(&schema, key, raw),
@@ -275,7 +277,7 @@ impl<L: ByteLink> LustbusClient<L> {
             .and_then(|v| v.encode(self.family).ok())
             .ok_or_else(|| {
                 EngineError::refused(
-                    self.target.clone(),
+                    self.drive.target.clone(),
                     LustbusRefusal::DoesNotFit {
                         code: code_name(&schema, key),
                         value: shown_value(&schema, key, raw),
@@ -298,7 +300,7 @@ impl<L: ByteLink> LustbusClient<L> {
                 && let Some(until) = self.eeprom_busy_until
                 && until > self.now()
             {
-                self.line.link.clock().sleep_until(until);
+                self.drive.line.link.clock().sleep_until(until);
             }
             if self.select_once(&bytes, known_delay, what)? {
                 if paced {
@@ -333,8 +335,8 @@ impl<L: ByteLink> LustbusClient<L> {
                     } else {
                         rest
                     };
-                    self.line.link.clock().sleep(wait);
-                    self.line.stats.retries += 1;
+                    self.drive.line.link.clock().sleep(wait);
+                    self.drive.line.stats.retries += 1;
                 }
                 SiofAction::Repeat | SiofAction::None => {
                     checksum_repeats += 1;
@@ -346,13 +348,13 @@ impl<L: ByteLink> LustbusClient<L> {
                         };
                         return Err(self.siof_cause(what, siof, verdict));
                     }
-                    self.line.stats.retries += 1;
+                    self.drive.line.stats.retries += 1;
                 }
                 SiofAction::RestartTransaction => {
                     // read_siof reports a power-on bit itself; kept for
                     // completeness.
                     return Err(EngineError::restarted(
-                        self.target.clone(),
+                        self.drive.target.clone(),
                         what.to_string(),
                     ));
                 }
@@ -368,9 +370,9 @@ impl<L: ByteLink> LustbusClient<L> {
     }
 
     /// Reads a code; `what` names the operation.
-    pub(super) fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
+    pub(super) fn read_code(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
         if key.number == SIOF && key.subcode.is_none() {
             let s = self.read_siof("a read of SIOF/SERR")?;
             return Ok(RawValue::Int(i64::from(s.0)));
@@ -379,7 +381,7 @@ impl<L: ByteLink> LustbusClient<L> {
         let len = self.value_len(Some(code), true);
         let text = self.enquire(pcode, len, what)?.ok_or_else(|| {
             device(
-                &self.target,
+                &self.drive.target,
                 what,
                 DeviceCause::NoSuchParameter {
                     parameter: pcode.to_string(),
@@ -399,7 +401,7 @@ impl<L: ByteLink> LustbusClient<L> {
         }
         .map_err(|e| {
             EngineError::protocol(
-                self.target.clone(),
+                self.drive.target.clone(),
                 what.to_string(),
                 if schema.is_password(code) {
                     format!("the VALUE (password, not shown) does not decode: {e}")

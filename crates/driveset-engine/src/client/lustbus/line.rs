@@ -24,7 +24,7 @@ pub(super) enum Outcome {
 /// The line: link, reply decoder, counters, the link's latency. Shared by
 /// the client and scan.
 #[derive(Debug)]
-pub(crate) struct LustLine<L> {
+pub struct LustLine<L> {
     pub(crate) link: L,
     decoder: ReplyDecoder,
     pub(crate) stats: ClientStats,

@@ -19,7 +19,7 @@
 //! - The trailing EOT of one exchange is the leading EOT of the next
 //!   (section 3: "the Host computer sends the EOT character before and after
 //!   each data sequence"): every telegram starts with its EOT and nothing is
-//!   sent after a reply; [`DriveClient::finish`] sends the final lone EOT.
+//!   sent after a reply; [`DriveClient::finish`](super::DriveClient::finish) sends the final lone EOT.
 //! - Replies go through the codec's master-side [`ReplyDecoder`](driveset_proto::lustbus::ReplyDecoder) (parity
 //!   masked, resynchronising on garbage); a reply from another address, a
 //!   value reply for another CODE or a broken telegram counts as garbled.
@@ -48,8 +48,8 @@ use driveset_schema::{BusProtocol, CodeKey, RawValue, Schema};
 
 use super::timing::LinkLatency;
 use super::{
-    DatasetDownload, DriveClient, SerialLine, Target, client_address, code_name, link_error,
-    refuse_read_only, schema_code, shared_link_methods, write_what, wrong_client,
+    DatasetDownload, Drive, Protocol, SerialLine, Target, client_address, code_name, link_error,
+    refuse_read_only, schema_code, write_what, wrong_client,
 };
 use crate::error::EngineError;
 use crate::guard::Permit;
@@ -134,16 +134,12 @@ impl Default for LustbusOptions {
 /// A LUSTBUS drive (VF1000 or MC6000/7000) at one address.
 #[derive(Debug)]
 pub struct LustbusClient<L: ByteLink = Box<dyn ByteLink>> {
-    line: LustLine<L>,
-    schema: Arc<Schema>,
-    target: Target,
+    drive: Drive<LustLine<L>>,
     family: Dialect,
     address: Address,
     opts: LustbusOptions,
     /// SIOF/SERR has been read (and so cleared) in this session.
     siof_checked: bool,
-    /// Power-on bits read after the first read ([`DriveClient::restarts_seen`]).
-    restarts_seen: u64,
     /// MC: the EEPROM is storing until then.
     eeprom_busy_until: Option<Instant>,
     /// MC: SLOAD = -1 was accepted and not yet committed.
@@ -179,20 +175,37 @@ impl<L: ByteLink> LustbusClient<L> {
         line.eot_after_reply = opts.eot_after_reply;
         line.latency = LinkLatency::new(opts.latency);
         Ok(LustbusClient {
-            line,
-            schema,
-            target,
+            drive: Drive::new(target, schema, line),
             family,
             address,
             opts,
             siof_checked: false,
-            restarts_seen: 0,
             eeprom_busy_until: None,
             dataset_open: false,
         })
     }
 
-    shared_link_methods!(L);
+    /// The link.
+    pub fn link(&self) -> &L {
+        &self.drive.line.link
+    }
+
+    /// The link, mutably (tests, reopening).
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.drive.line.link
+    }
+
+    /// The link back (without sending what [`DriveClient::finish`]
+    /// sends: call it first).
+    ///
+    /// [`DriveClient::finish`]: crate::client::DriveClient::finish
+    pub fn into_link(self) -> L {
+        self.drive.line.link
+    }
+
+    fn tries(&self) -> u32 {
+        self.opts.tries.max(1)
+    }
 
     /// The options in use.
     pub fn options(&self) -> &LustbusOptions {
@@ -200,11 +213,11 @@ impl<L: ByteLink> LustbusClient<L> {
     }
 
     fn now(&self) -> Instant {
-        self.line.link.clock().now()
+        self.drive.line.link.clock().now()
     }
 
     fn baud(&self) -> u32 {
-        self.line.link.baud()
+        self.drive.line.link.baud()
     }
 
     fn max_reaction(&self) -> Duration {
@@ -223,21 +236,25 @@ impl<L: ByteLink> LustbusClient<L> {
         self.opts.answer_timeout.unwrap_or_else(|| {
             self.max_reaction()
                 .saturating_add(wire_time(reply_chars, self.baud()))
-                .saturating_add(self.line.latency.allowance())
+                .saturating_add(self.drive.line.latency.allowance())
         })
     }
 
     /// The link's measured latency so far.
     pub fn latency(&self) -> &LinkLatency {
-        &self.line.latency
+        &self.drive.line.latency
     }
 }
 
-impl<L: ByteLink> DriveClient for LustbusClient<L> {
-    super::shared_client_methods!(super::identify::shown);
+impl<L: ByteLink> Protocol for LustbusClient<L> {
+    type Line = LustLine<L>;
 
-    fn restarts_seen(&self) -> u64 {
-        self.restarts_seen
+    fn drive(&self) -> &Drive<LustLine<L>> {
+        &self.drive
+    }
+
+    fn read_key(&mut self, key: CodeKey, what: &str) -> Result<RawValue, EngineError> {
+        self.read_code(key, what)
     }
 
     fn write_named(
@@ -246,12 +263,12 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
         raw: &RawValue,
         permit: Permit,
     ) -> Result<(), EngineError> {
-        let schema = Arc::clone(&self.schema);
-        let code = schema_code(&schema, &self.target, key)?;
-        refuse_read_only(&schema, &self.target, key, code)?;
+        let schema = Arc::clone(&self.drive.schema);
+        let code = schema_code(&schema, &self.drive.target, key)?;
+        refuse_read_only(&schema, &self.drive.target, key, code)?;
         if self.dataset_open && code.card_writeable != Some(true) {
             return Err(EngineError::refused(
-                self.target.clone(),
+                self.drive.target.clone(),
                 LustbusRefusal::NotCardWriteable {
                     code: code_name(&schema, key),
                 },
@@ -262,7 +279,7 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
     }
 
     fn ready_for_write(&self, key: CodeKey) -> Option<Instant> {
-        let code = self.schema.code(key.number)?;
+        let code = self.drive.schema.code(key.number)?;
         if !self.paced(code) {
             return None;
         }
@@ -270,33 +287,36 @@ impl<L: ByteLink> DriveClient for LustbusClient<L> {
     }
 
     fn read_time(&self, key: CodeKey) -> Duration {
-        let code = self.schema.code(key.number);
+        let code = self.drive.schema.code(key.number);
         // EOT ADR CODE ENQ, then ADR STX CODE = VALUE ETX BCC.
         let chars = 8 + 10 + self.value_len(code, false);
         wire_time(chars, self.baud()) + MIN_REACTION
     }
 
     fn write_time(&self, key: CodeKey) -> Duration {
-        let code = self.schema.code(key.number);
+        let code = self.drive.schema.code(key.number);
         // EOT ADR STX CODE = VALUE ETX BCC, then ADR ACK.
         let chars = 11 + self.value_len(code, false) + 2;
         wire_time(chars, self.baud()) + MIN_REACTION
     }
 
     fn running(&mut self) -> Result<Option<bool>, EngineError> {
-        let Some(ind) = self.schema.running_indicator() else {
+        let Some(ind) = self.drive.schema.running_indicator() else {
             return Ok(None);
         };
         let key = CodeKey::new(ind.code);
-        let what = format!("read {} (running?)", code_name(&self.schema, key));
-        match self.read_key(key, &what)? {
+        let what = format!("read {} (running?)", code_name(&self.drive.schema, key));
+        match self.read_code(key, &what)? {
             RawValue::Int(v) => Ok(Some(v >> ind.bit & 1 == 1)),
             _ => Ok(None),
         }
     }
 
     fn finish(&mut self) -> Result<(), EngineError> {
-        self.line.finish().map_err(|e| link_error(&self.target, e))
+        self.drive
+            .line
+            .finish()
+            .map_err(|e| link_error(&self.drive.target, e))
     }
 
     fn line_rate(&self) -> Option<u32> {
@@ -326,8 +346,8 @@ impl<L: ByteLink> SerialLine for LustbusClient<L> {
     /// session's EOT state (the next telegram starts with its own EOT at
     /// the new rate); the latency measured so far stays.
     fn set_rate(&mut self, baud: u32) -> Result<(), EngineError> {
-        let target = self.target.clone();
-        let line = &mut self.line;
+        let target = self.drive.target.clone();
+        let line = &mut self.drive.line;
         line.link.flush().map_err(|e| link_error(&target, e))?;
         line.link
             .set_baud(baud)
