@@ -161,14 +161,14 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             .journal_dir
             .clone()
             .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
-        let a = super::assign_line::AssignArgs {
+        let a = super::commission_assign::AssignArgs {
             port: args.port.clone(),
             yes: args.yes,
             prompt_stdin: args.prompt_stdin,
             only: args.only.clone(),
             overrides,
         };
-        if !super::assign_line::run(&manifest, &a, journal_dir)? {
+        if !super::commission_assign::run(&manifest, &a, journal_dir)? {
             eprintln!(
                 "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
                 args.manifest.display()
