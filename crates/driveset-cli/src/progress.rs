@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::sync::{Arc, Mutex, PoisonError};
 
-use driveset_engine::line::commission::{LineObserver, Progress as DriveDone};
+use driveset_engine::line::commission::{DriveDone, LineObserver};
 use driveset_engine::observe::{Event, Hook, Observer, Phase};
 use driveset_link::Instant;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -196,45 +196,31 @@ impl Drop for Progress {
     }
 }
 
+/// Renders a drive done as its progress line, given the bus column's
+/// width.
+pub type DriveLine = fn(&DriveDone<'_>, usize) -> String;
+
 /// Progress of a line run (`commission`, `status`): one line per drive
 /// done; on a terminal above one bar per bus (drives done of the bus's
 /// selected drives, the current drive and its phase).
 pub struct LineProgress {
     width: usize,
+    line: DriveLine,
     multi: Option<MultiProgress>,
     bars: Mutex<BTreeMap<String, ProgressBar>>,
 }
 
 impl LineProgress {
-    /// `width`: the longest bus name (the lines' bus column).
-    pub fn new(width: usize) -> Arc<Self> {
+    /// `width`: the longest bus name (the lines' bus column); `line`
+    /// renders a drive done.
+    pub fn new(width: usize, line: DriveLine) -> Arc<Self> {
         Arc::new(LineProgress {
             width,
+            line,
             multi: bars_wanted()
                 .then(|| MultiProgress::with_draw_target(ProgressDrawTarget::stderr())),
             bars: Mutex::new(BTreeMap::new()),
         })
-    }
-
-    /// A drive is done: print its line (`line` renders it), advance its
-    /// bus's bar.
-    pub fn drive_done(&self, p: &DriveDone, line: impl Fn(&DriveDone, usize) -> String) {
-        let text = line(p, self.width);
-        match &self.multi {
-            None => {
-                let _ = writeln!(std::io::stderr().lock(), "{text}");
-            }
-            Some(m) => {
-                let _ = m.println(&text);
-                let bars = self.bars.lock().unwrap_or_else(PoisonError::into_inner);
-                if let Some(b) = bars.get(&p.bus) {
-                    b.set_position(p.done as u64);
-                    if p.done >= p.total {
-                        b.finish_with_message("done");
-                    }
-                }
-            }
-        }
     }
 
     /// Remove the bars (call before printing the summary).
@@ -273,6 +259,26 @@ impl LineObserver for LineProgress {
                 phase, done, total, ..
             } => b.set_message(format!("{drive}: {phase} {done}/{total}")),
             Event::End => {}
+        }
+    }
+
+    /// A drive is done: print its line, advance its bus's bar.
+    fn drive_done(&self, p: &DriveDone<'_>) {
+        let text = (self.line)(p, self.width);
+        match &self.multi {
+            None => {
+                let _ = writeln!(std::io::stderr().lock(), "{text}");
+            }
+            Some(m) => {
+                let _ = m.println(&text);
+                let bars = self.bars.lock().unwrap_or_else(PoisonError::into_inner);
+                if let Some(b) = bars.get(p.bus) {
+                    b.set_position(p.done as u64);
+                    if p.done >= p.total {
+                        b.finish_with_message("done");
+                    }
+                }
+            }
         }
     }
 }

@@ -66,10 +66,11 @@ use std::time::{Duration, Instant};
 
 use driveset_engine::env::Memory;
 use driveset_engine::line::commission::{
-    LineOptions, LineOutcome, Mode, Verdict, lustbus_common_values, run_line,
+    LineError, LineOptions, LineOutcome, Opener, Verdict, commission, lustbus_common_values,
 };
 use driveset_engine::line::manifest::{Bus, Drive, Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
+use driveset_engine::line::status::status;
 use driveset_engine::overrides::Overrides;
 use driveset_engine::plan::Phase;
 use driveset_engine::upload::prepare;
@@ -174,12 +175,15 @@ fn event_counts(m: &Manifest, sims: &Sims) -> BTreeMap<String, usize> {
         .collect()
 }
 
-fn run(m: &Manifest, sims: &Sims, dir: &Path, mode: Mode, only: &[&str]) -> (LineOutcome, f64) {
+/// A line command: `commission` or `status`.
+type Walk = fn(&Manifest, &LineOptions, &Opener<'_>) -> Result<LineOutcome, LineError>;
+
+fn run(m: &Manifest, sims: &Sims, dir: &Path, walk: Walk, only: &[&str]) -> (LineOutcome, f64) {
     let mut opts = LineOptions::new(dir, sims.1.clone());
     opts.only = only.iter().map(|s| s.to_string()).collect();
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
-    let o = run_line(m, &opts, &opener, mode).expect("line runs");
+    let o = walk(m, &opts, &opener).expect("line runs");
     let wall = t.elapsed().as_secs_f64();
     assert_eq!(
         o.verdict(),
@@ -210,7 +214,7 @@ fn main() {
     ]) {
         let sims = Sims::default();
         let d = tempfile::tempdir().unwrap();
-        let (o, wall) = run(&m, &sims, d.path(), Mode::Commission, &[bus]);
+        let (o, wall) = run(&m, &sims, d.path(), commission, &[bus]);
         let ms = o.line_ms();
         rows.push(format!(
             "| commission, bus {bus} alone ({what}) | {ms:.1} | - | - | - |"
@@ -223,7 +227,7 @@ fn main() {
 
     let sims = Sims::default();
     let d = tempfile::tempdir().unwrap();
-    let (full, wall_full) = run(&m, &sims, d.path(), Mode::Commission, &[]);
+    let (full, wall_full) = run(&m, &sims, d.path(), commission, &[]);
     assert!(
         full.report
             .drives
@@ -237,7 +241,7 @@ fn main() {
     ));
     walls.push(("whole line".into(), wall_full));
     let before = event_counts(&m, &sims);
-    let (st, wall_st) = run(&m, &sims, d.path(), Mode::Status, &[]);
+    let (st, wall_st) = run(&m, &sims, d.path(), status, &[]);
     let status_ms = st.line_ms();
     let st_bound = read_only_bound(&m, &sims, &before);
     rows.push(format!(
@@ -246,7 +250,7 @@ fn main() {
     ));
     walls.push(("status".into(), wall_st));
     let before = event_counts(&m, &sims);
-    let (re, wall_re) = run(&m, &sims, d.path(), Mode::Commission, &[]);
+    let (re, wall_re) = run(&m, &sims, d.path(), commission, &[]);
     assert!(
         re.report
             .drives
@@ -365,7 +369,7 @@ fn run_axes(m: &Manifest, broadcast: bool) -> (LineOutcome, f64) {
     opts.broadcast_common = broadcast;
     let opener = |b: &Bus| sims.open(b);
     let t = Instant::now();
-    let o = run_line(m, &opts, &opener, Mode::Commission).expect("line runs");
+    let o = commission(m, &opts, &opener).expect("line runs");
     let wall = t.elapsed().as_secs_f64();
     assert_eq!(o.verdict(), Verdict::Holds, "{:?}", o.warnings);
     for d in &o.report.drives {

@@ -9,11 +9,12 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::line::commission::{
-    LineLearn, LineOptions, LineOutcome, Mode, Progress, Verdict, run_line,
+    DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener, Verdict,
 };
 use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
+use driveset_engine::observe::Event;
 use driveset_engine::session::PortError;
 use driveset_link::Link;
 
@@ -161,14 +162,14 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             .journal_dir
             .clone()
             .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
-        let a = super::assign_line::AssignArgs {
+        let a = super::commission_assign::AssignArgs {
             port: args.port.clone(),
             yes: args.yes,
             prompt_stdin: args.prompt_stdin,
             only: args.only.clone(),
             overrides,
         };
-        if !super::assign_line::run(&manifest, &a, journal_dir)? {
+        if !super::commission_assign::run(&manifest, &a, journal_dir)? {
             eprintln!(
                 "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
                 args.manifest.display()
@@ -185,13 +186,76 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         learn: args.learn,
         rehearse: args.rehearse,
         allow_missing_twins: args.allow_missing_twins,
+        stop_after: args.stop_after,
     };
-    run_mode(opts, Mode::Commission, |o| {
+    run_mode(opts, COMMISSION, |o| {
         o.overrides = overrides;
         o.broadcast_common = args.broadcast_common;
         o.fresh = args.fresh;
-        o.stop_after = args.stop_after;
     })
+}
+
+/// A line command as the front end runs it: its name, whether it writes
+/// to drives, the summary's verb and the engine's run.
+#[derive(Clone, Copy)]
+pub struct LineCommand {
+    /// The history session's command.
+    name: &'static str,
+    /// Whether the history session writes to drives.
+    writes: bool,
+    /// `N of M drives VERB` in the summary.
+    verb: &'static str,
+    /// The engine's run.
+    run: fn(&Manifest, &LineOptions, &Opener<'_>) -> Result<LineOutcome, LineError>,
+}
+
+/// `driveset commission`.
+pub const COMMISSION: LineCommand = LineCommand {
+    name: "commission",
+    writes: true,
+    verb: "commissioned",
+    run: driveset_engine::line::commission::commission,
+};
+
+/// `driveset status`.
+pub const STATUS: LineCommand = LineCommand {
+    name: "status",
+    writes: false,
+    verb: "checked",
+    run: driveset_engine::line::status::status,
+};
+
+/// The hidden `--stop-after N`: every bus stops after N drives, as if the
+/// run were killed there; the line's progress is told everything else.
+struct StopAfter {
+    n: usize,
+    progress: Arc<crate::progress::LineProgress>,
+}
+
+impl LineObserver for StopAfter {
+    fn bus(&self, bus: &str, drives: usize) {
+        self.progress.bus(bus, drives);
+    }
+
+    fn event(&self, bus: &str, drive: &str, at: driveset_link::Instant, event: Event) {
+        self.progress.event(bus, drive, at, event);
+    }
+
+    fn drive_done(&self, done: &DriveDone<'_>) {
+        self.progress.drive_done(done);
+    }
+
+    fn before_drive(&self, _bus: &str, done: usize) -> Flow {
+        if done >= self.n {
+            Flow::Stop("--stop-after".into())
+        } else {
+            Flow::Go
+        }
+    }
+
+    fn may_stop(&self) -> bool {
+        true
+    }
 }
 
 /// What `commission` and `status` share.
@@ -212,6 +276,8 @@ pub struct Common {
     pub rehearse: Option<PathBuf>,
     /// `commission --allow-missing-twins`.
     pub allow_missing_twins: bool,
+    /// `commission --stop-after` (hidden).
+    pub stop_after: Option<usize>,
 }
 
 /// Load the manifest; print its findings (exit 2) if it has any. The
@@ -274,7 +340,7 @@ pub fn open_bus(bus: &Bus) -> Result<Link, String> {
 /// Run a line command.
 pub fn run_mode(
     c: Common,
-    mode: Mode,
+    command: LineCommand,
     tweak: impl FnOnce(&mut LineOptions),
 ) -> Result<u8, crate::fail::Fail> {
     let manifest = match load(&c.manifest, c.learn.no_learn) {
@@ -299,16 +365,13 @@ pub fn run_mode(
     // a rehearsal writes to twins, not to drives: not on record
     if c.rehearse.is_none() {
         crate::history::begin(
-            match mode {
-                Mode::Commission => "commission",
-                Mode::Status => "status",
-            },
+            command.name,
             crate::history::Context {
                 label: c.label.clone().or_else(|| manifest.label.clone()),
                 manifest: Some(c.manifest.display().to_string()),
                 sets: Some(c.manifest.clone()),
             },
-            mode == Mode::Commission,
+            command.writes,
         )?;
     }
     let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::RecordedEnv::system()));
@@ -368,17 +431,19 @@ pub fn run_mode(
         .map(|b| b.name.len())
         .max()
         .unwrap_or(0);
-    let bars = crate::progress::LineProgress::new(width);
-    let shown = bars.clone();
-    opts.progress = Some(Arc::new(move |p: &Progress| {
-        shown.drive_done(p, progress_line);
-    }));
-    opts.observer = Some(bars.clone());
+    let bars = crate::progress::LineProgress::new(width, progress_line);
+    opts.observer = Some(match c.stop_after {
+        Some(n) => Arc::new(StopAfter {
+            n,
+            progress: bars.clone(),
+        }),
+        None => bars.clone(),
+    });
     // wall time is the CLI's to measure: the engine reads no system clock
     let wall0 = std::time::Instant::now();
     let outcome = match &rehearsal {
-        Some((opener, _)) => run_line(&manifest, &opts, opener, mode),
-        None => run_line(&manifest, &opts, &open_bus, mode),
+        Some((opener, _)) => (command.run)(&manifest, &opts, opener),
+        None => (command.run)(&manifest, &opts, &open_bus),
     };
     let wall = wall0.elapsed();
     bars.done();
@@ -403,7 +468,7 @@ pub fn run_mode(
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
     }
-    out!("{}", summary(&outcome, mode, wall));
+    out!("{}", summary(&outcome, command, wall));
     crate::history::link_report(&mut outcome.report);
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
@@ -450,8 +515,8 @@ fn result_name(r: DriveResult) -> &'static str {
     }
 }
 
-fn progress_line(p: &Progress, width: usize) -> String {
-    let d = &p.drive;
+fn progress_line(p: &DriveDone<'_>, width: usize) -> String {
+    let d = p.drive;
     let mut s = format!(
         "[{:width$}] {}/{} {}: {}",
         p.bus,
@@ -500,7 +565,7 @@ fn short_fp(fp: Option<&str>) -> String {
 }
 
 /// The summary table (and, for drift, the differences).
-pub fn summary(o: &LineOutcome, mode: Mode, wall: Duration) -> String {
+pub fn summary(o: &LineOutcome, command: LineCommand, wall: Duration) -> String {
     let r = &o.report;
     let rows: Vec<[String; 5]> = r
         .drives
@@ -579,11 +644,7 @@ pub fn summary(o: &LineOutcome, mode: Mode, wall: Duration) -> String {
         .iter()
         .max_by(|a, b| a.elapsed_ms.total_cmp(&b.elapsed_ms))
         .map_or("-", |b| b.name.as_str());
-    let verb = if mode == Mode::Status {
-        "checked"
-    } else {
-        "commissioned"
-    };
+    let verb = command.verb;
     out.push_str(&format!(
         "\n{} of {} drives {verb}: {} verified, {} unchanged, {} already verified, {} drift, {} rolled back, {} failed; line {}: {}\n",
         selected,

@@ -3,8 +3,8 @@
 
 pub mod address;
 pub mod allow;
-pub mod assign_line;
 pub mod commission;
+pub mod commission_assign;
 pub mod completions;
 pub mod decode;
 pub mod diff;

@@ -2,9 +2,7 @@
 
 use std::path::PathBuf;
 
-use driveset_engine::line::commission::Mode;
-
-use super::commission::{Common, run_mode};
+use super::commission::{Common, STATUS, run_mode};
 
 /// Arguments of `driveset status`.
 #[derive(clap::Args)]
@@ -63,6 +61,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         learn: args.learn,
         rehearse: None,
         allow_missing_twins: false,
+        stop_after: None,
     };
-    run_mode(c, Mode::Status, |_| {})
+    run_mode(c, STATUS, |_| {})
 }

@@ -32,7 +32,8 @@
 //! set; [`Verdict::Differs`] a drive does not (drift, refused, rolled back,
 //! failed); [`Verdict::BusFailed`] a bus could not be opened, a link
 //! failed, a drive did not answer, or the run stopped before every drive
-//! was reached (`stop_after`). A bus failure wins over a difference.
+//! was reached ([`LineObserver::before_drive`]). A bus failure wins over a
+//! difference.
 //!
 //! **The world** ([`LineOptions::env`], [`crate::env::Environment`]): the
 //! wall-clock times of the report and the state file, the git commit of the
@@ -44,8 +45,11 @@
 //! the line runner adds `learn`, `recover`, `broadcast` and the `identify` /
 //! `read` of `status` and of a resume check. The bus report's timeline
 //! holds those spans (zero-length ones, planning and journal writes on a
-//! virtual clock, left out); [`LineOptions::observer`] gets every event
-//! with its bus and drive.
+//! virtual clock, left out). The run's one observer
+//! ([`LineOptions::observer`], [`LineObserver`]) gets every event with its
+//! bus and drive, and each drive done with its report; asked before each
+//! drive, it may stop a bus as if the run had been killed there (the CLI's
+//! hidden `--stop-after`, tests).
 //!
 //! **Broadcast** (`broadcast_common`; LECOM and LUSTBUS buses; CAN buses
 //! fall back to per-drive writes with a warning).
@@ -91,8 +95,8 @@
 //! the drives do not share one schema or learn theirs first, when any
 //! address 0..30 of the bus has an unfinished journal, when a drive does
 //! not reach "dataset open" (it runs, refuses, fails, or already holds its
-//! set: address 31 would reach it outside a dataset download), and with
-//! `stop_after`. A drive's `codes_written` counts its own SELECTs, not the
+//! set: address 31 would reach it outside a dataset download), and when
+//! the observer may stop the bus ([`LineObserver::may_stop`]). A drive's `codes_written` counts its own SELECTs, not the
 //! broadcast; its `elapsed_ms` is the time of its own exchanges.
 //!
 //! **Learning the schema.** A drive whose set names a built-in LUSTBUS
@@ -115,14 +119,23 @@
 //! names the learned schema ([`LearnedSchemaReport`]); the run's timeline
 //! has a `learn` phase. Without [`LineOptions::learn`] such a drive fails.
 //!
+//! **One loop, two walks.** Every line run goes through the same loop:
+//! select, open each bus, take its drives in turn, learn, connect, look up
+//! the unfinished journals, count, record. What is done with each drive is
+//! the run's walk (`walk`): `commission`'s (`commissioning`: resume state,
+//! recovery, resume check, upload, broadcasts) or `status`'s, a read-only
+//! walk of its own ([`crate::line::status`]). No flag tells them apart
+//! inside the loop.
+//!
 //! **Modules**, one job each: `options` (what a run is told and gives
-//! back), `resume` (the state file and the resume check), `select`
-//! (`--only` / `--skip`), `run` (the run, a thread per bus, the line
-//! report), `bus` (one bus thread), `drive` (one drive's work drive by
-//! drive), `recovery` (unfinished journals), `learning` (learning a
-//! schema), `multicast` (LECOM), `broadcast` and `parked` (LUSTBUS address
-//! 31 and the drives' transactions around it), `timeline` (the bus clock,
-//! the drives' observers, the report's timeline).
+//! back, its observer), `walk` (what a run does with each drive),
+//! `commissioning` (`commission`'s walk), `resume` (the state file and the
+//! resume check), `select` (`--only` / `--skip`), `run` (the run, a thread
+//! per bus, the line report), `bus` (one bus thread), `drive` (one drive's
+//! turn drive by drive), `recovery` (unfinished journals), `learning`
+//! (learning a schema), `multicast` (LECOM), `broadcast` and `parked`
+//! (LUSTBUS address 31 and the drives' transactions around it), `timeline`
+//! (the bus clock, the drives' observers, the report's timeline).
 //!
 //! [`DriveResult::AlreadyVerified`]: super::report::DriveResult::AlreadyVerified
 //! [`DriveResult::Verified`]: super::report::DriveResult::Verified
@@ -133,6 +146,7 @@
 
 mod broadcast;
 mod bus;
+mod commissioning;
 mod drive;
 mod learning;
 mod multicast;
@@ -143,14 +157,16 @@ mod resume;
 mod run;
 mod select;
 mod timeline;
+mod walk;
 
 pub use broadcast::lustbus_common_values;
 pub use drive::diff_lines;
-pub(super) use drive::{blank_report, fill_from_upload};
+pub(super) use drive::{Job, blank_report, fill_from_upload};
 pub use options::{
-    LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Mode, Opener, Progress,
-    ProgressFn, Verdict,
+    DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener, Verdict,
 };
 pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
-pub use run::{commission, run_line};
+pub use run::commission;
+pub(super) use run::run_walk;
 pub use select::select;
+pub(super) use walk::Walk;

@@ -3,8 +3,8 @@
 //! and the commissioning report.
 
 pub mod address_truth;
-pub mod assign;
 pub mod commission;
+pub mod commission_assign;
 pub mod factory;
 pub mod manifest;
 pub mod replace;

@@ -3,11 +3,11 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use driveset_engine::env::Environment;
 use driveset_engine::line::commission::{
-    CommissionState, LineOptions, STATE_FILE, Verdict, commission, run_line,
+    CommissionState, Flow, LineObserver, LineOptions, STATE_FILE, Verdict, commission,
 };
 use driveset_engine::line::manifest::{Manifest, load_manifest, validate_manifest};
 use driveset_engine::line::report::{DriveResult, LineResult};
@@ -240,6 +240,23 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     assert_eq!(third.report.drives[8].codes_written, 1);
 }
 
+/// Stops every bus after `.0` drives, as if the run had been killed there.
+struct StopAfter(usize);
+
+impl LineObserver for StopAfter {
+    fn before_drive(&self, _bus: &str, done: usize) -> Flow {
+        if done >= self.0 {
+            Flow::Stop("--stop-after".into())
+        } else {
+            Flow::Go
+        }
+    }
+
+    fn may_stop(&self) -> bool {
+        true
+    }
+}
+
 #[test]
 fn a_stopped_run_resumes_where_it_stopped() {
     let m = demo();
@@ -247,7 +264,7 @@ fn a_stopped_run_resumes_where_it_stopped() {
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
     let mut opts = LineOptions::new(dir.path(), disk_env());
-    opts.stop_after = Some(2);
+    opts.observer = Some(Arc::new(StopAfter(2)));
     let first = commission(&m, &opts, &opener).expect("runs");
     assert_eq!(first.verdict(), Verdict::BusFailed);
     let verified: Vec<&str> = first
@@ -263,7 +280,7 @@ fn a_stopped_run_resumes_where_it_stopped() {
     assert_eq!(stopped.result, DriveResult::Failed);
     assert!(stopped.error.as_deref().unwrap().contains("--stop-after"));
 
-    opts.stop_after = None;
+    opts.observer = None;
     let second = commission(&m, &opts, &opener).expect("runs");
     assert_eq!(second.verdict(), Verdict::Holds);
     for d in &second.report.drives {
@@ -351,13 +368,7 @@ fn a_bus_that_cannot_be_opened_fails_its_drives_with_exit_3() {
             sims.open(b)
         }
     };
-    let r = run_line(
-        &m,
-        &LineOptions::new(dir.path(), disk_env()),
-        &opener,
-        driveset_engine::line::commission::Mode::Commission,
-    )
-    .expect("runs");
+    let r = commission(&m, &LineOptions::new(dir.path(), disk_env()), &opener).expect("runs");
     assert_eq!(r.verdict(), Verdict::BusFailed);
     assert_eq!(r.report.result, LineResult::Failed);
     let h = &r.report.drives[10];
@@ -591,7 +602,7 @@ fn broadcast_common_skips_a_group_with_an_unfinished_journal() {
 /// read-only and finds no drift; without learning the drives fail.
 #[test]
 fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
-    use driveset_engine::line::commission::{LineLearn, Mode};
+    use driveset_engine::line::commission::LineLearn;
     use driveset_engine::plan::value_text;
 
     let dir = tempfile::tempdir().unwrap();
@@ -736,7 +747,7 @@ fn commission_learns_the_schema_of_sets_naming_the_built_in_lust_schemas() {
     // status: read-only learning, the commission's file is used; no drift
     let mut sopts = opts.clone();
     sopts.report_dir = dir.path().join("status");
-    let st = run_line(&m, &sopts, &opener, Mode::Status).unwrap();
+    let st = status(&m, &sopts, &opener).unwrap();
     assert_eq!(st.verdict(), Verdict::Holds, "{:?}", st.report.drives);
     for (d, id) in st.report.drives.iter().zip(&ids) {
         assert_eq!(d.result, DriveResult::Unchanged);

@@ -11,6 +11,7 @@ use super::bus::OnBus;
 use super::drive::blank_report;
 use super::parked::{FirstHalf, Parked, first_half, next_half};
 use super::recovery::unfinished_at;
+use super::resume::Resume;
 use super::run::Ctx;
 use super::timeline::{link_now, push_broadcast, push_spans};
 use crate::client::DriveClient;
@@ -128,6 +129,7 @@ fn bus_refusal(drives: &[&Drive], listed: &[&Drive]) -> Option<String> {
 /// whether the bus failed.
 pub(super) fn run_lustbus_broadcast(
     on: &OnBus<'_>,
+    resume: &Resume,
     drives: &[&Drive],
     link: &mut Link,
     report: &mut BusReport,
@@ -137,7 +139,7 @@ pub(super) fn run_lustbus_broadcast(
         count: 0,
         failed: false,
     };
-    let (mut parked, mut why_not) = open_datasets(on, drives, link, report, &mut tally);
+    let (mut parked, mut why_not) = open_datasets(on, resume, drives, link, report, &mut tally);
     // the codes every waiting drive stages, with the common value
     let codes: Vec<(CodeKey, RawValue)> = lustbus_common_values(drives)
         .into_iter()
@@ -172,7 +174,7 @@ pub(super) fn run_lustbus_broadcast(
         let mut again = Vec::new();
         for (i, p) in parked {
             let name = p.d.name.clone();
-            match next_half(bus, p, link, on.ctx, last) {
+            match next_half(bus, p, link, on.ctx, resume, last) {
                 FirstHalf::Parked(p) => again.push((i, *p)),
                 FirstHalf::Done(r, spans, f) => {
                     push_spans(report, on.start, &name, spans);
@@ -204,7 +206,7 @@ impl Tally {
     fn done(&mut self, on: &OnBus<'_>, i: usize, r: DriveReport, fails_bus: bool) {
         self.failed |= fails_bus;
         self.count += 1;
-        on.progress(self.count, &r);
+        on.drive_done(self.count, &r);
         self.done[i] = Some(r);
     }
 }
@@ -214,6 +216,7 @@ impl Tally {
 /// bus then gets no broadcast.
 fn open_datasets<'d>(
     on: &OnBus<'_>,
+    resume: &Resume,
     drives: &[&'d Drive],
     link: &mut Link,
     report: &mut BusReport,
@@ -222,7 +225,7 @@ fn open_datasets<'d>(
     let mut parked: Vec<(usize, Parked<'_>)> = Vec::new();
     let mut why_not: Option<String> = None;
     for (i, d) in drives.iter().enumerate() {
-        match first_half(on.bus, d, link, on.ctx) {
+        match first_half(on.bus, d, link, on.ctx, resume) {
             FirstHalf::Done(r, spans, f) => {
                 push_spans(report, on.start, &d.name, spans);
                 why_not.get_or_insert_with(|| match r.result {

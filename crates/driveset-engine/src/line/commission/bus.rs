@@ -1,14 +1,17 @@
-//! Owns the work of one bus thread: opening the bus's port, the broadcast
-//! the bus gets (LECOM MULTICAST, LUSTBUS address 31, or none), its
-//! drives in turn until the run stops or the link fails, and the bus
-//! report with its timeline (module docs of [`super`]).
+//! Owns the work of one bus thread: opening the bus's port, its drives as
+//! the run's walk does them (in turn until the observer stops the bus or
+//! the link fails; `commission` with the broadcast the bus gets: LECOM
+//! MULTICAST, LUSTBUS address 31, or none), each drive done told to the
+//! observer, and the bus report with its timeline (module docs of
+//! [`super`]).
 
 use driveset_link::{Instant, Link};
 
 use super::broadcast::{lustbus_broadcast_refusal, run_lustbus_broadcast};
 use super::drive::{Failure, blank_report, run_drive};
 use super::multicast::broadcast_common;
-use super::options::{Mode, Opener, Progress};
+use super::options::{DriveDone, Flow, Opener};
+use super::resume::Resume;
 use super::run::Ctx;
 use super::timeline::{link_now, push_spans, since};
 use crate::line::manifest::{Bus, BusProtocol, Drive};
@@ -23,24 +26,34 @@ pub(super) struct BusRun {
 
 /// One bus of a run, as its drives' work sees it: the bus, the run, the
 /// bus clock's start and how many drives the bus does.
-pub(super) struct OnBus<'a> {
+pub(in crate::line) struct OnBus<'a> {
     pub(super) bus: &'a Bus,
-    pub(super) ctx: &'a Ctx<'a>,
+    pub(in crate::line) ctx: &'a Ctx<'a>,
     pub(super) start: Instant,
     total: usize,
 }
 
 impl OnBus<'_> {
-    /// Tell the progress callback that `done` drives of the bus are done,
-    /// the last being `d`.
-    pub(super) fn progress(&self, done: usize, d: &DriveReport) {
-        if let Some(p) = &self.ctx.opts.progress {
-            p(&Progress {
-                bus: self.bus.name.clone(),
+    /// Tell the observer that `done` drives of the bus are done, the last
+    /// being `d`.
+    pub(super) fn drive_done(&self, done: usize, d: &DriveReport) {
+        if let Some(o) = &self.ctx.opts.observer {
+            o.drive_done(&DriveDone {
+                bus: &self.bus.name,
                 done,
                 total: self.total,
-                drive: d.clone(),
+                drive: d,
             });
+        }
+    }
+
+    /// Whether the observer stops the bus before its next drive, `done`
+    /// of its drives done: why.
+    fn stopped(&self, done: usize) -> Option<String> {
+        let o = self.ctx.opts.observer.as_ref()?;
+        match o.before_drive(&self.bus.name, done) {
+            Flow::Go => None,
+            Flow::Stop(why) => Some(why),
         }
     }
 }
@@ -88,25 +101,39 @@ pub(super) fn run_bus(
         start: link_now(&link),
         total: drives.len(),
     };
-    let (out, failed) = if ctx.mode == Mode::Commission && ctx.opts.broadcast_common {
-        if bus.protocol == BusProtocol::Lustbus && may_broadcast(&on, drives, listed, &link) {
-            let (out, failed) = run_lustbus_broadcast(&on, drives, &mut link, &mut report);
-            record_reports(bus, drives, &out, ctx);
-            (out, failed)
-        } else {
-            if bus.protocol != BusProtocol::Lustbus {
-                broadcast_common(&on, drives, &mut link, &mut report);
-            }
-            drive_by_drive(&on, drives, &mut link, &mut report)
-        }
-    } else {
-        drive_by_drive(&on, drives, &mut link, &mut report)
-    };
+    let (out, failed) = ctx
+        .walk
+        .bus_drives(&on, drives, listed, &mut link, &mut report);
     report.elapsed_ms = since(on.start, link_now(&link));
     BusRun {
         report,
         drives: out,
         failed,
+    }
+}
+
+/// A bus of `commission --broadcast-common` (module docs of [`super`],
+/// "Broadcast"): a LUSTBUS bus that may take it gets its broadcast to
+/// address 31; a LECOM bus its MULTICAST per group (a CAN bus a warning),
+/// then its drives one by one.
+pub(super) fn with_broadcast(
+    on: &OnBus<'_>,
+    resume: &Resume,
+    drives: &[&Drive],
+    listed: &[&Drive],
+    link: &mut Link,
+    report: &mut BusReport,
+) -> (Vec<DriveReport>, bool) {
+    let bus = on.bus;
+    if bus.protocol == BusProtocol::Lustbus && may_broadcast(on, drives, listed, link) {
+        let (out, failed) = run_lustbus_broadcast(on, resume, drives, link, report);
+        record_reports(bus, drives, &out, on.ctx);
+        (out, failed)
+    } else {
+        if bus.protocol != BusProtocol::Lustbus {
+            broadcast_common(on, drives, link, report);
+        }
+        drive_by_drive(on, drives, link, report)
     }
 }
 
@@ -156,15 +183,16 @@ fn unopened(bus: &Bus, drives: &[&Drive], ctx: &Ctx<'_>, e: &str) -> Vec<DriveRe
             "bus `{}` ({}) could not be opened: {e}",
             bus.name, bus.port_name
         ));
-        on.progress(i + 1, &r);
+        on.drive_done(i + 1, &r);
         out.push(r);
     }
     out
 }
 
 /// Whether a LUSTBUS bus gets its broadcast to address 31 (module docs of
-/// [`super`], "Broadcast"); when it may not, a warning says why. The kill
-/// test hook (`stop_after`) runs drive by drive, without a warning.
+/// [`super`], "Broadcast"); when it may not, a warning says why. A bus the
+/// observer may stop ([`super::LineObserver::may_stop`]) runs drive by
+/// drive, without a warning.
 fn may_broadcast(on: &OnBus<'_>, drives: &[&Drive], listed: &[&Drive], link: &Link) -> bool {
     let refusal = match on.bus.transfer_baud {
         // the broadcast path runs every drive at the bus's rate
@@ -174,7 +202,7 @@ fn may_broadcast(on: &OnBus<'_>, drives: &[&Drive], listed: &[&Drive], link: &Li
         None => lustbus_broadcast_refusal(drives, listed, link, on.ctx),
     };
     match refusal {
-        None => on.ctx.opts.stop_after.is_none(),
+        None => !on.ctx.opts.observer.as_ref().is_some_and(|o| o.may_stop()),
         Some(why) => {
             on.ctx.warn(format!(
                 "bus `{}`: no broadcast (address 31): {why}; values were written drive by drive",
@@ -186,9 +214,9 @@ fn may_broadcast(on: &OnBus<'_>, drives: &[&Drive], listed: &[&Drive], link: &Li
 }
 
 /// The drives of a bus one by one: each drive's report and its timeline;
-/// after a link failure (or where `stop_after` stops the run) the rest
+/// after a link failure (or where the observer stops the bus) the rest
 /// are not reached. Also gives whether the bus failed.
-fn drive_by_drive(
+pub(super) fn drive_by_drive(
     on: &OnBus<'_>,
     drives: &[&Drive],
     link: &mut Link,
@@ -199,17 +227,19 @@ fn drive_by_drive(
     let mut failed = false;
     let mut dead: Option<String> = None;
     for (i, d) in drives.iter().enumerate() {
-        if dead.is_none() && on.ctx.opts.stop_after.is_some_and(|n| i >= n) {
+        if dead.is_none()
+            && let Some(why) = on.stopped(i)
+        {
             failed = true;
             dead = Some(format!(
-                "not reached: the run stopped after {} drive(s) on bus `{}` (--stop-after); run the command again to resume",
+                "not reached: the run stopped after {} drive(s) on bus `{}` ({why}); run the command again to resume",
                 i, bus.name
             ));
         }
         if let Some(why) = &dead {
             let mut r = blank_report(d, bus, DriveResult::Failed);
             r.error = Some(why.clone());
-            on.progress(i + 1, &r);
+            on.drive_done(i + 1, &r);
             out.push(r);
             continue;
         }
@@ -224,7 +254,7 @@ fn drive_by_drive(
                 ));
             }
         }
-        on.progress(i + 1, &r);
+        on.drive_done(i + 1, &r);
         out.push(r);
     }
     (out, failed)

@@ -1,9 +1,9 @@
-//! Owns one drive's work on a bus drive by drive (module docs of
-//! [`super`]): its schema learned first where its set asks, its unfinished
-//! journals recovered, then `status` (identify, read, compare) or
-//! `commission` (the resume check, then one upload of what differs, over
-//! the online baud-rate switch where the bus asks for one); its report,
-//! and how a failure ends it (the link gone, or the drive silent).
+//! Owns one drive's turn on a bus drive by drive (module docs of
+//! [`super`]), whatever the run's walk: its schema learned first where its
+//! set asks, its session connected, its unfinished journals looked up, then
+//! the walk's work ([`super::walk::Walk::work`]); its report, its telegram
+//! count and time, its history record, and how a failure ends it (the
+//! link gone, or the drive silent).
 
 use std::cell::RefCell;
 
@@ -11,26 +11,17 @@ use driveset_link::Link;
 use driveset_schema::{ResolvedSet, Schema};
 
 use super::learning::learn_drive;
-use super::options::Mode;
-use super::recovery::recover_unfinished;
-use super::resume::{record_drive, still_holds};
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_clock, link_now, since};
 use crate::client::{DriveClient, IdentProtocol, Identity};
 use crate::error::{EngineError, ErrorKind};
-use crate::history::{CodeRecord, DriveRecord, Unit, read_codes};
-use crate::identify::check_family;
+use crate::history::{CodeRecord, DriveRecord, Unit};
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
-use crate::live::live_values;
 use crate::observe::{Hook, Phase};
-use crate::overrides::Override;
 use crate::plan::value_text;
 use crate::session::BusSession;
-use crate::transfer::TransferRequest;
-use crate::upload::{
-    CodeOutcome, CodeReport, UploadOptions, UploadReport, default_journal_path, upload,
-};
+use crate::upload::{CodeOutcome, CodeReport, UploadReport};
 
 /// How a drive's failure bears on the rest of its bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,14 +83,14 @@ pub(in crate::line) fn blank_report(d: &Drive, bus: &Bus, result: DriveResult) -
 /// What a drive's work found for its history record ([`crate::history`]):
 /// the unit, the codes, the typed cause.
 #[derive(Default)]
-struct Recorded {
-    unit: Option<Unit>,
-    codes: Vec<CodeRecord>,
+pub(in crate::line) struct Recorded {
+    pub(in crate::line) unit: Option<Unit>,
+    pub(in crate::line) codes: Vec<CodeRecord>,
     cause: Option<String>,
 }
 
-/// One drive on a bus drive by drive: learning, recovery, then `status` or
-/// `commission` (module docs of [`super`]). Gives its report, its spans for
+/// One drive on a bus drive by drive: learning, connecting, then the
+/// walk's work (module docs of [`super`]). Gives its report, its spans for
 /// the timeline, and what kind of failure ended it; the drive goes on the
 /// run's record ([`crate::env::Environment::history`]) whatever happened.
 pub(super) fn run_drive(
@@ -165,7 +156,7 @@ fn work_drive(
             let mut r = blank_report(d, bus, DriveResult::Failed);
             r.error = Some(e);
             r.elapsed_ms = since(t0, link_now(link));
-            forget(bus, d, ctx);
+            ctx.walk.drive_ended(ctx, bus, d, &r);
             hook.end(link_clock(link));
             return (r, watch.spans.spans(), failure);
         }
@@ -177,7 +168,7 @@ fn work_drive(
     {
         drop(session);
         r.error = Some(e.to_string());
-        forget(bus, d, ctx);
+        ctx.walk.drive_ended(ctx, bus, d, &r);
         hook.end(link_clock(link));
         return (r, watch.spans.spans(), None);
     }
@@ -206,152 +197,39 @@ fn work_drive(
     r.elapsed_ms = since(t0, client.clock().now());
     hook.end(client.clock());
     let spans = watch.spans.spans();
-    if ctx.mode == Mode::Commission {
-        record_drive(bus, d, &r, ctx);
-    }
+    ctx.walk.drive_ended(ctx, bus, d, &r);
     (r, spans, failure)
 }
 
-/// A drive that did not get to its work holds nothing the resume state may
-/// keep (`commission` only).
-fn forget(bus: &Bus, d: &Drive, ctx: &Ctx<'_>) {
-    if ctx.mode == Mode::Commission {
-        ctx.record(bus, d, None);
-    }
-}
-
 /// One drive's work once its client is connected.
-struct Job<'a> {
-    bus: &'a Bus,
-    d: &'a Drive,
-    ctx: &'a Ctx<'a>,
-    hook: &'a Hook,
-    rec: &'a RefCell<Recorded>,
+pub(in crate::line) struct Job<'a> {
+    pub(in crate::line) bus: &'a Bus,
+    pub(in crate::line) d: &'a Drive,
+    pub(in crate::line) ctx: &'a Ctx<'a>,
+    /// The drive's observer.
+    pub(in crate::line) hook: &'a Hook,
+    /// What the drive's history record gets.
+    pub(in crate::line) rec: &'a RefCell<Recorded>,
 }
 
 impl Job<'_> {
-    /// Recovery, then the mode's work; `recovered` gets a note per journal
-    /// recovered (warned also when a later step fails).
+    /// The drive's unfinished journals looked up, then the walk's work;
+    /// `recovered` gets a note per journal recovered (warned also when a
+    /// later step fails).
     fn work(
         &self,
         client: &mut dyn DriveClient,
         r: &mut DriveReport,
         recovered: &mut Vec<String>,
     ) -> Result<(), EngineError> {
-        recover_unfinished(client, self.d, self.ctx, self.hook, recovered)?;
-        match self.ctx.mode {
-            Mode::Status => self.status(client, r),
-            Mode::Commission => {
-                let set_fp = self.d.set.fingerprint();
-                if recovered.is_empty()
-                    && still_holds(client, self.bus, self.d, &set_fp, r, self.hook, self.ctx)?
-                {
-                    return Ok(());
-                }
-                self.upload(client, r, !recovered.is_empty())
-            }
-        }
+        let unfinished = crate::journal::unfinished_for(
+            &self.ctx.opts.journal_dir,
+            &client.bus_id(),
+            &client.target().port,
+            self.d.address,
+        )?;
+        self.ctx.walk.work(self, client, r, &unfinished, recovered)
     }
-
-    /// `status`: identify, read the set's codes, compare.
-    fn status(&self, client: &mut dyn DriveClient, r: &mut DriveReport) -> Result<(), EngineError> {
-        let d = self.d;
-        self.hook.enter(client.clock(), Phase::Identify, None);
-        let id = check_family(&mut *client)?;
-        r.identity = id.pairs();
-        self.hook
-            .enter(client.clock(), Phase::Read, Some(d.set.values.len()));
-        self.rec.borrow_mut().unit = Some(Unit::of(&d.schema, &id));
-        let live = live_values(&mut *client, &d.set)?;
-        self.rec.borrow_mut().codes = read_codes(&d.schema, &live, &d.set);
-        let fp = live.fingerprint();
-        r.diff = diff_lines(&d.schema, &live, &d.set);
-        r.factory_settings =
-            crate::line::factory::live_at_factory_settings(&d.schema, &live, &d.set);
-        // values, not fingerprints: a fingerprint does not cover a
-        // secret's value, a drifted password is drift too
-        r.result = if live.values == d.set.values {
-            DriveResult::Unchanged
-        } else {
-            DriveResult::Drift
-        };
-        r.fingerprint_before = Some(fp.clone());
-        r.fingerprint_after = Some(fp);
-        Ok(())
-    }
-
-    /// `commission`: one upload of what differs ([`crate::upload::upload`],
-    /// or [`crate::transfer::upload`] where the bus switches the drive to
-    /// its transfer rate). `recovered`: a journal of the drive was recovered
-    /// first, so the drive changed even if the upload writes nothing.
-    fn upload(
-        &self,
-        client: &mut dyn DriveClient,
-        r: &mut DriveReport,
-        recovered: bool,
-    ) -> Result<(), EngineError> {
-        let (d, ctx) = (self.d, self.ctx);
-        let journal_path = default_journal_path(&ctx.opts.journal_dir, &*client);
-        let mut uo = UploadOptions::new(&journal_path);
-        uo.overrides = ctx.opts.overrides;
-        let transfer = transfer_request(self.bus, d, ctx);
-        uo.observer = self.hook.clone();
-        let result = match &transfer {
-            Some(req) => crate::transfer::upload(&mut *client, &d.set, &uo, req),
-            None => upload(&mut *client, &d.set, &uo),
-        };
-        if let Some(rep) = result.as_ref().map_or_else(|f| f.report.as_deref(), Some) {
-            let mut rec = self.rec.borrow_mut();
-            rec.unit = Some(Unit::of(&d.schema, &rep.identity));
-            rec.codes = crate::history::upload_codes(&d.schema, &rep.codes);
-        }
-        if let Some(t) = result.as_ref().map_or_else(
-            |f| f.report.as_ref().and_then(|r| r.transfer.clone()),
-            |r| r.transfer.clone(),
-        ) {
-            ctx.warn(format!("{}: {}", d.name, t.decision.summary()));
-        }
-        match result {
-            Ok(rep) => {
-                take_upload(r, &d.schema, &rep);
-                // a recovered journal changed the drive: never "unchanged"
-                r.result = if rep.codes_written == 0 && !recovered {
-                    DriveResult::Unchanged
-                } else {
-                    DriveResult::Verified
-                };
-                Ok(())
-            }
-            Err(f) => {
-                if let Some(rep) = &f.report {
-                    take_upload(r, &d.schema, rep);
-                }
-                let e = *f.error;
-                if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
-                    r.result = DriveResult::RolledBack;
-                }
-                Err(e)
-            }
-        }
-    }
-}
-
-/// The online baud-rate switch the drive's upload runs in: the bus's
-/// `transfer_baud`, where the drive's family can switch online.
-fn transfer_request(bus: &Bus, d: &Drive, ctx: &Ctx<'_>) -> Option<TransferRequest> {
-    bus.transfer_baud
-        .filter(|_| d.schema.family.descriptor().line_rates.online.is_some())
-        .map(|rate| {
-            let mut others = bus.families.clone();
-            if let Some(i) = others.iter().position(|f| *f == d.schema.family) {
-                others.remove(i);
-            }
-            TransferRequest {
-                rate,
-                others,
-                allow_shared: ctx.opts.overrides.allows(Override::AllowSharedTransferBaud),
-            }
-        })
 }
 
 /// An upload's report (finished or not) into the drive's: identity, diff,

@@ -14,7 +14,6 @@ use driveset_link::Link;
 use driveset_schema::{CodeKey, Location, Registry, ResolvedSet, Schema, load_set};
 
 use super::drive::{Failure, failure_of};
-use super::options::Mode;
 use super::run::Ctx;
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::LearnedSchemaReport;
@@ -64,11 +63,9 @@ pub(super) fn learn_drive<'l>(
             registry: &cfg.registry,
             dir: Some(cfg.schema_dir.clone()),
             env: &*ctx.opts.env,
-            step: match ctx.mode {
-                Mode::Commission => LearnStep::Render,
-                // descriptions only: reading texts selects them through 108-STEXT
-                Mode::Status => LearnStep::ReuseEarlier,
-            },
+            // status: descriptions only (reading texts selects them
+            // through 108-STEXT)
+            step: ctx.walk.learn_step(),
         }),
     };
     let session = BusSession::open_using(
@@ -103,7 +100,7 @@ pub(super) fn learn_drive<'l>(
         file: learned.file.as_ref().map(|f| f.display().to_string()),
         codes: learned.codes,
         // status's `ReuseEarlier` reads no texts
-        texts: ctx.mode == Mode::Commission && !cfg.options.no_texts,
+        texts: ctx.walk.learn_step() == LearnStep::Render && !cfg.options.no_texts,
         findings: learned.learned.findings.len(),
     };
     let drive = Drive {
@@ -133,8 +130,8 @@ fn worded(what: &str, e: SessionError) -> LearnError {
 
 /// Drive `d`'s set resolved against `registry` (which now holds the
 /// learned schema `id` under the base's id), with its bus codes; a set
-/// that does not fit fails the drive. `unwritten`: `status` found no
-/// learned file at `path` (the hint says so).
+/// that does not fit fails the drive. `unwritten`: no learned file at
+/// `path`, which a read-only learning (`status`) then says.
 fn resolve_set(
     d: &Drive,
     id: &str,
@@ -149,7 +146,7 @@ fn resolve_set(
         (true, Some(set)) => Ok((set, loaded.bus_codes)),
         _ => {
             let list: Vec<String> = loaded.findings.iter().map(|f| f.to_string()).collect();
-            let hint = if ctx.mode == Mode::Status && unwritten {
+            let hint = if ctx.walk.learn_step() == LearnStep::ReuseEarlier && unwritten {
                 format!(
                     "; status reads no substitution texts and found no learned file {} (run `driveset commission` first, whose file status then uses, or give --schema-dir where it is)",
                     path.display()

@@ -1,6 +1,7 @@
 //! Owns what a line run is told and what it gives back: the run's options
 //! (selection, report and journal directories, overrides, broadcast,
-//! learning, observers), its mode, progress callback and port opener, the
+//! learning, its one observer), the observer's events (a drive's phases, a
+//! drive done) and its say in whether a bus goes on, the port opener, the
 //! reasons a run cannot start, and its outcome with the verdict the CLI
 //! maps to exit codes (module docs of [`super`], "Verdict").
 
@@ -31,8 +32,10 @@ pub enum Verdict {
     BusFailed,
 }
 
-/// Told every event of every drive's work, with its bus and drive names
-/// (the CLI's progress bars). Called from the bus threads.
+/// Told what the drives of a run go through, with their bus and drive
+/// names: each bus's start, every event of every drive's work, each drive
+/// done with its report (the CLI's progress bars and lines); asked before
+/// each drive whether the bus goes on. Called from the bus threads.
 pub trait LineObserver: Send + Sync {
     /// Bus `bus` starts, with `drives` selected drives.
     fn bus(&self, bus: &str, drives: usize) {
@@ -40,7 +43,53 @@ pub trait LineObserver: Send + Sync {
     }
 
     /// Drive `drive` on bus `bus` reached `event` at `at` (the bus clock).
-    fn event(&self, bus: &str, drive: &str, at: Instant, event: Event);
+    fn event(&self, bus: &str, drive: &str, at: Instant, event: Event) {
+        let _ = (bus, drive, at, event);
+    }
+
+    /// A drive is done: its report is final.
+    fn drive_done(&self, done: &DriveDone<'_>) {
+        let _ = done;
+    }
+
+    /// Asked before each drive of a bus done drive by drive, `done` of
+    /// its drives done so far: [`Flow::Stop`] ends the bus there, as if
+    /// the run had been killed (its other drives are not reached, the bus
+    /// fails; a rerun resumes from the state file).
+    fn before_drive(&self, bus: &str, done: usize) -> Flow {
+        let _ = (bus, done);
+        Flow::Go
+    }
+
+    /// Whether [`Self::before_drive`] may stop a bus. A bus that may stop
+    /// is done drive by drive, never with a LUSTBUS broadcast (whose
+    /// drives' transactions are open together until every drive ends).
+    fn may_stop(&self) -> bool {
+        false
+    }
+}
+
+/// Whether a bus goes on with its next drive ([`LineObserver::before_drive`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Flow {
+    /// Go on.
+    Go,
+    /// Stop the bus here; the text says who stopped it (the drives not
+    /// reached name it).
+    Stop(String),
+}
+
+/// One drive done ([`LineObserver::drive_done`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveDone<'a> {
+    /// Bus name.
+    pub bus: &'a str,
+    /// Drives of this bus done so far (this one included).
+    pub done: usize,
+    /// Selected drives on this bus.
+    pub total: usize,
+    /// The drive's report.
+    pub drive: &'a DriveReport,
 }
 
 /// Opens a bus's port as a link and locks its bus. The CLI passes one that
@@ -48,31 +97,6 @@ pub trait LineObserver: Send + Sync {
 /// before and after the open, `sim://` in-process); tests pass the
 /// simulator's buses.
 pub type Opener<'a> = dyn Fn(&Bus) -> Result<Link, String> + Sync + 'a;
-
-/// What a line run does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Mode {
-    /// Upload what differs and verify.
-    Commission,
-    /// Read only: compare every drive with its set.
-    Status,
-}
-
-/// One drive done (for progress output).
-#[derive(Debug, Clone)]
-pub struct Progress {
-    /// Bus name.
-    pub bus: String,
-    /// Drives of this bus done so far (this one included).
-    pub done: usize,
-    /// Selected drives on this bus.
-    pub total: usize,
-    /// The drive's report.
-    pub drive: DriveReport,
-}
-
-/// A progress callback.
-pub type ProgressFn = Arc<dyn Fn(&Progress) + Send + Sync>;
 
 /// Options of a line run.
 #[derive(Clone)]
@@ -87,7 +111,8 @@ pub struct LineOptions {
     pub report_dir: PathBuf,
     /// Wall-clock time, git, the state and learned-schema files.
     pub env: Arc<dyn Environment>,
-    /// Told the phases and steps of every drive's work.
+    /// Told the phases and steps of every drive's work and each drive
+    /// done; asked whether a bus goes on.
     pub observer: Option<Arc<dyn LineObserver>>,
     /// Where the upload journals go.
     pub journal_dir: PathBuf,
@@ -100,11 +125,6 @@ pub struct LineOptions {
     pub broadcast_common: bool,
     /// Ignore the state file (commission every drive again).
     pub fresh: bool,
-    /// Test hook: every bus stops after this many drives, as if the run had
-    /// been killed there.
-    pub stop_after: Option<usize>,
-    /// Called after every drive.
-    pub progress: Option<ProgressFn>,
     /// How drives whose set's schema lacks facts are learned (module
     /// docs); `None`: such drives fail.
     pub learn: Option<LineLearn>,
@@ -129,7 +149,6 @@ impl std::fmt::Debug for LineOptions {
             .field("only", &self.only)
             .field("skip", &self.skip)
             .field("report_dir", &self.report_dir)
-            .field("stop_after", &self.stop_after)
             .finish_non_exhaustive()
     }
 }
@@ -150,8 +169,6 @@ impl LineOptions {
             overrides: Overrides::none(),
             broadcast_common: false,
             fresh: false,
-            stop_after: None,
-            progress: None,
             learn: None,
         }
     }

@@ -11,7 +11,7 @@ use driveset_link::{Instant, Link};
 use driveset_schema::ResolvedSet;
 
 use super::drive::{Failure, blank_report, failure_of, mark_failed, take_upload};
-use super::resume::{record_drive, still_holds};
+use super::resume::Resume;
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_now, ms};
 use crate::client::{ClientStats, DriveClient};
@@ -122,6 +122,7 @@ pub(super) fn first_half<'d>(
     d: &'d Drive,
     link: &mut Link,
     ctx: &Ctx<'_>,
+    resume: &Resume,
 ) -> FirstHalf<'d> {
     let t0 = link_now(link);
     let mut r = blank_report(d, bus, DriveResult::Failed);
@@ -139,7 +140,7 @@ pub(super) fn first_half<'d>(
     let mut uo = UploadOptions::new(&journal_path);
     uo.overrides = ctx.opts.overrides;
     uo.observer = hook.clone();
-    let opened = to_dataset(bus, d, ctx, &mut *client, &mut r, &uo);
+    let opened = to_dataset(bus, d, ctx, resume, &mut *client, &mut r, &uo);
     let mut cost = Cost::default();
     cost.add(&mut *client, stats0, t0);
     if let Opened::Done { ended: false, .. } = opened {
@@ -164,7 +165,7 @@ pub(super) fn first_half<'d>(
     };
     let failure = outcome.err().and_then(|e| mark_failed(&mut r, &e));
     cost.into_report(&mut r);
-    record_drive(bus, d, &r, ctx);
+    resume.record_drive(ctx, bus, d, &r);
     FirstHalf::Done(Box::new(r), spans, failure)
 }
 
@@ -187,6 +188,7 @@ fn to_dataset(
     bus: &Bus,
     d: &Drive,
     ctx: &Ctx<'_>,
+    resume: &Resume,
     client: &mut dyn DriveClient,
     r: &mut DriveReport,
     uo: &UploadOptions,
@@ -195,8 +197,7 @@ fn to_dataset(
         ended: false,
         outcome,
     };
-    let set_fp = d.set.fingerprint();
-    match still_holds(&mut *client, bus, d, &set_fp, r, &uo.observer, ctx) {
+    match resume.still_holds(&mut *client, bus, d, r, &uo.observer, ctx) {
         Ok(true) => return not_begun(Ok(())),
         Ok(false) => {}
         Err(e) => return not_begun(Err(e)),
@@ -263,6 +264,7 @@ pub(super) fn next_half<'d>(
     mut p: Parked<'d>,
     link: &mut Link,
     ctx: &Ctx<'_>,
+    resume: &Resume,
     last: bool,
 ) -> FirstHalf<'d> {
     let d = p.d;
@@ -317,7 +319,7 @@ pub(super) fn next_half<'d>(
     cost.add(&mut *client, stats0, t0);
     spans.extend(watch.spans.spans());
     cost.into_report(&mut r);
-    record_drive(bus, d, &r, ctx);
+    resume.record_drive(ctx, bus, d, &r);
     FirstHalf::Done(Box::new(r), spans, error.as_ref().and_then(failure_of))
 }
 

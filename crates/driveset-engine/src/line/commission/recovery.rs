@@ -1,12 +1,11 @@
 //! Owns what a line run does with unfinished journals (module docs of
-//! [`super`], "Unfinished journals"): before a drive is touched, its
-//! unfinished journals (found by recorded bus and address) are recovered
-//! (`commission`) or make the drive fail (`status`); a broadcast asks
-//! whether any address it reaches has one.
+//! [`super`], "Unfinished journals"): before a drive is touched,
+//! `commission` recovers its unfinished journals (found by recorded bus
+//! and address; `status` fails such a drive, [`crate::line::status`]); a
+//! broadcast asks whether any address it reaches has one.
 
 use std::ops::RangeInclusive;
 
-use super::options::Mode;
 use super::run::Ctx;
 use crate::client::{DriveClient, IdentProtocol};
 use crate::error::EngineError;
@@ -16,31 +15,23 @@ use crate::line::manifest::Drive;
 use crate::observe::{Hook, Phase};
 use crate::recover::{RecoverAction, RecoverOptions, RecoverReport, recover};
 
-/// A drive with an unfinished journal is not done: `status` reports it
-/// failed, `commission` recovers each journal first
-/// ([`crate::recover::recover`]: it refuses another drive or a stale
-/// journal); `recovered` gets a note per journal recovered.
+/// A drive with an unfinished journal is not done: `commission` recovers
+/// each of its `unfinished` journals first ([`crate::recover::recover`]:
+/// it refuses another drive or a stale journal); `recovered` gets a note
+/// per journal recovered.
 pub(super) fn recover_unfinished(
     client: &mut dyn DriveClient,
     d: &Drive,
     ctx: &Ctx<'_>,
     hook: &Hook,
+    unfinished: &[Unfinished],
     recovered: &mut Vec<String>,
 ) -> Result<(), EngineError> {
-    let unfinished = crate::journal::unfinished_for(
-        &ctx.opts.journal_dir,
-        &client.bus_id(),
-        &client.target().port,
-        d.address,
-    )?;
     if unfinished.is_empty() {
         return Ok(());
     }
-    if ctx.mode == Mode::Status {
-        return Err(untrusted(client, &unfinished));
-    }
     hook.enter(client.clock(), Phase::Recover, None);
-    for u in &unfinished {
+    for u in unfinished {
         let rep = recover(&mut *client, &u.path, &RecoverOptions::default()).map_err(|e| {
             EngineError::journal(u.path.display().to_string(), format!(
                     "the drive has an unfinished transaction from an earlier run, and recovering it failed: {e}"
@@ -104,24 +95,6 @@ fn record_recovery(
     if let Err(e) = h.drive(&record) {
         ctx.warn(format!("{}: not recorded in the history: {e}", d.name));
     }
-}
-
-/// `status`'s error for a drive with unfinished journals: its values are
-/// not trusted.
-fn untrusted(client: &dyn DriveClient, unfinished: &[Unfinished]) -> EngineError {
-    let list: Vec<String> = unfinished
-        .iter()
-        .map(|u| format!("{} (state {})", u.path.display(), u.journal.state.as_str()))
-        .collect();
-    EngineError::journal(
-        unfinished[0].path.display().to_string(),
-        format!(
-            "the drive at {} has an unfinished transaction ({}); its values are not trusted. Run `driveset commission` (it recovers the journal first) or `driveset recover {}`",
-            client.target(),
-            list.join(", "),
-            unfinished[0].path.display()
-        ),
-    )
 }
 
 /// The unfinished journals of any address in `addresses` on the bus

@@ -1,13 +1,13 @@
 //! Owns the resume state (module docs of [`super`], "Resume"): the state
 //! file [`STATE_FILE`] of the report directory, read and written through
-//! the run's [`Environment`]; the record of each drive that ends holding
-//! its set; and the resume check that trusts a record only after reading
-//! the drive once.
+//! the run's [`Environment`]; the run's state ([`Resume`], `commission`'s
+//! only) with the record of each drive that ends holding its set; and the
+//! resume check that trusts a record only after reading the drive once.
 
 use std::collections::BTreeMap;
 use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::PoisonError;
+use std::sync::{Mutex, PoisonError};
 
 use serde::{Deserialize, Serialize};
 
@@ -154,18 +154,25 @@ fn state_key(bus: &str, address: u8) -> String {
     format!("{bus}/{address}")
 }
 
-impl Ctx<'_> {
-    /// The drive's record in the resume state (none in `status`).
-    pub(super) fn recorded(&self, bus: &Bus, d: &Drive) -> Option<StateEntry> {
-        let s = self.state?.lock().unwrap_or_else(PoisonError::into_inner);
+/// A commissioning run's resume state, shared by its bus threads.
+pub(super) struct Resume(Mutex<CommissionState>);
+
+impl Resume {
+    /// The run starts from `state`.
+    pub(super) fn new(state: CommissionState) -> Self {
+        Resume(Mutex::new(state))
+    }
+
+    /// The drive's record in the resume state.
+    fn recorded(&self, bus: &Bus, d: &Drive) -> Option<StateEntry> {
+        let s = self.0.lock().unwrap_or_else(PoisonError::into_inner);
         s.drives.get(&state_key(&bus.name, d.address)).cloned()
     }
 
     /// Record the drive as holding its set at `fingerprint`, or (`None`)
     /// drop its record; the file is saved when it changed.
-    pub(super) fn record(&self, bus: &Bus, d: &Drive, fingerprint: Option<&str>) {
-        let Some(state) = self.state else { return };
-        let mut s = state.lock().unwrap_or_else(PoisonError::into_inner);
+    fn record(&self, ctx: &Ctx<'_>, bus: &Bus, d: &Drive, fingerprint: Option<&str>) {
+        let mut s = self.0.lock().unwrap_or_else(PoisonError::into_inner);
         let key = state_key(&bus.name, d.address);
         match fingerprint {
             Some(fp) => {
@@ -177,7 +184,7 @@ impl Ctx<'_> {
                         set: d.set_text.clone(),
                         set_fingerprint: d.set.fingerprint(),
                         fingerprint: fp.to_string(),
-                        verified_at: rfc3339(self.opts.env.now_utc()),
+                        verified_at: rfc3339(ctx.opts.env.now_utc()),
                     },
                 );
             }
@@ -187,67 +194,68 @@ impl Ctx<'_> {
                 }
             }
         }
-        if let Err(e) = s.save(&*self.opts.env, &self.opts.report_dir) {
+        if let Err(e) = s.save(&*ctx.opts.env, &ctx.opts.report_dir) {
             drop(s);
-            self.warn(e.to_string());
+            ctx.warn(e.to_string());
         }
     }
-}
 
-/// Record in the resume state whether the drive ended holding its set.
-pub(super) fn record_drive(bus: &Bus, d: &Drive, r: &DriveReport, ctx: &Ctx<'_>) {
-    let holds = matches!(
-        r.result,
-        DriveResult::Verified | DriveResult::Unchanged | DriveResult::AlreadyVerified
-    );
-    ctx.record(
-        bus,
-        d,
-        if holds {
-            r.fingerprint_after.as_deref()
-        } else {
-            None
-        },
-    );
-}
+    /// Record in the resume state whether the drive ended holding its set.
+    pub(super) fn record_drive(&self, ctx: &Ctx<'_>, bus: &Bus, d: &Drive, r: &DriveReport) {
+        let holds = matches!(
+            r.result,
+            DriveResult::Verified | DriveResult::Unchanged | DriveResult::AlreadyVerified
+        );
+        self.record(
+            ctx,
+            bus,
+            d,
+            if holds {
+                r.fingerprint_after.as_deref()
+            } else {
+                None
+            },
+        );
+    }
 
-/// The resume check (module docs of [`super`], "Resume"): a drive the state file records
-/// as verified at its set's fingerprint, on this port, is identified and
-/// its set's codes read once. `true`: it still holds its set (`r` says
-/// [`DriveResult::AlreadyVerified`]); `false`: commission it (a warning
-/// says why when the record was there).
-pub(super) fn still_holds(
-    client: &mut dyn DriveClient,
-    bus: &Bus,
-    d: &Drive,
-    set_fp: &str,
-    r: &mut DriveReport,
-    hook: &Hook,
-    ctx: &Ctx<'_>,
-) -> Result<bool, EngineError> {
-    let Some(rec) = ctx.recorded(bus, d) else {
-        return Ok(false);
-    };
-    if rec.set_fingerprint != set_fp || rec.port != bus.port_name {
-        return Ok(false);
+    /// The resume check (module docs of [`super`], "Resume"): a drive the
+    /// state file records as verified at its set's fingerprint, on this
+    /// port, is identified and its set's codes read once. `true`: it still
+    /// holds its set (`r` says [`DriveResult::AlreadyVerified`]); `false`:
+    /// commission it (a warning says why when the record was there).
+    pub(super) fn still_holds(
+        &self,
+        client: &mut dyn DriveClient,
+        bus: &Bus,
+        d: &Drive,
+        r: &mut DriveReport,
+        hook: &Hook,
+        ctx: &Ctx<'_>,
+    ) -> Result<bool, EngineError> {
+        let Some(rec) = self.recorded(bus, d) else {
+            return Ok(false);
+        };
+        if rec.set_fingerprint != d.set.fingerprint() || rec.port != bus.port_name {
+            return Ok(false);
+        }
+        hook.enter(client.clock(), Phase::Identify, None);
+        let id = check_family(&mut *client)?;
+        r.identity = id.pairs();
+        hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
+        let live = live_values(&mut *client, &d.set)?;
+        let fp = live.fingerprint();
+        if live.values == d.set.values {
+            r.result = DriveResult::AlreadyVerified;
+            r.fingerprint_before = Some(fp.clone());
+            r.fingerprint_after = Some(fp);
+            return Ok(true);
+        }
+        ctx.warn(format!(
+            "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
+            d.name, rec.verified_at
+        ));
+        Ok(false)
     }
-    hook.enter(client.clock(), Phase::Identify, None);
-    let id = check_family(&mut *client)?;
-    r.identity = id.pairs();
-    hook.enter(client.clock(), Phase::Read, Some(d.set.values.len()));
-    let live = live_values(&mut *client, &d.set)?;
-    let fp = live.fingerprint();
-    if live.values == d.set.values {
-        r.result = DriveResult::AlreadyVerified;
-        r.fingerprint_before = Some(fp.clone());
-        r.fingerprint_after = Some(fp);
-        return Ok(true);
-    }
-    ctx.warn(format!(
-        "{}: recorded as verified at {}, but the drive no longer holds its set; commissioning it again",
-        d.name, rec.verified_at
-    ));
-    Ok(false)
 }
 
 #[cfg(test)]

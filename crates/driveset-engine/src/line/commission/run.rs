@@ -1,37 +1,38 @@
-//! Owns a line run from start to report: the report and journal
-//! directories, the resume state it starts from, a thread per bus (the
-//! drives of one bus in turn), and the line report gathered from the
-//! buses' (module docs of [`super`]).
+//! Owns a line run from start to report, whatever its walk: the selection,
+//! the report directory, a thread per bus (the drives of one bus in turn),
+//! and the line report gathered from the buses' (module docs of
+//! [`super`]); and `commission`, the run with the commissioning walk.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::sync::{Mutex, PoisonError};
 
 use super::bus::{BusRun, run_bus};
+use super::commissioning::Commissioning;
 use super::drive::blank_report;
-use super::options::{LineError, LineOptions, LineOutcome, Mode, Opener};
-use super::resume::CommissionState;
+use super::options::{LineError, LineOptions, LineOutcome, Opener};
 use super::select::select;
+use super::walk::Walk;
 use crate::env::rfc3339;
 use crate::line::manifest::{Drive, Manifest};
 use crate::line::report::{
     BusReport, DriveReport, DriveResult, LineReport, LineResult, REPORT_VERSION,
 };
 
-/// What every bus thread of a run shares: the options, the mode, the
-/// resume state (`commission` only) and the warnings gathered so far.
-pub(super) struct Ctx<'a> {
+/// What every bus thread of a run shares: the options, the walk and the
+/// warnings gathered so far.
+pub(in crate::line) struct Ctx<'a> {
     /// The line's name (the history's slots name it).
-    pub(super) line: &'a str,
-    pub(super) opts: &'a LineOptions,
-    pub(super) mode: Mode,
-    pub(super) state: Option<&'a Mutex<CommissionState>>,
+    pub(in crate::line) line: &'a str,
+    pub(in crate::line) opts: &'a LineOptions,
+    /// What the run does with each drive.
+    pub(in crate::line) walk: &'a dyn Walk,
     pub(super) warnings: Mutex<Vec<String>>,
 }
 
 impl Ctx<'_> {
     /// Add a warning to the run's.
-    pub(super) fn warn(&self, w: String) {
+    pub(in crate::line) fn warn(&self, w: String) {
         self.warnings
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
@@ -45,32 +46,27 @@ pub fn commission(
     opts: &LineOptions,
     opener: &Opener<'_>,
 ) -> Result<LineOutcome, LineError> {
-    run_line(manifest, opts, opener, Mode::Commission)
+    run_walk(manifest, opts, opener, || {
+        Commissioning::start(manifest, opts)
+    })
 }
 
-/// Run the line in `mode`.
-pub fn run_line(
+/// Run the line with the walk `start` gives once the selection holds and
+/// the report directory is there.
+pub(in crate::line) fn run_walk<W: Walk>(
     manifest: &Manifest,
     opts: &LineOptions,
     opener: &Opener<'_>,
-    mode: Mode,
+    start: impl FnOnce() -> Result<W, LineError>,
 ) -> Result<LineOutcome, LineError> {
     let started = rfc3339(opts.env.now_utc());
     let selected = select(manifest, opts)?;
     create_report_dir(opts)?;
-    let state = if mode == Mode::Commission {
-        // the one way to create a journal directory: it keeps itself out of
-        // git with its own .gitignore, as upload's does
-        crate::journal::ensure_dir(&opts.journal_dir).map_err(LineError::JournalDir)?;
-        Some(Mutex::new(CommissionState::for_run(manifest, opts)?))
-    } else {
-        None
-    };
+    let walk = start()?;
     let ctx = Ctx {
         line: &manifest.name,
         opts,
-        mode,
-        state: state.as_ref(),
+        walk: &walk,
         warnings: Mutex::new(Vec::new()),
     };
     // the manifest's address is the truth: refused before the bus is opened
@@ -94,7 +90,7 @@ pub fn run_line(
                 })
         })
         .collect();
-    let report = line_report(manifest, opts, mode, started, buses, drives);
+    let report = line_report(manifest, opts, walk.command(), started, buses, drives);
     Ok(LineOutcome {
         report,
         bus_failure,
@@ -164,7 +160,7 @@ fn gather(results: Vec<BusRun>) -> (Vec<BusReport>, BTreeMap<String, DriveReport
 fn line_report(
     manifest: &Manifest,
     opts: &LineOptions,
-    mode: Mode,
+    command: &str,
     started: String,
     buses: Vec<BusReport>,
     drives: Vec<DriveReport>,
@@ -174,10 +170,7 @@ fn line_report(
     let dir = manifest.path.parent().unwrap_or(Path::new("."));
     LineReport {
         report_version: REPORT_VERSION,
-        command: match mode {
-            Mode::Commission => "commission".into(),
-            Mode::Status => "status".into(),
-        },
+        command: command.into(),
         line: manifest.name.clone(),
         manifest: manifest.path.display().to_string(),
         label: opts.label.clone().or_else(|| manifest.label.clone()),

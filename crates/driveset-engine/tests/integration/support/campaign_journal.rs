@@ -47,9 +47,10 @@ fn client_on(
 use driveset_engine::env::{Environment, Memory};
 use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
 use driveset_engine::journal::{JournalFile, journal_path};
-use driveset_engine::line::commission::{LineOptions, Mode, Verdict, run_line};
+use driveset_engine::line::commission::{LineOptions, Verdict, commission};
 use driveset_engine::line::manifest::{Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
+use driveset_engine::line::status::status;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, default_journal_path, upload};
 
@@ -837,7 +838,7 @@ pub fn commission_kills(family: Family) -> KillTable {
             Some((jdir.clone(), rec.clone())),
         ))
     };
-    let clean = run_line(&m, &opts, &opener, Mode::Commission).expect("clean run");
+    let clean = commission(&m, &opts, &opener).expect("clean run");
     assert_eq!(
         clean.verdict(),
         Verdict::Holds,
@@ -893,9 +894,7 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
     let count = Arc::new(AtomicU64::new(0));
     let opener =
         |_: &driveset_engine::line::manifest::Bus| Ok(kill_link(&sim, &count, Some(n), None));
-    let killed = catch_unwind(AssertUnwindSafe(|| {
-        run_line(&m, &opts, &opener, Mode::Commission)
-    }));
+    let killed = catch_unwind(AssertUnwindSafe(|| commission(&m, &opts, &opener)));
     if killed.is_ok() {
         return Err("the run was not killed".into());
     }
@@ -914,7 +913,7 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
     let opener = |_: &driveset_engine::line::manifest::Bus| Ok(kill_link(&sim, &fresh, None, None));
     // status: the drive with an unfinished journal is failed; nothing written
     let before = log.events().len();
-    let st = run_line(&m, &opts, &opener, Mode::Status).map_err(|e| e.to_string())?;
+    let st = status(&m, &opts, &opener).map_err(|e| e.to_string())?;
     if let Some(w) = log.events()[before..].iter().find(|e| is_write(family, e)) {
         return Err(format!("status wrote: {w:?}"));
     }
@@ -972,7 +971,7 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
         }
     }
     // rerun: recovers, never "unchanged", exit 0
-    let rerun = run_line(&m, &opts, &opener, Mode::Commission).map_err(|e| e.to_string())?;
+    let rerun = commission(&m, &opts, &opener).map_err(|e| e.to_string())?;
     if rerun.verdict() != Verdict::Holds {
         return Err(format!(
             "rerun {:?}: {:?}",

@@ -3,8 +3,8 @@
 //! factory, gets its manifest address and its bus's rate in stand-alone
 //! operation (lustbus-protocol.txt section 4.2: "the addresses ... must be
 //! set individually before connecting them to the LUSTBUS"), one at a
-//! time, then the whole bus is scanned. Owns [`assign_line`], its report
-//! ([`LineAssign`]) and the final check ([`ScanRow`]).
+//! time, then the whole bus is scanned. Owns [`commission_assign`], its report
+//! ([`CommissionAssignReport`]) and the final check ([`ScanRow`]).
 //!
 //! Per bus, in manifest order, per drive of the bus in manifest order:
 //! 1. the caller's `connect` is told which drive to connect alone to the
@@ -105,9 +105,9 @@ impl Given {
     }
 }
 
-/// Options of [`assign_line`].
+/// Options of [`commission_assign`].
 #[derive(Debug, Clone)]
-pub struct AssignLineOptions {
+pub struct CommissionAssignOptions {
     /// Where the assignment journals go (the line's journal directory).
     pub journal_dir: PathBuf,
     /// Probe timeouts of the searches and scans.
@@ -195,7 +195,7 @@ impl BusAssign {
 
 /// The whole first contact.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LineAssign {
+pub struct CommissionAssignReport {
     /// The line's name.
     pub line: String,
     /// One entry per bus, in manifest order.
@@ -238,7 +238,7 @@ fn assign_one(
     d: &Drive,
     drives: &[&Drive],
     opener: &Opener<'_>,
-    opts: &AssignLineOptions,
+    opts: &CommissionAssignOptions,
     given: &mut Given,
 ) -> DriveAssigned {
     let mut out = DriveAssigned {
@@ -300,7 +300,7 @@ fn final_scan(
     bus: &Bus,
     drives: &[&Drive],
     opener: &Opener<'_>,
-    opts: &AssignLineOptions,
+    opts: &CommissionAssignOptions,
 ) -> Result<(Vec<ScanRow>, f64), String> {
     let mut link = opener(bus).map_err(|e| {
         format!(
@@ -378,12 +378,12 @@ fn final_scan(
 }
 
 /// The line's first contact (module docs).
-pub fn assign_line(
+pub fn commission_assign(
     manifest: &Manifest,
-    opts: &AssignLineOptions,
+    opts: &CommissionAssignOptions,
     opener: &Opener<'_>,
     connect: &mut Connect<'_>,
-) -> LineAssign {
+) -> CommissionAssignReport {
     let mut buses = Vec::new();
     for (bi, bus) in manifest.buses.iter().enumerate() {
         let listed: Vec<&Drive> = manifest
@@ -450,7 +450,7 @@ pub fn assign_line(
         buses.push(b);
     }
     let ok = buses.iter().all(BusAssign::holds);
-    LineAssign {
+    CommissionAssignReport {
         line: manifest.name.clone(),
         buses,
         ok,

@@ -1,12 +1,14 @@
 //! `driveset commission LINE --assign`: the line's first contact (the
-//! engine's `line::assign`): every drive of the line's LUSTBUS and LECOM
+//! engine's `line::commission_assign`): every drive of the line's LUSTBUS and LECOM
 //! buses gets its manifest address and its bus's rate, one drive at a time
 //! ("connect NAME alone to PORT, then press Enter"), then each bus is
 //! scanned and the table printed; then the normal commission runs.
 
 use std::path::PathBuf;
 
-use driveset_engine::line::assign::{AssignLineOptions, LineAssign, Stopped, assign_line};
+use driveset_engine::line::commission_assign::{
+    CommissionAssignOptions, CommissionAssignReport, Stopped, commission_assign,
+};
 use driveset_engine::line::manifest::{Bus, Drive, Manifest};
 use driveset_link::PortSpec;
 
@@ -53,7 +55,7 @@ fn with_port(mut m: Manifest, port: &str) -> Result<Manifest, Fail> {
 }
 
 /// Print the first contact's table (one per bus) and its verdict.
-pub fn table(a: &LineAssign) -> String {
+pub fn table(a: &CommissionAssignReport) -> String {
     let mut out = String::new();
     for b in &a.buses {
         if let Some(why) = &b.skipped {
@@ -145,7 +147,7 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
         Some(p) => with_port(manifest.clone(), p)?,
         None => manifest.clone(),
     };
-    let opts = AssignLineOptions {
+    let opts = CommissionAssignOptions {
         journal_dir,
         scan: Default::default(),
         only: args.only.clone(),
@@ -169,7 +171,7 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
             Err(f) => Err(Stopped(f.msg)),
         }
     };
-    let a = assign_line(&m, &opts, &super::commission::open_bus, &mut connect);
+    let a = commission_assign(&m, &opts, &super::commission::open_bus, &mut connect);
     out!("{}", table(&a));
     Ok(a.ok)
 }
