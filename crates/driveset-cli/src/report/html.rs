@@ -190,7 +190,7 @@ fn class_token(s: &str) -> String {
 pub fn render(r: &LineReport) -> String {
     let mut o = String::with_capacity(16 * 1024);
     let (class, _, text) = line_result(r.result);
-    let kind = if r.command == crate::cmd::twin::REHEARSE_COMMAND {
+    let kind = if r.command == driveset_twin::REHEARSE_COMMAND {
         "rehearsal report (against twins)"
     } else {
         "commissioning report"
