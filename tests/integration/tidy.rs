@@ -40,9 +40,12 @@ const ARROWS: &[(&str, &[&str])] = &[
             "driveset-schema",
         ],
     ),
+    // the reports (JSON, HTML, JUnit, textconv): engine's report, schema
+    ("driveset-report", &["driveset-engine", "driveset-schema"]),
     (
         "driveset-cli",
         &[
+            "driveset-report",
             "driveset-engine",
             "driveset-history",
             "driveset-twin",

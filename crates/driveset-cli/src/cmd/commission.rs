@@ -393,7 +393,7 @@ pub fn run_mode(
         outcome.report.command = driveset_twin::REHEARSE_COMMAND.into();
         outln!("{}", outcome.report.label.as_deref().unwrap_or_default());
         let junit = report_dir.join("report.junit.xml");
-        let xml = super::twin::line_junit(&outcome.report, missing);
+        let xml = driveset_report::junit::line(&outcome.report, missing);
         if let Err(e) = report::write_atomic(&junit, xml.as_bytes()) {
             return Err(crate::fail::Fail::input(format!(
                 "cannot write {}: {e}",

@@ -13,7 +13,6 @@
 //! capture is on record (docs/history.md): each drive's values read and
 //! their fingerprint; a rehearsal is not (it reads no drive).
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -22,7 +21,6 @@ use driveset_engine::client::{DriveClient, Identity};
 use driveset_engine::env::Environment;
 use driveset_engine::history::Slot;
 use driveset_engine::learn::{LearnOptions, PullSchemaError};
-use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
 use driveset_link::Link;
 use driveset_schema::{Family, Schema};
@@ -436,73 +434,4 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
     }
     Ok(EXIT_OK)
-}
-
-/// JUnit XML of a line report (one testcase per drive; a drive that does
-/// not hold its set is a failure, a drive not rehearsed is skipped), for
-/// CI test reports of a rehearsal (docs/ci.md).
-pub fn line_junit(r: &LineReport, not_rehearsed: &[String]) -> String {
-    use crate::report::junit::xml_esc;
-    let failed = |res: DriveResult| {
-        !matches!(
-            res,
-            DriveResult::Verified
-                | DriveResult::Unchanged
-                | DriveResult::AlreadyVerified
-                | DriveResult::NotSelected
-        )
-    };
-    let failures = r.drives.iter().filter(|d| failed(d.result)).count();
-    let skipped = r
-        .drives
-        .iter()
-        .filter(|d| d.result == DriveResult::NotSelected)
-        .count();
-    let mut o = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        o,
-        "<testsuites name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">",
-        xml_esc(&format!("driveset rehearsal {}", r.line)),
-        r.drives.len()
-    );
-    let _ = writeln!(
-        o,
-        "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"{skipped}\">",
-        xml_esc(r.label.as_deref().unwrap_or(&r.line)),
-        r.drives.len()
-    );
-    for d in &r.drives {
-        let _ = write!(
-            o,
-            "    <testcase classname=\"{}\" name=\"{}\" file=\"{}\"",
-            xml_esc(&d.bus),
-            xml_esc(&d.name),
-            xml_esc(&d.set)
-        );
-        let result = serde_json::to_value(d.result)
-            .ok()
-            .and_then(|v| v.as_str().map(String::from))
-            .unwrap_or_default();
-        if d.result == DriveResult::NotSelected {
-            let why = if not_rehearsed.contains(&d.name) {
-                "not rehearsed: no twin"
-            } else {
-                "not selected"
-            };
-            let _ = writeln!(o, ">\n      <skipped message=\"{why}\"/>\n    </testcase>");
-        } else if failed(d.result) {
-            let msg = d.error.clone().unwrap_or_else(|| result.clone());
-            let _ = writeln!(
-                o,
-                ">\n      <failure message=\"{}\" type=\"{}\">{}</failure>\n    </testcase>",
-                xml_esc(&msg),
-                xml_esc(&result),
-                xml_esc(&msg)
-            );
-        } else {
-            let _ = writeln!(o, "/>");
-        }
-    }
-    o.push_str("  </testsuite>\n</testsuites>\n");
-    o
 }
