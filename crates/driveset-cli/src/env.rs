@@ -1,5 +1,5 @@
 //! The engine's [`Environment`] for real runs: system time (UTC), the git
-//! commit of the sets ([`crate::report::git_info`], spawning `git`), and
+//! commit of the sets ([`crate::git::info`], spawning `git`), and
 //! the line run's small files on the file system (the resume state,
 //! learned schemas), written to a temporary name and renamed into place.
 
@@ -19,7 +19,7 @@ impl Environment for SystemEnv {
     }
 
     fn git_info(&self, dir: &Path) -> Option<GitInfo> {
-        crate::report::git_info(dir)
+        crate::git::info(dir)
     }
 
     fn read_file(&self, path: &Path) -> io::Result<Option<String>> {

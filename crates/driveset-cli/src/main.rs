@@ -29,6 +29,7 @@ mod editor;
 mod env;
 mod fail;
 mod files;
+mod git;
 mod history;
 mod output;
 mod port;

@@ -8,6 +8,7 @@ use std::fmt::Write;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
+use driveset_report::junit::FileFindings;
 use driveset_schema::{Finding, InputError, Location};
 use serde_json::{Value, json};
 
@@ -284,7 +285,18 @@ impl Report {
                 }
                 let _ = writeln!(out, "{}", self.summary(noun));
             }
-            Format::Junit => out.push_str(&crate::report::junit::render(self, "driveset")),
+            Format::Junit => {
+                let files: Vec<FileFindings<'_>> = self
+                    .files
+                    .iter()
+                    .map(|(file, r)| FileFindings {
+                        file,
+                        findings: &r.findings,
+                        error: r.error.as_ref(),
+                    })
+                    .collect();
+                out.push_str(&driveset_report::junit::render(&files, "driveset"));
+            }
             Format::Json => {
                 let files: Vec<Value> = self
                     .files

@@ -1,6 +1,9 @@
 //! Owns writing a resolved set back as TOML, YAML or JSON in engineering
 //! units with labels (docs/file-formats.md, "Parameter sets"), such that
-//! reading it back gives the same fingerprint.
+//! reading it back gives the same fingerprint; the set file `driveset
+//! pull` writes around it ([`pulled`]).
+
+pub mod pulled;
 
 use std::fmt::Write;
 

@@ -24,11 +24,25 @@ const ARROWS: &[(&str, &[&str])] = &[
     ),
     // the plant history's store: implements the engine's seam, below the CLI
     ("driveset-history", &["driveset-engine"]),
+    // the bridge between engine and simulator: twins, rehearsal buses
+    (
+        "driveset-twin",
+        &[
+            "driveset-engine",
+            "driveset-sim",
+            "driveset-link",
+            "driveset-schema",
+        ],
+    ),
+    // the reports (JSON, HTML, JUnit, textconv): engine's report, schema
+    ("driveset-report", &["driveset-engine", "driveset-schema"]),
     (
         "driveset-cli",
         &[
+            "driveset-report",
             "driveset-engine",
             "driveset-history",
+            "driveset-twin",
             "driveset-sim",
             "driveset-link",
             "driveset-proto",

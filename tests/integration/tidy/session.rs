@@ -132,7 +132,7 @@ const PORTS_OPENED_ELSEWHERE: &[(&str, &str)] = &[
         "reopens, at each line rate it tries, the port the session opened and locked",
     ),
     (
-        "crates/driveset-cli/src/cmd/twin.rs",
+        "crates/driveset-twin/src/rehearse.rs",
         "a rehearsal's buses of twins live in this process only: nothing to lock",
     ),
 ];

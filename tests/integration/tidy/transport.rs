@@ -33,8 +33,8 @@ const SIM_BRANCHES: &[&str] = &[
     "driveset_sim::port",
 ];
 
-/// The files that may name them: the opener registration and the
-/// simulator's own command.
+/// The files that may name them: the opener registration, the
+/// simulator's own command and the twin bridge's rehearsal buses.
 const SIM_REGISTRATION: &[(&str, &str)] = &[
     (
         "crates/driveset-cli/src/port.rs",
@@ -45,8 +45,8 @@ const SIM_REGISTRATION: &[(&str, &str)] = &[
         "`driveset sim`, the simulator's own command (serves simulated drives on ptys and TCP)",
     ),
     (
-        "crates/driveset-cli/src/cmd/twin.rs",
-        "twins are the simulator's file format: a rehearsal serves them on buses of its own (docs/twins.md)",
+        "crates/driveset-twin/src/rehearse.rs",
+        "the twin bridge: a rehearsal serves the twins (the simulator's file format) on simulated buses of its own (docs/twins.md)",
     ),
 ];
 
@@ -59,14 +59,20 @@ const OPAQUE_PORTS: &[(&str, usize, &str)] = &[(
     "a manifest's bus port: the registered opener of an opaque port checks it and puts the manifest's drives on it (PortOpener::check, with_drives); no scheme is named",
 )];
 
-/// The lines of the CLI's and the engine's sources (comments and test
-/// modules left out) that name a `sim://`-specific item, by file.
+/// The lines of the CLI's, the engine's and the twin bridge's sources
+/// (comments and test modules left out) that name a `sim://`-specific
+/// item, by file.
 fn sim_branches() -> BTreeMap<String, Vec<(usize, String)>> {
     let mut out: BTreeMap<String, Vec<(usize, String)>> = BTreeMap::new();
     for source in sources() {
-        let cli_or_engine =
-            source.under("crates/driveset-engine/src/") || source.under("crates/driveset-cli/src/");
-        if !cli_or_engine || source.path.ends_with("tests.rs") {
+        let scanned = [
+            "crates/driveset-engine/src/",
+            "crates/driveset-twin/src/",
+            "crates/driveset-cli/src/",
+        ]
+        .iter()
+        .any(|d| source.under(d));
+        if !scanned || source.path.ends_with("tests.rs") {
             continue;
         }
         for (n, line) in source.code() {

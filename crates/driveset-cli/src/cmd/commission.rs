@@ -404,14 +404,15 @@ pub fn run_mode(
         Some(dir) => {
             let selected = driveset_engine::line::commission::select(&manifest, &opts)
                 .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
-            let twins = super::twin::rehearsal_twins(&manifest, dir, &selected)?;
+            let twins = driveset_twin::rehearse::twins(&manifest, dir, &selected)
+                .map_err(|e| crate::fail::Fail::input(e.0))?;
             let missing: Vec<String> = twins
                 .iter()
                 .filter(|(n, t)| t.is_none() && selected.contains(*n))
                 .map(|(n, _)| n.clone())
                 .collect();
             opts.skip.extend(missing.iter().cloned());
-            opts.label = Some(super::twin::rehearsal_label(dir, &twins, &missing));
+            opts.label = Some(driveset_twin::rehearse::label(dir, &twins, &missing));
             opts.fresh = true;
             opts.journal_dir = report_dir.join("rehearsal-journal");
             for m in &missing {
@@ -421,7 +422,7 @@ pub fn run_mode(
                         .display()
                 );
             }
-            Some((super::twin::rehearsal_opener(&manifest, &twins), missing))
+            Some((driveset_twin::rehearse::opener(&manifest, &twins), missing))
         }
         None => None,
     };
@@ -454,10 +455,10 @@ pub fn run_mode(
         }
     };
     if let Some((_, missing)) = &rehearsal {
-        outcome.report.command = super::twin::REHEARSE_COMMAND.into();
+        outcome.report.command = driveset_twin::REHEARSE_COMMAND.into();
         outln!("{}", outcome.report.label.as_deref().unwrap_or_default());
         let junit = report_dir.join("report.junit.xml");
-        let xml = super::twin::line_junit(&outcome.report, missing);
+        let xml = driveset_report::junit::line(&outcome.report, missing);
         if let Err(e) = report::write_atomic(&junit, xml.as_bytes()) {
             return Err(crate::fail::Fail::input(format!(
                 "cannot write {}: {e}",

@@ -6,12 +6,12 @@
 //! config (or with `--global` in the user's, for every clone).
 //!
 //! Also the hidden `driveset textconv FILE` the driver runs (see
-//! `report::textconv`).
+//! `driveset_report::textconv`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::report::textconv;
+use driveset_report::textconv;
 
 use crate::output;
 
@@ -75,7 +75,7 @@ pub fn run_textconv(args: TextconvArgs) -> Result<u8, crate::fail::Fail> {
         Ok(r) => r,
         Err(e) => return Err(crate::fail::Fail::from(&e)),
     };
-    match textconv::render(&args.file, &registry) {
+    match textconv::render(&args.file, &registry, crate::git::tracked_files) {
         Ok(text) => {
             output::emit(&text);
             Ok(crate::EXIT_OK)
@@ -162,7 +162,7 @@ fn git(args: &[&str]) -> anyhow::Result<()> {
 
 /// Run `driveset git-setup`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let top = crate::report::git_output(Path::new("."), &["rev-parse", "--show-toplevel"])
+    let top = crate::git::output(Path::new("."), &["rev-parse", "--show-toplevel"])
         .map(|s| PathBuf::from(s.trim_end_matches('\n')));
     if top.is_none() && !args.global {
         return Err(crate::fail::Fail::input(

@@ -18,8 +18,8 @@ use std::path::{Component, Path, PathBuf};
 use driveset_engine::history::{self, DriveRecord, Slot, Unit};
 use driveset_engine::pull::PullOptions;
 use driveset_engine::session::{self, rate::ReadRate};
-use driveset_schema::schema::{Access, StorageKind};
-use driveset_schema::{Format, export};
+use driveset_schema::Format;
+use driveset_schema::export::pulled;
 use serde_json::json;
 
 use super::identify::BusFormat;
@@ -166,10 +166,6 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
     out
 }
 
-fn toml_str(s: &str) -> String {
-    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
-}
-
 fn pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     // on record before the first read (docs/history.md)
@@ -260,20 +256,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     // Read-only codes (actual values) are read but cannot be part of a set
     // (`validate` refuses them): they go into the header as comments.
     let mut pulled = pulled;
-    let mut actual = Vec::new();
-    pulled.set.values.retain(|k, v| {
-        let ro = schema.code(k.number).is_some_and(|c| {
-            c.access == Some(Access::Ro) || c.kind == Some(StorageKind::RamActual)
-        });
-        if ro {
-            actual.push(format!(
-                "{} = {}",
-                schema.display_code(k.number, k.subcode),
-                driveset_engine::plan::value_text(&schema, *k, v)
-            ));
-        }
-        !ro
-    });
+    let actual = pulled::take_actual_values(&mut pulled.set, &schema);
     pulled.fingerprint = pulled.set.fingerprint();
     crate::history::drive(&DriveRecord::of_read(
         Slot {
@@ -312,99 +295,29 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         Some(p) => relative_path(p, &set_dir).display().to_string(),
         None => schema.id.clone(),
     };
-    let title = format!("pulled from {port_name} address {}", address);
-    let body = export(&pulled.set, &schema, Some(&title), format);
-    // export starts with the schema line; replace it by the reference.
-    let body = body.split_once('\n').map_or("", |(_, rest)| rest);
-    let ident: Vec<String> = pulled
-        .identity
-        .codes
+    let identity = pulled.identity.pairs();
+    let not_read: Vec<(&str, &str)> = pulled
+        .skipped
         .iter()
-        .map(|c| format!("{} = {}", c.name, c.value))
+        .map(|s| (s.code.as_str(), s.reason.as_str()))
         .collect();
-    let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "# Pulled by driveset from {port_name} address {}.",
-        address
-    );
-    let _ = writeln!(
-        text,
-        "# Drive: {}{}{}",
-        pulled.identity.protocol,
-        if ident.is_empty() { "" } else { ", " },
-        ident.join(", ")
-    );
-    if let Some(sw) = &pulled.identity.software {
-        let _ = writeln!(text, "# Software: {sw}");
-    }
-    let _ = writeln!(
-        text,
-        "# Fingerprint: {} ({} values{})",
-        pulled.fingerprint,
-        pulled.set.values.len(),
-        if args.changed_only {
-            format!(
-                "; {} equal to the factory default left out, all values read: {}",
-                pulled.dropped_defaults, pulled.full_fingerprint
-            )
-        } else {
-            String::new()
-        }
-    );
-    if !actual.is_empty() {
-        let _ = writeln!(
-            text,
-            "# Read-only actual values (not part of the set): {}",
-            actual.join(", ")
-        );
-    }
-    if !pulled.skipped.is_empty() {
-        let _ = writeln!(text, "# Not read: {} codes", pulled.skipped.len());
-        for s in &pulled.skipped {
-            let _ = writeln!(text, "#   {}: {}", s.code, s.reason);
-        }
-    }
-    match format {
-        Format::Yaml | Format::Json => {
-            let _ = writeln!(text, "schema: {}", toml_str(&schema_ref));
-            let (head, values) = body.split_once("values:").unwrap_or((body, " {}\n"));
-            text.push_str(head);
-            let _ = writeln!(text, "drive:");
-            let _ = writeln!(text, "  port: {}", toml_str(&port_name));
-            let _ = writeln!(text, "  address: {}", address);
-            let _ = writeln!(
-                text,
-                "  protocol: {}",
-                toml_str(pulled.identity.protocol.name())
-            );
-            for (c, v) in &pulled.identity.pairs() {
-                let _ = writeln!(text, "  {}: {}", toml_str(c), toml_str(v));
-            }
-            let _ = writeln!(text, "  fingerprint: {}", toml_str(&pulled.fingerprint));
-            text.push_str("values:");
-            text.push_str(values);
-        }
-        Format::Toml => {
-            let _ = writeln!(text, "schema = {}", toml_str(&schema_ref));
-            let (head, values) = body.split_once("[values]\n").unwrap_or((body, ""));
-            text.push_str(head);
-            let _ = writeln!(text, "[drive]");
-            let _ = writeln!(text, "port = {}", toml_str(&port_name));
-            let _ = writeln!(text, "address = {}", address);
-            let _ = writeln!(
-                text,
-                "protocol = {}",
-                toml_str(pulled.identity.protocol.name())
-            );
-            for (c, v) in &pulled.identity.pairs() {
-                let _ = writeln!(text, "{} = {}", toml_str(c), toml_str(v));
-            }
-            let _ = writeln!(text, "fingerprint = {}", toml_str(&pulled.fingerprint));
-            text.push_str("\n[values]\n");
-            text.push_str(values);
-        }
-    }
+    let file = pulled::Pulled {
+        from: pulled::PulledFrom {
+            port: &port_name,
+            address,
+            protocol: pulled.identity.protocol.name(),
+            identity: &identity,
+            software: pulled.identity.software.as_deref(),
+        },
+        schema_ref: &schema_ref,
+        fingerprint: &pulled.fingerprint,
+        changed_only: args
+            .changed_only
+            .then_some((pulled.dropped_defaults, pulled.full_fingerprint.as_str())),
+        actual: &actual,
+        not_read: &not_read,
+    };
+    let text = pulled::pulled_file(&pulled.set, &schema, &file, format);
     crate::files::write_output("-o", &args.output, text.as_bytes())?;
 
     match args.format {

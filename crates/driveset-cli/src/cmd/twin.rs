@@ -13,34 +13,23 @@
 //! capture is on record (docs/history.md): each drive's values read and
 //! their fingerprint; a rehearsal is not (it reads no drive).
 
-use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::capture::{Capture, capture, describe};
-use driveset_engine::client::{DriveClient, IdentProtocol, Identity};
+use driveset_engine::capture::{capture, describe};
+use driveset_engine::client::{DriveClient, Identity};
 use driveset_engine::env::Environment;
-use driveset_engine::error::DeviceCause;
-use driveset_engine::history::{self, DriveRecord, Slot, Unit};
+use driveset_engine::history::Slot;
 use driveset_engine::learn::{LearnOptions, PullSchemaError};
-use driveset_engine::line::manifest::{Bus, Manifest};
-use driveset_engine::line::report::{DriveResult, LineReport};
 use driveset_engine::session::Session;
-use driveset_link::{Link, VirtualClock};
-use driveset_schema::{CodeKey, Family, RawValue, ResolvedSet, Schema};
-use driveset_sim::drive::ReadRefusal;
-use driveset_sim::log::EventLog;
-use driveset_sim::open::{SimConfig, open_sim_with};
-use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace, load_file};
+use driveset_link::Link;
+use driveset_schema::{Family, Schema};
+use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace};
+use driveset_twin::capture::Stamp;
 
 use crate::fail::Fail;
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_OK, port};
-
-/// The `command` of a rehearsal's report (report.json; the HTML title
-/// then says rehearsal).
-pub const REHEARSE_COMMAND: &str = "rehearse";
 
 /// `driveset twin ...`.
 #[derive(clap::Subcommand)]
@@ -184,18 +173,15 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
     let (twin, schema, identity) = capture_drive(a.at.port()?, address, |opened| {
         Ok(a.at.resolve(opened, address)?.choice.schema)
     })?;
-    let read = read_set(&schema, &twin);
-    crate::history::drive(&DriveRecord::of_read(
+    crate::history::drive(&driveset_twin::history::drive_record(
         Slot {
             bus: a.at.port()?.to_string(),
             address,
             ..Slot::default()
         },
-        Unit::of(&schema, &identity),
-        &schema.id,
-        read.fingerprint(),
-        "read",
-        history::values_read(&schema, &read),
+        &twin,
+        &schema,
+        &identity,
     ));
     let line = write_twin(&a.output, &twin, &schema)?;
     outln!("{line}");
@@ -237,27 +223,17 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         let captured = capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()));
         let written = match captured {
             Ok((t, s, identity)) => {
-                crate::history::drive(&line_record(slot, d, &t, &s, &identity));
+                crate::history::drive(&driveset_twin::history::line_record(
+                    slot, d, &t, &s, &identity,
+                ));
                 write_twin(&out, &t, &s)
             }
             Err(f) => {
-                crate::history::drive(&DriveRecord {
-                    result: "failed".into(),
-                    error: Some(f.msg.clone()),
-                    fingerprint_before: None,
-                    fingerprint_after: None,
-                    ..DriveRecord::of_read(
-                        slot,
-                        Unit {
-                            family: IdentProtocol::Family(d.schema.family).name().to_string(),
-                            ..Unit::default()
-                        },
-                        &d.schema.id,
-                        String::new(),
-                        "failed",
-                        Vec::new(),
-                    )
-                });
+                crate::history::drive(&driveset_twin::history::failed_record(
+                    slot,
+                    d,
+                    f.msg.clone(),
+                ));
                 Err(f)
             }
         };
@@ -282,60 +258,6 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         );
     }
     Ok(worst)
-}
-
-/// Every value a capture read, as a set of `schema` (its fingerprint is
-/// what the history records of a `twin capture`).
-fn read_set(schema: &Schema, twin: &Twin) -> ResolvedSet {
-    let mut set = ResolvedSet::new(schema);
-    set.values = twin.values.clone();
-    set
-}
-
-/// The history record of a line drive's capture: each code of its set,
-/// what the drive holds (`read`) or that it differs (`drift`), as `status`
-/// records it; a drive whose set waits for the learned schema (empty
-/// here): every value read.
-fn line_record(
-    slot: Slot,
-    d: &driveset_engine::line::manifest::Drive,
-    twin: &Twin,
-    schema: &Schema,
-    identity: &Identity,
-) -> DriveRecord {
-    let unit = Unit::of(schema, identity);
-    if d.set.values.is_empty() {
-        let read = read_set(schema, twin);
-        return DriveRecord::of_read(
-            slot,
-            unit,
-            &schema.id,
-            read.fingerprint(),
-            "read",
-            history::values_read(schema, &read),
-        );
-    }
-    let mut live = d.set.clone();
-    live.values = d
-        .set
-        .values
-        .keys()
-        .filter_map(|k| Some((*k, twin.values.get(k)?.clone())))
-        .collect();
-    let mut record = DriveRecord::of_read(
-        slot,
-        unit,
-        &schema.id,
-        live.fingerprint(),
-        if live.values == d.set.values {
-            "unchanged"
-        } else {
-            "drift"
-        },
-        history::read_codes(schema, &live, &d.set),
-    );
-    record.set_fingerprint = Some(d.set.fingerprint());
-    record
 }
 
 /// Capture the drive at `address` of `port_text` into a twin, with the
@@ -401,80 +323,20 @@ pub fn capture_drive(
         });
     }
     let cap = capture(client.as_mut())?;
-    let mut twin = twin_of(&cap, &schema, address);
-    twin.source = format!("drive {port_name} address {address}");
-    twin.rate = cap.rate.or(Some(rate));
-    if let Some(d) = described {
-        twin.layout = d.layout;
-        twin.types = d.types;
-        twin.descriptions = Some(d.descriptions);
-        twin.texts = d.texts;
-    }
+    let stamp = stamp(format!("drive {port_name} address {address}"));
+    let twin = driveset_twin::capture::of_drive(&cap, &schema, address, stamp, rate, described);
     Ok((twin, schema, cap.identity))
 }
 
-/// The twin of a capture (without source, rate and description layout).
-fn twin_of(cap: &Capture, schema: &Schema, address: u8) -> Twin {
-    let mut twin = Twin::new(schema.family, address, &schema.id);
-    twin.driveset = env!("CARGO_PKG_VERSION").to_string();
-    twin.captured = today();
-    twin.identity = cap.identity.pairs();
-    twin.running = cap.running;
-    twin.reaction = cap.reaction;
-    twin.values = cap.values.clone();
-    twin.refused = cap.refused.clone();
-    twin.refusals = cap
-        .answers
-        .iter()
-        .filter_map(|(k, cause)| Some((*k, read_refusal(cause)?)))
-        .collect();
-    twin.secrets = cap.secrets.clone();
-    twin.unread = cap.clears.clone();
-    twin.unknown = cap.unread.clone();
-    if let Some(source) = schema.family.descriptor().bus_write {
-        twin.c0001 = c0001_of(&cap.values, schema, source.code);
-    }
-    // the dataset handshake's code (MC6000/7000 80-SLOAD, §11.4)
-    if let Some(code) = schema.family.descriptor().dataset_code() {
-        twin.sload = match cap.values.get(&CodeKey::new(code)) {
-            Some(RawValue::Int(v)) => Some(*v),
-            _ => None,
-        }
-    }
-    twin
-}
-
-/// How a drive refused a read on the wire, from the cause the client made
-/// of it: LUSTBUS NAK (with the SIOF/SERR bits read after it, section 9.2),
-/// LECOM EOT (8.H), CAN SDO abort (DS301 table 22).
-fn read_refusal(cause: &DeviceCause) -> Option<ReadRefusal> {
-    match cause {
-        DeviceCause::Siof { bits, .. } => Some(ReadRefusal::NakSiof(bits.bits())),
-        DeviceCause::NoSuchParameter { .. } | DeviceCause::SiofUnreadable => Some(ReadRefusal::Nak),
-        DeviceCause::NoSuchCode { .. } => Some(ReadRefusal::NoSuchCode),
-        DeviceCause::SdoAbort { code, .. } => Some(ReadRefusal::SdoAbort(code.0)),
-        _ => None,
-    }
-}
-
-/// The twin's `c0001`: the value in `values`, in engineering units (Tmd:
-/// raw x10000, LECOM VD), of `code`, the code that says where the drive
-/// takes its parameter writes from (the descriptor's
-/// [`driveset_schema::family::Descriptor::bus_write`]: Tmd C0001,
-/// `lecom-ab-tmd-manual.txt` §4e, §4f).
-fn c0001_of(values: &BTreeMap<CodeKey, RawValue>, schema: &Schema, code: u32) -> Option<u8> {
-    let Some(RawValue::Int(raw)) = values.get(&CodeKey::new(code)) else {
-        return None;
-    };
-    let ty = schema.code(code).and_then(|c| schema.type_of(c))?;
-    driveset_schema::value::raw_to_engineering(ty, *raw)
-        .parse()
-        .ok()
-}
-
-fn today() -> String {
+/// What a twin written now says of its making: this driveset, today's
+/// date (UTC), `source`.
+fn stamp(source: String) -> Stamp {
     let now = crate::env::SystemEnv.now_utc().to_string();
-    now.get(..10).unwrap_or(&now).to_string()
+    Stamp {
+        driveset: env!("CARGO_PKG_VERSION").to_string(),
+        captured: now.get(..10).unwrap_or(&now).to_string(),
+        source,
+    }
 }
 
 /// Write `twin` to `path` ([`keep_or_replace`]: an unchanged drive keeps
@@ -510,18 +372,11 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 }
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
-    use super::decode::DecodeProtocol;
     // the session's families are its bus's; a bus of one family has that
     // family's built-in schema as the default
     let bus = a.protocol.capture().bus();
     let families: Vec<Family> = bus.families().collect();
     let default_schema = bus.only_family().map(|f| f.descriptor().schema_id);
-    let answer = match a.protocol {
-        DecodeProtocol::Lecom => ReadRefusal::NoSuchCode,
-        DecodeProtocol::Lustbus => ReadRefusal::Nak,
-        // the abort code is each refusal's own (below); this one is never used
-        DecodeProtocol::Slcan => ReadRefusal::SdoAbort(0x0602_0000),
-    };
     let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
         return Err(Fail::input(
             "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
@@ -551,11 +406,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
         family: None,
     };
     let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
-    let sessions = match a.protocol {
-        DecodeProtocol::Lustbus => driveset_engine::capture::lustbus_session(&events, &schema),
-        DecodeProtocol::Slcan => driveset_engine::capture::can_session(&events, &schema),
-        DecodeProtocol::Lecom => driveset_engine::capture::lecom_session(&events, &schema),
-    };
+    let sessions = driveset_twin::capture::sessions(a.protocol.capture(), &events, &schema);
     if sessions.is_empty() {
         return Err(Fail::input(format!(
             "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {} capture?",
@@ -566,273 +417,17 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     for (address, session) in sessions {
-        let mut twin = Twin::new(schema.family, address, &schema.id);
-        twin.driveset = env!("CARGO_PKG_VERSION").to_string();
-        twin.captured = today();
-        twin.source = format!("capture {}", a.file.display());
-        for code in &schema.codes {
-            for key in driveset_engine::capture::code_keys(code) {
-                if schema.is_password(code) {
-                    twin.secrets.push(key);
-                } else if code.read_clears == Some(true) {
-                    // the served model latches it itself
-                    twin.unread.push(key);
-                } else if !session.values.contains_key(&key) && !session.refused.contains_key(&key)
-                {
-                    twin.unknown.push(key);
-                }
-            }
-        }
-        // a password a vendor tool wrote is not kept either
-        twin.values = session
-            .values
-            .into_iter()
-            .filter(|(k, _)| !twin.secrets.contains(k))
-            .collect();
-        twin.refusals = session
-            .refused
-            .keys()
-            .map(|k| {
-                let answer = match session.aborts.get(k) {
-                    Some(&code) => ReadRefusal::SdoAbort(code),
-                    None => answer,
-                };
-                (*k, answer)
-            })
-            .collect();
-        twin.refused = session.refused;
-        if let Some(source) = schema.family.descriptor().bus_write {
-            twin.c0001 = c0001_of(&twin.values, &schema, source.code);
-        }
+        let stamp = stamp(format!("capture {}", a.file.display()));
+        let twin = driveset_twin::capture::of_session(
+            a.protocol.capture(),
+            session,
+            &schema,
+            address,
+            stamp,
+        );
         let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
     }
     Ok(EXIT_OK)
-}
-
-/// The twins of a rehearsal: per drive of `manifest`, its twin in `dir`
-/// (`None`: not rehearsed). A rehearsal that would rehearse nothing is an
-/// input error (exit 2): `dir` missing or not a directory, holding no twin,
-/// or no twin of any drive of `selected`.
-pub fn rehearsal_twins(
-    manifest: &Manifest,
-    dir: &Path,
-    selected: &std::collections::BTreeSet<String>,
-) -> Result<BTreeMap<String, Option<Twin>>, Fail> {
-    let capture = format!(
-        "capture the line's twins into it with `driveset twin capture-line {} -o {}`",
-        manifest.path.display(),
-        dir.display()
-    );
-    if !dir.is_dir() {
-        let what = if dir.exists() {
-            "is not a directory"
-        } else {
-            "no such directory"
-        };
-        return Err(Fail::input(format!(
-            "--rehearse {}: {what}; {capture}",
-            dir.display()
-        )));
-    }
-    let any_twin = std::fs::read_dir(dir)
-        .map_err(|e| Fail::input(format!("--rehearse {}: cannot read: {e}", dir.display())))?
-        .filter_map(Result::ok)
-        .any(|e| e.file_name().to_string_lossy().ends_with(TWIN_SUFFIX));
-    if !any_twin {
-        return Err(Fail::input(format!(
-            "--rehearse {}: the directory holds no twin (*{TWIN_SUFFIX}); {capture}",
-            dir.display()
-        )));
-    }
-    let mut out = BTreeMap::new();
-    for d in &manifest.drives {
-        let file = dir.join(format!("{}{TWIN_SUFFIX}", d.name));
-        // a file that is there but is no regular file is an error naming
-        // it (the reader says what it is), not a drive without a twin
-        let twin = if std::fs::symlink_metadata(&file).is_ok() {
-            let t = load_file(&file).map_err(|e| Fail::input(e.to_string()))?;
-            if t.address != d.address {
-                return Err(Fail::input(format!(
-                    "{}: the twin is of address {}, the manifest puts {} at address {}; capture it again (driveset twin capture-line)",
-                    file.display(),
-                    t.address,
-                    d.name,
-                    d.address
-                )));
-            }
-            Some(t)
-        } else {
-            None
-        };
-        out.insert(d.name.clone(), twin);
-    }
-    if !selected
-        .iter()
-        .any(|n| out.get(n).is_some_and(Option::is_some))
-    {
-        let names: Vec<String> = selected
-            .iter()
-            .map(|n| format!("{n}{TWIN_SUFFIX}"))
-            .collect();
-        return Err(Fail::input(format!(
-            "--rehearse {}: no twin of any selected drive (looked for {}); {capture}",
-            dir.display(),
-            names.join(", ")
-        )));
-    }
-    Ok(out)
-}
-
-/// The opener of a rehearsal: each bus a simulated bus of its drives'
-/// twins, in virtual time.
-pub fn rehearsal_opener(
-    manifest: &Manifest,
-    twins: &BTreeMap<String, Option<Twin>>,
-) -> impl Fn(&Bus) -> Result<Link, String> + Sync + use<> {
-    let mut per_bus: BTreeMap<String, Vec<Twin>> = BTreeMap::new();
-    for d in &manifest.drives {
-        if let Some(Some(t)) = twins.get(&d.name) {
-            per_bus
-                .entry(manifest.buses[d.bus_index].name.clone())
-                .or_default()
-                .push(t.clone());
-        }
-    }
-    move |bus: &Bus| {
-        let twins = per_bus
-            .get(&bus.name)
-            .cloned()
-            .ok_or_else(|| format!("no twin for any drive of bus {}", bus.name))?;
-        let config = SimConfig::of_twins(twins).map_err(|e| e.to_string())?;
-        open_sim_with(
-            &config,
-            &VirtualClock::new(),
-            &bus.port_name,
-            EventLog::off(),
-        )
-        .map(|l| l.link())
-        .map_err(|e| e.to_string())
-    }
-}
-
-/// The label of a rehearsal report: it is a rehearsal, of which twins, and
-/// which selected drives were not rehearsed (`missing`: no twin).
-pub fn rehearsal_label(
-    dir: &Path,
-    twins: &BTreeMap<String, Option<Twin>>,
-    missing: &[String],
-) -> String {
-    let mut dates: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
-    for (name, t) in twins {
-        if let Some(t) = t {
-            dates.entry(t.captured.as_str()).or_default().push(name);
-        }
-    }
-    let mut s = format!("REHEARSAL against the twins in {}", dir.display());
-    let list: Vec<String> = dates
-        .iter()
-        .map(|(date, names)| format!("captured {date}: {}", names.join(", ")))
-        .collect();
-    if !list.is_empty() {
-        let _ = write!(s, " ({})", list.join("; "));
-    }
-    if !missing.is_empty() {
-        let _ = write!(s, "; not rehearsed (no twin): {}", missing.join(", "));
-    }
-    s
-}
-
-/// JUnit XML of a line report (one testcase per drive; a drive that does
-/// not hold its set is a failure, a drive not rehearsed is skipped), for
-/// CI test reports of a rehearsal (docs/ci.md).
-pub fn line_junit(r: &LineReport, not_rehearsed: &[String]) -> String {
-    use crate::report::junit::xml_esc;
-    let failed = |res: DriveResult| {
-        !matches!(
-            res,
-            DriveResult::Verified
-                | DriveResult::Unchanged
-                | DriveResult::AlreadyVerified
-                | DriveResult::NotSelected
-        )
-    };
-    let failures = r.drives.iter().filter(|d| failed(d.result)).count();
-    let skipped = r
-        .drives
-        .iter()
-        .filter(|d| d.result == DriveResult::NotSelected)
-        .count();
-    let mut o = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        o,
-        "<testsuites name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">",
-        xml_esc(&format!("driveset rehearsal {}", r.line)),
-        r.drives.len()
-    );
-    let _ = writeln!(
-        o,
-        "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"{skipped}\">",
-        xml_esc(r.label.as_deref().unwrap_or(&r.line)),
-        r.drives.len()
-    );
-    for d in &r.drives {
-        let _ = write!(
-            o,
-            "    <testcase classname=\"{}\" name=\"{}\" file=\"{}\"",
-            xml_esc(&d.bus),
-            xml_esc(&d.name),
-            xml_esc(&d.set)
-        );
-        let result = serde_json::to_value(d.result)
-            .ok()
-            .and_then(|v| v.as_str().map(String::from))
-            .unwrap_or_default();
-        if d.result == DriveResult::NotSelected {
-            let why = if not_rehearsed.contains(&d.name) {
-                "not rehearsed: no twin"
-            } else {
-                "not selected"
-            };
-            let _ = writeln!(o, ">\n      <skipped message=\"{why}\"/>\n    </testcase>");
-        } else if failed(d.result) {
-            let msg = d.error.clone().unwrap_or_else(|| result.clone());
-            let _ = writeln!(
-                o,
-                ">\n      <failure message=\"{}\" type=\"{}\">{}</failure>\n    </testcase>",
-                xml_esc(&msg),
-                xml_esc(&result),
-                xml_esc(&msg)
-            );
-        } else {
-            let _ = writeln!(o, "/>");
-        }
-    }
-    o.push_str("  </testsuite>\n</testsuites>\n");
-    o
-}
-
-#[cfg(test)]
-mod tests {
-    use std::collections::BTreeMap;
-
-    use driveset_schema::{CodeKey, RawValue, Registry};
-
-    use super::c0001_of;
-
-    /// The twin's `c0001` is the value of the descriptor's bus-write source
-    /// (Tmd C0001) in engineering units; a family without one has none.
-    #[test]
-    fn c0001_is_the_descriptors_bus_write_source() {
-        let reg = Registry::builtin().expect("built-in schemas");
-        let tmd = reg.get("lenze-tmd").expect("tmd");
-        let source = tmd.family.descriptor().bus_write.expect("tmd bus write");
-        assert_eq!(source.code, 1);
-        let values = BTreeMap::from([(CodeKey::new(1), RawValue::Int(30_000))]);
-        assert_eq!(c0001_of(&values, &tmd, source.code), Some(3));
-        assert_eq!(c0001_of(&BTreeMap::new(), &tmd, source.code), None);
-        let mc = reg.get("lust-mc6000").expect("mc6000");
-        assert_eq!(mc.family.descriptor().bus_write, None);
-    }
 }

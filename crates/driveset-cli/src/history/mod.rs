@@ -121,7 +121,7 @@ pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
         } else {
             p.parent().unwrap_or(Path::new(""))
         };
-        crate::report::git_info(dir)
+        crate::git::info(dir)
     });
     let start = SessionStart {
         id: run::new_id(&station, now),

@@ -13,6 +13,7 @@
 //! share the name, the first one under which the set loads without findings
 //! wins. A file that is not a set here (a schema file, a syntax error, an
 //! unknown schema) is printed unchanged, so its diff is the plain text diff.
+//! The tracked files come from the caller (it runs git).
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -37,26 +38,21 @@ fn original_name(path: &Path) -> String {
     }
 }
 
-/// Directories to anchor the file at, best first.
-fn anchors(path: &Path, name: &str) -> Vec<PathBuf> {
+/// Directories to anchor the file at, best first (`tracked`: the files of
+/// the work tree git runs the driver in, as paths from its top).
+fn anchors(path: &Path, name: &str, tracked: impl FnOnce() -> Vec<PathBuf>) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let own = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let own_is_temp = own.starts_with(std::env::temp_dir());
     if !own_is_temp {
         out.push(own.clone());
     }
-    if let Some(listed) = super::git_output(Path::new("."), &["ls-files", "-z", "--full-name"])
-        && let Some(top) = super::git_output(Path::new("."), &["rev-parse", "--show-toplevel"])
-    {
-        let top = PathBuf::from(top.trim_end_matches('\n'));
-        for f in listed.split('\0').filter(|f| !f.is_empty()) {
-            let p = top.join(f);
-            if p.file_name().is_some_and(|n| n.to_string_lossy() == name)
-                && let Some(dir) = p.parent()
-                && !out.iter().any(|d| d == dir)
-            {
-                out.push(dir.to_path_buf());
-            }
+    for p in tracked() {
+        if p.file_name().is_some_and(|n| n.to_string_lossy() == name)
+            && let Some(dir) = p.parent()
+            && !out.iter().any(|d| d == dir)
+        {
+            out.push(dir.to_path_buf());
         }
     }
     if own_is_temp {
@@ -135,7 +131,14 @@ fn extends_of(text: &str, path: &Path) -> Vec<String> {
 
 /// The semantic view of the set file at `path` (see the module docs); the
 /// file's text unchanged when it is not a set driveset can read here.
-pub fn render(path: &Path, registry: &Registry) -> std::io::Result<String> {
+/// `tracked` gives the tracked files of the repository git runs the
+/// driver in (`git ls-files` joined to `git rev-parse --show-toplevel`;
+/// none outside one), asked once the file is read.
+pub fn render(
+    path: &Path,
+    registry: &Registry,
+    tracked: impl FnOnce() -> Vec<PathBuf>,
+) -> std::io::Result<String> {
     let bytes = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::SET)
         .map_err(|e| std::io::Error::other(format!("{}; {}", e.message, e.help)))?;
     let Ok(text) = String::from_utf8(bytes.clone()) else {
@@ -143,7 +146,7 @@ pub fn render(path: &Path, registry: &Registry) -> std::io::Result<String> {
     };
     let name = original_name(path);
     let mut fallback: Option<LoadedSet> = None;
-    for dir in anchors(path, &name) {
+    for dir in anchors(path, &name, tracked) {
         let anchored = dir.join(&name);
         let mut reg = registry.clone();
         let Ok(l) = load_set_str(&anchored, &text, &mut reg) else {
@@ -194,7 +197,7 @@ mod tests {
         )
         .unwrap();
         let reg = Registry::builtin().unwrap();
-        let out = render(&p, &reg).unwrap();
+        let out = render(&p, &reg, Vec::new).unwrap();
         assert!(
             out.starts_with("schema lenze-tmd\ntitle \"Pump\"\n"),
             "{out}"
@@ -206,6 +209,6 @@ mod tests {
         assert!(c10 < c11, "{out}");
         // not a set: the text unchanged
         std::fs::write(&p, "x = [").unwrap();
-        assert_eq!(render(&p, &reg).unwrap(), "x = [");
+        assert_eq!(render(&p, &reg, Vec::new).unwrap(), "x = [");
     }
 }

@@ -4,13 +4,26 @@
 //! renders: one `testsuite` per file, one `testcase` per finding with a
 //! `failure` that carries `file:line:col`, one `error` testcase for a file
 //! that could not be read, and one passing `testcase` for a clean file (so
-//! every checked file shows up).
+//! every checked file shows up). Also a line report as JUnit XML for CI
+//! test reports of a rehearsal ([`line`], docs/ci.md).
 
 use std::fmt::Write;
 
 use driveset_schema::{Finding, InputError, Location};
 
-use crate::output::Report;
+use driveset_engine::line::report::{DriveResult, LineReport};
+
+/// The findings of one checked file, and the input error when it could
+/// not be read (what `validate` / `schema check` collect per file).
+#[derive(Debug, Clone, Copy)]
+pub struct FileFindings<'a> {
+    /// The file as the report names it.
+    pub file: &'a str,
+    /// Its findings, in file order.
+    pub findings: &'a [Finding],
+    /// The input error, when it could not be read.
+    pub error: Option<&'a InputError>,
+}
 
 /// Escape text for XML 1.0 content and attribute values. Characters XML
 /// 1.0 cannot carry at all (most C0 controls) become U+FFFD.
@@ -107,23 +120,23 @@ fn error_case(o: &mut String, file: &str, e: &InputError) {
     );
 }
 
-/// The whole report as a JUnit XML document (`<testsuites>` root named
-/// `suite`, e.g. `driveset validate`).
-pub fn render(report: &Report, suite: &str) -> String {
+/// The findings of `files` as a JUnit XML document (`<testsuites>` root
+/// named `suite`, e.g. `driveset validate`).
+pub fn render(files: &[FileFindings<'_>], suite: &str) -> String {
     let mut o = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let tests: usize = report
-        .files
+    let tests: usize = files
         .iter()
-        .map(|(_, r)| cases(r.findings.len(), r.error.is_some()))
+        .map(|r| cases(r.findings.len(), r.error.is_some()))
         .sum();
+    let findings: usize = files.iter().map(|r| r.findings.len()).sum();
+    let errors = files.iter().filter(|r| r.error.is_some()).count();
     let _ = writeln!(
         o,
-        "<testsuites name=\"{}\" tests=\"{tests}\" failures=\"{}\" errors=\"{}\">",
+        "<testsuites name=\"{}\" tests=\"{tests}\" failures=\"{findings}\" errors=\"{errors}\">",
         xml_esc(suite),
-        report.findings(),
-        report.errors()
     );
-    for (file, r) in &report.files {
+    for r in files {
+        let file = r.file;
         let n = cases(r.findings.len(), r.error.is_some());
         let _ = writeln!(
             o,
@@ -132,10 +145,10 @@ pub fn render(report: &Report, suite: &str) -> String {
             r.findings.len(),
             usize::from(r.error.is_some())
         );
-        if let Some(e) = &r.error {
+        if let Some(e) = r.error {
             error_case(&mut o, file, e);
         }
-        for f in &r.findings {
+        for f in r.findings {
             finding_case(&mut o, file, f);
         }
         if n == 1 && r.error.is_none() && r.findings.is_empty() {
@@ -155,6 +168,74 @@ pub fn render(report: &Report, suite: &str) -> String {
 /// Test cases of one file: one per finding and error, or one passing case.
 fn cases(findings: usize, error: bool) -> usize {
     (findings + usize::from(error)).max(1)
+}
+
+/// JUnit XML of a line report (one testcase per drive; a drive that does
+/// not hold its set is a failure, a drive not rehearsed is skipped), for
+/// CI test reports of a rehearsal (docs/ci.md).
+pub fn line(r: &LineReport, not_rehearsed: &[String]) -> String {
+    let failed = |res: DriveResult| {
+        !matches!(
+            res,
+            DriveResult::Verified
+                | DriveResult::Unchanged
+                | DriveResult::AlreadyVerified
+                | DriveResult::NotSelected
+        )
+    };
+    let failures = r.drives.iter().filter(|d| failed(d.result)).count();
+    let skipped = r
+        .drives
+        .iter()
+        .filter(|d| d.result == DriveResult::NotSelected)
+        .count();
+    let mut o = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        o,
+        "<testsuites name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">",
+        xml_esc(&format!("driveset rehearsal {}", r.line)),
+        r.drives.len()
+    );
+    let _ = writeln!(
+        o,
+        "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"{skipped}\">",
+        xml_esc(r.label.as_deref().unwrap_or(&r.line)),
+        r.drives.len()
+    );
+    for d in &r.drives {
+        let _ = write!(
+            o,
+            "    <testcase classname=\"{}\" name=\"{}\" file=\"{}\"",
+            xml_esc(&d.bus),
+            xml_esc(&d.name),
+            xml_esc(&d.set)
+        );
+        let result = serde_json::to_value(d.result)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default();
+        if d.result == DriveResult::NotSelected {
+            let why = if not_rehearsed.contains(&d.name) {
+                "not rehearsed: no twin"
+            } else {
+                "not selected"
+            };
+            let _ = writeln!(o, ">\n      <skipped message=\"{why}\"/>\n    </testcase>");
+        } else if failed(d.result) {
+            let msg = d.error.clone().unwrap_or_else(|| result.clone());
+            let _ = writeln!(
+                o,
+                ">\n      <failure message=\"{}\" type=\"{}\">{}</failure>\n    </testcase>",
+                xml_esc(&msg),
+                xml_esc(&result),
+                xml_esc(&msg)
+            );
+        } else {
+            let _ = writeln!(o, "/>");
+        }
+    }
+    o.push_str("  </testsuite>\n</testsuites>\n");
+    o
 }
 
 #[cfg(test)]

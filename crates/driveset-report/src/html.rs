@@ -12,6 +12,8 @@ use driveset_engine::line::report::{
     BusReport, DiffLine, DriveReport, DriveResult, LineReport, LineResult, TimelineEntry,
 };
 
+use crate::Run;
+
 /// Escape text for HTML element content and quoted attribute values.
 pub fn esc(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
@@ -186,14 +188,13 @@ fn class_token(s: &str) -> String {
         .collect()
 }
 
-/// Render the whole page.
-pub fn render(r: &LineReport) -> String {
+/// Render the whole page of a report of `run`.
+pub fn render(r: &LineReport, run: Run) -> String {
     let mut o = String::with_capacity(16 * 1024);
     let (class, _, text) = line_result(r.result);
-    let kind = if r.command == crate::cmd::twin::REHEARSE_COMMAND {
-        "rehearsal report (against twins)"
-    } else {
-        "commissioning report"
+    let kind = match run {
+        Run::Rehearsal => "rehearsal report (against twins)",
+        Run::Commissioning => "commissioning report",
     };
     let title = format!("{text}: {kind} of {}", r.line);
     let _ = write!(
