@@ -23,6 +23,7 @@ macro_rules! out {
     };
 }
 
+mod allow;
 mod args;
 mod cmd;
 mod editor;
@@ -34,6 +35,7 @@ mod output;
 mod port;
 mod port_args;
 mod progress;
+mod prompt;
 mod report;
 
 use std::process::ExitCode;

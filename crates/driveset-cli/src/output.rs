@@ -24,6 +24,15 @@ pub enum Format {
     Junit,
 }
 
+/// Output format of the bus commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BusFormat {
+    /// Text for humans.
+    Human,
+    /// One JSON document on stdout.
+    Json,
+}
+
 /// Colour on or off.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Style {

@@ -2,21 +2,20 @@
 //! [--baud B] [--dry-run]`: give one drive, alone on its line, its bus
 //! address (and line rate) in stand-alone operation (driveset-engine's
 //! `assign`; `lustbus-protocol.txt` §4.1, §4.2, §5.1, §5.2, §11.5,
-//! `lecom-ab-tmd-manual.txt` §4c-§4e). Also recovers the journal of an
-//! address change cut short (`driveset recover` hands it here).
+//! `lecom-ab-tmd-manual.txt` §4c-§4e). The journal of an address change cut
+//! short is `driveset recover`'s (cmd/recover.rs).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest, Schemas};
+use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest};
 use driveset_engine::overrides::Override;
 use driveset_schema::BusProtocol;
 use serde_json::json;
 
-use super::identify::BusFormat;
-use super::upload::DEFAULT_JOURNAL_DIR;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 
@@ -116,18 +115,6 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     address(&args)
 }
 
-/// The schemas of each family: the built-in ones, on every port; then
-/// `--schema`.
-fn schemas_for(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
-    let registry = port::registry(dirs)?;
-    let mut s = Schemas::from_registry(&registry);
-    for g in given {
-        let c = port::resolve_schema(Some(g), dirs, None)?;
-        s = s.with(c.schema);
-    }
-    Ok(s)
-}
-
 fn address(args: &Args) -> Result<u8, Fail> {
     let protocol = args
         .at
@@ -150,7 +137,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
-    let schemas = schemas_for(&args.at.schemas, &args.at.schema)?;
+    let schemas = port::family_schemas(&args.at.schemas, &args.at.schema)?;
     let mut req = AssignRequest::new(protocol, args.to);
     req.from = args.from;
     req.baud = args.baud;
@@ -175,7 +162,8 @@ fn address(args: &Args) -> Result<u8, Fail> {
     let journal = match (&args.journal, &args.journal_dir) {
         (Some(j), _) => j.clone(),
         (None, dir) => driveset_engine::journal::journal_path(
-            dir.as_deref().unwrap_or(Path::new(DEFAULT_JOURNAL_DIR)),
+            dir.as_deref()
+                .unwrap_or(Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
             &plan.bus,
             plan.to,
         ),
@@ -319,45 +307,4 @@ fn emit_report(name: &str, r: &AssignReport, json: bool) {
     );
     let _ = writeln!(out, "journal: {}", r.journal);
     output::emit(&out);
-}
-
-/// `driveset recover JOURNAL` of an address change: the journal's port
-/// (or `port`), the drive found at its old or new address and rate with
-/// `schema` (the one the change was made with, which the journal records,
-/// or `--schema`) for its family, the change finished and verified.
-pub fn recover_journal(
-    journal: &Path,
-    port_text: &str,
-    dirs: &[PathBuf],
-    schema: Option<std::sync::Arc<driveset_schema::Schema>>,
-    json: bool,
-) -> Result<u8, Fail> {
-    let mut schemas = schemas_for(dirs, &[])?;
-    if let Some(s) = schema {
-        schemas = schemas.with(s);
-    }
-    let opened = port::open_port(port_text)?;
-    let name = opened.name.clone();
-    let mut link = opened.link;
-    let r = assign::recover(&mut link, journal, &schemas)?;
-    if json {
-        output::emit(&format!(
-            "{}\n",
-            serde_json::to_string_pretty(&r).unwrap_or_default()
-        ));
-    } else {
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "{name}: address change journal {}: found the drive at address {} at {} baud",
-            r.journal, r.found_at.0, r.found_at.1
-        );
-        for w in &r.written {
-            let _ = writeln!(out, "wrote {w}");
-        }
-        let _ = writeln!(out, "completed: {}", r.state);
-        let _ = writeln!(out, "journal: {}", r.journal);
-        output::emit(&out);
-    }
-    Ok(EXIT_OK)
 }

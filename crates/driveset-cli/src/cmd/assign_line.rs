@@ -10,8 +10,8 @@ use driveset_engine::line::assign::{AssignLineOptions, LineAssign, Stopped, assi
 use driveset_engine::line::manifest::{Bus, Drive, Manifest};
 use driveset_link::PortSpec;
 
-use super::replace::{ask, confirm_allowed};
 use crate::fail::Fail;
+use crate::prompt::{ask, confirm_allowed};
 
 /// What `--assign` was given.
 pub struct AssignArgs {

@@ -93,7 +93,7 @@ pub struct Args {
     pub report_dir: Option<PathBuf>,
     /// Named overrides passed to every upload, one per refusal.
     #[command(flatten)]
-    pub allow: super::allow::AllowArgs,
+    pub allow: crate::allow::AllowArgs,
     /// Send values the drives share once. LECOM: by MULTICAST to each
     /// group (x1..x9; unacknowledged, no journal backup). LUSTBUS (MC6000/
     /// 7000 only): CardWriteable values as one SELECT to address 31, which
@@ -160,7 +160,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         let journal_dir = manifest
             .journal_dir
             .clone()
-            .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
+            .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
         let a = super::assign_line::AssignArgs {
             port: args.port.clone(),
             yes: args.yes,
@@ -316,7 +316,7 @@ pub fn run_mode(
     opts.journal_dir = manifest
         .journal_dir
         .clone()
-        .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR));
+        .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
     opts.only = c.only;
     opts.skip = c.skip;
     opts.label = c.label;

@@ -72,7 +72,7 @@ pub struct Args {
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
 }
 
 fn code_name(schema: &Schema, key: CodeKey) -> String {

@@ -33,7 +33,7 @@ pub struct LiveArgs<'a> {
     /// Output.
     pub format: LiveFormat,
     /// `--transfer-baud`.
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
 }
 
 /// Run `driveset diff SET --port P --address A`.
@@ -67,7 +67,7 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     let req = args
         .transfer
         .request(&driveset_engine::overrides::Overrides::none());
-    let journal_dir = Path::new(super::upload::DEFAULT_JOURNAL_DIR);
+    let journal_dir = Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR);
     let rate = ReadRate::of(req.as_ref(), journal_dir);
     let d = session::rate::live_diff(client.as_mut(), &set, rate).map(|(d, t)| {
         if let Some(t) = t

@@ -16,8 +16,8 @@ use driveset_engine::doctor::{
 };
 use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK};

@@ -11,19 +11,10 @@ use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
 
-use crate::output;
+use crate::output::{self, BusFormat};
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_FINDINGS, EXIT_OK};
-
-/// Output format of the bus commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum BusFormat {
-    /// Text for humans.
-    Human,
-    /// One JSON document on stdout.
-    Json,
-}
 
 /// Arguments of `driveset identify`.
 #[derive(clap::Args)]

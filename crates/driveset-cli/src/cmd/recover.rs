@@ -6,15 +6,16 @@
 //! (the adapter moved; any spelling of the journal's bus is accepted).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use driveset_engine::assign;
 use driveset_engine::journal::JournalFile;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover as engine_recover};
 use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
@@ -174,7 +175,7 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             Err(_) => None,
         };
         drop(jf);
-        return super::address::recover_journal(
+        return recover_address_change(
             &args.journal,
             &port_text,
             &args.at.schemas,
@@ -269,6 +270,47 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             let _ = writeln!(out, "line rate: {t}");
         }
         let _ = writeln!(out, "journal: {}", report.journal);
+        output::emit(&out);
+    }
+    Ok(EXIT_OK)
+}
+
+/// `driveset recover JOURNAL` of an address change: the journal's port
+/// (or `port`), the drive found at its old or new address and rate with
+/// `schema` (the one the change was made with, which the journal records,
+/// or `--schema`) for its family, the change finished and verified.
+fn recover_address_change(
+    journal: &Path,
+    port_text: &str,
+    dirs: &[PathBuf],
+    schema: Option<std::sync::Arc<driveset_schema::Schema>>,
+    json: bool,
+) -> Result<u8, Fail> {
+    let mut schemas = port::family_schemas(dirs, &[])?;
+    if let Some(s) = schema {
+        schemas = schemas.with(s);
+    }
+    let opened = port::open_port(port_text)?;
+    let name = opened.name.clone();
+    let mut link = opened.link;
+    let r = assign::recover(&mut link, journal, &schemas)?;
+    if json {
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&r).unwrap_or_default()
+        ));
+    } else {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{name}: address change journal {}: found the drive at address {} at {} baud",
+            r.journal, r.found_at.0, r.found_at.1
+        );
+        for w in &r.written {
+            let _ = writeln!(out, "wrote {w}");
+        }
+        let _ = writeln!(out, "completed: {}", r.state);
+        let _ = writeln!(out, "journal: {}", r.journal);
         output::emit(&out);
     }
     Ok(EXIT_OK)

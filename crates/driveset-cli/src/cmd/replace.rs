@@ -1,10 +1,8 @@
 //! `driveset replace LINE --drive NAME --port SERVICE_PORT`: a spare, alone
 //! on a service port, becomes drive NAME of the line (the engine's
 //! `line::replace`): its manifest address and its bus's rate, then its set
-//! as one verified transaction. Also holds the confirmation prompt that
-//! `commission --assign` shares ([`confirm_allowed`]).
+//! as one verified transaction.
 
-use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
 use driveset_engine::line::manifest::Manifest;
@@ -16,6 +14,7 @@ use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
 use crate::port_args::{Need, Port, PortCommand, Takes};
+use crate::prompt::{ask, confirm_allowed};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
 
 /// Arguments of `driveset replace`.
@@ -69,7 +68,7 @@ pub struct Args {
     pub report_dir: Option<PathBuf>,
     /// Named overrides passed to the set's upload.
     #[command(flatten)]
-    pub allow: super::allow::AllowArgs,
+    pub allow: crate::allow::AllowArgs,
     /// Test hook: read the answer from stdin even when it is not a terminal.
     #[arg(long, hide = true)]
     pub prompt_stdin: bool,
@@ -82,31 +81,6 @@ pub enum Format {
     Text,
     /// One JSON object.
     Json,
-}
-
-/// Whether a prompt may be shown: stdin is a terminal (or the test hook
-/// says to read it anyway). `Err` explains what to give instead.
-pub fn confirm_allowed(prompt_stdin: bool, what: &str) -> Result<(), Fail> {
-    if prompt_stdin || std::io::stdin().is_terminal() {
-        Ok(())
-    } else {
-        Err(Fail::input(format!(
-            "{what} asks before writing, and stdin is not a terminal; give --yes to run without asking (nothing was written)"
-        )))
-    }
-}
-
-/// Print `prompt` on stderr and read one line of stdin: `Ok(line)`
-/// trimmed; end of input is an empty answer.
-pub fn ask(prompt: &str) -> Result<String, Fail> {
-    eprint!("{prompt}");
-    let _ = std::io::stderr().flush();
-    let mut line = String::new();
-    std::io::stdin()
-        .lock()
-        .read_line(&mut line)
-        .map_err(|e| Fail::input(format!("cannot read stdin: {e}")))?;
-    Ok(line.trim().to_string())
 }
 
 /// Open a port string and lock its bus, as every command does (the
@@ -202,7 +176,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         journal_dir: manifest
             .journal_dir
             .clone()
-            .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR)),
+            .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
         scan: Default::default(),
         overrides,
         line_buses: line_bus_ids(&manifest),

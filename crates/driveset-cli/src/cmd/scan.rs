@@ -10,8 +10,8 @@ use driveset_engine::scan::{
 use driveset_link::{ByteLink, Link, LinkError};
 use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_BUS, EXIT_OK};

@@ -9,8 +9,8 @@ use std::path::PathBuf;
 use driveset_schema::eds::{ImportOptions, import};
 use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::BusFormat;
 
 /// Arguments of `driveset schema import`.
 #[derive(clap::Args)]

@@ -15,9 +15,9 @@ use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
 use driveset_engine::session::Session;
 use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 

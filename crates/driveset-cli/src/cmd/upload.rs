@@ -31,15 +31,12 @@ use driveset_engine::dry_run::{self, DryRunOptions, Subject};
 use driveset_engine::session;
 use driveset_engine::upload::{UploadOptions, default_journal_path};
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::BusFormat;
 use crate::port::Fail;
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 use crate::progress::Progress;
-
-/// The journal directory used when neither --journal nor --journal-dir is given.
-pub const DEFAULT_JOURNAL_DIR: &str = ".driveset/journal";
 
 /// Arguments of `driveset upload`.
 #[derive(clap::Args)]
@@ -109,10 +106,10 @@ pub struct Args {
     pub dry_run: bool,
     /// Named overrides, one per refusal.
     #[command(flatten)]
-    pub allow: super::allow::AllowArgs,
+    pub allow: crate::allow::AllowArgs,
     /// The transfer rate.
     #[command(flatten)]
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
     /// The journal file.
     #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
     pub journal: Option<PathBuf>,
@@ -185,7 +182,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         (None, dir) => {
             let dir = dir
                 .clone()
-                .unwrap_or_else(|| PathBuf::from(DEFAULT_JOURNAL_DIR));
+                .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
             default_journal_path(&dir, client.as_ref())
         }
     };
