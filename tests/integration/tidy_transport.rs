@@ -155,7 +155,7 @@ const PORT_COMMANDS: &[&str] = &[
     "recover",
     "replace",
     "scan",
-    "schema_pull",
+    "schema/pull",
     "twin",
     "upload",
 ];

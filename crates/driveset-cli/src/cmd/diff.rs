@@ -1,7 +1,9 @@
 //! `driveset diff A B`: semantic diff of two parameter sets of one drive
 //! family (engineering units and labels), or of one set against the schema's
 //! factory defaults (`--defaults`), or a unified text diff of the canonical
-//! forms (`--unified`).
+//! forms (`--unified`). A set against a live drive (`--port`) is `live`.
+
+pub mod live;
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -124,13 +126,13 @@ impl PortCommand for Args {
 /// Run `driveset diff`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     if let (Some(_), Some(address)) = (&args.at.port, args.at.address) {
-        return super::diff_live::run(super::diff_live::LiveArgs {
+        return live::run(live::LiveArgs {
             set: &args.a,
             at: &args.at,
             address,
             format: match args.format {
-                DiffFormat::Human => super::diff_live::LiveFormat::Human,
-                DiffFormat::Json => super::diff_live::LiveFormat::Json,
+                DiffFormat::Human => live::LiveFormat::Human,
+                DiffFormat::Json => live::LiveFormat::Json,
             },
             transfer: args.transfer,
         });
@@ -224,7 +226,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 
 /// Print a semantic diff, as human lines (`~`/`+`/`-` and a summary) or one
 /// JSON document, and return the exit code: 0 same, 1 different. The offline
-/// diff and `diff SET --port` (cmd/diff_live.rs) share it, so both print the
+/// diff and `diff SET --port` (cmd/diff/live.rs) share it, so both print the
 /// same thing.
 pub(crate) fn render(
     d: &driveset_schema::Diff,

@@ -43,7 +43,7 @@ pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<Strin
     let mut schemas = BTreeMap::new();
     for d in dirs {
         let mut files = Vec::new();
-        crate::cmd::validate::collect(&top.join(d), &mut files).map_err(|e| e.message)?;
+        driveset_schema::walk::collect(&top.join(d), &mut files).map_err(|e| e.message)?;
         for f in files {
             if driveset_engine::line::manifest::is_manifest(&f) {
                 continue;
@@ -67,7 +67,7 @@ pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<Strin
     let out = top.join(out_dir);
     std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     for (id, schema) in &schemas {
-        let p = out.join(crate::cmd::json_schema::file_name(id));
+        let p = out.join(super::json_schema::file_name(id));
         driveset_schema::output::write_output(&p, json_schema(schema).as_bytes())
             .map_err(|e| format!("{}; {}", e.message, e.help))?;
         said.push(format!("{}: JSON Schema of {id}", rel(top, &p)));
@@ -130,7 +130,7 @@ pub fn taplo_text(existing: &str, sets: &Sets, out_dir: &str) -> String {
             toml_str(&format!(
                 "{}/{}",
                 out_dir.trim_end_matches('/'),
-                crate::cmd::json_schema::file_name(id)
+                super::json_schema::file_name(id)
             ))
         ));
     }
@@ -178,7 +178,7 @@ pub fn vscode_text(existing: &str, sets: &Sets, out_dir: &str) -> Result<String,
         let key = format!(
             "{}/{}",
             out_dir.trim_end_matches('/'),
-            crate::cmd::json_schema::file_name(id)
+            super::json_schema::file_name(id)
         );
         schemas.insert(
             key,

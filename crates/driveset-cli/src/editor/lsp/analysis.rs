@@ -109,7 +109,8 @@ pub fn analyse(path: &Path, text: &Text, registry: &mut Registry) -> Analysis {
             (findings, None)
         }),
         FileKind::Schema => source_from_str(&display, text.as_str()).and_then(|s| {
-            crate::cmd::validate::check_schema_source(s, registry, &[]).map(|(_, f)| (own(f), None))
+            driveset_schema::check::check_schema_source(s, registry, &[])
+                .map(|(_, f)| (own(f), None))
         }),
         FileKind::Set => driveset_schema::load_set_str(path, text.as_str(), registry)
             .map(|l| (own(l.findings), l.schema)),

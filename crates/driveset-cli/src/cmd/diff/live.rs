@@ -27,7 +27,7 @@ pub struct LiveArgs<'a> {
     /// The set file.
     pub set: &'a Path,
     /// The port arguments (`--port`, `--schemas`, learning).
-    pub at: &'a super::diff::DiffPort,
+    pub at: &'a super::DiffPort,
     /// The address.
     pub address: u8,
     /// Output.
@@ -104,7 +104,7 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     crate::history::drive(&record);
     let old_name = format!("{port_name} address {}", args.address);
     let new_name = args.set.display().to_string();
-    Ok(super::diff::render(
+    Ok(super::render(
         &d,
         &schema,
         &old_name,

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use driveset_schema::{Registry, Schema};
 
-use crate::editor::json_schema::json_schema;
+use crate::editor::json_schema::{file_name, json_schema};
 use crate::fail::Fail;
 
 /// Arguments of `driveset schema json-schema`.
@@ -43,11 +43,6 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
-}
-
-/// The file name `--all` writes a schema's JSON Schema to.
-pub fn file_name(id: &str) -> String {
-    format!("{id}.schema.json")
 }
 
 /// A schema by id, else a schema file by path.
