@@ -851,3 +851,154 @@ fn tidy_the_transfer_check_sees_a_use_of_transfer() {
         "{found:#?}"
     );
 }
+
+/// The CLI's command modules: `crates/driveset-cli/src/cmd/`.
+const CMD_DIR: &str = "crates/driveset-cli/src/cmd";
+
+/// Files of the CLI that still name another command module (as
+/// `super::NAME` in a command's file, or `cmd::NAME` anywhere), with how
+/// many lines do, and why. Each is being moved into a crate of its own
+/// (issue 32); whoever moves one lowers or removes its entry (the test says
+/// so).
+const COMMANDS_NAMED_ELSEWHERE: &[(&str, usize, &str)] = &[
+    (
+        "crates/driveset-cli/src/cmd/encode.rs",
+        6,
+        "the telegram description language reads decode's schema lookups and spellings; both move into a library room",
+    ),
+    (
+        "crates/driveset-cli/src/cmd/twin.rs",
+        4,
+        "the twin bridge takes decode's protocol and schema lookup; it moves into a crate of its own",
+    ),
+    (
+        "crates/driveset-cli/src/line.rs",
+        5,
+        "a rehearsal's twins, buses and JUnit come from cmd/twin.rs until the twin bridge is a crate",
+    ),
+    (
+        "crates/driveset-cli/src/report/html.rs",
+        1,
+        "the rehearsal's command name comes from cmd/twin.rs until the twin bridge is a crate",
+    ),
+];
+
+/// The command modules (files and folders of [`CMD_DIR`] but `mod.rs`).
+fn command_modules(root: &Path) -> BTreeSet<String> {
+    std::fs::read_dir(root.join(CMD_DIR))
+        .expect("the CLI's cmd/")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "mod.rs" && !n.starts_with('.'))
+        .map(|n| n.strip_suffix(".rs").unwrap_or(&n).to_string())
+        .collect()
+}
+
+/// Whether `line` names the command module `name` as a path segment:
+/// `cmd::NAME` anywhere, `super::NAME` in a command's own file (`own`).
+fn names_command(line: &str, name: &str, own: Option<&str>) -> bool {
+    let mut heads = vec!["cmd::"];
+    if own.is_some() {
+        heads.push("super::");
+    }
+    heads.iter().any(|head| {
+        let pat = format!("{head}{name}");
+        line.match_indices(&pat).any(|(at, _)| {
+            let before = line[..at].chars().next_back();
+            let after = line[at + pat.len()..].chars().next();
+            !before.is_some_and(|c| c.is_alphanumeric() || c == '_')
+                && !after.is_some_and(|c| c.is_alphanumeric() || c == '_')
+        })
+    })
+}
+
+/// Commands never import each other (issue 32): what two commands share
+/// lives beside them (`allow.rs`, `prompt.rs`, `line.rs`, `output.rs`, the
+/// engine, the schema crate), and a subcommand is its command's own module
+/// (`cmd/schema/pull.rs`, `cmd/diff/live.rs`). Only `main.rs` and
+/// `cmd/mod.rs`, the dispatcher, name every command.
+#[test]
+fn tidy_commands_never_name_each_other() {
+    let root = workspace_root();
+    let commands = command_modules(&root);
+    let mut problems = Vec::new();
+    for file in files(&root.join("crates/driveset-cli/src"), &[".rs"]) {
+        let path = rel(&root, &file);
+        if path == "crates/driveset-cli/src/main.rs"
+            || path == format!("{CMD_DIR}/mod.rs")
+            || is_test_module_file(&file)
+        {
+            continue;
+        }
+        // the command a file under cmd/ belongs to
+        let own = path
+            .strip_prefix(&format!("{CMD_DIR}/"))
+            .map(|p| p.split('/').next().unwrap_or(p).trim_end_matches(".rs"));
+        let text = read(&file);
+        let lines: Vec<&str> = text.lines().collect();
+        let skip = skipped_blocks(&lines, None);
+        let mut n = 0;
+        let mut first = None;
+        for (i, line) in lines.iter().enumerate() {
+            if line.trim_start().starts_with("//")
+                || skip.iter().any(|&(a, b)| (a..=b).contains(&i))
+            {
+                continue;
+            }
+            let named: Vec<&String> = commands
+                .iter()
+                .filter(|c| Some(c.as_str()) != own && names_command(line, c, own))
+                .collect();
+            if !named.is_empty() {
+                n += 1;
+                first.get_or_insert((i + 1, named[0].clone()));
+            }
+        }
+        let allowed = COMMANDS_NAMED_ELSEWHERE
+            .iter()
+            .find(|(f, _, _)| *f == path)
+            .map_or(0, |(_, a, _)| *a);
+        if n > allowed {
+            let (at, name) = first.unwrap_or_default();
+            problems.push(format!(
+                "{path}:{at}: {n} line(s) name another command module (first `{name}`): move what the commands share beside them (a CLI module such as allow.rs, prompt.rs, line.rs or output.rs, the engine, the schema crate), or make a subcommand its command's own module"
+            ));
+        } else if n < allowed {
+            problems.push(format!(
+                "{path}:1: {n} line(s) name another command module, the allowlist says {allowed}: lower or remove its entry in COMMANDS_NAMED_ELSEWHERE (tests/integration/tidy.rs)"
+            ));
+        }
+    }
+    for (f, _, _) in COMMANDS_NAMED_ELSEWHERE {
+        if !root.join(f).is_file() {
+            problems.push(format!(
+                "{f}: listed in COMMANDS_NAMED_ELSEWHERE (tests/integration/tidy.rs) but no such file: remove its entry"
+            ));
+        }
+    }
+    report("commands naming commands (issue 32)", &problems);
+}
+
+/// The command-name check sees `super::NAME` in a command and `cmd::NAME`
+/// anywhere, as whole path segments only.
+#[test]
+fn tidy_the_command_check_sees_a_command_named() {
+    assert!(names_command(
+        "use super::upload::X;",
+        "upload",
+        Some("diff")
+    ));
+    assert!(names_command("crate::cmd::twin::REHEARSE", "twin", None));
+    assert!(!names_command(
+        "use super::uploads::X;",
+        "upload",
+        Some("diff")
+    ));
+    assert!(!names_command("super::live::run()", "diff", Some("diff")));
+    assert!(!names_command("use super::Text;", "text", None));
+    assert!(!names_command(
+        "driveset_engine::line::commission::Mode",
+        "commission",
+        None
+    ));
+}

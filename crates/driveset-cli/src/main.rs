@@ -31,6 +31,7 @@ mod env;
 mod fail;
 mod files;
 mod history;
+mod line;
 mod output;
 mod port;
 mod port_args;

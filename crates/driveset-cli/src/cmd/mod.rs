@@ -2,7 +2,6 @@
 //! returning the process exit code.
 
 pub mod address;
-pub mod assign_line;
 pub mod commission;
 pub mod completions;
 pub mod decode;

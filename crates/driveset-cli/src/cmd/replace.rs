@@ -157,7 +157,7 @@ impl PortCommand for Args {
 /// Run `driveset replace`.
 pub fn run(args: Args) -> Result<u8, Fail> {
     let overrides = args.allow.overrides()?;
-    let manifest = match super::commission::load(&args.manifest, true) {
+    let manifest = match crate::line::load(&args.manifest, true) {
         Ok(m) => m,
         Err(code) => return Err(Fail::reported(code)),
     };
@@ -170,7 +170,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         .report_dir
         .clone()
         .or_else(|| manifest.report_dir.clone())
-        .unwrap_or_else(|| PathBuf::from(super::commission::DEFAULT_REPORT_DIR))
+        .unwrap_or_else(|| PathBuf::from(crate::line::DEFAULT_REPORT_DIR))
         .join(format!("replace-{}", args.drive));
     let opts = ReplaceOptions {
         journal_dir: manifest

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use driveset_engine::line::commission::Mode;
 
-use super::commission::{Common, run_mode};
+use crate::line::{Common, run_mode};
 
 /// Arguments of `driveset status`.
 #[derive(clap::Args)]

@@ -169,7 +169,7 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
             Err(f) => Err(Stopped(f.msg)),
         }
     };
-    let a = assign_line(&m, &opts, &super::commission::open_bus, &mut connect);
+    let a = assign_line(&m, &opts, &super::open_bus, &mut connect);
     out!("{}", table(&a));
     Ok(a.ok)
 }
