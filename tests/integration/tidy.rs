@@ -30,11 +30,17 @@ const ARROWS: &[(&str, &[&str])] = &[
     ),
     // the plant history's store: implements the engine's seam, below the CLI
     ("driveset-history", &["driveset-engine"]),
+    // the editor's analysis (plain data); the language server is the CLI's
+    (
+        "driveset-ide",
+        &["driveset-engine", "driveset-link", "driveset-schema"],
+    ),
     (
         "driveset-cli",
         &[
             "driveset-engine",
             "driveset-history",
+            "driveset-ide",
             "driveset-sim",
             "driveset-link",
             "driveset-proto",

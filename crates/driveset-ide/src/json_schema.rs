@@ -16,7 +16,7 @@ use driveset_schema::value::Repr;
 use driveset_schema::{Decimal, Schema};
 use serde_json::{Map, Value, json};
 
-use super::facts;
+use crate::facts;
 
 /// The JSON Schema draft written (`$schema`).
 pub const DRAFT: &str = "http://json-schema.org/draft-07/schema#";
