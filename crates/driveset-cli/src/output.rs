@@ -11,26 +11,114 @@ use std::path::{Path, PathBuf};
 use driveset_schema::{Finding, InputError, Location};
 use serde_json::{Value, json};
 
-/// Output format of the report commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    /// rustc-style text with source snippets (colour on a terminal).
+/// The one output format type of every command's `--format`. Each command
+/// accepts its own subset, with its own help per value, as one of the
+/// lists below ([`formats`] makes clap check it): the values a command
+/// takes and its help text are the ones it always had.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Text for people (`human`).
     Human,
-    /// One JSON document on stdout.
+    /// Text for people (`text`: `replace`).
+    Text,
+    /// Aligned columns (`table`: the history).
+    Table,
+    /// JSON.
     Json,
-    /// GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`).
+    /// Comma-separated values.
+    Csv,
+    /// An HTML page.
+    Html,
+    /// GitHub workflow annotations.
     Github,
-    /// JUnit XML: a testsuite per file, a testcase per finding (GitLab, Jenkins).
+    /// JUnit XML.
     Junit,
 }
 
-/// Output format of the bus commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum BusFormat {
-    /// Text for humans.
-    Human,
-    /// One JSON document on stdout.
-    Json,
+impl OutputFormat {
+    /// The value `--format` names it by.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputFormat::Human => "human",
+            OutputFormat::Text => "text",
+            OutputFormat::Table => "table",
+            OutputFormat::Json => "json",
+            OutputFormat::Csv => "csv",
+            OutputFormat::Html => "html",
+            OutputFormat::Github => "github",
+            OutputFormat::Junit => "junit",
+        }
+    }
+}
+
+/// The formats one command accepts: each with its help line.
+pub type Formats = &'static [(OutputFormat, &'static str)];
+
+/// The report commands' formats (`validate`, `schema check`).
+pub const REPORT_FORMATS: Formats = &[
+    (
+        OutputFormat::Human,
+        "rustc-style text with source snippets (colour on a terminal)",
+    ),
+    (OutputFormat::Json, "One JSON document on stdout"),
+    (
+        OutputFormat::Github,
+        "GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`)",
+    ),
+    (
+        OutputFormat::Junit,
+        "JUnit XML: a testsuite per file, a testcase per finding (GitLab, Jenkins)",
+    ),
+];
+
+/// The bus commands' formats (`identify`, `scan`, `pull`, `upload`, ...).
+pub const BUS_FORMATS: Formats = &[
+    (OutputFormat::Human, "Text for humans"),
+    (OutputFormat::Json, "One JSON document on stdout"),
+];
+
+/// `diff`'s formats.
+pub const DIFF_FORMATS: Formats = &[
+    (
+        OutputFormat::Human,
+        "One line per code: `~ C0011 max_output_frequency: 50 Hz -> 60 Hz`",
+    ),
+    (OutputFormat::Json, "One JSON document"),
+];
+
+/// `replace`'s formats.
+pub const REPLACE_FORMATS: Formats = &[
+    (OutputFormat::Text, "Human text"),
+    (OutputFormat::Json, "One JSON object"),
+];
+
+/// `history log`'s formats.
+pub const LOG_FORMATS: Formats = &[
+    (OutputFormat::Table, "Aligned columns"),
+    (OutputFormat::Json, "A JSON array"),
+    (OutputFormat::Csv, "Comma-separated values with a header"),
+];
+
+/// `history as-built`'s formats.
+pub const BUILT_FORMATS: Formats = &[
+    (OutputFormat::Table, "Text"),
+    (OutputFormat::Json, "JSON"),
+    (OutputFormat::Html, "An HTML page"),
+];
+
+/// The clap value parser of a command's `--format`: exactly the values of
+/// `list`, each with its help (as a `ValueEnum` of them would list them).
+pub fn formats(list: Formats) -> impl clap::builder::TypedValueParser<Value = OutputFormat> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        list.iter()
+            .map(|(f, help)| PossibleValue::new(f.name()).help(*help)),
+    )
+    .map(move |name| {
+        list.iter()
+            .find(|(f, _)| f.name() == name)
+            .map_or(OutputFormat::Human, |(f, _)| *f)
+    })
 }
 
 /// Colour on or off.
@@ -260,10 +348,15 @@ impl Report {
     }
 
     /// The whole report in `format`; `noun` names the files ("file", "files").
-    pub fn render(&self, format: Format, style: Style, noun: (&str, &str)) -> String {
+    pub fn render(&self, format: OutputFormat, style: Style, noun: (&str, &str)) -> String {
         let mut out = String::new();
         match format {
-            Format::Human => {
+            // the text forms (only `human` reaches a report)
+            OutputFormat::Human
+            | OutputFormat::Text
+            | OutputFormat::Table
+            | OutputFormat::Csv
+            | OutputFormat::Html => {
                 for (_, r) in &self.files {
                     if let Some(e) = &r.error {
                         out.push_str(&input_error_human(e, style));
@@ -282,7 +375,7 @@ impl Report {
                 };
                 let _ = writeln!(out, "{summary}");
             }
-            Format::Github => {
+            OutputFormat::Github => {
                 for (_, r) in &self.files {
                     if let Some(e) = &r.error {
                         let _ = writeln!(out, "{}", input_error_github(e));
@@ -293,8 +386,8 @@ impl Report {
                 }
                 let _ = writeln!(out, "{}", self.summary(noun));
             }
-            Format::Junit => out.push_str(&crate::report::junit::render(self, "driveset")),
-            Format::Json => {
+            OutputFormat::Junit => out.push_str(&crate::report::junit::render(self, "driveset")),
+            OutputFormat::Json => {
                 let files: Vec<Value> = self
                     .files
                     .iter()

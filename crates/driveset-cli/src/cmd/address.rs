@@ -15,7 +15,7 @@ use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 
@@ -86,8 +86,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Write the address and rate to a drive that reports a running motor.
     #[arg(long)]
     pub allow_running: bool,
@@ -153,7 +153,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
     let name = opened.name.clone();
     // the bus lock: open_port takes it, for the rest of the command
     let mut link = opened.link;
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
     let plan = assign::plan(&mut link, &req, &schemas)?;
     if args.dry_run {
         emit_plan(&name, &plan, json);

@@ -15,17 +15,8 @@ use driveset_schema::{
 };
 use serde_json::{Value, json};
 
-use crate::output::{self, Style, plural};
+use crate::output::{self, OutputFormat, Style, plural};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
-
-/// Output format of `diff`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DiffFormat {
-    /// One line per code: `~ C0011 max_output_frequency: 50 Hz -> 60 Hz`.
-    Human,
-    /// One JSON document.
-    Json,
-}
 
 /// Arguments of `driveset diff`.
 #[derive(clap::Args)]
@@ -68,8 +59,8 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["format", "port"])]
     pub unified: bool,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: DiffFormat,
+    #[arg(long, value_parser = output::formats(output::DIFF_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// With --port: the transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
@@ -130,10 +121,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             set: &args.a,
             at: &args.at,
             address,
-            format: match args.format {
-                DiffFormat::Human => live::LiveFormat::Human,
-                DiffFormat::Json => live::LiveFormat::Json,
-            },
+            format: args.format,
             transfer: args.transfer,
         });
     }
@@ -220,7 +208,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         &schema,
         &old_name,
         &new_name,
-        matches!(args.format, DiffFormat::Json),
+        args.format == OutputFormat::Json,
     ))
 }
 

@@ -11,7 +11,7 @@ use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
 use serde_json::json;
 
-use crate::output::{self, BusFormat};
+use crate::output::{self, OutputFormat};
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_FINDINGS, EXIT_OK};
@@ -43,8 +43,8 @@ pub struct Args {
     #[command(flatten)]
     pub at: Port<Args>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -201,7 +201,7 @@ fn report(
     };
     client.finish()?;
     match args.format {
-        BusFormat::Json => {
+        OutputFormat::Json => {
             let doc = json!({
                 "port": port_name,
                 "address": args.at.address,
@@ -222,7 +222,8 @@ fn report(
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(out, "port:     {port_name}");
             let _ = writeln!(out, "address:  {}", args.at.address()?);

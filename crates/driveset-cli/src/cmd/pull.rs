@@ -24,7 +24,7 @@ use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::{self as output_format, OutputFormat as BusFormat};
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
@@ -110,7 +110,7 @@ pub struct Args {
     #[command(flatten)]
     pub transfer: crate::allow::TransferArgs,
     /// Output format of the report on stdout.
-    #[arg(long, value_enum, default_value = "human")]
+    #[arg(long, value_parser = output_format::formats(output_format::BUS_FORMATS), default_value = "human")]
     pub format: BusFormat,
 }
 
@@ -438,7 +438,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        _ => {
             let mut out = String::new();
             let _ = writeln!(
                 out,

@@ -15,7 +15,7 @@ use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
@@ -60,8 +60,8 @@ pub struct Args {
     #[command(flatten)]
     pub at: Port<Args>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 /// The port a journal's drive is reached through again when `--port` is
@@ -180,11 +180,11 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             &port_text,
             &args.at.schemas,
             schema,
-            args.format == BusFormat::Json,
+            args.format == OutputFormat::Json,
         );
     }
     let address = args.at.address.unwrap_or(j.target.address);
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
     let state = j.state;
     if j.is_finished() {
         // a finished journal needs no schema (an address change's names the

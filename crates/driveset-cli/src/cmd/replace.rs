@@ -13,6 +13,7 @@ use driveset_engine::session::Ports;
 use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
+use crate::output::OutputFormat;
 use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::prompt::{ask, confirm_allowed};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
@@ -61,8 +62,8 @@ pub struct Args {
     #[arg(long)]
     pub yes: bool,
     /// Output: text, or one JSON object on stdout.
-    #[arg(long, value_enum, default_value_t = Format::Text)]
-    pub format: Format,
+    #[arg(long, value_parser = crate::output::formats(crate::output::REPLACE_FORMATS), default_value = "text")]
+    pub format: OutputFormat,
     /// Where the report goes (REPORT_DIR/replace-NAME/).
     #[arg(long, value_name = "DIR")]
     pub report_dir: Option<PathBuf>,
@@ -72,15 +73,6 @@ pub struct Args {
     /// Test hook: read the answer from stdin even when it is not a terminal.
     #[arg(long, hide = true)]
     pub prompt_stdin: bool,
-}
-
-/// `--format`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    /// Human text.
-    Text,
-    /// One JSON object.
-    Json,
 }
 
 /// Open a port string and lock its bus, as every command does (the
@@ -185,7 +177,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;
     let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| refusal(&e))?;
-    if args.format == Format::Text {
+    if args.format == OutputFormat::Text {
         let id = prep
             .plan
             .identity
@@ -256,7 +248,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     match done {
         Ok(o) => {
             let r = &o.report.drives[0];
-            if args.format == Format::Json {
+            if args.format == OutputFormat::Json {
                 let v = serde_json::json!({
                     "drive": d.name,
                     "service_port": port_name,

@@ -11,7 +11,7 @@ use driveset_link::{ByteLink, Link, LinkError};
 use serde_json::json;
 
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_BUS, EXIT_OK};
@@ -47,8 +47,8 @@ pub struct Args {
     #[arg(long)]
     pub detect_baud: bool,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -243,7 +243,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         range_of(protocol).to_string()
     };
     match args.format {
-        BusFormat::Json => {
+        OutputFormat::Json => {
             let doc = json!({
                 "port": port_name,
                 "protocol": protocol.name(),
@@ -258,7 +258,8 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(out, "scanned {port_name} ({range})");
             match (baud_found, other_rate) {

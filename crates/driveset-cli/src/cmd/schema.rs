@@ -17,7 +17,7 @@ use driveset_schema::error::read_text_file;
 use driveset_schema::schema::BUILTIN_FILES;
 use driveset_schema::{InputError, Schema, check_schema};
 
-use crate::output::{self, FileReport, Format, Report, Style};
+use crate::output::{self, FileReport, OutputFormat, Report, Style};
 
 /// `driveset schema ...`.
 #[derive(clap::Subcommand)]
@@ -49,8 +49,8 @@ pub struct CheckArgs {
     #[arg(value_name = "FILE")]
     pub files: Vec<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: Format,
+    #[arg(long, value_parser = output::formats(output::REPORT_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Load every *.toml schema of DIR first, so fixtures can extend them (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,

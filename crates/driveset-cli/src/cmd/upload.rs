@@ -33,7 +33,7 @@ use driveset_engine::upload::{UploadOptions, default_journal_path};
 
 use crate::EXIT_OK;
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 use crate::port::Fail;
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 use crate::progress::Progress;
@@ -117,8 +117,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -150,7 +150,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     let on = args.at.set_on_drive(&args.set, address, "not uploaded")?;
     let (set, port_name, mut client) = (on.set, on.session.port, on.session.client);
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
 
     let transfer = args.transfer.request(&overrides);
     if args.dry_run {

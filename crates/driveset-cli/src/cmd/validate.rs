@@ -15,7 +15,7 @@ use driveset_schema::doc::{self, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::walk::collect;
 
-use crate::output::{FileReport, Format, Report, Style};
+use crate::output::{FileReport, OutputFormat, Report, Style};
 
 /// Arguments of `driveset validate`.
 #[derive(clap::Args)]
@@ -40,8 +40,8 @@ pub struct Args {
     #[arg(required = true, value_name = "PATH")]
     pub paths: Vec<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: Format,
+    #[arg(long, value_parser = crate::output::formats(crate::output::REPORT_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,

@@ -10,16 +10,8 @@ use std::path::Path;
 use driveset_engine::history::{self, DriveRecord, Slot, Unit};
 use driveset_engine::session::{self, rate::ReadRate};
 
+use crate::output::OutputFormat;
 use crate::port::Fail;
-
-/// Whether the output is JSON (the offline diff's `--format json`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LiveFormat {
-    /// Lines.
-    Human,
-    /// One JSON document.
-    Json,
-}
 
 /// What `diff --port` needs.
 #[derive(Debug, Clone)]
@@ -31,7 +23,7 @@ pub struct LiveArgs<'a> {
     /// The address.
     pub address: u8,
     /// Output.
-    pub format: LiveFormat,
+    pub format: OutputFormat,
     /// `--transfer-baud`.
     pub transfer: crate::allow::TransferArgs,
 }
@@ -71,7 +63,7 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     let rate = ReadRate::of(req.as_ref(), journal_dir);
     let d = session::rate::live_diff(client.as_mut(), &set, rate).map(|(d, t)| {
         if let Some(t) = t
-            && args.format == LiveFormat::Human
+            && args.format == OutputFormat::Human
         {
             eprint!("{}", t.render());
         }
@@ -109,6 +101,6 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
         &schema,
         &old_name,
         &new_name,
-        args.format == LiveFormat::Json,
+        args.format == OutputFormat::Json,
     ))
 }

@@ -10,7 +10,7 @@ use driveset_schema::eds::{ImportOptions, import};
 use serde_json::json;
 
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 
 /// Arguments of `driveset schema import`.
 #[derive(clap::Args)]
@@ -47,8 +47,8 @@ pub struct Args {
     #[arg(long, value_name = "ID")]
     pub id: Option<String>,
     /// Format of the lint report on stderr.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 /// Run `driveset schema import`.
@@ -81,8 +81,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                 (l, c) => format!("{shown}:{l}:{c}"),
             };
             match args.format {
-                BusFormat::Human => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
-                BusFormat::Json => eprintln!(
+                OutputFormat::Json => eprintln!(
                     "{}",
                     serde_json::to_string_pretty(&json!({
                         "file": shown, "error": {"line": e.line, "column": e.column,
@@ -90,6 +89,8 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                     }))
                     .unwrap_or_default()
                 ),
+                // `human`, the other value import takes
+                _ => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
             }
             return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
@@ -108,16 +109,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         imported.lints.len()
     );
     match args.format {
-        BusFormat::Human => {
-            let mut text = String::new();
-            for l in &imported.lints {
-                text.push_str(&format!("lint: {}\n", l.render(&shown)));
-            }
-            text.push_str(&summary);
-            text.push('\n');
-            eprint!("{text}");
-        }
-        BusFormat::Json => {
+        OutputFormat::Json => {
             let lints: Vec<_> = imported
                 .lints
                 .iter()
@@ -135,6 +127,16 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                 }))
                 .unwrap_or_default()
             );
+        }
+        // `human`, the other value import takes
+        _ => {
+            let mut text = String::new();
+            for l in &imported.lints {
+                text.push_str(&format!("lint: {}\n", l.render(&shown)));
+            }
+            text.push_str(&summary);
+            text.push('\n');
+            eprint!("{text}");
         }
     }
     Ok(if imported.lints.is_empty() {

@@ -17,7 +17,7 @@ use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
-use crate::output::BusFormat;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
@@ -71,8 +71,8 @@ pub struct Args {
     #[arg(long)]
     pub id: Option<String>,
     /// Output format of the report on stdout.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -181,7 +181,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         learned,
     };
     match args.format {
-        BusFormat::Json => {
+        OutputFormat::Json => {
             let mut doc = report.json();
             doc["port"] = json!(port_name);
             doc["address"] = json!(address);
@@ -191,7 +191,8 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(
                 out,
