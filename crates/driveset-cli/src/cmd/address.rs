@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest};
 use driveset_engine::overrides::Override;
 use driveset_schema::BusProtocol;
-use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -211,23 +210,93 @@ fn writes_json(plan: &AssignPlan) -> serde_json::Value {
     serde_json::to_value(&plan.writes).unwrap_or_default()
 }
 
+/// `address`'s JSON document: the plan (`--dry-run`: `dry_run`, `to`,
+/// `rate_effect`, `writes`) or the report of the change made (`address`,
+/// `rate_note`, `written`, `verified`, `journal`), with the keys both
+/// share. Keys in alphabetical order, as the document always had them
+/// (serde_json's maps are sorted); a key one of the two lacks is left out,
+/// a key it has may be `null`.
+#[derive(serde::Serialize)]
+struct AddressDoc<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    address: Option<u8>,
+    baud: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dry_run: Option<bool>,
+    elapsed_ms: f64,
+    family: &'a str,
+    found_at: FoundAt,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    journal: Option<&'a str>,
+    old_address: Option<i64>,
+    port: &'a str,
+    /// The engine's rate effect (its keys sorted, as they were).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_effect: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_note: Option<Option<&'a str>>,
+    /// The scan's devices (their keys sorted, as they were).
+    scan: serde_json::Value,
+    scan_ms: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    to: Option<u8>,
+    #[serde(rename = "type")]
+    type_value: Option<i64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    verified: Option<&'a [String]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    writes: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    written: Option<&'a [String]>,
+}
+
+/// Where the drive answered: address and line rate.
+#[derive(serde::Serialize)]
+struct FoundAt {
+    address: u8,
+    baud: u32,
+}
+
+impl<'a> AddressDoc<'a> {
+    /// The keys the plan and the report share, of `plan` on port `name`.
+    fn of(name: &'a str, plan: &'a AssignPlan) -> Self {
+        AddressDoc {
+            address: None,
+            baud: None,
+            dry_run: None,
+            elapsed_ms: 0.0,
+            family: plan.family.name(),
+            found_at: FoundAt {
+                address: plan.reached_at,
+                baud: plan.rate,
+            },
+            journal: None,
+            old_address: plan.old_address,
+            port: name,
+            rate_effect: None,
+            rate_note: None,
+            scan: serde_json::to_value(&plan.scan).unwrap_or_default(),
+            scan_ms: plan.scan_time.as_secs_f64() * 1000.0,
+            to: None,
+            type_value: plan.type_value,
+            verified: None,
+            writes: None,
+            written: None,
+        }
+    }
+}
+
 fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
     if json {
-        let doc = json!({
-            "port": name,
-            "dry_run": true,
-            "family": plan.family.name(),
-            "type": plan.type_value,
-            "found_at": {"address": plan.reached_at, "baud": plan.rate},
-            "old_address": plan.old_address,
-            "to": plan.to,
-            "baud": plan.baud,
-            "rate_effect": plan.rate_effect,
-            "scan": plan.scan,
-            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
-            "writes": writes_json(plan),
-            "elapsed_ms": plan.elapsed.as_secs_f64() * 1000.0,
-        });
+        let doc = AddressDoc {
+            baud: plan.baud,
+            dry_run: Some(true),
+            rate_effect: Some(serde_json::to_value(plan.rate_effect).unwrap_or_default()),
+            to: Some(plan.to),
+            writes: Some(writes_json(plan)),
+            elapsed_ms: plan.elapsed.as_secs_f64() * 1000.0,
+            ..AddressDoc::of(name, plan)
+        };
         output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -259,22 +328,16 @@ fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
 fn emit_report(name: &str, r: &AssignReport, json: bool) {
     let plan = &r.plan;
     if json {
-        let doc = json!({
-            "port": name,
-            "family": plan.family.name(),
-            "type": plan.type_value,
-            "found_at": {"address": plan.reached_at, "baud": plan.rate},
-            "old_address": plan.old_address,
-            "address": plan.to,
-            "baud": r.rate_now,
-            "rate_note": r.rate_note,
-            "scan": plan.scan,
-            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
-            "written": r.written,
-            "verified": r.verified,
-            "journal": r.journal,
-            "elapsed_ms": r.elapsed.as_secs_f64() * 1000.0,
-        });
+        let doc = AddressDoc {
+            address: Some(plan.to),
+            baud: Some(r.rate_now),
+            rate_note: Some(r.rate_note.as_deref()),
+            written: Some(&r.written),
+            verified: Some(&r.verified),
+            journal: Some(&r.journal),
+            elapsed_ms: r.elapsed.as_secs_f64() * 1000.0,
+            ..AddressDoc::of(name, plan)
+        };
         output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&doc).unwrap_or_default()

@@ -9,7 +9,6 @@ use driveset_engine::client::DriveClient;
 use driveset_engine::session;
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
-use serde_json::json;
 
 use crate::output::{self, OutputFormat};
 use crate::port::{self, Fail};
@@ -151,6 +150,32 @@ fn learned_status(
     }
 }
 
+/// `identify --format json`'s document (keys in alphabetical order, as
+/// it always had them).
+#[derive(serde::Serialize)]
+struct IdentifyDoc<'a> {
+    address: Option<u8>,
+    codes: Vec<CodeValue<'a>>,
+    fits: bool,
+    learned: bool,
+    learned_file: Option<String>,
+    note: Option<String>,
+    port: &'a str,
+    protocol: &'a str,
+    reason: Option<&'a String>,
+    schema: &'a str,
+    schema_title: &'a str,
+    software: &'a Option<String>,
+    would_use: &'a str,
+}
+
+/// One identity code and its value.
+#[derive(serde::Serialize)]
+struct CodeValue<'a> {
+    code: &'a str,
+    value: String,
+}
+
 fn report(
     args: &Args,
     port_name: &str,
@@ -202,21 +227,28 @@ fn report(
     client.finish()?;
     match args.format {
         OutputFormat::Json => {
-            let doc = json!({
-                "port": port_name,
-                "address": args.at.address,
-                "protocol": identity.protocol.name(),
-                "codes": identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
-                "software": identity.software,
-                "schema": schema.id,
-                "schema_title": schema.title,
-                "fits": fits.is_ok(),
-                "would_use": would_use,
-                "learned": learned,
-                "learned_file": learned_file.as_ref().map(|p| p.display().to_string()),
-                "reason": fits.as_ref().err(),
-                "note": note,
-            });
+            let doc = IdentifyDoc {
+                address: args.at.address,
+                codes: identity
+                    .codes
+                    .iter()
+                    .map(|c| CodeValue {
+                        code: &c.name,
+                        value: c.value.to_string(),
+                    })
+                    .collect(),
+                fits: fits.is_ok(),
+                learned,
+                learned_file: learned_file.as_ref().map(|p| p.display().to_string()),
+                note,
+                port: port_name,
+                protocol: identity.protocol.name(),
+                reason: fits.as_ref().err(),
+                schema: &schema.id,
+                schema_title: &schema.title,
+                software: &identity.software,
+                would_use: &would_use,
+            };
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()

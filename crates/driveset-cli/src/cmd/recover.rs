@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use driveset_engine::assign;
 use driveset_engine::journal::JournalFile;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover as engine_recover};
-use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -198,11 +197,11 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         if json {
             output::emit(&format!(
                 "{}\n",
-                serde_json::to_string_pretty(&json!({
-                    "journal": args.journal.display().to_string(),
-                    "found": state,
-                    "action": RecoverAction::Nothing,
-                }))
+                serde_json::to_string_pretty(&Finished {
+                    action: RecoverAction::Nothing,
+                    found: state,
+                    journal: args.journal.display().to_string(),
+                })
                 .unwrap_or_default()
             ));
         } else {
@@ -314,4 +313,13 @@ fn recover_address_change(
         output::emit(&out);
     }
     Ok(EXIT_OK)
+}
+
+/// `recover --format json`'s document of a journal already finished (keys
+/// in alphabetical order, as it always had them).
+#[derive(serde::Serialize)]
+struct Finished {
+    action: RecoverAction,
+    found: driveset_engine::journal::TxnState,
+    journal: String,
 }

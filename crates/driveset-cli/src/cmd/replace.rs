@@ -249,24 +249,24 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         Ok(o) => {
             let r = &o.report.drives[0];
             if args.format == OutputFormat::Json {
-                let v = serde_json::json!({
-                    "drive": d.name,
-                    "service_port": port_name,
-                    "address": d.address,
-                    "rate": o.assign.rate_now,
-                    "rate_note": o.assign.rate_note,
-                    "codes": prep.codes(),
-                    "codes_written": r.codes_written,
-                    "factory_settings": r.factory_settings,
-                    "result": "replaced",
-                    "report": written.0.display().to_string(),
-                    "virtual_ms": {
-                        "assign": o.assign_time.as_secs_f64() * 1000.0,
-                        "upload": o.upload_time.as_secs_f64() * 1000.0,
-                        "total": o.total().as_secs_f64() * 1000.0,
+                let v = Replaced {
+                    address: d.address,
+                    codes: prep.codes(),
+                    codes_written: r.codes_written,
+                    drive: &d.name,
+                    factory_settings: r.factory_settings,
+                    next: &status_cmd,
+                    rate: o.assign.rate_now,
+                    rate_note: &o.assign.rate_note,
+                    report: written.0.display().to_string(),
+                    result: "replaced",
+                    service_port: &port_name,
+                    virtual_ms: VirtualMs {
+                        assign: o.assign_time.as_secs_f64() * 1000.0,
+                        total: o.total().as_secs_f64() * 1000.0,
+                        upload: o.upload_time.as_secs_f64() * 1000.0,
                     },
-                    "next": status_cmd,
-                });
+                };
                 outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
             } else {
                 for w in &o.assign.written {
@@ -312,4 +312,30 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             Ok(if bus { EXIT_BUS } else { EXIT_FINDINGS })
         }
     }
+}
+
+/// `replace --format json`'s document (keys in alphabetical order, as it
+/// always had them).
+#[derive(serde::Serialize)]
+struct Replaced<'a> {
+    address: u8,
+    codes: usize,
+    codes_written: u32,
+    drive: &'a str,
+    factory_settings: bool,
+    next: &'a str,
+    rate: u32,
+    rate_note: &'a Option<String>,
+    report: String,
+    result: &'static str,
+    service_port: &'a str,
+    virtual_ms: VirtualMs,
+}
+
+/// The virtual time of a replacement's steps, in milliseconds.
+#[derive(serde::Serialize)]
+struct VirtualMs {
+    assign: f64,
+    total: f64,
+    upload: f64,
 }
