@@ -121,6 +121,26 @@ pub fn formats(list: Formats) -> impl clap::builder::TypedValueParser<Value = Ou
     })
 }
 
+/// One identity code a drive answered and its value, as the bus commands'
+/// JSON documents list them (`identify`, `scan`).
+#[derive(serde::Serialize)]
+pub struct CodeValue<'a> {
+    /// The code's name (`C0093`, `91-TYPE`).
+    pub code: &'a str,
+    /// Its value as text.
+    pub value: String,
+}
+
+impl<'a> CodeValue<'a> {
+    /// The code and value of an identity's code.
+    pub fn of(c: &'a driveset_engine::client::IdentCode) -> Self {
+        CodeValue {
+            code: &c.name,
+            value: c.value.to_string(),
+        }
+    }
+}
+
 /// Colour on or off.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Style {

@@ -155,7 +155,7 @@ fn learned_status(
 #[derive(serde::Serialize)]
 struct IdentifyDoc<'a> {
     address: Option<u8>,
-    codes: Vec<CodeValue<'a>>,
+    codes: Vec<output::CodeValue<'a>>,
     fits: bool,
     learned: bool,
     learned_file: Option<String>,
@@ -167,13 +167,6 @@ struct IdentifyDoc<'a> {
     schema_title: &'a str,
     software: &'a Option<String>,
     would_use: &'a str,
-}
-
-/// One identity code and its value.
-#[derive(serde::Serialize)]
-struct CodeValue<'a> {
-    code: &'a str,
-    value: String,
 }
 
 fn report(
@@ -229,14 +222,7 @@ fn report(
         OutputFormat::Json => {
             let doc = IdentifyDoc {
                 address: args.at.address,
-                codes: identity
-                    .codes
-                    .iter()
-                    .map(|c| CodeValue {
-                        code: &c.name,
-                        value: c.value.to_string(),
-                    })
-                    .collect(),
+                codes: identity.codes.iter().map(output::CodeValue::of).collect(),
                 fits: fits.is_ok(),
                 learned,
                 learned_file: learned_file.as_ref().map(|p| p.display().to_string()),

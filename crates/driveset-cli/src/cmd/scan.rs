@@ -8,7 +8,6 @@ use driveset_engine::scan::{
     lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
 };
 use driveset_link::{ByteLink, Link, LinkError};
-use serde_json::json;
 
 use crate::output;
 use crate::output::OutputFormat;
@@ -244,15 +243,18 @@ fn scan(args: &Args) -> Result<u8, Fail> {
     };
     match args.format {
         OutputFormat::Json => {
-            let doc = json!({
-                "port": port_name,
-                "protocol": protocol.name(),
-                "baud": baud_found,
-                "found": found.iter().map(|f| json!({
-                    "address": f.address,
-                    "codes": f.identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
-                })).collect::<Vec<_>>(),
-            });
+            let doc = ScanDoc {
+                baud: baud_found,
+                found: found
+                    .iter()
+                    .map(|f| FoundDoc {
+                        address: f.address,
+                        codes: f.identity.codes.iter().map(output::CodeValue::of).collect(),
+                    })
+                    .collect(),
+                port: &port_name,
+                protocol: protocol.name(),
+            };
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -292,4 +294,21 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         return Ok(EXIT_BUS);
     }
     Ok(EXIT_OK)
+}
+
+/// `scan --format json`'s document (keys in alphabetical order, as it
+/// always had them).
+#[derive(serde::Serialize)]
+struct ScanDoc<'a> {
+    baud: Option<u32>,
+    found: Vec<FoundDoc<'a>>,
+    port: &'a str,
+    protocol: &'a str,
+}
+
+/// A drive that answered: its address and identity codes.
+#[derive(serde::Serialize)]
+struct FoundDoc<'a> {
+    address: u8,
+    codes: Vec<output::CodeValue<'a>>,
 }

@@ -7,7 +7,6 @@ use driveset_schema::input::{InputKind, read_input};
 use std::path::PathBuf;
 
 use driveset_schema::eds::{ImportOptions, import};
-use serde_json::json;
 
 use crate::output;
 use crate::output::OutputFormat;
@@ -83,10 +82,15 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             match args.format {
                 OutputFormat::Json => eprintln!(
                     "{}",
-                    serde_json::to_string_pretty(&json!({
-                        "file": shown, "error": {"line": e.line, "column": e.column,
-                        "message": e.message, "help": e.help}
-                    }))
+                    serde_json::to_string_pretty(&Refused {
+                        error: RefusedAt {
+                            column: e.column,
+                            help: &e.help,
+                            line: e.line,
+                            message: &e.message,
+                        },
+                        file: &shown,
+                    })
                     .unwrap_or_default()
                 ),
                 // `human`, the other value import takes
@@ -110,21 +114,25 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     );
     match args.format {
         OutputFormat::Json => {
-            let lints: Vec<_> = imported
+            let lints: Vec<LintDoc> = imported
                 .lints
                 .iter()
-                .map(|l| json!({"line": l.line, "object": l.object, "message": l.message}))
+                .map(|l| LintDoc {
+                    line: l.line,
+                    message: &l.message,
+                    object: &l.object,
+                })
                 .collect();
             eprintln!(
                 "{}",
-                serde_json::to_string_pretty(&json!({
-                    "file": shown,
-                    "schema": imported.id,
-                    "output": args.output.as_ref().map(|o| o.display().to_string()),
-                    "lenze_codes": imported.lenze_codes,
-                    "cia_objects": imported.cia_objects,
-                    "lints": lints,
-                }))
+                serde_json::to_string_pretty(&ImportDoc {
+                    cia_objects: imported.cia_objects,
+                    file: &shown,
+                    lenze_codes: imported.lenze_codes,
+                    lints,
+                    output: args.output.as_ref().map(|o| o.display().to_string()),
+                    schema: &imported.id,
+                })
                 .unwrap_or_default()
             );
         }
@@ -144,4 +152,40 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     } else {
         crate::EXIT_FINDINGS
     })
+}
+
+/// `schema import --format json`'s report on stderr (keys in alphabetical
+/// order, as it always had them).
+#[derive(serde::Serialize)]
+struct ImportDoc<'a> {
+    cia_objects: usize,
+    file: &'a str,
+    lenze_codes: usize,
+    lints: Vec<LintDoc<'a>>,
+    output: Option<String>,
+    schema: &'a str,
+}
+
+/// One lint of the import.
+#[derive(serde::Serialize)]
+struct LintDoc<'a> {
+    line: usize,
+    message: &'a str,
+    object: &'a str,
+}
+
+/// `schema import --format json`'s refusal of a file it cannot read.
+#[derive(serde::Serialize)]
+struct Refused<'a> {
+    error: RefusedAt<'a>,
+    file: &'a str,
+}
+
+/// Where and why.
+#[derive(serde::Serialize)]
+struct RefusedAt<'a> {
+    column: usize,
+    help: &'a str,
+    line: usize,
+    message: &'a str,
 }
