@@ -9,7 +9,6 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use driveset_schema::{Finding, InputError, Location};
-use serde_json::{Value, json};
 
 /// The one output format type of every command's `--format`. Each command
 /// accepts its own subset, with its own help per value, as one of the
@@ -223,50 +222,120 @@ pub fn input_error_human(e: &InputError, style: Style) -> String {
     e.render(style.color)
 }
 
-fn loc_json(loc: &Location) -> Value {
+/// A line and column of a location; both `null` for a whole file.
+fn line_column(loc: &Location) -> (Option<usize>, Option<usize>) {
     if loc.line == 0 {
-        json!({ "file": loc.file, "line": null, "column": null })
+        (None, None)
     } else {
-        json!({ "file": loc.file, "line": loc.line, "column": loc.column })
+        (Some(loc.line), Some(loc.column))
     }
 }
 
-/// A finding as JSON: kind, message, help, file, line, column, related places.
-pub fn finding_json(f: &Finding) -> Value {
-    let mut v = loc_json(&f.location);
-    if let Some(o) = v.as_object_mut() {
-        o.insert("kind".into(), json!(f.kind.as_str()));
-        o.insert("severity".into(), json!("error"));
-        o.insert("message".into(), json!(f.message));
-        o.insert("help".into(), json!(f.help));
-        o.insert(
-            "related".into(),
-            Value::Array(
-                f.related
-                    .iter()
-                    .map(|(label, loc)| {
-                        let mut r = loc_json(loc);
-                        if let Some(o) = r.as_object_mut() {
-                            o.insert("label".into(), json!(label));
-                        }
-                        r
-                    })
-                    .collect(),
-            ),
-        );
-    }
-    v
+/// A finding in the report commands' JSON: kind, message, help, file,
+/// line, column, related places (keys in alphabetical order, as the
+/// document always had them).
+#[derive(serde::Serialize)]
+pub struct FindingDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    help: &'a str,
+    kind: &'a str,
+    line: Option<usize>,
+    message: &'a str,
+    related: Vec<RelatedDoc<'a>>,
+    severity: &'static str,
 }
 
-/// An input error as JSON: kind `input-error`, message, help, file, line, column.
-pub fn input_error_json(e: &InputError) -> Value {
-    let mut v = loc_json(&e.location);
-    if let Some(o) = v.as_object_mut() {
-        o.insert("kind".into(), json!("input-error"));
-        o.insert("message".into(), json!(e.message));
-        o.insert("help".into(), json!(e.help));
+/// Another place a finding names.
+#[derive(serde::Serialize)]
+struct RelatedDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    label: &'a str,
+    line: Option<usize>,
+}
+
+impl<'a> FindingDoc<'a> {
+    /// The document of `f`.
+    pub fn of(f: &'a Finding) -> Self {
+        let (line, column) = line_column(&f.location);
+        FindingDoc {
+            column,
+            file: &f.location.file,
+            help: &f.help,
+            kind: f.kind.as_str(),
+            line,
+            message: &f.message,
+            related: f
+                .related
+                .iter()
+                .map(|(label, loc)| {
+                    let (line, column) = line_column(loc);
+                    RelatedDoc {
+                        column,
+                        file: &loc.file,
+                        label,
+                        line,
+                    }
+                })
+                .collect(),
+            severity: "error",
+        }
     }
-    v
+}
+
+/// An input error in the report commands' JSON: kind `input-error`,
+/// message, help, file, line, column.
+#[derive(serde::Serialize)]
+pub struct InputErrorDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    help: &'a str,
+    kind: &'static str,
+    line: Option<usize>,
+    message: &'a str,
+}
+
+impl<'a> InputErrorDoc<'a> {
+    /// The document of `e`.
+    pub fn of(e: &'a InputError) -> Self {
+        let (line, column) = line_column(&e.location);
+        InputErrorDoc {
+            column,
+            file: &e.location.file,
+            help: &e.help,
+            kind: "input-error",
+            line,
+            message: &e.message,
+        }
+    }
+}
+
+/// The report commands' JSON document (`validate`, `schema check`).
+#[derive(serde::Serialize)]
+struct ReportDoc<'a> {
+    exit_code: u8,
+    files: Vec<FileDoc<'a>>,
+    summary: SummaryDoc,
+}
+
+/// One file of the report.
+#[derive(serde::Serialize)]
+struct FileDoc<'a> {
+    error: Option<InputErrorDoc<'a>>,
+    file: &'a str,
+    findings: Vec<FindingDoc<'a>>,
+    ok: bool,
+}
+
+/// The report's counts and its summary line.
+#[derive(serde::Serialize)]
+struct SummaryDoc {
+    files: usize,
+    files_with_findings: usize,
+    findings: usize,
+    text: String,
+    unreadable: usize,
 }
 
 /// Escape the message part of a workflow command.
@@ -408,29 +477,26 @@ impl Report {
             }
             OutputFormat::Junit => out.push_str(&crate::report::junit::render(self, "driveset")),
             OutputFormat::Json => {
-                let files: Vec<Value> = self
-                    .files
-                    .iter()
-                    .map(|(path, r)| {
-                        json!({
-                            "file": path,
-                            "ok": r.error.is_none() && r.findings.is_empty(),
-                            "error": r.error.as_ref().map(input_error_json),
-                            "findings": r.findings.iter().map(finding_json).collect::<Vec<_>>(),
+                let doc = ReportDoc {
+                    exit_code: self.exit_code(),
+                    files: self
+                        .files
+                        .iter()
+                        .map(|(path, r)| FileDoc {
+                            error: r.error.as_ref().map(InputErrorDoc::of),
+                            file: path,
+                            findings: r.findings.iter().map(FindingDoc::of).collect(),
+                            ok: r.error.is_none() && r.findings.is_empty(),
                         })
-                    })
-                    .collect();
-                let doc = json!({
-                    "files": files,
-                    "summary": {
-                        "files": self.files.len(),
-                        "files_with_findings": self.files_with_findings(),
-                        "findings": self.findings(),
-                        "unreadable": self.errors(),
-                        "text": self.summary(noun),
+                        .collect(),
+                    summary: SummaryDoc {
+                        files: self.files.len(),
+                        files_with_findings: self.files_with_findings(),
+                        findings: self.findings(),
+                        text: self.summary(noun),
+                        unreadable: self.errors(),
                     },
-                    "exit_code": self.exit_code(),
-                });
+                };
                 let _ = writeln!(
                     out,
                     "{}",
