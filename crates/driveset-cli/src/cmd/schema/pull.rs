@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
 use driveset_engine::session::Session;
-use serde_json::json;
+use serde_json::Value;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -183,9 +183,9 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     match args.format {
         OutputFormat::Json => {
             let mut doc = report.json();
-            doc["port"] = json!(port_name);
-            doc["address"] = json!(address);
-            doc["family"] = json!(family_name);
+            doc["port"] = Value::from(port_name);
+            doc["address"] = Value::from(address);
+            doc["family"] = Value::from(family_name);
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()

@@ -12,7 +12,7 @@ use lsp_types::{
     Diagnostic, DiagnosticRelatedInformation, DiagnosticSeverity, Location, NumberOrString,
     Position, Range,
 };
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::text::Text;
 use super::uri;
@@ -82,15 +82,33 @@ fn diagnostic(display: &str, text: &Text, d: ide::Diagnostic) -> Diagnostic {
     }
 }
 
-/// A fix as the diagnostic's `data`: `{"title", "edits": [{range, newText}]}`.
+/// A fix as the diagnostic's `data`: `{"title", "edits": [{range, newText}]}`
+/// (the code action reads it back).
+#[derive(serde::Serialize)]
+struct FixData<'a> {
+    edits: Vec<EditData<'a>>,
+    title: &'a str,
+}
+
+/// One edit of a fix, as LSP's `TextEdit`.
+#[derive(serde::Serialize)]
+struct EditData<'a> {
+    #[serde(rename = "newText")]
+    new_text: &'a str,
+    range: Range,
+}
+
 fn fix_data(text: &Text, f: &Fix) -> Value {
-    let edits: Vec<Value> = f
-        .edits
-        .iter()
-        .map(|e| json!({"range": text.range(e.span.clone()), "newText": e.new_text}))
-        .collect();
-    json!({
-        "title": f.title,
-        "edits": edits,
-    })
+    let data = FixData {
+        edits: f
+            .edits
+            .iter()
+            .map(|e| EditData {
+                new_text: &e.new_text,
+                range: text.range(e.span.clone()),
+            })
+            .collect(),
+        title: &f.title,
+    };
+    serde_json::to_value(data).unwrap_or_default()
 }
