@@ -23,6 +23,7 @@ macro_rules! out {
     };
 }
 
+mod allow;
 mod args;
 mod cmd;
 mod editor;
@@ -31,10 +32,12 @@ mod fail;
 mod files;
 mod git;
 mod history;
+mod line;
 mod output;
 mod port;
 mod port_args;
 mod progress;
+mod prompt;
 mod report;
 
 use std::process::ExitCode;

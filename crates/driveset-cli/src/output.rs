@@ -10,19 +10,135 @@ use std::path::{Path, PathBuf};
 
 use driveset_report::junit::FileFindings;
 use driveset_schema::{Finding, InputError, Location};
-use serde_json::{Value, json};
 
-/// Output format of the report commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    /// rustc-style text with source snippets (colour on a terminal).
+/// The one output format type of every command's `--format`. Each command
+/// accepts its own subset, with its own help per value, as one of the
+/// lists below ([`formats`] makes clap check it): the values a command
+/// takes and its help text are the ones it always had.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Text for people (`human`).
     Human,
-    /// One JSON document on stdout.
+    /// Text for people (`text`: `replace`).
+    Text,
+    /// Aligned columns (`table`: the history).
+    Table,
+    /// JSON.
     Json,
-    /// GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`).
+    /// Comma-separated values.
+    Csv,
+    /// An HTML page.
+    Html,
+    /// GitHub workflow annotations.
     Github,
-    /// JUnit XML: a testsuite per file, a testcase per finding (GitLab, Jenkins).
+    /// JUnit XML.
     Junit,
+}
+
+impl OutputFormat {
+    /// The value `--format` names it by.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputFormat::Human => "human",
+            OutputFormat::Text => "text",
+            OutputFormat::Table => "table",
+            OutputFormat::Json => "json",
+            OutputFormat::Csv => "csv",
+            OutputFormat::Html => "html",
+            OutputFormat::Github => "github",
+            OutputFormat::Junit => "junit",
+        }
+    }
+}
+
+/// The formats one command accepts: each with its help line.
+pub type Formats = &'static [(OutputFormat, &'static str)];
+
+/// The report commands' formats (`validate`, `schema check`).
+pub const REPORT_FORMATS: Formats = &[
+    (
+        OutputFormat::Human,
+        "rustc-style text with source snippets (colour on a terminal)",
+    ),
+    (OutputFormat::Json, "One JSON document on stdout"),
+    (
+        OutputFormat::Github,
+        "GitHub workflow annotations (`::error file=..,line=..,col=..,title=..::message`)",
+    ),
+    (
+        OutputFormat::Junit,
+        "JUnit XML: a testsuite per file, a testcase per finding (GitLab, Jenkins)",
+    ),
+];
+
+/// The bus commands' formats (`identify`, `scan`, `pull`, `upload`, ...).
+pub const BUS_FORMATS: Formats = &[
+    (OutputFormat::Human, "Text for humans"),
+    (OutputFormat::Json, "One JSON document on stdout"),
+];
+
+/// `diff`'s formats.
+pub const DIFF_FORMATS: Formats = &[
+    (
+        OutputFormat::Human,
+        "One line per code: `~ C0011 max_output_frequency: 50 Hz -> 60 Hz`",
+    ),
+    (OutputFormat::Json, "One JSON document"),
+];
+
+/// `replace`'s formats.
+pub const REPLACE_FORMATS: Formats = &[
+    (OutputFormat::Text, "Human text"),
+    (OutputFormat::Json, "One JSON object"),
+];
+
+/// `history log`'s formats.
+pub const LOG_FORMATS: Formats = &[
+    (OutputFormat::Table, "Aligned columns"),
+    (OutputFormat::Json, "A JSON array"),
+    (OutputFormat::Csv, "Comma-separated values with a header"),
+];
+
+/// `history as-built`'s formats.
+pub const BUILT_FORMATS: Formats = &[
+    (OutputFormat::Table, "Text"),
+    (OutputFormat::Json, "JSON"),
+    (OutputFormat::Html, "An HTML page"),
+];
+
+/// The clap value parser of a command's `--format`: exactly the values of
+/// `list`, each with its help (as a `ValueEnum` of them would list them).
+pub fn formats(list: Formats) -> impl clap::builder::TypedValueParser<Value = OutputFormat> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        list.iter()
+            .map(|(f, help)| PossibleValue::new(f.name()).help(*help)),
+    )
+    .map(move |name| {
+        list.iter()
+            .find(|(f, _)| f.name() == name)
+            .map_or(OutputFormat::Human, |(f, _)| *f)
+    })
+}
+
+/// One identity code a drive answered and its value, as the bus commands'
+/// JSON documents list them (`identify`, `scan`).
+#[derive(serde::Serialize)]
+pub struct CodeValue<'a> {
+    /// The code's name (`C0093`, `91-TYPE`).
+    pub code: &'a str,
+    /// Its value as text.
+    pub value: String,
+}
+
+impl<'a> CodeValue<'a> {
+    /// The code and value of an identity's code.
+    pub fn of(c: &'a driveset_engine::client::IdentCode) -> Self {
+        CodeValue {
+            code: &c.name,
+            value: c.value.to_string(),
+        }
+    }
 }
 
 /// Colour on or off.
@@ -107,50 +223,120 @@ pub fn input_error_human(e: &InputError, style: Style) -> String {
     e.render(style.color)
 }
 
-fn loc_json(loc: &Location) -> Value {
+/// A line and column of a location; both `null` for a whole file.
+fn line_column(loc: &Location) -> (Option<usize>, Option<usize>) {
     if loc.line == 0 {
-        json!({ "file": loc.file, "line": null, "column": null })
+        (None, None)
     } else {
-        json!({ "file": loc.file, "line": loc.line, "column": loc.column })
+        (Some(loc.line), Some(loc.column))
     }
 }
 
-/// A finding as JSON: kind, message, help, file, line, column, related places.
-pub fn finding_json(f: &Finding) -> Value {
-    let mut v = loc_json(&f.location);
-    if let Some(o) = v.as_object_mut() {
-        o.insert("kind".into(), json!(f.kind.as_str()));
-        o.insert("severity".into(), json!("error"));
-        o.insert("message".into(), json!(f.message));
-        o.insert("help".into(), json!(f.help));
-        o.insert(
-            "related".into(),
-            Value::Array(
-                f.related
-                    .iter()
-                    .map(|(label, loc)| {
-                        let mut r = loc_json(loc);
-                        if let Some(o) = r.as_object_mut() {
-                            o.insert("label".into(), json!(label));
-                        }
-                        r
-                    })
-                    .collect(),
-            ),
-        );
-    }
-    v
+/// A finding in the report commands' JSON: kind, message, help, file,
+/// line, column, related places (keys in alphabetical order, as the
+/// document always had them).
+#[derive(serde::Serialize)]
+pub struct FindingDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    help: &'a str,
+    kind: &'a str,
+    line: Option<usize>,
+    message: &'a str,
+    related: Vec<RelatedDoc<'a>>,
+    severity: &'static str,
 }
 
-/// An input error as JSON: kind `input-error`, message, help, file, line, column.
-pub fn input_error_json(e: &InputError) -> Value {
-    let mut v = loc_json(&e.location);
-    if let Some(o) = v.as_object_mut() {
-        o.insert("kind".into(), json!("input-error"));
-        o.insert("message".into(), json!(e.message));
-        o.insert("help".into(), json!(e.help));
+/// Another place a finding names.
+#[derive(serde::Serialize)]
+struct RelatedDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    label: &'a str,
+    line: Option<usize>,
+}
+
+impl<'a> FindingDoc<'a> {
+    /// The document of `f`.
+    pub fn of(f: &'a Finding) -> Self {
+        let (line, column) = line_column(&f.location);
+        FindingDoc {
+            column,
+            file: &f.location.file,
+            help: &f.help,
+            kind: f.kind.as_str(),
+            line,
+            message: &f.message,
+            related: f
+                .related
+                .iter()
+                .map(|(label, loc)| {
+                    let (line, column) = line_column(loc);
+                    RelatedDoc {
+                        column,
+                        file: &loc.file,
+                        label,
+                        line,
+                    }
+                })
+                .collect(),
+            severity: "error",
+        }
     }
-    v
+}
+
+/// An input error in the report commands' JSON: kind `input-error`,
+/// message, help, file, line, column.
+#[derive(serde::Serialize)]
+pub struct InputErrorDoc<'a> {
+    column: Option<usize>,
+    file: &'a str,
+    help: &'a str,
+    kind: &'static str,
+    line: Option<usize>,
+    message: &'a str,
+}
+
+impl<'a> InputErrorDoc<'a> {
+    /// The document of `e`.
+    pub fn of(e: &'a InputError) -> Self {
+        let (line, column) = line_column(&e.location);
+        InputErrorDoc {
+            column,
+            file: &e.location.file,
+            help: &e.help,
+            kind: "input-error",
+            line,
+            message: &e.message,
+        }
+    }
+}
+
+/// The report commands' JSON document (`validate`, `schema check`).
+#[derive(serde::Serialize)]
+struct ReportDoc<'a> {
+    exit_code: u8,
+    files: Vec<FileDoc<'a>>,
+    summary: SummaryDoc,
+}
+
+/// One file of the report.
+#[derive(serde::Serialize)]
+struct FileDoc<'a> {
+    error: Option<InputErrorDoc<'a>>,
+    file: &'a str,
+    findings: Vec<FindingDoc<'a>>,
+    ok: bool,
+}
+
+/// The report's counts and its summary line.
+#[derive(serde::Serialize)]
+struct SummaryDoc {
+    files: usize,
+    files_with_findings: usize,
+    findings: usize,
+    text: String,
+    unreadable: usize,
 }
 
 /// Escape the message part of a workflow command.
@@ -252,10 +438,15 @@ impl Report {
     }
 
     /// The whole report in `format`; `noun` names the files ("file", "files").
-    pub fn render(&self, format: Format, style: Style, noun: (&str, &str)) -> String {
+    pub fn render(&self, format: OutputFormat, style: Style, noun: (&str, &str)) -> String {
         let mut out = String::new();
         match format {
-            Format::Human => {
+            // the text forms (only `human` reaches a report)
+            OutputFormat::Human
+            | OutputFormat::Text
+            | OutputFormat::Table
+            | OutputFormat::Csv
+            | OutputFormat::Html => {
                 for (_, r) in &self.files {
                     if let Some(e) = &r.error {
                         out.push_str(&input_error_human(e, style));
@@ -274,7 +465,7 @@ impl Report {
                 };
                 let _ = writeln!(out, "{summary}");
             }
-            Format::Github => {
+            OutputFormat::Github => {
                 for (_, r) in &self.files {
                     if let Some(e) = &r.error {
                         let _ = writeln!(out, "{}", input_error_github(e));
@@ -285,7 +476,7 @@ impl Report {
                 }
                 let _ = writeln!(out, "{}", self.summary(noun));
             }
-            Format::Junit => {
+            OutputFormat::Junit => {
                 let files: Vec<FileFindings<'_>> = self
                     .files
                     .iter()
@@ -297,30 +488,27 @@ impl Report {
                     .collect();
                 out.push_str(&driveset_report::junit::render(&files, "driveset"));
             }
-            Format::Json => {
-                let files: Vec<Value> = self
-                    .files
-                    .iter()
-                    .map(|(path, r)| {
-                        json!({
-                            "file": path,
-                            "ok": r.error.is_none() && r.findings.is_empty(),
-                            "error": r.error.as_ref().map(input_error_json),
-                            "findings": r.findings.iter().map(finding_json).collect::<Vec<_>>(),
+            OutputFormat::Json => {
+                let doc = ReportDoc {
+                    exit_code: self.exit_code(),
+                    files: self
+                        .files
+                        .iter()
+                        .map(|(path, r)| FileDoc {
+                            error: r.error.as_ref().map(InputErrorDoc::of),
+                            file: path,
+                            findings: r.findings.iter().map(FindingDoc::of).collect(),
+                            ok: r.error.is_none() && r.findings.is_empty(),
                         })
-                    })
-                    .collect();
-                let doc = json!({
-                    "files": files,
-                    "summary": {
-                        "files": self.files.len(),
-                        "files_with_findings": self.files_with_findings(),
-                        "findings": self.findings(),
-                        "unreadable": self.errors(),
-                        "text": self.summary(noun),
+                        .collect(),
+                    summary: SummaryDoc {
+                        files: self.files.len(),
+                        files_with_findings: self.files_with_findings(),
+                        findings: self.findings(),
+                        text: self.summary(noun),
+                        unreadable: self.errors(),
                     },
-                    "exit_code": self.exit_code(),
-                });
+                };
                 let _ = writeln!(
                     out,
                     "{}",

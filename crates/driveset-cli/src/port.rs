@@ -31,6 +31,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use driveset_engine::assign::Schemas;
 use driveset_engine::client::DriveClient;
 use driveset_engine::session::{
     self, Catalog, OpenedPort, PortError, Ports, SchemaAsk, Session, SessionPolicy,
@@ -231,6 +232,19 @@ pub fn into_client(
 /// `--schemas parameter-sets/fixtures` loads them).
 pub fn catalog(dirs: &[PathBuf]) -> Catalog {
     Catalog::new(dirs).withholding(driveset_sim::catalog::withheld())
+}
+
+/// The schemas of each family `driveset address` and the recovery of an
+/// address change pick from: the built-in ones, on every port; then
+/// `--schema`.
+pub fn family_schemas(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
+    let registry = registry(dirs)?;
+    let mut s = Schemas::from_registry(&registry);
+    for g in given {
+        let c = resolve_schema(Some(g), dirs, None)?;
+        s = s.with(c.schema);
+    }
+    Ok(s)
 }
 
 /// The registry of [`catalog`].

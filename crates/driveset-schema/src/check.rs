@@ -3,15 +3,36 @@
 
 use std::cmp::Ordering;
 use std::collections::HashMap;
+use std::sync::Arc;
 
-use crate::error::{Finding, FindingKind, Location};
+use crate::error::{Finding, FindingKind, InputError, Location};
 use crate::role::Role;
-use crate::schema::{Code, EnumDef, EnumSource, Rule, Schema};
+use crate::schema::{Code, EnumDef, EnumSource, Registry, Rule, Schema};
 use crate::validate::{eng_cmp, fact_to_raw};
 use crate::value::ValueType;
 
 fn f(loc: &Location, message: String, help: impl Into<String>) -> Finding {
     Finding::new(FindingKind::SchemaError, loc.clone(), message, help)
+}
+
+/// Parse a schema file and check it; its `extends` base is looked up in
+/// `extra` (the last one of an id wins), then in `registry`.
+pub fn check_schema_source(
+    source: crate::error::SourceFile,
+    registry: &Registry,
+    extra: &[Arc<Schema>],
+) -> Result<(Arc<Schema>, Vec<Finding>), InputError> {
+    let lookup = |id: &str| {
+        extra
+            .iter()
+            .rev()
+            .find(|s| s.id == id)
+            .cloned()
+            .or_else(|| registry.get(id))
+    };
+    let schema = Arc::new(crate::schema::parse_schema(source, &lookup)?);
+    let findings = check_schema(&schema);
+    Ok((schema, findings))
 }
 
 /// Check a schema; every problem is a finding with its location.

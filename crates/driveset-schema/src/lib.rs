@@ -36,6 +36,7 @@ pub mod set;
 mod toml_reader;
 pub mod validate;
 pub mod value;
+pub mod walk;
 
 pub use canonical::{CodeKey, RawValue, ResolvedSet};
 pub use check::check_schema;

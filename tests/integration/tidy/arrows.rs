@@ -36,6 +36,11 @@ const ARROWS: &[(&str, &[&str])] = &[
     ),
     // the reports (JSON, HTML, JUnit, textconv): engine's report, schema
     ("driveset-report", &["driveset-engine", "driveset-schema"]),
+    // the editor's analysis (plain data); the language server is the CLI's
+    (
+        "driveset-ide",
+        &["driveset-engine", "driveset-link", "driveset-schema"],
+    ),
     (
         "driveset-cli",
         &[
@@ -43,6 +48,7 @@ const ARROWS: &[(&str, &[&str])] = &[
             "driveset-engine",
             "driveset-history",
             "driveset-twin",
+            "driveset-ide",
             "driveset-sim",
             "driveset-link",
             "driveset-proto",

@@ -152,7 +152,7 @@ const PORT_COMMANDS: &[&str] = &[
     "recover",
     "replace",
     "scan",
-    "schema_pull",
+    "schema/pull",
     "twin",
     "upload",
 ];

@@ -2,21 +2,19 @@
 //! [--baud B] [--dry-run]`: give one drive, alone on its line, its bus
 //! address (and line rate) in stand-alone operation (driveset-engine's
 //! `assign`; `lustbus-protocol.txt` §4.1, §4.2, §5.1, §5.2, §11.5,
-//! `lecom-ab-tmd-manual.txt` §4c-§4e). Also recovers the journal of an
-//! address change cut short (`driveset recover` hands it here).
+//! `lecom-ab-tmd-manual.txt` §4c-§4e). The journal of an address change cut
+//! short is `driveset recover`'s (cmd/recover.rs).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest, Schemas};
+use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest};
 use driveset_engine::overrides::Override;
 use driveset_schema::BusProtocol;
-use serde_json::json;
 
-use super::identify::BusFormat;
-use super::upload::DEFAULT_JOURNAL_DIR;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 
@@ -87,8 +85,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Write the address and rate to a drive that reports a running motor.
     #[arg(long)]
     pub allow_running: bool,
@@ -116,18 +114,6 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     address(&args)
 }
 
-/// The schemas of each family: the built-in ones, on every port; then
-/// `--schema`.
-fn schemas_for(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
-    let registry = port::registry(dirs)?;
-    let mut s = Schemas::from_registry(&registry);
-    for g in given {
-        let c = port::resolve_schema(Some(g), dirs, None)?;
-        s = s.with(c.schema);
-    }
-    Ok(s)
-}
-
 fn address(args: &Args) -> Result<u8, Fail> {
     let protocol = args
         .at
@@ -150,7 +136,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
-    let schemas = schemas_for(&args.at.schemas, &args.at.schema)?;
+    let schemas = port::family_schemas(&args.at.schemas, &args.at.schema)?;
     let mut req = AssignRequest::new(protocol, args.to);
     req.from = args.from;
     req.baud = args.baud;
@@ -166,7 +152,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
     let name = opened.name.clone();
     // the bus lock: open_port takes it, for the rest of the command
     let mut link = opened.link;
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
     let plan = assign::plan(&mut link, &req, &schemas)?;
     if args.dry_run {
         emit_plan(&name, &plan, json);
@@ -175,7 +161,8 @@ fn address(args: &Args) -> Result<u8, Fail> {
     let journal = match (&args.journal, &args.journal_dir) {
         (Some(j), _) => j.clone(),
         (None, dir) => driveset_engine::journal::journal_path(
-            dir.as_deref().unwrap_or(Path::new(DEFAULT_JOURNAL_DIR)),
+            dir.as_deref()
+                .unwrap_or(Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
             &plan.bus,
             plan.to,
         ),
@@ -223,23 +210,93 @@ fn writes_json(plan: &AssignPlan) -> serde_json::Value {
     serde_json::to_value(&plan.writes).unwrap_or_default()
 }
 
+/// `address`'s JSON document: the plan (`--dry-run`: `dry_run`, `to`,
+/// `rate_effect`, `writes`) or the report of the change made (`address`,
+/// `rate_note`, `written`, `verified`, `journal`), with the keys both
+/// share. Keys in alphabetical order, as the document always had them
+/// (serde_json's maps are sorted); a key one of the two lacks is left out,
+/// a key it has may be `null`.
+#[derive(serde::Serialize)]
+struct AddressDoc<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    address: Option<u8>,
+    baud: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dry_run: Option<bool>,
+    elapsed_ms: f64,
+    family: &'a str,
+    found_at: FoundAt,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    journal: Option<&'a str>,
+    old_address: Option<i64>,
+    port: &'a str,
+    /// The engine's rate effect (its keys sorted, as they were).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_effect: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_note: Option<Option<&'a str>>,
+    /// The scan's devices (their keys sorted, as they were).
+    scan: serde_json::Value,
+    scan_ms: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    to: Option<u8>,
+    #[serde(rename = "type")]
+    type_value: Option<i64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    verified: Option<&'a [String]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    writes: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    written: Option<&'a [String]>,
+}
+
+/// Where the drive answered: address and line rate.
+#[derive(serde::Serialize)]
+struct FoundAt {
+    address: u8,
+    baud: u32,
+}
+
+impl<'a> AddressDoc<'a> {
+    /// The keys the plan and the report share, of `plan` on port `name`.
+    fn of(name: &'a str, plan: &'a AssignPlan) -> Self {
+        AddressDoc {
+            address: None,
+            baud: None,
+            dry_run: None,
+            elapsed_ms: 0.0,
+            family: plan.family.name(),
+            found_at: FoundAt {
+                address: plan.reached_at,
+                baud: plan.rate,
+            },
+            journal: None,
+            old_address: plan.old_address,
+            port: name,
+            rate_effect: None,
+            rate_note: None,
+            scan: serde_json::to_value(&plan.scan).unwrap_or_default(),
+            scan_ms: plan.scan_time.as_secs_f64() * 1000.0,
+            to: None,
+            type_value: plan.type_value,
+            verified: None,
+            writes: None,
+            written: None,
+        }
+    }
+}
+
 fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
     if json {
-        let doc = json!({
-            "port": name,
-            "dry_run": true,
-            "family": plan.family.name(),
-            "type": plan.type_value,
-            "found_at": {"address": plan.reached_at, "baud": plan.rate},
-            "old_address": plan.old_address,
-            "to": plan.to,
-            "baud": plan.baud,
-            "rate_effect": plan.rate_effect,
-            "scan": plan.scan,
-            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
-            "writes": writes_json(plan),
-            "elapsed_ms": plan.elapsed.as_secs_f64() * 1000.0,
-        });
+        let doc = AddressDoc {
+            baud: plan.baud,
+            dry_run: Some(true),
+            rate_effect: Some(serde_json::to_value(plan.rate_effect).unwrap_or_default()),
+            to: Some(plan.to),
+            writes: Some(writes_json(plan)),
+            elapsed_ms: plan.elapsed.as_secs_f64() * 1000.0,
+            ..AddressDoc::of(name, plan)
+        };
         output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -271,22 +328,16 @@ fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
 fn emit_report(name: &str, r: &AssignReport, json: bool) {
     let plan = &r.plan;
     if json {
-        let doc = json!({
-            "port": name,
-            "family": plan.family.name(),
-            "type": plan.type_value,
-            "found_at": {"address": plan.reached_at, "baud": plan.rate},
-            "old_address": plan.old_address,
-            "address": plan.to,
-            "baud": r.rate_now,
-            "rate_note": r.rate_note,
-            "scan": plan.scan,
-            "scan_ms": plan.scan_time.as_secs_f64() * 1000.0,
-            "written": r.written,
-            "verified": r.verified,
-            "journal": r.journal,
-            "elapsed_ms": r.elapsed.as_secs_f64() * 1000.0,
-        });
+        let doc = AddressDoc {
+            address: Some(plan.to),
+            baud: Some(r.rate_now),
+            rate_note: Some(r.rate_note.as_deref()),
+            written: Some(&r.written),
+            verified: Some(&r.verified),
+            journal: Some(&r.journal),
+            elapsed_ms: r.elapsed.as_secs_f64() * 1000.0,
+            ..AddressDoc::of(name, plan)
+        };
         output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -319,45 +370,4 @@ fn emit_report(name: &str, r: &AssignReport, json: bool) {
     );
     let _ = writeln!(out, "journal: {}", r.journal);
     output::emit(&out);
-}
-
-/// `driveset recover JOURNAL` of an address change: the journal's port
-/// (or `port`), the drive found at its old or new address and rate with
-/// `schema` (the one the change was made with, which the journal records,
-/// or `--schema`) for its family, the change finished and verified.
-pub fn recover_journal(
-    journal: &Path,
-    port_text: &str,
-    dirs: &[PathBuf],
-    schema: Option<std::sync::Arc<driveset_schema::Schema>>,
-    json: bool,
-) -> Result<u8, Fail> {
-    let mut schemas = schemas_for(dirs, &[])?;
-    if let Some(s) = schema {
-        schemas = schemas.with(s);
-    }
-    let opened = port::open_port(port_text)?;
-    let name = opened.name.clone();
-    let mut link = opened.link;
-    let r = assign::recover(&mut link, journal, &schemas)?;
-    if json {
-        output::emit(&format!(
-            "{}\n",
-            serde_json::to_string_pretty(&r).unwrap_or_default()
-        ));
-    } else {
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "{name}: address change journal {}: found the drive at address {} at {} baud",
-            r.journal, r.found_at.0, r.found_at.1
-        );
-        for w in &r.written {
-            let _ = writeln!(out, "wrote {w}");
-        }
-        let _ = writeln!(out, "completed: {}", r.state);
-        let _ = writeln!(out, "journal: {}", r.journal);
-        output::emit(&out);
-    }
-    Ok(EXIT_OK)
 }

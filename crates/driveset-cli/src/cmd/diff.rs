@@ -1,7 +1,9 @@
 //! `driveset diff A B`: semantic diff of two parameter sets of one drive
 //! family (engineering units and labels), or of one set against the schema's
 //! factory defaults (`--defaults`), or a unified text diff of the canonical
-//! forms (`--unified`).
+//! forms (`--unified`). A set against a live drive (`--port`) is `live`.
+
+pub mod live;
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -11,19 +13,9 @@ use driveset_schema::validate::display_value;
 use driveset_schema::{
     CodeKey, DiffKind, RawValue, ResolvedSet, Schema, diff, diff_defaults, unified_diff,
 };
-use serde_json::{Value, json};
 
-use crate::output::{self, Style, plural};
+use crate::output::{self, OutputFormat, Style, plural};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
-
-/// Output format of `diff`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DiffFormat {
-    /// One line per code: `~ C0011 max_output_frequency: 50 Hz -> 60 Hz`.
-    Human,
-    /// One JSON document.
-    Json,
-}
 
 /// Arguments of `driveset diff`.
 #[derive(clap::Args)]
@@ -66,13 +58,13 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["format", "port"])]
     pub unified: bool,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: DiffFormat,
+    #[arg(long, value_parser = output::formats(output::DIFF_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// With --port: the transfer rate (the switch is journaled in
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
 }
 
 fn code_name(schema: &Schema, key: CodeKey) -> String {
@@ -89,19 +81,55 @@ fn shown(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
     }
 }
 
-fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Value {
+/// A raw value in `diff`'s JSON: a number, or text (octets as hex, a
+/// password as the secret marker).
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+enum RawShown {
+    Int(i64),
+    Text(String),
+}
+
+fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Option<RawShown> {
     let redact = schema
         .code(key.number)
         .is_some_and(|c| schema.is_password(c));
-    match raw {
-        None => Value::Null,
-        Some(_) if redact => json!(driveset_schema::canonical::SECRET),
-        Some(RawValue::Int(i)) => json!(i),
-        Some(RawValue::Text(t)) => json!(t),
-        Some(RawValue::Octets(o)) => {
-            json!(o.iter().map(|b| format!("{b:02x}")).collect::<String>())
-        }
+    match raw? {
+        _ if redact => Some(RawShown::Text(driveset_schema::canonical::SECRET.into())),
+        RawValue::Int(i) => Some(RawShown::Int(*i)),
+        RawValue::Text(t) => Some(RawShown::Text(t.clone())),
+        RawValue::Octets(o) => Some(RawShown::Text(
+            o.iter().map(|b| format!("{b:02x}")).collect::<String>(),
+        )),
     }
+}
+
+/// `diff --format json`'s document (keys in alphabetical order, as it
+/// always had them).
+#[derive(serde::Serialize)]
+struct DiffDoc<'a> {
+    added: usize,
+    changed: usize,
+    entries: Vec<EntryDoc<'a>>,
+    equal: bool,
+    new: &'a str,
+    old: &'a str,
+    removed: usize,
+    schema: &'a str,
+}
+
+/// One difference.
+#[derive(serde::Serialize)]
+struct EntryDoc<'a> {
+    code: String,
+    key: String,
+    kind: &'static str,
+    name: String,
+    new: Option<String>,
+    new_raw: Option<RawShown>,
+    old: Option<String>,
+    old_raw: Option<RawShown>,
+    text: &'a str,
 }
 
 /// `diff`'s port arguments (for `diff_live`).
@@ -124,14 +152,11 @@ impl PortCommand for Args {
 /// Run `driveset diff`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     if let (Some(_), Some(address)) = (&args.at.port, args.at.address) {
-        return super::diff_live::run(super::diff_live::LiveArgs {
+        return live::run(live::LiveArgs {
             set: &args.a,
             at: &args.at,
             address,
-            format: match args.format {
-                DiffFormat::Human => super::diff_live::LiveFormat::Human,
-                DiffFormat::Json => super::diff_live::LiveFormat::Json,
-            },
+            format: args.format,
             transfer: args.transfer,
         });
     }
@@ -218,13 +243,13 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         &schema,
         &old_name,
         &new_name,
-        matches!(args.format, DiffFormat::Json),
+        args.format == OutputFormat::Json,
     ))
 }
 
 /// Print a semantic diff, as human lines (`~`/`+`/`-` and a summary) or one
 /// JSON document, and return the exit code: 0 same, 1 different. The offline
-/// diff and `diff SET --port` (cmd/diff_live.rs) share it, so both print the
+/// diff and `diff SET --port` (cmd/diff/live.rs) share it, so both print the
 /// same thing.
 pub(crate) fn render(
     d: &driveset_schema::Diff,
@@ -242,37 +267,35 @@ pub(crate) fn render(
     );
     if json_out {
         {
-            let entries: Vec<Value> = d
+            let entries: Vec<EntryDoc> = d
                 .entries
                 .iter()
-                .map(|e| {
-                    json!({
-                        "code": schema.display_code(e.key.number, e.key.subcode),
-                        "key": e.key.canonical(schema.code_style),
-                        "name": code_name(schema, e.key),
-                        "kind": match e.kind {
-                            DiffKind::Added => "added",
-                            DiffKind::Removed => "removed",
-                            DiffKind::Changed => "changed",
-                        },
-                        "old": e.old.as_ref().map(|r| shown(schema, e.key, r)),
-                        "new": e.new.as_ref().map(|r| shown(schema, e.key, r)),
-                        "old_raw": raw_json(schema, e.key, e.old.as_ref()),
-                        "new_raw": raw_json(schema, e.key, e.new.as_ref()),
-                        "text": e.text,
-                    })
+                .map(|e| EntryDoc {
+                    code: schema.display_code(e.key.number, e.key.subcode),
+                    key: e.key.canonical(schema.code_style),
+                    kind: match e.kind {
+                        DiffKind::Added => "added",
+                        DiffKind::Removed => "removed",
+                        DiffKind::Changed => "changed",
+                    },
+                    name: code_name(schema, e.key),
+                    new: e.new.as_ref().map(|r| shown(schema, e.key, r)),
+                    new_raw: raw_json(schema, e.key, e.new.as_ref()),
+                    old: e.old.as_ref().map(|r| shown(schema, e.key, r)),
+                    old_raw: raw_json(schema, e.key, e.old.as_ref()),
+                    text: &e.text,
                 })
                 .collect();
-            let doc = json!({
-                "old": old_name,
-                "new": new_name,
-                "schema": schema.id,
-                "equal": d.is_empty(),
-                "changed": count(DiffKind::Changed),
-                "added": count(DiffKind::Added),
-                "removed": count(DiffKind::Removed),
-                "entries": entries,
-            });
+            let doc = DiffDoc {
+                added: count(DiffKind::Added),
+                changed: count(DiffKind::Changed),
+                entries,
+                equal: d.is_empty(),
+                new: new_name,
+                old: old_name,
+                removed: count(DiffKind::Removed),
+                schema: &schema.id,
+            };
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()

@@ -16,8 +16,8 @@ use driveset_engine::doctor::{
 };
 use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK};
@@ -65,8 +65,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR", default_value = "/sys")]
     pub sysfs: PathBuf,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -211,11 +211,12 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
         }
     };
     match args.format {
-        BusFormat::Json => output::emit(&format!(
+        OutputFormat::Json => output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&report).unwrap_or_default()
         )),
-        BusFormat::Human => output::emit(&human(&report)),
+        // `human`, the other value a bus command takes
+        _ => output::emit(&human(&report)),
     }
     Ok(if !report.answered() {
         EXIT_BUS

@@ -200,7 +200,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                 }
             }
             if let Some(dir) = &args.json_schemas {
-                let said = crate::editor::associate::associate(&top, &args.sets, dir)
+                let mut registry = crate::output::registry(&[])
+                    .map_err(|e| crate::fail::Fail::input(e.message.clone()))?;
+                let said = driveset_ide::associate::associate(&top, &args.sets, dir, &mut registry)
                     .map_err(crate::fail::Fail::input)?;
                 for line in said {
                     outln!("{line}");

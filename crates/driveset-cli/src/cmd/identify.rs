@@ -9,21 +9,11 @@ use driveset_engine::client::DriveClient;
 use driveset_engine::session;
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
-use serde_json::json;
 
-use crate::output;
+use crate::output::{self, OutputFormat};
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_FINDINGS, EXIT_OK};
-
-/// Output format of the bus commands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum BusFormat {
-    /// Text for humans.
-    Human,
-    /// One JSON document on stdout.
-    Json,
-}
 
 /// Arguments of `driveset identify`.
 #[derive(clap::Args)]
@@ -52,8 +42,8 @@ pub struct Args {
     #[command(flatten)]
     pub at: Port<Args>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -160,6 +150,25 @@ fn learned_status(
     }
 }
 
+/// `identify --format json`'s document (keys in alphabetical order, as
+/// it always had them).
+#[derive(serde::Serialize)]
+struct IdentifyDoc<'a> {
+    address: Option<u8>,
+    codes: Vec<output::CodeValue<'a>>,
+    fits: bool,
+    learned: bool,
+    learned_file: Option<String>,
+    note: Option<String>,
+    port: &'a str,
+    protocol: &'a str,
+    reason: Option<&'a String>,
+    schema: &'a str,
+    schema_title: &'a str,
+    software: &'a Option<String>,
+    would_use: &'a str,
+}
+
 fn report(
     args: &Args,
     port_name: &str,
@@ -210,28 +219,29 @@ fn report(
     };
     client.finish()?;
     match args.format {
-        BusFormat::Json => {
-            let doc = json!({
-                "port": port_name,
-                "address": args.at.address,
-                "protocol": identity.protocol.name(),
-                "codes": identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
-                "software": identity.software,
-                "schema": schema.id,
-                "schema_title": schema.title,
-                "fits": fits.is_ok(),
-                "would_use": would_use,
-                "learned": learned,
-                "learned_file": learned_file.as_ref().map(|p| p.display().to_string()),
-                "reason": fits.as_ref().err(),
-                "note": note,
-            });
+        OutputFormat::Json => {
+            let doc = IdentifyDoc {
+                address: args.at.address,
+                codes: identity.codes.iter().map(output::CodeValue::of).collect(),
+                fits: fits.is_ok(),
+                learned,
+                learned_file: learned_file.as_ref().map(|p| p.display().to_string()),
+                note,
+                port: port_name,
+                protocol: identity.protocol.name(),
+                reason: fits.as_ref().err(),
+                schema: &schema.id,
+                schema_title: &schema.title,
+                software: &identity.software,
+                would_use: &would_use,
+            };
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(out, "port:     {port_name}");
             let _ = writeln!(out, "address:  {}", args.at.address()?);

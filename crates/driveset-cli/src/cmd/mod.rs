@@ -2,27 +2,21 @@
 //! returning the process exit code.
 
 pub mod address;
-pub mod allow;
 pub mod commission;
-pub mod commission_assign;
 pub mod completions;
 pub mod decode;
 pub mod diff;
-pub mod diff_live;
 pub mod doctor;
 pub mod encode;
 pub mod fingerprint;
 pub mod git_setup;
 pub mod identify;
-pub mod json_schema;
 pub mod lsp;
 pub mod pull;
 pub mod recover;
 pub mod replace;
 pub mod scan;
 pub mod schema;
-pub mod schema_import;
-pub mod schema_pull;
 pub mod show;
 pub mod sim;
 pub mod status;

@@ -22,9 +22,9 @@ use driveset_schema::Format;
 use driveset_schema::export::pulled;
 use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::{self as output_format, OutputFormat as BusFormat};
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
@@ -108,9 +108,9 @@ pub struct Args {
     /// .driveset/journal/<bus>-<address>.journal.json).
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
     /// Output format of the report on stdout.
-    #[arg(long, value_enum, default_value = "human")]
+    #[arg(long, value_parser = output_format::formats(output_format::BUS_FORMATS), default_value = "human")]
     pub format: BusFormat,
 }
 
@@ -236,7 +236,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         let req = args
             .transfer
             .request(&driveset_engine::overrides::Overrides::none());
-        let journal_dir = Path::new(super::upload::DEFAULT_JOURNAL_DIR);
+        let journal_dir = Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR);
         let rate = ReadRate::of(req.as_ref(), journal_dir);
         let r = session::rate::pull(client.as_mut(), &popts, rate, &p.hook()).map(|(x, t)| {
             transfer_note = t.map(|t| t.render());
@@ -347,7 +347,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        _ => {
             let mut out = String::new();
             let _ = writeln!(
                 out,

@@ -6,15 +6,15 @@
 //! (the adapter moved; any spelling of the journal's bus is accepted).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use driveset_engine::assign;
 use driveset_engine::journal::JournalFile;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover as engine_recover};
-use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::progress::Progress;
@@ -59,8 +59,8 @@ pub struct Args {
     #[command(flatten)]
     pub at: Port<Args>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 /// The port a journal's drive is reached through again when `--port` is
@@ -174,16 +174,16 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             Err(_) => None,
         };
         drop(jf);
-        return super::address::recover_journal(
+        return recover_address_change(
             &args.journal,
             &port_text,
             &args.at.schemas,
             schema,
-            args.format == BusFormat::Json,
+            args.format == OutputFormat::Json,
         );
     }
     let address = args.at.address.unwrap_or(j.target.address);
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
     let state = j.state;
     if j.is_finished() {
         // a finished journal needs no schema (an address change's names the
@@ -197,11 +197,11 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         if json {
             output::emit(&format!(
                 "{}\n",
-                serde_json::to_string_pretty(&json!({
-                    "journal": args.journal.display().to_string(),
-                    "found": state,
-                    "action": RecoverAction::Nothing,
-                }))
+                serde_json::to_string_pretty(&Finished {
+                    action: RecoverAction::Nothing,
+                    found: state,
+                    journal: args.journal.display().to_string(),
+                })
                 .unwrap_or_default()
             ));
         } else {
@@ -272,4 +272,54 @@ fn recover(args: &Args) -> Result<u8, Fail> {
         output::emit(&out);
     }
     Ok(EXIT_OK)
+}
+
+/// `driveset recover JOURNAL` of an address change: the journal's port
+/// (or `port`), the drive found at its old or new address and rate with
+/// `schema` (the one the change was made with, which the journal records,
+/// or `--schema`) for its family, the change finished and verified.
+fn recover_address_change(
+    journal: &Path,
+    port_text: &str,
+    dirs: &[PathBuf],
+    schema: Option<std::sync::Arc<driveset_schema::Schema>>,
+    json: bool,
+) -> Result<u8, Fail> {
+    let mut schemas = port::family_schemas(dirs, &[])?;
+    if let Some(s) = schema {
+        schemas = schemas.with(s);
+    }
+    let opened = port::open_port(port_text)?;
+    let name = opened.name.clone();
+    let mut link = opened.link;
+    let r = assign::recover(&mut link, journal, &schemas)?;
+    if json {
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&r).unwrap_or_default()
+        ));
+    } else {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{name}: address change journal {}: found the drive at address {} at {} baud",
+            r.journal, r.found_at.0, r.found_at.1
+        );
+        for w in &r.written {
+            let _ = writeln!(out, "wrote {w}");
+        }
+        let _ = writeln!(out, "completed: {}", r.state);
+        let _ = writeln!(out, "journal: {}", r.journal);
+        output::emit(&out);
+    }
+    Ok(EXIT_OK)
+}
+
+/// `recover --format json`'s document of a journal already finished (keys
+/// in alphabetical order, as it always had them).
+#[derive(serde::Serialize)]
+struct Finished {
+    action: RecoverAction,
+    found: driveset_engine::journal::TxnState,
+    journal: String,
 }

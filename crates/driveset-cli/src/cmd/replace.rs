@@ -1,10 +1,8 @@
 //! `driveset replace LINE --drive NAME --port SERVICE_PORT`: a spare, alone
 //! on a service port, becomes drive NAME of the line (the engine's
 //! `line::replace`): its manifest address and its bus's rate, then its set
-//! as one verified transaction. Also holds the confirmation prompt that
-//! `commission --assign` shares ([`confirm_allowed`]).
+//! as one verified transaction.
 
-use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
 use driveset_engine::line::manifest::Manifest;
@@ -15,7 +13,9 @@ use driveset_engine::session::Ports;
 use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
+use crate::output::OutputFormat;
 use crate::port_args::{Need, Port, PortCommand, Takes};
+use crate::prompt::{ask, confirm_allowed};
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
 
 /// Arguments of `driveset replace`.
@@ -62,51 +62,17 @@ pub struct Args {
     #[arg(long)]
     pub yes: bool,
     /// Output: text, or one JSON object on stdout.
-    #[arg(long, value_enum, default_value_t = Format::Text)]
-    pub format: Format,
+    #[arg(long, value_parser = crate::output::formats(crate::output::REPLACE_FORMATS), default_value = "text")]
+    pub format: OutputFormat,
     /// Where the report goes (REPORT_DIR/replace-NAME/).
     #[arg(long, value_name = "DIR")]
     pub report_dir: Option<PathBuf>,
     /// Named overrides passed to the set's upload.
     #[command(flatten)]
-    pub allow: super::allow::AllowArgs,
+    pub allow: crate::allow::AllowArgs,
     /// Test hook: read the answer from stdin even when it is not a terminal.
     #[arg(long, hide = true)]
     pub prompt_stdin: bool,
-}
-
-/// `--format`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    /// Human text.
-    Text,
-    /// One JSON object.
-    Json,
-}
-
-/// Whether a prompt may be shown: stdin is a terminal (or the test hook
-/// says to read it anyway). `Err` explains what to give instead.
-pub fn confirm_allowed(prompt_stdin: bool, what: &str) -> Result<(), Fail> {
-    if prompt_stdin || std::io::stdin().is_terminal() {
-        Ok(())
-    } else {
-        Err(Fail::input(format!(
-            "{what} asks before writing, and stdin is not a terminal; give --yes to run without asking (nothing was written)"
-        )))
-    }
-}
-
-/// Print `prompt` on stderr and read one line of stdin: `Ok(line)`
-/// trimmed; end of input is an empty answer.
-pub fn ask(prompt: &str) -> Result<String, Fail> {
-    eprint!("{prompt}");
-    let _ = std::io::stderr().flush();
-    let mut line = String::new();
-    std::io::stdin()
-        .lock()
-        .read_line(&mut line)
-        .map_err(|e| Fail::input(format!("cannot read stdin: {e}")))?;
-    Ok(line.trim().to_string())
 }
 
 /// Open a port string and lock its bus, as every command does (the
@@ -174,7 +140,7 @@ impl PortCommand for Args {
 /// Run `driveset replace`.
 pub fn run(args: Args) -> Result<u8, Fail> {
     let overrides = args.allow.overrides()?;
-    let manifest = match super::commission::load(&args.manifest, true) {
+    let manifest = match crate::line::load(&args.manifest, true) {
         Ok(m) => m,
         Err(code) => return Err(Fail::reported(code)),
     };
@@ -187,13 +153,13 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         .report_dir
         .clone()
         .or_else(|| manifest.report_dir.clone())
-        .unwrap_or_else(|| PathBuf::from(super::commission::DEFAULT_REPORT_DIR))
+        .unwrap_or_else(|| PathBuf::from(crate::line::DEFAULT_REPORT_DIR))
         .join(format!("replace-{}", args.drive));
     let opts = ReplaceOptions {
         journal_dir: manifest
             .journal_dir
             .clone()
-            .unwrap_or_else(|| PathBuf::from(super::upload::DEFAULT_JOURNAL_DIR)),
+            .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
         scan: Default::default(),
         overrides,
         line_buses: line_bus_ids(&manifest),
@@ -202,7 +168,7 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;
     let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| Fail::from(&e))?;
-    if args.format == Format::Text {
+    if args.format == OutputFormat::Text {
         let id = prep
             .plan
             .identity
@@ -273,25 +239,25 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     match done {
         Ok(o) => {
             let r = &o.report.drives[0];
-            if args.format == Format::Json {
-                let v = serde_json::json!({
-                    "drive": d.name,
-                    "service_port": port_name,
-                    "address": d.address,
-                    "rate": o.assign.rate_now,
-                    "rate_note": o.assign.rate_note,
-                    "codes": prep.codes(),
-                    "codes_written": r.codes_written,
-                    "factory_settings": r.factory_settings,
-                    "result": "replaced",
-                    "report": written.0.display().to_string(),
-                    "virtual_ms": {
-                        "assign": o.assign_time.as_secs_f64() * 1000.0,
-                        "upload": o.upload_time.as_secs_f64() * 1000.0,
-                        "total": o.total().as_secs_f64() * 1000.0,
+            if args.format == OutputFormat::Json {
+                let v = Replaced {
+                    address: d.address,
+                    codes: prep.codes(),
+                    codes_written: r.codes_written,
+                    drive: &d.name,
+                    factory_settings: r.factory_settings,
+                    next: &status_cmd,
+                    rate: o.assign.rate_now,
+                    rate_note: &o.assign.rate_note,
+                    report: written.0.display().to_string(),
+                    result: "replaced",
+                    service_port: &port_name,
+                    virtual_ms: VirtualMs {
+                        assign: o.assign_time.as_secs_f64() * 1000.0,
+                        total: o.total().as_secs_f64() * 1000.0,
+                        upload: o.upload_time.as_secs_f64() * 1000.0,
                     },
-                    "next": status_cmd,
-                });
+                };
                 outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
             } else {
                 for w in &o.assign.written {
@@ -337,4 +303,30 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             Ok(if bus { EXIT_BUS } else { EXIT_FINDINGS })
         }
     }
+}
+
+/// `replace --format json`'s document (keys in alphabetical order, as it
+/// always had them).
+#[derive(serde::Serialize)]
+struct Replaced<'a> {
+    address: u8,
+    codes: usize,
+    codes_written: u32,
+    drive: &'a str,
+    factory_settings: bool,
+    next: &'a str,
+    rate: u32,
+    rate_note: &'a Option<String>,
+    report: String,
+    result: &'static str,
+    service_port: &'a str,
+    virtual_ms: VirtualMs,
+}
+
+/// The virtual time of a replacement's steps, in milliseconds.
+#[derive(serde::Serialize)]
+struct VirtualMs {
+    assign: f64,
+    total: f64,
+    upload: f64,
 }

@@ -8,10 +8,9 @@ use driveset_engine::scan::{
     lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
 };
 use driveset_link::{ByteLink, Link, LinkError};
-use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail, ProtocolArg};
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
 use crate::{EXIT_BUS, EXIT_OK};
@@ -47,8 +46,8 @@ pub struct Args {
     #[arg(long)]
     pub detect_baud: bool,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -243,22 +242,26 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         range_of(protocol).to_string()
     };
     match args.format {
-        BusFormat::Json => {
-            let doc = json!({
-                "port": port_name,
-                "protocol": protocol.name(),
-                "baud": baud_found,
-                "found": found.iter().map(|f| json!({
-                    "address": f.address,
-                    "codes": f.identity.codes.iter().map(|c| json!({"code": c.name, "value": c.value.to_string()})).collect::<Vec<_>>(),
-                })).collect::<Vec<_>>(),
-            });
+        OutputFormat::Json => {
+            let doc = ScanDoc {
+                baud: baud_found,
+                found: found
+                    .iter()
+                    .map(|f| FoundDoc {
+                        address: f.address,
+                        codes: f.identity.codes.iter().map(output::CodeValue::of).collect(),
+                    })
+                    .collect(),
+                port: &port_name,
+                protocol: protocol.name(),
+            };
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(out, "scanned {port_name} ({range})");
             match (baud_found, other_rate) {
@@ -291,4 +294,21 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         return Ok(EXIT_BUS);
     }
     Ok(EXIT_OK)
+}
+
+/// `scan --format json`'s document (keys in alphabetical order, as it
+/// always had them).
+#[derive(serde::Serialize)]
+struct ScanDoc<'a> {
+    baud: Option<u32>,
+    found: Vec<FoundDoc<'a>>,
+    port: &'a str,
+    protocol: &'a str,
+}
+
+/// A drive that answered: its address and identity codes.
+#[derive(serde::Serialize)]
+struct FoundDoc<'a> {
+    address: u8,
+    codes: Vec<output::CodeValue<'a>>,
 }

@@ -3,6 +3,12 @@
 //! unknown types, min/max/default the type cannot hold or outside the range,
 //! enumeration values outside the type, bit fields outside the word or
 //! overlapping, rules naming unknown codes, fixture marking and `extends`.
+//! Its other subcommands are its own modules: `pull`, `import`,
+//! `json_schema`.
+
+pub mod import;
+pub mod json_schema;
+pub mod pull;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -11,7 +17,7 @@ use driveset_schema::error::read_text_file;
 use driveset_schema::schema::BUILTIN_FILES;
 use driveset_schema::{InputError, Schema, check_schema};
 
-use crate::output::{self, FileReport, Format, Report, Style};
+use crate::output::{self, FileReport, OutputFormat, Report, Style};
 
 /// `driveset schema ...`.
 #[derive(clap::Subcommand)]
@@ -29,11 +35,11 @@ Examples:
   driveset schema check parameter-sets/fixtures/")]
     Check(CheckArgs),
     /// Build a schema file from a LUSTBUS drive's own parameter descriptions.
-    Pull(super::schema_pull::Args),
+    Pull(pull::Args),
     /// Build a Lenze ECS schema file from a CiA 306 EDS / DCF data sheet.
-    Import(super::schema_import::Args),
+    Import(import::Args),
     /// Write the JSON Schema of a schema's set files, for the editors' TOML and YAML servers.
-    JsonSchema(super::json_schema::Args),
+    JsonSchema(json_schema::Args),
 }
 
 /// Arguments of `driveset schema check`.
@@ -43,8 +49,8 @@ pub struct CheckArgs {
     #[arg(value_name = "FILE")]
     pub files: Vec<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: Format,
+    #[arg(long, value_parser = output::formats(output::REPORT_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Load every *.toml schema of DIR first, so fixtures can extend them (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
@@ -54,9 +60,9 @@ pub struct CheckArgs {
 pub fn run(cmd: SchemaCommand) -> Result<u8, crate::fail::Fail> {
     match cmd {
         SchemaCommand::Check(a) => check(a),
-        SchemaCommand::Pull(a) => super::schema_pull::run(a),
-        SchemaCommand::Import(a) => super::schema_import::run(a),
-        SchemaCommand::JsonSchema(a) => super::json_schema::run(a),
+        SchemaCommand::Pull(a) => pull::run(a),
+        SchemaCommand::Import(a) => import::run(a),
+        SchemaCommand::JsonSchema(a) => json_schema::run(a),
     }
 }
 
@@ -95,7 +101,7 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
         for p in &args.files {
             if p.is_dir() {
                 let mut found = Vec::new();
-                if let Err(e) = super::validate::collect(p, &mut found) {
+                if let Err(e) = driveset_schema::walk::collect(p, &mut found) {
                     report.files.push((
                         p.display().to_string(),
                         FileReport {
@@ -139,7 +145,7 @@ fn check_files(files: &[PathBuf], registry: &driveset_schema::Registry, report: 
                     error: Some(e),
                 },
                 Ok(source) => {
-                    match super::validate::check_schema_source(source, registry, &loaded) {
+                    match driveset_schema::check::check_schema_source(source, registry, &loaded) {
                         Ok((s, findings)) => {
                             loaded.push(s);
                             FileReport {

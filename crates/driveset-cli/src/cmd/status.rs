@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use super::commission::{Common, STATUS, run_mode};
+use crate::line::{Common, STATUS, run_mode};
 
 /// Arguments of `driveset status`.
 #[derive(clap::Args)]

@@ -189,7 +189,7 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 }
 
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
-    let manifest = super::commission::load(&a.manifest, true).map_err(Fail::reported)?;
+    let manifest = crate::line::load(&a.manifest, true).map_err(Fail::reported)?;
     // every twin file is checked before a bus is opened
     for d in &manifest.drives {
         crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;

@@ -31,15 +31,12 @@ use driveset_engine::dry_run::{self, DryRunOptions, Subject};
 use driveset_engine::session;
 use driveset_engine::upload::{UploadOptions, default_journal_path};
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::Fail;
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 use crate::progress::Progress;
-
-/// The journal directory used when neither --journal nor --journal-dir is given.
-pub const DEFAULT_JOURNAL_DIR: &str = ".driveset/journal";
 
 /// Arguments of `driveset upload`.
 #[derive(clap::Args)]
@@ -109,10 +106,10 @@ pub struct Args {
     pub dry_run: bool,
     /// Named overrides, one per refusal.
     #[command(flatten)]
-    pub allow: super::allow::AllowArgs,
+    pub allow: crate::allow::AllowArgs,
     /// The transfer rate.
     #[command(flatten)]
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
     /// The journal file.
     #[arg(long, value_name = "FILE", conflicts_with = "journal_dir")]
     pub journal: Option<PathBuf>,
@@ -120,8 +117,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub journal_dir: Option<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -153,7 +150,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     let on = args.at.set_on_drive(&args.set, address, "not uploaded")?;
     let (set, port_name, mut client) = (on.set, on.session.port, on.session.client);
-    let json = args.format == BusFormat::Json;
+    let json = args.format == OutputFormat::Json;
 
     let transfer = args.transfer.request(&overrides);
     if args.dry_run {
@@ -185,7 +182,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         (None, dir) => {
             let dir = dir
                 .clone()
-                .unwrap_or_else(|| PathBuf::from(DEFAULT_JOURNAL_DIR));
+                .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
             default_journal_path(&dir, client.as_ref())
         }
     };

@@ -8,14 +8,14 @@
 //! fixture still fails the run, and counted as checked files.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
+use driveset_schema::Registry;
+use driveset_schema::check::check_schema_source;
 use driveset_schema::doc::{self, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
-use driveset_schema::schema::parse_schema;
-use driveset_schema::{InputError, InputErrorKind, Location, Registry, Schema, check_schema};
+use driveset_schema::walk::collect;
 
-use crate::output::{FileReport, Format, Report, Style};
+use crate::output::{FileReport, OutputFormat, Report, Style};
 
 /// Arguments of `driveset validate`.
 #[derive(clap::Args)]
@@ -40,86 +40,11 @@ pub struct Args {
     #[arg(required = true, value_name = "PATH")]
     pub paths: Vec<PathBuf>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: Format,
+    #[arg(long, value_parser = crate::output::formats(crate::output::REPORT_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
-}
-
-/// Set and schema file extensions searched in directories.
-const EXTENSIONS: [&str; 3] = ["toml", "yaml", "yml"];
-
-/// Files under `path` (a file as given, a directory recursively, sorted).
-///
-/// Each real path is visited once: directories and files are keyed by their
-/// canonical path, so a symlink loop (`a/loop -> ..`) or two links back to a
-/// parent cost one visit each instead of an endless or exponential walk.
-/// Hidden entries are skipped. Entries are not opened here: a FIFO, socket
-/// or device file named `*.toml` is listed and then refused by the reader
-/// (exit 2, "not a regular file") without ever being opened.
-pub fn collect(path: &Path, out: &mut Vec<PathBuf>) -> Result<(), InputError> {
-    let mut visited = std::collections::HashSet::new();
-    walk(path, out, &mut visited)
-}
-
-fn walk(
-    path: &Path,
-    out: &mut Vec<PathBuf>,
-    visited: &mut std::collections::HashSet<PathBuf>,
-) -> Result<(), InputError> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| unreadable(path, format!("cannot read {}: {e}", path.display())))?;
-    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    if !visited.insert(real) {
-        return Ok(());
-    }
-    if !meta.is_dir() {
-        out.push(path.to_path_buf());
-        return Ok(());
-    }
-    let rd = std::fs::read_dir(path).map_err(|e| {
-        unreadable(
-            path,
-            format!("cannot read directory {}: {e}", path.display()),
-        )
-    })?;
-    let mut entries: Vec<PathBuf> = rd.filter_map(Result::ok).map(|e| e.path()).collect();
-    entries.sort();
-    for p in entries {
-        let hidden = p
-            .file_name()
-            .and_then(|n| n.to_str())
-            .is_some_and(|n| n.starts_with('.'));
-        if hidden {
-            continue;
-        }
-        // metadata follows symlinks; a dangling link is listed (the reader
-        // then says it cannot be read)
-        if std::fs::metadata(&p).is_ok_and(|m| m.is_dir()) {
-            walk(&p, out, visited)?;
-        } else if p
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-        {
-            let real = std::fs::canonicalize(&p).unwrap_or_else(|_| p.clone());
-            if visited.insert(real) {
-                out.push(p);
-            }
-        }
-    }
-    Ok(())
-}
-
-/// An input error the CLI raises itself (a path that cannot be read).
-fn unreadable(path: &Path, message: String) -> InputError {
-    InputError {
-        kind: InputErrorKind::Unreadable,
-        message,
-        help: "check the path".to_string(),
-        location: Box::new(Location::file_only(path.display().to_string())),
-    }
 }
 
 /// Whether a parsed TOML document is a schema file (top-level `[schema]` table).
@@ -127,25 +52,6 @@ fn is_schema_doc(d: &doc::Document) -> bool {
     d.root
         .get("schema")
         .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_)))
-}
-
-/// Check a schema file against the registry (its `extends` base must be known).
-pub fn check_schema_source(
-    source: driveset_schema::error::SourceFile,
-    registry: &Registry,
-    extra: &[Arc<Schema>],
-) -> Result<(Arc<Schema>, Vec<driveset_schema::Finding>), InputError> {
-    let lookup = |id: &str| {
-        extra
-            .iter()
-            .rev()
-            .find(|s| s.id == id)
-            .cloned()
-            .or_else(|| registry.get(id))
-    };
-    let schema = Arc::new(parse_schema(source, &lookup)?);
-    let findings = check_schema(&schema);
-    Ok((schema, findings))
 }
 
 fn check_file(path: &Path, registry: &mut Registry) -> FileReport {

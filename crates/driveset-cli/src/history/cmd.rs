@@ -8,6 +8,7 @@ use driveset_history::query::{At, LogFilter, as_built_diff};
 use driveset_history::{Store, Target, Verdict};
 
 use crate::fail::Fail;
+use crate::output::OutputFormat;
 use crate::{EXIT_FINDINGS, EXIT_OK};
 use driveset_history::render;
 
@@ -28,28 +29,6 @@ pub enum HistoryCommand {
     Sync,
     /// Write every record as JSON Lines on stdout (an archive outside any database).
     Export,
-}
-
-/// Output formats of `log`.
-#[derive(clap::ValueEnum, Clone, Copy, PartialEq, Eq, Debug)]
-pub enum LogFormat {
-    /// Aligned columns.
-    Table,
-    /// A JSON array.
-    Json,
-    /// Comma-separated values with a header.
-    Csv,
-}
-
-/// Output formats of `as-built`.
-#[derive(clap::ValueEnum, Clone, Copy, PartialEq, Eq, Debug)]
-pub enum BuiltFormat {
-    /// Text.
-    Table,
-    /// JSON.
-    Json,
-    /// An HTML page.
-    Html,
 }
 
 /// `history log`.
@@ -80,8 +59,8 @@ pub struct LogArgs {
     #[arg(long, value_name = "N", default_value_t = 1000)]
     pub limit: u32,
     /// Output format.
-    #[arg(long, value_enum, default_value = "table")]
-    pub format: LogFormat,
+    #[arg(long, value_parser = crate::output::formats(crate::output::LOG_FORMATS), default_value = "table")]
+    pub format: OutputFormat,
 }
 
 /// `history blame`.
@@ -111,8 +90,8 @@ pub struct AsBuiltArgs {
     #[arg(long, value_name = "LABEL|TIME")]
     pub at: Option<String>,
     /// Output format.
-    #[arg(long, value_enum, default_value = "table")]
-    pub format: BuiltFormat,
+    #[arg(long, value_parser = crate::output::formats(crate::output::BUILT_FORMATS), default_value = "table")]
+    pub format: OutputFormat,
 }
 
 /// `history diff`.
@@ -173,12 +152,13 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             out!(
                 "{}",
                 match a.format {
-                    LogFormat::Table => render::log_table(&rows),
-                    LogFormat::Json => format!(
+                    OutputFormat::Json => format!(
                         "{}\n",
                         serde_json::to_string_pretty(&rows).unwrap_or_default()
                     ),
-                    LogFormat::Csv => render::log_csv(&rows),
+                    OutputFormat::Csv => render::log_csv(&rows),
+                    // `table`, the only other value `log` takes
+                    _ => render::log_table(&rows),
                 }
             );
             Ok(EXIT_OK)
@@ -209,12 +189,13 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             out!(
                 "{}",
                 match a.format {
-                    BuiltFormat::Table => render::as_built_text(&built),
-                    BuiltFormat::Json => format!(
+                    OutputFormat::Json => format!(
                         "{}\n",
                         serde_json::to_string_pretty(&built).unwrap_or_default()
                     ),
-                    BuiltFormat::Html => render::as_built_html(&built),
+                    OutputFormat::Html => render::as_built_html(&built),
+                    // `table`, the only other value `as-built` takes
+                    _ => render::as_built_text(&built),
                 }
             );
             Ok(EXIT_OK)
@@ -286,7 +267,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
 
 /// The line's name and its drives' names, from its manifest.
 fn manifest_drives(path: &std::path::Path) -> Result<(String, Vec<String>), Fail> {
-    let m = crate::cmd::commission::load(path, false).map_err(Fail::reported)?;
+    let m = crate::line::load(path, false).map_err(Fail::reported)?;
     Ok((
         m.name.clone(),
         m.drives.iter().map(|d| d.name.clone()).collect(),

@@ -116,3 +116,7 @@ pub const JOURNAL_VERSION: u32 = 2;
 pub const OLDEST_JOURNAL_VERSION: u32 = 1;
 /// The journal file name's ending.
 pub const JOURNAL_SUFFIX: &str = ".journal.json";
+/// The journal directory the CLI's commands use when neither `--journal`,
+/// `--journal-dir` nor a line manifest's `journal_dir` gives one (relative
+/// to the current directory; docs/journals.md).
+pub const DEFAULT_JOURNAL_DIR: &str = ".driveset/journal";

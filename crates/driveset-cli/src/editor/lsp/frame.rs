@@ -13,7 +13,7 @@
 use std::io::{self, BufRead, Read as _, Write};
 
 use lsp_server::Message;
-use serde_json::{Value, json};
+use serde_json::Value;
 
 /// The largest frame body read (64 MiB: a set file is at most 4 MiB and
 /// an editor sends it whole at most once per message).
@@ -48,7 +48,30 @@ pub struct Reader<R> {
 /// The error response `code` / `message` with the request's `id` (null
 /// when none is known).
 pub fn error(id: Value, code: i64, message: impl Into<String>) -> Value {
-    json!({"jsonrpc": "2.0", "id": id, "error": {"code": code, "message": message.into()}})
+    let e = ErrorResponse {
+        error: ErrorBody {
+            code,
+            message: message.into(),
+        },
+        id,
+        jsonrpc: "2.0",
+    };
+    serde_json::to_value(e).unwrap_or_default()
+}
+
+/// A JSON-RPC error response.
+#[derive(serde::Serialize)]
+struct ErrorResponse {
+    error: ErrorBody,
+    id: Value,
+    jsonrpc: &'static str,
+}
+
+/// Its `error` member.
+#[derive(serde::Serialize)]
+struct ErrorBody {
+    code: i64,
+    message: String,
 }
 
 enum Line {
@@ -283,6 +306,7 @@ pub fn write_message(w: &mut impl Write, m: &Message) -> io::Result<()> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use serde_json::json;
 
     fn frame(body: &[u8]) -> Vec<u8> {
         let mut f = format!("Content-Length: {}\r\n\r\n", body.len()).into_bytes();

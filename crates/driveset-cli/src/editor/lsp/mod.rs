@@ -15,9 +15,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use driveset_schema::doc::{Document, Entry, Node, NodeKind, Syntax};
-use driveset_schema::error::SourceFile;
-use driveset_schema::schema::{BUILTIN_FILES, Code};
+use driveset_schema::doc::{Document, Syntax};
+use driveset_schema::schema::BUILTIN_FILES;
 use driveset_schema::{Registry, Schema};
 use lsp_server::{Message, Notification, Request, Response};
 use lsp_types::{
@@ -31,7 +30,8 @@ use lsp_types::{
 };
 use serde_json::Value;
 
-use crate::editor::facts;
+use driveset_ide::facts;
+use driveset_ide::navigate::{self, Completion, CompletionKind, Cursor, Insert};
 use text::Text;
 
 /// Options of the server (`driveset lsp`'s arguments).
@@ -308,7 +308,7 @@ impl Server {
     /// The document, its parsed tree and schema, and the byte offset of `pos`.
     fn at(&self, key: &str, pos: Position) -> Option<(&Doc, Document, Arc<Schema>, usize)> {
         let doc = self.docs.get(key)?;
-        let parsed = analysis::parse(&doc.path, doc.text.as_str()).ok()?;
+        let parsed = driveset_ide::analysis::parse(&doc.path, doc.text.as_str()).ok()?;
         let schema = doc.schema.clone()?;
         let offset = doc.text.offset(pos);
         Some((doc, parsed, schema, offset))
@@ -316,28 +316,22 @@ impl Server {
 
     fn hover(&self, key: &str, pos: Position) -> Option<Hover> {
         let (doc, parsed, schema, offset) = self.at(key, pos)?;
-        let e = analysis::values_entry(&parsed, offset)?;
-        let (code, k) = driveset_schema::set::code_of_key(&schema, &parsed, e)?;
-        let mut md = facts::markdown(&schema, code);
-        if let Some(s) = k.subcode {
-            md = format!("subcode {s} of {md}");
-        }
+        let h = navigate::hover(&schema, &parsed, offset)?;
         Some(Hover {
             contents: HoverContents::Markup(MarkupContent {
                 kind: MarkupKind::Markdown,
-                value: md,
+                value: h.markdown,
             }),
-            range: Some(doc.text.range(e.key_span.clone())),
+            range: Some(doc.text.range(h.span)),
         })
     }
 
     fn definition(&self, key: &str, pos: Position) -> Option<Location> {
         let (_, parsed, schema, offset) = self.at(key, pos)?;
-        let e = analysis::values_entry(&parsed, offset)?;
-        let (code, _) = driveset_schema::set::code_of_key(&schema, &parsed, e)?;
-        let file = self.schema_file(&code.loc.file)?;
-        let line = code.loc.line.saturating_sub(1) as u32;
-        let col = code.loc.column.saturating_sub(1) as u32;
+        let loc = navigate::definition(&schema, &parsed, offset)?;
+        let file = self.schema_file(&loc.file)?;
+        let line = loc.line.saturating_sub(1) as u32;
+        let col = loc.column.saturating_sub(1) as u32;
         Some(Location {
             uri: uri::from_path(&file)?,
             range: Range::new(Position::new(line, col), Position::new(line, col)),
@@ -387,62 +381,24 @@ impl Server {
 
     fn completion(&self, key: &str, pos: Position) -> Option<Vec<CompletionItem>> {
         let doc = self.docs.get(key)?;
-        let syntax = Syntax::from_path(&doc.path);
-        let line = doc.text.line(pos.line as usize);
-        let line_start = doc.text.offset(Position::new(pos.line, 0));
-        let cursor = doc
-            .text
-            .offset(pos)
-            .saturating_sub(line_start)
-            .min(line.len());
-        let prefix = &line[..cursor];
-        let section = section_of(&doc.text, pos.line as usize, syntax);
-        let sep = match syntax {
-            Syntax::Toml => prefix.find('='),
-            Syntax::Yaml => prefix
-                .find(": ")
-                .or_else(|| prefix.strip_suffix(':').map(str::len)),
+        let at = Cursor {
+            line: pos.line as usize,
+            line_start: doc.text.offset(Position::new(pos.line, 0)),
+            offset: doc.text.offset(pos),
         };
-        match (section.as_deref(), sep) {
-            (Some("values"), Some(i)) => {
-                let schema = doc.schema.as_ref()?;
-                let key_text = prefix[..i].trim().trim_matches(['"', '\'']);
-                let value_start = i
-                    + 1
-                    + prefix[i + 1..]
-                        .find(|c: char| !c.is_whitespace())
-                        .unwrap_or(prefix.len() - i - 1);
-                let range =
-                    Range::new(doc.text.position(line_start + value_start.min(cursor)), pos);
-                Some(value_items(schema, key_text, range))
-            }
-            (Some("values"), None) => {
-                let schema = doc.schema.as_ref()?;
-                let word_start = prefix
-                    .rfind(|c: char| c.is_whitespace() || c == '"')
-                    .map_or(0, |i| i + 1);
-                let range = Range::new(doc.text.position(line_start + word_start), pos);
-                Some(key_items(schema, syntax, range))
-            }
-            (None, Some(i)) if prefix[..i].trim() == "schema" => {
-                let mut ids: Vec<&str> = self.registry.schemas().map(|s| s.id.as_str()).collect();
-                ids.sort_unstable();
-                Some(
-                    ids.into_iter()
-                        .map(|id| CompletionItem {
-                            label: id.to_string(),
-                            kind: Some(CompletionItemKind::MODULE),
-                            insert_text: Some(match syntax {
-                                Syntax::Toml => analysis::quoted(id),
-                                Syntax::Yaml => id.to_string(),
-                            }),
-                            ..CompletionItem::default()
-                        })
-                        .collect(),
-                )
-            }
-            _ => None,
-        }
+        let items = navigate::complete(
+            doc.text.as_str(),
+            at,
+            Syntax::from_path(&doc.path),
+            doc.schema.as_deref(),
+            &self.registry,
+        )?;
+        Some(
+            items
+                .into_iter()
+                .map(|c| completion_item(&doc.text, pos, c))
+                .collect(),
+        )
     }
 }
 
@@ -461,64 +417,34 @@ fn diagnostics_notification(
     )
 }
 
-/// The top-level table line `line` is in: TOML `[values]` -> `values`,
-/// YAML an indented line under `values:`; `None` at the top level.
-fn section_of(text: &Text, line: usize, syntax: Syntax) -> Option<String> {
-    match syntax {
-        Syntax::Toml => (0..=line).rev().find_map(|i| {
-            let l = text.line(i).trim();
-            let h = l.strip_prefix('[')?.trim_start_matches('[');
-            Some(h.split(']').next().unwrap_or("").trim().to_string())
+/// An LSP completion item of a completion; a replacement ends at the
+/// request's position `pos`.
+fn completion_item(text: &Text, pos: Position, c: Completion) -> CompletionItem {
+    let (insert_text, text_edit) = match c.insert {
+        Insert::Text(t) => (Some(t), None),
+        Insert::Replace { start, text: new } => (
+            None,
+            Some(CompletionTextEdit::Edit(TextEdit::new(
+                Range::new(text.position(start), pos),
+                new,
+            ))),
+        ),
+    };
+    CompletionItem {
+        label: c.label,
+        kind: Some(match c.kind {
+            CompletionKind::Field => CompletionItemKind::FIELD,
+            CompletionKind::EnumMember => CompletionItemKind::ENUM_MEMBER,
+            CompletionKind::Value => CompletionItemKind::VALUE,
+            CompletionKind::Module => CompletionItemKind::MODULE,
         }),
-        Syntax::Yaml => {
-            let here = text.line(line);
-            if !here.starts_with([' ', '\t']) {
-                return None;
-            }
-            (0..line).rev().find_map(|i| {
-                let l = text.line(i);
-                let t = l.trim();
-                if t.is_empty() || t.starts_with('#') || l.starts_with([' ', '\t']) {
-                    return None;
-                }
-                Some(t.split(':').next().unwrap_or("").trim().to_string())
-            })
-        }
+        detail: c.detail,
+        filter_text: c.filter_text,
+        data: c.code.map(Value::from),
+        insert_text,
+        text_edit,
+        ..CompletionItem::default()
     }
-}
-
-/// Completion of `[values]` keys: every code a set may write, by its
-/// canonical key and its name (subcodes as `KEY/N`).
-fn key_items(schema: &Schema, syntax: Syntax, range: Range) -> Vec<CompletionItem> {
-    let mut out = Vec::new();
-    for code in &schema.codes {
-        if facts::refused(schema, code).is_some() {
-            continue;
-        }
-        let named = facts::named_keys(schema, code);
-        let keys: Vec<String> = match code.subcodes {
-            None => named.into_iter().take(2).collect(),
-            Some(n) => (1..=n).map(|s| format!("{}/{s}", named[0])).collect(),
-        };
-        let detail = code.title.clone();
-        for k in keys {
-            let quoted = k.contains('/') && syntax == Syntax::Toml;
-            let insert = match syntax {
-                Syntax::Toml if quoted => format!("{} = ", analysis::quoted(&k)),
-                Syntax::Toml => format!("{k} = "),
-                Syntax::Yaml => format!("{k}: "),
-            };
-            out.push(CompletionItem {
-                label: k.clone(),
-                kind: Some(CompletionItemKind::FIELD),
-                detail: detail.clone(),
-                data: Some(Value::from(code.number)),
-                text_edit: Some(CompletionTextEdit::Edit(TextEdit::new(range, insert))),
-                ..CompletionItem::default()
-            });
-        }
-    }
-    out
 }
 
 fn markdown(value: String) -> Documentation {
@@ -526,67 +452,6 @@ fn markdown(value: String) -> Documentation {
         kind: MarkupKind::Markdown,
         value,
     })
-}
-
-/// Completion of a value: the code's selection texts (quoted), or its
-/// bit-field members' names as a table, and its default.
-fn value_items(schema: &Schema, key: &str, range: Range) -> Vec<CompletionItem> {
-    let Some(code) = code_of_key_text(schema, key) else {
-        return Vec::new();
-    };
-    let mut out: Vec<CompletionItem> = facts::labels(schema, code)
-        .into_iter()
-        .map(|(v, label)| CompletionItem {
-            label: label.to_string(),
-            kind: Some(CompletionItemKind::ENUM_MEMBER),
-            detail: Some(format!("{} = {v}", schema.display_code(code.number, None))),
-            filter_text: Some(analysis::quoted(label)),
-            text_edit: Some(CompletionTextEdit::Edit(TextEdit::new(
-                range,
-                analysis::quoted(label),
-            ))),
-            ..CompletionItem::default()
-        })
-        .collect();
-    if out.is_empty()
-        && let Some(d) = facts::default_text(schema, code)
-        && !schema.is_password(code)
-        && code.bits.is_empty()
-    {
-        let text = if d.starts_with('"') || driveset_schema::Decimal::parse(&d).is_ok() {
-            d.clone()
-        } else {
-            analysis::quoted(&d)
-        };
-        out.push(CompletionItem {
-            label: d,
-            kind: Some(CompletionItemKind::VALUE),
-            detail: Some("default".into()),
-            text_edit: Some(CompletionTextEdit::Edit(TextEdit::new(range, text))),
-            ..CompletionItem::default()
-        });
-    }
-    out
-}
-
-/// The code a key written on a line names (the set reader's resolution).
-fn code_of_key_text<'s>(schema: &'s Schema, key: &str) -> Option<&'s Code> {
-    let doc = Document {
-        source: SourceFile::new("<key>", key.to_string()),
-        root: Node {
-            kind: NodeKind::Table(Vec::new()),
-            span: 0..0,
-        },
-    };
-    let entry = Entry {
-        key: key.to_string(),
-        key_span: 0..key.len(),
-        value: Node {
-            kind: NodeKind::Null,
-            span: 0..0,
-        },
-    };
-    driveset_schema::set::code_of_key(schema, &doc, &entry).map(|(c, _)| c)
 }
 
 /// The code actions of the diagnostics in the request that carry a fix.

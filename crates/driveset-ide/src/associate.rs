@@ -9,10 +9,11 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use driveset_schema::Registry;
 use driveset_schema::doc::Syntax;
 use serde_json::{Map, Value};
 
-use super::json_schema::json_schema;
+use crate::json_schema::{file_name, json_schema};
 
 /// First and last line of driveset's block in `.taplo.toml`.
 pub const TAPLO_BEGIN: &str = "# >>> driveset git-setup --json-schemas (rerun it to update)";
@@ -35,21 +36,26 @@ fn rel(top: &Path, p: &Path) -> String {
 }
 
 /// Write the JSON Schemas of the sets under `dirs` into `out_dir` and
-/// associate them (`.taplo.toml`, `.vscode/settings.json` at `top`).
-/// Returns the lines to print.
-pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<String>, String> {
-    let mut registry = crate::output::registry(&[]).map_err(|e| e.message.clone())?;
+/// associate them (`.taplo.toml`, `.vscode/settings.json` at `top`); the
+/// sets' schemas are looked up in `registry`, as `validate` does. Returns
+/// the lines to print.
+pub fn associate(
+    top: &Path,
+    dirs: &[String],
+    out_dir: &str,
+    registry: &mut Registry,
+) -> Result<Vec<String>, String> {
     let mut sets = Sets::default();
     let mut schemas = BTreeMap::new();
     for d in dirs {
         let mut files = Vec::new();
-        crate::cmd::validate::collect(&top.join(d), &mut files).map_err(|e| e.message)?;
+        driveset_schema::walk::collect(&top.join(d), &mut files).map_err(|e| e.message)?;
         for f in files {
             if driveset_engine::line::manifest::is_manifest(&f) {
                 continue;
             }
             // schema files and unreadable sets are `validate`'s to report
-            let Ok(loaded) = driveset_schema::load_set(&f, &mut registry) else {
+            let Ok(loaded) = driveset_schema::load_set(&f, registry) else {
                 continue;
             };
             let Some(schema) = loaded.schema else {
@@ -67,7 +73,7 @@ pub fn associate(top: &Path, dirs: &[String], out_dir: &str) -> Result<Vec<Strin
     let out = top.join(out_dir);
     std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     for (id, schema) in &schemas {
-        let p = out.join(crate::cmd::json_schema::file_name(id));
+        let p = out.join(file_name(id));
         driveset_schema::output::write_output(&p, json_schema(schema).as_bytes())
             .map_err(|e| format!("{}; {}", e.message, e.help))?;
         said.push(format!("{}: JSON Schema of {id}", rel(top, &p)));
@@ -99,7 +105,15 @@ fn read_or_empty(p: &PathBuf) -> Result<String, String> {
     if std::fs::symlink_metadata(p).is_err() {
         return Ok(String::new());
     }
-    crate::files::read_settings(p).map_err(|e| format!("{}; {}", e.message, e.help))
+    let bytes = driveset_schema::input::read_regular_file(
+        p,
+        driveset_schema::error::MAX_FILE_BYTES,
+        "settings files",
+    )
+    .map_err(|e| format!("{}; {}", e.message, e.help))?;
+    // the message and help of the CLI's own settings reader (git-setup)
+    String::from_utf8(bytes)
+        .map_err(|_| format!("{} is not UTF-8 text; fix or remove the file", p.display()))
 }
 
 fn write_if_changed(p: &Path, old: &str, new: &str) -> Result<(), String> {
@@ -130,7 +144,7 @@ pub fn taplo_text(existing: &str, sets: &Sets, out_dir: &str) -> String {
             toml_str(&format!(
                 "{}/{}",
                 out_dir.trim_end_matches('/'),
-                crate::cmd::json_schema::file_name(id)
+                file_name(id)
             ))
         ));
     }
@@ -175,11 +189,7 @@ pub fn vscode_text(existing: &str, sets: &Sets, out_dir: &str) -> Result<String,
         if yaml.is_empty() {
             continue;
         }
-        let key = format!(
-            "{}/{}",
-            out_dir.trim_end_matches('/'),
-            crate::cmd::json_schema::file_name(id)
-        );
+        let key = format!("{}/{}", out_dir.trim_end_matches('/'), file_name(id));
         schemas.insert(
             key,
             Value::Array(yaml.iter().map(|f| Value::String(f.clone())).collect()),

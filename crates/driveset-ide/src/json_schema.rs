@@ -16,13 +16,19 @@ use driveset_schema::value::Repr;
 use driveset_schema::{Decimal, Schema};
 use serde_json::{Map, Value, json};
 
-use super::facts;
+use crate::facts;
 
 /// The JSON Schema draft written (`$schema`).
 pub const DRAFT: &str = "http://json-schema.org/draft-07/schema#";
 
 /// Marks a decimal number in the value tree until [`to_text`] writes it.
 const NUM_MARK: &str = "\u{1}decimal:";
+
+/// The file a schema's JSON Schema is written to (`schema json-schema
+/// --all`, `git-setup --json-schemas`): `ID.schema.json`.
+pub fn file_name(id: &str) -> String {
+    format!("{id}.schema.json")
+}
 
 /// The JSON Schema of `schema`'s set files, as pretty JSON text (ends in a newline).
 pub fn json_schema(schema: &Schema) -> String {

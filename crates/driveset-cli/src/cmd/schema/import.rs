@@ -7,10 +7,9 @@ use driveset_schema::input::{InputKind, read_input};
 use std::path::PathBuf;
 
 use driveset_schema::eds::{ImportOptions, import};
-use serde_json::json;
 
-use super::identify::BusFormat;
 use crate::output;
+use crate::output::OutputFormat;
 
 /// Arguments of `driveset schema import`.
 #[derive(clap::Args)]
@@ -47,8 +46,8 @@ pub struct Args {
     #[arg(long, value_name = "ID")]
     pub id: Option<String>,
     /// Format of the lint report on stderr.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 /// Run `driveset schema import`.
@@ -81,15 +80,21 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
                 (l, c) => format!("{shown}:{l}:{c}"),
             };
             match args.format {
-                BusFormat::Human => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
-                BusFormat::Json => eprintln!(
+                OutputFormat::Json => eprintln!(
                     "{}",
-                    serde_json::to_string_pretty(&json!({
-                        "file": shown, "error": {"line": e.line, "column": e.column,
-                        "message": e.message, "help": e.help}
-                    }))
+                    serde_json::to_string_pretty(&Refused {
+                        error: RefusedAt {
+                            column: e.column,
+                            help: &e.help,
+                            line: e.line,
+                            message: &e.message,
+                        },
+                        file: &shown,
+                    })
                     .unwrap_or_default()
                 ),
+                // `human`, the other value import takes
+                _ => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
             }
             return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
@@ -108,7 +113,31 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         imported.lints.len()
     );
     match args.format {
-        BusFormat::Human => {
+        OutputFormat::Json => {
+            let lints: Vec<LintDoc> = imported
+                .lints
+                .iter()
+                .map(|l| LintDoc {
+                    line: l.line,
+                    message: &l.message,
+                    object: &l.object,
+                })
+                .collect();
+            eprintln!(
+                "{}",
+                serde_json::to_string_pretty(&ImportDoc {
+                    cia_objects: imported.cia_objects,
+                    file: &shown,
+                    lenze_codes: imported.lenze_codes,
+                    lints,
+                    output: args.output.as_ref().map(|o| o.display().to_string()),
+                    schema: &imported.id,
+                })
+                .unwrap_or_default()
+            );
+        }
+        // `human`, the other value import takes
+        _ => {
             let mut text = String::new();
             for l in &imported.lints {
                 text.push_str(&format!("lint: {}\n", l.render(&shown)));
@@ -117,29 +146,46 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             text.push('\n');
             eprint!("{text}");
         }
-        BusFormat::Json => {
-            let lints: Vec<_> = imported
-                .lints
-                .iter()
-                .map(|l| json!({"line": l.line, "object": l.object, "message": l.message}))
-                .collect();
-            eprintln!(
-                "{}",
-                serde_json::to_string_pretty(&json!({
-                    "file": shown,
-                    "schema": imported.id,
-                    "output": args.output.as_ref().map(|o| o.display().to_string()),
-                    "lenze_codes": imported.lenze_codes,
-                    "cia_objects": imported.cia_objects,
-                    "lints": lints,
-                }))
-                .unwrap_or_default()
-            );
-        }
     }
     Ok(if imported.lints.is_empty() {
         crate::EXIT_OK
     } else {
         crate::EXIT_FINDINGS
     })
+}
+
+/// `schema import --format json`'s report on stderr (keys in alphabetical
+/// order, as it always had them).
+#[derive(serde::Serialize)]
+struct ImportDoc<'a> {
+    cia_objects: usize,
+    file: &'a str,
+    lenze_codes: usize,
+    lints: Vec<LintDoc<'a>>,
+    output: Option<String>,
+    schema: &'a str,
+}
+
+/// One lint of the import.
+#[derive(serde::Serialize)]
+struct LintDoc<'a> {
+    line: usize,
+    message: &'a str,
+    object: &'a str,
+}
+
+/// `schema import --format json`'s refusal of a file it cannot read.
+#[derive(serde::Serialize)]
+struct Refused<'a> {
+    error: RefusedAt<'a>,
+    file: &'a str,
+}
+
+/// Where and why.
+#[derive(serde::Serialize)]
+struct RefusedAt<'a> {
+    column: usize,
+    help: &'a str,
+    line: usize,
+    message: &'a str,
 }

@@ -10,16 +10,8 @@ use std::path::Path;
 use driveset_engine::history::{self, DriveRecord, Slot, Unit};
 use driveset_engine::session::{self, rate::ReadRate};
 
+use crate::output::OutputFormat;
 use crate::port::Fail;
-
-/// Whether the output is JSON (the offline diff's `--format json`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LiveFormat {
-    /// Lines.
-    Human,
-    /// One JSON document.
-    Json,
-}
 
 /// What `diff --port` needs.
 #[derive(Debug, Clone)]
@@ -27,13 +19,13 @@ pub struct LiveArgs<'a> {
     /// The set file.
     pub set: &'a Path,
     /// The port arguments (`--port`, `--schemas`, learning).
-    pub at: &'a super::diff::DiffPort,
+    pub at: &'a super::DiffPort,
     /// The address.
     pub address: u8,
     /// Output.
-    pub format: LiveFormat,
+    pub format: OutputFormat,
     /// `--transfer-baud`.
-    pub transfer: super::allow::TransferArgs,
+    pub transfer: crate::allow::TransferArgs,
 }
 
 /// Run `driveset diff SET --port P --address A`.
@@ -67,11 +59,11 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     let req = args
         .transfer
         .request(&driveset_engine::overrides::Overrides::none());
-    let journal_dir = Path::new(super::upload::DEFAULT_JOURNAL_DIR);
+    let journal_dir = Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR);
     let rate = ReadRate::of(req.as_ref(), journal_dir);
     let d = session::rate::live_diff(client.as_mut(), &set, rate).map(|(d, t)| {
         if let Some(t) = t
-            && args.format == LiveFormat::Human
+            && args.format == OutputFormat::Human
         {
             eprint!("{}", t.render());
         }
@@ -104,11 +96,11 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     crate::history::drive(&record);
     let old_name = format!("{port_name} address {}", args.address);
     let new_name = args.set.display().to_string();
-    Ok(super::diff::render(
+    Ok(super::render(
         &d,
         &schema,
         &old_name,
         &new_name,
-        args.format == LiveFormat::Json,
+        args.format == OutputFormat::Json,
     ))
 }

@@ -13,11 +13,11 @@ use std::path::PathBuf;
 
 use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
 use driveset_engine::session::Session;
-use serde_json::json;
+use serde_json::Value;
 
-use super::identify::BusFormat;
 use crate::EXIT_OK;
 use crate::output;
+use crate::output::OutputFormat;
 use crate::port::{self, Fail};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
@@ -71,8 +71,8 @@ pub struct Args {
     #[arg(long)]
     pub id: Option<String>,
     /// Output format of the report on stdout.
-    #[arg(long, value_enum, default_value = "human")]
-    pub format: BusFormat,
+    #[arg(long, value_parser = output::formats(output::BUS_FORMATS), default_value = "human")]
+    pub format: OutputFormat,
 }
 
 impl PortCommand for Args {
@@ -181,17 +181,18 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         learned,
     };
     match args.format {
-        BusFormat::Json => {
+        OutputFormat::Json => {
             let mut doc = report.json();
-            doc["port"] = json!(port_name);
-            doc["address"] = json!(address);
-            doc["family"] = json!(family_name);
+            doc["port"] = Value::from(port_name);
+            doc["address"] = Value::from(address);
+            doc["family"] = Value::from(family_name);
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
             ));
         }
-        BusFormat::Human => {
+        // `human`, the other value a bus command takes
+        _ => {
             let mut out = String::new();
             let _ = writeln!(
                 out,

@@ -12,8 +12,8 @@ use driveset_engine::line::commission_assign::{
 use driveset_engine::line::manifest::{Bus, Drive, Manifest};
 use driveset_link::PortSpec;
 
-use super::replace::{ask, confirm_allowed};
 use crate::fail::Fail;
+use crate::prompt::{ask, confirm_allowed};
 
 /// What `--assign` was given.
 pub struct AssignArgs {
@@ -171,7 +171,7 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
             Err(f) => Err(Stopped(f.msg)),
         }
     };
-    let a = commission_assign(&m, &opts, &super::commission::open_bus, &mut connect);
+    let a = commission_assign(&m, &opts, &super::open_bus, &mut connect);
     out!("{}", table(&a));
     Ok(a.ok)
 }

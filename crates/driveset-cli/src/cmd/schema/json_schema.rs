@@ -1,5 +1,5 @@
 //! `driveset schema json-schema SCHEMA [-o FILE]` and `--all -o DIR`: write
-//! the JSON Schema of a schema's set files (`editor::json_schema`) for the
+//! the JSON Schema of a schema's set files (`driveset_ide::json_schema`) for the
 //! editors' TOML (taplo) and YAML (yaml-language-server) support.
 
 use std::path::{Path, PathBuf};
@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use driveset_schema::{Registry, Schema};
 
-use crate::editor::json_schema::json_schema;
 use crate::fail::Fail;
+use driveset_ide::json_schema::{file_name, json_schema};
 
 /// Arguments of `driveset schema json-schema`.
 #[derive(clap::Args)]
@@ -43,11 +43,6 @@ pub struct Args {
     /// Load every *.toml schema of DIR in addition to the built-in schemas (repeatable).
     #[arg(long = "schemas", value_name = "DIR")]
     pub schemas: Vec<PathBuf>,
-}
-
-/// The file name `--all` writes a schema's JSON Schema to.
-pub fn file_name(id: &str) -> String {
-    format!("{id}.schema.json")
 }
 
 /// A schema by id, else a schema file by path.
