@@ -54,7 +54,7 @@ const SIM_REGISTRATION: &[(&str, &str)] = &[
 /// count (which may only go down) and why: they ask the registered opener
 /// of an opaque port, whatever its scheme, and name none.
 const OPAQUE_PORTS: &[(&str, usize, &str)] = &[(
-    "crates/driveset-engine/src/line/manifest/reader.rs",
+    "crates/driveset-engine/src/line/manifest/reader/ports.rs",
     4,
     "a manifest's bus port: the registered opener of an opaque port checks it and puts the manifest's drives on it (PortOpener::check, with_drives); no scheme is named",
 )];
