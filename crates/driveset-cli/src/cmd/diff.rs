@@ -47,7 +47,7 @@ pub struct Args {
     )]
     pub b: Option<PathBuf>,
     /// The live drive to compare A with (`--port` and `--address`; see
-    /// `diff_live`), the schema directories and, with --port, learning the
+    /// `live`), the schema directories and, with --port, learning the
     /// schema from the drive where the set's lacks facts.
     #[command(flatten)]
     pub at: Port<Args>,
@@ -132,7 +132,7 @@ struct EntryDoc<'a> {
     text: &'a str,
 }
 
-/// `diff`'s port arguments (for `diff_live`).
+/// `diff`'s port arguments (for `live`).
 pub type DiffPort = Port<Args>;
 
 impl PortCommand for Args {

@@ -129,7 +129,10 @@ fn run(
                     initialized = true;
                     vec![Message::Response(Response::new_ok(
                         req.id,
-                        serde_json::json!({ "capabilities": capabilities() }),
+                        lsp_types::InitializeResult {
+                            capabilities: capabilities(),
+                            server_info: None,
+                        },
                     ))]
                 }
             }
