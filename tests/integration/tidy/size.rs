@@ -56,11 +56,6 @@ const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
         "render_code",
         175,
     ),
-    (
-        "crates/driveset-engine/src/line/manifest/reader.rs",
-        "read",
-        629,
-    ),
     ("crates/driveset-engine/src/recover.rs", "settle", 331),
     ("crates/driveset-proto/src/lustbus/stream.rs", "step", 171),
     ("crates/driveset-schema/src/check.rs", "check_code", 156),
