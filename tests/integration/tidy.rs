@@ -40,8 +40,12 @@ const ARROWS: &[(&str, &[&str])] = &[
             "driveset-schema",
         ],
     ),
-    // the reports (JSON, HTML, JUnit, textconv): engine's report, schema
-    ("driveset-report", &["driveset-engine", "driveset-schema"]),
+    // the reports (JSON, HTML, JUnit, textconv, the history's): the
+    // engine's line report, the history's queries, schema
+    (
+        "driveset-report",
+        &["driveset-engine", "driveset-history", "driveset-schema"],
+    ),
     (
         "driveset-cli",
         &[

@@ -3,11 +3,13 @@
 //! it, and a self-contained `report.html`, [`html`]), JUnit XML of
 //! validation findings and of a rehearsal ([`junit`], docs/ci.md) and the
 //! line-oriented semantic view of a set file that `git diff` shows through
-//! the `driveset` textconv driver ([`textconv`], docs/file-formats.md).
+//! the `driveset` textconv driver ([`textconv`], docs/file-formats.md);
+//! the plant history's log, blame, as-built and diff ([`history`]).
 //! Files are written through the one writer (`driveset_schema::output`);
 //! git is the caller's to run (the textconv view takes the tracked files
 //! as data, the report its [`GitInfo`] from the engine's environment).
 
+pub mod history;
 pub mod html;
 pub mod junit;
 pub mod textconv;

@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use driveset_history::query::{At, LogFilter, as_built_diff};
 use driveset_history::{Store, Target, Verdict};
 
-use super::render;
 use crate::fail::Fail;
 use crate::{EXIT_FINDINGS, EXIT_OK};
+use driveset_report::history as render;
 
 /// `driveset history ...`.
 #[derive(clap::Subcommand)]

@@ -12,7 +12,6 @@
 //! next run that reaches it or by `driveset history sync`.
 
 pub mod cmd;
-mod render;
 
 use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
