@@ -1,5 +1,7 @@
-//! How `driveset history` prints: the log as a table or CSV, a blame, an
-//! as-built line as text or an HTML page, a diff.
+//! The plant history's reports (docs/history.md), as `driveset history`
+//! prints them: the log as a table or CSV, a blame, an as-built line as
+//! text or an HTML page, a diff. Pure: the store's query results in, text
+//! out.
 
 use std::fmt::Write as _;
 

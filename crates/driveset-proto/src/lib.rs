@@ -10,6 +10,8 @@
 //!   (`lenze-system-bus-can-sdo.txt`).
 //! - [`ascii`]: the control characters and the block check character that
 //!   LUSTBUS and LECOM share (both follow ISO 1745 / DIN 66019).
+//! - [`text`]: bytes as hex text and as escaped ASCII (`<EOT>@00112<ENQ>`),
+//!   both ways, as `driveset decode` reads and `driveset encode` prints them.
 //!
 //! Feature `serde`: `Serialize` / `Deserialize` for the types journals and
 //! reports carry, as the raw numbers on the wire (`serde_impls.rs`).
@@ -20,3 +22,4 @@ pub mod lecom;
 pub mod lustbus;
 #[cfg(feature = "serde")]
 mod serde_impls;
+pub mod text;

@@ -37,20 +37,15 @@
 //! (garbage, BCC mismatch, malformed or cut-off frames, replies that cannot
 //! occur); 2 usage or input error.
 
-pub(crate) mod input;
-
 use std::io::Read as _;
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context as _, bail};
+use driveset_proto::text;
 use driveset_schema::{Registry, Schema};
 
 use crate::{EXIT_FINDINGS, EXIT_OK};
-pub(crate) use driveset_engine::decode::lustbus::{
-    family_of as lustbus_family_of, family_schema_id as lustbus_schema_id,
-    value_parameter as lustbus_value_parameter, wire_type as lustbus_wire_type,
-};
 use driveset_engine::decode::{Capture, Context};
 
 /// Format of a capture (`--protocol`); [`DecodeProtocol::capture`] gives
@@ -174,13 +169,13 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
         if args.raw {
             bail!("--raw applies to FILE, not to --hex");
         }
-        return input::parse_hex(h, "--hex").map_err(anyhow::Error::msg);
+        return text::parse_hex(h, "--hex").map_err(anyhow::Error::msg);
     }
     if let Some(a) = &args.ascii {
         if args.raw {
             bail!("--raw applies to FILE, not to --ascii");
         }
-        return input::parse_ascii(a, "--ascii").map_err(anyhow::Error::msg);
+        return text::parse_ascii(a, "--ascii").map_err(anyhow::Error::msg);
     }
     let Some(file) = &args.file else {
         bail!(
@@ -220,7 +215,7 @@ fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
             e.utf8_error().valid_up_to()
         )
     })?;
-    input::parse_hex(&text, &name).map_err(anyhow::Error::msg)
+    text::parse_hex(&text, &name).map_err(anyhow::Error::msg)
 }
 
 /// Runs `driveset decode`.

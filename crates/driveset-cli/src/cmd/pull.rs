@@ -16,10 +16,10 @@ use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
 use driveset_engine::history::{self, DriveRecord, Slot, Unit};
-use driveset_engine::pull::PullOptions;
+use driveset_engine::pull::{PullOptions, Pulled};
 use driveset_engine::session::{self, rate::ReadRate};
-use driveset_schema::Format;
 use driveset_schema::export::pulled;
+use driveset_schema::{Format, Schema};
 use serde_json::json;
 
 use crate::EXIT_OK;
@@ -289,111 +289,24 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         .cloned()
         .collect();
 
-    // The schema reference: a file named by path stays a path (relative to
-    // the set file), an id stays an id.
-    let schema_ref = match &schema_path {
-        Some(p) => relative_path(p, &set_dir).display().to_string(),
-        None => schema.id.clone(),
-    };
-    let identity = pulled.identity.pairs();
-    let not_read: Vec<(&str, &str)> = pulled
-        .skipped
-        .iter()
-        .map(|s| (s.code.as_str(), s.reason.as_str()))
-        .collect();
-    let file = pulled::Pulled {
-        from: pulled::PulledFrom {
-            port: &port_name,
-            address,
-            protocol: pulled.identity.protocol.name(),
-            identity: &identity,
-            software: pulled.identity.software.as_deref(),
-        },
-        schema_ref: &schema_ref,
-        fingerprint: &pulled.fingerprint,
-        changed_only: args
-            .changed_only
-            .then_some((pulled.dropped_defaults, pulled.full_fingerprint.as_str())),
+    let done = Done {
+        port: &port_name,
+        address,
+        schema: &schema,
+        pulled: &pulled,
         actual: &actual,
-        not_read: &not_read,
+        failed: failed.len(),
+        bus_codes: &bus_codes,
+        schema_path: schema_path.as_deref(),
+        learned: learned.as_ref(),
+        detected: detected.as_deref(),
     };
-    let text = pulled::pulled_file(&pulled.set, &schema, &file, format);
+    let text = set_file(args, &done, &set_dir, format);
     crate::files::write_output("-o", &args.output, text.as_bytes())?;
-
-    match args.format {
-        BusFormat::Json => {
-            let doc = json!({
-                "port": port_name,
-                "address": address,
-                "file": args.output.display().to_string(),
-                "schema": schema.id,
-                "identity": pulled.identity,
-                "fingerprint": pulled.fingerprint,
-                "full_fingerprint": pulled.full_fingerprint,
-                "values": pulled.set.values.len(),
-                "actual_values": actual,
-                "read": pulled.read,
-                "dropped_defaults": pulled.dropped_defaults,
-                "skipped": pulled.skipped,
-                "not_readable": failed.len(),
-                "left_out_bus_codes": bus_codes,
-                "schema_file": schema_path.as_ref().map(|p| p.display().to_string()),
-                "learned": learned.as_ref().map(session::LearnedReport::json),
-                "detected": detected,
-                "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
-            });
-            output::emit(&format!(
-                "{}\n",
-                serde_json::to_string_pretty(&doc).unwrap_or_default()
-            ));
-        }
-        _ => {
-            let mut out = String::new();
-            let _ = writeln!(
-                out,
-                "pulled {} values from {port_name} address {} into {} ({:.3} s on the bus)",
-                pulled.set.values.len(),
-                address,
-                args.output.display(),
-                pulled.elapsed.as_secs_f64()
-            );
-            if args.changed_only {
-                let _ = writeln!(
-                    out,
-                    "left out {} values equal to the factory default",
-                    pulled.dropped_defaults
-                );
-            }
-            let not_read: Vec<&str> = pulled
-                .skipped
-                .iter()
-                .map(|s| s.code.as_str())
-                .filter(|c| !bus_codes.iter().any(|b| b == c))
-                .collect();
-            if !not_read.is_empty() {
-                let _ = writeln!(out, "not read: {}", not_read.join(", "));
-            }
-            if !bus_codes.is_empty() {
-                let _ = writeln!(
-                    out,
-                    "left out {}: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)",
-                    bus_codes.join(", ")
-                );
-            }
-            let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);
-            if let Some(d) = &detected {
-                let _ = writeln!(
-                    out,
-                    "protocol: {} ({d})",
-                    port::protocol_name(schema.family)
-                );
-            }
-            if let Some(p) = &schema_path {
-                let _ = writeln!(out, "schema: {} ({})", schema.id, p.display());
-            }
-            output::emit(&out);
-        }
-    }
+    output::emit(&match args.format {
+        BusFormat::Json => render_json(args, &done),
+        _ => render_human(args, &done),
+    });
     if failed.is_empty() {
         Ok(EXIT_OK)
     } else {
@@ -405,4 +318,134 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         }
         Ok(crate::EXIT_FINDINGS)
     }
+}
+
+/// What a pull did, for the set file and the report on stdout.
+struct Done<'a> {
+    port: &'a str,
+    address: u8,
+    schema: &'a Schema,
+    pulled: &'a Pulled,
+    /// The read-only actual values taken out of the set.
+    actual: &'a [String],
+    /// How many codes could not be read.
+    failed: usize,
+    /// The bus address / line rate codes left out.
+    bus_codes: &'a [String],
+    schema_path: Option<&'a Path>,
+    learned: Option<&'a session::LearnedReport>,
+    detected: Option<&'a str>,
+}
+
+/// The set file's text (driveset-schema's [`pulled::pulled_file`]).
+fn set_file(args: &Args, d: &Done<'_>, set_dir: &Path, format: Format) -> String {
+    let pulled = d.pulled;
+    // The schema reference: a file named by path stays a path (relative to
+    // the set file), an id stays an id.
+    let schema_ref = match d.schema_path {
+        Some(p) => relative_path(p, set_dir).display().to_string(),
+        None => d.schema.id.clone(),
+    };
+    let identity = pulled.identity.pairs();
+    let not_read: Vec<(&str, &str)> = pulled
+        .skipped
+        .iter()
+        .map(|s| (s.code.as_str(), s.reason.as_str()))
+        .collect();
+    let file = pulled::Pulled {
+        from: pulled::PulledFrom {
+            port: d.port,
+            address: d.address,
+            protocol: pulled.identity.protocol.name(),
+            identity: &identity,
+            software: pulled.identity.software.as_deref(),
+        },
+        schema_ref: &schema_ref,
+        fingerprint: &pulled.fingerprint,
+        changed_only: args
+            .changed_only
+            .then_some((pulled.dropped_defaults, pulled.full_fingerprint.as_str())),
+        actual: d.actual,
+        not_read: &not_read,
+    };
+    pulled::pulled_file(&pulled.set, d.schema, &file, format)
+}
+
+/// The report of `--format json`.
+fn render_json(args: &Args, d: &Done<'_>) -> String {
+    let pulled = d.pulled;
+    let doc = json!({
+        "port": d.port,
+        "address": d.address,
+        "file": args.output.display().to_string(),
+        "schema": d.schema.id,
+        "identity": pulled.identity,
+        "fingerprint": pulled.fingerprint,
+        "full_fingerprint": pulled.full_fingerprint,
+        "values": pulled.set.values.len(),
+        "actual_values": d.actual,
+        "read": pulled.read,
+        "dropped_defaults": pulled.dropped_defaults,
+        "skipped": pulled.skipped,
+        "not_readable": d.failed,
+        "left_out_bus_codes": d.bus_codes,
+        "schema_file": d.schema_path.map(|p| p.display().to_string()),
+        "learned": d.learned.map(session::LearnedReport::json),
+        "detected": d.detected,
+        "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
+    });
+    format!(
+        "{}\n",
+        serde_json::to_string_pretty(&doc).unwrap_or_default()
+    )
+}
+
+/// The report for people.
+fn render_human(args: &Args, d: &Done<'_>) -> String {
+    let pulled = d.pulled;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "pulled {} values from {} address {} into {} ({:.3} s on the bus)",
+        pulled.set.values.len(),
+        d.port,
+        d.address,
+        args.output.display(),
+        pulled.elapsed.as_secs_f64()
+    );
+    if args.changed_only {
+        let _ = writeln!(
+            out,
+            "left out {} values equal to the factory default",
+            pulled.dropped_defaults
+        );
+    }
+    let not_read: Vec<&str> = pulled
+        .skipped
+        .iter()
+        .map(|s| s.code.as_str())
+        .filter(|c| !d.bus_codes.iter().any(|b| b == c))
+        .collect();
+    if !not_read.is_empty() {
+        let _ = writeln!(out, "not read: {}", not_read.join(", "));
+    }
+    if !d.bus_codes.is_empty() {
+        let _ = writeln!(
+            out,
+            "left out {}: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)",
+            d.bus_codes.join(", ")
+        );
+    }
+    let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);
+    if let Some(det) = d.detected {
+        let _ = writeln!(
+            out,
+            "protocol: {} ({det})",
+            port::protocol_name(d.schema.family)
+        );
+    }
+    if let Some(p) = d.schema_path {
+        let _ = writeln!(out, "schema: {} ({})", d.schema.id, p.display());
+    }
+    out
 }

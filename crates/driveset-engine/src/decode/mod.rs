@@ -11,7 +11,10 @@
 //! [`driveset_proto::lecom::BusSniffer`], proto's slcan codec); this module
 //! adds the schemas' names, types and units and the protocol's rules about
 //! who may answer whom. The CLI reads the capture and renders the events.
+//! The other way, [`encode`]: one telegram from a readable description
+//! (`driveset encode`).
 
+pub mod encode;
 mod event;
 pub mod lecom;
 pub mod lustbus;

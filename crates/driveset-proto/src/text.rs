@@ -1,6 +1,8 @@
-//! Reading capture bytes: hex text (command line or file), the escaped ASCII
-//! form `encode` prints (`<EOT>@00112<ENQ>`), raw binary files; and printing
-//! bytes back in those forms.
+//! Bytes as text, both ways: hex text (a command line's or a file's), and
+//! the escaped ASCII form `driveset encode` prints and `driveset decode
+//! --ascii` reads (`<EOT>@00112<ENQ>`, `<xx>` for other bytes). Pure: the
+//! CLI reads the files and stdin; the spaced hex form is the engine's
+//! decode's (`hex_spaced`).
 
 use std::fmt::Write as _;
 
@@ -139,8 +141,6 @@ pub fn parse_ascii(text: &str, origin: &str) -> Result<Vec<u8>, String> {
     }
     Ok(out)
 }
-
-pub use driveset_engine::decode::hex_spaced;
 
 /// The escaped ASCII form: `<EOT>@00112<ENQ>`.
 pub fn escaped(bytes: &[u8]) -> String {
