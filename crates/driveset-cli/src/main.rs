@@ -31,6 +31,7 @@ mod fail;
 mod files;
 mod git;
 mod history;
+mod offline;
 mod output;
 mod port;
 mod port_args;
