@@ -130,6 +130,13 @@ impl From<anyhow::Error> for Fail {
     }
 }
 
+/// A rehearsal refused before it starts: an input error (exit 2).
+impl From<driveset_twin::rehearse::Refused> for Fail {
+    fn from(e: driveset_twin::rehearse::Refused) -> Self {
+        Fail::input(e.0)
+    }
+}
+
 /// A rendered input error ([`crate::output::fail_input`]) as a failure.
 impl From<&driveset_schema::InputError> for Fail {
     fn from(e: &driveset_schema::InputError) -> Self {

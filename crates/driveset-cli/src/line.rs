@@ -235,8 +235,7 @@ pub fn run_mode(
         Some(dir) => {
             let selected = driveset_engine::line::commission::select(&manifest, &opts)
                 .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
-            let twins = driveset_twin::rehearse::twins(&manifest, dir, &selected)
-                .map_err(|e| crate::fail::Fail::input(e.0))?;
+            let twins = driveset_twin::rehearse::twins(&manifest, dir, &selected)?;
             let missing: Vec<String> = twins
                 .iter()
                 .filter(|(n, t)| t.is_none() && selected.contains(*n))

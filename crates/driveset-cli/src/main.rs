@@ -33,6 +33,7 @@ mod files;
 mod git;
 mod history;
 mod line;
+mod offline;
 mod output;
 mod port;
 mod port_args;

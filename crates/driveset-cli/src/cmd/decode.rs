@@ -39,40 +39,14 @@
 
 use std::io::Read as _;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use anyhow::{Context as _, bail};
+use driveset_engine::decode::Context;
 use driveset_proto::text;
-use driveset_schema::{Registry, Schema};
 
+use crate::args::LustFamilyArg as FamilyArg;
+use crate::offline::{DecodeProtocol, builtin_registry, load_schema};
 use crate::{EXIT_FINDINGS, EXIT_OK};
-use driveset_engine::decode::{Capture, Context};
-
-/// Format of a capture (`--protocol`); [`DecodeProtocol::capture`] gives
-/// the engine's [`Capture`], whose `bus()` is the descriptor's protocol.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DecodeProtocol {
-    /// LUSTBUS (Lust VF1000, MC6000/7000).
-    Lustbus,
-    /// LECOM-A/B (Lenze Tmd).
-    Lecom,
-    /// slcan (Lawicel) lines carrying CAN SDO frames (Lenze ECS).
-    Slcan,
-}
-
-impl DecodeProtocol {
-    /// The engine's capture format.
-    pub fn capture(self) -> Capture {
-        match self {
-            DecodeProtocol::Lustbus => Capture::Lustbus,
-            DecodeProtocol::Lecom => Capture::Lecom,
-            DecodeProtocol::Slcan => Capture::Slcan,
-        }
-    }
-}
-
-/// LUSTBUS device family (`--family`), from the family descriptor.
-pub use crate::args::LustFamilyArg as FamilyArg;
 
 /// Output format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -133,30 +107,6 @@ pub struct Args {
     /// Capture file (hex text, or bytes with --raw); `-` reads stdin.
     #[arg(value_name = "FILE")]
     pub file: Option<PathBuf>,
-}
-
-/// Loads `--schema` (an id of `registry` or a file).
-pub(crate) fn load_schema(registry: &mut Registry, arg: &str) -> anyhow::Result<Arc<Schema>> {
-    if let Some(s) = registry.get(arg) {
-        return Ok(s);
-    }
-    let path = std::path::Path::new(arg);
-    if !path.exists() {
-        let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
-        bail!(
-            "--schema {arg}: no built-in schema has that id and no such file exists; built-in ids: {}",
-            ids.join(", ")
-        );
-    }
-    registry
-        .load_file(path)
-        .map_err(|e| anyhow::anyhow!("{}", e.render_human()))
-        .with_context(|| format!("--schema {arg}: cannot load the schema file"))
-}
-
-pub(crate) fn builtin_registry() -> anyhow::Result<Registry> {
-    crate::output::registry(&[])
-        .map_err(|e| anyhow::anyhow!("built-in schemas: {}", e.render_human()))
 }
 
 /// The most bytes `decode` reads from a file or stdin (16 MiB: at 57600

@@ -13,8 +13,9 @@ use driveset_engine::decode::encode::{Request, Telegram, encode};
 use driveset_engine::decode::hex_spaced;
 use driveset_proto::text::escaped;
 
-use super::decode::{FamilyArg, builtin_registry, load_schema};
 use crate::EXIT_OK;
+use crate::args::LustFamilyArg as FamilyArg;
+use crate::offline::{builtin_registry, load_schema};
 
 #[derive(clap::Args)]
 #[command(after_help = "\

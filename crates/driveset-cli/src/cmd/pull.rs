@@ -180,14 +180,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     // No schema: find the protocol as `scan` does, on every port.
     let (opened, resolved) = args.at.open_resolved(address)?;
     let (choice, detected) = (resolved.choice, resolved.evidence);
-    let format = match args.to {
-        Some(PullTo::Yaml) => Format::Yaml,
-        Some(PullTo::Toml) => Format::Toml,
-        None => match args.output.extension().and_then(|e| e.to_str()) {
-            Some("yaml" | "yml") => Format::Yaml,
-            _ => Format::Toml,
-        },
-    };
+    let format = file_format(args);
     if args.force {
         return Err(Fail::input("--force was replaced by --allow-family"));
     }
@@ -270,18 +263,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         "read",
         read,
     ));
-    // The bus address / line rate codes left out (the manifest owns them).
-    let bus_codes: Vec<String> = pulled
-        .skipped
-        .iter()
-        .filter(|s| {
-            !s.failed
-                && schema
-                    .role_of(s.number)
-                    .is_some_and(driveset_schema::Role::is_bus_link)
-        })
-        .map(|s| s.code.clone())
-        .collect();
+    let bus_codes = left_out_bus_codes(&schema, &pulled);
     let failed: Vec<_> = pulled
         .skipped
         .iter()
@@ -318,6 +300,34 @@ fn pull(args: &Args) -> Result<u8, Fail> {
         }
         Ok(crate::EXIT_FINDINGS)
     }
+}
+
+/// The set file's syntax: `--to`, else by the extension (.yaml/.yml YAML,
+/// else TOML).
+fn file_format(args: &Args) -> Format {
+    match args.to {
+        Some(PullTo::Yaml) => Format::Yaml,
+        Some(PullTo::Toml) => Format::Toml,
+        None => match args.output.extension().and_then(|e| e.to_str()) {
+            Some("yaml" | "yml") => Format::Yaml,
+            _ => Format::Toml,
+        },
+    }
+}
+
+/// The bus address / line rate codes left out (the manifest owns them).
+fn left_out_bus_codes(schema: &Schema, pulled: &Pulled) -> Vec<String> {
+    pulled
+        .skipped
+        .iter()
+        .filter(|s| {
+            !s.failed
+                && schema
+                    .role_of(s.number)
+                    .is_some_and(driveset_schema::Role::is_bus_link)
+        })
+        .map(|s| s.code.clone())
+        .collect()
 }
 
 /// What a pull did, for the set file and the report on stdout.

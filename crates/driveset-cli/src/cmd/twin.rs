@@ -136,7 +136,7 @@ Example:
 pub struct FromCaptureArgs {
     /// The protocol of the session (lecom, lustbus).
     #[arg(long, value_name = "P")]
-    pub protocol: super::decode::DecodeProtocol,
+    pub protocol: crate::offline::DecodeProtocol,
     /// Schema id or file (default for lecom: lenze-tmd; required for lustbus).
     #[arg(long, value_name = "ID|PATH")]
     pub schema: Option<String>,
@@ -385,8 +385,8 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     let bytes =
         driveset_schema::input::read_input(&a.file, driveset_schema::input::InputKind::CAPTURE)
             .map_err(|e| Fail::input(e.to_string()))?;
-    let mut registry = super::decode::builtin_registry().map_err(Fail::from)?;
-    let schema = super::decode::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
+    let mut registry = crate::offline::builtin_registry().map_err(Fail::from)?;
+    let schema = crate::offline::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
     if !families.contains(&schema.family) {
         return Err(Fail::input(format!(
             "--schema {}: a {} schema; a {} session needs a schema of {}",
