@@ -29,7 +29,7 @@ fn val(a: u8, c: u32, v: &str) -> Vec<u8> {
 }
 
 fn ask(line: &mut ByteLine, t: &mut Instant, bytes: &[u8]) -> Vec<u8> {
-    let end = line.host_send(*t, bytes, true);
+    let end = line.host_send_paced(*t, bytes);
     let until = end + Duration::from_millis(100);
     line.advance(until);
     let mut buf = [0u8; 64];
