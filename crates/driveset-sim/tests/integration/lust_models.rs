@@ -6,10 +6,7 @@ use std::time::Duration;
 use driveset_link::Instant;
 use driveset_proto::ascii::bcc;
 use driveset_proto::lustbus::description::{McKind, VfStorage, decode_substitution_text};
-use driveset_proto::lustbus::{
-    Address, Enquiry, McDescription, ParameterCode, ParameterType, Select, ValueReply, ValueText,
-    VfDescription,
-};
+use driveset_proto::lustbus::{McDescription, ParameterType, VfDescription};
 use driveset_schema::canonical::{CodeKey, RawValue};
 use driveset_schema::family::Keypad;
 use driveset_sim::drive::{ByteDrive, Heard, ReactionTime, Reply};
@@ -66,33 +63,7 @@ impl<D: ByteDrive> Host<D> {
     }
 }
 
-fn code(c: u32) -> ParameterCode {
-    ParameterCode::new(c).unwrap()
-}
-
-fn adr(a: u8) -> Address {
-    Address::new(a).unwrap()
-}
-
-fn enq(a: u8, c: u32) -> Vec<u8> {
-    Enquiry::new(adr(a), code(c)).encode().to_vec()
-}
-
-fn sel(a: u8, c: u32, v: &str) -> Vec<u8> {
-    Select::new(adr(a), code(c), ValueText::new(v.as_bytes()).unwrap())
-        .encode()
-        .to_vec()
-}
-
-fn val(a: u8, c: u32, v: &str) -> Vec<u8> {
-    ValueReply {
-        address: adr(a),
-        code: code(c),
-        value: ValueText::new(v.as_bytes()).unwrap(),
-    }
-    .encode()
-    .to_vec()
-}
+use crate::lust_support::{enq, sel, val};
 
 fn ack(a: u8) -> Option<Vec<u8>> {
     Some(vec![0x40 + a, 0x06])
