@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use crate::support::fake::*;
 use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
@@ -77,6 +77,22 @@ fn tmd_set() -> driveset_schema::ResolvedSet {
 
 fn journal_in(dir: &tempfile::TempDir) -> std::path::PathBuf {
     dir.path().join("drive.journal.json")
+}
+
+/// `recover` of the journal at `path` through `c` is refused: the drive is
+/// not the journal's, for `mismatch`. The client and the error, for the
+/// caller's checks of the message and of what was sent.
+fn recover_refused(
+    mut c: FakeClient,
+    path: &std::path::Path,
+    mismatch: Mismatch,
+) -> (FakeClient, EngineError) {
+    let err = recover(&mut c, path, &RecoverOptions::default()).expect_err("refused");
+    assert!(
+        matches!(&*err.kind, ErrorKind::NotJournalDrive { mismatch: m, .. } if *m == mismatch),
+        "{err}"
+    );
+    (c, err)
 }
 
 #[test]
@@ -541,12 +557,7 @@ fn mc_dataset_accepted_then_non_card_values_then_verify() {
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.dataset.as_deref(), Some("accepted (SLOAD = 0)"));
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
+    let ops = client.changes_logged();
     assert_eq!(
         ops,
         vec![
@@ -628,12 +639,7 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
         "{err}"
     );
     assert_eq!(client.drive.values, before.values);
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
+    let ops = client.changes_logged();
     assert_eq!(
         ops[6..],
         [
@@ -911,18 +917,7 @@ fn recover_refuses_another_drive() {
         "91 TYPE",
         IdentValue::Int(9999),
     )];
-    let mut c = FakeClient::new(schema, drive);
-    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(
-        matches!(
-            *err.kind,
-            ErrorKind::NotJournalDrive {
-                mismatch: driveset_engine::error::Mismatch::Identity,
-                ..
-            }
-        ),
-        "{err}"
-    );
+    let (c, err) = recover_refused(FakeClient::new(schema, drive), &path, Mismatch::Identity);
     assert_eq!(
         err.to_string(),
         format!(
@@ -1073,18 +1068,7 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
             p = path.display()
         )
     );
-    let mut c = FakeClient::new(schema, drive);
-    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(
-        matches!(
-            *err.kind,
-            ErrorKind::NotJournalDrive {
-                mismatch: driveset_engine::error::Mismatch::Version,
-                ..
-            }
-        ),
-        "{err}"
-    );
+    let (c, err) = recover_refused(FakeClient::new(schema, drive), &path, Mismatch::Version);
     assert_eq!(
         err.to_string(),
         format!(
@@ -1285,12 +1269,7 @@ fn transaction_steps_one_by_one_do_what_upload_does() {
     let report = tx.finish(&mut client, &set, Ok(())).expect("report");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.codes_written, 4);
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
+    let ops = client.changes_logged();
     assert_eq!(
         ops,
         vec![
