@@ -79,6 +79,20 @@ fn journal_in(dir: &tempfile::TempDir) -> std::path::PathBuf {
     dir.path().join("drive.journal.json")
 }
 
+/// What most Tmd upload tests start from: the Tmd schema, a temporary
+/// directory (keep it while the test runs) with the journal's path in it,
+/// and [`tmd_set`].
+fn tmd_upload() -> (
+    std::sync::Arc<driveset_schema::Schema>,
+    tempfile::TempDir,
+    std::path::PathBuf,
+    driveset_schema::ResolvedSet,
+) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    (tmd_schema(), dir, path, tmd_set())
+}
+
 /// `recover` of the journal at `path` through `c` is refused: the drive is
 /// not the journal's, for `mismatch`. The client and the error, for the
 /// caller's checks of the message and of what was sent.
@@ -298,10 +312,7 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
 
 #[test]
 fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_write() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     assert_eq!(report.state, TxnState::Complete);
@@ -368,10 +379,7 @@ fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_
 
 #[test]
 fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.fail_write = Some(4); // C0040 refused
@@ -412,10 +420,7 @@ fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
 
 #[test]
 fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_order() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.fail_write = Some(4); // C0040
@@ -491,10 +496,7 @@ fn verify_mismatch_rolls_back() {
 
 #[test]
 fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.dead_after_writes = Some(3); // cable pulled after the third write
@@ -531,10 +533,7 @@ fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() 
 
 #[test]
 fn an_unfinished_journal_blocks_a_new_upload() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
@@ -700,10 +699,7 @@ fn eeprom_gaps_are_filled_with_verification_reads_and_time_matches_the_estimate(
 
 #[test]
 fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     client.restart_at_writes = vec![3];
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("redone");
@@ -883,10 +879,7 @@ fn recover_after_a_crash_at_every_point_of_a_roll_back() {
 
 #[test]
 fn recover_completes_when_the_drive_holds_the_new_values() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     // the snapshot before the last verification: all writes done, journal "writing"
@@ -904,10 +897,7 @@ fn recover_completes_when_the_drive_holds_the_new_values() {
 
 #[test]
 fn recover_refuses_another_drive() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
@@ -1042,10 +1032,7 @@ fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
 /// port and address; `recover` refuses it, nothing sent.
 #[test]
 fn version_1_journals_block_their_drive_and_recover_refuses_them() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
