@@ -79,6 +79,28 @@ fn journal_in(dir: &tempfile::TempDir) -> std::path::PathBuf {
     dir.path().join("drive.journal.json")
 }
 
+/// An MC set of two card-writeable values (100, 101: the dataset) and two
+/// others (111 EEPROM, 120 RAM).
+fn mc_dataset_set(schema: &driveset_schema::Schema) -> driveset_schema::ResolvedSet {
+    set_of(
+        schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    )
+}
+
+/// What an upload of [`mc_dataset_set`] sends, reads aside: the dataset
+/// (100, 101) between begin and commit, then 111 and 120.
+fn mc_dataset_ops() -> Vec<Op> {
+    vec![
+        Op::Begin,
+        Op::Write(k(100), RawValue::Int(65536)),
+        Op::Write(k(101), RawValue::Int(20)),
+        Op::Commit,
+        Op::Write(k(111), RawValue::Int(5)),
+        Op::Write(k(120), RawValue::Int(-3)),
+    ]
+}
+
 /// What most Tmd upload tests start from: the Tmd schema, a temporary
 /// directory (keep it while the test runs) with the journal's path in it,
 /// and [`tmd_set`].
@@ -548,26 +570,12 @@ fn mc_dataset_accepted_then_non_card_values_then_verify() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let path = journal_in(&dir);
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive()).with_journal(&path);
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.dataset.as_deref(), Some("accepted (SLOAD = 0)"));
-    let ops = client.changes_logged();
-    assert_eq!(
-        ops,
-        vec![
-            Op::Begin,
-            Op::Write(k(100), RawValue::Int(65536)),
-            Op::Write(k(101), RawValue::Int(20)),
-            Op::Commit,
-            Op::Write(k(111), RawValue::Int(5)),
-            Op::Write(k(120), RawValue::Int(-3)),
-        ]
-    );
+    assert_eq!(client.changes_logged(), mc_dataset_ops());
     assert_eq!(
         client.values_of(set.values.keys().copied()).fingerprint(),
         set.fingerprint()
@@ -625,10 +633,7 @@ fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
 fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let before = mc_drive();
     let mut client = FakeClient::new(schema, before.clone());
     client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
@@ -854,10 +859,7 @@ fn recover_after_a_crash_at_every_point_of_a_tmd_upload() {
 #[test]
 fn recover_after_a_crash_at_every_point_of_an_mc_dataset_upload() {
     let schema = mc_schema();
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let (old, new) = crash_everywhere(schema, mc_drive(), &set, |_| {});
     assert!(old >= 4 && new >= 1, "old {old} new {new}");
 }
@@ -869,10 +871,7 @@ fn recover_after_a_crash_at_every_point_of_a_roll_back() {
     });
     assert!(old >= 9, "old {old}");
     let schema = mc_schema();
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let (old, _) = crash_everywhere(schema, mc_drive(), &set, |c| c.fail_write = Some(4));
     assert!(old >= 8, "old {old}");
 }
@@ -1111,10 +1110,7 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
     // the card values' new dataset are the rollback's, and say so
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive());
     client.fail_write = Some(4); // 120: refused by the drive
     let log = std::sync::Arc::new(EventLog::default());
@@ -1231,10 +1227,7 @@ fn transaction_steps_one_by_one_do_what_upload_does() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let path = journal_in(&dir);
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive());
     let opts = UploadOptions::new(&path);
     let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
@@ -1256,18 +1249,7 @@ fn transaction_steps_one_by_one_do_what_upload_does() {
     let report = tx.finish(&mut client, &set, Ok(())).expect("report");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.codes_written, 4);
-    let ops = client.changes_logged();
-    assert_eq!(
-        ops,
-        vec![
-            Op::Begin,
-            Op::Write(k(100), RawValue::Int(65536)),
-            Op::Write(k(101), RawValue::Int(20)),
-            Op::Commit,
-            Op::Write(k(111), RawValue::Int(5)),
-            Op::Write(k(120), RawValue::Int(-3)),
-        ]
-    );
+    assert_eq!(client.changes_logged(), mc_dataset_ops());
     // a step out of order is refused, never a panic
     let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
     let e = tx.write_rest(&mut client).expect_err("before replan");
