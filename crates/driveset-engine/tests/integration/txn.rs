@@ -1075,6 +1075,15 @@ impl driveset_engine::observe::Observer for EventLog {
     }
 }
 
+/// Upload options journaling to `journal`, every event going to the
+/// returned log.
+fn observed(journal: std::path::PathBuf) -> (std::sync::Arc<EventLog>, UploadOptions) {
+    let log = std::sync::Arc::new(EventLog::default());
+    let mut opts = UploadOptions::new(journal);
+    opts.observer = driveset_engine::observe::Hook::new(log.clone());
+    (log, opts)
+}
+
 impl EventLog {
     fn phases(&self) -> Vec<driveset_engine::observe::Phase> {
         use driveset_engine::observe::Event;
@@ -1105,7 +1114,7 @@ impl EventLog {
 
 #[test]
 fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
-    use driveset_engine::observe::{Event, Hook, Phase as P};
+    use driveset_engine::observe::{Event, Phase as P};
     // the MC6000 failure after the dataset's commit: its restore writes and
     // the card values' new dataset are the rollback's, and say so
     let schema = mc_schema();
@@ -1113,9 +1122,7 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
     let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive());
     client.fail_write = Some(4); // 120: refused by the drive
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     let err = upload(&mut client, &set, &opts).expect_err("fails");
     assert!(
         matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
@@ -1170,16 +1177,14 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
 
 #[test]
 fn the_observer_sees_a_rejected_dataset_confirmed_as_rollback_and_a_clean_upload_verified() {
-    use driveset_engine::observe::{Hook, Phase as P};
+    use driveset_engine::observe::Phase as P;
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let set = set_of(&schema, &[(k(100), 65536), (k(101), 20), (k(111), 5)]);
     let mut drive = mc_drive();
     drive.reject_dataset_at = Some(101);
     let mut client = FakeClient::new(schema.clone(), drive);
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     upload(&mut client, &set, &opts).expect_err("rejected");
     assert_eq!(
         log.phases(),
@@ -1198,9 +1203,7 @@ fn the_observer_sees_a_rejected_dataset_confirmed_as_rollback_and_a_clean_upload
     // a Tmd upload that goes through: no rollback, every write verified
     let dir = tempfile::tempdir().expect("tempdir");
     let mut client = FakeClient::new(tmd_schema(), tmd_drive());
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     let report = upload(&mut client, &tmd_set(), &opts).expect("uploads");
     assert_eq!(
         log.phases(),
