@@ -953,15 +953,11 @@ impl Pg {
     /// A running cluster, or `None` (skipped, or failed under
     /// `DRIVESET_REQUIRE_INTEROP=1`) when the server is not installed.
     fn start() -> Option<Pg> {
-        let bin = Pg::bin();
-        if !driveset_test_support::interop_or_skip(
+        let bin = driveset_test_support::interop_or_skip(
             "PostgreSQL",
-            bin.is_some(),
+            Pg::bin(),
             "no initdb under /usr/lib/postgresql/*/bin (scripts/setup-postgres; or set DRIVESET_PG_BIN)",
-        ) {
-            return None;
-        }
-        let bin = bin?;
+        )?;
         let dir = tempfile::tempdir().unwrap();
         let as_nobody = std::fs::read_to_string("/proc/self/status")
             .unwrap_or_default()

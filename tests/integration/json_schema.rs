@@ -23,7 +23,7 @@ fn taplo_or_skip(what: &str) -> Option<PathBuf> {
         "{} is missing (scripts/setup-node installs @taplo/cli into target/node; or set DRIVESET_TAPLO)",
         taplo.display()
     );
-    interop_or_skip(what, taplo.exists(), &missing).then_some(taplo)
+    interop_or_skip(what, taplo.exists().then_some(taplo), &missing)
 }
 
 fn copy_dir(from: &Path, to: &Path) {
@@ -326,11 +326,13 @@ fn python_jsonschema_accepts_the_json_form_of_every_example_set() {
         .args(["-c", "import jsonschema"])
         .status()
         .is_ok_and(|s| s.success());
-    if !interop_or_skip(
+    if interop_or_skip(
         "jsonschema check of the example sets",
-        has,
+        has.then_some(()),
         "the jsonschema package is missing from the interpreter",
-    ) {
+    )
+    .is_none()
+    {
         return;
     }
     let repo = repo_with_associations();

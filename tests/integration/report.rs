@@ -293,11 +293,13 @@ fn file_url(p: &Path) -> String {
 
 #[test]
 fn report_renders_in_headless_chromium() {
-    if !driveset_test_support::interop_or_skip(
+    if driveset_test_support::interop_or_skip(
         "report in headless chromium",
-        find_chromium().is_some(),
+        find_chromium(),
         "chromium not found on PATH or in $CHROMIUM (scripts/setup-browser installs Debian's)",
-    ) {
+    )
+    .is_none()
+    {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();

@@ -215,12 +215,20 @@ pub fn plural(n: usize, one: &str, many: &str) -> String {
 /// rustc-style finding, rendered by `annotate-snippets` (the schema
 /// crate's [`Finding::render`]; colour on a terminal).
 pub fn finding_human(f: &Finding, style: Style) -> String {
-    f.render(style.color)
+    f.render(if style.color {
+        driveset_schema::error::Colour::Styled
+    } else {
+        driveset_schema::error::Colour::Plain
+    })
 }
 
 /// rustc-style input error ([`InputError::render`]).
 pub fn input_error_human(e: &InputError, style: Style) -> String {
-    e.render(style.color)
+    e.render(if style.color {
+        driveset_schema::error::Colour::Styled
+    } else {
+        driveset_schema::error::Colour::Plain
+    })
 }
 
 /// A line and column of a location; both `null` for a whole file.

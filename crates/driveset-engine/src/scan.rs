@@ -70,7 +70,11 @@ const fn rates<const N: usize>(list: &[u32]) -> [u32; N] {
 /// 60 ms, a VF1000 with KEYPAD, section 10; LECOM 20 ms).
 fn longest_reaction(bus: BusProtocol) -> Duration {
     bus.families()
-        .map(|f| f.descriptor().reaction.longest(true))
+        .map(|f| {
+            f.descriptor()
+                .reaction
+                .longest(driveset_schema::family::Keypad::Fitted)
+        })
         .max()
         .unwrap_or_default()
 }

@@ -94,7 +94,8 @@ fn from_socket_frame(frame: &SocketFrame) -> Option<CanFrame> {
     match frame {
         SocketFrame::Data(_) if extended => CanFrame::new_extended(id, frame.data()).ok(),
         SocketFrame::Data(_) => CanFrame::new(id, frame.data()).ok(),
-        SocketFrame::Remote(_) => CanFrame::new_remote(id, len, extended).ok(),
+        SocketFrame::Remote(_) if extended => CanFrame::new_remote_extended(id, len).ok(),
+        SocketFrame::Remote(_) => CanFrame::new_remote(id, len).ok(),
         SocketFrame::Error(_) => None,
     }
 }
@@ -178,7 +179,7 @@ mod tests {
         let frames = [
             CanFrame::new(0x601, &[0x40, 0x00, 0x20, 0x00]).unwrap(),
             CanFrame::new_extended(0x1ABC_DEF0, &[1, 2, 3, 4, 5, 6, 7, 8]).unwrap(),
-            CanFrame::new_remote(0x7FF, 2, false).unwrap(),
+            CanFrame::new_remote(0x7FF, 2).unwrap(),
             CanFrame::new(0x000, &[]).unwrap(),
         ];
         for frame in frames {

@@ -354,16 +354,27 @@ impl Finding {
     ///   = help: give a value from 7.5 to 240 Hz
     /// ```
     pub fn render_human(&self) -> String {
-        self.render(false)
+        self.render(Colour::Plain)
     }
 
-    /// [`Finding::render_human`], in colour when `color` (a terminal).
-    pub fn render(&self, color: bool) -> String {
+    /// [`Finding::render_human`], in colour when `colour` is
+    /// [`Colour::Styled`] (a terminal).
+    pub fn render(&self, colour: Colour) -> String {
         let kind = self.kind.to_string();
         let mut places = vec![("here", &self.location)];
         places.extend(self.related.iter().map(|(l, loc)| (l.as_str(), loc)));
-        render_diagnostic(Some(&kind), &self.message, &places, &self.help, color)
+        render_diagnostic(Some(&kind), &self.message, &places, &self.help, colour)
     }
+}
+
+/// Whether a rendered diagnostic is plain text or carries terminal colour
+/// escapes ([`render_diagnostic`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Colour {
+    /// Plain text.
+    Plain,
+    /// Styled with ANSI colours, for a terminal.
+    Styled,
 }
 
 /// A diagnostic as rustc renders one, by `annotate-snippets` (the renderer
@@ -378,7 +389,7 @@ pub fn render_diagnostic(
     message: &str,
     places: &[(&str, &Location)],
     help: &str,
-    color: bool,
+    colour: Colour,
 ) -> String {
     use annotate_snippets::{Level, Renderer, Snippet};
     let mut m = Level::Error.title(message);
@@ -432,10 +443,9 @@ pub fn render_diagnostic(
     if !help.is_empty() {
         m = m.footer(Level::Help.title(help));
     }
-    let renderer = if color {
-        Renderer::styled()
-    } else {
-        Renderer::plain()
+    let renderer = match colour {
+        Colour::Styled => Renderer::styled(),
+        Colour::Plain => Renderer::plain(),
     };
     format!("{}\n", renderer.render(m))
 }
@@ -607,17 +617,18 @@ impl InputError {
 
     /// rustc-style rendering, like [`Finding::render_human`].
     pub fn render_human(&self) -> String {
-        self.render(false)
+        self.render(Colour::Plain)
     }
 
-    /// [`InputError::render_human`], in colour when `color` (a terminal).
-    pub fn render(&self, color: bool) -> String {
+    /// [`InputError::render_human`], in colour when `colour` is
+    /// [`Colour::Styled`] (a terminal).
+    pub fn render(&self, colour: Colour) -> String {
         render_diagnostic(
             None,
             &self.message,
             &[("here", &self.location)],
             &self.help,
-            color,
+            colour,
         )
     }
 }

@@ -65,11 +65,33 @@ pub struct Reaction {
     pub source: &'static str,
 }
 
+/// Whether a KEYPAD is attached to a LUSTBUS drive (it slows the drive's
+/// longest reaction, LUSTBUS §10).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Keypad {
+    /// A KEYPAD is attached.
+    Fitted,
+    /// No KEYPAD.
+    #[default]
+    Absent,
+}
+
+/// Whether a write gives a code a value other than the one the drive
+/// holds ([`Descriptor::ack_delay`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ValueChange {
+    /// The written value differs from the held one (or may: a caller that
+    /// does not know allows for it).
+    Differs,
+    /// The written value is the held one.
+    Same,
+}
+
 impl Reaction {
     /// The longest reaction, with or without a KEYPAD.
-    pub fn longest(&self, keypad: bool) -> Duration {
+    pub fn longest(&self, keypad: Keypad) -> Duration {
         match (keypad, self.max_with_keypad) {
-            (true, Some(k)) => k,
+            (Keypad::Fitted, Some(k)) => k,
             _ => self.max,
         }
     }
@@ -624,14 +646,17 @@ impl Descriptor {
 
     /// VF1000: how much later the ACK to a write of `code` comes when the
     /// value differs from the one the drive holds (§10 exception 4); zero
-    /// when it does not differ, for RAM values and for other families. The
-    /// planner and the client both use this one rule.
-    pub fn ack_delay(&self, code: &Code, changes_value: bool) -> Duration {
+    /// when it does not differ ([`ValueChange::Same`]), for RAM values and
+    /// for other families. The planner and the client both use this one
+    /// rule.
+    pub fn ack_delay(&self, code: &Code, change: ValueChange) -> Duration {
         match self.eeprom {
             EepromPacing::AckDelay {
                 per_byte,
                 unknown_width,
-            } if changes_value && Self::paced(code) => per_byte * Self::width(code, unknown_width),
+            } if change == ValueChange::Differs && Self::paced(code) => {
+                per_byte * Self::width(code, unknown_width)
+            }
             _ => Duration::ZERO,
         }
     }

@@ -292,7 +292,7 @@ impl ReactionTime {
     /// The reaction range of `family` as its descriptor gives it (LUSTBUS
     /// section 10 for the Lust families; FICTIONAL assumptions for Tmd and
     /// ECS, whose documents give none), with or without a KEYPAD.
-    pub fn of(family: driveset_schema::Family, keypad: bool) -> Self {
+    pub fn of(family: driveset_schema::Family, keypad: driveset_schema::family::Keypad) -> Self {
         let r = family.descriptor().reaction;
         ReactionTime {
             min: r.min,

@@ -451,7 +451,10 @@ impl EcsDrive {
             values,
             server: SdoServer::new(),
             rng: SimRng::derive(seed, u64::from(node.get())),
-            reaction: ReactionTime::of(driveset_schema::Family::Ecs, false),
+            reaction: ReactionTime::of(
+                driveset_schema::Family::Ecs,
+                driveset_schema::family::Keypad::Absent,
+            ),
             off_until: None,
             refused_reads: BTreeMap::new(),
             by_index,

@@ -37,6 +37,8 @@
 use std::fmt;
 use std::time::Duration;
 
+use driveset_schema::family::Keypad;
+
 use crate::catalog::Family;
 use crate::drive::ReactionTime;
 
@@ -73,7 +75,7 @@ const REPLY_STEP: Duration = Duration::from_nanos(260_417);
 /// valid answer), each shifted by a fraction of a character so that even
 /// equal answers do not add up to a valid one (`crate::bus` samples every
 /// bit).
-pub fn factory_reaction(family: Family, keypad: bool, k: usize) -> ReactionTime {
+pub fn factory_reaction(family: Family, keypad: Keypad, k: usize) -> ReactionTime {
     let min = ReactionTime::of(family, keypad).min;
     let step = REPLY_STEP.saturating_mul(u32::try_from(k).unwrap_or(u32::MAX));
     ReactionTime::fixed(min.saturating_add(step))
@@ -82,6 +84,29 @@ pub fn factory_reaction(family: Family, keypad: bool, k: usize) -> ReactionTime 
 /// What to say when an ECS port names factory drives.
 pub const ECS_REFUSAL: &str = "factory-fresh drives are modelled on LUSTBUS (mc6000, vf1000) and LECOM (tmd) only; an ECS node's id is set at the unit: give it with addresses=, e.g. sim://ecs?addresses=1";
 
+/// The kind of bus a `factory=` value is for: one family's bus
+/// (`sim://mc6000`), where an item may be a bare count, or a mixed LUSTBUS
+/// (`sim://lustbus`), where every item names its family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FactoryBus {
+    /// A one-family bus.
+    OneFamily,
+    /// A mixed LUSTBUS.
+    Mixed,
+}
+
+impl FactoryBus {
+    /// The kind of the bus of a `sim://` path: [`FactoryBus::Mixed`] for
+    /// `lustbus` ([`crate::port::MIXED_LUSTBUS`], any case).
+    pub fn of_path(bus: &str) -> Self {
+        if bus.eq_ignore_ascii_case(crate::port::MIXED_LUSTBUS) {
+            FactoryBus::Mixed
+        } else {
+            FactoryBus::OneFamily
+        }
+    }
+}
+
 /// Parse a `factory=` value into one family name per drive, in port
 /// order. `bus` is the port's path: on a one-family bus an item is a
 /// count (`3`) or `FAMILY*N` / `FAMILY` of that family; on
@@ -89,10 +114,11 @@ pub const ECS_REFUSAL: &str = "factory-fresh drives are modelled on LUSTBUS (mc6
 /// to a family (the port's family parser).
 pub fn parse_factory(
     bus: &str,
-    mixed: bool,
+    kind: FactoryBus,
     value: &str,
     family_of: impl Fn(&str) -> Option<Family>,
 ) -> Result<Vec<String>, String> {
+    let mixed = kind == FactoryBus::Mixed;
     let bus_family = if mixed { None } else { family_of(bus) };
     let mut out = Vec::new();
     for item in value.split(',') {
@@ -162,8 +188,8 @@ pub fn parse_factory(
 /// The canonical `factory=` value of `drives` (family names as
 /// [`parse_factory`] gives them): the count on a one-family bus,
 /// `FAMILY*N` runs on a mixed LUSTBUS.
-pub fn factory_text(mixed: bool, drives: &[String]) -> String {
-    if !mixed {
+pub fn factory_text(kind: FactoryBus, drives: &[String]) -> String {
+    if kind == FactoryBus::OneFamily {
         return drives.len().to_string();
     }
     let mut runs: Vec<(&str, usize)> = Vec::new();
@@ -278,37 +304,58 @@ mod tests {
 
     #[test]
     fn the_grammar_and_its_canonical_form() {
-        let p = |bus, mixed, v| parse_factory(bus, mixed, v, fam);
-        assert_eq!(p("mc6000", false, "3").unwrap(), ["mc6000"; 3]);
-        assert_eq!(p("tmd", false, "tmd*2").unwrap(), ["tmd"; 2]);
-        assert_eq!(p("vf1000", false, "vf1000").unwrap(), ["vf1000"]);
-        let mixed = p("lustbus", true, "mc6000*2,vf1000,mc7000*1").unwrap();
-        assert_eq!(mixed, ["mc6000", "mc6000", "vf1000", "mc7000"]);
-        assert_eq!(factory_text(true, &mixed), "mc6000*2,vf1000*1,mc7000*1");
-        assert_eq!(factory_text(false, &p("tmd", false, "2").unwrap()), "2");
+        let p = |bus, kind, v| parse_factory(bus, kind, v, fam);
         assert_eq!(
-            p("mc6000", false, "0").unwrap_err(),
+            p("mc6000", FactoryBus::OneFamily, "3").unwrap(),
+            ["mc6000"; 3]
+        );
+        assert_eq!(
+            p("tmd", FactoryBus::OneFamily, "tmd*2").unwrap(),
+            ["tmd"; 2]
+        );
+        assert_eq!(
+            p("vf1000", FactoryBus::OneFamily, "vf1000").unwrap(),
+            ["vf1000"]
+        );
+        let mixed = p("lustbus", FactoryBus::Mixed, "mc6000*2,vf1000,mc7000*1").unwrap();
+        assert_eq!(mixed, ["mc6000", "mc6000", "vf1000", "mc7000"]);
+        assert_eq!(
+            factory_text(FactoryBus::Mixed, &mixed),
+            "mc6000*2,vf1000*1,mc7000*1"
+        );
+        assert_eq!(
+            factory_text(
+                FactoryBus::OneFamily,
+                &p("tmd", FactoryBus::OneFamily, "2").unwrap()
+            ),
+            "2"
+        );
+        assert_eq!(
+            p("mc6000", FactoryBus::OneFamily, "0").unwrap_err(),
             "`0`: the count is a whole number 1..=30; write FAMILY*N (mc6000*3) or, on a one-family bus, N"
         );
         assert_eq!(
-            p("lustbus", true, "3").unwrap_err(),
+            p("lustbus", FactoryBus::Mixed, "3").unwrap_err(),
             "`3`: on sim://lustbus every item names its family: FAMILY*N, e.g. factory=mc6000*4,vf1000*3"
         );
         assert_eq!(
-            p("mc6000", false, "vf1000*2").unwrap_err(),
+            p("mc6000", FactoryBus::OneFamily, "vf1000*2").unwrap_err(),
             "`vf1000*2`: sim://mc6000 holds mc6000 drives only; put vf1000 and mc6000 drives on sim://lustbus?factory=..."
         );
         assert_eq!(
-            p("lustbus", true, "tmd*2").unwrap_err(),
+            p("lustbus", FactoryBus::Mixed, "tmd*2").unwrap_err(),
             "`tmd*2`: tmd drives cannot be on a mixed LUSTBUS; put them on sim://tmd?factory=N"
         );
-        assert_eq!(p("ecs", false, "ecs*1").unwrap_err(), ECS_REFUSAL);
         assert_eq!(
-            p("mc6000", false, "servo*2").unwrap_err(),
+            p("ecs", FactoryBus::OneFamily, "ecs*1").unwrap_err(),
+            ECS_REFUSAL
+        );
+        assert_eq!(
+            p("mc6000", FactoryBus::OneFamily, "servo*2").unwrap_err(),
             "`servo*2`: unknown drive family `servo`; use mc6000, mc7000, vf1000 or tmd"
         );
         assert_eq!(
-            p("mc6000", false, "20,11").unwrap_err(),
+            p("mc6000", FactoryBus::OneFamily, "20,11").unwrap_err(),
             "31 factory drives; one bus holds at most 30"
         );
     }

@@ -73,21 +73,23 @@ pub fn dataset_check_time(staged: usize) -> Duration {
 }
 
 /// How long SLOAD reads -1 after `SLOAD = -2` (section 11.4: "still busy
-/// testing and saving"): [`dataset_check_time`], then for an accepted set
+/// testing and saving") for an accepted set: [`dataset_check_time`], then
 /// the EEPROM store of every staged parameter, width x 3 x 5 ms each
 /// (sections 3, 10.2.2; `mc_eeprom_store_ms`; errata L33). `widths` are
 /// the staged parameters' byte widths. The engine's upload benchmark takes
 /// its bound's non-overlapping store time from here.
-pub fn dataset_busy_time(widths: &[u32], accepted: bool) -> Duration {
-    let store: u64 = if accepted {
-        widths
-            .iter()
-            .map(|w| u64::from(mc_eeprom_store_ms(*w)))
-            .sum()
-    } else {
-        0
-    };
-    dataset_check_time(widths.len()) + Duration::from_millis(store)
+pub fn dataset_busy_time(widths: &[u32]) -> Duration {
+    let store: u64 = widths
+        .iter()
+        .map(|w| u64::from(mc_eeprom_store_ms(*w)))
+        .sum();
+    rejected_dataset_busy_time(widths) + Duration::from_millis(store)
+}
+
+/// How long SLOAD reads -1 after `SLOAD = -2` for a set the check rejects:
+/// [`dataset_check_time`] only, nothing is stored.
+pub fn rejected_dataset_busy_time(widths: &[u32]) -> Duration {
+    dataset_check_time(widths.len())
 }
 
 /// Where the SLOAD handshake stands.
@@ -227,7 +229,11 @@ impl Mc6000 {
                     .map(|p| u32::from(p.byte_width()))
                     .collect();
                 let result = self.check(&staged).map(|()| staged);
-                let busy = dataset_busy_time(&widths, result.is_ok());
+                let busy = if result.is_ok() {
+                    dataset_busy_time(&widths)
+                } else {
+                    rejected_dataset_busy_time(&widths)
+                };
                 let until = now.saturating_add(busy);
                 self.sload = Sload::Checking { until, result };
                 self.sload_value(-1);

@@ -280,7 +280,7 @@ fn serve_session<S: ServeStream>(
                 let bytes: Vec<u8> = buf[..n].iter().map(|b| b & 0x7F).collect();
                 last_heard = clock.now();
                 follow_host_rate(line, stream, last_heard);
-                line.host_send(last_heard, &bytes, false);
+                line.host_send_at_once(last_heard, &bytes);
             }
             Err(e) if quiet(&e) => {}
             Err(e) if closed(&e) && stream.hangup_is_transient() => {

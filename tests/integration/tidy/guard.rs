@@ -32,11 +32,7 @@ const MAY_BUILD_WRITES: &[(&str, &str)] = &[
     ),
     (
         "crates/driveset-engine/src/decode/",
-        "decoding recorded captures: it matches the telegrams it reads, and sends nothing",
-    ),
-    (
-        "crates/driveset-cli/src/cmd/encode.rs",
-        "`driveset encode`: telegram bytes printed for a reader, never sent to a drive",
+        "decoding recorded captures (it matches the telegrams it reads) and `driveset encode`'s description language (`decode/encode.rs`: telegram bytes printed for a reader): neither sends anything",
     ),
 ];
 

@@ -21,23 +21,6 @@ const BOOL_PARAMETERS_STILL: &[(&str, &str)] = &[
         "finish_rate",
     ),
     ("crates/driveset-engine/src/transfer/session.rs", "end"),
-    ("crates/driveset-proto/src/can/frame.rs", "new_remote"),
-    ("crates/driveset-proto/src/lustbus/posmod.rs", "new"),
-    ("crates/driveset-schema/src/error.rs", "render"),
-    ("crates/driveset-schema/src/error.rs", "render_diagnostic"),
-    ("crates/driveset-schema/src/family.rs", "ack_delay"),
-    ("crates/driveset-schema/src/family.rs", "longest"),
-    ("crates/driveset-sim/src/bus/mod.rs", "host_send"),
-    ("crates/driveset-sim/src/drive.rs", "of"),
-    ("crates/driveset-sim/src/factory.rs", "factory_reaction"),
-    ("crates/driveset-sim/src/factory.rs", "factory_text"),
-    ("crates/driveset-sim/src/factory.rs", "parse_factory"),
-    ("crates/driveset-sim/src/lustbus_drive/mod.rs", "keypad"),
-    ("crates/driveset-sim/src/mc6000.rs", "dataset_busy_time"),
-    (
-        "crates/driveset-test-support/src/interop.rs",
-        "interop_or_skip",
-    ),
 ];
 
 /// `(1-based line, name)` of each `pub fn` of `text` (a blanked source,

@@ -24,11 +24,10 @@ const MAX_FN_LINES: usize = 150;
 /// its count as it does, remove it once it is within the limit; never add
 /// one.
 const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
-    ("crates/driveset-cli/src/cmd/pull.rs", "pull", 240),
     ("crates/driveset-cli/src/cmd/replace.rs", "run", 166),
     ("crates/driveset-cli/src/cmd/scan.rs", "scan", 227),
     ("crates/driveset-cli/src/cmd/sim.rs", "configure", 155),
-    ("crates/driveset-cli/src/line.rs", "run_mode", 155),
+    ("crates/driveset-cli/src/line.rs", "run_mode", 154),
     (
         "crates/driveset-engine/src/assign/plan.rs",
         "plan_lecom",
@@ -85,7 +84,7 @@ const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
         "convert_value",
         184,
     ),
-    ("crates/driveset-sim/src/port/mod.rs", "from_opaque", 189),
+    ("crates/driveset-sim/src/port/mod.rs", "from_opaque", 188),
     ("crates/driveset-sim/src/twin/reader.rs", "twin", 195),
 ];
 

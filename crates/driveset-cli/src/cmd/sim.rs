@@ -285,7 +285,7 @@ fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
         (None, None) => bail!("give --family and --address, or --twin FILE"),
     };
     if let (Some(value), Some(f)) = (&args.factory, &args.family) {
-        let names = driveset_sim::factory::parse_factory(f, config.is_mixed(), value, |n| {
+        let names = driveset_sim::factory::parse_factory(f, config.factory_bus(), value, |n| {
             parse_family(n).ok()
         })
         .map_err(|e| anyhow::anyhow!("--factory {value}: {e}"))?;

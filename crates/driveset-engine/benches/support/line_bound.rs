@@ -116,7 +116,7 @@ pub fn mc_drive(
             .iter()
             .map(|w| u32::from(w.width.unwrap_or(4)))
             .collect();
-        busy = driveset_sim::mc6000::dataset_busy_time(&widths, true);
+        busy = driveset_sim::mc6000::dataset_busy_time(&widths);
         poll = mc_read(1, baud, reaction);
     }
     let mut after = Duration::ZERO;

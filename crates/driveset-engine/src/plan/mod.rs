@@ -283,7 +283,7 @@ pub fn plan(
             Duration::ZERO
         };
         // The same rule the client uses for its answer timeout.
-        let ack_delay = family.ack_delay(code, true);
+        let ack_delay = family.ack_delay(code, driveset_schema::family::ValueChange::Differs);
         writes.push(PlannedWrite {
             key: *key,
             label: code_label(schema, *key),

@@ -18,7 +18,6 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
 use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
@@ -27,7 +26,7 @@ use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::transfer::{self, TransferRequest};
 use driveset_engine::upload::UploadOptions;
 use driveset_link::VirtualClock;
-use driveset_schema::{CodeKey, RawValue, Registry, ResolvedSet, load_set};
+use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 use driveset_sim::bus::SimByteBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::ReactionTime;
@@ -36,18 +35,15 @@ use driveset_sim::log::{Dir, EventLog};
 use driveset_sim::lustbus_drive::LustOptions;
 use driveset_sim::mc6000::Mc6000;
 
+use crate::support::sets::example_set;
+
 const SBAUD: CodeKey = CodeKey {
     number: 81,
     subcode: None,
 };
 
 fn axis_set() -> ResolvedSet {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../parameter-sets/mc6000/axis-1.toml");
-    let mut reg = Registry::builtin().expect("builtin");
-    let loaded = load_set(&path, &mut reg).expect("set loads");
-    assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
-    loaded.resolved.expect("resolved")
+    example_set("parameter-sets/mc6000/axis-1.toml")
 }
 
 /// The axis set cut to 81-SBAUD (19200), 428-RSIO (RAM) and the first 16

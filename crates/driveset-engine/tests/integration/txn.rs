@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use crate::support::fake::*;
 use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
 use driveset_engine::journal::{JournalFile, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
@@ -77,6 +77,58 @@ fn tmd_set() -> driveset_schema::ResolvedSet {
 
 fn journal_in(dir: &tempfile::TempDir) -> std::path::PathBuf {
     dir.path().join("drive.journal.json")
+}
+
+/// An MC set of two card-writeable values (100, 101: the dataset) and two
+/// others (111 EEPROM, 120 RAM).
+fn mc_dataset_set(schema: &driveset_schema::Schema) -> driveset_schema::ResolvedSet {
+    set_of(
+        schema,
+        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
+    )
+}
+
+/// What an upload of [`mc_dataset_set`] sends, reads aside: the dataset
+/// (100, 101) between begin and commit, then 111 and 120.
+fn mc_dataset_ops() -> Vec<Op> {
+    vec![
+        Op::Begin,
+        Op::Write(k(100), RawValue::Int(65536)),
+        Op::Write(k(101), RawValue::Int(20)),
+        Op::Commit,
+        Op::Write(k(111), RawValue::Int(5)),
+        Op::Write(k(120), RawValue::Int(-3)),
+    ]
+}
+
+/// What most Tmd upload tests start from: the Tmd schema, a temporary
+/// directory (keep it while the test runs) with the journal's path in it,
+/// and [`tmd_set`].
+fn tmd_upload() -> (
+    std::sync::Arc<driveset_schema::Schema>,
+    tempfile::TempDir,
+    std::path::PathBuf,
+    driveset_schema::ResolvedSet,
+) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = journal_in(&dir);
+    (tmd_schema(), dir, path, tmd_set())
+}
+
+/// `recover` of the journal at `path` through `c` is refused: the drive is
+/// not the journal's, for `mismatch`. The client and the error, for the
+/// caller's checks of the message and of what was sent.
+fn recover_refused(
+    mut c: FakeClient,
+    path: &std::path::Path,
+    mismatch: Mismatch,
+) -> (FakeClient, EngineError) {
+    let err = recover(&mut c, path, &RecoverOptions::default()).expect_err("refused");
+    assert!(
+        matches!(&*err.kind, ErrorKind::NotJournalDrive { mismatch: m, .. } if *m == mismatch),
+        "{err}"
+    );
+    (c, err)
 }
 
 #[test]
@@ -282,10 +334,7 @@ fn refuses_commands_with_no_override_and_bad_subcodes() {
 
 #[test]
 fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_write() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     assert_eq!(report.state, TxnState::Complete);
@@ -352,10 +401,7 @@ fn upload_writes_in_plan_order_verifies_and_completes_with_journal_before_first_
 
 #[test]
 fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.fail_write = Some(4); // C0040 refused
@@ -396,10 +442,7 @@ fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
 
 #[test]
 fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_order() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.fail_write = Some(4); // C0040
@@ -475,10 +518,7 @@ fn verify_mismatch_rolls_back() {
 
 #[test]
 fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let before = tmd_drive();
     let mut client = FakeClient::new(schema.clone(), before.clone()).with_journal(&path);
     client.dead_after_writes = Some(3); // cable pulled after the third write
@@ -515,10 +555,7 @@ fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() 
 
 #[test]
 fn an_unfinished_journal_blocks_a_new_upload() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
@@ -533,31 +570,12 @@ fn mc_dataset_accepted_then_non_card_values_then_verify() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let path = journal_in(&dir);
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive()).with_journal(&path);
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.dataset.as_deref(), Some("accepted (SLOAD = 0)"));
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
-    assert_eq!(
-        ops,
-        vec![
-            Op::Begin,
-            Op::Write(k(100), RawValue::Int(65536)),
-            Op::Write(k(101), RawValue::Int(20)),
-            Op::Commit,
-            Op::Write(k(111), RawValue::Int(5)),
-            Op::Write(k(120), RawValue::Int(-3)),
-        ]
-    );
+    assert_eq!(client.changes_logged(), mc_dataset_ops());
     assert_eq!(
         client.values_of(set.values.keys().copied()).fingerprint(),
         set.fingerprint()
@@ -615,10 +633,7 @@ fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
 fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let before = mc_drive();
     let mut client = FakeClient::new(schema, before.clone());
     client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
@@ -628,12 +643,7 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
         "{err}"
     );
     assert_eq!(client.drive.values, before.values);
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
+    let ops = client.changes_logged();
     assert_eq!(
         ops[6..],
         [
@@ -694,10 +704,7 @@ fn eeprom_gaps_are_filled_with_verification_reads_and_time_matches_the_estimate(
 
 #[test]
 fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     client.restart_at_writes = vec![3];
     let report = upload(&mut client, &set, &UploadOptions::new(&path)).expect("redone");
@@ -852,10 +859,7 @@ fn recover_after_a_crash_at_every_point_of_a_tmd_upload() {
 #[test]
 fn recover_after_a_crash_at_every_point_of_an_mc_dataset_upload() {
     let schema = mc_schema();
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let (old, new) = crash_everywhere(schema, mc_drive(), &set, |_| {});
     assert!(old >= 4 && new >= 1, "old {old} new {new}");
 }
@@ -867,20 +871,14 @@ fn recover_after_a_crash_at_every_point_of_a_roll_back() {
     });
     assert!(old >= 9, "old {old}");
     let schema = mc_schema();
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let (old, _) = crash_everywhere(schema, mc_drive(), &set, |c| c.fail_write = Some(4));
     assert!(old >= 8, "old {old}");
 }
 
 #[test]
 fn recover_completes_when_the_drive_holds_the_new_values() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive()).with_journal(&path);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect("upload");
     // the snapshot before the last verification: all writes done, journal "writing"
@@ -898,10 +896,7 @@ fn recover_completes_when_the_drive_holds_the_new_values() {
 
 #[test]
 fn recover_refuses_another_drive() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, _dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
@@ -911,18 +906,7 @@ fn recover_refuses_another_drive() {
         "91 TYPE",
         IdentValue::Int(9999),
     )];
-    let mut c = FakeClient::new(schema, drive);
-    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(
-        matches!(
-            *err.kind,
-            ErrorKind::NotJournalDrive {
-                mismatch: driveset_engine::error::Mismatch::Identity,
-                ..
-            }
-        ),
-        "{err}"
-    );
+    let (c, err) = recover_refused(FakeClient::new(schema, drive), &path, Mismatch::Identity);
     assert_eq!(
         err.to_string(),
         format!(
@@ -1047,10 +1031,7 @@ fn a_bus_address_change_is_refused_and_the_baud_rate_goes_last() {
 /// port and address; `recover` refuses it, nothing sent.
 #[test]
 fn version_1_journals_block_their_drive_and_recover_refuses_them() {
-    let schema = tmd_schema();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let path = journal_in(&dir);
-    let set = tmd_set();
+    let (schema, dir, path, set) = tmd_upload();
     let mut client = FakeClient::new(schema.clone(), tmd_drive());
     client.dead_after_writes = Some(2);
     upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
@@ -1073,18 +1054,7 @@ fn version_1_journals_block_their_drive_and_recover_refuses_them() {
             p = path.display()
         )
     );
-    let mut c = FakeClient::new(schema, drive);
-    let err = recover(&mut c, &path, &RecoverOptions::default()).expect_err("refused");
-    assert!(
-        matches!(
-            *err.kind,
-            ErrorKind::NotJournalDrive {
-                mismatch: driveset_engine::error::Mismatch::Version,
-                ..
-            }
-        ),
-        "{err}"
-    );
+    let (c, err) = recover_refused(FakeClient::new(schema, drive), &path, Mismatch::Version);
     assert_eq!(
         err.to_string(),
         format!(
@@ -1103,6 +1073,15 @@ impl driveset_engine::observe::Observer for EventLog {
     fn event(&self, _at: driveset_link::Instant, event: driveset_engine::observe::Event) {
         self.0.lock().unwrap().push(event);
     }
+}
+
+/// Upload options journaling to `journal`, every event going to the
+/// returned log.
+fn observed(journal: std::path::PathBuf) -> (std::sync::Arc<EventLog>, UploadOptions) {
+    let log = std::sync::Arc::new(EventLog::default());
+    let mut opts = UploadOptions::new(journal);
+    opts.observer = driveset_engine::observe::Hook::new(log.clone());
+    (log, opts)
 }
 
 impl EventLog {
@@ -1135,20 +1114,15 @@ impl EventLog {
 
 #[test]
 fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
-    use driveset_engine::observe::{Event, Hook, Phase as P};
+    use driveset_engine::observe::{Event, Phase as P};
     // the MC6000 failure after the dataset's commit: its restore writes and
     // the card values' new dataset are the rollback's, and say so
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive());
     client.fail_write = Some(4); // 120: refused by the drive
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     let err = upload(&mut client, &set, &opts).expect_err("fails");
     assert!(
         matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
@@ -1203,16 +1177,14 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
 
 #[test]
 fn the_observer_sees_a_rejected_dataset_confirmed_as_rollback_and_a_clean_upload_verified() {
-    use driveset_engine::observe::{Hook, Phase as P};
+    use driveset_engine::observe::Phase as P;
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let set = set_of(&schema, &[(k(100), 65536), (k(101), 20), (k(111), 5)]);
     let mut drive = mc_drive();
     drive.reject_dataset_at = Some(101);
     let mut client = FakeClient::new(schema.clone(), drive);
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     upload(&mut client, &set, &opts).expect_err("rejected");
     assert_eq!(
         log.phases(),
@@ -1231,9 +1203,7 @@ fn the_observer_sees_a_rejected_dataset_confirmed_as_rollback_and_a_clean_upload
     // a Tmd upload that goes through: no rollback, every write verified
     let dir = tempfile::tempdir().expect("tempdir");
     let mut client = FakeClient::new(tmd_schema(), tmd_drive());
-    let log = std::sync::Arc::new(EventLog::default());
-    let mut opts = UploadOptions::new(journal_in(&dir));
-    opts.observer = Hook::new(log.clone());
+    let (log, opts) = observed(journal_in(&dir));
     let report = upload(&mut client, &tmd_set(), &opts).expect("uploads");
     assert_eq!(
         log.phases(),
@@ -1260,10 +1230,7 @@ fn transaction_steps_one_by_one_do_what_upload_does() {
     let schema = mc_schema();
     let dir = tempfile::tempdir().expect("tempdir");
     let path = journal_in(&dir);
-    let set = set_of(
-        &schema,
-        &[(k(100), 65536), (k(101), 20), (k(111), 5), (k(120), -3)],
-    );
+    let set = mc_dataset_set(&schema);
     let mut client = FakeClient::new(schema, mc_drive());
     let opts = UploadOptions::new(&path);
     let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
@@ -1285,23 +1252,7 @@ fn transaction_steps_one_by_one_do_what_upload_does() {
     let report = tx.finish(&mut client, &set, Ok(())).expect("report");
     assert_eq!(report.state, TxnState::Complete);
     assert_eq!(report.codes_written, 4);
-    let ops: Vec<Op> = client
-        .log
-        .iter()
-        .map(|(_, o)| o.clone())
-        .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
-        .collect();
-    assert_eq!(
-        ops,
-        vec![
-            Op::Begin,
-            Op::Write(k(100), RawValue::Int(65536)),
-            Op::Write(k(101), RawValue::Int(20)),
-            Op::Commit,
-            Op::Write(k(111), RawValue::Int(5)),
-            Op::Write(k(120), RawValue::Int(-3)),
-        ]
-    );
+    assert_eq!(client.changes_logged(), mc_dataset_ops());
     // a step out of order is refused, never a panic
     let mut tx = Transaction::begin(&mut client, &set, &opts).expect("begin");
     let e = tx.write_rest(&mut client).expect_err("before replan");

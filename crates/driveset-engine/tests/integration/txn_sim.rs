@@ -1,7 +1,7 @@
 //! The transaction runner over the real LUSTBUS client and the simulated
 //! MC6000 / VF1000 (driveset-sim) in virtual time.
 
-use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
@@ -11,7 +11,7 @@ use driveset_engine::overrides::Overrides;
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
 use driveset_engine::upload::{UploadOptions, prepare, upload};
 use driveset_link::VirtualClock;
-use driveset_schema::{CodeKey, RawValue, Registry, ResolvedSet, load_set};
+use driveset_schema::{CodeKey, RawValue, ResolvedSet, Schema};
 use driveset_sim::bus::SimByteBus;
 use driveset_sim::catalog::{self, Family};
 use driveset_sim::drive::{ByteDrive, ReactionTime};
@@ -24,15 +24,7 @@ fn opts(address: u8) -> LustOptions {
     LustOptions::new(address).reaction(ReactionTime::fixed(Duration::from_millis(2)))
 }
 
-fn set(rel: &str) -> ResolvedSet {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(rel);
-    let mut reg = Registry::builtin().expect("builtin");
-    let loaded = load_set(&path, &mut reg).expect("set loads");
-    assert!(loaded.findings.is_empty(), "{:?}", loaded.findings);
-    loaded.resolved.expect("resolved")
-}
+use crate::support::sets::example_set as set;
 
 fn bus(drive: Box<dyn ByteDrive>, faults: Option<&str>) -> SimByteBus {
     let clock = VirtualClock::new();
@@ -41,6 +33,20 @@ fn bus(drive: Box<dyn ByteDrive>, faults: Option<&str>) -> SimByteBus {
         bus = bus.with_faults(FaultPlan::parse(f).expect("faults"), 1);
     }
     bus
+}
+
+/// A client of a fresh simulated MC6000 at address 1, on a bus without
+/// faults.
+fn mc_client(schema: Arc<Schema>) -> LustbusClient<SimByteBus> {
+    let mc = Mc6000::new(opts(1)).expect("mc");
+    LustbusClient::new(bus(Box::new(mc), None), schema, 1).expect("client")
+}
+
+/// A client of a fresh simulated VF1000 at address 4, on a bus without
+/// faults.
+fn vf_client(schema: Arc<Schema>) -> LustbusClient<SimByteBus> {
+    let vf = Vf1000::new(opts(4)).expect("vf");
+    LustbusClient::new(bus(Box::new(vf), None), schema, 4).expect("client")
 }
 
 #[test]
@@ -90,12 +96,7 @@ fn vf1000_power_cycle_mid_upload_voids_the_attempt_and_is_redone() {
     let vf = Box::new(Vf1000::new(opts(4)).expect("vf"));
     let schema = catalog::schema(Family::Vf1000).expect("schema");
     // learn how many telegrams read-back takes, then cut the power a few writes in
-    let mut probe = LustbusClient::new(
-        bus(Box::new(Vf1000::new(opts(4)).expect("vf")), None),
-        schema.clone(),
-        4,
-    )
-    .expect("client");
+    let mut probe = vf_client(schema.clone());
     let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
     assert!(
         prepared.plan.writes.len() >= 3,
@@ -122,12 +123,7 @@ fn mc6000_cable_pulled_mid_upload_then_recover_ends_on_one_whole_set() {
     let dir = tempfile::tempdir().expect("tempdir");
     let journal = dir.path().join("axis.journal.json");
     let schema = catalog::schema(Family::Mc6000).expect("schema");
-    let mut probe = LustbusClient::new(
-        bus(Box::new(Mc6000::new(opts(1)).expect("mc")), None),
-        schema.clone(),
-        1,
-    )
-    .expect("client");
+    let mut probe = mc_client(schema.clone());
     let before = driveset_engine::live::live_values(&mut probe, &set).expect("values");
     let n0 = probe.stats().telegrams;
     let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
@@ -162,19 +158,9 @@ fn mc6000_eeprom_gaps_carry_verification_reads_on_the_real_client() {
         set.insert(CodeKey::new(n), RawValue::Int(v));
     }
     let dir = tempfile::tempdir().expect("tempdir");
-    let mut c = LustbusClient::new(
-        bus(Box::new(Mc6000::new(opts(1)).expect("mc")), None),
-        schema.clone(),
-        1,
-    )
-    .expect("client");
+    let mut c = mc_client(schema.clone());
     let prepared = prepare(&mut c, &set, Overrides::none()).expect("prepare");
-    let mut c = LustbusClient::new(
-        bus(Box::new(Mc6000::new(opts(1)).expect("mc")), None),
-        schema,
-        1,
-    )
-    .expect("client");
+    let mut c = mc_client(schema);
     let report = upload(&mut c, &set, &UploadOptions::new(dir.path().join("j.json")))
         .unwrap_or_else(|f| panic!("{f}"));
     assert_eq!(report.state, TxnState::Complete);
@@ -203,7 +189,7 @@ mod transfer_rate {
     use driveset_engine::live::live_diff;
     use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
     use driveset_engine::transfer::{self, TransferRequest};
-    use driveset_engine::upload::UploadOptions;
+    use driveset_engine::upload::{UploadFailure, UploadOptions, UploadReport};
     use driveset_link::VirtualClock;
     use driveset_schema::{CodeKey, RawValue, ResolvedSet};
     use driveset_sim::bus::SimByteBus;
@@ -213,6 +199,26 @@ mod transfer_rate {
     use driveset_sim::mc6000::Mc6000;
 
     use super::{opts, set};
+
+    /// `transfer::upload` of `set` with the 57600 baud transfer rate
+    /// requested, journal at `journal`.
+    fn upload_at_57600(
+        c: &mut LustbusClient<SimByteBus>,
+        set: &ResolvedSet,
+        journal: impl Into<std::path::PathBuf>,
+    ) -> Result<UploadReport, UploadFailure> {
+        upload_with(c, set, journal, &TransferRequest::new(57600))
+    }
+
+    /// `transfer::upload` of `set` with `req`, journal at `journal`.
+    fn upload_with(
+        c: &mut LustbusClient<SimByteBus>,
+        set: &ResolvedSet,
+        journal: impl Into<std::path::PathBuf>,
+        req: &TransferRequest,
+    ) -> Result<UploadReport, UploadFailure> {
+        transfer::upload(c, set, &UploadOptions::new(journal), req)
+    }
 
     fn mc_bus(log: &EventLog, faults: Option<&str>) -> SimByteBus {
         let clock = VirtualClock::new();
@@ -269,13 +275,7 @@ mod transfer_rate {
         let journal = dir.path().join("j.journal.json");
         let log = EventLog::memory();
         let mut c = mc_client(&log, None);
-        let report = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(&journal),
-            &TransferRequest::new(57600),
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        let report = upload_at_57600(&mut c, &set, &journal).unwrap_or_else(|f| panic!("{f}"));
         assert_eq!(report.state, TxnState::Complete, "{}", report.render());
         let t = report.transfer.as_ref().expect("transfer report");
         assert!(t.switched);
@@ -383,13 +383,7 @@ mod transfer_rate {
             &UploadOptions::new(dir.path().join("first.json")),
         )
         .unwrap_or_else(|f| panic!("{f}"));
-        let report = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(&journal),
-            &TransferRequest::new(57600),
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        let report = upload_at_57600(&mut c, &set, &journal).unwrap_or_else(|f| panic!("{f}"));
         assert_eq!(report.codes_written, 0);
         assert!(report.transfer.as_ref().is_some_and(|t| t.switched));
         let j = JournalFile::open(&journal).expect("journal").journal;
@@ -444,13 +438,8 @@ mod transfer_rate {
         let plain = c.clock().now() - t0;
         let before = log.events().len();
         let t0 = c.clock().now();
-        let report = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(dir.path().join("switched.json")),
-            &TransferRequest::new(57600),
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        let report = upload_at_57600(&mut c, &set, dir.path().join("switched.json"))
+            .unwrap_or_else(|f| panic!("{f}"));
         let switched = c.clock().now() - t0;
         assert!(report.transfer.as_ref().is_some_and(|t| t.switched));
         assert_eq!(report.state, TxnState::Complete);
@@ -498,13 +487,8 @@ mod transfer_rate {
         // the last host telegram of a clean run is the SERR read
         let clean = EventLog::memory();
         let mut c = mc_client(&clean, None);
-        transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(dir.path().join("clean.json")),
-            &TransferRequest::new(57600),
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        upload_at_57600(&mut c, &set, dir.path().join("clean.json"))
+            .unwrap_or_else(|f| panic!("{f}"));
         let n = clean.events().iter().filter(|e| e.dir == Dir::Host).count();
         assert_eq!(
             seq(&clean)
@@ -516,13 +500,8 @@ mod transfer_rate {
         let log = EventLog::memory();
         let fault = format!("power-cycle@{n}:off=200ms");
         let mut c = mc_client(&log, Some(&fault));
-        let f = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(&journal),
-            &TransferRequest::new(57600),
-        )
-        .expect_err("a restart after the switch back fails the upload");
+        let f = upload_at_57600(&mut c, &set, &journal)
+            .expect_err("a restart after the switch back fails the upload");
         let text = f.error.to_string();
         assert!(
             text.contains("after the switch back, the final read-back at 9600 baud finds")
@@ -542,13 +521,7 @@ mod transfer_rate {
         let journal = dir.path().join("j.journal.json");
         let log = EventLog::memory();
         let mut c = mc_client(&log, None);
-        let report = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(&journal),
-            &TransferRequest::new(57600),
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        let report = upload_at_57600(&mut c, &set, &journal).unwrap_or_else(|f| panic!("{f}"));
         let t = report.transfer.expect("transfer");
         assert!(!t.switched);
         assert_eq!(
@@ -575,13 +548,7 @@ mod transfer_rate {
         // the machine's control starts the motor (416-SCTL1 bit 0)
         c.link_mut().drive_mut(1).expect("drive").set_running(true);
         let n = log.events().len();
-        let err = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(dir.path().join("j.json")),
-            &TransferRequest::new(57600),
-        )
-        .expect_err("running");
+        let err = upload_at_57600(&mut c, &set, dir.path().join("j.json")).expect_err("running");
         assert_eq!(
             err.to_string(),
             "sim address 1: refused: --transfer-baud 57600: the drive reports a running motor (or its running state cannot be read); the line rate is switched only at standstill, and no override lifts that: stop the drive, or leave out --transfer-baud"
@@ -615,10 +582,10 @@ mod transfer_rate {
         .with_log(log.clone());
         let mut c = LustbusClient::new(bus, catalog::schema(Family::Vf1000).expect("schema"), 4)
             .expect("client");
-        let err = transfer::upload(
+        let err = upload_with(
             &mut c,
             &set,
-            &UploadOptions::new(dir.path().join("j.json")),
+            dir.path().join("j.json"),
             &TransferRequest::new(19200),
         )
         .expect_err("vf1000");
@@ -636,32 +603,21 @@ mod transfer_rate {
             driveset_schema::Family::Vf1000,
             driveset_schema::Family::Mc6000,
         ];
-        let err = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(dir.path().join("k.json")),
-            &req,
-        )
-        .expect_err("shared");
+        let err = upload_with(&mut c, &set, dir.path().join("k.json"), &req).expect_err("shared");
         assert_eq!(
             err.to_string(),
             "sim address 1: refused: --transfer-baud 57600: the bus is shared with 1 drive(s) (Lust SMARTDRIVE VF1000) that cannot follow: while this drive talks at 57600 baud they hear garbage, and their watchdog (84-SIOT / SWDGT, lustbus-protocol.txt §5.2) may fire; give --allow-shared-transfer-baud to switch anyway, or leave out --transfer-baud"
         );
         assert!(log.events().is_empty(), "nothing sent");
         req.allow_shared = true;
-        let r = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(dir.path().join("k.json")),
-            &req,
-        )
-        .unwrap_or_else(|f| panic!("{f}"));
+        let r = upload_with(&mut c, &set, dir.path().join("k.json"), &req)
+            .unwrap_or_else(|f| panic!("{f}"));
         assert!(r.transfer.is_some_and(|t| t.switched));
         // a rate the family does not run at
-        let err = transfer::upload(
+        let err = upload_with(
             &mut c,
             &set,
-            &UploadOptions::new(dir.path().join("l.json")),
+            dir.path().join("l.json"),
             &TransferRequest::new(1200),
         )
         .expect_err("1200");
@@ -679,13 +635,7 @@ mod transfer_rate {
         // telegram 40: well after the switch (the 9th telegram), in the read-back
         let log = EventLog::memory();
         let mut c = mc_client(&log, Some("cable@40+60s"));
-        let f = transfer::upload(
-            &mut c,
-            &set,
-            &UploadOptions::new(&journal),
-            &TransferRequest::new(57600),
-        )
-        .expect_err("cable");
+        let f = upload_at_57600(&mut c, &set, &journal).expect_err("cable");
         let text = f.to_string();
         assert!(
             text.contains("switching back from the transfer rate failed")
@@ -717,17 +667,11 @@ mod transfer_rate {
 #[test]
 fn a_pulled_cable_is_observed_as_rollback_and_recover_as_read_rollback_verify() {
     use driveset_engine::observe::{Hook, Phase as P, Spans};
-    use std::sync::Arc;
     let set = set("parameter-sets/vf1000/conveyor-1.toml");
     let dir = tempfile::tempdir().expect("tempdir");
     let journal = dir.path().join("vf.journal.json");
     let schema = catalog::schema(Family::Vf1000).expect("schema");
-    let mut probe = LustbusClient::new(
-        bus(Box::new(Vf1000::new(opts(4)).expect("vf")), None),
-        schema.clone(),
-        4,
-    )
-    .expect("client");
+    let mut probe = vf_client(schema.clone());
     let n0 = probe.stats().telegrams;
     let prepared = prepare(&mut probe, &set, Overrides::none()).expect("prepare");
     let writes = prepared.plan.writes.len() as u64;

@@ -185,7 +185,7 @@ fn slcan_open_sequence_and_frames() {
     assert_eq!(link.recv(deadline).expect("recv"), None);
 
     // An extended remote frame, acknowledged with CR.
-    let remote = CanFrame::new_remote(0x1234567, 0, true).unwrap();
+    let remote = CanFrame::new_remote_extended(0x1234567, 0).unwrap();
     let adapter = thread::spawn(move || {
         let line = master_line(&mut master);
         master.write_all(b"\r").expect("ack");

@@ -63,8 +63,17 @@ impl CanFrame {
         Self::build(id, data, true)
     }
 
-    /// A remote frame requesting `len` bytes.
-    pub fn new_remote(id: u32, len: u8, extended: bool) -> Result<Self, FrameError> {
+    /// A standard (11-bit) remote frame requesting `len` bytes.
+    pub fn new_remote(id: u32, len: u8) -> Result<Self, FrameError> {
+        Self::remote(id, len, false)
+    }
+
+    /// An extended (29-bit) remote frame requesting `len` bytes.
+    pub fn new_remote_extended(id: u32, len: u8) -> Result<Self, FrameError> {
+        Self::remote(id, len, true)
+    }
+
+    fn remote(id: u32, len: u8, extended: bool) -> Result<Self, FrameError> {
         let f = CanFrame {
             id,
             data: [0; 8],

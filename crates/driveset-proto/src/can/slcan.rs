@@ -630,9 +630,9 @@ mod tests {
         assert_eq!(cmd(SlcanCommand::Transmit(sdo)), "t605823F45F0020A10700\r");
         let ext = CanFrame::new_extended(0x1ABC_DEF0, &[0xDE, 0xAD]).unwrap();
         assert_eq!(cmd(SlcanCommand::Transmit(ext)), "T1ABCDEF02DEAD\r");
-        let rtr = CanFrame::new_remote(0x7FF, 8, false).unwrap();
+        let rtr = CanFrame::new_remote(0x7FF, 8).unwrap();
         assert_eq!(cmd(SlcanCommand::Transmit(rtr)), "r7FF8\r");
-        let rtr_ext = CanFrame::new_remote(0x1FFF_FFFF, 0, true).unwrap();
+        let rtr_ext = CanFrame::new_remote_extended(0x1FFF_FFFF, 0).unwrap();
         assert_eq!(cmd(SlcanCommand::Transmit(rtr_ext)), "R1FFFFFFF0\r");
         let empty = CanFrame::new(0, &[]).unwrap();
         assert_eq!(cmd(SlcanCommand::Transmit(empty)), "t0000\r");

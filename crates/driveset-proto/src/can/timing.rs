@@ -134,7 +134,7 @@ mod tests {
         let f0 = CanFrame::new(0x000, &[]).unwrap();
         assert_eq!(frame_bits(&f0, Stuffing::None), Ok(47));
         assert_eq!(frame_bits(&f0, Stuffing::WorstCase), Ok(55));
-        let r = CanFrame::new_remote(0x605, 8, false).unwrap();
+        let r = CanFrame::new_remote(0x605, 8).unwrap();
         assert_eq!(frame_bits(&r, Stuffing::None), Ok(47));
     }
 
@@ -148,7 +148,7 @@ mod tests {
             CanFrame::new(0x605, &[0x23, 0xF4, 0x5F, 0x00, 0x20, 0xA1, 0x07, 0x00]).unwrap(),
             CanFrame::new(0x7FF, &[0xFF; 8]).unwrap(),
             CanFrame::new_extended(0x1FFF_FFFF, &[0; 8]).unwrap(),
-            CanFrame::new_remote(0x123, 3, true).unwrap(),
+            CanFrame::new_remote_extended(0x123, 3).unwrap(),
         ] {
             let n = frame_bits(&f, Stuffing::None).unwrap();
             let e = frame_bits(&f, Stuffing::Exact).unwrap();

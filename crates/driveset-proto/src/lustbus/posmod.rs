@@ -62,9 +62,21 @@ bit_flags! {
 }
 
 impl PosModStatus {
-    /// A status byte with the fixed bits set and bit 3 clear.
-    pub const fn new(request: bool, multiblock: bool) -> Self {
-        Self(0x30 | if request { 0x01 } else { 0 } | if multiblock { 0x04 } else { 0 })
+    /// A data telegram's status byte: the fixed bits set, bits 0, 2 and 3
+    /// clear.
+    pub const fn data() -> Self {
+        Self::FIXED
+    }
+
+    /// A request telegram's status byte: the fixed bits and bit 0 set,
+    /// bits 2 and 3 clear.
+    pub const fn request() -> Self {
+        Self(Self::FIXED.0 | Self::REQUEST.0)
+    }
+
+    /// This status byte with bit 2 set: a multiblock telegram, more follow.
+    pub const fn multiblock(self) -> Self {
+        Self(self.0 | Self::MULTIBLOCK.0)
     }
 
     /// Checks the fixed bits (4, 5 set; 1, 6, 7 clear).
@@ -155,9 +167,9 @@ mod tests {
 
     #[test]
     fn status_bits() {
-        assert_eq!(PosModStatus::new(false, false).bits(), 0x30);
-        assert_eq!(PosModStatus::new(true, false).bits(), 0x31);
-        assert_eq!(PosModStatus::new(false, true).bits(), 0x34);
+        assert_eq!(PosModStatus::data().bits(), 0x30);
+        assert_eq!(PosModStatus::request().bits(), 0x31);
+        assert_eq!(PosModStatus::data().multiblock().bits(), 0x34);
         let s = PosModStatus::from_byte(0x3C).unwrap();
         assert!(s.is_multiblock() && !s.is_request() && s.contains(PosModStatus::BIT3));
         assert_eq!(
@@ -182,10 +194,10 @@ mod tests {
         assert_eq!(d.encode().as_bytes(), b"8GOA0V1000");
         assert_eq!(PosModData::decode(b""), Err(PosModError::MissingStatus));
         assert_eq!(
-            PosModData::new(PosModStatus::new(false, false), &[b'x'; 81]),
+            PosModData::new(PosModStatus::data(), &[b'x'; 81]),
             Err(PosModError::TooLong(81))
         );
-        assert!(PosModData::new(PosModStatus::new(false, false), &[b'x'; 80]).is_ok());
+        assert!(PosModData::new(PosModStatus::data(), &[b'x'; 80]).is_ok());
         assert_eq!(
             PosModData::decode(b"0A\x03"),
             Err(PosModError::BadByte {

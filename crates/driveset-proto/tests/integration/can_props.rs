@@ -83,9 +83,9 @@ fn can_frame() -> impl Strategy<Value = CanFrame> {
             prop::collection::vec(any::<u8>(), 0..=8)
         )
             .prop_map(|(id, d)| CanFrame::new_extended(id, &d).unwrap()),
-        (0u32..=0x7FF, 0u8..=8).prop_map(|(id, l)| CanFrame::new_remote(id, l, false).unwrap()),
+        (0u32..=0x7FF, 0u8..=8).prop_map(|(id, l)| CanFrame::new_remote(id, l).unwrap()),
         (0u32..=0x1FFF_FFFF, 0u8..=8)
-            .prop_map(|(id, l)| CanFrame::new_remote(id, l, true).unwrap()),
+            .prop_map(|(id, l)| CanFrame::new_remote_extended(id, l).unwrap()),
     ]
 }
 

@@ -219,7 +219,8 @@ proptest! {
         data in proptest::collection::vec(
             (0u8..=0x7F).prop_filter("value byte", |b| is_value_byte(*b)), 0..=80),
     ) {
-        let mut status = PosModStatus::new(request, multiblock);
+        let mut status = if request { PosModStatus::request() } else { PosModStatus::data() };
+        if multiblock { status = status.multiblock(); }
         if bit3 { status |= PosModStatus::BIT3; }
         let d = PosModData::new(status, &data).unwrap();
         let v = d.encode();

@@ -161,10 +161,19 @@ fn lustbus_facts_come_from_the_descriptor() {
 #[test]
 fn reaction_and_pacing_figures() {
     let mc = Family::Mc6000.descriptor();
-    assert_eq!(mc.reaction.longest(true), Duration::from_millis(30));
-    assert_eq!(mc.reaction.longest(false), Duration::from_millis(25));
+    assert_eq!(
+        mc.reaction.longest(Keypad::Fitted),
+        Duration::from_millis(30)
+    );
+    assert_eq!(
+        mc.reaction.longest(Keypad::Absent),
+        Duration::from_millis(25)
+    );
     let vf = Family::Vf1000.descriptor();
-    assert_eq!(vf.reaction.longest(true), Duration::from_millis(60));
+    assert_eq!(
+        vf.reaction.longest(Keypad::Fitted),
+        Duration::from_millis(60)
+    );
     assert!(vf.reaction.from_spec());
     assert!(!Family::Tmd.descriptor().reaction.from_spec());
     assert_eq!(mc.dataset.map(|d| d.code), Some(80));
@@ -312,17 +321,17 @@ width = 2
     let vf = Family::Vf1000.descriptor();
     let ms = Duration::from_millis;
     let c = |n| s.code(n).expect("code");
-    assert_eq!(vf.ack_delay(c(10), true), ms(60));
-    assert_eq!(vf.ack_delay(c(10), false), ms(0));
-    assert_eq!(vf.ack_delay(c(11), true), ms(120));
-    assert_eq!(vf.ack_delay(c(12), true), ms(0));
-    assert_eq!(vf.ack_delay(c(13), true), ms(120));
+    assert_eq!(vf.ack_delay(c(10), ValueChange::Differs), ms(60));
+    assert_eq!(vf.ack_delay(c(10), ValueChange::Same), ms(0));
+    assert_eq!(vf.ack_delay(c(11), ValueChange::Differs), ms(120));
+    assert_eq!(vf.ack_delay(c(12), ValueChange::Differs), ms(0));
+    assert_eq!(vf.ack_delay(c(13), ValueChange::Differs), ms(120));
     assert_eq!(vf.store_time(c(10)), ms(0));
     let mc = Family::Mc6000.descriptor();
     assert_eq!(mc.store_time(c(10)), ms(15));
     assert_eq!(mc.store_time(c(11)), ms(60));
     assert_eq!(mc.store_time(c(12)), ms(0));
-    assert_eq!(mc.ack_delay(c(10), true), ms(0));
+    assert_eq!(mc.ack_delay(c(10), ValueChange::Differs), ms(0));
 }
 
 #[test]

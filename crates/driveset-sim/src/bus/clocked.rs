@@ -145,7 +145,7 @@ impl ByteLink for SimByteBus {
             return Ok(());
         }
         let start = self.clock.now().max(self.host_busy_until);
-        let end = self.line.host_send(start, bytes, true);
+        let end = self.line.host_send_paced(start, bytes);
         self.host_busy_until = end;
         self.clock.sleep_until(end);
         Ok(())

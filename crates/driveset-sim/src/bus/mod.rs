@@ -444,12 +444,23 @@ impl ByteLine {
         }
     }
 
-    /// The host puts `bytes` on the line starting at `start`. With `paced`,
-    /// character `i` ends at `start + wire_time(i + 1, baud)` (virtual
-    /// bus); without, every character counts as ended at `start` (real-time
-    /// serving: the bytes have already crossed the pty or socket). Returns
-    /// the end of the transmission.
-    pub fn host_send(&mut self, start: Instant, bytes: &[u8], paced: bool) -> Instant {
+    /// The host puts `bytes` on the line starting at `start`, paced at the
+    /// line's rate: character `i` ends at `start + wire_time(i + 1, baud)`
+    /// (virtual bus). Returns the end of the transmission.
+    pub fn host_send_paced(&mut self, start: Instant, bytes: &[u8]) -> Instant {
+        self.host_send(start, bytes, true)
+    }
+
+    /// The host puts `bytes` on the line at once: every character counts as
+    /// ended at `start` (real-time serving: the bytes have already crossed
+    /// the pty or socket). Returns the end of the transmission, `start`.
+    pub fn host_send_at_once(&mut self, start: Instant, bytes: &[u8]) -> Instant {
+        self.host_send(start, bytes, false)
+    }
+
+    /// [`ByteLine::host_send_paced`] (`paced`) or
+    /// [`ByteLine::host_send_at_once`].
+    fn host_send(&mut self, start: Instant, bytes: &[u8], paced: bool) -> Instant {
         let end_of = |i: usize, baud: u32| {
             if paced {
                 start + wire_time(i + 1, baud)

@@ -28,6 +28,7 @@ use driveset_proto::lustbus::{
 };
 use driveset_schema::ValueType;
 use driveset_schema::canonical::{CodeKey, RawValue, ResolvedSet};
+use driveset_schema::family::Keypad;
 use driveset_schema::schema::StorageKind;
 
 use crate::catalog::{self, Family};
@@ -57,7 +58,7 @@ pub struct LustOptions {
     /// Seed of the drive's [`SimRng`] (reaction times, cut ACKs).
     pub seed: u64,
     /// Whether a KEYPAD KP100 is attached: slower reactions (section 10).
-    pub keypad: bool,
+    pub keypad: Keypad,
     /// A reaction-time range replacing the section 10 figures (for exact
     /// timing tests use [`ReactionTime::fixed`]).
     pub reaction: Option<ReactionTime>,
@@ -81,7 +82,7 @@ impl LustOptions {
         LustOptions {
             address,
             seed: 0,
-            keypad: false,
+            keypad: Keypad::Absent,
             reaction: None,
             boot_time: Duration::from_secs(1),
             description_layout: McLayout::Hex52,
@@ -97,7 +98,7 @@ impl LustOptions {
     }
 
     /// With or without a KEYPAD.
-    pub fn keypad(mut self, keypad: bool) -> Self {
+    pub fn keypad(mut self, keypad: Keypad) -> Self {
         self.keypad = keypad;
         self
     }

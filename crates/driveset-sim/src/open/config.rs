@@ -9,6 +9,7 @@ use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES, DEFAULT_BAUD, DEFAULT
 use driveset_proto::can::{AbortCode, NodeId};
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::CodeKey;
+use driveset_schema::family::Keypad;
 
 use super::state::*;
 use super::{
@@ -19,6 +20,7 @@ use crate::can_bus::FrameLine;
 use crate::catalog::Family;
 use crate::drive::{ByteDrive, FrameDrive, ReadRefusal};
 use crate::ecs::EcsDrive;
+use crate::factory::FactoryBus;
 use crate::factory::{BenchView, DriveSlot, FACTORY_BAUD, bench_pick, factory_address};
 use crate::faults::FaultPlan;
 use crate::log::EventLog;
@@ -156,6 +158,15 @@ impl SimConfig {
     /// Whether this is a mixed LUSTBUS.
     pub fn is_mixed(&self) -> bool {
         self.mixed_bus || !self.drive_families.is_empty()
+    }
+
+    /// [`SimConfig::is_mixed`] as a `factory=` value's bus kind.
+    pub fn factory_bus(&self) -> FactoryBus {
+        if self.is_mixed() {
+            FactoryBus::Mixed
+        } else {
+            FactoryBus::OneFamily
+        }
     }
 
     /// The bus's name in state files and dumps: the family, or `lustbus`
@@ -381,6 +392,15 @@ impl SimConfig {
         SimRng::derive(self.seed, 0x51_0000 + u64::from(address)).next_u64()
     }
 
+    /// [`SimConfig::keypad`] as the drives' options take it.
+    fn keypad_fitted(&self) -> Keypad {
+        if self.keypad {
+            Keypad::Fitted
+        } else {
+            Keypad::Absent
+        }
+    }
+
     /// The drives of a LUSTBUS / LECOM family, at factory state.
     pub fn byte_drives(&self) -> Result<Vec<Box<dyn ByteDrive>>, SimOpenError> {
         self.check()?;
@@ -394,7 +414,9 @@ impl SimConfig {
             } else {
                 (self.drive_seed(address), self.twin_at(address))
             };
-            let mut lust = LustOptions::new(address).seed(seed).keypad(self.keypad);
+            let mut lust = LustOptions::new(address)
+                .seed(seed)
+                .keypad(self.keypad_fitted());
             lust.description_layout = twin
                 .and_then(|t| t.layout)
                 .unwrap_or(self.description_layout);
@@ -414,7 +436,7 @@ impl SimConfig {
             if slot.is_factory() {
                 let k = factory_seen;
                 factory_seen += 1;
-                let r = crate::factory::factory_reaction(family, self.keypad, k);
+                let r = crate::factory::factory_reaction(family, self.keypad_fitted(), k);
                 lust.reaction = Some(r);
                 tmd.reaction = r;
             }

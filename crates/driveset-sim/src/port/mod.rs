@@ -27,6 +27,7 @@ use driveset_link::{
     PortSpecErrorKind, VirtualClock,
 };
 
+use crate::factory::{FactoryBus, factory_text, parse_factory};
 use crate::log::EventLog;
 use crate::open::{SimConfig, SimOpenError, is_can, open_sim_with, parse_family};
 
@@ -239,11 +240,8 @@ impl fmt::Display for SimSpec {
             items.push((key.clone(), list(l)));
         }
         if !self.factory.is_empty() {
-            let mixed = self.family.eq_ignore_ascii_case(MIXED_LUSTBUS);
-            items.push((
-                "factory".into(),
-                crate::factory::factory_text(mixed, &self.factory),
-            ));
+            let bus = FactoryBus::of_path(&self.family);
+            items.push(("factory".into(), factory_text(bus, &self.factory)));
         }
         if self.bench {
             items.push(("bench".into(), "true".into()));
@@ -262,6 +260,11 @@ impl fmt::Display for SimSpec {
         }
         Ok(())
     }
+}
+
+/// The family a `factory=` item names, if it names one.
+fn family_named(name: &str) -> Option<driveset_schema::Family> {
+    parse_family(name).ok()
 }
 
 fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
@@ -345,8 +348,7 @@ fn from_opaque(spec: &OpaqueSpec) -> Result<SimSpec, PortSpecErrorKind> {
             if !mixed && parse_family(family).is_ok_and(|f| f == driveset_schema::Family::Ecs) {
                 return Err(bad(crate::factory::ECS_REFUSAL.into()));
             }
-            crate::factory::parse_factory(family, mixed, &value, |n| parse_family(n).ok())
-                .map_err(bad)?
+            parse_factory(family, FactoryBus::of_path(family), &value, family_named).map_err(bad)?
         }
     };
     let bench = match map.remove("bench") {

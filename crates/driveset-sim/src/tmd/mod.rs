@@ -138,7 +138,7 @@ impl Default for TmdOptions {
             address: 1,
             control_source: 0,
             seed: 0,
-            reaction: ReactionTime::of(Family::Tmd, false),
+            reaction: ReactionTime::of(Family::Tmd, driveset_schema::family::Keypad::Absent),
             cfg_reaction: CfgReaction::Refuse,
             boot: Duration::ZERO,
         }

@@ -26,6 +26,7 @@ use std::time::Duration;
 
 use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::canonical::{CodeKey, RawValue};
+use driveset_schema::family::Keypad;
 use driveset_schema::{Family, Schema};
 
 use crate::drive::{ByteDrive, FrameDrive, ReactionTime, ReadRefusal};
@@ -258,7 +259,7 @@ impl Twin {
     /// they are the host's, not the drive's, and a twin drawing them would
     /// miss answer deadlines the drive meets.
     pub fn reaction_time(&self) -> Option<ReactionTime> {
-        let family = ReactionTime::of(self.family, true);
+        let family = ReactionTime::of(self.family, Keypad::Fitted);
         self.reaction.map(|(min, max)| {
             let min = min.clamp(family.min, family.max);
             ReactionTime {

@@ -129,10 +129,7 @@ fn the_log_shows_frames_as_candump_does() {
     assert_eq!(ev[0].hex, "40 18");
     assert_eq!(ev[1].text, "581#4018");
     assert_eq!(ev[1].addr, Some(1));
-    assert_eq!(
-        candump(&CanFrame::new_remote(0x701, 0, false).unwrap()),
-        "701#R"
-    );
+    assert_eq!(candump(&CanFrame::new_remote(0x701, 0).unwrap()), "701#R");
     let dump = bus.state_dump();
     assert_eq!(dump["drives"][0]["family"], "fake-can");
     assert_eq!(dump["bitrate"], RATE);

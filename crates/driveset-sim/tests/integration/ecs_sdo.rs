@@ -198,7 +198,7 @@ fn only_its_own_request_cob_id_is_answered() {
         frame(0x601, &read), // another node
         frame(0x585, &read), // a response COB-ID
         driveset_proto::can::CanFrame::new_extended(0x605, &read).unwrap(), // 29-bit
-        driveset_proto::can::CanFrame::new_remote(0x605, 8, false).unwrap(),
+        driveset_proto::can::CanFrame::new_remote(0x605, 8).unwrap(),
         frame(0x000, &[0x01, 0x05]), // NMT start: not an SDO server's business
     ] {
         assert!(d.hear(T0, &f).is_none(), "{f:?}");
@@ -343,6 +343,9 @@ fn reaction_times_are_seeded_and_within_the_assumed_range() {
     let a = run(42);
     assert_eq!(a, run(42));
     assert_ne!(a, run(43));
-    let r = ReactionTime::of(driveset_schema::Family::Ecs, false);
+    let r = ReactionTime::of(
+        driveset_schema::Family::Ecs,
+        driveset_schema::family::Keypad::Absent,
+    );
     assert!(a.iter().all(|t| *t >= r.min && *t <= r.max), "{a:?}");
 }

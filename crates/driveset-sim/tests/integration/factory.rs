@@ -9,7 +9,6 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use driveset_link::VirtualClock;
-use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, Select, ValueText};
 use driveset_schema::canonical::{CodeKey, RawValue};
 use driveset_sim::catalog::Family;
 use driveset_sim::factory::DriveSlot;
@@ -63,24 +62,7 @@ fn ask(link: &SimLink, bytes: &[u8]) -> Vec<u8> {
     }
 }
 
-fn enquiry(address: u8, code: u32) -> Vec<u8> {
-    Enquiry::new(
-        Address::new(address).unwrap(),
-        ParameterCode::new(code).unwrap(),
-    )
-    .encode()
-    .to_vec()
-}
-
-fn select(address: u8, code: u32, value: &str) -> Vec<u8> {
-    Select::new(
-        Address::new(address).unwrap(),
-        ParameterCode::new(code).unwrap(),
-        ValueText::new(value.as_bytes()).unwrap(),
-    )
-    .encode()
-    .to_vec()
-}
+use crate::lust_support::{enq as enquiry, sel as select};
 
 fn collisions(log: &EventLog) -> Vec<Option<u8>> {
     log.events()

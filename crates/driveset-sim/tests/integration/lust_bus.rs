@@ -5,31 +5,16 @@
 use std::time::Duration;
 
 use driveset_link::Instant;
-use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, ValueReply, ValueText};
 use driveset_sim::bus::ByteLine;
 use driveset_sim::drive::{ByteDrive, ReactionTime};
 use driveset_sim::lustbus_drive::LustOptions;
 use driveset_sim::mc6000::Mc6000;
 use driveset_sim::vf1000::Vf1000;
 
-fn enq(a: u8, c: u32) -> Vec<u8> {
-    Enquiry::new(Address::new(a).unwrap(), ParameterCode::new(c).unwrap())
-        .encode()
-        .to_vec()
-}
-
-fn val(a: u8, c: u32, v: &str) -> Vec<u8> {
-    ValueReply {
-        address: Address::new(a).unwrap(),
-        code: ParameterCode::new(c).unwrap(),
-        value: ValueText::new(v.as_bytes()).unwrap(),
-    }
-    .encode()
-    .to_vec()
-}
+use crate::lust_support::{enq, val};
 
 fn ask(line: &mut ByteLine, t: &mut Instant, bytes: &[u8]) -> Vec<u8> {
-    let end = line.host_send(*t, bytes, true);
+    let end = line.host_send_paced(*t, bytes);
     let until = end + Duration::from_millis(100);
     line.advance(until);
     let mut buf = [0u8; 64];

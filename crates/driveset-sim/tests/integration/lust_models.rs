@@ -6,11 +6,9 @@ use std::time::Duration;
 use driveset_link::Instant;
 use driveset_proto::ascii::bcc;
 use driveset_proto::lustbus::description::{McKind, VfStorage, decode_substitution_text};
-use driveset_proto::lustbus::{
-    Address, Enquiry, McDescription, ParameterCode, ParameterType, Select, ValueReply, ValueText,
-    VfDescription,
-};
+use driveset_proto::lustbus::{McDescription, ParameterType, VfDescription};
 use driveset_schema::canonical::{CodeKey, RawValue};
+use driveset_schema::family::Keypad;
 use driveset_sim::drive::{ByteDrive, Heard, ReactionTime, Reply};
 use driveset_sim::lustbus_drive::LustOptions;
 use driveset_sim::mc6000::Mc6000;
@@ -65,33 +63,7 @@ impl<D: ByteDrive> Host<D> {
     }
 }
 
-fn code(c: u32) -> ParameterCode {
-    ParameterCode::new(c).unwrap()
-}
-
-fn adr(a: u8) -> Address {
-    Address::new(a).unwrap()
-}
-
-fn enq(a: u8, c: u32) -> Vec<u8> {
-    Enquiry::new(adr(a), code(c)).encode().to_vec()
-}
-
-fn sel(a: u8, c: u32, v: &str) -> Vec<u8> {
-    Select::new(adr(a), code(c), ValueText::new(v.as_bytes()).unwrap())
-        .encode()
-        .to_vec()
-}
-
-fn val(a: u8, c: u32, v: &str) -> Vec<u8> {
-    ValueReply {
-        address: adr(a),
-        code: code(c),
-        value: ValueText::new(v.as_bytes()).unwrap(),
-    }
-    .encode()
-    .to_vec()
-}
+use crate::lust_support::{enq, sel, val};
 
 fn ack(a: u8) -> Option<Vec<u8>> {
     Some(vec![0x40 + a, 0x06])
@@ -437,10 +409,10 @@ fn sload_accepted_set_lands_after_the_store_time() {
     // Checking (FICTIONAL 20 ms + 1 ms per staged parameter: 22 ms) and
     // storing (1 and 2 bytes x 3 x 5 ms = 15 + 30 ms): SLOAD reads -1, old
     // values active, SELECTs refused as EEPROM busy.
-    let busy = driveset_sim::mc6000::dataset_busy_time(&[1, 2], true);
+    let busy = driveset_sim::mc6000::dataset_busy_time(&[1, 2]);
     assert_eq!(busy, Duration::from_millis(67));
     assert_eq!(
-        driveset_sim::mc6000::dataset_busy_time(&[1, 2], false),
+        driveset_sim::mc6000::rejected_dataset_busy_time(&[1, 2]),
         Duration::from_millis(22)
     );
     assert_eq!(h.bytes(&enq(0, 20080)).unwrap(), val(0, 20080, "FFFF"));
@@ -647,21 +619,21 @@ fn addressing_own_zero_broadcast_and_others() {
 
 #[test]
 fn reactions_follow_the_seed_and_the_keypad_setting() {
-    let run = |keypad: bool, seed: u64| {
+    let run = |keypad: Keypad, seed: u64| {
         let mut h = Host::new(Vf1000::new(LustOptions::new(1).seed(seed).keypad(keypad)).unwrap());
         (0..50)
             .map(|_| h.send(&enq(0, 91)).unwrap().reaction)
             .collect::<Vec<_>>()
     };
-    assert_eq!(run(true, 9), run(true, 9));
-    assert_ne!(run(true, 9), run(true, 10));
-    let with = run(true, 3);
+    assert_eq!(run(Keypad::Fitted, 9), run(Keypad::Fitted, 9));
+    assert_ne!(run(Keypad::Fitted, 9), run(Keypad::Fitted, 10));
+    let with = run(Keypad::Fitted, 3);
     assert!(
         with.iter()
             .all(|d| *d >= Duration::from_millis(1) && *d <= Duration::from_millis(60))
     );
     assert!(with.iter().any(|d| *d > Duration::from_millis(30)));
-    let without = run(false, 3);
+    let without = run(Keypad::Absent, 3);
     assert!(without.iter().all(|d| *d <= Duration::from_millis(30)));
     let mut m = Host::new(Mc6000::at(1).unwrap());
     for _ in 0..50 {

@@ -1,6 +1,7 @@
 //! The simulator's one integration-test binary (one binary per crate, fast
-//! to link). Each module tests one area; `bus_support` (tiny fake drives)
-//! and `ecs_support` (ECS helpers) are shared by its modules; the pty lock,
+//! to link). Each module tests one area; `bus_support` (tiny fake drives),
+//! `ecs_support` (ECS helpers) and `lust_support` (LUSTBUS telegrams) are
+//! shared by its modules; the pty lock,
 //! bounded reads and the interop skip come from `driveset-test-support`.
 //! Unit tests live beside the code in `src/`.
 
@@ -20,5 +21,6 @@ mod ecs_support;
 mod factory;
 mod lust_bus;
 mod lust_models;
+mod lust_support;
 mod spec_examples_transports;
 mod tmd;

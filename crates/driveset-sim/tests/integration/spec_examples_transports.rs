@@ -19,7 +19,6 @@ use std::time::Duration;
 
 use driveset_link::{ByteLink, Clock, FrameLink, VirtualClock};
 use driveset_proto::can::CanFrame;
-use driveset_proto::lustbus::{Address, Enquiry, ParameterCode, ValueReply, ValueText};
 use driveset_schema::canonical::{CodeKey, RawValue};
 use driveset_sim::bus::{ByteLine, SimByteBus};
 use driveset_sim::can_bus::{FrameLine, SimCanBus};
@@ -73,24 +72,7 @@ fn lecom_bcc(text: &[u8]) -> u8 {
     text.iter().fold(ETX, |a, b| a ^ b)
 }
 
-/// A LUSTBUS ENQUIRY of code `c` at address `a`, via the codec as
-/// `lust_models.rs` builds it.
-fn lust_enq(a: u8, c: u32) -> Vec<u8> {
-    Enquiry::new(Address::new(a).unwrap(), ParameterCode::new(c).unwrap())
-        .encode()
-        .to_vec()
-}
-
-/// The value reply `v` of code `c` from address `a`, via the codec.
-fn lust_val(a: u8, c: u32, v: &str) -> Vec<u8> {
-    ValueReply {
-        address: Address::new(a).unwrap(),
-        code: ParameterCode::new(c).unwrap(),
-        value: ValueText::new(v.as_bytes()).unwrap(),
-    }
-    .encode()
-    .to_vec()
-}
+use crate::lust_support::{enq as lust_enq, val as lust_val};
 
 fn byte_examples() -> Vec<Example> {
     vec![

@@ -290,7 +290,10 @@ impl<L: ByteLink> LustbusClient<L> {
         // when the value changes): the family descriptor's one rule, the
         // planner's too. Whether the value changes is not known here, so
         // the answer timeout allows for it.
-        let known_delay = schema.family.descriptor().ack_delay(code, true);
+        let known_delay = schema
+            .family
+            .descriptor()
+            .ack_delay(code, driveset_schema::family::ValueChange::Differs);
         self.ensure_session(what)?;
         let paced = self.paced(code);
         let mut checksum_repeats = 0u32;

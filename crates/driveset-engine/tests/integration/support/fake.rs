@@ -212,6 +212,16 @@ impl FakeClient {
             .collect()
     }
 
+    /// The operations that changed or could change the drive, in order:
+    /// the log without its reads, identifies and running checks.
+    pub fn changes_logged(&self) -> Vec<Op> {
+        self.log
+            .iter()
+            .map(|(_, o)| o.clone())
+            .filter(|o| !matches!(o, Op::Read(_) | Op::Identify | Op::Running))
+            .collect()
+    }
+
     pub fn values_of(&self, keys: impl IntoIterator<Item = CodeKey>) -> ResolvedSet {
         let mut s = ResolvedSet::new(&self.schema);
         for k in keys {
