@@ -92,6 +92,12 @@ pub const REPLACE_FORMATS: Formats = &[
     (OutputFormat::Json, "One JSON object"),
 ];
 
+/// `decode`'s formats.
+pub const DECODE_FORMATS: Formats = &[
+    (OutputFormat::Text, "One line per event, for people"),
+    (OutputFormat::Json, "One JSON object per line per event"),
+];
+
 /// `history log`'s formats.
 pub const LOG_FORMATS: Formats = &[
     (OutputFormat::Table, "Aligned columns"),

@@ -46,16 +46,8 @@ use driveset_proto::text;
 
 use crate::args::LustFamilyArg as FamilyArg;
 use crate::offline::{DecodeProtocol, builtin_registry, load_schema};
+use crate::output::OutputFormat;
 use crate::{EXIT_FINDINGS, EXIT_OK};
-
-/// Output format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum OutputFormat {
-    /// One line per event, for people.
-    Text,
-    /// One JSON object per line per event.
-    Json,
-}
 
 #[derive(clap::Args)]
 #[command(after_help = "\
@@ -102,7 +94,7 @@ pub struct Args {
     #[arg(long)]
     pub raw: bool,
     /// Output format.
-    #[arg(long, value_enum, default_value = "text")]
+    #[arg(long, value_parser = crate::output::formats(crate::output::DECODE_FORMATS), default_value = "text")]
     pub format: OutputFormat,
     /// Capture file (hex text, or bytes with --raw); `-` reads stdin.
     #[arg(value_name = "FILE")]
@@ -249,9 +241,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         any = true;
         bad |= e.error.is_some();
         match args.format {
-            OutputFormat::Text => out.push_str(&e.render_text()),
             // serializing strings and integers cannot fail
             OutputFormat::Json => out.push_str(&serde_json::to_string(&e).unwrap_or_default()),
+            _ => out.push_str(&e.render_text()),
         }
         out.push('\n');
         if out.len() >= OUT_CHUNK {

@@ -20,7 +20,6 @@ use driveset_engine::pull::{PullOptions, Pulled};
 use driveset_engine::session::{self, rate::ReadRate};
 use driveset_schema::export::pulled;
 use driveset_schema::{Format, Schema};
-use serde_json::json;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -381,29 +380,54 @@ fn set_file(args: &Args, d: &Done<'_>, set_dir: &Path, format: Format) -> String
     pulled::pulled_file(&pulled.set, d.schema, &file, format)
 }
 
+/// The report of `--format json`: its keys in the order JSON documents
+/// of the CLI have always had them (sorted; nested documents as values,
+/// so theirs are too).
+#[derive(serde::Serialize)]
+struct PullDoc<'a> {
+    actual_values: &'a [String],
+    address: u8,
+    detected: Option<&'a str>,
+    dropped_defaults: usize,
+    elapsed_ms: f64,
+    file: String,
+    fingerprint: &'a str,
+    full_fingerprint: &'a str,
+    identity: serde_json::Value,
+    learned: Option<serde_json::Value>,
+    left_out_bus_codes: &'a [String],
+    not_readable: usize,
+    port: &'a str,
+    read: usize,
+    schema: &'a str,
+    schema_file: Option<String>,
+    skipped: serde_json::Value,
+    values: usize,
+}
+
 /// The report of `--format json`.
 fn render_json(args: &Args, d: &Done<'_>) -> String {
     let pulled = d.pulled;
-    let doc = json!({
-        "port": d.port,
-        "address": d.address,
-        "file": args.output.display().to_string(),
-        "schema": d.schema.id,
-        "identity": pulled.identity,
-        "fingerprint": pulled.fingerprint,
-        "full_fingerprint": pulled.full_fingerprint,
-        "values": pulled.set.values.len(),
-        "actual_values": d.actual,
-        "read": pulled.read,
-        "dropped_defaults": pulled.dropped_defaults,
-        "skipped": pulled.skipped,
-        "not_readable": d.failed,
-        "left_out_bus_codes": d.bus_codes,
-        "schema_file": d.schema_path.map(|p| p.display().to_string()),
-        "learned": d.learned.map(session::LearnedReport::json),
-        "detected": d.detected,
-        "elapsed_ms": pulled.elapsed.as_secs_f64() * 1000.0,
-    });
+    let doc = PullDoc {
+        actual_values: d.actual,
+        address: d.address,
+        detected: d.detected,
+        dropped_defaults: pulled.dropped_defaults,
+        elapsed_ms: pulled.elapsed.as_secs_f64() * 1000.0,
+        file: args.output.display().to_string(),
+        fingerprint: &pulled.fingerprint,
+        full_fingerprint: &pulled.full_fingerprint,
+        identity: serde_json::to_value(&pulled.identity).unwrap_or_default(),
+        learned: d.learned.map(session::LearnedReport::json),
+        left_out_bus_codes: d.bus_codes,
+        not_readable: d.failed,
+        port: d.port,
+        read: pulled.read,
+        schema: &d.schema.id,
+        schema_file: d.schema_path.map(|p| p.display().to_string()),
+        skipped: serde_json::to_value(&pulled.skipped).unwrap_or_default(),
+        values: pulled.set.values.len(),
+    };
     format!(
         "{}\n",
         serde_json::to_string_pretty(&doc).unwrap_or_default()
