@@ -111,11 +111,33 @@ pub struct Common {
     pub stop_after: Option<usize>,
 }
 
+/// Whether loading a manifest counts the findings of sets whose schema is
+/// learned from the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LearnedSets {
+    /// They do not count: the run learns the drive's schema and checks the
+    /// set against it then.
+    Excused,
+    /// They count (`--no-learn`, or a command that learns nothing).
+    Counted,
+}
+
+impl LearnedSets {
+    /// What the learning flags say: `--no-learn` counts them.
+    pub fn of(learn: &crate::port_args::LearnArgs) -> LearnedSets {
+        if learn.no_learn {
+            LearnedSets::Counted
+        } else {
+            LearnedSets::Excused
+        }
+    }
+}
+
 /// Load the manifest; print its findings (exit 2) if it has any. The
-/// findings of sets whose schema is learned from the drive do not count,
-/// unless `no_learn`, nor do the per-drive ones (`set-address`,
-/// `set-rate`: the line run refuses that drive).
-pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
+/// findings of sets whose schema is learned from the drive count as
+/// `learned` says; the per-drive ones (`set-address`, `set-rate`: the
+/// line run refuses that drive) do not.
+pub fn load(path: &Path, learned: LearnedSets) -> Result<Manifest, u8> {
     let mut registry = match crate::output::registry(&[]) {
         Ok(r) => r,
         Err(e) => return Err(crate::output::fail_input(&e)),
@@ -134,7 +156,7 @@ pub fn load(path: &Path, no_learn: bool) -> Result<Manifest, u8> {
         .into_iter()
         .filter(|f| !f.is_per_drive())
         .collect();
-    if no_learn {
+    if learned == LearnedSets::Counted {
         findings.extend(loaded.learnable);
     }
     match loaded.manifest {
@@ -174,7 +196,7 @@ pub fn run_mode(
     command: LineCommand,
     tweak: impl FnOnce(&mut LineOptions),
 ) -> Result<u8, crate::fail::Fail> {
-    let manifest = match load(&c.manifest, c.learn.no_learn) {
+    let manifest = match load(&c.manifest, LearnedSets::of(&c.learn)) {
         Ok(m) => m,
         Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
@@ -195,15 +217,16 @@ pub fn run_mode(
     }
     // a rehearsal writes to twins, not to drives: not on record
     if c.rehearse.is_none() {
-        crate::history::begin(
-            command.name,
-            crate::history::Context {
-                label: c.label.clone().or_else(|| manifest.label.clone()),
-                manifest: Some(c.manifest.display().to_string()),
-                sets: Some(c.manifest.clone()),
-            },
-            command.writes,
-        )?;
+        let ctx = crate::history::Context {
+            label: c.label.clone().or_else(|| manifest.label.clone()),
+            manifest: Some(c.manifest.display().to_string()),
+            sets: Some(c.manifest.clone()),
+        };
+        if command.writes {
+            crate::history::begin_writing(command.name, ctx)?;
+        } else {
+            crate::history::begin_reading(command.name, ctx)?;
+        }
     }
     let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::RecordedEnv::system()));
     // the journal directory `upload` uses, so each sees the other's journals

@@ -109,9 +109,10 @@ pub struct Progress {
 }
 
 impl Progress {
-    /// Progress of `what` (`upload`); `quiet` prints nothing.
-    pub fn new(what: &'static str, quiet: bool) -> Arc<Self> {
-        let out = if quiet {
+    /// Progress of `what` (`upload`); none with `--format json`, whose
+    /// stdout is the document alone.
+    pub fn new(what: &'static str, format: crate::output::OutputFormat) -> Arc<Self> {
+        let out = if format == crate::output::OutputFormat::Json {
             Out::Quiet
         } else if bars_wanted() {
             let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());

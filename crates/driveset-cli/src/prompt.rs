@@ -6,10 +6,11 @@ use std::io::{BufRead, IsTerminal, Write};
 
 use crate::fail::Fail;
 
-/// Whether a prompt may be shown: stdin is a terminal (or the test hook
-/// says to read it anyway). `Err` explains what to give instead.
-pub fn confirm_allowed(prompt_stdin: bool, what: &str) -> Result<(), Fail> {
-    if prompt_stdin || std::io::stdin().is_terminal() {
+/// Whether a prompt may be shown: stdin is a terminal. `Err` explains
+/// what to give instead. (The hidden `--prompt-stdin` of the tests reads
+/// stdin anyway: its callers do not ask this.)
+pub fn confirm_allowed(what: &str) -> Result<(), Fail> {
+    if std::io::stdin().is_terminal() {
         Ok(())
     } else {
         Err(Fail::input(format!(

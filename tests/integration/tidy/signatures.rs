@@ -11,17 +11,7 @@ use super::{report, sources};
 /// The `pub fn`s that took a bare `bool` when the rule was set: `(file,
 /// function)`. The list may only shrink: give a function two names, or an
 /// enum or a small options struct, and remove its entry; never add one.
-const BOOL_PARAMETERS_STILL: &[(&str, &str)] = &[
-    ("crates/driveset-cli/src/history/mod.rs", "begin"),
-    ("crates/driveset-cli/src/line.rs", "load"),
-    ("crates/driveset-cli/src/progress.rs", "new"),
-    ("crates/driveset-cli/src/prompt.rs", "confirm_allowed"),
-    (
-        "crates/driveset-engine/src/transfer/recovery.rs",
-        "finish_rate",
-    ),
-    ("crates/driveset-engine/src/transfer/session.rs", "end"),
-];
+const BOOL_PARAMETERS_STILL: &[(&str, &str)] = &[];
 
 /// `(1-based line, name)` of each `pub fn` of `text` (a blanked source,
 /// see [`blanked`]) whose parameters hold a `: bool`.

@@ -167,7 +167,7 @@ fn address(args: &Args) -> Result<u8, Fail> {
             plan.to,
         ),
     };
-    crate::history::begin("address", crate::history::Context::default(), true)?;
+    crate::history::begin_writing("address", crate::history::Context::default())?;
     let report = assign::run(&mut link, &plan, &journal)?;
     crate::history::drive(&driveset_engine::history::DriveRecord::of_assign(&report));
     emit_report(&name, &report, json);

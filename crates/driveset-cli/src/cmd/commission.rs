@@ -138,7 +138,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         }
     };
     if args.assign {
-        let manifest = match load(&args.manifest, args.learn.no_learn) {
+        let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
             Ok(m) => m,
             Err(code) => return Err(crate::fail::Fail::reported(code)),
         };

@@ -168,13 +168,12 @@ pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
 fn pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     // on record before the first read (docs/history.md)
-    crate::history::begin(
+    crate::history::begin_reading(
         "pull",
         crate::history::Context {
             sets: Some(args.output.clone()),
             ..Default::default()
         },
-        false,
     )?;
     // No schema: find the protocol as `scan` does, on every port.
     let (opened, resolved) = args.at.open_resolved(address)?;
@@ -224,7 +223,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     };
     let mut transfer_note = None;
     let pulled = {
-        let p = Progress::new("pull", quiet);
+        let p = Progress::new("pull", args.format);
         let req = args
             .transfer
             .request(&driveset_engine::overrides::Overrides::none());

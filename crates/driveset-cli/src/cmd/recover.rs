@@ -211,13 +211,13 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     }
     let choice = journal_schema(args, j)?;
     drop(jf);
-    crate::history::begin("recover", crate::history::Context::default(), true)?;
+    crate::history::begin_writing("recover", crate::history::Context::default())?;
     let opened = port::open_port(&port_text)?;
     let port_name = opened.name.clone();
     let schema = choice.schema.clone();
     let mut client = port::into_client(opened, choice.schema, address)?;
     let result = {
-        let p = Progress::new("recover", json);
+        let p = Progress::new("recover", args.format);
         let opts = RecoverOptions {
             observer: p.hook(),
             ..RecoverOptions::default()

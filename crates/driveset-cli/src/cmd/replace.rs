@@ -140,14 +140,14 @@ impl PortCommand for Args {
 /// Run `driveset replace`.
 pub fn run(args: Args) -> Result<u8, Fail> {
     let overrides = args.allow.overrides()?;
-    let manifest = match crate::line::load(&args.manifest, true) {
+    let manifest = match crate::line::load(&args.manifest, crate::line::LearnedSets::Counted) {
         Ok(m) => m,
         Err(code) => return Err(Fail::reported(code)),
     };
     // a known drive with a fitting set, before the port is touched
     driveset_engine::line::replace::drive_of(&manifest, &args.drive).map_err(|e| Fail::from(&e))?;
-    if !args.yes {
-        confirm_allowed(args.prompt_stdin, "replace")?;
+    if !args.yes && !args.prompt_stdin {
+        confirm_allowed("replace")?;
     }
     let report_dir = args
         .report_dir
@@ -196,14 +196,13 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             return Ok(EXIT_FINDINGS);
         }
     }
-    crate::history::begin(
+    crate::history::begin_writing(
         "replace",
         crate::history::Context {
             manifest: Some(args.manifest.display().to_string()),
             sets: Some(args.manifest.clone()),
             label: manifest.label.clone(),
         },
-        true,
     )?;
     let env = crate::env::SystemEnv;
     let outcome = finish(&manifest, &prep, &mut link, &port_name, &opts, &env);

@@ -162,13 +162,12 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
     // a FIFO or device as -o is refused before the port is opened
     crate::files::check_output("-o", &a.output)?;
     let address = a.at.address()?;
-    crate::history::begin(
+    crate::history::begin_reading(
         "twin capture",
         crate::history::Context {
             sets: Some(a.output.clone()),
             ..Default::default()
         },
-        false,
     )?;
     let (twin, schema, identity) = capture_drive(a.at.port()?, address, |opened| {
         Ok(a.at.resolve(opened, address)?.choice.schema)
@@ -189,21 +188,21 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 }
 
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
-    let manifest = crate::line::load(&a.manifest, true).map_err(Fail::reported)?;
+    let manifest = crate::line::load(&a.manifest, crate::line::LearnedSets::Counted)
+        .map_err(Fail::reported)?;
     // every twin file is checked before a bus is opened
     for d in &manifest.drives {
         crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;
     }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
-    crate::history::begin(
+    crate::history::begin_reading(
         "twin capture-line",
         crate::history::Context {
             label: manifest.label.clone(),
             manifest: Some(a.manifest.display().to_string()),
             sets: Some(a.manifest.clone()),
         },
-        false,
     )?;
     let mut worst = EXIT_OK;
     let mut failed = Vec::new();

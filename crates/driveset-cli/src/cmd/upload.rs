@@ -186,13 +186,12 @@ fn upload(args: &Args) -> Result<u8, Fail> {
             default_journal_path(&dir, client.as_ref())
         }
     };
-    crate::history::begin(
+    crate::history::begin_writing(
         "upload",
         crate::history::Context {
             sets: Some(args.set.clone()),
             ..Default::default()
         },
-        true,
     )?;
     let slot = Slot {
         bus: port_name.clone(),
@@ -203,7 +202,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
     let mut opts = UploadOptions::new(&journal);
     opts.overrides = overrides;
     let result = {
-        let p = Progress::new("upload", json);
+        let p = Progress::new("upload", args.format);
         opts.observer = p.hook();
         let r = session::rate::upload(client.as_mut(), &set, &opts, transfer.as_ref());
         p.done();

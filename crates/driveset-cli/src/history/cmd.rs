@@ -267,7 +267,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
 
 /// The line's name and its drives' names, from its manifest.
 fn manifest_drives(path: &std::path::Path) -> Result<(String, Vec<String>), Fail> {
-    let m = crate::line::load(path, false).map_err(Fail::reported)?;
+    let m = crate::line::load(path, crate::line::LearnedSets::Excused).map_err(Fail::reported)?;
     Ok((
         m.name.clone(),
         m.drives.iter().map(|d| d.name.clone()).collect(),

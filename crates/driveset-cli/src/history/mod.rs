@@ -2,7 +2,7 @@
 //! flags (`--history URL`, `--history-required`, `--operator`, `--reason`;
 //! `DRIVESET_HISTORY`, `DRIVESET_OPERATOR`), the store chosen by them
 //! (SQLite `.driveset/history.sqlite` by default), when a command opens
-//! its session ([`begin`], before its first write: refused under
+//! its session ([`begin_writing`], [`begin_reading`]; before the first write: refused under
 //! `--history-required` when it cannot be recorded) and `main` closes it
 //! with the outcome ([`end`]), the engine's [`History`] seam over it
 //! ([`RecordedEnv`], for the line runner) and [`drive`] for the one-drive
@@ -93,7 +93,20 @@ fn say(line: &str) {
 /// Open this run's session (before the first write). `writes`: the
 /// command writes to drives, so `--history-required` refuses it when it
 /// cannot be recorded (exit 2, nothing sent).
-pub fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
+/// Open the session of a run that writes to drives (before its first
+/// write): `--history-required` refuses it when it cannot be recorded
+/// (exit 2, nothing sent).
+pub fn begin_writing(command: &str, ctx: Context) -> Result<(), Fail> {
+    begin(command, ctx, true)
+}
+
+/// Open the session of a run that only reads drives: a run that cannot
+/// be recorded is warned of and goes on.
+pub fn begin_reading(command: &str, ctx: Context) -> Result<(), Fail> {
+    begin(command, ctx, false)
+}
+
+fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
     let target = target()?;
     if target == Target::Off {
         return Ok(());

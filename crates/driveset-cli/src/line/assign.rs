@@ -140,8 +140,8 @@ pub fn table(a: &CommissionAssignReport) -> String {
 
 /// Run the first contact; `Ok(true)` when every bus holds.
 pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Result<bool, Fail> {
-    if !args.yes {
-        confirm_allowed(args.prompt_stdin, "commission --assign")?;
+    if !args.yes && !args.prompt_stdin {
+        confirm_allowed("commission --assign")?;
     }
     let m = match &args.port {
         Some(p) => with_port(manifest.clone(), p)?,

@@ -77,10 +77,11 @@ pub use crate::rate_report::{Decision, TransferReport};
 pub use check::check;
 pub use commands::{live_diff, pull, pull_exchanges, upload, upload_exchanges};
 pub use decide::{at_rate, decide};
+pub use recovery::find_drive;
+pub(crate) use recovery::finish_rate;
 pub(crate) use recovery::judged_rate;
-pub use recovery::{find_drive, finish_rate};
 pub use refusal::TransferRefusal;
-pub use session::{Session, begin, end};
+pub use session::{Session, begin};
 pub use switch::search;
 
 /// What the command asks for.

@@ -120,7 +120,7 @@ pub fn find_drive(
 /// at the transfer rate, but never when the drive is not the journal's.
 /// A switch already back with the drive found at another rate (it
 /// restarted at what its rate code held) is switched back the same way.
-pub fn finish_rate(
+pub(crate) fn finish_rate(
     client: &mut dyn DriveClient,
     journal: &Path,
     found: u32,

@@ -115,7 +115,7 @@ pub fn begin(
 /// (nothing but the rate was written). Returns the report, or the error
 /// text when the drive could not be switched back (the journal then keeps
 /// the record open for `driveset recover`).
-pub fn end(
+pub(super) fn end(
     client: &mut dyn DriveClient,
     session: Session,
     journal: &Path,

@@ -34,13 +34,12 @@ pub fn run(args: LiveArgs<'_>) -> Result<u8, crate::fail::Fail> {
 }
 
 fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
-    crate::history::begin(
+    crate::history::begin_reading(
         "diff",
         crate::history::Context {
             sets: Some(args.set.to_path_buf()),
             ..Default::default()
         },
-        false,
     )?;
     let on = args
         .at
