@@ -5,7 +5,7 @@
 //! `failure` that carries `file:line:col`, one `error` testcase for a file
 //! that could not be read, and one passing `testcase` for a clean file (so
 //! every checked file shows up). Also a line report as JUnit XML for CI
-//! test reports of a rehearsal ([`line`], docs/ci.md).
+//! test reports of a rehearsal ([`line()`], docs/ci.md).
 
 use std::fmt::Write;
 

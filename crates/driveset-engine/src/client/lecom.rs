@@ -601,7 +601,7 @@ impl<L: ByteLink> Protocol for LecomClient<L> {
     }
 
     /// The one identify loop, VD values in engineering notation
-    /// ([`ident_value`]).
+    /// (`ident_value`).
     fn identify(&mut self) -> Result<super::Identity, EngineError> {
         let schema = Arc::clone(&self.drive.schema);
         super::identify::identify(&schema, |key, what| self.read_code(key, what), ident_value)

@@ -26,7 +26,7 @@ pub fn upload_exchanges(set: &ResolvedSet) -> Vec<CodeKey> {
 }
 
 /// `upload` with a transfer rate (module docs): the upload runs between
-/// [`begin`] and [`end`]; the report says whether the rate was switched.
+/// [`begin`] and `end`; the report says whether the rate was switched.
 pub fn upload(
     client: &mut dyn DriveClient,
     set: &ResolvedSet,

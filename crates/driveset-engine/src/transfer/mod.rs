@@ -46,16 +46,16 @@
 //! rate of the family) and switches it back; the upload's backup is never
 //! touched. When the drive cannot be found the error says at which rate it
 //! may run, and the journal keeps the record open, so `driveset recover`
-//! ([`find_drive`], [`finish_rate`]) searches again before it completes or rolls back.
+//! ([`find_drive`], `finish_rate`) searches again before it completes or rolls back.
 //!
 //! **Rooms.** This module holds the request ([`TransferRequest`]) and the
 //! family's rate codes; [`check`] (what needs no telegram) is in
 //! `check.rs`, [`decide`] and the report of the decision in `decide.rs`,
 //! the switch over and back and the search in `switch.rs`, the journal
 //! record's bookkeeping in `record.rs`, a switched session ([`begin`],
-//! [`end`]) in `session.rs`, the commands run at a transfer rate
+//! `end`) in `session.rs`, the commands run at a transfer rate
 //! ([`upload`], [`pull`], [`live_diff`]) in `commands.rs`, and `recover`'s
-//! part ([`find_drive`], [`finish_rate`]) in `recovery.rs`, the refusal
+//! part ([`find_drive`], `finish_rate`) in `recovery.rs`, the refusal
 //! ([`TransferRefusal`]) in `refusal.rs`.
 
 mod check;

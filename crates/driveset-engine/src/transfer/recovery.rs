@@ -71,7 +71,7 @@ pub(crate) fn judged_rate(
 /// rate, the transfer rate, the old rate, then every rate of the family)
 /// and leave the host there; `Ok(None)` when the journal records no
 /// switch. The transaction is then settled at that rate, and
-/// [`finish_rate`] switches back.
+/// `finish_rate` switches back.
 pub fn find_drive(
     client: &mut dyn DriveClient,
     jf: &JournalFile,

@@ -17,7 +17,7 @@ use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState, T
 use crate::plan::code_label;
 use crate::rate_report::{Decision, TransferReport};
 
-/// A switched session: what [`begin`] did, for [`end`].
+/// A switched session: what [`begin`] did, for `end`.
 #[derive(Debug)]
 pub struct Session {
     codes: Option<Codes>,
