@@ -26,7 +26,7 @@ use driveset_schema::{BusProtocol, CodeKey, RawValue, Registry, Schema};
 
 use crate::client::{DriveClient, Identity, LustbusClient};
 use crate::connect::ConnectOptions;
-use crate::error::{DeviceCause, EngineError, ErrorKind};
+use crate::error::{DeviceCause, DeviceFailure, EngineError, ErrorKind, LinkFailure};
 use crate::learn::{
     LearnOptions, PullSchemaError, PulledSchema, default_params, needs_learning, pull_descriptions,
 };
@@ -103,16 +103,16 @@ pub fn capture(client: &mut dyn DriveClient) -> Result<Capture, EngineError> {
                     out.values.insert(key, v);
                 }
                 Err(e) => match &*e.kind {
-                    ErrorKind::Device { cause, .. } => {
+                    ErrorKind::Device(DeviceFailure::Refused { cause, .. }) => {
                         out.refused
                             .insert(key, format!("{} ({})", cause.cause(), cause.raw()));
                         out.answers.insert(key, cause.clone());
                     }
-                    ErrorKind::Protocol { detail, .. } => {
+                    ErrorKind::Link(LinkFailure::Protocol { detail, .. }) => {
                         out.refused
                             .insert(key, format!("answer does not fit the type: {detail}"));
                     }
-                    ErrorKind::NoAnswer { tries, .. } => {
+                    ErrorKind::Link(LinkFailure::NoAnswer { tries, .. }) => {
                         out.refused
                             .insert(key, format!("no answer ({tries} tries)"));
                     }

@@ -493,7 +493,7 @@ mod tests {
 
     use super::{GuardRefusal, Permit, check};
     use crate::client::Target;
-    use crate::error::{ErrorKind, assert_refusal_json};
+    use crate::error::assert_refusal_json;
 
     fn builtin(f: Family) -> Arc<Schema> {
         Registry::builtin()
@@ -519,9 +519,9 @@ mod tests {
             permit,
         ) {
             Ok(_) => "ok".into(),
-            Err(e) => match *e.kind {
-                ErrorKind::Refused(r) => r.to_string(),
-                other => panic!("not a refusal: {other:?}"),
+            Err(e) => match e.refusal() {
+                Some(r) => r.to_string(),
+                None => panic!("not a refusal: {:?}", e.kind),
             },
         }
     }

@@ -29,7 +29,7 @@ use std::time::Duration;
 use driveset_schema::{Code, CodeKey, ResolvedSet, Role, Schema};
 
 use crate::client::{DriveClient, Identity};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceFailure, EngineError, ErrorKind, LinkFailure};
 use crate::observe::{Hook, Phase};
 use crate::plan::code_label;
 
@@ -165,16 +165,20 @@ pub fn pull_observed(
             match client.read(key) {
                 Ok(v) => all.insert(key, v),
                 Err(e) => match &*e.kind {
-                    ErrorKind::Device { cause, .. } => skipped.push(fail(format!(
-                        "the drive refused to read it: {} ({})",
-                        cause.cause(),
-                        cause.raw()
-                    ))),
-                    ErrorKind::Protocol { detail, .. } => skipped.push(fail(format!(
-                        "its VALUE does not fit the schema's type {}: {detail}",
-                        schema.type_of(code).map_or("(none)", |t| t.name())
-                    ))),
-                    ErrorKind::NoAnswer { tries, .. } => {
+                    ErrorKind::Device(DeviceFailure::Refused { cause, .. }) => {
+                        skipped.push(fail(format!(
+                            "the drive refused to read it: {} ({})",
+                            cause.cause(),
+                            cause.raw()
+                        )))
+                    }
+                    ErrorKind::Link(LinkFailure::Protocol { detail, .. }) => {
+                        skipped.push(fail(format!(
+                            "its VALUE does not fit the schema's type {}: {detail}",
+                            schema.type_of(code).map_or("(none)", |t| t.name())
+                        )))
+                    }
+                    ErrorKind::Link(LinkFailure::NoAnswer { tries, .. }) => {
                         skipped.push(fail(format!("the drive did not answer ({tries} tries)")))
                     }
                     _ => return Err(e),

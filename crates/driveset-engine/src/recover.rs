@@ -4,7 +4,7 @@
 //!
 //! - journal `complete` or `rolled-back`: nothing to do;
 //! - **the drive is not the journal's drive**: refused with
-//!   [`ErrorKind::NotJournalDrive`](crate::error::ErrorKind::NotJournalDrive) (exit 2 in the CLI), in this order:
+//!   [`NotJournalDrive`](crate::journal::NotJournalDrive) (exit 2 in the CLI), in this order:
 //!   a version 1 journal (it records no bus, [`Mismatch::Version`]), another
 //!   schema ([`Mismatch::Schema`]), another bus ([`Mismatch::Bus`]: the
 //!   client's [`DriveClient::bus_id`] is not the recorded one, whatever the
@@ -47,8 +47,8 @@ use std::time::Duration;
 use driveset_schema::{CodeKey, RawValue, ResolvedSet};
 
 use crate::client::DriveClient;
-use crate::error::{EngineError, Mismatch};
-use crate::journal::{FailureCause, JournalFile, TxnState, version_refusal};
+use crate::error::EngineError;
+use crate::journal::{FailureCause, JournalFile, Mismatch, TxnState, version_refusal};
 use crate::observe::{Hook, Phase as Step};
 use crate::plan::{DATASET_TIMEOUT, Phase, code_label};
 use crate::upload::{

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
+use driveset_engine::error::LinkFailure;
 use driveset_engine::session;
 use driveset_proto::lustbus::Dialect;
 use driveset_schema::{Family, Learning};
@@ -183,7 +184,7 @@ fn report(
         // A servo that activates rates online may have been left at a
         // transfer rate (--transfer-baud): search every rate (LUSTBUS 5.1).
         Err(e)
-            if matches!(e.kind(), driveset_engine::error::ErrorKind::NoAnswer { .. })
+            if matches!(e.link_failure(), Some(LinkFailure::NoAnswer { .. }))
                 && schema.family.descriptor().line_rates.online.is_some() =>
         {
             let port_rate = client.line_rate().unwrap_or(0);

@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+use driveset_engine::error::LinkFailure;
 use driveset_engine::line::manifest::Manifest;
 use driveset_engine::line::replace::{
     LineBusId, Prepared, ReplaceError, ReplaceOptions, finish, prepare,
@@ -295,9 +296,8 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             );
             outln!("report: {} {}", written.0.display(), written.1.display());
             let bus = matches!(
-                *e.kind,
-                driveset_engine::error::ErrorKind::Link(_)
-                    | driveset_engine::error::ErrorKind::NoAnswer { .. }
+                e.link_failure(),
+                Some(LinkFailure::Transport(_) | LinkFailure::NoAnswer { .. })
             );
             Ok(if bus { EXIT_BUS } else { EXIT_FINDINGS })
         }

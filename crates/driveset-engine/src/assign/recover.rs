@@ -20,7 +20,7 @@ use super::report::{Step, list, pairs};
 use super::run::finish;
 use super::{AssignPlan, AssignRecovered, AssignRefusal, AssignStep, RateEffect, Schemas};
 use crate::client::Target;
-use crate::error::{EngineError, ErrorKind, Refusal};
+use crate::error::{EngineError, LinkFailure, Refusal};
 use crate::journal::{Journal, JournalFile, JournalIdentity, TxnState};
 use crate::scan::ScanOptions;
 
@@ -64,7 +64,7 @@ pub fn recover(
         return Err(EngineError::not_journal_drive(
             target(&port, rec.to),
             name.clone(),
-            crate::error::Mismatch::Bus,
+            crate::journal::Mismatch::Bus,
             format!(
                 "it belongs to bus `{}`, but this port reaches bus `{bus}`; nothing was sent. Recover through a port to that bus",
                 jf.journal.target.bus.clone().unwrap_or_default()
@@ -125,8 +125,8 @@ pub fn recover(
                     found_at = Some((*a, *r, v));
                     break 'search;
                 }
-                Err(e) => match e.kind() {
-                    ErrorKind::NoAnswer { .. } | ErrorKind::Protocol { .. } => {}
+                Err(e) => match e.link_failure() {
+                    Some(LinkFailure::NoAnswer { .. } | LinkFailure::Protocol { .. }) => {}
                     _ => return Err(e),
                 },
             }
@@ -164,7 +164,7 @@ pub fn recover(
         return Err(EngineError::not_journal_drive(
             target(&port, at),
             name.clone(),
-            crate::error::Mismatch::Identity,
+            crate::journal::Mismatch::Identity,
             AssignRefusal::NotTheDrive {
                 detail: format!(
                     "the drive at address {at} identifies as {} but the journal was written for {}",

@@ -17,7 +17,7 @@ use super::record::{new_journal, record_of, set_step};
 use super::refusal::target;
 use super::report::{Step, found_text, pairs};
 use super::{AssignPlan, AssignReport, AssignStep, RateEffect};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceFailure, EngineError, ErrorKind, LinkFailure};
 use crate::guard::{self, Permit};
 use crate::journal::{JournalFile, TxnState};
 use crate::plan::code_label;
@@ -91,11 +91,12 @@ pub(super) fn with_journal(mut e: EngineError, journal: &Path) -> EngineError {
         j = journal.display()
     );
     match &mut *e.kind {
-        ErrorKind::NoAnswer { what, .. } | ErrorKind::Device { what, .. } => {
+        ErrorKind::Link(LinkFailure::NoAnswer { what, .. })
+        | ErrorKind::Device(DeviceFailure::Refused { what, .. }) => {
             what.push_str(&format!(" ({note})"));
             e
         }
-        ErrorKind::Protocol { detail, .. } => {
+        ErrorKind::Link(LinkFailure::Protocol { detail, .. }) => {
             detail.push_str(&format!("; {note}"));
             e
         }

@@ -13,7 +13,7 @@
 use driveset_schema::{CodeKey, RawValue, Schema};
 
 use super::{IdentCode, IdentProtocol, IdentValue, Identity, code_name};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceFailure, EngineError, ErrorKind};
 
 /// The codes identification reads from a drive of `schema`'s family, in
 /// order: the schema's own, else the descriptor's
@@ -51,7 +51,10 @@ pub(crate) fn identify(
             Ok(r) => r,
             // A code this drive lacks does not stop identification where
             // the family's drives differ in the codes they hold.
-            Err(e) if rules.skips_missing && matches!(*e.kind, ErrorKind::Device { .. }) => {
+            Err(e)
+                if rules.skips_missing
+                    && matches!(*e.kind, ErrorKind::Device(DeviceFailure::Refused { .. })) =>
+            {
                 continue;
             }
             Err(e) => return Err(e),

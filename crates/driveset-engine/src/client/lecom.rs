@@ -14,7 +14,7 @@
 //!   VO.
 //! - Answers through the codec's [`ResponseDecoder`]: the value; `?`
 //!   (checksum fault seen by the drive: repeat); `STX C1 C2 EOT` (no such
-//!   code: [`ErrorKind::Device`](crate::error::ErrorKind::Device)); ACK; NAK.
+//!   code: [`DeviceFailure::Refused`](crate::error::DeviceFailure::Refused)); ACK; NAK.
 //! - A NAK to a SEND: the client reads C0068 and decodes bits 4..7 with the
 //!   codec's [`CommunicationError`](driveset_proto::lecom::status::CommunicationError) (8.J c). Checksum, protocol frame and
 //!   "interrupted by a new telegram" repeat the SEND (within
@@ -44,7 +44,7 @@
 //! is told apart by its sequence, arriving in the window of the telegram
 //! it answers), then repeats (input discarded first),
 //! [`LecomOptions::tries`] (3) sends in all, then
-//! [`ErrorKind::NoAnswer`](crate::error::ErrorKind::NoAnswer). An answer for another code (a late answer to
+//! [`LinkFailure::NoAnswer`](crate::error::LinkFailure::NoAnswer). An answer for another code (a late answer to
 //! an earlier RECEIVE, the C0068 read after a NAK included) is never taken
 //! for the answer.
 //!

@@ -217,7 +217,7 @@ pub struct ClientStats {
     pub sload_polls: u64,
     /// Restarts of the drive seen (LUSTBUS: a power-on bit in SIOF/SERR
     /// after the session's first read of it, §6, each one
-    /// [`crate::error::ErrorKind::Restarted`] where it was read), also where
+    /// [`crate::error::DeviceFailure::Restarted`] where it was read), also where
     /// the caller recovered from the error; 0 where the protocol shows none.
     /// A switched upload compares it across the switch back
     /// (`crate::transfer`). Not in reports.
@@ -268,7 +268,7 @@ pub trait DriveClient: Send {
     /// rate switch ...), which covers exactly its code and values; only the
     /// engine can name a permit other than `SETTING`. Returns when the
     /// drive has acknowledged it; a write the drive refuses is an
-    /// [`ErrorKind::Device`](crate::error::ErrorKind::Device) with the decoded cause. Waits (on the link's
+    /// [`DeviceFailure::Refused`](crate::error::DeviceFailure::Refused) with the decoded cause. Waits (on the link's
     /// clock) if the drive cannot take the write yet (MC EEPROM still
     /// storing): correctness never depends on the caller's pacing.
     fn write_named(

@@ -13,13 +13,13 @@
 //!   BITCODED an unsigned 32-bit field without factor (C0135 / C0150), both
 //!   4 bytes little-endian; VS the text's bytes; VO the octets. A shorter
 //!   numeric answer is zero- (BITCODED) or sign-extended (FIX32).
-//! - An SDO abort from the drive is an [`ErrorKind::Device`](crate::error::ErrorKind::Device) with the
+//! - An SDO abort from the drive is an [`DeviceFailure::Refused`](crate::error::DeviceFailure::Refused) with the
 //!   DS301 text and the codec's hint; a protocol failure (bad frame, toggle
 //!   bit) is answered with the codec's abort frame and repeated; no answer
 //!   within [`CanOptions::answer_timeout`] (default 50 ms; the excerpt gives
 //!   no response time) sends the timeout abort (0x05040000) and repeats the
 //!   transfer, [`CanOptions::tries`] (3) times in all, then
-//!   [`ErrorKind::NoAnswer`](crate::error::ErrorKind::NoAnswer).
+//!   [`LinkFailure::NoAnswer`](crate::error::LinkFailure::NoAnswer).
 //! - `running()`: the schema's running indicator
 //!   (`Schema::running_indicator`, a C0150 bit of role `running`), read
 //!   like any code. The excerpt documents no bits of C0150, so with the

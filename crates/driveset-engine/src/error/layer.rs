@@ -1,6 +1,7 @@
 //! Owns [`Layer`]: which layer of the stack a failure comes from (the
 //! command's input, a rule's refusal, the link, the drive, a transaction's
-//! outcome). Every error type a front end sees from the engine
+//! outcome); an [`ErrorKind`]'s is its outer variant (`kind.rs`). Every
+//! error type a front end sees from the engine
 //! ([`EngineError`], `SessionError`, `PortError`, `ReplaceError`) says its
 //! layer; a front end maps layers to exit codes in one place (the CLI's
 //! `fail::exit_code`, docs/architecture.md "The data path of an upload").
@@ -15,9 +16,9 @@ pub enum Layer {
     /// journal, a learned schema). Nothing reached a drive because of it.
     Input,
     /// A safety or input rule refused before anything was sent
-    /// ([`ErrorKind::Refused`], typed [`super::Refusal`]), or `recover`
+    /// ([`super::Refused::Rule`], typed [`super::Refusal`]), or `recover`
     /// refused a journal for the drive it reaches
-    /// ([`ErrorKind::NotJournalDrive`]).
+    /// ([`super::Refused::NotJournalDrive`]).
     Refusal,
     /// The link: the transport failed or its bus is held, nothing (valid)
     /// answered, an answer could not be understood.
@@ -32,16 +33,14 @@ pub enum Layer {
 }
 
 impl ErrorKind {
-    /// The layer this failure comes from.
+    /// The layer this failure comes from: its outer variant.
     pub fn layer(&self) -> Layer {
         match self {
-            ErrorKind::Link(_) | ErrorKind::NoAnswer { .. } | ErrorKind::Protocol { .. } => {
-                Layer::Link
-            }
-            ErrorKind::Device { .. } | ErrorKind::Restarted { .. } => Layer::Device,
-            ErrorKind::Refused(_) | ErrorKind::NotJournalDrive { .. } => Layer::Refusal,
-            ErrorKind::Journal { .. } => Layer::Input,
-            ErrorKind::RolledBack { .. } | ErrorKind::Inconsistent { .. } => Layer::Transaction,
+            ErrorKind::Input(_) => Layer::Input,
+            ErrorKind::Refusal(_) => Layer::Refusal,
+            ErrorKind::Link(_) => Layer::Link,
+            ErrorKind::Device(_) => Layer::Device,
+            ErrorKind::Transaction(_) => Layer::Transaction,
         }
     }
 }
@@ -59,7 +58,8 @@ mod tests {
 
     use super::*;
     use crate::client::Target;
-    use crate::error::{DeviceCause, Mismatch, Refusal};
+    use crate::error::{DeviceCause, Refusal};
+    use crate::journal::Mismatch;
 
     #[test]
     fn every_kind_says_its_layer() {

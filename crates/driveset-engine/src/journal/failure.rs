@@ -5,7 +5,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{DeviceCause, EngineError, ErrorKind, Refusal};
+use crate::error::{
+    DeviceCause, DeviceFailure, EngineError, ErrorKind, InputFailure, LinkFailure, Refusal,
+    Refused, TransactionOutcome,
+};
 
 /// What a planned code holds, read back after a failed roll back
 /// (`"old"`, `"new"`, `"other"`, `"unknown"` in the journal).
@@ -136,39 +139,47 @@ impl FailureCause {
     /// The typed cause of `e`.
     pub fn of(e: &EngineError) -> Self {
         match e.kind() {
-            ErrorKind::Link(source) => FailureCause::Link {
+            ErrorKind::Link(LinkFailure::Transport(source)) => FailureCause::Link {
                 detail: source.to_string(),
             },
-            ErrorKind::NoAnswer { what, tries } => FailureCause::NoAnswer {
+            ErrorKind::Link(LinkFailure::NoAnswer { what, tries }) => FailureCause::NoAnswer {
                 what: what.clone(),
                 tries: *tries,
             },
-            ErrorKind::Device { what, cause } => FailureCause::Device {
+            ErrorKind::Device(DeviceFailure::Refused { what, cause }) => FailureCause::Device {
                 what: what.clone(),
                 cause: cause.clone(),
             },
-            ErrorKind::Restarted { what } => FailureCause::Restarted { what: what.clone() },
-            ErrorKind::Refused(refusal) => FailureCause::Refused {
+            ErrorKind::Device(DeviceFailure::Restarted { what }) => {
+                FailureCause::Restarted { what: what.clone() }
+            }
+            ErrorKind::Refusal(Refused::Rule(refusal)) => FailureCause::Refused {
                 refusal: refusal.clone(),
             },
-            ErrorKind::Journal { path, detail } => FailureCause::Journal {
+            ErrorKind::Input(InputFailure::Journal { path, detail }) => FailureCause::Journal {
                 path: path.clone(),
                 detail: detail.clone(),
             },
-            ErrorKind::Protocol { what, detail } => FailureCause::Protocol {
+            ErrorKind::Link(LinkFailure::Protocol { what, detail }) => FailureCause::Protocol {
                 what: what.clone(),
                 detail: detail.clone(),
             },
-            ErrorKind::RolledBack { detail, cause, .. } => FailureCause::RolledBack {
-                detail: detail.clone(),
-                cause: Box::new(FailureCause::of(cause)),
-            },
-            ErrorKind::Inconsistent { detail, .. } => FailureCause::Inconsistent {
-                detail: detail.clone(),
-            },
-            ErrorKind::NotJournalDrive { detail, .. } => FailureCause::NotJournalDrive {
-                detail: detail.clone(),
-            },
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { detail, cause, .. }) => {
+                FailureCause::RolledBack {
+                    detail: detail.clone(),
+                    cause: Box::new(FailureCause::of(cause)),
+                }
+            }
+            ErrorKind::Transaction(TransactionOutcome::Inconsistent { detail, .. }) => {
+                FailureCause::Inconsistent {
+                    detail: detail.clone(),
+                }
+            }
+            ErrorKind::Refusal(Refused::NotJournalDrive(refused)) => {
+                FailureCause::NotJournalDrive {
+                    detail: refused.detail.clone(),
+                }
+            }
         }
     }
 }

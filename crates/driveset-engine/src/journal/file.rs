@@ -7,11 +7,12 @@
 
 use std::path::{Path, PathBuf};
 
+use super::Mismatch;
 use super::records::Journal;
 use super::store;
 use super::{JOURNAL_SUFFIX, JOURNAL_VERSION, OLDEST_JOURNAL_VERSION};
 use crate::client::Target;
-use crate::error::{EngineError, Mismatch};
+use crate::error::EngineError;
 
 /// A journal on disk: the content and where it lives.
 #[derive(Debug)]

@@ -35,7 +35,7 @@
 //!
 //! **Versions.** This crate writes version 2. Version 1 journals (no bus
 //! id) are still read: the guard matches them by port string and address;
-//! `recover` refuses them with [`crate::error::Mismatch::Version`] (it cannot check the
+//! `recover` refuses them with [`Mismatch::Version`] (it cannot check the
 //! bus), telling to finish them with the release that wrote them.
 //!
 //! Example (an MC6000 upload interrupted after its dataset was accepted):
@@ -93,6 +93,7 @@
 mod failure;
 mod file;
 mod records;
+mod refused;
 mod store;
 #[cfg(test)]
 mod tests;
@@ -108,6 +109,7 @@ pub use records::{
     BackupEntry, Journal, JournalIdentity, JournalTarget, PlanEntryRecord, SchemaSource,
     TransferRecord, TransferState, Transition, TxnState,
 };
+pub use refused::{Mismatch, NotJournalDrive};
 pub use value::JournalValue;
 
 /// The journal format version this crate writes.

@@ -300,9 +300,7 @@ pub fn drive_of<'m>(manifest: &'m Manifest, name: &str) -> Result<&'m Drive, Rep
 /// than the set's (its built-in schema may lack what the search needs):
 /// the misfit, said as such; otherwise the search's own error.
 fn misfit_or(d: &Drive, link: &mut Link, opts: &ReplaceOptions, e: EngineError) -> ReplaceError {
-    if d.schema.family.bus() != BusProtocol::Lustbus
-        || !matches!(*e.kind, crate::error::ErrorKind::Refused(_))
-    {
+    if d.schema.family.bus() != BusProtocol::Lustbus || !e.is_refused() {
         return e.into();
     }
     let Link::Bytes(b) = link else {
@@ -465,7 +463,7 @@ pub fn finish(
                 r.codes_written = rep.codes_written as u32;
             }
             let e = *f.error;
-            if matches!(*e.kind, crate::error::ErrorKind::RolledBack { .. }) {
+            if e.is_rolled_back() {
                 r.result = DriveResult::RolledBack;
             }
             r.error = Some(e.to_string());

@@ -9,7 +9,7 @@ use driveset_schema::{CodeKey, RawValue, Schema};
 
 use super::{TransferRequest, refuse};
 use crate::client::{DriveClient, set_line_rate};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{EngineError, ErrorKind, LinkFailure};
 use crate::overrides::Override;
 use crate::plan::code_label;
 
@@ -138,7 +138,7 @@ pub fn check(client: &mut dyn DriveClient, req: &TransferRequest) -> Result<(), 
         && let Err(e) = set_line_rate(client, old)
     {
         let why = match e.kind() {
-            ErrorKind::Link(source) => source.to_string(),
+            ErrorKind::Link(LinkFailure::Transport(source)) => source.to_string(),
             _ => e.to_string(),
         };
         return Err(refuse(

@@ -130,7 +130,7 @@ fn final_verify(
 
 /// Whether the drive answers its SIOF/SERR without a power-on bit, so it
 /// has not restarted since the session's first read of it (a power-on bit
-/// now is [`crate::error::ErrorKind::Restarted`] from the LUSTBUS client,
+/// now is [`crate::error::DeviceFailure::Restarted`] from the LUSTBUS client,
 /// which clears it). `false` for a restart, for any other failure of the
 /// read (the read-back then says what fails and journals it), and when the
 /// schema has no SIOF/SERR code (nothing tells).

@@ -12,7 +12,7 @@ use super::record::{planned_rate, start_back, whereabouts};
 use super::switch::{Back, search, switch_back_once, with_rate_note};
 use super::{Codes, as_rate, codes_of, refuse};
 use crate::client::{DriveClient, set_line_rate};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::EngineError;
 use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState};
 
 /// What the rate code keeps once recover settled the transaction with
@@ -128,7 +128,7 @@ pub(crate) fn finish_rate(
     result: Result<crate::recover::RecoverReport, EngineError>,
 ) -> Result<crate::recover::RecoverReport, EngineError> {
     if let Err(e) = &result
-        && matches!(e.kind(), ErrorKind::NotJournalDrive { .. })
+        && e.not_journal_drive_refusal().is_some()
     {
         return result;
     }

@@ -13,7 +13,9 @@ use super::TransferRefusal;
 use super::record::{as_rate_j, keep_value, persist_record, planned_rate, start_back, whereabouts};
 use super::{Codes, as_rate, codes_of};
 use crate::client::{DriveClient, Target, set_line_rate};
-use crate::error::{EngineError, ErrorKind, Refusal};
+use crate::error::{
+    DeviceFailure, EngineError, ErrorKind, LinkFailure, Refusal, Refused, TransactionOutcome,
+};
 use crate::guard::Permit;
 use crate::journal::{JournalFile, JournalValue, TransferRecord, TransferState};
 use crate::plan::code_label;
@@ -70,7 +72,9 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
         {
             if matches!(
                 e.kind(),
-                ErrorKind::Link(driveset_link::LinkError::UnsupportedBaud { .. })
+                ErrorKind::Link(LinkFailure::Transport(
+                    driveset_link::LinkError::UnsupportedBaud { .. }
+                ))
             ) {
                 continue;
             }
@@ -79,8 +83,10 @@ pub fn search(client: &mut dyn DriveClient, first: &[u32]) -> Result<Option<u32>
         match client.read(c.rate) {
             Ok(_) => return Ok(Some(r)),
             Err(e) => match e.kind() {
-                ErrorKind::NoAnswer { .. } | ErrorKind::Protocol { .. } => continue,
-                ErrorKind::Device { .. } => return Ok(Some(r)),
+                ErrorKind::Link(LinkFailure::NoAnswer { .. } | LinkFailure::Protocol { .. }) => {
+                    continue;
+                }
+                ErrorKind::Device(DeviceFailure::Refused { .. }) => return Ok(Some(r)),
                 _ => return Err(e),
             },
         }
@@ -239,15 +245,18 @@ pub(super) fn with_rate_note(mut e: EngineError, back: &Back) -> EngineError {
         Err(s) => format!("switching back from the transfer rate failed: {s}"),
     };
     match &mut *e.kind {
-        ErrorKind::RolledBack { detail, .. }
-        | ErrorKind::Inconsistent { detail, .. }
-        | ErrorKind::Protocol { detail, .. } => {
+        ErrorKind::Transaction(
+            TransactionOutcome::RolledBack { detail, .. }
+            | TransactionOutcome::Inconsistent { detail, .. },
+        )
+        | ErrorKind::Link(LinkFailure::Protocol { detail, .. }) => {
             let _ = write!(detail, "; {note}");
         }
-        ErrorKind::NoAnswer { what, .. } | ErrorKind::Device { what, .. } => {
+        ErrorKind::Link(LinkFailure::NoAnswer { what, .. })
+        | ErrorKind::Device(DeviceFailure::Refused { what, .. }) => {
             let _ = write!(what, " ({note})");
         }
-        ErrorKind::Refused(Refusal::Transfer(TransferRefusal::Rate { detail })) => {
+        ErrorKind::Refusal(Refused::Rule(Refusal::Transfer(TransferRefusal::Rate { detail }))) => {
             let _ = write!(detail, "; {note}");
         }
         _ => {

@@ -21,7 +21,7 @@
 //!   order (CardWriteable values again through a dataset download), read
 //!   back and compared: `rolled-back`; if that fails too, `failed` with what
 //!   each code holds, and the error says `driveset recover JOURNAL`.
-//! - [`ErrorKind::Restarted`](crate::error::ErrorKind::Restarted) (the drive restarted; the attempt is void):
+//! - [`DeviceFailure::Restarted`](crate::error::DeviceFailure::Restarted) (the drive restarted; the attempt is void):
 //!   redone from the read-back, at most [`UploadOptions::max_restarts`]
 //!   times, keeping the first attempt's backup.
 //!

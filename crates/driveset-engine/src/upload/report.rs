@@ -180,8 +180,8 @@ impl UploadReport {
 /// transaction got far enough to have one.
 #[derive(Debug)]
 pub struct UploadFailure {
-    /// What went wrong ([`ErrorKind::RolledBack`](crate::error::ErrorKind::RolledBack), [`ErrorKind::Inconsistent`](crate::error::ErrorKind::Inconsistent),
-    /// [`ErrorKind::Refused`](crate::error::ErrorKind::Refused), ...).
+    /// What went wrong ([`TransactionOutcome::RolledBack`](crate::error::TransactionOutcome::RolledBack), [`TransactionOutcome::Inconsistent`](crate::error::TransactionOutcome::Inconsistent),
+    /// [`Refused::Rule`](crate::error::Refused::Rule), ...).
     pub error: Box<EngineError>,
     /// Per-code outcomes, when a journal was written.
     pub report: Option<Box<UploadReport>>,

@@ -17,7 +17,7 @@ use super::journal_writer::guard;
 use super::state::{Attempt, Codes, Counters, DatasetState, Drive, JournalState, Progress};
 use super::{CodeOutcome, Next, Replanned, StepError, UploadOptions, read_observed, refused};
 use crate::client::{DriveClient, Identity, Target};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{DeviceFailure, EngineError, ErrorKind};
 use crate::journal::{JournalFile, TxnState};
 use crate::observe::{Hook, Phase as Step};
 use crate::overrides::Overrides;
@@ -397,7 +397,7 @@ impl Transaction {
         match stop {
             StepError::Settled(e) => Next::Failed(e),
             StepError::Error(e)
-                if matches!(*e.kind, ErrorKind::Restarted { .. })
+                if matches!(*e.kind, ErrorKind::Device(DeviceFailure::Restarted { .. }))
                     && self.progress.attempts <= self.opts.max_restarts =>
             {
                 if self.journal.file.is_some() {

@@ -9,7 +9,7 @@ use driveset_schema::{CodeKey, ResolvedSet};
 use super::state::Attempt;
 use super::{CodeOutcome, StepError, Strategy, Transaction};
 use crate::client::DriveClient;
-use crate::error::{EngineError, ErrorKind};
+use crate::error::EngineError;
 use crate::journal::TxnState;
 use crate::observe::Phase as Step;
 use crate::plan::{Phase, Storage, code_label, value_text};
@@ -91,7 +91,7 @@ impl Transaction {
             // other failure (no answer, a garbled one) may or may not have
             // landed, so the code stays touched (a broadcast one always).
             let r = self.codes.records.entry(key).or_default();
-            if matches!(*e.kind, ErrorKind::Device { .. }) && !a.broadcast.contains(&key) {
+            if e.device_cause().is_some() && !a.broadcast.contains(&key) {
                 r.touched = false;
             }
             r.outcome = CodeOutcome::Failed(e.to_string());

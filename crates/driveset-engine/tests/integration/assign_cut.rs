@@ -62,8 +62,10 @@ fn refused(r: Result<assign::AssignReport, driveset_engine::error::EngineError>)
             assert!(
                 matches!(
                     e.kind(),
-                    driveset_engine::error::ErrorKind::Refused(
-                        driveset_engine::error::Refusal::Assign { .. }
+                    driveset_engine::error::ErrorKind::Refusal(
+                        driveset_engine::error::Refused::Rule(
+                            driveset_engine::error::Refusal::Assign { .. }
+                        )
                     )
                 ),
                 "{e}"

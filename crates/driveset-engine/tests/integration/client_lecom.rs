@@ -8,7 +8,7 @@ use std::time::Duration;
 use driveset_engine::client::{
     DriveClient, LecomClient, LecomOptions, dataset_or_refuse, set_line_rate,
 };
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{DeviceFailure, ErrorKind, LinkFailure, Refused};
 use driveset_link::Clock;
 use driveset_schema::{CodeKey, RawValue, Schema};
 use driveset_sim::catalog::{self, Family};
@@ -78,7 +78,10 @@ fn no_dataset_download_and_no_settable_line_rate() {
         "sim address 1: refused: this drive family has no dataset download handshake"
     );
     let err = set_line_rate(&mut c, 19200).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
     assert!(
         err.to_string()
             .contains("this client has no serial line whose rate could be set to 19200 baud"),
@@ -95,7 +98,7 @@ fn nak_cause_is_read_from_c0068_and_c1962() {
     let err = c
         .write(CodeKey::new(11), &RawValue::Int(9_000_000))
         .unwrap_err();
-    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, what, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("C0011"), "{what}");
@@ -121,7 +124,7 @@ fn no_access_permission_names_the_remedy() {
     let err = c
         .write(CodeKey::new(11), &RawValue::Int(500_000))
         .unwrap_err();
-    let ErrorKind::Device { cause, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert_eq!(cause.cause(), "no access permission");
@@ -159,7 +162,10 @@ fn no_answer_after_the_configured_tries() {
     let t0 = clock.now();
     let err = c.read(CodeKey::new(11)).unwrap_err();
     assert!(
-        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
+        matches!(
+            *err.kind,
+            ErrorKind::Link(LinkFailure::NoAnswer { tries: 2, .. })
+        ),
         "{err}"
     );
     assert!(clock.now() - t0 >= Duration::from_millis(200));

@@ -9,7 +9,7 @@ use driveset_engine::client::{
     DatasetDownload, DatasetOutcome, DriveClient, LustbusClient, LustbusOptions, dataset_or_refuse,
     set_line_rate,
 };
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{DeviceFailure, ErrorKind, LinkFailure, Refused};
 use driveset_link::mem::wire_time;
 use driveset_link::{ByteLink, Clock, Instant, VirtualClock};
 use driveset_schema::{CodeKey, RawValue, Schema};
@@ -203,7 +203,7 @@ fn mc_invalid_value_is_a_device_error_with_cause_and_remedy() {
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 2).unwrap();
     // 300-CFCON: 0..7.
     let err = c.write(CodeKey::new(300), &RawValue::Int(9)).unwrap_err();
-    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, what, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("300-CFCON"), "{what}");
@@ -223,7 +223,7 @@ fn enquiry_nak_is_a_device_error() {
     let (_rig, bus) = rig_bus(9600, vec![vf(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.read(CodeKey::new(300)).unwrap_err();
-    let ErrorKind::Device { cause, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert!(
@@ -234,7 +234,10 @@ fn enquiry_nak_is_a_device_error() {
     assert_eq!(cause.raw(), "NAK to ENQUIRY 20300");
     // A code the schema does not know is refused before sending.
     let err = c.read(CodeKey::new(12)).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
 }
 
 #[test]
@@ -249,7 +252,13 @@ fn restart_mid_session_is_reported() {
         .power_cycle(now, Duration::from_millis(50));
     rig.clock.advance(Duration::from_secs(2));
     let err = c.write(CodeKey::new(416), &RawValue::Int(0)).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Restarted { .. }), "{err}");
+    assert!(
+        matches!(
+            *err.kind,
+            ErrorKind::Device(DeviceFailure::Restarted { .. })
+        ),
+        "{err}"
+    );
     assert!(err.to_string().contains("restarted"));
 }
 
@@ -269,7 +278,7 @@ fn no_answer_after_three_tries() {
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 5).unwrap();
     let t0 = rig.clock.now();
     let err = c.read(CodeKey::new(300)).unwrap_err();
-    let ErrorKind::NoAnswer { tries, .. } = *err.kind else {
+    let ErrorKind::Link(LinkFailure::NoAnswer { tries, .. }) = *err.kind else {
         panic!("{err}")
     };
     assert_eq!(tries, 3);
@@ -304,7 +313,10 @@ fn dataset_download_accepted() {
     c.write(CodeKey::new(300), &RawValue::Int(4)).unwrap();
     // Not CardWriteable: refused before sending (the drive would ignore it).
     let err = c.write(CodeKey::new(110), &RawValue::Int(3)).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
     assert_eq!(
         c.commit(Duration::from_secs(10)).unwrap(),
         DatasetOutcome::Accepted
@@ -343,7 +355,7 @@ fn dataset_begin_while_running_names_standstill() {
     c.link_mut().drive_mut(1).unwrap().set_running(true);
     assert_eq!(c.running().unwrap(), Some(true));
     let err = c.begin().unwrap_err();
-    let ErrorKind::Device { cause, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert!(cause.cause().contains("standstill"), "{}", cause.cause());
@@ -420,7 +432,10 @@ fn vf1000_eeprom_write_allows_the_delayed_ack() {
 fn addresses_and_family_are_checked() {
     let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Mc6000), 31).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
     let (_rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let err = LustbusClient::new(bus, schema(Family::Tmd), 1).unwrap_err();
     assert!(err.to_string().contains("not a LUSTBUS family"), "{err}");
@@ -428,7 +443,10 @@ fn addresses_and_family_are_checked() {
     let (rig, bus) = rig_bus(9600, vec![mc(1)], None);
     let mut c = LustbusClient::new(bus, schema(Family::Mc6000), 1).unwrap();
     let err = c.write(CodeKey::new(77), &RawValue::Int(1)).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
     assert!(wire_timed(&rig.log, Dir::Host).is_empty());
     let _ = c.link().baud();
 }
@@ -442,7 +460,10 @@ fn passwords_never_appear_in_errors() {
         .write(CodeKey::new(70), &RawValue::Int(54321))
         .unwrap_err();
     let text = err.to_string();
-    assert!(matches!(*err.kind, ErrorKind::Device { .. }), "{text}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Device(DeviceFailure::Refused { .. })),
+        "{text}"
+    );
     assert!(!text.contains("54321") && !text.contains("D431"), "{text}");
     assert!(text.contains("password, not shown"), "{text}");
     // Out of the type's range: refused before sending, still redacted.
@@ -464,7 +485,7 @@ fn options_change_the_answer_timeout() {
     let t0 = rig.clock.now();
     assert!(matches!(
         *c.read(CodeKey::new(300)).unwrap_err().kind,
-        ErrorKind::NoAnswer { tries: 1, .. }
+        ErrorKind::Link(LinkFailure::NoAnswer { tries: 1, .. })
     ));
     // 5 ms for the answer, then 5 ms more listening for a late one.
     assert_eq!(
@@ -755,7 +776,10 @@ fn a_late_reply_is_recognised_and_dropped() {
     let err = c.read(CodeKey::new(100)).unwrap_err();
     let text = err.to_string();
     assert!(
-        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
+        matches!(
+            *err.kind,
+            ErrorKind::Link(LinkFailure::NoAnswer { tries: 2, .. })
+        ),
         "{text}"
     );
     assert!(

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{DriveClient, LustbusClient};
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{ErrorKind, Refused};
 use driveset_engine::identify::check_family;
 use driveset_engine::scan::{
     LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses, lustbus_addresses,
@@ -45,7 +45,10 @@ fn lustbus_scan_finds_exactly_the_drives_present() {
     assert!(found.iter().all(|f| f.identity.codes[0].name == "91-TYPE"));
     for bad in [0u8, 31] {
         let err = scan_lustbus(&mut bus, &[bad], &ScanOptions::default()).unwrap_err();
-        assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+        assert!(
+            matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+            "{err}"
+        );
     }
 }
 
@@ -66,7 +69,10 @@ fn lecom_scan_skips_group_addresses() {
     assert_eq!(addresses, vec![5, 23]);
     assert_eq!(found[0].identity.codes[0].name, "C0093");
     let err = scan_lecom(&mut bus, None, &[20], &ScanOptions::default()).unwrap_err();
-    assert!(matches!(*err.kind, ErrorKind::Refused(_)), "{err}");
+    assert!(
+        matches!(*err.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{err}"
+    );
 }
 
 #[test]

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{DeviceFailure, ErrorKind, LinkFailure, Refused};
 use driveset_link::Clock;
 use driveset_proto::can::NodeId;
 use driveset_schema::error::SourceFile;
@@ -67,7 +67,7 @@ fn abort_is_a_device_error_with_ds301_text() {
     let err = c
         .write(CodeKey::new(5001), &RawValue::Int(160_010_000))
         .unwrap_err();
-    let ErrorKind::Device { cause, what, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, what, .. }) = &*err.kind else {
         panic!("{err}")
     };
     assert!(what.contains("C5001"), "{what}");
@@ -98,7 +98,10 @@ fn lost_answers_are_repeated_then_no_answer() {
     let t0 = clock.now();
     let err = c.read(CodeKey::new(5001)).unwrap_err();
     assert!(
-        matches!(*err.kind, ErrorKind::NoAnswer { tries: 2, .. }),
+        matches!(
+            *err.kind,
+            ErrorKind::Link(LinkFailure::NoAnswer { tries: 2, .. })
+        ),
         "{err}"
     );
     assert!(clock.now() - t0 >= Duration::from_millis(20));
@@ -142,13 +145,13 @@ fn node_zero_and_unknown_codes_are_refused() {
     let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     assert!(matches!(
         *CanClient::new(bus, schema(), 0).unwrap_err().kind,
-        ErrorKind::Refused(_)
+        ErrorKind::Refusal(Refused::Rule(_))
     ));
     let (_clock, _log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     assert!(matches!(
         *c.read(CodeKey::new(4242)).unwrap_err().kind,
-        ErrorKind::Refused(_)
+        ErrorKind::Refusal(Refused::Rule(_))
     ));
 }
 
@@ -308,7 +311,10 @@ fn the_write_guard_refuses_sdo_downloads_that_would_enable_the_axis() {
     let (_clock, log, bus) = sim_can_bus(vec![ecs(3)], None);
     let mut c = CanClient::new(bus, schema(), 3).unwrap();
     let e = c.write(CodeKey::new(135), &RawValue::Int(0)).unwrap_err();
-    assert!(matches!(*e.kind, ErrorKind::Refused(_)), "{e}");
+    assert!(
+        matches!(*e.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{e}"
+    );
     assert!(e.to_string().contains("C0135 = "), "{e}");
     assert!(
         e.to_string().contains("sets none of the inhibit bits"),

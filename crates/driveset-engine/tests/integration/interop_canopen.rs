@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use driveset_engine::client::{CanClient, CanOptions, DriveClient};
-use driveset_engine::error::ErrorKind;
+use driveset_engine::error::{DeviceFailure, ErrorKind};
 use driveset_engine::journal::TxnState;
 use driveset_engine::live::live_diff;
 use driveset_engine::pull::{PullOptions, pull};
@@ -284,7 +284,7 @@ code_0135 = 1539  # bit 9 (controller inhibit, FICTIONAL fixture meaning) set: a
     let err = c
         .write(CodeKey::new(5010), &RawValue::Int(30_000_000))
         .expect_err("read-only object");
-    let ErrorKind::Device { cause, .. } = &*err.kind else {
+    let ErrorKind::Device(DeviceFailure::Refused { cause, .. }) = &*err.kind else {
         panic!("not a device error: {err}");
     };
     assert_eq!(

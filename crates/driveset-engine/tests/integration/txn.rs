@@ -4,8 +4,8 @@ use std::time::Duration;
 
 use crate::support::fake::*;
 use driveset_engine::client::{IdentCode, IdentProtocol, IdentValue};
-use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
-use driveset_engine::journal::{JournalFile, TxnState};
+use driveset_engine::error::{EngineError, ErrorKind, InputFailure, Refused, TransactionOutcome};
+use driveset_engine::journal::{JournalFile, Mismatch, NotJournalDrive, TxnState};
 use driveset_engine::overrides::{Override, Overrides};
 use driveset_engine::plan::{Phase, PlanOptions, Storage, plan};
 use driveset_engine::recover::{RecoverAction, RecoverOptions, recover};
@@ -125,7 +125,7 @@ fn recover_refused(
 ) -> (FakeClient, EngineError) {
     let err = recover(&mut c, path, &RecoverOptions::default()).expect_err("refused");
     assert!(
-        matches!(&*err.kind, ErrorKind::NotJournalDrive { mismatch: m, .. } if *m == mismatch),
+        matches!(&*err.kind, ErrorKind::Refusal(Refused::NotJournalDrive(NotJournalDrive { mismatch: m, .. })) if *m == mismatch),
         "{err}"
     );
     (c, err)
@@ -224,7 +224,10 @@ fn refuses_unknown_read_only_status_and_handshake_codes_before_sending_anything(
     let err =
         upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("refused");
     let text = err.to_string();
-    assert!(matches!(*err.error.kind, ErrorKind::Refused(_)), "{text}");
+    assert!(
+        matches!(*err.error.kind, ErrorKind::Refusal(Refused::Rule(_))),
+        "{text}"
+    );
     for needle in [
         "999",
         "140-ACT: read-only",
@@ -432,7 +435,10 @@ fn a_failed_restore_does_not_stop_the_roll_back_of_the_other_codes() {
         before.values.get(&CodeKey::sub(39, 1))
     );
     assert!(
-        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::Inconsistent { .. })
+        ),
         "{err}"
     );
     assert!(err.to_string().contains("driveset recover"), "{err}");
@@ -448,7 +454,10 @@ fn mid_transaction_write_failure_restores_exactly_the_old_values_in_reverse_orde
     client.fail_write = Some(4); // C0040
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     assert!(
-        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { .. })
+        ),
         "{err}"
     );
     let text = err.to_string();
@@ -525,7 +534,10 @@ fn failed_restore_marks_failed_names_codes_and_recover_finishes_the_roll_back() 
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("fails");
     let text = err.to_string();
     assert!(
-        matches!(*err.error.kind, ErrorKind::Inconsistent { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::Inconsistent { .. })
+        ),
         "{text}"
     );
     assert!(
@@ -608,7 +620,10 @@ fn mc_dataset_rejected_names_the_parameter_and_leaves_the_drive_unchanged() {
     let err = upload(&mut client, &set, &UploadOptions::new(&path)).expect_err("rejected");
     let text = err.to_string();
     assert!(
-        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { .. })
+        ),
         "{text}"
     );
     assert!(
@@ -639,7 +654,10 @@ fn mc_failure_after_commit_restores_card_values_through_a_new_dataset() {
     client.fail_write = Some(4); // 120, after 111: refused by the drive, so not restored
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { .. })
+        ),
         "{err}"
     );
     assert_eq!(client.drive.values, before.values);
@@ -735,7 +753,10 @@ fn a_restart_voids_the_attempt_which_is_redone_once_then_fails() {
     client.restart_at_writes = vec![2, 5];
     let err = upload(&mut client, &set, &UploadOptions::new(journal_in(&dir))).expect_err("fails");
     assert!(
-        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { .. })
+        ),
         "{err}"
     );
     assert!(err.to_string().contains("restarted"), "{err}");
@@ -1125,7 +1146,10 @@ fn the_observer_sees_a_rollback_as_rollback_not_as_writes_and_reads() {
     let (log, opts) = observed(journal_in(&dir));
     let err = upload(&mut client, &set, &opts).expect_err("fails");
     assert!(
-        matches!(*err.error.kind, ErrorKind::RolledBack { .. }),
+        matches!(
+            *err.error.kind,
+            ErrorKind::Transaction(TransactionOutcome::RolledBack { .. })
+        ),
         "{err}"
     );
     assert_eq!(
@@ -1289,7 +1313,7 @@ fn a_failed_journal_persist_stops_the_transaction_and_is_reported() {
         .commit(&mut client)
         .expect_err("the journal cannot record `committed`");
     assert!(
-        matches!(&*stop.error().kind, ErrorKind::Journal { path: p, .. } if *p == path.display().to_string()),
+        matches!(&*stop.error().kind, ErrorKind::Input(InputFailure::Journal { path: p, .. }) if *p == path.display().to_string()),
         "{stop:?}"
     );
     let writes_before = client.writes_logged().len();

@@ -140,7 +140,7 @@ impl<L: ByteLink> LustbusClient<L> {
     /// same drive, e.g. after the line runner's broadcast. Reads SERR first,
     /// as any session does (section 6: the read clears what a broadcast
     /// SELECT may have latched) and returns it; a power-on bit means the
-    /// drive restarted and lost its staged values: [`ErrorKind::Restarted`](crate::error::ErrorKind::Restarted).
+    /// drive restarted and lost its staged values: [`DeviceFailure::Restarted`](crate::error::DeviceFailure::Restarted).
     pub fn resume_dataset(&mut self) -> Result<Siof, EngineError> {
         self.sload_present()?;
         if self.family != Dialect::Mc {

@@ -33,7 +33,7 @@ impl<L: ByteLink> LustbusClient<L> {
     /// MC6000/7000 only: SELECT 108-STEXT = `index` (section 11.3), which
     /// picks the substitution text a following ENQUIRY `61ppp` returns.
     /// STEXT is a RAM selector with no effect on the drive's operation; a
-    /// NAK is returned as the decoded [`ErrorKind::Device`](crate::error::ErrorKind::Device) cause (SERR is
+    /// NAK is returned as the decoded [`DeviceFailure::Refused`](crate::error::DeviceFailure::Refused) cause (SERR is
     /// read and so cleared, as after any refused SELECT).
     pub fn select_stext(&mut self, index: u8) -> Result<(), EngineError> {
         if self.family != Dialect::Mc {

@@ -15,7 +15,7 @@ use super::resume::{CommissionState, Resume};
 use super::run::Ctx;
 use super::walk::Walk;
 use crate::client::DriveClient;
-use crate::error::{EngineError, ErrorKind};
+use crate::error::EngineError;
 use crate::history::Unit;
 use crate::journal::Unfinished;
 use crate::line::manifest::{Bus, Drive, Manifest};
@@ -144,7 +144,7 @@ fn upload_drive(
                 take_upload(r, &d.schema, rep);
             }
             let e = *f.error;
-            if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
+            if e.is_rolled_back() {
                 r.result = DriveResult::RolledBack;
             }
             Err(e)

@@ -14,7 +14,7 @@ use super::learning::learn_drive;
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_clock, link_now, since};
 use crate::client::{DriveClient, IdentProtocol, Identity};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::{EngineError, ErrorKind, LinkFailure, TransactionOutcome};
 use crate::history::{CodeRecord, DriveRecord, Unit};
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DiffLine, DiffLineKind, DriveReport, DriveResult};
@@ -35,9 +35,9 @@ pub(super) enum Failure {
 /// The kind of failure `e` is, if it bears on the bus.
 pub(super) fn failure_of(e: &EngineError) -> Option<Failure> {
     match &*e.kind {
-        ErrorKind::Link(_) => Some(Failure::Link),
-        ErrorKind::NoAnswer { .. } => Some(Failure::NoAnswer),
-        ErrorKind::RolledBack { cause, .. } => failure_of(cause),
+        ErrorKind::Link(LinkFailure::Transport(_)) => Some(Failure::Link),
+        ErrorKind::Link(LinkFailure::NoAnswer { .. }) => Some(Failure::NoAnswer),
+        ErrorKind::Transaction(TransactionOutcome::RolledBack { cause, .. }) => failure_of(cause),
         _ => None,
     }
 }

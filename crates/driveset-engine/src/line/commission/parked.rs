@@ -15,7 +15,7 @@ use super::resume::Resume;
 use super::run::Ctx;
 use super::timeline::{Span, drive_watch, link_now, ms};
 use crate::client::{ClientStats, DriveClient};
-use crate::error::{EngineError, ErrorKind};
+use crate::error::EngineError;
 use crate::line::manifest::{Bus, Drive};
 use crate::line::report::{DriveReport, DriveResult};
 use crate::observe::{Event, Observer};
@@ -85,7 +85,7 @@ fn settle_drive(
                 take_upload(r, &d.schema, rep);
             }
             let e = *f.error;
-            r.result = if matches!(*e.kind, ErrorKind::RolledBack { .. }) {
+            r.result = if e.is_rolled_back() {
                 DriveResult::RolledBack
             } else {
                 DriveResult::Failed

@@ -45,8 +45,8 @@ fn client_on(
     driveset_engine::connect::connect_on(link, schema, address, &Default::default())
 }
 use driveset_engine::env::{Environment, Memory};
-use driveset_engine::error::{EngineError, ErrorKind, Mismatch};
-use driveset_engine::journal::{JournalFile, journal_path};
+use driveset_engine::error::{EngineError, ErrorKind, InputFailure, Refused};
+use driveset_engine::journal::{JournalFile, Mismatch, NotJournalDrive, journal_path};
 use driveset_engine::line::commission::{LineOptions, Verdict, commission};
 use driveset_engine::line::manifest::{Manifest, load_manifest};
 use driveset_engine::line::report::DriveResult;
@@ -323,8 +323,15 @@ fn expect_mismatch(
     message: &str,
 ) -> Result<(), String> {
     match r {
-        Err(e) if matches!(*e.kind, ErrorKind::NotJournalDrive { .. }) => {
-            let ErrorKind::NotJournalDrive { mismatch, .. } = &*e.kind else {
+        Err(e)
+            if matches!(
+                *e.kind,
+                ErrorKind::Refusal(Refused::NotJournalDrive(NotJournalDrive { .. }))
+            ) =>
+        {
+            let ErrorKind::Refusal(Refused::NotJournalDrive(NotJournalDrive { mismatch, .. })) =
+                &*e.kind
+            else {
                 return Err(format!("not a journal refusal: {e}"));
             };
             if mismatch != want {
@@ -440,8 +447,10 @@ fn one(
                             "journal {jtext}: the drive at {PORT_LOCALHOST} address {a} has an unfinished transaction ({jtext} (state {})); nothing was sent. Run `driveset recover {jtext}` first",
                             state.as_str()
                         );
-                        if !matches!(*f.error.kind, ErrorKind::Journal { .. })
-                            || f.to_string() != want
+                        if !matches!(
+                            *f.error.kind,
+                            ErrorKind::Input(InputFailure::Journal { .. })
+                        ) || f.to_string() != want
                         {
                             return Err(format!("guard\n  got:  {f}\n  want: {want}"));
                         }
@@ -459,7 +468,11 @@ fn one(
             {
                 let mut c = client_on(&mut link, schema.clone(), a).expect("client");
                 match upload(&mut *c, set2, &UploadOptions::new(&journal)) {
-                    Err(f) if matches!(*f.error.kind, ErrorKind::Journal { .. }) => {}
+                    Err(f)
+                        if matches!(
+                            *f.error.kind,
+                            ErrorKind::Input(InputFailure::Journal { .. })
+                        ) => {}
                     other => {
                         return Err(format!("guard did not block: {:?}", other.map(|r| r.state)));
                     }
@@ -957,8 +970,10 @@ fn kill_run(family: Family, schema: &Arc<Schema>, phase: &str, n: u64) -> Result
             &UploadOptions::new(jdir.join("by-upload.json")),
         ) {
             Err(f)
-                if matches!(*f.error.kind, ErrorKind::Journal { .. })
-                    && f.to_string().contains(&p.display().to_string()) => {}
+                if matches!(
+                    *f.error.kind,
+                    ErrorKind::Input(InputFailure::Journal { .. })
+                ) && f.to_string().contains(&p.display().to_string()) => {}
             other => {
                 return Err(format!(
                     "upload beside the commission journal: {:?}",
