@@ -104,6 +104,15 @@ mod tests {
         ] {
             assert_eq!(e.layer(), layer, "{e}");
             assert_eq!(e.kind().layer(), layer, "{e}");
+            // the layer is the outer variant, whatever the layer's own enum holds
+            let outer = match e.kind() {
+                ErrorKind::Input(_) => Layer::Input,
+                ErrorKind::Refusal(_) => Layer::Refusal,
+                ErrorKind::Link(_) => Layer::Link,
+                ErrorKind::Device(_) => Layer::Device,
+                ErrorKind::Transaction(_) => Layer::Transaction,
+            };
+            assert_eq!(outer, layer, "{e}");
         }
     }
 }
