@@ -13,6 +13,8 @@
 //! `<secret>` / `<redacted>` here already: its value never reaches the
 //! seam in any form (the fingerprints do not cover a secret's value).
 
+use std::path::Path;
+
 use driveset_schema::{ResolvedSet, Schema};
 use serde::{Deserialize, Serialize};
 
@@ -21,7 +23,8 @@ use crate::error::EngineError;
 use crate::journal::FailureCause;
 use crate::line::report::{DriveReport, DriveResult};
 use crate::plan::value_text;
-use crate::upload::{CodeOutcome, CodeReport, UploadReport};
+use crate::recover::RecoverReport;
+use crate::upload::{CodeOutcome, CodeReport, UploadFailure, UploadReport};
 
 /// Where a drive sits: what stays when its unit is exchanged.
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -385,5 +388,82 @@ impl DriveRecord {
             journal: None,
             codes,
         }
+    }
+}
+
+impl DriveRecord {
+    /// The record of `driveset upload` from its outcome: the report and,
+    /// when it did not complete, the error; a failure before the upload
+    /// had a report as [`DriveRecord::of_error`].
+    pub fn of_upload_outcome(
+        slot: Slot,
+        schema: &Schema,
+        outcome: &Result<UploadReport, UploadFailure>,
+    ) -> Self {
+        match outcome {
+            Ok(r) => DriveRecord::of_upload(slot, schema, r, None),
+            Err(f) => match &f.report {
+                Some(r) => DriveRecord::of_upload(slot, schema, r, Some(&f.error)),
+                None => DriveRecord::of_error(slot, schema, &f.error),
+            },
+        }
+    }
+
+    /// The record of `driveset replace`'s drive `d` of line `line`: the
+    /// slot's new unit (of `family`, its first identify code its device
+    /// type) with what was written to it ([`diff_codes`]).
+    pub fn of_replacement(line: &str, d: &DriveReport, family: &str) -> Self {
+        let unit = Unit {
+            family: family.to_string(),
+            device_type: d.identity.first().map(|(_, v)| v.clone()),
+            identity: d.identity.clone(),
+            ..Unit::default()
+        };
+        DriveRecord::of_line(line, d, unit, diff_codes(d))
+    }
+
+    /// The record of `driveset recover JOURNAL` on the drive at `slot`
+    /// with `schema`: what recovery did (`nothing-to-do`, `completed`,
+    /// `rolled-back`; the fingerprint the drive holds, the codes it
+    /// restored), or its failure as [`DriveRecord::of_error`].
+    pub fn of_recover(
+        slot: Slot,
+        schema: &Schema,
+        result: &Result<RecoverReport, EngineError>,
+    ) -> Self {
+        match result {
+            Ok(r) => DriveRecord {
+                slot,
+                unit: Unit {
+                    family: IdentProtocol::Family(schema.family).name().to_string(),
+                    ..Unit::default()
+                },
+                schema: schema.id.clone(),
+                set_fingerprint: None,
+                fingerprint_before: None,
+                fingerprint_after: r.fingerprint.clone(),
+                result: r.action.as_str().into(),
+                cause: None,
+                error: None,
+                journal: Some(r.journal.clone()),
+                codes: r.restored_values.clone(),
+            },
+            Err(e) => DriveRecord::of_error(slot, schema, e),
+        }
+    }
+}
+
+/// What `driveset recover JOURNAL` closes the sessions of this station
+/// that processes killed mid-way left open with (docs/history.md): what
+/// it found and did, or that it failed.
+pub fn recover_note(journal: &Path, result: &Result<RecoverReport, EngineError>) -> String {
+    match result {
+        Ok(r) => format!(
+            "`driveset recover {}` found the journal {} and {} it",
+            journal.display(),
+            r.found.as_str(),
+            r.action.as_str()
+        ),
+        Err(e) => format!("`driveset recover {}` failed: {e}", journal.display()),
     }
 }

@@ -67,6 +67,48 @@ pub enum RecoverAction {
     RolledBack,
 }
 
+impl RecoverAction {
+    /// The action as the plant history records it (`nothing-to-do`,
+    /// `completed`, `rolled-back`; the JSON report's `action` is serde's
+    /// kebab-case, `nothing` for [`RecoverAction::Nothing`]).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RecoverAction::Nothing => "nothing-to-do",
+            RecoverAction::Completed => "completed",
+            RecoverAction::RolledBack => "rolled-back",
+        }
+    }
+}
+
+/// Which recovery a journal asks for ([`route`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JournalRoute {
+    /// An unfinished `driveset address` change: finished by
+    /// [`crate::assign::recover()`], which finds the drive at its old or new
+    /// address and rate.
+    AddressChange,
+    /// A transaction already settled (complete or rolled back, any
+    /// transfer-rate switch back): nothing to do, no schema needed.
+    Finished(TxnState),
+    /// An unfinished upload: [`recover()`] with a client to the journal's
+    /// drive and the journal's schema.
+    Upload,
+}
+
+/// Which recovery `journal` asks for: an address change's unfinished
+/// journal is the address change's to finish; a finished journal needs
+/// nothing (an address change's names the schema learned from the drive,
+/// which no file may hold); any other is an upload's.
+pub fn route(journal: &crate::journal::Journal) -> JournalRoute {
+    if crate::assign::is_assign_journal(journal) && !journal.is_finished() {
+        JournalRoute::AddressChange
+    } else if journal.is_finished() {
+        JournalRoute::Finished(journal.state)
+    } else {
+        JournalRoute::Upload
+    }
+}
+
 /// What `recover` found and did.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct RecoverReport {

@@ -117,6 +117,23 @@ pub fn device(spec: &crate::PortSpec) -> Option<String> {
     }
 }
 
+/// Every bus a TCP or RFC 2217 port may reach, without connecting: the
+/// [`tcp`] id of each address its host resolves to (a name lookup; none
+/// when it does not resolve); empty for any other port.
+pub fn tcp_candidates(spec: &crate::PortSpec) -> Vec<String> {
+    use crate::PortSpec;
+    use std::net::ToSocketAddrs as _;
+    match spec {
+        PortSpec::Tcp { host, port, .. } | PortSpec::Rfc2217 { host, port, .. } => {
+            match (host.as_str(), *port).to_socket_addrs() {
+                Ok(addrs) => addrs.map(tcp).collect(),
+                Err(_) => Vec::new(),
+            }
+        }
+        _ => Vec::new(),
+    }
+}
+
 /// `serial:` + [`canonical_device`].
 pub fn serial(path: &str) -> String {
     format!("serial:{}", canonical_device(path))
@@ -229,6 +246,16 @@ mod tests {
         let (a, b) = (mem(), mem());
         assert!(a.starts_with("mem:") && b.starts_with("mem:"), "{a} {b}");
         assert_ne!(a, b);
+    }
+
+    #[test]
+    fn a_tcp_port_may_reach_every_address_its_host_resolves_to() {
+        let ids = |p: &str| tcp_candidates(&crate::PortSpec::parse(p).unwrap());
+        assert_eq!(ids("tcp://127.0.0.1:4001"), vec!["tcp:127.0.0.1:4001"]);
+        assert_eq!(ids("rfc2217://127.0.0.1:4002"), vec!["tcp:127.0.0.1:4002"]);
+        assert!(ids("tcp://localhost:4001").contains(&"tcp:127.0.0.1:4001".to_string()));
+        assert!(ids("COM3?baud=19200").is_empty());
+        assert!(ids("sim://tmd?addresses=1").is_empty());
     }
 
     #[test]

@@ -140,6 +140,27 @@ impl Openers {
         self.0.iter().find(|o| o.scheme() == scheme).map(|o| &**o)
     }
 
+    /// `spec` running at line rate `rate` (`baud=` on a character line,
+    /// `bitrate=` on an slcan adapter; a SocketCAN interface's rate is the
+    /// system's; an opaque port through its registered opener, unchanged
+    /// without one).
+    pub fn at_rate(&self, spec: &PortSpec, rate: u32) -> PortSpec {
+        let mut s = spec.clone();
+        match &mut s {
+            PortSpec::Serial { baud, .. }
+            | PortSpec::Tcp { baud, .. }
+            | PortSpec::Rfc2217 { baud, .. } => *baud = Some(rate),
+            PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
+            PortSpec::Sim(o) => {
+                if let Some(opener) = self.get(&o.scheme) {
+                    *o = opener.with_rate(o, rate);
+                }
+            }
+            PortSpec::SocketCan { .. } => {}
+        }
+        s
+    }
+
     /// The opener of an opaque port, or the error that none is registered.
     pub fn opener(&self, spec: &OpaqueSpec) -> Result<&dyn PortOpener, LinkError> {
         self.get(&spec.scheme).ok_or_else(|| LinkError::SimPort {
@@ -240,5 +261,36 @@ pub fn open(spec: &PortSpec, options: &OpenOptions) -> Result<Link, LinkError> {
                    or use an slcan adapter (slcan:///dev/ttyACM0)"
                 .into(),
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_port_at_another_rate_keeps_the_rest_of_its_spelling() {
+        let at = |p: &str, r| Openers::none().at_rate(&PortSpec::parse(p).unwrap(), r);
+        assert_eq!(
+            at("/dev/ttyUSB0?baud=9600", 19200),
+            PortSpec::parse("/dev/ttyUSB0?baud=19200").unwrap()
+        );
+        assert_eq!(
+            at("tcp://moxa:4001?latency=80ms", 38400),
+            PortSpec::parse("tcp://moxa:4001?baud=38400&latency=80ms").unwrap()
+        );
+        assert_eq!(
+            at("slcan:///dev/ttyACM0", 250000),
+            PortSpec::parse("slcan:///dev/ttyACM0?bitrate=250000").unwrap()
+        );
+        assert_eq!(
+            at("can://can0", 250000),
+            PortSpec::parse("can://can0").unwrap()
+        );
+        // an opaque port without its opener stays as it is
+        assert_eq!(
+            at("sim://mc6000?addresses=1", 38400),
+            PortSpec::parse("sim://mc6000?addresses=1").unwrap()
+        );
     }
 }

@@ -6,9 +6,10 @@
 //! short is `driveset recover`'s (cmd/recover.rs).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest};
+use driveset_engine::journal::JournalAt;
 use driveset_engine::overrides::Override;
 use driveset_schema::BusProtocol;
 
@@ -158,52 +159,13 @@ fn address(args: &Args) -> Result<u8, Fail> {
         emit_plan(&name, &plan, json);
         return Ok(EXIT_OK);
     }
-    let journal = match (&args.journal, &args.journal_dir) {
-        (Some(j), _) => j.clone(),
-        (None, dir) => driveset_engine::journal::journal_path(
-            dir.as_deref()
-                .unwrap_or(Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
-            &plan.bus,
-            plan.to,
-        ),
-    };
+    let journal = JournalAt::new(args.journal.as_deref(), args.journal_dir.as_deref())
+        .path(&plan.bus, plan.to);
     crate::history::begin_writing("address", crate::history::Context::default())?;
     let report = assign::run(&mut link, &plan, &journal)?;
     crate::history::drive(&driveset_engine::history::DriveRecord::of_assign(&report));
     emit_report(&name, &report, json);
     Ok(EXIT_OK)
-}
-
-fn found_line(plan: &AssignPlan) -> String {
-    let d = plan.family.descriptor();
-    let ty = match plan.type_value {
-        Some(t) => format!(" (91-TYPE = {t})"),
-        None if plan.protocol == BusProtocol::Lustbus => " (91-TYPE: NAK)".to_string(),
-        None => String::new(),
-    };
-    let at = if plan.protocol == BusProtocol::Lustbus {
-        "address 0".to_string()
-    } else {
-        format!("controller {:02}", plan.reached_at)
-    };
-    let own = plan
-        .old_address
-        .map_or_else(String::new, |a| format!(", own address {a}"));
-    format!("found a {} at {at} at {} baud{ty}{own}", d.title, plan.rate)
-}
-
-fn scan_line(plan: &AssignPlan) -> String {
-    let what = match assign::found_text(&plan.scan) {
-        who if who.is_empty() => "no answer".to_string(),
-        who => who,
-    };
-    match plan.protocol {
-        BusProtocol::Lustbus => format!(
-            "network list 1..30 ({} ms): {what}",
-            plan.scan_time.as_millis()
-        ),
-        _ => format!("address {:02}: {what}", plan.to),
-    }
 }
 
 fn writes_json(plan: &AssignPlan) -> serde_json::Value {
@@ -286,6 +248,20 @@ impl<'a> AddressDoc<'a> {
     }
 }
 
+/// Print `doc` as the one JSON object of the command.
+fn emit_doc(doc: &AddressDoc) {
+    output::emit(&format!(
+        "{}\n",
+        serde_json::to_string_pretty(doc).unwrap_or_default()
+    ));
+}
+
+/// The human text's first lines, the plan's and the report's alike: where
+/// the drive was found (on port `name`) and what the scan saw.
+fn head(name: &str, plan: &AssignPlan) -> String {
+    format!("{name}: {}\n{}\n", plan.found_line(), plan.scan_line())
+}
+
 fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
     if json {
         let doc = AddressDoc {
@@ -297,15 +273,10 @@ fn emit_plan(name: &str, plan: &AssignPlan, json: bool) {
             elapsed_ms: plan.elapsed.as_secs_f64() * 1000.0,
             ..AddressDoc::of(name, plan)
         };
-        output::emit(&format!(
-            "{}\n",
-            serde_json::to_string_pretty(&doc).unwrap_or_default()
-        ));
+        emit_doc(&doc);
         return;
     }
-    let mut out = String::new();
-    let _ = writeln!(out, "{name}: {}", found_line(plan));
-    let _ = writeln!(out, "{}", scan_line(plan));
+    let mut out = head(name, plan);
     if plan.writes.is_empty() {
         let _ = writeln!(
             out,
@@ -338,15 +309,10 @@ fn emit_report(name: &str, r: &AssignReport, json: bool) {
             elapsed_ms: r.elapsed.as_secs_f64() * 1000.0,
             ..AddressDoc::of(name, plan)
         };
-        output::emit(&format!(
-            "{}\n",
-            serde_json::to_string_pretty(&doc).unwrap_or_default()
-        ));
+        emit_doc(&doc);
         return;
     }
-    let mut out = String::new();
-    let _ = writeln!(out, "{name}: {}", found_line(plan));
-    let _ = writeln!(out, "{}", scan_line(plan));
+    let mut out = head(name, plan);
     for w in &r.written {
         let _ = writeln!(out, "wrote {w}");
     }

@@ -142,10 +142,8 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             Ok(m) => m,
             Err(code) => return Err(crate::fail::Fail::reported(code)),
         };
-        let journal_dir = manifest
-            .journal_dir
-            .clone()
-            .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
+        let journal_dir =
+            driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
         let a = crate::line::assign::AssignArgs {
             port: args.port.clone(),
             yes: args.yes,

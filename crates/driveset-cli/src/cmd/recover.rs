@@ -9,8 +9,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::assign;
-use driveset_engine::journal::JournalFile;
-use driveset_engine::recover::{RecoverAction, RecoverOptions, recover as engine_recover};
+use driveset_engine::history::{self, DriveRecord, Slot};
+use driveset_engine::journal::{JournalFile, TxnState};
+use driveset_engine::recover::{
+    JournalRoute, RecoverAction, RecoverOptions, RecoverReport, recover as engine_recover, route,
+};
 
 use crate::EXIT_OK;
 use crate::output;
@@ -63,14 +66,6 @@ pub struct Args {
     pub format: OutputFormat,
 }
 
-/// The port a journal's drive is reached through again when `--port` is
-/// not given: the port it records; a `sim://` port without the keys of
-/// the run that was cut (its faults and their seed: they would cut the
-/// recovery at the same telegram), its state file as recorded (absolute).
-fn journal_port(recorded: &str) -> String {
-    port::without_run_keys(recorded)
-}
-
 /// The schema to recover with: `--schema`, else the journal's (the
 /// engine's [`driveset_engine::session::Catalog::for_journal`]).
 fn journal_schema(
@@ -88,52 +83,22 @@ fn journal_schema(
 }
 
 /// Put the recovery on the run's record, and close the sessions of this
-/// station that processes killed mid-way left open with what it found.
+/// station that processes killed mid-way left open with what it found
+/// (the engine's [`DriveRecord::of_recover`] and [`history::recover_note`]).
 fn record(
     port_name: &str,
     address: u8,
     schema: &driveset_schema::Schema,
-    journal: &std::path::Path,
-    result: &Result<driveset_engine::recover::RecoverReport, driveset_engine::error::EngineError>,
+    journal: &Path,
+    result: &Result<RecoverReport, driveset_engine::error::EngineError>,
 ) {
-    use driveset_engine::history::{DriveRecord, Slot};
     let slot = Slot {
         bus: port_name.to_string(),
         address,
         ..Slot::default()
     };
-    let (record, found) = match result {
-        Ok(r) => {
-            let action = match r.action {
-                RecoverAction::Nothing => "nothing-to-do",
-                RecoverAction::Completed => "completed",
-                RecoverAction::RolledBack => "rolled-back",
-            };
-            let mut rec = DriveRecord::of_error(
-                slot,
-                schema,
-                &driveset_engine::error::EngineError::journal(journal.display().to_string(), ""),
-            );
-            rec.result = action.into();
-            rec.cause = None;
-            rec.error = None;
-            rec.fingerprint_after = r.fingerprint.clone();
-            rec.journal = Some(r.journal.clone());
-            rec.codes = r.restored_values.clone();
-            let found = format!(
-                "`driveset recover {}` found the journal {} and {action} it",
-                journal.display(),
-                r.found.as_str()
-            );
-            (rec, found)
-        }
-        Err(e) => (
-            DriveRecord::of_error(slot, schema, e),
-            format!("`driveset recover {}` failed: {e}", journal.display()),
-        ),
-    };
-    crate::history::drive(&record);
-    crate::history::close_interrupted(&found);
+    crate::history::drive(&DriveRecord::of_recover(slot, schema, result));
+    crate::history::close_interrupted(&history::recover_note(journal, result));
 }
 
 impl PortCommand for Args {
@@ -157,62 +122,77 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 fn recover(args: &Args) -> Result<u8, Fail> {
     let jf = JournalFile::open(&args.journal)?;
     let j = &jf.journal;
+    // without --port, the journal's port without the keys of the run that
+    // was cut (a `sim://` port's faults and their seed: they would cut the
+    // recovery at the same telegram)
     let port_text = args
         .at
         .port
         .clone()
-        .unwrap_or_else(|| journal_port(&j.target.port));
-    if driveset_engine::assign::is_assign_journal(j) && !j.is_finished() {
-        // the schema the change was made with (`--schema`, else the one
-        // the journal records: a learned file types 81 / 82 where the
-        // built-in schema does not); one no file holds any more leaves the
-        // types to be learned from the drive's descriptions (`assign`)
-        let schema = match journal_schema(args, j) {
-            Ok(c) => Some(c.schema),
-            // a schema the user named must resolve
-            Err(e) if args.at.schema().is_some() => return Err(e),
-            Err(_) => None,
-        };
-        drop(jf);
-        return recover_address_change(
-            &args.journal,
-            &port_text,
-            &args.at.schemas,
-            schema,
-            args.format == OutputFormat::Json,
-        );
-    }
-    let address = args.at.address.unwrap_or(j.target.address);
+        .unwrap_or_else(|| port::without_run_keys(&j.target.port));
     let json = args.format == OutputFormat::Json;
-    let state = j.state;
-    if j.is_finished() {
-        // a finished journal needs no schema (an address change's names the
-        // schema learned from the drive, which no file holds)
-        drop(jf);
-        let msg = format!(
-            "{}: the transaction is already {}; nothing to do",
-            args.journal.display(),
-            state.as_str()
-        );
-        if json {
-            output::emit(&format!(
-                "{}\n",
-                serde_json::to_string_pretty(&Finished {
-                    action: RecoverAction::Nothing,
-                    found: state,
-                    journal: args.journal.display().to_string(),
-                })
-                .unwrap_or_default()
-            ));
-        } else {
-            output::emit(&format!("{msg}\n"));
+    match route(j) {
+        JournalRoute::AddressChange => {
+            // the schema the change was made with (`--schema`, else the one
+            // the journal records: a learned file types 81 / 82 where the
+            // built-in schema does not); one no file holds any more leaves
+            // the types to be learned from the drive's descriptions
+            // (`assign`)
+            let schema = match journal_schema(args, j) {
+                Ok(c) => Some(c.schema),
+                // a schema the user named must resolve
+                Err(e) if args.at.schema().is_some() => return Err(e),
+                Err(_) => None,
+            };
+            drop(jf);
+            recover_address_change(&args.journal, &port_text, &args.at.schemas, schema, json)
         }
-        return Ok(EXIT_OK);
+        JournalRoute::Finished(state) => {
+            drop(jf);
+            emit_finished(&args.journal, state, json);
+            Ok(EXIT_OK)
+        }
+        JournalRoute::Upload => {
+            let address = args.at.address.unwrap_or(j.target.address);
+            let choice = journal_schema(args, j)?;
+            drop(jf);
+            recover_upload(args, &port_text, address, choice)
+        }
     }
-    let choice = journal_schema(args, j)?;
-    drop(jf);
+}
+
+/// A journal already finished: nothing to do (no schema needed).
+fn emit_finished(journal: &Path, state: TxnState, json: bool) {
+    if json {
+        output::emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&Finished {
+                action: RecoverAction::Nothing,
+                found: state,
+                journal: journal.display().to_string(),
+            })
+            .unwrap_or_default()
+        ));
+    } else {
+        output::emit(&format!(
+            "{}: the transaction is already {}; nothing to do\n",
+            journal.display(),
+            state.as_str()
+        ));
+    }
+}
+
+/// `driveset recover JOURNAL` of an upload: the drive at `address` on
+/// `port_text` with the schema `choice`, settled by the engine's
+/// [`engine_recover`], on the record, rendered.
+fn recover_upload(
+    args: &Args,
+    port_text: &str,
+    address: u8,
+    choice: port::SchemaChoice,
+) -> Result<u8, Fail> {
     crate::history::begin_writing("recover", crate::history::Context::default())?;
-    let opened = port::open_port(&port_text)?;
+    let opened = port::open_port(port_text)?;
     let port_name = opened.name.clone();
     let schema = choice.schema.clone();
     let mut client = port::into_client(opened, choice.schema, address)?;
@@ -229,49 +209,54 @@ fn recover(args: &Args) -> Result<u8, Fail> {
     let _ = client.finish();
     record(&port_name, address, &schema, &args.journal, &result);
     let report = result?;
-    if json {
+    if args.format == OutputFormat::Json {
         output::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&report).unwrap_or_default()
         ));
     } else {
-        let mut out = String::new();
-        let action = match report.action {
-            RecoverAction::Nothing => "nothing to do",
-            RecoverAction::Completed => {
-                "completed: the drive holds the new set (verified); journal marked complete"
-            }
-            RecoverAction::RolledBack => {
-                "rolled back: the drive holds its old values again (verified); journal marked rolled-back"
-            }
-        };
-        let _ = writeln!(
-            out,
-            "{port_name} address {address}: journal was {}; {action}",
-            report.found.as_str()
-        );
-        if report.stored {
-            let _ = writeln!(out, "store: stored (the store command was written again)");
-        }
-        if !report.restored.is_empty() {
-            let _ = writeln!(out, "restored: {}", report.restored.join(", "));
-        }
-        for n in &report.notes {
-            let _ = writeln!(out, "{n}");
-        }
-        if let Some(fp) = &report.fingerprint {
-            let _ = writeln!(out, "drive holds: {fp}");
-        }
-        if let Some(n) = &report.target_note {
-            let _ = writeln!(out, "note: {n}");
-        }
-        if let Some(t) = &report.transfer {
-            let _ = writeln!(out, "line rate: {t}");
-        }
-        let _ = writeln!(out, "journal: {}", report.journal);
-        output::emit(&out);
+        output::emit(&render(&port_name, address, &report));
     }
     Ok(EXIT_OK)
+}
+
+/// The human text of an upload's recovery.
+fn render(port_name: &str, address: u8, report: &RecoverReport) -> String {
+    let mut out = String::new();
+    let action = match report.action {
+        RecoverAction::Nothing => "nothing to do",
+        RecoverAction::Completed => {
+            "completed: the drive holds the new set (verified); journal marked complete"
+        }
+        RecoverAction::RolledBack => {
+            "rolled back: the drive holds its old values again (verified); journal marked rolled-back"
+        }
+    };
+    let _ = writeln!(
+        out,
+        "{port_name} address {address}: journal was {}; {action}",
+        report.found.as_str()
+    );
+    if report.stored {
+        let _ = writeln!(out, "store: stored (the store command was written again)");
+    }
+    if !report.restored.is_empty() {
+        let _ = writeln!(out, "restored: {}", report.restored.join(", "));
+    }
+    for n in &report.notes {
+        let _ = writeln!(out, "{n}");
+    }
+    if let Some(fp) = &report.fingerprint {
+        let _ = writeln!(out, "drive holds: {fp}");
+    }
+    if let Some(n) = &report.target_note {
+        let _ = writeln!(out, "note: {n}");
+    }
+    if let Some(t) = &report.transfer {
+        let _ = writeln!(out, "line rate: {t}");
+    }
+    let _ = writeln!(out, "journal: {}", report.journal);
+    out
 }
 
 /// `driveset recover JOURNAL` of an address change: the journal's port
@@ -320,6 +305,6 @@ fn recover_address_change(
 #[derive(serde::Serialize)]
 struct Finished {
     action: RecoverAction,
-    found: driveset_engine::journal::TxnState,
+    found: TxnState,
     journal: String,
 }

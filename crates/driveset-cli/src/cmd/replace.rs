@@ -5,12 +5,11 @@
 
 use std::path::PathBuf;
 
-use driveset_engine::error::LinkFailure;
-use driveset_engine::line::manifest::Manifest;
+use driveset_engine::error::{EngineError, LinkFailure};
+use driveset_engine::history::DriveRecord;
 use driveset_engine::line::replace::{
-    LineBusId, Prepared, ReplaceError, ReplaceOptions, finish, prepare,
+    Prepared, ReplaceError, ReplaceOptions, ReplaceOutcome, finish, prepare,
 };
-use driveset_engine::session::Ports;
 use driveset_link::{Link, PortSpec};
 
 use crate::fail::Fail;
@@ -80,7 +79,7 @@ pub struct Args {
 /// engine's [`driveset_engine::session::open_port`] over
 /// [`port::CliPorts`]: `sim://` in-process); the port as its parsed form
 /// spells it.
-pub fn open_service_port(
+fn open_service_port(
     port_text: &str,
 ) -> Result<(Link, String, driveset_engine::connect::ConnectOptions), Fail> {
     let spec = PortSpec::parse(port_text).map_err(|e| {
@@ -90,34 +89,6 @@ pub fn open_service_port(
     })?;
     let opened = driveset_engine::session::open_port(&port::CliPorts, port_text, None)?;
     Ok((opened.link, spec.to_string(), opened.connect))
-}
-
-/// The bus ids the line's buses reach, as far as their ports say before
-/// they are opened (a serial device, an slcan adapter, a simulated bus's
-/// state file: [`Ports::bus_before_open`]; a TCP or RFC 2217 device server:
-/// every address its host resolves to), so that `replace` refuses a
-/// service port that reaches the line's own bus.
-fn line_bus_ids(manifest: &Manifest) -> Vec<LineBusId> {
-    use std::net::ToSocketAddrs;
-    let mut out = Vec::new();
-    for bus in &manifest.buses {
-        let text = bus.port.to_string();
-        let mut ids: Vec<String> = port::CliPorts
-            .bus_before_open(&text, &bus.port)
-            .into_iter()
-            .collect();
-        if let PortSpec::Tcp { host, port, .. } | PortSpec::Rfc2217 { host, port, .. } = &bus.port
-            && let Ok(addrs) = (host.as_str(), *port).to_socket_addrs()
-        {
-            ids.extend(addrs.map(driveset_link::bus_id::tcp));
-        }
-        out.extend(ids.into_iter().map(|id| LineBusId {
-            bus: bus.name.clone(),
-            port: bus.port_name.clone(),
-            id,
-        }));
-    }
-    out
 }
 
 fn question(p: &Prepared, port: &str) -> String {
@@ -156,39 +127,12 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         .or_else(|| manifest.report_dir.clone())
         .unwrap_or_else(|| PathBuf::from(crate::line::DEFAULT_REPORT_DIR))
         .join(format!("replace-{}", args.drive));
-    let opts = ReplaceOptions {
-        journal_dir: manifest
-            .journal_dir
-            .clone()
-            .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR)),
-        scan: Default::default(),
-        overrides,
-        line_buses: line_bus_ids(&manifest),
-        connect: Default::default(),
-    };
+    let opts = ReplaceOptions::for_line(&manifest, overrides, &port::CliPorts);
     let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;
     let opts = ReplaceOptions { connect, ..opts };
     let prep = prepare(&manifest, &args.drive, &mut link, &opts).map_err(|e| Fail::from(&e))?;
     if args.format == OutputFormat::Text {
-        let id = prep
-            .plan
-            .identity
-            .pairs()
-            .iter()
-            .map(|(k, v)| format!("{k} = {v}"))
-            .collect::<Vec<_>>()
-            .join(", ");
-        outln!(
-            "spare on {port_name}: {} at address {}, {} baud{}",
-            prep.plan.family,
-            prep.plan.reached_at,
-            prep.plan.rate,
-            if id.is_empty() {
-                String::new()
-            } else {
-                format!(" ({id})")
-            }
-        );
+        outln!("{}", spare_line(&prep, &port_name));
     }
     if !args.yes {
         let answer = ask(&question(&prep, &port_name))?;
@@ -214,14 +158,8 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     };
     // the slot's new unit, on record with what was written to it
     for d in report.drives.iter().filter(|d| d.name == args.drive) {
-        use driveset_engine::history::{DriveRecord, Unit, diff_codes};
-        let unit = Unit {
-            family: prep.plan.family.to_string(),
-            device_type: d.identity.first().map(|(_, v)| v.clone()),
-            identity: d.identity.clone(),
-            ..Unit::default()
-        };
-        crate::history::drive(&DriveRecord::of_line(&report.line, d, unit, diff_codes(d)));
+        let family = prep.plan.family.to_string();
+        crate::history::drive(&DriveRecord::of_replacement(&report.line, d, &family));
     }
     crate::history::link_report(&mut report);
     let written = report::write_reports(&report, &report_dir).map_err(|e| {
@@ -230,77 +168,130 @@ pub fn run(args: Args) -> Result<u8, Fail> {
             report_dir.display()
         ))
     })?;
-    let d = &prep.drive;
     let status_cmd = format!(
         "driveset status {} --only {}",
         args.manifest.display(),
-        d.name
+        prep.drive.name
     );
+    let shown = Shown {
+        prep: &prep,
+        port_name: &port_name,
+        written: &written,
+        status_cmd: &status_cmd,
+    };
     match done {
         Ok(o) => {
-            let r = &o.report.drives[0];
-            if args.format == OutputFormat::Json {
-                let v = Replaced {
-                    address: d.address,
-                    codes: prep.codes(),
-                    codes_written: r.codes_written,
-                    drive: &d.name,
-                    factory_settings: r.factory_settings,
-                    next: &status_cmd,
-                    rate: o.assign.rate_now,
-                    rate_note: &o.assign.rate_note,
-                    report: written.0.display().to_string(),
-                    result: "replaced",
-                    service_port: &port_name,
-                    virtual_ms: VirtualMs {
-                        assign: o.assign_time.as_secs_f64() * 1000.0,
-                        total: o.total().as_secs_f64() * 1000.0,
-                        upload: o.upload_time.as_secs_f64() * 1000.0,
-                    },
-                };
-                outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
-            } else {
-                for w in &o.assign.written {
-                    outln!("wrote {w}");
-                }
-                outln!(
-                    "{}: address {}, {} baud, {} codes written and verified ({} codes in the set){} ({:.3} s on the bus)",
-                    d.name,
-                    d.address,
-                    o.assign.rate_now,
-                    r.codes_written,
-                    prep.codes(),
-                    if r.factory_settings {
-                        "; the spare was at factory settings"
-                    } else {
-                        ""
-                    },
-                    o.total().as_secs_f64()
-                );
-                if let Some(n) = &o.assign.rate_note {
-                    outln!("note: {n}");
-                }
-                outln!("report: {} {}", written.0.display(), written.1.display());
-                outln!(
-                    "next: plug it into the line (bus `{}`, {}) and run `{status_cmd}`",
-                    prep.bus.name,
-                    prep.bus.port_name
-                );
-            }
+            shown.replaced(&o, args.format);
             Ok(EXIT_OK)
         }
-        Err(e) => {
-            eprintln!(
-                "error: {}: given address {} and {} baud, but the set's upload failed: {e}",
-                d.name, d.address, prep.bus.rate
-            );
-            outln!("report: {} {}", written.0.display(), written.1.display());
-            let bus = matches!(
-                e.link_failure(),
-                Some(LinkFailure::Transport(_) | LinkFailure::NoAnswer { .. })
-            );
-            Ok(if bus { EXIT_BUS } else { EXIT_FINDINGS })
+        Err(e) => Ok(shown.upload_failed(&e)),
+    }
+}
+
+/// The spare as found on the service port `port_name`: its family,
+/// address, rate and identify codes.
+fn spare_line(prep: &Prepared, port_name: &str) -> String {
+    let id = prep
+        .plan
+        .identity
+        .pairs()
+        .iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "spare on {port_name}: {} at address {}, {} baud{}",
+        prep.plan.family,
+        prep.plan.reached_at,
+        prep.plan.rate,
+        if id.is_empty() {
+            String::new()
+        } else {
+            format!(" ({id})")
         }
+    )
+}
+
+/// What the end of a replacement shows: the spare, the service port, the
+/// report files written and the command that checks the drive on the line.
+struct Shown<'a> {
+    prep: &'a Prepared,
+    port_name: &'a str,
+    written: &'a (PathBuf, PathBuf),
+    status_cmd: &'a str,
+}
+
+impl Shown<'_> {
+    /// The spare replaced and verified: the JSON document or the text.
+    fn replaced(&self, o: &ReplaceOutcome, format: OutputFormat) {
+        let (d, prep, written) = (&self.prep.drive, self.prep, self.written);
+        let r = &o.report.drives[0];
+        if format == OutputFormat::Json {
+            let v = Replaced {
+                address: d.address,
+                codes: prep.codes(),
+                codes_written: r.codes_written,
+                drive: &d.name,
+                factory_settings: r.factory_settings,
+                next: self.status_cmd,
+                rate: o.assign.rate_now,
+                rate_note: &o.assign.rate_note,
+                report: written.0.display().to_string(),
+                result: "replaced",
+                service_port: self.port_name,
+                virtual_ms: VirtualMs {
+                    assign: o.assign_time.as_secs_f64() * 1000.0,
+                    total: o.total().as_secs_f64() * 1000.0,
+                    upload: o.upload_time.as_secs_f64() * 1000.0,
+                },
+            };
+            outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+            return;
+        }
+        for w in &o.assign.written {
+            outln!("wrote {w}");
+        }
+        outln!(
+            "{}: address {}, {} baud, {} codes written and verified ({} codes in the set){} ({:.3} s on the bus)",
+            d.name,
+            d.address,
+            o.assign.rate_now,
+            r.codes_written,
+            prep.codes(),
+            if r.factory_settings {
+                "; the spare was at factory settings"
+            } else {
+                ""
+            },
+            o.total().as_secs_f64()
+        );
+        if let Some(n) = &o.assign.rate_note {
+            outln!("note: {n}");
+        }
+        outln!("report: {} {}", written.0.display(), written.1.display());
+        outln!(
+            "next: plug it into the line (bus `{}`, {}) and run `{}`",
+            prep.bus.name,
+            prep.bus.port_name,
+            self.status_cmd
+        );
+    }
+
+    /// The spare has its address and rate but the set's upload failed
+    /// (`e`): said on stderr, the report named; the exit code (3 when the
+    /// link failed or the spare did not answer, else 1).
+    fn upload_failed(&self, e: &EngineError) -> u8 {
+        let (d, written) = (&self.prep.drive, self.written);
+        eprintln!(
+            "error: {}: given address {} and {} baud, but the set's upload failed: {e}",
+            d.name, d.address, self.prep.bus.rate
+        );
+        outln!("report: {} {}", written.0.display(), written.1.display());
+        let bus = matches!(
+            e.link_failure(),
+            Some(LinkFailure::Transport(_) | LinkFailure::NoAnswer { .. })
+        );
+        if bus { EXIT_BUS } else { EXIT_FINDINGS }
     }
 }
 

@@ -28,8 +28,9 @@ use std::path::PathBuf;
 use driveset_engine::history::{DriveRecord, Slot};
 
 use driveset_engine::dry_run::{self, DryRunOptions, Subject};
+use driveset_engine::journal::JournalAt;
 use driveset_engine::session;
-use driveset_engine::upload::{UploadOptions, default_journal_path};
+use driveset_engine::upload::UploadOptions;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -177,15 +178,8 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         return Ok(EXIT_OK);
     }
 
-    let journal = match (&args.journal, &args.journal_dir) {
-        (Some(j), _) => j.clone(),
-        (None, dir) => {
-            let dir = dir
-                .clone()
-                .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
-            default_journal_path(&dir, client.as_ref())
-        }
-    };
+    let journal = JournalAt::new(args.journal.as_deref(), args.journal_dir.as_deref())
+        .path(&client.bus_id(), client.target().address);
     crate::history::begin_writing(
         "upload",
         crate::history::Context {
@@ -209,13 +203,7 @@ fn upload(args: &Args) -> Result<u8, Fail> {
         r
     };
     let _ = client.finish();
-    match &result {
-        Ok(r) => crate::history::drive(&DriveRecord::of_upload(slot, &schema, r, None)),
-        Err(f) => crate::history::drive(&match &f.report {
-            Some(r) => DriveRecord::of_upload(slot, &schema, r, Some(&f.error)),
-            None => DriveRecord::of_error(slot, &schema, &f.error),
-        }),
-    }
+    crate::history::drive(&DriveRecord::of_upload_outcome(slot, &schema, &result));
     match result {
         Ok(report) => {
             if json {

@@ -7,10 +7,9 @@
 use std::path::PathBuf;
 
 use driveset_engine::line::commission_assign::{
-    CommissionAssignOptions, CommissionAssignReport, Stopped, commission_assign,
+    CommissionAssignOptions, CommissionAssignReport, Stopped, commission_assign, on_service_port,
 };
 use driveset_engine::line::manifest::{Bus, Drive, Manifest};
-use driveset_link::PortSpec;
 
 use crate::fail::Fail;
 use crate::prompt::{ask, confirm_allowed};
@@ -30,28 +29,6 @@ pub struct AssignArgs {
     /// The named overrides (`--allow-running` ...: the running rule of the
     /// address and rate writes).
     pub overrides: driveset_engine::overrides::Overrides,
-}
-
-/// The manifest with `--port` put on its one serial bus.
-fn with_port(mut m: Manifest, port: &str) -> Result<Manifest, Fail> {
-    let serial: Vec<usize> = m
-        .buses
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| b.protocol != driveset_schema::BusProtocol::CanSdo)
-        .map(|(i, _)| i)
-        .collect();
-    let [i] = serial[..] else {
-        return Err(Fail::input(format!(
-            "--port {port}: the line has {} LUSTBUS / LECOM buses; --port names the one port the drives are connected to, so it fits a line with one such bus (leave it out to use each bus's own port)",
-            serial.len()
-        )));
-    };
-    let spec = PortSpec::parse(port).map_err(|e| Fail::input(format!("--port {port}: {e}")))?;
-    let b = &mut m.buses[i];
-    b.port_name = spec.to_string();
-    b.port = crate::port::with_rate(&spec, b.rate);
-    Ok(m)
 }
 
 /// Print the first contact's table (one per bus) and its verdict.
@@ -144,7 +121,8 @@ pub fn run(manifest: &Manifest, args: &AssignArgs, journal_dir: PathBuf) -> Resu
         confirm_allowed("commission --assign")?;
     }
     let m = match &args.port {
-        Some(p) => with_port(manifest.clone(), p)?,
+        Some(p) => on_service_port(manifest.clone(), p, &crate::port::openers())
+            .map_err(|e| Fail::input(e.to_string()))?,
         None => manifest.clone(),
     };
     let opts = CommissionAssignOptions {

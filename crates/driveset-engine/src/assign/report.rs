@@ -184,4 +184,43 @@ impl AssignPlan {
     pub fn is_noop(&self) -> bool {
         self.writes.is_empty()
     }
+
+    /// Where and how the drive was found, as `driveset address` says it
+    /// (`found a MC6000/7000 at address 0 at 9600 baud (91-TYPE = 1000),
+    /// own address 3`): LUSTBUS at address 0 (§4.2) with its 91-TYPE or
+    /// NAK, LECOM at its controller address.
+    pub fn found_line(&self) -> String {
+        let d = self.family.descriptor();
+        let ty = match self.type_value {
+            Some(t) => format!(" (91-TYPE = {t})"),
+            None if self.protocol == BusProtocol::Lustbus => " (91-TYPE: NAK)".to_string(),
+            None => String::new(),
+        };
+        let at = if self.protocol == BusProtocol::Lustbus {
+            "address 0".to_string()
+        } else {
+            format!("controller {:02}", self.reached_at)
+        };
+        let own = self
+            .old_address
+            .map_or_else(String::new, |a| format!(", own address {a}"));
+        format!("found a {} at {at} at {} baud{ty}{own}", d.title, self.rate)
+    }
+
+    /// What the scan before the writes saw, as `driveset address` says it:
+    /// LUSTBUS the network list 1..30 of §5.2 and its time, LECOM the
+    /// address asked for; `no answer` when nothing answered.
+    pub fn scan_line(&self) -> String {
+        let what = match found_text(&self.scan) {
+            who if who.is_empty() => "no answer".to_string(),
+            who => who,
+        };
+        match self.protocol {
+            BusProtocol::Lustbus => format!(
+                "network list 1..30 ({} ms): {what}",
+                self.scan_time.as_millis()
+            ),
+            _ => format!("address {:02}: {what}", self.to),
+        }
+    }
 }

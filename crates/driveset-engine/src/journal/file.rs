@@ -135,6 +135,49 @@ pub fn journal_path(dir: &Path, bus_id: &str, address: u8) -> PathBuf {
     dir.join(journal_file_name(bus_id, address))
 }
 
+/// The journal directory a command uses: the one given (`--journal-dir`,
+/// a line manifest's `journal_dir`), else [`super::DEFAULT_JOURNAL_DIR`]
+/// under the current directory.
+pub fn journal_dir_or_default(dir: Option<&Path>) -> PathBuf {
+    dir.map_or_else(
+        || PathBuf::from(super::DEFAULT_JOURNAL_DIR),
+        Path::to_path_buf,
+    )
+}
+
+/// Where a one-drive command's journal goes, as it was told
+/// (docs/journals.md, "Where journals live"): a file named outright
+/// (`--journal FILE`), else a directory (`--journal-dir DIR`, by default
+/// [`super::DEFAULT_JOURNAL_DIR`]) the file is named in by the drive's
+/// bus and address ([`journal_path`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum JournalAt {
+    /// This file.
+    File(PathBuf),
+    /// A file named in this directory (`None`: the default one).
+    Dir(Option<PathBuf>),
+}
+
+impl JournalAt {
+    /// `file` when given (it wins over `dir`), else `dir`.
+    pub fn new(file: Option<&Path>, dir: Option<&Path>) -> Self {
+        match file {
+            Some(f) => JournalAt::File(f.to_path_buf()),
+            None => JournalAt::Dir(dir.map(Path::to_path_buf)),
+        }
+    }
+
+    /// The journal's path for the drive at `address` on bus `bus_id`.
+    pub fn path(&self, bus_id: &str, address: u8) -> PathBuf {
+        match self {
+            JournalAt::File(f) => f.clone(),
+            JournalAt::Dir(dir) => {
+                journal_path(&journal_dir_or_default(dir.as_deref()), bus_id, address)
+            }
+        }
+    }
+}
+
 /// An unfinished journal of a drive, found by [`unfinished_for`].
 #[derive(Debug, Clone)]
 pub struct Unfinished {

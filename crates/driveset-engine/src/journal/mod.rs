@@ -102,8 +102,8 @@ mod value;
 pub use failure::{CodeHolding, FailureCause, Holding};
 pub(crate) use file::version_refusal;
 pub use file::{
-    JournalFile, Unfinished, ensure_dir, journal_file_name, journal_path, unfinished_error,
-    unfinished_for,
+    JournalAt, JournalFile, Unfinished, ensure_dir, journal_dir_or_default, journal_file_name,
+    journal_path, unfinished_error, unfinished_for,
 };
 pub use records::{
     BackupEntry, Journal, JournalIdentity, JournalTarget, PlanEntryRecord, SchemaSource,

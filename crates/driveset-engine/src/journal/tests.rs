@@ -159,3 +159,43 @@ fn ensure_dir_writes_a_gitignore_into_the_topmost_directory_it_creates() {
     ensure_dir(&other).unwrap();
     assert!(!other.join(".gitignore").exists());
 }
+
+#[test]
+fn a_journal_goes_to_the_file_named_else_into_its_directory() {
+    use std::path::{Path, PathBuf};
+    let bus = "serial:/dev/ttyUSB0";
+    let (file, dir) = (Path::new("axis.journal.json"), Path::new("journals"));
+    assert_eq!(JournalAt::new(Some(file), Some(dir)).path(bus, 3), file);
+    assert_eq!(
+        JournalAt::new(None, Some(dir)).path(bus, 3),
+        journal_path(dir, bus, 3)
+    );
+    assert_eq!(
+        JournalAt::new(None, None).path(bus, 3),
+        journal_path(Path::new(DEFAULT_JOURNAL_DIR), bus, 3)
+    );
+    assert_eq!(
+        journal_dir_or_default(None),
+        PathBuf::from(DEFAULT_JOURNAL_DIR)
+    );
+    assert_eq!(journal_dir_or_default(Some(dir)), dir);
+}
+
+#[test]
+fn recover_routes_an_unfinished_upload_to_the_upload_and_a_settled_one_to_nothing() {
+    use crate::recover::{JournalRoute, RecoverAction, route};
+    let j: Journal = serde_json::from_str(V2_FAILED).expect("v2 journal");
+    assert_eq!(route(&j), JournalRoute::Upload);
+    let done = V2_FAILED.replace(r#""state": "failed""#, r#""state": "complete""#);
+    let j: Journal = serde_json::from_str(&done).expect("v2 journal");
+    assert_eq!(route(&j), JournalRoute::Finished(TxnState::Complete));
+    // the plant history's words; the JSON report's are serde's
+    for (a, word, json) in [
+        (RecoverAction::Nothing, "nothing-to-do", "\"nothing\""),
+        (RecoverAction::Completed, "completed", "\"completed\""),
+        (RecoverAction::RolledBack, "rolled-back", "\"rolled-back\""),
+    ] {
+        assert_eq!(a.as_str(), word);
+        assert_eq!(serde_json::to_string(&a).unwrap(), json);
+    }
+}

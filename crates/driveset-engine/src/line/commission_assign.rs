@@ -53,6 +53,63 @@ use crate::client::IdentProtocol;
 use crate::error::EngineError;
 use crate::scan::{ScanOptions, lecom_addresses, lustbus_addresses, scan_lecom, scan_lustbus};
 
+/// Why a first contact's `--port` does not fit the line
+/// ([`on_service_port`]).
+#[derive(Debug, thiserror::Error)]
+pub enum ServicePortError {
+    /// The line has not exactly one LUSTBUS / LECOM bus.
+    #[error(
+        "--port {port}: the line has {buses} LUSTBUS / LECOM buses; --port names the one port the drives are connected to, so it fits a line with one such bus (leave it out to use each bus's own port)"
+    )]
+    NotOneBus {
+        /// The port given.
+        port: String,
+        /// How many LUSTBUS / LECOM buses the line has.
+        buses: usize,
+    },
+    /// The port does not parse.
+    #[error("--port {port}: {source}")]
+    BadPort {
+        /// The port given.
+        port: String,
+        /// Why it does not parse.
+        source: Box<driveset_link::PortSpecError>,
+    },
+}
+
+/// `manifest` with its one LUSTBUS / LECOM bus on `port`, the service port
+/// the drives are connected to one at a time (`commission --assign
+/// --port`), at the bus's rate (an opener's port through `openers`);
+/// refused when the line has not exactly one such bus.
+pub fn on_service_port(
+    mut manifest: Manifest,
+    port: &str,
+    openers: &driveset_link::Openers,
+) -> Result<Manifest, ServicePortError> {
+    let serial: Vec<usize> = manifest
+        .buses
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.protocol != BusProtocol::CanSdo)
+        .map(|(i, _)| i)
+        .collect();
+    let [i] = serial[..] else {
+        return Err(ServicePortError::NotOneBus {
+            port: port.to_string(),
+            buses: serial.len(),
+        });
+    };
+    let spec =
+        driveset_link::PortSpec::parse(port).map_err(|source| ServicePortError::BadPort {
+            port: port.to_string(),
+            source: Box::new(source),
+        })?;
+    let b = &mut manifest.buses[i];
+    b.port_name = spec.to_string();
+    b.port = openers.at_rate(&spec, b.rate);
+    Ok(manifest)
+}
+
 /// Why one drive's assignment failed.
 #[derive(Debug, thiserror::Error)]
 enum AssignOneError {

@@ -48,6 +48,7 @@ use crate::env::{Environment, rfc3339};
 use crate::error::EngineError;
 use crate::overrides::Overrides;
 use crate::scan::ScanOptions;
+use crate::session::Ports;
 use crate::upload::{UploadOptions, default_journal_path, upload};
 
 /// A spare that does not fit the drive's set.
@@ -228,6 +229,48 @@ pub struct ReplaceOptions {
     pub line_buses: Vec<LineBusId>,
     /// The service port's options (its `latency=`), for the set's upload.
     pub connect: crate::connect::ConnectOptions,
+}
+
+impl ReplaceOptions {
+    /// The options of replacing a drive of `manifest`: its journal
+    /// directory (else [`crate::journal::DEFAULT_JOURNAL_DIR`]), the named
+    /// `overrides` for the set's upload, the bus ids the line's buses
+    /// reach as `ports` tells them before opening ([`line_bus_ids`]), the
+    /// default probes and connect options (the caller puts the service
+    /// port's in once it is open).
+    pub fn for_line(manifest: &Manifest, overrides: Overrides, ports: &dyn Ports) -> Self {
+        ReplaceOptions {
+            journal_dir: crate::journal::journal_dir_or_default(manifest.journal_dir.as_deref()),
+            scan: ScanOptions::default(),
+            overrides,
+            line_buses: line_bus_ids(manifest, ports),
+            connect: crate::connect::ConnectOptions::default(),
+        }
+    }
+}
+
+/// The bus ids the line's buses reach, as far as their ports say before
+/// they are opened (a serial device, an slcan adapter, a simulated bus's
+/// state file: [`Ports::bus_before_open`]; a TCP or RFC 2217 device server:
+/// every address its host resolves to,
+/// [`driveset_link::bus_id::tcp_candidates`]), so that `replace` refuses a
+/// service port that reaches the line's own bus ([`ReplaceError::LineBus`]).
+pub fn line_bus_ids(manifest: &Manifest, ports: &dyn Ports) -> Vec<LineBusId> {
+    let mut out = Vec::new();
+    for bus in &manifest.buses {
+        let text = bus.port.to_string();
+        let mut ids: Vec<String> = ports
+            .bus_before_open(&text, &bus.port)
+            .into_iter()
+            .collect();
+        ids.extend(driveset_link::bus_id::tcp_candidates(&bus.port));
+        out.extend(ids.into_iter().map(|id| LineBusId {
+            bus: bus.name.clone(),
+            port: bus.port_name.clone(),
+            id,
+        }));
+    }
+    out
 }
 
 /// The spare found and checked: what [`finish`] will write.
