@@ -23,10 +23,16 @@
 //!
 //! Only a failure of the transport itself (the port is gone) or a drive
 //! restart ends the pull with the error.
+//!
+//! A pull for a set file ([`Pulled::for_file`], [`ForFile`]): the
+//! read-only actual values taken out of the set for the header, the bus
+//! codes left out and the codes that failed named, the file's text
+//! assembled by the schema crate's `export::pulled` (docs/file-formats.md).
 
 use std::time::Duration;
 
-use driveset_schema::{Code, CodeKey, ResolvedSet, Role, Schema};
+use driveset_schema::export::pulled as pulled_file;
+use driveset_schema::{Code, CodeKey, Format, ResolvedSet, Role, Schema};
 
 use crate::client::{DriveClient, Identity};
 use crate::error::{DeviceFailure, EngineError, ErrorKind, LinkFailure};
@@ -111,6 +117,93 @@ pub struct Pulled {
     pub skipped: Vec<Skipped>,
     /// Time taken on the client's clock.
     pub elapsed: Duration,
+}
+
+impl Pulled {
+    /// The bus address / line rate codes left out (role `bus-address` /
+    /// `baud-rate`: the line manifest owns them), as humans spell them.
+    pub fn left_out_bus_codes(&self, schema: &Schema) -> Vec<String> {
+        self.skipped
+            .iter()
+            .filter(|s| !s.failed && schema.role_of(s.number).is_some_and(Role::is_bus_link))
+            .map(|s| s.code.clone())
+            .collect()
+    }
+
+    /// Made ready for a set file: the read-only codes (actual values) are
+    /// read but cannot be part of a set (`validate` refuses them), so they
+    /// leave it for the header and the fingerprint is the rest's; the bus
+    /// codes left out and the codes that could not be read named.
+    pub fn for_file(mut self, schema: &Schema) -> ForFile {
+        let actual = pulled_file::take_actual_values(&mut self.set, schema);
+        self.fingerprint = self.set.fingerprint();
+        let bus_codes = self.left_out_bus_codes(schema);
+        let failed = self.skipped.iter().filter(|s| s.failed).cloned().collect();
+        ForFile {
+            pulled: self,
+            actual,
+            bus_codes,
+            failed,
+        }
+    }
+}
+
+/// A pull made ready for its set file ([`Pulled::for_file`]).
+#[derive(Debug, Clone)]
+pub struct ForFile {
+    /// The pull, the actual values out of its set.
+    pub pulled: Pulled,
+    /// The read-only actual values taken out, `CODE = value`.
+    pub actual: Vec<String>,
+    /// The bus address / line rate codes left out.
+    pub bus_codes: Vec<String>,
+    /// The codes that could not be read.
+    pub failed: Vec<Skipped>,
+}
+
+/// Where a set file says it was pulled from and what it refers to.
+#[derive(Debug, Clone, Copy)]
+pub struct SetFileFrom<'a> {
+    /// The port, as the pull opened it.
+    pub port: &'a str,
+    /// The drive's address.
+    pub address: u8,
+    /// The schema reference: a file named by path (relative to the set
+    /// file), or the schema's id.
+    pub schema_ref: &'a str,
+    /// Whether the values equal to the factory default were left out.
+    pub changed_only: bool,
+}
+
+impl ForFile {
+    /// The set file's text in `format` (driveset-schema's
+    /// [`pulled_file::pulled_file`]).
+    pub fn text(&self, schema: &Schema, from: &SetFileFrom<'_>, format: Format) -> String {
+        let pulled = &self.pulled;
+        let identity = pulled.identity.pairs();
+        let not_read: Vec<(&str, &str)> = pulled
+            .skipped
+            .iter()
+            .map(|s| (s.code.as_str(), s.reason.as_str()))
+            .collect();
+        let file = pulled_file::Pulled {
+            from: pulled_file::PulledFrom {
+                port: from.port,
+                address: from.address,
+                protocol: pulled.identity.protocol.name(),
+                identity: &identity,
+                software: pulled.identity.software.as_deref(),
+            },
+            schema_ref: from.schema_ref,
+            fingerprint: &pulled.fingerprint,
+            changed_only: from
+                .changed_only
+                .then_some((pulled.dropped_defaults, pulled.full_fingerprint.as_str())),
+            actual: &self.actual,
+            not_read: &not_read,
+        };
+        pulled_file::pulled_file(&pulled.set, schema, &file, format)
+    }
 }
 
 /// Read every readable code of the client's schema.

@@ -24,6 +24,11 @@
 //! (LUSTBUS 5.1: "the connection will be attempted using all possible
 //! transfer rates"), reopening the line through a caller's closure, and
 //! stops at the first rate where a drive answers.
+//!
+//! `driveset scan`'s walk over a bus (the protocols in turn, the other
+//! rates, `--detect-baud`) is [`bus`]'s: [`scan_bus`], [`scan_rates`].
+
+mod bus;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -43,6 +48,8 @@ use crate::client::{
     BorrowedByteLink, BorrowedFrameLink, IdentCode, IdentProtocol, IdentValue, Identity, Target,
 };
 use crate::error::{AddressRefused, EngineError, Refusal};
+
+pub use bus::{BusScanned, ScanError, ScanPlan, scan_bus, scan_rates};
 
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
 /// 2400..57600 servocontrollers): the descriptor's

@@ -13,10 +13,11 @@
 //! address is the truth"), and the report names them in one line.
 
 use std::fmt::Write as _;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
+use driveset_engine::client::DriveClient;
 use driveset_engine::history::{self, DriveRecord, Slot, Unit};
-use driveset_engine::pull::{PullOptions, Pulled};
+use driveset_engine::pull::{ForFile, PullOptions, Pulled, SetFileFrom};
 use driveset_engine::session::{self, rate::ReadRate};
 use driveset_schema::export::pulled;
 use driveset_schema::{Format, Schema};
@@ -136,35 +137,6 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     pull(&args)
 }
 
-/// `to` relative to the directory `from` (both made absolute).
-pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
-    let abs = |p: &Path| {
-        let p = if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            std::env::current_dir().unwrap_or_default().join(p)
-        };
-        p.canonicalize().unwrap_or(p)
-    };
-    let to = abs(to);
-    let from = abs(from_dir);
-    let t: Vec<Component> = to.components().collect();
-    let f: Vec<Component> = from.components().collect();
-    let common = t.iter().zip(&f).take_while(|(a, b)| a == b).count();
-    if common <= 1 {
-        // nothing shared but the root: an absolute path reads better
-        return to;
-    }
-    let mut out = PathBuf::new();
-    for _ in common..f.len() {
-        out.push("..");
-    }
-    for c in &t[common..] {
-        out.push(c);
-    }
-    out
-}
-
 fn pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     // on record before the first read (docs/history.md)
@@ -215,6 +187,61 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             msg: format!("{e}; nothing written (pass --allow-family to pull anyway)"),
         });
     }
+    let pulled = read(args, client.as_mut())?;
+    client.finish()?;
+    // every value read, actual values included, on record
+    let read = history::values_read(&schema, &pulled.set);
+    let file = pulled.for_file(&schema);
+    crate::history::drive(&DriveRecord::of_read(
+        Slot {
+            bus: args.at.port()?.to_string(),
+            address,
+            ..Slot::default()
+        },
+        Unit::of(&schema, &file.pulled.identity),
+        &schema.id,
+        file.pulled.fingerprint.clone(),
+        "read",
+        read,
+    ));
+    let done = Done {
+        port: &port_name,
+        address,
+        schema: &schema,
+        file: &file,
+        schema_path: schema_path.as_deref(),
+        learned: learned.as_ref(),
+        detected: detected.as_deref(),
+    };
+    let from = SetFileFrom {
+        port: &port_name,
+        address,
+        schema_ref: &pulled::schema_ref(done.schema_path, &schema.id, &set_dir),
+        changed_only: args.changed_only,
+    };
+    let text = file.text(&schema, &from, format);
+    crate::files::write_output("-o", &args.output, text.as_bytes())?;
+    output::emit(&match args.format {
+        BusFormat::Json => render_json(args, &done),
+        _ => render_human(args, &done),
+    });
+    if file.failed.is_empty() {
+        Ok(EXIT_OK)
+    } else {
+        for s in &file.failed {
+            eprintln!(
+                "error: {port_name} address {}: {} could not be read: {}",
+                address, s.code, s.reason
+            );
+        }
+        Ok(crate::EXIT_FINDINGS)
+    }
+}
+
+/// Every readable code of the drive, at the transfer rate if one is asked
+/// (the switch journaled), the progress shown and the transfer's note on
+/// stderr.
+fn read(args: &Args, client: &mut dyn DriveClient) -> Result<Pulled, Fail> {
     let quiet = args.format == BusFormat::Json;
     let popts = PullOptions {
         changed_only: args.changed_only,
@@ -229,7 +256,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
             .request(&driveset_engine::overrides::Overrides::none());
         let journal_dir = Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR);
         let rate = ReadRate::of(req.as_ref(), journal_dir);
-        let r = session::rate::pull(client.as_mut(), &popts, rate, &p.hook()).map(|(x, t)| {
+        let r = session::rate::pull(client, &popts, rate, &p.hook()).map(|(x, t)| {
             transfer_note = t.map(|t| t.render());
             x
         });
@@ -241,63 +268,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     {
         eprint!("{t}");
     }
-    client.finish()?;
-    // every value read, actual values included, on record
-    let read = history::values_read(&schema, &pulled.set);
-    // Read-only codes (actual values) are read but cannot be part of a set
-    // (`validate` refuses them): they go into the header as comments.
-    let mut pulled = pulled;
-    let actual = pulled::take_actual_values(&mut pulled.set, &schema);
-    pulled.fingerprint = pulled.set.fingerprint();
-    crate::history::drive(&DriveRecord::of_read(
-        Slot {
-            bus: args.at.port()?.to_string(),
-            address,
-            ..Slot::default()
-        },
-        Unit::of(&schema, &pulled.identity),
-        &schema.id,
-        pulled.fingerprint.clone(),
-        "read",
-        read,
-    ));
-    let bus_codes = left_out_bus_codes(&schema, &pulled);
-    let failed: Vec<_> = pulled
-        .skipped
-        .iter()
-        .filter(|s| s.failed)
-        .cloned()
-        .collect();
-
-    let done = Done {
-        port: &port_name,
-        address,
-        schema: &schema,
-        pulled: &pulled,
-        actual: &actual,
-        failed: failed.len(),
-        bus_codes: &bus_codes,
-        schema_path: schema_path.as_deref(),
-        learned: learned.as_ref(),
-        detected: detected.as_deref(),
-    };
-    let text = set_file(args, &done, &set_dir, format);
-    crate::files::write_output("-o", &args.output, text.as_bytes())?;
-    output::emit(&match args.format {
-        BusFormat::Json => render_json(args, &done),
-        _ => render_human(args, &done),
-    });
-    if failed.is_empty() {
-        Ok(EXIT_OK)
-    } else {
-        for s in &failed {
-            eprintln!(
-                "error: {port_name} address {}: {} could not be read: {}",
-                address, s.code, s.reason
-            );
-        }
-        Ok(crate::EXIT_FINDINGS)
-    }
+    Ok(pulled)
 }
 
 /// The set file's syntax: `--to`, else by the extension (.yaml/.yml YAML,
@@ -313,70 +284,17 @@ fn file_format(args: &Args) -> Format {
     }
 }
 
-/// The bus address / line rate codes left out (the manifest owns them).
-fn left_out_bus_codes(schema: &Schema, pulled: &Pulled) -> Vec<String> {
-    pulled
-        .skipped
-        .iter()
-        .filter(|s| {
-            !s.failed
-                && schema
-                    .role_of(s.number)
-                    .is_some_and(driveset_schema::Role::is_bus_link)
-        })
-        .map(|s| s.code.clone())
-        .collect()
-}
-
 /// What a pull did, for the set file and the report on stdout.
 struct Done<'a> {
     port: &'a str,
     address: u8,
     schema: &'a Schema,
-    pulled: &'a Pulled,
-    /// The read-only actual values taken out of the set.
-    actual: &'a [String],
-    /// How many codes could not be read.
-    failed: usize,
-    /// The bus address / line rate codes left out.
-    bus_codes: &'a [String],
+    /// The pull, its actual values out of the set, the bus codes left out
+    /// and the codes that could not be read.
+    file: &'a ForFile,
     schema_path: Option<&'a Path>,
     learned: Option<&'a session::LearnedReport>,
     detected: Option<&'a str>,
-}
-
-/// The set file's text (driveset-schema's [`pulled::pulled_file`]).
-fn set_file(args: &Args, d: &Done<'_>, set_dir: &Path, format: Format) -> String {
-    let pulled = d.pulled;
-    // The schema reference: a file named by path stays a path (relative to
-    // the set file), an id stays an id.
-    let schema_ref = match d.schema_path {
-        Some(p) => relative_path(p, set_dir).display().to_string(),
-        None => d.schema.id.clone(),
-    };
-    let identity = pulled.identity.pairs();
-    let not_read: Vec<(&str, &str)> = pulled
-        .skipped
-        .iter()
-        .map(|s| (s.code.as_str(), s.reason.as_str()))
-        .collect();
-    let file = pulled::Pulled {
-        from: pulled::PulledFrom {
-            port: d.port,
-            address: d.address,
-            protocol: pulled.identity.protocol.name(),
-            identity: &identity,
-            software: pulled.identity.software.as_deref(),
-        },
-        schema_ref: &schema_ref,
-        fingerprint: &pulled.fingerprint,
-        changed_only: args
-            .changed_only
-            .then_some((pulled.dropped_defaults, pulled.full_fingerprint.as_str())),
-        actual: d.actual,
-        not_read: &not_read,
-    };
-    pulled::pulled_file(&pulled.set, d.schema, &file, format)
 }
 
 /// The report of `--format json`: its keys in the order JSON documents
@@ -406,9 +324,9 @@ struct PullDoc<'a> {
 
 /// The report of `--format json`.
 fn render_json(args: &Args, d: &Done<'_>) -> String {
-    let pulled = d.pulled;
+    let pulled = &d.file.pulled;
     let doc = PullDoc {
-        actual_values: d.actual,
+        actual_values: &d.file.actual,
         address: d.address,
         detected: d.detected,
         dropped_defaults: pulled.dropped_defaults,
@@ -418,8 +336,8 @@ fn render_json(args: &Args, d: &Done<'_>) -> String {
         full_fingerprint: &pulled.full_fingerprint,
         identity: serde_json::to_value(&pulled.identity).unwrap_or_default(),
         learned: d.learned.map(session::LearnedReport::json),
-        left_out_bus_codes: d.bus_codes,
-        not_readable: d.failed,
+        left_out_bus_codes: &d.file.bus_codes,
+        not_readable: d.file.failed.len(),
         port: d.port,
         read: pulled.read,
         schema: &d.schema.id,
@@ -435,7 +353,8 @@ fn render_json(args: &Args, d: &Done<'_>) -> String {
 
 /// The report for people.
 fn render_human(args: &Args, d: &Done<'_>) -> String {
-    let pulled = d.pulled;
+    let pulled = &d.file.pulled;
+    let bus_codes = &d.file.bus_codes;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -457,16 +376,16 @@ fn render_human(args: &Args, d: &Done<'_>) -> String {
         .skipped
         .iter()
         .map(|s| s.code.as_str())
-        .filter(|c| !d.bus_codes.iter().any(|b| b == c))
+        .filter(|c| !bus_codes.iter().any(|b| b == c))
         .collect();
     if !not_read.is_empty() {
         let _ = writeln!(out, "not read: {}", not_read.join(", "));
     }
-    if !d.bus_codes.is_empty() {
+    if !bus_codes.is_empty() {
         let _ = writeln!(
             out,
             "left out {}: the line manifest gives the drive's address and the bus's rate (--keep-bus-codes keeps them)",
-            d.bus_codes.join(", ")
+            bus_codes.join(", ")
         );
     }
     let _ = writeln!(out, "fingerprint: {}", pulled.fingerprint);

@@ -3,10 +3,7 @@
 
 use std::fmt::Write as _;
 
-use driveset_engine::scan::{
-    Found, LECOM_BAUDS, LUSTBUS_BAUDS, ScanOptions, can_nodes, detect_baud, lecom_addresses,
-    lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
-};
+use driveset_engine::scan::{BusScanned, ScanError, ScanOptions, ScanPlan, scan_bus};
 use driveset_link::{ByteLink, Link, LinkError};
 
 use crate::output;
@@ -69,10 +66,45 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 fn scan(args: &Args) -> Result<u8, Fail> {
-    // Neither --schema nor --protocol: a CAN port speaks CAN SDO; on a
-    // character line each protocol's addresses are probed in turn (LUSTBUS,
-    // then LECOM) and the one that answers is the line's (the same on every
-    // port).
+    let plan = plan(args)?;
+    let (port_name, scanned) = if args.detect_baud {
+        scan_rates(args, &plan)?
+    } else {
+        let mut opened = port::open_port(args.at.port()?)?;
+        let mut plan = plan;
+        // CAN SDO on a CAN port with a schema of another bus: the CAN
+        // family's built-in schema gives the probe code
+        if matches!(opened.link, Link::Frames(_))
+            && plan.first() == BusProtocol::CanSdo
+            && let Some((_, schema)) = plan.choices.first_mut()
+            && schema.family.bus() != BusProtocol::CanSdo
+        {
+            *schema = port::resolve_schema(
+                None,
+                &args.at.schemas,
+                Some(ProtocolArg(BusProtocol::CanSdo)),
+            )?
+            .schema;
+        }
+        let scanned = scan_bus(&mut opened.link, &opened.name, &plan).map_err(scan_fail)?;
+        (opened.name.clone(), scanned)
+    };
+    render(args, &port_name, &scanned);
+    if scanned.found.is_empty() {
+        eprintln!(
+            "error: no drive answered on {port_name}; check wiring, termination and the baud rate (--detect-baud)"
+        );
+        return Ok(EXIT_BUS);
+    }
+    Ok(EXIT_OK)
+}
+
+/// The protocols to scan for, each with its schema (the probe code), and
+/// the probes' options. Neither --schema nor --protocol: a CAN port speaks
+/// CAN SDO; on a character line each protocol's addresses are probed in
+/// turn (LUSTBUS, then LECOM) and the one that answers is the line's (the
+/// same on every port).
+fn plan(args: &Args) -> Result<ScanPlan, Fail> {
     let protocol_arg = match (args.at.schema(), args.at.protocol) {
         (None, None) => match port::open_port(args.at.port()?)?.link {
             Link::Frames(_) => Some(ProtocolArg(BusProtocol::CanSdo)),
@@ -85,7 +117,7 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         None if args.at.schema().is_some() => Vec::new(),
         None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
     };
-    let choices: Vec<(BusProtocol, std::sync::Arc<driveset_schema::Schema>)> = if asked.is_empty() {
+    let choices = if asked.is_empty() {
         let schema = port::resolve_schema(args.at.schema(), &args.at.schemas, None)?.schema;
         vec![(schema.family.bus(), schema)]
     } else {
@@ -99,161 +131,77 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         v
     };
     // the port's ?latency=: each probe waits what the clients allow it
-    let opts = ScanOptions::behind(
+    let options = ScanOptions::behind(
         driveset_link::PortSpec::parse(args.at.port()?)
             .ok()
             .and_then(|p| p.latency()),
     );
-    let mut baud_found = None;
-    let mut other_rate: Option<u32> = None;
-    let mut protocol = choices[0].0;
-    let (port_name, found): (String, Vec<Found>) = if args.detect_baud {
-        // Opened once to check the port string and the protocol; each rate reopens it.
-        let first = port::open_port(args.at.port()?)?;
-        if matches!(first.link, Link::Frames(_)) {
-            return Err(Fail::input(format!(
-                "{} is a CAN port; --detect-baud is for serial lines",
-                first.name
-            )));
-        }
-        let spec = first.spec.clone();
-        let name = first.name.clone();
-        drop(first);
-        let mut reopen = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-            let s = port::with_rate(&spec, baud);
-            match port::open_port(&s.to_string()) {
-                Ok(p) => match p.link {
-                    Link::Bytes(l) => Ok(l),
-                    Link::Frames(_) => Err(LinkError::Unsupported {
-                        port: s.to_string(),
-                        what: "a CAN port".into(),
-                    }),
-                },
-                Err(_) => Err(LinkError::UnsupportedBaud {
+    Ok(ScanPlan { choices, options })
+}
+
+/// `--detect-baud`: the port opened once to check the port string and the
+/// protocol, then reopened at each rate.
+fn scan_rates(args: &Args, plan: &ScanPlan) -> Result<(String, BusScanned), Fail> {
+    let first = port::open_port(args.at.port()?)?;
+    if matches!(first.link, Link::Frames(_)) {
+        return Err(Fail::input(format!(
+            "{} is a CAN port; --detect-baud is for serial lines",
+            first.name
+        )));
+    }
+    let spec = first.spec.clone();
+    let name = first.name.clone();
+    drop(first);
+    let mut reopen = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
+        let s = port::with_rate(&spec, baud);
+        match port::open_port(&s.to_string()) {
+            Ok(p) => match p.link {
+                Link::Bytes(l) => Ok(l),
+                Link::Frames(_) => Err(LinkError::Unsupported {
                     port: s.to_string(),
-                    baud,
+                    what: "a CAN port".into(),
                 }),
-            }
-        };
-        let mut result = (name.clone(), Vec::new());
-        for (p, schema) in &choices {
-            let rates: &[u32] = match p {
-                BusProtocol::Lustbus => &LUSTBUS_BAUDS,
-                BusProtocol::Lecom => &LECOM_BAUDS,
-                BusProtocol::CanSdo => {
-                    return Err(Fail::input(
-                        "--detect-baud is for serial lines (LUSTBUS, LECOM); a CAN bus runs at the bit rate the port names",
-                    ));
-                }
-            };
-            let mut line_scan = |link: &mut dyn ByteLink| match p {
-                BusProtocol::Lecom => scan_lecom(link, Some(schema), &lecom_addresses(), &opts),
-                _ => scan_lustbus(link, &lustbus_addresses(), &opts),
-            };
-            if let Some(b) = detect_baud(rates, &mut reopen, &mut line_scan)? {
-                baud_found = Some(b.baud);
-                protocol = *p;
-                result = (name, b.found);
-                break;
-            }
+            },
+            Err(_) => Err(LinkError::UnsupportedBaud {
+                port: s.to_string(),
+                baud,
+            }),
         }
-        result
-    } else {
-        let opened = port::open_port(args.at.port()?)?;
-        let name = opened.name.clone();
-        let found = match opened.link {
-            Link::Bytes(mut l) => {
-                let mut found = Vec::new();
-                for (p, schema) in &choices {
-                    found = match p {
-                        BusProtocol::Lustbus => {
-                            scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?
-                        }
-                        BusProtocol::Lecom => {
-                            scan_lecom(l.as_mut(), Some(schema), &lecom_addresses(), &opts)?
-                        }
-                        BusProtocol::CanSdo => {
-                            return Err(Fail::input(format!(
-                                "{name} is a character line: scan it with --protocol lustbus or lecom"
-                            )));
-                        }
-                    };
-                    if !found.is_empty() {
-                        protocol = *p;
-                        break;
-                    }
-                }
-                // Nobody at the port's rate: a servo may have been left at
-                // a transfer rate (--transfer-baud); LUSTBUS 5.1 tries every
-                // rate, on the same port (a port that cannot change its
-                // rate stops the search).
-                if found.is_empty() && choices.iter().any(|(p, _)| *p == BusProtocol::Lustbus) {
-                    let here = l.baud();
-                    for r in LUSTBUS_BAUDS.iter().copied().filter(|r| *r != here) {
-                        if l.set_baud(r).is_err() {
-                            break;
-                        }
-                        found = scan_lustbus(l.as_mut(), &lustbus_addresses(), &opts)?;
-                        if !found.is_empty() {
-                            protocol = BusProtocol::Lustbus;
-                            baud_found = Some(r);
-                            other_rate = Some(here);
-                            break;
-                        }
-                    }
-                }
-                found
-            }
-            Link::Frames(mut l) => {
-                if protocol != BusProtocol::CanSdo {
-                    return Err(Fail::input(format!(
-                        "{name} is a CAN port: scan it with --protocol sdo"
-                    )));
-                }
-                let schema = &choices[0].1;
-                let s = if schema.family.bus() == BusProtocol::CanSdo {
-                    schema.clone()
-                } else {
-                    port::resolve_schema(
-                        None,
-                        &args.at.schemas,
-                        Some(ProtocolArg(BusProtocol::CanSdo)),
-                    )?
-                    .schema
-                };
-                scan_can(l.as_mut(), &s, &can_nodes(), &opts)?
-            }
-        };
-        (name, found)
     };
-    let range_of = |p: BusProtocol| match p {
+    let scanned = driveset_engine::scan::scan_rates(plan, &mut reopen).map_err(scan_fail)?;
+    Ok((name, scanned))
+}
+
+/// A scan's failure, exit code by its layer.
+fn scan_fail(e: ScanError) -> Fail {
+    Fail::of(e.layer(), e.to_string())
+}
+
+/// The addresses a protocol's scan probes, as the report names them.
+fn range_of(p: BusProtocol) -> &'static str {
+    match p {
         BusProtocol::Lustbus => "LUSTBUS addresses 1..30",
         BusProtocol::Lecom => "LECOM stations 01..99 without 10, 20 .. 90",
         BusProtocol::CanSdo => "CAN node ids 1..127",
-    };
-    // nothing found on a line whose protocol was not given: every range probed
-    let range = if found.is_empty() {
-        choices
-            .iter()
-            .map(|(p, _)| range_of(*p))
-            .collect::<Vec<_>>()
-            .join(", then ")
-    } else {
-        range_of(protocol).to_string()
-    };
+    }
+}
+
+/// The report on stdout, human or JSON.
+fn render(args: &Args, port_name: &str, s: &BusScanned) {
     match args.format {
         OutputFormat::Json => {
             let doc = ScanDoc {
-                baud: baud_found,
-                found: found
+                baud: s.baud,
+                found: s
+                    .found
                     .iter()
                     .map(|f| FoundDoc {
                         address: f.address,
                         codes: f.identity.codes.iter().map(output::CodeValue::of).collect(),
                     })
                     .collect(),
-                port: &port_name,
-                protocol: protocol.name(),
+                port: port_name,
+                protocol: s.protocol.name(),
             };
             output::emit(&format!(
                 "{}\n",
@@ -262,9 +210,17 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         }
         // `human`, the other value a bus command takes
         _ => {
+            // nothing found on a line whose protocol was not given: every
+            // range probed
+            let range = s
+                .probed
+                .iter()
+                .map(|p| range_of(*p))
+                .collect::<Vec<_>>()
+                .join(", then ");
             let mut out = String::new();
             let _ = writeln!(out, "scanned {port_name} ({range})");
-            match (baud_found, other_rate) {
+            match (s.baud, s.other_rate) {
                 (Some(b), Some(here)) => {
                     let _ = writeln!(
                         out,
@@ -276,24 +232,17 @@ fn scan(args: &Args) -> Result<u8, Fail> {
                 }
                 _ => {}
             }
-            for f in &found {
+            for f in &s.found {
                 let _ = writeln!(out, "{}", f.text());
             }
             let _ = writeln!(
                 out,
                 "{}",
-                output::plural(found.len(), "drive found", "drives found")
+                output::plural(s.found.len(), "drive found", "drives found")
             );
             output::emit(&out);
         }
     }
-    if found.is_empty() {
-        eprintln!(
-            "error: no drive answered on {port_name}; check wiring, termination and the baud rate (--detect-baud)"
-        );
-        return Ok(EXIT_BUS);
-    }
-    Ok(EXIT_OK)
 }
 
 /// `scan --format json`'s document (keys in alphabetical order, as it

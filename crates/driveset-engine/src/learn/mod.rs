@@ -61,7 +61,8 @@
 //! - `model.rs`: what the drive sent and what was learned from it
 //!   ([`RawDescription`], [`LearnedCode`], [`Learned`], [`LearnFinding`]);
 //! - `scope.rs`: whether a schema needs learning and which parameters a run
-//!   asks for ([`needs_learning`], [`unasked`], [`options_for`]);
+//!   asks for ([`needs_learning`], [`unasked`], [`options_for`]), and
+//!   which schema a bus command would talk with ([`learned_use`]);
 //! - `read.rs`: the learn run on the bus (descriptions, MC unit and value
 //!   texts; [`learn`]);
 //! - `interpret.rs`, `mc.rs`, `vf.rs`: the pure reading of the descriptions
@@ -95,7 +96,9 @@ pub use interpret::interpret;
 pub use model::{KEPT_SPEC, LearnFinding, Learned, LearnedCode, RawDescription};
 pub use pull::{PullSchemaError, PulledDescriptions, PulledSchema, pull_descriptions, pull_schema};
 pub use read::{learn, read_descriptions, read_texts};
-pub use scope::{default_params, max_parameter, needs_learning, options_for, unasked};
+pub use scope::{
+    LearnedUse, default_params, learned_use, max_parameter, needs_learning, options_for, unasked,
+};
 
 /// How to learn.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

@@ -1,9 +1,15 @@
 //! Owns what a learning run covers: whether a schema lacks facts a drive's
 //! descriptions could fill, the parameters a family's drives describe
 //! (LUSTBUS sections 11.1, 11.2), and the options to learn on top of a
-//! learned schema.
+//! learned schema; which schema a bus command would talk with, learned or
+//! not ([`learned_use`], what `identify` says as `uses:`).
 
-use driveset_schema::{Family, Schema};
+use std::path::{Path, PathBuf};
+
+use driveset_proto::lustbus::Dialect;
+use driveset_schema::{Family, Learning, Schema};
+
+use crate::client::Identity;
 
 use super::LearnOptions;
 
@@ -74,4 +80,131 @@ pub fn default_params(protocol: Family) -> Vec<u32> {
         .learning
         .map_or(1..=999, |l| l.default_params())
         .collect()
+}
+
+/// Which schema a bus command would talk with ([`learned_use`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LearnedUse {
+    /// The schema's id, a learned file's id, or the pattern of the learned
+    /// file's id the next pull would write (`learned-mc6000-type6000-*`).
+    pub would_use: String,
+    /// Whether it is (or would be) learned from the drive's descriptions.
+    pub learned: bool,
+    /// The learned file, where there is one.
+    pub file: Option<PathBuf>,
+}
+
+/// Which schema a bus command would talk with, and whether it is learned
+/// (docs/file-formats.md, "Learned schemas"): a learned schema named
+/// (`learned-...`, at `path` if named by file); a schema that needs no
+/// learning as it is; else a learned file of this drive's family and TYPE
+/// among `entries` (the schema directory's files, listed by the caller
+/// only when asked: the engine reads no directory), the newest by name,
+/// or the pattern it would be written as.
+pub fn learned_use(
+    schema: &Schema,
+    identity: &Identity,
+    path: Option<&Path>,
+    entries: impl FnOnce() -> Vec<PathBuf>,
+) -> LearnedUse {
+    if (schema.learned.is_some() || Learning::is_learned_id(&schema.id)) && !needs_learning(schema)
+    {
+        return LearnedUse {
+            would_use: schema.id.clone(),
+            learned: true,
+            file: path.map(Path::to_path_buf),
+        };
+    }
+    if !needs_learning(schema) {
+        return LearnedUse {
+            would_use: schema.id.clone(),
+            learned: false,
+            file: None,
+        };
+    }
+    // The descriptor's learned-file scheme (a schema that needs learning is
+    // of a family that has one; any other is looked for as an MC file, as
+    // before). The TYPE is slugged as the learned file's name holds it
+    // (`Learning::file_prefix`, the slug of `Learning::file_id`).
+    let d = Some(schema.family.descriptor())
+        .filter(|d| d.learning.is_some())
+        .unwrap_or_else(|| Family::from_dialect(Dialect::Mc).descriptor());
+    let ty = identity
+        .value_of(d.device_type_code())
+        .map(ToString::to_string);
+    let prefix = d
+        .learning
+        .map(|l| l.file_prefix(ty.as_deref()))
+        .unwrap_or_default();
+    let mut found: Vec<PathBuf> = entries()
+        .into_iter()
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".toml"))
+        })
+        .collect();
+    found.sort();
+    match found.pop() {
+        Some(f) => LearnedUse {
+            would_use: f
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or_default()
+                .to_string(),
+            learned: true,
+            file: Some(f),
+        },
+        None => LearnedUse {
+            would_use: format!("{prefix}*"),
+            learned: true,
+            file: None,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use driveset_schema::{CodeKey, Registry};
+
+    use super::*;
+    use crate::client::{IdentCode, IdentProtocol, IdentValue};
+
+    /// A drive whose TYPE has characters a file name does not keep (`MC
+    /// 6000/A`) finds the learned file the engine named for it
+    /// (`learned-mc6000-typeMC6000A-...`): the search slugs the TYPE as
+    /// the learned id does.
+    #[test]
+    fn a_type_with_spaces_and_a_slash_finds_its_learned_file() {
+        let reg = Registry::builtin().expect("built-in schemas");
+        let schema = reg.get("lust-mc6000").expect("mc6000");
+        assert!(needs_learning(&schema));
+        let d = schema.family.descriptor();
+        let ty = "MC 6000/A";
+        let mut identity = Identity::of(IdentProtocol::Family(schema.family));
+        identity.codes.push(IdentCode::new(
+            CodeKey::new(d.device_type_code()),
+            "91-TYPE",
+            IdentValue::Text(ty.into()),
+        ));
+        let id = d
+            .learned_id(Some(ty), None, 0x1234)
+            .expect("a learning family");
+        assert_eq!(id, "learned-mc6000-typeMC6000A-d00001234");
+        let dir = Path::new("plant");
+        let file = dir.join(format!("{id}.toml"));
+        let other = dir.join("learned-mc6000-type6000-d00001234.toml");
+        let listed = vec![other, file.clone()];
+        let got = learned_use(&schema, &identity, None, || listed);
+        assert_eq!(
+            (got.would_use.as_str(), got.learned, got.file.as_deref()),
+            (id.as_str(), true, Some(file.as_path()))
+        );
+        // none there: the pattern it would be found by, slugged the same way
+        let got = learned_use(&schema, &identity, None, Vec::new);
+        assert_eq!(
+            (got.would_use.as_str(), got.file),
+            ("learned-mc6000-typeMC6000A-*", None)
+        );
+    }
 }

@@ -6,9 +6,12 @@
 //! reference in place of [`export`]'s schema line; the `[drive]` table
 //! (informational, ignored by the loader) spliced in before the values, so
 //! `driveset validate` / `driveset fingerprint` read it back to the same
-//! fingerprint. Pure: the set and what the pull found in, text out.
+//! fingerprint. Pure: the set and what the pull found in, text out; but
+//! [`schema_ref`], which names a schema file relative to the set's
+//! directory (both made absolute and canonical to compare them).
 
 use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
 
 use super::{Format, export};
 use crate::canonical::ResolvedSet;
@@ -69,6 +72,47 @@ pub fn take_actual_values(set: &mut ResolvedSet, schema: &Schema) -> Vec<String>
         ro.is_none()
     });
     actual
+}
+
+/// The set file's schema reference ([`Pulled::schema_ref`]): a schema
+/// file named by path stays a path, relative to the set's directory
+/// `set_dir` ([`relative_path`]); a schema named by id stays its `id`.
+pub fn schema_ref(path: Option<&Path>, id: &str, set_dir: &Path) -> String {
+    match path {
+        Some(p) => relative_path(p, set_dir).display().to_string(),
+        None => id.to_string(),
+    }
+}
+
+/// `to` relative to the directory `from_dir` (both made absolute against
+/// the current directory, and canonical where they exist); `to` absolute
+/// when they share nothing but the root.
+pub fn relative_path(to: &Path, from_dir: &Path) -> PathBuf {
+    let abs = |p: &Path| {
+        let p = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            std::env::current_dir().unwrap_or_default().join(p)
+        };
+        p.canonicalize().unwrap_or(p)
+    };
+    let to = abs(to);
+    let from = abs(from_dir);
+    let t: Vec<Component> = to.components().collect();
+    let f: Vec<Component> = from.components().collect();
+    let common = t.iter().zip(&f).take_while(|(a, b)| a == b).count();
+    if common <= 1 {
+        // nothing shared but the root: an absolute path reads better
+        return to;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..f.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c);
+    }
+    out
 }
 
 fn quoted(s: &str) -> String {
@@ -168,6 +212,34 @@ mod tests {
     use super::*;
     use crate::canonical::{CodeKey, RawValue};
     use crate::{Registry, load_set_str};
+
+    #[test]
+    fn a_schema_file_is_named_relative_to_the_set_and_an_id_as_it_is() {
+        // paths that do not exist stay as given (nothing to canonicalize)
+        let dir = Path::new("/nonexistent-driveset/plant/sets");
+        assert_eq!(
+            schema_ref(
+                Some(Path::new("/nonexistent-driveset/plant/schemas/x.toml")),
+                "x",
+                dir
+            ),
+            "../schemas/x.toml"
+        );
+        assert_eq!(
+            schema_ref(
+                Some(Path::new("/nonexistent-driveset/plant/sets/x.toml")),
+                "x",
+                dir
+            ),
+            "x.toml"
+        );
+        // nothing shared but the root: absolute
+        assert_eq!(
+            relative_path(Path::new("/other-driveset/x.toml"), dir),
+            Path::new("/other-driveset/x.toml")
+        );
+        assert_eq!(schema_ref(None, "lenze-tmd", dir), "lenze-tmd");
+    }
 
     const SET: &str = "schema = \"lenze-tmd\"\n[values]\nC0011 = \"60 Hz\"\nC0010 = 5\n";
 
