@@ -14,7 +14,10 @@
 //!   `sim://` port into one; [`factory`]: factory-fresh drives and the
 //!   service bench.
 //! - Real time: [`serve`] (pty / TCP), [`slcan_serve`] (an slcan adapter on
-//!   a pty), [`slcan_hub`] (two slcan hosts joined through two adapters).
+//!   a pty), [`slcan_hub`] (two slcan hosts joined through two adapters);
+//!   [`command`]: the work of `driveset sim` (its options checked into a
+//!   bus and an endpoint, the power cycle of a state file, what is saved
+//!   when serving stops).
 //! - [`twin`]: twins, files that answer as one captured drive did, served
 //!   on the family models (`sim://twin?file=` / `?dir=`).
 //! - [`rng`]: the seeded generator every random choice comes from, so a run
@@ -28,6 +31,7 @@
 pub mod bus;
 pub mod can_bus;
 pub mod catalog;
+pub mod command;
 pub mod describe;
 pub mod drive;
 pub mod ecs;

@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 
 use driveset_engine::capture::{Capture, Described, Session};
 use driveset_engine::decode::{Capture as Format, Event};
+use driveset_engine::env::Environment;
 use driveset_engine::error::DeviceCause;
 use driveset_schema::{CodeKey, RawValue, Schema};
 use driveset_sim::drive::ReadRefusal;
@@ -26,6 +27,19 @@ pub struct Stamp {
     pub captured: String,
     /// What it was captured from.
     pub source: String,
+}
+
+impl Stamp {
+    /// A twin written now: this driveset, today's date (UTC) by `env`'s
+    /// clock, `source`.
+    pub fn now(env: &dyn Environment, source: String) -> Stamp {
+        let now = env.now_utc().to_string();
+        Stamp {
+            driveset: env!("CARGO_PKG_VERSION").to_string(),
+            captured: now.get(..10).unwrap_or(&now).to_string(),
+            source,
+        }
+    }
 }
 
 /// The twin of a drive's capture `cap` read with `schema` at `address`:

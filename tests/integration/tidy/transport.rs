@@ -1,7 +1,7 @@
 //! Holds docs/architecture.md's rule "A simulated port is only a
 //! transport": outside the opener registration (`crates/driveset-cli/src/port.rs`,
-//! the CLI's `CliPorts` and `openers`) and the simulator's own command
-//! (`driveset sim`, `cmd/sim.rs`), no source of the CLI or the engine asks
+//! the CLI's `CliPorts` and `openers`) and the twin bridge's rehearsal
+//! buses, no source of the CLI or the engine asks
 //! whether a port is simulated, names the simulator's port or bus types,
 //! or keeps a schema, registry, fit rule or lock rule for `sim://` ports.
 
@@ -33,16 +33,13 @@ const SIM_BRANCHES: &[&str] = &[
     "driveset_sim::port",
 ];
 
-/// The files that may name them: the opener registration, the
-/// simulator's own command and the twin bridge's rehearsal buses.
+/// The files that may name them: the opener registration and the twin
+/// bridge's rehearsal buses (`driveset sim`'s work is the simulator's own,
+/// `driveset_sim::command`).
 const SIM_REGISTRATION: &[(&str, &str)] = &[
     (
         "crates/driveset-cli/src/port.rs",
         "the opener registration: `CliPorts` opens `sim://` ports with the simulator, `openers` registers its opener",
-    ),
-    (
-        "crates/driveset-cli/src/cmd/sim.rs",
-        "`driveset sim`, the simulator's own command (serves simulated drives on ptys and TCP)",
     ),
     (
         "crates/driveset-twin/src/rehearse.rs",

@@ -43,19 +43,23 @@
 //! 4001` and `--tcp 127.0.0.1:4001` are loopback, `--tcp 0.0.0.0:4001`
 //! serves the network (with a warning: the simulator has no access
 //! control).
+//!
+//! The work is the simulator's ([`driveset_sim::command`]: the options
+//! checked into a bus and an endpoint, the power cycle of a state file,
+//! what is saved when serving stops); this module keeps the arguments,
+//! the stop flag and signals, the line announced on stdout, the serving
+//! call and what it says on stderr.
 
 use std::io::LineWriter;
-use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener};
-use std::path::PathBuf;
+use std::net::{IpAddr, TcpListener};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use anyhow::{Context, bail};
-use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
-use driveset_schema::BusProtocol;
-use driveset_sim::faults::FaultPlan;
+use anyhow::Context;
+use driveset_sim::command::{self, Endpoint, SimCommandError, SimOptions};
 use driveset_sim::log::EventLog;
-use driveset_sim::open::{SimConfig, StateDump, is_can, parse_family};
+use driveset_sim::open::{SimConfig, StateDump, is_can};
 use driveset_sim::{serve, slcan_serve};
 
 use crate::{EXIT_BUS, EXIT_OK};
@@ -203,187 +207,37 @@ pub struct Args {
     power_cycle: bool,
 }
 
-/// Where to serve.
-enum Endpoint {
-    Pty,
-    Tcp(SocketAddr),
+impl Args {
+    /// The options as the simulator takes them ([`SimOptions`]).
+    fn options(&self) -> SimOptions {
+        SimOptions {
+            family: self.family.clone(),
+            twin: self.twin.clone(),
+            eds: self.eds.clone(),
+            addresses: self.addresses.clone(),
+            factory: self.factory.clone(),
+            bench: self.bench,
+            tcp: self.tcp.clone(),
+            baud: self.baud,
+            bitrate: self.bitrate,
+            keypad: self.keypad,
+            c0001: self.c0001,
+            refuse: self.refuse.clone(),
+            layout: self.layout.clone(),
+            types: self.types.clone(),
+            describe: self.describe.clone(),
+            faults: self.faults.clone(),
+            seed: self.seed,
+            state: self.state.clone(),
+            power_cycle: self.power_cycle,
+        }
+    }
 }
 
-/// `PORT` (loopback) or `IP:PORT` / `[IPv6]:PORT`.
-fn parse_tcp(text: &str) -> anyhow::Result<SocketAddr> {
-    if let Ok(port) = text.parse::<u16>() {
-        return Ok(SocketAddr::from((Ipv4Addr::LOCALHOST, port)));
-    }
-    text.parse::<SocketAddr>().map_err(|_| {
-        anyhow::anyhow!(
-            "--tcp `{text}`: give PORT or IP:PORT, e.g. --tcp 4001 or --tcp 127.0.0.1:4001 (--tcp 0.0.0.0:4001 serves the network)"
-        )
-    })
-}
-
-/// Check the arguments into a bus configuration and an endpoint.
-fn configure(args: &Args) -> anyhow::Result<(SimConfig, Endpoint)> {
-    let mut config = match (&args.twin, &args.family) {
-        _ if args.eds.is_some() => {
-            let path = args.eds.as_deref().unwrap_or(std::path::Path::new(""));
-            let device = driveset_sim::eds::EdsDevice::load(path).map_err(anyhow::Error::msg)?;
-            let addresses = match (&args.state, args.addresses.is_empty()) {
-                (Some(state), true) if args.power_cycle => StateDump::read(state)?
-                    .drives
-                    .iter()
-                    .map(|d| d.address)
-                    .collect(),
-                _ => args.addresses.clone(),
-            };
-            // the family the sheet's schema is for (CAN SDO)
-            let mut c = SimConfig::new(device.schema.family, addresses);
-            c.eds = Some(device);
-            c
-        }
-        (Some(path), _) => {
-            let twins = if path.is_dir() {
-                driveset_sim::twin::load_dir(path)?
-            } else {
-                vec![driveset_sim::twin::load_file(path)?]
-            };
-            SimConfig::of_twins(twins)?
-        }
-        (None, Some(f)) if f.eq_ignore_ascii_case(driveset_sim::port::MIXED_LUSTBUS) => {
-            if args.factory.is_none() || !args.addresses.is_empty() {
-                bail!(
-                    "--family lustbus (a mixed LUSTBUS) takes its drives from --factory FAMILY*N,... (e.g. --factory mc6000*4,vf1000*3); serve drives at addresses with --family mc6000 or vf1000"
-                );
-            }
-            SimConfig::mixed(&[])
-        }
-        (None, Some(f)) => SimConfig::new(parse_family(f)?, args.addresses.clone()),
-        (None, None) if args.power_cycle => {
-            // the state file says which drives it holds
-            let path = args.state.as_deref().unwrap_or(std::path::Path::new(""));
-            let dump = StateDump::read(path)?;
-            let addresses = if args.addresses.is_empty() {
-                dump.drives.iter().map(|d| d.address).collect()
-            } else {
-                args.addresses.clone()
-            };
-            let family = parse_family(&dump.family)?;
-            // a data sheet's device or a twin: its drives are not the
-            // family's simulated ones, so they need their own option
-            let own = driveset_sim::catalog::schema(family).map_err(anyhow::Error::msg)?;
-            if let Some(d) = dump.drives.iter().find(|d| d.schema != own.id) {
-                bail!(
-                    "--state {}: drive {} was saved with schema `{}`, not the simulated {} drives' `{}`; power-cycle it as it was served: add --eds FILE (a device from its data sheet) or --twin FILE",
-                    path.display(),
-                    d.address,
-                    d.schema,
-                    dump.family,
-                    own.id
-                );
-            }
-            SimConfig::new(family, addresses)
-        }
-        (None, None) => bail!("give --family and --address, or --twin FILE"),
-    };
-    if let (Some(value), Some(f)) = (&args.factory, &args.family) {
-        let names = driveset_sim::factory::parse_factory(f, config.factory_bus(), value, |n| {
-            parse_family(n).ok()
-        })
-        .map_err(|e| anyhow::anyhow!("--factory {value}: {e}"))?;
-        for name in names {
-            config.factory.push(parse_family(&name)?);
-        }
-        if config.addresses.is_empty()
-            && let Some(&first) = config.factory.first()
-        {
-            config.family = first;
-        }
-    }
-    config.bench = args.bench;
-    let family = config.family;
-    if is_can(family) {
-        if let Some(baud) = args.baud {
-            bail!(
-                "--baud {baud}: {} drives are on CAN; give the bus rate with --bitrate (one of {} bit/s)",
-                family.name(),
-                join(ALLOWED_BITRATES)
-            );
-        }
-        if args.keypad {
-            bail!("--keypad applies to the LUSTBUS families (mc6000, vf1000) only");
-        }
-        if let Some(bitrate) = args.bitrate {
-            config.bitrate = bitrate;
-        }
-    } else {
-        if let Some(bitrate) = args.bitrate {
-            bail!(
-                "--bitrate {bitrate}: {} drives are on a 7E1 character line; give its rate with --baud (one of {} baud)",
-                family.name(),
-                join(ALLOWED_BAUDS)
-            );
-        }
-        if args.keypad && family.bus() != BusProtocol::Lustbus {
-            bail!("--keypad applies to the LUSTBUS families (mc6000, vf1000) only");
-        }
-        if let Some(baud) = args.baud {
-            config.baud = baud;
-        }
-    }
-    if let Some(c) = args.c0001 {
-        if family.bus() != BusProtocol::Lecom {
-            bail!("--c0001 applies to the Tmd (tmd) only");
-        }
-        if c > 11 {
-            bail!("--c0001 {c}: C0001 takes 0..=11 (Table 1; §4e)");
-        }
-    }
-    config.c0001 = args.c0001;
-    if let Some(codes) = &args.refuse {
-        config.refuse = driveset_sim::open::parse_refuse(codes)
-            .map_err(|e| anyhow::anyhow!("--refuse {codes}: {e}"))?;
-    }
-    if (args.layout.is_some() || args.types.is_some() || args.describe.is_some())
-        && family.bus() != BusProtocol::Lustbus
-    {
-        bail!(
-            "--layout, --types and --describe apply to the LUSTBUS families (mc6000, vf1000) only"
-        );
-    }
-    if let Some(l) = &args.layout {
-        config.description_layout = driveset_proto::lustbus::description::McLayout::from_name(l)
-            .ok_or_else(|| anyhow::anyhow!("--layout {l}: use 52, 43, 42 or 34 (errata L22)"))?;
-    }
-    if let Some(t) = &args.types {
-        config.type_chars = driveset_proto::lustbus::description::McTypeChars::parse(t)
-            .map_err(|e| anyhow::anyhow!("--types {t}: {e}"))?;
-    }
-    if let Some(d) = &args.describe {
-        config.describe =
-            driveset_sim::describe::parse(d).map_err(|e| anyhow::anyhow!("--describe {d}: {e}"))?;
-    }
-    config.keypad = args.keypad;
-    config.seed = args.seed;
-    if let Some(plan) = &args.faults {
-        config.faults = FaultPlan::parse(plan).map_err(|e| anyhow::anyhow!("--faults: {e}"))?;
-    }
-    config.state = args.state.clone();
-    config.check()?;
-    let endpoint = match &args.tcp {
-        Some(_) if is_can(family) => bail!(
-            "--tcp: ecs drives are served as a simulated slcan USB-CAN adapter on a pseudo terminal only; use --pty and --port slcan:///dev/pts/N"
-        ),
-        Some(text) => Endpoint::Tcp(parse_tcp(text)?),
-        None => Endpoint::Pty,
-    };
-    Ok((config, endpoint))
-}
-
-fn join(values: &[u32]) -> String {
-    values
-        .iter()
-        .map(u32::to_string)
-        .collect::<Vec<_>>()
-        .join(", ")
+/// A simulator error as `anyhow` prints it (the error and its causes), the
+/// way this command has always printed its failures.
+fn chain(e: SimCommandError) -> String {
+    format!("{:#}", anyhow::Error::from(e))
 }
 
 /// The stop flag, set by SIGINT / SIGTERM. A second SIGINT or SIGTERM
@@ -408,51 +262,18 @@ fn announce(line: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What is served: the drives on the line (`on_line`: their addresses;
-/// with `--bench` only the drive on the bench).
-fn describe(config: &SimConfig, on_line: &[u8]) -> String {
-    let addresses = on_line
-        .iter()
-        .map(u8::to_string)
-        .collect::<Vec<_>>()
-        .join(", ");
-    let n = on_line.len();
-    let rate = if is_can(config.family) {
-        format!("CAN at {} bit/s", config.bitrate)
-    } else {
-        format!("{} baud 7E1", config.baud)
-    };
-    let plural = if n == 1 { "" } else { "s" };
-    let faults = if config.faults.is_empty() {
-        String::new()
-    } else {
-        format!(", faults {}", config.faults)
-    };
-    let fresh = match (config.factory.len(), config.bench) {
-        (0, _) => String::new(),
-        (k, false) => format!("; {k} factory-fresh"),
-        (k, true) => format!(
-            "; service bench: {n} of {} drives on the line, {k} factory-fresh",
-            config.all_drives().len()
-        ),
-    };
-    format!(
-        "serving {n} simulated {} drive{plural} (address{} {addresses}{fresh}) at {rate}, seed {}{faults}",
-        config.bus_name(),
-        if n == 1 { "" } else { "es" },
-        config.seed
-    )
-}
-
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let (config, endpoint) = match configure(&args) {
-        Ok(c) => c,
-        Err(e) => {
-            return Err(crate::fail::Fail::input(format!("{e:#}")));
-        }
-    };
+    let (config, endpoint) =
+        command::configure(&args.options()).map_err(|e| crate::fail::Fail::input(chain(e)))?;
     if args.power_cycle {
-        return power_cycle(&config).map_err(|e| crate::fail::Fail::input(format!("{e:#}")));
+        let n = command::power_cycle(&config).map_err(|e| crate::fail::Fail::input(chain(e)))?;
+        eprintln!(
+            "power-cycled {n} simulated {} drive{} of {}",
+            config.bus_name(),
+            if n == 1 { "" } else { "s" },
+            config.state.as_deref().unwrap_or(Path::new("")).display()
+        );
+        return Ok(EXIT_OK);
     }
     let log = match &args.log {
         Some(path) => {
@@ -466,87 +287,14 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         None => EventLog::off(),
     };
     let stop = stop_flag()?;
-    let family = config.family;
-    let (outcome, dump) = if is_can(family) {
-        let (mut line, drives) = config.frame_line_drives(log.clone())?;
-        let on_line: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
-        let mut pty = slcan_serve::SlcanPty::open()?;
-        announce(&format!("pty {}", pty.path()))?;
-        eprintln!("{}", describe(&config, &on_line));
-        eprintln!(
-            "a simulated slcan adapter: connect with --port slcan://{}?bitrate={} (python-can: interface='slcan', channel='{}'); Ctrl-C stops",
-            pty.path(),
-            config.bitrate,
-            pty.path()
-        );
-        let outcome = slcan_serve::serve_slcan(&mut pty, &mut line, &stop, &mut |_| {})
-            .map(|_| ())
-            .map_err(anyhow::Error::from);
-        (outcome, drives.frame_line_dump(config.bus_name(), &line))
+    let (outcome, dump) = if is_can(config.family) {
+        serve_can(&config, &log, &stop)?
     } else {
-        let (mut line, drives) = config.byte_line_drives(log.clone())?;
-        let on_line: Vec<u8> = line.drives().iter().map(|d| d.address()).collect();
-        let outcome = match endpoint {
-            Endpoint::Pty => {
-                let serve::Pty {
-                    mut master,
-                    slave,
-                    path,
-                } = serve::open_pty()?;
-                announce(&format!("pty {path}"))?;
-                eprintln!("{}", describe(&config, &on_line));
-                eprintln!(
-                    "connect with --port {path}?baud={}; Ctrl-C stops",
-                    config.baud
-                );
-                let r = serve::serve_pty(&mut line, &mut master, &stop);
-                drop(slave);
-                r
-            }
-            Endpoint::Tcp(addr) => {
-                let listener = TcpListener::bind(addr).map_err(|source| {
-                    anyhow::Error::from(serve::ServeError::Bind { addr, source })
-                })?;
-                let local = listener
-                    .local_addr()
-                    .context("cannot read the bound port")?;
-                announce(&format!("tcp {local}"))?;
-                eprintln!("{}", describe(&config, &on_line));
-                if !addr.ip().is_loopback() {
-                    let what = match addr.ip() {
-                        IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",
-                        IpAddr::V6(ip) if ip.is_unspecified() => "every network interface",
-                        _ => "a network address",
-                    };
-                    eprintln!(
-                        "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
-                    );
-                }
-                let options = serve::TcpServeOptions {
-                    idle_timeout: (args.idle_timeout > 0)
-                        .then(|| std::time::Duration::from_secs(args.idle_timeout)),
-                };
-                let idle = match options.idle_timeout {
-                    Some(t) => format!("idle clients dropped after {} s", t.as_secs()),
-                    None => "idle clients never dropped".into(),
-                };
-                eprintln!(
-                    "connect with --port tcp://{local}?baud={} (one connection at a time, others wait; {idle}); Ctrl-C stops",
-                    config.baud
-                );
-                serve::serve_tcp_with(&mut line, &listener, &stop, &options, &mut |e| {
-                    if let Some(detail) = &e.detail {
-                        eprintln!("sim: {detail}");
-                    }
-                })
-            }
-        };
-        (
-            outcome.map_err(anyhow::Error::from),
-            drives.byte_line_dump(config.bus_name(), &line),
-        )
+        serve_line(&args, &config, endpoint, &log, &stop)?
     };
-    let saved = finish(&args, &config, &dump, &log);
+    let saved = command::save(&config, &dump, &log, args.dump.as_deref(), |path| {
+        eprintln!("wrote the drives' state to {}", path.display());
+    });
     match (outcome, saved) {
         (Ok(()), Ok(())) => {
             eprintln!(
@@ -557,68 +305,111 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         }
         (Err(e), saved) => {
             if let Err(s) = saved {
-                eprintln!("error: {s:#}");
+                eprintln!("error: {}", chain(s));
             }
             Err(crate::fail::Fail {
                 code: EXIT_BUS,
                 msg: format!("{e:#}"),
             })
         }
-        (Ok(()), Err(e)) => Err(e.into()),
+        (Ok(()), Err(e)) => Err(crate::fail::Fail::input(chain(e))),
     }
 }
 
-/// `--power-cycle`: the drives of the state file loaded, powered off and
-/// on (each keeps what its kind keeps), written back.
-fn power_cycle(config: &SimConfig) -> anyhow::Result<u8> {
-    let Some(path) = &config.state else {
-        bail!("--power-cycle needs --state FILE");
-    };
-    if !path.exists() {
-        bail!(
-            "--state {}: no such state file; a power cycle needs the drives' state",
-            path.display()
-        );
-    }
-    let at = driveset_link::Instant::from_nanos(0);
-    let off = std::time::Duration::from_millis(1);
-    let (dump, n) = if is_can(config.family) {
-        let (mut line, drives) = config.frame_line_drives(EventLog::off())?;
-        let nodes: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
-        for node in &nodes {
-            if let Some(d) = line.drive_mut(*node) {
-                d.power_cycle(at, off);
-            }
-        }
-        (
-            drives.frame_line_dump(config.bus_name(), &line),
-            nodes.len(),
-        )
-    } else {
-        let (mut line, drives) = config.byte_line_drives(EventLog::off())?;
-        line.power_cycle(at, None, off);
-        let n = line.drives().len();
-        (drives.byte_line_dump(config.bus_name(), &line), n)
-    };
-    dump.write(path)?;
+/// What serving gave (the serving loop's end) and the drives' state then.
+type Served = (anyhow::Result<()>, StateDump);
+
+/// Serve CAN drives as a simulated slcan adapter on a new pty until
+/// stopped.
+fn serve_can(
+    config: &SimConfig,
+    log: &EventLog,
+    stop: &Arc<AtomicBool>,
+) -> Result<Served, crate::fail::Fail> {
+    let (mut line, drives) = config.frame_line_drives(log.clone())?;
+    let on_line: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
+    let mut pty = slcan_serve::SlcanPty::open()?;
+    announce(&format!("pty {}", pty.path()))?;
+    eprintln!("{}", command::serving(config, &on_line));
     eprintln!(
-        "power-cycled {n} simulated {} drive{} of {}",
-        config.bus_name(),
-        if n == 1 { "" } else { "s" },
-        path.display()
+        "a simulated slcan adapter: connect with --port slcan://{}?bitrate={} (python-can: interface='slcan', channel='{}'); Ctrl-C stops",
+        pty.path(),
+        config.bitrate,
+        pty.path()
     );
-    Ok(EXIT_OK)
+    let outcome = slcan_serve::serve_slcan(&mut pty, &mut line, stop, &mut |_| {})
+        .map(|_| ())
+        .map_err(anyhow::Error::from);
+    Ok((outcome, drives.frame_line_dump(config.bus_name(), &line)))
 }
 
-/// Flush the log, write `--dump` and `--state`.
-fn finish(args: &Args, config: &SimConfig, dump: &StateDump, log: &EventLog) -> anyhow::Result<()> {
-    log.check()?;
-    if let Some(path) = &args.dump {
-        dump.write(path)?;
-        eprintln!("wrote the drives' state to {}", path.display());
-    }
-    if let Some(path) = &config.state {
-        dump.write(path)?;
-    }
-    Ok(())
+/// Serve the drives of a character line on a new pty or a TCP port until
+/// stopped.
+fn serve_line(
+    args: &Args,
+    config: &SimConfig,
+    endpoint: Endpoint,
+    log: &EventLog,
+    stop: &Arc<AtomicBool>,
+) -> Result<Served, crate::fail::Fail> {
+    let (mut line, drives) = config.byte_line_drives(log.clone())?;
+    let on_line: Vec<u8> = line.drives().iter().map(|d| d.address()).collect();
+    let outcome = match endpoint {
+        Endpoint::Pty => {
+            let serve::Pty {
+                mut master,
+                slave,
+                path,
+            } = serve::open_pty()?;
+            announce(&format!("pty {path}"))?;
+            eprintln!("{}", command::serving(config, &on_line));
+            eprintln!(
+                "connect with --port {path}?baud={}; Ctrl-C stops",
+                config.baud
+            );
+            let r = serve::serve_pty(&mut line, &mut master, stop);
+            drop(slave);
+            r
+        }
+        Endpoint::Tcp(addr) => {
+            let listener = TcpListener::bind(addr)
+                .map_err(|source| anyhow::Error::from(serve::ServeError::Bind { addr, source }))?;
+            let local = listener
+                .local_addr()
+                .context("cannot read the bound port")?;
+            announce(&format!("tcp {local}"))?;
+            eprintln!("{}", command::serving(config, &on_line));
+            if !addr.ip().is_loopback() {
+                let what = match addr.ip() {
+                    IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",
+                    IpAddr::V6(ip) if ip.is_unspecified() => "every network interface",
+                    _ => "a network address",
+                };
+                eprintln!(
+                    "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
+                );
+            }
+            let options = serve::TcpServeOptions {
+                idle_timeout: (args.idle_timeout > 0)
+                    .then(|| std::time::Duration::from_secs(args.idle_timeout)),
+            };
+            let idle = match options.idle_timeout {
+                Some(t) => format!("idle clients dropped after {} s", t.as_secs()),
+                None => "idle clients never dropped".into(),
+            };
+            eprintln!(
+                "connect with --port tcp://{local}?baud={} (one connection at a time, others wait; {idle}); Ctrl-C stops",
+                config.baud
+            );
+            serve::serve_tcp_with(&mut line, &listener, stop, &options, &mut |e| {
+                if let Some(detail) = &e.detail {
+                    eprintln!("sim: {detail}");
+                }
+            })
+        }
+    };
+    Ok((
+        outcome.map_err(anyhow::Error::from),
+        drives.byte_line_dump(config.bus_name(), &line),
+    ))
 }

@@ -12,20 +12,20 @@
 //! drives without a twin fail it unless `--allow-missing-twins`. A
 //! capture is on record (docs/history.md): each drive's values read and
 //! their fingerprint; a rehearsal is not (it reads no drive).
+//!
+//! The work is the twin bridge's ([`driveset_twin::drive`]: a drive's
+//! capture from the opened port; [`driveset_twin::recorded`]: twins from a
+//! recorded session; [`driveset_twin::file`]: the file written or kept);
+//! this module keeps the arguments, resolving the port and the schema,
+//! the plant history's records, the calls and the lines printed.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use driveset_engine::capture::{capture, describe};
-use driveset_engine::client::{DriveClient, Identity};
-use driveset_engine::env::Environment;
 use driveset_engine::history::Slot;
-use driveset_engine::learn::{LearnOptions, PullSchemaError};
-use driveset_engine::session::Session;
-use driveset_link::Link;
-use driveset_schema::{Family, Schema};
-use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace};
-use driveset_twin::capture::Stamp;
+use driveset_schema::Schema;
+use driveset_sim::twin::{TWIN_SUFFIX, Twin};
+use driveset_twin::drive::{CaptureError, Captured};
 
 use crate::fail::Fail;
 use crate::port_args::{Need, Port, PortCommand, SchemaCount, Takes};
@@ -169,7 +169,7 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
             ..Default::default()
         },
     )?;
-    let (twin, schema, identity) = capture_drive(a.at.port()?, address, |opened| {
+    let c = capture_drive(a.at.port()?, address, |opened| {
         Ok(a.at.resolve(opened, address)?.choice.schema)
     })?;
     crate::history::drive(&driveset_twin::history::drive_record(
@@ -178,11 +178,11 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
             address,
             ..Slot::default()
         },
-        &twin,
-        &schema,
-        &identity,
+        &c.twin,
+        &c.schema,
+        &c.identity,
     ));
-    let line = write_twin(&a.output, &twin, &schema)?;
+    let line = write_twin(&a.output, &c.twin, &c.schema)?;
     outln!("{line}");
     Ok(EXIT_OK)
 }
@@ -192,7 +192,7 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         .map_err(Fail::reported)?;
     // every twin file is checked before a bus is opened
     for d in &manifest.drives {
-        crate::files::check_output("", &a.output.join(format!("{}{TWIN_SUFFIX}", d.name)))?;
+        crate::files::check_output("", &driveset_twin::file::path_in(&a.output, &d.name))?;
     }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
@@ -209,7 +209,7 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     for d in &manifest.drives {
         let bus = &manifest.buses[d.bus_index];
         let port_text = bus.port.to_string();
-        let out = a.output.join(format!("{}{TWIN_SUFFIX}", d.name));
+        let out = driveset_twin::file::path_in(&a.output, &d.name);
         // the set's schema as the manifest resolved it (a learned file
         // `pull` wrote beside the set included); one that lacks facts is
         // learned from the drive, as `pull` learns it
@@ -221,11 +221,15 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
         };
         let captured = capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()));
         let written = match captured {
-            Ok((t, s, identity)) => {
+            Ok(c) => {
                 crate::history::drive(&driveset_twin::history::line_record(
-                    slot, d, &t, &s, &identity,
+                    slot,
+                    d,
+                    &c.twin,
+                    &c.schema,
+                    &c.identity,
                 ));
-                write_twin(&out, &t, &s)
+                write_twin(&out, &c.twin, &c.schema)
             }
             Err(f) => {
                 crate::history::drive(&driveset_twin::history::failed_record(
@@ -259,99 +263,55 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     Ok(worst)
 }
 
-/// Capture the drive at `address` of `port_text` into a twin, with the
-/// schema `choose` gives for the opened port (given, or found as `pull`
-/// finds it). A LUSTBUS drive is described first, whatever the schema
-/// ([`describe`]: every description and substitution text it sends, the
-/// schema learned from them when the chosen one lacks facts, as `pull`
-/// learns it); then every code of the schema is read ([`capture`]). Gives
-/// the twin, the schema and what the drive said it is.
-pub fn capture_drive(
+/// Capture the drive at `address` of `port_text` into a twin
+/// ([`driveset_twin::drive`]), with the schema `choose` gives for the
+/// opened port (given, or found as `pull` finds it); says so on stderr
+/// when a schema was learned from the drive's descriptions.
+fn capture_drive(
     port_text: &str,
     address: u8,
     choose: impl FnOnce(&mut port::OpenPort) -> Result<Arc<Schema>, Fail>,
-) -> Result<(Twin, Arc<Schema>, Identity), Fail> {
+) -> Result<Captured, Fail> {
     let mut opened = port::open_port_at(port_text, Some(address))?;
     let schema = choose(&mut opened)?;
-    let port_name = opened.name.clone();
-    let rate = match &opened.link {
-        Link::Bytes(l) => l.baud(),
-        Link::Frames(l) => l.bitrate(),
-    };
-    let mut described = None;
-    let mut schema = schema;
-    // a family whose drives describe their parameters (LUSTBUS 11.1, 11.2)
-    let describes = schema.family.descriptor().learning.is_some();
-    let mut client: Box<dyn DriveClient> = if describes {
-        port::check_fit(&opened, &schema)?;
-        let registry = port::registry(&[])?;
-        let connect = opened.connect;
-        let c = Session::lustbus(opened, schema.clone(), address)?;
-        let drive = format!("{port_name} address {address}");
-        let d = describe(
-            c,
-            schema,
-            &LearnOptions::default(),
-            &registry,
-            drive,
-            &connect,
-        )
-        .map_err(|e| match e {
-            PullSchemaError::Engine(e) => Fail::from(e),
-            PullSchemaError::Render(detail) => Fail {
-                code: crate::EXIT_BUS,
-                msg: format!("{port_name} address {address}: {detail}; no twin written"),
-            },
-        })?;
-        if let Some(l) = &d.learned {
-            eprintln!(
-                "learned schema {} from the drive's descriptions: {} codes (the twin holds the descriptions themselves)",
-                l.rendered.id, l.rendered.codes
-            );
-        }
-        schema = d.schema;
-        described = Some(d.described);
-        Box::new(d.client)
-    } else {
-        port::into_client(opened, schema.clone(), address)?
-    };
-    if let Err(e) = driveset_engine::identify::check_family(client.as_mut()) {
-        return Err(Fail {
-            code: port::family_exit(&e),
-            msg: format!("{e}; no twin written"),
-        });
+    let described = driveset_twin::drive::describe_drive(opened, schema, address, || {
+        port::registry(&[]).map_err(|f| f.msg)
+    })
+    .map_err(capture_fail)?;
+    if let Some(l) = &described.learned {
+        eprintln!(
+            "learned schema {} from the drive's descriptions: {} codes (the twin holds the descriptions themselves)",
+            l.id, l.codes
+        );
     }
-    let cap = capture(client.as_mut())?;
-    let stamp = stamp(format!("drive {port_name} address {address}"));
-    let twin = driveset_twin::capture::of_drive(&cap, &schema, address, stamp, rate, described);
-    Ok((twin, schema, cap.identity))
+    described
+        .capture(&crate::env::SystemEnv)
+        .map_err(capture_fail)
 }
 
-/// What a twin written now says of its making: this driveset, today's
-/// date (UTC), `source`.
-fn stamp(source: String) -> Stamp {
-    let now = crate::env::SystemEnv.now_utc().to_string();
-    Stamp {
-        driveset: env!("CARGO_PKG_VERSION").to_string(),
-        captured: now.get(..10).unwrap_or(&now).to_string(),
-        source,
+/// A capture's failure and its exit code: a schema that does not fit the
+/// port is an input error, a drive of another family a finding
+/// ([`port::family_exit`]), a learned schema that does not render a bus
+/// failure, the rest as the engine's layers say.
+fn capture_fail(e: CaptureError) -> Fail {
+    match e {
+        CaptureError::Fit(e) => Fail::input(e.to_string()),
+        CaptureError::Registry(msg) => Fail::input(msg),
+        CaptureError::Session(e) => Fail::from(e),
+        CaptureError::Engine(e) => Fail::from(e),
+        e @ CaptureError::Render { .. } => Fail::bus(e.to_string()),
+        CaptureError::Family(cause) => Fail {
+            code: port::family_exit(&cause),
+            msg: CaptureError::Family(cause).to_string(),
+        },
     }
 }
 
-/// Write `twin` to `path` ([`keep_or_replace`]: an unchanged drive keeps
-/// the file byte-identical); the line to print.
+/// Write `twin` to `path` ([`driveset_twin::file::write`]: an unchanged
+/// drive keeps the file byte-identical); the line to print.
 fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail> {
-    crate::files::check_output("", path)?;
-    // the file it replaces, through the one reader (absent or unreadable:
-    // written anew)
-    let old = driveset_schema::input::read_input(path, driveset_schema::input::InputKind::TWIN)
-        .ok()
-        .and_then(|b| String::from_utf8(b).ok());
-    let text = keep_or_replace(old.as_deref(), twin, Some(schema));
-    let unchanged = old.as_deref() == Some(text.as_str());
-    if !unchanged {
-        crate::files::write_output("", path, text.as_bytes())?;
-    }
+    let written =
+        driveset_twin::file::write(path, twin, schema).map_err(|e| Fail::input(e.to_string()))?;
     Ok(format!(
         "{} {} at address {}: {} codes, {} refused, {} secret(s) not stored{}; {} ({} bytes)",
         twin.family.name(),
@@ -360,23 +320,24 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
         twin.values.len(),
         twin.refused.len(),
         twin.secrets.len(),
-        if unchanged {
+        if written.unchanged {
             ", unchanged since the last capture (file kept)"
         } else {
             ""
         },
         path.display(),
-        text.len()
+        written.bytes
     ))
 }
 
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
-    // the session's families are its bus's; a bus of one family has that
-    // family's built-in schema as the default
-    let bus = a.protocol.capture().bus();
-    let families: Vec<Family> = bus.families().collect();
-    let default_schema = bus.only_family().map(|f| f.descriptor().schema_id);
-    let Some(schema_name) = a.schema.as_deref().or(default_schema) else {
+    let format = a.protocol.capture();
+    // a bus of one family has that family's built-in schema as the default
+    let Some(schema_name) = a
+        .schema
+        .as_deref()
+        .or(driveset_twin::recorded::default_schema(format))
+    else {
         return Err(Fail::input(
             "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
         ));
@@ -386,45 +347,19 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
             .map_err(|e| Fail::input(e.to_string()))?;
     let mut registry = crate::offline::builtin_registry().map_err(Fail::from)?;
     let schema = crate::offline::load_schema(&mut registry, schema_name).map_err(Fail::from)?;
-    if !families.contains(&schema.family) {
-        return Err(Fail::input(format!(
-            "--schema {}: a {} schema; a {} session needs a schema of {}",
-            schema.id,
-            schema.family.name(),
-            bus.name(),
-            families
-                .iter()
-                .map(|f| f.name())
-                .collect::<Vec<_>>()
-                .join(" or ")
-        )));
-    }
-    let ctx = driveset_engine::decode::Context {
+    let twins = driveset_twin::recorded::twins(
+        format,
+        &bytes,
+        &a.file,
         registry,
-        schema: Some(schema.clone()),
-        family: None,
-    };
-    let events = driveset_engine::decode::decode(a.protocol.capture(), &bytes, &ctx);
-    let sessions = driveset_twin::capture::sessions(a.protocol.capture(), &events, &schema);
-    if sessions.is_empty() {
-        return Err(Fail::input(format!(
-            "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {} capture?",
-            a.file.display(),
-            bus.name()
-        )));
-    }
+        &schema,
+        &crate::env::SystemEnv,
+    )
+    .map_err(|e| Fail::input(e.to_string()))?;
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
-    for (address, session) in sessions {
-        let stamp = stamp(format!("capture {}", a.file.display()));
-        let twin = driveset_twin::capture::of_session(
-            a.protocol.capture(),
-            session,
-            &schema,
-            address,
-            stamp,
-        );
-        let out = a.output.join(format!("twin-{address}{TWIN_SUFFIX}"));
+    for twin in twins {
+        let out = a.output.join(format!("twin-{}{TWIN_SUFFIX}", twin.address));
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
     }

@@ -1,0 +1,103 @@
+//! Twins from a recorded bus session (docs/twins.md, "Twins from a
+//! recorded session"): owns the check that the schema is one of the
+//! session's bus, the session decoded by the engine
+//! ([`driveset_engine::decode::decode`]), what it showed of each station
+//! ([`crate::capture::sessions`]) and one twin per station address
+//! ([`crate::capture::of_session`]). Reading the file and loading the
+//! schema are the caller's.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use driveset_engine::decode::Capture as Format;
+use driveset_engine::env::Environment;
+use driveset_schema::{Family, Registry, Schema};
+use driveset_sim::twin::Twin;
+
+use crate::capture::Stamp;
+
+/// Why a recorded session gives no twin.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordedError {
+    /// The schema is not of a family the session's bus carries.
+    #[error("--schema {schema}: a {family} schema; a {bus} session needs a schema of {wanted}")]
+    Schema {
+        /// The schema's id.
+        schema: String,
+        /// The schema's family.
+        family: &'static str,
+        /// The session's bus.
+        bus: &'static str,
+        /// The bus's families (`mc6000 or vf1000`).
+        wanted: String,
+    },
+    /// No drive answered in the session.
+    #[error(
+        "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {bus} capture?",
+        file.display()
+    )]
+    NoDrive {
+        /// The session's file.
+        file: std::path::PathBuf,
+        /// The session's bus.
+        bus: &'static str,
+    },
+}
+
+/// The schema a session in `format` is read with when none is given: the
+/// built-in schema of its bus's one family (none on a bus of several).
+pub fn default_schema(format: Format) -> Option<&'static str> {
+    format.bus().only_family().map(|f| f.descriptor().schema_id)
+}
+
+/// One twin per station address the session `bytes` in `format` (read
+/// from `file`) shows answering, read with `schema` (`registry`: the
+/// schemas the decoder knows), each stamped now (`env`'s clock) as
+/// captured from `capture FILE`; in address order.
+///
+/// # Errors
+/// `schema` is not of the session's bus, or no drive answered in it.
+pub fn twins(
+    format: Format,
+    bytes: &[u8],
+    file: &Path,
+    registry: Registry,
+    schema: &Arc<Schema>,
+    env: &dyn Environment,
+) -> Result<Vec<Twin>, RecordedError> {
+    // the session's families are its bus's
+    let bus = format.bus();
+    let families: Vec<Family> = bus.families().collect();
+    if !families.contains(&schema.family) {
+        return Err(RecordedError::Schema {
+            schema: schema.id.clone(),
+            family: schema.family.name(),
+            bus: bus.name(),
+            wanted: families
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(" or "),
+        });
+    }
+    let ctx = driveset_engine::decode::Context {
+        registry,
+        schema: Some(schema.clone()),
+        family: None,
+    };
+    let events = driveset_engine::decode::decode(format, bytes, &ctx);
+    let sessions = crate::capture::sessions(format, &events, schema);
+    if sessions.is_empty() {
+        return Err(RecordedError::NoDrive {
+            file: file.to_path_buf(),
+            bus: bus.name(),
+        });
+    }
+    Ok(sessions
+        .into_iter()
+        .map(|(address, session)| {
+            let stamp = Stamp::now(env, format!("capture {}", file.display()));
+            crate::capture::of_session(format, session, schema, address, stamp)
+        })
+        .collect())
+}
