@@ -1,21 +1,19 @@
 //! The run of a machine line that `driveset commission` and `driveset
 //! status` share: loading the manifest (its findings printed), opening its
 //! buses through [`crate::port`], the engine's line run with progress lines
-//! and bars, the summary table, the report written; `commission --assign`'s
-//! first contact is [`assign`].
+//! and bars, the summary table (both rendered by `driveset_report::line`),
+//! the report written; `commission --assign`'s first contact is
+//! [`assign`].
 
 pub mod assign;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
 
 use driveset_engine::line::commission::{
     DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener, Verdict,
 };
-use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
-use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
 use driveset_engine::observe::Event;
 use driveset_engine::session::PortError;
 use driveset_link::Link;
@@ -255,28 +253,7 @@ pub fn run_mode(
     tweak(&mut opts);
     // a rehearsal: the twins' buses, its own journals, no resume state
     let rehearsal = match &c.rehearse {
-        Some(dir) => {
-            let selected = driveset_engine::line::commission::select(&manifest, &opts)
-                .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
-            let twins = driveset_twin::rehearse::twins(&manifest, dir, &selected)?;
-            let missing: Vec<String> = twins
-                .iter()
-                .filter(|(n, t)| t.is_none() && selected.contains(*n))
-                .map(|(n, _)| n.clone())
-                .collect();
-            opts.skip.extend(missing.iter().cloned());
-            opts.label = Some(driveset_twin::rehearse::label(dir, &twins, &missing));
-            opts.fresh = true;
-            opts.journal_dir = report_dir.join("rehearsal-journal");
-            for m in &missing {
-                eprintln!(
-                    "{m}: not rehearsed: no twin {}",
-                    dir.join(format!("{m}{}", driveset_sim::twin::TWIN_SUFFIX))
-                        .display()
-                );
-            }
-            Some((driveset_twin::rehearse::opener(&manifest, &twins), missing))
-        }
+        Some(dir) => Some(rehearsal(&manifest, &mut opts, dir, &report_dir)?),
         None => None,
     };
     let width = manifest
@@ -285,7 +262,7 @@ pub fn run_mode(
         .map(|b| b.name.len())
         .max()
         .unwrap_or(0);
-    let bars = crate::progress::LineProgress::new(width, progress_line);
+    let bars = crate::progress::LineProgress::new(width, driveset_report::line::progress_line);
     opts.observer = Some(match c.stop_after {
         Some(n) => Arc::new(StopAfter {
             n,
@@ -296,7 +273,7 @@ pub fn run_mode(
     // wall time is the CLI's to measure: the engine reads no system clock
     let wall0 = std::time::Instant::now();
     let outcome = match &rehearsal {
-        Some((opener, _)) => (command.run)(&manifest, &opts, opener),
+        Some((opener, _)) => (command.run)(&manifest, &opts, opener.as_ref()),
         None => (command.run)(&manifest, &opts, &open_bus),
     };
     let wall = wall0.elapsed();
@@ -322,7 +299,10 @@ pub fn run_mode(
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
     }
-    out!("{}", summary(&outcome, command, wall));
+    out!(
+        "{}",
+        driveset_report::line::summary(&outcome, command.verb, wall)
+    );
     crate::history::link_report(&mut outcome.report);
     match report::write_reports(&outcome.report, &report_dir) {
         Ok((json, html)) => outln!("report: {} {}", json.display(), html.display()),
@@ -347,6 +327,40 @@ pub fn run_mode(
     Ok(code)
 }
 
+/// A rehearsal (`commission --rehearse DIR`): the twins' buses, its own
+/// journals, no resume state; the drives with no twin skipped (and said).
+/// Gives the buses' opener and the drives left out.
+fn rehearsal(
+    manifest: &Manifest,
+    opts: &mut LineOptions,
+    dir: &Path,
+    report_dir: &Path,
+) -> Result<(Box<Opener<'static>>, Vec<String>), crate::fail::Fail> {
+    let selected = driveset_engine::line::commission::select(manifest, opts)
+        .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
+    let twins = driveset_twin::rehearse::twins(manifest, dir, &selected)?;
+    let missing: Vec<String> = twins
+        .iter()
+        .filter(|(n, t)| t.is_none() && selected.contains(*n))
+        .map(|(n, _)| n.clone())
+        .collect();
+    opts.skip.extend(missing.iter().cloned());
+    opts.label = Some(driveset_twin::rehearse::label(dir, &twins, &missing));
+    opts.fresh = true;
+    opts.journal_dir = report_dir.join("rehearsal-journal");
+    for m in &missing {
+        eprintln!(
+            "{m}: not rehearsed: no twin {}",
+            dir.join(format!("{m}{}", driveset_sim::twin::TWIN_SUFFIX))
+                .display()
+        );
+    }
+    Ok((
+        Box::new(driveset_twin::rehearse::opener(manifest, &twins)),
+        missing,
+    ))
+}
+
 /// The process exit code of a line run: 0 every selected drive holds its
 /// set, 1 a drive does not, 3 a bus failed (it wins over 1).
 pub fn exit_code(v: Verdict) -> u8 {
@@ -355,171 +369,4 @@ pub fn exit_code(v: Verdict) -> u8 {
         Verdict::Differs => EXIT_FINDINGS,
         Verdict::BusFailed => EXIT_BUS,
     }
-}
-
-fn result_name(r: DriveResult) -> &'static str {
-    match r {
-        DriveResult::Verified => "verified",
-        DriveResult::Unchanged => "unchanged",
-        DriveResult::AlreadyVerified => "already-verified",
-        DriveResult::NotSelected => "not-selected",
-        DriveResult::Drift => "DRIFT",
-        DriveResult::RolledBack => "ROLLED-BACK",
-        DriveResult::Failed => "FAILED",
-    }
-}
-
-fn progress_line(p: &DriveDone<'_>, width: usize) -> String {
-    let d = p.drive;
-    let mut s = format!(
-        "[{:width$}] {}/{} {}: {}",
-        p.bus,
-        p.done,
-        p.total,
-        d.name,
-        result_name(d.result)
-    );
-    if let Some(l) = &d.learned_schema {
-        s.push_str(&format!(", schema {} learned", l.id));
-    }
-    if d.codes_written > 0 {
-        s.push_str(&format!(", {} codes written", d.codes_written));
-    }
-    if let Some(stored) = d.store_worth_saying() {
-        s.push_str(&format!(", {stored}"));
-    }
-    if d.result == DriveResult::Drift {
-        s.push_str(&format!(", {} code(s) differ", d.diff.len()));
-    }
-    s.push_str(&format!(" ({:.3} s)", d.elapsed_ms / 1000.0));
-    if d.factory_settings {
-        s.push_str(&factory_note(d.result));
-    }
-    if let Some(e) = &d.error {
-        s.push_str(&format!(": {e}"));
-    }
-    s
-}
-
-/// ", at factory settings (a new or exchanged unit?)" for `status`, ", was at
-/// ..." once commission wrote the set (the engine's `line::factory` rule).
-fn factory_note(result: DriveResult) -> String {
-    let was = match result {
-        DriveResult::Drift | DriveResult::Failed => "",
-        _ => "was ",
-    };
-    format!(", {was}{FACTORY_WORDS}")
-}
-
-fn short_fp(fp: Option<&str>) -> String {
-    match fp {
-        Some(f) => f.chars().take(19).collect(),
-        None => "-".into(),
-    }
-}
-
-/// The summary table (and, for drift, the differences).
-pub fn summary(o: &LineOutcome, command: LineCommand, wall: Duration) -> String {
-    let r = &o.report;
-    let rows: Vec<[String; 5]> = r
-        .drives
-        .iter()
-        .map(|d| {
-            [
-                d.name.clone(),
-                format!("{}/{}", d.bus, d.address),
-                result_name(d.result).to_string(),
-                d.codes_written.to_string(),
-                short_fp(d.fingerprint_after.as_deref()),
-            ]
-        })
-        .collect();
-    let head = ["DRIVE", "BUS/ADDRESS", "RESULT", "WRITTEN", "FINGERPRINT"];
-    let mut w = head.map(str::len);
-    for row in &rows {
-        for (i, c) in row.iter().enumerate() {
-            w[i] = w[i].max(c.len());
-        }
-    }
-    let line = |c: &[String; 5]| {
-        format!(
-            "{:<w0$}  {:<w1$}  {:<w2$}  {:>w3$}  {}\n",
-            c[0],
-            c[1],
-            c[2],
-            c[3],
-            c[4],
-            w0 = w[0],
-            w1 = w[1],
-            w2 = w[2],
-            w3 = w[3]
-        )
-    };
-    let mut out = line(&head.map(String::from));
-    for row in &rows {
-        out.push_str(&line(row));
-    }
-    let drifted: Vec<&DriveReport> = r
-        .drives
-        .iter()
-        .filter(|d| !d.diff.is_empty() && d.result == DriveResult::Drift)
-        .collect();
-    for d in &drifted {
-        let factory = if d.factory_settings {
-            format!(" is {FACTORY_WORDS}: it")
-        } else {
-            String::new()
-        };
-        out.push_str(&format!(
-            "\n{} ({}/{}){factory} differs from {}:\n",
-            d.name, d.bus, d.address, d.set
-        ));
-        for l in &d.diff {
-            out.push_str(&format!(
-                "  {} {}: {} -> {}\n",
-                l.code,
-                l.name,
-                l.old.as_deref().unwrap_or("(none)"),
-                l.new.as_deref().unwrap_or("(none)")
-            ));
-        }
-    }
-    for d in r.drives.iter().filter(|d| d.error.is_some()) {
-        out.push_str(&format!(
-            "\n{}: {}\n",
-            d.name,
-            d.error.as_deref().unwrap_or_default()
-        ));
-    }
-    let count = |k: DriveResult| r.drives.iter().filter(|d| d.result == k).count();
-    let selected = r.drives.len() - count(DriveResult::NotSelected);
-    let slowest = r
-        .buses
-        .iter()
-        .max_by(|a, b| a.elapsed_ms.total_cmp(&b.elapsed_ms))
-        .map_or("-", |b| b.name.as_str());
-    let verb = command.verb;
-    out.push_str(&format!(
-        "\n{} of {} drives {verb}: {} verified, {} unchanged, {} already verified, {} drift, {} rolled back, {} failed; line {}: {}\n",
-        selected,
-        r.drives.len(),
-        count(DriveResult::Verified),
-        count(DriveResult::Unchanged),
-        count(DriveResult::AlreadyVerified),
-        count(DriveResult::Drift),
-        count(DriveResult::RolledBack),
-        count(DriveResult::Failed),
-        r.line,
-        match r.result {
-            LineResult::Ok => "ok",
-            LineResult::Drift => "DRIFT",
-            LineResult::Failed => "FAILED",
-        },
-    ));
-    out.push_str(&format!(
-        "bus time {:.3} s (buses in parallel; slowest: {slowest}), wall time {:.3} s\n",
-        o.line_ms() / 1000.0,
-        wall.as_secs_f64()
-    ));
-    out
 }

@@ -1,15 +1,16 @@
-//! Shared rendering of findings and input errors for the offline commands
-//! (`validate`, `schema check`, `diff`, `fingerprint`, `show`): human
-//! (rustc-style with a source snippet, rendered by `annotate-snippets`
-//! through the schema crate; colour only on a terminal and never with
-//! `NO_COLOR`), JSON, and GitHub workflow annotations.
+//! The output side every command shares: the one `--format` type and the
+//! values each command takes, stdout (closed-pipe safe), colour only on a
+//! terminal and never with `NO_COLOR`, the validation report in the format
+//! asked for (rendered by `driveset_report::validation`), and loading the
+//! registry and a valid set with their errors printed.
 
-use std::fmt::Write;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-use driveset_report::junit::FileFindings;
-use driveset_schema::{Finding, InputError, Location};
+use driveset_report::style::Style;
+pub use driveset_report::style::plural;
+use driveset_report::validation::{Noun, Report, Verdict, finding_human, input_error_human};
+use driveset_schema::InputError;
 
 /// The one output format type of every command's `--format`. Each command
 /// accepts its own subset, with its own help per value, as one of the
@@ -147,390 +148,47 @@ impl<'a> CodeValue<'a> {
     }
 }
 
-/// Colour on or off.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Style {
-    color: bool,
+/// Colour when stdout is a terminal and `NO_COLOR` is unset or empty.
+pub fn stdout_style() -> Style {
+    style_if(std::io::stdout().is_terminal())
 }
 
-const RED: &str = "\x1b[1;31m";
-const BOLD: &str = "\x1b[1m";
-const GREEN: &str = "\x1b[32m";
-const YELLOW: &str = "\x1b[33m";
-const DIM_RED: &str = "\x1b[31m";
-const RESET: &str = "\x1b[0m";
-
-impl Style {
-    /// No colour.
-    #[cfg(test)]
-    pub const PLAIN: Style = Style { color: false };
-
-    /// Colour when stdout is a terminal and `NO_COLOR` is unset or empty.
-    pub fn stdout() -> Style {
-        Style {
-            color: std::io::stdout().is_terminal() && no_color_unset(),
-        }
-    }
-
-    /// Colour when stderr is a terminal and `NO_COLOR` is unset or empty.
-    pub fn stderr() -> Style {
-        Style {
-            color: std::io::stderr().is_terminal() && no_color_unset(),
-        }
-    }
-
-    fn paint(self, code: &str, text: &str) -> String {
-        if self.color {
-            format!("{code}{text}{RESET}")
-        } else {
-            text.to_string()
-        }
-    }
-
-    /// Bold red.
-    pub fn error(self, text: &str) -> String {
-        self.paint(RED, text)
-    }
-    /// Bold.
-    pub fn bold(self, text: &str) -> String {
-        self.paint(BOLD, text)
-    }
-    /// Green (added lines).
-    pub fn added(self, text: &str) -> String {
-        self.paint(GREEN, text)
-    }
-    /// Red (removed lines).
-    pub fn removed(self, text: &str) -> String {
-        self.paint(DIM_RED, text)
-    }
-    /// Yellow (changed lines).
-    pub fn changed(self, text: &str) -> String {
-        self.paint(YELLOW, text)
-    }
+/// Colour when stderr is a terminal and `NO_COLOR` is unset or empty.
+pub fn stderr_style() -> Style {
+    style_if(std::io::stderr().is_terminal())
 }
 
-fn no_color_unset() -> bool {
-    std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
-}
-
-/// `n thing` / `n things`.
-pub fn plural(n: usize, one: &str, many: &str) -> String {
-    format!("{n} {}", if n == 1 { one } else { many })
-}
-
-/// rustc-style finding, rendered by `annotate-snippets` (the schema
-/// crate's [`Finding::render`]; colour on a terminal).
-pub fn finding_human(f: &Finding, style: Style) -> String {
-    f.render(if style.color {
-        driveset_schema::error::Colour::Styled
+fn style_if(terminal: bool) -> Style {
+    if terminal && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty()) {
+        Style::COLOUR
     } else {
-        driveset_schema::error::Colour::Plain
-    })
-}
-
-/// rustc-style input error ([`InputError::render`]).
-pub fn input_error_human(e: &InputError, style: Style) -> String {
-    e.render(if style.color {
-        driveset_schema::error::Colour::Styled
-    } else {
-        driveset_schema::error::Colour::Plain
-    })
-}
-
-/// A line and column of a location; both `null` for a whole file.
-fn line_column(loc: &Location) -> (Option<usize>, Option<usize>) {
-    if loc.line == 0 {
-        (None, None)
-    } else {
-        (Some(loc.line), Some(loc.column))
+        Style::PLAIN
     }
 }
 
-/// A finding in the report commands' JSON: kind, message, help, file,
-/// line, column, related places (keys in alphabetical order, as the
-/// document always had them).
-#[derive(serde::Serialize)]
-pub struct FindingDoc<'a> {
-    column: Option<usize>,
-    file: &'a str,
-    help: &'a str,
-    kind: &'a str,
-    line: Option<usize>,
-    message: &'a str,
-    related: Vec<RelatedDoc<'a>>,
-    severity: &'static str,
-}
-
-/// Another place a finding names.
-#[derive(serde::Serialize)]
-struct RelatedDoc<'a> {
-    column: Option<usize>,
-    file: &'a str,
-    label: &'a str,
-    line: Option<usize>,
-}
-
-impl<'a> FindingDoc<'a> {
-    /// The document of `f`.
-    pub fn of(f: &'a Finding) -> Self {
-        let (line, column) = line_column(&f.location);
-        FindingDoc {
-            column,
-            file: &f.location.file,
-            help: &f.help,
-            kind: f.kind.as_str(),
-            line,
-            message: &f.message,
-            related: f
-                .related
-                .iter()
-                .map(|(label, loc)| {
-                    let (line, column) = line_column(loc);
-                    RelatedDoc {
-                        column,
-                        file: &loc.file,
-                        label,
-                        line,
-                    }
-                })
-                .collect(),
-            severity: "error",
-        }
+/// The exit code of a validation report (`validate`, `schema check`): 2
+/// when a file could not be read, 1 on findings, else 0.
+pub fn report_exit_code(v: Verdict) -> u8 {
+    match v {
+        Verdict::Clean => crate::EXIT_OK,
+        Verdict::Findings => crate::EXIT_FINDINGS,
+        Verdict::Unreadable => crate::EXIT_INPUT,
     }
 }
 
-/// An input error in the report commands' JSON: kind `input-error`,
-/// message, help, file, line, column.
-#[derive(serde::Serialize)]
-pub struct InputErrorDoc<'a> {
-    column: Option<usize>,
-    file: &'a str,
-    help: &'a str,
-    kind: &'static str,
-    line: Option<usize>,
-    message: &'a str,
-}
-
-impl<'a> InputErrorDoc<'a> {
-    /// The document of `e`.
-    pub fn of(e: &'a InputError) -> Self {
-        let (line, column) = line_column(&e.location);
-        InputErrorDoc {
-            column,
-            file: &e.location.file,
-            help: &e.help,
-            kind: "input-error",
-            line,
-            message: &e.message,
-        }
-    }
-}
-
-/// The report commands' JSON document (`validate`, `schema check`).
-#[derive(serde::Serialize)]
-struct ReportDoc<'a> {
-    exit_code: u8,
-    files: Vec<FileDoc<'a>>,
-    summary: SummaryDoc,
-}
-
-/// One file of the report.
-#[derive(serde::Serialize)]
-struct FileDoc<'a> {
-    error: Option<InputErrorDoc<'a>>,
-    file: &'a str,
-    findings: Vec<FindingDoc<'a>>,
-    ok: bool,
-}
-
-/// The report's counts and its summary line.
-#[derive(serde::Serialize)]
-struct SummaryDoc {
-    files: usize,
-    files_with_findings: usize,
-    findings: usize,
-    text: String,
-    unreadable: usize,
-}
-
-/// Escape the message part of a workflow command.
-fn gh_data(s: &str) -> String {
-    s.replace('%', "%25")
-        .replace('\r', "%0D")
-        .replace('\n', "%0A")
-}
-
-/// Escape a property value of a workflow command.
-fn gh_prop(s: &str) -> String {
-    gh_data(s).replace(':', "%3A").replace(',', "%2C")
-}
-
-fn gh_line(loc: &Location, title: &str, message: &str, help: &str) -> String {
-    let mut props = format!("file={}", gh_prop(&loc.file));
-    if loc.line > 0 {
-        let _ = write!(props, ",line={},col={}", loc.line, loc.column);
-    }
-    let _ = write!(props, ",title={}", gh_prop(title));
-    let mut msg = message.to_string();
-    if !help.is_empty() {
-        let _ = write!(msg, "\nhelp: {help}");
-    }
-    format!("::error {props}::{}", gh_data(&msg))
-}
-
-/// A finding as one GitHub annotation line (title: the finding kind).
-pub fn finding_github(f: &Finding) -> String {
-    gh_line(&f.location, f.kind.as_str(), &f.message, &f.help)
-}
-
-/// An input error as one GitHub annotation line (title `input-error`).
-pub fn input_error_github(e: &InputError) -> String {
-    gh_line(&e.location, "input-error", &e.message, &e.help)
-}
-
-/// Findings and input errors of one file, collected for a report.
-#[derive(Debug, Default)]
-pub struct FileReport {
-    /// Findings, in file order.
-    pub findings: Vec<Finding>,
-    /// The input error, when the file could not be read.
-    pub error: Option<InputError>,
-}
-
-/// The report of `validate` / `schema check`: per-file findings and errors,
-/// then one summary line (`N findings in M of K files`).
-#[derive(Debug, Default)]
-pub struct Report {
-    /// Per file, in the order checked.
-    pub files: Vec<(String, FileReport)>,
-}
-
-impl Report {
-    /// Number of findings.
-    pub fn findings(&self) -> usize {
-        self.files.iter().map(|(_, r)| r.findings.len()).sum()
-    }
-    /// Files with at least one finding.
-    pub fn files_with_findings(&self) -> usize {
-        self.files
-            .iter()
-            .filter(|(_, r)| !r.findings.is_empty())
-            .count()
-    }
-    /// Files that could not be read.
-    pub fn errors(&self) -> usize {
-        self.files.iter().filter(|(_, r)| r.error.is_some()).count()
-    }
-
-    /// Exit code: 2 when a file could not be read, 1 on findings, else 0.
-    pub fn exit_code(&self) -> u8 {
-        if self.errors() > 0 {
-            crate::EXIT_INPUT
-        } else if self.findings() > 0 {
-            crate::EXIT_FINDINGS
-        } else {
-            crate::EXIT_OK
-        }
-    }
-
-    /// `3 findings in 2 of 16 files` (+ `; 1 file could not be read`).
-    pub fn summary(&self, noun: (&str, &str)) -> String {
-        let mut s = format!(
-            "{} in {} of {}",
-            plural(self.findings(), "finding", "findings"),
-            self.files_with_findings(),
-            plural(self.files.len(), noun.0, noun.1)
-        );
-        if self.errors() > 0 {
-            let _ = write!(
-                s,
-                "; {} could not be read",
-                plural(self.errors(), noun.0, noun.1)
-            );
-        }
-        s
-    }
-
-    /// The whole report in `format`; `noun` names the files ("file", "files").
-    pub fn render(&self, format: OutputFormat, style: Style, noun: (&str, &str)) -> String {
-        let mut out = String::new();
-        match format {
-            // the text forms (only `human` reaches a report)
-            OutputFormat::Human
-            | OutputFormat::Text
-            | OutputFormat::Table
-            | OutputFormat::Csv
-            | OutputFormat::Html => {
-                for (_, r) in &self.files {
-                    if let Some(e) = &r.error {
-                        out.push_str(&input_error_human(e, style));
-                        out.push('\n');
-                    }
-                    for f in &r.findings {
-                        out.push_str(&finding_human(f, style));
-                        out.push('\n');
-                    }
-                }
-                let summary = self.summary(noun);
-                let summary = if self.exit_code() == crate::EXIT_OK {
-                    style.bold(&summary)
-                } else {
-                    style.error(&summary)
-                };
-                let _ = writeln!(out, "{summary}");
-            }
-            OutputFormat::Github => {
-                for (_, r) in &self.files {
-                    if let Some(e) = &r.error {
-                        let _ = writeln!(out, "{}", input_error_github(e));
-                    }
-                    for f in &r.findings {
-                        let _ = writeln!(out, "{}", finding_github(f));
-                    }
-                }
-                let _ = writeln!(out, "{}", self.summary(noun));
-            }
-            OutputFormat::Junit => {
-                let files: Vec<FileFindings<'_>> = self
-                    .files
-                    .iter()
-                    .map(|(file, r)| FileFindings {
-                        file,
-                        findings: &r.findings,
-                        error: r.error.as_ref(),
-                    })
-                    .collect();
-                out.push_str(&driveset_report::junit::render(&files, "driveset"));
-            }
-            OutputFormat::Json => {
-                let doc = ReportDoc {
-                    exit_code: self.exit_code(),
-                    files: self
-                        .files
-                        .iter()
-                        .map(|(path, r)| FileDoc {
-                            error: r.error.as_ref().map(InputErrorDoc::of),
-                            file: path,
-                            findings: r.findings.iter().map(FindingDoc::of).collect(),
-                            ok: r.error.is_none() && r.findings.is_empty(),
-                        })
-                        .collect(),
-                    summary: SummaryDoc {
-                        files: self.files.len(),
-                        files_with_findings: self.files_with_findings(),
-                        findings: self.findings(),
-                        text: self.summary(noun),
-                        unreadable: self.errors(),
-                    },
-                };
-                let _ = writeln!(
-                    out,
-                    "{}",
-                    serde_json::to_string_pretty(&doc).unwrap_or_default()
-                );
-            }
-        }
-        out
+/// A validation report in `format` (only `human`, `json`, `github` and
+/// `junit` reach one); `noun` names the files ("file", "files").
+pub fn render_report(report: &Report, format: OutputFormat, noun: Noun<'_>) -> String {
+    match format {
+        OutputFormat::Github => report.github(noun),
+        OutputFormat::Junit => report.junit(),
+        OutputFormat::Json => report.json(noun, report_exit_code(report.verdict())),
+        // the text forms
+        OutputFormat::Human
+        | OutputFormat::Text
+        | OutputFormat::Table
+        | OutputFormat::Csv
+        | OutputFormat::Html => report.human(stdout_style(), noun),
     }
 }
 
@@ -580,7 +238,7 @@ pub fn emit_bytes(bytes: &[u8]) {
 
 /// Print an input error (human, to stderr) and return exit code 2.
 pub fn fail_input(e: &InputError) -> u8 {
-    eprint!("{}", input_error_human(e, Style::stderr()));
+    eprint!("{}", input_error_human(e, stderr_style()));
     crate::EXIT_INPUT
 }
 
@@ -603,7 +261,7 @@ pub fn valid_set(
     if loaded.findings.is_empty() && loaded.resolved.is_some() && loaded.schema.is_some() {
         return Ok(loaded);
     }
-    let style = Style::stderr();
+    let style = stderr_style();
     for f in &loaded.findings {
         eprintln!("{}", finding_human(f, style));
     }
@@ -627,66 +285,4 @@ pub fn load_valid_set(
 ) -> Result<driveset_schema::LoadedSet, u8> {
     let loaded = driveset_schema::load_set(path, registry).map_err(|e| fail_input(&e))?;
     valid_set(path, loaded)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use driveset_schema::{Registry, load_set_str};
-
-    #[test]
-    fn findings_render_rustc_style() {
-        let mut r = Registry::builtin().unwrap();
-        let l = load_set_str(
-            Path::new("t.toml"),
-            "schema = \"lenze-tmd\"\n[values]\nC9999 = 1\n",
-            &mut r,
-        )
-        .unwrap();
-        assert_eq!(l.findings.len(), 1);
-        let f = &l.findings[0];
-        assert_eq!(finding_human(f, Style::PLAIN), f.render_human());
-        assert_eq!(
-            finding_human(f, Style::PLAIN),
-            format!(
-                "error[unknown-code]: {}\n --> t.toml:3:1\n  |\n3 | C9999 = 1\n  | ^^^^^ here\n  |\n  = help: {}\n",
-                f.message, f.help
-            )
-        );
-    }
-
-    #[test]
-    fn long_lines_are_windowed() {
-        let text = format!("x = \"{}\"", "a".repeat(1000));
-        let loc = Location {
-            file: "f".into(),
-            line: 1,
-            column: 500,
-            span: 499..502,
-            line_text: text,
-        };
-        let e = InputError::new(driveset_schema::InputErrorKind::Syntax, loc, "m", "");
-        let out = input_error_human(&e, Style::PLAIN);
-        let shown = out.lines().nth(3).unwrap();
-        assert!(
-            shown.starts_with("1 | ...") && shown.ends_with("..."),
-            "{out}"
-        );
-        assert!(shown.chars().count() < 200, "{out}");
-    }
-
-    #[test]
-    fn github_escapes() {
-        let loc = Location {
-            file: "a,b:c.toml".into(),
-            line: 2,
-            column: 3,
-            span: 0..1,
-            line_text: String::new(),
-        };
-        assert_eq!(
-            gh_line(&loc, "t", "50% done\nnext", "h"),
-            "::error file=a%2Cb%3Ac.toml,line=2,col=3,title=t::50%25 done%0Anext%0Ahelp: h"
-        );
-    }
 }

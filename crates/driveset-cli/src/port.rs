@@ -294,7 +294,7 @@ trait RenderString {
 
 impl RenderString for driveset_schema::InputError {
     fn render_human_string(&self) -> String {
-        crate::output::input_error_human(self, crate::output::Style::stderr())
+        driveset_report::validation::input_error_human(self, crate::output::stderr_style())
             .trim_end()
             .trim_start_matches("error: ")
             .to_string()

@@ -24,7 +24,6 @@ const MAX_FN_LINES: usize = 150;
 /// its count as it does, remove it once it is within the limit; never add
 /// one.
 const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
-    ("crates/driveset-cli/src/line.rs", "run_mode", 155),
     (
         "crates/driveset-engine/src/assign/plan.rs",
         "plan_lecom",

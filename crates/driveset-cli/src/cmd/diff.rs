@@ -5,16 +5,12 @@
 
 pub mod live;
 
-use std::fmt::Write;
 use std::path::PathBuf;
 
 use driveset_schema::diff::defaults_for;
-use driveset_schema::validate::display_value;
-use driveset_schema::{
-    CodeKey, DiffKind, RawValue, ResolvedSet, Schema, diff, diff_defaults, unified_diff,
-};
+use driveset_schema::{ResolvedSet, Schema, diff, diff_defaults, unified_diff};
 
-use crate::output::{self, OutputFormat, Style, plural};
+use crate::output::{self, OutputFormat};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
 /// Arguments of `driveset diff`.
@@ -65,71 +61,6 @@ pub struct Args {
     #[allow(rustdoc::invalid_html_tags)] // clap's help text, printed as written
     #[command(flatten)]
     pub transfer: crate::allow::TransferArgs,
-}
-
-fn code_name(schema: &Schema, key: CodeKey) -> String {
-    schema
-        .code(key.number)
-        .map(|c| driveset_schema::error::escape_controls(&c.name).into_owned())
-        .unwrap_or_default()
-}
-
-fn shown(schema: &Schema, key: CodeKey, raw: &RawValue) -> String {
-    match schema.code(key.number) {
-        Some(c) => display_value(schema, c, raw),
-        None => format!("{raw:?}"),
-    }
-}
-
-/// A raw value in `diff`'s JSON: a number, or text (octets as hex, a
-/// password as the secret marker).
-#[derive(serde::Serialize)]
-#[serde(untagged)]
-enum RawShown {
-    Int(i64),
-    Text(String),
-}
-
-fn raw_json(schema: &Schema, key: CodeKey, raw: Option<&RawValue>) -> Option<RawShown> {
-    let redact = schema
-        .code(key.number)
-        .is_some_and(|c| schema.is_password(c));
-    match raw? {
-        _ if redact => Some(RawShown::Text(driveset_schema::canonical::SECRET.into())),
-        RawValue::Int(i) => Some(RawShown::Int(*i)),
-        RawValue::Text(t) => Some(RawShown::Text(t.clone())),
-        RawValue::Octets(o) => Some(RawShown::Text(
-            o.iter().map(|b| format!("{b:02x}")).collect::<String>(),
-        )),
-    }
-}
-
-/// `diff --format json`'s document (keys in alphabetical order, as it
-/// always had them).
-#[derive(serde::Serialize)]
-struct DiffDoc<'a> {
-    added: usize,
-    changed: usize,
-    entries: Vec<EntryDoc<'a>>,
-    equal: bool,
-    new: &'a str,
-    old: &'a str,
-    removed: usize,
-    schema: &'a str,
-}
-
-/// One difference.
-#[derive(serde::Serialize)]
-struct EntryDoc<'a> {
-    code: String,
-    key: String,
-    kind: &'static str,
-    name: String,
-    new: Option<String>,
-    new_raw: Option<RawShown>,
-    old: Option<String>,
-    old_raw: Option<RawShown>,
-    text: &'a str,
 }
 
 /// `diff`'s port arguments (for `live`).
@@ -190,7 +121,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             if set_b.schema != set_a.schema {
                 eprintln!(
                         "{}",
-                        Style::stderr().error(&format!(
+                        output::stderr_style().error(&format!(
                             "error: cannot diff sets of different schemas: {a_name} is `{}`, {} is `{}`",
                             set_a.schema,
                             bp.display(),
@@ -206,19 +137,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 
     if args.unified {
         let text = unified_diff(&old, &new, &schema, &old_name, &new_name);
-        let style = Style::stdout();
-        for line in text.lines() {
-            let l = if line.starts_with("+++") || line.starts_with("---") {
-                style.bold(line)
-            } else if line.starts_with('+') {
-                style.added(line)
-            } else if line.starts_with('-') {
-                style.removed(line)
-            } else {
-                line.to_string()
-            };
-            output::emit(&format!("{l}\n"));
-        }
+        output::emit(&driveset_report::diff::unified(
+            &text,
+            output::stdout_style(),
+        ));
         return Ok(if text.is_empty() {
             crate::EXIT_OK
         } else {
@@ -234,7 +156,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let d = match d {
         Ok(d) => d,
         Err(e) => {
-            eprintln!("{}", Style::stderr().error(&format!("error: {e}")));
+            eprintln!("{}", output::stderr_style().error(&format!("error: {e}")));
             return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
     };
@@ -248,9 +170,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 /// Print a semantic diff, as human lines (`~`/`+`/`-` and a summary) or one
-/// JSON document, and return the exit code: 0 same, 1 different. The offline
-/// diff and `diff SET --port` (cmd/diff/live.rs) share it, so both print the
-/// same thing.
+/// JSON document ([`driveset_report::diff`]), and return the exit code: 0
+/// same, 1 different. The offline diff and `diff SET --port`
+/// (cmd/diff/live.rs) share it, so both print the same thing.
 pub(crate) fn render(
     d: &driveset_schema::Diff,
     schema: &Schema,
@@ -258,75 +180,15 @@ pub(crate) fn render(
     new_name: &str,
     json_out: bool,
 ) -> u8 {
-    let count = |k: DiffKind| d.entries.iter().filter(|e| e.kind == k).count();
-    let summary = format!(
-        "{} changed, {} added, {} removed",
-        count(DiffKind::Changed),
-        count(DiffKind::Added),
-        count(DiffKind::Removed)
-    );
-    if json_out {
-        {
-            let entries: Vec<EntryDoc> = d
-                .entries
-                .iter()
-                .map(|e| EntryDoc {
-                    code: schema.display_code(e.key.number, e.key.subcode),
-                    key: e.key.canonical(schema.code_style),
-                    kind: match e.kind {
-                        DiffKind::Added => "added",
-                        DiffKind::Removed => "removed",
-                        DiffKind::Changed => "changed",
-                    },
-                    name: code_name(schema, e.key),
-                    new: e.new.as_ref().map(|r| shown(schema, e.key, r)),
-                    new_raw: raw_json(schema, e.key, e.new.as_ref()),
-                    old: e.old.as_ref().map(|r| shown(schema, e.key, r)),
-                    old_raw: raw_json(schema, e.key, e.old.as_ref()),
-                    text: &e.text,
-                })
-                .collect();
-            let doc = DiffDoc {
-                added: count(DiffKind::Added),
-                changed: count(DiffKind::Changed),
-                entries,
-                equal: d.is_empty(),
-                new: new_name,
-                old: old_name,
-                removed: count(DiffKind::Removed),
-                schema: &schema.id,
-            };
-            output::emit(&format!(
-                "{}\n",
-                serde_json::to_string_pretty(&doc).unwrap_or_default()
-            ));
-        }
+    let sides = driveset_report::diff::Sides {
+        old: old_name,
+        new: new_name,
+    };
+    output::emit(&if json_out {
+        driveset_report::diff::json(d, schema, sides)
     } else {
-        {
-            let style = Style::stdout();
-            let mut out = String::new();
-            let _ = writeln!(out, "{}", style.bold(&format!("--- {old_name}")));
-            let _ = writeln!(out, "{}", style.bold(&format!("+++ {new_name}")));
-            for e in &d.entries {
-                let line = match e.kind {
-                    DiffKind::Added => style.added(&format!("+ {}", e.text)),
-                    DiffKind::Removed => style.removed(&format!("- {}", e.text)),
-                    DiffKind::Changed => style.changed(&format!("~ {}", e.text)),
-                };
-                let _ = writeln!(out, "{line}");
-            }
-            if d.is_empty() {
-                let _ = writeln!(out, "no differences");
-            } else {
-                let _ = writeln!(
-                    out,
-                    "{} ({summary})",
-                    plural(d.entries.len(), "difference", "differences")
-                );
-            }
-            output::emit(&out);
-        }
-    }
+        driveset_report::diff::human(d, sides, output::stdout_style())
+    });
     if d.is_empty() {
         crate::EXIT_OK
     } else {

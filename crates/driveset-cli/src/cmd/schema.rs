@@ -17,7 +17,9 @@ use driveset_schema::error::read_text_file;
 use driveset_schema::schema::BUILTIN_FILES;
 use driveset_schema::{InputError, Schema, check_schema};
 
-use crate::output::{self, FileReport, OutputFormat, Report, Style};
+use driveset_report::validation::{FileReport, Report};
+
+use crate::output::{self, OutputFormat};
 
 /// `driveset schema ...`.
 #[derive(clap::Subcommand)]
@@ -121,12 +123,12 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
         }
         check_files(&files, &registry, &mut report);
     }
-    output::emit(&report.render(
+    output::emit(&output::render_report(
+        &report,
         args.format,
-        Style::stdout(),
         ("schema file", "schema files"),
     ));
-    Ok(report.exit_code())
+    Ok(output::report_exit_code(report.verdict()))
 }
 
 /// Check files in order; a fixture whose base comes later is retried after it.

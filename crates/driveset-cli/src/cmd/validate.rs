@@ -15,7 +15,9 @@ use driveset_schema::doc::{self, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::walk::collect;
 
-use crate::output::{FileReport, OutputFormat, Report, Style};
+use driveset_report::validation::{FileReport, Report};
+
+use crate::output::OutputFormat;
 
 /// Arguments of `driveset validate`.
 #[derive(clap::Args)]
@@ -118,7 +120,10 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             report.files.push((f.display().to_string(), r));
         }
     }
-    let style = Style::stdout();
-    crate::output::emit(&report.render(args.format, style, ("file", "files")));
-    Ok(report.exit_code())
+    crate::output::emit(&crate::output::render_report(
+        &report,
+        args.format,
+        ("file", "files"),
+    ));
+    Ok(crate::output::report_exit_code(report.verdict()))
 }
