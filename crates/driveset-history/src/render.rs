@@ -1,10 +1,11 @@
 //! The plant history's reports (docs/history.md), as `driveset history`
 //! prints them: the log as a table or CSV, a blame, an as-built line as
-//! text or an HTML page, a diff. Pure: the store's query results in, text
-//! out.
+//! text or an HTML page, a diff, any of them as JSON, and what `verify`
+//! found. Pure: the store's query results in, text out.
 
 use std::fmt::Write as _;
 
+use crate::Verdict;
 use crate::query::{AsBuilt, Blame, Difference, LogRow, Who};
 
 fn slot(r: &LogRow) -> String {
@@ -262,4 +263,63 @@ pub fn diff(a: &str, b: &str, d: &[Difference]) -> String {
     }
     let _ = writeln!(out, "{} difference(s)", d.len());
     out
+}
+
+/// A query's result as `--format json` / `--json` prints it: pretty JSON
+/// and a newline (the log's rows, a blame, an as-built line, a diff).
+pub fn json<T: serde::Serialize + ?Sized>(value: &T) -> String {
+    format!(
+        "{}\n",
+        serde_json::to_string_pretty(value).unwrap_or_default()
+    )
+}
+
+/// What `verify` found, one line: the chain intact with its record count
+/// and head, or the first broken record; `store` is the store as shown.
+pub fn verify(store: &str, v: &Verdict) -> String {
+    match v {
+        Verdict::Intact { records, head } => {
+            format!("{store}: {records} records, chain intact; head {head}\n")
+        }
+        Verdict::Broken {
+            seq,
+            kind,
+            session_id,
+            why,
+        } => format!(
+            "{store}: chain broken at record {seq} ({kind} of session {session_id}): {why}\n"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn verify_lines() {
+        let ok = Verdict::Intact {
+            records: 3,
+            head: "ab12".into(),
+        };
+        assert_eq!(
+            verify("h.db", &ok),
+            "h.db: 3 records, chain intact; head ab12\n"
+        );
+        let broken = Verdict::Broken {
+            seq: 2,
+            kind: "drive".into(),
+            session_id: "s1".into(),
+            why: "hash differs".into(),
+        };
+        assert_eq!(
+            verify("h.db", &broken),
+            "h.db: chain broken at record 2 (drive of session s1): hash differs\n"
+        );
+    }
+
+    #[test]
+    fn json_is_pretty_with_a_newline() {
+        assert_eq!(json(&[1, 2]), "[\n  1,\n  2\n]\n");
+    }
 }

@@ -3,7 +3,7 @@
 //! max_output_frequency: 50 Hz -> 60 Hz`, then a count) or one JSON
 //! document (docs/file-formats.md: a password shows as the secret marker),
 //! and `--unified`'s canonical text diff in colour. The diff itself is the
-//! schema crate's ([`driveset_schema::diff`]); printing is the caller's.
+//! schema crate's ([`driveset_schema::diff()`]); printing is the caller's.
 
 use std::fmt::Write;
 

@@ -8,7 +8,7 @@
 //! JSON and as GitHub annotations ([`validation`], docs/ci.md) and the
 //! colours rendered text takes ([`style`]); the semantic diff of two sets
 //! as `driveset diff` prints it ([`diff`]); a line run on the terminal,
-//! its progress lines and summary table ([`line`]).
+//! its progress lines and summary table ([`mod@line`]).
 //! Files are written through the one writer (`driveset_schema::output`);
 //! git is the caller's to run (the textconv view takes the tracked files
 //! as data, the report its [`GitInfo`] from the engine's environment).

@@ -184,6 +184,23 @@ pub struct FileReport {
     pub error: Option<InputError>,
 }
 
+impl FileReport {
+    /// The report of a file checked: its findings, or the input error that
+    /// kept it from being read.
+    pub fn of(checked: Result<Vec<Finding>, InputError>) -> Self {
+        match checked {
+            Ok(findings) => FileReport {
+                findings,
+                error: None,
+            },
+            Err(e) => FileReport {
+                findings: Vec::new(),
+                error: Some(e),
+            },
+        }
+    }
+}
+
 /// The report of `validate` / `schema check`: per-file findings and errors,
 /// then one summary line (`N findings in M of K files`).
 #[derive(Debug, Default)]

@@ -15,6 +15,74 @@ fn f(loc: &Location, message: String, help: impl Into<String>) -> Finding {
     Finding::new(FindingKind::SchemaError, loc.clone(), message, help)
 }
 
+/// What checking one schema file gave: its findings, or the input error
+/// that kept it from being read.
+pub type Checked = Result<Vec<Finding>, InputError>;
+
+/// `schema check` with no file: the built-in schemas, each by its file
+/// (`schemas/lenze-tmd.toml`) and the findings of the schema of its id in
+/// `registry` (an error when the file name and the id disagree).
+pub fn check_builtin_schemas(registry: &Registry) -> Vec<(&'static str, Checked)> {
+    crate::schema::BUILTIN_FILES
+        .iter()
+        .map(|&(path, _)| {
+            let id = path
+                .rsplit('/')
+                .next()
+                .and_then(|f| f.strip_suffix(".toml"))
+                .unwrap_or(path);
+            let checked = match registry.get(id) {
+                Some(s) => Ok(check_schema(&s)),
+                None => Err(InputError {
+                    kind: crate::InputErrorKind::Structure,
+                    message: format!("built-in schema {path} has no id `{id}`"),
+                    help: "the file name and the id of a built-in schema agree".into(),
+                    location: Box::new(Location::file_only(path)),
+                }),
+            };
+            (path, checked)
+        })
+        .collect()
+}
+
+/// Check schema files, each against `registry` and the files checked
+/// before it; a fixture whose base comes later among `files` is retried
+/// after it (docs/file-formats.md, "Fixture schemas"). One result per
+/// file, in the order given.
+pub fn check_schema_files(files: &[std::path::PathBuf], registry: &Registry) -> Vec<Checked> {
+    let mut loaded: Vec<Arc<Schema>> = Vec::new();
+    let mut results: Vec<Option<Checked>> = files.iter().map(|_| None).collect();
+    let mut pending: Vec<usize> = (0..files.len()).collect();
+    loop {
+        let mut retry = Vec::new();
+        let before = pending.len();
+        for &i in &pending {
+            let checked = crate::error::read_text_file(&files[i]).and_then(|source| {
+                check_schema_source(source, registry, &loaded).map(|(s, findings)| {
+                    loaded.push(s);
+                    findings
+                })
+            });
+            if let Err(e) = &checked {
+                let unknown_base =
+                    e.message.starts_with("base schema `") && e.message.ends_with("` is not known");
+                if unknown_base {
+                    retry.push(i);
+                }
+            }
+            results[i] = Some(checked);
+        }
+        if retry.is_empty() || retry.len() == before {
+            break;
+        }
+        pending = retry;
+    }
+    results
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| Ok(Vec::new())))
+        .collect()
+}
+
 /// Parse a schema file and check it; its `extends` base is looked up in
 /// `extra` (the last one of an id wins), then in `registry`.
 pub fn check_schema_source(
@@ -585,5 +653,33 @@ fn data_type_fits(ty: Option<ValueType>, dt: u16) -> bool {
         Some(ValueType::VS) => dt == 0x0009,
         Some(ValueType::VO) => dt == 0x000A,
         _ => false,
+    }
+}
+
+#[cfg(test)]
+mod files_tests {
+    use super::*;
+
+    #[test]
+    fn the_builtin_schemas_check_clean() {
+        let registry = Registry::builtin().unwrap();
+        let checked = check_builtin_schemas(&registry);
+        assert_eq!(checked.len(), crate::schema::BUILTIN_FILES.len());
+        for (path, c) in checked {
+            assert_eq!(c.as_ref().map(Vec::len).ok(), Some(0), "{path}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn a_missing_file_is_an_input_error_in_its_place() {
+        let registry = Registry::builtin().unwrap();
+        let checked = check_schema_files(
+            &[std::path::PathBuf::from(
+                "/nonexistent/driveset-schema.toml",
+            )],
+            &registry,
+        );
+        assert_eq!(checked.len(), 1);
+        assert!(checked[0].is_err());
     }
 }

@@ -11,11 +11,8 @@ pub mod json_schema;
 pub mod pull;
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
-use driveset_schema::error::read_text_file;
-use driveset_schema::schema::BUILTIN_FILES;
-use driveset_schema::{InputError, Schema, check_schema};
+use driveset_schema::check::{check_builtin_schemas, check_schema_files};
 
 use driveset_report::validation::{FileReport, Report};
 
@@ -75,28 +72,10 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
     };
     let mut report = Report::default();
     if args.files.is_empty() {
-        for (path, _) in BUILTIN_FILES {
-            let id = path
-                .rsplit('/')
-                .next()
-                .and_then(|f| f.strip_suffix(".toml"))
-                .unwrap_or(path);
-            let fr = match registry.get(id) {
-                Some(s) => FileReport {
-                    findings: check_schema(&s),
-                    error: None,
-                },
-                None => FileReport {
-                    findings: Vec::new(),
-                    error: Some(InputError {
-                        kind: driveset_schema::InputErrorKind::Structure,
-                        message: format!("built-in schema {path} has no id `{id}`"),
-                        help: "the file name and the id of a built-in schema agree".into(),
-                        location: Box::new(driveset_schema::Location::file_only(path)),
-                    }),
-                },
-            };
-            report.files.push((path.to_string(), fr));
+        for (path, checked) in check_builtin_schemas(&registry) {
+            report
+                .files
+                .push((path.to_string(), FileReport::of(checked)));
         }
     } else {
         let mut files = Vec::new();
@@ -121,7 +100,11 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
                 files.push(p.clone());
             }
         }
-        check_files(&files, &registry, &mut report);
+        for (path, checked) in files.iter().zip(check_schema_files(&files, &registry)) {
+            report
+                .files
+                .push((path.display().to_string(), FileReport::of(checked)));
+        }
     }
     output::emit(&output::render_report(
         &report,
@@ -129,56 +112,4 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
         ("schema file", "schema files"),
     ));
     Ok(output::report_exit_code(report.verdict()))
-}
-
-/// Check files in order; a fixture whose base comes later is retried after it.
-fn check_files(files: &[PathBuf], registry: &driveset_schema::Registry, report: &mut Report) {
-    let mut loaded: Vec<Arc<Schema>> = Vec::new();
-    let mut results: Vec<Option<FileReport>> = files.iter().map(|_| None).collect();
-    let mut pending: Vec<usize> = (0..files.len()).collect();
-    loop {
-        let mut retry = Vec::new();
-        let before = pending.len();
-        for &i in &pending {
-            let path = &files[i];
-            let fr = match read_text_file(path) {
-                Err(e) => FileReport {
-                    findings: Vec::new(),
-                    error: Some(e),
-                },
-                Ok(source) => {
-                    match driveset_schema::check::check_schema_source(source, registry, &loaded) {
-                        Ok((s, findings)) => {
-                            loaded.push(s);
-                            FileReport {
-                                findings,
-                                error: None,
-                            }
-                        }
-                        Err(e) => {
-                            let unknown_base = e.message.starts_with("base schema `")
-                                && e.message.ends_with("` is not known");
-                            if unknown_base {
-                                retry.push(i);
-                            }
-                            FileReport {
-                                findings: Vec::new(),
-                                error: Some(e),
-                            }
-                        }
-                    }
-                }
-            };
-            results[i] = Some(fr);
-        }
-        if retry.is_empty() || retry.len() == before {
-            break;
-        }
-        pending = retry;
-    }
-    for (path, r) in files.iter().zip(results) {
-        report
-            .files
-            .push((path.display().to_string(), r.unwrap_or_default()));
-    }
 }

@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use driveset_schema::Registry;
-use driveset_schema::check::check_schema_source;
+use driveset_schema::check::{Checked, check_schema_source};
 use driveset_schema::doc::{self, NodeKind, Syntax};
 use driveset_schema::error::read_text_file;
 use driveset_schema::walk::collect;
@@ -56,44 +56,25 @@ fn is_schema_doc(d: &doc::Document) -> bool {
         .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_)))
 }
 
-fn check_file(path: &Path, registry: &mut Registry) -> FileReport {
-    let mut report = FileReport::default();
+/// Check one file: a line manifest by its own checks, a schema file by
+/// `schema check`'s, anything else as a set.
+fn check_file(path: &Path, registry: &mut Registry) -> Checked {
     // a line manifest (top-level [line] table or bus list): its own checks
     if driveset_engine::line::manifest::is_manifest(path) {
-        match driveset_engine::line::manifest::validate_manifest(path, &crate::port::openers()) {
-            Ok(f) => report.findings = f.iter().map(|f| f.to_finding()).collect(),
-            Err(e) => report.error = Some(e),
-        }
-        return report;
+        return driveset_engine::line::manifest::validate_manifest(path, &crate::port::openers())
+            .map(|f| f.iter().map(|f| f.to_finding()).collect());
     }
-    let source = match read_text_file(path) {
-        Ok(s) => s,
-        Err(e) => {
-            report.error = Some(e);
-            return report;
-        }
-    };
+    let source = read_text_file(path)?;
     if Syntax::from_path(path) == Syntax::Toml {
         match doc::parse(source.clone(), Syntax::Toml) {
-            Err(e) => {
-                report.error = Some(driveset_schema::set::mask_secret_line(e, registry));
-                return report;
-            }
+            Err(e) => return Err(driveset_schema::set::mask_secret_line(e, registry)),
             Ok(d) if is_schema_doc(&d) => {
-                match check_schema_source(source, registry, &[]) {
-                    Ok((_, findings)) => report.findings = findings,
-                    Err(e) => report.error = Some(e),
-                }
-                return report;
+                return check_schema_source(source, registry, &[]).map(|(_, findings)| findings);
             }
             Ok(_) => {}
         }
     }
-    match driveset_schema::load_set_str(path, &source.text, registry) {
-        Ok(l) => report.findings = l.findings,
-        Err(e) => report.error = Some(e),
-    }
-    report
+    driveset_schema::load_set_str(path, &source.text, registry).map(|l| l.findings)
 }
 
 /// Run `driveset validate`.
@@ -106,17 +87,13 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     for p in &args.paths {
         let mut files = Vec::new();
         if let Err(e) = collect(p, &mut files) {
-            report.files.push((
-                p.display().to_string(),
-                FileReport {
-                    findings: Vec::new(),
-                    error: Some(e),
-                },
-            ));
+            report
+                .files
+                .push((p.display().to_string(), FileReport::of(Err(e))));
             continue;
         }
         for f in files {
-            let r = check_file(&f, &mut registry);
+            let r = FileReport::of(check_file(&f, &mut registry));
             report.files.push((f.display().to_string(), r));
         }
     }

@@ -152,10 +152,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             out!(
                 "{}",
                 match a.format {
-                    OutputFormat::Json => format!(
-                        "{}\n",
-                        serde_json::to_string_pretty(&rows).unwrap_or_default()
-                    ),
+                    OutputFormat::Json => render::json(&rows),
                     OutputFormat::Csv => render::log_csv(&rows),
                     // `table`, the only other value `log` takes
                     _ => render::log_table(&rows),
@@ -172,12 +169,15 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
                     "history: no record of {} written on drive {}",
                     a.code, a.drive
                 ))),
-                Some(b) if a.json => {
-                    outln!("{}", serde_json::to_string_pretty(&b).unwrap_or_default());
-                    Ok(EXIT_OK)
-                }
                 Some(b) => {
-                    out!("{}", render::blame(&b));
+                    out!(
+                        "{}",
+                        if a.json {
+                            render::json(&b)
+                        } else {
+                            render::blame(&b)
+                        }
+                    );
                     Ok(EXIT_OK)
                 }
             }
@@ -189,10 +189,7 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             out!(
                 "{}",
                 match a.format {
-                    OutputFormat::Json => format!(
-                        "{}\n",
-                        serde_json::to_string_pretty(&built).unwrap_or_default()
-                    ),
+                    OutputFormat::Json => render::json(&built),
                     OutputFormat::Html => render::as_built_html(&built),
                     // `table`, the only other value `as-built` takes
                     _ => render::as_built_text(&built),
@@ -212,36 +209,24 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
             let built_a = store.as_built(&line, &drives, &At::parse(x)).map_err(db)?;
             let built_b = store.as_built(&line, &drives, &At::parse(y)).map_err(db)?;
             let d = as_built_diff(&built_a, &built_b);
-            if a.json {
-                outln!("{}", serde_json::to_string_pretty(&d).unwrap_or_default());
-            } else {
-                out!("{}", render::diff(x, y, &d));
-            }
+            out!(
+                "{}",
+                if a.json {
+                    render::json(&d)
+                } else {
+                    render::diff(x, y, &d)
+                }
+            );
             Ok(if d.is_empty() { EXIT_OK } else { EXIT_FINDINGS })
         }
         HistoryCommand::Verify => {
             let mut store = open()?;
-            match store.verify().map_err(db)? {
-                Verdict::Intact { records, head } => {
-                    outln!(
-                        "{}: {records} records, chain intact; head {head}",
-                        store.shown
-                    );
-                    Ok(EXIT_OK)
-                }
-                Verdict::Broken {
-                    seq,
-                    kind,
-                    session_id,
-                    why,
-                } => {
-                    outln!(
-                        "{}: chain broken at record {seq} ({kind} of session {session_id}): {why}",
-                        store.shown
-                    );
-                    Ok(EXIT_FINDINGS)
-                }
-            }
+            let verdict = store.verify().map_err(db)?;
+            out!("{}", render::verify(&store.shown, &verdict));
+            Ok(match verdict {
+                Verdict::Intact { .. } => EXIT_OK,
+                Verdict::Broken { .. } => EXIT_FINDINGS,
+            })
         }
         HistoryCommand::Sync => {
             let target = super::target()?;
