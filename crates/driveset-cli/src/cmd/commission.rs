@@ -131,33 +131,13 @@ pub struct Args {
 
 /// Run `driveset commission`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let overrides = match args.allow.overrides() {
-        Ok(o) => o,
-        Err(f) => {
-            return Err(f);
-        }
-    };
-    if args.assign {
-        let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
-            Ok(m) => m,
-            Err(code) => return Err(crate::fail::Fail::reported(code)),
-        };
-        let journal_dir =
-            driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
-        let a = crate::line::assign::AssignArgs {
-            port: args.port.clone(),
-            yes: args.yes,
-            prompt_stdin: args.prompt_stdin,
-            only: args.only.clone(),
-            overrides,
-        };
-        if !crate::line::assign::run(&manifest, &a, journal_dir)? {
-            eprintln!(
-                "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
-                args.manifest.display()
-            );
-            return Ok(EXIT_FINDINGS);
-        }
+    let overrides = args.allow.overrides()?;
+    if args.assign && !first_contact(&args, overrides)? {
+        eprintln!(
+            "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
+            args.manifest.display()
+        );
+        return Ok(EXIT_FINDINGS);
     }
     let opts = Common {
         manifest: args.manifest,
@@ -175,4 +155,26 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         o.broadcast_common = args.broadcast_common;
         o.fresh = args.fresh;
     })
+}
+
+/// `--assign`: the line's first contact before the commission
+/// ([`crate::line::assign::run`]); `Ok(true)` when every bus holds.
+fn first_contact(
+    args: &Args,
+    overrides: driveset_engine::overrides::Overrides,
+) -> Result<bool, crate::fail::Fail> {
+    let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
+        Ok(m) => m,
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
+    };
+    let journal_dir =
+        driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
+    let a = crate::line::assign::AssignArgs {
+        port: args.port.clone(),
+        yes: args.yes,
+        prompt_stdin: args.prompt_stdin,
+        only: args.only.clone(),
+        overrides,
+    };
+    crate::line::assign::run(&manifest, &a, journal_dir)
 }
