@@ -2,9 +2,10 @@
 //! status` share: loading the manifest (its findings printed), opening its
 //! buses through [`crate::port`], the engine's line run with progress lines
 //! and bars, the summary table, the report written; `commission --assign`'s
-//! first contact is [`assign`].
+//! first contact is [`commission_assign`] (the engine's
+//! `line::commission_assign`; `assign` alone is `driveset address`).
 
-pub mod assign;
+pub mod commission_assign;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

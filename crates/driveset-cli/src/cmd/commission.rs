@@ -1,7 +1,7 @@
 //! `driveset commission LINE`: bring every drive of a machine line to its
 //! set (buses in parallel, drives on one bus in turn), write the
 //! commissioning report. The run itself, which `driveset status` shares, is
-//! [`crate::line`]'s; `--assign` is [`crate::line::assign`]'s.
+//! [`crate::line`]'s; `--assign` is [`crate::line::commission_assign`]'s.
 
 use std::path::PathBuf;
 
@@ -158,7 +158,7 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
 }
 
 /// `--assign`: the line's first contact before the commission
-/// ([`crate::line::assign::run`]); `Ok(true)` when every bus holds.
+/// ([`crate::line::commission_assign::run`]); `Ok(true)` when every bus holds.
 fn first_contact(
     args: &Args,
     overrides: driveset_engine::overrides::Overrides,
@@ -169,12 +169,12 @@ fn first_contact(
     };
     let journal_dir =
         driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
-    let a = crate::line::assign::AssignArgs {
+    let a = crate::line::commission_assign::AssignArgs {
         port: args.port.clone(),
         yes: args.yes,
         prompt_stdin: args.prompt_stdin,
         only: args.only.clone(),
         overrides,
     };
-    crate::line::assign::run(&manifest, &a, journal_dir)
+    crate::line::commission_assign::run(&manifest, &a, journal_dir)
 }
