@@ -1279,3 +1279,28 @@ fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
     );
     assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
 }
+
+#[test]
+fn a_first_contact_s_service_port_goes_on_the_line_s_one_serial_bus_at_its_rate() {
+    use driveset_engine::line::commission_assign::{ServicePortError, on_service_port};
+    let dir = tempfile::tempdir().unwrap();
+    let on = on_service_port(mc_axes_line(dir.path(), 2), "/dev/ttyUSB9", &sim_openers())
+        .expect("a line with one LUSTBUS bus");
+    assert_eq!(on.buses[0].port_name, "/dev/ttyUSB9");
+    assert_eq!(
+        on.buses[0].port,
+        driveset_link::PortSpec::parse("/dev/ttyUSB9?baud=9600").unwrap()
+    );
+    // the demo line: a LUSTBUS and a LECOM bus (and a CAN bus, not counted)
+    let e = on_service_port(demo(), "/dev/ttyUSB9", &sim_openers()).unwrap_err();
+    assert!(
+        matches!(e, ServicePortError::NotOneBus { buses: 2, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().starts_with(
+        "--port /dev/ttyUSB9: the line has 2 LUSTBUS / LECOM buses; --port names the one port"
+    ));
+    let e = on_service_port(mc_axes_line(dir.path(), 1), "nope://x", &sim_openers()).unwrap_err();
+    assert!(matches!(e, ServicePortError::BadPort { .. }), "{e}");
+    assert!(e.to_string().starts_with("--port nope://x: "), "{e}");
+}
