@@ -1304,3 +1304,65 @@ fn a_first_contact_s_service_port_goes_on_the_line_s_one_serial_bus_at_its_rate(
     assert!(matches!(e, ServicePortError::BadPort { .. }), "{e}");
     assert!(e.to_string().starts_with("--port nope://x: "), "{e}");
 }
+
+/// The front end's ports as `replace` asks them before opening anything:
+/// an opener's port names the bus its front end says (here `said:PORT`),
+/// every other port as the link says; nothing is opened.
+struct SaidPorts;
+
+impl driveset_engine::session::Ports for SaidPorts {
+    fn open(
+        &self,
+        port: &str,
+        _spec: PortSpec,
+        _address: Option<u8>,
+    ) -> Result<driveset_engine::session::OpenedPort, driveset_engine::session::PortError> {
+        panic!("{port} opened: replace asks the line's ports before opening them")
+    }
+
+    fn bus_before_open(&self, port: &str, spec: &PortSpec) -> Option<String> {
+        driveset_link::bus_id::before_open(spec).or_else(|| Some(format!("said:{port}")))
+    }
+
+    fn lock(&self, _bus: &str) -> Result<(), driveset_link::LockError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn replace_knows_the_buses_the_line_s_ports_reach_before_opening_them() {
+    use driveset_engine::line::replace::{LineBusId, ReplaceOptions, line_bus_ids};
+    let dir = tempfile::tempdir().unwrap();
+    let mut m = mc_axes_line(dir.path(), 1);
+    let ids = line_bus_ids(&m, &SaidPorts);
+    assert_eq!(
+        ids,
+        vec![LineBusId {
+            bus: "axes".into(),
+            port: m.buses[0].port_name.clone(),
+            id: format!("said:{}", m.buses[0].port),
+        }]
+    );
+    // a TCP device server: the front end's answer, then every address its
+    // host resolves to
+    m.buses[0].port = PortSpec::parse("tcp://127.0.0.1:4001").unwrap();
+    let ids: Vec<String> = line_bus_ids(&m, &SaidPorts)
+        .into_iter()
+        .map(|b| b.id)
+        .collect();
+    assert_eq!(ids, ["said:tcp://127.0.0.1:4001", "tcp:127.0.0.1:4001"]);
+    // a serial device: its canonical path, as the link names it
+    m.buses[0].port = PortSpec::parse("/dev/ttyS0").unwrap();
+    let opts = ReplaceOptions::for_line(&m, Default::default(), &SaidPorts);
+    assert_eq!(
+        opts.line_buses
+            .iter()
+            .map(|b| b.id.as_str())
+            .collect::<Vec<_>>(),
+        [driveset_link::bus_id::serial("/dev/ttyS0")]
+    );
+    assert_eq!(
+        opts.journal_dir,
+        Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR)
+    );
+}
