@@ -3,9 +3,10 @@
 //! buses through [`crate::port`], the engine's line run with progress lines
 //! and bars, the summary table (both rendered by `driveset_report::line`),
 //! the report written; `commission --assign`'s first contact is
-//! [`assign`].
+//! [`commission_assign`] (the engine's `line::commission_assign`; `assign`
+//! alone is `driveset address`).
 
-pub mod assign;
+pub mod commission_assign;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

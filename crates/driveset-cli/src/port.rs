@@ -130,20 +130,7 @@ pub fn openers() -> Openers {
 /// `spec` at another line rate (`baud=` on a character line, `bitrate=`
 /// on CAN); an opener's port through its opener.
 pub fn with_rate(spec: &PortSpec, rate: u32) -> PortSpec {
-    let mut s = spec.clone();
-    match &mut s {
-        PortSpec::Serial { baud: b, .. }
-        | PortSpec::Tcp { baud: b, .. }
-        | PortSpec::Rfc2217 { baud: b, .. } => *b = Some(rate),
-        PortSpec::Sim(o) => {
-            if let Some(opener) = openers().get(&o.scheme) {
-                *o = opener.with_rate(o, rate);
-            }
-        }
-        PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
-        PortSpec::SocketCan { .. } => {}
-    }
-    s
+    openers().at_rate(spec, rate)
 }
 
 /// The port `recorded` (a journal's) as a later command reaches the same

@@ -52,7 +52,7 @@ const SIM_REGISTRATION: &[(&str, &str)] = &[
 /// of an opaque port, whatever its scheme, and name none.
 const OPAQUE_PORTS: &[(&str, usize, &str)] = &[(
     "crates/driveset-engine/src/line/manifest/reader/ports.rs",
-    4,
+    3,
     "a manifest's bus port: the registered opener of an opaque port checks it and puts the manifest's drives on it (PortOpener::check, with_drives); no scheme is named",
 )];
 

@@ -1,7 +1,7 @@
 //! `driveset commission LINE`: bring every drive of a machine line to its
 //! set (buses in parallel, drives on one bus in turn), write the
 //! commissioning report. The run itself, which `driveset status` shares, is
-//! [`crate::line`]'s; `--assign` is [`crate::line::assign`]'s.
+//! [`crate::line`]'s; `--assign` is [`crate::line::commission_assign`]'s.
 
 use std::path::PathBuf;
 
@@ -131,33 +131,13 @@ pub struct Args {
 
 /// Run `driveset commission`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let overrides = match args.allow.overrides() {
-        Ok(o) => o,
-        Err(f) => {
-            return Err(f);
-        }
-    };
-    if args.assign {
-        let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
-            Ok(m) => m,
-            Err(code) => return Err(crate::fail::Fail::reported(code)),
-        };
-        let journal_dir =
-            driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
-        let a = crate::line::assign::AssignArgs {
-            port: args.port.clone(),
-            yes: args.yes,
-            prompt_stdin: args.prompt_stdin,
-            only: args.only.clone(),
-            overrides,
-        };
-        if !crate::line::assign::run(&manifest, &a, journal_dir)? {
-            eprintln!(
-                "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
-                args.manifest.display()
-            );
-            return Ok(EXIT_FINDINGS);
-        }
+    let overrides = args.allow.overrides()?;
+    if args.assign && !first_contact(&args, overrides)? {
+        eprintln!(
+            "error: the line does not match its manifest after the address assignment; not commissioned (fix what the table shows, then run `driveset commission {}`)",
+            args.manifest.display()
+        );
+        return Ok(EXIT_FINDINGS);
     }
     let opts = Common {
         manifest: args.manifest,
@@ -175,4 +155,26 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         o.broadcast_common = args.broadcast_common;
         o.fresh = args.fresh;
     })
+}
+
+/// `--assign`: the line's first contact before the commission
+/// ([`crate::line::commission_assign::run`]); `Ok(true)` when every bus holds.
+fn first_contact(
+    args: &Args,
+    overrides: driveset_engine::overrides::Overrides,
+) -> Result<bool, crate::fail::Fail> {
+    let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
+        Ok(m) => m,
+        Err(code) => return Err(crate::fail::Fail::reported(code)),
+    };
+    let journal_dir =
+        driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
+    let a = crate::line::commission_assign::AssignArgs {
+        port: args.port.clone(),
+        yes: args.yes,
+        prompt_stdin: args.prompt_stdin,
+        only: args.only.clone(),
+        overrides,
+    };
+    crate::line::commission_assign::run(&manifest, &a, journal_dir)
 }

@@ -1279,3 +1279,90 @@ fn lustbus_broadcast_never_while_the_bus_has_an_unfinished_journal() {
     );
     assert!(broadcasts(&sims.host_telegrams("axes")).is_empty());
 }
+
+#[test]
+fn a_first_contact_s_service_port_goes_on_the_line_s_one_serial_bus_at_its_rate() {
+    use driveset_engine::line::commission_assign::{ServicePortError, on_service_port};
+    let dir = tempfile::tempdir().unwrap();
+    let on = on_service_port(mc_axes_line(dir.path(), 2), "/dev/ttyUSB9", &sim_openers())
+        .expect("a line with one LUSTBUS bus");
+    assert_eq!(on.buses[0].port_name, "/dev/ttyUSB9");
+    assert_eq!(
+        on.buses[0].port,
+        driveset_link::PortSpec::parse("/dev/ttyUSB9?baud=9600").unwrap()
+    );
+    // the demo line: a LUSTBUS and a LECOM bus (and a CAN bus, not counted)
+    let e = on_service_port(demo(), "/dev/ttyUSB9", &sim_openers()).unwrap_err();
+    assert!(
+        matches!(e, ServicePortError::NotOneBus { buses: 2, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().starts_with(
+        "--port /dev/ttyUSB9: the line has 2 LUSTBUS / LECOM buses; --port names the one port"
+    ));
+    let e = on_service_port(mc_axes_line(dir.path(), 1), "nope://x", &sim_openers()).unwrap_err();
+    assert!(matches!(e, ServicePortError::BadPort { .. }), "{e}");
+    assert!(e.to_string().starts_with("--port nope://x: "), "{e}");
+}
+
+/// The front end's ports as `replace` asks them before opening anything:
+/// an opener's port names the bus its front end says (here `said:PORT`),
+/// every other port as the link says; nothing is opened.
+struct SaidPorts;
+
+impl driveset_engine::session::Ports for SaidPorts {
+    fn open(
+        &self,
+        port: &str,
+        _spec: PortSpec,
+        _address: Option<u8>,
+    ) -> Result<driveset_engine::session::OpenedPort, driveset_engine::session::PortError> {
+        panic!("{port} opened: replace asks the line's ports before opening them")
+    }
+
+    fn bus_before_open(&self, port: &str, spec: &PortSpec) -> Option<String> {
+        driveset_link::bus_id::before_open(spec).or_else(|| Some(format!("said:{port}")))
+    }
+
+    fn lock(&self, _bus: &str) -> Result<(), driveset_link::LockError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn replace_knows_the_buses_the_line_s_ports_reach_before_opening_them() {
+    use driveset_engine::line::replace::{LineBusId, ReplaceOptions, line_bus_ids};
+    let dir = tempfile::tempdir().unwrap();
+    let mut m = mc_axes_line(dir.path(), 1);
+    let ids = line_bus_ids(&m, &SaidPorts);
+    assert_eq!(
+        ids,
+        vec![LineBusId {
+            bus: "axes".into(),
+            port: m.buses[0].port_name.clone(),
+            id: format!("said:{}", m.buses[0].port),
+        }]
+    );
+    // a TCP device server: the front end's answer, then every address its
+    // host resolves to
+    m.buses[0].port = PortSpec::parse("tcp://127.0.0.1:4001").unwrap();
+    let ids: Vec<String> = line_bus_ids(&m, &SaidPorts)
+        .into_iter()
+        .map(|b| b.id)
+        .collect();
+    assert_eq!(ids, ["said:tcp://127.0.0.1:4001", "tcp:127.0.0.1:4001"]);
+    // a serial device: its canonical path, as the link names it
+    m.buses[0].port = PortSpec::parse("/dev/ttyS0").unwrap();
+    let opts = ReplaceOptions::for_line(&m, Default::default(), &SaidPorts);
+    assert_eq!(
+        opts.line_buses
+            .iter()
+            .map(|b| b.id.as_str())
+            .collect::<Vec<_>>(),
+        [driveset_link::bus_id::serial("/dev/ttyS0")]
+    );
+    assert_eq!(
+        opts.journal_dir,
+        Path::new(driveset_engine::journal::DEFAULT_JOURNAL_DIR)
+    );
+}

@@ -283,21 +283,10 @@ impl Reader<'_> {
         Some((rate, spec))
     }
 
-    /// `spec` running at `rate` (an opener's port through its opener).
-    fn set_rate(&self, mut spec: PortSpec, rate: u32) -> PortSpec {
-        match &mut spec {
-            PortSpec::Serial { baud, .. }
-            | PortSpec::Tcp { baud, .. }
-            | PortSpec::Rfc2217 { baud, .. } => *baud = Some(rate),
-            PortSpec::Slcan { bitrate, .. } => *bitrate = Some(rate),
-            PortSpec::Sim(o) => {
-                if let Some(opener) = self.openers.get(&o.scheme) {
-                    *o = opener.with_rate(o, rate);
-                }
-            }
-            PortSpec::SocketCan { .. } => {}
-        }
-        spec
+    /// `spec` running at `rate` (an opener's port through its opener:
+    /// [`driveset_link::Openers::at_rate`]).
+    fn set_rate(&self, spec: PortSpec, rate: u32) -> PortSpec {
+        self.openers.at_rate(&spec, rate)
     }
 
     /// A `sim://` port with `factory=` drives: every family the manifest
