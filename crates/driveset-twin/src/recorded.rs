@@ -101,3 +101,34 @@ pub fn twins(
         })
         .collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use driveset_engine::env::Memory;
+
+    use super::*;
+
+    #[test]
+    fn a_bus_of_one_family_defaults_to_its_schema() {
+        assert_eq!(default_schema(Format::Lecom), Some("lenze-tmd"));
+        assert_eq!(default_schema(Format::Slcan), Some("lenze-ecs"));
+        assert_eq!(default_schema(Format::Lustbus), None);
+    }
+
+    #[test]
+    fn a_schema_off_the_bus_and_a_silent_session_are_refused() {
+        let registry = Registry::builtin().expect("built-in schemas");
+        let env = Memory::at("2026-12-07T10:11:12Z".parse().expect("timestamp"));
+        let file = Path::new("session.bin");
+        let vf1000 = registry.get("lust-vf1000").expect("vf1000");
+        let e = twins(Format::Lecom, b"", file, registry.clone(), &vf1000, &env)
+            .expect_err("a LUSTBUS schema for a LECOM session");
+        assert_eq!(
+            e.to_string(),
+            "--schema lust-vf1000: a vf1000 schema; a lecom session needs a schema of tmd"
+        );
+        let tmd = registry.get("lenze-tmd").expect("tmd");
+        let e = twins(Format::Lecom, b"", file, registry, &tmd, &env).expect_err("no drive");
+        assert!(matches!(e, RecordedError::NoDrive { .. }), "{e:?}");
+    }
+}
