@@ -567,6 +567,56 @@ mod tests {
     }
 
     #[test]
+    fn a_power_cycle_needs_its_state_file_and_writes_it_back() {
+        let dir = driveset_test_support::sim_dir();
+        let state = dir.path().join("sim/bench.json");
+        let mut o = SimOptions {
+            family: Some("tmd".into()),
+            addresses: vec![1, 2],
+            power_cycle: true,
+            ..SimOptions::default()
+        };
+        let (config, _) = configure(&o).unwrap();
+        assert_eq!(
+            power_cycle(&config).unwrap_err().to_string(),
+            "--power-cycle needs --state FILE"
+        );
+        o.state = Some(state.clone());
+        let (config, _) = configure(&o).unwrap();
+        assert_eq!(
+            power_cycle(&config).unwrap_err().to_string(),
+            format!(
+                "--state {}: no such state file; a power cycle needs the drives' state",
+                state.display()
+            )
+        );
+        // serving stops: the dump written where asked, then the state file
+        let (line, drives) = config.byte_line_drives(EventLog::off()).unwrap();
+        let dump = drives.byte_line_dump(config.bus_name(), &line);
+        let dump_to = dir.path().join("sim/dump.json");
+        let mut said = None;
+        save(&config, &dump, &EventLog::off(), Some(&dump_to), |p| {
+            said = Some(p.to_path_buf());
+        })
+        .unwrap();
+        assert_eq!(said.as_deref(), Some(dump_to.as_path()));
+        assert_eq!(
+            std::fs::read(&dump_to).unwrap(),
+            std::fs::read(&state).unwrap()
+        );
+        // the family and addresses are the state file's when not given
+        let (config, _) = configure(&SimOptions {
+            state: Some(state.clone()),
+            power_cycle: true,
+            ..SimOptions::default()
+        })
+        .unwrap();
+        assert_eq!(config.addresses, vec![1, 2]);
+        assert_eq!(power_cycle(&config).unwrap(), 2);
+        assert_eq!(StateDump::read(&state).unwrap().drives.len(), 2);
+    }
+
+    #[test]
     fn refusals_name_the_option() {
         let can = SimOptions {
             family: Some("ecs".into()),
