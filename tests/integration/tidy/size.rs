@@ -26,7 +26,6 @@ const MAX_FN_LINES: usize = 150;
 const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
     ("crates/driveset-cli/src/cmd/replace.rs", "run", 165),
     ("crates/driveset-cli/src/cmd/scan.rs", "scan", 227),
-    ("crates/driveset-cli/src/line.rs", "run_mode", 155),
     (
         "crates/driveset-engine/src/assign/plan.rs",
         "plan_lecom",
