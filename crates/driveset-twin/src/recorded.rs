@@ -6,7 +6,7 @@
 //! ([`crate::capture::of_session`]). Reading the file and loading the
 //! schema are the caller's.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::decode::Capture as Format;
@@ -38,10 +38,17 @@ pub enum RecordedError {
     )]
     NoDrive {
         /// The session's file.
-        file: std::path::PathBuf,
+        file: PathBuf,
         /// The session's bus.
         bus: &'static str,
     },
+}
+
+/// The twin file of the station at `address` in `dir`:
+/// `DIR/twin-<address>.twin.toml` (rename it to `<drive name>.twin.toml`
+/// for a rehearsal).
+pub fn path_in(dir: &Path, address: u8) -> PathBuf {
+    crate::file::path_in(dir, &format!("twin-{address}"))
 }
 
 /// The schema a session in `format` is read with when none is given: the
@@ -107,6 +114,14 @@ mod tests {
     use driveset_engine::env::Memory;
 
     use super::*;
+
+    #[test]
+    fn a_stations_twin_is_named_by_its_address() {
+        assert_eq!(
+            path_in(Path::new("twins"), 7),
+            Path::new("twins/twin-7.twin.toml")
+        );
+    }
 
     #[test]
     fn a_bus_of_one_family_defaults_to_its_schema() {

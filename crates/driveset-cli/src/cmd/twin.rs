@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use driveset_engine::history::Slot;
 use driveset_schema::Schema;
-use driveset_sim::twin::{TWIN_SUFFIX, Twin};
+use driveset_sim::twin::Twin;
 use driveset_twin::drive::{CaptureError, Captured};
 
 use crate::fail::Fail;
@@ -342,7 +342,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     for twin in twins {
-        let out = a.output.join(format!("twin-{}{TWIN_SUFFIX}", twin.address));
+        let out = driveset_twin::recorded::path_in(&a.output, twin.address);
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
     }
