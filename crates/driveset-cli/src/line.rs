@@ -339,27 +339,16 @@ fn rehearsal(
 ) -> Result<(Box<Opener<'static>>, Vec<String>), crate::fail::Fail> {
     let selected = driveset_engine::line::commission::select(manifest, opts)
         .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
-    let twins = driveset_twin::rehearse::twins(manifest, dir, &selected)?;
-    let missing: Vec<String> = twins
-        .iter()
-        .filter(|(n, t)| t.is_none() && selected.contains(*n))
-        .map(|(n, _)| n.clone())
-        .collect();
-    opts.skip.extend(missing.iter().cloned());
-    opts.label = Some(driveset_twin::rehearse::label(dir, &twins, &missing));
+    let r = driveset_twin::rehearse::prepare(manifest, dir, &selected)?;
+    opts.skip.extend(r.missing.iter().cloned());
+    opts.label = Some(r.label);
     opts.fresh = true;
     opts.journal_dir = report_dir.join("rehearsal-journal");
-    for m in &missing {
-        eprintln!(
-            "{m}: not rehearsed: no twin {}",
-            dir.join(format!("{m}{}", driveset_sim::twin::TWIN_SUFFIX))
-                .display()
-        );
+    for m in &r.missing {
+        let twin = driveset_twin::file::path_in(dir, m);
+        eprintln!("{m}: not rehearsed: no twin {}", twin.display());
     }
-    Ok((
-        Box::new(driveset_twin::rehearse::opener(manifest, &twins)),
-        missing,
-    ))
+    Ok((Box::new(r.opener), r.missing))
 }
 
 /// The process exit code of a line run: 0 every selected drive holds its

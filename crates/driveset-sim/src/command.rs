@@ -2,7 +2,9 @@
 //! command's options as plain data ([`SimOptions`]) checked into a bus
 //! configuration and where to serve it ([`configure`]: a [`SimConfig`] and
 //! an [`Endpoint`]), the sentence that says what is served ([`serving`]),
-//! the power cycle of a state file's drives ([`power_cycle`]) and what is
+//! who can reach a TCP listener ([`exposure`]) and how its clients are
+//! served ([`tcp_options`]), the power cycle of a state file's drives
+//! ([`power_cycle`]) and what is
 //! saved when serving stops ([`save`]: the event log flushed, the `--dump`
 //! and `--state` files written). Each refusal is a [`SimCommandError`]
 //! worded as the command has always shown it. The CLI keeps its clap
@@ -10,7 +12,7 @@
 //! the serving call ([`crate::serve`], [`crate::slcan_serve`]); docs/ports.md
 //! and docs/twins.md describe the options.
 
-use std::net::{Ipv4Addr, SocketAddr};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 
 use driveset_link::spec::{ALLOWED_BAUDS, ALLOWED_BITRATES};
@@ -460,6 +462,29 @@ pub fn serving(config: &SimConfig, on_line: &[u8]) -> String {
     )
 }
 
+/// Who can reach a listener at `addr` beyond this host, for the warning
+/// the command gives (the simulator has no access control): `None` on
+/// loopback, else every network interface (an unspecified address) or a
+/// network address.
+pub fn exposure(addr: SocketAddr) -> Option<&'static str> {
+    if addr.ip().is_loopback() {
+        return None;
+    }
+    Some(match addr.ip() {
+        IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",
+        IpAddr::V6(ip) if ip.is_unspecified() => "every network interface",
+        _ => "a network address",
+    })
+}
+
+/// How TCP clients are served with `--idle-timeout SECONDS`: one dropped
+/// after that long without sending anything (0: never).
+pub fn tcp_options(idle_timeout: u64) -> crate::serve::TcpServeOptions {
+    crate::serve::TcpServeOptions {
+        idle_timeout: (idle_timeout > 0).then(|| std::time::Duration::from_secs(idle_timeout)),
+    }
+}
+
 /// Power-cycle every drive of the state file (`config.state`): each loaded,
 /// powered off and on (keeping what its kind of drive keeps), written
 /// back. Gives how many drives were power-cycled.
@@ -537,6 +562,24 @@ mod tests {
             parse_tcp("0.0.0.0:4001").unwrap().to_string(),
             "0.0.0.0:4001"
         );
+        assert_eq!(exposure(parse_tcp("4001").unwrap()), None);
+        assert_eq!(
+            exposure(parse_tcp("0.0.0.0:4001").unwrap()),
+            Some("every network interface")
+        );
+        assert_eq!(
+            exposure(parse_tcp("[::]:4001").unwrap()),
+            Some("every network interface")
+        );
+        assert_eq!(
+            exposure(parse_tcp("192.0.2.1:4001").unwrap()),
+            Some("a network address")
+        );
+        assert_eq!(tcp_options(0).idle_timeout, None);
+        assert_eq!(
+            tcp_options(10).idle_timeout,
+            Some(std::time::Duration::from_secs(10))
+        );
         assert_eq!(
             parse_tcp("nowhere").unwrap_err().to_string(),
             "--tcp `nowhere`: give PORT or IP:PORT, e.g. --tcp 4001 or --tcp 127.0.0.1:4001 (--tcp 0.0.0.0:4001 serves the network)"
@@ -564,6 +607,56 @@ mod tests {
             serving(&config, &[1, 2]),
             "serving 2 simulated mc6000 drives (addresses 1, 2) at 19200 baud 7E1, seed 7"
         );
+    }
+
+    #[test]
+    fn a_power_cycle_needs_its_state_file_and_writes_it_back() {
+        let dir = driveset_test_support::sim_dir();
+        let state = dir.path().join("sim/bench.json");
+        let mut o = SimOptions {
+            family: Some("tmd".into()),
+            addresses: vec![1, 2],
+            power_cycle: true,
+            ..SimOptions::default()
+        };
+        let (config, _) = configure(&o).unwrap();
+        assert_eq!(
+            power_cycle(&config).unwrap_err().to_string(),
+            "--power-cycle needs --state FILE"
+        );
+        o.state = Some(state.clone());
+        let (config, _) = configure(&o).unwrap();
+        assert_eq!(
+            power_cycle(&config).unwrap_err().to_string(),
+            format!(
+                "--state {}: no such state file; a power cycle needs the drives' state",
+                state.display()
+            )
+        );
+        // serving stops: the dump written where asked, then the state file
+        let (line, drives) = config.byte_line_drives(EventLog::off()).unwrap();
+        let dump = drives.byte_line_dump(config.bus_name(), &line);
+        let dump_to = dir.path().join("sim/dump.json");
+        let mut said = None;
+        save(&config, &dump, &EventLog::off(), Some(&dump_to), |p| {
+            said = Some(p.to_path_buf());
+        })
+        .unwrap();
+        assert_eq!(said.as_deref(), Some(dump_to.as_path()));
+        assert_eq!(
+            std::fs::read(&dump_to).unwrap(),
+            std::fs::read(&state).unwrap()
+        );
+        // the family and addresses are the state file's when not given
+        let (config, _) = configure(&SimOptions {
+            state: Some(state.clone()),
+            power_cycle: true,
+            ..SimOptions::default()
+        })
+        .unwrap();
+        assert_eq!(config.addresses, vec![1, 2]);
+        assert_eq!(power_cycle(&config).unwrap(), 2);
+        assert_eq!(StateDump::read(&state).unwrap().drives.len(), 2);
     }
 
     #[test]

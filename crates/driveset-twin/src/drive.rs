@@ -195,3 +195,62 @@ impl Described {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use driveset_engine::env::Memory;
+    use driveset_link::{PortSpec, VirtualClock};
+    use driveset_schema::Registry;
+    use driveset_sim::open::open_sim;
+    use driveset_sim::port::SimSpec;
+
+    use super::*;
+
+    /// A simulated bus of `port`, opened as the session opens one.
+    fn opened(port: &str) -> OpenedPort {
+        let sim = SimSpec::parse(port).expect("sim port");
+        let bus = open_sim(&sim, &VirtualClock::new()).expect("simulated bus");
+        OpenedPort::named(sim.name(), PortSpec::Sim(sim.to_opaque()), bus.link())
+    }
+
+    fn env() -> Memory {
+        Memory::at("2026-12-07T10:11:12Z".parse().expect("timestamp"))
+    }
+
+    #[test]
+    fn a_tmd_is_captured_without_describing_and_stamped_by_the_clock() {
+        let schema = Registry::builtin()
+            .expect("built-in schemas")
+            .get("lenze-tmd")
+            .expect("tmd");
+        assert!(!describes(&schema));
+        let d = describe_drive(opened("sim://tmd?addresses=4"), schema, 4, || {
+            panic!("no registry asked for a family that does not describe")
+        })
+        .expect("opened");
+        assert_eq!(d.learned, None);
+        let c = d.capture(&env()).expect("captured");
+        assert_eq!(c.twin.address, 4);
+        assert_eq!(c.twin.schema, "lenze-tmd");
+        assert_eq!(c.twin.captured, "2026-12-07");
+        assert_eq!(c.twin.driveset, env!("CARGO_PKG_VERSION"));
+        assert!(c.twin.source.ends_with(" address 4"), "{}", c.twin.source);
+        assert!(c.twin.descriptions.is_none());
+        assert!(!c.twin.values.is_empty());
+    }
+
+    #[test]
+    fn a_schema_of_another_bus_does_not_fit_the_port() {
+        let schema = Registry::builtin()
+            .expect("built-in schemas")
+            .get("lust-mc6000")
+            .expect("mc6000");
+        assert!(describes(&schema));
+        let e = describe_drive(opened("sim://ecs?addresses=1"), schema, 1, || {
+            Err("not asked".into())
+        })
+        .err()
+        .expect("refused");
+        assert!(matches!(e, CaptureError::Fit(_)), "{e:?}");
+    }
+}

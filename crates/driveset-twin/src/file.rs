@@ -73,3 +73,52 @@ pub fn write(path: &Path, twin: &Twin, schema: &Schema) -> Result<Written, TwinW
         bytes: text.len(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use driveset_schema::{CodeKey, RawValue, Registry};
+
+    use super::*;
+
+    #[test]
+    fn a_second_write_of_the_same_twin_keeps_the_file() {
+        let schema = Registry::builtin()
+            .expect("built-in schemas")
+            .get("lenze-tmd")
+            .expect("tmd");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = path_in(&dir.path().join("twins"), "conveyor-3");
+        assert!(path.ends_with("twins/conveyor-3.twin.toml"));
+        let mut twin = Twin::new(schema.family, 3, &schema.id);
+        twin.values.insert(CodeKey::new(11), RawValue::Int(500_000));
+        let first = write(&path, &twin, &schema).expect("written");
+        assert!(!first.unchanged);
+        let text = std::fs::read_to_string(&path).expect("file");
+        assert_eq!(first.bytes, text.len());
+        let again = write(&path, &twin, &schema).expect("kept");
+        assert_eq!(
+            again,
+            Written {
+                unchanged: true,
+                bytes: text.len()
+            }
+        );
+    }
+
+    #[test]
+    fn a_directory_in_the_way_is_refused_naming_the_file() {
+        let schema = Registry::builtin()
+            .expect("built-in schemas")
+            .get("lenze-tmd")
+            .expect("tmd");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let twin = Twin::new(schema.family, 3, &schema.id);
+        let e = write(dir.path(), &twin, &schema).expect_err("a directory");
+        assert!(matches!(e, TwinWriteError::Output(_)), "{e:?}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{}: ", dir.path().display())),
+            "{e}"
+        );
+    }
+}

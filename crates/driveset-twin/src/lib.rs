@@ -4,7 +4,9 @@
 //! capture of one drive from an opened port ([`drive`]: described first
 //! when its family describes, its family checked, every code read), twins
 //! from a recorded session ([`recorded`]), the twin file written or kept
-//! ([`file`]), what the plant history records of a capture ([`history`]),
+//! ([`file`]), the plan of a line manifest's capture ([`line`]: each
+//! drive's port, twin file, history slot and records), what the plant
+//! history records of a capture ([`history`]),
 //! and the buses of a rehearsal ([`rehearse`]: the twins of a line
 //! manifest's drives found and checked, each bus a simulated bus of its
 //! drives' twins in virtual time, the report's label). The twin file is
@@ -16,6 +18,7 @@ pub mod capture;
 pub mod drive;
 pub mod file;
 pub mod history;
+pub mod line;
 pub mod recorded;
 pub mod rehearse;
 

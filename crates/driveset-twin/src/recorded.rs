@@ -6,7 +6,7 @@
 //! ([`crate::capture::of_session`]). Reading the file and loading the
 //! schema are the caller's.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::decode::Capture as Format;
@@ -38,10 +38,17 @@ pub enum RecordedError {
     )]
     NoDrive {
         /// The session's file.
-        file: std::path::PathBuf,
+        file: PathBuf,
         /// The session's bus.
         bus: &'static str,
     },
+}
+
+/// The twin file of the station at `address` in `dir`:
+/// `DIR/twin-<address>.twin.toml` (rename it to `<drive name>.twin.toml`
+/// for a rehearsal).
+pub fn path_in(dir: &Path, address: u8) -> PathBuf {
+    crate::file::path_in(dir, &format!("twin-{address}"))
 }
 
 /// The schema a session in `format` is read with when none is given: the
@@ -100,4 +107,43 @@ pub fn twins(
             crate::capture::of_session(format, session, schema, address, stamp)
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use driveset_engine::env::Memory;
+
+    use super::*;
+
+    #[test]
+    fn a_stations_twin_is_named_by_its_address() {
+        assert_eq!(
+            path_in(Path::new("twins"), 7),
+            Path::new("twins/twin-7.twin.toml")
+        );
+    }
+
+    #[test]
+    fn a_bus_of_one_family_defaults_to_its_schema() {
+        assert_eq!(default_schema(Format::Lecom), Some("lenze-tmd"));
+        assert_eq!(default_schema(Format::Slcan), Some("lenze-ecs"));
+        assert_eq!(default_schema(Format::Lustbus), None);
+    }
+
+    #[test]
+    fn a_schema_off_the_bus_and_a_silent_session_are_refused() {
+        let registry = Registry::builtin().expect("built-in schemas");
+        let env = Memory::at("2026-12-07T10:11:12Z".parse().expect("timestamp"));
+        let file = Path::new("session.bin");
+        let vf1000 = registry.get("lust-vf1000").expect("vf1000");
+        let e = twins(Format::Lecom, b"", file, registry.clone(), &vf1000, &env)
+            .expect_err("a LUSTBUS schema for a LECOM session");
+        assert_eq!(
+            e.to_string(),
+            "--schema lust-vf1000: a vf1000 schema; a lecom session needs a schema of tmd"
+        );
+        let tmd = registry.get("lenze-tmd").expect("tmd");
+        let e = twins(Format::Lecom, b"", file, registry, &tmd, &env).expect_err("no drive");
+        assert!(matches!(e, RecordedError::NoDrive { .. }), "{e:?}");
+    }
 }

@@ -3,7 +3,8 @@
 //! and checked ([`twins`]), each bus opened as a simulated bus of its
 //! drives' twins in virtual time ([`opener`]; they live in this process
 //! only, so there is no bus to lock), and the label its report carries
-//! ([`label`]). A rehearsal that would rehearse nothing is refused.
+//! ([`label`]); [`prepare`] gives all three for the selected drives. A
+//! rehearsal that would rehearse nothing is refused.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -102,6 +103,43 @@ pub fn twins(
         )));
     }
     Ok(out)
+}
+
+/// A rehearsal ready to run ([`prepare`]).
+#[derive(Debug)]
+pub struct Rehearsal<O> {
+    /// Its buses' opener ([`opener`]).
+    pub opener: O,
+    /// The selected drives without a twin, in the manifest's order: not
+    /// rehearsed (the line run skips them; the report names them).
+    pub missing: Vec<String>,
+    /// Its report's label ([`label`]).
+    pub label: String,
+}
+
+/// The rehearsal of the `selected` drives of `manifest` against the twins
+/// in `dir`: the twins found and checked ([`twins`]), the selected drives
+/// without one, the label and the buses' opener.
+///
+/// # Errors
+/// [`Refused`] when it would rehearse nothing (see [`twins`]).
+pub fn prepare(
+    manifest: &Manifest,
+    dir: &Path,
+    selected: &BTreeSet<String>,
+) -> Result<Rehearsal<impl Fn(&Bus) -> Result<Link, String> + Sync + use<>>, Refused> {
+    let twins = twins(manifest, dir, selected)?;
+    let missing: Vec<String> = twins
+        .iter()
+        .filter(|(n, t)| t.is_none() && selected.contains(*n))
+        .map(|(n, _)| n.clone())
+        .collect();
+    let label = label(dir, &twins, &missing);
+    Ok(Rehearsal {
+        opener: opener(manifest, &twins),
+        missing,
+        label,
+    })
 }
 
 /// The opener of a rehearsal: each bus a simulated bus of its drives'

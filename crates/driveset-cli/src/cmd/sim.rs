@@ -51,7 +51,7 @@
 //! call and what it says on stderr.
 
 use std::io::LineWriter;
-use std::net::{IpAddr, TcpListener};
+use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -379,20 +379,12 @@ fn serve_line(
                 .context("cannot read the bound port")?;
             announce(&format!("tcp {local}"))?;
             eprintln!("{}", command::serving(config, &on_line));
-            if !addr.ip().is_loopback() {
-                let what = match addr.ip() {
-                    IpAddr::V4(ip) if ip.is_unspecified() => "every network interface",
-                    IpAddr::V6(ip) if ip.is_unspecified() => "every network interface",
-                    _ => "a network address",
-                };
+            if let Some(what) = command::exposure(addr) {
                 eprintln!(
                     "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
                 );
             }
-            let options = serve::TcpServeOptions {
-                idle_timeout: (args.idle_timeout > 0)
-                    .then(|| std::time::Duration::from_secs(args.idle_timeout)),
-            };
+            let options = command::tcp_options(args.idle_timeout);
             let idle = match options.idle_timeout {
                 Some(t) => format!("idle clients dropped after {} s", t.as_secs()),
                 None => "idle clients never dropped".into(),

@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use driveset_engine::history::Slot;
 use driveset_schema::Schema;
-use driveset_sim::twin::{TWIN_SUFFIX, Twin};
+use driveset_sim::twin::Twin;
 use driveset_twin::drive::{CaptureError, Captured};
 
 use crate::fail::Fail;
@@ -190,9 +190,10 @@ fn run_capture(a: CaptureArgs) -> Result<u8, Fail> {
 fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     let manifest = crate::line::load(&a.manifest, crate::line::LearnedSets::Counted)
         .map_err(Fail::reported)?;
+    let twins = driveset_twin::line::plan(&manifest, &a.output);
     // every twin file is checked before a bus is opened
-    for d in &manifest.drives {
-        crate::files::check_output("", &driveset_twin::file::path_in(&a.output, &d.name))?;
+    for t in &twins {
+        crate::files::check_output("", &t.out)?;
     }
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
@@ -206,37 +207,19 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
     )?;
     let mut worst = EXIT_OK;
     let mut failed = Vec::new();
-    for d in &manifest.drives {
-        let bus = &manifest.buses[d.bus_index];
-        let port_text = bus.port.to_string();
-        let out = driveset_twin::file::path_in(&a.output, &d.name);
+    for t in &twins {
+        let d = t.drive;
         // the set's schema as the manifest resolved it (a learned file
         // `pull` wrote beside the set included); one that lacks facts is
         // learned from the drive, as `pull` learns it
-        let slot = Slot {
-            line: Some(manifest.name.clone()),
-            drive: Some(d.name.clone()),
-            bus: bus.name.clone(),
-            address: d.address,
-        };
-        let captured = capture_drive(&port_text, d.address, |_| Ok(d.schema.clone()));
+        let captured = capture_drive(&t.port, d.address, |_| Ok(d.schema.clone()));
         let written = match captured {
             Ok(c) => {
-                crate::history::drive(&driveset_twin::history::line_record(
-                    slot,
-                    d,
-                    &c.twin,
-                    &c.schema,
-                    &c.identity,
-                ));
-                write_twin(&out, &c.twin, &c.schema)
+                crate::history::drive(&t.record(&c));
+                write_twin(&t.out, &c.twin, &c.schema)
             }
             Err(f) => {
-                crate::history::drive(&driveset_twin::history::failed_record(
-                    slot,
-                    d,
-                    f.msg.clone(),
-                ));
+                crate::history::drive(&t.failed(f.msg.clone()));
                 Err(f)
             }
         };
@@ -245,7 +228,7 @@ fn run_capture_line(a: CaptureLineArgs) -> Result<u8, Fail> {
             Err(f) => {
                 eprintln!(
                     "error: {} ({} address {}): {}",
-                    d.name, bus.name, d.address, f.msg
+                    d.name, t.bus.name, d.address, f.msg
                 );
                 failed.push(d.name.clone());
                 worst = worst.max(f.code);
@@ -359,7 +342,7 @@ fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     std::fs::create_dir_all(&a.output)
         .map_err(|e| Fail::input(format!("cannot create {}: {e}", a.output.display())))?;
     for twin in twins {
-        let out = a.output.join(format!("twin-{}{TWIN_SUFFIX}", twin.address));
+        let out = driveset_twin::recorded::path_in(&a.output, twin.address);
         let line = write_twin(&out, &twin, &schema)?;
         outln!("{line}; {} code(s) unknown", twin.unknown.len());
     }
