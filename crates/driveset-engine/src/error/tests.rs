@@ -300,21 +300,23 @@ fn every_refusal_renders_its_message() {
             "schemas differ",
         ),
         (
-            Refusal::WrongType {
+            crate::identify::IdentifyRefusal::WrongType {
                 code: s("91-TYPE"),
                 found: Some(9999),
                 schema: s("lust-mc6000"),
                 expected: vec![1234, 1235],
-            },
+            }
+            .into(),
             "the drive reports 91-TYPE = 9999, which is not a `lust-mc6000` type ([1234, 1235]); use the set and schema of the drive's family",
         ),
         (
-            Refusal::WrongType {
+            crate::identify::IdentifyRefusal::WrongType {
                 code: s("91-TYPE"),
                 found: None,
                 schema: s("x"),
                 expected: vec![1],
-            },
+            }
+            .into(),
             "the drive reports 91-TYPE = nothing, which is not a `x` type ([1]); use the set and schema of the drive's family",
         ),
         (
@@ -330,7 +332,7 @@ fn every_refusal_renders_its_message() {
             "node id 0 is out of range 1..=127: node 0 is no SDO server and cannot be a scan target (DS301)",
         ),
         (
-            Refusal::NoProbeCode { schema: s("x") },
+            crate::scan::ScanRefusal::NoProbeCode { schema: s("x") }.into(),
             "schema `x` has no code to probe with",
         ),
         (
@@ -341,7 +343,10 @@ fn every_refusal_renders_its_message() {
             doctor(BusProtocol::Lecom, 0),
             "00 is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)",
         ),
-        (Refusal::DoctorCanPort, "CAN ports are checked by run_can"),
+        (
+            crate::doctor::DoctorRefusal::CanPort.into(),
+            "CAN ports are checked by run_can",
+        ),
         (
             Refusal::Plan {
                 problems: vec![Problem::Running],
@@ -889,6 +894,6 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
     );
     assert_eq!(
         read(r#"["no_probe_code", "x"]"#),
-        refused(Refusal::NoProbeCode { schema: s("x") })
+        refused(crate::scan::ScanRefusal::NoProbeCode { schema: s("x") }.into())
     );
 }
