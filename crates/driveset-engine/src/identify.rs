@@ -5,7 +5,32 @@
 //! port's rate or another, and whether the schema fits).
 
 use crate::client::{DriveClient, IdentValue, Identity};
-use crate::error::{EngineError, LinkFailure, Refusal};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{EngineError, LinkFailure};
+
+/// What [`check_family`] refuses: a drive of another family than the
+/// schema's. Gathered into [`Refusal`](crate::error::Refusal) as
+/// `Refusal::Identify`, with the JSON kind journals hold (`wrong_type`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum IdentifyRefusal {
+    /// The drive's TYPE is not one of the schema's (LUSTBUS 91-TYPE).
+    #[error(
+        "the drive reports {code} = {}, which is not a `{schema}` type ({expected:?}); use the set and schema of the drive's family",
+        .found.map_or_else(|| "nothing".to_string(), |t| t.to_string())
+    )]
+    WrongType {
+        /// The TYPE code as the schema spells it.
+        code: String,
+        /// What the drive reported (`None`: nothing readable).
+        found: Option<i64>,
+        /// Schema id.
+        schema: String,
+        /// The schema's TYPE values.
+        expected: Vec<i64>,
+    },
+}
 
 /// The identification codes of the client's schema, read from the drive.
 pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
@@ -15,8 +40,9 @@ pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
 /// Identifies the drive and checks it against the client's schema: the
 /// protocol must match and, where the schema lists `type_values` (LUSTBUS
 /// 91-TYPE, `Descriptor::device_type_code`), the drive's TYPE must be one
-/// of them. A mismatch is
-/// [`Refused::Rule`](crate::error::Refused::Rule); nothing is written either way.
+/// of them. A mismatch is refused ([`IdentifyRefusal`], a
+/// [`Refused::Rule`](crate::error::Refused::Rule)); nothing is written
+/// either way.
 pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
     let identity = client.identify()?;
     let schema = client.schema().clone();
@@ -33,7 +59,7 @@ pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineErro
         Some(t) if ident.type_values.contains(&t) => Ok(identity),
         found => Err(EngineError::refused(
             client.target().clone(),
-            Refusal::WrongType {
+            IdentifyRefusal::WrongType {
                 code: type_name,
                 found,
                 schema: schema.id.clone(),
@@ -118,4 +144,26 @@ pub fn examine(
         other_rate,
         fits,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IdentifyRefusal;
+    use crate::error::assert_refusal_json;
+
+    /// The refusal is a `Refusal` whose JSON is the flat kind journals
+    /// have always held, and reads back to the same refusal.
+    #[test]
+    fn the_family_refusal_keeps_its_json_kind_and_reads_back() {
+        let refusal = IdentifyRefusal::WrongType {
+            code: "91-TYPE".to_string(),
+            found: Some(9999),
+            schema: "x".to_string(),
+            expected: vec![1],
+        };
+        assert_refusal_json(
+            &refusal,
+            r#"{"kind":"wrong_type","code":"91-TYPE","found":9999,"schema":"x","expected":[1]}"#,
+        );
+    }
 }

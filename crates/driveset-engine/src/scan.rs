@@ -51,6 +51,20 @@ use crate::error::{AddressRefused, EngineError, Refusal};
 
 pub use bus::{BusScanned, ScanError, ScanPlan, scan_bus, scan_rates};
 
+/// What a scan refuses before it probes (beside the address rule,
+/// [`AddressRefused`]). Gathered into [`Refusal`] as `Refusal::Scan`, with
+/// the JSON kind journals hold (`no_probe_code`).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ScanRefusal {
+    /// A schema with no code to probe a CAN scan with.
+    #[error("schema `{schema}` has no code to probe with")]
+    NoProbeCode {
+        /// Schema id.
+        schema: String,
+    },
+}
+
 /// LUSTBUS line rates, highest first (section 4: 2400..9600 inverters,
 /// 2400..57600 servocontrollers): the descriptor's
 /// [`BusProtocol::line_rates`].
@@ -372,9 +386,10 @@ pub fn scan_can(
             refuse(
                 &port,
                 0,
-                Refusal::NoProbeCode {
+                ScanRefusal::NoProbeCode {
                     schema: schema.id.clone(),
-                },
+                }
+                .into(),
             )
         })?;
     let key = CodeKey::new(number);
@@ -528,6 +543,18 @@ pub fn detect_protocol(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The refusal is a `Refusal` whose JSON is the flat kind journals
+    /// have always held, and reads back to the same refusal.
+    #[test]
+    fn the_scan_refusal_keeps_its_json_kind_and_reads_back() {
+        crate::error::assert_refusal_json(
+            &ScanRefusal::NoProbeCode {
+                schema: "x".to_string(),
+            },
+            r#"{"kind":"no_probe_code","schema":"x"}"#,
+        );
+    }
 
     #[test]
     fn scan_targets_pass_the_scan_rule_then_the_codec_and_stop_at_the_first_refused() {

@@ -63,6 +63,7 @@ use serde::Serialize;
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
 
 pub use advice::advice;
+pub use probe::DoctorRefusal;
 pub use probe::{ms, rate_order};
 pub use run::{run, run_can};
 

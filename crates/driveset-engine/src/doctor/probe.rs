@@ -15,6 +15,18 @@ use super::{DoctorProtocol, DoctorRules, ProbeResult, RoundTrips};
 use crate::client::Target;
 use crate::error::{AddressRefused, EngineError, Refusal};
 
+/// What `doctor` refuses before it probes (beside the address rule,
+/// [`AddressRefused`]). Gathered into [`Refusal`] as `Refusal::Doctor`,
+/// with the JSON kind journals hold (`doctor_can_port`).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize, thiserror::Error)]
+#[serde(tag = "kind")]
+pub enum DoctorRefusal {
+    /// A CAN port given to the character-line check.
+    #[error("CAN ports are checked by run_can")]
+    #[serde(rename = "doctor_can_port")]
+    CanPort,
+}
+
 /// One probe: the request, what came back, when.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(super) struct Probe {
@@ -61,7 +73,7 @@ pub(super) fn request(protocol: DoctorProtocol, address: u8) -> Result<Vec<u8>, 
                     detail: e.to_string(),
                 })
         }
-        DoctorProtocol::CanSdo => Err(Refusal::DoctorCanPort),
+        DoctorProtocol::CanSdo => Err(DoctorRefusal::CanPort.into()),
     }
 }
 

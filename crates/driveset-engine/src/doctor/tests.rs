@@ -296,3 +296,10 @@ fn a_silent_line_says_what_to_check() {
     // Two tries of 100 ms after each request at six rates, in virtual time.
     assert!(sim.clock().now() - before >= Duration::from_millis(1200));
 }
+
+/// The refusal is a `Refusal` whose JSON is the flat kind journals have
+/// always held, and reads back to the same refusal.
+#[test]
+fn the_doctor_refusal_keeps_its_json_kind_and_reads_back() {
+    crate::error::assert_refusal_json(&DoctorRefusal::CanPort, r#"{"kind":"doctor_can_port"}"#);
+}

@@ -16,8 +16,11 @@ use serde_json::Value;
 use super::{AddressRefused, Refusal};
 use crate::client::lustbus::LustbusRefusal;
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::doctor::DoctorRefusal;
 use crate::guard::GuardRefusal;
+use crate::identify::IdentifyRefusal;
 use crate::live::LiveRefusal;
+use crate::scan::ScanRefusal;
 use crate::transfer::TransferRefusal;
 use crate::upload::UploadRefusal;
 
@@ -32,6 +35,9 @@ impl Serialize for Refusal {
             Refusal::Address(r) => r.serialize(s),
             Refusal::Lecom(r) => r.serialize(s),
             Refusal::Sdo(r) => r.serialize(s),
+            Refusal::Identify(r) => r.serialize(s),
+            Refusal::Scan(r) => r.serialize(s),
+            Refusal::Doctor(r) => r.serialize(s),
             flat => Refusal::serialize(flat, s),
         }
     }
@@ -74,6 +80,9 @@ impl<'de> Deserialize<'de> for Refusal {
             Room::Address => AddressRefused::deserialize(value).map(Refusal::Address),
             Room::Lecom => LecomRefusal::deserialize(value).map(Refusal::Lecom),
             Room::Sdo => SdoRefusal::deserialize(value).map(Refusal::Sdo),
+            Room::Identify => IdentifyRefusal::deserialize(value).map(Refusal::Identify),
+            Room::Scan => ScanRefusal::deserialize(value).map(Refusal::Scan),
+            Room::Doctor => DoctorRefusal::deserialize(value).map(Refusal::Doctor),
         }
         .map_err(D::Error::custom)
     }
@@ -91,6 +100,9 @@ enum Room {
     Address,
     Lecom,
     Sdo,
+    Identify,
+    Scan,
+    Doctor,
 }
 
 /// Every refusal kind journals hold, in the order an unknown kind's error
@@ -192,6 +204,9 @@ impl Kind {
             | Kind::DoctorLecomAddress => Room::Address,
             Kind::LecomGroup | Kind::LecomUnaddressable | Kind::LecomValue => Room::Lecom,
             Kind::NoSdoIndex | Kind::NotSdoType | Kind::NotCanFormat => Room::Sdo,
+            Kind::WrongType => Room::Identify,
+            Kind::NoProbeCode => Room::Scan,
+            Kind::DoctorCanPort => Room::Doctor,
             Kind::Plan
             | Kind::UnknownCode
             | Kind::ReadOnly
@@ -200,9 +215,6 @@ impl Kind {
             | Kind::WrongClient
             | Kind::LinkMisfit
             | Kind::Encode
-            | Kind::WrongType
-            | Kind::NoProbeCode
-            | Kind::DoctorCanPort
             | Kind::Assign => Room::Flat,
         }
     }

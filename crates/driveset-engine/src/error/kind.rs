@@ -199,3 +199,111 @@ impl fmt::Display for TransactionOutcome {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::client::Target;
+
+    fn t() -> Target {
+        Target {
+            port: "sim://demo".into(),
+            address: 1,
+        }
+    }
+
+    fn s(x: &str) -> String {
+        x.to_string()
+    }
+
+    /// Every layer's kinds render their whole message, the drive first where
+    /// one is named (a journal file names none, even given a target).
+    #[test]
+    fn every_kind_renders_its_whole_message() {
+        let closed = driveset_link::LinkError::ConnectionClosed {
+            port: "tcp://x:1".into(),
+        };
+        let closed_text = closed.to_string();
+        let at = |m: &str| format!("sim://demo address 1: {m}");
+        let cases: Vec<(EngineError, String)> = vec![
+            (
+                EngineError::journal("j.json", "cannot write"),
+                s("journal j.json: cannot write"),
+            ),
+            (
+                EngineError::new(
+                    t(),
+                    ErrorKind::Input(InputFailure::Journal {
+                        path: s("j.json"),
+                        detail: s("cannot write"),
+                    }),
+                ),
+                s("journal j.json: cannot write"),
+            ),
+            (
+                EngineError::refused(t(), Refusal::NoDatasetHandshake),
+                at("refused: this drive family has no dataset download handshake"),
+            ),
+            (
+                EngineError::not_journal_drive(
+                    t(),
+                    "j.json",
+                    crate::journal::Mismatch::Bus,
+                    "another bus",
+                ),
+                at("refused to recover journal j.json: another bus"),
+            ),
+            (EngineError::link(t(), closed), at(&closed_text)),
+            (
+                EngineError::no_answer(t(), "read C0011", 3),
+                at("no answer to read C0011 after 3 tries; check wiring, address and baud rate"),
+            ),
+            (
+                EngineError::protocol(t(), "read C0011", "short frame"),
+                at("unexpected answer to read C0011: short frame"),
+            ),
+            (
+                EngineError::device(t(), "write C0011", DeviceCause::SiofUnreadable),
+                at(
+                    "write C0011 refused: SIOF/SERR cannot be read (NAK to ENQUIRY 00085); the drive does not answer its error word: check it is a LUSTBUS drive",
+                ),
+            ),
+            (
+                EngineError::restarted(t(), "write C0011"),
+                at(
+                    "the drive restarted during write C0011 (power-on flag set); the transaction is void and must be redone",
+                ),
+            ),
+            (
+                EngineError::rolled_back(
+                    t(),
+                    "j.json",
+                    "C0011",
+                    EngineError::restarted(t(), "write C0011"),
+                ),
+                at(
+                    "the upload did not land and was rolled back: C0011; the drive holds its old values again (verified); journal j.json",
+                ),
+            ),
+            (
+                EngineError::inconsistent(t(), "j.json", "C0011 new"),
+                at(
+                    "the drive holds a mix of old and new values: C0011 new; the backup is in j.json: run `driveset recover j.json` once the drive answers again",
+                ),
+            ),
+            (
+                EngineError {
+                    target: None,
+                    kind: Box::new(ErrorKind::Link(LinkFailure::NoAnswer {
+                        what: s("read C0011"),
+                        tries: 3,
+                    })),
+                },
+                s("no answer to read C0011 after 3 tries; check wiring, address and baud rate"),
+            ),
+        ];
+        for (e, want) in cases {
+            assert_eq!(e.to_string(), want);
+        }
+    }
+}

@@ -10,9 +10,12 @@ use serde::{Deserialize, Serialize};
 use super::address::AddressRefused;
 use crate::client::lustbus::LustbusRefusal;
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::doctor::DoctorRefusal;
 use crate::guard::GuardRefusal;
+use crate::identify::IdentifyRefusal;
 use crate::live::LiveRefusal;
 use crate::plan::Problem;
+use crate::scan::ScanRefusal;
 use crate::transfer::TransferRefusal;
 use crate::upload::UploadRefusal;
 
@@ -54,7 +57,9 @@ impl fmt::Display for LinkKind {
 /// ([`LustbusRefusal`]), the LECOM and SDO clients' ([`LecomRefusal`],
 /// [`SdoRefusal`]), the live diff's ([`LiveRefusal`]), the transaction's ([`UploadRefusal`]), `--transfer-baud`'s
 /// ([`TransferRefusal`]), `driveset address`'s
-/// ([`crate::assign::AssignRefusal`]) and the one address rule
+/// ([`crate::assign::AssignRefusal`]), identify's family check
+/// ([`IdentifyRefusal`]), a scan's ([`ScanRefusal`]), `doctor`'s
+/// ([`DoctorRefusal`]) and the one address rule
 /// ([`AddressRefused`]); the rules several rooms raise stay flat here.
 ///
 /// Its JSON form (journals) is one flat list of `kind`s, whichever enum
@@ -133,30 +138,18 @@ pub enum Refusal {
         /// What the codec said.
         detail: String,
     },
-    /// The drive's TYPE is not one of the schema's (LUSTBUS 91-TYPE).
-    #[error(
-        "the drive reports {code} = {}, which is not a `{schema}` type ({expected:?}); use the set and schema of the drive's family",
-        .found.map_or_else(|| "nothing".to_string(), |t| t.to_string())
-    )]
-    WrongType {
-        /// The TYPE code as the schema spells it.
-        code: String,
-        /// What the drive reported (`None`: nothing readable).
-        found: Option<i64>,
-        /// Schema id.
-        schema: String,
-        /// The schema's TYPE values.
-        expected: Vec<i64>,
-    },
-    /// A schema with no code to probe a CAN scan with.
-    #[error("schema `{schema}` has no code to probe with")]
-    NoProbeCode {
-        /// Schema id.
-        schema: String,
-    },
-    /// `doctor`: a CAN port given to the character-line check.
-    #[error("CAN ports are checked by run_can")]
-    DoctorCanPort,
+    /// `identify`'s family check refused the drive ([`crate::identify`]).
+    #[error(transparent)]
+    #[serde(skip)]
+    Identify(#[from] IdentifyRefusal),
+    /// A scan refused before probing ([`crate::scan`]).
+    #[error(transparent)]
+    #[serde(skip)]
+    Scan(#[from] ScanRefusal),
+    /// `doctor` refused a port ([`crate::doctor`]).
+    #[error(transparent)]
+    #[serde(skip)]
+    Doctor(#[from] DoctorRefusal),
     /// The write guard refused ([`crate::guard`]).
     #[error(transparent)]
     #[serde(skip)]

@@ -9,8 +9,11 @@ use driveset_schema::BusProtocol;
 use super::*;
 use crate::client::lustbus::{LustbusCodeProblem, LustbusRefusal};
 use crate::client::{LecomRefusal, SdoRefusal};
+use crate::doctor::DoctorRefusal;
+use crate::identify::IdentifyRefusal;
 use crate::live::LiveRefusal;
 use crate::plan::Problem;
+use crate::scan::ScanRefusal;
 use crate::upload::UploadRefusal;
 
 fn target() -> Target {
@@ -300,21 +303,23 @@ fn every_refusal_renders_its_message() {
             "schemas differ",
         ),
         (
-            Refusal::WrongType {
+            IdentifyRefusal::WrongType {
                 code: s("91-TYPE"),
                 found: Some(9999),
                 schema: s("lust-mc6000"),
                 expected: vec![1234, 1235],
-            },
+            }
+            .into(),
             "the drive reports 91-TYPE = 9999, which is not a `lust-mc6000` type ([1234, 1235]); use the set and schema of the drive's family",
         ),
         (
-            Refusal::WrongType {
+            IdentifyRefusal::WrongType {
                 code: s("91-TYPE"),
                 found: None,
                 schema: s("x"),
                 expected: vec![1],
-            },
+            }
+            .into(),
             "the drive reports 91-TYPE = nothing, which is not a `x` type ([1]); use the set and schema of the drive's family",
         ),
         (
@@ -330,7 +335,7 @@ fn every_refusal_renders_its_message() {
             "node id 0 is out of range 1..=127: node 0 is no SDO server and cannot be a scan target (DS301)",
         ),
         (
-            Refusal::NoProbeCode { schema: s("x") },
+            ScanRefusal::NoProbeCode { schema: s("x") }.into(),
             "schema `x` has no code to probe with",
         ),
         (
@@ -341,7 +346,10 @@ fn every_refusal_renders_its_message() {
             doctor(BusProtocol::Lecom, 0),
             "00 is not a LECOM station: use 01..99 without 00 and the group addresses 10..90 (section 8.J)",
         ),
-        (Refusal::DoctorCanPort, "CAN ports are checked by run_can"),
+        (
+            DoctorRefusal::CanPort.into(),
+            "CAN ports are checked by run_can",
+        ),
         (
             Refusal::Plan {
                 problems: vec![Problem::Running],
@@ -629,97 +637,6 @@ fn a_journal_error_names_no_drive_and_the_error_stays_small() {
     );
 }
 
-/// Every layer's kinds render their whole message, the drive first where
-/// one is named (a journal file names none, even given a target).
-#[test]
-fn every_kind_renders_its_whole_message() {
-    let closed = driveset_link::LinkError::ConnectionClosed {
-        port: "tcp://x:1".into(),
-    };
-    let closed_text = closed.to_string();
-    let at = |m: &str| format!("sim://demo address 1: {m}");
-    let cases: Vec<(EngineError, String)> = vec![
-        (
-            EngineError::journal("j.json", "cannot write"),
-            s("journal j.json: cannot write"),
-        ),
-        (
-            EngineError::new(
-                target(),
-                ErrorKind::Input(InputFailure::Journal {
-                    path: s("j.json"),
-                    detail: s("cannot write"),
-                }),
-            ),
-            s("journal j.json: cannot write"),
-        ),
-        (
-            EngineError::refused(target(), Refusal::NoDatasetHandshake),
-            at("refused: this drive family has no dataset download handshake"),
-        ),
-        (
-            EngineError::not_journal_drive(
-                target(),
-                "j.json",
-                crate::journal::Mismatch::Bus,
-                "another bus",
-            ),
-            at("refused to recover journal j.json: another bus"),
-        ),
-        (EngineError::link(target(), closed), at(&closed_text)),
-        (
-            EngineError::no_answer(target(), "read C0011", 3),
-            at("no answer to read C0011 after 3 tries; check wiring, address and baud rate"),
-        ),
-        (
-            EngineError::protocol(target(), "read C0011", "short frame"),
-            at("unexpected answer to read C0011: short frame"),
-        ),
-        (
-            EngineError::device(target(), "write C0011", DeviceCause::SiofUnreadable),
-            at(
-                "write C0011 refused: SIOF/SERR cannot be read (NAK to ENQUIRY 00085); the drive does not answer its error word: check it is a LUSTBUS drive",
-            ),
-        ),
-        (
-            EngineError::restarted(target(), "write C0011"),
-            at(
-                "the drive restarted during write C0011 (power-on flag set); the transaction is void and must be redone",
-            ),
-        ),
-        (
-            EngineError::rolled_back(
-                target(),
-                "j.json",
-                "C0011",
-                EngineError::restarted(target(), "write C0011"),
-            ),
-            at(
-                "the upload did not land and was rolled back: C0011; the drive holds its old values again (verified); journal j.json",
-            ),
-        ),
-        (
-            EngineError::inconsistent(target(), "j.json", "C0011 new"),
-            at(
-                "the drive holds a mix of old and new values: C0011 new; the backup is in j.json: run `driveset recover j.json` once the drive answers again",
-            ),
-        ),
-        (
-            EngineError {
-                target: None,
-                kind: Box::new(ErrorKind::Link(LinkFailure::NoAnswer {
-                    what: s("read C0011"),
-                    tries: 3,
-                })),
-            },
-            s("no answer to read C0011 after 3 tries; check wiring, address and baud rate"),
-        ),
-    ];
-    for (e, want) in cases {
-        assert_eq!(e.to_string(), want);
-    }
-}
-
 #[test]
 fn an_address_refusal_is_the_rule_s_and_lustbus_0_is_taken_by_a_client_and_doctor_only() {
     for bus in BusProtocol::ALL {
@@ -889,6 +806,6 @@ fn a_journal_s_refusal_reads_and_fails_as_it_always_has() {
     );
     assert_eq!(
         read(r#"["no_probe_code", "x"]"#),
-        refused(Refusal::NoProbeCode { schema: s("x") })
+        refused(ScanRefusal::NoProbeCode { schema: s("x") }.into())
     );
 }
