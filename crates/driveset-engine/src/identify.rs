@@ -16,7 +16,7 @@ pub fn identify(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
 /// protocol must match and, where the schema lists `type_values` (LUSTBUS
 /// 91-TYPE, `Descriptor::device_type_code`), the drive's TYPE must be one
 /// of them. A mismatch is
-/// [`ErrorKind::Refused`](crate::error::ErrorKind::Refused); nothing is written either way.
+/// [`ErrorKind::Refused`]; nothing is written either way.
 pub fn check_family(client: &mut dyn DriveClient) -> Result<Identity, EngineError> {
     let identity = client.identify()?;
     let schema = client.schema().clone();
