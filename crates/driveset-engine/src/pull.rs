@@ -310,6 +310,64 @@ pub fn pull_observed(
 mod tests {
     use super::*;
 
+    /// A pull made ready for its file: the read-only C0099 leaves the set
+    /// for the header and the fingerprint is the rest's; the bus codes left
+    /// out on purpose and the codes that failed are told apart; the text
+    /// names the drive, the schema reference and the codes not read.
+    #[test]
+    fn a_pull_for_its_file_takes_the_actual_values_out_and_names_what_was_not_read() {
+        let registry = driveset_schema::Registry::builtin().expect("built-in schemas");
+        let schema = registry.get("lenze-tmd").expect("lenze-tmd");
+        let code = schema.code(11).expect("C0011");
+        let c0011 = schema
+            .fact_raw(code, code.default.as_ref().expect("a default"))
+            .expect("C0011 holds its default");
+        let mut set = ResolvedSet::new(&schema);
+        set.insert(CodeKey::new(11), c0011);
+        set.insert(
+            CodeKey::new(99),
+            driveset_schema::RawValue::Text("1.20".into()),
+        );
+        let skipped = |number: u32, failed: bool| Skipped {
+            number,
+            subcode: None,
+            code: format!("C{number:04}"),
+            reason: if failed { "no answer" } else { "left out" }.into(),
+            failed,
+        };
+        let pulled = Pulled {
+            fingerprint: set.fingerprint(),
+            full_fingerprint: set.fingerprint(),
+            set,
+            identity: Identity::of(crate::client::IdentProtocol::Family(schema.family)),
+            read: 2,
+            dropped_defaults: 0,
+            skipped: vec![skipped(9, false), skipped(17, true)],
+            elapsed: Duration::ZERO,
+        };
+        let file = pulled.for_file(&schema);
+        assert_eq!(file.actual.len(), 1, "{:?}", file.actual);
+        assert!(file.actual[0].starts_with("C0099 = "), "{:?}", file.actual);
+        assert_eq!(file.pulled.set.values.len(), 1);
+        assert_eq!(file.pulled.fingerprint, file.pulled.set.fingerprint());
+        assert_eq!(file.bus_codes, ["C0009"]);
+        assert_eq!(file.failed, [skipped(17, true)]);
+        let from = SetFileFrom {
+            port: "/dev/ttyUSB0",
+            address: 3,
+            schema_ref: "../schemas/tmd.toml",
+            changed_only: false,
+        };
+        let text = file.text(&schema, &from, Format::Toml);
+        assert!(
+            text.starts_with("# Pulled by driveset from /dev/ttyUSB0 address 3.\n"),
+            "{text}"
+        );
+        assert!(text.contains("../schemas/tmd.toml"), "{text}");
+        assert!(text.contains("C0017"), "{text}");
+        assert!(text.contains("C0099 = "), "{text}");
+    }
+
     /// The Tmd's C0009 / C0125 (floor roles bus-address / baud-rate) are
     /// left out unless kept; C0011 (an ordinary setting) never is.
     #[test]

@@ -26,7 +26,7 @@
 //! stops at the first rate where a drive answers.
 //!
 //! `driveset scan`'s walk over a bus (the protocols in turn, the other
-//! rates, `--detect-baud`) is [`bus`]'s: [`scan_bus`], [`scan_rates`].
+//! rates, `--detect-baud`) is `scan/bus.rs`'s: [`scan_bus`], [`scan_rates`].
 
 mod bus;
 

@@ -13,6 +13,7 @@
 //!   `socketcan`), or one end of an in-memory [`mem::frame_pair`].
 //! - [`spec`]: the port syntax ([`PortSpec`]) and [`open`], which opens the
 //!   real transports from it.
+//! - [`usb`]: what Linux says of a USB serial adapter (its latency timer).
 //!
 //! Links move bytes and frames only: framing, checksums, masking bit 7 and
 //! retries are the codecs' (driveset-proto) and the engine's business.
@@ -49,6 +50,7 @@ pub mod slcan;
 pub mod socketcan;
 pub mod spec;
 pub mod tcp;
+pub mod usb;
 
 mod open;
 

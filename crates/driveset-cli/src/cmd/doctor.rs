@@ -4,15 +4,15 @@
 //! parity, the USB adapter's latency timer, and what to change.
 //!
 //! The latency timers come from `SYSFS/bus/usb-serial/devices/*/
-//! latency_timer`, `SYSFS` being `/sys` unless `--sysfs DIR` points at
-//! another tree (tests use a fake one).
+//! latency_timer` (driveset-link's `usb::latency_timers`), `SYSFS` being
+//! `/sys` unless `--sysfs DIR` points at another tree (tests use a fake
+//! one).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use driveset_engine::doctor::{
-    DoctorOptions, DoctorProtocol, DoctorReport, LatencyTimer, ProbeResult, ms, run as doctor_run,
-    run_can,
+    DoctorOptions, DoctorProtocol, DoctorReport, ProbeResult, ms, run as doctor_run, run_can,
 };
 use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
 
@@ -91,81 +91,14 @@ fn raw_at(spec: &PortSpec) -> PortSpec {
     spec.clone().with_echo(EchoMode::Off)
 }
 
-/// The latency timers under `root`, marking the port's adapter.
-pub fn latency_timers(root: &Path, spec: &PortSpec) -> Vec<LatencyTimer> {
-    let dir = root.join("bus/usb-serial/devices");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        return Vec::new();
-    };
-    let own = match spec {
-        PortSpec::Serial { path, .. } => {
-            let p = Path::new(path);
-            let real = std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
-            real.file_name().map(|n| n.to_string_lossy().into_owned())
-        }
-        _ => None,
-    };
-    let mut out: Vec<LatencyTimer> = entries
-        .filter_map(Result::ok)
-        .filter_map(|e| {
-            let device = e.file_name().to_string_lossy().into_owned();
-            let path = e.path().join("latency_timer");
-            let text = std::fs::read_to_string(&path).ok()?;
-            let ms = text.trim().parse::<u32>().ok()?;
-            Some(LatencyTimer {
-                this_port: own.as_deref() == Some(device.as_str()),
-                device,
-                path: path.display().to_string(),
-                ms,
-            })
-        })
-        .collect();
-    out.sort_by(|a, b| a.device.cmp(&b.device));
-    out
-}
-
 fn doctor(args: &Args) -> Result<u8, Fail> {
     let mut opened = port::open_port(args.at.port()?)?;
-    // Without --protocol: a CAN port speaks CAN SDO; on a character line
-    // the drive's protocol by the read-only probes `identify` and `scan`
-    // use (at --address, else LUSTBUS address 1 and LECOM station 01), the
-    // same on every port.
-    let protocol = match args.at.protocol {
-        Some(p) => p.0,
-        None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
-        None => {
-            let name = opened.name.clone();
-            let (family, _) = driveset_engine::session::detect(
-                &mut opened.link,
-                &name,
-                args.at.address.unwrap_or(1),
-                opened.connect.latency,
-            )
-            .map_err(|e| match e {
-                driveset_engine::session::SessionError::NoAnswer { .. } => Fail {
-                    code: EXIT_BUS,
-                    msg: format!(
-                        "{e}; or say which protocol the line speaks: --protocol lustbus|lecom|can"
-                    ),
-                },
-                other => other.into(),
-            })?;
-            family.bus()
-        }
-    };
+    let protocol = protocol(args, &mut opened)?;
     let mut options = DoctorOptions::new(protocol);
     options.address = args.at.address;
     options.probes = args.probes.max(1);
     options.timeout = std::time::Duration::from_millis(args.timeout.max(1));
-    options.fixed_rate = match &opened.spec {
-        PortSpec::Tcp { .. } => Some(
-            "a raw tcp:// device server's line rate is set on the server (rfc2217:// lets driveset set it)".into(),
-        ),
-        PortSpec::Serial { path, .. } if path.starts_with("/dev/pts/") => {
-            Some("a pseudo terminal has no line rate".into())
-        }
-        _ => None,
-    };
+    options.fixed_rate = DoctorOptions::fixed_rate_of(&opened.spec);
     let name = opened.name.clone();
     let report = match protocol {
         DoctorProtocol::CanSdo => {
@@ -185,7 +118,7 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
                     "{name} is a CAN port: use --protocol can"
                 )));
             }
-            let timers = latency_timers(&args.sysfs, &opened.spec);
+            let timers = driveset_link::usb::latency_timers(&args.sysfs, &opened.spec);
             let port_baud = opened.spec.line_baud().unwrap_or(9600);
             let spec = opened.spec.clone();
             // each rate reopens the port raw (echo stripping off) and sets
@@ -224,6 +157,36 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
         EXIT_OK
     } else {
         EXIT_FINDINGS
+    })
+}
+
+/// Without --protocol: a CAN port speaks CAN SDO; on a character line
+/// the drive's protocol by the read-only probes `identify` and `scan`
+/// use (at --address, else LUSTBUS address 1 and LECOM station 01), the
+/// same on every port.
+fn protocol(args: &Args, opened: &mut port::OpenPort) -> Result<DoctorProtocol, Fail> {
+    Ok(match args.at.protocol {
+        Some(p) => p.0,
+        None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
+        None => {
+            let name = opened.name.clone();
+            let (family, _) = driveset_engine::session::detect(
+                &mut opened.link,
+                &name,
+                args.at.address.unwrap_or(1),
+                opened.connect.latency,
+            )
+            .map_err(|e| match e {
+                driveset_engine::session::SessionError::NoAnswer { .. } => Fail {
+                    code: EXIT_BUS,
+                    msg: format!(
+                        "{e}; or say which protocol the line speaks: --protocol lustbus|lecom|can"
+                    ),
+                },
+                other => other.into(),
+            })?;
+            family.bus()
+        }
     })
 }
 

@@ -57,7 +57,7 @@ mod tests;
 
 use std::time::Duration;
 
-use driveset_link::{ByteLink, LinkError};
+use driveset_link::{ByteLink, LinkError, PortSpec};
 use serde::Serialize;
 
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
@@ -131,6 +131,22 @@ pub struct DoctorOptions {
 }
 
 impl DoctorOptions {
+    /// Why only the port's own rate can be tried on `spec`, if so
+    /// ([`DoctorOptions::fixed_rate`]): a raw `tcp://` device server's line
+    /// rate is set on the server (`rfc2217://` lets driveset set it); a
+    /// pseudo terminal has none.
+    pub fn fixed_rate_of(spec: &PortSpec) -> Option<String> {
+        match spec {
+            PortSpec::Tcp { .. } => Some(
+                "a raw tcp:// device server's line rate is set on the server (rfc2217:// lets driveset set it)".into(),
+            ),
+            PortSpec::Serial { path, .. } if path.starts_with("/dev/pts/") => {
+                Some("a pseudo terminal has no line rate".into())
+            }
+            _ => None,
+        }
+    }
+
     /// Defaults for `protocol`.
     pub fn new(protocol: DoctorProtocol) -> Self {
         DoctorOptions {
@@ -224,20 +240,9 @@ pub struct ParityFinding {
     pub read_as_8_bits: bool,
 }
 
-/// A USB serial adapter's latency timer as Linux shows it
-/// (`/sys/bus/usb-serial/devices/DEVICE/latency_timer`), read by the
-/// caller.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct LatencyTimer {
-    /// The device (`ttyUSB0`).
-    pub device: String,
-    /// The file it was read from.
-    pub path: String,
-    /// The timer in milliseconds.
-    pub ms: u32,
-    /// Whether it is the port's adapter.
-    pub this_port: bool,
-}
+/// A USB serial adapter's latency timer, read by the caller
+/// (driveset-link's [`driveset_link::usb::latency_timers`]).
+pub use driveset_link::usb::LatencyTimer;
 
 /// Everything the doctor found.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
