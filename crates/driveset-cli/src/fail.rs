@@ -7,9 +7,12 @@
 //! their source snippets, [`Fail::reported`]) carries only its exit code.
 //! `anyhow` errors (the binary's plumbing) become input errors. The engine's
 //! errors say their layer ([`Layer`]); [`exit_code`] is the one mapping
-//! from a layer to an exit code.
+//! from a layer to an exit code, and the two places where a command reads
+//! an engine error its own way (the family check before a read,
+//! [`family_exit`]; a spare's set after its address, [`set_after_address_exit`])
+//! live beside it, so no command computes an exit code from an error.
 
-use driveset_engine::error::{EngineError, Layer};
+use driveset_engine::error::{EngineError, Layer, LinkFailure};
 
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_INPUT};
 
@@ -82,6 +85,17 @@ pub fn family_exit(e: &EngineError) -> u8 {
         EXIT_FINDINGS
     } else {
         engine_exit(e)
+    }
+}
+
+/// The exit code of `replace` when the spare was given its address and
+/// rate but its set's upload failed (`e`): 3 when the link failed or the
+/// spare did not answer, else 1 (the spare answers at its new address; the
+/// report says what it holds).
+pub fn set_after_address_exit(e: &EngineError) -> u8 {
+    match e.link_failure() {
+        Some(LinkFailure::Transport(_) | LinkFailure::NoAnswer { .. }) => EXIT_BUS,
+        _ => EXIT_FINDINGS,
     }
 }
 

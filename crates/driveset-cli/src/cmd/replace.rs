@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use driveset_engine::error::{EngineError, LinkFailure};
+use driveset_engine::error::EngineError;
 use driveset_engine::history::DriveRecord;
 use driveset_engine::line::replace::{
     Prepared, ReplaceError, ReplaceOptions, ReplaceOutcome, finish, prepare,
@@ -16,7 +16,7 @@ use crate::fail::Fail;
 use crate::output::OutputFormat;
 use crate::port_args::{Need, Port, PortCommand, Takes};
 use crate::prompt::{ask, confirm_allowed};
-use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_OK, port, report};
+use crate::{EXIT_FINDINGS, EXIT_OK, port, report};
 
 /// Arguments of `driveset replace`.
 #[derive(clap::Args)]
@@ -287,11 +287,7 @@ impl Shown<'_> {
             d.name, d.address, self.prep.bus.rate
         );
         outln!("report: {} {}", written.0.display(), written.1.display());
-        let bus = matches!(
-            e.link_failure(),
-            Some(LinkFailure::Transport(_) | LinkFailure::NoAnswer { .. })
-        );
-        if bus { EXIT_BUS } else { EXIT_FINDINGS }
+        crate::fail::set_after_address_exit(e)
     }
 }
 
