@@ -230,7 +230,7 @@ pub fn parse_tcp(text: &str) -> Result<SocketAddr, SimCommandError> {
 }
 
 /// Check the options into a bus configuration and an endpoint: the drives
-/// ([`drives`]), the factory-fresh ones, the line rate, the families'
+/// (`drives`), the factory-fresh ones, the line rate, the families'
 /// own options, then [`SimConfig::check`] and where to serve.
 ///
 /// # Errors

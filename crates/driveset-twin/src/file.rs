@@ -12,7 +12,7 @@ use driveset_schema::Schema;
 use driveset_schema::output::{self, OutputError};
 use driveset_sim::twin::{TWIN_SUFFIX, Twin, keep_or_replace};
 
-/// What [`write`] did.
+/// What [`write()`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Written {
     /// The file was kept as it was (only stamps or reaction times inside

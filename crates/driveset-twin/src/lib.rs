@@ -4,7 +4,7 @@
 //! capture of one drive from an opened port ([`drive`]: described first
 //! when its family describes, its family checked, every code read), twins
 //! from a recorded session ([`recorded`]), the twin file written or kept
-//! ([`file`]), the plan of a line manifest's capture ([`line`]: each
+//! ([`file`](mod@file)), the plan of a line manifest's capture ([`line`](mod@line): each
 //! drive's port, twin file, history slot and records), what the plant
 //! history records of a capture ([`history`]),
 //! and the buses of a rehearsal ([`rehearse`]: the twins of a line
