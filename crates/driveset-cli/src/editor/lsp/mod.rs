@@ -7,7 +7,6 @@
 //! with a mechanical fix.
 
 pub mod analysis;
-pub mod frame;
 pub mod text;
 pub mod uri;
 
@@ -32,6 +31,7 @@ use serde_json::Value;
 
 use driveset_ide::facts;
 use driveset_ide::navigate::{self, Completion, CompletionKind, Cursor, Insert};
+use driveset_lsp_base as frame;
 use text::Text;
 
 /// Options of the server (`driveset lsp`'s arguments).
@@ -100,7 +100,7 @@ fn refuse(req: &Request, code: lsp_server::ErrorCode, message: &str) -> Message 
 /// The server's loop: the lifecycle (initialize, shutdown, exit; LSP 3.17
 /// "Lifecycle Messages") around [`Server::request`] and
 /// [`Server::notify`]; a refused frame is answered and reading goes on
-/// ([`frame`]).
+/// (`driveset_lsp_base`).
 fn run(
     mut reader: frame::Reader<impl std::io::BufRead>,
     w: &mut impl std::io::Write,

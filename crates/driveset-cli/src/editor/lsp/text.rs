@@ -116,4 +116,29 @@ mod tests {
         assert_eq!(t.as_str(), "b = 22\n");
         assert_eq!(driveset_ide::analysis::line_span(t.as_str(), 2), 0..7);
     }
+
+    proptest::proptest! {
+        /// Random edit sequences never panic; the end of the text maps to a
+        /// position and back to the end.
+        #[test]
+        fn random_edit_sequences_never_panic(
+            start in "[a-z =\"\\n\u{e9}\u{1F600}]{0,40}",
+            edits in proptest::collection::vec(
+                (0u32..6, 0u32..50, 0u32..6, 0u32..50, "[a-z\\n\u{e9}\u{1F600}]{0,5}", proptest::prelude::any::<bool>()),
+                0..20,
+            ),
+        ) {
+            let mut t = Text::new(start);
+            for (l0, c0, l1, c1, new, whole) in edits {
+                let range = (!whole).then(|| Range::new(
+                    Position::new(l0, c0),
+                    Position::new(l1, c1),
+                ));
+                t.apply(range, &new);
+                let n = t.as_str().len();
+                let p = t.position(n);
+                proptest::prop_assert_eq!(t.offset(p), n);
+            }
+        }
+    }
 }
