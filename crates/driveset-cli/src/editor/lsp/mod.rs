@@ -1,22 +1,22 @@
 //! Owns `driveset lsp`, the language server of set files (TOML, YAML) and
-//! line manifests over stdio (docs/editors.md), on `lsp-server` (the
-//! synchronous scaffold of rust-analyzer) and `lsp-types`: incremental
-//! text sync, diagnostics after every open and change (`analysis`), hover
-//! with a code's facts, completion of code keys and selection texts, go to
-//! a code's entry in its schema file, and code actions for the findings
-//! with a mechanical fix.
+//! line manifests over stdio (docs/editors.md): request dispatch and the
+//! capabilities it declares, on `lsp-server`'s messages (the synchronous
+//! scaffold of rust-analyzer), `driveset-lsp-base`'s frames and
+//! `lsp-types`, over each open document's analysis
+//! (`driveset_ide::document`, converted in `analysis`): incremental text
+//! sync, diagnostics after every open and change, hover with a code's
+//! facts, completion of code keys and selection texts, go to a code's
+//! entry in its schema file, and code actions for the findings with a
+//! mechanical fix.
 
 pub mod analysis;
-pub mod text;
 pub mod uri;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::Arc;
 
-use driveset_schema::doc::{Document, Syntax};
+use driveset_schema::Registry;
 use driveset_schema::schema::BUILTIN_FILES;
-use driveset_schema::{Registry, Schema};
 use lsp_server::{Message, Notification, Request, Response};
 use lsp_types::{
     CodeAction, CodeActionKind, CodeActionOrCommand, CodeActionParams,
@@ -29,10 +29,12 @@ use lsp_types::{
 };
 use serde_json::Value;
 
-use driveset_ide::facts;
-use driveset_ide::navigate::{self, Completion, CompletionKind, Cursor, Insert};
+use driveset_ide::document::OpenDocument;
+use driveset_ide::navigate::{Completion, CompletionKind, Insert};
+use driveset_ide::text::Text;
 use driveset_lsp_base as frame;
-use text::Text;
+
+use analysis::{line_col, range};
 
 /// Options of the server (`driveset lsp`'s arguments).
 #[derive(Debug, Clone, Default)]
@@ -45,10 +47,8 @@ pub struct Config {
 }
 
 struct Doc {
-    text: Text,
+    doc: OpenDocument,
     version: i32,
-    path: PathBuf,
-    schema: Option<Arc<Schema>>,
 }
 
 /// The server's state: open documents and the schema registry.
@@ -200,10 +200,8 @@ impl Server {
                 self.docs.insert(
                     key.clone(),
                     Doc {
-                        text: Text::new(p.text_document.text),
+                        doc: OpenDocument::new(path, p.text_document.text),
                         version: p.text_document.version,
-                        path,
-                        schema: None,
                     },
                 );
                 self.publish(&key)
@@ -217,7 +215,8 @@ impl Server {
                     return Vec::new();
                 };
                 for c in p.content_changes {
-                    doc.text.apply(c.range, &c.text);
+                    let r = c.range.map(|r| line_col(r.start)..line_col(r.end));
+                    doc.doc.edit(r, &c.text);
                 }
                 doc.version = p.text_document.version;
                 self.publish(&key)
@@ -242,14 +241,13 @@ impl Server {
         let Some(doc) = self.docs.get_mut(key) else {
             return Vec::new();
         };
-        let a = analysis::analyse(&doc.path, &doc.text, &mut self.registry);
-        doc.schema = a.schema.or(doc.schema.take());
+        let diagnostics = analysis::diagnostics(&mut doc.doc, &mut self.registry);
         let Ok(uri) = key.parse::<Uri>() else {
             return Vec::new();
         };
         vec![diagnostics_notification(
             uri,
-            a.diagnostics,
+            diagnostics,
             Some(doc.version),
         )]
     }
@@ -308,37 +306,21 @@ impl Server {
         }
     }
 
-    /// The document, its parsed tree and schema, and the byte offset of `pos`.
-    fn at(&self, key: &str, pos: Position) -> Option<(&Doc, Document, Arc<Schema>, usize)> {
-        let doc = self.docs.get(key)?;
-        let parsed = driveset_ide::analysis::parse(&doc.path, doc.text.as_str()).ok()?;
-        let schema = doc.schema.clone()?;
-        let offset = doc.text.offset(pos);
-        Some((doc, parsed, schema, offset))
-    }
-
     fn hover(&self, key: &str, pos: Position) -> Option<Hover> {
-        let (doc, parsed, schema, offset) = self.at(key, pos)?;
-        let h = navigate::hover(&schema, &parsed, offset)?;
+        let doc = &self.docs.get(key)?.doc;
+        let h = doc.hover(line_col(pos))?;
         Some(Hover {
             contents: HoverContents::Markup(MarkupContent {
                 kind: MarkupKind::Markdown,
                 value: h.markdown,
             }),
-            range: Some(doc.text.range(h.span)),
+            range: Some(range(doc.text(), h.span)),
         })
     }
 
     fn definition(&self, key: &str, pos: Position) -> Option<Location> {
-        let (_, parsed, schema, offset) = self.at(key, pos)?;
-        let loc = navigate::definition(&schema, &parsed, offset)?;
-        let file = self.schema_file(&loc.file)?;
-        let line = loc.line.saturating_sub(1) as u32;
-        let col = loc.column.saturating_sub(1) as u32;
-        Some(Location {
-            uri: uri::from_path(&file)?,
-            range: Range::new(Position::new(line, col), Position::new(line, col)),
-        })
+        let loc = self.docs.get(key)?.doc.definition(line_col(pos))?;
+        analysis::location(&self.schema_file(&loc.file)?, &loc)
     }
 
     /// The file a schema's locations name: a loaded schema file as it is,
@@ -372,9 +354,7 @@ impl Server {
     fn resolve(&self, mut item: CompletionItem) -> CompletionItem {
         let found = item.data.as_ref().and_then(|d| {
             let doc = self.docs.get(self.completed.as_deref()?)?;
-            let schema = doc.schema.as_ref()?;
-            let number = u32::try_from(d.as_u64()?).ok()?;
-            Some(facts::markdown(schema, schema.code(number)?))
+            doc.doc.facts(u32::try_from(d.as_u64()?).ok()?)
         });
         if let Some(md) = found {
             item.documentation = Some(markdown(md));
@@ -383,23 +363,12 @@ impl Server {
     }
 
     fn completion(&self, key: &str, pos: Position) -> Option<Vec<CompletionItem>> {
-        let doc = self.docs.get(key)?;
-        let at = Cursor {
-            line: pos.line as usize,
-            line_start: doc.text.offset(Position::new(pos.line, 0)),
-            offset: doc.text.offset(pos),
-        };
-        let items = navigate::complete(
-            doc.text.as_str(),
-            at,
-            Syntax::from_path(&doc.path),
-            doc.schema.as_deref(),
-            &self.registry,
-        )?;
+        let doc = &self.docs.get(key)?.doc;
+        let items = doc.complete(line_col(pos), &self.registry)?;
         Some(
             items
                 .into_iter()
-                .map(|c| completion_item(&doc.text, pos, c))
+                .map(|c| completion_item(doc.text(), pos, c))
                 .collect(),
         )
     }
@@ -428,7 +397,7 @@ fn completion_item(text: &Text, pos: Position, c: Completion) -> CompletionItem 
         Insert::Replace { start, text: new } => (
             None,
             Some(CompletionTextEdit::Edit(TextEdit::new(
-                Range::new(text.position(start), pos),
+                Range::new(analysis::position(text.position(start)), pos),
                 new,
             ))),
         ),

@@ -1,8 +1,27 @@
-//! Owns an open document's text as the language server holds it: edits
-//! applied incrementally (LSP `TextDocumentContentChangeEvent` ranges) and
-//! LSP positions (line, UTF-16 code unit) to byte offsets and back.
+//! Owns an open document's text as the editor holds it: edits applied
+//! incrementally (a range replaced, or the whole text) and positions (line,
+//! UTF-16 code unit: LSP's default position encoding, docs/editors.md) to
+//! byte offsets and back. Plain data: the language server converts its
+//! positions to and from [`LineCol`].
 
-use lsp_types::{Position, Range};
+use std::ops::Range;
+
+/// A position in a text: its line (0-based) and the column in UTF-16 code
+/// units within that line (0-based), as an editor counts them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub struct LineCol {
+    /// The line.
+    pub line: u32,
+    /// The column, in UTF-16 code units.
+    pub col: u32,
+}
+
+impl LineCol {
+    /// The position at `line`, `col`.
+    pub fn new(line: u32, col: u32) -> Self {
+        LineCol { line, col }
+    }
+}
 
 /// The text of one open document and where its lines start.
 #[derive(Debug, Clone, Default)]
@@ -38,7 +57,7 @@ impl Text {
     }
 
     /// Replace `range` (or everything, for `None`) with `new`.
-    pub fn apply(&mut self, range: Option<Range>, new: &str) {
+    pub fn apply(&mut self, range: Option<Range<LineCol>>, new: &str) {
         match range {
             None => self.text = new.to_string(),
             Some(r) => {
@@ -50,8 +69,8 @@ impl Text {
         self.index();
     }
 
-    /// The byte offset of an LSP position (clamped to the line and the text).
-    pub fn offset(&self, p: Position) -> usize {
+    /// The byte offset of a position (clamped to the line and the text).
+    pub fn offset(&self, p: LineCol) -> usize {
         let Some(&start) = self.line_starts.get(p.line as usize) else {
             return self.text.len();
         };
@@ -62,7 +81,7 @@ impl Text {
         let line = &self.text[start..end];
         let mut units = 0u32;
         for (i, c) in line.char_indices() {
-            if units >= p.character {
+            if units >= p.col {
                 return start + i;
             }
             units += c.len_utf16() as u32;
@@ -70,8 +89,8 @@ impl Text {
         end
     }
 
-    /// The LSP position of a byte offset.
-    pub fn position(&self, offset: usize) -> Position {
+    /// The position of a byte offset.
+    pub fn position(&self, offset: usize) -> LineCol {
         let offset = offset.min(self.text.len());
         let line = match self.line_starts.binary_search(&offset) {
             Ok(i) => i,
@@ -82,13 +101,13 @@ impl Text {
         while !self.text.is_char_boundary(o) {
             o -= 1;
         }
-        let character: usize = self.text[start..o].chars().map(char::len_utf16).sum();
-        Position::new(line as u32, character as u32)
+        let col: usize = self.text[start..o].chars().map(char::len_utf16).sum();
+        LineCol::new(line as u32, col as u32)
     }
 
-    /// The LSP range of a byte span.
-    pub fn range(&self, span: std::ops::Range<usize>) -> Range {
-        Range::new(self.position(span.start), self.position(span.end))
+    /// The positions of a byte span.
+    pub fn range(&self, span: Range<usize>) -> Range<LineCol> {
+        self.position(span.start)..self.position(span.end)
     }
 }
 
@@ -100,21 +119,15 @@ mod tests {
     fn incremental_edits_in_utf16_units() {
         let mut t = Text::new("a = \"ä😀x\"\nb = 1\n".into());
         // the 😀 is two UTF-16 units: x is at character 7
-        assert_eq!(t.offset(Position::new(0, 7)), "a = \"ä😀".len());
-        t.apply(
-            Some(Range::new(Position::new(1, 4), Position::new(1, 5))),
-            "22",
-        );
+        assert_eq!(t.offset(LineCol::new(0, 7)), "a = \"ä😀".len());
+        t.apply(Some(LineCol::new(1, 4)..LineCol::new(1, 5)), "22");
         assert_eq!(t.as_str(), "a = \"ä😀x\"\nb = 22\n");
-        assert_eq!(t.position(t.as_str().len()), Position::new(2, 0));
+        assert_eq!(t.position(t.as_str().len()), LineCol::new(2, 0));
         // the lines as the editor analysis reads them
         assert_eq!(t.as_str().split('\n').nth(1), Some("b = 22"));
-        t.apply(
-            Some(Range::new(Position::new(0, 0), Position::new(1, 0))),
-            "",
-        );
+        t.apply(Some(LineCol::new(0, 0)..LineCol::new(1, 0)), "");
         assert_eq!(t.as_str(), "b = 22\n");
-        assert_eq!(driveset_ide::analysis::line_span(t.as_str(), 2), 0..7);
+        assert_eq!(crate::analysis::line_span(t.as_str(), 2), 0..7);
     }
 
     proptest::proptest! {
@@ -130,10 +143,7 @@ mod tests {
         ) {
             let mut t = Text::new(start);
             for (l0, c0, l1, c1, new, whole) in edits {
-                let range = (!whole).then(|| Range::new(
-                    Position::new(l0, c0),
-                    Position::new(l1, c1),
-                ));
+                let range = (!whole).then(|| LineCol::new(l0, c0)..LineCol::new(l1, c1));
                 t.apply(range, &new);
                 let n = t.as_str().len();
                 let p = t.position(n);
