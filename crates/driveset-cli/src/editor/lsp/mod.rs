@@ -16,7 +16,6 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use driveset_schema::Registry;
-use driveset_schema::schema::BUILTIN_FILES;
 use lsp_server::{Message, Notification, Request, Response};
 use lsp_types::{
     CodeAction, CodeActionKind, CodeActionOrCommand, CodeActionParams,
@@ -30,7 +29,7 @@ use lsp_types::{
 use serde_json::Value;
 
 use driveset_ide::document::OpenDocument;
-use driveset_ide::navigate::{Completion, CompletionKind, Insert};
+use driveset_ide::navigate::{self, Completion, CompletionKind, Insert};
 use driveset_ide::text::Text;
 use driveset_lsp_base as frame;
 
@@ -320,33 +319,7 @@ impl Server {
 
     fn definition(&self, key: &str, pos: Position) -> Option<Location> {
         let loc = self.docs.get(key)?.doc.definition(line_col(pos))?;
-        analysis::location(&self.schema_file(&loc.file)?, &loc)
-    }
-
-    /// The file a schema's locations name: a loaded schema file as it is,
-    /// a built-in one as a read-only copy in the cache directory (the
-    /// binary holds its text, not its path).
-    fn schema_file(&self, file: &str) -> Option<PathBuf> {
-        if let Some((path, text)) = BUILTIN_FILES.iter().find(|(p, _)| *p == file) {
-            let copy = self.cache_dir.join(path);
-            let held =
-                driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
-            if held.ok().as_deref() != Some(text.as_bytes()) {
-                std::fs::create_dir_all(copy.parent()?).ok()?;
-                if let Ok(m) = std::fs::metadata(&copy) {
-                    let mut p = m.permissions();
-                    #[allow(clippy::permissions_set_readonly_false)]
-                    p.set_readonly(false);
-                    let _ = std::fs::set_permissions(&copy, p);
-                }
-                driveset_schema::output::write_output(&copy, text.as_bytes()).ok()?;
-                let mut p = std::fs::metadata(&copy).ok()?.permissions();
-                p.set_readonly(true);
-                std::fs::set_permissions(&copy, p).ok()?;
-            }
-            return Some(copy);
-        }
-        std::path::absolute(file).ok()
+        analysis::location(&navigate::schema_file(&loc.file, &self.cache_dir)?, &loc)
     }
 
     /// A completion item of the last completion with the code's facts
