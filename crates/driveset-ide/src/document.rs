@@ -108,3 +108,56 @@ impl OpenDocument {
         Some(facts::markdown(schema, schema.code(number)?))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_open_set_answers_at_its_positions_and_keeps_its_schema_while_edited() {
+        let mut registry = Registry::builtin().unwrap();
+        let openers = Openers::none();
+        let text = "schema = \"lenze-tmd\"\n\n[values]\nC0011 = 50\n".to_string();
+        let mut doc = OpenDocument::new(PathBuf::from("s.toml"), text);
+        assert_eq!(doc.analyse(&mut registry, &openers), Vec::new());
+        // hover and definition at C0011's key (line 3)
+        let h = doc.hover(LineCol::new(3, 2)).unwrap();
+        assert_eq!(&doc.text().as_str()[h.span.clone()], "C0011");
+        assert_eq!(
+            doc.text().range(h.span),
+            LineCol::new(3, 0)..LineCol::new(3, 5)
+        );
+        let loc = doc.definition(LineCol::new(3, 2)).unwrap();
+        assert_eq!(
+            (loc.file.as_str(), loc.line),
+            ("schemas/lenze-tmd.toml", 211)
+        );
+        assert!(doc.facts(11).unwrap().contains("Maximum output frequency"));
+        // an unknown code after an edit; the schema stays while the
+        // schema line is broken
+        doc.edit(Some(LineCol::new(3, 0)..LineCol::new(3, 5)), "C9999");
+        let d = doc.analyse(&mut registry, &openers);
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert_eq!(d[0].code, "unknown-code");
+        doc.edit(Some(LineCol::new(0, 0)..LineCol::new(0, 6)), "schem");
+        let _ = doc.analyse(&mut registry, &openers);
+        let keys = doc.complete(LineCol::new(3, 0), &registry).unwrap();
+        assert!(keys.iter().any(|c| c.code == Some(11)));
+    }
+
+    #[test]
+    fn a_builtin_schema_file_is_copied_read_only_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let copy = navigate::schema_file("schemas/lenze-tmd.toml", dir.path()).unwrap();
+        assert_eq!(copy, dir.path().join("schemas/lenze-tmd.toml"));
+        let text = std::fs::read_to_string(&copy).unwrap();
+        assert_eq!(text, driveset_schema::schema::BUILTIN_FILES[0].1);
+        assert!(std::fs::metadata(&copy).unwrap().permissions().readonly());
+        assert_eq!(
+            navigate::schema_file("schemas/lenze-tmd.toml", dir.path()),
+            Some(copy)
+        );
+        let other = navigate::schema_file("learned.toml", dir.path()).unwrap();
+        assert!(other.is_absolute() && other.ends_with("learned.toml"));
+    }
+}
