@@ -13,7 +13,7 @@
 
 use driveset_schema::schema::Code;
 use driveset_schema::value::Repr;
-use driveset_schema::{Decimal, Schema};
+use driveset_schema::{Decimal, Registry, Schema};
 use serde_json::{Map, Value, json};
 
 use crate::facts;
@@ -33,6 +33,18 @@ pub fn file_name(id: &str) -> String {
 /// The JSON Schema of `schema`'s set files, as pretty JSON text (ends in a newline).
 pub fn json_schema(schema: &Schema) -> String {
     to_text(&build(schema))
+}
+
+/// The JSON Schema of every schema of `registry`, in the order of their
+/// ids: each file's name ([`file_name`]) and text (`schema json-schema
+/// --all`).
+pub fn every(registry: &Registry) -> Vec<(String, String)> {
+    let mut schemas: Vec<&Schema> = registry.schemas().map(|s| &**s).collect();
+    schemas.sort_by(|a, b| a.id.cmp(&b.id));
+    schemas
+        .into_iter()
+        .map(|s| (file_name(&s.id), json_schema(s)))
+        .collect()
 }
 
 fn num(d: &Decimal) -> Value {

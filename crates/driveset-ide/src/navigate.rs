@@ -1,14 +1,16 @@
 //! Owns what the editor offers at a place of a set file: hover (a code's
-//! facts), go to a code's entry in its schema file, and completion of
+//! facts), go to a code's entry in its schema file (a built-in schema's
+//! as a read-only copy in a cache directory), and completion of
 //! `[values]` keys, a code's selection texts or default, and schema ids
 //! (docs/editors.md). Places are byte offsets into the text; the language
 //! server turns them into its positions.
 
 use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 use driveset_schema::doc::{Document, Entry, Node, NodeKind, Syntax};
 use driveset_schema::error::SourceFile;
-use driveset_schema::schema::Code;
+use driveset_schema::schema::{BUILTIN_FILES, Code};
 use driveset_schema::{Location, Registry, Schema};
 
 use crate::analysis::{quoted, values_entry};
@@ -48,6 +50,33 @@ pub fn definition<'s>(
     let e = values_entry(parsed, offset)?;
     let (code, _) = driveset_schema::set::code_of_key(schema, parsed, e)?;
     Some(&code.loc)
+}
+
+/// The file a schema's locations name ([`definition`]), to open: a loaded
+/// schema file as it is (made absolute), a built-in one as a read-only copy
+/// under `cache_dir` (the binary holds its text, not its path), written
+/// through the one writer when it is missing or differs (docs/editors.md).
+pub fn schema_file(file: &str, cache_dir: &Path) -> Option<PathBuf> {
+    if let Some((path, text)) = BUILTIN_FILES.iter().find(|(p, _)| *p == file) {
+        let copy = cache_dir.join(path);
+        let held =
+            driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
+        if held.ok().as_deref() != Some(text.as_bytes()) {
+            std::fs::create_dir_all(copy.parent()?).ok()?;
+            if let Ok(m) = std::fs::metadata(&copy) {
+                let mut p = m.permissions();
+                #[allow(clippy::permissions_set_readonly_false)]
+                p.set_readonly(false);
+                let _ = std::fs::set_permissions(&copy, p);
+            }
+            driveset_schema::output::write_output(&copy, text.as_bytes()).ok()?;
+            let mut p = std::fs::metadata(&copy).ok()?.permissions();
+            p.set_readonly(true);
+            std::fs::set_permissions(&copy, p).ok()?;
+        }
+        return Some(copy);
+    }
+    std::path::absolute(file).ok()
 }
 
 /// What a completion offers.

@@ -41,6 +41,9 @@ const ARROWS: &[(&str, &[&str])] = &[
         "driveset-ide",
         &["driveset-engine", "driveset-link", "driveset-schema"],
     ),
+    // the LSP base protocol as a codec (frames in, frames out); the
+    // language server is the CLI's
+    ("driveset-lsp-base", &[]),
     (
         "driveset-cli",
         &[
@@ -49,6 +52,7 @@ const ARROWS: &[(&str, &[&str])] = &[
             "driveset-history",
             "driveset-twin",
             "driveset-ide",
+            "driveset-lsp-base",
             "driveset-sim",
             "driveset-link",
             "driveset-proto",

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use driveset_schema::{Registry, Schema};
 
 use crate::fail::Fail;
-use driveset_ide::json_schema::{file_name, json_schema};
+use driveset_ide::json_schema::{every, json_schema};
 
 /// Arguments of `driveset schema json-schema`.
 #[derive(clap::Args)]
@@ -72,11 +72,9 @@ pub fn run(args: Args) -> Result<u8, Fail> {
         let dir = args.output.unwrap_or_default();
         std::fs::create_dir_all(&dir)
             .map_err(|e| Fail::input(format!("cannot create {}: {e}", dir.display())))?;
-        let mut schemas: Vec<Arc<Schema>> = registry.schemas().cloned().collect();
-        schemas.sort_by(|a, b| a.id.cmp(&b.id));
-        for s in schemas {
-            let path = dir.join(file_name(&s.id));
-            write(&path, &json_schema(&s))?;
+        for (name, text) in every(&registry) {
+            let path = dir.join(name);
+            write(&path, &text)?;
             eprintln!("wrote {}", path.display());
         }
         return Ok(crate::EXIT_OK);

@@ -1,53 +1,54 @@
-//! Owns the language server's view of one analysis (`driveset_ide::analysis`):
-//! its diagnostics as LSP diagnostics, byte spans as LSP ranges of the
+//! Owns the language server's view of the editor's analysis
+//! (`driveset_ide`): LSP positions as its plain ones and back, its
+//! diagnostics as LSP diagnostics, byte spans as LSP ranges of the
 //! document's text, other files' places as file URIs, and a finding's fix
 //! carried in the diagnostic's `data` for the code action.
 
-use std::path::Path;
-use std::sync::Arc;
-
 use driveset_ide::analysis::{self as ide, Fix, Place};
-use driveset_schema::{Registry, Schema};
+use driveset_ide::document::OpenDocument;
+use driveset_ide::text::{LineCol, Text};
+use driveset_schema::Registry;
 use lsp_types::{
     Diagnostic, DiagnosticRelatedInformation, DiagnosticSeverity, Location, NumberOrString,
     Position, Range,
 };
 use serde_json::Value;
 
-use super::text::Text;
 use super::uri;
 
-/// What one analysis of a document found, for the client.
-pub struct Analysis {
-    /// The diagnostics, in file order.
-    pub diagnostics: Vec<Diagnostic>,
-    /// The schema the set names, when known (hover, completion, definition).
-    pub schema: Option<Arc<Schema>>,
+/// driveset-ide's position of an LSP position (both count UTF-16 units).
+pub fn line_col(p: Position) -> LineCol {
+    LineCol::new(p.line, p.character)
 }
 
-/// Analyse `text` as the file at `path` (a manifest's ports against the
-/// CLI's openers, as `validate` checks them).
-pub fn analyse(path: &Path, text: &Text, registry: &mut Registry) -> Analysis {
-    let display = path.display().to_string();
-    let a = ide::analyse(path, text.as_str(), registry, &crate::port::openers());
-    Analysis {
-        diagnostics: a
-            .diagnostics
-            .into_iter()
-            .map(|d| diagnostic(&display, text, d))
-            .collect(),
-        schema: a.schema,
-    }
+/// The LSP position of driveset-ide's.
+pub fn position(p: LineCol) -> Position {
+    Position::new(p.line, p.col)
 }
 
-/// An LSP location of a finding's place in another file (line and column
-/// as the finding gives them).
-fn other_location(loc: &driveset_schema::Location) -> Option<Location> {
-    let path = std::path::absolute(&loc.file).ok()?;
+/// The LSP range of a byte span of `text`.
+pub fn range(text: &Text, span: std::ops::Range<usize>) -> Range {
+    let r = text.range(span);
+    Range::new(position(r.start), position(r.end))
+}
+
+/// Analyse a document (a manifest's ports against the CLI's openers, as
+/// `validate` checks them): its diagnostics, for the client.
+pub fn diagnostics(doc: &mut OpenDocument, registry: &mut Registry) -> Vec<Diagnostic> {
+    let display = doc.path().display().to_string();
+    doc.analyse(registry, &crate::port::openers())
+        .into_iter()
+        .map(|d| diagnostic(&display, doc.text(), d))
+        .collect()
+}
+
+/// The LSP location of the file `path` at `loc`'s line and column
+/// (1-based, as findings and schemas give them).
+pub fn location(path: &std::path::Path, loc: &driveset_schema::Location) -> Option<Location> {
     let line = loc.line.saturating_sub(1) as u32;
     let col = loc.column.saturating_sub(1) as u32;
     Some(Location {
-        uri: uri::from_path(&path)?,
+        uri: uri::from_path(path)?,
         range: Range::new(Position::new(line, col), Position::new(line, col)),
     })
 }
@@ -60,9 +61,9 @@ fn diagnostic(display: &str, text: &Text, d: ide::Diagnostic) -> Diagnostic {
             let location = match &r.place {
                 Place::Here(span) => Location {
                     uri: uri::from_path(&std::path::absolute(display).ok()?)?,
-                    range: text.range(span.clone()),
+                    range: range(text, span.clone()),
                 },
-                Place::Elsewhere(loc) => other_location(loc)?,
+                Place::Elsewhere(loc) => location(&std::path::absolute(&loc.file).ok()?, loc)?,
             };
             Some(DiagnosticRelatedInformation {
                 location,
@@ -71,7 +72,7 @@ fn diagnostic(display: &str, text: &Text, d: ide::Diagnostic) -> Diagnostic {
         })
         .collect();
     Diagnostic {
-        range: d.span.map(|s| text.range(s)).unwrap_or_default(),
+        range: d.span.map(|s| range(text, s)).unwrap_or_default(),
         severity: Some(DiagnosticSeverity::ERROR),
         code: Some(NumberOrString::String(d.code)),
         source: Some("driveset".into()),
@@ -105,7 +106,7 @@ fn fix_data(text: &Text, f: &Fix) -> Value {
             .iter()
             .map(|e| EditData {
                 new_text: &e.new_text,
-                range: text.range(e.span.clone()),
+                range: range(text, e.span.clone()),
             })
             .collect(),
         title: &f.title,

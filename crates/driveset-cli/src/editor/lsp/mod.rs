@@ -1,23 +1,21 @@
 //! Owns `driveset lsp`, the language server of set files (TOML, YAML) and
-//! line manifests over stdio (docs/editors.md), on `lsp-server` (the
-//! synchronous scaffold of rust-analyzer) and `lsp-types`: incremental
-//! text sync, diagnostics after every open and change (`analysis`), hover
-//! with a code's facts, completion of code keys and selection texts, go to
-//! a code's entry in its schema file, and code actions for the findings
-//! with a mechanical fix.
+//! line manifests over stdio (docs/editors.md): request dispatch and the
+//! capabilities it declares, on `lsp-server`'s messages (the synchronous
+//! scaffold of rust-analyzer), `driveset-lsp-base`'s frames and
+//! `lsp-types`, over each open document's analysis
+//! (`driveset_ide::document`, converted in `analysis`): incremental text
+//! sync, diagnostics after every open and change, hover with a code's
+//! facts, completion of code keys and selection texts, go to a code's
+//! entry in its schema file, and code actions for the findings with a
+//! mechanical fix.
 
 pub mod analysis;
-pub mod frame;
-pub mod text;
 pub mod uri;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::Arc;
 
-use driveset_schema::doc::{Document, Syntax};
-use driveset_schema::schema::BUILTIN_FILES;
-use driveset_schema::{Registry, Schema};
+use driveset_schema::Registry;
 use lsp_server::{Message, Notification, Request, Response};
 use lsp_types::{
     CodeAction, CodeActionKind, CodeActionOrCommand, CodeActionParams,
@@ -30,9 +28,12 @@ use lsp_types::{
 };
 use serde_json::Value;
 
-use driveset_ide::facts;
-use driveset_ide::navigate::{self, Completion, CompletionKind, Cursor, Insert};
-use text::Text;
+use driveset_ide::document::OpenDocument;
+use driveset_ide::navigate::{self, Completion, CompletionKind, Insert};
+use driveset_ide::text::Text;
+use driveset_lsp_base as frame;
+
+use analysis::{line_col, range};
 
 /// Options of the server (`driveset lsp`'s arguments).
 #[derive(Debug, Clone, Default)]
@@ -45,10 +46,8 @@ pub struct Config {
 }
 
 struct Doc {
-    text: Text,
+    doc: OpenDocument,
     version: i32,
-    path: PathBuf,
-    schema: Option<Arc<Schema>>,
 }
 
 /// The server's state: open documents and the schema registry.
@@ -100,7 +99,7 @@ fn refuse(req: &Request, code: lsp_server::ErrorCode, message: &str) -> Message 
 /// The server's loop: the lifecycle (initialize, shutdown, exit; LSP 3.17
 /// "Lifecycle Messages") around [`Server::request`] and
 /// [`Server::notify`]; a refused frame is answered and reading goes on
-/// ([`frame`]).
+/// (`driveset_lsp_base`).
 fn run(
     mut reader: frame::Reader<impl std::io::BufRead>,
     w: &mut impl std::io::Write,
@@ -200,10 +199,8 @@ impl Server {
                 self.docs.insert(
                     key.clone(),
                     Doc {
-                        text: Text::new(p.text_document.text),
+                        doc: OpenDocument::new(path, p.text_document.text),
                         version: p.text_document.version,
-                        path,
-                        schema: None,
                     },
                 );
                 self.publish(&key)
@@ -217,7 +214,8 @@ impl Server {
                     return Vec::new();
                 };
                 for c in p.content_changes {
-                    doc.text.apply(c.range, &c.text);
+                    let r = c.range.map(|r| line_col(r.start)..line_col(r.end));
+                    doc.doc.edit(r, &c.text);
                 }
                 doc.version = p.text_document.version;
                 self.publish(&key)
@@ -242,14 +240,13 @@ impl Server {
         let Some(doc) = self.docs.get_mut(key) else {
             return Vec::new();
         };
-        let a = analysis::analyse(&doc.path, &doc.text, &mut self.registry);
-        doc.schema = a.schema.or(doc.schema.take());
+        let diagnostics = analysis::diagnostics(&mut doc.doc, &mut self.registry);
         let Ok(uri) = key.parse::<Uri>() else {
             return Vec::new();
         };
         vec![diagnostics_notification(
             uri,
-            a.diagnostics,
+            diagnostics,
             Some(doc.version),
         )]
     }
@@ -308,63 +305,21 @@ impl Server {
         }
     }
 
-    /// The document, its parsed tree and schema, and the byte offset of `pos`.
-    fn at(&self, key: &str, pos: Position) -> Option<(&Doc, Document, Arc<Schema>, usize)> {
-        let doc = self.docs.get(key)?;
-        let parsed = driveset_ide::analysis::parse(&doc.path, doc.text.as_str()).ok()?;
-        let schema = doc.schema.clone()?;
-        let offset = doc.text.offset(pos);
-        Some((doc, parsed, schema, offset))
-    }
-
     fn hover(&self, key: &str, pos: Position) -> Option<Hover> {
-        let (doc, parsed, schema, offset) = self.at(key, pos)?;
-        let h = navigate::hover(&schema, &parsed, offset)?;
+        let doc = &self.docs.get(key)?.doc;
+        let h = doc.hover(line_col(pos))?;
         Some(Hover {
             contents: HoverContents::Markup(MarkupContent {
                 kind: MarkupKind::Markdown,
                 value: h.markdown,
             }),
-            range: Some(doc.text.range(h.span)),
+            range: Some(range(doc.text(), h.span)),
         })
     }
 
     fn definition(&self, key: &str, pos: Position) -> Option<Location> {
-        let (_, parsed, schema, offset) = self.at(key, pos)?;
-        let loc = navigate::definition(&schema, &parsed, offset)?;
-        let file = self.schema_file(&loc.file)?;
-        let line = loc.line.saturating_sub(1) as u32;
-        let col = loc.column.saturating_sub(1) as u32;
-        Some(Location {
-            uri: uri::from_path(&file)?,
-            range: Range::new(Position::new(line, col), Position::new(line, col)),
-        })
-    }
-
-    /// The file a schema's locations name: a loaded schema file as it is,
-    /// a built-in one as a read-only copy in the cache directory (the
-    /// binary holds its text, not its path).
-    fn schema_file(&self, file: &str) -> Option<PathBuf> {
-        if let Some((path, text)) = BUILTIN_FILES.iter().find(|(p, _)| *p == file) {
-            let copy = self.cache_dir.join(path);
-            let held =
-                driveset_schema::input::read_input(&copy, driveset_schema::input::InputKind::SET);
-            if held.ok().as_deref() != Some(text.as_bytes()) {
-                std::fs::create_dir_all(copy.parent()?).ok()?;
-                if let Ok(m) = std::fs::metadata(&copy) {
-                    let mut p = m.permissions();
-                    #[allow(clippy::permissions_set_readonly_false)]
-                    p.set_readonly(false);
-                    let _ = std::fs::set_permissions(&copy, p);
-                }
-                driveset_schema::output::write_output(&copy, text.as_bytes()).ok()?;
-                let mut p = std::fs::metadata(&copy).ok()?.permissions();
-                p.set_readonly(true);
-                std::fs::set_permissions(&copy, p).ok()?;
-            }
-            return Some(copy);
-        }
-        std::path::absolute(file).ok()
+        let loc = self.docs.get(key)?.doc.definition(line_col(pos))?;
+        analysis::location(&navigate::schema_file(&loc.file, &self.cache_dir)?, &loc)
     }
 
     /// A completion item of the last completion with the code's facts
@@ -372,9 +327,7 @@ impl Server {
     fn resolve(&self, mut item: CompletionItem) -> CompletionItem {
         let found = item.data.as_ref().and_then(|d| {
             let doc = self.docs.get(self.completed.as_deref()?)?;
-            let schema = doc.schema.as_ref()?;
-            let number = u32::try_from(d.as_u64()?).ok()?;
-            Some(facts::markdown(schema, schema.code(number)?))
+            doc.doc.facts(u32::try_from(d.as_u64()?).ok()?)
         });
         if let Some(md) = found {
             item.documentation = Some(markdown(md));
@@ -383,23 +336,12 @@ impl Server {
     }
 
     fn completion(&self, key: &str, pos: Position) -> Option<Vec<CompletionItem>> {
-        let doc = self.docs.get(key)?;
-        let at = Cursor {
-            line: pos.line as usize,
-            line_start: doc.text.offset(Position::new(pos.line, 0)),
-            offset: doc.text.offset(pos),
-        };
-        let items = navigate::complete(
-            doc.text.as_str(),
-            at,
-            Syntax::from_path(&doc.path),
-            doc.schema.as_deref(),
-            &self.registry,
-        )?;
+        let doc = &self.docs.get(key)?.doc;
+        let items = doc.complete(line_col(pos), &self.registry)?;
         Some(
             items
                 .into_iter()
-                .map(|c| completion_item(&doc.text, pos, c))
+                .map(|c| completion_item(doc.text(), pos, c))
                 .collect(),
         )
     }
@@ -428,7 +370,7 @@ fn completion_item(text: &Text, pos: Position, c: Completion) -> CompletionItem 
         Insert::Replace { start, text: new } => (
             None,
             Some(CompletionTextEdit::Edit(TextEdit::new(
-                Range::new(text.position(start), pos),
+                Range::new(analysis::position(text.position(start)), pos),
                 new,
             ))),
         ),
