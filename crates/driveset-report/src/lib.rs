@@ -3,20 +3,24 @@
 //! it, and a self-contained `report.html`, [`html`]), JUnit XML of
 //! validation findings and of a rehearsal ([`junit`], docs/ci.md) and the
 //! line-oriented semantic view of a set file that `git diff` shows through
-//! the `driveset` textconv driver ([`textconv`], docs/file-formats.md),
+//! the `driveset` textconv driver ([`textconv`], docs/file-formats.md)
+//! and the driver's `.gitattributes` lines and command ([`driver`]),
 //! the validation report of `validate` and `schema check` for people, as
 //! JSON and as GitHub annotations ([`validation`], docs/ci.md) and the
 //! colours rendered text takes ([`style`]); the semantic diff of two sets
 //! as `driveset diff` prints it ([`diff`]); a line run on the terminal,
-//! its progress lines and summary table ([`mod@line`]).
+//! its progress lines and summary table ([`mod@line`]); what long bus
+//! work's phases show as on the terminal ([`progress`]).
 //! Files are written through the one writer (`driveset_schema::output`);
 //! git is the caller's to run (the textconv view takes the tracked files
 //! as data, the report its [`GitInfo`] from the engine's environment).
 
 pub mod diff;
+pub mod driver;
 pub mod html;
 pub mod junit;
 pub mod line;
+pub mod progress;
 pub mod style;
 pub mod textconv;
 pub mod validation;
