@@ -329,7 +329,9 @@ pub fn new_id(station: &str, now: jiff::Timestamp) -> String {
 pub struct RunFacts {
     /// The command (`commission`, `upload` ...).
     pub command: String,
-    /// The command line, secrets masked ([`crate::mask_url`]).
+    /// The command line as given; [`begin`] masks its secrets (a store
+    /// URL's password, any `password=` value: [`crate::mask_url`]) before
+    /// anything is recorded.
     pub args: Vec<String>,
     /// The driveset version.
     pub version: String,
@@ -356,7 +358,7 @@ pub fn begin(target: &Target, facts: RunFacts, say: Say) -> Result<RunSession, S
     let start = SessionStart {
         id: new_id(&station, now),
         command: facts.command,
-        args: facts.args,
+        args: facts.args.iter().map(|a| crate::mask_url(a)).collect(),
         version: facts.version,
         station,
         os_user: os_user(),

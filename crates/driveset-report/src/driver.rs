@@ -1,9 +1,15 @@
 //! The `driveset` diff driver as git is told of it (`driveset git-setup`;
 //! docs/file-formats.md): the `.gitattributes` lines that send set files
 //! through it ([`attribute_lines`]), merged into what a repository's file
-//! already holds ([`merge_attributes`]), and the command git runs as its
+//! already holds ([`merge_attributes`]) and written back through the one
+//! writer ([`update_attributes`]), and the command git runs as its
 //! textconv ([`command`]; the view it prints is [`crate::textconv`]'s).
-//! Running git and reading and writing the file are the caller's.
+//! Running git is the caller's.
+
+use std::path::Path;
+
+use driveset_schema::output::{self, OutputError};
+use driveset_schema::{InputError, InputErrorKind, Location};
 
 /// The git configuration key of the driver's textconv command.
 pub const TEXTCONV_KEY: &str = "diff.driveset.textconv";
@@ -48,6 +54,78 @@ pub fn merge_attributes(existing: &str, want: &[String]) -> Option<String> {
     Some(out)
 }
 
+/// What [`update_attributes`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Attributes {
+    /// Every line was there already; the file is untouched.
+    UpToDate,
+    /// The missing lines were added (the file written, or created).
+    Written,
+}
+
+/// Why `.gitattributes` could not be updated.
+#[derive(Debug)]
+pub enum AttributesError {
+    /// It is there but is no regular file (the one writer's refusal).
+    Target(OutputError),
+    /// It cannot be read as text (the one reader's refusal, or not UTF-8).
+    Read(InputError),
+    /// Writing it failed.
+    Write(OutputError),
+}
+
+impl std::fmt::Display for AttributesError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AttributesError::Target(e) | AttributesError::Write(e) => {
+                write!(f, "{}: {}", e.path.display(), e.detail())
+            }
+            AttributesError::Read(e) => write!(f, "{}; {}", e.message, e.help),
+        }
+    }
+}
+
+impl std::error::Error for AttributesError {}
+
+/// Add to the `.gitattributes` file at `path` the lines of the set files
+/// under each of `sets` ([`attribute_lines`], [`merge_attributes`]): the
+/// file read through the one reader (a settings file: regular, at most
+/// `MAX_FILE_BYTES`, UTF-8; none yet is empty), written back through the
+/// one writer only when a line is missing.
+pub fn update_attributes(path: &Path, sets: &[String]) -> Result<Attributes, AttributesError> {
+    output::check_target(path).map_err(AttributesError::Target)?;
+    let existing = if std::fs::symlink_metadata(path).is_err() {
+        String::new()
+    } else {
+        read_settings(path).map_err(AttributesError::Read)?
+    };
+    let want: Vec<String> = sets.iter().flat_map(|d| attribute_lines(d)).collect();
+    match merge_attributes(&existing, &want) {
+        None => Ok(Attributes::UpToDate),
+        Some(text) => {
+            output::write_output(path, text.as_bytes()).map_err(AttributesError::Write)?;
+            Ok(Attributes::Written)
+        }
+    }
+}
+
+/// A small settings file updated in place, through the one reader.
+fn read_settings(path: &Path) -> Result<String, InputError> {
+    let bytes = driveset_schema::input::read_regular_file(
+        path,
+        driveset_schema::error::MAX_FILE_BYTES,
+        "settings files",
+    )?;
+    String::from_utf8(bytes).map_err(|_| {
+        InputError::new(
+            InputErrorKind::Binary,
+            Location::file_only(path.display().to_string()),
+            format!("{} is not UTF-8 text", path.display()),
+            "fix or remove the file",
+        )
+    })
+}
+
 /// Quote a word for the shell git runs the textconv command with.
 fn sh_quote(s: &str) -> String {
     if !s.is_empty()
@@ -87,6 +165,25 @@ mod tests {
         let m = merge_attributes(partial, &want).unwrap();
         assert_eq!(m.matches("*.toml").count(), 1);
         assert_eq!(attribute_lines(".")[1], "*.yaml diff=driveset");
+    }
+
+    #[test]
+    fn updates_the_file_once() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(".gitattributes");
+        std::fs::write(&p, "*.png binary\n").unwrap();
+        let sets = ["parameter-sets".to_string()];
+        assert_eq!(update_attributes(&p, &sets).unwrap(), Attributes::Written);
+        let text = std::fs::read_to_string(&p).unwrap();
+        assert!(text.starts_with("*.png binary\n# semantic diffs"), "{text}");
+        assert_eq!(update_attributes(&p, &sets).unwrap(), Attributes::UpToDate);
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), text);
+        std::fs::write(&p, [0xff, 0xfe]).unwrap();
+        let e = update_attributes(&p, &sets).unwrap_err().to_string();
+        assert!(
+            e.ends_with("is not UTF-8 text; fix or remove the file"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use driveset_report::driver::{self, attribute_lines, merge_attributes};
+use driveset_report::driver::{self, Attributes, attribute_lines};
 use driveset_report::textconv;
 
 use crate::output;
@@ -127,23 +127,13 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     match top {
         Some(top) => {
             let path = top.join(".gitattributes");
-            crate::files::check_output("", &path)?;
-            let existing = if std::fs::symlink_metadata(&path).is_err() {
-                String::new()
-            } else {
-                crate::files::read_settings(&path)
-                    .map_err(|e| crate::fail::Fail::input(format!("{}; {}", e.message, e.help)))?
-            };
-            let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
-            match merge_attributes(&existing, &want) {
-                None => outln!("{}: up to date", path.display()),
-                Some(text) => {
-                    crate::files::write_output("", &path, text.as_bytes())?;
-                    outln!(
-                        "{}: set files use the driveset diff driver (commit this file)",
-                        path.display()
-                    );
-                }
+            match driver::update_attributes(&path, &args.sets) {
+                Err(e) => return Err(crate::fail::Fail::input(e.to_string())),
+                Ok(Attributes::UpToDate) => outln!("{}: up to date", path.display()),
+                Ok(Attributes::Written) => outln!(
+                    "{}: set files use the driveset diff driver (commit this file)",
+                    path.display()
+                ),
             }
             if let Some(dir) = &args.json_schemas {
                 let mut registry = crate::output::registry(&[])

@@ -77,14 +77,6 @@ pub struct Context {
     pub sets: Option<std::path::PathBuf>,
 }
 
-/// The command line with secrets masked: a store URL's password, and the
-/// value of any `password` key.
-fn masked_args() -> Vec<String> {
-    std::env::args()
-        .map(|a| driveset_history::mask_url(&a))
-        .collect()
-}
-
 /// A notice of the history to stderr.
 fn say(line: &str) {
     eprintln!("{line}");
@@ -132,7 +124,7 @@ fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
     });
     let facts = RunFacts {
         command: command.to_string(),
-        args: masked_args(),
+        args: std::env::args().collect(),
         version: env!("CARGO_PKG_VERSION").to_string(),
         operator: a.operator.clone().or_else(|| {
             std::env::var("DRIVESET_OPERATOR")
