@@ -82,9 +82,6 @@ fn say(line: &str) {
     eprintln!("{line}");
 }
 
-/// Open this run's session (before the first write). `writes`: the
-/// command writes to drives, so `--history-required` refuses it when it
-/// cannot be recorded (exit 2, nothing sent).
 /// Open the session of a run that writes to drives (before its first
 /// write): `--history-required` refuses it when it cannot be recorded
 /// (exit 2, nothing sent).
