@@ -42,26 +42,3 @@ pub fn write_output(flag: &str, path: &Path, bytes: &[u8]) -> Result<(), Fail> {
     }
     output::write_output(path, bytes).map_err(|e| fail(flag, &e))
 }
-
-/// Reads a small settings file the CLI updates in place (`.gitattributes`,
-/// `.taplo.toml`, `.vscode/settings.json`) through the one reader: regular
-/// files only, at most 4 MiB, UTF-8.
-///
-/// # Errors
-/// The reader's [`driveset_schema::InputError`] (also for text that is not
-/// UTF-8).
-pub fn read_settings(path: &Path) -> Result<String, driveset_schema::InputError> {
-    let bytes = driveset_schema::input::read_regular_file(
-        path,
-        driveset_schema::error::MAX_FILE_BYTES,
-        "settings files",
-    )?;
-    String::from_utf8(bytes).map_err(|_| {
-        driveset_schema::InputError::new(
-            driveset_schema::error::InputErrorKind::Binary,
-            driveset_schema::Location::file_only(path.display().to_string()),
-            format!("{} is not UTF-8 text", path.display()),
-            "fix or remove the file",
-        )
-    })
-}

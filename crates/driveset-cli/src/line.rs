@@ -227,7 +227,7 @@ pub fn run_mode(
             crate::history::begin_reading(command.name, ctx)?;
         }
     }
-    let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::RecordedEnv::system()));
+    let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::recorded_env()));
     // the journal directory `upload` uses, so each sees the other's journals
     opts.journal_dir = manifest
         .journal_dir

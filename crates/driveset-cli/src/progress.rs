@@ -9,15 +9,17 @@
 //! one drive a line when a phase starts (`upload: reading 195 codes from
 //! the drive`, `upload: writing`, `upload: verifying`, `upload: rolling
 //! back`), for a line one line per drive done. Nothing is printed with
-//! `quiet` (JSON output).
+//! `quiet` (JSON output). What a phase shows as, the plain lines and the
+//! bar's messages are `driveset_report::progress`'s text.
 
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::sync::{Arc, Mutex, PoisonError};
 
 use driveset_engine::line::commission::{DriveDone, LineObserver};
-use driveset_engine::observe::{Event, Hook, Observer, Phase};
+use driveset_engine::observe::{Event, Hook, Observer};
 use driveset_link::Instant;
+use driveset_report::progress::{Shows, bus_message, plain_line};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// Whether progress is drawn as bars: stderr is a terminal and `CI` is not
@@ -26,78 +28,10 @@ pub fn bars_wanted() -> bool {
     std::io::stderr().is_terminal() && std::env::var_os("CI").is_none()
 }
 
-/// What a phase shows as; `None`: shown as the phase before it.
-fn shown(phase: Phase, total: Option<usize>) -> Option<Shown> {
-    match phase {
-        // an untotalled read (a status word) is part of what runs around it
-        Phase::Read => total.map(|_| Shown::Reading),
-        Phase::Dataset | Phase::Write | Phase::Commit => Some(Shown::Writing),
-        Phase::Verify => Some(Shown::Verifying),
-        Phase::Store => Some(Shown::Storing),
-        Phase::Rollback => Some(Shown::RollingBack),
-        Phase::Identify
-        | Phase::Plan
-        | Phase::Journal
-        | Phase::Recover
-        | Phase::Learn
-        | Phase::Broadcast => None,
-    }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Shown {
-    Reading,
-    Writing,
-    Verifying,
-    Storing,
-    RollingBack,
-}
-
-impl Shown {
-    fn verb(self) -> &'static str {
-        match self {
-            Shown::Reading => "reading",
-            Shown::Writing => "writing",
-            Shown::Verifying => "verifying",
-            Shown::Storing => "storing",
-            Shown::RollingBack => "rolling back",
-        }
-    }
-}
-
-/// The plain line printed off a terminal when `now` starts.
-fn plain_line(what: &str, now: Shown, total: Option<usize>) -> String {
-    match (now, total) {
-        (Shown::Reading, Some(n)) => format!("{what}: reading {n} codes from the drive"),
-        _ => format!("{what}: {}", now.verb()),
-    }
-}
-
-/// The plain lines a run of `events` prints off a terminal.
-#[cfg(test)]
-fn plain_lines(what: &str, events: &[Event]) -> Vec<String> {
-    let mut last = None;
-    let mut out = Vec::new();
-    for e in events {
-        if let Event::Enter { phase, total } = *e
-            && let Some(now) = shown(phase, total)
-            && last != Some(now)
-        {
-            last = Some(now);
-            out.push(plain_line(what, now, total));
-        }
-    }
-    out
-}
-
 enum Out {
     Quiet,
     Lines,
     Bar(ProgressBar),
-}
-
-struct State {
-    shown: Option<Shown>,
 }
 
 /// Progress of one drive's work (`upload`, `pull`, `recover`): an
@@ -105,7 +39,7 @@ struct State {
 pub struct Progress {
     what: &'static str,
     out: Out,
-    state: Mutex<State>,
+    shows: Mutex<Shows>,
 }
 
 impl Progress {
@@ -129,7 +63,7 @@ impl Progress {
         Arc::new(Progress {
             what,
             out,
-            state: Mutex::new(State { shown: None }),
+            shows: Mutex::new(Shows::default()),
         })
     }
 
@@ -148,14 +82,12 @@ impl Progress {
 
 impl Observer for Progress {
     fn event(&self, _at: Instant, event: Event) {
-        let mut st = self.state.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut shows = self.shows.lock().unwrap_or_else(PoisonError::into_inner);
         match event {
             Event::Enter { phase, total } => {
-                let Some(now) = shown(phase, total) else {
+                let Some((now, changed)) = shows.enter(phase, total) else {
                     return;
                 };
-                let changed = st.shown != Some(now);
-                st.shown = Some(now);
                 match &self.out {
                     Out::Quiet => {}
                     Out::Lines => {
@@ -180,7 +112,7 @@ impl Observer for Progress {
             }
             Event::Step { phase, done, total } => {
                 if let Out::Bar(b) = &self.out
-                    && shown(phase, Some(total)) == st.shown
+                    && shows.counts(phase, total)
                 {
                     b.set_length(total as u64);
                     b.set_position(done as u64);
@@ -254,12 +186,8 @@ impl LineObserver for LineProgress {
         }
         let bars = self.bars.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(b) = bars.get(bus) else { return };
-        match event {
-            Event::Enter { phase, .. } => b.set_message(format!("{drive}: {phase}")),
-            Event::Step {
-                phase, done, total, ..
-            } => b.set_message(format!("{drive}: {phase} {done}/{total}")),
-            Event::End => {}
+        if let Some(message) = bus_message(drive, event) {
+            b.set_message(message);
         }
     }
 
@@ -281,70 +209,5 @@ impl LineObserver for LineProgress {
                 }
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn enter(phase: Phase, total: Option<usize>) -> Event {
-        Event::Enter { phase, total }
-    }
-
-    #[test]
-    fn plain_lines_follow_the_runners_phases() {
-        // an MC6000 upload that fails after the dataset's commit: the
-        // dataset, its commit and the other writes are one `writing`; the
-        // status read of the running check and the steps print nothing
-        let events = [
-            enter(Phase::Identify, None),
-            enter(Phase::Read, Some(195)),
-            Event::Step {
-                phase: Phase::Read,
-                done: 1,
-                total: 195,
-            },
-            enter(Phase::Plan, None),
-            enter(Phase::Read, None),
-            enter(Phase::Journal, None),
-            enter(Phase::Dataset, None),
-            enter(Phase::Write, Some(78)),
-            Event::Step {
-                phase: Phase::Verify,
-                done: 1,
-                total: 78,
-            },
-            enter(Phase::Commit, None),
-            enter(Phase::Write, Some(78)),
-            enter(Phase::Rollback, Some(40)),
-            Event::End,
-        ];
-        assert_eq!(
-            plain_lines("upload", &events),
-            [
-                "upload: reading 195 codes from the drive",
-                "upload: writing",
-                "upload: rolling back",
-            ]
-        );
-        // a redo after a restart reads again; a clean end verifies
-        let events = [
-            enter(Phase::Read, Some(3)),
-            enter(Phase::Write, Some(2)),
-            enter(Phase::Read, Some(3)),
-            enter(Phase::Write, Some(2)),
-            enter(Phase::Verify, Some(2)),
-        ];
-        assert_eq!(
-            plain_lines("upload", &events),
-            [
-                "upload: reading 3 codes from the drive",
-                "upload: writing",
-                "upload: reading 3 codes from the drive",
-                "upload: writing",
-                "upload: verifying",
-            ]
-        );
     }
 }

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use driveset_report::ReadReportError;
 pub use driveset_report::{HTML_NAME, JSON_NAME, LineReport, Run, write_atomic};
 
 /// Arguments of the hidden `driveset report` (render a saved report again).
@@ -19,23 +20,15 @@ pub struct Args {
 
 /// Run `driveset report`: read a report.json, write report.json + report.html.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let text = match driveset_schema::input::read_input(
-        &args.input,
-        driveset_schema::input::InputKind::REPORT,
-    )
-    .map(|b| String::from_utf8_lossy(&b).into_owned())
-    {
-        Ok(t) => t,
-        Err(e) => {
+    let report = match driveset_report::read_report(&args.input) {
+        Ok(r) => r,
+        Err(ReadReportError::Input(e)) => {
             return Err(crate::fail::Fail::input(format!(
                 "{}\n  = help: {}",
                 e.message, e.help
             )));
         }
-    };
-    let report: LineReport = match serde_json::from_str(&text) {
-        Ok(r) => r,
-        Err(e) => {
+        Err(ReadReportError::NotAReport(e)) => {
             return Err(crate::fail::Fail::input(format!(
                 "{}: not a line report: {e}\n  = help: give the report.json that `driveset commission` wrote",
                 args.input.display()

@@ -45,6 +45,44 @@ pub trait Environment: Send + Sync {
     }
 }
 
+/// An [`Environment`] whose [`history`](Environment::history) is
+/// `history` (the session the front end opened for this run; none when
+/// history is off or no session is open) and everything else `inner`'s:
+/// the front end's system environment, recording.
+#[derive(Debug, Clone, Default)]
+pub struct WithHistory<E, H> {
+    /// The clock, git and the files.
+    pub inner: E,
+    /// The run's record.
+    pub history: Option<H>,
+}
+
+impl<E: Environment, H: History> Environment for WithHistory<E, H> {
+    fn now_utc(&self) -> jiff::Timestamp {
+        self.inner.now_utc()
+    }
+
+    fn git_info(&self, dir: &Path) -> Option<GitInfo> {
+        self.inner.git_info(dir)
+    }
+
+    fn read_file(&self, path: &Path) -> io::Result<Option<String>> {
+        self.inner.read_file(path)
+    }
+
+    fn write_file(&self, path: &Path, text: &str) -> io::Result<()> {
+        self.inner.write_file(path, text)
+    }
+
+    fn create_dir(&self, dir: &Path) -> io::Result<()> {
+        self.inner.create_dir(dir)
+    }
+
+    fn history(&self) -> Option<&dyn History> {
+        self.history.as_ref().map(|h| h as &dyn History)
+    }
+}
+
 /// An [`Environment`] that touches nothing: a fixed wall-clock time, the
 /// git commit it is given, files in memory. For tests and benchmarks (the
 /// way `VirtualClock` stands in for a real clock); one value shared by

@@ -3,7 +3,8 @@
 //! [`Store::blame`] (who last changed a code of a drive, from what to
 //! what, why, with which commit), [`Store::as_built`] (what every drive of
 //! a line held at a label or a time, and the run that put it there) and
-//! [`as_built_diff`] (what changed between two of those).
+//! [`Store::changes`] / [`as_built_diff`] (what changed between two of
+//! those).
 
 use std::collections::BTreeMap;
 
@@ -342,6 +343,20 @@ impl Store {
             new: c[2].text().map(str::to_string),
             verified: c[3].text().map(str::to_string),
         }))
+    }
+
+    /// `history diff`: what changed on `line` (its `drives`) from as
+    /// built at `a` to as built at `b` ([`as_built_diff`]).
+    pub fn changes(
+        &mut self,
+        line: &str,
+        drives: &[String],
+        a: &At,
+        b: &At,
+    ) -> Result<Vec<Difference>, HistoryError> {
+        let built_a = self.as_built(line, drives, a)?;
+        let built_b = self.as_built(line, drives, b)?;
+        Ok(as_built_diff(&built_a, &built_b))
     }
 
     /// `history as-built`: what each of `drives` (of `line`) held as of

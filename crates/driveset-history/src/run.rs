@@ -6,8 +6,9 @@
 //! waiting, one transaction), closing it with the outcome
 //! ([`RunSession::end`]) or closing the sessions of processes that are gone
 //! ([`RunSession::close_interrupted`]), and the links a line report carries
-//! to it ([`RunSession::link_report`]). The station's facts a session
-//! starts with: [`station`], [`os_user`], [`new_id`]. What it has to say
+//! to it ([`RunSession::link_report`]). A run's session begun with what
+//! the front end knows of the run ([`begin`], [`RunFacts`]) and the
+//! station's facts: [`station`], [`os_user`], [`new_id`]. What it has to say
 //! (a record not stored, a session forwarded) goes to the caller's
 //! [`Say`]; the front end decides when a run opens its session and what a
 //! failure to open one means.
@@ -18,7 +19,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use driveset_engine::env::rfc3339;
 use driveset_engine::history::{DriveRecord, History};
-use driveset_engine::line::report::{DriveHistoryLink, HistoryLink, LineReport};
+use driveset_engine::line::report::{DriveHistoryLink, GitInfo, HistoryLink, LineReport};
 
 use crate::{DEFAULT_SQLITE, SessionEnd, SessionStart, Store, Target};
 
@@ -319,6 +320,59 @@ pub fn new_id(station: &str, now: jiff::Timestamp) -> String {
     }
     let hex: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     hex[..20].to_string()
+}
+
+/// What the front end tells a run's session about the run; the rest of
+/// its [`SessionStart`] (id, station, OS user, start, process, the shared
+/// store it is owed to) is [`begin`]'s.
+#[derive(Debug, Clone, Default)]
+pub struct RunFacts {
+    /// The command (`commission`, `upload` ...).
+    pub command: String,
+    /// The command line as given; [`begin`] masks its secrets (a store
+    /// URL's password, any `password=` value: [`crate::mask_url`]) before
+    /// anything is recorded.
+    pub args: Vec<String>,
+    /// The driveset version.
+    pub version: String,
+    /// `--operator` / `DRIVESET_OPERATOR`.
+    pub operator: Option<String>,
+    /// `--reason`.
+    pub reason: Option<String>,
+    /// The label (`--label`, the manifest's).
+    pub label: Option<String>,
+    /// The line manifest.
+    pub manifest: Option<String>,
+    /// The sets' git commit and whether their work tree had changes.
+    pub git: Option<GitInfo>,
+}
+
+/// Open the session of a run in the store `target` names
+/// ([`open_for_run`]), started now on this station; `Err` says why the run
+/// cannot be recorded (`"off"`: history is off). Whether that refuses the
+/// run is the front end's.
+pub fn begin(target: &Target, facts: RunFacts, say: Say) -> Result<RunSession, String> {
+    let (store, owed) = open_for_run(target, say)?;
+    let now = jiff::Timestamp::now();
+    let station = station();
+    let start = SessionStart {
+        id: new_id(&station, now),
+        command: facts.command,
+        args: facts.args.iter().map(|a| crate::mask_url(a)).collect(),
+        version: facts.version,
+        station,
+        os_user: os_user(),
+        operator: facts.operator,
+        reason: facts.reason,
+        label: facts.label,
+        manifest: facts.manifest,
+        git_commit: facts.git.as_ref().map(|g| g.commit.clone()),
+        git_dirty: facts.git.as_ref().map(|g| g.dirty),
+        started: rfc3339(now),
+        pid: std::process::id(),
+        forward_to: owed,
+    };
+    RunSession::open(store, &start, say)
 }
 
 /// Open the store `target` names for a run (the shared one forwards first

@@ -11,6 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use driveset_report::driver::{self, Attributes, attribute_lines};
 use driveset_report::textconv;
 
 use crate::output;
@@ -87,57 +88,6 @@ pub fn run_textconv(args: TextconvArgs) -> Result<u8, crate::fail::Fail> {
     }
 }
 
-/// The attribute lines for set files under `dir`.
-pub fn attribute_lines(dir: &str) -> Vec<String> {
-    let dir = dir.trim_matches('/');
-    ["toml", "yaml", "yml"]
-        .iter()
-        .map(|ext| {
-            if dir.is_empty() || dir == "." {
-                format!("*.{ext} diff=driveset")
-            } else {
-                format!("{dir}/**/*.{ext} diff=driveset")
-            }
-        })
-        .collect()
-}
-
-/// `existing` plus every line of `want` it lacks (compared with surrounding
-/// whitespace trimmed and inner runs of blanks collapsed); `None` when
-/// nothing is missing.
-pub fn merge_attributes(existing: &str, want: &[String]) -> Option<String> {
-    let norm = |l: &str| l.split_whitespace().collect::<Vec<_>>().join(" ");
-    let have: Vec<String> = existing.lines().map(norm).collect();
-    let missing: Vec<&String> = want.iter().filter(|w| !have.contains(&norm(w))).collect();
-    if missing.is_empty() {
-        return None;
-    }
-    let mut out = existing.to_string();
-    if !out.is_empty() && !out.ends_with('\n') {
-        out.push('\n');
-    }
-    if !existing.contains("driveset") {
-        out.push_str("# semantic diffs of parameter sets (driveset git-setup)\n");
-    }
-    for m in missing {
-        out.push_str(m);
-        out.push('\n');
-    }
-    Some(out)
-}
-
-/// Quote a word for the shell git runs the textconv command with.
-fn sh_quote(s: &str) -> String {
-    if !s.is_empty()
-        && s.bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b"/._-+:=@%,".contains(&b))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
-    }
-}
-
 fn default_command() -> String {
     let on_path = std::env::var_os("PATH").is_some_and(|p| {
         std::env::split_paths(&p).any(|d| {
@@ -145,13 +95,8 @@ fn default_command() -> String {
             f.is_file()
         })
     });
-    if on_path {
-        return "driveset textconv".into();
-    }
-    match std::env::current_exe() {
-        Ok(exe) => format!("{} textconv", sh_quote(&exe.to_string_lossy())),
-        Err(_) => "driveset textconv".into(),
-    }
+    let exe = (!on_path).then(std::env::current_exe).and_then(Result::ok);
+    driver::command(exe.as_ref().map(|e| e.to_string_lossy()).as_deref())
 }
 
 fn git(args: &[&str]) -> anyhow::Result<()> {
@@ -171,33 +116,24 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     }
     let command = args.command.clone().unwrap_or_else(default_command);
     let scope = if args.global { "--global" } else { "--local" };
-    if let Err(e) = git(&["config", scope, "diff.driveset.textconv", &command]) {
+    if let Err(e) = git(&["config", scope, driver::TEXTCONV_KEY, &command]) {
         return Err(crate::fail::Fail::input(format!("{e}")));
     }
     outln!(
-        "git config {scope} diff.driveset.textconv \"{}\"",
+        "git config {scope} {} \"{}\"",
+        driver::TEXTCONV_KEY,
         command.replace('"', "\\\"")
     );
     match top {
         Some(top) => {
             let path = top.join(".gitattributes");
-            crate::files::check_output("", &path)?;
-            let existing = if std::fs::symlink_metadata(&path).is_err() {
-                String::new()
-            } else {
-                crate::files::read_settings(&path)
-                    .map_err(|e| crate::fail::Fail::input(format!("{}; {}", e.message, e.help)))?
-            };
-            let want: Vec<String> = args.sets.iter().flat_map(|d| attribute_lines(d)).collect();
-            match merge_attributes(&existing, &want) {
-                None => outln!("{}: up to date", path.display()),
-                Some(text) => {
-                    crate::files::write_output("", &path, text.as_bytes())?;
-                    outln!(
-                        "{}: set files use the driveset diff driver (commit this file)",
-                        path.display()
-                    );
-                }
+            match driver::update_attributes(&path, &args.sets) {
+                Err(e) => return Err(crate::fail::Fail::input(e.to_string())),
+                Ok(Attributes::UpToDate) => outln!("{}: up to date", path.display()),
+                Ok(Attributes::Written) => outln!(
+                    "{}: set files use the driveset diff driver (commit this file)",
+                    path.display()
+                ),
             }
             if let Some(dir) = &args.json_schemas {
                 let mut registry = crate::output::registry(&[])
@@ -220,30 +156,4 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         ),
     }
     Ok(crate::EXIT_OK)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn merges_without_duplicates() {
-        let want = attribute_lines("parameter-sets/");
-        assert_eq!(want[0], "parameter-sets/**/*.toml diff=driveset");
-        let merged = merge_attributes("*.png binary", &want).unwrap();
-        assert!(merged.starts_with("*.png binary\n# semantic diffs"));
-        assert_eq!(merged.matches("diff=driveset").count(), 3);
-        assert_eq!(merge_attributes(&merged, &want), None);
-        // an existing line written with other spacing counts
-        let partial = "parameter-sets/**/*.toml   diff=driveset\n";
-        let m = merge_attributes(partial, &want).unwrap();
-        assert_eq!(m.matches("*.toml").count(), 1);
-        assert_eq!(attribute_lines(".")[1], "*.yaml diff=driveset");
-    }
-
-    #[test]
-    fn quotes_for_the_shell() {
-        assert_eq!(sh_quote("/usr/bin/driveset"), "/usr/bin/driveset");
-        assert_eq!(sh_quote("/a b/it's"), "'/a b/it'\\''s'");
-    }
 }

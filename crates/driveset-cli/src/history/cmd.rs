@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use driveset_history::query::{At, LogFilter, as_built_diff};
+use driveset_history::query::{At, LogFilter};
 use driveset_history::{Store, Target, Verdict};
 
 use crate::fail::Fail;
@@ -205,10 +205,9 @@ pub fn run(c: HistoryCommand) -> Result<u8, Fail> {
                 )));
             };
             let (line, drives) = manifest_drives(&a.manifest)?;
-            let mut store = open()?;
-            let built_a = store.as_built(&line, &drives, &At::parse(x)).map_err(db)?;
-            let built_b = store.as_built(&line, &drives, &At::parse(y)).map_err(db)?;
-            let d = as_built_diff(&built_a, &built_b);
+            let d = open()?
+                .changes(&line, &drives, &At::parse(x), &At::parse(y))
+                .map_err(db)?;
             out!(
                 "{}",
                 if a.json {

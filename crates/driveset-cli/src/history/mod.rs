@@ -4,22 +4,22 @@
 //! (SQLite `.driveset/history.sqlite` by default), when a command opens
 //! its session ([`begin_writing`], [`begin_reading`]; before the first write: refused under
 //! `--history-required` when it cannot be recorded) and `main` closes it
-//! with the outcome ([`end`]), the engine's [`History`] seam over it
-//! ([`RecordedEnv`], for the line runner) and [`drive`] for the one-drive
-//! commands. The session itself (its recorder thread, the local store a
-//! shared one that cannot be reached is owed by, closing, the report's
-//! links) is `driveset_history::run`'s.
+//! with the outcome ([`end`]), the engine's history seam over it
+//! ([`recorded_env`], for the line runner) and [`drive`] for the one-drive
+//! commands. The session itself (begun with the run's facts, its recorder
+//! thread, the local store a shared one that cannot be reached is owed by,
+//! closing, the report's links) is `driveset_history::run`'s.
 
 pub mod cmd;
 
 use std::path::Path;
 use std::sync::{Mutex, OnceLock, PoisonError};
 
-use driveset_engine::env::{Environment, rfc3339};
+use driveset_engine::env::WithHistory;
 use driveset_engine::history::{DriveRecord, History};
 use driveset_engine::line::report::{GitInfo, LineReport};
-use driveset_history::run::{self, RunSession};
-use driveset_history::{SessionStart, Target};
+use driveset_history::Target;
+use driveset_history::run::{self, RunFacts, RunSession};
 
 use crate::fail::Fail;
 
@@ -77,22 +77,11 @@ pub struct Context {
     pub sets: Option<std::path::PathBuf>,
 }
 
-/// The command line with secrets masked: a store URL's password, and the
-/// value of any `password` key.
-fn masked_args() -> Vec<String> {
-    std::env::args()
-        .map(|a| driveset_history::mask_url(&a))
-        .collect()
-}
-
 /// A notice of the history to stderr.
 fn say(line: &str) {
     eprintln!("{line}");
 }
 
-/// Open this run's session (before the first write). `writes`: the
-/// command writes to drives, so `--history-required` refuses it when it
-/// cannot be recorded (exit 2, nothing sent).
 /// Open the session of a run that writes to drives (before its first
 /// write): `--history-required` refuses it when it cannot be recorded
 /// (exit 2, nothing sent).
@@ -122,12 +111,6 @@ fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
             Ok(())
         }
     };
-    let (store, owed) = match run::open_for_run(&target, say) {
-        Ok(s) => s,
-        Err(why) => return refuse(why),
-    };
-    let now = jiff::Timestamp::now();
-    let station = run::station();
     let git: Option<GitInfo> = ctx.sets.as_deref().and_then(|p| {
         let dir = if p.is_dir() {
             p
@@ -136,13 +119,10 @@ fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
         };
         crate::git::info(dir)
     });
-    let start = SessionStart {
-        id: run::new_id(&station, now),
+    let facts = RunFacts {
         command: command.to_string(),
-        args: masked_args(),
+        args: std::env::args().collect(),
         version: env!("CARGO_PKG_VERSION").to_string(),
-        station,
-        os_user: run::os_user(),
         operator: a.operator.clone().or_else(|| {
             std::env::var("DRIVESET_OPERATOR")
                 .ok()
@@ -151,13 +131,9 @@ fn begin(command: &str, ctx: Context, writes: bool) -> Result<(), Fail> {
         reason: a.reason.clone(),
         label: ctx.label,
         manifest: ctx.manifest,
-        git_commit: git.as_ref().map(|g| g.commit.clone()),
-        git_dirty: git.as_ref().map(|g| g.dirty),
-        started: rfc3339(now),
-        pid: std::process::id(),
-        forward_to: owed,
+        git,
     };
-    match RunSession::open(store, &start, say) {
+    match run::begin(&target, facts, say) {
         Ok(session) => {
             *RUN.lock().unwrap_or_else(PoisonError::into_inner) = Some(session);
             Ok(())
@@ -207,44 +183,14 @@ fn current() -> Option<RunSession> {
     RUN.lock().unwrap_or_else(PoisonError::into_inner).clone()
 }
 
-/// The CLI's [`Environment`] with the run's session as its history.
-pub struct RecordedEnv {
-    inner: crate::env::SystemEnv,
-    session: Option<RunSession>,
-}
+/// The CLI's [`Environment`](driveset_engine::env::Environment) with the
+/// run's session as its history.
+pub type RecordedEnv = WithHistory<crate::env::SystemEnv, RunSession>;
 
-impl RecordedEnv {
-    /// The system, recording into this run's session (if one is open).
-    pub fn system() -> Self {
-        RecordedEnv {
-            inner: crate::env::SystemEnv,
-            session: current(),
-        }
-    }
-}
-
-impl Environment for RecordedEnv {
-    fn now_utc(&self) -> jiff::Timestamp {
-        self.inner.now_utc()
-    }
-
-    fn git_info(&self, dir: &Path) -> Option<GitInfo> {
-        self.inner.git_info(dir)
-    }
-
-    fn read_file(&self, path: &Path) -> std::io::Result<Option<String>> {
-        self.inner.read_file(path)
-    }
-
-    fn write_file(&self, path: &Path, text: &str) -> std::io::Result<()> {
-        self.inner.write_file(path, text)
-    }
-
-    fn create_dir(&self, dir: &Path) -> std::io::Result<()> {
-        self.inner.create_dir(dir)
-    }
-
-    fn history(&self) -> Option<&dyn History> {
-        self.session.as_ref().map(|s| s as &dyn History)
+/// The system, recording into this run's session (if one is open).
+pub fn recorded_env() -> RecordedEnv {
+    WithHistory {
+        inner: crate::env::SystemEnv,
+        history: current(),
     }
 }
