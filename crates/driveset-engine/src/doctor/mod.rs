@@ -57,10 +57,11 @@ mod tests;
 
 use std::time::Duration;
 
-use driveset_link::{ByteLink, LinkError, PortSpec};
+use driveset_link::{ByteLink, Link, LinkError, PortSpec};
 use serde::Serialize;
 
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
+use crate::session::SessionError;
 
 pub use advice::advice;
 pub use probe::DoctorRefusal;
@@ -281,6 +282,49 @@ impl DoctorReport {
     pub fn answered(&self) -> bool {
         !self.answering.is_empty()
     }
+
+    /// The check in one word: nothing answered, or a drive answered with
+    /// advice or without.
+    pub fn verdict(&self) -> DoctorVerdict {
+        if !self.answered() {
+            DoctorVerdict::Silent
+        } else if self.advice.is_empty() {
+            DoctorVerdict::Fine
+        } else {
+            DoctorVerdict::Advice
+        }
+    }
+}
+
+/// [`DoctorReport::verdict`]: the CLI maps it to its exit code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DoctorVerdict {
+    /// A drive answers and nothing needs changing.
+    Fine,
+    /// A drive answers, but there is advice.
+    Advice,
+    /// Nothing answered at any rate.
+    Silent,
+}
+
+/// The protocol to check on `link` when none is given: CAN SDO on a CAN
+/// port; on a character line the drive's, by the read-only probes
+/// `identify` and `scan` use ([`crate::session::detect`]) at `address`,
+/// else LUSTBUS address 1 and LECOM station 01; the same on every port.
+///
+/// # Errors
+/// [`SessionError`]: nothing answered the probes, or the link failed.
+pub fn protocol_on(
+    link: &mut Link,
+    port: &str,
+    address: Option<u8>,
+    latency: Option<Duration>,
+) -> Result<DoctorProtocol, SessionError> {
+    if matches!(link, Link::Frames(_)) {
+        return Ok(DoctorProtocol::CanSdo);
+    }
+    let (family, _) = crate::session::detect(link, port, address.unwrap_or(1), latency)?;
+    Ok(family.bus())
 }
 
 /// Opens the line at a rate, without echo stripping.
