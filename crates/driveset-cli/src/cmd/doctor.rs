@@ -12,10 +12,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use driveset_engine::doctor::{
-    DoctorOptions, DoctorProtocol, DoctorReport, DoctorVerdict, ProbeResult, ms, protocol_on,
-    run as doctor_run, run_can,
+    DoctorOptions, DoctorProtocol, DoctorReport, DoctorVerdict, ProbeResult, line_at, ms,
+    protocol_on, run as doctor_run, run_can,
 };
-use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
+use driveset_link::{EchoMode, Link, PortSpec};
 
 use crate::output;
 use crate::output::OutputFormat;
@@ -127,20 +127,7 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
             // drives keep their own rates
             drop(opened.link);
             let raw = raw_at(&spec);
-            let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-                match port::reopen(&raw)? {
-                    Link::Bytes(mut l) => {
-                        if l.baud() != baud {
-                            l.set_baud(baud)?;
-                        }
-                        Ok(l)
-                    }
-                    Link::Frames(_) => Err(LinkError::Unsupported {
-                        port: raw.to_string(),
-                        what: "a CAN port".into(),
-                    }),
-                }
-            };
+            let mut open = |baud: u32| line_at(port::reopen(&raw)?, &raw.to_string(), baud);
             doctor_run(&name, port_baud, &mut open, &options, timers)?
         }
     };

@@ -327,5 +327,27 @@ pub fn protocol_on(
     Ok(family.bus())
 }
 
+/// `link`, reopened by the caller for a rate, as [`run`] probes that rate
+/// with it: a character line, the host's side set to `baud` whatever
+/// transport it is (the drives keep their own rates); a CAN port
+/// (`port`) is refused.
+///
+/// # Errors
+/// [`LinkError::Unsupported`] on a CAN port; the rate not set.
+pub fn line_at(link: Link, port: &str, baud: u32) -> Result<Box<dyn ByteLink>, LinkError> {
+    match link {
+        Link::Bytes(mut l) => {
+            if l.baud() != baud {
+                l.set_baud(baud)?;
+            }
+            Ok(l)
+        }
+        Link::Frames(_) => Err(LinkError::Unsupported {
+            port: port.to_string(),
+            what: "a CAN port".into(),
+        }),
+    }
+}
+
 /// Opens the line at a rate, without echo stripping.
 pub type OpenAt<'a> = dyn FnMut(u32) -> Result<Box<dyn ByteLink>, LinkError> + 'a;

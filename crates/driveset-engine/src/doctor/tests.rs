@@ -348,3 +348,24 @@ fn the_verdict_says_silent_fine_or_advice() {
     r.answering.clear();
     assert_eq!(r.verdict(), DoctorVerdict::Silent);
 }
+
+#[test]
+fn a_line_is_set_to_the_rate_probed_and_a_can_port_refused() {
+    let log = EventLog::off();
+    let s = sim(Family::Tmd, 9600, &log);
+    let l = line_at(s.link(), "sim://test", 4800).expect("a line");
+    assert_eq!(l.baud(), 4800);
+    let clock = VirtualClock::new();
+    let ecs = open_sim_with(
+        &SimConfig::new(Family::Ecs, vec![1]),
+        &clock,
+        "sim://e",
+        log,
+    )
+    .expect("sim");
+    let e = line_at(ecs.link(), "sim://e", 9600).expect_err("CAN");
+    assert!(
+        matches!(&e, LinkError::Unsupported { port, what } if port == "sim://e" && what == "a CAN port"),
+        "{e}"
+    );
+}
