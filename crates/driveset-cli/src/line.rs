@@ -12,18 +12,13 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_engine::line::commission::{
-    DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener, Verdict,
+    LineError, LineLearn, LineOptions, LineOutcome, Opener, StopAfter, Verdict,
 };
 use driveset_engine::line::manifest::{Bus, Manifest, load_manifest};
-use driveset_engine::observe::Event;
 use driveset_engine::session::PortError;
 use driveset_link::Link;
 
 use crate::{EXIT_BUS, EXIT_FINDINGS, EXIT_INPUT, EXIT_OK, port, report};
-
-/// The report directory when neither `--report-dir` nor the manifest's
-/// `report_dir` gives one (relative to the current directory).
-pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
 
 /// A line command as the front end runs it: its name, whether it writes
 /// to drives, the summary's verb and the engine's run.
@@ -55,39 +50,6 @@ pub const STATUS: LineCommand = LineCommand {
     run: driveset_engine::line::status::status,
 };
 
-/// The hidden `--stop-after N`: every bus stops after N drives, as if the
-/// run were killed there; the line's progress is told everything else.
-struct StopAfter {
-    n: usize,
-    progress: Arc<crate::progress::LineProgress>,
-}
-
-impl LineObserver for StopAfter {
-    fn bus(&self, bus: &str, drives: usize) {
-        self.progress.bus(bus, drives);
-    }
-
-    fn event(&self, bus: &str, drive: &str, at: driveset_link::Instant, event: Event) {
-        self.progress.event(bus, drive, at, event);
-    }
-
-    fn drive_done(&self, done: &DriveDone<'_>) {
-        self.progress.drive_done(done);
-    }
-
-    fn before_drive(&self, _bus: &str, done: usize) -> Flow {
-        if done >= self.n {
-            Flow::Stop("--stop-after".into())
-        } else {
-            Flow::Go
-        }
-    }
-
-    fn may_stop(&self) -> bool {
-        true
-    }
-}
-
 /// What `commission` and `status` share.
 pub struct Common {
     /// Manifest path.
@@ -110,25 +72,15 @@ pub struct Common {
     pub stop_after: Option<usize>,
 }
 
-/// Whether loading a manifest counts the findings of sets whose schema is
-/// learned from the drive.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LearnedSets {
-    /// They do not count: the run learns the drive's schema and checks the
-    /// set against it then.
-    Excused,
-    /// They count (`--no-learn`, or a command that learns nothing).
-    Counted,
-}
+pub use driveset_engine::line::manifest::LearnedSets;
 
-impl LearnedSets {
-    /// What the learning flags say: `--no-learn` counts them.
-    pub fn of(learn: &crate::port_args::LearnArgs) -> LearnedSets {
-        if learn.no_learn {
-            LearnedSets::Counted
-        } else {
-            LearnedSets::Excused
-        }
+/// What the learning flags say of the sets whose schema is learned from
+/// the drive: `--no-learn` counts their findings.
+pub fn learned_sets(learn: &crate::port_args::LearnArgs) -> LearnedSets {
+    if learn.no_learn {
+        LearnedSets::Counted
+    } else {
+        LearnedSets::Excused
     }
 }
 
@@ -150,17 +102,9 @@ pub fn load(path: &Path, learned: LearnedSets) -> Result<Manifest, u8> {
     };
     // a set that disagrees with its drive's manifest address or rate
     // refuses that drive, not the line (engine `line::address_truth`)
-    let mut findings: Vec<_> = loaded
-        .findings
-        .into_iter()
-        .filter(|f| !f.is_per_drive())
-        .collect();
-    if learned == LearnedSets::Counted {
-        findings.extend(loaded.learnable);
-    }
-    match loaded.manifest {
-        Some(m) if findings.is_empty() => Ok(m),
-        _ => {
+    match loaded.runnable(learned) {
+        Ok(m) => Ok(m),
+        Err(findings) => {
             for f in &findings {
                 eprint!("{}", f.render_human());
             }
@@ -195,7 +139,7 @@ pub fn run_mode(
     command: LineCommand,
     tweak: impl FnOnce(&mut LineOptions),
 ) -> Result<u8, crate::fail::Fail> {
-    let manifest = match load(&c.manifest, LearnedSets::of(&c.learn)) {
+    let manifest = match load(&c.manifest, learned_sets(&c.learn)) {
         Ok(m) => m,
         Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
@@ -205,10 +149,7 @@ pub fn run_mode(
             return Err(f);
         }
     };
-    let report_dir = c
-        .report_dir
-        .or_else(|| manifest.report_dir.clone())
-        .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR));
+    let report_dir = manifest.report_dir_or(c.report_dir);
     // the report's files are checked before any bus is opened: a FIFO or
     // device there is refused, not found blocking after the line ran
     for name in [report::JSON_NAME, report::HTML_NAME, "report.junit.xml"] {
@@ -229,10 +170,7 @@ pub fn run_mode(
     }
     let mut opts = LineOptions::new(&report_dir, Arc::new(crate::history::recorded_env()));
     // the journal directory `upload` uses, so each sees the other's journals
-    opts.journal_dir = manifest
-        .journal_dir
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(driveset_engine::journal::DEFAULT_JOURNAL_DIR));
+    opts.journal_dir = manifest.journal_dir();
     opts.only = c.only;
     opts.skip = c.skip;
     opts.label = c.label;
@@ -254,7 +192,7 @@ pub fn run_mode(
     tweak(&mut opts);
     // a rehearsal: the twins' buses, its own journals, no resume state
     let rehearsal = match &c.rehearse {
-        Some(dir) => Some(rehearsal(&manifest, &mut opts, dir, &report_dir)?),
+        Some(dir) => Some(rehearsal(&manifest, &mut opts, dir)?),
         None => None,
     };
     let width = manifest
@@ -267,7 +205,8 @@ pub fn run_mode(
     opts.observer = Some(match c.stop_after {
         Some(n) => Arc::new(StopAfter {
             n,
-            progress: bars.clone(),
+            who: "--stop-after".into(),
+            inner: bars.clone(),
         }),
         None => bars.clone(),
     });
@@ -328,22 +267,15 @@ pub fn run_mode(
     Ok(code)
 }
 
-/// A rehearsal (`commission --rehearse DIR`): the twins' buses, its own
-/// journals, no resume state; the drives with no twin skipped (and said).
+/// A rehearsal (`commission --rehearse DIR`): `opts` made a rehearsal's
+/// ([`driveset_twin::rehearse::for_run`]); the drives with no twin said.
 /// Gives the buses' opener and the drives left out.
 fn rehearsal(
     manifest: &Manifest,
     opts: &mut LineOptions,
     dir: &Path,
-    report_dir: &Path,
 ) -> Result<(Box<Opener<'static>>, Vec<String>), crate::fail::Fail> {
-    let selected = driveset_engine::line::commission::select(manifest, opts)
-        .map_err(|e| crate::fail::Fail::input(e.to_string()))?;
-    let r = driveset_twin::rehearse::prepare(manifest, dir, &selected)?;
-    opts.skip.extend(r.missing.iter().cloned());
-    opts.label = Some(r.label);
-    opts.fresh = true;
-    opts.journal_dir = report_dir.join("rehearsal-journal");
+    let r = driveset_twin::rehearse::for_run(manifest, dir, opts)?;
     for m in &r.missing {
         let twin = driveset_twin::file::path_in(dir, m);
         eprintln!("{m}: not rehearsed: no twin {}", twin.display());

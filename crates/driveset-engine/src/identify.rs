@@ -88,6 +88,30 @@ pub fn other_family(
     })
 }
 
+/// [`other_family`] asked of the drive at `address` on `link` by the
+/// read-only probes ([`crate::session::detect`]) when `schema`'s family
+/// shares its protocol with others (a LUSTBUS dialect) and the probes did
+/// not choose the schema already (`evidence`: what they found, when they
+/// did). Nothing is written.
+///
+/// # Errors
+/// [`crate::session::SessionError`]: the probes got no answer, or the link
+/// failed.
+pub fn probe_other_family(
+    link: &mut driveset_link::Link,
+    port: &str,
+    address: u8,
+    latency: Option<std::time::Duration>,
+    schema: &driveset_schema::Schema,
+    evidence: Option<&str>,
+) -> Result<Option<String>, crate::session::SessionError> {
+    if evidence.is_some() || schema.family.descriptor().dialect.is_none() {
+        return Ok(None);
+    }
+    let (found, evidence) = crate::session::detect(link, port, address, latency)?;
+    Ok(other_family(found, &evidence, schema.family))
+}
+
 /// What [`examine`] found of a drive.
 #[derive(Debug, Clone)]
 pub struct Examined {
@@ -99,6 +123,18 @@ pub struct Examined {
     /// Whether the schema fits the drive: `Err` says why not (another
     /// family or TYPE).
     pub fits: Result<(), String>,
+}
+
+impl Examined {
+    /// What `identify` notes when the drive answered only at another rate
+    /// than the port's ([`Examined::other_rate`]).
+    pub fn rate_note(&self) -> Option<String> {
+        self.other_rate.map(|(r, port_rate)| {
+            format!(
+                "the drive answers at {r} baud, not at the port's {port_rate} (left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud={r} to the port)"
+            )
+        })
+    }
 }
 
 /// Identifies the drive and checks the client's schema against it
@@ -165,5 +201,46 @@ mod tests {
             &refusal,
             r#"{"kind":"wrong_type","code":"91-TYPE","found":9999,"schema":"x","expected":[1]}"#,
         );
+    }
+
+    #[test]
+    fn the_probes_find_another_family_only_where_the_protocol_is_shared() {
+        use driveset_link::VirtualClock;
+        use driveset_sim::catalog::Family;
+        use driveset_sim::log::EventLog;
+        use driveset_sim::open::{SimConfig, open_sim_with};
+
+        use super::probe_other_family;
+        let registry = driveset_schema::Registry::builtin().expect("registry");
+        let vf = registry.get("lust-vf1000").expect("vf1000");
+        let tmd = registry.get("lenze-tmd").expect("tmd");
+        let config = SimConfig::new(Family::Mc6000, vec![1]);
+        let sim =
+            open_sim_with(&config, &VirtualClock::new(), "sim://t", EventLog::off()).expect("sim");
+        let mut link = sim.link();
+        let found = probe_other_family(&mut link, "sim://t", 1, None, &vf, None).expect("probe");
+        assert!(
+            found.is_some_and(|f| f.starts_with("the drive answers as ")),
+            "an MC6000 is not a VF1000"
+        );
+        let chosen = probe_other_family(&mut link, "sim://t", 1, None, &vf, Some("probed"));
+        assert_eq!(chosen.expect("not asked"), None);
+        let lecom = probe_other_family(&mut link, "sim://t", 1, None, &tmd, None);
+        assert_eq!(lecom.expect("not asked"), None);
+    }
+
+    #[test]
+    fn the_rate_note_names_both_rates() {
+        let ex = super::Examined {
+            identity: crate::client::Identity::default(),
+            other_rate: Some((38400, 9600)),
+            fits: Ok(()),
+        };
+        let note = ex.rate_note().expect("note");
+        assert!(
+            note.starts_with("the drive answers at 38400 baud, not at the port's 9600"),
+            "{note}"
+        );
+        assert!(note.ends_with("or add ?baud=38400 to the port)"), "{note}");
     }
 }

@@ -1,12 +1,14 @@
 //! A line run as the terminal shows it (`driveset commission`, `driveset
 //! status`; docs/architecture.md, "The walk of one commission"): the line
 //! each drive prints when it is done, and the summary table after the run
-//! with its differences, errors, counts and times. The report files are
-//! written by [`crate::write_reports`]; printing is the caller's.
+//! with its differences, errors, counts and times; the table of
+//! `commission --assign`'s first contact ([`assign_table`]). The report
+//! files are written by [`crate::write_reports`]; printing is the caller's.
 
 use std::time::Duration;
 
 use driveset_engine::line::commission::{DriveDone, LineOutcome};
+use driveset_engine::line::commission_assign::{BusAssign, CommissionAssignReport};
 use driveset_engine::line::factory::FACTORY_WORDS;
 use driveset_engine::line::report::{DriveReport, DriveResult, LineResult};
 
@@ -184,6 +186,99 @@ pub fn summary(o: &LineOutcome, verb: &str, wall: Duration) -> String {
     out
 }
 
+/// `commission --assign`'s first contact as the terminal shows it
+/// (docs/factory-fresh.md): per bus, each drive given its address and rate
+/// (or why not), the final scan as a table (`ADDRESS DRIVE EXPECTED
+/// ANSWERED CHECK`) and the bus's verdict; a skipped bus in one line.
+pub fn assign_table(a: &CommissionAssignReport) -> String {
+    let mut out = String::new();
+    for b in &a.buses {
+        if let Some(why) = &b.skipped {
+            out.push_str(&format!("bus `{}`: skipped: {why}\n", b.bus));
+            continue;
+        }
+        for d in &b.drives {
+            match &d.error {
+                None => out.push_str(&format!(
+                    "{}: address {}, {} baud ({}{}, found at {} baud{})\n",
+                    d.drive,
+                    d.address,
+                    d.rate,
+                    d.family.as_deref().unwrap_or("?"),
+                    d.type_value
+                        .map_or_else(String::new, |t| format!(" TYPE {t}")),
+                    d.found_at.unwrap_or(0),
+                    d.rate_note
+                        .as_deref()
+                        .map_or_else(String::new, |n| format!("; {n}"))
+                )),
+                Some(e) => out.push_str(&format!("{}: FAILED: {e}\n", d.drive)),
+            }
+        }
+        if let Some(e) = &b.scan_error {
+            out.push_str(&format!("bus `{}`: {e}\n", b.bus));
+            continue;
+        }
+        out.push_str(&format!("\nbus `{}` ({}), scanned:\n", b.bus, b.port));
+        scan_table(&mut out, b);
+        out.push_str(&format!(
+            "bus `{}`: {} drive(s) assigned, {}; {:.3} s on the bus\n",
+            b.bus,
+            b.drives.len(),
+            if b.holds() {
+                "every manifest address answers as its set's family, nothing else answers"
+            } else {
+                "the bus does NOT match the manifest"
+            },
+            b.elapsed_ms / 1000.0
+        ));
+    }
+    out
+}
+
+/// The final scan of bus `b` as a table, its columns as wide as their
+/// widest cell.
+fn scan_table(out: &mut String, b: &BusAssign) {
+    let rows: Vec<[String; 5]> = b
+        .scan
+        .iter()
+        .map(|r| {
+            [
+                r.address.to_string(),
+                r.drive.clone().unwrap_or_else(|| "-".into()),
+                r.expected.clone().unwrap_or_else(|| "-".into()),
+                match (&r.found, &r.type_value) {
+                    (Some(f), Some(t)) => format!("{f} TYPE {t}"),
+                    (Some(f), None) => f.clone(),
+                    (None, _) => "no answer".into(),
+                },
+                if r.ok { "ok" } else { "WRONG" }.into(),
+            ]
+        })
+        .collect();
+    let head = ["ADDRESS", "DRIVE", "EXPECTED", "ANSWERED", "CHECK"].map(String::from);
+    let mut w = head.clone().map(|h| h.len());
+    for row in &rows {
+        for (i, c) in row.iter().enumerate() {
+            w[i] = w[i].max(c.len());
+        }
+    }
+    for row in std::iter::once(&head).chain(rows.iter()) {
+        out.push_str(&format!(
+            "{:>w0$}  {:<w1$}  {:<w2$}  {:<w3$}  {}\n",
+            row[0],
+            row[1],
+            row[2],
+            row[3],
+            row[4],
+            w0 = w[0],
+            w1 = w[1],
+            w2 = w[2],
+            w3 = w[3]
+        ));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,6 +308,58 @@ mod tests {
         assert_eq!(
             short_fp(Some("sha256:0123456789abcdef0123")),
             "sha256:0123456789ab"
+        );
+    }
+
+    #[test]
+    fn assign_table_shows_drives_scan_and_verdict() {
+        use driveset_engine::line::commission_assign::{DriveAssigned, ScanRow};
+        let bus = BusAssign {
+            bus: "press".into(),
+            port: "/dev/ttyUSB0".into(),
+            skipped: None,
+            drives: vec![DriveAssigned {
+                drive: "axis-1".into(),
+                address: 3,
+                rate: 19200,
+                family: Some("mc6000".into()),
+                type_value: Some(17),
+                found_at: Some(9600),
+                written: vec![],
+                rate_note: None,
+                elapsed_ms: 10.0,
+                error: None,
+            }],
+            scan: vec![ScanRow {
+                address: 3,
+                drive: Some("axis-1".into()),
+                expected: Some("mc6000".into()),
+                found: Some("mc6000".into()),
+                type_value: Some("17".into()),
+                ok: true,
+            }],
+            scan_error: None,
+            scan_ms: 5.0,
+            elapsed_ms: 1500.0,
+        };
+        let skipped = BusAssign {
+            bus: "can".into(),
+            skipped: Some("a CAN bus".into()),
+            ..bus.clone()
+        };
+        let a = CommissionAssignReport {
+            line: "l".into(),
+            buses: vec![bus, skipped],
+            ok: true,
+        };
+        assert_eq!(
+            assign_table(&a),
+            "axis-1: address 3, 19200 baud (mc6000 TYPE 17, found at 9600 baud)\n\
+             \nbus `press` (/dev/ttyUSB0), scanned:\n\
+             ADDRESS  DRIVE   EXPECTED  ANSWERED        CHECK\n\
+             \x20     3  axis-1  mc6000    mc6000 TYPE 17  ok\n\
+             bus `press`: 1 drive(s) assigned, every manifest address answers as its set's family, nothing else answers; 1.500 s on the bus\n\
+             bus `can`: skipped: a CAN bus\n"
         );
     }
 }

@@ -7,10 +7,12 @@
 //! ([`power_cycle`]) and what is
 //! saved when serving stops ([`save`]: the event log flushed, the `--dump`
 //! and `--state` files written). Each refusal is a [`SimCommandError`]
-//! worded as the command has always shown it. The CLI keeps its clap
-//! arguments, the stop flag and signals, the line announced on stdout and
-//! the serving call ([`crate::serve`], [`crate::slcan_serve`]); docs/ports.md
-//! and docs/twins.md describe the options.
+//! worded as the command has always shown it. Serving until stopped, and
+//! what the command says while it serves, is `serving.rs` ([`serve`]). The
+//! CLI keeps its clap arguments, the stop flag and signals, and prints
+//! what it is told; docs/ports.md and docs/twins.md describe the options.
+
+mod serving;
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
@@ -23,6 +25,8 @@ use crate::faults::FaultPlan;
 use crate::log::{EventLog, LogError};
 use crate::open::{SimConfig, SimOpenError, StateDump, is_can, parse_family};
 use crate::twin::TwinError;
+
+pub use serving::{ServeFailure, ServeSetupError, Served, Told, serve};
 
 /// What `driveset sim` was asked to serve, as given (each field is the
 /// option of the same name; docs/ports.md).

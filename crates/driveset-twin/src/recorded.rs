@@ -31,6 +31,12 @@ pub enum RecordedError {
         /// The bus's families (`mc6000 or vf1000`).
         wanted: String,
     },
+    /// No schema given for a session of a bus of several families
+    /// (LUSTBUS): it does not say which family it talks to.
+    #[error(
+        "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to"
+    )]
+    NoSchema,
     /// No drive answered in the session.
     #[error(
         "{}: the session shows no drive answering (no VALUE, no acknowledged write); is it a {bus} capture?",
@@ -55,6 +61,17 @@ pub fn path_in(dir: &Path, address: u8) -> PathBuf {
 /// built-in schema of its bus's one family (none on a bus of several).
 pub fn default_schema(format: Format) -> Option<&'static str> {
     format.bus().only_family().map(|f| f.descriptor().schema_id)
+}
+
+/// The schema a session in `format` is read with: `given` (`--schema`),
+/// else [`default_schema`].
+///
+/// # Errors
+/// [`RecordedError::NoSchema`]: none given on a bus of several families.
+pub fn schema_of(format: Format, given: Option<&str>) -> Result<&str, RecordedError> {
+    given
+        .or(default_schema(format))
+        .ok_or(RecordedError::NoSchema)
 }
 
 /// One twin per station address the session `bytes` in `format` (read
@@ -128,6 +145,18 @@ mod tests {
         assert_eq!(default_schema(Format::Lecom), Some("lenze-tmd"));
         assert_eq!(default_schema(Format::Slcan), Some("lenze-ecs"));
         assert_eq!(default_schema(Format::Lustbus), None);
+        assert_eq!(schema_of(Format::Lecom, None).unwrap(), "lenze-tmd");
+        assert_eq!(
+            schema_of(Format::Lustbus, Some("lust-vf1000")).unwrap(),
+            "lust-vf1000"
+        );
+        let e = schema_of(Format::Lustbus, None).unwrap_err();
+        assert!(matches!(e, RecordedError::NoSchema), "{e:?}");
+        assert!(
+            e.to_string()
+                .ends_with("a LUSTBUS session does not say which family it talks to"),
+            "{e}"
+        );
     }
 
     #[test]

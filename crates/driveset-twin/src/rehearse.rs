@@ -3,13 +3,15 @@
 //! and checked ([`twins`]), each bus opened as a simulated bus of its
 //! drives' twins in virtual time ([`opener`]; they live in this process
 //! only, so there is no bus to lock), and the label its report carries
-//! ([`label`]); [`prepare`] gives all three for the selected drives. A
-//! rehearsal that would rehearse nothing is refused.
+//! ([`label`]); [`prepare`] gives all three for the selected drives, and
+//! [`for_run`] for the drives a line run's options select, those options
+//! made a rehearsal's. A rehearsal that would rehearse nothing is refused.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::Path;
 
+use driveset_engine::line::commission::LineOptions;
 use driveset_engine::line::manifest::{Bus, Manifest};
 use driveset_link::{Link, VirtualClock};
 use driveset_sim::log::EventLog;
@@ -142,6 +144,31 @@ pub fn prepare(
     })
 }
 
+/// The rehearsal of a line run with `opts` (`driveset commission
+/// MANIFEST --rehearse DIR`) against the twins in `dir`: the drives `opts`
+/// selects ([`driveset_engine::line::commission::select`]) [`prepare`]d,
+/// and `opts` made a rehearsal's: the selected drives without a twin
+/// skipped, the rehearsal's label, no resume state (`fresh`), its own
+/// journals (`rehearsal-journal` in the report directory).
+///
+/// # Errors
+/// [`Refused`] when the selection names what the manifest lacks, or the
+/// rehearsal would rehearse nothing (see [`twins`]).
+pub fn for_run(
+    manifest: &Manifest,
+    dir: &Path,
+    opts: &mut LineOptions,
+) -> Result<Rehearsal<impl Fn(&Bus) -> Result<Link, String> + Sync + use<>>, Refused> {
+    let selected = driveset_engine::line::commission::select(manifest, opts)
+        .map_err(|e| Refused(e.to_string()))?;
+    let r = prepare(manifest, dir, &selected)?;
+    opts.skip.extend(r.missing.iter().cloned());
+    opts.label = Some(r.label.clone());
+    opts.fresh = true;
+    opts.journal_dir = opts.report_dir.join("rehearsal-journal");
+    Ok(r)
+}
+
 /// The opener of a rehearsal: each bus a simulated bus of its drives'
 /// twins, in virtual time.
 pub fn opener(
@@ -195,4 +222,48 @@ pub fn label(dir: &Path, twins: &BTreeMap<String, Option<Twin>>, missing: &[Stri
         let _ = write!(s, "; not rehearsed (no twin): {}", missing.join(", "));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use driveset_engine::env::Memory;
+
+    use super::*;
+
+    fn manifest() -> Manifest {
+        Manifest {
+            path: "line.toml".into(),
+            name: "line".into(),
+            label: None,
+            report_dir: None,
+            journal_dir: None,
+            buses: Vec::new(),
+            drives: Vec::new(),
+        }
+    }
+
+    fn opts() -> LineOptions {
+        LineOptions::new("reports", Arc::new(Memory::at(jiff::Timestamp::UNIX_EPOCH)))
+    }
+
+    #[test]
+    fn a_run_naming_what_the_manifest_lacks_or_without_twins_is_refused_untouched() {
+        let mut o = opts();
+        o.only = vec!["nope".into()];
+        let Err(e) = for_run(&manifest(), Path::new("twins"), &mut o) else {
+            panic!("a selection of nothing known is refused");
+        };
+        assert!(e.0.contains("no drive or bus is named `nope`"), "{e}");
+        let mut o = opts();
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("none");
+        let Err(e) = for_run(&manifest(), &missing, &mut o) else {
+            panic!("a missing directory is refused");
+        };
+        assert!(e.0.contains("no such directory"), "{e}");
+        assert!(!o.fresh && o.label.is_none() && o.skip.is_empty());
+        assert_eq!(o.journal_dir, Path::new("reports").join("journals"));
+    }
 }

@@ -11,7 +11,6 @@ use std::path::PathBuf;
 use driveset_engine::assign::{self, AssignPlan, AssignReport, AssignRequest};
 use driveset_engine::journal::JournalAt;
 use driveset_engine::overrides::Override;
-use driveset_schema::BusProtocol;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -121,26 +120,13 @@ fn address(args: &Args) -> Result<u8, Fail> {
         .protocol
         .ok_or_else(|| Fail::input("give the bus protocol: --protocol lustbus|lecom"))?
         .0;
-    if protocol == BusProtocol::CanSdo {
-        // the protocol's own name, not one of its aliases
-        return Err(Fail::input(format!(
-            "--protocol {}: driveset address sets LUSTBUS and LECOM addresses; a CAN node id is set on the drive",
-            protocol.name()
-        )));
-    }
-    if protocol == BusProtocol::Lustbus && args.from.is_some() {
-        return Err(Fail::input(
-            "--from is for LECOM: a lone LUSTBUS drive is reached at address 0 whatever its own address (lustbus-protocol.txt §4.1); leave out --from",
-        ));
-    }
+    let mut req = AssignRequest::checked(protocol, args.to, args.from, args.baud)
+        .map_err(|e| Fail::input(e.to_string()))?;
     if let Some(j) = &args.journal {
         driveset_schema::input::refuse_special_file(j, driveset_schema::input::InputKind::JOURNAL)
             .map_err(|e| Fail::input(format!("--journal {}: {}", j.display(), e.detail())))?;
     }
     let schemas = port::family_schemas(&args.at.schemas, &args.at.schema)?;
-    let mut req = AssignRequest::new(protocol, args.to);
-    req.from = args.from;
-    req.baud = args.baud;
     req.overrides = [
         (args.allow_running, Override::AllowRunning),
         (args.allow_running_unknown, Override::AllowRunningUnknown),

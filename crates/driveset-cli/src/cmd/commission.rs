@@ -163,12 +163,11 @@ fn first_contact(
     args: &Args,
     overrides: driveset_engine::overrides::Overrides,
 ) -> Result<bool, crate::fail::Fail> {
-    let manifest = match load(&args.manifest, crate::line::LearnedSets::of(&args.learn)) {
+    let manifest = match load(&args.manifest, crate::line::learned_sets(&args.learn)) {
         Ok(m) => m,
         Err(code) => return Err(crate::fail::Fail::reported(code)),
     };
-    let journal_dir =
-        driveset_engine::journal::journal_dir_or_default(manifest.journal_dir.as_deref());
+    let journal_dir = manifest.journal_dir();
     let a = crate::line::commission_assign::AssignArgs {
         port: args.port.clone(),
         yes: args.yes,

@@ -12,9 +12,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use driveset_engine::doctor::{
-    DoctorOptions, DoctorProtocol, DoctorReport, ProbeResult, ms, run as doctor_run, run_can,
+    DoctorOptions, DoctorProtocol, DoctorReport, DoctorVerdict, ProbeResult, line_at, ms,
+    protocol_on, run as doctor_run, run_can,
 };
-use driveset_link::{ByteLink, EchoMode, Link, LinkError, PortSpec};
+use driveset_link::{EchoMode, Link, PortSpec};
 
 use crate::output;
 use crate::output::OutputFormat;
@@ -126,20 +127,7 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
             // drives keep their own rates
             drop(opened.link);
             let raw = raw_at(&spec);
-            let mut open = |baud: u32| -> Result<Box<dyn ByteLink>, LinkError> {
-                match port::reopen(&raw)? {
-                    Link::Bytes(mut l) => {
-                        if l.baud() != baud {
-                            l.set_baud(baud)?;
-                        }
-                        Ok(l)
-                    }
-                    Link::Frames(_) => Err(LinkError::Unsupported {
-                        port: raw.to_string(),
-                        what: "a CAN port".into(),
-                    }),
-                }
-            };
+            let mut open = |baud: u32| line_at(port::reopen(&raw)?, &raw.to_string(), baud);
             doctor_run(&name, port_baud, &mut open, &options, timers)?
         }
     };
@@ -151,32 +139,22 @@ fn doctor(args: &Args) -> Result<u8, Fail> {
         // `human`, the other value a bus command takes
         _ => output::emit(&human(&report)),
     }
-    Ok(if !report.answered() {
-        EXIT_BUS
-    } else if report.advice.is_empty() {
-        EXIT_OK
-    } else {
-        EXIT_FINDINGS
+    Ok(match report.verdict() {
+        DoctorVerdict::Silent => EXIT_BUS,
+        DoctorVerdict::Fine => EXIT_OK,
+        DoctorVerdict::Advice => EXIT_FINDINGS,
     })
 }
 
-/// Without --protocol: a CAN port speaks CAN SDO; on a character line
-/// the drive's protocol by the read-only probes `identify` and `scan`
-/// use (at --address, else LUSTBUS address 1 and LECOM station 01), the
-/// same on every port.
+/// Without --protocol: the engine's [`driveset_engine::doctor::protocol_on`]
+/// (a CAN port speaks CAN SDO; on a character line the drive's, by the
+/// read-only probes).
 fn protocol(args: &Args, opened: &mut port::OpenPort) -> Result<DoctorProtocol, Fail> {
-    Ok(match args.at.protocol {
-        Some(p) => p.0,
-        None if matches!(opened.link, Link::Frames(_)) => DoctorProtocol::CanSdo,
-        None => {
-            let name = opened.name.clone();
-            let (family, _) = driveset_engine::session::detect(
-                &mut opened.link,
-                &name,
-                args.at.address.unwrap_or(1),
-                opened.connect.latency,
-            )
-            .map_err(|e| match e {
+    let Some(p) = args.at.protocol else {
+        let name = opened.name.clone();
+        let latency = opened.connect.latency;
+        return protocol_on(&mut opened.link, &name, args.at.address, latency).map_err(
+            |e| match e {
                 driveset_engine::session::SessionError::NoAnswer { .. } => Fail {
                     code: EXIT_BUS,
                     msg: format!(
@@ -184,10 +162,10 @@ fn protocol(args: &Args, opened: &mut port::OpenPort) -> Result<DoctorProtocol, 
                     ),
                 },
                 other => other.into(),
-            })?;
-            family.bus()
-        }
-    })
+            },
+        );
+    };
+    Ok(p.0)
 }
 
 /// The human report.

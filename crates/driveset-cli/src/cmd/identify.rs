@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use driveset_engine::client::DriveClient;
 use driveset_engine::identify::Examined;
 use driveset_engine::learn::{LearnedUse, learned_use};
-use driveset_engine::session;
 
 use crate::output::{self, OutputFormat};
 use crate::port::{self, Fail};
@@ -72,16 +71,14 @@ fn identify(args: &Args) -> Result<u8, Fail> {
     // A LUSTBUS schema named: the drive's own family by the read-only
     // probes, as when none is named; another family is the finding (exit
     // 1), the same on every port.
-    let mut other = None;
-    if note.is_none() && schema.family.descriptor().dialect.is_some() {
-        let (found, evidence) = session::detect(
-            &mut opened.link,
-            &port_name,
-            address,
-            opened.connect.latency,
-        )?;
-        other = driveset_engine::identify::other_family(found, &evidence, schema.family);
-    }
+    let other = driveset_engine::identify::probe_other_family(
+        &mut opened.link,
+        &port_name,
+        address,
+        opened.connect.latency,
+        &schema,
+        note.as_deref(),
+    )?;
     let mut client = port::into_client(opened, schema.clone(), address)?;
     report(
         args,
@@ -122,12 +119,7 @@ fn report(
 ) -> Result<u8, Fail> {
     let schema = client.schema().clone();
     let ex = driveset_engine::identify::examine(client, other_family)?;
-    let note = match ex.other_rate {
-        Some((r, port_rate)) => Some(format!(
-            "the drive answers at {r} baud, not at the port's {port_rate} (left at a transfer rate by an interrupted --transfer-baud? `driveset recover JOURNAL` switches it back; or add ?baud={r} to the port)"
-        )),
-        None => note,
-    };
+    let note = ex.rate_note().or(note);
     let dir = args
         .at
         .learn

@@ -67,18 +67,13 @@ pub struct Args {
 }
 
 /// The schema to recover with: `--schema`, else the journal's (the
-/// engine's [`driveset_engine::session::Catalog::for_journal`]).
+/// engine's [`driveset_engine::session::Catalog::for_journal_of`]).
 fn journal_schema(
     args: &Args,
     j: &driveset_engine::journal::Journal,
 ) -> Result<port::SchemaChoice, Fail> {
     port::catalog(&args.at.schemas)
-        .for_journal(
-            args.at.schema(),
-            &j.schema,
-            j.schema_source.schema_fingerprint.as_deref(),
-            j.schema_source.schema_path.as_deref(),
-        )
+        .for_journal_of(args.at.schema(), j)
         .map_err(|e| Fail::input(port::catalog_error(&e)))
 }
 
@@ -138,12 +133,10 @@ fn recover(args: &Args) -> Result<u8, Fail> {
             // built-in schema does not); one no file holds any more leaves
             // the types to be learned from the drive's descriptions
             // (`assign`)
-            let schema = match journal_schema(args, j) {
-                Ok(c) => Some(c.schema),
-                // a schema the user named must resolve
-                Err(e) if args.at.schema().is_some() => return Err(e),
-                Err(_) => None,
-            };
+            let schema = port::catalog(&args.at.schemas)
+                .for_address_journal(args.at.schema(), j)
+                .map_err(|e| Fail::input(port::catalog_error(&e)))?
+                .map(|c| c.schema);
             drop(jf);
             recover_address_change(&args.journal, &port_text, &args.at.schemas, schema, json)
         }

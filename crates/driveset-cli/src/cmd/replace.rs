@@ -121,11 +121,8 @@ pub fn run(args: Args) -> Result<u8, Fail> {
     if !args.yes && !args.prompt_stdin {
         confirm_allowed("replace")?;
     }
-    let report_dir = args
-        .report_dir
-        .clone()
-        .or_else(|| manifest.report_dir.clone())
-        .unwrap_or_else(|| PathBuf::from(crate::line::DEFAULT_REPORT_DIR))
+    let report_dir = manifest
+        .report_dir_or(args.report_dir.clone())
         .join(format!("replace-{}", args.drive));
     let opts = ReplaceOptions::for_line(&manifest, overrides, &port::CliPorts);
     let (mut link, port_name, connect) = open_service_port(args.at.port()?)?;

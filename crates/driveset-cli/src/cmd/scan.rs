@@ -71,21 +71,14 @@ fn scan(args: &Args) -> Result<u8, Fail> {
         scan_rates(args, &plan)?
     } else {
         let mut opened = port::open_port(args.at.port()?)?;
-        let mut plan = plan;
         // CAN SDO on a CAN port with a schema of another bus: the CAN
         // family's built-in schema gives the probe code
-        if matches!(opened.link, Link::Frames(_))
-            && plan.first() == BusProtocol::CanSdo
-            && let Some((_, schema)) = plan.choices.first_mut()
-            && schema.family.bus() != BusProtocol::CanSdo
-        {
-            *schema = port::resolve_schema(
-                None,
-                &args.at.schemas,
-                Some(ProtocolArg(BusProtocol::CanSdo)),
-            )?
-            .schema;
-        }
+        let plan = if matches!(opened.link, Link::Frames(_)) {
+            plan.on_can_port(&port::catalog(&args.at.schemas))
+                .map_err(|e| Fail::input(port::catalog_error(&e)))?
+        } else {
+            plan
+        };
         let scanned = scan_bus(&mut opened.link, &opened.name, &plan).map_err(scan_fail)?;
         (opened.name.clone(), scanned)
     };
@@ -112,31 +105,19 @@ fn plan(args: &Args) -> Result<ScanPlan, Fail> {
         },
         _ => args.at.protocol,
     };
-    let asked: Vec<BusProtocol> = match protocol_arg {
-        Some(p) => vec![p.0],
-        None if args.at.schema().is_some() => Vec::new(),
-        None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
-    };
-    let choices = if asked.is_empty() {
-        let schema = port::resolve_schema(args.at.schema(), &args.at.schemas, None)?.schema;
-        vec![(schema.family.bus(), schema)]
-    } else {
-        let mut v = Vec::new();
-        for p in asked {
-            let schema =
-                port::resolve_schema(args.at.schema(), &args.at.schemas, Some(ProtocolArg(p)))?
-                    .schema;
-            v.push((p, schema));
-        }
-        v
-    };
     // the port's ?latency=: each probe waits what the clients allow it
     let options = ScanOptions::behind(
         driveset_link::PortSpec::parse(args.at.port()?)
             .ok()
             .and_then(|p| p.latency()),
     );
-    Ok(ScanPlan { choices, options })
+    ScanPlan::resolve(
+        &port::catalog(&args.at.schemas),
+        args.at.schema(),
+        protocol_arg.map(|p| p.0),
+        options,
+    )
+    .map_err(|e| Fail::input(port::catalog_error(&e)))
 }
 
 /// `--detect-baud`: the port opened once to check the port string and the

@@ -46,21 +46,19 @@
 //!
 //! The work is the simulator's ([`driveset_sim::command`]: the options
 //! checked into a bus and an endpoint, the power cycle of a state file,
-//! what is saved when serving stops); this module keeps the arguments,
-//! the stop flag and signals, the line announced on stdout, the serving
-//! call and what it says on stderr.
+//! serving until stopped and what it says meanwhile, what is saved when
+//! serving stops); this module keeps the arguments, the stop flag and
+//! signals, and prints what it is told: the line announced on stdout, the
+//! rest on stderr.
 
 use std::io::LineWriter;
-use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::Context;
-use driveset_sim::command::{self, Endpoint, SimCommandError, SimOptions};
+use driveset_sim::command::{self, Served, SimCommandError, SimOptions, Told};
 use driveset_sim::log::EventLog;
-use driveset_sim::open::{SimConfig, StateDump, is_can};
-use driveset_sim::{serve, slcan_serve};
 
 use crate::{EXIT_BUS, EXIT_OK};
 
@@ -257,9 +255,8 @@ fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
 }
 
 /// Print the one machine-readable line.
-fn announce(line: &str) -> anyhow::Result<()> {
+fn announce(line: &str) {
     crate::output::emit(&format!("{line}\n"));
-    Ok(())
 }
 
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
@@ -287,11 +284,19 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         None => EventLog::off(),
     };
     let stop = stop_flag()?;
-    let (outcome, dump) = if is_can(config.family) {
-        serve_can(&config, &log, &stop)?
-    } else {
-        serve_line(&args, &config, endpoint, &log, &stop)?
-    };
+    let served = command::serve(
+        &config,
+        endpoint,
+        &log,
+        &stop,
+        args.idle_timeout,
+        &mut |t| match t {
+            Told::Endpoint(line) => announce(&line),
+            Told::Note(line) => eprintln!("{line}"),
+        },
+    )
+    .map_err(|e| crate::fail::Fail::input(format!("{:#}", anyhow::Error::from(e))))?;
+    let Served { outcome, dump } = served;
     let saved = command::save(&config, &dump, &log, args.dump.as_deref(), |path| {
         eprintln!("wrote the drives' state to {}", path.display());
     });
@@ -309,99 +314,9 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             }
             Err(crate::fail::Fail {
                 code: EXIT_BUS,
-                msg: format!("{e:#}"),
+                msg: format!("{:#}", anyhow::Error::from(e)),
             })
         }
         (Ok(()), Err(e)) => Err(crate::fail::Fail::input(chain(e))),
     }
-}
-
-/// What serving gave (the serving loop's end) and the drives' state then.
-type Served = (anyhow::Result<()>, StateDump);
-
-/// Serve CAN drives as a simulated slcan adapter on a new pty until
-/// stopped.
-fn serve_can(
-    config: &SimConfig,
-    log: &EventLog,
-    stop: &Arc<AtomicBool>,
-) -> Result<Served, crate::fail::Fail> {
-    let (mut line, drives) = config.frame_line_drives(log.clone())?;
-    let on_line: Vec<u8> = line.drives().iter().map(|d| d.node_id()).collect();
-    let mut pty = slcan_serve::SlcanPty::open()?;
-    announce(&format!("pty {}", pty.path()))?;
-    eprintln!("{}", command::serving(config, &on_line));
-    eprintln!(
-        "a simulated slcan adapter: connect with --port slcan://{}?bitrate={} (python-can: interface='slcan', channel='{}'); Ctrl-C stops",
-        pty.path(),
-        config.bitrate,
-        pty.path()
-    );
-    let outcome = slcan_serve::serve_slcan(&mut pty, &mut line, stop, &mut |_| {})
-        .map(|_| ())
-        .map_err(anyhow::Error::from);
-    Ok((outcome, drives.frame_line_dump(config.bus_name(), &line)))
-}
-
-/// Serve the drives of a character line on a new pty or a TCP port until
-/// stopped.
-fn serve_line(
-    args: &Args,
-    config: &SimConfig,
-    endpoint: Endpoint,
-    log: &EventLog,
-    stop: &Arc<AtomicBool>,
-) -> Result<Served, crate::fail::Fail> {
-    let (mut line, drives) = config.byte_line_drives(log.clone())?;
-    let on_line: Vec<u8> = line.drives().iter().map(|d| d.address()).collect();
-    let outcome = match endpoint {
-        Endpoint::Pty => {
-            let serve::Pty {
-                mut master,
-                slave,
-                path,
-            } = serve::open_pty()?;
-            announce(&format!("pty {path}"))?;
-            eprintln!("{}", command::serving(config, &on_line));
-            eprintln!(
-                "connect with --port {path}?baud={}; Ctrl-C stops",
-                config.baud
-            );
-            let r = serve::serve_pty(&mut line, &mut master, stop);
-            drop(slave);
-            r
-        }
-        Endpoint::Tcp(addr) => {
-            let listener = TcpListener::bind(addr)
-                .map_err(|source| anyhow::Error::from(serve::ServeError::Bind { addr, source }))?;
-            let local = listener
-                .local_addr()
-                .context("cannot read the bound port")?;
-            announce(&format!("tcp {local}"))?;
-            eprintln!("{}", command::serving(config, &on_line));
-            if let Some(what) = command::exposure(addr) {
-                eprintln!(
-                    "warning: listening on {what} ({local}): anyone who can reach it can talk to the simulated drives"
-                );
-            }
-            let options = command::tcp_options(args.idle_timeout);
-            let idle = match options.idle_timeout {
-                Some(t) => format!("idle clients dropped after {} s", t.as_secs()),
-                None => "idle clients never dropped".into(),
-            };
-            eprintln!(
-                "connect with --port tcp://{local}?baud={} (one connection at a time, others wait; {idle}); Ctrl-C stops",
-                config.baud
-            );
-            serve::serve_tcp_with(&mut line, &listener, stop, &options, &mut |e| {
-                if let Some(detail) = &e.detail {
-                    eprintln!("sim: {detail}");
-                }
-            })
-        }
-    };
-    Ok((
-        outcome.map_err(anyhow::Error::from),
-        drives.byte_line_dump(config.bus_name(), &line),
-    ))
 }

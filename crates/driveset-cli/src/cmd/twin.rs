@@ -316,15 +316,8 @@ fn write_twin(path: &Path, twin: &Twin, schema: &Schema) -> Result<String, Fail>
 fn run_from_capture(a: FromCaptureArgs) -> Result<u8, Fail> {
     let format = a.protocol.capture();
     // a bus of one family has that family's built-in schema as the default
-    let Some(schema_name) = a
-        .schema
-        .as_deref()
-        .or(driveset_twin::recorded::default_schema(format))
-    else {
-        return Err(Fail::input(
-            "twin from-capture --protocol lustbus: give the drives' schema with --schema (an MC6000/7000 or VF1000 schema id or file, e.g. lust-vf1000): a LUSTBUS session does not say which family it talks to",
-        ));
-    };
+    let schema_name = driveset_twin::recorded::schema_of(format, a.schema.as_deref())
+        .map_err(|e| Fail::input(e.to_string()))?;
     let bytes =
         driveset_schema::input::read_input(&a.file, driveset_schema::input::InputKind::CAPTURE)
             .map_err(|e| Fail::input(e.to_string()))?;

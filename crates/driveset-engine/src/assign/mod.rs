@@ -145,6 +145,30 @@ impl AssignRequest {
         }
     }
 
+    /// `driveset address`'s request for address `to` on a `protocol` line,
+    /// from `from` (LECOM) and with the line rate `baud`, its options
+    /// checked before the port is touched.
+    ///
+    /// # Errors
+    /// [`RequestError`]: a CAN line (a node id is set on the drive), or
+    /// `from` on LUSTBUS (a lone drive answers at address 0).
+    pub fn checked(
+        protocol: BusProtocol,
+        to: u8,
+        from: Option<u8>,
+        baud: Option<u32>,
+    ) -> Result<Self, RequestError> {
+        match protocol {
+            BusProtocol::CanSdo => return Err(RequestError::CanNode(protocol)),
+            BusProtocol::Lustbus if from.is_some() => return Err(RequestError::FromOnLustbus),
+            _ => {}
+        }
+        let mut req = AssignRequest::new(protocol, to);
+        req.from = from;
+        req.baud = baud;
+        Ok(req)
+    }
+
     /// The same, proving first that the port holds this one device
     /// (`replace`, `commission --assign`): on LECOM every station 01..99 is
     /// scanned at the rate the drive answered, and any other answer refuses
@@ -178,6 +202,23 @@ impl AssignRequest {
         self.baud = Some(baud);
         self
     }
+}
+
+/// Why `driveset address`'s options are refused before the port is
+/// touched ([`AssignRequest::checked`]; an input error).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum RequestError {
+    /// A CAN line: its node id is set on the drive.
+    #[error(
+        "--protocol {}: driveset address sets LUSTBUS and LECOM addresses; a CAN node id is set on the drive",
+        .0.name()
+    )]
+    CanNode(BusProtocol),
+    /// `--from` on LUSTBUS, where a lone drive answers at address 0.
+    #[error(
+        "--from is for LECOM: a lone LUSTBUS drive is reached at address 0 whatever its own address (lustbus-protocol.txt §4.1); leave out --from"
+    )]
+    FromOnLustbus,
 }
 
 /// The schema used for each family's drive (the LUSTBUS family is known
@@ -240,4 +281,32 @@ pub fn assign(
 ) -> Result<AssignReport, EngineError> {
     let p = plan(link, req, schemas)?;
     run(link, &p, journal)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_request_refuses_can_and_from_on_lustbus_before_the_port() {
+        let e = AssignRequest::checked(BusProtocol::CanSdo, 3, None, None).unwrap_err();
+        assert_eq!(e, RequestError::CanNode(BusProtocol::CanSdo));
+        assert!(
+            e.to_string()
+                .starts_with("--protocol can: driveset address sets LUSTBUS and LECOM addresses"),
+            "{e}"
+        );
+        let e = AssignRequest::checked(BusProtocol::Lustbus, 3, Some(1), None).unwrap_err();
+        assert_eq!(e, RequestError::FromOnLustbus);
+        assert!(e.to_string().starts_with("--from is for LECOM"), "{e}");
+        let r = AssignRequest::checked(BusProtocol::Lecom, 12, Some(1), Some(4800)).unwrap();
+        assert_eq!(
+            r,
+            AssignRequest::new(BusProtocol::Lecom, 12)
+                .from(1)
+                .baud(4800)
+        );
+        let r = AssignRequest::checked(BusProtocol::Lustbus, 5, None, Some(38400)).unwrap();
+        assert_eq!((r.from, r.baud), (None, Some(38400)));
+    }
 }

@@ -57,10 +57,11 @@ mod tests;
 
 use std::time::Duration;
 
-use driveset_link::{ByteLink, LinkError, PortSpec};
+use driveset_link::{ByteLink, Link, LinkError, PortSpec};
 use serde::Serialize;
 
 use crate::scan::{LECOM_BAUDS, LUSTBUS_BAUDS};
+use crate::session::SessionError;
 
 pub use advice::advice;
 pub use probe::DoctorRefusal;
@@ -280,6 +281,71 @@ impl DoctorReport {
     /// Whether a drive answered at some rate.
     pub fn answered(&self) -> bool {
         !self.answering.is_empty()
+    }
+
+    /// The check in one word: nothing answered, or a drive answered with
+    /// advice or without.
+    pub fn verdict(&self) -> DoctorVerdict {
+        if !self.answered() {
+            DoctorVerdict::Silent
+        } else if self.advice.is_empty() {
+            DoctorVerdict::Fine
+        } else {
+            DoctorVerdict::Advice
+        }
+    }
+}
+
+/// [`DoctorReport::verdict`]: the CLI maps it to its exit code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DoctorVerdict {
+    /// A drive answers and nothing needs changing.
+    Fine,
+    /// A drive answers, but there is advice.
+    Advice,
+    /// Nothing answered at any rate.
+    Silent,
+}
+
+/// The protocol to check on `link` when none is given: CAN SDO on a CAN
+/// port; on a character line the drive's, by the read-only probes
+/// `identify` and `scan` use ([`crate::session::detect`]) at `address`,
+/// else LUSTBUS address 1 and LECOM station 01; the same on every port.
+///
+/// # Errors
+/// [`SessionError`]: nothing answered the probes, or the link failed.
+pub fn protocol_on(
+    link: &mut Link,
+    port: &str,
+    address: Option<u8>,
+    latency: Option<Duration>,
+) -> Result<DoctorProtocol, SessionError> {
+    if matches!(link, Link::Frames(_)) {
+        return Ok(DoctorProtocol::CanSdo);
+    }
+    let (family, _) = crate::session::detect(link, port, address.unwrap_or(1), latency)?;
+    Ok(family.bus())
+}
+
+/// `link`, reopened by the caller for a rate, as [`run`] probes that rate
+/// with it: a character line, the host's side set to `baud` whatever
+/// transport it is (the drives keep their own rates); a CAN port
+/// (`port`) is refused.
+///
+/// # Errors
+/// [`LinkError::Unsupported`] on a CAN port; the rate not set.
+pub fn line_at(link: Link, port: &str, baud: u32) -> Result<Box<dyn ByteLink>, LinkError> {
+    match link {
+        Link::Bytes(mut l) => {
+            if l.baud() != baud {
+                l.set_baud(baud)?;
+            }
+            Ok(l)
+        }
+        Link::Frames(_) => Err(LinkError::Unsupported {
+            port: port.to_string(),
+            what: "a CAN port".into(),
+        }),
     }
 }
 

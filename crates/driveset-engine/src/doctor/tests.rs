@@ -303,3 +303,69 @@ fn a_silent_line_says_what_to_check() {
 fn the_doctor_refusal_keeps_its_json_kind_and_reads_back() {
     crate::error::assert_refusal_json(&DoctorRefusal::CanPort, r#"{"kind":"doctor_can_port"}"#);
 }
+
+#[test]
+fn the_protocol_is_the_drives_on_a_character_line_and_can_on_a_can_port() {
+    let log = EventLog::off();
+    let mut tmd = sim(Family::Tmd, 9600, &log).link();
+    assert_eq!(
+        protocol_on(&mut tmd, "sim://test", None, None).expect("tmd"),
+        DoctorProtocol::Lecom
+    );
+    let mut mc = sim(Family::Mc6000, 9600, &log).link();
+    assert_eq!(
+        protocol_on(&mut mc, "sim://test", Some(1), None).expect("mc6000"),
+        DoctorProtocol::Lustbus
+    );
+    let clock = VirtualClock::new();
+    let config = SimConfig::new(Family::Ecs, vec![1]);
+    let mut ecs = open_sim_with(&config, &clock, "sim://test", log.clone())
+        .expect("sim")
+        .link();
+    assert_eq!(
+        protocol_on(&mut ecs, "sim://test", None, None).expect("ecs"),
+        DoctorProtocol::CanSdo
+    );
+}
+
+#[test]
+fn the_verdict_says_silent_fine_or_advice() {
+    let log = EventLog::off();
+    let s = sim(Family::Mc6000, 9600, &log);
+    let mut open = opener(&s);
+    let mut r = run(
+        "sim://test",
+        9600,
+        &mut open,
+        &DoctorOptions::new(DoctorProtocol::Lustbus),
+        Vec::new(),
+    )
+    .expect("run");
+    r.advice.clear();
+    assert_eq!(r.verdict(), DoctorVerdict::Fine);
+    r.advice.push("change something".into());
+    assert_eq!(r.verdict(), DoctorVerdict::Advice);
+    r.answering.clear();
+    assert_eq!(r.verdict(), DoctorVerdict::Silent);
+}
+
+#[test]
+fn a_line_is_set_to_the_rate_probed_and_a_can_port_refused() {
+    let log = EventLog::off();
+    let s = sim(Family::Tmd, 9600, &log);
+    let l = line_at(s.link(), "sim://test", 4800).expect("a line");
+    assert_eq!(l.baud(), 4800);
+    let clock = VirtualClock::new();
+    let ecs = open_sim_with(
+        &SimConfig::new(Family::Ecs, vec![1]),
+        &clock,
+        "sim://e",
+        log,
+    )
+    .expect("sim");
+    let e = line_at(ecs.link(), "sim://e", 9600).expect_err("CAN");
+    assert!(
+        matches!(&e, LinkError::Unsupported { port, what } if port == "sim://e" && what == "a CAN port"),
+        "{e}"
+    );
+}

@@ -163,7 +163,8 @@ pub use broadcast::lustbus_common_values;
 pub use drive::diff_lines;
 pub(super) use drive::{Job, blank_report, fill_from_upload};
 pub use options::{
-    DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener, Verdict,
+    DriveDone, Flow, LineError, LineLearn, LineObserver, LineOptions, LineOutcome, Opener,
+    StopAfter, Verdict,
 };
 pub use resume::{CommissionState, STATE_FILE, STATE_VERSION, StateEntry, StateFileError};
 pub use run::commission;

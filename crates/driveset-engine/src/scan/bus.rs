@@ -18,6 +18,7 @@ use super::{
     lecom_addresses, lustbus_addresses, scan_can, scan_lecom, scan_lustbus,
 };
 use crate::error::{EngineError, Layer};
+use crate::session::{Catalog, CatalogError, SchemaAsk};
 
 /// What to scan for: the protocols, each with the schema that gives its
 /// probe code, in the order they are tried, and the probes' options.
@@ -31,11 +32,77 @@ pub struct ScanPlan {
 }
 
 impl ScanPlan {
+    /// `driveset scan`'s plan (docs/ports.md): the protocol asked for
+    /// (`protocol`, `--protocol`; the front end gives CAN SDO on a CAN
+    /// port when neither it nor `schema` is given), else the family's of
+    /// `schema` (`--schema`), else on a character line LUSTBUS, then
+    /// LECOM; each with the schema `catalog` gives it (`schema`, else the
+    /// protocol's built-in one).
+    ///
+    /// # Errors
+    /// [`CatalogError`]: `schema` does not load or is unknown.
+    pub fn resolve(
+        catalog: &Catalog,
+        schema: Option<&str>,
+        protocol: Option<BusProtocol>,
+        options: ScanOptions,
+    ) -> Result<ScanPlan, CatalogError> {
+        let asked: Vec<BusProtocol> = match protocol {
+            Some(p) => vec![p],
+            None if schema.is_some() => Vec::new(),
+            None => vec![BusProtocol::Lustbus, BusProtocol::Lecom],
+        };
+        let choices = if asked.is_empty() {
+            let s = choose(catalog, schema, None)?;
+            vec![(s.family.bus(), s)]
+        } else {
+            let mut v = Vec::new();
+            for p in asked {
+                v.push((p, choose(catalog, schema, Some(p))?));
+            }
+            v
+        };
+        Ok(ScanPlan { choices, options })
+    }
+
+    /// The plan on a CAN port: when it asks CAN SDO first with a schema of
+    /// a serial family (`--protocol can --schema lust-vf1000`), it probes
+    /// with the built-in CAN schema instead.
+    ///
+    /// # Errors
+    /// [`CatalogError`]: the built-in CAN schema is missing.
+    pub fn on_can_port(mut self, catalog: &Catalog) -> Result<ScanPlan, CatalogError> {
+        if self.first() == BusProtocol::CanSdo
+            && let Some((_, schema)) = self.choices.first_mut()
+            && schema.family.bus() != BusProtocol::CanSdo
+        {
+            *schema = choose(catalog, None, Some(BusProtocol::CanSdo))?;
+        }
+        Ok(self)
+    }
+
     /// The protocol reported when nothing answers: the first asked.
     pub fn first(&self) -> BusProtocol {
         self.choices
             .first()
             .map_or(BusProtocol::Lustbus, |(p, _)| *p)
+    }
+}
+
+/// The schema `schema` names, else `protocol`'s built-in one
+/// ([`Catalog::chosen`]).
+fn choose(
+    catalog: &Catalog,
+    schema: Option<&str>,
+    protocol: Option<BusProtocol>,
+) -> Result<Arc<Schema>, CatalogError> {
+    let ask = SchemaAsk { schema, protocol };
+    match catalog.chosen(ask)? {
+        Some(c) => Ok(c.schema),
+        // a protocol that carries no family: a build defect
+        None => Err(CatalogError::MissingBuiltin {
+            id: protocol.map_or("", BusProtocol::name),
+        }),
     }
 }
 
@@ -192,4 +259,46 @@ pub fn scan_rates(plan: &ScanPlan, reopen: &mut Reopen<'_>) -> Result<BusScanned
         }
     }
     Ok(BusScanned::of(plan, plan.first(), Vec::new()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(schema: Option<&str>, protocol: Option<BusProtocol>) -> ScanPlan {
+        ScanPlan::resolve(&Catalog::new(&[]), schema, protocol, ScanOptions::default()).unwrap()
+    }
+
+    fn ids(p: &ScanPlan) -> Vec<(BusProtocol, &str)> {
+        p.choices.iter().map(|(b, s)| (*b, s.id.as_str())).collect()
+    }
+
+    #[test]
+    fn a_scan_asks_the_protocol_given_else_the_schemas_else_lustbus_then_lecom() {
+        let both = plan(None, None);
+        assert_eq!(both.choices.len(), 2);
+        assert_eq!(both.choices[0].0, BusProtocol::Lustbus);
+        assert_eq!(ids(&both)[1], (BusProtocol::Lecom, "lenze-tmd"));
+        assert_eq!(
+            ids(&plan(Some("lenze-tmd"), None)),
+            vec![(BusProtocol::Lecom, "lenze-tmd")]
+        );
+        assert_eq!(
+            ids(&plan(None, Some(BusProtocol::Lecom))),
+            vec![(BusProtocol::Lecom, "lenze-tmd")]
+        );
+        let named = plan(Some("lust-vf1000"), Some(BusProtocol::CanSdo));
+        assert_eq!(ids(&named), vec![(BusProtocol::CanSdo, "lust-vf1000")]);
+        let can = named.on_can_port(&Catalog::new(&[])).unwrap();
+        assert_eq!(can.choices[0].1.family.bus(), BusProtocol::CanSdo);
+        assert!(
+            ScanPlan::resolve(
+                &Catalog::new(&[]),
+                Some("no-such"),
+                None,
+                ScanOptions::default()
+            )
+            .is_err()
+        );
+    }
 }

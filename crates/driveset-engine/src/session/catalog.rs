@@ -185,6 +185,40 @@ impl Catalog {
         }
     }
 
+    /// [`Catalog::for_journal`] of `journal`: `named`, else the schema its
+    /// id, fingerprint and file give.
+    pub fn for_journal_of(
+        &self,
+        named: Option<&str>,
+        journal: &crate::journal::Journal,
+    ) -> Result<SchemaChoice, CatalogError> {
+        let source = &journal.schema_source;
+        self.for_journal(
+            named,
+            &journal.schema,
+            source.schema_fingerprint.as_deref(),
+            source.schema_path.as_deref(),
+        )
+    }
+
+    /// The schema the recovery of an address change's `journal` uses
+    /// ([`Catalog::for_journal_of`]: a learned file types 81 / 82 where
+    /// the built-in schema does not): `None` when the schema the journal
+    /// records is no longer to be had, the address codes' types then
+    /// learned from the drive's descriptions (`assign`); `named` must
+    /// resolve.
+    pub fn for_address_journal(
+        &self,
+        named: Option<&str>,
+        journal: &crate::journal::Journal,
+    ) -> Result<Option<SchemaChoice>, CatalogError> {
+        match self.for_journal_of(named, journal) {
+            Ok(c) => Ok(Some(c)),
+            Err(e) if named.is_some() => Err(e),
+            Err(_) => Ok(None),
+        }
+    }
+
     /// The schema a command on the drive at `address` of `port` talks
     /// with: [`Catalog::chosen`] (a protocol of several families: the
     /// family of the drive, by the probes below), else the built-in schema
@@ -233,5 +267,33 @@ impl Catalog {
             },
             evidence: Some(evidence),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::journal::{Journal, SchemaSource};
+
+    #[test]
+    fn an_address_change_without_its_schema_learns_the_types_unless_one_is_named() {
+        let mut j: Journal = serde_json::from_str(include_str!(
+            "../../tests/data/journals/tmd-failed-upload.journal.json"
+        ))
+        .expect("journal");
+        let c = Catalog::new(&[]);
+        let found = c.for_address_journal(None, &j).expect("by id");
+        assert_eq!(found.map(|c| c.schema.id.clone()), Some(j.schema.clone()));
+        assert_eq!(
+            c.for_journal_of(None, &j).expect("by id").schema.id,
+            j.schema
+        );
+        j.schema = "gone-since".into();
+        j.schema_source = SchemaSource::default();
+        assert!(c.for_address_journal(None, &j).expect("learned").is_none());
+        assert!(c.for_journal_of(None, &j).is_err());
+        assert!(c.for_address_journal(Some("no-such-schema"), &j).is_err());
+        let named = c.for_address_journal(Some("lenze-tmd"), &j).expect("named");
+        assert_eq!(named.map(|c| c.schema.id.clone()), Some("lenze-tmd".into()));
     }
 }

@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use driveset_engine::env::Environment;
 use driveset_engine::line::commission::{
-    CommissionState, Flow, LineObserver, LineOptions, STATE_FILE, Verdict, commission,
+    CommissionState, LineObserver, LineOptions, STATE_FILE, StopAfter, Verdict, commission,
 };
 use driveset_engine::line::manifest::{Manifest, load_manifest, validate_manifest};
 use driveset_engine::line::report::{DriveResult, LineResult};
@@ -240,20 +240,17 @@ fn commission_demo_line_then_rerun_costs_only_reads_then_status_finds_drift() {
     assert_eq!(third.report.drives[8].codes_written, 1);
 }
 
-/// Stops every bus after `.0` drives, as if the run had been killed there.
-struct StopAfter(usize);
+/// Told nothing: the inner observer of the engine's `StopAfter`.
+struct Quiet;
 
-impl LineObserver for StopAfter {
-    fn before_drive(&self, _bus: &str, done: usize) -> Flow {
-        if done >= self.0 {
-            Flow::Stop("--stop-after".into())
-        } else {
-            Flow::Go
-        }
-    }
+impl LineObserver for Quiet {}
 
-    fn may_stop(&self) -> bool {
-        true
+/// Stops every bus after `n` drives, as if the run had been killed there.
+fn stop_after(n: usize) -> StopAfter {
+    StopAfter {
+        n,
+        who: "--stop-after".into(),
+        inner: Arc::new(Quiet),
     }
 }
 
@@ -264,7 +261,7 @@ fn a_stopped_run_resumes_where_it_stopped() {
     let sims = Sims::default();
     let opener = |b: &driveset_engine::line::manifest::Bus| sims.open(b);
     let mut opts = LineOptions::new(dir.path(), disk_env());
-    opts.observer = Some(Arc::new(StopAfter(2)));
+    opts.observer = Some(Arc::new(stop_after(2)));
     let first = commission(&m, &opts, &opener).expect("runs");
     assert_eq!(first.verdict(), Verdict::BusFailed);
     let verified: Vec<&str> = first

@@ -69,6 +69,44 @@ pub trait LineObserver: Send + Sync {
     }
 }
 
+/// A line observer that stops every bus after `n` drives, as if the run
+/// were killed there (the CLI's hidden `commission --stop-after N`, which
+/// tests of an interrupted run use), and tells `inner` everything else.
+pub struct StopAfter {
+    /// Drives each bus does before it stops.
+    pub n: usize,
+    /// Who stopped it: the text the drives not reached name.
+    pub who: String,
+    /// Told every bus, event and drive done.
+    pub inner: Arc<dyn LineObserver>,
+}
+
+impl LineObserver for StopAfter {
+    fn bus(&self, bus: &str, drives: usize) {
+        self.inner.bus(bus, drives);
+    }
+
+    fn event(&self, bus: &str, drive: &str, at: Instant, event: Event) {
+        self.inner.event(bus, drive, at, event);
+    }
+
+    fn drive_done(&self, done: &DriveDone<'_>) {
+        self.inner.drive_done(done);
+    }
+
+    fn before_drive(&self, _bus: &str, done: usize) -> Flow {
+        if done >= self.n {
+            Flow::Stop(self.who.clone())
+        } else {
+            Flow::Go
+        }
+    }
+
+    fn may_stop(&self) -> bool {
+        true
+    }
+}
+
 /// Whether a bus goes on with its next drive ([`LineObserver::before_drive`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Flow {
@@ -229,5 +267,40 @@ impl LineOutcome {
             .iter()
             .map(|b| b.elapsed_ms)
             .fold(0.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+
+    #[derive(Default)]
+    struct Buses(Mutex<Vec<(String, usize)>>);
+
+    impl LineObserver for Buses {
+        fn bus(&self, bus: &str, drives: usize) {
+            self.0.lock().unwrap().push((bus.to_string(), drives));
+        }
+    }
+
+    #[test]
+    fn stop_after_stops_each_bus_after_n_drives_and_tells_the_rest() {
+        let inner = Arc::new(Buses::default());
+        let stop = StopAfter {
+            n: 2,
+            who: "--stop-after".into(),
+            inner: inner.clone(),
+        };
+        assert!(stop.may_stop());
+        assert_eq!(stop.before_drive("press", 0), Flow::Go);
+        assert_eq!(stop.before_drive("press", 1), Flow::Go);
+        assert_eq!(
+            stop.before_drive("press", 2),
+            Flow::Stop("--stop-after".into())
+        );
+        stop.bus("press", 3);
+        assert_eq!(*inner.0.lock().unwrap(), vec![("press".to_string(), 3)]);
     }
 }

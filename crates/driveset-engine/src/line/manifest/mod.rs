@@ -191,6 +191,65 @@ pub struct LoadedManifest {
     pub learnable: Vec<ManifestFinding>,
 }
 
+/// The report directory of a line command when neither its `--report-dir`
+/// nor the manifest's `report_dir` gives one (relative to the current
+/// directory; README.md).
+pub const DEFAULT_REPORT_DIR: &str = "target/driveset-report";
+
+/// Whether the findings of sets whose schema is learned from the drive
+/// ([`LoadedManifest::learnable`]) stop a line command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LearnedSets {
+    /// They do not count: the run learns the drive's schema and checks the
+    /// set against it then.
+    Excused,
+    /// They count (`--no-learn`, or a command that learns nothing).
+    Counted,
+}
+
+impl LoadedManifest {
+    /// The manifest a line command runs, or the findings that stop it:
+    /// every finding but the per-drive ones (`set-address`, `set-rate`:
+    /// the line run refuses that drive, not the line), and the learnable
+    /// ones when `learned` counts them.
+    ///
+    /// # Errors
+    /// The findings that stop the command (possibly none, when the
+    /// manifest did not load for per-drive findings alone: it always
+    /// loads then).
+    pub fn runnable(self, learned: LearnedSets) -> Result<Manifest, Vec<ManifestFinding>> {
+        let mut findings: Vec<_> = self
+            .findings
+            .into_iter()
+            .filter(|f| !f.is_per_drive())
+            .collect();
+        if learned == LearnedSets::Counted {
+            findings.extend(self.learnable);
+        }
+        match self.manifest {
+            Some(m) if findings.is_empty() => Ok(m),
+            _ => Err(findings),
+        }
+    }
+}
+
+impl Manifest {
+    /// Where a line command's reports go: `given` (`--report-dir`), else
+    /// the manifest's `report_dir`, else [`DEFAULT_REPORT_DIR`].
+    pub fn report_dir_or(&self, given: Option<PathBuf>) -> PathBuf {
+        given
+            .or_else(|| self.report_dir.clone())
+            .unwrap_or_else(|| PathBuf::from(DEFAULT_REPORT_DIR))
+    }
+
+    /// Where a line command's journals go: the manifest's `journal_dir`,
+    /// else the one `upload` uses ([`crate::journal::journal_dir_or_default`]),
+    /// so each sees the other's journals.
+    pub fn journal_dir(&self) -> PathBuf {
+        crate::journal::journal_dir_or_default(self.journal_dir.as_deref())
+    }
+}
+
 /// Whether `path` holds a line manifest (a top-level `line` table, or a
 /// `bus` / `buses` key). Unreadable or malformed files are not manifests.
 pub fn is_manifest(path: &Path) -> bool {
@@ -268,4 +327,64 @@ pub fn load_manifest(
         openers,
     };
     Ok(r.read(path, registry))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn finding(kind: &str) -> ManifestFinding {
+        ManifestFinding::new(kind, Location::file_only("line.toml"), kind, "")
+    }
+
+    fn manifest() -> Manifest {
+        Manifest {
+            path: PathBuf::from("line.toml"),
+            name: "line".into(),
+            label: None,
+            report_dir: None,
+            journal_dir: None,
+            buses: Vec::new(),
+            drives: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn per_drive_findings_never_stop_a_line_and_learnable_ones_as_told() {
+        let loaded = LoadedManifest {
+            manifest: Some(manifest()),
+            findings: vec![finding("set-address"), finding("set-rate")],
+            learnable: vec![finding("wrong-type")],
+        };
+        assert!(loaded.clone().runnable(LearnedSets::Excused).is_ok());
+        let stopped = loaded.runnable(LearnedSets::Counted).unwrap_err();
+        assert_eq!(stopped.len(), 1);
+        assert_eq!(stopped[0].kind, "wrong-type");
+        let loaded = LoadedManifest {
+            manifest: None,
+            findings: vec![finding("set-rate"), finding("unknown-bus")],
+            learnable: Vec::new(),
+        };
+        let stopped = loaded.runnable(LearnedSets::Excused).unwrap_err();
+        assert_eq!(stopped.len(), 1);
+        assert_eq!(stopped[0].kind, "unknown-bus");
+    }
+
+    #[test]
+    fn report_and_journal_dirs_given_else_the_manifests_else_the_defaults() {
+        let mut m = manifest();
+        assert_eq!(m.report_dir_or(None), PathBuf::from(DEFAULT_REPORT_DIR));
+        assert_eq!(
+            m.journal_dir(),
+            PathBuf::from(crate::journal::DEFAULT_JOURNAL_DIR)
+        );
+        m.report_dir = Some(PathBuf::from("r"));
+        m.journal_dir = Some(PathBuf::from("j"));
+        assert_eq!(m.report_dir_or(None), PathBuf::from("r"));
+        assert_eq!(
+            m.report_dir_or(Some("given".into())),
+            PathBuf::from("given")
+        );
+        assert_eq!(m.journal_dir(), PathBuf::from("j"));
+    }
 }
