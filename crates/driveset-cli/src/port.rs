@@ -222,16 +222,11 @@ pub fn catalog(dirs: &[PathBuf]) -> Catalog {
 }
 
 /// The schemas of each family `driveset address` and the recovery of an
-/// address change pick from: the built-in ones, on every port; then
-/// `--schema`.
+/// address change pick from ([`Catalog::family_schemas`]).
 pub fn family_schemas(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
-    let registry = registry(dirs)?;
-    let mut s = Schemas::from_registry(&registry);
-    for g in given {
-        let c = resolve_schema(Some(g), dirs, None)?;
-        s = s.with(c.schema);
-    }
-    Ok(s)
+    catalog(dirs)
+        .family_schemas(given)
+        .map_err(|e| Fail::input(catalog_error(&e)))
 }
 
 /// The registry of [`catalog`].

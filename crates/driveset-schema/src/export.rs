@@ -22,6 +22,18 @@ pub enum Format {
     Json,
 }
 
+impl Format {
+    /// The syntax a set file written to `path` takes by its extension:
+    /// `.yaml` / `.yml` YAML, anything else TOML (what `driveset pull`
+    /// writes without `--to`).
+    pub fn by_extension(path: &std::path::Path) -> Format {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("yaml" | "yml") => Format::Yaml,
+            _ => Format::Toml,
+        }
+    }
+}
+
 /// A scalar or inline table, already spelled for the output.
 enum Out {
     /// Bare number text.
