@@ -157,12 +157,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let port_name = opened.name.clone();
     // A LUSTBUS schema that lacks facts: learn them from the drive and
     // write the learned schema beside the set (or into --schema-dir).
-    let set_dir = args
-        .output
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
+    let set_dir = pulled::set_dir(&args.output);
     let dir = args.at.learn.schema_dir.clone().unwrap_or(set_dir.clone());
     let on = args
         .at
