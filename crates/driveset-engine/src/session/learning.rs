@@ -380,3 +380,83 @@ fn earlier(policy: &LearnPolicy<'_>, path: &Path) -> Result<Option<Arc<Schema>>,
             detail: e.message,
         })
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::{BTreeMap, BTreeSet};
+
+    use driveset_proto::lustbus::description::McLayout;
+
+    use super::*;
+    use crate::learn::{KEPT_SPEC, LearnFinding};
+
+    fn summary(file: Option<&str>) -> LearnSummary {
+        let finding = |code: &str, number, action, reason: &str| LearnFinding {
+            action,
+            code: code.into(),
+            number,
+            reason: reason.into(),
+        };
+        LearnSummary {
+            id: "learned-mc6000-type6000-x".into(),
+            file: file.map(PathBuf::from),
+            base: "lust-mc6000".into(),
+            codes: 3,
+            learned: Learned {
+                protocol: Family::Mc6000,
+                layouts: BTreeSet::from([McLayout::Table43, McLayout::Hex52]),
+                type_chars: Some(McTypeChars::Table),
+                type_chars_guessed: true,
+                codes: Vec::new(),
+                findings: vec![
+                    finding("11-STAT", 11, "left out", "no \"description\""),
+                    finding("428-X", 428, KEPT_SPEC, "the spec's"),
+                ],
+                asked: 999,
+                asked_params: BTreeSet::new(),
+                absent: 990,
+                texts_read: 4,
+                descriptions_hash: 0,
+                raw: Vec::new(),
+                raw_texts: BTreeMap::new(),
+            },
+        }
+    }
+
+    fn pretty(doc: &impl serde::Serialize) -> String {
+        serde_json::to_string_pretty(doc).expect("serializes")
+    }
+
+    /// The `json!` document `LearnSummary::json` built before `LearnDoc`
+    /// (serde_json sorting its keys), and `schema pull`'s three keys added
+    /// to its `Value`: the derived documents give the same bytes.
+    #[test]
+    fn the_document_is_the_bytes_the_json_value_gave() {
+        let old = |s: &LearnSummary| {
+            serde_json::json!({
+                "id": s.id,
+                "file": s.file.as_ref().map(|f| f.display().to_string()),
+                "base": s.base,
+                "codes": s.codes,
+                "layouts": s.learned.layouts.iter().map(|l| l.name()).collect::<Vec<_>>(),
+                "type_chars": s.learned.type_chars.as_ref().map(McTypeChars::name),
+                "type_chars_guessed": s.learned.type_chars_guessed,
+                "asked": s.learned.asked,
+                "absent": s.learned.absent,
+                "substitution_texts": s.learned.texts_read,
+                "findings": s.learned.findings,
+            })
+        };
+        for s in [summary(Some("dir/learned.toml")), summary(None)] {
+            assert_eq!(pretty(&s.doc()), pretty(&old(&s)));
+            let mut pulled = old(&s);
+            pulled["port"] = serde_json::Value::from("sim:mc6000");
+            pulled["address"] = serde_json::Value::from(1u8);
+            pulled["family"] = serde_json::Value::from(Family::Mc6000.name());
+            assert_eq!(
+                pretty(&s.doc().at("sim:mc6000", 1, Family::Mc6000)),
+                pretty(&pulled)
+            );
+        }
+    }
+}
