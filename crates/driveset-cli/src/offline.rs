@@ -5,7 +5,6 @@
 
 use std::sync::Arc;
 
-use anyhow::{Context as _, bail};
 use driveset_engine::decode::Capture;
 use driveset_schema::{Registry, Schema};
 
@@ -32,23 +31,10 @@ impl DecodeProtocol {
     }
 }
 
-/// Loads `--schema` (an id of `registry` or a file).
+/// Loads `--schema` (an id of `registry` or a file:
+/// [`Registry::id_or_file`]).
 pub fn load_schema(registry: &mut Registry, arg: &str) -> anyhow::Result<Arc<Schema>> {
-    if let Some(s) = registry.get(arg) {
-        return Ok(s);
-    }
-    let path = std::path::Path::new(arg);
-    if !path.exists() {
-        let ids: Vec<String> = registry.schemas().map(|s| s.id.clone()).collect();
-        bail!(
-            "--schema {arg}: no built-in schema has that id and no such file exists; built-in ids: {}",
-            ids.join(", ")
-        );
-    }
-    registry
-        .load_file(path)
-        .map_err(|e| anyhow::anyhow!("{}", e.render_human()))
-        .with_context(|| format!("--schema {arg}: cannot load the schema file"))
+    Ok(registry.id_or_file(arg)?)
 }
 
 /// The built-in schemas (the user commands' registry without `--schemas`).

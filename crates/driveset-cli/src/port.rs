@@ -36,10 +36,9 @@ use driveset_engine::client::DriveClient;
 use driveset_engine::session::{
     self, Catalog, OpenedPort, PortError, Ports, SchemaAsk, Session, SessionPolicy,
 };
-use driveset_link::{LockError, OpenOptions, Openers, PortSpec, VirtualClock};
+use driveset_link::{LockError, OpenOptions, Openers, PortSpec};
 use driveset_schema::{Family, Registry, Schema};
-use driveset_sim::log::EventLog;
-use driveset_sim::open::{SimLink, open_sim_with};
+use driveset_sim::open::SimLink;
 use driveset_sim::port::{SimOpener, SimSpec};
 
 pub use crate::fail::{Fail, family_exit};
@@ -95,11 +94,7 @@ impl Ports for CliPorts {
         if !matches!(spec, PortSpec::Sim(_)) {
             return driveset_link::bus_id::before_open(spec);
         }
-        // a simulated bus with a state file is that file's bus (the
-        // simulator's `SimConfig::bus_id`); one without lives here only
-        let sim = SimSpec::parse(port).ok()?;
-        let config = SimOpener::default().config(&sim).ok()?;
-        config.state.is_some().then(|| config.bus_id())
+        SimOpener::default().bus_before_open(port)
     }
 
     fn lock(&self, bus: &str) -> Result<(), LockError> {
@@ -107,18 +102,15 @@ impl Ports for CliPorts {
     }
 }
 
-/// The simulated bus `sim` describes, in virtual time.
+/// The simulated bus `sim` describes, in virtual time
+/// ([`SimOpener::open_bus`]).
 fn open_sim(sim: &SimSpec) -> Result<SimLink, PortError> {
-    let name = sim.name();
-    let settings = |detail: String| PortError::Settings {
-        port: name.clone(),
-        detail,
-    };
-    let config = SimOpener::default()
-        .config(sim)
-        .map_err(|e| settings(e.to_string()))?;
-    open_sim_with(&config, &VirtualClock::new(), &name, EventLog::off())
-        .map_err(|e| settings(e.to_string()))
+    SimOpener::default()
+        .open_bus(sim)
+        .map_err(|e| PortError::Settings {
+            port: sim.name(),
+            detail: e.to_string(),
+        })
 }
 
 /// The port openers the CLI registers for the schemes `driveset-link` does
@@ -222,16 +214,11 @@ pub fn catalog(dirs: &[PathBuf]) -> Catalog {
 }
 
 /// The schemas of each family `driveset address` and the recovery of an
-/// address change pick from: the built-in ones, on every port; then
-/// `--schema`.
+/// address change pick from ([`Catalog::family_schemas`]).
 pub fn family_schemas(dirs: &[PathBuf], given: &[String]) -> Result<Schemas, Fail> {
-    let registry = registry(dirs)?;
-    let mut s = Schemas::from_registry(&registry);
-    for g in given {
-        let c = resolve_schema(Some(g), dirs, None)?;
-        s = s.with(c.schema);
-    }
-    Ok(s)
+    catalog(dirs)
+        .family_schemas(given)
+        .map_err(|e| Fail::input(catalog_error(&e)))
 }
 
 /// The registry of [`catalog`].

@@ -19,7 +19,6 @@ use driveset_engine::learn::LearnOptions;
 use driveset_engine::session::{
     self, LearnRequest, OpenedPort, Resolved, SchemaAsk, Session, SetOnDrive, SetOnDriveError,
 };
-use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::Schema;
 
 use crate::args::BusArg;
@@ -340,26 +339,11 @@ impl LearnArgs {
 
     /// The engine's options (parameters: the default range).
     pub fn options(&self) -> Result<LearnOptions, Fail> {
-        let layout = match &self.description_layout {
-            None => None,
-            Some(l) => Some(McLayout::from_name(l.trim()).ok_or_else(|| {
-                Fail::input(format!(
-                    "--description-layout {l}: use 52, 43, 42 or 34 (the lengths errata L22 discusses)"
-                ))
-            })?),
-        };
-        let type_chars = match &self.type_chars {
-            None => None,
-            Some(t) => {
-                Some(McTypeChars::parse(t).map_err(|e| Fail::input(format!("--type-chars: {e}")))?)
-            }
-        };
-        Ok(LearnOptions {
-            params: None,
-            layout,
-            type_chars,
-            no_texts: false,
-        })
+        LearnOptions::reading(
+            self.description_layout.as_deref(),
+            self.type_chars.as_deref(),
+        )
+        .map_err(|e| Fail::input(e.to_string()))
     }
 }
 

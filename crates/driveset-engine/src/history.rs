@@ -392,6 +392,57 @@ impl DriveRecord {
 }
 
 impl DriveRecord {
+    /// The record of `driveset pull` (an [`DriveRecord::of_read`]): every
+    /// value read, actual values included ([`crate::pull::ForFile::read`]),
+    /// the fingerprint the set file carries.
+    pub fn of_pull(slot: Slot, schema: &Schema, file: &crate::pull::ForFile) -> Self {
+        DriveRecord::of_read(
+            slot,
+            Unit::of(schema, &file.pulled.identity),
+            &schema.id,
+            file.pulled.fingerprint.clone(),
+            "read",
+            file.read.clone(),
+        )
+    }
+
+    /// The record of `driveset diff SET --port` (an
+    /// [`DriveRecord::of_read`]): each code of `set`, what the drive
+    /// `identity` holds for it (the set with the diff's old side, the
+    /// drive's, in place of each value that differs), the fingerprint of
+    /// that, `unchanged` or `drift`, and the set's fingerprint.
+    pub fn of_live_diff(
+        slot: Slot,
+        schema: &Schema,
+        identity: &Identity,
+        set: &ResolvedSet,
+        diff: &driveset_schema::Diff,
+    ) -> Self {
+        let mut live = set.clone();
+        for e in &diff.entries {
+            match &e.old {
+                Some(v) => live.values.insert(e.key, v.clone()),
+                None => live.values.remove(&e.key),
+            };
+        }
+        let mut record = DriveRecord::of_read(
+            slot,
+            Unit::of(schema, identity),
+            &schema.id,
+            live.fingerprint(),
+            if diff.is_empty() {
+                "unchanged"
+            } else {
+                "drift"
+            },
+            read_codes(schema, &live, set),
+        );
+        record.set_fingerprint = Some(set.fingerprint());
+        record
+    }
+}
+
+impl DriveRecord {
     /// The record of `driveset upload` from its outcome: the report and,
     /// when it did not complete, the error; a failure before the upload
     /// had a report as [`DriveRecord::of_error`].

@@ -135,6 +135,7 @@ impl Pulled {
     /// leave it for the header and the fingerprint is the rest's; the bus
     /// codes left out and the codes that could not be read named.
     pub fn for_file(mut self, schema: &Schema) -> ForFile {
+        let read = crate::history::values_read(schema, &self.set);
         let actual = pulled_file::take_actual_values(&mut self.set, schema);
         self.fingerprint = self.set.fingerprint();
         let bus_codes = self.left_out_bus_codes(schema);
@@ -144,6 +145,7 @@ impl Pulled {
             actual,
             bus_codes,
             failed,
+            read,
         }
     }
 }
@@ -159,6 +161,10 @@ pub struct ForFile {
     pub bus_codes: Vec<String>,
     /// The codes that could not be read.
     pub failed: Vec<Skipped>,
+    /// Every value read, actual values included, as the plant history
+    /// records them ([`crate::history::values_read`];
+    /// [`crate::history::DriveRecord::of_pull`]).
+    pub read: Vec<crate::history::CodeRecord>,
 }
 
 /// Where a set file says it was pulled from and what it refers to.
@@ -176,6 +182,17 @@ pub struct SetFileFrom<'a> {
 }
 
 impl ForFile {
+    /// The codes not read, but for the bus codes left out on purpose
+    /// ([`ForFile::bus_codes`]), as the report names them.
+    pub fn not_read(&self) -> Vec<&str> {
+        self.pulled
+            .skipped
+            .iter()
+            .map(|s| s.code.as_str())
+            .filter(|c| !self.bus_codes.iter().any(|b| b == c))
+            .collect()
+    }
+
     /// The set file's text in `format` (driveset-schema's
     /// [`pulled_file::pulled_file`]).
     pub fn text(&self, schema: &Schema, from: &SetFileFrom<'_>, format: Format) -> String {

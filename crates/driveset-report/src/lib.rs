@@ -11,7 +11,8 @@
 //! colours rendered text takes ([`style`]); the semantic diff of two sets
 //! as `driveset diff` prints it ([`diff`]); a line run on the terminal,
 //! its progress lines and summary table ([`mod@line`]); what long bus
-//! work's phases show as on the terminal ([`progress`]).
+//! work's phases show as on the terminal ([`progress`]); what `schema
+//! import` says of a data sheet it imported or refused ([`import`]).
 //! Files are written through the one writer (`driveset_schema::output`);
 //! git is the caller's to run (the textconv view takes the tracked files
 //! as data, the report its [`GitInfo`] from the engine's environment).
@@ -19,6 +20,7 @@
 pub mod diff;
 pub mod driver;
 pub mod html;
+pub mod import;
 pub mod junit;
 pub mod line;
 pub mod progress;

@@ -19,6 +19,29 @@ fn f(loc: &Location, message: String, help: impl Into<String>) -> Finding {
 /// that kept it from being read.
 pub type Checked = Result<Vec<Finding>, InputError>;
 
+/// Checks one file `driveset validate` meets that is not a line manifest
+/// (the engine's to check): a schema file (a TOML document with a
+/// top-level `[schema]` table, e.g. a fixture) by `schema check`'s rules
+/// ([`check_schema_source`]), anything else as a set.
+pub fn check_set_or_schema(path: &std::path::Path, registry: &mut Registry) -> Checked {
+    use crate::doc::{self, NodeKind, Syntax};
+    let source = crate::error::read_text_file(path)?;
+    if Syntax::from_path(path) == Syntax::Toml {
+        match doc::parse(source.clone(), Syntax::Toml) {
+            Err(e) => return Err(crate::set::mask_secret_line(e, registry)),
+            Ok(d)
+                if d.root
+                    .get("schema")
+                    .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_))) =>
+            {
+                return check_schema_source(source, registry, &[]).map(|(_, findings)| findings);
+            }
+            Ok(_) => {}
+        }
+    }
+    crate::set::load_set_str(path, &source.text, registry).map(|l| l.findings)
+}
+
 /// `schema check` with no file: the built-in schemas, each by its file
 /// (`schemas/lenze-tmd.toml`) and the findings of the schema of its id in
 /// `registry` (an error when the file name and the id disagree).
@@ -659,6 +682,25 @@ fn data_type_fits(ty: Option<ValueType>, dt: u16) -> bool {
 #[cfg(test)]
 mod files_tests {
     use super::*;
+
+    #[test]
+    fn validate_reads_a_schema_file_as_a_schema_and_a_set_as_a_set() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut registry = Registry::builtin().unwrap();
+        let fixture = root.join("parameter-sets/fixtures/fictional-vf1000-demo.toml");
+        assert!(
+            check_set_or_schema(&fixture, &mut registry)
+                .expect("a schema")
+                .is_empty()
+        );
+        let set = root.join("parameter-sets/tmd/conveyor-3.toml");
+        assert!(
+            check_set_or_schema(&set, &mut registry)
+                .expect("a set")
+                .is_empty()
+        );
+        assert!(check_set_or_schema(&root.join("no-such.toml"), &mut registry).is_err());
+    }
 
     #[test]
     fn the_builtin_schemas_check_clean() {

@@ -1,5 +1,6 @@
 //! Owns the semantic diff of two resolved sets of one schema, the diff
-//! against factory defaults, and the unified diff of canonical forms.
+//! against factory defaults, and the unified diff of canonical forms; what
+//! `driveset diff A [B]` compares ([`Compared`]).
 
 use std::fmt;
 
@@ -184,6 +185,85 @@ pub fn diff_defaults(set: &ResolvedSet, schema: &Schema) -> Result<Diff, DiffErr
     Ok(d)
 }
 
+/// What `driveset diff A [B]` compares ([`Compared::of`]): A (old) and
+/// B (new), or, without B, the factory defaults of A's codes (old) and A
+/// (new, [`diff_defaults`]); each side named as the output names it.
+#[derive(Debug, Clone)]
+pub struct Compared {
+    /// The old side.
+    pub old: ResolvedSet,
+    /// The new side.
+    pub new: ResolvedSet,
+    /// The old side's name (a file, or `factory defaults (<schema id>)`).
+    pub old_name: String,
+    /// The new side's name.
+    pub new_name: String,
+    /// Whether the old side is the factory defaults.
+    pub defaults: bool,
+}
+
+/// Two sets of different schemas: there is nothing to compare.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot diff sets of different schemas: `{a}` and `{b}`")]
+pub struct OtherSchemas {
+    /// A's schema id.
+    pub a: String,
+    /// B's schema id.
+    pub b: String,
+}
+
+impl Compared {
+    /// A (named `a_name`, of `schema`) against B (with its name), or
+    /// against its factory defaults when there is no B.
+    ///
+    /// # Errors
+    /// [`OtherSchemas`]: B is a set of another schema.
+    pub fn of(
+        a: &ResolvedSet,
+        a_name: String,
+        b: Option<(ResolvedSet, String)>,
+        schema: &Schema,
+    ) -> Result<Compared, OtherSchemas> {
+        match b {
+            None => Ok(Compared {
+                old: defaults_for(a, schema),
+                new: a.clone(),
+                old_name: format!("factory defaults ({})", schema.id),
+                new_name: a_name,
+                defaults: true,
+            }),
+            Some((b, _)) if b.schema != a.schema => Err(OtherSchemas {
+                a: a.schema.clone(),
+                b: b.schema,
+            }),
+            Some((b, b_name)) => Ok(Compared {
+                old: a.clone(),
+                new: b,
+                old_name: a_name,
+                new_name: b_name,
+                defaults: false,
+            }),
+        }
+    }
+
+    /// The semantic diff of the two sides ([`diff`], or [`diff_defaults`]).
+    ///
+    /// # Errors
+    /// [`DiffError`].
+    pub fn diff(&self, schema: &Schema) -> Result<Diff, DiffError> {
+        if self.defaults {
+            diff_defaults(&self.new, schema)
+        } else {
+            diff(&self.old, &self.new, schema)
+        }
+    }
+
+    /// The unified diff of the two sides' canonical forms ([`unified_diff`]).
+    pub fn unified(&self, schema: &Schema) -> String {
+        unified_diff(&self.old, &self.new, schema, &self.old_name, &self.new_name)
+    }
+}
+
 /// Unified text diff of the canonical forms. Secrets are `<secret>` there
 /// (present, not their value); a secret that differs between the two sets
 /// shows as `<secret: old value>` / `<secret: new value>`, so the diff says
@@ -215,4 +295,40 @@ fn marked_canonical(set: &ResolvedSet, other: &ResolvedSet, side: &str) -> Strin
         }
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Registry;
+
+    #[test]
+    fn a_set_is_compared_with_another_of_its_schema_or_its_defaults() {
+        let registry = Registry::builtin().expect("built-in schemas");
+        let tmd = registry.get("lenze-tmd").expect("built in");
+        let ecs = registry.get("lenze-ecs").expect("built in");
+        let mut a = ResolvedSet::new(&tmd);
+        a.insert(CodeKey::new(11), RawValue::Int(600_000));
+        let default = defaults_for(&ResolvedSet::new(&tmd), &tmd);
+        let d = Compared::of(&a, "a.toml".into(), None, &tmd).expect("defaults");
+        assert!(d.defaults && d.new == a && d.new_name == "a.toml");
+        assert_eq!(d.old_name, "factory defaults (lenze-tmd)");
+        assert_eq!(d.diff(&tmd), diff_defaults(&a, &tmd));
+        assert!(default.values.is_empty());
+        let same =
+            Compared::of(&a, "a".into(), Some((a.clone(), "b".into())), &tmd).expect("same schema");
+        assert!(!same.defaults && same.diff(&tmd).expect("diffs").is_empty());
+        assert!(same.unified(&tmd).is_empty());
+        let other = Compared::of(
+            &a,
+            "a".into(),
+            Some((ResolvedSet::new(&ecs), "b".into())),
+            &tmd,
+        )
+        .expect_err("other schema");
+        assert_eq!(
+            (other.a.as_str(), other.b.as_str()),
+            ("lenze-tmd", "lenze-ecs")
+        );
+    }
 }

@@ -22,6 +22,59 @@ pub enum Format {
     Json,
 }
 
+impl Format {
+    /// The syntax a set file written to `path` takes by its extension:
+    /// `.yaml` / `.yml` YAML, anything else TOML (what `driveset pull`
+    /// writes without `--to`).
+    pub fn by_extension(path: &std::path::Path) -> Format {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("yaml" | "yml") => Format::Yaml,
+            _ => Format::Toml,
+        }
+    }
+}
+
+/// What `driveset show` prints of a set ([`shown`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shown {
+    /// The canonical form the fingerprint is computed from.
+    Canonical,
+    /// The set in a set file syntax ([`export`]).
+    As(Format),
+    /// A CiA 306 DCF (CANopen families only; [`crate::eds::write_dcf`]),
+    /// with `[DeviceComissioning] NodeID` when given.
+    Dcf {
+        /// The node id written.
+        node_id: Option<u8>,
+    },
+}
+
+/// `set` of `schema` (its title `title`) as `driveset show` prints it;
+/// `file` is the set's file, whose stem names a DCF (`<stem>.dcf`,
+/// `set.dcf` without one).
+///
+/// # Errors
+/// [`crate::eds::DcfError`]: a DCF of a set that is not a CANopen family's.
+pub fn shown(
+    set: &ResolvedSet,
+    schema: &Schema,
+    title: Option<&str>,
+    file: &std::path::Path,
+    shown: Shown,
+) -> Result<String, crate::eds::DcfError> {
+    Ok(match shown {
+        Shown::Canonical => set.canonical(),
+        Shown::As(format) => export(set, schema, title, format),
+        Shown::Dcf { node_id } => {
+            let name = file
+                .file_stem()
+                .map(|s| format!("{}.dcf", s.to_string_lossy()))
+                .unwrap_or_else(|| "set.dcf".into());
+            crate::eds::write_dcf(set, schema, title, &name, node_id)?
+        }
+    })
+}
+
 /// A scalar or inline table, already spelled for the output.
 enum Out {
     /// Bare number text.
@@ -188,4 +241,35 @@ pub fn export(set: &ResolvedSet, schema: &Schema, title: Option<&str>, format: F
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::Registry;
+
+    #[test]
+    fn show_prints_the_canonical_form_a_syntax_or_a_dcf() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut registry = Registry::builtin().unwrap();
+        let ecs = root.join("parameter-sets/ecs/axis-1.toml");
+        let loaded = crate::load_set(&ecs, &mut registry).unwrap();
+        let (set, schema) = (loaded.resolved.unwrap(), loaded.schema.unwrap());
+        let show = |s| shown(&set, &schema, Some("t"), &ecs, s);
+        assert_eq!(show(Shown::Canonical).unwrap(), set.canonical());
+        assert_eq!(
+            show(Shown::As(Format::Yaml)).unwrap(),
+            export(&set, &schema, Some("t"), Format::Yaml)
+        );
+        assert_eq!(
+            show(Shown::Dcf { node_id: Some(3) }).unwrap(),
+            crate::eds::write_dcf(&set, &schema, Some("t"), "axis-1.dcf", Some(3)).unwrap()
+        );
+        let tmd = root.join("parameter-sets/tmd/conveyor-3.toml");
+        let loaded = crate::load_set(&tmd, &mut registry).unwrap();
+        let (set, schema) = (loaded.resolved.unwrap(), loaded.schema.unwrap());
+        assert!(shown(&set, &schema, None, &tmd, Shown::Dcf { node_id: None }).is_err());
+    }
 }

@@ -1,8 +1,9 @@
 //! Owns the walk from a path given on the command line to the files under
 //! it that `driveset validate`, `schema check` and the editor's
 //! associations read: set, schema and manifest files (`*.toml`, `*.yaml`,
-//! `*.yml`), each real path once, hidden entries skipped. Nothing is opened
-//! here: reading is [`crate::input`]'s.
+//! `*.yml`), each real path once, hidden entries skipped; the schema files
+//! of `schema check`'s paths ([`schema_files`]). Nothing is opened here:
+//! reading is [`crate::input`]'s.
 
 use std::path::{Path, PathBuf};
 
@@ -73,6 +74,29 @@ fn walk(
     Ok(())
 }
 
+/// The schema files `schema check` reads for `paths`: a file as given, a
+/// directory's `*.toml` files ([`collect`]); and each directory that could
+/// not be walked whole with its error (the files found before it are kept).
+pub fn schema_files(paths: &[PathBuf]) -> (Vec<PathBuf>, Vec<(PathBuf, InputError)>) {
+    let (mut files, mut failed) = (Vec::new(), Vec::new());
+    for p in paths {
+        if !p.is_dir() {
+            files.push(p.clone());
+            continue;
+        }
+        let mut found = Vec::new();
+        if let Err(e) = collect(p, &mut found) {
+            failed.push((p.clone(), e));
+        }
+        files.extend(
+            found
+                .into_iter()
+                .filter(|f| f.extension().is_some_and(|e| e == "toml")),
+        );
+    }
+    (files, failed)
+}
+
 /// An input error of the walk itself (a path that cannot be read).
 fn unreadable(path: &Path, message: String) -> InputError {
     InputError {
@@ -80,5 +104,28 @@ fn unreadable(path: &Path, message: String) -> InputError {
         message,
         help: "check the path".to_string(),
         location: Box::new(Location::file_only(path.display().to_string())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schema_files_are_the_tomls_of_a_directory_and_files_as_given() {
+        let dir = std::env::temp_dir().join(format!("driveset-walk-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).expect("dir");
+        for f in ["a.toml", "b.yaml", "sub/c.toml", ".hidden.toml"] {
+            std::fs::write(dir.join(f), "").expect("file");
+        }
+        let given = dir.join("b.yaml");
+        let missing = dir.join("missing");
+        let (files, failed) = schema_files(&[dir.clone(), given.clone(), missing.clone()]);
+        assert_eq!(
+            files,
+            [dir.join("a.toml"), dir.join("sub/c.toml"), given, missing]
+        );
+        assert!(failed.is_empty());
+        std::fs::remove_dir_all(&dir).expect("clean up");
     }
 }

@@ -12,7 +12,7 @@
 //! (whitespace, `,`, `0x` prefixes and `#` comments allowed) or, with
 //! `--raw`, the bytes themselves. Bad input names line:column and exits 2.
 //! FILE must be a regular file (a FIFO or device is refused, never opened)
-//! and, like stdin, at most [`MAX_CAPTURE_BYTES`] (16 MiB); hex text is
+//! and, like stdin, at most `driveset_engine::decode::MAX_CAPTURE_BYTES` (16 MiB); hex text is
 //! parsed in one linear pass.
 //!
 //! Output: one line per event (telegram, reply, skipped garbage, slcan line):
@@ -37,14 +37,13 @@
 //! (garbage, BCC mismatch, malformed or cut-off frames, replies that cannot
 //! occur); 2 usage or input error.
 
-use std::io::Read as _;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, bail};
-use driveset_engine::decode::Context;
-use driveset_proto::text;
+use clap::ValueEnum as _;
+use driveset_engine::decode::{CaptureGiven, Context};
 
 use crate::args::LustFamilyArg as FamilyArg;
+use crate::fail::Fail;
 use crate::offline::{DecodeProtocol, builtin_registry, load_schema};
 use crate::output::OutputFormat;
 use crate::{EXIT_FINDINGS, EXIT_OK};
@@ -101,138 +100,40 @@ pub struct Args {
     pub file: Option<PathBuf>,
 }
 
-/// The most bytes `decode` reads from a file or stdin (16 MiB: at 57600
-/// baud that is 48 minutes of traffic), so `--raw -` fed from an endless
-/// stream ends with an error instead of filling memory.
-pub const MAX_CAPTURE_BYTES: u64 = driveset_schema::input::InputKind::CAPTURE.cap;
-
-fn read_input(args: &Args) -> anyhow::Result<Vec<u8>> {
-    if let Some(h) = &args.hex {
-        if args.raw {
-            bail!("--raw applies to FILE, not to --hex");
-        }
-        return text::parse_hex(h, "--hex").map_err(anyhow::Error::msg);
-    }
-    if let Some(a) = &args.ascii {
-        if args.raw {
-            bail!("--raw applies to FILE, not to --ascii");
-        }
-        return text::parse_ascii(a, "--ascii").map_err(anyhow::Error::msg);
-    }
-    let Some(file) = &args.file else {
-        bail!(
-            "no capture given: pass --hex \"04 40 ...\", --ascii \"<EOT>...\", a FILE, or - for stdin"
-        );
-    };
-    let (bytes, name) = if file.as_os_str() == "-" {
-        let mut b = Vec::new();
-        std::io::stdin()
-            .lock()
-            .take(MAX_CAPTURE_BYTES + 1)
-            .read_to_end(&mut b)
-            .context("cannot read stdin")?;
-        if b.len() as u64 > MAX_CAPTURE_BYTES {
-            bail!(
-                "<stdin>: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts"
-            );
-        }
-        (b, "<stdin>".to_string())
-    } else {
-        let b = driveset_schema::input::read_input(file, driveset_schema::input::InputKind::CAPTURE)
-        .map_err(|e| match e.kind {
-            driveset_schema::InputErrorKind::TooLarge => anyhow::anyhow!(
-                "{}: the capture is larger than {MAX_CAPTURE_BYTES} bytes, the most `driveset decode` reads; split it (e.g. with `split -b`) and decode the parts",
-                file.display()
-            ),
-            _ => anyhow::anyhow!("{}; {}", e.message, e.help),
-        })?;
-        (b, file.display().to_string())
-    };
-    if args.raw {
-        return Ok(bytes);
-    }
-    let text = String::from_utf8(bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "{name}: byte {} is not text; is this a binary capture? pass --raw",
-            e.utf8_error().valid_up_to()
-        )
-    })?;
-    text::parse_hex(&text, &name).map_err(anyhow::Error::msg)
-}
-
 /// Runs `driveset decode`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    let capture = match read_input(&args) {
-        Ok(c) => c,
-        Err(e) => {
-            return Err(crate::fail::Fail::input(format!("{e:#}")));
-        }
+    let given = CaptureGiven {
+        hex: args.hex.as_deref(),
+        ascii: args.ascii.as_deref(),
+        file: args.file.as_deref(),
+        raw: args.raw,
     };
+    let capture = given
+        .read(&mut std::io::stdin().lock())
+        .map_err(|e| Fail::input(e.to_string()))?;
     let mut registry = builtin_registry()?;
-    let family = args.family.map(FamilyArg::dialect);
     if args.family.is_some() && args.protocol != DecodeProtocol::Lustbus {
-        return Err(crate::fail::Fail::input(
-            "--family applies to --protocol lustbus only",
-        ));
+        return Err(Fail::input("--family applies to --protocol lustbus only"));
     }
-    let mut schema = match &args.schema {
-        Some(s) => match load_schema(&mut registry, s) {
-            Ok(s) => Some(s),
-            Err(e) => {
-                return Err(crate::fail::Fail::input(format!("{e:#}")));
-            }
-        },
+    let schema = match &args.schema {
+        Some(s) => Some(load_schema(&mut registry, s).map_err(|e| Fail::input(format!("{e:#}")))?),
         None => None,
     };
-    let mut family = family;
-    if let Some(s) = &schema {
-        // the schema's LUSTBUS dialect, where it has one (its descriptor's)
-        let schema_family = s.family.descriptor().dialect;
-        let fits = match args.protocol {
-            // LECOM and slcan carry one family each (Tmd, ECS)
-            DecodeProtocol::Lecom | DecodeProtocol::Slcan => {
-                args.protocol.capture().bus().only_family() == Some(s.family)
-            }
-            DecodeProtocol::Lustbus => {
-                schema_family.is_some() && (family.is_none() || family == schema_family)
-            }
-        };
-        if fits && args.protocol == DecodeProtocol::Lustbus {
-            family = schema_family;
-        }
-        if !fits {
-            return Err(crate::fail::Fail::input(format!(
-                "--schema {}: schema {} is for another protocol or family than --protocol {}{}",
-                args.schema.as_deref().unwrap_or(""),
-                s.id,
-                match args.protocol {
-                    DecodeProtocol::Lustbus => "lustbus",
-                    DecodeProtocol::Lecom => "lecom",
-                    DecodeProtocol::Slcan => "slcan",
-                },
-                args.family
-                    .map(|f| format!(" --family {}", f.0.name()))
-                    .unwrap_or_default()
-            )));
-        }
-    } else {
-        // LECOM and slcan carry one family each: its built-in schema (LUSTBUS
-        // picks per telegram, from the CODE's dialect)
-        schema = match args.protocol {
-            DecodeProtocol::Lecom | DecodeProtocol::Slcan => args
-                .protocol
-                .capture()
-                .bus()
-                .only_family()
-                .and_then(|f| registry.get(f.descriptor().schema_id)),
-            DecodeProtocol::Lustbus => None,
-        };
-    }
-    let ctx = Context {
-        registry,
-        schema,
-        family,
-    };
+    let family = args.family.map(FamilyArg::dialect);
+    let ctx = Context::fitted(args.protocol.capture(), family, schema, registry).map_err(|e| {
+        Fail::input(format!(
+            "--schema {}: schema {} is for another protocol or family than --protocol {}{}",
+            args.schema.as_deref().unwrap_or(""),
+            e.schema,
+            args.protocol
+                .to_possible_value()
+                .map(|v| v.get_name().to_string())
+                .unwrap_or_default(),
+            args.family
+                .map(|f| format!(" --family {}", f.0.name()))
+                .unwrap_or_default()
+        ))
+    })?;
     // each event is written out as it is decoded, in chunks of
     // OUT_CHUNK: memory grows with one event, not with the capture
     const OUT_CHUNK: usize = 64 * 1024;

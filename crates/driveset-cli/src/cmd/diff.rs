@@ -7,9 +7,10 @@ pub mod live;
 
 use std::path::PathBuf;
 
-use driveset_schema::diff::defaults_for;
-use driveset_schema::{ResolvedSet, Schema, diff, diff_defaults, unified_diff};
+use driveset_schema::Schema;
+use driveset_schema::diff::Compared;
 
+use crate::fail::Fail;
 use crate::output::{self, OutputFormat};
 use crate::port_args::{LearnFlags, Need, Port, PortCommand, Takes};
 
@@ -102,41 +103,35 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let (Some(schema), Some(set_a)) = (a.schema.clone(), a.resolved.as_ref()) else {
         return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
     };
-    let a_name = args.a.display().to_string();
-    let (old, new, old_name, new_name): (ResolvedSet, ResolvedSet, String, String) = match &args.b {
-        None => (
-            defaults_for(set_a, &schema),
-            set_a.clone(),
-            format!("factory defaults ({})", schema.id),
-            a_name,
-        ),
+    let b = match &args.b {
+        None => None,
         Some(bp) => {
             let b = match output::load_valid_set(bp, &mut registry) {
                 Ok(l) => l,
-                Err(code) => return Err(crate::fail::Fail::reported(code)),
+                Err(code) => return Err(Fail::reported(code)),
             };
             let Some(set_b) = b.resolved else {
-                return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
+                return Err(Fail::reported(crate::EXIT_INPUT));
             };
-            if set_b.schema != set_a.schema {
-                eprintln!(
-                        "{}",
-                        output::stderr_style().error(&format!(
-                            "error: cannot diff sets of different schemas: {a_name} is `{}`, {} is `{}`",
-                            set_a.schema,
-                            bp.display(),
-                            set_b.schema
-                        ))
-                    );
-                eprintln!("  = help: compare sets of one drive family");
-                return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
-            }
-            (set_a.clone(), set_b, a_name, bp.display().to_string())
+            Some((set_b, bp.display().to_string()))
         }
     };
-
+    let a_name = args.a.display().to_string();
+    let sides = Compared::of(set_a, a_name.clone(), b, &schema).map_err(|e| {
+        eprintln!(
+            "{}",
+            output::stderr_style().error(&format!(
+                "error: cannot diff sets of different schemas: {a_name} is `{}`, {} is `{}`",
+                e.a,
+                args.b.as_deref().unwrap_or(&args.a).display(),
+                e.b
+            ))
+        );
+        eprintln!("  = help: compare sets of one drive family");
+        Fail::reported(crate::EXIT_INPUT)
+    })?;
     if args.unified {
-        let text = unified_diff(&old, &new, &schema, &old_name, &new_name);
+        let text = sides.unified(&schema);
         output::emit(&driveset_report::diff::unified(
             &text,
             output::stdout_style(),
@@ -147,24 +142,15 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
             crate::EXIT_FINDINGS
         });
     }
-
-    let d = if args.defaults {
-        diff_defaults(&new, &schema)
-    } else {
-        diff(&old, &new, &schema)
-    };
-    let d = match d {
-        Ok(d) => d,
-        Err(e) => {
-            eprintln!("{}", output::stderr_style().error(&format!("error: {e}")));
-            return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
-        }
-    };
+    let d = sides.diff(&schema).map_err(|e| {
+        eprintln!("{}", output::stderr_style().error(&format!("error: {e}")));
+        Fail::reported(crate::EXIT_INPUT)
+    })?;
     Ok(render(
         &d,
         &schema,
-        &old_name,
-        &new_name,
+        &sides.old_name,
+        &sides.new_name,
         args.format == OutputFormat::Json,
     ))
 }

@@ -1,7 +1,8 @@
 //! `driveset encode`: build one telegram from a readable description, for
 //! bench tests with a terminal program. The description language is the
 //! engine's (`driveset_engine::decode::encode`, its grammar in its module
-//! docs and in `--help`); this command loads the schemas and renders.
+//! docs and in `--help`; the telegram's text too, `Telegram::text`); this
+//! command loads the schemas and prints.
 //!
 //! Output: the bytes in hex and in escaped ASCII (`<EOT>@00112<ENQ>`, `<xx>`
 //! for other bytes; `driveset decode --ascii` reads it back); for SDO the CAN
@@ -10,8 +11,6 @@
 //! (exit 2).
 
 use driveset_engine::decode::encode::{Request, Telegram, encode};
-use driveset_engine::decode::hex_spaced;
-use driveset_proto::text::escaped;
 
 use crate::EXIT_OK;
 use crate::args::LustFamilyArg as FamilyArg;
@@ -67,21 +66,17 @@ pub struct Args {
 
 /// Runs `driveset encode`.
 pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
-    match build(&args) {
-        Ok((bytes, text)) => {
-            if args.raw {
-                crate::output::emit_bytes(&bytes);
-            } else {
-                crate::output::emit(&text);
-            }
-            Ok(EXIT_OK)
-        }
-        Err(e) => Err(e.into()),
+    let telegram = build(&args)?;
+    if args.raw {
+        crate::output::emit_bytes(telegram.raw());
+    } else {
+        crate::output::emit(&telegram.text());
     }
+    Ok(EXIT_OK)
 }
 
-/// The telegram's bytes as `--raw` writes them, and its text.
-fn build(args: &Args) -> anyhow::Result<(Vec<u8>, String)> {
+/// The telegram the description gives.
+fn build(args: &Args) -> anyhow::Result<Telegram> {
     let mut registry = builtin_registry()?;
     let schema = match &args.schema {
         Some(s) => Some(load_schema(&mut registry, s)?),
@@ -92,24 +87,5 @@ fn build(args: &Args) -> anyhow::Result<(Vec<u8>, String)> {
         family: args.family.map(FamilyArg::dialect),
         description: &args.description,
     };
-    let telegram = encode(&req, &registry, schema).map_err(|e| anyhow::anyhow!("{e}"))?;
-    Ok(match telegram {
-        Telegram::Serial(bytes) => {
-            let text = format!(
-                "hex:   {}\nascii: {}\n",
-                hex_spaced(&bytes),
-                escaped(&bytes)
-            );
-            (bytes, text)
-        }
-        Telegram::Sdo { frame, data, line } => {
-            let text = format!(
-                "cob-id: 0x{:03X}\ndata:   {}\nslcan:  {}\n",
-                frame.id,
-                hex_spaced(&data),
-                escaped(&line)
-            );
-            (line, text)
-        }
-    })
+    encode(&req, &registry, schema).map_err(|e| anyhow::anyhow!("{e}"))
 }

@@ -16,7 +16,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use driveset_engine::client::DriveClient;
-use driveset_engine::history::{self, DriveRecord, Slot, Unit};
+use driveset_engine::history::{DriveRecord, Slot};
 use driveset_engine::pull::{ForFile, PullOptions, Pulled, SetFileFrom};
 use driveset_engine::session::{self, rate::ReadRate};
 use driveset_schema::export::pulled;
@@ -157,12 +157,7 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let port_name = opened.name.clone();
     // A LUSTBUS schema that lacks facts: learn them from the drive and
     // write the learned schema beside the set (or into --schema-dir).
-    let set_dir = args
-        .output
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
+    let set_dir = pulled::set_dir(&args.output);
     let dir = args.at.learn.schema_dir.clone().unwrap_or(set_dir.clone());
     let on = args
         .at
@@ -190,20 +185,13 @@ fn pull(args: &Args) -> Result<u8, Fail> {
     let pulled = read(args, client.as_mut())?;
     client.finish()?;
     // every value read, actual values included, on record
-    let read = history::values_read(&schema, &pulled.set);
     let file = pulled.for_file(&schema);
-    crate::history::drive(&DriveRecord::of_read(
-        Slot {
-            bus: args.at.port()?.to_string(),
-            address,
-            ..Slot::default()
-        },
-        Unit::of(&schema, &file.pulled.identity),
-        &schema.id,
-        file.pulled.fingerprint.clone(),
-        "read",
-        read,
-    ));
+    let slot = Slot {
+        bus: args.at.port()?.to_string(),
+        address,
+        ..Slot::default()
+    };
+    crate::history::drive(&DriveRecord::of_pull(slot, &schema, &file));
     let done = Done {
         port: &port_name,
         address,
@@ -277,10 +265,7 @@ fn file_format(args: &Args) -> Format {
     match args.to {
         Some(PullTo::Yaml) => Format::Yaml,
         Some(PullTo::Toml) => Format::Toml,
-        None => match args.output.extension().and_then(|e| e.to_str()) {
-            Some("yaml" | "yml") => Format::Yaml,
-            _ => Format::Toml,
-        },
+        None => Format::by_extension(&args.output),
     }
 }
 
@@ -311,7 +296,7 @@ struct PullDoc<'a> {
     fingerprint: &'a str,
     full_fingerprint: &'a str,
     identity: serde_json::Value,
-    learned: Option<serde_json::Value>,
+    learned: Option<session::LearnDoc<'a>>,
     left_out_bus_codes: &'a [String],
     not_readable: usize,
     port: &'a str,
@@ -335,7 +320,7 @@ fn render_json(args: &Args, d: &Done<'_>) -> String {
         fingerprint: &pulled.fingerprint,
         full_fingerprint: &pulled.full_fingerprint,
         identity: serde_json::to_value(&pulled.identity).unwrap_or_default(),
-        learned: d.learned.map(session::LearnedReport::json),
+        learned: d.learned.map(session::LearnedReport::doc),
         left_out_bus_codes: &d.file.bus_codes,
         not_readable: d.file.failed.len(),
         port: d.port,
@@ -372,12 +357,7 @@ fn render_human(args: &Args, d: &Done<'_>) -> String {
             pulled.dropped_defaults
         );
     }
-    let not_read: Vec<&str> = pulled
-        .skipped
-        .iter()
-        .map(|s| s.code.as_str())
-        .filter(|c| !bus_codes.iter().any(|b| b == c))
-        .collect();
+    let not_read = d.file.not_read();
     if !not_read.is_empty() {
         let _ = writeln!(out, "not read: {}", not_read.join(", "));
     }

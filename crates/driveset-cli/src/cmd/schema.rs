@@ -78,27 +78,11 @@ fn check(args: CheckArgs) -> Result<u8, crate::fail::Fail> {
                 .push((path.to_string(), FileReport::of(checked)));
         }
     } else {
-        let mut files = Vec::new();
-        for p in &args.files {
-            if p.is_dir() {
-                let mut found = Vec::new();
-                if let Err(e) = driveset_schema::walk::collect(p, &mut found) {
-                    report.files.push((
-                        p.display().to_string(),
-                        FileReport {
-                            findings: Vec::new(),
-                            error: Some(e),
-                        },
-                    ));
-                }
-                files.extend(
-                    found
-                        .into_iter()
-                        .filter(|f| f.extension().is_some_and(|e| e == "toml")),
-                );
-            } else {
-                files.push(p.clone());
-            }
+        let (files, failed) = driveset_schema::walk::schema_files(&args.files);
+        for (p, e) in failed {
+            report
+                .files
+                .push((p.display().to_string(), FileReport::of(Err(e))));
         }
         for (path, checked) in files.iter().zip(check_schema_files(&files, &registry)) {
             report

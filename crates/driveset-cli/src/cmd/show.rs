@@ -5,8 +5,8 @@
 
 use std::path::PathBuf;
 
-use driveset_schema::eds::write_dcf;
-use driveset_schema::{Format, export};
+use driveset_schema::Format;
+use driveset_schema::export::{self, Shown};
 
 use crate::output;
 
@@ -77,35 +77,24 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     let (Some(schema), Some(set)) = (&loaded.schema, &loaded.resolved) else {
         return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
     };
-    let text = match args.to {
-        None => set.canonical(),
-        Some(To::Dcf) => {
-            let name = args
-                .file
-                .file_stem()
-                .map(|s| format!("{}.dcf", s.to_string_lossy()))
-                .unwrap_or_else(|| "set.dcf".into());
-            match write_dcf(set, schema, loaded.title.as_deref(), &name, args.node_id) {
-                Ok(t) => t,
-                Err(e) => {
-                    return Err(crate::fail::Fail::input(format!(
-                        "{}: cannot write a DCF: {}\n  = help: {}",
-                        args.file.display(),
-                        e.message,
-                        e.help
-                    )));
-                }
-            }
-        }
-        Some(to) => {
-            let format = match to {
-                To::Toml => Format::Toml,
-                To::Yaml => Format::Yaml,
-                To::Json | To::Dcf => Format::Json,
-            };
-            export(set, schema, loaded.title.as_deref(), format)
-        }
+    let shown = match args.to {
+        None => Shown::Canonical,
+        Some(To::Toml) => Shown::As(Format::Toml),
+        Some(To::Yaml) => Shown::As(Format::Yaml),
+        Some(To::Json) => Shown::As(Format::Json),
+        Some(To::Dcf) => Shown::Dcf {
+            node_id: args.node_id,
+        },
     };
+    let text =
+        export::shown(set, schema, loaded.title.as_deref(), &args.file, shown).map_err(|e| {
+            crate::fail::Fail::input(format!(
+                "{}: cannot write a DCF: {}\n  = help: {}",
+                args.file.display(),
+                e.message,
+                e.help
+            ))
+        })?;
     output::emit(&text);
     Ok(crate::EXIT_OK)
 }

@@ -10,9 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use driveset_schema::Registry;
-use driveset_schema::check::{Checked, check_schema_source};
-use driveset_schema::doc::{self, NodeKind, Syntax};
-use driveset_schema::error::read_text_file;
+use driveset_schema::check::{Checked, check_set_or_schema};
 use driveset_schema::walk::collect;
 
 use driveset_report::validation::{FileReport, Report};
@@ -49,13 +47,6 @@ pub struct Args {
     pub schemas: Vec<PathBuf>,
 }
 
-/// Whether a parsed TOML document is a schema file (top-level `[schema]` table).
-fn is_schema_doc(d: &doc::Document) -> bool {
-    d.root
-        .get("schema")
-        .is_some_and(|e| matches!(e.value.kind, NodeKind::Table(_)))
-}
-
 /// Check one file: a line manifest by its own checks, a schema file by
 /// `schema check`'s, anything else as a set.
 fn check_file(path: &Path, registry: &mut Registry) -> Checked {
@@ -64,17 +55,7 @@ fn check_file(path: &Path, registry: &mut Registry) -> Checked {
         return driveset_engine::line::manifest::validate_manifest(path, &crate::port::openers())
             .map(|f| f.iter().map(|f| f.to_finding()).collect());
     }
-    let source = read_text_file(path)?;
-    if Syntax::from_path(path) == Syntax::Toml {
-        match doc::parse(source.clone(), Syntax::Toml) {
-            Err(e) => return Err(driveset_schema::set::mask_secret_line(e, registry)),
-            Ok(d) if is_schema_doc(&d) => {
-                return check_schema_source(source, registry, &[]).map(|(_, findings)| findings);
-            }
-            Ok(_) => {}
-        }
-    }
-    driveset_schema::load_set_str(path, &source.text, registry).map(|l| l.findings)
+    check_set_or_schema(path, registry)
 }
 
 /// Run `driveset validate`.

@@ -50,6 +50,7 @@ use driveset_proto::lustbus::{
     Address, CompatibleParameter, Dialect, Enquiry, ParameterCode, ParameterValue, Reply,
     Request as LustRequest, Select, ValueReply, ValueText,
 };
+use driveset_proto::text::escaped;
 use driveset_schema::value::{ConvError, Repr, decimal_to_raw};
 use driveset_schema::{BusProtocol, Decimal, Registry, Schema};
 
@@ -107,6 +108,36 @@ pub enum Telegram {
         /// The frame as an slcan line (with CR).
         line: Vec<u8>,
     },
+}
+
+impl Telegram {
+    /// The bytes `driveset encode --raw` writes: a serial telegram's, an
+    /// SDO request's slcan line (with CR).
+    pub fn raw(&self) -> &[u8] {
+        match self {
+            Telegram::Serial(bytes) => bytes,
+            Telegram::Sdo { line, .. } => line,
+        }
+    }
+
+    /// The telegram as `driveset encode` prints it: the bytes in hex and in
+    /// escaped ASCII (`<EOT>@00112<ENQ>`, which `driveset decode --ascii`
+    /// reads back); an SDO request's COB-ID, data and slcan line.
+    pub fn text(&self) -> String {
+        match self {
+            Telegram::Serial(bytes) => format!(
+                "hex:   {}\nascii: {}\n",
+                super::hex_spaced(bytes),
+                escaped(bytes)
+            ),
+            Telegram::Sdo { frame, data, line } => format!(
+                "cob-id: 0x{:03X}\ndata:   {}\nslcan:  {}\n",
+                frame.id,
+                super::hex_spaced(data),
+                escaped(line)
+            ),
+        }
+    }
 }
 
 /// Encode the telegram `req` describes; `registry` holds the built-in
@@ -670,12 +701,22 @@ mod tests {
         )
         .unwrap();
         assert_eq!(t, Telegram::Serial(b"\x04@00112\x05".to_vec()));
+        assert_eq!(t.raw(), b"\x04@00112\x05");
+        assert_eq!(
+            t.text(),
+            "hex:   04 40 30 30 31 31 32 05\nascii: <EOT>@00112<ENQ>\n"
+        );
         let t = encode(
             &req(BusProtocol::CanSdo, "sdo write node=1 code=11 value=50.0"),
             &reg,
             None,
         )
         .unwrap();
+        assert_eq!(t.raw(), b"t601823F45F0020A10700\r");
+        assert_eq!(
+            t.text(),
+            "cob-id: 0x601\ndata:   23 F4 5F 00 20 A1 07 00\nslcan:  t601823F45F0020A10700<CR>\n"
+        );
         let Telegram::Sdo { frame, data, line } = t else {
             panic!("{t:?}")
         };

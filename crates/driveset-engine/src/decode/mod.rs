@@ -10,12 +10,14 @@
 //! parsers' ([`driveset_proto::lustbus::Sniffer`],
 //! [`driveset_proto::lecom::BusSniffer`], proto's slcan codec); this module
 //! adds the schemas' names, types and units and the protocol's rules about
-//! who may answer whom. The CLI reads the capture and renders the events.
+//! who may answer whom. What a capture is read from and the schema it is
+//! decoded with: [`input`]; the CLI renders the events.
 //! The other way, [`encode`]: one telegram from a readable description
 //! (`driveset encode`).
 
 pub mod encode;
 mod event;
+pub mod input;
 pub mod lecom;
 pub mod lustbus;
 pub mod slcan;
@@ -27,6 +29,7 @@ use driveset_proto::lustbus::Dialect;
 use driveset_schema::{BusProtocol, Registry, Schema};
 
 pub use event::{Bcc, DRIVE_TO_HOST, Event, HOST_TO_DRIVE};
+pub use input::{CaptureGiven, CaptureInputError, MAX_CAPTURE_BYTES, SchemaMisfit};
 
 /// The format of a capture: a bus protocol's byte stream, or slcan lines.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -97,7 +97,8 @@ pub use model::{KEPT_SPEC, LearnFinding, Learned, LearnedCode, RawDescription};
 pub use pull::{PullSchemaError, PulledDescriptions, PulledSchema, pull_descriptions, pull_schema};
 pub use read::{learn, read_descriptions, read_texts};
 pub use scope::{
-    LearnedUse, default_params, learned_use, max_parameter, needs_learning, options_for, unasked,
+    LearnOptionError, LearnedUse, ParamsError, default_params, learned_use, max_parameter,
+    needs_learning, options_for, params_to_ask, parse_params, unasked,
 };
 
 /// How to learn.

@@ -60,17 +60,18 @@ pub struct LearnedCode {
 }
 
 /// Something about one parameter's description the learned schema could
-/// not take as it came.
+/// not take as it came (fields in the alphabetical order of the JSON keys
+/// reports have always given them: [`crate::session::LearnDoc`]).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct LearnFinding {
+    /// `left out`, `downgraded`, or `kept the spec's` (the drive's
+    /// description contradicts a fact of the base schema, which stands).
+    pub action: &'static str,
     /// The code as reports spell it (`11-STAT`; the description's name for
     /// a code the base schema does not name), filled by [`render_schema`](super::render_schema).
     pub code: String,
     /// Parameter number.
     pub number: u32,
-    /// `left out`, `downgraded`, or `kept the spec's` (the drive's
-    /// description contradicts a fact of the base schema, which stands).
-    pub action: &'static str,
     /// Why.
     pub reason: String,
 }

@@ -7,6 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use driveset_proto::lustbus::Dialect;
+use driveset_proto::lustbus::description::{McLayout, McTypeChars};
 use driveset_schema::{Family, Learning, Schema};
 
 use crate::client::Identity;
@@ -80,6 +81,96 @@ pub fn default_params(protocol: Family) -> Vec<u32> {
         .learning
         .map_or(1..=999, |l| l.default_params())
         .collect()
+}
+
+/// Why the parameters `schema pull` asks for cannot be given
+/// ([`params_to_ask`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ParamsError {
+    /// The family's drives have no LUSTBUS descriptions (its protocol
+    /// named, as schemas spell it).
+    #[error("the drive speaks {0}; schema pull reads LUSTBUS descriptions (VF1000, MC6000/7000)")]
+    NoDescriptions(&'static str),
+    /// `--params` does not parse.
+    #[error("--params: {0}")]
+    List(String),
+    /// A parameter above the family's highest ([`max_parameter`]).
+    #[error("--params: parameter {number} is outside 0..={max} for this family")]
+    Outside {
+        /// The parameter given.
+        number: u32,
+        /// The family's highest.
+        max: u32,
+    },
+}
+
+/// The parameters `schema pull` asks a drive of `family` for: `list`
+/// (`1-99`, `1,5,100-120`: [`parse_params`]), else every parameter the
+/// family describes (`1-99` VF1000, `1-999` MC6000/7000).
+///
+/// # Errors
+/// [`ParamsError`]: a family without descriptions, a list that does not
+/// parse or names a parameter above the family's highest.
+pub fn params_to_ask(family: Family, list: Option<&str>) -> Result<Vec<u32>, ParamsError> {
+    let max = max_parameter(family).ok_or(ParamsError::NoDescriptions(
+        family.descriptor().schema_protocol,
+    ))?;
+    parse_params(list.unwrap_or(&format!("1-{max}")), max)
+}
+
+/// `1-99`, `1,5,100-120` -> sorted unique numbers (the grammar of
+/// `driveset_schema::schema::parse_number_list`), each within 0..=`max`.
+///
+/// # Errors
+/// [`ParamsError::List`], [`ParamsError::Outside`].
+pub fn parse_params(text: &str, max: u32) -> Result<Vec<u32>, ParamsError> {
+    let out = driveset_schema::schema::parse_number_list(text).map_err(ParamsError::List)?;
+    if let Some(n) = out.iter().find(|n| **n > max) {
+        return Err(ParamsError::Outside { number: *n, max });
+    }
+    Ok(out.into_iter().collect())
+}
+
+/// Why a learning option does not read ([`LearnOptions::reading`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LearnOptionError {
+    /// Not a description layout's length.
+    #[error("--description-layout {0}: use 52, 43, 42 or 34 (the lengths errata L22 discusses)")]
+    Layout(String),
+    /// Not a type-character reading.
+    #[error("--type-chars: {0}")]
+    TypeChars(String),
+}
+
+impl LearnOptions {
+    /// The options that say how MC6000/7000 descriptions read: `layout`
+    /// (`52`, `43`, `42`, `34`; errata L22) and `type_chars` (`driveset`,
+    /// `table` or a map; errata L23), each guessed from the content when
+    /// not given; the parameters the default range, texts read.
+    ///
+    /// # Errors
+    /// [`LearnOptionError`], naming the option.
+    pub fn reading(
+        layout: Option<&str>,
+        type_chars: Option<&str>,
+    ) -> Result<LearnOptions, LearnOptionError> {
+        let layout = match layout {
+            None => None,
+            Some(l) => Some(
+                McLayout::from_name(l.trim()).ok_or_else(|| LearnOptionError::Layout(l.into()))?,
+            ),
+        };
+        let type_chars = match type_chars {
+            None => None,
+            Some(t) => Some(McTypeChars::parse(t).map_err(LearnOptionError::TypeChars)?),
+        };
+        Ok(LearnOptions {
+            params: None,
+            layout,
+            type_chars,
+            no_texts: false,
+        })
+    }
 }
 
 /// Which schema a bus command would talk with ([`learned_use`]).
@@ -174,6 +265,46 @@ mod tests {
     /// 6000/A`) finds the learned file the engine named for it
     /// (`learned-mc6000-typeMC6000A-...`): the search slugs the TYPE as
     /// the learned id does.
+    #[test]
+    fn params_lists_and_ranges() {
+        assert_eq!(parse_params("1-3, 7,5", 99).unwrap(), vec![1, 2, 3, 5, 7]);
+        assert!(parse_params("5-1", 99).is_err());
+        assert!(parse_params("1-100", 99).is_err());
+        assert!(parse_params("x", 99).is_err());
+        assert_eq!(params_to_ask(Family::Vf1000, None).map(|p| p.len()), Ok(99));
+        assert_eq!(
+            params_to_ask(Family::Mc6000, None).map(|p| p.len()),
+            Ok(999)
+        );
+        assert_eq!(
+            params_to_ask(Family::Vf1000, Some("1-100")).map_err(|e| e.to_string()),
+            Err("--params: parameter 100 is outside 0..=99 for this family".to_string())
+        );
+        assert!(matches!(
+            params_to_ask(Family::Tmd, Some("1")),
+            Err(ParamsError::NoDescriptions(_))
+        ));
+    }
+
+    #[test]
+    fn learning_options_read_or_say_which_is_wrong() {
+        let o = LearnOptions::reading(Some(" 43 "), Some("table")).expect("reads");
+        assert_eq!(o.layout, McLayout::from_name("43"));
+        assert_eq!(o.type_chars, Some(McTypeChars::Table));
+        assert_eq!(
+            LearnOptions::reading(None, None),
+            Ok(LearnOptions::default())
+        );
+        assert_eq!(
+            LearnOptions::reading(Some("50"), None).map_err(|e| e.to_string()),
+            Err(
+                "--description-layout 50: use 52, 43, 42 or 34 (the lengths errata L22 discusses)"
+                    .to_string()
+            )
+        );
+        assert!(LearnOptions::reading(None, Some("1=PT_NOPE")).is_err());
+    }
+
     #[test]
     fn a_type_with_spaces_and_a_slash_finds_its_learned_file() {
         let reg = Registry::builtin().expect("built-in schemas");

@@ -141,6 +141,18 @@ impl Catalog {
             })
     }
 
+    /// The schemas of each family `driveset address` and the recovery of
+    /// an address change pick from: the built-in ones (and the
+    /// directories'), on every port; then each of `given` (`--schema`,
+    /// [`Catalog::named`]).
+    pub fn family_schemas(&self, given: &[String]) -> Result<crate::assign::Schemas, CatalogError> {
+        let mut s = crate::assign::Schemas::from_registry(&self.registry()?);
+        for g in given {
+            s = s.with(self.named(g)?.schema);
+        }
+        Ok(s)
+    }
+
     /// The schema of `ask` without talking to a drive: named, else the
     /// built-in schema of `--protocol`'s first family (`None`: neither was
     /// given; the drive must be asked, [`Catalog::resolve`]).

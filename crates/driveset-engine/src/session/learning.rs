@@ -13,8 +13,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use driveset_link::ByteLink;
-use driveset_schema::Schema;
+use driveset_proto::lustbus::description::McTypeChars;
 use driveset_schema::error::SourceFile;
+use driveset_schema::{Family, Schema};
 
 use super::{LearnPolicy, SessionError};
 use crate::client::{DriveClient, LustbusClient};
@@ -42,7 +43,7 @@ pub struct LearnedReport {
 }
 
 impl LearnedReport {
-    /// What [`LearnSummary::lines`] and [`LearnSummary::json`] render of it.
+    /// What [`LearnSummary::lines`] and [`LearnSummary::doc`] render of it.
     pub fn summary(&self) -> LearnSummary {
         LearnSummary {
             id: self.id.clone(),
@@ -58,9 +59,15 @@ impl LearnedReport {
         self.summary().lines()
     }
 
-    /// [`LearnSummary::json`] of this report.
-    pub fn json(&self) -> serde_json::Value {
-        self.summary().json()
+    /// [`LearnSummary::doc`] of this report.
+    pub fn doc(&self) -> LearnDoc<'_> {
+        LearnDoc::of(
+            &self.id,
+            self.file.as_deref(),
+            &self.base,
+            self.codes,
+            &self.learned,
+        )
     }
 }
 
@@ -124,20 +131,92 @@ impl LearnSummary {
     }
 
     /// The report as the commands' `--format json` carries it.
-    pub fn json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "id": self.id,
-            "file": self.file.as_ref().map(|f| f.display().to_string()),
-            "base": self.base,
-            "codes": self.codes,
-            "layouts": self.learned.layouts.iter().map(|l| l.name()).collect::<Vec<_>>(),
-            "type_chars": self.learned.type_chars.as_ref().map(driveset_proto::lustbus::description::McTypeChars::name),
-            "type_chars_guessed": self.learned.type_chars_guessed,
-            "asked": self.learned.asked,
-            "absent": self.learned.absent,
-            "substitution_texts": self.learned.texts_read,
-            "findings": self.learned.findings,
-        })
+    pub fn doc(&self) -> LearnDoc<'_> {
+        LearnDoc::of(
+            &self.id,
+            self.file.as_deref(),
+            &self.base,
+            self.codes,
+            &self.learned,
+        )
+    }
+}
+
+/// What learning did as the commands' `--format json` carries it
+/// ([`LearnSummary::doc`], [`LearnedReport::doc`]); `schema pull`'s report
+/// names the drive too ([`LearnDoc::at`]). The fields are in the
+/// alphabetical order of their keys, as the JSON documents of the CLI have
+/// always had them (serde_json sorts a `json!` object's keys), and so are
+/// [`crate::learn::LearnFinding`]'s.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LearnDoc<'a> {
+    /// Parameters the drive NAKed.
+    pub absent: usize,
+    /// `schema pull`: the drive's address.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub address: Option<u8>,
+    /// Parameters asked for.
+    pub asked: usize,
+    /// The base schema's id.
+    pub base: &'a str,
+    /// Codes learned.
+    pub codes: usize,
+    /// `schema pull`: the drive's family.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub family: Option<&'static str>,
+    /// The file written, if any.
+    pub file: Option<String>,
+    /// Parameters left out or downgraded, and why.
+    pub findings: &'a [crate::learn::LearnFinding],
+    /// The learned schema's id.
+    pub id: &'a str,
+    /// MC: the description layouts met.
+    pub layouts: Vec<&'static str>,
+    /// `schema pull`: the port.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub port: Option<&'a str>,
+    /// Substitution texts read.
+    pub substitution_texts: usize,
+    /// MC: the type-character reading used.
+    pub type_chars: Option<String>,
+    /// MC: whether that reading was guessed.
+    pub type_chars_guessed: bool,
+}
+
+impl<'a> LearnDoc<'a> {
+    fn of(
+        id: &'a str,
+        file: Option<&Path>,
+        base: &'a str,
+        codes: usize,
+        learned: &'a Learned,
+    ) -> Self {
+        LearnDoc {
+            absent: learned.absent,
+            address: None,
+            asked: learned.asked,
+            base,
+            codes,
+            family: None,
+            file: file.map(|f| f.display().to_string()),
+            findings: &learned.findings,
+            id,
+            layouts: learned.layouts.iter().map(|l| l.name()).collect(),
+            port: None,
+            substitution_texts: learned.texts_read,
+            type_chars: learned.type_chars.as_ref().map(McTypeChars::name),
+            type_chars_guessed: learned.type_chars_guessed,
+        }
+    }
+
+    /// The document naming the drive it was learned from (`schema pull`).
+    pub fn at(self, port: &'a str, address: u8, family: Family) -> Self {
+        LearnDoc {
+            port: Some(port),
+            address: Some(address),
+            family: Some(family.name()),
+            ..self
+        }
     }
 }
 
@@ -300,4 +379,84 @@ fn earlier(policy: &LearnPolicy<'_>, path: &Path) -> Result<Option<Arc<Schema>>,
             path: path.to_path_buf(),
             detail: e.message,
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::{BTreeMap, BTreeSet};
+
+    use driveset_proto::lustbus::description::McLayout;
+
+    use super::*;
+    use crate::learn::{KEPT_SPEC, LearnFinding};
+
+    fn summary(file: Option<&str>) -> LearnSummary {
+        let finding = |code: &str, number, action, reason: &str| LearnFinding {
+            action,
+            code: code.into(),
+            number,
+            reason: reason.into(),
+        };
+        LearnSummary {
+            id: "learned-mc6000-type6000-x".into(),
+            file: file.map(PathBuf::from),
+            base: "lust-mc6000".into(),
+            codes: 3,
+            learned: Learned {
+                protocol: Family::Mc6000,
+                layouts: BTreeSet::from([McLayout::Table43, McLayout::Hex52]),
+                type_chars: Some(McTypeChars::Table),
+                type_chars_guessed: true,
+                codes: Vec::new(),
+                findings: vec![
+                    finding("11-STAT", 11, "left out", "no \"description\""),
+                    finding("428-X", 428, KEPT_SPEC, "the spec's"),
+                ],
+                asked: 999,
+                asked_params: BTreeSet::new(),
+                absent: 990,
+                texts_read: 4,
+                descriptions_hash: 0,
+                raw: Vec::new(),
+                raw_texts: BTreeMap::new(),
+            },
+        }
+    }
+
+    fn pretty(doc: &impl serde::Serialize) -> String {
+        serde_json::to_string_pretty(doc).expect("serializes")
+    }
+
+    /// The `json!` document `LearnSummary::json` built before `LearnDoc`
+    /// (serde_json sorting its keys), and `schema pull`'s three keys added
+    /// to its `Value`: the derived documents give the same bytes.
+    #[test]
+    fn the_document_is_the_bytes_the_json_value_gave() {
+        let old = |s: &LearnSummary| {
+            serde_json::json!({
+                "id": s.id,
+                "file": s.file.as_ref().map(|f| f.display().to_string()),
+                "base": s.base,
+                "codes": s.codes,
+                "layouts": s.learned.layouts.iter().map(|l| l.name()).collect::<Vec<_>>(),
+                "type_chars": s.learned.type_chars.as_ref().map(McTypeChars::name),
+                "type_chars_guessed": s.learned.type_chars_guessed,
+                "asked": s.learned.asked,
+                "absent": s.learned.absent,
+                "substitution_texts": s.learned.texts_read,
+                "findings": s.learned.findings,
+            })
+        };
+        for s in [summary(Some("dir/learned.toml")), summary(None)] {
+            assert_eq!(pretty(&s.doc()), pretty(&old(&s)));
+            let mut pulled = old(&s);
+            pulled["port"] = serde_json::Value::from("sim:mc6000");
+            pulled["address"] = serde_json::Value::from(1u8);
+            pulled["family"] = serde_json::Value::from(Family::Mc6000.name());
+            assert_eq!(
+                pretty(&s.doc().at("sim:mc6000", 1, Family::Mc6000)),
+                pretty(&pulled)
+            );
+        }
+    }
 }

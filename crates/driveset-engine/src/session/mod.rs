@@ -42,7 +42,7 @@ use crate::scan::{ScanOptions, detect_protocol};
 
 pub use bus::BusSession;
 pub use catalog::{Catalog, CatalogError, Resolved, SchemaAsk, SchemaChoice};
-pub use learning::{LearnStep, LearnSummary, LearnedReport, learn_on};
+pub use learning::{LearnDoc, LearnStep, LearnSummary, LearnedReport, learn_on};
 pub use on_drive::{LearnRequest, SetOnDrive, SetOnDriveError, open_learning, set_on_drive};
 pub use open::{FitError, OpenedPort, PortError, Ports, check_fit, open_port};
 

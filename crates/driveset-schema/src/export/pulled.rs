@@ -74,6 +74,17 @@ pub fn take_actual_values(set: &mut ResolvedSet, schema: &Schema) -> Vec<String>
     actual
 }
 
+/// The directory of the set file `output` (`.` for a bare file name):
+/// where its schema reference is relative to ([`schema_ref`]) and where
+/// `driveset pull` writes a learned schema unless `--schema-dir` says.
+pub fn set_dir(output: &Path) -> PathBuf {
+    output
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf()
+}
+
 /// The set file's schema reference ([`Pulled::schema_ref`]): a schema
 /// file named by path stays a path, relative to the set's directory
 /// `set_dir` ([`relative_path`]); a schema named by id stays its `id`.
@@ -210,6 +221,13 @@ mod tests {
     use std::path::Path;
 
     use super::*;
+
+    #[test]
+    fn a_set_files_directory_is_its_parent_or_here() {
+        assert_eq!(set_dir(Path::new("axis-1.toml")), Path::new("."));
+        assert_eq!(set_dir(Path::new("line/axis-1.toml")), Path::new("line"));
+        assert_eq!(set_dir(Path::new("/abs/a.yaml")), Path::new("/abs"));
+    }
     use crate::canonical::{CodeKey, RawValue};
     use crate::{Registry, load_set_str};
 

@@ -42,7 +42,7 @@ pub use numbers::{
     CIA_NUMBER_BASE, SUBINDEX_NUMBER_BASE, index_number, number_list_text, parse_number_list,
 };
 pub(crate) use numbers::{looks_numeric_key, parse_int_text};
-pub use registry::{BUILTIN_FILES, Registry};
+pub use registry::{BUILTIN_FILES, NamedSchemaError, Registry};
 pub use store::{
     DEFAULT_STORE_POLL, DEFAULT_STORE_TIMEOUT, Keeping, Store, StoreCommand, ram_note,
 };

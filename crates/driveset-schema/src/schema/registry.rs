@@ -1,6 +1,7 @@
 //! The [`Registry`] of known schemas: the built-in files (one per drive
 //! family), files loaded by path or directory, and schemas withheld with
-//! the reason (a schema file that failed to load).
+//! the reason (a schema file that failed to load); the schema an offline
+//! command's `--schema ID_OR_PATH` names ([`Registry::id_or_file`]).
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -195,8 +196,56 @@ impl Registry {
         self.schemas.get(id).cloned()
     }
 
+    /// The schema `--schema ID_OR_PATH` names for the commands that read no
+    /// drive (`decode`, `encode`, `twin from-capture`): a known id first,
+    /// else a schema file.
+    ///
+    /// # Errors
+    /// [`NamedSchemaError`]: neither a known id nor a file, or a file that
+    /// does not load.
+    pub fn id_or_file(&mut self, arg: &str) -> Result<Arc<Schema>, NamedSchemaError> {
+        if let Some(s) = self.get(arg) {
+            return Ok(s);
+        }
+        let path = Path::new(arg);
+        if !path.exists() {
+            return Err(NamedSchemaError::NoSuch {
+                arg: arg.to_string(),
+                ids: self.schemas().map(|s| s.id.clone()).collect(),
+            });
+        }
+        self.load_file(path).map_err(|e| NamedSchemaError::Load {
+            arg: arg.to_string(),
+            detail: e.render_human(),
+        })
+    }
+
     /// All schemas, by id.
     pub fn schemas(&self) -> impl Iterator<Item = &Arc<Schema>> {
         self.schemas.values()
     }
+}
+
+/// Why `--schema ID_OR_PATH` names no schema ([`Registry::id_or_file`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NamedSchemaError {
+    /// Neither a known id nor an existing file.
+    #[error(
+        "--schema {arg}: no built-in schema has that id and no such file exists; built-in ids: {}",
+        ids.join(", ")
+    )]
+    NoSuch {
+        /// What was given.
+        arg: String,
+        /// The ids known.
+        ids: Vec<String>,
+    },
+    /// The file does not load (the input error rendered).
+    #[error("--schema {arg}: cannot load the schema file: {detail}")]
+    Load {
+        /// What was given.
+        arg: String,
+        /// The input error, rendered for people.
+        detail: String,
+    },
 }

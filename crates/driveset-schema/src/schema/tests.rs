@@ -42,3 +42,24 @@ fn a_learned_table_is_read_and_not_inherited() {
     assert_eq!(e.message, "[schema.learned] asked: `9-1`: a range goes up");
     assert_eq!(e.location.line, 7);
 }
+
+#[test]
+fn an_offline_schema_is_named_by_id_or_file() {
+    let mut r = super::Registry::builtin().unwrap();
+    assert_eq!(r.id_or_file("lenze-tmd").unwrap().id, "lenze-tmd");
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../parameter-sets/fixtures/fictional-vf1000-demo.toml"
+    );
+    assert_eq!(r.id_or_file(fixture).unwrap().id, "fictional-vf1000-demo");
+    let e = r.id_or_file("no-such-schema").unwrap_err().to_string();
+    assert!(
+        e.starts_with("--schema no-such-schema: no built-in schema has that id and no such file exists; built-in ids: "),
+        "{e}"
+    );
+    let e = r
+        .id_or_file(env!("CARGO_MANIFEST_DIR"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(": cannot load the schema file: "), "{e}");
+}

@@ -478,6 +478,27 @@ impl SimOpener {
         }
         Ok(config)
     }
+
+    /// The simulated bus `spec` describes, named as its port
+    /// ([`SimSpec::name`]), in virtual time on a clock of its own, without
+    /// an event log: what a one-drive command's session opens as any port.
+    pub fn open_bus(&self, spec: &SimSpec) -> Result<crate::open::SimLink, SimOpenError> {
+        open_sim_with(
+            &self.config(spec)?,
+            &driveset_link::VirtualClock::new(),
+            &spec.name(),
+            EventLog::off(),
+        )
+    }
+
+    /// The bus `port` reaches, before it is opened: a simulated bus with a
+    /// state file is that file's bus ([`SimConfig::bus_id`]); one without
+    /// lives in the process that opens it (`None`), as does a port that
+    /// does not parse.
+    pub fn bus_before_open(&self, port: &str) -> Option<String> {
+        let config = self.config(&SimSpec::parse(port).ok()?).ok()?;
+        config.state.is_some().then(|| config.bus_id())
+    }
 }
 
 /// The twins a twin port names (`file=` or `dir=`), loaded.

@@ -2,12 +2,12 @@
 //! at the address holds for the set's codes (driveset-engine's `live_diff`),
 //! with the offline diff's output and exit codes: old (`---`) is the drive,
 //! new (`+++`) the set, so the lines read as what an upload would change.
-//! The read is on record (docs/history.md): each code of the set, what the
-//! drive holds, the fingerprint of it.
+//! The read is on record (docs/history.md; `DriveRecord::of_live_diff`):
+//! each code of the set, what the drive holds, the fingerprint of it.
 
 use std::path::Path;
 
-use driveset_engine::history::{self, DriveRecord, Slot, Unit};
+use driveset_engine::history::{DriveRecord, Slot};
 use driveset_engine::session::{self, rate::ReadRate};
 
 use crate::output::OutputFormat;
@@ -70,29 +70,14 @@ fn live(args: &LiveArgs<'_>) -> Result<u8, Fail> {
     });
     let _ = client.finish();
     let d = d?;
-    // what the drive holds for the set's codes: the set with the diff's
-    // old side (the drive's) in place of each value that differs
-    let mut live = set.clone();
-    for e in &d.entries {
-        match &e.old {
-            Some(v) => live.values.insert(e.key, v.clone()),
-            None => live.values.remove(&e.key),
-        };
-    }
-    let mut record = DriveRecord::of_read(
-        Slot {
-            bus: args.at.port()?.to_string(),
-            address: args.address,
-            ..Slot::default()
-        },
-        Unit::of(&schema, &identity),
-        &schema.id,
-        live.fingerprint(),
-        if d.is_empty() { "unchanged" } else { "drift" },
-        history::read_codes(&schema, &live, &set),
-    );
-    record.set_fingerprint = Some(set.fingerprint());
-    crate::history::drive(&record);
+    let slot = Slot {
+        bus: args.at.port()?.to_string(),
+        address: args.address,
+        ..Slot::default()
+    };
+    crate::history::drive(&DriveRecord::of_live_diff(
+        slot, &schema, &identity, &set, &d,
+    ));
     let old_name = format!("{port_name} address {}", args.address);
     let new_name = args.set.display().to_string();
     Ok(super::render(

@@ -1,11 +1,13 @@
 //! `driveset schema import FILE.eds|FILE.dcf [-o OUT] [--id ID]`: a Lenze
 //! ECS schema from the CiA 306 data sheet shipped for the axis
 //! (driveset_schema::eds; docs/file-formats.md, "Imported schemas"), with a
-//! lint for every object skipped or downgraded.
+//! lint for every object skipped or downgraded (what it says on stderr:
+//! `driveset_report::import`).
 
 use driveset_schema::input::{InputKind, read_input};
 use std::path::PathBuf;
 
+use driveset_report::import::Form;
 use driveset_schema::eds::{ImportOptions, import};
 
 use crate::output;
@@ -71,31 +73,15 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
         id: args.id.clone(),
         file: shown.clone(),
     };
+    let form = match args.format {
+        OutputFormat::Json => Form::Json,
+        // `human`, the other value import takes
+        _ => Form::Human,
+    };
     let imported = match import(&bytes, &opts) {
         Ok(i) => i,
         Err(e) => {
-            let at = match (e.line, e.column) {
-                (0, _) => shown.clone(),
-                (l, 0) => format!("{shown}:{l}"),
-                (l, c) => format!("{shown}:{l}:{c}"),
-            };
-            match args.format {
-                OutputFormat::Json => eprintln!(
-                    "{}",
-                    serde_json::to_string_pretty(&Refused {
-                        error: RefusedAt {
-                            column: e.column,
-                            help: &e.help,
-                            line: e.line,
-                            message: &e.message,
-                        },
-                        file: &shown,
-                    })
-                    .unwrap_or_default()
-                ),
-                // `human`, the other value import takes
-                _ => eprintln!("error: {at}: {}\n  = help: {}", e.message, e.help),
-            }
+            eprint!("{}", driveset_report::import::refused(&e, &shown, form));
             return Err(crate::fail::Fail::reported(crate::EXIT_INPUT));
         }
     };
@@ -104,88 +90,13 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     } else {
         output::emit(&imported.toml);
     }
-    let summary = format!(
-        "imported {}: schema {}, {} Lenze codes, {} objects by index, {} lints",
-        shown,
-        imported.id,
-        imported.lenze_codes,
-        imported.cia_objects,
-        imported.lints.len()
+    eprint!(
+        "{}",
+        driveset_report::import::imported(&imported, &shown, args.output.as_deref(), form)
     );
-    match args.format {
-        OutputFormat::Json => {
-            let lints: Vec<LintDoc> = imported
-                .lints
-                .iter()
-                .map(|l| LintDoc {
-                    line: l.line,
-                    message: &l.message,
-                    object: &l.object,
-                })
-                .collect();
-            eprintln!(
-                "{}",
-                serde_json::to_string_pretty(&ImportDoc {
-                    cia_objects: imported.cia_objects,
-                    file: &shown,
-                    lenze_codes: imported.lenze_codes,
-                    lints,
-                    output: args.output.as_ref().map(|o| o.display().to_string()),
-                    schema: &imported.id,
-                })
-                .unwrap_or_default()
-            );
-        }
-        // `human`, the other value import takes
-        _ => {
-            let mut text = String::new();
-            for l in &imported.lints {
-                text.push_str(&format!("lint: {}\n", l.render(&shown)));
-            }
-            text.push_str(&summary);
-            text.push('\n');
-            eprint!("{text}");
-        }
-    }
     Ok(if imported.lints.is_empty() {
         crate::EXIT_OK
     } else {
         crate::EXIT_FINDINGS
     })
-}
-
-/// `schema import --format json`'s report on stderr (keys in alphabetical
-/// order, as it always had them).
-#[derive(serde::Serialize)]
-struct ImportDoc<'a> {
-    cia_objects: usize,
-    file: &'a str,
-    lenze_codes: usize,
-    lints: Vec<LintDoc<'a>>,
-    output: Option<String>,
-    schema: &'a str,
-}
-
-/// One lint of the import.
-#[derive(serde::Serialize)]
-struct LintDoc<'a> {
-    line: usize,
-    message: &'a str,
-    object: &'a str,
-}
-
-/// `schema import --format json`'s refusal of a file it cannot read.
-#[derive(serde::Serialize)]
-struct Refused<'a> {
-    error: RefusedAt<'a>,
-    file: &'a str,
-}
-
-/// Where and why.
-#[derive(serde::Serialize)]
-struct RefusedAt<'a> {
-    column: usize,
-    help: &'a str,
-    line: usize,
-    message: &'a str,
 }

@@ -11,9 +11,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use driveset_engine::learn::{PullSchemaError, max_parameter, pull_schema};
+use driveset_engine::learn::{ParamsError, PullSchemaError, params_to_ask, pull_schema};
 use driveset_engine::session::Session;
-use serde_json::Value;
 
 use crate::EXIT_OK;
 use crate::output;
@@ -93,19 +92,6 @@ pub fn run(args: Args) -> Result<u8, crate::fail::Fail> {
     schema_pull(&args)
 }
 
-/// `1-99`, `1,5,100-120` -> sorted unique numbers (the grammar of
-/// `driveset_schema::schema::parse_number_list`), each within 0..=`max`.
-pub fn parse_params(text: &str, max: u32) -> Result<Vec<u32>, String> {
-    let out =
-        driveset_schema::schema::parse_number_list(text).map_err(|e| format!("--params: {e}"))?;
-    if let Some(n) = out.iter().find(|n| **n > max) {
-        return Err(format!(
-            "--params: parameter {n} is outside 0..={max} for this family"
-        ));
-    }
-    Ok(out.into_iter().collect())
-}
-
 fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let address = args.at.address()?;
     let mut opts = args.at.learn.options()?;
@@ -133,22 +119,12 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         });
     }
     let base = found.choice.schema;
-    let family_name = base.family.name();
-    let Some(max_param) = max_parameter(base.family) else {
-        return Err(Fail::input(format!(
-            "{} address {}: the drive speaks {}; schema pull reads LUSTBUS descriptions (VF1000, MC6000/7000)",
-            opened.name,
-            address,
-            port::protocol_name(base.family)
-        )));
-    };
-    let params = parse_params(
-        args.params
-            .as_deref()
-            .unwrap_or(if max_param == 99 { "1-99" } else { "1-999" }),
-        max_param,
-    )
-    .map_err(Fail::input)?;
+    let params = params_to_ask(base.family, args.params.as_deref()).map_err(|e| match e {
+        ParamsError::NoDescriptions(_) => {
+            Fail::input(format!("{} address {address}: {e}", opened.name))
+        }
+        e => Fail::input(e.to_string()),
+    })?;
     opts.params = Some(params.clone());
     port::check_fit(&opened, &base)?;
     let port_name = opened.name.clone();
@@ -156,7 +132,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     let id = args
         .id
         .clone()
-        .unwrap_or_else(|| format!("pulled-{family_name}-{}", address));
+        .unwrap_or_else(|| format!("pulled-{}-{address}", base.family.name()));
     let registry = port::registry(&[])?;
     let pulled = pull_schema(
         &mut client,
@@ -182,10 +158,7 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
     };
     match args.format {
         OutputFormat::Json => {
-            let mut doc = report.json();
-            doc["port"] = Value::from(port_name);
-            doc["address"] = Value::from(address);
-            doc["family"] = Value::from(family_name);
+            let doc = report.doc().at(&port_name, address, base.family);
             output::emit(&format!(
                 "{}\n",
                 serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -215,17 +188,4 @@ fn schema_pull(args: &Args) -> Result<u8, Fail> {
         }
     }
     Ok(EXIT_OK)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_params;
-
-    #[test]
-    fn params_lists_and_ranges() {
-        assert_eq!(parse_params("1-3, 7,5", 99).unwrap(), vec![1, 2, 3, 5, 7]);
-        assert!(parse_params("5-1", 99).is_err());
-        assert!(parse_params("1-100", 99).is_err());
-        assert!(parse_params("x", 99).is_err());
-    }
 }
