@@ -7,7 +7,7 @@
 //! Both files keep what they hold; driveset's part is replaced on a rerun.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use driveset_schema::Registry;
 use driveset_schema::doc::Syntax;
@@ -101,19 +101,10 @@ pub fn associate(
     Ok(said)
 }
 
-fn read_or_empty(p: &PathBuf) -> Result<String, String> {
-    if std::fs::symlink_metadata(p).is_err() {
-        return Ok(String::new());
-    }
-    let bytes = driveset_schema::input::read_regular_file(
-        p,
-        driveset_schema::error::MAX_FILE_BYTES,
-        "settings files",
-    )
-    .map_err(|e| format!("{}; {}", e.message, e.help))?;
-    // the message and help of the CLI's own settings reader (git-setup)
-    String::from_utf8(bytes)
-        .map_err(|_| format!("{} is not UTF-8 text; fix or remove the file", p.display()))
+/// The settings file at `p`, or empty when there is none yet (the one
+/// settings reader, `driveset_schema::input::read_settings`).
+fn read_or_empty(p: &Path) -> Result<String, String> {
+    driveset_schema::input::read_settings(p).map_err(|e| format!("{}; {}", e.message, e.help))
 }
 
 fn write_if_changed(p: &Path, old: &str, new: &str) -> Result<(), String> {

@@ -8,8 +8,8 @@
 
 use std::path::Path;
 
+use driveset_schema::InputError;
 use driveset_schema::output::{self, OutputError};
-use driveset_schema::{InputError, InputErrorKind, Location};
 
 /// The git configuration key of the driver's textconv command.
 pub const TEXTCONV_KEY: &str = "diff.driveset.textconv";
@@ -94,11 +94,7 @@ impl std::error::Error for AttributesError {}
 /// one writer only when a line is missing.
 pub fn update_attributes(path: &Path, sets: &[String]) -> Result<Attributes, AttributesError> {
     output::check_target(path).map_err(AttributesError::Target)?;
-    let existing = if std::fs::symlink_metadata(path).is_err() {
-        String::new()
-    } else {
-        read_settings(path).map_err(AttributesError::Read)?
-    };
+    let existing = driveset_schema::input::read_settings(path).map_err(AttributesError::Read)?;
     let want: Vec<String> = sets.iter().flat_map(|d| attribute_lines(d)).collect();
     match merge_attributes(&existing, &want) {
         None => Ok(Attributes::UpToDate),
@@ -107,23 +103,6 @@ pub fn update_attributes(path: &Path, sets: &[String]) -> Result<Attributes, Att
             Ok(Attributes::Written)
         }
     }
-}
-
-/// A small settings file updated in place, through the one reader.
-fn read_settings(path: &Path) -> Result<String, InputError> {
-    let bytes = driveset_schema::input::read_regular_file(
-        path,
-        driveset_schema::error::MAX_FILE_BYTES,
-        "settings files",
-    )?;
-    String::from_utf8(bytes).map_err(|_| {
-        InputError::new(
-            InputErrorKind::Binary,
-            Location::file_only(path.display().to_string()),
-            format!("{} is not UTF-8 text", path.display()),
-            "fix or remove the file",
-        )
-    })
 }
 
 /// Quote a word for the shell git runs the textconv command with.

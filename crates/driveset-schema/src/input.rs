@@ -62,6 +62,12 @@ impl InputKind {
         what: "twin files",
         cap: 4 * MIB,
     };
+    /// Small settings files `git-setup` updates in place (`.gitattributes`,
+    /// `.taplo.toml`, `.vscode/settings.json`; 4 MiB).
+    pub const SETTINGS: InputKind = InputKind {
+        what: "settings files",
+        cap: crate::error::MAX_FILE_BYTES,
+    };
     /// Simulator state dumps (`driveset sim --state`, `sim://...&state=`).
     pub const SIM_STATE: InputKind = InputKind {
         what: "simulator state files",
@@ -77,6 +83,28 @@ impl InputKind {
 /// larger than the kind's cap.
 pub fn read_input(path: &std::path::Path, kind: InputKind) -> Result<Vec<u8>, InputError> {
     read_regular_file(path, kind.cap, kind.what)
+}
+
+/// The settings file at `path` as text ([`InputKind::SETTINGS`]), or empty
+/// when nothing is there yet: the one reader of the files `git-setup`
+/// updates in place (docs/editors.md).
+///
+/// # Errors
+/// As [`read_input`], and [`InputErrorKind::Binary`] for a file that is
+/// not UTF-8 text.
+pub fn read_settings(path: &std::path::Path) -> Result<String, InputError> {
+    if !exists(path) {
+        return Ok(String::new());
+    }
+    let bytes = read_input(path, InputKind::SETTINGS)?;
+    String::from_utf8(bytes).map_err(|_| {
+        InputError::new(
+            InputErrorKind::Binary,
+            Location::file_only(path.display().to_string()),
+            format!("{} is not UTF-8 text", path.display()),
+            "fix or remove the file",
+        )
+    })
 }
 
 /// Whether anything is at `path` (a FIFO, a directory, a dangling symlink
@@ -276,6 +304,27 @@ mod tests {
         assert_eq!(e.kind, InputErrorKind::NotRegularFile);
         assert!(e.message.ends_with(
             " is a directory, not a regular file; driveset reads EDS / DCF files from regular files only"
+        ));
+    }
+
+    #[test]
+    fn a_settings_file_is_text_or_empty_when_missing() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(".gitattributes");
+        assert_eq!(read_settings(&p).unwrap(), "");
+        std::fs::write(&p, "*.toml diff=driveset\n").unwrap();
+        assert_eq!(read_settings(&p).unwrap(), "*.toml diff=driveset\n");
+        std::fs::write(&p, b"\xff\xfe").unwrap();
+        let e = read_settings(&p).unwrap_err();
+        assert_eq!(e.kind, InputErrorKind::Binary);
+        assert_eq!(
+            format!("{}; {}", e.message, e.help),
+            format!("{} is not UTF-8 text; fix or remove the file", p.display())
+        );
+        let e = read_settings(d.path()).unwrap_err();
+        assert_eq!(e.kind, InputErrorKind::NotRegularFile);
+        assert!(e.message.ends_with(
+            " is a directory, not a regular file; driveset reads settings files from regular files only"
         ));
     }
 }
